@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Installs every system dependency of aerovo from Debian 12's archive.
+# Idempotent: packages already present are left alone; safe to run on every CI start.
+set -euo pipefail
+PKGS=(
+  build-essential cmake ninja-build pkg-config git
+  libopencv-dev          # video/image I/O, colour, drawing, SIFT/ORB/AKAZE baselines
+  libeigen3-dev          # geometry
+  libgeographiclib-dev   # geodesy (LocalCartesian, WGS84)
+  libexiv2-dev           # EXIF/XMP telemetry of photos
+  libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
+  libgtest-dev libgmock-dev googletest libbenchmark-dev
+  gnuplot-nox            # figures (SVG/PNG)
+  ffmpeg                 # encoders used by OpenCV's VideoWriter
+  clang-format
+)
+missing=()
+for p in "${PKGS[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#PKGS[@]} packages already installed"
+  exit 0
+fi
+SUDO=""
+[ "$(id -u)" -ne 0 ] && SUDO="sudo"
+echo "install-deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

@@ -1,0 +1,18 @@
+# Driven by CTest (see tests/CMakeLists.txt). Fails on the first step that fails.
+function(run_step)
+  execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "step failed (${rc}): ${ARGN}\n${out}\n${err}")
+  endif()
+  set(LAST_OUTPUT "${out}" PARENT_SCOPE)
+endfunction()
+file(REMOVE_RECURSE ${PREFIX} ${CONSUMER_BUILD})
+run_step(${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${PREFIX})
+run_step(${CMAKE_COMMAND} -S ${CONSUMER_SRC} -B ${CONSUMER_BUILD} -DCMAKE_PREFIX_PATH=${PREFIX}
+         -DCMAKE_BUILD_TYPE=Release)
+run_step(${CMAKE_COMMAND} --build ${CONSUMER_BUILD})
+run_step(${CONSUMER_BUILD}/consumer)
+if(NOT LAST_OUTPUT MATCHES "keypoints: [1-9]")
+  message(FATAL_ERROR "consumer ran but found no keypoints:\n${LAST_OUTPUT}")
+endif()
+message(STATUS "${LAST_OUTPUT}")
