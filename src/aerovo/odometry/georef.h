@@ -1,0 +1,90 @@
+// Geo-referencing of the visual-odometry trajectory: local VO frame (metres, see pose_chain.h)
+// -> East-North-Up (GeographicLib LocalCartesian, origin at the first GPS fix) -> WGS84.
+// No I/O: the caller feeds frame positions with whatever telemetry it has.
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "aerovo/geo/geo_point.h"
+#include "aerovo/geo/local_enu.h"
+
+namespace aerovo {
+
+/// Where the rotation between the local VO frame and East-North comes from.
+enum class HeadingSource {
+  /// Default: the first frame's camera yaw if telemetry gives one, else the GPS segment.
+  kAuto,
+  /// The first frame's camera (gimbal, else aircraft) yaw, compass degrees: the local +y axis
+  /// (the first image's up) points along that bearing. Needs yaw on the first frame.
+  kTelemetryYaw,
+  /// Least-squares 2-D rotation aligning the first VO positions with the first GPS fixes,
+  /// once both tracks have moved `min_segment_m` from their start.
+  kGpsSegment,
+};
+
+const char* ToString(HeadingSource source);
+/// Parses "auto" / "yaw" / "gps"; throws InvalidArgument otherwise.
+HeadingSource ParseHeadingSource(const std::string& text);
+
+struct GeoRefOptions {
+  HeadingSource heading_source = HeadingSource::kAuto;
+  /// kGpsSegment: both the GPS track and the VO track must have moved this far (metres) from
+  /// their first position before the rotation is fixed. 30 m is ~10x typical consumer GPS
+  /// noise (1-3 m), i.e. a heading error of a few degrees at most; also the bound on how many
+  /// frames a streaming caller must buffer before it can write geographic positions.
+  double min_segment_m = 30.0;
+};
+
+/// Throws InvalidArgument naming the bad field.
+void Validate(const GeoRefOptions& options);
+
+/// Streaming estimator of enu_from_local (a 2-D rotation + translation, no scale: the VO
+/// trajectory is metric) and its use. Frames are fed in order with Observe().
+class GeoReferencer {
+ public:
+  explicit GeoReferencer(const GeoRefOptions& options = {});
+
+  /// Feeds one frame: its camera position in the local VO frame (metres), its GPS fix if any,
+  /// its camera yaw (compass degrees) if any. Returns ready().
+  bool Observe(const Eigen::Vector2d& local_m, const std::optional<GeoPoint>& gps,
+               std::optional<double> camera_yaw_deg);
+
+  /// True once enu_from_local is known.
+  bool ready() const { return ready_; }
+  /// The ENU frame (origin = first GPS fix observed). Precondition: a GPS fix was observed.
+  const LocalEnu& enu() const;
+  bool has_enu() const { return enu_.has_value(); }
+
+  /// Rotation angle of enu_from_local, radians counter-clockwise (east towards north).
+  double rotation_rad() const { return rotation_rad_; }
+  /// "telemetry-yaw" or "gps-segment"; empty until ready.
+  const std::string& heading_source_used() const { return source_used_; }
+
+  /// enu_from_local applied to a local VO position (metres). Precondition: ready().
+  Eigen::Vector2d EnuFromLocal(const Eigen::Vector2d& local_m) const;
+  /// The WGS84 position of a local VO position, at the ENU origin's height. Precondition: ready().
+  GeoPoint Wgs84FromLocal(const Eigen::Vector2d& local_m) const;
+
+ private:
+  void FixFromSegment();
+
+  GeoRefOptions options_;
+  std::optional<LocalEnu> enu_;
+  bool ready_ = false;
+  bool first_frame_seen_ = false;
+  std::optional<double> first_yaw_deg_;
+  double rotation_rad_ = 0.0;
+  Eigen::Vector2d translation_m_ = Eigen::Vector2d::Zero();
+  std::string source_used_;
+  // First frame with a fix: its local and ENU position; running sums for the segment fit.
+  Eigen::Vector2d local0_ = Eigen::Vector2d::Zero();
+  Eigen::Vector2d enu0_ = Eigen::Vector2d::Zero();
+  double sum_dot_ = 0.0, sum_cross_ = 0.0;
+  Eigen::Vector2d sum_local_ = Eigen::Vector2d::Zero(), sum_enu_ = Eigen::Vector2d::Zero();
+  int num_pairs_ = 0;
+};
+
+}  // namespace aerovo

@@ -1,0 +1,94 @@
+#include "aerovo/odometry/georef.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "aerovo/core/error.h"
+#include "aerovo/geo/geodesic.h"
+
+namespace aerovo {
+namespace {
+
+Eigen::Vector2d Rot(double a, const Eigen::Vector2d& v) {
+  return Eigen::Vector2d(std::cos(a) * v.x() - std::sin(a) * v.y(),
+                         std::sin(a) * v.x() + std::cos(a) * v.y());
+}
+
+// A local VO track whose +y axis points at compass bearing `yaw0_deg`, and the GPS fixes of
+// the same positions, with the first fix at (lat0, lon0).
+struct Flight {
+  std::vector<Eigen::Vector2d> local;
+  std::vector<GeoPoint> gps;
+};
+
+Flight MakeFlight(double yaw0_deg, const LocalEnu& enu, const Eigen::Vector2d& noise_scale) {
+  Flight f;
+  const double rot = -yaw0_deg * M_PI / 180.0;
+  for (int i = 0; i < 60; ++i) {
+    const Eigen::Vector2d local(3.0 * std::sin(0.1 * i) * i * 0.1, 2.5 * i);
+    const Eigen::Vector2d e = Rot(rot, local) + noise_scale.cwiseProduct(Eigen::Vector2d(
+                                                    std::sin(7.1 * i), std::cos(5.3 * i)));
+    f.local.push_back(local);
+    f.gps.push_back(enu.Reverse(e.x(), e.y(), 0.0));
+  }
+  return f;
+}
+
+TEST(GeoReferencer, TelemetryYawMapsLocalUpToBearing) {
+  const LocalEnu enu(27.95, -82.46, 10.0);
+  const Flight f = MakeFlight(70.0, enu, {0, 0});
+  GeoReferencer geo;
+  ASSERT_TRUE(geo.Observe(f.local[0], f.gps[0], 70.0));
+  EXPECT_EQ(geo.heading_source_used(), "telemetry-yaw");
+  for (std::size_t i = 1; i < f.local.size(); ++i) {
+    geo.Observe(f.local[i], f.gps[i], 70.0);
+    const GeoPoint p = geo.Wgs84FromLocal(f.local[i]);
+    EXPECT_LT(GeodesicDistance(p, f.gps[i]), 0.01) << i;
+  }
+  // Local +y -> bearing 70 deg.
+  const GeoPoint ahead = geo.Wgs84FromLocal(Eigen::Vector2d(0, 100));
+  EXPECT_NEAR(InitialBearingDeg(f.gps[0], ahead), 70.0, 0.01);
+}
+
+TEST(GeoReferencer, GpsSegmentRecoversRotationWithNoisyFixes) {
+  const LocalEnu enu(45.07, 7.66, 250.0);
+  const Flight f = MakeFlight(-130.0, enu, {1.5, 1.5});
+  GeoRefOptions opts;
+  opts.heading_source = HeadingSource::kGpsSegment;
+  GeoReferencer geo(opts);
+  std::size_t ready_at = 0;
+  for (std::size_t i = 0; i < f.local.size() && !geo.ready(); ++i) {
+    geo.Observe(f.local[i], f.gps[i], 12.0);  // yaw ignored in gps mode
+    ready_at = i;
+  }
+  ASSERT_TRUE(geo.ready());
+  EXPECT_EQ(geo.heading_source_used(), "gps-segment");
+  EXPECT_GE(f.local[ready_at].norm(), 30.0);
+  EXPECT_LE(ready_at, 13u);  // 2.5 m per frame: ready just past 30 m
+  // Rotation of enu_from_local = -yaw0 = +130 deg; 1.5 m noise over a >= 30 m segment: within
+  // 3 deg.
+  EXPECT_NEAR(std::remainder(geo.rotation_rad() - (130.0 * M_PI / 180.0), 2 * M_PI), 0.0,
+              3.0 * M_PI / 180.0);
+  const Eigen::Vector3d last = enu.Forward(f.gps.back());
+  EXPECT_LT((geo.EnuFromLocal(f.local.back()) - last.head<2>()).norm(), 9.0);
+}
+
+TEST(GeoReferencer, WaitsForGpsAndValidates) {
+  GeoReferencer geo;
+  EXPECT_FALSE(geo.Observe({0, 0}, std::nullopt, std::nullopt));
+  EXPECT_FALSE(geo.has_enu());
+  EXPECT_THROW(geo.EnuFromLocal({1, 1}), InvalidArgument);
+  GeoRefOptions bad;
+  bad.min_segment_m = 0.0;
+  EXPECT_THROW(Validate(bad), InvalidArgument);
+  GeoRefOptions yaw;
+  yaw.heading_source = HeadingSource::kTelemetryYaw;
+  GeoReferencer needs_yaw(yaw);
+  EXPECT_THROW(needs_yaw.Observe({0, 0}, GeoPoint{1, 2, 3}, std::nullopt), InputError);
+  EXPECT_EQ(ParseHeadingSource("gps"), HeadingSource::kGpsSegment);
+  EXPECT_THROW(ParseHeadingSource("north"), InvalidArgument);
+}
+
+}  // namespace
+}  // namespace aerovo
