@@ -1,0 +1,46 @@
+// Box-filter approximation of the Hessian determinant (SURF's fast-Hessian), one scale layer at
+// a time. Used by Surf; exposed for tests and benchmarks.
+#pragma once
+
+#include <cstddef>
+
+#include "aerovo/features/integral_image.h"
+
+namespace aerovo::surf_detail {
+
+/// Geometry of the SURF box filters for one layer: filter size `size` (9, 15, 21, ... times
+/// 2^octave) sampled every `step` pixels. Lobe positions are the 9x9 pattern of Bay et al.
+/// (2008, Fig. 1) scaled by size/9 and rounded as OpenCV does; each lobe's weight is divided by
+/// its area (OpenCV's normalisation), so the determinant is in the units of OpenCV's
+/// hessianThreshold / MATLAB's MetricThreshold on 0..255 images.
+struct BoxFilterLayout {
+  int size = 9;  ///< Filter side, pixels.
+  int step = 1;  ///< Sampling step, pixels (2^octave).
+  int border =
+      4;  ///< Sample (i, j) has its filter's top-left pixel at (step*j - border, step*i - border).
+  int lobe = 3;   ///< size / 3: width of each Dxx lobe (height of each Dyy lobe).
+  int band0 = 2;  ///< Dxx lobes span rows [band0, band1) of the filter (Dyy: columns).
+  int band1 = 7;
+  int xy0 = 1;  ///< Dxy lobes span [xy0, xy1) and [xy2, xy3) in x and in y.
+  int xy1 = 4;
+  int xy2 = 5;
+  int xy3 = 8;
+  float inv_area_xx = 1.f / 15.f;  ///< 1 / area of one Dxx (Dyy) lobe.
+  float inv_area_xy = 1.f / 9.f;   ///< 1 / area of one Dxy lobe.
+};
+
+/// Layout of the filter of side `size` (odd multiple of 3 times `step`, size >= 9*step) with
+/// sampling step `step`.
+BoxFilterLayout MakeBoxFilterLayout(int size, int step);
+
+/// Writes det = Dxx*Dyy - (0.9*Dxy)^2 for samples i in [i0, i1), j in [j0, j1) to
+/// det[i * det_stride + j]. Preconditions: every filter lies inside the image, i.e.
+/// step*j0 - border >= 0, step*(j1-1) - border + size <= width, and the same for rows.
+/// Uses AVX2 when the CPU has it (chosen once at run time), SSE otherwise.
+void ComputeHessianDeterminant(const IntegralImage& ii, const BoxFilterLayout& layout, int i0,
+                               int i1, int j0, int j1, float* det, std::ptrdiff_t det_stride);
+
+/// Dxx + Dyy (the Laplacian, in the same normalisation) at one sample (same preconditions).
+float HessianTrace(const IntegralImage& ii, const BoxFilterLayout& layout, int i, int j);
+
+}  // namespace aerovo::surf_detail
