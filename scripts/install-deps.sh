@@ -8,6 +8,7 @@ PKGS=(
   libeigen3-dev          # geometry
   libgeographiclib-dev   # geodesy (LocalCartesian, WGS84)
   libexiv2-dev           # EXIF/XMP telemetry of photos
+  libpugixml-dev         # GPX (XML) telemetry
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   gnuplot-nox            # figures (SVG/PNG)

@@ -1,0 +1,93 @@
+// Telemetry of a flight (GPS position, altitudes, attitude, focal length) as a time series,
+// whatever file it came from (DJI .SRT, GPX, CSV, EXIF/XMP of photos), and its association
+// with frames by time or by frame index.
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace aerovo {
+
+/// One telemetry fix. Angles in degrees, lengths in metres, times in seconds.
+struct TelemetrySample {
+  /// Seconds from the start of the source: the video time for DJI SRT (subtitle start), the
+  /// time since the first point for GPX, CSV dates and photos, the value as written for CSV
+  /// times given in seconds.
+  double time_s = 0.0;
+  /// Absolute time (seconds since 1970-01-01T00:00:00Z) when the source gives a date. DJI SRT
+  /// dates and EXIF dates are the drone's local clock with no zone; they are stored as if UTC.
+  std::optional<double> unix_time_s;
+  /// 0-based index of the video frame / photo this fix belongs to, when the source says so
+  /// (DJI SRT: FrameCnt - 1 or subtitle number - 1; CSV: the frame column; photos: their rank).
+  std::optional<int> frame_index;
+  double lat_deg = 0.0;             ///< WGS84 latitude, [-90, 90].
+  double lon_deg = 0.0;             ///< WGS84 longitude, [-180, 180].
+  std::optional<double> abs_alt_m;  ///< Altitude above sea level / ellipsoid as the source says.
+  std::optional<double> rel_alt_m;  ///< Height above the take-off point (DJI relative altitude).
+  /// Aircraft heading, degrees clockwise from north (DJI FlightYawDegree, CSV yaw/heading).
+  std::optional<double> yaw_deg;
+  std::optional<double> pitch_deg;  ///< Aircraft pitch (DJI FlightPitchDegree).
+  std::optional<double> roll_deg;   ///< Aircraft roll (DJI FlightRollDegree).
+  /// Gimbal (camera) yaw, degrees clockwise from north (DJI GimbalYawDegree, SRT gb_yaw).
+  std::optional<double> gimbal_yaw_deg;
+  std::optional<double> gimbal_pitch_deg;  ///< -90 = nadir (DJI GimbalPitchDegree, gb_pitch).
+  std::optional<double> gimbal_roll_deg;
+  std::optional<double> focal_length_mm;       ///< Real focal length (EXIF FocalLength).
+  std::optional<double> focal_length_35mm_mm;  ///< 35 mm equivalent (EXIF, SRT focal_len).
+
+  /// The heading of the camera: gimbal yaw when known, else aircraft yaw.
+  std::optional<double> CameraYawDeg() const { return gimbal_yaw_deg ? gimbal_yaw_deg : yaw_deg; }
+};
+
+/// Throws InputError (prefix `where`) when a value is out of range or not finite: latitude
+/// outside [-90, 90], longitude outside [-180, 180], a time or altitude that is NaN/inf,
+/// |altitude| > 100 km, angles outside [-360, 360], focal lengths <= 0 or > 10 m.
+void ValidateSample(const TelemetrySample& sample, const std::string& where);
+
+/// A time-ordered telemetry series. Samples are sorted by time_s (stable: equal times keep
+/// their file order). Lookups never extrapolate: outside the covered time span (beyond a
+/// tolerance) they return nothing, so "fewer fixes than frames" shows up as missing fixes and
+/// never as invented positions.
+class Telemetry {
+ public:
+  Telemetry() = default;
+  /// Sorts the samples by time. `source` names where they came from (used in messages).
+  explicit Telemetry(std::vector<TelemetrySample> samples, std::string source = {});
+
+  const std::vector<TelemetrySample>& samples() const { return samples_; }
+  const std::string& source() const { return source_; }
+  std::size_t size() const { return samples_.size(); }
+  bool empty() const { return samples_.empty(); }
+  const TelemetrySample& operator[](std::size_t i) const { return samples_[i]; }
+  double start_time_s() const;  ///< time_s of the first sample (0 when empty).
+  double end_time_s() const;    ///< time_s of the last sample (0 when empty).
+
+  /// The fix at `time_s`: linear interpolation between the two samples around it (latitude,
+  /// longitude, altitudes, focal lengths linear; angles along the shorter arc; longitude
+  /// unwrapped across +-180). Optional fields are interpolated when both neighbours have
+  /// them, else taken from the nearer neighbour. frame_index is kept only on an exact hit.
+  /// Outside [start - tolerance_s, end + tolerance_s] -> nullopt; inside the tolerance band the
+  /// end sample is returned unchanged (time_s set to the query).
+  std::optional<TelemetrySample> Lookup(double time_s, double tolerance_s = 0.0) const;
+
+  /// The fix of frame `frame_index`: the sample carrying that index if there is one, else
+  /// interpolation between the nearest samples with smaller and larger indices (by index).
+  /// nullopt when the index is outside the indexed range or no sample has a frame index.
+  std::optional<TelemetrySample> AtFrame(int frame_index) const;
+
+  /// True when at least one sample carries a frame index.
+  bool HasFrameIndices() const;
+
+ private:
+  std::vector<TelemetrySample> samples_;
+  std::string source_;
+  std::vector<std::pair<int, std::size_t>> by_frame_;  ///< (frame_index, sample), sorted.
+};
+
+/// Interpolates between a (weight 1 - w) and b (weight w), w in [0, 1]; see Telemetry::Lookup.
+TelemetrySample InterpolateSamples(const TelemetrySample& a, const TelemetrySample& b, double w);
+
+}  // namespace aerovo
