@@ -29,6 +29,14 @@ struct MatchOptions {
   float guided_radius_px = 40.f;
   /// Threads; 1 = single-threaded, 0 = all cores.
   int num_threads = 1;
+  /// With exactly one comparable candidate the ratio test cannot be applied (there is no
+  /// second-best). true: accept it if it passes match_threshold_percent (the absolute test alone
+  /// is strict: SSD <= 0.04); false: reject it. Default true (see matcher.cc for why).
+  bool accept_single_candidate = true;
+  /// Use the AVX2+FMA kernels when the CPU has them (checked at run time); false forces the
+  /// SSE4.2 kernels (for tests and benchmarks). Default true. Results are identical up to
+  /// float rounding of near-ties.
+  bool use_avx2 = true;
 };
 
 /// Throws InvalidArgument naming the offending field when out of range.
@@ -60,11 +68,28 @@ class Matcher {
   /// Matches prev (restricted to `prev_subset` indices if non-empty) against all of curr.
   /// `curr_from_prev_prior`, if given, is a 2x3 affine predicting curr pixel positions from prev
   /// pixel positions: only curr points within guided_radius_px of the prediction are compared.
-  /// Preconditions: equal descriptor sizes; descriptors L2-normalised.
-  MatchResult Match(const FeatureSet& prev, const FeatureSet& curr,
-                    const std::vector<int>& prev_subset = {},
-                    const std::optional<Eigen::Matrix<double, 2, 3>>& curr_from_prev_prior =
-                        std::nullopt);
+  /// Preconditions: equal descriptor sizes; descriptors L2-normalised (SSDs are computed on the
+  /// stored values; the threshold's base 4 assumes unit vectors).
+  ///
+  /// Semantics, for each query point p (MATLAB matchFeatures, Exhaustive, SSD):
+  /// - the candidates of p are the curr points it is compared with: same Laplacian sign (if
+  ///   check_laplacian; the second-best is therefore also a same-sign point) and, with a prior,
+  ///   within guided_radius_px of the predicted position;
+  /// - best / second-best are the two smallest SSDs among the candidates (ties: lower index);
+  /// - accepted iff ssd_best <= match_threshold_percent / 100 * 4 and
+  ///   ssd_best <= max_ratio * ssd_second with ssd_second > 0 (two identical best candidates are
+  ///   ambiguous); with a single candidate see accept_single_candidate;
+  /// - unique: additionally p must be the best (ties: lower index) among the query points that
+  ///   are candidates of that curr point in the reverse direction (same sign, same disc).
+  /// Output sorted by prev_index (each prev point at most once); prev_subset may be unsorted and
+  /// contain duplicates (dropped). Ranking is done in float32 blocks, accept/reject decisions
+  /// and Match::ssd use the SSD recomputed in double. Deterministic: the result does not depend
+  /// on num_threads or the SIMD kernel (except float-rounding near-ties in ranking).
+  /// Throws InvalidArgument on different descriptor sizes, descriptors.size() inconsistent with
+  /// keypoints, non-finite descriptors / positions / prior, or prev_subset indices out of range.
+  MatchResult Match(
+      const FeatureSet& prev, const FeatureSet& curr, const std::vector<int>& prev_subset = {},
+      const std::optional<Eigen::Matrix<double, 2, 3>>& curr_from_prev_prior = std::nullopt);
 
  private:
   struct Impl;

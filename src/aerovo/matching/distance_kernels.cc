@@ -1,0 +1,262 @@
+#include "aerovo/matching/distance_kernels.h"
+
+#include <immintrin.h>
+
+#include <limits>
+
+namespace aerovo::matching_detail {
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+// ---------------------------------------------------------------------------------------------
+// SSE4.2 baseline (every x86-64-v2 CPU).
+
+inline void UpdateSse(__m128 s, __m128i idx, __m128& b1, __m128& b2, __m128i& i1, __m128i& i2) {
+  // Strict comparisons: among equal scores in one lane the earlier slot stays best.
+  const __m128 lt1 = _mm_cmplt_ps(s, b1);
+  const __m128 lt2 = _mm_cmplt_ps(s, b2);
+  const __m128 fidx = _mm_castsi128_ps(idx);
+  __m128 nb2 = _mm_blendv_ps(b2, s, lt2);
+  __m128 ni2 = _mm_blendv_ps(_mm_castsi128_ps(i2), fidx, lt2);
+  nb2 = _mm_blendv_ps(nb2, b1, lt1);
+  ni2 = _mm_blendv_ps(ni2, _mm_castsi128_ps(i1), lt1);
+  b1 = _mm_blendv_ps(b1, s, lt1);
+  i1 = _mm_castps_si128(_mm_blendv_ps(_mm_castsi128_ps(i1), fidx, lt1));
+  b2 = nb2;
+  i2 = _mm_castps_si128(ni2);
+}
+
+void TileSse(const float* queries, int dim, const float* panels, const float* norms, int slot_base,
+             int num_slots, LaneTop2* state) {
+  __m128 b1[kQueryTile][2], b2[kQueryTile][2];
+  __m128i i1[kQueryTile][2], i2[kQueryTile][2];
+  for (int k = 0; k < kQueryTile; ++k) {
+    for (int h = 0; h < 2; ++h) {
+      b1[k][h] = _mm_loadu_ps(state[k].b1 + 4 * h);
+      b2[k][h] = _mm_loadu_ps(state[k].b2 + 4 * h);
+      i1[k][h] = _mm_loadu_si128(reinterpret_cast<const __m128i*>(state[k].i1 + 4 * h));
+      i2[k][h] = _mm_loadu_si128(reinterpret_cast<const __m128i*>(state[k].i2 + 4 * h));
+    }
+  }
+  const __m128 two = _mm_set1_ps(2.f);
+  const __m128i iota_lo = _mm_setr_epi32(0, 1, 2, 3);
+  const __m128i iota_hi = _mm_setr_epi32(4, 5, 6, 7);
+  for (int c = 0; c < num_slots; c += kPanelWidth) {
+    const float* p = panels + static_cast<std::ptrdiff_t>(c) * dim;
+    __m128 acc[kQueryTile][2];
+    for (int k = 0; k < kQueryTile; ++k) acc[k][0] = acc[k][1] = _mm_setzero_ps();
+    for (int d = 0; d < dim; ++d) {
+      const __m128 lo = _mm_loadu_ps(p + d * kPanelWidth);
+      const __m128 hi = _mm_loadu_ps(p + d * kPanelWidth + 4);
+      for (int k = 0; k < kQueryTile; ++k) {
+        const __m128 qd = _mm_set1_ps(queries[k * dim + d]);
+        acc[k][0] = _mm_add_ps(acc[k][0], _mm_mul_ps(qd, lo));
+        acc[k][1] = _mm_add_ps(acc[k][1], _mm_mul_ps(qd, hi));
+      }
+    }
+    const __m128 n_lo = _mm_loadu_ps(norms + c);
+    const __m128 n_hi = _mm_loadu_ps(norms + c + 4);
+    const __m128i base = _mm_set1_epi32(slot_base + c);
+    const __m128i idx_lo = _mm_add_epi32(base, iota_lo);
+    const __m128i idx_hi = _mm_add_epi32(base, iota_hi);
+    for (int k = 0; k < kQueryTile; ++k) {
+      UpdateSse(_mm_sub_ps(n_lo, _mm_mul_ps(two, acc[k][0])), idx_lo, b1[k][0], b2[k][0], i1[k][0],
+                i2[k][0]);
+      UpdateSse(_mm_sub_ps(n_hi, _mm_mul_ps(two, acc[k][1])), idx_hi, b1[k][1], b2[k][1], i1[k][1],
+                i2[k][1]);
+    }
+  }
+  for (int k = 0; k < kQueryTile; ++k) {
+    for (int h = 0; h < 2; ++h) {
+      _mm_storeu_ps(state[k].b1 + 4 * h, b1[k][h]);
+      _mm_storeu_ps(state[k].b2 + 4 * h, b2[k][h]);
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(state[k].i1 + 4 * h), i1[k][h]);
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(state[k].i2 + 4 * h), i2[k][h]);
+    }
+  }
+}
+
+inline float DotSse(const float* a, const float* b, int dim) {
+  __m128 acc0 = _mm_setzero_ps(), acc1 = _mm_setzero_ps();
+  int d = 0;
+  for (; d + 8 <= dim; d += 8) {
+    acc0 = _mm_add_ps(acc0, _mm_mul_ps(_mm_loadu_ps(a + d), _mm_loadu_ps(b + d)));
+    acc1 = _mm_add_ps(acc1, _mm_mul_ps(_mm_loadu_ps(a + d + 4), _mm_loadu_ps(b + d + 4)));
+  }
+  acc0 = _mm_add_ps(acc0, acc1);
+  acc0 = _mm_hadd_ps(acc0, acc0);
+  acc0 = _mm_hadd_ps(acc0, acc0);
+  float sum = _mm_cvtss_f32(acc0);
+  for (; d < dim; ++d) sum += a[d] * b[d];
+  return sum;
+}
+
+inline void Push(float s, std::int32_t slot, const std::int32_t* tie_key, Best2* b) {
+  const auto better = [&](float sa, std::int32_t ja, float sb, std::int32_t jb) {
+    return jb < 0 || sa < sb || (sa == sb && tie_key[ja] < tie_key[jb]);
+  };
+  if (better(s, slot, b->s1, b->j1)) {
+    b->s2 = b->s1;
+    b->j2 = b->j1;
+    b->s1 = s;
+    b->j1 = slot;
+  } else if (better(s, slot, b->s2, b->j2)) {
+    b->s2 = s;
+    b->j2 = slot;
+  }
+}
+
+void ListSse(const float* query, int dim, const float* rows, const float* norms,
+             const std::int32_t* slots, int num_slots, const std::int32_t* tie_key, Best2* out) {
+  Best2 b{kInf, kInf, -1, -1};
+  for (int k = 0; k < num_slots; ++k) {
+    const std::int32_t j = slots[k];
+    const float s =
+        norms[j] - 2.f * DotSse(query, rows + static_cast<std::ptrdiff_t>(j) * dim, dim);
+    Push(s, j, tie_key, &b);
+  }
+  *out = b;
+}
+
+// ---------------------------------------------------------------------------------------------
+// AVX2 + FMA (selected at run time).
+
+__attribute__((target("avx2,fma"))) inline void UpdateAvx2(__m256 s, __m256i idx, __m256& b1,
+                                                           __m256& b2, __m256i& i1, __m256i& i2) {
+  const __m256 lt1 = _mm256_cmp_ps(s, b1, _CMP_LT_OQ);
+  const __m256 lt2 = _mm256_cmp_ps(s, b2, _CMP_LT_OQ);
+  const __m256 fidx = _mm256_castsi256_ps(idx);
+  __m256 nb2 = _mm256_blendv_ps(b2, s, lt2);
+  __m256 ni2 = _mm256_blendv_ps(_mm256_castsi256_ps(i2), fidx, lt2);
+  nb2 = _mm256_blendv_ps(nb2, b1, lt1);
+  ni2 = _mm256_blendv_ps(ni2, _mm256_castsi256_ps(i1), lt1);
+  b1 = _mm256_blendv_ps(b1, s, lt1);
+  i1 = _mm256_castps_si256(_mm256_blendv_ps(_mm256_castsi256_ps(i1), fidx, lt1));
+  b2 = nb2;
+  i2 = _mm256_castps_si256(ni2);
+}
+
+__attribute__((target("avx2,fma"))) void TileAvx2(const float* queries, int dim,
+                                                  const float* panels, const float* norms,
+                                                  int slot_base, int num_slots, LaneTop2* state) {
+  __m256 b1[kQueryTile], b2[kQueryTile];
+  __m256i i1[kQueryTile], i2[kQueryTile];
+  for (int k = 0; k < kQueryTile; ++k) {
+    b1[k] = _mm256_loadu_ps(state[k].b1);
+    b2[k] = _mm256_loadu_ps(state[k].b2);
+    i1[k] = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(state[k].i1));
+    i2[k] = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(state[k].i2));
+  }
+  const __m256 two = _mm256_set1_ps(2.f);
+  const __m256i iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i eight = _mm256_set1_epi32(kPanelWidth);
+  for (int c = 0; c < num_slots; c += 2 * kPanelWidth) {
+    const float* p0 = panels + static_cast<std::ptrdiff_t>(c) * dim;
+    const float* p1 = p0 + static_cast<std::ptrdiff_t>(kPanelWidth) * dim;
+    __m256 acc[kQueryTile][2];
+    for (int k = 0; k < kQueryTile; ++k) acc[k][0] = acc[k][1] = _mm256_setzero_ps();
+    for (int d = 0; d < dim; ++d) {
+      const __m256 v0 = _mm256_loadu_ps(p0 + d * kPanelWidth);
+      const __m256 v1 = _mm256_loadu_ps(p1 + d * kPanelWidth);
+      for (int k = 0; k < kQueryTile; ++k) {
+        const __m256 qd = _mm256_broadcast_ss(queries + k * dim + d);
+        acc[k][0] = _mm256_fmadd_ps(qd, v0, acc[k][0]);
+        acc[k][1] = _mm256_fmadd_ps(qd, v1, acc[k][1]);
+      }
+    }
+    const __m256 n0 = _mm256_loadu_ps(norms + c);
+    const __m256 n1 = _mm256_loadu_ps(norms + c + kPanelWidth);
+    const __m256i idx0 = _mm256_add_epi32(_mm256_set1_epi32(slot_base + c), iota);
+    const __m256i idx1 = _mm256_add_epi32(idx0, eight);
+    for (int k = 0; k < kQueryTile; ++k) {
+      UpdateAvx2(_mm256_fnmadd_ps(two, acc[k][0], n0), idx0, b1[k], b2[k], i1[k], i2[k]);
+      UpdateAvx2(_mm256_fnmadd_ps(two, acc[k][1], n1), idx1, b1[k], b2[k], i1[k], i2[k]);
+    }
+  }
+  for (int k = 0; k < kQueryTile; ++k) {
+    _mm256_storeu_ps(state[k].b1, b1[k]);
+    _mm256_storeu_ps(state[k].b2, b2[k]);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(state[k].i1), i1[k]);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(state[k].i2), i2[k]);
+  }
+}
+
+__attribute__((target("avx2,fma"))) inline float DotAvx2(const float* a, const float* b, int dim) {
+  __m256 acc0 = _mm256_setzero_ps(), acc1 = _mm256_setzero_ps();
+  int d = 0;
+  for (; d + 16 <= dim; d += 16) {
+    acc0 = _mm256_fmadd_ps(_mm256_loadu_ps(a + d), _mm256_loadu_ps(b + d), acc0);
+    acc1 = _mm256_fmadd_ps(_mm256_loadu_ps(a + d + 8), _mm256_loadu_ps(b + d + 8), acc1);
+  }
+  for (; d + 8 <= dim; d += 8) {
+    acc0 = _mm256_fmadd_ps(_mm256_loadu_ps(a + d), _mm256_loadu_ps(b + d), acc0);
+  }
+  acc0 = _mm256_add_ps(acc0, acc1);
+  __m128 s = _mm_add_ps(_mm256_castps256_ps128(acc0), _mm256_extractf128_ps(acc0, 1));
+  s = _mm_hadd_ps(s, s);
+  s = _mm_hadd_ps(s, s);
+  float sum = _mm_cvtss_f32(s);
+  for (; d < dim; ++d) sum += a[d] * b[d];
+  return sum;
+}
+
+__attribute__((target("avx2,fma"))) void ListAvx2(const float* query, int dim, const float* rows,
+                                                  const float* norms, const std::int32_t* slots,
+                                                  int num_slots, const std::int32_t* tie_key,
+                                                  Best2* out) {
+  Best2 b{kInf, kInf, -1, -1};
+  for (int k = 0; k < num_slots; ++k) {
+    const std::int32_t j = slots[k];
+    const float s =
+        norms[j] - 2.f * DotAvx2(query, rows + static_cast<std::ptrdiff_t>(j) * dim, dim);
+    Push(s, j, tie_key, &b);
+  }
+  *out = b;
+}
+
+bool CpuHasAvx2Fma() {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+}
+
+}  // namespace
+
+const Kernels& SelectKernels(bool allow_avx2) {
+  static const Kernels kSse{&TileSse, &ListSse, "sse4"};
+  static const Kernels kAvx2{&TileAvx2, &ListAvx2, "avx2"};
+  static const bool has_avx2 = CpuHasAvx2Fma();
+  return (allow_avx2 && has_avx2) ? kAvx2 : kSse;
+}
+
+void ResetLanes(LaneTop2* state) {
+  for (int j = 0; j < kPanelWidth; ++j) {
+    state->b1[j] = kInf;
+    state->b2[j] = kInf;
+    state->i1[j] = -1;
+    state->i2[j] = -1;
+  }
+}
+
+Best2 ReduceLanes(const LaneTop2& state) {
+  Best2 b{kInf, kInf, -1, -1};
+  const auto push = [&b](float s, std::int32_t j) {
+    if (j < 0) return;
+    if (b.j1 < 0 || s < b.s1 || (s == b.s1 && j < b.j1)) {
+      b.s2 = b.s1;
+      b.j2 = b.j1;
+      b.s1 = s;
+      b.j1 = j;
+    } else if (b.j2 < 0 || s < b.s2 || (s == b.s2 && j < b.j2)) {
+      b.s2 = s;
+      b.j2 = j;
+    }
+  };
+  for (int l = 0; l < kPanelWidth; ++l) {
+    push(state.b1[l], state.i1[l]);
+    push(state.b2[l], state.i2[l]);
+  }
+  return b;
+}
+
+}  // namespace aerovo::matching_detail

@@ -1,0 +1,573 @@
+#include "aerovo/matching/matcher.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <string>
+
+#include "aerovo/core/error.h"
+#include "aerovo/core/timer.h"
+#include "aerovo/matching/distance_kernels.h"
+
+namespace aerovo {
+
+using matching_detail::Best2;
+using matching_detail::kCandStep;
+using matching_detail::Kernels;
+using matching_detail::kPanelWidth;
+using matching_detail::kQueryTile;
+using matching_detail::LaneTop2;
+
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+// Largest SSD between two unit vectors (antipodal): the base of MatchThreshold's percentage.
+constexpr double kMaxSsd = 4.0;
+// Laplacian groups: points are compared only within a group (sign -1, 0, +1). With
+// check_laplacian off everything goes to group 1.
+constexpr int kNumGroups = 3;
+// Query tiles per parallel work item (64 queries): small enough to balance 2..16 threads,
+// large enough that each item streams a candidate block from L2 many times.
+constexpr int kTilesPerItem = 16;
+// Bytes of candidate descriptors per cache block; the block is re-read by every query tile of a
+// work item, so it should stay in L2 (1-2 MB per core on current x86) with room to spare.
+constexpr int kBlockBytes = 256 * 1024;
+// Upper bound on guided-grid cells per Laplacian group (memory bound for tiny radii).
+constexpr std::int64_t kMaxGridCells = 1 << 18;
+
+int GroupOf(std::int8_t laplacian, bool check_laplacian) {
+  if (!check_laplacian) return 1;
+  return laplacian < 0 ? 0 : (laplacian == 0 ? 1 : 2);
+}
+
+// SSD in double from the stored floats: the value the thresholds are applied to, independent
+// of the float32 ranking score (so boundary decisions do not depend on the kernel used).
+double ExactSsd(const float* a, const float* b, int dim) {
+  double s = 0.0;
+  for (int d = 0; d < dim; ++d) {
+    const double t = static_cast<double>(a[d]) - static_cast<double>(b[d]);
+    s += t * t;
+  }
+  return s;
+}
+
+int ResolveThreads(int num_threads) {
+  return num_threads == 0 ? std::max(1, omp_get_max_threads()) : num_threads;
+}
+
+void CheckFeatureSet(const FeatureSet& f, const char* which) {
+  if (f.descriptor_size <= 0) {
+    throw InvalidArgument(std::string("Matcher::Match: ") + which + ".descriptor_size is " +
+                          std::to_string(f.descriptor_size) + ", must be > 0");
+  }
+  const std::size_t expected = f.keypoints.size() * static_cast<std::size_t>(f.descriptor_size);
+  if (f.descriptors.size() != expected) {
+    throw InvalidArgument(std::string("Matcher::Match: ") + which + " has " +
+                          std::to_string(f.keypoints.size()) + " keypoints of descriptor_size " +
+                          std::to_string(f.descriptor_size) + " but " +
+                          std::to_string(f.descriptors.size()) + " descriptor values (expected " +
+                          std::to_string(expected) + ")");
+  }
+}
+
+[[noreturn]] void ThrowNonFinite(const char* which, int index, const char* what) {
+  throw InvalidArgument(std::string("Matcher::Match: ") + which + " point " +
+                        std::to_string(index) + " has a non-finite " + what);
+}
+
+}  // namespace
+
+void Validate(const MatchOptions& o) {
+  if (!(o.max_ratio > 0.f && o.max_ratio <= 1.f)) {
+    throw InvalidArgument("MatchOptions.max_ratio = " + std::to_string(o.max_ratio) +
+                          ": must be in (0, 1]");
+  }
+  if (!(o.match_threshold_percent > 0.f && o.match_threshold_percent <= 100.f)) {
+    throw InvalidArgument("MatchOptions.match_threshold_percent = " +
+                          std::to_string(o.match_threshold_percent) + ": must be in (0, 100]");
+  }
+  if (!(o.guided_radius_px > 0.f && std::isfinite(o.guided_radius_px))) {
+    throw InvalidArgument("MatchOptions.guided_radius_px = " + std::to_string(o.guided_radius_px) +
+                          ": must be finite and > 0");
+  }
+  if (o.num_threads < 0) {
+    throw InvalidArgument("MatchOptions.num_threads = " + std::to_string(o.num_threads) +
+                          ": must be >= 0 (0 = all cores)");
+  }
+}
+
+struct Matcher::Impl {
+  MatchOptions options;
+  const Kernels* kernels = nullptr;
+
+  // --- Search inputs (indices into the query / candidate FeatureSets) and outputs. -----------
+  std::vector<int> fwd_ids;     // forward query set: prev indices, sorted, unique
+  std::vector<int> rev_ids;     // reverse query set (unique): matched curr indices, sorted
+  std::vector<Best2> fwd_best;  // per fwd_ids entry; j = original curr index
+  std::vector<Best2> rev_best;  // per rev_ids entry; j = original prev index
+  std::vector<float> qx, qy;    // query positions (guided)
+  std::vector<float> cx, cy;    // candidate positions (guided), indexed like the candidate ids
+  std::vector<char> mark;       // per curr index (unique)
+  std::vector<int> rev_slot;    // per curr index: position in rev_ids
+
+  // --- Exhaustive: packed queries (row-major) and candidates (panels). -----------------------
+  int q_begin[kNumGroups] = {}, q_end[kNumGroups] = {}, q_count[kNumGroups] = {};
+  int c_begin[kNumGroups] = {}, c_end[kNumGroups] = {}, c_count[kNumGroups] = {};
+  std::vector<float> q_rows;
+  std::vector<int> q_slot_of;  // per query id position -> query slot
+  std::vector<float> c_panels;
+  std::vector<float> c_norms;
+  std::vector<int> c_index;  // candidate slot -> original index (-1 = padding)
+  std::vector<LaneTop2> lanes;
+  std::vector<Best2> slot_best;
+  struct WorkItem {
+    int group, q_begin, q_end;
+  };
+  std::vector<WorkItem> work;
+
+  // --- Guided: candidates bucketed in a uniform grid per Laplacian group. ------------------
+  float g_x0 = 0.f, g_y0 = 0.f, g_inv_cell = 1.f;
+  int g_nx = 0, g_ny = 0;
+  std::vector<int> g_cell_start;  // kNumGroups * nx * ny + 1
+  std::vector<int> g_cursor;
+  std::vector<float> g_rows, g_norms, g_x, g_y;
+  std::vector<std::int32_t> g_index;  // slot -> original index (also the tie key)
+  std::vector<std::vector<std::int32_t>> thread_slots;
+
+  void PackQueries(const FeatureSet& f, const std::vector<int>& ids);
+  void PackCandidates(const FeatureSet& f, const std::vector<int>& ids);
+  std::int64_t SearchExhaustive(const FeatureSet& fq, const std::vector<int>& qids,
+                                const FeatureSet& fc, const std::vector<int>& cids,
+                                std::vector<Best2>* out);
+  void BuildGrid(const FeatureSet& f, const std::vector<int>& ids, float radius);
+  std::int64_t SearchGuided(const FeatureSet& fq, const std::vector<int>& qids,
+                            const FeatureSet& fc, const std::vector<int>& cids, float radius,
+                            std::vector<Best2>* out);
+  void CheckFinite(const FeatureSet& f, const std::vector<int>& ids, const char* which) const;
+};
+
+void Matcher::Impl::CheckFinite(const FeatureSet& f, const std::vector<int>& ids,
+                                const char* which) const {
+  const int dim = f.descriptor_size;
+  for (int id : ids) {
+    const float* d = f.descriptor(id);
+    float acc = 0.f;
+    // x * 0 is NaN exactly for non-finite x: one branch per descriptor, not per value.
+    for (int k = 0; k < dim; ++k) acc += d[k] * 0.f;
+    if (acc != 0.f) ThrowNonFinite(which, id, "descriptor");
+  }
+}
+
+void Matcher::Impl::PackQueries(const FeatureSet& f, const std::vector<int>& ids) {
+  const int dim = f.descriptor_size;
+  const bool lap = options.check_laplacian;
+  std::fill(std::begin(q_count), std::end(q_count), 0);
+  for (int id : ids) ++q_count[GroupOf(f.keypoints[id].laplacian, lap)];
+  int slot = 0;
+  for (int g = 0; g < kNumGroups; ++g) {
+    q_begin[g] = slot;
+    slot += (q_count[g] + kQueryTile - 1) / kQueryTile * kQueryTile;
+    q_end[g] = slot;
+  }
+  q_rows.resize(static_cast<std::size_t>(slot) * dim);
+  q_slot_of.resize(ids.size());
+  int cursor[kNumGroups];
+  std::copy(std::begin(q_begin), std::end(q_begin), cursor);
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    const int s = cursor[GroupOf(f.keypoints[ids[k]].laplacian, lap)]++;
+    q_slot_of[k] = s;
+    std::memcpy(q_rows.data() + static_cast<std::size_t>(s) * dim, f.descriptor(ids[k]),
+                sizeof(float) * dim);
+  }
+  for (int g = 0; g < kNumGroups; ++g) {
+    for (int s = cursor[g]; s < q_end[g]; ++s) {
+      std::fill_n(q_rows.data() + static_cast<std::size_t>(s) * dim, dim, 0.f);
+    }
+  }
+}
+
+void Matcher::Impl::PackCandidates(const FeatureSet& f, const std::vector<int>& ids) {
+  const int dim = f.descriptor_size;
+  const bool lap = options.check_laplacian;
+  std::fill(std::begin(c_count), std::end(c_count), 0);
+  for (int id : ids) ++c_count[GroupOf(f.keypoints[id].laplacian, lap)];
+  int slot = 0;
+  for (int g = 0; g < kNumGroups; ++g) {
+    c_begin[g] = slot;
+    slot += (c_count[g] + kCandStep - 1) / kCandStep * kCandStep;
+    c_end[g] = slot;
+  }
+  c_panels.resize(static_cast<std::size_t>(slot) * dim);
+  c_norms.resize(slot);
+  c_index.resize(slot);
+  int cursor[kNumGroups];
+  std::copy(std::begin(c_begin), std::end(c_begin), cursor);
+  const auto panel_ptr = [&](int s) {
+    return c_panels.data() + static_cast<std::size_t>(s / kPanelWidth) * dim * kPanelWidth +
+           s % kPanelWidth;
+  };
+  for (int id : ids) {
+    const int s = cursor[GroupOf(f.keypoints[id].laplacian, lap)]++;
+    const float* d = f.descriptor(id);
+    float* p = panel_ptr(s);
+    float n = 0.f;
+    for (int k = 0; k < dim; ++k) {
+      p[k * kPanelWidth] = d[k];
+      n += d[k] * d[k];
+    }
+    c_norms[s] = n;
+    c_index[s] = id;
+  }
+  for (int g = 0; g < kNumGroups; ++g) {
+    for (int s = cursor[g]; s < c_end[g]; ++s) {
+      float* p = panel_ptr(s);
+      for (int k = 0; k < dim; ++k) p[k * kPanelWidth] = 0.f;
+      c_norms[s] = kInf;  // never better than a real candidate
+      c_index[s] = -1;
+    }
+  }
+}
+
+std::int64_t Matcher::Impl::SearchExhaustive(const FeatureSet& fq, const std::vector<int>& qids,
+                                             const FeatureSet& fc, const std::vector<int>& cids,
+                                             std::vector<Best2>* out) {
+  const int dim = fq.descriptor_size;
+  PackQueries(fq, qids);
+  PackCandidates(fc, cids);
+  const int q_slots = q_end[kNumGroups - 1];
+  lanes.resize(q_slots);
+  slot_best.resize(q_slots);
+  work.clear();
+  std::int64_t comparisons = 0;
+  for (int g = 0; g < kNumGroups; ++g) {
+    if (q_count[g] == 0) continue;
+    if (c_count[g] == 0) {
+      for (int s = q_begin[g]; s < q_end[g]; ++s) slot_best[s] = Best2{kInf, kInf, -1, -1};
+      continue;
+    }
+    comparisons += static_cast<std::int64_t>(q_count[g]) * c_count[g];
+    for (int s = q_begin[g]; s < q_end[g]; s += kTilesPerItem * kQueryTile) {
+      work.push_back({g, s, std::min(q_end[g], s + kTilesPerItem * kQueryTile)});
+    }
+  }
+  const int block = std::max(
+      kCandStep, kBlockBytes / (dim * static_cast<int>(sizeof(float))) / kCandStep * kCandStep);
+  const int num_threads = ResolveThreads(options.num_threads);
+  const int num_items = static_cast<int>(work.size());
+  const matching_detail::TileFn tile = kernels->tile;
+#pragma omp parallel for schedule(dynamic, 1) \
+    num_threads(num_threads) if (num_threads > 1 && num_items > 1)
+  for (int w = 0; w < num_items; ++w) {
+    const WorkItem item = work[w];
+    for (int s = item.q_begin; s < item.q_end; ++s) matching_detail::ResetLanes(&lanes[s]);
+    for (int cb = c_begin[item.group]; cb < c_end[item.group]; cb += block) {
+      const int n = std::min(block, c_end[item.group] - cb);
+      const float* panels = c_panels.data() + static_cast<std::size_t>(cb) * dim;
+      for (int s = item.q_begin; s < item.q_end; s += kQueryTile) {
+        tile(q_rows.data() + static_cast<std::size_t>(s) * dim, dim, panels, c_norms.data() + cb,
+             cb, n, &lanes[s]);
+      }
+    }
+    for (int s = item.q_begin; s < item.q_end; ++s) {
+      slot_best[s] = matching_detail::ReduceLanes(lanes[s]);
+    }
+  }
+  out->resize(qids.size());
+  for (std::size_t k = 0; k < qids.size(); ++k) {
+    Best2 b = slot_best[q_slot_of[k]];
+    b.j1 = b.j1 >= 0 ? c_index[b.j1] : -1;
+    b.j2 = b.j2 >= 0 ? c_index[b.j2] : -1;
+    (*out)[k] = b;
+  }
+  return comparisons;
+}
+
+// Candidate positions are taken from cx/cy (indexed like `ids`).
+void Matcher::Impl::BuildGrid(const FeatureSet& f, const std::vector<int>& ids, float radius) {
+  const int dim = f.descriptor_size;
+  const bool lap = options.check_laplacian;
+  const std::size_t n = ids.size();
+  float x0 = kInf, y0 = kInf, x1 = -kInf, y1 = -kInf;
+  for (std::size_t k = 0; k < n; ++k) {
+    x0 = std::min(x0, cx[k]);
+    x1 = std::max(x1, cx[k]);
+    y0 = std::min(y0, cy[k]);
+    y1 = std::max(y1, cy[k]);
+  }
+  if (n == 0) x0 = y0 = x1 = y1 = 0.f;
+  // Cell side = radius: a query's disc then overlaps at most 3x3 cells.
+  double cell = radius;
+  const auto cells_for = [&](double c) {
+    return (std::floor((x1 - x0) / c) + 1.0) * (std::floor((y1 - y0) / c) + 1.0);
+  };
+  while (cells_for(cell) > static_cast<double>(kMaxGridCells)) cell *= 2.0;
+  g_x0 = x0;
+  g_y0 = y0;
+  g_inv_cell = static_cast<float>(1.0 / cell);
+  g_nx = static_cast<int>((x1 - x0) / cell) + 1;
+  g_ny = static_cast<int>((y1 - y0) / cell) + 1;
+  const int cells = g_nx * g_ny;
+  g_cell_start.assign(static_cast<std::size_t>(kNumGroups) * cells + 1, 0);
+  const auto key_of = [&](std::size_t k) {
+    const int ix = std::min(g_nx - 1, static_cast<int>((cx[k] - x0) * g_inv_cell));
+    const int iy = std::min(g_ny - 1, static_cast<int>((cy[k] - y0) * g_inv_cell));
+    return GroupOf(f.keypoints[ids[k]].laplacian, lap) * cells + iy * g_nx + ix;
+  };
+  for (std::size_t k = 0; k < n; ++k) ++g_cell_start[key_of(k) + 1];
+  for (std::size_t c = 1; c < g_cell_start.size(); ++c) g_cell_start[c] += g_cell_start[c - 1];
+  g_cursor.assign(g_cell_start.begin(), g_cell_start.end() - 1);
+  g_rows.resize(n * dim);
+  g_norms.resize(n);
+  g_x.resize(n);
+  g_y.resize(n);
+  g_index.resize(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const int s = g_cursor[key_of(k)]++;
+    const float* d = f.descriptor(ids[k]);
+    std::memcpy(g_rows.data() + static_cast<std::size_t>(s) * dim, d, sizeof(float) * dim);
+    float nn = 0.f;
+    for (int i = 0; i < dim; ++i) nn += d[i] * d[i];
+    g_norms[s] = nn;
+    g_x[s] = cx[k];
+    g_y[s] = cy[k];
+    g_index[s] = ids[k];
+  }
+}
+
+// Query positions are taken from qx/qy (indexed like `qids`), candidate positions from cx/cy.
+std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector<int>& qids,
+                                         const FeatureSet& fc, const std::vector<int>& cids,
+                                         float radius, std::vector<Best2>* out) {
+  const int dim = fq.descriptor_size;
+  const bool lap = options.check_laplacian;
+  BuildGrid(fc, cids, radius);
+  const int num_threads = ResolveThreads(options.num_threads);
+  if (static_cast<int>(thread_slots.size()) < num_threads) thread_slots.resize(num_threads);
+  for (int t = 0; t < num_threads; ++t) thread_slots[t].reserve(cids.size());
+  out->resize(qids.size());
+  const int nq = static_cast<int>(qids.size());
+  const int cells = g_nx * g_ny;
+  const float r2 = radius * radius;
+  const matching_detail::ListFn list = kernels->list;
+  std::int64_t comparisons = 0;
+#pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads) \
+    reduction(+ : comparisons) if (num_threads > 1 && nq > 64)
+  for (int k = 0; k < nq; ++k) {
+    std::vector<std::int32_t>& slots = thread_slots[omp_get_thread_num()];
+    slots.clear();
+    const float x = qx[k], y = qy[k];
+    const float fx0 = (x - radius - g_x0) * g_inv_cell, fx1 = (x + radius - g_x0) * g_inv_cell;
+    const float fy0 = (y - radius - g_y0) * g_inv_cell, fy1 = (y + radius - g_y0) * g_inv_cell;
+    if (fx1 >= 0.f && fy1 >= 0.f && fx0 < static_cast<float>(g_nx) &&
+        fy0 < static_cast<float>(g_ny)) {
+      // Clamp in float before converting: predictions may lie far outside the grid.
+      const int ix0 = static_cast<int>(std::max(fx0, 0.f));
+      const int ix1 = std::min(g_nx - 1, static_cast<int>(fx1));
+      const int iy0 = static_cast<int>(std::max(fy0, 0.f));
+      const int iy1 = std::min(g_ny - 1, static_cast<int>(fy1));
+      const int base = GroupOf(fq.keypoints[qids[k]].laplacian, lap) * cells;
+      for (int iy = iy0; iy <= iy1; ++iy) {
+        // Cells ix0..ix1 of one row are consecutive slots.
+        const int s0 = g_cell_start[base + iy * g_nx + ix0];
+        const int s1 = g_cell_start[base + iy * g_nx + ix1 + 1];
+        for (int s = s0; s < s1; ++s) {
+          const float dx = g_x[s] - x, dy = g_y[s] - y;
+          if (dx * dx + dy * dy <= r2) slots.push_back(s);
+        }
+      }
+    }
+    Best2 b{kInf, kInf, -1, -1};
+    if (!slots.empty()) {
+      list(fq.descriptor(qids[k]), dim, g_rows.data(), g_norms.data(), slots.data(),
+           static_cast<int>(slots.size()), g_index.data(), &b);
+      comparisons += static_cast<std::int64_t>(slots.size());
+    }
+    b.j1 = b.j1 >= 0 ? g_index[b.j1] : -1;
+    b.j2 = b.j2 >= 0 ? g_index[b.j2] : -1;
+    (*out)[k] = b;
+  }
+  return comparisons;
+}
+
+Matcher::Matcher(const MatchOptions& options) : impl_(nullptr) {
+  Validate(options);
+  impl_ = new Impl;
+  impl_->options = options;
+  impl_->kernels = &matching_detail::SelectKernels(options.use_avx2);
+}
+
+Matcher::~Matcher() { delete impl_; }
+
+Matcher::Matcher(Matcher&& other) noexcept : impl_(other.impl_) { other.impl_ = nullptr; }
+
+Matcher& Matcher::operator=(Matcher&& other) noexcept {
+  if (this != &other) {
+    delete impl_;
+    impl_ = other.impl_;
+    other.impl_ = nullptr;
+  }
+  return *this;
+}
+
+const MatchOptions& Matcher::options() const { return impl_->options; }
+
+MatchResult Matcher::Match(const FeatureSet& prev, const FeatureSet& curr,
+                           const std::vector<int>& prev_subset,
+                           const std::optional<Eigen::Matrix<double, 2, 3>>& curr_from_prev_prior) {
+  const Stopwatch watch;
+  Impl& m = *impl_;
+  const MatchOptions& o = m.options;
+  CheckFeatureSet(prev, "prev");
+  CheckFeatureSet(curr, "curr");
+  if (prev.descriptor_size != curr.descriptor_size) {
+    throw InvalidArgument("Matcher::Match: descriptor sizes differ (prev " +
+                          std::to_string(prev.descriptor_size) + ", curr " +
+                          std::to_string(curr.descriptor_size) + ")");
+  }
+  const int dim = prev.descriptor_size;
+  const int n_prev = static_cast<int>(prev.size());
+  const int n_curr = static_cast<int>(curr.size());
+
+  // Forward query set: the subset (sorted, duplicates dropped) or every prev point.
+  m.fwd_ids.clear();
+  if (prev_subset.empty()) {
+    m.fwd_ids.resize(n_prev);
+    for (int i = 0; i < n_prev; ++i) m.fwd_ids[i] = i;
+  } else {
+    for (int id : prev_subset) {
+      if (id < 0 || id >= n_prev) {
+        throw InvalidArgument("Matcher::Match: prev_subset index " + std::to_string(id) +
+                              " out of range [0, " + std::to_string(n_prev) + ")");
+      }
+    }
+    m.fwd_ids.assign(prev_subset.begin(), prev_subset.end());
+    std::sort(m.fwd_ids.begin(), m.fwd_ids.end());
+    m.fwd_ids.erase(std::unique(m.fwd_ids.begin(), m.fwd_ids.end()), m.fwd_ids.end());
+  }
+  if (curr_from_prev_prior && !curr_from_prev_prior->allFinite()) {
+    throw InvalidArgument("Matcher::Match: curr_from_prev_prior has non-finite entries");
+  }
+
+  MatchResult result;
+  if (m.fwd_ids.empty() || n_curr == 0) {
+    result.time_ms = watch.elapsed_ms();
+    return result;
+  }
+  m.CheckFinite(prev, m.fwd_ids, "prev");
+  // All curr points are candidates; m.rev_ids doubles as the "all curr" id list here.
+  m.rev_ids.resize(n_curr);
+  for (int i = 0; i < n_curr; ++i) m.rev_ids[i] = i;
+  m.CheckFinite(curr, m.rev_ids, "curr");
+
+  const bool guided = curr_from_prev_prior.has_value();
+  const float radius = o.guided_radius_px;
+  Eigen::Matrix<double, 2, 3> A = Eigen::Matrix<double, 2, 3>::Zero();
+  if (guided) {
+    A = *curr_from_prev_prior;
+    const std::size_t nq = m.fwd_ids.size();
+    m.qx.resize(nq);
+    m.qy.resize(nq);
+    for (std::size_t k = 0; k < nq; ++k) {
+      const Keypoint& kp = prev.keypoints[m.fwd_ids[k]];
+      if (!std::isfinite(kp.x) || !std::isfinite(kp.y))
+        ThrowNonFinite("prev", m.fwd_ids[k], "position");
+      m.qx[k] = static_cast<float>(A(0, 0) * kp.x + A(0, 1) * kp.y + A(0, 2));
+      m.qy[k] = static_cast<float>(A(1, 0) * kp.x + A(1, 1) * kp.y + A(1, 2));
+    }
+    m.cx.resize(n_curr);
+    m.cy.resize(n_curr);
+    for (int i = 0; i < n_curr; ++i) {
+      const Keypoint& kp = curr.keypoints[i];
+      if (!std::isfinite(kp.x) || !std::isfinite(kp.y)) ThrowNonFinite("curr", i, "position");
+      m.cx[i] = kp.x;
+      m.cy[i] = kp.y;
+    }
+    result.num_comparisons += m.SearchGuided(prev, m.fwd_ids, curr, m.rev_ids, radius, &m.fwd_best);
+  } else {
+    result.num_comparisons += m.SearchExhaustive(prev, m.fwd_ids, curr, m.rev_ids, &m.fwd_best);
+  }
+
+  // Decisions on exact SSDs (double, from the stored floats) of the two best candidates.
+  const double threshold = static_cast<double>(o.match_threshold_percent) / 100.0 * kMaxSsd;
+  const double ratio = o.max_ratio;
+  std::vector<aerovo::Match>& out = result.matches;
+  for (std::size_t k = 0; k < m.fwd_ids.size(); ++k) {
+    const Best2& b = m.fwd_best[k];
+    if (b.j1 < 0) continue;
+    const float* q = prev.descriptor(m.fwd_ids[k]);
+    int j1 = b.j1, j2 = b.j2;
+    double s1 = ExactSsd(q, curr.descriptor(j1), dim);
+    double s2 = std::numeric_limits<double>::infinity();
+    if (j2 >= 0) {
+      s2 = ExactSsd(q, curr.descriptor(j2), dim);
+      if (s2 < s1 || (s2 == s1 && j2 < j1)) {
+        std::swap(s1, s2);
+        std::swap(j1, j2);
+      }
+    }
+    if (!(s1 <= threshold)) continue;
+    if (j2 >= 0) {
+      // second == 0 means two identical best candidates: ambiguous, rejected (as MATLAB's
+      // 0/0 ratio, which fails its <= test).
+      if (!(s2 > 0.0 && s1 <= ratio * s2)) continue;
+    } else if (!o.accept_single_candidate) {
+      continue;
+    }
+    out.push_back({m.fwd_ids[k], j1, static_cast<float>(s1)});
+  }
+
+  if (o.unique && !out.empty()) {
+    // Reverse pass: each matched curr point against the same query set (same Laplacian group,
+    // same guided disc), keeping the pair only if the prev point is its best.
+    m.mark.assign(n_curr, 0);
+    for (const aerovo::Match& mt : out) m.mark[mt.curr_index] = 1;
+    m.rev_ids.clear();
+    m.rev_slot.resize(n_curr);
+    for (int i = 0; i < n_curr; ++i) {
+      if (m.mark[i]) {
+        m.rev_slot[i] = static_cast<int>(m.rev_ids.size());
+        m.rev_ids.push_back(i);
+      }
+    }
+    if (guided) {
+      const std::size_t nq = m.fwd_ids.size();
+      m.cx.resize(nq);
+      m.cy.resize(nq);
+      std::copy(m.qx.begin(), m.qx.begin() + nq, m.cx.begin());
+      std::copy(m.qy.begin(), m.qy.begin() + nq, m.cy.begin());
+      m.qx.resize(m.rev_ids.size());
+      m.qy.resize(m.rev_ids.size());
+      for (std::size_t k = 0; k < m.rev_ids.size(); ++k) {
+        m.qx[k] = curr.keypoints[m.rev_ids[k]].x;
+        m.qy[k] = curr.keypoints[m.rev_ids[k]].y;
+      }
+      result.num_comparisons +=
+          m.SearchGuided(curr, m.rev_ids, prev, m.fwd_ids, radius, &m.rev_best);
+    } else {
+      result.num_comparisons += m.SearchExhaustive(curr, m.rev_ids, prev, m.fwd_ids, &m.rev_best);
+    }
+    std::size_t kept = 0;
+    for (const aerovo::Match& mt : out) {
+      const Best2& b = m.rev_best[m.rev_slot[mt.curr_index]];
+      // Exact check among the reverse top-2 (float ranking may swap near-ties).
+      const float* c = curr.descriptor(mt.curr_index);
+      const double own = ExactSsd(prev.descriptor(mt.prev_index), c, dim);
+      bool best = true;
+      for (int j : {b.j1, b.j2}) {
+        if (j < 0 || j == mt.prev_index) continue;
+        const double s = ExactSsd(prev.descriptor(j), c, dim);
+        if (s < own || (s == own && j < mt.prev_index)) best = false;
+      }
+      if (b.j1 != mt.prev_index && b.j2 != mt.prev_index) best = false;
+      if (best) out[kept++] = mt;
+    }
+    out.resize(kept);
+  }
+  result.time_ms = watch.elapsed_ms();
+  return result;
+}
+
+}  // namespace aerovo

@@ -1,0 +1,546 @@
+#include "aerovo/matching/matcher.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <random>
+#include <vector>
+
+#include "aerovo/core/error.h"
+
+namespace aerovo {
+namespace {
+
+using Affine = Eigen::Matrix<double, 2, 3>;
+
+// ------------------------------------------------------------------------------------------
+// Brute-force reference, written plainly from the documented semantics.
+
+double Ssd(const FeatureSet& a, int i, const FeatureSet& b, int j) {
+  double s = 0.0;
+  for (int d = 0; d < a.descriptor_size; ++d) {
+    const double t = static_cast<double>(a.descriptor(i)[d]) - b.descriptor(j)[d];
+    s += t * t;
+  }
+  return s;
+}
+
+// Same float arithmetic as the matcher uses for the disc test.
+bool InDisc(const Keypoint& p, const Keypoint& c, const Affine& A, float r) {
+  const float px = static_cast<float>(A(0, 0) * p.x + A(0, 1) * p.y + A(0, 2));
+  const float py = static_cast<float>(A(1, 0) * p.x + A(1, 1) * p.y + A(1, 2));
+  const float dx = c.x - px, dy = c.y - py;
+  return dx * dx + dy * dy <= r * r;
+}
+
+bool Comparable(const FeatureSet& prev, int p, const FeatureSet& curr, int c, const MatchOptions& o,
+                const std::optional<Affine>& prior) {
+  if (o.check_laplacian && prev.keypoints[p].laplacian != curr.keypoints[c].laplacian) {
+    return false;
+  }
+  return !prior || InDisc(prev.keypoints[p], curr.keypoints[c], *prior, o.guided_radius_px);
+}
+
+std::vector<Match> Reference(const FeatureSet& prev, const FeatureSet& curr,
+                             std::vector<int> subset, const MatchOptions& o,
+                             const std::optional<Affine>& prior = std::nullopt) {
+  if (subset.empty()) {
+    subset.resize(prev.size());
+    std::iota(subset.begin(), subset.end(), 0);
+  }
+  std::sort(subset.begin(), subset.end());
+  subset.erase(std::unique(subset.begin(), subset.end()), subset.end());
+  std::vector<Match> out;
+  const double inf = std::numeric_limits<double>::infinity();
+  for (int p : subset) {
+    double s1 = inf, s2 = inf;
+    int j1 = -1, j2 = -1;
+    for (int c = 0; c < static_cast<int>(curr.size()); ++c) {
+      if (!Comparable(prev, p, curr, c, o, prior)) continue;
+      const double s = Ssd(prev, p, curr, c);
+      if (s < s1) {
+        s2 = s1, j2 = j1, s1 = s, j1 = c;
+      } else if (s < s2) {
+        s2 = s, j2 = c;
+      }
+    }
+    if (j1 < 0 || s1 > o.match_threshold_percent / 100.0 * 4.0) continue;
+    if (j2 >= 0 && !(s2 > 0.0 && s1 <= static_cast<double>(o.max_ratio) * s2)) continue;
+    if (j2 < 0 && !o.accept_single_candidate) continue;
+    out.push_back({p, j1, static_cast<float>(s1)});
+  }
+  if (o.unique) {
+    std::vector<Match> kept;
+    for (const Match& m : out) {
+      bool best = true;
+      for (int q : subset) {
+        if (q == m.prev_index || !Comparable(prev, q, curr, m.curr_index, o, prior)) continue;
+        const double s = Ssd(prev, q, curr, m.curr_index);
+        const double own = Ssd(prev, m.prev_index, curr, m.curr_index);
+        if (s < own || (s == own && q < m.prev_index)) best = false;
+      }
+      if (best) kept.push_back(m);
+    }
+    out = kept;
+  }
+  return out;
+}
+
+// ------------------------------------------------------------------------------------------
+// Synthetic data.
+
+void Normalize(float* d, int dim) {
+  double n = 0.0;
+  for (int k = 0; k < dim; ++k) n += static_cast<double>(d[k]) * d[k];
+  const float inv = static_cast<float>(1.0 / std::sqrt(n));
+  for (int k = 0; k < dim; ++k) d[k] *= inv;
+}
+
+void AddPoint(FeatureSet* f, float x, float y, std::int8_t lap, const std::vector<float>& desc) {
+  Keypoint kp;
+  kp.x = x;
+  kp.y = y;
+  kp.laplacian = lap;
+  kp.scale = 2.f;
+  f->keypoints.push_back(kp);
+  f->descriptors.insert(f->descriptors.end(), desc.begin(), desc.end());
+}
+
+FeatureSet RandomSet(int n, int dim, std::mt19937& rng, float w = 1920.f, float h = 1080.f) {
+  FeatureSet f;
+  f.descriptor_size = dim;
+  std::normal_distribution<float> g(0.f, 1.f);
+  std::uniform_real_distribution<float> ux(0.f, w), uy(0.f, h);
+  std::bernoulli_distribution sign(0.5);
+  std::vector<float> d(dim);
+  for (int i = 0; i < n; ++i) {
+    for (float& v : d) v = g(rng);
+    Normalize(d.data(), dim);
+    AddPoint(&f, ux(rng), uy(rng), sign(rng) ? 1 : -1, d);
+  }
+  return f;
+}
+
+struct Scene {
+  FeatureSet prev, curr;
+  std::vector<int> curr_of_prev;  // ground truth: prev i <-> curr curr_of_prev[i]
+  Affine curr_from_prev;
+};
+
+// curr = shuffled (transformed, descriptor-noised) copies of prev plus random distractors.
+Scene MakeScene(int n, int distractors, int dim, float noise_sigma, unsigned seed) {
+  std::mt19937 rng(seed);
+  Scene s;
+  s.prev = RandomSet(n, dim, rng);
+  const double a = 0.05;
+  s.curr_from_prev << std::cos(a), -std::sin(a), 35.0, std::sin(a), std::cos(a), -20.0;
+  const FeatureSet extra = RandomSet(distractors, dim, rng);
+  std::vector<int> order(n + distractors);
+  std::iota(order.begin(), order.end(), 0);
+  std::shuffle(order.begin(), order.end(), rng);
+  s.curr.descriptor_size = dim;
+  s.curr_of_prev.assign(n, -1);
+  std::normal_distribution<float> g(0.f, noise_sigma);
+  std::vector<float> d(dim);
+  for (int slot = 0; slot < n + distractors; ++slot) {
+    const int src = order[slot];
+    if (src < n) {
+      const Keypoint& kp = s.prev.keypoints[src];
+      const Eigen::Vector2d q = s.curr_from_prev * Eigen::Vector3d(kp.x, kp.y, 1.0);
+      for (int k = 0; k < dim; ++k) d[k] = s.prev.descriptor(src)[k] + g(rng);
+      Normalize(d.data(), dim);
+      AddPoint(&s.curr, static_cast<float>(q.x()), static_cast<float>(q.y()), kp.laplacian, d);
+      s.curr_of_prev[src] = slot;
+    } else {
+      const int e = src - n;
+      d.assign(extra.descriptor(e), extra.descriptor(e) + dim);
+      AddPoint(&s.curr, extra.keypoints[e].x, extra.keypoints[e].y, extra.keypoints[e].laplacian,
+               d);
+    }
+  }
+  return s;
+}
+
+void ExpectSameMatches(const std::vector<Match>& got, const std::vector<Match>& want) {
+  ASSERT_EQ(got.size(), want.size());
+  for (std::size_t k = 0; k < got.size(); ++k) {
+    EXPECT_EQ(got[k].prev_index, want[k].prev_index) << "match " << k;
+    EXPECT_EQ(got[k].curr_index, want[k].curr_index) << "match " << k;
+    EXPECT_NEAR(got[k].ssd, want[k].ssd, 1e-6) << "match " << k;
+  }
+}
+
+// A unit vector at SSD `ssd` from e0 in the plane (e0, e_axis): cos(theta) = 1 - ssd / 2.
+std::vector<float> AtSsd(int dim, double ssd, int axis) {
+  std::vector<float> d(dim, 0.f);
+  const double c = 1.0 - ssd / 2.0;
+  d[0] = static_cast<float>(c);
+  d[axis] = static_cast<float>(std::sqrt(1.0 - c * c));
+  return d;
+}
+
+std::vector<float> Basis(int dim, int axis) {
+  std::vector<float> d(dim, 0.f);
+  d[axis] = 1.f;
+  return d;
+}
+
+// ------------------------------------------------------------------------------------------
+
+TEST(MatcherTest, RecoversKnownCorrespondences64) {
+  const Scene s = MakeScene(600, 400, 64, 0.005f, 1);
+  Matcher matcher;
+  const MatchResult r = matcher.Match(s.prev, s.curr);
+  ASSERT_EQ(r.matches.size(), s.prev.size());
+  for (std::size_t i = 0; i < r.matches.size(); ++i) {
+    EXPECT_EQ(r.matches[i].prev_index, static_cast<int>(i));
+    EXPECT_EQ(r.matches[i].curr_index, s.curr_of_prev[i]);
+    EXPECT_LT(r.matches[i].ssd, 0.04f);
+  }
+  ExpectSameMatches(r.matches, Reference(s.prev, s.curr, {}, MatchOptions{}));
+  // Only same-sign pairs are compared.
+  std::int64_t pos_p = 0, pos_c = 0;
+  for (const Keypoint& k : s.prev.keypoints) pos_p += k.laplacian > 0;
+  for (const Keypoint& k : s.curr.keypoints) pos_c += k.laplacian > 0;
+  const std::int64_t neg_p = s.prev.size() - pos_p, neg_c = s.curr.size() - pos_c;
+  EXPECT_EQ(r.num_comparisons, pos_p * pos_c + neg_p * neg_c);
+}
+
+TEST(MatcherTest, RecoversKnownCorrespondences128) {
+  const Scene s = MakeScene(300, 300, 128, 0.004f, 2);
+  Matcher matcher;
+  const MatchResult r = matcher.Match(s.prev, s.curr);
+  ASSERT_EQ(r.matches.size(), s.prev.size());
+  for (std::size_t i = 0; i < r.matches.size(); ++i) {
+    EXPECT_EQ(r.matches[i].curr_index, s.curr_of_prev[i]);
+  }
+  ExpectSameMatches(r.matches, Reference(s.prev, s.curr, {}, MatchOptions{}));
+}
+
+// Noise chosen so that SSDs straddle the 0.04 threshold and many ratio tests are close.
+TEST(MatcherTest, AgreesWithBruteForceOnHardData) {
+  for (int dim : {64, 128, 20}) {
+    // SSD of a noised, renormalised copy is ~ (dim - 1) sigma^2: centred just under 0.04.
+    const float sigma = static_cast<float>(std::sqrt(0.038 / (dim - 1)));
+    const Scene s = MakeScene(500, 300, dim, sigma, 3 + dim);
+    for (bool unique : {false, true}) {
+      for (bool lap : {true, false}) {
+        MatchOptions o;
+        o.unique = unique;
+        o.check_laplacian = lap;
+        o.max_ratio = 0.8f;
+        Matcher matcher(o);
+        const MatchResult r = matcher.Match(s.prev, s.curr);
+        const std::vector<Match> want = Reference(s.prev, s.curr, {}, o);
+        EXPECT_GT(want.size(), 50u);
+        EXPECT_LT(want.size(), s.prev.size());  // the threshold really cuts
+        ExpectSameMatches(r.matches, want);
+      }
+    }
+  }
+}
+
+TEST(MatcherTest, RatioTestBoundary) {
+  const int dim = 64;
+  for (double ratio : {0.59, 0.61}) {
+    FeatureSet prev, curr;
+    prev.descriptor_size = curr.descriptor_size = dim;
+    AddPoint(&prev, 0, 0, 1, Basis(dim, 0));
+    AddPoint(&curr, 0, 0, 1, Basis(dim, 5));                // far (SSD 2)
+    AddPoint(&curr, 0, 0, 1, AtSsd(dim, 0.03 / ratio, 2));  // second best
+    AddPoint(&curr, 0, 0, 1, AtSsd(dim, 0.03, 1));          // best
+    Matcher matcher;
+    const MatchResult r = matcher.Match(prev, curr);
+    if (ratio < 0.6) {
+      ASSERT_EQ(r.matches.size(), 1u) << ratio;
+      EXPECT_EQ(r.matches[0].curr_index, 2);
+      EXPECT_NEAR(r.matches[0].ssd, 0.03f, 1e-6);
+    } else {
+      EXPECT_TRUE(r.matches.empty()) << ratio;
+    }
+    EXPECT_EQ(r.num_comparisons, 3);
+  }
+}
+
+TEST(MatcherTest, MatchThresholdBoundary) {
+  const int dim = 64;
+  for (double ssd : {0.0399, 0.0401}) {
+    FeatureSet prev, curr;
+    prev.descriptor_size = curr.descriptor_size = dim;
+    AddPoint(&prev, 0, 0, -1, Basis(dim, 0));
+    AddPoint(&curr, 0, 0, -1, AtSsd(dim, ssd, 1));
+    AddPoint(&curr, 0, 0, -1, AtSsd(dim, 1.0, 2));  // ratio 0.04: passes easily
+    Matcher matcher;
+    const MatchResult r = matcher.Match(prev, curr);
+    EXPECT_EQ(r.matches.size(), ssd < 0.04 ? 1u : 0u) << ssd;
+    // A 2 % threshold (SSD <= 0.08) accepts both.
+    MatchOptions o;
+    o.match_threshold_percent = 2.f;
+    EXPECT_EQ(Matcher(o).Match(prev, curr).matches.size(), 1u);
+  }
+}
+
+TEST(MatcherTest, LaplacianGatingAlsoAppliesToSecondBest) {
+  const int dim = 64;
+  FeatureSet prev, curr;
+  prev.descriptor_size = curr.descriptor_size = dim;
+  AddPoint(&prev, 0, 0, 1, Basis(dim, 0));
+  AddPoint(&curr, 0, 0, -1, Basis(dim, 0));         // identical, opposite sign
+  AddPoint(&curr, 0, 0, 1, AtSsd(dim, 0.02, 1));    // best of same sign
+  AddPoint(&curr, 0, 0, -1, AtSsd(dim, 0.025, 2));  // would fail the ratio test if compared
+  AddPoint(&curr, 0, 0, 1, Basis(dim, 3));          // same sign, far
+  {
+    Matcher matcher;  // check_laplacian = true
+    const MatchResult r = matcher.Match(prev, curr);
+    ASSERT_EQ(r.matches.size(), 1u);
+    EXPECT_EQ(r.matches[0].curr_index, 1);
+    EXPECT_EQ(r.num_comparisons, 2);
+  }
+  {
+    MatchOptions o;
+    o.check_laplacian = false;
+    Matcher matcher(o);
+    const MatchResult r = matcher.Match(prev, curr);
+    // Best is now the identical point (SSD 0) and second is SSD 0.02: ratio 0 passes.
+    ASSERT_EQ(r.matches.size(), 1u);
+    EXPECT_EQ(r.matches[0].curr_index, 0);
+    EXPECT_EQ(r.num_comparisons, 4);
+  }
+  {
+    // Without the identical point and without gating, 0.02 / 0.025 = 0.8 fails the ratio test.
+    FeatureSet c2 = curr;
+    c2.keypoints[0].laplacian = 1;
+    c2.descriptors[0] = 0.f;
+    c2.descriptors[7] = 1.f;  // e7: far from e0
+    MatchOptions o;
+    o.check_laplacian = false;
+    EXPECT_TRUE(Matcher(o).Match(prev, c2).matches.empty());
+    EXPECT_EQ(Matcher().Match(prev, c2).matches.size(), 1u);
+  }
+}
+
+TEST(MatcherTest, SingleCandidateAndAmbiguousDuplicates) {
+  const int dim = 64;
+  FeatureSet prev, curr;
+  prev.descriptor_size = curr.descriptor_size = dim;
+  AddPoint(&prev, 0, 0, 1, Basis(dim, 0));
+  AddPoint(&curr, 0, 0, 1, AtSsd(dim, 0.01, 1));
+  AddPoint(&curr, 0, 0, -1, Basis(dim, 0));  // other sign: not a candidate
+  EXPECT_EQ(Matcher().Match(prev, curr).matches.size(), 1u);
+  MatchOptions o;
+  o.accept_single_candidate = false;
+  EXPECT_TRUE(Matcher(o).Match(prev, curr).matches.empty());
+  // Two identical best candidates (second SSD == best SSD == 0): ambiguous, rejected.
+  FeatureSet dup;
+  dup.descriptor_size = dim;
+  AddPoint(&dup, 0, 0, 1, Basis(dim, 0));
+  AddPoint(&dup, 0, 0, 1, Basis(dim, 0));
+  EXPECT_TRUE(Matcher().Match(prev, dup).matches.empty());
+}
+
+TEST(MatcherTest, UniqueKeepsMutualBestOnly) {
+  const int dim = 64;
+  FeatureSet prev, curr;
+  prev.descriptor_size = curr.descriptor_size = dim;
+  AddPoint(&prev, 0, 0, 1, AtSsd(dim, 0.02, 1));  // second-closest to curr 0
+  AddPoint(&prev, 0, 0, 1, AtSsd(dim, 0.01, 2));  // closest to curr 0
+  AddPoint(&curr, 0, 0, 1, Basis(dim, 0));
+  AddPoint(&curr, 0, 0, 1, Basis(dim, 9));
+  const MatchResult all = Matcher().Match(prev, curr);
+  ASSERT_EQ(all.matches.size(), 2u);
+  EXPECT_EQ(all.matches[0].curr_index, 0);
+  EXPECT_EQ(all.matches[1].curr_index, 0);
+  MatchOptions o;
+  o.unique = true;
+  const MatchResult uniq = Matcher(o).Match(prev, curr);
+  ASSERT_EQ(uniq.matches.size(), 1u);
+  EXPECT_EQ(uniq.matches[0].prev_index, 1);
+  EXPECT_EQ(uniq.matches[0].curr_index, 0);
+  // With prev 1 outside the query set, prev 0 is curr 0's mutual best.
+  const MatchResult sub = Matcher(o).Match(prev, curr, {0});
+  ASSERT_EQ(sub.matches.size(), 1u);
+  EXPECT_EQ(sub.matches[0].prev_index, 0);
+}
+
+TEST(MatcherTest, PrevSubsetRestrictsQueries) {
+  const Scene s = MakeScene(400, 200, 64, 0.005f, 7);
+  const std::vector<int> subset = {390, 5, 17, 5, 200, 0, 399};
+  Matcher matcher;
+  const MatchResult r = matcher.Match(s.prev, s.curr, subset);
+  ASSERT_EQ(r.matches.size(), 6u);  // duplicates dropped, sorted by prev_index
+  const std::vector<int> want = {0, 5, 17, 200, 390, 399};
+  for (std::size_t k = 0; k < want.size(); ++k) {
+    EXPECT_EQ(r.matches[k].prev_index, want[k]);
+    EXPECT_EQ(r.matches[k].curr_index, s.curr_of_prev[want[k]]);
+  }
+  ExpectSameMatches(r.matches, Reference(s.prev, s.curr, subset, MatchOptions{}));
+  EXPECT_THROW(matcher.Match(s.prev, s.curr, {0, 400}), InvalidArgument);
+  EXPECT_THROW(matcher.Match(s.prev, s.curr, {-1}), InvalidArgument);
+}
+
+TEST(MatcherTest, GuidedMatchesExhaustiveWithRightPrior) {
+  const Scene s = MakeScene(800, 800, 64, 0.005f, 11);
+  Matcher matcher;
+  const MatchResult ex = matcher.Match(s.prev, s.curr);
+  const MatchResult gd = matcher.Match(s.prev, s.curr, {}, s.curr_from_prev);
+  ExpectSameMatches(gd.matches, ex.matches);
+  EXPECT_EQ(gd.matches.size(), s.prev.size());
+  // A 40 px disc in a 1920x1080 frame holds ~0.3 % of the points (plus the edges' effect).
+  EXPECT_LT(gd.num_comparisons * 50, ex.num_comparisons);
+  EXPECT_GT(gd.num_comparisons, 0);
+}
+
+TEST(MatcherTest, GuidedExcludesFarCandidatesAndAgreesWithReference) {
+  const int dim = 64;
+  FeatureSet prev, curr;
+  prev.descriptor_size = curr.descriptor_size = dim;
+  AddPoint(&prev, 100, 100, 1, Basis(dim, 0));
+  AddPoint(&curr, 500, 500, 1, Basis(dim, 0));        // identical but far from prediction
+  AddPoint(&curr, 112, 95, 1, AtSsd(dim, 0.03, 1));   // near prediction (110, 95)
+  AddPoint(&curr, 130, 95, 1, AtSsd(dim, 0.035, 2));  // 20 px from prediction
+  Affine shift;
+  shift << 1, 0, 10, 0, 1, -5;
+  MatchOptions o;
+  o.guided_radius_px = 10.f;
+  Matcher matcher(o);
+  const MatchResult g = matcher.Match(prev, curr, {}, shift);
+  ASSERT_EQ(g.matches.size(), 1u);
+  EXPECT_EQ(g.matches[0].curr_index, 1);
+  EXPECT_EQ(g.num_comparisons, 1);
+  const MatchResult e = matcher.Match(prev, curr);
+  ASSERT_EQ(e.matches.size(), 1u);
+  EXPECT_EQ(e.matches[0].curr_index, 0);
+  // With a 25 px disc the second candidate enters and 0.03 / 0.035 fails the ratio test.
+  o.guided_radius_px = 25.f;
+  EXPECT_TRUE(Matcher(o).Match(prev, curr, {}, shift).matches.empty());
+
+  // Random scene, a prior off by ~30 px and a 40 px disc: some true matches drop out; the
+  // result must equal the brute-force reference with the same disc, with and without Unique.
+  const Scene s = MakeScene(700, 700, 64, 0.02f, 13);
+  Affine off = s.curr_from_prev;
+  off(0, 2) += 25.0;
+  off(1, 2) -= 18.0;
+  for (bool unique : {false, true}) {
+    MatchOptions ou;
+    ou.unique = unique;
+    ou.max_ratio = 0.9f;
+    Matcher m2(ou);
+    const std::vector<Match> want = Reference(s.prev, s.curr, {}, ou, off);
+    EXPECT_GT(want.size(), 100u);
+    ExpectSameMatches(m2.Match(s.prev, s.curr, {}, off).matches, want);
+    const std::vector<int> subset = {3, 50, 51, 52, 400, 699};
+    ExpectSameMatches(m2.Match(s.prev, s.curr, subset, off).matches,
+                      Reference(s.prev, s.curr, subset, ou, off));
+  }
+  // A prior mapping everything far outside the frame: no candidates, no matches.
+  Affine away = s.curr_from_prev;
+  away(0, 2) += 1e7;
+  const MatchResult none = Matcher().Match(s.prev, s.curr, {}, away);
+  EXPECT_TRUE(none.matches.empty());
+  EXPECT_EQ(none.num_comparisons, 0);
+}
+
+TEST(MatcherTest, MultiThreadAndKernelsGiveIdenticalResults) {
+  const Scene s = MakeScene(2000, 1000, 64, 0.02f, 17);
+  MatchOptions o;
+  o.max_ratio = 0.8f;
+  const MatchResult ref = Matcher(o).Match(s.prev, s.curr);
+  ASSERT_GT(ref.matches.size(), 500u);
+  for (int threads : {2, 3, 0}) {
+    for (bool avx2 : {true, false}) {
+      MatchOptions t = o;
+      t.num_threads = threads;
+      t.use_avx2 = avx2;
+      Matcher m(t);
+      const MatchResult r = m.Match(s.prev, s.curr);
+      ExpectSameMatches(r.matches, ref.matches);
+      EXPECT_EQ(r.num_comparisons, ref.num_comparisons);
+      const MatchResult g1 = Matcher(o).Match(s.prev, s.curr, {}, s.curr_from_prev);
+      const MatchResult g2 = m.Match(s.prev, s.curr, {}, s.curr_from_prev);
+      ExpectSameMatches(g2.matches, g1.matches);
+      EXPECT_EQ(g2.num_comparisons, g1.num_comparisons);
+    }
+  }
+}
+
+TEST(MatcherTest, ReusedMatcherGivesSameResultsAsFreshOne) {
+  const Scene big = MakeScene(900, 300, 64, 0.02f, 19);
+  const Scene small = MakeScene(50, 20, 128, 0.008f, 23);
+  Matcher reused;
+  const MatchResult a1 = reused.Match(big.prev, big.curr);
+  const MatchResult b1 = reused.Match(small.prev, small.curr);
+  const MatchResult a2 = reused.Match(big.prev, big.curr);
+  ExpectSameMatches(a2.matches, a1.matches);
+  ExpectSameMatches(b1.matches, Matcher().Match(small.prev, small.curr).matches);
+  EXPECT_EQ(b1.matches.size(), small.prev.size());
+}
+
+TEST(MatcherTest, EmptyInputsGiveNoMatches) {
+  const Scene s = MakeScene(10, 0, 64, 0.01f, 29);
+  FeatureSet empty;
+  Matcher m;
+  EXPECT_TRUE(m.Match(empty, s.curr).matches.empty());
+  EXPECT_TRUE(m.Match(s.prev, empty).matches.empty());
+  EXPECT_TRUE(m.Match(empty, empty, {}, s.curr_from_prev).matches.empty());
+}
+
+TEST(MatcherTest, ValidateRejectsBadOptions) {
+  EXPECT_NO_THROW(Validate(MatchOptions{}));
+  const auto bad = [](auto mutate) {
+    MatchOptions o;
+    mutate(o);
+    EXPECT_THROW(Validate(o), InvalidArgument);
+    EXPECT_THROW(Matcher{o}, InvalidArgument);
+  };
+  bad([](MatchOptions& o) { o.max_ratio = 0.f; });
+  bad([](MatchOptions& o) { o.max_ratio = 1.5f; });
+  bad([](MatchOptions& o) { o.max_ratio = std::nanf(""); });
+  bad([](MatchOptions& o) { o.match_threshold_percent = 0.f; });
+  bad([](MatchOptions& o) { o.match_threshold_percent = 101.f; });
+  bad([](MatchOptions& o) { o.guided_radius_px = -1.f; });
+  bad([](MatchOptions& o) { o.guided_radius_px = std::numeric_limits<float>::infinity(); });
+  bad([](MatchOptions& o) { o.num_threads = -2; });
+  try {
+    MatchOptions o;
+    o.max_ratio = 2.f;
+    Validate(o);
+    FAIL() << "no throw";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("max_ratio"), std::string::npos);
+  }
+}
+
+TEST(MatcherTest, RejectsInconsistentInputs) {
+  const Scene s64 = MakeScene(20, 0, 64, 0.01f, 31);
+  const Scene s128 = MakeScene(20, 0, 128, 0.01f, 37);
+  Matcher m;
+  try {
+    m.Match(s64.prev, s128.curr);
+    FAIL() << "no throw";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("descriptor sizes differ"), std::string::npos);
+  }
+  FeatureSet truncated = s64.curr;
+  truncated.descriptors.pop_back();
+  EXPECT_THROW(m.Match(s64.prev, truncated), InvalidArgument);
+  FeatureSet nan = s64.curr;
+  nan.descriptors[5 * 64 + 3] = std::nanf("");
+  try {
+    m.Match(s64.prev, nan);
+    FAIL() << "no throw";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("curr point 5"), std::string::npos) << e.what();
+  }
+  FeatureSet zero = s64.prev;
+  zero.descriptor_size = 0;
+  EXPECT_THROW(m.Match(zero, s64.curr), InvalidArgument);
+  Affine bad_prior = s64.curr_from_prev;
+  bad_prior(0, 0) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(m.Match(s64.prev, s64.curr, {}, bad_prior), InvalidArgument);
+}
+
+}  // namespace
+}  // namespace aerovo
