@@ -1,0 +1,305 @@
+#include "aerovo/estimation/ransac.h"
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "aerovo/estimation/models.h"
+#include "aerovo/estimation/samplers.h"
+#include "aerovo/estimation/testing.h"
+
+namespace aerovo {
+namespace {
+
+using testing::kFrameHeight;
+using testing::kFrameWidth;
+using testing::MakeCorrespondences;
+
+// Ground-truth transforms: moderate frame-to-frame motions of a nadir camera.
+template <class Model>
+Eigen::Matrix3d TrueTransform();
+
+template <>
+Eigen::Matrix3d TrueTransform<TranslationModel>() {
+  Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
+  m(0, 2) = 23.4;
+  m(1, 2) = -17.9;
+  return m;
+}
+template <>
+Eigen::Matrix3d TrueTransform<SimilarityModel>() {
+  const double s = 1.05, a = 7.0 * M_PI / 180.0;
+  Eigen::Matrix3d m;
+  m << s * std::cos(a), -s * std::sin(a), 30.0, s * std::sin(a), s * std::cos(a), -12.0, 0, 0, 1;
+  return m;
+}
+template <>
+Eigen::Matrix3d TrueTransform<AffineModel>() {
+  Eigen::Matrix3d m;
+  m << 1.03, 0.04, 15.0, -0.05, 0.97, 25.0, 0, 0, 1;
+  return m;
+}
+template <>
+Eigen::Matrix3d TrueTransform<HomographyModel>() {
+  Eigen::Matrix3d m;
+  m << 1.02, 0.03, 12.0, -0.04, 0.99, -20.0, 2e-5, -3e-5, 1;
+  return m;
+}
+
+template <class Model>
+class RansacModelTest : public ::testing::Test {};
+using AllModels = ::testing::Types<TranslationModel, SimilarityModel, AffineModel, HomographyModel>;
+TYPED_TEST_SUITE(RansacModelTest, AllModels);
+
+// Trials needed by the closed-form rule: a 4-point homography at 20 % inliers needs 2876 samples
+// for 99 % confidence, more than MATLAB's default cap of 1000.
+template <class Model>
+RansacOptions OptionsFor(double outlier_fraction) {
+  RansacOptions o;
+  const int needed =
+      RansacTrialCount(o.confidence_percent, 1.0 - outlier_fraction, Model::kMinSample);
+  o.max_num_trials = std::max(o.max_num_trials, needed);
+  return o;
+}
+
+TYPED_TEST(RansacModelTest, RecoversTransformWithNoiseAndOutliers) {
+  using Model = TypeParam;
+  const Eigen::Matrix3d truth = TrueTransform<Model>();
+  for (double outliers : {0.1, 0.5, 0.8}) {
+    const int n = 500;
+    const int n_out = static_cast<int>(std::lround(outliers * n));
+    const auto data = MakeCorrespondences(truth, n - n_out, n_out, 0.5, 7);
+    Ransac<Model> ransac(OptionsFor<Model>(outliers));
+    const RansacResult r = ransac.Estimate(data.prev, data.curr);
+    ASSERT_TRUE(r.success) << Model::kName << " outliers " << outliers;
+    EXPECT_LT(MaxCornerDisplacementPx(r.curr_from_prev, truth, kFrameWidth, kFrameHeight), 1.0)
+        << Model::kName << " outliers " << outliers << "\n"
+        << r.curr_from_prev;
+    // With 0.5 px noise per coordinate ~1 % of inliers exceed 1.5 px; no outlier comes closer
+    // than 5 px.
+    int false_pos = 0;
+    for (int i = 0; i < n; ++i) false_pos += r.inlier_mask[i] && !data.is_inlier[i];
+    EXPECT_EQ(false_pos, 0);
+    EXPECT_GT(r.num_inliers, 0.95 * (n - n_out));
+    EXPECT_LE(r.num_inliers, n - n_out);
+  }
+}
+
+TYPED_TEST(RansacModelTest, ExactInlierMaskWithoutNoise) {
+  using Model = TypeParam;
+  const Eigen::Matrix3d truth = TrueTransform<Model>();
+  for (double outliers : {0.1, 0.5, 0.8}) {
+    const int n = 500;
+    const int n_out = static_cast<int>(std::lround(outliers * n));
+    const auto data = MakeCorrespondences(truth, n - n_out, n_out, 0.0, 11);
+    Ransac<Model> ransac(OptionsFor<Model>(outliers));
+    const RansacResult r = ransac.Estimate(data.prev, data.curr);
+    ASSERT_TRUE(r.success) << Model::kName << " outliers " << outliers;
+    EXPECT_EQ(r.inlier_mask, data.is_inlier) << Model::kName << " outliers " << outliers;
+    EXPECT_EQ(r.num_inliers, n - n_out);
+    EXPECT_LT(MaxCornerDisplacementPx(r.curr_from_prev, truth, kFrameWidth, kFrameHeight), 1e-6);
+    // MSAC cost: inliers contribute ~0, each outlier the truncation 1.5^2.
+    EXPECT_NEAR(r.score, n_out * 2.25, 1e-6);
+  }
+}
+
+TYPED_TEST(RansacModelTest, SameSeedSameResultOtherSeedStillCorrect) {
+  using Model = TypeParam;
+  const Eigen::Matrix3d truth = TrueTransform<Model>();
+  const auto data = MakeCorrespondences(truth, 250, 250, 0.5, 3);
+  RansacOptions o;
+  o.seed = 12345;
+  Ransac<Model> a(o), b(o);
+  const RansacResult ra = a.Estimate(data.prev, data.curr);
+  const RansacResult rb = b.Estimate(data.prev, data.curr);
+  const RansacResult ra2 = a.Estimate(data.prev, data.curr);  // Reused instance.
+  ASSERT_TRUE(ra.success);
+  EXPECT_EQ(ra.curr_from_prev, rb.curr_from_prev);
+  EXPECT_EQ(ra.inlier_mask, rb.inlier_mask);
+  EXPECT_EQ(ra.num_trials, rb.num_trials);
+  EXPECT_EQ(ra.curr_from_prev, ra2.curr_from_prev);
+  EXPECT_EQ(ra.inlier_mask, ra2.inlier_mask);
+  for (std::uint64_t seed : {1u, 2u, 99u, 2024u}) {
+    o.seed = seed;
+    Ransac<Model> c(o);
+    const RansacResult rc = c.Estimate(data.prev, data.curr);
+    ASSERT_TRUE(rc.success) << "seed " << seed;
+    EXPECT_LT(MaxCornerDisplacementPx(rc.curr_from_prev, truth, kFrameWidth, kFrameHeight), 1.0)
+        << "seed " << seed;
+  }
+}
+
+TYPED_TEST(RansacModelTest, ProsacAndLocalOptimisationRecover) {
+  using Model = TypeParam;
+  const Eigen::Matrix3d truth = TrueTransform<Model>();
+  const auto data = MakeCorrespondences(truth, 250, 250, 0.5, 5);
+  RansacOptions o;
+  o.local_optimization = true;
+  Ransac<Model, ProsacSampler> ransac(o);
+  const RansacResult r = ransac.Estimate(data.prev, data.curr, data.quality.data());
+  ASSERT_TRUE(r.success);
+  EXPECT_LT(MaxCornerDisplacementPx(r.curr_from_prev, truth, kFrameWidth, kFrameHeight), 1.0);
+}
+
+TEST(RansacTrialCount, ClosedForm) {
+  // ceil(log(1 - 0.99) / log(1 - w^m)).
+  EXPECT_EQ(RansacTrialCount(99.0, 0.5, 3), 35);
+  EXPECT_EQ(RansacTrialCount(99.0, 0.5, 4), 72);
+  EXPECT_EQ(RansacTrialCount(99.0, 0.2, 3), 574);
+  EXPECT_EQ(RansacTrialCount(99.0, 0.2, 4), 2876);
+  EXPECT_EQ(RansacTrialCount(99.0, 0.1, 3), 4603);
+  EXPECT_EQ(RansacTrialCount(99.0, 0.5, 1), 7);
+  EXPECT_EQ(RansacTrialCount(99.0, 1.0, 3), 0);
+  EXPECT_EQ(RansacTrialCount(99.0, 0.0, 3), std::numeric_limits<std::int32_t>::max());
+}
+
+// Noise-free data with inlier ratio exactly 1/2: once an all-inlier sample is scored the trial
+// limit drops to RansacTrialCount(99, 0.5, 3) = 35.
+TEST(RansacLoop, TrialCountAdaptsToInlierRatio) {
+  const Eigen::Matrix3d truth = TrueTransform<AffineModel>();
+  auto data = MakeCorrespondences(truth, 100, 100, 0.0, 21);
+  // PROSAC tries the best-ranked matches first: rank the inliers best, so sample 1 is clean.
+  for (std::size_t i = 0; i < data.quality.size(); ++i) data.quality[i] = data.is_inlier[i] ? 0 : 1;
+  Ransac<AffineModel, ProsacSampler> prosac;
+  const RansacResult rp = prosac.Estimate(data.prev, data.curr, data.quality.data());
+  ASSERT_TRUE(rp.success);
+  EXPECT_EQ(rp.num_inliers, 100);
+  EXPECT_EQ(rp.num_trials, 35);
+
+  // Uniform sampling: the loop stops at max(35, index of the first clean non-degenerate sample).
+  RansacOptions o;
+  o.seed = 77;
+  Ransac<AffineModel> uniform(o);
+  const RansacResult ru = uniform.Estimate(data.prev, data.curr);
+  UniformSampler replay;
+  replay.Reset(o.seed, 200, 3, nullptr);
+  int first_clean = 0;
+  for (int scored = 0;;) {
+    int s[3];
+    replay.Draw(s);
+    if (AffineModel::IsDegenerate(data.prev, data.curr, s)) continue;
+    ++scored;
+    if (data.is_inlier[s[0]] && data.is_inlier[s[1]] && data.is_inlier[s[2]]) {
+      first_clean = scored;
+      break;
+    }
+  }
+  ASSERT_TRUE(ru.success);
+  EXPECT_EQ(ru.num_inliers, 100);
+  EXPECT_EQ(ru.num_trials, std::max(35, first_clean));
+
+  // Inlier ratio 0.1: even the true model asks for 4603 samples, so MATLAB's cap of 1000 ends
+  // the loop (whether or not a clean sample was among them: P = 1 - 0.999^1000 = 63 %).
+  const auto sparse = MakeCorrespondences(truth, 30, 270, 0.0, 22);
+  Ransac<AffineModel> capped;
+  const RansacResult rc = capped.Estimate(sparse.prev, sparse.curr);
+  EXPECT_EQ(rc.num_trials, 1000);
+  RansacOptions more;
+  more.max_num_trials = 5000;
+  Ransac<AffineModel> uncapped(more);
+  const RansacResult rm = uncapped.Estimate(sparse.prev, sparse.curr);
+  ASSERT_TRUE(rm.success);
+  EXPECT_EQ(rm.inlier_mask, sparse.is_inlier);
+  // Stops at 4603 if the first clean sample came earlier, else right at that sample.
+  EXPECT_GE(rm.num_trials, 4603);
+}
+
+TEST(Degeneracy, CollinearAndCoincidentSamplesAreRejected) {
+  Eigen::Matrix2Xd prev(2, 4), curr(2, 4);
+  // Points 0, 1, 2 collinear; 3 off the line.
+  prev << 10, 110, 210, 50, 20, 70, 120, 300;
+  curr = prev.array() + 5.0;
+  const int tri[3] = {0, 1, 2};
+  const int quad[4] = {0, 1, 2, 3};
+  Eigen::Matrix3d m;
+  EXPECT_TRUE(AffineModel::IsDegenerate(prev, curr, tri));
+  EXPECT_FALSE(AffineModel::SolveMinimal(prev, curr, tri, &m));
+  EXPECT_TRUE(HomographyModel::IsDegenerate(prev, curr, quad));
+  EXPECT_FALSE(HomographyModel::SolveMinimal(prev, curr, quad, &m));
+  const int good[3] = {0, 1, 3};
+  EXPECT_FALSE(AffineModel::IsDegenerate(prev, curr, good));
+  EXPECT_TRUE(AffineModel::SolveMinimal(prev, curr, good, &m));
+  // Non-collinear in prev, collinear in curr: no affine maps a triangle onto a line.
+  Eigen::Matrix2Xd flat = curr;
+  // Put curr point 3 on the line through curr points 0 and 1.
+  flat(1, 3) = curr(1, 0) +
+               (curr(1, 1) - curr(1, 0)) * (flat(0, 3) - curr(0, 0)) / (curr(0, 1) - curr(0, 0));
+  EXPECT_FALSE(AffineModel::SolveMinimal(prev, flat, good, &m));
+  // Coincident points.
+  Eigen::Matrix2Xd same(2, 3);
+  same << 5, 5, 40, 7, 7, 90;
+  const int pair[2] = {0, 1};
+  EXPECT_FALSE(SimilarityModel::SolveMinimal(same, same, pair, &m));
+  EXPECT_FALSE(AffineModel::SolveMinimal(same, same, tri, &m));
+}
+
+TYPED_TEST(RansacModelTest, AllCollinearDataNeverProducesAModel) {
+  using Model = TypeParam;
+  if (Model::kMinSample < 3) GTEST_SKIP() << "a line determines " << Model::kName;
+  const int n = 200;
+  Eigen::Matrix2Xd prev(2, n), curr(2, n);
+  for (int i = 0; i < n; ++i) {
+    const double x = 3.7 * i;
+    prev.col(i) = Eigen::Vector2d(x, 0.4 * x + 17);
+    curr.col(i) = TransformPoint(TrueTransform<AffineModel>(), prev.col(i));
+  }
+  Ransac<Model> ransac;
+  const RansacResult r = ransac.Estimate(prev, curr);
+  EXPECT_FALSE(r.success);
+  EXPECT_EQ(r.num_trials, 0);
+  EXPECT_EQ(r.num_inliers, 0);
+  EXPECT_EQ(r.num_degenerate_samples, ransac.options().max_degenerate_samples + 1);
+  EXPECT_EQ(r.curr_from_prev, Eigen::Matrix3d::Identity());
+  // The least-squares fit refuses collinear inliers as well.
+  std::vector<int> all(n);
+  for (int i = 0; i < n; ++i) all[i] = i;
+  Eigen::Matrix3d m;
+  EXPECT_FALSE(Model::FitLeastSquares(prev, curr, all.data(), n, &m));
+}
+
+TEST(RansacLoop, TooFewPointsIsAFailureNotAnError) {
+  const auto data = MakeCorrespondences(TrueTransform<AffineModel>(), 2, 0, 0.0, 1);
+  Ransac<AffineModel> ransac;
+  const RansacResult r = ransac.Estimate(data.prev, data.curr);
+  EXPECT_FALSE(r.success);
+  EXPECT_EQ(r.inlier_mask.size(), 2u);
+}
+
+TEST(RansacLoop, BadInputAndOptionsThrow) {
+  Ransac<AffineModel> ransac;
+  EXPECT_THROW(ransac.Estimate(Eigen::Matrix2Xd::Zero(2, 5), Eigen::Matrix2Xd::Zero(2, 4)),
+               InvalidArgument);
+  Eigen::Matrix2Xd bad = Eigen::Matrix2Xd::Ones(2, 5);
+  bad(1, 3) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(ransac.Estimate(bad, Eigen::Matrix2Xd::Ones(2, 5)), InvalidArgument);
+  RansacOptions o;
+  o.confidence_percent = 100.0;
+  EXPECT_THROW(Validate(o), InvalidArgument);
+  o = {};
+  o.max_distance_px = 0.0;
+  EXPECT_THROW(Ransac<AffineModel>{o}, InvalidArgument);
+  o = {};
+  o.max_num_trials = 0;
+  EXPECT_THROW(Validate(o), InvalidArgument);
+}
+
+TEST(RansacLoop, RuntimeDispatchMatchesTemplate) {
+  const Eigen::Matrix3d truth = TrueTransform<HomographyModel>();
+  const auto data = MakeCorrespondences(truth, 300, 200, 0.5, 8);
+  RansacWorkspace ws;
+  RansacOptions o;
+  const RansacResult a = EstimateTransform(MotionModel::kHomography, SamplerKind::kUniform, o,
+                                           data.prev, data.curr, nullptr, ws);
+  Ransac<HomographyModel> ransac(o);
+  const RansacResult b = ransac.Estimate(data.prev, data.curr);
+  EXPECT_EQ(a.curr_from_prev, b.curr_from_prev);
+  EXPECT_EQ(a.inlier_mask, b.inlier_mask);
+  EXPECT_EQ(ParseMotionModel("similarity"), MotionModel::kSimilarity);
+  EXPECT_THROW(ParseMotionModel("projective"), InvalidArgument);
+}
+
+}  // namespace
+}  // namespace aerovo
