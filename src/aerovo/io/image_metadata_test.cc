@@ -1,0 +1,221 @@
+#include "aerovo/io/image_metadata.h"
+
+#include <fstream>
+#include <iterator>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "aerovo/core/error.h"
+#include "aerovo/core/testing.h"
+#include "aerovo/io/io_test_util.h"
+
+namespace aerovo {
+namespace {
+
+using ::testing::HasSubstr;
+
+// Values cross-checked with Exiv2's own tag dump (exiv2 -pa equivalent through the library):
+// GPSLatitude 28/1 2/1 285116/10000 N, GPSLongitude 82/1 41/1 545072/10000 W, GPSAltitude
+// 5677/1000 with GPSAltitudeRef 1, DateTimeOriginal 2018:04:29 12:06:46, FocalLength 361/100,
+// FocalLengthIn35mmFilm 20, 800x600, Make DJI, Model FC300S. No XMP.
+TEST(ImageMetadata, TampaPhantom3) {
+  AEROVO_REQUIRE_SHARED(path, "data/flights/tampa-phantom3/DJI_0054.JPG");
+  const ImageMetadata m = ReadImageMetadata(path);
+  EXPECT_EQ(m.width_px, 800);
+  EXPECT_EQ(m.height_px, 600);
+  EXPECT_EQ(m.make, "DJI");
+  EXPECT_EQ(m.model, "FC300S");
+  ASSERT_TRUE(m.HasGps());
+  EXPECT_NEAR(*m.lat_deg, 28.0 + 2.0 / 60.0 + 28.5116 / 3600.0, 1e-10);      // 28.041253 N
+  EXPECT_NEAR(*m.lon_deg, -(82.0 + 41.0 / 60.0 + 54.5072 / 3600.0), 1e-10);  // 82.698474 W
+  EXPECT_NEAR(*m.gps_alt_m, -5.677, 1e-9);  // "below sea level": the invalid altitude
+  ASSERT_TRUE(m.capture_unix_time_s);
+  EXPECT_DOUBLE_EQ(*m.capture_unix_time_s, 1525003606.0);  // 2018-04-29 12:06:46
+  EXPECT_DOUBLE_EQ(*m.focal_length_mm, 3.61);
+  EXPECT_DOUBLE_EQ(*m.focal_length_35mm_mm, 20.0);
+  EXPECT_FALSE(m.rel_alt_m);
+  EXPECT_FALSE(m.gimbal_yaw_deg);
+}
+
+// XMP drone-dji values as stored: RelativeAltitude +44.47, AbsoluteAltitude +349.58,
+// GimbalYawDegree +106.80, GimbalPitchDegree -90.00, FlightYawDegree +107.00,
+// FlightRollDegree +0.80, CalibratedFocalLength 1913.333374 (800, 650 centre).
+TEST(ImageMetadata, TurinP4Multispectral) {
+  AEROVO_REQUIRE_SHARED(path, "data/flights/turin-p4m/DJI_0010.JPG");
+  const ImageMetadata m = ReadImageMetadata(path);
+  EXPECT_EQ(m.width_px, 1600);
+  EXPECT_EQ(m.height_px, 1300);
+  EXPECT_EQ(m.model, "FC6360");
+  EXPECT_NEAR(*m.lat_deg, 45.0 + 1.0 / 60.0 + 53.7444 / 3600.0, 1e-10);
+  EXPECT_NEAR(*m.lon_deg, 7.0 + 37.0 / 60.0 + 13.6771 / 3600.0, 1e-10);
+  EXPECT_NEAR(*m.lat_deg, 45.03159568, 1e-7);  // XMP GpsLatitude agrees
+  EXPECT_NEAR(*m.lon_deg, 7.62046587, 1e-7);
+  EXPECT_NEAR(*m.gps_alt_m, 349.583, 1e-9);
+  EXPECT_DOUBLE_EQ(*m.rel_alt_m, 44.47);
+  EXPECT_DOUBLE_EQ(*m.abs_alt_m, 349.58);
+  EXPECT_DOUBLE_EQ(*m.gimbal_yaw_deg, 106.8);
+  EXPECT_DOUBLE_EQ(*m.gimbal_pitch_deg, -90.0);
+  EXPECT_DOUBLE_EQ(*m.gimbal_roll_deg, 0.0);
+  EXPECT_DOUBLE_EQ(*m.flight_yaw_deg, 107.0);
+  EXPECT_DOUBLE_EQ(*m.flight_roll_deg, 0.8);
+  EXPECT_DOUBLE_EQ(*m.focal_length_mm, 5.74);
+  EXPECT_DOUBLE_EQ(*m.focal_length_35mm_mm, 40.0);
+  EXPECT_NEAR(*m.calibrated_focal_px, 1913.333374, 1e-6);
+  EXPECT_DOUBLE_EQ(*m.calibrated_cx_px, 800.0);
+  EXPECT_DOUBLE_EQ(*m.calibrated_cy_px, 650.0);
+  EXPECT_DOUBLE_EQ(*m.capture_unix_time_s, 1769435417.0);  // 2026-01-26 13:50:17
+
+  const TelemetrySample s = m.ToSample();
+  EXPECT_DOUBLE_EQ(*s.abs_alt_m, 349.58);  // XMP absolute altitude preferred
+  EXPECT_DOUBLE_EQ(*s.CameraYawDeg(), 106.8);
+}
+
+TEST(ImageMetadata, TurinSequenceTelemetry) {
+  AEROVO_REQUIRE_SHARED(dir, "data/flights/turin-p4m");
+  std::vector<std::filesystem::path> files;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  std::vector<ImageMetadata> metas;
+  for (const auto& f : files) metas.push_back(ReadImageMetadata(f));
+  ASSERT_EQ(metas.size(), 32u);
+  const TelemetryReadResult r = TelemetryFromImages(metas);
+  EXPECT_EQ(r.records, 32);
+  EXPECT_EQ(r.no_fix_records, 0);
+  for (const TelemetrySample& s : r.telemetry.samples()) {
+    ASSERT_TRUE(s.rel_alt_m);
+    EXPECT_NEAR(*s.rel_alt_m, 44.5, 0.5);  // README: RelativeAltitude 44.5 m
+    EXPECT_NEAR(*s.gimbal_pitch_deg, -90.0, 0.5);
+  }
+  EXPECT_EQ(r.telemetry[0].frame_index, 0);
+  EXPECT_DOUBLE_EQ(r.telemetry[0].time_s, 0.0);
+  EXPECT_GT(r.telemetry.end_time_s(), 0.0);
+}
+
+TEST(ImageMetadata, SyntheticTagsRoundTrip) {
+  io_test::TempDir dir("aerovo_exif");
+  const auto path = dir / "a.jpg";
+  io_test::WriteJpegWithTags(
+      path, io_test::TextureImage(64, 48, 1),
+      {{"Exif.GPSInfo.GPSLatitude", "33/1 52/1 0/1"},
+       {"Exif.GPSInfo.GPSLatitudeRef", "S"},
+       {"Exif.GPSInfo.GPSLongitude", "151/1 12/1 36/1"},
+       {"Exif.GPSInfo.GPSLongitudeRef", "E"},
+       {"Exif.Photo.DateTimeOriginal", "2023:05:01 12:00:00"},
+       {"Exif.Photo.SubSecTimeOriginal", "25"},
+       {"Exif.Photo.FocalLengthIn35mmFilm", "24"}},
+      {{"Xmp.drone-dji.RelativeAltitude", "+80.25"}, {"Xmp.drone-dji.FlightYawDegree", "-45.5"}});
+  const ImageMetadata m = ReadImageMetadata(path);
+  EXPECT_EQ(m.width_px, 64);
+  EXPECT_EQ(m.height_px, 48);
+  EXPECT_NEAR(*m.lat_deg, -(33.0 + 52.0 / 60.0), 1e-12);
+  EXPECT_NEAR(*m.lon_deg, 151.0 + 12.0 / 60.0 + 36.0 / 3600.0, 1e-12);
+  EXPECT_NEAR(*m.capture_unix_time_s, 1682942400.25, 1e-6);
+  EXPECT_DOUBLE_EQ(*m.focal_length_35mm_mm, 24.0);
+  EXPECT_DOUBLE_EQ(*m.rel_alt_m, 80.25);
+  EXPECT_DOUBLE_EQ(*m.flight_yaw_deg, -45.5);
+  EXPECT_FALSE(m.gps_alt_m);
+
+  // The same bytes through the in-memory entry point.
+  std::ifstream in(path, std::ios::binary);
+  const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)),
+                                        std::istreambuf_iterator<char>());
+  const ImageMetadata mm = ParseImageMetadata(bytes.data(), bytes.size(), "mem");
+  EXPECT_EQ(*mm.lat_deg, *m.lat_deg);
+  EXPECT_EQ(mm.source, "mem");
+}
+
+template <typename Fn>
+void ExpectInputError(Fn fn, std::initializer_list<const char*> fragments) {
+  try {
+    fn();
+    ADD_FAILURE() << "no InputError thrown";
+  } catch (const InputError& e) {
+    for (const char* f : fragments) EXPECT_THAT(e.what(), HasSubstr(f));
+  }
+}
+
+TEST(ImageMetadata, BadValuesAndBadFilesNameTheFile) {
+  io_test::TempDir dir("aerovo_exif_bad");
+  const auto img = io_test::TextureImage(32, 32, 2);
+  io_test::WriteJpegWithTags(dir / "lat95.jpg", img,
+                             {{"Exif.GPSInfo.GPSLatitude", "95/1 0/1 0/1"},
+                              {"Exif.GPSInfo.GPSLatitudeRef", "N"},
+                              {"Exif.GPSInfo.GPSLongitude", "10/1 0/1 0/1"},
+                              {"Exif.GPSInfo.GPSLongitudeRef", "E"}});
+  ExpectInputError([&] { ReadImageMetadata(dir / "lat95.jpg"); },
+                   {"lat95.jpg", "EXIF GPS latitude 95 out of range [-90, 90]"});
+  io_test::WriteJpegWithTags(dir / "zero.jpg", img,
+                             {{"Exif.GPSInfo.GPSLatitude", "45/0 0/1 0/1"},
+                              {"Exif.GPSInfo.GPSLongitude", "10/1 0/1 0/1"}});
+  ExpectInputError([&] { ReadImageMetadata(dir / "zero.jpg"); }, {"zero.jpg", "zero denominator"});
+  io_test::WriteJpegWithTags(dir / "two.jpg", img, {{"Exif.GPSInfo.GPSLatitude", "45/1 3/1"}});
+  ExpectInputError([&] { ReadImageMetadata(dir / "two.jpg"); },
+                   {"two.jpg", "2 components (expected 3)"});
+  io_test::WriteJpegWithTags(dir / "xmp.jpg", img, {},
+                             {{"Xmp.drone-dji.RelativeAltitude", "high"}});
+  ExpectInputError([&] { ReadImageMetadata(dir / "xmp.jpg"); },
+                   {"xmp.jpg", "RelativeAltitude 'high' is not a number"});
+
+  std::ofstream(dir / "empty.jpg").close();
+  ExpectInputError([&] { ReadImageMetadata(dir / "empty.jpg"); },
+                   {"cannot read metadata of", "empty.jpg"});
+  std::ofstream(dir / "text.jpg") << "this is not an image\n";
+  ExpectInputError([&] { ReadImageMetadata(dir / "text.jpg"); }, {"text.jpg"});
+  ExpectInputError([&] { ReadImageMetadata(dir / "missing.jpg"); }, {"missing.jpg", "no such"});
+  // A JPEG cut in the middle of its EXIF segment.
+  {
+    std::ifstream in(dir / "lat95.jpg", std::ios::binary);
+    std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(dir / "cut.jpg", std::ios::binary).write(bytes.data(), 40);
+  }
+  ExpectInputError([&] { ReadImageMetadata(dir / "cut.jpg"); }, {"cut.jpg"});
+  const std::uint8_t junk[] = {0xFF, 0xD8, 0xFF, 0xE1, 0xFF, 0xFF, 'E', 'x', 'i', 'f', 0, 0};
+  ExpectInputError([&] { ParseImageMetadata(junk, sizeof(junk), "junk"); }, {"junk"});
+  ExpectInputError([&] { ParseImageMetadata(nullptr, 0, "none"); }, {"none", "empty"});
+}
+
+TEST(ImageMetadata, TelemetryFromImagesOrderAndMissingGps) {
+  ImageMetadata a, b, c, d;
+  a.source = "a.jpg";
+  a.lat_deg = 10.0;
+  a.lon_deg = 20.0;
+  a.capture_unix_time_s = 1000.0;
+  b = a;
+  b.source = "b.jpg";
+  b.lat_deg.reset();
+  b.lon_deg.reset();
+  b.capture_unix_time_s = 1002.0;
+  c = a;
+  c.source = "c.jpg";
+  c.lat_deg = 10.5;
+  c.capture_unix_time_s = 1004.0;
+  d = a;
+  d.source = "d.jpg";
+  d.capture_unix_time_s = 1003.0;  // earlier than c
+  {
+    const TelemetryReadResult r = TelemetryFromImages({a, b, c});
+    ASSERT_EQ(r.records, 2);
+    EXPECT_EQ(r.no_fix_records, 1);
+    EXPECT_EQ(r.telemetry[1].frame_index, 2);
+    EXPECT_DOUBLE_EQ(r.telemetry[1].time_s, 4.0);
+    auto mid = r.telemetry.AtFrame(1);  // the photo without GPS, interpolated
+    ASSERT_TRUE(mid);
+    EXPECT_NEAR(mid->lat_deg, 10.25, 1e-12);
+  }
+  ExpectInputError([&] { TelemetryFromImages({a, c, d}); }, {"d.jpg", "out of order"});
+  TelemetryReadOptions lenient;
+  lenient.lenient = true;
+  EXPECT_EQ(TelemetryFromImages({a, c, d}, lenient).skipped_records, 1);
+  b.capture_unix_time_s.reset();
+  b.lat_deg = 1.0;
+  b.lon_deg = 2.0;
+  const TelemetryReadResult ranks = TelemetryFromImages({a, b});
+  EXPECT_DOUBLE_EQ(ranks.telemetry[1].time_s, 1.0);
+  EXPECT_EQ(ranks.warnings.size(), 1u);
+  ExpectInputError([&] { TelemetryFromImages({}); }, {"no telemetry samples"});
+}
+
+}  // namespace
+}  // namespace aerovo
