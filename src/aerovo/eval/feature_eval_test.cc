@@ -351,7 +351,7 @@ struct Floor {
 TEST(FeatureEvalOxford, SurfRepeatabilityFloors) {
   AEROVO_REQUIRE_SHARED(graf, "data/oxford/graf/img1.png");
   const Floor floors[] = {
-      {"graf", 0.0}, {"boat", 0.0}, {"bikes", 0.0}, {"leuven", 0.0}, {"wall", 0.0}};
+      {"graf", 0.647}, {"boat", 0.690}, {"bikes", 0.866}, {"leuven", 0.809}, {"wall", 0.769}};
   FeatureEvalOptions o;
   o.detectors = {FeatureDetectorKind::kSurf};
   o.matching_score = false;
