@@ -1,0 +1,216 @@
+#include "aerovo/estimation/correspondence.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <utility>
+
+#include "aerovo/core/error.h"
+#include "aerovo/core/timer.h"
+
+namespace aerovo {
+
+void Validate(const CorrespondenceOptions& o) {
+  Validate(o.match);
+  Validate(o.ransac);
+  const ClusteredRansacOptions& c = o.clustered;
+  if (c.grid_rows < 1 || c.grid_cols < 1) {
+    throw InvalidArgument("ClusteredRansacOptions grid must be at least 1 x 1, got " +
+                          std::to_string(c.grid_rows) + " x " + std::to_string(c.grid_cols));
+  }
+  if (c.min_points < 1) {
+    throw InvalidArgument("ClusteredRansacOptions.min_points must be >= 1, got " +
+                          std::to_string(c.min_points));
+  }
+  const int m = MinSampleSize(o.model);
+  if (o.min_inliers < m) {
+    throw InvalidArgument(
+        "CorrespondenceOptions.min_inliers must be at least the minimal sample "
+        "of the " +
+        std::string(ToString(o.model)) + " model (" + std::to_string(m) + "), got " +
+        std::to_string(o.min_inliers));
+  }
+}
+
+RectI ClusteredCrop(int width, int height, const Eigen::Matrix3d& last_curr_from_prev) {
+  if (width <= 0 || height <= 0) {
+    throw InvalidArgument("ClusteredCrop: frame size must be positive, got " +
+                          std::to_string(width) + " x " + std::to_string(height));
+  }
+  if (!last_curr_from_prev.allFinite()) {
+    throw InvalidArgument("ClusteredCrop: the previous step's transform has non-finite entries");
+  }
+  const Eigen::Vector2d centre(0.5 * (width - 1), 0.5 * (height - 1));
+  const Eigen::Vector2d moved = TransformPoint(last_curr_from_prev, centre);
+  const double tu = moved.x() - centre.x();
+  const double tv = moved.y() - centre.y();
+  if (!std::isfinite(tu) || !std::isfinite(tv)) return RectI{0, 0, 0, 0};
+  // Rounding up drops every point that the repeated motion would push out of the frame; a
+  // sub-millipixel shift is numerical noise of a zero motion, not a strip.
+  auto strip = [](double t, int size) {
+    const double a = std::abs(t);
+    if (a < 1e-3) return 0;
+    return a >= size ? size : static_cast<int>(std::ceil(a));
+  };
+  const int su = strip(tu, width);
+  const int sv = strip(tv, height);
+  RectI crop{0, 0, width - su, height - sv};
+  if (tu < 0) crop.x = su;  // Content moves left: the left strip leaves the view.
+  if (tv < 0) crop.y = sv;  // Content moves up: the top strip leaves the view.
+  if (crop.empty()) return RectI{crop.x, crop.y, 0, 0};
+  return crop;
+}
+
+CellBounds ClusterCellBounds(const RectI& crop, int rows, int cols, int row, int col) {
+  const double cw = static_cast<double>(crop.width) / cols;
+  const double ch = static_cast<double>(crop.height) / rows;
+  CellBounds b;
+  b.x0 = crop.x + col * cw;
+  b.x1 = col + 1 == cols ? crop.x + crop.width : crop.x + (col + 1) * cw;
+  b.y0 = crop.y + row * ch;
+  b.y1 = row + 1 == rows ? crop.y + crop.height : crop.y + (row + 1) * ch;
+  return b;
+}
+
+CorrespondenceStage::CorrespondenceStage(const CorrespondenceOptions& options)
+    : options_((Validate(options), options)), matcher_(options.match) {}
+
+CorrespondenceResult CorrespondenceStage::Run(
+    const FeatureSet& prev, int prev_width, int prev_height, const FeatureSet& curr,
+    const std::optional<Eigen::Matrix3d>& last_curr_from_prev) {
+  if (options_.method == CorrespondenceMethod::kStandard) {
+    CorrespondenceResult r = Standard(prev, curr, last_curr_from_prev);
+    if (prev_width > 0 && prev_height > 0) r.crop = RectI{0, 0, prev_width, prev_height};
+    return r;
+  }
+  return Clustered(prev, prev_width, prev_height, curr,
+                   last_curr_from_prev.value_or(Eigen::Matrix3d::Identity()));
+}
+
+bool CorrespondenceStage::Attempt(const FeatureSet& prev, const FeatureSet& curr,
+                                  const std::vector<int>& subset,
+                                  const std::optional<Eigen::Matrix3d>& prior,
+                                  CorrespondenceResult* out) {
+  Stopwatch watch;
+  std::optional<Eigen::Matrix<double, 2, 3>> prior_affine;
+  if (options_.guided_matching && prior) prior_affine = AffinePart(*prior);
+  MatchResult matched = matcher_.Match(prev, curr, subset, prior_affine);
+  out->match_ms += watch.elapsed_ms();
+  out->num_comparisons += matched.num_comparisons;
+  ++out->attempts;
+
+  watch.restart();
+  const int n = static_cast<int>(matched.matches.size());
+  prev_px_.resize(2, n);
+  curr_px_.resize(2, n);
+  quality_.resize(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const Match& m = matched.matches[static_cast<std::size_t>(i)];
+    const Keypoint& p = prev.keypoints[static_cast<std::size_t>(m.prev_index)];
+    const Keypoint& c = curr.keypoints[static_cast<std::size_t>(m.curr_index)];
+    prev_px_(0, i) = p.x;
+    prev_px_(1, i) = p.y;
+    curr_px_(0, i) = c.x;
+    curr_px_(1, i) = c.y;
+    quality_[static_cast<std::size_t>(i)] = m.ssd;
+  }
+  RansacResult r = EstimateTransform(options_.model, options_.sampler, options_.ransac, prev_px_,
+                                     curr_px_, quality_.data(), workspace_);
+  out->estimate_ms += watch.elapsed_ms();
+  out->ransac_trials += r.num_trials;
+  out->matches = std::move(matched.matches);
+  out->inlier_mask = std::move(r.inlier_mask);
+  out->num_inliers = r.num_inliers;
+  out->success = r.success && r.num_inliers >= options_.min_inliers;
+  out->curr_from_prev = out->success ? r.curr_from_prev : Eigen::Matrix3d::Identity();
+  return out->success;
+}
+
+CorrespondenceResult CorrespondenceStage::Standard(const FeatureSet& prev, const FeatureSet& curr,
+                                                   const std::optional<Eigen::Matrix3d>& prior) {
+  Stopwatch total;
+  CorrespondenceResult result;
+  result.method_used = CorrespondenceMethod::kStandard;
+  subset_.clear();
+  Attempt(prev, curr, subset_, prior, &result);
+  result.total_ms = total.elapsed_ms();
+  return result;
+}
+
+CorrespondenceResult CorrespondenceStage::Clustered(const FeatureSet& prev, int prev_width,
+                                                    int prev_height, const FeatureSet& curr,
+                                                    const Eigen::Matrix3d& last_curr_from_prev) {
+  Stopwatch total;
+  const ClusteredRansacOptions& co = options_.clustered;
+  CorrespondenceResult result;
+  result.method_used = CorrespondenceMethod::kClustered;
+  result.crop = co.crop ? ClusteredCrop(prev_width, prev_height, last_curr_from_prev)
+                        : ClusteredCrop(prev_width, prev_height, Eigen::Matrix3d::Identity());
+  const RectI crop = result.crop;
+  const int rows = co.grid_rows, cols = co.grid_cols;
+  result.cell_point_counts.assign(static_cast<std::size_t>(rows * cols), 0);
+
+  // Cell of every prev point (-1 outside the crop), by the same arithmetic as
+  // ClusterCellBounds so that the two agree on cell edges.
+  std::vector<int> cell_of(prev.size(), -1);
+  if (!crop.empty()) {
+    for (std::size_t i = 0; i < prev.size(); ++i) {
+      const Keypoint& k = prev.keypoints[i];
+      if (!crop.contains(k.x, k.y)) continue;
+      const double fx = (k.x - crop.x) / (static_cast<double>(crop.width) / cols);
+      const double fy = (k.y - crop.y) / (static_cast<double>(crop.height) / rows);
+      const int c = std::min(cols - 1, static_cast<int>(fx));
+      const int r = std::min(rows - 1, static_cast<int>(fy));
+      cell_of[i] = r * cols + c;
+      ++result.cell_point_counts[static_cast<std::size_t>(cell_of[i])];
+    }
+  }
+  std::vector<int> order;
+  for (int cell = 0; cell < rows * cols; ++cell) {
+    if (result.cell_point_counts[static_cast<std::size_t>(cell)] >= co.min_points) {
+      order.push_back(cell);
+    }
+  }
+  const auto& counts = result.cell_point_counts;
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return co.cell_order == CellOrder::kFewestFirst ? counts[a] < counts[b] : counts[a] > counts[b];
+  });
+
+  for (int cell : order) {
+    subset_.clear();
+    for (std::size_t i = 0; i < cell_of.size(); ++i) {
+      if (cell_of[i] == cell) subset_.push_back(static_cast<int>(i));
+    }
+    if (Attempt(prev, curr, subset_, last_curr_from_prev, &result)) {
+      result.cell_row = cell / cols;
+      result.cell_col = cell % cols;
+      result.total_ms = total.elapsed_ms();
+      return result;
+    }
+  }
+
+  // The linear-motion assumption failed for this step (the paper): standard RANSAC on all.
+  result.fell_back = true;
+  result.method_used = CorrespondenceMethod::kStandard;
+  subset_.clear();
+  Attempt(prev, curr, subset_, last_curr_from_prev, &result);
+  result.total_ms = total.elapsed_ms();
+  return result;
+}
+
+CorrespondenceResult StandardCorrespondence(const FeatureSet& prev, const FeatureSet& curr,
+                                            const CorrespondenceOptions& options,
+                                            const std::optional<Eigen::Matrix3d>& prior) {
+  CorrespondenceStage stage(options);
+  return stage.Standard(prev, curr, prior);
+}
+
+CorrespondenceResult ClusteredCorrespondence(const FeatureSet& prev, int prev_width,
+                                             int prev_height, const FeatureSet& curr,
+                                             const Eigen::Matrix3d& last_curr_from_prev,
+                                             const CorrespondenceOptions& options) {
+  CorrespondenceStage stage(options);
+  return stage.Clustered(prev, prev_width, prev_height, curr, last_curr_from_prev);
+}
+
+}  // namespace aerovo

@@ -1,0 +1,199 @@
+// The correspondence stage of the pipeline (../shared/docs/METHOD.md): match the interest points
+// of frame n-1 ("prev") with those of frame n ("curr") and fit the frame-to-frame transform
+// robustly, either on all points ("standard", what MATLAB's matchFeatures +
+// estimateGeometricTransform2D do) or with the paper's clustered RANSAC (Ivanov & Muzychuk 2023,
+// step n). Both use the same matcher (aerovo/matching/matcher.h) and the same RANSAC loop
+// (aerovo/estimation/ransac.h).
+//
+// Frames: pixel frame of features/keypoint.h ((0, 0) = centre of the top-left pixel, x right,
+// y down). Every transform is curr_from_prev: it maps pixel positions of the earlier frame to
+// pixel positions of the later one (3x3 homogeneous; last row (0, 0, 1) except for homography).
+//
+// Clustered RANSAC, precisely (ClusteredCrop, CorrespondenceStage::Clustered):
+// 1. The previous step's transform last_curr_from_prev (frame n-2 -> n-1) gives the image
+//    motion (t_u, t_v) = last_curr_from_prev(c) - c of the frame centre c = ((W-1)/2, (H-1)/2)
+//    (exactly its translation when the rotation is zero, as the paper assumes). Image content
+//    moves by (t_u, t_v) per step, i.e. the camera moves by -(t_u, t_v) in image terms.
+// 2. Assuming the motion repeats from n-1 to n, prev points within |t_u| of the edge the
+//    content moves toward leave the view: with t_u > 0 (content moves right, camera moves left)
+//    the strip x >= W - |t_u| is dropped, with t_u < 0 the strip x < |t_u|; likewise t_v > 0
+//    drops y >= H - |t_v| (bottom), t_v < 0 drops y < |t_v| (top). These are the strips "on the
+//    sides opposite to the direction of the camera's motion". Strip widths are rounded up to
+//    whole pixels; zero motion drops nothing.
+// 3. The remaining rectangle (the crop) is split into grid_rows x grid_cols equal cells; a prev
+//    point belongs to the cell containing it (points outside the crop belong to none).
+// 4. Cells with at least min_points points are tried in order of increasing point count
+//    (fewest first, the paper; ties: row-major order), or decreasing with CellOrder::kMostFirst.
+//    For each: match only that cell's prev points against all curr points, run RANSAC on those
+//    matches; the cell succeeds when RANSAC succeeds with at least min_inliers inliers. The
+//    first success is the result.
+// 5. If no cell succeeds (or none is eligible), the stage falls back to the standard method on
+//    all points and says so (fell_back = true).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "aerovo/core/image.h"
+#include "aerovo/estimation/models.h"
+#include "aerovo/estimation/ransac.h"
+#include "aerovo/estimation/samplers.h"
+#include "aerovo/features/keypoint.h"
+#include "aerovo/matching/matcher.h"
+
+namespace aerovo {
+
+enum class CorrespondenceMethod {
+  kStandard,   ///< Match all points, RANSAC on all matches.
+  kClustered,  ///< The paper's clustered RANSAC (falls back to kStandard when it fails).
+};
+
+/// Order in which eligible cells are tried.
+enum class CellOrder {
+  kFewestFirst,  ///< Increasing point count (the paper: cheapest cell first).
+  kMostFirst,    ///< Decreasing point count (more matches per attempt, slower).
+};
+
+/// Options specific to clustered RANSAC. Defaults are the paper's.
+struct ClusteredRansacOptions {
+  /// Grid over the cropped previous frame. Default 3 x 3 (the paper).
+  int grid_rows = 3;
+  int grid_cols = 3;
+  /// Cells with fewer prev points are never tried. Default 12 (the paper).
+  int min_points = 12;
+  /// Default kFewestFirst (the paper).
+  CellOrder cell_order = CellOrder::kFewestFirst;
+  /// Drop the strips that leave the view (step 2 above). Default true (the paper); false keeps
+  /// the whole frame (for ablation).
+  bool crop = true;
+};
+
+/// Options of the correspondence stage (matching + robust estimation).
+struct CorrespondenceOptions {
+  /// Default kClustered (the paper's method); kStandard is the MATLAB baseline.
+  CorrespondenceMethod method = CorrespondenceMethod::kClustered;
+  /// Default kAffine (the paper's model, MATLAB 'affine').
+  MotionModel model = MotionModel::kAffine;
+  /// Default kUniform (MATLAB's MSAC). kProsac ranks the matches by descriptor SSD.
+  SamplerKind sampler = SamplerKind::kUniform;
+  /// An estimate (a cell's, or the standard one) counts as successful only with at least this
+  /// many RANSAC inliers. Default 8 (our choice: the paper only says "if the attempt fails";
+  /// MATLAB fails below the minimal sample, 3 for affine, which a random triple always meets;
+  /// 8 leaves 5 independent confirmations of an affine fit).
+  int min_inliers = 8;
+  /// Guided matching: predict curr positions with the motion prior (clustered: the previous
+  /// step's transform, i.e. constant image velocity; standard: the prior passed in) and compare
+  /// only candidates within match.guided_radius_px. Default false (the paper matches
+  /// exhaustively).
+  bool guided_matching = false;
+  MatchOptions match;
+  RansacOptions ransac;
+  ClusteredRansacOptions clustered;
+};
+
+/// Throws InvalidArgument naming the offending field (including nested match/ransac fields).
+void Validate(const CorrespondenceOptions& options);
+
+/// Result of the correspondence stage for one frame pair, returned by value.
+struct CorrespondenceResult {
+  bool success = false;
+  /// Estimated transform from prev pixels to curr pixels (identity when !success).
+  Eigen::Matrix3d curr_from_prev = Eigen::Matrix3d::Identity();
+  /// The matches the returned transform was fitted to: those of the successful cell, or of all
+  /// points in the standard / fall-back case (the last attempt's when !success). Indices refer
+  /// to prev.keypoints and curr.keypoints.
+  std::vector<Match> matches;
+  /// One entry per element of `matches`: 1 for RANSAC inliers of curr_from_prev.
+  std::vector<std::uint8_t> inlier_mask;
+  int num_inliers = 0;
+  /// The method that produced the result: kClustered, or kStandard (asked for, or fall-back).
+  CorrespondenceMethod method_used = CorrespondenceMethod::kStandard;
+  /// Clustered RANSAC failed in every eligible cell (or none was eligible) and the standard
+  /// method was run instead.
+  bool fell_back = false;
+  /// Cell that gave the result (row-major grid over `crop`), or -1 (standard / fall-back).
+  int cell_row = -1;
+  int cell_col = -1;
+  /// Match + RANSAC runs made: cells tried, plus one for a standard or fall-back run.
+  int attempts = 0;
+  /// Clustered: the part of the prev frame kept (pixels, prev frame); standard: whole frame
+  /// (empty when the frame size is unknown).
+  RectI crop;
+  /// Clustered: prev points per cell, row-major, grid_rows * grid_cols entries; else empty.
+  std::vector<int> cell_point_counts;
+  /// RANSAC trials and descriptor comparisons summed over all attempts.
+  int ransac_trials = 0;
+  std::int64_t num_comparisons = 0;
+  /// Time in matching, in estimation (RANSAC incl. gathering points), and in total, ms.
+  double match_ms = 0.0;
+  double estimate_ms = 0.0;
+  double total_ms = 0.0;
+};
+
+/// The crop of clustered RANSAC step 2 for a width x height prev frame, given the previous
+/// step's transform (see the header comment). Throws InvalidArgument on a non-positive size or a
+/// non-finite transform. Returns an empty rectangle when the motion exceeds the frame.
+RectI ClusteredCrop(int width, int height, const Eigen::Matrix3d& last_curr_from_prev);
+
+/// Rectangle of cell (row, col) of a rows x cols split of `crop`, as [x0, x1) x [y0, y1) in
+/// prev pixels (cells are equal, so their edges need not be whole pixels).
+struct CellBounds {
+  double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  bool contains(double x, double y) const { return x >= x0 && x < x1 && y >= y0 && y < y1; }
+};
+CellBounds ClusterCellBounds(const RectI& crop, int rows, int cols, int row, int col);
+
+/// The correspondence stage with its reusable state (matcher buffers, point buffers, RANSAC
+/// workspace). Not thread-safe: one instance per thread.
+class CorrespondenceStage {
+ public:
+  /// Throws InvalidArgument if `options` are invalid.
+  explicit CorrespondenceStage(const CorrespondenceOptions& options = {});
+
+  const CorrespondenceOptions& options() const { return options_; }
+
+  /// Runs options().method. `last_curr_from_prev` is the previous step's transform (frame n-2
+  /// -> n-1); without it (first pair of a sequence) clustered RANSAC assumes zero motion and
+  /// the standard method matches without prior.
+  CorrespondenceResult Run(const FeatureSet& prev, int prev_width, int prev_height,
+                           const FeatureSet& curr,
+                           const std::optional<Eigen::Matrix3d>& last_curr_from_prev);
+
+  /// Standard method: match all prev points against curr, RANSAC on all matches. With
+  /// guided_matching and a prior, the prior (curr_from_prev predicted for this pair; affine part
+  /// used) restricts the candidates. `crop` of the result is left empty.
+  CorrespondenceResult Standard(const FeatureSet& prev, const FeatureSet& curr,
+                                const std::optional<Eigen::Matrix3d>& prior = std::nullopt);
+
+  /// Clustered RANSAC (see the header comment); prev_width x prev_height is the prev frame.
+  CorrespondenceResult Clustered(const FeatureSet& prev, int prev_width, int prev_height,
+                                 const FeatureSet& curr,
+                                 const Eigen::Matrix3d& last_curr_from_prev);
+
+ private:
+  // One match + RANSAC attempt on prev_subset (all points when empty); fills `out`'s matches,
+  // mask, transform, counters and timings. Returns true when it meets min_inliers.
+  bool Attempt(const FeatureSet& prev, const FeatureSet& curr, const std::vector<int>& subset,
+               const std::optional<Eigen::Matrix3d>& prior, CorrespondenceResult* out);
+
+  CorrespondenceOptions options_;
+  Matcher matcher_;
+  RansacWorkspace workspace_;
+  Eigen::Matrix2Xd prev_px_, curr_px_;
+  std::vector<float> quality_;
+  std::vector<int> subset_;
+};
+
+/// One-shot conveniences (construct a CorrespondenceStage; prefer the class in a loop).
+CorrespondenceResult StandardCorrespondence(
+    const FeatureSet& prev, const FeatureSet& curr, const CorrespondenceOptions& options = {},
+    const std::optional<Eigen::Matrix3d>& prior = std::nullopt);
+CorrespondenceResult ClusteredCorrespondence(const FeatureSet& prev, int prev_width,
+                                             int prev_height, const FeatureSet& curr,
+                                             const Eigen::Matrix3d& last_curr_from_prev,
+                                             const CorrespondenceOptions& options = {});
+
+}  // namespace aerovo

@@ -1,0 +1,338 @@
+#include "aerovo/estimation/correspondence.h"
+
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "aerovo/estimation/testing.h"
+
+namespace aerovo {
+namespace {
+
+using testing::kFrameHeight;
+using testing::kFrameWidth;
+
+Eigen::Matrix3d Shift(double tu, double tv) {
+  Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
+  m(0, 2) = tu;
+  m(1, 2) = tv;
+  return m;
+}
+
+// Builds prev/curr feature sets point by point: each prev point gets a random unit descriptor;
+// its curr twin (same descriptor) is placed where `curr_of` says, and is left out when that is
+// outside the frame (the point left the view).
+class SceneBuilder {
+ public:
+  explicit SceneBuilder(std::uint64_t seed) : rng_(seed) {
+    prev_.descriptor_size = curr_.descriptor_size = 64;
+  }
+
+  void Add(const Eigen::Vector2d& prev_px, const Eigen::Vector2d& curr_px) {
+    std::normal_distribution<float> g(0.f, 1.f);
+    std::vector<float> d(64);
+    float norm = 0.f;
+    for (float& v : d) {
+      v = g(rng_);
+      norm += v * v;
+    }
+    for (float& v : d) v /= std::sqrt(norm);
+    Keypoint k;
+    k.x = static_cast<float>(prev_px.x());
+    k.y = static_cast<float>(prev_px.y());
+    k.scale = 2.f;
+    k.laplacian = 1;
+    prev_.keypoints.push_back(k);
+    prev_.descriptors.insert(prev_.descriptors.end(), d.begin(), d.end());
+    if (curr_px.x() < 0 || curr_px.y() < 0 || curr_px.x() > kFrameWidth - 1 ||
+        curr_px.y() > kFrameHeight - 1) {
+      return;
+    }
+    k.x = static_cast<float>(curr_px.x());
+    k.y = static_cast<float>(curr_px.y());
+    curr_.keypoints.push_back(k);
+    curr_.descriptors.insert(curr_.descriptors.end(), d.begin(), d.end());
+  }
+
+  // `count` points uniform in [x0, x1) x [y0, y1) shrunk by 2 px (clear of cell edges),
+  // moving by `motion`.
+  void AddInBox(int count, double x0, double y0, double x1, double y1,
+                const Eigen::Matrix3d& motion) {
+    std::uniform_real_distribution<double> ux(x0 + 2, x1 - 2), uy(y0 + 2, y1 - 2);
+    for (int i = 0; i < count; ++i) {
+      const Eigen::Vector2d p(ux(rng_), uy(rng_));
+      Add(p, TransformPoint(motion, p));
+    }
+  }
+
+  // Same, but the curr twin is at a random place in the frame (a wrong correspondence).
+  void AddScrambledInBox(int count, double x0, double y0, double x1, double y1) {
+    std::uniform_real_distribution<double> ux(x0 + 2, x1 - 2), uy(y0 + 2, y1 - 2);
+    std::uniform_real_distribution<double> fx(0, kFrameWidth - 1), fy(0, kFrameHeight - 1);
+    for (int i = 0; i < count; ++i) Add({ux(rng_), uy(rng_)}, {fx(rng_), fy(rng_)});
+  }
+
+  const FeatureSet& prev() const { return prev_; }
+  const FeatureSet& curr() const { return curr_; }
+
+ private:
+  std::mt19937_64 rng_;
+  FeatureSet prev_, curr_;
+};
+
+struct Direction {
+  double tu, tv;
+  RectI expected_crop;
+};
+
+// Content motion (t_u, t_v) of 60 / 45 px in each of the 8 directions and zero: the strip on the
+// side the content moves toward is dropped.
+std::vector<Direction> Directions() {
+  const int w = kFrameWidth, h = kFrameHeight;
+  return {
+      {0, 0, {0, 0, w, h}},
+      {60, 0, {0, 0, w - 60, h}},
+      {-60, 0, {60, 0, w - 60, h}},
+      {0, 45, {0, 0, w, h - 45}},
+      {0, -45, {0, 45, w, h - 45}},
+      {60, 45, {0, 0, w - 60, h - 45}},
+      {60, -45, {0, 45, w - 60, h - 45}},
+      {-60, 45, {60, 0, w - 60, h - 45}},
+      {-60, -45, {60, 45, w - 60, h - 45}},
+  };
+}
+
+void ExpectRectEq(const RectI& a, const RectI& b, const std::string& what) {
+  EXPECT_EQ(a.x, b.x) << what;
+  EXPECT_EQ(a.y, b.y) << what;
+  EXPECT_EQ(a.width, b.width) << what;
+  EXPECT_EQ(a.height, b.height) << what;
+}
+
+TEST(ClusteredCrop, DropsTheStripsTheContentMovesToward) {
+  for (const Direction& d : Directions()) {
+    const std::string what = "t = (" + std::to_string(d.tu) + ", " + std::to_string(d.tv) + ")";
+    ExpectRectEq(ClusteredCrop(kFrameWidth, kFrameHeight, Shift(d.tu, d.tv)), d.expected_crop,
+                 what);
+  }
+  // Fractional shifts round up; a rotation about the frame centre moves nothing there.
+  ExpectRectEq(ClusteredCrop(800, 600, Shift(10.2, -0.5)), RectI{0, 1, 789, 599}, "fractional");
+  const double a = 0.01;
+  Eigen::Matrix3d rot = Eigen::Matrix3d::Identity();
+  rot.topLeftCorner<2, 2>() << std::cos(a), -std::sin(a), std::sin(a), std::cos(a);
+  const Eigen::Vector2d c(399.5, 299.5);
+  rot.block<2, 1>(0, 2) = c - rot.topLeftCorner<2, 2>() * c;
+  ExpectRectEq(ClusteredCrop(800, 600, rot), RectI{0, 0, 800, 600}, "rotation about centre");
+  EXPECT_TRUE(ClusteredCrop(800, 600, Shift(900, 0)).empty());
+  EXPECT_THROW(ClusteredCrop(0, 600, Shift(0, 0)), InvalidArgument);
+  EXPECT_THROW(ClusteredCrop(800, 600, Shift(NAN, 0)), InvalidArgument);
+}
+
+// For each motion: every cell of the expected crop gets a distinct number of points (one with
+// 11, below the paper's minimum 12, one with 13 = the fewest eligible), plus points in the strips
+// that should be dropped. The motion repeats from n-1 to n.
+TEST(ClusteredRansac, CropAndChosenCellForEachMotion) {
+  const std::vector<Direction> dirs = Directions();
+  for (std::size_t di = 0; di < dirs.size(); ++di) {
+    const Direction& d = dirs[di];
+    const std::string what = "t = (" + std::to_string(d.tu) + ", " + std::to_string(d.tv) + ")";
+    const Eigen::Matrix3d motion = Shift(d.tu, d.tv);
+    const int target = static_cast<int>(di % 9), decoy = static_cast<int>((di + 4) % 9);
+    SceneBuilder scene(100 + di);
+    const RectI& crop = d.expected_crop;
+    for (int cell = 0; cell < 9; ++cell) {
+      const int count = cell == target ? 13 : cell == decoy ? 11 : 20 + 3 * cell;
+      const CellBounds b = ClusterCellBounds(crop, 3, 3, cell / 3, cell % 3);
+      scene.AddInBox(count, b.x0, b.y0, b.x1, b.y1, motion);
+    }
+    // Strips outside the crop: few points each, so a wrong crop would change the counts.
+    if (crop.x > 0) scene.AddInBox(5, 0, 0, crop.x, kFrameHeight, motion);
+    if (crop.x + crop.width < kFrameWidth) {
+      scene.AddInBox(5, crop.x + crop.width, 0, kFrameWidth, kFrameHeight, motion);
+    }
+    if (crop.y > 0) scene.AddInBox(5, 0, 0, kFrameWidth, crop.y, motion);
+    if (crop.y + crop.height < kFrameHeight) {
+      scene.AddInBox(5, 0, crop.y + crop.height, kFrameWidth, kFrameHeight, motion);
+    }
+
+    CorrespondenceStage stage;
+    const CorrespondenceResult r =
+        stage.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), motion);
+    ExpectRectEq(r.crop, crop, what);
+    ASSERT_TRUE(r.success) << what;
+    EXPECT_FALSE(r.fell_back) << what;
+    EXPECT_EQ(r.method_used, CorrespondenceMethod::kClustered);
+    EXPECT_EQ(r.cell_row, target / 3) << what;
+    EXPECT_EQ(r.cell_col, target % 3) << what;
+    EXPECT_EQ(r.attempts, 1) << what;
+    EXPECT_EQ(r.cell_point_counts[static_cast<std::size_t>(decoy)], 11) << what;
+    EXPECT_EQ(r.cell_point_counts[static_cast<std::size_t>(target)], 13) << what;
+    ASSERT_EQ(r.matches.size(), 13u) << what;
+    EXPECT_EQ(r.num_inliers, 13) << what;
+    const CellBounds b = ClusterCellBounds(crop, 3, 3, target / 3, target % 3);
+    for (const Match& m : r.matches) {
+      const Keypoint& k = scene.prev().keypoints[static_cast<std::size_t>(m.prev_index)];
+      EXPECT_TRUE(b.contains(k.x, k.y)) << what;
+    }
+    EXPECT_LT(MaxCornerDisplacementPx(r.curr_from_prev, motion, kFrameWidth, kFrameHeight), 0.01)
+        << what;
+    EXPECT_GT(r.match_ms + r.estimate_ms, 0.0);
+    EXPECT_GE(r.total_ms, r.match_ms + r.estimate_ms);
+
+    // Most-first takes the fullest cell (count 20 + 3 * 8 = 44 unless it is target/decoy).
+    CorrespondenceOptions most;
+    most.clustered.cell_order = CellOrder::kMostFirst;
+    CorrespondenceStage stage_most(most);
+    const CorrespondenceResult rm =
+        stage_most.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), motion);
+    int fullest = 0;
+    for (int cell = 1; cell < 9; ++cell) {
+      if (rm.cell_point_counts[cell] > rm.cell_point_counts[fullest]) fullest = cell;
+    }
+    ASSERT_TRUE(rm.success) << what;
+    EXPECT_EQ(rm.cell_row * 3 + rm.cell_col, fullest) << what;
+  }
+}
+
+TEST(ClusteredRansac, CellsBelowMinimumAreNeverChosen) {
+  // Eight cells with 11 points, one with 30: only the 30-point cell is eligible even though the
+  // others have fewer points.
+  SceneBuilder scene(7);
+  const Eigen::Matrix3d motion = Shift(-20, 15);
+  const RectI crop = ClusteredCrop(kFrameWidth, kFrameHeight, motion);
+  for (int cell = 0; cell < 9; ++cell) {
+    const CellBounds b = ClusterCellBounds(crop, 3, 3, cell / 3, cell % 3);
+    scene.AddInBox(cell == 7 ? 30 : 11, b.x0, b.y0, b.x1, b.y1, motion);
+  }
+  CorrespondenceStage stage;
+  const CorrespondenceResult r =
+      stage.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), motion);
+  ASSERT_TRUE(r.success);
+  EXPECT_FALSE(r.fell_back);
+  EXPECT_EQ(r.cell_row, 2);
+  EXPECT_EQ(r.cell_col, 1);
+  EXPECT_EQ(r.attempts, 1);
+  EXPECT_EQ(r.matches.size(), 30u);
+
+  // With min_points 31 no cell is eligible: straight to the fall-back, one attempt.
+  CorrespondenceOptions strict;
+  strict.clustered.min_points = 31;
+  CorrespondenceStage stage_strict(strict);
+  const CorrespondenceResult rs =
+      stage_strict.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), motion);
+  ASSERT_TRUE(rs.success);
+  EXPECT_TRUE(rs.fell_back);
+  EXPECT_EQ(rs.method_used, CorrespondenceMethod::kStandard);
+  EXPECT_EQ(rs.attempts, 1);
+  EXPECT_EQ(rs.cell_row, -1);
+  EXPECT_EQ(rs.matches.size(), scene.prev().size());
+  EXPECT_LT(MaxCornerDisplacementPx(rs.curr_from_prev, motion, kFrameWidth, kFrameHeight), 0.01);
+}
+
+// The previous step moved the content right, this one moves it left-down: every cell's matches
+// are wrong (the cells' points were scrambled), only the points in the dropped strip move
+// consistently. Clustered RANSAC must try every cell, fail, and fall back to standard RANSAC,
+// which recovers the true motion from the strip's points.
+TEST(ClusteredRansac, FallsBackToStandardWhenNoCellWorks) {
+  SceneBuilder scene(9);
+  const Eigen::Matrix3d last = Shift(60, 0);
+  const Eigen::Matrix3d motion = Shift(-25, 12);
+  const RectI crop = ClusteredCrop(kFrameWidth, kFrameHeight, last);
+  ASSERT_EQ(crop.width, kFrameWidth - 60);
+  for (int cell = 0; cell < 9; ++cell) {
+    const CellBounds b = ClusterCellBounds(crop, 3, 3, cell / 3, cell % 3);
+    scene.AddScrambledInBox(14 + cell, b.x0, b.y0, b.x1, b.y1);
+  }
+  scene.AddInBox(50, crop.x + crop.width, 20, kFrameWidth, kFrameHeight - 20, motion);
+
+  CorrespondenceStage stage;
+  const CorrespondenceResult r =
+      stage.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), last);
+  ASSERT_TRUE(r.success);
+  EXPECT_TRUE(r.fell_back);
+  EXPECT_EQ(r.method_used, CorrespondenceMethod::kStandard);
+  EXPECT_EQ(r.attempts, 10);
+  EXPECT_EQ(r.cell_row, -1);
+  EXPECT_EQ(r.cell_col, -1);
+  EXPECT_EQ(r.num_inliers, 50);
+  EXPECT_EQ(r.matches.size(), scene.prev().size());
+  EXPECT_LT(MaxCornerDisplacementPx(r.curr_from_prev, motion, kFrameWidth, kFrameHeight), 0.01);
+
+  // The same scene with only the scrambled cells: nothing works, and the result says so.
+  SceneBuilder bad(10);
+  for (int cell = 0; cell < 9; ++cell) {
+    const CellBounds b = ClusterCellBounds(crop, 3, 3, cell / 3, cell % 3);
+    bad.AddScrambledInBox(14, b.x0, b.y0, b.x1, b.y1);
+  }
+  const CorrespondenceResult rb =
+      stage.Clustered(bad.prev(), kFrameWidth, kFrameHeight, bad.curr(), last);
+  EXPECT_FALSE(rb.success);
+  EXPECT_TRUE(rb.fell_back);
+  EXPECT_EQ(rb.attempts, 10);
+  EXPECT_EQ(rb.curr_from_prev, Eigen::Matrix3d::Identity());
+}
+
+TEST(StandardCorrespondence, MatchesAllAndFits) {
+  SceneBuilder scene(11);
+  Eigen::Matrix3d motion;
+  motion << 1.01, 0.02, -14.0, -0.015, 0.99, 9.0, 0, 0, 1;
+  scene.AddInBox(300, 0, 0, kFrameWidth, kFrameHeight, motion);
+  scene.AddScrambledInBox(100, 0, 0, kFrameWidth, kFrameHeight);
+  const CorrespondenceResult r = StandardCorrespondence(scene.prev(), scene.curr());
+  ASSERT_TRUE(r.success);
+  EXPECT_EQ(r.method_used, CorrespondenceMethod::kStandard);
+  EXPECT_FALSE(r.fell_back);
+  EXPECT_EQ(r.attempts, 1);
+  EXPECT_LT(MaxCornerDisplacementPx(r.curr_from_prev, motion, kFrameWidth, kFrameHeight), 0.01);
+  // Inliers are exactly the consistent points that stayed in view.
+  int consistent = 0;
+  for (std::size_t i = 0; i < r.matches.size(); ++i) {
+    const bool truth = r.matches[i].prev_index < 300;
+    consistent += truth;
+    EXPECT_EQ(r.inlier_mask[i] != 0, truth) << i;
+  }
+  EXPECT_EQ(r.num_inliers, consistent);
+  EXPECT_GT(consistent, 250);
+
+  // Run() dispatches on the method; clustered and standard agree on this clean scene, and
+  // guided matching with the true prior gives the same transform.
+  CorrespondenceOptions o;
+  o.method = CorrespondenceMethod::kStandard;
+  CorrespondenceStage standard(o);
+  const CorrespondenceResult rs =
+      standard.Run(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), std::nullopt);
+  EXPECT_EQ(rs.curr_from_prev, r.curr_from_prev);
+  o.method = CorrespondenceMethod::kClustered;
+  o.guided_matching = true;
+  CorrespondenceStage clustered(o);
+  const CorrespondenceResult rc =
+      clustered.Run(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), motion);
+  ASSERT_TRUE(rc.success);
+  EXPECT_FALSE(rc.fell_back);
+  EXPECT_LT(rc.matches.size(), r.matches.size());
+  EXPECT_LT(MaxCornerDisplacementPx(rc.curr_from_prev, motion, kFrameWidth, kFrameHeight), 0.01);
+}
+
+TEST(CorrespondenceOptions, ValidateNamesTheField) {
+  CorrespondenceOptions o;
+  EXPECT_NO_THROW(Validate(o));
+  o.clustered.grid_rows = 0;
+  EXPECT_THROW(Validate(o), InvalidArgument);
+  o = {};
+  o.min_inliers = 2;  // Below the affine minimal sample.
+  try {
+    Validate(o);
+    ADD_FAILURE() << "no throw";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("min_inliers"), std::string::npos);
+  }
+  o = {};
+  o.ransac.max_distance_px = -1;
+  EXPECT_THROW(CorrespondenceStage{o}, InvalidArgument);
+}
+
+}  // namespace
+}  // namespace aerovo
