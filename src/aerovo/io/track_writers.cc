@@ -1,0 +1,580 @@
+#include "aerovo/io/track_writers.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <ctime>
+#include <fstream>
+#include <utility>
+
+#include <fmt/format.h>
+
+#include "aerovo/core/error.h"
+#include "aerovo/geo/local_enu.h"
+
+namespace aerovo {
+namespace fs = std::filesystem;
+
+namespace detail {
+
+// POSIX descriptor + pwrite rather than stdio: each Append is then a single write() of the new
+// element plus the tail at a known offset, with no user-space buffer to lose on a kill.
+class ProgressiveFile {
+ public:
+  explicit ProgressiveFile(fs::path path) : path_(std::move(path)) {
+    fd_ = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd_ < 0) Fail("cannot create");
+  }
+  ~ProgressiveFile() { Close(); }
+  ProgressiveFile(const ProgressiveFile&) = delete;
+  ProgressiveFile& operator=(const ProgressiveFile&) = delete;
+
+  const fs::path& path() const { return path_; }
+
+  /// Replaces the whole content with body + tail.
+  void Reset(const std::string& body, const std::string& tail) {
+    body_end_ = 0;
+    Append(body, tail);
+  }
+
+  /// Writes `chunk` where the tail starts, then the tail again.
+  void Append(const std::string& chunk, const std::string& tail) {
+    if (fd_ < 0) throw InvalidArgument("write to closed output file " + path_.string());
+    const std::string data = chunk + tail;
+    size_t done = 0;
+    while (done < data.size()) {
+      const ssize_t n = ::pwrite(fd_, data.data() + done, data.size() - done,
+                                 static_cast<off_t>(body_end_ + done));
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) Fail("cannot write");
+      done += static_cast<size_t>(n);
+    }
+    body_end_ += chunk.size();
+    const size_t end = body_end_ + tail.size();
+    if (end < size_ && ::ftruncate(fd_, static_cast<off_t>(end)) != 0) Fail("cannot truncate");
+    size_ = end;
+  }
+
+  void Close() {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = -1;
+  }
+  bool closed() const { return fd_ < 0; }
+
+ private:
+  [[noreturn]] void Fail(const char* what) const {
+    throw InputError(std::string(what) + " " + path_.string() + ": " + std::strerror(errno));
+  }
+
+  fs::path path_;
+  int fd_ = -1;
+  size_t body_end_ = 0;  ///< Offset where the tail starts.
+  size_t size_ = 0;      ///< Current file size.
+};
+
+}  // namespace detail
+
+namespace {
+
+using detail::ProgressiveFile;
+
+void CheckFinite(double v, const char* what, const std::string& where) {
+  if (!std::isfinite(v)) {
+    throw InvalidArgument(where + ": " + what + " is not finite (" + fmt::format("{}", v) + ")");
+  }
+}
+
+std::string XmlEscape(const std::string& s) {
+  std::string out;
+  out.reserve(s.size());
+  for (char c : s) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&apos;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+std::string CsvField(const std::string& s) {
+  if (s.find_first_of(",\"\r\n") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"') out += '"';
+    out += c;
+  }
+  return out + "\"";
+}
+
+// Positions as text, C locale (fmt never uses the global locale for these specs).
+std::string LonLatAltJson(const GeoPoint& p) {
+  return fmt::format("[{:.9f},{:.9f},{:.4f}]", p.lon_deg, p.lat_deg, p.alt_m);
+}
+std::string LonLatAltKml(const GeoPoint& p) {
+  return fmt::format("{:.9f},{:.9f},{:.4f}", p.lon_deg, p.lat_deg, p.alt_m);
+}
+
+void ValidatePoint(const GeoTrackPoint& p, const std::string& file) {
+  CheckFinite(p.time_s, "time_s", "track point for " + file);
+  Validate(p.geo, ("track point for " + file).c_str());
+}
+
+const std::string& PathOf(const std::unique_ptr<ProgressiveFile>& f) { return f->path().native(); }
+
+}  // namespace
+
+void Validate(const FrameRecord& r) {
+  const std::string where = "FrameRecord of frame " + std::to_string(r.frame);
+  if (r.frame < 0) throw InvalidArgument(where + ": frame index must be >= 0");
+  CheckFinite(r.time_s, "time_s", where);
+  CheckFinite(r.x_m, "x_m", where);
+  CheckFinite(r.y_m, "y_m", where);
+  CheckFinite(r.z_m, "z_m", where);
+  CheckFinite(r.yaw_rad, "yaw_rad", where);
+  for (double ms : {r.detect_ms, r.describe_ms, r.correspond_ms, r.estimate_ms, r.total_ms}) {
+    CheckFinite(ms, "a stage time", where);
+  }
+  if (r.geo) Validate(*r.geo, where.c_str());
+}
+
+// ---------------------------------------------------------------------------------------------
+// CSV
+
+const char* CsvFrameWriter::Header() {
+  return "frame,time_s,x_m,y_m,lat_deg,lon_deg,alt_m,n_surf,n_matched,n_inliers,cluster,"
+         "detect_ms,describe_ms,correspond_ms,estimate_ms,total_ms,status,gps_lat_deg,"
+         "gps_lon_deg,gps_alt_m";
+}
+
+CsvFrameWriter::CsvFrameWriter(const fs::path& path)
+    : file_(std::make_unique<ProgressiveFile>(path)) {
+  file_->Reset(std::string(Header()) + "\n", "");
+}
+CsvFrameWriter::~CsvFrameWriter() = default;
+CsvFrameWriter::CsvFrameWriter(CsvFrameWriter&&) noexcept = default;
+CsvFrameWriter& CsvFrameWriter::operator=(CsvFrameWriter&&) noexcept = default;
+const fs::path& CsvFrameWriter::path() const { return file_->path(); }
+void CsvFrameWriter::Close() { file_->Close(); }
+
+void CsvFrameWriter::Append(const FrameRecord& r, const std::optional<GeoPoint>& gps) {
+  Validate(r);
+  if (gps) Validate(*gps, ("GPS of frame " + std::to_string(r.frame)).c_str());
+  const auto geo_cells = [](const std::optional<GeoPoint>& g) {
+    return g ? fmt::format("{:.9f},{:.9f},{:.4f}", g->lat_deg, g->lon_deg, g->alt_m)
+             : std::string(",,");
+  };
+  std::string row =
+      fmt::format("{},{:.6f},{:.4f},{:.4f},{},{},{},{},{},", r.frame, r.time_s, r.x_m, r.y_m,
+                  geo_cells(r.geo), r.n_surf, r.n_matched, r.n_inliers, r.cluster);
+  row += fmt::format("{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},", r.detect_ms, r.describe_ms,
+                     r.correspond_ms, r.estimate_ms, r.total_ms);
+  row += CsvField(r.status) + "," + geo_cells(gps) + "\n";
+  file_->Append(row, "");
+}
+
+// ---------------------------------------------------------------------------------------------
+// TUM
+
+TumWriter::TumWriter(const fs::path& path) : file_(std::make_unique<ProgressiveFile>(path)) {}
+TumWriter::~TumWriter() = default;
+TumWriter::TumWriter(TumWriter&&) noexcept = default;
+TumWriter& TumWriter::operator=(TumWriter&&) noexcept = default;
+const fs::path& TumWriter::path() const { return file_->path(); }
+void TumWriter::Close() { file_->Close(); }
+
+void TumWriter::Append(double time_s, const Eigen::Vector3d& p, double yaw_rad) {
+  const std::string where = "TUM pose for " + PathOf(file_);
+  CheckFinite(time_s, "time", where);
+  if (!p.allFinite()) throw InvalidArgument(where + ": position is not finite");
+  CheckFinite(yaw_rad, "yaw", where);
+  file_->Append(fmt::format("{:.6f} {:.6f} {:.6f} {:.6f} 0 0 {:.9f} {:.9f}\n", time_s, p.x(), p.y(),
+                            p.z(), std::sin(0.5 * yaw_rad), std::cos(0.5 * yaw_rad)),
+                "");
+}
+
+// ---------------------------------------------------------------------------------------------
+// GeoJSON
+
+struct GeoJsonTrackWriter::State {
+  State(const fs::path& path, std::string n) : file(path), name(std::move(n)) {}
+  ProgressiveFile file;
+  std::string name;
+  int count = 0;
+  GeoPoint first;  // kept to rewrite the Point as a LineString on the second point
+};
+
+namespace {
+constexpr const char* kFeatureCollectionHead = "{\"type\":\"FeatureCollection\",\"features\":[";
+constexpr const char* kGeoJsonLineTail = "\n]}}]}\n";
+
+std::string GeoJsonFeatureHead(const std::string& name, const char* geometry_type) {
+  const nlohmann::json props = {{"name", name}, {"generator", "aerovo"}};
+  return std::string("{\"type\":\"Feature\",\"properties\":") + props.dump() +
+         ",\"geometry\":{\"type\":\"" + geometry_type + "\",\"coordinates\":";
+}
+}  // namespace
+
+GeoJsonTrackWriter::GeoJsonTrackWriter(const fs::path& path, std::string name)
+    : state_(std::make_unique<State>(path, std::move(name))) {
+  state_->file.Reset(kFeatureCollectionHead, "]}\n");
+}
+GeoJsonTrackWriter::~GeoJsonTrackWriter() = default;
+GeoJsonTrackWriter::GeoJsonTrackWriter(GeoJsonTrackWriter&&) noexcept = default;
+GeoJsonTrackWriter& GeoJsonTrackWriter::operator=(GeoJsonTrackWriter&&) noexcept = default;
+const fs::path& GeoJsonTrackWriter::path() const { return state_->file.path(); }
+void GeoJsonTrackWriter::Close() { state_->file.Close(); }
+int GeoJsonTrackWriter::size() const { return state_->count; }
+
+void GeoJsonTrackWriter::Append(const GeoTrackPoint& point) {
+  State& s = *state_;
+  ValidatePoint(point, s.file.path().string());
+  if (s.file.closed()) throw InvalidArgument("write to closed output file " + path().string());
+  const std::string head = kFeatureCollectionHead;
+  if (s.count == 0) {
+    s.file.Reset(head + GeoJsonFeatureHead(s.name, "Point") + LonLatAltJson(point.geo), "}}]}\n");
+    s.first = point.geo;
+  } else if (s.count == 1) {
+    s.file.Reset(head + GeoJsonFeatureHead(s.name, "LineString") + "[\n" + LonLatAltJson(s.first) +
+                     ",\n" + LonLatAltJson(point.geo),
+                 kGeoJsonLineTail);
+  } else {
+    s.file.Append(",\n" + LonLatAltJson(point.geo), kGeoJsonLineTail);
+  }
+  ++s.count;
+}
+
+GeoJsonPointsWriter::GeoJsonPointsWriter(const fs::path& path)
+    : file_(std::make_unique<ProgressiveFile>(path)) {
+  file_->Reset(kFeatureCollectionHead, "\n]}\n");
+}
+GeoJsonPointsWriter::~GeoJsonPointsWriter() = default;
+GeoJsonPointsWriter::GeoJsonPointsWriter(GeoJsonPointsWriter&&) noexcept = default;
+GeoJsonPointsWriter& GeoJsonPointsWriter::operator=(GeoJsonPointsWriter&&) noexcept = default;
+const fs::path& GeoJsonPointsWriter::path() const { return file_->path(); }
+void GeoJsonPointsWriter::Close() { file_->Close(); }
+
+void GeoJsonPointsWriter::Append(const GeoPoint& point, const nlohmann::json& properties) {
+  Validate(point, ("point for " + PathOf(file_)).c_str());
+  if (!properties.is_object()) {
+    throw InvalidArgument("GeoJSON point properties for " + PathOf(file_) +
+                          " must be a JSON object");
+  }
+  const std::string feature =
+      "{\"type\":\"Feature\",\"properties\":" + properties.dump() +
+      ",\"geometry\":{\"type\":\"Point\",\"coordinates\":" + LonLatAltJson(point) + "}}";
+  file_->Append((count_ == 0 ? "\n" : ",\n") + feature, "\n]}\n");
+  ++count_;
+}
+
+// ---------------------------------------------------------------------------------------------
+// KML
+
+struct KmlTrackWriter::State {
+  State(const fs::path& path, std::string n, std::string c)
+      : file(path), name(std::move(n)), color(std::move(c)) {}
+  ProgressiveFile file;
+  std::string name;
+  std::string color;
+  int count = 0;
+  GeoPoint first;
+
+  std::string DocumentHead() const {
+    return "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+           "<kml xmlns=\"http://www.opengis.net/kml/2.2\">\n<Document>\n<name>" +
+           XmlEscape(name) + "</name>\n<Style id=\"track\"><LineStyle><color>" + XmlEscape(color) +
+           "</color><width>3</width></LineStyle><IconStyle><color>" + XmlEscape(color) +
+           "</color></IconStyle></Style>\n";
+  }
+  std::string PlacemarkHead() const {
+    return "<Placemark><name>" + XmlEscape(name) + "</name><styleUrl>#track</styleUrl>";
+  }
+};
+
+namespace {
+constexpr const char* kKmlDocumentTail = "</Document>\n</kml>\n";
+constexpr const char* kKmlLineTail =
+    "\n</coordinates></LineString></Placemark>\n</Document>\n</kml>\n";
+}  // namespace
+
+KmlTrackWriter::KmlTrackWriter(const fs::path& path, std::string name, std::string color_abgr)
+    : state_(std::make_unique<State>(path, std::move(name), std::move(color_abgr))) {
+  if (state_->color.size() != 8 ||
+      state_->color.find_first_not_of("0123456789abcdefABCDEF") != std::string::npos) {
+    throw InvalidArgument("KML colour \"" + state_->color + "\" for " + path.string() +
+                          " must be 8 hex digits aabbggrr");
+  }
+  state_->file.Reset(state_->DocumentHead(), kKmlDocumentTail);
+}
+KmlTrackWriter::~KmlTrackWriter() = default;
+KmlTrackWriter::KmlTrackWriter(KmlTrackWriter&&) noexcept = default;
+KmlTrackWriter& KmlTrackWriter::operator=(KmlTrackWriter&&) noexcept = default;
+const fs::path& KmlTrackWriter::path() const { return state_->file.path(); }
+void KmlTrackWriter::Close() { state_->file.Close(); }
+int KmlTrackWriter::size() const { return state_->count; }
+
+void KmlTrackWriter::Append(const GeoTrackPoint& point) {
+  State& s = *state_;
+  ValidatePoint(point, s.file.path().string());
+  if (s.file.closed()) throw InvalidArgument("write to closed output file " + path().string());
+  if (s.count == 0) {
+    s.file.Reset(s.DocumentHead() + s.PlacemarkHead() + "<Point><coordinates>" +
+                     LonLatAltKml(point.geo) + "</coordinates></Point></Placemark>\n",
+                 kKmlDocumentTail);
+    s.first = point.geo;
+  } else if (s.count == 1) {
+    s.file.Reset(s.DocumentHead() + s.PlacemarkHead() +
+                     "<LineString><tessellate>1</tessellate><altitudeMode>clampToGround"
+                     "</altitudeMode><coordinates>\n" +
+                     LonLatAltKml(s.first) + "\n" + LonLatAltKml(point.geo),
+                 kKmlLineTail);
+  } else {
+    s.file.Append("\n" + LonLatAltKml(point.geo), kKmlLineTail);
+  }
+  ++s.count;
+}
+
+// ---------------------------------------------------------------------------------------------
+// GPX
+
+std::string FormatUtcIso8601(double unix_time_s) {
+  if (!std::isfinite(unix_time_s)) {
+    throw InvalidArgument("FormatUtcIso8601: time " + fmt::format("{}", unix_time_s) +
+                          " is not finite");
+  }
+  // Round to whole milliseconds first so that 59.9996 s carries into the next minute.
+  const long long total_ms = std::llround(unix_time_s * 1000.0);
+  long long secs = total_ms / 1000;
+  long long ms = total_ms % 1000;
+  if (ms < 0) ms += 1000, secs -= 1;
+  const std::time_t t = static_cast<std::time_t>(secs);
+  std::tm tm{};
+  if (gmtime_r(&t, &tm) == nullptr) {
+    throw InvalidArgument("FormatUtcIso8601: time " + fmt::format("{}", unix_time_s) +
+                          " is out of range");
+  }
+  return fmt::format("{:04d}-{:02d}-{:02d}T{:02d}:{:02d}:{:02d}.{:03d}Z", tm.tm_year + 1900,
+                     tm.tm_mon + 1, tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec, ms);
+}
+
+namespace {
+constexpr const char* kGpxTail = "\n</trkseg></trk>\n</gpx>\n";
+}  // namespace
+
+GpxTrackWriter::GpxTrackWriter(const fs::path& path, std::string name,
+                               std::optional<double> time_origin_unix_s)
+    : file_(std::make_unique<ProgressiveFile>(path)), time_origin_unix_s_(time_origin_unix_s) {
+  if (time_origin_unix_s_ && !std::isfinite(*time_origin_unix_s_)) {
+    throw InvalidArgument("GPX time origin for " + path.string() + " is not finite");
+  }
+  file_->Reset(
+      "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+      "<gpx version=\"1.1\" creator=\"aerovo\" xmlns=\"http://www.topografix.com/GPX/1/1\">\n"
+      "<trk><name>" +
+          XmlEscape(name) + "</name><trkseg>",
+      kGpxTail);
+}
+GpxTrackWriter::~GpxTrackWriter() = default;
+GpxTrackWriter::GpxTrackWriter(GpxTrackWriter&&) noexcept = default;
+GpxTrackWriter& GpxTrackWriter::operator=(GpxTrackWriter&&) noexcept = default;
+const fs::path& GpxTrackWriter::path() const { return file_->path(); }
+void GpxTrackWriter::Close() { file_->Close(); }
+
+void GpxTrackWriter::Append(const GeoTrackPoint& point) {
+  ValidatePoint(point, PathOf(file_));
+  std::string pt = fmt::format("\n<trkpt lat=\"{:.9f}\" lon=\"{:.9f}\"><ele>{:.4f}</ele>",
+                               point.geo.lat_deg, point.geo.lon_deg, point.geo.alt_m);
+  if (time_origin_unix_s_) {
+    pt += "<time>" + FormatUtcIso8601(*time_origin_unix_s_ + point.time_s) + "</time>";
+  }
+  file_->Append(pt + "</trkpt>", kGpxTail);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Summary JSON
+
+void WriteJsonFileAtomic(const fs::path& path, const nlohmann::json& value) {
+  const fs::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) {
+      throw InputError("cannot create " + tmp.string() + ": " + std::strerror(errno));
+    }
+    // Non-finite numbers become null (JSON has no NaN/inf); replace keeps invalid UTF-8 from
+    // throwing mid-file.
+    out << value.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
+    out.flush();
+    if (!out) throw InputError("cannot write " + tmp.string() + ": " + std::strerror(errno));
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    throw InputError("cannot write " + path.string() + ": rename from " + tmp.string() + " failed");
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// TrackWriterSet
+
+struct TrackWriterSet::Impl {
+  fs::path dir;
+  TrackWriterOptions options;
+  std::optional<LocalEnu> enu;
+  std::optional<CsvFrameWriter> csv;
+  std::optional<TumWriter> vo_tum, gps_tum;
+  std::optional<GeoJsonTrackWriter> vo_geojson, gps_geojson;
+  std::optional<GeoJsonPointsWriter> vo_frames_geojson;
+  std::optional<KmlTrackWriter> vo_kml, gps_kml;
+  std::optional<GpxTrackWriter> vo_gpx, gps_gpx;
+  std::vector<fs::path> files;
+  int num_records = 0;
+  bool closed = false;
+};
+
+namespace {
+// run.kml: a static document pulling in both track files, so Google Earth opens the flight
+// with one click while each track file keeps growing on its own.
+void WriteRunKml(const fs::path& path, const std::string& run_name) {
+  ProgressiveFile f(path);
+  std::string body =
+      "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+      "<kml xmlns=\"http://www.opengis.net/kml/2.2\">\n<Document>\n<name>" +
+      XmlEscape(run_name) + "</name>\n";
+  for (const char* file : {RunFileNames::kVoKml, RunFileNames::kGpsKml}) {
+    body += std::string("<NetworkLink><name>") + file + "</name><Link><href>" + file +
+            "</href></Link></NetworkLink>\n";
+  }
+  f.Reset(body, kKmlDocumentTail);
+}
+}  // namespace
+
+TrackWriterSet::TrackWriterSet(const fs::path& run_dir, const TrackWriterOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+  Impl& m = *impl_;
+  m.dir = run_dir;
+  m.options = options;
+  if (options.enu_origin) m.enu.emplace(*options.enu_origin);
+  if (options.time_origin_unix_s && !std::isfinite(*options.time_origin_unix_s)) {
+    throw InvalidArgument("TrackWriterOptions.time_origin_unix_s is not finite");
+  }
+  std::error_code ec;
+  fs::create_directories(run_dir, ec);
+  if (ec || !fs::is_directory(run_dir)) {
+    throw InputError("cannot create run folder " + run_dir.string() + ": " +
+                     (ec ? ec.message() : std::string("not a directory")));
+  }
+  const auto p = [&](const char* name) {
+    m.files.push_back(run_dir / name);
+    return run_dir / name;
+  };
+  const std::string& n = options.run_name;
+  if (options.csv) m.csv.emplace(p(RunFileNames::kFramesCsv));
+  if (options.tum) {
+    m.vo_tum.emplace(p(RunFileNames::kVoTum));
+    m.gps_tum.emplace(p(RunFileNames::kGpsTum));
+  }
+  if (options.geojson) {
+    m.vo_geojson.emplace(p(RunFileNames::kVoGeoJson), n + " VO");
+    m.gps_geojson.emplace(p(RunFileNames::kGpsGeoJson), n + " GPS");
+    m.vo_frames_geojson.emplace(p(RunFileNames::kVoFramesGeoJson));
+  }
+  if (options.kml) {
+    m.vo_kml.emplace(p(RunFileNames::kVoKml), n + " VO", "ff0000ff");     // red
+    m.gps_kml.emplace(p(RunFileNames::kGpsKml), n + " GPS", "ffff0000");  // blue
+    WriteRunKml(p(RunFileNames::kRunKml), n);
+  }
+  if (options.gpx) {
+    m.vo_gpx.emplace(p(RunFileNames::kVoGpx), n + " VO", options.time_origin_unix_s);
+    m.gps_gpx.emplace(p(RunFileNames::kGpsGpx), n + " GPS", options.time_origin_unix_s);
+  }
+}
+
+TrackWriterSet::~TrackWriterSet() {
+  try {
+    if (impl_) Close();
+  } catch (...) {
+  }
+}
+TrackWriterSet::TrackWriterSet(TrackWriterSet&&) noexcept = default;
+TrackWriterSet& TrackWriterSet::operator=(TrackWriterSet&&) noexcept = default;
+const fs::path& TrackWriterSet::dir() const { return impl_->dir; }
+std::vector<fs::path> TrackWriterSet::Files() const { return impl_->files; }
+int TrackWriterSet::num_records() const { return impl_->num_records; }
+
+void TrackWriterSet::Append(const FrameRecord& r, const std::optional<GeoPoint>& gps) {
+  Impl& m = *impl_;
+  if (m.closed) throw InvalidArgument("TrackWriterSet for " + m.dir.string() + " is closed");
+  // Validate everything before writing anything, so that a bad record leaves all files
+  // consistent with each other.
+  Validate(r);
+  if (gps) Validate(*gps, ("GPS of frame " + std::to_string(r.frame)).c_str());
+  if (m.csv) m.csv->Append(r, gps);
+  if (m.vo_tum) m.vo_tum->Append(r.time_s, {r.x_m, r.y_m, r.z_m}, r.yaw_rad);
+  if (gps && m.gps_tum && m.enu) m.gps_tum->Append(r.time_s, m.enu->Forward(*gps), 0.0);
+  if (r.geo) {
+    const GeoTrackPoint vo{r.time_s, *r.geo};
+    if (m.vo_geojson) m.vo_geojson->Append(vo);
+    if (m.vo_frames_geojson) {
+      m.vo_frames_geojson->Append(*r.geo, {{"frame", r.frame},
+                                           {"time_s", r.time_s},
+                                           {"x_m", r.x_m},
+                                           {"y_m", r.y_m},
+                                           {"n_surf", r.n_surf},
+                                           {"n_matched", r.n_matched},
+                                           {"n_inliers", r.n_inliers},
+                                           {"cluster", r.cluster},
+                                           {"total_ms", r.total_ms},
+                                           {"status", r.status}});
+    }
+    if (m.vo_kml) m.vo_kml->Append(vo);
+    if (m.vo_gpx) m.vo_gpx->Append(vo);
+  }
+  if (gps) {
+    const GeoTrackPoint g{r.time_s, *gps};
+    if (m.gps_geojson) m.gps_geojson->Append(g);
+    if (m.gps_kml) m.gps_kml->Append(g);
+    if (m.gps_gpx) m.gps_gpx->Append(g);
+  }
+  ++m.num_records;
+}
+
+void TrackWriterSet::Close() {
+  Impl& m = *impl_;
+  if (m.closed) return;
+  m.closed = true;
+  if (m.csv) m.csv->Close();
+  for (auto* w : {&m.vo_tum, &m.gps_tum}) {
+    if (*w) (*w)->Close();
+  }
+  for (auto* w : {&m.vo_geojson, &m.gps_geojson}) {
+    if (*w) (*w)->Close();
+  }
+  if (m.vo_frames_geojson) m.vo_frames_geojson->Close();
+  for (auto* w : {&m.vo_kml, &m.gps_kml}) {
+    if (*w) (*w)->Close();
+  }
+  for (auto* w : {&m.vo_gpx, &m.gps_gpx}) {
+    if (*w) (*w)->Close();
+  }
+}
+
+}  // namespace aerovo

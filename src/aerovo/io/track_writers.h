@@ -1,0 +1,235 @@
+// Progressive writers of a run's outputs: per-frame CSV, TUM trajectories (evo), GeoJSON
+// (RFC 7946), KML (Google Earth) and GPX tracks, and the summary JSON.
+//
+// Every file is valid after every Append (an interrupted run keeps everything written so far).
+// How: CSV and TUM are append-only, one row per Append, flushed. GeoJSON, KML and GPX are kept
+// valid by "tail rewriting": the file holds a body followed by a fixed closing tail
+// (e.g. `]}}]}` or `</coordinates>...</kml>`); an Append seeks to where the tail starts and
+// writes the new element plus the tail again in one write, then flushes. Cost is O(1) per
+// point and memory stays bounded (no rewrite of the whole file, no point history), so it suits
+// live runs of any length. Because a LineString needs two positions (RFC 7946 3.1.4, KML 2.2
+// schema), a track with one point is written as a Point and a track with none as an empty
+// collection/document; the small file is rewritten whole at those two transitions only.
+// One track per file (tail rewriting can only grow the end of a file): vo.* and gps.*; a
+// static run.kml links both KML tracks for Google Earth.
+// Flushing hands the data to the OS: it survives the process being killed (SIGINT, SIGKILL,
+// crash), not a power cut (no fsync per record). A reader racing an Append may briefly see a
+// partial write. Numbers use the C locale: lat/lon with 9 decimals (1e-9 deg ~ 0.1 mm),
+// metres with 4, times with 6.
+#pragma once
+
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include "aerovo/geo/geo_point.h"
+#include "aerovo/io/frame_record.h"
+
+namespace aerovo {
+
+/// A point of a geographic track: time (seconds from the start of the source) and position.
+struct GeoTrackPoint {
+  double time_s = 0.0;
+  GeoPoint geo;
+};
+
+namespace detail {
+/// A file whose content is body + tail, growing by inserting before the tail (see above).
+class ProgressiveFile;
+}  // namespace detail
+
+/// frames.csv: header `frame,time_s,x_m,y_m,lat_deg,lon_deg,alt_m,n_surf,n_matched,n_inliers,
+/// cluster,detect_ms,describe_ms,correspond_ms,estimate_ms,total_ms,status,gps_lat_deg,
+/// gps_lon_deg,gps_alt_m` (RFC 4180; empty cells for absent geo/GPS). One flushed row per
+/// Append.
+class CsvFrameWriter {
+ public:
+  /// Creates (truncates) `path` and writes the header. Throws InputError naming the path.
+  explicit CsvFrameWriter(const std::filesystem::path& path);
+  ~CsvFrameWriter();
+  CsvFrameWriter(CsvFrameWriter&&) noexcept;
+  CsvFrameWriter& operator=(CsvFrameWriter&&) noexcept;
+  /// Validates `record` (InvalidArgument) and appends one row; `gps` fills the gps_* columns.
+  /// Throws InputError naming the path when the write fails.
+  void Append(const FrameRecord& record, const std::optional<GeoPoint>& gps = std::nullopt);
+  void Close();  ///< Idempotent; Append after Close throws InvalidArgument.
+  const std::filesystem::path& path() const;
+  static const char* Header();  ///< The header line without newline.
+
+ private:
+  std::unique_ptr<detail::ProgressiveFile> file_;
+};
+
+/// TUM trajectory `t tx ty tz qx qy qz qw` (space separated, one pose per line, no header),
+/// readable by evo (`evo_traj tum vo.tum`, `evo_ape tum gps.tum vo.tum --align`).
+class TumWriter {
+ public:
+  explicit TumWriter(const std::filesystem::path& path);  ///< InputError naming the path.
+  ~TumWriter();
+  TumWriter(TumWriter&&) noexcept;
+  TumWriter& operator=(TumWriter&&) noexcept;
+  /// Appends a pose: position in metres, orientation a rotation of yaw_rad about +z
+  /// (q = [0, 0, sin(yaw/2), cos(yaw/2)]). InvalidArgument when not finite.
+  void Append(double time_s, const Eigen::Vector3d& position_m, double yaw_rad);
+  void Close();
+  const std::filesystem::path& path() const;
+
+ private:
+  std::unique_ptr<detail::ProgressiveFile> file_;
+};
+
+/// GeoJSON FeatureCollection (RFC 7946: WGS84, positions [lon, lat, alt]) with one Feature
+/// holding the track: no feature when empty, a Point after the first point, a LineString from
+/// the second on. Feature properties: {"name": name, "generator": "aerovo"}.
+class GeoJsonTrackWriter {
+ public:
+  GeoJsonTrackWriter(const std::filesystem::path& path, std::string name);
+  ~GeoJsonTrackWriter();
+  GeoJsonTrackWriter(GeoJsonTrackWriter&&) noexcept;
+  GeoJsonTrackWriter& operator=(GeoJsonTrackWriter&&) noexcept;
+  void Append(const GeoTrackPoint& point);  ///< InvalidArgument for an invalid point.
+  void Close();
+  const std::filesystem::path& path() const;
+  int size() const;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+/// GeoJSON FeatureCollection of Point features, each with its own properties (e.g. per-frame
+/// counts and status), appended one by one.
+class GeoJsonPointsWriter {
+ public:
+  explicit GeoJsonPointsWriter(const std::filesystem::path& path);
+  ~GeoJsonPointsWriter();
+  GeoJsonPointsWriter(GeoJsonPointsWriter&&) noexcept;
+  GeoJsonPointsWriter& operator=(GeoJsonPointsWriter&&) noexcept;
+  /// `properties` must be a JSON object (InvalidArgument otherwise); non-finite numbers in it
+  /// are written as null.
+  void Append(const GeoPoint& point, const nlohmann::json& properties);
+  void Close();
+  const std::filesystem::path& path() const;
+
+ private:
+  std::unique_ptr<detail::ProgressiveFile> file_;
+  int count_ = 0;
+};
+
+/// KML 2.2 document with one Placemark: a LineString (tessellated, clamped to ground, so it
+/// drapes on the terrain in Google Earth; coordinates `lon,lat,alt`), a Point while the track
+/// has one point, nothing while empty. `color_abgr` is KML's aabbggrr hex, e.g. "ff0000ff" red.
+class KmlTrackWriter {
+ public:
+  KmlTrackWriter(const std::filesystem::path& path, std::string name,
+                 std::string color_abgr = "ff0000ff");
+  ~KmlTrackWriter();
+  KmlTrackWriter(KmlTrackWriter&&) noexcept;
+  KmlTrackWriter& operator=(KmlTrackWriter&&) noexcept;
+  void Append(const GeoTrackPoint& point);
+  void Close();
+  const std::filesystem::path& path() const;
+  int size() const;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+/// GPX 1.1 with one trk / trkseg; each point is a trkpt with lat, lon, ele and, when the
+/// absolute time of time_s = 0 is known (`time_origin_unix_s`, seconds since 1970 UTC), a
+/// <time> in ISO 8601 UTC with milliseconds. Without it <time> is omitted (optional in GPX
+/// 1.1) rather than invented.
+class GpxTrackWriter {
+ public:
+  GpxTrackWriter(const std::filesystem::path& path, std::string name,
+                 std::optional<double> time_origin_unix_s = std::nullopt);
+  ~GpxTrackWriter();
+  GpxTrackWriter(GpxTrackWriter&&) noexcept;
+  GpxTrackWriter& operator=(GpxTrackWriter&&) noexcept;
+  void Append(const GeoTrackPoint& point);
+  void Close();
+  const std::filesystem::path& path() const;
+
+ private:
+  std::unique_ptr<detail::ProgressiveFile> file_;
+  std::optional<double> time_origin_unix_s_;
+};
+
+/// ISO 8601 UTC time with milliseconds, e.g. "2020-09-13T12:26:40.250Z".
+std::string FormatUtcIso8601(double unix_time_s);
+
+/// Writes `value` as indented JSON to `path` atomically (temporary file in the same folder,
+/// then rename), so readers see the old or the new file, never a partial one. Throws
+/// InputError naming the path.
+void WriteJsonFileAtomic(const std::filesystem::path& path, const nlohmann::json& value);
+
+/// File names inside a run folder.
+struct RunFileNames {
+  static constexpr const char* kFramesCsv = "frames.csv";
+  static constexpr const char* kVoTum = "vo.tum";
+  static constexpr const char* kGpsTum = "gps.tum";
+  static constexpr const char* kVoGeoJson = "vo.geojson";
+  static constexpr const char* kGpsGeoJson = "gps.geojson";
+  static constexpr const char* kVoFramesGeoJson = "vo_frames.geojson";
+  static constexpr const char* kVoKml = "vo.kml";
+  static constexpr const char* kGpsKml = "gps.kml";
+  static constexpr const char* kRunKml = "run.kml";
+  static constexpr const char* kVoGpx = "vo.gpx";
+  static constexpr const char* kGpsGpx = "gps.gpx";
+  static constexpr const char* kSummaryJson = "summary.json";
+};
+
+/// Options of TrackWriterSet. Defaults write every format.
+struct TrackWriterOptions {
+  bool csv = true;      ///< frames.csv
+  bool tum = true;      ///< vo.tum, gps.tum
+  bool geojson = true;  ///< vo.geojson, gps.geojson, vo_frames.geojson
+  bool kml = true;      ///< vo.kml, gps.kml, run.kml
+  bool gpx = true;      ///< vo.gpx, gps.gpx
+  /// Origin of the ENU frame of FrameRecord x/y/z. Needed for gps.tum (GPS fixes converted to
+  /// the same ENU frame as the VO so that evo can compare them); without it gps.tum stays empty.
+  std::optional<GeoPoint> enu_origin;
+  /// Absolute time (seconds since 1970 UTC) of time_s = 0, for GPX <time>; see GpxTrackWriter.
+  std::optional<double> time_origin_unix_s;
+  std::string run_name = "aerovo";  ///< Prefix of track names in GeoJSON/KML/GPX.
+};
+
+/// All per-frame outputs of one run folder, written progressively (see the top of this file).
+/// Files present after construction (each valid, possibly empty): frames.csv, vo.tum, gps.tum,
+/// vo/gps .geojson/.kml/.gpx, vo_frames.geojson, run.kml (per the options). Existing files of
+/// those names are replaced. Not thread-safe.
+class TrackWriterSet {
+ public:
+  /// Creates `run_dir` (and parents) if needed and opens the outputs. Throws InputError naming
+  /// the folder or file that cannot be created, InvalidArgument for invalid options.
+  explicit TrackWriterSet(const std::filesystem::path& run_dir,
+                          const TrackWriterOptions& options = {});
+  ~TrackWriterSet();  ///< Closes (never throws).
+  TrackWriterSet(TrackWriterSet&&) noexcept;
+  TrackWriterSet& operator=(TrackWriterSet&&) noexcept;
+
+  /// Appends one frame to every output; `gps` is the GPS position associated with this frame
+  /// (same time_s), added to the gps.* tracks and the CSV gps_* columns. The VO geo tracks
+  /// only get frames with record.geo. Throws InvalidArgument for an invalid record/gps (nothing
+  /// is written then), InputError naming the file when a write fails.
+  void Append(const FrameRecord& record, const std::optional<GeoPoint>& gps = std::nullopt);
+  /// Closes every file (they are already valid). Idempotent. Append after Close throws.
+  void Close();
+
+  const std::filesystem::path& dir() const;
+  std::vector<std::filesystem::path> Files() const;  ///< Paths of the files written.
+  int num_records() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace aerovo
