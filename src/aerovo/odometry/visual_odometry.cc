@@ -1,0 +1,332 @@
+#include "aerovo/odometry/visual_odometry.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <utility>
+
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+#include <Eigen/SVD>
+
+#include "aerovo/core/error.h"
+#include "aerovo/core/timer.h"
+
+namespace aerovo {
+
+void Validate(const OdometryOptions& o) {
+  Validate(o.surf);
+  Validate(o.match);
+  Validate(o.ransac);
+  auto fail = [](const std::string& what) { throw InvalidArgument("OdometryOptions." + what); };
+  if (!(o.focal_px >= 0.0) || !std::isfinite(o.focal_px)) fail("focal_px must be >= 0");
+  if (!(o.default_height_m >= 0.0) || !std::isfinite(o.default_height_m)) {
+    fail("default_height_m must be >= 0");
+  }
+  if (o.min_inliers < MinSampleSize(o.model)) {
+    fail("min_inliers must be at least the model's minimal sample (" +
+         std::to_string(MinSampleSize(o.model)) + "), got " + std::to_string(o.min_inliers));
+  }
+  if (o.min_features < 0) fail("min_features must be >= 0");
+  if (!(o.max_scale_change > 0.0 && o.max_scale_change < 1.0)) {
+    fail("max_scale_change must be in (0, 1)");
+  }
+  if (!(o.max_anisotropy >= 1.0)) fail("max_anisotropy must be >= 1");
+  if (!(o.max_shift_fraction > 0.0)) fail("max_shift_fraction must be > 0");
+  if (o.max_reacquire_gap < 1) fail("max_reacquire_gap must be >= 1");
+}
+
+const char* ToString(FrameStatus status) {
+  switch (status) {
+    case FrameStatus::kFirst:
+      return "first";
+    case FrameStatus::kOk:
+      return "ok";
+    case FrameStatus::kReacquired:
+      return "reacquired";
+    case FrameStatus::kBridged:
+      return "bridged";
+  }
+  return "?";
+}
+
+const char* ToString(StepFailure failure) {
+  switch (failure) {
+    case StepFailure::kNone:
+      return "";
+    case StepFailure::kTooFewFeatures:
+      return "too-few-features";
+    case StepFailure::kNoTransform:
+      return "no-transform";
+    case StepFailure::kTooFewInliers:
+      return "too-few-inliers";
+    case StepFailure::kImplausibleMotion:
+      return "implausible-motion";
+  }
+  return "?";
+}
+
+namespace {
+
+// A frame that later frames may be matched against: its features and the trajectory state at
+// that frame (so that a match against it re-anchors the pose, undoing any bridged guesses).
+struct Reference {
+  FeatureSet features;
+  int index = -1;
+  double gsd = 1.0;
+  bool measured = false;  // its pose came from a match (or it is the first frame), not bridged
+  PoseChain chain{ScaleMode::kMetric, 1, 1};
+};
+
+// Outcome of one correspondence attempt against one reference.
+struct Attempt {
+  bool success = false;
+  Eigen::Matrix3d curr_from_ref = Eigen::Matrix3d::Identity();
+  int n_matched = 0;
+  int n_inliers = 0;
+  int cluster = -1;
+  int attempts = 0;
+  bool fell_back = false;
+  double correspond_ms = 0.0;
+  double estimate_ms = 0.0;
+};
+
+Eigen::Matrix3d Power(const Eigen::Matrix3d& m, int k) {
+  Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
+  for (int i = 0; i < k; ++i) r = m * r;
+  return r;
+}
+
+}  // namespace
+
+struct VisualOdometry::Impl {
+  explicit Impl(const OdometryOptions& o) : surf(o.surf), matcher(o.match) {}
+
+  Surf surf;
+  Matcher matcher;
+  RansacWorkspace ransac_ws;
+  Eigen::Matrix2Xd prev_px, curr_px;
+
+  int width = 0, height = 0;
+  int next_index = 0;
+  PoseChain chain{ScaleMode::kMetric, 1, 1};
+  double gsd_prev_frame = 1.0;
+  std::optional<double> yaw0_deg;
+  // Most recent frame with enough features (the usual reference) and the last frame whose pose
+  // was measured, when it is not that one (after a bridged frame with features).
+  std::optional<Reference> prev;
+  std::optional<Reference> last_good;
+  // Motion of the last measured one-frame step (constant-velocity model).
+  Eigen::Matrix3d velocity = Eigen::Matrix3d::Identity();
+  bool have_velocity = false;
+
+  // Match `ref` against `curr` and fit the model; with `prior`, guided matching.
+  Attempt Correspond(const OdometryOptions& o, const FeatureSet& ref, const FeatureSet& curr,
+                     const std::optional<Eigen::Matrix3d>& prior) {
+    Attempt a;
+    Stopwatch watch;
+    std::optional<Eigen::Matrix<double, 2, 3>> guide;
+    if (prior) guide = AffinePart(*prior);
+    const MatchResult m = matcher.Match(ref, curr, {}, guide);
+    a.n_matched = static_cast<int>(m.matches.size());
+    prev_px.resize(2, a.n_matched);
+    curr_px.resize(2, a.n_matched);
+    for (int i = 0; i < a.n_matched; ++i) {
+      const Keypoint& p = ref.keypoints[m.matches[i].prev_index];
+      const Keypoint& c = curr.keypoints[m.matches[i].curr_index];
+      prev_px.col(i) << p.x, p.y;
+      curr_px.col(i) << c.x, c.y;
+    }
+    a.correspond_ms = watch.elapsed_ms();
+    watch.restart();
+    const RansacResult r = EstimateTransform(o.model, SamplerKind::kUniform, o.ransac, prev_px,
+                                             curr_px, nullptr, ransac_ws);
+    a.estimate_ms = watch.elapsed_ms();
+    a.success = r.success;
+    a.curr_from_ref = r.curr_from_prev;
+    a.n_inliers = r.num_inliers;
+    a.attempts = 1;
+    return a;
+  }
+};
+
+VisualOdometry::VisualOdometry(const OdometryOptions& options) : options_(options) {
+  Validate(options_);
+  impl_ = std::make_unique<Impl>(options_);
+}
+VisualOdometry::~VisualOdometry() = default;
+VisualOdometry::VisualOdometry(VisualOdometry&&) noexcept = default;
+VisualOdometry& VisualOdometry::operator=(VisualOdometry&&) noexcept = default;
+
+namespace {
+
+// Checks an estimated step against what a nadir camera can physically do between two frames.
+bool Plausible(const OdometryOptions& o, const Eigen::Matrix3d& t, int width, int height) {
+  if (!t.allFinite()) return false;
+  const Eigen::Vector2d centre(0.5 * (width - 1), 0.5 * (height - 1));
+  const Eigen::Vector3d h = t * centre.homogeneous();
+  if (!(std::abs(h.z()) > 1e-9)) return false;
+  const Eigen::Matrix2d lin = t.topLeftCorner<2, 2>() / t(2, 2);
+  const Eigen::JacobiSVD<Eigen::Matrix2d> svd(lin);
+  const Eigen::Vector2d sv = svd.singularValues();
+  if (!(sv(1) > 1e-9) || lin.determinant() <= 0.0) return false;  // reflection or collapse
+  const double scale = std::sqrt(sv(0) * sv(1));
+  if (std::abs(scale - 1.0) > o.max_scale_change) return false;
+  if (sv(0) / sv(1) > o.max_anisotropy) return false;
+  const double shift = (h.head<2>() / h.z() - centre).norm();
+  return shift <= o.max_shift_fraction * std::max(width, height);
+}
+
+}  // namespace
+
+FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
+                                    std::optional<double> height_m, std::optional<double> yaw_deg) {
+  Stopwatch total;
+  Impl& s = *impl_;
+  const OdometryOptions& o = options_;
+  FrameResult r;
+  r.index = s.next_index;
+  r.time_s = time_s;
+  if (frame.empty()) {
+    throw InvalidArgument("VisualOdometry: frame " + std::to_string(r.index) + " is empty");
+  }
+  if (r.index == 0) {
+    s.width = frame.width;
+    s.height = frame.height;
+  } else if (frame.width != s.width || frame.height != s.height) {
+    throw InputError("frame " + std::to_string(r.index) + ": size " + std::to_string(frame.width) +
+                     "x" + std::to_string(frame.height) + " differs from the first frame's " +
+                     std::to_string(s.width) + "x" + std::to_string(s.height));
+  }
+  // Ground sampling distance of this frame.
+  double gsd = 1.0;
+  if (o.focal_px > 0.0) {
+    const double h = height_m ? *height_m : o.default_height_m;
+    if (!(h > 0.0) || !std::isfinite(h)) {
+      throw InputError("frame " + std::to_string(r.index) +
+                       ": no valid height above ground (give telemetry with relative altitude "
+                       "or --altitude), got " +
+                       std::to_string(h) + " m");
+    }
+    gsd = h / o.focal_px;
+  }
+  r.gsd_m_per_px = gsd;
+
+  SurfResult features = s.surf.DetectAndDescribe(frame);
+  r.detect_ms = features.detect_ms;
+  r.describe_ms = features.describe_ms;
+  r.n_surf = static_cast<int>(features.features.size());
+  const bool usable = r.n_surf >= o.min_features;
+
+  std::optional<double> heading_override;
+  if (r.index == 0) s.yaw0_deg = yaw_deg;
+  if (o.heading_from_yaw && yaw_deg && s.yaw0_deg && o.scale_mode == ScaleMode::kMetric) {
+    heading_override = -(*yaw_deg - *s.yaw0_deg) * M_PI / 180.0;
+  }
+
+  if (r.index == 0) {
+    s.chain = PoseChain(o.scale_mode, frame.width, frame.height);
+    s.chain.Start(gsd);
+    r.status = FrameStatus::kFirst;
+  } else {
+    // Candidate references, the previous usable frame first.
+    const Reference* candidates[2] = {nullptr, nullptr};
+    int n_candidates = 0;
+    if (s.prev) candidates[n_candidates++] = &*s.prev;
+    if (s.last_good && (!s.prev || s.last_good->index != s.prev->index) &&
+        r.index - s.last_good->index <= o.max_reacquire_gap) {
+      candidates[n_candidates++] = &*s.last_good;
+    }
+    r.failure = usable ? StepFailure::kNoTransform : StepFailure::kTooFewFeatures;
+    const Reference* accepted = nullptr;
+    Attempt best;
+    for (int c = 0; c < n_candidates && usable && accepted == nullptr; ++c) {
+      const Reference& ref = *candidates[c];
+      const int gap = r.index - ref.index;
+      std::optional<Eigen::Matrix3d> prior;
+      if (s.have_velocity) prior = Power(s.velocity, gap);
+      // Guided first (cheap, robust to repeated texture), then unguided.
+      for (int pass = 0; pass < 2 && accepted == nullptr; ++pass) {
+        const bool guided = pass == 0;
+        if (guided && (!o.guided_matching || !prior)) continue;
+        Attempt a = s.Correspond(o, ref.features, features.features, guided ? prior : std::nullopt);
+        r.correspond_ms += a.correspond_ms;
+        r.estimate_ms += a.estimate_ms;
+        StepFailure why = StepFailure::kNone;
+        if (!a.success) {
+          why = StepFailure::kNoTransform;
+        } else if (a.n_inliers < o.min_inliers) {
+          why = StepFailure::kTooFewInliers;
+        } else if (!Plausible(o, a.curr_from_ref, s.width, s.height)) {
+          why = StepFailure::kImplausibleMotion;
+        }
+        r.failure = why;
+        r.n_matched = a.n_matched;
+        r.n_inliers = a.n_inliers;
+        r.cluster = a.cluster;
+        r.attempts = a.attempts;
+        r.fell_back = a.fell_back;
+        if (why == StepFailure::kNone) {
+          accepted = &ref;
+          best = a;
+          r.guided = guided;
+        }
+      }
+    }
+    if (accepted != nullptr) {
+      const int gap = r.index - accepted->index;
+      r.status = gap == 1 ? FrameStatus::kOk : FrameStatus::kReacquired;
+      r.reference_index = accepted->index;
+      r.curr_from_prev = best.curr_from_ref;
+      // Re-anchor on the reference's pose (discarding any bridged guesses since).
+      s.chain = accepted->chain;
+      s.chain.Step(best.curr_from_ref, accepted->gsd, gsd,
+                   heading_override ? &*heading_override : nullptr);
+      if (gap == 1) {
+        s.velocity = best.curr_from_ref;
+        s.have_velocity = true;
+      }
+      r.failure = StepFailure::kNone;
+    } else {
+      r.status = FrameStatus::kBridged;
+      r.reference_index = s.prev ? s.prev->index : -1;
+      r.curr_from_prev = s.have_velocity ? s.velocity : Eigen::Matrix3d::Identity();
+      s.chain.Step(r.curr_from_prev, s.gsd_prev_frame, gsd,
+                   heading_override ? &*heading_override : nullptr);
+    }
+  }
+
+  // Bookkeeping of the references.
+  const bool measured = r.status != FrameStatus::kBridged;
+  if (usable) {
+    Reference ref;
+    ref.features = std::move(features.features);
+    ref.index = r.index;
+    ref.gsd = gsd;
+    ref.measured = measured;
+    ref.chain = s.chain;
+    if (measured) {
+      s.last_good.reset();  // this frame is both the previous and the last good frame
+    } else if (s.prev && s.prev->measured) {
+      // Bridged over a usable frame: keep the last measured one for re-acquisition.
+      s.last_good = std::move(s.prev);
+    }
+    s.prev = std::move(ref);
+  }
+  if (s.last_good && r.index - s.last_good->index >= o.max_reacquire_gap) s.last_good.reset();
+  s.gsd_prev_frame = gsd;
+
+  r.world_from_frame = s.chain.world_from_frame();
+  r.position_m = s.chain.position_m();
+  r.heading_rad = s.chain.heading_rad();
+  r.step_scale = LinearScale(r.curr_from_prev);
+  ++s.next_index;
+  ++stats_.frames;
+  if (r.status == FrameStatus::kOk || r.status == FrameStatus::kFirst) ++stats_.ok;
+  if (r.status == FrameStatus::kReacquired) ++stats_.reacquired;
+  if (r.status == FrameStatus::kBridged) ++stats_.bridged;
+  r.total_ms = total.elapsed_ms();
+  return r;
+}
+
+}  // namespace aerovo

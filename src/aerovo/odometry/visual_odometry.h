@@ -1,0 +1,175 @@
+// Streaming visual odometry for a downward-looking camera (Ivanov & Muzychuk 2023, METHOD.md):
+// per frame, SURF -> matching -> (clustered) RANSAC against the previous frame -> chaining into
+// a trajectory (pose_chain.h documents the frames), with failure handling: a step that fails
+// (dark or textureless frame, no overlap, too few inliers, implausible motion) is flagged and
+// bridged with the previous step's motion (constant velocity), and the tracker re-acquires on
+// the next frames by matching them against the last good frame with the predicted motion.
+// No I/O: frames arrive decoded (aerovo/io reads files, video and cameras).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "aerovo/core/image.h"
+#include "aerovo/estimation/models.h"
+#include "aerovo/estimation/ransac.h"
+#include "aerovo/features/surf.h"
+#include "aerovo/matching/matcher.h"
+#include "aerovo/odometry/pose_chain.h"
+
+namespace aerovo {
+
+/// Options of the odometry pipeline. Plain aggregate; check with Validate().
+struct OdometryOptions {
+  /// Frame-to-frame model. Default affine (the paper's, MATLAB estimateGeometricTransform2D).
+  MotionModel model = MotionModel::kAffine;
+  /// SURF options. Defaults = MATLAB's (surf.h) except num_threads = 0 (all cores): the
+  /// odometry is the one consumer that owns the whole machine.
+  SurfOptions surf = [] {
+    SurfOptions s;
+    s.num_threads = 0;
+    return s;
+  }();
+  /// Matching options. Defaults = MATLAB matchFeatures' (matcher.h), all cores.
+  MatchOptions match = [] {
+    MatchOptions m;
+    m.num_threads = 0;
+    return m;
+  }();
+  /// RANSAC options. Defaults = MATLAB estimateGeometricTransform2D's (ransac.h).
+  RansacOptions ransac;
+  /// Guided matching: match with the predicted motion (constant velocity) as a prior first,
+  /// only candidates within MatchOptions::guided_radius_px of the prediction being compared;
+  /// if that step fails, the unguided correspondence is tried. Default true (much faster on
+  /// smooth flights; never worse, thanks to the fallback).
+  bool guided_matching = true;
+  /// How the steps become metric positions. Default kMetric (METHOD.md pitfall on tilt).
+  ScaleMode scale_mode = ScaleMode::kMetric;
+  /// Camera focal length in pixels (of the frames given to Process). 0 = unknown: positions are
+  /// then in pixels of the first frame (ground sampling distance taken as 1 m/px).
+  double focal_px = 0.0;
+  /// Height above ground (m) used when Process() is given none. 0 = none (then every frame must
+  /// come with a height, unless focal_px is 0).
+  double default_height_m = 0.0;
+  /// Metric mode: take each frame's heading from the telemetry yaw given to Process (relative
+  /// to the first frame's) instead of integrating each step's rotation. Default false (pure VO).
+  bool heading_from_yaw = false;
+  /// A step needs at least this many RANSAC inliers. Default 20: an affine fit on 20 consistent
+  /// points out of ratio-tested matches is very unlikely to be chance (the paper's clusters need
+  /// 12 points to be tried at all).
+  int min_inliers = 20;
+  /// A frame with fewer SURF points than this cannot be matched (dark or textureless); it is
+  /// bridged and not used as a reference. Default 20 (= min_inliers).
+  int min_features = 20;
+  /// Plausibility of an estimated step: |scale - 1| <= max_scale_change (scale = sqrt|det| of
+  /// the linear part). Default 0.3: a nadir camera does not change height by 30 % between
+  /// consecutive frames; a larger value means a wrong fit.
+  double max_scale_change = 0.3;
+  /// Plausibility: ratio of the linear part's singular values <= max_anisotropy. Default 1.5:
+  /// perspective from tilt gives a few percent; more is a degenerate fit.
+  double max_anisotropy = 1.5;
+  /// Plausibility: the image centre may move at most this fraction of the frame's larger side
+  /// in one step. Default 0.9: beyond it the frames cannot overlap enough to be matched.
+  double max_shift_fraction = 0.9;
+  /// Re-acquisition: after a failure, the last good frame stays a candidate reference for this
+  /// many frames. Default 5.
+  int max_reacquire_gap = 5;
+};
+
+/// Throws InvalidArgument naming the offending field (including those of the nested stage
+/// options) when out of range.
+void Validate(const OdometryOptions& options);
+
+/// What happened to a frame.
+enum class FrameStatus {
+  kFirst,       ///< First frame: the origin of the trajectory.
+  kOk,          ///< Step estimated against the previous frame.
+  kReacquired,  ///< Step estimated against the last good frame, after bridged frames.
+  kBridged,     ///< Step failed: pose predicted with the previous step's motion.
+};
+/// "first", "ok", "reacquired", "bridged".
+const char* ToString(FrameStatus status);
+
+/// Why a step failed (kNone unless status == kBridged).
+enum class StepFailure {
+  kNone,
+  kTooFewFeatures,     ///< Dark, blank or textureless frame (n_surf < min_features).
+  kNoTransform,        ///< The correspondence stage found no transform.
+  kTooFewInliers,      ///< Fewer than min_inliers inliers.
+  kImplausibleMotion,  ///< Scale, anisotropy or shift out of the plausible range.
+};
+/// "", "too-few-features", "no-transform", "too-few-inliers", "implausible-motion".
+const char* ToString(StepFailure failure);
+
+/// Result of Process() for one frame. Frames: see pose_chain.h.
+struct FrameResult {
+  int index = 0;        ///< 0-based count of frames given to Process().
+  double time_s = 0.0;  ///< As given.
+  FrameStatus status = FrameStatus::kFirst;
+  StepFailure failure = StepFailure::kNone;
+  int reference_index = -1;  ///< Frame matched against (-1: none).
+  int n_surf = 0;            ///< SURF points on this frame.
+  int n_matched = 0;         ///< Putative matches of the successful (or last) attempt.
+  int n_inliers = 0;         ///< RANSAC inliers of the successful (or last) attempt.
+  int cluster = -1;          ///< Cell used by clustered RANSAC (-1: whole frame).
+  int attempts = 0;          ///< Cells tried by clustered RANSAC (+1 for a fallback).
+  bool fell_back = false;    ///< Clustered RANSAC fell back to standard.
+  bool guided = false;       ///< The accepted step came from guided matching.
+  double detect_ms = 0.0, describe_ms = 0.0, correspond_ms = 0.0, estimate_ms = 0.0, total_ms = 0.0;
+  /// The step applied to the trajectory: maps frame index-1 pixels to this frame's pixels
+  /// (estimated, composed from a re-acquisition, or predicted when bridged).
+  Eigen::Matrix3d curr_from_prev = Eigen::Matrix3d::Identity();
+  /// See PoseChain::world_from_frame (metric: local_from_frame in metres; affine-chain: first
+  /// frame's pixels from this frame's pixels).
+  Eigen::Matrix3d world_from_frame = Eigen::Matrix3d::Identity();
+  /// Camera centre in the local VO frame (x = first image right, y = first image up), metres
+  /// (pixels of the first frame if the focal length is unknown).
+  Eigen::Vector2d position_m = Eigen::Vector2d::Zero();
+  double heading_rad = 0.0;   ///< See pose_chain.h.
+  double gsd_m_per_px = 1.0;  ///< Ground sampling distance used for this frame.
+  double step_scale = 1.0;    ///< sqrt|det| of the step's linear part.
+};
+
+/// Counts over the frames processed so far.
+struct OdometryStats {
+  int frames = 0;
+  int ok = 0;
+  int reacquired = 0;
+  int bridged = 0;
+};
+
+/// The streaming odometry. Keeps only the previous frame's and the last good frame's features
+/// (bounded memory). Not thread-safe; parallel inside (options.surf/match num_threads).
+class VisualOdometry {
+ public:
+  /// Throws InvalidArgument when options are invalid.
+  explicit VisualOdometry(const OdometryOptions& options = {});
+  ~VisualOdometry();
+  VisualOdometry(VisualOdometry&&) noexcept;
+  VisualOdometry& operator=(VisualOdometry&&) noexcept;
+
+  const OdometryOptions& options() const { return options_; }
+
+  /// Processes the next frame. `height_m`: height above ground (else options.default_height_m);
+  /// `yaw_deg`: camera compass yaw (used only with options.heading_from_yaw).
+  /// Throws InvalidArgument for an empty frame, InputError when the frame size differs from the
+  /// first frame's or no height above ground is known for a metric run (message names the
+  /// frame).
+  FrameResult Process(const GrayImageView& frame, double time_s,
+                      std::optional<double> height_m = std::nullopt,
+                      std::optional<double> yaw_deg = std::nullopt);
+
+  const OdometryStats& stats() const { return stats_; }
+
+ private:
+  struct Impl;
+  OdometryOptions options_;
+  OdometryStats stats_;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace aerovo

@@ -1,0 +1,203 @@
+#include "aerovo/odometry/visual_odometry.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "aerovo/core/error.h"
+
+namespace aerovo {
+namespace {
+
+// Ground truth of the synthetic flights: ground sampling distance 0.1 m/px (height 50 m,
+// focal 500 px), frames 320x240 cropped from a textured "ground" image.
+constexpr double kFocalPx = 500.0, kHeightM = 50.0, kGsd = kHeightM / kFocalPx;
+constexpr int kW = 320, kH = 240;
+
+// Deterministic textured ground: blobs of many sizes and grey levels over multi-scale noise,
+// so that SURF finds well-spread, distinctive points at every place.
+cv::Mat MakeGround(int size, std::uint64_t seed) {
+  cv::RNG rng(seed);
+  cv::Mat ground(size, size, CV_32F, cv::Scalar(0));
+  for (int octave = 0; octave < 4; ++octave) {
+    const int cells = size >> (6 - octave);
+    cv::Mat noise(cells, cells, CV_32F);
+    rng.fill(noise, cv::RNG::UNIFORM, 0.0, 1.0);
+    cv::Mat up;
+    cv::resize(noise, up, ground.size(), 0, 0, cv::INTER_CUBIC);
+    ground += up * (40.0 / (1 << octave));
+  }
+  for (int i = 0; i < size * size / 400; ++i) {
+    const cv::Point c(rng.uniform(0, size), rng.uniform(0, size));
+    const int radius = rng.uniform(2, 12);
+    cv::circle(ground, c, radius, cv::Scalar(rng.uniform(0.0, 255.0)), cv::FILLED, cv::LINE_AA);
+  }
+  for (int i = 0; i < size * size / 4000; ++i) {
+    const cv::Point a(rng.uniform(0, size), rng.uniform(0, size));
+    const cv::Point b = a + cv::Point(rng.uniform(-30, 30), rng.uniform(-30, 30));
+    cv::rectangle(ground, a, b, cv::Scalar(rng.uniform(0.0, 255.0)), cv::FILLED);
+  }
+  cv::GaussianBlur(ground, ground, cv::Size(0, 0), 1.0);
+  cv::Mat out;
+  ground.convertTo(out, CV_8U);
+  return out;
+}
+
+struct TruePose {
+  Eigen::Vector2d pos_m;  // local VO frame (x right, y up of frame 0)
+  double heading;         // rad, CCW from local +y
+};
+
+// Renders the frame of a camera at `pose` over `ground`, whose pixel q0 is the local origin.
+cv::Mat Render(const cv::Mat& ground, const cv::Point2d& q0, const TruePose& pose) {
+  // big_px = q0 + F * pos / gsd + Rot(-heading) * (p - centre)  (see pose_chain.h frames)
+  const double c = std::cos(-pose.heading), s = std::sin(-pose.heading);
+  const double cx = 0.5 * (kW - 1), cy = 0.5 * (kH - 1);
+  const double tx = q0.x + pose.pos_m.x() / kGsd - (c * cx - s * cy);
+  const double ty = q0.y - pose.pos_m.y() / kGsd - (s * cx + c * cy);
+  const cv::Matx23d big_from_frame(c, -s, tx, s, c, ty);
+  cv::Mat frame;
+  cv::warpAffine(ground, frame, big_from_frame, cv::Size(kW, kH),
+                 cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REFLECT);
+  return frame;
+}
+
+GrayImageView View(const cv::Mat& m) {
+  return GrayImageView{m.data, m.cols, m.rows, static_cast<std::ptrdiff_t>(m.step)};
+}
+
+// A curving flight: 3.5 m (35 px) per frame, turning 3 degrees per frame to the left.
+std::vector<TruePose> CurvedFlight(int n) {
+  std::vector<TruePose> poses;
+  Eigen::Vector2d p(0, 0);
+  double heading = 0.0;
+  for (int i = 0; i < n; ++i) {
+    poses.push_back({p, heading});
+    heading += 3.0 * M_PI / 180.0;
+    p += 3.5 * Eigen::Vector2d(-std::sin(heading), std::cos(heading));
+  }
+  return poses;
+}
+
+OdometryOptions SyntheticOptions() {
+  OdometryOptions o;
+  o.focal_px = kFocalPx;
+  o.default_height_m = kHeightM;
+  o.surf.num_threads = 1;
+  o.match.num_threads = 1;
+  return o;
+}
+
+class SyntheticFlight : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { ground_ = new cv::Mat(MakeGround(1400, 7)); }
+  static void TearDownTestSuite() { delete ground_; }
+  static cv::Mat* ground_;
+  const cv::Point2d q0_{700, 900};
+};
+cv::Mat* SyntheticFlight::ground_ = nullptr;
+
+TEST_F(SyntheticFlight, RecoversCurvedTrajectory) {
+  const std::vector<TruePose> truth = CurvedFlight(30);
+  VisualOdometry vo(SyntheticOptions());
+  double distance = 0.0;
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    const cv::Mat frame = Render(*ground_, q0_, truth[i]);
+    const FrameResult r = vo.Process(View(frame), 0.5 * i);
+    if (i > 0) distance += (truth[i].pos_m - truth[i - 1].pos_m).norm();
+    ASSERT_EQ(r.index, static_cast<int>(i));
+    EXPECT_EQ(r.status, i == 0 ? FrameStatus::kFirst : FrameStatus::kOk) << "frame " << i;
+    EXPECT_GT(r.n_surf, 100);
+    if (i > 0) {
+      EXPECT_GE(r.n_inliers, 20);
+    }
+    // Within 0.2 % of the distance flown + 5 cm (measured: <= 1.7 cm over 100 m), heading
+    // within 0.5 deg.
+    EXPECT_LT((r.position_m - truth[i].pos_m).norm(), 0.05 + 0.002 * distance) << "frame " << i;
+    EXPECT_NEAR(std::remainder(r.heading_rad - truth[i].heading, 2 * M_PI), 0.0,
+                0.5 * M_PI / 180.0);
+    EXPECT_NEAR(r.gsd_m_per_px, kGsd, 1e-12);
+  }
+  EXPECT_EQ(vo.stats().frames, 30);
+  EXPECT_EQ(vo.stats().bridged, 0);
+}
+
+TEST_F(SyntheticFlight, BridgesBlackAndForeignFramesAndReacquires) {
+  const std::vector<TruePose> truth = CurvedFlight(24);
+  const cv::Mat other_ground = MakeGround(600, 99);
+  VisualOdometry vo(SyntheticOptions());
+  std::vector<FrameResult> results;
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    cv::Mat frame = Render(*ground_, q0_, truth[i]);
+    if (i == 10) frame.setTo(0);                                           // a black frame
+    if (i == 17) frame = Render(other_ground, {300, 300}, {{0, 0}, 0.0});  // no overlap at all
+    results.push_back(vo.Process(View(frame), 0.5 * i));
+  }
+  const double step = 3.5;
+  EXPECT_EQ(results[10].status, FrameStatus::kBridged);
+  EXPECT_EQ(results[10].failure, StepFailure::kTooFewFeatures);
+  // Bridged with the previous step: no jump, within a few metres of the truth.
+  EXPECT_LT((results[10].position_m - results[9].position_m).norm(), 1.5 * step);
+  EXPECT_LT((results[10].position_m - truth[10].pos_m).norm(), 1.0);
+  EXPECT_EQ(results[11].status, FrameStatus::kReacquired);
+  EXPECT_EQ(results[11].reference_index, 9);
+  EXPECT_EQ(results[17].status, FrameStatus::kBridged);
+  EXPECT_NE(results[17].failure, StepFailure::kNone);
+  EXPECT_LT((results[17].position_m - results[16].position_m).norm(), 1.5 * step);
+  // Frame 18 cannot match the foreign frame 17: it re-acquires on 16.
+  EXPECT_EQ(results[18].status, FrameStatus::kReacquired);
+  EXPECT_EQ(results[18].reference_index, 16);
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    if (i == 10 || i == 17) continue;
+    EXPECT_NE(results[i].status, FrameStatus::kBridged) << "frame " << i;
+    EXPECT_LT((results[i].position_m - truth[i].pos_m).norm(), 0.6) << "frame " << i;
+  }
+  EXPECT_EQ(vo.stats().bridged, 2);
+  EXPECT_EQ(vo.stats().reacquired, 2);
+}
+
+TEST_F(SyntheticFlight, DeterministicAndAffineChainAgrees) {
+  const std::vector<TruePose> truth = CurvedFlight(12);
+  OdometryOptions chain_opts = SyntheticOptions();
+  chain_opts.scale_mode = ScaleMode::kAffineChain;
+  chain_opts.surf.num_threads = 0;  // threads must not change the result
+  chain_opts.match.num_threads = 0;
+  VisualOdometry a(SyntheticOptions()), b(SyntheticOptions()), chain(chain_opts);
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    const cv::Mat frame = Render(*ground_, q0_, truth[i]);
+    const FrameResult ra = a.Process(View(frame), i), rb = b.Process(View(frame), i);
+    const FrameResult rc = chain.Process(View(frame), i);
+    EXPECT_EQ(ra.n_surf, rb.n_surf);
+    EXPECT_EQ(ra.n_inliers, rb.n_inliers);
+    EXPECT_EQ(ra.position_m, rb.position_m) << "frame " << i;
+    EXPECT_EQ(ra.curr_from_prev, rb.curr_from_prev);
+    // At constant height over flat ground the two scale modes agree closely.
+    EXPECT_LT((rc.position_m - truth[i].pos_m).norm(), 0.3) << "frame " << i;
+  }
+}
+
+TEST(VisualOdometry, RejectsBadInputAndOptions) {
+  OdometryOptions o = SyntheticOptions();
+  o.min_inliers = 2;
+  EXPECT_THROW(VisualOdometry{o}, InvalidArgument);
+  o = SyntheticOptions();
+  o.max_scale_change = 1.5;
+  EXPECT_THROW(Validate(o), InvalidArgument);
+  o = SyntheticOptions();
+  o.default_height_m = 0.0;
+  VisualOdometry vo(o);
+  cv::Mat frame(kH, kW, CV_8U, cv::Scalar(0));
+  EXPECT_THROW(vo.Process(GrayImageView{}, 0.0), InvalidArgument);
+  EXPECT_THROW(vo.Process(View(frame), 0.0), InputError);  // no height for a metric run
+  VisualOdometry vo2(SyntheticOptions());
+  vo2.Process(View(frame), 0.0);
+  cv::Mat other(kH + 2, kW, CV_8U, cv::Scalar(0));
+  EXPECT_THROW(vo2.Process(View(other), 1.0), InputError);
+}
+
+}  // namespace
+}  // namespace aerovo
