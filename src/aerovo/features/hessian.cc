@@ -33,7 +33,7 @@ namespace {
 template <int kStep>
 __attribute__((always_inline)) inline void HessianRow(const std::uint32_t* ii, std::ptrdiff_t s,
                                                       const BoxFilterLayout& l, int i, int j0,
-                                                      int j1, float* out) {
+                                                      int j1, float* out) {  // out[0] <- sample j0
   const std::ptrdiff_t p = kStep > 0 ? kStep : l.step;
   const std::uint32_t* base = ii + (p * i - l.border) * s - l.border;
   const std::ptrdiff_t S = l.size, L = l.lobe, L2 = 2 * l.lobe;
@@ -66,7 +66,7 @@ __attribute__((always_inline)) inline void HessianRow(const std::uint32_t* ii, s
     const float dxx = static_cast<float>(static_cast<std::int32_t>(all_xx - 3u * mid_xx)) * inv_xx;
     const float dyy = static_cast<float>(static_cast<std::int32_t>(all_yy - 3u * mid_yy)) * inv_xx;
     const float dxy = static_cast<float>(static_cast<std::int32_t>(tl - tr - bl + br)) * inv_xy;
-    out[j] = dxx * dyy - 0.81f * (dxy * dxy);
+    out[j - j0] = dxx * dyy - 0.81f * (dxy * dxy);
   }
 }
 
@@ -75,7 +75,7 @@ __attribute__((always_inline)) inline void HessianRows(const IntegralImage& ii,
                                                        int j0, int j1, float* det,
                                                        std::ptrdiff_t det_stride) {
   for (int i = i0; i < i1; ++i) {
-    float* out = det + i * det_stride;
+    float* out = det + i * det_stride + j0;
     switch (l.step) {
       case 1:
         HessianRow<1>(ii.data(), ii.stride(), l, i, j0, j1, out);
@@ -120,6 +120,12 @@ void ComputeHessianDeterminant(const IntegralImage& ii, const BoxFilterLayout& l
   static const HessianRowsFn fn = SelectHessianRows();
   if (i1 <= i0 || j1 <= j0) return;
   fn(ii, layout, i0, i1, j0, j1, det, det_stride);
+}
+
+float HessianDeterminant(const IntegralImage& ii, const BoxFilterLayout& l, int i, int j) {
+  float out[1];
+  HessianRow<0>(ii.data(), ii.stride(), l, i, j, j + 1, out);
+  return out[0];
 }
 
 float HessianTrace(const IntegralImage& ii, const BoxFilterLayout& l, int i, int j) {

@@ -40,6 +40,9 @@ BoxFilterLayout MakeBoxFilterLayout(int size, int step);
 void ComputeHessianDeterminant(const IntegralImage& ii, const BoxFilterLayout& layout, int i0,
                                int i1, int j0, int j1, float* det, std::ptrdiff_t det_stride);
 
+/// Dxx*Dyy - (0.9*Dxy)^2 at one sample (same preconditions), scalar.
+float HessianDeterminant(const IntegralImage& ii, const BoxFilterLayout& layout, int i, int j);
+
 /// Dxx + Dyy (the Laplacian, in the same normalisation) at one sample (same preconditions).
 float HessianTrace(const IntegralImage& ii, const BoxFilterLayout& layout, int i, int j);
 

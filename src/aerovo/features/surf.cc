@@ -2,6 +2,10 @@
 
 #include <omp.h>
 
+#if defined(__SSE2__)
+#include <immintrin.h>
+#endif
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -34,25 +38,32 @@ constexpr int kOriWindowBins = 12;  // 60 degrees.
 constexpr int kPatch = 20;
 constexpr float kDescSigma = 3.3f;
 
-struct OrientationSample {
-  int i, j;  // Offset in units of s.
-  float weight;
-};
+constexpr int kOriMaxSamples = 128;  // >= samples in the disc (113), padded for SIMD.
 
 struct Tables {
-  std::vector<OrientationSample> ori;
-  std::array<float, kPatch * kPatch> desc_weight;
+  // Orientation disc, structure of arrays: offsets in units of s and Gaussian weights.
+  int ori_count = 0;
+  alignas(32) float ori_i[kOriMaxSamples] = {};
+  alignas(32) float ori_j[kOriMaxSamples] = {};
+  alignas(32) float ori_w[kOriMaxSamples] = {};
+  // Descriptor grid, row-major 20x20: Gaussian weight and offsets in units of s.
+  alignas(32) float desc_w[kPatch * kPatch] = {};
+  alignas(32) float grid[kPatch] = {};  // (k - 9.5)
   Tables() {
     for (int i = -kOriRadius; i <= kOriRadius; ++i) {
       for (int j = -kOriRadius; j <= kOriRadius; ++j) {
         if (i * i + j * j > kOriRadius * kOriRadius) continue;
-        ori.push_back({i, j, std::exp(-(i * i + j * j) / (2.f * kOriSigma * kOriSigma))});
+        ori_i[ori_count] = static_cast<float>(i);
+        ori_j[ori_count] = static_cast<float>(j);
+        ori_w[ori_count] = std::exp(-(i * i + j * j) / (2.f * kOriSigma * kOriSigma));
+        ++ori_count;
       }
     }
+    for (int k = 0; k < kPatch; ++k) grid[k] = k - (kPatch - 1) * 0.5f;
     for (int r = 0; r < kPatch; ++r) {
       for (int c = 0; c < kPatch; ++c) {
-        const float v = r - (kPatch - 1) * 0.5f, u = c - (kPatch - 1) * 0.5f;
-        desc_weight[r * kPatch + c] = std::exp(-(u * u + v * v) / (2.f * kDescSigma * kDescSigma));
+        desc_w[r * kPatch + c] =
+            std::exp(-(grid[c] * grid[c] + grid[r] * grid[r]) / (2.f * kDescSigma * kDescSigma));
       }
     }
   }
@@ -63,20 +74,20 @@ const Tables& GetTables() {
   return tables;
 }
 
-// atan2 in [0, 2*pi) with about 1e-5 rad error (minimax polynomial for atan on [-1, 1]); only
-// used to bin orientation samples, where libm's atan2 dominated the orientation cost.
+// atan2 in [0, 2*pi) with about 1e-5 rad error (minimax polynomial for atan on [-1, 1]),
+// written without branches so that the loop over orientation samples vectorises; libm's atan2
+// and a branchy version dominated the orientation cost.
 inline float FastAtan2(float y, float x) {
   const float ax = std::fabs(x), ay = std::fabs(y);
   const float mx = std::max(ax, ay), mn = std::min(ax, ay);
-  if (mx == 0.f) return 0.f;
-  const float z = mn / mx, z2 = z * z;
+  const float z = mn / std::max(mx, 1e-30f), z2 = z * z;
   float a =
       z * (0.99997726f +
            z2 * (-0.33262347f +
                  z2 * (0.19354346f + z2 * (-0.11643287f + z2 * (0.05265332f - z2 * 0.01172120f)))));
-  if (ay > ax) a = 1.57079632679f - a;
-  if (x < 0.f) a = 3.14159265359f - a;
-  if (y < 0.f) a = kTwoPi - a;
+  a = ay > ax ? 1.57079632679f - a : a;
+  a = x < 0.f ? 3.14159265359f - a : a;
+  a = y < 0.f ? kTwoPi - a : a;
   return a;
 }
 
@@ -103,18 +114,17 @@ void CheckImage(const GrayImageView& image) {
 
 // Sum over the 3x3x3 neighbourhood check and quadratic fit of one candidate. Returns false when
 // the fit is singular or moves by more than one sample in any direction.
-bool Interpolate(const float* lo, const float* mid, const float* hi, std::ptrdiff_t stride,
-                 float offset[3]) {
+bool Interpolate(const float* lo, std::ptrdiff_t ls, const float* mid, std::ptrdiff_t ms,
+                 const float* hi, std::ptrdiff_t hs, float offset[3]) {
   const double v = mid[0];
-  const double dx = (mid[1] - mid[-1]) * 0.5, dy = (mid[stride] - mid[-stride]) * 0.5;
+  const double dx = (mid[1] - mid[-1]) * 0.5, dy = (mid[ms] - mid[-ms]) * 0.5;
   const double ds = (hi[0] - lo[0]) * 0.5;
   const double dxx = mid[1] - 2 * v + mid[-1];
-  const double dyy = mid[stride] - 2 * v + mid[-stride];
+  const double dyy = mid[ms] - 2 * v + mid[-ms];
   const double dss = hi[0] - 2 * v + lo[0];
-  const double dxy =
-      (mid[stride + 1] - mid[stride - 1] - mid[-stride + 1] + mid[-stride - 1]) * 0.25;
+  const double dxy = (mid[ms + 1] - mid[ms - 1] - mid[-ms + 1] + mid[-ms - 1]) * 0.25;
   const double dxs = (hi[1] - hi[-1] - lo[1] + lo[-1]) * 0.25;
-  const double dys = (hi[stride] - hi[-stride] - lo[stride] + lo[-stride]) * 0.25;
+  const double dys = (hi[hs] - hi[-hs] - lo[ls] + lo[-ls]) * 0.25;
   // Solve H * o = -g by Cramer's rule (3x3, symmetric).
   const double c00 = dyy * dss - dys * dys, c01 = dxs * dys - dxy * dss,
                c02 = dxy * dys - dxs * dyy;
@@ -131,6 +141,20 @@ bool Interpolate(const float* lo, const float* mid, const float* hi, std::ptrdif
   offset[1] = static_cast<float>(oy);
   offset[2] = static_cast<float>(os);
   return true;
+}
+
+// First j in [j, end) with row[j] > threshold, or end. Four samples per step: almost all
+// samples are below the threshold.
+inline int NextAbove(const float* row, int j, int end, float threshold) {
+#if defined(__SSE2__)
+  const __m128 t = _mm_set1_ps(threshold);
+  for (; j + 4 <= end; j += 4) {
+    const int m = _mm_movemask_ps(_mm_cmpgt_ps(_mm_loadu_ps(row + j), t));
+    if (m != 0) return j + __builtin_ctz(static_cast<unsigned>(m));
+  }
+#endif
+  while (j < end && !(row[j] > threshold)) ++j;
+  return j;
 }
 
 inline bool IsMaximum(float v, const float* p, std::ptrdiff_t stride) {
@@ -206,9 +230,24 @@ struct Surf::Impl {
     ii.Compute(image);
   }
 
+  std::vector<std::uint32_t> order;  // Scratch for SpatialOrder.
+
+  // Indices of `kps` ordered by row band then column, so that consecutive keypoints read
+  // nearby integral-image rows (cache reuse); the results do not depend on the order.
+  const std::vector<std::uint32_t>& SpatialOrder(const std::vector<Keypoint>& kps) {
+    order.resize(kps.size());
+    for (std::size_t k = 0; k < kps.size(); ++k) order[k] = static_cast<std::uint32_t>(k);
+    std::sort(order.begin(), order.end(), [&kps](std::uint32_t a, std::uint32_t b) {
+      const int ba = static_cast<int>(kps[a].y) >> 4, bb = static_cast<int>(kps[b].y) >> 4;
+      if (ba != bb) return ba < bb;
+      return kps[a].x < kps[b].x;
+    });
+    return order;
+  }
+
   std::vector<Keypoint> FastHessian();
-  void Orient(std::vector<Keypoint>& kps) const;
-  void DescribeAll(const std::vector<Keypoint>& kps, float* out, int dsize) const;
+  void Orient(std::vector<Keypoint>& kps);
+  void DescribeAll(const std::vector<Keypoint>& kps, float* out, int dsize);
   float Orientation(const Keypoint& kp) const;
   void DescribeOne(const Keypoint& kp, float* out) const;
 };
@@ -257,8 +296,12 @@ std::vector<Keypoint> Surf::Impl::FastHessian() {
     const std::size_t plane = static_cast<std::size_t>(grid_w) * grid_h;
     if (det.size() < plane * levels) det.resize(plane * levels);
 
-    // Each layer is needed around the candidates of the middle layers next to it.
-    for (int l = 0; l < levels; ++l) {
+    // The middle layers are computed in full around their candidates. The first and last
+    // layers only serve as neighbours of maxima of the layers next to them, so they are
+    // evaluated lazily at the few samples that pass the threshold and the in-layer test: this
+    // halves the box filtering at the default 4 levels.
+    std::vector<std::array<int, 4>> region(levels);
+    for (int l = 1; l + 1 < levels; ++l) {
       int j0 = W, j1 = -1, i0 = H, i1 = -1;
       for (int m = std::max(1, l - 1); m <= std::min(levels - 2, l + 1); ++m) {
         if (cand[m][0] > cand[m][1] || cand[m][2] > cand[m][3]) continue;
@@ -267,19 +310,22 @@ std::vector<Keypoint> Surf::Impl::FastHessian() {
         i0 = std::min(i0, cand[m][2] - 1);
         i1 = std::max(i1, cand[m][3] + 1);
       }
-      if (j0 > j1 || i0 > i1) continue;
-      j0 = std::max(j0, lo_x(l));
-      j1 = std::min(j1, hi_x(l, W));
-      i0 = std::max(i0, lo_x(l));
-      i1 = std::min(i1, hi_x(l, H));
-      float* out = det.data() + plane * l;
-      const BoxFilterLayout& layout = layouts[l];
-      const int rows = i1 - i0 + 1;
-      // Blocks of rows so that threads share the work evenly.
+      region[l] = {std::max(j0, lo_x(l)), std::min(j1, hi_x(l, W)), std::max(i0, lo_x(l)),
+                   std::min(i1, hi_x(l, H))};
+    }
+    int row_begin = H, row_end = -1;
+    for (int l = 1; l + 1 < levels; ++l) {
+      if (region[l][0] > region[l][1] || region[l][2] > region[l][3]) continue;
+      row_begin = std::min(row_begin, region[l][2]);
+      row_end = std::max(row_end, region[l][3]);
+    }
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 8)
-      for (int r = 0; r < rows; ++r) {
-        surf_detail::ComputeHessianDeterminant(ii, layout, i0 + r, i0 + r + 1, j0, j1 + 1, out,
-                                               grid_w);
+    for (int i = row_begin; i <= row_end; ++i) {
+      for (int l = 1; l + 1 < levels; ++l) {
+        const auto [j0, j1, i0, i1] = region[l];
+        if (i < i0 || i > i1 || j0 > j1) continue;
+        surf_detail::ComputeHessianDeterminant(ii, layouts[l], i, i + 1, j0, j1 + 1,
+                                               det.data() + plane * l, grid_w);
       }
     }
 
@@ -287,8 +333,9 @@ std::vector<Keypoint> Surf::Impl::FastHessian() {
     for (int l = 1; l + 1 < levels; ++l) {
       const auto [j0, j1, i0, i1] = cand[l];
       if (j0 > j1 || i0 > i1) continue;
-      const float* lo = det.data() + plane * (l - 1);
       const float* mid = det.data() + plane * l;
+      const bool lazy_lo = l - 1 == 0, lazy_hi = l + 1 == levels - 1;
+      const float* lo = det.data() + plane * (l - 1);
       const float* hi = det.data() + plane * (l + 1);
       const int rows = i1 - i0 + 1;
       const int blocks = threads > 1 ? std::min(rows, threads * 8) : 1;
@@ -298,18 +345,43 @@ std::vector<Keypoint> Surf::Impl::FastHessian() {
         const int ib = i0 + static_cast<int>(static_cast<long>(rows) * b / blocks);
         const int ie = i0 + static_cast<int>(static_cast<long>(rows) * (b + 1) / blocks);
         std::vector<Keypoint>& out = found[b];
+        float lo_buf[9], hi_buf[9];
+        const auto neighbourhood = [&](const BoxFilterLayout& layout, int i, int j, float* buf) {
+          for (int di = -1; di <= 1; ++di) {
+            for (int dj = -1; dj <= 1; ++dj) {
+              buf[(di + 1) * 3 + dj + 1] =
+                  surf_detail::HessianDeterminant(ii, layout, i + di, j + dj);
+            }
+          }
+        };
         for (int i = ib; i < ie; ++i) {
           const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(i) * grid_w;
-          for (int j = j0; j <= j1; ++j) {
-            const float v = mid[row + j];
-            if (!(v > threshold)) continue;
+          for (int j = NextAbove(mid + row, j0, j1 + 1, threshold); j <= j1;
+               j = NextAbove(mid + row, j + 1, j1 + 1, threshold)) {
             const std::ptrdiff_t k = row + j;
-            if (!IsMaximumExceptCentre(v, mid + k, grid_w) || !IsMaximum(v, lo + k, grid_w) ||
-                !IsMaximum(v, hi + k, grid_w)) {
-              continue;
+            const float v = mid[k];
+            if (!IsMaximumExceptCentre(v, mid + k, grid_w)) continue;
+            // Full neighbour layers first (cheap), then the lazily evaluated ones.
+            if (!lazy_lo && !IsMaximum(v, lo + k, grid_w)) continue;
+            if (!lazy_hi && !IsMaximum(v, hi + k, grid_w)) continue;
+            const float* lp = lo + k;
+            std::ptrdiff_t ls = grid_w;
+            if (lazy_lo) {
+              neighbourhood(layouts[l - 1], i, j, lo_buf);
+              if (!IsMaximum(v, lo_buf + 4, 3)) continue;
+              lp = lo_buf + 4;
+              ls = 3;
+            }
+            const float* hp = hi + k;
+            std::ptrdiff_t hs = grid_w;
+            if (lazy_hi) {
+              neighbourhood(layouts[l + 1], i, j, hi_buf);
+              if (!IsMaximum(v, hi_buf + 4, 3)) continue;
+              hp = hi_buf + 4;
+              hs = 3;
             }
             float off[3];
-            if (!Interpolate(lo + k, mid + k, hi + k, grid_w, off)) continue;
+            if (!Interpolate(lp, ls, mid + k, grid_w, hp, hs, off)) continue;
             Keypoint kp;
             const float centre_offset = (p - 1) * 0.5f;
             kp.x = p * (j + off[0]) + centre_offset;
@@ -343,15 +415,26 @@ float Surf::Impl::Orientation(const Keypoint& kp) const {
   const int side = 2 * half;
   const std::ptrdiff_t st = ii.stride();
   const std::uint32_t* base = ii.data();
-  std::array<float, kOriBins> bx{}, by{};
+  const int n = t.ori_count;
   // Top-left of the wavelet centred on (x, y): round(x - (side - 1) / 2).
-  const float cx = kp.x - (side - 1) * 0.5f, cy = kp.y - (side - 1) * 0.5f;
-  int n = 0;
-  for (const OrientationSample& a : t.ori) {
-    const int x0 = static_cast<int>(std::floor(cx + a.i * s + 0.5f));
-    const int y0 = static_cast<int>(std::floor(cy + a.j * s + 0.5f));
-    if (x0 < 0 || y0 < 0 || x0 + side > W || y0 + side > H) continue;
-    const std::uint32_t* r0 = base + y0 * st + x0;
+  const float cx = kp.x - (side - 1) * 0.5f + 0.5f, cy = kp.y - (side - 1) * 0.5f + 0.5f;
+  alignas(32) std::int32_t x0[kOriMaxSamples], y0[kOriMaxSamples];
+  alignas(32) float fx[kOriMaxSamples], fy[kOriMaxSamples];
+  for (int k = 0; k < n; ++k) {
+    x0[k] = static_cast<std::int32_t>(std::floor(cx + t.ori_i[k] * s));
+    y0[k] = static_cast<std::int32_t>(std::floor(cy + t.ori_j[k] * s));
+  }
+  const float reach = kOriRadius * s + side + 2.f;
+  const bool inside =
+      kp.x - reach >= 0.f && kp.y - reach >= 0.f && kp.x + reach <= W && kp.y + reach <= H;
+  for (int k = 0; k < n; ++k) {
+    // Wavelets leaving the image are skipped (OpenCV does the same): a zero vector adds
+    // nothing to any window.
+    if (!inside && (x0[k] < 0 || y0[k] < 0 || x0[k] + side > W || y0[k] + side > H)) {
+      fx[k] = fy[k] = 0.f;
+      continue;
+    }
+    const std::uint32_t* r0 = base + y0[k] * st + x0[k];
     const std::uint32_t* r1 = r0 + half * st;
     const std::uint32_t* r2 = r0 + side * st;
     // dx = right half - left half; dy = bottom half - top half.
@@ -359,21 +442,25 @@ float Surf::Impl::Orientation(const Keypoint& kp) const {
                                                       2u * (r2[half] - r0[half]) + (r2[0] - r0[0]));
     const std::int32_t dy = static_cast<std::int32_t>((r2[side] - r2[0]) - 2u * (r1[side] - r1[0]) +
                                                       (r0[side] - r0[0]));
-    if (dx == 0 && dy == 0) continue;
-    const float fx = dx * a.weight, fy = dy * a.weight;
-    int bin = static_cast<int>(FastAtan2(fy, fx) * (kOriBins / kTwoPi));
-    bin = std::min(bin, kOriBins - 1);
-    bx[bin] += fx;
-    by[bin] += fy;
-    ++n;
+    fx[k] = static_cast<float>(dx) * t.ori_w[k];
+    fy[k] = static_cast<float>(dy) * t.ori_w[k];
   }
-  if (n == 0) return 0.f;
+  alignas(32) std::int32_t bin[kOriMaxSamples];
+  for (int k = 0; k < n; ++k) {
+    const int b = static_cast<int>(FastAtan2(fy[k], fx[k]) * (kOriBins / kTwoPi));
+    bin[k] = std::min(b, kOriBins - 1);
+  }
+  std::array<float, kOriBins> bx{}, by{};
+  for (int k = 0; k < n; ++k) {
+    bx[bin[k]] += fx[k];
+    by[bin[k]] += fy[k];
+  }
   float sx = 0.f, sy = 0.f;
   for (int b = 0; b < kOriWindowBins; ++b) {
     sx += bx[b];
     sy += by[b];
   }
-  float best = -1.f, best_x = 0.f, best_y = 0.f;
+  float best = 0.f, best_x = 0.f, best_y = 0.f;
   for (int b = 0; b < kOriBins; ++b) {
     const float m = sx * sx + sy * sy;
     if (m > best) {
@@ -381,28 +468,35 @@ float Surf::Impl::Orientation(const Keypoint& kp) const {
       best_x = sx;
       best_y = sy;
     }
-    const int out = b, in = (b + kOriWindowBins) % kOriBins;
-    sx += bx[in] - bx[out];
-    sy += by[in] - by[out];
+    const int in =
+        b + kOriWindowBins < kOriBins ? b + kOriWindowBins : b + kOriWindowBins - kOriBins;
+    sx += bx[in] - bx[b];
+    sy += by[in] - by[b];
   }
+  if (best == 0.f) return 0.f;  // Flat neighbourhood.
   float angle = std::atan2(best_y, best_x);
   if (angle < 0.f) angle += kTwoPi;
   if (angle >= kTwoPi) angle = 0.f;
   return angle;
 }
 
-void Surf::Impl::Orient(std::vector<Keypoint>& kps) const {
+void Surf::Impl::Orient(std::vector<Keypoint>& kps) {
   if (options.upright) {
     for (Keypoint& kp : kps) kp.orientation = 0.f;
     return;
   }
   const int threads = ResolveThreads(options.num_threads);
+  const std::vector<std::uint32_t>& order = SpatialOrder(kps);
   const long n = static_cast<long>(kps.size());
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 32)
-  for (long k = 0; k < n; ++k) kps[k].orientation = Orientation(kps[k]);
+  for (long k = 0; k < n; ++k) {
+    Keypoint& kp = kps[order[k]];
+    kp.orientation = Orientation(kp);
+  }
 }
 
 void Surf::Impl::DescribeOne(const Keypoint& kp, float* out) const {
+  constexpr int kN = kPatch * kPatch;
   const Tables& t = GetTables();
   const bool extended = options.extended;
   const int dsize = extended ? 128 : 64;
@@ -413,68 +507,94 @@ void Surf::Impl::DescribeOne(const Keypoint& kp, float* out) const {
   const float co = std::cos(kp.orientation), si = std::sin(kp.orientation);
   const std::ptrdiff_t st = ii.stride();
   const std::uint32_t* base = ii.data();
-  // Fast path when every wavelet lies inside the image.
+
+  // 1. Top-left corners of the 400 wavelets on the rotated grid (vectorised).
+  alignas(32) std::int32_t x0[kN], y0[kN];
+  alignas(32) float gu[kPatch], gv[kPatch];
+  for (int k = 0; k < kPatch; ++k) {
+    gu[k] = t.grid[k] * s;
+    gv[k] = t.grid[k] * s;
+  }
+  const float ox = kp.x - (side - 1) * 0.5f + 0.5f, oy = kp.y - (side - 1) * 0.5f + 0.5f;
+  for (int r = 0; r < kPatch; ++r) {
+    const float bx = ox - gv[r] * si, by = oy + gv[r] * co;
+    for (int c = 0; c < kPatch; ++c) {
+      x0[r * kPatch + c] = static_cast<std::int32_t>(std::floor(bx + gu[c] * co));
+      y0[r * kPatch + c] = static_cast<std::int32_t>(std::floor(by + gu[c] * si));
+    }
+  }
+  // 2. Haar responses (8 integral-image lookups each).
+  alignas(32) float dxs[kN], dys[kN];
   const float reach = (kPatch * 0.5f) * s * 1.4143f + side + 2.f;
   const bool inside =
       kp.x - reach >= 0.f && kp.y - reach >= 0.f && kp.x + reach <= W && kp.y + reach <= H;
-  std::fill(out, out + dsize, 0.f);
-  const float c0 = kp.x - (side - 1) * 0.5f, r0c = kp.y - (side - 1) * 0.5f;
-  for (int r = 0; r < kPatch; ++r) {
-    const float v = (r - (kPatch - 1) * 0.5f) * s;
-    float* cell_row = out + (r / 5) * 4 * (extended ? 8 : 4);
-    for (int c = 0; c < kPatch; ++c) {
-      const float u = (c - (kPatch - 1) * 0.5f) * s;
-      const float px = c0 + u * co - v * si, py = r0c + u * si + v * co;
-      int x0 = static_cast<int>(std::floor(px + 0.5f));
-      int y0 = static_cast<int>(std::floor(py + 0.5f));
-      std::int32_t dx, dy;
-      if (inside) {
-        const std::uint32_t* a0 = base + y0 * st + x0;
-        const std::uint32_t* a1 = a0 + half * st;
-        const std::uint32_t* a2 = a0 + side * st;
-        dx = static_cast<std::int32_t>((a2[side] - a0[side]) - 2u * (a2[half] - a0[half]) +
-                                       (a2[0] - a0[0]));
-        dy = static_cast<std::int32_t>((a2[side] - a2[0]) - 2u * (a1[side] - a1[0]) +
-                                       (a0[side] - a0[0]));
-      } else {
-        // Clamp the wavelet's corners to the image: the parts outside contribute nothing.
-        const int xs[3] = {std::clamp(x0, 0, W), std::clamp(x0 + half, 0, W),
-                           std::clamp(x0 + side, 0, W)};
-        const int ys[3] = {std::clamp(y0, 0, H), std::clamp(y0 + half, 0, H),
-                           std::clamp(y0 + side, 0, H)};
-        const auto A = [&](int yi, int xi) { return base[ys[yi] * st + xs[xi]]; };
-        dx = static_cast<std::int32_t>((A(2, 2) - A(0, 2)) - 2u * (A(2, 1) - A(0, 1)) +
-                                       (A(2, 0) - A(0, 0)));
-        dy = static_cast<std::int32_t>((A(2, 2) - A(2, 0)) - 2u * (A(1, 2) - A(1, 0)) +
-                                       (A(0, 2) - A(0, 0)));
-      }
-      const float w = t.desc_weight[r * kPatch + c];
-      // Responses in the keypoint's frame (u along the orientation).
-      const float ru = w * (dx * co + dy * si);
-      const float rv = w * (dy * co - dx * si);
+  if (inside) {
+    for (int k = 0; k < kN; ++k) {
+      const std::uint32_t* a0 = base + y0[k] * st + x0[k];
+      const std::uint32_t* a1 = a0 + half * st;
+      const std::uint32_t* a2 = a0 + side * st;
+      dxs[k] = static_cast<float>(static_cast<std::int32_t>(
+          (a2[side] - a0[side]) - 2u * (a2[half] - a0[half]) + (a2[0] - a0[0])));
+      dys[k] = static_cast<float>(static_cast<std::int32_t>(
+          (a2[side] - a2[0]) - 2u * (a1[side] - a1[0]) + (a0[side] - a0[0])));
+    }
+  } else {
+    // Clamp the wavelets' corners to the image: the parts outside contribute nothing.
+    for (int k = 0; k < kN; ++k) {
+      const int xs[3] = {std::clamp(x0[k], 0, W), std::clamp(x0[k] + half, 0, W),
+                         std::clamp(x0[k] + side, 0, W)};
+      const std::ptrdiff_t ys[3] = {std::clamp(y0[k], 0, H) * st,
+                                    std::clamp(y0[k] + half, 0, H) * st,
+                                    std::clamp(y0[k] + side, 0, H) * st};
+      const auto A = [&](int yi, int xi) { return base[ys[yi] + xs[xi]]; };
+      dxs[k] = static_cast<float>(static_cast<std::int32_t>(
+          (A(2, 2) - A(0, 2)) - 2u * (A(2, 1) - A(0, 1)) + (A(2, 0) - A(0, 0))));
+      dys[k] = static_cast<float>(static_cast<std::int32_t>(
+          (A(2, 2) - A(2, 0)) - 2u * (A(1, 2) - A(1, 0)) + (A(0, 2) - A(0, 0))));
+    }
+  }
+  // 3. Rotate into the keypoint's frame (u along the orientation), weight, and sum over the
+  // 4x4 sub-regions: first per column over each band of 5 rows (element-wise, vectorises), then
+  // 5 columns per sub-region.
+  constexpr int kMaxSums = 8;
+  const int nsums = extended ? 8 : 4;
+  for (int band = 0; band < 4; ++band) {
+    alignas(32) float col[kMaxSums][kPatch] = {};
+    for (int r = band * 5; r < band * 5 + 5; ++r) {
+      const float* w = t.desc_w + r * kPatch;
+      const float* dx = dxs + r * kPatch;
+      const float* dy = dys + r * kPatch;
       if (!extended) {
-        float* cell = cell_row + (c / 5) * 4;
-        cell[0] += ru;
-        cell[1] += rv;
-        cell[2] += std::fabs(ru);
-        cell[3] += std::fabs(rv);
+        for (int c = 0; c < kPatch; ++c) {
+          const float ru = w[c] * (dx[c] * co + dy[c] * si);
+          const float rv = w[c] * (dy[c] * co - dx[c] * si);
+          col[0][c] += ru;
+          col[1][c] += rv;
+          col[2][c] += std::fabs(ru);
+          col[3][c] += std::fabs(rv);
+        }
       } else {
-        float* cell = cell_row + (c / 5) * 8;
         // OpenCV's extended layout: sums of du split by the sign of dv, and of dv by du's sign.
-        if (rv >= 0.f) {
-          cell[0] += ru;
-          cell[1] += std::fabs(ru);
-        } else {
-          cell[2] += ru;
-          cell[3] += std::fabs(ru);
+        for (int c = 0; c < kPatch; ++c) {
+          const float ru = w[c] * (dx[c] * co + dy[c] * si);
+          const float rv = w[c] * (dy[c] * co - dx[c] * si);
+          const bool vpos = rv >= 0.f, upos = ru >= 0.f;
+          col[0][c] += vpos ? ru : 0.f;
+          col[1][c] += vpos ? std::fabs(ru) : 0.f;
+          col[2][c] += vpos ? 0.f : ru;
+          col[3][c] += vpos ? 0.f : std::fabs(ru);
+          col[4][c] += upos ? rv : 0.f;
+          col[5][c] += upos ? std::fabs(rv) : 0.f;
+          col[6][c] += upos ? 0.f : rv;
+          col[7][c] += upos ? 0.f : std::fabs(rv);
         }
-        if (ru >= 0.f) {
-          cell[4] += rv;
-          cell[5] += std::fabs(rv);
-        } else {
-          cell[6] += rv;
-          cell[7] += std::fabs(rv);
-        }
+      }
+    }
+    for (int b = 0; b < 4; ++b) {
+      float* cell = out + (band * 4 + b) * nsums;
+      for (int q = 0; q < nsums; ++q) {
+        const float* cq = col[q] + b * 5;
+        cell[q] = cq[0] + cq[1] + cq[2] + cq[3] + cq[4];
       }
     }
   }
@@ -486,11 +606,12 @@ void Surf::Impl::DescribeOne(const Keypoint& kp, float* out) const {
   }
 }
 
-void Surf::Impl::DescribeAll(const std::vector<Keypoint>& kps, float* out, int dsize) const {
+void Surf::Impl::DescribeAll(const std::vector<Keypoint>& kps, float* out, int dsize) {
   const int threads = ResolveThreads(options.num_threads);
+  const std::vector<std::uint32_t>& order = SpatialOrder(kps);
   const long n = static_cast<long>(kps.size());
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 32)
-  for (long k = 0; k < n; ++k) DescribeOne(kps[k], out + k * dsize);
+  for (long k = 0; k < n; ++k) DescribeOne(kps[order[k]], out + order[k] * dsize);
 }
 
 Surf::Surf(const SurfOptions& options) : impl_(nullptr) {

@@ -43,9 +43,9 @@ void Validate(const SurfOptions& options);
 
 /// Result of one SURF call, returned by value.
 struct SurfResult {
-  FeatureSet features;      ///< Keypoints (sorted by decreasing response) and descriptors.
-  double detect_ms = 0.0;   ///< Integral image + fast-Hessian + orientation.
-  double describe_ms = 0.0; ///< Descriptor computation.
+  FeatureSet features;       ///< Keypoints (sorted by decreasing response) and descriptors.
+  double detect_ms = 0.0;    ///< Integral image + fast-Hessian + orientation.
+  double describe_ms = 0.0;  ///< Descriptor computation.
 };
 
 /// Reusable SURF engine. Keeps its buffers (integral image, response maps) between calls, so
