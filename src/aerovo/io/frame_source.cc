@@ -1,0 +1,411 @@
+#include "aerovo/io/frame_source.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+
+#include <fmt/format.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "aerovo/core/error.h"
+#include "aerovo/io/parse_util.h"
+
+namespace aerovo {
+namespace {
+
+double SteadySeconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+bool IsImageExtension(const std::filesystem::path& p) {
+  const std::string ext = io_detail::ToLower(p.extension().string());
+  return ext == ".jpg" || ext == ".jpeg" || ext == ".png" || ext == ".tif" || ext == ".tiff";
+}
+
+void FillFrame(const cv::Mat& bgr, bool keep_color, Frame& frame) {
+  frame.gray = ToGrayImage(bgr);
+  if (keep_color) {
+    bgr.copyTo(frame.color);
+  } else {
+    frame.color.release();
+  }
+}
+
+}  // namespace
+
+GrayImage ToGrayImage(const cv::Mat& image) {
+  if (image.empty()) return GrayImage();
+  if (image.depth() != CV_8U) {
+    throw InvalidArgument(
+        fmt::format("ToGrayImage: expected an 8-bit image, got depth {}", image.depth()));
+  }
+  cv::Mat gray;
+  switch (image.channels()) {
+    case 1:
+      gray = image;
+      break;
+    case 3:
+      cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+      break;
+    case 4:
+      cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
+      break;
+    default:
+      throw InvalidArgument(
+          fmt::format("ToGrayImage: unsupported channel count {}", image.channels()));
+  }
+  GrayImage out(gray.cols, gray.rows);
+  for (int y = 0; y < gray.rows; ++y) {
+    std::memcpy(out.row(y), gray.ptr<std::uint8_t>(y), static_cast<std::size_t>(gray.cols));
+  }
+  return out;
+}
+
+void Validate(const FrameSourceOptions& o) {
+  if (o.step < 1) throw InvalidArgument(fmt::format("FrameSourceOptions.step {} < 1", o.step));
+  if (!std::isfinite(o.start_time_s) || o.start_time_s < 0.0) {
+    throw InvalidArgument(
+        fmt::format("FrameSourceOptions.start_time_s {} must be finite and >= 0", o.start_time_s));
+  }
+  if (std::isnan(o.end_time_s) || o.end_time_s < o.start_time_s) {
+    throw InvalidArgument(fmt::format("FrameSourceOptions.end_time_s {} must be >= start_time_s {}",
+                                      o.end_time_s, o.start_time_s));
+  }
+}
+
+// ------------------------------------------------------------------------------ video
+
+VideoFileSource::VideoFileSource(const std::filesystem::path& path,
+                                 const FrameSourceOptions& options)
+    : path_(path), options_(options) {
+  Validate(options_);
+  const std::string p = path.string();
+  const auto fail = [&](const std::string& why) {
+    return InputError(fmt::format("cannot open video '{}': {}", p, why));
+  };
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw fail("no such file");
+  if (!std::filesystem::is_regular_file(path, ec)) throw fail("not a regular file");
+  if (std::filesystem::file_size(path, ec) == 0) throw fail("the file is empty (0 bytes)");
+  if (!capture_.open(p, cv::CAP_FFMPEG)) {
+    throw fail(
+        "FFmpeg cannot read it (not a video, an unsupported codec, or a damaged or truncated "
+        "container)");
+  }
+  fps_ = capture_.get(cv::CAP_PROP_FPS);
+  if (!std::isfinite(fps_) || fps_ <= 0.0 || fps_ > 10000.0) fps_ = 0.0;
+  const double count = capture_.get(cv::CAP_PROP_FRAME_COUNT);
+  frame_count_ = std::isfinite(count) && count > 0 && count < 1e9 ? static_cast<int>(count) : 0;
+  width_ = static_cast<int>(capture_.get(cv::CAP_PROP_FRAME_WIDTH));
+  height_ = static_cast<int>(capture_.get(cv::CAP_PROP_FRAME_HEIGHT));
+
+  int start_index = 0;
+  if (options_.start_time_s > 0.0) {
+    if (fps_ <= 0.0) throw fail("start time given but the frame rate is unknown");
+    start_index = static_cast<int>(std::ceil(options_.start_time_s * fps_ - 1e-6));
+    if (frame_count_ > 0 && start_index >= frame_count_) {
+      throw fail(fmt::format("start time {} s is past the end ({} frames at {} fps)",
+                             options_.start_time_s, frame_count_, fps_));
+    }
+    // OpenCV's FFmpeg seek lands on the exact frame (it decodes forward from a key frame).
+    if (!capture_.set(cv::CAP_PROP_POS_FRAMES, start_index) ||
+        static_cast<int>(capture_.get(cv::CAP_PROP_POS_FRAMES)) != start_index) {
+      capture_.set(cv::CAP_PROP_POS_FRAMES, 0);
+      for (int i = 0; i < start_index; ++i) {
+        if (!capture_.grab()) throw fail(fmt::format("cannot reach frame {}", start_index));
+      }
+    }
+  }
+  next_index_ = start_index;
+  if (!capture_.read(first_frame_) || first_frame_.empty()) {
+    throw fail(fmt::format("no frame could be decoded at frame {} (damaged or truncated file?)",
+                           start_index));
+  }
+  ++next_index_;
+  width_ = first_frame_.cols;
+  height_ = first_frame_.rows;
+}
+
+bool VideoFileSource::GrabTo(int target_index) {
+  while (next_index_ < target_index) {
+    if (!capture_.grab()) return false;
+    ++next_index_;
+  }
+  return true;
+}
+
+bool VideoFileSource::Next(Frame& frame) {
+  if (done_) return false;
+  int index;
+  const cv::Mat* image;
+  if (first_) {
+    first_ = false;
+    index = next_index_ - 1;
+    image = &first_frame_;
+  } else {
+    first_frame_.release();
+    const int target = next_index_ - 1 + options_.step;
+    const bool ok = GrabTo(target) && capture_.read(bgr_) && !bgr_.empty();
+    if (!ok) {
+      done_ = true;
+      if (frame_count_ > 0 && target < frame_count_ - 1) {
+        warnings_.push_back(fmt::format(
+            "video '{}' ended at frame {} but its header announces {} frames (truncated?)",
+            path_.string(), next_index_, frame_count_));
+      }
+      return false;
+    }
+    index = next_index_;
+    ++next_index_;
+    image = &bgr_;
+  }
+  const double t = fps_ > 0.0 ? index / fps_ : capture_.get(cv::CAP_PROP_POS_MSEC) / 1000.0;
+  if (t > options_.end_time_s) {
+    done_ = true;
+    return false;
+  }
+  if (image->cols != width_ || image->rows != height_) {
+    throw InputError(fmt::format("video '{}' frame {}: size changed from {}x{} to {}x{}",
+                                 path_.string(), index, width_, height_, image->cols, image->rows));
+  }
+  FillFrame(*image, options_.keep_color, frame);
+  frame.index = index;
+  frame.time_s = t;
+  frame.name = fmt::format("{}#{}", path_.filename().string(), index);
+  return true;
+}
+
+std::string VideoFileSource::Describe() const {
+  return fmt::format("video '{}' {}x{} @ {:.3f} fps, {} frames, step {}", path_.string(), width_,
+                     height_, fps_, frame_count_, options_.step);
+}
+
+int VideoFileSource::ExpectedFrameCount() const {
+  if (frame_count_ <= 0 || fps_ <= 0.0) return -1;
+  const int first = static_cast<int>(std::ceil(options_.start_time_s * fps_ - 1e-6));
+  int last = frame_count_ - 1;
+  if (std::isfinite(options_.end_time_s)) {
+    last = std::min(last, static_cast<int>(std::floor(options_.end_time_s * fps_ + 1e-6)));
+  }
+  return last < first ? 0 : (last - first) / options_.step + 1;
+}
+
+// ------------------------------------------------------------------------------ folder
+
+ImageFolderSource::ImageFolderSource(const std::filesystem::path& folder,
+                                     const FrameSourceOptions& options)
+    : folder_(folder), options_(options) {
+  Validate(options_);
+  std::error_code ec;
+  if (!std::filesystem::is_directory(folder, ec)) {
+    throw InputError(
+        fmt::format("cannot open image folder '{}': not a directory", folder.string()));
+  }
+  std::vector<std::filesystem::path> files;
+  for (const auto& entry : std::filesystem::directory_iterator(folder, ec)) {
+    if (!entry.is_regular_file(ec)) continue;
+    if (IsImageExtension(entry.path())) {
+      files.push_back(entry.path());
+    } else if (options_.skip_non_images) {
+      ++skipped_files_;
+      warnings_.push_back(fmt::format("skipped '{}': not a photo (.jpg .jpeg .png .tif .tiff)",
+                                      entry.path().string()));
+    } else {
+      throw InputError(
+          fmt::format("image folder '{}' contains '{}', which is not a photo "
+                      "(.jpg .jpeg .png .tif .tiff)",
+                      folder.string(), entry.path().filename().string()));
+    }
+  }
+  if (ec) {
+    throw InputError(
+        fmt::format("cannot list image folder '{}': {}", folder.string(), ec.message()));
+  }
+  if (files.empty()) {
+    throw InputError(fmt::format("image folder '{}' has no photos (.jpg .jpeg .png .tif .tiff)",
+                                 folder.string()));
+  }
+  std::sort(files.begin(), files.end());
+  struct Entry {
+    std::filesystem::path path;
+    ImageMetadata meta;
+  };
+  std::vector<Entry> entries;
+  bool all_timed = true;
+  for (const auto& f : files) {
+    Entry e{f, {}};
+    try {
+      e.meta = ReadImageMetadata(f);
+    } catch (const InputError& err) {
+      // The photo may still decode; its metadata is just unusable. Say so, keep going.
+      e.meta = ImageMetadata();
+      e.meta.source = f.string();
+      warnings_.push_back(fmt::format("metadata ignored: {}", err.what()));
+    }
+    all_timed = all_timed && e.meta.capture_unix_time_s.has_value();
+    entries.push_back(std::move(e));
+  }
+  if (all_timed) {
+    std::stable_sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+      return *a.meta.capture_unix_time_s < *b.meta.capture_unix_time_s;
+    });
+  } else {
+    warnings_.push_back(fmt::format(
+        "image folder '{}': not every photo has an EXIF capture time: ordered by file name",
+        folder.string()));
+  }
+  const Entry* sized = nullptr;
+  for (const Entry& e : entries) {
+    if (e.meta.width_px <= 0 || e.meta.height_px <= 0) continue;
+    if (!sized) {
+      sized = &e;
+    } else if (e.meta.width_px != sized->meta.width_px ||
+               e.meta.height_px != sized->meta.height_px) {
+      throw InputError(fmt::format(
+          "image folder '{}': photo '{}' is {}x{} but '{}' is {}x{} (mixed resolutions; all "
+          "photos must have the same size)",
+          folder.string(), e.path.filename().string(), e.meta.width_px, e.meta.height_px,
+          sized->path.filename().string(), sized->meta.width_px, sized->meta.height_px));
+    }
+  }
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    paths_.push_back(entries[i].path);
+    times_.push_back(all_timed ? *entries[i].meta.capture_unix_time_s -
+                                     *entries.front().meta.capture_unix_time_s
+                               : static_cast<double>(i));
+    metadata_.push_back(std::move(entries[i].meta));
+  }
+  // First photo at or after the start time.
+  while (next_ < paths_.size() && times_[next_] < options_.start_time_s) ++next_;
+}
+
+bool ImageFolderSource::Next(Frame& frame) {
+  if (next_ >= paths_.size() || times_[next_] > options_.end_time_s) return false;
+  const std::size_t i = next_;
+  next_ += static_cast<std::size_t>(options_.step);
+  const std::string name = paths_[i].filename().string();
+  // Pixel geometry as stored: a nadir camera's EXIF orientation must not rotate the frames.
+  const cv::Mat bgr =
+      cv::imread(paths_[i].string(), cv::IMREAD_COLOR | cv::IMREAD_IGNORE_ORIENTATION);
+  if (bgr.empty()) {
+    throw InputError(fmt::format("cannot decode photo '{}' (frame {}): not an image or damaged",
+                                 paths_[i].string(), i));
+  }
+  if (width_ == 0) {
+    width_ = bgr.cols;
+    height_ = bgr.rows;
+  } else if (bgr.cols != width_ || bgr.rows != height_) {
+    throw InputError(
+        fmt::format("photo '{}' (frame {}) is {}x{} but the sequence is {}x{} (mixed "
+                    "resolutions)",
+                    paths_[i].string(), i, bgr.cols, bgr.rows, width_, height_));
+  }
+  FillFrame(bgr, options_.keep_color, frame);
+  frame.index = static_cast<int>(i);
+  frame.time_s = times_[i];
+  frame.name = name;
+  return true;
+}
+
+std::string ImageFolderSource::Describe() const {
+  return fmt::format("image folder '{}': {} photos, {} other files skipped, step {}",
+                     folder_.string(), paths_.size(), skipped_files_, options_.step);
+}
+
+int ImageFolderSource::ExpectedFrameCount() const {
+  std::size_t first = 0;
+  while (first < times_.size() && times_[first] < options_.start_time_s) ++first;
+  std::size_t end = first;
+  while (end < times_.size() && times_[end] <= options_.end_time_s) ++end;
+  if (end <= first) return 0;
+  return static_cast<int>((end - first - 1) / static_cast<std::size_t>(options_.step) + 1);
+}
+
+// ------------------------------------------------------------------------------ live
+
+LiveSource::LiveSource(int camera_index, const FrameSourceOptions& options)
+    : spec_(std::to_string(camera_index)), options_(options) {
+  Validate(options_);
+  if (camera_index < 0) {
+    throw InputError(fmt::format("cannot open live source '{}': negative camera index", spec_));
+  }
+  capture_.open(camera_index);
+  Init();
+}
+
+LiveSource::LiveSource(const std::string& device_or_url, const FrameSourceOptions& options)
+    : spec_(device_or_url), options_(options) {
+  Validate(options_);
+  capture_.open(device_or_url);
+  Init();
+}
+
+void LiveSource::Init() {
+  if (!capture_.isOpened()) {
+    throw InputError(fmt::format(
+        "cannot open live source '{}': no such camera/device, or the stream is unreachable",
+        spec_));
+  }
+  t0_ = SteadySeconds();
+}
+
+bool LiveSource::Next(Frame& frame) {
+  while (!done_) {
+    // Drop the frames between two delivered ones without decoding them.
+    bool ok = true;
+    if (next_index_ > 0) {
+      for (int i = 1; i < options_.step && ok; ++i, ++next_index_) ok = capture_.grab();
+    }
+    ok = ok && capture_.read(bgr_) && !bgr_.empty();
+    if (!ok) {
+      done_ = true;
+      warnings_.push_back(
+          fmt::format("live source '{}' stopped after {} frames", spec_, next_index_));
+      return false;
+    }
+    const int index = next_index_++;
+    const double t = SteadySeconds() - t0_;
+    if (t < options_.start_time_s) continue;
+    if (t > options_.end_time_s) {
+      done_ = true;
+      return false;
+    }
+    FillFrame(bgr_, options_.keep_color, frame);
+    frame.index = index;
+    frame.time_s = t;
+    frame.name = fmt::format("live#{}", index);
+    return true;
+  }
+  return false;
+}
+
+std::string LiveSource::Describe() const {
+  return fmt::format("live source '{}' ({}x{}), step {}", spec_,
+                     static_cast<int>(capture_.get(cv::CAP_PROP_FRAME_WIDTH)),
+                     static_cast<int>(capture_.get(cv::CAP_PROP_FRAME_HEIGHT)), options_.step);
+}
+
+// ------------------------------------------------------------------------------ factory
+
+std::unique_ptr<FrameSource> OpenFrameSource(const std::string& spec,
+                                             const FrameSourceOptions& options) {
+  if (spec.empty()) throw InputError("empty frame source");
+  if (std::all_of(spec.begin(), spec.end(), [](char c) { return c >= '0' && c <= '9'; }) &&
+      spec.size() <= 4) {
+    return std::make_unique<LiveSource>(std::stoi(spec), options);
+  }
+  if (spec.find("://") != std::string::npos || spec.rfind("/dev/", 0) == 0) {
+    return std::make_unique<LiveSource>(spec, options);
+  }
+  const std::filesystem::path path(spec);
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    return std::make_unique<ImageFolderSource>(path, options);
+  }
+  if (std::filesystem::exists(path, ec)) return std::make_unique<VideoFileSource>(path, options);
+  throw InputError(fmt::format("frame source '{}': no such file or directory", spec));
+}
+
+}  // namespace aerovo

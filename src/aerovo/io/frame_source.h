@@ -1,0 +1,167 @@
+// Sources of frames for the odometry: video files, image folders and live cameras/streams,
+// all decoded through OpenCV and delivered as 8-bit grey images.
+#pragma once
+
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "aerovo/core/image.h"
+#include "aerovo/io/image_metadata.h"
+
+namespace aerovo {
+
+/// One frame as delivered by a FrameSource.
+struct Frame {
+  GrayImage gray;  ///< 8-bit grey (OpenCV BGR->grey weights: 0.299 R + 0.587 G + 0.114 B).
+  cv::Mat color;   ///< BGR 8-bit, only when FrameSourceOptions::keep_color (else empty).
+  /// 0-based position in the source: the video frame number, the photo's rank in the ordered
+  /// folder, the count of frames read from a live source. With step k, indices go 0, k, 2k...
+  int index = -1;
+  /// Seconds: video = index / fps (the container's timestamp when fps is unknown); photos =
+  /// capture time - the first photo's (or the rank when a photo has no capture time); live =
+  /// time since the source was opened (steady clock).
+  double time_s = 0.0;
+  std::string name;  ///< Photo file name, or "<video file name>#<index>", or "live#<index>".
+};
+
+/// Options of every frame source. Validate() checks them.
+struct FrameSourceOptions {
+  /// Deliver every k-th frame (k >= 1). The paper processes every k-th video frame; default 1.
+  int step = 1;
+  /// Frames with time_s < start_time_s are skipped (videos seek there). Default 0.
+  double start_time_s = 0.0;
+  /// Frames with time_s > end_time_s end the source. Default: no limit.
+  double end_time_s = std::numeric_limits<double>::infinity();
+  /// Keep the BGR image in Frame::color (costs a copy per frame). Default false.
+  bool keep_color = false;
+  /// Image folders: files that are not images (by extension) are skipped and counted in
+  /// warnings() (true, default) or make the folder an error (false).
+  bool skip_non_images = true;
+};
+
+/// Throws InvalidArgument naming the field: step < 1, start_time_s < 0 or not finite,
+/// end_time_s < start_time_s or NaN.
+void Validate(const FrameSourceOptions& options);
+
+/// A sequence of frames. Next() fills `frame` and returns true, or returns false at the end.
+/// Errors that make the source unusable (cannot open, undecodable photo, size change) throw
+/// InputError naming the source and the frame; a video that ends before its header's frame
+/// count ends the sequence with a message in warnings().
+class FrameSource {
+ public:
+  virtual ~FrameSource() = default;
+  virtual bool Next(Frame& frame) = 0;
+  /// What is being read ("video 'flight.mp4' 1920x1080 @ 29.97 fps, 1234 frames").
+  virtual std::string Describe() const = 0;
+  /// Frames Next() will deliver in total (after step/start/end) if known, else -1.
+  virtual int ExpectedFrameCount() const { return -1; }
+  /// Non-fatal problems met so far (skipped files, early end of stream).
+  const std::vector<std::string>& warnings() const { return warnings_; }
+
+ protected:
+  std::vector<std::string> warnings_;
+};
+
+/// A video file read with cv::VideoCapture (FFmpeg backend).
+/// Opening throws InputError "cannot open video '<path>': <reason>" for a missing or empty
+/// file, a file FFmpeg cannot read (text named .mp4, truncated container) or a video whose
+/// first frame cannot be decoded.
+class VideoFileSource : public FrameSource {
+ public:
+  explicit VideoFileSource(const std::filesystem::path& path,
+                           const FrameSourceOptions& options = {});
+  bool Next(Frame& frame) override;
+  std::string Describe() const override;
+  int ExpectedFrameCount() const override;
+  double fps() const { return fps_; }
+  int frame_count() const { return frame_count_; }  ///< From the container (may be 0/wrong).
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+ private:
+  bool GrabTo(int target_index);  // grabs frames until next_index_ == target_index
+
+  std::filesystem::path path_;
+  FrameSourceOptions options_;
+  cv::VideoCapture capture_;
+  double fps_ = 0.0;
+  int frame_count_ = 0;
+  int width_ = 0, height_ = 0;
+  int next_index_ = 0;  // index of the frame the next grab() returns
+  bool first_ = true;
+  bool done_ = false;
+  cv::Mat bgr_;
+  cv::Mat first_frame_;  // decoded at open to prove the file is readable
+};
+
+/// The photos of a folder (not recursive): .jpg .jpeg .png .tif .tiff, any case.
+/// Order: by EXIF capture time (DateTimeOriginal + SubSecTimeOriginal), ties by file name,
+/// when every photo has one; otherwise by file name (with a warning). Other files are skipped
+/// and counted in warnings() (or throw with skip_non_images = false). Photos of different
+/// sizes throw InputError naming the odd photo and both sizes (checked from the headers at
+/// opening, and again on decoding). An undecodable photo throws InputError naming it.
+class ImageFolderSource : public FrameSource {
+ public:
+  explicit ImageFolderSource(const std::filesystem::path& folder,
+                             const FrameSourceOptions& options = {});
+  bool Next(Frame& frame) override;
+  std::string Describe() const override;
+  int ExpectedFrameCount() const override;
+  /// All photos in delivery order (before step/start/end), with their metadata.
+  const std::vector<std::filesystem::path>& paths() const { return paths_; }
+  const std::vector<ImageMetadata>& metadata() const { return metadata_; }
+  /// time_s of photo i (see Frame::time_s).
+  double TimeOf(std::size_t i) const { return times_[i]; }
+  int skipped_files() const { return skipped_files_; }
+
+ private:
+  std::filesystem::path folder_;
+  FrameSourceOptions options_;
+  std::vector<std::filesystem::path> paths_;
+  std::vector<ImageMetadata> metadata_;
+  std::vector<double> times_;
+  std::size_t next_ = 0;
+  int width_ = 0, height_ = 0;
+  int skipped_files_ = 0;
+};
+
+/// A camera or stream: a camera index ("0"), a device path ("/dev/video0") or a URL
+/// ("rtsp://...", "http://..."). Frames are delivered as they arrive; with step k the k-1
+/// frames in between are grabbed and dropped (no decode). time_s = seconds since opening.
+/// Opening throws InputError "cannot open live source '<spec>': ..."; a stream that stops
+/// ends the sequence with a warning.
+class LiveSource : public FrameSource {
+ public:
+  explicit LiveSource(int camera_index, const FrameSourceOptions& options = {});
+  explicit LiveSource(const std::string& device_or_url, const FrameSourceOptions& options = {});
+  bool Next(Frame& frame) override;
+  std::string Describe() const override;
+
+ private:
+  void Init();
+  std::string spec_;
+  FrameSourceOptions options_;
+  cv::VideoCapture capture_;
+  int next_index_ = 0;
+  double t0_ = 0.0;
+  bool done_ = false;
+  cv::Mat bgr_;
+};
+
+/// Chooses the source from `spec`: an all-digit string -> camera index; "scheme://..." or a
+/// path under /dev/ -> LiveSource; an existing directory -> ImageFolderSource; an existing
+/// file -> VideoFileSource. Throws InputError when nothing exists at `spec`.
+std::unique_ptr<FrameSource> OpenFrameSource(const std::string& spec,
+                                             const FrameSourceOptions& options = {});
+
+/// Converts an OpenCV 8-bit image (1, 3 or 4 channels) to a GrayImage (copy).
+/// Throws InvalidArgument for other depths/channel counts.
+GrayImage ToGrayImage(const cv::Mat& image);
+
+}  // namespace aerovo

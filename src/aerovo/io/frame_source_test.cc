@@ -1,0 +1,347 @@
+#include "aerovo/io/frame_source.h"
+
+#include <fstream>
+#include <iterator>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "aerovo/core/error.h"
+#include "aerovo/core/testing.h"
+#include "aerovo/io/io_test_util.h"
+
+namespace aerovo {
+namespace {
+
+using ::testing::HasSubstr;
+
+template <typename Fn>
+void ExpectInputError(Fn fn, std::initializer_list<const char*> fragments) {
+  try {
+    fn();
+    ADD_FAILURE() << "no InputError thrown";
+  } catch (const InputError& e) {
+    for (const char* f : fragments) EXPECT_THAT(e.what(), HasSubstr(f));
+  }
+}
+
+double MeanGray(const GrayImage& g) {
+  double sum = 0.0;
+  for (int y = 0; y < g.height(); ++y) {
+    for (int x = 0; x < g.width(); ++x) sum += g.at(x, y);
+  }
+  return sum / (static_cast<double>(g.width()) * g.height());
+}
+
+constexpr int kFrames = 20;
+constexpr double kFps = 10.0;
+
+// Frame i is uniform grey 10 + 10 i (so its index can be read back after lossy coding).
+void WriteTestVideo(const std::filesystem::path& path, const char* fourcc) {
+  cv::VideoWriter writer(path.string(), cv::CAP_FFMPEG,
+                         cv::VideoWriter::fourcc(fourcc[0], fourcc[1], fourcc[2], fourcc[3]), kFps,
+                         cv::Size(64, 48));
+  ASSERT_TRUE(writer.isOpened()) << path;
+  for (int i = 0; i < kFrames; ++i) {
+    const int v = 10 + 10 * i;
+    writer.write(cv::Mat(48, 64, CV_8UC3, cv::Scalar(v, v, v)));
+  }
+}
+
+void CheckStepTwo(const std::filesystem::path& path) {
+  FrameSourceOptions o;
+  o.step = 2;
+  VideoFileSource src(path, o);
+  EXPECT_EQ(src.width(), 64);
+  EXPECT_EQ(src.height(), 48);
+  EXPECT_NEAR(src.fps(), kFps, 1e-6);
+  EXPECT_EQ(src.ExpectedFrameCount(), kFrames / 2);
+  Frame f;
+  std::vector<int> indices;
+  while (src.Next(f)) {
+    indices.push_back(f.index);
+    EXPECT_NEAR(f.time_s, f.index / kFps, 1e-9);
+    EXPECT_NEAR(MeanGray(f.gray), 10 + 10 * f.index, 3.0) << "frame " << f.index;
+    EXPECT_EQ(f.gray.width(), 64);
+    EXPECT_TRUE(f.color.empty());
+    EXPECT_EQ(f.name, path.filename().string() + "#" + std::to_string(f.index));
+  }
+  EXPECT_EQ(indices, (std::vector<int>{0, 2, 4, 6, 8, 10, 12, 14, 16, 18}));
+  EXPECT_FALSE(src.Next(f));  // stays at the end
+  EXPECT_TRUE(src.warnings().empty());
+}
+
+TEST(VideoFileSource, MjpgAviStepTwo) {
+  io_test::TempDir dir("aerovo_video");
+  WriteTestVideo(dir / "clip.avi", "MJPG");
+  CheckStepTwo(dir / "clip.avi");
+}
+
+TEST(VideoFileSource, Mp4vMp4StepTwo) {
+  io_test::TempDir dir("aerovo_video");
+  WriteTestVideo(dir / "clip.mp4", "mp4v");
+  CheckStepTwo(dir / "clip.mp4");
+}
+
+TEST(VideoFileSource, StartEndTimesAndColour) {
+  io_test::TempDir dir("aerovo_video");
+  WriteTestVideo(dir / "clip.avi", "MJPG");
+  FrameSourceOptions o;
+  o.start_time_s = 0.5;
+  o.end_time_s = 1.2;
+  o.step = 3;
+  o.keep_color = true;
+  VideoFileSource src(dir / "clip.avi", o);
+  EXPECT_EQ(src.ExpectedFrameCount(), 3);
+  Frame f;
+  std::vector<int> indices;
+  while (src.Next(f)) {
+    indices.push_back(f.index);
+    EXPECT_NEAR(MeanGray(f.gray), 10 + 10 * f.index, 3.0);
+    ASSERT_EQ(f.color.type(), CV_8UC3);
+    EXPECT_NEAR(cv::mean(f.color)[0], 10 + 10 * f.index, 3.0);
+  }
+  EXPECT_EQ(indices, (std::vector<int>{5, 8, 11}));
+}
+
+TEST(VideoFileSource, BadFilesGiveClearErrors) {
+  io_test::TempDir dir("aerovo_video_bad");
+  std::ofstream(dir / "empty.mp4").close();
+  ExpectInputError([&] { VideoFileSource s(dir / "empty.mp4"); },
+                   {"cannot open video '", "empty.mp4': ", "empty (0 bytes)"});
+  std::ofstream(dir / "text.mp4") << "this is a text file, not a video\n";
+  ExpectInputError([&] { VideoFileSource s(dir / "text.mp4"); },
+                   {"cannot open video '", "text.mp4': "});
+  ExpectInputError([&] { VideoFileSource s(dir / "missing.mp4"); },
+                   {"cannot open video '", "missing.mp4': no such file"});
+  // A real MP4 cut in half: mp4v files keep their index (moov) at the end, so it is lost.
+  WriteTestVideo(dir / "full.mp4", "mp4v");
+  {
+    std::ifstream in(dir / "full.mp4", std::ios::binary);
+    std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    ASSERT_GT(bytes.size(), 1000u);
+    std::ofstream(dir / "cut.mp4", std::ios::binary)
+        .write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
+  }
+  ExpectInputError([&] { VideoFileSource s(dir / "cut.mp4"); },
+                   {"cannot open video '", "cut.mp4': "});
+  // An MJPG AVI cut in half keeps its header (frame count 20): it opens, delivers the frames
+  // that are complete, then ends early with a warning.
+  {
+    cv::VideoWriter w((dir / "noise.avi").string(), cv::CAP_FFMPEG,
+                      cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), kFps, cv::Size(64, 48));
+    for (int i = 0; i < kFrames; ++i) w.write(io_test::TextureImage(64, 48, i));
+  }
+  {
+    std::ifstream in(dir / "noise.avi", std::ios::binary);
+    std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(dir / "cut.avi", std::ios::binary)
+        .write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
+  }
+  VideoFileSource cut(dir / "cut.avi");
+  EXPECT_EQ(cut.frame_count(), kFrames);
+  Frame f;
+  int n = 0;
+  while (cut.Next(f)) {
+    EXPECT_EQ(f.index, n);
+    ++n;
+  }
+  EXPECT_GT(n, kFrames / 4);
+  EXPECT_LT(n, kFrames * 3 / 4);
+  ASSERT_EQ(cut.warnings().size(), 1u);
+  EXPECT_THAT(cut.warnings()[0], HasSubstr("cut.avi"));
+  EXPECT_THAT(cut.warnings()[0], HasSubstr("truncated"));
+  WriteTestVideo(dir / "full.avi", "MJPG");
+  FrameSourceOptions late;
+  late.start_time_s = 100.0;
+  ExpectInputError([&] { VideoFileSource s(dir / "full.avi", late); }, {"past the end"});
+}
+
+TEST(FrameSourceOptions, Validate) {
+  FrameSourceOptions o;
+  EXPECT_NO_THROW(Validate(o));
+  o.step = 0;
+  EXPECT_THROW(Validate(o), InvalidArgument);
+  o = {};
+  o.start_time_s = -1.0;
+  EXPECT_THROW(Validate(o), InvalidArgument);
+  o = {};
+  o.start_time_s = 5.0;
+  o.end_time_s = 4.0;
+  EXPECT_THROW(Validate(o), InvalidArgument);
+}
+
+// Photos whose name order differs from their capture order: a.jpg 12:00:10, b.jpg 12:00:00,
+// c.png (no EXIF from imwrite; tagged through Exiv2 too) ...
+TEST(ImageFolderSource, OrdersByExifTimeThenName) {
+  io_test::TempDir dir("aerovo_folder");
+  const auto shade = [](int v) { return cv::Mat(30, 40, CV_8UC3, cv::Scalar(v, v, v)); };
+  io_test::WriteJpegWithTags(dir / "a.jpg", shade(200),
+                             {{"Exif.Photo.DateTimeOriginal", "2023:05:01 12:00:10"}});
+  io_test::WriteJpegWithTags(dir / "b.jpg", shade(50),
+                             {{"Exif.Photo.DateTimeOriginal", "2023:05:01 12:00:00"}});
+  io_test::WriteJpegWithTags(dir / "c.jpg", shade(100),
+                             {{"Exif.Photo.DateTimeOriginal", "2023:05:01 12:00:05"},
+                              {"Exif.Photo.SubSecTimeOriginal", "5"}});
+  io_test::WriteJpegWithTags(dir / "d.JPG", shade(150),
+                             {{"Exif.Photo.DateTimeOriginal", "2023:05:01 12:00:05"},
+                              {"Exif.Photo.SubSecTimeOriginal", "5"}});  // tie with c: by name
+  std::ofstream(dir / "notes.txt") << "flight notes\n";
+
+  ImageFolderSource src(dir.path());
+  ASSERT_EQ(src.paths().size(), 4u);
+  EXPECT_EQ(src.skipped_files(), 1);
+  ASSERT_EQ(src.warnings().size(), 1u);
+  EXPECT_THAT(src.warnings()[0], HasSubstr("notes.txt"));
+  EXPECT_EQ(src.ExpectedFrameCount(), 4);
+  Frame f;
+  std::vector<std::string> names;
+  std::vector<double> times, shades;
+  while (src.Next(f)) {
+    names.push_back(f.name);
+    times.push_back(f.time_s);
+    shades.push_back(MeanGray(f.gray));
+    EXPECT_EQ(f.index, static_cast<int>(names.size()) - 1);
+  }
+  EXPECT_EQ(names, (std::vector<std::string>{"b.jpg", "c.jpg", "d.JPG", "a.jpg"}));
+  ASSERT_EQ(times.size(), 4u);
+  EXPECT_DOUBLE_EQ(times[0], 0.0);
+  EXPECT_DOUBLE_EQ(times[1], 5.5);
+  EXPECT_DOUBLE_EQ(times[2], 5.5);
+  EXPECT_DOUBLE_EQ(times[3], 10.0);
+  EXPECT_NEAR(shades[0], 50, 2);
+  EXPECT_NEAR(shades[3], 200, 2);
+
+  FrameSourceOptions o;
+  o.step = 2;
+  ImageFolderSource stepped(dir.path(), o);
+  EXPECT_EQ(stepped.ExpectedFrameCount(), 2);
+  std::vector<int> idx;
+  while (stepped.Next(f)) idx.push_back(f.index);
+  EXPECT_EQ(idx, (std::vector<int>{0, 2}));
+
+  o = {};
+  o.start_time_s = 1.0;
+  o.end_time_s = 6.0;
+  ImageFolderSource windowed(dir.path(), o);
+  names.clear();
+  while (windowed.Next(f)) names.push_back(f.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"c.jpg", "d.JPG"}));
+
+  o = {};
+  o.skip_non_images = false;
+  ExpectInputError([&] { ImageFolderSource s(dir.path(), o); }, {"notes.txt", "not a photo"});
+}
+
+TEST(ImageFolderSource, NameOrderWithoutExifAndPngTiff) {
+  io_test::TempDir dir("aerovo_folder_plain");
+  cv::imwrite((dir / "frame_2.png").string(), io_test::TextureImage(40, 30, 2));
+  cv::imwrite((dir / "frame_1.tif").string(), io_test::TextureImage(40, 30, 1));
+  cv::imwrite((dir / "frame_3.jpeg").string(), io_test::TextureImage(40, 30, 3));
+  ImageFolderSource src(dir.path());
+  Frame f;
+  std::vector<std::string> names;
+  std::vector<double> times;
+  while (src.Next(f)) {
+    names.push_back(f.name);
+    times.push_back(f.time_s);
+  }
+  EXPECT_EQ(names, (std::vector<std::string>{"frame_1.tif", "frame_2.png", "frame_3.jpeg"}));
+  EXPECT_EQ(times, (std::vector<double>{0.0, 1.0, 2.0}));  // rank: no capture times
+  // The TIFF is lossless: its grey values are exactly OpenCV's conversion of the texture.
+  ImageFolderSource again(dir.path());
+  ASSERT_TRUE(again.Next(f));
+  cv::Mat expect;
+  cv::cvtColor(io_test::TextureImage(40, 30, 1), expect, cv::COLOR_BGR2GRAY);
+  int diffs = 0;
+  for (int y = 0; y < 30; ++y) {
+    for (int x = 0; x < 40; ++x) diffs += f.gray.at(x, y) != expect.at<std::uint8_t>(y, x);
+  }
+  EXPECT_EQ(diffs, 0);
+}
+
+TEST(ImageFolderSource, BadFolders) {
+  io_test::TempDir dir("aerovo_folder_bad");
+  ExpectInputError([&] { ImageFolderSource s(dir.path()); }, {"has no photos"});
+  ExpectInputError([&] { ImageFolderSource s(dir / "nope"); }, {"not a directory"});
+  cv::imwrite((dir / "a.jpg").string(), io_test::TextureImage(40, 30, 1));
+  cv::imwrite((dir / "b.jpg").string(), io_test::TextureImage(64, 48, 2));
+  ExpectInputError([&] { ImageFolderSource s(dir.path()); },
+                   {"b.jpg", "64x48", "a.jpg", "40x30", "mixed resolutions"});
+  std::filesystem::remove(dir / "b.jpg");
+  std::ofstream(dir / "b.jpg") << "not really a jpeg";
+  ImageFolderSource s(dir.path());  // metadata unreadable: warned, order by name
+  EXPECT_FALSE(s.warnings().empty());
+  Frame f;
+  ASSERT_TRUE(s.Next(f));
+  EXPECT_EQ(f.name, "a.jpg");
+  ExpectInputError([&] { s.Next(f); }, {"cannot decode photo", "b.jpg", "frame 1"});
+}
+
+TEST(ImageFolderSource, TampaFolderOrderAndSize) {
+  AEROVO_REQUIRE_SHARED(dir, "data/flights/tampa-phantom3");
+  FrameSourceOptions o;
+  o.end_time_s = 20.0;
+  ImageFolderSource src(dir, o);
+  EXPECT_EQ(src.paths().size(), 172u);
+  EXPECT_EQ(src.skipped_files(), 0);
+  // EXIF time order is the order of the names (README: names are in flight order).
+  std::vector<std::filesystem::path> sorted = src.paths();
+  std::sort(sorted.begin(), sorted.end());
+  EXPECT_EQ(sorted, src.paths());
+  Frame f;
+  ASSERT_TRUE(src.Next(f));
+  EXPECT_EQ(f.name, "DJI_0054.JPG");
+  EXPECT_EQ(f.gray.width(), 800);
+  EXPECT_EQ(f.gray.height(), 600);
+  EXPECT_DOUBLE_EQ(f.time_s, 0.0);
+}
+
+TEST(LiveSource, StreamFromAFileAndFactory) {
+  io_test::TempDir dir("aerovo_live");
+  WriteTestVideo(dir / "cam.avi", "MJPG");
+  FrameSourceOptions o;
+  o.step = 4;
+  LiveSource live((dir / "cam.avi").string(), o);
+  Frame f;
+  std::vector<int> idx;
+  double last_t = -1.0;
+  while (live.Next(f)) {
+    idx.push_back(f.index);
+    EXPECT_NEAR(MeanGray(f.gray), 10 + 10 * f.index, 3.0);
+    EXPECT_GE(f.time_s, last_t);
+    last_t = f.time_s;
+  }
+  EXPECT_EQ(idx, (std::vector<int>{0, 4, 8, 12, 16}));
+  ASSERT_EQ(live.warnings().size(), 1u);  // the "stream" stopped
+  ExpectInputError([&] { LiveSource s(std::string("rtsp://127.0.0.1:1/none")); },
+                   {"cannot open live source", "rtsp://127.0.0.1:1/none"});
+
+  EXPECT_NE(dynamic_cast<VideoFileSource*>(OpenFrameSource((dir / "cam.avi").string()).get()),
+            nullptr);
+  cv::imwrite((dir / "p.png").string(), io_test::TextureImage(8, 8, 1));
+  std::filesystem::create_directories(dir / "photos");
+  cv::imwrite((dir / "photos" / "p.png").string(), io_test::TextureImage(8, 8, 1));
+  EXPECT_NE(dynamic_cast<ImageFolderSource*>(OpenFrameSource((dir / "photos").string()).get()),
+            nullptr);
+  ExpectInputError([&] { OpenFrameSource((dir / "nothing").string()); },
+                   {"nothing", "no such file or directory"});
+  ExpectInputError([&] { OpenFrameSource(""); }, {"empty frame source"});
+}
+
+TEST(ToGrayImage, ChannelsAndDepth) {
+  cv::Mat bgr(2, 3, CV_8UC3, cv::Scalar(0, 0, 255));  // pure red
+  GrayImage g = ToGrayImage(bgr);
+  EXPECT_EQ(g.width(), 3);
+  EXPECT_EQ(g.height(), 2);
+  EXPECT_EQ(g.at(2, 1), 76);  // 0.299 * 255
+  cv::Mat one(2, 2, CV_8UC1, cv::Scalar(7));
+  EXPECT_EQ(ToGrayImage(one).at(1, 1), 7);
+  EXPECT_THROW(ToGrayImage(cv::Mat(2, 2, CV_16UC1)), InvalidArgument);
+  EXPECT_TRUE(ToGrayImage(cv::Mat()).empty());
+}
+
+}  // namespace
+}  // namespace aerovo
