@@ -16,16 +16,11 @@ namespace aerovo {
 
 void Validate(const OdometryOptions& o) {
   Validate(o.surf);
-  Validate(o.match);
-  Validate(o.ransac);
+  Validate(o.correspondence);
   auto fail = [](const std::string& what) { throw InvalidArgument("OdometryOptions." + what); };
   if (!(o.focal_px >= 0.0) || !std::isfinite(o.focal_px)) fail("focal_px must be >= 0");
   if (!(o.default_height_m >= 0.0) || !std::isfinite(o.default_height_m)) {
     fail("default_height_m must be >= 0");
-  }
-  if (o.min_inliers < MinSampleSize(o.model)) {
-    fail("min_inliers must be at least the model's minimal sample (" +
-         std::to_string(MinSampleSize(o.model)) + "), got " + std::to_string(o.min_inliers));
   }
   if (o.min_features < 0) fail("min_features must be >= 0");
   if (!(o.max_scale_change > 0.0 && o.max_scale_change < 1.0)) {
@@ -34,6 +29,7 @@ void Validate(const OdometryOptions& o) {
   if (!(o.max_anisotropy >= 1.0)) fail("max_anisotropy must be >= 1");
   if (!(o.max_shift_fraction > 0.0)) fail("max_shift_fraction must be > 0");
   if (o.max_reacquire_gap < 1) fail("max_reacquire_gap must be >= 1");
+  if (!(o.refine_radius_px > 0.f)) fail("refine_radius_px must be > 0");
 }
 
 const char* ToString(FrameStatus status) {
@@ -100,12 +96,27 @@ Eigen::Matrix3d Power(const Eigen::Matrix3d& m, int k) {
 }  // namespace
 
 struct VisualOdometry::Impl {
-  explicit Impl(const OdometryOptions& o) : surf(o.surf), matcher(o.match) {}
+  explicit Impl(const OdometryOptions& o)
+      : surf(o.surf),
+        guided(WithGuidance(o.correspondence, true)),
+        unguided(WithGuidance(o.correspondence, false)),
+        refine(RefineOptions(o)) {}
+
+  static CorrespondenceOptions RefineOptions(const OdometryOptions& o) {
+    CorrespondenceOptions c = o.correspondence;
+    c.method = CorrespondenceMethod::kStandard;
+    c.guided_matching = true;
+    c.match.guided_radius_px = o.refine_radius_px;
+    return c;
+  }
+
+  static CorrespondenceOptions WithGuidance(CorrespondenceOptions c, bool guided) {
+    c.guided_matching = guided;
+    return c;
+  }
 
   Surf surf;
-  Matcher matcher;
-  RansacWorkspace ransac_ws;
-  Eigen::Matrix2Xd prev_px, curr_px;
+  CorrespondenceStage guided, unguided, refine;
 
   int width = 0, height = 0;
   int next_index = 0;
@@ -120,33 +131,37 @@ struct VisualOdometry::Impl {
   Eigen::Matrix3d velocity = Eigen::Matrix3d::Identity();
   bool have_velocity = false;
 
-  // Match `ref` against `curr` and fit the model; with `prior`, guided matching.
-  Attempt Correspond(const OdometryOptions& o, const FeatureSet& ref, const FeatureSet& curr,
+  // Correspondence of `ref` and `curr`; `prior` = predicted curr_from_ref (clustered: used for
+  // the crop and, when guided, the search windows; standard guided: the search windows).
+  Attempt Correspond(bool use_guided, const FeatureSet& ref, const FeatureSet& curr,
                      const std::optional<Eigen::Matrix3d>& prior) {
+    CorrespondenceStage& stage = use_guided ? guided : unguided;
+    const CorrespondenceResult c = stage.Run(ref, width, height, curr, prior);
     Attempt a;
-    Stopwatch watch;
-    std::optional<Eigen::Matrix<double, 2, 3>> guide;
-    if (prior) guide = AffinePart(*prior);
-    const MatchResult m = matcher.Match(ref, curr, {}, guide);
-    a.n_matched = static_cast<int>(m.matches.size());
-    prev_px.resize(2, a.n_matched);
-    curr_px.resize(2, a.n_matched);
-    for (int i = 0; i < a.n_matched; ++i) {
-      const Keypoint& p = ref.keypoints[m.matches[i].prev_index];
-      const Keypoint& c = curr.keypoints[m.matches[i].curr_index];
-      prev_px.col(i) << p.x, p.y;
-      curr_px.col(i) << c.x, c.y;
-    }
-    a.correspond_ms = watch.elapsed_ms();
-    watch.restart();
-    const RansacResult r = EstimateTransform(o.model, SamplerKind::kUniform, o.ransac, prev_px,
-                                             curr_px, nullptr, ransac_ws);
-    a.estimate_ms = watch.elapsed_ms();
-    a.success = r.success;
-    a.curr_from_ref = r.curr_from_prev;
-    a.n_inliers = r.num_inliers;
-    a.attempts = 1;
+    a.success = c.success;
+    a.curr_from_ref = c.curr_from_prev;
+    a.n_matched = static_cast<int>(c.matches.size());
+    a.n_inliers = c.num_inliers;
+    a.cluster =
+        c.cell_row >= 0 ? c.cell_row * stage.options().clustered.grid_cols + c.cell_col : -1;
+    a.attempts = c.attempts;
+    a.fell_back = c.fell_back;
+    a.correspond_ms = c.match_ms;
+    a.estimate_ms = c.estimate_ms;
     return a;
+  }
+
+  // Refit of an accepted step on all points, guided tightly by it (see refine_on_all_points).
+  void Refine(const FeatureSet& ref, const FeatureSet& curr, Attempt* a) {
+    const CorrespondenceResult c = refine.Standard(ref, curr, a->curr_from_ref);
+    a->correspond_ms += c.match_ms;
+    a->estimate_ms += c.estimate_ms;
+    ++a->attempts;
+    if (c.success && c.num_inliers > a->n_inliers) {
+      a->curr_from_ref = c.curr_from_prev;
+      a->n_matched = static_cast<int>(c.matches.size());
+      a->n_inliers = c.num_inliers;
+    }
   }
 };
 
@@ -248,14 +263,18 @@ FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
       // Guided first (cheap, robust to repeated texture), then unguided.
       for (int pass = 0; pass < 2 && accepted == nullptr; ++pass) {
         const bool guided = pass == 0;
-        if (guided && (!o.guided_matching || !prior)) continue;
-        Attempt a = s.Correspond(o, ref.features, features.features, guided ? prior : std::nullopt);
+        if (guided && (!o.correspondence.guided_matching || !prior)) continue;
+        Attempt a = s.Correspond(guided, ref.features, features.features, prior);
+        if (o.refine_on_all_points && a.success &&
+            (a.cluster >= 0 || o.correspondence.method == CorrespondenceMethod::kClustered)) {
+          s.Refine(ref.features, features.features, &a);
+        }
         r.correspond_ms += a.correspond_ms;
         r.estimate_ms += a.estimate_ms;
         StepFailure why = StepFailure::kNone;
         if (!a.success) {
           why = StepFailure::kNoTransform;
-        } else if (a.n_inliers < o.min_inliers) {
+        } else if (a.n_inliers < o.correspondence.min_inliers) {
           why = StepFailure::kTooFewInliers;
         } else if (!Plausible(o, a.curr_from_ref, s.width, s.height)) {
           why = StepFailure::kImplausibleMotion;
@@ -264,7 +283,7 @@ FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
         r.n_matched = a.n_matched;
         r.n_inliers = a.n_inliers;
         r.cluster = a.cluster;
-        r.attempts = a.attempts;
+        r.attempts += a.attempts;
         r.fell_back = a.fell_back;
         if (why == StepFailure::kNone) {
           accepted = &ref;

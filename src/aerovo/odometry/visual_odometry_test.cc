@@ -88,7 +88,7 @@ OdometryOptions SyntheticOptions() {
   o.focal_px = kFocalPx;
   o.default_height_m = kHeightM;
   o.surf.num_threads = 1;
-  o.match.num_threads = 1;
+  o.correspondence.match.num_threads = 1;
   return o;
 }
 
@@ -165,7 +165,7 @@ TEST_F(SyntheticFlight, DeterministicAndAffineChainAgrees) {
   OdometryOptions chain_opts = SyntheticOptions();
   chain_opts.scale_mode = ScaleMode::kAffineChain;
   chain_opts.surf.num_threads = 0;  // threads must not change the result
-  chain_opts.match.num_threads = 0;
+  chain_opts.correspondence.match.num_threads = 0;
   VisualOdometry a(SyntheticOptions()), b(SyntheticOptions()), chain(chain_opts);
   for (std::size_t i = 0; i < truth.size(); ++i) {
     const cv::Mat frame = Render(*ground_, q0_, truth[i]);
@@ -180,9 +180,46 @@ TEST_F(SyntheticFlight, DeterministicAndAffineChainAgrees) {
   }
 }
 
+TEST_F(SyntheticFlight, StandardUnguidedAndHomographyAlsoTrack) {
+  const std::vector<TruePose> truth = CurvedFlight(10);
+  OdometryOptions standard = SyntheticOptions();
+  standard.correspondence.method = CorrespondenceMethod::kStandard;
+  standard.correspondence.guided_matching = false;
+  OdometryOptions homography = SyntheticOptions();
+  homography.correspondence.model = MotionModel::kHomography;
+  OdometryOptions cell_only = SyntheticOptions();
+  cell_only.refine_on_all_points = false;
+  VisualOdometry a(standard), b(homography), clustered(SyntheticOptions()), cell(cell_only);
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    const cv::Mat frame = Render(*ground_, q0_, truth[i]);
+    const FrameResult ra = a.Process(View(frame), i), rb = b.Process(View(frame), i);
+    const FrameResult rc = clustered.Process(View(frame), i);
+    const FrameResult rd = cell.Process(View(frame), i);
+    EXPECT_LT((ra.position_m - truth[i].pos_m).norm(), 0.1) << "frame " << i;
+    EXPECT_LT((rb.position_m - truth[i].pos_m).norm(), 0.1) << "frame " << i;
+    EXPECT_LT((rc.position_m - truth[i].pos_m).norm(), 0.1) << "frame " << i;
+    // Cell fits alone extrapolate worse (measured up to ~0.15 m here): still bounded.
+    EXPECT_LT((rd.position_m - truth[i].pos_m).norm(), 1.0) << "frame " << i;
+    if (i > 0) {
+      EXPECT_EQ(ra.cluster, -1);
+      EXPECT_FALSE(ra.guided);
+      EXPECT_GE(rc.cluster, 0) << "clustered RANSAC succeeds in a cell on clean frames";
+      EXPECT_FALSE(rc.fell_back);
+      EXPECT_LT(rd.n_matched, ra.n_matched) << "a cell has fewer matches than the frame";
+      EXPECT_GE(rc.n_inliers, rd.n_inliers) << "refinement on all points keeps more inliers";
+    }
+    if (i > 1) {
+      EXPECT_TRUE(rc.guided);
+    }
+  }
+}
+
 TEST(VisualOdometry, RejectsBadInputAndOptions) {
   OdometryOptions o = SyntheticOptions();
-  o.min_inliers = 2;
+  o.correspondence.min_inliers = 2;  // below the affine minimal sample
+  EXPECT_THROW(VisualOdometry{o}, InvalidArgument);
+  o = SyntheticOptions();
+  o.max_anisotropy = 0.5;
   EXPECT_THROW(VisualOdometry{o}, InvalidArgument);
   o = SyntheticOptions();
   o.max_scale_change = 1.5;
