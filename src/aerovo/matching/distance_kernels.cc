@@ -137,17 +137,15 @@ __attribute__((target("avx2,fma"))) inline void UpdateAvx2(__m256 s, __m256i idx
   i2 = _mm256_castps_si256(ni2);
 }
 
-__attribute__((target("avx2,fma"))) void TileAvx2(const float* queries, int dim,
+// kDim > 0: dimension known at compile time (64, 128: fully unrolled, no loop counter
+// pressure); kDim == 0: run-time `dim`. The per-lane top-2 state lives in memory (L1) and is
+// touched once per 16 candidates, so that the 8 accumulators, the 2 panel rows and the
+// broadcast stay in registers through the dot-product loop.
+template <int kDim>
+__attribute__((target("avx2,fma"))) void TileAvx2(const float* queries, int dim_rt,
                                                   const float* panels, const float* norms,
                                                   int slot_base, int num_slots, LaneTop2* state) {
-  __m256 b1[kQueryTile], b2[kQueryTile];
-  __m256i i1[kQueryTile], i2[kQueryTile];
-  for (int k = 0; k < kQueryTile; ++k) {
-    b1[k] = _mm256_loadu_ps(state[k].b1);
-    b2[k] = _mm256_loadu_ps(state[k].b2);
-    i1[k] = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(state[k].i1));
-    i2[k] = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(state[k].i2));
-  }
+  const int dim = kDim > 0 ? kDim : dim_rt;
   const __m256 two = _mm256_set1_ps(2.f);
   const __m256i iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   const __m256i eight = _mm256_set1_epi32(kPanelWidth);
@@ -156,6 +154,7 @@ __attribute__((target("avx2,fma"))) void TileAvx2(const float* queries, int dim,
     const float* p1 = p0 + static_cast<std::ptrdiff_t>(kPanelWidth) * dim;
     __m256 acc[kQueryTile][2];
     for (int k = 0; k < kQueryTile; ++k) acc[k][0] = acc[k][1] = _mm256_setzero_ps();
+#pragma GCC unroll 8
     for (int d = 0; d < dim; ++d) {
       const __m256 v0 = _mm256_loadu_ps(p0 + d * kPanelWidth);
       const __m256 v1 = _mm256_loadu_ps(p1 + d * kPanelWidth);
@@ -170,15 +169,29 @@ __attribute__((target("avx2,fma"))) void TileAvx2(const float* queries, int dim,
     const __m256i idx0 = _mm256_add_epi32(_mm256_set1_epi32(slot_base + c), iota);
     const __m256i idx1 = _mm256_add_epi32(idx0, eight);
     for (int k = 0; k < kQueryTile; ++k) {
-      UpdateAvx2(_mm256_fnmadd_ps(two, acc[k][0], n0), idx0, b1[k], b2[k], i1[k], i2[k]);
-      UpdateAvx2(_mm256_fnmadd_ps(two, acc[k][1], n1), idx1, b1[k], b2[k], i1[k], i2[k]);
+      __m256 b1 = _mm256_loadu_ps(state[k].b1);
+      __m256 b2 = _mm256_loadu_ps(state[k].b2);
+      __m256i i1 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(state[k].i1));
+      __m256i i2 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(state[k].i2));
+      UpdateAvx2(_mm256_fnmadd_ps(two, acc[k][0], n0), idx0, b1, b2, i1, i2);
+      UpdateAvx2(_mm256_fnmadd_ps(two, acc[k][1], n1), idx1, b1, b2, i1, i2);
+      _mm256_storeu_ps(state[k].b1, b1);
+      _mm256_storeu_ps(state[k].b2, b2);
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(state[k].i1), i1);
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(state[k].i2), i2);
     }
   }
-  for (int k = 0; k < kQueryTile; ++k) {
-    _mm256_storeu_ps(state[k].b1, b1[k]);
-    _mm256_storeu_ps(state[k].b2, b2[k]);
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(state[k].i1), i1[k]);
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(state[k].i2), i2[k]);
+}
+
+void TileAvx2Any(const float* queries, int dim, const float* panels, const float* norms,
+                 int slot_base, int num_slots, LaneTop2* state) {
+  switch (dim) {
+    case 64:
+      return TileAvx2<64>(queries, dim, panels, norms, slot_base, num_slots, state);
+    case 128:
+      return TileAvx2<128>(queries, dim, panels, norms, slot_base, num_slots, state);
+    default:
+      return TileAvx2<0>(queries, dim, panels, norms, slot_base, num_slots, state);
   }
 }
 
@@ -224,7 +237,7 @@ bool CpuHasAvx2Fma() {
 
 const Kernels& SelectKernels(bool allow_avx2) {
   static const Kernels kSse{&TileSse, &ListSse, "sse4"};
-  static const Kernels kAvx2{&TileAvx2, &ListAvx2, "avx2"};
+  static const Kernels kAvx2{&TileAvx2Any, &ListAvx2, "avx2"};
   static const bool has_avx2 = CpuHasAvx2Fma();
   return (allow_avx2 && has_avx2) ? kAvx2 : kSse;
 }

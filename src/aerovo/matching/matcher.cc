@@ -35,6 +35,11 @@ constexpr int kTilesPerItem = 16;
 // Bytes of candidate descriptors per cache block; the block is re-read by every query tile of a
 // work item, so it should stay in L2 (1-2 MB per core on current x86) with room to spare.
 constexpr int kBlockBytes = 256 * 1024;
+// Below these amounts of work a parallel region costs more than it saves (fork/join and, on a
+// loaded machine, waiting for a descheduled thread): ~2 ms of single-thread exhaustive work,
+// ~1 ms of guided queries.
+constexpr std::int64_t kMinPairsForThreads = 1 << 20;
+constexpr int kMinGuidedQueriesForThreads = 4096;
 // Upper bound on guided-grid cells per Laplacian group (memory bound for tiny radii).
 constexpr std::int64_t kMaxGridCells = 1 << 18;
 
@@ -255,7 +260,8 @@ std::int64_t Matcher::Impl::SearchExhaustive(const FeatureSet& fq, const std::ve
   }
   const int block = std::max(
       kCandStep, kBlockBytes / (dim * static_cast<int>(sizeof(float))) / kCandStep * kCandStep);
-  const int num_threads = ResolveThreads(options.num_threads);
+  const int num_threads =
+      comparisons >= kMinPairsForThreads ? ResolveThreads(options.num_threads) : 1;
   const int num_items = static_cast<int>(work.size());
   const matching_detail::TileFn tile = kernels->tile;
 #pragma omp parallel for schedule(dynamic, 1) \
@@ -344,7 +350,9 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
   const int dim = fq.descriptor_size;
   const bool lap = options.check_laplacian;
   BuildGrid(fc, cids, radius);
-  const int num_threads = ResolveThreads(options.num_threads);
+  const int num_threads = static_cast<int>(qids.size()) >= kMinGuidedQueriesForThreads
+                              ? ResolveThreads(options.num_threads)
+                              : 1;
   if (static_cast<int>(thread_slots.size()) < num_threads) thread_slots.resize(num_threads);
   for (int t = 0; t < num_threads; ++t) thread_slots[t].reserve(cids.size());
   out->resize(qids.size());
@@ -354,7 +362,7 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
   const matching_detail::ListFn list = kernels->list;
   std::int64_t comparisons = 0;
 #pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads) \
-    reduction(+ : comparisons) if (num_threads > 1 && nq > 64)
+    reduction(+ : comparisons) if (num_threads > 1)
   for (int k = 0; k < nq; ++k) {
     std::vector<std::int32_t>& slots = thread_slots[omp_get_thread_num()];
     slots.clear();

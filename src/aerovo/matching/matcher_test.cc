@@ -444,11 +444,14 @@ TEST(MatcherTest, GuidedExcludesFarCandidatesAndAgreesWithReference) {
 }
 
 TEST(MatcherTest, MultiThreadAndKernelsGiveIdenticalResults) {
-  const Scene s = MakeScene(2000, 1000, 64, 0.02f, 17);
+  // Large enough that both paths really run parallel regions (see kMin*ForThreads).
+  const Scene s = MakeScene(5000, 1000, 64, 0.02f, 17);
   MatchOptions o;
   o.max_ratio = 0.8f;
   const MatchResult ref = Matcher(o).Match(s.prev, s.curr);
-  ASSERT_GT(ref.matches.size(), 500u);
+  ASSERT_GT(ref.matches.size(), 1000u);
+  const MatchResult g1 = Matcher(o).Match(s.prev, s.curr, {}, s.curr_from_prev);
+  ASSERT_GT(g1.matches.size(), 1000u);
   for (int threads : {2, 3, 0}) {
     for (bool avx2 : {true, false}) {
       MatchOptions t = o;
@@ -458,7 +461,6 @@ TEST(MatcherTest, MultiThreadAndKernelsGiveIdenticalResults) {
       const MatchResult r = m.Match(s.prev, s.curr);
       ExpectSameMatches(r.matches, ref.matches);
       EXPECT_EQ(r.num_comparisons, ref.num_comparisons);
-      const MatchResult g1 = Matcher(o).Match(s.prev, s.curr, {}, s.curr_from_prev);
       const MatchResult g2 = m.Match(s.prev, s.curr, {}, s.curr_from_prev);
       ExpectSameMatches(g2.matches, g1.matches);
       EXPECT_EQ(g2.num_comparisons, g1.num_comparisons);
