@@ -2,6 +2,30 @@
 // aerovo's own implementation. Semantics follow MATLAB's detectSURFFeatures/extractFeatures
 // (which call OpenCV's fast-Hessian), as used by Ivanov & Muzychuk (2023); see
 // ../shared/docs/METHOD.md, "Semantics of the MATLAB functions".
+//
+// What Surf computes (facts from Bay et al. 2008 and OpenCV's documented SURF; the code is ours):
+// - Integral image in uint32 (exact box sums, see integral_image.h).
+// - Fast-Hessian: octave o, layer l uses box filters of side (9 + 6 l) 2^o sampled every 2^o
+//   pixels; Dxx, Dyy, Dxy have each lobe divided by its area (OpenCV), det = Dxx Dyy -
+//   0.81 Dxy^2 on 0..255 intensities, so `hessian_threshold` means exactly OpenCV's
+//   hessianThreshold / MATLAB's MetricThreshold. Maxima strictly greater than their 26
+//   neighbours in the 3x3x3 (x, y, layer) neighbourhood, above the threshold; one quadratic
+//   step refines x, y and the filter size (rejected if any offset exceeds one sample).
+//   Keypoint::scale = 1.2 * size / 9 with the interpolated size (OpenCV rounds the size; we do
+//   not). A Gaussian blob of standard deviation sigma is found at scale ~0.75 sigma (the box
+//   filters smooth more than the 1.2-sigma Gaussian they stand for; see surf_test.cc).
+//   Keypoint::response is the determinant at the sample (not interpolated), as OpenCV.
+//   Keypoint::laplacian = sign(Dxx + Dyy): -1 for bright blobs on dark, +1 for dark blobs.
+// - Orientation: Haar wavelets of side 4s at the 113 points of a disc of radius 6s sampled every
+//   s, Gaussian weights (sigma 2.5s), vector sums over a 60-degree window slid in 5-degree steps;
+//   the strongest window's summed vector gives Keypoint::orientation = atan2(sum dy, sum dx) in
+//   the image frame (x right, y down, so positive angles turn clockwise on screen).
+// - Descriptor: a 20s x 20s window turned to the orientation, 20x20 samples s apart, Haar
+//   wavelets of side 2s, responses rotated into the keypoint frame and Gaussian weighted
+//   (sigma 3.3s); 4x4 sub-regions of 5x5 samples give (sum du, sum dv, sum |du|, sum |dv|)
+//   (64 values) or, extended, du sums split by the sign of dv and dv sums split by the sign of
+//   du (128 values, OpenCV's layout); L2-normalised.
+// - Results do not depend on num_threads (bit-identical).
 #pragma once
 
 #include <cstdint>
