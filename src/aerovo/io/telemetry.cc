@@ -150,4 +150,19 @@ std::optional<TelemetrySample> Telemetry::AtFrame(int frame_index) const {
   return r;
 }
 
+std::optional<TelemetrySample> Telemetry::LookupUnix(double unix_time_s, double tolerance_s) const {
+  for (const TelemetrySample& s : samples_) {
+    if (s.unix_time_s) return Lookup(unix_time_s - (*s.unix_time_s - s.time_s), tolerance_s);
+  }
+  return std::nullopt;
+}
+
+std::optional<TelemetrySample> Telemetry::ForFrame(int frame_index, double frame_time_s, Match how,
+                                                   double time_offset_s, double tolerance_s) const {
+  if (how == Match::kByFrameIndex || (how == Match::kAuto && HasFrameIndices())) {
+    return AtFrame(frame_index);
+  }
+  return Lookup(frame_time_s + time_offset_s, tolerance_s);
+}
+
 }  // namespace aerovo

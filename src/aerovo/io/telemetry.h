@@ -81,6 +81,23 @@ class Telemetry {
   /// True when at least one sample carries a frame index.
   bool HasFrameIndices() const;
 
+  /// The fix at an absolute time (seconds since 1970), for matching photos or a video of known
+  /// start to a GPX/CSV track: Lookup(unix_time_s - (u0 - t0)) where (u0, t0) are the unix and
+  /// source times of the first sample that has a unix time. nullopt when no sample has one.
+  /// Precondition: the samples' unix times and time_s differ by a constant (true for GPX, CSV
+  /// dates and photos; for DJI SRT the date lines follow the video time to within the drone
+  /// clock's jitter).
+  std::optional<TelemetrySample> LookupUnix(double unix_time_s, double tolerance_s = 0.0) const;
+
+  /// The fix of a delivered frame. kAuto: by frame index when the telemetry has frame indices
+  /// (DJI SRT with FrameCnt, CSV with a frame column, photo metadata), else by time. By time,
+  /// the telemetry time looked up is frame_time_s + time_offset_s (time_offset_s = telemetry
+  /// time at the frame time 0, e.g. when a GPX track starts before the video).
+  enum class Match { kAuto, kByFrameIndex, kByTime };
+  std::optional<TelemetrySample> ForFrame(int frame_index, double frame_time_s,
+                                          Match how = Match::kAuto, double time_offset_s = 0.0,
+                                          double tolerance_s = 0.0) const;
+
  private:
   std::vector<TelemetrySample> samples_;
   std::string source_;

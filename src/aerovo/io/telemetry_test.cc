@@ -85,6 +85,30 @@ TEST(Telemetry, AtFrameExactAndInterpolated) {
   EXPECT_FALSE(Telemetry({Fix(0.0, 1.0, 1.0)}).AtFrame(0));
 }
 
+TEST(Telemetry, ForFrameAndUnixTime) {
+  TelemetrySample a = Fix(0.0, 10.0, 20.0), b = Fix(10.0, 11.0, 21.0);
+  a.unix_time_s = 1000.0;
+  b.unix_time_s = 1010.0;
+  Telemetry by_time({a, b});
+  auto m = by_time.ForFrame(99, 2.0, Telemetry::Match::kAuto, 3.0);  // no frame indices: time
+  ASSERT_TRUE(m);
+  EXPECT_NEAR(m->lat_deg, 10.5, 1e-12);
+  EXPECT_FALSE(by_time.ForFrame(0, 0.0, Telemetry::Match::kByFrameIndex));
+  auto u = by_time.LookupUnix(1002.5);
+  ASSERT_TRUE(u);
+  EXPECT_NEAR(u->lat_deg, 10.25, 1e-12);
+  EXPECT_FALSE(by_time.LookupUnix(1011.0));
+  EXPECT_FALSE(Telemetry({Fix(0.0, 1.0, 2.0)}).LookupUnix(0.0));
+
+  Telemetry by_frame({Fix(0.0, 10.0, 20.0, 0), Fix(1.0, 11.0, 21.0, 10)});
+  auto f = by_frame.ForFrame(5, 123.0);  // frame indices win over the (wrong) time
+  ASSERT_TRUE(f);
+  EXPECT_NEAR(f->lat_deg, 10.5, 1e-12);
+  auto t = by_frame.ForFrame(5, 0.25, Telemetry::Match::kByTime);
+  ASSERT_TRUE(t);
+  EXPECT_NEAR(t->lat_deg, 10.25, 1e-12);
+}
+
 TEST(Telemetry, CameraYawPrefersGimbal) {
   TelemetrySample s;
   EXPECT_FALSE(s.CameraYawDeg());
