@@ -75,7 +75,7 @@ __attribute__((always_inline)) inline void HessianRows(const IntegralImage& ii,
                                                        int j0, int j1, float* det,
                                                        std::ptrdiff_t det_stride) {
   for (int i = i0; i < i1; ++i) {
-    float* out = det + i * det_stride + j0;
+    float* out = det + (i - i0) * det_stride;  // det points at sample (i0, j0).
     switch (l.step) {
       case 1:
         HessianRow<1>(ii.data(), ii.stride(), l, i, j0, j1, out);
@@ -119,7 +119,14 @@ void ComputeHessianDeterminant(const IntegralImage& ii, const BoxFilterLayout& l
                                int i1, int j0, int j1, float* det, std::ptrdiff_t det_stride) {
   static const HessianRowsFn fn = SelectHessianRows();
   if (i1 <= i0 || j1 <= j0) return;
-  fn(ii, layout, i0, i1, j0, j1, det, det_stride);
+  fn(ii, layout, i0, i1, j0, j1, det + i0 * det_stride + j0, det_stride);
+}
+
+void ComputeHessianRow(const IntegralImage& ii, const BoxFilterLayout& layout, int i, int j0,
+                       int j1, float* out) {
+  static const HessianRowsFn fn = SelectHessianRows();
+  if (j1 <= j0) return;
+  fn(ii, layout, i, i + 1, j0, j1, out, 0);
 }
 
 float HessianDeterminant(const IntegralImage& ii, const BoxFilterLayout& l, int i, int j) {

@@ -40,6 +40,10 @@ BoxFilterLayout MakeBoxFilterLayout(int size, int step);
 void ComputeHessianDeterminant(const IntegralImage& ii, const BoxFilterLayout& layout, int i0,
                                int i1, int j0, int j1, float* det, std::ptrdiff_t det_stride);
 
+/// The same for one row i, samples j in [j0, j1), written to out[0 .. j1 - j0).
+void ComputeHessianRow(const IntegralImage& ii, const BoxFilterLayout& layout, int i, int j0,
+                       int j1, float* out);
+
 /// Dxx*Dyy - (0.9*Dxy)^2 at one sample (same preconditions), scalar.
 float HessianDeterminant(const IntegralImage& ii, const BoxFilterLayout& layout, int i, int j);
 

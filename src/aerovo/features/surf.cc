@@ -114,17 +114,17 @@ void CheckImage(const GrayImageView& image) {
 
 // Sum over the 3x3x3 neighbourhood check and quadratic fit of one candidate. Returns false when
 // the fit is singular or moves by more than one sample in any direction.
-bool Interpolate(const float* lo, std::ptrdiff_t ls, const float* mid, std::ptrdiff_t ms,
-                 const float* hi, std::ptrdiff_t hs, float offset[3]) {
+bool Interpolate(const float* lo, const float* mid, const float* hi, std::ptrdiff_t s,
+                 float offset[3]) {
   const double v = mid[0];
-  const double dx = (mid[1] - mid[-1]) * 0.5, dy = (mid[ms] - mid[-ms]) * 0.5;
+  const double dx = (mid[1] - mid[-1]) * 0.5, dy = (mid[s] - mid[-s]) * 0.5;
   const double ds = (hi[0] - lo[0]) * 0.5;
   const double dxx = mid[1] - 2 * v + mid[-1];
-  const double dyy = mid[ms] - 2 * v + mid[-ms];
+  const double dyy = mid[s] - 2 * v + mid[-s];
   const double dss = hi[0] - 2 * v + lo[0];
-  const double dxy = (mid[ms + 1] - mid[ms - 1] - mid[-ms + 1] + mid[-ms - 1]) * 0.25;
+  const double dxy = (mid[s + 1] - mid[s - 1] - mid[-s + 1] + mid[-s - 1]) * 0.25;
   const double dxs = (hi[1] - hi[-1] - lo[1] + lo[-1]) * 0.25;
-  const double dys = (hi[hs] - hi[-hs] - lo[ls] + lo[-ls]) * 0.25;
+  const double dys = (hi[s] - hi[-s] - lo[s] + lo[-s]) * 0.25;
   // Solve H * o = -g by Cramer's rule (3x3, symmetric).
   const double c00 = dyy * dss - dys * dys, c01 = dxs * dys - dxy * dss,
                c02 = dxy * dys - dxs * dyy;
@@ -160,11 +160,6 @@ inline int NextAbove(const float* row, int j, int end, float threshold) {
 inline bool IsMaximum(float v, const float* p, std::ptrdiff_t stride) {
   return v > p[-stride - 1] && v > p[-stride] && v > p[-stride + 1] && v > p[-1] && v > p[0] &&
          v > p[1] && v > p[stride - 1] && v > p[stride] && v > p[stride + 1];
-}
-
-inline bool IsMaximumExceptCentre(float v, const float* p, std::ptrdiff_t stride) {
-  return v > p[-stride - 1] && v > p[-stride] && v > p[-stride + 1] && v > p[-1] && v > p[1] &&
-         v > p[stride - 1] && v > p[stride] && v > p[stride + 1];
 }
 
 // Keypoints sorted by decreasing response; ties broken by position and scale so that the order
@@ -212,7 +207,7 @@ float OpenCvKeypointSize(const Keypoint& kp) { return kp.scale * 9.f / 1.2f; }
 struct Surf::Impl {
   SurfOptions options;
   IntegralImage ii;
-  std::vector<float> det;  // Layers of the current octave, one grid after the other.
+  std::vector<std::vector<float>> rings;     // Per thread: 3 response rows per layer.
   std::vector<std::vector<Keypoint>> found;  // Per row block, merged after each octave.
 
   void Prepare(const GrayImageView& image) {
@@ -292,15 +287,15 @@ std::vector<Keypoint> Surf::Impl::FastHessian() {
     }
     if (!any) continue;
 
-    const int grid_w = W / p + 2, grid_h = H / p + 2;
-    const std::size_t plane = static_cast<std::size_t>(grid_w) * grid_h;
-    if (det.size() < plane * levels) det.resize(plane * levels);
-
-    // The middle layers are computed in full around their candidates. The first and last
-    // layers only serve as neighbours of maxima of the layers next to them, so they are
-    // evaluated lazily at the few samples that pass the threshold and the in-layer test: this
-    // halves the box filtering at the default 4 levels.
-    std::vector<std::array<int, 4>> region(levels);
+    // Rows of samples are processed in bands (one per task). Within a band the determinants
+    // of the middle layers are computed row by row into a ring of three rows per layer, and
+    // row i is searched for maxima as soon as row i + 1 exists: the response maps never leave
+    // the cache. The first and last layers only serve as neighbours of maxima of the layers
+    // next to them, so they are evaluated at the few samples that reach that test; this halves
+    // the box filtering at the default 4 levels.
+    const int grid_w = W / p + 2;
+    std::vector<std::array<int, 4>> region(levels);  // Where each middle layer is needed.
+    int c_begin = H, c_end = -1;                     // Candidate rows, all middle layers.
     for (int l = 1; l + 1 < levels; ++l) {
       int j0 = W, j1 = -1, i0 = H, i1 = -1;
       for (int m = std::max(1, l - 1); m <= std::min(levels - 2, l + 1); ++m) {
@@ -312,76 +307,87 @@ std::vector<Keypoint> Surf::Impl::FastHessian() {
       }
       region[l] = {std::max(j0, lo_x(l)), std::min(j1, hi_x(l, W)), std::max(i0, lo_x(l)),
                    std::min(i1, hi_x(l, H))};
-    }
-    int row_begin = H, row_end = -1;
-    for (int l = 1; l + 1 < levels; ++l) {
-      if (region[l][0] > region[l][1] || region[l][2] > region[l][3]) continue;
-      row_begin = std::min(row_begin, region[l][2]);
-      row_end = std::max(row_end, region[l][3]);
-    }
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 8)
-    for (int i = row_begin; i <= row_end; ++i) {
-      for (int l = 1; l + 1 < levels; ++l) {
-        const auto [j0, j1, i0, i1] = region[l];
-        if (i < i0 || i > i1 || j0 > j1) continue;
-        surf_detail::ComputeHessianDeterminant(ii, layouts[l], i, i + 1, j0, j1 + 1,
-                                               det.data() + plane * l, grid_w);
+      if (cand[l][0] <= cand[l][1] && cand[l][2] <= cand[l][3]) {
+        c_begin = std::min(c_begin, cand[l][2]);
+        c_end = std::max(c_end, cand[l][3]);
       }
     }
+    const int rows = c_end - c_begin + 1;
+    const int bands = threads > 1 ? std::min(rows, threads * 4) : 1;
+    found.assign(bands, {});
+    if (static_cast<int>(rings.size()) < threads) rings.resize(threads);
+    const std::size_t ring_floats = static_cast<std::size_t>(3) * levels * grid_w;
 
-    // Non-maximum suppression in 3x3x3 neighbourhoods (strictly greater) and refinement.
-    for (int l = 1; l + 1 < levels; ++l) {
-      const auto [j0, j1, i0, i1] = cand[l];
-      if (j0 > j1 || i0 > i1) continue;
-      const float* mid = det.data() + plane * l;
-      const bool lazy_lo = l - 1 == 0, lazy_hi = l + 1 == levels - 1;
-      const float* lo = det.data() + plane * (l - 1);
-      const float* hi = det.data() + plane * (l + 1);
-      const int rows = i1 - i0 + 1;
-      const int blocks = threads > 1 ? std::min(rows, threads * 8) : 1;
-      found.assign(blocks, {});
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 1)
-      for (int b = 0; b < blocks; ++b) {
-        const int ib = i0 + static_cast<int>(static_cast<long>(rows) * b / blocks);
-        const int ie = i0 + static_cast<int>(static_cast<long>(rows) * (b + 1) / blocks);
-        std::vector<Keypoint>& out = found[b];
-        float lo_buf[9], hi_buf[9];
-        const auto neighbourhood = [&](const BoxFilterLayout& layout, int i, int j, float* buf) {
-          for (int di = -1; di <= 1; ++di) {
-            for (int dj = -1; dj <= 1; ++dj) {
-              buf[(di + 1) * 3 + dj + 1] =
-                  surf_detail::HessianDeterminant(ii, layout, i + di, j + dj);
+    for (int b = 0; b < bands; ++b) {
+      const int cb = c_begin + static_cast<int>(static_cast<long>(rows) * b / bands);
+      const int ce = c_begin + static_cast<int>(static_cast<long>(rows) * (b + 1) / bands);
+      std::vector<float>& ring = rings[threads > 1 ? omp_get_thread_num() : 0];
+      if (ring.size() < ring_floats) ring.resize(ring_floats);
+      const auto row_of = [&](int l, int r) {
+        return ring.data() + (static_cast<std::size_t>(l) * 3 + r % 3) * grid_w;
+      };
+      std::vector<Keypoint>& out = found[b];
+      for (int r = cb - 1; r <= ce; ++r) {
+        for (int l = 1; l + 1 < levels; ++l) {
+          const auto [j0, j1, i0, i1] = region[l];
+          if (r < i0 || r > i1 || j0 > j1) continue;
+          surf_detail::ComputeHessianRow(ii, layouts[l], r, j0, j1 + 1, row_of(l, r) + j0);
+        }
+        const int i = r - 1;  // Rows i - 1, i, i + 1 are ready.
+        if (i < cb || i >= ce) continue;
+        for (int l = 1; l + 1 < levels; ++l) {
+          const auto [j0, j1, i0, i1] = cand[l];
+          if (i < i0 || i > i1 || j0 > j1) continue;
+          const float* m0 = row_of(l, i - 1);
+          const float* m1 = row_of(l, i);
+          const float* m2 = row_of(l, i + 1);
+          const bool lazy_lo = l - 1 == 0, lazy_hi = l + 1 == levels - 1;
+          for (int j = NextAbove(m1, j0, j1 + 1, threshold); j <= j1;
+               j = NextAbove(m1, j + 1, j1 + 1, threshold)) {
+            const float v = m1[j];
+            if (!(v > m1[j - 1] && v > m1[j + 1] && v > m0[j - 1] && v > m0[j] && v > m0[j + 1] &&
+                  v > m2[j - 1] && v > m2[j] && v > m2[j + 1])) {
+              continue;
             }
-          }
-        };
-        for (int i = ib; i < ie; ++i) {
-          const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(i) * grid_w;
-          for (int j = NextAbove(mid + row, j0, j1 + 1, threshold); j <= j1;
-               j = NextAbove(mid + row, j + 1, j1 + 1, threshold)) {
-            const std::ptrdiff_t k = row + j;
-            const float v = mid[k];
-            if (!IsMaximumExceptCentre(v, mid + k, grid_w)) continue;
-            // Full neighbour layers first (cheap), then the lazily evaluated ones.
-            if (!lazy_lo && !IsMaximum(v, lo + k, grid_w)) continue;
-            if (!lazy_hi && !IsMaximum(v, hi + k, grid_w)) continue;
-            const float* lp = lo + k;
-            std::ptrdiff_t ls = grid_w;
+            // 3x3 neighbourhoods of the three layers, row-major (stride 3); full neighbour
+            // layers are tested first (cheap), lazily evaluated ones last.
+            float n[3][9];
+            const auto copy3x3 = [&](int layer, float* dst) {
+              for (int di = 0; di < 3; ++di) {
+                const float* src = row_of(layer, i - 1 + di) + j - 1;
+                dst[di * 3] = src[0];
+                dst[di * 3 + 1] = src[1];
+                dst[di * 3 + 2] = src[2];
+              }
+            };
+            const auto eval3x3 = [&](int layer, float* dst) {
+              for (int di = 0; di < 3; ++di) {
+                for (int dj = 0; dj < 3; ++dj) {
+                  dst[di * 3 + dj] =
+                      surf_detail::HessianDeterminant(ii, layouts[layer], i - 1 + di, j - 1 + dj);
+                }
+              }
+            };
+            if (!lazy_lo) {
+              copy3x3(l - 1, n[0]);
+              if (!IsMaximum(v, n[0] + 4, 3)) continue;
+            }
+            if (!lazy_hi) {
+              copy3x3(l + 1, n[2]);
+              if (!IsMaximum(v, n[2] + 4, 3)) continue;
+            }
             if (lazy_lo) {
-              neighbourhood(layouts[l - 1], i, j, lo_buf);
-              if (!IsMaximum(v, lo_buf + 4, 3)) continue;
-              lp = lo_buf + 4;
-              ls = 3;
+              eval3x3(l - 1, n[0]);
+              if (!IsMaximum(v, n[0] + 4, 3)) continue;
             }
-            const float* hp = hi + k;
-            std::ptrdiff_t hs = grid_w;
             if (lazy_hi) {
-              neighbourhood(layouts[l + 1], i, j, hi_buf);
-              if (!IsMaximum(v, hi_buf + 4, 3)) continue;
-              hp = hi_buf + 4;
-              hs = 3;
+              eval3x3(l + 1, n[2]);
+              if (!IsMaximum(v, n[2] + 4, 3)) continue;
             }
+            copy3x3(l, n[1]);
             float off[3];
-            if (!Interpolate(lp, ls, mid + k, grid_w, hp, hs, off)) continue;
+            if (!Interpolate(n[0] + 4, n[1] + 4, n[2] + 4, 3, off)) continue;
             Keypoint kp;
             const float centre_offset = (p - 1) * 0.5f;
             kp.x = p * (j + off[0]) + centre_offset;
@@ -396,8 +402,8 @@ std::vector<Keypoint> Surf::Impl::FastHessian() {
           }
         }
       }
-      for (const auto& f : found) keypoints.insert(keypoints.end(), f.begin(), f.end());
     }
+    for (const auto& f : found) keypoints.insert(keypoints.end(), f.begin(), f.end());
   }
   std::sort(keypoints.begin(), keypoints.end(), StrongerFirst);
   if (options.max_keypoints > 0 &&
