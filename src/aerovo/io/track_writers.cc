@@ -125,12 +125,15 @@ std::string CsvField(const std::string& s) {
   return out + "\"";
 }
 
+// GeoJSON (RFC 7946 3.1.1), KML and GPX expect longitudes in [-180, 180]; GeoPoint allows any.
+double WrapLon(double lon_deg) { return std::remainder(lon_deg, 360.0); }
+
 // Positions as text, C locale (fmt never uses the global locale for these specs).
 std::string LonLatAltJson(const GeoPoint& p) {
-  return fmt::format("[{:.9f},{:.9f},{:.4f}]", p.lon_deg, p.lat_deg, p.alt_m);
+  return fmt::format("[{:.9f},{:.9f},{:.4f}]", WrapLon(p.lon_deg), p.lat_deg, p.alt_m);
 }
 std::string LonLatAltKml(const GeoPoint& p) {
-  return fmt::format("{:.9f},{:.9f},{:.4f}", p.lon_deg, p.lat_deg, p.alt_m);
+  return fmt::format("{:.9f},{:.9f},{:.4f}", WrapLon(p.lon_deg), p.lat_deg, p.alt_m);
 }
 
 void ValidatePoint(const GeoTrackPoint& p, const std::string& file) {
@@ -401,7 +404,7 @@ void GpxTrackWriter::Close() { file_->Close(); }
 void GpxTrackWriter::Append(const GeoTrackPoint& point) {
   ValidatePoint(point, PathOf(file_));
   std::string pt = fmt::format("\n<trkpt lat=\"{:.9f}\" lon=\"{:.9f}\"><ele>{:.4f}</ele>",
-                               point.geo.lat_deg, point.geo.lon_deg, point.geo.alt_m);
+                               point.geo.lat_deg, WrapLon(point.geo.lon_deg), point.geo.alt_m);
   if (time_origin_unix_s_) {
     pt += "<time>" + FormatUtcIso8601(*time_origin_unix_s_ + point.time_s) + "</time>";
   }

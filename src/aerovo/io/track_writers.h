@@ -15,10 +15,9 @@
 // Flushing hands the data to the OS: it survives the process being killed (SIGINT, SIGKILL,
 // crash), not a power cut (no fsync per record). A reader racing an Append may briefly see a
 // partial write. Numbers use the C locale: lat/lon with 9 decimals (1e-9 deg ~ 0.1 mm),
-// metres with 4, times with 6.
+// metres with 4, times with 6; longitudes are wrapped to [-180, 180] in GeoJSON/KML/GPX.
 #pragma once
 
-#include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <optional>

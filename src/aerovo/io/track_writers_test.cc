@@ -423,6 +423,30 @@ TEST_F(TrackWritersTest, GpxWithoutTimeOriginOmitsTime) {
   fs::remove(w.path());
 }
 
+TEST_F(TrackWritersTest, LongitudesWrappedForGisFormats) {
+  fs::create_directories(dir_);
+  GeoJsonTrackWriter j(dir_ / "w.geojson", "w");
+  KmlTrackWriter k(dir_ / "w.kml", "w");
+  GpxTrackWriter g(dir_ / "w.gpx", "w");
+  for (double lon : {179.9999, 180.0001, 190.5}) {
+    j.Append({0.0, {-16.5, lon, 0.0}});
+    k.Append({0.0, {-16.5, lon, 0.0}});
+    g.Append({0.0, {-16.5, lon, 0.0}});
+  }
+  const std::vector<GeoPoint> from_json = GeoJsonTrack(json::parse(Slurp(dir_ / "w.geojson")));
+  const std::vector<GeoPoint> from_kml = ParseKml(dir_ / "w.kml");
+  const std::vector<GeoPoint> from_gpx = ParseGpx(dir_ / "w.gpx");
+  ASSERT_EQ(from_json.size(), 3u);
+  ASSERT_EQ(from_kml.size(), 3u);
+  ASSERT_EQ(from_gpx.size(), 3u);
+  const double want[] = {179.9999, -179.9999, -169.5};
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(from_json[i].lon_deg, want[i], 1e-9);
+    EXPECT_NEAR(from_kml[i].lon_deg, want[i], 1e-9);
+    EXPECT_NEAR(from_gpx[i].lon_deg, want[i], 1e-9);
+  }
+}
+
 void WriteSevenFramesThenDie(const fs::path& dir) {
   TrackWriterOptions o;
   o.enu_origin = GeoPoint{50.45, 30.52, 180.0};
