@@ -18,6 +18,10 @@ void Validate(const CorrespondenceOptions& o) {
     throw InvalidArgument("ClusteredRansacOptions grid must be at least 1 x 1, got " +
                           std::to_string(c.grid_rows) + " x " + std::to_string(c.grid_cols));
   }
+  if (!(c.refine_radius_px > 0.f) || !std::isfinite(c.refine_radius_px)) {
+    throw InvalidArgument("ClusteredRansacOptions.refine_radius_px must be finite and > 0, got " +
+                          std::to_string(c.refine_radius_px));
+  }
   if (c.min_points < 1) {
     throw InvalidArgument("ClusteredRansacOptions.min_points must be >= 1, got " +
                           std::to_string(c.min_points));
@@ -72,8 +76,20 @@ CellBounds ClusterCellBounds(const RectI& crop, int rows, int cols, int row, int
   return b;
 }
 
+namespace {
+
+MatchOptions RefineMatchOptions(const CorrespondenceOptions& o) {
+  MatchOptions m = o.match;
+  m.guided_radius_px = o.clustered.refine_radius_px;
+  return m;
+}
+
+}  // namespace
+
 CorrespondenceStage::CorrespondenceStage(const CorrespondenceOptions& options)
-    : options_((Validate(options), options)), matcher_(options.match) {}
+    : options_((Validate(options), options)),
+      matcher_(options.match),
+      refine_matcher_(RefineMatchOptions(options)) {}
 
 CorrespondenceResult CorrespondenceStage::Run(
     const FeatureSet& prev, int prev_width, int prev_height, const FeatureSet& curr,
@@ -87,14 +103,14 @@ CorrespondenceResult CorrespondenceStage::Run(
                    last_curr_from_prev.value_or(Eigen::Matrix3d::Identity()));
 }
 
-bool CorrespondenceStage::Attempt(const FeatureSet& prev, const FeatureSet& curr,
-                                  const std::vector<int>& subset,
+bool CorrespondenceStage::Attempt(Matcher& matcher, bool guided, const FeatureSet& prev,
+                                  const FeatureSet& curr, const std::vector<int>& subset,
                                   const std::optional<Eigen::Matrix3d>& prior,
                                   CorrespondenceResult* out) {
   Stopwatch watch;
   std::optional<Eigen::Matrix<double, 2, 3>> prior_affine;
-  if (options_.guided_matching && prior) prior_affine = AffinePart(*prior);
-  MatchResult matched = matcher_.Match(prev, curr, subset, prior_affine);
+  if (guided && prior) prior_affine = AffinePart(*prior);
+  MatchResult matched = matcher.Match(prev, curr, subset, prior_affine);
   out->match_ms += watch.elapsed_ms();
   out->num_comparisons += matched.num_comparisons;
   ++out->attempts;
@@ -126,13 +142,32 @@ bool CorrespondenceStage::Attempt(const FeatureSet& prev, const FeatureSet& curr
   return out->success;
 }
 
+void CorrespondenceStage::Refine(const FeatureSet& prev, const FeatureSet& curr,
+                                 CorrespondenceResult* out) {
+  // Attempt overwrites the result; keep the cell's in case the refinement is not better.
+  CorrespondenceResult refined;
+  const Eigen::Matrix3d cell_transform = out->curr_from_prev;
+  subset_.clear();
+  Attempt(refine_matcher_, true, prev, curr, subset_, cell_transform, &refined);
+  out->match_ms += refined.match_ms;
+  out->estimate_ms += refined.estimate_ms;
+  out->num_comparisons += refined.num_comparisons;
+  out->ransac_trials += refined.ransac_trials;
+  if (!refined.success || refined.num_inliers < out->num_inliers) return;
+  out->curr_from_prev = refined.curr_from_prev;
+  out->matches = std::move(refined.matches);
+  out->inlier_mask = std::move(refined.inlier_mask);
+  out->num_inliers = refined.num_inliers;
+  out->refined = true;
+}
+
 CorrespondenceResult CorrespondenceStage::Standard(const FeatureSet& prev, const FeatureSet& curr,
                                                    const std::optional<Eigen::Matrix3d>& prior) {
   Stopwatch total;
   CorrespondenceResult result;
   result.method_used = CorrespondenceMethod::kStandard;
   subset_.clear();
-  Attempt(prev, curr, subset_, prior, &result);
+  Attempt(matcher_, options_.guided_matching, prev, curr, subset_, prior, &result);
   result.total_ms = total.elapsed_ms();
   return result;
 }
@@ -181,9 +216,11 @@ CorrespondenceResult CorrespondenceStage::Clustered(const FeatureSet& prev, int 
     for (std::size_t i = 0; i < cell_of.size(); ++i) {
       if (cell_of[i] == cell) subset_.push_back(static_cast<int>(i));
     }
-    if (Attempt(prev, curr, subset_, last_curr_from_prev, &result)) {
+    if (Attempt(matcher_, options_.guided_matching, prev, curr, subset_, last_curr_from_prev,
+                &result)) {
       result.cell_row = cell / cols;
       result.cell_col = cell % cols;
+      if (co.refine) Refine(prev, curr, &result);
       result.total_ms = total.elapsed_ms();
       return result;
     }
@@ -193,7 +230,7 @@ CorrespondenceResult CorrespondenceStage::Clustered(const FeatureSet& prev, int 
   result.fell_back = true;
   result.method_used = CorrespondenceMethod::kStandard;
   subset_.clear();
-  Attempt(prev, curr, subset_, last_curr_from_prev, &result);
+  Attempt(matcher_, options_.guided_matching, prev, curr, subset_, last_curr_from_prev, &result);
   result.total_ms = total.elapsed_ms();
   return result;
 }

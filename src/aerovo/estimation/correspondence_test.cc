@@ -158,10 +158,13 @@ TEST(ClusteredRansac, CropAndChosenCellForEachMotion) {
       scene.AddInBox(5, 0, crop.y + crop.height, kFrameWidth, kFrameHeight, motion);
     }
 
-    CorrespondenceStage stage;
+    CorrespondenceOptions paper;  // The paper's algorithm exactly: the cell's own fit.
+    paper.clustered.refine = false;
+    CorrespondenceStage stage(paper);
     const CorrespondenceResult r =
         stage.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), motion);
     ExpectRectEq(r.crop, crop, what);
+    EXPECT_FALSE(r.refined);
     ASSERT_TRUE(r.success) << what;
     EXPECT_FALSE(r.fell_back) << what;
     EXPECT_EQ(r.method_used, CorrespondenceMethod::kClustered);
@@ -181,6 +184,19 @@ TEST(ClusteredRansac, CropAndChosenCellForEachMotion) {
         << what;
     EXPECT_GT(r.match_ms + r.estimate_ms, 0.0);
     EXPECT_GE(r.total_ms, r.match_ms + r.estimate_ms);
+
+    // Default (refine on): same cell, then every point that stayed in view is re-matched.
+    CorrespondenceStage refining;
+    const CorrespondenceResult rr =
+        refining.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), motion);
+    ASSERT_TRUE(rr.success) << what;
+    EXPECT_TRUE(rr.refined) << what;
+    EXPECT_EQ(rr.cell_row * 3 + rr.cell_col, target) << what;
+    EXPECT_EQ(rr.attempts, 1) << what;
+    EXPECT_EQ(rr.matches.size(), scene.curr().size()) << what;
+    EXPECT_EQ(rr.num_inliers, static_cast<int>(scene.curr().size())) << what;
+    EXPECT_LT(MaxCornerDisplacementPx(rr.curr_from_prev, motion, kFrameWidth, kFrameHeight), 0.01)
+        << what;
 
     // Most-first takes the fullest cell (count 20 + 3 * 8 = 44 unless it is target/decoy).
     CorrespondenceOptions most;
@@ -207,7 +223,9 @@ TEST(ClusteredRansac, CellsBelowMinimumAreNeverChosen) {
     const CellBounds b = ClusterCellBounds(crop, 3, 3, cell / 3, cell % 3);
     scene.AddInBox(cell == 7 ? 30 : 11, b.x0, b.y0, b.x1, b.y1, motion);
   }
-  CorrespondenceStage stage;
+  CorrespondenceOptions paper;
+  paper.clustered.refine = false;
+  CorrespondenceStage stage(paper);
   const CorrespondenceResult r =
       stage.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), motion);
   ASSERT_TRUE(r.success);
@@ -273,6 +291,39 @@ TEST(ClusteredRansac, FallsBackToStandardWhenNoCellWorks) {
   EXPECT_TRUE(rb.fell_back);
   EXPECT_EQ(rb.attempts, 10);
   EXPECT_EQ(rb.curr_from_prev, Eigen::Matrix3d::Identity());
+}
+
+// A cell's transform is exact inside the cell but extrapolates noise to the far corners; the
+// refinement re-fits on every point and lands as close to the truth as standard RANSAC.
+TEST(ClusteredRansac, RefinementMatchesStandardAccuracy) {
+  SceneBuilder scene(12);
+  Eigen::Matrix3d motion;
+  motion << 1.02, -0.03, 21.0, 0.025, 0.985, -14.0, 0, 0, 1;
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> ux(0, kFrameWidth - 1), uy(0, kFrameHeight - 1);
+  std::normal_distribution<double> noise(0.0, 0.5);
+  for (int i = 0; i < 600; ++i) {
+    const Eigen::Vector2d p(ux(rng), uy(rng));
+    scene.Add(p, TransformPoint(motion, p) + Eigen::Vector2d(noise(rng), noise(rng)));
+  }
+  CorrespondenceOptions paper;
+  paper.clustered.refine = false;
+  CorrespondenceStage cell_only(paper), refining, standard;
+  const auto rp = cell_only.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(),
+                                      Eigen::Matrix3d::Identity());
+  const auto rr = refining.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(),
+                                     Eigen::Matrix3d::Identity());
+  const auto rs = standard.Standard(scene.prev(), scene.curr());
+  ASSERT_TRUE(rp.success && rr.success && rs.success);
+  EXPECT_TRUE(rr.refined);
+  EXPECT_GT(rr.num_inliers, 5 * rp.num_inliers);
+  const double e_cell = MaxCornerDisplacementPx(rp.curr_from_prev, motion, 800, 600);
+  const double e_refined = MaxCornerDisplacementPx(rr.curr_from_prev, motion, 800, 600);
+  const double e_standard = MaxCornerDisplacementPx(rs.curr_from_prev, motion, 800, 600);
+  EXPECT_LT(e_refined, 0.3);
+  EXPECT_LT(e_refined, e_cell);
+  EXPECT_LT(MaxCornerDisplacementPx(rr.curr_from_prev, rs.curr_from_prev, 800, 600), 0.2);
+  EXPECT_LT(e_standard, 0.3);
 }
 
 TEST(StandardCorrespondence, MatchesAllAndFits) {

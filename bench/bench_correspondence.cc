@@ -1,0 +1,455 @@
+// Correspondence stage speed and accuracy: aerovo's RANSAC loop alone, and the whole stage
+// (matching + estimation) with standard vs clustered RANSAC, side by side, with OpenCV's
+// cv::estimateAffine2D (RANSAC and USAC_MAGSAC) on the same matches as the reference users know.
+//
+// Data:
+// - synthetic correspondences (affine RANSAC scaling with N at 50 % outliers);
+// - "synthetic-flight": 8 frames of 800 x 600 over a plane of random SURF-like points (random
+//   unit descriptors + noise, ~3000 points per frame), constant image motion (-30, +12) px/step;
+// - "tampa": consecutive frames of ../shared/data/flights/tampa-phantom3 (800 x 600, real
+//   flight, unknown ground truth: clustered is compared with standard);
+// - "callas": 1920 x 1080 crops of ../shared/data/ortho/callas-quarry.jpg moved by a known
+//   (72, 18) px per frame, so the true curr_from_prev is the shift (-72, -18).
+// SURF (aerovo, MATLAB defaults) is computed once at start-up and is not timed.
+// In every pair the clustered run gets the previous pair's clustered result as the previous
+// step's transform (identity for the first pair), as the odometry pipeline would.
+//
+// At start-up a side-by-side report (per-pair times, speed-up, transform differences at the
+// frame corners) is printed to stdout; then the Google Benchmark timings follow.
+// Run: build-x/bench/bench_correspondence [--benchmark_filter=...]   (see BENCHMARKS.md)
+#include <benchmark/benchmark.h>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "aerovo/core/image.h"
+#include "aerovo/core/timer.h"
+#include "aerovo/estimation/correspondence.h"
+#include "aerovo/estimation/ransac.h"
+#include "aerovo/estimation/testing.h"
+#include "aerovo/features/surf.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using aerovo::CorrespondenceMethod;
+using aerovo::CorrespondenceOptions;
+using aerovo::CorrespondenceResult;
+using aerovo::CorrespondenceStage;
+using aerovo::FeatureSet;
+
+fs::path SharedDir() {
+  if (const char* env = std::getenv("AEROVO_SHARED"); env != nullptr && *env != '\0') return env;
+  return AEROVO_SHARED_DIR_DEFAULT;
+}
+
+struct Sequence {
+  std::string name;
+  int width = 0, height = 0;
+  std::vector<FeatureSet> frames;
+  // truth[i]: true curr_from_prev of pair (i, i+1), when known.
+  std::vector<std::optional<Eigen::Matrix3d>> truth;
+  std::size_t pairs() const { return frames.empty() ? 0 : frames.size() - 1; }
+};
+
+Eigen::Matrix3d Shift(double tu, double tv) {
+  Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
+  m(0, 2) = tu;
+  m(1, 2) = tv;
+  return m;
+}
+
+Sequence MakeSyntheticFlight() {
+  Sequence s;
+  s.name = "synthetic-flight";
+  s.width = 800;
+  s.height = 600;
+  const int num_frames = 8, dim = 64;
+  const double du = -30.0, dv = 12.0;  // Image motion per frame.
+  // World plane in frame-0 pixels, large enough for all frames; ~3000 points per frame.
+  const double wx0 = -10, wy0 = -10 - num_frames * dv, wx1 = 810 - num_frames * du, wy1 = 610;
+  const int num_world = static_cast<int>(3000.0 * (wx1 - wx0) * (wy1 - wy0) / (800.0 * 600.0));
+  std::mt19937_64 rng(2023);
+  std::uniform_real_distribution<double> ux(wx0, wx1), uy(wy0, wy1);
+  std::normal_distribution<float> g(0.f, 1.f), dnoise(0.f, 0.012f);
+  std::normal_distribution<double> pnoise(0.0, 0.3);
+  std::vector<Eigen::Vector2d> pos(num_world);
+  std::vector<float> desc(static_cast<std::size_t>(num_world) * dim);
+  std::vector<std::int8_t> lap(num_world);
+  for (int i = 0; i < num_world; ++i) {
+    pos[i] = {ux(rng), uy(rng)};
+    float n = 0;
+    for (int k = 0; k < dim; ++k) n += (desc[i * dim + k] = g(rng)) * desc[i * dim + k];
+    for (int k = 0; k < dim; ++k) desc[i * dim + k] /= std::sqrt(n);
+    lap[i] = (rng() & 1) ? 1 : -1;
+  }
+  for (int f = 0; f < num_frames; ++f) {
+    FeatureSet fs;
+    fs.descriptor_size = dim;
+    std::vector<float> d(dim);
+    for (int i = 0; i < num_world; ++i) {
+      const double x = pos[i].x() + f * du + pnoise(rng), y = pos[i].y() + f * dv + pnoise(rng);
+      if (x < 0 || y < 0 || x > 799 || y > 599) continue;
+      aerovo::Keypoint k;
+      k.x = static_cast<float>(x);
+      k.y = static_cast<float>(y);
+      k.scale = 2.f;
+      k.laplacian = lap[i];
+      float n = 0;
+      for (int j = 0; j < dim; ++j) n += (d[j] = desc[i * dim + j] + dnoise(rng)) * d[j];
+      for (int j = 0; j < dim; ++j) d[j] /= std::sqrt(n);
+      fs.keypoints.push_back(k);
+      fs.descriptors.insert(fs.descriptors.end(), d.begin(), d.end());
+    }
+    s.frames.push_back(std::move(fs));
+    if (f > 0) s.truth.push_back(Shift(du, dv));
+  }
+  return s;
+}
+
+FeatureSet Describe(aerovo::Surf& surf, const cv::Mat& gray) {
+  const aerovo::GrayImageView view{gray.data, gray.cols, gray.rows,
+                                   static_cast<std::ptrdiff_t>(gray.step[0])};
+  return surf.DetectAndDescribe(view).features;
+}
+
+aerovo::SurfOptions SurfOpts() {
+  aerovo::SurfOptions o;  // MATLAB defaults (the paper's).
+  o.num_threads = 2;
+  return o;
+}
+
+Sequence LoadTampa(int num_frames) {
+  Sequence s;
+  s.name = "tampa";
+  const fs::path dir = SharedDir() / "data/flights/tampa-phantom3";
+  if (!fs::is_directory(dir)) return s;
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    if (e.path().extension() == ".JPG" || e.path().extension() == ".jpg") files.push_back(e.path());
+  }
+  std::sort(files.begin(), files.end());
+  aerovo::Surf surf(SurfOpts());
+  for (int i = 0; i < num_frames && i < static_cast<int>(files.size()); ++i) {
+    cv::Mat bgr = cv::imread(files[i].string(), cv::IMREAD_COLOR), gray;
+    if (bgr.empty()) continue;
+    cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
+    s.width = gray.cols;
+    s.height = gray.rows;
+    s.frames.push_back(Describe(surf, gray));
+    if (s.frames.size() > 1) s.truth.emplace_back(std::nullopt);
+  }
+  return s;
+}
+
+Sequence LoadCallas(int num_frames) {
+  Sequence s;
+  s.name = "callas";
+  const fs::path file = SharedDir() / "data/ortho/callas-quarry.jpg";
+  if (!fs::exists(file)) return s;
+  cv::Mat bgr = cv::imread(file.string(), cv::IMREAD_COLOR), gray;
+  if (bgr.empty()) return s;
+  cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
+  bgr.release();
+  s.width = 1920;
+  s.height = 1080;
+  const int x0 = 1600, y0 = 1700, dx = 72, dy = 18;  // Inside the imaged part of the quarry.
+  aerovo::Surf surf(SurfOpts());
+  for (int f = 0; f < num_frames; ++f) {
+    const cv::Mat crop = gray(cv::Rect(x0 + f * dx, y0 + f * dy, s.width, s.height)).clone();
+    s.frames.push_back(Describe(surf, crop));
+    if (f > 0) s.truth.push_back(Shift(-dx, -dy));
+  }
+  return s;
+}
+
+const std::vector<Sequence>& Sequences() {
+  static const std::vector<Sequence> seqs = [] {
+    std::vector<Sequence> v;
+    v.push_back(MakeSyntheticFlight());
+    v.push_back(LoadTampa(13));
+    v.push_back(LoadCallas(8));
+    return v;
+  }();
+  return seqs;
+}
+
+const Sequence* FindSequence(const std::string& name) {
+  for (const Sequence& s : Sequences()) {
+    if (s.name == name && s.pairs() > 0) return &s;
+  }
+  return nullptr;
+}
+
+// Runs the stage over every consecutive pair; clustered gets the previous clustered result.
+std::vector<CorrespondenceResult> RunSequence(const Sequence& s, CorrespondenceStage& stage) {
+  std::vector<CorrespondenceResult> out;
+  std::optional<Eigen::Matrix3d> last;
+  for (std::size_t i = 0; i < s.pairs(); ++i) {
+    out.push_back(stage.Run(s.frames[i], s.width, s.height, s.frames[i + 1], last));
+    if (out.back().success) last = out.back().curr_from_prev;
+  }
+  return out;
+}
+
+CorrespondenceOptions StageOptions(CorrespondenceMethod method) {
+  CorrespondenceOptions o;
+  o.method = method;
+  return o;
+}
+
+// The standard method's matches per pair (cached), as cv::Mat point arrays for OpenCV.
+struct PairMatches {
+  Eigen::Matrix2Xd prev_px, curr_px;
+  std::vector<cv::Point2f> prev_cv, curr_cv;
+};
+const std::vector<PairMatches>& StandardMatches(const Sequence& s) {
+  static std::map<std::string, std::vector<PairMatches>> cache;
+  auto it = cache.find(s.name);
+  if (it != cache.end()) return it->second;
+  aerovo::Matcher matcher;
+  std::vector<PairMatches> v;
+  for (std::size_t i = 0; i < s.pairs(); ++i) {
+    const auto mr = matcher.Match(s.frames[i], s.frames[i + 1]);
+    PairMatches pm;
+    const int n = static_cast<int>(mr.matches.size());
+    pm.prev_px.resize(2, n);
+    pm.curr_px.resize(2, n);
+    for (int k = 0; k < n; ++k) {
+      const auto& p = s.frames[i].keypoints[mr.matches[k].prev_index];
+      const auto& c = s.frames[i + 1].keypoints[mr.matches[k].curr_index];
+      pm.prev_px.col(k) << p.x, p.y;
+      pm.curr_px.col(k) << c.x, c.y;
+      pm.prev_cv.emplace_back(p.x, p.y);
+      pm.curr_cv.emplace_back(c.x, c.y);
+    }
+    v.push_back(std::move(pm));
+  }
+  return cache.emplace(s.name, std::move(v)).first->second;
+}
+
+enum class CvMethod { kRansac, kMagsac };
+
+// OpenCV's defaults as documented (METHOD.md): RANSAC, 3 px, 2000 iterations, 0.99, 10 LM
+// refinement iterations; USAC_MAGSAC with the same threshold (its sigma bound) and limits.
+std::optional<Eigen::Matrix3d> CvEstimate(const PairMatches& pm, CvMethod method) {
+  if (pm.prev_cv.size() < 3) return std::nullopt;
+  cv::Mat inliers;
+  const cv::Mat a = cv::estimateAffine2D(pm.prev_cv, pm.curr_cv, inliers,
+                                         method == CvMethod::kRansac ? cv::RANSAC : cv::USAC_MAGSAC,
+                                         3.0, 2000, 0.99, 10);
+  if (a.empty()) return std::nullopt;
+  Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
+  for (int r = 0; r < 2; ++r) {
+    for (int c = 0; c < 3; ++c) m(r, c) = a.at<double>(r, c);
+  }
+  return m;
+}
+
+// ------------------------------------------------------------------ benchmarks
+
+void BM_RansacAffine(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  Eigen::Matrix3d truth;
+  truth << 1.03, 0.04, 15.0, -0.05, 0.97, 25.0, 0, 0, 1;
+  const auto data = aerovo::testing::MakeCorrespondences(truth, n / 2, n - n / 2, 0.5, 42);
+  aerovo::Ransac<aerovo::AffineModel> ransac;
+  int trials = 0;
+  for (auto _ : state) {
+    const auto r = ransac.Estimate(data.prev, data.curr);
+    trials = r.num_trials;
+    benchmark::DoNotOptimize(r.curr_from_prev);
+  }
+  state.counters["trials"] = trials;
+}
+BENCHMARK(BM_RansacAffine)->Arg(500)->Arg(2000)->Arg(10000)->Unit(benchmark::kMillisecond);
+
+void BM_Stage(benchmark::State& state, const std::string& seq, CorrespondenceMethod method) {
+  const Sequence* s = FindSequence(seq);
+  if (s == nullptr) {
+    state.SkipWithError(("sequence " + seq + " unavailable (../shared missing?)").c_str());
+    return;
+  }
+  CorrespondenceStage stage(StageOptions(method));
+  for (auto _ : state) benchmark::DoNotOptimize(RunSequence(*s, stage));
+  state.counters["ms_per_pair"] =
+      benchmark::Counter(s->pairs() / 1000.0, benchmark::Counter::kIsIterationInvariantRate |
+                                                  benchmark::Counter::kInvert);
+}
+
+void BM_EstimateOnly(benchmark::State& state, const std::string& seq, int which) {
+  const Sequence* s = FindSequence(seq);
+  if (s == nullptr) {
+    state.SkipWithError(("sequence " + seq + " unavailable (../shared missing?)").c_str());
+    return;
+  }
+  const auto& pms = StandardMatches(*s);
+  aerovo::Ransac<aerovo::AffineModel> ransac;
+  for (auto _ : state) {
+    for (const PairMatches& pm : pms) {
+      if (which == 0) {
+        benchmark::DoNotOptimize(ransac.Estimate(pm.prev_px, pm.curr_px));
+      } else {
+        benchmark::DoNotOptimize(
+            CvEstimate(pm, which == 1 ? CvMethod::kRansac : CvMethod::kMagsac));
+      }
+    }
+  }
+  state.counters["ms_per_pair"] =
+      benchmark::Counter(s->pairs() / 1000.0, benchmark::Counter::kIsIterationInvariantRate |
+                                                  benchmark::Counter::kInvert);
+}
+
+void RegisterStageBenchmarks() {
+  for (const char* seq : {"synthetic-flight", "tampa", "callas"}) {
+    const std::string name = seq;
+    benchmark::RegisterBenchmark(("BM_Stage/" + name + "/standard").c_str(), BM_Stage, name,
+                                 CorrespondenceMethod::kStandard)
+        ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark(("BM_Stage/" + name + "/clustered").c_str(), BM_Stage, name,
+                                 CorrespondenceMethod::kClustered)
+        ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark(("BM_EstimateOnly/" + name + "/aerovo_msac").c_str(),
+                                 BM_EstimateOnly, name, 0)
+        ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark(("BM_EstimateOnly/" + name + "/cv_ransac").c_str(),
+                                 BM_EstimateOnly, name, 1)
+        ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark(("BM_EstimateOnly/" + name + "/cv_usac_magsac").c_str(),
+                                 BM_EstimateOnly, name, 2)
+        ->Unit(benchmark::kMillisecond);
+  }
+}
+
+// ------------------------------------------------------------------ side-by-side report
+
+struct Stats {
+  double mean = 0, median = 0, max = 0;
+};
+Stats Summarise(std::vector<double> v) {
+  Stats s;
+  if (v.empty()) return s;
+  for (double x : v) s.mean += x;
+  s.mean /= v.size();
+  std::sort(v.begin(), v.end());
+  s.median = v[v.size() / 2];
+  s.max = v.back();
+  return s;
+}
+
+void Report() {
+  std::printf("# Correspondence stage: standard vs clustered RANSAC (per frame pair)\n");
+  for (const Sequence& s : Sequences()) {
+    if (s.pairs() == 0) {
+      std::printf("\n## %s: unavailable (../shared missing), skipped\n", s.name.c_str());
+      continue;
+    }
+    double mean_points = 0;
+    for (const FeatureSet& f : s.frames) mean_points += f.size();
+    mean_points /= s.frames.size();
+    CorrespondenceStage standard(StageOptions(CorrespondenceMethod::kStandard));
+    CorrespondenceStage clustered(StageOptions(CorrespondenceMethod::kClustered));
+    // Warm-up run (buffers, caches), then the measured one.
+    RunSequence(s, standard);
+    RunSequence(s, clustered);
+    const auto rs = RunSequence(s, standard);
+    const auto rc = RunSequence(s, clustered);
+    const auto& pms = StandardMatches(s);
+    std::printf("\n## %s: %zu pairs, %dx%d, %.0f SURF points/frame\n", s.name.c_str(), s.pairs(),
+                s.width, s.height, mean_points);
+    std::printf(
+        "pair | std ms (match+est) | clu ms (match+est) | speed-up | cell | attempts | "
+        "fell back | std inl/matches | clu inl/matches | |clu-std| px | err px: std clu cvR cvM "
+        "| cvR ms | cvM ms\n");
+    std::vector<double> tstd, tclu, ratio, diff, e_std, e_clu, e_cvr, e_cvm, t_cvr, t_cvm;
+    int fallbacks = 0, failures_std = 0, failures_clu = 0;
+    for (std::size_t i = 0; i < s.pairs(); ++i) {
+      const CorrespondenceResult& a = rs[i];
+      const CorrespondenceResult& b = rc[i];
+      aerovo::Stopwatch w;
+      const auto cvr = CvEstimate(pms[i], CvMethod::kRansac);
+      t_cvr.push_back(w.elapsed_ms());
+      w.restart();
+      const auto cvm = CvEstimate(pms[i], CvMethod::kMagsac);
+      t_cvm.push_back(w.elapsed_ms());
+      tstd.push_back(a.total_ms);
+      tclu.push_back(b.total_ms);
+      ratio.push_back(a.total_ms / b.total_ms);
+      fallbacks += b.fell_back;
+      failures_std += !a.success;
+      failures_clu += !b.success;
+      double d = NAN;
+      if (a.success && b.success) {
+        d = aerovo::MaxCornerDisplacementPx(a.curr_from_prev, b.curr_from_prev, s.width, s.height);
+        diff.push_back(d);
+      }
+      auto err = [&](bool ok, const Eigen::Matrix3d& m, std::vector<double>* acc) -> double {
+        if (!s.truth[i] || !ok) return NAN;
+        const double e = aerovo::MaxCornerDisplacementPx(m, *s.truth[i], s.width, s.height);
+        acc->push_back(e);
+        return e;
+      };
+      const double es = err(a.success, a.curr_from_prev, &e_std);
+      const double ec = err(b.success, b.curr_from_prev, &e_clu);
+      const double er = err(cvr.has_value(), cvr.value_or(Eigen::Matrix3d::Identity()), &e_cvr);
+      const double em = err(cvm.has_value(), cvm.value_or(Eigen::Matrix3d::Identity()), &e_cvm);
+      std::printf(
+          "%zu | %.2f (%.2f+%.2f) | %.2f (%.2f+%.2f) | %.1fx | (%d,%d) | %d | %s | %d/%zu | "
+          "%d/%zu | %.3f | %.3f %.3f %.3f %.3f | %.2f | %.2f\n",
+          i, a.total_ms, a.match_ms, a.estimate_ms, b.total_ms, b.match_ms, b.estimate_ms,
+          a.total_ms / b.total_ms, b.cell_row, b.cell_col, b.attempts, b.fell_back ? "yes" : "no",
+          a.num_inliers, a.matches.size(), b.num_inliers, b.matches.size(), d, es, ec, er, em,
+          t_cvr.back(), t_cvm.back());
+    }
+    const Stats ss = Summarise(tstd), sc = Summarise(tclu), sr = Summarise(ratio),
+                sd = Summarise(diff);
+    std::printf(
+        "summary %s: standard mean %.2f ms (median %.2f, max %.2f); clustered mean %.2f ms "
+        "(median %.2f, max %.2f); mean-time speed-up %.1fx, median per-pair %.1fx; fell back "
+        "%d/%zu; failures std %d clu %d; |clustered - standard| at corners mean %.3f px, max "
+        "%.3f px (%zu compared)\n",
+        s.name.c_str(), ss.mean, ss.median, ss.max, sc.mean, sc.median, sc.max, ss.mean / sc.mean,
+        sr.median, fallbacks, s.pairs(), failures_std, failures_clu, sd.mean, sd.max, diff.size());
+    if (!e_std.empty()) {
+      std::printf(
+          "summary %s vs ground truth (corner error, mean / max px): aerovo standard %.3f / %.3f, "
+          "aerovo clustered %.3f / %.3f, cv RANSAC %.3f / %.3f, cv USAC_MAGSAC %.3f / %.3f\n",
+          s.name.c_str(), Summarise(e_std).mean, Summarise(e_std).max, Summarise(e_clu).mean,
+          Summarise(e_clu).max, Summarise(e_cvr).mean, Summarise(e_cvr).max, Summarise(e_cvm).mean,
+          Summarise(e_cvm).max);
+    }
+    std::printf(
+        "summary %s estimation only on the standard matches, mean ms/pair: cv RANSAC %.2f, cv "
+        "USAC_MAGSAC %.2f (aerovo MSAC: see the std est column / BM_EstimateOnly)\n",
+        s.name.c_str(), Summarise(t_cvr).mean, Summarise(t_cvm).mean);
+  }
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  bool report = true;
+  for (int i = 1; i < argc; ++i) {
+    if (std::string(argv[i]) == "--no_report") report = false;
+  }
+  if (report) Report();
+  RegisterStageBenchmarks();
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
