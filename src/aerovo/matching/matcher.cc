@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <limits>
 #include <string>
@@ -49,14 +50,58 @@ int GroupOf(std::int8_t laplacian, bool check_laplacian) {
 }
 
 // SSD in double from the stored floats: the value the thresholds are applied to, independent
-// of the float32 ranking score (so boundary decisions do not depend on the kernel used).
+// of the float32 ranking score (so boundary decisions do not depend on the kernel used). Four
+// partial sums break the add latency chain (no -ffast-math reassociation to do it for us).
 double ExactSsd(const float* a, const float* b, int dim) {
-  double s = 0.0;
-  for (int d = 0; d < dim; ++d) {
-    const double t = static_cast<double>(a[d]) - static_cast<double>(b[d]);
-    s += t * t;
+  double s[4] = {0.0, 0.0, 0.0, 0.0};
+  int d = 0;
+  for (; d + 4 <= dim; d += 4) {
+    for (int k = 0; k < 4; ++k) {
+      const double t = static_cast<double>(a[d + k]) - static_cast<double>(b[d + k]);
+      s[k] += t * t;
+    }
   }
-  return s;
+  for (; d < dim; ++d) {
+    const double t = static_cast<double>(a[d]) - static_cast<double>(b[d]);
+    s[0] += t * t;
+  }
+  return (s[0] + s[1]) + (s[2] + s[3]);
+}
+
+// True if any of v[0..n) is Inf or NaN (exponent bits all ones); integer ops vectorise.
+bool AnyNonFinite(const float* v, std::size_t n) {
+  std::uint32_t bad = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    std::uint32_t bits;
+    std::memcpy(&bits, v + i, sizeof(bits));
+    bad |= static_cast<std::uint32_t>((bits & 0x7f800000u) == 0x7f800000u);
+  }
+  return bad != 0;
+}
+
+// Best and second-best candidate of a query with their SSDs recomputed exactly (ExactSsd),
+// re-sorted on the exact values (s1 <= s2, ties: lower index); j = original index, -1 = none.
+struct ExactTop2 {
+  int j1 = -1;
+  int j2 = -1;
+  double s1 = std::numeric_limits<double>::infinity();
+  double s2 = std::numeric_limits<double>::infinity();
+};
+
+ExactTop2 MakeExact(const float* q, int dim, int j1, const float* row1, int j2, const float* row2) {
+  ExactTop2 e;
+  if (j1 < 0) return e;
+  e.j1 = j1;
+  e.s1 = ExactSsd(q, row1, dim);
+  if (j2 >= 0) {
+    e.j2 = j2;
+    e.s2 = ExactSsd(q, row2, dim);
+    if (e.s2 < e.s1 || (e.s2 == e.s1 && e.j2 < e.j1)) {
+      std::swap(e.s1, e.s2);
+      std::swap(e.j1, e.j2);
+    }
+  }
+  return e;
 }
 
 int ResolveThreads(int num_threads) {
@@ -109,14 +154,14 @@ struct Matcher::Impl {
   const Kernels* kernels = nullptr;
 
   // --- Search inputs (indices into the query / candidate FeatureSets) and outputs. -----------
-  std::vector<int> fwd_ids;     // forward query set: prev indices, sorted, unique
-  std::vector<int> rev_ids;     // reverse query set (unique): matched curr indices, sorted
-  std::vector<Best2> fwd_best;  // per fwd_ids entry; j = original curr index
-  std::vector<Best2> rev_best;  // per rev_ids entry; j = original prev index
-  std::vector<float> qx, qy;    // query positions (guided)
-  std::vector<float> cx, cy;    // candidate positions (guided), indexed like the candidate ids
-  std::vector<char> mark;       // per curr index (unique)
-  std::vector<int> rev_slot;    // per curr index: position in rev_ids
+  std::vector<int> fwd_ids;         // forward query set: prev indices, sorted, unique
+  std::vector<int> rev_ids;         // reverse query set (unique): matched curr indices, sorted
+  std::vector<ExactTop2> fwd_best;  // per fwd_ids entry; j = original curr index
+  std::vector<ExactTop2> rev_best;  // per rev_ids entry; j = original prev index
+  std::vector<float> qx, qy;        // query positions (guided)
+  std::vector<float> cx, cy;        // candidate positions (guided), indexed like the candidate ids
+  std::vector<char> mark;           // per curr index (unique)
+  std::vector<int> rev_slot;        // per curr index: position in rev_ids
 
   // --- Exhaustive: packed queries (row-major) and candidates (panels). -----------------------
   int q_begin[kNumGroups] = {}, q_end[kNumGroups] = {}, q_count[kNumGroups] = {};
@@ -141,28 +186,27 @@ struct Matcher::Impl {
   std::vector<float> g_rows, g_norms, g_x, g_y;
   std::vector<std::int32_t> g_index;  // slot -> original index (also the tie key)
   std::vector<std::vector<std::int32_t>> thread_slots;
+  std::vector<int> q_order, q_key, q_bucket;  // guided queries in cell order
 
   void PackQueries(const FeatureSet& f, const std::vector<int>& ids);
   void PackCandidates(const FeatureSet& f, const std::vector<int>& ids);
   std::int64_t SearchExhaustive(const FeatureSet& fq, const std::vector<int>& qids,
                                 const FeatureSet& fc, const std::vector<int>& cids,
-                                std::vector<Best2>* out);
+                                std::vector<ExactTop2>* out);
   void BuildGrid(const FeatureSet& f, const std::vector<int>& ids, float radius);
   std::int64_t SearchGuided(const FeatureSet& fq, const std::vector<int>& qids,
                             const FeatureSet& fc, const std::vector<int>& cids, float radius,
-                            std::vector<Best2>* out);
+                            std::vector<ExactTop2>* out);
   void CheckFinite(const FeatureSet& f, const std::vector<int>& ids, const char* which) const;
 };
 
 void Matcher::Impl::CheckFinite(const FeatureSet& f, const std::vector<int>& ids,
                                 const char* which) const {
-  const int dim = f.descriptor_size;
+  const std::size_t dim = f.descriptor_size;
+  // Fast path: one pass over the whole array when every point is used.
+  if (ids.size() == f.size() && !AnyNonFinite(f.descriptors.data(), f.descriptors.size())) return;
   for (int id : ids) {
-    const float* d = f.descriptor(id);
-    float acc = 0.f;
-    // x * 0 is NaN exactly for non-finite x: one branch per descriptor, not per value.
-    for (int k = 0; k < dim; ++k) acc += d[k] * 0.f;
-    if (acc != 0.f) ThrowNonFinite(which, id, "descriptor");
+    if (AnyNonFinite(f.descriptor(id), dim)) ThrowNonFinite(which, id, "descriptor");
   }
 }
 
@@ -238,7 +282,7 @@ void Matcher::Impl::PackCandidates(const FeatureSet& f, const std::vector<int>& 
 
 std::int64_t Matcher::Impl::SearchExhaustive(const FeatureSet& fq, const std::vector<int>& qids,
                                              const FeatureSet& fc, const std::vector<int>& cids,
-                                             std::vector<Best2>* out) {
+                                             std::vector<ExactTop2>* out) {
   const int dim = fq.descriptor_size;
   PackQueries(fq, qids);
   PackCandidates(fc, cids);
@@ -283,10 +327,11 @@ std::int64_t Matcher::Impl::SearchExhaustive(const FeatureSet& fq, const std::ve
   }
   out->resize(qids.size());
   for (std::size_t k = 0; k < qids.size(); ++k) {
-    Best2 b = slot_best[q_slot_of[k]];
-    b.j1 = b.j1 >= 0 ? c_index[b.j1] : -1;
-    b.j2 = b.j2 >= 0 ? c_index[b.j2] : -1;
-    (*out)[k] = b;
+    const Best2& b = slot_best[q_slot_of[k]];
+    const int j1 = b.j1 >= 0 ? c_index[b.j1] : -1;
+    const int j2 = b.j2 >= 0 ? c_index[b.j2] : -1;
+    (*out)[k] = MakeExact(fq.descriptor(qids[k]), dim, j1, j1 >= 0 ? fc.descriptor(j1) : nullptr,
+                          j2, j2 >= 0 ? fc.descriptor(j2) : nullptr);
   }
   return comparisons;
 }
@@ -346,7 +391,7 @@ void Matcher::Impl::BuildGrid(const FeatureSet& f, const std::vector<int>& ids, 
 // Query positions are taken from qx/qy (indexed like `qids`), candidate positions from cx/cy.
 std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector<int>& qids,
                                          const FeatureSet& fc, const std::vector<int>& cids,
-                                         float radius, std::vector<Best2>* out) {
+                                         float radius, std::vector<ExactTop2>* out) {
   const int dim = fq.descriptor_size;
   const bool lap = options.check_laplacian;
   BuildGrid(fc, cids, radius);
@@ -360,10 +405,33 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
   const int cells = g_nx * g_ny;
   const float r2 = radius * radius;
   const matching_detail::ListFn list = kernels->list;
+  // Visit queries in grid-cell order of their predicted positions: consecutive queries then
+  // read the same candidate cells, which stay in cache (in prev order they would be random
+  // accesses into a multi-MB array).
+  q_order.resize(nq);
+  q_key.resize(nq);
+  q_bucket.assign(static_cast<std::size_t>(kNumGroups) * cells + 1, 0);
+  for (int k = 0; k < nq; ++k) {
+    const float fx = std::clamp((qx[k] - g_x0) * g_inv_cell, 0.f, static_cast<float>(g_nx - 1));
+    const float fy = std::clamp((qy[k] - g_y0) * g_inv_cell, 0.f, static_cast<float>(g_ny - 1));
+    q_key[k] = GroupOf(fq.keypoints[qids[k]].laplacian, lap) * cells + static_cast<int>(fy) * g_nx +
+               static_cast<int>(fx);
+    ++q_bucket[q_key[k] + 1];
+  }
+  for (std::size_t c = 1; c < q_bucket.size(); ++c) q_bucket[c] += q_bucket[c - 1];
+  for (int k = 0; k < nq; ++k) q_order[q_bucket[q_key[k]]++] = k;
   std::int64_t comparisons = 0;
 #pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads) \
     reduction(+ : comparisons) if (num_threads > 1)
-  for (int k = 0; k < nq; ++k) {
+  for (int o = 0; o < nq; ++o) {
+    const int k = q_order[o];
+    if (o + 2 < nq) {
+      // Queries are visited in spatial order, i.e. at random places in fq: fetch ahead.
+      const char* next = reinterpret_cast<const char*>(fq.descriptor(qids[q_order[o + 2]]));
+      for (int b = 0; b < dim * static_cast<int>(sizeof(float)); b += 64) {
+        __builtin_prefetch(next + b);
+      }
+    }
     std::vector<std::int32_t>& slots = thread_slots[omp_get_thread_num()];
     slots.clear();
     const float x = qx[k], y = qy[k];
@@ -388,14 +456,16 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
       }
     }
     Best2 b{kInf, kInf, -1, -1};
+    const float* q = fq.descriptor(qids[k]);
     if (!slots.empty()) {
-      list(fq.descriptor(qids[k]), dim, g_rows.data(), g_norms.data(), slots.data(),
-           static_cast<int>(slots.size()), g_index.data(), &b);
+      list(q, dim, g_rows.data(), g_norms.data(), slots.data(), static_cast<int>(slots.size()),
+           g_index.data(), &b);
       comparisons += static_cast<std::int64_t>(slots.size());
     }
-    b.j1 = b.j1 >= 0 ? g_index[b.j1] : -1;
-    b.j2 = b.j2 >= 0 ? g_index[b.j2] : -1;
-    (*out)[k] = b;
+    // Exact SSDs now, while the query and candidate rows are in cache.
+    const auto row = [&](int slot) { return g_rows.data() + static_cast<std::size_t>(slot) * dim; };
+    (*out)[k] = MakeExact(q, dim, b.j1 >= 0 ? g_index[b.j1] : -1, b.j1 >= 0 ? row(b.j1) : nullptr,
+                          b.j2 >= 0 ? g_index[b.j2] : -1, b.j2 >= 0 ? row(b.j2) : nullptr);
   }
   return comparisons;
 }
@@ -435,7 +505,6 @@ MatchResult Matcher::Match(const FeatureSet& prev, const FeatureSet& curr,
                           std::to_string(prev.descriptor_size) + ", curr " +
                           std::to_string(curr.descriptor_size) + ")");
   }
-  const int dim = prev.descriptor_size;
   const int n_prev = static_cast<int>(prev.size());
   const int n_curr = static_cast<int>(curr.size());
 
@@ -503,19 +572,10 @@ MatchResult Matcher::Match(const FeatureSet& prev, const FeatureSet& curr,
   const double ratio = o.max_ratio;
   std::vector<aerovo::Match>& out = result.matches;
   for (std::size_t k = 0; k < m.fwd_ids.size(); ++k) {
-    const Best2& b = m.fwd_best[k];
+    const ExactTop2& b = m.fwd_best[k];
     if (b.j1 < 0) continue;
-    const float* q = prev.descriptor(m.fwd_ids[k]);
-    int j1 = b.j1, j2 = b.j2;
-    double s1 = ExactSsd(q, curr.descriptor(j1), dim);
-    double s2 = std::numeric_limits<double>::infinity();
-    if (j2 >= 0) {
-      s2 = ExactSsd(q, curr.descriptor(j2), dim);
-      if (s2 < s1 || (s2 == s1 && j2 < j1)) {
-        std::swap(s1, s2);
-        std::swap(j1, j2);
-      }
-    }
+    const double s1 = b.s1, s2 = b.s2;
+    const int j1 = b.j1, j2 = b.j2;
     if (!(s1 <= threshold)) continue;
     if (j2 >= 0) {
       // second == 0 means two identical best candidates: ambiguous, rejected (as MATLAB's
@@ -559,17 +619,10 @@ MatchResult Matcher::Match(const FeatureSet& prev, const FeatureSet& curr,
     }
     std::size_t kept = 0;
     for (const aerovo::Match& mt : out) {
-      const Best2& b = m.rev_best[m.rev_slot[mt.curr_index]];
-      // Exact check among the reverse top-2 (float ranking may swap near-ties).
-      const float* c = curr.descriptor(mt.curr_index);
-      const double own = ExactSsd(prev.descriptor(mt.prev_index), c, dim);
-      bool best = true;
-      for (int j : {b.j1, b.j2}) {
-        if (j < 0 || j == mt.prev_index) continue;
-        const double s = ExactSsd(prev.descriptor(j), c, dim);
-        if (s < own || (s == own && j < mt.prev_index)) best = false;
-      }
-      if (b.j1 != mt.prev_index && b.j2 != mt.prev_index) best = false;
+      // p must be the exact best of the reverse top-2 (ExactSsd is symmetric in its operands,
+      // so p's value here equals the forward one).
+      const ExactTop2& b = m.rev_best[m.rev_slot[mt.curr_index]];
+      const bool best = b.j1 == mt.prev_index;
       if (best) out[kept++] = mt;
     }
     out.resize(kept);
