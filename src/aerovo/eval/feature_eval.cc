@@ -515,7 +515,7 @@ std::string FormatFeatureEvalTable(const std::vector<FeatureEvalSequence>& seque
   std::vector<double> sum_rep(nd, 0.0), sum_ms(nd, 0.0), sum_time(nd, 0.0), sum_n(nd, 0.0);
   std::vector<int> count(nd, 0), count_ms(nd, 0);
   auto fmt_ms = [&](const PairScore& s) -> std::string {
-    if (!s.has_matching_score) return "  -  ";
+    if (!s.has_matching_score) return "    -";
     std::snprintf(buf, sizeof buf, "%.3f", s.matching_score);
     return buf;
   };
@@ -533,10 +533,13 @@ std::string FormatFeatureEvalTable(const std::vector<FeatureEvalSequence>& seque
     std::snprintf(buf, sizeof buf, "%-8s %-5s", "sequence", "pair");
     os << buf;
     for (auto d : detectors) {
-      std::snprintf(buf, sizeof buf, " | %-5s rep    MS", ToString(d));
+      std::snprintf(buf, sizeof buf, " | %-11s", ToString(d));
       os << buf;
     }
-    os << '\n' << std::string(14 + 18 * nd, '-') << '\n';
+    std::snprintf(buf, sizeof buf, "\n%-14s", "");
+    os << buf;
+    for (std::size_t d = 0; d < nd; ++d) os << " |   rep    MS";
+    os << '\n' << std::string(14 + 14 * nd, '-') << '\n';
   }
   for (const auto& seq : sequences) {
     for (const auto& pair : seq.pairs) {
@@ -555,7 +558,7 @@ std::string FormatFeatureEvalTable(const std::vector<FeatureEvalSequence>& seque
         std::snprintf(buf, sizeof buf, "%-8s %-5s", seq.name.c_str(), label.c_str());
         os << buf;
         for (std::size_t d = 0; d < nd && d < pair.scores.size(); ++d) {
-          std::snprintf(buf, sizeof buf, " |   %.3f %5s", pair.scores[d].repeatability,
+          std::snprintf(buf, sizeof buf, " | %5.3f %5s", pair.scores[d].repeatability,
                         fmt_ms(pair.scores[d]).c_str());
           os << buf;
         }
@@ -583,13 +586,14 @@ std::string FormatFeatureEvalTable(const std::vector<FeatureEvalSequence>& seque
   }
   for (std::size_t d = 0; d < nd; ++d) {
     const double c = std::max(1, count[d]);
-    const double ms_mean = count_ms[d] ? sum_ms[d] / count_ms[d] : 0.0;
+    char ms_text[16] = "-";
+    if (count_ms[d] > 0) std::snprintf(ms_text, sizeof ms_text, "%.3f", sum_ms[d] / count_ms[d]);
     if (markdown) {
-      std::snprintf(buf, sizeof buf, "| %s | %.3f | %.3f | %.0f | %.1f |\n", ToString(detectors[d]),
-                    sum_rep[d] / c, ms_mean, sum_n[d] / c, sum_time[d] / c);
+      std::snprintf(buf, sizeof buf, "| %s | %.3f | %s | %.0f | %.1f |\n", ToString(detectors[d]),
+                    sum_rep[d] / c, ms_text, sum_n[d] / c, sum_time[d] / c);
     } else {
-      std::snprintf(buf, sizeof buf, "%-8s  %8.3f  %7.3f  %15.0f  %8.1f\n", ToString(detectors[d]),
-                    sum_rep[d] / c, ms_mean, sum_n[d] / c, sum_time[d] / c);
+      std::snprintf(buf, sizeof buf, "%-8s  %8.3f  %7s  %15.0f  %8.1f\n", ToString(detectors[d]),
+                    sum_rep[d] / c, ms_text, sum_n[d] / c, sum_time[d] / c);
     }
     os << buf;
   }
