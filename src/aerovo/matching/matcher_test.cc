@@ -9,7 +9,11 @@
 #include <random>
 #include <vector>
 
+#include <opencv2/imgcodecs.hpp>
+
 #include "aerovo/core/error.h"
+#include "aerovo/core/testing.h"
+#include "aerovo/features/surf.h"
 
 namespace aerovo {
 namespace {
@@ -542,6 +546,51 @@ TEST(MatcherTest, RejectsInconsistentInputs) {
   Affine bad_prior = s64.curr_from_prev;
   bad_prior(0, 0) = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW(m.Match(s64.prev, s64.curr, {}, bad_prior), InvalidArgument);
+}
+
+// Real SURF descriptors: two 800 x 600 crops of the Callas quarry orthophoto (8192 x 6400), the
+// second shifted by (+41, -23) px, so a point (u, v) of the first is at (u - 41, v + 23) in the
+// second.
+TEST(MatcherTest, RealSurfPairFromOrthophoto) {
+  AEROVO_REQUIRE_SHARED(path, "data/ortho/callas-quarry.jpg");
+  const cv::Mat full = cv::imread(path.string(), cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(full.empty());
+  // A textured part of the quarry terraces (the centre is a flat pond).
+  const int x0 = 2800, y0 = 1500, dx = 41, dy = -23;
+  const cv::Mat a = full(cv::Rect(x0, y0, 800, 600)).clone();
+  const cv::Mat b = full(cv::Rect(x0 + dx, y0 + dy, 800, 600)).clone();
+  Surf surf;
+  const auto view = [](const cv::Mat& m) {
+    return GrayImageView{m.data, m.cols, m.rows, static_cast<std::ptrdiff_t>(m.step)};
+  };
+  const FeatureSet prev = surf.DetectAndDescribe(view(a)).features;
+  const FeatureSet curr = surf.DetectAndDescribe(view(b)).features;
+  ASSERT_GT(prev.size(), 200u);
+  ASSERT_GT(curr.size(), 200u);
+  Affine truth;
+  truth << 1, 0, -dx, 0, 1, -dy;
+  const auto correct = [&](const Match& m) {
+    const Keypoint& p = prev.keypoints[m.prev_index];
+    const Keypoint& c = curr.keypoints[m.curr_index];
+    return std::hypot(p.x - dx - c.x, p.y - dy - c.y) < 1.5;
+  };
+  for (bool unique : {false, true}) {
+    MatchOptions o;
+    o.unique = unique;
+    Matcher matcher(o);
+    const MatchResult ex = matcher.Match(prev, curr);
+    ExpectSameMatches(ex.matches, Reference(prev, curr, {}, o));
+    const MatchResult gd = matcher.Match(prev, curr, {}, truth);
+    ExpectSameMatches(gd.matches, Reference(prev, curr, {}, o, truth));
+    const auto good_ex = std::count_if(ex.matches.begin(), ex.matches.end(), correct);
+    const auto good_gd = std::count_if(gd.matches.begin(), gd.matches.end(), correct);
+    EXPECT_GT(good_ex, 100);
+    EXPECT_GE(good_ex * 100, static_cast<long>(ex.matches.size()) * 95) << ex.matches.size();
+    // The prior removes far look-alikes: at least as many correct matches, fewer comparisons.
+    EXPECT_GE(good_gd, good_ex);
+    EXPECT_GE(good_gd * 100, static_cast<long>(gd.matches.size()) * 95) << gd.matches.size();
+    EXPECT_LT(gd.num_comparisons * 10, ex.num_comparisons);
+  }
 }
 
 }  // namespace
