@@ -22,6 +22,10 @@ void Validate(const CorrespondenceOptions& o) {
     throw InvalidArgument("ClusteredRansacOptions.refine_radius_px must be finite and > 0, got " +
                           std::to_string(c.refine_radius_px));
   }
+  if (c.refine_max_points < 0) {
+    throw InvalidArgument("ClusteredRansacOptions.refine_max_points must be >= 0, got " +
+                          std::to_string(c.refine_max_points));
+  }
   if (c.min_points < 1) {
     throw InvalidArgument("ClusteredRansacOptions.min_points must be >= 1, got " +
                           std::to_string(c.min_points));
@@ -143,11 +147,23 @@ bool CorrespondenceStage::Attempt(Matcher& matcher, bool guided, const FeatureSe
 }
 
 void CorrespondenceStage::Refine(const FeatureSet& prev, const FeatureSet& curr,
-                                 CorrespondenceResult* out) {
+                                 const std::vector<int>& cell_of, CorrespondenceResult* out) {
+  const ClusteredRansacOptions& co = options_.clustered;
+  const int num_cells = co.grid_rows * co.grid_cols;
+  const int per_cell = co.refine_max_points == 0
+                           ? static_cast<int>(prev.size())
+                           : (co.refine_max_points + num_cells - 1) / num_cells;
+  std::vector<int> taken(static_cast<std::size_t>(num_cells), 0);
+  subset_.clear();
+  for (std::size_t i = 0; i < cell_of.size(); ++i) {
+    const int cell = cell_of[i];
+    if (cell >= 0 && taken[static_cast<std::size_t>(cell)]++ < per_cell) {
+      subset_.push_back(static_cast<int>(i));
+    }
+  }
   // Attempt overwrites the result; keep the cell's in case the refinement is not better.
   CorrespondenceResult refined;
   const Eigen::Matrix3d cell_transform = out->curr_from_prev;
-  subset_.clear();
   Attempt(refine_matcher_, true, prev, curr, subset_, cell_transform, &refined);
   out->match_ms += refined.match_ms;
   out->estimate_ms += refined.estimate_ms;
@@ -220,7 +236,7 @@ CorrespondenceResult CorrespondenceStage::Clustered(const FeatureSet& prev, int 
                 &result)) {
       result.cell_row = cell / cols;
       result.cell_col = cell % cols;
-      if (co.refine) Refine(prev, curr, &result);
+      if (co.refine) Refine(prev, curr, cell_of, &result);
       result.total_ms = total.elapsed_ms();
       return result;
     }
