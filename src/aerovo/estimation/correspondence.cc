@@ -153,11 +153,15 @@ void CorrespondenceStage::Refine(const FeatureSet& prev, const FeatureSet& curr,
   const int per_cell = co.refine_max_points == 0
                            ? static_cast<int>(prev.size())
                            : (co.refine_max_points + num_cells - 1) / num_cells;
+  // The chosen cell's points all take part, so that a refined model consistent with the cell
+  // finds at least the cell's inliers again: "at least as many inliers" then means "explains
+  // the cell's evidence and more", whatever refine_max_points is.
+  const int chosen = out->cell_row * co.grid_cols + out->cell_col;
   std::vector<int> taken(static_cast<std::size_t>(num_cells), 0);
   subset_.clear();
   for (std::size_t i = 0; i < cell_of.size(); ++i) {
     const int cell = cell_of[i];
-    if (cell >= 0 && taken[static_cast<std::size_t>(cell)]++ < per_cell) {
+    if (cell >= 0 && (cell == chosen || taken[static_cast<std::size_t>(cell)]++ < per_cell)) {
       subset_.push_back(static_cast<int>(i));
     }
   }

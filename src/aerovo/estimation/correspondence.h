@@ -72,9 +72,10 @@ struct ClusteredRansacOptions {
   /// Drop the strips that leave the view (step 2 above). Default true (the paper); false keeps
   /// the whole frame (for ablation).
   bool crop = true;
-  /// Refinement after a cell succeeds (an aerovo addition, not in the paper): take up to
-  /// refine_max_points prev points spread over ALL cells of the crop (the same number from
-  /// each cell, in FeatureSet order, i.e. strongest first for SURF output), match them by
+  /// Refinement after a cell succeeds (an aerovo addition, not in the paper): take the chosen
+  /// cell's points plus up to refine_max_points / (grid_rows * grid_cols) points from every
+  /// other cell of the crop (in FeatureSet order, i.e. strongest first for SURF output), match
+  /// them by
   /// guided matching around the cell transform's prediction (radius refine_radius_px) and run
   /// the same RANSAC on those matches; the refined fit replaces the cell's if it succeeds with
   /// at least as many inliers. Why: a cell covers ~1/9 of the frame, so its transform
@@ -86,9 +87,9 @@ struct ClusteredRansacOptions {
   /// Search radius of the refinement's guided matching, px of the current frame: must cover the
   /// cell transform's extrapolation error. Default 40 px (MatchOptions' guided default).
   float refine_radius_px = 40.f;
-  /// Points used by the refinement (0 = every point in the crop). Default 180 (our choice:
-  /// 20 per cell of the 3 x 3 grid; an affine least-squares fit on that many well-spread
-  /// inliers with 0.3 px noise is good to ~0.1 px at the corners).
+  /// Points per refinement, spread over the cells (0 = every point in the crop). Default 180
+  /// (our choice: 20 per cell of the 3 x 3 grid; an affine least-squares fit on that many
+  /// well-spread inliers with 0.3 px noise is good to ~0.1 px at the corners).
   int refine_max_points = 180;
 };
 
