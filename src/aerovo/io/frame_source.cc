@@ -338,7 +338,10 @@ LiveSource::LiveSource(int camera_index, const FrameSourceOptions& options)
 LiveSource::LiveSource(const std::string& device_or_url, const FrameSourceOptions& options)
     : spec_(device_or_url), options_(options) {
   Validate(options_);
-  capture_.open(device_or_url);
+  // FFmpeg reads streams (rtsp, http, udp, files); V4L2 reads device nodes. Naming the backend
+  // avoids OpenCV's fallback through every backend (GStreamer's noisy, leaky pipeline setup).
+  const bool device = device_or_url.rfind("/dev/", 0) == 0;
+  capture_.open(device_or_url, device ? cv::CAP_V4L2 : cv::CAP_FFMPEG);
   Init();
 }
 
