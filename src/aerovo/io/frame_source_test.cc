@@ -299,6 +299,32 @@ TEST(ImageFolderSource, TampaFolderOrderAndSize) {
   EXPECT_DOUBLE_EQ(f.time_s, 0.0);
 }
 
+// The photo-set telemetry built from the folder's metadata is indexed like the frames.
+TEST(ImageFolderSource, TurinTelemetryMatchesFrames) {
+  AEROVO_REQUIRE_SHARED(dir, "data/flights/turin-p4m");
+  FrameSourceOptions o;
+  o.step = 5;
+  ImageFolderSource src(dir, o);
+  ASSERT_EQ(src.paths().size(), 32u);
+  const TelemetryReadResult tel = TelemetryFromImages(src.metadata());
+  ASSERT_EQ(tel.records, 32);
+  Frame f;
+  int n = 0;
+  while (src.Next(f)) {
+    ++n;
+    EXPECT_EQ(f.gray.width(), 1600);
+    const auto fix = tel.telemetry.ForFrame(f.index, f.time_s);
+    ASSERT_TRUE(fix);
+    const ImageMetadata& m = src.metadata()[static_cast<std::size_t>(f.index)];
+    EXPECT_EQ(std::filesystem::path(m.source).filename().string(), f.name);
+    EXPECT_DOUBLE_EQ(fix->lat_deg, *m.lat_deg);
+    EXPECT_DOUBLE_EQ(fix->lon_deg, *m.lon_deg);
+    EXPECT_DOUBLE_EQ(fix->time_s, f.time_s);
+    EXPECT_NEAR(*fix->rel_alt_m, 44.5, 0.5);
+  }
+  EXPECT_EQ(n, 7);  // photos 0, 5, ..., 30
+}
+
 TEST(LiveSource, StreamFromAFileAndFactory) {
   io_test::TempDir dir("aerovo_live");
   WriteTestVideo(dir / "cam.avi", "MJPG");

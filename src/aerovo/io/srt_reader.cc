@@ -250,6 +250,12 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
     BlockFields f;
     long error_line = timing_line;
     for (; i < lines.size() && !blank(i); ++i) {
+      // A subtitle number followed by a timing line starts the next block even when the
+      // blank separator line is missing (seen in hand-edited and concatenated files).
+      if (i + 1 < lines.size() && ParseInt(lines[i].text) &&
+          lines[i + 1].text.find("-->") != std::string::npos) {
+        break;
+      }
       const bool had_error = !f.error.empty();
       ParseTextLine(StripTags(lines[i].text), f);
       if (!had_error && !f.error.empty()) error_line = lines[i].number;

@@ -244,6 +244,16 @@ TEST(DjiSrt, MissingFieldsBadNumbersBadTimingOutOfOrder) {
   }
 }
 
+TEST(DjiSrt, MissingBlankSeparatorLine) {
+  std::istringstream in(
+      "1\n00:00:00,000 --> 00:00:00,033\n[latitude: 43.1] [longitude: 6.1]\n"
+      "2\n00:00:00,033 --> 00:00:00,066\n[latitude: 43.2] [longitude: 6.2]\n");
+  const TelemetryReadResult r = ParseDjiSrt(in, "nosep.srt");
+  ASSERT_EQ(r.records, 2);
+  EXPECT_DOUBLE_EQ(r.telemetry[1].lat_deg, 43.2);
+  EXPECT_DOUBLE_EQ(r.telemetry[1].time_s, 0.033);
+}
+
 TEST(DjiSrt, NoFixRecordsAreDroppedAndCounted) {
   std::istringstream in(SrtWithBadBlock(
       "3\n00:00:00,066 --> 00:00:00,100\n[latitude: 0.000000] [longitude: 0.000000]\n"));
