@@ -395,7 +395,7 @@ void Report() {
         "pair | ms: std paper ref | cell attempts fellback | inliers/matches: std paper ref | "
         "corner diff to std px: paper ref | err to truth px: std paper ref cvRANSAC cvMAGSAC | "
         "cv ms: RANSAC MAGSAC\n");
-    std::vector<double> d_pap, d_ref, t_cvr, t_cvm;
+    std::vector<double> d_pap, d_ref, d_cvr, d_cvm, t_cvr, t_cvm;
     std::vector<double> e_std, e_pap, e_ref, e_cvr, e_cvm;
     int fallbacks = 0, failures = 0;
     for (std::size_t i = 0; i < s.pairs(); ++i) {
@@ -430,6 +430,12 @@ void Report() {
         return e;
       };
       const double dp = diff(p, &d_pap), dr = diff(r, &d_ref);
+      if (a.success && cvr) {
+        d_cvr.push_back(aerovo::MaxCornerDisplacementPx(a.curr_from_prev, *cvr, s.width, s.height));
+      }
+      if (a.success && cvm) {
+        d_cvm.push_back(aerovo::MaxCornerDisplacementPx(a.curr_from_prev, *cvm, s.width, s.height));
+      }
       const double es = err(a.success, a.curr_from_prev, &e_std);
       const double ep = err(p.success, p.curr_from_prev, &e_pap);
       const double er = err(r.success, r.curr_from_prev, &e_ref);
@@ -452,9 +458,10 @@ void Report() {
         sr.max, ss.mean / sp.mean, ss.mean / sr.mean, fallbacks, s.pairs(), failures);
     std::printf(
         "summary %s corner difference to standard px, mean / max: paper %.3f / %.3f, refined "
-        "%.3f / %.3f\n",
+        "%.3f / %.3f, cv RANSAC (3 px) %.3f / %.3f, cv USAC_MAGSAC %.3f / %.3f\n",
         s.name.c_str(), Summarise(d_pap).mean, Summarise(d_pap).max, Summarise(d_ref).mean,
-        Summarise(d_ref).max);
+        Summarise(d_ref).max, Summarise(d_cvr).mean, Summarise(d_cvr).max, Summarise(d_cvm).mean,
+        Summarise(d_cvm).max);
     if (!e_std.empty()) {
       std::printf(
           "summary %s corner error to ground truth px, mean / max: standard %.3f / %.3f, paper "

@@ -22,6 +22,10 @@ void Validate(const RansacOptions& o) {
     throw InvalidArgument("RansacOptions.max_degenerate_samples must be >= 0, got " +
                           std::to_string(o.max_degenerate_samples));
   }
+  if (o.final_refit_iterations < 0) {
+    throw InvalidArgument("RansacOptions.final_refit_iterations must be >= 0, got " +
+                          std::to_string(o.final_refit_iterations));
+  }
   if (o.lo_max_iterations < 1) {
     throw InvalidArgument("RansacOptions.lo_max_iterations must be >= 1, got " +
                           std::to_string(o.lo_max_iterations));

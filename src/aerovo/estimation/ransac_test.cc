@@ -260,6 +260,26 @@ TYPED_TEST(RansacModelTest, AllCollinearDataNeverProducesAModel) {
   EXPECT_FALSE(Model::FitLeastSquares(prev, curr, all.data(), n, &m));
 }
 
+// Noise comparable to the threshold: the returned model must be (close to) the least-squares
+// fit on its own inlier set, not on the best minimal sample's spatially biased one.
+TEST(RansacLoop, FinalRefitConvergesToItsOwnInliers) {
+  const Eigen::Matrix3d truth = TrueTransform<AffineModel>();
+  const auto data = MakeCorrespondences(truth, 3000, 300, 0.6, 31);
+  Ransac<AffineModel> ransac;
+  const RansacResult r = ransac.Estimate(data.prev, data.curr);
+  ASSERT_TRUE(r.success);
+  std::vector<int> idx;
+  for (int i = 0; i < static_cast<int>(r.inlier_mask.size()); ++i) {
+    if (r.inlier_mask[i]) idx.push_back(i);
+  }
+  Eigen::Matrix3d own;
+  ASSERT_TRUE(AffineModel::FitLeastSquares(data.prev, data.curr, idx.data(),
+                                           static_cast<int>(idx.size()), &own));
+  EXPECT_LT(MaxCornerDisplacementPx(r.curr_from_prev, own, kFrameWidth, kFrameHeight), 0.01);
+  // Standard error of a corner from ~2900 points with sigma 0.6 px: ~0.03 px.
+  EXPECT_LT(MaxCornerDisplacementPx(r.curr_from_prev, truth, kFrameWidth, kFrameHeight), 0.08);
+}
+
 TEST(RansacLoop, TooFewPointsIsAFailureNotAnError) {
   const auto data = MakeCorrespondences(TrueTransform<AffineModel>(), 2, 0, 0.0, 1);
   Ransac<AffineModel> ransac;
