@@ -25,7 +25,7 @@ bool IsImageExtension(const std::filesystem::path& p) {
 }
 
 void FillFrame(const cv::Mat& bgr, bool keep_color, Frame& frame) {
-  frame.gray = ToGrayImage(bgr);
+  ToGrayImage(bgr, frame.gray);
   if (keep_color) {
     bgr.copyTo(frame.color);
   } else {
@@ -35,31 +35,44 @@ void FillFrame(const cv::Mat& bgr, bool keep_color, Frame& frame) {
 
 }  // namespace
 
-GrayImage ToGrayImage(const cv::Mat& image) {
-  if (image.empty()) return GrayImage();
+void ToGrayImage(const cv::Mat& image, GrayImage& out) {
+  if (image.empty()) {
+    out = GrayImage();
+    return;
+  }
   if (image.depth() != CV_8U) {
     throw InvalidArgument(
         fmt::format("ToGrayImage: expected an 8-bit image, got depth {}", image.depth()));
   }
-  cv::Mat gray;
+  int code = -1;
   switch (image.channels()) {
     case 1:
-      gray = image;
       break;
     case 3:
-      cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+      code = cv::COLOR_BGR2GRAY;
       break;
     case 4:
-      cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
+      code = cv::COLOR_BGRA2GRAY;
       break;
     default:
       throw InvalidArgument(
           fmt::format("ToGrayImage: unsupported channel count {}", image.channels()));
   }
-  GrayImage out(gray.cols, gray.rows);
-  for (int y = 0; y < gray.rows; ++y) {
-    std::memcpy(out.row(y), gray.ptr<std::uint8_t>(y), static_cast<std::size_t>(gray.cols));
+  if (out.width() != image.cols || out.height() != image.rows) {
+    out = GrayImage(image.cols, image.rows);
   }
+  // Convert straight into the GrayImage's contiguous buffer.
+  cv::Mat dst(image.rows, image.cols, CV_8UC1, out.data());
+  if (code < 0) {
+    image.copyTo(dst);
+  } else {
+    cv::cvtColor(image, dst, code);
+  }
+}
+
+GrayImage ToGrayImage(const cv::Mat& image) {
+  GrayImage out;
+  ToGrayImage(image, out);
   return out;
 }
 

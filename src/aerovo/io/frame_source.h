@@ -50,6 +50,8 @@ struct FrameSourceOptions {
 void Validate(const FrameSourceOptions& options);
 
 /// A sequence of frames. Next() fills `frame` and returns true, or returns false at the end.
+/// Next() reuses `frame.gray`'s storage when the size matches: to keep a previous frame, pass
+/// a different Frame object (or move it away) before the next call.
 /// Errors that make the source unusable (cannot open, undecodable photo, size change) throw
 /// InputError naming the source and the frame; a video that ends before its header's frame
 /// count ends the sequence with a message in warnings().
@@ -163,5 +165,7 @@ std::unique_ptr<FrameSource> OpenFrameSource(const std::string& spec,
 /// Converts an OpenCV 8-bit image (1, 3 or 4 channels) to a GrayImage (copy).
 /// Throws InvalidArgument for other depths/channel counts.
 GrayImage ToGrayImage(const cv::Mat& image);
+/// The same into `out`, reusing its storage when the size matches (no allocation per frame).
+void ToGrayImage(const cv::Mat& image, GrayImage& out);
 
 }  // namespace aerovo

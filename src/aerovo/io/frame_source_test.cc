@@ -367,6 +367,13 @@ TEST(ToGrayImage, ChannelsAndDepth) {
   EXPECT_EQ(ToGrayImage(one).at(1, 1), 7);
   EXPECT_THROW(ToGrayImage(cv::Mat(2, 2, CV_16UC1)), InvalidArgument);
   EXPECT_TRUE(ToGrayImage(cv::Mat()).empty());
+  GrayImage reused(3, 2);
+  const std::uint8_t* buffer = reused.data();
+  ToGrayImage(bgr, reused);
+  EXPECT_EQ(reused.data(), buffer);  // same size: storage reused
+  EXPECT_EQ(reused.at(0, 0), 76);
+  cv::Mat bgra(2, 3, CV_8UC4, cv::Scalar(255, 0, 0, 255));  // pure blue
+  EXPECT_EQ(ToGrayImage(bgra).at(1, 1), 29);                // 0.114 * 255
 }
 
 }  // namespace
