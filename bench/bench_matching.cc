@@ -11,13 +11,18 @@
 
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
 #include <numeric>
 #include <random>
+#include <string>
 #include <vector>
 
+#include "aerovo/features/surf.h"
 #include "aerovo/matching/matcher.h"
 
 namespace {
@@ -118,6 +123,23 @@ void BM_AerovoGuided(benchmark::State& state) {
                                                  benchmark::Counter::kIsIterationInvariantRate);
 }
 
+// Clustered RANSAC's call: a cell's points (prev_subset) against all curr points.
+// Args: N, subset size (the first `size` prev indices; positions are random, so any set works).
+void BM_AerovoSubset(benchmark::State& state) {
+  const Pair& p = GetPair(static_cast<int>(state.range(0)));
+  std::vector<int> subset(static_cast<std::size_t>(state.range(1)));
+  std::iota(subset.begin(), subset.end(), 0);
+  aerovo::Matcher matcher;
+  aerovo::MatchResult r;
+  for (auto _ : state) {
+    r = matcher.Match(p.prev, p.curr, subset);
+    benchmark::DoNotOptimize(r.matches.data());
+  }
+  state.counters["matches"] = static_cast<double>(r.matches.size());
+  state.counters["pairs/s"] = benchmark::Counter(static_cast<double>(r.num_comparisons),
+                                                 benchmark::Counter::kIsIterationInvariantRate);
+}
+
 // OpenCV baseline: BFMatcher(NORM_L2) knnMatch k = 2 (no Laplacian split), plus the same
 // ratio test and threshold on squared distances so that the match count is comparable.
 // Args: N, threads (cv::setNumThreads; 0 = OpenCV's default).
@@ -149,6 +171,101 @@ void BM_OpenCvBfKnn(benchmark::State& state) {
       benchmark::Counter(static_cast<double>(n) * n, benchmark::Counter::kIsIterationInvariantRate);
 }
 
+// --- Real descriptors: SURF on two 1920 x 1080 crops of the Callas quarry orthophoto, the
+// second shifted by (+60, -35) px (the guided prior is that exact shift). Hessian threshold
+// 1000 (MATLAB's default) and 200 (dense: tens of thousands of points, as on real flights).
+
+std::filesystem::path SharedDir() {
+  if (const char* env = std::getenv("AEROVO_SHARED"); env != nullptr && *env != '\0') return env;
+  return AEROVO_SHARED_DIR_DEFAULT;
+}
+
+struct RealPair {
+  Pair pair;
+  bool ok = false;
+};
+
+const RealPair& GetRealPair(int threshold) {
+  static std::vector<std::pair<int, RealPair>> cache;
+  for (const auto& [t, rp] : cache) {
+    if (t == threshold) return rp;
+  }
+  RealPair rp;
+  const cv::Mat full =
+      cv::imread((SharedDir() / "data/ortho/callas-quarry.jpg").string(), cv::IMREAD_GRAYSCALE);
+  if (!full.empty()) {
+    const int x0 = 3000, y0 = 1600, dx = 60, dy = -35;
+    const cv::Mat a = full(cv::Rect(x0, y0, 1920, 1080)).clone();
+    const cv::Mat b = full(cv::Rect(x0 + dx, y0 + dy, 1920, 1080)).clone();
+    aerovo::SurfOptions so;
+    so.hessian_threshold = threshold;
+    so.num_threads = 0;
+    aerovo::Surf surf(so);
+    const auto view = [](const cv::Mat& m) {
+      return aerovo::GrayImageView{m.data, m.cols, m.rows, static_cast<std::ptrdiff_t>(m.step)};
+    };
+    rp.pair.prev = surf.DetectAndDescribe(view(a)).features;
+    rp.pair.curr = surf.DetectAndDescribe(view(b)).features;
+    rp.pair.curr_from_prev << 1, 0, -dx, 0, 1, -dy;
+    rp.ok = true;
+  }
+  cache.emplace_back(threshold, std::move(rp));
+  return cache.back().second;
+}
+
+// Args: threshold, mode (0 exhaustive, 1 guided 40 px, 2 cv::BFMatcher), threads.
+void BM_RealOrtho(benchmark::State& state) {
+  const RealPair& rp = GetRealPair(static_cast<int>(state.range(0)));
+  if (!rp.ok) {
+    state.SkipWithError("shared data not found: data/ortho/callas-quarry.jpg (set AEROVO_SHARED)");
+    return;
+  }
+  const Pair& p = rp.pair;
+  const int mode = static_cast<int>(state.range(1));
+  const int threads = static_cast<int>(state.range(2));
+  double matches = 0, pairs = 0;
+  if (mode == 2) {
+    const cv::Mat q(static_cast<int>(p.prev.size()), 64, CV_32F,
+                    const_cast<float*>(p.prev.descriptors.data()));
+    const cv::Mat t(static_cast<int>(p.curr.size()), 64, CV_32F,
+                    const_cast<float*>(p.curr.descriptors.data()));
+    const int old_threads = cv::getNumThreads();
+    cv::setNumThreads(threads);
+    cv::BFMatcher bf(cv::NORM_L2);
+    std::vector<std::vector<cv::DMatch>> knn;
+    for (auto _ : state) {
+      knn.clear();
+      bf.knnMatch(q, t, knn, 2);
+      int m = 0;
+      for (const auto& k : knn) {
+        if (k.size() == 2) {
+          const float s1 = k[0].distance * k[0].distance, s2 = k[1].distance * k[1].distance;
+          m += s1 <= 0.04f && s1 <= 0.6f * s2;
+        }
+      }
+      matches = m;
+    }
+    cv::setNumThreads(old_threads);
+    pairs = static_cast<double>(p.prev.size()) * p.curr.size();
+  } else {
+    aerovo::MatchOptions o;
+    o.num_threads = threads;
+    aerovo::Matcher matcher(o);
+    aerovo::MatchResult r;
+    for (auto _ : state) {
+      r = mode == 0 ? matcher.Match(p.prev, p.curr)
+                    : matcher.Match(p.prev, p.curr, {}, p.curr_from_prev);
+      benchmark::DoNotOptimize(r.matches.data());
+    }
+    matches = static_cast<double>(r.matches.size());
+    pairs = static_cast<double>(r.num_comparisons);
+  }
+  state.counters["points"] = static_cast<double>(p.prev.size());
+  state.counters["matches"] = matches;
+  state.counters["pairs/s"] =
+      benchmark::Counter(pairs, benchmark::Counter::kIsIterationInvariantRate);
+}
+
 void ExhaustiveArgs(benchmark::internal::Benchmark* b) {
   for (int n : {1000, 5000, 20000}) {
     for (int threads : {1, 2}) {
@@ -167,8 +284,19 @@ BENCHMARK(BM_AerovoGuided)
     ->Args({20000, 1, 100})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+BENCHMARK(BM_AerovoSubset)
+    ->ArgsProduct({{5000, 20000}, {12, 50, 200, 1000}})
+    ->Unit(benchmark::kMicrosecond)
+    ->UseRealTime();
 BENCHMARK(BM_OpenCvBfKnn)
     ->ArgsProduct({{1000, 5000, 20000}, {1, 2}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+BENCHMARK(BM_RealOrtho)
+    ->ArgsProduct({{1000, 200}, {0, 1, 2}, {1}})
+    ->Args({1000, 0, 2})
+    ->Args({200, 0, 2})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

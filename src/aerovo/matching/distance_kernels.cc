@@ -77,6 +77,39 @@ void TileSse(const float* queries, int dim, const float* panels, const float* no
   }
 }
 
+void StreamSse(const float* const* rows, const float* norms, const std::int32_t* ids, int dim,
+               const float* panels, int num_panels, LaneTop2* state) {
+  const __m128 two = _mm_set1_ps(2.f);
+  for (int p = 0; p < num_panels; ++p) {
+    const float* pp = panels + static_cast<std::ptrdiff_t>(p) * dim * kPanelWidth;
+    __m128 acc[4][2];
+    for (int r = 0; r < 4; ++r) acc[r][0] = acc[r][1] = _mm_setzero_ps();
+    for (int d = 0; d < dim; ++d) {
+      const __m128 lo = _mm_loadu_ps(pp + d * kPanelWidth);
+      const __m128 hi = _mm_loadu_ps(pp + d * kPanelWidth + 4);
+      for (int r = 0; r < 4; ++r) {
+        const __m128 rd = _mm_set1_ps(rows[r][d]);
+        acc[r][0] = _mm_add_ps(acc[r][0], _mm_mul_ps(rd, lo));
+        acc[r][1] = _mm_add_ps(acc[r][1], _mm_mul_ps(rd, hi));
+      }
+    }
+    LaneTop2& st = state[p];
+    for (int h = 0; h < 2; ++h) {
+      __m128 b1 = _mm_loadu_ps(st.b1 + 4 * h), b2 = _mm_loadu_ps(st.b2 + 4 * h);
+      __m128i i1 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(st.i1 + 4 * h));
+      __m128i i2 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(st.i2 + 4 * h));
+      for (int r = 0; r < 4; ++r) {
+        const __m128 s = _mm_sub_ps(_mm_set1_ps(norms[r]), _mm_mul_ps(two, acc[r][h]));
+        UpdateSse(s, _mm_set1_epi32(ids[r]), b1, b2, i1, i2);
+      }
+      _mm_storeu_ps(st.b1 + 4 * h, b1);
+      _mm_storeu_ps(st.b2 + 4 * h, b2);
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(st.i1 + 4 * h), i1);
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(st.i2 + 4 * h), i2);
+    }
+  }
+}
+
 inline float DotSse(const float* a, const float* b, int dim) {
   __m128 acc0 = _mm_setzero_ps(), acc1 = _mm_setzero_ps();
   int d = 0;
@@ -195,6 +228,69 @@ void TileAvx2Any(const float* queries, int dim, const float* panels, const float
   }
 }
 
+template <int kDim>
+__attribute__((target("avx2,fma"))) void StreamAvx2(const float* const* rows, const float* norms,
+                                                    const std::int32_t* ids, int dim_rt,
+                                                    const float* panels, int num_panels,
+                                                    LaneTop2* state) {
+  const int dim = kDim > 0 ? kDim : dim_rt;
+  const __m256 two = _mm256_set1_ps(2.f);
+  const float* r0 = rows[0];
+  const float* r1 = rows[1];
+  const float* r2 = rows[2];
+  const float* r3 = rows[3];
+  for (int p = 0; p < num_panels; p += 2) {
+    const float* p0 = panels + static_cast<std::ptrdiff_t>(p) * dim * kPanelWidth;
+    const float* p1 = p0 + static_cast<std::ptrdiff_t>(dim) * kPanelWidth;
+    __m256 acc[4][2];
+    for (int r = 0; r < 4; ++r) acc[r][0] = acc[r][1] = _mm256_setzero_ps();
+#pragma GCC unroll 8
+    for (int d = 0; d < dim; ++d) {
+      const __m256 v0 = _mm256_loadu_ps(p0 + d * kPanelWidth);
+      const __m256 v1 = _mm256_loadu_ps(p1 + d * kPanelWidth);
+      const __m256 a = _mm256_broadcast_ss(r0 + d);
+      acc[0][0] = _mm256_fmadd_ps(a, v0, acc[0][0]);
+      acc[0][1] = _mm256_fmadd_ps(a, v1, acc[0][1]);
+      const __m256 b = _mm256_broadcast_ss(r1 + d);
+      acc[1][0] = _mm256_fmadd_ps(b, v0, acc[1][0]);
+      acc[1][1] = _mm256_fmadd_ps(b, v1, acc[1][1]);
+      const __m256 c = _mm256_broadcast_ss(r2 + d);
+      acc[2][0] = _mm256_fmadd_ps(c, v0, acc[2][0]);
+      acc[2][1] = _mm256_fmadd_ps(c, v1, acc[2][1]);
+      const __m256 e = _mm256_broadcast_ss(r3 + d);
+      acc[3][0] = _mm256_fmadd_ps(e, v0, acc[3][0]);
+      acc[3][1] = _mm256_fmadd_ps(e, v1, acc[3][1]);
+    }
+    for (int h = 0; h < 2; ++h) {
+      LaneTop2& st = state[p + h];
+      __m256 b1 = _mm256_loadu_ps(st.b1);
+      __m256 b2 = _mm256_loadu_ps(st.b2);
+      __m256i i1 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(st.i1));
+      __m256i i2 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(st.i2));
+      for (int r = 0; r < 4; ++r) {
+        UpdateAvx2(_mm256_fnmadd_ps(two, acc[r][h], _mm256_set1_ps(norms[r])),
+                   _mm256_set1_epi32(ids[r]), b1, b2, i1, i2);
+      }
+      _mm256_storeu_ps(st.b1, b1);
+      _mm256_storeu_ps(st.b2, b2);
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(st.i1), i1);
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(st.i2), i2);
+    }
+  }
+}
+
+void StreamAvx2Any(const float* const* rows, const float* norms, const std::int32_t* ids, int dim,
+                   const float* panels, int num_panels, LaneTop2* state) {
+  switch (dim) {
+    case 64:
+      return StreamAvx2<64>(rows, norms, ids, dim, panels, num_panels, state);
+    case 128:
+      return StreamAvx2<128>(rows, norms, ids, dim, panels, num_panels, state);
+    default:
+      return StreamAvx2<0>(rows, norms, ids, dim, panels, num_panels, state);
+  }
+}
+
 __attribute__((target("avx2,fma"))) inline float DotAvx2(const float* a, const float* b, int dim) {
   __m256 acc0 = _mm256_setzero_ps(), acc1 = _mm256_setzero_ps();
   int d = 0;
@@ -236,8 +332,8 @@ bool CpuHasAvx2Fma() {
 }  // namespace
 
 const Kernels& SelectKernels(bool allow_avx2) {
-  static const Kernels kSse{&TileSse, &ListSse, "sse4"};
-  static const Kernels kAvx2{&TileAvx2Any, &ListAvx2, "avx2"};
+  static const Kernels kSse{&TileSse, &ListSse, &StreamSse, "sse4"};
+  static const Kernels kAvx2{&TileAvx2Any, &ListAvx2, &StreamAvx2Any, "avx2"};
   static const bool has_avx2 = CpuHasAvx2Fma();
   return (allow_avx2 && has_avx2) ? kAvx2 : kSse;
 }

@@ -41,6 +41,9 @@ constexpr int kBlockBytes = 256 * 1024;
 // ~1 ms of guided queries.
 constexpr std::int64_t kMinPairsForThreads = 1 << 20;
 constexpr int kMinGuidedQueriesForThreads = 4096;
+// Exhaustive searches with at most this many queries (and at most half as many as candidates)
+// pack the queries and stream the candidates in place (SearchStreaming).
+constexpr int kMaxStreamingQueries = 4096;
 // Upper bound on guided-grid cells per Laplacian group (memory bound for tiny radii).
 constexpr std::int64_t kMaxGridCells = 1 << 18;
 
@@ -66,6 +69,17 @@ double ExactSsd(const float* a, const float* b, int dim) {
     s[0] += t * t;
   }
   return (s[0] + s[1]) + (s[2] + s[3]);
+}
+
+// Squared L2 norm with 8 independent partial sums (vectorises without reassociation).
+float SquaredNorm(const float* d, int dim) {
+  float acc[8] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f};
+  int k = 0;
+  for (; k + 8 <= dim; k += 8) {
+    for (int l = 0; l < 8; ++l) acc[l] += d[k + l] * d[k + l];
+  }
+  for (; k < dim; ++k) acc[0] += d[k] * d[k];
+  return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
 }
 
 // True if any of v[0..n) is Inf or NaN (exponent bits all ones); integer ops vectorise.
@@ -160,6 +174,7 @@ struct Matcher::Impl {
   std::vector<ExactTop2> rev_best;  // per rev_ids entry; j = original prev index
   std::vector<float> qx, qy;        // query positions (guided)
   std::vector<float> cx, cy;        // candidate positions (guided), indexed like the candidate ids
+  std::vector<float> curr_norms;    // squared norm per curr index
   std::vector<char> mark;           // per curr index (unique)
   std::vector<int> rev_slot;        // per curr index: position in rev_ids
 
@@ -170,7 +185,15 @@ struct Matcher::Impl {
   std::vector<int> q_slot_of;  // per query id position -> query slot
   std::vector<float> c_panels;
   std::vector<float> c_norms;
-  std::vector<int> c_index;  // candidate slot -> original index (-1 = padding)
+  std::vector<int> c_index;    // candidate slot -> original index (-1 = padding)
+  std::vector<int> c_slot_of;  // per id position -> slot
+  // Streaming mode (few queries): candidates read in place, per group in increasing id order,
+  // padded to a multiple of 4 with a zero row of norm +inf.
+  std::vector<const float*> s_rows;
+  std::vector<float> s_norms;
+  std::vector<std::int32_t> s_ids;
+  std::vector<float> zero_row;
+  int s_begin[kNumGroups] = {}, s_end[kNumGroups] = {}, s_count[kNumGroups] = {};
   std::vector<LaneTop2> lanes;
   std::vector<Best2> slot_best;
   struct WorkItem {
@@ -189,14 +212,19 @@ struct Matcher::Impl {
   std::vector<int> q_order, q_key, q_bucket;  // guided queries in cell order
 
   void PackQueries(const FeatureSet& f, const std::vector<int>& ids);
-  void PackCandidates(const FeatureSet& f, const std::vector<int>& ids);
+  void PackCandidates(const FeatureSet& f, const std::vector<int>& ids, const float* norms_by_id);
+  std::int64_t SearchStreaming(const FeatureSet& fq, const std::vector<int>& qids,
+                               const FeatureSet& fc, const std::vector<int>& cids,
+                               const float* cand_norms, std::vector<ExactTop2>* out);
+  // cand_norms: squared norms of fc's descriptors by index, or nullptr (computed here).
   std::int64_t SearchExhaustive(const FeatureSet& fq, const std::vector<int>& qids,
                                 const FeatureSet& fc, const std::vector<int>& cids,
-                                std::vector<ExactTop2>* out);
-  void BuildGrid(const FeatureSet& f, const std::vector<int>& ids, float radius);
+                                const float* cand_norms, std::vector<ExactTop2>* out);
+  void BuildGrid(const FeatureSet& f, const std::vector<int>& ids, float radius,
+                 const float* norms_by_id);
   std::int64_t SearchGuided(const FeatureSet& fq, const std::vector<int>& qids,
                             const FeatureSet& fc, const std::vector<int>& cids, float radius,
-                            std::vector<ExactTop2>* out);
+                            const float* cand_norms, std::vector<ExactTop2>* out);
   void CheckFinite(const FeatureSet& f, const std::vector<int>& ids, const char* which) const;
 };
 
@@ -238,7 +266,8 @@ void Matcher::Impl::PackQueries(const FeatureSet& f, const std::vector<int>& ids
   }
 }
 
-void Matcher::Impl::PackCandidates(const FeatureSet& f, const std::vector<int>& ids) {
+void Matcher::Impl::PackCandidates(const FeatureSet& f, const std::vector<int>& ids,
+                                   const float* norms_by_id) {
   const int dim = f.descriptor_size;
   const bool lap = options.check_laplacian;
   std::fill(std::begin(c_count), std::end(c_count), 0);
@@ -258,17 +287,16 @@ void Matcher::Impl::PackCandidates(const FeatureSet& f, const std::vector<int>& 
     return c_panels.data() + static_cast<std::size_t>(s / kPanelWidth) * dim * kPanelWidth +
            s % kPanelWidth;
   };
+  c_slot_of.resize(ids.size());
+  std::size_t pos = 0;
   for (int id : ids) {
     const int s = cursor[GroupOf(f.keypoints[id].laplacian, lap)]++;
     const float* d = f.descriptor(id);
     float* p = panel_ptr(s);
-    float n = 0.f;
-    for (int k = 0; k < dim; ++k) {
-      p[k * kPanelWidth] = d[k];
-      n += d[k] * d[k];
-    }
-    c_norms[s] = n;
+    for (int k = 0; k < dim; ++k) p[k * kPanelWidth] = d[k];
+    c_norms[s] = norms_by_id != nullptr ? norms_by_id[id] : SquaredNorm(d, dim);
     c_index[s] = id;
+    c_slot_of[pos++] = s;
   }
   for (int g = 0; g < kNumGroups; ++g) {
     for (int s = cursor[g]; s < c_end[g]; ++s) {
@@ -282,10 +310,16 @@ void Matcher::Impl::PackCandidates(const FeatureSet& f, const std::vector<int>& 
 
 std::int64_t Matcher::Impl::SearchExhaustive(const FeatureSet& fq, const std::vector<int>& qids,
                                              const FeatureSet& fc, const std::vector<int>& cids,
-                                             std::vector<ExactTop2>* out) {
+                                             const float* cand_norms, std::vector<ExactTop2>* out) {
+  // Pack the smaller side: with few queries (a cell of clustered RANSAC) transposing every
+  // candidate would cost more than the distances themselves.
+  if (qids.size() <= static_cast<std::size_t>(kMaxStreamingQueries) &&
+      qids.size() * 2 <= cids.size()) {
+    return SearchStreaming(fq, qids, fc, cids, cand_norms, out);
+  }
   const int dim = fq.descriptor_size;
   PackQueries(fq, qids);
-  PackCandidates(fc, cids);
+  PackCandidates(fc, cids, cand_norms);
   const int q_slots = q_end[kNumGroups - 1];
   lanes.resize(q_slots);
   slot_best.resize(q_slots);
@@ -336,8 +370,86 @@ std::int64_t Matcher::Impl::SearchExhaustive(const FeatureSet& fq, const std::ve
   return comparisons;
 }
 
+std::int64_t Matcher::Impl::SearchStreaming(const FeatureSet& fq, const std::vector<int>& qids,
+                                            const FeatureSet& fc, const std::vector<int>& cids,
+                                            const float* cand_norms, std::vector<ExactTop2>* out) {
+  const int dim = fq.descriptor_size;
+  const bool lap = options.check_laplacian;
+  // Queries in panels (the candidate packing, reused): c_* now describe the queries.
+  PackCandidates(fq, qids, nullptr);
+  // Candidate streams per group.
+  std::fill(std::begin(s_count), std::end(s_count), 0);
+  for (int id : cids) ++s_count[GroupOf(fc.keypoints[id].laplacian, lap)];
+  int n = 0;
+  for (int g = 0; g < kNumGroups; ++g) {
+    s_begin[g] = n;
+    n += (s_count[g] + 3) / 4 * 4;
+    s_end[g] = n;
+  }
+  zero_row.assign(dim, 0.f);
+  s_rows.resize(n);
+  s_norms.resize(n);
+  s_ids.resize(n);
+  int cursor[kNumGroups];
+  std::copy(std::begin(s_begin), std::end(s_begin), cursor);
+  for (int id : cids) {
+    const int k = cursor[GroupOf(fc.keypoints[id].laplacian, lap)]++;
+    s_rows[k] = fc.descriptor(id);
+    s_norms[k] = cand_norms != nullptr ? cand_norms[id] : SquaredNorm(s_rows[k], dim);
+    s_ids[k] = id;
+  }
+  for (int g = 0; g < kNumGroups; ++g) {
+    for (int k = cursor[g]; k < s_end[g]; ++k) {
+      s_rows[k] = zero_row.data();
+      s_norms[k] = kInf;
+      s_ids[k] = -1;
+    }
+  }
+  // Work items: panel ranges of one group (c_begin/c_end are multiples of 16 = 2 panels).
+  const int num_panels = c_end[kNumGroups - 1] / kPanelWidth;
+  lanes.resize(num_panels);
+  work.clear();
+  std::int64_t comparisons = 0;
+  constexpr int kPanelsPerItem = 16;  // 128 queries: 32 KB of 64-d panels, L1/L2 resident
+  for (int g = 0; g < kNumGroups; ++g) {
+    const int p0 = c_begin[g] / kPanelWidth, p1 = c_end[g] / kPanelWidth;
+    for (int p = p0; p < p1; ++p) matching_detail::ResetLanes(&lanes[p]);
+    if (c_count[g] == 0 || s_count[g] == 0) continue;
+    comparisons += static_cast<std::int64_t>(c_count[g]) * s_count[g];
+    for (int p = p0; p < p1; p += kPanelsPerItem) {
+      work.push_back({g, p, std::min(p1, p + kPanelsPerItem)});
+    }
+  }
+  const int num_threads =
+      comparisons >= kMinPairsForThreads ? ResolveThreads(options.num_threads) : 1;
+  const int num_items = static_cast<int>(work.size());
+  const matching_detail::StreamFn stream = kernels->stream;
+#pragma omp parallel for schedule(dynamic, 1) \
+    num_threads(num_threads) if (num_threads > 1 && num_items > 1)
+  for (int w = 0; w < num_items; ++w) {
+    const WorkItem item = work[w];
+    const float* panels =
+        c_panels.data() + static_cast<std::size_t>(item.q_begin) * dim * kPanelWidth;
+    for (int k = s_begin[item.group]; k < s_end[item.group]; k += 4) {
+      stream(&s_rows[k], &s_norms[k], &s_ids[k], dim, panels, item.q_end - item.q_begin,
+             &lanes[item.q_begin]);
+    }
+  }
+  out->resize(qids.size());
+  for (std::size_t k = 0; k < qids.size(); ++k) {
+    const int slot = c_slot_of[k];
+    const LaneTop2& st = lanes[slot / kPanelWidth];
+    const int lane = slot % kPanelWidth;
+    const int j1 = st.i1[lane], j2 = st.i2[lane];
+    (*out)[k] = MakeExact(fq.descriptor(qids[k]), dim, j1, j1 >= 0 ? fc.descriptor(j1) : nullptr,
+                          j2, j2 >= 0 ? fc.descriptor(j2) : nullptr);
+  }
+  return comparisons;
+}
+
 // Candidate positions are taken from cx/cy (indexed like `ids`).
-void Matcher::Impl::BuildGrid(const FeatureSet& f, const std::vector<int>& ids, float radius) {
+void Matcher::Impl::BuildGrid(const FeatureSet& f, const std::vector<int>& ids, float radius,
+                              const float* norms_by_id) {
   const int dim = f.descriptor_size;
   const bool lap = options.check_laplacian;
   const std::size_t n = ids.size();
@@ -379,9 +491,7 @@ void Matcher::Impl::BuildGrid(const FeatureSet& f, const std::vector<int>& ids, 
     const int s = g_cursor[key_of(k)]++;
     const float* d = f.descriptor(ids[k]);
     std::memcpy(g_rows.data() + static_cast<std::size_t>(s) * dim, d, sizeof(float) * dim);
-    float nn = 0.f;
-    for (int i = 0; i < dim; ++i) nn += d[i] * d[i];
-    g_norms[s] = nn;
+    g_norms[s] = norms_by_id != nullptr ? norms_by_id[ids[k]] : SquaredNorm(d, dim);
     g_x[s] = cx[k];
     g_y[s] = cy[k];
     g_index[s] = ids[k];
@@ -391,10 +501,11 @@ void Matcher::Impl::BuildGrid(const FeatureSet& f, const std::vector<int>& ids, 
 // Query positions are taken from qx/qy (indexed like `qids`), candidate positions from cx/cy.
 std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector<int>& qids,
                                          const FeatureSet& fc, const std::vector<int>& cids,
-                                         float radius, std::vector<ExactTop2>* out) {
+                                         float radius, const float* cand_norms,
+                                         std::vector<ExactTop2>* out) {
   const int dim = fq.descriptor_size;
   const bool lap = options.check_laplacian;
-  BuildGrid(fc, cids, radius);
+  BuildGrid(fc, cids, radius, cand_norms);
   const int num_threads = static_cast<int>(qids.size()) >= kMinGuidedQueriesForThreads
                               ? ResolveThreads(options.num_threads)
                               : 1;
@@ -537,7 +648,15 @@ MatchResult Matcher::Match(const FeatureSet& prev, const FeatureSet& curr,
   // All curr points are candidates; m.rev_ids doubles as the "all curr" id list here.
   m.rev_ids.resize(n_curr);
   for (int i = 0; i < n_curr; ++i) m.rev_ids[i] = i;
-  m.CheckFinite(curr, m.rev_ids, "curr");
+  // Squared norms of every curr descriptor, used by all search paths; a non-finite norm is
+  // exactly a non-finite value (or one whose square overflows), so this is also the check.
+  m.curr_norms.resize(n_curr);
+  for (int i = 0; i < n_curr; ++i) {
+    m.curr_norms[i] = SquaredNorm(curr.descriptor(i), curr.descriptor_size);
+    if (!std::isfinite(m.curr_norms[i])) {
+      ThrowNonFinite("curr", i, "descriptor (or values whose squares overflow)");
+    }
+  }
 
   const bool guided = curr_from_prev_prior.has_value();
   const float radius = o.guided_radius_px;
@@ -562,9 +681,11 @@ MatchResult Matcher::Match(const FeatureSet& prev, const FeatureSet& curr,
       m.cx[i] = kp.x;
       m.cy[i] = kp.y;
     }
-    result.num_comparisons += m.SearchGuided(prev, m.fwd_ids, curr, m.rev_ids, radius, &m.fwd_best);
+    result.num_comparisons +=
+        m.SearchGuided(prev, m.fwd_ids, curr, m.rev_ids, radius, m.curr_norms.data(), &m.fwd_best);
   } else {
-    result.num_comparisons += m.SearchExhaustive(prev, m.fwd_ids, curr, m.rev_ids, &m.fwd_best);
+    result.num_comparisons +=
+        m.SearchExhaustive(prev, m.fwd_ids, curr, m.rev_ids, m.curr_norms.data(), &m.fwd_best);
   }
 
   // Decisions on exact SSDs (double, from the stored floats) of the two best candidates.
@@ -613,9 +734,10 @@ MatchResult Matcher::Match(const FeatureSet& prev, const FeatureSet& curr,
         m.qy[k] = curr.keypoints[m.rev_ids[k]].y;
       }
       result.num_comparisons +=
-          m.SearchGuided(curr, m.rev_ids, prev, m.fwd_ids, radius, &m.rev_best);
+          m.SearchGuided(curr, m.rev_ids, prev, m.fwd_ids, radius, nullptr, &m.rev_best);
     } else {
-      result.num_comparisons += m.SearchExhaustive(curr, m.rev_ids, prev, m.fwd_ids, &m.rev_best);
+      result.num_comparisons +=
+          m.SearchExhaustive(curr, m.rev_ids, prev, m.fwd_ids, nullptr, &m.rev_best);
     }
     std::size_t kept = 0;
     for (const aerovo::Match& mt : out) {

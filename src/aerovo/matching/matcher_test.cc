@@ -247,6 +247,30 @@ TEST(MatcherTest, AgreesWithBruteForceOnHardData) {
   }
 }
 
+// Few queries against many candidates take the streaming path (queries packed, candidates read
+// in place); it must give the same answer as the brute force, for both kernels and any size.
+TEST(MatcherTest, StreamingPathAgreesWithBruteForce) {
+  for (int dim : {64, 128, 20}) {
+    const float sigma = static_cast<float>(std::sqrt(0.038 / (dim - 1)));
+    const Scene s = MakeScene(700, 300, dim, sigma, 41 + dim);
+    std::vector<int> subset;
+    for (int i = 0; i < 700; i += 7) subset.push_back(i);
+    for (bool avx2 : {true, false}) {
+      for (bool unique : {false, true}) {
+        MatchOptions o;
+        o.unique = unique;
+        o.use_avx2 = avx2;
+        o.max_ratio = 0.8f;
+        Matcher matcher(o);
+        const std::vector<Match> want = Reference(s.prev, s.curr, subset, o);
+        EXPECT_GT(want.size(), 20u);
+        EXPECT_LT(want.size(), subset.size());
+        ExpectSameMatches(matcher.Match(s.prev, s.curr, subset).matches, want);
+      }
+    }
+  }
+}
+
 TEST(MatcherTest, RatioTestBoundary) {
   const int dim = 64;
   for (double ratio : {0.59, 0.61}) {
