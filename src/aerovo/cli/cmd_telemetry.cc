@@ -1,0 +1,107 @@
+// `aerovo telemetry`: reads a telemetry source (DJI .srt, .gpx, .csv, a photo or a folder of
+// photos) the way `aerovo run` does and prints what it found, to check a flight's files.
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <string>
+
+#include "aerovo/cli/command.h"
+#include "aerovo/core/error.h"
+#include "aerovo/io/frame_source.h"
+#include "aerovo/io/image_metadata.h"
+#include "aerovo/io/telemetry_readers.h"
+
+namespace aerovo::cli {
+namespace {
+
+struct TelemetryArgs {
+  std::string path;
+  bool lenient = false;
+  bool print_samples = false;
+};
+
+std::string Opt(const std::optional<double>& v, int decimals = 3) {
+  return v ? fmt::format("{:.{}f}", *v, decimals) : std::string();
+}
+
+TelemetryReadResult ReadAny(const TelemetryArgs& args) {
+  TelemetryReadOptions options;
+  options.lenient = args.lenient;
+  const std::filesystem::path path(args.path);
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    ImageFolderSource folder(path);  // same order as `aerovo run` uses
+    for (const std::string& w : folder.warnings()) fmt::print(stderr, "warning: {}\n", w);
+    return TelemetryFromImages(folder.metadata(), options);
+  }
+  std::string ext = path.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
+  if (ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff" || ext == ".png" ||
+      ext == ".dng") {
+    const ImageMetadata m = ReadImageMetadata(path);
+    fmt::print("photo        {}x{} px, {} {}, focal {} mm (35 mm equivalent {} mm)\n", m.width_px,
+               m.height_px, m.make, m.model, Opt(m.focal_length_mm, 2),
+               Opt(m.focal_length_35mm_mm, 1));
+    return TelemetryFromImages({m}, options);
+  }
+  return ReadTelemetryFile(path, options);
+}
+
+void Run(const TelemetryArgs& args) {
+  const TelemetryReadResult r = ReadAny(args);
+  const Telemetry& t = r.telemetry;
+  double lat0 = 90, lat1 = -90, lon0 = 180, lon1 = -180;
+  int frames = 0, rel = 0, abs = 0, yaw = 0;
+  for (const TelemetrySample& s : t.samples()) {
+    lat0 = std::min(lat0, s.lat_deg);
+    lat1 = std::max(lat1, s.lat_deg);
+    lon0 = std::min(lon0, s.lon_deg);
+    lon1 = std::max(lon1, s.lon_deg);
+    frames += s.frame_index.has_value();
+    rel += s.rel_alt_m.has_value();
+    abs += s.abs_alt_m.has_value();
+    yaw += s.CameraYawDeg().has_value();
+  }
+  fmt::print("source       {}\n", args.path);
+  fmt::print("records      {} accepted, {} malformed skipped, {} without GPS fix\n", r.records,
+             r.skipped_records, r.no_fix_records);
+  fmt::print("time         {:.3f} .. {:.3f} s\n", t.start_time_s(), t.end_time_s());
+  fmt::print("latitude     {:.7f} .. {:.7f} deg\n", lat0, lat1);
+  fmt::print("longitude    {:.7f} .. {:.7f} deg\n", lon0, lon1);
+  fmt::print("with         frame index {}, relative altitude {}, absolute altitude {}, yaw {}\n",
+             frames, rel, abs, yaw);
+  for (const std::string& w : r.warnings) fmt::print(stderr, "warning: {}\n", w);
+  if (args.print_samples) {
+    fmt::print(
+        "time_s,frame,lat_deg,lon_deg,abs_alt_m,rel_alt_m,yaw_deg,gimbal_yaw_deg,"
+        "gimbal_pitch_deg,focal_35mm_mm\n");
+    for (const TelemetrySample& s : t.samples()) {
+      fmt::print("{:.3f},{},{:.8f},{:.8f},{},{},{},{},{},{}\n", s.time_s,
+                 s.frame_index ? std::to_string(*s.frame_index) : std::string(), s.lat_deg,
+                 s.lon_deg, Opt(s.abs_alt_m), Opt(s.rel_alt_m), Opt(s.yaw_deg, 2),
+                 Opt(s.gimbal_yaw_deg, 2), Opt(s.gimbal_pitch_deg, 2),
+                 Opt(s.focal_length_35mm_mm, 1));
+    }
+  }
+}
+
+void Register(CLI::App& app) {
+  auto args = std::make_shared<TelemetryArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "telemetry",
+      "Read a telemetry source (DJI .srt, .gpx, .csv, a photo or a photo folder) and summarise "
+      "it;\nmalformed records are errors naming file:line unless --lenient");
+  cmd->add_option("source", args->path, "Telemetry file, photo, or folder of photos")->required();
+  cmd->add_flag("--lenient", args->lenient,
+                "Skip malformed records (counted and listed) instead of stopping at the first");
+  cmd->add_flag("--print", args->print_samples, "Print every accepted sample as CSV");
+  cmd->callback([args] { Run(*args); });
+}
+
+AEROVO_REGISTER_COMMAND(Register);
+
+}  // namespace
+}  // namespace aerovo::cli
