@@ -82,30 +82,32 @@ void StreamSse(const float* const* rows, const float* norms, const std::int32_t*
   const __m128 two = _mm_set1_ps(2.f);
   for (int p = 0; p < num_panels; ++p) {
     const float* pp = panels + static_cast<std::ptrdiff_t>(p) * dim * kPanelWidth;
-    __m128 acc[4][2];
-    for (int r = 0; r < 4; ++r) acc[r][0] = acc[r][1] = _mm_setzero_ps();
-    for (int d = 0; d < dim; ++d) {
-      const __m128 lo = _mm_loadu_ps(pp + d * kPanelWidth);
-      const __m128 hi = _mm_loadu_ps(pp + d * kPanelWidth + 4);
-      for (int r = 0; r < 4; ++r) {
-        const __m128 rd = _mm_set1_ps(rows[r][d]);
-        acc[r][0] = _mm_add_ps(acc[r][0], _mm_mul_ps(rd, lo));
-        acc[r][1] = _mm_add_ps(acc[r][1], _mm_mul_ps(rd, hi));
+    for (int r0 = 0; r0 < kStreamRows; r0 += 4) {
+      __m128 acc[4][2];
+      for (int r = 0; r < 4; ++r) acc[r][0] = acc[r][1] = _mm_setzero_ps();
+      for (int d = 0; d < dim; ++d) {
+        const __m128 lo = _mm_loadu_ps(pp + d * kPanelWidth);
+        const __m128 hi = _mm_loadu_ps(pp + d * kPanelWidth + 4);
+        for (int r = 0; r < 4; ++r) {
+          const __m128 rd = _mm_set1_ps(rows[r0 + r][d]);
+          acc[r][0] = _mm_add_ps(acc[r][0], _mm_mul_ps(rd, lo));
+          acc[r][1] = _mm_add_ps(acc[r][1], _mm_mul_ps(rd, hi));
+        }
       }
-    }
-    LaneTop2& st = state[p];
-    for (int h = 0; h < 2; ++h) {
-      __m128 b1 = _mm_loadu_ps(st.b1 + 4 * h), b2 = _mm_loadu_ps(st.b2 + 4 * h);
-      __m128i i1 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(st.i1 + 4 * h));
-      __m128i i2 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(st.i2 + 4 * h));
-      for (int r = 0; r < 4; ++r) {
-        const __m128 s = _mm_sub_ps(_mm_set1_ps(norms[r]), _mm_mul_ps(two, acc[r][h]));
-        UpdateSse(s, _mm_set1_epi32(ids[r]), b1, b2, i1, i2);
+      LaneTop2& st = state[p];
+      for (int h = 0; h < 2; ++h) {
+        __m128 b1 = _mm_loadu_ps(st.b1 + 4 * h), b2 = _mm_loadu_ps(st.b2 + 4 * h);
+        __m128i i1 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(st.i1 + 4 * h));
+        __m128i i2 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(st.i2 + 4 * h));
+        for (int r = 0; r < 4; ++r) {
+          const __m128 s = _mm_sub_ps(_mm_set1_ps(norms[r0 + r]), _mm_mul_ps(two, acc[r][h]));
+          UpdateSse(s, _mm_set1_epi32(ids[r0 + r]), b1, b2, i1, i2);
+        }
+        _mm_storeu_ps(st.b1 + 4 * h, b1);
+        _mm_storeu_ps(st.b2 + 4 * h, b2);
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(st.i1 + 4 * h), i1);
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(st.i2 + 4 * h), i2);
       }
-      _mm_storeu_ps(st.b1 + 4 * h, b1);
-      _mm_storeu_ps(st.b2 + 4 * h, b2);
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(st.i1 + 4 * h), i1);
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(st.i2 + 4 * h), i2);
     }
   }
 }
@@ -228,54 +230,61 @@ void TileAvx2Any(const float* queries, int dim, const float* panels, const float
   }
 }
 
+// R candidate rows x P query panels (R * P = 8 accumulators): the dot products, then the
+// state updates in row (= id) order.
+template <int kDim, int R, int P>
+__attribute__((target("avx2,fma"), always_inline)) inline void StreamBlockAvx2(
+    const float* const* rows, const float* norms, const std::int32_t* ids, int dim_rt,
+    const float* panel0, LaneTop2* state) {
+  const int dim = kDim > 0 ? kDim : dim_rt;
+  __m256 acc[R][P];
+  for (int r = 0; r < R; ++r) {
+    for (int h = 0; h < P; ++h) acc[r][h] = _mm256_setzero_ps();
+  }
+#pragma GCC unroll 8
+  for (int d = 0; d < dim; ++d) {
+    __m256 v[P];
+    for (int h = 0; h < P; ++h) {
+      v[h] = _mm256_loadu_ps(panel0 + static_cast<std::ptrdiff_t>(h) * dim * kPanelWidth +
+                             d * kPanelWidth);
+    }
+    for (int r = 0; r < R; ++r) {
+      const __m256 a = _mm256_broadcast_ss(rows[r] + d);
+      for (int h = 0; h < P; ++h) acc[r][h] = _mm256_fmadd_ps(a, v[h], acc[r][h]);
+    }
+  }
+  const __m256 two = _mm256_set1_ps(2.f);
+  for (int h = 0; h < P; ++h) {
+    LaneTop2& st = state[h];
+    __m256 b1 = _mm256_loadu_ps(st.b1);
+    __m256 b2 = _mm256_loadu_ps(st.b2);
+    __m256i i1 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(st.i1));
+    __m256i i2 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(st.i2));
+    for (int r = 0; r < R; ++r) {
+      UpdateAvx2(_mm256_fnmadd_ps(two, acc[r][h], _mm256_set1_ps(norms[r])),
+                 _mm256_set1_epi32(ids[r]), b1, b2, i1, i2);
+    }
+    _mm256_storeu_ps(st.b1, b1);
+    _mm256_storeu_ps(st.b2, b2);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(st.i1), i1);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(st.i2), i2);
+  }
+}
+
 template <int kDim>
 __attribute__((target("avx2,fma"))) void StreamAvx2(const float* const* rows, const float* norms,
-                                                    const std::int32_t* ids, int dim_rt,
+                                                    const std::int32_t* ids, int dim,
                                                     const float* panels, int num_panels,
                                                     LaneTop2* state) {
-  const int dim = kDim > 0 ? kDim : dim_rt;
-  const __m256 two = _mm256_set1_ps(2.f);
-  const float* r0 = rows[0];
-  const float* r1 = rows[1];
-  const float* r2 = rows[2];
-  const float* r3 = rows[3];
-  for (int p = 0; p < num_panels; p += 2) {
-    const float* p0 = panels + static_cast<std::ptrdiff_t>(p) * dim * kPanelWidth;
-    const float* p1 = p0 + static_cast<std::ptrdiff_t>(dim) * kPanelWidth;
-    __m256 acc[4][2];
-    for (int r = 0; r < 4; ++r) acc[r][0] = acc[r][1] = _mm256_setzero_ps();
-#pragma GCC unroll 8
-    for (int d = 0; d < dim; ++d) {
-      const __m256 v0 = _mm256_loadu_ps(p0 + d * kPanelWidth);
-      const __m256 v1 = _mm256_loadu_ps(p1 + d * kPanelWidth);
-      const __m256 a = _mm256_broadcast_ss(r0 + d);
-      acc[0][0] = _mm256_fmadd_ps(a, v0, acc[0][0]);
-      acc[0][1] = _mm256_fmadd_ps(a, v1, acc[0][1]);
-      const __m256 b = _mm256_broadcast_ss(r1 + d);
-      acc[1][0] = _mm256_fmadd_ps(b, v0, acc[1][0]);
-      acc[1][1] = _mm256_fmadd_ps(b, v1, acc[1][1]);
-      const __m256 c = _mm256_broadcast_ss(r2 + d);
-      acc[2][0] = _mm256_fmadd_ps(c, v0, acc[2][0]);
-      acc[2][1] = _mm256_fmadd_ps(c, v1, acc[2][1]);
-      const __m256 e = _mm256_broadcast_ss(r3 + d);
-      acc[3][0] = _mm256_fmadd_ps(e, v0, acc[3][0]);
-      acc[3][1] = _mm256_fmadd_ps(e, v1, acc[3][1]);
-    }
-    for (int h = 0; h < 2; ++h) {
-      LaneTop2& st = state[p + h];
-      __m256 b1 = _mm256_loadu_ps(st.b1);
-      __m256 b2 = _mm256_loadu_ps(st.b2);
-      __m256i i1 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(st.i1));
-      __m256i i2 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(st.i2));
-      for (int r = 0; r < 4; ++r) {
-        UpdateAvx2(_mm256_fnmadd_ps(two, acc[r][h], _mm256_set1_ps(norms[r])),
-                   _mm256_set1_epi32(ids[r]), b1, b2, i1, i2);
-      }
-      _mm256_storeu_ps(st.b1, b1);
-      _mm256_storeu_ps(st.b2, b2);
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(st.i1), i1);
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(st.i2), i2);
-    }
+  const std::ptrdiff_t panel_floats = static_cast<std::ptrdiff_t>(dim) * kPanelWidth;
+  int p = 0;
+  for (; p + 2 <= num_panels; p += 2) {
+    StreamBlockAvx2<kDim, 4, 2>(rows, norms, ids, dim, panels + p * panel_floats, state + p);
+    StreamBlockAvx2<kDim, 4, 2>(rows + 4, norms + 4, ids + 4, dim, panels + p * panel_floats,
+                                state + p);
+  }
+  if (p < num_panels) {
+    StreamBlockAvx2<kDim, 8, 1>(rows, norms, ids, dim, panels + p * panel_floats, state + p);
   }
 }
 

@@ -45,11 +45,14 @@ using ListFn = void (*)(const float* query, int dim, const float* rows, const fl
                         const std::int32_t* slots, int num_slots, const std::int32_t* tie_key,
                         Best2* out);
 
+/// Candidate rows consumed per call of the streaming kernel.
+inline constexpr int kStreamRows = 8;
+
 /// Streaming variant for few queries against many candidates (queries packed, candidates read
-/// in place): updates the LaneTop2 state of `num_panels` (even) query panels (lane j of panel p
-/// = query slot 8p + j) with 4 candidate rows `rows[0..3]` (stride-free pointers to `dim`
-/// floats), squared norms `norms[0..3]` (+inf for padding) and indices `ids[0..3]`, which are
-/// reported as the slots. Candidates must arrive in increasing id order for ties to go to the
+/// in place): updates the LaneTop2 state of `num_panels` query panels (lane j of panel p
+/// = query slot 8p + j) with kStreamRows candidate rows `rows[k]` (pointers to `dim` floats),
+/// squared norms `norms[k]` (+inf for padding) and indices `ids[k]`, which are reported as the
+/// slots. Candidates must arrive in increasing id order for ties to go to the
 /// lower id.
 using StreamFn = void (*)(const float* const* rows, const float* norms, const std::int32_t* ids,
                           int dim, const float* panels, int num_panels, LaneTop2* state);

@@ -20,6 +20,7 @@ using matching_detail::kCandStep;
 using matching_detail::Kernels;
 using matching_detail::kPanelWidth;
 using matching_detail::kQueryTile;
+using matching_detail::kStreamRows;
 using matching_detail::LaneTop2;
 
 namespace {
@@ -188,7 +189,7 @@ struct Matcher::Impl {
   std::vector<int> c_index;    // candidate slot -> original index (-1 = padding)
   std::vector<int> c_slot_of;  // per id position -> slot
   // Streaming mode (few queries): candidates read in place, per group in increasing id order,
-  // padded to a multiple of 4 with a zero row of norm +inf.
+  // padded to a multiple of kStreamRows with a zero row of norm +inf.
   std::vector<const float*> s_rows;
   std::vector<float> s_norms;
   std::vector<std::int32_t> s_ids;
@@ -212,7 +213,8 @@ struct Matcher::Impl {
   std::vector<int> q_order, q_key, q_bucket;  // guided queries in cell order
 
   void PackQueries(const FeatureSet& f, const std::vector<int>& ids);
-  void PackCandidates(const FeatureSet& f, const std::vector<int>& ids, const float* norms_by_id);
+  void PackCandidates(const FeatureSet& f, const std::vector<int>& ids, const float* norms_by_id,
+                      int pad_to = kCandStep);
   std::int64_t SearchStreaming(const FeatureSet& fq, const std::vector<int>& qids,
                                const FeatureSet& fc, const std::vector<int>& cids,
                                const float* cand_norms, std::vector<ExactTop2>* out);
@@ -267,7 +269,7 @@ void Matcher::Impl::PackQueries(const FeatureSet& f, const std::vector<int>& ids
 }
 
 void Matcher::Impl::PackCandidates(const FeatureSet& f, const std::vector<int>& ids,
-                                   const float* norms_by_id) {
+                                   const float* norms_by_id, int pad_to) {
   const int dim = f.descriptor_size;
   const bool lap = options.check_laplacian;
   std::fill(std::begin(c_count), std::end(c_count), 0);
@@ -275,7 +277,7 @@ void Matcher::Impl::PackCandidates(const FeatureSet& f, const std::vector<int>& 
   int slot = 0;
   for (int g = 0; g < kNumGroups; ++g) {
     c_begin[g] = slot;
-    slot += (c_count[g] + kCandStep - 1) / kCandStep * kCandStep;
+    slot += (c_count[g] + pad_to - 1) / pad_to * pad_to;
     c_end[g] = slot;
   }
   c_panels.resize(static_cast<std::size_t>(slot) * dim);
@@ -376,14 +378,14 @@ std::int64_t Matcher::Impl::SearchStreaming(const FeatureSet& fq, const std::vec
   const int dim = fq.descriptor_size;
   const bool lap = options.check_laplacian;
   // Queries in panels (the candidate packing, reused): c_* now describe the queries.
-  PackCandidates(fq, qids, nullptr);
+  PackCandidates(fq, qids, nullptr, kPanelWidth);
   // Candidate streams per group.
   std::fill(std::begin(s_count), std::end(s_count), 0);
   for (int id : cids) ++s_count[GroupOf(fc.keypoints[id].laplacian, lap)];
   int n = 0;
   for (int g = 0; g < kNumGroups; ++g) {
     s_begin[g] = n;
-    n += (s_count[g] + 3) / 4 * 4;
+    n += (s_count[g] + kStreamRows - 1) / kStreamRows * kStreamRows;
     s_end[g] = n;
   }
   zero_row.assign(dim, 0.f);
@@ -405,7 +407,7 @@ std::int64_t Matcher::Impl::SearchStreaming(const FeatureSet& fq, const std::vec
       s_ids[k] = -1;
     }
   }
-  // Work items: panel ranges of one group (c_begin/c_end are multiples of 16 = 2 panels).
+  // Work items: panel ranges of one group.
   const int num_panels = c_end[kNumGroups - 1] / kPanelWidth;
   lanes.resize(num_panels);
   work.clear();
@@ -430,7 +432,7 @@ std::int64_t Matcher::Impl::SearchStreaming(const FeatureSet& fq, const std::vec
     const WorkItem item = work[w];
     const float* panels =
         c_panels.data() + static_cast<std::size_t>(item.q_begin) * dim * kPanelWidth;
-    for (int k = s_begin[item.group]; k < s_end[item.group]; k += 4) {
+    for (int k = s_begin[item.group]; k < s_end[item.group]; k += kStreamRows) {
       stream(&s_rows[k], &s_norms[k], &s_ids[k], dim, panels, item.q_end - item.q_begin,
              &lanes[item.q_begin]);
     }
