@@ -219,6 +219,13 @@ ImageFolderSource::ImageFolderSource(const std::filesystem::path& folder,
   std::vector<std::filesystem::path> files;
   for (const auto& entry : std::filesystem::directory_iterator(folder, ec)) {
     if (!entry.is_regular_file(ec)) continue;
+    const std::string fname = entry.path().filename().string();
+    if (!fname.empty() && fname[0] == '.') {
+      // Hidden files: macOS "._DJI_0001.JPG" resource forks, ".DS_Store", editor backups.
+      ++skipped_files_;
+      warnings_.push_back(fmt::format("skipped hidden file '{}'", entry.path().string()));
+      continue;
+    }
     if (IsImageExtension(entry.path())) {
       files.push_back(entry.path());
     } else if (options_.skip_non_images) {

@@ -104,8 +104,10 @@ class VideoFileSource : public FrameSource {
 
 /// The photos of a folder (not recursive): .jpg .jpeg .png .tif .tiff, any case.
 /// Order: by EXIF capture time (DateTimeOriginal + SubSecTimeOriginal), ties by file name,
-/// when every photo has one; otherwise by file name (with a warning). Other files are skipped
-/// and counted in warnings() (or throw with skip_non_images = false). Photos of different
+/// when every photo has one; otherwise by file name (with a warning). Hidden files (name
+/// starting with '.', e.g. macOS "._DJI_0001.JPG") are always skipped and counted; other
+/// non-photo files are skipped and counted in warnings() (or throw with skip_non_images =
+/// false). Photos of different
 /// sizes throw InputError naming the odd photo and both sizes (checked from the headers at
 /// opening, and again on decoding). An undecodable photo throws InputError naming it.
 class ImageFolderSource : public FrameSource {

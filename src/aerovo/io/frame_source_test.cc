@@ -189,12 +189,15 @@ TEST(ImageFolderSource, OrdersByExifTimeThenName) {
                              {{"Exif.Photo.DateTimeOriginal", "2023:05:01 12:00:05"},
                               {"Exif.Photo.SubSecTimeOriginal", "5"}});  // tie with c: by name
   std::ofstream(dir / "notes.txt") << "flight notes\n";
+  std::ofstream(dir / "._a.jpg") << "AppleDouble resource fork";
 
   ImageFolderSource src(dir.path());
   ASSERT_EQ(src.paths().size(), 4u);
-  EXPECT_EQ(src.skipped_files(), 1);
-  ASSERT_EQ(src.warnings().size(), 1u);
-  EXPECT_THAT(src.warnings()[0], HasSubstr("notes.txt"));
+  EXPECT_EQ(src.skipped_files(), 2);
+  ASSERT_EQ(src.warnings().size(), 2u);
+  const std::string all_warnings = src.warnings()[0] + src.warnings()[1];
+  EXPECT_THAT(all_warnings, HasSubstr("notes.txt"));
+  EXPECT_THAT(all_warnings, HasSubstr("._a.jpg"));
   EXPECT_EQ(src.ExpectedFrameCount(), 4);
   Frame f;
   std::vector<std::string> names;
