@@ -89,10 +89,12 @@ void ParseBracket(std::string_view content, BlockFields& f) {
       f.SetNumber(f.abs_alt, key, value);
     } else if (key == "focal_len") {
       f.SetNumber(f.focal35, key, value);
-      // Mavic Air 2 / Mavic 3 write tenths of a millimetre (240 = 24 mm); later models write
-      // millimetres (24.00). No 35 mm-equivalent drone lens reaches 100 mm... except zooms,
-      // whose tenths values are >= 240 anyway; 100..239 tenths would be 10..24 mm.
-      if (f.focal35 && *f.focal35 >= 100.0) *f.focal35 /= 10.0;
+      // Older firmware (Mavic Pro, Mavic Air 2) writes an integer in tenths of a millimetre
+      // (240 = 24 mm); newer firmware writes millimetres with decimals (24.00, tele 166.00).
+      // So: an integer >= 100 is tenths; anything with a decimal point is millimetres.
+      if (f.focal35 && value.find('.') == std::string_view::npos && *f.focal35 >= 100.0) {
+        *f.focal35 /= 10.0;
+      }
     } else if (key == "gb_yaw") {
       f.SetNumber(f.gb_yaw, key, value);
     } else if (key == "gb_pitch") {

@@ -47,7 +47,8 @@ struct TelemetryReadResult {
 ///  - bracketed fields (Mavic Air 2 / Mini / Mavic 3 style):
 ///    "[latitude: 43.5367] [longitude: 6.5567] [rel_alt: 100.000 abs_alt: 350.123]",
 ///    also "[longtitude : ...]" (Mavic Pro's misspelling), "[altitude: ...]" (= abs_alt),
-///    "[focal_len : 240]" (35 mm equivalent; values >= 100 are tenths of mm, e.g. 240 = 24 mm),
+///    "[focal_len : 240]" (35 mm equivalent: an integer >= 100 is in tenths of mm, 240 = 24 mm;
+///    a value with decimals is in mm, 24.00 = 24 mm),
 ///    "[gb_yaw: .. gb_pitch: .. gb_roll: ..]" (gimbal angles);
 ///  - "FrameCnt: 12, DiffTime: 33ms" or "SrtCnt : 12, ..." (frame counter, 1-based);
 ///  - a date line "2023-05-01 12:00:00,123,456" / "2023-05-01 12:00:00.123";

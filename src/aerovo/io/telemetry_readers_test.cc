@@ -87,7 +87,7 @@ const char kSrtBracketed[] =
     "<font size=\"28\">FrameCnt: 3, DiffTime: 34ms\n"
     "2023-05-01 12:00:00,190,000\n"
     "[iso : 100] [shutter : 1/500.0] [fnum : 280] [ev : 0] [ct : 5500] [color_md : default] "
-    "[focal_len : 24.00] [latitude: 43.536900] [longitude: 6.557100] [rel_alt: 101.000 abs_alt: "
+    "[focal_len : 166.00] [latitude: 43.536900] [longitude: 6.557100] [rel_alt: 101.000 abs_alt: "
     "351.123] [gb_yaw: -12.5 gb_pitch: -90.0 gb_roll: 0.0] </font>\n";
 
 TEST(DjiSrt, BracketedFormat) {
@@ -105,8 +105,8 @@ TEST(DjiSrt, BracketedFormat) {
   EXPECT_DOUBLE_EQ(t[0].lon_deg, 6.5567);
   EXPECT_DOUBLE_EQ(*t[1].rel_alt_m, 100.5);
   EXPECT_DOUBLE_EQ(*t[1].abs_alt_m, 350.623);
-  EXPECT_DOUBLE_EQ(*t[0].focal_length_35mm_mm, 24.0);  // 240 tenths
-  EXPECT_DOUBLE_EQ(*t[2].focal_length_35mm_mm, 24.0);  // 24.00 mm
+  EXPECT_DOUBLE_EQ(*t[0].focal_length_35mm_mm, 24.0);   // 240 tenths
+  EXPECT_DOUBLE_EQ(*t[2].focal_length_35mm_mm, 166.0);  // decimals: millimetres (a tele)
   EXPECT_NEAR(*t[0].unix_time_s, 1682942400.123456, 1e-5);
   EXPECT_FALSE(t[0].gimbal_yaw_deg);
   EXPECT_DOUBLE_EQ(*t[2].gimbal_yaw_deg, -12.5);
