@@ -30,8 +30,12 @@ struct MatchOptions {
   /// Threads; 1 = single-threaded, 0 = all cores.
   int num_threads = 1;
   /// With exactly one comparable candidate the ratio test cannot be applied (there is no
-  /// second-best). true: accept it if it passes match_threshold_percent (the absolute test alone
-  /// is strict: SSD <= 0.04); false: reject it. Default true (see matcher.cc for why).
+  /// second-best). true: accept it if it passes match_threshold_percent; false: reject it.
+  /// Default true: the case is common with a motion prior (small disc) and after the Laplacian
+  /// split, where the prior or the sign has already removed the look-alikes, and the absolute
+  /// test alone is strict (SSD <= 0.04, i.e. cosine >= 0.98 between unit descriptors);
+  /// rejecting would throw away the best-constrained matches. The ratio test is a test of
+  /// distinctiveness against other candidates, so with none there is nothing to fail.
   bool accept_single_candidate = true;
   /// Use the AVX2+FMA kernels when the CPU has them (checked at run time); false forces the
   /// SSE4.2 kernels (for tests and benchmarks). Default true. Results are identical up to
@@ -55,7 +59,14 @@ struct MatchResult {
   double time_ms = 0.0;
 };
 
-/// Exhaustive (optionally guided) matcher. Reuses its buffers between calls.
+/// Exhaustive (optionally guided) matcher. Reuses its buffers between calls (no allocation in
+/// steady state other than the returned match vector). Not thread-safe: use one instance per
+/// thread (it parallelises internally when num_threads != 1 and the work is large enough).
+///
+/// Paths (all give the same result): exhaustive, blocked SIMD over candidates packed per
+/// Laplacian sign; exhaustive with few queries (a prev_subset much smaller than curr), which
+/// packs the queries and streams curr in place; guided, a uniform grid over curr positions.
+/// A point with Laplacian 0 (unknown) forms its own group, compared only with other 0 points.
 class Matcher {
  public:
   explicit Matcher(const MatchOptions& options = {});
