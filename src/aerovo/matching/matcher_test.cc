@@ -350,6 +350,39 @@ TEST(MatcherTest, LaplacianGatingAlsoAppliesToSecondBest) {
   }
 }
 
+TEST(MatcherTest, LaplacianZeroIsItsOwnGroup) {
+  const int dim = 64;
+  FeatureSet prev, curr;
+  prev.descriptor_size = curr.descriptor_size = dim;
+  AddPoint(&prev, 0, 0, 0, Basis(dim, 0));
+  AddPoint(&curr, 0, 0, 1, Basis(dim, 0));        // identical, sign +1: not compared
+  AddPoint(&curr, 0, 0, 0, AtSsd(dim, 0.02, 1));  // best among sign 0
+  AddPoint(&curr, 0, 0, 0, Basis(dim, 4));        // far, sign 0
+  const MatchResult r = Matcher().Match(prev, curr);
+  ASSERT_EQ(r.matches.size(), 1u);
+  EXPECT_EQ(r.matches[0].curr_index, 1);
+  EXPECT_EQ(r.num_comparisons, 2);
+}
+
+TEST(MatcherTest, GuidedWithTinyRadiusOverAHugeExtent) {
+  // Cell side = radius would need ~1e13 cells: the grid coarsens, the disc test stays exact.
+  const int dim = 64;
+  FeatureSet prev, curr;
+  prev.descriptor_size = curr.descriptor_size = dim;
+  AddPoint(&prev, 10.f, 20.f, 1, Basis(dim, 0));
+  AddPoint(&curr, 10.3f, 20.f, 1, AtSsd(dim, 0.01, 1));   // 0.3 px from the prediction
+  AddPoint(&curr, 10.f, 20.6f, 1, AtSsd(dim, 0.012, 2));  // 0.6 px: outside a 0.5 px disc
+  AddPoint(&curr, -1e6f, -1e6f, 1, Basis(dim, 3));
+  AddPoint(&curr, 1e6f, 1e6f, 1, Basis(dim, 3));
+  MatchOptions o;
+  o.guided_radius_px = 0.5f;
+  const MatchResult r = Matcher(o).Match(prev, curr, {}, Affine::Identity());
+  ASSERT_EQ(r.matches.size(), 1u);
+  EXPECT_EQ(r.matches[0].curr_index, 0);
+  EXPECT_EQ(r.num_comparisons, 1);
+  ExpectSameMatches(r.matches, Reference(prev, curr, {}, o, Affine::Identity()));
+}
+
 TEST(MatcherTest, SingleCandidateAndAmbiguousDuplicates) {
   const int dim = 64;
   FeatureSet prev, curr;
