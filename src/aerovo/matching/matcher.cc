@@ -454,34 +454,44 @@ void Matcher::Impl::BuildGrid(const FeatureSet& f, const std::vector<int>& ids, 
                               const float* norms_by_id) {
   const int dim = f.descriptor_size;
   const bool lap = options.check_laplacian;
-  const std::size_t n = ids.size();
-  float x0 = kInf, y0 = kInf, x1 = -kInf, y1 = -kInf;
-  for (std::size_t k = 0; k < n; ++k) {
-    x0 = std::min(x0, cx[k]);
-    x1 = std::max(x1, cx[k]);
-    y0 = std::min(y0, cy[k]);
-    y1 = std::max(y1, cy[k]);
+  // Candidates at non-finite positions (a prior that overflowed) can be in no disc: left out.
+  const auto usable = [&](std::size_t k) { return std::isfinite(cx[k]) && std::isfinite(cy[k]); };
+  std::size_t n = 0;
+  double x0 = kInf, y0 = kInf, x1 = -kInf, y1 = -kInf;
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    if (!usable(k)) continue;
+    ++n;
+    x0 = std::min(x0, static_cast<double>(cx[k]));
+    x1 = std::max(x1, static_cast<double>(cx[k]));
+    y0 = std::min(y0, static_cast<double>(cy[k]));
+    y1 = std::max(y1, static_cast<double>(cy[k]));
   }
-  if (n == 0) x0 = y0 = x1 = y1 = 0.f;
-  // Cell side = radius: a query's disc then overlaps at most 3x3 cells.
+  if (n == 0) x0 = y0 = x1 = y1 = 0.0;
+  // Cell side = radius: a query's disc then overlaps at most 3x3 cells. Extents in double: the
+  // span of float positions cannot overflow there.
   double cell = radius;
   const auto cells_for = [&](double c) {
     return (std::floor((x1 - x0) / c) + 1.0) * (std::floor((y1 - y0) / c) + 1.0);
   };
   while (cells_for(cell) > static_cast<double>(kMaxGridCells)) cell *= 2.0;
-  g_x0 = x0;
-  g_y0 = y0;
+  g_x0 = static_cast<float>(x0);
+  g_y0 = static_cast<float>(y0);
   g_inv_cell = static_cast<float>(1.0 / cell);
   g_nx = static_cast<int>((x1 - x0) / cell) + 1;
   g_ny = static_cast<int>((y1 - y0) / cell) + 1;
   const int cells = g_nx * g_ny;
   g_cell_start.assign(static_cast<std::size_t>(kNumGroups) * cells + 1, 0);
+  // Same float expression as the queries' cell ranges (SearchGuided), clamped before the
+  // conversion, so that a candidate within a disc always lies in a visited cell.
   const auto key_of = [&](std::size_t k) {
-    const int ix = std::min(g_nx - 1, static_cast<int>((cx[k] - x0) * g_inv_cell));
-    const int iy = std::min(g_ny - 1, static_cast<int>((cy[k] - y0) * g_inv_cell));
-    return GroupOf(f.keypoints[ids[k]].laplacian, lap) * cells + iy * g_nx + ix;
+    const float fx = std::clamp((cx[k] - g_x0) * g_inv_cell, 0.f, static_cast<float>(g_nx - 1));
+    const float fy = std::clamp((cy[k] - g_y0) * g_inv_cell, 0.f, static_cast<float>(g_ny - 1));
+    return GroupOf(f.keypoints[ids[k]].laplacian, lap) * cells + static_cast<int>(fy) * g_nx +
+           static_cast<int>(fx);
   };
-  for (std::size_t k = 0; k < n; ++k) ++g_cell_start[key_of(k) + 1];
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    if (usable(k)) ++g_cell_start[key_of(k) + 1];
+  }
   for (std::size_t c = 1; c < g_cell_start.size(); ++c) g_cell_start[c] += g_cell_start[c - 1];
   g_cursor.assign(g_cell_start.begin(), g_cell_start.end() - 1);
   g_rows.resize(n * dim);
@@ -489,7 +499,8 @@ void Matcher::Impl::BuildGrid(const FeatureSet& f, const std::vector<int>& ids, 
   g_x.resize(n);
   g_y.resize(n);
   g_index.resize(n);
-  for (std::size_t k = 0; k < n; ++k) {
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    if (!usable(k)) continue;
     const int s = g_cursor[key_of(k)]++;
     const float* d = f.descriptor(ids[k]);
     std::memcpy(g_rows.data() + static_cast<std::size_t>(s) * dim, d, sizeof(float) * dim);
@@ -554,9 +565,9 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
         fy0 < static_cast<float>(g_ny)) {
       // Clamp in float before converting: predictions may lie far outside the grid.
       const int ix0 = static_cast<int>(std::max(fx0, 0.f));
-      const int ix1 = std::min(g_nx - 1, static_cast<int>(fx1));
+      const int ix1 = static_cast<int>(std::min(fx1, static_cast<float>(g_nx - 1)));
       const int iy0 = static_cast<int>(std::max(fy0, 0.f));
-      const int iy1 = std::min(g_ny - 1, static_cast<int>(fy1));
+      const int iy1 = static_cast<int>(std::min(fy1, static_cast<float>(g_ny - 1)));
       const int base = GroupOf(fq.keypoints[qids[k]].laplacian, lap) * cells;
       for (int iy = iy0; iy <= iy1; ++iy) {
         // Cells ix0..ix1 of one row are consecutive slots.
@@ -674,6 +685,8 @@ MatchResult Matcher::Match(const FeatureSet& prev, const FeatureSet& curr,
         ThrowNonFinite("prev", m.fwd_ids[k], "position");
       m.qx[k] = static_cast<float>(A(0, 0) * kp.x + A(0, 1) * kp.y + A(0, 2));
       m.qy[k] = static_cast<float>(A(1, 0) * kp.x + A(1, 1) * kp.y + A(1, 2));
+      // An extreme prior can overflow (inf, or inf - inf = NaN): such a point has no candidate.
+      if (!std::isfinite(m.qx[k]) || !std::isfinite(m.qy[k])) m.qx[k] = m.qy[k] = kInf;
     }
     m.cx.resize(n_curr);
     m.cy.resize(n_curr);

@@ -383,6 +383,27 @@ TEST(MatcherTest, GuidedWithTinyRadiusOverAHugeExtent) {
   ExpectSameMatches(r.matches, Reference(prev, curr, {}, o, Affine::Identity()));
 }
 
+TEST(MatcherTest, GuidedWithOverflowingPriorOrExtremePositions) {
+  Scene s = MakeScene(200, 50, 64, 0.005f, 43);
+  Affine overflow;  // finite, but A * p overflows to inf and inf - inf = NaN
+  overflow << 1e308, -1e308, 0, 1e308, 1e308, 0;
+  for (bool unique : {false, true}) {
+    MatchOptions o;
+    o.unique = unique;
+    const MatchResult r = Matcher(o).Match(s.prev, s.curr, {}, overflow);
+    EXPECT_TRUE(r.matches.empty());
+    EXPECT_EQ(r.num_comparisons, 0);
+  }
+  // Two curr points at +-3e38 px (their span overflows float): the others still match.
+  s.curr.keypoints[0].x = 3e38f;
+  s.curr.keypoints[1].x = -3e38f;
+  MatchOptions o;
+  o.unique = true;
+  const MatchResult r = Matcher(o).Match(s.prev, s.curr, {}, s.curr_from_prev);
+  ExpectSameMatches(r.matches, Reference(s.prev, s.curr, {}, o, s.curr_from_prev));
+  EXPECT_GT(r.matches.size(), 190u);
+}
+
 TEST(MatcherTest, SingleCandidateAndAmbiguousDuplicates) {
   const int dim = 64;
   FeatureSet prev, curr;
