@@ -90,6 +90,17 @@ bool GeoReferencer::Observe(const Eigen::Vector2d& local_m, const std::optional<
   return ready_;
 }
 
+bool GeoReferencer::FixWithAvailable() {
+  if (ready_ || num_pairs_ < 2) return ready_;
+  const double n = num_pairs_;
+  const double dot = sum_dot_ - sum_local_.dot(sum_enu_) / n;
+  const double cross =
+      sum_cross_ - (sum_local_.x() * sum_enu_.y() - sum_local_.y() * sum_enu_.x()) / n;
+  if (std::hypot(dot, cross) < 1e-9) return false;  // no spread: the rotation is undefined
+  FixFromSegment();
+  return ready_;
+}
+
 void GeoReferencer::FixFromSegment() {
   const double n = num_pairs_;
   const double dot = sum_dot_ - sum_local_.dot(sum_enu_) / n;

@@ -52,6 +52,11 @@ class GeoReferencer {
   bool Observe(const Eigen::Vector2d& local_m, const std::optional<GeoPoint>& gps,
                std::optional<double> camera_yaw_deg);
 
+  /// End of the flight before ready() (a GPS segment shorter than min_segment_m): fixes the
+  /// rotation from whatever segment was observed (at least 2 fixes with some spread in both
+  /// tracks). Returns ready().
+  bool FixWithAvailable();
+
   /// True once enu_from_local is known.
   bool ready() const { return ready_; }
   /// The ENU frame (origin = first GPS fix observed). Precondition: a GPS fix was observed.

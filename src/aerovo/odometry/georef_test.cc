@@ -87,6 +87,18 @@ TEST(GeoReferencer, WaitsForGpsAndValidates) {
   GeoReferencer needs_yaw(yaw);
   EXPECT_THROW(needs_yaw.Observe({0, 0}, GeoPoint{1, 2, 3}, std::nullopt), InputError);
   EXPECT_EQ(ParseHeadingSource("gps"), HeadingSource::kGpsSegment);
+  // A 10 m flight never reaches the 30 m segment; FixWithAvailable uses what there is.
+  GeoRefOptions gps;
+  gps.heading_source = HeadingSource::kGpsSegment;
+  GeoReferencer short_flight(gps);
+  const LocalEnu enu(10.0, 20.0, 0.0);
+  EXPECT_FALSE(short_flight.FixWithAvailable());
+  for (int i = 0; i <= 10; ++i) {
+    // local +y points east (rotation -90 deg).
+    EXPECT_FALSE(short_flight.Observe({0.0, 1.0 * i}, enu.Reverse(1.0 * i, 0.0, 0.0), {}));
+  }
+  EXPECT_TRUE(short_flight.FixWithAvailable());
+  EXPECT_NEAR(short_flight.rotation_rad(), -M_PI / 2, 1e-6);
   EXPECT_THROW(ParseHeadingSource("north"), InvalidArgument);
 }
 

@@ -1,0 +1,520 @@
+#include "aerovo/report/runner.h"
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <utility>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "aerovo/core/error.h"
+#include "aerovo/core/timer.h"
+#include "aerovo/eval/trajectory_eval_json.h"
+#include "aerovo/io/frame_source.h"
+#include "aerovo/io/image_metadata.h"
+#include "aerovo/io/telemetry.h"
+#include "aerovo/io/telemetry_readers.h"
+#include "aerovo/io/track_writers.h"
+
+namespace aerovo {
+
+// ---------------------------------------------------------------------------------------------
+// Configuration
+
+void Validate(const RunConfig& c) {
+  auto fail = [](const std::string& m) { throw InvalidArgument("run configuration: " + m); };
+  if (c.input.empty()) fail("'input' is required (video, image folder or live source)");
+  if (c.out.empty()) fail("'out' must not be empty");
+  if (c.step < 1) fail("'step' must be >= 1, got " + std::to_string(c.step));
+  if (!(c.start_s >= 0.0)) fail("'start_s' must be >= 0");
+  if (c.end_s >= 0.0 && c.end_s < c.start_s) fail("'end_s' must be >= 'start_s' (or < 0)");
+  if (c.max_frames < 0) fail("'max_frames' must be >= 0");
+  if (c.mode != "clustered" && c.mode != "standard") {
+    fail("'mode' must be 'clustered' or 'standard', got '" + c.mode + "'");
+  }
+  ParseMotionModel(c.model.c_str());
+  ParseScaleMode(c.scale.c_str());
+  ParseHeadingSource(c.heading);
+  if (!(c.altitude_m >= 0.0) || !std::isfinite(c.altitude_m)) fail("'altitude_m' must be >= 0");
+  if (!(c.focal_px >= 0.0) || !std::isfinite(c.focal_px)) fail("'focal_px' must be >= 0");
+  if (!(c.hfov_deg >= 0.0 && c.hfov_deg < 180.0)) fail("'hfov_deg' must be in [0, 180)");
+  if (c.min_inliers < 1) fail("'min_inliers' must be >= 1");
+  if (!(c.surf_threshold >= 0.0)) fail("'surf_threshold' must be >= 0");
+  if (c.max_keypoints < 0) fail("'max_keypoints' must be >= 0");
+  if (c.threads < 0) fail("'threads' must be >= 0 (0 = all cores)");
+}
+
+nlohmann::json ToJson(const RunConfig& c) {
+  return nlohmann::json{{"input", c.input},
+                        {"telemetry", c.telemetry},
+                        {"out", c.out},
+                        {"step", c.step},
+                        {"start_s", c.start_s},
+                        {"end_s", c.end_s},
+                        {"max_frames", c.max_frames},
+                        {"mode", c.mode},
+                        {"model", c.model},
+                        {"scale", c.scale},
+                        {"heading", c.heading},
+                        {"altitude_m", c.altitude_m},
+                        {"focal_px", c.focal_px},
+                        {"hfov_deg", c.hfov_deg},
+                        {"guided", c.guided},
+                        {"refine", c.refine},
+                        {"min_inliers", c.min_inliers},
+                        {"surf_threshold", c.surf_threshold},
+                        {"max_keypoints", c.max_keypoints},
+                        {"seed", c.seed},
+                        {"threads", c.threads},
+                        {"quiet", c.quiet}};
+}
+
+namespace {
+template <class T>
+void Take(const nlohmann::json& j, const char* key, T* out, const std::string& source) {
+  auto it = j.find(key);
+  if (it == j.end()) return;
+  try {
+    *out = it->get<T>();
+  } catch (const nlohmann::json::exception& e) {
+    throw InvalidArgument(source + ": key '" + key + "' has the wrong type (" + e.what() + ")");
+  }
+}
+}  // namespace
+
+RunConfig RunConfigFromJson(const nlohmann::json& j, RunConfig c, const std::string& source) {
+  if (!j.is_object()) throw InvalidArgument(source + ": the configuration must be a JSON object");
+  const nlohmann::json known = ToJson(RunConfig{});
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    if (!known.contains(it.key())) {
+      throw InvalidArgument(source + ": unknown key '" + it.key() + "'");
+    }
+  }
+  Take(j, "input", &c.input, source);
+  Take(j, "telemetry", &c.telemetry, source);
+  Take(j, "out", &c.out, source);
+  Take(j, "step", &c.step, source);
+  Take(j, "start_s", &c.start_s, source);
+  Take(j, "end_s", &c.end_s, source);
+  Take(j, "max_frames", &c.max_frames, source);
+  Take(j, "mode", &c.mode, source);
+  Take(j, "model", &c.model, source);
+  Take(j, "scale", &c.scale, source);
+  Take(j, "heading", &c.heading, source);
+  Take(j, "altitude_m", &c.altitude_m, source);
+  Take(j, "focal_px", &c.focal_px, source);
+  Take(j, "hfov_deg", &c.hfov_deg, source);
+  Take(j, "guided", &c.guided, source);
+  Take(j, "refine", &c.refine, source);
+  Take(j, "min_inliers", &c.min_inliers, source);
+  Take(j, "surf_threshold", &c.surf_threshold, source);
+  Take(j, "max_keypoints", &c.max_keypoints, source);
+  Take(j, "seed", &c.seed, source);
+  Take(j, "threads", &c.threads, source);
+  Take(j, "quiet", &c.quiet, source);
+  return c;
+}
+
+RunConfig LoadRunConfig(const std::filesystem::path& path, RunConfig base) {
+  std::ifstream in(path);
+  if (!in) throw InputError("cannot open config file '" + path.string() + "'");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw InputError("config file '" + path.string() + "': " + e.what());
+  }
+  return RunConfigFromJson(j, std::move(base), "config file '" + path.string() + "'");
+}
+
+double FocalPxFrom35mm(double focal_35mm_mm, int width_px, int height_px) {
+  if (!(focal_35mm_mm > 0.0) || width_px <= 0 || height_px <= 0) {
+    throw InvalidArgument("FocalPxFrom35mm: focal length and image size must be positive");
+  }
+  const double full_frame_diagonal_mm = std::hypot(36.0, 24.0);  // 43.27 mm
+  return focal_35mm_mm * std::hypot(width_px, height_px) / full_frame_diagonal_mm;
+}
+
+double FocalPxFromHfov(double hfov_deg, int width_px) {
+  if (!(hfov_deg > 0.0 && hfov_deg < 180.0) || width_px <= 0) {
+    throw InvalidArgument("FocalPxFromHfov: need 0 < hfov < 180 deg and a positive width");
+  }
+  return 0.5 * width_px / std::tan(0.5 * hfov_deg * M_PI / 180.0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Summary
+
+nlohmann::json ToJson(const RunSummary& s) {
+  nlohmann::json j{{"input", s.input},
+                   {"source", s.source_description},
+                   {"out_dir", s.out_dir.string()},
+                   {"frames_processed", s.frames_processed},
+                   {"frames_expected", s.frames_expected},
+                   {"frames_ok", s.frames_ok},
+                   {"frames_reacquired", s.frames_reacquired},
+                   {"frames_bridged", s.frames_bridged},
+                   {"frames_with_gps", s.frames_with_gps},
+                   {"interrupted", s.interrupted},
+                   {"wall_s", s.wall_s},
+                   {"fps", s.fps},
+                   {"mean_stage_ms",
+                    {{"detect", s.mean.detect_ms},
+                     {"describe", s.mean.describe_ms},
+                     {"correspond", s.mean.correspond_ms},
+                     {"estimate", s.mean.estimate_ms},
+                     {"total", s.mean.total_ms}}},
+                   {"focal_px", s.focal_px},
+                   {"focal_source", s.focal_source},
+                   {"height_source", s.height_source},
+                   {"heading_source", s.heading_source},
+                   {"vo_path_length_m", s.vo_path_length_m},
+                   {"warnings", s.warnings}};
+  j["evaluation"] = s.evaluation ? ToJson(*s.evaluation) : nlohmann::json();
+  return j;
+}
+
+std::string FormatSummaryTable(const RunSummary& s) {
+  std::string t;
+  t += fmt::format("{:<28}{}\n", "Input", s.input);
+  t += fmt::format("{:<28}{}{}\n", "Frames processed", s.frames_processed,
+                   s.interrupted ? "  (interrupted)" : "");
+  t += fmt::format("{:<28}ok {}, re-acquired {}, flagged (bridged) {}\n", "  of which", s.frames_ok,
+                   s.frames_reacquired, s.frames_bridged);
+  t += fmt::format("{:<28}{}\n", "Frames with GPS", s.frames_with_gps);
+  t += fmt::format("{:<28}{:.1f} m\n", "VO path length", s.vo_path_length_m);
+  t += fmt::format("{:<28}{:.1f} px ({})\n", "Focal length", s.focal_px, s.focal_source);
+  t += fmt::format("{:<28}{}\n", "Heading source",
+                   s.heading_source.empty() ? "-" : s.heading_source);
+  if (s.evaluation) {
+    t += "\nComparison with GPS (ENU, after alignment):\n";
+    t += FormatTrajectoryTable(*s.evaluation);
+  } else {
+    t += "\nNo comparison with GPS (fewer than 3 frames with a fix).\n";
+  }
+  t += fmt::format(
+      "\n{:<28}detect {:.1f}, describe {:.1f}, correspond {:.1f}, estimate {:.1f}, total "
+      "{:.1f}\n",
+      "Mean stage times (ms)", s.mean.detect_ms, s.mean.describe_ms, s.mean.correspond_ms,
+      s.mean.estimate_ms, s.mean.total_ms);
+  t += fmt::format("{:<28}{:.2f} fps ({:.1f} s)\n", "Throughput", s.fps, s.wall_s);
+  return t;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The run
+
+namespace {
+
+// A frame whose outputs wait for the geo-referencing (heading from the first GPS segment).
+struct PendingFrame {
+  FrameRecord record;
+  Eigen::Vector2d local_m;
+  double heading_rad = 0.0;
+  std::optional<GeoPoint> gps;
+};
+
+std::optional<GeoPoint> GpsOf(const std::optional<TelemetrySample>& s) {
+  if (!s) return std::nullopt;
+  GeoPoint p;
+  p.lat_deg = s->lat_deg;
+  p.lon_deg = s->lon_deg;
+  p.alt_m = s->abs_alt_m.value_or(s->rel_alt_m.value_or(0.0));
+  return p;
+}
+
+OdometryOptions MakeOdometryOptions(const RunConfig& c) {
+  OdometryOptions o;
+  o.surf.hessian_threshold = c.surf_threshold;
+  o.surf.max_keypoints = c.max_keypoints;
+  o.surf.num_threads = c.threads;
+  o.correspondence.method =
+      c.mode == "standard" ? CorrespondenceMethod::kStandard : CorrespondenceMethod::kClustered;
+  o.correspondence.model = ParseMotionModel(c.model.c_str());
+  o.correspondence.guided_matching = c.guided;
+  o.correspondence.min_inliers = c.min_inliers;
+  o.correspondence.match.num_threads = c.threads;
+  o.correspondence.ransac.seed = c.seed;
+  o.refine_on_all_points = c.refine;
+  o.scale_mode = ParseScaleMode(c.scale.c_str());
+  return o;
+}
+
+}  // namespace
+
+RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
+                     const std::atomic<bool>* stop) {
+  Validate(config);
+  Stopwatch wall;
+  RunSummary summary;
+  summary.input = config.input;
+  summary.out_dir = config.out;
+  std::ostream* log = config.quiet ? nullptr : cb.log;
+  namespace fs = std::filesystem;
+  const fs::path out_dir(config.out);
+  std::error_code ec;
+  fs::create_directories(out_dir, ec);
+  if (ec) throw InputError("cannot create output folder '" + config.out + "': " + ec.message());
+  WriteJsonFileAtomic(out_dir / "config.json", ToJson(config));
+  if (log) *log << "aerovo run: effective configuration\n" << ToJson(config).dump(2) << "\n";
+
+  // Source.
+  FrameSourceOptions so;
+  so.step = config.step;
+  so.start_time_s = config.start_s;
+  if (config.end_s >= 0.0) so.end_time_s = config.end_s;
+  std::unique_ptr<FrameSource> source = OpenFrameSource(config.input, so);
+  summary.source_description = source->Describe();
+  summary.frames_expected = source->ExpectedFrameCount();
+  if (config.max_frames > 0 &&
+      (summary.frames_expected < 0 || summary.frames_expected > config.max_frames)) {
+    summary.frames_expected = config.max_frames;
+  }
+  const auto* folder = dynamic_cast<const ImageFolderSource*>(source.get());
+  if (log) *log << "source: " << summary.source_description << "\n";
+
+  // Telemetry: a file, or the photos' own EXIF/XMP.
+  Telemetry telemetry;
+  bool by_frame_index = false;
+  if (!config.telemetry.empty()) {
+    TelemetryReadResult t = ReadTelemetryFile(config.telemetry);
+    telemetry = std::move(t.telemetry);
+    for (auto& w : t.warnings) summary.warnings.push_back(std::move(w));
+    by_frame_index = telemetry.HasFrameIndices();
+  } else if (folder != nullptr) {
+    try {
+      TelemetryReadResult t = TelemetryFromImages(folder->metadata());
+      telemetry = std::move(t.telemetry);
+      for (auto& w : t.warnings) summary.warnings.push_back(std::move(w));
+      by_frame_index = true;
+    } catch (const InputError& e) {
+      summary.warnings.push_back(std::string("no telemetry from the photos: ") + e.what());
+    }
+  }
+  if (log) {
+    *log << "telemetry: "
+         << (telemetry.empty() ? std::string("none")
+                               : std::to_string(telemetry.size()) + " fixes from " +
+                                     (config.telemetry.empty() ? std::string("photo EXIF/XMP")
+                                                               : config.telemetry))
+         << "\n";
+  }
+  auto sample_of = [&](const Frame& f) -> std::optional<TelemetrySample> {
+    if (telemetry.empty()) return std::nullopt;
+    return by_frame_index ? telemetry.AtFrame(f.index) : telemetry.Lookup(f.time_s, 0.5);
+  };
+
+  OdometryOptions vo_options = MakeOdometryOptions(config);
+  std::unique_ptr<VisualOdometry> vo;
+  GeoRefOptions geo_options;
+  geo_options.heading_source = ParseHeadingSource(config.heading);
+  GeoReferencer georef(geo_options);
+  std::unique_ptr<TrackWriterSet> writers;
+  std::deque<PendingFrame> pending;
+  std::vector<TrajectoryPoint2D> local_track, gps_track;  // for the evaluation
+  std::vector<int> gps_frame;                             // index into local_track
+  std::optional<double> last_height;
+  bool warned_height = false;
+  StageTimes sum;
+  Eigen::Vector2d last_local = Eigen::Vector2d::Zero();
+
+  // Writes a frame: geo-referenced when possible, else in the local VO frame.
+  auto emit = [&](PendingFrame& p) {
+    if (georef.ready()) {
+      const Eigen::Vector2d enu = georef.EnuFromLocal(p.local_m);
+      p.record.x_m = enu.x();
+      p.record.y_m = enu.y();
+      p.record.geo = georef.Wgs84FromLocal(p.local_m);
+      p.record.yaw_rad = std::remainder(p.heading_rad + georef.rotation_rad(), 2.0 * M_PI);
+    } else {
+      p.record.x_m = p.local_m.x();
+      p.record.y_m = p.local_m.y();
+      p.record.yaw_rad = p.heading_rad;
+    }
+    writers->Append(p.record, p.gps);
+  };
+  auto flush = [&](bool final) {
+    if (final && !georef.ready() && georef.has_enu()) georef.FixWithAvailable();
+    // With GPS in the telemetry, wait for the heading (bounded: GeoRefOptions::min_segment_m).
+    if (!final && !georef.ready() && !telemetry.empty()) return;
+    while (!pending.empty()) {
+      emit(pending.front());
+      pending.pop_front();
+    }
+  };
+
+  Frame frame;
+  bool stopped = false;
+  while (true) {
+    if (stop != nullptr && stop->load()) {
+      stopped = true;
+      break;
+    }
+    if (config.max_frames > 0 && summary.frames_processed >= config.max_frames) break;
+    if (!source->Next(frame)) break;
+    const std::optional<TelemetrySample> sample = sample_of(frame);
+    const std::optional<GeoPoint> gps = GpsOf(sample);
+
+    if (!vo) {
+      // First frame: the camera and the outputs can now be set up.
+      const int w = frame.gray.width(), h = frame.gray.height();
+      if (config.focal_px > 0.0) {
+        summary.focal_px = config.focal_px;
+        summary.focal_source = "flag";
+      } else if (config.hfov_deg > 0.0) {
+        summary.focal_px = FocalPxFromHfov(config.hfov_deg, w);
+        summary.focal_source = "hfov";
+      } else if (folder != nullptr && !folder->metadata().empty() &&
+                 folder->metadata().front().calibrated_focal_px &&
+                 folder->metadata().front().width_px == w) {
+        summary.focal_px = *folder->metadata().front().calibrated_focal_px;
+        summary.focal_source = "xmp-calibrated";
+      } else if (folder != nullptr && !folder->metadata().empty() &&
+                 folder->metadata().front().focal_length_35mm_mm) {
+        summary.focal_px = FocalPxFrom35mm(*folder->metadata().front().focal_length_35mm_mm, w, h);
+        summary.focal_source = "exif-35mm";
+      } else if (sample && sample->focal_length_35mm_mm) {
+        summary.focal_px = FocalPxFrom35mm(*sample->focal_length_35mm_mm, w, h);
+        summary.focal_source = "telemetry-35mm";
+      } else {
+        throw InputError(frame.name +
+                         ": the camera focal length is unknown (no EXIF/telemetry "
+                         "35 mm focal length): give --focal-px or --hfov-deg");
+      }
+      vo_options.focal_px = summary.focal_px;
+      vo_options.default_height_m = config.altitude_m;
+      summary.height_source = config.altitude_m > 0.0 ? "flag" : "telemetry";
+      vo = std::make_unique<VisualOdometry>(vo_options);
+
+      TrackWriterOptions wo;
+      wo.enu_origin = gps;
+      if (sample && sample->unix_time_s)
+        wo.time_origin_unix_s = *sample->unix_time_s - frame.time_s;
+      wo.run_name = "aerovo";
+      writers = std::make_unique<TrackWriterSet>(out_dir, wo);
+      nlohmann::json effective = ToJson(config);
+      effective["resolved"] = {{"focal_px", summary.focal_px},
+                               {"focal_source", summary.focal_source},
+                               {"height_source", summary.height_source},
+                               {"frame_width_px", w},
+                               {"frame_height_px", h}};
+      WriteJsonFileAtomic(out_dir / "config.json", effective);
+      if (log) {
+        *log << fmt::format("camera: {}x{} px, focal {:.1f} px ({}), height from {}\n", w, h,
+                            summary.focal_px, summary.focal_source, summary.height_source);
+      }
+    }
+
+    // Height above ground: the flag, else the telemetry's relative altitude.
+    std::optional<double> height;
+    if (config.altitude_m > 0.0) {
+      height = config.altitude_m;
+    } else if (sample && sample->rel_alt_m && *sample->rel_alt_m > 0.0) {
+      height = *sample->rel_alt_m;
+      last_height = height;
+    } else if (last_height) {
+      height = last_height;
+      if (!warned_height) {
+        summary.warnings.push_back(frame.name + ": no relative altitude, using the last known (" +
+                                   fmt::format("{:.1f}", *last_height) + " m)");
+        warned_height = true;
+      }
+    } else {
+      throw InputError(frame.name +
+                       ": no height above ground (the telemetry has no relative "
+                       "altitude): give --altitude");
+    }
+    const std::optional<double> yaw = sample ? sample->CameraYawDeg() : std::nullopt;
+
+    const FrameResult r = vo->Process(frame.gray.view(), frame.time_s, height, yaw);
+    georef.Observe(r.position_m, gps, yaw);
+
+    PendingFrame p;
+    p.local_m = r.position_m;
+    p.heading_rad = r.heading_rad;
+    p.gps = gps;
+    FrameRecord& rec = p.record;
+    rec.frame = frame.index;
+    rec.time_s = frame.time_s;
+    rec.n_surf = r.n_surf;
+    rec.n_matched = r.n_matched;
+    rec.n_inliers = r.n_inliers;
+    rec.cluster = r.cluster;
+    rec.detect_ms = r.detect_ms;
+    rec.describe_ms = r.describe_ms;
+    rec.correspond_ms = r.correspond_ms;
+    rec.estimate_ms = r.estimate_ms;
+    rec.total_ms = r.total_ms;
+    rec.status = ToString(r.status);
+    if (r.failure != StepFailure::kNone) rec.status += std::string(":") + ToString(r.failure);
+    pending.push_back(std::move(p));
+    flush(false);
+
+    local_track.push_back({frame.time_s, r.position_m.x(), r.position_m.y()});
+    if (gps && georef.has_enu()) {
+      const Eigen::Vector3d e = georef.enu().Forward(*gps);
+      gps_track.push_back({frame.time_s, e.x(), e.y()});
+      gps_frame.push_back(static_cast<int>(local_track.size()) - 1);
+      ++summary.frames_with_gps;
+    }
+    if (summary.frames_processed > 0)
+      summary.vo_path_length_m += (r.position_m - last_local).norm();
+    last_local = r.position_m;
+    sum.detect_ms += r.detect_ms;
+    sum.describe_ms += r.describe_ms;
+    sum.correspond_ms += r.correspond_ms;
+    sum.estimate_ms += r.estimate_ms;
+    sum.total_ms += r.total_ms;
+    ++summary.frames_processed;
+    if (cb.progress) {
+      cb.progress(summary.frames_processed, summary.frames_expected,
+                  summary.frames_processed / std::max(1e-9, wall.elapsed_ms() / 1000.0));
+    }
+  }
+  if (writers) {
+    flush(true);
+    writers->Close();
+  }
+  for (const std::string& w : source->warnings()) summary.warnings.push_back(w);
+
+  summary.interrupted = stopped;
+  if (vo) {
+    const OdometryStats& st = vo->stats();
+    summary.frames_ok = st.ok;
+    summary.frames_reacquired = st.reacquired;
+    summary.frames_bridged = st.bridged;
+  }
+  summary.heading_source = georef.heading_source_used();
+  const double n = std::max(1, summary.frames_processed);
+  summary.mean = {sum.detect_ms / n, sum.describe_ms / n, sum.correspond_ms / n,
+                  sum.estimate_ms / n, sum.total_ms / n};
+  summary.wall_s = wall.elapsed_ms() / 1000.0;
+  summary.fps = summary.frames_processed / std::max(1e-9, summary.wall_s);
+
+  if (gps_track.size() >= 3) {
+    std::vector<TrajectoryPoint2D> estimate;
+    estimate.reserve(gps_track.size());
+    for (int i : gps_frame) {
+      TrajectoryPoint2D q = local_track[static_cast<std::size_t>(i)];
+      if (georef.ready()) {
+        const Eigen::Vector2d e = georef.EnuFromLocal({q.x, q.y});
+        q.x = e.x();
+        q.y = e.y();
+      }
+      estimate.push_back(q);
+    }
+    try {
+      summary.evaluation = CompareTrajectories(estimate, gps_track);
+    } catch (const InvalidArgument& e) {
+      summary.warnings.push_back(std::string("no comparison with GPS: ") + e.what());
+    }
+  }
+  WriteJsonFileAtomic(out_dir / RunFileNames::kSummaryJson, ToJson(summary));
+  return summary;
+}
+
+}  // namespace aerovo

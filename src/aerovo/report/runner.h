@@ -1,0 +1,139 @@
+// The `aerovo run` job as a library: read a flight (video, photo folder or live source) and its
+// telemetry, run the visual odometry, geo-reference the trajectory, write every output
+// progressively (frames.csv, TUM, GeoJSON, KML, GPX, summary.json, config.json) and compare the
+// trajectory with GPS (SE(2) and Sim(2) ATE, end-point error, relative error).
+#pragma once
+
+#include <atomic>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <ostream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "aerovo/eval/trajectory_eval.h"
+#include "aerovo/odometry/georef.h"
+#include "aerovo/odometry/visual_odometry.h"
+
+namespace aerovo {
+
+/// Everything a run can be told, as flags (cmd_run.cc) or as a JSON config file with the same
+/// keys (ToJson / RunConfigFromJson). Plain aggregate; Validate() checks it.
+struct RunConfig {
+  /// Video file, image folder, camera index, device path or stream URL (io/frame_source.h).
+  std::string input;
+  /// Telemetry file (.srt, .gpx, .csv); empty: none, or the photos' EXIF/XMP for a folder.
+  std::string telemetry;
+  /// Output folder (created). Default "aerovo-run".
+  std::string out = "aerovo-run";
+  /// Process every k-th frame (video; photos: every k-th photo). Default 1.
+  int step = 1;
+  /// Time window of the source, seconds (end < 0: to the end).
+  double start_s = 0.0;
+  double end_s = -1.0;
+  /// Stop after this many processed frames (0 = all).
+  int max_frames = 0;
+  /// "clustered" (default, the paper) or "standard".
+  std::string mode = "clustered";
+  /// "affine" (default), "similarity", "homography", "translation".
+  std::string model = "affine";
+  /// "metric" (default) or "affine-chain" (see odometry/pose_chain.h).
+  std::string scale = "metric";
+  /// Heading of the VO track in ENU: "auto" (default: telemetry yaw, else first GPS segment),
+  /// "yaw", "gps".
+  std::string heading = "auto";
+  /// Height above ground, metres; when > 0 it overrides telemetry (tampa-phantom3 has none).
+  double altitude_m = 0.0;
+  /// Focal length in pixels of the processed frames; when 0, from hfov_deg, else from the
+  /// telemetry/EXIF (XMP calibrated focal, else 35 mm equivalent).
+  double focal_px = 0.0;
+  /// Horizontal field of view, degrees (used when focal_px is 0).
+  double hfov_deg = 0.0;
+  /// Guided matching with the constant-velocity prior (then unguided on failure). Default on.
+  bool guided = true;
+  /// Refinement of cell fits on all points (odometry OdometryOptions::refine_on_all_points).
+  bool refine = true;
+  /// RANSAC inliers needed for a step (OdometryOptions::correspondence.min_inliers). Default 15.
+  int min_inliers = 15;
+  /// SURF Hessian threshold (MATLAB MetricThreshold). Default 1000.
+  double surf_threshold = 1000.0;
+  /// Keep at most this many SURF points per frame, strongest first (0 = all). Default 0.
+  int max_keypoints = 0;
+  /// RANSAC seed.
+  std::uint64_t seed = 1;
+  /// Threads for SURF and matching (0 = all cores).
+  int threads = 0;
+  /// No progress bar, no configuration dump, only errors and the final table.
+  bool quiet = false;
+};
+
+/// Throws InvalidArgument naming the bad key.
+void Validate(const RunConfig& config);
+/// The configuration as JSON (the keys of RunConfig).
+nlohmann::json ToJson(const RunConfig& config);
+/// `base` with the keys present in `json` replaced. Unknown keys and wrong types throw
+/// InvalidArgument naming the key (and `source`, e.g. the config file path).
+RunConfig RunConfigFromJson(const nlohmann::json& json, RunConfig base,
+                            const std::string& source = "config");
+/// Reads a JSON config file (InputError naming the file and the parse error).
+RunConfig LoadRunConfig(const std::filesystem::path& path, RunConfig base);
+
+/// Focal length in pixels from a 35 mm-equivalent focal length (the diagonal convention of
+/// CIPA DC-008 / EXIF FocalLengthIn35mmFilm: f_px = f35 * image diagonal px / 43.27 mm).
+double FocalPxFrom35mm(double focal_35mm_mm, int width_px, int height_px);
+/// Focal length in pixels from the horizontal field of view: (width / 2) / tan(hfov / 2).
+double FocalPxFromHfov(double hfov_deg, int width_px);
+
+/// Mean per-frame stage times, ms.
+struct StageTimes {
+  double detect_ms = 0.0, describe_ms = 0.0, correspond_ms = 0.0, estimate_ms = 0.0, total_ms = 0.0;
+};
+
+/// What a run did, returned by RunFlight and written as summary.json.
+struct RunSummary {
+  std::string input;
+  std::string source_description;
+  std::filesystem::path out_dir;
+  int frames_processed = 0;
+  int frames_expected = -1;  ///< From the source, -1 when unknown (live).
+  int frames_ok = 0;         ///< Including the first frame.
+  int frames_reacquired = 0;
+  int frames_bridged = 0;  ///< Flagged frames (step failed, motion bridged).
+  int frames_with_gps = 0;
+  bool interrupted = false;  ///< Stopped by the stop flag (SIGINT/SIGTERM) before the end.
+  double wall_s = 0.0;
+  double fps = 0.0;  ///< frames_processed / wall_s.
+  StageTimes mean;
+  double focal_px = 0.0;
+  std::string focal_source;    ///< "flag", "hfov", "xmp-calibrated", "exif-35mm", ...
+  std::string height_source;   ///< "flag" or "telemetry".
+  std::string heading_source;  ///< GeoReferencer::heading_source_used(), "" if none.
+  double vo_path_length_m = 0.0;
+  /// SE(2) and Sim(2) comparison with GPS, when at least 3 frames have a GPS fix.
+  std::optional<TrajectoryComparison> evaluation;
+  std::vector<std::string> warnings;
+};
+
+nlohmann::json ToJson(const RunSummary& summary);
+/// The table printed at the end of a run (frames, distance, ATE SE(2)/Sim(2), end-point and
+/// relative error, mean stage times, fps); lines end with '\n'.
+std::string FormatSummaryTable(const RunSummary& summary);
+
+/// Where RunFlight reports to. `log` gets the configuration and messages (may be null);
+/// `progress`, if set, is called after every frame with (frames done, frames expected or -1,
+/// frames per second).
+struct RunCallbacks {
+  std::ostream* log = nullptr;
+  std::function<void(int, int, double)> progress;
+};
+
+/// Runs a whole flight. Writes config.json at the start, the per-frame outputs as frames are
+/// processed (each file valid at all times), summary.json at the end. Stops early, cleanly,
+/// when `stop` becomes true (the files stay valid and the summary says interrupted).
+/// Throws InputError / InvalidArgument naming the file, frame or key for bad input.
+RunSummary RunFlight(const RunConfig& config, const RunCallbacks& callbacks = {},
+                     const std::atomic<bool>* stop = nullptr);
+
+}  // namespace aerovo
