@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <deque>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <Eigen/Geometry>
 #include <Eigen/LU>
@@ -30,6 +32,11 @@ void Validate(const OdometryOptions& o) {
   if (!(o.max_shift_fraction > 0.0)) fail("max_shift_fraction must be > 0");
   if (o.max_reacquire_gap < 1) fail("max_reacquire_gap must be >= 1");
   if (!(o.refine_radius_px > 0.f)) fail("refine_radius_px must be > 0");
+  if (o.keyframe_interval < 1) fail("keyframe_interval must be >= 1");
+  if (o.max_keyframes < 1) fail("max_keyframes must be >= 1");
+  if (o.relocalize_min_inliers < MinSampleSize(o.correspondence.model)) {
+    fail("relocalize_min_inliers must be at least the model's minimal sample");
+  }
 }
 
 const char* ToString(FrameStatus status) {
@@ -127,6 +134,10 @@ struct VisualOdometry::Impl {
   // was measured, when it is not that one (after a bridged frame with features).
   std::optional<Reference> prev;
   std::optional<Reference> last_good;
+  // Every keyframe_interval-th measured frame, the newest max_keyframes kept.
+  std::deque<Reference> keyframes;
+  int last_keyframe_index = -1000000;
+  std::vector<const Reference*> candidates;
   // Motion of the last measured one-frame step (constant-velocity model).
   Eigen::Matrix3d velocity = Eigen::Matrix3d::Identity();
   bool have_velocity = false;
@@ -245,23 +256,41 @@ FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
     r.status = FrameStatus::kFirst;
   } else {
     // Candidate references, the previous usable frame first.
-    const Reference* candidates[2] = {nullptr, nullptr};
-    int n_candidates = 0;
-    if (s.prev) candidates[n_candidates++] = &*s.prev;
+    // Then, if both fail, the keyframes (relocalisation), newest first.
+    std::vector<const Reference*>& candidates = s.candidates;
+    candidates.clear();
+    if (s.prev) candidates.push_back(&*s.prev);
     if (s.last_good && (!s.prev || s.last_good->index != s.prev->index) &&
         r.index - s.last_good->index <= o.max_reacquire_gap) {
-      candidates[n_candidates++] = &*s.last_good;
+      candidates.push_back(&*s.last_good);
     }
+    const std::size_t n_local = candidates.size();
+    if (o.relocalize) {
+      for (auto it = s.keyframes.rbegin(); it != s.keyframes.rend(); ++it) {
+        if (std::none_of(candidates.begin(), candidates.begin() + n_local,
+                         [&](const Reference* c) { return c->index == it->index; })) {
+          candidates.push_back(&*it);
+        }
+      }
+    }
+    const int n_candidates = static_cast<int>(candidates.size());
     r.failure = usable ? StepFailure::kNoTransform : StepFailure::kTooFewFeatures;
     const Reference* accepted = nullptr;
     Attempt best;
+    // Local candidates: the first acceptable one wins. Keyframes: all are tried and the one with
+    // the most inliers wins (no motion prior confirms a relocalisation, so take the strongest).
+    Attempt best_keyframe;
+    const Reference* best_keyframe_ref = nullptr;
+    bool best_keyframe_guided = false;
     for (int c = 0; c < n_candidates && usable && accepted == nullptr; ++c) {
       const Reference& ref = *candidates[c];
       const int gap = r.index - ref.index;
+      const bool keyframe = static_cast<std::size_t>(c) >= n_local;
       std::optional<Eigen::Matrix3d> prior;
-      if (s.have_velocity) prior = Power(s.velocity, gap);
+      if (s.have_velocity && !keyframe) prior = Power(s.velocity, gap);
+      const int needed = keyframe ? o.relocalize_min_inliers : o.correspondence.min_inliers;
       // Guided first (cheap, robust to repeated texture), then unguided.
-      for (int pass = 0; pass < 2 && accepted == nullptr; ++pass) {
+      for (int pass = 0; pass < 2 && (keyframe || accepted == nullptr); ++pass) {
         const bool guided = pass == 0;
         if (guided && (!o.correspondence.guided_matching || !prior)) continue;
         Attempt a = s.Correspond(guided, ref.features, features.features, prior);
@@ -274,10 +303,19 @@ FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
         StepFailure why = StepFailure::kNone;
         if (!a.success) {
           why = StepFailure::kNoTransform;
-        } else if (a.n_inliers < o.correspondence.min_inliers) {
+        } else if (a.n_inliers < needed) {
           why = StepFailure::kTooFewInliers;
         } else if (!Plausible(o, a.curr_from_ref, s.width, s.height)) {
           why = StepFailure::kImplausibleMotion;
+        }
+        if (keyframe && (why != StepFailure::kNone || a.n_inliers <= best_keyframe.n_inliers)) {
+          continue;  // keep the failure of the local candidates / the best keyframe so far
+        }
+        if (keyframe) {
+          best_keyframe = a;
+          best_keyframe_ref = &ref;
+          best_keyframe_guided = guided;
+          continue;
         }
         r.failure = why;
         r.n_matched = a.n_matched;
@@ -291,6 +329,16 @@ FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
           r.guided = guided;
         }
       }
+    }
+    if (accepted == nullptr && best_keyframe_ref != nullptr) {
+      accepted = best_keyframe_ref;
+      best = best_keyframe;
+      r.guided = best_keyframe_guided;
+      r.relocalized = true;
+      r.n_matched = best.n_matched;
+      r.n_inliers = best.n_inliers;
+      r.cluster = best.cluster;
+      r.fell_back = best.fell_back;
     }
     if (accepted != nullptr) {
       const int gap = r.index - accepted->index;
@@ -324,6 +372,11 @@ FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
     ref.gsd = gsd;
     ref.measured = measured;
     ref.chain = s.chain;
+    if (measured && o.relocalize && r.index - s.last_keyframe_index >= o.keyframe_interval) {
+      s.keyframes.push_back(ref);
+      s.last_keyframe_index = r.index;
+      if (static_cast<int>(s.keyframes.size()) > o.max_keyframes) s.keyframes.pop_front();
+    }
     if (measured) {
       s.last_good.reset();  // this frame is both the previous and the last good frame
     } else if (s.prev && s.prev->measured) {

@@ -36,14 +36,14 @@ struct OdometryOptions {
   ///   velocity) as a prior, only candidates within match.guided_radius_px of the prediction
   ///   being compared; if that fails the same method is run unguided, so guidance never loses a
   ///   step it would otherwise find (much faster on smooth flights);
-  /// - min_inliers = 15: a step is accepted only with 15 consistent points (an affine fit on 15
-  ///   of ratio-tested matches is very unlikely to be chance; the paper's cells need 12 points
-  ///   to be tried at all);
+  /// - min_inliers = 12: a step is accepted only with 12 consistent points (the paper's minimum
+  ///   cell size; an affine fit on 12 ratio-tested matches at 1.5 px is very unlikely to be
+  ///   chance);
   /// - match.num_threads = 0 (all cores).
   CorrespondenceOptions correspondence = [] {
     CorrespondenceOptions c;
     c.guided_matching = true;
-    c.min_inliers = 15;
+    c.min_inliers = 12;
     c.match.num_threads = 0;
     return c;
   }();
@@ -84,6 +84,24 @@ struct OdometryOptions {
   /// Plausibility: the image centre may move at most this fraction of the frame's larger side
   /// in one step. Default 0.9: beyond it the frames cannot overlap enough to be matched.
   double max_shift_fraction = 0.9;
+  /// Relocalisation: when a frame matches neither the previous nor the last good frame, it is
+  /// matched (unguided, rotation-invariant SURF) against stored keyframes, newest first; a match
+  /// re-anchors the pose on that keyframe's. This is what recovers from a jump with no overlap
+  /// with the previous frame when the flight comes back over earlier ground, including a change
+  /// of heading that no motion model predicts (tampa-phantom3 DJI_0134 -> DJI_0135: a 79 m jump
+  /// with a 90 deg turn, back over the start of the flight). Default true.
+  bool relocalize = true;
+  /// A keyframe is stored every keyframe_interval measured frames. Default 5.
+  int keyframe_interval = 5;
+  /// Keyframes kept (oldest dropped): bounds memory (~250 kB per 1000 SURF points) and the
+  /// cost of a failed frame (one unguided match per keyframe). Default 64.
+  int max_keyframes = 64;
+  /// Inliers needed to accept a relocalisation. Default 12 (the paper's minimum cell size):
+  /// measured on tampa-phantom3, DJI_0135 matches the keyframes of the start of the flight
+  /// (seen 90 deg rotated, 6 minutes earlier) with 11-16 inliers and no other frame with more
+  /// than 6; together with the plausibility checks (scale, anisotropy, shift) a chance affine
+  /// fit with 12 inliers at 1.5 px is very unlikely.
+  int relocalize_min_inliers = 12;
   /// Re-acquisition: after a failure, the last good frame stays a candidate reference for this
   /// many frames. Default 5.
   int max_reacquire_gap = 5;
@@ -97,7 +115,7 @@ void Validate(const OdometryOptions& options);
 enum class FrameStatus {
   kFirst,       ///< First frame: the origin of the trajectory.
   kOk,          ///< Step estimated against the previous frame.
-  kReacquired,  ///< Step estimated against the last good frame, after bridged frames.
+  kReacquired,  ///< Step estimated against the last good frame or a keyframe (relocalised).
   kBridged,     ///< Step failed: pose predicted with the previous step's motion.
 };
 /// "first", "ok", "reacquired", "bridged".
@@ -128,6 +146,7 @@ struct FrameResult {
   int attempts = 0;          ///< Match + RANSAC runs (cells tried, fall-backs, guided/unguided).
   bool fell_back = false;    ///< Clustered RANSAC fell back to standard.
   bool guided = false;       ///< The accepted step came from guided matching.
+  bool relocalized = false;  ///< Re-anchored on a keyframe (see OdometryOptions::relocalize).
   double detect_ms = 0.0, describe_ms = 0.0, correspond_ms = 0.0, estimate_ms = 0.0, total_ms = 0.0;
   /// The step applied to the trajectory: maps frame index-1 pixels to this frame's pixels
   /// (estimated, composed from a re-acquisition, or predicted when bridged).

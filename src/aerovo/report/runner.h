@@ -55,8 +55,8 @@ struct RunConfig {
   bool guided = true;
   /// Refinement of cell fits on all points (odometry OdometryOptions::refine_on_all_points).
   bool refine = true;
-  /// RANSAC inliers needed for a step (OdometryOptions::correspondence.min_inliers). Default 15.
-  int min_inliers = 15;
+  /// RANSAC inliers needed for a step (OdometryOptions::correspondence.min_inliers). Default 12.
+  int min_inliers = 12;
   /// SURF Hessian threshold (MATLAB MetricThreshold). Default 1000.
   double surf_threshold = 1000.0;
   /// Keep at most this many SURF points per frame, strongest first (0 = all). Default 0.
