@@ -60,11 +60,11 @@ void RunDetect(const DetectArgs& a) {
   const FeatureSet& f = r.features;
   std::cout << fmt::format(
       "{}: {}x{}, {} keypoints, detect {:.1f} ms, describe {:.1f} ms, total {:.1f} ms "
-      "(threshold {}, {} octaves, {} levels, {} descriptor, {}, {} thread(s))\n",
+      "(threshold {}, {} octaves, {} levels, {} descriptor, {}, threads: {})\n",
       a.image, gray.cols, gray.rows, f.size(), r.detect_ms, r.describe_ms,
       r.detect_ms + r.describe_ms, a.surf.hessian_threshold, a.surf.num_octaves,
       a.surf.num_scale_levels, f.descriptor_size, a.surf.upright ? "upright" : "oriented",
-      a.surf.num_threads);
+      a.surf.num_threads == 0 ? std::string("all cores") : std::to_string(a.surf.num_threads));
   if (!a.draw.empty()) {
     std::vector<cv::KeyPoint> kps;
     kps.reserve(f.size());
