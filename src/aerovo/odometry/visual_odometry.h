@@ -148,8 +148,9 @@ struct FrameResult {
   bool guided = false;       ///< The accepted step came from guided matching.
   bool relocalized = false;  ///< Re-anchored on a keyframe (see OdometryOptions::relocalize).
   double detect_ms = 0.0, describe_ms = 0.0, correspond_ms = 0.0, estimate_ms = 0.0, total_ms = 0.0;
-  /// The step applied to the trajectory: maps frame index-1 pixels to this frame's pixels
-  /// (estimated, composed from a re-acquisition, or predicted when bridged).
+  /// The step applied to the trajectory, curr_from_ref: maps pixels of frame reference_index
+  /// (index-1 for kOk; the last good frame or a keyframe for kReacquired) to this frame's
+  /// pixels; when bridged, the predicted one-frame step (previous step's motion) from index-1.
   Eigen::Matrix3d curr_from_prev = Eigen::Matrix3d::Identity();
   /// See PoseChain::world_from_frame (metric: local_from_frame in metres; affine-chain: first
   /// frame's pixels from this frame's pixels).
