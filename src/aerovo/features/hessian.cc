@@ -83,6 +83,9 @@ __attribute__((always_inline)) inline void HessianRows(const IntegralImage& ii,
       case 2:
         HessianRow<2>(ii.data(), ii.stride(), l, i, j0, j1, out);
         break;
+      case 4:
+        HessianRow<4>(ii.data(), ii.stride(), l, i, j0, j1, out);
+        break;
       default:
         HessianRow<0>(ii.data(), ii.stride(), l, i, j0, j1, out);
         break;
