@@ -160,6 +160,39 @@ TEST_F(SyntheticFlight, BridgesBlackAndForeignFramesAndReacquires) {
   EXPECT_EQ(vo.stats().reacquired, 2);
 }
 
+TEST_F(SyntheticFlight, RelocalisesAfterAJumpWithATurnBackOverEarlierGround) {
+  // 16 frames north at 3.5 m per frame, then a jump (no overlap with frame 15) back over frame
+  // 4's ground turned by 90 degrees, then on west. Constant velocity cannot predict it; the
+  // keyframes (every 5th frame) can.
+  std::vector<TruePose> truth;
+  for (int i = 0; i < 16; ++i) truth.push_back({{0.0, 3.5 * i}, 0.0});
+  for (int i = 0; i < 6; ++i) truth.push_back({{1.0 - 3.5 * i, 14.0}, M_PI / 2});
+  VisualOdometry vo(SyntheticOptions());
+  OdometryOptions no_reloc_opts = SyntheticOptions();
+  no_reloc_opts.relocalize = false;
+  VisualOdometry no_reloc(no_reloc_opts);
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    const cv::Mat frame = Render(*ground_, q0_, truth[i]);
+    const FrameResult r = vo.Process(View(frame), i);
+    const FrameResult n = no_reloc.Process(View(frame), i);
+    if (i == 16) {
+      EXPECT_EQ(r.status, FrameStatus::kReacquired);
+      EXPECT_TRUE(r.relocalized);
+      EXPECT_EQ(r.reference_index % 5, 0);
+      EXPECT_EQ(n.status, FrameStatus::kBridged);
+    } else {
+      EXPECT_FALSE(r.relocalized) << "frame " << i;
+    }
+    EXPECT_LT((r.position_m - truth[i].pos_m).norm(), 0.1) << "frame " << i;
+    EXPECT_NEAR(std::remainder(r.heading_rad - truth[i].heading, 2 * M_PI), 0.0, 0.01);
+    if (i >= 17) {
+      // Without relocalisation the rest of the flight stays wrong by metres.
+      EXPECT_GT((n.position_m - truth[i].pos_m).norm(), 5.0) << "frame " << i;
+    }
+  }
+  EXPECT_EQ(vo.stats().bridged, 0);
+}
+
 TEST_F(SyntheticFlight, DeterministicAndAffineChainAgrees) {
   const std::vector<TruePose> truth = CurvedFlight(12);
   OdometryOptions chain_opts = SyntheticOptions();
