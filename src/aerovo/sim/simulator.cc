@@ -1,5 +1,6 @@
 #include "aerovo/sim/simulator.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -9,6 +10,10 @@
 #include "aerovo/sim/random.h"
 
 namespace aerovo::sim {
+
+namespace {
+constexpr double kDegToRadSim = 3.14159265358979323846 / 180.0;
+}  // namespace
 
 void Validate(const SimulationOptions& o) {
   Validate(o.flight);
@@ -30,6 +35,66 @@ const SimulationOptions& Checked(const SimulationOptions& o) {
   return o;
 }
 }  // namespace
+
+GroundImage MakeTerrainGround(const TerrainOptions& terrain, const GeoPoint& nw_corner) {
+  GroundImage g;
+  g.image = GenerateTerrain(terrain);
+  g.metres_per_px = terrain.metres_per_px;
+  g.nw_corner = nw_corner;
+  g.source_kind = "terrain";
+  g.terrain_seed = terrain.seed;
+  Validate(g);
+  return g;
+}
+
+TerrainOptions FitTerrainToFlight(const SimulationOptions& options, TerrainOptions base,
+                                  double max_pixels) {
+  Validate(options);
+  if (!(max_pixels >= 64.0 * 64.0)) {
+    throw InvalidArgument(
+        fmt::format("FitTerrainToFlight: max_pixels = {} is too small", max_pixels));
+  }
+  const PlannedFlight plan =
+      PlanFlight(options.flight, options.fps, Eigen::Vector2d::Zero(), options.seed);
+  double half_e = 0.0, half_n = 0.0;
+  for (const auto& p : plan.path) {
+    half_e = std::max(half_e, std::abs(p.x()));
+    half_n = std::max(half_n, std::abs(p.y()));
+  }
+  // Farthest ground point any frame can see from below the camera: the image corner ray at the
+  // largest tilt the plan allows.
+  const FlightPlan& f = options.flight;
+  const double tilt_deg = std::max(std::abs(f.pitch_deg), std::abs(f.roll_deg)) + f.wobble_deg;
+  const double fpx = FocalPx(options.camera);
+  const double half_diag_px = 0.5 * std::hypot(options.camera.width_px, options.camera.height_px);
+  const double corner_angle = std::atan(half_diag_px / fpx) + tilt_deg * kDegToRadSim;
+  const double reach =
+      f.height_m * std::tan(std::min(corner_angle, 80.0 * kDegToRadSim));  // guard the horizon
+  const double width_m = 2.2 * (half_e + reach), height_m = 2.2 * (half_n + reach);
+  TerrainOptions t = base;
+  double mpp = std::clamp(NadirGsdMetresPerPx(options.camera, f.height_m), 0.05, 1.0);
+  mpp = std::max(mpp, std::sqrt(width_m * height_m / max_pixels));
+  t.metres_per_px = mpp;
+  t.width_px = std::max(64, static_cast<int>(std::ceil(width_m / mpp)));
+  t.height_px = std::max(64, static_cast<int>(std::ceil(height_m / mpp)));
+  Validate(t);
+  return t;
+}
+
+std::vector<Eigen::Vector2d> WaypointsFromGeo(const GroundImage& ground,
+                                              const std::vector<GeoPoint>& waypoints) {
+  Validate(ground);
+  const LocalEnu map_enu(ground.nw_corner);
+  const Eigen::Vector2d centre = GroundCentreEnM(ground);
+  std::vector<Eigen::Vector2d> out;
+  for (size_t i = 0; i < waypoints.size(); ++i) {
+    aerovo::Validate(waypoints[i], fmt::format("waypoint {}", i).c_str());
+    const Eigen::Vector3d enu =
+        map_enu.Forward(waypoints[i].lat_deg, waypoints[i].lon_deg, ground.nw_corner.alt_m);
+    out.push_back(enu.head<2>() - centre);
+  }
+  return out;
+}
 
 Simulator::Simulator(GroundImage ground, SimulationOptions options)
     : options_(Checked(options)),

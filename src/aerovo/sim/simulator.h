@@ -21,6 +21,7 @@
 #include "aerovo/sim/flight.h"
 #include "aerovo/sim/gps.h"
 #include "aerovo/sim/render.h"
+#include "aerovo/sim/terrain.h"
 
 namespace aerovo::sim {
 
@@ -41,6 +42,33 @@ struct SimulationOptions {
 
 /// Throws aerovo::InvalidArgument naming the first bad field (of any nested struct).
 void Validate(const SimulationOptions& options);
+
+/// Default geographic placement of the procedural terrain (its NW corner): Lviv, Ukraine, the
+/// home of the paper's authors; 300 m above MSL.
+inline constexpr double kDefaultTerrainLatDeg = 49.8397;
+inline constexpr double kDefaultTerrainLonDeg = 24.0297;
+inline constexpr double kDefaultTerrainAltM = 300.0;
+
+/// Generates the procedural terrain and geo-references it with its outer NW corner at
+/// `nw_corner` (whose alt_m is the ground altitude).
+GroundImage MakeTerrainGround(const TerrainOptions& terrain,
+                              const GeoPoint& nw_corner = GeoPoint{kDefaultTerrainLatDeg,
+                                                                   kDefaultTerrainLonDeg,
+                                                                   kDefaultTerrainAltM});
+
+/// Sizes procedural terrain for a flight: metres_per_px = the camera's nadir ground sampling
+/// distance (so frames are neither blurred by upsampling nor aliased; clamped to [0.05, 1] m/px),
+/// and width/height so that the flight's whole view (path extent plus the footprint at the
+/// largest tilt, plus 10 %) lies inside the terrain centred on the flight's reference point.
+/// When that exceeds `max_pixels`, metres_per_px grows to fit. Other fields come from `base`.
+/// Throws InvalidArgument for invalid options.
+TerrainOptions FitTerrainToFlight(const SimulationOptions& options, TerrainOptions base = {},
+                                  double max_pixels = 64.0e6);
+
+/// Converts geographic waypoints to FlightPlan::waypoints_m (ENU metres relative to the centre
+/// of `ground`). Throws InvalidArgument for invalid points.
+std::vector<Eigen::Vector2d> WaypointsFromGeo(const GroundImage& ground,
+                                              const std::vector<GeoPoint>& waypoints);
 
 /// Exact ground truth of one frame.
 struct GroundTruthFrame {
