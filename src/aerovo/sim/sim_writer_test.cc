@@ -1,0 +1,187 @@
+// Files of a simulated flight: SRT, video, image folder, ground truth and sim.json.
+#include "aerovo/sim/sim_writer.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+
+#include <unistd.h>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "aerovo/core/error.h"
+#include "aerovo/geo/local_enu.h"
+#include "aerovo/sim/simulator.h"
+
+namespace aerovo::sim {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path TempDir(const std::string& name) {
+  const fs::path p =
+      fs::temp_directory_path() / ("aerovo_sim_writer_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(p);
+  return p;
+}
+
+SimulationOptions SmallFlight() {
+  SimulationOptions o;
+  o.camera.width_px = 160;
+  o.camera.height_px = 120;
+  o.camera.hfov_deg = 60;
+  o.flight.pattern = FlightPattern::kLine;
+  o.flight.leg_length_m = 11;
+  o.flight.heading_deg = 30;
+  o.flight.height_m = 40;
+  o.flight.speed_mps = 10;
+  o.fps = 10;
+  return o;
+}
+
+GroundImage SmallGround() {
+  TerrainOptions t;
+  t.width_px = 512;
+  t.height_px = 512;
+  t.seed = 4;
+  return MakeTerrainGround(t, GeoPoint{43.54, 6.55, 250.0});
+}
+
+// Re-reads the SRT line by line: 5-line entries, frame counter, time stamps, and positions that
+// agree with the exact ground truth (GPS noise 0) to the SRT's 6 decimals.
+TEST(SimWriter, SrtMatchesGroundTruth) {
+  const Simulator sim(SmallGround(), SmallFlight());
+  ASSERT_EQ(sim.frame_count(), 12);
+  std::stringstream srt;
+  WriteDjiSrt(srt, sim, "2026-05-01T10:00:00");
+  const std::regex pos_re(
+      R"(\[latitude: (-?[0-9.]+)\] \[longitude: (-?[0-9.]+)\] \[rel_alt: ([0-9.]+) abs_alt: ([0-9.]+)\])");
+  std::string line;
+  int entries = 0;
+  double worst_m = 0;
+  const LocalEnu enu(sim.origin());
+  while (std::getline(srt, line)) {
+    if (line.empty()) continue;
+    ASSERT_EQ(line, std::to_string(entries + 1)) << "entry index";
+    std::string times, frame, stamp, fields;
+    ASSERT_TRUE(std::getline(srt, times) && std::getline(srt, frame) && std::getline(srt, stamp) &&
+                std::getline(srt, fields));
+    EXPECT_EQ(frame,
+              "<font size=\"28\">FrameCnt: " + std::to_string(entries + 1) + ", DiffTime: 100ms");
+    if (entries == 3) {
+      EXPECT_EQ(times, "00:00:00,300 --> 00:00:00,400");
+      EXPECT_EQ(stamp, "2026-05-01 10:00:00.300");
+    }
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(fields, m, pos_re)) << fields;
+    const GroundTruthFrame& gt = sim.ground_truth()[entries];
+    const Eigen::Vector3d p = enu.Forward(std::stod(m[1]), std::stod(m[2]), gt.position.alt_m);
+    worst_m = std::max(worst_m, (p - gt.enu_m).head<2>().norm());
+    EXPECT_NEAR(std::stod(m[3]), 40.0, 1e-3);
+    EXPECT_NEAR(std::stod(m[4]), 290.0, 1e-3);
+    ++entries;
+  }
+  EXPECT_EQ(entries, 12);
+  EXPECT_LT(worst_m, 0.1);  // 1e-6 deg quantisation: <= 0.06 m
+  // The flight goes 10 m towards heading 30 deg: the last SRT fix is there.
+  EXPECT_NEAR(sim.ground_truth().back().enu_m.x(), 11 * std::sin(30 * M_PI / 180), 1e-3);
+}
+
+TEST(SimWriter, SrtCarriesGpsNoise) {
+  SimulationOptions o = SmallFlight();
+  o.gps.horizontal_sigma_m = 3.0;
+  o.gps.rate_hz = 10;
+  const Simulator sim(SmallGround(), o);
+  const LocalEnu enu(sim.origin());
+  double sum2 = 0;
+  for (int i = 0; i < sim.frame_count(); ++i) {
+    const GpsFix& f = sim.gps()[LatestFixIndex(sim.gps(), sim.ground_truth()[i].time_s)];
+    const Eigen::Vector3d p = enu.Forward(f.position.lat_deg, f.position.lon_deg, 290);
+    sum2 += (p - sim.ground_truth()[i].enu_m).head<2>().squaredNorm();
+  }
+  // 12 fixes x 2 axes of sigma 3 m: the RMS error is clearly non-zero and of the right size.
+  const double rms = std::sqrt(sum2 / (2 * sim.frame_count()));
+  EXPECT_GT(rms, 1.5);
+  EXPECT_LT(rms, 5.0);
+}
+
+TEST(SimWriter, VideoReopensWithTheRightFrameCount) {
+  const Simulator sim(SmallGround(), SmallFlight());
+  const fs::path dir = TempDir("video");
+  const SimulationOutput out = WriteSimulation(sim, WriterOptions{}, dir);
+  ASSERT_FALSE(out.video_file.empty());
+  EXPECT_EQ(out.frames_written, 12);
+  cv::VideoCapture cap((dir / out.video_file).string());
+  ASSERT_TRUE(cap.isOpened());
+  int frames = 0;
+  cv::Mat f;
+  while (cap.read(f)) {
+    EXPECT_EQ(f.cols, 160);
+    EXPECT_EQ(f.rows, 120);
+    ++frames;
+  }
+  EXPECT_EQ(frames, 12);
+
+  // The manifest reads back with what the pipeline needs.
+  const SimulationManifest m = ReadSimulationManifest(dir / "sim.json");
+  EXPECT_EQ(m.frame_count, 12);
+  EXPECT_EQ(m.fps, 10.0);
+  EXPECT_EQ(m.width_px, 160);
+  EXPECT_NEAR(m.focal_px, FocalPx(sim.options().camera), 1e-9);
+  EXPECT_NEAR(m.height_above_ground_m, 40.0, 1e-12);
+  EXPECT_NEAR(m.origin.lat_deg, sim.origin().lat_deg, 1e-12);
+  EXPECT_EQ(m.video, dir / "video.mp4");
+  EXPECT_TRUE(fs::exists(m.srt) && fs::exists(m.gpx) && fs::exists(m.tum) && fs::exists(m.csv));
+  // TUM: one line per frame, first pose at (0, 0, height).
+  std::ifstream tum(m.tum);
+  double t, x, y, z;
+  tum >> t >> x >> y >> z;
+  EXPECT_NEAR(x, 0.0, 1e-6);
+  EXPECT_NEAR(y, 0.0, 1e-6);
+  EXPECT_NEAR(z, 40.0, 1e-6);
+  fs::remove_all(dir);
+}
+
+TEST(SimWriter, FramesOnlyWritesOneImagePerFrame) {
+  const Simulator sim(SmallGround(), SmallFlight());
+  const fs::path dir = TempDir("frames");
+  WriterOptions w;
+  w.write_video = false;
+  w.image_format = "png";
+  const SimulationOutput out = WriteSimulation(sim, w, dir);
+  EXPECT_TRUE(out.video_file.empty());
+  int files = 0;
+  for (const auto& e : fs::directory_iterator(dir / out.frames_dir)) files += e.is_regular_file();
+  EXPECT_EQ(files, 12);
+  // PNG is lossless: the file equals the in-memory render.
+  const cv::Mat f5 = cv::imread((dir / "frames" / "frame_000005.png").string(), cv::IMREAD_COLOR);
+  EXPECT_EQ(cv::norm(f5, sim.RenderFrame(5), cv::NORM_INF), 0.0);
+  fs::remove_all(dir);
+}
+
+TEST(SimWriter, BadInputsAreNamed) {
+  EXPECT_THROW(LoadOrthophoto("/nonexistent/ortho.jpg", 0.1, GeoPoint{43, 6, 0}), InputError);
+  EXPECT_THROW(ReadSimulationManifest("/nonexistent/sim.json"), InputError);
+  WriterOptions w;
+  w.start_time_utc = "yesterday";
+  EXPECT_THROW(Validate(w), InvalidArgument);
+  const fs::path dir = TempDir("badjson");
+  fs::create_directories(dir);
+  std::ofstream(dir / "sim.json") << "{\"format\": \"aerovo-simulation\", \"version\": 1}";
+  try {
+    ReadSimulationManifest(dir / "sim.json");
+    FAIL() << "no exception";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("missing field 'files'"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace aerovo::sim
