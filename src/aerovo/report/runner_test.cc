@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <regex>
@@ -222,6 +223,34 @@ TEST(Runner, ConfigJsonRoundTripAndErrors) {
 }
 
 #ifdef AEROVO_CLI_PATH
+TEST(Runner, VideoWithDjiSrtFromTheSimulator) {
+  // A 150 m straight flight at 100 m over the built-in terrain, rendered by `aerovo simulate`
+  // as H.264 video + DJI SRT; every 5th frame processed.
+  const fs::path sim = TempDir("sim");
+  const std::string cmd = std::string(AEROVO_CLI_PATH) +
+                          " simulate --pattern line --length-m 150 --legs 1 --width 640 --height "
+                          "480 --fps 10 --hfov-deg 73.7 --out " +
+                          sim.string() + " > /dev/null 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  RunConfig c;
+  c.input = (sim / "video.mp4").string();
+  c.telemetry = (sim / "telemetry.srt").string();
+  c.step = 5;
+  c.hfov_deg = 73.7;  // the simulator's camera
+  c.out = (sim / "run").string();
+  c.quiet = true;
+  const RunSummary s = RunFlight(c);
+  EXPECT_EQ(s.frames_processed, 31);  // frames 0, 5, ..., 150 of 151
+  EXPECT_EQ(s.frames_bridged, 0);
+  EXPECT_EQ(s.height_source, "telemetry");  // SRT rel_alt
+  ASSERT_TRUE(s.evaluation.has_value());
+  // Measured 0.02 m over 300 m; the SRT GPS of the simulator is exact (no noise by default).
+  EXPECT_LT(s.evaluation->se2.ate_m.rmse, 0.3);
+  EXPECT_NEAR(s.evaluation->se2.distance_flown_m, 150.0, 1.0);
+  CheckOutputs(c.out, 31);
+  fs::remove_all(sim);
+}
+
 TEST(Runner, SigintLeavesValidOutputs) {
   AEROVO_REQUIRE_SHARED(flight, "data/flights/tampa-phantom3/DJI_0054.JPG");
   const fs::path out = TempDir("sigint");
