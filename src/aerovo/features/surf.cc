@@ -667,6 +667,18 @@ std::vector<Keypoint> Surf::Detect(const GrayImageView& image) {
 
 FeatureSet Surf::Describe(const GrayImageView& image, std::vector<Keypoint> keypoints) {
   impl_->Prepare(image);
+  const float max_scale = static_cast<float>(std::max(image.width, image.height));
+  for (std::size_t k = 0; k < keypoints.size(); ++k) {
+    const Keypoint& kp = keypoints[k];
+    if (!std::isfinite(kp.x) || !std::isfinite(kp.y) || !std::isfinite(kp.orientation) ||
+        !(kp.scale > 0.f && kp.scale <= max_scale)) {
+      throw InvalidArgument("Surf::Describe: keypoint " + std::to_string(k) + " (x " +
+                            std::to_string(kp.x) + ", y " + std::to_string(kp.y) + ", scale " +
+                            std::to_string(kp.scale) +
+                            ") needs finite coordinates and orientation and a scale in (0, " +
+                            std::to_string(max_scale) + "]");
+    }
+  }
   FeatureSet fs;
   fs.descriptor_size = impl_->options.extended ? 128 : 64;
   fs.descriptors.resize(keypoints.size() * fs.descriptor_size);

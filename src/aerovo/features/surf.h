@@ -58,7 +58,9 @@ struct SurfOptions {
   bool upright = false;
   /// 128-value descriptor instead of 64. Default false (MATLAB FeatureSize 64).
   bool extended = false;
-  /// Threads for detection and description; 1 = single-threaded, 0 = all cores.
+  /// Threads for detection and description; 1 = single-threaded, 0 = all cores. Results are
+  /// identical for any value. On a machine shared with other busy processes, run with
+  /// OMP_WAIT_POLICY=passive (libgomp's spinning workers otherwise slow every call).
   int num_threads = 1;
 };
 
@@ -93,6 +95,8 @@ class Surf {
 
   /// Computes descriptors for given keypoints (e.g. from Detect on the same image).
   /// Keypoints whose window leaves the image are described with clamped samples.
+  /// Throws InvalidArgument for a keypoint with non-finite x, y or orientation, or a scale
+  /// outside (0, max(width, height)].
   FeatureSet Describe(const GrayImageView& image, std::vector<Keypoint> keypoints);
 
  private:

@@ -139,6 +139,19 @@ TEST(SurfErrors, BadImages) {
   // An image just big enough for the smallest filter is valid (and has no room for maxima).
   const GrayImage nine(9, 9, 50);
   EXPECT_TRUE(surf.DetectAndDescribe(nine.view()).features.empty());
+  // Keypoints that cannot be described.
+  const GrayImage ok(64, 64, 100);
+  Keypoint bad;
+  bad.x = 10;
+  bad.y = 10;
+  bad.scale = 0;
+  EXPECT_NO_THROW(surf.DetectAndDescribe(ok.view()));
+  EXPECT_THROW(surf.Describe(ok.view(), {bad}), InvalidArgument);
+  bad.scale = 2;
+  bad.x = std::nanf("");
+  EXPECT_THROW(surf.Describe(ok.view(), {bad}), InvalidArgument);
+  bad.x = -5;  // Finite but outside: described with clamped samples.
+  EXPECT_EQ(surf.Describe(ok.view(), {bad}).descriptors.size(), 64u);
   // ROI outside the image.
   SurfOptions o;
   o.roi = RectI{100, 100, 50, 50};
