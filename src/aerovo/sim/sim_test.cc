@@ -392,3 +392,36 @@ TEST(Simulator, WarnsWhenTheViewLeavesTheGround) {
 
 }  // namespace
 }  // namespace aerovo::sim
+
+namespace aerovo::sim {
+namespace {
+
+// The terrain fitted to a flight has the camera's resolution and holds every frame's view.
+TEST(Simulator, FittedTerrainHoldsTheWholeFlight) {
+  SimulationOptions o;
+  o.camera.width_px = 200;
+  o.camera.height_px = 120;
+  o.camera.hfov_deg = 70;
+  o.flight.pattern = FlightPattern::kTurns;
+  o.flight.legs = 4;
+  o.flight.leg_length_m = 60;
+  o.flight.turn_radius_m = 10;
+  o.flight.height_m = 50;
+  o.flight.roll_deg = 3;
+  o.flight.speed_mps = 8;
+  o.fps = 2;
+  const TerrainOptions t = FitTerrainToFlight(o);
+  EXPECT_NEAR(t.metres_per_px, NadirGsdMetresPerPx(o.camera, 50), 1e-12);
+  const Simulator sim(MakeTerrainGround(t), o);
+  EXPECT_TRUE(sim.warnings().empty());
+  double worst = 0;
+  for (const auto& g : sim.ground_truth()) worst = std::max(worst, g.nodata_fraction);
+  EXPECT_EQ(worst, 0.0);
+  // Four right turns of 90 deg: the yaw has turned by 270 deg at the end of the last leg.
+  EXPECT_NEAR(
+      std::fmod(sim.ground_truth().back().yaw_deg - sim.ground_truth()[0].yaw_deg + 720, 360.0),
+      270.0, 1.0);
+}
+
+}  // namespace
+}  // namespace aerovo::sim
