@@ -1,7 +1,9 @@
 #include "aerovo/report/runner.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <deque>
 #include <fstream>
 #include <memory>
@@ -10,6 +12,7 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <yaml.h>
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
@@ -119,9 +122,92 @@ RunConfig RunConfigFromJson(const nlohmann::json& j, RunConfig c, const std::str
   return c;
 }
 
+namespace {
+
+// A YAML scalar as the JSON value it most plausibly means (the config is flat: numbers, booleans,
+// strings); quoted scalars stay strings.
+nlohmann::json YamlScalar(const std::string& v, bool quoted) {
+  if (quoted) return v;
+  if (v == "true" || v == "yes" || v == "on") return true;
+  if (v == "false" || v == "no" || v == "off") return false;
+  if (v == "~" || v == "null" || v.empty()) return nullptr;
+  char* end = nullptr;
+  const long long i = std::strtoll(v.c_str(), &end, 10);
+  if (end != v.c_str() && *end == '\0') return i;
+  const double d = std::strtod(v.c_str(), &end);
+  if (end != v.c_str() && *end == '\0') return d;
+  return v;
+}
+
+// Parses a flat YAML mapping (key: scalar) with libyaml into a JSON object.
+nlohmann::json ParseFlatYaml(const std::string& text, const std::string& where) {
+  yaml_parser_t parser;
+  if (!yaml_parser_initialize(&parser)) throw InputError(where + ": cannot initialise libyaml");
+  yaml_parser_set_input_string(&parser, reinterpret_cast<const unsigned char*>(text.data()),
+                               text.size());
+  nlohmann::json out = nlohmann::json::object();
+  std::optional<std::string> key;
+  int depth = 0;
+  bool done = false;
+  std::string error;
+  while (!done && error.empty()) {
+    yaml_event_t ev;
+    if (!yaml_parser_parse(&parser, &ev)) {
+      error = fmt::format("line {}: {}", parser.problem_mark.line + 1,
+                          parser.problem ? parser.problem : "YAML syntax error");
+      break;
+    }
+    switch (ev.type) {
+      case YAML_MAPPING_START_EVENT:
+        if (++depth > 1) error = "nested mappings are not allowed (flat key: value only)";
+        break;
+      case YAML_MAPPING_END_EVENT:
+        --depth;
+        break;
+      case YAML_SEQUENCE_START_EVENT:
+        error = fmt::format("line {}: lists are not allowed (flat key: value only)",
+                            ev.start_mark.line + 1);
+        break;
+      case YAML_SCALAR_EVENT: {
+        const std::string v(reinterpret_cast<const char*>(ev.data.scalar.value),
+                            ev.data.scalar.length);
+        if (depth != 1) {
+          error = "the configuration must be a mapping of key: value";
+        } else if (!key) {
+          key = v;
+        } else {
+          out[*key] = YamlScalar(v, ev.data.scalar.style != YAML_PLAIN_SCALAR_STYLE);
+          key.reset();
+        }
+        break;
+      }
+      case YAML_STREAM_END_EVENT:
+        done = true;
+        break;
+      default:
+        break;
+    }
+    yaml_event_delete(&ev);
+  }
+  yaml_parser_delete(&parser);
+  if (!error.empty()) throw InputError(where + ": " + error);
+  return out;
+}
+
+}  // namespace
+
 RunConfig LoadRunConfig(const std::filesystem::path& path, RunConfig base) {
   std::ifstream in(path);
   if (!in) throw InputError("cannot open config file '" + path.string() + "'");
+  std::string ext = path.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char ch) { return std::tolower(ch); });
+  if (ext == ".yaml" || ext == ".yml") {
+    std::stringstream ss;
+    ss << in.rdbuf();
+    const std::string where = "config file '" + path.string() + "'";
+    return RunConfigFromJson(ParseFlatYaml(ss.str(), where), std::move(base), where);
+  }
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(in);

@@ -77,7 +77,9 @@ nlohmann::json ToJson(const RunConfig& config);
 /// InvalidArgument naming the key (and `source`, e.g. the config file path).
 RunConfig RunConfigFromJson(const nlohmann::json& json, RunConfig base,
                             const std::string& source = "config");
-/// Reads a JSON config file (InputError naming the file and the parse error).
+/// Reads a config file: JSON, or YAML for a .yaml/.yml extension (a flat mapping `key: value`
+/// with the same keys; parsed with libyaml). InputError names the file and the parse error (with
+/// its line for YAML).
 RunConfig LoadRunConfig(const std::filesystem::path& path, RunConfig base);
 
 /// Focal length in pixels from a 35 mm-equivalent focal length (the diagonal convention of

@@ -217,6 +217,28 @@ TEST(Runner, ConfigJsonRoundTripAndErrors) {
   missing.quiet = true;
   EXPECT_THROW(RunFlight(missing), InputError);
   fs::remove_all(missing.out);
+  // YAML config file: flat key: value, same keys; errors name the file and line.
+  const fs::path dir = TempDir("yaml");
+  std::ofstream(dir / "run.yaml") << "# a run\ninput: flight.mp4\nstep: 4\naltitude_m: 57.5\n"
+                                     "guided: false\nmode: \"standard\"\nout: '123'\n";
+  const RunConfig y = LoadRunConfig(dir / "run.yaml", RunConfig{});
+  EXPECT_EQ(y.input, "flight.mp4");
+  EXPECT_EQ(y.step, 4);
+  EXPECT_DOUBLE_EQ(y.altitude_m, 57.5);
+  EXPECT_FALSE(y.guided);
+  EXPECT_EQ(y.mode, "standard");
+  EXPECT_EQ(y.out, "123");  // quoted: stays a string
+  std::ofstream(dir / "bad.yaml") << "step: 2\nmode: [a, b]\n";
+  try {
+    LoadRunConfig(dir / "bad.yaml", RunConfig{});
+    ADD_FAILURE() << "a list must be rejected";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.yaml"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("line 2"), std::string::npos) << e.what();
+  }
+  std::ofstream(dir / "typo.yml") << "stepp: 2\n";
+  EXPECT_THROW(LoadRunConfig(dir / "typo.yml", RunConfig{}), InvalidArgument);
+  fs::remove_all(dir);
   // 35 mm-equivalent focal: 20 mm on 800x600 -> 20 * 1000 / 43.27 = 462.2 px.
   EXPECT_NEAR(FocalPxFrom35mm(20.0, 800, 600), 462.25, 0.01);
   EXPECT_NEAR(FocalPxFromHfov(90.0, 800), 400.0, 1e-9);
