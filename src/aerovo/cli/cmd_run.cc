@@ -129,7 +129,8 @@ void Register(CLI::App& app) {
   Bind(cmd, a, "input", &RunConfig::input,
        "Video file, image folder (telemetry from EXIF/XMP), camera index, /dev/videoN or URL");
   cmd->add_option("--config", a.config_file,
-                  "JSON file with any of the options below (keys as in the saved config.json); "
+                  "JSON or YAML (.yaml/.yml) file with any of the options below (keys as in the "
+                  "saved config.json); "
                   "flags given on the command line win");
   Bind(cmd, a, "--telemetry", &RunConfig::telemetry, "Telemetry file: DJI .srt, .gpx or .csv");
   Bind(cmd, a, "-o,--out", &RunConfig::out, "Output folder");
