@@ -152,6 +152,11 @@ void Register(CLI::App& app) {
        "Height above ground, m (overrides telemetry; 0 = from telemetry)");
   Bind(cmd, a, "--focal-px", &RunConfig::focal_px, "Focal length in pixels (0 = from EXIF)");
   Bind(cmd, a, "--hfov-deg", &RunConfig::hfov_deg, "Horizontal field of view, deg");
+  Bind(cmd, a, "--k1", &RunConfig::k1, "Lens distortion k1 (OpenCV model; 0 = none)");
+  Bind(cmd, a, "--k2", &RunConfig::k2, "Lens distortion k2");
+  Bind(cmd, a, "--p1", &RunConfig::p1, "Lens distortion p1 (tangential)");
+  Bind(cmd, a, "--p2", &RunConfig::p2, "Lens distortion p2 (tangential)");
+  Bind(cmd, a, "--k3", &RunConfig::k3, "Lens distortion k3");
   Bind(cmd, a, "--guided", &RunConfig::guided, "Guided matching with the motion prior (0/1)");
   Bind(cmd, a, "--refine", &RunConfig::refine, "Refine cell fits on all points (0/1)");
   Bind(cmd, a, "--min-inliers", &RunConfig::min_inliers, "RANSAC inliers needed for a step");

@@ -13,6 +13,8 @@
 
 #include <fmt/format.h>
 #include <yaml.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
@@ -49,6 +51,9 @@ void Validate(const RunConfig& c) {
   if (!(c.surf_threshold >= 0.0)) fail("'surf_threshold' must be >= 0");
   if (c.max_keypoints < 0) fail("'max_keypoints' must be >= 0");
   if (c.threads < 0) fail("'threads' must be >= 0 (0 = all cores)");
+  for (double d : {c.k1, c.k2, c.p1, c.p2, c.k3}) {
+    if (!std::isfinite(d)) fail("distortion coefficients must be finite");
+  }
 }
 
 nlohmann::json ToJson(const RunConfig& c) {
@@ -66,6 +71,11 @@ nlohmann::json ToJson(const RunConfig& c) {
                         {"altitude_m", c.altitude_m},
                         {"focal_px", c.focal_px},
                         {"hfov_deg", c.hfov_deg},
+                        {"k1", c.k1},
+                        {"k2", c.k2},
+                        {"p1", c.p1},
+                        {"p2", c.p2},
+                        {"k3", c.k3},
                         {"guided", c.guided},
                         {"refine", c.refine},
                         {"min_inliers", c.min_inliers},
@@ -111,6 +121,11 @@ RunConfig RunConfigFromJson(const nlohmann::json& j, RunConfig c, const std::str
   Take(j, "altitude_m", &c.altitude_m, source);
   Take(j, "focal_px", &c.focal_px, source);
   Take(j, "hfov_deg", &c.hfov_deg, source);
+  Take(j, "k1", &c.k1, source);
+  Take(j, "k2", &c.k2, source);
+  Take(j, "p1", &c.p1, source);
+  Take(j, "p2", &c.p2, source);
+  Take(j, "k3", &c.k3, source);
   Take(j, "guided", &c.guided, source);
   Take(j, "refine", &c.refine, source);
   Take(j, "min_inliers", &c.min_inliers, source);
@@ -230,6 +245,40 @@ double FocalPxFromHfov(double hfov_deg, int width_px) {
     throw InvalidArgument("FocalPxFromHfov: need 0 < hfov < 180 deg and a positive width");
   }
   return 0.5 * width_px / std::tan(0.5 * hfov_deg * M_PI / 180.0);
+}
+
+struct FrameUndistorter::Impl {
+  int width = 0, height = 0;
+  cv::Mat map1, map2, out;
+};
+
+FrameUndistorter::FrameUndistorter(int width_px, int height_px, double focal_px, double k1,
+                                   double k2, double p1, double p2, double k3)
+    : impl_(std::make_unique<Impl>()) {
+  if (width_px <= 0 || height_px <= 0 || !(focal_px > 0.0)) {
+    throw InvalidArgument("FrameUndistorter: size and focal length must be positive");
+  }
+  impl_->width = width_px;
+  impl_->height = height_px;
+  const cv::Matx33d k(focal_px, 0, 0.5 * (width_px - 1), 0, focal_px, 0.5 * (height_px - 1), 0, 0,
+                      1);
+  const cv::Vec<double, 5> dist(k1, k2, p1, p2, k3);
+  cv::initUndistortRectifyMap(k, dist, cv::Matx33d::eye(), k, cv::Size(width_px, height_px),
+                              CV_16SC2, impl_->map1, impl_->map2);
+}
+FrameUndistorter::~FrameUndistorter() = default;
+FrameUndistorter::FrameUndistorter(FrameUndistorter&&) noexcept = default;
+FrameUndistorter& FrameUndistorter::operator=(FrameUndistorter&&) noexcept = default;
+
+GrayImageView FrameUndistorter::Apply(const GrayImageView& frame) {
+  if (frame.width != impl_->width || frame.height != impl_->height) {
+    throw InvalidArgument("FrameUndistorter: frame size differs from the calibrated size");
+  }
+  const cv::Mat in(frame.height, frame.width, CV_8UC1, const_cast<std::uint8_t*>(frame.data),
+                   static_cast<std::size_t>(frame.stride));
+  cv::remap(in, impl_->out, impl_->map1, impl_->map2, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  return GrayImageView{impl_->out.data, impl_->out.cols, impl_->out.rows,
+                       static_cast<std::ptrdiff_t>(impl_->out.step)};
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -396,6 +445,7 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
 
   OdometryOptions vo_options = MakeOdometryOptions(config);
   std::unique_ptr<VisualOdometry> vo;
+  std::unique_ptr<FrameUndistorter> undistorter;
   GeoRefOptions geo_options;
   geo_options.heading_source = ParseHeadingSource(config.heading);
   GeoReferencer georef(geo_options);
@@ -475,6 +525,11 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
       vo_options.default_height_m = config.altitude_m;
       summary.height_source = config.altitude_m > 0.0 ? "flag" : "telemetry";
       vo = std::make_unique<VisualOdometry>(vo_options);
+      if (config.k1 != 0.0 || config.k2 != 0.0 || config.p1 != 0.0 || config.p2 != 0.0 ||
+          config.k3 != 0.0) {
+        undistorter = std::make_unique<FrameUndistorter>(
+            w, h, summary.focal_px, config.k1, config.k2, config.p1, config.p2, config.k3);
+      }
 
       TrackWriterOptions wo;
       wo.enu_origin = gps;
@@ -516,7 +571,9 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
     }
     const std::optional<double> yaw = sample ? sample->CameraYawDeg() : std::nullopt;
 
-    const FrameResult r = vo->Process(frame.gray.view(), frame.time_s, height, yaw);
+    const GrayImageView view =
+        undistorter ? undistorter->Apply(frame.gray.view()) : frame.gray.view();
+    const FrameResult r = vo->Process(view, frame.time_s, height, yaw);
     georef.Observe(r.position_m, gps, yaw);
 
     PendingFrame p;

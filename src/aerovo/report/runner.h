@@ -7,6 +7,7 @@
 #include <atomic>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <ostream>
 #include <string>
@@ -51,6 +52,11 @@ struct RunConfig {
   double focal_px = 0.0;
   /// Horizontal field of view, degrees (used when focal_px is 0).
   double hfov_deg = 0.0;
+  /// Lens distortion (OpenCV / Brown-Conrady model, coefficients on coordinates normalised by
+  /// the focal length, principal point at the image centre): when any is non-zero every frame is
+  /// undistorted (cv::remap with maps computed once) before SURF. Default 0 (none; DJI nadir
+  /// photos and videos are usually already corrected in camera).
+  double k1 = 0.0, k2 = 0.0, p1 = 0.0, p2 = 0.0, k3 = 0.0;
   /// Guided matching with the constant-velocity prior (then unguided on failure). Default on.
   bool guided = true;
   /// Refinement of cell fits on all points (odometry OdometryOptions::refine_on_all_points).
@@ -87,6 +93,26 @@ RunConfig LoadRunConfig(const std::filesystem::path& path, RunConfig base);
 double FocalPxFrom35mm(double focal_35mm_mm, int width_px, int height_px);
 /// Focal length in pixels from the horizontal field of view: (width / 2) / tan(hfov / 2).
 double FocalPxFromHfov(double hfov_deg, int width_px);
+
+/// Undistorts frames of one size with a pinhole camera (focal_px, principal point at the image
+/// centre ((w-1)/2, (h-1)/2)) and OpenCV distortion coefficients (k1, k2, p1, p2, k3); the output
+/// keeps the same camera matrix, so focal_px still converts pixels to angles.
+class FrameUndistorter {
+ public:
+  /// Throws InvalidArgument for a non-positive size or focal length.
+  FrameUndistorter(int width_px, int height_px, double focal_px, double k1, double k2, double p1,
+                   double p2, double k3);
+  ~FrameUndistorter();
+  FrameUndistorter(FrameUndistorter&&) noexcept;
+  FrameUndistorter& operator=(FrameUndistorter&&) noexcept;
+  /// The undistorted copy of `frame` (same size; InvalidArgument for another size). The view
+  /// stays valid until the next call.
+  GrayImageView Apply(const GrayImageView& frame);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 /// Mean per-frame stage times, ms.
 struct StageTimes {
