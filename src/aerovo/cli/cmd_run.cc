@@ -47,6 +47,7 @@ void DrawProgress(int done, int expected, double fps) {
 
 struct RunArgs {
   std::string config_file;
+  bool print_poses = false;
   RunConfig flags;  // values of the flags; applied over the config file only when given
   std::vector<std::function<void(RunConfig&)>> appliers;
 };
@@ -89,7 +90,8 @@ void Execute(RunArgs& a) {
   const bool tty = ::isatty(STDERR_FILENO) != 0;
   RunCallbacks cb;
   cb.log = &std::cout;
-  if (tty && !config.quiet) cb.progress = DrawProgress;
+  if (tty && !config.quiet && !a.print_poses) cb.progress = DrawProgress;
+  if (a.print_poses) cb.poses = &std::cout;
   RunSummary s;
   try {
     s = RunFlight(config, cb, &g_stop);
@@ -164,6 +166,9 @@ void Register(CLI::App& app) {
   Bind(cmd, a, "--max-keypoints", &RunConfig::max_keypoints, "Keep the N strongest (0 = all)");
   Bind(cmd, a, "--seed", &RunConfig::seed, "RANSAC seed");
   Bind(cmd, a, "--threads", &RunConfig::threads, "Threads (0 = all cores)");
+  cmd->add_flag("--print-poses", a.print_poses,
+                "Streaming: print each pose on stdout as soon as it is computed "
+                "(frame time_s x_m y_m lat lon status)");
   BindFlag(cmd, a, "-q,--quiet", &RunConfig::quiet, "No progress bar or configuration dump");
   cmd->callback([args] { Execute(*args); });
 }

@@ -472,6 +472,13 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
       p.record.yaw_rad = p.heading_rad;
     }
     writers->Append(p.record, p.gps);
+    if (cb.poses != nullptr) {
+      const FrameRecord& q = p.record;
+      *cb.poses << fmt::format("{} {:.6f} {:.4f} {:.4f} {} {} {}\n", q.frame, q.time_s, q.x_m,
+                               q.y_m, q.geo ? fmt::format("{:.9f}", q.geo->lat_deg) : "-",
+                               q.geo ? fmt::format("{:.9f}", q.geo->lon_deg) : "-", q.status)
+                << std::flush;
+    }
   };
   auto flush = [&](bool final) {
     if (final && !georef.ready() && georef.has_enu()) georef.FixWithAvailable();

@@ -155,6 +155,11 @@ std::string FormatSummaryTable(const RunSummary& summary);
 struct RunCallbacks {
   std::ostream* log = nullptr;
   std::function<void(int, int, double)> progress;
+  /// Streaming: when set, one line per frame as soon as its pose is written
+  /// (`frame time_s x_m y_m lat_deg lon_deg status`, space separated, flushed; lat/lon "-" until
+  /// the track is geo-referenced). Latency: none, except while the heading waits for the first
+  /// GPS segment (GeoRefOptions::min_segment_m).
+  std::ostream* poses = nullptr;
 };
 
 /// Runs a whole flight. Writes config.json at the start, the per-frame outputs as frames are

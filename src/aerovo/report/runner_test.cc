@@ -142,8 +142,26 @@ TEST(Runner, TurinP4mWithXmpAltitudeAndYaw) {
   c.input = flight.parent_path().string();
   c.out = TempDir("turin").string();
   c.quiet = true;
-  const RunSummary s = RunFlight(c);
+  std::ostringstream poses;
+  RunCallbacks cb;
+  cb.poses = &poses;
+  const RunSummary s = RunFlight(c, cb);
   EXPECT_EQ(s.frames_processed, 32);
+  // Streaming output: one line per frame, geo-referenced at once (heading from yaw).
+  std::istringstream pl(poses.str());
+  std::string pose_line;
+  int n_poses = 0;
+  while (std::getline(pl, pose_line)) {
+    std::istringstream f(pose_line);
+    int frame;
+    double t, x, y, lat, lon;
+    std::string status;
+    ASSERT_TRUE(static_cast<bool>(f >> frame >> t >> x >> y >> lat >> lon >> status)) << pose_line;
+    EXPECT_EQ(frame, n_poses);
+    EXPECT_NEAR(lat, 45.0, 1.0);
+    ++n_poses;
+  }
+  EXPECT_EQ(n_poses, 32);
   EXPECT_EQ(s.frames_bridged, 0);
   EXPECT_EQ(s.height_source, "telemetry");
   EXPECT_EQ(s.heading_source, "telemetry-yaw");
