@@ -1,5 +1,7 @@
 #include "aerovo/report/runner.h"
 
+#include "aerovo/io/camera.h"
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -232,20 +234,6 @@ RunConfig LoadRunConfig(const std::filesystem::path& path, RunConfig base) {
   return RunConfigFromJson(j, std::move(base), "config file '" + path.string() + "'");
 }
 
-double FocalPxFrom35mm(double focal_35mm_mm, int width_px, int height_px) {
-  if (!(focal_35mm_mm > 0.0) || width_px <= 0 || height_px <= 0) {
-    throw InvalidArgument("FocalPxFrom35mm: focal length and image size must be positive");
-  }
-  const double full_frame_diagonal_mm = std::hypot(36.0, 24.0);  // 43.27 mm
-  return focal_35mm_mm * std::hypot(width_px, height_px) / full_frame_diagonal_mm;
-}
-
-double FocalPxFromHfov(double hfov_deg, int width_px) {
-  if (!(hfov_deg > 0.0 && hfov_deg < 180.0) || width_px <= 0) {
-    throw InvalidArgument("FocalPxFromHfov: need 0 < hfov < 180 deg and a positive width");
-  }
-  return 0.5 * width_px / std::tan(0.5 * hfov_deg * M_PI / 180.0);
-}
 
 struct FrameUndistorter::Impl {
   int width = 0, height = 0;
@@ -509,7 +497,7 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
         summary.focal_px = config.focal_px;
         summary.focal_source = "flag";
       } else if (config.hfov_deg > 0.0) {
-        summary.focal_px = FocalPxFromHfov(config.hfov_deg, w);
+        summary.focal_px = FocalPxFromHorizontalFov(config.hfov_deg, w);
         summary.focal_source = "hfov";
       } else if (folder != nullptr && !folder->metadata().empty() &&
                  folder->metadata().front().calibrated_focal_px &&

@@ -88,12 +88,6 @@ RunConfig RunConfigFromJson(const nlohmann::json& json, RunConfig base,
 /// its line for YAML).
 RunConfig LoadRunConfig(const std::filesystem::path& path, RunConfig base);
 
-/// Focal length in pixels from a 35 mm-equivalent focal length (the diagonal convention of
-/// CIPA DC-008 / EXIF FocalLengthIn35mmFilm: f_px = f35 * image diagonal px / 43.27 mm).
-double FocalPxFrom35mm(double focal_35mm_mm, int width_px, int height_px);
-/// Focal length in pixels from the horizontal field of view: (width / 2) / tan(hfov / 2).
-double FocalPxFromHfov(double hfov_deg, int width_px);
-
 /// Undistorts frames of one size with a pinhole camera (focal_px, principal point at the image
 /// centre ((w-1)/2, (h-1)/2)) and OpenCV distortion coefficients (k1, k2, p1, p2, k3); the output
 /// keeps the same camera matrix, so focal_px still converts pixels to angles.

@@ -2,6 +2,7 @@
 // black frame, and a run interrupted by SIGINT. Figures asserted here are those first measured
 // (BENCHMARKS.md, "Odometry on real flights") plus a margin.
 #include "aerovo/report/runner.h"
+#include "aerovo/io/camera.h"
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -260,7 +261,7 @@ TEST(Runner, ConfigJsonRoundTripAndErrors) {
   fs::remove_all(dir);
   // 35 mm-equivalent focal: 20 mm on 800x600 -> 20 * 1000 / 43.27 = 462.2 px.
   EXPECT_NEAR(FocalPxFrom35mm(20.0, 800, 600), 462.25, 0.01);
-  EXPECT_NEAR(FocalPxFromHfov(90.0, 800), 400.0, 1e-9);
+  EXPECT_NEAR(FocalPxFromHorizontalFov(90.0, 800), 400.0, 1e-9);
 }
 
 TEST(Runner, UndistorterMovesADistortedDotBackToItsPinholePosition) {
