@@ -56,6 +56,9 @@ void Validate(const RunConfig& c) {
   for (double d : {c.k1, c.k2, c.p1, c.p2, c.k3}) {
     if (!std::isfinite(d)) fail("distortion coefficients must be finite");
   }
+  if (!(c.illumination_k > 0.0 && c.illumination_k <= 1.0)) {
+    fail(fmt::format("'illumination_k' must be in (0, 1], got {}", c.illumination_k));
+  }
 }
 
 nlohmann::json ToJson(const RunConfig& c) {
@@ -78,6 +81,7 @@ nlohmann::json ToJson(const RunConfig& c) {
                         {"p1", c.p1},
                         {"p2", c.p2},
                         {"k3", c.k3},
+                        {"illumination_k", c.illumination_k},
                         {"guided", c.guided},
                         {"refine", c.refine},
                         {"min_inliers", c.min_inliers},
@@ -128,6 +132,7 @@ RunConfig RunConfigFromJson(const nlohmann::json& j, RunConfig c, const std::str
   Take(j, "p1", &c.p1, source);
   Take(j, "p2", &c.p2, source);
   Take(j, "k3", &c.k3, source);
+  Take(j, "illumination_k", &c.illumination_k, source);
   Take(j, "guided", &c.guided, source);
   Take(j, "refine", &c.refine, source);
   Take(j, "min_inliers", &c.min_inliers, source);
@@ -234,7 +239,6 @@ RunConfig LoadRunConfig(const std::filesystem::path& path, RunConfig base) {
   return RunConfigFromJson(j, std::move(base), "config file '" + path.string() + "'");
 }
 
-
 struct FrameUndistorter::Impl {
   int width = 0, height = 0;
   cv::Mat map1, map2, out;
@@ -267,6 +271,25 @@ GrayImageView FrameUndistorter::Apply(const GrayImageView& frame) {
   cv::remap(in, impl_->out, impl_->map1, impl_->map2, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
   return GrayImageView{impl_->out.data, impl_->out.cols, impl_->out.rows,
                        static_cast<std::ptrdiff_t>(impl_->out.step)};
+}
+
+GrayImageView ScaleBrightness(const GrayImageView& frame, double k, GrayImage* buffer) {
+  if (!(k >= 0.0) || !std::isfinite(k)) {
+    throw InvalidArgument(fmt::format("ScaleBrightness: k must be finite and >= 0, got {}", k));
+  }
+  std::uint8_t lut[256];
+  for (int v = 0; v < 256; ++v) {
+    lut[v] = static_cast<std::uint8_t>(std::min(255.0, std::floor(k * v + 0.5)));
+  }
+  if (buffer->width() != frame.width || buffer->height() != frame.height) {
+    *buffer = GrayImage(frame.width, frame.height);
+  }
+  for (int y = 0; y < frame.height; ++y) {
+    const std::uint8_t* in = frame.row(y);
+    std::uint8_t* out = buffer->row(y);
+    for (int x = 0; x < frame.width; ++x) out[x] = lut[in[x]];
+  }
+  return buffer->view();
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -434,6 +457,7 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
   OdometryOptions vo_options = MakeOdometryOptions(config);
   std::unique_ptr<VisualOdometry> vo;
   std::unique_ptr<FrameUndistorter> undistorter;
+  GrayImage dimmed;  // the frame at illumination_k < 1
   GeoRefOptions geo_options;
   geo_options.heading_source = ParseHeadingSource(config.heading);
   GeoReferencer georef(geo_options);
@@ -460,6 +484,7 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
       p.record.yaw_rad = p.heading_rad;
     }
     writers->Append(p.record, p.gps);
+    if (cb.frame) cb.frame(p.record);
     if (cb.poses != nullptr) {
       const FrameRecord& q = p.record;
       *cb.poses << fmt::format("{} {:.6f} {:.4f} {:.4f} {} {} {}\n", q.frame, q.time_s, q.x_m,
@@ -566,8 +591,8 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
     }
     const std::optional<double> yaw = sample ? sample->CameraYawDeg() : std::nullopt;
 
-    const GrayImageView view =
-        undistorter ? undistorter->Apply(frame.gray.view()) : frame.gray.view();
+    GrayImageView view = undistorter ? undistorter->Apply(frame.gray.view()) : frame.gray.view();
+    if (config.illumination_k != 1.0) view = ScaleBrightness(view, config.illumination_k, &dimmed);
     const FrameResult r = vo->Process(view, frame.time_s, height, yaw);
     georef.Observe(r.position_m, gps, yaw);
 

@@ -14,7 +14,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "aerovo/core/image.h"
 #include "aerovo/eval/trajectory_eval.h"
+#include "aerovo/io/frame_record.h"
 #include "aerovo/odometry/georef.h"
 #include "aerovo/odometry/visual_odometry.h"
 
@@ -57,6 +59,10 @@ struct RunConfig {
   /// undistorted (cv::remap with maps computed once) before SURF. Default 0 (none; DJI nadir
   /// photos and videos are usually already corrected in camera).
   double k1 = 0.0, k2 = 0.0, p1 = 0.0, p2 = 0.0, k3 = 0.0;
+  /// Illumination factor k in (0, 1] (the paper's f_k = k f, Fig. 4-6): every frame's brightness
+  /// is multiplied by k (ScaleBrightness) after undistortion and before SURF, to study how the
+  /// odometry holds in dim light. Default 1 (frames as read).
+  double illumination_k = 1.0;
   /// Guided matching with the constant-velocity prior (then unguided on failure). Default on.
   bool guided = true;
   /// Refinement of cell fits on all points (odometry OdometryOptions::refine_on_all_points).
@@ -108,6 +114,11 @@ class FrameUndistorter {
   std::unique_ptr<Impl> impl_;
 };
 
+/// The paper's illumination change f_k = k f on one frame: out(x, y) = min(255, floor(k in(x, y)
+/// + 0.5)) (round half up, saturated to 0..255), written into `*buffer` (resized as needed).
+/// Returns a view of `*buffer`. Throws InvalidArgument unless k is finite and >= 0.
+GrayImageView ScaleBrightness(const GrayImageView& frame, double k, GrayImage* buffer);
+
 /// Mean per-frame stage times, ms.
 struct StageTimes {
   double detect_ms = 0.0, describe_ms = 0.0, correspond_ms = 0.0, estimate_ms = 0.0, total_ms = 0.0;
@@ -154,6 +165,9 @@ struct RunCallbacks {
   /// the track is geo-referenced). Latency: none, except while the heading waits for the first
   /// GPS segment (GeoRefOptions::min_segment_m).
   std::ostream* poses = nullptr;
+  /// When set, called with each frame's record as it is written to frames.csv (same content:
+  /// ENU x/y once the track is geo-referenced, counts, stage times, status).
+  std::function<void(const FrameRecord&)> frame;
 };
 
 /// Runs a whole flight. Writes config.json at the start, the per-frame outputs as frames are

@@ -1,0 +1,58 @@
+// What every subcommand that runs flights (`aerovo run`, `aerovo experiment ...`) shares: the flags
+// of RunConfig (aerovo/report/runner.h) with the same names, help and --config file (JSON or
+// YAML) underneath; stopping cleanly on SIGINT/SIGTERM; the terminal progress bar.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <atomic>
+#include <csignal>
+#include <functional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "aerovo/report/runner.h"
+
+namespace aerovo::cli {
+
+/// Values of the run flags. A flag given on the command line wins over the --config file; a flag
+/// not given leaves the file's (or the default) value.
+struct RunFlags {
+  std::string config_file;
+  RunConfig flags;  // values of the flags; applied over the config file only when given
+  std::vector<std::function<void(RunConfig&)>> appliers;
+
+  /// The effective configuration: defaults, then the --config file, then the given flags.
+  /// Not validated (the caller may still change fields, then call Validate).
+  RunConfig Resolve() const;
+};
+
+/// Registers the input (positional `input`, also `--input`), --config and one flag per RunConfig
+/// field on `cmd`, except the fields whose config keys are in `skip` (e.g. "out" when the command
+/// has its own output folder, "mode" when it sets the mode itself). `flags` must outlive `cmd`.
+void AddRunFlags(CLI::App* cmd, RunFlags& flags, const std::set<std::string>& skip = {});
+
+/// While alive, SIGINT and SIGTERM set stop() instead of killing the process (no SA_RESTART: a
+/// blocking read returns and the run loop sees the flag); the destructor restores the previous
+/// handlers. One instance at a time.
+class StopSignals {
+ public:
+  StopSignals();
+  ~StopSignals();
+  StopSignals(const StopSignals&) = delete;
+  StopSignals& operator=(const StopSignals&) = delete;
+  const std::atomic<bool>* stop() const;
+  bool stopped() const { return stop()->load(); }
+  int signal() const;  ///< The signal received, 0 if none.
+
+ private:
+  struct sigaction old_int_ {};
+  struct sigaction old_term_ {};
+};
+
+/// Progress bar on stderr (a terminal): "[#####.....]  45/172  3.2 fps  ETA 0:40"; `prefix` is
+/// printed before the bar (e.g. "run 2/5 k=0.75 ").
+void DrawProgress(int done, int expected, double fps, const std::string& prefix = "");
+
+}  // namespace aerovo::cli
