@@ -29,6 +29,7 @@ struct ExperimentArgs {
   bool simulate = false;
   bool no_report = false;
   std::string k_list;  // illumination
+  bool scale_threshold = false;
   ExperimentSimulation sim;
   std::string sim_pattern = "lawnmower";
 };
@@ -60,6 +61,7 @@ void Execute(ExperimentArgs& a) {
   IlluminationOptions illumination;
   if (a.kind == "illumination") {
     if (!a.k_list.empty()) illumination.k = ParseKList(a.k_list);
+    illumination.scale_threshold = a.scale_threshold;
     Validate(illumination);
   }
 
@@ -166,6 +168,9 @@ void AddExperiment(CLI::App* parent, const std::string& kind, const std::string&
     cmd->add_option("--k", a.k_list,
                     "Illumination factors, comma separated, each in (0, 1] (default "
                     "1,0.75,0.5,0.25,0.1)");
+    cmd->add_flag("--scale-threshold", a.scale_threshold,
+                  "SURF threshold x k^2 in each run (the Hessian determinant scales with k^2); "
+                  "default: the same threshold for every k, as the paper");
   }
   cmd->add_option("--ground-truth", a.ground_truth,
                   "ground_truth.csv of a simulated flight given as input (aerovo simulate)");

@@ -400,6 +400,7 @@ std::vector<ExperimentTable> IlluminationTables(const std::vector<ExperimentRun>
   features.name = "features";
   features.title = "Interest points and matches per illumination factor k (paper Fig. 4-5)";
   features.columns = {"k",
+                      "SURF threshold",
                       "frames",
                       "N_SURF mean",
                       "N_SURF median",
@@ -437,10 +438,11 @@ std::vector<ExperimentTable> IlluminationTables(const std::vector<ExperimentRun>
     const std::vector<double> n_surf = Column(r.frames, &FrameRecord::n_surf, false);
     const std::vector<double> matched = Column(r.frames, &FrameRecord::n_matched, true);
     const std::vector<double> inliers = Column(r.frames, &FrameRecord::n_inliers, true);
-    features.rows.push_back({TableCell{KText(r.k), r.k}, Int(r.summary.frames_processed),
-                             MeanCell(n_surf, 1), MedianCell(n_surf, 1), MeanCell(matched, 1),
-                             MedianCell(matched, 1), MeanCell(inliers, 1), MedianCell(inliers, 1),
-                             Int(r.summary.frames_ok), Int(r.summary.frames_bridged)});
+    features.rows.push_back({TableCell{KText(r.k), r.k}, Num(r.config.surf_threshold, 1),
+                             Int(r.summary.frames_processed), MeanCell(n_surf, 1),
+                             MedianCell(n_surf, 1), MeanCell(matched, 1), MedianCell(matched, 1),
+                             MeanCell(inliers, 1), MedianCell(inliers, 1), Int(r.summary.frames_ok),
+                             Int(r.summary.frames_bridged)});
     std::vector<TableCell> row{TableCell{KText(r.k), r.k}};
     TrajectoryCells(r, with_gt, &row);
     std::optional<TrajectoryDistance> d;
@@ -652,6 +654,7 @@ ExperimentResult RunExperiment(
     run.dir = p.dir;
     run.k = p.k;
     run.mode = p.mode;
+    run.config = p.config;
     RunCallbacks rc;
     rc.progress = cb.progress;
     rc.frame = [&run](const FrameRecord& r) { run.frames.push_back(r); };
@@ -685,6 +688,7 @@ ExperimentResult RunIlluminationExperiment(const ExperimentInput& input,
     p.dir = IlluminationDir(k);
     p.config = input.run;
     p.config.illumination_k = k;
+    if (options.scale_threshold) p.config.surf_threshold = input.run.surf_threshold * k * k;
     p.config.out = (input.out_dir / p.dir).string();
     p.mode = p.config.mode;
     plan.push_back(std::move(p));

@@ -260,9 +260,10 @@ TEST_F(ExperimentOnSimulatedFlight, IlluminationLowersNsurfAndKeepsFinishedRuns)
   CheckTables(j["tables"]);
   const auto& features = j["tables"]["features"];
   ASSERT_EQ(features["rows"].size(), 2u);
-  EXPECT_EQ(features["columns"][2], "N_SURF mean");
+  EXPECT_EQ(features["columns"][3], "N_SURF mean");
   EXPECT_DOUBLE_EQ(features["rows"][0][0].get<double>(), 1.0);
-  EXPECT_GT(features["rows"][0][2].get<double>(), features["rows"][1][2].get<double>());
+  EXPECT_DOUBLE_EQ(features["rows"][1][1].get<double>(), 1000.0);  // the same threshold
+  EXPECT_GT(features["rows"][0][3].get<double>(), features["rows"][1][3].get<double>());
   const auto& traj = j["tables"]["trajectory"];
   ASSERT_EQ(traj["rows"].size(), 2u);
   // The reference row is at distance 0 from itself.
@@ -276,6 +277,22 @@ TEST_F(ExperimentOnSimulatedFlight, IlluminationLowersNsurfAndKeepsFinishedRuns)
   }
   EXPECT_FALSE(fs::exists(in.out_dir / "k0.25" / "summary.json"));  // never started
   EXPECT_TRUE(fs::exists(in.out_dir / "tables.md"));
+}
+
+TEST_F(ExperimentOnSimulatedFlight, ScaledThresholdKeepsThePointsOfADimFlight) {
+  const ExperimentInput in = Input("scaled");
+  IlluminationOptions o;
+  o.k = {0.5};
+  o.scale_threshold = true;
+  const ExperimentResult r = RunIlluminationExperiment(in, o);
+  ASSERT_EQ(r.runs.size(), 1u);
+  EXPECT_DOUBLE_EQ(r.runs[0].config.surf_threshold, 250.0);  // 1000 * 0.5^2
+  double surf = 0;
+  for (const auto& f : r.runs[0].frames) surf += f.n_surf;
+  // With the threshold following k^2, the dim flight keeps most of the bright flight's points
+  // (measured 504 per frame at k = 1; 27 at k = 0.5 with the fixed threshold).
+  EXPECT_GT(surf / r.runs[0].frames.size(), 300.0);
+  EXPECT_EQ(r.runs[0].summary.frames_bridged, 0);
 }
 
 TEST_F(ExperimentOnSimulatedFlight, RansacGivesBothRunsAndASpeedUp) {
