@@ -56,6 +56,11 @@ void AddRunFlags(CLI::App* cmd, RunFlags& a, const std::set<std::string>& skip) 
   if (want("telemetry")) {
     Bind(cmd, a, "--telemetry", &RunConfig::telemetry, "Telemetry file: DJI .srt, .gpx or .csv");
   }
+  if (want("truth")) {
+    Bind(cmd, a, "--truth", &RunConfig::truth,
+         "Ground truth to compare with beside GPS: TUM (.tum/.txt) or a track with positions "
+         "(.csv, .gpx, .srt); default for a simulated flight: its ground_truth.csv");
+  }
   if (want("out")) Bind(cmd, a, "-o,--out", &RunConfig::out, "Output folder");
   if (want("step")) Bind(cmd, a, "--step", &RunConfig::step, "Process every k-th frame");
   if (want("start_s")) {

@@ -58,8 +58,9 @@ nlohmann::json ToJson(const TrajectoryComparison& c, bool include_per_point) {
   return {{"se2", ToJson(c.se2, include_per_point)}, {"sim2", ToJson(c.sim2, include_per_point)}};
 }
 
-std::string FormatTrajectoryTable(const TrajectoryComparison& c) {
-  std::string out = fmt::format("{:<34}{:>14}{:>14}\n", "trajectory vs GPS", "SE(2)", "Sim(2)");
+std::string FormatTrajectoryTable(const TrajectoryComparison& c, const std::string& reference) {
+  std::string out =
+      fmt::format("{:<34}{:>14}{:>14}\n", "trajectory vs " + reference, "SE(2)", "Sim(2)");
   const auto row = [&](const std::string& label, const char* spec,
                        const std::function<double(const TrajectoryErrors&)>& get) {
     out += fmt::format("{:<34}", label);

@@ -27,7 +27,8 @@ nlohmann::json ToJson(const TrajectoryComparison& comparison, bool include_per_p
 const char* ToString(AlignmentModel model);  ///< "SE2" or "Sim2".
 
 /// A fixed-width text table, one column per alignment (SE(2), Sim(2)), one row per figure;
-/// lines end with '\n'.
-std::string FormatTrajectoryTable(const TrajectoryComparison& comparison);
+/// lines end with '\n'. `reference` names what the trajectory is compared with (header).
+std::string FormatTrajectoryTable(const TrajectoryComparison& comparison,
+                                  const std::string& reference = "GPS");
 
 }  // namespace aerovo

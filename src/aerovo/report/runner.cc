@@ -23,9 +23,11 @@
 #include "aerovo/eval/trajectory_eval_json.h"
 #include "aerovo/io/frame_source.h"
 #include "aerovo/io/image_metadata.h"
+#include "aerovo/io/reference_track.h"
 #include "aerovo/io/telemetry.h"
 #include "aerovo/io/telemetry_readers.h"
 #include "aerovo/io/track_writers.h"
+#include "aerovo/sim/sim_writer.h"
 
 namespace aerovo {
 
@@ -64,6 +66,7 @@ void Validate(const RunConfig& c) {
 nlohmann::json ToJson(const RunConfig& c) {
   return nlohmann::json{{"input", c.input},
                         {"telemetry", c.telemetry},
+                        {"truth", c.truth},
                         {"out", c.out},
                         {"step", c.step},
                         {"start_s", c.start_s},
@@ -115,6 +118,7 @@ RunConfig RunConfigFromJson(const nlohmann::json& j, RunConfig c, const std::str
   }
   Take(j, "input", &c.input, source);
   Take(j, "telemetry", &c.telemetry, source);
+  Take(j, "truth", &c.truth, source);
   Take(j, "out", &c.out, source);
   Take(j, "step", &c.step, source);
   Take(j, "start_s", &c.start_s, source);
@@ -318,9 +322,13 @@ nlohmann::json ToJson(const RunSummary& s) {
                    {"focal_source", s.focal_source},
                    {"height_source", s.height_source},
                    {"heading_source", s.heading_source},
+                   {"sim_manifest", s.sim_manifest},
                    {"vo_path_length_m", s.vo_path_length_m},
+                   {"truth", s.truth},
+                   {"frames_with_truth", s.frames_with_truth},
                    {"warnings", s.warnings}};
   j["evaluation"] = s.evaluation ? ToJson(*s.evaluation) : nlohmann::json();
+  j["truth_evaluation"] = s.truth_evaluation ? ToJson(*s.truth_evaluation) : nlohmann::json();
   return j;
 }
 
@@ -341,6 +349,11 @@ std::string FormatSummaryTable(const RunSummary& s) {
     t += FormatTrajectoryTable(*s.evaluation);
   } else {
     t += "\nNo comparison with GPS (fewer than 3 frames with a fix).\n";
+  }
+  if (s.truth_evaluation) {
+    t += fmt::format("\nComparison with the ground truth {} ({} frames):\n", s.truth,
+                     s.frames_with_truth);
+    t += FormatTrajectoryTable(*s.truth_evaluation, "truth");
   }
   t += fmt::format(
       "\n{:<28}detect {:.1f}, describe {:.1f}, correspond {:.1f}, estimate {:.1f}, total "
@@ -390,13 +403,96 @@ OdometryOptions MakeOdometryOptions(const RunConfig& c) {
   return o;
 }
 
+// The sim.json of `aerovo simulate` when `input` is its video or frames folder (sim.json sits in
+// the folder above either). An unreadable or foreign sim.json is reported and ignored.
+std::optional<sim::SimulationManifest> FindSimulationManifest(const std::string& input,
+                                                              std::vector<std::string>* warnings) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::path in = fs::path(input).lexically_normal();
+  if (!in.has_filename()) in = in.parent_path();                  // "frames/" -> "frames"
+  if (input.empty() || !fs::exists(in, ec)) return std::nullopt;  // live source
+  const fs::path dir = in.has_parent_path() ? in.parent_path() : fs::path(".");
+  const fs::path json = dir / "sim.json";
+  if (!fs::is_regular_file(json, ec)) return std::nullopt;
+  try {
+    sim::SimulationManifest m = sim::ReadSimulationManifest(json);
+    const bool same_video = !m.video.empty() && fs::equivalent(in, m.video, ec);
+    const bool same_frames = !m.frames_dir.empty() && fs::equivalent(in, m.frames_dir, ec);
+    if (same_video || same_frames) return m;
+  } catch (const InputError& e) {
+    warnings->push_back(std::string("ignored ") + json.string() + ": " + e.what());
+  }
+  return std::nullopt;
+}
+
+// Compares the processed frames' track (ENU when geo-referenced, else local) with the ground
+// truth, matched by time. Geographic truth goes into the run's ENU frame (origin: first GPS fix),
+// or without GPS into an ENU frame at the truth's first point (then only the aligned figures
+// mean anything); TUM truth is taken as metres of the run's frame.
+void CompareWithTruth(const ReferenceTrack& truth, const std::vector<TrajectoryPoint2D>& track,
+                      const GeoReferencer& georef, RunSummary* summary) {
+  std::vector<TrajectoryPoint2D> estimate = track;
+  if (georef.ready()) {
+    for (TrajectoryPoint2D& q : estimate) {
+      const Eigen::Vector2d e = georef.EnuFromLocal({q.x, q.y});
+      q.x = e.x();
+      q.y = e.y();
+    }
+  } else {
+    summary->warnings.push_back(
+        "the track is not geo-referenced: compare it with the truth after alignment only");
+  }
+  std::vector<TrajectoryPoint2D> reference;
+  reference.reserve(truth.points.size());
+  if (truth.geographic) {
+    const LocalEnu enu = georef.has_enu() ? georef.enu() : LocalEnu(*truth.points.front().geo);
+    for (const ReferencePoint& p : truth.points) {
+      const Eigen::Vector3d e = enu.Forward(*p.geo);
+      reference.push_back({p.time_s, e.x(), e.y()});
+    }
+  } else {
+    for (const ReferencePoint& p : truth.points) reference.push_back({p.time_s, p.x_m, p.y_m});
+  }
+  try {
+    const AssociatedTrajectories pairs = AssociateByTime(estimate, reference);
+    summary->frames_with_truth = static_cast<int>(pairs.estimate.size());
+    if (pairs.estimate.size() < 3) {
+      summary->warnings.push_back(
+          fmt::format("no comparison with the truth: only {} frames fall inside its time span",
+                      pairs.estimate.size()));
+      return;
+    }
+    summary->truth_evaluation = CompareTrajectories(pairs.estimate, pairs.reference);
+  } catch (const InvalidArgument& e) {
+    summary->warnings.push_back(std::string("no comparison with the truth: ") + e.what());
+  }
+}
+
 }  // namespace
 
-RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
+RunSummary RunFlight(const RunConfig& given, const RunCallbacks& cb,
                      const std::atomic<bool>* stop) {
-  Validate(config);
+  Validate(given);
   Stopwatch wall;
   RunSummary summary;
+  // A simulated flight: fill in what was not given from its sim.json.
+  RunConfig config = given;
+  bool focal_from_sim = false;
+  if (const auto m = FindSimulationManifest(config.input, &summary.warnings)) {
+    summary.sim_manifest = (m->dir / "sim.json").string();
+    if (config.telemetry.empty() && !m->srt.empty()) config.telemetry = m->srt.string();
+    if (config.truth.empty() && !m->csv.empty()) config.truth = m->csv.string();
+    if (config.focal_px == 0.0 && config.hfov_deg == 0.0) {
+      config.focal_px = m->focal_px;  // exact, whatever the SRT's 35 mm equivalent says
+      focal_from_sim = true;
+    }
+  }
+  std::optional<ReferenceTrack> truth;
+  if (!config.truth.empty()) {
+    truth = ReadReferenceTrack(config.truth);
+    summary.truth = config.truth;
+  }
   summary.input = config.input;
   summary.out_dir = config.out;
   std::ostream* log = config.quiet ? nullptr : cb.log;
@@ -422,6 +518,9 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
   }
   const auto* folder = dynamic_cast<const ImageFolderSource*>(source.get());
   if (log) *log << "source: " << summary.source_description << "\n";
+  if (log && !summary.sim_manifest.empty()) {
+    *log << "simulated flight: " << summary.sim_manifest << " (telemetry, focal, truth)\n";
+  }
 
   // Telemetry: a file, or the photos' own EXIF/XMP.
   Telemetry telemetry;
@@ -520,7 +619,7 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
       const int w = frame.gray.width(), h = frame.gray.height();
       if (config.focal_px > 0.0) {
         summary.focal_px = config.focal_px;
-        summary.focal_source = "flag";
+        summary.focal_source = focal_from_sim ? "sim.json" : "flag";
       } else if (config.hfov_deg > 0.0) {
         summary.focal_px = FocalPxFromHorizontalFov(config.hfov_deg, w);
         summary.focal_source = "hfov";
@@ -676,6 +775,7 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
       summary.warnings.push_back(std::string("no comparison with GPS: ") + e.what());
     }
   }
+  if (truth && !local_track.empty()) CompareWithTruth(*truth, local_track, georef, &summary);
   WriteJsonFileAtomic(out_dir / RunFileNames::kSummaryJson, ToJson(summary));
   return summary;
 }

@@ -1,7 +1,12 @@
 // The `aerovo run` job as a library: read a flight (video, photo folder or live source) and its
 // telemetry, run the visual odometry, geo-reference the trajectory, write every output
 // progressively (frames.csv, TUM, GeoJSON, KML, GPX, summary.json, config.json) and compare the
-// trajectory with GPS (SE(2) and Sim(2) ATE, end-point error, relative error).
+// trajectory with GPS and, when given, with a ground truth (SE(2) and Sim(2) ATE, end-point
+// error, relative error).
+//
+// A flight written by `aerovo simulate` (input = its video or frames folder, sim.json beside it)
+// needs nothing else: missing settings come from sim.json (telemetry = its SRT, focal length =
+// the simulator's exact focal_px, truth = its ground_truth.csv). Explicit settings win.
 #pragma once
 
 #include <atomic>
@@ -29,6 +34,10 @@ struct RunConfig {
   std::string input;
   /// Telemetry file (.srt, .gpx, .csv); empty: none, or the photos' EXIF/XMP for a folder.
   std::string telemetry;
+  /// Ground-truth track to compare with, beside GPS (io/reference_track.h: the simulator's
+  /// ground_truth.csv / .tum, any TUM file, or a telemetry file with positions); matched to the
+  /// frames by time. Empty: none, or the simulator's ground_truth.csv when sim.json is found.
+  std::string truth;
   /// Output folder (created). Default "aerovo-run".
   std::string out = "aerovo-run";
   /// Process every k-th frame (video; photos: every k-th photo). Default 1.
@@ -143,15 +152,23 @@ struct RunSummary {
   std::string focal_source;    ///< "flag", "hfov", "xmp-calibrated", "exif-35mm", ...
   std::string height_source;   ///< "flag" or "telemetry".
   std::string heading_source;  ///< GeoReferencer::heading_source_used(), "" if none.
+  /// The simulator's sim.json used to fill in settings ("" when the input is not a simulation).
+  std::string sim_manifest;
   double vo_path_length_m = 0.0;
   /// SE(2) and Sim(2) comparison with GPS, when at least 3 frames have a GPS fix.
   std::optional<TrajectoryComparison> evaluation;
+  /// The ground-truth file compared with ("" = none) and the SE(2) / Sim(2) comparison with it
+  /// (processed frames matched by time; in the run's ENU frame when the truth is geographic).
+  std::string truth;
+  int frames_with_truth = 0;
+  std::optional<TrajectoryComparison> truth_evaluation;
   std::vector<std::string> warnings;
 };
 
 nlohmann::json ToJson(const RunSummary& summary);
-/// The table printed at the end of a run (frames, distance, ATE SE(2)/Sim(2), end-point and
-/// relative error, mean stage times, fps); lines end with '\n'.
+/// The table printed at the end of a run (frames, distance, ATE SE(2)/Sim(2) against GPS and
+/// against the ground truth, end-point and relative error, mean stage times, fps); lines end
+/// with '\n'.
 std::string FormatSummaryTable(const RunSummary& summary);
 
 /// Where RunFlight reports to. `log` gets the configuration and messages (may be null);

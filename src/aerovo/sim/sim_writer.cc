@@ -112,6 +112,13 @@ void WriteDjiSrt(std::ostream& out, const Simulator& sim, const std::string& sta
   const int diff_ms = static_cast<int>(std::lround(1000.0 / fps));
   const double ground_alt = sim.renderer().ground().nw_corner.alt_m;
   const auto& gps = sim.gps();
+  // 35 mm-equivalent focal length as EXIF/CIPA DC-008 defines it (same DIAGONAL angle of view
+  // as on a 36 x 24 mm frame, 43.27 mm diagonal) and as aerovo's readers convert it back
+  // (io/camera.h FocalPxFrom35mm). Matching the 36 mm width instead would put a 16:9 frame's
+  // scale 4.6 % off. 2 decimals as DJI writes it: the focal length survives to within 0.02 %.
+  const CameraModel& cam = sim.options().camera;
+  const double focal_35mm_mm =
+      FocalPx(cam) * 43.266615305567875 / std::hypot(cam.width_px, cam.height_px);
   for (int i = 0; i < sim.frame_count(); ++i) {
     const double t = sim.ground_truth()[i].time_s;
     const GpsFix& fix = gps[LatestFixIndex(gps, t)];
@@ -121,10 +128,10 @@ void WriteDjiSrt(std::ostream& out, const Simulator& sim, const std::string& sta
         << FormatUtc(start, t, ' ') << "\n"
         << fmt::format(
                "[iso: 100] [shutter: 1/1000.0] [fnum: 2.8] [ev: 0] [color_md: default] "
-               "[focal_len: 24.00] [latitude: {:.6f}] [longitude: {:.6f}] [rel_alt: {:.3f} "
+               "[focal_len: {:.2f}] [latitude: {:.6f}] [longitude: {:.6f}] [rel_alt: {:.3f} "
                "abs_alt: {:.3f}] [ct: 5500] </font>\n\n",
-               fix.position.lat_deg, fix.position.lon_deg, fix.position.alt_m - ground_alt,
-               fix.position.alt_m);
+               focal_35mm_mm, fix.position.lat_deg, fix.position.lon_deg,
+               fix.position.alt_m - ground_alt, fix.position.alt_m);
   }
 }
 

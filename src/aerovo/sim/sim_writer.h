@@ -76,11 +76,13 @@ SimulationOutput WriteSimulation(const Simulator& sim, const WriterOptions& opti
 ///   00:00:00,000 --> 00:00:00,033
 ///   <font size="28">FrameCnt: 1, DiffTime: 33ms
 ///   2026-05-01 10:00:00.000
-///   [iso: 100] [shutter: 1/1000.0] [fnum: 2.8] [ev: 0] [color_md: default] [focal_len: 24.00]
+///   [iso: 100] [shutter: 1/1000.0] [fnum: 2.8] [ev: 0] [color_md: default] [focal_len: 25.16]
 ///   [latitude: 43.539340] [longitude: 6.551628] [rel_alt: 100.000 abs_alt: 400.000] [ct: 5500]
 ///   </font>
 /// (the bracketed fields are on one line). rel_alt = height above the take-off ground, abs_alt =
-/// altitude above MSL, both with the GPS vertical error.
+/// altitude above MSL, both with the GPS vertical error. focal_len = the camera's 35 mm-equivalent
+/// focal length in the EXIF (diagonal) convention, f_px * 43.27 mm / image diagonal (px), which
+/// `aerovo run` converts back to the same f_px (25.16 for the default 73.7 deg hfov camera).
 void WriteDjiSrt(std::ostream& out, const Simulator& sim, const std::string& start_time_utc);
 
 /// GPX 1.1 track with one point per GPS fix (lat, lon, ele = altitude, time).

@@ -79,6 +79,14 @@ TEST(SimWriter, SrtMatchesGroundTruth) {
       EXPECT_EQ(stamp, "2026-05-01 10:00:00.300");
     }
     std::smatch m;
+    // focal_len: the 35 mm equivalent in the EXIF (diagonal) convention, which readers convert
+    // back with f_px = f35 / 43.27 mm * diagonal_px: the simulator's focal to within 0.05 %.
+    const std::regex focal_re(R"(\[focal_len: ([0-9.]+)\])");
+    ASSERT_TRUE(std::regex_search(fields, m, focal_re)) << fields;
+    const CameraModel& cam = sim.options().camera;
+    const double focal_back_px =
+        std::stod(m[1]) / 43.266615305567875 * std::hypot(cam.width_px, cam.height_px);
+    EXPECT_NEAR(focal_back_px / FocalPx(cam), 1.0, 5e-4);
     ASSERT_TRUE(std::regex_search(fields, m, pos_re)) << fields;
     const GroundTruthFrame& gt = sim.ground_truth()[entries];
     const Eigen::Vector3d p = enu.Forward(std::stod(m[1]), std::stod(m[2]), gt.position.alt_m);

@@ -1,0 +1,40 @@
+// Reference (ground-truth) trajectories to compare a run with: the simulator's
+// ground_truth.tum / ground_truth.csv, any TUM trajectory, or any telemetry file with positions
+// (CSV with named columns, GPX, DJI SRT).
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "aerovo/geo/geo_point.h"
+
+namespace aerovo {
+
+/// One reference position. Either geographic (geo set: WGS84, altitude as the file gives it) or
+/// local (x_m, y_m: metres East, North of the file's own origin).
+struct ReferencePoint {
+  double time_s = 0.0;  ///< Seconds, as the file gives them (TUM: first column).
+  double x_m = 0.0, y_m = 0.0;
+  std::optional<GeoPoint> geo;
+};
+
+struct ReferenceTrack {
+  std::string path;
+  std::string format;  ///< "tum" or the telemetry format read ("csv", "gpx", "srt").
+  /// True when the points carry WGS84 positions (telemetry formats); false for TUM (local ENU
+  /// metres, e.g. the simulator's GT ENU frame whose origin is the ground below frame 0).
+  bool geographic = false;
+  std::vector<ReferencePoint> points;  ///< Sorted by non-decreasing time.
+};
+
+/// Reads a reference track. `.tum` and `.txt`: TUM trajectory (`t x y z qx qy qz qw` per line,
+/// '#' comments; only t, x, y are used; at least t x y per line). Any other extension: a
+/// telemetry file read by ReadTelemetryFile (`.csv` with named columns such as
+/// time_s,lat_deg,lon_deg — the simulator's ground_truth.csv —, `.gpx`, `.srt`).
+/// Throws InputError naming the file (and line) for an unreadable file, a malformed line, times
+/// that decrease, or fewer than 2 points.
+ReferenceTrack ReadReferenceTrack(const std::filesystem::path& path);
+
+}  // namespace aerovo
