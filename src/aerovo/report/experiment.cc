@@ -76,7 +76,7 @@ TableCell Num(double value, int decimals) {
 }
 
 TableCell Int(long long value) {
-  return TableCell{std::to_string(value), static_cast<double>(value)};
+  return TableCell{std::to_string(value), static_cast<double>(value), true};
 }
 
 std::vector<std::size_t> ColumnWidths(const ExperimentTable& t) {
@@ -325,7 +325,9 @@ nlohmann::json ToJson(const ExperimentResult& r) {
     for (const auto& row : t.rows) {
       nlohmann::json cells = nlohmann::json::array();
       for (const TableCell& c : row) {
-        if (c.number) {
+        if (c.number && c.integer) {
+          cells.push_back(static_cast<long long>(*c.number));
+        } else if (c.number) {
           cells.push_back(*c.number);
         } else {
           cells.push_back(c.text);

@@ -62,6 +62,7 @@ double Median(std::vector<double> values);
 struct TableCell {
   std::string text;
   std::optional<double> number;
+  bool integer = false;  ///< A count: written as a JSON integer.
 };
 
 struct ExperimentTable {

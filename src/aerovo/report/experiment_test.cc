@@ -261,6 +261,8 @@ TEST_F(ExperimentOnSimulatedFlight, IlluminationLowersNsurfAndKeepsFinishedRuns)
   const auto& features = j["tables"]["features"];
   ASSERT_EQ(features["rows"].size(), 2u);
   EXPECT_EQ(features["columns"][3], "N_SURF mean");
+  EXPECT_TRUE(features["rows"][0][2].is_number_integer());  // frames: a count
+  EXPECT_EQ(features["rows"][0][2], 31);
   EXPECT_DOUBLE_EQ(features["rows"][0][0].get<double>(), 1.0);
   EXPECT_DOUBLE_EQ(features["rows"][1][1].get<double>(), 1000.0);  // the same threshold
   EXPECT_GT(features["rows"][0][3].get<double>(), features["rows"][1][3].get<double>());
