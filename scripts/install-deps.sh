@@ -13,6 +13,7 @@ PKGS=(
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   gnuplot-nox            # figures (SVG/PNG)
+  chromium               # headless browser test of the HTML report (aerovo report)
   ffmpeg                 # encoders used by OpenCV's VideoWriter
   clang-format
 )

@@ -12,6 +12,7 @@
 
 #include "aerovo/cli/command.h"
 #include "aerovo/cli/run_cli.h"
+#include "aerovo/report/html_report.h"
 #include "aerovo/report/runner.h"
 
 namespace aerovo::cli {
@@ -20,6 +21,7 @@ namespace {
 struct RunArgs {
   RunFlags run;
   bool print_poses = false;
+  bool no_report = false;
 };
 
 void Execute(RunArgs& a) {
@@ -53,9 +55,21 @@ void Execute(RunArgs& a) {
   }
   std::cout << "\n" << FormatSummaryTable(s);
   std::cout << "\nOutputs: " << s.out_dir.string()
-            << "/{frames.csv, vo.tum, gps.tum, vo/gps .geojson .kml .gpx, run.kml, summary.json, "
-               "config.json}\n";
+            << "/{frames.csv, transforms.csv, vo.tum, gps.tum, vo/gps .geojson .kml .gpx, run.kml, "
+               "summary.json, config.json}\n";
   std::cout.flush();
+  // The HTML report of what was computed (also after an interruption). A failure is a warning:
+  // the run's outputs are already complete on disk.
+  if (!a.no_report && s.frames_processed > 0) {
+    try {
+      const ReportResult r = WriteReport(s.out_dir);
+      for (const std::string& n : r.notes) std::cout << "note: " << n << "\n";
+      std::cout << fmt::format("Report: {} ({:.1f} s)\n", r.html.string(), r.seconds);
+    } catch (const std::exception& e) {
+      std::cout << "warning: no report (the run's outputs are complete): " << e.what() << "\n";
+    }
+    std::cout.flush();
+  }
   if (s.interrupted) std::exit(130);  // conventional exit status after SIGINT
 }
 
@@ -70,6 +84,9 @@ void Register(CLI::App& app) {
   cmd->add_flag("--print-poses", a.print_poses,
                 "Streaming: print each pose on stdout as soon as it is computed "
                 "(frame time_s x_m y_m lat lon status)");
+  cmd->add_flag(
+      "--no-report", a.no_report,
+      "Do not write report.html and figures/ at the end (aerovo report DIR does it later)");
   cmd->callback([args] { Execute(*args); });
 }
 

@@ -183,6 +183,13 @@ struct RunFileNames {
   static constexpr const char* kVoGpx = "vo.gpx";
   static constexpr const char* kGpsGpx = "gps.gpx";
   static constexpr const char* kSummaryJson = "summary.json";
+  /// Written by report/runner.cc (not by TrackWriterSet), one flushed row per processed frame:
+  /// header `frame,a11,a12,tx,a21,a22,ty`, the 2x3 affine first_px_from_frame = [a11 a12 tx;
+  /// a21 a22 ty] mapping pixels of this frame to pixels of the run's first frame (the chained
+  /// estimate, as the odometry integrated it; pixel centres, x right, y down). Used to warp
+  /// frames into a mosaic (aerovo report).
+  static constexpr const char* kTransformsCsv = "transforms.csv";
+  static constexpr const char* kConfigJson = "config.json";
 };
 
 /// Options of TrackWriterSet. Defaults write every format.

@@ -15,6 +15,7 @@
 
 #include <fmt/format.h>
 #include <yaml.h>
+#include <Eigen/LU>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -568,6 +569,9 @@ RunSummary RunFlight(const RunConfig& given, const RunCallbacks& cb,
   bool warned_height = false;
   StageTimes sum;
   Eigen::Vector2d last_local = Eigen::Vector2d::Zero();
+  // transforms.csv (RunFileNames::kTransformsCsv): first_px_from_frame per frame, for mosaics.
+  std::ofstream transforms_csv;
+  Eigen::Matrix3d first_px_from_world = Eigen::Matrix3d::Identity();
 
   // Writes a frame: geo-referenced when possible, else in the local VO frame.
   auto emit = [&](PendingFrame& p) {
@@ -663,6 +667,12 @@ RunSummary RunFlight(const RunConfig& given, const RunCallbacks& cb,
                                {"frame_width_px", w},
                                {"frame_height_px", h}};
       WriteJsonFileAtomic(out_dir / "config.json", effective);
+      transforms_csv.open(out_dir / RunFileNames::kTransformsCsv, std::ios::trunc);
+      transforms_csv << "frame,a11,a12,tx,a21,a22,ty\n";
+      if (!transforms_csv) {
+        throw InputError("cannot write '" + (out_dir / RunFileNames::kTransformsCsv).string() +
+                         "'");
+      }
       if (log) {
         *log << fmt::format("camera: {}x{} px, focal {:.1f} px ({}), height from {}\n", w, h,
                             summary.focal_px, summary.focal_source, summary.height_source);
@@ -694,6 +704,15 @@ RunSummary RunFlight(const RunConfig& given, const RunCallbacks& cb,
     if (config.illumination_k != 1.0) view = ScaleBrightness(view, config.illumination_k, &dimmed);
     const FrameResult r = vo->Process(view, frame.time_s, height, yaw);
     georef.Observe(r.position_m, gps, yaw);
+    // world_from_frame is metric (local metres) or first-frame pixels depending on the scale
+    // mode; relative to the first frame's it is first_px_from_frame in both.
+    if (summary.frames_processed == 0) first_px_from_world = r.world_from_frame.inverse();
+    const Eigen::Matrix3d first_px_from_frame = first_px_from_world * r.world_from_frame;
+    transforms_csv << fmt::format("{},{:.9g},{:.9g},{:.6f},{:.9g},{:.9g},{:.6f}\n", frame.index,
+                                  first_px_from_frame(0, 0), first_px_from_frame(0, 1),
+                                  first_px_from_frame(0, 2), first_px_from_frame(1, 0),
+                                  first_px_from_frame(1, 1), first_px_from_frame(1, 2))
+                   << std::flush;
 
     PendingFrame p;
     p.local_m = r.position_m;

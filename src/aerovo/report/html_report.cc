@@ -1,0 +1,1036 @@
+#include "aerovo/report/html_report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <ostream>
+#include <regex>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "aerovo/core/error.h"
+#include "aerovo/core/timer.h"
+#include "aerovo/eval/trajectory_eval_json.h"
+#include "aerovo/io/track_writers.h"
+#include "aerovo/report/run_reader.h"
+
+namespace aerovo {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// "a/b/" -> "b": the folder's own name for titles.
+std::string DirName(const fs::path& dir) {
+  fs::path d = dir.lexically_normal();
+  if (d.filename().empty()) d = d.parent_path();
+  const std::string name = d.filename().string();
+  return name.empty() || name == "." ? fs::absolute(dir).lexically_normal().string() : name;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Text helpers
+
+std::string Escape(const std::string& s) {
+  std::string out;
+  out.reserve(s.size());
+  for (char ch : s) {
+    switch (ch) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&#39;";
+        break;
+      default:
+        out += ch;
+    }
+  }
+  return out;
+}
+
+std::string Base64(const std::string& data) {
+  static const char* const kAlphabet =
+      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((data.size() + 2) / 3 * 4);
+  std::size_t i = 0;
+  for (; i + 2 < data.size(); i += 3) {
+    const unsigned v = (static_cast<unsigned char>(data[i]) << 16) |
+                       (static_cast<unsigned char>(data[i + 1]) << 8) |
+                       static_cast<unsigned char>(data[i + 2]);
+    out += kAlphabet[(v >> 18) & 63];
+    out += kAlphabet[(v >> 12) & 63];
+    out += kAlphabet[(v >> 6) & 63];
+    out += kAlphabet[v & 63];
+  }
+  if (i < data.size()) {
+    unsigned v = static_cast<unsigned char>(data[i]) << 16;
+    if (i + 1 < data.size()) v |= static_cast<unsigned char>(data[i + 1]) << 8;
+    out += kAlphabet[(v >> 18) & 63];
+    out += kAlphabet[(v >> 12) & 63];
+    out += i + 1 < data.size() ? kAlphabet[(v >> 6) & 63] : '=';
+    out += '=';
+  }
+  return out;
+}
+
+std::string ReadFile(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  if (!in) throw InputError("cannot read '" + p.string() + "'");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+void WriteFile(const fs::path& p, const std::string& text) {
+  const fs::path tmp = p.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.flush();
+    if (!out) throw InputError("cannot write '" + tmp.string() + "'");
+  }
+  std::error_code ec;
+  fs::rename(tmp, p, ec);
+  if (ec) throw InputError("cannot write '" + p.string() + "': " + ec.message());
+}
+
+// A gnuplot SVG made fit for inlining in HTML: no XML declaration or DOCTYPE (the DTD URL),
+// no namespace attributes (the HTML parser puts <svg> in the SVG namespace by itself), and ids
+// prefixed so that several figures in one page do not share ids.
+std::string InlineSvg(const fs::path& svg_file, const std::string& prefix) {
+  std::string s = ReadFile(svg_file);
+  const std::size_t start = s.find("<svg");
+  if (start == std::string::npos) throw InputError("'" + svg_file.string() + "' holds no <svg>");
+  s = s.substr(start);
+  static const std::regex xmlns(R"(\s+xmlns(:\w+)?\s*=\s*("[^"]*"|'[^']*'))");
+  s = std::regex_replace(s, xmlns, "");
+  static const std::regex id(R"(\bid=(["']))");
+  s = std::regex_replace(s, id, "id=$1" + prefix);
+  static const std::regex href(R"(href=(["'])#)");
+  s = std::regex_replace(s, href, "href=$1#" + prefix);
+  static const std::regex url(R"(url\(#)");
+  s = std::regex_replace(s, url, "url(#" + prefix);
+  const std::size_t open_end = s.find('>');
+  s.insert(open_end, " class=\"figure-svg\" preserveAspectRatio=\"xMidYMid meet\"");
+  return s;
+}
+
+std::string Num(double v, int decimals = 2) {
+  if (!std::isfinite(v)) return "–";
+  return fmt::format("{:.{}f}", v, decimals);
+}
+
+std::string JsonCell(const nlohmann::json& v) {
+  if (v.is_string()) return v.get<std::string>();
+  if (v.is_null()) return "";
+  if (v.is_number_float()) {
+    const double d = v.get<double>();
+    if (d == std::floor(d) && std::abs(d) < 1e15) return fmt::format("{:.1f}", d);
+    return fmt::format("{:.6g}", d);
+  }
+  return v.dump();
+}
+
+double JsonNumber(const nlohmann::json& j, std::initializer_list<const char*> path,
+                  double fallback = kNaN) {
+  const nlohmann::json* cur = &j;
+  for (const char* key : path) {
+    if (!cur->is_object() || !cur->contains(key)) return fallback;
+    cur = &(*cur)[key];
+  }
+  return cur->is_number() ? cur->get<double>() : fallback;
+}
+
+std::string JsonString(const nlohmann::json& j, const char* key) {
+  if (!j.is_object() || !j.contains(key) || !j[key].is_string()) return "";
+  return j[key].get<std::string>();
+}
+
+// ---------------------------------------------------------------------------------------------
+// The page
+
+struct Page {
+  std::string title;
+  std::string body;
+  int figures = 0;  // <svg> figures and <img> expected to render
+
+  void H2(const std::string& text, const std::string& id = "") {
+    body += "<h2" + (id.empty() ? std::string() : " id=\"" + id + "\"") + ">" + Escape(text) +
+            "</h2>\n";
+  }
+  void Para(const std::string& html) { body += "<p>" + html + "</p>\n"; }
+  void Note(const std::string& text) { body += "<p class=\"note\">" + Escape(text) + "</p>\n"; }
+  void Table(const std::vector<std::string>& header,
+             const std::vector<std::vector<std::string>>& rows, const std::string& cls = "") {
+    body += "<table" + (cls.empty() ? std::string() : " class=\"" + cls + "\"") + ">\n";
+    if (!header.empty()) {
+      body += "<thead><tr>";
+      for (const std::string& h : header) body += "<th>" + Escape(h) + "</th>";
+      body += "</tr></thead>\n";
+    }
+    body += "<tbody>\n";
+    for (const auto& r : rows) {
+      body += "<tr>";
+      for (std::size_t i = 0; i < r.size(); ++i) {
+        body +=
+            (i == 0 ? "<th scope=\"row\">" : "<td>") + Escape(r[i]) + (i == 0 ? "</th>" : "</td>");
+      }
+      body += "</tr>\n";
+    }
+    body += "</tbody></table>\n";
+  }
+
+  std::string Html() const {
+    std::string h;
+    h += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n";
+    h += "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n";
+    h += "<meta name=\"generator\" content=\"aerovo report\">\n";
+    h += "<title>" + Escape(title) + "</title>\n<style>\n";
+    h +=
+        R"(body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,"DejaVu Sans",sans-serif;margin:0 auto;max-width:1280px;padding:1em 2em;color:#1b1b1b;background:#fff}
+h1{font-size:1.6em;margin-bottom:.2em}h2{border-bottom:1px solid #ccc;padding-bottom:.2em;margin-top:1.6em}
+table{border-collapse:collapse;margin:.6em 0;font-size:.92em}th,td{border:1px solid #d0d0d0;padding:.25em .6em;text-align:right}
+thead th{background:#f0f3f7;text-align:center}tbody th{text-align:left;font-weight:normal;background:#fafafa}
+table.kv td{text-align:left;font-family:ui-monospace,"DejaVu Sans Mono",monospace}
+figure{margin:1em 0;padding:.5em;border:1px solid #e3e3e3;border-radius:4px}
+figure.plot svg{display:block;width:100%;max-width:1000px;height:auto;margin:0 auto}
+figure.image img{display:block;max-width:100%;height:auto;margin:0 auto}
+figcaption{font-size:.9em;color:#444;margin-top:.3em;text-align:center}
+.note{background:#fff7e0;border-left:4px solid #e6a800;padding:.4em .8em}
+.meta{color:#555;font-size:.9em}nav a{margin-right:1em}
+)";
+    h += "</style>\n</head>\n";
+    h += fmt::format("<body data-figures-expected=\"{}\">\n", figures);
+    h += "<h1>" + Escape(title) + "</h1>\n";
+    h += body;
+    // Self-check for headless browsers (report_browser_test): each figure laid out with a
+    // non-zero size and drawn, each image decoded.
+    h += R"(<script>
+(function () {
+  function check() {
+    var ok = 0, failed = [];
+    document.querySelectorAll('figure.plot').forEach(function (f) {
+      var s = f.querySelector('svg');
+      var r = s ? s.getBoundingClientRect() : null;
+      if (r && r.width > 0 && r.height > 0 && s.querySelector('path')) ok++; else failed.push(f.id);
+    });
+    document.querySelectorAll('figure.image img').forEach(function (i) {
+      if (i.complete && i.naturalWidth > 0 && i.getBoundingClientRect().width > 0) ok++;
+      else failed.push(i.id);
+    });
+    document.body.setAttribute('data-figures-ok', String(ok));
+    document.body.setAttribute('data-figures-failed', failed.join(' '));
+  }
+  check();
+  window.addEventListener('load', check);
+})();
+</script>
+)";
+    h += "</body>\n</html>\n";
+    return h;
+  }
+};
+
+// Renders `figure` into DIR/figures and inlines it in the page.
+class FigureSink {
+ public:
+  FigureSink(const fs::path& dir, const ReportOptions& options, Page& page, ReportResult& result)
+      : dir_(dir), options_(options), page_(page), result_(result) {}
+
+  void Add(const Figure& figure, const std::string& caption) {
+    PlotOptions po = options_.plot;
+    po.svg = true;  // the HTML inlines the SVG
+    const FigureFiles files = RenderFigure(figure, dir_ / ReportFileNames::kFiguresDir, po);
+    result_.figures.push_back(files.svg);
+    if (!files.png.empty()) result_.figures.push_back(files.png);
+    const std::string rel = std::string(ReportFileNames::kFiguresDir) + "/" + figure.name;
+    page_.body += "<figure class=\"plot\" id=\"fig-" + figure.name + "\">\n";
+    page_.body += InlineSvg(files.svg, figure.name + "-");
+    page_.body += "\n<figcaption>" + Escape(caption) + " — <a href=\"" + rel + ".svg\">SVG</a>";
+    if (!files.png.empty()) page_.body += " · <a href=\"" + rel + ".png\">PNG</a>";
+    page_.body += " · <a href=\"" + rel + ".gp\">gnuplot script</a></figcaption>\n</figure>\n";
+    ++page_.figures;
+    if (options_.log) *options_.log << "  figure " << files.svg.string() << "\n";
+  }
+
+  void AddImage(const fs::path& file, const std::string& id, const std::string& caption) {
+    std::string ext = file.extension().string();
+    const std::string mime = (ext == ".png") ? "image/png" : "image/jpeg";
+    const std::string rel =
+        std::string(ReportFileNames::kFiguresDir) + "/" + file.filename().string();
+    page_.body += "<figure class=\"image\"><img id=\"" + id + "\" alt=\"" + Escape(caption) +
+                  "\" src=\"data:" + mime + ";base64," + Base64(ReadFile(file)) + "\">\n";
+    page_.body += "<figcaption>" + Escape(caption) + " — <a href=\"" + rel + "\">" +
+                  Escape(file.filename().string()) + "</a></figcaption></figure>\n";
+    ++page_.figures;
+  }
+
+ private:
+  fs::path dir_;
+  const ReportOptions& options_;
+  Page& page_;
+  ReportResult& result_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Run folder
+
+PlotSeries Series(std::string title, std::vector<double> x, std::vector<double> y,
+                  SeriesStyle style = SeriesStyle::kLines, std::string color = "") {
+  PlotSeries s;
+  s.title = std::move(title);
+  s.x = std::move(x);
+  s.y = std::move(y);
+  s.style = style;
+  s.color = std::move(color);
+  return s;
+}
+
+// VO positions of every frame mapped by `t` (x, y of the frames.csv rows).
+void AlignedTrack(const RunData& run, const Similarity2D& t, std::vector<double>* x,
+                  std::vector<double>* y) {
+  for (const RunFrameRow& f : run.frames) {
+    const Eigen::Vector2d p = t.Apply({f.x_m, f.y_m});
+    x->push_back(p.x());
+    y->push_back(p.y());
+  }
+}
+
+std::vector<double> FrameAxis(const RunData& run) {
+  std::vector<double> x;
+  for (const RunFrameRow& f : run.frames) x.push_back(f.frame);
+  return x;
+}
+
+template <class Get>
+std::vector<double> Column(const RunData& run, Get get, bool positive_only = false) {
+  std::vector<double> y;
+  for (const RunFrameRow& f : run.frames) {
+    const double v = get(f);
+    y.push_back(positive_only && !(v > 0.0) ? kNaN : v);
+  }
+  return y;
+}
+
+// Summary numbers from summary.json, or recomputed from frames.csv when the run was killed
+// before writing it.
+nlohmann::json EffectiveSummary(const RunData& run, const RunComparison& cmp) {
+  if (run.summary.is_object()) return run.summary;
+  nlohmann::json s;
+  int ok = 0, reacquired = 0, bridged = 0, with_gps = 0;
+  double sums[5] = {0, 0, 0, 0, 0};
+  double path = 0.0;
+  for (std::size_t i = 0; i < run.frames.size(); ++i) {
+    const RunFrameRow& f = run.frames[i];
+    if (f.status.rfind("ok", 0) == 0 || f.status.rfind("first", 0) == 0) ++ok;
+    if (f.status.rfind("reacquired", 0) == 0) ++reacquired;
+    if (f.status.rfind("bridged", 0) == 0) ++bridged;
+    if (f.gps) ++with_gps;
+    sums[0] += f.detect_ms;
+    sums[1] += f.describe_ms;
+    sums[2] += f.correspond_ms;
+    sums[3] += f.estimate_ms;
+    sums[4] += f.total_ms;
+    if (i > 0) {
+      path += std::hypot(f.x_m - run.frames[i - 1].x_m, f.y_m - run.frames[i - 1].y_m);
+    }
+  }
+  const double n = std::max<std::size_t>(1, run.frames.size());
+  s["input"] = JsonString(run.config, "input");
+  s["frames_processed"] = run.frames.size();
+  s["frames_ok"] = ok;
+  s["frames_reacquired"] = reacquired;
+  s["frames_bridged"] = bridged;
+  s["frames_with_gps"] = with_gps;
+  s["interrupted"] = true;
+  s["vo_path_length_m"] = path;
+  s["mean_stage_ms"] = {{"detect", sums[0] / n},
+                        {"describe", sums[1] / n},
+                        {"correspond", sums[2] / n},
+                        {"estimate", sums[3] / n},
+                        {"total", sums[4] / n}};
+  s["evaluation"] = cmp.comparison ? ToJson(*cmp.comparison) : nlohmann::json();
+  s["recomputed"] = true;
+  return s;
+}
+
+void SummaryTables(Page& page, const nlohmann::json& s) {
+  std::vector<std::vector<std::string>> rows;
+  rows.push_back({"Input", JsonString(s, "input")});
+  if (!JsonString(s, "source").empty()) rows.push_back({"Source", JsonString(s, "source")});
+  const bool interrupted = s.value("interrupted", false);
+  rows.push_back(
+      {"Frames processed", fmt::format("{:.0f}{}", JsonNumber(s, {"frames_processed"}, 0),
+                                       interrupted ? " (interrupted)" : "")});
+  rows.push_back(
+      {"  ok / re-acquired / bridged",
+       fmt::format("{:.0f} / {:.0f} / {:.0f}", JsonNumber(s, {"frames_ok"}, 0),
+                   JsonNumber(s, {"frames_reacquired"}, 0), JsonNumber(s, {"frames_bridged"}, 0))});
+  rows.push_back({"Frames with GPS", fmt::format("{:.0f}", JsonNumber(s, {"frames_with_gps"}, 0))});
+  rows.push_back({"VO path length (m)", Num(JsonNumber(s, {"vo_path_length_m"}), 1)});
+  if (s.contains("focal_px")) {
+    rows.push_back({"Focal length (px)", Num(JsonNumber(s, {"focal_px"}), 1) + " (" +
+                                             JsonString(s, "focal_source") + ")"});
+    rows.push_back({"Height source", JsonString(s, "height_source")});
+    rows.push_back({"Heading source", JsonString(s, "heading_source")});
+  }
+  for (const char* stage : {"detect", "describe", "correspond", "estimate", "total"}) {
+    rows.push_back({std::string("Mean ") + stage + " time (ms)",
+                    Num(JsonNumber(s, {"mean_stage_ms", stage}), 2)});
+  }
+  if (s.contains("fps")) {
+    rows.push_back({"Throughput (frames/s)", Num(JsonNumber(s, {"fps"}), 2) + " (" +
+                                                 Num(JsonNumber(s, {"wall_s"}), 1) + " s)"});
+  }
+  page.H2("Summary", "summary");
+  if (s.value("recomputed", false)) {
+    page.Note(
+        "summary.json is missing (the run was stopped before its end): figures recomputed "
+        "from frames.csv.");
+  }
+  page.Table({"", "value"}, rows);
+
+  const nlohmann::json& ev = s.contains("evaluation") ? s["evaluation"] : nlohmann::json();
+  if (!ev.is_object()) {
+    page.Para("No comparison with GPS (fewer than 3 frames with a fix).");
+    return;
+  }
+  std::vector<std::vector<std::string>> e;
+  auto row = [&](const std::string& label, std::initializer_list<const char*> path, int dec) {
+    std::vector<std::string> r{label};
+    for (const char* model : {"se2", "sim2"}) {
+      const nlohmann::json& m = ev[model];
+      const nlohmann::json* cur = &m;
+      double v = kNaN;
+      bool found = true;
+      for (const char* k : path) {
+        if (!cur->is_object() || !cur->contains(k)) {
+          found = false;
+          break;
+        }
+        cur = &(*cur)[k];
+      }
+      if (found && cur->is_number()) v = cur->get<double>();
+      if (found && cur->is_array() && cur->size() == 2) {
+        r.push_back(Num((*cur)[0].get<double>(), dec) + ", " + Num((*cur)[1].get<double>(), dec));
+        continue;
+      }
+      r.push_back(Num(v, dec));
+    }
+    e.push_back(r);
+  };
+  row("Pairs (frames with GPS)", {"alignment", "num_points"}, 0);
+  row("Distance flown (GPS, m)", {"distance_flown_m"}, 1);
+  row("Alignment rotation (deg)", {"alignment", "rotation_deg"}, 3);
+  row("Alignment scale", {"alignment", "scale"}, 5);
+  row("ATE RMSE (m)", {"ate_m", "rmse"}, 2);
+  row("ATE RMSE (% of distance)", {"ate_rmse_percent"}, 3);
+  row("ATE mean (m)", {"ate_m", "mean"}, 2);
+  row("ATE median (m)", {"ate_m", "median"}, 2);
+  row("ATE max (m)", {"ate_m", "max"}, 2);
+  row("End-point error (m)", {"end_point_error_m"}, 2);
+  row("End-point error (%)", {"end_point_error_percent"}, 3);
+  row("End-point error, no alignment (m)", {"end_point_error_unaligned_m"}, 2);
+  row("End-point error, no alignment (%)", {"end_point_error_unaligned_percent"}, 3);
+  if (ev["se2"].contains("segments")) {
+    for (std::size_t i = 0; i < ev["se2"]["segments"].size(); ++i) {
+      const double len = JsonNumber(ev["se2"]["segments"][i], {"length_m"});
+      std::vector<std::string> r{
+          fmt::format("Relative error over {:.0f} m: mean drift (%), n", len)};
+      for (const char* model : {"se2", "sim2"}) {
+        const nlohmann::json& seg = ev[model]["segments"][i];
+        r.push_back(Num(JsonNumber(seg, {"drift_percent", "mean"}), 2) +
+                    " %, n = " + Num(JsonNumber(seg, {"drift_percent", "count"}), 0));
+      }
+      e.push_back(r);
+    }
+  }
+  page.H2("Comparison with GPS", "comparison");
+  page.Para(
+      "Local East-North-Up metres, origin at the first GPS fix; the VO track is aligned to "
+      "GPS by a rigid SE(2) motion (the metric scale is trusted) and, for reference, by a "
+      "Sim(2) similarity (Umeyama).");
+  page.Table({"", "SE(2)", "Sim(2)"}, e);
+}
+
+void FlattenJson(const nlohmann::json& j, const std::string& prefix,
+                 std::vector<std::vector<std::string>>* rows) {
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    const std::string key = prefix.empty() ? it.key() : prefix + "." + it.key();
+    if (it->is_object()) {
+      FlattenJson(*it, key, rows);
+    } else {
+      rows->push_back({key, it->is_string() ? it->get<std::string>() : it->dump()});
+    }
+  }
+}
+
+// The GPS track in the first frame's pixels: GPS (ENU) -> VO ENU through the inverse of the
+// SE(2) alignment, then VO ENU -> pixels through the similarity fitted between the VO positions
+// and the frame centres (pixels have y down: fitted against (u, -v)).
+std::vector<Eigen::Vector2d> GpsInFirstFramePixels(const RunData& run, const RunComparison& cmp) {
+  std::vector<Eigen::Vector2d> out;
+  if (!cmp.comparison) return out;
+  std::vector<int> frames;
+  const std::vector<Eigen::Vector2d> centres = FrameCentresPx(run, &frames);
+  std::map<int, Eigen::Vector2d> centre_of;
+  for (std::size_t i = 0; i < frames.size(); ++i) centre_of[frames[i]] = centres[i];
+  std::vector<TrajectoryPoint2D> enu, px;
+  for (const RunFrameRow& f : run.frames) {
+    const auto it = centre_of.find(f.frame);
+    if (it == centre_of.end()) continue;
+    enu.push_back({f.time_s, f.x_m, f.y_m});
+    px.push_back({f.time_s, it->second.x(), -it->second.y()});
+  }
+  if (enu.size() < 3) return out;
+  AlignmentResult px_from_enu;
+  try {
+    px_from_enu = AlignUmeyama2D(enu, px, AlignmentModel::kSim2);
+  } catch (const InvalidArgument&) {
+    return out;
+  }
+  const Similarity2D& a = cmp.comparison->se2.alignment.enu_from_vo;
+  for (const TrajectoryPoint2D& g : cmp.reference) {
+    const Eigen::Vector2d vo =
+        a.Rotation().transpose() * (Eigen::Vector2d(g.x, g.y) - a.translation_m) / a.scale;
+    const Eigen::Vector2d p = px_from_enu.enu_from_vo.Apply(vo);
+    out.emplace_back(p.x(), -p.y());
+  }
+  return out;
+}
+
+void RunFigures(const RunData& run, const RunComparison& cmp, FigureSink& sink) {
+  // Fig. 2
+  {
+    Figure f;
+    f.name = "fig2_trajectory";
+    f.x_label = "east (m)";
+    f.y_label = "north (m)";
+    f.equal_axes = true;
+    f.key = "outside right top";
+    f.width_px = 1000;
+    f.height_px = 700;
+    if (cmp.comparison) {
+      const TrajectoryComparison& c = *cmp.comparison;
+      std::vector<double> gx, gy;
+      for (const TrajectoryPoint2D& p : cmp.reference) {
+        gx.push_back(p.x);
+        gy.push_back(p.y);
+      }
+      f.series.push_back(Series(cmp.reference_name, gx, gy, SeriesStyle::kLinesPoints, "#000000"));
+      f.series.back().point_size = 0.35;
+      f.series.back().line_width = 1.0;
+      std::vector<double> x, y;
+      AlignedTrack(run, c.se2.alignment.enu_from_vo, &x, &y);
+      f.series.push_back(Series("VO, SE(2)-aligned", x, y, SeriesStyle::kLines, "#D55E00"));
+      f.series.back().line_width = 2.0;
+      x.clear();
+      y.clear();
+      AlignedTrack(run, c.sim2.alignment.enu_from_vo, &x, &y);
+      f.series.push_back(Series("VO, Sim(2)-aligned", x, y, SeriesStyle::kLines, "#0072B2"));
+      f.series.back().dashed = true;
+      f.series.push_back(
+          Series("start", {gx.front()}, {gy.front()}, SeriesStyle::kPoints, "#009E73"));
+      f.series.back().point_size = 1.5;
+      f.title = fmt::format(
+          "Fig. 2: VO trajectory against {} (local ENU; ATE RMSE SE(2) {:.2f} m, Sim(2) {:.2f} m "
+          "over {:.0f} m)",
+          cmp.reference_name, c.se2.ate_m.rmse, c.sim2.ate_m.rmse, c.se2.distance_flown_m);
+    } else {
+      std::vector<double> x, y;
+      AlignedTrack(run, Similarity2D{}, &x, &y);
+      f.series.push_back(Series("VO", x, y, SeriesStyle::kLines, "#D55E00"));
+      f.title = "Fig. 2: VO trajectory (no GPS to compare with)";
+    }
+    sink.Add(f, "Fig. 2 of the paper: the computed trajectory against " + cmp.reference_name +
+                    ", after the alignment used by the summary.");
+  }
+  const std::vector<double> frames = FrameAxis(run);
+  // Fig. 3
+  {
+    Figure f;
+    f.name = "fig3_points";
+    f.title = "Fig. 3: SURF points per frame (N_SURF), putative matches, RANSAC inliers";
+    f.x_label = "frame";
+    f.y_label = "points per frame";
+    f.series.push_back(Series("N_SURF (interest points)", frames,
+                              Column(run, [](const RunFrameRow& r) { return r.n_surf; })));
+    f.series.push_back(Series("matched points", frames,
+                              Column(run, [](const RunFrameRow& r) { return r.n_matched; })));
+    f.series.push_back(Series("RANSAC inliers", frames,
+                              Column(run, [](const RunFrameRow& r) { return r.n_inliers; })));
+    sink.Add(f,
+             "Fig. 3 of the paper: the number of interest points on each frame and the number "
+             "of points used for the correspondence.");
+  }
+  // Stage times
+  {
+    Figure f;
+    f.name = "stage_times";
+    f.title = "Time of each stage per frame (log scale)";
+    f.x_label = "frame";
+    f.y_label = "time (ms)";
+    f.log_y = true;
+    f.key = "outside right top";
+    f.series.push_back(Series("detect", frames,
+                              Column(
+                                  run, [](const RunFrameRow& r) { return r.detect_ms; }, true)));
+    f.series.push_back(Series("describe", frames,
+                              Column(
+                                  run, [](const RunFrameRow& r) { return r.describe_ms; }, true)));
+    f.series.push_back(
+        Series("correspond", frames,
+               Column(
+                   run, [](const RunFrameRow& r) { return r.correspond_ms; }, true)));
+    f.series.push_back(Series("estimate", frames,
+                              Column(
+                                  run, [](const RunFrameRow& r) { return r.estimate_ms; }, true)));
+    f.series.push_back(Series("total", frames,
+                              Column(
+                                  run, [](const RunFrameRow& r) { return r.total_ms; }, true),
+                              SeriesStyle::kLines, "#000000"));
+    sink.Add(f,
+             "Per-frame time of SURF detection, SURF description, matching (correspond), "
+             "transform estimation (RANSAC) and the whole frame, milliseconds.");
+  }
+  // Error per frame
+  if (cmp.comparison) {
+    Figure f;
+    f.name = "ate_per_frame";
+    f.title = "Position error per frame after alignment (against " + cmp.reference_name + ")";
+    f.x_label = "frame";
+    f.y_label = "position error (m)";
+    std::vector<double> x;
+    for (int r : cmp.row) x.push_back(run.frames[static_cast<std::size_t>(r)].frame);
+    f.series.push_back(Series("SE(2)", x, cmp.comparison->se2.ate_per_point_m));
+    f.series.push_back(Series("Sim(2)", x, cmp.comparison->sim2.ate_per_point_m));
+    f.series.back().dashed = true;
+    sink.Add(f, "Absolute trajectory error of each frame with a reference position, metres.");
+  }
+}
+
+// Fills the page for a run folder; returns the mosaic note.
+void RunReport(const fs::path& dir, const ReportOptions& options, Page& page,
+               ReportResult& result) {
+  const RunData run = ReadRunDir(dir);
+  if (run.frames.empty()) {
+    throw InputError("'" + (dir / RunFileNames::kFramesCsv).string() + "' has no frame rows");
+  }
+  const RunComparison cmp = CompareWithGps(run);
+  const nlohmann::json summary = EffectiveSummary(run, cmp);
+  page.title = "aerovo run report — " + DirName(dir);
+  page.body += "<p class=\"meta\">Run folder <code>" + Escape(fs::absolute(dir).string()) +
+               "</code>; input <code>" + Escape(JsonString(summary, "input")) + "</code>.</p>\n";
+  page.body +=
+      "<nav><a href=\"#summary\">Summary</a><a href=\"#figures\">Figures</a>"
+      "<a href=\"#mosaic\">Mosaic</a><a href=\"#config\">Configuration</a></nav>\n";
+  if (summary.contains("warnings") && summary["warnings"].is_array()) {
+    for (const auto& w : summary["warnings"]) {
+      if (w.is_string()) page.Note("warning: " + w.get<std::string>());
+    }
+  }
+  SummaryTables(page, summary);
+
+  page.H2("Figures", "figures");
+  FigureSink sink(dir, options, page, result);
+  RunFigures(run, cmp, sink);
+
+  page.H2("Mosaic", "mosaic");
+  if (!options.mosaic) {
+    page.Note("Mosaic not drawn (--no-mosaic).");
+  } else {
+    std::vector<MosaicTrack> tracks;
+    MosaicTrack vo;
+    vo.name = "VO (estimated transforms)";
+    vo.points_px = FrameCentresPx(run);
+    vo.color_rgb = 0xD55E00;
+    tracks.push_back(vo);
+    MosaicTrack gps;
+    gps.name = cmp.reference_name + " (through the SE(2) alignment)";
+    gps.points_px = GpsInFirstFramePixels(run, cmp);
+    gps.color_rgb = 0x0072B2;
+    gps.line_width_px = 2;
+    if (!gps.points_px.empty()) tracks.push_back(gps);
+    const fs::path file = dir / ReportFileNames::kFiguresDir / ReportFileNames::kMosaic;
+    Stopwatch sw;
+    const MosaicResult m = BuildMosaic(run, tracks, file, options.mosaic_options);
+    if (options.log) {
+      *options.log << fmt::format("  mosaic: {} ({:.1f} s)\n", m.note, sw.elapsed_ms() / 1000.0);
+    }
+    if (m.written) {
+      result.mosaic = m.file;
+      result.figures.push_back(m.file);
+      sink.AddImage(m.file, "mosaic",
+                    "Mosaic: frames warped by the estimated transforms into the first frame's "
+                    "pixels, with the VO track (orange) and the " +
+                        cmp.reference_name + " track (blue); " + m.note + ".");
+    } else {
+      page.Note(m.note);
+      result.notes.push_back(m.note);
+    }
+  }
+
+  page.H2("Effective configuration (config.json)", "config");
+  if (run.config.is_object()) {
+    std::vector<std::vector<std::string>> rows;
+    FlattenJson(run.config, "", &rows);
+    page.Table({"key", "value"}, rows, "kv");
+  } else {
+    page.Note("config.json is missing.");
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Experiment folder
+
+struct ExperimentRun {
+  std::string label, dir;
+  nlohmann::json spec;
+  RunData data;
+  RunComparison cmp;
+};
+
+void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& page,
+                      ReportResult& result) {
+  const fs::path json_path = dir / ReportFileNames::kExperimentJson;
+  nlohmann::json exp;
+  try {
+    exp = nlohmann::json::parse(ReadFile(json_path));
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError("'" + json_path.string() + "': " + e.what());
+  }
+  if (!exp.is_object() || !exp.contains("runs") || !exp["runs"].is_array()) {
+    throw InputError("'" + json_path.string() + "': expected an object with a \"runs\" array");
+  }
+  const std::string kind = JsonString(exp, "kind");
+  page.title = "aerovo experiment report — " + (kind.empty() ? std::string("experiment") : kind) +
+               " (" + DirName(dir) + ")";
+  page.body += "<p class=\"meta\">Experiment folder <code>" + Escape(fs::absolute(dir).string()) +
+               "</code>.</p>\n";
+
+  // Reference: the simulated flight's ground truth, else each run's GPS.
+  std::vector<TrajectoryPoint2D> ground_truth;
+  if (exp.contains("ground_truth") && exp["ground_truth"].is_string()) {
+    fs::path gt = exp["ground_truth"].get<std::string>();
+    if (gt.is_relative()) gt = dir / gt;
+    try {
+      ground_truth = ReadGroundTruthCsv(gt);
+    } catch (const InputError& e) {
+      const std::string note = std::string("ground truth not used: ") + e.what();
+      page.Note(note);
+      result.notes.push_back(note);
+    }
+  }
+
+  std::vector<ExperimentRun> runs;
+  for (std::size_t i = 0; i < exp["runs"].size(); ++i) {
+    const nlohmann::json& r = exp["runs"][i];
+    ExperimentRun run;
+    run.spec = r;
+    run.dir = JsonString(r, "dir");
+    run.label = JsonString(r, "label");
+    if (run.dir.empty()) {
+      throw InputError("'" + json_path.string() + "': runs[" + std::to_string(i) +
+                       "] has no \"dir\"");
+    }
+    if (run.label.empty()) run.label = run.dir;
+    const fs::path run_dir = dir / run.dir;
+    if (!IsRunDir(run_dir)) {
+      const std::string note = "run '" + run.label + "': no frames.csv in '" + run_dir.string() +
+                               "' (not run, or failed): left out";
+      page.Note(note);
+      result.notes.push_back(note);
+      continue;
+    }
+    run.data = ReadRunDir(run_dir);
+    if (run.data.frames.empty()) {
+      const std::string note = "run '" + run.label + "': no frames: left out";
+      page.Note(note);
+      result.notes.push_back(note);
+      continue;
+    }
+    run.cmp = ground_truth.empty() ? CompareWithGps(run.data)
+                                   : CompareWithReference(run.data, ground_truth);
+    if (options.sub_reports) {
+      ReportOptions sub = options;
+      sub.log = nullptr;
+      try {
+        const ReportResult s = WriteReport(run_dir, sub);
+        result.sub_reports.push_back(s.html);
+      } catch (const std::exception& e) {
+        const std::string note = "run '" + run.label + "': its own report failed: " + e.what();
+        page.Note(note);
+        result.notes.push_back(note);
+      }
+    }
+    runs.push_back(std::move(run));
+  }
+  if (runs.empty()) throw InputError("'" + json_path.string() + "': none of the runs has results");
+  const std::string ref_name = ground_truth.empty() ? "GPS" : "ground truth";
+
+  // Per-run table and links.
+  page.H2("Runs", "runs");
+  {
+    std::vector<std::vector<std::string>> rows;
+    for (const ExperimentRun& r : runs) {
+      const RunData& d = r.data;
+      double nsurf = 0, corr = 0, total = 0;
+      int bridged = 0;
+      for (const RunFrameRow& f : d.frames) {
+        nsurf += f.n_surf;
+        corr += f.correspond_ms;
+        total += f.total_ms;
+        if (f.status.rfind("bridged", 0) == 0) ++bridged;
+      }
+      const double n = static_cast<double>(d.frames.size());
+      const auto& c = r.cmp.comparison;
+      rows.push_back({r.label, fmt::format("{}", d.frames.size()), fmt::format("{}", bridged),
+                      Num(nsurf / n, 0), c ? Num(c->se2.ate_m.rmse, 2) : "–",
+                      c ? Num(c->sim2.ate_m.rmse, 2) : "–",
+                      c ? Num(c->se2.end_point_error_percent, 2) : "–", Num(corr / n, 2),
+                      Num(total / n, 1), Num(JsonNumber(d.summary, {"fps"}), 2)});
+    }
+    page.Table(
+        {"run", "frames", "bridged", "mean N_SURF", "ATE RMSE SE(2) (m)", "ATE RMSE Sim(2) (m)",
+         "end-point error SE(2) (%)", "mean correspond (ms)", "mean total (ms)", "fps"},
+        rows);
+    page.Para("Errors against " + Escape(ref_name) + ". Each run's own report:");
+    page.body += "<ul>\n";
+    for (const ExperimentRun& r : runs) {
+      page.body += "<li><a href=\"" + Escape(r.dir) + "/" + ReportFileNames::kHtml + "\">" +
+                   Escape(r.label) + "</a></li>\n";
+    }
+    page.body += "</ul>\n";
+  }
+
+  if (exp.contains("tables") && exp["tables"].is_object()) {
+    for (auto it = exp["tables"].begin(); it != exp["tables"].end(); ++it) {
+      const nlohmann::json& t = *it;
+      std::vector<std::string> header;
+      std::vector<std::vector<std::string>> rows;
+      if (t.contains("columns") && t["columns"].is_array()) {
+        for (const auto& c : t["columns"]) header.push_back(JsonCell(c));
+      }
+      if (t.contains("rows") && t["rows"].is_array()) {
+        for (const auto& r : t["rows"]) {
+          std::vector<std::string> row;
+          if (r.is_array()) {
+            for (const auto& c : r) row.push_back(JsonCell(c));
+          }
+          rows.push_back(row);
+        }
+      }
+      page.H2("Table: " + it.key());
+      page.Table(header, rows);
+    }
+  }
+
+  page.H2("Figures", "figures");
+  FigureSink sink(dir, options, page, result);
+  // Trajectories of every run against the reference.
+  auto trajectories = [&](const std::string& name, const std::string& title,
+                          const std::string& caption) {
+    Figure f;
+    f.name = name;
+    f.title = title;
+    f.x_label = "east (m)";
+    f.y_label = "north (m)";
+    f.equal_axes = true;
+    f.key = "outside right top";
+    f.width_px = 1000;
+    f.height_px = 700;
+    bool reference_drawn = false;
+    for (const ExperimentRun& r : runs) {
+      if (!r.cmp.comparison) continue;
+      if (!reference_drawn) {
+        std::vector<double> gx, gy;
+        if (!ground_truth.empty()) {
+          for (const TrajectoryPoint2D& p : ground_truth) {
+            gx.push_back(p.x);
+            gy.push_back(p.y);
+          }
+        } else {
+          for (const TrajectoryPoint2D& p : r.cmp.reference) {
+            gx.push_back(p.x);
+            gy.push_back(p.y);
+          }
+        }
+        f.series.push_back(Series(ref_name, gx, gy, SeriesStyle::kLines, "#000000"));
+        f.series.back().line_width = 3.0;
+        reference_drawn = true;
+      }
+      std::vector<double> x, y;
+      AlignedTrack(r.data, r.cmp.comparison->se2.alignment.enu_from_vo, &x, &y);
+      f.series.push_back(Series(
+          fmt::format("{} (ATE {:.2f} m)", r.label, r.cmp.comparison->se2.ate_m.rmse), x, y));
+    }
+    if (f.series.empty()) {
+      page.Note("No trajectory figure: no run could be compared with " + ref_name + ".");
+      return;
+    }
+    sink.Add(f, caption);
+  };
+
+  if (kind == "illumination") {
+    Figure f4;
+    f4.name = "fig4_nsurf_per_frame";
+    f4.title = "Fig. 4/5: N_SURF per frame at illumination f_k = k f";
+    f4.x_label = "frame";
+    f4.y_label = "N_SURF (interest points per frame)";
+    f4.key = "outside right top";
+    std::vector<double> ks, means;
+    for (const ExperimentRun& r : runs) {
+      f4.series.push_back(Series(r.label, FrameAxis(r.data),
+                                 Column(r.data, [](const RunFrameRow& q) { return q.n_surf; })));
+      if (r.spec.contains("k") && r.spec["k"].is_number()) {
+        double sum = 0;
+        for (const RunFrameRow& q : r.data.frames) sum += q.n_surf;
+        ks.push_back(r.spec["k"].get<double>());
+        means.push_back(sum / r.data.frames.size());
+      }
+    }
+    sink.Add(f4,
+             "Figs. 4 and 5 of the paper: the number of interest points on each frame, one "
+             "curve per illumination factor k.");
+    if (!ks.empty()) {
+      std::vector<std::size_t> order(ks.size());
+      for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+      std::sort(order.begin(), order.end(), [&](auto a, auto b) { return ks[a] < ks[b]; });
+      std::vector<double> sk, sm;
+      for (std::size_t i : order) {
+        sk.push_back(ks[i]);
+        sm.push_back(means[i]);
+      }
+      Figure f5;
+      f5.name = "fig5_mean_nsurf_vs_k";
+      f5.title = "Mean N_SURF per frame against the illumination factor k";
+      f5.x_label = "illumination factor k (pixel brightness x k)";
+      f5.y_label = "mean N_SURF per frame";
+      f5.key = "top left";
+      f5.series.push_back(Series("mean N_SURF", sk, sm, SeriesStyle::kLinesPoints));
+      f5.series.back().point_size = 1.2;
+      sink.Add(f5, "Mean number of interest points per frame against k (summary of Figs. 4, 5).");
+    }
+    trajectories("fig6_trajectories",
+                 "Fig. 6: trajectories at different illumination k against " + ref_name,
+                 "Fig. 6 of the paper: trajectories computed at each k with the same parameters, "
+                 "each SE(2)-aligned to " +
+                     ref_name + ".");
+  } else if (kind == "ransac") {
+    Figure f8;
+    f8.name = "fig8_correspond_per_step";
+    f8.title = "Correspondence stage time per step, by RANSAC mode";
+    f8.x_label = "frame";
+    f8.y_label = "correspond time (ms)";
+    f8.log_y = true;
+    for (const ExperimentRun& r : runs) {
+      const std::string mode = JsonString(r.spec, "mode");
+      Figure f;
+      const bool clustered = mode == "clustered" || r.dir == "clustered";
+      f.name = std::string(clustered ? "fig8" : "fig7") + "_stage_times_" + r.dir;
+      for (char& ch : f.name) {
+        if (!(std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-')) ch = '_';
+      }
+      f.title = fmt::format("Fig. {}: time of each stage per step, {} RANSAC", clustered ? 8 : 7,
+                            r.label);
+      f.x_label = "frame";
+      f.y_label = "time (ms)";
+      f.log_y = true;
+      f.key = "outside right top";
+      const std::vector<double> x = FrameAxis(r.data);
+      f.series.push_back(
+          Series("detect", x,
+                 Column(
+                     r.data, [](const RunFrameRow& q) { return q.detect_ms; }, true)));
+      f.series.push_back(
+          Series("describe", x,
+                 Column(
+                     r.data, [](const RunFrameRow& q) { return q.describe_ms; }, true)));
+      f.series.push_back(
+          Series("correspond", x,
+                 Column(
+                     r.data, [](const RunFrameRow& q) { return q.correspond_ms; }, true)));
+      f.series.push_back(
+          Series("estimate", x,
+                 Column(
+                     r.data, [](const RunFrameRow& q) { return q.estimate_ms; }, true)));
+      f.series.push_back(Series("total", x,
+                                Column(
+                                    r.data, [](const RunFrameRow& q) { return q.total_ms; }, true),
+                                SeriesStyle::kLines, "#000000"));
+      sink.Add(f, fmt::format("Fig. {} of the paper: time of each stage per step with {} "
+                              "RANSAC, milliseconds (log scale).",
+                              clustered ? 8 : 7, r.label));
+      f8.series.push_back(
+          Series(r.label, x,
+                 Column(
+                     r.data, [](const RunFrameRow& q) { return q.correspond_ms; }, true)));
+    }
+    sink.Add(f8,
+             "The correspondence stage (matching + RANSAC) of each mode side by side, "
+             "milliseconds (log scale).");
+    trajectories("trajectories", "Trajectories of each RANSAC mode against " + ref_name,
+                 "Each mode's trajectory, SE(2)-aligned to " + ref_name + ".");
+  } else {
+    Figure f;
+    f.name = "nsurf_per_frame";
+    f.title = "N_SURF per frame, each run";
+    f.x_label = "frame";
+    f.y_label = "N_SURF (interest points per frame)";
+    f.key = "outside right top";
+    for (const ExperimentRun& r : runs) {
+      f.series.push_back(Series(r.label, FrameAxis(r.data),
+                                Column(r.data, [](const RunFrameRow& q) { return q.n_surf; })));
+    }
+    sink.Add(f, "Interest points per frame of each run.");
+    trajectories("trajectories", "Trajectories of each run against " + ref_name,
+                 "Each run's trajectory, SE(2)-aligned to " + ref_name + ".");
+  }
+}
+
+}  // namespace
+
+ReportResult WriteReport(const fs::path& dir, const ReportOptions& options) {
+  Validate(options.mosaic_options);
+  Stopwatch sw;
+  ReportResult result;
+  Page page;
+  if (fs::is_regular_file(dir / ReportFileNames::kExperimentJson)) {
+    result.kind = "experiment";
+    if (options.log) *options.log << "aerovo report: experiment folder " << dir.string() << "\n";
+    ExperimentReport(dir, options, page, result);
+  } else if (IsRunDir(dir)) {
+    result.kind = "run";
+    if (options.log) *options.log << "aerovo report: run folder " << dir.string() << "\n";
+    RunReport(dir, options, page, result);
+  } else {
+    throw InputError("'" + dir.string() + "' is neither a run folder (no " +
+                     RunFileNames::kFramesCsv + ") nor an experiment folder (no " +
+                     ReportFileNames::kExperimentJson + ")");
+  }
+  page.body +=
+      "<p class=\"meta\">Generated by <code>aerovo report</code>; figures drawn with "
+      "gnuplot, also in <code>figures/</code> as SVG and PNG.</p>\n";
+  result.html = dir / ReportFileNames::kHtml;
+  WriteFile(result.html, page.Html());
+  result.seconds = sw.elapsed_ms() / 1000.0;
+  return result;
+}
+
+}  // namespace aerovo

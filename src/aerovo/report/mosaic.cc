@@ -1,0 +1,307 @@
+#include "aerovo/report/mosaic.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+
+#include <fmt/format.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "aerovo/core/error.h"
+#include "aerovo/io/frame_source.h"
+
+namespace aerovo {
+namespace fs = std::filesystem;
+
+void Validate(const MosaicOptions& o) {
+  if (o.max_size_px < 100 || o.max_size_px > 20000) {
+    throw InvalidArgument("mosaic: max_size_px must be within 100..20000");
+  }
+  if (o.max_frames < 1) throw InvalidArgument("mosaic: max_frames must be >= 1");
+  if (o.jpeg_quality < 1 || o.jpeg_quality > 100) {
+    throw InvalidArgument("mosaic: jpeg_quality must be within 1..100");
+  }
+}
+
+namespace {
+
+cv::Matx23d ToMatx(const FrameTransformRow& t) {
+  return cv::Matx23d(t.a[0], t.a[1], t.a[2], t.a[3], t.a[4], t.a[5]);
+}
+
+cv::Point2d Apply(const cv::Matx23d& m, double x, double y) {
+  return {m(0, 0) * x + m(0, 1) * y + m(0, 2), m(1, 0) * x + m(1, 1) * y + m(1, 2)};
+}
+
+bool FrameSize(const RunData& run, int* w, int* h) {
+  if (!run.config.is_object() || !run.config.contains("resolved")) return false;
+  const nlohmann::json& r = run.config["resolved"];
+  if (!r.contains("frame_width_px") || !r.contains("frame_height_px")) return false;
+  *w = r["frame_width_px"].get<int>();
+  *h = r["frame_height_px"].get<int>();
+  return *w > 0 && *h > 0;
+}
+
+template <class T>
+T ConfigValue(const nlohmann::json& c, const char* key, T fallback) {
+  if (!c.is_object() || !c.contains(key) || c[key].is_null()) return fallback;
+  try {
+    return c[key].get<T>();
+  } catch (const nlohmann::json::exception&) {
+    return fallback;
+  }
+}
+
+cv::Scalar Bgr(unsigned rgb) {
+  return cv::Scalar(rgb & 0xff, (rgb >> 8) & 0xff, (rgb >> 16) & 0xff);
+}
+
+}  // namespace
+
+std::vector<Eigen::Vector2d> FrameCentresPx(const RunData& run, std::vector<int>* frames) {
+  std::vector<Eigen::Vector2d> out;
+  int w = 0, h = 0;
+  if (!FrameSize(run, &w, &h)) return out;
+  const double cx = 0.5 * (w - 1), cy = 0.5 * (h - 1);
+  for (const FrameTransformRow& t : run.transforms) {
+    const cv::Point2d p = Apply(ToMatx(t), cx, cy);
+    out.emplace_back(p.x, p.y);
+    if (frames) frames->push_back(t.frame);
+  }
+  return out;
+}
+
+MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tracks,
+                         const fs::path& out_file, const MosaicOptions& options) {
+  Validate(options);
+  MosaicResult result;
+  int w = 0, h = 0;
+  if (run.transforms.empty()) {
+    result.note =
+        "no mosaic: the run has no transforms.csv (written by aerovo run since the report "
+        "was added)";
+    return result;
+  }
+  if (!FrameSize(run, &w, &h)) {
+    result.note = "no mosaic: config.json does not give the frame size";
+    return result;
+  }
+  // The input as given to `aerovo run` (relative to where it ran, or to the run folder).
+  const std::string input = ConfigValue<std::string>(run.config, "input", "");
+  fs::path input_path = input;
+  if (!input.empty() && !fs::exists(input_path) && input_path.is_relative() &&
+      fs::exists(run.dir / input_path)) {
+    input_path = run.dir / input_path;
+  }
+  std::error_code ec;
+  if (input.empty() || !(fs::is_regular_file(input_path, ec) || fs::is_directory(input_path, ec))) {
+    result.note =
+        "no mosaic: the run's input '" + input + "' is not readable any more (or is a live source)";
+    return result;
+  }
+
+  // Bounds of every frame in first-frame pixels, and of the tracks.
+  double min_x = std::numeric_limits<double>::infinity(), min_y = min_x;
+  double max_x = -min_x, max_y = -min_x;
+  auto grow = [&](double x, double y) {
+    if (!std::isfinite(x) || !std::isfinite(y)) return;
+    min_x = std::min(min_x, x);
+    min_y = std::min(min_y, y);
+    max_x = std::max(max_x, x);
+    max_y = std::max(max_y, y);
+  };
+  std::map<int, cv::Matx23d> by_frame;
+  for (const FrameTransformRow& t : run.transforms) {
+    const cv::Matx23d m = ToMatx(t);
+    by_frame[t.frame] = m;
+    for (const cv::Point2d c : {cv::Point2d(0, 0), cv::Point2d(w - 1, 0), cv::Point2d(w - 1, h - 1),
+                                cv::Point2d(0, h - 1)}) {
+      const cv::Point2d p = Apply(m, c.x, c.y);
+      grow(p.x, p.y);
+    }
+  }
+  for (const MosaicTrack& tr : tracks) {
+    for (const Eigen::Vector2d& p : tr.points_px) grow(p.x(), p.y());
+  }
+  const double margin = 0.02 * std::max(max_x - min_x, max_y - min_y);
+  min_x -= margin;
+  min_y -= margin;
+  max_x += margin;
+  max_y += margin;
+  const double span = std::max(max_x - min_x, max_y - min_y);
+  if (!(span > 0.0) || !std::isfinite(span)) {
+    result.note = "no mosaic: the transforms are degenerate";
+    return result;
+  }
+  const double s = std::min(1.0, options.max_size_px / span);
+  const int cw = std::max(16, static_cast<int>(std::ceil((max_x - min_x) * s)));
+  const int ch = std::max(16, static_cast<int>(std::ceil((max_y - min_y) * s)));
+  const cv::Matx33d canvas_from_first(s, 0, -s * min_x, 0, s, -s * min_y, 0, 0, 1);
+  cv::Mat canvas(ch, cw, CV_8UC3, cv::Scalar(255, 255, 255));
+
+  const int n_transforms = static_cast<int>(run.transforms.size());
+  const int every = std::max(1, (n_transforms + options.max_frames - 1) / options.max_frames);
+  result.every_nth = every;
+  FrameSourceOptions so;
+  so.step = ConfigValue<int>(run.config, "step", 1) * every;
+  so.start_time_s = ConfigValue<double>(run.config, "start_s", 0.0);
+  const double end_s = ConfigValue<double>(run.config, "end_s", -1.0);
+  if (end_s >= 0.0) so.end_time_s = end_s;
+  so.keep_color = true;
+  // Lens distortion, as the run applied it before SURF (report/runner.h FrameUndistorter).
+  const double k1 = ConfigValue<double>(run.config, "k1", 0.0),
+               k2 = ConfigValue<double>(run.config, "k2", 0.0),
+               p1 = ConfigValue<double>(run.config, "p1", 0.0),
+               p2 = ConfigValue<double>(run.config, "p2", 0.0),
+               k3 = ConfigValue<double>(run.config, "k3", 0.0);
+  const double focal_px = run.config.contains("resolved")
+                              ? ConfigValue<double>(run.config["resolved"], "focal_px", 0.0)
+                              : 0.0;
+  cv::Mat map1, map2;
+  if ((k1 != 0.0 || k2 != 0.0 || p1 != 0.0 || p2 != 0.0 || k3 != 0.0) && focal_px > 0.0) {
+    const cv::Matx33d k(focal_px, 0, 0.5 * (w - 1), 0, focal_px, 0.5 * (h - 1), 0, 0, 1);
+    cv::initUndistortRectifyMap(k, cv::Vec<double, 5>(k1, k2, p1, p2, k3), cv::Matx33d::eye(), k,
+                                cv::Size(w, h), CV_16SC2, map1, map2);
+  }
+  const int last_frame = run.transforms.back().frame;
+  try {
+    std::unique_ptr<FrameSource> source = OpenFrameSource(input_path.string(), so);
+    Frame frame;
+    cv::Mat small, warped, mask, ones;
+    while (source->Next(frame)) {
+      if (frame.index > last_frame) break;
+      const auto it = by_frame.find(frame.index);
+      if (it == by_frame.end()) continue;
+      cv::Mat color = frame.color;
+      if (color.empty()) continue;
+      if (color.cols != w || color.rows != h) continue;  // not the run's frame size
+      if (!map1.empty()) {
+        cv::Mat u;
+        cv::remap(color, u, map1, map2, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+        color = u;
+      }
+      const cv::Matx23d& a = it->second;
+      cv::Matx33d first_from_frame(a(0, 0), a(0, 1), a(0, 2), a(1, 0), a(1, 1), a(1, 2), 0, 0, 1);
+      cv::Matx33d m = canvas_from_first * first_from_frame;
+      // Downscale first (area averaging) when the frame shrinks a lot on the canvas: faster
+      // and without aliasing.
+      const double lin = std::sqrt(std::abs(m(0, 0) * m(1, 1) - m(0, 1) * m(1, 0)));
+      if (!(lin > 0.0) || !std::isfinite(lin)) continue;
+      double f = 1.0;
+      if (lin < 0.5) {
+        f = std::max(lin, 4.0 / std::min(w, h));
+        cv::resize(color, small, cv::Size(), f, f, cv::INTER_AREA);
+        m = m * cv::Matx33d(1.0 / f, 0, 0, 0, 1.0 / f, 0, 0, 0, 1);
+      } else {
+        small = color;
+      }
+      // Warp into the frame's bounding box on the canvas only.
+      double bx0 = 1e300, by0 = 1e300, bx1 = -1e300, by1 = -1e300;
+      for (const cv::Point2d c :
+           {cv::Point2d(0, 0), cv::Point2d(small.cols - 1, 0),
+            cv::Point2d(small.cols - 1, small.rows - 1), cv::Point2d(0, small.rows - 1)}) {
+        const double x = m(0, 0) * c.x + m(0, 1) * c.y + m(0, 2);
+        const double y = m(1, 0) * c.x + m(1, 1) * c.y + m(1, 2);
+        bx0 = std::min(bx0, x);
+        by0 = std::min(by0, y);
+        bx1 = std::max(bx1, x);
+        by1 = std::max(by1, y);
+      }
+      const cv::Rect box =
+          cv::Rect(cv::Point(static_cast<int>(std::floor(bx0)), static_cast<int>(std::floor(by0))),
+                   cv::Point(static_cast<int>(std::ceil(bx1)) + 1,
+                             static_cast<int>(std::ceil(by1)) + 1)) &
+          cv::Rect(0, 0, cw, ch);
+      if (box.area() <= 0) continue;
+      const cv::Matx23d roi_from_frame(m(0, 0), m(0, 1), m(0, 2) - box.x, m(1, 0), m(1, 1),
+                                       m(1, 2) - box.y);
+      cv::warpAffine(small, warped, roi_from_frame, box.size(), cv::INTER_LINEAR,
+                     cv::BORDER_CONSTANT);
+      ones = cv::Mat(small.size(), CV_8UC1, cv::Scalar(255));
+      cv::warpAffine(ones, mask, roi_from_frame, box.size(), cv::INTER_NEAREST,
+                     cv::BORDER_CONSTANT);
+      cv::erode(mask, mask, cv::Mat());  // no dark seam from the interpolated border
+      warped.copyTo(canvas(box), mask);
+      ++result.frames_used;
+    }
+  } catch (const InputError& e) {
+    result.note = std::string("no mosaic: cannot re-read the input: ") + e.what();
+    return result;
+  }
+  if (result.frames_used == 0) {
+    result.note = "no mosaic: no frame of the input matched the run's transforms";
+    return result;
+  }
+
+  // Tracks, then a legend box.
+  const int lw = std::max(1, static_cast<int>(std::lround(std::max(cw, ch) / 700.0)));
+  for (const MosaicTrack& tr : tracks) {
+    std::vector<cv::Point> pts;
+    for (const Eigen::Vector2d& p : tr.points_px) {
+      const double x = s * (p.x() - min_x), y = s * (p.y() - min_y);
+      if (!std::isfinite(x) || !std::isfinite(y)) continue;
+      pts.emplace_back(static_cast<int>(std::lround(x * 16)),
+                       static_cast<int>(std::lround(y * 16)));
+    }
+    if (pts.empty()) continue;
+    const int thickness = std::max(1, tr.line_width_px * lw / 2);
+    // White halo under the line keeps it visible on any ground.
+    cv::polylines(canvas, pts, false, cv::Scalar(255, 255, 255), thickness + 2 * lw, cv::LINE_AA,
+                  4);
+    cv::polylines(canvas, pts, false, Bgr(tr.color_rgb), thickness, cv::LINE_AA, 4);
+    cv::circle(canvas, pts.front(), 16 * (thickness + 3 * lw), Bgr(tr.color_rgb), cv::FILLED,
+               cv::LINE_AA, 4);
+  }
+  const double font = 0.5 * lw + 0.2;
+  const int line_h = static_cast<int>(28 * font) + 6;
+  int legend_w = 0;
+  for (const MosaicTrack& tr : tracks) {
+    int base = 0;
+    legend_w = std::max(
+        legend_w,
+        cv::getTextSize(tr.name, cv::FONT_HERSHEY_SIMPLEX, font, std::max(1, lw), &base).width);
+  }
+  if (!tracks.empty()) {
+    const int pad = 8 * lw;
+    const cv::Rect legend(pad, pad, legend_w + 3 * pad + 40 * lw,
+                          static_cast<int>(tracks.size()) * line_h + pad);
+    cv::rectangle(canvas, legend & cv::Rect(0, 0, cw, ch), cv::Scalar(255, 255, 255), cv::FILLED);
+    cv::rectangle(canvas, legend & cv::Rect(0, 0, cw, ch), cv::Scalar(80, 80, 80), 1);
+    for (std::size_t i = 0; i < tracks.size(); ++i) {
+      const int y = legend.y + pad / 2 + static_cast<int>(i) * line_h + line_h / 2;
+      cv::line(canvas, {legend.x + pad, y}, {legend.x + pad + 40 * lw, y}, Bgr(tracks[i].color_rgb),
+               std::max(2, tracks[i].line_width_px * lw / 2), cv::LINE_AA);
+      cv::putText(canvas, tracks[i].name, {legend.x + 2 * pad + 40 * lw, y + line_h / 3},
+                  cv::FONT_HERSHEY_SIMPLEX, font, cv::Scalar(0, 0, 0), std::max(1, lw),
+                  cv::LINE_AA);
+    }
+  }
+  std::vector<int> params;
+  std::string ext = out_file.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
+  if (ext == ".jpg" || ext == ".jpeg") params = {cv::IMWRITE_JPEG_QUALITY, options.jpeg_quality};
+  fs::create_directories(out_file.parent_path(), ec);
+  bool ok = false;
+  try {
+    ok = cv::imwrite(out_file.string(), canvas, params);
+  } catch (const cv::Exception& e) {
+    throw InputError("cannot write the mosaic '" + out_file.string() + "': " + e.what());
+  }
+  if (!ok) throw InputError("cannot write the mosaic '" + out_file.string() + "'");
+  result.written = true;
+  result.file = out_file;
+  result.width_px = cw;
+  result.height_px = ch;
+  result.scale = s;
+  result.note = fmt::format(
+      "{} of {} frames warped (every {}{}), {}x{} px, {:.3f} mosaic px per "
+      "first-frame px",
+      result.frames_used, n_transforms, every, every == 1 ? "" : "th", cw, ch, s);
+  return result;
+}
+
+}  // namespace aerovo

@@ -1,0 +1,236 @@
+#include "aerovo/report/run_reader.h"
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "aerovo/core/error.h"
+#include "aerovo/geo/local_enu.h"
+#include "aerovo/io/track_writers.h"
+
+namespace aerovo {
+namespace fs = std::filesystem;
+
+std::vector<std::string> SplitCsvLine(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  bool quoted = false;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const char ch = line[i];
+    if (quoted) {
+      if (ch == '"') {
+        if (i + 1 < line.size() && line[i + 1] == '"') {
+          cur += '"';
+          ++i;
+        } else {
+          quoted = false;
+        }
+      } else {
+        cur += ch;
+      }
+    } else if (ch == '"') {
+      quoted = true;
+    } else if (ch == ',') {
+      out.push_back(std::move(cur));
+      cur.clear();
+    } else if (ch != '\r') {
+      cur += ch;
+    }
+  }
+  out.push_back(std::move(cur));
+  return out;
+}
+
+namespace {
+
+// A CSV file read into rows of named columns.
+class CsvTable {
+ public:
+  CsvTable(const fs::path& path, const std::vector<std::string>& required) : path_(path) {
+    std::ifstream in(path);
+    if (!in) throw InputError("cannot open '" + path.string() + "'");
+    std::string line;
+    if (!std::getline(in, line)) throw InputError("'" + path.string() + "' is empty (no header)");
+    const std::vector<std::string> header = SplitCsvLine(line);
+    for (std::size_t i = 0; i < header.size(); ++i) columns_[header[i]] = i;
+    for (const std::string& r : required) {
+      if (columns_.count(r) == 0) {
+        throw InputError("'" + path.string() + "': the header lacks the column '" + r + "'");
+      }
+    }
+    std::vector<std::string> lines;
+    while (std::getline(in, line)) lines.push_back(line);
+    // A progressive file killed mid-write may end with a partial line: drop a short last one.
+    for (std::size_t i = 0; i < lines.size(); ++i) {
+      if (lines[i].empty()) continue;
+      std::vector<std::string> f = SplitCsvLine(lines[i]);
+      if (f.size() != header.size()) {
+        if (i + 1 == lines.size()) break;
+        throw InputError("'" + path.string() + "' line " + std::to_string(i + 2) + ": " +
+                         std::to_string(f.size()) + " fields, the header has " +
+                         std::to_string(header.size()));
+      }
+      rows_.push_back(std::move(f));
+      line_numbers_.push_back(static_cast<long>(i + 2));
+    }
+  }
+  std::size_t size() const { return rows_.size(); }
+  bool has(const std::string& col) const { return columns_.count(col) > 0; }
+  const std::string& cell(std::size_t row, const std::string& col) const {
+    return rows_[row][columns_.at(col)];
+  }
+  std::optional<double> OptNumber(std::size_t row, const std::string& col) const {
+    const std::string& c = cell(row, col);
+    if (c.empty()) return std::nullopt;
+    char* end = nullptr;
+    const double v = std::strtod(c.c_str(), &end);
+    if (end == c.c_str() || *end != '\0' || !std::isfinite(v)) {
+      throw InputError("'" + path_.string() + "' line " + std::to_string(line_numbers_[row]) +
+                       ": column '" + col + "' is not a number: '" + c + "'");
+    }
+    return v;
+  }
+  double Number(std::size_t row, const std::string& col) const {
+    const std::optional<double> v = OptNumber(row, col);
+    if (!v) {
+      throw InputError("'" + path_.string() + "' line " + std::to_string(line_numbers_[row]) +
+                       ": column '" + col + "' is empty");
+    }
+    return *v;
+  }
+
+ private:
+  fs::path path_;
+  std::map<std::string, std::size_t> columns_;
+  std::vector<std::vector<std::string>> rows_;
+  std::vector<long> line_numbers_;
+};
+
+nlohmann::json ReadJsonIfPresent(const fs::path& path) {
+  if (!fs::exists(path)) return nullptr;
+  std::ifstream in(path);
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError("'" + path.string() + "': " + e.what());
+  }
+}
+
+std::optional<GeoPoint> GeoOf(const CsvTable& t, std::size_t r, const char* lat, const char* lon,
+                              const char* alt) {
+  const std::optional<double> la = t.OptNumber(r, lat), lo = t.OptNumber(r, lon);
+  if (!la || !lo) return std::nullopt;
+  GeoPoint p;
+  p.lat_deg = *la;
+  p.lon_deg = *lo;
+  p.alt_m = t.OptNumber(r, alt).value_or(0.0);
+  return p;
+}
+
+void Compare(RunComparison& c) {
+  if (c.vo.size() < 3) return;
+  try {
+    c.comparison = CompareTrajectories(c.vo, c.reference);
+  } catch (const InvalidArgument&) {
+    c.comparison.reset();  // degenerate (e.g. the drone did not move): no comparison
+  }
+}
+
+}  // namespace
+
+bool IsRunDir(const fs::path& dir) { return fs::is_regular_file(dir / RunFileNames::kFramesCsv); }
+
+RunData ReadRunDir(const fs::path& dir) {
+  if (!fs::is_directory(dir)) throw InputError("'" + dir.string() + "' is not a folder");
+  RunData run;
+  run.dir = dir;
+  const CsvTable t(dir / RunFileNames::kFramesCsv,
+                   {"frame",    "time_s",    "x_m",         "y_m",           "lat_deg",
+                    "lon_deg",  "alt_m",     "n_surf",      "n_matched",     "n_inliers",
+                    "cluster",  "detect_ms", "describe_ms", "correspond_ms", "estimate_ms",
+                    "total_ms", "status",    "gps_lat_deg", "gps_lon_deg",   "gps_alt_m"});
+  run.frames.reserve(t.size());
+  for (std::size_t r = 0; r < t.size(); ++r) {
+    RunFrameRow f;
+    f.frame = static_cast<int>(t.Number(r, "frame"));
+    f.time_s = t.Number(r, "time_s");
+    f.x_m = t.Number(r, "x_m");
+    f.y_m = t.Number(r, "y_m");
+    f.geo = GeoOf(t, r, "lat_deg", "lon_deg", "alt_m");
+    f.n_surf = static_cast<int>(t.Number(r, "n_surf"));
+    f.n_matched = static_cast<int>(t.Number(r, "n_matched"));
+    f.n_inliers = static_cast<int>(t.Number(r, "n_inliers"));
+    f.cluster = static_cast<int>(t.Number(r, "cluster"));
+    f.detect_ms = t.Number(r, "detect_ms");
+    f.describe_ms = t.Number(r, "describe_ms");
+    f.correspond_ms = t.Number(r, "correspond_ms");
+    f.estimate_ms = t.Number(r, "estimate_ms");
+    f.total_ms = t.Number(r, "total_ms");
+    f.status = t.cell(r, "status");
+    f.gps = GeoOf(t, r, "gps_lat_deg", "gps_lon_deg", "gps_alt_m");
+    run.frames.push_back(std::move(f));
+  }
+  const fs::path transforms = dir / RunFileNames::kTransformsCsv;
+  if (fs::exists(transforms)) {
+    const CsvTable tt(transforms, {"frame", "a11", "a12", "tx", "a21", "a22", "ty"});
+    for (std::size_t r = 0; r < tt.size(); ++r) {
+      FrameTransformRow row;
+      row.frame = static_cast<int>(tt.Number(r, "frame"));
+      const char* names[6] = {"a11", "a12", "tx", "a21", "a22", "ty"};
+      for (int k = 0; k < 6; ++k) row.a[static_cast<std::size_t>(k)] = tt.Number(r, names[k]);
+      run.transforms.push_back(row);
+    }
+  }
+  run.summary = ReadJsonIfPresent(dir / RunFileNames::kSummaryJson);
+  run.config = ReadJsonIfPresent(dir / "config.json");
+  return run;
+}
+
+RunComparison CompareWithGps(const RunData& run) {
+  RunComparison c;
+  c.reference_name = "GPS";
+  std::optional<LocalEnu> enu;
+  for (std::size_t i = 0; i < run.frames.size(); ++i) {
+    const RunFrameRow& f = run.frames[i];
+    if (!f.gps) continue;
+    if (!enu) enu.emplace(*f.gps);  // the run's ENU origin: the first GPS fix observed
+    const Eigen::Vector3d e = enu->Forward(*f.gps);
+    c.vo.push_back({f.time_s, f.x_m, f.y_m});
+    c.reference.push_back({f.time_s, e.x(), e.y()});
+    c.row.push_back(static_cast<int>(i));
+  }
+  Compare(c);
+  return c;
+}
+
+std::vector<TrajectoryPoint2D> ReadGroundTruthCsv(const fs::path& path) {
+  const CsvTable t(path, {"time_s", "east_m", "north_m"});
+  std::vector<TrajectoryPoint2D> out;
+  out.reserve(t.size());
+  for (std::size_t r = 0; r < t.size(); ++r) {
+    out.push_back({t.Number(r, "time_s"), t.Number(r, "east_m"), t.Number(r, "north_m")});
+  }
+  if (out.empty()) throw InputError("'" + path.string() + "' has no rows");
+  return out;
+}
+
+RunComparison CompareWithReference(const RunData& run,
+                                   const std::vector<TrajectoryPoint2D>& ground_truth) {
+  RunComparison c;
+  c.reference_name = "ground truth";
+  std::vector<TrajectoryPoint2D> vo;
+  vo.reserve(run.frames.size());
+  for (const RunFrameRow& f : run.frames) vo.push_back({f.time_s, f.x_m, f.y_m});
+  AssociationOptions ao;
+  ao.max_gap_s = 10.0;  // ground truth is per frame; any gap is the video's own frame interval
+  const AssociatedTrajectories a = AssociateByTime(vo, ground_truth, ao);
+  c.vo = a.estimate;
+  c.reference = a.reference;
+  c.row = a.estimate_index;
+  Compare(c);
+  return c;
+}
+
+}  // namespace aerovo

@@ -1,0 +1,81 @@
+// Reading back a run folder written by `aerovo run` (report/runner.h, io/track_writers.h) for
+// the report: frames.csv, transforms.csv, summary.json, config.json; and a simulated flight's
+// ground_truth.csv (sim/sim_writer.h). Also the trajectory comparison the report draws.
+#pragma once
+
+#include <array>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "aerovo/eval/trajectory_eval.h"
+#include "aerovo/geo/geo_point.h"
+
+namespace aerovo {
+
+/// One row of frames.csv (columns: io/track_writers.h, CsvFrameWriter).
+struct RunFrameRow {
+  int frame = 0;
+  double time_s = 0.0;
+  double x_m = 0.0, y_m = 0.0;  ///< ENU metres when geo-referenced, else the local VO frame.
+  std::optional<GeoPoint> geo;  ///< VO position in WGS84 (when geo-referenced).
+  int n_surf = 0, n_matched = 0, n_inliers = 0, cluster = -1;
+  double detect_ms = 0.0, describe_ms = 0.0, correspond_ms = 0.0, estimate_ms = 0.0, total_ms = 0.0;
+  std::string status;
+  std::optional<GeoPoint> gps;  ///< GPS fix associated with the frame.
+};
+
+/// One row of transforms.csv: first_px_from_frame as a 2x3 affine [a11 a12 tx; a21 a22 ty]
+/// (maps this frame's pixels to the first frame's pixels; see RunFileNames::kTransformsCsv).
+struct FrameTransformRow {
+  int frame = 0;
+  std::array<double, 6> a{1, 0, 0, 0, 1, 0};  ///< a11, a12, tx, a21, a22, ty.
+};
+
+/// What a run folder holds. Files that are absent leave their part empty (an interrupted run
+/// may lack summary.json).
+struct RunData {
+  std::filesystem::path dir;
+  std::vector<RunFrameRow> frames;
+  std::vector<FrameTransformRow> transforms;
+  nlohmann::json summary;  ///< null when summary.json is absent.
+  nlohmann::json config;   ///< null when config.json is absent.
+};
+
+/// True when `dir` looks like a run folder (frames.csv present).
+bool IsRunDir(const std::filesystem::path& dir);
+
+/// Reads frames.csv (required) and, when present, transforms.csv, summary.json, config.json.
+/// Throws InputError naming the file and line for a missing frames.csv, a bad header or a bad
+/// cell. A last line cut short (a run killed mid-write) is ignored.
+RunData ReadRunDir(const std::filesystem::path& dir);
+
+/// The paired VO and reference trajectories of a run and their comparison.
+struct RunComparison {
+  std::vector<TrajectoryPoint2D> vo;         ///< VO (frames.csv x_m, y_m) at the paired frames.
+  std::vector<TrajectoryPoint2D> reference;  ///< Reference at the same times, same frame (ENU).
+  std::vector<int> row;                      ///< Index in RunData::frames of each pair.
+  std::optional<TrajectoryComparison> comparison;  ///< When at least 3 pairs align.
+  std::string reference_name;                      ///< "GPS" or "ground truth".
+};
+
+/// The comparison `aerovo run` puts in summary.json: frames with a GPS fix, GPS converted to ENU
+/// with the first fix as origin (the run's ENU frame, odometry/georef.h), SE(2) and Sim(2)
+/// alignment (eval/trajectory_eval.h). No comparison (nullopt) when fewer than 3 frames have GPS.
+RunComparison CompareWithGps(const RunData& run);
+
+/// A simulated flight's ground truth (ground_truth.csv: time_s, east_m, north_m).
+/// Throws InputError naming the file and line.
+std::vector<TrajectoryPoint2D> ReadGroundTruthCsv(const std::filesystem::path& path);
+
+/// The run's VO track against `ground_truth` (associated by time, interpolated), SE(2)/Sim(2).
+RunComparison CompareWithReference(const RunData& run,
+                                   const std::vector<TrajectoryPoint2D>& ground_truth);
+
+/// A CSV line split into fields (RFC 4180 quotes).
+std::vector<std::string> SplitCsvLine(const std::string& line);
+
+}  // namespace aerovo
