@@ -699,7 +699,7 @@ void RunReport(const fs::path& dir, const ReportOptions& options, Page& page,
 // ---------------------------------------------------------------------------------------------
 // Experiment folder
 
-struct ExperimentRun {
+struct ExpRun {
   std::string label, dir;
   nlohmann::json spec;
   RunData data;
@@ -725,7 +725,7 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
                "</code>.</p>\n";
 
   // Reference: the simulated flight's ground truth, else each run's GPS.
-  std::vector<TrajectoryPoint2D> ground_truth;
+  std::vector<GroundTruthPoint> ground_truth;
   if (exp.contains("ground_truth") && exp["ground_truth"].is_string()) {
     fs::path gt = exp["ground_truth"].get<std::string>();
     if (gt.is_relative()) gt = dir / gt;
@@ -738,10 +738,10 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
     }
   }
 
-  std::vector<ExperimentRun> runs;
+  std::vector<ExpRun> runs;
   for (std::size_t i = 0; i < exp["runs"].size(); ++i) {
     const nlohmann::json& r = exp["runs"][i];
-    ExperimentRun run;
+    ExpRun run;
     run.spec = r;
     run.dir = JsonString(r, "dir");
     run.label = JsonString(r, "label");
@@ -788,7 +788,7 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
   page.H2("Runs", "runs");
   {
     std::vector<std::vector<std::string>> rows;
-    for (const ExperimentRun& r : runs) {
+    for (const ExpRun& r : runs) {
       const RunData& d = r.data;
       double nsurf = 0, corr = 0, total = 0;
       int bridged = 0;
@@ -812,7 +812,7 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
         rows);
     page.Para("Errors against " + Escape(ref_name) + ". Each run's own report:");
     page.body += "<ul>\n";
-    for (const ExperimentRun& r : runs) {
+    for (const ExpRun& r : runs) {
       page.body += "<li><a href=\"" + Escape(r.dir) + "/" + ReportFileNames::kHtml + "\">" +
                    Escape(r.label) + "</a></li>\n";
     }
@@ -856,14 +856,14 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
     f.width_px = 1000;
     f.height_px = 700;
     bool reference_drawn = false;
-    for (const ExperimentRun& r : runs) {
+    for (const ExpRun& r : runs) {
       if (!r.cmp.comparison) continue;
       if (!reference_drawn) {
         std::vector<double> gx, gy;
         if (!ground_truth.empty()) {
-          for (const TrajectoryPoint2D& p : ground_truth) {
-            gx.push_back(p.x);
-            gy.push_back(p.y);
+          for (const GroundTruthPoint& p : ground_truth) {
+            gx.push_back(p.east_m);
+            gy.push_back(p.north_m);
           }
         } else {
           for (const TrajectoryPoint2D& p : r.cmp.reference) {
@@ -895,7 +895,7 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
     f4.y_label = "N_SURF (interest points per frame)";
     f4.key = "outside right top";
     std::vector<double> ks, means;
-    for (const ExperimentRun& r : runs) {
+    for (const ExpRun& r : runs) {
       f4.series.push_back(Series(r.label, FrameAxis(r.data),
                                  Column(r.data, [](const RunFrameRow& q) { return q.n_surf; })));
       if (r.spec.contains("k") && r.spec["k"].is_number()) {
@@ -939,7 +939,7 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
     f8.x_label = "frame";
     f8.y_label = "correspond time (ms)";
     f8.log_y = true;
-    for (const ExperimentRun& r : runs) {
+    for (const ExpRun& r : runs) {
       const std::string mode = JsonString(r.spec, "mode");
       Figure f;
       const bool clustered = mode == "clustered" || r.dir == "clustered";
@@ -994,7 +994,7 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
     f.x_label = "frame";
     f.y_label = "N_SURF (interest points per frame)";
     f.key = "outside right top";
-    for (const ExperimentRun& r : runs) {
+    for (const ExpRun& r : runs) {
       f.series.push_back(Series(r.label, FrameAxis(r.data),
                                 Column(r.data, [](const RunFrameRow& q) { return q.n_surf; })));
     }

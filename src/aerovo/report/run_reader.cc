@@ -205,30 +205,20 @@ RunComparison CompareWithGps(const RunData& run) {
   return c;
 }
 
-std::vector<TrajectoryPoint2D> ReadGroundTruthCsv(const fs::path& path) {
-  const CsvTable t(path, {"time_s", "east_m", "north_m"});
-  std::vector<TrajectoryPoint2D> out;
-  out.reserve(t.size());
-  for (std::size_t r = 0; r < t.size(); ++r) {
-    out.push_back({t.Number(r, "time_s"), t.Number(r, "east_m"), t.Number(r, "north_m")});
-  }
-  if (out.empty()) throw InputError("'" + path.string() + "' has no rows");
-  return out;
-}
-
 RunComparison CompareWithReference(const RunData& run,
-                                   const std::vector<TrajectoryPoint2D>& ground_truth) {
+                                   const std::vector<GroundTruthPoint>& ground_truth) {
   RunComparison c;
   c.reference_name = "ground truth";
-  std::vector<TrajectoryPoint2D> vo;
-  vo.reserve(run.frames.size());
-  for (const RunFrameRow& f : run.frames) vo.push_back({f.time_s, f.x_m, f.y_m});
-  AssociationOptions ao;
-  ao.max_gap_s = 10.0;  // ground truth is per frame; any gap is the video's own frame interval
-  const AssociatedTrajectories a = AssociateByTime(vo, ground_truth, ao);
-  c.vo = a.estimate;
-  c.reference = a.reference;
-  c.row = a.estimate_index;
+  std::map<int, const GroundTruthPoint*> by_frame;
+  for (const GroundTruthPoint& g : ground_truth) by_frame[g.frame] = &g;
+  for (std::size_t i = 0; i < run.frames.size(); ++i) {
+    const RunFrameRow& f = run.frames[i];
+    const auto it = by_frame.find(f.frame);
+    if (it == by_frame.end()) continue;
+    c.vo.push_back({f.time_s, f.x_m, f.y_m});
+    c.reference.push_back({f.time_s, it->second->east_m, it->second->north_m});
+    c.row.push_back(static_cast<int>(i));
+  }
   Compare(c);
   return c;
 }

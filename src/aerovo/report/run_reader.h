@@ -13,6 +13,7 @@
 
 #include "aerovo/eval/trajectory_eval.h"
 #include "aerovo/geo/geo_point.h"
+#include "aerovo/report/experiment.h"
 
 namespace aerovo {
 
@@ -67,13 +68,10 @@ struct RunComparison {
 /// alignment (eval/trajectory_eval.h). No comparison (nullopt) when fewer than 3 frames have GPS.
 RunComparison CompareWithGps(const RunData& run);
 
-/// A simulated flight's ground truth (ground_truth.csv: time_s, east_m, north_m).
-/// Throws InputError naming the file and line.
-std::vector<TrajectoryPoint2D> ReadGroundTruthCsv(const std::filesystem::path& path);
-
-/// The run's VO track against `ground_truth` (associated by time, interpolated), SE(2)/Sim(2).
+/// The run's VO track against a simulated flight's ground truth (ReadGroundTruthCsv in
+/// report/experiment.h), paired by frame index as the experiments do, SE(2)/Sim(2).
 RunComparison CompareWithReference(const RunData& run,
-                                   const std::vector<TrajectoryPoint2D>& ground_truth);
+                                   const std::vector<GroundTruthPoint>& ground_truth);
 
 /// A CSV line split into fields (RFC 4180 quotes).
 std::vector<std::string> SplitCsvLine(const std::string& line);
