@@ -207,7 +207,7 @@ struct Page {
 h1{font-size:1.6em;margin-bottom:.2em}h2{border-bottom:1px solid #ccc;padding-bottom:.2em;margin-top:1.6em}
 table{border-collapse:collapse;margin:.6em 0;font-size:.92em}th,td{border:1px solid #d0d0d0;padding:.25em .6em;text-align:right}
 thead th{background:#f0f3f7;text-align:center}tbody th{text-align:left;font-weight:normal;background:#fafafa}
-table.kv td{text-align:left;font-family:ui-monospace,"DejaVu Sans Mono",monospace}
+table.summary td{text-align:left}table.kv td{text-align:left;font-family:ui-monospace,"DejaVu Sans Mono",monospace}
 figure{margin:1em 0;padding:.5em;border:1px solid #e3e3e3;border-radius:4px}
 figure.plot svg{display:block;width:100%;max-width:1000px;height:auto;margin:0 auto}
 figure.image img{display:block;max-width:100%;height:auto;margin:0 auto}
@@ -370,6 +370,66 @@ nlohmann::json EffectiveSummary(const RunData& run, const RunComparison& cmp) {
   return s;
 }
 
+// SE(2) / Sim(2) columns of a TrajectoryComparison JSON (eval/trajectory_eval_json.h).
+void EvaluationTable(Page& page, const nlohmann::json& ev) {
+  std::vector<std::vector<std::string>> e;
+  auto row = [&](const std::string& label, std::initializer_list<const char*> path, int dec) {
+    std::vector<std::string> r{label};
+    for (const char* model : {"se2", "sim2"}) {
+      if (!ev.contains(model)) {
+        r.push_back("–");
+        continue;
+      }
+      const nlohmann::json* cur = &ev[model];
+      double v = kNaN;
+      bool found = true;
+      for (const char* k : path) {
+        if (!cur->is_object() || !cur->contains(k)) {
+          found = false;
+          break;
+        }
+        cur = &(*cur)[k];
+      }
+      if (found && cur->is_number()) v = cur->get<double>();
+      if (found && cur->is_array() && cur->size() == 2) {
+        r.push_back(Num((*cur)[0].get<double>(), dec) + ", " + Num((*cur)[1].get<double>(), dec));
+        continue;
+      }
+      r.push_back(Num(v, dec));
+    }
+    e.push_back(r);
+  };
+  row("Pairs (frames with a reference)", {"alignment", "num_points"}, 0);
+  row("Distance flown (reference, m)", {"distance_flown_m"}, 1);
+  row("Alignment rotation (deg)", {"alignment", "rotation_deg"}, 3);
+  row("Alignment scale", {"alignment", "scale"}, 5);
+  row("ATE RMSE (m)", {"ate_m", "rmse"}, 2);
+  row("ATE RMSE (% of distance)", {"ate_rmse_percent"}, 3);
+  row("ATE mean (m)", {"ate_m", "mean"}, 2);
+  row("ATE median (m)", {"ate_m", "median"}, 2);
+  row("ATE max (m)", {"ate_m", "max"}, 2);
+  row("End-point error (m)", {"end_point_error_m"}, 2);
+  row("End-point error (%)", {"end_point_error_percent"}, 3);
+  row("End-point error, no alignment (m)", {"end_point_error_unaligned_m"}, 2);
+  row("End-point error, no alignment (%)", {"end_point_error_unaligned_percent"}, 3);
+  if (ev.contains("se2") && ev.contains("sim2") && ev["se2"].contains("segments") &&
+      ev["sim2"].contains("segments") &&
+      ev["se2"]["segments"].size() == ev["sim2"]["segments"].size()) {
+    for (std::size_t i = 0; i < ev["se2"]["segments"].size(); ++i) {
+      const double len = JsonNumber(ev["se2"]["segments"][i], {"length_m"});
+      std::vector<std::string> r{
+          fmt::format("Relative error over {:.0f} m: mean drift (%), n", len)};
+      for (const char* model : {"se2", "sim2"}) {
+        const nlohmann::json& seg = ev[model]["segments"][i];
+        r.push_back(Num(JsonNumber(seg, {"drift_percent", "mean"}), 2) +
+                    " %, n = " + Num(JsonNumber(seg, {"drift_percent", "count"}), 0));
+      }
+      e.push_back(r);
+    }
+  }
+  page.Table({"", "SE(2)", "Sim(2)"}, e);
+}
+
 void SummaryTables(Page& page, const nlohmann::json& s) {
   std::vector<std::vector<std::string>> rows;
   rows.push_back({"Input", JsonString(s, "input")});
@@ -404,69 +464,26 @@ void SummaryTables(Page& page, const nlohmann::json& s) {
         "summary.json is missing (the run was stopped before its end): figures recomputed "
         "from frames.csv.");
   }
-  page.Table({"", "value"}, rows);
+  page.Table({"", "value"}, rows, "summary");
 
-  const nlohmann::json& ev = s.contains("evaluation") ? s["evaluation"] : nlohmann::json();
+  const nlohmann::json none;
+  const nlohmann::json& ev = s.contains("evaluation") ? s["evaluation"] : none;
   if (!ev.is_object()) {
     page.Para("No comparison with GPS (fewer than 3 frames with a fix).");
-    return;
+  } else {
+    page.H2("Comparison with GPS", "comparison");
+    page.Para(
+        "Local East-North-Up metres, origin at the first GPS fix; the VO track is aligned to "
+        "GPS by a rigid SE(2) motion (the metric scale is trusted) and, for reference, by a "
+        "Sim(2) similarity (Umeyama).");
+    EvaluationTable(page, ev);
   }
-  std::vector<std::vector<std::string>> e;
-  auto row = [&](const std::string& label, std::initializer_list<const char*> path, int dec) {
-    std::vector<std::string> r{label};
-    for (const char* model : {"se2", "sim2"}) {
-      const nlohmann::json& m = ev[model];
-      const nlohmann::json* cur = &m;
-      double v = kNaN;
-      bool found = true;
-      for (const char* k : path) {
-        if (!cur->is_object() || !cur->contains(k)) {
-          found = false;
-          break;
-        }
-        cur = &(*cur)[k];
-      }
-      if (found && cur->is_number()) v = cur->get<double>();
-      if (found && cur->is_array() && cur->size() == 2) {
-        r.push_back(Num((*cur)[0].get<double>(), dec) + ", " + Num((*cur)[1].get<double>(), dec));
-        continue;
-      }
-      r.push_back(Num(v, dec));
-    }
-    e.push_back(r);
-  };
-  row("Pairs (frames with GPS)", {"alignment", "num_points"}, 0);
-  row("Distance flown (GPS, m)", {"distance_flown_m"}, 1);
-  row("Alignment rotation (deg)", {"alignment", "rotation_deg"}, 3);
-  row("Alignment scale", {"alignment", "scale"}, 5);
-  row("ATE RMSE (m)", {"ate_m", "rmse"}, 2);
-  row("ATE RMSE (% of distance)", {"ate_rmse_percent"}, 3);
-  row("ATE mean (m)", {"ate_m", "mean"}, 2);
-  row("ATE median (m)", {"ate_m", "median"}, 2);
-  row("ATE max (m)", {"ate_m", "max"}, 2);
-  row("End-point error (m)", {"end_point_error_m"}, 2);
-  row("End-point error (%)", {"end_point_error_percent"}, 3);
-  row("End-point error, no alignment (m)", {"end_point_error_unaligned_m"}, 2);
-  row("End-point error, no alignment (%)", {"end_point_error_unaligned_percent"}, 3);
-  if (ev["se2"].contains("segments")) {
-    for (std::size_t i = 0; i < ev["se2"]["segments"].size(); ++i) {
-      const double len = JsonNumber(ev["se2"]["segments"][i], {"length_m"});
-      std::vector<std::string> r{
-          fmt::format("Relative error over {:.0f} m: mean drift (%), n", len)};
-      for (const char* model : {"se2", "sim2"}) {
-        const nlohmann::json& seg = ev[model]["segments"][i];
-        r.push_back(Num(JsonNumber(seg, {"drift_percent", "mean"}), 2) +
-                    " %, n = " + Num(JsonNumber(seg, {"drift_percent", "count"}), 0));
-      }
-      e.push_back(r);
-    }
+  if (s.contains("truth_evaluation") && s["truth_evaluation"].is_object()) {
+    page.H2("Comparison with the ground truth", "truth");
+    page.Para("Against <code>" + Escape(JsonString(s, "truth")) +
+              "</code> (frames matched by time), aligned as above.");
+    EvaluationTable(page, s["truth_evaluation"]);
   }
-  page.H2("Comparison with GPS", "comparison");
-  page.Para(
-      "Local East-North-Up metres, origin at the first GPS fix; the VO track is aligned to "
-      "GPS by a rigid SE(2) motion (the metric scale is trusted) and, for reference, by a "
-      "Sim(2) similarity (Umeyama).");
-  page.Table({"", "SE(2)", "Sim(2)"}, e);
 }
 
 void FlattenJson(const nlohmann::json& j, const std::string& prefix,
@@ -569,6 +586,8 @@ void RunFigures(const RunData& run, const RunComparison& cmp, FigureSink& sink) 
     f.title = "Fig. 3: SURF points per frame (N_SURF), putative matches, RANSAC inliers";
     f.x_label = "frame";
     f.y_label = "points per frame";
+    f.y_from_zero = true;
+    f.key = "outside right top";
     f.series.push_back(Series("N_SURF (interest points)", frames,
                               Column(run, [](const RunFrameRow& r) { return r.n_surf; })));
     f.series.push_back(Series("matched points", frames,
@@ -655,18 +674,20 @@ void RunReport(const fs::path& dir, const ReportOptions& options, Page& page,
   if (!options.mosaic) {
     page.Note("Mosaic not drawn (--no-mosaic).");
   } else {
+    // GPS first (wider, underneath), the VO track on top: both stay visible where they agree.
     std::vector<MosaicTrack> tracks;
-    MosaicTrack vo;
-    vo.name = "VO (estimated transforms)";
-    vo.points_px = FrameCentresPx(run);
-    vo.color_rgb = 0xD55E00;
-    tracks.push_back(vo);
     MosaicTrack gps;
     gps.name = cmp.reference_name + " (through the SE(2) alignment)";
     gps.points_px = GpsInFirstFramePixels(run, cmp);
     gps.color_rgb = 0x0072B2;
-    gps.line_width_px = 2;
+    gps.line_width_px = 5;
     if (!gps.points_px.empty()) tracks.push_back(gps);
+    MosaicTrack vo;
+    vo.name = "VO (estimated transforms)";
+    vo.points_px = FrameCentresPx(run);
+    vo.color_rgb = 0xD55E00;
+    vo.line_width_px = 2;
+    tracks.push_back(vo);
     const fs::path file = dir / ReportFileNames::kFiguresDir / ReportFileNames::kMosaic;
     Stopwatch sw;
     const MosaicResult m = BuildMosaic(run, tracks, file, options.mosaic_options);
@@ -894,6 +915,7 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
     f4.x_label = "frame";
     f4.y_label = "N_SURF (interest points per frame)";
     f4.key = "outside right top";
+    f4.y_from_zero = true;
     std::vector<double> ks, means;
     for (const ExpRun& r : runs) {
       f4.series.push_back(Series(r.label, FrameAxis(r.data),

@@ -236,8 +236,13 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
     return result;
   }
 
-  // Tracks, then a legend box.
-  const int lw = std::max(1, static_cast<int>(std::lround(std::max(cw, ch) / 700.0)));
+  // Tracks (in order: later ones on top, each over a white halo), then a legend box.
+  const double size_k = std::max(cw, ch) / 1000.0;  // line widths scale with the mosaic
+  const int lw = std::max(1, static_cast<int>(std::lround(size_k)));
+  auto thickness_of = [&](const MosaicTrack& tr) {
+    return std::max(2, static_cast<int>(std::lround(tr.line_width_px * size_k)));
+  };
+  std::vector<std::vector<cv::Point>> polylines;  // 4 fractional bits
   for (const MosaicTrack& tr : tracks) {
     std::vector<cv::Point> pts;
     for (const Eigen::Vector2d& p : tr.points_px) {
@@ -246,14 +251,19 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
       pts.emplace_back(static_cast<int>(std::lround(x * 16)),
                        static_cast<int>(std::lround(y * 16)));
     }
-    if (pts.empty()) continue;
-    const int thickness = std::max(1, tr.line_width_px * lw / 2);
-    // White halo under the line keeps it visible on any ground.
-    cv::polylines(canvas, pts, false, cv::Scalar(255, 255, 255), thickness + 2 * lw, cv::LINE_AA,
-                  4);
-    cv::polylines(canvas, pts, false, Bgr(tr.color_rgb), thickness, cv::LINE_AA, 4);
-    cv::circle(canvas, pts.front(), 16 * (thickness + 3 * lw), Bgr(tr.color_rgb), cv::FILLED,
-               cv::LINE_AA, 4);
+    polylines.push_back(std::move(pts));
+  }
+  for (std::size_t i = 0; i < tracks.size(); ++i) {  // halos first: lines never hide each other
+    if (polylines[i].empty()) continue;
+    cv::polylines(canvas, polylines[i], false, cv::Scalar(255, 255, 255),
+                  thickness_of(tracks[i]) + 2 * lw, cv::LINE_AA, 4);
+  }
+  for (std::size_t i = 0; i < tracks.size(); ++i) {
+    if (polylines[i].empty()) continue;
+    const int thickness = thickness_of(tracks[i]);
+    cv::polylines(canvas, polylines[i], false, Bgr(tracks[i].color_rgb), thickness, cv::LINE_AA, 4);
+    cv::circle(canvas, polylines[i].front(), 16 * (thickness + lw), Bgr(tracks[i].color_rgb),
+               cv::FILLED, cv::LINE_AA, 4);
   }
   const double font = 0.5 * lw + 0.2;
   const int line_h = static_cast<int>(28 * font) + 6;
@@ -273,7 +283,7 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
     for (std::size_t i = 0; i < tracks.size(); ++i) {
       const int y = legend.y + pad / 2 + static_cast<int>(i) * line_h + line_h / 2;
       cv::line(canvas, {legend.x + pad, y}, {legend.x + pad + 40 * lw, y}, Bgr(tracks[i].color_rgb),
-               std::max(2, tracks[i].line_width_px * lw / 2), cv::LINE_AA);
+               thickness_of(tracks[i]), cv::LINE_AA);
       cv::putText(canvas, tracks[i].name, {legend.x + 2 * pad + 40 * lw, y + line_h / 3},
                   cv::FONT_HERSHEY_SIMPLEX, font, cv::Scalar(0, 0, 0), std::max(1, lw),
                   cv::LINE_AA);

@@ -31,7 +31,9 @@ struct MosaicTrack {
   std::vector<Eigen::Vector2d> points_px;
   /// Colour as 0xRRGGBB.
   unsigned color_rgb = 0xD55E00;
-  int line_width_px = 3;  ///< On the mosaic image.
+  /// Line width in pixels per 1000 px of mosaic (so 2000 px mosaics get twice as wide lines),
+  /// at least 2 px.
+  int line_width_px = 3;
 };
 
 struct MosaicResult {

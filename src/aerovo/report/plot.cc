@@ -135,6 +135,7 @@ std::string GnuplotScript(const Figure& f, const fs::path& data_file, const fs::
   s += "set tics out nomirror\n";
   if (f.equal_axes) s += "set size ratio -1\n";
   if (f.log_y) s += "set logscale y\n";
+  if (f.y_from_zero && !f.log_y) s += "set yrange [0:*]\n";
   std::string plot = "plot ";
   const std::string data = Quote(data_file.string());
   for (std::size_t k = 0; k < f.series.size(); ++k) {

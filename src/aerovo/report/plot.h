@@ -45,6 +45,8 @@ struct Figure {
   bool equal_axes = false;
   /// Logarithmic y axis (e.g. stage times spanning decades).
   bool log_y = false;
+  /// Start the y axis at 0 (counts).
+  bool y_from_zero = false;
   /// gnuplot key placement, e.g. "top right", "bottom left", "outside right top".
   std::string key = "top right";
   int width_px = 900;  ///< Size of the SVG and PNG, pixels.
