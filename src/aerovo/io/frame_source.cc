@@ -159,8 +159,16 @@ bool VideoFileSource::Next(Frame& frame) {
     image = &first_frame_;
   } else {
     first_frame_.release();
-    const int target = next_index_ - 1 + options_.step;
-    const bool ok = GrabTo(target) && capture_.read(bgr_) && !bgr_.empty();
+    // The frame after the last delivered one may already be grabbed (look-ahead below).
+    const int target = (lookahead_grabbed_ ? next_index_ - 2 : next_index_ - 1) + options_.step;
+    bool ok;
+    if (lookahead_grabbed_ && target == next_index_ - 1) {
+      ok = capture_.retrieve(bgr_) && !bgr_.empty();
+    } else {
+      ok = GrabTo(target) && capture_.read(bgr_) && !bgr_.empty();
+      if (ok) ++next_index_;
+    }
+    lookahead_grabbed_ = false;
     if (!ok) {
       done_ = true;
       if (frame_count_ > 0 && target < frame_count_ - 1) {
@@ -170,13 +178,28 @@ bool VideoFileSource::Next(Frame& frame) {
       }
       return false;
     }
-    index = next_index_;
-    ++next_index_;
+    index = next_index_ - 1;
     image = &bgr_;
   }
   const double t = fps_ > 0.0 ? index / fps_ : capture_.get(cv::CAP_PROP_POS_MSEC) / 1000.0;
   if (t > options_.end_time_s) {
     done_ = true;
+    return false;
+  }
+  // Look-ahead: a file cut mid-frame ends with a partial packet that FFmpeg still decodes into
+  // an incomplete or stale image (measured on a cut MJPG AVI: the last frame came out as a copy
+  // of the one before, i.e. a silently wrong zero-motion step). So the next frame is grabbed
+  // now; when the stream ends before its header's frame count, this last decoded frame is the
+  // cut one and is dropped.
+  if (capture_.grab()) {
+    ++next_index_;
+    lookahead_grabbed_ = true;
+  } else if (frame_count_ > 0 && index < frame_count_ - 1) {
+    done_ = true;
+    warnings_.push_back(fmt::format(
+        "video '{}' ended at frame {} but its header announces {} frames (truncated?); frame "
+        "{}, the last one decoded, is dropped: a file cut mid-frame leaves it incomplete",
+        path_.string(), index + 1, frame_count_, index));
     return false;
   }
   if (image->cols != width_ || image->rows != height_) {

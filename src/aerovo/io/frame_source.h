@@ -73,7 +73,9 @@ class FrameSource {
 /// A video file read with cv::VideoCapture (FFmpeg backend).
 /// Opening throws InputError "cannot open video '<path>': <reason>" for a missing or empty
 /// file, a file FFmpeg cannot read (text named .mp4, truncated container) or a video whose
-/// first frame cannot be decoded.
+/// first frame cannot be decoded. A video that ends before its header's frame count (a cut
+/// file) ends with a warning, and its last decoded frame is dropped: FFmpeg decodes the cut
+/// final packet into an incomplete image (the next frame is grabbed ahead to know).
 class VideoFileSource : public FrameSource {
  public:
   explicit VideoFileSource(const std::filesystem::path& path,
@@ -98,6 +100,7 @@ class VideoFileSource : public FrameSource {
   int next_index_ = 0;  // index of the frame the next grab() returns
   bool first_ = true;
   bool done_ = false;
+  bool lookahead_grabbed_ = false;  // frame next_index_ - 1 is grabbed, not yet retrieved
   cv::Mat bgr_;
   cv::Mat first_frame_;  // decoded at open to prove the file is readable
 };
