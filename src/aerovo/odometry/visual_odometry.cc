@@ -244,15 +244,22 @@ FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
   r.n_surf = static_cast<int>(features.features.size());
   const bool usable = r.n_surf >= o.min_features;
 
+  // No usable frame yet (the flight starts dark, blank or textureless): there is nothing to
+  // match against, so the first usable frame starts the trajectory where the bridged frames
+  // left it (the origin: nothing has moved it). Without this every later frame would be bridged
+  // with zero motion for the whole flight.
+  const bool no_reference_yet =
+      r.index > 0 && usable && !s.prev && !s.last_good && s.keyframes.empty();
   std::optional<double> heading_override;
-  if (r.index == 0) s.yaw0_deg = yaw_deg;
+  if (r.index == 0 || no_reference_yet) s.yaw0_deg = yaw_deg;
   if (o.heading_from_yaw && yaw_deg && s.yaw0_deg && o.scale_mode == ScaleMode::kMetric) {
     heading_override = -(*yaw_deg - *s.yaw0_deg) * M_PI / 180.0;
   }
 
-  if (r.index == 0) {
+  if (r.index == 0 || no_reference_yet) {
     s.chain = PoseChain(o.scale_mode, frame.width, frame.height);
     s.chain.Start(gsd);
+    s.have_velocity = false;
     r.status = FrameStatus::kFirst;
   } else {
     // Candidate references, the previous usable frame first.

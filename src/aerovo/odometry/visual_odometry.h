@@ -113,7 +113,7 @@ void Validate(const OdometryOptions& options);
 
 /// What happened to a frame.
 enum class FrameStatus {
-  kFirst,       ///< First frame: the origin of the trajectory.
+  kFirst,       ///< First frame, or first usable frame after unusable ones only: the origin.
   kOk,          ///< Step estimated against the previous frame.
   kReacquired,  ///< Step estimated against the last good frame or a keyframe (relocalised).
   kBridged,     ///< Step failed: pose predicted with the previous step's motion.
