@@ -472,9 +472,20 @@ void CompareWithTruth(const ReferenceTrack& truth, const std::vector<TrajectoryP
 
 }  // namespace
 
-RunSummary RunFlight(const RunConfig& given, const RunCallbacks& cb,
+RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
                      const std::atomic<bool>* stop) {
+  Validate(config);
+  FrameSourceOptions so;
+  so.step = config.step;
+  so.start_time_s = config.start_s;
+  if (config.end_s >= 0.0) so.end_time_s = config.end_s;
+  return RunFlight(config, OpenFrameSource(config.input, so), cb, stop);
+}
+
+RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source,
+                     const RunCallbacks& cb, const std::atomic<bool>* stop) {
   Validate(given);
+  if (!source) throw InvalidArgument("RunFlight: the frame source is null");
   Stopwatch wall;
   RunSummary summary;
   // A simulated flight: fill in what was not given from its sim.json.
@@ -506,11 +517,6 @@ RunSummary RunFlight(const RunConfig& given, const RunCallbacks& cb,
   if (log) *log << "aerovo run: effective configuration\n" << ToJson(config).dump(2) << "\n";
 
   // Source.
-  FrameSourceOptions so;
-  so.step = config.step;
-  so.start_time_s = config.start_s;
-  if (config.end_s >= 0.0) so.end_time_s = config.end_s;
-  std::unique_ptr<FrameSource> source = OpenFrameSource(config.input, so);
   summary.source_description = source->Describe();
   summary.frames_expected = source->ExpectedFrameCount();
   if (config.max_frames > 0 &&
@@ -563,8 +569,10 @@ RunSummary RunFlight(const RunConfig& given, const RunCallbacks& cb,
   GeoReferencer georef(geo_options);
   std::unique_ptr<TrackWriterSet> writers;
   std::deque<PendingFrame> pending;
-  std::vector<TrajectoryPoint2D> local_track, gps_track;  // for the evaluation
-  std::vector<int> gps_frame;                             // index into local_track
+  // For the final comparisons, the only memory that grows with the run (the rest of the
+  // per-frame output is streamed to the files): per frame with a GPS fix, the VO position (local
+  // frame) and the fix (ENU), 48 bytes; with a truth file, every frame's VO position, 24 bytes.
+  std::vector<TrajectoryPoint2D> local_at_gps, gps_track, local_track;
   std::optional<double> last_height;
   bool warned_height = false;
   StageTimes sum;
@@ -608,6 +616,8 @@ RunSummary RunFlight(const RunConfig& given, const RunCallbacks& cb,
 
   Frame frame;
   bool stopped = false;
+  int frames_without_fix = 0;
+  int measured_steps = 0;  // frames whose step was estimated (ok or reacquired)
   while (true) {
     if (stop != nullptr && stop->load()) {
       stopped = true;
@@ -617,6 +627,7 @@ RunSummary RunFlight(const RunConfig& given, const RunCallbacks& cb,
     if (!source->Next(frame)) break;
     const std::optional<TelemetrySample> sample = sample_of(frame);
     const std::optional<GeoPoint> gps = GpsOf(sample);
+    if (!sample) ++frames_without_fix;
 
     if (!vo) {
       // First frame: the camera and the outputs can now be set up.
@@ -704,6 +715,7 @@ RunSummary RunFlight(const RunConfig& given, const RunCallbacks& cb,
     if (config.illumination_k != 1.0) view = ScaleBrightness(view, config.illumination_k, &dimmed);
     const FrameResult r = vo->Process(view, frame.time_s, height, yaw);
     georef.Observe(r.position_m, gps, yaw);
+    if (r.status == FrameStatus::kOk || r.status == FrameStatus::kReacquired) ++measured_steps;
     // world_from_frame is metric (local metres) or first-frame pixels depending on the scale
     // mode; relative to the first frame's it is first_px_from_frame in both.
     if (summary.frames_processed == 0) first_px_from_world = r.world_from_frame.inverse();
@@ -735,11 +747,11 @@ RunSummary RunFlight(const RunConfig& given, const RunCallbacks& cb,
     pending.push_back(std::move(p));
     flush(false);
 
-    local_track.push_back({frame.time_s, r.position_m.x(), r.position_m.y()});
+    if (truth) local_track.push_back({frame.time_s, r.position_m.x(), r.position_m.y()});
     if (gps && georef.has_enu()) {
       const Eigen::Vector3d e = georef.enu().Forward(*gps);
       gps_track.push_back({frame.time_s, e.x(), e.y()});
-      gps_frame.push_back(static_cast<int>(local_track.size()) - 1);
+      local_at_gps.push_back({frame.time_s, r.position_m.x(), r.position_m.y()});
       ++summary.frames_with_gps;
     }
     if (summary.frames_processed > 0)
@@ -761,6 +773,12 @@ RunSummary RunFlight(const RunConfig& given, const RunCallbacks& cb,
     writers->Close();
   }
   for (const std::string& w : source->warnings()) summary.warnings.push_back(w);
+  if (!telemetry.empty() && frames_without_fix > 0) {
+    summary.warnings.push_back(fmt::format(
+        "{} of {} frames have no telemetry fix (the telemetry does not cover them); their gps_* "
+        "cells are empty and they are not in the comparison with GPS",
+        frames_without_fix, summary.frames_processed));
+  }
 
   summary.interrupted = stopped;
   if (vo) {
@@ -768,6 +786,12 @@ RunSummary RunFlight(const RunConfig& given, const RunCallbacks& cb,
     summary.frames_ok = st.ok;
     summary.frames_reacquired = st.reacquired;
     summary.frames_bridged = st.bridged;
+    if (st.frames > 1 && measured_steps == 0) {
+      // Only the first frame "succeeded": nothing was measured, the track is a placeholder.
+      summary.warnings.push_back(
+          "no frame could be matched to another (dark, blank or textureless frames?): the "
+          "trajectory was not measured, every position is bridged");
+    }
   }
   summary.heading_source = georef.heading_source_used();
   const double n = std::max(1, summary.frames_processed);
@@ -777,19 +801,15 @@ RunSummary RunFlight(const RunConfig& given, const RunCallbacks& cb,
   summary.fps = summary.frames_processed / std::max(1e-9, summary.wall_s);
 
   if (gps_track.size() >= 3) {
-    std::vector<TrajectoryPoint2D> estimate;
-    estimate.reserve(gps_track.size());
-    for (int i : gps_frame) {
-      TrajectoryPoint2D q = local_track[static_cast<std::size_t>(i)];
-      if (georef.ready()) {
+    if (georef.ready()) {
+      for (TrajectoryPoint2D& q : local_at_gps) {
         const Eigen::Vector2d e = georef.EnuFromLocal({q.x, q.y});
         q.x = e.x();
         q.y = e.y();
       }
-      estimate.push_back(q);
     }
     try {
-      summary.evaluation = CompareTrajectories(estimate, gps_track);
+      summary.evaluation = CompareTrajectories(local_at_gps, gps_track);
     } catch (const InvalidArgument& e) {
       summary.warnings.push_back(std::string("no comparison with GPS: ") + e.what());
     }

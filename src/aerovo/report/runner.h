@@ -27,6 +27,8 @@
 
 namespace aerovo {
 
+class FrameSource;
+
 /// Everything a run can be told, as flags (cmd_run.cc) or as a JSON config file with the same
 /// keys (ToJson / RunConfigFromJson). Plain aggregate; Validate() checks it.
 struct RunConfig {
@@ -193,5 +195,13 @@ struct RunCallbacks {
 /// Throws InputError / InvalidArgument naming the file, frame or key for bad input.
 RunSummary RunFlight(const RunConfig& config, const RunCallbacks& callbacks = {},
                      const std::atomic<bool>* stop = nullptr);
+
+/// The same run on frames from `source` (any FrameSource: a custom camera driver, frames
+/// generated in memory, ...) instead of opening `config.input`, which then only names the run in
+/// the outputs. Telemetry comes from `config.telemetry` (the EXIF/XMP of the photos when
+/// `source` is an ImageFolderSource and no telemetry file is given). InvalidArgument for a null
+/// source.
+RunSummary RunFlight(const RunConfig& config, std::unique_ptr<FrameSource> source,
+                     const RunCallbacks& callbacks = {}, const std::atomic<bool>* stop = nullptr);
 
 }  // namespace aerovo
