@@ -148,7 +148,7 @@ void Execute(ExperimentArgs& a) {
   }
   fmt::print(">/\n");
   std::fflush(stdout);
-  if (result.interrupted) std::exit(130);
+  if (result.interrupted) std::exit(StopSignals::ExitCode(signal));
 }
 
 void AddExperiment(CLI::App* parent, const std::string& kind, const std::string& help) {

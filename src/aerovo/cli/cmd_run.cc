@@ -44,11 +44,14 @@ void Execute(RunArgs& a) {
   }
   if (cb.progress) std::fputs("\n", stderr);
   if (s.interrupted) {
-    std::cout << fmt::format(
-        "aerovo run: stopped by signal {} after {} frames{}; outputs in '{}' are complete up to "
-        "that frame\n",
-        signal, s.frames_processed,
-        s.frames_expected > 0 ? fmt::format(" of {}", s.frames_expected) : "", s.out_dir.string());
+    // On stderr: with --print-poses stdout is the pose stream.
+    std::cerr << fmt::format(
+        "aerovo run: interrupted by {} after {} of {} frames; the outputs in '{}' are valid and "
+        "complete up to the last frame processed (summary.json says interrupted)\n",
+        StopSignals::Name(signal), s.frames_processed,
+        s.frames_expected >= 0 ? std::to_string(s.frames_expected) : std::string("?"),
+        s.out_dir.string());
+    std::cerr.flush();
   }
   if (!config.quiet) {
     for (const std::string& w : s.warnings) std::cout << "warning: " << w << "\n";
@@ -70,7 +73,7 @@ void Execute(RunArgs& a) {
     }
     std::cout.flush();
   }
-  if (s.interrupted) std::exit(130);  // conventional exit status after SIGINT
+  if (s.interrupted) std::exit(StopSignals::ExitCode(signal));  // 130 SIGINT, 143 SIGTERM
 }
 
 void Register(CLI::App& app) {

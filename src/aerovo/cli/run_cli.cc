@@ -139,7 +139,9 @@ StopSignals::StopSignals() {
   struct sigaction sa {};
   sa.sa_handler = OnStopSignal;
   sigemptyset(&sa.sa_mask);
-  sa.sa_flags = 0;  // no SA_RESTART: a blocking read returns and the loop sees the flag
+  // No SA_RESTART: a blocking read returns and the loop sees the flag. SA_RESETHAND: the next
+  // signal of the same kind takes the default action (kills).
+  sa.sa_flags = SA_RESETHAND;
   sigaction(SIGINT, &sa, &old_int_);
   sigaction(SIGTERM, &sa, &old_term_);
 }
@@ -151,6 +153,14 @@ StopSignals::~StopSignals() {
 
 const std::atomic<bool>* StopSignals::stop() const { return &g_stop; }
 int StopSignals::signal() const { return static_cast<int>(g_signal); }
+
+std::string StopSignals::Name(int signal) {
+  if (signal == SIGINT) return "SIGINT";
+  if (signal == SIGTERM) return "SIGTERM";
+  return "signal " + std::to_string(signal);
+}
+
+int StopSignals::ExitCode(int signal) { return 128 + (signal > 0 ? signal : SIGINT); }
 
 void DrawProgress(int done, int expected, double fps, const std::string& prefix) {
   std::string line;

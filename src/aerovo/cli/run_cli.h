@@ -34,8 +34,9 @@ struct RunFlags {
 void AddRunFlags(CLI::App* cmd, RunFlags& flags, const std::set<std::string>& skip = {});
 
 /// While alive, SIGINT and SIGTERM set stop() instead of killing the process (no SA_RESTART: a
-/// blocking read returns and the run loop sees the flag); the destructor restores the previous
-/// handlers. One instance at a time.
+/// blocking read returns and the run loop sees the flag); a second signal kills at once (for a run
+/// that cannot stop; its outputs are valid anyway, every record being flushed as written). The
+/// destructor restores the previous handlers. One instance at a time.
 class StopSignals {
  public:
   StopSignals();
@@ -45,6 +46,11 @@ class StopSignals {
   const std::atomic<bool>* stop() const;
   bool stopped() const { return stop()->load(); }
   int signal() const;  ///< The signal received, 0 if none.
+  /// "SIGINT", "SIGTERM" or "signal N".
+  static std::string Name(int signal);
+  /// The conventional exit status of a process stopped by `signal`: 128 + its number (130 for
+  /// SIGINT, 143 for SIGTERM); 130 when `signal` is 0.
+  static int ExitCode(int signal);
 
  private:
   struct sigaction old_int_ {};
