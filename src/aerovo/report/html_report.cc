@@ -269,6 +269,11 @@ class FigureSink {
     if (options_.log) *options_.log << "  figure " << files.svg.string() << "\n";
   }
 
+  void Note(const std::string& text) {
+    page_.Note(text);
+    result_.notes.push_back(text);
+  }
+
   void AddImage(const fs::path& file, const std::string& id, const std::string& caption) {
     std::string ext = file.extension().string();
     const std::string mime = (ext == ".png") ? "image/png" : "image/jpeg";
@@ -532,51 +537,64 @@ std::vector<Eigen::Vector2d> GpsInFirstFramePixels(const RunData& run, const Run
   return out;
 }
 
-void RunFigures(const RunData& run, const RunComparison& cmp, FigureSink& sink) {
-  // Fig. 2
-  {
-    Figure f;
-    f.name = "fig2_trajectory";
-    f.x_label = "east (m)";
-    f.y_label = "north (m)";
-    f.equal_axes = true;
-    f.key = "outside right top";
-    f.width_px = 1000;
-    f.height_px = 700;
-    if (cmp.comparison) {
-      const TrajectoryComparison& c = *cmp.comparison;
-      std::vector<double> gx, gy;
-      for (const TrajectoryPoint2D& p : cmp.reference) {
-        gx.push_back(p.x);
-        gy.push_back(p.y);
-      }
-      f.series.push_back(Series(cmp.reference_name, gx, gy, SeriesStyle::kLinesPoints, "#000000"));
-      f.series.back().point_size = 0.35;
-      f.series.back().line_width = 1.0;
-      std::vector<double> x, y;
-      AlignedTrack(run, c.se2.alignment.enu_from_vo, &x, &y);
-      f.series.push_back(Series("VO, SE(2)-aligned", x, y, SeriesStyle::kLines, "#D55E00"));
-      f.series.back().line_width = 2.0;
-      x.clear();
-      y.clear();
-      AlignedTrack(run, c.sim2.alignment.enu_from_vo, &x, &y);
-      f.series.push_back(Series("VO, Sim(2)-aligned", x, y, SeriesStyle::kLines, "#0072B2"));
-      f.series.back().dashed = true;
-      f.series.push_back(
-          Series("start", {gx.front()}, {gy.front()}, SeriesStyle::kPoints, "#009E73"));
-      f.series.back().point_size = 1.5;
-      f.title = fmt::format(
-          "Fig. 2: VO trajectory against {} (local ENU; ATE RMSE SE(2) {:.2f} m, Sim(2) {:.2f} m "
-          "over {:.0f} m)",
-          cmp.reference_name, c.se2.ate_m.rmse, c.sim2.ate_m.rmse, c.se2.distance_flown_m);
-    } else {
-      std::vector<double> x, y;
-      AlignedTrack(run, Similarity2D{}, &x, &y);
-      f.series.push_back(Series("VO", x, y, SeriesStyle::kLines, "#D55E00"));
-      f.title = "Fig. 2: VO trajectory (no GPS to compare with)";
+// Fig. 2: the VO track against `cmp`'s reference after its SE(2) (and Sim(2)) alignment.
+void TrajectoryFigure(const RunData& run, const RunComparison& cmp, const std::string& name,
+                      FigureSink& sink) {
+  Figure f;
+  f.name = name;
+  f.x_label = "east (m)";
+  f.y_label = "north (m)";
+  f.equal_axes = true;
+  f.key = "outside right top";
+  f.width_px = 1000;
+  f.height_px = 700;
+  if (cmp.comparison) {
+    const TrajectoryComparison& c = *cmp.comparison;
+    std::vector<double> gx, gy;
+    for (const TrajectoryPoint2D& p : cmp.reference) {
+      gx.push_back(p.x);
+      gy.push_back(p.y);
     }
-    sink.Add(f, "Fig. 2 of the paper: the computed trajectory against " + cmp.reference_name +
-                    ", after the alignment used by the summary.");
+    f.series.push_back(Series(cmp.reference_name, gx, gy, SeriesStyle::kLinesPoints, "#000000"));
+    f.series.back().point_size = 0.35;
+    f.series.back().line_width = 1.0;
+    std::vector<double> x, y;
+    AlignedTrack(run, c.se2.alignment.enu_from_vo, &x, &y);
+    f.series.push_back(Series("VO, SE(2)-aligned", x, y, SeriesStyle::kLines, "#D55E00"));
+    f.series.back().line_width = 2.0;
+    x.clear();
+    y.clear();
+    AlignedTrack(run, c.sim2.alignment.enu_from_vo, &x, &y);
+    f.series.push_back(Series("VO, Sim(2)-aligned", x, y, SeriesStyle::kLines, "#0072B2"));
+    f.series.back().dashed = true;
+    f.series.push_back(
+        Series("start", {gx.front()}, {gy.front()}, SeriesStyle::kPoints, "#009E73"));
+    f.series.back().point_size = 1.5;
+    f.title = fmt::format(
+        "Fig. 2: VO trajectory against {} (local ENU; ATE RMSE SE(2) {:.2f} m, Sim(2) {:.2f} m "
+        "over {:.0f} m)",
+        cmp.reference_name, c.se2.ate_m.rmse, c.sim2.ate_m.rmse, c.se2.distance_flown_m);
+  } else {
+    std::vector<double> x, y;
+    AlignedTrack(run, Similarity2D{}, &x, &y);
+    f.series.push_back(Series("VO", x, y, SeriesStyle::kLines, "#D55E00"));
+    f.title = "Fig. 2: VO trajectory (no GPS to compare with)";
+  }
+  sink.Add(f, "Fig. 2 of the paper: the computed trajectory against " + cmp.reference_name +
+                  ", after the alignment used by the summary.");
+}
+
+void RunFigures(const RunData& run, const RunComparison& cmp, FigureSink& sink) {
+  TrajectoryFigure(run, cmp, "fig2_trajectory", sink);
+  // Against the ground truth too, when the run was compared with one (aerovo run --truth).
+  const std::string truth = JsonString(run.summary, "truth");
+  if (!truth.empty()) {
+    try {
+      const RunComparison t = CompareWithTruthFile(run, truth);
+      if (t.comparison) TrajectoryFigure(run, t, "fig2_trajectory_truth", sink);
+    } catch (const InputError& e) {
+      sink.Note(std::string("no figure against the ground truth: ") + e.what());
+    }
   }
   const std::vector<double> frames = FrameAxis(run);
   // Fig. 3

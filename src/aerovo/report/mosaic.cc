@@ -166,6 +166,8 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
     cv::initUndistortRectifyMap(k, cv::Vec<double, 5>(k1, k2, p1, p2, k3), cv::Matx33d::eye(), k,
                                 cv::Size(w, h), CV_16SC2, map1, map2);
   }
+  // The run saw the frames dimmed by illumination_k (illumination experiment): so does the mosaic.
+  const double illumination_k = ConfigValue<double>(run.config, "illumination_k", 1.0);
   const int last_frame = run.transforms.back().frame;
   try {
     std::unique_ptr<FrameSource> source = OpenFrameSource(input_path.string(), so);
@@ -182,6 +184,11 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
         cv::Mat u;
         cv::remap(color, u, map1, map2, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
         color = u;
+      }
+      if (illumination_k > 0.0 && illumination_k < 1.0) {
+        cv::Mat dimmed;
+        color.convertTo(dimmed, -1, illumination_k, 0.0);
+        color = dimmed;
       }
       const cv::Matx23d& a = it->second;
       cv::Matx33d first_from_frame(a(0, 0), a(0, 1), a(0, 2), a(1, 0), a(1, 1), a(1, 2), 0, 0, 1);

@@ -8,6 +8,7 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/geo/local_enu.h"
+#include "aerovo/io/reference_track.h"
 #include "aerovo/io/track_writers.h"
 
 namespace aerovo {
@@ -218,6 +219,38 @@ RunComparison CompareWithReference(const RunData& run,
     c.vo.push_back({f.time_s, f.x_m, f.y_m});
     c.reference.push_back({f.time_s, it->second->east_m, it->second->north_m});
     c.row.push_back(static_cast<int>(i));
+  }
+  Compare(c);
+  return c;
+}
+
+RunComparison CompareWithTruthFile(const RunData& run, const fs::path& truth_path) {
+  const ReferenceTrack truth = ReadReferenceTrack(truth_path);
+  RunComparison c;
+  c.reference_name = "ground truth";
+  std::vector<TrajectoryPoint2D> estimate;
+  std::optional<GeoPoint> first_fix;
+  for (const RunFrameRow& f : run.frames) {
+    estimate.push_back({f.time_s, f.x_m, f.y_m});
+    if (!first_fix && f.gps) first_fix = f.gps;
+  }
+  std::vector<TrajectoryPoint2D> reference;
+  if (truth.geographic) {
+    const LocalEnu enu(first_fix ? *first_fix : *truth.points.front().geo);
+    for (const ReferencePoint& p : truth.points) {
+      const Eigen::Vector3d e = enu.Forward(*p.geo);
+      reference.push_back({p.time_s, e.x(), e.y()});
+    }
+  } else {
+    for (const ReferencePoint& p : truth.points) reference.push_back({p.time_s, p.x_m, p.y_m});
+  }
+  try {
+    const AssociatedTrajectories a = AssociateByTime(estimate, reference);
+    c.vo = a.estimate;
+    c.reference = a.reference;
+    c.row = a.estimate_index;
+  } catch (const InvalidArgument&) {
+    return c;  // no pairs: no comparison
   }
   Compare(c);
   return c;

@@ -73,6 +73,13 @@ RunComparison CompareWithGps(const RunData& run);
 RunComparison CompareWithReference(const RunData& run,
                                    const std::vector<GroundTruthPoint>& ground_truth);
 
+/// The run's VO track against a ground-truth file (io/reference_track.h: TUM, or a telemetry
+/// file with positions such as the simulator's ground_truth.csv), as `aerovo run --truth` compares
+/// them in summary.json: matched by time; geographic truth converted to the run's ENU frame
+/// (origin: the first GPS fix of frames.csv, else the truth's first point), TUM truth taken as
+/// metres of the run's frame. Throws InputError when the file cannot be read.
+RunComparison CompareWithTruthFile(const RunData& run, const std::filesystem::path& truth);
+
 /// A CSV line split into fields (RFC 4180 quotes).
 std::vector<std::string> SplitCsvLine(const std::string& line);
 
