@@ -537,6 +537,24 @@ std::vector<Eigen::Vector2d> GpsInFirstFramePixels(const RunData& run, const Run
   return out;
 }
 
+// A map (equal axes) gets the height that fits its data's aspect: no empty bands above and below.
+void FitMapHeight(Figure& f) {
+  double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+  for (const PlotSeries& s : f.series) {
+    for (std::size_t i = 0; i < s.x.size(); ++i) {
+      if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) continue;
+      x0 = std::min(x0, s.x[i]);
+      x1 = std::max(x1, s.x[i]);
+      y0 = std::min(y0, s.y[i]);
+      y1 = std::max(y1, s.y[i]);
+    }
+  }
+  if (!(x1 > x0) || !(y1 > y0)) return;
+  const double plot_width_px = f.width_px - 360.0;  // key outside on the right, margins
+  const double h = plot_width_px * (y1 - y0) / (x1 - x0) + 170.0;  // title, labels
+  f.height_px = static_cast<int>(std::clamp(h, 360.0, 900.0));
+}
+
 // Fig. 2: the VO track against `cmp`'s reference after its SE(2) (and Sim(2)) alignment.
 void TrajectoryFigure(const RunData& run, const RunComparison& cmp, const std::string& name,
                       FigureSink& sink) {
@@ -580,6 +598,7 @@ void TrajectoryFigure(const RunData& run, const RunComparison& cmp, const std::s
     f.series.push_back(Series("VO", x, y, SeriesStyle::kLines, "#D55E00"));
     f.title = "Fig. 2: VO trajectory (no GPS to compare with)";
   }
+  FitMapHeight(f);
   sink.Add(f, "Fig. 2 of the paper: the computed trajectory against " + cmp.reference_name +
                   ", after the alignment used by the summary.");
 }
@@ -923,6 +942,7 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
       page.Note("No trajectory figure: no run could be compared with " + ref_name + ".");
       return;
     }
+    FitMapHeight(f);
     sink.Add(f, caption);
   };
 
