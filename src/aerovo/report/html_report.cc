@@ -717,7 +717,7 @@ void RunReport(const fs::path& dir, const ReportOptions& options, Page& page,
     gps.name = cmp.reference_name + " (through the SE(2) alignment)";
     gps.points_px = GpsInFirstFramePixels(run, cmp);
     gps.color_rgb = 0x0072B2;
-    gps.line_width_px = 5;
+    gps.line_width_px = 4;
     if (!gps.points_px.empty()) tracks.push_back(gps);
     MosaicTrack vo;
     vo.name = "VO (estimated transforms)";

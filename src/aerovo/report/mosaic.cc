@@ -272,7 +272,7 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
     cv::circle(canvas, polylines[i].front(), 16 * (thickness + lw), Bgr(tracks[i].color_rgb),
                cv::FILLED, cv::LINE_AA, 4);
   }
-  const double font = 0.5 * lw + 0.2;
+  const double font = 0.35 * lw + 0.25;
   const int line_h = static_cast<int>(28 * font) + 6;
   int legend_w = 0;
   for (const MosaicTrack& tr : tracks) {
@@ -314,10 +314,10 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
   result.width_px = cw;
   result.height_px = ch;
   result.scale = s;
-  result.note = fmt::format(
-      "{} of {} frames warped (every {}{}), {}x{} px, {:.3f} mosaic px per "
-      "first-frame px",
-      result.frames_used, n_transforms, every, every == 1 ? "" : "th", cw, ch, s);
+  result.note =
+      fmt::format("{} of {} frames warped ({}), {}x{} px, {:.3f} mosaic px per first-frame px",
+                  result.frames_used, n_transforms,
+                  every == 1 ? std::string("all") : fmt::format("one in {}", every), cw, ch, s);
   return result;
 }
 
