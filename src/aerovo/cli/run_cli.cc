@@ -56,6 +56,10 @@ void AddRunFlags(CLI::App* cmd, RunFlags& a, const std::set<std::string>& skip) 
   if (want("telemetry")) {
     Bind(cmd, a, "--telemetry", &RunConfig::telemetry, "Telemetry file: DJI .srt, .gpx or .csv");
   }
+  if (want("lenient_telemetry")) {
+    BindFlag(cmd, a, "--lenient-telemetry", &RunConfig::lenient_telemetry,
+             "Skip malformed telemetry records (counted in the warnings) instead of stopping");
+  }
   if (want("truth")) {
     Bind(cmd, a, "--truth", &RunConfig::truth,
          "Ground truth to compare with beside GPS: TUM (.tum/.txt) or a track with positions "

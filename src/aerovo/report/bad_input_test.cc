@@ -14,6 +14,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <iostream>
 #include <map>
 #include <sstream>
 #include <string>
@@ -308,24 +310,20 @@ TEST(BadInput, IlluminationK002IsFlaggedNotInvented) {
   EXPECT_EQ(s.frames_processed, 8);
   const Track t = ReadTrack(dir / "run");
   ASSERT_EQ(t.status.size(), 8u);
+  // Measured: SURF (threshold 1000) finds fewer than 20 points on every frame.
   for (std::size_t i = 1; i < t.status.size(); ++i) {
-    // Either measured correctly (2 m east per frame) or flagged and not moved.
-    const Eigen::Vector2d step = t.xy_m[i] - t.xy_m[i - 1];
-    if (t.status[i] == "ok") {
-      EXPECT_NEAR(step.x(), 2.0, 0.2) << i;
-      EXPECT_NEAR(step.y(), 0.0, 0.2) << i;
-    } else {
-      EXPECT_EQ(t.status[i].rfind("bridged", 0), 0u) << t.status[i];
-      EXPECT_LT(step.norm(), 2.5) << i;
-    }
+    EXPECT_EQ(t.status[i], "bridged:too-few-features") << i;
+    EXPECT_EQ(t.xy_m[i].norm(), 0.0) << i;
   }
+  EXPECT_TRUE(HasWarning(s, "no frame could be matched"));
   fs::remove_all(dir);
 }
 
 // One frame mid-flight replaced by `bad`: it must be flagged, bridged with the previous motion
 // (2 m east), and the next frame re-acquired on the last good one; no jump anywhere.
 void ExpectOneBadFrameBridged(const std::string& name, const cv::Mat& bad,
-                              const std::string& expected_status_prefix) {
+                              const std::string& expected_status_prefix,
+                              const std::string& unexpected_status = "") {
   const fs::path dir = TempDir(name);
   std::vector<cv::Mat> frames = RenderAll(Leg(14));
   frames[7] = bad;
@@ -336,6 +334,7 @@ void ExpectOneBadFrameBridged(const std::string& name, const cv::Mat& bad,
   const Track t = ReadTrack(dir / "run");
   ASSERT_EQ(t.status.size(), 14u);
   EXPECT_EQ(t.status[7].rfind(expected_status_prefix, 0), 0u) << t.status[7];
+  EXPECT_NE(t.status[7], unexpected_status);
   EXPECT_EQ(t.status[8], "reacquired");
   for (int i = 1; i < 14; ++i) {
     const Eigen::Vector2d step = t.xy_m[i] - t.xy_m[i - 1];
@@ -350,17 +349,20 @@ TEST(BadInput, UniformGreyFrameIsBridged) {
                            "bridged:too-few-features");
 }
 
-// Water: a moving, glittering surface with texture but nothing that stays put between frames.
+// Water: a rippled, glittering surface, full of SURF points (blobs at every scale) none of
+// which is on the ground seen by the frames around it. The step must fail on matching, not
+// on a lack of features, and must not be guessed from chance matches.
 TEST(BadInput, WaterLikeNoiseFrameIsBridged) {
   cv::Mat water(kH, kW, CV_32F);
   cv::RNG rng(3);
-  rng.fill(water, cv::RNG::NORMAL, 90.0, 30.0);
-  cv::GaussianBlur(water, water, cv::Size(0, 0), 1.5);
+  rng.fill(water, cv::RNG::NORMAL, 0.0, 1.0);
+  cv::GaussianBlur(water, water, cv::Size(0, 0), 2.0);
+  cv::normalize(water, water, 0.0, 255.0, cv::NORM_MINMAX);
   cv::Mat glitter(kH, kW, CV_32F);
   rng.fill(glitter, cv::RNG::UNIFORM, 0.0, 1.0);
-  water.setTo(250.0, glitter > 0.995);
+  water.setTo(255.0, glitter > 0.995);
   water.convertTo(water, CV_8U);
-  ExpectOneBadFrameBridged("water", water, "bridged");
+  ExpectOneBadFrameBridged("water", water, "bridged:", "bridged:too-few-features");
 }
 
 TEST(BadInput, DuplicatedFramesDoNotMoveTheTrack) {
@@ -552,17 +554,28 @@ std::vector<TelemetryDamage> Damages() {
        },
        {":", "time"},
        {":", "time"}},
-      {"lat95_lon200",
+      {"lat_95",
        [](int i, std::vector<std::string>& l) {
          if (i == 5)
-           l[4] = "[latitude: 95.0] [longitude: 200.0] [rel_alt: 100.000 abs_alt: 400.000]";
+           l[4] = "[latitude: 95.0] [longitude: 24.03] [rel_alt: 100.000 abs_alt: 400.000]";
        },
        [](int i, std::string& p) {
          if (i == 5)
-           p = "<trkpt lat=\"95.0\" lon=\"200.0\"><time>2026-05-01T10:00:05Z</time></trkpt>\n";
+           p = "<trkpt lat=\"95.0\" lon=\"24.03\"><time>2026-05-01T10:00:05Z</time></trkpt>\n";
        },
-       {":", "95", "out of range"},
-       {":", "95", "out of range"}},
+       {":", "latitude 95 out of range"},
+       {":", "latitude 95 out of range"}},
+      {"lon_200",
+       [](int i, std::vector<std::string>& l) {
+         if (i == 5)
+           l[4] = "[latitude: 49.84] [longitude: 200.0] [rel_alt: 100.000 abs_alt: 400.000]";
+       },
+       [](int i, std::string& p) {
+         if (i == 5)
+           p = "<trkpt lat=\"49.84\" lon=\"200.0\"><time>2026-05-01T10:00:05Z</time></trkpt>\n";
+       },
+       {":", "longitude 200 out of range"},
+       {":", "longitude 200 out of range"}},
   };
 }
 
@@ -574,6 +587,7 @@ TEST(BadInput, DamagedSrtIsAnErrorNamingFileLineAndProblem) {
     const RunConfig c = TelemetryCase(dir, file, MakeSrt(GeoOf(Leg(12)), d.srt));
     std::vector<std::string> parts = d.srt_message;
     parts.push_back(file);
+    parts.push_back("--lenient-telemetry");
     ExpectInputError(c, parts);
     fs::remove_all(dir);
   }
@@ -587,8 +601,40 @@ TEST(BadInput, DamagedGpxIsAnErrorNamingFileLineAndProblem) {
     const RunConfig c = TelemetryCase(dir, file, MakeGpx(GeoOf(Leg(12)), d.gpx));
     std::vector<std::string> parts = d.gpx_message;
     parts.push_back(file);
+    parts.push_back("--lenient-telemetry");
     ExpectInputError(c, parts);
     fs::remove_all(dir);
+  }
+}
+
+// The same damaged files with --lenient-telemetry: the bad record is skipped and reported, the
+// run completes with the other fixes (the gap interpolated), and the comparison with GPS is as
+// good as with clean telemetry.
+TEST(BadInput, DamagedTelemetryWithLenientTelemetryIsSkippedAndReported) {
+  for (const TelemetryDamage& d : Damages()) {
+    for (const std::string ext : {".srt", ".gpx"}) {
+      SCOPED_TRACE(std::string(d.name) + ext);
+      const fs::path dir = TempDir(std::string("lenient_") + d.name);
+      const std::string file = std::string(d.name) + ext;
+      const std::vector<GeoPoint> fixes = GeoOf(Leg(12));
+      RunConfig c =
+          TelemetryCase(dir, file, ext == ".srt" ? MakeSrt(fixes, d.srt) : MakeGpx(fixes, d.gpx));
+      c.lenient_telemetry = true;
+      const RunSummary s = RunFlight(c);
+      EXPECT_EQ(s.frames_processed, 12);
+      EXPECT_EQ(s.frames_bridged, 0);
+      // Frame 5 lost its record; its fix is interpolated between frames 4 and 6 (telemetry.h).
+      EXPECT_EQ(s.frames_with_gps, 12);
+      EXPECT_TRUE(HasWarning(s, "1 malformed telemetry record(s) skipped"))
+          << fmt::format("{}", fmt::join(s.warnings, "\n"));
+      EXPECT_TRUE(HasWarning(s, file + ":")) << fmt::format("{}", fmt::join(s.warnings, "\n"));
+      ASSERT_TRUE(s.evaluation.has_value());
+      EXPECT_LT(s.evaluation->se2.ate_m.rmse, 0.3);
+      const Track t = ReadTrack(dir / "run");
+      ASSERT_EQ(t.xy_m.size(), 12u);
+      for (int i = 1; i < 12; ++i) EXPECT_NEAR((t.xy_m[i] - t.xy_m[i - 1]).norm(), 2.0, 0.1) << i;
+      fs::remove_all(dir);
+    }
   }
 }
 

@@ -67,6 +67,7 @@ void Validate(const RunConfig& c) {
 nlohmann::json ToJson(const RunConfig& c) {
   return nlohmann::json{{"input", c.input},
                         {"telemetry", c.telemetry},
+                        {"lenient_telemetry", c.lenient_telemetry},
                         {"truth", c.truth},
                         {"out", c.out},
                         {"step", c.step},
@@ -119,6 +120,7 @@ RunConfig RunConfigFromJson(const nlohmann::json& j, RunConfig c, const std::str
   }
   Take(j, "input", &c.input, source);
   Take(j, "telemetry", &c.telemetry, source);
+  Take(j, "lenient_telemetry", &c.lenient_telemetry, source);
   Take(j, "truth", &c.truth, source);
   Take(j, "out", &c.out, source);
   Take(j, "step", &c.step, source);
@@ -533,8 +535,27 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   Telemetry telemetry;
   bool by_frame_index = false;
   if (!config.telemetry.empty()) {
-    TelemetryReadResult t = ReadTelemetryFile(config.telemetry);
+    TelemetryReadOptions to;
+    to.lenient = config.lenient_telemetry;
+    TelemetryReadResult t;
+    try {
+      t = ReadTelemetryFile(config.telemetry, to);
+    } catch (const InputError& e) {
+      // A malformed record (not a missing file or one without any record): say how to go on.
+      const std::string m = e.what();
+      if (to.lenient || m.find("no telemetry samples") != std::string::npos ||
+          !std::filesystem::is_regular_file(config.telemetry)) {
+        throw;
+      }
+      throw InputError(std::string(e.what()) +
+                       " (--lenient-telemetry skips malformed records instead)");
+    }
     telemetry = std::move(t.telemetry);
+    if (t.skipped_records > 0) {
+      summary.warnings.push_back(fmt::format(
+          "{}: {} malformed telemetry record(s) skipped (--lenient-telemetry), the first ones:",
+          config.telemetry, t.skipped_records));
+    }
     for (auto& w : t.warnings) summary.warnings.push_back(std::move(w));
     by_frame_index = telemetry.HasFrameIndices();
   } else if (folder != nullptr) {

@@ -36,6 +36,11 @@ struct RunConfig {
   std::string input;
   /// Telemetry file (.srt, .gpx, .csv); empty: none, or the photos' EXIF/XMP for a folder.
   std::string telemetry;
+  /// Malformed telemetry records (garbage line, missing latitude, out-of-range value, timestamp
+  /// out of order): false (default) = the run stops with an error naming the file and line;
+  /// true = they are skipped, counted and reported in the summary's warnings (their frames then
+  /// have no GPS). Default false: a damaged file is worth a look before trusting it.
+  bool lenient_telemetry = false;
   /// Ground-truth track to compare with, beside GPS (io/reference_track.h: the simulator's
   /// ground_truth.csv / .tum, any TUM file, or a telemetry file with positions); matched to the
   /// frames by time. Empty: none, or the simulator's ground_truth.csv when sim.json is found.
