@@ -914,8 +914,12 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
     f.width_px = 1000;
     f.height_px = 700;
     bool reference_drawn = false;
+    std::string skipped;
     for (const ExpRun& r : runs) {
-      if (!r.cmp.comparison) continue;
+      if (!r.cmp.comparison) {
+        skipped += (skipped.empty() ? "" : ", ") + r.label;
+        continue;
+      }
       if (!reference_drawn) {
         std::vector<double> gx, gy;
         if (!ground_truth.empty()) {
@@ -944,12 +948,16 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
     }
     FitMapHeight(f);
     sink.Add(f, caption);
+    if (!skipped.empty()) {
+      sink.Note("Not in the trajectory figure (fewer than 3 frames could be aligned with " +
+                ref_name + ", e.g. every step bridged): " + skipped + ".");
+    }
   };
 
   if (kind == "illumination") {
     Figure f4;
     f4.name = "fig4_nsurf_per_frame";
-    f4.title = "Fig. 4/5: N_SURF per frame at illumination f_k = k f";
+    f4.title = "Fig. 4: N_SURF per frame, one curve per illumination f_k = k f";
     f4.x_label = "frame";
     f4.y_label = "N_SURF (interest points per frame)";
     f4.key = "outside right top";
@@ -979,7 +987,7 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
       }
       Figure f5;
       f5.name = "fig5_mean_nsurf_vs_k";
-      f5.title = "Mean N_SURF per frame against the illumination factor k";
+      f5.title = "Fig. 5: mean N_SURF per frame against the illumination factor k";
       f5.x_label = "illumination factor k (pixel brightness x k)";
       f5.y_label = "mean N_SURF per frame";
       f5.key = "top left";
