@@ -25,7 +25,6 @@ struct ExperimentArgs {
   std::string kind;  // "illumination" | "ransac"
   RunFlags run;
   std::string out = "aerovo-experiment";
-  std::string ground_truth;
   bool simulate = false;
   bool no_report = false;
   std::string k_list;  // illumination
@@ -56,7 +55,6 @@ void Execute(ExperimentArgs& a) {
   ExperimentInput input;
   input.run = a.run.Resolve();
   input.out_dir = a.out;
-  input.ground_truth_csv = a.ground_truth;
   const bool quiet = input.run.quiet;
   IlluminationOptions illumination;
   if (a.kind == "illumination") {
@@ -69,8 +67,8 @@ void Execute(ExperimentArgs& a) {
     if (!input.run.input.empty()) {
       throw InvalidArgument("give an input flight or --simulate, not both");
     }
-    if (!a.ground_truth.empty()) {
-      throw InvalidArgument("--ground-truth is for a given input; --simulate has its own");
+    if (!input.run.truth.empty()) {
+      throw InvalidArgument("--truth is for a given input; --simulate has its own ground truth");
     }
     a.sim.sim.flight.pattern = sim::ParseFlightPattern(a.sim_pattern);
     Validate(a.sim);
@@ -92,7 +90,7 @@ void Execute(ExperimentArgs& a) {
     input.run.telemetry = flight.run.telemetry;
     input.run.focal_px = flight.run.focal_px;
     input.run.hfov_deg = 0.0;
-    input.ground_truth_csv = flight.ground_truth_csv.string();
+    input.run.truth = flight.run.truth;
   } else if (input.run.input.empty()) {
     throw InvalidArgument(
         "give an input flight (as for aerovo run: video, photo folder, with --telemetry, "
@@ -172,8 +170,6 @@ void AddExperiment(CLI::App* parent, const std::string& kind, const std::string&
                   "SURF threshold x k^2 in each run (the Hessian determinant scales with k^2); "
                   "default: the same threshold for every k, as the paper");
   }
-  cmd->add_option("--ground-truth", a.ground_truth,
-                  "ground_truth.csv of a simulated flight given as input (aerovo simulate)");
   cmd->add_flag("--no-report", a.no_report, "Do not write EXP/report.html");
   // Simulated flight.
   CLI::Option* sim = cmd->add_flag(

@@ -150,45 +150,6 @@ std::string FormatTableMarkdown(const ExperimentTable& t) {
 // ---------------------------------------------------------------------------------------------
 // Inputs
 
-std::vector<GroundTruthPoint> ReadGroundTruthCsv(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError("cannot open ground truth file '" + path.string() + "'");
-  const auto fail = [&](int line, const std::string& what) {
-    throw InputError(fmt::format("ground truth file '{}', line {}: {}", path.string(), line, what));
-  };
-  std::string line;
-  if (!std::getline(in, line)) fail(1, "empty file");
-  if (!line.empty() && line.back() == '\r') line.pop_back();
-  if (line.rfind("frame,time_s,east_m,north_m", 0) != 0) {
-    fail(1,
-         "expected a header starting 'frame,time_s,east_m,north_m' (ground_truth.csv of "
-         "aerovo simulate)");
-  }
-  std::vector<GroundTruthPoint> out;
-  int number = 1;
-  while (std::getline(in, line)) {
-    ++number;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty()) continue;
-    std::stringstream ss(line);
-    std::string cell;
-    double v[4];
-    for (int i = 0; i < 4; ++i) {
-      if (!std::getline(ss, cell, ',')) fail(number, "fewer than 4 columns");
-      char* end = nullptr;
-      v[i] = std::strtod(cell.c_str(), &end);
-      if (end == cell.c_str() || *end != '\0' || !std::isfinite(v[i])) {
-        fail(number, "'" + cell + "' is not a number");
-      }
-    }
-    if (v[0] < 0 || v[0] != std::floor(v[0]))
-      fail(number, "the frame index must be an integer >= 0");
-    out.push_back(GroundTruthPoint{static_cast<int>(v[0]), v[1], v[2], v[3]});
-  }
-  if (out.empty()) fail(number, "no frames");
-  return out;
-}
-
 sim::SimulationOptions DefaultExperimentSimulation() {
   sim::SimulationOptions o;
   o.fps = 3.0;
@@ -232,6 +193,7 @@ SimulatedFlight SimulateExperimentFlight(const ExperimentSimulation& options,
   f.run.input = m.frames_dir.string();
   f.run.telemetry = m.srt.string();
   f.run.focal_px = m.focal_px;
+  f.run.truth = m.csv.string();
   f.frames = m.frame_count;
   f.distance_m = m.distance_m;
   f.messages = out.messages;
@@ -285,7 +247,7 @@ TrajectoryDistance DistanceByFrame(const std::vector<FrameRecord>& a,
 }
 
 double DistanceFlownM(const ExperimentRun& run) {
-  if (run.ground_truth_eval) return run.ground_truth_eval->se2.distance_flown_m;
+  if (run.summary.truth_evaluation) return run.summary.truth_evaluation->se2.distance_flown_m;
   if (run.summary.evaluation) return run.summary.evaluation->se2.distance_flown_m;
   return run.summary.vo_path_length_m;
 }
@@ -367,7 +329,7 @@ void TrajectoryCells(const ExperimentRun& run, bool with_gt, std::vector<TableCe
   row->push_back(e ? Num(e->sim2.ate_m.rmse, 2) : NotAvailable());
   row->push_back(e ? Num(e->se2.end_point_error_percent, 2) : NotAvailable());
   if (with_gt) {
-    const auto& g = run.ground_truth_eval;
+    const auto& g = run.summary.truth_evaluation;
     row->push_back(g ? Num(g->se2.ate_m.rmse, 2) : NotAvailable());
     row->push_back(g ? Num(g->sim2.ate_m.rmse, 2) : NotAvailable());
     row->push_back(g ? Num(g->se2.end_point_error_percent, 2) : NotAvailable());
@@ -387,12 +349,13 @@ void TrajectoryColumns(bool with_gt, std::vector<std::string>* cols) {
 
 const char* kTrajectoryNote =
     "ATE = RMS absolute trajectory error after Umeyama alignment (SE(2): rotation + translation; "
-    "Sim(2): + scale) against GPS, and against the exact ground truth (GT) of a simulated "
-    "flight; end-point = error at the last frame after SE(2) alignment, % of the distance flown.";
+    "Sim(2): + scale) against GPS, and against the ground truth (GT: --truth, or the exact "
+    "ground truth of a simulated flight; matched by time); end-point = error at the last frame "
+    "after SE(2) alignment, % of the distance flown.";
 
 bool AnyGroundTruth(const std::vector<ExperimentRun>& runs) {
   return std::any_of(runs.begin(), runs.end(),
-                     [](const ExperimentRun& r) { return r.ground_truth_eval.has_value(); });
+                     [](const ExperimentRun& r) { return r.summary.truth_evaluation.has_value(); });
 }
 
 }  // namespace
@@ -594,23 +557,6 @@ void WriteOutputs(const ExperimentResult& result) {
   std::filesystem::rename(tmp, path);
 }
 
-std::optional<TrajectoryComparison> CompareWithGroundTruth(
-    const std::vector<FrameRecord>& frames, const std::map<int, GroundTruthPoint>& truth) {
-  std::vector<TrajectoryPoint2D> estimate, reference;
-  for (const FrameRecord& r : frames) {
-    const auto it = truth.find(r.frame);
-    if (it == truth.end()) continue;
-    estimate.push_back({r.time_s, r.x_m, r.y_m});
-    reference.push_back({r.time_s, it->second.east_m, it->second.north_m});
-  }
-  if (estimate.size() < 3) return std::nullopt;
-  try {
-    return CompareTrajectories(estimate, reference);
-  } catch (const InvalidArgument&) {
-    return std::nullopt;  // degenerate (e.g. the estimate never moved)
-  }
-}
-
 ExperimentResult RunExperiment(
     const std::string& kind, const ExperimentInput& input, const std::vector<PlannedRun>& plan,
     const std::function<std::vector<ExperimentTable>(const std::vector<ExperimentRun>&)>& tables,
@@ -619,21 +565,9 @@ ExperimentResult RunExperiment(
   if (input.out_dir.empty()) throw InvalidArgument("experiment: the output folder is empty");
   for (const PlannedRun& p : plan) Validate(p.config);  // every bad option before any work
 
-  std::map<int, GroundTruthPoint> truth;
   ExperimentResult result;
   result.kind = kind;
   result.out_dir = input.out_dir;
-  if (!input.ground_truth_csv.empty()) {
-    for (const GroundTruthPoint& g : ReadGroundTruthCsv(input.ground_truth_csv)) {
-      truth[g.frame] = g;
-    }
-    // Relative to EXP when inside it (the folder stays movable), else absolute.
-    const fs::path gt = fs::weakly_canonical(fs::absolute(input.ground_truth_csv));
-    const fs::path exp = fs::weakly_canonical(fs::absolute(input.out_dir));
-    const fs::path rel = gt.lexically_relative(exp);
-    const bool inside = !rel.empty() && *rel.begin() != "..";
-    result.ground_truth = inside ? rel.generic_string() : gt.string();
-  }
   std::error_code ec;
   fs::create_directories(input.out_dir, ec);
   if (ec) {
@@ -665,7 +599,15 @@ ExperimentResult RunExperiment(
       result.interrupted = true;
       break;
     }
-    if (!truth.empty()) run.ground_truth_eval = CompareWithGroundTruth(run.frames, truth);
+    if (result.ground_truth.empty() && !run.summary.truth.empty()) {
+      // The truth the runs used (given, or found from a simulated flight's sim.json): relative
+      // to EXP when inside it (the folder stays movable), else absolute.
+      const fs::path gt = fs::weakly_canonical(fs::absolute(run.summary.truth));
+      const fs::path exp = fs::weakly_canonical(fs::absolute(input.out_dir));
+      const fs::path rel = gt.lexically_relative(exp);
+      const bool inside = !rel.empty() && *rel.begin() != "..";
+      result.ground_truth = inside ? rel.generic_string() : gt.string();
+    }
     result.runs.push_back(std::move(run));
     result.tables = tables(result.runs);
     WriteOutputs(result);

@@ -11,8 +11,10 @@
 // Output folder EXP (the contract with the HTML report, report/html_report.h):
 //   EXP/experiment.json  {"kind": "illumination" | "ransac",
 //                         "runs": [{"label", "dir", "k"} | {"label", "dir", "mode"}, ...],
-//                         "ground_truth": path of ground_truth.csv (relative to EXP when inside
-//                                         it, else absolute) or null,
+//                         "ground_truth": the ground-truth file the runs compared with
+//                                         (RunConfig::truth; a simulated flight's
+//                                         ground_truth.csv), relative to EXP when inside it,
+//                                         else absolute; null when none,
 //                         "tables": {"<name>": {"columns": [string...],
 //                                               "rows": [[string | number, ...], ...]}, ...}}
 //   EXP/tables.md        the same tables in Markdown, with their titles and definitions
@@ -81,19 +83,6 @@ std::string FormatTableMarkdown(const ExperimentTable& table);
 // ---------------------------------------------------------------------------------------------
 // Inputs
 
-/// Exact ground truth of one frame, from ground_truth.csv of `aerovo simulate` (sim_writer.h):
-/// camera centre in the simulator's GT ENU frame, metres.
-struct GroundTruthPoint {
-  int frame = 0;
-  double time_s = 0.0;
-  double east_m = 0.0;
-  double north_m = 0.0;
-};
-
-/// Reads ground_truth.csv (header starting frame,time_s,east_m,north_m). Throws InputError naming
-/// the file and line for a missing file, a wrong header or a bad number.
-std::vector<GroundTruthPoint> ReadGroundTruthCsv(const std::filesystem::path& path);
-
 /// The simulator's defaults (lawnmower, 3 legs of 300 m 50 m apart at 100 m height and 10 m/s,
 /// 1280x720 camera with a 73.7 deg field of view, no image effects, exact GPS at 10 Hz) rendered
 /// at 3 frames per second: about 320 frames, 3.3 m (4 % of the along-track view) between frames,
@@ -123,8 +112,8 @@ void Validate(const ExperimentSimulation& options);
 struct SimulatedFlight {
   std::filesystem::path dir;               ///< Folder of sim.json.
   std::filesystem::path ground_truth_csv;  ///< Absolute.
-  /// input (the frames folder), telemetry (the SRT: GPS and height above ground) and focal_px
-  /// (the simulated camera's); everything else default.
+  /// input (the frames folder), telemetry (the SRT: GPS and height above ground), focal_px (the
+  /// simulated camera's) and truth (ground_truth_csv); everything else default.
   RunConfig run;
   int frames = 0;
   double distance_m = 0.0;            ///< Flown.
@@ -143,13 +132,11 @@ SimulatedFlight SimulateExperimentFlight(const ExperimentSimulation& options,
 
 /// What every experiment runs on.
 struct ExperimentInput {
-  /// The flight and every run parameter (RunConfig). `out` is ignored: run i goes to
-  /// out_dir/<dir of run i>. The experiment changes only its own parameter (illumination_k, or
+  /// The flight and every run parameter (RunConfig), including the ground truth to compare with
+  /// (RunConfig::truth; found from sim.json for a simulated flight). `out` is ignored: run i goes
+  /// to out_dir/<dir of run i>. The experiment changes only its own parameter (illumination_k, or
   /// mode).
   RunConfig run;
-  /// ground_truth.csv of a simulated flight (ReadGroundTruthCsv) to compare every run with;
-  /// empty = none. Frames are paired by frame index.
-  std::string ground_truth_csv;
   /// Output folder EXP (created). Default "aerovo-experiment".
   std::filesystem::path out_dir = "aerovo-experiment";
 };
@@ -182,10 +169,9 @@ struct ExperimentRun {
   double k = 1.0;     ///< Illumination factor of the run.
   std::string mode;   ///< Correspondence mode of the run.
   RunConfig config;   ///< The configuration the run used.
+  /// What RunFlight returned (summary.truth_evaluation: the comparison with the ground truth).
   RunSummary summary;
   std::vector<FrameRecord> frames;  ///< Every frame's record as written to frames.csv.
-  /// SE(2) and Sim(2) comparison with the ground truth, when given and at least 3 frames pair up.
-  std::optional<TrajectoryComparison> ground_truth_eval;
 };
 
 /// How far apart two trajectories of the same flight are: positions as written (the ENU frame of
