@@ -17,6 +17,7 @@
 #include "aerovo/cli/run_cli.h"
 #include "aerovo/core/error.h"
 #include "aerovo/report/experiment.h"
+#include "aerovo/report/html_report.h"
 
 namespace aerovo::cli {
 namespace {
@@ -145,6 +146,15 @@ void Execute(ExperimentArgs& a) {
     fmt::print("{}{}", i ? "|" : "", result.runs[i].dir);
   }
   fmt::print(">/\n");
+  if (!a.no_report && !result.interrupted && !result.runs.empty()) {
+    try {
+      const ReportResult r = WriteReport(a.out);
+      for (const std::string& n : r.notes) fmt::print("note: {}\n", n);
+      fmt::print("Report: {} ({:.1f} s)\n", r.html.string(), r.seconds);
+    } catch (const std::exception& e) {
+      fmt::print("warning: no report (the experiment's outputs are complete): {}\n", e.what());
+    }
+  }
   std::fflush(stdout);
   if (result.interrupted) std::exit(StopSignals::ExitCode(signal));
 }
@@ -170,7 +180,8 @@ void AddExperiment(CLI::App* parent, const std::string& kind, const std::string&
                   "SURF threshold x k^2 in each run (the Hessian determinant scales with k^2); "
                   "default: the same threshold for every k, as the paper");
   }
-  cmd->add_flag("--no-report", a.no_report, "Do not write EXP/report.html");
+  cmd->add_flag("--no-report", a.no_report,
+                "Do not write EXP/report.html and figures/ (aerovo report EXP does it later)");
   // Simulated flight.
   CLI::Option* sim = cmd->add_flag(
       "--simulate", a.simulate,

@@ -389,8 +389,9 @@ void TrajectoryColumns(bool with_gt, std::vector<std::string>* cols) {
 const char* kTrajectoryNote =
     "ATE = RMS absolute trajectory error after Umeyama alignment (SE(2): rotation + translation; "
     "Sim(2): + scale) against GPS, and against the ground truth (GT: --truth, or the exact "
-    "ground truth of a simulated flight; matched by time); end-point = error at the last frame "
-    "after SE(2) alignment, % of the distance flown.";
+    "ground truth of a simulated flight, as each run compares it: truth_evaluation in its "
+    "summary.json); end-point = error at the last frame after SE(2) alignment, % of the distance "
+    "flown.";
 
 bool AnyGroundTruth(const std::vector<ExperimentRun>& runs) {
   return std::any_of(runs.begin(), runs.end(),
@@ -596,6 +597,17 @@ void WriteOutputs(const ExperimentResult& result) {
   std::filesystem::rename(tmp, path);
 }
 
+// Whether `path` is a simulator ground_truth.csv (the contract's "ground_truth"; other truth
+// files, e.g. TUM, are compared with by the runner but not listed).
+bool IsGroundTruthCsv(const std::string& path) {
+  try {
+    ReadGroundTruthCsv(path);
+    return true;
+  } catch (const InputError&) {
+    return false;
+  }
+}
+
 ExperimentResult RunExperiment(
     const std::string& kind, const ExperimentInput& input, const std::vector<PlannedRun>& plan,
     const std::function<std::vector<ExperimentTable>(const std::vector<ExperimentRun>&)>& tables,
@@ -638,7 +650,8 @@ ExperimentResult RunExperiment(
       result.interrupted = true;
       break;
     }
-    if (result.ground_truth.empty() && !run.summary.truth.empty()) {
+    if (result.ground_truth.empty() && !run.summary.truth.empty() &&
+        IsGroundTruthCsv(run.summary.truth)) {
       // The truth the runs used (given, or found from a simulated flight's sim.json): relative
       // to EXP when inside it (the folder stays movable), else absolute.
       const fs::path gt = fs::weakly_canonical(fs::absolute(run.summary.truth));

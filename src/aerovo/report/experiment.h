@@ -11,10 +11,10 @@
 // Output folder EXP (the contract with the HTML report, report/html_report.h):
 //   EXP/experiment.json  {"kind": "illumination" | "ransac",
 //                         "runs": [{"label", "dir", "k"} | {"label", "dir", "mode"}, ...],
-//                         "ground_truth": the ground-truth file the runs compared with
-//                                         (RunConfig::truth; a simulated flight's
-//                                         ground_truth.csv), relative to EXP when inside it,
-//                                         else absolute; null when none,
+//                         "ground_truth": the simulator's ground_truth.csv the runs compared
+//                                         with (RunConfig::truth, or found from sim.json),
+//                                         relative to EXP when inside it, else absolute; null
+//                                         when none or another kind of truth file,
 //                         "tables": {"<name>": {"columns": [string...],
 //                                               "rows": [[string | number, ...], ...]}, ...}}
 //   EXP/tables.md        the same tables in Markdown, with their titles and definitions
