@@ -222,14 +222,16 @@ SimulatedFlight SimulateExperimentFlight(const ExperimentSimulation& options,
   }
   const sim::Simulator simulator(std::move(ground), options.sim);
   sim::WriterOptions w;
-  w.write_video = false;  // JPEG frames: no video encoder in the loop, frame-exact indices
+  // A video (H.264, as a drone records): its frames carry their times (index / fps), which the
+  // runner matches with the telemetry and the ground truth; a JPEG folder has no frame times.
+  w.write_video = true;
   const sim::SimulationOutput out = sim::WriteSimulation(simulator, w, dir, progress);
   const sim::SimulationManifest m = sim::ReadSimulationManifest(dir / out.json_file);
 
   SimulatedFlight f;
   f.dir = std::filesystem::absolute(dir);
   f.ground_truth_csv = m.csv;
-  f.run.input = m.frames_dir.string();
+  f.run.input = m.video.string();
   f.run.telemetry = m.srt.string();
   f.run.focal_px = m.focal_px;
   f.run.truth = m.csv.string();

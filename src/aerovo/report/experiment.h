@@ -125,7 +125,7 @@ void Validate(const ExperimentSimulation& options);
 struct SimulatedFlight {
   std::filesystem::path dir;               ///< Folder of sim.json.
   std::filesystem::path ground_truth_csv;  ///< Absolute.
-  /// input (the frames folder), telemetry (the SRT: GPS and height above ground), focal_px (the
+  /// input (the video), telemetry (the SRT: GPS and height above ground), focal_px (the
   /// simulated camera's) and truth (ground_truth_csv); everything else default.
   RunConfig run;
   int frames = 0;
@@ -133,7 +133,7 @@ struct SimulatedFlight {
   std::vector<std::string> messages;  ///< The simulator's warnings and notes.
 };
 
-/// Renders `options` into `dir` as `aerovo simulate --frames-only` does (JPEG frames, DJI SRT,
+/// Renders `options` into `dir` as `aerovo simulate` does (H.264 video, DJI SRT,
 /// GPX, ground truth, sim.json). `progress(done, total)` is called as frames are written.
 /// Throws InvalidArgument for bad options, InputError when a file cannot be read or written.
 SimulatedFlight SimulateExperimentFlight(const ExperimentSimulation& options,
