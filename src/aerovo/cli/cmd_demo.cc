@@ -1,4 +1,8 @@
-// `aerovo demo`: runs aerovo on its built-in generated aerial scene, needing no file.
+// `aerovo demo`: the full flight demo, needing no file (report/demo.h): a flight simulated over
+// the built-in terrain, the run, the paper's experiments, a summary and an index page.
+// `aerovo demo --surf-only`: SURF on one view of the built-in terrain (the first demo).
+#include <unistd.h>
+
 #include <fmt/core.h>
 
 #include <opencv2/imgcodecs.hpp>
@@ -8,19 +12,25 @@
 #include <string>
 
 #include "aerovo/cli/command.h"
+#include "aerovo/cli/run_cli.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/features/surf.h"
+#include "aerovo/report/demo.h"
 #include "aerovo/sim/terrain.h"
 
 namespace aerovo::cli {
 namespace {
 
 struct DemoArgs {
-  int width = 1280;
-  int height = 720;
+  bool surf_only = false;
+  bool quick = false;
+  bool no_experiments = false;
+  std::string out = "aerovo-demo";
+  int width = 0;  // 0 = the mode's default
+  int height = 0;
   std::uint64_t seed = 1;
-  int threads = 1;
+  int threads = -1;  // -1 = the mode's default
   std::string draw;
 };
 
@@ -29,7 +39,10 @@ GrayImageView View(const cv::Mat& gray) {
                        static_cast<std::ptrdiff_t>(gray.step)};
 }
 
-void RunDemo(const DemoArgs& args) {
+void RunSurfDemo(DemoArgs args) {
+  if (args.width == 0) args.width = 1280;
+  if (args.height == 0) args.height = 720;
+  if (args.threads < 0) args.threads = 1;
   Stopwatch clock;
   sim::TerrainOptions terrain;
   terrain.width_px = std::max(2048, args.width + 64);
@@ -79,17 +92,84 @@ void RunDemo(const DemoArgs& args) {
   }
 }
 
+void RunFlightDemo(const DemoArgs& args) {
+  if (!args.draw.empty()) throw InvalidArgument("--draw is an option of --surf-only");
+  DemoOptions o;
+  o.out_dir = args.out;
+  o.flight = DemoSimulation(args.quick);
+  if (args.width > 0) o.flight.sim.camera.width_px = args.width;
+  if (args.height > 0) o.flight.sim.camera.height_px = args.height;
+  o.flight.terrain_seed = args.seed;
+  o.experiments = !args.no_experiments;
+  if (args.quick) o.illumination.k = {1.0, 0.25};
+  o.threads = std::max(0, args.threads);
+  fmt::print(
+      "aerovo demo: a flight simulated over the built-in terrain, the visual odometry, the\n"
+      "paper's experiments (illumination, standard vs clustered RANSAC) -> {}\n",
+      args.out);
+  std::fflush(stdout);
+  const bool tty = ::isatty(STDERR_FILENO) != 0;
+  std::string stage;
+  Stopwatch stage_clock;
+  DemoCallbacks cb;
+  cb.stage_started = [&](const std::string& name, const std::string& what) {
+    if (tty) std::fputs("\r\033[K", stderr);
+    fmt::print("  {:<13}{}\n", name, what);
+    std::fflush(stdout);
+    stage = name;
+    stage_clock.restart();
+  };
+  if (tty) {
+    cb.progress = [&](int done, int total) {
+      const double s = stage_clock.elapsed_ms() / 1000.0;
+      DrawProgress(done, total, s > 0 ? done / s : 0.0, "  " + stage + " ");
+    };
+  }
+  DemoResult r;
+  {
+    const StopSignals signals;
+    r = RunDemo(o, cb, signals.stop());
+  }
+  if (tty) std::fputs("\r\033[K", stderr);
+  for (const std::string& n : r.notes) fmt::print("  note         {}\n", n);
+  fmt::print("\n{}\nOpen {} in a browser (reports, tables, tracks); everything is in {}/\n",
+             FormatDemoSummary(r), r.index_html.string(), args.out);
+  std::fflush(stdout);
+  if (r.interrupted) std::exit(130);
+}
+
 void Register(CLI::App& app) {
   auto args = std::make_shared<DemoArgs>();
   CLI::App* cmd = app.add_subcommand(
-      "demo", "Run aerovo on its built-in generated aerial scene (no input file needed)");
-  cmd->add_option("--width", args->width, "View width (px)")->check(CLI::Range(64, 8192));
-  cmd->add_option("--height", args->height, "View height (px)")->check(CLI::Range(64, 8192));
-  cmd->add_option("--seed", args->seed, "Terrain seed");
-  cmd->add_option("--threads", args->threads, "SURF threads (0 = all cores)")
+      "demo",
+      "The full demo, no input file needed: simulate a flight over the built-in terrain, run the "
+      "visual odometry on it, run the paper's experiments, compare with the exact ground truth "
+      "(--surf-only: SURF on one view of the terrain)");
+  cmd->add_option("-o,--out", args->out, "Output folder")->capture_default_str();
+  cmd->add_flag("--quick", args->quick,
+                "A small flight (263 m, 640x360, 53 frames) and 2 illumination runs: seconds");
+  cmd->add_flag("--no-experiments", args->no_experiments, "Only simulate and run");
+  cmd->add_flag("--surf-only", args->surf_only,
+                "Only SURF on one view of the built-in terrain (the first demo)");
+  cmd->add_option("--width", args->width,
+                  "Camera / view width (px); default 960 (flight), 1280 (--surf-only)")
+      ->check(CLI::Range(64, 8192));
+  cmd->add_option("--height", args->height,
+                  "Camera / view height (px); default 540 (flight), 720 (--surf-only)")
+      ->check(CLI::Range(64, 8192));
+  cmd->add_option("--seed", args->seed, "Terrain seed")->capture_default_str();
+  cmd->add_option("--threads", args->threads,
+                  "Threads (0 = all cores); default all (flight), 1 (--surf-only)")
       ->check(CLI::Range(0, 256));
-  cmd->add_option("--draw", args->draw, "Write the view with its keypoints to this image file");
-  cmd->callback([args] { RunDemo(*args); });
+  cmd->add_option("--draw", args->draw,
+                  "--surf-only: write the view with its keypoints to this image file");
+  cmd->callback([args] {
+    if (args->surf_only) {
+      RunSurfDemo(*args);
+    } else {
+      RunFlightDemo(*args);
+    }
+  });
 }
 
 AEROVO_REGISTER_COMMAND(Register);

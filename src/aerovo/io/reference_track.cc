@@ -70,6 +70,7 @@ ReferenceTrack ReadReferenceTrack(const std::filesystem::path& path) {
       ReferencePoint p;
       p.time_s = s.time_s;
       p.geo = GeoPoint{s.lat_deg, s.lon_deg, s.abs_alt_m.value_or(s.rel_alt_m.value_or(0.0))};
+      p.frame_index = s.frame_index;
       track.points.push_back(p);
     }
   }

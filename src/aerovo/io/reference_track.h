@@ -18,6 +18,9 @@ struct ReferencePoint {
   double time_s = 0.0;  ///< Seconds, as the file gives them (TUM: first column).
   double x_m = 0.0, y_m = 0.0;
   std::optional<GeoPoint> geo;
+  /// 0-based index of the video frame / photo, when the file says (CSV frame column, DJI SRT
+  /// FrameCnt): then frames are matched by index rather than by time.
+  std::optional<int> frame_index;
 };
 
 struct ReferenceTrack {

@@ -25,6 +25,7 @@ TEST(ReferenceTrack, ReadsTum) {
   EXPECT_DOUBLE_EQ(t.points[1].x_m, 2.5);
   EXPECT_DOUBLE_EQ(t.points[2].y_m, -2.0);
   EXPECT_FALSE(t.points[0].geo.has_value());
+  EXPECT_FALSE(t.points[0].frame_index.has_value());
 }
 
 TEST(ReferenceTrack, ReadsSimulatorCsv) {
@@ -41,6 +42,7 @@ TEST(ReferenceTrack, ReadsSimulatorCsv) {
   ASSERT_TRUE(t.points[1].geo.has_value());
   EXPECT_DOUBLE_EQ(t.points[1].geo->lon_deg, 6.555279924);
   EXPECT_DOUBLE_EQ(t.points[1].time_s, 0.2);
+  EXPECT_EQ(t.points[1].frame_index, 1);
 }
 
 TEST(ReferenceTrack, BadInputNamesFileAndLine) {

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <memory>
 #include <sstream>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -430,11 +431,13 @@ std::optional<sim::SimulationManifest> FindSimulationManifest(const std::string&
 }
 
 // Compares the processed frames' track (ENU when geo-referenced, else local) with the ground
-// truth, matched by time. Geographic truth goes into the run's ENU frame (origin: first GPS fix),
-// or without GPS into an ENU frame at the truth's first point (then only the aligned figures
-// mean anything); TUM truth is taken as metres of the run's frame.
+// truth, matched by frame index when every truth point has one (the simulator's CSV, DJI SRT;
+// photo folders have no reliable frame times), else by time. Geographic truth goes into the run's
+// ENU frame (origin: first GPS fix), or without GPS into an ENU frame at the truth's first point
+// (then only the aligned figures mean anything); TUM truth is taken as metres of the run's frame.
 void CompareWithTruth(const ReferenceTrack& truth, const std::vector<TrajectoryPoint2D>& track,
-                      const GeoReferencer& georef, RunSummary* summary) {
+                      const std::vector<int>& track_frames, const GeoReferencer& georef,
+                      RunSummary* summary) {
   std::vector<TrajectoryPoint2D> estimate = track;
   if (georef.ready()) {
     for (TrajectoryPoint2D& q : estimate) {
@@ -457,8 +460,22 @@ void CompareWithTruth(const ReferenceTrack& truth, const std::vector<TrajectoryP
   } else {
     for (const ReferencePoint& p : truth.points) reference.push_back({p.time_s, p.x_m, p.y_m});
   }
+  const bool by_index = std::all_of(truth.points.begin(), truth.points.end(),
+                                    [](const ReferencePoint& p) { return p.frame_index; });
   try {
-    const AssociatedTrajectories pairs = AssociateByTime(estimate, reference);
+    AssociatedTrajectories pairs;
+    if (by_index) {
+      std::unordered_map<int, std::size_t> at;
+      for (std::size_t i = 0; i < truth.points.size(); ++i) at[*truth.points[i].frame_index] = i;
+      for (std::size_t i = 0; i < estimate.size(); ++i) {
+        const auto it = at.find(track_frames[i]);
+        if (it == at.end()) continue;
+        pairs.estimate.push_back(estimate[i]);
+        pairs.reference.push_back(reference[it->second]);
+      }
+    } else {
+      pairs = AssociateByTime(estimate, reference);
+    }
     summary->frames_with_truth = static_cast<int>(pairs.estimate.size());
     if (pairs.estimate.size() < 3) {
       summary->warnings.push_back(
@@ -592,8 +609,10 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   std::deque<PendingFrame> pending;
   // For the final comparisons, the only memory that grows with the run (the rest of the
   // per-frame output is streamed to the files): per frame with a GPS fix, the VO position (local
-  // frame) and the fix (ENU), 48 bytes; with a truth file, every frame's VO position, 24 bytes.
+  // frame) and the fix (ENU), 48 bytes; with a truth file, every frame's VO position and index, 28
+  // bytes.
   std::vector<TrajectoryPoint2D> local_at_gps, gps_track, local_track;
+  std::vector<int> track_frames;  // frame index of each local_track point (with a truth file)
   std::optional<double> last_height;
   bool warned_height = false;
   StageTimes sum;
@@ -768,7 +787,10 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
     pending.push_back(std::move(p));
     flush(false);
 
-    if (truth) local_track.push_back({frame.time_s, r.position_m.x(), r.position_m.y()});
+    if (truth) {
+      local_track.push_back({frame.time_s, r.position_m.x(), r.position_m.y()});
+      track_frames.push_back(frame.index);
+    }
     if (gps && georef.has_enu()) {
       const Eigen::Vector3d e = georef.enu().Forward(*gps);
       gps_track.push_back({frame.time_s, e.x(), e.y()});
@@ -835,7 +857,9 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
       summary.warnings.push_back(std::string("no comparison with GPS: ") + e.what());
     }
   }
-  if (truth && !local_track.empty()) CompareWithTruth(*truth, local_track, georef, &summary);
+  if (truth && !local_track.empty()) {
+    CompareWithTruth(*truth, local_track, track_frames, georef, &summary);
+  }
   WriteJsonFileAtomic(out_dir / RunFileNames::kSummaryJson, ToJson(summary));
   return summary;
 }

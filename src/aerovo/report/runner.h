@@ -43,7 +43,8 @@ struct RunConfig {
   bool lenient_telemetry = false;
   /// Ground-truth track to compare with, beside GPS (io/reference_track.h: the simulator's
   /// ground_truth.csv / .tum, any TUM file, or a telemetry file with positions); matched to the
-  /// frames by time. Empty: none, or the simulator's ground_truth.csv when sim.json is found.
+  /// frames by frame index when the file gives one for every point (CSV frame column, SRT), else
+  /// by time. Empty: none, or the simulator's ground_truth.csv when sim.json is found.
   std::string truth;
   /// Output folder (created). Default "aerovo-run".
   std::string out = "aerovo-run";
@@ -165,7 +166,8 @@ struct RunSummary {
   /// SE(2) and Sim(2) comparison with GPS, when at least 3 frames have a GPS fix.
   std::optional<TrajectoryComparison> evaluation;
   /// The ground-truth file compared with ("" = none) and the SE(2) / Sim(2) comparison with it
-  /// (processed frames matched by time; in the run's ENU frame when the truth is geographic).
+  /// (processed frames matched as RunConfig::truth says; in the run's ENU frame when the truth is
+  /// geographic).
   std::string truth;
   int frames_with_truth = 0;
   std::optional<TrajectoryComparison> truth_evaluation;
