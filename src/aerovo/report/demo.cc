@@ -8,6 +8,7 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
+#include "aerovo/report/html_report.h"
 
 namespace aerovo {
 
@@ -181,6 +182,26 @@ DemoResult RunDemo(const DemoOptions& options, const DemoCallbacks& cb,
       r.ransac = RunRansacExperiment(in, ecb, stop);
       r.stages.push_back({"ransac", clock.elapsed_ms() / 1000.0});
     }
+  }
+
+  // 4. The HTML reports of what finished (a failure is a note: the outputs are complete).
+  if (options.report && !stopped()) {
+    clock.restart();
+    start("report",
+          "HTML reports -> " + (r.out_dir / "{run,illumination,ransac}/report.html").string());
+    for (const char* dir : {"run", "illumination", "ransac"}) {
+      const fs::path d = r.out_dir / dir;
+      if (!fs::exists(d / "summary.json") && !fs::exists(d / ReportFileNames::kExperimentJson)) {
+        continue;
+      }
+      try {
+        const ReportResult rep = WriteReport(d);
+        for (const std::string& n : rep.notes) r.notes.push_back(std::string(dir) + ": " + n);
+      } catch (const std::exception& e) {
+        r.notes.push_back(fmt::format("no report for {}: {}", d.string(), e.what()));
+      }
+    }
+    r.stages.push_back({"report", clock.elapsed_ms() / 1000.0});
   }
 
   r.interrupted = stopped();

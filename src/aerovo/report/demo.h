@@ -1,7 +1,8 @@
 // The full flight demo (`aerovo demo`, README's first command), needing no file: a flight
 // simulated over the built-in procedural terrain with exact ground truth, the pipeline run on it
 // (`aerovo run`), the paper's two experiments on the same flight (illumination, standard vs
-// clustered RANSAC; report/experiment.h), and an index page linking everything.
+// clustered RANSAC; report/experiment.h), their HTML reports (report/html_report.h), and an index
+// page linking everything.
 //
 // Output folder DEMO:
 //   DEMO/sim/           the simulated flight (JPEG frames, DJI SRT, GPX, ground truth, sim.json)
@@ -9,7 +10,8 @@
 //                       with GPS and with the ground truth, ...)
 //   DEMO/illumination/  the illumination experiment (experiment.json, tables.md, a run per k)
 //   DEMO/ransac/        the RANSAC experiment (a run per mode)
-//   DEMO/index.html     the summary table and links to every report and table
+//   DEMO/{run,illumination,ransac}/report.html   the HTML reports (figures, tables)
+//   DEMO/index.html     the summary table and links to every report
 //   DEMO/summary.txt    the summary table as printed
 #pragma once
 
@@ -49,6 +51,8 @@ struct DemoOptions {
   /// RANSAC experiment with unguided matching (RunConfig::guided = false), as the paper: every
   /// step matches without the motion prior, which is what clustered RANSAC speeds up. Default on.
   bool ransac_unguided = true;
+  /// Write the HTML reports (report/html_report.h) of the run and of each experiment. Default on.
+  bool report = true;
   /// Threads for SURF and matching (0 = all cores).
   int threads = 0;
 };

@@ -29,13 +29,14 @@ TEST(Demo, QuickDemoWritesEverythingAndTracksTheTruth) {
   DemoCallbacks cb;
   cb.stage_started = [&](const std::string&, const std::string&) { ++stages; };
   const DemoResult r = RunDemo(o, cb);
-  EXPECT_EQ(stages, 4);  // simulate, run, illumination, ransac
+  EXPECT_EQ(stages, 5);  // simulate, run, illumination, ransac, report
   EXPECT_FALSE(r.interrupted);
   EXPECT_EQ(r.flight.frames, 53);  // 2 x 100 m legs + a 40 m half-turn at 10 m/s, 2 fps
   EXPECT_NEAR(r.flight.distance_m, 260.0, 1.0);
   for (const char* f :
        {"sim/sim.json", "sim/ground_truth.csv", "run/summary.json", "run/vo.tum",
-        "illumination/experiment.json", "ransac/experiment.json", "index.html", "summary.txt"}) {
+        "illumination/experiment.json", "ransac/experiment.json", "index.html", "summary.txt",
+        "run/report.html", "illumination/report.html", "ransac/report.html"}) {
     EXPECT_TRUE(fs::exists(o.out_dir / f)) << f;
   }
   EXPECT_EQ(r.run.frames_processed, 53);
@@ -59,7 +60,7 @@ TEST(Demo, QuickDemoWritesEverythingAndTracksTheTruth) {
   }
   std::stringstream html;
   html << std::ifstream(o.out_dir / "index.html").rdbuf();
-  EXPECT_NE(html.str().find("run/"), std::string::npos);
+  EXPECT_NE(html.str().find("run/report.html"), std::string::npos);
   fs::remove_all(o.out_dir);
 }
 
