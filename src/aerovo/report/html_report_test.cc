@@ -321,7 +321,7 @@ TEST_F(HtmlReport, RendersInHeadlessChromium) {
   const std::string url = "file://" + fs::absolute(r.html).string();
   const fs::path profile = root_ / "chromium-profile";
   const std::string flags =
-      "--headless --no-sandbox --disable-gpu --hide-scrollbars "
+      "--headless --no-sandbox --disable-gpu --disable-dev-shm-usage --hide-scrollbars "
       "--no-first-run --user-data-dir=" +
       profile.string();
   // 1. The DOM after load: the report's own script counts the figures that rendered.
