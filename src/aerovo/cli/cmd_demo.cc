@@ -147,7 +147,7 @@ void Register(CLI::App& app) {
       "(--surf-only: SURF on one view of the terrain)");
   cmd->add_option("-o,--out", args->out, "Output folder")->capture_default_str();
   cmd->add_flag("--quick", args->quick,
-                "A small flight (263 m, 640x360, 53 frames) and 2 illumination runs: seconds");
+                "A small flight (260 m, 640x360, 53 frames) and 2 illumination runs: ~20 s");
   cmd->add_flag("--no-experiments", args->no_experiments, "Only simulate and run");
   cmd->add_flag("--surf-only", args->surf_only,
                 "Only SURF on one view of the built-in terrain (the first demo)");
