@@ -17,6 +17,7 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 #include <pugixml.hpp>
@@ -166,6 +167,36 @@ fs::path CliSignal::dir_;
 TEST_F(CliSignal, SigintFlushesEveryOutputAndExits130) { Check(SIGINT, 130, "SIGINT"); }
 
 TEST_F(CliSignal, SigtermFlushesEveryOutputAndExits143) { Check(SIGTERM, 143, "SIGTERM"); }
+
+// Bad input at the CLI: a message naming the file and the problem on stderr, exit status 1, no
+// crash (a crash would be a signal, not an exit).
+TEST(CliErrors, BadInputExitsWithOneAndAMessage) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("aerovo_cli_errors_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::ofstream(dir / "empty.mp4").close();
+  std::ofstream(dir / "notes.mp4") << "not a video\n";
+  struct Case {
+    std::string args, expected;
+  };
+  const std::vector<Case> cases = {
+      {(dir / "empty.mp4").string(), "empty.mp4': the file is empty (0 bytes)"},
+      {(dir / "notes.mp4").string(), "cannot open video '" + (dir / "notes.mp4").string()},
+      {(dir / "missing.mp4").string(), "missing.mp4': no such file or directory"},
+  };
+  for (const Case& c : cases) {
+    const std::string cmd = std::string(AEROVO_CLI_PATH) + " run " + c.args + " --hfov-deg 70 -o " +
+                            (dir / "run").string() + " > " + (dir / "log").string() + " 2>&1";
+    const int status = std::system(cmd.c_str());
+    ASSERT_TRUE(WIFEXITED(status)) << cmd;
+    EXPECT_EQ(WEXITSTATUS(status), 1) << cmd;
+    const std::string out = ReadText(dir / "log");
+    EXPECT_NE(out.find("aerovo: error: "), std::string::npos) << out;
+    EXPECT_NE(out.find(c.expected), std::string::npos) << out;
+  }
+  fs::remove_all(dir);
+}
 
 #endif  // AEROVO_CLI_PATH
 
