@@ -550,8 +550,13 @@ void FitMapHeight(Figure& f) {
     }
   }
   if (!(x1 > x0) || !(y1 > y0)) return;
-  const double plot_width_px = f.width_px - 360.0;  // key outside on the right, margins
-  const double h = plot_width_px * (y1 - y0) / (x1 - x0) + 170.0;  // title, labels
+  const double aspect = (y1 - y0) / (x1 - x0);
+  double plot_width_px = f.width_px - 360.0;  // key outside on the right, margins
+  if (plot_width_px * aspect > 730.0) {       // tall: narrower, not taller than 900 px
+    plot_width_px = 730.0 / aspect;
+    f.width_px = static_cast<int>(std::max(560.0, plot_width_px + 360.0));
+  }
+  const double h = plot_width_px * aspect + 170.0;  // title, labels
   f.height_px = static_cast<int>(std::clamp(h, 360.0, 900.0));
 }
 
@@ -596,7 +601,16 @@ void TrajectoryFigure(const RunData& run, const RunComparison& cmp, const std::s
     std::vector<double> x, y;
     AlignedTrack(run, Similarity2D{}, &x, &y);
     f.series.push_back(Series("VO", x, y, SeriesStyle::kLines, "#D55E00"));
-    f.title = "Fig. 2: VO trajectory (no GPS to compare with)";
+    f.title = "Fig. 2: VO trajectory (no " + cmp.reference_name + " to compare with)";
+    const bool geo = !run.frames.empty() && run.frames.back().geo.has_value();
+    if (!geo) {  // not geo-referenced: the local VO frame (odometry/pose_chain.h)
+      f.x_label = "x, first image right (m)";
+      f.y_label = "y, first image up (m)";
+    }
+    FitMapHeight(f);
+    sink.Add(f, "Fig. 2 of the paper: the computed trajectory; no " + cmp.reference_name +
+                    " to compare it with.");
+    return;
   }
   FitMapHeight(f);
   sink.Add(f, "Fig. 2 of the paper: the computed trajectory against " + cmp.reference_name +

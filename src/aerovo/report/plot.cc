@@ -133,7 +133,10 @@ std::string GnuplotScript(const Figure& f, const fs::path& data_file, const fs::
   s += "set key " + f.key + " box opaque samplen 2 spacing 1.1\n";
   s += "set border lw 1\n";
   s += "set tics out nomirror\n";
-  if (f.equal_axes) s += "set size ratio -1\n";
+  if (f.equal_axes) {
+    s += "set size ratio -1\n";
+    s += "set offsets graph 0.03, graph 0.03, graph 0.03, graph 0.03\n";  // off the border
+  }
   if (f.log_y) s += "set logscale y\n";
   if (f.y_from_zero && !f.log_y) s += "set yrange [0:*]\n";
   std::string plot = "plot ";
