@@ -312,7 +312,8 @@ TEST(Runner, VideoWithDjiSrtFromTheSimulator) {
   c.input = (sim / "video.mp4").string();
   c.telemetry = (sim / "telemetry.srt").string();
   c.step = 5;
-  c.hfov_deg = 73.7;  // the simulator's camera
+  c.hfov_deg = 73.7;                              // the simulator's camera
+  c.truth = (sim / "ground_truth.tum").string();  // TUM: no frame column, matched by time
   c.out = (sim / "run").string();
   c.quiet = true;
   const RunSummary s = RunFlight(c);
@@ -323,6 +324,12 @@ TEST(Runner, VideoWithDjiSrtFromTheSimulator) {
   // Measured 0.02 m over 300 m; the SRT GPS of the simulator is exact (no noise by default).
   EXPECT_LT(s.evaluation->se2.ate_m.rmse, 0.3);
   EXPECT_NEAR(s.evaluation->se2.distance_flown_m, 150.0, 1.0);
+  EXPECT_EQ(s.focal_source, "hfov");  // an explicit setting wins over sim.json
+  EXPECT_EQ(s.frames_with_truth, 31);
+  ASSERT_TRUE(s.truth_evaluation.has_value());
+  EXPECT_NEAR(s.truth_evaluation->se2.distance_flown_m, 150.0, 1.0);
+  EXPECT_LT(s.truth_evaluation->se2.ate_m.rmse, 0.3);
+  EXPECT_LT(s.truth_evaluation->se2.end_point_error_unaligned_m, 0.5);  // same ENU origin
   CheckOutputs(c.out, 31);
   fs::remove_all(sim);
 }
