@@ -503,9 +503,9 @@ void FlattenJson(const nlohmann::json& j, const std::string& prefix,
   }
 }
 
-// The GPS track in the first frame's pixels: GPS (ENU) -> VO ENU through the inverse of the
-// SE(2) alignment, then VO ENU -> pixels through the similarity fitted between the VO positions
-// and the frame centres (pixels have y down: fitted against (u, -v)).
+// The reference track (GPS or ground truth) in the first frame's pixels: GPS (ENU) -> VO ENU
+// through the inverse of the SE(2) alignment, then VO ENU -> pixels through the similarity fitted
+// between the VO positions and the frame centres (pixels have y down: fitted against (u, -v)).
 std::vector<Eigen::Vector2d> GpsInFirstFramePixels(const RunData& run, const RunComparison& cmp) {
   std::vector<Eigen::Vector2d> out;
   if (!cmp.comparison) return out;
@@ -617,18 +617,11 @@ void TrajectoryFigure(const RunData& run, const RunComparison& cmp, const std::s
                   ", after the alignment used by the summary.");
 }
 
-void RunFigures(const RunData& run, const RunComparison& cmp, FigureSink& sink) {
+void RunFigures(const RunData& run, const RunComparison& cmp,
+                const std::optional<RunComparison>& truth, FigureSink& sink) {
   TrajectoryFigure(run, cmp, "fig2_trajectory", sink);
   // Against the ground truth too, when the run was compared with one (aerovo run --truth).
-  const std::string truth = JsonString(run.summary, "truth");
-  if (!truth.empty()) {
-    try {
-      const RunComparison t = CompareWithTruthFile(run, truth);
-      if (t.comparison) TrajectoryFigure(run, t, "fig2_trajectory_truth", sink);
-    } catch (const InputError& e) {
-      sink.Note(std::string("no figure against the ground truth: ") + e.what());
-    }
-  }
+  if (truth && truth->comparison) TrajectoryFigure(run, *truth, "fig2_trajectory_truth", sink);
   const std::vector<double> frames = FrameAxis(run);
   // Fig. 3
   {
@@ -719,7 +712,15 @@ void RunReport(const fs::path& dir, const ReportOptions& options, Page& page,
 
   page.H2("Figures", "figures");
   FigureSink sink(dir, options, page, result);
-  RunFigures(run, cmp, sink);
+  std::optional<RunComparison> truth;
+  if (const std::string file = JsonString(run.summary, "truth"); !file.empty()) {
+    try {
+      truth = CompareWithTruthFile(run, file);
+    } catch (const InputError& e) {
+      sink.Note(std::string("no figure against the ground truth: ") + e.what());
+    }
+  }
+  RunFigures(run, cmp, truth, sink);
 
   page.H2("Mosaic", "mosaic");
   if (!options.mosaic) {
@@ -733,6 +734,14 @@ void RunReport(const fs::path& dir, const ReportOptions& options, Page& page,
     gps.color_rgb = 0x0072B2;
     gps.line_width_px = 4;
     if (!gps.points_px.empty()) tracks.push_back(gps);
+    if (truth) {
+      MosaicTrack t;
+      t.name = "ground truth (through its SE(2) alignment)";
+      t.points_px = GpsInFirstFramePixels(run, *truth);
+      t.color_rgb = 0x009E73;
+      t.line_width_px = 3;
+      if (!t.points_px.empty()) tracks.push_back(t);
+    }
     MosaicTrack vo;
     vo.name = "VO (estimated transforms)";
     vo.points_px = FrameCentresPx(run);
@@ -750,8 +759,10 @@ void RunReport(const fs::path& dir, const ReportOptions& options, Page& page,
       result.figures.push_back(m.file);
       sink.AddImage(m.file, "mosaic",
                     "Mosaic: frames warped by the estimated transforms into the first frame's "
-                    "pixels, with the VO track (orange) and the " +
-                        cmp.reference_name + " track (blue); " + m.note + ".");
+                    "pixels, with the VO track (orange), the " +
+                        cmp.reference_name + " track (blue)" +
+                        (truth ? std::string(" and the ground truth (green)") : std::string()) +
+                        "; " + m.note + ".");
     } else {
       page.Note(m.note);
       result.notes.push_back(m.note);
