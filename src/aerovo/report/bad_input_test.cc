@@ -22,6 +22,7 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -248,11 +249,19 @@ TEST(BadInput, FolderWithANonImageFileSkipsItWithAWarning) {
   fs::remove_all(dir);
 }
 
+// Met mid-run: the error names the photo, and the frames before it are kept (outputs closed,
+// summary.json written with the error).
 TEST(BadInput, FolderWithAnUndecodablePhotoIsAnErrorNamingIt) {
   const fs::path dir = TempDir("undecodable");
   WriteFolder(dir / "photos", RenderAll(Leg(4)));
   std::ofstream(dir / "photos" / "frame_0002.png", std::ios::trunc) << "not a PNG";
-  ExpectInputError(Config(dir / "photos", dir / "run"), {"frame_0002.png"});
+  ExpectInputError(Config(dir / "photos", dir / "run"),
+                   {"frame_0002.png", "cannot decode", "the run stopped there"});
+  std::ifstream in(dir / "run" / "summary.json");
+  const nlohmann::json summary = nlohmann::json::parse(in);
+  EXPECT_EQ(summary["frames_processed"], 2);
+  EXPECT_NE(summary["error"].get<std::string>().find("frame_0002.png"), std::string::npos);
+  EXPECT_EQ(ReadTrack(dir / "run").xy_m.size(), 2u);
   fs::remove_all(dir);
 }
 

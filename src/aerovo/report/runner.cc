@@ -330,7 +330,8 @@ nlohmann::json ToJson(const RunSummary& s) {
                    {"vo_path_length_m", s.vo_path_length_m},
                    {"truth", s.truth},
                    {"frames_with_truth", s.frames_with_truth},
-                   {"warnings", s.warnings}};
+                   {"warnings", s.warnings},
+                   {"error", s.error}};
   j["evaluation"] = s.evaluation ? ToJson(*s.evaluation) : nlohmann::json();
   j["truth_evaluation"] = s.truth_evaluation ? ToJson(*s.truth_evaluation) : nlohmann::json();
   return j;
@@ -658,13 +659,25 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   bool stopped = false;
   int frames_without_fix = 0;
   int measured_steps = 0;  // frames whose step was estimated (ok or reacquired)
+  // An input error after the first frame (an undecodable photo, a frame of another size): the
+  // run stops there but keeps what it computed (outputs closed, summary.json written), then
+  // reports the error.
+  std::string failure;
   while (true) {
     if (stop != nullptr && stop->load()) {
       stopped = true;
       break;
     }
     if (config.max_frames > 0 && summary.frames_processed >= config.max_frames) break;
-    if (!source->Next(frame)) break;
+    bool more = false;
+    try {
+      more = source->Next(frame);
+    } catch (const InputError& e) {
+      if (summary.frames_processed == 0) throw;
+      failure = e.what();
+      break;
+    }
+    if (!more) break;
     const std::optional<TelemetrySample> sample = sample_of(frame);
     const std::optional<GeoPoint> gps = GpsOf(sample);
     if (!sample) ++frames_without_fix;
@@ -753,7 +766,14 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
 
     GrayImageView view = undistorter ? undistorter->Apply(frame.gray.view()) : frame.gray.view();
     if (config.illumination_k != 1.0) view = ScaleBrightness(view, config.illumination_k, &dimmed);
-    const FrameResult r = vo->Process(view, frame.time_s, height, yaw);
+    FrameResult r;
+    try {
+      r = vo->Process(view, frame.time_s, height, yaw);
+    } catch (const InputError& e) {
+      if (summary.frames_processed == 0) throw;
+      failure = frame.name + ": " + e.what();
+      break;
+    }
     georef.Observe(r.position_m, gps, yaw);
     if (r.status == FrameStatus::kOk || r.status == FrameStatus::kReacquired) ++measured_steps;
     // world_from_frame is metric (local metres) or first-frame pixels depending on the scale
@@ -860,7 +880,14 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   if (truth && !local_track.empty()) {
     CompareWithTruth(*truth, local_track, track_frames, georef, &summary);
   }
+  summary.error = failure;
   WriteJsonFileAtomic(out_dir / RunFileNames::kSummaryJson, ToJson(summary));
+  if (!failure.empty()) {
+    throw InputError(fmt::format(
+        "{} (the run stopped there: the {} frames processed before are in '{}', each file "
+        "valid, summary.json included)",
+        failure, summary.frames_processed, out_dir.string()));
+  }
   return summary;
 }
 

@@ -172,6 +172,9 @@ struct RunSummary {
   int frames_with_truth = 0;
   std::optional<TrajectoryComparison> truth_evaluation;
   std::vector<std::string> warnings;
+  /// The input error that stopped the run after its first frame ("" if none): RunFlight writes
+  /// the outputs and summary.json of the frames before it, then throws it (InputError).
+  std::string error;
 };
 
 nlohmann::json ToJson(const RunSummary& summary);
@@ -199,7 +202,9 @@ struct RunCallbacks {
 /// Runs a whole flight. Writes config.json at the start, the per-frame outputs as frames are
 /// processed (each file valid at all times), summary.json at the end. Stops early, cleanly,
 /// when `stop` becomes true (the files stay valid and the summary says interrupted).
-/// Throws InputError / InvalidArgument naming the file, frame or key for bad input.
+/// Throws InputError / InvalidArgument naming the file, frame or key for bad input; an input
+/// error met after the first frame (an undecodable photo, a frame of another size) is thrown
+/// after the frames before it are written and summary.json records it (`error`).
 RunSummary RunFlight(const RunConfig& config, const RunCallbacks& callbacks = {},
                      const std::atomic<bool>* stop = nullptr);
 
