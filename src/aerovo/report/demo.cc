@@ -85,14 +85,22 @@ void WriteIndex(const DemoResult& r, const std::string& summary) {
            "illumination experiment (paper Fig. 4-6): brightness f_k = k f") +
       link("ransac", "tables.md", "standard vs clustered RANSAC (paper Fig. 7-8): stage times") +
       link("sim", "sim.json", "the simulated flight (frames, SRT, ground truth)");
+  // The run's trajectory figure (html_report.h's Fig. 2) on the index page, when it was drawn.
+  std::string figure;
+  if (fs::exists(r.out_dir / "run" / "figures" / "fig2_trajectory.svg")) {
+    figure =
+        "<h2>The run's trajectory</h2>\n<p><a href=\"run/report.html\"><img "
+        "src=\"run/figures/fig2_trajectory.svg\" alt=\"trajectory\" style=\"max-width:100%\">"
+        "</a></p>\n";
+  }
   const std::string html = fmt::format(
       "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>aerovo "
       "demo</title>\n<style>body{{font-family:sans-serif;max-width:62em;margin:2em auto;"
       "padding:0 1em}}pre{{background:#f4f4f4;padding:1em;overflow-x:auto}}</style></head>\n"
       "<body>\n<h1>aerovo demo</h1>\n<p>Visual odometry after Ivanov &amp; Muzychuk (2023) on a "
       "flight simulated over aerovo's built-in terrain, with exact ground truth.</p>\n"
-      "<pre>{}</pre>\n<h2>Outputs</h2>\n<ul>\n{}</ul>\n</body></html>\n",
-      HtmlEscape(summary), items);
+      "<pre>{}</pre>\n<h2>Outputs</h2>\n<ul>\n{}</ul>\n{}</body></html>\n",
+      HtmlEscape(summary), items, figure);
   WriteText(r.out_dir / "index.html", html);
 }
 

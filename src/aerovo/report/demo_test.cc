@@ -61,6 +61,7 @@ TEST(Demo, QuickDemoWritesEverythingAndTracksTheTruth) {
   std::stringstream html;
   html << std::ifstream(o.out_dir / "index.html").rdbuf();
   EXPECT_NE(html.str().find("run/report.html"), std::string::npos);
+  EXPECT_NE(html.str().find("run/figures/fig2_trajectory.svg"), std::string::npos);
   fs::remove_all(o.out_dir);
 }
 
