@@ -168,6 +168,54 @@ TEST_F(CliSignal, SigintFlushesEveryOutputAndExits130) { Check(SIGINT, 130, "SIG
 
 TEST_F(CliSignal, SigtermFlushesEveryOutputAndExits143) { Check(SIGTERM, 143, "SIGTERM"); }
 
+// `aerovo experiment` stopped by SIGINT during its second run: exit 130, experiment.json lists
+// the finished run only, and the interrupted run's folder is valid up to its last frame.
+TEST_F(CliSignal, ExperimentKeepsItsFinishedRunsOnSigint) {
+  const fs::path out = dir_ / "experiment";
+  const fs::path log = dir_ / "experiment.log";
+  const std::string video = (dir_ / "sim" / "video.mp4").string();
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ::dup2(fd, 1);
+    ::dup2(fd, 2);
+    ::execl(AEROVO_CLI_PATH, AEROVO_CLI_PATH, "experiment", "illumination", video.c_str(), "--k",
+            "1,0.75", "--max-frames", "80", "--threads", "1", "--no-report", "-o", out.c_str(),
+            static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  // Wait for the second run to be under way (the first is then listed), then interrupt.
+  const auto start = std::chrono::steady_clock::now();
+  while (std::chrono::steady_clock::now() - start < std::chrono::seconds(60)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    const fs::path csv = out / "k0.75" / "frames.csv";
+    if (fs::exists(csv) && CountLines(csv) > 10) break;
+  }
+  ::kill(pid, SIGINT);
+  int status = 0;
+  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status)) << ReadText(log);
+  const nlohmann::json j = nlohmann::json::parse(ReadText(out / "experiment.json"));
+  EXPECT_EQ(j["kind"], "illumination");
+  const nlohmann::json second = nlohmann::json::parse(ReadText(out / "k0.75" / "summary.json"));
+  if (WEXITSTATUS(status) == 0) {  // finished before the signal (heavily loaded machine)
+    EXPECT_EQ(j["runs"].size(), 2u);
+    EXPECT_FALSE(second["interrupted"].get<bool>());
+  } else {
+    EXPECT_EQ(WEXITSTATUS(status), 130) << ReadText(log);
+    ASSERT_EQ(j["runs"].size(), 1u);
+    EXPECT_EQ(j["runs"][0]["dir"], "k1.00");
+    EXPECT_EQ(j["tables"]["features"]["rows"].size(), 1u);
+    EXPECT_TRUE(second["interrupted"].get<bool>());
+    CheckOutputs(out / "k0.75", second["frames_processed"].get<int>());
+  }
+  const nlohmann::json first = nlohmann::json::parse(ReadText(out / "k1.00" / "summary.json"));
+  EXPECT_EQ(first["frames_processed"], 80);
+  EXPECT_FALSE(first["interrupted"].get<bool>());
+  EXPECT_TRUE(fs::exists(out / "tables.md"));
+}
+
 // Bad input at the CLI: a message naming the file and the problem on stderr, exit status 1, no
 // crash (a crash would be a signal, not an exit).
 TEST(CliErrors, BadInputExitsWithOneAndAMessage) {
