@@ -16,6 +16,8 @@ PKGS=(
   chromium               # headless browser test of the HTML report (aerovo report)
   ffmpeg                 # encoders used by OpenCV's VideoWriter
   clang-format
+  clang libclang-rt-14-dev  # libFuzzer + sanitizer runtimes for the fuzz targets (scripts/fuzz.sh)
+  llvm                   # llvm-symbolizer: symbolised sanitizer and fuzzer stack traces
 )
 missing=()
 for p in "${PKGS[@]}"; do

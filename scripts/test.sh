@@ -1,10 +1,55 @@
 #!/usr/bin/env bash
-# Installs the dependencies, builds aerovo with tests and benchmarks, and runs every test.
-# Usage: scripts/test.sh            (build dir: build/)
+# Installs the dependencies, builds aerovo and runs every test: this is the README's test command
+# and what CI (.ci/run) runs, on a clean clone with 2 cores. Stages:
+#   1. Release build (tests + benchmarks) in build/, every test (ctest);
+#   2. AddressSanitizer + UndefinedBehaviorSanitizer build (RelWithDebInfo, no benchmarks) in
+#      build-asan/, every test again; any ASan/UBSan/LeakSanitizer report fails the test;
+#   3. the libFuzzer targets (scripts/fuzz.sh, clang++, build-fuzz/), FUZZ_TIME s each (30).
+# Each stage prints its duration. Environment:
+#   AEROVO_TEST_QUICK=1   developers: stage 1 only (Release build + tests)
+#   BUILD_DIR, ASAN_BUILD_DIR, FUZZ_BUILD_DIR   build directories (build, build-asan, build-fuzz)
+#   FUZZ_TIME             seconds per fuzz target (default 30)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/install-deps.sh
 BUILD_DIR=${BUILD_DIR:-build}
-cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release
-cmake --build "$BUILD_DIR" --parallel "$(nproc)"
-ctest --test-dir "$BUILD_DIR" --output-on-failure --parallel "$(nproc)" --timeout 1500
+ASAN_BUILD_DIR=${ASAN_BUILD_DIR:-build-asan}
+JOBS=$(nproc)
+declare -A STAGE_S
+t_all=$(date +%s)
+
+stage() {  # stage NAME COMMAND...: runs and times one stage
+  local name=$1 t0
+  shift
+  echo "=== test.sh: $name"
+  t0=$(date +%s)
+  "$@"
+  STAGE_S[$name]=$(($(date +%s) - t0))
+  echo "=== test.sh: $name took ${STAGE_S[$name]} s"
+}
+
+release() {
+  cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release
+  cmake --build "$BUILD_DIR" --parallel "$JOBS"
+  ctest --test-dir "$BUILD_DIR" --output-on-failure --parallel "$JOBS" --timeout 1500
+}
+
+sanitizers() {
+  cmake -S . -B "$ASAN_BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DAEROVO_SANITIZE=ON \
+    -DAEROVO_BUILD_BENCHMARKS=OFF
+  cmake --build "$ASAN_BUILD_DIR" --parallel "$JOBS"
+  # detect_leaks: LeakSanitizer at exit; third-party leaks are suppressed in scripts/lsan.supp
+  # (each entry explained). UBSan: -fno-sanitize-recover=all already aborts on the first report.
+  ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:strict_string_checks=1 \
+    UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
+    LSAN_OPTIONS=suppressions=$PWD/scripts/lsan.supp:print_suppressions=0 \
+    ctest --test-dir "$ASAN_BUILD_DIR" --output-on-failure --parallel "$JOBS" --timeout 3000
+}
+
+stage release release
+if [ "${AEROVO_TEST_QUICK:-0}" != 1 ]; then
+  stage sanitizers sanitizers
+  stage fuzz ./scripts/fuzz.sh
+fi
+echo "=== test.sh: all stages passed in $(($(date +%s) - t_all)) s" \
+  "($(for k in "${!STAGE_S[@]}"; do printf '%s %s s; ' "$k" "${STAGE_S[$k]}"; done))"

@@ -32,6 +32,14 @@ void InitExiv2Once() {
   });
 }
 
+// Message of an exception thrown while Exiv2 reads a file. Besides Exiv2::AnyError, Exiv2 0.27
+// lets standard exceptions out on corrupt files (std::overflow_error from its Safe:: arithmetic,
+// std::out_of_range, std::bad_alloc for absurd sizes): all mean "this file cannot be read".
+std::string ExivWhat(const std::exception& e) {
+  if (dynamic_cast<const Exiv2::AnyError*>(&e) != nullptr) return e.what();
+  return fmt::format("corrupt metadata ({})", e.what());
+}
+
 std::optional<std::string> ExifString(const Exiv2::ExifData& exif, const char* key) {
   const auto it = exif.findKey(Exiv2::ExifKey(key));
   if (it == exif.end() || it->count() == 0) return std::nullopt;
@@ -118,10 +126,14 @@ ImageMetadata Extract(Exiv2::Image& image, const std::string& source) {
   const Exiv2::ExifData& exif = image.exifData();
   const Exiv2::XmpData& xmp = image.xmpData();
   if (m.width_px <= 0 || m.height_px <= 0) {
-    m.width_px =
-        static_cast<int>(ExifNumber(exif, "Exif.Photo.PixelXDimension", source).value_or(0));
-    m.height_px =
-        static_cast<int>(ExifNumber(exif, "Exif.Photo.PixelYDimension", source).value_or(0));
+    // EXIF's own idea of the size, a fallback only: a value that is no plausible pixel count
+    // (1e300 would not even convert to int) leaves the size unknown.
+    const auto pixels = [&](const char* key) {
+      const double v = ExifNumber(exif, key, source).value_or(0.0);
+      return v >= 1.0 && v <= 1e6 ? static_cast<int>(v) : 0;
+    };
+    m.width_px = pixels("Exif.Photo.PixelXDimension");
+    m.height_px = pixels("Exif.Photo.PixelYDimension");
   }
   m.make = std::string(io_detail::Trim(ExifString(exif, "Exif.Image.Make").value_or("")));
   m.model = std::string(io_detail::Trim(ExifString(exif, "Exif.Image.Model").value_or("")));
@@ -229,8 +241,10 @@ ImageMetadata ReadImageMetadata(const std::filesystem::path& path) {
       throw InputError(fmt::format("cannot read metadata of '{}': unknown format", source));
     }
     return Extract(*image, source);
-  } catch (const Exiv2::AnyError& e) {
-    throw InputError(fmt::format("cannot read metadata of '{}': {}", source, e.what()));
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw InputError(fmt::format("cannot read metadata of '{}': {}", source, ExivWhat(e)));
   }
 }
 
@@ -246,8 +260,10 @@ ImageMetadata ParseImageMetadata(const std::uint8_t* data, std::size_t size,
       throw InputError(fmt::format("cannot read metadata of '{}': unknown format", source_name));
     }
     return Extract(*image, source_name);
-  } catch (const Exiv2::AnyError& e) {
-    throw InputError(fmt::format("cannot read metadata of '{}': {}", source_name, e.what()));
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw InputError(fmt::format("cannot read metadata of '{}': {}", source_name, ExivWhat(e)));
   }
 }
 

@@ -501,5 +501,26 @@ TEST(TelemetryFiles, DispatchByExtensionAndMissingFile) {
   std::filesystem::remove_all(dir);
 }
 
+// ---------------------------------------------------------------- regressions (fuzzing, issue 6)
+// Inputs that once made a parser misbehave, inlined; the sanitizer stage of scripts/test.sh
+// runs them under ASan/UBSan (-fsanitize=float-cast-overflow included).
+
+TEST(CsvRegression, HugeFrameNumberIsAnErrorNotAnOverflowingCast) {
+  // Was: the integer check cast 1e300 to long long before the range check (undefined).
+  const char text[] = "frame,lat,lon\n1e300,1,2\n-1e300,1,2\n3,1,2\n";
+  {
+    std::istringstream in(text);
+    ExpectInputError([&] { ParseTelemetryCsv(in, "f.csv"); },
+                     {"f.csv:2:", "is not a non-negative integer"});
+  }
+  std::istringstream in(text);
+  TelemetryReadOptions lenient;
+  lenient.lenient = true;
+  const TelemetryReadResult r = ParseTelemetryCsv(in, "f.csv", lenient);
+  EXPECT_EQ(r.records, 1);
+  EXPECT_EQ(r.skipped_records, 2);
+  EXPECT_EQ(r.telemetry[0].frame_index, 3);
+}
+
 }  // namespace
 }  // namespace aerovo

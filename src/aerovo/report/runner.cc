@@ -4,12 +4,16 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <deque>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <sstream>
+#include <type_traits>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -103,10 +107,37 @@ template <class T>
 void Take(const nlohmann::json& j, const char* key, T* out, const std::string& source) {
   auto it = j.find(key);
   if (it == j.end()) return;
-  try {
-    *out = it->get<T>();
-  } catch (const nlohmann::json::exception& e) {
-    throw InvalidArgument(source + ": key '" + key + "' has the wrong type (" + e.what() + ")");
+  const auto wrong = [&](const std::string& why) {
+    throw InvalidArgument(source + ": key '" + key + "' " + why);
+  };
+  if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>) {
+    // nlohmann's get<int>() static_casts whatever number it holds: 1e300 or -1 into an int or
+    // a uint64 is undefined behaviour or a silent wrap-around. Only integers in T's range pass.
+    if (it->is_number_unsigned()) {
+      const auto v = it->template get<std::uint64_t>();
+      if (v > static_cast<std::uint64_t>(std::numeric_limits<T>::max())) {
+        wrong(
+            fmt::format("value {} is out of range (at most {})", v, std::numeric_limits<T>::max()));
+      }
+      *out = static_cast<T>(v);
+    } else if (it->is_number_integer()) {
+      const auto v = it->template get<std::int64_t>();
+      if (v < static_cast<std::int64_t>(std::numeric_limits<T>::min()) ||
+          (std::is_signed_v<T> && v > static_cast<std::int64_t>(std::numeric_limits<T>::max()))) {
+        wrong(fmt::format("value {} is out of range [{}, {}]", v, std::numeric_limits<T>::min(),
+                          std::numeric_limits<T>::max()));
+      }
+      *out = static_cast<T>(v);
+    } else {
+      wrong(std::string("must be an integer, got ") + it->type_name() + " " +
+            it->dump().substr(0, 40));
+    }
+  } else {
+    try {
+      *out = it->template get<T>();
+    } catch (const nlohmann::json::exception& e) {
+      wrong(std::string("has the wrong type (") + e.what() + ")");
+    }
   }
 }
 }  // namespace
@@ -161,11 +192,21 @@ nlohmann::json YamlScalar(const std::string& v, bool quoted) {
   if (v == "true" || v == "yes" || v == "on") return true;
   if (v == "false" || v == "no" || v == "off") return false;
   if (v == "~" || v == "null" || v.empty()) return nullptr;
+  // Numbers that overflow their type are not clamped (strtoll would give LLONG_MAX): an integer
+  // too large for int64 goes on as uint64 or else as a double (then "must be an integer" for an
+  // integer key), and a double out of range stays a string ("wrong type").
   char* end = nullptr;
+  errno = 0;
   const long long i = std::strtoll(v.c_str(), &end, 10);
-  if (end != v.c_str() && *end == '\0') return i;
+  if (end != v.c_str() && *end == '\0' && errno == 0) return i;
+  if (v[0] != '-') {
+    errno = 0;
+    const unsigned long long u = std::strtoull(v.c_str(), &end, 10);
+    if (end != v.c_str() && *end == '\0' && errno == 0) return u;
+  }
+  errno = 0;
   const double d = std::strtod(v.c_str(), &end);
-  if (end != v.c_str() && *end == '\0') return d;
+  if (end != v.c_str() && *end == '\0' && errno == 0 && std::isfinite(d)) return d;
   return v;
 }
 
@@ -226,25 +267,31 @@ nlohmann::json ParseFlatYaml(const std::string& text, const std::string& where) 
 
 }  // namespace
 
+RunConfig ParseRunConfig(std::string_view text, RunConfigFormat format, RunConfig base,
+                         const std::string& source) {
+  if (format == RunConfigFormat::kYaml) {
+    return RunConfigFromJson(ParseFlatYaml(std::string(text), source), std::move(base), source);
+  }
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(text.begin(), text.end());
+  } catch (const nlohmann::json::exception& e) {  // parse_error, and out_of_range for 1e340
+    throw InputError(source + ": " + e.what());
+  }
+  return RunConfigFromJson(j, std::move(base), source);
+}
+
 RunConfig LoadRunConfig(const std::filesystem::path& path, RunConfig base) {
-  std::ifstream in(path);
+  std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError("cannot open config file '" + path.string() + "'");
   std::string ext = path.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(),
                  [](unsigned char ch) { return std::tolower(ch); });
-  if (ext == ".yaml" || ext == ".yml") {
-    std::stringstream ss;
-    ss << in.rdbuf();
-    const std::string where = "config file '" + path.string() + "'";
-    return RunConfigFromJson(ParseFlatYaml(ss.str(), where), std::move(base), where);
-  }
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError("config file '" + path.string() + "': " + e.what());
-  }
-  return RunConfigFromJson(j, std::move(base), "config file '" + path.string() + "'");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const RunConfigFormat format =
+      ext == ".yaml" || ext == ".yml" ? RunConfigFormat::kYaml : RunConfigFormat::kJson;
+  return ParseRunConfig(ss.str(), format, std::move(base), "config file '" + path.string() + "'");
 }
 
 struct FrameUndistorter::Impl {

@@ -16,6 +16,7 @@
 #include <optional>
 #include <ostream>
 #include <string>
+#include <string_view>
 
 #include <nlohmann/json.hpp>
 
@@ -106,9 +107,16 @@ nlohmann::json ToJson(const RunConfig& config);
 /// InvalidArgument naming the key (and `source`, e.g. the config file path).
 RunConfig RunConfigFromJson(const nlohmann::json& json, RunConfig base,
                             const std::string& source = "config");
-/// Reads a config file: JSON, or YAML for a .yaml/.yml extension (a flat mapping `key: value`
-/// with the same keys; parsed with libyaml). InputError names the file and the parse error (with
-/// its line for YAML).
+/// Syntax of a run configuration file.
+enum class RunConfigFormat { kJson, kYaml };
+/// Parses the text of a config file (`source` names it in messages): JSON, or YAML (a flat
+/// mapping `key: value` with the same keys; parsed with libyaml), then RunConfigFromJson.
+/// InputError names the source and the parse error (with its line for YAML); InvalidArgument
+/// names an unknown key or a value of the wrong type or out of the field's range. This is the
+/// entry point the config fuzz targets drive (fuzz/).
+RunConfig ParseRunConfig(std::string_view text, RunConfigFormat format, RunConfig base,
+                         const std::string& source = "config");
+/// Reads a config file: YAML for a .yaml/.yml extension, else JSON (ParseRunConfig).
 RunConfig LoadRunConfig(const std::filesystem::path& path, RunConfig base);
 
 /// Undistorts frames of one size with a pinhole camera (focal_px, principal point at the image

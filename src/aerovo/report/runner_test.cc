@@ -219,6 +219,48 @@ TEST(Runner, BlackFrameMidFlightIsFlaggedAndTheRunCompletes) {
   fs::remove_all(c.out);
 }
 
+// Regression (issue 6, fuzzing): numbers that do not fit the field were static_cast by
+// nlohmann's get<int>() (1e300 into an int is undefined behaviour; -1 into the uint64 seed and
+// 4294967297 into an int wrapped silently). Now they are errors naming the key.
+TEST(RunnerConfigRegression, OutOfRangeNumbersAreErrorsNotCasts) {
+  const auto expect_invalid = [](std::string_view text, RunConfigFormat format, const char* what) {
+    try {
+      ParseRunConfig(text, format, RunConfig{}, "c.json");
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const InvalidArgument& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("c.json"), std::string::npos) << e.what();
+    }
+  };
+  expect_invalid(R"({"input": "a.mp4", "step": 1e300})", RunConfigFormat::kJson,
+                 "'step' must be an integer");
+  expect_invalid(R"({"step": 2.5})", RunConfigFormat::kJson, "'step' must be an integer");
+  expect_invalid(R"({"seed": -1})", RunConfigFormat::kJson, "'seed' value -1 is out of range");
+  expect_invalid(R"({"threads": 4294967297})", RunConfigFormat::kJson,
+                 "'threads' value 4294967297 is out of range");
+  expect_invalid(R"({"max_frames": -2147483649})", RunConfigFormat::kJson, "out of range");
+  expect_invalid("step: 1e300\n", RunConfigFormat::kYaml, "'step' must be an integer");
+  expect_invalid("seed: 99999999999999999999\n", RunConfigFormat::kYaml, "'seed'");
+  // In-range values still pass, the largest seed included.
+  const RunConfig c = ParseRunConfig(R"({"seed": 18446744073709551615, "threads": 2147483647,
+                                         "max_frames": -2147483648})",
+                                     RunConfigFormat::kJson, RunConfig{});
+  EXPECT_EQ(c.seed, 18446744073709551615ull);
+  EXPECT_EQ(c.threads, 2147483647);
+  EXPECT_EQ(c.max_frames, -2147483647 - 1);
+  EXPECT_THROW(ParseRunConfig("{\"step\": ", RunConfigFormat::kJson, RunConfig{}), InputError);
+  // Found by fuzz_config_json: a number beyond double's range made nlohmann throw out_of_range
+  // (not parse_error), which escaped as a non-InputError exception.
+  try {
+    ParseRunConfig("{\"input\": \"a.mp4\", \"step\": 1e340}\n", RunConfigFormat::kJson, RunConfig{},
+                   "c.json");
+    ADD_FAILURE() << "1e340 accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("c.json"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("number overflow"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Runner, ConfigJsonRoundTripAndErrors) {
   RunConfig c;
   c.input = "x.mp4";

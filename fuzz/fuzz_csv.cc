@@ -1,0 +1,15 @@
+// libFuzzer target: CSV telemetry (aerovo::ParseTelemetryCsv, the parser ReadTelemetryFile uses).
+#include <cstddef>
+#include <cstdint>
+
+#include "aerovo/io/telemetry_readers.h"
+#include "fuzz_telemetry.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  aerovo::fuzz::FuzzTelemetryReader(
+      data, size,
+      [](std::istream& in, const std::string& name, const aerovo::TelemetryReadOptions& o) {
+        return aerovo::ParseTelemetryCsv(in, name, o);
+      });
+  return 0;
+}
