@@ -176,6 +176,43 @@ TEST(ImageMetadata, BadValuesAndBadFilesNameTheFile) {
   ExpectInputError([&] { ParseImageMetadata(nullptr, 0, "none"); }, {"none", "empty"});
 }
 
+// The EXIF size is used only when the decoder finds none (a JPEG without its frame header):
+// a plausible value is taken, an absurd one (4000000000, which does not fit an int: the cast
+// was undefined) leaves the size unknown instead.
+TEST(ImageMetadata, ExifPixelDimensionsFallbackIsRangeChecked) {
+  io_test::TempDir dir("aerovo_exif_dims");
+  const auto headerless = [&](const std::string& x, const std::string& y) {
+    const auto path = dir / "dims.jpg";
+    io_test::WriteJpegWithTags(path, io_test::TextureImage(32, 24, 3),
+                               {{"Exif.Photo.PixelXDimension", x},
+                                {"Exif.Photo.PixelYDimension", y},
+                                {"Exif.GPSInfo.GPSLatitude", "45/1 0/1 0/1"},
+                                {"Exif.GPSInfo.GPSLongitude", "10/1 0/1 0/1"}});
+    std::ifstream in(path, std::ios::binary);
+    const std::vector<std::uint8_t> jpeg((std::istreambuf_iterator<char>(in)),
+                                         std::istreambuf_iterator<char>());
+    // SOI + the APP1 (EXIF) segment + EOI: no SOF, so Exiv2 knows no pixel size.
+    std::size_t p = 2;
+    while (p + 4 <= jpeg.size() && !(jpeg[p] == 0xFF && jpeg[p + 1] == 0xE1)) {
+      p += 2 + (std::size_t{jpeg[p + 2]} << 8 | jpeg[p + 3]);
+    }
+    EXPECT_LT(p + 4, jpeg.size());
+    const std::size_t len = 2 + (std::size_t{jpeg[p + 2]} << 8 | jpeg[p + 3]);
+    std::vector<std::uint8_t> bytes = {0xFF, 0xD8};
+    bytes.insert(bytes.end(), jpeg.begin() + p, jpeg.begin() + p + len);
+    bytes.insert(bytes.end(), {0xFF, 0xD9});
+    return ParseImageMetadata(bytes.data(), bytes.size(), "dims");
+  };
+  const ImageMetadata ok = headerless("4000", "3000");
+  EXPECT_EQ(ok.width_px, 4000);
+  EXPECT_EQ(ok.height_px, 3000);
+  EXPECT_NEAR(*ok.lat_deg, 45.0, 1e-12);
+  const ImageMetadata huge = headerless("4000000000", "2000000");
+  EXPECT_EQ(huge.width_px, 0);
+  EXPECT_EQ(huge.height_px, 0);
+  EXPECT_NEAR(*huge.lat_deg, 45.0, 1e-12);  // the rest of the metadata is still read
+}
+
 TEST(ImageMetadata, TelemetryFromImagesOrderAndMissingGps) {
   ImageMetadata a, b, c, d;
   a.source = "a.jpg";
