@@ -18,7 +18,7 @@ FUZZ_TIME=${FUZZ_TIME:-30}
 B=${FUZZ_BUILD_DIR:-build-fuzz}
 
 cmake -S . -B "$B" -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DAEROVO_BUILD_FUZZERS=ON -DAEROVO_BUILD_TESTS=OFF -DAEROVO_BUILD_BENCHMARKS=OFF >/dev/null
+  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DAEROVO_BUILD_FUZZERS=ON -DAEROVO_BUILD_TESTS=OFF -DAEROVO_BUILD_BENCHMARKS=OFF >/dev/null
 cmake --build "$B" --parallel "$(nproc)" --target $(printf 'fuzz_%s ' "${TARGETS[@]}")
 
 # Leaks: detected (per input and at exit); third-party leak suppressions in scripts/lsan.supp.
