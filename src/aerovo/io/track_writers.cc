@@ -1,4 +1,5 @@
 #include "aerovo/io/track_writers.h"
+#include "aerovo/core/text.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -86,33 +87,6 @@ void CheckFinite(double v, const char* what, const std::string& where) {
   if (!std::isfinite(v)) {
     throw InvalidArgument(where + ": " + what + " is not finite (" + fmt::format("{}", v) + ")");
   }
-}
-
-std::string XmlEscape(const std::string& s) {
-  std::string out;
-  out.reserve(s.size());
-  for (char c : s) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&apos;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
 }
 
 std::string CsvField(const std::string& s) {

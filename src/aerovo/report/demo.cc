@@ -1,4 +1,5 @@
 #include "aerovo/report/demo.h"
+#include "aerovo/core/text.h"
 
 #include <cmath>
 #include <fstream>
@@ -40,29 +41,6 @@ void Validate(const DemoOptions& o) {
 
 namespace {
 
-std::string HtmlEscape(const std::string& text) {
-  std::string out;
-  for (const char c : text) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
-
 void WriteText(const std::filesystem::path& path, const std::string& text) {
   std::ofstream out(path);
   out << text;
@@ -77,7 +55,7 @@ void WriteIndex(const DemoResult& r, const std::string& summary) {
     const fs::path report = r.out_dir / dir / "report.html";
     const std::string target = fs::exists(report) ? dir + "/report.html" : dir + "/" + fallback;
     if (!fs::exists(r.out_dir / target)) return std::string();
-    return fmt::format("<li><a href=\"{0}\">{0}</a>: {1}</li>\n", HtmlEscape(target), what);
+    return fmt::format("<li><a href=\"{0}\">{0}</a>: {1}</li>\n", XmlEscape(target), what);
   };
   std::string items =
       link("run", "summary.json", "the run: trajectory against GPS and the exact ground truth") +
@@ -100,7 +78,7 @@ void WriteIndex(const DemoResult& r, const std::string& summary) {
       "<body>\n<h1>aerovo demo</h1>\n<p>Visual odometry after Ivanov &amp; Muzychuk (2023) on a "
       "flight simulated over aerovo's built-in terrain, with exact ground truth.</p>\n"
       "<pre>{}</pre>\n<h2>Outputs</h2>\n<ul>\n{}</ul>\n{}</body></html>\n",
-      HtmlEscape(summary), items, figure);
+      XmlEscape(summary), items, figure);
   WriteText(r.out_dir / "index.html", html);
 }
 

@@ -1,4 +1,5 @@
 #include "aerovo/report/html_report.h"
+#include "aerovo/core/text.h"
 
 #include <algorithm>
 #include <cmath>
@@ -35,33 +36,6 @@ std::string DirName(const fs::path& dir) {
 
 // ---------------------------------------------------------------------------------------------
 // Text helpers
-
-std::string Escape(const std::string& s) {
-  std::string out;
-  out.reserve(s.size());
-  for (char ch : s) {
-    switch (ch) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&#39;";
-        break;
-      default:
-        out += ch;
-    }
-  }
-  return out;
-}
 
 std::string Base64(const std::string& data) {
   static const char* const kAlphabet =
@@ -171,25 +145,25 @@ struct Page {
   int figures = 0;  // <svg> figures and <img> expected to render
 
   void H2(const std::string& text, const std::string& id = "") {
-    body += "<h2" + (id.empty() ? std::string() : " id=\"" + id + "\"") + ">" + Escape(text) +
+    body += "<h2" + (id.empty() ? std::string() : " id=\"" + id + "\"") + ">" + XmlEscape(text) +
             "</h2>\n";
   }
   void Para(const std::string& html) { body += "<p>" + html + "</p>\n"; }
-  void Note(const std::string& text) { body += "<p class=\"note\">" + Escape(text) + "</p>\n"; }
+  void Note(const std::string& text) { body += "<p class=\"note\">" + XmlEscape(text) + "</p>\n"; }
   void Table(const std::vector<std::string>& header,
              const std::vector<std::vector<std::string>>& rows, const std::string& cls = "") {
     body += "<table" + (cls.empty() ? std::string() : " class=\"" + cls + "\"") + ">\n";
     if (!header.empty()) {
       body += "<thead><tr>";
-      for (const std::string& h : header) body += "<th>" + Escape(h) + "</th>";
+      for (const std::string& h : header) body += "<th>" + XmlEscape(h) + "</th>";
       body += "</tr></thead>\n";
     }
     body += "<tbody>\n";
     for (const auto& r : rows) {
       body += "<tr>";
       for (std::size_t i = 0; i < r.size(); ++i) {
-        body +=
-            (i == 0 ? "<th scope=\"row\">" : "<td>") + Escape(r[i]) + (i == 0 ? "</th>" : "</td>");
+        body += (i == 0 ? "<th scope=\"row\">" : "<td>") + XmlEscape(r[i]) +
+                (i == 0 ? "</th>" : "</td>");
       }
       body += "</tr>\n";
     }
@@ -201,7 +175,7 @@ struct Page {
     h += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n";
     h += "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n";
     h += "<meta name=\"generator\" content=\"aerovo report\">\n";
-    h += "<title>" + Escape(title) + "</title>\n<style>\n";
+    h += "<title>" + XmlEscape(title) + "</title>\n<style>\n";
     h +=
         R"(body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,"DejaVu Sans",sans-serif;margin:0 auto;max-width:1280px;padding:1em 2em;color:#1b1b1b;background:#fff}
 h1{font-size:1.6em;margin-bottom:.2em}h2{border-bottom:1px solid #ccc;padding-bottom:.2em;margin-top:1.6em}
@@ -217,7 +191,7 @@ figcaption{font-size:.9em;color:#444;margin-top:.3em;text-align:center}
 )";
     h += "</style>\n</head>\n";
     h += fmt::format("<body data-figures-expected=\"{}\">\n", figures);
-    h += "<h1>" + Escape(title) + "</h1>\n";
+    h += "<h1>" + XmlEscape(title) + "</h1>\n";
     h += body;
     // Self-check for headless browsers (report_browser_test): each figure laid out with a
     // non-zero size and drawn, each image decoded.
@@ -262,7 +236,7 @@ class FigureSink {
     const std::string rel = std::string(ReportFileNames::kFiguresDir) + "/" + figure.name;
     page_.body += "<figure class=\"plot\" id=\"fig-" + figure.name + "\">\n";
     page_.body += InlineSvg(files.svg, figure.name + "-");
-    page_.body += "\n<figcaption>" + Escape(caption) + " — <a href=\"" + rel + ".svg\">SVG</a>";
+    page_.body += "\n<figcaption>" + XmlEscape(caption) + " — <a href=\"" + rel + ".svg\">SVG</a>";
     if (!files.png.empty()) page_.body += " · <a href=\"" + rel + ".png\">PNG</a>";
     page_.body += " · <a href=\"" + rel + ".gp\">gnuplot script</a></figcaption>\n</figure>\n";
     ++page_.figures;
@@ -279,10 +253,10 @@ class FigureSink {
     const std::string mime = (ext == ".png") ? "image/png" : "image/jpeg";
     const std::string rel =
         std::string(ReportFileNames::kFiguresDir) + "/" + file.filename().string();
-    page_.body += "<figure class=\"image\"><img id=\"" + id + "\" alt=\"" + Escape(caption) +
+    page_.body += "<figure class=\"image\"><img id=\"" + id + "\" alt=\"" + XmlEscape(caption) +
                   "\" src=\"data:" + mime + ";base64," + Base64(ReadFile(file)) + "\">\n";
-    page_.body += "<figcaption>" + Escape(caption) + " — <a href=\"" + rel + "\">" +
-                  Escape(file.filename().string()) + "</a></figcaption></figure>\n";
+    page_.body += "<figcaption>" + XmlEscape(caption) + " — <a href=\"" + rel + "\">" +
+                  XmlEscape(file.filename().string()) + "</a></figcaption></figure>\n";
     ++page_.figures;
   }
 
@@ -485,7 +459,7 @@ void SummaryTables(Page& page, const nlohmann::json& s) {
   }
   if (s.contains("truth_evaluation") && s["truth_evaluation"].is_object()) {
     page.H2("Comparison with the ground truth", "truth");
-    page.Para("Against <code>" + Escape(JsonString(s, "truth")) +
+    page.Para("Against <code>" + XmlEscape(JsonString(s, "truth")) +
               "</code> (frames matched by time), aligned as above.");
     EvaluationTable(page, s["truth_evaluation"]);
   }
@@ -698,8 +672,8 @@ void RunReport(const fs::path& dir, const ReportOptions& options, Page& page,
   const RunComparison cmp = CompareWithGps(run);
   const nlohmann::json summary = EffectiveSummary(run, cmp);
   page.title = "aerovo run report — " + DirName(dir);
-  page.body += "<p class=\"meta\">Run folder <code>" + Escape(fs::absolute(dir).string()) +
-               "</code>; input <code>" + Escape(JsonString(summary, "input")) + "</code>.</p>\n";
+  page.body += "<p class=\"meta\">Run folder <code>" + XmlEscape(fs::absolute(dir).string()) +
+               "</code>; input <code>" + XmlEscape(JsonString(summary, "input")) + "</code>.</p>\n";
   page.body +=
       "<nav><a href=\"#summary\">Summary</a><a href=\"#figures\">Figures</a>"
       "<a href=\"#mosaic\">Mosaic</a><a href=\"#config\">Configuration</a></nav>\n";
@@ -804,8 +778,8 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
   const std::string kind = JsonString(exp, "kind");
   page.title = "aerovo experiment report — " + (kind.empty() ? std::string("experiment") : kind) +
                " (" + DirName(dir) + ")";
-  page.body += "<p class=\"meta\">Experiment folder <code>" + Escape(fs::absolute(dir).string()) +
-               "</code>.</p>\n";
+  page.body += "<p class=\"meta\">Experiment folder <code>" +
+               XmlEscape(fs::absolute(dir).string()) + "</code>.</p>\n";
 
   // Reference: the simulated flight's ground truth, else each run's GPS.
   std::vector<GroundTruthPoint> ground_truth;
@@ -893,11 +867,11 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
         {"run", "frames", "bridged", "mean N_SURF", "ATE RMSE SE(2) (m)", "ATE RMSE Sim(2) (m)",
          "end-point error SE(2) (%)", "mean correspond (ms)", "mean total (ms)", "fps"},
         rows);
-    page.Para("Errors against " + Escape(ref_name) + ". Each run's own report:");
+    page.Para("Errors against " + XmlEscape(ref_name) + ". Each run's own report:");
     page.body += "<ul>\n";
     for (const ExpRun& r : runs) {
-      page.body += "<li><a href=\"" + Escape(r.dir) + "/" + ReportFileNames::kHtml + "\">" +
-                   Escape(r.label) + "</a></li>\n";
+      page.body += "<li><a href=\"" + XmlEscape(r.dir) + "/" + ReportFileNames::kHtml + "\">" +
+                   XmlEscape(r.label) + "</a></li>\n";
     }
     page.body += "</ul>\n";
   }
