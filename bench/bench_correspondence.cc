@@ -133,9 +133,10 @@ aerovo::SurfOptions SurfOpts() {
   return o;
 }
 
-Sequence LoadTampa(int num_frames) {
+// num_frames <= 0: every photo of the flight.
+Sequence LoadTampa(const std::string& name, int num_frames, double hessian_threshold) {
   Sequence s;
-  s.name = "tampa";
+  s.name = name;
   const fs::path dir = SharedDir() / "data/flights/tampa-phantom3";
   if (!fs::is_directory(dir)) return s;
   std::vector<fs::path> files;
@@ -143,7 +144,10 @@ Sequence LoadTampa(int num_frames) {
     if (e.path().extension() == ".JPG" || e.path().extension() == ".jpg") files.push_back(e.path());
   }
   std::sort(files.begin(), files.end());
-  aerovo::Surf surf(SurfOpts());
+  aerovo::SurfOptions so = SurfOpts();
+  so.hessian_threshold = hessian_threshold;
+  aerovo::Surf surf(so);
+  if (num_frames <= 0) num_frames = static_cast<int>(files.size());
   for (int i = 0; i < num_frames && i < static_cast<int>(files.size()); ++i) {
     cv::Mat bgr = cv::imread(files[i].string(), cv::IMREAD_COLOR), gray;
     if (bgr.empty()) continue;
@@ -181,7 +185,10 @@ const std::vector<Sequence>& Sequences() {
   static const std::vector<Sequence> seqs = [] {
     std::vector<Sequence> v;
     v.push_back(MakeSyntheticFlight());
-    v.push_back(LoadTampa(13));
+    v.push_back(LoadTampa("tampa", 0, 1000.0));
+    // The paper's premise, many points per frame: SURF threshold 100 (~4000 points on these
+    // 800 x 600 photos), first 25 photos.
+    v.push_back(LoadTampa("tampa-dense", 25, 100.0));
     v.push_back(LoadCallas(8));
     return v;
   }();
@@ -212,6 +219,22 @@ CorrespondenceOptions StageOptions(CorrespondenceMethod method, bool refine = tr
   o.method = method;
   o.clustered.refine = refine;
   return o;
+}
+
+// The stage variants compared side by side (report and BM_Stage); `bench` names the
+// Google Benchmark.
+struct Variant {
+  const char* name;
+  const char* bench;
+  CorrespondenceOptions options;
+};
+std::vector<Variant> ReportVariants() {
+  CorrespondenceOptions all = StageOptions(CorrespondenceMethod::kClustered, true);
+  all.clustered.refine_max_points = 0;
+  return {{"std", "standard", StageOptions(CorrespondenceMethod::kStandard)},
+          {"paper", "clustered_paper", StageOptions(CorrespondenceMethod::kClustered, false)},
+          {"ref", "clustered_refined", StageOptions(CorrespondenceMethod::kClustered, true)},
+          {"all", "clustered_refined_all", all}};
 }
 
 // The standard method's matches per pair (cached), as cv::Mat point arrays for OpenCV.
@@ -280,14 +303,14 @@ void BM_RansacAffine(benchmark::State& state) {
 }
 BENCHMARK(BM_RansacAffine)->Arg(500)->Arg(2000)->Arg(10000)->Unit(benchmark::kMillisecond);
 
-void BM_Stage(benchmark::State& state, const std::string& seq, CorrespondenceMethod method,
-              bool refine) {
+void BM_Stage(benchmark::State& state, const std::string& seq,
+              const CorrespondenceOptions& options) {
   const Sequence* s = FindSequence(seq);
   if (s == nullptr) {
     state.SkipWithError(("sequence " + seq + " unavailable (../shared missing?)").c_str());
     return;
   }
-  CorrespondenceStage stage(StageOptions(method, refine));
+  CorrespondenceStage stage(options);
   for (auto _ : state) benchmark::DoNotOptimize(RunSequence(*s, stage));
   // Time per pair = reported time / pairs (CPU time is the steadier figure on a loaded machine).
   state.counters["pairs"] = static_cast<double>(s->pairs());
@@ -316,17 +339,13 @@ void BM_EstimateOnly(benchmark::State& state, const std::string& seq, int which)
 }
 
 void RegisterStageBenchmarks() {
-  for (const char* seq : {"synthetic-flight", "tampa", "callas"}) {
+  for (const char* seq : {"synthetic-flight", "tampa", "tampa-dense", "callas"}) {
     const std::string name = seq;
-    benchmark::RegisterBenchmark(("BM_Stage/" + name + "/standard").c_str(), BM_Stage, name,
-                                 CorrespondenceMethod::kStandard, true)
-        ->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark(("BM_Stage/" + name + "/clustered_paper").c_str(), BM_Stage, name,
-                                 CorrespondenceMethod::kClustered, false)
-        ->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark(("BM_Stage/" + name + "/clustered_refined").c_str(), BM_Stage,
-                                 name, CorrespondenceMethod::kClustered, true)
-        ->Unit(benchmark::kMillisecond);
+    for (const Variant& v : ReportVariants()) {
+      benchmark::RegisterBenchmark(("BM_Stage/" + name + "/" + v.bench).c_str(), BM_Stage, name,
+                                   v.options)
+          ->Unit(benchmark::kMillisecond);
+    }
     benchmark::RegisterBenchmark(("BM_EstimateOnly/" + name + "/aerovo_msac").c_str(),
                                  BM_EstimateOnly, name, 0)
         ->Unit(benchmark::kMillisecond);
@@ -355,11 +374,23 @@ Stats Summarise(std::vector<double> v) {
   return s;
 }
 
+// Per-pair rows printed per sequence (the summaries cover every pair).
+constexpr std::size_t kMaxRowsPrinted = 15;
+// Seeds of the standard method's reproducibility check (seed 1 is the compared run).
+constexpr int kSeedsChecked = 5;
+
 void Report() {
   std::printf("# Correspondence stage: standard vs clustered RANSAC (per frame pair)\n");
   std::printf(
       "# std = standard (match all + MSAC); paper = clustered RANSAC exactly as the paper; ref = "
-      "clustered + refinement (default). Times: wall clock, fastest of 5 runs per pair.\n");
+      "clustered + refinement (default, <= 180 points); all = clustered + refinement on every "
+      "point of the crop (refine_max_points = 0); seeds = the standard method itself with RANSAC "
+      "seeds 2-%d (its own reproducibility: no estimate can be expected to agree with one "
+      "standard run better than another standard run does). Times: wall clock, fastest of 5 runs "
+      "per pair. Corner diff / error: largest displacement of the 4 frame corners, px.\n",
+      1 + kSeedsChecked);
+  const std::vector<Variant> variants = ReportVariants();
+  const std::size_t nv = variants.size();
   for (const Sequence& s : Sequences()) {
     if (s.pairs() == 0) {
       std::printf("\n## %s: unavailable (../shared missing), skipped\n", s.name.c_str());
@@ -368,40 +399,37 @@ void Report() {
     double mean_points = 0;
     for (const FeatureSet& f : s.frames) mean_points += f.size();
     mean_points /= s.frames.size();
-    CorrespondenceStage standard(StageOptions(CorrespondenceMethod::kStandard));
-    CorrespondenceStage paper(StageOptions(CorrespondenceMethod::kClustered, false));
-    CorrespondenceStage refined(StageOptions(CorrespondenceMethod::kClustered, true));
     // Five runs each; per pair the fastest (other processes load the machine: the minimum is
     // the least disturbed). Results are identical across runs (seeded).
-    auto best_of = [&](CorrespondenceStage& stage, std::vector<double>* times) {
-      std::vector<CorrespondenceResult> res;
-      times->assign(s.pairs(), std::numeric_limits<double>::infinity());
+    std::vector<std::vector<CorrespondenceResult>> res(nv);
+    std::vector<std::vector<double>> times(nv);
+    for (std::size_t v = 0; v < nv; ++v) {
+      CorrespondenceStage stage(variants[v].options);
+      times[v].assign(s.pairs(), std::numeric_limits<double>::infinity());
       for (int run = 0; run < 5; ++run) {
-        res = RunSequence(s, stage);
+        res[v] = RunSequence(s, stage);
         for (std::size_t i = 0; i < s.pairs(); ++i) {
-          (*times)[i] = std::min((*times)[i], res[i].total_ms);
+          times[v][i] = std::min(times[v][i], res[v][i].total_ms);
         }
       }
-      return res;
-    };
-    std::vector<double> t_std, t_pap, t_ref;
-    const auto rs = best_of(standard, &t_std);
-    const auto rp = best_of(paper, &t_pap);
-    const auto rr = best_of(refined, &t_ref);
+    }
     const auto& pms = StandardMatches(s);
-    std::printf("\n## %s: %zu pairs, %dx%d, %.0f SURF points/frame\n", s.name.c_str(), s.pairs(),
-                s.width, s.height, mean_points);
+    std::printf("\n## %s: %zu pairs, %dx%d, %.0f SURF points/frame%s\n", s.name.c_str(), s.pairs(),
+                s.width, s.height, mean_points,
+                s.pairs() > kMaxRowsPrinted ? " (rows: the first 15 pairs; summaries: all)" : "");
     std::printf(
-        "pair | ms: std paper ref | cell attempts fellback | inliers/matches: std paper ref | "
-        "corner diff to std px: paper ref | err to truth px: std paper ref cvRANSAC cvMAGSAC | "
-        "cv ms: RANSAC MAGSAC\n");
-    std::vector<double> d_pap, d_ref, d_cvr, d_cvm, t_cvr, t_cvm;
-    std::vector<double> e_std, e_pap, e_ref, e_cvr, e_cvm;
+        "pair | ms: std paper ref all | cell attempts fellback | inliers/matches: std paper ref "
+        "all | corner diff to std px: paper ref all seeds(max) | err to truth px: std paper ref "
+        "all cvRANSAC cvMAGSAC | cv ms: RANSAC MAGSAC\n");
+    // diffs[v]: corner difference of variant v to standard (v = 0: unused); seeds: standard with
+    // other seeds vs standard; errs[v], errs[nv], errs[nv + 1]: error to truth of v, cv RANSAC,
+    // cv USAC_MAGSAC.
+    std::vector<std::vector<double>> diffs(nv), errs(nv + 2);
+    std::vector<double> seeds, d_cvr, d_cvm, t_cvr, t_cvm;
     int fallbacks = 0, failures = 0;
     for (std::size_t i = 0; i < s.pairs(); ++i) {
-      const CorrespondenceResult& a = rs[i];
-      const CorrespondenceResult& p = rp[i];
-      const CorrespondenceResult& r = rr[i];
+      const CorrespondenceResult& a = res[0][i];
+      const CorrespondenceResult& p = res[1][i];
       std::optional<Eigen::Matrix3d> cvr, cvm;
       double best_r = std::numeric_limits<double>::infinity(), best_m = best_r;
       for (int run = 0; run < 5; ++run) {
@@ -415,64 +443,76 @@ void Report() {
       t_cvr.push_back(best_r);
       t_cvm.push_back(best_m);
       fallbacks += p.fell_back;
-      failures += !a.success + !p.success + !r.success;
-      auto diff = [&](const CorrespondenceResult& x, std::vector<double>* acc) -> double {
-        if (!a.success || !x.success) return NAN;
-        const double d =
-            aerovo::MaxCornerDisplacementPx(a.curr_from_prev, x.curr_from_prev, s.width, s.height);
-        acc->push_back(d);
-        return d;
+      const auto corner = [&](const Eigen::Matrix3d& x, const Eigen::Matrix3d& y) {
+        return aerovo::MaxCornerDisplacementPx(x, y, s.width, s.height);
       };
-      auto err = [&](bool ok, const Eigen::Matrix3d& m, std::vector<double>* acc) -> double {
-        if (!s.truth[i] || !ok) return NAN;
-        const double e = aerovo::MaxCornerDisplacementPx(m, *s.truth[i], s.width, s.height);
-        acc->push_back(e);
-        return e;
-      };
-      const double dp = diff(p, &d_pap), dr = diff(r, &d_ref);
-      if (a.success && cvr) {
-        d_cvr.push_back(aerovo::MaxCornerDisplacementPx(a.curr_from_prev, *cvr, s.width, s.height));
+      std::vector<double> d(nv, NAN), e(nv + 2, NAN);
+      for (std::size_t v = 0; v < nv; ++v) {
+        const CorrespondenceResult& x = res[v][i];
+        failures += !x.success;
+        if (v > 0 && a.success && x.success)
+          diffs[v].push_back(d[v] = corner(a.curr_from_prev, x.curr_from_prev));
+        if (s.truth[i] && x.success)
+          errs[v].push_back(e[v] = corner(x.curr_from_prev, *s.truth[i]));
       }
-      if (a.success && cvm) {
-        d_cvm.push_back(aerovo::MaxCornerDisplacementPx(a.curr_from_prev, *cvm, s.width, s.height));
+      double seed_max = NAN;
+      for (int k = 0; k < kSeedsChecked && a.success; ++k) {
+        CorrespondenceOptions o = variants[0].options;
+        o.ransac.seed = variants[0].options.ransac.seed + 1 + k;
+        CorrespondenceStage other(o);
+        const CorrespondenceResult b = other.Standard(s.frames[i], s.frames[i + 1]);
+        if (!b.success) continue;
+        seeds.push_back(corner(a.curr_from_prev, b.curr_from_prev));
+        seed_max = std::isnan(seed_max) ? seeds.back() : std::max(seed_max, seeds.back());
       }
-      const double es = err(a.success, a.curr_from_prev, &e_std);
-      const double ep = err(p.success, p.curr_from_prev, &e_pap);
-      const double er = err(r.success, r.curr_from_prev, &e_ref);
-      const double ecr = err(cvr.has_value(), cvr.value_or(Eigen::Matrix3d::Identity()), &e_cvr);
-      const double ecm = err(cvm.has_value(), cvm.value_or(Eigen::Matrix3d::Identity()), &e_cvm);
-      std::printf(
-          "%zu | %.2f %.2f %.2f | (%d,%d) %d %s | %d/%zu %d/%zu %d/%zu | %.2f %.2f | %.3f %.3f "
-          "%.3f %.3f %.3f | %.2f %.2f\n",
-          i, t_std[i], t_pap[i], t_ref[i], p.cell_row, p.cell_col, p.attempts,
-          p.fell_back ? "yes" : "no", a.num_inliers, a.matches.size(), p.num_inliers,
-          p.matches.size(), r.num_inliers, r.matches.size(), dp, dr, es, ep, er, ecr, ecm,
-          t_cvr.back(), t_cvm.back());
+      if (a.success && cvr) d_cvr.push_back(corner(a.curr_from_prev, *cvr));
+      if (a.success && cvm) d_cvm.push_back(corner(a.curr_from_prev, *cvm));
+      if (s.truth[i] && cvr) errs[nv].push_back(e[nv] = corner(*cvr, *s.truth[i]));
+      if (s.truth[i] && cvm) errs[nv + 1].push_back(e[nv + 1] = corner(*cvm, *s.truth[i]));
+      if (i >= kMaxRowsPrinted) continue;
+      std::printf("%zu | %.2f %.2f %.2f %.2f | (%d,%d) %d %s |", i, times[0][i], times[1][i],
+                  times[2][i], times[3][i], p.cell_row, p.cell_col, p.attempts,
+                  p.fell_back ? "yes" : "no");
+      for (std::size_t v = 0; v < nv; ++v) {
+        std::printf(" %d/%zu", res[v][i].num_inliers, res[v][i].matches.size());
+      }
+      std::printf(" | %.2f %.2f %.2f %.2f | %.3f %.3f %.3f %.3f %.3f %.3f | %.2f %.2f\n", d[1],
+                  d[2], d[3], seed_max, e[0], e[1], e[2], e[3], e[4], e[5], t_cvr.back(),
+                  t_cvm.back());
     }
-    const Stats ss = Summarise(t_std), sp = Summarise(t_pap), sr = Summarise(t_ref);
+    std::vector<Stats> st(nv);
+    for (std::size_t v = 0; v < nv; ++v) st[v] = Summarise(times[v]);
+    std::printf("summary %s time ms/pair mean (median, max):", s.name.c_str());
+    for (std::size_t v = 0; v < nv; ++v) {
+      std::printf(" %s %.3f (%.3f, %.3f);", variants[v].name, st[v].mean, st[v].median, st[v].max);
+    }
+    std::printf(" speed-up of the mean:");
+    for (std::size_t v = 1; v < nv; ++v) {
+      std::printf(" %s %.1fx", variants[v].name, st[0].mean / st[v].mean);
+    }
+    std::printf("; paper fell back %d/%zu; failed runs %d\n", fallbacks, s.pairs(), failures);
+    const auto mm = [](const std::vector<double>& v) {
+      if (v.empty()) return std::string("n/a");
+      const Stats x = Summarise(v);
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "%.3f / %.3f", x.mean, x.max);
+      return std::string(buf);
+    };
     std::printf(
-        "summary %s time ms/pair mean (median, max): standard %.2f (%.2f, %.2f); paper %.2f "
-        "(%.2f, %.2f); refined %.2f (%.2f, %.2f); speed-up of the mean: paper %.1fx, refined "
-        "%.1fx; paper fell back %d/%zu; failed runs %d\n",
-        s.name.c_str(), ss.mean, ss.median, ss.max, sp.mean, sp.median, sp.max, sr.mean, sr.median,
-        sr.max, ss.mean / sp.mean, ss.mean / sr.mean, fallbacks, s.pairs(), failures);
-    std::printf(
-        "summary %s corner difference to standard px, mean / max: paper %.3f / %.3f, refined "
-        "%.3f / %.3f, cv RANSAC (3 px) %.3f / %.3f, cv USAC_MAGSAC %.3f / %.3f\n",
-        s.name.c_str(), Summarise(d_pap).mean, Summarise(d_pap).max, Summarise(d_ref).mean,
-        Summarise(d_ref).max, Summarise(d_cvr).mean, Summarise(d_cvr).max, Summarise(d_cvm).mean,
-        Summarise(d_cvm).max);
-    if (!e_std.empty()) {
+        "summary %s corner difference to standard px, mean / max: paper %s, ref %s, all %s, "
+        "standard with other seeds %s, cv RANSAC (3 px) %s, cv USAC_MAGSAC %s\n",
+        s.name.c_str(), mm(diffs[1]).c_str(), mm(diffs[2]).c_str(), mm(diffs[3]).c_str(),
+        mm(seeds).c_str(), mm(d_cvr).c_str(), mm(d_cvm).c_str());
+    if (!errs[0].empty()) {
       std::printf(
-          "summary %s corner error to ground truth px, mean / max: standard %.3f / %.3f, paper "
-          "%.3f / %.3f, refined %.3f / %.3f, cv RANSAC %.3f / %.3f, cv USAC_MAGSAC %.3f / %.3f\n",
-          s.name.c_str(), Summarise(e_std).mean, Summarise(e_std).max, Summarise(e_pap).mean,
-          Summarise(e_pap).max, Summarise(e_ref).mean, Summarise(e_ref).max, Summarise(e_cvr).mean,
-          Summarise(e_cvr).max, Summarise(e_cvm).mean, Summarise(e_cvm).max);
+          "summary %s corner error to ground truth px, mean / max: std %s, paper %s, ref %s, all "
+          "%s, cv RANSAC %s, cv USAC_MAGSAC %s\n",
+          s.name.c_str(), mm(errs[0]).c_str(), mm(errs[1]).c_str(), mm(errs[2]).c_str(),
+          mm(errs[3]).c_str(), mm(errs[4]).c_str(), mm(errs[5]).c_str());
     }
     std::printf(
-        "summary %s estimation only on the standard matches, mean ms/pair: cv RANSAC %.2f, cv "
-        "USAC_MAGSAC %.2f (aerovo MSAC: BM_EstimateOnly)\n",
+        "summary %s estimation only on the standard matches, mean ms/pair: cv RANSAC %.3f, cv "
+        "USAC_MAGSAC %.3f (aerovo MSAC: BM_EstimateOnly)\n",
         s.name.c_str(), Summarise(t_cvr).mean, Summarise(t_cvm).mean);
   }
   std::fflush(stdout);
