@@ -426,7 +426,7 @@ void Report() {
     // cv USAC_MAGSAC.
     std::vector<std::vector<double>> diffs(nv), errs(nv + 2);
     std::vector<double> seeds, d_cvr, d_cvm, t_cvr, t_cvm;
-    int fallbacks = 0, failures = 0;
+    int fallbacks = 0, failures = 0, paper_attempts = 0;
     for (std::size_t i = 0; i < s.pairs(); ++i) {
       const CorrespondenceResult& a = res[0][i];
       const CorrespondenceResult& p = res[1][i];
@@ -443,6 +443,7 @@ void Report() {
       t_cvr.push_back(best_r);
       t_cvm.push_back(best_m);
       fallbacks += p.fell_back;
+      paper_attempts += p.attempts;
       const auto corner = [&](const Eigen::Matrix3d& x, const Eigen::Matrix3d& y) {
         return aerovo::MaxCornerDisplacementPx(x, y, s.width, s.height);
       };
@@ -490,7 +491,8 @@ void Report() {
     for (std::size_t v = 1; v < nv; ++v) {
       std::printf(" %s %.1fx", variants[v].name, st[0].mean / st[v].mean);
     }
-    std::printf("; paper fell back %d/%zu; failed runs %d\n", fallbacks, s.pairs(), failures);
+    std::printf("; paper: %.2f cells tried per pair, fell back %d/%zu; failed runs %d\n",
+                static_cast<double>(paper_attempts) / s.pairs(), fallbacks, s.pairs(), failures);
     const auto mm = [](const std::vector<double>& v) {
       if (v.empty()) return std::string("n/a");
       const Stats x = Summarise(v);
