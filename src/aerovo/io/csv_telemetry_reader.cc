@@ -8,12 +8,14 @@
 
 #include <fmt/format.h>
 
+#include "aerovo/io/csv_lines.h"
 #include "aerovo/io/parse_util.h"
 #include "aerovo/io/telemetry_readers.h"
 
 namespace aerovo {
 namespace {
 
+using io_detail::CsvLines;
 using io_detail::ParseDouble;
 using io_detail::RecordErrors;
 using io_detail::Trim;
@@ -91,75 +93,25 @@ std::optional<Column> ColumnOf(const std::string& name) {
   return std::nullopt;
 }
 
-// One CSV record split on `sep`, honouring "..." quotes ("" inside quotes is a quote).
-// Returns false on an unterminated quote.
-bool SplitCsv(const std::string& line, char sep, std::vector<std::string>& cells) {
-  cells.clear();
-  std::string cell;
-  bool quoted = false;
-  for (std::size_t i = 0; i < line.size(); ++i) {
-    const char c = line[i];
-    if (quoted) {
-      if (c == '"') {
-        if (i + 1 < line.size() && line[i + 1] == '"') {
-          cell.push_back('"');
-          ++i;
-        } else {
-          quoted = false;
-        }
-      } else {
-        cell.push_back(c);
-      }
-    } else if (c == '"') {
-      quoted = true;
-    } else if (c == sep) {
-      cells.push_back(std::move(cell));
-      cell.clear();
-    } else {
-      cell.push_back(c);
-    }
-  }
-  cells.push_back(std::move(cell));
-  return !quoted;
-}
-
 }  // namespace
 
 TelemetryReadResult ParseTelemetryCsv(std::istream& in, const std::string& source_name,
                                       const TelemetryReadOptions& options) {
   Validate(options);
   RecordErrors errors(options, source_name);
-  std::string line;
-  long n = 0;
-  // Header: first line that is neither blank nor a comment.
-  while (std::getline(in, line)) {
-    ++n;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (n == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
-    const std::string_view t = Trim(line);
-    if (!t.empty() && t.front() != '#') break;
-    line.clear();
-  }
-  if (Trim(line).empty())
-    throw InputError(fmt::format("{}: empty CSV file (no header)", source_name));
-  const long header_line = n;
-  const char sep =
-      std::count(line.begin(), line.end(), ';') > std::count(line.begin(), line.end(), ',') ? ';'
-                                                                                            : ',';
-  std::vector<std::string> cells;
-  if (!SplitCsv(line, sep, cells)) {
-    throw InputError(fmt::format("{}:{}: unterminated quote in header", source_name, header_line));
-  }
+  CsvLines csv(in, source_name);
+  const long header_line = csv.header_line();
+  const std::vector<std::string>& header = csv.header();
   std::array<int, kNumColumns> index;
   index.fill(-1);
-  for (std::size_t c = 0; c < cells.size(); ++c) {
-    const std::string name = io_detail::ToLower(Trim(cells[c]));
+  for (std::size_t c = 0; c < header.size(); ++c) {
+    const std::string name = io_detail::ToLower(Trim(header[c]));
     const auto col = ColumnOf(name);
     if (!col) continue;  // Unknown columns are allowed and ignored.
     if (index[*col] >= 0) {
       throw InputError(fmt::format("{}:{}: two columns mean {} ('{}' and '{}')", source_name,
-                                   header_line, kColumnNames[*col], Trim(cells[index[*col]]),
-                                   Trim(cells[c])));
+                                   header_line, kColumnNames[*col], Trim(header[index[*col]]),
+                                   Trim(header[c])));
     }
     index[*col] = static_cast<int>(c);
   }
@@ -174,17 +126,15 @@ TelemetryReadResult ParseTelemetryCsv(std::istream& in, const std::string& sourc
                     "frame column",
                     source_name, header_line));
   }
-  const std::size_t num_header_cells = cells.size();
+  const std::size_t num_header_cells = header.size();
 
   std::vector<TelemetrySample> samples;
   int no_fix = 0;
   std::optional<double> last_time, first_date;
-  while (std::getline(in, line)) {
-    ++n;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    const std::string_view t = Trim(line);
-    if (t.empty() || t.front() == '#') continue;
-    if (!SplitCsv(line, sep, cells)) {
+  std::vector<std::string> cells;
+  while (csv.Next(cells)) {
+    const long n = csv.line();
+    if (csv.unterminated_quote()) {
       errors.Report(n, "unterminated quote");
       continue;
     }

@@ -1,0 +1,47 @@
+// Internal to the io readers (not part of the public API): a CSV text with a header row, read
+// record by record. Shared by the readers of named-column files (ParseTelemetryCsv in
+// telemetry_readers.h, ReadGroundTruthCsv in reference_track.h), which differ only in what the
+// columns mean and how they treat a bad record.
+#pragma once
+
+#include <istream>
+#include <string>
+#include <vector>
+
+namespace aerovo::io_detail {
+
+/// Splits one CSV record on `sep`, honouring "..." quotes ("" inside quotes is a quote). Cells
+/// are not trimmed. Returns false on an unterminated quote (`cells` then holds what was read).
+bool SplitCsv(const std::string& line, char sep, std::vector<std::string>& cells);
+
+/// A CSV text with a header row. The header is the first line that is neither blank nor a
+/// comment (first non-blank character '#'), with a UTF-8 byte-order mark on line 1 removed; the
+/// separator is ';' when the header holds more ';' than ',', else ','. Data records are the
+/// following lines, blank and comment lines skipped; "\r\n" line ends are accepted.
+class CsvLines {
+ public:
+  /// Reads up to and including the header. Throws InputError "<source>: empty CSV file (no
+  /// header)" or "<source>:<line>: unterminated quote in header". `in` must outlive this.
+  CsvLines(std::istream& in, std::string source_name);
+
+  const std::vector<std::string>& header() const { return header_; }  ///< Cells, untrimmed.
+  long header_line() const { return header_line_; }                   ///< 1-based.
+  char separator() const { return sep_; }
+
+  /// Reads the next data record into `cells`; false at the end of the input. After it,
+  /// line() is the record's 1-based line number and unterminated_quote() tells whether the
+  /// record had an unterminated quote (the caller reports it: strict or lenient).
+  bool Next(std::vector<std::string>& cells);
+  long line() const { return line_; }
+  bool unterminated_quote() const { return unterminated_quote_; }
+
+ private:
+  std::istream& in_;
+  std::vector<std::string> header_;
+  long header_line_ = 0;
+  long line_ = 0;
+  char sep_ = ',';
+  bool unterminated_quote_ = false;
+};
+
+}  // namespace aerovo::io_detail
