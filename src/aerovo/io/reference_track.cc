@@ -2,12 +2,14 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <fstream>
 #include <sstream>
 
 #include <fmt/format.h>
 
 #include "aerovo/core/error.h"
+#include "aerovo/io/csv_lines.h"
 #include "aerovo/io/parse_util.h"
 #include "aerovo/io/telemetry_readers.h"
 
@@ -79,6 +81,53 @@ ReferenceTrack ReadReferenceTrack(const std::filesystem::path& path) {
     throw InputError(fmt::format("reference track '{}': needs at least 2 positions, found {}",
                                  path.string(), track.points.size()));
   }
+  return track;
+}
+
+ReferenceTrack ReadGroundTruthCsv(const std::filesystem::path& path) {
+  std::ifstream in = io_detail::OpenInput(path);
+  io_detail::CsvLines csv(in, path.string());
+  const auto fail = [&](long line, const std::string& what) {
+    throw InputError(fmt::format("{}:{}: {}", path.string(), line, what));
+  };
+  static const char* const kColumns[] = {"frame", "time_s", "east_m", "north_m"};
+  const std::vector<std::string>& header = csv.header();
+  bool header_ok = header.size() >= 4;
+  for (int c = 0; header_ok && c < 4; ++c) header_ok = io_detail::Trim(header[c]) == kColumns[c];
+  if (!header_ok) {
+    fail(csv.header_line(),
+         "expected a header starting 'frame,time_s,east_m,north_m' (ground_truth.csv of aerovo "
+         "simulate)");
+  }
+  ReferenceTrack track;
+  track.path = path.string();
+  track.format = "ground_truth_csv";
+  std::vector<std::string> cells;
+  while (csv.Next(cells)) {
+    if (csv.unterminated_quote()) fail(csv.line(), "unterminated quote");
+    if (cells.size() < 4) fail(csv.line(), "fewer than 4 columns");
+    double v[4];
+    for (int c = 0; c < 4; ++c) {
+      const std::optional<double> d = io_detail::ParseDouble(cells[c]);
+      if (!d) fail(csv.line(), fmt::format("{} '{}' is not a number", kColumns[c], cells[c]));
+      v[c] = *d;
+    }
+    // Range first: converting a double outside int's range is undefined.
+    if (v[0] < 0 || v[0] > 1e8 || v[0] != std::floor(v[0])) {
+      fail(csv.line(), fmt::format("frame {} is not an integer >= 0", cells[0]));
+    }
+    if (!track.points.empty() && v[1] < track.points.back().time_s) {
+      fail(csv.line(), fmt::format("time {} is before the previous row's {}", v[1],
+                                   track.points.back().time_s));
+    }
+    ReferencePoint p;
+    p.frame_index = static_cast<int>(v[0]);
+    p.time_s = v[1];
+    p.x_m = v[2];
+    p.y_m = v[3];
+    track.points.push_back(p);
+  }
+  if (track.points.empty()) fail(csv.line(), "no frames");
   return track;
 }
 

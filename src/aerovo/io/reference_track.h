@@ -25,7 +25,9 @@ struct ReferencePoint {
 
 struct ReferenceTrack {
   std::string path;
-  std::string format;  ///< "tum" or the telemetry format read ("csv", "gpx", "srt").
+  /// "tum", the telemetry format read ("csv", "gpx", "srt"), or "ground_truth_csv"
+  /// (ReadGroundTruthCsv).
+  std::string format;
   /// True when the points carry WGS84 positions (telemetry formats); false for TUM (local ENU
   /// metres, e.g. the simulator's GT ENU frame whose origin is the ground below frame 0).
   bool geographic = false;
@@ -39,5 +41,17 @@ struct ReferenceTrack {
 /// Throws InputError naming the file (and line) for an unreadable file, a malformed line, times
 /// that decrease, or fewer than 2 points.
 ReferenceTrack ReadReferenceTrack(const std::filesystem::path& path);
+
+/// Reads the simulator's ground_truth.csv (`aerovo simulate`, sim/sim_writer.h) in the
+/// simulator's own GT ENU frame: a local track (geographic = false, format "ground_truth_csv")
+/// whose points carry frame_index (column frame), time_s, x_m = east_m and y_m = north_m. The
+/// header must start with the columns frame,time_s,east_m,north_m; further columns are ignored.
+/// ReadReferenceTrack reads the same file as geographic positions (lat_deg, lon_deg), which is
+/// what a comparison in another ENU frame (a run's: origin at its first GPS fix) needs; this
+/// reader keeps the simulator's exact metres, for comparisons paired by frame in that frame.
+/// Throws InputError naming the file and line for a missing file, a wrong header, a bad number,
+/// a frame index that is not an integer >= 0, times that decrease, or no row at all (one row is
+/// enough).
+ReferenceTrack ReadGroundTruthCsv(const std::filesystem::path& path);
 
 }  // namespace aerovo

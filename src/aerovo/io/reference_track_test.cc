@@ -61,5 +61,57 @@ TEST(ReferenceTrack, BadInputNamesFileAndLine) {
   EXPECT_THROW(ReadReferenceTrack(dir / "missing.tum"), InputError);
 }
 
+TEST(ReferenceTrack, ReadsSimulatorGroundTruthInItsOwnFrame) {
+  io_test::TempDir dir("aerovo_reftrack");
+  Write(dir / "ground_truth.csv",
+        "frame,time_s,east_m,north_m,up_m,lat_deg,lon_deg,alt_m,yaw_deg,pitch_deg,roll_deg,"
+        "nodata_fraction\r\n"
+        "0,0.000000,0,0,100,43.537348735,6.555255181,400.0,90,0,0,0\r\n"
+        "\r\n"
+        "2,0.400000,5.5,-1.25,100,43.537348734,6.555279924,400.0,90,0,0,0\r\n");
+  const ReferenceTrack t = ReadGroundTruthCsv(dir / "ground_truth.csv");
+  EXPECT_EQ(t.format, "ground_truth_csv");
+  EXPECT_FALSE(t.geographic);
+  EXPECT_EQ(t.path, (dir / "ground_truth.csv").string());
+  ASSERT_EQ(t.points.size(), 2u);
+  EXPECT_EQ(t.points[1].frame_index, 2);
+  EXPECT_DOUBLE_EQ(t.points[1].time_s, 0.4);
+  EXPECT_DOUBLE_EQ(t.points[1].x_m, 5.5);
+  EXPECT_DOUBLE_EQ(t.points[1].y_m, -1.25);
+  EXPECT_FALSE(t.points[1].geo.has_value());
+  // Only the first four columns are needed; one row is enough.
+  Write(dir / "short.csv", "frame,time_s,east_m,north_m\n7,1.5,2,3\n");
+  const ReferenceTrack s = ReadGroundTruthCsv(dir / "short.csv");
+  ASSERT_EQ(s.points.size(), 1u);
+  EXPECT_EQ(s.points[0].frame_index, 7);
+}
+
+TEST(ReferenceTrack, GroundTruthCsvErrorsNameFileAndLine) {
+  io_test::TempDir dir("aerovo_reftrack");
+  const auto expect_error = [&](const std::string& text, const std::string& where,
+                                const std::string& what) {
+    Write(dir / "gt.csv", text);
+    try {
+      ReadGroundTruthCsv(dir / "gt.csv");
+      ADD_FAILURE() << "expected InputError for " << text;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("gt.csv:" + where + ": "), std::string::npos)
+          << e.what();
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+  };
+  expect_error("a,b,c\n1,2,3\n", "1", "frame,time_s,east_m,north_m");
+  expect_error("frame,time_s,east_m,north_m,up_m\n0,0,0,0,100\n1,0.5,x,0,100\n", "3",
+               "east_m 'x' is not a number");
+  expect_error("frame,time_s,east_m,north_m\n0,0,0,0\n1,0.5,0\n", "3", "fewer than 4 columns");
+  expect_error("frame,time_s,east_m,north_m\n1.5,0,0,0\n", "2", "frame 1.5 is not an integer");
+  expect_error("frame,time_s,east_m,north_m\n-1,0,0,0\n", "2", "is not an integer >= 0");
+  expect_error("frame,time_s,east_m,north_m\n0,1,0,0\n1,0.5,0,0\n", "3", "before the previous");
+  expect_error("frame,time_s,east_m,north_m\n", "1", "no frames");
+  EXPECT_THROW(ReadGroundTruthCsv(dir / "missing.csv"), InputError);
+  Write(dir / "empty.csv", "");
+  EXPECT_THROW(ReadGroundTruthCsv(dir / "empty.csv"), InputError);
+}
+
 }  // namespace
 }  // namespace aerovo

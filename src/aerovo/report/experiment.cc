@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "aerovo/core/error.h"
+#include "aerovo/io/reference_track.h"
 #include "aerovo/io/track_writers.h"
 #include "aerovo/sim/sim_writer.h"
 #include "aerovo/sim/terrain.h"
@@ -149,45 +150,6 @@ std::string FormatTableMarkdown(const ExperimentTable& t) {
 
 // ---------------------------------------------------------------------------------------------
 // Inputs
-
-std::vector<GroundTruthPoint> ReadGroundTruthCsv(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError("cannot open ground truth file '" + path.string() + "'");
-  const auto fail = [&](int line, const std::string& what) {
-    throw InputError(fmt::format("ground truth file '{}', line {}: {}", path.string(), line, what));
-  };
-  std::string line;
-  if (!std::getline(in, line)) fail(1, "empty file");
-  if (!line.empty() && line.back() == '\r') line.pop_back();
-  if (line.rfind("frame,time_s,east_m,north_m", 0) != 0) {
-    fail(1,
-         "expected a header starting 'frame,time_s,east_m,north_m' (ground_truth.csv of "
-         "aerovo simulate)");
-  }
-  std::vector<GroundTruthPoint> out;
-  int number = 1;
-  while (std::getline(in, line)) {
-    ++number;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty()) continue;
-    std::stringstream ss(line);
-    std::string cell;
-    double v[4];
-    for (int i = 0; i < 4; ++i) {
-      if (!std::getline(ss, cell, ',')) fail(number, "fewer than 4 columns");
-      char* end = nullptr;
-      v[i] = std::strtod(cell.c_str(), &end);
-      if (end == cell.c_str() || *end != '\0' || !std::isfinite(v[i])) {
-        fail(number, "'" + cell + "' is not a number");
-      }
-    }
-    if (v[0] < 0 || v[0] != std::floor(v[0]))
-      fail(number, "the frame index must be an integer >= 0");
-    out.push_back(GroundTruthPoint{static_cast<int>(v[0]), v[1], v[2], v[3]});
-  }
-  if (out.empty()) fail(number, "no frames");
-  return out;
-}
 
 sim::SimulationOptions DefaultExperimentSimulation() {
   sim::SimulationOptions o;

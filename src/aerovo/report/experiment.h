@@ -83,18 +83,7 @@ std::string FormatTableMarkdown(const ExperimentTable& table);
 // ---------------------------------------------------------------------------------------------
 // Inputs
 
-/// Exact ground truth of one frame, from ground_truth.csv of `aerovo simulate` (sim_writer.h):
-/// camera centre in the simulator's GT ENU frame, metres.
-struct GroundTruthPoint {
-  int frame = 0;
-  double time_s = 0.0;
-  double east_m = 0.0;
-  double north_m = 0.0;
-};
-
-/// Reads ground_truth.csv (header starting frame,time_s,east_m,north_m). Throws InputError naming
-/// the file and line for a missing file, a wrong header or a bad number.
-std::vector<GroundTruthPoint> ReadGroundTruthCsv(const std::filesystem::path& path);
+// The simulator's ground_truth.csv is read by ReadGroundTruthCsv (io/reference_track.h).
 
 /// The simulator's defaults (lawnmower, 3 legs of 300 m 50 m apart at 100 m height and 10 m/s,
 /// 1280x720 camera with a 73.7 deg field of view, no image effects, exact GPS at 10 Hz) rendered

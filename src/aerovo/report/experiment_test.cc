@@ -136,30 +136,6 @@ TEST(ExperimentOptions, ScaleBrightnessRoundsHalfUp) {
   EXPECT_THROW(ScaleBrightness(in.view(), -1.0, &buffer), InvalidArgument);
 }
 
-TEST(ExperimentInputs, GroundTruthCsvErrorsNameTheFile) {
-  const fs::path dir = TempDir("gt");
-  fs::create_directories(dir);
-  const fs::path p = dir / "gt.csv";
-  std::ofstream(p) << "a,b,c\n1,2,3\n";
-  try {
-    ReadGroundTruthCsv(p);
-    FAIL() << "no error";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("gt.csv"), std::string::npos);
-    EXPECT_NE(std::string(e.what()).find("line 1"), std::string::npos);
-  }
-  std::ofstream(p) << "frame,time_s,east_m,north_m,up_m\n0,0,0,0,100\n1,0.5,x,0,100\n";
-  EXPECT_THROW(ReadGroundTruthCsv(p), InputError);
-  std::ofstream(p) << "frame,time_s,east_m,north_m,up_m\n0,0,0,0,100\n1,0.5,5.5,-1,100\n";
-  const auto gt = ReadGroundTruthCsv(p);
-  ASSERT_EQ(gt.size(), 2u);
-  EXPECT_EQ(gt[1].frame, 1);
-  EXPECT_DOUBLE_EQ(gt[1].east_m, 5.5);
-  EXPECT_DOUBLE_EQ(gt[1].north_m, -1.0);
-  EXPECT_THROW(ReadGroundTruthCsv(dir / "missing.csv"), InputError);
-  fs::remove_all(dir);
-}
-
 // ---------------------------------------------------------------------------------------------
 // Experiments on one short simulated flight: a 150 m line at 100 m over the built-in terrain,
 // 640x480, 2 frames per second (31 frames, 5 m between frames).

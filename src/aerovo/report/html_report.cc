@@ -782,7 +782,7 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
                XmlEscape(fs::absolute(dir).string()) + "</code>.</p>\n";
 
   // Reference: the simulated flight's ground truth, else each run's GPS.
-  std::vector<GroundTruthPoint> ground_truth;
+  ReferenceTrack ground_truth;  // no points: none
   if (exp.contains("ground_truth") && exp["ground_truth"].is_string()) {
     fs::path gt = exp["ground_truth"].get<std::string>();
     if (gt.is_relative()) gt = dir / gt;
@@ -822,8 +822,8 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
       result.notes.push_back(note);
       continue;
     }
-    run.cmp = ground_truth.empty() ? CompareWithGps(run.data)
-                                   : CompareWithReference(run.data, ground_truth);
+    run.cmp = ground_truth.points.empty() ? CompareWithGps(run.data)
+                                          : CompareWithReference(run.data, ground_truth);
     if (options.sub_reports) {
       ReportOptions sub = options;
       sub.log = nullptr;
@@ -839,7 +839,7 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
     runs.push_back(std::move(run));
   }
   if (runs.empty()) throw InputError("'" + json_path.string() + "': none of the runs has results");
-  const std::string ref_name = ground_truth.empty() ? "GPS" : "ground truth";
+  const std::string ref_name = ground_truth.points.empty() ? "GPS" : "ground truth";
 
   // Per-run table and links.
   page.H2("Runs", "runs");
@@ -921,10 +921,10 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
       }
       if (!reference_drawn) {
         std::vector<double> gx, gy;
-        if (!ground_truth.empty()) {
-          for (const GroundTruthPoint& p : ground_truth) {
-            gx.push_back(p.east_m);
-            gy.push_back(p.north_m);
+        if (!ground_truth.points.empty()) {
+          for (const ReferencePoint& p : ground_truth.points) {
+            gx.push_back(p.x_m);
+            gy.push_back(p.y_m);
           }
         } else {
           for (const TrajectoryPoint2D& p : r.cmp.reference) {

@@ -206,18 +206,23 @@ RunComparison CompareWithGps(const RunData& run) {
   return c;
 }
 
-RunComparison CompareWithReference(const RunData& run,
-                                   const std::vector<GroundTruthPoint>& ground_truth) {
+RunComparison CompareWithReference(const RunData& run, const ReferenceTrack& ground_truth) {
+  if (ground_truth.geographic) {
+    throw InvalidArgument("CompareWithReference: '" + ground_truth.path +
+                          "' is geographic; it needs the simulator's local ground truth");
+  }
   RunComparison c;
   c.reference_name = "ground truth";
-  std::map<int, const GroundTruthPoint*> by_frame;
-  for (const GroundTruthPoint& g : ground_truth) by_frame[g.frame] = &g;
+  std::map<int, const ReferencePoint*> by_frame;
+  for (const ReferencePoint& g : ground_truth.points) {
+    if (g.frame_index) by_frame[*g.frame_index] = &g;
+  }
   for (std::size_t i = 0; i < run.frames.size(); ++i) {
     const RunFrameRow& f = run.frames[i];
     const auto it = by_frame.find(f.frame);
     if (it == by_frame.end()) continue;
     c.vo.push_back({f.time_s, f.x_m, f.y_m});
-    c.reference.push_back({f.time_s, it->second->east_m, it->second->north_m});
+    c.reference.push_back({f.time_s, it->second->x_m, it->second->y_m});
     c.row.push_back(static_cast<int>(i));
   }
   Compare(c);

@@ -13,6 +13,7 @@
 
 #include "aerovo/eval/trajectory_eval.h"
 #include "aerovo/geo/geo_point.h"
+#include "aerovo/io/reference_track.h"
 #include "aerovo/report/experiment.h"
 
 namespace aerovo {
@@ -68,10 +69,11 @@ struct RunComparison {
 /// alignment (eval/trajectory_eval.h). No comparison (nullopt) when fewer than 3 frames have GPS.
 RunComparison CompareWithGps(const RunData& run);
 
-/// The run's VO track against a simulated flight's ground truth (ReadGroundTruthCsv in
-/// report/experiment.h), paired by frame index as the experiments do, SE(2)/Sim(2).
-RunComparison CompareWithReference(const RunData& run,
-                                   const std::vector<GroundTruthPoint>& ground_truth);
+/// The run's VO track against a simulated flight's ground truth in the simulator's frame
+/// (ReadGroundTruthCsv in io/reference_track.h: local points with frame indices), paired by
+/// frame index as the experiments do, SE(2)/Sim(2). Points without a frame index are not paired.
+/// Throws InvalidArgument for a geographic track (its x_m, y_m mean nothing).
+RunComparison CompareWithReference(const RunData& run, const ReferenceTrack& ground_truth);
 
 /// The run's VO track against a ground-truth file (io/reference_track.h: TUM, or a telemetry
 /// file with positions such as the simulator's ground_truth.csv), as `aerovo run --truth` compares
