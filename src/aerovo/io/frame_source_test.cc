@@ -15,17 +15,9 @@
 namespace aerovo {
 namespace {
 
-using ::testing::HasSubstr;
+using io_test::ExpectInputError;
 
-template <typename Fn>
-void ExpectInputError(Fn fn, std::initializer_list<const char*> fragments) {
-  try {
-    fn();
-    ADD_FAILURE() << "no InputError thrown";
-  } catch (const InputError& e) {
-    for (const char* f : fragments) EXPECT_THAT(e.what(), HasSubstr(f));
-  }
-}
+using ::testing::HasSubstr;
 
 double MeanGray(const GrayImage& g) {
   double sum = 0.0;

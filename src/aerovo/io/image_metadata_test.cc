@@ -14,7 +14,7 @@
 namespace aerovo {
 namespace {
 
-using ::testing::HasSubstr;
+using io_test::ExpectInputError;
 
 // Values cross-checked with Exiv2's own tag dump (exiv2 -pa equivalent through the library):
 // GPSLatitude 28/1 2/1 285116/10000 N, GPSLongitude 82/1 41/1 545072/10000 W, GPSAltitude
@@ -124,16 +124,6 @@ TEST(ImageMetadata, SyntheticTagsRoundTrip) {
   const ImageMetadata mm = ParseImageMetadata(bytes.data(), bytes.size(), "mem");
   EXPECT_EQ(*mm.lat_deg, *m.lat_deg);
   EXPECT_EQ(mm.source, "mem");
-}
-
-template <typename Fn>
-void ExpectInputError(Fn fn, std::initializer_list<const char*> fragments) {
-  try {
-    fn();
-    ADD_FAILURE() << "no InputError thrown";
-  } catch (const InputError& e) {
-    for (const char* f : fragments) EXPECT_THAT(e.what(), HasSubstr(f));
-  }
 }
 
 TEST(ImageMetadata, BadValuesAndBadFilesNameTheFile) {

@@ -1,18 +1,23 @@
-// Test helpers of the io module (used by *_test.cc only): temporary folders and JPEGs with
-// EXIF/XMP tags written through Exiv2.
+// Test helpers of the io module (used by *_test.cc only): temporary folders, JPEGs with
+// EXIF/XMP tags written through Exiv2, and checking the message of an InputError.
 #pragma once
 
 #include <filesystem>
+#include <initializer_list>
 #include <map>
 #include <random>
 #include <string>
 
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wdeprecated-declarations"
 #include <exiv2/exiv2.hpp>
+
+#include "aerovo/core/error.h"
 
 namespace aerovo::io_test {
 
@@ -37,6 +42,18 @@ class TempDir {
  private:
   std::filesystem::path path_;
 };
+
+/// Expects `fn` to throw InputError whose message contains every fragment (a non-fatal
+/// failure otherwise, so a test goes on to its other cases).
+template <typename Fn>
+void ExpectInputError(Fn fn, std::initializer_list<const char*> fragments) {
+  try {
+    fn();
+    ADD_FAILURE() << "no InputError thrown";
+  } catch (const InputError& e) {
+    for (const char* f : fragments) EXPECT_THAT(e.what(), ::testing::HasSubstr(f));
+  }
+}
 
 /// Random-texture BGR image (deterministic for a seed).
 inline cv::Mat TextureImage(int width, int height, unsigned seed) {

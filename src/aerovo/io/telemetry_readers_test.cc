@@ -8,23 +8,15 @@
 #include <gtest/gtest.h>
 
 #include "aerovo/core/error.h"
+#include "aerovo/io/io_test_util.h"
 #include "aerovo/io/parse_util.h"
 
 namespace aerovo {
 namespace {
 
-using ::testing::HasSubstr;
+using io_test::ExpectInputError;
 
-// Expects `fn` to throw InputError whose message contains every fragment.
-template <typename Fn>
-void ExpectInputError(Fn fn, std::initializer_list<const char*> fragments) {
-  try {
-    fn();
-    ADD_FAILURE() << "no InputError thrown";
-  } catch (const InputError& e) {
-    for (const char* f : fragments) EXPECT_THAT(e.what(), HasSubstr(f));
-  }
-}
+using ::testing::HasSubstr;
 
 // ---------------------------------------------------------------- dates and numbers
 
