@@ -8,7 +8,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/io/parse_util.h"
 
-namespace aerovo::io_detail {
+namespace aerovo {
 namespace {
 
 // Reads one line into `line` without its '\r'; false at the end of the input.
@@ -19,7 +19,7 @@ bool ReadLine(std::istream& in, std::string& line) {
 }
 
 bool BlankOrComment(std::string_view line) {
-  const std::string_view t = Trim(line);
+  const std::string_view t = io_detail::Trim(line);
   return t.empty() || t.front() == '#';
 }
 
@@ -87,4 +87,4 @@ bool CsvLines::Next(std::vector<std::string>& cells) {
   return false;
 }
 
-}  // namespace aerovo::io_detail
+}  // namespace aerovo

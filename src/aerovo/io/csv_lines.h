@@ -1,14 +1,14 @@
-// Internal to the io readers (not part of the public API): a CSV text with a header row, read
-// record by record. Shared by the readers of named-column files (ParseTelemetryCsv in
-// telemetry_readers.h, ReadGroundTruthCsv in reference_track.h), which differ only in what the
-// columns mean and how they treat a bad record.
+// A CSV text with a header row, read record by record: the one CSV tokenizer of aerovo, shared
+// by the readers of named-column files (ParseTelemetryCsv in telemetry_readers.h,
+// ReadGroundTruthCsv in reference_track.h, the run folder reader in report/run_reader.h), which
+// differ only in what the columns mean and how they treat a bad record.
 #pragma once
 
 #include <istream>
 #include <string>
 #include <vector>
 
-namespace aerovo::io_detail {
+namespace aerovo {
 
 /// Splits one CSV record on `sep`, honouring "..." quotes ("" inside quotes is a quote). Cells
 /// are not trimmed. Returns false on an unterminated quote (`cells` then holds what was read).
@@ -44,4 +44,4 @@ class CsvLines {
   bool unterminated_quote_ = false;
 };
 
-}  // namespace aerovo::io_detail
+}  // namespace aerovo

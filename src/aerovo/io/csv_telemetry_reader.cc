@@ -15,7 +15,6 @@
 namespace aerovo {
 namespace {
 
-using io_detail::CsvLines;
 using io_detail::ParseDouble;
 using io_detail::RecordErrors;
 using io_detail::Trim;

@@ -86,7 +86,7 @@ ReferenceTrack ReadReferenceTrack(const std::filesystem::path& path) {
 
 ReferenceTrack ReadGroundTruthCsv(const std::filesystem::path& path) {
   std::ifstream in = io_detail::OpenInput(path);
-  io_detail::CsvLines csv(in, path.string());
+  CsvLines csv(in, path.string());
   const auto fail = [&](long line, const std::string& what) {
     throw InputError(fmt::format("{}:{}: {}", path.string(), line, what));
   };

@@ -20,6 +20,7 @@
 #include <pugixml.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/io/track_writers.h"
 #include "aerovo/report/run_reader.h"
 #include "aerovo/report/runner.h"
 
@@ -167,6 +168,29 @@ TEST_F(HtmlReport, RunFolderReport) {
   // Ids are unique per figure (prefixed), so the inlined SVGs do not share ids.
   EXPECT_NE(html.find("id=\"fig2_trajectory-gnuplot_canvas\""), std::string::npos);
   EXPECT_EQ(html.find("id=\"gnuplot_canvas\""), std::string::npos);
+}
+
+// frames.csv of a run killed mid-write ends with a partial record: dropped. A broken record
+// anywhere else is an error naming the file and line.
+TEST_F(HtmlReport, RunReaderDropsOnlyABrokenLastRecord) {
+  const fs::path run = CopyRun("run_cut");
+  const fs::path csv = run / RunFileNames::kFramesCsv;
+  const std::string whole = ReadText(csv);
+  const int lines = Count(whole, "\n");  // header + one line per frame
+  ASSERT_EQ(lines, frames_ + 1);
+  for (const std::string cut : {"31,15.5,1", "31,15.5,\"unterminated"}) {
+    std::ofstream(csv) << whole << cut;
+    EXPECT_EQ(static_cast<int>(ReadRunDir(run).frames.size()), frames_) << cut;
+    std::ofstream(csv) << whole << cut << "\n" << whole.substr(whole.find('\n') + 1);
+    try {
+      ReadRunDir(run);
+      ADD_FAILURE() << "no InputError for " << cut;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("frames.csv' line " + std::to_string(lines + 1)),
+                std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 TEST_F(HtmlReport, InterruptedRunWithoutSummaryAndInputGone) {

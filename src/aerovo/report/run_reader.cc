@@ -8,41 +8,12 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/geo/local_enu.h"
+#include "aerovo/io/csv_lines.h"
 #include "aerovo/io/reference_track.h"
 #include "aerovo/io/track_writers.h"
 
 namespace aerovo {
 namespace fs = std::filesystem;
-
-std::vector<std::string> SplitCsvLine(const std::string& line) {
-  std::vector<std::string> out;
-  std::string cur;
-  bool quoted = false;
-  for (std::size_t i = 0; i < line.size(); ++i) {
-    const char ch = line[i];
-    if (quoted) {
-      if (ch == '"') {
-        if (i + 1 < line.size() && line[i + 1] == '"') {
-          cur += '"';
-          ++i;
-        } else {
-          quoted = false;
-        }
-      } else {
-        cur += ch;
-      }
-    } else if (ch == '"') {
-      quoted = true;
-    } else if (ch == ',') {
-      out.push_back(std::move(cur));
-      cur.clear();
-    } else if (ch != '\r') {
-      cur += ch;
-    }
-  }
-  out.push_back(std::move(cur));
-  return out;
-}
 
 namespace {
 
@@ -52,29 +23,37 @@ class CsvTable {
   CsvTable(const fs::path& path, const std::vector<std::string>& required) : path_(path) {
     std::ifstream in(path);
     if (!in) throw InputError("cannot open '" + path.string() + "'");
-    std::string line;
-    if (!std::getline(in, line)) throw InputError("'" + path.string() + "' is empty (no header)");
-    const std::vector<std::string> header = SplitCsvLine(line);
+    CsvLines csv(in, path.string());
+    const std::vector<std::string>& header = csv.header();
     for (std::size_t i = 0; i < header.size(); ++i) columns_[header[i]] = i;
     for (const std::string& r : required) {
       if (columns_.count(r) == 0) {
         throw InputError("'" + path.string() + "': the header lacks the column '" + r + "'");
       }
     }
-    std::vector<std::string> lines;
-    while (std::getline(in, line)) lines.push_back(line);
-    // A progressive file killed mid-write may end with a partial line: drop a short last one.
-    for (std::size_t i = 0; i < lines.size(); ++i) {
-      if (lines[i].empty()) continue;
-      std::vector<std::string> f = SplitCsvLine(lines[i]);
-      if (f.size() != header.size()) {
-        if (i + 1 == lines.size()) break;
-        throw InputError("'" + path.string() + "' line " + std::to_string(i + 2) + ": " +
-                         std::to_string(f.size()) + " fields, the header has " +
-                         std::to_string(header.size()));
+    struct Record {
+      std::vector<std::string> cells;
+      long line = 0;
+      bool whole = true;  // no unterminated quote
+    };
+    std::vector<Record> records;
+    for (Record r; csv.Next(r.cells);) {
+      r.line = csv.line();
+      r.whole = !csv.unterminated_quote();
+      records.push_back(std::move(r));
+    }
+    // A progressive file killed mid-write may end with a partial record: drop a broken last one.
+    for (std::size_t i = 0; i < records.size(); ++i) {
+      Record& r = records[i];
+      if (!r.whole || r.cells.size() != header.size()) {
+        if (i + 1 == records.size()) break;
+        throw InputError("'" + path.string() + "' line " + std::to_string(r.line) + ": " +
+                         (r.whole ? std::to_string(r.cells.size()) + " fields, the header has " +
+                                        std::to_string(header.size())
+                                  : std::string("unterminated quote")));
       }
-      rows_.push_back(std::move(f));
-      line_numbers_.push_back(static_cast<long>(i + 2));
+      rows_.push_back(std::move(r.cells));
+      line_numbers_.push_back(r.line);
     }
   }
   std::size_t size() const { return rows_.size(); }

@@ -82,7 +82,4 @@ RunComparison CompareWithReference(const RunData& run, const ReferenceTrack& gro
 /// metres of the run's frame. Throws InputError when the file cannot be read.
 RunComparison CompareWithTruthFile(const RunData& run, const std::filesystem::path& truth);
 
-/// A CSV line split into fields (RFC 4180 quotes).
-std::vector<std::string> SplitCsvLine(const std::string& line);
-
 }  // namespace aerovo
