@@ -534,9 +534,9 @@ void FitMapHeight(Figure& f) {
   f.height_px = static_cast<int>(std::clamp(h, 360.0, 900.0));
 }
 
-// Fig. 2: the VO track against `cmp`'s reference after its SE(2) (and Sim(2)) alignment.
-void TrajectoryFigure(const RunData& run, const RunComparison& cmp, const std::string& name,
-                      FigureSink& sink) {
+// A map of tracks in east/north metres (the run's or the ground truth's ENU frame), equal axes,
+// the key outside; FitMapHeight sets the height once the tracks are in.
+Figure MapFigure(const std::string& name) {
   Figure f;
   f.name = name;
   f.x_label = "east (m)";
@@ -545,6 +545,13 @@ void TrajectoryFigure(const RunData& run, const RunComparison& cmp, const std::s
   f.key = "outside right top";
   f.width_px = 1000;
   f.height_px = 700;
+  return f;
+}
+
+// Fig. 2: the VO track against `cmp`'s reference after its SE(2) (and Sim(2)) alignment.
+void TrajectoryFigure(const RunData& run, const RunComparison& cmp, const std::string& name,
+                      FigureSink& sink) {
+  Figure f = MapFigure(name);
   if (cmp.comparison) {
     const TrajectoryComparison& c = *cmp.comparison;
     std::vector<double> gx, gy;
@@ -903,15 +910,8 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
   // Trajectories of every run against the reference.
   auto trajectories = [&](const std::string& name, const std::string& title,
                           const std::string& caption) {
-    Figure f;
-    f.name = name;
+    Figure f = MapFigure(name);
     f.title = title;
-    f.x_label = "east (m)";
-    f.y_label = "north (m)";
-    f.equal_axes = true;
-    f.key = "outside right top";
-    f.width_px = 1000;
-    f.height_px = 700;
     bool reference_drawn = false;
     std::string skipped;
     for (const ExpRun& r : runs) {
