@@ -32,19 +32,32 @@ double ThinAwareCross(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const 
   return cross;
 }
 
+// Weight of the k-th fitted point (all 1 without weights).
+inline double WeightAt(const double* weights, int k) {
+  return weights == nullptr ? 1.0 : weights[k];
+}
+
 // Hartley normalisation: translate the centroid to the origin and scale so that the mean
-// distance to it is sqrt(2). Returns false when all points coincide.
+// distance to it is sqrt(2). Returns false when all points coincide (or all weights are 0).
 struct Normalizer {
   Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
   double scale = 1.0;
 
-  bool Compute(const Eigen::Matrix2Xd& pts, const int* idx, int n) {
+  // weights: one per idx entry (nullptr = all 1); weighted centroid and mean distance.
+  bool Compute(const Eigen::Matrix2Xd& pts, const int* idx, int n, const double* weights) {
     centroid.setZero();
-    for (int k = 0; k < n; ++k) centroid += pts.col(idx[k]);
-    centroid /= n;
+    double total = 0.0;
+    for (int k = 0; k < n; ++k) {
+      const double w = WeightAt(weights, k);
+      centroid += w * pts.col(idx[k]);
+      total += w;
+    }
+    if (!(total > 0.0)) return false;
+    centroid /= total;
     double mean_dist = 0.0;
-    for (int k = 0; k < n; ++k) mean_dist += (pts.col(idx[k]) - centroid).norm();
-    mean_dist /= n;
+    for (int k = 0; k < n; ++k)
+      mean_dist += WeightAt(weights, k) * (pts.col(idx[k]) - centroid).norm();
+    mean_dist /= total;
     if (!(mean_dist > 1e-12)) return false;
     scale = std::sqrt(2.0) / mean_dist;
     return true;
@@ -148,12 +161,18 @@ bool TranslationModel::SolveMinimal(const Eigen::Matrix2Xd& prev, const Eigen::M
 }
 
 bool TranslationModel::FitLeastSquares(const Eigen::Matrix2Xd& prev, const Eigen::Matrix2Xd& curr,
-                                       const int* idx, int n, Eigen::Matrix3d* curr_from_prev) {
+                                       const int* idx, int n, Eigen::Matrix3d* curr_from_prev,
+                                       const double* weights) {
   if (n < kMinSample) return false;
   Eigen::Vector2d t = Eigen::Vector2d::Zero();
-  for (int k = 0; k < n; ++k) t += curr.col(idx[k]) - prev.col(idx[k]);
+  double total = 0.0;
+  for (int k = 0; k < n; ++k) {
+    t += WeightAt(weights, k) * (curr.col(idx[k]) - prev.col(idx[k]));
+    total += WeightAt(weights, k);
+  }
+  if (!(total > 0.0)) return false;
   curr_from_prev->setIdentity();
-  curr_from_prev->block<2, 1>(0, 2) = t / n;
+  curr_from_prev->block<2, 1>(0, 2) = t / total;
   return curr_from_prev->allFinite();
 }
 
@@ -195,20 +214,22 @@ bool SimilarityModel::SolveMinimal(const Eigen::Matrix2Xd& prev, const Eigen::Ma
 }
 
 bool SimilarityModel::FitLeastSquares(const Eigen::Matrix2Xd& prev, const Eigen::Matrix2Xd& curr,
-                                      const int* idx, int n, Eigen::Matrix3d* curr_from_prev) {
+                                      const int* idx, int n, Eigen::Matrix3d* curr_from_prev,
+                                      const double* weights) {
   if (n < kMinSample) return false;
   // Centring decouples the shift; the remaining one-unknown complex regression
   // z = sum(c' conj(p')) / sum|p'|^2 is scale-invariant, so centring is the whole
   // normalisation it needs.
   Normalizer np, nc;
-  if (!np.Compute(prev, idx, n) || !nc.Compute(curr, idx, n)) return false;
+  if (!np.Compute(prev, idx, n, weights) || !nc.Compute(curr, idx, n, weights)) return false;
   double sa = 0, sb = 0, spp = 0;
   for (int k = 0; k < n; ++k) {
+    const double w = WeightAt(weights, k);
     const Eigen::Vector2d p = prev.col(idx[k]) - np.centroid;
     const Eigen::Vector2d c = curr.col(idx[k]) - nc.centroid;
-    sa += c.x() * p.x() + c.y() * p.y();
-    sb += c.y() * p.x() - c.x() * p.y();
-    spp += p.squaredNorm();
+    sa += w * (c.x() * p.x() + c.y() * p.y());
+    sb += w * (c.y() * p.x() - c.x() * p.y());
+    spp += w * p.squaredNorm();
   }
   if (!(spp > 1e-12)) return false;
   const double a = sa / spp, b = sb / spp;
@@ -260,20 +281,22 @@ bool AffineModel::SolveMinimal(const Eigen::Matrix2Xd& prev, const Eigen::Matrix
 }
 
 bool AffineModel::FitLeastSquares(const Eigen::Matrix2Xd& prev, const Eigen::Matrix2Xd& curr,
-                                  const int* idx, int n, Eigen::Matrix3d* curr_from_prev) {
+                                  const int* idx, int n, Eigen::Matrix3d* curr_from_prev,
+                                  const double* weights) {
   if (n < kMinSample) return false;
   Normalizer np, nc;
-  if (!np.Compute(prev, idx, n) || !nc.Compute(curr, idx, n)) return false;
+  if (!np.Compute(prev, idx, n, weights) || !nc.Compute(curr, idx, n, weights)) return false;
   // With centred, scaled prev points the normal equations of the six unknowns split into
   // A' = S_cp S_pp^-1 (2x2) and the shift between centroids.
   Eigen::Matrix2d spp = Eigen::Matrix2d::Zero(), scp = Eigen::Matrix2d::Zero(),
                   scc = Eigen::Matrix2d::Zero();
   for (int k = 0; k < n; ++k) {
+    const double w = WeightAt(weights, k);
     const Eigen::Vector2d p = np.Apply(prev.col(idx[k]));
     const Eigen::Vector2d c = nc.Apply(curr.col(idx[k]));
-    spp.noalias() += p * p.transpose();
-    scp.noalias() += c * p.transpose();
-    scc.noalias() += c * c.transpose();
+    spp.noalias() += w * p * p.transpose();
+    scp.noalias() += w * c * p.transpose();
+    scc.noalias() += w * c * c.transpose();
   }
   if (ScatterIsDegenerate(spp, kCollinearTolerance) ||
       ScatterIsDegenerate(scc, kCollinearTolerance)) {
@@ -325,7 +348,8 @@ bool HomographyModel::SolveMinimal(const Eigen::Matrix2Xd& prev, const Eigen::Ma
                                    const int* idx, Eigen::Matrix3d* curr_from_prev) {
   if (IsDegenerate(prev, curr, idx)) return false;
   Normalizer np, nc;
-  if (!np.Compute(prev, idx, kMinSample) || !nc.Compute(curr, idx, kMinSample)) return false;
+  if (!np.Compute(prev, idx, kMinSample, nullptr) || !nc.Compute(curr, idx, kMinSample, nullptr))
+    return false;
   // With both point sets centred at the origin, h22 = 0 would need the centroid to map to
   // infinity, which the non-degenerate sample excludes; so fixing h22 = 1 leaves a square
   // 8x8 system, much cheaper than a null-space SVD.
@@ -347,24 +371,26 @@ bool HomographyModel::SolveMinimal(const Eigen::Matrix2Xd& prev, const Eigen::Ma
 }
 
 bool HomographyModel::FitLeastSquares(const Eigen::Matrix2Xd& prev, const Eigen::Matrix2Xd& curr,
-                                      const int* idx, int n, Eigen::Matrix3d* curr_from_prev) {
+                                      const int* idx, int n, Eigen::Matrix3d* curr_from_prev,
+                                      const double* weights) {
   if (n < kMinSample) return false;
   Normalizer np, nc;
-  if (!np.Compute(prev, idx, n) || !nc.Compute(curr, idx, n)) return false;
+  if (!np.Compute(prev, idx, n, weights) || !nc.Compute(curr, idx, n, weights)) return false;
   // Normalised DLT: the unit h minimising |A h| is the eigenvector of A^T A with the smallest
   // eigenvalue; accumulating the 9x9 A^T A keeps memory constant for any n.
   Eigen::Matrix<double, 9, 9> ata = Eigen::Matrix<double, 9, 9>::Zero();
   Eigen::Matrix2d spp = Eigen::Matrix2d::Zero(), scc = Eigen::Matrix2d::Zero();
   Eigen::Matrix<double, 9, 1> r1, r2;
   for (int k = 0; k < n; ++k) {
+    const double w = WeightAt(weights, k);
     const Eigen::Vector2d p = np.Apply(prev.col(idx[k]));
     const Eigen::Vector2d c = nc.Apply(curr.col(idx[k]));
-    spp.noalias() += p * p.transpose();
-    scc.noalias() += c * c.transpose();
+    spp.noalias() += w * p * p.transpose();
+    scc.noalias() += w * c * c.transpose();
     r1 << p.x(), p.y(), 1, 0, 0, 0, -c.x() * p.x(), -c.x() * p.y(), -c.x();
     r2 << 0, 0, 0, p.x(), p.y(), 1, -c.y() * p.x(), -c.y() * p.y(), -c.y();
-    ata.selfadjointView<Eigen::Lower>().rankUpdate(r1);
-    ata.selfadjointView<Eigen::Lower>().rankUpdate(r2);
+    ata.selfadjointView<Eigen::Lower>().rankUpdate(r1, w);
+    ata.selfadjointView<Eigen::Lower>().rankUpdate(r2, w);
   }
   if (ScatterIsDegenerate(spp, kCollinearTolerance) ||
       ScatterIsDegenerate(scc, kCollinearTolerance)) {

@@ -14,10 +14,14 @@
 //   SolveMinimal(prev, curr, idx, &T)
 //                                   model from a minimal sample; false if degenerate or the
 //                                   solution is not finite;
-//   FitLeastSquares(prev, curr, idx, n, &T)
+//   FitLeastSquares(prev, curr, idx, n, &T, weights = nullptr)
 //                                   least-squares model from the n >= kMinSample points idx[..]
 //                                   on Hartley-normalised coordinates; false if the points do
-//                                   not determine the model;
+//                                   not determine the model. weights (optional, >= 0, one per
+//                                   idx entry, not all 0) make it the weighted least-squares
+//                                   fit (weighted centroids and scatter; for the homography,
+//                                   weighted DLT equations), used by the robust polish of
+//                                   RansacOptions;
 //   SquaredResiduals(T, prev, curr, out)
 //                                   out[i] = |T(prev_i) - curr_i|^2 in px^2, for every column
 //                                   (one-way transfer error in the current frame, as MATLAB's
@@ -81,7 +85,8 @@ struct TranslationModel {
   static bool SolveMinimal(const Eigen::Matrix2Xd& prev, const Eigen::Matrix2Xd& curr,
                            const int* idx, Eigen::Matrix3d* curr_from_prev);
   static bool FitLeastSquares(const Eigen::Matrix2Xd& prev, const Eigen::Matrix2Xd& curr,
-                              const int* idx, int n, Eigen::Matrix3d* curr_from_prev);
+                              const int* idx, int n, Eigen::Matrix3d* curr_from_prev,
+                              const double* weights = nullptr);
   static void SquaredResiduals(const Eigen::Matrix3d& curr_from_prev, const Eigen::Matrix2Xd& prev,
                                const Eigen::Matrix2Xd& curr, double* out);
 };
@@ -99,7 +104,8 @@ struct SimilarityModel {
   static bool SolveMinimal(const Eigen::Matrix2Xd& prev, const Eigen::Matrix2Xd& curr,
                            const int* idx, Eigen::Matrix3d* curr_from_prev);
   static bool FitLeastSquares(const Eigen::Matrix2Xd& prev, const Eigen::Matrix2Xd& curr,
-                              const int* idx, int n, Eigen::Matrix3d* curr_from_prev);
+                              const int* idx, int n, Eigen::Matrix3d* curr_from_prev,
+                              const double* weights = nullptr);
   static void SquaredResiduals(const Eigen::Matrix3d& curr_from_prev, const Eigen::Matrix2Xd& prev,
                                const Eigen::Matrix2Xd& curr, double* out);
 };
@@ -117,7 +123,8 @@ struct AffineModel {
   static bool SolveMinimal(const Eigen::Matrix2Xd& prev, const Eigen::Matrix2Xd& curr,
                            const int* idx, Eigen::Matrix3d* curr_from_prev);
   static bool FitLeastSquares(const Eigen::Matrix2Xd& prev, const Eigen::Matrix2Xd& curr,
-                              const int* idx, int n, Eigen::Matrix3d* curr_from_prev);
+                              const int* idx, int n, Eigen::Matrix3d* curr_from_prev,
+                              const double* weights = nullptr);
   static void SquaredResiduals(const Eigen::Matrix3d& curr_from_prev, const Eigen::Matrix2Xd& prev,
                                const Eigen::Matrix2Xd& curr, double* out);
 };
@@ -137,7 +144,8 @@ struct HomographyModel {
   static bool SolveMinimal(const Eigen::Matrix2Xd& prev, const Eigen::Matrix2Xd& curr,
                            const int* idx, Eigen::Matrix3d* curr_from_prev);
   static bool FitLeastSquares(const Eigen::Matrix2Xd& prev, const Eigen::Matrix2Xd& curr,
-                              const int* idx, int n, Eigen::Matrix3d* curr_from_prev);
+                              const int* idx, int n, Eigen::Matrix3d* curr_from_prev,
+                              const double* weights = nullptr);
   static void SquaredResiduals(const Eigen::Matrix3d& curr_from_prev, const Eigen::Matrix2Xd& prev,
                                const Eigen::Matrix2Xd& curr, double* out);
 };

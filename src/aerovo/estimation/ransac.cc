@@ -26,6 +26,14 @@ void Validate(const RansacOptions& o) {
     throw InvalidArgument("RansacOptions.final_refit_iterations must be >= 0, got " +
                           std::to_string(o.final_refit_iterations));
   }
+  if (o.polish_iterations < 0) {
+    throw InvalidArgument("RansacOptions.polish_iterations must be >= 0, got " +
+                          std::to_string(o.polish_iterations));
+  }
+  if (!(o.polish_scale_px > 0.0) || !std::isfinite(o.polish_scale_px)) {
+    throw InvalidArgument("RansacOptions.polish_scale_px must be finite and > 0, got " +
+                          std::to_string(o.polish_scale_px));
+  }
   if (o.lo_max_iterations < 1) {
     throw InvalidArgument("RansacOptions.lo_max_iterations must be >= 1, got " +
                           std::to_string(o.lo_max_iterations));
