@@ -228,13 +228,23 @@ struct Variant {
   const char* bench;
   CorrespondenceOptions options;
 };
-std::vector<Variant> ReportVariants() {
+// polish: every variant with RansacOptions::polish_iterations = kPolishIterations.
+constexpr int kPolishIterations = 20;
+std::vector<Variant> ReportVariants(bool polish) {
   CorrespondenceOptions all = StageOptions(CorrespondenceMethod::kClustered, true);
   all.clustered.refine_max_points = 0;
-  return {{"std", "standard", StageOptions(CorrespondenceMethod::kStandard)},
-          {"paper", "clustered_paper", StageOptions(CorrespondenceMethod::kClustered, false)},
-          {"ref", "clustered_refined", StageOptions(CorrespondenceMethod::kClustered, true)},
-          {"all", "clustered_refined_all", all}};
+  std::vector<Variant> v = {
+      {"std", polish ? "standard_polish" : "standard",
+       StageOptions(CorrespondenceMethod::kStandard)},
+      {"paper", polish ? "clustered_paper_polish" : "clustered_paper",
+       StageOptions(CorrespondenceMethod::kClustered, false)},
+      {"ref", polish ? "clustered_refined_polish" : "clustered_refined",
+       StageOptions(CorrespondenceMethod::kClustered, true)},
+      {"all", polish ? "clustered_refined_all_polish" : "clustered_refined_all", all}};
+  if (polish) {
+    for (Variant& x : v) x.options.ransac.polish_iterations = kPolishIterations;
+  }
+  return v;
 }
 
 // The standard method's matches per pair (cached), as cv::Mat point arrays for OpenCV.
@@ -341,10 +351,12 @@ void BM_EstimateOnly(benchmark::State& state, const std::string& seq, int which)
 void RegisterStageBenchmarks() {
   for (const char* seq : {"synthetic-flight", "tampa", "tampa-dense", "callas"}) {
     const std::string name = seq;
-    for (const Variant& v : ReportVariants()) {
-      benchmark::RegisterBenchmark(("BM_Stage/" + name + "/" + v.bench).c_str(), BM_Stage, name,
-                                   v.options)
-          ->Unit(benchmark::kMillisecond);
+    for (bool polish : {false, true}) {
+      for (const Variant& v : ReportVariants(polish)) {
+        benchmark::RegisterBenchmark(("BM_Stage/" + name + "/" + v.bench).c_str(), BM_Stage, name,
+                                     v.options)
+            ->Unit(benchmark::kMillisecond);
+      }
     }
     benchmark::RegisterBenchmark(("BM_EstimateOnly/" + name + "/aerovo_msac").c_str(),
                                  BM_EstimateOnly, name, 0)
@@ -379,6 +391,8 @@ constexpr std::size_t kMaxRowsPrinted = 15;
 // Seeds of the standard method's reproducibility check (seed 1 is the compared run).
 constexpr int kSeedsChecked = 5;
 
+void ReportSequence(const Sequence& s, bool polish);
+
 void Report() {
   std::printf("# Correspondence stage: standard vs clustered RANSAC (per frame pair)\n");
   std::printf(
@@ -387,14 +401,25 @@ void Report() {
       "point of the crop (refine_max_points = 0); seeds = the standard method itself with RANSAC "
       "seeds 2-%d (its own reproducibility: no estimate can be expected to agree with one "
       "standard run better than another standard run does). Times: wall clock, fastest of 5 runs "
-      "per pair. Corner diff / error: largest displacement of the 4 frame corners, px.\n",
-      1 + kSeedsChecked);
-  const std::vector<Variant> variants = ReportVariants();
-  const std::size_t nv = variants.size();
+      "per pair. Corner diff / error: largest displacement of the 4 frame corners, px. Lines "
+      "'summary NAME +polish' repeat the summaries with RansacOptions::polish_iterations = %d in "
+      "every variant (and compare with the polished standard).\n",
+      1 + kSeedsChecked, kPolishIterations);
   for (const Sequence& s : Sequences()) {
+    for (bool polish : {false, true}) ReportSequence(s, polish);
+  }
+  std::fflush(stdout);
+}
+
+void ReportSequence(const Sequence& s, bool polish) {
+  const std::vector<Variant> variants = ReportVariants(polish);
+  const std::size_t nv = variants.size();
+  const std::string label = s.name + (polish ? " +polish" : "");
+  {
     if (s.pairs() == 0) {
-      std::printf("\n## %s: unavailable (../shared missing), skipped\n", s.name.c_str());
-      continue;
+      if (!polish)
+        std::printf("\n## %s: unavailable (../shared missing), skipped\n", s.name.c_str());
+      return;
     }
     double mean_points = 0;
     for (const FeatureSet& f : s.frames) mean_points += f.size();
@@ -414,13 +439,15 @@ void Report() {
       }
     }
     const auto& pms = StandardMatches(s);
-    std::printf("\n## %s: %zu pairs, %dx%d, %.0f SURF points/frame%s\n", s.name.c_str(), s.pairs(),
-                s.width, s.height, mean_points,
-                s.pairs() > kMaxRowsPrinted ? " (rows: the first 15 pairs; summaries: all)" : "");
-    std::printf(
-        "pair | ms: std paper ref all | cell attempts fellback | inliers/matches: std paper ref "
-        "all | corner diff to std px: paper ref all seeds(max) | err to truth px: std paper ref "
-        "all cvRANSAC cvMAGSAC | cv ms: RANSAC MAGSAC\n");
+    if (!polish) {
+      std::printf("\n## %s: %zu pairs, %dx%d, %.0f SURF points/frame%s\n", s.name.c_str(),
+                  s.pairs(), s.width, s.height, mean_points,
+                  s.pairs() > kMaxRowsPrinted ? " (rows: the first 15 pairs; summaries: all)" : "");
+      std::printf(
+          "pair | ms: std paper ref all | cell attempts fellback | inliers/matches: std paper ref "
+          "all | corner diff to std px: paper ref all seeds(max) | err to truth px: std paper ref "
+          "all cvRANSAC cvMAGSAC | cv ms: RANSAC MAGSAC\n");
+    }
     // diffs[v]: corner difference of variant v to standard (v = 0: unused); seeds: standard with
     // other seeds vs standard; errs[v], errs[nv], errs[nv + 1]: error to truth of v, cv RANSAC,
     // cv USAC_MAGSAC.
@@ -432,7 +459,7 @@ void Report() {
       const CorrespondenceResult& p = res[1][i];
       std::optional<Eigen::Matrix3d> cvr, cvm;
       double best_r = std::numeric_limits<double>::infinity(), best_m = best_r;
-      for (int run = 0; run < 5; ++run) {
+      for (int run = 0; run < (polish ? 1 : 5); ++run) {
         aerovo::Stopwatch w;
         cvr = CvEstimate(pms[i], CvMethod::kRansac);
         best_r = std::min(best_r, w.elapsed_ms());
@@ -470,7 +497,7 @@ void Report() {
       if (a.success && cvm) d_cvm.push_back(corner(a.curr_from_prev, *cvm));
       if (s.truth[i] && cvr) errs[nv].push_back(e[nv] = corner(*cvr, *s.truth[i]));
       if (s.truth[i] && cvm) errs[nv + 1].push_back(e[nv + 1] = corner(*cvm, *s.truth[i]));
-      if (i >= kMaxRowsPrinted) continue;
+      if (polish || i >= kMaxRowsPrinted) continue;
       std::printf("%zu | %.2f %.2f %.2f %.2f | (%d,%d) %d %s |", i, times[0][i], times[1][i],
                   times[2][i], times[3][i], p.cell_row, p.cell_col, p.attempts,
                   p.fell_back ? "yes" : "no");
@@ -483,7 +510,7 @@ void Report() {
     }
     std::vector<Stats> st(nv);
     for (std::size_t v = 0; v < nv; ++v) st[v] = Summarise(times[v]);
-    std::printf("summary %s time ms/pair mean (median, max):", s.name.c_str());
+    std::printf("summary %s time ms/pair mean (median, max):", label.c_str());
     for (std::size_t v = 0; v < nv; ++v) {
       std::printf(" %s %.3f (%.3f, %.3f);", variants[v].name, st[v].mean, st[v].median, st[v].max);
     }
@@ -503,21 +530,22 @@ void Report() {
     std::printf(
         "summary %s corner difference to standard px, mean / max: paper %s, ref %s, all %s, "
         "standard with other seeds %s, cv RANSAC (3 px) %s, cv USAC_MAGSAC %s\n",
-        s.name.c_str(), mm(diffs[1]).c_str(), mm(diffs[2]).c_str(), mm(diffs[3]).c_str(),
+        label.c_str(), mm(diffs[1]).c_str(), mm(diffs[2]).c_str(), mm(diffs[3]).c_str(),
         mm(seeds).c_str(), mm(d_cvr).c_str(), mm(d_cvm).c_str());
     if (!errs[0].empty()) {
       std::printf(
           "summary %s corner error to ground truth px, mean / max: std %s, paper %s, ref %s, all "
           "%s, cv RANSAC %s, cv USAC_MAGSAC %s\n",
-          s.name.c_str(), mm(errs[0]).c_str(), mm(errs[1]).c_str(), mm(errs[2]).c_str(),
+          label.c_str(), mm(errs[0]).c_str(), mm(errs[1]).c_str(), mm(errs[2]).c_str(),
           mm(errs[3]).c_str(), mm(errs[4]).c_str(), mm(errs[5]).c_str());
     }
-    std::printf(
-        "summary %s estimation only on the standard matches, mean ms/pair: cv RANSAC %.3f, cv "
-        "USAC_MAGSAC %.3f (aerovo MSAC: BM_EstimateOnly)\n",
-        s.name.c_str(), Summarise(t_cvr).mean, Summarise(t_cvm).mean);
+    if (!polish) {
+      std::printf(
+          "summary %s estimation only on the standard matches, mean ms/pair: cv RANSAC %.3f, cv "
+          "USAC_MAGSAC %.3f (aerovo MSAC: BM_EstimateOnly)\n",
+          s.name.c_str(), Summarise(t_cvr).mean, Summarise(t_cvm).mean);
+    }
   }
-  std::fflush(stdout);
 }
 
 }  // namespace
