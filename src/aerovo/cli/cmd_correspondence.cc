@@ -114,6 +114,10 @@ void Register(CLI::App& app) {
                   "RANSAC trial cap (MATLAB MaxNumTrials)")
       ->capture_default_str();
   cmd->add_option("--seed", args->options.ransac.seed, "RANSAC seed")->capture_default_str();
+  cmd->add_option(
+         "--polish", args->options.ransac.polish_iterations,
+         "Robust polish after RANSAC, IRLS rounds (0 = off, MATLAB; 20 = seed-independent)")
+      ->capture_default_str();
   cmd->add_option("--grid", args->options.clustered.grid_rows, "Clustered grid rows = cols")
       ->capture_default_str()
       ->each([args](const std::string&) {

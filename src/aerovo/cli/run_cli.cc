@@ -131,6 +131,10 @@ void AddRunFlags(CLI::App* cmd, RunFlags& a, const std::set<std::string>& skip) 
     Bind(cmd, a, "--max-keypoints", &RunConfig::max_keypoints, "Keep the N strongest (0 = all)");
   }
   if (want("seed")) Bind(cmd, a, "--seed", &RunConfig::seed, "RANSAC seed");
+  if (want("polish")) {
+    Bind(cmd, a, "--polish", &RunConfig::polish,
+         "Robust polish of RANSAC fits, IRLS rounds (0 = off; 20 makes tracks seed-independent)");
+  }
   if (want("threads")) Bind(cmd, a, "--threads", &RunConfig::threads, "Threads (0 = all cores)");
   if (want("quiet")) {
     BindFlag(cmd, a, "-q,--quiet", &RunConfig::quiet, "No progress bar or configuration dump");

@@ -107,7 +107,18 @@ struct VisualOdometry::Impl {
       : surf(o.surf),
         guided(WithGuidance(o.correspondence, true)),
         unguided(WithGuidance(o.correspondence, false)),
+        relocalise(RelocaliseOptions(o)),
         refine(RefineOptions(o)) {}
+
+  // Keyframe attempts: unguided (no motion model predicts a relocalisation), on all points (a
+  // cell fit with fewer than relocalize_min_inliers would reject the keyframe without ever
+  // looking at the whole frame), with relocalize_sampler.
+  static CorrespondenceOptions RelocaliseOptions(const OdometryOptions& o) {
+    CorrespondenceOptions c = WithGuidance(o.correspondence, false);
+    c.method = CorrespondenceMethod::kStandard;
+    c.sampler = o.relocalize_sampler;
+    return c;
+  }
 
   static CorrespondenceOptions RefineOptions(const OdometryOptions& o) {
     CorrespondenceOptions c = o.correspondence;
@@ -123,7 +134,7 @@ struct VisualOdometry::Impl {
   }
 
   Surf surf;
-  CorrespondenceStage guided, unguided, refine;
+  CorrespondenceStage guided, unguided, relocalise, refine;
 
   int width = 0, height = 0;
   int next_index = 0;
@@ -145,8 +156,8 @@ struct VisualOdometry::Impl {
   // Correspondence of `ref` and `curr`; `prior` = predicted curr_from_ref (clustered: used for
   // the crop and, when guided, the search windows; standard guided: the search windows).
   Attempt Correspond(bool use_guided, const FeatureSet& ref, const FeatureSet& curr,
-                     const std::optional<Eigen::Matrix3d>& prior) {
-    CorrespondenceStage& stage = use_guided ? guided : unguided;
+                     const std::optional<Eigen::Matrix3d>& prior, bool keyframe = false) {
+    CorrespondenceStage& stage = keyframe ? relocalise : use_guided ? guided : unguided;
     const CorrespondenceResult c = stage.Run(ref, width, height, curr, prior);
     Attempt a;
     a.success = c.success;
@@ -300,7 +311,7 @@ FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
       for (int pass = 0; pass < 2 && (keyframe || accepted == nullptr); ++pass) {
         const bool guided = pass == 0;
         if (guided && (!o.correspondence.guided_matching || !prior)) continue;
-        Attempt a = s.Correspond(guided, ref.features, features.features, prior);
+        Attempt a = s.Correspond(guided, ref.features, features.features, prior, keyframe);
         if (o.refine_on_all_points && a.success &&
             (a.cluster >= 0 || o.correspondence.method == CorrespondenceMethod::kClustered)) {
           s.Refine(ref.features, features.features, &a);

@@ -61,6 +61,7 @@ void Validate(const RunConfig& c) {
   if (!(c.surf_threshold >= 0.0)) fail("'surf_threshold' must be >= 0");
   if (c.max_keypoints < 0) fail("'max_keypoints' must be >= 0");
   if (c.threads < 0) fail("'threads' must be >= 0 (0 = all cores)");
+  if (c.polish < 0) fail("'polish' must be >= 0 (0 = off)");
   for (double d : {c.k1, c.k2, c.p1, c.p2, c.k3}) {
     if (!std::isfinite(d)) fail("distortion coefficients must be finite");
   }
@@ -98,6 +99,7 @@ nlohmann::json ToJson(const RunConfig& c) {
                         {"surf_threshold", c.surf_threshold},
                         {"max_keypoints", c.max_keypoints},
                         {"seed", c.seed},
+                        {"polish", c.polish},
                         {"threads", c.threads},
                         {"quiet", c.quiet}};
 }
@@ -178,6 +180,7 @@ RunConfig RunConfigFromJson(const nlohmann::json& j, RunConfig c, const std::str
   Take(j, "surf_threshold", &c.surf_threshold, source);
   Take(j, "max_keypoints", &c.max_keypoints, source);
   Take(j, "seed", &c.seed, source);
+  Take(j, "polish", &c.polish, source);
   Take(j, "threads", &c.threads, source);
   Take(j, "quiet", &c.quiet, source);
   return c;
@@ -450,6 +453,7 @@ OdometryOptions MakeOdometryOptions(const RunConfig& c) {
   o.correspondence.min_inliers = c.min_inliers;
   o.correspondence.match.num_threads = c.threads;
   o.correspondence.ransac.seed = c.seed;
+  o.correspondence.ransac.polish_iterations = c.polish;
   o.refine_on_all_points = c.refine;
   o.scale_mode = ParseScaleMode(c.scale.c_str());
   return o;

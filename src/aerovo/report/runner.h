@@ -93,6 +93,10 @@ struct RunConfig {
   int max_keypoints = 0;
   /// RANSAC seed.
   std::uint64_t seed = 1;
+  /// Robust polish of every RANSAC fit (RansacOptions::polish_iterations): IRLS rounds with a
+  /// smooth loss over all matches, making the track independent of the seed. Default 0 (off,
+  /// MATLAB's estimator as in the paper).
+  int polish = 0;
   /// Threads for SURF and matching (0 = all cores).
   int threads = 0;
   /// No progress bar, no configuration dump, only errors and the final table.
