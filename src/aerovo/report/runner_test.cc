@@ -124,18 +124,41 @@ TEST(Runner, TampaPhantom3MeetsTheOnePercentTarget) {
   ASSERT_TRUE(s.evaluation.has_value());
   const TrajectoryComparison& e = *s.evaluation;
   EXPECT_NEAR(e.sim2.distance_flown_m, 1558.2, 1.0);
-  // First measured (BENCHMARKS.md): Sim(2) ATE RMSE 11.60 m (0.745 %), SE(2) 13.27 m,
-  // end-point (Sim(2)) 7.72 m. Target: Sim(2) ATE RMSE < 1 % of the distance flown.
-  EXPECT_LT(e.sim2.ate_m.rmse, 13.5);
+  // Measured (BENCHMARKS.md), RANSAC seeds 1-6: Sim(2) ATE RMSE 8.13-9.13 m (seed 1: 8.70 m,
+  // 0.558 %), SE(2) 10.5-11.2 m, end-point Sim(2) 12.2-14.2 m, SE(2) 5.7-7.6 m (0.37-0.49 %).
+  // Target: Sim(2) ATE RMSE < 1 % of the distance flown.
+  EXPECT_LT(e.sim2.ate_m.rmse, 10.0);
   EXPECT_LT(e.sim2.ate_m.rmse, 0.01 * e.sim2.distance_flown_m);
-  EXPECT_LT(e.se2.ate_m.rmse, 15.5);
-  EXPECT_LT(e.sim2.end_point_error_m, 10.0);
+  EXPECT_LT(e.se2.ate_m.rmse, 12.5);
+  EXPECT_LT(e.sim2.end_point_error_m, 15.5);
   EXPECT_LT(e.se2.end_point_error_percent, 0.6);
   CheckOutputs(c.out, 172);
   const nlohmann::json summary = nlohmann::json::parse(ReadText(fs::path(c.out) / "summary.json"));
   EXPECT_EQ(summary["frames_processed"], 172);
   EXPECT_FALSE(summary["interrupted"].get<bool>());
   fs::remove_all(c.out);
+}
+
+// The relocalisation over the 79 m jump (DJI_0134 -> DJI_0135) has 13-20 true matches among
+// many; with uniform sampling it depended on the RANSAC seed (seed 2 bridged the jump: ATE
+// 47 m). With PROSAC on keyframe attempts (OdometryOptions::relocalize_sampler) every seed
+// relocalises; seeds 2 and 5 here (1 is the test above).
+TEST(Runner, TampaRelocalisationDoesNotDependOnTheSeed) {
+  AEROVO_REQUIRE_SHARED(flight, "data/flights/tampa-phantom3/DJI_0054.JPG");
+  for (std::uint64_t seed : {2u, 5u}) {
+    RunConfig c;
+    c.input = flight.parent_path().string();
+    c.out = TempDir("tampa_seed").string();
+    c.altitude_m = 57.0;
+    c.seed = seed;
+    c.quiet = true;
+    const RunSummary s = RunFlight(c);
+    EXPECT_GE(s.frames_reacquired, 1) << "seed " << seed;
+    EXPECT_EQ(s.frames_bridged, 0) << "seed " << seed;
+    ASSERT_TRUE(s.evaluation.has_value());
+    EXPECT_LT(s.evaluation->sim2.ate_m.rmse, 10.0) << "seed " << seed;
+    fs::remove_all(c.out);
+  }
 }
 
 // The last pose of vo.tum (x, y in metres).
