@@ -419,136 +419,131 @@ void ReportSequence(const Sequence& s, bool polish) {
   const std::vector<Variant> variants = ReportVariants(polish);
   const std::size_t nv = variants.size();
   const std::string label = s.name + (polish ? " +polish" : "");
-  {
-    if (s.pairs() == 0) {
-      if (!polish)
-        std::printf("\n## %s: unavailable (../shared missing), skipped\n", s.name.c_str());
-      return;
-    }
-    double mean_points = 0;
-    for (const FeatureSet& f : s.frames) mean_points += f.size();
-    mean_points /= s.frames.size();
-    // Five runs each; per pair the fastest (other processes load the machine: the minimum is
-    // the least disturbed). Results are identical across runs (seeded).
-    std::vector<std::vector<CorrespondenceResult>> res(nv);
-    std::vector<std::vector<double>> times(nv);
-    for (std::size_t v = 0; v < nv; ++v) {
-      CorrespondenceStage stage(variants[v].options);
-      times[v].assign(s.pairs(), std::numeric_limits<double>::infinity());
-      for (int run = 0; run < 5; ++run) {
-        res[v] = RunSequence(s, stage);
-        for (std::size_t i = 0; i < s.pairs(); ++i) {
-          times[v][i] = std::min(times[v][i], res[v][i].total_ms);
-        }
+  if (s.pairs() == 0) {
+    if (!polish) std::printf("\n## %s: unavailable (../shared missing), skipped\n", s.name.c_str());
+    return;
+  }
+  double mean_points = 0;
+  for (const FeatureSet& f : s.frames) mean_points += f.size();
+  mean_points /= s.frames.size();
+  // Five runs each; per pair the fastest (other processes load the machine: the minimum is
+  // the least disturbed). Results are identical across runs (seeded).
+  std::vector<std::vector<CorrespondenceResult>> res(nv);
+  std::vector<std::vector<double>> times(nv);
+  for (std::size_t v = 0; v < nv; ++v) {
+    CorrespondenceStage stage(variants[v].options);
+    times[v].assign(s.pairs(), std::numeric_limits<double>::infinity());
+    for (int run = 0; run < 5; ++run) {
+      res[v] = RunSequence(s, stage);
+      for (std::size_t i = 0; i < s.pairs(); ++i) {
+        times[v][i] = std::min(times[v][i], res[v][i].total_ms);
       }
     }
-    const auto& pms = StandardMatches(s);
-    if (!polish) {
-      std::printf("\n## %s: %zu pairs, %dx%d, %.0f SURF points/frame%s\n", s.name.c_str(),
-                  s.pairs(), s.width, s.height, mean_points,
-                  s.pairs() > kMaxRowsPrinted ? " (rows: the first 15 pairs; summaries: all)" : "");
-      std::printf(
-          "pair | ms: std paper ref all | cell attempts fellback | inliers/matches: std paper ref "
-          "all | corner diff to std px: paper ref all seeds(max) | err to truth px: std paper ref "
-          "all cvRANSAC cvMAGSAC | cv ms: RANSAC MAGSAC\n");
-    }
-    // diffs[v]: corner difference of variant v to standard (v = 0: unused); seeds: standard with
-    // other seeds vs standard; errs[v], errs[nv], errs[nv + 1]: error to truth of v, cv RANSAC,
-    // cv USAC_MAGSAC.
-    std::vector<std::vector<double>> diffs(nv), errs(nv + 2);
-    std::vector<double> seeds, d_cvr, d_cvm, t_cvr, t_cvm;
-    int fallbacks = 0, failures = 0, paper_attempts = 0;
-    for (std::size_t i = 0; i < s.pairs(); ++i) {
-      const CorrespondenceResult& a = res[0][i];
-      const CorrespondenceResult& p = res[1][i];
-      std::optional<Eigen::Matrix3d> cvr, cvm;
-      double best_r = std::numeric_limits<double>::infinity(), best_m = best_r;
-      for (int run = 0; run < (polish ? 1 : 5); ++run) {
-        aerovo::Stopwatch w;
-        cvr = CvEstimate(pms[i], CvMethod::kRansac);
-        best_r = std::min(best_r, w.elapsed_ms());
-        w.restart();
-        cvm = CvEstimate(pms[i], CvMethod::kMagsac);
-        best_m = std::min(best_m, w.elapsed_ms());
-      }
-      t_cvr.push_back(best_r);
-      t_cvm.push_back(best_m);
-      fallbacks += p.fell_back;
-      paper_attempts += p.attempts;
-      const auto corner = [&](const Eigen::Matrix3d& x, const Eigen::Matrix3d& y) {
-        return aerovo::MaxCornerDisplacementPx(x, y, s.width, s.height);
-      };
-      std::vector<double> d(nv, NAN), e(nv + 2, NAN);
-      for (std::size_t v = 0; v < nv; ++v) {
-        const CorrespondenceResult& x = res[v][i];
-        failures += !x.success;
-        if (v > 0 && a.success && x.success)
-          diffs[v].push_back(d[v] = corner(a.curr_from_prev, x.curr_from_prev));
-        if (s.truth[i] && x.success)
-          errs[v].push_back(e[v] = corner(x.curr_from_prev, *s.truth[i]));
-      }
-      double seed_max = NAN;
-      for (int k = 0; k < kSeedsChecked && a.success; ++k) {
-        CorrespondenceOptions o = variants[0].options;
-        o.ransac.seed = variants[0].options.ransac.seed + 1 + k;
-        CorrespondenceStage other(o);
-        const CorrespondenceResult b = other.Standard(s.frames[i], s.frames[i + 1]);
-        if (!b.success) continue;
-        seeds.push_back(corner(a.curr_from_prev, b.curr_from_prev));
-        seed_max = std::isnan(seed_max) ? seeds.back() : std::max(seed_max, seeds.back());
-      }
-      if (a.success && cvr) d_cvr.push_back(corner(a.curr_from_prev, *cvr));
-      if (a.success && cvm) d_cvm.push_back(corner(a.curr_from_prev, *cvm));
-      if (s.truth[i] && cvr) errs[nv].push_back(e[nv] = corner(*cvr, *s.truth[i]));
-      if (s.truth[i] && cvm) errs[nv + 1].push_back(e[nv + 1] = corner(*cvm, *s.truth[i]));
-      if (polish || i >= kMaxRowsPrinted) continue;
-      std::printf("%zu | %.2f %.2f %.2f %.2f | (%d,%d) %d %s |", i, times[0][i], times[1][i],
-                  times[2][i], times[3][i], p.cell_row, p.cell_col, p.attempts,
-                  p.fell_back ? "yes" : "no");
-      for (std::size_t v = 0; v < nv; ++v) {
-        std::printf(" %d/%zu", res[v][i].num_inliers, res[v][i].matches.size());
-      }
-      std::printf(" | %.2f %.2f %.2f %.2f | %.3f %.3f %.3f %.3f %.3f %.3f | %.2f %.2f\n", d[1],
-                  d[2], d[3], seed_max, e[0], e[1], e[2], e[3], e[4], e[5], t_cvr.back(),
-                  t_cvm.back());
-    }
-    std::vector<Stats> st(nv);
-    for (std::size_t v = 0; v < nv; ++v) st[v] = Summarise(times[v]);
-    std::printf("summary %s time ms/pair mean (median, max):", label.c_str());
-    for (std::size_t v = 0; v < nv; ++v) {
-      std::printf(" %s %.3f (%.3f, %.3f);", variants[v].name, st[v].mean, st[v].median, st[v].max);
-    }
-    std::printf(" speed-up of the mean:");
-    for (std::size_t v = 1; v < nv; ++v) {
-      std::printf(" %s %.1fx", variants[v].name, st[0].mean / st[v].mean);
-    }
-    std::printf("; paper: %.2f cells tried per pair, fell back %d/%zu; failed runs %d\n",
-                static_cast<double>(paper_attempts) / s.pairs(), fallbacks, s.pairs(), failures);
-    const auto mm = [](const std::vector<double>& v) {
-      if (v.empty()) return std::string("n/a");
-      const Stats x = Summarise(v);
-      char buf[64];
-      std::snprintf(buf, sizeof buf, "%.3f / %.3f", x.mean, x.max);
-      return std::string(buf);
-    };
+  }
+  const auto& pms = StandardMatches(s);
+  if (!polish) {
+    std::printf("\n## %s: %zu pairs, %dx%d, %.0f SURF points/frame%s\n", s.name.c_str(), s.pairs(),
+                s.width, s.height, mean_points,
+                s.pairs() > kMaxRowsPrinted ? " (rows: the first 15 pairs; summaries: all)" : "");
     std::printf(
-        "summary %s corner difference to standard px, mean / max: paper %s, ref %s, all %s, "
-        "standard with other seeds %s, cv RANSAC (3 px) %s, cv USAC_MAGSAC %s\n",
-        label.c_str(), mm(diffs[1]).c_str(), mm(diffs[2]).c_str(), mm(diffs[3]).c_str(),
-        mm(seeds).c_str(), mm(d_cvr).c_str(), mm(d_cvm).c_str());
-    if (!errs[0].empty()) {
-      std::printf(
-          "summary %s corner error to ground truth px, mean / max: std %s, paper %s, ref %s, all "
-          "%s, cv RANSAC %s, cv USAC_MAGSAC %s\n",
-          label.c_str(), mm(errs[0]).c_str(), mm(errs[1]).c_str(), mm(errs[2]).c_str(),
-          mm(errs[3]).c_str(), mm(errs[4]).c_str(), mm(errs[5]).c_str());
+        "pair | ms: std paper ref all | cell attempts fellback | inliers/matches: std paper ref "
+        "all | corner diff to std px: paper ref all seeds(max) | err to truth px: std paper ref "
+        "all cvRANSAC cvMAGSAC | cv ms: RANSAC MAGSAC\n");
+  }
+  // diffs[v]: corner difference of variant v to standard (v = 0: unused); seeds: standard with
+  // other seeds vs standard; errs[v], errs[nv], errs[nv + 1]: error to truth of v, cv RANSAC,
+  // cv USAC_MAGSAC.
+  std::vector<std::vector<double>> diffs(nv), errs(nv + 2);
+  std::vector<double> seeds, d_cvr, d_cvm, t_cvr, t_cvm;
+  int fallbacks = 0, failures = 0, paper_attempts = 0;
+  for (std::size_t i = 0; i < s.pairs(); ++i) {
+    const CorrespondenceResult& a = res[0][i];
+    const CorrespondenceResult& p = res[1][i];
+    std::optional<Eigen::Matrix3d> cvr, cvm;
+    double best_r = std::numeric_limits<double>::infinity(), best_m = best_r;
+    for (int run = 0; run < (polish ? 1 : 5); ++run) {
+      aerovo::Stopwatch w;
+      cvr = CvEstimate(pms[i], CvMethod::kRansac);
+      best_r = std::min(best_r, w.elapsed_ms());
+      w.restart();
+      cvm = CvEstimate(pms[i], CvMethod::kMagsac);
+      best_m = std::min(best_m, w.elapsed_ms());
     }
-    if (!polish) {
-      std::printf(
-          "summary %s estimation only on the standard matches, mean ms/pair: cv RANSAC %.3f, cv "
-          "USAC_MAGSAC %.3f (aerovo MSAC: BM_EstimateOnly)\n",
-          s.name.c_str(), Summarise(t_cvr).mean, Summarise(t_cvm).mean);
+    t_cvr.push_back(best_r);
+    t_cvm.push_back(best_m);
+    fallbacks += p.fell_back;
+    paper_attempts += p.attempts;
+    const auto corner = [&](const Eigen::Matrix3d& x, const Eigen::Matrix3d& y) {
+      return aerovo::MaxCornerDisplacementPx(x, y, s.width, s.height);
+    };
+    std::vector<double> d(nv, NAN), e(nv + 2, NAN);
+    for (std::size_t v = 0; v < nv; ++v) {
+      const CorrespondenceResult& x = res[v][i];
+      failures += !x.success;
+      if (v > 0 && a.success && x.success)
+        diffs[v].push_back(d[v] = corner(a.curr_from_prev, x.curr_from_prev));
+      if (s.truth[i] && x.success) errs[v].push_back(e[v] = corner(x.curr_from_prev, *s.truth[i]));
     }
+    double seed_max = NAN;
+    for (int k = 0; k < kSeedsChecked && a.success; ++k) {
+      CorrespondenceOptions o = variants[0].options;
+      o.ransac.seed = variants[0].options.ransac.seed + 1 + k;
+      CorrespondenceStage other(o);
+      const CorrespondenceResult b = other.Standard(s.frames[i], s.frames[i + 1]);
+      if (!b.success) continue;
+      seeds.push_back(corner(a.curr_from_prev, b.curr_from_prev));
+      seed_max = std::isnan(seed_max) ? seeds.back() : std::max(seed_max, seeds.back());
+    }
+    if (a.success && cvr) d_cvr.push_back(corner(a.curr_from_prev, *cvr));
+    if (a.success && cvm) d_cvm.push_back(corner(a.curr_from_prev, *cvm));
+    if (s.truth[i] && cvr) errs[nv].push_back(e[nv] = corner(*cvr, *s.truth[i]));
+    if (s.truth[i] && cvm) errs[nv + 1].push_back(e[nv + 1] = corner(*cvm, *s.truth[i]));
+    if (polish || i >= kMaxRowsPrinted) continue;
+    std::printf("%zu | %.2f %.2f %.2f %.2f | (%d,%d) %d %s |", i, times[0][i], times[1][i],
+                times[2][i], times[3][i], p.cell_row, p.cell_col, p.attempts,
+                p.fell_back ? "yes" : "no");
+    for (std::size_t v = 0; v < nv; ++v) {
+      std::printf(" %d/%zu", res[v][i].num_inliers, res[v][i].matches.size());
+    }
+    std::printf(" | %.2f %.2f %.2f %.2f | %.3f %.3f %.3f %.3f %.3f %.3f | %.2f %.2f\n", d[1], d[2],
+                d[3], seed_max, e[0], e[1], e[2], e[3], e[4], e[5], t_cvr.back(), t_cvm.back());
+  }
+  std::vector<Stats> st(nv);
+  for (std::size_t v = 0; v < nv; ++v) st[v] = Summarise(times[v]);
+  std::printf("summary %s time ms/pair mean (median, max):", label.c_str());
+  for (std::size_t v = 0; v < nv; ++v) {
+    std::printf(" %s %.3f (%.3f, %.3f);", variants[v].name, st[v].mean, st[v].median, st[v].max);
+  }
+  std::printf(" speed-up of the mean:");
+  for (std::size_t v = 1; v < nv; ++v) {
+    std::printf(" %s %.1fx", variants[v].name, st[0].mean / st[v].mean);
+  }
+  std::printf("; paper: %.2f cells tried per pair, fell back %d/%zu; failed runs %d\n",
+              static_cast<double>(paper_attempts) / s.pairs(), fallbacks, s.pairs(), failures);
+  const auto mm = [](const std::vector<double>& v) {
+    if (v.empty()) return std::string("n/a");
+    const Stats x = Summarise(v);
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.3f / %.3f", x.mean, x.max);
+    return std::string(buf);
+  };
+  std::printf(
+      "summary %s corner difference to standard px, mean / max: paper %s, ref %s, all %s, "
+      "standard with other seeds %s, cv RANSAC (3 px) %s, cv USAC_MAGSAC %s\n",
+      label.c_str(), mm(diffs[1]).c_str(), mm(diffs[2]).c_str(), mm(diffs[3]).c_str(),
+      mm(seeds).c_str(), mm(d_cvr).c_str(), mm(d_cvm).c_str());
+  if (!errs[0].empty()) {
+    std::printf(
+        "summary %s corner error to ground truth px, mean / max: std %s, paper %s, ref %s, all "
+        "%s, cv RANSAC %s, cv USAC_MAGSAC %s\n",
+        label.c_str(), mm(errs[0]).c_str(), mm(errs[1]).c_str(), mm(errs[2]).c_str(),
+        mm(errs[3]).c_str(), mm(errs[4]).c_str(), mm(errs[5]).c_str());
+  }
+  if (!polish) {
+    std::printf(
+        "summary %s estimation only on the standard matches, mean ms/pair: cv RANSAC %.3f, cv "
+        "USAC_MAGSAC %.3f (aerovo MSAC: BM_EstimateOnly)\n",
+        s.name.c_str(), Summarise(t_cvr).mean, Summarise(t_cvm).mean);
   }
 }
 
