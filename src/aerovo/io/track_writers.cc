@@ -188,6 +188,22 @@ void TumWriter::Append(double time_s, const Eigen::Vector3d& p, double yaw_rad) 
                 "");
 }
 
+TransformsCsvWriter::TransformsCsvWriter(const fs::path& path)
+    : file_(std::make_unique<ProgressiveFile>(path)) {
+  file_->Reset("frame,a11,a12,tx,a21,a22,ty\n", "");
+}
+TransformsCsvWriter::~TransformsCsvWriter() = default;
+TransformsCsvWriter::TransformsCsvWriter(TransformsCsvWriter&&) noexcept = default;
+TransformsCsvWriter& TransformsCsvWriter::operator=(TransformsCsvWriter&&) noexcept = default;
+const fs::path& TransformsCsvWriter::path() const { return file_->path(); }
+void TransformsCsvWriter::Close() { file_->Close(); }
+
+void TransformsCsvWriter::Append(int frame, const Eigen::Matrix3d& m) {
+  file_->Append(fmt::format("{},{:.9g},{:.9g},{:.6f},{:.9g},{:.9g},{:.6f}\n", frame, m(0, 0),
+                            m(0, 1), m(0, 2), m(1, 0), m(1, 1), m(1, 2)),
+                "");
+}
+
 // ---------------------------------------------------------------------------------------------
 // GeoJSON
 

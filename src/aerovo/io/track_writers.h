@@ -83,6 +83,23 @@ class TumWriter {
   std::unique_ptr<detail::ProgressiveFile> file_;
 };
 
+/// transforms.csv (RunFileNames::kTransformsCsv): header `frame,a11,a12,tx,a21,a22,ty`, one
+/// flushed row per frame with the 2x3 affine part of first_px_from_frame (see RunFileNames).
+class TransformsCsvWriter {
+ public:
+  explicit TransformsCsvWriter(const std::filesystem::path& path);  ///< InputError naming it.
+  ~TransformsCsvWriter();
+  TransformsCsvWriter(TransformsCsvWriter&&) noexcept;
+  TransformsCsvWriter& operator=(TransformsCsvWriter&&) noexcept;
+  /// Appends frame `frame`'s row. Throws InputError naming the path when the write fails.
+  void Append(int frame, const Eigen::Matrix3d& first_px_from_frame);
+  void Close();
+  const std::filesystem::path& path() const;
+
+ private:
+  std::unique_ptr<detail::ProgressiveFile> file_;
+};
+
 /// GeoJSON FeatureCollection (RFC 7946: WGS84, positions [lon, lat, alt]) with one Feature
 /// holding the track: no feature when empty, a Point after the first point, a LineString from
 /// the second on. Feature properties: {"name": name, "generator": "aerovo"}.
@@ -183,7 +200,7 @@ struct RunFileNames {
   static constexpr const char* kVoGpx = "vo.gpx";
   static constexpr const char* kGpsGpx = "gps.gpx";
   static constexpr const char* kSummaryJson = "summary.json";
-  /// Written by report/runner.cc (not by TrackWriterSet), one flushed row per processed frame:
+  /// Written by report/runner.cc with TransformsCsvWriter, one flushed row per processed frame:
   /// header `frame,a11,a12,tx,a21,a22,ty`, the 2x3 affine first_px_from_frame = [a11 a12 tx;
   /// a21 a22 ty] mapping pixels of this frame to pixels of the run's first frame (the chained
   /// estimate, as the odometry integrated it; pixel centres, x right, y down). Used to warp

@@ -164,7 +164,7 @@ RunData ReadRunDir(const fs::path& dir) {
     }
   }
   run.summary = ReadJsonIfPresent(dir / RunFileNames::kSummaryJson);
-  run.config = ReadJsonIfPresent(dir / "config.json");
+  run.config = ReadJsonIfPresent(dir / RunFileNames::kConfigJson);
   return run;
 }
 

@@ -584,7 +584,7 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   std::error_code ec;
   fs::create_directories(out_dir, ec);
   if (ec) throw InputError("cannot create output folder '" + config.out + "': " + ec.message());
-  WriteJsonFileAtomic(out_dir / "config.json", ToJson(config));
+  WriteJsonFileAtomic(out_dir / RunFileNames::kConfigJson, ToJson(config));
   if (log) *log << "aerovo run: effective configuration\n" << ToJson(config).dump(2) << "\n";
 
   // Source.
@@ -670,7 +670,7 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   StageTimes sum;
   Eigen::Vector2d last_local = Eigen::Vector2d::Zero();
   // transforms.csv (RunFileNames::kTransformsCsv): first_px_from_frame per frame, for mosaics.
-  std::ofstream transforms_csv;
+  std::optional<TransformsCsvWriter> transforms_csv;
   Eigen::Matrix3d first_px_from_world = Eigen::Matrix3d::Identity();
 
   // Writes a frame: geo-referenced when possible, else in the local VO frame.
@@ -781,13 +781,8 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
                                {"height_source", summary.height_source},
                                {"frame_width_px", w},
                                {"frame_height_px", h}};
-      WriteJsonFileAtomic(out_dir / "config.json", effective);
-      transforms_csv.open(out_dir / RunFileNames::kTransformsCsv, std::ios::trunc);
-      transforms_csv << "frame,a11,a12,tx,a21,a22,ty\n";
-      if (!transforms_csv) {
-        throw InputError("cannot write '" + (out_dir / RunFileNames::kTransformsCsv).string() +
-                         "'");
-      }
+      WriteJsonFileAtomic(out_dir / RunFileNames::kConfigJson, effective);
+      transforms_csv.emplace(out_dir / RunFileNames::kTransformsCsv);
       if (log) {
         *log << fmt::format("camera: {}x{} px, focal {:.1f} px ({}), height from {}\n", w, h,
                             summary.focal_px, summary.focal_source, summary.height_source);
@@ -831,11 +826,7 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
     // mode; relative to the first frame's it is first_px_from_frame in both.
     if (summary.frames_processed == 0) first_px_from_world = r.world_from_frame.inverse();
     const Eigen::Matrix3d first_px_from_frame = first_px_from_world * r.world_from_frame;
-    transforms_csv << fmt::format("{},{:.9g},{:.9g},{:.6f},{:.9g},{:.9g},{:.6f}\n", frame.index,
-                                  first_px_from_frame(0, 0), first_px_from_frame(0, 1),
-                                  first_px_from_frame(0, 2), first_px_from_frame(1, 0),
-                                  first_px_from_frame(1, 1), first_px_from_frame(1, 2))
-                   << std::flush;
+    transforms_csv->Append(frame.index, first_px_from_frame);
 
     PendingFrame p;
     p.local_m = r.position_m;
