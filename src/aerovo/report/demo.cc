@@ -129,7 +129,6 @@ DemoResult RunDemo(const DemoOptions& options, const DemoCallbacks& cb,
   RunConfig base = r.flight.run;
   base.threads = options.threads;
   base.quiet = true;
-  base.truth = r.flight.ground_truth_csv.string();
   if (!stopped()) {
     clock.restart();
     RunConfig run = base;
@@ -145,7 +144,6 @@ DemoResult RunDemo(const DemoOptions& options, const DemoCallbacks& cb,
   if (options.experiments) {
     ExperimentInput in;
     in.run = base;
-    in.ground_truth_csv = r.flight.ground_truth_csv.string();
     ExperimentCallbacks ecb;
     ecb.progress = [&](int done, int total, double) { progress(done, total); };
     if (!stopped()) {

@@ -648,7 +648,6 @@ ExperimentResult RunIlluminationExperiment(const ExperimentInput& input,
     p.dir = IlluminationDir(k);
     p.config = input.run;
     p.config.illumination_k = k;
-    if (!input.ground_truth_csv.empty()) p.config.truth = input.ground_truth_csv;
     if (options.scale_threshold) p.config.surf_threshold = input.run.surf_threshold * k * k;
     p.config.out = (input.out_dir / p.dir).string();
     p.mode = p.config.mode;
@@ -666,7 +665,6 @@ ExperimentResult RunRansacExperiment(const ExperimentInput& input,
     p.mode = p.label = p.dir = mode;
     p.config = input.run;
     p.config.mode = mode;
-    if (!input.ground_truth_csv.empty()) p.config.truth = input.ground_truth_csv;
     p.config.out = (input.out_dir / p.dir).string();
     p.k = p.config.illumination_k;
     plan.push_back(std::move(p));

@@ -139,9 +139,6 @@ struct ExperimentInput {
   /// to out_dir/<dir of run i>. The experiment changes only its own parameter (illumination_k, or
   /// mode).
   RunConfig run;
-  /// When set, the ground truth of every run (replaces run.truth), e.g. SimulatedFlight's
-  /// ground_truth_csv. Default empty: run.truth as given.
-  std::string ground_truth_csv;
   /// Output folder EXP (created). Default "aerovo-experiment".
   std::filesystem::path out_dir = "aerovo-experiment";
 };
