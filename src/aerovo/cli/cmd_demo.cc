@@ -126,16 +126,18 @@ void RunFlightDemo(const DemoArgs& args) {
     };
   }
   DemoResult r;
+  int signal = 0;
   {
     const StopSignals signals;
     r = RunDemo(o, cb, signals.stop());
+    signal = signals.signal();
   }
   if (tty) std::fputs("\r\033[K", stderr);
   for (const std::string& n : r.notes) fmt::print("  note         {}\n", n);
   fmt::print("\n{}\nOpen {} in a browser (reports, tables, tracks); everything is in {}/\n",
              FormatDemoSummary(r), r.index_html.string(), args.out);
   std::fflush(stdout);
-  if (r.interrupted) std::exit(130);
+  if (r.interrupted) std::exit(StopSignals::ExitCode(signal));
 }
 
 void Register(CLI::App& app) {
