@@ -226,17 +226,14 @@ TelemetrySample ImageMetadata::ToSample() const {
   return s;
 }
 
-ImageMetadata ReadImageMetadata(const std::filesystem::path& path) {
-  InitExiv2Once();
-  const std::string source = path.string();
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    throw InputError(
-        fmt::format("cannot read metadata of '{}': {}", source,
-                    std::filesystem::exists(path, ec) ? "not a regular file" : "no such file"));
-  }
+namespace {
+
+// Opens the image with `open` (file or memory) and extracts its metadata; every failure becomes
+// one InputError naming `source`.
+template <class Open>
+ImageMetadata OpenAndExtract(Open open, const std::string& source) {
   try {
-    auto image = Exiv2::ImageFactory::open(source, /*useCurl=*/false);
+    auto image = open();
     if (image.get() == nullptr) {
       throw InputError(fmt::format("cannot read metadata of '{}': unknown format", source));
     }
@@ -248,23 +245,29 @@ ImageMetadata ReadImageMetadata(const std::filesystem::path& path) {
   }
 }
 
+}  // namespace
+
+ImageMetadata ReadImageMetadata(const std::filesystem::path& path) {
+  InitExiv2Once();
+  const std::string source = path.string();
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    throw InputError(
+        fmt::format("cannot read metadata of '{}': {}", source,
+                    std::filesystem::exists(path, ec) ? "not a regular file" : "no such file"));
+  }
+  return OpenAndExtract([&] { return Exiv2::ImageFactory::open(source, /*useCurl=*/false); },
+                        source);
+}
+
 ImageMetadata ParseImageMetadata(const std::uint8_t* data, std::size_t size,
                                  const std::string& source_name) {
   InitExiv2Once();
   if (data == nullptr || size == 0) {
     throw InputError(fmt::format("cannot read metadata of '{}': empty data", source_name));
   }
-  try {
-    auto image = Exiv2::ImageFactory::open(data, static_cast<long>(size));
-    if (image.get() == nullptr) {
-      throw InputError(fmt::format("cannot read metadata of '{}': unknown format", source_name));
-    }
-    return Extract(*image, source_name);
-  } catch (const InputError&) {
-    throw;
-  } catch (const std::exception& e) {
-    throw InputError(fmt::format("cannot read metadata of '{}': {}", source_name, ExivWhat(e)));
-  }
+  return OpenAndExtract([&] { return Exiv2::ImageFactory::open(data, static_cast<long>(size)); },
+                        source_name);
 }
 
 TelemetryReadResult TelemetryFromImages(const std::vector<ImageMetadata>& images,
