@@ -91,14 +91,9 @@ TEST(ReferenceTrack, GroundTruthCsvErrorsNameFileAndLine) {
   const auto expect_error = [&](const std::string& text, const std::string& where,
                                 const std::string& what) {
     Write(dir / "gt.csv", text);
-    try {
-      ReadGroundTruthCsv(dir / "gt.csv");
-      ADD_FAILURE() << "expected InputError for " << text;
-    } catch (const InputError& e) {
-      EXPECT_NE(std::string(e.what()).find("gt.csv:" + where + ": "), std::string::npos)
-          << e.what();
-      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
-    }
+    SCOPED_TRACE(text);
+    io_test::ExpectInputError([&] { ReadGroundTruthCsv(dir / "gt.csv"); },
+                              {("gt.csv:" + where + ": ").c_str(), what.c_str()});
   };
   expect_error("a,b,c\n1,2,3\n", "1", "frame,time_s,east_m,north_m");
   expect_error("frame,time_s,east_m,north_m,up_m\n0,0,0,0,100\n1,0.5,x,0,100\n", "3",
