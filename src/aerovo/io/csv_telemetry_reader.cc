@@ -164,10 +164,7 @@ TelemetryReadResult ParseTelemetryCsv(std::istream& in, const std::string& sourc
         problem = fmt::format("{} '{}' is not a number", kColumnNames[c], cell.substr(0, 40));
       }
     }
-    // Range first: converting a double outside long long's range (1e300) is undefined.
-    if (problem.empty() && v[kFrame] &&
-        (*v[kFrame] < 0 || *v[kFrame] > 1e8 ||
-         *v[kFrame] != static_cast<double>(static_cast<long long>(*v[kFrame])))) {
+    if (problem.empty() && v[kFrame] && !io_detail::IsFrameNumber(*v[kFrame])) {
       problem = fmt::format("frame {} is not a non-negative integer", *v[kFrame]);
     }
     if (!problem.empty()) {

@@ -2,6 +2,7 @@
 // parsing, ISO 8601 / EXIF dates, and the strict-or-lenient error policy.
 #pragma once
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <optional>
@@ -20,6 +21,9 @@ std::string ToLower(std::string_view s);
 /// Whole-token decimal number (leading/trailing blanks allowed, '+' allowed); finite only.
 std::optional<double> ParseDouble(std::string_view s);
 std::optional<long long> ParseInt(std::string_view s);
+/// True for a whole number in [0, 1e8]: a frame index (the range is checked before any cast, as
+/// converting a double outside an integer's range is undefined; NaN is not a frame number).
+inline bool IsFrameNumber(double v) { return v >= 0.0 && v <= 1e8 && v == std::floor(v); }
 
 /// Days since 1970-01-01 of a proleptic Gregorian date (H. Hinnant's days_from_civil).
 long long DaysFromCivil(int y, int m, int d);

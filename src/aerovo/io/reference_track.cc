@@ -112,8 +112,7 @@ ReferenceTrack ReadGroundTruthCsv(const std::filesystem::path& path) {
       if (!d) fail(csv.line(), fmt::format("{} '{}' is not a number", kColumns[c], cells[c]));
       v[c] = *d;
     }
-    // Range first: converting a double outside int's range is undefined.
-    if (v[0] < 0 || v[0] > 1e8 || v[0] != std::floor(v[0])) {
+    if (!io_detail::IsFrameNumber(v[0])) {
       fail(csv.line(), fmt::format("frame {} is not an integer >= 0", cells[0]));
     }
     if (!track.points.empty() && v[1] < track.points.back().time_s) {
