@@ -1,10 +1,12 @@
 #include "aerovo/report/run_reader.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <unordered_map>
 
 #include "aerovo/core/error.h"
 #include "aerovo/geo/local_enu.h"
@@ -208,28 +210,53 @@ RunComparison CompareWithReference(const RunData& run, const ReferenceTrack& gro
   return c;
 }
 
-RunComparison CompareWithTruthFile(const RunData& run, const fs::path& truth_path) {
-  const ReferenceTrack truth = ReadReferenceTrack(truth_path);
-  RunComparison c;
-  c.reference_name = "ground truth";
-  std::vector<TrajectoryPoint2D> estimate;
-  std::optional<GeoPoint> first_fix;
-  for (const RunFrameRow& f : run.frames) {
-    estimate.push_back({f.time_s, f.x_m, f.y_m});
-    if (!first_fix && f.gps) first_fix = f.gps;
-  }
+AssociatedTrajectories AssociateWithTruth(const std::vector<TrajectoryPoint2D>& estimate,
+                                          const std::vector<int>& frames,
+                                          const ReferenceTrack& truth,
+                                          const std::optional<LocalEnu>& enu) {
   std::vector<TrajectoryPoint2D> reference;
+  reference.reserve(truth.points.size());
   if (truth.geographic) {
-    const LocalEnu enu(first_fix ? *first_fix : *truth.points.front().geo);
+    const LocalEnu frame = enu ? *enu : LocalEnu(*truth.points.front().geo);
     for (const ReferencePoint& p : truth.points) {
-      const Eigen::Vector3d e = enu.Forward(*p.geo);
+      const Eigen::Vector3d e = frame.Forward(*p.geo);
       reference.push_back({p.time_s, e.x(), e.y()});
     }
   } else {
     for (const ReferencePoint& p : truth.points) reference.push_back({p.time_s, p.x_m, p.y_m});
   }
+  const bool by_index = std::all_of(truth.points.begin(), truth.points.end(),
+                                    [](const ReferencePoint& p) { return p.frame_index; });
+  if (!by_index) return AssociateByTime(estimate, reference);
+  std::unordered_map<int, std::size_t> at;
+  for (std::size_t i = 0; i < truth.points.size(); ++i) at[*truth.points[i].frame_index] = i;
+  AssociatedTrajectories pairs;
+  for (std::size_t i = 0; i < estimate.size(); ++i) {
+    const auto it = at.find(frames[i]);
+    if (it == at.end()) continue;
+    pairs.estimate.push_back(estimate[i]);
+    pairs.reference.push_back(reference[it->second]);
+    pairs.estimate_index.push_back(static_cast<int>(i));
+    pairs.reference_index.push_back(static_cast<int>(it->second));
+  }
+  pairs.num_unmatched = static_cast<int>(estimate.size() - pairs.estimate.size());
+  return pairs;
+}
+
+RunComparison CompareWithTruthFile(const RunData& run, const fs::path& truth_path) {
+  const ReferenceTrack truth = ReadReferenceTrack(truth_path);
+  RunComparison c;
+  c.reference_name = "ground truth";
+  std::vector<TrajectoryPoint2D> estimate;
+  std::vector<int> frames;
+  std::optional<LocalEnu> enu;
+  for (const RunFrameRow& f : run.frames) {
+    estimate.push_back({f.time_s, f.x_m, f.y_m});
+    frames.push_back(f.frame);
+    if (!enu && f.gps) enu.emplace(*f.gps);
+  }
   try {
-    const AssociatedTrajectories a = AssociateByTime(estimate, reference);
+    const AssociatedTrajectories a = AssociateWithTruth(estimate, frames, truth, enu);
     c.vo = a.estimate;
     c.reference = a.reference;
     c.row = a.estimate_index;

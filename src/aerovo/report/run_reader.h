@@ -13,6 +13,7 @@
 
 #include "aerovo/eval/trajectory_eval.h"
 #include "aerovo/geo/geo_point.h"
+#include "aerovo/geo/local_enu.h"
 #include "aerovo/io/reference_track.h"
 #include "aerovo/report/experiment.h"
 
@@ -75,11 +76,21 @@ RunComparison CompareWithGps(const RunData& run);
 /// Throws InvalidArgument for a geographic track (its x_m, y_m mean nothing).
 RunComparison CompareWithReference(const RunData& run, const ReferenceTrack& ground_truth);
 
+/// Pairs a track with a ground truth, for `aerovo run --truth` (summary.json) and the report
+/// alike: geographic truth goes into the ENU frame `enu` (nullopt: one at the truth's first
+/// point), local truth (TUM) is taken as metres of the track's frame; points are matched by frame
+/// index when every truth point has one (the simulator's CSV, DJI SRT; reference time = the truth
+/// point's), else by time (AssociateByTime). `frames[i]` is the frame index of estimate[i].
+/// Throws InvalidArgument when the time association fails.
+AssociatedTrajectories AssociateWithTruth(const std::vector<TrajectoryPoint2D>& estimate,
+                                          const std::vector<int>& frames,
+                                          const ReferenceTrack& truth,
+                                          const std::optional<LocalEnu>& enu);
+
 /// The run's VO track against a ground-truth file (io/reference_track.h: TUM, or a telemetry
 /// file with positions such as the simulator's ground_truth.csv), as `aerovo run --truth` compares
-/// them in summary.json: matched by time; geographic truth converted to the run's ENU frame
-/// (origin: the first GPS fix of frames.csv, else the truth's first point), TUM truth taken as
-/// metres of the run's frame. Throws InputError when the file cannot be read.
+/// them in summary.json (AssociateWithTruth with the ENU frame at the first GPS fix of
+/// frames.csv). Throws InputError when the file cannot be read.
 RunComparison CompareWithTruthFile(const RunData& run, const std::filesystem::path& truth);
 
 }  // namespace aerovo

@@ -14,7 +14,6 @@
 #include <memory>
 #include <sstream>
 #include <type_traits>
-#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -33,6 +32,7 @@
 #include "aerovo/io/telemetry.h"
 #include "aerovo/io/telemetry_readers.h"
 #include "aerovo/io/track_writers.h"
+#include "aerovo/report/run_reader.h"
 #include "aerovo/sim/sim_writer.h"
 
 namespace aerovo {
@@ -483,10 +483,8 @@ std::optional<sim::SimulationManifest> FindSimulationManifest(const std::string&
 }
 
 // Compares the processed frames' track (ENU when geo-referenced, else local) with the ground
-// truth, matched by frame index when every truth point has one (the simulator's CSV, DJI SRT;
-// photo folders have no reliable frame times), else by time. Geographic truth goes into the run's
-// ENU frame (origin: first GPS fix), or without GPS into an ENU frame at the truth's first point
-// (then only the aligned figures mean anything); TUM truth is taken as metres of the run's frame.
+// truth, paired by AssociateWithTruth in the run's ENU frame (origin: first GPS fix; without GPS
+// an ENU frame at the truth's first point, and then only the aligned figures mean anything).
 void CompareWithTruth(const ReferenceTrack& truth, const std::vector<TrajectoryPoint2D>& track,
                       const std::vector<int>& track_frames, const GeoReferencer& georef,
                       RunSummary* summary) {
@@ -501,33 +499,10 @@ void CompareWithTruth(const ReferenceTrack& truth, const std::vector<TrajectoryP
     summary->warnings.push_back(
         "the track is not geo-referenced: compare it with the truth after alignment only");
   }
-  std::vector<TrajectoryPoint2D> reference;
-  reference.reserve(truth.points.size());
-  if (truth.geographic) {
-    const LocalEnu enu = georef.has_enu() ? georef.enu() : LocalEnu(*truth.points.front().geo);
-    for (const ReferencePoint& p : truth.points) {
-      const Eigen::Vector3d e = enu.Forward(*p.geo);
-      reference.push_back({p.time_s, e.x(), e.y()});
-    }
-  } else {
-    for (const ReferencePoint& p : truth.points) reference.push_back({p.time_s, p.x_m, p.y_m});
-  }
-  const bool by_index = std::all_of(truth.points.begin(), truth.points.end(),
-                                    [](const ReferencePoint& p) { return p.frame_index; });
   try {
-    AssociatedTrajectories pairs;
-    if (by_index) {
-      std::unordered_map<int, std::size_t> at;
-      for (std::size_t i = 0; i < truth.points.size(); ++i) at[*truth.points[i].frame_index] = i;
-      for (std::size_t i = 0; i < estimate.size(); ++i) {
-        const auto it = at.find(track_frames[i]);
-        if (it == at.end()) continue;
-        pairs.estimate.push_back(estimate[i]);
-        pairs.reference.push_back(reference[it->second]);
-      }
-    } else {
-      pairs = AssociateByTime(estimate, reference);
-    }
+    const AssociatedTrajectories pairs =
+        AssociateWithTruth(estimate, track_frames, truth,
+                           georef.has_enu() ? std::optional<LocalEnu>(georef.enu()) : std::nullopt);
     summary->frames_with_truth = static_cast<int>(pairs.estimate.size());
     if (pairs.estimate.size() < 3) {
       summary->warnings.push_back(
