@@ -307,6 +307,40 @@ std::vector<double> Column(const RunData& run, Get get, bool positive_only = fal
   return y;
 }
 
+// Index of the correspond series in StageTimesFigure.
+constexpr std::size_t kStageTimesCorrespond = 2;
+
+// Time of each stage per frame of `run` (log scale): detect, describe, correspond (at
+// kStageTimesCorrespond), estimate and the whole frame (black), milliseconds; frames without a
+// time (0) are left out.
+Figure StageTimesFigure(const RunData& run, const std::string& name, const std::string& title) {
+  Figure f;
+  f.name = name;
+  f.title = title;
+  f.x_label = "frame";
+  f.y_label = "time (ms)";
+  f.log_y = true;
+  f.key = "outside right top";
+  const std::vector<double> x = FrameAxis(run);
+  f.series.push_back(Series("detect", x,
+                            Column(
+                                run, [](const RunFrameRow& r) { return r.detect_ms; }, true)));
+  f.series.push_back(Series("describe", x,
+                            Column(
+                                run, [](const RunFrameRow& r) { return r.describe_ms; }, true)));
+  f.series.push_back(Series("correspond", x,
+                            Column(
+                                run, [](const RunFrameRow& r) { return r.correspond_ms; }, true)));
+  f.series.push_back(Series("estimate", x,
+                            Column(
+                                run, [](const RunFrameRow& r) { return r.estimate_ms; }, true)));
+  f.series.push_back(Series("total", x,
+                            Column(
+                                run, [](const RunFrameRow& r) { return r.total_ms; }, true),
+                            SeriesStyle::kLines, "#000000"));
+  return f;
+}
+
 // Summary numbers from summary.json, or recomputed from frames.csv when the run was killed
 // before writing it.
 nlohmann::json EffectiveSummary(const RunData& run, const RunComparison& cmp) {
@@ -624,35 +658,9 @@ void RunFigures(const RunData& run, const RunComparison& cmp,
              "of points used for the correspondence.");
   }
   // Stage times
-  {
-    Figure f;
-    f.name = "stage_times";
-    f.title = "Time of each stage per frame (log scale)";
-    f.x_label = "frame";
-    f.y_label = "time (ms)";
-    f.log_y = true;
-    f.key = "outside right top";
-    f.series.push_back(Series("detect", frames,
-                              Column(
-                                  run, [](const RunFrameRow& r) { return r.detect_ms; }, true)));
-    f.series.push_back(Series("describe", frames,
-                              Column(
-                                  run, [](const RunFrameRow& r) { return r.describe_ms; }, true)));
-    f.series.push_back(
-        Series("correspond", frames,
-               Column(
-                   run, [](const RunFrameRow& r) { return r.correspond_ms; }, true)));
-    f.series.push_back(Series("estimate", frames,
-                              Column(
-                                  run, [](const RunFrameRow& r) { return r.estimate_ms; }, true)));
-    f.series.push_back(Series("total", frames,
-                              Column(
-                                  run, [](const RunFrameRow& r) { return r.total_ms; }, true),
-                              SeriesStyle::kLines, "#000000"));
-    sink.Add(f,
-             "Per-frame time of SURF detection, SURF description, matching (correspond), "
-             "transform estimation (RANSAC) and the whole frame, milliseconds.");
-  }
+  sink.Add(StageTimesFigure(run, "stage_times", "Time of each stage per frame (log scale)"),
+           "Per-frame time of SURF detection, SURF description, matching (correspond), "
+           "transform estimation (RANSAC) and the whole frame, milliseconds.");
   // Error per frame
   if (cmp.comparison) {
     Figure f;
@@ -1008,46 +1016,20 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
     f8.log_y = true;
     for (const ExpRun& r : runs) {
       const std::string mode = JsonString(r.spec, "mode");
-      Figure f;
       const bool clustered = mode == "clustered" || r.dir == "clustered";
-      f.name = std::string(clustered ? "fig8" : "fig7") + "_stage_times_" + r.dir;
-      for (char& ch : f.name) {
+      std::string name = std::string(clustered ? "fig8" : "fig7") + "_stage_times_" + r.dir;
+      for (char& ch : name) {
         if (!(std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-')) ch = '_';
       }
-      f.title = fmt::format("Fig. {}: time of each stage per step, {} RANSAC", clustered ? 8 : 7,
-                            r.label);
-      f.x_label = "frame";
-      f.y_label = "time (ms)";
-      f.log_y = true;
-      f.key = "outside right top";
-      const std::vector<double> x = FrameAxis(r.data);
-      f.series.push_back(
-          Series("detect", x,
-                 Column(
-                     r.data, [](const RunFrameRow& q) { return q.detect_ms; }, true)));
-      f.series.push_back(
-          Series("describe", x,
-                 Column(
-                     r.data, [](const RunFrameRow& q) { return q.describe_ms; }, true)));
-      f.series.push_back(
-          Series("correspond", x,
-                 Column(
-                     r.data, [](const RunFrameRow& q) { return q.correspond_ms; }, true)));
-      f.series.push_back(
-          Series("estimate", x,
-                 Column(
-                     r.data, [](const RunFrameRow& q) { return q.estimate_ms; }, true)));
-      f.series.push_back(Series("total", x,
-                                Column(
-                                    r.data, [](const RunFrameRow& q) { return q.total_ms; }, true),
-                                SeriesStyle::kLines, "#000000"));
+      const Figure f =
+          StageTimesFigure(r.data, name,
+                           fmt::format("Fig. {}: time of each stage per step, {} RANSAC",
+                                       clustered ? 8 : 7, r.label));
       sink.Add(f, fmt::format("Fig. {} of the paper: time of each stage per step with {} "
                               "RANSAC, milliseconds (log scale).",
                               clustered ? 8 : 7, r.label));
-      f8.series.push_back(
-          Series(r.label, x,
-                 Column(
-                     r.data, [](const RunFrameRow& q) { return q.correspond_ms; }, true)));
+      const PlotSeries& correspond = f.series[kStageTimesCorrespond];
+      f8.series.push_back(Series(r.label, correspond.x, correspond.y));
     }
     sink.Add(f8,
              "The correspondence stage (matching + RANSAC) of each mode side by side, "
