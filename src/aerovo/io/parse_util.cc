@@ -170,7 +170,7 @@ std::string RecordErrors::At(long line) const { return fmt::format("{}:{}", sour
 
 void RecordErrors::Report(long line, const std::string& message) {
   std::string full = fmt::format("{}:{}: {}", source_, line, message);
-  if (!options_.lenient) throw InputError(full);
+  if (!options_.lenient) throw MalformedRecordError(full);
   ++skipped_;
   if (static_cast<int>(warnings_.size()) < options_.max_warnings) {
     warnings_.push_back(std::move(full));
@@ -178,7 +178,7 @@ void RecordErrors::Report(long line, const std::string& message) {
 }
 
 void RecordErrors::ReportMessage(const std::string& full_message) {
-  if (!options_.lenient) throw InputError(full_message);
+  if (!options_.lenient) throw MalformedRecordError(full_message);
   ++skipped_;
   if (static_cast<int>(warnings_.size()) < options_.max_warnings) {
     warnings_.push_back(full_message);

@@ -42,7 +42,7 @@ class RecordErrors {
  public:
   RecordErrors(const TelemetryReadOptions& options, std::string source)
       : options_(options), source_(std::move(source)) {}
-  /// Throws InputError "<source>:<line>: <message>" in strict mode; else records it.
+  /// Throws MalformedRecordError "<source>:<line>: <message>" in strict mode; else records it.
   void Report(long line, const std::string& message);
   /// Same policy for a message that already names the place (from ValidateSample).
   void ReportMessage(const std::string& full_message);

@@ -19,12 +19,21 @@
 #include <string>
 #include <vector>
 
+#include "aerovo/core/error.h"
 #include "aerovo/io/telemetry.h"
 
 namespace aerovo {
 
+/// The InputError of a malformed record (unreadable number, missing field, value out of range)
+/// in strict mode: exactly what TelemetryReadOptions::lenient would have skipped. Other input
+/// errors (no such file, not a GPX file, bad CSV header, no record at all) are plain InputError.
+class MalformedRecordError : public InputError {
+ public:
+  using InputError::InputError;
+};
+
 struct TelemetryReadOptions {
-  /// false: the first malformed record throws InputError; true: skip and count it.
+  /// false: the first malformed record throws MalformedRecordError; true: skip and count it.
   bool lenient = false;
   /// Messages of skipped records kept in TelemetryReadResult::warnings (the count is exact).
   int max_warnings = 20;

@@ -514,5 +514,21 @@ TEST(CsvRegression, HugeFrameNumberIsAnErrorNotAnOverflowingCast) {
   EXPECT_EQ(r.telemetry[0].frame_index, 3);
 }
 
+// Only a malformed record is a MalformedRecordError (what lenient mode would skip, and what the
+// runner's "--lenient-telemetry" hint is for); a file that is not telemetry at all is not.
+TEST(Csv, OnlyMalformedRecordsAreMalformedRecordErrors) {
+  std::istringstream bad_value("frame,time_s,lat,lon\n0,0,43.5,6.5\n1,0.5,x,6.6\n");
+  EXPECT_THROW(ParseTelemetryCsv(bad_value, "v.csv"), MalformedRecordError);
+  std::istringstream no_position("frame,time_s,notes\n0,0,a\n");
+  try {
+    ParseTelemetryCsv(no_position, "h.csv");
+    ADD_FAILURE() << "a CSV without positions was accepted";
+  } catch (const MalformedRecordError& e) {
+    ADD_FAILURE() << "a header problem reported as a malformed record: " << e.what();
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("h.csv"));
+  }
+}
+
 }  // namespace
 }  // namespace aerovo

@@ -584,13 +584,9 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
     TelemetryReadResult t;
     try {
       t = ReadTelemetryFile(config.telemetry, to);
-    } catch (const InputError& e) {
-      // A malformed record (not a missing file or one without any record): say how to go on.
-      const std::string m = e.what();
-      if (to.lenient || m.find("no telemetry samples") != std::string::npos ||
-          !std::filesystem::is_regular_file(config.telemetry)) {
-        throw;
-      }
+    } catch (const MalformedRecordError& e) {
+      // Only a malformed record (not a missing file, a bad header or a foreign format): say how
+      // to go on.
       throw InputError(std::string(e.what()) +
                        " (--lenient-telemetry skips malformed records instead)");
     }
