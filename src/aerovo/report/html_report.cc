@@ -221,6 +221,12 @@ figcaption{font-size:.9em;color:#444;margin-top:.3em;text-align:center}
   }
 };
 
+// A note shown on the page and returned in ReportResult::notes.
+void AddNote(Page& page, ReportResult& result, const std::string& text) {
+  page.Note(text);
+  result.notes.push_back(text);
+}
+
 // Renders `figure` into DIR/figures and inlines it in the page.
 class FigureSink {
  public:
@@ -243,10 +249,7 @@ class FigureSink {
     if (options_.log) *options_.log << "  figure " << files.svg.string() << "\n";
   }
 
-  void Note(const std::string& text) {
-    page_.Note(text);
-    result_.notes.push_back(text);
-  }
+  void Note(const std::string& text) { AddNote(page_, result_, text); }
 
   void AddImage(const fs::path& file, const std::string& id, const std::string& caption) {
     std::string ext = file.extension().string();
@@ -753,8 +756,7 @@ void RunReport(const fs::path& dir, const ReportOptions& options, Page& page,
                         (truth ? std::string(" and the ground truth (green)") : std::string()) +
                         "; " + m.note + ".");
     } else {
-      page.Note(m.note);
-      result.notes.push_back(m.note);
+      AddNote(page, result, m.note);
     }
   }
 
@@ -805,8 +807,7 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
       ground_truth = ReadGroundTruthCsv(gt);
     } catch (const InputError& e) {
       const std::string note = std::string("ground truth not used: ") + e.what();
-      page.Note(note);
-      result.notes.push_back(note);
+      AddNote(page, result, note);
     }
   }
 
@@ -826,15 +827,13 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
     if (!IsRunDir(run_dir)) {
       const std::string note = "run '" + run.label + "': no frames.csv in '" + run_dir.string() +
                                "' (not run, or failed): left out";
-      page.Note(note);
-      result.notes.push_back(note);
+      AddNote(page, result, note);
       continue;
     }
     run.data = ReadRunDir(run_dir);
     if (run.data.frames.empty()) {
       const std::string note = "run '" + run.label + "': no frames: left out";
-      page.Note(note);
-      result.notes.push_back(note);
+      AddNote(page, result, note);
       continue;
     }
     run.cmp = ground_truth.points.empty() ? CompareWithGps(run.data)
@@ -847,8 +846,7 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
         result.sub_reports.push_back(s.html);
       } catch (const std::exception& e) {
         const std::string note = "run '" + run.label + "': its own report failed: " + e.what();
-        page.Note(note);
-        result.notes.push_back(note);
+        AddNote(page, result, note);
       }
     }
     runs.push_back(std::move(run));
