@@ -6,6 +6,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <optional>
 #include <ostream>
 #include <regex>
 #include <sstream>
@@ -514,16 +515,21 @@ void FlattenJson(const nlohmann::json& j, const std::string& prefix,
   }
 }
 
-// The reference track (GPS or ground truth) in the first frame's pixels: GPS (ENU) -> VO ENU
-// through the inverse of the SE(2) alignment, then VO ENU -> pixels through the similarity fitted
-// between the VO positions and the frame centres (pixels have y down: fitted against (u, -v)).
-std::vector<Eigen::Vector2d> GpsInFirstFramePixels(const RunData& run, const RunComparison& cmp) {
-  std::vector<Eigen::Vector2d> out;
-  if (!cmp.comparison) return out;
+// The frame centres of a run in first-frame pixels and the similarity from the VO positions (ENU)
+// to those pixels, fitted once per run report and shared by every track drawn on the mosaic.
+struct FramePixels {
+  std::vector<Eigen::Vector2d> centres_px;  // FrameCentresPx(run)
+  // Sim(2) fitted between the VO positions and the frame centres; pixels have y down, so it is
+  // fitted against (u, -v). None with fewer than 3 frames with a centre, or when the fit fails.
+  std::optional<Similarity2D> px_from_enu;
+};
+
+FramePixels FitFramePixels(const RunData& run) {
+  FramePixels out;
   std::vector<int> frames;
-  const std::vector<Eigen::Vector2d> centres = FrameCentresPx(run, &frames);
+  out.centres_px = FrameCentresPx(run, &frames);
   std::map<int, Eigen::Vector2d> centre_of;
-  for (std::size_t i = 0; i < frames.size(); ++i) centre_of[frames[i]] = centres[i];
+  for (std::size_t i = 0; i < frames.size(); ++i) centre_of[frames[i]] = out.centres_px[i];
   std::vector<TrajectoryPoint2D> enu, px;
   for (const RunFrameRow& f : run.frames) {
     const auto it = centre_of.find(f.frame);
@@ -532,17 +538,26 @@ std::vector<Eigen::Vector2d> GpsInFirstFramePixels(const RunData& run, const Run
     px.push_back({f.time_s, it->second.x(), -it->second.y()});
   }
   if (enu.size() < 3) return out;
-  AlignmentResult px_from_enu;
   try {
-    px_from_enu = AlignUmeyama2D(enu, px, AlignmentModel::kSim2);
+    out.px_from_enu = AlignUmeyama2D(enu, px, AlignmentModel::kSim2).enu_from_vo;
   } catch (const InvalidArgument&) {
-    return out;
+    // degenerate (e.g. every frame at one place): the reference tracks are left off the mosaic
   }
+  return out;
+}
+
+// The reference track (GPS or ground truth) in the first frame's pixels: GPS (ENU) -> VO ENU
+// through the inverse of the SE(2) alignment, then VO ENU -> pixels through
+// `pixels.px_from_enu`. Empty when either is missing.
+std::vector<Eigen::Vector2d> GpsInFirstFramePixels(const FramePixels& pixels,
+                                                   const RunComparison& cmp) {
+  std::vector<Eigen::Vector2d> out;
+  if (!cmp.comparison || !pixels.px_from_enu) return out;
   const Similarity2D& a = cmp.comparison->se2.alignment.enu_from_vo;
   for (const TrajectoryPoint2D& g : cmp.reference) {
     const Eigen::Vector2d vo =
         a.Rotation().transpose() * (Eigen::Vector2d(g.x, g.y) - a.translation_m) / a.scale;
-    const Eigen::Vector2d p = px_from_enu.enu_from_vo.Apply(vo);
+    const Eigen::Vector2d p = pixels.px_from_enu->Apply(vo);
     out.emplace_back(p.x(), -p.y());
   }
   return out;
@@ -718,25 +733,26 @@ void RunReport(const fs::path& dir, const ReportOptions& options, Page& page,
   if (!options.mosaic) {
     page.Note("Mosaic not drawn (--no-mosaic).");
   } else {
+    const FramePixels pixels = FitFramePixels(run);  // once for all the tracks
     // GPS first (wider, underneath), the VO track on top: both stay visible where they agree.
     std::vector<MosaicTrack> tracks;
     MosaicTrack gps;
     gps.name = cmp.reference_name + " (through the SE(2) alignment)";
-    gps.points_px = GpsInFirstFramePixels(run, cmp);
+    gps.points_px = GpsInFirstFramePixels(pixels, cmp);
     gps.color_rgb = 0x0072B2;
     gps.line_width_px = 4;
     if (!gps.points_px.empty()) tracks.push_back(gps);
     if (truth) {
       MosaicTrack t;
       t.name = "ground truth (through its SE(2) alignment)";
-      t.points_px = GpsInFirstFramePixels(run, *truth);
+      t.points_px = GpsInFirstFramePixels(pixels, *truth);
       t.color_rgb = 0x009E73;
       t.line_width_px = 3;
       if (!t.points_px.empty()) tracks.push_back(t);
     }
     MosaicTrack vo;
     vo.name = "VO (estimated transforms)";
-    vo.points_px = FrameCentresPx(run);
+    vo.points_px = pixels.centres_px;
     vo.color_rgb = 0xD55E00;
     vo.line_width_px = 2;
     tracks.push_back(vo);
