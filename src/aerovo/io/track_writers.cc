@@ -402,18 +402,16 @@ void GpxTrackWriter::Append(const GeoTrackPoint& point) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Summary JSON
+// Atomic text and JSON files
 
-void WriteJsonFileAtomic(const fs::path& path, const nlohmann::json& value) {
+void WriteTextFileAtomic(const fs::path& path, const std::string& text) {
   const fs::path tmp = path.string() + ".tmp";
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out) {
       throw InputError("cannot create " + tmp.string() + ": " + std::strerror(errno));
     }
-    // Non-finite numbers become null (JSON has no NaN/inf); replace keeps invalid UTF-8 from
-    // throwing mid-file.
-    out << value.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
+    out << text;
     out.flush();
     if (!out) throw InputError("cannot write " + tmp.string() + ": " + std::strerror(errno));
   }
@@ -423,6 +421,13 @@ void WriteJsonFileAtomic(const fs::path& path, const nlohmann::json& value) {
     fs::remove(tmp, ec);
     throw InputError("cannot write " + path.string() + ": rename from " + tmp.string() + " failed");
   }
+}
+
+void WriteJsonFileAtomic(const fs::path& path, const nlohmann::json& value) {
+  // Non-finite numbers become null (JSON has no NaN/inf); replace keeps invalid UTF-8 from
+  // throwing.
+  WriteTextFileAtomic(path,
+                      value.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + '\n');
 }
 
 // ---------------------------------------------------------------------------------------------

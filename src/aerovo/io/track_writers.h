@@ -181,8 +181,12 @@ class GpxTrackWriter {
 /// ISO 8601 UTC time with milliseconds, e.g. "2020-09-13T12:26:40.250Z".
 std::string FormatUtcIso8601(double unix_time_s);
 
-/// Writes `value` as indented JSON to `path` atomically (temporary file in the same folder,
-/// then rename), so readers see the old or the new file, never a partial one. Throws
+/// Writes `text` to `path` atomically (temporary file `path`.tmp in the same folder, then
+/// rename), so readers see the old or the new file, never a partial one. Throws InputError
+/// naming the path.
+void WriteTextFileAtomic(const std::filesystem::path& path, const std::string& text);
+
+/// Writes `value` as indented JSON to `path` atomically (WriteTextFileAtomic). Throws
 /// InputError naming the path.
 void WriteJsonFileAtomic(const std::filesystem::path& path, const nlohmann::json& value);
 

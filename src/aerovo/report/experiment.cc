@@ -551,14 +551,7 @@ void WriteOutputs(const ExperimentResult& result) {
   if (result.runs.empty()) md += "none finished";
   md += result.interrupted ? " (interrupted)\n\n" : "\n\n";
   for (const ExperimentTable& t : result.tables) md += FormatTableMarkdown(t);
-  const std::filesystem::path path = result.out_dir / "tables.md";
-  const std::filesystem::path tmp = result.out_dir / "tables.md.tmp";
-  {
-    std::ofstream out(tmp);
-    out << md;
-    if (!out) throw InputError("cannot write '" + tmp.string() + "'");
-  }
-  std::filesystem::rename(tmp, path);
+  WriteTextFileAtomic(result.out_dir / "tables.md", md);
 }
 
 // Whether `path` is a simulator ground_truth.csv (the contract's "ground_truth"; other truth

@@ -14,6 +14,7 @@
 #include <fmt/format.h>
 
 #include "aerovo/core/error.h"
+#include "aerovo/io/track_writers.h"
 
 namespace aerovo {
 namespace fs = std::filesystem;
@@ -194,10 +195,11 @@ fs::path FindGnuplot(const PlotOptions& options) {
 namespace {
 
 void WriteText(const fs::path& path, const std::string& text, const std::string& where) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out << text;
-  out.flush();
-  if (!out) throw InputError(where + ": cannot write '" + path.string() + "'");
+  try {
+    WriteTextFileAtomic(path, text);
+  } catch (const InputError& e) {
+    throw InputError(where + ": " + e.what());
+  }
 }
 
 // Runs `exe script` in `dir` with stdout/stderr into `log`; returns the exit status (-1: not
