@@ -22,6 +22,11 @@ void Validate(const CorrespondenceOptions& o) {
     throw InvalidArgument("ClusteredRansacOptions.refine_radius_px must be finite and > 0, got " +
                           std::to_string(c.refine_radius_px));
   }
+  if (!(c.refine_final_radius_px >= 0.f) || !std::isfinite(c.refine_final_radius_px)) {
+    throw InvalidArgument(
+        "ClusteredRansacOptions.refine_final_radius_px must be finite and >= 0, got " +
+        std::to_string(c.refine_final_radius_px));
+  }
   if (c.refine_max_points < 0) {
     throw InvalidArgument("ClusteredRansacOptions.refine_max_points must be >= 0, got " +
                           std::to_string(c.refine_max_points));
@@ -82,9 +87,10 @@ CellBounds ClusterCellBounds(const RectI& crop, int rows, int cols, int row, int
 
 namespace {
 
-MatchOptions RefineMatchOptions(const CorrespondenceOptions& o) {
+MatchOptions WithRadius(const CorrespondenceOptions& o, float radius_px) {
   MatchOptions m = o.match;
-  m.guided_radius_px = o.clustered.refine_radius_px;
+  // 0 disables the final pass; the matcher still needs a valid radius.
+  if (radius_px > 0.f) m.guided_radius_px = radius_px;
   return m;
 }
 
@@ -93,7 +99,8 @@ MatchOptions RefineMatchOptions(const CorrespondenceOptions& o) {
 CorrespondenceStage::CorrespondenceStage(const CorrespondenceOptions& options)
     : options_((Validate(options), options)),
       matcher_(options.match),
-      refine_matcher_(RefineMatchOptions(options)) {}
+      refine_matcher_(WithRadius(options, options.clustered.refine_radius_px)),
+      final_matcher_(WithRadius(options, options.clustered.refine_final_radius_px)) {}
 
 CorrespondenceResult CorrespondenceStage::Run(
     const FeatureSet& prev, int prev_width, int prev_height, const FeatureSet& curr,
@@ -108,13 +115,14 @@ CorrespondenceResult CorrespondenceStage::Run(
 }
 
 bool CorrespondenceStage::Attempt(Matcher& matcher, bool guided, const FeatureSet& prev,
-                                  const FeatureSet& curr, const std::vector<int>& subset,
+                                  const std::vector<int>& subset,
                                   const std::optional<Eigen::Matrix3d>& prior,
                                   CorrespondenceResult* out) {
   Stopwatch watch;
+  const FeatureSet& curr = candidates_.features();
   std::optional<Eigen::Matrix<double, 2, 3>> prior_affine;
   if (guided && prior) prior_affine = AffinePart(*prior);
-  MatchResult matched = matcher.Match(prev, curr, subset, prior_affine);
+  MatchResult matched = matcher.Match(prev, candidates_, subset, prior_affine);
   out->match_ms += watch.elapsed_ms();
   out->num_comparisons += matched.num_comparisons;
   ++out->attempts;
@@ -146,8 +154,8 @@ bool CorrespondenceStage::Attempt(Matcher& matcher, bool guided, const FeatureSe
   return out->success;
 }
 
-void CorrespondenceStage::Refine(const FeatureSet& prev, const FeatureSet& curr,
-                                 const std::vector<int>& cell_of, CorrespondenceResult* out) {
+void CorrespondenceStage::Refine(const FeatureSet& prev, const std::vector<int>& cell_of,
+                                 CorrespondenceResult* out) {
   const ClusteredRansacOptions& co = options_.clustered;
   const int num_cells = co.grid_rows * co.grid_cols;
   const int per_cell = co.refine_max_points == 0
@@ -168,16 +176,31 @@ void CorrespondenceStage::Refine(const FeatureSet& prev, const FeatureSet& curr,
   // Attempt overwrites the result; keep the cell's in case the refinement is not better.
   CorrespondenceResult refined;
   const Eigen::Matrix3d cell_transform = out->curr_from_prev;
-  Attempt(refine_matcher_, true, prev, curr, subset_, cell_transform, &refined);
+  Attempt(refine_matcher_, true, prev, subset_, cell_transform, &refined);
   out->match_ms += refined.match_ms;
   out->estimate_ms += refined.estimate_ms;
   out->num_comparisons += refined.num_comparisons;
   out->ransac_trials += refined.ransac_trials;
-  if (!refined.success || refined.num_inliers < out->num_inliers) return;
-  out->curr_from_prev = refined.curr_from_prev;
-  out->matches = std::move(refined.matches);
-  out->inlier_mask = std::move(refined.inlier_mask);
-  out->num_inliers = refined.num_inliers;
+  if (refined.success && refined.num_inliers >= out->num_inliers) {
+    out->curr_from_prev = refined.curr_from_prev;
+    out->matches = std::move(refined.matches);
+    out->inlier_mask = std::move(refined.inlier_mask);
+    out->num_inliers = refined.num_inliers;
+    out->refined = true;
+  }
+  if (co.refine_final_radius_px <= 0.f) return;
+  subset_.clear();
+  CorrespondenceResult final_pass;
+  Attempt(final_matcher_, true, prev, subset_, out->curr_from_prev, &final_pass);
+  out->match_ms += final_pass.match_ms;
+  out->estimate_ms += final_pass.estimate_ms;
+  out->num_comparisons += final_pass.num_comparisons;
+  out->ransac_trials += final_pass.ransac_trials;
+  if (!final_pass.success || final_pass.num_inliers < out->num_inliers) return;
+  out->curr_from_prev = final_pass.curr_from_prev;
+  out->matches = std::move(final_pass.matches);
+  out->inlier_mask = std::move(final_pass.inlier_mask);
+  out->num_inliers = final_pass.num_inliers;
   out->refined = true;
 }
 
@@ -186,8 +209,11 @@ CorrespondenceResult CorrespondenceStage::Standard(const FeatureSet& prev, const
   Stopwatch total;
   CorrespondenceResult result;
   result.method_used = CorrespondenceMethod::kStandard;
+  const Stopwatch prepare;
+  candidates_.Reset(curr);
+  result.match_ms += prepare.elapsed_ms();
   subset_.clear();
-  Attempt(matcher_, options_.guided_matching, prev, curr, subset_, prior, &result);
+  Attempt(matcher_, options_.guided_matching, prev, subset_, prior, &result);
   result.total_ms = total.elapsed_ms();
   return result;
 }
@@ -199,6 +225,10 @@ CorrespondenceResult CorrespondenceStage::Clustered(const FeatureSet& prev, int 
   const ClusteredRansacOptions& co = options_.clustered;
   CorrespondenceResult result;
   result.method_used = CorrespondenceMethod::kClustered;
+  // Clustered RANSAC matches curr up to grid_rows * grid_cols + 2 times: prepare it once.
+  const Stopwatch prepare;
+  candidates_.Reset(curr);
+  result.match_ms += prepare.elapsed_ms();
   result.crop = co.crop ? ClusteredCrop(prev_width, prev_height, last_curr_from_prev)
                         : ClusteredCrop(prev_width, prev_height, Eigen::Matrix3d::Identity());
   const RectI crop = result.crop;
@@ -236,11 +266,10 @@ CorrespondenceResult CorrespondenceStage::Clustered(const FeatureSet& prev, int 
     for (std::size_t i = 0; i < cell_of.size(); ++i) {
       if (cell_of[i] == cell) subset_.push_back(static_cast<int>(i));
     }
-    if (Attempt(matcher_, options_.guided_matching, prev, curr, subset_, last_curr_from_prev,
-                &result)) {
+    if (Attempt(matcher_, options_.guided_matching, prev, subset_, last_curr_from_prev, &result)) {
       result.cell_row = cell / cols;
       result.cell_col = cell % cols;
-      if (co.refine) Refine(prev, curr, cell_of, &result);
+      if (co.refine) Refine(prev, cell_of, &result);
       result.total_ms = total.elapsed_ms();
       return result;
     }
@@ -250,7 +279,7 @@ CorrespondenceResult CorrespondenceStage::Clustered(const FeatureSet& prev, int 
   result.fell_back = true;
   result.method_used = CorrespondenceMethod::kStandard;
   subset_.clear();
-  Attempt(matcher_, options_.guided_matching, prev, curr, subset_, last_curr_from_prev, &result);
+  Attempt(matcher_, options_.guided_matching, prev, subset_, last_curr_from_prev, &result);
   result.total_ms = total.elapsed_ms();
   return result;
 }

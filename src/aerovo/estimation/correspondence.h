@@ -91,6 +91,17 @@ struct ClusteredRansacOptions {
   /// (our choice: 20 per cell of the 3 x 3 grid; an affine least-squares fit on that many
   /// well-spread inliers with 0.3 px noise is good to ~0.1 px at the corners).
   int refine_max_points = 180;
+  /// Final pass of the refinement: every prev point is matched by guided matching within this
+  /// radius (px of the current frame) of the refined transform's prediction and the same RANSAC
+  /// runs on those matches; the result replaces the refined fit if it succeeds with at least as
+  /// many inliers. 0 = no final pass. Why: a fit on a subset of the matches is a different
+  /// estimate from one on all of them whenever the scene departs from the model (parallax, a
+  /// tilted camera: several pixels at the corners on tampa-phantom3, BENCHMARKS.md), so agreeing
+  /// with the standard method needs the same evidence; after the spread refinement the
+  /// prediction is good to a few pixels, and a disc that small holds ~1 candidate, so the pass
+  /// costs a small fraction of exhaustive matching. Default 6 px (4x the RANSAC threshold, the
+  /// radius of OdometryOptions::refine_radius_px).
+  float refine_final_radius_px = 6.f;
 };
 
 /// Options of the correspondence stage (matching + robust estimation).
@@ -202,17 +213,19 @@ class CorrespondenceStage {
  private:
   // One match + RANSAC attempt on prev_subset (all points when empty); fills `out`'s matches,
   // mask, transform, counters and timings. Returns true when it meets min_inliers.
-  bool Attempt(Matcher& matcher, bool guided, const FeatureSet& prev, const FeatureSet& curr,
+  // curr is candidates_ (prepared once per Standard / Clustered call).
+  bool Attempt(Matcher& matcher, bool guided, const FeatureSet& prev,
                const std::vector<int>& subset, const std::optional<Eigen::Matrix3d>& prior,
                CorrespondenceResult* out);
   // ClusteredRansacOptions::refine on a successful cell result; cell_of[i] is the cell of prev
   // point i (-1 outside the crop).
-  void Refine(const FeatureSet& prev, const FeatureSet& curr, const std::vector<int>& cell_of,
-              CorrespondenceResult* out);
+  void Refine(const FeatureSet& prev, const std::vector<int>& cell_of, CorrespondenceResult* out);
 
   CorrespondenceOptions options_;
   Matcher matcher_;
   Matcher refine_matcher_;  // options.match with guided_radius_px = refine_radius_px.
+  Matcher final_matcher_;   // options.match with guided_radius_px = refine_final_radius_px.
+  MatchCandidates candidates_;
   RansacWorkspace workspace_;
   Eigen::Matrix2Xd prev_px_, curr_px_;
   std::vector<float> quality_;

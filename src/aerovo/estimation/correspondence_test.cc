@@ -191,8 +191,11 @@ TEST(ClusteredRansac, CropAndChosenCellForEachMotion) {
     EXPECT_GT(r.match_ms + r.estimate_ms, 0.0);
     EXPECT_GE(r.total_ms, r.match_ms + r.estimate_ms);
 
-    // Default (refine on): same cell, then up to 20 points of every cell are re-matched.
-    CorrespondenceStage refining;
+    // Refinement without the final pass: same cell, then up to 20 points of every cell are
+    // re-matched.
+    CorrespondenceOptions spread;
+    spread.clustered.refine_final_radius_px = 0.f;
+    CorrespondenceStage refining(spread);
     const CorrespondenceResult rr =
         refining.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), motion);
     ASSERT_TRUE(rr.success) << what;
@@ -208,6 +211,27 @@ TEST(ClusteredRansac, CropAndChosenCellForEachMotion) {
       EXPECT_TRUE(crop.contains(k.x, k.y)) << what;
     }
     EXPECT_LT(MaxCornerDisplacementPx(rr.curr_from_prev, motion, kFrameWidth, kFrameHeight), 0.01)
+        << what;
+    // Default: the final pass matches every prev point (strips included) around the refined
+    // prediction, i.e. every point that is still in view (the only ones with a curr twin).
+    CorrespondenceStage defaults;
+    const CorrespondenceResult rd =
+        defaults.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), motion);
+    ASSERT_TRUE(rd.success) << what;
+    EXPECT_TRUE(rd.refined) << what;
+    EXPECT_EQ(rd.cell_row * 3 + rd.cell_col, target) << what;
+    EXPECT_EQ(rd.attempts, 1) << what;
+    EXPECT_EQ(rd.matches.size(), scene.curr().size()) << what;
+    EXPECT_EQ(rd.num_inliers, static_cast<int>(scene.curr().size())) << what;
+    for (const Match& m : rd.matches) {
+      const Keypoint& p = scene.prev().keypoints[static_cast<std::size_t>(m.prev_index)];
+      const Keypoint& c = scene.curr().keypoints[static_cast<std::size_t>(m.curr_index)];
+      EXPECT_LT(
+          (TransformPoint(motion, Eigen::Vector2d(p.x, p.y)) - Eigen::Vector2d(c.x, c.y)).norm(),
+          1e-3)
+          << what;
+    }
+    EXPECT_LT(MaxCornerDisplacementPx(rd.curr_from_prev, motion, kFrameWidth, kFrameHeight), 0.01)
         << what;
 
     // Most-first takes the fullest cell (count 20 + 3 * 8 = 44 unless it is target/decoy).
@@ -319,23 +343,32 @@ TEST(ClusteredRansac, RefinementMatchesStandardAccuracy) {
     const Eigen::Vector2d p(ux(rng), uy(rng));
     scene.Add(p, TransformPoint(motion, p) + Eigen::Vector2d(noise(rng), noise(rng)));
   }
-  CorrespondenceOptions paper, all;
+  CorrespondenceOptions paper, all, spread;
   paper.clustered.refine = false;
   all.clustered.refine_max_points = 0;
-  CorrespondenceStage cell_only(paper), refining_all(all), refining, standard;
+  all.clustered.refine_final_radius_px = 0.f;
+  spread.clustered.refine_final_radius_px = 0.f;
+  CorrespondenceStage cell_only(paper), refining_all(all), refining(spread), defaults, standard;
   const Eigen::Matrix3d still = Eigen::Matrix3d::Identity();
   const auto rp = cell_only.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), still);
   const auto ra =
       refining_all.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), still);
   const auto rr = refining.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), still);
+  const auto rd = defaults.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), still);
   const auto rs = standard.Standard(scene.prev(), scene.curr());
-  ASSERT_TRUE(rp.success && ra.success && rr.success && rs.success);
+  ASSERT_TRUE(rp.success && ra.success && rr.success && rd.success && rs.success);
   EXPECT_FALSE(rp.refined);
   EXPECT_TRUE(ra.refined);
   EXPECT_TRUE(rr.refined);
+  EXPECT_TRUE(rd.refined);
   EXPECT_GT(ra.num_inliers, 5 * rp.num_inliers);
   EXPECT_LE(rr.matches.size(), 160u + rp.matches.size());
   EXPECT_GT(rr.num_inliers, 150);
+  // The final pass (default) finds the standard method's evidence: every point, same fit.
+  EXPECT_EQ(rd.matches.size(), rs.matches.size());
+  EXPECT_EQ(rd.num_inliers, rs.num_inliers);
+  EXPECT_LT(MaxCornerDisplacementPx(rd.curr_from_prev, rs.curr_from_prev, 800, 600), 0.05);
+  EXPECT_LT(rd.num_comparisons * 3, rs.num_comparisons);
   const double e_cell = MaxCornerDisplacementPx(rp.curr_from_prev, motion, 800, 600);
   const double e_all = MaxCornerDisplacementPx(ra.curr_from_prev, motion, 800, 600);
   const double e_default = MaxCornerDisplacementPx(rr.curr_from_prev, motion, 800, 600);
@@ -346,8 +379,11 @@ TEST(ClusteredRansac, RefinementMatchesStandardAccuracy) {
   EXPECT_LT(MaxCornerDisplacementPx(ra.curr_from_prev, rs.curr_from_prev, 800, 600), 0.2);
   EXPECT_LT(e_default, 0.5);
   EXPECT_LT(MaxCornerDisplacementPx(rr.curr_from_prev, rs.curr_from_prev, 800, 600), 0.5);
-  std::printf("corner error px: cell %.3f, refined(all) %.3f, refined(180) %.3f, standard %.3f\n",
-              e_cell, e_all, e_default, e_standard);
+  std::printf(
+      "corner error px: cell %.3f, refined(all) %.3f, refined(180) %.3f, default (final pass) "
+      "%.3f, standard %.3f\n",
+      e_cell, e_all, e_default, MaxCornerDisplacementPx(rd.curr_from_prev, motion, 800, 600),
+      e_standard);
 }
 
 TEST(StandardCorrespondence, MatchesAllAndFits) {

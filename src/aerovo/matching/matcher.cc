@@ -176,7 +176,9 @@ struct Matcher::Impl {
   std::vector<ExactTop2> rev_best;  // per rev_ids entry; j = original prev index
   std::vector<float> qx, qy;        // query positions (guided)
   std::vector<float> cx, cy;        // candidate positions (guided), indexed like the candidate ids
-  std::vector<float> curr_norms;    // squared norm per curr index
+  MatchCandidates own_candidates;   // Match(prev, FeatureSet curr): curr prepared per call
+  std::vector<float> prev_norms;    // reverse guided pass: squared norm per prev index
+  std::vector<std::int32_t> iota;   // iota[i] = i: tie keys of candidates listed by index
   std::vector<char> mark;           // per curr index (unique)
   std::vector<int> rev_slot;        // per curr index: position in rev_ids
 
@@ -208,8 +210,8 @@ struct Matcher::Impl {
   int g_nx = 0, g_ny = 0;
   std::vector<int> g_cell_start;  // kNumGroups * nx * ny + 1
   std::vector<int> g_cursor;
-  std::vector<float> g_rows, g_norms, g_x, g_y;
-  std::vector<std::int32_t> g_index;  // slot -> original index (also the tie key)
+  std::vector<float> g_x, g_y;
+  std::vector<std::int32_t> g_index;  // slot -> original index
   std::vector<std::vector<std::int32_t>> thread_slots;
   std::vector<int> q_order, q_key, q_bucket;  // guided queries in cell order
 
@@ -223,8 +225,8 @@ struct Matcher::Impl {
   std::int64_t SearchExhaustive(const FeatureSet& fq, const std::vector<int>& qids,
                                 const FeatureSet& fc, const std::vector<int>& cids,
                                 const float* cand_norms, std::vector<ExactTop2>* out);
-  void BuildGrid(const FeatureSet& f, const std::vector<int>& ids, float radius,
-                 const float* norms_by_id);
+  void BuildGrid(const FeatureSet& f, const std::vector<int>& ids, float radius);
+  // cand_norms: squared norms of fc's descriptors by index (required).
   std::int64_t SearchGuided(const FeatureSet& fq, const std::vector<int>& qids,
                             const FeatureSet& fc, const std::vector<int>& cids, float radius,
                             const float* cand_norms, std::vector<ExactTop2>* out);
@@ -451,9 +453,7 @@ std::int64_t Matcher::Impl::SearchStreaming(const FeatureSet& fq, const std::vec
 }
 
 // Candidate positions are taken from cx/cy (indexed like `ids`).
-void Matcher::Impl::BuildGrid(const FeatureSet& f, const std::vector<int>& ids, float radius,
-                              const float* norms_by_id) {
-  const int dim = f.descriptor_size;
+void Matcher::Impl::BuildGrid(const FeatureSet& f, const std::vector<int>& ids, float radius) {
   const bool lap = options.check_laplacian;
   // Candidates at non-finite positions (a prior that overflowed) can be in no disc: left out.
   const auto usable = [&](std::size_t k) { return std::isfinite(cx[k]) && std::isfinite(cy[k]); };
@@ -468,9 +468,14 @@ void Matcher::Impl::BuildGrid(const FeatureSet& f, const std::vector<int>& ids, 
     y1 = std::max(y1, static_cast<double>(cy[k]));
   }
   if (n == 0) x0 = y0 = x1 = y1 = 0.0;
-  // Cell side = radius: a query's disc then overlaps at most 3x3 cells. Extents in double: the
-  // span of float positions cannot overflow there.
-  double cell = radius;
+  // Cell side >= radius: a query's disc then overlaps at most 3x3 cells. With a small radius
+  // over sparse points, cells of side radius would be mostly empty and clearing and scanning
+  // them would cost more than the comparisons (a 6 px radius over 740 points of 800 x 600: 40k
+  // cells); so the side is at least the mean spacing of the points, ~1 candidate per cell.
+  // Extents in double: the span of float positions cannot overflow there.
+  const double spacing =
+      n > 0 ? std::sqrt(std::max(1.0, (x1 - x0) * (y1 - y0)) / static_cast<double>(n)) : 0.0;
+  double cell = std::max(static_cast<double>(radius), spacing);
   const auto cells_for = [&](double c) {
     return (std::floor((x1 - x0) / c) + 1.0) * (std::floor((y1 - y0) / c) + 1.0);
   };
@@ -495,17 +500,12 @@ void Matcher::Impl::BuildGrid(const FeatureSet& f, const std::vector<int>& ids, 
   }
   for (std::size_t c = 1; c < g_cell_start.size(); ++c) g_cell_start[c] += g_cell_start[c - 1];
   g_cursor.assign(g_cell_start.begin(), g_cell_start.end() - 1);
-  g_rows.resize(n * dim);
-  g_norms.resize(n);
   g_x.resize(n);
   g_y.resize(n);
   g_index.resize(n);
   for (std::size_t k = 0; k < ids.size(); ++k) {
     if (!usable(k)) continue;
     const int s = g_cursor[key_of(k)]++;
-    const float* d = f.descriptor(ids[k]);
-    std::memcpy(g_rows.data() + static_cast<std::size_t>(s) * dim, d, sizeof(float) * dim);
-    g_norms[s] = norms_by_id != nullptr ? norms_by_id[ids[k]] : SquaredNorm(d, dim);
     g_x[s] = cx[k];
     g_y[s] = cy[k];
     g_index[s] = ids[k];
@@ -519,7 +519,15 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
                                          std::vector<ExactTop2>* out) {
   const int dim = fq.descriptor_size;
   const bool lap = options.check_laplacian;
-  BuildGrid(fc, cids, radius, cand_norms);
+  BuildGrid(fc, cids, radius);
+  // Candidates are listed by index and their rows read in place: each is compared with the
+  // few queries whose discs hold it, so copying the rows into grid order would cost more than
+  // the comparisons it speeds up.
+  if (iota.size() < fc.size()) {
+    const std::size_t old_size = iota.size();
+    iota.resize(fc.size());
+    for (std::size_t i = old_size; i < iota.size(); ++i) iota[i] = static_cast<std::int32_t>(i);
+  }
   const int num_threads = static_cast<int>(qids.size()) >= kMinGuidedQueriesForThreads
                               ? ResolveThreads(options.num_threads)
                               : 1;
@@ -576,21 +584,20 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
         const int s1 = g_cell_start[base + iy * g_nx + ix1 + 1];
         for (int s = s0; s < s1; ++s) {
           const float dx = g_x[s] - x, dy = g_y[s] - y;
-          if (dx * dx + dy * dy <= r2) slots.push_back(s);
+          if (dx * dx + dy * dy <= r2) slots.push_back(g_index[s]);
         }
       }
     }
     Best2 b{kInf, kInf, -1, -1};
     const float* q = fq.descriptor(qids[k]);
     if (!slots.empty()) {
-      list(q, dim, g_rows.data(), g_norms.data(), slots.data(), static_cast<int>(slots.size()),
-           g_index.data(), &b);
+      list(q, dim, fc.descriptors.data(), cand_norms, slots.data(), static_cast<int>(slots.size()),
+           iota.data(), &b);
       comparisons += static_cast<std::int64_t>(slots.size());
     }
     // Exact SSDs now, while the query and candidate rows are in cache.
-    const auto row = [&](int slot) { return g_rows.data() + static_cast<std::size_t>(slot) * dim; };
-    (*out)[k] = MakeExact(q, dim, b.j1 >= 0 ? g_index[b.j1] : -1, b.j1 >= 0 ? row(b.j1) : nullptr,
-                          b.j2 >= 0 ? g_index[b.j2] : -1, b.j2 >= 0 ? row(b.j2) : nullptr);
+    (*out)[k] = MakeExact(q, dim, b.j1, b.j1 >= 0 ? fc.descriptor(b.j1) : nullptr, b.j2,
+                          b.j2 >= 0 ? fc.descriptor(b.j2) : nullptr);
   }
   return comparisons;
 }
@@ -617,14 +624,45 @@ Matcher& Matcher::operator=(Matcher&& other) noexcept {
 
 const MatchOptions& Matcher::options() const { return impl_->options; }
 
+void MatchCandidates::Reset(const FeatureSet& f) {
+  CheckFeatureSet(f, "curr");
+  features_ = &f;
+  const int n = static_cast<int>(f.size());
+  norms_.resize(static_cast<std::size_t>(n));
+  // A non-finite norm is exactly a non-finite value (or one whose square overflows), so this is
+  // also the check of the descriptors.
+  for (int i = 0; i < n; ++i) {
+    norms_[i] = SquaredNorm(f.descriptor(i), f.descriptor_size);
+    if (!std::isfinite(norms_[i])) {
+      ThrowNonFinite("curr", i, "descriptor (or values whose squares overflow)");
+    }
+    const Keypoint& kp = f.keypoints[static_cast<std::size_t>(i)];
+    if (!std::isfinite(kp.x) || !std::isfinite(kp.y)) ThrowNonFinite("curr", i, "position");
+  }
+}
+
 MatchResult Matcher::Match(const FeatureSet& prev, const FeatureSet& curr,
+                           const std::vector<int>& prev_subset,
+                           const std::optional<Eigen::Matrix<double, 2, 3>>& curr_from_prev_prior) {
+  const Stopwatch watch;
+  CheckFeatureSet(prev, "prev");
+  impl_->own_candidates.Reset(curr);
+  MatchResult r = Match(prev, impl_->own_candidates, prev_subset, curr_from_prev_prior);
+  r.time_ms = watch.elapsed_ms();
+  return r;
+}
+
+MatchResult Matcher::Match(const FeatureSet& prev, const MatchCandidates& candidates,
                            const std::vector<int>& prev_subset,
                            const std::optional<Eigen::Matrix<double, 2, 3>>& curr_from_prev_prior) {
   const Stopwatch watch;
   Impl& m = *impl_;
   const MatchOptions& o = m.options;
+  if (!candidates.ready()) {
+    throw InvalidArgument("Matcher::Match: MatchCandidates used before Reset");
+  }
+  const FeatureSet& curr = candidates.features();
   CheckFeatureSet(prev, "prev");
-  CheckFeatureSet(curr, "curr");
   if (prev.descriptor_size != curr.descriptor_size) {
     throw InvalidArgument("Matcher::Match: descriptor sizes differ (prev " +
                           std::to_string(prev.descriptor_size) + ", curr " +
@@ -662,15 +700,7 @@ MatchResult Matcher::Match(const FeatureSet& prev, const FeatureSet& curr,
   // All curr points are candidates; m.rev_ids doubles as the "all curr" id list here.
   m.rev_ids.resize(n_curr);
   for (int i = 0; i < n_curr; ++i) m.rev_ids[i] = i;
-  // Squared norms of every curr descriptor, used by all search paths; a non-finite norm is
-  // exactly a non-finite value (or one whose square overflows), so this is also the check.
-  m.curr_norms.resize(n_curr);
-  for (int i = 0; i < n_curr; ++i) {
-    m.curr_norms[i] = SquaredNorm(curr.descriptor(i), curr.descriptor_size);
-    if (!std::isfinite(m.curr_norms[i])) {
-      ThrowNonFinite("curr", i, "descriptor (or values whose squares overflow)");
-    }
-  }
+  const float* curr_norms = candidates.squared_norms().data();
 
   const bool guided = curr_from_prev_prior.has_value();
   const float radius = o.guided_radius_px;
@@ -692,16 +722,14 @@ MatchResult Matcher::Match(const FeatureSet& prev, const FeatureSet& curr,
     m.cx.resize(n_curr);
     m.cy.resize(n_curr);
     for (int i = 0; i < n_curr; ++i) {
-      const Keypoint& kp = curr.keypoints[i];
-      if (!std::isfinite(kp.x) || !std::isfinite(kp.y)) ThrowNonFinite("curr", i, "position");
-      m.cx[i] = kp.x;
-      m.cy[i] = kp.y;
+      m.cx[i] = curr.keypoints[i].x;
+      m.cy[i] = curr.keypoints[i].y;
     }
     result.num_comparisons +=
-        m.SearchGuided(prev, m.fwd_ids, curr, m.rev_ids, radius, m.curr_norms.data(), &m.fwd_best);
+        m.SearchGuided(prev, m.fwd_ids, curr, m.rev_ids, radius, curr_norms, &m.fwd_best);
   } else {
     result.num_comparisons +=
-        m.SearchExhaustive(prev, m.fwd_ids, curr, m.rev_ids, m.curr_norms.data(), &m.fwd_best);
+        m.SearchExhaustive(prev, m.fwd_ids, curr, m.rev_ids, curr_norms, &m.fwd_best);
   }
 
   // Decisions on exact SSDs (double, from the stored floats) of the two best candidates.
@@ -749,8 +777,12 @@ MatchResult Matcher::Match(const FeatureSet& prev, const FeatureSet& curr,
         m.qx[k] = curr.keypoints[m.rev_ids[k]].x;
         m.qy[k] = curr.keypoints[m.rev_ids[k]].y;
       }
-      result.num_comparisons +=
-          m.SearchGuided(curr, m.rev_ids, prev, m.fwd_ids, radius, nullptr, &m.rev_best);
+      m.prev_norms.resize(prev.size());
+      for (int id : m.fwd_ids) {
+        m.prev_norms[id] = SquaredNorm(prev.descriptor(id), prev.descriptor_size);
+      }
+      result.num_comparisons += m.SearchGuided(curr, m.rev_ids, prev, m.fwd_ids, radius,
+                                               m.prev_norms.data(), &m.rev_best);
     } else {
       result.num_comparisons +=
           m.SearchExhaustive(curr, m.rev_ids, prev, m.fwd_ids, nullptr, &m.rev_best);

@@ -59,6 +59,31 @@ struct MatchResult {
   double time_ms = 0.0;
 };
 
+/// The current frame's side of matching, prepared once and reused by every Match call against
+/// that frame (clustered RANSAC matches one frame several times: cells, refinement, final pass):
+/// squared descriptor norms, with descriptors and positions checked finite. Refers to the
+/// FeatureSet given to Reset without copying it: it must outlive this object's use and stay
+/// unchanged in between.
+class MatchCandidates {
+ public:
+  MatchCandidates() = default;
+  /// Same as Reset(features).
+  explicit MatchCandidates(const FeatureSet& features) { Reset(features); }
+  /// Prepares for `features`, reusing this object's buffers. Throws InvalidArgument on
+  /// descriptors.size() inconsistent with keypoints or a non-finite descriptor or position.
+  void Reset(const FeatureSet& features);
+  /// Reset has been called.
+  bool ready() const { return features_ != nullptr; }
+  /// Precondition: ready().
+  const FeatureSet& features() const { return *features_; }
+  /// Squared L2 norm of every descriptor, by index.
+  const std::vector<float>& squared_norms() const { return norms_; }
+
+ private:
+  const FeatureSet* features_ = nullptr;
+  std::vector<float> norms_;
+};
+
 /// Exhaustive (optionally guided) matcher. Reuses its buffers between calls (no allocation in
 /// steady state other than the returned match vector). Not thread-safe: use one instance per
 /// thread (it parallelises internally when num_threads != 1 and the work is large enough).
@@ -100,6 +125,10 @@ class Matcher {
   /// keypoints, non-finite descriptors / positions / prior, or prev_subset indices out of range.
   MatchResult Match(
       const FeatureSet& prev, const FeatureSet& curr, const std::vector<int>& prev_subset = {},
+      const std::optional<Eigen::Matrix<double, 2, 3>>& curr_from_prev_prior = std::nullopt);
+  /// The same, against candidates prepared once (MatchCandidates) for several calls.
+  MatchResult Match(
+      const FeatureSet& prev, const MatchCandidates& curr, const std::vector<int>& prev_subset = {},
       const std::optional<Eigen::Matrix<double, 2, 3>>& curr_from_prev_prior = std::nullopt);
 
  private:

@@ -463,6 +463,57 @@ TEST(MatcherTest, PrevSubsetRestrictsQueries) {
   EXPECT_THROW(matcher.Match(s.prev, s.curr, {-1}), InvalidArgument);
 }
 
+// Candidates prepared once give exactly the matches of the one-shot call, on every path
+// (exhaustive, streaming subset, guided, unique), however many calls share them.
+TEST(MatcherTest, PreparedCandidatesGiveTheSameMatchesOnEveryPath) {
+  const Scene s = MakeScene(900, 300, 64, 0.02f, 77);
+  std::vector<int> subset;
+  for (int i = 0; i < 900; i += 9) subset.push_back(i);
+  const MatchCandidates prepared(s.curr);
+  for (bool unique : {false, true}) {
+    MatchOptions o;
+    o.unique = unique;
+    o.guided_radius_px = 8.f;
+    Matcher one_shot(o), reusing(o);
+    for (int path = 0; path < 4; ++path) {
+      const std::vector<int> ids = path == 1 || path == 3 ? subset : std::vector<int>{};
+      std::optional<Affine> prior;
+      if (path >= 2) prior = s.curr_from_prev;
+      const MatchResult want = one_shot.Match(s.prev, s.curr, ids, prior);
+      const MatchResult got = reusing.Match(s.prev, prepared, ids, prior);
+      SCOPED_TRACE("unique " + std::to_string(unique) + " path " + std::to_string(path));
+      EXPECT_GT(want.matches.size(), ids.empty() ? 800u : 90u);
+      ExpectSameMatches(got.matches, want.matches);
+      EXPECT_EQ(got.num_comparisons, want.num_comparisons);
+    }
+  }
+}
+
+TEST(MatcherTest, PreparedCandidatesAreCheckedOnce) {
+  Matcher m;
+  const MatchCandidates unprepared;
+  const Scene s = MakeScene(20, 0, 64, 0.f, 3);
+  EXPECT_THROW(m.Match(s.prev, unprepared), InvalidArgument);
+  FeatureSet bad = s.curr;
+  bad.descriptors[5 * 64 + 3] = std::numeric_limits<float>::quiet_NaN();
+  try {
+    MatchCandidates c(bad);
+    FAIL() << "a NaN descriptor was accepted";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("curr point 5"), std::string::npos) << e.what();
+  }
+  bad = s.curr;
+  bad.keypoints[7].y = std::numeric_limits<float>::infinity();
+  try {
+    MatchCandidates c(bad);
+    FAIL() << "an infinite position was accepted";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("curr point 7 has a non-finite position"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(MatcherTest, GuidedMatchesExhaustiveWithRightPrior) {
   const Scene s = MakeScene(800, 800, 64, 0.005f, 11);
   Matcher matcher;

@@ -105,8 +105,8 @@ Eigen::Matrix3d Power(const Eigen::Matrix3d& m, int k) {
 struct VisualOdometry::Impl {
   explicit Impl(const OdometryOptions& o)
       : surf(o.surf),
-        guided(WithGuidance(o.correspondence, true)),
-        unguided(WithGuidance(o.correspondence, false)),
+        guided(StepOptions(o, true)),
+        unguided(StepOptions(o, false)),
         relocalise(RelocaliseOptions(o)),
         refine(RefineOptions(o)) {}
 
@@ -125,6 +125,14 @@ struct VisualOdometry::Impl {
     c.method = CorrespondenceMethod::kStandard;
     c.guided_matching = true;
     c.match.guided_radius_px = o.refine_radius_px;
+    return c;
+  }
+
+  // Frame-to-frame steps: a successful cell is refined on all points by the stage itself
+  // (ClusteredRansacOptions::refine_final_radius_px), with the odometry's radius.
+  static CorrespondenceOptions StepOptions(const OdometryOptions& o, bool guided) {
+    CorrespondenceOptions c = WithGuidance(o.correspondence, guided);
+    c.clustered.refine_final_radius_px = o.refine_on_all_points ? o.refine_radius_px : 0.f;
     return c;
   }
 
@@ -173,7 +181,8 @@ struct VisualOdometry::Impl {
     return a;
   }
 
-  // Refit of an accepted step on all points, guided tightly by it (see refine_on_all_points).
+  // Refit of an accepted standard result (fall-back, keyframe) on all points, guided tightly
+  // by it (see refine_on_all_points); cell results had the stage's own final pass.
   void Refine(const FeatureSet& ref, const FeatureSet& curr, Attempt* a) {
     const CorrespondenceResult c = refine.Standard(ref, curr, a->curr_from_ref);
     a->correspond_ms += c.match_ms;
@@ -312,8 +321,8 @@ FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
         const bool guided = pass == 0;
         if (guided && (!o.correspondence.guided_matching || !prior)) continue;
         Attempt a = s.Correspond(guided, ref.features, features.features, prior, keyframe);
-        if (o.refine_on_all_points && a.success &&
-            (a.cluster >= 0 || o.correspondence.method == CorrespondenceMethod::kClustered)) {
+        if (o.refine_on_all_points && a.success && a.cluster < 0 &&
+            o.correspondence.method == CorrespondenceMethod::kClustered) {
           s.Refine(ref.features, features.features, &a);
         }
         r.correspond_ms += a.correspond_ms;

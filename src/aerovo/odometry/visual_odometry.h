@@ -47,9 +47,12 @@ struct OdometryOptions {
     c.match.num_threads = 0;
     return c;
   }();
-  /// Refinement of a clustered (or guided) step on all points: the accepted transform is used as
-  /// a tight prior (refine_radius_px) to match every point of the reference frame, and the model
-  /// is refit by RANSAC on those matches; the refit replaces the step when it has more inliers.
+  /// Refinement of a clustered step on all points: the accepted transform is used as a tight
+  /// prior (refine_radius_px) to match every point of the reference frame, and the model is
+  /// refit by RANSAC on those matches. For a cell's result this is the correspondence stage's
+  /// final pass (ClusteredRansacOptions::refine_final_radius_px is set to refine_radius_px, or 0
+  /// when off); a fall-back or keyframe result is refit the same way here and replaced when the
+  /// refit has more inliers.
   /// Why: a cell covers 1/9 of the frame, so its affine fit is exact near the cell and
   /// extrapolates poorly to the rest (measured on the synthetic flights of
   /// visual_odometry_test.cc: 0.15 m position error after ten 3.5 m steps with cell fits alone,
