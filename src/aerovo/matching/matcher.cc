@@ -45,6 +45,11 @@ constexpr int kMinGuidedQueriesForThreads = 4096;
 // Exhaustive searches with at most this many queries (and at most half as many as candidates)
 // pack the queries and stream the candidates in place (SearchStreaming).
 constexpr int kMaxStreamingQueries = 4096;
+// Guided search: queries ahead whose rows (query and up to kGuidedPrefetchRows candidates) are
+// fetched while the current one is compared; tuned on real SURF with ~1 and ~20 candidates per
+// query (bench_matching BM_Guided*, bench_correspondence).
+constexpr int kGuidedPrefetchDistance = 4;
+constexpr int kGuidedPrefetchRows = 8;
 // Upper bound on guided-grid cells per Laplacian group (memory bound for tiny radii).
 constexpr std::int64_t kMaxGridCells = 1 << 18;
 
@@ -165,6 +170,84 @@ void Validate(const MatchOptions& o) {
   }
 }
 
+struct MatchCandidates::Grid {
+  float x0 = 0.f, y0 = 0.f, inv_cell = 1.f;
+  int nx = 0, ny = 0;
+  std::vector<int> cell_start;  // kNumGroups * nx * ny + 1
+  std::vector<int> cursor, key;
+  std::vector<float> x, y;          // slot -> position
+  std::vector<std::int32_t> index;  // slot -> original index
+  std::vector<float> px, py;        // MatchCandidates: positions by index (FillGrid input)
+};
+using Grid = MatchCandidates::Grid;
+
+namespace {
+
+// Buckets points k = 0..count-1 (position px[k], py[k]; Laplacian group group_of(k); original
+// index id_of(k)) by cell of side >= min_cell, per group; points at non-finite positions (a
+// prior that overflowed) can be in no disc and are left out. Queries visit the cells their
+// disc overlaps, whatever the cell side, so the side is chosen for speed only.
+template <class GroupOf, class IdOf>
+void FillGrid(std::size_t count, const float* px, const float* py, GroupOf group_of, IdOf id_of,
+              double min_cell, Grid* g) {
+  const auto usable = [&](std::size_t k) { return std::isfinite(px[k]) && std::isfinite(py[k]); };
+  std::size_t n = 0;
+  double x0 = kInf, y0 = kInf, x1 = -kInf, y1 = -kInf;
+  for (std::size_t k = 0; k < count; ++k) {
+    if (!usable(k)) continue;
+    ++n;
+    x0 = std::min(x0, static_cast<double>(px[k]));
+    x1 = std::max(x1, static_cast<double>(px[k]));
+    y0 = std::min(y0, static_cast<double>(py[k]));
+    y1 = std::max(y1, static_cast<double>(py[k]));
+  }
+  if (n == 0) x0 = y0 = x1 = y1 = 0.0;
+  // Cells of side ~ the mean spacing of the points hold ~1 point each: smaller ones would be
+  // mostly empty, and clearing and scanning them would cost more than the comparisons (a 6 px
+  // radius over 740 points of 800 x 600 would make 40k cells). Extents in double: the span of
+  // float positions cannot overflow there.
+  const double spacing =
+      n > 0 ? std::sqrt(std::max(1.0, (x1 - x0) * (y1 - y0)) / static_cast<double>(n)) : 0.0;
+  double cell = std::max({min_cell, spacing, 1e-3});
+  const auto cells_for = [&](double c) {
+    return (std::floor((x1 - x0) / c) + 1.0) * (std::floor((y1 - y0) / c) + 1.0);
+  };
+  while (cells_for(cell) > static_cast<double>(kMaxGridCells)) cell *= 2.0;
+  g->x0 = static_cast<float>(x0);
+  g->y0 = static_cast<float>(y0);
+  g->inv_cell = static_cast<float>(1.0 / cell);
+  g->nx = static_cast<int>((x1 - x0) / cell) + 1;
+  g->ny = static_cast<int>((y1 - y0) / cell) + 1;
+  const int cells = g->nx * g->ny;
+  g->cell_start.assign(static_cast<std::size_t>(kNumGroups) * cells + 1, 0);
+  // Same float expression as the queries' cell ranges (SearchGuided), clamped before the
+  // conversion, so that a point within a disc always lies in a visited cell.
+  g->key.resize(count);
+  for (std::size_t k = 0; k < count; ++k) {
+    if (!usable(k)) continue;
+    const float fx = std::clamp((px[k] - g->x0) * g->inv_cell, 0.f, static_cast<float>(g->nx - 1));
+    const float fy = std::clamp((py[k] - g->y0) * g->inv_cell, 0.f, static_cast<float>(g->ny - 1));
+    g->key[k] = group_of(k) * cells + static_cast<int>(fy) * g->nx + static_cast<int>(fx);
+    ++g->cell_start[g->key[k] + 1];
+  }
+  for (std::size_t c = 1; c < g->cell_start.size(); ++c) {
+    g->cell_start[c] += g->cell_start[c - 1];
+  }
+  g->cursor.assign(g->cell_start.begin(), g->cell_start.end() - 1);
+  g->x.resize(n);
+  g->y.resize(n);
+  g->index.resize(n);
+  for (std::size_t k = 0; k < count; ++k) {
+    if (!usable(k)) continue;
+    const int s = g->cursor[g->key[k]]++;
+    g->x[s] = px[k];
+    g->y[s] = py[k];
+    g->index[s] = id_of(k);
+  }
+}
+
+}  // namespace
+
 struct Matcher::Impl {
   MatchOptions options;
   const Kernels* kernels = nullptr;
@@ -206,13 +289,9 @@ struct Matcher::Impl {
   std::vector<WorkItem> work;
 
   // --- Guided: candidates bucketed in a uniform grid per Laplacian group. ------------------
-  float g_x0 = 0.f, g_y0 = 0.f, g_inv_cell = 1.f;
-  int g_nx = 0, g_ny = 0;
-  std::vector<int> g_cell_start;  // kNumGroups * nx * ny + 1
-  std::vector<int> g_cursor;
-  std::vector<float> g_x, g_y;
-  std::vector<std::int32_t> g_index;  // slot -> original index
-  std::vector<std::vector<std::int32_t>> thread_slots;
+  Grid own_grid;                // built per call when the candidates' prepared grid cannot serve
+  std::vector<int> cand_start;  // guided: candidates of the o-th visited query are
+  std::vector<std::int32_t> cand_ids;         // cand_ids[cand_start[o] .. cand_start[o + 1])
   std::vector<int> q_order, q_key, q_bucket;  // guided queries in cell order
 
   void PackQueries(const FeatureSet& f, const std::vector<int>& ids);
@@ -225,10 +304,12 @@ struct Matcher::Impl {
   std::int64_t SearchExhaustive(const FeatureSet& fq, const std::vector<int>& qids,
                                 const FeatureSet& fc, const std::vector<int>& cids,
                                 const float* cand_norms, std::vector<ExactTop2>* out);
+  // own_grid over candidates `ids` of f at positions cx/cy (indexed like ids).
   void BuildGrid(const FeatureSet& f, const std::vector<int>& ids, float radius);
-  // cand_norms: squared norms of fc's descriptors by index (required).
+  // Candidates: the points of fc bucketed in `grid`; cand_norms: squared norms of fc's
+  // descriptors by index.
   std::int64_t SearchGuided(const FeatureSet& fq, const std::vector<int>& qids,
-                            const FeatureSet& fc, const std::vector<int>& cids, float radius,
+                            const FeatureSet& fc, const Grid& grid, float radius,
                             const float* cand_norms, std::vector<ExactTop2>* out);
   void CheckFinite(const FeatureSet& f, const std::vector<int>& ids, const char* which) const;
 };
@@ -452,74 +533,22 @@ std::int64_t Matcher::Impl::SearchStreaming(const FeatureSet& fq, const std::vec
   return comparisons;
 }
 
-// Candidate positions are taken from cx/cy (indexed like `ids`).
 void Matcher::Impl::BuildGrid(const FeatureSet& f, const std::vector<int>& ids, float radius) {
   const bool lap = options.check_laplacian;
-  // Candidates at non-finite positions (a prior that overflowed) can be in no disc: left out.
-  const auto usable = [&](std::size_t k) { return std::isfinite(cx[k]) && std::isfinite(cy[k]); };
-  std::size_t n = 0;
-  double x0 = kInf, y0 = kInf, x1 = -kInf, y1 = -kInf;
-  for (std::size_t k = 0; k < ids.size(); ++k) {
-    if (!usable(k)) continue;
-    ++n;
-    x0 = std::min(x0, static_cast<double>(cx[k]));
-    x1 = std::max(x1, static_cast<double>(cx[k]));
-    y0 = std::min(y0, static_cast<double>(cy[k]));
-    y1 = std::max(y1, static_cast<double>(cy[k]));
-  }
-  if (n == 0) x0 = y0 = x1 = y1 = 0.0;
-  // Cell side >= radius: a query's disc then overlaps at most 3x3 cells. With a small radius
-  // over sparse points, cells of side radius would be mostly empty and clearing and scanning
-  // them would cost more than the comparisons (a 6 px radius over 740 points of 800 x 600: 40k
-  // cells); so the side is at least the mean spacing of the points, ~1 candidate per cell.
-  // Extents in double: the span of float positions cannot overflow there.
-  const double spacing =
-      n > 0 ? std::sqrt(std::max(1.0, (x1 - x0) * (y1 - y0)) / static_cast<double>(n)) : 0.0;
-  double cell = std::max(static_cast<double>(radius), spacing);
-  const auto cells_for = [&](double c) {
-    return (std::floor((x1 - x0) / c) + 1.0) * (std::floor((y1 - y0) / c) + 1.0);
-  };
-  while (cells_for(cell) > static_cast<double>(kMaxGridCells)) cell *= 2.0;
-  g_x0 = static_cast<float>(x0);
-  g_y0 = static_cast<float>(y0);
-  g_inv_cell = static_cast<float>(1.0 / cell);
-  g_nx = static_cast<int>((x1 - x0) / cell) + 1;
-  g_ny = static_cast<int>((y1 - y0) / cell) + 1;
-  const int cells = g_nx * g_ny;
-  g_cell_start.assign(static_cast<std::size_t>(kNumGroups) * cells + 1, 0);
-  // Same float expression as the queries' cell ranges (SearchGuided), clamped before the
-  // conversion, so that a candidate within a disc always lies in a visited cell.
-  const auto key_of = [&](std::size_t k) {
-    const float fx = std::clamp((cx[k] - g_x0) * g_inv_cell, 0.f, static_cast<float>(g_nx - 1));
-    const float fy = std::clamp((cy[k] - g_y0) * g_inv_cell, 0.f, static_cast<float>(g_ny - 1));
-    return GroupOf(f.keypoints[ids[k]].laplacian, lap) * cells + static_cast<int>(fy) * g_nx +
-           static_cast<int>(fx);
-  };
-  for (std::size_t k = 0; k < ids.size(); ++k) {
-    if (usable(k)) ++g_cell_start[key_of(k) + 1];
-  }
-  for (std::size_t c = 1; c < g_cell_start.size(); ++c) g_cell_start[c] += g_cell_start[c - 1];
-  g_cursor.assign(g_cell_start.begin(), g_cell_start.end() - 1);
-  g_x.resize(n);
-  g_y.resize(n);
-  g_index.resize(n);
-  for (std::size_t k = 0; k < ids.size(); ++k) {
-    if (!usable(k)) continue;
-    const int s = g_cursor[key_of(k)]++;
-    g_x[s] = cx[k];
-    g_y[s] = cy[k];
-    g_index[s] = ids[k];
-  }
+  FillGrid(
+      ids.size(), cx.data(), cy.data(),
+      [&](std::size_t k) { return GroupOf(f.keypoints[ids[k]].laplacian, lap); },
+      [&](std::size_t k) { return ids[k]; }, radius, &own_grid);
 }
 
 // Query positions are taken from qx/qy (indexed like `qids`), candidate positions from cx/cy.
 std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector<int>& qids,
-                                         const FeatureSet& fc, const std::vector<int>& cids,
-                                         float radius, const float* cand_norms,
-                                         std::vector<ExactTop2>* out) {
+                                         const FeatureSet& fc, const Grid& grid, float radius,
+                                         const float* cand_norms, std::vector<ExactTop2>* out) {
   const int dim = fq.descriptor_size;
   const bool lap = options.check_laplacian;
-  BuildGrid(fc, cids, radius);
+  const float g_x0 = grid.x0, g_y0 = grid.y0, g_inv_cell = grid.inv_cell;
+  const int g_nx = grid.nx, g_ny = grid.ny;
   // Candidates are listed by index and their rows read in place: each is compared with the
   // few queries whose discs hold it, so copying the rows into grid order would cost more than
   // the comparisons it speeds up.
@@ -531,8 +560,6 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
   const int num_threads = static_cast<int>(qids.size()) >= kMinGuidedQueriesForThreads
                               ? ResolveThreads(options.num_threads)
                               : 1;
-  if (static_cast<int>(thread_slots.size()) < num_threads) thread_slots.resize(num_threads);
-  for (int t = 0; t < num_threads; ++t) thread_slots[t].reserve(cids.size());
   out->resize(qids.size());
   const int nq = static_cast<int>(qids.size());
   const int cells = g_nx * g_ny;
@@ -553,47 +580,66 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
   }
   for (std::size_t c = 1; c < q_bucket.size(); ++c) q_bucket[c] += q_bucket[c - 1];
   for (int k = 0; k < nq; ++k) q_order[q_bucket[q_key[k]]++] = k;
-  std::int64_t comparisons = 0;
-#pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads) \
-    reduction(+ : comparisons) if (num_threads > 1)
+  // Pass 1, positions only: the candidates of every query, in visiting order. Knowing them in
+  // advance lets pass 2 fetch the descriptor rows of later queries while it compares the
+  // current one; the rows are scattered over arrays larger than L2, so without that each
+  // comparison would wait for memory (~4x slower with ~1 candidate per query).
+  cand_start.resize(static_cast<std::size_t>(nq) + 1);
+  // A local vector: the compiler keeps its pointers in registers through the loop.
+  std::vector<std::int32_t> ids;
+  ids.swap(cand_ids);
+  ids.clear();
   for (int o = 0; o < nq; ++o) {
+    cand_start[o] = static_cast<int>(ids.size());
     const int k = q_order[o];
-    if (o + 2 < nq) {
-      // Queries are visited in spatial order, i.e. at random places in fq: fetch ahead.
-      const char* next = reinterpret_cast<const char*>(fq.descriptor(qids[q_order[o + 2]]));
-      for (int b = 0; b < dim * static_cast<int>(sizeof(float)); b += 64) {
-        __builtin_prefetch(next + b);
-      }
-    }
-    std::vector<std::int32_t>& slots = thread_slots[omp_get_thread_num()];
-    slots.clear();
     const float x = qx[k], y = qy[k];
     const float fx0 = (x - radius - g_x0) * g_inv_cell, fx1 = (x + radius - g_x0) * g_inv_cell;
     const float fy0 = (y - radius - g_y0) * g_inv_cell, fy1 = (y + radius - g_y0) * g_inv_cell;
-    if (fx1 >= 0.f && fy1 >= 0.f && fx0 < static_cast<float>(g_nx) &&
-        fy0 < static_cast<float>(g_ny)) {
-      // Clamp in float before converting: predictions may lie far outside the grid.
-      const int ix0 = static_cast<int>(std::max(fx0, 0.f));
-      const int ix1 = static_cast<int>(std::min(fx1, static_cast<float>(g_nx - 1)));
-      const int iy0 = static_cast<int>(std::max(fy0, 0.f));
-      const int iy1 = static_cast<int>(std::min(fy1, static_cast<float>(g_ny - 1)));
-      const int base = GroupOf(fq.keypoints[qids[k]].laplacian, lap) * cells;
-      for (int iy = iy0; iy <= iy1; ++iy) {
-        // Cells ix0..ix1 of one row are consecutive slots.
-        const int s0 = g_cell_start[base + iy * g_nx + ix0];
-        const int s1 = g_cell_start[base + iy * g_nx + ix1 + 1];
-        for (int s = s0; s < s1; ++s) {
-          const float dx = g_x[s] - x, dy = g_y[s] - y;
-          if (dx * dx + dy * dy <= r2) slots.push_back(g_index[s]);
-        }
+    if (!(fx1 >= 0.f && fy1 >= 0.f && fx0 < static_cast<float>(g_nx) &&
+          fy0 < static_cast<float>(g_ny))) {
+      continue;
+    }
+    // Clamp in float before converting: predictions may lie far outside the grid.
+    const int ix0 = static_cast<int>(std::max(fx0, 0.f));
+    const int ix1 = static_cast<int>(std::min(fx1, static_cast<float>(g_nx - 1)));
+    const int iy0 = static_cast<int>(std::max(fy0, 0.f));
+    const int iy1 = static_cast<int>(std::min(fy1, static_cast<float>(g_ny - 1)));
+    const int* row_start = grid.cell_start.data() + q_key[k] / cells * cells + ix0;
+    const float* gx = grid.x.data();
+    const float* gy = grid.y.data();
+    const std::int32_t* gi = grid.index.data();
+    for (int iy = iy0; iy <= iy1; ++iy) {
+      // Cells ix0..ix1 of one row are consecutive slots.
+      const int s0 = row_start[iy * g_nx];
+      const int s1 = row_start[iy * g_nx + ix1 - ix0 + 1];
+      for (int s = s0; s < s1; ++s) {
+        const float dx = gx[s] - x, dy = gy[s] - y;
+        if (dx * dx + dy * dy <= r2) ids.push_back(gi[s]);
       }
     }
+  }
+  cand_start[nq] = static_cast<int>(ids.size());
+  cand_ids.swap(ids);
+  const std::int64_t comparisons = static_cast<std::int64_t>(cand_ids.size());
+  const std::size_t row_bytes = static_cast<std::size_t>(dim) * sizeof(float);
+  const auto prefetch_row = [row_bytes](const float* row) {
+    const char* p = reinterpret_cast<const char*>(row);
+    for (std::size_t b = 0; b < row_bytes; b += 64) __builtin_prefetch(p + b);
+  };
+#pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads) if (num_threads > 1)
+  for (int o = 0; o < nq; ++o) {
+    if (o + kGuidedPrefetchDistance < nq) {
+      const int ahead = o + kGuidedPrefetchDistance;
+      prefetch_row(fq.descriptor(qids[q_order[ahead]]));
+      const int c1 = std::min(cand_start[ahead + 1], cand_start[ahead] + kGuidedPrefetchRows);
+      for (int c = cand_start[ahead]; c < c1; ++c) prefetch_row(fc.descriptor(cand_ids[c]));
+    }
+    const int k = q_order[o];
+    const int c0 = cand_start[o], num = cand_start[o + 1] - c0;
     Best2 b{kInf, kInf, -1, -1};
     const float* q = fq.descriptor(qids[k]);
-    if (!slots.empty()) {
-      list(q, dim, fc.descriptors.data(), cand_norms, slots.data(), static_cast<int>(slots.size()),
-           iota.data(), &b);
-      comparisons += static_cast<std::int64_t>(slots.size());
+    if (num > 0) {
+      list(q, dim, fc.descriptors.data(), cand_norms, cand_ids.data() + c0, num, iota.data(), &b);
     }
     // Exact SSDs now, while the query and candidate rows are in cache.
     (*out)[k] = MakeExact(q, dim, b.j1, b.j1 >= 0 ? fc.descriptor(b.j1) : nullptr, b.j2,
@@ -624,11 +670,22 @@ Matcher& Matcher::operator=(Matcher&& other) noexcept {
 
 const MatchOptions& Matcher::options() const { return impl_->options; }
 
+MatchCandidates::MatchCandidates() : grid_(std::make_unique<Grid>()) {}
+// Moves leave the source without a grid; Reset gives it a new one.
+MatchCandidates::MatchCandidates(const FeatureSet& features) : MatchCandidates() {
+  Reset(features);
+}
+MatchCandidates::~MatchCandidates() = default;
+MatchCandidates::MatchCandidates(MatchCandidates&&) noexcept = default;
+MatchCandidates& MatchCandidates::operator=(MatchCandidates&&) noexcept = default;
+
 void MatchCandidates::Reset(const FeatureSet& f) {
   CheckFeatureSet(f, "curr");
-  features_ = &f;
+  features_ = nullptr;  // not ready until every check has passed
+  if (!grid_) grid_ = std::make_unique<Grid>();
   const int n = static_cast<int>(f.size());
   norms_.resize(static_cast<std::size_t>(n));
+  grid_built_ = false;
   // A non-finite norm is exactly a non-finite value (or one whose square overflows), so this is
   // also the check of the descriptors.
   for (int i = 0; i < n; ++i) {
@@ -639,6 +696,27 @@ void MatchCandidates::Reset(const FeatureSet& f) {
     const Keypoint& kp = f.keypoints[static_cast<std::size_t>(i)];
     if (!std::isfinite(kp.x) || !std::isfinite(kp.y)) ThrowNonFinite("curr", i, "position");
   }
+  features_ = &f;
+}
+
+const MatchCandidates::Grid& MatchCandidates::grid() const {
+  if (!grid_built_) {
+    Grid& g = *grid_;
+    const FeatureSet& f = *features_;
+    const std::size_t n = f.size();
+    g.px.resize(n);
+    g.py.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      g.px[i] = f.keypoints[i].x;
+      g.py[i] = f.keypoints[i].y;
+    }
+    FillGrid(
+        n, g.px.data(), g.py.data(),
+        [&](std::size_t k) { return GroupOf(f.keypoints[k].laplacian, true); },
+        [](std::size_t k) { return static_cast<std::int32_t>(k); }, 0.0, &g);
+    grid_built_ = true;
+  }
+  return *grid_;
 }
 
 MatchResult Matcher::Match(const FeatureSet& prev, const FeatureSet& curr,
@@ -719,14 +797,21 @@ MatchResult Matcher::Match(const FeatureSet& prev, const MatchCandidates& candid
       // An extreme prior can overflow (inf, or inf - inf = NaN): such a point has no candidate.
       if (!std::isfinite(m.qx[k]) || !std::isfinite(m.qy[k])) m.qx[k] = m.qy[k] = kInf;
     }
-    m.cx.resize(n_curr);
-    m.cy.resize(n_curr);
-    for (int i = 0; i < n_curr; ++i) {
-      m.cx[i] = curr.keypoints[i].x;
-      m.cy[i] = curr.keypoints[i].y;
+    // The prepared grid groups by Laplacian sign; without the sign check all candidates form
+    // one group, so the grid is built here.
+    const Grid* grid = &candidates.grid();
+    if (!o.check_laplacian) {
+      m.cx.resize(n_curr);
+      m.cy.resize(n_curr);
+      for (int i = 0; i < n_curr; ++i) {
+        m.cx[i] = curr.keypoints[i].x;
+        m.cy[i] = curr.keypoints[i].y;
+      }
+      m.BuildGrid(curr, m.rev_ids, radius);
+      grid = &m.own_grid;
     }
     result.num_comparisons +=
-        m.SearchGuided(prev, m.fwd_ids, curr, m.rev_ids, radius, curr_norms, &m.fwd_best);
+        m.SearchGuided(prev, m.fwd_ids, curr, *grid, radius, curr_norms, &m.fwd_best);
   } else {
     result.num_comparisons +=
         m.SearchExhaustive(prev, m.fwd_ids, curr, m.rev_ids, curr_norms, &m.fwd_best);
@@ -781,7 +866,8 @@ MatchResult Matcher::Match(const FeatureSet& prev, const MatchCandidates& candid
       for (int id : m.fwd_ids) {
         m.prev_norms[id] = SquaredNorm(prev.descriptor(id), prev.descriptor_size);
       }
-      result.num_comparisons += m.SearchGuided(curr, m.rev_ids, prev, m.fwd_ids, radius,
+      m.BuildGrid(prev, m.fwd_ids, radius);
+      result.num_comparisons += m.SearchGuided(curr, m.rev_ids, prev, m.own_grid, radius,
                                                m.prev_norms.data(), &m.rev_best);
     } else {
       result.num_comparisons +=

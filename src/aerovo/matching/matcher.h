@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -66,9 +67,12 @@ struct MatchResult {
 /// unchanged in between.
 class MatchCandidates {
  public:
-  MatchCandidates() = default;
+  MatchCandidates();
   /// Same as Reset(features).
-  explicit MatchCandidates(const FeatureSet& features) { Reset(features); }
+  explicit MatchCandidates(const FeatureSet& features);
+  ~MatchCandidates();
+  MatchCandidates(MatchCandidates&&) noexcept;
+  MatchCandidates& operator=(MatchCandidates&&) noexcept;
   /// Prepares for `features`, reusing this object's buffers. Throws InvalidArgument on
   /// descriptors.size() inconsistent with keypoints or a non-finite descriptor or position.
   void Reset(const FeatureSet& features);
@@ -79,9 +83,18 @@ class MatchCandidates {
   /// Squared L2 norm of every descriptor, by index.
   const std::vector<float>& squared_norms() const { return norms_; }
 
+  /// Internal: the positions bucketed in a uniform grid per Laplacian sign, built on the first
+  /// guided Match against this frame and reused by the next ones (defined in matcher.cc). Not
+  /// safe to build from two threads at once: share a MatchCandidates between threads only
+  /// after a first guided Match, or give each thread its own.
+  struct Grid;
+  const Grid& grid() const;
+
  private:
   const FeatureSet* features_ = nullptr;
   std::vector<float> norms_;
+  std::unique_ptr<Grid> grid_;
+  mutable bool grid_built_ = false;
 };
 
 /// Exhaustive (optionally guided) matcher. Reuses its buffers between calls (no allocation in
