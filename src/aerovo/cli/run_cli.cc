@@ -119,7 +119,9 @@ void AddRunFlags(CLI::App* cmd, RunFlags& a, const std::set<std::string>& skip) 
     Bind(cmd, a, "--guided", &RunConfig::guided, "Guided matching with the motion prior (0/1)");
   }
   if (want("refine")) {
-    Bind(cmd, a, "--refine", &RunConfig::refine, "Refine cell fits on all points (0/1)");
+    Bind(cmd, a, "--refine", &RunConfig::refine,
+         "Refine cell fits on spread points, then on all points (0/1; 0 = the paper's clustered "
+         "RANSAC exactly)");
   }
   if (want("min_inliers")) {
     Bind(cmd, a, "--min-inliers", &RunConfig::min_inliers, "RANSAC inliers needed for a step");

@@ -454,6 +454,9 @@ OdometryOptions MakeOdometryOptions(const RunConfig& c) {
   o.correspondence.match.num_threads = c.threads;
   o.correspondence.ransac.seed = c.seed;
   o.correspondence.ransac.polish_iterations = c.polish;
+  // refine = 0 is the paper's clustered RANSAC exactly: the cell's own fit, no refinement on
+  // spread points (ClusteredRansacOptions::refine) nor on all points (the final pass).
+  o.correspondence.clustered.refine = c.refine;
   o.refine_on_all_points = c.refine;
   o.scale_mode = ParseScaleMode(c.scale.c_str());
   return o;

@@ -83,7 +83,9 @@ struct RunConfig {
   double illumination_k = 1.0;
   /// Guided matching with the constant-velocity prior (then unguided on failure). Default on.
   bool guided = true;
-  /// Refinement of cell fits on all points (odometry OdometryOptions::refine_on_all_points).
+  /// Refinement of cell fits on spread points and then on all points
+  /// (CorrespondenceOptions::clustered.refine and OdometryOptions::refine_on_all_points).
+  /// Default on; off is the paper's clustered RANSAC exactly (the cell's own fit).
   bool refine = true;
   /// RANSAC inliers needed for a step (OdometryOptions::correspondence.min_inliers). Default 12.
   int min_inliers = 12;
