@@ -103,7 +103,15 @@ void Register(CLI::App& app) {
   cmd->add_option("--model", args->model, "translation, similarity, affine or homography")
       ->capture_default_str();
   cmd->add_flag("--paper", args->paper,
-                "Clustered RANSAC exactly as the paper (no refinement on spread points)");
+                "Clustered RANSAC exactly as the paper (the cell's own fit, no refinement)");
+  cmd->add_option("--spread-points", args->options.clustered.refine_max_points,
+                  "Refinement: points spread over the crop re-matched around the cell's fit "
+                  "(0 = all)")
+      ->capture_default_str();
+  cmd->add_option("--final-radius", args->options.clustered.refine_final_radius_px,
+                  "Refinement's final pass: every point re-matched within this radius (px) of "
+                  "the refined fit (0 = no final pass)")
+      ->capture_default_str();
   cmd->add_flag("--prosac", args->prosac, "PROSAC sampling ordered by match SSD");
   cmd->add_option("--threshold", args->hessian_threshold, "SURF Hessian threshold (MATLAB 1000)")
       ->capture_default_str();
