@@ -123,6 +123,26 @@ void BM_AerovoGuided(benchmark::State& state) {
                                                  benchmark::Counter::kIsIterationInvariantRate);
 }
 
+// The refinement's calls (correspondence stage): curr prepared once per frame pair
+// (MatchCandidates, outside the timed loop as the stage amortises it over its calls), every
+// prev point matched within a tight radius (the final pass, 6 px) or a wide one (40 px).
+// Args: N, radius px.
+void BM_AerovoGuidedPrepared(benchmark::State& state) {
+  const Pair& p = GetPair(static_cast<int>(state.range(0)));
+  aerovo::MatchOptions o;
+  o.guided_radius_px = static_cast<float>(state.range(1));
+  aerovo::Matcher matcher(o);
+  const aerovo::MatchCandidates prepared(p.curr);
+  aerovo::MatchResult r;
+  for (auto _ : state) {
+    r = matcher.Match(p.prev, prepared, {}, p.curr_from_prev);
+    benchmark::DoNotOptimize(r.matches.data());
+  }
+  state.counters["matches"] = static_cast<double>(r.matches.size());
+  state.counters["queries/s"] = benchmark::Counter(static_cast<double>(p.prev.size()),
+                                                   benchmark::Counter::kIsIterationInvariantRate);
+}
+
 // Clustered RANSAC's call: a cell's points (prev_subset) against all curr points.
 // Args: N, subset size (the first `size` prev indices; positions are random, so any set works).
 void BM_AerovoSubset(benchmark::State& state) {
@@ -283,6 +303,10 @@ BENCHMARK(BM_AerovoGuided)
     ->ArgsProduct({{1000, 5000, 20000}, {1, 2}, {40}})
     ->Args({20000, 1, 100})
     ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK(BM_AerovoGuidedPrepared)
+    ->ArgsProduct({{1000, 5000, 20000}, {6, 40}})
+    ->Unit(benchmark::kMicrosecond)
     ->UseRealTime();
 BENCHMARK(BM_AerovoSubset)
     ->ArgsProduct({{5000, 20000}, {12, 50, 200, 1000}})

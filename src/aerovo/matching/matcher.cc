@@ -50,6 +50,9 @@ constexpr int kMaxStreamingQueries = 4096;
 // query (bench_matching BM_Guided*, bench_correspondence).
 constexpr int kGuidedPrefetchDistance = 4;
 constexpr int kGuidedPrefetchRows = 8;
+// Guided search: expected candidates per query (same Laplacian group, in the disc) from which
+// queries are visited in spatial order (see SearchGuided).
+constexpr double kGuidedSortMinCandidates = 4.0;
 // Upper bound on guided-grid cells per Laplacian group (memory bound for tiny radii).
 constexpr std::int64_t kMaxGridCells = 1 << 18;
 
@@ -565,32 +568,45 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
   const int cells = g_nx * g_ny;
   const float r2 = radius * radius;
   const matching_detail::ListFn list = kernels->list;
-  // Visit queries in grid-cell order of their predicted positions: consecutive queries then
-  // read the same candidate cells, which stay in cache (in prev order they would be random
-  // accesses into a multi-MB array).
+  // Visit order. With many candidates per query (a wide disc over dense points) each candidate
+  // row is read by many queries: visiting the queries in grid-cell order of their predicted
+  // positions makes consecutive queries read the same rows while they are in cache. With few
+  // (a tight final pass: ~1 per query) there is no reuse to gain, and the given order reads the
+  // query rows sequentially instead of at random.
   q_order.resize(nq);
   q_key.resize(nq);
-  q_bucket.assign(static_cast<std::size_t>(kNumGroups) * cells + 1, 0);
+  const double cell_area = 1.0 / (static_cast<double>(g_inv_cell) * g_inv_cell);
+  const double per_cell =
+      static_cast<double>(grid.x.size()) / (static_cast<double>(kNumGroups) * std::max(cells, 1));
+  const bool spatial_order = per_cell * 3.14159 * r2 / cell_area >= kGuidedSortMinCandidates;
+  if (spatial_order) q_bucket.assign(static_cast<std::size_t>(kNumGroups) * cells + 1, 0);
   for (int k = 0; k < nq; ++k) {
     const float fx = std::clamp((qx[k] - g_x0) * g_inv_cell, 0.f, static_cast<float>(g_nx - 1));
     const float fy = std::clamp((qy[k] - g_y0) * g_inv_cell, 0.f, static_cast<float>(g_ny - 1));
     q_key[k] = GroupOf(fq.keypoints[qids[k]].laplacian, lap) * cells + static_cast<int>(fy) * g_nx +
                static_cast<int>(fx);
-    ++q_bucket[q_key[k] + 1];
+    if (spatial_order) ++q_bucket[q_key[k] + 1];
   }
-  for (std::size_t c = 1; c < q_bucket.size(); ++c) q_bucket[c] += q_bucket[c - 1];
-  for (int k = 0; k < nq; ++k) q_order[q_bucket[q_key[k]]++] = k;
+  if (spatial_order) {
+    for (std::size_t c = 1; c < q_bucket.size(); ++c) q_bucket[c] += q_bucket[c - 1];
+    for (int k = 0; k < nq; ++k) q_order[q_bucket[q_key[k]]++] = k;
+  } else {
+    for (int k = 0; k < nq; ++k) q_order[k] = k;
+  }
   // Pass 1, positions only: the candidates of every query, in visiting order. Knowing them in
   // advance lets pass 2 fetch the descriptor rows of later queries while it compares the
   // current one; the rows are scattered over arrays larger than L2, so without that each
   // comparison would wait for memory (~4x slower with ~1 candidate per query).
   cand_start.resize(static_cast<std::size_t>(nq) + 1);
-  // A local vector: the compiler keeps its pointers in registers through the loop.
-  std::vector<std::int32_t> ids;
-  ids.swap(cand_ids);
-  ids.clear();
+  // Branch-free append: every scanned slot is written and the count advances only for those in
+  // the disc (whether a slot is in the disc is a coin flip for the branch predictor). The buffer
+  // grows, before each row of cells, to hold the row's slots.
+  std::size_t count = 0;
+  const float* gx = grid.x.data();
+  const float* gy = grid.y.data();
+  const std::int32_t* gi = grid.index.data();
   for (int o = 0; o < nq; ++o) {
-    cand_start[o] = static_cast<int>(ids.size());
+    cand_start[o] = static_cast<int>(count);
     const int k = q_order[o];
     const float x = qx[k], y = qy[k];
     const float fx0 = (x - radius - g_x0) * g_inv_cell, fx1 = (x + radius - g_x0) * g_inv_cell;
@@ -605,22 +621,23 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
     const int iy0 = static_cast<int>(std::max(fy0, 0.f));
     const int iy1 = static_cast<int>(std::min(fy1, static_cast<float>(g_ny - 1)));
     const int* row_start = grid.cell_start.data() + q_key[k] / cells * cells + ix0;
-    const float* gx = grid.x.data();
-    const float* gy = grid.y.data();
-    const std::int32_t* gi = grid.index.data();
     for (int iy = iy0; iy <= iy1; ++iy) {
       // Cells ix0..ix1 of one row are consecutive slots.
       const int s0 = row_start[iy * g_nx];
       const int s1 = row_start[iy * g_nx + ix1 - ix0 + 1];
+      if (count + static_cast<std::size_t>(s1 - s0) > cand_ids.size()) {
+        cand_ids.resize(std::max(2 * cand_ids.size(), count + (s1 - s0) + 1024));
+      }
+      std::int32_t* out_ids = cand_ids.data();
       for (int s = s0; s < s1; ++s) {
         const float dx = gx[s] - x, dy = gy[s] - y;
-        if (dx * dx + dy * dy <= r2) ids.push_back(gi[s]);
+        out_ids[count] = gi[s];
+        count += dx * dx + dy * dy <= r2 ? 1 : 0;
       }
     }
   }
-  cand_start[nq] = static_cast<int>(ids.size());
-  cand_ids.swap(ids);
-  const std::int64_t comparisons = static_cast<std::int64_t>(cand_ids.size());
+  cand_start[nq] = static_cast<int>(count);
+  const std::int64_t comparisons = static_cast<std::int64_t>(count);
   const std::size_t row_bytes = static_cast<std::size_t>(dim) * sizeof(float);
   const auto prefetch_row = [row_bytes](const float* row) {
     const char* p = reinterpret_cast<const char*>(row);
@@ -638,8 +655,13 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
     const int c0 = cand_start[o], num = cand_start[o + 1] - c0;
     Best2 b{kInf, kInf, -1, -1};
     const float* q = fq.descriptor(qids[k]);
-    if (num > 0) {
+    if (num > 2) {
       list(q, dim, fc.descriptors.data(), cand_norms, cand_ids.data() + c0, num, iota.data(), &b);
+    } else if (num > 0) {
+      // The top two of at most two candidates are the candidates themselves, and MakeExact
+      // orders them by the exact SSD: the float ranking would change nothing.
+      b.j1 = cand_ids[c0];
+      b.j2 = num == 2 ? cand_ids[c0 + 1] : -1;
     }
     // Exact SSDs now, while the query and candidate rows are in cache.
     (*out)[k] = MakeExact(q, dim, b.j1, b.j1 >= 0 ? fc.descriptor(b.j1) : nullptr, b.j2,
