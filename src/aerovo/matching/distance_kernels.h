@@ -57,10 +57,17 @@ inline constexpr int kStreamRows = 8;
 using StreamFn = void (*)(const float* const* rows, const float* norms, const std::int32_t* ids,
                           int dim, const float* panels, int num_panels, LaneTop2* state);
 
+/// SSD in double of two float vectors of length dim: the value the match decisions are taken
+/// on. Every variant computes it bit-identically (8 partial sums s[k] over d = k mod 8, tail into
+/// s[0], combined as ((s0 + s4) + (s1 + s5)) + ((s2 + s6) + (s3 + s7)), no fused multiply-add),
+/// so decisions do not depend on the kernel chosen.
+using ExactFn = double (*)(const float* a, const float* b, int dim);
+
 struct Kernels {
   TileFn tile;
   ListFn list;
   StreamFn stream;
+  ExactFn exact;
   const char* name;  ///< "avx2" or "sse4"
 };
 

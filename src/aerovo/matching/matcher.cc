@@ -61,26 +61,6 @@ int GroupOf(std::int8_t laplacian, bool check_laplacian) {
   return laplacian < 0 ? 0 : (laplacian == 0 ? 1 : 2);
 }
 
-// SSD in double from the stored floats: the value the thresholds are applied to, independent
-// of the float32 ranking score (so boundary decisions do not depend on the kernel used). Eight
-// partial sums break the add latency chain (no -ffast-math reassociation to do it for us) and
-// vectorise as four two-lane accumulators; sixteen spilled registers and were slower.
-double ExactSsd(const float* a, const float* b, int dim) {
-  double s[8] = {};
-  int d = 0;
-  for (; d + 8 <= dim; d += 8) {
-    for (int k = 0; k < 8; ++k) {
-      const double t = static_cast<double>(a[d + k]) - static_cast<double>(b[d + k]);
-      s[k] += t * t;
-    }
-  }
-  for (; d < dim; ++d) {
-    const double t = static_cast<double>(a[d]) - static_cast<double>(b[d]);
-    s[0] += t * t;
-  }
-  return ((s[0] + s[4]) + (s[1] + s[5])) + ((s[2] + s[6]) + (s[3] + s[7]));
-}
-
 // Squared L2 norm with 8 independent partial sums (vectorises without reassociation).
 float SquaredNorm(const float* d, int dim) {
   float acc[8] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f};
@@ -103,8 +83,9 @@ bool AnyNonFinite(const float* v, std::size_t n) {
   return bad != 0;
 }
 
-// Best and second-best candidate of a query with their SSDs recomputed exactly (ExactSsd),
-// re-sorted on the exact values (s1 <= s2, ties: lower index); j = original index, -1 = none.
+// Best and second-best candidate of a query with their SSDs recomputed exactly (the kernels'
+// ExactFn), re-sorted on the exact values (s1 <= s2, ties: lower index); j = original index, -1 =
+// none.
 struct ExactTop2 {
   int j1 = -1;
   int j2 = -1;
@@ -112,14 +93,18 @@ struct ExactTop2 {
   double s2 = std::numeric_limits<double>::infinity();
 };
 
-ExactTop2 MakeExact(const float* q, int dim, int j1, const float* row1, int j2, const float* row2) {
+// exact: the kernels' ExactFn (SSD in double from the stored floats: the value the thresholds
+// are applied to, independent of the float32 ranking score, so boundary decisions do not depend
+// on the kernel used).
+ExactTop2 MakeExact(matching_detail::ExactFn exact, const float* q, int dim, int j1,
+                    const float* row1, int j2, const float* row2) {
   ExactTop2 e;
   if (j1 < 0) return e;
   e.j1 = j1;
-  e.s1 = ExactSsd(q, row1, dim);
+  e.s1 = exact(q, row1, dim);
   if (j2 >= 0) {
     e.j2 = j2;
-    e.s2 = ExactSsd(q, row2, dim);
+    e.s2 = exact(q, row2, dim);
     if (e.s2 < e.s1 || (e.s2 == e.s1 && e.j2 < e.j1)) {
       std::swap(e.s1, e.s2);
       std::swap(e.j1, e.j2);
@@ -453,8 +438,9 @@ std::int64_t Matcher::Impl::SearchExhaustive(const FeatureSet& fq, const std::ve
     const Best2& b = slot_best[q_slot_of[k]];
     const int j1 = b.j1 >= 0 ? c_index[b.j1] : -1;
     const int j2 = b.j2 >= 0 ? c_index[b.j2] : -1;
-    (*out)[k] = MakeExact(fq.descriptor(qids[k]), dim, j1, j1 >= 0 ? fc.descriptor(j1) : nullptr,
-                          j2, j2 >= 0 ? fc.descriptor(j2) : nullptr);
+    (*out)[k] =
+        MakeExact(kernels->exact, fq.descriptor(qids[k]), dim, j1,
+                  j1 >= 0 ? fc.descriptor(j1) : nullptr, j2, j2 >= 0 ? fc.descriptor(j2) : nullptr);
   }
   return comparisons;
 }
@@ -530,8 +516,9 @@ std::int64_t Matcher::Impl::SearchStreaming(const FeatureSet& fq, const std::vec
     const LaneTop2& st = lanes[slot / kPanelWidth];
     const int lane = slot % kPanelWidth;
     const int j1 = st.i1[lane], j2 = st.i2[lane];
-    (*out)[k] = MakeExact(fq.descriptor(qids[k]), dim, j1, j1 >= 0 ? fc.descriptor(j1) : nullptr,
-                          j2, j2 >= 0 ? fc.descriptor(j2) : nullptr);
+    (*out)[k] =
+        MakeExact(kernels->exact, fq.descriptor(qids[k]), dim, j1,
+                  j1 >= 0 ? fc.descriptor(j1) : nullptr, j2, j2 >= 0 ? fc.descriptor(j2) : nullptr);
   }
   return comparisons;
 }
@@ -664,8 +651,8 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
       b.j2 = num == 2 ? cand_ids[c0 + 1] : -1;
     }
     // Exact SSDs now, while the query and candidate rows are in cache.
-    (*out)[k] = MakeExact(q, dim, b.j1, b.j1 >= 0 ? fc.descriptor(b.j1) : nullptr, b.j2,
-                          b.j2 >= 0 ? fc.descriptor(b.j2) : nullptr);
+    (*out)[k] = MakeExact(kernels->exact, q, dim, b.j1, b.j1 >= 0 ? fc.descriptor(b.j1) : nullptr,
+                          b.j2, b.j2 >= 0 ? fc.descriptor(b.j2) : nullptr);
   }
   return comparisons;
 }
@@ -897,7 +884,7 @@ MatchResult Matcher::Match(const FeatureSet& prev, const MatchCandidates& candid
     }
     std::size_t kept = 0;
     for (const aerovo::Match& mt : out) {
-      // p must be the exact best of the reverse top-2 (ExactSsd is symmetric in its operands,
+      // p must be the exact best of the reverse top-2 (the exact SSD is symmetric in its operands,
       // so p's value here equals the forward one).
       const ExactTop2& b = m.rev_best[m.rev_slot[mt.curr_index]];
       const bool best = b.j1 == mt.prev_index;

@@ -1,5 +1,7 @@
 #include "aerovo/matching/matcher.h"
 
+#include "aerovo/matching/distance_kernels.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -7,6 +9,7 @@
 #include <limits>
 #include <numeric>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <opencv2/imgcodecs.hpp>
@@ -461,6 +464,31 @@ TEST(MatcherTest, PrevSubsetRestrictsQueries) {
   ExpectSameMatches(r.matches, Reference(s.prev, s.curr, subset, MatchOptions{}));
   EXPECT_THROW(matcher.Match(s.prev, s.curr, {0, 400}), InvalidArgument);
   EXPECT_THROW(matcher.Match(s.prev, s.curr, {-1}), InvalidArgument);
+}
+
+// The exact SSD, on which every accept / reject decision is taken, must not depend on the
+// kernel set: the AVX version must round exactly as the scalar one (no fused multiply-add).
+TEST(MatcherTest, ExactSsdIsBitIdenticalInEveryKernel) {
+  const auto& sse = matching_detail::SelectKernels(false);
+  const auto& avx = matching_detail::SelectKernels(true);
+  if (std::string(avx.name) == sse.name) GTEST_SKIP() << "no AVX2 on this CPU";
+  std::mt19937 rng(11);
+  std::normal_distribution<float> g(0.f, 0.2f);
+  for (int dim : {64, 128, 37, 8, 3}) {
+    std::vector<float> a(dim), b(dim);
+    for (int trial = 0; trial < 200; ++trial) {
+      for (int k = 0; k < dim; ++k) {
+        a[k] = g(rng);
+        b[k] = trial % 2 ? a[k] + 1e-4f * g(rng) : g(rng);  // near and far pairs
+      }
+      const double s = sse.exact(a.data(), b.data(), dim);
+      const double v = avx.exact(a.data(), b.data(), dim);
+      ASSERT_EQ(s, v) << "dim " << dim << " trial " << trial;
+      double ref = 0.0;
+      for (int k = 0; k < dim; ++k) ref += (double(a[k]) - b[k]) * (double(a[k]) - b[k]);
+      ASSERT_NEAR(s, ref, 1e-12 * (1.0 + ref)) << "dim " << dim;
+    }
+  }
 }
 
 // Candidates prepared once give exactly the matches of the one-shot call, on every path
