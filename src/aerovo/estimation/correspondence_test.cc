@@ -191,17 +191,21 @@ TEST(ClusteredRansac, CropAndChosenCellForEachMotion) {
     EXPECT_GT(r.match_ms + r.estimate_ms, 0.0);
     EXPECT_GE(r.total_ms, r.match_ms + r.estimate_ms);
 
-    // Refinement without the final pass: same cell, then up to 20 points of every cell are
-    // re-matched.
+    // A refined run: same cell as the paper's, in one attempt, refined.
+    const auto refined_run = [&](const CorrespondenceOptions& o) {
+      CorrespondenceStage stage_refined(o);
+      const CorrespondenceResult x =
+          stage_refined.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), motion);
+      EXPECT_TRUE(x.success) << what;
+      EXPECT_TRUE(x.refined) << what;
+      EXPECT_EQ(x.cell_row * 3 + x.cell_col, target) << what;
+      EXPECT_EQ(x.attempts, 1) << what;
+      return x;
+    };
+    // Refinement without the final pass: up to 20 points of every cell are re-matched.
     CorrespondenceOptions spread;
     spread.clustered.refine_final_radius_px = 0.f;
-    CorrespondenceStage refining(spread);
-    const CorrespondenceResult rr =
-        refining.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), motion);
-    ASSERT_TRUE(rr.success) << what;
-    EXPECT_TRUE(rr.refined) << what;
-    EXPECT_EQ(rr.cell_row * 3 + rr.cell_col, target) << what;
-    EXPECT_EQ(rr.attempts, 1) << what;
+    const CorrespondenceResult rr = refined_run(spread);
     // 20 points per other cell (all 11 of the decoy), all 13 of the chosen cell; no strip point.
     const std::size_t expected = 7 * 20 + 11 + 13;
     EXPECT_EQ(rr.matches.size(), expected) << what;
@@ -214,13 +218,7 @@ TEST(ClusteredRansac, CropAndChosenCellForEachMotion) {
         << what;
     // Default: the final pass matches every prev point (strips included) around the refined
     // prediction, i.e. every point that is still in view (the only ones with a curr twin).
-    CorrespondenceStage defaults;
-    const CorrespondenceResult rd =
-        defaults.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), motion);
-    ASSERT_TRUE(rd.success) << what;
-    EXPECT_TRUE(rd.refined) << what;
-    EXPECT_EQ(rd.cell_row * 3 + rd.cell_col, target) << what;
-    EXPECT_EQ(rd.attempts, 1) << what;
+    const CorrespondenceResult rd = refined_run(CorrespondenceOptions{});
     EXPECT_EQ(rd.matches.size(), scene.curr().size()) << what;
     EXPECT_EQ(rd.num_inliers, static_cast<int>(scene.curr().size())) << what;
     for (const Match& m : rd.matches) {
