@@ -103,7 +103,9 @@ class MatchCandidates {
 ///
 /// Paths (all give the same result): exhaustive, blocked SIMD over candidates packed per
 /// Laplacian sign; exhaustive with few queries (a prev_subset much smaller than curr), which
-/// packs the queries and streams curr in place; guided, a uniform grid over curr positions.
+/// packs the queries and streams curr in place; guided, a uniform grid over curr positions
+/// (built once per MatchCandidates) gives each query its candidates in the disc, compared in
+/// place (no copy of the rows).
 /// A point with Laplacian 0 (unknown) forms its own group, compared only with other 0 points.
 class Matcher {
  public:
