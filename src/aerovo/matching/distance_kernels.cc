@@ -408,6 +408,30 @@ __attribute__((target("avx2"))) double ExactSsdAvx(const float* a, const float* 
   return ((s[0] + s[4]) + (s[1] + s[5])) + ((s[2] + s[6]) + (s[3] + s[7]));
 }
 
+float SquaredNormScalar(const float* d, int dim) {
+  float acc[8] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f};
+  int k = 0;
+  for (; k + 8 <= dim; k += 8) {
+    for (int l = 0; l < 8; ++l) acc[l] += d[k + l] * d[k + l];
+  }
+  for (; k < dim; ++k) acc[0] += d[k] * d[k];
+  return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
+}
+
+// Lane l of the accumulator is acc[l] of the scalar version; avx2 without fma, as ExactSsdAvx.
+__attribute__((target("avx2"))) float SquaredNormAvx(const float* d, int dim) {
+  __m256 acc = _mm256_setzero_ps();
+  int k = 0;
+  for (; k + 8 <= dim; k += 8) {
+    const __m256 v = _mm256_loadu_ps(d + k);
+    acc = _mm256_add_ps(acc, _mm256_mul_ps(v, v));
+  }
+  alignas(32) float a[8];
+  _mm256_store_ps(a, acc);
+  for (; k < dim; ++k) a[0] += d[k] * d[k];
+  return ((a[0] + a[1]) + (a[2] + a[3])) + ((a[4] + a[5]) + (a[6] + a[7]));
+}
+
 bool CpuHasAvx2Fma() {
   __builtin_cpu_init();
   return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
@@ -416,8 +440,10 @@ bool CpuHasAvx2Fma() {
 }  // namespace
 
 const Kernels& SelectKernels(bool allow_avx2) {
-  static const Kernels kSse{&TileSse, &ListSse, &StreamSse, &ExactSsdScalar, "sse4"};
-  static const Kernels kAvx2{&TileAvx2Any, &ListAvx2, &StreamAvx2Any, &ExactSsdAvx, "avx2"};
+  static const Kernels kSse{&TileSse,        &ListSse,           &StreamSse,
+                            &ExactSsdScalar, &SquaredNormScalar, "sse4"};
+  static const Kernels kAvx2{&TileAvx2Any, &ListAvx2,       &StreamAvx2Any,
+                             &ExactSsdAvx, &SquaredNormAvx, "avx2"};
   static const bool has_avx2 = CpuHasAvx2Fma();
   return (allow_avx2 && has_avx2) ? kAvx2 : kSse;
 }

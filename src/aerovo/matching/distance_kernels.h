@@ -63,11 +63,17 @@ using StreamFn = void (*)(const float* const* rows, const float* norms, const st
 /// so decisions do not depend on the kernel chosen.
 using ExactFn = double (*)(const float* a, const float* b, int dim);
 
+/// Squared L2 norm in float of a vector of length dim, bit-identical in every variant (8 partial
+/// sums acc[l] over d = l mod 8, tail into acc[0], combined as ((a0 + a1) + (a2 + a3)) +
+/// ((a4 + a5) + (a6 + a7)), no fused multiply-add).
+using NormFn = float (*)(const float* d, int dim);
+
 struct Kernels {
   TileFn tile;
   ListFn list;
   StreamFn stream;
   ExactFn exact;
+  NormFn norm;
   const char* name;  ///< "avx2" or "sse4"
 };
 

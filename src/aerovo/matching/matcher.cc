@@ -61,15 +61,11 @@ int GroupOf(std::int8_t laplacian, bool check_laplacian) {
   return laplacian < 0 ? 0 : (laplacian == 0 ? 1 : 2);
 }
 
-// Squared L2 norm with 8 independent partial sums (vectorises without reassociation).
+// Squared L2 norm (the kernels' NormFn; every variant gives the same value): the fastest the CPU
+// has, also for a Matcher that forces the SSE kernels.
 float SquaredNorm(const float* d, int dim) {
-  float acc[8] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f};
-  int k = 0;
-  for (; k + 8 <= dim; k += 8) {
-    for (int l = 0; l < 8; ++l) acc[l] += d[k + l] * d[k + l];
-  }
-  for (; k < dim; ++k) acc[0] += d[k] * d[k];
-  return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
+  static const matching_detail::NormFn norm = matching_detail::SelectKernels(true).norm;
+  return norm(d, dim);
 }
 
 // True if any of v[0..n) is Inf or NaN (exponent bits all ones); integer ops vectorise.
@@ -283,8 +279,9 @@ struct Matcher::Impl {
   std::vector<int> q_order, q_key, q_bucket;  // guided queries in cell order
 
   void PackQueries(const FeatureSet& f, const std::vector<int>& ids);
+  // with_norms = false leaves c_norms of real slots unset (packing queries for streaming).
   void PackCandidates(const FeatureSet& f, const std::vector<int>& ids, const float* norms_by_id,
-                      int pad_to = kCandStep);
+                      int pad_to = kCandStep, bool with_norms = true);
   std::int64_t SearchStreaming(const FeatureSet& fq, const std::vector<int>& qids,
                                const FeatureSet& fc, const std::vector<int>& cids,
                                const float* cand_norms, std::vector<ExactTop2>* out);
@@ -341,7 +338,7 @@ void Matcher::Impl::PackQueries(const FeatureSet& f, const std::vector<int>& ids
 }
 
 void Matcher::Impl::PackCandidates(const FeatureSet& f, const std::vector<int>& ids,
-                                   const float* norms_by_id, int pad_to) {
+                                   const float* norms_by_id, int pad_to, bool with_norms) {
   const int dim = f.descriptor_size;
   const bool lap = options.check_laplacian;
   std::fill(std::begin(c_count), std::end(c_count), 0);
@@ -368,7 +365,7 @@ void Matcher::Impl::PackCandidates(const FeatureSet& f, const std::vector<int>& 
     const float* d = f.descriptor(id);
     float* p = panel_ptr(s);
     for (int k = 0; k < dim; ++k) p[k * kPanelWidth] = d[k];
-    c_norms[s] = norms_by_id != nullptr ? norms_by_id[id] : SquaredNorm(d, dim);
+    if (with_norms) c_norms[s] = norms_by_id != nullptr ? norms_by_id[id] : SquaredNorm(d, dim);
     c_index[s] = id;
     c_slot_of[pos++] = s;
   }
@@ -450,8 +447,9 @@ std::int64_t Matcher::Impl::SearchStreaming(const FeatureSet& fq, const std::vec
                                             const float* cand_norms, std::vector<ExactTop2>* out) {
   const int dim = fq.descriptor_size;
   const bool lap = options.check_laplacian;
-  // Queries in panels (the candidate packing, reused): c_* now describe the queries.
-  PackCandidates(fq, qids, nullptr, kPanelWidth);
+  // Queries in panels (the candidate packing, reused): c_* now describe the queries, whose
+  // norms the streaming kernel does not use.
+  PackCandidates(fq, qids, nullptr, kPanelWidth, /*with_norms=*/false);
   // Candidate streams per group.
   std::fill(std::begin(s_count), std::end(s_count), 0);
   for (int id : cids) ++s_count[GroupOf(fc.keypoints[id].laplacian, lap)];

@@ -466,9 +466,10 @@ TEST(MatcherTest, PrevSubsetRestrictsQueries) {
   EXPECT_THROW(matcher.Match(s.prev, s.curr, {-1}), InvalidArgument);
 }
 
-// The exact SSD, on which every accept / reject decision is taken, must not depend on the
-// kernel set: the AVX version must round exactly as the scalar one (no fused multiply-add).
-TEST(MatcherTest, ExactSsdIsBitIdenticalInEveryKernel) {
+// The exact SSD, on which every accept / reject decision is taken, and the squared norms must not
+// depend on the kernel set: the AVX versions must round exactly as the scalar ones (no fused
+// multiply-add).
+TEST(MatcherTest, ExactSsdAndNormsAreBitIdenticalInEveryKernel) {
   const auto& sse = matching_detail::SelectKernels(false);
   const auto& avx = matching_detail::SelectKernels(true);
   if (std::string(avx.name) == sse.name) GTEST_SKIP() << "no AVX2 on this CPU";
@@ -484,6 +485,8 @@ TEST(MatcherTest, ExactSsdIsBitIdenticalInEveryKernel) {
       const double s = sse.exact(a.data(), b.data(), dim);
       const double v = avx.exact(a.data(), b.data(), dim);
       ASSERT_EQ(s, v) << "dim " << dim << " trial " << trial;
+      // The squared norms that every ranking kernel uses, likewise.
+      ASSERT_EQ(sse.norm(a.data(), dim), avx.norm(a.data(), dim)) << "dim " << dim;
       double ref = 0.0;
       for (int k = 0; k < dim; ++k) ref += (double(a[k]) - b[k]) * (double(a[k]) - b[k]);
       ASSERT_NEAR(s, ref, 1e-12 * (1.0 + ref)) << "dim " << dim;
