@@ -173,35 +173,26 @@ void CorrespondenceStage::Refine(const FeatureSet& prev, const std::vector<int>&
       subset_.push_back(static_cast<int>(i));
     }
   }
-  // Attempt overwrites the result; keep the cell's in case the refinement is not better.
-  CorrespondenceResult refined;
-  const Eigen::Matrix3d cell_transform = out->curr_from_prev;
-  Attempt(refine_matcher_, true, prev, subset_, cell_transform, &refined);
-  out->match_ms += refined.match_ms;
-  out->estimate_ms += refined.estimate_ms;
-  out->num_comparisons += refined.num_comparisons;
-  out->ransac_trials += refined.ransac_trials;
-  if (refined.success && refined.num_inliers >= out->num_inliers) {
-    out->curr_from_prev = refined.curr_from_prev;
-    out->matches = std::move(refined.matches);
-    out->inlier_mask = std::move(refined.inlier_mask);
-    out->num_inliers = refined.num_inliers;
+  // Each pass works on its own result (Attempt overwrites it), whose cost is added to `out` and
+  // which replaces `out`'s fit when it succeeds with at least as many inliers.
+  const auto refine_pass = [&](Matcher& matcher) {
+    CorrespondenceResult pass;
+    Attempt(matcher, true, prev, subset_, out->curr_from_prev, &pass);
+    out->match_ms += pass.match_ms;
+    out->estimate_ms += pass.estimate_ms;
+    out->num_comparisons += pass.num_comparisons;
+    out->ransac_trials += pass.ransac_trials;
+    if (!pass.success || pass.num_inliers < out->num_inliers) return;
+    out->curr_from_prev = pass.curr_from_prev;
+    out->matches = std::move(pass.matches);
+    out->inlier_mask = std::move(pass.inlier_mask);
+    out->num_inliers = pass.num_inliers;
     out->refined = true;
-  }
+  };
+  refine_pass(refine_matcher_);
   if (co.refine_final_radius_px <= 0.f) return;
-  subset_.clear();
-  CorrespondenceResult final_pass;
-  Attempt(final_matcher_, true, prev, subset_, out->curr_from_prev, &final_pass);
-  out->match_ms += final_pass.match_ms;
-  out->estimate_ms += final_pass.estimate_ms;
-  out->num_comparisons += final_pass.num_comparisons;
-  out->ransac_trials += final_pass.ransac_trials;
-  if (!final_pass.success || final_pass.num_inliers < out->num_inliers) return;
-  out->curr_from_prev = final_pass.curr_from_prev;
-  out->matches = std::move(final_pass.matches);
-  out->inlier_mask = std::move(final_pass.inlier_mask);
-  out->num_inliers = final_pass.num_inliers;
-  out->refined = true;
+  subset_.clear();  // every prev point
+  refine_pass(final_matcher_);
 }
 
 CorrespondenceResult CorrespondenceStage::Standard(const FeatureSet& prev, const FeatureSet& curr,

@@ -53,6 +53,7 @@ constexpr int kGuidedPrefetchRows = 8;
 // Guided search: expected candidates per query (same Laplacian group, in the disc) from which
 // queries are visited in spatial order (see SearchGuided).
 constexpr double kGuidedSortMinCandidates = 4.0;
+constexpr double kPi = 3.14159265358979323846;
 // Upper bound on guided-grid cells per Laplacian group (memory bound for tiny radii).
 constexpr std::int64_t kMaxGridCells = 1 << 18;
 
@@ -563,7 +564,7 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
   const double cell_area = 1.0 / (static_cast<double>(g_inv_cell) * g_inv_cell);
   const double per_cell =
       static_cast<double>(grid.x.size()) / (static_cast<double>(kNumGroups) * std::max(cells, 1));
-  const bool spatial_order = per_cell * 3.14159 * r2 / cell_area >= kGuidedSortMinCandidates;
+  const bool spatial_order = per_cell * kPi * r2 / cell_area >= kGuidedSortMinCandidates;
   if (spatial_order) q_bucket.assign(static_cast<std::size_t>(kNumGroups) * cells + 1, 0);
   for (int k = 0; k < nq; ++k) {
     const float fx = std::clamp((qx[k] - g_x0) * g_inv_cell, 0.f, static_cast<float>(g_nx - 1));
@@ -678,11 +679,11 @@ Matcher& Matcher::operator=(Matcher&& other) noexcept {
 const MatchOptions& Matcher::options() const { return impl_->options; }
 
 MatchCandidates::MatchCandidates() : grid_(std::make_unique<Grid>()) {}
-// Moves leave the source without a grid; Reset gives it a new one.
 MatchCandidates::MatchCandidates(const FeatureSet& features) : MatchCandidates() {
   Reset(features);
 }
 MatchCandidates::~MatchCandidates() = default;
+// Moves leave the source without a grid; Reset gives it a new one.
 MatchCandidates::MatchCandidates(MatchCandidates&&) noexcept = default;
 MatchCandidates& MatchCandidates::operator=(MatchCandidates&&) noexcept = default;
 

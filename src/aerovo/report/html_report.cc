@@ -313,18 +313,18 @@ Figure StageTimesFigure(const RunData& run, const std::string& name, const std::
   f.log_y = true;
   f.key = "outside right top";
   const std::vector<double> x = FrameAxis(run);
-  f.series.push_back(Series("detect", x,
-                            Column(
-                                run, [](const RunFrameRow& r) { return r.detect_ms; }, true)));
-  f.series.push_back(Series("describe", x,
-                            Column(
-                                run, [](const RunFrameRow& r) { return r.describe_ms; }, true)));
-  f.series.push_back(Series("correspond", x,
-                            Column(
-                                run, [](const RunFrameRow& r) { return r.correspond_ms; }, true)));
-  f.series.push_back(Series("estimate", x,
-                            Column(
-                                run, [](const RunFrameRow& r) { return r.estimate_ms; }, true)));
+  struct Stage {
+    const char* name;
+    double RunFrameRow::*ms;
+  };
+  for (const Stage& st :
+       {Stage{"detect", &RunFrameRow::detect_ms}, Stage{"describe", &RunFrameRow::describe_ms},
+        Stage{"correspond", &RunFrameRow::correspond_ms},
+        Stage{"estimate", &RunFrameRow::estimate_ms}}) {
+    f.series.push_back(Series(st.name, x,
+                              Column(
+                                  run, [&](const RunFrameRow& r) { return r.*st.ms; }, true)));
+  }
   f.series.push_back(Series("total", x,
                             Column(
                                 run, [](const RunFrameRow& r) { return r.total_ms; }, true),
