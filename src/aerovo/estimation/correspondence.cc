@@ -117,12 +117,20 @@ CorrespondenceResult CorrespondenceStage::Run(
 bool CorrespondenceStage::Attempt(Matcher& matcher, bool guided, const FeatureSet& prev,
                                   const std::vector<int>& subset,
                                   const std::optional<Eigen::Matrix3d>& prior,
-                                  CorrespondenceResult* out) {
+                                  CorrespondenceResult* out, const std::vector<Match>* known) {
   Stopwatch watch;
   const FeatureSet& curr = candidates_.features();
   std::optional<Eigen::Matrix<double, 2, 3>> prior_affine;
   if (guided && prior) prior_affine = AffinePart(*prior);
   MatchResult matched = matcher.Match(prev, candidates_, subset, prior_affine);
+  if (known != nullptr && !known->empty()) {
+    // Both lists are sorted by prev index and hold different prev points.
+    merged_.resize(matched.matches.size() + known->size());
+    std::merge(matched.matches.begin(), matched.matches.end(), known->begin(), known->end(),
+               merged_.begin(),
+               [](const Match& a, const Match& b) { return a.prev_index < b.prev_index; });
+    matched.matches.swap(merged_);
+  }
   out->match_ms += watch.elapsed_ms();
   out->num_comparisons += matched.num_comparisons;
   ++out->attempts;
@@ -161,23 +169,28 @@ void CorrespondenceStage::Refine(const FeatureSet& prev, const std::vector<int>&
   const int per_cell = co.refine_max_points == 0
                            ? static_cast<int>(prev.size())
                            : (co.refine_max_points + num_cells - 1) / num_cells;
-  // The chosen cell's points all take part, so that a refined model consistent with the cell
-  // finds at least the cell's inliers again: "at least as many inliers" then means "explains
-  // the cell's evidence and more", whatever refine_max_points is.
+  // The chosen cell's matches all take part (as they are: its points are not matched again),
+  // so that a refined model consistent with the cell finds at least the cell's inliers again:
+  // "at least as many inliers" then means "explains the cell's evidence and more", whatever
+  // refine_max_points is. The other cells' points are matched around the cell's prediction.
   const int chosen = out->cell_row * co.grid_cols + out->cell_col;
   std::vector<int> taken(static_cast<std::size_t>(num_cells), 0);
   subset_.clear();
   for (std::size_t i = 0; i < cell_of.size(); ++i) {
     const int cell = cell_of[i];
-    if (cell >= 0 && (cell == chosen || taken[static_cast<std::size_t>(cell)]++ < per_cell)) {
+    if (cell >= 0 && cell != chosen && taken[static_cast<std::size_t>(cell)]++ < per_cell) {
       subset_.push_back(static_cast<int>(i));
     }
   }
+  cell_matches_ = out->matches;
   // Each pass works on its own result (Attempt overwrites it), whose cost is added to `out` and
   // which replaces `out`'s fit when it succeeds with at least as many inliers.
-  const auto refine_pass = [&](Matcher& matcher) {
+  const auto refine_pass = [&](Matcher& matcher, const std::vector<Match>* known) {
     CorrespondenceResult pass;
-    Attempt(matcher, true, prev, subset_, out->curr_from_prev, &pass);
+    // An empty subset means every point: a crop holding only the chosen cell has nothing else
+    // to match.
+    if (known != nullptr && subset_.empty()) return;
+    Attempt(matcher, true, prev, subset_, out->curr_from_prev, &pass, known);
     out->match_ms += pass.match_ms;
     out->estimate_ms += pass.estimate_ms;
     out->num_comparisons += pass.num_comparisons;
@@ -189,10 +202,10 @@ void CorrespondenceStage::Refine(const FeatureSet& prev, const std::vector<int>&
     out->num_inliers = pass.num_inliers;
     out->refined = true;
   };
-  refine_pass(refine_matcher_);
+  refine_pass(refine_matcher_, &cell_matches_);
   if (co.refine_final_radius_px <= 0.f) return;
   subset_.clear();  // every prev point
-  refine_pass(final_matcher_);
+  refine_pass(final_matcher_, nullptr);
 }
 
 CorrespondenceResult CorrespondenceStage::Standard(const FeatureSet& prev, const FeatureSet& curr,

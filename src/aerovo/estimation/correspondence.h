@@ -30,8 +30,9 @@
 // 5. If no cell succeeds (or none is eligible), the stage falls back to the standard method on
 //    all points and says so (fell_back = true).
 // 6. (aerovo addition, ClusteredRansacOptions::refine, on by default) A successful cell's
-//    transform seeds a guided re-matching of up to refine_max_points points spread over the
-//    crop (radius refine_radius_px) and the same RANSAC; then a final pass re-matches every
+//    transform seeds a guided matching of up to refine_max_points points spread over the other
+//    cells of the crop (radius refine_radius_px), and the same RANSAC runs on those matches
+//    together with the cell's own; then a final pass re-matches every
 //    prev point within refine_final_radius_px of that fit and runs the same RANSAC again. The
 //    result rests on the same evidence as the standard method's (BENCHMARKS.md
 //    "Correspondence": within 0.3-0.6 px of it on real photos with the robust polish, 0.000 px
@@ -77,17 +78,16 @@ struct ClusteredRansacOptions {
   /// Drop the strips that leave the view (step 2 above). Default true (the paper); false keeps
   /// the whole frame (for ablation).
   bool crop = true;
-  /// Refinement after a cell succeeds (an aerovo addition, not in the paper): take the chosen
-  /// cell's points plus up to refine_max_points / (grid_rows * grid_cols) points from every
-  /// other cell of the crop (in FeatureSet order, i.e. strongest first for SURF output), match
-  /// them by
-  /// guided matching around the cell transform's prediction (radius refine_radius_px) and run
-  /// the same RANSAC on those matches; the refined fit replaces the cell's if it succeeds with
-  /// at least as many inliers. Why: a cell covers ~1/9 of the frame, so its transform
-  /// extrapolated to the frame corners is off by up to tens of pixels on real frames with few
-  /// points per cell (tampa-phantom3, BENCHMARKS.md); well-spread points remove that, and
-  /// guided matching of a bounded subset keeps the cost independent of the frame's point
-  /// count. Default true; false is the paper's algorithm exactly.
+  /// Refinement after a cell succeeds (an aerovo addition, not in the paper): take up to
+  /// refine_max_points / (grid_rows * grid_cols) points from every other cell of the crop (in
+  /// FeatureSet order, i.e. strongest first for SURF output), match them by guided matching
+  /// around the cell transform's prediction (radius refine_radius_px) and run the same RANSAC on
+  /// those matches together with the chosen cell's own matches (kept as they are, not matched
+  /// again); the refined fit replaces the cell's if it succeeds with at least as many inliers. Why:
+  /// a cell covers ~1/9 of the frame, so its transform extrapolated to the frame corners is off by
+  /// up to tens of pixels on real frames with few points per cell (tampa-phantom3, BENCHMARKS.md);
+  /// well-spread points remove that, and guided matching of a bounded subset keeps the cost
+  /// independent of the frame's point count. Default true; false is the paper's algorithm exactly.
   bool refine = true;
   /// Search radius of the refinement's guided matching, px of the current frame: must cover the
   /// cell transform's extrapolation error. Default 40 px (MatchOptions' guided default).
@@ -218,10 +218,11 @@ class CorrespondenceStage {
  private:
   // One match + RANSAC attempt on prev_subset (all points when empty); fills `out`'s matches,
   // mask, transform, counters and timings. Returns true when it meets min_inliers.
-  // curr is candidates_ (prepared once per Standard / Clustered call).
+  // curr is candidates_ (prepared once per Standard / Clustered call). `known`: matches already
+  // made (sorted by prev index, of prev points outside the subset) that join the new ones.
   bool Attempt(Matcher& matcher, bool guided, const FeatureSet& prev,
                const std::vector<int>& subset, const std::optional<Eigen::Matrix3d>& prior,
-               CorrespondenceResult* out);
+               CorrespondenceResult* out, const std::vector<Match>* known = nullptr);
   // ClusteredRansacOptions::refine on a successful cell result; cell_of[i] is the cell of prev
   // point i (-1 outside the crop).
   void Refine(const FeatureSet& prev, const std::vector<int>& cell_of, CorrespondenceResult* out);
@@ -235,6 +236,7 @@ class CorrespondenceStage {
   Eigen::Matrix2Xd prev_px_, curr_px_;
   std::vector<float> quality_;
   std::vector<int> subset_;
+  std::vector<Match> cell_matches_, merged_;
 };
 
 /// One-shot conveniences (construct a CorrespondenceStage; prefer the class in a loop).

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <random>
 #include <string>
 #include <vector>
@@ -382,6 +383,60 @@ TEST(ClusteredRansac, RefinementMatchesStandardAccuracy) {
       "%.3f, standard %.3f\n",
       e_cell, e_all, e_default, MaxCornerDisplacementPx(rd.curr_from_prev, motion, 800, 600),
       e_standard);
+}
+
+TEST(ClusteredRansac, SpreadRefinementKeepsTheCellsMatchesAndMatchesOnlyOtherCells) {
+  // 60 points per cell on a 3 x 3 grid over the whole frame (zero motion: no crop), one cell
+  // with 30 (the fewest: chosen), all moving by an affine map that keeps every point in view.
+  SceneBuilder scene(21);
+  Eigen::Matrix3d motion;
+  motion << 0.98, 0.01, 4.0, -0.01, 0.98, 8.0, 0, 0, 1;
+  const double cw = kFrameWidth / 3.0, ch = kFrameHeight / 3.0;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) {
+      scene.AddInBox(r == 2 && c == 0 ? 30 : 60, c * cw, r * ch, (c + 1) * cw, (r + 1) * ch,
+                     motion);
+    }
+  }
+  CorrespondenceOptions paper, spread;
+  paper.clustered.refine = false;
+  spread.clustered.refine_final_radius_px = 0.f;
+  spread.clustered.refine_max_points = 90;  // 10 per cell
+  CorrespondenceStage cell_only(paper), refining(spread);
+  const Eigen::Matrix3d still = Eigen::Matrix3d::Identity();
+  const auto rp = cell_only.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), still);
+  const auto rr = refining.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), still);
+  ASSERT_TRUE(rp.success && rr.success);
+  ASSERT_EQ(rp.cell_row, 2);
+  ASSERT_EQ(rp.cell_col, 0);
+  ASSERT_TRUE(rr.refined);
+  // The cell's matches are in the refined set exactly as the cell attempt made them.
+  std::map<int, Match> refined_by_prev;
+  for (const Match& m : rr.matches) refined_by_prev[m.prev_index] = m;
+  ASSERT_EQ(rp.matches.size(), 30u);
+  for (const Match& m : rp.matches) {
+    ASSERT_EQ(refined_by_prev.count(m.prev_index), 1u) << "cell match of prev " << m.prev_index;
+    EXPECT_EQ(refined_by_prev[m.prev_index].curr_index, m.curr_index);
+    EXPECT_EQ(refined_by_prev[m.prev_index].ssd, m.ssd);
+  }
+  // 10 further points from each of the 8 other cells, each with its twin.
+  EXPECT_EQ(rr.matches.size(), 30u + 8u * 10u);
+  EXPECT_EQ(rr.num_inliers, 110);
+  // Only those 80 points were matched again: the refinement's comparisons are those of a
+  // guided match of exactly them around the cell's fit.
+  std::vector<int> others;
+  for (const Match& m : rr.matches) {
+    const Keypoint& k = scene.prev().keypoints[static_cast<std::size_t>(m.prev_index)];
+    if (!(k.x < cw && k.y >= 2 * ch)) others.push_back(m.prev_index);
+  }
+  ASSERT_EQ(others.size(), 80u);
+  MatchOptions guided = spread.match;
+  guided.guided_radius_px = spread.clustered.refine_radius_px;
+  Matcher matcher(guided);
+  const MatchResult again =
+      matcher.Match(scene.prev(), scene.curr(), others, AffinePart(rp.curr_from_prev));
+  EXPECT_EQ(rr.num_comparisons, rp.num_comparisons + again.num_comparisons);
+  EXPECT_LT(MaxCornerDisplacementPx(rr.curr_from_prev, motion, 800, 600), 1e-3);
 }
 
 TEST(StandardCorrespondence, MatchesAllAndFits) {

@@ -284,31 +284,57 @@ bool AffineModel::FitLeastSquares(const Eigen::Matrix2Xd& prev, const Eigen::Mat
                                   const int* idx, int n, Eigen::Matrix3d* curr_from_prev,
                                   const double* weights) {
   if (n < kMinSample) return false;
-  Normalizer np, nc;
-  if (!np.Compute(prev, idx, n, weights) || !nc.Compute(curr, idx, n, weights)) return false;
-  // With centred, scaled prev points the normal equations of the six unknowns split into
-  // A' = S_cp S_pp^-1 (2x2) and the shift between centroids.
-  Eigen::Matrix2d spp = Eigen::Matrix2d::Zero(), scp = Eigen::Matrix2d::Zero(),
-                  scc = Eigen::Matrix2d::Zero();
+  // Centring is all the conditioning the affine fit needs: the normal equations of the six
+  // unknowns split into A = S_cp S_pp^-1 (2x2) and the shift between the centroids, and both
+  // that solution and the degeneracy test (det / trace^2) are invariant to a scaling of the
+  // points, so Hartley's scale step (a pass with a square root per point) would only cost time.
+  // Two passes: the (weighted) centroids, then the centred second moments.
+  double total = 0.0, px = 0.0, py = 0.0, cx = 0.0, cy = 0.0;
+  const double* p = prev.data();
+  const double* c = curr.data();
   for (int k = 0; k < n; ++k) {
     const double w = WeightAt(weights, k);
-    const Eigen::Vector2d p = np.Apply(prev.col(idx[k]));
-    const Eigen::Vector2d c = nc.Apply(curr.col(idx[k]));
-    spp.noalias() += w * p * p.transpose();
-    scp.noalias() += w * c * p.transpose();
-    scc.noalias() += w * c * c.transpose();
+    const int i = idx[k];
+    total += w;
+    px += w * p[2 * i];
+    py += w * p[2 * i + 1];
+    cx += w * c[2 * i];
+    cy += w * c[2 * i + 1];
   }
+  if (!(total > 0.0)) return false;
+  const Eigen::Vector2d p0(px / total, py / total), c0(cx / total, cy / total);
+  double pxx = 0.0, pxy = 0.0, pyy = 0.0, cxx = 0.0, cxy = 0.0, cyy = 0.0;
+  double xpx = 0.0, xpy = 0.0, ypx = 0.0, ypy = 0.0;  // S_cp = [xpx xpy; ypx ypy]
+  for (int k = 0; k < n; ++k) {
+    const double w = WeightAt(weights, k);
+    const int i = idx[k];
+    const double dpx = p[2 * i] - p0.x(), dpy = p[2 * i + 1] - p0.y();
+    const double dcx = c[2 * i] - c0.x(), dcy = c[2 * i + 1] - c0.y();
+    const double wpx = w * dpx, wpy = w * dpy, wcx = w * dcx, wcy = w * dcy;
+    pxx += wpx * dpx;
+    pxy += wpx * dpy;
+    pyy += wpy * dpy;
+    cxx += wcx * dcx;
+    cxy += wcx * dcy;
+    cyy += wcy * dcy;
+    xpx += wcx * dpx;
+    xpy += wcx * dpy;
+    ypx += wcy * dpx;
+    ypy += wcy * dpy;
+  }
+  Eigen::Matrix2d spp, scp, scc;
+  spp << pxx, pxy, pxy, pyy;
+  scc << cxx, cxy, cxy, cyy;
+  scp << xpx, xpy, ypx, ypy;
   if (ScatterIsDegenerate(spp, kCollinearTolerance) ||
       ScatterIsDegenerate(scc, kCollinearTolerance)) {
     return false;
   }
-  const Eigen::Matrix2d a_norm = scp * spp.inverse();
-  // Undo the normalisations: c = c0 + A_n s_p (p - p0) / s_c.
-  const Eigen::Matrix2d a = a_norm * (np.scale / nc.scale);
+  const Eigen::Matrix2d a = scp * spp.inverse();
   Eigen::Matrix3d& m = *curr_from_prev;
   m.setIdentity();
   m.topLeftCorner<2, 2>() = a;
-  m.block<2, 1>(0, 2) = nc.centroid - a * np.centroid;
+  m.block<2, 1>(0, 2) = c0 - a * p0;
   return m.allFinite();
 }
 
