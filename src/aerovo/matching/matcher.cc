@@ -12,6 +12,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/matching/distance_kernels.h"
+#include "aerovo/matching/kd_forest.h"
 
 namespace aerovo {
 
@@ -56,6 +57,11 @@ constexpr double kGuidedSortMinCandidates = 4.0;
 constexpr double kPi = 3.14159265358979323846;
 // Upper bound on guided-grid cells per Laplacian group (memory bound for tiny radii).
 constexpr std::int64_t kMaxGridCells = 1 << 18;
+// k-d forest search: queries from which a parallel region pays (~1-2 us of work per query at
+// the default budget, so ~1-2 ms in all).
+constexpr int kMinKdQueriesForThreads = 1024;
+// Largest MatchOptions::kd_trees accepted (memory: one index array per tree and group).
+constexpr int kMaxKdTrees = 64;
 
 int GroupOf(std::int8_t laplacian, bool check_laplacian) {
   if (!check_laplacian) return 1;
@@ -152,6 +158,19 @@ void Validate(const MatchOptions& o) {
   if (o.num_threads < 0) {
     throw InvalidArgument("MatchOptions.num_threads = " + std::to_string(o.num_threads) +
                           ": must be >= 0 (0 = all cores)");
+  }
+  if (o.algorithm != MatchAlgorithm::kExhaustive && o.algorithm != MatchAlgorithm::kKdForest) {
+    throw InvalidArgument(
+        "MatchOptions.algorithm = " + std::to_string(static_cast<int>(o.algorithm)) +
+        ": not a MatchAlgorithm (kExhaustive or kKdForest)");
+  }
+  if (o.kd_trees < 1 || o.kd_trees > kMaxKdTrees) {
+    throw InvalidArgument("MatchOptions.kd_trees = " + std::to_string(o.kd_trees) +
+                          ": must be in [1, " + std::to_string(kMaxKdTrees) + "]");
+  }
+  if (o.kd_max_checks < 0) {
+    throw InvalidArgument("MatchOptions.kd_max_checks = " + std::to_string(o.kd_max_checks) +
+                          ": must be >= 0 (0 = exact search)");
   }
 }
 
@@ -279,6 +298,9 @@ struct Matcher::Impl {
   std::vector<std::int32_t> cand_ids;         // cand_ids[cand_start[o] .. cand_start[o + 1])
   std::vector<int> q_order, q_key, q_bucket;  // guided queries in cell order
 
+  // --- k-d forest: per-thread search state. ---------------------------------------------------
+  std::vector<matching_detail::KdScratch> kd_scratch;
+
   void PackQueries(const FeatureSet& f, const std::vector<int>& ids);
   // with_norms = false leaves c_norms of real slots unset (packing queries for streaming).
   void PackCandidates(const FeatureSet& f, const std::vector<int>& ids, const float* norms_by_id,
@@ -297,6 +319,10 @@ struct Matcher::Impl {
   std::int64_t SearchGuided(const FeatureSet& fq, const std::vector<int>& qids,
                             const FeatureSet& fc, const Grid& grid, float radius,
                             const float* cand_norms, std::vector<ExactTop2>* out);
+  // Approximate top-2 of each query among the points of fc in its group (the forest's).
+  std::int64_t SearchKdForest(const FeatureSet& fq, const std::vector<int>& qids,
+                              const FeatureSet& fc, const matching_detail::KdForest& forest,
+                              const float* cand_norms, std::vector<ExactTop2>* out);
   void CheckFinite(const FeatureSet& f, const std::vector<int>& ids, const char* which) const;
 };
 
@@ -656,6 +682,44 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
   return comparisons;
 }
 
+std::int64_t Matcher::Impl::SearchKdForest(const FeatureSet& fq, const std::vector<int>& qids,
+                                           const FeatureSet& fc,
+                                           const matching_detail::KdForest& forest,
+                                           const float* cand_norms, std::vector<ExactTop2>* out) {
+  const int dim = fq.descriptor_size;
+  const bool lap = options.check_laplacian;
+  if (iota.size() < fc.size()) {
+    const std::size_t old_size = iota.size();
+    iota.resize(fc.size());
+    for (std::size_t i = old_size; i < iota.size(); ++i) iota[i] = static_cast<std::int32_t>(i);
+  }
+  const int nq = static_cast<int>(qids.size());
+  const int num_threads = nq >= kMinKdQueriesForThreads ? ResolveThreads(options.num_threads) : 1;
+  if (kd_scratch.size() < static_cast<std::size_t>(num_threads)) kd_scratch.resize(num_threads);
+  out->resize(qids.size());
+  const matching_detail::ListFn list = kernels->list;
+  const int max_checks = options.kd_max_checks;
+  std::int64_t comparisons = 0;
+  // Each query's search depends only on the query and the forest, so the result does not
+  // depend on the thread count or schedule.
+#pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads) if (num_threads > 1) \
+    reduction(+ : comparisons)
+  for (int k = 0; k < nq; ++k) {
+    const float* q = fq.descriptor(qids[k]);
+    const int g = GroupOf(fq.keypoints[qids[k]].laplacian, lap);
+    if (forest.group_size(g) == 0) {
+      (*out)[k] = ExactTop2{};
+      continue;
+    }
+    Best2 b;
+    comparisons += forest.Search(g, q, fc.descriptors.data(), cand_norms, iota.data(), list,
+                                 max_checks, &kd_scratch[omp_get_thread_num()], &b);
+    (*out)[k] = MakeExact(kernels->exact, q, dim, b.j1, b.j1 >= 0 ? fc.descriptor(b.j1) : nullptr,
+                          b.j2, b.j2 >= 0 ? fc.descriptor(b.j2) : nullptr);
+  }
+  return comparisons;
+}
+
 Matcher::Matcher(const MatchOptions& options) : impl_(nullptr) {
   Validate(options);
   impl_ = new Impl;
@@ -694,6 +758,7 @@ void MatchCandidates::Reset(const FeatureSet& f) {
   const int n = static_cast<int>(f.size());
   norms_.resize(static_cast<std::size_t>(n));
   grid_built_ = false;
+  if (forest_) forest_->Clear();
   // A non-finite norm is exactly a non-finite value (or one whose square overflows), so this is
   // also the check of the descriptors.
   for (int i = 0; i < n; ++i) {
@@ -725,6 +790,24 @@ const MatchCandidates::Grid& MatchCandidates::grid() const {
     grid_built_ = true;
   }
   return *grid_;
+}
+
+const matching_detail::KdForest& MatchCandidates::kd_forest(int trees, std::uint64_t seed,
+                                                            bool check_laplacian) const {
+  if (!forest_) forest_ = std::make_unique<matching_detail::KdForest>();
+  matching_detail::KdForest& forest = *forest_;
+  if (!forest.built() || forest.trees_per_group() != trees || forest.seed() != seed ||
+      forest_laplacian_ != check_laplacian) {
+    const FeatureSet& f = *features_;
+    const int n = static_cast<int>(f.size());
+    std::vector<std::uint8_t> group(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) {
+      group[i] = static_cast<std::uint8_t>(GroupOf(f.keypoints[i].laplacian, check_laplacian));
+    }
+    forest.Build(f.descriptors.data(), f.descriptor_size, group.data(), n, kNumGroups, trees, seed);
+    forest_laplacian_ = check_laplacian;
+  }
+  return forest;
 }
 
 MatchResult Matcher::Match(const FeatureSet& prev, const FeatureSet& curr,
@@ -820,6 +903,12 @@ MatchResult Matcher::Match(const FeatureSet& prev, const MatchCandidates& candid
     }
     result.num_comparisons +=
         m.SearchGuided(prev, m.fwd_ids, curr, *grid, radius, curr_norms, &m.fwd_best);
+  } else if (o.algorithm == MatchAlgorithm::kKdForest && o.kd_max_checks > 0 &&
+             o.kd_max_checks < n_curr) {
+    const matching_detail::KdForest& forest =
+        candidates.kd_forest(o.kd_trees, o.kd_seed, o.check_laplacian);
+    result.num_comparisons +=
+        m.SearchKdForest(prev, m.fwd_ids, curr, forest, curr_norms, &m.fwd_best);
   } else {
     result.num_comparisons +=
         m.SearchExhaustive(prev, m.fwd_ids, curr, m.rev_ids, curr_norms, &m.fwd_best);

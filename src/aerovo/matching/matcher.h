@@ -13,6 +13,21 @@
 
 namespace aerovo {
 
+namespace matching_detail {
+class KdForest;
+}  // namespace matching_detail
+
+/// How the best and second-best candidates of a query are found (without a motion prior; with
+/// one, Matcher::Match always uses the guided grid, whatever this says).
+enum class MatchAlgorithm {
+  /// Every candidate compared (blocked SIMD): exact, the reference.
+  kExhaustive,
+  /// Randomized k-d forest over the current frame's descriptors (Silpa-Anan & Hartley 2008;
+  /// Muja & Lowe 2009): approximate top-2 search with a budget of examined points; the
+  /// decisions on the top-2 found are the exhaustive ones (exact SSD, threshold, ratio).
+  kKdForest,
+};
+
 /// Options of the matching stage. Defaults are MATLAB matchFeatures' defaults (the paper's).
 struct MatchOptions {
   /// Ratio test on squared distances: accept the best candidate only if
@@ -42,6 +57,24 @@ struct MatchOptions {
   /// SSE4.2 kernels (for tests and benchmarks). Default true. Results are identical up to
   /// float rounding of near-ties.
   bool use_avx2 = true;
+  /// Search of the top-2 without a motion prior. Default kExhaustive (exact, MATLAB's
+  /// Exhaustive method). kKdForest pays off from a few thousand points per frame (see
+  /// BENCHMARKS.md, "Matching") at the price of a recall below 100 %: a query may miss its best
+  /// or second-best candidate, and then be rejected, or accepted on a too-optimistic ratio.
+  MatchAlgorithm algorithm = MatchAlgorithm::kExhaustive;
+  /// kKdForest: randomized trees per Laplacian group, searched together. Default 4: Muja &
+  /// Lowe (2009) find 4-8 trees best for SIFT-like descriptors; more trees raise recall at a
+  /// given budget but cost build time and memory (one index array per tree). Range [1, 64].
+  int kd_trees = 4;
+  /// kKdForest: distinct candidate points examined per query (all trees together; every tree's
+  /// first leaf is always examined and the last leaf is finished, so a few more may be).
+  /// 0, or >= the number of curr points: exact search (the exhaustive path is used). Default
+  /// 64, measured (bench_matching BM_KdForest): on random 64-d SURF-like data with noisy twins
+  /// it keeps >= 90 % of the exhaustive matches at 2k-20k points, on real SURF ~99 %.
+  int kd_max_checks = 64;
+  /// kKdForest: seed of the trees' random choices; same seed and data, same trees and
+  /// matches (whatever num_threads). Default 1.
+  std::uint64_t kd_seed = 1;
 };
 
 /// Throws InvalidArgument naming the offending field when out of range.
@@ -89,12 +122,20 @@ class MatchCandidates {
   /// after a first guided Match, or give each thread its own.
   struct Grid;
   const Grid& grid() const;
+  /// Internal: the randomized k-d forest over the descriptors per Laplacian group (sign groups
+  /// if check_laplacian, else one group), built on the first kKdForest Match against this frame
+  /// and reused by the next ones with the same (trees, seed, check_laplacian). Same thread
+  /// rule as grid().
+  const matching_detail::KdForest& kd_forest(int trees, std::uint64_t seed,
+                                             bool check_laplacian) const;
 
  private:
   const FeatureSet* features_ = nullptr;
   std::vector<float> norms_;
   std::unique_ptr<Grid> grid_;
   mutable bool grid_built_ = false;
+  mutable std::unique_ptr<matching_detail::KdForest> forest_;
+  mutable bool forest_laplacian_ = true;
 };
 
 /// Exhaustive (optionally guided) matcher. Reuses its buffers between calls (no allocation in
@@ -105,7 +146,10 @@ class MatchCandidates {
 /// Laplacian sign; exhaustive with few queries (a prev_subset much smaller than curr), which
 /// packs the queries and streams curr in place; guided, a uniform grid over curr positions
 /// (built once per MatchCandidates) gives each query its candidates in the disc, compared in
-/// place (no copy of the rows).
+/// place (no copy of the rows). Approximate (MatchAlgorithm::kKdForest, no prior): a
+/// randomized k-d forest (built once per MatchCandidates) finds each query's top-2 within a
+/// budget of examined points; the decisions are then the exhaustive ones on that top-2, and
+/// the unique reverse pass stays exhaustive over the matched curr points.
 /// A point with Laplacian 0 (unknown) forms its own group, compared only with other 0 points.
 class Matcher {
  public:
@@ -136,6 +180,10 @@ class Matcher {
   /// contain duplicates (dropped). Ranking is done in float32 blocks, accept/reject decisions
   /// and Match::ssd use the SSD recomputed in double. Deterministic: the result does not depend
   /// on num_threads or the SIMD kernel (except float-rounding near-ties in ranking).
+  /// With algorithm = kKdForest and no prior, best / second-best are the two smallest SSDs among
+  /// the candidates the forest examined (a subset of the candidates above; all of them when
+  /// the Laplacian group has at most kd_max_checks points), and the reverse pass of unique is
+  /// exhaustive over the matched curr points; same kd_seed, same result, whatever num_threads.
   /// Throws InvalidArgument on different descriptor sizes, descriptors.size() inconsistent with
   /// keypoints, non-finite descriptors / positions / prior, or prev_subset indices out of range.
   MatchResult Match(

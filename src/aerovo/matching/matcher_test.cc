@@ -753,5 +753,216 @@ TEST(MatcherTest, RealSurfPairFromOrthophoto) {
   }
 }
 
+// ------------------------------------------------------------------------------------------
+// k-d forest (MatchAlgorithm::kKdForest).
+
+MatchOptions KdOptions(int max_checks = MatchOptions{}.kd_max_checks) {
+  MatchOptions o;
+  o.algorithm = MatchAlgorithm::kKdForest;
+  o.kd_max_checks = max_checks;
+  return o;
+}
+
+// Recall floors of the forest at the default budget, vs exhaustive. Measured 2026-11-24 (the
+// tests record them as properties; --gtest_output=xml shows them): random twins 0.9997
+// (Laplacian split) / 0.9993 (one group); real SURF 0.998 (unique off and on). Floors with
+// margin, so that a change of seed or of the tree construction does not break them.
+constexpr double kKdRecallFloorRandom = 0.98;
+constexpr double kKdRecallFloorReal = 0.97;
+
+// Recall of `got` against the exhaustive `want`: the share of want's (prev, curr) pairs in got.
+double Recall(const std::vector<Match>& got, const std::vector<Match>& want) {
+  std::size_t found = 0, k = 0;
+  for (const Match& w : want) {
+    while (k < got.size() && got[k].prev_index < w.prev_index) ++k;
+    found +=
+        k < got.size() && got[k].prev_index == w.prev_index && got[k].curr_index == w.curr_index;
+  }
+  return want.empty() ? 1.0 : static_cast<double>(found) / want.size();
+}
+
+TEST(MatcherKdForestTest, FullBudgetEqualsExhaustive) {
+  // 600 true pairs among 900 curr points in two Laplacian groups (~450 each), some of them 0
+  // (their own group), plus look-alikes so that ratio and threshold decide.
+  Scene s = MakeScene(600, 300, 64, 0.03f, 41);
+  for (int i = 0; i < 40; ++i) {
+    s.prev.keypoints[i].laplacian = 0;
+    s.curr.keypoints[s.curr_of_prev[i]].laplacian = 0;
+  }
+  int largest_group = 0;
+  for (int sign : {-1, 0, 1}) {
+    largest_group = std::max<int>(
+        largest_group, std::count_if(s.curr.keypoints.begin(), s.curr.keypoints.end(),
+                                     [&](const Keypoint& k) { return k.laplacian == sign; }));
+  }
+  ASSERT_LT(largest_group, 600);
+  for (bool unique : {false, true}) {
+    for (float ratio : {0.6f, 0.95f}) {
+      MatchOptions ex;
+      ex.unique = unique;
+      ex.max_ratio = ratio;
+      ex.match_threshold_percent = 30.f;  // the look-alikes reach the ratio test
+      const MatchResult want = Matcher(ex).Match(s.prev, s.curr);
+      ASSERT_GT(want.matches.size(), 300u);
+      ExpectSameMatches(want.matches, Reference(s.prev, s.curr, {}, ex));
+      // A budget covering each group: the forest examines every candidate of the query's
+      // group (through the trees); 0 and >= curr size: the exhaustive path.
+      for (int checks : {600, 0, 900, 5000}) {
+        MatchOptions kd = ex;
+        kd.algorithm = MatchAlgorithm::kKdForest;
+        kd.kd_max_checks = checks;
+        const MatchResult got = Matcher(kd).Match(s.prev, s.curr);
+        SCOPED_TRACE("checks " + std::to_string(checks));
+        ExpectSameMatches(got.matches, want.matches);
+        for (std::size_t k = 0; k < got.matches.size(); ++k) {
+          EXPECT_EQ(got.matches[k].ssd, want.matches[k].ssd);  // the same exact double SSD
+        }
+      }
+    }
+  }
+  // Without the Laplacian split all points are one group: exact only through the fallback.
+  MatchOptions ex;
+  ex.check_laplacian = false;
+  MatchOptions kd = ex;
+  kd.algorithm = MatchAlgorithm::kKdForest;
+  kd.kd_max_checks = 0;
+  ExpectSameMatches(Matcher(kd).Match(s.prev, s.curr).matches,
+                    Matcher(ex).Match(s.prev, s.curr).matches);
+}
+
+TEST(MatcherKdForestTest, RecallOnRandomDescriptorsWithNoisyTwins) {
+  // 3000 random 64-d unit descriptors and their noisy twins (SSD ~0.02, as in bench_matching)
+  // among 1000 distractors. Measured recall at the default budget: see the floors below.
+  const Scene s = MakeScene(3000, 1000, 64, 0.018f, 43);
+  for (bool lap : {true, false}) {
+    MatchOptions ex;
+    ex.check_laplacian = lap;
+    const MatchResult want = Matcher(ex).Match(s.prev, s.curr);
+    ASSERT_GT(want.matches.size(), 2500u);
+    MatchOptions kd = KdOptions();
+    kd.check_laplacian = lap;
+    const MatchResult got = Matcher(kd).Match(s.prev, s.curr);
+    const double recall = Recall(got.matches, want.matches);
+    RecordProperty(lap ? "recall_laplacian" : "recall_one_group", std::to_string(recall));
+    EXPECT_GE(recall, kKdRecallFloorRandom) << "laplacian " << lap;
+    // Far fewer distances than exhaustive.
+    EXPECT_LT(got.num_comparisons * 5, want.num_comparisons);
+    // Every returned match obeys the threshold on its exact SSD; a match the exhaustive
+    // matcher also made is the same pair (the forest can only miss a best, not invent one).
+    std::size_t extra = 0;
+    for (const Match& m : got.matches) {
+      const double ssd = Ssd(s.prev, m.prev_index, s.curr, m.curr_index);
+      EXPECT_LE(ssd, 0.04);
+      EXPECT_EQ(m.ssd, static_cast<float>(ssd));
+      const auto it = std::lower_bound(want.matches.begin(), want.matches.end(), m.prev_index,
+                                       [](const Match& w, int p) { return w.prev_index < p; });
+      if (it == want.matches.end() || it->prev_index != m.prev_index) {
+        ++extra;  // accepted on a second-best the forest found too optimistic
+      } else {
+        EXPECT_EQ(it->curr_index, m.curr_index);
+      }
+    }
+    EXPECT_LE(extra * 100, got.matches.size()) << extra;
+  }
+}
+
+TEST(MatcherKdForestTest, DeterministicAcrossSeedsThreadsAndReuse) {
+  const Scene s = MakeScene(3000, 500, 64, 0.02f, 47);
+  MatchOptions o = KdOptions(32);
+  o.unique = true;
+  const MatchResult ref = Matcher(o).Match(s.prev, s.curr);
+  ASSERT_GT(ref.matches.size(), 2000u);
+  for (int threads : {2, 3, 0}) {
+    MatchOptions t = o;
+    t.num_threads = threads;
+    const MatchResult r = Matcher(t).Match(s.prev, s.curr);
+    ExpectSameMatches(r.matches, ref.matches);
+    EXPECT_EQ(r.num_comparisons, ref.num_comparisons);
+  }
+  // Prepared candidates: the forest is built once and reused by later calls (and rebuilt for
+  // another seed); subsets give the full call's matches restricted to them (unique off).
+  o.unique = false;
+  const MatchResult full = Matcher(o).Match(s.prev, s.curr);
+  const MatchCandidates prepared(s.curr);
+  Matcher m(o);
+  ExpectSameMatches(m.Match(s.prev, prepared).matches, full.matches);
+  std::vector<int> subset;
+  for (int i = 0; i < 3000; i += 7) subset.push_back(i);
+  std::vector<Match> want;
+  for (const Match& x : full.matches) {
+    if (x.prev_index % 7 == 0) want.push_back(x);
+  }
+  ExpectSameMatches(m.Match(s.prev, prepared, subset).matches, want);
+  MatchOptions other = o;
+  other.kd_seed = 12345;
+  const MatchResult seeded = Matcher(other).Match(s.prev, s.curr);
+  ExpectSameMatches(Matcher(other).Match(s.prev, prepared).matches, seeded.matches);
+  ExpectSameMatches(m.Match(s.prev, prepared).matches, full.matches);
+  // A motion prior takes the guided path whatever the algorithm.
+  MatchOptions guided;
+  ExpectSameMatches(m.Match(s.prev, prepared, {}, s.curr_from_prev).matches,
+                    Matcher(guided).Match(s.prev, s.curr, {}, s.curr_from_prev).matches);
+}
+
+TEST(MatcherKdForestTest, ValidateRejectsBadKdOptions) {
+  EXPECT_NO_THROW(Validate(KdOptions()));
+  EXPECT_NO_THROW(Validate(KdOptions(0)));
+  const auto expect_bad = [](MatchOptions o, const char* field) {
+    try {
+      Validate(o);
+      ADD_FAILURE() << "no throw for " << field;
+    } catch (const InvalidArgument& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+    EXPECT_THROW(Matcher{o}, InvalidArgument);
+  };
+  MatchOptions o = KdOptions();
+  o.kd_trees = 0;
+  expect_bad(o, "kd_trees");
+  o.kd_trees = 65;
+  expect_bad(o, "kd_trees");
+  o = KdOptions(-1);
+  expect_bad(o, "kd_max_checks");
+  o = KdOptions();
+  o.algorithm = static_cast<MatchAlgorithm>(7);
+  expect_bad(o, "algorithm");
+}
+
+// Real SURF descriptors (the crops of RealSurfPairFromOrthophoto).
+TEST(MatcherKdForestTest, RecallOnRealSurfPair) {
+  AEROVO_REQUIRE_SHARED(path, "data/ortho/callas-quarry.jpg");
+  const cv::Mat full = cv::imread(path.string(), cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(full.empty());
+  const int x0 = 2800, y0 = 1500, dx = 41, dy = -23;
+  const cv::Mat a = full(cv::Rect(x0, y0, 800, 600)).clone();
+  const cv::Mat b = full(cv::Rect(x0 + dx, y0 + dy, 800, 600)).clone();
+  SurfOptions so;
+  so.hessian_threshold = 200;  // dense: a few thousand points, where the forest is meant for
+  Surf surf(so);
+  const auto view = [](const cv::Mat& m) {
+    return GrayImageView{m.data, m.cols, m.rows, static_cast<std::ptrdiff_t>(m.step)};
+  };
+  const FeatureSet prev = surf.DetectAndDescribe(view(a)).features;
+  const FeatureSet curr = surf.DetectAndDescribe(view(b)).features;
+  ASSERT_GT(curr.size(), 1000u);
+  for (bool unique : {false, true}) {
+    MatchOptions ex;
+    ex.unique = unique;
+    const MatchResult want = Matcher(ex).Match(prev, curr);
+    ASSERT_GT(want.matches.size(), 500u);
+    MatchOptions kd = KdOptions();
+    kd.unique = unique;
+    const MatchResult got = Matcher(kd).Match(prev, curr);
+    const double recall = Recall(got.matches, want.matches);
+    RecordProperty(unique ? "recall_unique" : "recall", std::to_string(recall));
+    EXPECT_GE(recall, kKdRecallFloorReal)
+        << "unique " << unique << ", " << prev.size() << " x " << curr.size() << " points";
+    EXPECT_LE(got.matches.size(), want.matches.size() + want.matches.size() / 50);
+    for (const Match& m : got.matches) {
+      EXPECT_LE(Ssd(prev, m.prev_index, curr, m.curr_index), 0.04);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace aerovo
