@@ -14,6 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -160,6 +161,50 @@ void BM_AerovoSubset(benchmark::State& state) {
                                                  benchmark::Counter::kIsIterationInvariantRate);
 }
 
+// Share of the exhaustive matches (same prev and curr index) that `got` also has.
+double RecallVs(const std::vector<aerovo::Match>& got, const std::vector<aerovo::Match>& want) {
+  std::size_t found = 0, k = 0;
+  for (const aerovo::Match& w : want) {
+    while (k < got.size() && got[k].prev_index < w.prev_index) ++k;
+    found +=
+        k < got.size() && got[k].prev_index == w.prev_index && got[k].curr_index == w.curr_index;
+  }
+  return want.empty() ? 1.0 : static_cast<double>(found) / static_cast<double>(want.size());
+}
+
+// Randomized k-d forest (MatchAlgorithm::kKdForest, 4 trees) against exhaustive, one thread.
+// Args: N, kd_max_checks (0 = exhaustive: the reference row), kd_trees, prepared (1: curr
+// prepared once
+// outside the timed loop, so the forest is built once as for repeated calls against one frame;
+// 0: built in every call, as for a single call). Counters: recall = share of the exhaustive
+// matches found; build_ms = one forest build (prepared rows).
+void BM_KdForest(benchmark::State& state) {
+  const Pair& p = GetPair(static_cast<int>(state.range(0)));
+  aerovo::MatchOptions o;
+  o.algorithm = aerovo::MatchAlgorithm::kKdForest;
+  o.kd_max_checks = static_cast<int>(state.range(1));
+  o.kd_trees = static_cast<int>(state.range(2));
+  const bool prepared = state.range(3) != 0;
+  aerovo::Matcher matcher(o);
+  const aerovo::MatchResult want = aerovo::Matcher().Match(p.prev, p.curr);
+  aerovo::MatchCandidates candidates(p.curr);
+  if (prepared) {
+    const auto t0 = std::chrono::steady_clock::now();
+    matcher.Match(p.prev, candidates, {0});  // builds the forest
+    state.counters["build_ms"] =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  }
+  aerovo::MatchResult r;
+  for (auto _ : state) {
+    if (!prepared) candidates.Reset(p.curr);
+    r = matcher.Match(p.prev, candidates);
+    benchmark::DoNotOptimize(r.matches.data());
+  }
+  state.counters["matches"] = static_cast<double>(r.matches.size());
+  state.counters["recall"] = RecallVs(r.matches, want.matches);
+  state.counters["pairs"] = static_cast<double>(r.num_comparisons);
+}
+
 // OpenCV baseline: BFMatcher(NORM_L2) knnMatch k = 2 (no Laplacian split), plus the same
 // ratio test and threshold on squared distances so that the match count is comparable.
 // Args: N, threads (cv::setNumThreads; 0 = OpenCV's default).
@@ -233,7 +278,9 @@ const RealPair& GetRealPair(int threshold) {
   return cache.back().second;
 }
 
-// Args: threshold, mode (0 exhaustive, 1 guided 40 px, 2 cv::BFMatcher), threads.
+// Args: threshold, mode (0 exhaustive, 1 guided 40 px, 2 cv::BFMatcher, 3 k-d forest with the
+// default budget, 4 k-d forest with kd_max_checks 32), threads. Counter recall: share of the
+// exhaustive matches found (aerovo modes).
 void BM_RealOrtho(benchmark::State& state) {
   const RealPair& rp = GetRealPair(static_cast<int>(state.range(0)));
   if (!rp.ok) {
@@ -270,13 +317,17 @@ void BM_RealOrtho(benchmark::State& state) {
   } else {
     aerovo::MatchOptions o;
     o.num_threads = threads;
+    if (mode >= 3) o.algorithm = aerovo::MatchAlgorithm::kKdForest;
+    if (mode == 4) o.kd_max_checks = 32;
     aerovo::Matcher matcher(o);
     aerovo::MatchResult r;
     for (auto _ : state) {
-      r = mode == 0 ? matcher.Match(p.prev, p.curr)
-                    : matcher.Match(p.prev, p.curr, {}, p.curr_from_prev);
+      r = mode == 1 ? matcher.Match(p.prev, p.curr, {}, p.curr_from_prev)
+                    : matcher.Match(p.prev, p.curr);
       benchmark::DoNotOptimize(r.matches.data());
     }
+    const aerovo::MatchResult want = aerovo::Matcher().Match(p.prev, p.curr);
+    if (mode != 1) state.counters["recall"] = RecallVs(r.matches, want.matches);
     matches = static_cast<double>(r.matches.size());
     pairs = static_cast<double>(r.num_comparisons);
   }
@@ -312,13 +363,19 @@ BENCHMARK(BM_AerovoSubset)
     ->ArgsProduct({{5000, 20000}, {12, 50, 200, 1000}})
     ->Unit(benchmark::kMicrosecond)
     ->UseRealTime();
+BENCHMARK(BM_KdForest)
+    ->ArgsProduct({{2000, 5000, 20000}, {0, 16, 32, 64, 128}, {4}, {0}})
+    ->ArgsProduct({{2000, 5000, 20000}, {32, 64}, {4}, {1}})
+    ->ArgsProduct({{20000}, {32, 64}, {1, 2, 8}, {1}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(BM_OpenCvBfKnn)
     ->ArgsProduct({{1000, 5000, 20000}, {1, 2}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
 BENCHMARK(BM_RealOrtho)
-    ->ArgsProduct({{1000, 200}, {0, 1, 2}, {1}})
+    ->ArgsProduct({{1000, 200}, {0, 1, 2, 3, 4}, {1}})
     ->Args({1000, 0, 2})
     ->Args({200, 0, 2})
     ->Unit(benchmark::kMillisecond)
