@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # `aerovo correspondence` on a real tampa-phantom3 pair: the default clustered RANSAC (refined,
 # with its final pass) and the standard method agree within 1 px at the frame corners once both
-# are polished; the paper's variant is reported as such; a bad option is a clear error.
+# are polished; the paper's variant is reported as such; the k-d forest matcher works; a bad
+# option is a clear error.
 # Usage: cli_correspondence_test.sh AEROVO_BINARY SHARED_DIR   (exit 77 = skipped)
 set -euo pipefail
 aerovo=$1
@@ -25,6 +26,15 @@ inliers=$(sed -n 's/^clustered: success .*; \([0-9]*\) inliers .*/\1/p' <<<"$out
 out=$("$aerovo" correspondence "$dir/DJI_0060.JPG" "$dir/DJI_0061.JPG" --paper)
 grep -q "refined" <<<"$out" && fail "--paper result claims a refinement"
 grep -q "^clustered: success" <<<"$out" || fail "--paper failed on a good pair"
+
+# The approximate k-d forest matcher (unguided matching) still gives a good standard fit.
+out=$("$aerovo" correspondence "$dir/DJI_0060.JPG" "$dir/DJI_0061.JPG" --matcher kdtree)
+grep -q "^standard: success" <<<"$out" || fail "--matcher kdtree: standard failed on a good pair"
+grep -q "^clustered: success" <<<"$out" || fail "--matcher kdtree: clustered failed on a good pair"
+if err=$("$aerovo" correspondence "$dir/DJI_0060.JPG" "$dir/DJI_0061.JPG" --matcher flann 2>&1); then
+  fail "--matcher flann accepted"
+fi
+grep -q "flann" <<<"$err" || fail "unclear error for --matcher flann: $err"
 
 if err=$("$aerovo" correspondence "$dir/DJI_0060.JPG" "$dir/DJI_0061.JPG" --final-radius -1 2>&1); then
   fail "--final-radius -1 accepted"

@@ -13,6 +13,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/estimation/correspondence.h"
 #include "aerovo/features/surf.h"
+#include "aerovo/matching/matcher.h"
 
 namespace aerovo::cli {
 namespace {
@@ -23,6 +24,7 @@ struct Args {
   std::string model = "affine";
   bool paper = false;
   bool prosac = false;
+  std::string matcher = "exhaustive";
   double hessian_threshold = SurfOptions{}.hessian_threshold;
   CorrespondenceOptions options;
 };
@@ -59,6 +61,8 @@ void Run(Args a) {
   a.options.model = ParseMotionModel(a.model.c_str());
   a.options.sampler = a.prosac ? SamplerKind::kProsac : SamplerKind::kUniform;
   a.options.clustered.refine = !a.paper;
+  a.options.match.algorithm =
+      a.matcher == "kdtree" ? MatchAlgorithm::kKdForest : MatchAlgorithm::kExhaustive;
   Validate(a.options);
   SurfOptions so;
   so.hessian_threshold = a.hessian_threshold;
@@ -113,6 +117,11 @@ void Register(CLI::App& app) {
                   "the refined fit (0 = no final pass)")
       ->capture_default_str();
   cmd->add_flag("--prosac", args->prosac, "PROSAC sampling ordered by match SSD");
+  cmd->add_option("--matcher", args->matcher,
+                  "Matching without a motion prior: exhaustive (exact) | kdtree (approximate "
+                  "k-d forest)")
+      ->check(CLI::IsMember({"exhaustive", "kdtree"}))
+      ->capture_default_str();
   cmd->add_option("--threshold", args->hessian_threshold, "SURF Hessian threshold (MATLAB 1000)")
       ->capture_default_str();
   cmd->add_option("--max-distance", args->options.ransac.max_distance_px,

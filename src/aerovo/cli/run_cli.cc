@@ -118,6 +118,12 @@ void AddRunFlags(CLI::App* cmd, RunFlags& a, const std::set<std::string>& skip) 
   if (want("guided")) {
     Bind(cmd, a, "--guided", &RunConfig::guided, "Guided matching with the motion prior (0/1)");
   }
+  if (want("matcher")) {
+    Bind(cmd, a, "--matcher", &RunConfig::matcher,
+         "Matching without a motion prior: exhaustive (exact) | kdtree (approximate k-d forest, "
+         "faster from a few thousand points per frame)")
+        ->check(CLI::IsMember({"exhaustive", "kdtree"}));
+  }
   if (want("refine")) {
     Bind(cmd, a, "--refine", &RunConfig::refine,
          "Refine cell fits on spread points, then on all points (0/1; 0 = the paper's clustered "

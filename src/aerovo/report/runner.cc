@@ -32,6 +32,7 @@
 #include "aerovo/io/telemetry.h"
 #include "aerovo/io/telemetry_readers.h"
 #include "aerovo/io/track_writers.h"
+#include "aerovo/matching/matcher.h"
 #include "aerovo/report/run_reader.h"
 #include "aerovo/sim/sim_writer.h"
 
@@ -50,6 +51,9 @@ void Validate(const RunConfig& c) {
   if (c.max_frames < 0) fail("'max_frames' must be >= 0");
   if (c.mode != "clustered" && c.mode != "standard") {
     fail("'mode' must be 'clustered' or 'standard', got '" + c.mode + "'");
+  }
+  if (c.matcher != "exhaustive" && c.matcher != "kdtree") {
+    fail("'matcher' must be 'exhaustive' or 'kdtree', got '" + c.matcher + "'");
   }
   ParseMotionModel(c.model.c_str());
   ParseScaleMode(c.scale.c_str());
@@ -94,6 +98,7 @@ nlohmann::json ToJson(const RunConfig& c) {
                         {"k3", c.k3},
                         {"illumination_k", c.illumination_k},
                         {"guided", c.guided},
+                        {"matcher", c.matcher},
                         {"refine", c.refine},
                         {"min_inliers", c.min_inliers},
                         {"surf_threshold", c.surf_threshold},
@@ -175,6 +180,7 @@ RunConfig RunConfigFromJson(const nlohmann::json& j, RunConfig c, const std::str
   Take(j, "k3", &c.k3, source);
   Take(j, "illumination_k", &c.illumination_k, source);
   Take(j, "guided", &c.guided, source);
+  Take(j, "matcher", &c.matcher, source);
   Take(j, "refine", &c.refine, source);
   Take(j, "min_inliers", &c.min_inliers, source);
   Take(j, "surf_threshold", &c.surf_threshold, source);
@@ -452,6 +458,8 @@ OdometryOptions MakeOdometryOptions(const RunConfig& c) {
   o.correspondence.guided_matching = c.guided;
   o.correspondence.min_inliers = c.min_inliers;
   o.correspondence.match.num_threads = c.threads;
+  o.correspondence.match.algorithm =
+      c.matcher == "kdtree" ? MatchAlgorithm::kKdForest : MatchAlgorithm::kExhaustive;
   o.correspondence.ransac.seed = c.seed;
   o.correspondence.ransac.polish_iterations = c.polish;
   // refine = 0 is the paper's clustered RANSAC exactly: the cell's own fit, no refinement on

@@ -83,6 +83,10 @@ struct RunConfig {
   double illumination_k = 1.0;
   /// Guided matching with the constant-velocity prior (then unguided on failure). Default on.
   bool guided = true;
+  /// Matching without a motion prior (MatchOptions::algorithm): "exhaustive" (default, exact)
+  /// or "kdtree" (randomized k-d forest, approximate; pays off from a few thousand points per
+  /// frame, see BENCHMARKS.md "Matching"). Guided matching is unaffected.
+  std::string matcher = "exhaustive";
   /// Refinement of cell fits on spread points and then on all points
   /// (CorrespondenceOptions::clustered.refine and OdometryOptions::refine_on_all_points).
   /// Default on; off is the paper's clustered RANSAC exactly (the cell's own fit).

@@ -338,6 +338,17 @@ TEST(Runner, ConfigJsonRoundTripAndErrors) {
   EXPECT_THROW(Validate(negative), InvalidArgument);
   EXPECT_THROW(RunConfigFromJson(nlohmann::json{{"stepp", 2}}, c), InvalidArgument);
   EXPECT_THROW(RunConfigFromJson(nlohmann::json{{"step", "two"}}, c), InvalidArgument);
+  RunConfig kd = c;
+  kd.matcher = "kdtree";
+  EXPECT_EQ(RunConfigFromJson(ToJson(kd), RunConfig{}).matcher, "kdtree");
+  EXPECT_EQ(RunConfigFromJson(ToJson(c), RunConfig{}).matcher, "exhaustive");  // the default
+  kd.matcher = "flann";
+  try {
+    Validate(kd);
+    ADD_FAILURE() << "matcher 'flann' accepted";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("'matcher'"), std::string::npos) << e.what();
+  }
   c.mode = "fast";
   EXPECT_THROW(Validate(c), InvalidArgument);
   EXPECT_THROW(RunFlight(RunConfig{}), InvalidArgument);  // no input
