@@ -367,6 +367,7 @@ BENCHMARK(BM_KdForest)
     ->ArgsProduct({{2000, 5000, 20000}, {0, 16, 32, 64, 128}, {4}, {0}})
     ->ArgsProduct({{2000, 5000, 20000}, {32, 64}, {4}, {1}})
     ->ArgsProduct({{20000}, {32, 64}, {1, 2, 8}, {1}})
+    ->ArgsProduct({{50000}, {0, 64}, {4}, {0}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK(BM_OpenCvBfKnn)

@@ -20,8 +20,8 @@ constexpr int kLeafSize = 16;
 // (the ids are shuffled once per tree, and partitions keep them in an order unrelated to the
 // split dimension). 100 as in Muja & Lowe's FLANN (SAMPLE_MEAN).
 constexpr int kSampleSize = 100;
-// The split dimension is drawn among this many dimensions of highest variance: 5, the value
-// Silpa-Anan & Hartley (2008) and Muja & Lowe (2009) report as working well (RAND_DIM).
+// The split dimension is drawn among this many dimensions of highest variance (Silpa-Anan &
+// Hartley 2008); 5 is the fixed value Muja & Lowe (2009) use (FLANN's RAND_DIM).
 constexpr int kRandomDims = 5;
 
 // SplitMix64 (Steele, Lea & Flood, "Fast splittable pseudorandom number generators", OOPSLA
