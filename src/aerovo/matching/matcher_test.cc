@@ -765,7 +765,8 @@ MatchOptions KdOptions(int max_checks = MatchOptions{}.kd_max_checks) {
 
 // Recall floors of the forest at the default budget, vs exhaustive. Measured 2026-11-24 (the
 // tests record them as properties; --gtest_output=xml shows them): random twins 0.998
-// (Laplacian split) / 0.995 (one group); real SURF 0.997 (unique off and on). Floors with
+// (Laplacian split) / 0.995 (one group), no extra match; real SURF 0.997 (unique off and on),
+// 1 extra match of ~3000. Floors with
 // margin, so that a change of seed or of the tree construction does not break them.
 constexpr double kKdRecallFloorRandom = 0.98;
 constexpr double kKdRecallFloorReal = 0.97;
@@ -779,6 +780,18 @@ double Recall(const std::vector<Match>& got, const std::vector<Match>& want) {
         k < got.size() && got[k].prev_index == w.prev_index && got[k].curr_index == w.curr_index;
   }
   return want.empty() ? 1.0 : static_cast<double>(found) / want.size();
+}
+
+// Matches of `got` that `want` (sorted by prev_index) does not have: another curr point, or a
+// prev point want left unmatched.
+std::size_t Extras(const std::vector<Match>& got, const std::vector<Match>& want) {
+  std::size_t extra = 0;
+  for (const Match& m : got) {
+    const auto it = std::lower_bound(want.begin(), want.end(), m.prev_index,
+                                     [](const Match& w, int p) { return w.prev_index < p; });
+    extra += it == want.end() || it->prev_index != m.prev_index || it->curr_index != m.curr_index;
+  }
+  return extra;
 }
 
 TEST(MatcherKdForestTest, FullBudgetEqualsExhaustive) {
@@ -847,21 +860,16 @@ TEST(MatcherKdForestTest, RecallOnRandomDescriptorsWithNoisyTwins) {
     EXPECT_GE(recall, kKdRecallFloorRandom) << "laplacian " << lap;
     // Far fewer distances than exhaustive.
     EXPECT_LT(got.num_comparisons * 5, want.num_comparisons);
-    // Every returned match obeys the threshold on its exact SSD; a match the exhaustive
-    // matcher also made is the same pair (the forest can only miss a best, not invent one).
-    std::size_t extra = 0;
+    // Every returned match obeys the threshold on its exact SSD (Match::ssd is that value).
     for (const Match& m : got.matches) {
       const double ssd = Ssd(s.prev, m.prev_index, s.curr, m.curr_index);
       EXPECT_LE(ssd, 0.04);
       EXPECT_EQ(m.ssd, static_cast<float>(ssd));
-      const auto it = std::lower_bound(want.matches.begin(), want.matches.end(), m.prev_index,
-                                       [](const Match& w, int p) { return w.prev_index < p; });
-      if (it == want.matches.end() || it->prev_index != m.prev_index) {
-        ++extra;  // accepted on a second-best the forest found too optimistic
-      } else {
-        EXPECT_EQ(it->curr_index, m.curr_index);
-      }
     }
+    // Matches the exhaustive matcher does not make (a best the forest missed, accepted against
+    // a second-best it found too far): rare. Measured: none here.
+    const std::size_t extra = Extras(got.matches, want.matches);
+    RecordProperty(lap ? "extra_laplacian" : "extra_one_group", static_cast<int>(extra));
     EXPECT_LE(extra * 100, got.matches.size()) << extra;
   }
 }
@@ -957,7 +965,9 @@ TEST(MatcherKdForestTest, RecallOnRealSurfPair) {
     RecordProperty(unique ? "recall_unique" : "recall", std::to_string(recall));
     EXPECT_GE(recall, kKdRecallFloorReal)
         << "unique " << unique << ", " << prev.size() << " x " << curr.size() << " points";
-    EXPECT_LE(got.matches.size(), want.matches.size() + want.matches.size() / 50);
+    const std::size_t extra = Extras(got.matches, want.matches);
+    RecordProperty(unique ? "extra_unique" : "extra", static_cast<int>(extra));
+    EXPECT_LE(extra * 50, got.matches.size()) << extra;
     for (const Match& m : got.matches) {
       EXPECT_LE(Ssd(prev, m.prev_index, curr, m.curr_index), 0.04);
     }
