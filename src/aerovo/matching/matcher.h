@@ -187,7 +187,8 @@ class Matcher {
   /// With algorithm = kKdForest and no prior, best / second-best are the two smallest SSDs among
   /// the candidates the forest examined (a subset of the candidates above; all of them when
   /// the Laplacian group has at most kd_max_checks points), and the reverse pass of unique is
-  /// exhaustive over the matched curr points; same kd_seed, same result, whatever num_threads.
+  /// exhaustive over the matched curr points (so with unique and most points matched it costs
+  /// about one exhaustive search); same kd_seed, same result, whatever num_threads.
   /// Throws InvalidArgument on different descriptor sizes, descriptors.size() inconsistent with
   /// keypoints, non-finite descriptors / positions / prior, or prev_subset indices out of range.
   MatchResult Match(

@@ -766,8 +766,7 @@ MatchOptions KdOptions(int max_checks = MatchOptions{}.kd_max_checks) {
 // Recall floors of the forest at the default budget, vs exhaustive. Measured 2026-11-24 (the
 // tests record them as properties; --gtest_output=xml shows them): random twins 0.998
 // (Laplacian split) / 0.995 (one group), no extra match; real SURF 0.997 (unique off and on),
-// 1 extra match of ~3000. Floors with
-// margin, so that a change of seed or of the tree construction does not break them.
+// one extra match. Floors with margin, so that another seed or tree construction passes.
 constexpr double kKdRecallFloorRandom = 0.98;
 constexpr double kKdRecallFloorReal = 0.97;
 
@@ -906,6 +905,13 @@ TEST(MatcherKdForestTest, DeterministicAcrossSeedsThreadsAndReuse) {
   const MatchResult seeded = Matcher(other).Match(s.prev, s.curr);
   ExpectSameMatches(Matcher(other).Match(s.prev, prepared).matches, seeded.matches);
   ExpectSameMatches(m.Match(s.prev, prepared).matches, full.matches);
+  // Reset to another frame: the forest is rebuilt for it.
+  MatchCandidates reused(s.curr);
+  m.Match(s.prev, reused);
+  const Scene other_scene = MakeScene(2000, 300, 64, 0.02f, 53);
+  reused.Reset(other_scene.curr);
+  ExpectSameMatches(m.Match(other_scene.prev, reused).matches,
+                    Matcher(o).Match(other_scene.prev, other_scene.curr).matches);
   // A motion prior takes the guided path whatever the algorithm.
   MatchOptions guided;
   ExpectSameMatches(m.Match(s.prev, prepared, {}, s.curr_from_prev).matches,
