@@ -315,10 +315,13 @@ struct Matcher::Impl {
   // own_grid over candidates `ids` of f at positions cx/cy (indexed like ids).
   void BuildGrid(const FeatureSet& f, const std::vector<int>& ids, float radius);
   // Candidates: the points of fc bucketed in `grid`; cand_norms: squared norms of fc's
-  // descriptors by index.
+  // descriptors by index. check_queries names the query set ("prev") when the query
+  // descriptors have not been checked finite yet: the search checks each row while it has it
+  // in cache, and throws for the lowest bad index.
   std::int64_t SearchGuided(const FeatureSet& fq, const std::vector<int>& qids,
                             const FeatureSet& fc, const Grid& grid, float radius,
-                            const float* cand_norms, std::vector<ExactTop2>* out);
+                            const float* cand_norms, std::vector<ExactTop2>* out,
+                            const char* check_queries = nullptr);
   // Approximate top-2 of each query among the points of fc in its group (the forest's).
   std::int64_t SearchKdForest(const FeatureSet& fq, const std::vector<int>& qids,
                               const FeatureSet& fc, const matching_detail::KdForest& forest,
@@ -559,7 +562,8 @@ void Matcher::Impl::BuildGrid(const FeatureSet& f, const std::vector<int>& ids, 
 // Query positions are taken from qx/qy (indexed like `qids`), candidate positions from cx/cy.
 std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector<int>& qids,
                                          const FeatureSet& fc, const Grid& grid, float radius,
-                                         const float* cand_norms, std::vector<ExactTop2>* out) {
+                                         const float* cand_norms, std::vector<ExactTop2>* out,
+                                         const char* check_queries) {
   const int dim = fq.descriptor_size;
   const bool lap = options.check_laplacian;
   const float g_x0 = grid.x0, g_y0 = grid.y0, g_inv_cell = grid.inv_cell;
@@ -655,7 +659,12 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
     const char* p = reinterpret_cast<const char*>(row);
     for (std::size_t b = 0; b < row_bytes; b += 64) __builtin_prefetch(p + b);
   };
-#pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads) if (num_threads > 1)
+  // Rows of non-finite values only make the SSDs NaN until the throw below.
+  const bool check = check_queries != nullptr;
+  int any_bad = 0;
+#pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads) if (num_threads > 1) \
+    reduction(|                                                                              \
+              : any_bad)
   for (int o = 0; o < nq; ++o) {
     if (o + kGuidedPrefetchDistance < nq) {
       const int ahead = o + kGuidedPrefetchDistance;
@@ -667,6 +676,7 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
     const int c0 = cand_start[o], num = cand_start[o + 1] - c0;
     Best2 b{kInf, kInf, -1, -1};
     const float* q = fq.descriptor(qids[k]);
+    if (check) any_bad |= AnyNonFinite(q, static_cast<std::size_t>(dim)) ? 1 : 0;
     if (num > 2) {
       list(q, dim, fc.descriptors.data(), cand_norms, cand_ids.data() + c0, num, iota.data(), &b);
     } else if (num > 0) {
@@ -679,6 +689,7 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
     (*out)[k] = MakeExact(kernels->exact, q, dim, b.j1, b.j1 >= 0 ? fc.descriptor(b.j1) : nullptr,
                           b.j2, b.j2 >= 0 ? fc.descriptor(b.j2) : nullptr);
   }
+  if (any_bad) CheckFinite(fq, qids, check_queries);  // throws for the lowest bad index
   return comparisons;
 }
 
@@ -865,13 +876,15 @@ MatchResult Matcher::Match(const FeatureSet& prev, const MatchCandidates& candid
     result.time_ms = watch.elapsed_ms();
     return result;
   }
-  m.CheckFinite(prev, m.fwd_ids, "prev");
+  const bool guided = curr_from_prev_prior.has_value();
+  // The guided search checks the query rows itself, as it reads them (one pass over them
+  // instead of two: the final pass of clustered RANSAC queries every prev point).
+  if (!guided) m.CheckFinite(prev, m.fwd_ids, "prev");
   // All curr points are candidates; m.rev_ids doubles as the "all curr" id list here.
   m.rev_ids.resize(n_curr);
   for (int i = 0; i < n_curr; ++i) m.rev_ids[i] = i;
   const float* curr_norms = candidates.squared_norms().data();
 
-  const bool guided = curr_from_prev_prior.has_value();
   const float radius = o.guided_radius_px;
   Eigen::Matrix<double, 2, 3> A = Eigen::Matrix<double, 2, 3>::Zero();
   if (guided) {
@@ -902,7 +915,7 @@ MatchResult Matcher::Match(const FeatureSet& prev, const MatchCandidates& candid
       grid = &m.own_grid;
     }
     result.num_comparisons +=
-        m.SearchGuided(prev, m.fwd_ids, curr, *grid, radius, curr_norms, &m.fwd_best);
+        m.SearchGuided(prev, m.fwd_ids, curr, *grid, radius, curr_norms, &m.fwd_best, "prev");
   } else if (o.algorithm == MatchAlgorithm::kKdForest && o.kd_max_checks > 0 &&
              o.kd_max_checks < n_curr) {
     const matching_detail::KdForest& forest =

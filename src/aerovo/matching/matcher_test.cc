@@ -545,6 +545,37 @@ TEST(MatcherTest, PreparedCandidatesAreCheckedOnce) {
   }
 }
 
+// A non-finite prev descriptor is an error on every path (the guided search checks the rows as
+// it reads them), naming the lowest bad index among the points matched.
+TEST(MatcherTest, NonFinitePrevDescriptorThrowsOnEveryPath) {
+  const Scene s = MakeScene(300, 100, 64, 0.01f, 5);
+  FeatureSet bad = s.prev;
+  bad.descriptors[9 * 64 + 60] = std::numeric_limits<float>::infinity();
+  bad.descriptors[4 * 64 + 1] = std::numeric_limits<float>::quiet_NaN();
+  for (bool unique : {false, true}) {
+    MatchOptions o;
+    o.unique = unique;
+    Matcher m(o);
+    for (int path = 0; path < 4; ++path) {
+      const bool subset = path % 2 == 1;
+      std::optional<Affine> prior;
+      if (path >= 2) prior = s.curr_from_prev;
+      const std::vector<int> ids = subset ? std::vector<int>{12, 9, 30} : std::vector<int>{};
+      SCOPED_TRACE("unique " + std::to_string(unique) + " path " + std::to_string(path));
+      try {
+        m.Match(bad, s.curr, ids, prior);
+        FAIL() << "a non-finite prev descriptor was accepted";
+      } catch (const InvalidArgument& e) {
+        const std::string want =
+            std::string("prev point ") + (subset ? "9" : "4") + " has a non-finite descriptor";
+        EXPECT_NE(std::string(e.what()).find(want), std::string::npos) << e.what();
+      }
+      // The same call on good data still works with the same matcher (no state left behind).
+      EXPECT_GT(m.Match(s.prev, s.curr, ids, prior).matches.size(), subset ? 2u : 250u);
+    }
+  }
+}
+
 TEST(MatcherTest, GuidedMatchesExhaustiveWithRightPrior) {
   const Scene s = MakeScene(800, 800, 64, 0.005f, 11);
   Matcher matcher;
