@@ -238,12 +238,15 @@ constexpr int kPolishIterations = 20;
 std::vector<Variant> ReportVariants(bool polish) {
   CorrespondenceOptions spread = StageOptions(CorrespondenceMethod::kClustered, true);
   spread.clustered.refine_final_radius_px = 0.f;
+  CorrespondenceOptions full = StageOptions(CorrespondenceMethod::kClustered, true);
+  full.clustered.refine_final_min_shift_px = 0.f;
   std::vector<Variant> v = {
       {"std", polish ? "standard_polish" : "standard",
        StageOptions(CorrespondenceMethod::kStandard)},
       {"paper", polish ? "clustered_paper_polish" : "clustered_paper",
        StageOptions(CorrespondenceMethod::kClustered, false)},
       {"spread", polish ? "clustered_spread_polish" : "clustered_spread", spread},
+      {"full", polish ? "clustered_full_polish" : "clustered_full", full},
       {"ref", polish ? "clustered_refined_polish" : "clustered_refined",
        StageOptions(CorrespondenceMethod::kClustered, true)}};
   if (polish) {
@@ -409,9 +412,10 @@ void Report() {
   std::printf(
       "# std = standard (match all + MSAC); paper = clustered RANSAC exactly as the paper; spread "
       "= "
-      "clustered + refinement on <= 180 points spread over the crop (guided, 40 px); ref = "
-      "aerovo's default: spread, then a final pass over every point (guided, 6 px); seeds = the "
-      "standard method itself with RANSAC "
+      "clustered + refinement on <= 180 points spread over the crop (guided, 40 px); full = "
+      "spread, then a final pass over every point (guided, 6 px); ref = aerovo's default: "
+      "spread, then the final pass only if the spread fit moved the cell's by more than 1 px at "
+      "the corners; seeds = the standard method itself with RANSAC "
       "seeds 2-%d (its own reproducibility: no estimate can be expected to agree with one "
       "standard run better than another standard run does). Times: wall clock, fastest of 5 runs "
       "per pair. Corner diff / error: largest displacement of the 4 frame corners, px. Lines "
@@ -478,10 +482,13 @@ std::vector<VariantSummary> ReportSequence(const Sequence& s, bool polish) {
     std::printf("\n## %s: %zu pairs, %dx%d, %.0f SURF points/frame%s\n", s.name.c_str(), s.pairs(),
                 s.width, s.height, mean_points,
                 s.pairs() > kMaxRowsPrinted ? " (rows: the first 15 pairs; summaries: all)" : "");
+    std::string names;
+    for (const Variant& x : variants) names += std::string(" ") + x.name;
     std::printf(
-        "pair | ms: std paper spread ref | cell attempts fellback | inliers/matches: std paper "
-        "spread ref | corner diff to std px: paper spread ref seeds(max) | err to truth px: std "
-        "paper spread ref cvRANSAC cvMAGSAC | cv ms: RANSAC MAGSAC\n");
+        "pair | ms:%s | cell attempts fellback | inliers/matches:%s | corner diff to std px:%s "
+        "seeds(max) | err to truth px:%s cvRANSAC cvMAGSAC | ref: final pass, spread shift px | "
+        "cv ms: RANSAC MAGSAC\n",
+        names.c_str(), names.c_str(), names.c_str() + 4, names.c_str());
   }
   // diffs[v]: corner difference of variant v to standard (v = 0: unused); seeds: standard with
   // other seeds vs standard; errs[v], errs[nv], errs[nv + 1]: error to truth of v, cv RANSAC,
@@ -532,14 +539,20 @@ std::vector<VariantSummary> ReportSequence(const Sequence& s, bool polish) {
     if (s.truth[i] && cvr) errs[nv].push_back(e[nv] = corner(*cvr, *s.truth[i]));
     if (s.truth[i] && cvm) errs[nv + 1].push_back(e[nv + 1] = corner(*cvm, *s.truth[i]));
     if (polish || i >= kMaxRowsPrinted) continue;
-    std::printf("%zu | %.2f %.2f %.2f %.2f | (%d,%d) %d %s |", i, times[0][i], times[1][i],
-                times[2][i], times[3][i], p.cell_row, p.cell_col, p.attempts,
+    std::printf("%zu |", i);
+    for (std::size_t v = 0; v < nv; ++v) std::printf(" %.2f", times[v][i]);
+    std::printf(" | (%d,%d) %d %s |", p.cell_row, p.cell_col, p.attempts,
                 p.fell_back ? "yes" : "no");
     for (std::size_t v = 0; v < nv; ++v) {
       std::printf(" %d/%zu", res[v][i].num_inliers, res[v][i].matches.size());
     }
-    std::printf(" | %.2f %.2f %.2f %.2f | %.3f %.3f %.3f %.3f %.3f %.3f | %.2f %.2f\n", d[1], d[2],
-                d[3], seed_max, e[0], e[1], e[2], e[3], e[4], e[5], t_cvr.back(), t_cvm.back());
+    std::printf(" |");
+    for (std::size_t v = 1; v < nv; ++v) std::printf(" %.2f", d[v]);
+    std::printf(" %.2f |", seed_max);
+    for (std::size_t v = 0; v < nv + 2; ++v) std::printf(" %.3f", e[v]);
+    const CorrespondenceResult& ref = res[nv - 1][i];
+    std::printf(" | %s %.2f | %.2f %.2f\n", ref.final_pass ? "yes" : "no", ref.refine_shift_px,
+                t_cvr.back(), t_cvm.back());
   }
   std::vector<Stats> st(nv);
   for (std::size_t v = 0; v < nv; ++v) st[v] = Summarise(times[v]);
@@ -560,18 +573,24 @@ std::vector<VariantSummary> ReportSequence(const Sequence& s, bool polish) {
     std::snprintf(buf, sizeof buf, "%.3f / %.3f", x.mean, x.max);
     return std::string(buf);
   };
-  std::printf(
-      "summary %s corner difference to standard px, mean / max: paper %s, spread %s, ref %s, "
-      "standard with other seeds %s, cv RANSAC (3 px) %s, cv USAC_MAGSAC %s\n",
-      label.c_str(), mm(diffs[1]).c_str(), mm(diffs[2]).c_str(), mm(diffs[3]).c_str(),
-      mm(seeds).c_str(), mm(d_cvr).c_str(), mm(d_cvm).c_str());
-  if (!errs[0].empty()) {
-    std::printf(
-        "summary %s corner error to ground truth px, mean / max: std %s, paper %s, spread %s, "
-        "ref %s, cv RANSAC %s, cv USAC_MAGSAC %s\n",
-        label.c_str(), mm(errs[0]).c_str(), mm(errs[1]).c_str(), mm(errs[2]).c_str(),
-        mm(errs[3]).c_str(), mm(errs[4]).c_str(), mm(errs[5]).c_str());
+  std::printf("summary %s corner difference to standard px, mean / max:", label.c_str());
+  for (std::size_t v = 1; v < nv; ++v) {
+    std::printf(" %s %s,", variants[v].name, mm(diffs[v]).c_str());
   }
+  std::printf(" standard with other seeds %s, cv RANSAC (3 px) %s, cv USAC_MAGSAC %s\n",
+              mm(seeds).c_str(), mm(d_cvr).c_str(), mm(d_cvm).c_str());
+  if (!errs[0].empty()) {
+    std::printf("summary %s corner error to ground truth px, mean / max:", label.c_str());
+    for (std::size_t v = 0; v < nv; ++v) {
+      std::printf(" %s %s,", variants[v].name, mm(errs[v]).c_str());
+    }
+    std::printf(" cv RANSAC %s, cv USAC_MAGSAC %s\n", mm(errs[nv]).c_str(),
+                mm(errs[nv + 1]).c_str());
+  }
+  int final_passes = 0;
+  for (const CorrespondenceResult& r : res[nv - 1]) final_passes += r.final_pass;
+  std::printf("summary %s ref (default): final pass run in %d of %zu pairs\n", label.c_str(),
+              final_passes, s.pairs());
   if (!polish) {
     std::printf(
         "summary %s estimation only on the standard matches, mean ms/pair: cv RANSAC %.3f, cv "

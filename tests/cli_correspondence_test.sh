@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # `aerovo correspondence` on a real tampa-phantom3 pair: the default clustered RANSAC (refined,
-# with its final pass) and the standard method agree within 1 px at the frame corners once both
-# are polished; the paper's variant is reported as such; the k-d forest matcher works; a bad
-# option is a clear error.
+# with its final pass, which runs because the scene is not flat) and the standard method agree
+# within 1 px at the frame corners once both are polished; the final pass can be skipped by
+# --final-min-shift; the paper's variant is reported as such; the k-d forest matcher works;
+# bad options are clear errors.
 # Usage: cli_correspondence_test.sh AEROVO_BINARY SHARED_DIR   (exit 77 = skipped)
 set -euo pipefail
 aerovo=$1
@@ -17,6 +18,9 @@ fail() { echo "FAIL: $*"; exit 1; }
 out=$("$aerovo" correspondence "$dir/DJI_0060.JPG" "$dir/DJI_0061.JPG" --polish 20)
 echo "$out"
 grep -q "clustered, refined" <<<"$out" || fail "default clustered result not refined"
+# A real photo pair (relief, tilted camera): the cell's fit does not extrapolate, so the final
+# pass runs.
+grep -q "final pass run" <<<"$out" || fail "the final pass did not run on a tampa pair"
 apart=$(sed -n 's/.*transforms \([0-9.]*\) px apart.*/\1/p' <<<"$out")
 [[ -n $apart ]] || fail "no corner difference printed"
 awk -v d="$apart" 'BEGIN { exit !(d < 1.0) }' || fail "refined vs standard ${apart} px apart (>= 1 px)"
@@ -35,6 +39,14 @@ if err=$("$aerovo" correspondence "$dir/DJI_0060.JPG" "$dir/DJI_0061.JPG" --matc
   fail "--matcher flann accepted"
 fi
 grep -q "flann" <<<"$err" || fail "unclear error for --matcher flann: $err"
+
+out=$("$aerovo" correspondence "$dir/DJI_0060.JPG" "$dir/DJI_0061.JPG" --final-min-shift 1000)
+grep -q "final pass skipped" <<<"$out" || fail "--final-min-shift 1000 still ran the final pass"
+
+if err=$("$aerovo" correspondence "$dir/DJI_0060.JPG" "$dir/DJI_0061.JPG" --final-min-shift -1 2>&1); then
+  fail "--final-min-shift -1 accepted"
+fi
+grep -q "refine_final_min_shift_px must be finite and >= 0" <<<"$err" || fail "unclear error: $err"
 
 if err=$("$aerovo" correspondence "$dir/DJI_0060.JPG" "$dir/DJI_0061.JPG" --final-radius -1 2>&1); then
   fail "--final-radius -1 accepted"

@@ -1,6 +1,7 @@
 // `aerovo correspondence PREV CURR`: the correspondence stage (matching + RANSAC) on one frame
 // pair, standard and clustered RANSAC side by side (time, transform, inliers, cell used, and how
 // far apart the two transforms are at the frame corners).
+#include <cmath>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -48,6 +49,10 @@ std::string Describe(const char* name, const CorrespondenceResult& r) {
                      r.crop.y, r.crop.width, r.crop.height, r.cell_row, r.cell_col, r.attempts,
                      r.fell_back ? "FELL BACK to standard" : "clustered",
                      r.refined ? ", refined" : "");
+    if (std::isfinite(r.refine_shift_px)) {
+      s += fmt::format("; spread refinement moved the cell's fit by {:.2f} px, final pass {}",
+                       r.refine_shift_px, r.final_pass ? "run" : "skipped");
+    }
   }
   const Eigen::Matrix3d& m = r.curr_from_prev;
   s += fmt::format(
@@ -115,6 +120,10 @@ void Register(CLI::App& app) {
   cmd->add_option("--final-radius", args->options.clustered.refine_final_radius_px,
                   "Refinement's final pass: every point re-matched within this radius (px) of "
                   "the refined fit (0 = no final pass)")
+      ->capture_default_str();
+  cmd->add_option("--final-min-shift", args->options.clustered.refine_final_min_shift_px,
+                  "Refinement's final pass only when the spread refinement moved the cell's fit "
+                  "by more than this at the corners, px (0 = always)")
       ->capture_default_str();
   cmd->add_flag("--prosac", args->prosac, "PROSAC sampling ordered by match SSD");
   cmd->add_option("--matcher", args->matcher,

@@ -27,6 +27,11 @@ void Validate(const CorrespondenceOptions& o) {
         "ClusteredRansacOptions.refine_final_radius_px must be finite and >= 0, got " +
         std::to_string(c.refine_final_radius_px));
   }
+  if (!(c.refine_final_min_shift_px >= 0.f) || !std::isfinite(c.refine_final_min_shift_px)) {
+    throw InvalidArgument(
+        "ClusteredRansacOptions.refine_final_min_shift_px must be finite and >= 0, got " +
+        std::to_string(c.refine_final_min_shift_px));
+  }
   if (c.refine_max_points < 0) {
     throw InvalidArgument("ClusteredRansacOptions.refine_max_points must be >= 0, got " +
                           std::to_string(c.refine_max_points));
@@ -162,8 +167,8 @@ bool CorrespondenceStage::Attempt(Matcher& matcher, bool guided, const FeatureSe
   return out->success;
 }
 
-void CorrespondenceStage::Refine(const FeatureSet& prev, const std::vector<int>& cell_of,
-                                 CorrespondenceResult* out) {
+void CorrespondenceStage::Refine(const FeatureSet& prev, int width, int height,
+                                 const std::vector<int>& cell_of, CorrespondenceResult* out) {
   const ClusteredRansacOptions& co = options_.clustered;
   const int num_cells = co.grid_rows * co.grid_cols;
   const int per_cell = co.refine_max_points == 0
@@ -202,8 +207,16 @@ void CorrespondenceStage::Refine(const FeatureSet& prev, const std::vector<int>&
     out->num_inliers = pass.num_inliers;
     out->refined = true;
   };
+  const Eigen::Matrix3d cell_fit = out->curr_from_prev;
   refine_pass(refine_matcher_, &cell_matches_);
+  if (out->refined) {
+    out->refine_shift_px = MaxCornerDisplacementPx(cell_fit, out->curr_from_prev, width, height);
+  }
   if (co.refine_final_radius_px <= 0.f) return;
+  // A spread fit that stays where the cell's fit was says the model holds across the frame
+  // (see refine_final_min_shift_px); one that was not adopted says nothing.
+  if (out->refined && out->refine_shift_px <= co.refine_final_min_shift_px) return;
+  out->final_pass = true;
   subset_.clear();  // every prev point
   refine_pass(final_matcher_, nullptr);
 }
@@ -273,7 +286,7 @@ CorrespondenceResult CorrespondenceStage::Clustered(const FeatureSet& prev, int 
     if (Attempt(matcher_, options_.guided_matching, prev, subset_, last_curr_from_prev, &result)) {
       result.cell_row = cell / cols;
       result.cell_col = cell % cols;
-      if (co.refine) Refine(prev, cell_of, &result);
+      if (co.refine) Refine(prev, prev_width, prev_height, cell_of, &result);
       result.total_ms = total.elapsed_ms();
       return result;
     }

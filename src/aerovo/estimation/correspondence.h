@@ -32,15 +32,18 @@
 // 6. (aerovo addition, ClusteredRansacOptions::refine, on by default) A successful cell's
 //    transform seeds a guided matching of up to refine_max_points points spread over the other
 //    cells of the crop (radius refine_radius_px), and the same RANSAC runs on those matches
-//    together with the cell's own; then a final pass re-matches every
-//    prev point within refine_final_radius_px of that fit and runs the same RANSAC again. The
-//    result rests on the same evidence as the standard method's (BENCHMARKS.md
-//    "Correspondence": within 0.3-0.6 px of it on real photos with the robust polish, 0.000 px
-//    on exact affine motion) at a fraction of its cost (2-8x faster; the paper's cell alone is
-//    5-32x faster but 9-19 px off at the frame corners on real photos).
+//    together with the cell's own. If that spread fit moved the cell's fit by more than
+//    refine_final_min_shift_px at the frame corners (the scene departs from the model: relief,
+//    a tilted camera), a final pass re-matches every prev point within refine_final_radius_px of
+//    it and runs the same RANSAC again; otherwise the model holds across the frame and the
+//    spread fit is the answer. BENCHMARKS.md "Correspondence": the result is within 0.3-0.6 px
+//    of the standard method's on real photos with the robust polish (final pass) and within
+//    0.2 px on exact affine motion (spread fit), 2.6-17x faster than it; the paper's cell alone
+//    is 5-31x faster but 8-19 px off at the frame corners on real photos.
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <vector>
 
@@ -107,6 +110,19 @@ struct ClusteredRansacOptions {
   /// costs a small fraction of exhaustive matching. Default 6 px (4x the RANSAC threshold, the
   /// radius of OdometryOptions::refine_radius_px).
   float refine_final_radius_px = 6.f;
+  /// The final pass runs only when the spread refinement moved the cell's fit by more than this
+  /// at the prev frame's corners (px; largest of the four displacements); 0 = always run it.
+  /// Why: where the frame-to-frame motion is affine (a flat scene seen from above: the paper's
+  /// setting) the cell's fit already explains the other cells' points, the spread fit stays
+  /// within a fraction of a pixel of it, and the spread fit is within ~0.2 px of the standard
+  /// method's, so matching every point again buys nothing; where the scene departs from the
+  /// model (relief, a tilted camera) the cell's fit extrapolates badly, the spread fit moves it
+  /// by pixels, and only the final pass brings the answer to the standard method's. Measured
+  /// with bench_correspondence (BENCHMARKS.md "Correspondence"): this displacement is at most
+  /// 0.6 px on exact affine motion (synthetic flight, Callas crops) and at least 1.6 px on 90 %
+  /// of the tampa-phantom3 pairs (median 3.4-12 px). Default 1 px (our choice, between the two).
+  /// OdometryOptions::refine_on_all_points sets 0 (the odometry always refines on all points).
+  float refine_final_min_shift_px = 1.f;
 };
 
 /// Options of the correspondence stage (matching + robust estimation).
@@ -159,8 +175,14 @@ struct CorrespondenceResult {
   /// Match + RANSAC runs made: cells tried, plus one for a standard or fall-back run (the
   /// refinement is not counted).
   int attempts = 0;
-  /// The clustered result was refined on all points (ClusteredRansacOptions::refine).
+  /// The clustered result was refined (ClusteredRansacOptions::refine): the cell's fit was
+  /// replaced by the spread or the final pass's.
   bool refined = false;
+  /// The final pass of the refinement ran (see refine_final_min_shift_px).
+  bool final_pass = false;
+  /// How far the spread refinement moved the cell's fit at the prev frame's corners, px (NaN
+  /// when it did not run or was not adopted).
+  double refine_shift_px = std::numeric_limits<double>::quiet_NaN();
   /// Clustered: the part of the prev frame kept (pixels, prev frame); standard: whole frame
   /// (empty when the frame size is unknown).
   RectI crop;
@@ -224,8 +246,9 @@ class CorrespondenceStage {
                const std::vector<int>& subset, const std::optional<Eigen::Matrix3d>& prior,
                CorrespondenceResult* out, const std::vector<Match>* known = nullptr);
   // ClusteredRansacOptions::refine on a successful cell result; cell_of[i] is the cell of prev
-  // point i (-1 outside the crop).
-  void Refine(const FeatureSet& prev, const std::vector<int>& cell_of, CorrespondenceResult* out);
+  // point i (-1 outside the crop); prev is width x height px.
+  void Refine(const FeatureSet& prev, int width, int height, const std::vector<int>& cell_of,
+              CorrespondenceResult* out);
 
   CorrespondenceOptions options_;
   Matcher matcher_;

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <random>
 #include <string>
@@ -217,9 +218,20 @@ TEST(ClusteredRansac, CropAndChosenCellForEachMotion) {
     }
     EXPECT_LT(MaxCornerDisplacementPx(rr.curr_from_prev, motion, kFrameWidth, kFrameHeight), 0.01)
         << what;
-    // Default: the final pass matches every prev point (strips included) around the refined
+    EXPECT_FALSE(rr.final_pass) << what;
+    EXPECT_LT(rr.refine_shift_px, 0.01) << what;
+    // Default: the motion is exact, so the spread fit stays on the cell's and the final pass is
+    // skipped: the spread result.
+    const CorrespondenceResult rs = refined_run(CorrespondenceOptions{});
+    EXPECT_FALSE(rs.final_pass) << what;
+    EXPECT_EQ(rs.matches.size(), expected) << what;
+    EXPECT_EQ(rs.curr_from_prev, rr.curr_from_prev) << what;
+    // Final pass forced: it matches every prev point (strips included) around the refined
     // prediction, i.e. every point that is still in view (the only ones with a curr twin).
-    const CorrespondenceResult rd = refined_run(CorrespondenceOptions{});
+    CorrespondenceOptions always;
+    always.clustered.refine_final_min_shift_px = 0.f;
+    const CorrespondenceResult rd = refined_run(always);
+    EXPECT_TRUE(rd.final_pass) << what;
     EXPECT_EQ(rd.matches.size(), scene.curr().size()) << what;
     EXPECT_EQ(rd.num_inliers, static_cast<int>(scene.curr().size())) << what;
     for (const Match& m : rd.matches) {
@@ -363,7 +375,12 @@ TEST(ClusteredRansac, RefinementMatchesStandardAccuracy) {
   EXPECT_GT(ra.num_inliers, 5 * rp.num_inliers);
   EXPECT_LE(rr.matches.size(), 160u + rp.matches.size());
   EXPECT_GT(rr.num_inliers, 150);
-  // The final pass (default) finds the standard method's evidence: every point, same fit.
+  // 0.5 px of noise on one cell's ~70 points: its fit is off by more than 1 px at the far
+  // corners, the spread fit moves it by that much, so the default runs the final pass.
+  std::printf("spread refinement moved the cell's fit by %.2f px\n", rd.refine_shift_px);
+  EXPECT_TRUE(rd.final_pass);
+  EXPECT_GT(rd.refine_shift_px, 1.0);
+  // The final pass finds the standard method's evidence: every point, same fit.
   EXPECT_EQ(rd.matches.size(), rs.matches.size());
   EXPECT_EQ(rd.num_inliers, rs.num_inliers);
   EXPECT_LT(MaxCornerDisplacementPx(rd.curr_from_prev, rs.curr_from_prev, 800, 600), 0.05);
@@ -439,6 +456,49 @@ TEST(ClusteredRansac, SpreadRefinementKeepsTheCellsMatchesAndMatchesOnlyOtherCel
   EXPECT_LT(MaxCornerDisplacementPx(rr.curr_from_prev, motion, 800, 600), 1e-3);
 }
 
+// The final pass runs when the spread refinement moves the cell's fit by more than
+// refine_final_min_shift_px at the corners: here the bottom-left cell (the chosen one: fewest
+// points) moves with one affine map and the rest of the frame, a second layer, 2.5 px further
+// right, so the cell's fit is 2.5 px off elsewhere.
+TEST(ClusteredRansac, FinalPassRunsWhenTheSpreadFitMovesTheCellsFit) {
+  SceneBuilder scene(33);
+  Eigen::Matrix3d near_layer;
+  near_layer << 0.98, 0.01, 4.0, -0.01, 0.98, 8.0, 0, 0, 1;  // keeps every point in view
+  const Eigen::Matrix3d far_layer = Shift(2.5, 0.0) * near_layer;
+  const double cw = kFrameWidth / 3.0, ch = kFrameHeight / 3.0;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) {
+      const bool chosen = r == 2 && c == 0;
+      scene.AddInBox(chosen ? 40 : 80, c * cw, r * ch, (c + 1) * cw, (r + 1) * ch,
+                     chosen ? near_layer : far_layer);
+    }
+  }
+  const Eigen::Matrix3d still = Eigen::Matrix3d::Identity();
+  CorrespondenceOptions defaults, tolerant;
+  tolerant.clustered.refine_final_min_shift_px = 5.f;
+  CorrespondenceStage stage(defaults), stage_tolerant(tolerant), standard;
+  const auto rd = stage.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), still);
+  const auto rt =
+      stage_tolerant.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), still);
+  const auto rs = standard.Standard(scene.prev(), scene.curr());
+  ASSERT_TRUE(rd.success && rt.success && rs.success);
+  ASSERT_EQ(rd.cell_row * 3 + rd.cell_col, 6);
+  // The spread fit follows the 160 far-layer points (it has more inliers than the cell's fit),
+  // 2.5 px from the cell's fit.
+  EXPECT_NEAR(rd.refine_shift_px, 2.5, 0.05);
+  EXPECT_NEAR(rt.refine_shift_px, 2.5, 0.05);
+  EXPECT_TRUE(rd.final_pass);
+  EXPECT_FALSE(rt.final_pass);
+  // The final pass gives the standard method's answer: the far layer, all 640 of its points.
+  EXPECT_EQ(rd.num_inliers, rs.num_inliers);
+  EXPECT_EQ(rd.num_inliers, 640);
+  EXPECT_LT(MaxCornerDisplacementPx(rd.curr_from_prev, rs.curr_from_prev, 800, 600), 1e-6);
+  EXPECT_LT(MaxCornerDisplacementPx(rd.curr_from_prev, far_layer, 800, 600), 1e-3);
+  // Without it the spread fit is the same layer's, from 160 of its points.
+  EXPECT_EQ(rt.num_inliers, 160);
+  EXPECT_LT(MaxCornerDisplacementPx(rt.curr_from_prev, far_layer, 800, 600), 1e-3);
+}
+
 TEST(StandardCorrespondence, MatchesAllAndFits) {
   SceneBuilder scene(11);
   Eigen::Matrix3d motion;
@@ -496,6 +556,16 @@ TEST(CorrespondenceOptions, ValidateNamesTheField) {
   o = {};
   o.ransac.max_distance_px = -1;
   EXPECT_THROW(CorrespondenceStage{o}, InvalidArgument);
+  for (float bad : {-0.5f, std::numeric_limits<float>::quiet_NaN()}) {
+    o = {};
+    o.clustered.refine_final_min_shift_px = bad;
+    try {
+      Validate(o);
+      ADD_FAILURE() << "no throw for " << bad;
+    } catch (const InvalidArgument& e) {
+      EXPECT_NE(std::string(e.what()).find("refine_final_min_shift_px"), std::string::npos);
+    }
+  }
 }
 
 // ---------------------------------------------------------------- real imagery (../shared)
