@@ -172,12 +172,12 @@ double RecallVs(const std::vector<aerovo::Match>& got, const std::vector<aerovo:
   return want.empty() ? 1.0 : static_cast<double>(found) / static_cast<double>(want.size());
 }
 
-// Randomized k-d forest (MatchAlgorithm::kKdForest, 4 trees) against exhaustive, one thread.
+// Randomized k-d forest (MatchAlgorithm::kKdForest) against exhaustive, one thread.
 // Args: N, kd_max_checks (0 = exhaustive: the reference row), kd_trees, prepared (1: curr
-// prepared once
-// outside the timed loop, so the forest is built once as for repeated calls against one frame;
-// 0: built in every call, as for a single call). Counters: recall = share of the exhaustive
-// matches found; build_ms = one forest build (prepared rows).
+// prepared once outside the timed loop, so the forest is built once as for repeated calls
+// against one frame; 0: built in every call, as for a single call), unique (1:
+// MatchOptions::unique, also for the exhaustive reference). Counters: recall = share of the
+// exhaustive matches found; build_ms = one forest build (prepared rows).
 void BM_KdForest(benchmark::State& state) {
   const Pair& p = GetPair(static_cast<int>(state.range(0)));
   aerovo::MatchOptions o;
@@ -185,8 +185,11 @@ void BM_KdForest(benchmark::State& state) {
   o.kd_max_checks = static_cast<int>(state.range(1));
   o.kd_trees = static_cast<int>(state.range(2));
   const bool prepared = state.range(3) != 0;
+  o.unique = state.range(4) != 0;
+  aerovo::MatchOptions reference;
+  reference.unique = o.unique;
   aerovo::Matcher matcher(o);
-  const aerovo::MatchResult want = aerovo::Matcher().Match(p.prev, p.curr);
+  const aerovo::MatchResult want = aerovo::Matcher(reference).Match(p.prev, p.curr);
   aerovo::MatchCandidates candidates(p.curr);
   if (prepared) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -364,10 +367,11 @@ BENCHMARK(BM_AerovoSubset)
     ->Unit(benchmark::kMicrosecond)
     ->UseRealTime();
 BENCHMARK(BM_KdForest)
-    ->ArgsProduct({{2000, 5000, 20000}, {0, 16, 32, 64, 128}, {4}, {0}})
-    ->ArgsProduct({{2000, 5000, 20000}, {32, 64}, {4}, {1}})
-    ->ArgsProduct({{20000}, {32, 64}, {1, 2, 8}, {1}})
-    ->ArgsProduct({{50000}, {0, 64}, {4}, {0}})
+    ->ArgsProduct({{2000, 5000, 20000}, {0, 16, 32, 64, 128}, {4}, {0}, {0}})
+    ->ArgsProduct({{2000, 5000, 20000}, {32, 64}, {4}, {1}, {0}})
+    ->ArgsProduct({{20000}, {32, 64}, {1, 2, 8}, {1}, {0}})
+    ->ArgsProduct({{50000}, {0, 64}, {4}, {0}, {0}})
+    ->ArgsProduct({{20000}, {0, 64}, {4}, {0}, {1}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK(BM_OpenCvBfKnn)

@@ -72,7 +72,9 @@ void KdForest::Build(const float* rows, int dim, const std::uint8_t* group_of, i
   num_points_ = n;
   seed_ = seed;
   group_size_.assign(static_cast<std::size_t>(num_groups), 0);
-  for (int i = 0; i < n; ++i) ++group_size_[group_of[i]];
+  for (int i = 0; i < n; ++i) {
+    if (group_of[i] < num_groups) ++group_size_[group_of[i]];
+  }
   trees_.resize(static_cast<std::size_t>(num_groups) * trees);
   for (int g = 0; g < num_groups; ++g) {
     for (int t = 0; t < trees; ++t) {

@@ -33,8 +33,9 @@ struct KdScratch {
 class KdForest {
  public:
   /// Builds `trees` trees per group over the n rows (row i = rows[i * dim ..]); group_of[i] in
-  /// [0, num_groups) is point i's group (points are searched only within their group). Same
-  /// seed, same trees. Preconditions: trees >= 1, finite rows.
+  /// [0, num_groups) is point i's group (points are searched only within their group; a value
+  /// >= num_groups leaves the point out). Same seed, same trees. Preconditions: trees >= 1,
+  /// finite rows.
   void Build(const float* rows, int dim, const std::uint8_t* group_of, int n, int num_groups,
              int trees, std::uint64_t seed);
   /// Forgets the trees (built() becomes false).

@@ -298,8 +298,10 @@ struct Matcher::Impl {
   std::vector<std::int32_t> cand_ids;         // cand_ids[cand_start[o] .. cand_start[o + 1])
   std::vector<int> q_order, q_key, q_bucket;  // guided queries in cell order
 
-  // --- k-d forest: per-thread search state. ---------------------------------------------------
+  // --- k-d forest: per-thread search state; the queries' forest (unique's reverse pass). -----
   std::vector<matching_detail::KdScratch> kd_scratch;
+  matching_detail::KdForest rev_forest;
+  std::vector<std::uint8_t> rev_group;  // per prev index: group, kNumGroups = not a query
 
   void PackQueries(const FeatureSet& f, const std::vector<int>& ids);
   // with_norms = false leaves c_norms of real slots unset (packing queries for streaming).
@@ -979,6 +981,20 @@ MatchResult Matcher::Match(const FeatureSet& prev, const MatchCandidates& candid
       m.BuildGrid(prev, m.fwd_ids, radius);
       result.num_comparisons += m.SearchGuided(curr, m.rev_ids, prev, m.own_grid, radius,
                                                m.prev_norms.data(), &m.rev_best);
+    } else if (o.algorithm == MatchAlgorithm::kKdForest && o.kd_max_checks > 0 &&
+               static_cast<std::size_t>(o.kd_max_checks) < m.fwd_ids.size()) {
+      // A forest over the queries, built per call (the query set is the call's).
+      m.prev_norms.resize(prev.size());
+      m.rev_group.assign(prev.size(), static_cast<std::uint8_t>(kNumGroups));
+      for (int id : m.fwd_ids) {
+        m.prev_norms[id] = SquaredNorm(prev.descriptor(id), prev.descriptor_size);
+        m.rev_group[id] =
+            static_cast<std::uint8_t>(GroupOf(prev.keypoints[id].laplacian, o.check_laplacian));
+      }
+      m.rev_forest.Build(prev.descriptors.data(), prev.descriptor_size, m.rev_group.data(), n_prev,
+                         kNumGroups, o.kd_trees, o.kd_seed);
+      result.num_comparisons +=
+          m.SearchKdForest(curr, m.rev_ids, prev, m.rev_forest, m.prev_norms.data(), &m.rev_best);
     } else {
       result.num_comparisons +=
           m.SearchExhaustive(curr, m.rev_ids, prev, m.fwd_ids, nullptr, &m.rev_best);

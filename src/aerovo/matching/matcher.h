@@ -153,7 +153,7 @@ class MatchCandidates {
 /// place (no copy of the rows). Approximate (MatchAlgorithm::kKdForest, no prior): a
 /// randomized k-d forest (built once per MatchCandidates) finds each query's top-2 within a
 /// budget of examined points; the decisions are then the exhaustive ones on that top-2, and
-/// the unique reverse pass stays exhaustive over the matched curr points.
+/// unique's reverse pass searches a forest over the queries (built per call) the same way.
 /// A point with Laplacian 0 (unknown) forms its own group, compared only with other 0 points.
 class Matcher {
  public:
@@ -186,9 +186,10 @@ class Matcher {
   /// on num_threads or the SIMD kernel (except float-rounding near-ties in ranking).
   /// With algorithm = kKdForest and no prior, best / second-best are the two smallest SSDs among
   /// the candidates the forest examined (a subset of the candidates above; all of them when
-  /// the Laplacian group has at most kd_max_checks points), and the reverse pass of unique is
-  /// exhaustive over the matched curr points (so with unique and most points matched it costs
-  /// about one exhaustive search); same kd_seed, same result, whatever num_threads.
+  /// the Laplacian group has at most kd_max_checks points); with unique, p must likewise be the
+  /// best of the queries examined by the reverse search (a forest over the query set, built per
+  /// call, same options; exhaustive when the query set has at most kd_max_checks points). Same
+  /// kd_seed, same result, whatever num_threads.
   /// Throws InvalidArgument on different descriptor sizes, descriptors.size() inconsistent with
   /// keypoints, non-finite descriptors / positions / prior, or prev_subset indices out of range.
   MatchResult Match(
