@@ -25,7 +25,7 @@ struct KdScratch {
   };
   std::vector<std::uint32_t> seen;  ///< Per point index: query stamp when last examined.
   std::uint32_t stamp = 0;
-  std::vector<Branch> heap;
+  std::vector<Branch> queue;
   std::vector<std::int32_t> slots;  ///< Unexamined points of the current leaf.
 };
 
