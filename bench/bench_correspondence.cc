@@ -587,10 +587,22 @@ std::vector<VariantSummary> ReportSequence(const Sequence& s, bool polish) {
     std::printf(" cv RANSAC %s, cv USAC_MAGSAC %s\n", mm(errs[nv]).c_str(),
                 mm(errs[nv + 1]).c_str());
   }
+  // The default's gate: how far the spread refinement moved the cell's fit (px at the corners).
   int final_passes = 0;
-  for (const CorrespondenceResult& r : res[nv - 1]) final_passes += r.final_pass;
-  std::printf("summary %s ref (default): final pass run in %d of %zu pairs\n", label.c_str(),
-              final_passes, s.pairs());
+  std::vector<double> shifts;
+  for (const CorrespondenceResult& r : res[nv - 1]) {
+    final_passes += r.final_pass;
+    if (std::isfinite(r.refine_shift_px)) shifts.push_back(r.refine_shift_px);
+  }
+  std::sort(shifts.begin(), shifts.end());
+  const auto pct = [&](double q) {
+    return shifts.empty() ? NAN : shifts[static_cast<std::size_t>(q * (shifts.size() - 1) + 0.5)];
+  };
+  std::printf(
+      "summary %s ref (default): final pass run in %d of %zu pairs; spread refinement moved the "
+      "cell's fit by (px at the corners) min %.2f, 10th percentile %.2f, median %.2f, 90th "
+      "percentile %.2f, max %.2f\n",
+      label.c_str(), final_passes, s.pairs(), pct(0.0), pct(0.1), pct(0.5), pct(0.9), pct(1.0));
   if (!polish) {
     std::printf(
         "summary %s estimation only on the standard matches, mean ms/pair: cv RANSAC %.3f, cv "
