@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <numeric>
 #include <random>
@@ -740,22 +741,32 @@ TEST(MatcherTest, RejectsInconsistentInputs) {
 }
 
 // Real SURF descriptors: two 800 x 600 crops of the Callas quarry orthophoto (8192 x 6400), the
-// second shifted by (+41, -23) px, so a point (u, v) of the first is at (u - 41, v + 23) in the
-// second.
-TEST(MatcherTest, RealSurfPairFromOrthophoto) {
-  AEROVO_REQUIRE_SHARED(path, "data/ortho/callas-quarry.jpg");
-  const cv::Mat full = cv::imread(path.string(), cv::IMREAD_GRAYSCALE);
-  ASSERT_FALSE(full.empty());
-  // A textured part of the quarry terraces (the centre is a flat pond).
-  const int x0 = 2800, y0 = 1500, dx = 41, dy = -23;
+// second shifted by (kCropDx, kCropDy) = (+41, -23) px, so a point (u, v) of the first is at
+// (u - 41, v + 23) in the second. A textured part of the quarry terraces (the centre is a flat
+// pond).
+constexpr int kCropDx = 41, kCropDy = -23;
+void SurfOfShiftedCrops(const std::filesystem::path& ortho, double hessian_threshold,
+                        FeatureSet* prev, FeatureSet* curr) {
+  const cv::Mat full = cv::imread(ortho.string(), cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(full.empty()) << ortho;
+  const int x0 = 2800, y0 = 1500;
   const cv::Mat a = full(cv::Rect(x0, y0, 800, 600)).clone();
-  const cv::Mat b = full(cv::Rect(x0 + dx, y0 + dy, 800, 600)).clone();
-  Surf surf;
+  const cv::Mat b = full(cv::Rect(x0 + kCropDx, y0 + kCropDy, 800, 600)).clone();
+  SurfOptions so;
+  so.hessian_threshold = hessian_threshold;
+  Surf surf(so);
   const auto view = [](const cv::Mat& m) {
     return GrayImageView{m.data, m.cols, m.rows, static_cast<std::ptrdiff_t>(m.step)};
   };
-  const FeatureSet prev = surf.DetectAndDescribe(view(a)).features;
-  const FeatureSet curr = surf.DetectAndDescribe(view(b)).features;
+  *prev = surf.DetectAndDescribe(view(a)).features;
+  *curr = surf.DetectAndDescribe(view(b)).features;
+}
+
+TEST(MatcherTest, RealSurfPairFromOrthophoto) {
+  AEROVO_REQUIRE_SHARED(path, "data/ortho/callas-quarry.jpg");
+  FeatureSet prev, curr;
+  ASSERT_NO_FATAL_FAILURE(SurfOfShiftedCrops(path, SurfOptions{}.hessian_threshold, &prev, &curr));
+  const int dx = kCropDx, dy = kCropDy;
   ASSERT_GT(prev.size(), 200u);
   ASSERT_GT(curr.size(), 200u);
   Affine truth;
@@ -977,19 +988,9 @@ TEST(MatcherKdForestTest, ValidateRejectsBadKdOptions) {
 // Real SURF descriptors (the crops of RealSurfPairFromOrthophoto).
 TEST(MatcherKdForestTest, RecallOnRealSurfPair) {
   AEROVO_REQUIRE_SHARED(path, "data/ortho/callas-quarry.jpg");
-  const cv::Mat full = cv::imread(path.string(), cv::IMREAD_GRAYSCALE);
-  ASSERT_FALSE(full.empty());
-  const int x0 = 2800, y0 = 1500, dx = 41, dy = -23;
-  const cv::Mat a = full(cv::Rect(x0, y0, 800, 600)).clone();
-  const cv::Mat b = full(cv::Rect(x0 + dx, y0 + dy, 800, 600)).clone();
-  SurfOptions so;
-  so.hessian_threshold = 200;  // dense: a few thousand points, where the forest is meant for
-  Surf surf(so);
-  const auto view = [](const cv::Mat& m) {
-    return GrayImageView{m.data, m.cols, m.rows, static_cast<std::ptrdiff_t>(m.step)};
-  };
-  const FeatureSet prev = surf.DetectAndDescribe(view(a)).features;
-  const FeatureSet curr = surf.DetectAndDescribe(view(b)).features;
+  FeatureSet prev, curr;
+  // Dense (threshold 200): a few thousand points, what the forest is meant for.
+  ASSERT_NO_FATAL_FAILURE(SurfOfShiftedCrops(path, 200.0, &prev, &curr));
   ASSERT_GT(curr.size(), 1000u);
   for (bool unique : {false, true}) {
     MatchOptions ex;
