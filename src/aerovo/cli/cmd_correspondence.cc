@@ -66,8 +66,7 @@ void Run(Args a) {
   a.options.model = ParseMotionModel(a.model.c_str());
   a.options.sampler = a.prosac ? SamplerKind::kProsac : SamplerKind::kUniform;
   a.options.clustered.refine = !a.paper;
-  a.options.match.algorithm =
-      a.matcher == "kdtree" ? MatchAlgorithm::kKdForest : MatchAlgorithm::kExhaustive;
+  a.options.match.algorithm = ParseMatchAlgorithm(a.matcher);
   Validate(a.options);
   SurfOptions so;
   so.hessian_threshold = a.hessian_threshold;

@@ -459,21 +459,9 @@ void ResetLanes(LaneTop2* state) {
 
 Best2 ReduceLanes(const LaneTop2& state) {
   Best2 b{kInf, kInf, -1, -1};
-  const auto push = [&b](float s, std::int32_t j) {
-    if (j < 0) return;
-    if (b.j1 < 0 || s < b.s1 || (s == b.s1 && j < b.j1)) {
-      b.s2 = b.s1;
-      b.j2 = b.j1;
-      b.s1 = s;
-      b.j1 = j;
-    } else if (b.j2 < 0 || s < b.s2 || (s == b.s2 && j < b.j2)) {
-      b.s2 = s;
-      b.j2 = j;
-    }
-  };
   for (int l = 0; l < kPanelWidth; ++l) {
-    push(state.b1[l], state.i1[l]);
-    push(state.b2[l], state.i2[l]);
+    InsertTop2(state.b1[l], state.i1[l], &b);
+    InsertTop2(state.b2[l], state.i2[l], &b);
   }
   return b;
 }

@@ -80,6 +80,20 @@ struct Kernels {
 /// The fastest kernels the CPU supports (AVX2+FMA if present and allowed, else SSE4.2).
 const Kernels& SelectKernels(bool allow_avx2);
 
+/// Inserts candidate j with score s into a running top-2 (ties: lower j; j < 0 is ignored).
+inline void InsertTop2(float s, std::int32_t j, Best2* b) {
+  if (j < 0) return;
+  if (b->j1 < 0 || s < b->s1 || (s == b->s1 && j < b->j1)) {
+    b->s2 = b->s1;
+    b->j2 = b->j1;
+    b->s1 = s;
+    b->j1 = j;
+  } else if (b->j2 < 0 || s < b->s2 || (s == b->s2 && j < b->j2)) {
+    b->s2 = s;
+    b->j2 = j;
+  }
+}
+
 /// Reduces the 8 lanes of a LaneTop2 to the overall best and second best (ties: lower slot).
 Best2 ReduceLanes(const LaneTop2& state);
 

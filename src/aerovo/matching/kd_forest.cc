@@ -38,20 +38,6 @@ int RandomBelow(std::uint64_t* state, int n) {
   return static_cast<int>(NextRandom(state) % static_cast<std::uint64_t>(n));
 }
 
-// Inserts (s, j) into a running top-2 with the list kernel's order (ties: lower index).
-inline void Insert(float s, std::int32_t j, Best2* b) {
-  if (j < 0) return;
-  if (b->j1 < 0 || s < b->s1 || (s == b->s1 && j < b->j1)) {
-    b->s2 = b->s1;
-    b->j2 = b->j1;
-    b->s1 = s;
-    b->j1 = j;
-  } else if (b->j2 < 0 || s < b->s2 || (s == b->s2 && j < b->j2)) {
-    b->s2 = s;
-    b->j2 = j;
-  }
-}
-
 // Priority-queue order: smallest key first; equal keys by (tree, node), a total order, so that
 // the visiting order, hence the result, does not depend on where a branch sits in the queue.
 struct Later {
@@ -210,8 +196,8 @@ int KdForest::Search(int g, const float* q, const float* rows, const float* norm
     if (k > 0) {
       Best2 b;
       list(q, dim_, rows, norms, slots, k, iota, &b);
-      Insert(b.s1, b.j1, &best);
-      Insert(b.s2, b.j2, &best);
+      InsertTop2(b.s1, b.j1, &best);
+      InsertTop2(b.s2, b.j2, &best);
       checks += k;
     }
   };

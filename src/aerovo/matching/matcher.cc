@@ -63,6 +63,13 @@ constexpr int kMinKdQueriesForThreads = 1024;
 // Largest MatchOptions::kd_trees accepted (memory: one index array per tree and group).
 constexpr int kMaxKdTrees = 64;
 
+// The k-d forest searches only when asked for and when its budget does not already cover the
+// candidates (then the exhaustive search is the exact answer at no extra cost).
+bool UseKdForest(const MatchOptions& o, std::size_t num_candidates) {
+  return o.algorithm == MatchAlgorithm::kKdForest && o.kd_max_checks > 0 &&
+         static_cast<std::size_t>(o.kd_max_checks) < num_candidates;
+}
+
 int GroupOf(std::int8_t laplacian, bool check_laplacian) {
   if (!check_laplacian) return 1;
   return laplacian < 0 ? 0 : (laplacian == 0 ? 1 : 2);
@@ -141,6 +148,12 @@ void CheckFeatureSet(const FeatureSet& f, const char* which) {
 }
 
 }  // namespace
+
+MatchAlgorithm ParseMatchAlgorithm(const std::string& name) {
+  if (name == "exhaustive") return MatchAlgorithm::kExhaustive;
+  if (name == "kdtree") return MatchAlgorithm::kKdForest;
+  throw InvalidArgument("unknown matcher '" + name + "' (expected exhaustive or kdtree)");
+}
 
 void Validate(const MatchOptions& o) {
   if (!(o.max_ratio > 0.f && o.max_ratio <= 1.f)) {
@@ -329,6 +342,18 @@ struct Matcher::Impl {
                               const FeatureSet& fc, const matching_detail::KdForest& forest,
                               const float* cand_norms, std::vector<ExactTop2>* out);
   void CheckFinite(const FeatureSet& f, const std::vector<int>& ids, const char* which) const;
+  // iota[i] = i for i < n at least.
+  void EnsureIota(std::size_t n) {
+    const std::size_t old_size = iota.size();
+    if (old_size >= n) return;
+    iota.resize(n);
+    for (std::size_t i = old_size; i < n; ++i) iota[i] = static_cast<std::int32_t>(i);
+  }
+  // prev_norms[id] = squared norm of prev's descriptor id, for the ids of the forward queries.
+  void FillPrevNorms(const FeatureSet& prev) {
+    prev_norms.resize(prev.size());
+    for (int id : fwd_ids) prev_norms[id] = SquaredNorm(prev.descriptor(id), prev.descriptor_size);
+  }
 };
 
 void Matcher::Impl::CheckFinite(const FeatureSet& f, const std::vector<int>& ids,
@@ -573,11 +598,7 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
   // Candidates are listed by index and their rows read in place: each is compared with the
   // few queries whose discs hold it, so copying the rows into grid order would cost more than
   // the comparisons it speeds up.
-  if (iota.size() < fc.size()) {
-    const std::size_t old_size = iota.size();
-    iota.resize(fc.size());
-    for (std::size_t i = old_size; i < iota.size(); ++i) iota[i] = static_cast<std::int32_t>(i);
-  }
+  EnsureIota(fc.size());
   const int num_threads = static_cast<int>(qids.size()) >= kMinGuidedQueriesForThreads
                               ? ResolveThreads(options.num_threads)
                               : 1;
@@ -701,11 +722,7 @@ std::int64_t Matcher::Impl::SearchKdForest(const FeatureSet& fq, const std::vect
                                            const float* cand_norms, std::vector<ExactTop2>* out) {
   const int dim = fq.descriptor_size;
   const bool lap = options.check_laplacian;
-  if (iota.size() < fc.size()) {
-    const std::size_t old_size = iota.size();
-    iota.resize(fc.size());
-    for (std::size_t i = old_size; i < iota.size(); ++i) iota[i] = static_cast<std::int32_t>(i);
-  }
+  EnsureIota(fc.size());
   const int nq = static_cast<int>(qids.size());
   const int num_threads = nq >= kMinKdQueriesForThreads ? ResolveThreads(options.num_threads) : 1;
   if (kd_scratch.size() < static_cast<std::size_t>(num_threads)) kd_scratch.resize(num_threads);
@@ -918,8 +935,7 @@ MatchResult Matcher::Match(const FeatureSet& prev, const MatchCandidates& candid
     }
     result.num_comparisons +=
         m.SearchGuided(prev, m.fwd_ids, curr, *grid, radius, curr_norms, &m.fwd_best, "prev");
-  } else if (o.algorithm == MatchAlgorithm::kKdForest && o.kd_max_checks > 0 &&
-             o.kd_max_checks < n_curr) {
+  } else if (UseKdForest(o, static_cast<std::size_t>(n_curr))) {
     const matching_detail::KdForest& forest =
         candidates.kd_forest(o.kd_trees, o.kd_seed, o.check_laplacian);
     result.num_comparisons +=
@@ -974,20 +990,15 @@ MatchResult Matcher::Match(const FeatureSet& prev, const MatchCandidates& candid
         m.qx[k] = curr.keypoints[m.rev_ids[k]].x;
         m.qy[k] = curr.keypoints[m.rev_ids[k]].y;
       }
-      m.prev_norms.resize(prev.size());
-      for (int id : m.fwd_ids) {
-        m.prev_norms[id] = SquaredNorm(prev.descriptor(id), prev.descriptor_size);
-      }
+      m.FillPrevNorms(prev);
       m.BuildGrid(prev, m.fwd_ids, radius);
       result.num_comparisons += m.SearchGuided(curr, m.rev_ids, prev, m.own_grid, radius,
                                                m.prev_norms.data(), &m.rev_best);
-    } else if (o.algorithm == MatchAlgorithm::kKdForest && o.kd_max_checks > 0 &&
-               static_cast<std::size_t>(o.kd_max_checks) < m.fwd_ids.size()) {
+    } else if (UseKdForest(o, m.fwd_ids.size())) {
       // A forest over the queries, built per call (the query set is the call's).
-      m.prev_norms.resize(prev.size());
+      m.FillPrevNorms(prev);
       m.rev_group.assign(prev.size(), static_cast<std::uint8_t>(kNumGroups));
       for (int id : m.fwd_ids) {
-        m.prev_norms[id] = SquaredNorm(prev.descriptor(id), prev.descriptor_size);
         m.rev_group[id] =
             static_cast<std::uint8_t>(GroupOf(prev.keypoints[id].laplacian, o.check_laplacian));
       }

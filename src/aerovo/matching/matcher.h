@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -27,6 +28,10 @@ enum class MatchAlgorithm {
   /// decisions on the top-2 found are the exhaustive ones (exact SSD, threshold, ratio).
   kKdForest,
 };
+
+/// The algorithm named "exhaustive" or "kdtree" (the CLI's and the run configuration's names);
+/// throws InvalidArgument for any other name.
+MatchAlgorithm ParseMatchAlgorithm(const std::string& name);
 
 /// Options of the matching stage. Defaults are MATLAB matchFeatures' defaults (the paper's).
 struct MatchOptions {

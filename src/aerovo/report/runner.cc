@@ -458,8 +458,7 @@ OdometryOptions MakeOdometryOptions(const RunConfig& c) {
   o.correspondence.guided_matching = c.guided;
   o.correspondence.min_inliers = c.min_inliers;
   o.correspondence.match.num_threads = c.threads;
-  o.correspondence.match.algorithm =
-      c.matcher == "kdtree" ? MatchAlgorithm::kKdForest : MatchAlgorithm::kExhaustive;
+  o.correspondence.match.algorithm = ParseMatchAlgorithm(c.matcher);
   o.correspondence.ransac.seed = c.seed;
   o.correspondence.ransac.polish_iterations = c.polish;
   // refine = 0 is the paper's clustered RANSAC exactly: the cell's own fit, no refinement on
