@@ -43,6 +43,15 @@ grep -q "flann" <<<"$err" || fail "unclear error for --matcher flann: $err"
 out=$("$aerovo" correspondence "$dir/DJI_0060.JPG" "$dir/DJI_0061.JPG" --final-min-shift 1000)
 grep -q "final pass skipped" <<<"$out" || fail "--final-min-shift 1000 still ran the final pass"
 
+out=$("$aerovo" correspondence "$dir/DJI_0060.JPG" "$dir/DJI_0061.JPG" --final-min-shift 1000 \
+  --early-exit false)
+grep -q "final pass skipped" <<<"$out" || fail "--early-exit false: final pass not skipped"
+if grep -q "early exit" <<<"$out"; then fail "--early-exit false still exited early"; fi
+if err=$("$aerovo" correspondence "$dir/DJI_0060.JPG" "$dir/DJI_0061.JPG" --early-exit maybe 2>&1); then
+  fail "--early-exit maybe accepted"
+fi
+grep -q "early-exit" <<<"$err" || fail "unclear error for --early-exit maybe: $err"
+
 if err=$("$aerovo" correspondence "$dir/DJI_0060.JPG" "$dir/DJI_0061.JPG" --final-min-shift -1 2>&1); then
   fail "--final-min-shift -1 accepted"
 fi

@@ -50,8 +50,10 @@ std::string Describe(const char* name, const CorrespondenceResult& r) {
                      r.fell_back ? "FELL BACK to standard" : "clustered",
                      r.refined ? ", refined" : "");
     if (std::isfinite(r.refine_shift_px)) {
-      s += fmt::format("; spread refinement moved the cell's fit by {:.2f} px, final pass {}",
-                       r.refine_shift_px, r.final_pass ? "run" : "skipped");
+      s += fmt::format("; spread refinement moved the cell's fit by {:.2f} px{}, final pass {}",
+                       r.refine_shift_px,
+                       r.refine_early_exit ? " (first half of its points: early exit)" : "",
+                       r.final_pass ? "run" : "skipped");
     }
   }
   const Eigen::Matrix3d& m = r.curr_from_prev;
@@ -123,6 +125,10 @@ void Register(CLI::App& app) {
   cmd->add_option("--final-min-shift", args->options.clustered.refine_final_min_shift_px,
                   "Refinement's final pass only when the spread refinement moved the cell's fit "
                   "by more than this at the corners, px (0 = always)")
+      ->capture_default_str();
+  cmd->add_option("--early-exit", args->options.clustered.refine_early_exit,
+                  "Refinement: accept the fit on the first half of the spread points when it "
+                  "moved the cell's fit by at most --final-min-shift (true/false)")
       ->capture_default_str();
   cmd->add_flag("--prosac", args->prosac, "PROSAC sampling ordered by match SSD");
   cmd->add_option("--matcher", args->matcher,

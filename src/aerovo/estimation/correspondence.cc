@@ -179,46 +179,90 @@ void CorrespondenceStage::Refine(const FeatureSet& prev, int width, int height,
   // "at least as many inliers" then means "explains the cell's evidence and more", whatever
   // refine_max_points is. The other cells' points are matched around the cell's prediction.
   const int chosen = out->cell_row * co.grid_cols + out->cell_col;
+  // With a gate, the early exit splits the spread points in two halves (see refine_early_exit).
+  const bool gated = co.refine_final_min_shift_px > 0.f;
+  const bool early_exit = co.refine_early_exit && gated;
+  const int first_half = early_exit ? (per_cell + 1) / 2 : per_cell;
   std::vector<int> taken(static_cast<std::size_t>(num_cells), 0);
   subset_.clear();
+  second_half_.clear();
   for (std::size_t i = 0; i < cell_of.size(); ++i) {
     const int cell = cell_of[i];
-    if (cell >= 0 && cell != chosen && taken[static_cast<std::size_t>(cell)]++ < per_cell) {
+    if (cell < 0 || cell == chosen) continue;
+    const int t = taken[static_cast<std::size_t>(cell)]++;
+    if (t < first_half) {
       subset_.push_back(static_cast<int>(i));
+    } else if (t < per_cell) {
+      second_half_.push_back(static_cast<int>(i));
     }
   }
-  cell_matches_ = out->matches;
+  const CorrespondenceResult cell = *out;  // restored if a one-pass refinement would keep it
+  const Eigen::Matrix3d cell_fit = out->curr_from_prev;
   // Each pass works on its own result (Attempt overwrites it), whose cost is added to `out` and
-  // which replaces `out`'s fit when it succeeds with at least as many inliers.
-  const auto refine_pass = [&](Matcher& matcher, const std::vector<Match>* known) {
-    CorrespondenceResult pass;
+  // which replaces `out`'s fit when it succeeds with at least `min_inliers` inliers.
+  const auto refine_pass = [&](Matcher& matcher, const std::vector<int>& subset,
+                               const Eigen::Matrix3d& prior, const std::vector<Match>* known,
+                               int min_inliers, CorrespondenceResult* pass) {
     // An empty subset means every point: a crop holding only the chosen cell has nothing else
     // to match.
-    if (known != nullptr && subset_.empty()) return;
-    Attempt(matcher, true, prev, subset_, out->curr_from_prev, &pass, known);
-    out->match_ms += pass.match_ms;
-    out->estimate_ms += pass.estimate_ms;
-    out->num_comparisons += pass.num_comparisons;
-    out->ransac_trials += pass.ransac_trials;
-    if (!pass.success || pass.num_inliers < out->num_inliers) return;
-    out->curr_from_prev = pass.curr_from_prev;
-    out->matches = std::move(pass.matches);
-    out->inlier_mask = std::move(pass.inlier_mask);
-    out->num_inliers = pass.num_inliers;
+    if (known != nullptr && subset.empty()) return;
+    Attempt(matcher, true, prev, subset, prior, pass, known);
+    out->match_ms += pass->match_ms;
+    out->estimate_ms += pass->estimate_ms;
+    out->num_comparisons += pass->num_comparisons;
+    out->ransac_trials += pass->ransac_trials;
+    if (!pass->success || pass->num_inliers < min_inliers) return;
+    out->curr_from_prev = pass->curr_from_prev;
+    out->matches = pass->matches;
+    out->inlier_mask = pass->inlier_mask;
+    out->num_inliers = pass->num_inliers;
     out->refined = true;
   };
-  const Eigen::Matrix3d cell_fit = out->curr_from_prev;
-  refine_pass(refine_matcher_, &cell_matches_);
-  if (out->refined) {
-    out->refine_shift_px = MaxCornerDisplacementPx(cell_fit, out->curr_from_prev, width, height);
+  const auto shift = [&] {
+    return MaxCornerDisplacementPx(cell_fit, out->curr_from_prev, width, height);
+  };
+  // The spread fit confirms the cell's across the frame: it stayed within the gate of it, on
+  // at least min_inliers inliers more than the cell's (a fit that found no support elsewhere,
+  // and so stayed exactly where the cell's was, confirms nothing).
+  const auto confirms = [&] {
+    return out->refined && out->refine_shift_px <= co.refine_final_min_shift_px &&
+           out->num_inliers - cell.num_inliers >= options_.min_inliers;
+  };
+  CorrespondenceResult first;
+  refine_pass(refine_matcher_, subset_, cell_fit, &cell.matches, cell.num_inliers, &first);
+  if (out->refined) out->refine_shift_px = shift();
+  if (early_exit && confirms()) {
+    out->refine_early_exit = true;
+    return;
+  }
+  if (!second_half_.empty()) {
+    // The first half's matches (the cell's included) join the second's, whether or not the
+    // first fit was adopted: the fit is then the one-pass fit over every spread point, and it
+    // replaces the cell's (not the first half's) on the same rule.
+    const std::vector<Match>& known = first.attempts > 0 ? first.matches : cell.matches;
+    CorrespondenceResult second;
+    out->refined = false;
+    refine_pass(refine_matcher_, second_half_, cell_fit, &known, cell.num_inliers, &second);
+    if (out->refined) {
+      out->refine_shift_px = shift();
+    } else {
+      // Not adopted: the cell's fit stays, as after a one-pass refinement (the costs stay).
+      out->curr_from_prev = cell.curr_from_prev;
+      out->matches = cell.matches;
+      out->inlier_mask = cell.inlier_mask;
+      out->num_inliers = cell.num_inliers;
+      out->refine_shift_px = cell.refine_shift_px;
+    }
   }
   if (co.refine_final_radius_px <= 0.f) return;
-  // A spread fit that stays where the cell's fit was says the model holds across the frame
-  // (see refine_final_min_shift_px); one that was not adopted says nothing.
-  if (out->refined && out->refine_shift_px <= co.refine_final_min_shift_px) return;
+  // A spread fit that confirms the cell's says the model holds across the frame (see
+  // refine_final_min_shift_px); one that was not adopted says nothing.
+  if (gated && confirms()) return;
   out->final_pass = true;
   subset_.clear();  // every prev point
-  refine_pass(final_matcher_, nullptr);
+  CorrespondenceResult final_result;
+  refine_pass(final_matcher_, subset_, out->curr_from_prev, nullptr, out->num_inliers,
+              &final_result);
 }
 
 CorrespondenceResult CorrespondenceStage::Standard(const FeatureSet& prev, const FeatureSet& curr,

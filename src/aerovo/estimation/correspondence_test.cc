@@ -204,9 +204,11 @@ TEST(ClusteredRansac, CropAndChosenCellForEachMotion) {
       EXPECT_EQ(x.attempts, 1) << what;
       return x;
     };
-    // Refinement without the final pass: up to 20 points of every cell are re-matched.
+    // Refinement without the final pass, in one pass: up to 20 points of every cell are
+    // re-matched.
     CorrespondenceOptions spread;
     spread.clustered.refine_final_radius_px = 0.f;
+    spread.clustered.refine_early_exit = false;
     const CorrespondenceResult rr = refined_run(spread);
     // 20 points per other cell (all 11 of the decoy), all 13 of the chosen cell; no strip point.
     const std::size_t expected = 7 * 20 + 11 + 13;
@@ -220,12 +222,17 @@ TEST(ClusteredRansac, CropAndChosenCellForEachMotion) {
         << what;
     EXPECT_FALSE(rr.final_pass) << what;
     EXPECT_LT(rr.refine_shift_px, 0.01) << what;
-    // Default: the motion is exact, so the spread fit stays on the cell's and the final pass is
-    // skipped: the spread result.
+    EXPECT_FALSE(rr.refine_early_exit) << what;
+    // Default: the motion is exact, so the fit on the first half of the spread points (10 per
+    // other cell) stays on the cell's: the other half and the final pass are skipped.
     const CorrespondenceResult rs = refined_run(CorrespondenceOptions{});
+    EXPECT_TRUE(rs.refine_early_exit) << what;
     EXPECT_FALSE(rs.final_pass) << what;
-    EXPECT_EQ(rs.matches.size(), expected) << what;
-    EXPECT_EQ(rs.curr_from_prev, rr.curr_from_prev) << what;
+    EXPECT_EQ(rs.matches.size(), 7u * 10u + 10u + 13u) << what;
+    EXPECT_EQ(rs.num_inliers, static_cast<int>(rs.matches.size())) << what;
+    EXPECT_LT(rs.refine_shift_px, 0.01) << what;
+    EXPECT_LT(MaxCornerDisplacementPx(rs.curr_from_prev, motion, kFrameWidth, kFrameHeight), 0.01)
+        << what;
     // Final pass forced: it matches every prev point (strips included) around the refined
     // prediction, i.e. every point that is still in view (the only ones with a curr twin).
     CorrespondenceOptions always;
@@ -419,6 +426,7 @@ TEST(ClusteredRansac, SpreadRefinementKeepsTheCellsMatchesAndMatchesOnlyOtherCel
   paper.clustered.refine = false;
   spread.clustered.refine_final_radius_px = 0.f;
   spread.clustered.refine_max_points = 90;  // 10 per cell
+  spread.clustered.refine_early_exit = false;
   CorrespondenceStage cell_only(paper), refining(spread);
   const Eigen::Matrix3d still = Eigen::Matrix3d::Identity();
   const auto rp = cell_only.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), still);
@@ -494,9 +502,59 @@ TEST(ClusteredRansac, FinalPassRunsWhenTheSpreadFitMovesTheCellsFit) {
   EXPECT_EQ(rd.num_inliers, 640);
   EXPECT_LT(MaxCornerDisplacementPx(rd.curr_from_prev, rs.curr_from_prev, 800, 600), 1e-6);
   EXPECT_LT(MaxCornerDisplacementPx(rd.curr_from_prev, far_layer, 800, 600), 1e-3);
-  // Without it the spread fit is the same layer's, from 160 of its points.
-  EXPECT_EQ(rt.num_inliers, 160);
+  // Without it the spread fit is the same layer's. The tolerant gate accepts the fit on the
+  // first half of the spread points (10 per other cell: 80 of the layer's points); the default
+  // one does not, so the other half was matched and the fit made on all 160.
+  EXPECT_TRUE(rt.refine_early_exit);
+  EXPECT_FALSE(rd.refine_early_exit);
+  EXPECT_EQ(rt.num_inliers, 80);
   EXPECT_LT(MaxCornerDisplacementPx(rt.curr_from_prev, far_layer, 800, 600), 1e-3);
+}
+
+// When the first half's fit does not pass the gate, matching the second half and fitting on
+// both gives exactly the one-pass refinement: same matches, inlier mask, transform and
+// comparisons (the matches of a point do not depend on the others; RANSAC sees the same list
+// with the same seed). Same two-layer scene as above, without the final pass.
+TEST(ClusteredRansac, EarlyExitSplitGivesTheOnePassResultWhenTheGateFails) {
+  SceneBuilder scene(33);
+  Eigen::Matrix3d near_layer;
+  near_layer << 0.98, 0.01, 4.0, -0.01, 0.98, 8.0, 0, 0, 1;
+  const Eigen::Matrix3d far_layer = Shift(2.5, 0.0) * near_layer;
+  const double cw = kFrameWidth / 3.0, ch = kFrameHeight / 3.0;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) {
+      const bool chosen = r == 2 && c == 0;
+      scene.AddInBox(chosen ? 40 : 80, c * cw, r * ch, (c + 1) * cw, (r + 1) * ch,
+                     chosen ? near_layer : far_layer);
+    }
+  }
+  CorrespondenceOptions split, one_pass;
+  split.clustered.refine_final_radius_px = 0.f;
+  one_pass.clustered.refine_final_radius_px = 0.f;
+  one_pass.clustered.refine_early_exit = false;
+  CorrespondenceStage a(split), b(one_pass);
+  const Eigen::Matrix3d still = Eigen::Matrix3d::Identity();
+  const auto rs = a.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), still);
+  const auto ro = b.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), still);
+  ASSERT_TRUE(rs.success && ro.success && rs.refined && ro.refined);
+  EXPECT_FALSE(rs.refine_early_exit);
+  EXPECT_EQ(rs.curr_from_prev, ro.curr_from_prev);
+  EXPECT_EQ(rs.inlier_mask, ro.inlier_mask);
+  EXPECT_EQ(rs.num_inliers, 160);
+  ASSERT_EQ(rs.matches.size(), ro.matches.size());
+  for (std::size_t i = 0; i < rs.matches.size(); ++i) {
+    EXPECT_EQ(rs.matches[i].prev_index, ro.matches[i].prev_index);
+    EXPECT_EQ(rs.matches[i].curr_index, ro.matches[i].curr_index);
+  }
+  EXPECT_EQ(rs.num_comparisons, ro.num_comparisons);
+  EXPECT_EQ(rs.refine_shift_px, ro.refine_shift_px);
+  // A zero gate means "always the final pass": no early exit either.
+  CorrespondenceOptions always = split;
+  always.clustered.refine_final_min_shift_px = 0.f;
+  CorrespondenceStage c(always);
+  const auto ra = c.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), still);
+  EXPECT_FALSE(ra.refine_early_exit);
+  EXPECT_EQ(ra.curr_from_prev, ro.curr_from_prev);
 }
 
 TEST(StandardCorrespondence, MatchesAllAndFits) {
