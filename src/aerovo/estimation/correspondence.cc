@@ -296,19 +296,37 @@ CorrespondenceResult CorrespondenceStage::Clustered(const FeatureSet& prev, int 
   const int rows = co.grid_rows, cols = co.grid_cols;
   result.cell_point_counts.assign(static_cast<std::size_t>(rows * cols), 0);
 
-  // Cell of every prev point (-1 outside the crop), by the same arithmetic as
-  // ClusterCellBounds so that the two agree on cell edges.
-  std::vector<int> cell_of(prev.size(), -1);
+  // Cell of every prev point (-1 outside the crop).
+  std::vector<int>& cell_of = cell_of_;
+  cell_of.assign(prev.size(), -1);
   if (!crop.empty()) {
-    for (std::size_t i = 0; i < prev.size(); ++i) {
-      const Keypoint& k = prev.keypoints[i];
-      if (!crop.contains(k.x, k.y)) continue;
-      const double fx = (k.x - crop.x) / (static_cast<double>(crop.width) / cols);
-      const double fy = (k.y - crop.y) / (static_cast<double>(crop.height) / rows);
-      const int c = std::min(cols - 1, static_cast<int>(fx));
-      const int r = std::min(rows - 1, static_cast<int>(fy));
-      cell_of[i] = r * cols + c;
-      ++result.cell_point_counts[static_cast<std::size_t>(cell_of[i])];
+    // A point's column is the number of inner cell edges at or left of it, with the edges
+    // computed as ClusterCellBounds computes them: the two agree on every edge, and two
+    // comparisons per axis cost less than the divisions they replace (the loop runs over
+    // every prev point of every pair).
+    const double cw = static_cast<double>(crop.width) / cols;
+    const double ch = static_cast<double>(crop.height) / rows;
+    edges_x_.resize(static_cast<std::size_t>(cols - 1));
+    edges_y_.resize(static_cast<std::size_t>(rows - 1));
+    for (int k = 1; k < cols; ++k) edges_x_[static_cast<std::size_t>(k - 1)] = crop.x + k * cw;
+    for (int k = 1; k < rows; ++k) edges_y_[static_cast<std::size_t>(k - 1)] = crop.y + k * ch;
+    const double x0 = crop.x, x1 = static_cast<double>(crop.x) + crop.width;
+    const double y0 = crop.y, y1 = static_cast<double>(crop.y) + crop.height;
+    const double* ex = edges_x_.data();
+    const double* ey = edges_y_.data();
+    const int nex = cols - 1, ney = rows - 1;
+    const Keypoint* kps = prev.keypoints.data();
+    int* out_cell = cell_of.data();
+    int* counts = result.cell_point_counts.data();
+    const int n = static_cast<int>(prev.size());
+    for (int i = 0; i < n; ++i) {
+      const double x = kps[i].x, y = kps[i].y;
+      if (!(x >= x0 && x < x1 && y >= y0 && y < y1)) continue;  // RectI::contains
+      int c = 0, r = 0;
+      for (int e = 0; e < nex; ++e) c += x >= ex[e] ? 1 : 0;
+      for (int e = 0; e < ney; ++e) r += y >= ey[e] ? 1 : 0;
+      out_cell[i] = r * cols + c;
+      ++counts[r * cols + c];
     }
   }
   std::vector<int> order;

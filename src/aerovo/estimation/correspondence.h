@@ -282,6 +282,8 @@ class CorrespondenceStage {
   Eigen::Matrix2Xd prev_px_, curr_px_;
   std::vector<float> quality_;
   std::vector<int> subset_, second_half_;
+  std::vector<int> cell_of_;  // Clustered(): cell of every prev point (-1 outside the crop)
+  std::vector<double> edges_x_, edges_y_;  // Clustered(): inner cell edges, px
   std::vector<Match> merged_;
 };
 

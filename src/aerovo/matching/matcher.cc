@@ -195,6 +195,8 @@ struct MatchCandidates::Grid {
   std::vector<float> x, y;          // slot -> position
   std::vector<std::int32_t> index;  // slot -> original index
   std::vector<float> px, py;        // MatchCandidates: positions by index (FillGrid input)
+  std::vector<std::uint8_t> group;  // MatchCandidates: Laplacian group by index
+  double extent[4] = {0, 0, 0, 0};  // MatchCandidates: x0, y0, x1, y1 of px, py
 };
 using Grid = MatchCandidates::Grid;
 
@@ -204,19 +206,29 @@ namespace {
 // index id_of(k)) by cell of side >= min_cell, per group; points at non-finite positions (a
 // prior that overflowed) can be in no disc and are left out. Queries visit the cells their
 // disc overlaps, whatever the cell side, so the side is chosen for speed only.
+// `extent` (x0, y0, x1, y1), when given, is the bounding box of the positions, all finite
+// (MatchCandidates computes it while it checks them): it saves a pass.
 template <class GroupOf, class IdOf>
 void FillGrid(std::size_t count, const float* px, const float* py, GroupOf group_of, IdOf id_of,
-              double min_cell, Grid* g) {
+              double min_cell, Grid* g, const double* extent = nullptr) {
   const auto usable = [&](std::size_t k) { return std::isfinite(px[k]) && std::isfinite(py[k]); };
   std::size_t n = 0;
   double x0 = kInf, y0 = kInf, x1 = -kInf, y1 = -kInf;
-  for (std::size_t k = 0; k < count; ++k) {
-    if (!usable(k)) continue;
-    ++n;
-    x0 = std::min(x0, static_cast<double>(px[k]));
-    x1 = std::max(x1, static_cast<double>(px[k]));
-    y0 = std::min(y0, static_cast<double>(py[k]));
-    y1 = std::max(y1, static_cast<double>(py[k]));
+  if (extent != nullptr) {
+    n = count;
+    x0 = extent[0];
+    y0 = extent[1];
+    x1 = extent[2];
+    y1 = extent[3];
+  } else {
+    for (std::size_t k = 0; k < count; ++k) {
+      if (!usable(k)) continue;
+      ++n;
+      x0 = std::min(x0, static_cast<double>(px[k]));
+      x1 = std::max(x1, static_cast<double>(px[k]));
+      y0 = std::min(y0, static_cast<double>(py[k]));
+      y1 = std::max(y1, static_cast<double>(py[k]));
+    }
   }
   if (n == 0) x0 = y0 = x1 = y1 = 0.0;
   // Cells of side ~ the mean spacing of the points hold ~1 point each: smaller ones would be
@@ -805,18 +817,31 @@ void MatchCandidates::Reset(const FeatureSet& f) {
 const MatchCandidates::Grid& MatchCandidates::grid() const {
   if (!grid_built_) {
     Grid& g = *grid_;
+    // Positions, groups and extent in one pass over the keypoints (Reset checked them finite).
     const FeatureSet& f = *features_;
     const std::size_t n = f.size();
     g.px.resize(n);
     g.py.resize(n);
+    g.group.resize(n);
+    float x0 = kInf, y0 = kInf, x1 = -kInf, y1 = -kInf;
     for (std::size_t i = 0; i < n; ++i) {
-      g.px[i] = f.keypoints[i].x;
-      g.py[i] = f.keypoints[i].y;
+      const Keypoint& kp = f.keypoints[i];
+      g.px[i] = kp.x;
+      g.py[i] = kp.y;
+      g.group[i] = static_cast<std::uint8_t>(GroupOf(kp.laplacian, true));
+      x0 = std::min(x0, kp.x);
+      x1 = std::max(x1, kp.x);
+      y0 = std::min(y0, kp.y);
+      y1 = std::max(y1, kp.y);
     }
+    g.extent[0] = x0;
+    g.extent[1] = y0;
+    g.extent[2] = x1;
+    g.extent[3] = y1;
+    const std::uint8_t* group = g.group.data();
     FillGrid(
-        n, g.px.data(), g.py.data(),
-        [&](std::size_t k) { return GroupOf(f.keypoints[k].laplacian, true); },
-        [](std::size_t k) { return static_cast<std::int32_t>(k); }, 0.0, &g);
+        g.px.size(), g.px.data(), g.py.data(), [group](std::size_t k) { return int{group[k]}; },
+        [](std::size_t k) { return static_cast<std::int32_t>(k); }, 0.0, &g, g.extent);
     grid_built_ = true;
   }
   return *grid_;
