@@ -122,6 +122,9 @@ void Register(CLI::App& app) {
                   "Refinement's final pass: every point re-matched within this radius (px) of "
                   "the refined fit (0 = no final pass)")
       ->capture_default_str();
+  cmd->add_option("--final-points", args->options.clustered.refine_final_max_points,
+                  "Refinement's final pass: at most this many prev points, every k-th (0 = all)")
+      ->capture_default_str();
   cmd->add_option("--final-min-shift", args->options.clustered.refine_final_min_shift_px,
                   "Refinement's final pass only when the spread refinement moved the cell's fit "
                   "by more than this at the corners, px (0 = always)")

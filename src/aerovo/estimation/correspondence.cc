@@ -32,6 +32,10 @@ void Validate(const CorrespondenceOptions& o) {
         "ClusteredRansacOptions.refine_final_min_shift_px must be finite and >= 0, got " +
         std::to_string(c.refine_final_min_shift_px));
   }
+  if (c.refine_final_max_points < 0) {
+    throw InvalidArgument("ClusteredRansacOptions.refine_final_max_points must be >= 0, got " +
+                          std::to_string(c.refine_final_max_points));
+  }
   if (c.refine_max_points < 0) {
     throw InvalidArgument("ClusteredRansacOptions.refine_max_points must be >= 0, got " +
                           std::to_string(c.refine_max_points));
@@ -259,10 +263,26 @@ void CorrespondenceStage::Refine(const FeatureSet& prev, int width, int height,
   // refine_final_min_shift_px); one that was not adopted says nothing.
   if (gated && confirms()) return;
   out->final_pass = true;
-  subset_.clear();  // every prev point
+  subset_.clear();  // empty: every prev point
+  const std::int64_t n = static_cast<std::int64_t>(prev.size());
+  const std::int64_t cap = co.refine_final_max_points;
+  // The final fit replaces the spread fit when it has at least as many inliers among the points
+  // the pass matched: all of them, or with the cap, those of the sample.
+  int min_inliers = out->num_inliers;
+  if (cap > 0 && n > cap) {
+    sampled_.assign(prev.size(), 0);
+    for (std::int64_t j = 0; j < cap; ++j) {
+      subset_.push_back(static_cast<int>(j * n / cap));
+      sampled_[static_cast<std::size_t>(subset_.back())] = 1;
+    }
+    min_inliers = 0;
+    for (std::size_t k = 0; k < out->matches.size(); ++k) {
+      min_inliers += out->inlier_mask[k] != 0 &&
+                     sampled_[static_cast<std::size_t>(out->matches[k].prev_index)] != 0;
+    }
+  }
   CorrespondenceResult final_result;
-  refine_pass(final_matcher_, subset_, out->curr_from_prev, nullptr, out->num_inliers,
-              &final_result);
+  refine_pass(final_matcher_, subset_, out->curr_from_prev, nullptr, min_inliers, &final_result);
 }
 
 CorrespondenceResult CorrespondenceStage::Standard(const FeatureSet& prev, const FeatureSet& curr,

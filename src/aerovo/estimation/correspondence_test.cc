@@ -5,6 +5,7 @@
 #include <limits>
 #include <map>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -511,6 +512,51 @@ TEST(ClusteredRansac, FinalPassRunsWhenTheSpreadFitMovesTheCellsFit) {
   EXPECT_LT(MaxCornerDisplacementPx(rt.curr_from_prev, far_layer, 800, 600), 1e-3);
 }
 
+// The final pass matches at most refine_final_max_points prev points, every k-th in
+// FeatureSet order: on the two-layer scene (680 points, the final pass runs) with a cap of 100,
+// exactly the points floor(j * 680 / 100) are matched again, and the fit on the far layer's
+// among them is that layer's motion.
+TEST(ClusteredRansac, FinalPassMatchesAtMostRefineFinalMaxPoints) {
+  SceneBuilder scene(33);
+  Eigen::Matrix3d near_layer;
+  near_layer << 0.98, 0.01, 4.0, -0.01, 0.98, 8.0, 0, 0, 1;
+  const Eigen::Matrix3d far_layer = Shift(2.5, 0.0) * near_layer;
+  const double cw = kFrameWidth / 3.0, ch = kFrameHeight / 3.0;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) {
+      const bool chosen = r == 2 && c == 0;
+      scene.AddInBox(chosen ? 40 : 80, c * cw, r * ch, (c + 1) * cw, (r + 1) * ch,
+                     chosen ? near_layer : far_layer);
+    }
+  }
+  ASSERT_EQ(scene.prev().size(), 680u);
+  CorrespondenceOptions capped;
+  capped.clustered.refine_final_max_points = 100;
+  CorrespondenceStage stage(capped);
+  const Eigen::Matrix3d still = Eigen::Matrix3d::Identity();
+  const auto r = stage.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), still);
+  ASSERT_TRUE(r.success);
+  ASSERT_TRUE(r.final_pass);
+  std::set<int> sampled;
+  for (int j = 0; j < 100; ++j) sampled.insert(j * 680 / 100);
+  int far_sampled = 0;
+  for (int i : sampled) {
+    const Keypoint& k = scene.prev().keypoints[static_cast<std::size_t>(i)];
+    far_sampled += !(k.x < cw && k.y >= 2 * ch);
+  }
+  EXPECT_LE(r.matches.size(), 100u);
+  for (const Match& m : r.matches) EXPECT_EQ(sampled.count(m.prev_index), 1u) << m.prev_index;
+  EXPECT_EQ(r.num_inliers, far_sampled);
+  EXPECT_GT(far_sampled, 80);
+  EXPECT_LT(MaxCornerDisplacementPx(r.curr_from_prev, far_layer, 800, 600), 1e-3);
+  // Uncapped (0), every point: the far layer's 640.
+  capped.clustered.refine_final_max_points = 0;
+  CorrespondenceStage all(capped);
+  const auto ra = all.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), still);
+  ASSERT_TRUE(ra.final_pass);
+  EXPECT_EQ(ra.num_inliers, 640);
+}
+
 // When the first half's fit does not pass the gate, matching the second half and fitting on
 // both gives exactly the one-pass refinement: same matches, inlier mask, transform and
 // comparisons (the matches of a point do not depend on the others; RANSAC sees the same list
@@ -623,6 +669,14 @@ TEST(CorrespondenceOptions, ValidateNamesTheField) {
     } catch (const InvalidArgument& e) {
       EXPECT_NE(std::string(e.what()).find("refine_final_min_shift_px"), std::string::npos);
     }
+  }
+  o = {};
+  o.clustered.refine_final_max_points = -1;
+  try {
+    Validate(o);
+    ADD_FAILURE() << "no throw for refine_final_max_points -1";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("refine_final_max_points"), std::string::npos);
   }
 }
 

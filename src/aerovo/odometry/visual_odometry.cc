@@ -129,12 +129,14 @@ struct VisualOdometry::Impl {
   }
 
   // Frame-to-frame steps: a successful cell is refined on all points by the stage itself
-  // (ClusteredRansacOptions::refine_final_radius_px), with the odometry's radius, always (a
-  // track adds up every step's error, and SURF, not this pass, sets the frame rate).
+  // (ClusteredRansacOptions::refine_final_radius_px), with the odometry's radius, always, and
+  // on every point however many (a track adds up every step's error, and SURF, not this pass,
+  // sets the frame rate).
   static CorrespondenceOptions StepOptions(const OdometryOptions& o, bool guided) {
     CorrespondenceOptions c = WithGuidance(o.correspondence, guided);
     c.clustered.refine_final_radius_px = o.refine_on_all_points ? o.refine_radius_px : 0.f;
     c.clustered.refine_final_min_shift_px = 0.f;
+    c.clustered.refine_final_max_points = 0;
     return c;
   }
 
