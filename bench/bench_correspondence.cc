@@ -593,10 +593,11 @@ std::vector<VariantSummary> ReportSequence(const Sequence& s, bool polish) {
                 mm(errs[nv + 1]).c_str());
   }
   // The default's gate: how far the spread refinement moved the cell's fit (px at the corners).
-  int final_passes = 0;
+  int final_passes = 0, early_exits = 0;
   std::vector<double> shifts;
   for (const CorrespondenceResult& r : res[nv - 1]) {
     final_passes += r.final_pass;
+    early_exits += r.refine_early_exit;
     if (std::isfinite(r.refine_shift_px)) shifts.push_back(r.refine_shift_px);
   }
   std::sort(shifts.begin(), shifts.end());
@@ -604,10 +605,12 @@ std::vector<VariantSummary> ReportSequence(const Sequence& s, bool polish) {
     return shifts.empty() ? NAN : shifts[static_cast<std::size_t>(q * (shifts.size() - 1) + 0.5)];
   };
   std::printf(
-      "summary %s ref (default): final pass run in %d of %zu pairs; spread refinement moved the "
+      "summary %s ref (default): early exit after half the spread points in %d and final pass "
+      "run in %d of %zu pairs; spread refinement moved the "
       "cell's fit by (px at the corners) min %.2f, 10th percentile %.2f, median %.2f, 90th "
       "percentile %.2f, max %.2f\n",
-      label.c_str(), final_passes, s.pairs(), pct(0.0), pct(0.1), pct(0.5), pct(0.9), pct(1.0));
+      label.c_str(), early_exits, final_passes, s.pairs(), pct(0.0), pct(0.1), pct(0.5), pct(0.9),
+      pct(1.0));
   if (!polish) {
     std::printf(
         "summary %s estimation only on the standard matches, mean ms/pair: cv RANSAC %.3f, cv "
