@@ -465,23 +465,34 @@ TEST(ClusteredRansac, SpreadRefinementKeepsTheCellsMatchesAndMatchesOnlyOtherCel
   EXPECT_LT(MaxCornerDisplacementPx(rr.curr_from_prev, motion, 800, 600), 1e-3);
 }
 
+// The two-layer scene of the tests below: the bottom-left cell (40 points, the fewest: the
+// chosen one) moves with NearLayer(), the other cells (80 points each) with FarLayer(), 2.5 px
+// further right; both keep every point in view.
+Eigen::Matrix3d NearLayer() {
+  Eigen::Matrix3d m;
+  m << 0.98, 0.01, 4.0, -0.01, 0.98, 8.0, 0, 0, 1;
+  return m;
+}
+Eigen::Matrix3d FarLayer() { return Shift(2.5, 0.0) * NearLayer(); }
+void AddTwoLayers(SceneBuilder* scene) {
+  const double cw = kFrameWidth / 3.0, ch = kFrameHeight / 3.0;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) {
+      const bool chosen = r == 2 && c == 0;
+      scene->AddInBox(chosen ? 40 : 80, c * cw, r * ch, (c + 1) * cw, (r + 1) * ch,
+                      chosen ? NearLayer() : FarLayer());
+    }
+  }
+}
+
 // The final pass runs when the spread refinement moves the cell's fit by more than
 // refine_final_min_shift_px at the corners: here the bottom-left cell (the chosen one: fewest
 // points) moves with one affine map and the rest of the frame, a second layer, 2.5 px further
 // right, so the cell's fit is 2.5 px off elsewhere.
 TEST(ClusteredRansac, FinalPassRunsWhenTheSpreadFitMovesTheCellsFit) {
   SceneBuilder scene(33);
-  Eigen::Matrix3d near_layer;
-  near_layer << 0.98, 0.01, 4.0, -0.01, 0.98, 8.0, 0, 0, 1;  // keeps every point in view
-  const Eigen::Matrix3d far_layer = Shift(2.5, 0.0) * near_layer;
-  const double cw = kFrameWidth / 3.0, ch = kFrameHeight / 3.0;
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) {
-      const bool chosen = r == 2 && c == 0;
-      scene.AddInBox(chosen ? 40 : 80, c * cw, r * ch, (c + 1) * cw, (r + 1) * ch,
-                     chosen ? near_layer : far_layer);
-    }
-  }
+  const Eigen::Matrix3d far_layer = FarLayer();
+  AddTwoLayers(&scene);
   const Eigen::Matrix3d still = Eigen::Matrix3d::Identity();
   CorrespondenceOptions defaults, tolerant;
   tolerant.clustered.refine_final_min_shift_px = 5.f;
@@ -518,17 +529,9 @@ TEST(ClusteredRansac, FinalPassRunsWhenTheSpreadFitMovesTheCellsFit) {
 // among them is that layer's motion.
 TEST(ClusteredRansac, FinalPassMatchesAtMostRefineFinalMaxPoints) {
   SceneBuilder scene(33);
-  Eigen::Matrix3d near_layer;
-  near_layer << 0.98, 0.01, 4.0, -0.01, 0.98, 8.0, 0, 0, 1;
-  const Eigen::Matrix3d far_layer = Shift(2.5, 0.0) * near_layer;
+  const Eigen::Matrix3d far_layer = FarLayer();
   const double cw = kFrameWidth / 3.0, ch = kFrameHeight / 3.0;
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) {
-      const bool chosen = r == 2 && c == 0;
-      scene.AddInBox(chosen ? 40 : 80, c * cw, r * ch, (c + 1) * cw, (r + 1) * ch,
-                     chosen ? near_layer : far_layer);
-    }
-  }
+  AddTwoLayers(&scene);
   ASSERT_EQ(scene.prev().size(), 680u);
   CorrespondenceOptions capped;
   capped.clustered.refine_final_max_points = 100;
@@ -563,17 +566,7 @@ TEST(ClusteredRansac, FinalPassMatchesAtMostRefineFinalMaxPoints) {
 // with the same seed). Same two-layer scene as above, without the final pass.
 TEST(ClusteredRansac, EarlyExitSplitGivesTheOnePassResultWhenTheGateFails) {
   SceneBuilder scene(33);
-  Eigen::Matrix3d near_layer;
-  near_layer << 0.98, 0.01, 4.0, -0.01, 0.98, 8.0, 0, 0, 1;
-  const Eigen::Matrix3d far_layer = Shift(2.5, 0.0) * near_layer;
-  const double cw = kFrameWidth / 3.0, ch = kFrameHeight / 3.0;
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) {
-      const bool chosen = r == 2 && c == 0;
-      scene.AddInBox(chosen ? 40 : 80, c * cw, r * ch, (c + 1) * cw, (r + 1) * ch,
-                     chosen ? near_layer : far_layer);
-    }
-  }
+  AddTwoLayers(&scene);
   CorrespondenceOptions split, one_pass;
   split.clustered.refine_final_radius_px = 0.f;
   one_pass.clustered.refine_final_radius_px = 0.f;
