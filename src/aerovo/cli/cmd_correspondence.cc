@@ -119,8 +119,8 @@ void Register(CLI::App& app) {
                   "(0 = all)")
       ->capture_default_str();
   cmd->add_option("--final-radius", args->options.clustered.refine_final_radius_px,
-                  "Refinement's final pass: every point re-matched within this radius (px) of "
-                  "the refined fit (0 = no final pass)")
+                  "Refinement's final pass: every point (at most --final-points) re-matched "
+                  "within this radius (px) of the refined fit (0 = no final pass)")
       ->capture_default_str();
   cmd->add_option("--final-points", args->options.clustered.refine_final_max_points,
                   "Refinement's final pass: at most this many prev points, every k-th (0 = all)")
@@ -131,7 +131,8 @@ void Register(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--early-exit", args->options.clustered.refine_early_exit,
                   "Refinement: accept the fit on the first half of the spread points when it "
-                  "moved the cell's fit by at most --final-min-shift (true/false)")
+                  "confirms the cell's (moved it by at most --final-min-shift, with 8 more "
+                  "inliers) (true/false)")
       ->capture_default_str();
   cmd->add_flag("--prosac", args->prosac, "PROSAC sampling ordered by match SSD");
   cmd->add_option("--matcher", args->matcher,

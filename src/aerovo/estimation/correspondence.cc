@@ -201,7 +201,7 @@ void CorrespondenceStage::Refine(const FeatureSet& prev, int width, int height,
     }
   }
   const CorrespondenceResult cell = *out;  // restored if a one-pass refinement would keep it
-  const Eigen::Matrix3d cell_fit = out->curr_from_prev;
+  const Eigen::Matrix3d& cell_fit = cell.curr_from_prev;
   // Each pass works on its own result (Attempt overwrites it), whose cost is added to `out` and
   // which replaces `out`'s fit when it succeeds with at least `min_inliers` inliers.
   const auto refine_pass = [&](Matcher& matcher, const std::vector<int>& subset,
@@ -251,7 +251,7 @@ void CorrespondenceStage::Refine(const FeatureSet& prev, int width, int height,
       out->refine_shift_px = shift();
     } else {
       // Not adopted: the cell's fit stays, as after a one-pass refinement (the costs stay).
-      out->curr_from_prev = cell.curr_from_prev;
+      out->curr_from_prev = cell_fit;
       out->matches = cell.matches;
       out->inlier_mask = cell.inlier_mask;
       out->num_inliers = cell.num_inliers;

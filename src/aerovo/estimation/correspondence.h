@@ -102,16 +102,16 @@ struct ClusteredRansacOptions {
   /// (our choice: 20 per cell of the 3 x 3 grid; an affine least-squares fit on that many
   /// well-spread inliers with 0.3 px noise is good to ~0.1 px at the corners).
   int refine_max_points = 180;
-  /// Final pass of the refinement: every prev point is matched by guided matching within this
-  /// radius (px of the current frame) of the refined transform's prediction and the same RANSAC
-  /// runs on those matches; the result replaces the refined fit if it succeeds with at least as
-  /// many inliers. 0 = no final pass. Why: a fit on a subset of the matches is a different
-  /// estimate from one on all of them whenever the scene departs from the model (parallax, a
-  /// tilted camera: several pixels at the corners on tampa-phantom3, BENCHMARKS.md), so agreeing
-  /// with the standard method needs the same evidence; after the spread refinement the
-  /// prediction is good to a few pixels, and a disc that small holds ~1 candidate, so the pass
-  /// costs a small fraction of exhaustive matching. Default 6 px (4x the RANSAC threshold, the
-  /// radius of OdometryOptions::refine_radius_px).
+  /// Final pass of the refinement: every prev point (at most refine_final_max_points of them)
+  /// is matched by guided matching within this radius (px of the current frame) of the refined
+  /// transform's prediction and the same RANSAC runs on those matches; the result replaces the
+  /// refined fit if it succeeds with at least as many inliers (among the points matched). 0 = no
+  /// final pass. Why: a fit on a subset of the matches is a different estimate from one on all of
+  /// them whenever the scene departs from the model (parallax, a tilted camera: several pixels at
+  /// the corners on tampa-phantom3, BENCHMARKS.md), so agreeing with the standard method needs the
+  /// same evidence; after the spread refinement the prediction is good to a few pixels, and a disc
+  /// that small holds ~1 candidate, so the pass costs a small fraction of exhaustive matching.
+  /// Default 6 px (4x the RANSAC threshold, the radius of OdometryOptions::refine_radius_px).
   float refine_final_radius_px = 6.f;
   /// Prev points the final pass matches at most: with more, every k-th in FeatureSet order
   /// (point floor(j * n / max) for j = 0 .. max - 1: spread over the frame and over strengths
