@@ -45,7 +45,7 @@
 
 #include "aerovo/core/image.h"
 #include "aerovo/core/timer.h"
-#include "aerovo/estimation/correspondence.h"
+#include "aerovo/correspondence/correspondence.h"
 #include "aerovo/estimation/ransac.h"
 #include "aerovo/estimation/testing.h"
 #include "aerovo/features/surf.h"

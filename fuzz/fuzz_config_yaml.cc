@@ -5,7 +5,7 @@
 #include <string_view>
 
 #include "aerovo/core/error.h"
-#include "aerovo/report/runner.h"
+#include "aerovo/pipeline/runner.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view text(reinterpret_cast<const char*>(data), size);

@@ -12,7 +12,7 @@
 
 #include "aerovo/cli/command.h"
 #include "aerovo/core/error.h"
-#include "aerovo/estimation/correspondence.h"
+#include "aerovo/correspondence/correspondence.h"
 #include "aerovo/features/surf.h"
 #include "aerovo/matching/matcher.h"
 

@@ -16,7 +16,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/features/surf.h"
-#include "aerovo/report/demo.h"
+#include "aerovo/pipeline/demo.h"
 #include "aerovo/sim/terrain.h"
 
 namespace aerovo::cli {

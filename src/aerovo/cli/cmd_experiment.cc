@@ -1,5 +1,5 @@
 // `aerovo experiment illumination|ransac`: the paper's measurements on any flight (or on a
-// simulated one with exact ground truth). The work is in aerovo/report/experiment.h; this file
+// simulated one with exact ground truth). The work is in aerovo/pipeline/experiment.h; this file
 // maps flags, signals and terminal output onto it.
 #include <unistd.h>
 
@@ -16,7 +16,7 @@
 #include "aerovo/cli/command.h"
 #include "aerovo/cli/run_cli.h"
 #include "aerovo/core/error.h"
-#include "aerovo/report/experiment.h"
+#include "aerovo/pipeline/experiment.h"
 #include "aerovo/report/html_report.h"
 
 namespace aerovo::cli {

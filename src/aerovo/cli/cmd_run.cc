@@ -1,6 +1,6 @@
 // `aerovo run`: the main job. A flight (video, photo folder or live source) and its telemetry in;
 // a geo-referenced trajectory, its comparison with GPS and every per-frame output out. The work
-// is in aerovo/report/runner.h; this file maps flags and signals onto it.
+// is in aerovo/pipeline/runner.h; this file maps flags and signals onto it.
 #include <unistd.h>
 
 #include <cstdio>
@@ -13,7 +13,7 @@
 #include "aerovo/cli/command.h"
 #include "aerovo/cli/run_cli.h"
 #include "aerovo/report/html_report.h"
-#include "aerovo/report/runner.h"
+#include "aerovo/pipeline/runner.h"
 
 namespace aerovo::cli {
 namespace {

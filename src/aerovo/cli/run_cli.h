@@ -1,5 +1,5 @@
 // What every subcommand that runs flights (`aerovo run`, `aerovo experiment ...`) shares: the flags
-// of RunConfig (aerovo/report/runner.h) with the same names, help and --config file (JSON or
+// of RunConfig (aerovo/pipeline/runner.h) with the same names, help and --config file (JSON or
 // YAML) underneath; stopping cleanly on SIGINT/SIGTERM; the terminal progress bar.
 #pragma once
 
@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "aerovo/report/runner.h"
+#include "aerovo/pipeline/runner.h"
 
 namespace aerovo::cli {
 

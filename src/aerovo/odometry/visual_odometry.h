@@ -15,7 +15,7 @@
 #include <Eigen/Core>
 
 #include "aerovo/core/image.h"
-#include "aerovo/estimation/correspondence.h"
+#include "aerovo/correspondence/correspondence.h"
 #include "aerovo/features/surf.h"
 #include "aerovo/odometry/pose_chain.h"
 

@@ -15,7 +15,6 @@
 #include "aerovo/geo/geo_point.h"
 #include "aerovo/geo/local_enu.h"
 #include "aerovo/io/reference_track.h"
-#include "aerovo/report/experiment.h"
 
 namespace aerovo {
 

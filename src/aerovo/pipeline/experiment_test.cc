@@ -1,7 +1,7 @@
 // The experiments (illumination, ransac) on a short simulated flight, the illumination option of
 // the runner, the statistics helpers and the option checks. About 10-15 s on 2 cores (one
 // simulated 31-frame 640x480 flight, five short runs).
-#include "aerovo/report/experiment.h"
+#include "aerovo/pipeline/experiment.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

@@ -36,7 +36,7 @@
 
 #include "aerovo/eval/trajectory_eval.h"
 #include "aerovo/io/frame_record.h"
-#include "aerovo/report/runner.h"
+#include "aerovo/pipeline/runner.h"
 #include "aerovo/sim/simulator.h"
 
 namespace aerovo {

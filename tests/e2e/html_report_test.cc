@@ -22,7 +22,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/io/track_writers.h"
 #include "aerovo/report/run_reader.h"
-#include "aerovo/report/runner.h"
+#include "aerovo/pipeline/runner.h"
 
 namespace aerovo {
 namespace {

@@ -1,6 +1,6 @@
 // The flight demo in its quick size: every output is written, and the track agrees with the exact
 // ground truth. Needs no shared data (built-in terrain).
-#include "aerovo/report/demo.h"
+#include "aerovo/pipeline/demo.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

@@ -17,7 +17,7 @@
 
 #include "aerovo/core/timer.h"
 #include "aerovo/io/frame_source.h"
-#include "aerovo/report/runner.h"
+#include "aerovo/pipeline/runner.h"
 #include "aerovo/sim/sim_writer.h"
 #include "aerovo/sim/simulator.h"
 

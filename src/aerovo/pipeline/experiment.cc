@@ -1,4 +1,4 @@
-#include "aerovo/report/experiment.h"
+#include "aerovo/pipeline/experiment.h"
 
 #include <algorithm>
 #include <cmath>

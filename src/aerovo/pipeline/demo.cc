@@ -1,4 +1,4 @@
-#include "aerovo/report/demo.h"
+#include "aerovo/pipeline/demo.h"
 #include "aerovo/core/text.h"
 
 #include <cmath>

@@ -30,7 +30,7 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/geo/local_enu.h"
-#include "aerovo/report/runner.h"
+#include "aerovo/pipeline/runner.h"
 #include "aerovo/sim/terrain.h"
 
 namespace aerovo {

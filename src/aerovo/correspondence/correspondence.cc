@@ -1,4 +1,4 @@
-#include "aerovo/estimation/correspondence.h"
+#include "aerovo/correspondence/correspondence.h"
 
 #include <algorithm>
 #include <cmath>

@@ -23,8 +23,8 @@
 #include <string>
 #include <vector>
 
-#include "aerovo/report/experiment.h"
-#include "aerovo/report/runner.h"
+#include "aerovo/pipeline/experiment.h"
+#include "aerovo/pipeline/runner.h"
 
 namespace aerovo {
 
