@@ -247,11 +247,12 @@ class FrameLoop {
             const std::filesystem::path& out_dir, const RunCallbacks& callbacks,
             std::ostream* log);
 
-  /// Processes `source` until its end, config.max_frames or `stop` (may be null). Fills in
-  /// `summary`'s frames_processed, focal, height source and the height warning. Throws the
-  /// input errors of the first frame, a missing focal length or height; an input error after
-  /// the first frame ends the loop instead (LoopEnd::failure). `wall`: the run's stopwatch,
-  /// for the progress callback's frames per second.
+  /// Processes `source` until its end, config.max_frames or `stop` (may be null); call once,
+  /// then Finish(). Fills in `summary`'s frames_processed, focal, height source and the height
+  /// warning (frames_expected: read for the progress callback). Throws the input errors of the
+  /// first frame, a missing focal length or height; an input error after the first frame ends
+  /// the loop instead (LoopEnd::failure). `wall`: the run's stopwatch, for the progress
+  /// callback's frames per second.
   LoopEnd Run(FrameSource& source, const std::atomic<bool>* stop, const Stopwatch& wall,
               RunSummary* summary);
   /// Writes the frames still queued and closes the track files (nothing when no frame came).
