@@ -12,7 +12,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/io/camera.h"
 #include "aerovo/io/telemetry_readers.h"
-#include "aerovo/report/run_reader.h"
+#include "aerovo/report/run_reader.h"  // AssociateWithTruth
 #include "aerovo/sim/sim_writer.h"
 
 namespace aerovo::run_steps {

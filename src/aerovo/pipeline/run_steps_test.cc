@@ -20,6 +20,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/testing.h"
 #include "aerovo/io/camera.h"
 
 namespace aerovo::run_steps {
@@ -327,6 +328,34 @@ TEST(RunSteps, UndistorterOnlyWithDistortion) {
   const GrayImageView out = u->Apply(image.view());
   EXPECT_EQ(out.width, 320);
   EXPECT_EQ(out.height, 240);
+}
+
+// The photos' own metadata: telemetry by photo rank, focal length from XMP or EXIF.
+TEST(RunSteps, PhotoTelemetryAndFocalFromTheirMetadata) {
+  AEROVO_REQUIRE_SHARED(turin, "data/flights/turin-p4m/DJI_0010.JPG");
+  AEROVO_REQUIRE_SHARED(tampa, "data/flights/tampa-phantom3/DJI_0054.JPG");
+  std::vector<std::string> warnings;
+  const ImageFolderSource turin_photos(turin.parent_path());
+  const RunTelemetry t = RunTelemetry::Load("", false, &turin_photos, &warnings);
+  EXPECT_TRUE(t.by_frame_index());
+  EXPECT_EQ(t.Describe(), "32 fixes from photo EXIF/XMP");
+  Frame f;
+  f.index = 0;
+  const std::optional<TelemetrySample> first = t.SampleOf(f);
+  ASSERT_TRUE(first.has_value());
+  HeightProvider height(0.0);
+  EXPECT_NEAR(height.HeightOf("DJI_0010.JPG", first, &warnings), 44.5, 0.5);  // README
+  const RunConfig c;
+  RunCamera cam = ResolveRunCamera(c, false, 1600, 1300, &turin_photos.metadata().front(), first,
+                                   "DJI_0010.JPG");
+  EXPECT_EQ(cam.focal_source, "xmp-calibrated");
+  EXPECT_NEAR(cam.focal_px, 1913.3, 0.1);
+
+  const ImageFolderSource tampa_photos(tampa.parent_path());
+  cam = ResolveRunCamera(c, false, 800, 600, &tampa_photos.metadata().front(), std::nullopt,
+                         "DJI_0054.JPG");
+  EXPECT_EQ(cam.focal_source, "exif-35mm");
+  EXPECT_NEAR(cam.focal_px, 462.2, 0.1);  // 20 mm on 800x600: 20 * 1000 / 43.27
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -1,6 +1,5 @@
 #include "aerovo/pipeline/runner.h"
 
-#include <algorithm>
 #include <filesystem>
 #include <memory>
 #include <ostream>
