@@ -74,7 +74,9 @@ RunInputs ResolveInputs(const RunConfig& given, std::vector<std::string>* warnin
 }
 
 RunTelemetry::RunTelemetry(Telemetry telemetry, bool by_frame_index, std::string origin)
-    : telemetry_(std::move(telemetry)), by_frame_index_(by_frame_index), origin_(std::move(origin)) {}
+    : telemetry_(std::move(telemetry)),
+      by_frame_index_(by_frame_index),
+      origin_(std::move(origin)) {}
 
 RunTelemetry RunTelemetry::Load(const std::string& path, bool lenient,
                                 const ImageFolderSource* folder,
@@ -126,8 +128,7 @@ std::string RunTelemetry::Describe() const {
 // 2. Camera
 
 RunCamera ResolveRunCamera(const RunConfig& config, bool focal_from_sim, int w, int h,
-                           const ImageMetadata* photo,
-                           const std::optional<TelemetrySample>& sample,
+                           const ImageMetadata* photo, const std::optional<TelemetrySample>& sample,
                            const std::string& frame_name) {
   RunCamera c;
   if (config.focal_px > 0.0) {
@@ -260,9 +261,8 @@ void RunOutputs::Emit(PendingFrame& p, const GeoReferencer& georef) {
   if (callbacks_.frame) callbacks_.frame(p.record);
   if (callbacks_.poses != nullptr) {
     const FrameRecord& q = p.record;
-    *callbacks_.poses << fmt::format("{} {:.6f} {:.4f} {:.4f} {} {} {}\n", q.frame, q.time_s,
-                                     q.x_m, q.y_m,
-                                     q.geo ? fmt::format("{:.9f}", q.geo->lat_deg) : "-",
+    *callbacks_.poses << fmt::format("{} {:.6f} {:.4f} {:.4f} {} {} {}\n", q.frame, q.time_s, q.x_m,
+                                     q.y_m, q.geo ? fmt::format("{:.9f}", q.geo->lat_deg) : "-",
                                      q.geo ? fmt::format("{:.9f}", q.geo->lon_deg) : "-", q.status)
                       << std::flush;
   }
@@ -478,8 +478,7 @@ void CompareWithGps(const GeoReferencer& georef, RunTotals& totals, RunSummary* 
 
 void Summarize(const std::vector<std::string>& source_warnings, bool has_telemetry,
                const LoopEnd& end, const OdometryStats* vo_stats, const GeoReferencer& georef,
-               RunTotals totals, const ReferenceTrack* truth, double wall_s,
-               RunSummary* summary) {
+               RunTotals totals, const ReferenceTrack* truth, double wall_s, RunSummary* summary) {
   RunSummary& s = *summary;
   for (const std::string& w : source_warnings) s.warnings.push_back(w);
   if (has_telemetry && end.frames_without_fix > 0) {

@@ -77,8 +77,8 @@ class RunTelemetry {
   /// (skipped records, photos without a fix) are appended to `warnings`; photos that give no
   /// telemetry at all are a warning too, a file that cannot be read is an InputError naming it
   /// (a malformed record: also saying that --lenient-telemetry skips them).
-  static RunTelemetry Load(const std::string& path, bool lenient,
-                           const ImageFolderSource* folder, std::vector<std::string>* warnings);
+  static RunTelemetry Load(const std::string& path, bool lenient, const ImageFolderSource* folder,
+                           std::vector<std::string>* warnings);
 
   bool empty() const { return telemetry_.empty(); }
   bool by_frame_index() const { return by_frame_index_; }
@@ -154,8 +154,8 @@ class HeightProvider {
 struct PendingFrame {
   FrameRecord record;  ///< Counts, stage times, status; position and yaw filled in when written.
   Eigen::Vector2d local_m = Eigen::Vector2d::Zero();  ///< Position in the local VO frame.
-  double heading_rad = 0.0;                          ///< In the local VO frame.
-  std::optional<GeoPoint> gps;                       ///< The frame's fix.
+  double heading_rad = 0.0;                           ///< In the local VO frame.
+  std::optional<GeoPoint> gps;                        ///< The frame's fix.
 };
 
 /// The pending frame of `frame` processed into `result`, with its fix `gps`.
@@ -172,12 +172,12 @@ class RunOutputs {
   /// unix time minus first_time_s), writes config.json (ToJson(config) and a "resolved" block:
   /// focal_px, focal_source, height_source, frame_width_px, frame_height_px) and opens
   /// transforms.csv. `wait_for_heading`: the run has GPS telemetry, so frames wait for the
-  /// geo-referencing (bounded: GeoRefOptions::min_segment_m). InputError naming a file that
-  /// cannot be written.
-  RunOutputs(const std::filesystem::path& out_dir, const RunConfig& config,
-             const RunCamera& camera, const std::string& height_source, int width_px,
-             int height_px, double first_time_s, const std::optional<TelemetrySample>& first_sample,
-             const RunCallbacks& callbacks, bool wait_for_heading);
+  /// geo-referencing (bounded: GeoRefOptions::min_segment_m). `callbacks` (frame, poses) must
+  /// outlive the outputs. InputError naming a file that cannot be written.
+  RunOutputs(const std::filesystem::path& out_dir, const RunConfig& config, const RunCamera& camera,
+             const std::string& height_source, int width_px, int height_px, double first_time_s,
+             const std::optional<TelemetrySample>& first_sample, const RunCallbacks& callbacks,
+             bool wait_for_heading);
 
   /// Appends the row of `frame_index` to transforms.csv: first_px_from_frame =
   /// first_px_from_world * world_from_frame, first_px_from_world being the inverse of the first
@@ -242,10 +242,9 @@ class FrameLoop {
  public:
   /// `inputs`, `telemetry`, `callbacks` and `folder` (the source as a photo folder, or null)
   /// must outlive the loop. `log` may be null.
-  FrameLoop(const RunInputs& inputs, const RunTelemetry& telemetry,
-            const ImageFolderSource* folder, OdometryOptions vo_options,
-            const std::filesystem::path& out_dir, const RunCallbacks& callbacks,
-            std::ostream* log);
+  FrameLoop(const RunInputs& inputs, const RunTelemetry& telemetry, const ImageFolderSource* folder,
+            OdometryOptions vo_options, const std::filesystem::path& out_dir,
+            const RunCallbacks& callbacks, std::ostream* log);
 
   /// Processes `source` until its end, config.max_frames or `stop` (may be null); call once,
   /// then Finish(). Fills in `summary`'s frames_processed, focal, height source and the height
@@ -266,8 +265,7 @@ class FrameLoop {
   RunTotals TakeTotals() { return std::move(totals_); }
 
  private:
-  void Start(const Frame& frame, const std::optional<TelemetrySample>& sample,
-             RunSummary* summary);
+  void Start(const Frame& frame, const std::optional<TelemetrySample>& sample, RunSummary* summary);
 
   const RunConfig& config_;
   bool focal_from_sim_ = false;

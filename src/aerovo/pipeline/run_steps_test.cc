@@ -73,34 +73,33 @@ TelemetrySample Fix(double time_s, std::optional<double> rel_alt_m) {
 
 // A minimal sim.json of `aerovo simulate` (schema: sim/sim_writer.h) for a frames folder.
 void WriteSimJson(const fs::path& dir, const std::string& frames_dir, double focal_px) {
-  nlohmann::json j = {
-      {"format", "aerovo-simulation"},
-      {"version", 1},
-      {"files",
-       {{"video", nullptr},
-        {"frames_dir", frames_dir},
-        {"frame_pattern", "frame_%06d.jpg"},
-        {"srt", "telemetry.srt"},
-        {"gpx", "track.gpx"},
-        {"ground_truth_tum", "ground_truth.tum"},
-        {"ground_truth_csv", "ground_truth.csv"}}},
-      {"frame_count", 3},
-      {"fps", 10.0},
-      {"camera",
-       {{"width_px", 320},
-        {"height_px", 240},
-        {"focal_px", focal_px},
-        {"cx_px", 159.5},
-        {"cy_px", 119.5},
-        {"hfov_deg", 60.0}}},
-      {"height_above_ground_m", 100.0},
-      {"gsd_m_per_px", 0.25},
-      {"ground_altitude_m", 0.0},
-      {"origin", {{"lat_deg", 45.0}, {"lon_deg", 7.0}, {"alt_m", 0.0}}},
-      {"distance_m", 10.0},
-      {"effects", {{"illumination_k", 1.0}}},
-      {"gps", {{"horizontal_sigma_m", 1.5}}},
-      {"seed", 1}};
+  nlohmann::json j = {{"format", "aerovo-simulation"},
+                      {"version", 1},
+                      {"files",
+                       {{"video", nullptr},
+                        {"frames_dir", frames_dir},
+                        {"frame_pattern", "frame_%06d.jpg"},
+                        {"srt", "telemetry.srt"},
+                        {"gpx", "track.gpx"},
+                        {"ground_truth_tum", "ground_truth.tum"},
+                        {"ground_truth_csv", "ground_truth.csv"}}},
+                      {"frame_count", 3},
+                      {"fps", 10.0},
+                      {"camera",
+                       {{"width_px", 320},
+                        {"height_px", 240},
+                        {"focal_px", focal_px},
+                        {"cx_px", 159.5},
+                        {"cy_px", 119.5},
+                        {"hfov_deg", 60.0}}},
+                      {"height_above_ground_m", 100.0},
+                      {"gsd_m_per_px", 0.25},
+                      {"ground_altitude_m", 0.0},
+                      {"origin", {{"lat_deg", 45.0}, {"lon_deg", 7.0}, {"alt_m", 0.0}}},
+                      {"distance_m", 10.0},
+                      {"effects", {{"illumination_k", 1.0}}},
+                      {"gps", {{"horizontal_sigma_m", 1.5}}},
+                      {"seed", 1}};
   WriteText(dir / "sim.json", j.dump(2));
 }
 
@@ -244,16 +243,16 @@ TEST(RunSteps, MalformedTelemetryRecordSaysHowToGoOn) {
   } catch (const InputError& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find("bad.csv"), std::string::npos) << what;
-    EXPECT_NE(what.find("(--lenient-telemetry skips malformed records instead)"),
-              std::string::npos)
+    EXPECT_NE(what.find("(--lenient-telemetry skips malformed records instead)"), std::string::npos)
         << what;
   }
   const RunTelemetry lenient = RunTelemetry::Load(path, true, nullptr, &warnings);
   EXPECT_EQ(lenient.Describe(), "2 fixes from " + path);
   ASSERT_FALSE(warnings.empty());
   EXPECT_EQ(warnings[0],
-            path + ": 1 malformed telemetry record(s) skipped (--lenient-telemetry), the first "
-                   "ones:");
+            path +
+                ": 1 malformed telemetry record(s) skipped (--lenient-telemetry), the first "
+                "ones:");
   fs::remove_all(dir);
 }
 
@@ -628,7 +627,8 @@ TEST(RunSteps, WriteSummaryThenThrowTheFailure) {
   } catch (const InputError& e) {
     EXPECT_EQ(std::string(e.what()),
               "f4.jpg: cannot decode (the run stopped there: the 4 frames processed before are "
-              "in '" + dir.string() + "', each file valid, summary.json included)");
+              "in '" +
+                  dir.string() + "', each file valid, summary.json included)");
   }
   EXPECT_EQ(nlohmann::json::parse(ReadText(dir / "summary.json")).at("error"),
             "f4.jpg: cannot decode");

@@ -184,8 +184,8 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   loop.Finish();
 
   // 6. Summary.
-  run_steps::Summarize(source->warnings(), !telemetry.empty(), end, loop.vo_stats(),
-                       loop.georef(), loop.TakeTotals(), inputs.truth ? &*inputs.truth : nullptr,
+  run_steps::Summarize(source->warnings(), !telemetry.empty(), end, loop.vo_stats(), loop.georef(),
+                       loop.TakeTotals(), inputs.truth ? &*inputs.truth : nullptr,
                        wall.elapsed_ms() / 1000.0, &summary);
   run_steps::WriteSummary(out_dir, summary);
   return summary;
