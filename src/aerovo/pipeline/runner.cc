@@ -114,8 +114,9 @@ OdometryOptions MakeOdometryOptions(const RunConfig& c) {
   return o;
 }
 
-// The run folder: created, with config.json of the configuration as given (before the first
-// frame resolves the camera), which the log also shows.
+// The run folder: created, with config.json of the effective configuration (sim.json's settings
+// filled in; RunOutputs rewrites it with the "resolved" block on the first frame), which the
+// log also shows.
 std::filesystem::path PrepareRunFolder(const RunConfig& config, std::ostream* log) {
   namespace fs = std::filesystem;
   const fs::path out_dir(config.out);
