@@ -7,6 +7,9 @@
 // A flight written by `aerovo simulate` (input = its video or frames folder, sim.json beside it)
 // needs nothing else: missing settings come from sim.json (telemetry = its SRT, focal length =
 // the simulator's exact focal_px, truth = its ground_truth.csv). Explicit settings win.
+//
+// RunFlight chains the steps of run_steps.h (inputs, camera, height, outputs, frame loop,
+// summary), each tested on its own.
 #pragma once
 
 #include <atomic>

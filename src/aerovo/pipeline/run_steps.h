@@ -1,0 +1,304 @@
+// The steps of one `aerovo run` (RunFlight, runner.h), each testable on its own:
+//   1. the inputs: the settings sim.json fills in, the ground truth (ResolveInputs) and the
+//      telemetry with its frame-index/time lookup (RunTelemetry);
+//   2. the camera's focal length (ResolveRunCamera) and lens undistortion (MakeUndistorter);
+//   3. the height above ground of each frame (HeightProvider);
+//   4. the run's outputs: track writers, the queue of frames waiting for the geo-referencing,
+//      the pose stream, transforms.csv, config.json with its "resolved" block (RunOutputs);
+//   5. the per-frame loop (FrameLoop), which also accumulates what the summary needs
+//      (RunTotals);
+//   6. the summary: statistics, comparisons with GPS and the truth (Summarize), summary.json
+//      (WriteSummary).
+// RunFlight chains them; its API (runner.h) is the public one. These are for runner.cc and the
+// pipeline's tests.
+#pragma once
+
+#include <atomic>
+#include <deque>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "aerovo/core/image.h"
+#include "aerovo/core/timer.h"
+#include "aerovo/eval/trajectory_eval.h"
+#include "aerovo/io/frame_record.h"
+#include "aerovo/io/frame_source.h"
+#include "aerovo/io/image_metadata.h"
+#include "aerovo/io/reference_track.h"
+#include "aerovo/io/telemetry.h"
+#include "aerovo/io/track_writers.h"
+#include "aerovo/odometry/georef.h"
+#include "aerovo/odometry/visual_odometry.h"
+#include "aerovo/pipeline/preprocess.h"
+#include "aerovo/pipeline/run_config.h"
+#include "aerovo/pipeline/runner.h"
+
+namespace aerovo::run_steps {
+
+/// The GPS fix of a telemetry sample (altitude: absolute, else relative, else 0 m); nullopt
+/// without a sample.
+std::optional<GeoPoint> GpsOf(const std::optional<TelemetrySample>& sample);
+
+// ---------------------------------------------------------------------------------------------
+// 1. Inputs
+
+/// A run's settings once sim.json has filled in what was not given, and its ground truth.
+struct RunInputs {
+  RunConfig config;             ///< The given configuration, completed from sim.json.
+  std::string sim_manifest;     ///< The sim.json used ("" when the input is not a simulation).
+  bool focal_from_sim = false;  ///< config.focal_px is sim.json's (focal source "sim.json").
+  std::optional<ReferenceTrack> truth;  ///< Read from config.truth (nullopt when empty).
+};
+
+/// For a flight of `aerovo simulate` (config.input is its video or frames folder and sim.json
+/// sits in the folder above): telemetry = its SRT, truth = its ground_truth.csv, focal_px = its
+/// exact focal_px unless focal_px or hfov_deg is given. Explicit settings win. An unreadable or
+/// foreign sim.json is reported in `warnings` and ignored. Then reads the truth: InputError
+/// naming the file when it cannot be read.
+RunInputs ResolveInputs(const RunConfig& given, std::vector<std::string>* warnings);
+
+/// The telemetry of a run and how a frame finds its fix.
+class RunTelemetry {
+ public:
+  RunTelemetry() = default;  ///< No telemetry.
+  /// `by_frame_index`: frames find their fix by frame index (else by time); `origin` names where
+  /// the fixes come from in the log (the file, or "photo EXIF/XMP").
+  RunTelemetry(Telemetry telemetry, bool by_frame_index, std::string origin);
+
+  /// Reads `path` (RunConfig::telemetry; `lenient` = RunConfig::lenient_telemetry) or, when it
+  /// is empty, the EXIF/XMP of `folder`'s photos (null: no telemetry). The reader's warnings
+  /// (skipped records, photos without a fix) are appended to `warnings`; photos that give no
+  /// telemetry at all are a warning too, a file that cannot be read is an InputError naming it
+  /// (a malformed record: also saying that --lenient-telemetry skips them).
+  static RunTelemetry Load(const std::string& path, bool lenient, const ImageFolderSource* folder,
+                           std::vector<std::string>* warnings);
+
+  bool empty() const { return telemetry_.empty(); }
+  bool by_frame_index() const { return by_frame_index_; }
+  /// The fix of `frame`: by frame index when the telemetry has one for every fix (DJI SRT,
+  /// photos, CSV with a frame column), else the nearest within 0.5 s of frame.time_s; nullopt
+  /// without telemetry or when none matches.
+  std::optional<TelemetrySample> SampleOf(const Frame& frame) const;
+  /// The log's description: "none" or "N fixes from ORIGIN".
+  std::string Describe() const;
+
+ private:
+  Telemetry telemetry_;
+  bool by_frame_index_ = false;
+  std::string origin_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// 2. Camera
+
+/// The focal length of the processed frames and where it came from.
+struct RunCamera {
+  double focal_px = 0.0;
+  /// RunSummary::focal_source: "flag", "sim.json", "hfov", "xmp-calibrated", "exif-35mm" or
+  /// "telemetry-35mm".
+  std::string focal_source;
+};
+
+/// The focal length of width_px x height_px frames, the first of: config.focal_px ("flag", or
+/// "sim.json" when `focal_from_sim`), config.hfov_deg ("hfov"), the first photo's DJI XMP
+/// calibrated focal length when the photo has the frames' width ("xmp-calibrated"), its EXIF
+/// 35 mm equivalent ("exif-35mm"), the first frame's telemetry 35 mm equivalent
+/// ("telemetry-35mm"). `photo`: the first photo's metadata (null for a video or a live source);
+/// `sample`: the first frame's telemetry fix. InputError naming `frame_name` when none gives it.
+/// (io/camera.h ResolveCamera has another order of sources, other source names and messages,
+/// and no sim.json or telemetry source: the run keeps its own chain, here only.)
+RunCamera ResolveRunCamera(const RunConfig& config, bool focal_from_sim, int width_px,
+                           int height_px, const ImageMetadata* photo,
+                           const std::optional<TelemetrySample>& sample,
+                           const std::string& frame_name);
+
+/// The undistorter of the lens coefficients config.k1 k2 p1 p2 k3 for width_px x height_px
+/// frames of focal length focal_px; null when every coefficient is 0 (frames used as read).
+std::unique_ptr<FrameUndistorter> MakeUndistorter(const RunConfig& config, int width_px,
+                                                  int height_px, double focal_px);
+
+// ---------------------------------------------------------------------------------------------
+// 3. Height above ground
+
+/// The height above ground of each frame: the flag, else the telemetry's relative altitude,
+/// else the last known one (with one warning), else an error naming the frame.
+class HeightProvider {
+ public:
+  /// `flag_m` > 0 (RunConfig::altitude_m): that height for every frame; else the telemetry's.
+  explicit HeightProvider(double flag_m) : flag_m_(flag_m) {}
+  /// RunSummary::height_source: "flag" or "telemetry".
+  const char* source() const { return flag_m_ > 0.0 ? "flag" : "telemetry"; }
+  /// Height above ground of frame `frame_name`, metres: the flag; else the sample's relative
+  /// altitude when > 0; else the last one known (the first time, a warning naming the frame is
+  /// appended to `warnings`); else InputError naming the frame.
+  double HeightOf(const std::string& frame_name, const std::optional<TelemetrySample>& sample,
+                  std::vector<std::string>* warnings);
+
+ private:
+  double flag_m_ = 0.0;
+  std::optional<double> last_m_;
+  bool warned_ = false;
+};
+
+// ---------------------------------------------------------------------------------------------
+// 4. Outputs
+
+/// A frame whose outputs wait for the geo-referencing (heading from the first GPS segment).
+struct PendingFrame {
+  FrameRecord record;  ///< Counts, stage times, status; position and yaw filled in when written.
+  Eigen::Vector2d local_m = Eigen::Vector2d::Zero();  ///< Position in the local VO frame.
+  double heading_rad = 0.0;                           ///< In the local VO frame.
+  std::optional<GeoPoint> gps;                        ///< The frame's fix.
+};
+
+/// The pending frame of `frame` processed into `result`, with its fix `gps`.
+PendingFrame PendingFrameOf(const Frame& frame, const FrameResult& result,
+                            const std::optional<GeoPoint>& gps);
+
+/// The files a run writes as it goes (RunFileNames): the track writers (frames.csv, TUM,
+/// GeoJSON, KML, GPX), transforms.csv and config.json with the "resolved" block; plus the pose
+/// stream and the frame callback. Frames are queued until the track is geo-referenced when
+/// the run waits for a heading, then written in order.
+class RunOutputs {
+ public:
+  /// Opens the track writers in `out_dir` (ENU origin: `first_sample`'s fix; time origin: its
+  /// unix time minus first_time_s), writes config.json (ToJson(config) and a "resolved" block:
+  /// focal_px, focal_source, height_source, frame_width_px, frame_height_px) and opens
+  /// transforms.csv. `wait_for_heading`: the run has GPS telemetry, so frames wait for the
+  /// geo-referencing (bounded: GeoRefOptions::min_segment_m). `callbacks` (frame, poses) must
+  /// outlive the outputs. InputError naming a file that cannot be written.
+  RunOutputs(const std::filesystem::path& out_dir, const RunConfig& config, const RunCamera& camera,
+             const std::string& height_source, int width_px, int height_px, double first_time_s,
+             const std::optional<TelemetrySample>& first_sample, const RunCallbacks& callbacks,
+             bool wait_for_heading);
+
+  /// Appends the row of `frame_index` to transforms.csv: first_px_from_frame =
+  /// first_px_from_world * world_from_frame, first_px_from_world being the inverse of the first
+  /// call's world_from_frame (metric or first-frame pixels, see FrameResult).
+  void AppendTransform(int frame_index, const Eigen::Matrix3d& world_from_frame);
+  /// Queues `frame`, then writes the queue unless it waits for `georef`'s heading.
+  void Add(PendingFrame frame, const GeoReferencer& georef);
+  /// At the end: geo-references with what is available if needed (georef.FixWithAvailable),
+  /// writes every queued frame and closes the track files.
+  void Finish(GeoReferencer& georef);
+
+ private:
+  void Flush(const GeoReferencer& georef, bool final);
+  void Emit(PendingFrame& frame, const GeoReferencer& georef);
+
+  const RunCallbacks& callbacks_;
+  bool wait_for_heading_ = false;
+  std::unique_ptr<TrackWriterSet> writers_;
+  std::optional<TransformsCsvWriter> transforms_csv_;
+  bool have_first_ = false;
+  Eigen::Matrix3d first_px_from_world_ = Eigen::Matrix3d::Identity();
+  std::deque<PendingFrame> pending_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// 5. The per-frame loop
+
+/// What the summary needs from the frames, accumulated as they are processed. The only memory
+/// that grows with the run (the rest of the per-frame output is streamed to the files): per
+/// frame with a GPS fix, the VO position (local frame) and the fix (ENU), 48 bytes; with a
+/// truth file, every frame's VO position and index, 28 bytes.
+struct RunTotals {
+  explicit RunTotals(bool keep_track) : keep_track(keep_track) {}
+  /// Adds frame `frame_index` at `time_s` processed into `result`, with its fix `gps` (in the
+  /// GPS track once `georef` has its ENU frame).
+  void Add(int frame_index, double time_s, const FrameResult& result,
+           const std::optional<GeoPoint>& gps, const GeoReferencer& georef);
+
+  bool keep_track = false;  ///< Keep every frame's position (local_track) for the truth.
+  int frames = 0;
+  int measured_steps = 0;  ///< Frames whose step was estimated (ok or reacquired).
+  int frames_with_gps = 0;
+  double path_length_m = 0.0;
+  StageTimes sum_ms;  ///< Sum of the stage times, ms.
+  Eigen::Vector2d last_local_m = Eigen::Vector2d::Zero();
+  std::vector<TrajectoryPoint2D> local_at_gps, gps_track, local_track;
+  std::vector<int> track_frames;  ///< Frame index of each local_track point.
+};
+
+/// How the frame loop ended.
+struct LoopEnd {
+  bool stopped = false;  ///< By the stop flag.
+  /// The input error after the first frame that stopped the run ("" = none).
+  std::string failure;
+  int frames_without_fix = 0;  ///< Frames given no telemetry fix.
+};
+
+/// The frames of a run, one by one: telemetry fix, camera and outputs on the first frame,
+/// height, preprocessing (undistortion, illumination), visual odometry, geo-referencing,
+/// outputs, totals, progress.
+class FrameLoop {
+ public:
+  /// `inputs`, `telemetry`, `callbacks` and `folder` (the source as a photo folder, or null)
+  /// must outlive the loop. `log` may be null.
+  FrameLoop(const RunInputs& inputs, const RunTelemetry& telemetry, const ImageFolderSource* folder,
+            OdometryOptions vo_options, const std::filesystem::path& out_dir,
+            const RunCallbacks& callbacks, std::ostream* log);
+
+  /// Processes `source` until its end, config.max_frames or `stop` (may be null); call once,
+  /// then Finish(). Fills in `summary`'s frames_processed, focal, height source and the height
+  /// warning (frames_expected: read for the progress callback). Throws the input errors of the
+  /// first frame, a missing focal length or height; an input error after the first frame ends
+  /// the loop instead (LoopEnd::failure). `wall`: the run's stopwatch, for the progress
+  /// callback's frames per second.
+  LoopEnd Run(FrameSource& source, const std::atomic<bool>* stop, const Stopwatch& wall,
+              RunSummary* summary);
+  /// Writes the frames still queued and closes the track files (nothing when no frame came).
+  void Finish();
+
+  /// Counts of the odometry, null when no frame came.
+  const OdometryStats* vo_stats() const { return vo_ ? &vo_->stats() : nullptr; }
+  const GeoReferencer& georef() const { return georef_; }
+  const RunTotals& totals() const { return totals_; }
+  /// The totals, moved out (for Summarize, at the end).
+  RunTotals TakeTotals() { return std::move(totals_); }
+
+ private:
+  void Start(const Frame& frame, const std::optional<TelemetrySample>& sample, RunSummary* summary);
+
+  const RunConfig& config_;
+  bool focal_from_sim_ = false;
+  const RunTelemetry& telemetry_;
+  const ImageFolderSource* folder_ = nullptr;
+  OdometryOptions vo_options_;
+  std::filesystem::path out_dir_;
+  const RunCallbacks& callbacks_;
+  std::ostream* log_ = nullptr;
+  HeightProvider height_;
+  GeoReferencer georef_;
+  std::unique_ptr<VisualOdometry> vo_;
+  std::unique_ptr<FrameUndistorter> undistorter_;
+  GrayImage dimmed_;  // the frame at illumination_k < 1
+  std::optional<RunOutputs> outputs_;
+  RunTotals totals_;
+  Frame frame_;  // reused between frames
+};
+
+// ---------------------------------------------------------------------------------------------
+// 6. Summary
+
+/// Completes `summary` after the loop (its frames_processed, focal and height already set):
+/// the source's warnings, frames without a fix (when there is telemetry), interrupted, the
+/// odometry's counts (`vo_stats` null: no frame) and the warning when nothing was measured,
+/// heading source, mean stage times, fps from `wall_s`, the comparison with GPS (at least 3
+/// fixes) and with `truth` (may be null), error = end.failure. `totals` is consumed.
+void Summarize(const std::vector<std::string>& source_warnings, bool has_telemetry,
+               const LoopEnd& end, const OdometryStats* vo_stats, const GeoReferencer& georef,
+               RunTotals totals, const ReferenceTrack* truth, double wall_s, RunSummary* summary);
+
+/// Writes summary.json in `out_dir`; then, when summary.error is set, throws it as an InputError
+/// saying where the frames before it are.
+void WriteSummary(const std::filesystem::path& out_dir, const RunSummary& summary);
+
+}  // namespace aerovo::run_steps

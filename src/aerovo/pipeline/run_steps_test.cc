@@ -1,0 +1,784 @@
+// The steps of a run (run_steps.h) on synthetic inputs: sim.json resolution, telemetry lookup,
+// the camera's focal chain, the height provider, the outputs, the totals and summary, and the
+// frame loop on frames generated in memory. RunFlight end to end: tests/e2e.
+#include "aerovo/pipeline/run_steps.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "aerovo/core/error.h"
+#include "aerovo/core/testing.h"
+#include "aerovo/io/camera.h"
+
+namespace aerovo::run_steps {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path TempDir(const std::string& name) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("aerovo_run_steps_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string ReadText(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+void WriteText(const fs::path& p, const std::string& text) {
+  std::ofstream out(p);
+  out << text;
+}
+
+std::vector<std::string> Lines(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  std::string line;
+  while (std::getline(in, line)) lines.push_back(line);
+  return lines;
+}
+
+// Rows of a CSV file after its header.
+int CsvRows(const fs::path& p) { return static_cast<int>(Lines(ReadText(p)).size()) - 1; }
+
+TelemetrySample Fix(double time_s, std::optional<double> rel_alt_m) {
+  TelemetrySample s;
+  s.time_s = time_s;
+  s.lat_deg = 45.0;
+  s.lon_deg = 7.0;
+  s.rel_alt_m = rel_alt_m;
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------------
+// 1. Inputs
+
+// A minimal sim.json of `aerovo simulate` (schema: sim/sim_writer.h) for a frames folder.
+void WriteSimJson(const fs::path& dir, const std::string& frames_dir, double focal_px) {
+  nlohmann::json j = {{"format", "aerovo-simulation"},
+                      {"version", 1},
+                      {"files",
+                       {{"video", nullptr},
+                        {"frames_dir", frames_dir},
+                        {"frame_pattern", "frame_%06d.jpg"},
+                        {"srt", "telemetry.srt"},
+                        {"gpx", "track.gpx"},
+                        {"ground_truth_tum", "ground_truth.tum"},
+                        {"ground_truth_csv", "ground_truth.csv"}}},
+                      {"frame_count", 3},
+                      {"fps", 10.0},
+                      {"camera",
+                       {{"width_px", 320},
+                        {"height_px", 240},
+                        {"focal_px", focal_px},
+                        {"cx_px", 159.5},
+                        {"cy_px", 119.5},
+                        {"hfov_deg", 60.0}}},
+                      {"height_above_ground_m", 100.0},
+                      {"gsd_m_per_px", 0.25},
+                      {"ground_altitude_m", 0.0},
+                      {"origin", {{"lat_deg", 45.0}, {"lon_deg", 7.0}, {"alt_m", 0.0}}},
+                      {"distance_m", 10.0},
+                      {"effects", {{"illumination_k", 1.0}}},
+                      {"gps", {{"horizontal_sigma_m", 1.5}}},
+                      {"seed", 1}};
+  WriteText(dir / "sim.json", j.dump(2));
+}
+
+const char* kTruthCsv =
+    "frame,time_s,lat_deg,lon_deg\n0,0.0,45.0,7.0\n1,0.1,45.00001,7.0\n2,0.2,45.00002,7.0\n";
+
+TEST(RunSteps, SimJsonFillsInWhatWasNotGiven) {
+  const fs::path dir = TempDir("sim");
+  fs::create_directories(dir / "frames");
+  WriteSimJson(dir, "frames", 277.1);
+  WriteText(dir / "ground_truth.csv", kTruthCsv);
+  RunConfig given;
+  given.input = (dir / "frames").string();
+  std::vector<std::string> warnings;
+  const RunInputs in = ResolveInputs(given, &warnings);
+  EXPECT_TRUE(warnings.empty());
+  EXPECT_EQ(in.sim_manifest, (fs::absolute(dir) / "sim.json").string());
+  EXPECT_EQ(fs::path(in.config.telemetry).filename(), "telemetry.srt");
+  EXPECT_EQ(fs::path(in.config.truth).filename(), "ground_truth.csv");
+  EXPECT_EQ(in.config.focal_px, 277.1);
+  EXPECT_TRUE(in.focal_from_sim);
+  ASSERT_TRUE(in.truth.has_value());
+  EXPECT_EQ(in.truth->points.size(), 3u);
+  // "frames/" names the same folder.
+  given.input = (dir / "frames").string() + "/";
+  EXPECT_EQ(ResolveInputs(given, &warnings).sim_manifest, in.sim_manifest);
+  fs::remove_all(dir);
+}
+
+TEST(RunSteps, ExplicitSettingsWinOverSimJson) {
+  const fs::path dir = TempDir("sim_explicit");
+  fs::create_directories(dir / "frames");
+  WriteSimJson(dir, "frames", 277.1);
+  WriteText(dir / "ground_truth.csv", kTruthCsv);
+  WriteText(dir / "mine.csv", kTruthCsv);
+  RunConfig given;
+  given.input = (dir / "frames").string();
+  given.telemetry = (dir / "my.srt").string();
+  given.truth = (dir / "mine.csv").string();
+  given.hfov_deg = 70.0;
+  std::vector<std::string> warnings;
+  RunInputs in = ResolveInputs(given, &warnings);
+  EXPECT_FALSE(in.sim_manifest.empty());
+  EXPECT_EQ(in.config.telemetry, given.telemetry);
+  EXPECT_EQ(in.config.truth, given.truth);
+  EXPECT_EQ(in.config.focal_px, 0.0);  // the hfov is used, not sim.json's focal
+  EXPECT_FALSE(in.focal_from_sim);
+  // An explicit focal length too.
+  given.hfov_deg = 0.0;
+  given.focal_px = 300.0;
+  in = ResolveInputs(given, &warnings);
+  EXPECT_EQ(in.config.focal_px, 300.0);
+  EXPECT_FALSE(in.focal_from_sim);
+  EXPECT_TRUE(warnings.empty());
+  fs::remove_all(dir);
+}
+
+TEST(RunSteps, ForeignOrBrokenSimJsonIsIgnored) {
+  const fs::path dir = TempDir("sim_foreign");
+  fs::create_directories(dir / "frames");
+  fs::create_directories(dir / "other");
+  WriteSimJson(dir, "other", 277.1);  // describes another folder
+  RunConfig given;
+  given.input = (dir / "frames").string();
+  std::vector<std::string> warnings;
+  RunInputs in = ResolveInputs(given, &warnings);
+  EXPECT_TRUE(in.sim_manifest.empty());
+  EXPECT_TRUE(in.config.telemetry.empty());
+  EXPECT_EQ(in.config.focal_px, 0.0);
+  EXPECT_TRUE(warnings.empty());
+
+  WriteText(dir / "sim.json", "{\"format\": \"aerovo-simulation\"");  // truncated
+  in = ResolveInputs(given, &warnings);
+  EXPECT_TRUE(in.sim_manifest.empty());
+  EXPECT_TRUE(in.config.telemetry.empty());
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0].rfind("ignored " + (dir / "sim.json").string() + ": ", 0), 0u)
+      << warnings[0];
+  fs::remove_all(dir);
+}
+
+TEST(RunSteps, MissingTruthIsAnInputErrorNamingIt) {
+  RunConfig given;
+  given.input = "0";  // a live camera: no sim.json looked for
+  given.truth = "/nonexistent/aerovo_truth.tum";
+  std::vector<std::string> warnings;
+  try {
+    ResolveInputs(given, &warnings);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("aerovo_truth.tum"), std::string::npos) << e.what();
+  }
+}
+
+TEST(RunSteps, TelemetryByFrameIndexOrByTime) {
+  const fs::path dir = TempDir("telemetry");
+  WriteText(dir / "indexed.csv",
+            "frame,time_s,lat_deg,lon_deg,rel_alt\n0,0,45.0,7.0,50\n1,1,45.001,7.0,51\n"
+            "2,2,45.002,7.0,52\n");
+  WriteText(dir / "timed.csv",
+            "time_s,lat_deg,lon_deg,rel_alt\n0,45.0,7.0,50\n1,45.001,7.0,51\n2,45.002,7.0,52\n");
+  std::vector<std::string> warnings;
+  const std::string indexed_path = (dir / "indexed.csv").string();
+  const RunTelemetry indexed = RunTelemetry::Load(indexed_path, false, nullptr, &warnings);
+  EXPECT_TRUE(indexed.by_frame_index());
+  EXPECT_EQ(indexed.Describe(), "3 fixes from " + indexed_path);
+  Frame f;
+  f.index = 1;
+  f.time_s = 7.0;  // the index decides, not the time
+  ASSERT_TRUE(indexed.SampleOf(f).has_value());
+  EXPECT_DOUBLE_EQ(*indexed.SampleOf(f)->rel_alt_m, 51.0);
+  f.index = 5;
+  EXPECT_FALSE(indexed.SampleOf(f).has_value());
+
+  const RunTelemetry timed =
+      RunTelemetry::Load((dir / "timed.csv").string(), false, nullptr, &warnings);
+  EXPECT_FALSE(timed.by_frame_index());
+  f.index = 0;
+  f.time_s = 2.0;
+  ASSERT_TRUE(timed.SampleOf(f).has_value());
+  EXPECT_DOUBLE_EQ(*timed.SampleOf(f)->rel_alt_m, 52.0);
+  f.time_s = 3.0;  // outside the span: no invented fix
+  EXPECT_FALSE(timed.SampleOf(f).has_value());
+  EXPECT_TRUE(warnings.empty());
+
+  const RunTelemetry none = RunTelemetry::Load("", false, nullptr, &warnings);
+  EXPECT_TRUE(none.empty());
+  EXPECT_EQ(none.Describe(), "none");
+  EXPECT_FALSE(none.SampleOf(f).has_value());
+  fs::remove_all(dir);
+}
+
+TEST(RunSteps, MalformedTelemetryRecordSaysHowToGoOn) {
+  const fs::path dir = TempDir("telemetry_bad");
+  const std::string path = (dir / "bad.csv").string();
+  WriteText(path, "time_s,lat_deg,lon_deg\n0,45.0,7.0\n1,garbage,7.0\n2,45.002,7.0\n");
+  std::vector<std::string> warnings;
+  try {
+    RunTelemetry::Load(path, false, nullptr, &warnings);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("bad.csv"), std::string::npos) << what;
+    EXPECT_NE(what.find("(--lenient-telemetry skips malformed records instead)"), std::string::npos)
+        << what;
+  }
+  const RunTelemetry lenient = RunTelemetry::Load(path, true, nullptr, &warnings);
+  EXPECT_EQ(lenient.Describe(), "2 fixes from " + path);
+  ASSERT_FALSE(warnings.empty());
+  EXPECT_EQ(warnings[0],
+            path +
+                ": 1 malformed telemetry record(s) skipped (--lenient-telemetry), the first "
+                "ones:");
+  fs::remove_all(dir);
+}
+
+// ---------------------------------------------------------------------------------------------
+// 2. Camera
+
+TEST(RunSteps, FocalChainOrderAndSourceNames) {
+  const int w = 640, h = 480;
+  RunConfig c;
+  ImageMetadata photo;
+  photo.width_px = w;
+  photo.height_px = h;
+  photo.calibrated_focal_px = 700.0;
+  photo.focal_length_35mm_mm = 24.0;
+  TelemetrySample sample = Fix(0.0, 50.0);
+  sample.focal_length_35mm_mm = 28.0;
+  auto resolve = [&](bool from_sim, const ImageMetadata* p,
+                     const std::optional<TelemetrySample>& s) {
+    return ResolveRunCamera(c, from_sim, w, h, p, s, "DJI_0001.JPG");
+  };
+
+  c.focal_px = 500.0;
+  c.hfov_deg = 90.0;
+  RunCamera r = resolve(false, &photo, sample);
+  EXPECT_EQ(r.focal_px, 500.0);
+  EXPECT_EQ(r.focal_source, "flag");
+  EXPECT_EQ(resolve(true, &photo, sample).focal_source, "sim.json");
+
+  c.focal_px = 0.0;
+  r = resolve(false, &photo, sample);
+  EXPECT_EQ(r.focal_px, FocalPxFromHorizontalFov(90.0, w));
+  EXPECT_EQ(r.focal_source, "hfov");
+
+  c.hfov_deg = 0.0;
+  r = resolve(false, &photo, sample);
+  EXPECT_EQ(r.focal_px, 700.0);
+  EXPECT_EQ(r.focal_source, "xmp-calibrated");
+
+  // The calibrated focal length is of photos of another width than the frames: not used.
+  photo.width_px = 4000;
+  r = resolve(false, &photo, sample);
+  EXPECT_EQ(r.focal_px, FocalPxFrom35mm(24.0, w, h));
+  EXPECT_EQ(r.focal_source, "exif-35mm");
+
+  photo.focal_length_35mm_mm.reset();
+  r = resolve(false, &photo, sample);
+  EXPECT_EQ(r.focal_px, FocalPxFrom35mm(28.0, w, h));
+  EXPECT_EQ(r.focal_source, "telemetry-35mm");
+  EXPECT_EQ(resolve(false, nullptr, sample).focal_source, "telemetry-35mm");
+
+  sample.focal_length_35mm_mm.reset();
+  for (const ImageMetadata* p : std::vector<const ImageMetadata*>{nullptr, &photo}) {
+    try {
+      resolve(false, p, sample);
+      FAIL() << "no error";
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()),
+                "DJI_0001.JPG: the camera focal length is unknown (no EXIF/telemetry 35 mm focal "
+                "length): give --focal-px or --hfov-deg");
+    }
+  }
+  EXPECT_THROW(resolve(false, nullptr, std::nullopt), InputError);
+}
+
+TEST(RunSteps, UndistorterOnlyWithDistortion) {
+  RunConfig c;
+  EXPECT_EQ(MakeUndistorter(c, 320, 240, 300.0), nullptr);
+  c.p2 = 1e-4;
+  std::unique_ptr<FrameUndistorter> u = MakeUndistorter(c, 320, 240, 300.0);
+  ASSERT_NE(u, nullptr);
+  GrayImage image(320, 240, 100);
+  const GrayImageView out = u->Apply(image.view());
+  EXPECT_EQ(out.width, 320);
+  EXPECT_EQ(out.height, 240);
+}
+
+// The photos' own metadata: telemetry by photo rank, focal length from XMP or EXIF.
+TEST(RunSteps, PhotoTelemetryAndFocalFromTheirMetadata) {
+  AEROVO_REQUIRE_SHARED(turin, "data/flights/turin-p4m/DJI_0010.JPG");
+  AEROVO_REQUIRE_SHARED(tampa, "data/flights/tampa-phantom3/DJI_0054.JPG");
+  std::vector<std::string> warnings;
+  const ImageFolderSource turin_photos(turin.parent_path());
+  const RunTelemetry t = RunTelemetry::Load("", false, &turin_photos, &warnings);
+  EXPECT_TRUE(t.by_frame_index());
+  EXPECT_EQ(t.Describe(), "32 fixes from photo EXIF/XMP");
+  Frame f;
+  f.index = 0;
+  const std::optional<TelemetrySample> first = t.SampleOf(f);
+  ASSERT_TRUE(first.has_value());
+  HeightProvider height(0.0);
+  EXPECT_NEAR(height.HeightOf("DJI_0010.JPG", first, &warnings), 44.5, 0.5);  // README
+  const RunConfig c;
+  RunCamera cam = ResolveRunCamera(c, false, 1600, 1300, &turin_photos.metadata().front(), first,
+                                   "DJI_0010.JPG");
+  EXPECT_EQ(cam.focal_source, "xmp-calibrated");
+  EXPECT_NEAR(cam.focal_px, 1913.3, 0.1);
+
+  const ImageFolderSource tampa_photos(tampa.parent_path());
+  cam = ResolveRunCamera(c, false, 800, 600, &tampa_photos.metadata().front(), std::nullopt,
+                         "DJI_0054.JPG");
+  EXPECT_EQ(cam.focal_source, "exif-35mm");
+  EXPECT_NEAR(cam.focal_px, 462.2, 0.1);  // 20 mm on 800x600: 20 * 1000 / 43.27
+}
+
+// ---------------------------------------------------------------------------------------------
+// 3. Height
+
+TEST(RunSteps, HeightFlagWinsOverTelemetry) {
+  HeightProvider height(57.0);
+  EXPECT_STREQ(height.source(), "flag");
+  std::vector<std::string> warnings;
+  EXPECT_EQ(height.HeightOf("f0", Fix(0, 100.0), &warnings), 57.0);
+  EXPECT_EQ(height.HeightOf("f1", std::nullopt, &warnings), 57.0);
+  EXPECT_TRUE(warnings.empty());
+}
+
+TEST(RunSteps, HeightFallsBackOnTheLastKnownWithOneWarning) {
+  HeightProvider height(0.0);
+  EXPECT_STREQ(height.source(), "telemetry");
+  std::vector<std::string> warnings;
+  EXPECT_EQ(height.HeightOf("f0", Fix(0, 80.0), &warnings), 80.0);
+  EXPECT_EQ(height.HeightOf("f1", Fix(1, std::nullopt), &warnings), 80.0);
+  EXPECT_EQ(height.HeightOf("f2", Fix(2, 0.0), &warnings), 80.0);  // not a height above ground
+  EXPECT_EQ(height.HeightOf("f3", std::nullopt, &warnings), 80.0);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0], "f1: no relative altitude, using the last known (80.0 m)");
+  EXPECT_EQ(height.HeightOf("f4", Fix(4, 81.5), &warnings), 81.5);
+  EXPECT_EQ(height.HeightOf("f5", std::nullopt, &warnings), 81.5);
+  EXPECT_EQ(warnings.size(), 1u);
+}
+
+TEST(RunSteps, NoHeightIsAnErrorNamingTheFrame) {
+  HeightProvider height(0.0);
+  std::vector<std::string> warnings;
+  for (const std::optional<TelemetrySample>& s :
+       {std::optional<TelemetrySample>(), std::optional<TelemetrySample>(Fix(0, -3.0))}) {
+    try {
+      height.HeightOf("DJI_0054.JPG", s, &warnings);
+      FAIL() << "no error";
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()),
+                "DJI_0054.JPG: no height above ground (the telemetry has no relative altitude): "
+                "give --altitude");
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// 4. Outputs
+
+FrameResult FakeResult(int i) {
+  FrameResult r;
+  r.index = i;
+  r.status = i == 0 ? FrameStatus::kFirst : FrameStatus::kOk;
+  r.n_surf = 100 + i;
+  r.n_matched = 50 + i;
+  r.n_inliers = 40 + i;
+  r.position_m = {2.0 * i, 0.5 * i};
+  r.world_from_frame = Eigen::Matrix3d::Identity();
+  r.world_from_frame(0, 2) = 2.0 * i;
+  r.world_from_frame(1, 2) = 0.5 * i;
+  return r;
+}
+
+Frame FakeFrame(int i) {
+  Frame f;
+  f.index = i;
+  f.time_s = 0.5 * i;
+  f.name = "f" + std::to_string(i);
+  return f;
+}
+
+TEST(RunSteps, PendingFrameCarriesTheResult) {
+  FrameResult r = FakeResult(3);
+  r.status = FrameStatus::kBridged;
+  r.failure = StepFailure::kTooFewFeatures;
+  const PendingFrame p = PendingFrameOf(FakeFrame(3), r, GeoPoint{45.0, 7.0, 10.0});
+  EXPECT_EQ(p.record.frame, 3);
+  EXPECT_EQ(p.record.time_s, 1.5);
+  EXPECT_EQ(p.record.n_surf, 103);
+  EXPECT_EQ(p.record.n_inliers, 43);
+  EXPECT_EQ(p.record.status, std::string(ToString(FrameStatus::kBridged)) + ":" +
+                                 ToString(StepFailure::kTooFewFeatures));
+  EXPECT_EQ(p.local_m, Eigen::Vector2d(6.0, 1.5));
+  ASSERT_TRUE(p.gps.has_value());
+  EXPECT_EQ(p.gps->lat_deg, 45.0);
+}
+
+TEST(RunSteps, OutputsWaitForTheHeadingThenWriteEveryFrame) {
+  const fs::path dir = TempDir("outputs");
+  RunConfig config;
+  config.altitude_m = 50.0;
+  std::ostringstream poses;
+  std::vector<int> called;
+  RunCallbacks cb;
+  cb.poses = &poses;
+  cb.frame = [&](const FrameRecord& r) { called.push_back(r.frame); };
+  const RunCamera camera{400.0, "flag"};
+  std::optional<RunOutputs> out;
+  out.emplace(dir, config, camera, "flag", 320, 240, 0.0, std::nullopt, cb, true);
+
+  const nlohmann::json cfg = nlohmann::json::parse(ReadText(dir / "config.json"));
+  EXPECT_EQ(cfg.at("altitude_m"), 50.0);
+  const nlohmann::json& resolved = cfg.at("resolved");
+  EXPECT_EQ(resolved.at("focal_px"), 400.0);
+  EXPECT_EQ(resolved.at("focal_source"), "flag");
+  EXPECT_EQ(resolved.at("height_source"), "flag");
+  EXPECT_EQ(resolved.at("frame_width_px"), 320);
+  EXPECT_EQ(resolved.at("frame_height_px"), 240);
+
+  GeoReferencer georef;  // no GPS: never ready
+  for (int i = 0; i < 3; ++i) {
+    const FrameResult r = FakeResult(i);
+    out->AppendTransform(i, r.world_from_frame);
+    out->Add(PendingFrameOf(FakeFrame(i), r, std::nullopt), georef);
+  }
+  EXPECT_EQ(CsvRows(dir / "frames.csv"), 0);  // waiting for the heading
+  EXPECT_TRUE(poses.str().empty());
+  EXPECT_EQ(CsvRows(dir / "transforms.csv"), 3);
+  out->Finish(georef);
+  EXPECT_EQ(CsvRows(dir / "frames.csv"), 3);
+  EXPECT_EQ(called, (std::vector<int>{0, 1, 2}));
+  const std::vector<std::string> lines = Lines(poses.str());
+  ASSERT_EQ(lines.size(), 3u);
+  EXPECT_EQ(lines[0], "0 0.000000 0.0000 0.0000 - - first");
+  EXPECT_EQ(lines[2], "2 1.000000 4.0000 1.0000 - - ok");
+  // transforms.csv: first_px_from_frame, the first frame's world_from_frame inverted.
+  const std::vector<std::string> rows = Lines(ReadText(dir / "transforms.csv"));
+  EXPECT_EQ(rows[0], "frame,a11,a12,tx,a21,a22,ty");
+  EXPECT_EQ(rows[1], "0,1,0,0.000000,0,1,0.000000");
+  EXPECT_EQ(rows[3], "2,1,0,4.000000,0,1,1.000000");
+  out.reset();
+  for (const char* f : {"vo.geojson", "gps.geojson", "config.json"}) {
+    EXPECT_NO_THROW(nlohmann::json::parse(ReadText(dir / f))) << f;
+  }
+  fs::remove_all(dir);
+}
+
+TEST(RunSteps, OutputsWithoutGpsTelemetryWriteAtOnceAndGeoReferenceWhenReady) {
+  const fs::path dir = TempDir("outputs_now");
+  RunConfig config;
+  std::ostringstream poses;
+  RunCallbacks cb;
+  cb.poses = &poses;
+  const TelemetrySample first = Fix(0.0, 50.0);
+  RunOutputs out(dir, config, RunCamera{400.0, "hfov"}, "telemetry", 320, 240, 0.0, first, cb,
+                 false);
+  GeoReferencer georef;
+  out.Add(PendingFrameOf(FakeFrame(0), FakeResult(0), std::nullopt), georef);
+  EXPECT_EQ(CsvRows(dir / "frames.csv"), 1);
+  // Geo-referenced from the camera yaw of the first frame: positions in ENU and WGS84.
+  GeoReferencer ready;
+  ASSERT_TRUE(ready.Observe({0.0, 0.0}, GpsOf(first), 0.0));
+  out.Add(PendingFrameOf(FakeFrame(1), FakeResult(1), GpsOf(first)), ready);
+  out.Finish(ready);
+  const std::vector<std::string> lines = Lines(poses.str());
+  ASSERT_EQ(lines.size(), 2u);
+  EXPECT_EQ(lines[0], "0 0.000000 0.0000 0.0000 - - first");
+  EXPECT_EQ(lines[1].rfind("1 0.500000 2.0000 0.5000 45.0000", 0), 0u) << lines[1];
+  EXPECT_EQ(CsvRows(dir / "frames.csv"), 2);
+  fs::remove_all(dir);
+}
+
+// ---------------------------------------------------------------------------------------------
+// 6. Totals and summary
+
+TEST(RunSteps, SummaryComparesWithGpsAndSaysWhatIsMissing) {
+  GeoReferencer georef;
+  RunTotals totals(false);
+  std::vector<TelemetrySample> fixes;
+  for (int i = 0; i < 5; ++i) {
+    FrameResult r = FakeResult(i);
+    r.position_m = {0.0, 10.0 * i};  // north, as the yaw 0 says
+    r.detect_ms = 2.0 * i;
+    GeoPoint gps{45.0 + 10.0 * i / 111132.0, 7.0, 0.0};
+    georef.Observe(r.position_m, gps, 0.0);
+    totals.Add(i, 0.5 * i, r, gps, georef);
+  }
+  FrameResult last = FakeResult(5);
+  last.position_m = {0.0, 50.0};
+  georef.Observe(last.position_m, std::nullopt, std::nullopt);
+  totals.Add(5, 2.5, last, std::nullopt, georef);
+  EXPECT_EQ(totals.frames, 6);
+  EXPECT_EQ(totals.frames_with_gps, 5);
+  EXPECT_EQ(totals.measured_steps, 5);
+  EXPECT_DOUBLE_EQ(totals.path_length_m, 50.0);
+
+  RunSummary s;
+  s.frames_processed = 6;
+  LoopEnd end;
+  end.frames_without_fix = 1;
+  OdometryStats stats;
+  stats.frames = 6;
+  stats.ok = 6;
+  Summarize({"source warning"}, true, end, &stats, georef, totals, nullptr, 2.0, &s);
+  ASSERT_EQ(s.warnings.size(), 2u);
+  EXPECT_EQ(s.warnings[0], "source warning");
+  EXPECT_EQ(s.warnings[1].rfind("1 of 6 frames have no telemetry fix", 0), 0u) << s.warnings[1];
+  EXPECT_EQ(s.frames_with_gps, 5);
+  EXPECT_DOUBLE_EQ(s.vo_path_length_m, 50.0);
+  EXPECT_EQ(s.frames_ok, 6);
+  EXPECT_DOUBLE_EQ(s.mean.detect_ms, 20.0 / 6);
+  EXPECT_DOUBLE_EQ(s.fps, 3.0);
+  EXPECT_FALSE(s.interrupted);
+  ASSERT_TRUE(s.evaluation.has_value());
+  EXPECT_LT(s.evaluation->se2.ate_m.rmse, 0.05);
+  EXPECT_FALSE(s.truth_evaluation.has_value());
+  EXPECT_TRUE(s.error.empty());
+
+  // Nothing measured after the first frame, fewer than 3 fixes, interrupted.
+  RunTotals unmeasured(false);
+  GeoReferencer none;
+  FrameResult first = FakeResult(0);
+  unmeasured.Add(0, 0.0, first, std::nullopt, none);
+  FrameResult bridged = FakeResult(1);
+  bridged.status = FrameStatus::kBridged;
+  unmeasured.Add(1, 0.5, bridged, std::nullopt, none);
+  RunSummary u;
+  u.frames_processed = 2;
+  end = LoopEnd();
+  end.stopped = true;
+  stats = OdometryStats();
+  stats.frames = 2;
+  stats.ok = 1;
+  stats.bridged = 1;
+  Summarize({}, false, end, &stats, none, unmeasured, nullptr, 1.0, &u);
+  ASSERT_EQ(u.warnings.size(), 1u);
+  EXPECT_EQ(u.warnings[0].rfind("no frame could be matched to another", 0), 0u);
+  EXPECT_TRUE(u.interrupted);
+  EXPECT_FALSE(u.evaluation.has_value());
+  EXPECT_EQ(u.frames_bridged, 1);
+}
+
+TEST(RunSteps, SummaryComparesWithTheTruth) {
+  GeoReferencer georef;
+  RunTotals totals(true);
+  ReferenceTrack truth;
+  truth.format = "tum";
+  for (int i = 0; i < 5; ++i) {
+    FrameResult r = FakeResult(i);
+    r.position_m = {1.0 * i, 0.0};
+    totals.Add(i, 0.5 * i, r, std::nullopt, georef);
+    ReferencePoint p;
+    p.time_s = 0.5 * i;
+    p.x_m = 1.0 * i;
+    p.frame_index = i;
+    truth.points.push_back(p);
+  }
+  ASSERT_EQ(totals.track_frames, (std::vector<int>{0, 1, 2, 3, 4}));
+  RunSummary s;
+  s.frames_processed = 5;
+  Summarize({}, false, LoopEnd(), nullptr, georef, totals, &truth, 1.0, &s);
+  EXPECT_EQ(s.frames_with_truth, 5);
+  ASSERT_TRUE(s.truth_evaluation.has_value());
+  EXPECT_LT(s.truth_evaluation->se2.ate_m.rmse, 1e-9);
+  ASSERT_EQ(s.warnings.size(), 1u);
+  EXPECT_EQ(s.warnings[0],
+            "the track is not geo-referenced: compare it with the truth after alignment only");
+}
+
+TEST(RunSteps, WriteSummaryThenThrowTheFailure) {
+  const fs::path dir = TempDir("summary");
+  RunSummary s;
+  s.input = "in";
+  s.frames_processed = 4;
+  WriteSummary(dir, s);
+  EXPECT_EQ(nlohmann::json::parse(ReadText(dir / "summary.json")).at("frames_processed"), 4);
+  s.error = "f4.jpg: cannot decode";
+  try {
+    WriteSummary(dir, s);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "f4.jpg: cannot decode (the run stopped there: the 4 frames processed before are "
+              "in '" +
+                  dir.string() + "', each file valid, summary.json included)");
+  }
+  EXPECT_EQ(nlohmann::json::parse(ReadText(dir / "summary.json")).at("error"),
+            "f4.jpg: cannot decode");
+  fs::remove_all(dir);
+}
+
+// ---------------------------------------------------------------------------------------------
+// 5. The frame loop
+
+// Frames cut from one smooth random texture, each `shift_px` further right; the frame
+// `odd_index` (if >= 0) has another size.
+class ShiftedCrops : public FrameSource {
+ public:
+  ShiftedCrops(int count, int shift_px, int odd_index = -1)
+      : count_(count), shift_px_(shift_px), odd_index_(odd_index) {
+    cv::Mat noise(kH + 64, kW + 64 + count * shift_px, CV_32F);
+    cv::RNG rng(7);
+    rng.fill(noise, cv::RNG::NORMAL, 0.0, 1.0);
+    cv::GaussianBlur(noise, noise, cv::Size(0, 0), 2.5);
+    cv::normalize(noise, noise, 0.0, 255.0, cv::NORM_MINMAX);
+    noise.convertTo(texture_, CV_8U);
+  }
+  bool Next(Frame& frame) override {
+    if (next_ >= count_) return false;
+    const int w = next_ == odd_index_ ? kW / 2 : kW;
+    const cv::Mat crop = texture_(cv::Rect(32 + next_ * shift_px_, 32, w, kH));
+    frame.gray = GrayImage(w, kH);
+    for (int y = 0; y < kH; ++y) std::copy_n(crop.ptr<std::uint8_t>(y), w, frame.gray.row(y));
+    frame.index = next_;
+    frame.time_s = 0.1 * next_;
+    frame.name = "crop" + std::to_string(next_);
+    ++next_;
+    return true;
+  }
+  std::string Describe() const override { return "shifted crops"; }
+  int ExpectedFrameCount() const override { return count_; }
+
+  static constexpr int kW = 320, kH = 240;
+
+ private:
+  int count_, shift_px_, odd_index_;
+  int next_ = 0;
+  cv::Mat texture_;
+};
+
+RunInputs LoopInputs(const fs::path& out) {
+  RunInputs in;
+  in.config.out = out.string();
+  in.config.altitude_m = 50.0;
+  in.config.focal_px = 400.0;
+  return in;
+}
+
+TEST(RunSteps, FrameLoopProcessesEveryFrame) {
+  const fs::path dir = TempDir("loop");
+  const RunInputs inputs = LoopInputs(dir);
+  const RunTelemetry telemetry;
+  RunCallbacks cb;
+  std::vector<int> progress;
+  cb.progress = [&](int done, int expected, double) {
+    progress.push_back(done);
+    EXPECT_EQ(expected, 6);
+  };
+  std::ostringstream log;
+  FrameLoop loop(inputs, telemetry, nullptr, OdometryOptions(), dir, cb, &log);
+  ShiftedCrops source(6, 6);
+  RunSummary s;
+  s.frames_expected = source.ExpectedFrameCount();
+  const LoopEnd end = loop.Run(source, nullptr, Stopwatch(), &s);
+  loop.Finish();
+  EXPECT_FALSE(end.stopped);
+  EXPECT_TRUE(end.failure.empty());
+  EXPECT_EQ(end.frames_without_fix, 6);
+  EXPECT_EQ(s.frames_processed, 6);
+  EXPECT_EQ(progress, (std::vector<int>{1, 2, 3, 4, 5, 6}));
+  EXPECT_EQ(s.focal_px, 400.0);
+  EXPECT_EQ(s.focal_source, "flag");
+  EXPECT_EQ(s.height_source, "flag");
+  EXPECT_EQ(log.str(), "camera: 320x240 px, focal 400.0 px (flag), height from flag\n");
+  ASSERT_NE(loop.vo_stats(), nullptr);
+  EXPECT_EQ(loop.vo_stats()->ok, 6);
+  EXPECT_EQ(loop.totals().measured_steps, 5);
+  // 6 px per frame at 50 m and 400 px: 0.75 m per step.
+  EXPECT_NEAR(loop.totals().path_length_m, 5 * 0.75, 0.05);
+  EXPECT_EQ(CsvRows(dir / "frames.csv"), 6);
+  EXPECT_EQ(CsvRows(dir / "transforms.csv"), 6);
+  fs::remove_all(dir);
+}
+
+TEST(RunSteps, FrameLoopStopsAtMaxFramesAndOnTheStopFlag) {
+  const fs::path dir = TempDir("loop_stop");
+  RunInputs inputs = LoopInputs(dir);
+  inputs.config.max_frames = 3;
+  const RunTelemetry telemetry;
+  const RunCallbacks cb;
+  {
+    FrameLoop loop(inputs, telemetry, nullptr, OdometryOptions(), dir, cb, nullptr);
+    ShiftedCrops source(6, 6);
+    RunSummary s;
+    const LoopEnd end = loop.Run(source, nullptr, Stopwatch(), &s);
+    loop.Finish();
+    EXPECT_FALSE(end.stopped);
+    EXPECT_EQ(s.frames_processed, 3);
+    EXPECT_EQ(CsvRows(dir / "frames.csv"), 3);
+  }
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  {
+    FrameLoop loop(inputs, telemetry, nullptr, OdometryOptions(), dir, cb, nullptr);
+    ShiftedCrops source(6, 6);
+    RunSummary s;
+    const std::atomic<bool> stop{true};
+    const LoopEnd end = loop.Run(source, &stop, Stopwatch(), &s);
+    loop.Finish();
+    EXPECT_TRUE(end.stopped);
+    EXPECT_EQ(s.frames_processed, 0);
+    EXPECT_EQ(loop.vo_stats(), nullptr);
+    EXPECT_FALSE(fs::exists(dir / "frames.csv"));
+  }
+  fs::remove_all(dir);
+}
+
+TEST(RunSteps, FrameLoopKeepsTheFramesBeforeAnInputError) {
+  const fs::path dir = TempDir("loop_error");
+  const RunInputs inputs = LoopInputs(dir);
+  const RunTelemetry telemetry;
+  const RunCallbacks cb;
+  FrameLoop loop(inputs, telemetry, nullptr, OdometryOptions(), dir, cb, nullptr);
+  ShiftedCrops source(6, 6, 3);  // crop3 has another size
+  RunSummary s;
+  const LoopEnd end = loop.Run(source, nullptr, Stopwatch(), &s);
+  loop.Finish();
+  EXPECT_EQ(s.frames_processed, 3);
+  EXPECT_EQ(end.failure.rfind("crop3: ", 0), 0u) << end.failure;
+  EXPECT_EQ(CsvRows(dir / "frames.csv"), 3);
+
+  // A missing height is thrown, even on the first frame (no outputs to keep).
+  ShiftedCrops first_odd(3, 6);
+  RunInputs no_height = LoopInputs(dir);
+  no_height.config.altitude_m = 0.0;
+  FrameLoop unknown(no_height, telemetry, nullptr, OdometryOptions(), dir, cb, nullptr);
+  RunSummary u;
+  try {
+    unknown.Run(first_odd, nullptr, Stopwatch(), &u);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("crop0: no height above ground", 0), 0u) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace aerovo::run_steps
