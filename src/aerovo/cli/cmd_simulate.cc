@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "aerovo/cli/command.h"
+#include "aerovo/cli/progress.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/sim/sim_writer.h"
@@ -147,16 +148,12 @@ void Run(const SimulateArgs& a, sim::SimulationOptions o, const sim::WriterOptio
     for (const auto& warning : simulator.warnings()) fmt::print("  WARNING    {}\n", warning);
     std::fflush(stdout);
   }
-  int last_percent = -1;
+  Progress progress(DefaultProgressStyle(a.quiet));
   const sim::SimulationOutput out =
       sim::WriteSimulation(simulator, w, a.out, [&](int done, int total) {
-        const int percent = 100 * done / total;
-        if (!a.quiet && percent / 10 != last_percent / 10) {
-          fmt::print(stderr, "\r  rendering  {}/{} frames", done, total);
-          last_percent = percent;
-        }
+        progress.Update(done, total, "  rendering  ");
       });
-  if (!a.quiet) fmt::print(stderr, "\n");
+  progress.Finish();
   for (const auto& m : out.messages) {
     if (m.rfind("warning: ", 0) != 0) fmt::print("  note       {}\n", m);
   }
