@@ -42,7 +42,8 @@ void Validate(const CameraOptions& o) {
 }
 
 ResolvedCamera ResolveCamera(const CameraOptions& options, int width_px, int height_px,
-                             const ImageMetadata* metadata) {
+                             const ImageMetadata* metadata,
+                             std::optional<double> telemetry_focal_35mm_mm) {
   Validate(options);
   if (width_px <= 0 || height_px <= 0) {
     throw InvalidArgument(fmt::format("frame size {}x{} must be positive", width_px, height_px));
@@ -52,23 +53,33 @@ ResolvedCamera ResolveCamera(const CameraOptions& options, int width_px, int hei
   if (options.focal_px) {
     f = *options.focal_px;
     r.source = fmt::format("focal length {:.1f} px (given)", f);
+    r.source_key = "flag";
   } else if (options.hfov_deg) {
     f = FocalPxFromHorizontalFov(*options.hfov_deg, width_px);
     r.source = fmt::format("focal length {:.1f} px from the horizontal field of view {} deg", f,
                            *options.hfov_deg);
+    r.source_key = "hfov";
   } else if (options.focal_35mm_mm) {
     f = FocalPxFrom35mm(*options.focal_35mm_mm, width_px, height_px);
     r.source = fmt::format("focal length {:.1f} px from the 35 mm equivalent {} mm (given)", f,
                            *options.focal_35mm_mm);
+    r.source_key = "35mm";
   } else if (metadata && metadata->calibrated_focal_px && metadata->width_px == width_px &&
              metadata->height_px == height_px) {
     f = *metadata->calibrated_focal_px;
     r.source = fmt::format("focal length {:.1f} px from DJI XMP CalibratedFocalLength of '{}'", f,
                            metadata->source);
+    r.source_key = "xmp-calibrated";
   } else if (metadata && metadata->focal_length_35mm_mm) {
     f = FocalPxFrom35mm(*metadata->focal_length_35mm_mm, width_px, height_px);
     r.source = fmt::format("focal length {:.1f} px from EXIF FocalLengthIn35mmFilm {} mm of '{}'",
                            f, *metadata->focal_length_35mm_mm, metadata->source);
+    r.source_key = "exif-35mm";
+  } else if (telemetry_focal_35mm_mm) {
+    f = FocalPxFrom35mm(*telemetry_focal_35mm_mm, width_px, height_px);
+    r.source = fmt::format("focal length {:.1f} px from the telemetry's 35 mm equivalent {} mm",
+                           f, *telemetry_focal_35mm_mm);
+    r.source_key = "telemetry-35mm";
   } else {
     throw InputError(fmt::format(
         "no focal length for {}x{} frames{}: give focal_px, hfov_deg or focal_35mm_mm", width_px,

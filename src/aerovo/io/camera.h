@@ -18,7 +18,7 @@ namespace aerovo {
 /// How the camera of a run is known. Every field is optional; the first that is set wins, in
 /// this order: focal_px, hfov_deg, focal_35mm_mm, then the photo/telemetry metadata
 /// (DJI XMP CalibratedFocalLength when the metadata's image size equals the frame size, then
-/// EXIF FocalLengthIn35mmFilm).
+/// EXIF FocalLengthIn35mmFilm, then the telemetry's 35 mm equivalent, e.g. SRT focal_len).
 struct CameraOptions {
   std::optional<double> focal_px;       ///< Focal length in pixels (e.g. from a calibration).
   std::optional<double> hfov_deg;       ///< Horizontal field of view, degrees.
@@ -34,13 +34,19 @@ void Validate(const CameraOptions& options);
 struct ResolvedCamera {
   CameraIntrinsics intrinsics;
   std::string source;  ///< How the focal length was obtained, for the run log.
+  /// The same as a short key (a run's summary focal_source): "flag" (focal_px), "hfov",
+  /// "35mm" (focal_35mm_mm), "xmp-calibrated", "exif-35mm", "telemetry-35mm".
+  std::string source_key;
 };
 
-/// Intrinsics for frames of width_px x height_px. `metadata` may be null (video). Throws
-/// InputError when nothing gives a focal length ("no focal length: give focal_px, hfov_deg or
-/// focal_35mm_mm ...").
+/// Intrinsics for frames of width_px x height_px. `metadata` may be null (video);
+/// `telemetry_focal_35mm_mm` is the telemetry's 35 mm-equivalent focal length (DJI SRT
+/// focal_len, TelemetrySample::focal_length_35mm_mm), the last resort. Throws InputError when
+/// nothing gives a focal length ("no focal length: give focal_px, hfov_deg or focal_35mm_mm
+/// ..."), InvalidArgument for a non-positive telemetry value.
 ResolvedCamera ResolveCamera(const CameraOptions& options, int width_px, int height_px,
-                             const ImageMetadata* metadata);
+                             const ImageMetadata* metadata,
+                             std::optional<double> telemetry_focal_35mm_mm = std::nullopt);
 
 /// Undistorts frames of one camera with OpenCV: the maps (cv::initUndistortRectifyMap, 16-bit
 /// fixed point) are computed once, each frame is one bilinear cv::remap; pixels whose source

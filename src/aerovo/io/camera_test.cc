@@ -60,6 +60,35 @@ TEST(Camera, ResolvePriorityAndMessages) {
   EXPECT_THROW(ResolveCamera(bad, 640, 480, nullptr), InvalidArgument);
 }
 
+// The source keys and the last resort, the telemetry's 35 mm equivalent (a video with a DJI
+// SRT): the same arithmetic as FocalPxFrom35mm, bit for bit.
+TEST(Camera, ResolveSourceKeysAndTelemetryFallback) {
+  CameraOptions o;
+  ResolvedCamera r = ResolveCamera(o, 1280, 720, nullptr, 25.16);
+  EXPECT_EQ(r.source_key, "telemetry-35mm");
+  EXPECT_EQ(r.intrinsics.fx_px, FocalPxFrom35mm(25.16, 1280, 720));
+  EXPECT_THAT(r.source, ::testing::HasSubstr("telemetry"));
+  ImageMetadata m;
+  m.source = "y.jpg";
+  m.width_px = 1280;
+  m.height_px = 720;
+  m.focal_length_35mm_mm = 24.0;
+  r = ResolveCamera(o, 1280, 720, &m, 25.16);  // the photo's EXIF comes first
+  EXPECT_EQ(r.source_key, "exif-35mm");
+  EXPECT_EQ(r.intrinsics.fx_px, FocalPxFrom35mm(24.0, 1280, 720));
+  m.calibrated_focal_px = 900.0;
+  EXPECT_EQ(ResolveCamera(o, 1280, 720, &m).source_key, "xmp-calibrated");
+  o.focal_35mm_mm = 28.0;
+  EXPECT_EQ(ResolveCamera(o, 1280, 720, &m).source_key, "35mm");
+  o.hfov_deg = 70.0;
+  r = ResolveCamera(o, 1280, 720, &m);
+  EXPECT_EQ(r.source_key, "hfov");
+  EXPECT_EQ(r.intrinsics.fx_px, FocalPxFromHorizontalFov(70.0, 1280));
+  o.focal_px = 1000.0;
+  EXPECT_EQ(ResolveCamera(o, 1280, 720, &m).source_key, "flag");
+  EXPECT_THROW(ResolveCamera(CameraOptions{}, 1280, 720, nullptr, -3.0), InvalidArgument);
+}
+
 TEST(Camera, TampaFromExif) {
   AEROVO_REQUIRE_SHARED(path, "data/flights/tampa-phantom3/DJI_0054.JPG");
   const ImageMetadata m = ReadImageMetadata(path);
