@@ -34,8 +34,8 @@ void Progress::Update(int done, int expected, double fps, const std::string& pre
       const int width = 30;
       const int filled = std::clamp(done * width / expected, 0, width);
       line = fmt::format("\r{}[{}{}] {:>5}/{:<5} {:6.2f} fps  ETA {} ", prefix,
-                         std::string(filled, '#'), std::string(width - filled, '.'), done,
-                         expected, fps, Eta(done, expected, fps));
+                         std::string(filled, '#'), std::string(width - filled, '.'), done, expected,
+                         fps, Eta(done, expected, fps));
     } else {
       line = fmt::format("\r{}{:>6} frames {:6.2f} fps ", prefix, done, fps);
     }

@@ -56,9 +56,9 @@ class Progress {
   ProgressStyle style_;
   std::FILE* out_;
   double line_interval_s_;
-  Stopwatch started_;     // since the display started (for Update without fps)
-  Stopwatch last_line_;   // since the last plain line (kLines)
-  bool open_ = false;     // something shown since the display started
+  Stopwatch started_;          // since the display started (for Update without fps)
+  Stopwatch last_line_;        // since the last plain line (kLines)
+  bool open_ = false;          // something shown since the display started
   bool printed_last_ = false;  // kLines: the last Update's state was printed
   std::string last_line_text_;
 };

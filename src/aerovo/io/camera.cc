@@ -77,8 +77,8 @@ ResolvedCamera ResolveCamera(const CameraOptions& options, int width_px, int hei
     r.source_key = "exif-35mm";
   } else if (telemetry_focal_35mm_mm) {
     f = FocalPxFrom35mm(*telemetry_focal_35mm_mm, width_px, height_px);
-    r.source = fmt::format("focal length {:.1f} px from the telemetry's 35 mm equivalent {} mm",
-                           f, *telemetry_focal_35mm_mm);
+    r.source = fmt::format("focal length {:.1f} px from the telemetry's 35 mm equivalent {} mm", f,
+                           *telemetry_focal_35mm_mm);
     r.source_key = "telemetry-35mm";
   } else {
     throw InputError(fmt::format(
@@ -109,9 +109,7 @@ void Undistorter::CheckSize(int width_px, int height_px) const {
   }
 }
 
-void Undistorter::Apply(const GrayImage& in, GrayImage& out) const {
-  Apply(in.view(), &out);
-}
+void Undistorter::Apply(const GrayImage& in, GrayImage& out) const { Apply(in.view(), &out); }
 
 GrayImageView Undistorter::Apply(const GrayImageView& in, GrayImage* buffer) const {
   CheckSize(in.width, in.height);

@@ -163,8 +163,8 @@ TEST(Camera, UndistorterEqualsTheDirectOpenCvMapsBitForBit) {
   EXPECT_EQ(u.width_px(), w);
   EXPECT_EQ(u.height_px(), h);
   GrayImage buffer;
-  const GrayImageView got = u.Apply(
-      GrayImageView{gray.data, w, h, static_cast<std::ptrdiff_t>(gray.step)}, &buffer);
+  const GrayImageView got =
+      u.Apply(GrayImageView{gray.data, w, h, static_cast<std::ptrdiff_t>(gray.step)}, &buffer);
   ASSERT_EQ(got.width, w);
   ASSERT_EQ(got.height, h);
   int differ = 0;
@@ -180,8 +180,8 @@ TEST(Camera, UndistorterEqualsTheDirectOpenCvMapsBitForBit) {
   cv::Mat wide(h, w + 24, CV_8UC1, cv::Scalar(9));
   gray.copyTo(wide(cv::Rect(0, 0, w, h)));
   GrayImage again;
-  const GrayImageView strided = u.Apply(
-      GrayImageView{wide.data, w, h, static_cast<std::ptrdiff_t>(wide.step)}, &again);
+  const GrayImageView strided =
+      u.Apply(GrayImageView{wide.data, w, h, static_cast<std::ptrdiff_t>(wide.step)}, &again);
   differ = 0;
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) differ += strided.at(x, y) != want_gray.at<std::uint8_t>(y, x);

@@ -18,16 +18,16 @@ namespace aerovo {
 ///   </font>
 /// (the bracketed fields on one line), then a blank line. The exposure fields are fixed values.
 struct DjiSrtEntry {
-  int index = 1;          ///< 1-based entry number (= FrameCnt).
-  double start_s = 0.0;   ///< Subtitle interval, seconds from the video start (ms precision).
+  int index = 1;         ///< 1-based entry number (= FrameCnt).
+  double start_s = 0.0;  ///< Subtitle interval, seconds from the video start (ms precision).
   double end_s = 0.0;
   int diff_ms = 0;        ///< DiffTime: milliseconds between frames.
   std::string date_time;  ///< "YYYY-MM-DD HH:MM:SS.mmm" as DJI writes it (local clock).
   /// focal_len: 35 mm-equivalent focal length (EXIF diagonal convention, camera/pinhole.h),
   /// written with 2 decimals.
   double focal_35mm_mm = 0.0;
-  GeoPoint position;      ///< latitude, longitude (6 decimals) and abs_alt (m above MSL).
-  double rel_alt_m = 0.0; ///< rel_alt: height above the take-off point (m).
+  GeoPoint position;       ///< latitude, longitude (6 decimals) and abs_alt (m above MSL).
+  double rel_alt_m = 0.0;  ///< rel_alt: height above the take-off point (m).
 };
 
 /// The text of `entry` (see DjiSrtEntry), ending with the blank line that separates entries.

@@ -19,9 +19,8 @@ struct FrameUndistorter::Impl {
 
 namespace {
 
-CameraIntrinsics FrameUndistorterIntrinsics(int width_px, int height_px, double focal_px,
-                                            double k1, double k2, double p1, double p2,
-                                            double k3) {
+CameraIntrinsics FrameUndistorterIntrinsics(int width_px, int height_px, double focal_px, double k1,
+                                            double k2, double p1, double p2, double k3) {
   if (width_px <= 0 || height_px <= 0 || !(focal_px > 0.0)) {
     throw InvalidArgument("FrameUndistorter: size and focal length must be positive");
   }

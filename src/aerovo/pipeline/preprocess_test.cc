@@ -2,8 +2,8 @@
 
 #include <cmath>
 
-#include <Eigen/Core>
 #include <gtest/gtest.h>
+#include <Eigen/Core>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -80,7 +80,7 @@ TEST(Preprocess, ScaleBrightnessRoundsHalfUpAndSaturates) {
   frame.at(2, 0) = 200;
   GrayImage buffer;
   const GrayImageView out = ScaleBrightness(frame.view(), 1.5, &buffer);
-  EXPECT_EQ(out.at(0, 0), 2);    // 1.5 -> 2 (half up)
+  EXPECT_EQ(out.at(0, 0), 2);  // 1.5 -> 2 (half up)
   EXPECT_EQ(out.at(1, 0), 150);
   EXPECT_EQ(out.at(2, 0), 255);  // 300 saturates
   EXPECT_THROW(ScaleBrightness(frame.view(), -1.0, &buffer), InvalidArgument);

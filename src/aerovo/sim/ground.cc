@@ -25,8 +25,9 @@ void Validate(const GroundOptions& o) {
   }
   if ((o.nw_lat_deg && !(std::abs(*o.nw_lat_deg) <= 90.0)) ||
       (o.nw_lon_deg && !(std::abs(*o.nw_lon_deg) <= 360.0))) {
-    throw InvalidArgument("GroundOptions: the north-west corner (nw_lat_deg, nw_lon_deg) is not "
-                          "a position");
+    throw InvalidArgument(
+        "GroundOptions: the north-west corner (nw_lat_deg, nw_lon_deg) is not "
+        "a position");
   }
   if (o.terrain_size_px < 0 || !(o.terrain_mpp >= 0.0)) {
     throw InvalidArgument(fmt::format(
@@ -38,7 +39,8 @@ void Validate(const GroundOptions& o) {
 GroundImage MakeGround(const GroundOptions& o, const SimulationOptions& simulation) {
   Validate(o);
   if (!o.ortho.empty()) {
-    return LoadOrthophoto(o.ortho, o.ortho_mpp, GeoPoint{*o.nw_lat_deg, *o.nw_lon_deg, o.ground_alt_m});
+    return LoadOrthophoto(o.ortho, o.ortho_mpp,
+                          GeoPoint{*o.nw_lat_deg, *o.nw_lon_deg, o.ground_alt_m});
   }
   TerrainOptions t;
   t.seed = o.terrain_seed;
