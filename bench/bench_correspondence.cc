@@ -28,8 +28,6 @@
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -49,6 +47,7 @@
 #include "aerovo/estimation/ransac.h"
 #include "aerovo/estimation/testing.h"
 #include "aerovo/features/surf.h"
+#include "aerovo/io/image_file.h"
 
 namespace {
 
@@ -156,9 +155,7 @@ Sequence LoadTampa(const std::string& name, int num_frames, double hessian_thres
   aerovo::Surf surf(so);
   if (num_frames <= 0) num_frames = static_cast<int>(files.size());
   for (int i = 0; i < num_frames && i < static_cast<int>(files.size()); ++i) {
-    cv::Mat bgr = cv::imread(files[i].string(), cv::IMREAD_COLOR), gray;
-    if (bgr.empty()) continue;
-    cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
+    const cv::Mat gray = aerovo::ReadGrayImage(files[i]);  // BGR, then cvtColor
     s.width = gray.cols;
     s.height = gray.rows;
     s.frames.push_back(Describe(surf, gray));
@@ -172,10 +169,7 @@ Sequence LoadCallas(int num_frames) {
   s.name = "callas";
   const fs::path file = SharedDir() / "data/ortho/callas-quarry.jpg";
   if (!fs::exists(file)) return s;
-  cv::Mat bgr = cv::imread(file.string(), cv::IMREAD_COLOR), gray;
-  if (bgr.empty()) return s;
-  cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
-  bgr.release();
+  const cv::Mat gray = aerovo::ReadGrayImage(file);  // BGR, then cvtColor
   s.width = 1920;
   s.height = 1080;
   const int x0 = 1600, y0 = 1700, dx = 72, dy = 18;  // Inside the imaged part of the quarry.

@@ -11,7 +11,6 @@
 
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -24,6 +23,7 @@
 #include <vector>
 
 #include "aerovo/features/surf.h"
+#include "aerovo/io/image_file.h"
 #include "aerovo/matching/matcher.h"
 
 namespace {
@@ -259,8 +259,11 @@ const RealPair& GetRealPair(int threshold) {
     if (t == threshold) return rp;
   }
   RealPair rp;
-  const cv::Mat full =
-      cv::imread((SharedDir() / "data/ortho/callas-quarry.jpg").string(), cv::IMREAD_GRAYSCALE);
+  // The decoder's grey (IMREAD_GRAYSCALE), as these figures were measured; empty if absent.
+  const std::filesystem::path file = SharedDir() / "data/ortho/callas-quarry.jpg";
+  const cv::Mat full = std::filesystem::exists(file)
+                           ? aerovo::ReadGrayImage(file, aerovo::GrayFrom::kDecoder)
+                           : cv::Mat();
   if (!full.empty()) {
     const int x0 = 3000, y0 = 1600, dx = 60, dy = -35;
     const cv::Mat a = full(cv::Rect(x0, y0, 1920, 1080)).clone();

@@ -388,40 +388,6 @@ TEST(Runner, ConfigJsonRoundTripAndErrors) {
   EXPECT_NEAR(FocalPxFromHorizontalFov(90.0, 800), 400.0, 1e-9);
 }
 
-TEST(Runner, UndistorterMovesADistortedDotBackToItsPinholePosition) {
-  // A dot whose pinhole (undistorted) position is p_u is drawn where the lens puts it,
-  // p_d = centre + f * distort((p_u - centre) / f); undistortion must bring it back to p_u.
-  const int w = 640, h = 480;
-  const double f = 500.0, k1 = -0.2, k2 = 0.05;
-  const Eigen::Vector2d c(0.5 * (w - 1), 0.5 * (h - 1)), pu(560.0, 420.0);
-  const Eigen::Vector2d n = (pu - c) / f;
-  const double r2 = n.squaredNorm();
-  const Eigen::Vector2d pd = c + f * n * (1.0 + k1 * r2 + k2 * r2 * r2);
-  cv::Mat img(h, w, CV_8UC1, cv::Scalar(0));
-  cv::circle(img,
-             cv::Point(static_cast<int>(std::lround(pd.x() * 16)),
-                       static_cast<int>(std::lround(pd.y() * 16))),
-             3 * 16, cv::Scalar(255), cv::FILLED, cv::LINE_AA, 4);
-  FrameUndistorter und(w, h, f, k1, k2, 0.0, 0.0, 0.0);
-  const GrayImageView out =
-      und.Apply(GrayImageView{img.data, w, h, static_cast<std::ptrdiff_t>(img.step)});
-  double sx = 0, sy = 0, sw = 0;
-  for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
-      const double v = out.at(x, y);
-      sx += v * x;
-      sy += v * y;
-      sw += v;
-    }
-  }
-  ASSERT_GT(sw, 0.0);
-  EXPECT_GT((pd - pu).norm(), 10.0);  // the distortion is substantial there
-  EXPECT_NEAR(sx / sw, pu.x(), 0.5);
-  EXPECT_NEAR(sy / sw, pu.y(), 0.5);
-  cv::Mat other(h + 1, w, CV_8UC1, cv::Scalar(0));
-  EXPECT_THROW(und.Apply(GrayImageView{other.data, w, h + 1, w}), InvalidArgument);
-}
-
 #ifdef AEROVO_CLI_PATH
 TEST(Runner, VideoWithDjiSrtFromTheSimulator) {
   // A 150 m straight flight at 100 m over the built-in terrain, rendered by `aerovo simulate`

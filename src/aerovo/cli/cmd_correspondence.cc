@@ -7,13 +7,12 @@
 #include <vector>
 
 #include <fmt/format.h>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include "aerovo/cli/command.h"
 #include "aerovo/core/error.h"
 #include "aerovo/correspondence/correspondence.h"
 #include "aerovo/features/surf.h"
+#include "aerovo/io/image_file.h"
 #include "aerovo/matching/matcher.h"
 
 namespace aerovo::cli {
@@ -29,14 +28,6 @@ struct Args {
   double hessian_threshold = SurfOptions{}.hessian_threshold;
   CorrespondenceOptions options;
 };
-
-cv::Mat ReadGray(const std::string& path) {
-  const cv::Mat bgr = cv::imread(path, cv::IMREAD_COLOR);
-  if (bgr.empty()) throw InputError(path + ": cannot read image (missing or not decodable)");
-  cv::Mat gray;
-  cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
-  return gray;
-}
 
 std::string Describe(const char* name, const CorrespondenceResult& r) {
   std::string s = fmt::format(
@@ -73,7 +64,7 @@ void Run(Args a) {
   SurfOptions so;
   so.hessian_threshold = a.hessian_threshold;
   Surf surf(so);
-  const cv::Mat g0 = ReadGray(a.prev), g1 = ReadGray(a.curr);
+  const cv::Mat g0 = ReadGrayImage(a.prev), g1 = ReadGrayImage(a.curr);
   auto features = [&](const cv::Mat& g) {
     return surf
         .DetectAndDescribe(

@@ -1,7 +1,6 @@
 // `aerovo demo`: the full flight demo, needing no file (report/demo.h): a flight simulated over
 // the built-in terrain, the run, the paper's experiments, a summary and an index page.
 // `aerovo demo --surf-only`: SURF on one view of the built-in terrain (the first demo).
-#include <unistd.h>
 
 #include <fmt/core.h>
 
@@ -12,6 +11,7 @@
 #include <string>
 
 #include "aerovo/cli/command.h"
+#include "aerovo/cli/progress.h"
 #include "aerovo/cli/run_cli.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
@@ -108,23 +108,16 @@ void RunFlightDemo(const DemoArgs& args) {
       "paper's experiments (illumination, standard vs clustered RANSAC) -> {}\n",
       args.out);
   std::fflush(stdout);
-  const bool tty = ::isatty(STDERR_FILENO) != 0;
+  Progress progress(DefaultProgressStyle(false));
   std::string stage;
-  Stopwatch stage_clock;
   DemoCallbacks cb;
   cb.stage_started = [&](const std::string& name, const std::string& what) {
-    if (tty) std::fputs("\r\033[K", stderr);
+    progress.Clear();  // also restarts the stage's clock
     fmt::print("  {:<13}{}\n", name, what);
     std::fflush(stdout);
     stage = name;
-    stage_clock.restart();
   };
-  if (tty) {
-    cb.progress = [&](int done, int total) {
-      const double s = stage_clock.elapsed_ms() / 1000.0;
-      DrawProgress(done, total, s > 0 ? done / s : 0.0, "  " + stage + " ");
-    };
-  }
+  cb.progress = [&](int done, int total) { progress.Update(done, total, "  " + stage + " "); };
   DemoResult r;
   int signal = 0;
   {
@@ -132,7 +125,7 @@ void RunFlightDemo(const DemoArgs& args) {
     r = RunDemo(o, cb, signals.stop());
     signal = signals.signal();
   }
-  if (tty) std::fputs("\r\033[K", stderr);
+  progress.Clear();
   for (const std::string& n : r.notes) fmt::print("  note         {}\n", n);
   fmt::print("\n{}\nOpen {} in a browser (reports, tables, tracks); everything is in {}/\n",
              FormatDemoSummary(r), r.index_html.string(), args.out);

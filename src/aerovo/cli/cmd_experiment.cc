@@ -1,8 +1,6 @@
 // `aerovo experiment illumination|ransac`: the paper's measurements on any flight (or on a
 // simulated one with exact ground truth). The work is in aerovo/pipeline/experiment.h; this file
 // maps flags, signals and terminal output onto it.
-#include <unistd.h>
-
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -14,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "aerovo/cli/command.h"
+#include "aerovo/cli/progress.h"
 #include "aerovo/cli/run_cli.h"
 #include "aerovo/core/error.h"
 #include "aerovo/pipeline/experiment.h"
@@ -77,11 +76,11 @@ void Execute(ExperimentArgs& a) {
     if (!quiet)
       fmt::print("aerovo experiment {}: simulating a flight into {}\n", a.kind, dir.string());
     std::fflush(stdout);
-    const bool tty = ::isatty(STDERR_FILENO) != 0 && !quiet;
+    Progress rendering(DefaultProgressStyle(quiet));
     const SimulatedFlight flight = SimulateExperimentFlight(a.sim, dir, [&](int done, int total) {
-      if (tty) fmt::print(stderr, "\r  rendering {}/{} frames ", done, total);
+      rendering.Update(done, total, "  rendering ");
     });
-    if (tty) fmt::print(stderr, "\n");
+    rendering.Finish();
     if (!quiet) {
       fmt::print("  {} frames, {:.0f} m flown, focal {:.1f} px; ground truth {}\n", flight.frames,
                  flight.distance_m, flight.run.focal_px, flight.ground_truth_csv.string());
@@ -98,7 +97,7 @@ void Execute(ExperimentArgs& a) {
         "--altitude, ... as needed) or --simulate to make one");
   }
 
-  const bool tty = ::isatty(STDERR_FILENO) != 0 && !quiet;
+  Progress progress(DefaultProgressStyle(quiet));
   std::string prefix;
   ExperimentCallbacks cb;
   cb.run_started = [&](int i, int total, const std::string& label, const std::string& dir) {
@@ -108,12 +107,13 @@ void Execute(ExperimentArgs& a) {
       std::fflush(stdout);
     }
   };
-  if (tty)
+  if (progress.enabled()) {
     cb.progress = [&](int done, int expected, double fps) {
-      DrawProgress(done, expected, fps, prefix);
+      progress.Update(done, expected, fps, prefix);
     };
+  }
   cb.run_finished = [&](int, int, const ExperimentRun& r) {
-    if (tty) std::fputs("\n", stderr);
+    progress.Finish();
     if (quiet) return;
     const RunSummary& s = r.summary;
     fmt::print("  {}: {} frames (ok {}, bridged {}), {:.1f} s{}\n", r.label, s.frames_processed,
@@ -135,7 +135,7 @@ void Execute(ExperimentArgs& a) {
     signal = signals.signal();
   }
   if (result.interrupted) {
-    if (tty) std::fputs("\n", stderr);
+    progress.Finish();
     fmt::print("aerovo experiment: stopped by signal {}; {} finished run(s) kept in '{}'\n", signal,
                result.runs.size(), a.out);
   }

@@ -15,6 +15,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/eval/feature_eval.h"
 #include "aerovo/features/surf.h"
+#include "aerovo/io/image_file.h"
 #include "aerovo/io/oxford_dataset.h"
 
 namespace aerovo::cli {
@@ -52,8 +53,7 @@ struct DetectArgs {
 
 void RunDetect(const DetectArgs& a) {
   Validate(a.surf);
-  const cv::Mat gray = cv::imread(a.image, cv::IMREAD_GRAYSCALE);
-  if (gray.empty()) throw InputError(a.image + ": cannot read image (missing or not decodable)");
+  const cv::Mat gray = ReadGrayImage(a.image, GrayFrom::kDecoder);
   Surf surf(a.surf);
   const GrayImageView view{gray.data, gray.cols, gray.rows, static_cast<std::ptrdiff_t>(gray.step)};
   const SurfResult r = surf.DetectAndDescribe(view);

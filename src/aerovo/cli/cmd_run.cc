@@ -1,8 +1,6 @@
 // `aerovo run`: the main job. A flight (video, photo folder or live source) and its telemetry in;
 // a geo-referenced trajectory, its comparison with GPS and every per-frame output out. The work
 // is in aerovo/pipeline/runner.h; this file maps flags and signals onto it.
-#include <unistd.h>
-
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -11,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "aerovo/cli/command.h"
+#include "aerovo/cli/progress.h"
 #include "aerovo/cli/run_cli.h"
 #include "aerovo/report/html_report.h"
 #include "aerovo/pipeline/runner.h"
@@ -28,11 +27,14 @@ void Execute(RunArgs& a) {
   const RunConfig config = a.run.Resolve();
   Validate(config);
 
-  const bool tty = ::isatty(STDERR_FILENO) != 0;
+  // With --print-poses stdout is the pose stream and stderr its messages: no progress.
+  Progress progress(DefaultProgressStyle(config.quiet || a.print_poses));
   RunCallbacks cb;
   cb.log = &std::cout;
-  if (tty && !config.quiet && !a.print_poses) {
-    cb.progress = [](int done, int expected, double fps) { DrawProgress(done, expected, fps); };
+  if (progress.enabled()) {
+    cb.progress = [&progress](int done, int expected, double fps) {
+      progress.Update(done, expected, fps);
+    };
   }
   if (a.print_poses) cb.poses = &std::cout;
   RunSummary s;
@@ -42,7 +44,7 @@ void Execute(RunArgs& a) {
     s = RunFlight(config, cb, signals.stop());
     signal = signals.signal();
   }
-  if (cb.progress) std::fputs("\n", stderr);
+  progress.Finish();
   if (s.interrupted) {
     // On stderr: with --print-poses stdout is the pose stream.
     std::cerr << fmt::format(

@@ -9,8 +9,10 @@
 #include <vector>
 
 #include "aerovo/cli/command.h"
+#include "aerovo/cli/progress.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
+#include "aerovo/sim/ground.h"
 #include "aerovo/sim/sim_writer.h"
 #include "aerovo/sim/simulator.h"
 #include "aerovo/sim/terrain.h"
@@ -82,36 +84,26 @@ void Run(const SimulateArgs& a, sim::SimulationOptions o, const sim::WriterOptio
   }
 
   // Ground.
-  sim::GroundImage ground;
   if (!a.ortho.empty()) {
     if (!(a.mpp > 0)) throw InvalidArgument("--ortho needs --mpp (metres per pixel, > 0)");
     if (a.nw_lat > 90 || a.nw_lon > 360) {
       throw InvalidArgument("--ortho needs --nw-lat and --nw-lon (the image's north-west corner)");
     }
-    ground = sim::LoadOrthophoto(a.ortho, a.mpp, GeoPoint{a.nw_lat, a.nw_lon, a.ground_alt_m});
-  } else {
-    sim::TerrainOptions t;
-    t.seed = a.terrain_seed;
-    if (a.terrain_size_px > 0 && a.terrain_mpp > 0) {
-      t.width_px = t.height_px = a.terrain_size_px;
-      t.metres_per_px = a.terrain_mpp;
-    } else if (!a.waypoints_latlon.empty()) {
-      throw InvalidArgument(
-          "--waypoints-latlon over the built-in terrain needs --terrain-size-px and --terrain-mpp "
-          "(the terrain's extent must be known to place it)");
-    } else {
-      t = sim::FitTerrainToFlight(o, t);
-      if (a.terrain_mpp > 0) {  // keep the fitted extent at the requested resolution
-        t.width_px = static_cast<int>(std::ceil(t.width_px * t.metres_per_px / a.terrain_mpp));
-        t.height_px = static_cast<int>(std::ceil(t.height_px * t.metres_per_px / a.terrain_mpp));
-        t.metres_per_px = a.terrain_mpp;
-      }
-      if (a.terrain_size_px > 0) t.width_px = t.height_px = a.terrain_size_px;
-    }
-    const GeoPoint nw{a.nw_lat <= 90 ? a.nw_lat : sim::kDefaultTerrainLatDeg,
-                      a.nw_lon <= 360 ? a.nw_lon : sim::kDefaultTerrainLonDeg, a.ground_alt_m};
-    ground = sim::MakeTerrainGround(t, nw);
+  } else if (!a.waypoints_latlon.empty() && !(a.terrain_size_px > 0 && a.terrain_mpp > 0)) {
+    throw InvalidArgument(
+        "--waypoints-latlon over the built-in terrain needs --terrain-size-px and --terrain-mpp "
+        "(the terrain's extent must be known to place it)");
   }
+  sim::GroundOptions go;
+  go.ortho = a.ortho;
+  go.ortho_mpp = a.mpp;
+  if (a.nw_lat <= 90) go.nw_lat_deg = a.nw_lat;
+  if (a.nw_lon <= 360) go.nw_lon_deg = a.nw_lon;
+  go.ground_alt_m = a.ground_alt_m;
+  go.terrain_seed = a.terrain_seed;
+  go.terrain_size_px = a.terrain_size_px;
+  go.terrain_mpp = a.terrain_mpp;
+  sim::GroundImage ground = sim::MakeGround(go, o);
   if (!a.waypoints_latlon.empty()) {
     std::vector<GeoPoint> geo;
     for (const auto& p : ParsePairs(a.waypoints_latlon, "--waypoints-latlon")) {
@@ -147,16 +139,12 @@ void Run(const SimulateArgs& a, sim::SimulationOptions o, const sim::WriterOptio
     for (const auto& warning : simulator.warnings()) fmt::print("  WARNING    {}\n", warning);
     std::fflush(stdout);
   }
-  int last_percent = -1;
+  Progress progress(DefaultProgressStyle(a.quiet));
   const sim::SimulationOutput out =
       sim::WriteSimulation(simulator, w, a.out, [&](int done, int total) {
-        const int percent = 100 * done / total;
-        if (!a.quiet && percent / 10 != last_percent / 10) {
-          fmt::print(stderr, "\r  rendering  {}/{} frames", done, total);
-          last_percent = percent;
-        }
+        progress.Update(done, total, "  rendering  ");
       });
-  if (!a.quiet) fmt::print(stderr, "\n");
+  progress.Finish();
   for (const auto& m : out.messages) {
     if (m.rfind("warning: ", 0) != 0) fmt::print("  note       {}\n", m);
   }

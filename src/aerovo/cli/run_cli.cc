@@ -178,20 +178,4 @@ std::string StopSignals::Name(int signal) {
 
 int StopSignals::ExitCode(int signal) { return 128 + (signal > 0 ? signal : SIGINT); }
 
-void DrawProgress(int done, int expected, double fps, const std::string& prefix) {
-  std::string line;
-  if (expected > 0) {
-    const int width = 30;
-    const int filled = std::min(width, done * width / expected);
-    const double eta = fps > 0 ? (expected - done) / fps : 0.0;
-    line = fmt::format("\r{}[{}{}] {:>5}/{:<5} {:6.2f} fps  ETA {}:{:02d} ", prefix,
-                       std::string(filled, '#'), std::string(width - filled, '.'), done, expected,
-                       fps, static_cast<int>(eta) / 60, static_cast<int>(eta) % 60);
-  } else {
-    line = fmt::format("\r{}{:>6} frames {:6.2f} fps ", prefix, done, fps);
-  }
-  std::fputs(line.c_str(), stderr);
-  std::fflush(stderr);
-}
-
 }  // namespace aerovo::cli

@@ -1,6 +1,6 @@
 // What every subcommand that runs flights (`aerovo run`, `aerovo experiment ...`) shares: the flags
 // of RunConfig (aerovo/pipeline/runner.h) with the same names, help and --config file (JSON or
-// YAML) underneath; stopping cleanly on SIGINT/SIGTERM; the terminal progress bar.
+// YAML) underneath; stopping cleanly on SIGINT/SIGTERM. (The progress display is progress.h.)
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -56,9 +56,5 @@ class StopSignals {
   struct sigaction old_int_ {};
   struct sigaction old_term_ {};
 };
-
-/// Progress bar on stderr (a terminal): "[#####.....]  45/172  3.2 fps  ETA 0:40"; `prefix` is
-/// printed before the bar (e.g. "run 2/5 k=0.75 ").
-void DrawProgress(int done, int expected, double fps, const std::string& prefix = "");
 
 }  // namespace aerovo::cli

@@ -12,79 +12,11 @@
 namespace aerovo {
 namespace {
 
-constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
-
 bool PositiveFinite(double v) { return std::isfinite(v) && v > 0.0; }
 
 bool GoodDistortionCount(std::size_t n) { return n == 0 || n == 4 || n == 5 || n == 8; }
 
 }  // namespace
-
-double FocalPxFrom35mm(double focal_35mm_mm, int width_px, int height_px) {
-  if (!PositiveFinite(focal_35mm_mm)) {
-    throw InvalidArgument(
-        fmt::format("35 mm-equivalent focal length {} mm must be > 0", focal_35mm_mm));
-  }
-  if (width_px <= 0 || height_px <= 0) {
-    throw InvalidArgument(fmt::format("image size {}x{} must be positive", width_px, height_px));
-  }
-  const double diag_px = std::hypot(static_cast<double>(width_px), static_cast<double>(height_px));
-  return focal_35mm_mm / kFullFrameDiagonalMm * diag_px;
-}
-
-double FocalPxFromHorizontalFov(double hfov_deg, int width_px) {
-  if (!(hfov_deg > 0.0 && hfov_deg < 180.0)) {
-    throw InvalidArgument(
-        fmt::format("horizontal field of view {} deg must be in (0, 180)", hfov_deg));
-  }
-  if (width_px <= 0) throw InvalidArgument(fmt::format("image width {} must be > 0", width_px));
-  return 0.5 * width_px / std::tan(0.5 * hfov_deg * kDegToRad);
-}
-
-double HorizontalFovDeg(double focal_px, int width_px) {
-  return 2.0 * std::atan(0.5 * width_px / focal_px) / kDegToRad;
-}
-
-bool CameraIntrinsics::HasDistortion() const {
-  return std::any_of(distortion.begin(), distortion.end(), [](double d) { return d != 0.0; });
-}
-
-CameraIntrinsics IntrinsicsFromFocalPx(double focal_px, int width_px, int height_px) {
-  CameraIntrinsics k;
-  k.width_px = width_px;
-  k.height_px = height_px;
-  k.fx_px = k.fy_px = focal_px;
-  k.cx_px = 0.5 * (width_px - 1);
-  k.cy_px = 0.5 * (height_px - 1);
-  Validate(k);
-  return k;
-}
-
-void Validate(const CameraIntrinsics& k) {
-  if (k.width_px <= 0 || k.height_px <= 0) {
-    throw InvalidArgument(
-        fmt::format("CameraIntrinsics size {}x{} must be positive", k.width_px, k.height_px));
-  }
-  if (!PositiveFinite(k.fx_px) || !PositiveFinite(k.fy_px)) {
-    throw InvalidArgument(
-        fmt::format("CameraIntrinsics focal ({}, {}) px must be > 0", k.fx_px, k.fy_px));
-  }
-  if (!(k.cx_px >= 0.0 && k.cx_px <= k.width_px - 1) ||
-      !(k.cy_px >= 0.0 && k.cy_px <= k.height_px - 1)) {
-    throw InvalidArgument(
-        fmt::format("CameraIntrinsics principal point ({}, {}) outside the {}x{} image", k.cx_px,
-                    k.cy_px, k.width_px, k.height_px));
-  }
-  if (!GoodDistortionCount(k.distortion.size())) {
-    throw InvalidArgument(
-        fmt::format("CameraIntrinsics distortion has {} coefficients (expected 0, "
-                    "4, 5 or 8: k1 k2 p1 p2 [k3 [k4 k5 k6]])",
-                    k.distortion.size()));
-  }
-  for (double d : k.distortion) {
-    if (!std::isfinite(d)) throw InvalidArgument("CameraIntrinsics distortion is not finite");
-  }
-}
 
 void Validate(const CameraOptions& o) {
   if (o.focal_px && !PositiveFinite(*o.focal_px)) {
@@ -110,7 +42,8 @@ void Validate(const CameraOptions& o) {
 }
 
 ResolvedCamera ResolveCamera(const CameraOptions& options, int width_px, int height_px,
-                             const ImageMetadata* metadata) {
+                             const ImageMetadata* metadata,
+                             std::optional<double> telemetry_focal_35mm_mm) {
   Validate(options);
   if (width_px <= 0 || height_px <= 0) {
     throw InvalidArgument(fmt::format("frame size {}x{} must be positive", width_px, height_px));
@@ -120,23 +53,33 @@ ResolvedCamera ResolveCamera(const CameraOptions& options, int width_px, int hei
   if (options.focal_px) {
     f = *options.focal_px;
     r.source = fmt::format("focal length {:.1f} px (given)", f);
+    r.source_key = "flag";
   } else if (options.hfov_deg) {
     f = FocalPxFromHorizontalFov(*options.hfov_deg, width_px);
     r.source = fmt::format("focal length {:.1f} px from the horizontal field of view {} deg", f,
                            *options.hfov_deg);
+    r.source_key = "hfov";
   } else if (options.focal_35mm_mm) {
     f = FocalPxFrom35mm(*options.focal_35mm_mm, width_px, height_px);
     r.source = fmt::format("focal length {:.1f} px from the 35 mm equivalent {} mm (given)", f,
                            *options.focal_35mm_mm);
+    r.source_key = "35mm";
   } else if (metadata && metadata->calibrated_focal_px && metadata->width_px == width_px &&
              metadata->height_px == height_px) {
     f = *metadata->calibrated_focal_px;
     r.source = fmt::format("focal length {:.1f} px from DJI XMP CalibratedFocalLength of '{}'", f,
                            metadata->source);
+    r.source_key = "xmp-calibrated";
   } else if (metadata && metadata->focal_length_35mm_mm) {
     f = FocalPxFrom35mm(*metadata->focal_length_35mm_mm, width_px, height_px);
     r.source = fmt::format("focal length {:.1f} px from EXIF FocalLengthIn35mmFilm {} mm of '{}'",
                            f, *metadata->focal_length_35mm_mm, metadata->source);
+    r.source_key = "exif-35mm";
+  } else if (telemetry_focal_35mm_mm) {
+    f = FocalPxFrom35mm(*telemetry_focal_35mm_mm, width_px, height_px);
+    r.source = fmt::format("focal length {:.1f} px from the telemetry's 35 mm equivalent {} mm", f,
+                           *telemetry_focal_35mm_mm);
+    r.source_key = "telemetry-35mm";
   } else {
     throw InputError(fmt::format(
         "no focal length for {}x{} frames{}: give focal_px, hfov_deg or focal_35mm_mm", width_px,
@@ -153,21 +96,36 @@ ResolvedCamera ResolveCamera(const CameraOptions& options, int width_px, int hei
 
 Undistorter::Undistorter(const CameraIntrinsics& k) : width_(k.width_px), height_(k.height_px) {
   Validate(k);
-  const cv::Mat K(k.K());
+  const cv::Matx33d camera_matrix(k.fx_px, 0, k.cx_px, 0, k.fy_px, k.cy_px, 0, 0, 1);
   const cv::Mat dist = k.distortion.empty() ? cv::Mat() : cv::Mat(k.distortion, true);
-  cv::initUndistortRectifyMap(K, dist, cv::Mat(), K, cv::Size(width_, height_), CV_16SC2, map1_,
-                              map2_);
+  cv::initUndistortRectifyMap(camera_matrix, dist, cv::Matx33d::eye(), camera_matrix,
+                              cv::Size(width_, height_), CV_16SC2, map1_, map2_);
 }
 
-void Undistorter::Apply(const GrayImage& in, GrayImage& out) const {
-  if (in.width() != width_ || in.height() != height_) {
-    throw InvalidArgument(fmt::format("Undistorter: frame is {}x{}, the camera is {}x{}",
-                                      in.width(), in.height(), width_, height_));
+void Undistorter::CheckSize(int width_px, int height_px) const {
+  if (width_px != width_ || height_px != height_) {
+    throw InvalidArgument(fmt::format("Undistorter: frame is {}x{}, the camera is {}x{}", width_px,
+                                      height_px, width_, height_));
   }
-  if (out.width() != width_ || out.height() != height_) out = GrayImage(width_, height_);
-  const cv::Mat src(height_, width_, CV_8UC1, const_cast<std::uint8_t*>(in.data()));
-  cv::Mat dst(height_, width_, CV_8UC1, out.data());
-  cv::remap(src, dst, map1_, map2_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
+}
+
+void Undistorter::Apply(const GrayImage& in, GrayImage& out) const { Apply(in.view(), &out); }
+
+GrayImageView Undistorter::Apply(const GrayImageView& in, GrayImage* buffer) const {
+  CheckSize(in.width, in.height);
+  if (buffer->width() != width_ || buffer->height() != height_) {
+    *buffer = GrayImage(width_, height_);
+  }
+  const cv::Mat src(height_, width_, CV_8UC1, const_cast<std::uint8_t*>(in.data),
+                    static_cast<std::size_t>(in.stride));
+  cv::Mat dst(height_, width_, CV_8UC1, buffer->data());
+  cv::remap(src, dst, map1_, map2_, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  return buffer->view();
+}
+
+void Undistorter::Apply(const cv::Mat& in, cv::Mat& out) const {
+  CheckSize(in.cols, in.rows);
+  cv::remap(in, out, map1_, map2_, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
 }
 
 }  // namespace aerovo

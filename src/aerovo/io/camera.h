@@ -1,5 +1,6 @@
-// Camera model helpers: focal length in pixels from a 35 mm equivalent, a field of view or
-// explicit intrinsics; choice among them for a flight; optional lens undistortion (OpenCV).
+// A run's camera: the choice of focal length among options and photo/telemetry metadata
+// (ResolveCamera), and the lens undistortion of frames (OpenCV maps computed once). The camera
+// model and its conversions (35 mm equivalent, field of view) are camera/pinhole.h.
 #pragma once
 
 #include <optional>
@@ -8,57 +9,16 @@
 
 #include <opencv2/core.hpp>
 
+#include "aerovo/camera/pinhole.h"
 #include "aerovo/core/image.h"
 #include "aerovo/io/image_metadata.h"
 
 namespace aerovo {
 
-/// Diagonal of the 36 x 24 mm full frame: sqrt(36^2 + 24^2) = 43.2666 mm.
-inline constexpr double kFullFrameDiagonalMm = 43.266615305567875;
-
-/// Focal length in pixels from a 35 mm-equivalent focal length. The equivalent focal length
-/// (EXIF FocalLengthIn35mmFilm, CIPA DC-008) gives the same angle of view as on a 36 x 24 mm
-/// frame; the angle matched is the DIAGONAL one, because sensors differ in aspect ratio:
-///   f_px = f35_mm / 43.27 mm * sqrt(width_px^2 + height_px^2).
-/// Example (tampa-phantom3, FC300S): 20 mm at 800x600 -> 20 / 43.27 * 1000 = 462.2 px.
-/// (Using the 36 mm width instead would give 444.4 px, 4 % short for a 4:3 sensor.)
-/// Throws InvalidArgument for f35 <= 0 or an empty size.
-double FocalPxFrom35mm(double focal_35mm_mm, int width_px, int height_px);
-
-/// Focal length in pixels from the horizontal field of view: f = (w / 2) / tan(hfov / 2).
-/// Throws InvalidArgument unless 0 < hfov_deg < 180 and width_px > 0.
-double FocalPxFromHorizontalFov(double hfov_deg, int width_px);
-
-/// Horizontal field of view (degrees) of a focal length in pixels: 2 atan(w / (2 f)).
-double HorizontalFovDeg(double focal_px, int width_px);
-
-/// Pinhole camera with optional distortion (OpenCV model and order: k1 k2 p1 p2 [k3 [k4 k5
-/// k6]]), all in pixels of the frames as delivered. Pixel centres at integer coordinates, so
-/// the centre of a W x H image is ((W - 1) / 2, (H - 1) / 2).
-struct CameraIntrinsics {
-  int width_px = 0;
-  int height_px = 0;
-  double fx_px = 0.0;
-  double fy_px = 0.0;
-  double cx_px = 0.0;
-  double cy_px = 0.0;
-  std::vector<double> distortion;  ///< Empty or all zero = no distortion.
-
-  bool HasDistortion() const;
-  cv::Matx33d K() const { return {fx_px, 0, cx_px, 0, fy_px, cy_px, 0, 0, 1}; }
-};
-
-/// Square pixels, principal point at the image centre.
-CameraIntrinsics IntrinsicsFromFocalPx(double focal_px, int width_px, int height_px);
-
-/// Throws InvalidArgument naming the field: size <= 0, focal <= 0 or not finite, principal
-/// point outside the image, distortion with a count other than 0, 4, 5, 8.
-void Validate(const CameraIntrinsics& intrinsics);
-
 /// How the camera of a run is known. Every field is optional; the first that is set wins, in
 /// this order: focal_px, hfov_deg, focal_35mm_mm, then the photo/telemetry metadata
 /// (DJI XMP CalibratedFocalLength when the metadata's image size equals the frame size, then
-/// EXIF FocalLengthIn35mmFilm).
+/// EXIF FocalLengthIn35mmFilm, then the telemetry's 35 mm equivalent, e.g. SRT focal_len).
 struct CameraOptions {
   std::optional<double> focal_px;       ///< Focal length in pixels (e.g. from a calibration).
   std::optional<double> hfov_deg;       ///< Horizontal field of view, degrees.
@@ -74,23 +34,45 @@ void Validate(const CameraOptions& options);
 struct ResolvedCamera {
   CameraIntrinsics intrinsics;
   std::string source;  ///< How the focal length was obtained, for the run log.
+  /// The same as a short key (a run's summary focal_source): "flag" (focal_px), "hfov",
+  /// "35mm" (focal_35mm_mm), "xmp-calibrated", "exif-35mm", "telemetry-35mm".
+  std::string source_key;
 };
 
-/// Intrinsics for frames of width_px x height_px. `metadata` may be null (video). Throws
-/// InputError when nothing gives a focal length ("no focal length: give focal_px, hfov_deg or
-/// focal_35mm_mm ...").
+/// Intrinsics for frames of width_px x height_px. `metadata` may be null (video);
+/// `telemetry_focal_35mm_mm` is the telemetry's 35 mm-equivalent focal length (DJI SRT
+/// focal_len, TelemetrySample::focal_length_35mm_mm), the last resort. Throws InputError when
+/// nothing gives a focal length ("no focal length: give focal_px, hfov_deg or focal_35mm_mm
+/// ..."), InvalidArgument for a non-positive telemetry value.
 ResolvedCamera ResolveCamera(const CameraOptions& options, int width_px, int height_px,
-                             const ImageMetadata* metadata);
+                             const ImageMetadata* metadata,
+                             std::optional<double> telemetry_focal_35mm_mm = std::nullopt);
 
-/// Undistorts frames with OpenCV (maps computed once; bilinear remap). The output keeps the
-/// same K (no new camera matrix), so focal length and principal point stay valid.
+/// Undistorts frames of one camera with OpenCV: the maps (cv::initUndistortRectifyMap, 16-bit
+/// fixed point) are computed once, each frame is one bilinear cv::remap; pixels whose source
+/// falls outside the frame repeat the nearest edge pixel (BORDER_REPLICATE). The output keeps
+/// the same K (no new camera matrix), so focal length and principal point stay valid. The one
+/// undistorter of the run's frames (pipeline/preprocess.h FrameUndistorter) and the mosaic's.
 class Undistorter {
  public:
+  /// Throws InvalidArgument as Validate(CameraIntrinsics) does.
   explicit Undistorter(const CameraIntrinsics& intrinsics);
-  /// Precondition: `in` has the intrinsics' size. `out` may be reused between calls.
+
+  int width_px() const { return width_; }
+  int height_px() const { return height_; }
+
+  /// Precondition: `in` has the intrinsics' size (InvalidArgument otherwise). `out` is resized
+  /// if needed and may be reused between calls.
   void Apply(const GrayImage& in, GrayImage& out) const;
+  /// Same for a view (any stride); writes into `*buffer` and returns a view of it.
+  GrayImageView Apply(const GrayImageView& in, GrayImage* buffer) const;
+  /// Any OpenCV image type (e.g. the colour frames of the mosaic) of the intrinsics' size.
+  /// `out` must not share data with `in`.
+  void Apply(const cv::Mat& in, cv::Mat& out) const;
 
  private:
+  void CheckSize(int width_px, int height_px) const;
+
   int width_ = 0, height_ = 0;
   cv::Mat map1_, map2_;
 };

@@ -4,30 +4,14 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
 
 namespace aerovo {
 namespace {
-
-TEST(Camera, FocalFrom35mmUsesTheDiagonal) {
-  EXPECT_NEAR(kFullFrameDiagonalMm, std::sqrt(36.0 * 36.0 + 24.0 * 24.0), 1e-12);
-  // Tampa (FC300S): 20 mm equivalent at 800x600 (diagonal 1000 px).
-  EXPECT_NEAR(FocalPxFrom35mm(20.0, 800, 600), 462.25, 0.01);
-  // A full-frame 36x24 "sensor" of 3600x2400 px at 50 mm: 100 px/mm -> 5000 px.
-  EXPECT_NEAR(FocalPxFrom35mm(50.0, 3600, 2400), 5000.0, 1e-9);
-  EXPECT_THROW(FocalPxFrom35mm(0.0, 800, 600), InvalidArgument);
-  EXPECT_THROW(FocalPxFrom35mm(20.0, 0, 600), InvalidArgument);
-}
-
-TEST(Camera, FieldOfView) {
-  EXPECT_NEAR(FocalPxFromHorizontalFov(90.0, 1000), 500.0, 1e-9);
-  EXPECT_NEAR(HorizontalFovDeg(500.0, 1000), 90.0, 1e-9);
-  EXPECT_NEAR(HorizontalFovDeg(FocalPxFromHorizontalFov(73.7, 4000), 4000), 73.7, 1e-9);
-  EXPECT_THROW(FocalPxFromHorizontalFov(180.0, 1000), InvalidArgument);
-  EXPECT_THROW(FocalPxFromHorizontalFov(0.0, 1000), InvalidArgument);
-}
 
 TEST(Camera, ResolvePriorityAndMessages) {
   ImageMetadata m;
@@ -74,6 +58,35 @@ TEST(Camera, ResolvePriorityAndMessages) {
   bad.focal_px = 500.0;
   bad.cx_px = 900.0;
   EXPECT_THROW(ResolveCamera(bad, 640, 480, nullptr), InvalidArgument);
+}
+
+// The source keys and the last resort, the telemetry's 35 mm equivalent (a video with a DJI
+// SRT): the same arithmetic as FocalPxFrom35mm, bit for bit.
+TEST(Camera, ResolveSourceKeysAndTelemetryFallback) {
+  CameraOptions o;
+  ResolvedCamera r = ResolveCamera(o, 1280, 720, nullptr, 25.16);
+  EXPECT_EQ(r.source_key, "telemetry-35mm");
+  EXPECT_EQ(r.intrinsics.fx_px, FocalPxFrom35mm(25.16, 1280, 720));
+  EXPECT_THAT(r.source, ::testing::HasSubstr("telemetry"));
+  ImageMetadata m;
+  m.source = "y.jpg";
+  m.width_px = 1280;
+  m.height_px = 720;
+  m.focal_length_35mm_mm = 24.0;
+  r = ResolveCamera(o, 1280, 720, &m, 25.16);  // the photo's EXIF comes first
+  EXPECT_EQ(r.source_key, "exif-35mm");
+  EXPECT_EQ(r.intrinsics.fx_px, FocalPxFrom35mm(24.0, 1280, 720));
+  m.calibrated_focal_px = 900.0;
+  EXPECT_EQ(ResolveCamera(o, 1280, 720, &m).source_key, "xmp-calibrated");
+  o.focal_35mm_mm = 28.0;
+  EXPECT_EQ(ResolveCamera(o, 1280, 720, &m).source_key, "35mm");
+  o.hfov_deg = 70.0;
+  r = ResolveCamera(o, 1280, 720, &m);
+  EXPECT_EQ(r.source_key, "hfov");
+  EXPECT_EQ(r.intrinsics.fx_px, FocalPxFromHorizontalFov(70.0, 1280));
+  o.focal_px = 1000.0;
+  EXPECT_EQ(ResolveCamera(o, 1280, 720, &m).source_key, "flag");
+  EXPECT_THROW(ResolveCamera(CameraOptions{}, 1280, 720, nullptr, -3.0), InvalidArgument);
 }
 
 TEST(Camera, TampaFromExif) {
@@ -125,6 +138,57 @@ TEST(Camera, UndistorterMovesPointsToThePinholePosition) {
   EXPECT_NEAR(sx / sw, xu, 0.75);
   EXPECT_NEAR(sy / sw, yu, 0.75);
   EXPECT_THROW(u.Apply(GrayImage(10, 10), out), InvalidArgument);
+}
+
+// The maps and the remap of the run's frames before this class was the one undistorter
+// (pipeline FrameUndistorter, report mosaic): the same pixels, bit for bit, grey and colour.
+TEST(Camera, UndistorterEqualsTheDirectOpenCvMapsBitForBit) {
+  const int w = 160, h = 120;
+  const double f = 130.0, k1 = -0.21, k2 = 0.04, p1 = 1e-3, p2 = -2e-3, k3 = 0.01;
+  cv::Mat gray(h, w, CV_8UC1), color(h, w, CV_8UC3);
+  cv::RNG rng(7);
+  rng.fill(gray, cv::RNG::UNIFORM, 0, 256);
+  rng.fill(color, cv::RNG::UNIFORM, 0, 256);
+  const cv::Matx33d km(f, 0, 0.5 * (w - 1), 0, f, 0.5 * (h - 1), 0, 0, 1);
+  cv::Mat map1, map2;
+  cv::initUndistortRectifyMap(km, cv::Vec<double, 5>(k1, k2, p1, p2, k3), cv::Matx33d::eye(), km,
+                              cv::Size(w, h), CV_16SC2, map1, map2);
+  cv::Mat want_gray, want_color;
+  cv::remap(gray, want_gray, map1, map2, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  cv::remap(color, want_color, map1, map2, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+
+  CameraIntrinsics k = IntrinsicsFromFocalPx(f, w, h);
+  k.distortion = {k1, k2, p1, p2, k3};
+  const Undistorter u(k);
+  EXPECT_EQ(u.width_px(), w);
+  EXPECT_EQ(u.height_px(), h);
+  GrayImage buffer;
+  const GrayImageView got =
+      u.Apply(GrayImageView{gray.data, w, h, static_cast<std::ptrdiff_t>(gray.step)}, &buffer);
+  ASSERT_EQ(got.width, w);
+  ASSERT_EQ(got.height, h);
+  int differ = 0;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) differ += got.at(x, y) != want_gray.at<std::uint8_t>(y, x);
+  }
+  EXPECT_EQ(differ, 0);
+  cv::Mat got_color;
+  u.Apply(color, got_color);
+  ASSERT_EQ(got_color.type(), CV_8UC3);
+  EXPECT_EQ(cv::norm(got_color, want_color, cv::NORM_INF), 0.0);
+  // A strided view (a crop of a wider image) gives the same pixels.
+  cv::Mat wide(h, w + 24, CV_8UC1, cv::Scalar(9));
+  gray.copyTo(wide(cv::Rect(0, 0, w, h)));
+  GrayImage again;
+  const GrayImageView strided =
+      u.Apply(GrayImageView{wide.data, w, h, static_cast<std::ptrdiff_t>(wide.step)}, &again);
+  differ = 0;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) differ += strided.at(x, y) != want_gray.at<std::uint8_t>(y, x);
+  }
+  EXPECT_EQ(differ, 0);
+  cv::Mat small(h - 1, w, CV_8UC3);
+  EXPECT_THROW(u.Apply(small, got_color), InvalidArgument);
 }
 
 }  // namespace

@@ -188,6 +188,16 @@ void TumWriter::Append(double time_s, const Eigen::Vector3d& p, double yaw_rad) 
                 "");
 }
 
+void TumWriter::Append(double time_s, const Eigen::Vector3d& p, const Eigen::Quaterniond& q) {
+  const std::string where = "TUM pose for " + PathOf(file_);
+  CheckFinite(time_s, "time", where);
+  if (!p.allFinite()) throw InvalidArgument(where + ": position is not finite");
+  if (!q.coeffs().allFinite()) throw InvalidArgument(where + ": orientation is not finite");
+  file_->Append(fmt::format("{:.6f} {:.6f} {:.6f} {:.6f} {:.9f} {:.9f} {:.9f} {:.9f}\n", time_s,
+                            p.x(), p.y(), p.z(), q.x(), q.y(), q.z(), q.w()),
+                "");
+}
+
 TransformsCsvWriter::TransformsCsvWriter(const fs::path& path)
     : file_(std::make_unique<ProgressiveFile>(path)) {
   file_->Reset("frame,a11,a12,tx,a21,a22,ty\n", "");

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
 
 #include "aerovo/geo/geo_point.h"
@@ -76,6 +77,10 @@ class TumWriter {
   /// Appends a pose: position in metres, orientation a rotation of yaw_rad about +z
   /// (q = [0, 0, sin(yaw/2), cos(yaw/2)]). InvalidArgument when not finite.
   void Append(double time_s, const Eigen::Vector3d& position_m, double yaw_rad);
+  /// Appends a pose with a full orientation (e.g. the simulator's enu_from_camera): time and
+  /// position with 6 decimals, the quaternion's x y z w with 9. InvalidArgument when not finite.
+  void Append(double time_s, const Eigen::Vector3d& position_m,
+              const Eigen::Quaterniond& orientation);
   void Close();
   const std::filesystem::path& path() const;
 

@@ -14,7 +14,7 @@
 #include "aerovo/io/reference_track.h"
 #include "aerovo/io/track_writers.h"
 #include "aerovo/sim/sim_writer.h"
-#include "aerovo/sim/terrain.h"
+#include "aerovo/sim/ground.h"
 
 namespace aerovo {
 
@@ -157,32 +157,33 @@ sim::SimulationOptions DefaultExperimentSimulation() {
   return o;
 }
 
+namespace {
+
+// The experiment's ground as `aerovo simulate` sets it up (sim/ground.h): the terrain fitted to
+// the flight, or the orthophoto.
+sim::GroundOptions GroundOf(const ExperimentSimulation& o) {
+  sim::GroundOptions g;
+  g.ortho = o.ortho;
+  g.ortho_mpp = o.ortho_mpp;
+  g.nw_lat_deg = o.nw_lat_deg;
+  g.nw_lon_deg = o.nw_lon_deg;
+  g.ground_alt_m = o.ground_alt_m;
+  g.terrain_seed = o.terrain_seed;
+  return g;
+}
+
+}  // namespace
+
 void Validate(const ExperimentSimulation& o) {
   sim::Validate(o.sim);
-  if (!o.ortho.empty()) {
-    if (!(o.ortho_mpp > 0.0)) {
-      throw InvalidArgument("simulation: an orthophoto needs its metres per pixel (> 0)");
-    }
-    if (!(std::abs(o.nw_lat_deg) <= 90.0) || !(std::abs(o.nw_lon_deg) <= 360.0)) {
-      throw InvalidArgument("simulation: the orthophoto's north-west corner is not a position");
-    }
-  }
+  sim::Validate(GroundOf(o));
 }
 
 SimulatedFlight SimulateExperimentFlight(const ExperimentSimulation& options,
                                          const std::filesystem::path& dir,
                                          const std::function<void(int, int)>& progress) {
   Validate(options);
-  const GeoPoint nw{options.nw_lat_deg, options.nw_lon_deg, options.ground_alt_m};
-  sim::GroundImage ground;
-  if (!options.ortho.empty()) {
-    ground = sim::LoadOrthophoto(options.ortho, options.ortho_mpp, nw);
-  } else {
-    sim::TerrainOptions t;
-    t.seed = options.terrain_seed;
-    ground = sim::MakeTerrainGround(sim::FitTerrainToFlight(options.sim, t), nw);
-  }
-  const sim::Simulator simulator(std::move(ground), options.sim);
+  const sim::Simulator simulator(sim::MakeGround(GroundOf(options), options.sim), options.sim);
   sim::WriterOptions w;
   // A video (H.264, as a drone records): its frames carry their times (index / fps), which the
   // runner matches with the telemetry and the ground truth; a JPEG folder has no frame times.

@@ -3,48 +3,48 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <string>
 
 #include <fmt/format.h>
-#include <opencv2/calib3d.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/io/camera.h"
 
 namespace aerovo {
 
 struct FrameUndistorter::Impl {
-  int width = 0, height = 0;
-  cv::Mat map1, map2, out;
+  explicit Impl(const CameraIntrinsics& intrinsics) : undistorter(intrinsics) {}
+  Undistorter undistorter;
+  GrayImage out;
 };
 
-FrameUndistorter::FrameUndistorter(int width_px, int height_px, double focal_px, double k1,
-                                   double k2, double p1, double p2, double k3)
-    : impl_(std::make_unique<Impl>()) {
+namespace {
+
+CameraIntrinsics FrameUndistorterIntrinsics(int width_px, int height_px, double focal_px, double k1,
+                                            double k2, double p1, double p2, double k3) {
   if (width_px <= 0 || height_px <= 0 || !(focal_px > 0.0)) {
     throw InvalidArgument("FrameUndistorter: size and focal length must be positive");
   }
-  impl_->width = width_px;
-  impl_->height = height_px;
-  const cv::Matx33d k(focal_px, 0, 0.5 * (width_px - 1), 0, focal_px, 0.5 * (height_px - 1), 0, 0,
-                      1);
-  const cv::Vec<double, 5> dist(k1, k2, p1, p2, k3);
-  cv::initUndistortRectifyMap(k, dist, cv::Matx33d::eye(), k, cv::Size(width_px, height_px),
-                              CV_16SC2, impl_->map1, impl_->map2);
+  CameraIntrinsics k = IntrinsicsFromFocalPx(focal_px, width_px, height_px);
+  k.distortion = {k1, k2, p1, p2, k3};
+  return k;
 }
+
+}  // namespace
+
+FrameUndistorter::FrameUndistorter(int width_px, int height_px, double focal_px, double k1,
+                                   double k2, double p1, double p2, double k3)
+    : impl_(std::make_unique<Impl>(
+          FrameUndistorterIntrinsics(width_px, height_px, focal_px, k1, k2, p1, p2, k3))) {}
 FrameUndistorter::~FrameUndistorter() = default;
 FrameUndistorter::FrameUndistorter(FrameUndistorter&&) noexcept = default;
 FrameUndistorter& FrameUndistorter::operator=(FrameUndistorter&&) noexcept = default;
 
 GrayImageView FrameUndistorter::Apply(const GrayImageView& frame) {
-  if (frame.width != impl_->width || frame.height != impl_->height) {
+  const Undistorter& u = impl_->undistorter;
+  if (frame.width != u.width_px() || frame.height != u.height_px()) {
     throw InvalidArgument("FrameUndistorter: frame size differs from the calibrated size");
   }
-  const cv::Mat in(frame.height, frame.width, CV_8UC1, const_cast<std::uint8_t*>(frame.data),
-                   static_cast<std::size_t>(frame.stride));
-  cv::remap(in, impl_->out, impl_->map1, impl_->map2, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-  return GrayImageView{impl_->out.data, impl_->out.cols, impl_->out.rows,
-                       static_cast<std::ptrdiff_t>(impl_->out.step)};
+  return u.Apply(frame, &impl_->out);
 }
 
 GrayImageView ScaleBrightness(const GrayImageView& frame, double k, GrayImage* buffer) {

@@ -9,7 +9,8 @@ namespace aerovo {
 
 /// Undistorts frames of one size with a pinhole camera (focal_px, principal point at the image
 /// centre ((w-1)/2, (h-1)/2)) and OpenCV distortion coefficients (k1, k2, p1, p2, k3); the output
-/// keeps the same camera matrix, so focal_px still converts pixels to angles.
+/// keeps the same camera matrix, so focal_px still converts pixels to angles. The run's form of
+/// io/camera.h Undistorter (which does the work) with an output buffer of its own.
 class FrameUndistorter {
  public:
   /// Throws InvalidArgument for a non-positive size or focal length.

@@ -4,13 +4,14 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
 
 #include <fmt/format.h>
-#include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/io/camera.h"
 #include "aerovo/io/frame_source.h"
 
 namespace aerovo {
@@ -151,7 +152,8 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
   const double end_s = ConfigValue<double>(run.config, "end_s", -1.0);
   if (end_s >= 0.0) so.end_time_s = end_s;
   so.keep_color = true;
-  // Lens distortion, as the run applied it before SURF (report/runner.h FrameUndistorter).
+  // Lens distortion, as the run applied it before SURF (pipeline/preprocess.h FrameUndistorter):
+  // the same camera and the same maps (io/camera.h Undistorter).
   const double k1 = ConfigValue<double>(run.config, "k1", 0.0),
                k2 = ConfigValue<double>(run.config, "k2", 0.0),
                p1 = ConfigValue<double>(run.config, "p1", 0.0),
@@ -160,11 +162,11 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
   const double focal_px = run.config.contains("resolved")
                               ? ConfigValue<double>(run.config["resolved"], "focal_px", 0.0)
                               : 0.0;
-  cv::Mat map1, map2;
+  std::optional<Undistorter> undistorter;
   if ((k1 != 0.0 || k2 != 0.0 || p1 != 0.0 || p2 != 0.0 || k3 != 0.0) && focal_px > 0.0) {
-    const cv::Matx33d k(focal_px, 0, 0.5 * (w - 1), 0, focal_px, 0.5 * (h - 1), 0, 0, 1);
-    cv::initUndistortRectifyMap(k, cv::Vec<double, 5>(k1, k2, p1, p2, k3), cv::Matx33d::eye(), k,
-                                cv::Size(w, h), CV_16SC2, map1, map2);
+    CameraIntrinsics k = IntrinsicsFromFocalPx(focal_px, w, h);
+    k.distortion = {k1, k2, p1, p2, k3};
+    undistorter.emplace(k);
   }
   // The run saw the frames dimmed by illumination_k (illumination experiment): so does the mosaic.
   const double illumination_k = ConfigValue<double>(run.config, "illumination_k", 1.0);
@@ -180,9 +182,9 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
       cv::Mat color = frame.color;
       if (color.empty()) continue;
       if (color.cols != w || color.rows != h) continue;  // not the run's frame size
-      if (!map1.empty()) {
+      if (undistorter) {
         cv::Mat u;
-        cv::remap(color, u, map1, map2, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+        undistorter->Apply(color, u);
         color = u;
       }
       if (illumination_k > 0.0 && illumination_k < 1.0) {

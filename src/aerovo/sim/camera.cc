@@ -32,19 +32,18 @@ void Validate(const CameraModel& c) {
 
 double FocalPx(const CameraModel& c) {
   if (c.focal_px > 0.0) return c.focal_px;
-  return 0.5 * c.width_px / std::tan(0.5 * c.hfov_deg * kDegToRad);
+  return FocalPxFromHorizontalFov(c.hfov_deg, c.width_px);
 }
 
 double HorizontalFovDeg(const CameraModel& c) {
-  return 2.0 * std::atan(0.5 * c.width_px / FocalPx(c)) / kDegToRad;
+  return aerovo::HorizontalFovDeg(FocalPx(c), c.width_px);
 }
 
-Eigen::Matrix3d IntrinsicMatrix(const CameraModel& c) {
-  const double f = FocalPx(c);
-  Eigen::Matrix3d k;
-  k << f, 0, 0.5 * (c.width_px - 1), 0, f, 0.5 * (c.height_px - 1), 0, 0, 1;
-  return k;
+CameraIntrinsics Intrinsics(const CameraModel& c) {
+  return IntrinsicsFromFocalPx(FocalPx(c), c.width_px, c.height_px);
 }
+
+Eigen::Matrix3d IntrinsicMatrix(const CameraModel& c) { return Intrinsics(c).K(); }
 
 Eigen::Matrix3d MapFromCameraRotation(const CameraPose& pose) {
   const double psi = pose.yaw_deg * kDegToRad;

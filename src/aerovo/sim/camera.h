@@ -10,10 +10,12 @@
 
 #include <Eigen/Core>
 
+#include "aerovo/camera/pinhole.h"
+
 namespace aerovo::sim {
 
-/// Camera intrinsics: ideal pinhole (no distortion), square pixels, principal point at the
-/// image centre.
+/// The simulator's camera settings: ideal pinhole (no distortion), square pixels, principal
+/// point at the image centre. Its maths is camera/pinhole.h (Intrinsics below).
 struct CameraModel {
   /// Image size (px). Default 1280 x 720 (720p video); 1920 x 1080 is the other common choice.
   int width_px = 1280;
@@ -28,13 +30,18 @@ struct CameraModel {
 /// Throws aerovo::InvalidArgument naming the bad field.
 void Validate(const CameraModel& camera);
 
-/// Focal length in pixels: focal_px if set, else (width / 2) / tan(hfov / 2).
+/// Focal length in pixels: focal_px if set, else (width / 2) / tan(hfov / 2)
+/// (FocalPxFromHorizontalFov).
 double FocalPx(const CameraModel& camera);
 
 /// Horizontal field of view (deg) implied by the model (hfov_deg, or the one focal_px gives).
 double HorizontalFovDeg(const CameraModel& camera);
 
-/// K = [f 0 cx; 0 f cy; 0 0 1] with cx = (w - 1) / 2, cy = (h - 1) / 2.
+/// The model as pinhole intrinsics: f = FocalPx, cx = (w - 1) / 2, cy = (h - 1) / 2, no
+/// distortion. Throws InvalidArgument for a non-positive size or focal length.
+CameraIntrinsics Intrinsics(const CameraModel& camera);
+
+/// K = [f 0 cx; 0 f cy; 0 0 1] of Intrinsics(camera).
 Eigen::Matrix3d IntrinsicMatrix(const CameraModel& camera);
 
 /// Pose of the camera at one frame.

@@ -16,6 +16,8 @@
 #include <opencv2/videoio.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/io/srt_writer.h"
+#include "aerovo/io/track_writers.h"
 
 namespace aerovo::sim {
 
@@ -70,13 +72,6 @@ std::string FormatUtc(std::int64_t start, double t_s, char sep) {
                      static_cast<int>(ms_total % 1000));
 }
 
-// SRT time stamp HH:MM:SS,mmm.
-std::string SrtTime(double t_s) {
-  const std::int64_t ms = std::llround(t_s * 1000);
-  return fmt::format("{:02d}:{:02d}:{:02d},{:03d}", ms / 3600000, (ms / 60000) % 60,
-                     (ms / 1000) % 60, ms % 1000);
-}
-
 std::ofstream OpenOut(const fs::path& path) {
   std::ofstream f(path);
   if (!f) throw InputError(fmt::format("{}: cannot open for writing", path.string()));
@@ -113,49 +108,40 @@ void WriteDjiSrt(std::ostream& out, const Simulator& sim, const std::string& sta
   const double ground_alt = sim.renderer().ground().nw_corner.alt_m;
   const auto& gps = sim.gps();
   // 35 mm-equivalent focal length as EXIF/CIPA DC-008 defines it (same DIAGONAL angle of view
-  // as on a 36 x 24 mm frame, 43.27 mm diagonal) and as aerovo's readers convert it back
-  // (io/camera.h FocalPxFrom35mm). Matching the 36 mm width instead would put a 16:9 frame's
-  // scale 4.6 % off. 2 decimals as DJI writes it: the focal length survives to within 0.02 %.
+  // as on a 36 x 24 mm frame) and as aerovo's readers convert it back (camera/pinhole.h
+  // FocalPxFrom35mm). Matching the 36 mm width instead would put a 16:9 frame's scale 4.6 %
+  // off. 2 decimals as DJI writes it: the focal length survives to within 0.02 %.
   const CameraModel& cam = sim.options().camera;
-  const double focal_35mm_mm =
-      FocalPx(cam) * 43.266615305567875 / std::hypot(cam.width_px, cam.height_px);
+  const double focal_35mm_mm = Focal35mmFromPx(FocalPx(cam), cam.width_px, cam.height_px);
+  DjiSrtEntry e;
+  e.diff_ms = diff_ms;
+  e.focal_35mm_mm = focal_35mm_mm;
   for (int i = 0; i < sim.frame_count(); ++i) {
     const double t = sim.ground_truth()[i].time_s;
     const GpsFix& fix = gps[LatestFixIndex(gps, t)];
-    out << (i + 1) << "\n"
-        << SrtTime(t) << " --> " << SrtTime((i + 1) / fps) << "\n"
-        << "<font size=\"28\">FrameCnt: " << (i + 1) << ", DiffTime: " << diff_ms << "ms\n"
-        << FormatUtc(start, t, ' ') << "\n"
-        << fmt::format(
-               "[iso: 100] [shutter: 1/1000.0] [fnum: 2.8] [ev: 0] [color_md: default] "
-               "[focal_len: {:.2f}] [latitude: {:.6f}] [longitude: {:.6f}] [rel_alt: {:.3f} "
-               "abs_alt: {:.3f}] [ct: 5500] </font>\n\n",
-               focal_35mm_mm, fix.position.lat_deg, fix.position.lon_deg,
-               fix.position.alt_m - ground_alt, fix.position.alt_m);
+    e.index = i + 1;
+    e.start_s = t;
+    e.end_s = (i + 1) / fps;
+    e.date_time = FormatUtc(start, t, ' ');
+    e.position = fix.position;
+    e.rel_alt_m = fix.position.alt_m - ground_alt;
+    out << FormatDjiSrtEntry(e);
   }
 }
 
-void WriteGpx(std::ostream& out, const Simulator& sim, const std::string& start_time_utc) {
-  const std::int64_t start = ParseUtc(start_time_utc);
-  out << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
-         "<gpx version=\"1.1\" creator=\"aerovo simulate\" "
-         "xmlns=\"http://www.topografix.com/GPX/1/1\">\n"
-      << "  <metadata><time>" << FormatUtc(start, 0.0, 'T') << "Z</time></metadata>\n"
-      << "  <trk>\n    <name>aerovo simulated flight</name>\n    <trkseg>\n";
-  for (const GpsFix& f : sim.gps()) {
-    out << fmt::format(
-        "      <trkpt lat=\"{:.8f}\" lon=\"{:.8f}\"><ele>{:.3f}</ele><time>{}Z</time></trkpt>\n",
-        f.position.lat_deg, f.position.lon_deg, f.position.alt_m, FormatUtc(start, f.time_s, 'T'));
-  }
-  out << "    </trkseg>\n  </trk>\n</gpx>\n";
+void WriteGpx(const fs::path& path, const Simulator& sim, const std::string& start_time_utc) {
+  GpxTrackWriter gpx(path, "aerovo simulated flight",
+                     static_cast<double>(ParseUtc(start_time_utc)));
+  for (const GpsFix& f : sim.gps()) gpx.Append(GeoTrackPoint{f.time_s, f.position});
+  gpx.Close();
 }
 
-void WriteTum(std::ostream& out, const Simulator& sim) {
+void WriteTum(const fs::path& path, const Simulator& sim) {
+  TumWriter tum(path);
   for (const GroundTruthFrame& g : sim.ground_truth()) {
-    const Eigen::Quaterniond q(g.enu_from_camera);
-    out << fmt::format("{:.6f} {:.6f} {:.6f} {:.6f} {:.9f} {:.9f} {:.9f} {:.9f}\n", g.time_s,
-                       g.enu_m.x(), g.enu_m.y(), g.enu_m.z(), q.x(), q.y(), q.z(), q.w());
+    tum.Append(g.time_s, g.enu_m, Eigen::Quaterniond(g.enu_from_camera));
   }
+  tum.Close();
 }
 
 void WriteGroundTruthCsv(std::ostream& out, const Simulator& sim) {
@@ -365,16 +351,8 @@ SimulationOutput WriteSimulation(const Simulator& sim, const WriterOptions& opti
     WriteDjiSrt(f, sim, options.start_time_utc);
     CheckWritten(f, out_dir / out.srt_file);
   }
-  {
-    auto f = OpenOut(out_dir / out.gpx_file);
-    WriteGpx(f, sim, options.start_time_utc);
-    CheckWritten(f, out_dir / out.gpx_file);
-  }
-  {
-    auto f = OpenOut(out_dir / out.tum_file);
-    WriteTum(f, sim);
-    CheckWritten(f, out_dir / out.tum_file);
-  }
+  WriteGpx(out_dir / out.gpx_file, sim, options.start_time_utc);
+  WriteTum(out_dir / out.tum_file, sim);
   {
     auto f = OpenOut(out_dir / out.csv_file);
     WriteGroundTruthCsv(f, sim);

@@ -70,27 +70,23 @@ SimulationOutput WriteSimulation(const Simulator& sim, const WriterOptions& opti
                                  const std::filesystem::path& out_dir,
                                  const std::function<void(int, int)>& progress = {});
 
-/// DJI-style SRT (current bracketed format of DJI Mini/Air/Mavic 3 video subtitles), one entry
-/// per frame with the latest GPS fix:
-///   1
-///   00:00:00,000 --> 00:00:00,033
-///   <font size="28">FrameCnt: 1, DiffTime: 33ms
-///   2026-05-01 10:00:00.000
-///   [iso: 100] [shutter: 1/1000.0] [fnum: 2.8] [ev: 0] [color_md: default] [focal_len: 25.16]
-///   [latitude: 43.539340] [longitude: 6.551628] [rel_alt: 100.000 abs_alt: 400.000] [ct: 5500]
-///   </font>
-/// (the bracketed fields are on one line). rel_alt = height above the take-off ground, abs_alt =
-/// altitude above MSL, both with the GPS vertical error. focal_len = the camera's 35 mm-equivalent
-/// focal length in the EXIF (diagonal) convention, f_px * 43.27 mm / image diagonal (px), which
-/// `aerovo run` converts back to the same f_px (25.16 for the default 73.7 deg hfov camera).
+/// DJI-style SRT (io/srt_writer.h DjiSrtEntry, the current bracketed format of DJI Mini/Air/
+/// Mavic 3 video subtitles), one entry per frame with the latest GPS fix. rel_alt = height above
+/// the take-off ground, abs_alt = altitude above MSL, both with the GPS vertical error.
+/// focal_len = the camera's 35 mm-equivalent focal length in the EXIF (diagonal) convention,
+/// f_px * 43.27 mm / image diagonal (px), which `aerovo run` converts back to the same f_px
+/// (25.16 for the default 73.7 deg hfov camera).
 void WriteDjiSrt(std::ostream& out, const Simulator& sim, const std::string& start_time_utc);
 
-/// GPX 1.1 track with one point per GPS fix (lat, lon, ele = altitude, time).
-void WriteGpx(std::ostream& out, const Simulator& sim, const std::string& start_time_utc);
+/// GPX 1.1 track at `path` with one point per GPS fix (lat, lon, ele = altitude, UTC time from
+/// start_time_utc), written by io's GpxTrackWriter. Throws InputError naming the file.
+void WriteGpx(const std::filesystem::path& path, const Simulator& sim,
+              const std::string& start_time_utc);
 
-/// TUM trajectory: "t x y z qx qy qz qw" per frame; t in seconds from the first frame, position
-/// in GT ENU metres, quaternion of enu_from_camera (camera x right, y down, z optical axis).
-void WriteTum(std::ostream& out, const Simulator& sim);
+/// TUM trajectory at `path`: "t x y z qx qy qz qw" per frame; t in seconds from the first
+/// frame, position in GT ENU metres, quaternion of enu_from_camera (camera x right, y down, z
+/// optical axis); written by io's TumWriter. Throws InputError naming the file.
+void WriteTum(const std::filesystem::path& path, const Simulator& sim);
 
 /// CSV with header: frame,time_s,east_m,north_m,up_m,lat_deg,lon_deg,alt_m,yaw_deg,pitch_deg,
 /// roll_deg,nodata_fraction (ENU = GT ENU frame; up = height above ground; alt above MSL).

@@ -15,8 +15,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 
+#include <Eigen/Geometry>
+#include <fmt/format.h>
+
 #include "aerovo/core/error.h"
 #include "aerovo/geo/local_enu.h"
+#include "aerovo/io/telemetry_readers.h"
 #include "aerovo/sim/simulator.h"
 
 namespace aerovo::sim {
@@ -153,6 +157,43 @@ TEST(SimWriter, VideoReopensWithTheRightFrameCount) {
   EXPECT_NEAR(x, 0.0, 1e-6);
   EXPECT_NEAR(y, 0.0, 1e-6);
   EXPECT_NEAR(z, 40.0, 1e-6);
+  fs::remove_all(dir);
+}
+
+// TUM and GPX go through io's writers: the TUM file has the simulator's format byte for byte
+// ("%.6f" time and position, "%.9f" quaternion); the GPX reads back with io's reader as the GPS
+// fixes, with the UTC times of start_time_utc.
+TEST(SimWriter, TumAndGpxThroughIoWriters) {
+  const Simulator sim(SmallGround(), SmallFlight());
+  const fs::path dir = TempDir("io_writers");
+  fs::create_directories(dir);
+  WriteTum(dir / "gt.tum", sim);
+  std::string want;
+  for (const GroundTruthFrame& g : sim.ground_truth()) {
+    const Eigen::Quaterniond q(g.enu_from_camera);
+    want += fmt::format("{:.6f} {:.6f} {:.6f} {:.6f} {:.9f} {:.9f} {:.9f} {:.9f}\n", g.time_s,
+                        g.enu_m.x(), g.enu_m.y(), g.enu_m.z(), q.x(), q.y(), q.z(), q.w());
+  }
+  std::ifstream tum(dir / "gt.tum");
+  std::stringstream got;
+  got << tum.rdbuf();
+  EXPECT_EQ(got.str(), want);
+
+  WriteGpx(dir / "track.gpx", sim, "2026-05-01T10:00:00");
+  const TelemetryReadResult r = ReadGpx(dir / "track.gpx");
+  ASSERT_EQ(r.telemetry.size(), sim.gps().size());
+  ASSERT_FALSE(sim.gps().empty());
+  for (std::size_t i = 0; i < sim.gps().size(); ++i) {
+    const GpsFix& f = sim.gps()[i];
+    const TelemetrySample& s = r.telemetry.samples()[i];
+    EXPECT_NEAR(s.lat_deg, f.position.lat_deg, 1e-9);
+    EXPECT_NEAR(s.lon_deg, f.position.lon_deg, 1e-9);
+    ASSERT_TRUE(s.abs_alt_m.has_value());
+    EXPECT_NEAR(*s.abs_alt_m, f.position.alt_m, 1e-4);
+    ASSERT_TRUE(s.unix_time_s.has_value());
+    EXPECT_NEAR(*s.unix_time_s, 1777629600.0 + f.time_s, 1e-3);  // 2026-05-01T10:00:00Z
+  }
+  EXPECT_THROW(WriteTum(dir / "no" / "such" / "dir" / "gt.tum", sim), InputError);
   fs::remove_all(dir);
 }
 

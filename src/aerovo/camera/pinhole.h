@@ -1,0 +1,63 @@
+// The camera model shared by every module: pinhole intrinsics with optional lens distortion
+// coefficients, and the conversions between a focal length in pixels, a 35 mm-equivalent focal
+// length and a horizontal field of view. No OpenCV here (sim/ uses it); undistorting frames is
+// io/camera.h Undistorter, resolving a run's camera from options and metadata io/camera.h
+// ResolveCamera.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace aerovo {
+
+/// Diagonal of the 36 x 24 mm full frame: sqrt(36^2 + 24^2) = 43.2666 mm.
+inline constexpr double kFullFrameDiagonalMm = 43.266615305567875;
+
+/// Focal length in pixels from a 35 mm-equivalent focal length. The equivalent focal length
+/// (EXIF FocalLengthIn35mmFilm, CIPA DC-008) gives the same angle of view as on a 36 x 24 mm
+/// frame; the angle matched is the DIAGONAL one, because sensors differ in aspect ratio:
+///   f_px = f35_mm / 43.27 mm * sqrt(width_px^2 + height_px^2).
+/// Example (tampa-phantom3, FC300S): 20 mm at 800x600 -> 20 / 43.27 * 1000 = 462.2 px.
+/// (Using the 36 mm width instead would give 444.4 px, 4 % short for a 4:3 sensor.)
+/// Throws InvalidArgument for f35 <= 0 or an empty size.
+double FocalPxFrom35mm(double focal_35mm_mm, int width_px, int height_px);
+
+/// The inverse of FocalPxFrom35mm: f35_mm = f_px * 43.27 mm / sqrt(width_px^2 + height_px^2).
+/// Throws InvalidArgument for f_px <= 0 or an empty size.
+double Focal35mmFromPx(double focal_px, int width_px, int height_px);
+
+/// Focal length in pixels from the horizontal field of view: f = (w / 2) / tan(hfov / 2).
+/// Throws InvalidArgument unless 0 < hfov_deg < 180 and width_px > 0.
+double FocalPxFromHorizontalFov(double hfov_deg, int width_px);
+
+/// Horizontal field of view (degrees) of a focal length in pixels: 2 atan(w / (2 f)).
+double HorizontalFovDeg(double focal_px, int width_px);
+
+/// Pinhole camera with optional distortion (OpenCV model and order: k1 k2 p1 p2 [k3 [k4 k5
+/// k6]]), all in pixels of the frames as delivered. Camera frame: x to the image right, y to
+/// the image bottom, z along the optical axis. Pixel centres at integer coordinates, so the
+/// centre of a W x H image is ((W - 1) / 2, (H - 1) / 2).
+struct CameraIntrinsics {
+  int width_px = 0;
+  int height_px = 0;
+  double fx_px = 0.0;
+  double fy_px = 0.0;
+  double cx_px = 0.0;
+  double cy_px = 0.0;
+  std::vector<double> distortion;  ///< Empty or all zero = no distortion.
+
+  bool HasDistortion() const;
+  /// K = [fx 0 cx; 0 fy cy; 0 0 1]: pixel (u, v, 1) ~ K * (x, y, z) of a camera-frame point.
+  Eigen::Matrix3d K() const;
+};
+
+/// Square pixels, principal point at the image centre ((w - 1) / 2, (h - 1) / 2), no
+/// distortion. Throws InvalidArgument as Validate does.
+CameraIntrinsics IntrinsicsFromFocalPx(double focal_px, int width_px, int height_px);
+
+/// Throws InvalidArgument naming the field: size <= 0, focal <= 0 or not finite, principal
+/// point outside the image, distortion with a count other than 0, 4, 5, 8.
+void Validate(const CameraIntrinsics& intrinsics);
+
+}  // namespace aerovo
