@@ -130,27 +130,21 @@ std::string RunTelemetry::Describe() const {
 RunCamera ResolveRunCamera(const RunConfig& config, bool focal_from_sim, int w, int h,
                            const ImageMetadata* photo, const std::optional<TelemetrySample>& sample,
                            const std::string& frame_name) {
-  RunCamera c;
-  if (config.focal_px > 0.0) {
-    c.focal_px = config.focal_px;
-    c.focal_source = focal_from_sim ? "sim.json" : "flag";
-  } else if (config.hfov_deg > 0.0) {
-    c.focal_px = FocalPxFromHorizontalFov(config.hfov_deg, w);
-    c.focal_source = "hfov";
-  } else if (photo != nullptr && photo->calibrated_focal_px && photo->width_px == w) {
-    c.focal_px = *photo->calibrated_focal_px;
-    c.focal_source = "xmp-calibrated";
-  } else if (photo != nullptr && photo->focal_length_35mm_mm) {
-    c.focal_px = FocalPxFrom35mm(*photo->focal_length_35mm_mm, w, h);
-    c.focal_source = "exif-35mm";
-  } else if (sample && sample->focal_length_35mm_mm) {
-    c.focal_px = FocalPxFrom35mm(*sample->focal_length_35mm_mm, w, h);
-    c.focal_source = "telemetry-35mm";
-  } else {
+  CameraOptions camera;
+  if (config.focal_px > 0.0) camera.focal_px = config.focal_px;
+  if (config.hfov_deg > 0.0) camera.hfov_deg = config.hfov_deg;
+  ResolvedCamera resolved;
+  try {
+    resolved = ResolveCamera(camera, w, h, photo,
+                             sample ? sample->focal_length_35mm_mm : std::nullopt);
+  } catch (const InputError&) {
     throw InputError(frame_name +
                      ": the camera focal length is unknown (no EXIF/telemetry "
                      "35 mm focal length): give --focal-px or --hfov-deg");
   }
+  RunCamera c;
+  c.focal_px = resolved.intrinsics.fx_px;
+  c.focal_source = focal_from_sim && resolved.source_key == "flag" ? "sim.json" : resolved.source_key;
   return c;
 }
 

@@ -106,14 +106,13 @@ struct RunCamera {
   std::string focal_source;
 };
 
-/// The focal length of width_px x height_px frames, the first of: config.focal_px ("flag", or
-/// "sim.json" when `focal_from_sim`), config.hfov_deg ("hfov"), the first photo's DJI XMP
-/// calibrated focal length when the photo has the frames' width ("xmp-calibrated"), its EXIF
-/// 35 mm equivalent ("exif-35mm"), the first frame's telemetry 35 mm equivalent
-/// ("telemetry-35mm"). `photo`: the first photo's metadata (null for a video or a live source);
-/// `sample`: the first frame's telemetry fix. InputError naming `frame_name` when none gives it.
-/// (io/camera.h ResolveCamera has another order of sources, other source names and messages,
-/// and no sim.json or telemetry source: the run keeps its own chain, here only.)
+/// The focal length of width_px x height_px frames by io/camera.h ResolveCamera (the one focal
+/// chain): config.focal_px ("flag", or "sim.json" when `focal_from_sim`), config.hfov_deg
+/// ("hfov"), the first photo's DJI XMP calibrated focal length when the photo has the frames'
+/// size ("xmp-calibrated"), its EXIF 35 mm equivalent ("exif-35mm"), the first frame's telemetry
+/// 35 mm equivalent ("telemetry-35mm"). `photo`: the first photo's metadata (null for a video or
+/// a live source); `sample`: the first frame's telemetry fix. InputError naming `frame_name`
+/// when none gives it.
 RunCamera ResolveRunCamera(const RunConfig& config, bool focal_from_sim, int width_px,
                            int height_px, const ImageMetadata* photo,
                            const std::optional<TelemetrySample>& sample,

@@ -291,7 +291,10 @@ TEST(RunSteps, FocalChainOrderAndSourceNames) {
   EXPECT_EQ(r.focal_px, 700.0);
   EXPECT_EQ(r.focal_source, "xmp-calibrated");
 
-  // The calibrated focal length is of photos of another width than the frames: not used.
+  // The calibrated focal length is of photos of another size than the frames: not used.
+  photo.height_px = h + 16;
+  EXPECT_EQ(resolve(false, &photo, sample).focal_source, "exif-35mm");
+  photo.height_px = h;
   photo.width_px = 4000;
   r = resolve(false, &photo, sample);
   EXPECT_EQ(r.focal_px, FocalPxFrom35mm(24.0, w, h));
