@@ -221,7 +221,8 @@ TEST_F(SyntheticFlight, StandardUnguidedAndHomographyAlsoTrack) {
   OdometryOptions homography = SyntheticOptions();
   homography.correspondence.model = MotionModel::kHomography;
   OdometryOptions cell_only = SyntheticOptions();
-  cell_only.refine_on_all_points = false;
+  cell_only.correspondence.clustered.refine_final_radius_px = 0.f;  // no final pass
+  cell_only.correspondence.clustered.refine_fallback = false;
   VisualOdometry a(standard), b(homography), clustered(SyntheticOptions()), cell(cell_only);
   for (std::size_t i = 0; i < truth.size(); ++i) {
     const cv::Mat frame = Render(*ground_, q0_, truth[i]);
