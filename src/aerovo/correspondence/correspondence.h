@@ -215,13 +215,15 @@ struct CorrespondenceResult {
   /// Cell that gave the result (row-major grid over `crop`), or -1 (standard / fall-back).
   int cell_row = -1;
   int cell_col = -1;
-  /// Match + RANSAC runs made: cells tried, plus one for a standard or fall-back run (the
-  /// refinement is not counted).
+  /// Match + RANSAC runs made: cells tried, plus one for a standard or fall-back run, plus one
+  /// for a refit on all points (refine_fallback, RefitOnAllPoints; the refinement of a cell's
+  /// fit is not counted).
   int attempts = 0;
-  /// The clustered result was refined (ClusteredRansacOptions::refine): the cell's fit was
-  /// replaced by the spread or the final pass's.
+  /// The result was refined (ClusteredRansacOptions::refine): the cell's fit was replaced by
+  /// the spread or the final pass's, or a fall-back's by its refit on all points.
   bool refined = false;
-  /// The final pass of the refinement ran (see refine_final_min_shift_px).
+  /// The final pass of the refinement ran (see refine_final_min_shift_px), or a refit on all
+  /// points.
   bool final_pass = false;
   /// How far the spread refinement moved the cell's fit at the prev frame's corners, px (NaN
   /// when it did not run or was not adopted).

@@ -49,19 +49,7 @@ void GuidedRefinement::RefineCell(const CorrespondenceOptions& options, MatchAnd
   const bool gated = co.refine_final_min_shift_px > 0.f;
   const bool early_exit = co.refine_early_exit && gated;
   const int first_half = early_exit ? (per_cell + 1) / 2 : per_cell;
-  taken_.assign(static_cast<std::size_t>(num_cells), 0);
-  subset_.clear();
-  second_half_.clear();
-  for (std::size_t i = 0; i < cell_of.size(); ++i) {
-    const int cell = cell_of[i];
-    if (cell < 0 || cell == chosen) continue;
-    const int t = taken_[static_cast<std::size_t>(cell)]++;
-    if (t < first_half) {
-      subset_.push_back(static_cast<int>(i));
-    } else if (t < per_cell) {
-      second_half_.push_back(static_cast<int>(i));
-    }
-  }
+  SelectSpreadPoints(cell_of, num_cells, chosen, per_cell, first_half);
   const CorrespondenceResult cell = *out;  // restored if a one-pass refinement would keep it
   const Eigen::Matrix3d& cell_fit = cell.curr_from_prev;
   // Each pass works on its own result (MatchAndFit::Run overwrites it), whose cost is added to
@@ -127,6 +115,23 @@ void GuidedRefinement::RefineCell(const CorrespondenceOptions& options, MatchAnd
   const int min_inliers = SampleFinalPass(co.refine_final_max_points, prev, *out);
   CorrespondenceResult final_result;
   refine_pass(final_matcher_, subset_, out->curr_from_prev, nullptr, min_inliers, &final_result);
+}
+
+void GuidedRefinement::SelectSpreadPoints(const std::vector<int>& cell_of, int num_cells,
+                                          int chosen, int per_cell, int first_half) {
+  taken_.assign(static_cast<std::size_t>(num_cells), 0);
+  subset_.clear();
+  second_half_.clear();
+  for (std::size_t i = 0; i < cell_of.size(); ++i) {
+    const int cell = cell_of[i];
+    if (cell < 0 || cell == chosen) continue;
+    const int t = taken_[static_cast<std::size_t>(cell)]++;
+    if (t < first_half) {
+      subset_.push_back(static_cast<int>(i));
+    } else if (t < per_cell) {
+      second_half_.push_back(static_cast<int>(i));
+    }
+  }
 }
 
 int GuidedRefinement::SampleFinalPass(int max_points, const FeatureSet& prev,

@@ -45,6 +45,10 @@ class GuidedRefinement {
   bool RefitOnAllPoints(MatchAndFit& fit, const FeatureSet& prev, CorrespondenceResult* out);
 
  private:
+  // The spread points, in FeatureSet order: the first first_half of each cell but `chosen`
+  // into subset_, its next per_cell - first_half into second_half_.
+  void SelectSpreadPoints(const std::vector<int>& cell_of, int num_cells, int chosen,
+                          int per_cell, int first_half);
   // Fills subset_ with the prev points of the final pass (empty: every point; with more than
   // max_points > 0 of them, point floor(j * n / max_points) for j = 0 .. max_points - 1) and
   // returns the inliers of `fitted` among them: what the final fit must match.
