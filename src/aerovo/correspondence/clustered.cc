@@ -40,10 +40,9 @@ CorrespondenceResult CorrespondenceStage::Clustered(const FeatureSet& prev, int 
   const int cols = co.grid_cols;
   cells_.Assign(prev, result.crop, co.grid_rows, cols, &result.cell_point_counts);
   const std::vector<int>& cell_of = cells_.cell_of();
-  std::vector<int> order;
-  EligibleCellsInOrder(co, result.cell_point_counts, &order);
+  EligibleCellsInOrder(co, result.cell_point_counts, &cell_order_);
 
-  for (int cell : order) {
+  for (int cell : cell_order_) {
     subset_.clear();
     for (std::size_t i = 0; i < cell_of.size(); ++i) {
       if (cell_of[i] == cell) subset_.push_back(static_cast<int>(i));

@@ -289,6 +289,7 @@ class CorrespondenceStage {
   MatchAndFit fit_;              // match + RANSAC attempts, with the current frame prepared
   GuidedRefinement refinement_;  // step 6
   CellAssignment cells_;         // Clustered(): cell of every prev point
+  std::vector<int> cell_order_;  // Clustered(): eligible cells in the order they are tried
   std::vector<int> subset_;      // prev points of one attempt (empty: every point)
 };
 
