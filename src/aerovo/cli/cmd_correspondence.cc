@@ -120,6 +120,11 @@ void Register(CLI::App& app) {
                   "Refinement's final pass only when the spread refinement moved the cell's fit "
                   "by more than this at the corners, px (0 = always)")
       ->capture_default_str();
+  cmd->add_option("--refine-fallback", args->options.clustered.refine_fallback,
+                  "Refinement: a fall-back's fit (standard method) re-fitted on every point "
+                  "matched within --final-radius of it, kept with more inliers (true/false; "
+                  "aerovo run: true)")
+      ->capture_default_str();
   cmd->add_option("--early-exit", args->options.clustered.refine_early_exit,
                   "Refinement: accept the fit on the first half of the spread points when it "
                   "confirms the cell's (moved it by at most --final-min-shift, with 8 more "

@@ -29,20 +29,23 @@
 //    first success is the result.
 // 5. If no cell succeeds (or none is eligible), the stage falls back to the standard method on
 //    all points and says so (fell_back = true).
-// 6. (aerovo addition, ClusteredRansacOptions::refine, on by default) A successful cell's
-//    transform seeds a guided matching of up to refine_max_points points spread over the other
-//    cells of the crop (radius refine_radius_px), and the same RANSAC runs on those matches
-//    together with the cell's own. The spread fit confirms the cell's when it moved it by at
-//    most refine_final_min_shift_px at the frame corners on at least min_inliers more inliers:
-//    the model then holds across the frame, and the spread fit is the answer (the first half of
-//    the spread points is matched and fitted first, and when that fit already confirms the
-//    cell's the other half is skipped: refine_early_exit). Otherwise (the scene departs from
-//    the model: relief, a tilted camera) a final pass re-matches every prev point (at most
-//    refine_final_max_points of them) within refine_final_radius_px of the spread fit and runs
-//    the same RANSAC again. BENCHMARKS.md "Correspondence": the result is within 0.3-0.8 px of
-//    the standard method's on real photos with the robust polish (final pass) and within
-//    0.2 px on exact affine motion (spread fit), 2.3-19x faster than it (10x on average); the
-//    paper's cell alone is 5-31x faster but 8-19 px off at the frame corners on real photos.
+// 6. (aerovo addition, ClusteredRansacOptions::refine, on by default; refinement.h) A
+//    successful cell's transform seeds a guided matching of up to refine_max_points points
+//    spread over the other cells of the crop (radius refine_radius_px), and the same RANSAC runs
+//    on those matches together with the cell's own. The spread fit confirms the cell's when it
+//    moved it by at most refine_final_min_shift_px at the frame corners on at least min_inliers
+//    more inliers: the model then holds across the frame, and the spread fit is the answer (the
+//    first half of the spread points is matched and fitted first, and when that fit already
+//    confirms the cell's the other half is skipped: refine_early_exit). Otherwise (the scene
+//    departs from the model: relief, a tilted camera) a final pass re-matches every prev point
+//    (at most refine_final_max_points of them) within refine_final_radius_px of the spread fit
+//    and runs the same RANSAC again. With refine_fallback, a fall-back result is refit the same
+//    way on every prev point. Accuracy and speed of each variant against the standard method:
+//    BENCHMARKS.md "Correspondence".
+//
+// Files: cell_grid.h (crop, cells, cell of each point), match_and_fit.h (one match + RANSAC
+// attempt), refinement.h (step 6), clustered.cc (steps 1-5), this header (options, result, the
+// stage).
 #pragma once
 
 #include <cstdint>
@@ -53,6 +56,9 @@
 #include <Eigen/Core>
 
 #include "aerovo/core/image.h"
+#include "aerovo/correspondence/cell_grid.h"
+#include "aerovo/correspondence/match_and_fit.h"
+#include "aerovo/correspondence/refinement.h"
 #include "aerovo/estimation/models.h"
 #include "aerovo/estimation/ransac.h"
 #include "aerovo/estimation/samplers.h"
@@ -84,16 +90,20 @@ struct ClusteredRansacOptions {
   /// Drop the strips that leave the view (step 2 above). Default true (the paper); false keeps
   /// the whole frame (for ablation).
   bool crop = true;
-  /// Refinement after a cell succeeds (an aerovo addition, not in the paper): take up to
-  /// refine_max_points / (grid_rows * grid_cols) points from every other cell of the crop (in
-  /// FeatureSet order, i.e. strongest first for SURF output), match them by guided matching
-  /// around the cell transform's prediction (radius refine_radius_px) and run the same RANSAC on
-  /// those matches together with the chosen cell's own matches (kept as they are, not matched
-  /// again); the refined fit replaces the cell's if it succeeds with at least as many inliers. Why:
-  /// a cell covers ~1/9 of the frame, so its transform extrapolated to the frame corners is off by
-  /// up to tens of pixels on real frames with few points per cell (tampa-phantom3, BENCHMARKS.md);
-  /// well-spread points remove that, and guided matching of a bounded subset keeps the cost
-  /// independent of the frame's point count. Default true; false is the paper's algorithm exactly.
+  // Guided refinement of a cell's fit (step 6 above; refinement.h). An aerovo addition, not in
+  // the paper; figures behind each default: BENCHMARKS.md "Correspondence".
+
+  /// Refinement after a cell succeeds: take up to refine_max_points / (grid_rows * grid_cols)
+  /// points from every other cell of the crop (in FeatureSet order, i.e. strongest first for
+  /// SURF output), match them by guided matching around the cell transform's prediction
+  /// (radius refine_radius_px) and run the same RANSAC on those matches together with the
+  /// chosen cell's own matches (kept as they are, not matched again); the refined fit replaces
+  /// the cell's if it succeeds with at least as many inliers. Then the final pass (below).
+  /// Why: a cell covers ~1/9 of the frame, so its transform extrapolated to the frame corners is
+  /// off by up to tens of pixels on real frames; well-spread points remove that, and guided
+  /// matching of a bounded subset keeps the cost independent of the frame's point count.
+  /// Default true; false is the paper's algorithm exactly, and turns off every refine_* below
+  /// (refine_fallback included).
   bool refine = true;
   /// Search radius of the refinement's guided matching, px of the current frame: must cover the
   /// cell transform's extrapolation error. Default 40 px (MatchOptions' guided default).
@@ -105,44 +115,35 @@ struct ClusteredRansacOptions {
   /// Final pass of the refinement: every prev point (at most refine_final_max_points of them)
   /// is matched by guided matching within this radius (px of the current frame) of the refined
   /// transform's prediction and the same RANSAC runs on those matches; the result replaces the
-  /// refined fit if it succeeds with at least as many inliers (among the points matched). 0 = no
-  /// final pass. Why: a fit on a subset of the matches is a different estimate from one on all of
-  /// them whenever the scene departs from the model (parallax, a tilted camera: several pixels at
-  /// the corners on tampa-phantom3, BENCHMARKS.md), so agreeing with the standard method needs the
-  /// same evidence; after the spread refinement the prediction is good to a few pixels, and a disc
+  /// refined fit if it succeeds with at least as many inliers (among the points matched). Also
+  /// the radius of refine_fallback's refit. 0 = no final pass. Why: a fit on a subset of the
+  /// matches is a different estimate from one on all of them whenever the scene departs from
+  /// the model (parallax, a tilted camera), so agreeing with the standard method needs the same
+  /// evidence; after the spread refinement the prediction is good to a few pixels, and a disc
   /// that small holds ~1 candidate, so the pass costs a small fraction of exhaustive matching.
-  /// Default 6 px (4x the RANSAC threshold, the radius of OdometryOptions::refine_radius_px).
+  /// Default 6 px (4x the RANSAC threshold of 1.5 px: the extrapolation error of the spread fit
+  /// at the far corners).
   float refine_final_radius_px = 6.f;
   /// Prev points the final pass matches at most: with more, every k-th in FeatureSet order
   /// (point floor(j * n / max) for j = 0 .. max - 1: spread over the frame and over strengths
-  /// like the whole set); 0 = every point. Why: the other stages of clustered RANSAC cost a
-  /// cell's share of the points or a fixed amount, and an uncapped final pass would make the
-  /// stage O(n) again, capping its speed-up over the standard method whatever the density
-  /// (the paper's premise is thousands of points per frame); a fit on ~1000 points' matches
-  /// (~250 on tampa-phantom3 at SURF threshold 100) is statistically as close to the fit on all
-  /// as the standard method is to itself with another seed. Measured with bench_correspondence
-  /// on tampa-dense (3681 points per frame; BENCHMARKS.md "Correspondence"): 0.82 px from the
-  /// polished standard with the polish (0.62 px uncapped), 1.43 px without it (1.55 px), and
-  /// 11x instead of 9x faster than the standard method. The pass's fit replaces the spread fit
-  /// when it has at least as many inliers as the spread fit has among the sampled points (all
-  /// of them uncapped). Default 1000 (our choice: the final pass then costs at most ~0.1 ms).
-  /// OdometryOptions::refine_on_all_points sets 0.
+  /// like the whole set); 0 = every point. The pass's fit replaces the spread fit when it has
+  /// at least as many inliers as the spread fit has among the sampled points (all of them
+  /// uncapped). Why: the other stages of clustered RANSAC cost a cell's share of the points or
+  /// a fixed amount, and an uncapped final pass would make the stage O(n) again (the paper's
+  /// premise is thousands of points per frame), while a fit on ~1000 points' matches is
+  /// statistically as close to the fit on all as the standard method is to itself with another
+  /// seed. Default 1000 (our choice: the final pass then costs at most ~0.1 ms).
   int refine_final_max_points = 1000;
   /// The final pass runs only when the spread refinement moved the cell's fit by more than this
   /// at the prev frame's corners (px; largest of the four displacements); 0 = always run it.
-  /// Why: where the frame-to-frame motion is affine (a flat scene seen from above: the paper's
-  /// setting) the cell's fit already explains the other cells' points, the spread fit stays
-  /// within a fraction of a pixel of it, and the spread fit is within ~0.2 px of the standard
-  /// method's, so matching every point again buys nothing; where the scene departs from the
-  /// model (relief, a tilted camera) the cell's fit extrapolates badly, the spread fit moves it
-  /// by pixels, and only the final pass brings the answer to the standard method's. Measured
-  /// with bench_correspondence (BENCHMARKS.md "Correspondence"): this displacement is at most
-  /// 0.6 px on exact affine motion (synthetic flight, Callas crops) and at least 1.6 px on 90 %
-  /// of the tampa-phantom3 pairs (median 3.4-12 px). Default 1 px (our choice, between the two).
   /// The spread fit must also have at least CorrespondenceOptions::min_inliers inliers more
   /// than the cell's: one that found no support in the other cells stays exactly on the cell's
-  /// fit and confirms nothing (3 tampa-phantom3 pairs with the early exit, without this rule).
-  /// OdometryOptions::refine_on_all_points sets 0 (the odometry always refines on all points).
+  /// fit and confirms nothing. Why: where the frame-to-frame motion is affine (a flat scene seen
+  /// from above: the paper's setting) the spread fit stays within a fraction of a pixel of the
+  /// cell's and of the standard method's, so matching every point again buys nothing; where the
+  /// scene departs from the model it moves the cell's fit by pixels, and only the final pass
+  /// brings the answer to the standard method's. Default 1 px (our choice: between the largest
+  /// shift measured on exact affine motion and the smallest on real pairs).
   float refine_final_min_shift_px = 1.f;
   /// Early exit of the spread refinement: it matches the first half of its points (per cell,
   /// the first ceil(n / 2) of the n it takes there) and fits; if that fit moved the cell's by at
@@ -150,15 +151,21 @@ struct ClusteredRansacOptions {
   /// other half nor the final pass runs. Otherwise the other half is matched around the same
   /// prediction (the cell's fit) and the fit is made on all of them, which gives exactly the
   /// result of one pass over all the points (the matches do not depend on the split, RANSAC
-  /// sees the same list, and the same seed). Why: where the model holds (the paper's setting)
-  /// half of the points already show it, and a fit on 10 well-spread points per cell is within
-  /// ~0.05 px of one on 20 (bench_correspondence: synthetic 0.19 vs 0.13 px, Callas 0.03 vs
-  /// 0.02 px from the standard method); where it does not, the final pass needs the prediction
-  /// of all of them (with half, tampa-phantom3 ends 2.4 instead of 1.8 px from standard). The
-  /// shift of the half fit separates the scenes as well (at most 0.55 px on exact affine
-  /// motion, at least 1.1 px on real pairs). Default true; false always matches every spread
-  /// point in one pass. refine_final_min_shift_px = 0 disables it.
+  /// sees the same list, and the same seed). Why: where the model holds half of the points
+  /// already show it (a fit on 10 well-spread points per cell is within ~0.05 px of one on
+  /// 20); where it does not, the final pass needs the prediction of all of them. Default true;
+  /// false always matches every spread point in one pass. refine_final_min_shift_px = 0
+  /// disables it.
   bool refine_early_exit = true;
+  /// Refit of a fall-back result (the standard method on all points, step 5): every prev point
+  /// is matched by guided matching within refine_final_radius_px (> 0, checked by Validate) of
+  /// the fall-back's fit, the same RANSAC runs on those matches, and the refit replaces the
+  /// fall-back's fit when it has more inliers (CorrespondenceStage::RefitOnAllPoints; the
+  /// odometry refits its relocalisations on a keyframe the same way). Why: the tight prior gives
+  /// matches that exhaustive matching's ratio test drops (repeated texture), so the refit has at
+  /// least as much evidence. Default false (a fall-back is then exactly the standard method,
+  /// MATLAB's); the odometry's default is true (OdometryOptions::correspondence).
+  bool refine_fallback = false;
 };
 
 /// Options of the correspondence stage (matching + robust estimation).
@@ -208,13 +215,15 @@ struct CorrespondenceResult {
   /// Cell that gave the result (row-major grid over `crop`), or -1 (standard / fall-back).
   int cell_row = -1;
   int cell_col = -1;
-  /// Match + RANSAC runs made: cells tried, plus one for a standard or fall-back run (the
-  /// refinement is not counted).
+  /// Match + RANSAC runs made: cells tried, plus one for a standard or fall-back run, plus one
+  /// for a refit on all points (refine_fallback, RefitOnAllPoints; the refinement of a cell's
+  /// fit is not counted).
   int attempts = 0;
-  /// The clustered result was refined (ClusteredRansacOptions::refine): the cell's fit was
-  /// replaced by the spread or the final pass's.
+  /// The result was refined (ClusteredRansacOptions::refine): the cell's fit was replaced by
+  /// the spread or the final pass's, or a fall-back's by its refit on all points.
   bool refined = false;
-  /// The final pass of the refinement ran (see refine_final_min_shift_px).
+  /// The final pass of the refinement ran (see refine_final_min_shift_px), or a refit on all
+  /// points.
   bool final_pass = false;
   /// How far the spread refinement moved the cell's fit at the prev frame's corners, px (NaN
   /// when it did not run or was not adopted).
@@ -234,19 +243,6 @@ struct CorrespondenceResult {
   double estimate_ms = 0.0;
   double total_ms = 0.0;
 };
-
-/// The crop of clustered RANSAC step 2 for a width x height prev frame, given the previous
-/// step's transform (see the header comment). Throws InvalidArgument on a non-positive size or a
-/// non-finite transform. Returns an empty rectangle when the motion exceeds the frame.
-RectI ClusteredCrop(int width, int height, const Eigen::Matrix3d& last_curr_from_prev);
-
-/// Rectangle of cell (row, col) of a rows x cols split of `crop`, as [x0, x1) x [y0, y1) in
-/// prev pixels (cells are equal, so their edges need not be whole pixels).
-struct CellBounds {
-  double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
-  bool contains(double x, double y) const { return x >= x0 && x < x1 && y >= y0 && y < y1; }
-};
-CellBounds ClusterCellBounds(const RectI& crop, int rows, int cols, int row, int col);
 
 /// The correspondence stage with its reusable state (matcher buffers, point buffers, RANSAC
 /// workspace). Not thread-safe: one instance per thread.
@@ -275,32 +271,26 @@ class CorrespondenceStage {
                                  const FeatureSet& curr,
                                  const Eigen::Matrix3d& last_curr_from_prev);
 
- private:
-  // One match + RANSAC attempt on prev_subset (all points when empty); fills `out`'s matches,
-  // mask, transform, counters and timings. Returns true when it meets min_inliers.
-  // curr is candidates_ (prepared once per Standard / Clustered call). `known`: matches already
-  // made (sorted by prev index, of prev points outside the subset) that join the new ones.
-  bool Attempt(Matcher& matcher, bool guided, const FeatureSet& prev,
-               const std::vector<int>& subset, const std::optional<Eigen::Matrix3d>& prior,
-               CorrespondenceResult* out, const std::vector<Match>* known = nullptr);
-  // ClusteredRansacOptions::refine on a successful cell result; cell_of[i] is the cell of prev
-  // point i (-1 outside the crop); prev is width x height px.
-  void Refine(const FeatureSet& prev, int width, int height, const std::vector<int>& cell_of,
-              CorrespondenceResult* out);
+  /// Refit of the successful result *result (of Standard, Clustered or Run on the same prev
+  /// and curr, possibly by another stage) on every prev point, guided within
+  /// clustered.refine_final_radius_px of result->curr_from_prev, with this stage's model,
+  /// sampler, RANSAC options and min_inliers; the refit replaces the result's transform,
+  /// matches, mask and inliers when it has more inliers (see ClusteredRansacOptions::
+  /// refine_fallback, which makes Clustered() do this on a fall-back). Sets final_pass, and
+  /// refined when replaced; adds its costs and one attempt. Returns whether it replaced the
+  /// fit; false without running when !result->success. Throws InvalidArgument when
+  /// clustered.refine_final_radius_px is 0.
+  bool RefitOnAllPoints(const FeatureSet& prev, const FeatureSet& curr,
+                        CorrespondenceResult* result);
 
+ private:
   CorrespondenceOptions options_;
-  Matcher matcher_;
-  Matcher refine_matcher_;  // options.match with guided_radius_px = refine_radius_px.
-  Matcher final_matcher_;   // options.match with guided_radius_px = refine_final_radius_px.
-  MatchCandidates candidates_;
-  RansacWorkspace workspace_;
-  Eigen::Matrix2Xd prev_px_, curr_px_;
-  std::vector<float> quality_;
-  std::vector<int> subset_, second_half_;
-  std::vector<int> cell_of_;  // Clustered(): cell of every prev point (-1 outside the crop)
-  std::vector<double> edges_x_, edges_y_;  // Clustered(): inner cell edges, px
-  std::vector<char> sampled_;              // Refine(): prev points of the capped final pass
-  std::vector<Match> merged_;
+  Matcher matcher_;              // options.match: the cells, standard and fall-back attempts
+  MatchAndFit fit_;              // match + RANSAC attempts, with the current frame prepared
+  GuidedRefinement refinement_;  // step 6
+  CellAssignment cells_;         // Clustered(): cell of every prev point
+  std::vector<int> cell_order_;  // Clustered(): eligible cells in the order they are tried
+  std::vector<int> subset_;      // prev points of one attempt (empty: every point)
 };
 
 /// One-shot conveniences (construct a CorrespondenceStage; prefer the class in a loop).

@@ -84,6 +84,16 @@ class SceneBuilder {
     for (int i = 0; i < count; ++i) Add({ux(rng_), uy(rng_)}, {fx(rng_), fy(rng_)});
   }
 
+  // A look-alike of the last prev point in curr (same descriptor) at `curr_px`.
+  void AddDecoy(const Eigen::Vector2d& curr_px) {
+    Keypoint k = prev_.keypoints.back();
+    k.x = static_cast<float>(curr_px.x());
+    k.y = static_cast<float>(curr_px.y());
+    curr_.keypoints.push_back(k);
+    curr_.descriptors.insert(curr_.descriptors.end(), prev_.descriptors.end() - 64,
+                             prev_.descriptors.end());
+  }
+
   const FeatureSet& prev() const { return prev_; }
   const FeatureSet& curr() const { return curr_; }
 
@@ -671,6 +681,134 @@ TEST(CorrespondenceOptions, ValidateNamesTheField) {
   } catch (const InvalidArgument& e) {
     EXPECT_NE(std::string(e.what()).find("refine_final_max_points"), std::string::npos);
   }
+}
+
+// ---------------------------------------------------------------- refit on all points
+
+// Repeated texture under a known affine motion (1.5 deg, scale 1.01, shift (12, -7) px): every
+// prev point's twin is where the motion puts it, and every other point also has a look-alike
+// (same descriptor) 100 px away in curr, so that the exhaustive ratio test rejects it (two
+// identical best candidates) while guided matching within a few pixels of the truth meets only
+// the twin. All twins stay in the frame.
+struct RepeatedTexture {
+  FeatureSet prev, curr;
+  Eigen::Matrix3d truth;
+  int pairs = 0;     // prev points with their twin in curr
+  int distinct = 0;  // of which without a look-alike
+};
+
+RepeatedTexture MakeRepeatedTexture() {
+  RepeatedTexture scene;
+  const double a = 1.5 * M_PI / 180.0, s = 1.01;
+  scene.truth << s * std::cos(a), -s * std::sin(a), 12.0, s * std::sin(a), s * std::cos(a), -7.0,
+      0.0, 0.0, 1.0;
+  SceneBuilder b(17);
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> ux(40, kFrameWidth - 40), uy(40, kFrameHeight - 40);
+  for (int i = 0; i < 300; ++i) {
+    const Eigen::Vector2d p(ux(rng), uy(rng));
+    const Eigen::Vector2d q = TransformPoint(scene.truth, p);
+    b.Add(p, q);
+    ++scene.pairs;
+    if (i % 2 == 1) {
+      b.AddDecoy(q + Eigen::Vector2d(q.x() < kFrameWidth / 2 ? 100.0 : -100.0, 0.0));
+    } else {
+      ++scene.distinct;
+    }
+  }
+  scene.prev = b.prev();
+  scene.curr = b.curr();
+  return scene;
+}
+
+// CorrespondenceStage::RefitOnAllPoints on an accepted standard result: guided by its fit, the
+// refit matches the look-alike points too, fits on every pair (exact positions up to float
+// rounding: within 1e-3 px of the truth at the corners), and replaces the result; refitting that
+// again finds no more inliers and keeps it.
+TEST(RefitOnAllPoints, RecoversRepeatedTextureWithKnownTruth) {
+  const RepeatedTexture scene = MakeRepeatedTexture();
+  ASSERT_EQ(static_cast<int>(scene.curr.size()), scene.pairs + (scene.pairs - scene.distinct));
+  CorrespondenceStage stage;  // refine_final_radius_px = 6 px
+  CorrespondenceResult r = stage.Standard(scene.prev, scene.curr);
+  ASSERT_TRUE(r.success);
+  EXPECT_EQ(r.num_inliers, scene.distinct) << "the ratio test drops every look-alike";
+  const int attempts = r.attempts;
+  EXPECT_TRUE(stage.RefitOnAllPoints(scene.prev, scene.curr, &r));
+  EXPECT_TRUE(r.refined);
+  EXPECT_TRUE(r.final_pass);
+  EXPECT_EQ(r.attempts, attempts + 1);
+  EXPECT_EQ(r.num_inliers, scene.pairs);
+  EXPECT_EQ(static_cast<int>(r.matches.size()), scene.pairs);
+  EXPECT_LT(MaxCornerDisplacementPx(r.curr_from_prev, scene.truth, kFrameWidth, kFrameHeight),
+            1e-3);
+  const Eigen::Matrix3d kept = r.curr_from_prev;
+  EXPECT_FALSE(stage.RefitOnAllPoints(scene.prev, scene.curr, &r)) << "no inlier more to find";
+  EXPECT_EQ(r.curr_from_prev, kept);
+  EXPECT_EQ(r.num_inliers, scene.pairs);
+  CorrespondenceResult failed;  // !success: nothing to refit
+  EXPECT_FALSE(stage.RefitOnAllPoints(scene.prev, scene.curr, &failed));
+  EXPECT_EQ(failed.attempts, 0);
+  CorrespondenceOptions no_final;
+  no_final.clustered.refine_final_radius_px = 0.f;
+  CorrespondenceStage without_radius(no_final);
+  EXPECT_THROW(without_radius.RefitOnAllPoints(scene.prev, scene.curr, &r), InvalidArgument);
+}
+
+// ClusteredRansacOptions::refine_fallback: with no eligible cell clustered RANSAC falls back to
+// the standard method, and the fall-back's fit is refit on all points (same result as the
+// explicit RefitOnAllPoints); without it, or with refine = false, the fall-back is exactly the
+// standard method.
+TEST(RefitOnAllPoints, RefineFallbackRefitsTheFallBack) {
+  const RepeatedTexture scene = MakeRepeatedTexture();
+  const Eigen::Matrix3d still = Eigen::Matrix3d::Identity();
+  CorrespondenceOptions o;
+  o.clustered.min_points = 100000;  // no cell is eligible
+  const CorrespondenceResult plain =
+      ClusteredCorrespondence(scene.prev, kFrameWidth, kFrameHeight, scene.curr, still, o);
+  ASSERT_TRUE(plain.success);
+  EXPECT_TRUE(plain.fell_back);
+  EXPECT_FALSE(plain.final_pass);
+  EXPECT_EQ(plain.num_inliers, scene.distinct);
+
+  o.clustered.refine_fallback = true;
+  const CorrespondenceResult refit =
+      ClusteredCorrespondence(scene.prev, kFrameWidth, kFrameHeight, scene.curr, still, o);
+  ASSERT_TRUE(refit.success);
+  EXPECT_TRUE(refit.fell_back);
+  EXPECT_TRUE(refit.final_pass);
+  EXPECT_TRUE(refit.refined);
+  EXPECT_EQ(refit.attempts, plain.attempts + 1);
+  EXPECT_EQ(refit.num_inliers, scene.pairs);
+  EXPECT_LT(MaxCornerDisplacementPx(refit.curr_from_prev, scene.truth, kFrameWidth, kFrameHeight),
+            1e-3);
+  CorrespondenceStage stage(o);
+  CorrespondenceResult explicit_refit = stage.Standard(scene.prev, scene.curr, still);
+  stage.RefitOnAllPoints(scene.prev, scene.curr, &explicit_refit);
+  EXPECT_EQ(explicit_refit.curr_from_prev, refit.curr_from_prev);
+  EXPECT_EQ(explicit_refit.num_inliers, refit.num_inliers);
+
+  o.clustered.refine = false;  // turns off every refine_* option
+  const CorrespondenceResult paper =
+      ClusteredCorrespondence(scene.prev, kFrameWidth, kFrameHeight, scene.curr, still, o);
+  EXPECT_FALSE(paper.final_pass);
+  EXPECT_EQ(paper.num_inliers, scene.distinct);
+  EXPECT_EQ(paper.curr_from_prev, plain.curr_from_prev);
+}
+
+TEST(RefitOnAllPoints, ValidateNamesBothFieldsWhenTheRefitHasNoRadius) {
+  CorrespondenceOptions o;
+  o.clustered.refine_fallback = true;
+  o.clustered.refine_final_radius_px = 0.f;
+  try {
+    Validate(o);
+    ADD_FAILURE() << "no throw";
+  } catch (const InvalidArgument& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("refine_fallback"), std::string::npos) << what;
+    EXPECT_NE(what.find("refine_final_radius_px"), std::string::npos) << what;
+  }
+  o.clustered.refine = false;  // no refinement: neither field is used
+  EXPECT_NO_THROW(Validate(o));
 }
 
 // ---------------------------------------------------------------- real imagery (../shared)

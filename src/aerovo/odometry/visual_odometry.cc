@@ -31,7 +31,6 @@ void Validate(const OdometryOptions& o) {
   if (!(o.max_anisotropy >= 1.0)) fail("max_anisotropy must be >= 1");
   if (!(o.max_shift_fraction > 0.0)) fail("max_shift_fraction must be > 0");
   if (o.max_reacquire_gap < 1) fail("max_reacquire_gap must be >= 1");
-  if (!(o.refine_radius_px > 0.f)) fail("refine_radius_px must be > 0");
   if (o.keyframe_interval < 1) fail("keyframe_interval must be >= 1");
   if (o.max_keyframes < 1) fail("max_keyframes must be >= 1");
   if (o.relocalize_min_inliers < MinSampleSize(o.correspondence.model)) {
@@ -100,53 +99,65 @@ Eigen::Matrix3d Power(const Eigen::Matrix3d& m, int k) {
   return r;
 }
 
+// Checks an estimated step against what a nadir camera can physically do between two frames.
+bool Plausible(const OdometryOptions& o, const Eigen::Matrix3d& t, int width, int height) {
+  if (!t.allFinite()) return false;
+  const Eigen::Vector2d centre(0.5 * (width - 1), 0.5 * (height - 1));
+  const Eigen::Vector3d h = t * centre.homogeneous();
+  if (!(std::abs(h.z()) > 1e-9)) return false;
+  const Eigen::Matrix2d lin = t.topLeftCorner<2, 2>() / t(2, 2);
+  const Eigen::JacobiSVD<Eigen::Matrix2d> svd(lin);
+  const Eigen::Vector2d sv = svd.singularValues();
+  if (!(sv(1) > 1e-9) || lin.determinant() <= 0.0) return false;  // reflection or collapse
+  const double scale = std::sqrt(sv(0) * sv(1));
+  if (std::abs(scale - 1.0) > o.max_scale_change) return false;
+  if (sv(0) / sv(1) > o.max_anisotropy) return false;
+  const double shift = (h.head<2>() / h.z() - centre).norm();
+  return shift <= o.max_shift_fraction * std::max(width, height);
+}
+
+// Why an attempt is not an acceptable step needing `needed` inliers (kNone: it is).
+StepFailure Judge(const OdometryOptions& o, const Attempt& a, int needed, int width, int height) {
+  if (!a.success) return StepFailure::kNoTransform;
+  if (a.n_inliers < needed) return StepFailure::kTooFewInliers;
+  if (!Plausible(o, a.curr_from_ref, width, height)) return StepFailure::kImplausibleMotion;
+  return StepFailure::kNone;
+}
+
+CorrespondenceOptions WithGuidance(CorrespondenceOptions c, bool guided) {
+  c.guided_matching = guided;
+  return c;
+}
+
+// Keyframe attempts: unguided (no motion model predicts a relocalisation), on all points (a
+// cell fit with fewer than relocalize_min_inliers would reject the keyframe without ever
+// looking at the whole frame), with relocalize_sampler.
+CorrespondenceOptions RelocaliseOptions(const OdometryOptions& o) {
+  CorrespondenceOptions c = WithGuidance(o.correspondence, false);
+  c.method = CorrespondenceMethod::kStandard;
+  c.sampler = o.relocalize_sampler;
+  return c;
+}
+
 }  // namespace
 
 struct VisualOdometry::Impl {
+  // Frame-to-frame steps use o.correspondence as given (its refinement included), guided or
+  // not; keyframes the relocalisation's options.
   explicit Impl(const OdometryOptions& o)
       : surf(o.surf),
-        guided(StepOptions(o, true)),
-        unguided(StepOptions(o, false)),
+        guided(WithGuidance(o.correspondence, true)),
+        unguided(WithGuidance(o.correspondence, false)),
         relocalise(RelocaliseOptions(o)),
-        refine(RefineOptions(o)) {}
-
-  // Keyframe attempts: unguided (no motion model predicts a relocalisation), on all points (a
-  // cell fit with fewer than relocalize_min_inliers would reject the keyframe without ever
-  // looking at the whole frame), with relocalize_sampler.
-  static CorrespondenceOptions RelocaliseOptions(const OdometryOptions& o) {
-    CorrespondenceOptions c = WithGuidance(o.correspondence, false);
-    c.method = CorrespondenceMethod::kStandard;
-    c.sampler = o.relocalize_sampler;
-    return c;
-  }
-
-  static CorrespondenceOptions RefineOptions(const OdometryOptions& o) {
-    CorrespondenceOptions c = o.correspondence;
-    c.method = CorrespondenceMethod::kStandard;
-    c.guided_matching = true;
-    c.match.guided_radius_px = o.refine_radius_px;
-    return c;
-  }
-
-  // Frame-to-frame steps: a successful cell is refined on all points by the stage itself
-  // (ClusteredRansacOptions::refine_final_radius_px), with the odometry's radius, always, and
-  // on every point however many (a track adds up every step's error, and SURF, not this pass,
-  // sets the frame rate).
-  static CorrespondenceOptions StepOptions(const OdometryOptions& o, bool guided) {
-    CorrespondenceOptions c = WithGuidance(o.correspondence, guided);
-    c.clustered.refine_final_radius_px = o.refine_on_all_points ? o.refine_radius_px : 0.f;
-    c.clustered.refine_final_min_shift_px = 0.f;
-    c.clustered.refine_final_max_points = 0;
-    return c;
-  }
-
-  static CorrespondenceOptions WithGuidance(CorrespondenceOptions c, bool guided) {
-    c.guided_matching = guided;
-    return c;
-  }
+        refit_keyframes(o.correspondence.method == CorrespondenceMethod::kClustered &&
+                        o.correspondence.clustered.refine &&
+                        o.correspondence.clustered.refine_fallback) {}
 
   Surf surf;
-  CorrespondenceStage guided, unguided, relocalise, refine;
+  CorrespondenceStage guided, unguided, relocalise;
+  // A relocalisation is a standard result: refit on all points like a fall-back
+  // (ClusteredRansacOptions::refine_fallback) in a clustered run.
+  bool refit_keyframes;
 
   int width = 0, height = 0;
   int next_index = 0;
@@ -170,7 +181,9 @@ struct VisualOdometry::Impl {
   Attempt Correspond(bool use_guided, const FeatureSet& ref, const FeatureSet& curr,
                      const std::optional<Eigen::Matrix3d>& prior, bool keyframe = false) {
     CorrespondenceStage& stage = keyframe ? relocalise : use_guided ? guided : unguided;
-    const CorrespondenceResult c = stage.Run(ref, width, height, curr, prior);
+    CorrespondenceResult c = stage.Run(ref, width, height, curr, prior);
+    // By the step stage: the refit has the steps' sampler, not relocalize_sampler.
+    if (keyframe && refit_keyframes) unguided.RefitOnAllPoints(ref, curr, &c);
     Attempt a;
     a.success = c.success;
     a.curr_from_ref = c.curr_from_prev;
@@ -185,18 +198,161 @@ struct VisualOdometry::Impl {
     return a;
   }
 
-  // Refit of an accepted standard result (fall-back, keyframe) on all points, guided tightly
-  // by it (see refine_on_all_points); cell results had the stage's own final pass.
-  void Refine(const FeatureSet& ref, const FeatureSet& curr, Attempt* a) {
-    const CorrespondenceResult c = refine.Standard(ref, curr, a->curr_from_ref);
-    a->correspond_ms += c.match_ms;
-    a->estimate_ms += c.estimate_ms;
-    ++a->attempts;
-    if (c.success && c.num_inliers > a->n_inliers) {
-      a->curr_from_ref = c.curr_from_prev;
-      a->n_matched = static_cast<int>(c.matches.size());
-      a->n_inliers = c.num_inliers;
+  // Ground sampling distance of frame r.index (m/px; 1 without a focal length).
+  static double GroundSamplingDistance(const OdometryOptions& o, int index,
+                                       std::optional<double> height_m) {
+    if (!(o.focal_px > 0.0)) return 1.0;
+    const double h = height_m ? *height_m : o.default_height_m;
+    if (!(h > 0.0) || !std::isfinite(h)) {
+      throw InputError("frame " + std::to_string(index) +
+                       ": no valid height above ground (give telemetry with relative altitude "
+                       "or --altitude), got " +
+                       std::to_string(h) + " m");
     }
+    return h / o.focal_px;
+  }
+
+  // Candidate references of frame `index` into `candidates`: the previous usable frame, then
+  // the last good frame (within max_reacquire_gap), then (relocalize) the keyframes, newest
+  // first. Returns how many are local (not keyframes).
+  std::size_t CollectCandidates(const OdometryOptions& o, int index) {
+    candidates.clear();
+    if (prev) candidates.push_back(&*prev);
+    if (last_good && (!prev || last_good->index != prev->index) &&
+        index - last_good->index <= o.max_reacquire_gap) {
+      candidates.push_back(&*last_good);
+    }
+    const std::size_t n_local = candidates.size();
+    if (o.relocalize) {
+      for (auto it = keyframes.rbegin(); it != keyframes.rend(); ++it) {
+        if (std::none_of(candidates.begin(), candidates.begin() + n_local,
+                         [&](const Reference* c) { return c->index == it->index; })) {
+          candidates.push_back(&*it);
+        }
+      }
+    }
+    return n_local;
+  }
+
+  // The local candidates: the first acceptable attempt wins, guided first (cheap, robust to
+  // repeated texture), then unguided. r's attempt fields are those of the last attempt.
+  const Reference* MatchLocal(const OdometryOptions& o, const FeatureSet& curr,
+                              std::size_t n_local, FrameResult* r, Attempt* best) {
+    for (std::size_t c = 0; c < n_local; ++c) {
+      const Reference& ref = *candidates[c];
+      std::optional<Eigen::Matrix3d> prior;
+      if (have_velocity) prior = Power(velocity, r->index - ref.index);
+      for (int pass = 0; pass < 2; ++pass) {
+        const bool use_guided = pass == 0;
+        if (use_guided && (!o.correspondence.guided_matching || !prior)) continue;
+        const Attempt a = Correspond(use_guided, ref.features, curr, prior);
+        r->correspond_ms += a.correspond_ms;
+        r->estimate_ms += a.estimate_ms;
+        const StepFailure why = Judge(o, a, o.correspondence.min_inliers, width, height);
+        r->failure = why;
+        r->n_matched = a.n_matched;
+        r->n_inliers = a.n_inliers;
+        r->cluster = a.cluster;
+        r->attempts += a.attempts;
+        r->fell_back = a.fell_back;
+        if (why == StepFailure::kNone) {
+          *best = a;
+          r->guided = use_guided;
+          return &ref;
+        }
+      }
+    }
+    return nullptr;
+  }
+
+  // The keyframes (relocalisation): all are tried, unguided, and the acceptable one with the
+  // most inliers wins (no motion prior confirms a relocalisation, so take the strongest).
+  const Reference* MatchKeyframes(const OdometryOptions& o, const FeatureSet& curr,
+                                  std::size_t n_local, FrameResult* r, Attempt* best) {
+    const Reference* best_ref = nullptr;
+    Attempt best_keyframe;
+    for (std::size_t c = n_local; c < candidates.size(); ++c) {
+      const Reference& ref = *candidates[c];
+      const Attempt a = Correspond(false, ref.features, curr, std::nullopt, true);
+      r->correspond_ms += a.correspond_ms;
+      r->estimate_ms += a.estimate_ms;
+      if (Judge(o, a, o.relocalize_min_inliers, width, height) != StepFailure::kNone ||
+          a.n_inliers <= best_keyframe.n_inliers) {
+        continue;  // keep the failure of the local candidates / the best keyframe so far
+      }
+      best_keyframe = a;
+      best_ref = &ref;
+    }
+    if (best_ref == nullptr) return nullptr;
+    *best = best_keyframe;
+    r->guided = false;
+    r->relocalized = true;
+    r->n_matched = best->n_matched;
+    r->n_inliers = best->n_inliers;
+    r->cluster = best->cluster;
+    r->fell_back = best->fell_back;
+    return best_ref;
+  }
+
+  // The step of frame r against the candidate references: accepted (re-anchored on the
+  // reference's pose) or bridged with the previous step's motion.
+  void Step(const OdometryOptions& o, const FeatureSet& curr, bool usable, double gsd,
+            const double* heading_override, FrameResult* r) {
+    const std::size_t n_local = CollectCandidates(o, r->index);
+    r->failure = usable ? StepFailure::kNoTransform : StepFailure::kTooFewFeatures;
+    Attempt best;
+    const Reference* accepted = nullptr;
+    if (usable) {
+      accepted = MatchLocal(o, curr, n_local, r, &best);
+      if (accepted == nullptr) accepted = MatchKeyframes(o, curr, n_local, r, &best);
+    }
+    if (accepted != nullptr) {
+      const int gap = r->index - accepted->index;
+      r->status = gap == 1 ? FrameStatus::kOk : FrameStatus::kReacquired;
+      r->reference_index = accepted->index;
+      r->curr_from_prev = best.curr_from_ref;
+      // Re-anchor on the reference's pose (discarding any bridged guesses since).
+      chain = accepted->chain;
+      chain.Step(best.curr_from_ref, accepted->gsd, gsd, heading_override);
+      if (gap == 1) {
+        velocity = best.curr_from_ref;
+        have_velocity = true;
+      }
+      r->failure = StepFailure::kNone;
+    } else {
+      r->status = FrameStatus::kBridged;
+      r->reference_index = prev ? prev->index : -1;
+      r->curr_from_prev = have_velocity ? velocity : Eigen::Matrix3d::Identity();
+      chain.Step(r->curr_from_prev, gsd_prev_frame, gsd, heading_override);
+    }
+  }
+
+  // Bookkeeping of the references after frame r (its features are moved in when usable).
+  void UpdateReferences(const OdometryOptions& o, const FrameResult& r, bool usable, double gsd,
+                        FeatureSet* features) {
+    const bool measured = r.status != FrameStatus::kBridged;
+    if (usable) {
+      Reference ref;
+      ref.features = std::move(*features);
+      ref.index = r.index;
+      ref.gsd = gsd;
+      ref.measured = measured;
+      ref.chain = chain;
+      if (measured && o.relocalize && r.index - last_keyframe_index >= o.keyframe_interval) {
+        keyframes.push_back(ref);
+        last_keyframe_index = r.index;
+        if (static_cast<int>(keyframes.size()) > o.max_keyframes) keyframes.pop_front();
+      }
+      if (measured) {
+        last_good.reset();  // this frame is both the previous and the last good frame
+      } else if (prev && prev->measured) {
+        // Bridged over a usable frame: keep the last measured one for re-acquisition.
+        last_good = std::move(prev);
+      }
+      prev = std::move(ref);
+    }
+    if (last_good && r.index - last_good->index >= o.max_reacquire_gap) last_good.reset();
+    gsd_prev_frame = gsd;
   }
 };
 
@@ -207,27 +363,6 @@ VisualOdometry::VisualOdometry(const OdometryOptions& options) : options_(option
 VisualOdometry::~VisualOdometry() = default;
 VisualOdometry::VisualOdometry(VisualOdometry&&) noexcept = default;
 VisualOdometry& VisualOdometry::operator=(VisualOdometry&&) noexcept = default;
-
-namespace {
-
-// Checks an estimated step against what a nadir camera can physically do between two frames.
-bool Plausible(const OdometryOptions& o, const Eigen::Matrix3d& t, int width, int height) {
-  if (!t.allFinite()) return false;
-  const Eigen::Vector2d centre(0.5 * (width - 1), 0.5 * (height - 1));
-  const Eigen::Vector3d h = t * centre.homogeneous();
-  if (!(std::abs(h.z()) > 1e-9)) return false;
-  const Eigen::Matrix2d lin = t.topLeftCorner<2, 2>() / t(2, 2);
-  const Eigen::JacobiSVD<Eigen::Matrix2d> svd(lin);
-  const Eigen::Vector2d sv = svd.singularValues();
-  if (!(sv(1) > 1e-9) || lin.determinant() <= 0.0) return false;  // reflection or collapse
-  const double scale = std::sqrt(sv(0) * sv(1));
-  if (std::abs(scale - 1.0) > o.max_scale_change) return false;
-  if (sv(0) / sv(1) > o.max_anisotropy) return false;
-  const double shift = (h.head<2>() / h.z() - centre).norm();
-  return shift <= o.max_shift_fraction * std::max(width, height);
-}
-
-}  // namespace
 
 FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
                                     std::optional<double> height_m, std::optional<double> yaw_deg) {
@@ -248,18 +383,7 @@ FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
                      "x" + std::to_string(frame.height) + " differs from the first frame's " +
                      std::to_string(s.width) + "x" + std::to_string(s.height));
   }
-  // Ground sampling distance of this frame.
-  double gsd = 1.0;
-  if (o.focal_px > 0.0) {
-    const double h = height_m ? *height_m : o.default_height_m;
-    if (!(h > 0.0) || !std::isfinite(h)) {
-      throw InputError("frame " + std::to_string(r.index) +
-                       ": no valid height above ground (give telemetry with relative altitude "
-                       "or --altitude), got " +
-                       std::to_string(h) + " m");
-    }
-    gsd = h / o.focal_px;
-  }
+  const double gsd = Impl::GroundSamplingDistance(o, r.index, height_m);
   r.gsd_m_per_px = gsd;
 
   SurfResult features = s.surf.DetectAndDescribe(frame);
@@ -286,138 +410,10 @@ FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
     s.have_velocity = false;
     r.status = FrameStatus::kFirst;
   } else {
-    // Candidate references, the previous usable frame first.
-    // Then, if both fail, the keyframes (relocalisation), newest first.
-    std::vector<const Reference*>& candidates = s.candidates;
-    candidates.clear();
-    if (s.prev) candidates.push_back(&*s.prev);
-    if (s.last_good && (!s.prev || s.last_good->index != s.prev->index) &&
-        r.index - s.last_good->index <= o.max_reacquire_gap) {
-      candidates.push_back(&*s.last_good);
-    }
-    const std::size_t n_local = candidates.size();
-    if (o.relocalize) {
-      for (auto it = s.keyframes.rbegin(); it != s.keyframes.rend(); ++it) {
-        if (std::none_of(candidates.begin(), candidates.begin() + n_local,
-                         [&](const Reference* c) { return c->index == it->index; })) {
-          candidates.push_back(&*it);
-        }
-      }
-    }
-    const int n_candidates = static_cast<int>(candidates.size());
-    r.failure = usable ? StepFailure::kNoTransform : StepFailure::kTooFewFeatures;
-    const Reference* accepted = nullptr;
-    Attempt best;
-    // Local candidates: the first acceptable one wins. Keyframes: all are tried and the one with
-    // the most inliers wins (no motion prior confirms a relocalisation, so take the strongest).
-    Attempt best_keyframe;
-    const Reference* best_keyframe_ref = nullptr;
-    bool best_keyframe_guided = false;
-    for (int c = 0; c < n_candidates && usable && accepted == nullptr; ++c) {
-      const Reference& ref = *candidates[c];
-      const int gap = r.index - ref.index;
-      const bool keyframe = static_cast<std::size_t>(c) >= n_local;
-      std::optional<Eigen::Matrix3d> prior;
-      if (s.have_velocity && !keyframe) prior = Power(s.velocity, gap);
-      const int needed = keyframe ? o.relocalize_min_inliers : o.correspondence.min_inliers;
-      // Guided first (cheap, robust to repeated texture), then unguided.
-      for (int pass = 0; pass < 2 && (keyframe || accepted == nullptr); ++pass) {
-        const bool guided = pass == 0;
-        if (guided && (!o.correspondence.guided_matching || !prior)) continue;
-        Attempt a = s.Correspond(guided, ref.features, features.features, prior, keyframe);
-        if (o.refine_on_all_points && a.success && a.cluster < 0 &&
-            o.correspondence.method == CorrespondenceMethod::kClustered) {
-          s.Refine(ref.features, features.features, &a);
-        }
-        r.correspond_ms += a.correspond_ms;
-        r.estimate_ms += a.estimate_ms;
-        StepFailure why = StepFailure::kNone;
-        if (!a.success) {
-          why = StepFailure::kNoTransform;
-        } else if (a.n_inliers < needed) {
-          why = StepFailure::kTooFewInliers;
-        } else if (!Plausible(o, a.curr_from_ref, s.width, s.height)) {
-          why = StepFailure::kImplausibleMotion;
-        }
-        if (keyframe && (why != StepFailure::kNone || a.n_inliers <= best_keyframe.n_inliers)) {
-          continue;  // keep the failure of the local candidates / the best keyframe so far
-        }
-        if (keyframe) {
-          best_keyframe = a;
-          best_keyframe_ref = &ref;
-          best_keyframe_guided = guided;
-          continue;
-        }
-        r.failure = why;
-        r.n_matched = a.n_matched;
-        r.n_inliers = a.n_inliers;
-        r.cluster = a.cluster;
-        r.attempts += a.attempts;
-        r.fell_back = a.fell_back;
-        if (why == StepFailure::kNone) {
-          accepted = &ref;
-          best = a;
-          r.guided = guided;
-        }
-      }
-    }
-    if (accepted == nullptr && best_keyframe_ref != nullptr) {
-      accepted = best_keyframe_ref;
-      best = best_keyframe;
-      r.guided = best_keyframe_guided;
-      r.relocalized = true;
-      r.n_matched = best.n_matched;
-      r.n_inliers = best.n_inliers;
-      r.cluster = best.cluster;
-      r.fell_back = best.fell_back;
-    }
-    if (accepted != nullptr) {
-      const int gap = r.index - accepted->index;
-      r.status = gap == 1 ? FrameStatus::kOk : FrameStatus::kReacquired;
-      r.reference_index = accepted->index;
-      r.curr_from_prev = best.curr_from_ref;
-      // Re-anchor on the reference's pose (discarding any bridged guesses since).
-      s.chain = accepted->chain;
-      s.chain.Step(best.curr_from_ref, accepted->gsd, gsd,
-                   heading_override ? &*heading_override : nullptr);
-      if (gap == 1) {
-        s.velocity = best.curr_from_ref;
-        s.have_velocity = true;
-      }
-      r.failure = StepFailure::kNone;
-    } else {
-      r.status = FrameStatus::kBridged;
-      r.reference_index = s.prev ? s.prev->index : -1;
-      r.curr_from_prev = s.have_velocity ? s.velocity : Eigen::Matrix3d::Identity();
-      s.chain.Step(r.curr_from_prev, s.gsd_prev_frame, gsd,
-                   heading_override ? &*heading_override : nullptr);
-    }
+    s.Step(o, features.features, usable, gsd, heading_override ? &*heading_override : nullptr,
+           &r);
   }
-
-  // Bookkeeping of the references.
-  const bool measured = r.status != FrameStatus::kBridged;
-  if (usable) {
-    Reference ref;
-    ref.features = std::move(features.features);
-    ref.index = r.index;
-    ref.gsd = gsd;
-    ref.measured = measured;
-    ref.chain = s.chain;
-    if (measured && o.relocalize && r.index - s.last_keyframe_index >= o.keyframe_interval) {
-      s.keyframes.push_back(ref);
-      s.last_keyframe_index = r.index;
-      if (static_cast<int>(s.keyframes.size()) > o.max_keyframes) s.keyframes.pop_front();
-    }
-    if (measured) {
-      s.last_good.reset();  // this frame is both the previous and the last good frame
-    } else if (s.prev && s.prev->measured) {
-      // Bridged over a usable frame: keep the last measured one for re-acquisition.
-      s.last_good = std::move(s.prev);
-    }
-    s.prev = std::move(ref);
-  }
-  if (s.last_good && r.index - s.last_good->index >= o.max_reacquire_gap) s.last_good.reset();
-  s.gsd_prev_frame = gsd;
+  s.UpdateReferences(o, r, usable, gsd, &features.features);
 
   r.world_from_frame = s.chain.world_from_frame();
   r.position_m = s.chain.position_m();

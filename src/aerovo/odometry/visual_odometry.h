@@ -31,7 +31,8 @@ struct OdometryOptions {
     return s;
   }();
   /// Correspondence stage (matching + RANSAC, correspondence.h). Defaults are that module's
-  /// (clustered RANSAC, affine, MATLAB matching/MSAC defaults) except:
+  /// (clustered RANSAC, affine, MATLAB matching/MSAC defaults, the guided refinement with its
+  /// final pass of 6 px) except:
   /// - guided_matching = true: each frame is first matched with the predicted motion (constant
   ///   velocity) as a prior, only candidates within match.guided_radius_px of the prediction
   ///   being compared; if that fails the same method is run unguided, so guidance never loses a
@@ -39,30 +40,25 @@ struct OdometryOptions {
   /// - min_inliers = 12: a step is accepted only with 12 consistent points (the paper's minimum
   ///   cell size; an affine fit on 12 ratio-tested matches at 1.5 px is very unlikely to be
   ///   chance);
-  /// - match.num_threads = 0 (all cores).
+  /// - match.num_threads = 0 (all cores);
+  /// - clustered.refine_final_min_shift_px = 0 and clustered.refine_final_max_points = 0: the
+  ///   final pass runs on every step and every point (a track adds up every step's error, and
+  ///   SURF, not this pass, sets the frame rate);
+  /// - clustered.refine_fallback = true: a fall-back's fit, and in a clustered run a
+  ///   relocalisation's, is refit on all points too (the same evidence as a cell step's).
+  /// Why the refinement: a cell's affine fit is exact near the cell and extrapolates poorly to
+  /// the rest of the frame (synthetic flights of visual_odometry_test.cc, BENCHMARKS.md
+  /// "Correspondence"). clustered.refine = false turns all of it off (the paper's method).
   CorrespondenceOptions correspondence = [] {
     CorrespondenceOptions c;
     c.guided_matching = true;
     c.min_inliers = 12;
     c.match.num_threads = 0;
+    c.clustered.refine_final_min_shift_px = 0.f;
+    c.clustered.refine_final_max_points = 0;
+    c.clustered.refine_fallback = true;
     return c;
   }();
-  /// Refinement of a clustered step on all points: the accepted transform is used as a tight
-  /// prior (refine_radius_px) to match every point of the reference frame, and the model is
-  /// refit by RANSAC on those matches. For a cell's result this is the correspondence stage's
-  /// final pass (ClusteredRansacOptions::refine_final_radius_px is set to refine_radius_px, or 0
-  /// when off); a fall-back or keyframe result is refit the same way here and replaced when the
-  /// refit has more inliers.
-  /// Why: a cell covers 1/9 of the frame, so its affine fit is exact near the cell and
-  /// extrapolates poorly to the rest (measured on the synthetic flights of
-  /// visual_odometry_test.cc: 0.15 m position error after ten 3.5 m steps with cell fits alone,
-  /// 0.007 m after refinement), while guided matching of all points within a few pixels costs a
-  /// small fraction of an exhaustive match. Default true.
-  bool refine_on_all_points = true;
-  /// Search radius (px) of the refinement's guided matching. Default 6 px: 4x the RANSAC
-  /// threshold (1.5 px), enough for the extrapolation error of a cell's affine fit at the far
-  /// corners of the frame.
-  float refine_radius_px = 6.f;
   /// How the steps become metric positions. Default kMetric (METHOD.md pitfall on tilt).
   ScaleMode scale_mode = ScaleMode::kMetric;
   /// Camera focal length in pixels (of the frames given to Process). 0 = unknown: positions are

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -221,7 +222,8 @@ TEST_F(SyntheticFlight, StandardUnguidedAndHomographyAlsoTrack) {
   OdometryOptions homography = SyntheticOptions();
   homography.correspondence.model = MotionModel::kHomography;
   OdometryOptions cell_only = SyntheticOptions();
-  cell_only.refine_on_all_points = false;
+  cell_only.correspondence.clustered.refine_final_radius_px = 0.f;  // no final pass
+  cell_only.correspondence.clustered.refine_fallback = false;
   VisualOdometry a(standard), b(homography), clustered(SyntheticOptions()), cell(cell_only);
   for (std::size_t i = 0; i < truth.size(); ++i) {
     const cv::Mat frame = Render(*ground_, q0_, truth[i]);
@@ -245,6 +247,59 @@ TEST_F(SyntheticFlight, StandardUnguidedAndHomographyAlsoTrack) {
       EXPECT_TRUE(rc.guided);
     }
   }
+}
+
+// The refinement's options are defaults of OdometryOptions::correspondence, not overrides: a
+// user-set refine_final_min_shift_px (a gate the spread fit passes on these exact-affine frames)
+// or refine_final_max_points (a cap below the frame's point count) changes which matches the
+// steps are fitted on, while the track stays on the truth.
+TEST_F(SyntheticFlight, HonoursUserSetFinalPassOptions) {
+  const std::vector<TruePose> truth = CurvedFlight(8);
+  constexpr int kCap = 40;
+  OdometryOptions gated = SyntheticOptions();
+  gated.correspondence.clustered.refine_final_min_shift_px = 1000.f;
+  OdometryOptions capped = SyntheticOptions();
+  capped.correspondence.clustered.refine_final_max_points = kCap;
+  VisualOdometry full(SyntheticOptions()), g(gated), c(capped);
+  int gated_steps = 0, capped_steps = 0;
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    const cv::Mat frame = Render(*ground_, q0_, truth[i]);
+    const FrameResult rf = full.Process(View(frame), i);
+    const FrameResult rg = g.Process(View(frame), i);
+    const FrameResult rc = c.Process(View(frame), i);
+    EXPECT_LT((rg.position_m - truth[i].pos_m).norm(), 0.1) << "frame " << i;
+    EXPECT_LT((rc.position_m - truth[i].pos_m).norm(), 0.1) << "frame " << i;
+    if (i == 0 || rf.cluster < 0 || rg.cluster < 0 || rc.cluster < 0) continue;
+    ASSERT_GT(rf.n_surf, 4 * kCap) << "frame " << i << ": the cap must bite";
+    // The final pass on every point fits on (nearly) all of them; the gated run keeps the
+    // spread fit (at most refine_max_points = 180 spread points and the cell's matches).
+    EXPECT_LT(rg.n_matched, rf.n_matched) << "frame " << i;
+    gated_steps += rg.n_matched < rf.n_matched;
+    // The capped final pass matched at most kCap points; when its fit is not adopted the
+    // spread fit stays, which is not the uncapped run's either.
+    EXPECT_NE(rc.n_matched, rf.n_matched) << "frame " << i;
+    capped_steps += rc.n_matched <= kCap;
+  }
+  EXPECT_GE(gated_steps, 5);
+  EXPECT_GE(capped_steps, 1) << "the capped final pass's fit was never adopted";
+}
+
+TEST(VisualOdometry, ValidateNamesBothFieldsOfAnImpossibleRefinement) {
+  OdometryOptions o;
+  o.correspondence.clustered.refine_final_radius_px = 0.f;  // no final pass, fall-back refit on
+  try {
+    Validate(o);
+    ADD_FAILURE() << "no throw for refine_fallback without a final-pass radius";
+  } catch (const InvalidArgument& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("refine_fallback"), std::string::npos) << what;
+    EXPECT_NE(what.find("refine_final_radius_px"), std::string::npos) << what;
+  }
+  o.correspondence.clustered.refine_fallback = false;
+  EXPECT_NO_THROW(Validate(o));
+  o.correspondence.clustered.refine_fallback = true;
+  o.correspondence.clustered.refine = false;  // the paper's method: no refinement at all
+  EXPECT_NO_THROW(Validate(o));
 }
 
 TEST(VisualOdometry, RejectsBadInputAndOptions) {

@@ -69,7 +69,7 @@ struct RunConfig {
   /// frame, see BENCHMARKS.md "Matching"). Guided matching is unaffected.
   std::string matcher = "exhaustive";
   /// Refinement of cell fits on spread points and then on all points
-  /// (CorrespondenceOptions::clustered.refine and OdometryOptions::refine_on_all_points).
+  /// (CorrespondenceOptions::clustered.refine, which turns off every refine_* option).
   /// Default on; off is the paper's clustered RANSAC exactly (the cell's own fit).
   bool refine = true;
   /// RANSAC inliers needed for a step (OdometryOptions::correspondence.min_inliers). Default 12.

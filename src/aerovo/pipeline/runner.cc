@@ -107,9 +107,8 @@ OdometryOptions MakeOdometryOptions(const RunConfig& c) {
   o.correspondence.ransac.seed = c.seed;
   o.correspondence.ransac.polish_iterations = c.polish;
   // refine = 0 is the paper's clustered RANSAC exactly: the cell's own fit, no refinement on
-  // spread points (ClusteredRansacOptions::refine) nor on all points (the final pass).
+  // spread points nor on all points (ClusteredRansacOptions::refine turns off every refine_*).
   o.correspondence.clustered.refine = c.refine;
-  o.refine_on_all_points = c.refine;
   o.scale_mode = ParseScaleMode(c.scale.c_str());
   return o;
 }
