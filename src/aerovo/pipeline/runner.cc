@@ -127,28 +127,6 @@ std::optional<GeoPoint> GpsOf(const std::optional<TelemetrySample>& s) {
   return p;
 }
 
-OdometryOptions MakeOdometryOptions(const RunConfig& c) {
-  OdometryOptions o;
-  o.surf.hessian_threshold = c.surf_threshold;
-  o.surf.max_keypoints = c.max_keypoints;
-  o.surf.num_threads = c.threads;
-  o.correspondence.method =
-      c.mode == "standard" ? CorrespondenceMethod::kStandard : CorrespondenceMethod::kClustered;
-  o.correspondence.model = ParseMotionModel(c.model.c_str());
-  o.correspondence.guided_matching = c.guided;
-  o.correspondence.min_inliers = c.min_inliers;
-  o.correspondence.match.num_threads = c.threads;
-  o.correspondence.match.algorithm = ParseMatchAlgorithm(c.matcher);
-  o.correspondence.ransac.seed = c.seed;
-  o.correspondence.ransac.polish_iterations = c.polish;
-  // refine = 0 is the paper's clustered RANSAC exactly: the cell's own fit, no refinement on
-  // spread points (ClusteredRansacOptions::refine) nor on all points (the final pass).
-  o.correspondence.clustered.refine = c.refine;
-  o.refine_on_all_points = c.refine;
-  o.scale_mode = ParseScaleMode(c.scale.c_str());
-  return o;
-}
-
 // The sim.json of `aerovo simulate` when `input` is its video or frames folder (sim.json sits in
 // the folder above either). An unreadable or foreign sim.json is reported and ignored.
 std::optional<sim::SimulationManifest> FindSimulationManifest(const std::string& input,
@@ -311,12 +289,12 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
     return by_frame_index ? telemetry.AtFrame(f.index) : telemetry.Lookup(f.time_s, 0.5);
   };
 
-  OdometryOptions vo_options = MakeOdometryOptions(config);
+  OdometryOptions vo_options = config.odometry;
   std::unique_ptr<VisualOdometry> vo;
   std::unique_ptr<FrameUndistorter> undistorter;
   GrayImage dimmed;  // the frame at illumination_k < 1
   GeoRefOptions geo_options;
-  geo_options.heading_source = ParseHeadingSource(config.heading);
+  geo_options.heading_source = config.heading;
   GeoReferencer georef(geo_options);
   std::unique_ptr<TrackWriterSet> writers;
   std::deque<PendingFrame> pending;
