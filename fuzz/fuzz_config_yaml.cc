@@ -13,8 +13,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const aerovo::RunConfig config =
         aerovo::ParseRunConfig(text, aerovo::RunConfigFormat::kYaml, aerovo::RunConfig{}, "fuzz");
     aerovo::Validate(config);
-    // A valid configuration survives its own round trip through JSON.
-    (void)aerovo::RunConfigFromJson(aerovo::ToJson(config), aerovo::RunConfig{}, "round trip");
+    // A valid configuration survives its own round trip through JSON (what `aerovo run --config
+    // OUT/config.json` relies on): the same configuration comes back.
+    const aerovo::RunConfig back =
+        aerovo::RunConfigFromJson(aerovo::ToJson(config), aerovo::RunConfig{}, "round trip");
+    if (aerovo::ToJson(back) != aerovo::ToJson(config)) __builtin_trap();
   } catch (const aerovo::InputError&) {
   } catch (const aerovo::InvalidArgument&) {
   }

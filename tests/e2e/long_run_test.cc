@@ -99,7 +99,8 @@ TEST(LongRun, TenThousandFramesWithFlatMemory) {
   c.hfov_deg = 73.7;
   // One thread: OpenMP workers spinning on a shared 2-core CI machine cost more than they give
   // on 320x240 frames (BENCHMARKS.md, OMP_WAIT_POLICY).
-  c.threads = 1;
+  c.odometry.surf.num_threads = 1;
+  c.odometry.correspondence.match.num_threads = 1;
   c.quiet = true;
 
   Memory at_1000, at_10000;

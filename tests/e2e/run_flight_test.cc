@@ -152,7 +152,7 @@ TEST(Runner, TampaRelocalisationDoesNotDependOnTheSeed) {
     c.input = flight.parent_path().string();
     c.out = TempDir("tampa_seed").string();
     c.altitude_m = 57.0;
-    c.seed = seed;
+    c.odometry.correspondence.ransac.seed = seed;
     c.quiet = true;
     const RunSummary s = RunFlight(c);
     EXPECT_GE(s.frames_reacquired, 1) << "seed " << seed;
@@ -176,7 +176,7 @@ Eigen::Vector2d LastTumPosition(const fs::path& tum) {
   return {x, y};
 }
 
-// RunConfig::polish reaches every RANSAC fit of the pipeline: with it the track no longer
+// ransac.polish_iterations reaches every RANSAC fit of the pipeline: with it the track no longer
 // depends on the RANSAC seed (tampa, non-planar scene: without it seeds 1 and 2 end apart).
 TEST(Runner, PolishMakesTheTrackIndependentOfTheSeed) {
   AEROVO_REQUIRE_SHARED(flight, "data/flights/tampa-phantom3/DJI_0054.JPG");
@@ -186,10 +186,11 @@ TEST(Runner, PolishMakesTheTrackIndependentOfTheSeed) {
     c.out = TempDir("polish").string();
     c.altitude_m = 57.0;
     c.max_frames = 40;
-    c.seed = seed;
-    c.polish = polish;
+    c.odometry.correspondence.ransac.seed = seed;
+    c.odometry.correspondence.ransac.polish_iterations = polish;
     c.quiet = true;
-    c.threads = 1;
+    c.odometry.surf.num_threads = 1;
+    c.odometry.correspondence.match.num_threads = 1;
     RunFlight(c);
     const Eigen::Vector2d p = LastTumPosition(fs::path(c.out) / "vo.tum");
     fs::remove_all(c.out);
@@ -311,8 +312,9 @@ TEST(RunnerConfigRegression, OutOfRangeNumbersAreErrorsNotCasts) {
   const RunConfig c = ParseRunConfig(R"({"seed": 18446744073709551615, "threads": 2147483647,
                                          "max_frames": -2147483648})",
                                      RunConfigFormat::kJson, RunConfig{});
-  EXPECT_EQ(c.seed, 18446744073709551615ull);
-  EXPECT_EQ(c.threads, 2147483647);
+  EXPECT_EQ(c.odometry.correspondence.ransac.seed, 18446744073709551615ull);
+  EXPECT_EQ(c.odometry.surf.num_threads, 2147483647);
+  EXPECT_EQ(c.odometry.correspondence.match.num_threads, 2147483647);
   EXPECT_EQ(c.max_frames, -2147483647 - 1);
   EXPECT_THROW(ParseRunConfig("{\"step\": ", RunConfigFormat::kJson, RunConfig{}), InputError);
   // Found by fuzz_config_json: a number beyond double's range made nlohmann throw out_of_range
@@ -331,29 +333,30 @@ TEST(Runner, ConfigJsonRoundTripAndErrors) {
   RunConfig c;
   c.input = "x.mp4";
   c.step = 3;
-  c.mode = "standard";
-  c.polish = 20;
+  c.odometry.correspondence.method = CorrespondenceMethod::kStandard;
+  c.odometry.correspondence.ransac.polish_iterations = 20;
   const RunConfig d = RunConfigFromJson(ToJson(c), RunConfig{});
   EXPECT_EQ(ToJson(d), ToJson(c));
-  EXPECT_EQ(d.polish, 20);
+  EXPECT_EQ(d.odometry.correspondence.ransac.polish_iterations, 20);
   RunConfig negative = c;
-  negative.polish = -1;
+  negative.odometry.correspondence.ransac.polish_iterations = -1;
   EXPECT_THROW(Validate(negative), InvalidArgument);
   EXPECT_THROW(RunConfigFromJson(nlohmann::json{{"stepp", 2}}, c), InvalidArgument);
   EXPECT_THROW(RunConfigFromJson(nlohmann::json{{"step", "two"}}, c), InvalidArgument);
   RunConfig kd = c;
-  kd.matcher = "kdtree";
-  EXPECT_EQ(RunConfigFromJson(ToJson(kd), RunConfig{}).matcher, "kdtree");
-  EXPECT_EQ(RunConfigFromJson(ToJson(c), RunConfig{}).matcher, "exhaustive");  // the default
-  kd.matcher = "flann";
+  kd.odometry.correspondence.match.algorithm = MatchAlgorithm::kKdForest;
+  EXPECT_EQ(RunConfigFromJson(ToJson(kd), RunConfig{}).odometry.correspondence.match.algorithm,
+            MatchAlgorithm::kKdForest);
+  EXPECT_EQ(RunConfigFromJson(ToJson(c), RunConfig{}).odometry.correspondence.match.algorithm,
+            MatchAlgorithm::kExhaustive);  // the default
+  // A name that is no algorithm is refused where it is read, naming the key.
   try {
-    Validate(kd);
+    RunConfigFromJson(nlohmann::json{{"matcher", "flann"}}, c);
     ADD_FAILURE() << "matcher 'flann' accepted";
   } catch (const InvalidArgument& e) {
     EXPECT_NE(std::string(e.what()).find("'matcher'"), std::string::npos) << e.what();
   }
-  c.mode = "fast";
-  EXPECT_THROW(Validate(c), InvalidArgument);
+  EXPECT_THROW(RunConfigFromJson(nlohmann::json{{"mode", "fast"}}, c), InvalidArgument);
   EXPECT_THROW(RunFlight(RunConfig{}), InvalidArgument);  // no input
   RunConfig missing;
   missing.input = "/nonexistent/flight.mp4";
@@ -369,8 +372,8 @@ TEST(Runner, ConfigJsonRoundTripAndErrors) {
   EXPECT_EQ(y.input, "flight.mp4");
   EXPECT_EQ(y.step, 4);
   EXPECT_DOUBLE_EQ(y.altitude_m, 57.5);
-  EXPECT_FALSE(y.guided);
-  EXPECT_EQ(y.mode, "standard");
+  EXPECT_FALSE(y.odometry.correspondence.guided_matching);
+  EXPECT_EQ(y.odometry.correspondence.method, CorrespondenceMethod::kStandard);
   EXPECT_EQ(y.out, "123");  // quoted: stays a string
   std::ofstream(dir / "bad.yaml") << "step: 2\nmode: [a, b]\n";
   try {

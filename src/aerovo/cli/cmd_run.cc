@@ -11,8 +11,8 @@
 #include "aerovo/cli/command.h"
 #include "aerovo/cli/progress.h"
 #include "aerovo/cli/run_cli.h"
-#include "aerovo/report/html_report.h"
 #include "aerovo/pipeline/runner.h"
+#include "aerovo/report/html_report.h"
 
 namespace aerovo::cli {
 namespace {
@@ -21,11 +21,21 @@ struct RunArgs {
   RunFlags run;
   bool print_poses = false;
   bool no_report = false;
+  bool list_options = false;
+  bool print_config = false;
 };
 
 void Execute(RunArgs& a) {
+  if (a.list_options) {  // docs/options.md is this output
+    std::cout << RunOptionsMarkdown();
+    return;
+  }
   const RunConfig config = a.run.Resolve();
   Validate(config);
+  if (a.print_config) {  // what config.json will hold, without running
+    std::cout << ToJson(config).dump(2) << "\n";
+    return;
+  }
 
   // With --print-poses stdout is the pose stream and stderr its messages: no progress.
   Progress progress(DefaultProgressStyle(config.quiet || a.print_poses));
@@ -92,6 +102,12 @@ void Register(CLI::App& app) {
   cmd->add_flag(
       "--no-report", a.no_report,
       "Do not write report.html and figures/ at the end (aerovo report DIR does it later)");
+  cmd->add_flag("--list-options", a.list_options,
+                "Print every option (config key, flag, type, default, range, description) as "
+                "Markdown and exit (docs/options.md)");
+  cmd->add_flag("--print-config", a.print_config,
+                "Print the effective configuration (defaults, then --config, then the flags; "
+                "validated) as config.json will hold it, and exit without running");
   cmd->callback([args] { Execute(*args); });
 }
 

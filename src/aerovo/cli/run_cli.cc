@@ -1,9 +1,14 @@
 #include "aerovo/cli/run_cli.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <cstdio>
+#include <type_traits>
+#include <utility>
 
 #include <fmt/format.h>
+
+#include "aerovo/core/options_json.h"
 
 namespace aerovo::cli {
 namespace {
@@ -16,137 +21,112 @@ extern "C" void OnStopSignal(int sig) {
   g_stop.store(true);  // lock-free on every platform we build for: async-signal-safe
 }
 
-template <class T>
-CLI::Option* Bind(CLI::App* cmd, RunFlags& a, const std::string& name, T RunConfig::*field,
-                  const std::string& help) {
-  CLI::Option* opt = cmd->add_option(name, a.flags.*field, help)->capture_default_str();
-  a.appliers.push_back([opt, field, &a](RunConfig& c) {
-    if (opt->count() > 0) c.*field = a.flags.*field;
-  });
-  return opt;
-}
+// The CLI11 binder of the option schema: one option per name of a field (its key, its legacy
+// alias, a shorthand whose first key it is); each writes the given value into RunFlags::given
+// under that name (enums as their names, checked by CLI::IsMember).
+class FlagBinder : public options::GroupingVisitor<FlagBinder> {
+ public:
+  FlagBinder(CLI::App* cmd, RunFlags& flags, const std::set<std::string>& skip)
+      : cmd_(cmd), flags_(flags), skip_(skip) {}
 
-CLI::Option* BindFlag(CLI::App* cmd, RunFlags& a, const std::string& name, bool RunConfig::*field,
-                      const std::string& help) {
-  CLI::Option* opt = cmd->add_flag(name, a.flags.*field, help);
-  a.appliers.push_back([opt, field, &a](RunConfig& c) {
-    if (opt->count() > 0) c.*field = a.flags.*field;
-  });
-  return opt;
-}
+  template <class T>
+  void Field(const T& value, const char* key, const char* doc, const options::Spec& spec) {
+    const std::string k = Key(key);
+    if (skip_.count(k) > 0 || (spec.alias && skip_.count(spec.alias) > 0)) return;
+    std::string names = options::FlagName(k);
+    if (spec.extra_flags) names = std::string(spec.extra_flags) + "," + names;
+    std::string help = doc;
+    if (spec.HasRange()) help += " (" + spec.Describe() + ")";
+    if (!spec.alias) {
+      Add(names, k, help, value, spec, StageGroup(k));
+    } else {
+      Add(names, k, help + "; also --" + Dashed(spec.alias), value, spec, StageGroup(k));
+      Add(options::FlagName(spec.alias), spec.alias, help + " (= " + options::FlagName(k) + ")",
+          value, spec, kRunGroup);
+    }
+    for (const RunShorthand& s : RunShorthands()) {
+      if (s.keys.front() != k || skip_.count(s.name) > 0) continue;
+      std::string sets;
+      for (const char* t : s.keys) sets += (sets.empty() ? "" : " and ") + options::FlagName(t);
+      Add(options::FlagName(s.name), s.name, std::string(s.doc) + " (sets " + sets + ")", value,
+          spec, kRunGroup);
+    }
+  }
+
+ private:
+  static constexpr const char* kRunGroup = "Options";  // CLI11's default group: listed first
+
+  static std::string Dashed(const std::string& key) { return options::FlagName(key).substr(2); }
+
+  // The help group of a key: the run's own options first, then one group per stage.
+  static std::string StageGroup(const std::string& key) {
+    const std::string group = key.substr(0, key.find('.'));
+    if (group == key) return kRunGroup;
+    static const std::pair<const char*, const char*> kTitles[] = {
+        {"surf", "SURF"},
+        {"match", "Matching"},
+        {"ransac", "RANSAC"},
+        {"clustered", "Clustered RANSAC"},
+        {"correspondence", "Correspondence"},
+        {"odometry", "Odometry"}};
+    for (const auto& [name, title] : kTitles) {
+      if (group == name) return std::string(title) + " (" + name + ".*)";
+    }
+    return group;
+  }
+
+  template <class T>
+  void Add(const std::string& names, const std::string& json_key, const std::string& help,
+           const T& value, const options::Spec& spec, const std::string& group) {
+    nlohmann::json& given = flags_.given;
+    CLI::Option* opt = nullptr;
+    if constexpr (std::is_same_v<T, bool>) {
+      if (spec.cli_switch) {
+        opt = cmd_->add_flag_function(
+            names, [&given, json_key](std::int64_t) { given[json_key] = true; }, help);
+      } else {
+        opt = cmd_->add_option_function<bool>(
+            names, [&given, json_key](const bool& v) { given[json_key] = v; }, help);
+        opt->type_name("BOOL")->default_str(value ? "1" : "0");
+      }
+    } else if constexpr (std::is_enum_v<T>) {
+      opt = cmd_->add_option_function<std::string>(
+          names, [&given, json_key](const std::string& v) { given[json_key] = v; }, help);
+      opt->check(CLI::IsMember(options::EnumNames<T>()))->default_str(options::EnumName(value));
+    } else {
+      opt = cmd_->add_option_function<T>(
+          names, [&given, json_key](const T& v) { given[json_key] = options::ToJsonValue(v); },
+          help);
+      if constexpr (std::is_same_v<T, std::string>) {
+        opt->default_str(value);
+      } else {
+        opt->default_str(options::FormatNumber(value));
+      }
+    }
+    opt->group(group);
+  }
+
+  CLI::App* cmd_;
+  RunFlags& flags_;
+  const std::set<std::string>& skip_;
+};
 
 }  // namespace
 
 RunConfig RunFlags::Resolve() const {
   RunConfig config;
   if (!config_file.empty()) config = LoadRunConfig(config_file, config);
-  for (const auto& apply : appliers) apply(config);
-  return config;
+  return RunConfigFromJson(given, config, "command line");
 }
 
 void AddRunFlags(CLI::App* cmd, RunFlags& a, const std::set<std::string>& skip) {
-  const auto want = [&](const char* key) { return skip.count(key) == 0; };
-  if (want("input")) {
-    Bind(cmd, a, "input,--input", &RunConfig::input,
-         "Video file, image folder (telemetry from EXIF/XMP), camera index, /dev/videoN or URL");
-  }
   cmd->add_option("--config", a.config_file,
                   "JSON or YAML (.yaml/.yml) file with any of the options below (keys as in the "
-                  "saved config.json); flags given on the command line win");
-  if (want("telemetry")) {
-    Bind(cmd, a, "--telemetry", &RunConfig::telemetry, "Telemetry file: DJI .srt, .gpx or .csv");
-  }
-  if (want("lenient_telemetry")) {
-    BindFlag(cmd, a, "--lenient-telemetry", &RunConfig::lenient_telemetry,
-             "Skip malformed telemetry records (counted in the warnings) instead of stopping");
-  }
-  if (want("truth")) {
-    Bind(cmd, a, "--truth", &RunConfig::truth,
-         "Ground truth to compare with beside GPS: TUM (.tum/.txt) or a track with positions "
-         "(.csv, .gpx, .srt); default for a simulated flight: its ground_truth.csv");
-  }
-  if (want("out")) Bind(cmd, a, "-o,--out", &RunConfig::out, "Output folder");
-  if (want("step")) Bind(cmd, a, "--step", &RunConfig::step, "Process every k-th frame");
-  if (want("start_s")) {
-    Bind(cmd, a, "--start-s", &RunConfig::start_s, "Start time in the source, s");
-  }
-  if (want("end_s")) {
-    Bind(cmd, a, "--end-s", &RunConfig::end_s, "End time in the source, s (< 0: to the end)");
-  }
-  if (want("max_frames")) {
-    Bind(cmd, a, "--max-frames", &RunConfig::max_frames, "Stop after N frames (0 = all)");
-  }
-  if (want("mode")) {
-    Bind(cmd, a, "--mode", &RunConfig::mode, "Correspondence: clustered (paper) | standard")
-        ->check(CLI::IsMember({"clustered", "standard"}));
-  }
-  if (want("model")) {
-    Bind(cmd, a, "--model", &RunConfig::model, "affine | similarity | homography | translation")
-        ->check(CLI::IsMember({"affine", "similarity", "homography", "translation"}));
-  }
-  if (want("scale")) {
-    Bind(cmd, a, "--scale", &RunConfig::scale,
-         "metric (height/focal per step) | affine-chain (the paper's pure chaining)")
-        ->check(CLI::IsMember({"metric", "affine-chain"}));
-  }
-  if (want("heading")) {
-    Bind(cmd, a, "--heading", &RunConfig::heading,
-         "VO heading in ENU: auto | yaw (telemetry) | gps (first GPS segment)")
-        ->check(CLI::IsMember({"auto", "yaw", "gps"}));
-  }
-  if (want("altitude_m")) {
-    Bind(cmd, a, "--altitude", &RunConfig::altitude_m,
-         "Height above ground, m (overrides telemetry; 0 = from telemetry)");
-  }
-  if (want("focal_px")) {
-    Bind(cmd, a, "--focal-px", &RunConfig::focal_px, "Focal length in pixels (0 = from EXIF)");
-  }
-  if (want("hfov_deg")) {
-    Bind(cmd, a, "--hfov-deg", &RunConfig::hfov_deg, "Horizontal field of view, deg");
-  }
-  if (want("k1"))
-    Bind(cmd, a, "--k1", &RunConfig::k1, "Lens distortion k1 (OpenCV model; 0 = none)");
-  if (want("k2")) Bind(cmd, a, "--k2", &RunConfig::k2, "Lens distortion k2");
-  if (want("p1")) Bind(cmd, a, "--p1", &RunConfig::p1, "Lens distortion p1 (tangential)");
-  if (want("p2")) Bind(cmd, a, "--p2", &RunConfig::p2, "Lens distortion p2 (tangential)");
-  if (want("k3")) Bind(cmd, a, "--k3", &RunConfig::k3, "Lens distortion k3");
-  if (want("illumination_k")) {
-    Bind(cmd, a, "--illumination-k", &RunConfig::illumination_k,
-         "Illumination factor k in (0, 1]: every frame's brightness times k before SURF "
-         "(the paper's f_k = k f)");
-  }
-  if (want("guided")) {
-    Bind(cmd, a, "--guided", &RunConfig::guided, "Guided matching with the motion prior (0/1)");
-  }
-  if (want("matcher")) {
-    Bind(cmd, a, "--matcher", &RunConfig::matcher,
-         "Matching without a motion prior: exhaustive (exact) | kdtree (approximate k-d forest, "
-         "faster from a few thousand points per frame)")
-        ->check(CLI::IsMember({"exhaustive", "kdtree"}));
-  }
-  if (want("refine")) {
-    Bind(cmd, a, "--refine", &RunConfig::refine,
-         "Refine cell fits on spread points, then on all points (0/1; 0 = the paper's clustered "
-         "RANSAC exactly)");
-  }
-  if (want("min_inliers")) {
-    Bind(cmd, a, "--min-inliers", &RunConfig::min_inliers, "RANSAC inliers needed for a step");
-  }
-  if (want("surf_threshold")) {
-    Bind(cmd, a, "--surf-threshold", &RunConfig::surf_threshold, "SURF Hessian threshold");
-  }
-  if (want("max_keypoints")) {
-    Bind(cmd, a, "--max-keypoints", &RunConfig::max_keypoints, "Keep the N strongest (0 = all)");
-  }
-  if (want("seed")) Bind(cmd, a, "--seed", &RunConfig::seed, "RANSAC seed");
-  if (want("polish")) {
-    Bind(cmd, a, "--polish", &RunConfig::polish,
-         "Robust polish of RANSAC fits, IRLS rounds (0 = off; 20 makes tracks seed-independent)");
-  }
-  if (want("threads")) Bind(cmd, a, "--threads", &RunConfig::threads, "Threads (0 = all cores)");
-  if (want("quiet")) {
-    BindFlag(cmd, a, "-q,--quiet", &RunConfig::quiet, "No progress bar or configuration dump");
-  }
+                  "saved config.json, which it accepts as it is; aerovo run --list-options lists "
+                  "them); flags given on the command line win");
+  FlagBinder binder(cmd, a, skip);
+  const RunConfig defaults;
+  options::Visit(defaults, binder);
 }
 
 StopSignals::StopSignals() {

@@ -1,6 +1,8 @@
 // What every subcommand that runs flights (`aerovo run`, `aerovo experiment ...`) shares: the flags
-// of RunConfig (aerovo/pipeline/runner.h) with the same names, help and --config file (JSON or
-// YAML) underneath; stopping cleanly on SIGINT/SIGTERM. (The progress display is progress.h.)
+// of RunConfig (aerovo/pipeline/run_config.h), generated from its option schema (one flag per key,
+// --ransac-max-distance-px for ransac.max_distance_px, plus the legacy short flags and the
+// shorthands), with the --config file (JSON or YAML) underneath; stopping cleanly on
+// SIGINT/SIGTERM. (The progress display is progress.h.)
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -12,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "aerovo/pipeline/runner.h"
 
 namespace aerovo::cli {
@@ -20,17 +24,21 @@ namespace aerovo::cli {
 /// not given leaves the file's (or the default) value.
 struct RunFlags {
   std::string config_file;
-  RunConfig flags;  // values of the flags; applied over the config file only when given
-  std::vector<std::function<void(RunConfig&)>> appliers;
+  /// The options given on the command line, by the config key of the flag used (canonical key,
+  /// legacy alias or shorthand): applied over the config file as one more JSON object, so that
+  /// two names of one option with different values are an error there too.
+  nlohmann::json given = nlohmann::json::object();
 
   /// The effective configuration: defaults, then the --config file, then the given flags.
   /// Not validated (the caller may still change fields, then call Validate).
   RunConfig Resolve() const;
 };
 
-/// Registers the input (positional `input`, also `--input`), --config and one flag per RunConfig
-/// field on `cmd`, except the fields whose config keys are in `skip` (e.g. "out" when the command
-/// has its own output folder, "mode" when it sets the mode itself). `flags` must outlive `cmd`.
+/// Registers the input (positional `input`, also `--input`), --config and one flag per option of
+/// the RunConfig schema on `cmd` (stage options in one help group per stage), the legacy short
+/// flags (--mode, --seed, ...) and the shorthands (--refine, --threads), except the options whose
+/// config keys or legacy aliases are in `skip` (e.g. "out" when the command has its own output
+/// folder, "mode" when it sets the mode itself). `flags` must outlive `cmd`.
 void AddRunFlags(CLI::App* cmd, RunFlags& flags, const std::set<std::string>& skip = {});
 
 /// While alive, SIGINT and SIGTERM set stop() instead of killing the process (no SA_RESTART: a

@@ -11,44 +11,13 @@ namespace aerovo {
 void Validate(const CorrespondenceOptions& o) {
   Validate(o.match);
   Validate(o.ransac);
-  const ClusteredRansacOptions& c = o.clustered;
-  if (c.grid_rows < 1 || c.grid_cols < 1) {
-    throw InvalidArgument("ClusteredRansacOptions grid must be at least 1 x 1, got " +
-                          std::to_string(c.grid_rows) + " x " + std::to_string(c.grid_cols));
-  }
-  if (!(c.refine_radius_px > 0.f) || !std::isfinite(c.refine_radius_px)) {
-    throw InvalidArgument("ClusteredRansacOptions.refine_radius_px must be finite and > 0, got " +
-                          std::to_string(c.refine_radius_px));
-  }
-  if (!(c.refine_final_radius_px >= 0.f) || !std::isfinite(c.refine_final_radius_px)) {
-    throw InvalidArgument(
-        "ClusteredRansacOptions.refine_final_radius_px must be finite and >= 0, got " +
-        std::to_string(c.refine_final_radius_px));
-  }
-  if (!(c.refine_final_min_shift_px >= 0.f) || !std::isfinite(c.refine_final_min_shift_px)) {
-    throw InvalidArgument(
-        "ClusteredRansacOptions.refine_final_min_shift_px must be finite and >= 0, got " +
-        std::to_string(c.refine_final_min_shift_px));
-  }
-  if (c.refine_final_max_points < 0) {
-    throw InvalidArgument("ClusteredRansacOptions.refine_final_max_points must be >= 0, got " +
-                          std::to_string(c.refine_final_max_points));
-  }
-  if (c.refine_max_points < 0) {
-    throw InvalidArgument("ClusteredRansacOptions.refine_max_points must be >= 0, got " +
-                          std::to_string(c.refine_max_points));
-  }
-  if (c.min_points < 1) {
-    throw InvalidArgument("ClusteredRansacOptions.min_points must be >= 1, got " +
-                          std::to_string(c.min_points));
-  }
+  options::CheckRanges(o.clustered, "clustered");
+  options::CheckRanges(o, "correspondence");
   const int m = MinSampleSize(o.model);
   if (o.min_inliers < m) {
-    throw InvalidArgument(
-        "CorrespondenceOptions.min_inliers must be at least the minimal sample "
-        "of the " +
-        std::string(ToString(o.model)) + " model (" + std::to_string(m) + "), got " +
-        std::to_string(o.min_inliers));
+    throw InvalidArgument("correspondence.min_inliers must be at least the minimal sample of the " +
+                          std::string(ToString(o.model)) + " model (" + std::to_string(m) +
+                          "), got " + std::to_string(o.min_inliers));
   }
   // Cross-field rules (each names both fields).
   if (c.refine && c.refine_fallback && c.refine_final_radius_px <= 0.f) {

@@ -174,31 +174,12 @@ bool StrongerFirst(const Keypoint& a, const Keypoint& b) {
 }  // namespace
 
 void Validate(const SurfOptions& o) {
-  if (!std::isfinite(o.hessian_threshold) || o.hessian_threshold < 0) {
-    throw InvalidArgument("SurfOptions::hessian_threshold must be finite and >= 0, got " +
-                          std::to_string(o.hessian_threshold));
-  }
-  if (o.num_octaves < 1 || o.num_octaves > 10) {
-    throw InvalidArgument("SurfOptions::num_octaves must be in [1, 10], got " +
-                          std::to_string(o.num_octaves));
-  }
-  if (o.num_scale_levels < 3 || o.num_scale_levels > 16) {
-    throw InvalidArgument("SurfOptions::num_scale_levels must be in [3, 16], got " +
-                          std::to_string(o.num_scale_levels));
-  }
+  options::CheckRanges(o, "surf");
   if (o.roi && (o.roi->x < 0 || o.roi->y < 0 || o.roi->width <= 0 || o.roi->height <= 0)) {
     throw InvalidArgument(
         "SurfOptions::roi must have x, y >= 0 and positive width and height, got (" +
         std::to_string(o.roi->x) + ", " + std::to_string(o.roi->y) + ", " +
         std::to_string(o.roi->width) + "x" + std::to_string(o.roi->height) + ")");
-  }
-  if (o.max_keypoints < 0) {
-    throw InvalidArgument("SurfOptions::max_keypoints must be >= 0 (0 keeps all), got " +
-                          std::to_string(o.max_keypoints));
-  }
-  if (o.num_threads < 0) {
-    throw InvalidArgument("SurfOptions::num_threads must be >= 0 (0 = all cores), got " +
-                          std::to_string(o.num_threads));
   }
 }
 

@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "aerovo/core/image.h"
+#include "aerovo/core/options.h"
 #include "aerovo/features/keypoint.h"
 
 namespace aerovo {
@@ -66,6 +67,20 @@ struct SurfOptions {
 
 /// Throws InvalidArgument naming the offending field when `options` are out of range.
 void Validate(const SurfOptions& options);
+/// The option schema (core/options.h; keys surf.* in a run configuration). roi is not in it.
+// clang-format off
+template <class V>
+void VisitFields(SurfOptions& o, V& v) {
+  using namespace options;
+  v.Field(o.hessian_threshold, "hessian_threshold", "SURF Hessian threshold (MATLAB MetricThreshold)", AtLeast(0).Finite().Alias("surf_threshold"));
+  v.Field(o.num_octaves, "num_octaves", "Octaves of box filters (MATLAB NumOctaves)", Interval(1, 10));
+  v.Field(o.num_scale_levels, "num_scale_levels", "Scale levels per octave (MATLAB NumScaleLevels)", Interval(3, 16));
+  v.Field(o.max_keypoints, "max_keypoints", "Keep the N strongest keypoints per frame (0 = all)", AtLeast(0).Alias("max_keypoints"));
+  v.Field(o.upright, "upright", "No orientation (faster, not rotation invariant)", Any());
+  v.Field(o.extended, "extended", "128-value descriptor instead of 64", Any());
+  v.Field(o.num_threads, "num_threads", "SURF threads (0 = all cores; same results)", AtLeast(0));
+}
+// clang-format on
 
 /// Result of one SURF call, returned by value.
 struct SurfResult {

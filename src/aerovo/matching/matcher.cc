@@ -155,36 +155,13 @@ MatchAlgorithm ParseMatchAlgorithm(const std::string& name) {
   throw InvalidArgument("unknown matcher '" + name + "' (expected exhaustive or kdtree)");
 }
 
+const char* ToString(MatchAlgorithm algorithm) {
+  return algorithm == MatchAlgorithm::kKdForest ? "kdtree" : "exhaustive";
+}
+
 void Validate(const MatchOptions& o) {
-  if (!(o.max_ratio > 0.f && o.max_ratio <= 1.f)) {
-    throw InvalidArgument("MatchOptions.max_ratio = " + std::to_string(o.max_ratio) +
-                          ": must be in (0, 1]");
-  }
-  if (!(o.match_threshold_percent > 0.f && o.match_threshold_percent <= 100.f)) {
-    throw InvalidArgument("MatchOptions.match_threshold_percent = " +
-                          std::to_string(o.match_threshold_percent) + ": must be in (0, 100]");
-  }
-  if (!(o.guided_radius_px > 0.f && std::isfinite(o.guided_radius_px))) {
-    throw InvalidArgument("MatchOptions.guided_radius_px = " + std::to_string(o.guided_radius_px) +
-                          ": must be finite and > 0");
-  }
-  if (o.num_threads < 0) {
-    throw InvalidArgument("MatchOptions.num_threads = " + std::to_string(o.num_threads) +
-                          ": must be >= 0 (0 = all cores)");
-  }
-  if (o.algorithm != MatchAlgorithm::kExhaustive && o.algorithm != MatchAlgorithm::kKdForest) {
-    throw InvalidArgument(
-        "MatchOptions.algorithm = " + std::to_string(static_cast<int>(o.algorithm)) +
-        ": not a MatchAlgorithm (kExhaustive or kKdForest)");
-  }
-  if (o.kd_trees < 1 || o.kd_trees > kMaxKdTrees) {
-    throw InvalidArgument("MatchOptions.kd_trees = " + std::to_string(o.kd_trees) +
-                          ": must be in [1, " + std::to_string(kMaxKdTrees) + "]");
-  }
-  if (o.kd_max_checks < 0) {
-    throw InvalidArgument("MatchOptions.kd_max_checks = " + std::to_string(o.kd_max_checks) +
-                          ": must be >= 0 (0 = exact search)");
-  }
+  static_assert(kMaxKdTrees == 64, "the range of kd_trees in VisitFields(MatchOptions) says 64");
+  options::CheckRanges(o, "match");
 }
 
 struct MatchCandidates::Grid {

@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 
+#include "aerovo/core/options.h"
 #include "aerovo/features/keypoint.h"
 
 namespace aerovo {
@@ -32,6 +33,8 @@ enum class MatchAlgorithm {
 /// The algorithm named "exhaustive" or "kdtree" (the CLI's and the run configuration's names);
 /// throws InvalidArgument for any other name.
 MatchAlgorithm ParseMatchAlgorithm(const std::string& name);
+/// "exhaustive" / "kdtree" (the names ParseMatchAlgorithm accepts).
+const char* ToString(MatchAlgorithm algorithm);
 
 /// Options of the matching stage. Defaults are MATLAB matchFeatures' defaults (the paper's).
 struct MatchOptions {
@@ -88,6 +91,29 @@ struct MatchOptions {
 
 /// Throws InvalidArgument naming the offending field when out of range.
 void Validate(const MatchOptions& options);
+/// The option schema (core/options.h; keys match.* in a run configuration).
+// clang-format off
+template <class V>
+void VisitFields(MatchOptions& o, V& v) {
+  using namespace options;
+  v.Field(o.max_ratio, "max_ratio", "Ratio test on squared distances (MATLAB MaxRatio)", Interval(0, 1, true, false));
+  v.Field(o.match_threshold_percent, "match_threshold_percent", "Largest SSD, % of the largest possible (MATLAB MatchThreshold)", Interval(0, 100, true, false));
+  v.Field(o.unique, "unique", "Keep only mutual best matches (MATLAB Unique)", Any());
+  v.Field(o.check_laplacian, "check_laplacian", "Never compare points whose Laplacian signs differ", Any());
+  v.Field(o.guided_radius_px, "guided_radius_px", "Guided matching: search radius around the prediction, px", GreaterThan(0).Finite());
+  v.Field(o.num_threads, "num_threads", "Matching threads (0 = all cores)", AtLeast(0));
+  v.Field(o.accept_single_candidate, "accept_single_candidate", "Accept a lone candidate on the absolute threshold alone", Any());
+  v.Field(o.use_avx2, "use_avx2", "AVX2+FMA kernels when the CPU has them (false: SSE4.2)", Any());
+  v.Field(o.algorithm, "algorithm", "Matching without a motion prior: exhaustive (exact) or kdtree (approximate)", Any().Alias("matcher"));
+  v.Field(o.kd_trees, "kd_trees", "kdtree: randomized trees per Laplacian group", Interval(1, 64));
+  v.Field(o.kd_max_checks, "kd_max_checks", "kdtree: candidates examined per query (0 = exact)", AtLeast(0));
+  v.Field(o.kd_seed, "kd_seed", "kdtree: seed of the trees' random choices", Any());
+}
+// clang-format on
+template <>
+struct options::EnumTraits<MatchAlgorithm>
+    : options::EnumList<MatchAlgorithm, ToString, MatchAlgorithm::kExhaustive,
+                        MatchAlgorithm::kKdForest> {};
 
 /// One correspondence: prev.keypoints[prev_index] <-> curr.keypoints[curr_index].
 struct Match {

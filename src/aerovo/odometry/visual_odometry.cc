@@ -19,22 +19,17 @@ namespace aerovo {
 void Validate(const OdometryOptions& o) {
   Validate(o.surf);
   Validate(o.correspondence);
-  auto fail = [](const std::string& what) { throw InvalidArgument("OdometryOptions." + what); };
-  if (!(o.focal_px >= 0.0) || !std::isfinite(o.focal_px)) fail("focal_px must be >= 0");
+  options::CheckRanges(o, "odometry");
+  const auto fail = [](const std::string& message) { throw InvalidArgument(message); };
+  if (!(o.focal_px >= 0.0) || !std::isfinite(o.focal_px)) {
+    fail("odometry.focal_px must be finite and >= 0, got " + options::FormatNumber(o.focal_px));
+  }
   if (!(o.default_height_m >= 0.0) || !std::isfinite(o.default_height_m)) {
-    fail("default_height_m must be >= 0");
+    fail("odometry.default_height_m must be finite and >= 0, got " +
+         options::FormatNumber(o.default_height_m));
   }
-  if (o.min_features < 0) fail("min_features must be >= 0");
-  if (!(o.max_scale_change > 0.0 && o.max_scale_change < 1.0)) {
-    fail("max_scale_change must be in (0, 1)");
-  }
-  if (!(o.max_anisotropy >= 1.0)) fail("max_anisotropy must be >= 1");
-  if (!(o.max_shift_fraction > 0.0)) fail("max_shift_fraction must be > 0");
-  if (o.max_reacquire_gap < 1) fail("max_reacquire_gap must be >= 1");
-  if (o.keyframe_interval < 1) fail("keyframe_interval must be >= 1");
-  if (o.max_keyframes < 1) fail("max_keyframes must be >= 1");
   if (o.relocalize_min_inliers < MinSampleSize(o.correspondence.model)) {
-    fail("relocalize_min_inliers must be at least the model's minimal sample");
+    fail("odometry.relocalize_min_inliers must be at least the model's minimal sample");
   }
 }
 

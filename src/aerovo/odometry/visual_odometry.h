@@ -15,6 +15,7 @@
 #include <Eigen/Core>
 
 #include "aerovo/core/image.h"
+#include "aerovo/core/options.h"
 #include "aerovo/correspondence/correspondence.h"
 #include "aerovo/features/surf.h"
 #include "aerovo/odometry/pose_chain.h"
@@ -115,6 +116,32 @@ struct OdometryOptions {
 /// Throws InvalidArgument naming the offending field (including those of the nested stage
 /// options) when out of range.
 void Validate(const OdometryOptions& options);
+/// The option schema (core/options.h; own keys odometry.* in a run configuration, the stages'
+/// surf.*, correspondence.*, ...). focal_px and default_height_m are not in it: the run sets them
+/// from its camera and height (RunConfig focal_px, hfov_deg, altitude_m).
+// clang-format off
+template <class V>
+void VisitFields(OdometryOptions& o, V& v) {
+  using namespace options;
+  v.Group("surf", o.surf);
+  v.Group("correspondence", o.correspondence);
+  v.Field(o.scale_mode, "scale_mode", "metric (height/focal per step) or affine-chain (the paper's pure chaining)", Any().Alias("scale"));
+  v.Field(o.heading_from_yaw, "heading_from_yaw", "Metric mode: heading from the telemetry yaw instead of the steps' rotation", Any());
+  v.Field(o.min_features, "min_features", "A frame with fewer SURF points is bridged", AtLeast(0));
+  v.Field(o.max_scale_change, "max_scale_change", "Plausibility: largest |scale - 1| of a step", Interval(0, 1, true, true));
+  v.Field(o.max_anisotropy, "max_anisotropy", "Plausibility: largest ratio of the step's singular values", AtLeast(1));
+  v.Field(o.max_shift_fraction, "max_shift_fraction", "Plausibility: largest move of the image centre, fraction of the larger side", GreaterThan(0));
+  v.Field(o.relocalize, "relocalize", "Match a lost frame against stored keyframes", Any());
+  v.Field(o.keyframe_interval, "keyframe_interval", "A keyframe every N measured frames", AtLeast(1));
+  v.Field(o.max_keyframes, "max_keyframes", "Keyframes kept (oldest dropped)", AtLeast(1));
+  v.Field(o.relocalize_min_inliers, "relocalize_min_inliers", "Inliers needed to accept a relocalisation", AtLeast(1));
+  v.Field(o.relocalize_sampler, "relocalize_sampler", "RANSAC sampler of keyframe attempts", Any());
+  v.Field(o.max_reacquire_gap, "max_reacquire_gap", "After a failure the last good frame stays a reference for N frames", AtLeast(1));
+}
+// clang-format on
+template <>
+struct options::EnumTraits<ScaleMode>
+    : options::EnumList<ScaleMode, ToString, ScaleMode::kMetric, ScaleMode::kAffineChain> {};
 
 /// What happened to a frame.
 enum class FrameStatus {

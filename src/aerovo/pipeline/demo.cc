@@ -127,7 +127,8 @@ DemoResult RunDemo(const DemoOptions& options, const DemoCallbacks& cb,
 
   // 2. The run (defaults of `aerovo run`), compared with GPS and the exact ground truth.
   RunConfig base = r.flight.run;
-  base.threads = options.threads;
+  base.odometry.surf.num_threads = options.threads;
+  base.odometry.correspondence.match.num_threads = options.threads;
   base.quiet = true;
   if (!stopped()) {
     clock.restart();
@@ -158,7 +159,7 @@ DemoResult RunDemo(const DemoOptions& options, const DemoCallbacks& cb,
     if (!stopped()) {
       clock.restart();
       in.out_dir = r.out_dir / "ransac";
-      if (options.ransac_unguided) in.run.guided = false;
+      if (options.ransac_unguided) in.run.odometry.correspondence.guided_matching = false;
       start("ransac",
             fmt::format("standard, clustered{} -> {}",
                         options.ransac_unguided ? " (unguided matching, as the paper)" : "",

@@ -48,8 +48,9 @@ struct DemoOptions {
   /// than the paper's videos, keeps 8 % of its points at k = 0.5 and none at k = 0.1
   /// (`aerovo experiment illumination --simulate` runs the paper's protocol).
   IlluminationOptions illumination = {{1.0, 0.5, 0.25, 0.1}, true};
-  /// RANSAC experiment with unguided matching (RunConfig::guided = false), as the paper: every
-  /// step matches without the motion prior, which is what clustered RANSAC speeds up. Default on.
+  /// RANSAC experiment with unguided matching (correspondence.guided_matching = false), as the
+  /// paper: every step matches without the motion prior, which is what clustered RANSAC speeds
+  /// up. Default on.
   bool ransac_unguided = true;
   /// Write the HTML reports (report/html_report.h) of the run and of each experiment. Default on.
   bool report = true;

@@ -408,7 +408,7 @@ std::vector<ExperimentTable> IlluminationTables(const std::vector<ExperimentRun>
     const std::vector<double> n_surf = Column(r.frames, &FrameRecord::n_surf, false);
     const std::vector<double> matched = Column(r.frames, &FrameRecord::n_matched, true);
     const std::vector<double> inliers = Column(r.frames, &FrameRecord::n_inliers, true);
-    features.rows.push_back({TableCell{KText(r.k), r.k}, Num(r.config.surf_threshold, 1),
+    features.rows.push_back({TableCell{KText(r.k), r.k}, Num(r.config.odometry.surf.hessian_threshold, 1),
                              Int(r.summary.frames_processed), MeanCell(n_surf, 1),
                              MedianCell(n_surf, 1), MeanCell(matched, 1), MedianCell(matched, 1),
                              MeanCell(inliers, 1), MedianCell(inliers, 1), Int(r.summary.frames_ok),
@@ -642,9 +642,11 @@ ExperimentResult RunIlluminationExperiment(const ExperimentInput& input,
     p.dir = IlluminationDir(k);
     p.config = input.run;
     p.config.illumination_k = k;
-    if (options.scale_threshold) p.config.surf_threshold = input.run.surf_threshold * k * k;
+    if (options.scale_threshold) {
+      p.config.odometry.surf.hessian_threshold = input.run.odometry.surf.hessian_threshold * k * k;
+    }
     p.config.out = (input.out_dir / p.dir).string();
-    p.mode = p.config.mode;
+    p.mode = options::EnumName(p.config.odometry.correspondence.method);
     plan.push_back(std::move(p));
   }
   return RunExperiment("illumination", input, plan, IlluminationTables, callbacks, stop);
@@ -654,11 +656,12 @@ ExperimentResult RunRansacExperiment(const ExperimentInput& input,
                                      const ExperimentCallbacks& callbacks,
                                      const std::atomic<bool>* stop) {
   std::vector<PlannedRun> plan;
-  for (const char* mode : {"standard", "clustered"}) {
+  for (const CorrespondenceMethod method :
+       {CorrespondenceMethod::kStandard, CorrespondenceMethod::kClustered}) {
     PlannedRun p;
-    p.mode = p.label = p.dir = mode;
+    p.mode = p.label = p.dir = options::EnumName(method);
     p.config = input.run;
-    p.config.mode = mode;
+    p.config.odometry.correspondence.method = method;
     p.config.out = (input.out_dir / p.dir).string();
     p.k = p.config.illumination_k;
     plan.push_back(std::move(p));

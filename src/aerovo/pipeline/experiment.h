@@ -5,8 +5,8 @@
 //   illumination  Fig. 4-6: brightness f_k = k f for k in a list (RunConfig::illumination_k);
 //                 interest points, matches, inliers and the trajectory per k, and how far each
 //                 k's trajectory lies from the k = 1 trajectory.
-//   ransac        Fig. 7-8: standard vs clustered RANSAC (RunConfig::mode); time of every stage
-//                 per step, the speed-up of the correspondence stage, and the two trajectories.
+//   ransac        Fig. 7-8: standard vs clustered RANSAC (correspondence.method); time of each
+//                 stage per step, the speed-up of the correspondence stage, the two trajectories.
 //
 // Output folder EXP (the contract with the HTML report, report/html_report.h):
 //   EXP/experiment.json  {"kind": "illumination" | "ransac",
@@ -149,7 +149,7 @@ struct IlluminationOptions {
   /// 1, 0.75, 0.5, 0.25, 0.1 (0.1 is "practically darkness"). The reference trajectory is the run
   /// with k = 1, or with the largest k when 1 is not in the list.
   std::vector<double> k = {1.0, 0.75, 0.5, 0.25, 0.1};
-  /// When true, each run's SURF threshold is RunConfig::surf_threshold * k^2. The determinant of
+  /// When true, each run's SURF threshold is surf.hessian_threshold * k^2. The determinant of
   /// the Hessian scales with k^2, so a fixed threshold (the paper's protocol, the default: false)
   /// loses points because the contrast fell; the scaled threshold keeps the detector's
   /// sensitivity relative to the contrast, leaving what rounding to 8 bits and noise cost.

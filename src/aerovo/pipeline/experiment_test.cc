@@ -263,7 +263,7 @@ TEST_F(ExperimentOnSimulatedFlight, ScaledThresholdKeepsThePointsOfADimFlight) {
   o.scale_threshold = true;
   const ExperimentResult r = RunIlluminationExperiment(in, o);
   ASSERT_EQ(r.runs.size(), 1u);
-  EXPECT_DOUBLE_EQ(r.runs[0].config.surf_threshold, 250.0);  // 1000 * 0.5^2
+  EXPECT_DOUBLE_EQ(r.runs[0].config.odometry.surf.hessian_threshold, 250.0);  // 1000 * 0.5^2
   double surf = 0;
   for (const auto& f : r.runs[0].frames) surf += f.n_surf;
   // With the threshold following k^2, the dim flight keeps most of the bright flight's points

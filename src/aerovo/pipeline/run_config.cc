@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <optional>
 #include <sstream>
 #include <type_traits>
@@ -17,165 +18,100 @@
 #include <yaml.h>
 
 #include "aerovo/core/error.h"
-#include "aerovo/geo/geo_point.h"
-#include "aerovo/estimation/models.h"
-#include "aerovo/odometry/georef.h"
-#include "aerovo/odometry/pose_chain.h"
+#include "aerovo/core/options_json.h"
 
 namespace aerovo {
 
 // ---------------------------------------------------------------------------------------------
 // Configuration
 
+const std::vector<RunShorthand>& RunShorthands() {
+  // The one table of shorthands: a new key a shorthand must also set is one more entry here.
+  static const std::vector<RunShorthand> shorthands = {
+      {"threads",
+       "Threads for SURF and matching (0 = all cores)",
+       {"surf.num_threads", "match.num_threads"}},
+  };
+  return shorthands;
+}
+
 void Validate(const RunConfig& c) {
-  auto fail = [](const std::string& m) { throw InvalidArgument("run configuration: " + m); };
-  if (c.input.empty()) fail("'input' is required (video, image folder or live source)");
-  if (c.out.empty()) fail("'out' must not be empty");
-  if (c.step < 1) fail("'step' must be >= 1, got " + std::to_string(c.step));
-  if (!(c.start_s >= 0.0)) fail("'start_s' must be >= 0");
-  if (c.end_s >= 0.0 && c.end_s < c.start_s) fail("'end_s' must be >= 'start_s' (or < 0)");
-  if (c.max_frames < 0) fail("'max_frames' must be >= 0");
-  if (c.mode != "clustered" && c.mode != "standard") {
-    fail("'mode' must be 'clustered' or 'standard', got '" + c.mode + "'");
-  }
-  if (c.matcher != "exhaustive" && c.matcher != "kdtree") {
-    fail("'matcher' must be 'exhaustive' or 'kdtree', got '" + c.matcher + "'");
-  }
-  ParseMotionModel(c.model.c_str());
-  ParseScaleMode(c.scale.c_str());
-  ParseHeadingSource(c.heading);
-  if (!(c.altitude_m >= 0.0) || !std::isfinite(c.altitude_m)) fail("'altitude_m' must be >= 0");
-  if (!(c.focal_px >= 0.0) || !std::isfinite(c.focal_px)) fail("'focal_px' must be >= 0");
-  if (!(c.hfov_deg >= 0.0 && c.hfov_deg < 180.0)) fail("'hfov_deg' must be in [0, 180)");
-  if (c.min_inliers < 1) fail("'min_inliers' must be >= 1");
-  if (!(c.surf_threshold >= 0.0)) fail("'surf_threshold' must be >= 0");
-  if (c.max_keypoints < 0) fail("'max_keypoints' must be >= 0");
-  if (c.threads < 0) fail("'threads' must be >= 0 (0 = all cores)");
-  if (c.polish < 0) fail("'polish' must be >= 0 (0 = off)");
-  for (double d : {c.k1, c.k2, c.p1, c.p2, c.k3}) {
-    if (!std::isfinite(d)) fail("distortion coefficients must be finite");
-  }
-  if (!(c.illumination_k > 0.0 && c.illumination_k <= 1.0)) {
-    fail(fmt::format("'illumination_k' must be in (0, 1], got {}", c.illumination_k));
+  const std::string context = "run configuration";
+  const auto fail = [&](const std::string& m) { throw InvalidArgument(context + ": " + m); };
+  if (c.input.empty()) fail("input is required (video, image folder or live source)");
+  if (c.out.empty()) fail("out must not be empty");
+  options::CheckRanges(c, "", false, context);
+  if (c.end_s >= 0.0 && c.end_s < c.start_s) fail("end_s must be >= start_s (or < 0)");
+  try {
+    Validate(c.odometry);
+  } catch (const InvalidArgument& e) {
+    fail(e.what());
   }
 }
 
-nlohmann::json ToJson(const RunConfig& c) {
-  return nlohmann::json{{"input", c.input},
-                        {"telemetry", c.telemetry},
-                        {"lenient_telemetry", c.lenient_telemetry},
-                        {"truth", c.truth},
-                        {"out", c.out},
-                        {"step", c.step},
-                        {"start_s", c.start_s},
-                        {"end_s", c.end_s},
-                        {"max_frames", c.max_frames},
-                        {"mode", c.mode},
-                        {"model", c.model},
-                        {"scale", c.scale},
-                        {"heading", c.heading},
-                        {"altitude_m", c.altitude_m},
-                        {"focal_px", c.focal_px},
-                        {"hfov_deg", c.hfov_deg},
-                        {"k1", c.k1},
-                        {"k2", c.k2},
-                        {"p1", c.p1},
-                        {"p2", c.p2},
-                        {"k3", c.k3},
-                        {"illumination_k", c.illumination_k},
-                        {"guided", c.guided},
-                        {"matcher", c.matcher},
-                        {"refine", c.refine},
-                        {"min_inliers", c.min_inliers},
-                        {"surf_threshold", c.surf_threshold},
-                        {"max_keypoints", c.max_keypoints},
-                        {"seed", c.seed},
-                        {"polish", c.polish},
-                        {"threads", c.threads},
-                        {"quiet", c.quiet}};
-}
+nlohmann::json ToJson(const RunConfig& c) { return options::ToFlatJson(c); }
 
 namespace {
-template <class T>
-void Take(const nlohmann::json& j, const char* key, T* out, const std::string& source) {
-  auto it = j.find(key);
-  if (it == j.end()) return;
-  const auto wrong = [&](const std::string& why) {
-    throw InvalidArgument(source + ": key '" + key + "' " + why);
-  };
-  if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>) {
-    // nlohmann's get<int>() static_casts whatever number it holds: 1e300 or -1 into an int or
-    // a uint64 is undefined behaviour or a silent wrap-around. Only integers in T's range pass.
-    if (it->is_number_unsigned()) {
-      const auto v = it->template get<std::uint64_t>();
-      if (v > static_cast<std::uint64_t>(std::numeric_limits<T>::max())) {
-        wrong(
-            fmt::format("value {} is out of range (at most {})", v, std::numeric_limits<T>::max()));
-      }
-      *out = static_cast<T>(v);
-    } else if (it->is_number_integer()) {
-      const auto v = it->template get<std::int64_t>();
-      if (v < static_cast<std::int64_t>(std::numeric_limits<T>::min()) ||
-          (std::is_signed_v<T> && v > static_cast<std::int64_t>(std::numeric_limits<T>::max()))) {
-        wrong(fmt::format("value {} is out of range [{}, {}]", v, std::numeric_limits<T>::min(),
-                          std::numeric_limits<T>::max()));
-      }
-      *out = static_cast<T>(v);
+
+// {"ransac": {"seed": 2}} -> {"ransac.seed": 2}; "resolved" stays as it is.
+void Flatten(const nlohmann::json& j, const std::string& prefix, nlohmann::json* out) {
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    const std::string key = prefix + it.key();
+    if (it->is_object() && !(prefix.empty() && it.key() == "resolved")) {
+      Flatten(*it, key + ".", out);
     } else {
-      wrong(std::string("must be an integer, got ") + it->type_name() + " " +
-            it->dump().substr(0, 40));
-    }
-  } else {
-    try {
-      *out = it->template get<T>();
-    } catch (const nlohmann::json::exception& e) {
-      wrong(std::string("has the wrong type (") + e.what() + ")");
+      (*out)[key] = *it;
     }
   }
 }
+
 }  // namespace
 
-RunConfig RunConfigFromJson(const nlohmann::json& j, RunConfig c, const std::string& source) {
-  if (!j.is_object()) throw InvalidArgument(source + ": the configuration must be a JSON object");
-  const nlohmann::json known = ToJson(RunConfig{});
+RunConfig RunConfigFromJson(const nlohmann::json& given, RunConfig c, const std::string& source) {
+  if (!given.is_object()) {
+    throw InvalidArgument(source + ": the configuration must be a JSON object");
+  }
+  nlohmann::json j = nlohmann::json::object();
+  Flatten(given, "", &j);
+  if (j.contains("resolved") && !j["resolved"].is_object()) {
+    throw InvalidArgument(source +
+                          ": key 'resolved' (what a run resolved, ignored) must be an object");
+  }
+  std::multimap<std::string, std::string> also;
+  for (const RunShorthand& s : RunShorthands()) {
+    for (const char* key : s.keys) also.emplace(key, s.name);
+  }
+  options::JsonReader reader(j, source, &also);
+  VisitFields(c, reader);
   for (auto it = j.begin(); it != j.end(); ++it) {
-    if (!known.contains(it.key())) {
-      throw InvalidArgument(source + ": unknown key '" + it.key() + "'");
+    if (it.key() != "resolved" && reader.known().count(it.key()) == 0) {
+      throw InvalidArgument(source + ": unknown key '" + it.key() +
+                            "' (aerovo run --list-options lists every key)");
     }
   }
-  Take(j, "input", &c.input, source);
-  Take(j, "telemetry", &c.telemetry, source);
-  Take(j, "lenient_telemetry", &c.lenient_telemetry, source);
-  Take(j, "truth", &c.truth, source);
-  Take(j, "out", &c.out, source);
-  Take(j, "step", &c.step, source);
-  Take(j, "start_s", &c.start_s, source);
-  Take(j, "end_s", &c.end_s, source);
-  Take(j, "max_frames", &c.max_frames, source);
-  Take(j, "mode", &c.mode, source);
-  Take(j, "model", &c.model, source);
-  Take(j, "scale", &c.scale, source);
-  Take(j, "heading", &c.heading, source);
-  Take(j, "altitude_m", &c.altitude_m, source);
-  Take(j, "focal_px", &c.focal_px, source);
-  Take(j, "hfov_deg", &c.hfov_deg, source);
-  Take(j, "k1", &c.k1, source);
-  Take(j, "k2", &c.k2, source);
-  Take(j, "p1", &c.p1, source);
-  Take(j, "p2", &c.p2, source);
-  Take(j, "k3", &c.k3, source);
-  Take(j, "illumination_k", &c.illumination_k, source);
-  Take(j, "guided", &c.guided, source);
-  Take(j, "matcher", &c.matcher, source);
-  Take(j, "refine", &c.refine, source);
-  Take(j, "min_inliers", &c.min_inliers, source);
-  Take(j, "surf_threshold", &c.surf_threshold, source);
-  Take(j, "max_keypoints", &c.max_keypoints, source);
-  Take(j, "seed", &c.seed, source);
-  Take(j, "polish", &c.polish, source);
-  Take(j, "threads", &c.threads, source);
-  Take(j, "quiet", &c.quiet, source);
   return c;
+}
+
+std::string RunOptionsMarkdown() {
+  std::string md =
+      "# Options of `aerovo run`\n\n"
+      "Generated by `aerovo run --list-options` from the option schema (the `VisitFields` lists "
+      "beside each options struct's `Validate`; core/options.h). Every option is a key of a "
+      "JSON or YAML config file (`--config`; flat keys, the dotted ones included) and a flag; "
+      "a run saves its configuration as `config.json` with the canonical keys, and "
+      "`--config OUT/config.json` reproduces it. The legacy short keys in parentheses (and "
+      "their flags) still work; giving two names of one option with different values is an "
+      "error.\n\n";
+  md += options::MarkdownTable(options::ListFields(RunConfig{}));
+  md += "\n## Shorthands\n\nOne key or flag for several options.\n\n";
+  md += "| Key | Flag | Sets | Description |\n|---|---|---|---|\n";
+  for (const RunShorthand& s : RunShorthands()) {
+    std::string keys;
+    for (const char* k : s.keys) keys += std::string(keys.empty() ? "" : ", ") + "`" + k + "`";
+    md += std::string("| `") + s.name + "` | `" + options::FlagName(s.name) + "` | " + keys +
+          " | " + s.doc + " |\n";
+  }
+  return md;
 }
 
 namespace {

@@ -1,15 +1,27 @@
 // The configuration of one `aerovo run`: every option a run can be told, as flags (cli/run_cli.cc)
-// or as a JSON/YAML config file with the same keys; validation, JSON conversion and parsing.
+// or as a JSON/YAML config file with the same keys; validation, JSON conversion and parsing, all
+// generated from one field list (VisitFields below and the stages' lists it includes; the
+// machinery is core/options.h). docs/options.md lists every key.
 #pragma once
 
 #include <cstdint>
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "aerovo/core/options.h"
+#include "aerovo/odometry/georef.h"
+#include "aerovo/odometry/visual_odometry.h"
+
 namespace aerovo {
+
+template <>
+struct options::EnumTraits<HeadingSource>
+    : options::EnumList<HeadingSource, ToString, HeadingSource::kAuto, HeadingSource::kTelemetryYaw,
+                        HeadingSource::kGpsSegment> {};
 
 /// Everything a run can be told, as flags (cmd_run.cc) or as a JSON config file with the same
 /// keys (ToJson / RunConfigFromJson). Plain aggregate; Validate() checks it.
@@ -37,15 +49,9 @@ struct RunConfig {
   double end_s = -1.0;
   /// Stop after this many processed frames (0 = all).
   int max_frames = 0;
-  /// "clustered" (default, the paper) or "standard".
-  std::string mode = "clustered";
-  /// "affine" (default), "similarity", "homography", "translation".
-  std::string model = "affine";
-  /// "metric" (default) or "affine-chain" (see odometry/pose_chain.h).
-  std::string scale = "metric";
-  /// Heading of the VO track in ENU: "auto" (default: telemetry yaw, else first GPS segment),
-  /// "yaw", "gps".
-  std::string heading = "auto";
+  /// Heading of the VO track in ENU: kAuto (default: telemetry yaw, else first GPS segment),
+  /// kTelemetryYaw ("yaw"), kGpsSegment ("gps").
+  HeadingSource heading = HeadingSource::kAuto;
   /// Height above ground, metres; when > 0 it overrides telemetry (tampa-phantom3 has none).
   double altitude_m = 0.0;
   /// Focal length in pixels of the processed frames; when 0, from hfov_deg, else from the
@@ -62,42 +68,70 @@ struct RunConfig {
   /// is multiplied by k (ScaleBrightness) after undistortion and before SURF, to study how the
   /// odometry holds in dim light. Default 1 (frames as read).
   double illumination_k = 1.0;
-  /// Guided matching with the constant-velocity prior (then unguided on failure). Default on.
-  bool guided = true;
-  /// Matching without a motion prior (MatchOptions::algorithm): "exhaustive" (default, exact)
-  /// or "kdtree" (randomized k-d forest, approximate; pays off from a few thousand points per
-  /// frame, see BENCHMARKS.md "Matching"). Guided matching is unaffected.
-  std::string matcher = "exhaustive";
-  /// Refinement of cell fits on spread points and then on all points
-  /// (CorrespondenceOptions::clustered.refine, which turns off every refine_* option).
-  /// Default on; off is the paper's clustered RANSAC exactly (the cell's own fit).
-  bool refine = true;
-  /// RANSAC inliers needed for a step (OdometryOptions::correspondence.min_inliers). Default 12.
-  int min_inliers = 12;
-  /// SURF Hessian threshold (MATLAB MetricThreshold). Default 1000.
-  double surf_threshold = 1000.0;
-  /// Keep at most this many SURF points per frame, strongest first (0 = all). Default 0.
-  int max_keypoints = 0;
-  /// RANSAC seed.
-  std::uint64_t seed = 1;
-  /// Robust polish of every RANSAC fit (RansacOptions::polish_iterations): IRLS rounds with a
-  /// smooth loss over all matches, making the track independent of the seed. Default 0 (off,
-  /// MATLAB's estimator as in the paper).
-  int polish = 0;
-  /// Threads for SURF and matching (0 = all cores).
-  int threads = 0;
   /// No progress bar, no configuration dump, only errors and the final table.
   bool quiet = false;
+  /// The odometry and its stages (keys surf.*, match.*, ransac.*, clustered.*, correspondence.*,
+  /// odometry.*); defaults are OdometryOptions' (visual_odometry.h). The run sets its focal_px and
+  /// default_height_m from the camera and height it resolves (focal_px, hfov_deg, altitude_m
+  /// above).
+  OdometryOptions odometry;
 };
 
-/// Throws InvalidArgument naming the bad key.
+/// Throws InvalidArgument naming the bad key ("run configuration: ransac.max_distance_px must be
+/// > 0, got -1"): the schema's ranges, then the rules between fields.
 void Validate(const RunConfig& config);
-/// The configuration as JSON (the keys of RunConfig).
+/// The option schema: the run's own keys (flat, as before the stage keys existed: report/mosaic.cc
+/// reads step, start_s, end_s, k1..k3, illumination_k and input from config.json), then the
+/// odometry's groups.
+// clang-format off
+template <class V>
+void VisitFields(RunConfig& c, V& v) {
+  using namespace options;
+  v.Field(c.input, "input", "Video file, image folder (telemetry from EXIF/XMP), camera index, /dev/videoN or URL", Any().Flags("input"));
+  v.Field(c.telemetry, "telemetry", "Telemetry file: DJI .srt, .gpx or .csv", Any());
+  v.Field(c.lenient_telemetry, "lenient_telemetry", "Skip malformed telemetry records (counted in the warnings) instead of stopping", Any().Switch());
+  v.Field(c.truth, "truth", "Ground truth to compare with beside GPS: TUM (.tum/.txt) or a track with positions (.csv, .gpx, .srt)", Any());
+  v.Field(c.out, "out", "Output folder", Any().Flags("-o"));
+  v.Field(c.step, "step", "Process every k-th frame", AtLeast(1));
+  v.Field(c.start_s, "start_s", "Start time in the source, s", AtLeast(0));
+  v.Field(c.end_s, "end_s", "End time in the source, s (< 0: to the end)", Any());
+  v.Field(c.max_frames, "max_frames", "Stop after N frames (0 = all)", AtLeast(0));
+  v.Field(c.heading, "heading", "VO heading in ENU: auto, yaw (telemetry) or gps (first GPS segment)", Any());
+  v.Field(c.altitude_m, "altitude_m", "Height above ground, m (overrides telemetry; 0 = from telemetry)", AtLeast(0).Finite().Flags("--altitude"));
+  v.Field(c.focal_px, "focal_px", "Focal length in pixels (0 = from hfov_deg, EXIF or telemetry)", AtLeast(0).Finite());
+  v.Field(c.hfov_deg, "hfov_deg", "Horizontal field of view, deg (used when focal_px is 0)", Interval(0, 180, false, true));
+  v.Field(c.k1, "k1", "Lens distortion k1 (OpenCV model; 0 = none)", Finite());
+  v.Field(c.k2, "k2", "Lens distortion k2", Finite());
+  v.Field(c.p1, "p1", "Lens distortion p1 (tangential)", Finite());
+  v.Field(c.p2, "p2", "Lens distortion p2 (tangential)", Finite());
+  v.Field(c.k3, "k3", "Lens distortion k3", Finite());
+  v.Field(c.illumination_k, "illumination_k", "Illumination factor k: every frame's brightness times k before SURF (the paper's f_k = k f)", Interval(0, 1, true, false));
+  v.Field(c.quiet, "quiet", "No progress bar or configuration dump", Any().Switch().Flags("-q"));
+  v.Group("odometry", c.odometry);
+}
+// clang-format on
+/// A flat key that sets several options at once (`threads`); giving it and one of its
+/// keys with different values is an error naming both.
+struct RunShorthand {
+  const char* name;
+  const char* doc;
+  std::vector<const char*> keys;
+};
+/// The shorthands, in one table (run_config.cc).
+const std::vector<RunShorthand>& RunShorthands();
+/// The configuration as JSON: the canonical keys of the schema (no aliases, no shorthands).
 nlohmann::json ToJson(const RunConfig& config);
-/// `base` with the keys present in `json` replaced. Unknown keys and wrong types throw
-/// InvalidArgument naming the key (and `source`, e.g. the config file path).
+/// `base` with the keys present in `json` replaced: canonical keys, their legacy aliases (mode,
+/// model, scale, guided, matcher, refine, min_inliers, surf_threshold, max_keypoints, seed, polish)
+/// and the shorthands; a nested object {"ransac": {"seed": 2}} reads as "ransac.seed". "resolved"
+/// (what a run wrote in its config.json) must be an object and is ignored. Unknown keys, wrong
+/// types and two names of one option with different values throw InvalidArgument naming the key
+/// (and `source`, e.g. the config file path).
 RunConfig RunConfigFromJson(const nlohmann::json& json, RunConfig base,
                             const std::string& source = "config");
+/// Every option as a Markdown table (key, flag, type, default, range, doc) and the shorthands:
+/// the text of docs/options.md (`aerovo run --list-options`).
+std::string RunOptionsMarkdown();
 /// Syntax of a run configuration file.
 enum class RunConfigFormat { kJson, kYaml };
 /// Parses the text of a config file (`source` names it in messages): JSON, or YAML (a flat

@@ -312,7 +312,7 @@ namespace {
 
 GeoRefOptions GeoRefOptionsOf(const RunConfig& config) {
   GeoRefOptions o;
-  o.heading_source = ParseHeadingSource(config.heading);
+  o.heading_source = config.heading;
   return o;
 }
 

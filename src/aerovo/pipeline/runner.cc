@@ -92,27 +92,6 @@ std::string FormatSummaryTable(const RunSummary& s) {
 
 namespace {
 
-OdometryOptions MakeOdometryOptions(const RunConfig& c) {
-  OdometryOptions o;
-  o.surf.hessian_threshold = c.surf_threshold;
-  o.surf.max_keypoints = c.max_keypoints;
-  o.surf.num_threads = c.threads;
-  o.correspondence.method =
-      c.mode == "standard" ? CorrespondenceMethod::kStandard : CorrespondenceMethod::kClustered;
-  o.correspondence.model = ParseMotionModel(c.model.c_str());
-  o.correspondence.guided_matching = c.guided;
-  o.correspondence.min_inliers = c.min_inliers;
-  o.correspondence.match.num_threads = c.threads;
-  o.correspondence.match.algorithm = ParseMatchAlgorithm(c.matcher);
-  o.correspondence.ransac.seed = c.seed;
-  o.correspondence.ransac.polish_iterations = c.polish;
-  // refine = 0 is the paper's clustered RANSAC exactly: the cell's own fit, no refinement on
-  // spread points nor on all points (ClusteredRansacOptions::refine turns off every refine_*).
-  o.correspondence.clustered.refine = c.refine;
-  o.scale_mode = ParseScaleMode(c.scale.c_str());
-  return o;
-}
-
 // The run folder: created, with config.json of the effective configuration (sim.json's settings
 // filled in; RunOutputs rewrites it with the "resolved" block on the first frame), which the
 // log also shows.
@@ -178,7 +157,7 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   if (log) *log << "telemetry: " << telemetry.Describe() << "\n";
 
   // 2-5. The frames: camera, height, outputs, odometry.
-  run_steps::FrameLoop loop(inputs, telemetry, folder, MakeOdometryOptions(config), out_dir, cb,
+  run_steps::FrameLoop loop(inputs, telemetry, folder, config.odometry, out_dir, cb,
                             log);
   const run_steps::LoopEnd end = loop.Run(*source, stop, wall, &summary);
   loop.Finish();

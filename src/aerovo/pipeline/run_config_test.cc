@@ -1,0 +1,244 @@
+// The run configuration's option schema: every option settable by JSON and by YAML with the same
+// effect, its legacy alias too; shorthands; one message style for bad values; a run's saved
+// config.json read back as the configuration that made it. (By flag: tests/e2e/run_cli_test.cc.)
+#include "aerovo/pipeline/run_config.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "aerovo/core/error.h"
+#include "aerovo/core/options_json.h"
+#include "aerovo/pipeline/demo.h"
+#include "aerovo/pipeline/experiment.h"
+#include "aerovo/pipeline/runner.h"
+#include "aerovo/pipeline/testing.h"
+
+namespace aerovo {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::Sample;
+using testing::Samples;
+
+RunConfig Base() {
+  RunConfig c;
+  c.input = "flight.mp4";
+  return c;
+}
+
+TEST(RunConfigSchema, EveryOptionByJsonAndYamlWithTheSameEffect) {
+  const std::vector<Sample> samples = Samples();
+  EXPECT_GT(samples.size(), 70u);  // run-level + every stage's options
+  int aliases = 0;
+  for (const Sample& s : samples) {
+    SCOPED_TRACE(s.key);
+    nlohmann::json expected = ToJson(Base());
+    ASSERT_TRUE(expected.contains(s.key));
+    expected[s.key] = s.value;
+    const RunConfig by_json = RunConfigFromJson({{s.key, s.value}}, Base(), "t.json");
+    EXPECT_EQ(ToJson(by_json), expected);
+    EXPECT_NO_THROW(Validate(by_json));
+    const RunConfig by_yaml =
+        ParseRunConfig(s.key + ": " + s.value.dump() + "\n", RunConfigFormat::kYaml, Base());
+    EXPECT_EQ(ToJson(by_yaml), expected);
+    if (!s.alias.empty()) {
+      ++aliases;
+      EXPECT_EQ(ToJson(RunConfigFromJson({{s.alias, s.value}}, Base())), expected) << s.alias;
+      EXPECT_EQ(ToJson(ParseRunConfig(s.alias + ": " + s.value.dump() + "\n",
+                                      RunConfigFormat::kYaml, Base())),
+                expected)
+          << s.alias;
+    }
+  }
+  EXPECT_EQ(aliases, 10);  // mode model scale guided matcher min_inliers surf_threshold ...
+}
+
+TEST(RunConfigSchema, DefaultsAreTheStagesDefaults) {
+  // The run's defaults are OdometryOptions' (which MakeOdometryOptions reproduced before the
+  // schema): written config.json keys and values of a default run.
+  const nlohmann::json j = ToJson(RunConfig{});
+  EXPECT_EQ(j["correspondence.method"], "clustered");
+  EXPECT_EQ(j["correspondence.model"], "affine");
+  EXPECT_EQ(j["correspondence.guided_matching"], true);
+  EXPECT_EQ(j["correspondence.min_inliers"], 12);
+  EXPECT_EQ(j["surf.hessian_threshold"], 1000.0);
+  EXPECT_EQ(j["surf.num_threads"], 0);
+  EXPECT_EQ(j["match.num_threads"], 0);
+  EXPECT_EQ(j["match.algorithm"], "exhaustive");
+  EXPECT_EQ(j["match.max_ratio"], 0.6);
+  EXPECT_EQ(j["ransac.seed"], 1);
+  EXPECT_EQ(j["ransac.polish_iterations"], 0);
+  EXPECT_EQ(j["clustered.refine"], true);
+  EXPECT_EQ(j["odometry.scale_mode"], "metric");
+  EXPECT_EQ(j["heading"], "auto");
+  EXPECT_EQ(j["step"], 1);
+  EXPECT_FALSE(j.contains("mode"));  // canonical keys only
+  EXPECT_FALSE(j.contains("threads"));
+  EXPECT_FALSE(j.contains("odometry.focal_px"));  // set by the run, not an option
+}
+
+TEST(RunConfigSchema, ShorthandsSetEveryKeyAndConflictsNameBoth) {
+  // refine is the legacy name of clustered.refine, which turns every refinement off.
+  const RunConfig r = RunConfigFromJson({{"refine", false}}, Base());
+  EXPECT_FALSE(r.odometry.correspondence.clustered.refine);
+  const RunConfig t = RunConfigFromJson({{"threads", 3}}, Base());
+  EXPECT_EQ(t.odometry.surf.num_threads, 3);
+  EXPECT_EQ(t.odometry.correspondence.match.num_threads, 3);
+  EXPECT_EQ(RunConfigFromJson({{"threads", 3}, {"surf.num_threads", 3}}, Base())
+                .odometry.correspondence.match.num_threads,
+            3);
+  try {
+    RunConfigFromJson({{"threads", 3}, {"match.num_threads", 2}}, Base(), "c.yaml");
+    ADD_FAILURE() << "conflict accepted";
+  } catch (const InvalidArgument& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("c.yaml"), std::string::npos) << m;
+    EXPECT_NE(m.find("'match.num_threads' = 2 and 'threads' = 3 disagree"), std::string::npos) << m;
+  }
+  EXPECT_THROW(
+      RunConfigFromJson({{"refine", true}, {"clustered.refine", false}}, Base()),
+      InvalidArgument);
+  // An alias and its key disagreeing is the same error.
+  EXPECT_THROW(
+      RunConfigFromJson({{"mode", "standard"}, {"correspondence.method", "clustered"}}, Base()),
+      InvalidArgument);
+  // The shorthand table's keys are all keys of the schema.
+  const nlohmann::json keys = ToJson(RunConfig{});
+  for (const RunShorthand& s : RunShorthands()) {
+    for (const char* k : s.keys) EXPECT_TRUE(keys.contains(k)) << s.name << " -> " << k;
+  }
+}
+
+// Sets one field to a value outside its range (the range's open or closed bound crossed, or
+// inf for a field that must be finite) and checks Validate's message.
+class OutOfRange : public options::GroupingVisitor<OutOfRange> {
+ public:
+  template <class T>
+  void Field(T& v, const char* key, const char*, const options::Spec& spec) {
+    if constexpr (std::is_arithmetic_v<T> && !std::is_same_v<T, bool>) {
+      if (!spec.HasRange()) return;
+      const T saved = v;
+      if (spec.has_min) {
+        v = static_cast<T>(spec.min_open ? spec.min : spec.min - 1);
+      } else if (spec.has_max) {
+        v = static_cast<T>(spec.max_open ? spec.max : spec.max + 1);
+      } else if constexpr (std::is_floating_point_v<T>) {
+        v = std::numeric_limits<T>::infinity();
+      }
+      const std::string expected = "run configuration: " + Key(key) + " must be " +
+                                   spec.Describe() + ", got " + options::FormatNumber(v);
+      try {
+        Validate(*config);
+        ADD_FAILURE() << Key(key) << " = " << options::FormatNumber(v) << " accepted";
+      } catch (const InvalidArgument& e) {
+        EXPECT_EQ(std::string(e.what()), expected);
+      }
+      v = saved;
+      ++checked;
+    }
+  }
+  RunConfig* config = nullptr;
+  int checked = 0;
+};
+
+TEST(RunConfigSchema, OutOfRangeValuesGiveTheOneMessageStyle) {
+  RunConfig c = Base();
+  OutOfRange v;
+  v.config = &c;
+  VisitFields(c, v);
+  EXPECT_GE(v.checked, 45);
+  // Rules between fields, same style.
+  RunConfig e = Base();
+  e.start_s = 10;
+  e.end_s = 5;
+  EXPECT_THROW(Validate(e), InvalidArgument);
+  RunConfig m = Base();
+  m.odometry.correspondence.model = MotionModel::kHomography;
+  m.odometry.correspondence.min_inliers = 3;
+  try {
+    Validate(m);
+    ADD_FAILURE();
+  } catch (const InvalidArgument& ex) {
+    EXPECT_NE(std::string(ex.what()).find("correspondence.min_inliers must be at least"),
+              std::string::npos)
+        << ex.what();
+  }
+  EXPECT_THROW(Validate(RunConfig{}), InvalidArgument);  // no input
+}
+
+TEST(RunConfigSchema, WrongTypesAndUnknownKeysNameTheKey) {
+  const auto message = [](const nlohmann::json& j) {
+    try {
+      RunConfigFromJson(j, Base(), "c.json");
+    } catch (const InvalidArgument& e) {
+      return std::string(e.what());
+    }
+    return std::string("(accepted)");
+  };
+  EXPECT_EQ(message({{"ransac.max_distance_px", "far"}}),
+            "c.json: key 'ransac.max_distance_px' must be a number, got string \"far\"");
+  EXPECT_EQ(message({{"mode", "fast"}}),
+            "c.json: key 'mode' must be one of standard | clustered, got string \"fast\"");
+  EXPECT_EQ(message({{"correspondence.guided_matching", 1}}),
+            "c.json: key 'correspondence.guided_matching' must be a boolean (true or false), got "
+            "number 1");
+  EXPECT_NE(message({{"ransac.max_distanse_px", 2}}).find("unknown key 'ransac.max_distanse_px'"),
+            std::string::npos);
+  EXPECT_NE(message({{"resolved", 3}}).find("'resolved'"), std::string::npos);
+  // "resolved" (a run's config.json) is accepted and ignored; nested objects read as dotted keys.
+  const RunConfig n = RunConfigFromJson(
+      {{"resolved", {{"focal_px", 1000.0}}}, {"ransac", {{"max_distance_px", 2.5}}}}, Base());
+  EXPECT_EQ(n.odometry.correspondence.ransac.max_distance_px, 2.5);
+  EXPECT_EQ(n.focal_px, 0.0);
+}
+
+TEST(RunConfigSchema, OptionsMarkdownListsEveryKey) {
+  const std::string md = RunOptionsMarkdown();
+  const nlohmann::json keys = ToJson(RunConfig{});
+  for (const auto& [key, value] : keys.items()) {
+    EXPECT_NE(md.find("| `" + key + "`"), std::string::npos) << key;
+  }
+  EXPECT_NE(md.find("`--ransac-max-distance-px`"), std::string::npos);
+  EXPECT_NE(md.find("| `threads` | `--threads` |"), std::string::npos);
+}
+
+// A run's saved config.json is the configuration that made it: LoadRunConfig of it gives it back
+// (the "resolved" block the run adds is ignored).
+TEST(RunConfigSchema, SavedConfigJsonReadsBackAsTheRunsConfiguration) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("aerovo_run_config_test_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  ExperimentSimulation sim = DemoSimulation(true);
+  sim.sim.flight.legs = 1;
+  sim.sim.flight.leg_length_m = 40.0;
+  const SimulatedFlight flight = SimulateExperimentFlight(sim, dir / "sim");
+  RunConfig c = flight.run;
+  c.out = (dir / "run").string();
+  c.quiet = true;
+  c.max_frames = 6;
+  c.odometry.correspondence.ransac.max_distance_px = 1.75;  // options no flag had before
+  c.odometry.correspondence.clustered.grid_rows = 2;
+  c.odometry.correspondence.match.max_ratio = 0.7f;
+  c.odometry.surf.num_threads = 1;
+  c.odometry.correspondence.match.num_threads = 1;
+  const RunSummary s = RunFlight(c);
+  EXPECT_EQ(s.frames_processed, 6);
+  const nlohmann::json saved = nlohmann::json::parse(std::ifstream(dir / "run" / "config.json"));
+  EXPECT_TRUE(saved["resolved"].is_object());
+  const RunConfig back = LoadRunConfig(dir / "run" / "config.json", RunConfig{});
+  EXPECT_EQ(ToJson(back), ToJson(c));
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace aerovo
