@@ -33,7 +33,7 @@
 // false alone: calling IsDegenerate there as well would reject exactly the same samples, see
 // ransac_test.cc "DegenerateSamplesAreThoseSolveMinimalRefuses", at the price of a second test).
 //
-// How to add a motion model (two edits, both in this file and models.cc):
+// How to add a motion model (one struct plus one list entry):
 //   1. Write its struct with the members above: declaration here, definitions in models.cc.
 //      Example: struct RigidModel { static constexpr int kMinSample = 2; static constexpr int
 //      kDof = 3; static constexpr const char* kName = "rigid"; static bool SolveMinimal(...);
@@ -42,8 +42,10 @@
 // That entry generates the enumerator MotionModel::kRigid, ToString / ParseMotionModel (from
 // kName), MinSampleSize, kAllMotionModels (the CLI's and the config schema's choices),
 // MotionModelType<MotionModel::kRigid>, the run-time dispatch VisitMotionModel (used by
-// EstimateTransform in ransac.cc) and the typed tests' list ForAllMotionModels (the typed tests
-// of models_test.cc and ransac_test.cc then ask for the model's ground-truth transform).
+// EstimateTransform in ransac.cc) and the typed tests' list ForAllMotionModels. The tests then
+// ask for a test transform of the new model (TrueTransform<> in ransac_test.cc, ModelTransform<>
+// in models_test.cc), and MotionModelList in models_test.cc, which pins the current list and
+// ParseMotionModel's message, for its new entry.
 #pragma once
 
 #include <cstddef>

@@ -26,16 +26,21 @@
 //
 // Policy contracts (static members, inlined: no virtual call, no allocation per trial):
 //   Scorer::Cost(r2, n, threshold2, &num_inliers) -> double
-//       cost of the squared residuals r2[0..n) (px^2), lower = better, never -inf; a NaN cost
-//       is never better than anything. num_inliers = #{i : r2[i] < threshold2} (the inlier
-//       definition is the loop's, max_distance_px, whatever the scorer).
+//       cost of the squared residuals r2[0..n) (px^2), lower = better; +inf or NaN marks an
+//       unusable model (never better than anything, so never accepted). num_inliers =
+//       #{i : r2[i] < threshold2}: the inlier definition is the loop's (max_distance_px),
+//       whatever the scorer.
 //   Optimizer::Local(state), Optimizer::Final(state)   (state: RansacState<Model, Scorer>)
-//       may replace state's best model by any model with a lower cost (state.Score and
-//       state.Accept keep model, cost, inlier count and residuals consistent); Final may also
-//       accept a model whose cost is not lower (the first refit, the polish), as long as it has
-//       at least Model::kMinSample inliers. The building blocks of LeastSquaresOptimizer
-//       (RefitWhileCostImproves, FinalRefit, GemanMcClurePolish) are free functions for other
-//       optimisers to reuse.
+//       replace state's best model through state.Score and state.Accept, which keep the model,
+//       its cost, its inlier count and its residuals (ws.best_residuals) consistent. Local runs
+//       inside the loop: it uses the workspace's buffers (no allocation) and should accept only
+//       a lower cost, since the later trials are compared with state.best_score. Final runs
+//       once and may accept any model: the result is a success when the final model has at
+//       least Model::kMinSample inliers, and reports that model's mask, count and cost.
+// Where the steps live: the final refit and the polish are steps of the default optimiser's
+// Final (driven by RansacOptions as before); they and the local optimisation are free
+// function templates (RefitWhileCostImproves, FinalRefit, GemanMcClurePolish) that another
+// optimiser can compose differently (ransac_test.cc has examples).
 //
 // Frames and units: prev_px / curr_px are 2xN pixel positions in the previous / current frame;
 // the model is curr_from_prev (3x3, maps prev pixels to curr pixels); residuals, thresholds and
@@ -181,8 +186,7 @@ struct MsacScorer {
 /// The best model so far and what the policies share during one RunRansac call: the input, the
 /// options, the workspace. The best model's residuals are always ws.best_residuals.
 template <class ModelT, class ScorerT>
-class RansacState {
- public:
+struct RansacState {
   using Model = ModelT;
   using Scorer = ScorerT;
 
