@@ -217,11 +217,13 @@ struct RansacState {
 
   /// Indices of the best model's inliers into ws.inliers; returns their number.
   int CollectBestInliers() {
-    ws.inliers.clear();
+    const double* r = ws.best_residuals.data();
+    std::vector<int>& out = ws.inliers;
+    out.clear();
     for (int i = 0; i < n; ++i) {
-      if (ws.best_residuals[static_cast<std::size_t>(i)] < threshold2) ws.inliers.push_back(i);
+      if (r[i] < threshold2) out.push_back(i);
     }
-    return static_cast<int>(ws.inliers.size());
+    return static_cast<int>(out.size());
   }
 
   const RansacOptions& options;
@@ -399,8 +401,9 @@ RansacResult RunRansac(const RansacOptions& options, const Eigen::Matrix2Xd& pre
     result.curr_from_prev = state.best_model;
     result.score = state.best_score;
     result.num_inliers = state.best_inliers;
+    const double t2 = state.threshold2;
     for (int i = 0; i < n; ++i) {
-      result.inlier_mask[static_cast<std::size_t>(i)] = ws.best_residuals[i] < state.threshold2;
+      result.inlier_mask[static_cast<std::size_t>(i)] = ws.best_residuals[i] < t2 ? 1 : 0;
     }
   } else {
     result.score = state.best_score;
