@@ -95,40 +95,37 @@ bool NormaliseHomography(Eigen::Matrix3d* h) {
 
 }  // namespace
 
+// ToString and MinSampleSize keep their own switch (not VisitMotionModel, whose fallback is the
+// affine model) so that a value outside the enum stays visible: "unknown", 0.
 const char* ToString(MotionModel model) {
   switch (model) {
-    case MotionModel::kTranslation:
-      return "translation";
-    case MotionModel::kSimilarity:
-      return "similarity";
-    case MotionModel::kAffine:
-      return "affine";
-    case MotionModel::kHomography:
-      return "homography";
+#define AEROVO_MOTION_MODEL_NAME(e, T) \
+  case MotionModel::e:                 \
+    return T::kName;
+    AEROVO_MOTION_MODELS(AEROVO_MOTION_MODEL_NAME)
+#undef AEROVO_MOTION_MODEL_NAME
   }
   return "unknown";
 }
 
 MotionModel ParseMotionModel(const char* name) {
   const std::string s = name == nullptr ? "" : name;
-  if (s == "translation") return MotionModel::kTranslation;
-  if (s == "similarity") return MotionModel::kSimilarity;
-  if (s == "affine") return MotionModel::kAffine;
-  if (s == "homography") return MotionModel::kHomography;
-  throw InvalidArgument("unknown motion model '" + s +
-                        "' (expected translation, similarity, affine or homography)");
+  std::string expected;
+  for (std::size_t k = 0; k < kNumMotionModels; ++k) {
+    if (s == ToString(kAllMotionModels[k])) return kAllMotionModels[k];
+    expected += k == 0 ? "" : (k + 1 == kNumMotionModels ? " or " : ", ");
+    expected += ToString(kAllMotionModels[k]);
+  }
+  throw InvalidArgument("unknown motion model '" + s + "' (expected " + expected + ")");
 }
 
 int MinSampleSize(MotionModel model) {
   switch (model) {
-    case MotionModel::kTranslation:
-      return TranslationModel::kMinSample;
-    case MotionModel::kSimilarity:
-      return SimilarityModel::kMinSample;
-    case MotionModel::kAffine:
-      return AffineModel::kMinSample;
-    case MotionModel::kHomography:
-      return HomographyModel::kMinSample;
+#define AEROVO_MOTION_MODEL_MIN_SAMPLE(e, T) \
+  case MotionModel::e:                       \
+    return T::kMinSample;
+    AEROVO_MOTION_MODELS(AEROVO_MOTION_MODEL_MIN_SAMPLE)
+#undef AEROVO_MOTION_MODEL_MIN_SAMPLE
   }
   return 0;
 }

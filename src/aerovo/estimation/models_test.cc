@@ -2,10 +2,14 @@
 
 #include <cmath>
 #include <numeric>
+#include <set>
+#include <string>
+#include <type_traits>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include "aerovo/core/error.h"
 #include "aerovo/estimation/testing.h"
 
 namespace aerovo {
@@ -39,8 +43,13 @@ Eigen::Matrix3d ModelTransform() {
 
 template <class Model>
 class ModelTest : public ::testing::Test {};
-using AllModels = ::testing::Types<TranslationModel, SimilarityModel, AffineModel, HomographyModel>;
+using AllModels = ForAllMotionModels<::testing::Types>;
 TYPED_TEST_SUITE(ModelTest, AllModels);
+
+// The list generates the same four types, in enum order, as the typed tests listed by hand.
+static_assert(std::is_same_v<AllModels, ::testing::Types<TranslationModel, SimilarityModel,
+                                                         AffineModel, HomographyModel>>);
+static_assert(std::is_same_v<MotionModelType<MotionModel::kHomography>, HomographyModel>);
 
 TYPED_TEST(ModelTest, MinimalSolverAndLeastSquaresAreExactOnExactData) {
   using Model = TypeParam;
@@ -95,6 +104,50 @@ TEST(MotionModelHelpers, CornersAndAffinePart) {
   EXPECT_EQ(FromAffine(aff), b);
   EXPECT_EQ(MinSampleSize(MotionModel::kHomography), 4);
   EXPECT_STREQ(ToString(MotionModel::kAffine), "affine");
+}
+
+// Every entry of the model list: ToString is the policy's kName, ParseMotionModel inverts it,
+// MinSampleSize is the policy's kMinSample, the dispatch reaches the policy of that value, and
+// the values are the enum's, in order, with distinct names.
+TEST(MotionModelList, EveryEntryRoundTrips) {
+  ASSERT_EQ(kNumMotionModels, 4u);
+  std::set<std::string> names;
+  for (std::size_t k = 0; k < kNumMotionModels; ++k) {
+    const MotionModel m = kAllMotionModels[k];
+    EXPECT_EQ(static_cast<std::size_t>(m), k);
+    const std::string name = ToString(m);
+    names.insert(name);
+    EXPECT_EQ(ParseMotionModel(name.c_str()), m) << name;
+    VisitMotionModel(m, [&](auto model) {
+      using Model = decltype(model);
+      EXPECT_EQ(name, Model::kName);
+      EXPECT_EQ(MinSampleSize(m), Model::kMinSample) << name;
+      // Minimal: each point gives two equations, and one point fewer would not do.
+      EXPECT_GE(2 * Model::kMinSample, Model::kDof) << name;
+      EXPECT_LT(2 * (Model::kMinSample - 1), Model::kDof) << name;
+    });
+  }
+  EXPECT_EQ(names.size(), kNumMotionModels);
+  EXPECT_EQ(MinSampleSize(MotionModel::kTranslation), 1);
+  EXPECT_EQ(MinSampleSize(MotionModel::kSimilarity), 2);
+  EXPECT_EQ(MinSampleSize(MotionModel::kAffine), 3);
+  EXPECT_EQ(MinSampleSize(MotionModel::kHomography), 4);
+  EXPECT_STREQ(ToString(static_cast<MotionModel>(99)), "unknown");
+  EXPECT_EQ(MinSampleSize(static_cast<MotionModel>(99)), 0);
+}
+
+TEST(MotionModelList, ParseNamesEveryAcceptedValue) {
+  for (const char* bad : {"projective", "Affine", "", "affine "}) {
+    try {
+      ParseMotionModel(bad);
+      ADD_FAILURE() << "accepted '" << bad << "'";
+    } catch (const InvalidArgument& e) {
+      EXPECT_EQ(std::string(e.what()),
+                "unknown motion model '" + std::string(bad) +
+                    "' (expected translation, similarity, affine or homography)");
+    }
+  }
+  EXPECT_THROW(ParseMotionModel(nullptr), InvalidArgument);
 }
 
 }  // namespace

@@ -21,44 +21,15 @@ int RansacTrialCount(double confidence_percent, double inlier_ratio, int sample_
   return static_cast<int>(n);
 }
 
-namespace {
-
-template <class Model>
-RansacResult DispatchSampler(SamplerKind sampler, const RansacOptions& options,
-                             const Eigen::Matrix2Xd& prev_px, const Eigen::Matrix2Xd& curr_px,
-                             const float* quality, RansacWorkspace& ws) {
-  switch (sampler) {
-    case SamplerKind::kProsac: {
-      ProsacSampler s;
-      return RunRansac<Model, ProsacSampler>(options, prev_px, curr_px, quality, s, ws);
-    }
-    case SamplerKind::kUniform:
-      break;
-  }
-  UniformSampler s;
-  return RunRansac<Model, UniformSampler>(options, prev_px, curr_px, quality, s, ws);
-}
-
-}  // namespace
-
 RansacResult EstimateTransform(MotionModel model, SamplerKind sampler, const RansacOptions& options,
                                const Eigen::Matrix2Xd& prev_px, const Eigen::Matrix2Xd& curr_px,
                                const float* quality, RansacWorkspace& workspace) {
   Validate(options);
-  switch (model) {
-    case MotionModel::kTranslation:
-      return DispatchSampler<TranslationModel>(sampler, options, prev_px, curr_px, quality,
-                                               workspace);
-    case MotionModel::kSimilarity:
-      return DispatchSampler<SimilarityModel>(sampler, options, prev_px, curr_px, quality,
-                                              workspace);
-    case MotionModel::kHomography:
-      return DispatchSampler<HomographyModel>(sampler, options, prev_px, curr_px, quality,
-                                              workspace);
-    case MotionModel::kAffine:
-      break;
-  }
-  return DispatchSampler<AffineModel>(sampler, options, prev_px, curr_px, quality, workspace);
+  return VisitMotionModel(model, [&](auto m) {
+    return VisitSampler(sampler, [&](auto& s) {
+      return RunRansac<decltype(m)>(options, prev_px, curr_px, quality, s, workspace);
+    });
+  });
 }
 
 }  // namespace aerovo

@@ -1,6 +1,14 @@
 // Robust estimation of a frame-to-frame transform from putative correspondences: ONE RANSAC loop
-// (Fischler & Bolles 1981) with MSAC scoring (Torr & Zisserman 2000), templated on the model
-// (aerovo/estimation/models.h) and the sampler (aerovo/estimation/samplers.h) policies.
+// (Fischler & Bolles 1981), templated on four policies:
+//   Model      the motion model (aerovo/estimation/models.h): minimal solver, least squares,
+//              residuals;
+//   Sampler    the minimal-sample generator (aerovo/estimation/samplers.h);
+//   Scorer     the cost of a model from its squared residuals (MsacScorer by default: MSAC,
+//              Torr & Zisserman 2000), lower = better;
+//   Optimizer  what is done to a model beyond its minimal sample (LeastSquaresOptimizer by
+//              default): Local() whenever the loop finds a new best model (local optimisation,
+//              PoseLib's refine_model), Final() once on the best model after the loop (the final
+//              refit and the robust polish).
 // Semantics and defaults follow MATLAB's estimateGeometricTransform2D (the paper's tool):
 // MaxNumTrials 1000, Confidence 99 %, MaxDistance 1.5 px, adaptive trial count, least-squares
 // refit on the inliers (MATLAB: once; here iterated to convergence, see
@@ -9,6 +17,30 @@
 // Optional robust polish of the result (iteratively reweighted least squares with a smooth
 // Geman-McClure loss over all correspondences, in the spirit of PoseLib's robust refinement
 // after RANSAC), which makes the estimate independent of the RANSAC seed.
+//
+// The loop (RunRansac) owns only the trial count and the bookkeeping: draw a sample, solve it
+// (a false from Model::SolveMinimal is a degenerate sample), score it, and on a new best model
+// call Optimizer::Local and shrink the adaptive trial count; after the loop Optimizer::Final,
+// then the result (inlier mask of the returned model's residuals). A new scorer or optimiser is
+// a new policy type, not an edit of the loop.
+//
+// Policy contracts (static members, inlined: no virtual call, no allocation per trial):
+//   Scorer::Cost(r2, n, threshold2, &num_inliers) -> double
+//       cost of the squared residuals r2[0..n) (px^2), lower = better; +inf or NaN marks an
+//       unusable model (never better than anything, so never accepted). num_inliers =
+//       #{i : r2[i] < threshold2}: the inlier definition is the loop's (max_distance_px),
+//       whatever the scorer.
+//   Optimizer::Local(state), Optimizer::Final(state)   (state: RansacState<Model, Scorer>)
+//       replace state's best model through state.Score and state.Accept, which keep the model,
+//       its cost, its inlier count and its residuals (ws.best_residuals) consistent. Local runs
+//       inside the loop: it uses the workspace's buffers (no allocation) and should accept only
+//       a lower cost, since the later trials are compared with state.best_score. Final runs
+//       once and may accept any model: the result is a success when the final model has at
+//       least Model::kMinSample inliers, and reports that model's mask, count and cost.
+// Where the steps live: the final refit and the polish are steps of the default optimiser's
+// Final (driven by RansacOptions as before); they and the local optimisation are free
+// function templates (RefitWhileCostImproves, FinalRefit, GemanMcClurePolish) that another
+// optimiser can compose differently (ransac_test.cc has examples).
 //
 // Frames and units: prev_px / curr_px are 2xN pixel positions in the previous / current frame;
 // the model is curr_from_prev (3x3, maps prev pixels to curr pixels); residuals, thresholds and
@@ -114,8 +146,8 @@ struct RansacResult {
   int num_trials = 0;
   /// Minimal samples rejected as degenerate.
   int num_degenerate_samples = 0;
-  /// MSAC cost of curr_from_prev: sum over all correspondences of min(e^2, max_distance^2),
-  /// px^2; lower is better.
+  /// Scorer cost of curr_from_prev (RunRansac's Scorer policy; by default MSAC: sum over all
+  /// correspondences of min(e^2, max_distance^2), px^2); lower is better.
   double score = std::numeric_limits<double>::infinity();
   double time_ms = 0.0;
 };
@@ -136,48 +168,201 @@ struct RansacWorkspace {
   std::vector<double> polish_residuals;  // Residuals of the model being polished, px^2.
 };
 
-namespace internal {
+// ------------------------------------------------------------------------------------ scorers
 
-// MSAC cost and inlier count of residuals r[0..n). Four independent partial sums: one running
-// sum is a serial chain of FP adds (4-cycle latency each, and without -ffast-math the compiler
-// may not reassociate it); BM_RansacAffine/10000 went from 2.2 to 0.87 ms with this.
-inline double MsacScore(const double* r, int n, double threshold2, int* num_inliers) {
-  double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
-  int c0 = 0, c1 = 0, c2 = 0, c3 = 0;
-  int i = 0;
-  for (; i + 4 <= n; i += 4) {
-    s0 += std::min(r[i], threshold2);
-    s1 += std::min(r[i + 1], threshold2);
-    s2 += std::min(r[i + 2], threshold2);
-    s3 += std::min(r[i + 3], threshold2);
-    c0 += r[i] < threshold2;
-    c1 += r[i + 1] < threshold2;
-    c2 += r[i + 2] < threshold2;
-    c3 += r[i + 3] < threshold2;
+/// MSAC (Torr & Zisserman 2000, MATLAB's estimateGeometricTransform2D): cost = sum over all
+/// correspondences of min(e^2, threshold^2), px^2.
+struct MsacScorer {
+  // Four independent partial sums: one running sum is a serial chain of FP adds (4-cycle
+  // latency each, and without -ffast-math the compiler may not reassociate it);
+  // BM_RansacAffine/10000 went from 2.2 to 0.87 ms with this.
+  static double Cost(const double* r, int n, double threshold2, int* num_inliers) {
+    double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+    int c0 = 0, c1 = 0, c2 = 0, c3 = 0;
+    int i = 0;
+    for (; i + 4 <= n; i += 4) {
+      s0 += std::min(r[i], threshold2);
+      s1 += std::min(r[i + 1], threshold2);
+      s2 += std::min(r[i + 2], threshold2);
+      s3 += std::min(r[i + 3], threshold2);
+      c0 += r[i] < threshold2;
+      c1 += r[i + 1] < threshold2;
+      c2 += r[i + 2] < threshold2;
+      c3 += r[i + 3] < threshold2;
+    }
+    for (; i < n; ++i) {
+      s0 += std::min(r[i], threshold2);
+      c0 += r[i] < threshold2;
+    }
+    *num_inliers = c0 + c1 + c2 + c3;
+    return (s0 + s1) + (s2 + s3);
   }
-  for (; i < n; ++i) {
-    s0 += std::min(r[i], threshold2);
-    c0 += r[i] < threshold2;
+};
+
+// ---------------------------------------------------------------------------- the loop's state
+
+/// The best model so far and what the policies share during one RunRansac call: the input, the
+/// options, the workspace. The best model's residuals are always ws.best_residuals.
+template <class ModelT, class ScorerT>
+struct RansacState {
+  using Model = ModelT;
+  using Scorer = ScorerT;
+
+  RansacState(const RansacOptions& options, const Eigen::Matrix2Xd& prev_px,
+              const Eigen::Matrix2Xd& curr_px, RansacWorkspace& ws)
+      : options(options),
+        prev_px(prev_px),
+        curr_px(curr_px),
+        ws(ws),
+        n(static_cast<int>(prev_px.cols())),
+        threshold2(options.max_distance_px * options.max_distance_px) {}
+
+  /// Residuals of `model` into residuals[0..n) (px^2) and their cost; *num_inliers as Scorer.
+  double Score(const Eigen::Matrix3d& model, double* residuals, int* num_inliers) const {
+    Model::SquaredResiduals(model, prev_px, curr_px, residuals);
+    return Scorer::Cost(residuals, n, threshold2, num_inliers);
   }
-  *num_inliers = c0 + c1 + c2 + c3;
-  return (s0 + s1) + (s2 + s3);
+
+  /// Makes `model` the best; `residuals` (a workspace buffer holding its residuals, e.g.
+  /// ws.residuals) is swapped with ws.best_residuals.
+  void Accept(const Eigen::Matrix3d& model, double cost, int num_inliers,
+              std::vector<double>& residuals) {
+    best_model = model;
+    best_score = cost;
+    best_inliers = num_inliers;
+    ws.best_residuals.swap(residuals);
+  }
+
+  /// Indices of the best model's inliers into ws.inliers; returns their number.
+  int CollectBestInliers() {
+    const double* r = ws.best_residuals.data();
+    std::vector<int>& out = ws.inliers;
+    out.clear();
+    for (int i = 0; i < n; ++i) {
+      if (r[i] < threshold2) out.push_back(i);
+    }
+    return static_cast<int>(out.size());
+  }
+
+  const RansacOptions& options;
+  const Eigen::Matrix2Xd& prev_px;
+  const Eigen::Matrix2Xd& curr_px;
+  RansacWorkspace& ws;
+  const int n;              // Number of correspondences.
+  const double threshold2;  // max_distance_px^2.
+  Eigen::Matrix3d best_model = Eigen::Matrix3d::Identity();
+  double best_score = std::numeric_limits<double>::infinity();  // Scorer cost; inf: no model.
+  int best_inliers = 0;
+};
+
+// ------------------------------------------------------------------- optimisation building blocks
+
+/// Least-squares refit of the best model on its inliers, then on the refit's inliers, ... at
+/// most max_iterations times, each kept only while the cost decreases (local optimisation).
+template <class State>
+void RefitWhileCostImproves(State& s, int max_iterations) {
+  Eigen::Matrix3d model;
+  for (int it = 0; it < max_iterations; ++it) {
+    const int k = s.CollectBestInliers();
+    if (!State::Model::FitLeastSquares(s.prev_px, s.curr_px, s.ws.inliers.data(), k, &model)) {
+      return;
+    }
+    int inl = 0;
+    const double score = s.Score(model, s.ws.residuals.data(), &inl);
+    if (!(score < s.best_score)) return;
+    s.Accept(model, score, inl, s.ws.residuals);
+  }
 }
 
-inline int CollectInliers(const double* r, int n, double threshold2, std::vector<int>* out) {
-  out->clear();
-  for (int i = 0; i < n; ++i) {
-    if (r[i] < threshold2) out->push_back(i);
+/// The refits of RansacOptions::final_refit_iterations: the first least-squares fit on the best
+/// model's inliers is kept whatever its cost (MATLAB's single refit), each further one while the
+/// cost decreases; none is kept with fewer than Model::kMinSample inliers.
+template <class State>
+void FinalRefit(State& s, int iterations) {
+  Eigen::Matrix3d model;
+  for (int it = 0; it < iterations; ++it) {
+    // The mask is recomputed after every accepted refit, so it always describes the returned
+    // model.
+    const int k = s.CollectBestInliers();
+    if (!State::Model::FitLeastSquares(s.prev_px, s.curr_px, s.ws.inliers.data(), k, &model)) {
+      return;
+    }
+    int inl = 0;
+    const double score = s.Score(model, s.ws.residuals.data(), &inl);
+    if (inl < State::Model::kMinSample || (it > 0 && !(score < s.best_score))) return;
+    s.Accept(model, score, inl, s.ws.residuals);
   }
-  return static_cast<int>(out->size());
 }
 
-}  // namespace internal
+/// The robust polish of RansacOptions::polish_iterations / polish_scale_px: iteratively
+/// reweighted least squares over every correspondence with Geman-McClure weights, from the
+/// best model; the polished model replaces it when it is finite and has at least
+/// Model::kMinSample inliers (whatever its cost).
+template <class State>
+void GemanMcClurePolish(State& s, int iterations, double scale_px) {
+  using Model = typename State::Model;
+  const int n = s.n;
+  RansacWorkspace& ws = s.ws;
+  ws.all.resize(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) ws.all[static_cast<std::size_t>(i)] = i;
+  ws.weights.resize(static_cast<std::size_t>(n));
+  ws.polish_residuals.assign(ws.best_residuals.begin(), ws.best_residuals.end());
+  const Eigen::Vector2d lo = s.prev_px.rowwise().minCoeff(), hi = s.prev_px.rowwise().maxCoeff();
+  const Eigen::Vector2d box[4] = {lo, {hi.x(), lo.y()}, {lo.x(), hi.y()}, hi};
+  const double inv_s2 = 1.0 / (scale_px * scale_px);
+  Eigen::Matrix3d model, current = s.best_model;
+  for (int it = 0; it < iterations; ++it) {
+    for (int i = 0; i < n; ++i) {
+      const double u = 1.0 + ws.polish_residuals[static_cast<std::size_t>(i)] * inv_s2;
+      ws.weights[static_cast<std::size_t>(i)] = 1.0 / (u * u);
+    }
+    if (!Model::FitLeastSquares(s.prev_px, s.curr_px, ws.all.data(), n, &model,
+                                ws.weights.data())) {
+      break;
+    }
+    double moved2 = 0.0;
+    for (const Eigen::Vector2d& c : box) {
+      moved2 =
+          std::max(moved2, (TransformPoint(model, c) - TransformPoint(current, c)).squaredNorm());
+    }
+    current = model;
+    Model::SquaredResiduals(current, s.prev_px, s.curr_px, ws.polish_residuals.data());
+    if (!(moved2 >= 1e-8)) break;  // < 1e-4 px (or NaN: the residuals say the rest).
+  }
+  int inl = 0;
+  const double score =
+      State::Scorer::Cost(ws.polish_residuals.data(), n, s.threshold2, &inl);
+  if (inl >= Model::kMinSample && current.allFinite()) {
+    s.Accept(current, score, inl, ws.polish_residuals);
+  }
+}
 
-/// The RANSAC/MSAC loop. `quality` (may be null): one value per correspondence, lower = better
+// --------------------------------------------------------------------------------- optimisers
+
+/// The default optimiser, driven by RansacOptions: Local = the local optimisation
+/// (local_optimization, lo_max_iterations); Final = the final refits (final_refit_iterations)
+/// then the robust polish (polish_iterations, polish_scale_px).
+struct LeastSquaresOptimizer {
+  template <class State>
+  static void Local(State& s) {
+    if (s.options.local_optimization) RefitWhileCostImproves(s, s.options.lo_max_iterations);
+  }
+  template <class State>
+  static void Final(State& s) {
+    FinalRefit(s, s.options.final_refit_iterations);
+    if (s.options.polish_iterations > 0 && s.best_inliers >= State::Model::kMinSample) {
+      GemanMcClurePolish(s, s.options.polish_iterations, s.options.polish_scale_px);
+    }
+  }
+};
+
+/// The RANSAC loop. `quality` (may be null): one value per correspondence, lower = better
 /// (used by quality-aware samplers such as PROSAC). Throws InvalidArgument if prev_px and
 /// curr_px differ in size or hold a non-finite value. Fewer correspondences than the minimal
-/// sample is not an error: the result has success = false.
-template <class Model, class Sampler>
+/// sample is not an error: the result has success = false. `options` are not validated here
+/// (Ransac and EstimateTransform do it).
+template <class Model, class Sampler, class Scorer = MsacScorer,
+          class Optimizer = LeastSquaresOptimizer>
 RansacResult RunRansac(const RansacOptions& options, const Eigen::Matrix2Xd& prev_px,
                        const Eigen::Matrix2Xd& curr_px, const float* quality, Sampler& sampler,
                        RansacWorkspace& ws) {
@@ -197,34 +382,15 @@ RansacResult RunRansac(const RansacOptions& options, const Eigen::Matrix2Xd& pre
     result.time_ms = watch.elapsed_ms();
     return result;
   }
-  const double t2 = options.max_distance_px * options.max_distance_px;
   ws.residuals.resize(static_cast<std::size_t>(n));
   ws.best_residuals.resize(static_cast<std::size_t>(n));
   ws.inliers.reserve(static_cast<std::size_t>(n));
   sampler.Reset(options.seed, n, m, quality);
+  RansacState<Model, Scorer> state(options, prev_px, curr_px, ws);
 
-  Eigen::Matrix3d model, best_model = Eigen::Matrix3d::Identity();
-  double best_score = std::numeric_limits<double>::infinity();
-  int best_inliers = 0;
+  Eigen::Matrix3d model;
   int trial_limit = options.max_num_trials;
   int sample[m];
-
-  // Least-squares refits on the current best inliers while the MSAC score improves.
-  auto local_optimise = [&](int max_iterations) {
-    for (int it = 0; it < max_iterations; ++it) {
-      const int k = internal::CollectInliers(ws.best_residuals.data(), n, t2, &ws.inliers);
-      if (!Model::FitLeastSquares(prev_px, curr_px, ws.inliers.data(), k, &model)) return;
-      Model::SquaredResiduals(model, prev_px, curr_px, ws.residuals.data());
-      int inl = 0;
-      const double score = internal::MsacScore(ws.residuals.data(), n, t2, &inl);
-      if (!(score < best_score)) return;
-      best_score = score;
-      best_inliers = inl;
-      best_model = model;
-      ws.best_residuals.swap(ws.residuals);
-    }
-  };
-
   while (result.num_trials < trial_limit) {
     sampler.Draw(sample);
     if (!Model::SolveMinimal(prev_px, curr_px, sample, &model)) {
@@ -232,93 +398,42 @@ RansacResult RunRansac(const RansacOptions& options, const Eigen::Matrix2Xd& pre
       continue;
     }
     ++result.num_trials;
-    Model::SquaredResiduals(model, prev_px, curr_px, ws.residuals.data());
     int inl = 0;
-    const double score = internal::MsacScore(ws.residuals.data(), n, t2, &inl);
-    if (score < best_score) {
-      best_score = score;
-      best_inliers = inl;
-      best_model = model;
-      ws.best_residuals.swap(ws.residuals);
-      if (options.local_optimization) local_optimise(options.lo_max_iterations);
-      const int needed =
-          RansacTrialCount(options.confidence_percent, static_cast<double>(best_inliers) / n, m);
+    const double score = state.Score(model, ws.residuals.data(), &inl);
+    if (score < state.best_score) {
+      state.Accept(model, score, inl, ws.residuals);
+      Optimizer::Local(state);
+      const int needed = RansacTrialCount(options.confidence_percent,
+                                          static_cast<double>(state.best_inliers) / n, m);
       trial_limit = std::min(trial_limit, needed);
     }
   }
-
-  if (best_score == std::numeric_limits<double>::infinity()) {
+  if (state.best_score == std::numeric_limits<double>::infinity()) {  // No model found.
     result.time_ms = watch.elapsed_ms();
     return result;
   }
-  for (int it = 0; it < options.final_refit_iterations; ++it) {
-    // The mask is recomputed after every accepted refit, so it always describes the returned
-    // model.
-    const int k = internal::CollectInliers(ws.best_residuals.data(), n, t2, &ws.inliers);
-    if (!Model::FitLeastSquares(prev_px, curr_px, ws.inliers.data(), k, &model)) break;
-    Model::SquaredResiduals(model, prev_px, curr_px, ws.residuals.data());
-    int inl = 0;
-    const double score = internal::MsacScore(ws.residuals.data(), n, t2, &inl);
-    if (inl < m || (it > 0 && !(score < best_score))) break;
-    best_model = model;
-    best_score = score;
-    best_inliers = inl;
-    ws.best_residuals.swap(ws.residuals);
-  }
-  if (options.polish_iterations > 0 && best_inliers >= m) {
-    ws.all.resize(static_cast<std::size_t>(n));
-    for (int i = 0; i < n; ++i) ws.all[static_cast<std::size_t>(i)] = i;
-    ws.weights.resize(static_cast<std::size_t>(n));
-    ws.polish_residuals.assign(ws.best_residuals.begin(), ws.best_residuals.end());
-    const Eigen::Vector2d lo = prev_px.rowwise().minCoeff(), hi = prev_px.rowwise().maxCoeff();
-    const Eigen::Vector2d box[4] = {lo, {hi.x(), lo.y()}, {lo.x(), hi.y()}, hi};
-    const double inv_s2 = 1.0 / (options.polish_scale_px * options.polish_scale_px);
-    Eigen::Matrix3d current = best_model;
-    for (int it = 0; it < options.polish_iterations; ++it) {
-      for (int i = 0; i < n; ++i) {
-        const double u = 1.0 + ws.polish_residuals[static_cast<std::size_t>(i)] * inv_s2;
-        ws.weights[static_cast<std::size_t>(i)] = 1.0 / (u * u);
-      }
-      if (!Model::FitLeastSquares(prev_px, curr_px, ws.all.data(), n, &model, ws.weights.data())) {
-        break;
-      }
-      double moved2 = 0.0;
-      for (const Eigen::Vector2d& c : box) {
-        moved2 =
-            std::max(moved2, (TransformPoint(model, c) - TransformPoint(current, c)).squaredNorm());
-      }
-      current = model;
-      Model::SquaredResiduals(current, prev_px, curr_px, ws.polish_residuals.data());
-      if (!(moved2 >= 1e-8)) break;  // < 1e-4 px (or NaN: the residuals say the rest).
+  Optimizer::Final(state);
+
+  result.success = state.best_inliers >= m;
+  if (result.success) {
+    result.curr_from_prev = state.best_model;
+    result.score = state.best_score;
+    result.num_inliers = state.best_inliers;
+    const double t2 = state.threshold2;
+    for (int i = 0; i < n; ++i) {
+      result.inlier_mask[static_cast<std::size_t>(i)] = ws.best_residuals[i] < t2 ? 1 : 0;
     }
-    int inl = 0;
-    const double score = internal::MsacScore(ws.polish_residuals.data(), n, t2, &inl);
-    if (inl >= m && current.allFinite()) {
-      best_model = current;
-      best_score = score;
-      best_inliers = inl;
-      ws.best_residuals.swap(ws.polish_residuals);
-    }
-  }
-  result.curr_from_prev = best_model;
-  result.score = best_score;
-  result.num_inliers = best_inliers;
-  for (int i = 0; i < n; ++i) {
-    result.inlier_mask[static_cast<std::size_t>(i)] = ws.best_residuals[i] < t2 ? 1 : 0;
-  }
-  result.success = best_inliers >= m;
-  if (!result.success) {
-    result.curr_from_prev.setIdentity();
-    std::fill(result.inlier_mask.begin(), result.inlier_mask.end(), 0);
-    result.num_inliers = 0;
+  } else {
+    result.score = state.best_score;
   }
   result.time_ms = watch.elapsed_ms();
   return result;
 }
 
-/// RANSAC estimator for one model and sampler policy; keeps its buffers between calls.
+/// RANSAC estimator for one set of policies (see RunRansac); keeps its buffers between calls.
 /// Not thread-safe: one instance per thread.
-template <class Model, class Sampler = UniformSampler>
+template <class Model, class Sampler = UniformSampler, class Scorer = MsacScorer,
+          class Optimizer = LeastSquaresOptimizer>
 class Ransac {
  public:
   /// Throws InvalidArgument if `options` are invalid.
@@ -330,7 +445,8 @@ class Ransac {
   /// calls on the same input give the same result.
   RansacResult Estimate(const Eigen::Matrix2Xd& prev_px, const Eigen::Matrix2Xd& curr_px,
                         const float* quality = nullptr) {
-    return RunRansac<Model, Sampler>(options_, prev_px, curr_px, quality, sampler_, workspace_);
+    return RunRansac<Model, Sampler, Scorer, Optimizer>(options_, prev_px, curr_px, quality,
+                                                        sampler_, workspace_);
   }
 
  private:
@@ -339,8 +455,9 @@ class Ransac {
   RansacWorkspace workspace_;
 };
 
-/// Run-time dispatch to Ransac<Model, Sampler> (once per call; the loop itself is the
-/// template). Validates `options`. `workspace` may be reused across calls and models.
+/// Run-time dispatch to RunRansac<Model, Sampler> with the default scorer and optimiser (once per
+/// call, through VisitMotionModel and VisitSampler; the loop itself is the template). Validates
+/// `options`. `workspace` may be reused across calls and models.
 RansacResult EstimateTransform(MotionModel model, SamplerKind sampler, const RansacOptions& options,
                                const Eigen::Matrix2Xd& prev_px, const Eigen::Matrix2Xd& curr_px,
                                const float* quality, RansacWorkspace& workspace);

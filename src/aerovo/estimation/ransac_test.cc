@@ -1,8 +1,10 @@
 #include "aerovo/estimation/ransac.h"
 
 #include <cmath>
+#include <algorithm>
 #include <cstdint>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -51,7 +53,7 @@ Eigen::Matrix3d TrueTransform<HomographyModel>() {
 
 template <class Model>
 class RansacModelTest : public ::testing::Test {};
-using AllModels = ::testing::Types<TranslationModel, SimilarityModel, AffineModel, HomographyModel>;
+using AllModels = ForAllMotionModels<::testing::Types>;
 TYPED_TEST_SUITE(RansacModelTest, AllModels);
 
 // Trials needed by the closed-form rule: a 4-point homography at 20 % inliers needs 2876 samples
@@ -418,6 +420,263 @@ TEST(RansacLoop, RuntimeDispatchMatchesTemplate) {
   EXPECT_EQ(a.inlier_mask, b.inlier_mask);
   EXPECT_EQ(ParseMotionModel("similarity"), MotionModel::kSimilarity);
   EXPECT_THROW(ParseMotionModel("projective"), InvalidArgument);
+}
+
+// ------------------------------------------------------------------- policies plugged in
+
+// Classic RANSAC's support (Fischler & Bolles 1981): the cost is the number of outliers.
+struct InlierCountScorer {
+  static double Cost(const double* r, int n, double threshold2, int* num_inliers) {
+    int c = 0;
+    for (int i = 0; i < n; ++i) c += r[i] < threshold2;
+    *num_inliers = c;
+    return static_cast<double>(n - c);
+  }
+};
+
+// Noise-free data: the inlier-count scorer finds the exact model and mask, and the result's score
+// is its cost (the number of outliers), not MSAC's.
+TYPED_TEST(RansacModelTest, CustomScorerIsTheLoopsCost) {
+  using Model = TypeParam;
+  const Eigen::Matrix3d truth = TrueTransform<Model>();
+  const auto data = MakeCorrespondences(truth, 300, 200, 0.0, 13);
+  Ransac<Model, UniformSampler, InlierCountScorer> ransac(OptionsFor<Model>(0.4));
+  const RansacResult r = ransac.Estimate(data.prev, data.curr);
+  ASSERT_TRUE(r.success) << Model::kName;
+  EXPECT_EQ(r.inlier_mask, data.is_inlier) << Model::kName;
+  EXPECT_EQ(r.num_inliers, 300);
+  EXPECT_EQ(r.score, 200.0);
+  EXPECT_LT(MaxCornerDisplacementPx(r.curr_from_prev, truth, kFrameWidth, kFrameHeight), 1e-6);
+}
+
+// Two motions in one set: 600 correspondences of A with 0.8 px noise per coordinate (~83 %
+// within 1.5 px, MSAC cost ~1.06 px^2 each) and 400 exact ones of B, 25 px away. MSAC prefers B
+// (cost 600 * 2.25 = 1350 against ~640 + 400 * 2.25 = 1540); counting inliers prefers A (~500
+// against 400). The scorer policy alone decides which one the loop returns.
+TEST(RansacPolicies, TheScorerDecidesBetweenTwoMotions) {
+  const Eigen::Matrix3d a = TrueTransform<AffineModel>();
+  Eigen::Matrix3d b = a;
+  b(0, 2) += 20.0;
+  b(1, 2) -= 15.0;
+  const auto da = MakeCorrespondences(a, 600, 0, 0.8, 41);
+  const auto db = MakeCorrespondences(b, 400, 0, 0.0, 42);
+  Eigen::Matrix2Xd prev(2, 1000), curr(2, 1000);
+  prev << da.prev, db.prev;
+  curr << da.curr, db.curr;
+  RansacOptions o;
+  o.confidence_percent = 99.9999;  // So that both motions are sampled whichever is found first.
+  const RansacResult msac = Ransac<AffineModel>(o).Estimate(prev, curr);
+  const RansacResult count =
+      Ransac<AffineModel, UniformSampler, InlierCountScorer>(o).Estimate(prev, curr);
+  ASSERT_TRUE(msac.success && count.success);
+  EXPECT_LT(MaxCornerDisplacementPx(msac.curr_from_prev, b, kFrameWidth, kFrameHeight), 1e-6);
+  EXPECT_EQ(msac.num_inliers, 400);
+  EXPECT_LT(MaxCornerDisplacementPx(count.curr_from_prev, a, kFrameWidth, kFrameHeight), 0.5);
+  EXPECT_GT(count.num_inliers, 450);
+  for (int i = 600; i < 1000; ++i) EXPECT_EQ(count.inlier_mask[i], 0) << i;
+}
+
+// Wraps the default optimiser and counts the loop's calls of each hook.
+struct CountingOptimizer {
+  static inline int local_calls = 0;
+  static inline int final_calls = 0;
+  template <class State>
+  static void Local(State& s) {
+    ++local_calls;
+    LeastSquaresOptimizer::Local(s);
+  }
+  template <class State>
+  static void Final(State& s) {
+    ++final_calls;
+    LeastSquaresOptimizer::Final(s);
+  }
+};
+
+// MATLAB's estimator: no local optimisation, one refit, built from the building blocks.
+struct SingleRefitOptimizer {
+  template <class State>
+  static void Local(State&) {}
+  template <class State>
+  static void Final(State& s) {
+    FinalRefit(s, 1);
+  }
+};
+
+// Local optimisation on every new best model whatever the options say.
+struct AlwaysLocalOptimizer {
+  template <class State>
+  static void Local(State& s) {
+    RefitWhileCostImproves(s, 4);
+  }
+  template <class State>
+  static void Final(State& s) {
+    LeastSquaresOptimizer::Final(s);
+  }
+};
+
+// Replaces the result by a known model (the ground truth), through the state's Score / Accept.
+struct OracleOptimizer {
+  static inline Eigen::Matrix3d oracle = Eigen::Matrix3d::Identity();
+  template <class State>
+  static void Local(State&) {}
+  template <class State>
+  static void Final(State& s) {
+    int inl = 0;
+    const double cost = s.Score(oracle, s.ws.residuals.data(), &inl);
+    s.Accept(oracle, cost, inl, s.ws.residuals);
+  }
+};
+
+TYPED_TEST(RansacModelTest, OptimizerHooksAreCalledAsDocumented) {
+  using Model = TypeParam;
+  const auto data = MakeCorrespondences(TrueTransform<Model>(), 250, 250, 0.5, 17);
+  RansacOptions o;
+  o.local_optimization = true;
+  o.polish_iterations = 10;
+  CountingOptimizer::local_calls = CountingOptimizer::final_calls = 0;
+  const RansacResult counted =
+      Ransac<Model, UniformSampler, MsacScorer, CountingOptimizer>(o).Estimate(data.prev,
+                                                                               data.curr);
+  const RansacResult plain = Ransac<Model>(o).Estimate(data.prev, data.curr);
+  ASSERT_TRUE(plain.success);
+  EXPECT_EQ(counted.curr_from_prev, plain.curr_from_prev);
+  EXPECT_EQ(counted.inlier_mask, plain.inlier_mask);
+  EXPECT_EQ(counted.num_trials, plain.num_trials);
+  EXPECT_EQ(CountingOptimizer::final_calls, 1);
+  EXPECT_GE(CountingOptimizer::local_calls, 1);
+  EXPECT_LE(CountingOptimizer::local_calls, plain.num_trials);
+}
+
+TEST(RansacPolicies, NoModelNoFinalStep) {
+  const int n = 100;
+  Eigen::Matrix2Xd prev(2, n), curr(2, n);
+  for (int i = 0; i < n; ++i) {
+    prev.col(i) = Eigen::Vector2d(3.7 * i, 0.4 * 3.7 * i + 17);
+    curr.col(i) = TransformPoint(TrueTransform<AffineModel>(), prev.col(i));
+  }
+  CountingOptimizer::local_calls = CountingOptimizer::final_calls = 0;
+  const RansacResult r =
+      Ransac<AffineModel, UniformSampler, MsacScorer, CountingOptimizer>().Estimate(prev, curr);
+  EXPECT_FALSE(r.success);
+  EXPECT_EQ(CountingOptimizer::local_calls, 0);
+  EXPECT_EQ(CountingOptimizer::final_calls, 0);
+}
+
+// Optimisers composed from the building blocks give, bit for bit, what the default optimiser
+// gives with the equivalent options.
+TYPED_TEST(RansacModelTest, ComposedOptimizersMatchTheEquivalentOptions) {
+  using Model = TypeParam;
+  const auto data = MakeCorrespondences(TrueTransform<Model>(), 300, 200, 0.7, 19);
+  RansacOptions one_refit;
+  one_refit.final_refit_iterations = 1;
+  const RansacResult a = Ransac<Model>(one_refit).Estimate(data.prev, data.curr);
+  const RansacResult b =
+      Ransac<Model, UniformSampler, MsacScorer, SingleRefitOptimizer>().Estimate(data.prev,
+                                                                                 data.curr);
+  ASSERT_TRUE(a.success);
+  EXPECT_EQ(a.curr_from_prev, b.curr_from_prev);
+  EXPECT_EQ(a.inlier_mask, b.inlier_mask);
+  EXPECT_EQ(a.score, b.score);
+
+  RansacOptions lo;
+  lo.local_optimization = true;
+  const RansacResult c = Ransac<Model, ProsacSampler>(lo).Estimate(data.prev, data.curr,
+                                                                   data.quality.data());
+  const RansacResult d = Ransac<Model, ProsacSampler, MsacScorer, AlwaysLocalOptimizer>().Estimate(
+      data.prev, data.curr, data.quality.data());
+  ASSERT_TRUE(c.success);
+  EXPECT_EQ(c.curr_from_prev, d.curr_from_prev);
+  EXPECT_EQ(c.inlier_mask, d.inlier_mask);
+  EXPECT_EQ(c.num_trials, d.num_trials);
+  // And the options do matter here (else the equalities above would prove nothing).
+  const RansacResult e = Ransac<Model>().Estimate(data.prev, data.curr);
+  EXPECT_NE(a.curr_from_prev, e.curr_from_prev);
+}
+
+// Whatever model an optimiser accepts, the result's mask, count and score are that model's.
+TYPED_TEST(RansacModelTest, AnAcceptedModelIsReturnedWithItsOwnMaskAndScore) {
+  using Model = TypeParam;
+  const Eigen::Matrix3d truth = TrueTransform<Model>();
+  const auto data = MakeCorrespondences(truth, 300, 200, 0.6, 23);
+  OracleOptimizer::oracle = truth;
+  const RansacResult r =
+      Ransac<Model, UniformSampler, MsacScorer, OracleOptimizer>().Estimate(data.prev, data.curr);
+  ASSERT_TRUE(r.success);
+  EXPECT_EQ(r.curr_from_prev, truth);
+  const int n = static_cast<int>(data.prev.cols());
+  std::vector<double> r2(n);
+  Model::SquaredResiduals(truth, data.prev, data.curr, r2.data());
+  int inliers = 0;
+  double msac = 0.0;
+  for (int i = 0; i < n; ++i) {
+    EXPECT_EQ(r.inlier_mask[i], r2[i] < 2.25 ? 1 : 0) << i;
+    inliers += r2[i] < 2.25;
+    msac += std::min(r2[i], 2.25);
+  }
+  EXPECT_EQ(r.num_inliers, inliers);
+  EXPECT_NEAR(r.score, msac, 1e-9 * msac);
+  for (int i = 0; i < n; ++i) {
+    if (!data.is_inlier[i]) {
+      EXPECT_EQ(r.inlier_mask[i], 0);
+    }
+  }
+}
+
+// The loop does not call IsDegenerate: SolveMinimal starts with it, so every sample it flags is
+// one SolveMinimal refuses (and the loop counts as degenerate). Points on a coarse grid with
+// repeats make such samples frequent.
+TYPED_TEST(RansacModelTest, DegenerateSamplesAreThoseSolveMinimalRefuses) {
+  using Model = TypeParam;
+  const Eigen::Matrix3d truth = TrueTransform<Model>();
+  const int n = 60;
+  Eigen::Matrix2Xd prev(2, n), curr(2, n);
+  for (int i = 0; i < n; ++i) {
+    prev.col(i) = Eigen::Vector2d(100.0 * (i % 4), 80.0 * ((i / 4) % 3));
+    curr.col(i) = TransformPoint(truth, prev.col(i));
+    if (i % 7 == 0) curr.col(i) += Eigen::Vector2d(3.0, -2.0);
+  }
+  UniformSampler sampler;
+  sampler.Reset(5, n, Model::kMinSample, nullptr);
+  int flagged = 0, refused = 0;
+  for (int t = 0; t < 20000; ++t) {
+    int idx[Model::kMinSample];
+    sampler.Draw(idx);
+    Eigen::Matrix3d m;
+    const bool solved = Model::SolveMinimal(prev, curr, idx, &m);
+    refused += !solved;
+    if (Model::IsDegenerate(prev, curr, idx)) {
+      ++flagged;
+      EXPECT_FALSE(solved) << Model::kName << " sample " << t;
+    }
+  }
+  EXPECT_LE(flagged, refused);
+  if (Model::kMinSample >= 2) {
+    EXPECT_GT(flagged, 1000) << Model::kName;
+  }
+}
+
+// The run-time dispatch reaches RunRansac with the policies of every (model, sampler) entry.
+TYPED_TEST(RansacModelTest, RuntimeDispatchMatchesTheTemplateForEverySampler) {
+  using Model = TypeParam;
+  const auto data = MakeCorrespondences(TrueTransform<Model>(), 300, 200, 0.5, 29);
+  RansacOptions o;
+  o.seed = 3;
+  MotionModel value = MotionModel::kAffine;
+  for (MotionModel m : kAllMotionModels) {
+    if (std::string(ToString(m)) == Model::kName) value = m;
+  }
+  for (SamplerKind kind : kAllSamplerKinds) {
+    RansacWorkspace ws_dispatch, ws_template;
+    const RansacResult a = EstimateTransform(value, kind, o, data.prev, data.curr,
+                                             data.quality.data(), ws_dispatch);
+    const RansacResult b = VisitSampler(kind, [&](auto& sampler) {
+      return RunRansac<Model>(o, data.prev, data.curr, data.quality.data(), sampler, ws_template);
+    });
+    ASSERT_TRUE(a.success) << Model::kName << " " << ToString(kind);
+    EXPECT_EQ(a.curr_from_prev, b.curr_from_prev) << Model::kName << " " << ToString(kind);
+    EXPECT_EQ(a.inlier_mask, b.inlier_mask);
+    EXPECT_EQ(a.num_trials, b.num_trials);
+  }
 }
 
 }  // namespace

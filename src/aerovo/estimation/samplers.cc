@@ -3,8 +3,33 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <string>
+
+#include "aerovo/core/error.h"
 
 namespace aerovo {
+
+const char* ToString(SamplerKind sampler) {
+  switch (sampler) {
+#define AEROVO_SAMPLER_NAME(e, T) \
+  case SamplerKind::e:            \
+    return T::kName;
+    AEROVO_SAMPLERS(AEROVO_SAMPLER_NAME)
+#undef AEROVO_SAMPLER_NAME
+  }
+  return "unknown";
+}
+
+SamplerKind ParseSamplerKind(const char* name) {
+  const std::string s = name == nullptr ? "" : name;
+  std::string expected;
+  for (std::size_t k = 0; k < kNumSamplerKinds; ++k) {
+    if (s == ToString(kAllSamplerKinds[k])) return kAllSamplerKinds[k];
+    expected += k == 0 ? "" : (k + 1 == kNumSamplerKinds ? " or " : ", ");
+    expected += ToString(kAllSamplerKinds[k]);
+  }
+  throw InvalidArgument("unknown sampler '" + s + "' (expected " + expected + ")");
+}
 
 std::uint32_t UniformBelow(std::mt19937_64& rng, std::uint32_t n) {
   // Lemire, "Fast random integer generation in an interval", ACM TOMACS 2019. The standard
