@@ -134,7 +134,7 @@ void Register(CLI::App& app) {
   cmd->add_option("--matcher", args->matcher,
                   "Matching without a motion prior: exhaustive (exact) | kdtree (approximate "
                   "k-d forest)")
-      ->check(CLI::IsMember({"exhaustive", "kdtree"}))
+      ->check(CLI::IsMember(options::EnumNames<MatchAlgorithm>()))
       ->capture_default_str();
   cmd->add_option("--threshold", args->hessian_threshold, "SURF Hessian threshold (MATLAB 1000)")
       ->capture_default_str();

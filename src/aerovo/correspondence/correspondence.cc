@@ -20,10 +20,12 @@ void Validate(const CorrespondenceOptions& o) {
                           "), got " + std::to_string(o.min_inliers));
   }
   // Cross-field rules (each names both fields).
+  const ClusteredRansacOptions& c = o.clustered;
   if (c.refine && c.refine_fallback && c.refine_final_radius_px <= 0.f) {
     throw InvalidArgument(
-        "ClusteredRansacOptions.refine_fallback refits within refine_final_radius_px, which is 0 "
-        "(no final pass): set refine_fallback = false or refine_final_radius_px > 0");
+        "clustered.refine_fallback refits within clustered.refine_final_radius_px, which is 0 "
+        "(no final pass): set clustered.refine_fallback = false or "
+        "clustered.refine_final_radius_px > 0");
   }
 }
 

@@ -242,14 +242,15 @@ struct options::EnumTraits<CellOrder> {
   }
 };
 template <>
-struct options::EnumTraits<SamplerKind> {
-  static constexpr SamplerKind kValues[] = {SamplerKind::kUniform, SamplerKind::kProsac};
-  static const char* Name(SamplerKind s) { return s == SamplerKind::kUniform ? "uniform" : "prosac"; }
+struct options::EnumTraits<SamplerKind> {  // the list of estimation/samplers.h
+  static constexpr const auto& kValues = kAllSamplerKinds;
+  static const char* Name(SamplerKind s) { return ToString(s); }
 };
 template <>
-struct options::EnumTraits<MotionModel>
-    : options::EnumList<MotionModel, ToString, MotionModel::kAffine, MotionModel::kSimilarity,
-                        MotionModel::kHomography, MotionModel::kTranslation> {};
+struct options::EnumTraits<MotionModel> {  // the list of estimation/models.h
+  static constexpr const auto& kValues = kAllMotionModels;
+  static const char* Name(MotionModel m) { return ToString(m); }
+};
 
 /// Result of the correspondence stage for one frame pair, returned by value.
 struct CorrespondenceResult {
