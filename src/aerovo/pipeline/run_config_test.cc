@@ -60,7 +60,7 @@ TEST(RunConfigSchema, EveryOptionByJsonAndYamlWithTheSameEffect) {
           << s.alias;
     }
   }
-  EXPECT_EQ(aliases, 10);  // mode model scale guided matcher min_inliers surf_threshold ...
+  EXPECT_EQ(aliases, 11);  // mode model scale guided matcher refine min_inliers surf_threshold ...
 }
 
 TEST(RunConfigSchema, DefaultsAreTheStagesDefaults) {
