@@ -88,8 +88,7 @@ struct OdometryOptions {
   /// matched (unguided, rotation-invariant SURF) against stored keyframes, newest first; a match
   /// re-anchors the pose on that keyframe's. This is what recovers from a jump with no overlap
   /// with the previous frame when the flight comes back over earlier ground, including a change
-  /// of heading that no motion model predicts (tampa-phantom3 DJI_0134 -> DJI_0135: a 79 m jump
-  /// with a 90 deg turn, back over the start of the flight). Default true.
+  /// of heading that no motion model predicts. Default true.
   bool relocalize = true;
   /// A keyframe is stored every keyframe_interval measured frames. Default 5.
   int keyframe_interval = 5;
@@ -97,16 +96,14 @@ struct OdometryOptions {
   /// cost of a failed frame (one unguided match per keyframe). Default 64.
   int max_keyframes = 64;
   /// Inliers needed to accept a relocalisation. Default 12 (the paper's minimum cell size):
-  /// measured on tampa-phantom3, DJI_0135 matches the keyframes of the start of the flight
-  /// (seen 90 deg rotated, 6 minutes earlier) with 11-16 inliers and no other frame with more
-  /// than 6; together with the plausibility checks (scale, anisotropy, shift) a chance affine
-  /// fit with 12 inliers at 1.5 px is very unlikely.
+  /// with the plausibility checks (scale, anisotropy, shift) a chance affine fit with 12 inliers
+  /// at 1.5 px is very unlikely, and true relocalisations reach it (BENCHMARKS.md, "Odometry on
+  /// real flights").
   int relocalize_min_inliers = 12;
   /// Sampler of the RANSAC of keyframe attempts (which always match all points, unguided).
-  /// Default kProsac (our choice): a relocalisation has few true matches among many (DJI_0135:
-  /// 13-20), and MATLAB's uniform sampling with 1000 trials finds them by luck: over RANSAC seeds
-  /// 1-6 the tampa flight was relocalised for 5 and bridged for seed 2 (ATE 47 m instead of
-  /// 8-12 m). PROSAC draws from the lowest-SSD matches first and relocalised it for every seed.
+  /// Default kProsac (our choice): a relocalisation has few true matches among many, which
+  /// uniform sampling with 1000 trials finds by luck; PROSAC draws from the lowest-SSD matches
+  /// first and relocalises for every seed (BENCHMARKS.md, "Odometry on real flights").
   SamplerKind relocalize_sampler = SamplerKind::kProsac;
   /// Re-acquisition: after a failure, the last good frame stays a candidate reference for this
   /// many frames. Default 5.
