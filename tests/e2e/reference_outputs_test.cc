@@ -110,6 +110,10 @@ fs::path ReferenceOutputs::sim_dir_;
 bool ReferenceOutputs::sim_ok_ = false;
 
 TEST_P(ReferenceOutputs, SamePositionsStatusesAndInliers) {
+#ifdef AEROVO_REFERENCE_OUTPUTS_SKIP
+  GTEST_SKIP() << "the reference outputs are those of an optimised build (Release); this "
+                  "sanitizer build (-O1) rounds differently by micrometres";
+#endif
   const std::string name = GetParam();  // "<flight>-<mode>"
   const std::string flight = name.substr(0, name.find('-'));
   const bool paper = name.substr(name.find('-') + 1) == "paper";
