@@ -70,7 +70,8 @@ struct ParserStats {
 /// out. It resynchronises on garbage (scans for the magic byte), checks the checksum of the
 /// message ids FindMessageInfo knows; a wrong one, an unknown id or unknown incompatibility
 /// flags drop the candidate and rescan from the byte after its magic, so a packet hidden behind
-/// a false start is still found. Signed packets are accepted, the signature is not verified.
+/// a false start is still found (once the false start's claimed length has arrived: at most
+/// 280 bytes of delay, as in every MAVLink parser). Signed packets are accepted, the signature is not verified.
 /// No allocation per byte once warm.
 class Parser {
  public:
