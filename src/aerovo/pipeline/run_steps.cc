@@ -382,9 +382,9 @@ FrameLoop::FrameLoop(const RunInputs& inputs, const RunTelemetry& telemetry,
       callbacks_(callbacks),
       log_(log),
       link_(OpenLink(inputs.config, log)),
-      height_(inputs.config.altitude_m,
-              link_ && mavlink::ParseLinkUrl(inputs.config.mavlink).reads_autopilot() ? link_.get()
-                                                                                       : nullptr,
+      link_reads_autopilot_(link_ &&
+                            mavlink::ParseLinkUrl(inputs.config.mavlink).reads_autopilot()),
+      height_(inputs.config.altitude_m, link_reads_autopilot_ ? link_.get() : nullptr,
               inputs.config.mavlink_match_s),
       georef_(GeoRefOptionsOf(inputs.config)),
       totals_(inputs.truth.has_value()) {}
@@ -448,7 +448,7 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
     const double height_m =
         height_.HeightOf(frame.name, sample, &summary->warnings, capture_mono_s);
     std::optional<mavlink::AutopilotAttitude> attitude;
-    if (link_ && mavlink::ParseLinkUrl(config_.mavlink).reads_autopilot()) {
+    if (link_reads_autopilot_) {
       attitude = link_->AttitudeNear(capture_mono_s, config_.mavlink_match_s);
     }
     const std::optional<double> yaw = sample ? sample->CameraYawDeg() : std::nullopt;

@@ -296,6 +296,7 @@ class FrameLoop {
   const RunCallbacks& callbacks_;
   std::ostream* log_ = nullptr;
   std::unique_ptr<mavlink::AutopilotLink> link_;  // --mavlink (null: none)
+  bool link_reads_autopilot_ = false;             // udpin/serial: height and attitude in
   mavlink::VisionMessageBuilder vision_;
   HeightProvider height_;
   GeoReferencer georef_;
