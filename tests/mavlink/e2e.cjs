@@ -59,7 +59,7 @@ async function main() {
   await new Promise(r => sock.bind(0, '127.0.0.1', r));
   const myPort = sock.address().port;
 
-  const args = ['run', frames, '--focal-px', focal, '--out', runDir, '-q'];
+  const args = ['run', frames, '--focal-px', focal, '--out', runDir, '-q', '--no-report'];
   let aerovoPort = myPort;
   let timer = null;
   if (mode === 'udp') {
@@ -102,7 +102,7 @@ async function main() {
   const rows = readCsv(path.join(runDir, 'frames.csv'));
   const summary = JSON.parse(fs.readFileSync(path.join(runDir, 'summary.json'), 'utf8'));
   check(rows.length === summary.frames_processed, `frames.csv has ${rows.length} rows, summary ${summary.frames_processed}`);
-  check(splitter.invalidPackets === 0, `${splitter.invalidPackets} packets with a bad CRC`);
+  check(splitter.invalidPackages === 0, `${splitter.invalidPackages} packets with a bad CRC`);
   const odo = got.odometry;
   check(odo.length === rows.length, `${odo.length} ODOMETRY for ${rows.length} processed frames`);
   let resets = 0, reacquired = 0, bridged = 0;

@@ -236,9 +236,10 @@ TEST(MavlinkParser, GarbageAroundAndBetweenPackets) {
   s.insert(s.end(), {0xAA, 0xBB, 0xFD});
   s.insert(s.end(), at.begin(), at.end());
   s.insert(s.end(), {0x01, 0x02});
-  // The false magic's length (0x55) claims the next 97 bytes: its packets come out once that
-  // many have arrived (a stream goes on; here, zeros).
-  s.resize(s.size() + 60, 0x00);
+  // A false magic claims the bytes its length says (0x55 for the first; the attitude's own magic
+  // 0xFD for the one before it: 267 bytes): the packets behind come out once that many have
+  // arrived (a stream goes on; here, zeros).
+  s.resize(s.size() + 300, 0x00);
   Parser p;
   std::vector<uint32_t> ids;
   p.Feed(s.data(), s.size(), [&](const Packet& k) { ids.push_back(k.header.msgid); });
