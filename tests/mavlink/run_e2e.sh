@@ -10,14 +10,17 @@ command -v npm >/dev/null || { echo "SKIP: npm is not installed (scripts/install
 command -v ffmpeg >/dev/null || { echo "FAIL: ffmpeg is needed to write the black frame"; exit 1; }
 mkdir -p "$WORK"
 NODE_DIR="$WORK/node"
-if [ ! -f "$NODE_DIR/node_modules/node-mavlink/package.json" ] || ! cmp -s "$SRC/package-lock.json" "$NODE_DIR/package-lock.json"; then
+# Installed once per build folder (.installed: written after a complete `npm ci` of this lock).
+if [ ! -f "$NODE_DIR/.installed" ] || ! cmp -s "$SRC/package-lock.json" "$NODE_DIR/package-lock.json"; then
   mkdir -p "$NODE_DIR"
+  rm -f "$NODE_DIR/.installed"
   cp "$SRC/package.json" "$SRC/package-lock.json" "$NODE_DIR/"
   if ! out=$(cd "$NODE_DIR" && npm ci --no-audit --no-fund 2>&1); then
     echo "SKIP: npm ci of node-mavlink failed (registry unreachable?):"
     echo "$out" | tail -20
     exit 77
   fi
+  touch "$NODE_DIR/.installed"
 fi
 # A simulated flight (no sim.json beside the frames: no telemetry, positions in the local frame).
 SIM="$WORK/sim-$MODE"
