@@ -302,7 +302,7 @@ TEST(MavlinkParser, SplitReadsAnywhere) {
   EXPECT_EQ(n, 2);
 }
 
-TEST(MavlinkParser, UnknownIdsAreSkippedWholeAndSignedPacketsRead) {
+TEST(MavlinkParser, UnknownIdsAreRescannedAndSignedPacketsRead) {
   // An unknown id (a valid-looking packet of message 77, whose payload holds a fake magic).
   std::vector<uint8_t> unknown = {0xFD, 3, 0, 0, 0, 1, 1, 77, 0, 0, 0xFD, 0x01, 0x02, 0x33, 0x44};
   auto signed_hb = Bytes(golden::kHeartbeat);
