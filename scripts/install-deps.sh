@@ -19,6 +19,12 @@ PKGS=(
   clang libclang-rt-14-dev  # libFuzzer + sanitizer runtimes for the fuzz targets (scripts/fuzz.sh)
   llvm                   # llvm-symbolizer: symbolised sanitizer and fuzzer stack traces
 )
+# node + npm: the MAVLink end-to-end tests (tests/mavlink) install node-mavlink from the npm
+# registry, an independent MAVLink implementation, to check aerovo's packets. Debian 12's nodejs
+# (18) and npm, unless a node and npm are already on PATH (e.g. from nodesource).
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
+  PKGS+=(nodejs npm)
+fi
 missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

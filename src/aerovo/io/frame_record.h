@@ -36,6 +36,14 @@ struct FrameRecord {
   /// Outcome of the frame, e.g. "ok", "bridged", "dark" (free text written as is; quoted in
   /// the CSV when it contains a comma, quote or newline).
   std::string status = "ok";
+  /// Height above ground used for the frame, metres (CSV height_m; 0 when not known).
+  double height_m = 0.0;
+  /// Where that height came from (CSV height_source): "altitude_flag", "telemetry",
+  /// "last_known", "mavlink_distance_sensor" or "mavlink_relative_alt"; "" when unknown.
+  std::string height_source;
+  /// The autopilot's attitude at the frame (MAVLink ATTITUDE), degrees (CSV roll_deg,
+  /// pitch_deg; empty cells when absent).
+  std::optional<double> roll_deg, pitch_deg;
 };
 
 /// Throws InvalidArgument naming the frame when a number is not finite, frame < 0, or geo is

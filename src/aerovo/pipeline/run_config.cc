@@ -18,6 +18,7 @@
 #include <yaml.h>
 
 #include "aerovo/core/error.h"
+#include "aerovo/mavlink/transport.h"
 #include "aerovo/core/options_json.h"
 
 namespace aerovo {
@@ -42,6 +43,13 @@ void Validate(const RunConfig& c) {
   if (c.out.empty()) fail("out must not be empty");
   options::CheckRanges(c, "", false, context);
   if (c.end_s >= 0.0 && c.end_s < c.start_s) fail("end_s must be >= start_s (or < 0)");
+  if (!c.mavlink.empty()) {
+    try {
+      mavlink::ParseLinkUrl(c.mavlink);
+    } catch (const InvalidArgument& e) {
+      fail(e.what());
+    }
+  }
   try {
     Validate(c.odometry);
   } catch (const InvalidArgument& e) {

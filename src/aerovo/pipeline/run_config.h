@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "aerovo/core/options.h"
+#include "aerovo/mavlink/vision.h"
 #include "aerovo/odometry/georef.h"
 #include "aerovo/odometry/visual_odometry.h"
 
@@ -22,6 +23,17 @@ template <>
 struct options::EnumTraits<HeadingSource>
     : options::EnumList<HeadingSource, ToString, HeadingSource::kAuto, HeadingSource::kTelemetryYaw,
                         HeadingSource::kGpsSegment> {};
+
+template <>
+struct options::EnumTraits<mavlink::VisionMessageKind>
+    : options::EnumList<mavlink::VisionMessageKind, mavlink::ToString,
+                        mavlink::VisionMessageKind::kOdometry,
+                        mavlink::VisionMessageKind::kVisionPositionEstimate,
+                        mavlink::VisionMessageKind::kVisionPositionDelta> {};
+template <>
+struct options::EnumTraits<mavlink::TimestampClock>
+    : options::EnumList<mavlink::TimestampClock, mavlink::ToString, mavlink::TimestampClock::kBoot,
+                        mavlink::TimestampClock::kUnix> {};
 
 /// Everything a run can be told, as flags (cmd_run.cc) or as a JSON config file with the same
 /// keys (ToJson / RunConfigFromJson). Plain aggregate; Validate() checks it.
@@ -70,6 +82,25 @@ struct RunConfig {
   double illumination_k = 1.0;
   /// No progress bar, no configuration dump, only errors and the final table.
   bool quiet = false;
+  /// MAVLink link to a flight controller (docs/autopilot.md; mavlink/transport.h):
+  /// udp:HOST:PORT, udpin:HOST:PORT or serial:DEVICE:BAUD. Empty (default): none.
+  std::string mavlink;
+  /// The vision message sent per processed frame. Default ODOMETRY (#331): the one both PX4 and
+  /// ArduPilot (4.1+) read with velocity, covariance, reset counter and quality.
+  mavlink::VisionMessageKind mavlink_message = mavlink::VisionMessageKind::kOdometry;
+  /// Our MAVLink system id: the vehicle's (a companion computer shares its autopilot's; 1 is
+  /// the default of PX4 and ArduPilot). The component id is 197 (VISUAL_INERTIAL_ODOMETRY).
+  int mavlink_sysid = 1;
+  /// Clock of the timestamps: boot (default: CLOCK_MONOTONIC, time since the companion booted,
+  /// which the autopilot maps to its own with TIMESYNC) or unix.
+  mavlink::TimestampClock mavlink_time = mavlink::TimestampClock::kBoot;
+  /// udpin/serial: an autopilot sample (height, attitude) is used for a frame when it arrived
+  /// within this many seconds of the frame's capture. Default 0.25 s: rangefinders and ATTITUDE
+  /// stream at 10-50 Hz, and a 0.25 s old height is off by < 1 m at a 3 m/s climb.
+  double mavlink_match_s = 0.25;
+  /// udpin/serial without --altitude: the first frame waits up to this many seconds for the
+  /// autopilot's first height. Default 5 s (a stream starts within a second or two).
+  double mavlink_wait_s = 5.0;
   /// The odometry and its stages (keys surf.*, match.*, ransac.*, clustered.*, correspondence.*,
   /// odometry.*); defaults are OdometryOptions' (visual_odometry.h). The run sets its focal_px and
   /// default_height_m from the camera and height it resolves (focal_px, hfov_deg, altitude_m
@@ -107,6 +138,12 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.k3, "k3", "Lens distortion k3", Finite());
   v.Field(c.illumination_k, "illumination_k", "Illumination factor k: every frame's brightness times k before SURF (the paper's f_k = k f)", Interval(0, 1, true, false));
   v.Field(c.quiet, "quiet", "No progress bar or configuration dump", Any().Switch().Flags("-q"));
+  v.Field(c.mavlink, "mavlink", "MAVLink link to an autopilot: udp:HOST:PORT, udpin:HOST:PORT or serial:DEVICE:BAUD (docs/autopilot.md)", Any());
+  v.Field(c.mavlink_message, "mavlink_message", "Vision message sent per frame", Any());
+  v.Field(c.mavlink_sysid, "mavlink_sysid", "MAVLink system id (the vehicle's)", Interval(1, 255));
+  v.Field(c.mavlink_time, "mavlink_time", "Clock of the MAVLink timestamps: boot (since boot) or unix", Any());
+  v.Field(c.mavlink_match_s, "mavlink_match_s", "Largest time between a frame and the autopilot sample used for it, s", GreaterThan(0).Finite());
+  v.Field(c.mavlink_wait_s, "mavlink_wait_s", "udpin/serial: wait this long for the autopilot's first height, s", AtLeast(0).Finite());
   v.Group("odometry", c.odometry);
 }
 // clang-format on

@@ -240,5 +240,31 @@ TEST(RunConfigSchema, SavedConfigJsonReadsBackAsTheRunsConfiguration) {
   fs::remove_all(dir);
 }
 
+TEST(RunConfigSchema, MavlinkOptions) {
+  RunConfig c;
+  c.input = "0";
+  c.mavlink = "udpin:0.0.0.0:14540";
+  EXPECT_NO_THROW(Validate(c));
+  const RunConfig j = RunConfigFromJson(
+      {{"mavlink", "serial:/dev/ttyAMA0:921600"}, {"mavlink_message", "vision_position_delta"},
+       {"mavlink_sysid", 7}, {"mavlink_time", "unix"}},
+      c);
+  EXPECT_EQ(j.mavlink_message, mavlink::VisionMessageKind::kVisionPositionDelta);
+  EXPECT_EQ(j.mavlink_time, mavlink::TimestampClock::kUnix);
+  EXPECT_EQ(j.mavlink_sysid, 7);
+  c.mavlink = "tcp:127.0.0.1:5760";
+  try {
+    Validate(c);
+    FAIL() << "accepted";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("--mavlink 'tcp:127.0.0.1:5760': unknown link"),
+              std::string::npos)
+        << e.what();
+  }
+  c.mavlink = "udp:127.0.0.1:14550";
+  c.mavlink_sysid = 0;
+  EXPECT_THROW(Validate(c), InvalidArgument);
+}
+
 }  // namespace
 }  // namespace aerovo

@@ -163,19 +163,44 @@ std::unique_ptr<FrameUndistorter> MakeUndistorter(const RunConfig& config, int w
 
 double HeightProvider::HeightOf(const std::string& frame_name,
                                 const std::optional<TelemetrySample>& sample,
-                                std::vector<std::string>* warnings) {
-  if (flag_m_ > 0.0) return flag_m_;
+                                std::vector<std::string>* warnings, double capture_s) {
+  if (flag_m_ > 0.0) {
+    last_source_ = "altitude_flag";
+    return flag_m_;
+  }
+  if (link_ != nullptr) {
+    std::optional<mavlink::AutopilotHeight> h = link_->HeightNear(capture_s, match_s_);
+    // The first frame may have waited for the link's first sample (mavlink_wait_s).
+    if (!h && !last_m_) h = link_->HeightNear(mavlink::MonotonicNowS(), match_s_);
+    if (h && h->height_m > 0.0) {
+      last_m_ = h->height_m;
+      last_source_ = h->source == mavlink::HeightSourceKind::kDistanceSensor
+                         ? "mavlink_distance_sensor"
+                         : "mavlink_relative_alt";
+      return *last_m_;
+    }
+  }
   if (sample && sample->rel_alt_m && *sample->rel_alt_m > 0.0) {
     last_m_ = *sample->rel_alt_m;
+    last_source_ = "telemetry";
     return *last_m_;
   }
   if (last_m_) {
     if (!warned_) {
-      warnings->push_back(frame_name + ": no relative altitude, using the last known (" +
+      warnings->push_back(frame_name + ": no " +
+                          (link_ != nullptr ? "height from the autopilot or " : "") +
+                          "relative altitude, using the last known (" +
                           fmt::format("{:.1f}", *last_m_) + " m)");
       warned_ = true;
     }
+    last_source_ = "last_known";
     return *last_m_;
+  }
+  if (link_ != nullptr) {
+    throw InputError(frame_name +
+                     ": no height above ground (nothing from the autopilot on the MAVLink link: "
+                     "no downward DISTANCE_SENSOR or GLOBAL_POSITION_INT, and no telemetry "
+                     "relative altitude): give --altitude");
   }
   throw InputError(frame_name +
                    ": no height above ground (the telemetry has no relative "
@@ -316,6 +341,32 @@ GeoRefOptions GeoRefOptionsOf(const RunConfig& config) {
   return o;
 }
 
+// The --mavlink link (null without): InvalidArgument / InputError naming the URL.
+std::unique_ptr<mavlink::AutopilotLink> OpenLink(const RunConfig& config, std::ostream* log) {
+  if (config.mavlink.empty()) return nullptr;
+  const mavlink::LinkUrl url = mavlink::ParseLinkUrl(config.mavlink);
+  mavlink::AutopilotLink::Options o;
+  o.sysid = static_cast<uint8_t>(config.mavlink_sysid);
+  auto link = std::make_unique<mavlink::AutopilotLink>(mavlink::OpenTransport(url), o);
+  if (log) {
+    *log << fmt::format("mavlink: {} ({}, sysid {}, compid {}, {} time{})\n", url.text,
+                        ToString(config.mavlink_message), config.mavlink_sysid, o.compid,
+                        ToString(config.mavlink_time),
+                        url.reads_autopilot() ? "; height and attitude from the autopilot" : "");
+  }
+  return link;
+}
+
+mavlink::VisionPose::Status StatusOf(FrameStatus s) {
+  switch (s) {
+    case FrameStatus::kFirst: return mavlink::VisionPose::Status::kFirst;
+    case FrameStatus::kOk: return mavlink::VisionPose::Status::kOk;
+    case FrameStatus::kReacquired: return mavlink::VisionPose::Status::kReacquired;
+    case FrameStatus::kBridged: return mavlink::VisionPose::Status::kBridged;
+  }
+  return mavlink::VisionPose::Status::kBridged;
+}
+
 }  // namespace
 
 FrameLoop::FrameLoop(const RunInputs& inputs, const RunTelemetry& telemetry,
@@ -330,7 +381,11 @@ FrameLoop::FrameLoop(const RunInputs& inputs, const RunTelemetry& telemetry,
       out_dir_(out_dir),
       callbacks_(callbacks),
       log_(log),
-      height_(inputs.config.altitude_m),
+      link_(OpenLink(inputs.config, log)),
+      link_reads_autopilot_(link_ &&
+                            mavlink::ParseLinkUrl(inputs.config.mavlink).reads_autopilot()),
+      height_(inputs.config.altitude_m, link_reads_autopilot_ ? link_.get() : nullptr,
+              inputs.config.mavlink_match_s),
       georef_(GeoRefOptionsOf(inputs.config)),
       totals_(inputs.truth.has_value()) {}
 
@@ -347,6 +402,11 @@ void FrameLoop::Start(const Frame& frame, const std::optional<TelemetrySample>& 
   vo_options_.focal_px = camera.focal_px;
   vo_options_.default_height_m = config_.altitude_m;
   summary->height_source = height_.source();
+  if (std::string(height_.source()) == "mavlink" && link_ &&
+      !link_->WaitForHeight(config_.mavlink_wait_s) && log_) {
+    *log_ << fmt::format("mavlink: no height from the autopilot after {:.1f} s\n",
+                         config_.mavlink_wait_s);
+  }
   vo_ = std::make_unique<VisualOdometry>(vo_options_);
   undistorter_ = MakeUndistorter(config_, w, h, camera.focal_px);
   outputs_.emplace(out_dir_, config_, camera, summary->height_source, w, h, frame.time_s, sample,
@@ -376,12 +436,21 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
       break;
     }
     if (!more) break;
+    // The capture time: when the source delivered the frame (a live source's frames arrive as
+    // captured; a file's as read).
+    const double capture_mono_s = mavlink::MonotonicNowS();
+    const double capture_unix_s = mavlink::UnixNowS();
     const std::optional<TelemetrySample> sample = telemetry_.SampleOf(frame);
     const std::optional<GeoPoint> gps = GpsOf(sample);
     if (!sample) ++end.frames_without_fix;
     if (!vo_) Start(frame, sample, summary);
 
-    const double height_m = height_.HeightOf(frame.name, sample, &summary->warnings);
+    const double height_m =
+        height_.HeightOf(frame.name, sample, &summary->warnings, capture_mono_s);
+    std::optional<mavlink::AutopilotAttitude> attitude;
+    if (link_reads_autopilot_) {
+      attitude = link_->AttitudeNear(capture_mono_s, config_.mavlink_match_s);
+    }
     const std::optional<double> yaw = sample ? sample->CameraYawDeg() : std::nullopt;
     GrayImageView view = undistorter_ ? undistorter_->Apply(frame.gray.view()) : frame.gray.view();
     if (config_.illumination_k != 1.0) {
@@ -395,9 +464,18 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
       end.failure = frame.name + ": " + e.what();
       break;
     }
+    if (link_) SendVision(r, capture_mono_s, capture_unix_s, height_m, attitude);
     georef_.Observe(r.position_m, gps, yaw);
     outputs_->AppendTransform(frame.index, r.world_from_frame);
-    outputs_->Add(PendingFrameOf(frame, r, gps), georef_);
+    PendingFrame pending = PendingFrameOf(frame, r, gps);
+    pending.record.height_m = height_m;
+    pending.record.height_source = height_.last_source();
+    ++summary->height_sources[height_.last_source()];
+    if (attitude) {
+      pending.record.roll_deg = attitude->roll_rad * 180.0 / M_PI;
+      pending.record.pitch_deg = attitude->pitch_rad * 180.0 / M_PI;
+    }
+    outputs_->Add(std::move(pending), georef_);
     totals_.Add(frame.index, frame.time_s, r, gps, georef_);
     ++summary->frames_processed;
     if (callbacks_.progress) {
@@ -406,6 +484,37 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
     }
   }
   return end;
+}
+
+void FrameLoop::SendVision(const FrameResult& r, double capture_mono_s, double capture_unix_s,
+                           double height_m,
+                           const std::optional<mavlink::AutopilotAttitude>& attitude) {
+  mavlink::VisionPose p;
+  const double t = config_.mavlink_time == mavlink::TimestampClock::kUnix ? capture_unix_s
+                                                                          : capture_mono_s;
+  p.time_usec = static_cast<uint64_t>(std::llround(t * 1e6));
+  p.time_s = capture_mono_s;
+  p.local_x_m = r.position_m.x();
+  p.local_y_m = r.position_m.y();
+  p.height_m = height_m;
+  p.heading_rad = r.heading_rad;
+  if (attitude) {
+    p.roll_rad = attitude->roll_rad;
+    p.pitch_rad = attitude->pitch_rad;
+  }
+  p.status = StatusOf(r.status);
+  p.n_inliers = r.n_inliers;
+  p.gsd_m_per_px = r.gsd_m_per_px;
+  p.sigma_px = 0.5 * vo_options_.correspondence.ransac.max_distance_px;
+  p.half_width_px = 0.5 * frame_.gray.width();
+  const mavlink::VisionMessages m = vision_.Add(p);
+  switch (config_.mavlink_message) {
+    case mavlink::VisionMessageKind::kOdometry: link_->Send(m.odometry); break;
+    case mavlink::VisionMessageKind::kVisionPositionEstimate:
+      link_->Send(m.position_estimate);
+      break;
+    case mavlink::VisionMessageKind::kVisionPositionDelta: link_->Send(m.position_delta); break;
+  }
 }
 
 void FrameLoop::Finish() {

@@ -34,6 +34,8 @@
 #include "aerovo/io/reference_track.h"
 #include "aerovo/io/telemetry.h"
 #include "aerovo/io/track_writers.h"
+#include "aerovo/mavlink/link.h"
+#include "aerovo/mavlink/vision.h"
 #include "aerovo/odometry/georef.h"
 #include "aerovo/odometry/visual_odometry.h"
 #include "aerovo/pipeline/preprocess.h"
@@ -126,24 +128,38 @@ std::unique_ptr<FrameUndistorter> MakeUndistorter(const RunConfig& config, int w
 // ---------------------------------------------------------------------------------------------
 // 3. Height above ground
 
-/// The height above ground of each frame: the flag, else the telemetry's relative altitude,
-/// else the last known one (with one warning), else an error naming the frame.
+/// The height above ground of each frame: the flag, else the autopilot's (MAVLink, udpin/serial:
+/// a downward rangefinder, else GLOBAL_POSITION_INT.relative_alt, the sample nearest the frame's
+/// capture time), else the telemetry's relative altitude, else the last known one (with one
+/// warning), else an error naming the frame.
 class HeightProvider {
  public:
-  /// `flag_m` > 0 (RunConfig::altitude_m): that height for every frame; else the telemetry's.
-  explicit HeightProvider(double flag_m) : flag_m_(flag_m) {}
-  /// RunSummary::height_source: "flag" or "telemetry".
-  const char* source() const { return flag_m_ > 0.0 ? "flag" : "telemetry"; }
-  /// Height above ground of frame `frame_name`, metres: the flag; else the sample's relative
-  /// altitude when > 0; else the last one known (the first time, a warning naming the frame is
-  /// appended to `warnings`); else InputError naming the frame.
+  /// `flag_m` > 0 (RunConfig::altitude_m): that height for every frame; else the link's (`link`
+  /// may be null; samples within `match_s` of the frame), else the telemetry's.
+  explicit HeightProvider(double flag_m, const mavlink::AutopilotLink* link = nullptr,
+                          double match_s = 0.25)
+      : flag_m_(flag_m), link_(link), match_s_(match_s) {}
+  /// RunSummary::height_source: "flag", "mavlink" or "telemetry".
+  const char* source() const {
+    return flag_m_ > 0.0 ? "flag" : link_ != nullptr ? "mavlink" : "telemetry";
+  }
+  /// Height above ground of frame `frame_name`, metres: the flag; else the link's sample nearest
+  /// `capture_s` (MonotonicNowS clock) within match_s (for the first frame, when none is that
+  /// close, the newest sample); else the sample's relative altitude when > 0; else the last one
+  /// known (the first time, a warning naming the frame is appended to `warnings`); else
+  /// InputError naming the frame.
   double HeightOf(const std::string& frame_name, const std::optional<TelemetrySample>& sample,
-                  std::vector<std::string>* warnings);
+                  std::vector<std::string>* warnings, double capture_s = 0.0);
+  /// Where the last HeightOf came from: FrameRecord::height_source.
+  const std::string& last_source() const { return last_source_; }
 
  private:
   double flag_m_ = 0.0;
+  const mavlink::AutopilotLink* link_ = nullptr;
+  double match_s_ = 0.25;
   std::optional<double> last_m_;
   bool warned_ = false;
+  std::string last_source_;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -249,13 +265,16 @@ class FrameLoop {
   /// then Finish(). Fills in `summary`'s frames_processed, focal, height source and the height
   /// warning (frames_expected: read for the progress callback). Throws the input errors of the
   /// first frame, a missing focal length or height; an input error after the first frame ends
-  /// the loop instead (LoopEnd::failure). `wall`: the run's stopwatch, for the progress
+  /// the loop instead (LoopEnd::failure). With --mavlink each frame's vision message is sent as
+  /// soon as it is processed (config.mavlink_message), stamped with its capture time. `wall`: the run's stopwatch, for the progress
   /// callback's frames per second.
   LoopEnd Run(FrameSource& source, const std::atomic<bool>* stop, const Stopwatch& wall,
               RunSummary* summary);
   /// Writes the frames still queued and closes the track files (nothing when no frame came).
   void Finish();
 
+  /// The MAVLink link (null without --mavlink).
+  const mavlink::AutopilotLink* link() const { return link_.get(); }
   /// Counts of the odometry, null when no frame came.
   const OdometryStats* vo_stats() const { return vo_ ? &vo_->stats() : nullptr; }
   const GeoReferencer& georef() const { return georef_; }
@@ -265,6 +284,8 @@ class FrameLoop {
 
  private:
   void Start(const Frame& frame, const std::optional<TelemetrySample>& sample, RunSummary* summary);
+  void SendVision(const FrameResult& r, double capture_mono_s, double capture_unix_s,
+                  double height_m, const std::optional<mavlink::AutopilotAttitude>& attitude);
 
   const RunConfig& config_;
   bool focal_from_sim_ = false;
@@ -274,6 +295,9 @@ class FrameLoop {
   std::filesystem::path out_dir_;
   const RunCallbacks& callbacks_;
   std::ostream* log_ = nullptr;
+  std::unique_ptr<mavlink::AutopilotLink> link_;  // --mavlink (null: none)
+  bool link_reads_autopilot_ = false;             // udpin/serial: height and attitude in
+  mavlink::VisionMessageBuilder vision_;
   HeightProvider height_;
   GeoReferencer georef_;
   std::unique_ptr<VisualOdometry> vo_;

@@ -3,16 +3,21 @@
 // frame loop on frames generated in memory. RunFlight end to end: tests/e2e.
 #include "aerovo/pipeline/run_steps.h"
 
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -401,6 +406,61 @@ TEST(RunSteps, NoHeightIsAnErrorNamingTheFrame) {
                 "give --altitude");
     }
   }
+}
+
+// The autopilot's height over a udpin link (a loopback socket plays the flight controller):
+// the rangefinder first, the relative altitude when no rangefinder reading is near, the flag
+// above all; each frame's source recorded.
+TEST(RunSteps, HeightFromTheAutopilotLink) {
+  const int fc = socket(AF_INET, SOCK_DGRAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(bind(fc, reinterpret_cast<sockaddr*>(&a), sizeof(a)), 0);
+  // A free port for the link: bind one, read it, close it.
+  const int probe = socket(AF_INET, SOCK_DGRAM, 0);
+  sockaddr_in b = a;
+  ASSERT_EQ(bind(probe, reinterpret_cast<sockaddr*>(&b), sizeof(b)), 0);
+  socklen_t len = sizeof(b);
+  getsockname(probe, reinterpret_cast<sockaddr*>(&b), &len);
+  close(probe);
+  const int port = ntohs(b.sin_port);
+  mavlink::AutopilotLink link(
+      mavlink::OpenTransport(mavlink::ParseLinkUrl("udpin:127.0.0.1:" + std::to_string(port))),
+      mavlink::AutopilotLink::Options{});
+  const auto send = [&](const std::vector<uint8_t>& bytes) {
+    sendto(fc, bytes.data(), bytes.size(), 0, reinterpret_cast<const sockaddr*>(&b), sizeof(b));
+  };
+  mavlink::GlobalPositionInt g;
+  g.relative_alt = 61500;  // 61.5 m above home
+  send(mavlink::Encode(g, 0, 1, 1));
+  mavlink::DistanceSensor d;
+  d.orientation = mavlink::kMavSensorRotationPitch270;
+  d.min_distance = 20;
+  d.max_distance = 10000;
+  d.current_distance = 5875;  // 58.75 m
+  send(mavlink::Encode(d, 1, 1, 1));
+  ASSERT_TRUE(link.WaitForHeight(2.0));
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // both in
+  std::vector<std::string> warnings;
+  HeightProvider height(0.0, &link, 0.25);
+  EXPECT_STREQ(height.source(), "mavlink");
+  const double now = mavlink::MonotonicNowS();
+  EXPECT_DOUBLE_EQ(height.HeightOf("live#0", Fix(0, 80.0), &warnings, now), 58.75);
+  EXPECT_EQ(height.last_source(), "mavlink_distance_sensor");
+  // Long after every sample: the telemetry's, then the last known.
+  EXPECT_DOUBLE_EQ(height.HeightOf("live#1", Fix(1, 80.0), &warnings, now + 60.0), 80.0);
+  EXPECT_EQ(height.last_source(), "telemetry");
+  EXPECT_DOUBLE_EQ(height.HeightOf("live#2", std::nullopt, &warnings, now + 60.0), 80.0);
+  EXPECT_EQ(height.last_source(), "last_known");
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0],
+            "live#2: no height from the autopilot or relative altitude, using the last known "
+            "(80.0 m)");
+  HeightProvider flag(40.0, &link, 0.25);
+  EXPECT_EQ(flag.HeightOf("live#0", std::nullopt, &warnings, now), 40.0);
+  EXPECT_EQ(flag.last_source(), "altitude_flag");
+  close(fc);
 }
 
 // ---------------------------------------------------------------------------------------------

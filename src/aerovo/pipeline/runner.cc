@@ -43,6 +43,8 @@ nlohmann::json ToJson(const RunSummary& s) {
                    {"focal_px", s.focal_px},
                    {"focal_source", s.focal_source},
                    {"height_source", s.height_source},
+                   {"height_sources", s.height_sources},
+                   {"mavlink", s.mavlink},
                    {"heading_source", s.heading_source},
                    {"sim_manifest", s.sim_manifest},
                    {"vo_path_length_m", s.vo_path_length_m},
@@ -161,6 +163,20 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
                             log);
   const run_steps::LoopEnd end = loop.Run(*source, stop, wall, &summary);
   loop.Finish();
+  if (const mavlink::AutopilotLink* link = loop.link()) {
+    const mavlink::LinkStats st = link->stats();
+    summary.mavlink = {{"url", config.mavlink},
+                       {"message", ToString(config.mavlink_message)},
+                       {"sent", st.sent},
+                       {"send_failed", st.send_failed},
+                       {"heartbeats", st.heartbeats},
+                       {"timesync_answers", st.timesync_answers},
+                       {"distance_samples", st.distance_samples},
+                       {"relative_alt_samples", st.relative_alt_samples},
+                       {"attitude_samples", st.attitude_samples},
+                       {"autopilot_heartbeats", st.autopilot_heartbeats},
+                       {"crc_errors", st.parser.crc_errors}};
+  }
 
   // 6. Summary.
   run_steps::Summarize(source->warnings(), !telemetry.empty(), end, loop.vo_stats(), loop.georef(),

@@ -15,6 +15,7 @@
 #include <atomic>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <ostream>
@@ -57,7 +58,13 @@ struct RunSummary {
   StageTimes mean;
   double focal_px = 0.0;
   std::string focal_source;    ///< "flag", "hfov", "xmp-calibrated", "exif-35mm", ...
-  std::string height_source;   ///< "flag" or "telemetry".
+  std::string height_source;   ///< "flag", "mavlink" or "telemetry".
+  /// Frames per FrameRecord::height_source ("altitude_flag", "mavlink_distance_sensor", ...).
+  std::map<std::string, int> height_sources;
+  /// --mavlink: the link's counts (url, sent, send_failed, heartbeats, timesync_answers,
+  /// distance_samples, relative_alt_samples, attitude_samples, autopilot_heartbeats,
+  /// crc_errors); null without.
+  nlohmann::json mavlink;
   std::string heading_source;  ///< GeoReferencer::heading_source_used(), "" if none.
   /// The simulator's sim.json used to fill in settings ("" when the input is not a simulation).
   std::string sim_manifest;

@@ -38,7 +38,10 @@ class NonDefaultValues : public options::GroupingVisitor<NonDefaultValues> {
         }
       }
     } else if constexpr (std::is_same_v<T, std::string>) {
-      other = v.empty() ? "given" : v + "-2";
+      // A string with a syntax (the --mavlink URL) gets a valid value of it.
+      other = std::string(key) == "mavlink" ? "udp:127.0.0.1:14550"
+              : v.empty()                   ? "given"
+                                            : v + "-2";
     } else {
       for (const double c : {v + 1.0, v * 0.5, v + 0.25, v - 1.0}) {
         if (static_cast<T>(c) != v && (!spec.HasRange() || spec.Contains(c))) {

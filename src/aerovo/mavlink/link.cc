@@ -1,0 +1,166 @@
+#include "aerovo/mavlink/link.h"
+
+#include <poll.h>
+#include <time.h>
+
+#include <chrono>
+#include <cmath>
+
+#include "aerovo/core/error.h"
+
+namespace aerovo::mavlink {
+namespace {
+
+double ClockS(clockid_t id) {
+  timespec ts{};
+  clock_gettime(id, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+int64_t ClockNs(clockid_t id) {
+  timespec ts{};
+  clock_gettime(id, &ts);
+  return static_cast<int64_t>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
+}
+
+template <class S>
+void PushBounded(std::deque<S>& q, const S& s, std::size_t max) {
+  q.push_back(s);
+  while (q.size() > max) q.pop_front();
+}
+
+template <class S>
+std::optional<S> Nearest(const std::deque<S>& q, double time_s, double tolerance_s) {
+  std::optional<S> best;
+  double best_dt = tolerance_s;
+  for (const S& s : q) {
+    const double dt = std::abs(s.time_s - time_s);
+    if (dt <= best_dt) {
+      best = s;
+      best_dt = dt;
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
+double MonotonicNowS() { return ClockS(CLOCK_MONOTONIC); }
+double UnixNowS() { return ClockS(CLOCK_REALTIME); }
+
+AutopilotLink::AutopilotLink(std::unique_ptr<Transport> transport, Options options)
+    : transport_(std::move(transport)), options_(options) {
+  if (!transport_) throw InvalidArgument("AutopilotLink: the transport is null");
+  thread_ = std::thread([this] { Loop(); });
+}
+
+AutopilotLink::~AutopilotLink() {
+  stop_ = true;
+  if (thread_.joinable()) thread_.join();
+}
+
+bool AutopilotLink::SendLocked(const std::vector<uint8_t>& bytes) {
+  const bool ok = transport_->Send(bytes.data(), bytes.size());
+  std::lock_guard<std::mutex> lock(data_mutex_);
+  ++(ok ? stats_.sent : stats_.send_failed);
+  return ok;
+}
+
+void AutopilotLink::Loop() {
+  std::vector<uint8_t> buffer(65536);
+  double next_heartbeat_s = MonotonicNowS();
+  while (!stop_) {
+    const double now_s = MonotonicNowS();
+    if (now_s >= next_heartbeat_s) {
+      if (Send(Heartbeat{})) {
+        std::lock_guard<std::mutex> lock(data_mutex_);
+        ++stats_.heartbeats;
+      }
+      next_heartbeat_s = now_s + options_.heartbeat_period_s;
+    }
+    pollfd p{transport_->fd(), POLLIN, 0};
+    const int wait_ms = static_cast<int>(std::ceil(1000.0 * (next_heartbeat_s - now_s)));
+    if (poll(&p, 1, std::max(1, std::min(50, wait_ms))) <= 0) continue;
+    while (!stop_) {
+      std::size_t n = 0;
+      {
+        std::lock_guard<std::mutex> lock(send_mutex_);  // udpin: the peer changes on receive
+        n = transport_->Receive(buffer.data(), buffer.size());
+      }
+      if (n == 0) break;
+      const double t = MonotonicNowS();
+      parser_.Feed(buffer.data(), n, [&](const Packet& packet) { Handle(packet, t); });
+      std::lock_guard<std::mutex> lock(data_mutex_);
+      stats_.parser = parser_.stats();
+    }
+  }
+}
+
+void AutopilotLink::Handle(const Packet& packet, double now_s) {
+  if (const auto ts = Decode<Timesync>(packet)) {
+    if (ts->tc1 != 0) return;  // an answer to someone else
+    Timesync answer;
+    answer.tc1 = ClockNs(CLOCK_MONOTONIC);
+    answer.ts1 = ts->ts1;
+    answer.target_system = packet.header.sysid;
+    answer.target_component = packet.header.compid;
+    if (Send(answer)) {
+      std::lock_guard<std::mutex> lock(data_mutex_);
+      ++stats_.timesync_answers;
+    }
+    return;
+  }
+  std::lock_guard<std::mutex> lock(data_mutex_);
+  if (const auto d = Decode<DistanceSensor>(packet)) {
+    // A downward rangefinder's reading inside its range (cm -> m).
+    if (d->orientation != kMavSensorRotationPitch270) return;
+    if (d->current_distance < d->min_distance || d->current_distance > d->max_distance) return;
+    PushBounded(distance_, AutopilotHeight{now_s, 0.01 * d->current_distance,
+                                           HeightSourceKind::kDistanceSensor},
+                options_.max_samples);
+    ++stats_.distance_samples;
+  } else if (const auto g = Decode<GlobalPositionInt>(packet)) {
+    PushBounded(relative_alt_, AutopilotHeight{now_s, 0.001 * g->relative_alt,
+                                               HeightSourceKind::kRelativeAlt},
+                options_.max_samples);
+    ++stats_.relative_alt_samples;
+  } else if (const auto a = Decode<Attitude>(packet)) {
+    if (!std::isfinite(a->roll) || !std::isfinite(a->pitch) || !std::isfinite(a->yaw)) return;
+    PushBounded(attitude_, AutopilotAttitude{now_s, a->roll, a->pitch, a->yaw},
+                options_.max_samples);
+    ++stats_.attitude_samples;
+  } else if (packet.header.msgid == Heartbeat::kId) {
+    ++stats_.autopilot_heartbeats;
+  }
+}
+
+std::optional<AutopilotHeight> AutopilotLink::HeightNear(double time_s, double tolerance_s) const {
+  std::lock_guard<std::mutex> lock(data_mutex_);
+  if (auto d = Nearest(distance_, time_s, tolerance_s)) return d;
+  return Nearest(relative_alt_, time_s, tolerance_s);
+}
+
+std::optional<AutopilotAttitude> AutopilotLink::AttitudeNear(double time_s,
+                                                             double tolerance_s) const {
+  std::lock_guard<std::mutex> lock(data_mutex_);
+  return Nearest(attitude_, time_s, tolerance_s);
+}
+
+bool AutopilotLink::WaitForHeight(double timeout_s) const {
+  const double end_s = MonotonicNowS() + timeout_s;
+  while (true) {
+    {
+      std::lock_guard<std::mutex> lock(data_mutex_);
+      if (!distance_.empty() || !relative_alt_.empty()) return true;
+    }
+    if (MonotonicNowS() >= end_s) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+}
+
+LinkStats AutopilotLink::stats() const {
+  std::lock_guard<std::mutex> lock(data_mutex_);
+  return stats_;
+}
+
+}  // namespace aerovo::mavlink

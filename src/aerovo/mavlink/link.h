@@ -1,0 +1,106 @@
+// The link to a flight controller: one transport (transport.h), a receive thread that parses
+// what arrives (protocol.h), answers TIMESYNC requests, sends a HEARTBEAT every second and keeps
+// the autopilot's recent height and attitude samples (DISTANCE_SENSOR facing down,
+// GLOBAL_POSITION_INT.relative_alt, ATTITUDE), each stamped with aerovo's monotonic clock at
+// reception; and Send() for the frame loop (never blocks on the network). Thread-safe.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <vector>
+
+#include "aerovo/mavlink/messages.h"
+#include "aerovo/mavlink/protocol.h"
+#include "aerovo/mavlink/transport.h"
+
+namespace aerovo::mavlink {
+
+/// CLOCK_MONOTONIC (seconds since the machine booted): the clock of "time since boot".
+double MonotonicNowS();
+/// CLOCK_REALTIME, seconds since the Unix epoch.
+double UnixNowS();
+
+/// Where a height above ground came from.
+enum class HeightSourceKind { kDistanceSensor, kRelativeAlt };
+
+/// A height sample of the autopilot.
+struct AutopilotHeight {
+  double time_s = 0.0;  ///< Reception, MonotonicNowS().
+  double height_m = 0.0;
+  HeightSourceKind source = HeightSourceKind::kDistanceSensor;
+};
+
+/// An attitude sample of the autopilot (ATTITUDE: NED Euler angles).
+struct AutopilotAttitude {
+  double time_s = 0.0;  ///< Reception, MonotonicNowS().
+  double roll_rad = 0.0, pitch_rad = 0.0, yaw_rad = 0.0;
+};
+
+/// Counts of a link.
+struct LinkStats {
+  uint64_t sent = 0;            ///< Packets sent.
+  uint64_t send_failed = 0;     ///< Packets not sent (no peer yet on udpin, buffer full).
+  uint64_t heartbeats = 0;      ///< HEARTBEATs sent.
+  uint64_t timesync_answers = 0;
+  uint64_t distance_samples = 0;      ///< Downward DISTANCE_SENSOR readings kept.
+  uint64_t relative_alt_samples = 0;  ///< GLOBAL_POSITION_INT readings kept.
+  uint64_t attitude_samples = 0;
+  uint64_t autopilot_heartbeats = 0;  ///< HEARTBEATs received.
+  ParserStats parser;
+};
+
+class AutopilotLink {
+ public:
+  struct Options {
+    uint8_t sysid = 1;  ///< Our system id: the vehicle's (the companion belongs to it).
+    uint8_t compid = kMavCompIdVisualInertialOdometry;
+    double heartbeat_period_s = 1.0;  ///< HEARTBEAT rate 1 Hz (MAVLink heartbeat protocol).
+    std::size_t max_samples = 512;    ///< Samples kept per kind (newest; a few s at 50-100 Hz).
+  };
+  /// Starts the receive thread on `transport` (not null).
+  AutopilotLink(std::unique_ptr<Transport> transport, Options options);
+  ~AutopilotLink();
+  AutopilotLink(const AutopilotLink&) = delete;
+  AutopilotLink& operator=(const AutopilotLink&) = delete;
+
+  /// Sends `m` now (sequence number, our sysid/compid); false when it could not be sent.
+  template <class M>
+  bool Send(const M& m) {
+    std::lock_guard<std::mutex> lock(send_mutex_);
+    return SendLocked(Encode(m, seq_++, options_.sysid, options_.compid));
+  }
+
+  /// The height sample nearest to `time_s` (MonotonicNowS clock) within `tolerance_s`, of the
+  /// best source that has one: a downward DISTANCE_SENSOR, else GLOBAL_POSITION_INT's
+  /// relative_alt; nullopt when neither has a sample that close.
+  std::optional<AutopilotHeight> HeightNear(double time_s, double tolerance_s) const;
+  /// The ATTITUDE sample nearest to `time_s` within `tolerance_s`.
+  std::optional<AutopilotAttitude> AttitudeNear(double time_s, double tolerance_s) const;
+  /// Waits until a height sample has arrived or `timeout_s` has passed; true when there is one.
+  bool WaitForHeight(double timeout_s) const;
+  LinkStats stats() const;
+
+ private:
+  void Loop();
+  void Handle(const Packet& packet, double now_s);
+  bool SendLocked(const std::vector<uint8_t>& bytes);
+
+  std::unique_ptr<Transport> transport_;
+  Options options_;
+  std::mutex send_mutex_;  // transport writes, seq_, send counters
+  uint8_t seq_ = 0;
+  mutable std::mutex data_mutex_;  // samples and the other counters
+  std::deque<AutopilotHeight> distance_, relative_alt_;
+  std::deque<AutopilotAttitude> attitude_;
+  LinkStats stats_;
+  Parser parser_;  // receive thread only
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+}  // namespace aerovo::mavlink

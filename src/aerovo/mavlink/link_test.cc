@@ -1,0 +1,210 @@
+// The link over real UDP sockets on 127.0.0.1: URLs, heartbeat, TIMESYNC answers, the
+// autopilot's height and attitude, udp (send to) and udpin (answer the last sender).
+#include "aerovo/mavlink/link.h"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <thread>
+#include <vector>
+
+#include "aerovo/core/error.h"
+#include "aerovo/mavlink/transport.h"
+
+namespace aerovo::mavlink {
+namespace {
+
+// A UDP socket of the test on 127.0.0.1 (port 0: any free port).
+struct TestSocket {
+  int fd = -1;
+  int port = 0;
+  explicit TestSocket(int bind_port = 0) {
+    fd = socket(AF_INET, SOCK_DGRAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    a.sin_port = htons(static_cast<uint16_t>(bind_port));
+    EXPECT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a)), 0);
+    socklen_t len = sizeof(a);
+    getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
+    port = ntohs(a.sin_port);
+  }
+  ~TestSocket() { close(fd); }
+  void SendTo(int to_port, const std::vector<uint8_t>& b) const {
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    a.sin_port = htons(static_cast<uint16_t>(to_port));
+    sendto(fd, b.data(), b.size(), 0, reinterpret_cast<sockaddr*>(&a), sizeof(a));
+  }
+  // Packets received within `timeout_ms`, until `until` says stop.
+  template <class F>
+  void Receive(int timeout_ms, F&& until) {
+    Parser parser;
+    std::vector<uint8_t> buf(2048);
+    const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
+    bool done = false;
+    while (!done && std::chrono::steady_clock::now() < end) {
+      pollfd p{fd, POLLIN, 0};
+      if (poll(&p, 1, 20) <= 0) continue;
+      const ssize_t n = recv(fd, buf.data(), buf.size(), 0);
+      if (n <= 0) continue;
+      parser.Feed(buf.data(), static_cast<std::size_t>(n), [&](const Packet& k) {
+        if (!done) done = until(k);
+      });
+    }
+  }
+};
+
+int FreePort() {
+  TestSocket s;
+  return s.port;
+}
+
+TEST(MavlinkUrl, ParsesAndNamesTheUrlInErrors) {
+  const LinkUrl a = ParseLinkUrl("udp:127.0.0.1:14550");
+  EXPECT_EQ(a.kind, LinkUrl::Kind::kUdpOut);
+  EXPECT_EQ(a.host, "127.0.0.1");
+  EXPECT_EQ(a.port, 14550);
+  EXPECT_FALSE(a.reads_autopilot());
+  const LinkUrl b = ParseLinkUrl("udpin:0.0.0.0:14540");
+  EXPECT_EQ(b.kind, LinkUrl::Kind::kUdpIn);
+  EXPECT_TRUE(b.reads_autopilot());
+  const LinkUrl c = ParseLinkUrl("serial:/dev/ttyAMA0:921600");
+  EXPECT_EQ(c.kind, LinkUrl::Kind::kSerial);
+  EXPECT_EQ(c.device, "/dev/ttyAMA0");
+  EXPECT_EQ(c.baud, 921600);
+  for (const char* bad : {"tcp:1.2.3.4:5760", "udp:127.0.0.1", "udp:host:0", "udp:host:99999",
+                          "udp:host:x", "serial:/dev/ttyS0:12345", "serial:/dev/ttyS0", ""}) {
+    try {
+      ParseLinkUrl(bad);
+      ADD_FAILURE() << bad << " accepted";
+    } catch (const InvalidArgument& e) {
+      EXPECT_NE(std::string(e.what()).find(std::string("'") + bad + "'"), std::string::npos)
+          << e.what();
+    }
+  }
+}
+
+TEST(MavlinkUrl, OpenFailuresNameTheUrl) {
+  try {
+    OpenTransport(ParseLinkUrl("serial:/nonexistent/ttyX:57600"));
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("serial:/nonexistent/ttyX:57600"), std::string::npos);
+  }
+  TestSocket taken;
+  try {
+    OpenTransport(ParseLinkUrl("udpin:127.0.0.1:" + std::to_string(taken.port)));
+    ADD_FAILURE() << "bound a port in use";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot listen"), std::string::npos) << e.what();
+  }
+}
+
+TEST(MavlinkLink, UdpSendsHeartbeatsAndMessages) {
+  TestSocket gcs;
+  AutopilotLink::Options o;
+  o.sysid = 7;
+  o.heartbeat_period_s = 0.05;
+  AutopilotLink link(OpenTransport(ParseLinkUrl("udp:127.0.0.1:" + std::to_string(gcs.port))), o);
+  Odometry odo;
+  odo.x = 2.5f;
+  int heartbeats = 0;
+  bool odometry = false;
+  EXPECT_TRUE(link.Send(odo));
+  gcs.Receive(2000, [&](const Packet& k) {
+    if (const auto h = Decode<Heartbeat>(k)) {
+      EXPECT_EQ(k.header.sysid, 7);
+      EXPECT_EQ(k.header.compid, kMavCompIdVisualInertialOdometry);
+      EXPECT_EQ(h->type, kMavTypeOnboardController);
+      ++heartbeats;
+    }
+    if (const auto d = Decode<Odometry>(k)) odometry = d->x == 2.5f;
+    return heartbeats >= 3 && odometry;
+  });
+  EXPECT_GE(heartbeats, 3);
+  EXPECT_TRUE(odometry);
+}
+
+TEST(MavlinkLink, UdpinReadsTheAutopilotAndAnswersTimesync) {
+  const int port = FreePort();
+  AutopilotLink::Options o;
+  o.heartbeat_period_s = 0.05;
+  AutopilotLink link(OpenTransport(ParseLinkUrl("udpin:127.0.0.1:" + std::to_string(port))), o);
+  EXPECT_FALSE(link.HeightNear(MonotonicNowS(), 1.0));
+  EXPECT_FALSE(link.Send(Odometry{}));  // nobody to send to yet
+  TestSocket fc;
+  DistanceSensor up;  // facing up: not a height
+  up.orientation = 24;
+  up.min_distance = 10;
+  up.max_distance = 1000;
+  up.current_distance = 300;
+  DistanceSensor down = up;
+  down.orientation = kMavSensorRotationPitch270;
+  down.current_distance = 8123;  // 81.23 m
+  down.max_distance = 10000;
+  DistanceSensor out_of_range = down;
+  out_of_range.current_distance = 20000;
+  Attitude att;
+  att.roll = 0.0625f;
+  att.pitch = -0.125f;
+  att.yaw = 1.0f;
+  Timesync request;
+  request.ts1 = 123456789;
+  const double t0 = MonotonicNowS();
+  fc.SendTo(port, Encode(up, 0, 1, 1));
+  fc.SendTo(port, Encode(down, 1, 1, 1));
+  fc.SendTo(port, Encode(out_of_range, 2, 1, 1));
+  fc.SendTo(port, Encode(att, 3, 1, 1));
+  fc.SendTo(port, Encode(request, 4, 1, 1));
+  bool answered = false;
+  int heartbeats = 0;
+  fc.Receive(2000, [&](const Packet& k) {
+    if (const auto t = Decode<Timesync>(k)) {
+      EXPECT_EQ(t->ts1, 123456789);
+      EXPECT_GT(t->tc1, 0);
+      EXPECT_EQ(t->target_system, 1);
+      EXPECT_EQ(t->target_component, 1);
+      answered = true;
+    }
+    if (Decode<Heartbeat>(k)) ++heartbeats;
+    return answered && heartbeats >= 2;
+  });
+  EXPECT_TRUE(answered);
+  EXPECT_GE(heartbeats, 2);  // sent to the last sender
+  ASSERT_TRUE(link.WaitForHeight(1.0));
+  const auto h = link.HeightNear(t0, 1.0);
+  ASSERT_TRUE(h);
+  EXPECT_NEAR(h->height_m, 81.23, 1e-9);
+  EXPECT_EQ(h->source, HeightSourceKind::kDistanceSensor);
+  EXPECT_FALSE(link.HeightNear(t0 + 100.0, 1.0));  // none that close in time
+  const auto a = link.AttitudeNear(t0, 1.0);
+  ASSERT_TRUE(a);
+  EXPECT_NEAR(a->roll_rad, 0.0625, 1e-9);
+  EXPECT_NEAR(a->pitch_rad, -0.125, 1e-9);
+  const LinkStats s = link.stats();
+  EXPECT_EQ(s.distance_samples, 1u);
+  EXPECT_EQ(s.attitude_samples, 1u);
+  EXPECT_EQ(s.timesync_answers, 1u);
+  // Relative altitude when there is no rangefinder reading near the time.
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  GlobalPositionInt g;
+  g.relative_alt = 45500;
+  fc.SendTo(port, Encode(g, 5, 1, 1));
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  const auto r = link.HeightNear(MonotonicNowS(), 0.5);  // the distance reading is older
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->source, HeightSourceKind::kRelativeAlt);
+  EXPECT_NEAR(r->height_m, 45.5, 1e-9);
+}
+
+}  // namespace
+}  // namespace aerovo::mavlink

@@ -1,0 +1,173 @@
+#include "aerovo/mavlink/vision.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace aerovo::mavlink {
+namespace {
+
+// Rotation local FRD from body FRD (ZYX: yaw, then pitch, then roll), row-major.
+struct Rot {
+  double m[3][3];
+  static Rot FromEuler(double roll, double pitch, double yaw) {
+    const double cr = std::cos(roll), sr = std::sin(roll), cp = std::cos(pitch),
+                 sp = std::sin(pitch), cy = std::cos(yaw), sy = std::sin(yaw);
+    Rot r{};
+    r.m[0][0] = cy * cp;
+    r.m[0][1] = cy * sp * sr - sy * cr;
+    r.m[0][2] = cy * sp * cr + sy * sr;
+    r.m[1][0] = sy * cp;
+    r.m[1][1] = sy * sp * sr + cy * cr;
+    r.m[1][2] = sy * sp * cr - cy * sr;
+    r.m[2][0] = -sp;
+    r.m[2][1] = cp * sr;
+    r.m[2][2] = cp * cr;
+    return r;
+  }
+  // body = R^T * local
+  void ToBody(const double in[3], double out[3]) const {
+    for (int i = 0; i < 3; ++i) out[i] = m[0][i] * in[0] + m[1][i] * in[1] + m[2][i] * in[2];
+  }
+};
+
+std::array<float, 4> QuaternionOf(double roll, double pitch, double yaw) {
+  const double cr = std::cos(roll / 2), sr = std::sin(roll / 2), cp = std::cos(pitch / 2),
+               sp = std::sin(pitch / 2), cy = std::cos(yaw / 2), sy = std::sin(yaw / 2);
+  return {static_cast<float>(cr * cp * cy + sr * sp * sy),
+          static_cast<float>(sr * cp * cy - cr * sp * sy),
+          static_cast<float>(cr * sp * cy + sr * cp * sy),
+          static_cast<float>(cr * cp * sy - sr * sp * cy)};
+}
+
+double Wrap(double a) { return std::remainder(a, 2.0 * M_PI); }
+
+}  // namespace
+
+const char* ToString(VisionMessageKind kind) {
+  switch (kind) {
+    case VisionMessageKind::kOdometry: return "odometry";
+    case VisionMessageKind::kVisionPositionEstimate: return "vision_position_estimate";
+    case VisionMessageKind::kVisionPositionDelta: return "vision_position_delta";
+  }
+  return "?";
+}
+
+const char* ToString(TimestampClock clock) {
+  return clock == TimestampClock::kUnix ? "unix" : "boot";
+}
+
+VisionMessages VisionMessageBuilder::Add(const VisionPose& p) {
+  if (!have_previous_) first_height_m_ = p.height_m;
+  // Local FRD position and attitude.
+  const double x = p.local_y_m, y = p.local_x_m, z = -(p.height_m - first_height_m_);
+  const double yaw = Wrap(-p.heading_rad);
+  const double roll = p.roll_rad.value_or(0.0), pitch = p.pitch_rad.value_or(0.0);
+  const bool measured = p.status == VisionPose::Status::kOk ||
+                        p.status == VisionPose::Status::kReacquired;
+  if (p.status == VisionPose::Status::kReacquired) ++reset_counter_;  // re-anchored (wraps)
+
+  // Variances of this step, added to the accumulated ones.
+  double step_var_xy = 0.0, step_var_yaw = 0.0;
+  double dt = 0.0, dx = 0.0, dy = 0.0, dz = 0.0, dyaw = 0.0;
+  if (have_previous_) {
+    dt = p.time_s - previous_.time_s;
+    dx = x - previous_.local_y_m;
+    dy = y - previous_.local_x_m;
+    dz = z + (previous_.height_m - first_height_m_);
+    dyaw = Wrap(yaw - Wrap(-previous_.heading_rad));
+    if (measured) {
+      const double s_px = p.sigma_px / std::sqrt(std::max(1, p.n_inliers));
+      step_var_xy = std::pow(s_px * p.gsd_m_per_px, 2);
+      step_var_yaw = std::pow(s_px / std::max(1.0, p.half_width_px), 2);
+    } else {
+      step_var_xy = dx * dx + dy * dy;
+      step_var_yaw = dyaw * dyaw;
+    }
+    var_xy_m2_ += step_var_xy;
+    var_yaw_rad2_ += step_var_yaw;
+  }
+
+  VisionMessages out;
+  Odometry& o = out.odometry;
+  o.time_usec = p.time_usec;
+  o.frame_id = kMavFrameLocalFrd;
+  o.child_frame_id = kMavFrameBodyFrd;
+  o.x = static_cast<float>(x);
+  o.y = static_cast<float>(y);
+  o.z = static_cast<float>(z);
+  o.q = QuaternionOf(roll, pitch, yaw);
+  o.pose_covariance.fill(0.f);
+  o.velocity_covariance.fill(0.f);
+  auto& pc = o.pose_covariance;
+  pc[UpperTriangleIndex(0, 0)] = static_cast<float>(var_xy_m2_);
+  pc[UpperTriangleIndex(1, 1)] = static_cast<float>(var_xy_m2_);
+  pc[UpperTriangleIndex(2, 2)] = kNaN;
+  pc[UpperTriangleIndex(3, 3)] = kNaN;
+  pc[UpperTriangleIndex(4, 4)] = kNaN;
+  pc[UpperTriangleIndex(5, 5)] = static_cast<float>(var_yaw_rad2_);
+  auto& vc = o.velocity_covariance;
+  if (have_previous_ && dt > 0.0) {
+    const double local_v[3] = {dx / dt, dy / dt, dz / dt};
+    double body_v[3];
+    Rot::FromEuler(roll, pitch, yaw).ToBody(local_v, body_v);
+    o.vx = static_cast<float>(body_v[0]);
+    o.vy = static_cast<float>(body_v[1]);
+    o.vz = static_cast<float>(body_v[2]);
+    o.yawspeed = static_cast<float>(dyaw / dt);
+    const double v_var = 2.0 * step_var_xy / (dt * dt);
+    vc[UpperTriangleIndex(0, 0)] = static_cast<float>(v_var);
+    vc[UpperTriangleIndex(1, 1)] = static_cast<float>(v_var);
+    vc[UpperTriangleIndex(5, 5)] = static_cast<float>(2.0 * step_var_yaw / (dt * dt));
+  } else {
+    o.vx = o.vy = o.vz = o.yawspeed = kNaN;
+    vc[UpperTriangleIndex(0, 0)] = kNaN;
+    vc[UpperTriangleIndex(1, 1)] = kNaN;
+    vc[UpperTriangleIndex(5, 5)] = kNaN;
+  }
+  o.rollspeed = o.pitchspeed = kNaN;
+  vc[UpperTriangleIndex(2, 2)] = kNaN;
+  vc[UpperTriangleIndex(3, 3)] = kNaN;
+  vc[UpperTriangleIndex(4, 4)] = kNaN;
+  o.reset_counter = reset_counter_;
+  o.estimator_type = kMavEstimatorTypeVision;
+  switch (p.status) {
+    case VisionPose::Status::kBridged: o.quality = -1; break;
+    case VisionPose::Status::kFirst: o.quality = 100; break;
+    default: o.quality = static_cast<int8_t>(std::clamp(p.n_inliers, 1, 100)); break;
+  }
+
+  VisionPositionEstimate& e = out.position_estimate;
+  e.usec = p.time_usec;
+  e.x = o.x;
+  e.y = o.y;
+  e.z = o.z;
+  e.roll = static_cast<float>(roll);
+  e.pitch = static_cast<float>(pitch);
+  e.yaw = static_cast<float>(yaw);
+  e.covariance = o.pose_covariance;
+  e.reset_counter = reset_counter_;
+
+  VisionPositionDelta& d = out.position_delta;
+  d.time_usec = p.time_usec;
+  if (have_previous_) {
+    d.time_delta_usec = p.time_usec > previous_.time_usec ? p.time_usec - previous_.time_usec : 0;
+    // The move in the previous body frame; the angles from the previous body frame.
+    const double prev_yaw = Wrap(-previous_.heading_rad);
+    const double local_d[3] = {dx, dy, dz};
+    double body_d[3];
+    Rot::FromEuler(previous_.roll_rad.value_or(0.0), previous_.pitch_rad.value_or(0.0), prev_yaw)
+        .ToBody(local_d, body_d);
+    d.position_delta = {static_cast<float>(body_d[0]), static_cast<float>(body_d[1]),
+                        static_cast<float>(body_d[2])};
+    d.angle_delta = {static_cast<float>(roll - previous_.roll_rad.value_or(0.0)),
+                     static_cast<float>(pitch - previous_.pitch_rad.value_or(0.0)),
+                     static_cast<float>(dyaw)};
+  }
+  d.confidence = o.quality < 0 ? 0.f : static_cast<float>(o.quality);
+
+  previous_ = p;
+  have_previous_ = true;
+  return out;
+}
+
+}  // namespace aerovo::mavlink

@@ -1,0 +1,81 @@
+// The vision messages of one processed frame, from aerovo's pose (docs/autopilot.md has the
+// diagram). aerovo's local frame: origin at the first frame's camera centre, x = first image's
+// right, y = first image's up, z up (a right-handed, East-North-Up-like frame turned to the
+// first frame; heading counter-clockwise from +y). With the camera looking down and the top of
+// the image towards the nose, the image's up is the vehicle's forward, so the local frame is
+// the vehicle's start pose as (right, forward, up). Sent as MAV_FRAME_LOCAL_FRD (x forward at
+// the start, y right, z down; the autopilot aligns it with its own heading):
+//   x_frd = y_local, y_frd = x_local, z_frd = -(height - first height), yaw_frd = -heading.
+// Velocities are in MAV_FRAME_BODY_FRD (the vehicle's axes now), from consecutive positions.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+
+#include "aerovo/mavlink/messages.h"
+
+namespace aerovo::mavlink {
+
+/// The message aerovo sends per frame (RunConfig::mavlink_message).
+enum class VisionMessageKind { kOdometry, kVisionPositionEstimate, kVisionPositionDelta };
+/// "odometry", "vision_position_estimate", "vision_position_delta".
+const char* ToString(VisionMessageKind kind);
+/// The clock of the messages' timestamps (RunConfig::mavlink_time).
+enum class TimestampClock { kBoot, kUnix };
+/// "boot" (CLOCK_MONOTONIC: time since the companion computer booted), "unix".
+const char* ToString(TimestampClock clock);
+
+/// One processed frame as the vision messages need it.
+struct VisionPose {
+  uint64_t time_usec = 0;  ///< Capture time to send (boot or Unix clock, us).
+  double time_s = 0.0;     ///< The same instant in seconds (any clock; differences are used).
+  double local_x_m = 0.0, local_y_m = 0.0;  ///< Position in aerovo's local frame.
+  double height_m = 0.0;                    ///< Height above ground used for the frame.
+  double heading_rad = 0.0;  ///< Counter-clockwise from the local +y axis.
+  std::optional<double> roll_rad, pitch_rad;  ///< From the autopilot, when known.
+  enum class Status { kFirst, kOk, kReacquired, kBridged };
+  Status status = Status::kOk;
+  int n_inliers = 0;
+  double gsd_m_per_px = 1.0;     ///< Ground sampling distance of the frame.
+  double sigma_px = 0.75;        ///< 1-sigma residual of one inlier, px (half the threshold).
+  double half_width_px = 320.0;  ///< Half the frame's width: the lever arm of a rotation.
+};
+
+/// The messages of one frame.
+struct VisionMessages {
+  Odometry odometry;
+  VisionPositionEstimate position_estimate;
+  VisionPositionDelta position_delta;
+};
+
+/// Turns the frames' poses into messages, keeping what spans frames: the previous pose
+/// (velocities, deltas), the accumulated variances and the reset counter.
+///
+/// Covariance model (the odometry does not expose its residuals, so from the inlier count):
+/// a measured step moves the image by a fit on n inliers of residual sigma_px each, so its
+/// translation has a per-axis standard deviation of sigma_px / sqrt(n) px, times the ground
+/// sampling distance in metres, and its rotation sigma_px / sqrt(n) / half_width_px rad. A
+/// bridged step (predicted, not measured) adds its own length squared. Position and yaw
+/// variances add up from the first frame (odometry drifts); velocity variance is twice the
+/// step's over dt squared. z, roll and pitch are not measured by the vision (z echoes the
+/// height aerovo was given, roll and pitch the autopilot's): their variances are NaN (unknown),
+/// and the autopilot should not fuse them (docs/autopilot.md).
+/// Quality: -1 for a bridged frame, 100 for the first (the origin, exact by definition), else
+/// the inlier count capped at 100 (12, the acceptance minimum, gives 12).
+class VisionMessageBuilder {
+ public:
+  VisionMessages Add(const VisionPose& pose);
+  uint8_t reset_counter() const { return reset_counter_; }
+
+ private:
+  bool have_previous_ = false;
+  VisionPose previous_;
+  double first_height_m_ = 0.0;
+  double var_xy_m2_ = 0.0, var_yaw_rad2_ = 0.0;
+  uint8_t reset_counter_ = 0;
+};
+
+/// Index of (row, col), row <= col, in the row-major upper-right triangle of a 6x6 matrix.
+constexpr int UpperTriangleIndex(int row, int col) { return row * 6 - row * (row - 1) / 2 + (col - row); }
+
+}  // namespace aerovo::mavlink

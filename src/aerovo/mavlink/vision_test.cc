@@ -1,0 +1,107 @@
+// The vision messages of a few poses: the axis conversion (docs/autopilot.md), velocities in the
+// body frame, covariance growth, reset counter and quality.
+#include "aerovo/mavlink/vision.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace aerovo::mavlink {
+namespace {
+
+VisionPose Pose(double t, double x, double y, double heading, VisionPose::Status s, int inliers) {
+  VisionPose p;
+  p.time_s = t;
+  p.time_usec = static_cast<uint64_t>(t * 1e6);
+  p.local_x_m = x;
+  p.local_y_m = y;
+  p.height_m = 80.0;
+  p.heading_rad = heading;
+  p.status = s;
+  p.n_inliers = inliers;
+  p.gsd_m_per_px = 0.1;
+  p.sigma_px = 0.75;
+  p.half_width_px = 320;
+  return p;
+}
+
+TEST(MavlinkVision, LocalFrameToFrdAndBodyVelocity) {
+  VisionMessageBuilder b;
+  const VisionMessages m0 = b.Add(Pose(1.0, 0, 0, 0, VisionPose::Status::kFirst, 0));
+  EXPECT_EQ(m0.odometry.frame_id, kMavFrameLocalFrd);
+  EXPECT_EQ(m0.odometry.child_frame_id, kMavFrameBodyFrd);
+  EXPECT_EQ(m0.odometry.quality, 100);
+  EXPECT_TRUE(std::isnan(m0.odometry.vx));  // no velocity before a second frame
+  EXPECT_EQ(m0.odometry.pose_covariance[0], 0.f);
+  // 2 m to the right of the first image and 10 m up it (forward), turned 90 deg
+  // counter-clockwise (to the left): FRD x = 10 (forward), y = 2 (right), yaw = -90 deg.
+  VisionPose p1 = Pose(2.0, 2.0, 10.0, M_PI / 2, VisionPose::Status::kOk, 100);
+  p1.height_m = 78.0;  // 2 m lower than the first frame: z = +2 (down)
+  const VisionMessages m1 = b.Add(p1);
+  const Odometry& o = m1.odometry;
+  EXPECT_FLOAT_EQ(o.x, 10.f);
+  EXPECT_FLOAT_EQ(o.y, 2.f);
+  EXPECT_FLOAT_EQ(o.z, 2.f);
+  // q = rotation about z by -90 deg: (cos(-45 deg), 0, 0, sin(-45 deg)).
+  EXPECT_NEAR(o.q[0], std::sqrt(0.5), 1e-6);
+  EXPECT_NEAR(o.q[3], -std::sqrt(0.5), 1e-6);
+  // Moved (10, 2, 2) in local FRD over 1 s; the body now faces local -y: body forward =
+  // -local y_frd... body x = R^T v: yaw -90 deg -> body x = -v_y, body y = v_x.
+  EXPECT_NEAR(o.vx, -2.0, 1e-5);
+  EXPECT_NEAR(o.vy, 10.0, 1e-5);
+  EXPECT_NEAR(o.vz, 2.0, 1e-5);
+  EXPECT_NEAR(o.yawspeed, -M_PI / 2, 1e-5);
+  // Step sigma: 0.75 px / sqrt(100) * 0.1 m/px = 7.5 mm; variance 5.625e-5 m^2.
+  EXPECT_NEAR(o.pose_covariance[UpperTriangleIndex(0, 0)], 5.625e-5, 1e-9);
+  EXPECT_NEAR(o.pose_covariance[UpperTriangleIndex(1, 1)], 5.625e-5, 1e-9);
+  EXPECT_TRUE(std::isnan(o.pose_covariance[UpperTriangleIndex(2, 2)]));  // z not measured
+  EXPECT_TRUE(std::isnan(o.pose_covariance[UpperTriangleIndex(3, 3)]));  // roll unknown
+  EXPECT_NEAR(o.velocity_covariance[0], 2 * 5.625e-5, 1e-9);
+  EXPECT_EQ(o.quality, 100);
+  EXPECT_EQ(o.reset_counter, 0);
+  EXPECT_EQ(o.estimator_type, kMavEstimatorTypeVision);
+  // The same in VISION_POSITION_ESTIMATE and the delta in the previous body frame (yaw 0).
+  EXPECT_FLOAT_EQ(m1.position_estimate.x, 10.f);
+  EXPECT_NEAR(m1.position_estimate.yaw, -M_PI / 2, 1e-6);
+  EXPECT_FLOAT_EQ(m1.position_delta.position_delta[0], 10.f);
+  EXPECT_FLOAT_EQ(m1.position_delta.position_delta[1], 2.f);
+  EXPECT_EQ(m1.position_delta.time_delta_usec, 1000000u);
+  EXPECT_NEAR(m1.position_delta.angle_delta[2], -M_PI / 2, 1e-6);
+  EXPECT_EQ(m1.position_delta.confidence, 100.f);
+}
+
+TEST(MavlinkVision, BridgedAndReacquiredFrames) {
+  VisionMessageBuilder b;
+  b.Add(Pose(0.0, 0, 0, 0, VisionPose::Status::kFirst, 0));
+  b.Add(Pose(0.5, 0, 5, 0, VisionPose::Status::kOk, 30));
+  const VisionMessages br = b.Add(Pose(1.0, 0, 10, 0, VisionPose::Status::kBridged, 3));
+  EXPECT_EQ(br.odometry.quality, -1);
+  EXPECT_EQ(br.position_delta.confidence, 0.f);
+  // The bridged 5 m step adds its length squared.
+  EXPECT_GT(br.odometry.pose_covariance[0], 25.f);
+  EXPECT_EQ(br.odometry.reset_counter, 0);
+  const VisionMessages re = b.Add(Pose(1.5, 0.5, 14, 0, VisionPose::Status::kReacquired, 40));
+  EXPECT_EQ(re.odometry.reset_counter, 1);
+  EXPECT_EQ(re.position_estimate.reset_counter, 1);
+  EXPECT_EQ(re.odometry.quality, 40);
+  const VisionMessages ok = b.Add(Pose(2.0, 0.5, 19, 0, VisionPose::Status::kOk, 5));
+  EXPECT_EQ(ok.odometry.reset_counter, 1);  // stays until the next re-anchoring
+  EXPECT_EQ(ok.odometry.quality, 5);
+}
+
+TEST(MavlinkVision, AttitudeFromTheAutopilotInTheQuaternion) {
+  VisionMessageBuilder b;
+  VisionPose p = Pose(0.0, 0, 0, 0, VisionPose::Status::kFirst, 0);
+  p.roll_rad = 0.2;
+  p.pitch_rad = -0.1;
+  const Odometry o = b.Add(p).odometry;
+  // q of roll 0.2 then pitch -0.1 (yaw 0): w = cos(.1)cos(-.05), x = sin(.1)cos(-.05),
+  // y = cos(.1)sin(-.05), z = -sin(.1)sin(-.05).
+  EXPECT_NEAR(o.q[0], std::cos(0.1) * std::cos(-0.05), 1e-6);
+  EXPECT_NEAR(o.q[1], std::sin(0.1) * std::cos(-0.05), 1e-6);
+  EXPECT_NEAR(o.q[2], std::cos(0.1) * std::sin(-0.05), 1e-6);
+  EXPECT_NEAR(o.q[3], -std::sin(0.1) * std::sin(-0.05), 1e-6);
+}
+
+}  // namespace
+}  // namespace aerovo::mavlink

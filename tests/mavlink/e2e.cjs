@@ -1,0 +1,164 @@
+// aerovo's MAVLink output checked by node-mavlink, an independent MAVLink implementation.
+//   node e2e.cjs udp   AEROVO FRAMES_DIR FOCAL_PX HEIGHT_M RUN_DIR
+//     aerovo run FRAMES_DIR --mavlink udp:127.0.0.1:PORT (this script listens on PORT): one
+//     ODOMETRY per processed frame with a valid CRC, timestamps strictly increasing, positions
+//     equal to frames.csv within 1 mm under docs/autopilot.md's conversion (x_frd = y_local,
+//     y_frd = x_local), quality -1 exactly on bridged frames, reset_counter + 1 on every
+//     re-acquired frame, a HEARTBEAT from sysid 3 / compid 197.
+//   node e2e.cjs udpin AEROVO FRAMES_DIR FOCAL_PX HEIGHT_M RUN_DIR
+//     a fake autopilot: aerovo run FRAMES_DIR --mavlink udpin:127.0.0.1:PORT without
+//     --altitude; this script sends DISTANCE_SENSOR (HEIGHT_M, facing down) and ATTITUDE at
+//     50 Hz and a TIMESYNC request: the run must use that height (frames.csv height_m,
+//     height_source, roll/pitch; summary.json), answer the TIMESYNC and send its ODOMETRY here.
+// Exit 0 = pass, 1 = fail (the reasons printed).
+'use strict';
+const dgram = require('dgram');
+const fs = require('fs');
+const path = require('path');
+const { spawn } = require('child_process');
+const { MavLinkPacketSplitter, MavLinkPacketParser, MavLinkProtocolV2, minimal, common } =
+  require('node-mavlink');
+
+const [mode, aerovo, frames, focal, heightM, runDir] = process.argv.slice(2);
+const REGISTRY = { ...minimal.REGISTRY, ...common.REGISTRY };
+const failures = [];
+const check = (ok, what) => { if (!ok) failures.push(what); };
+
+function readCsv(file) {
+  const lines = fs.readFileSync(file, 'utf8').trim().split('\n');
+  const head = lines[0].split(',');
+  return lines.slice(1).map(l => {
+    const cells = l.split(',');
+    const row = {};
+    head.forEach((h, i) => { row[h] = cells[i]; });
+    return row;
+  });
+}
+
+function freePort() {
+  return new Promise(resolve => {
+    const s = dgram.createSocket('udp4');
+    s.bind(0, '127.0.0.1', () => { const p = s.address().port; s.close(() => resolve(p)); });
+  });
+}
+
+async function main() {
+  const sock = dgram.createSocket('udp4');
+  const splitter = new MavLinkPacketSplitter();
+  const parser = splitter.pipe(new MavLinkPacketParser());
+  const got = { odometry: [], heartbeats: [], timesync: [] };
+  parser.on('data', packet => {
+    const clazz = REGISTRY[packet.header.msgid];
+    if (!clazz) return;
+    const data = packet.protocol.data(packet.payload, clazz);
+    if (packet.header.msgid === common.Odometry.MSG_ID) got.odometry.push({ h: packet.header, d: data });
+    if (packet.header.msgid === minimal.Heartbeat.MSG_ID) got.heartbeats.push({ h: packet.header, d: data });
+    if (packet.header.msgid === common.TimeSync.MSG_ID) got.timesync.push({ h: packet.header, d: data });
+  });
+  sock.on('message', msg => splitter.write(msg));
+  await new Promise(r => sock.bind(0, '127.0.0.1', r));
+  const myPort = sock.address().port;
+
+  const args = ['run', frames, '--focal-px', focal, '--out', runDir, '-q', '--no-report'];
+  let aerovoPort = myPort;
+  let timer = null;
+  if (mode === 'udp') {
+    args.push('--altitude', heightM, '--mavlink', `udp:127.0.0.1:${myPort}`, '--mavlink-sysid', '3');
+  } else {
+    aerovoPort = await freePort();
+    args.push('--mavlink', `udpin:127.0.0.1:${aerovoPort}`);
+    // The fake autopilot (sysid 1, compid 1): rangefinder and attitude at 50 Hz, TIMESYNC at 2 Hz.
+    const proto = new MavLinkProtocolV2(1, 1);
+    let seq = 0;
+    const send = m => sock.send(proto.serialize(m, seq++ & 255), aerovoPort, '127.0.0.1');
+    let tick = 0;
+    timer = setInterval(() => {
+      const ds = new common.DistanceSensor();
+      ds.timeBootMs = tick * 20; ds.minDistance = 20; ds.maxDistance = 20000;
+      ds.currentDistance = Math.round(Number(heightM) * 100); ds.type = 0; ds.id = 0;
+      ds.orientation = 25; ds.covariance = 255; ds.horizontalFov = 0; ds.verticalFov = 0;
+      ds.quaternion = [0, 0, 0, 0]; ds.signalQuality = 0;
+      send(ds);
+      const at = new common.Attitude();
+      at.timeBootMs = tick * 20; at.roll = 0.05; at.pitch = -0.025; at.yaw = 0.5;
+      at.rollspeed = 0; at.pitchspeed = 0; at.yawspeed = 0;
+      send(at);
+      if (tick % 25 === 0) {
+        const ts = new common.TimeSync();
+        ts.tc1 = 0n; ts.ts1 = BigInt(1000 + tick); ts.targetSystem = 0; ts.targetComponent = 0;
+        send(ts);
+      }
+      ++tick;
+    }, 20);
+  }
+  const child = spawn(aerovo, args, { stdio: ['ignore', 'inherit', 'inherit'] });
+  const code = await new Promise(r => child.on('exit', c => r(c)));
+  await new Promise(r => setTimeout(r, 300));  // the last datagrams
+  if (timer) clearInterval(timer);
+  sock.close();
+  check(code === 0, `aerovo exited with ${code}`);
+  if (code !== 0) return;
+
+  const rows = readCsv(path.join(runDir, 'frames.csv'));
+  const summary = JSON.parse(fs.readFileSync(path.join(runDir, 'summary.json'), 'utf8'));
+  check(rows.length === summary.frames_processed, `frames.csv has ${rows.length} rows, summary ${summary.frames_processed}`);
+  check(splitter.invalidPackages === 0, `${splitter.invalidPackages} packets with a bad CRC`);
+  const odo = got.odometry;
+  check(odo.length === rows.length, `${odo.length} ODOMETRY for ${rows.length} processed frames`);
+  let resets = 0, reacquired = 0, bridged = 0;
+  for (let i = 0; i < Math.min(odo.length, rows.length); ++i) {
+    const d = odo[i].d, r = rows[i];
+    if (i > 0) check(d.timeUsec > odo[i - 1].d.timeUsec, `frame ${i}: time_usec ${d.timeUsec} not after ${odo[i - 1].d.timeUsec}`);
+    check(d.frameId === 20 && d.childFrameId === 12, `frame ${i}: frame ids ${d.frameId}/${d.childFrameId}`);
+    check(d.estimatorType === 2, `frame ${i}: estimator_type ${d.estimatorType}`);
+    check(Math.abs(d.x - Number(r.y_m)) <= 1e-3, `frame ${i}: x ${d.x} vs frames.csv y_m ${r.y_m}`);
+    check(Math.abs(d.y - Number(r.x_m)) <= 1e-3, `frame ${i}: y ${d.y} vs frames.csv x_m ${r.x_m}`);
+    const isBridged = r.status.startsWith('bridged');
+    check(isBridged === (d.quality === -1), `frame ${i}: status ${r.status}, quality ${d.quality}`);
+    if (r.status === 'reacquired') ++reacquired;
+    if (isBridged) ++bridged;
+    const prev = i > 0 ? odo[i - 1].d.resetCounter : 0;
+    const expect = r.status === 'reacquired' ? prev + 1 : prev;
+    check(d.resetCounter === expect, `frame ${i} (${r.status}): reset_counter ${d.resetCounter}, expected ${expect}`);
+    resets = d.resetCounter;
+  }
+  const hb = got.heartbeats;
+  check(hb.length >= 1, 'no HEARTBEAT');
+  if (hb.length) {
+    check(hb[0].h.compid === 197, `HEARTBEAT compid ${hb[0].h.compid}`);
+    check(hb[0].d.type === 18, `HEARTBEAT type ${hb[0].d.type}`);
+  }
+  if (mode === 'udp') {
+    check(hb.length === 0 || hb[0].h.sysid === 3, `HEARTBEAT sysid ${hb.length && hb[0].h.sysid}`);
+    check(odo.length === 0 || odo[0].h.sysid === 3, 'ODOMETRY sysid');
+    check(reacquired >= 1 && bridged >= 1, `the flight must bridge and re-acquire (bridged ${bridged}, reacquired ${reacquired})`);
+    check(resets === reacquired, `final reset_counter ${resets}, ${reacquired} re-acquired frames`);
+  } else {
+    const want = Number(heightM);
+    rows.forEach((r, i) => {
+      check(r.height_source === 'mavlink_distance_sensor', `frame ${i}: height_source ${r.height_source}`);
+      check(Math.abs(Number(r.height_m) - want) < 1e-6, `frame ${i}: height_m ${r.height_m}`);
+      check(Math.abs(Number(r.roll_deg) - 0.05 * 180 / Math.PI) < 1e-3, `frame ${i}: roll_deg ${r.roll_deg}`);
+      check(Math.abs(Number(r.pitch_deg) + 0.025 * 180 / Math.PI) < 1e-3, `frame ${i}: pitch_deg ${r.pitch_deg}`);
+    });
+    check(summary.height_source === 'mavlink', `summary height_source ${summary.height_source}`);
+    check(summary.height_sources && summary.height_sources.mavlink_distance_sensor === rows.length,
+      `summary height_sources ${JSON.stringify(summary.height_sources)}`);
+    check(summary.mavlink && summary.mavlink.distance_samples > 0, 'summary mavlink.distance_samples');
+    const answers = got.timesync.filter(t => t.d.tc1 !== 0n);
+    check(answers.length >= 1, 'no TIMESYNC answer');
+    if (answers.length) {
+      check(answers[0].d.ts1 >= 1000n, `TIMESYNC ts1 ${answers[0].d.ts1} not echoed`);
+      check(answers[0].d.targetSystem === 1 && answers[0].d.targetComponent === 1, 'TIMESYNC target');
+    }
+  }
+  console.log(`${mode}: ${odo.length} ODOMETRY, ${hb.length} HEARTBEAT, ${got.timesync.length} TIMESYNC for ${rows.length} frames`);
+}
+
+main().then(() => {
+  if (failures.length) {
+    console.error(`FAIL (${failures.length}):\n  ` + failures.slice(0, 30).join('\n  '));
+    process.exit(1);
+  }
+  console.log('PASS');
+}, e => { console.error(e); process.exit(1); });

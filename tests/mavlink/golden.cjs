@@ -1,0 +1,65 @@
+// Prints the golden packets of src/aerovo/mavlink/messages_test.cc, serialised by node-mavlink
+// (an implementation independent of aerovo's, generated from the same XML definitions). Run
+// once by hand after `npm ci` in a folder with this package.json:
+//   NODE_PATH=<that folder>/node_modules node tests/mavlink/golden.cjs
+// The field values are chosen exactly representable in float32, so the C++ test can set the
+// same ones.
+'use strict';
+const { MavLinkProtocolV2, minimal, common, ardupilotmega } = require('node-mavlink');
+
+function hex(msg, seq, sysid, compid) {
+  const p = new MavLinkProtocolV2(sysid, compid);
+  return p.serialize(msg, seq).toString('hex');
+}
+const iota = (n, a, b) => Array.from({ length: n }, (_, i) => a + b * i);
+
+const hb = new minimal.Heartbeat();
+hb.type = 18; hb.autopilot = 8; hb.baseMode = 0; hb.customMode = 0; hb.systemStatus = 4;
+hb.mavlinkVersion = 3;
+console.log('heartbeat', hex(hb, 7, 42, 197));
+
+const odo = new common.Odometry();
+odo.timeUsec = 1234567890123n; odo.frameId = 20; odo.childFrameId = 12;
+odo.x = 1.5; odo.y = -2.25; odo.z = 0.125; odo.q = [1, 0, 0, 0.5];
+odo.vx = 3; odo.vy = -4; odo.vz = 0.5; odo.rollspeed = NaN; odo.pitchspeed = NaN; odo.yawspeed = 0.25;
+odo.poseCovariance = iota(21, 0.5, 0.25); odo.poseCovariance[11] = NaN;
+odo.velocityCovariance = iota(21, -1, 0.125);
+odo.resetCounter = 3; odo.estimatorType = 2; odo.quality = -1;
+console.log('odometry', hex(odo, 200, 1, 197));
+
+// Extensions all zero and the last base fields zero: truncated below the MAVLink 1 length.
+const odo0 = new common.Odometry();
+odo0.timeUsec = 5n; odo0.frameId = 0; odo0.childFrameId = 0; odo0.x = 1; odo0.q = [0, 0, 0, 0];
+odo0.poseCovariance = iota(21, 0, 0); odo0.velocityCovariance = iota(21, 0, 0);
+odo0.resetCounter = 0; odo0.estimatorType = 0; odo0.quality = 0;
+console.log('odometry_truncated', hex(odo0, 0, 1, 197));
+
+const vpe = new common.VisionPositionEstimate();
+vpe.usec = 987654321n; vpe.x = -1; vpe.y = 2; vpe.z = -0.5; vpe.roll = 0.0625; vpe.pitch = -0.125;
+vpe.yaw = 3; vpe.covariance = iota(21, 1, 1); vpe.resetCounter = 9;
+console.log('vision_position_estimate', hex(vpe, 1, 1, 197));
+
+const vpd = new ardupilotmega.VisionPositionDelta();
+vpd.timeUsec = 1000000n; vpd.timeDeltaUsec = 33333n; vpd.angleDelta = [0, 0, -0.03125];
+vpd.positionDelta = [0.75, -0.5, 0]; vpd.confidence = 87;
+console.log('vision_position_delta', hex(vpd, 2, 1, 197));
+
+const ts = new common.TimeSync();
+ts.tc1 = 123456789012345n; ts.ts1 = -42n; ts.targetSystem = 255; ts.targetComponent = 190;
+console.log('timesync', hex(ts, 3, 1, 197));
+
+const ds = new common.DistanceSensor();
+ds.timeBootMs = 60000; ds.minDistance = 20; ds.maxDistance = 4000; ds.currentDistance = 8123;
+ds.type = 0; ds.id = 1; ds.orientation = 25; ds.covariance = 255; ds.horizontalFov = 0;
+ds.verticalFov = 0; ds.quaternion = [0, 0, 0, 0]; ds.signalQuality = 0;
+console.log('distance_sensor', hex(ds, 9, 1, 1));
+
+const gp = new common.GlobalPositionInt();
+gp.timeBootMs = 61000; gp.lat = 473977420; gp.lon = 85455940; gp.alt = 488000;
+gp.relativeAlt = 80250; gp.vx = -120; gp.vy = 35; gp.vz = 0; gp.hdg = 27000;
+console.log('global_position_int', hex(gp, 10, 1, 1));
+
+const at = new common.Attitude();
+at.timeBootMs = 62000; at.roll = 0.0625; at.pitch = -0.03125; at.yaw = 1.5; at.rollspeed = 0;
+at.pitchspeed = 0; at.yawspeed = 0;
+console.log('attitude', hex(at, 11, 1, 1));
