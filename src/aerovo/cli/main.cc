@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <exception>
 #include <iostream>
 #include <string>
@@ -133,10 +134,17 @@ int main(int argc, char** argv) {
       for (const CLI::App* a = leaf->get_parent(); a != nullptr; a = a->get_parent()) {
         for (const std::string& n : OptionNames(*a)) names.push_back(n);
       }
+      // The words after an unknown option are taken as its values, not reported again.
+      const std::vector<std::string> extras = app.remaining(true);
+      const bool any_option = std::any_of(extras.begin(), extras.end(), [](const std::string& w) {
+        return w.size() > 1 && w[0] == '-';
+      });
       msg.clear();
-      for (const std::string& w : app.remaining(true)) {
+      for (const std::string& w : extras) {
+        const bool option = w.size() > 1 && w[0] == '-';
+        if (any_option && !option) continue;
         if (!msg.empty()) msg += "\n" + path + ": ";
-        if (w.size() > 1 && w[0] == '-') {
+        if (option) {
           const std::string flag = w.substr(0, w.find('='));
           msg += "unknown option '" + flag + "'";
           const std::string near = NearestName(flag, names);

@@ -17,8 +17,9 @@ std::string RunHeadline(const RunSummary& s) {
   line += fmt::format("{} of {} frames", tracked, s.frames_processed);
   if (s.evaluation) {
     const TrajectoryErrors& e = s.evaluation->se2;
-    line += fmt::format(" over {:.0f} m; the track ends {:.1f} m ({:.2f} %) from GPS.",
-                        e.distance_flown_m, e.end_point_error_unaligned_m,
+    const double end_m = e.end_point_error_unaligned_m;  // centimetres when under 10 m
+    line += fmt::format(" over {:.0f} m; the track ends {:.{}f} m ({:.2f} %) from GPS.",
+                        e.distance_flown_m, end_m, end_m < 10.0 ? 2 : 1,
                         e.end_point_error_unaligned_percent);
   } else {
     line += fmt::format(" over {:.0f} m (VO); no GPS to compare with.", s.vo_path_length_m);
