@@ -1,5 +1,7 @@
-// A tiny program built against the installed aerovo package: runs SURF on a synthetic image.
+// A tiny program built against the installed aerovo package (with find_package(aerovo) and with
+// pkg-config): prints the version and runs SURF on a synthetic image.
 #include <aerovo/features/surf.h>
+#include <aerovo/version.h>
 
 #include <cmath>
 #include <cstdio>
@@ -14,6 +16,6 @@ int main() {
   }
   aerovo::Surf surf;
   const aerovo::SurfResult result = surf.DetectAndDescribe(image.view());
-  std::printf("keypoints: %zu\n", result.features.size());
+  std::printf("aerovo %s, keypoints: %zu\n", aerovo::kVersion, result.features.size());
   return result.features.empty() ? 1 : 0;
 }

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "aerovo/cli/command.h"
+#include "aerovo/cli/conventions.h"
 #include "aerovo/core/error.h"
 #include "aerovo/correspondence/correspondence.h"
 #include "aerovo/features/surf.h"
@@ -55,12 +56,14 @@ std::string Describe(const char* name, const CorrespondenceResult& r) {
 }
 
 void Run(Args a) {
-  if (a.last_shift.size() != 2) throw InvalidArgument("--last-shift takes two numbers: U V");
-  a.options.model = ParseMotionModel(a.model.c_str());
-  a.options.sampler = a.prosac ? SamplerKind::kProsac : SamplerKind::kUniform;
-  a.options.clustered.refine = !a.paper;
-  a.options.match.algorithm = ParseMatchAlgorithm(a.matcher);
-  Validate(a.options);
+  CheckUsage([&] {
+    if (a.last_shift.size() != 2) throw InvalidArgument("--last-shift takes two numbers: U V");
+    a.options.model = ParseMotionModel(a.model.c_str());
+    a.options.sampler = a.prosac ? SamplerKind::kProsac : SamplerKind::kUniform;
+    a.options.clustered.refine = !a.paper;
+    a.options.match.algorithm = ParseMatchAlgorithm(a.matcher);
+    Validate(a.options);
+  });
   SurfOptions so;
   so.hessian_threshold = a.hessian_threshold;
   Surf surf(so);
@@ -136,7 +139,11 @@ void Register(CLI::App& app) {
                   "k-d forest)")
       ->check(CLI::IsMember(options::EnumNames<MatchAlgorithm>()))
       ->capture_default_str();
-  cmd->add_option("--threshold", args->hessian_threshold, "SURF Hessian threshold (MATLAB 1000)")
+  // --threshold: the old spelling (hidden), --surf-threshold as in `aerovo run`.
+  cmd->add_option("--threshold", args->hessian_threshold, "Old name of --surf-threshold")
+      ->group("");
+  cmd->add_option("--surf-threshold", args->hessian_threshold,
+                  "SURF Hessian threshold (MATLAB 1000)")
       ->capture_default_str();
   cmd->add_option("--max-distance", args->options.ransac.max_distance_px,
                   "RANSAC inlier threshold, px (MATLAB MaxDistance)")

@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "aerovo/cli/command.h"
+#include "aerovo/cli/conventions.h"
 #include "aerovo/cli/progress.h"
 #include "aerovo/cli/run_cli.h"
 #include "aerovo/core/error.h"
@@ -53,25 +54,29 @@ std::vector<double> ParseKList(const std::string& text) {
 
 void Execute(ExperimentArgs& a) {
   ExperimentInput input;
-  input.run = a.run.Resolve();
+  input.run = CheckUsage([&] { return a.run.Resolve(); });
   input.out_dir = a.out;
   const bool quiet = input.run.quiet;
   IlluminationOptions illumination;
   if (a.kind == "illumination") {
-    if (!a.k_list.empty()) illumination.k = ParseKList(a.k_list);
-    illumination.scale_threshold = a.scale_threshold;
-    Validate(illumination);
+    CheckUsage([&] {
+      if (!a.k_list.empty()) illumination.k = ParseKList(a.k_list);
+      illumination.scale_threshold = a.scale_threshold;
+      Validate(illumination);
+    });
   }
 
   if (a.simulate) {
-    if (!input.run.input.empty()) {
-      throw InvalidArgument("give an input flight or --simulate, not both");
-    }
-    if (!input.run.truth.empty()) {
-      throw InvalidArgument("--truth is for a given input; --simulate has its own ground truth");
-    }
-    a.sim.sim.flight.pattern = sim::ParseFlightPattern(a.sim_pattern);
-    Validate(a.sim);
+    CheckUsage([&] {
+      if (!input.run.input.empty()) {
+        throw InvalidArgument("give an input flight or --simulate, not both");
+      }
+      if (!input.run.truth.empty()) {
+        throw InvalidArgument("--truth is for a given input; --simulate has its own ground truth");
+      }
+      a.sim.sim.flight.pattern = sim::ParseFlightPattern(a.sim_pattern);
+      Validate(a.sim);
+    });
     const std::filesystem::path dir = std::filesystem::path(a.out) / "sim";
     if (!quiet)
       fmt::print("aerovo experiment {}: simulating a flight into {}\n", a.kind, dir.string());

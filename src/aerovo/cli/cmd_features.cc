@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "aerovo/cli/command.h"
+#include "aerovo/cli/conventions.h"
 #include "aerovo/core/error.h"
 #include "aerovo/eval/feature_eval.h"
 #include "aerovo/features/surf.h"
@@ -29,9 +30,12 @@ void WriteText(const std::string& path, const std::string& text) {
 }
 
 void AddSurfOptions(CLI::App* cmd, SurfOptions& o) {
-  cmd->add_option("--threshold", o.hessian_threshold,
+  // --surf-threshold as in `aerovo run` and `aerovo correspondence`; --threshold, the old
+  // spelling, still accepted (hidden).
+  cmd->add_option("--surf-threshold", o.hessian_threshold,
                   "Hessian threshold on 0..255 images (MATLAB MetricThreshold)")
       ->capture_default_str();
+  cmd->add_option("--threshold", o.hessian_threshold, "Old name of --surf-threshold")->group("");
   cmd->add_option("--octaves", o.num_octaves, "Number of octaves (MATLAB NumOctaves)")
       ->capture_default_str();
   cmd->add_option("--levels", o.num_scale_levels,
@@ -52,7 +56,7 @@ struct DetectArgs {
 };
 
 void RunDetect(const DetectArgs& a) {
-  Validate(a.surf);
+  CheckUsage([&] { Validate(a.surf); });
   const cv::Mat gray = ReadGrayImage(a.image, GrayFrom::kDecoder);
   Surf surf(a.surf);
   const GrayImageView view{gray.data, gray.cols, gray.rows, static_cast<std::ptrdiff_t>(gray.step)};
@@ -140,12 +144,14 @@ nlohmann::json ScoreJson(const PairScore& s) {
 
 void RunEval(EvalArgs a) {
   FeatureEvalOptions& o = a.options;
-  o.detectors = ParseFeatureDetectorList(a.detectors);
-  if (!a.sequences.empty()) o.sequences = a.sequences;
-  if (!a.targets.empty()) o.targets = a.targets;
-  o.common_part = a.opencv_common_part ? CommonPart::kOpenCv : CommonPart::kBothImages;
-  o.matching_score = !a.no_matching_score;
-  Validate(o);
+  CheckUsage([&] {
+    o.detectors = ParseFeatureDetectorList(a.detectors);
+    if (!a.sequences.empty()) o.sequences = a.sequences;
+    if (!a.targets.empty()) o.targets = a.targets;
+    o.common_part = a.opencv_common_part ? CommonPart::kOpenCv : CommonPart::kBothImages;
+    o.matching_score = !a.no_matching_score;
+    Validate(o);
+  });
 
   std::vector<FeatureEvalSequence> results;
   for (const std::string& name : o.sequences) {

@@ -9,8 +9,10 @@
 #include <fmt/format.h>
 
 #include "aerovo/cli/command.h"
+#include "aerovo/cli/conventions.h"
 #include "aerovo/cli/progress.h"
 #include "aerovo/cli/run_cli.h"
+#include "aerovo/cli/run_summary.h"
 #include "aerovo/pipeline/runner.h"
 #include "aerovo/report/html_report.h"
 
@@ -30,8 +32,11 @@ void Execute(RunArgs& a) {
     std::cout << RunOptionsMarkdown();
     return;
   }
-  const RunConfig config = a.run.Resolve();
-  Validate(config);
+  const RunConfig config = CheckUsage([&] {
+    RunConfig c = a.run.Resolve();
+    Validate(c);
+    return c;
+  });
   if (a.print_config) {  // what config.json will hold, without running
     std::cout << ToJson(config).dump(2) << "\n";
     return;
@@ -41,6 +46,7 @@ void Execute(RunArgs& a) {
   Progress progress(DefaultProgressStyle(config.quiet || a.print_poses));
   RunCallbacks cb;
   cb.log = &std::cout;
+  cb.log_config = VerboseFlag();  // else config.json only
   if (progress.enabled()) {
     cb.progress = [&progress](int done, int expected, double fps) {
       progress.Update(done, expected, fps);
@@ -68,10 +74,8 @@ void Execute(RunArgs& a) {
   if (!config.quiet) {
     for (const std::string& w : s.warnings) std::cout << "warning: " << w << "\n";
   }
-  std::cout << "\n" << FormatSummaryTable(s);
-  std::cout << "\nOutputs: " << s.out_dir.string()
-            << "/{frames.csv, transforms.csv, vo.tum, gps.tum, vo/gps .geojson .kml .gpx, run.kml, "
-               "summary.json, config.json}\n";
+  std::cout << "\n";
+  PrintRunSummary(std::cout, s);
   std::cout.flush();
   // The HTML report of what was computed (also after an interruption). A failure is a warning:
   // the run's outputs are already complete on disk.

@@ -263,7 +263,7 @@ void Register(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--seed", opt->seed, "Seed of all simulation noise")->capture_default_str();
   // Output.
-  cmd->add_option("--out", args->out, "Output folder")->required();
+  cmd->add_option("-o,--out", args->out, "Output folder")->required();
   cmd->add_flag("--frames-only", args->frames_only, "Write an image folder instead of a video");
   cmd->add_option("--image-format", args->image_format, "Frames-only image format: jpg | png")
       ->capture_default_str();

@@ -14,6 +14,10 @@ using CommandRegistrar = void (*)(CLI::App& app);
 
 std::vector<CommandRegistrar>& Registry();
 
+/// The root's -v/--verbose flag (also accepted after the command): debug logging, and the
+/// commands' longer output (`aerovo run` prints its configuration).
+bool& VerboseFlag();
+
 struct RegisterCommand {
   explicit RegisterCommand(CommandRegistrar r) { Registry().push_back(r); }
 };

@@ -1,38 +1,168 @@
 // aerovo: visual odometry for a downward-looking UAV camera (Ivanov & Muzychuk 2023, and more).
+// The command-line conventions (exit codes, suggestions, help, completion) are conventions.h.
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <exception>
 #include <iostream>
+#include <string>
+#include <vector>
 
 #include "aerovo/cli/command.h"
+#include "aerovo/cli/conventions.h"
 
 namespace aerovo::cli {
 std::vector<CommandRegistrar>& Registry() {
   static std::vector<CommandRegistrar> registry;
   return registry;
 }
+
+bool& VerboseFlag() {
+  static bool verbose = false;
+  return verbose;
+}
+
+namespace {
+
+const CLI::App* FindSubcommand(const CLI::App& app, const std::string& name) {
+  for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; })) {
+    if (sub->get_name() == name) return sub;
+  }
+  return nullptr;
+}
+
+// "aerovo experiment ransac" for the deepest subcommand the parse selected.
+std::string ParsedPath(const CLI::App& app, const CLI::App** leaf) {
+  std::string path = app.get_name();
+  const CLI::App* cur = &app;
+  while (!cur->get_subcommands().empty()) {
+    cur = cur->get_subcommands().front();
+    path += " " + cur->get_name();
+  }
+  *leaf = cur;
+  return path;
+}
+
+// Walks the command words of `args` (argv without the program) from the root: a word where a
+// command must stand (the root, `experiment`, `features`) that names none is a usage error,
+// with the nearest name suggested. Stops at the first command that takes arguments. Returns the
+// message, "" when the words are commands.
+std::string CheckCommandWords(const CLI::App& app, const std::vector<std::string>& args) {
+  const CLI::App* cur = &app;
+  std::string path = app.get_name();
+  for (const std::string& w : args) {
+    if (w == "--") break;
+    if (!w.empty() && w[0] == '-') continue;  // the root's and groups' flags take no value
+    if (SubcommandNames(*cur).empty() || cur->get_require_subcommand_min() == 0) break;
+    const CLI::App* sub = FindSubcommand(*cur, w);
+    if (sub == nullptr) {
+      std::string msg = path + ": unknown command '" + w + "'";
+      const std::string near = NearestName(w, SubcommandNames(*cur));
+      if (!near.empty()) msg += "; did you mean '" + near + "'?";
+      msg += "\nRun '" + path + " --help' for the list of commands.";
+      return msg;
+    }
+    cur = sub;
+    path += " " + w;
+  }
+  return "";
+}
+
+// The footer (exit codes) on every command's --help.
+void SetFooters(CLI::App& app) {
+  app.footer("\n" + ExitCodesHelp());
+  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) SetFooters(*sub);
+}
+
+}  // namespace
 }  // namespace aerovo::cli
 
 int main(int argc, char** argv) {
+  using namespace aerovo::cli;
   CLI::App app{
       "aerovo: where a UAV is, from its downward-looking camera alone.\n"
-      "Visual odometry after Ivanov & Muzychuk (2023): SURF, matching, (clustered) RANSAC."};
+      "Visual odometry after Ivanov & Muzychuk (2023): SURF, matching, (clustered) RANSAC.",
+      "aerovo"};
   app.require_subcommand(1);
+  // The root's flags also after the command (`aerovo run ... --verbose`).
+  app.fallthrough();
   app.set_version_flag("--version", std::string("aerovo ") + AEROVO_VERSION);
-  bool verbose = false;
-  app.add_flag("-v,--verbose", verbose, "Debug logging");
+  app.add_flag("-v,--verbose", VerboseFlag(),
+               "Debug logging; `aerovo run` also prints its configuration (config.json)");
   app.parse_complete_callback([&] {
-    spdlog::set_level(verbose ? spdlog::level::debug : spdlog::level::info);
+    spdlog::set_level(VerboseFlag() ? spdlog::level::debug : spdlog::level::info);
   });
-  for (auto registrar : aerovo::cli::Registry()) registrar(app);
+  for (auto registrar : Registry()) registrar(app);
+  std::vector<std::string> help_of;
+  app.add_subcommand("help", "Show the help of a command (aerovo help run, aerovo help "
+                             "experiment ransac)")
+      ->add_option("command", help_of, "Command (and subcommand)");
+  std::string shell;
+  CLI::App* completion = app.add_subcommand(
+      "completion", "Print the shell completion script (installed as "
+                    "share/bash-completion/completions/aerovo)");
+  completion->add_option("shell", shell, "Shell")->check(CLI::IsMember({"bash"}))->required();
+  completion->callback([&] { std::cout << BashCompletion(app, "aerovo"); });
+  SetFooters(app);
+
+  std::vector<std::string> args(argv + 1, argv + argc);
+  if (args.empty()) {  // `aerovo` alone: the usage with the commands
+    std::cout << app.help();
+    return kExitOk;
+  }
+  // `aerovo help CMD...` is `aerovo CMD... --help`.
+  if (args.front() == "help") {
+    args.erase(args.begin());
+    args.push_back("--help");
+  }
+  if (const std::string msg = CheckCommandWords(app, args); !msg.empty()) {
+    std::cerr << msg << "\n";
+    return kExitUsage;
+  }
+  std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 parses a reversed vector
   try {
-    app.parse(argc, argv);
+    app.parse(reversed);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    const CLI::App* leaf = nullptr;
+    const std::string path = ParsedPath(app, &leaf);
+    std::string msg = e.what();
+    if (dynamic_cast<const CLI::ExtrasError*>(&e) != nullptr) {
+      // Unknown options: name each, with the nearest option of the command.
+      std::vector<std::string> names = OptionNames(*leaf);
+      for (const CLI::App* a = leaf->get_parent(); a != nullptr; a = a->get_parent()) {
+        for (const std::string& n : OptionNames(*a)) names.push_back(n);
+      }
+      // The words after an unknown option are taken as its values, not reported again.
+      const std::vector<std::string> extras = app.remaining(true);
+      const bool any_option = std::any_of(extras.begin(), extras.end(), [](const std::string& w) {
+        return w.size() > 1 && w[0] == '-';
+      });
+      msg.clear();
+      for (const std::string& w : extras) {
+        const bool option = w.size() > 1 && w[0] == '-';
+        if (any_option && !option) continue;
+        if (!msg.empty()) msg += "\n" + path + ": ";
+        if (option) {
+          const std::string flag = w.substr(0, w.find('='));
+          msg += "unknown option '" + flag + "'";
+          const std::string near = NearestName(flag, names);
+          if (!near.empty()) msg += "; did you mean '" + near + "'?";
+        } else {
+          msg += "unexpected argument '" + w + "'";
+        }
+      }
+      if (msg.empty()) msg = e.what();
+    }
+    std::cerr << path << ": " << msg << "\nRun '" << path << " --help' for more information.\n";
+    return kExitUsage;
+  } catch (const UsageError& e) {  // a bad option value, options that disagree
+    std::cerr << "aerovo: error: " << e.what() << "\n";
+    return kExitUsage;
   } catch (const std::exception& e) {
     std::cerr << "aerovo: error: " << e.what() << "\n";
-    return 1;
+    return kExitFailure;
   }
-  return 0;
+  return kExitOk;
 }

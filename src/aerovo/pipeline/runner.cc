@@ -96,15 +96,20 @@ namespace {
 
 // The run folder: created, with config.json of the effective configuration (sim.json's settings
 // filled in; RunOutputs rewrites it with the "resolved" block on the first frame), which the
-// log also shows.
-std::filesystem::path PrepareRunFolder(const RunConfig& config, std::ostream* log) {
+// log names (and shows, with log_config).
+std::filesystem::path PrepareRunFolder(const RunConfig& config, bool log_config,
+                                       std::ostream* log) {
   namespace fs = std::filesystem;
   const fs::path out_dir(config.out);
   std::error_code ec;
   fs::create_directories(out_dir, ec);
   if (ec) throw InputError("cannot create output folder '" + config.out + "': " + ec.message());
   WriteJsonFileAtomic(out_dir / RunFileNames::kConfigJson, ToJson(config));
-  if (log) *log << "aerovo run: effective configuration\n" << ToJson(config).dump(2) << "\n";
+  if (log && log_config) {
+    *log << "aerovo run: effective configuration\n" << ToJson(config).dump(2) << "\n";
+  } else if (log) {
+    *log << "configuration: " << (out_dir / RunFileNames::kConfigJson).string() << "\n";
+  }
   return out_dir;
 }
 
@@ -151,7 +156,7 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   summary.input = config.input;
   summary.out_dir = config.out;
   std::ostream* log = config.quiet ? nullptr : cb.log;
-  const std::filesystem::path out_dir = PrepareRunFolder(config, log);
+  const std::filesystem::path out_dir = PrepareRunFolder(config, cb.log_config, log);
   DescribeSource(*source, config.max_frames, log, &summary);
   const auto* folder = dynamic_cast<const ImageFolderSource*>(source.get());
   const run_steps::RunTelemetry telemetry = run_steps::RunTelemetry::Load(

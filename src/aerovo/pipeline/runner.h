@@ -94,6 +94,9 @@ std::string FormatSummaryTable(const RunSummary& summary);
 /// frames per second).
 struct RunCallbacks {
   std::ostream* log = nullptr;
+  /// Also print the effective configuration (config.json, ~35 lines) to `log` at the start;
+  /// otherwise `log` gets one line naming config.json (`aerovo run --verbose` sets it).
+  bool log_config = false;
   std::function<void(int, int, double)> progress;
   /// Streaming: when set, one line per frame as soon as its pose is written
   /// (`frame time_s x_m y_m lat_deg lon_deg status`, space separated, flushed; lat/lon "-" until

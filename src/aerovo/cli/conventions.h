@@ -1,0 +1,66 @@
+// The command-line conventions every `aerovo` subcommand follows: exit codes, the nearest-name
+// suggestion for a mistyped command or option, and the bash completion generated from the
+// command and flag tables (CLI11's App tree). Used by main.cc; tested in conventions_test.cc
+// and, through the binary, in tests/e2e/cli_conventions_test.cc.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "aerovo/core/error.h"
+
+namespace aerovo::cli {
+
+/// The exit codes of `aerovo` (also in `aerovo --help` and the README).
+enum ExitCode : int {
+  kExitOk = 0,       ///< Success (also --help, --version, `aerovo` alone).
+  kExitFailure = 1,  ///< The command failed: bad input data, a file it could not read or write.
+  kExitUsage = 2,    ///< Usage error: unknown command or option, bad or missing value.
+  kExitSigint = 130,   ///< Stopped by SIGINT (128 + 2); the outputs are valid up to that frame.
+  kExitSigterm = 143,  ///< Stopped by SIGTERM (128 + 15); same.
+};
+
+/// A usage error found by a command after parsing (an option's value out of range, options that
+/// disagree): main prints it and exits with kExitUsage.
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Runs `f`, the reading and checking of a command's options before it works: an
+/// InvalidArgument it throws (an option out of range, options that disagree) is a UsageError.
+template <class F>
+auto CheckUsage(F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const InvalidArgument& e) {
+    throw UsageError(e.what());
+  }
+}
+
+/// The "Exit codes:" paragraph of every --help.
+std::string ExitCodesHelp();
+
+/// Levenshtein distance (insertions, deletions, substitutions, each 1).
+int EditDistance(const std::string& a, const std::string& b);
+
+/// The candidate nearest to `word`, "" when none is near enough: within 2 edits for words of
+/// up to 8 characters, 3 for longer ones, or a candidate that `word` is a prefix of (`--surf-t`
+/// -> `--surf-threshold`). Ties: the first in `candidates`.
+std::string NearestName(const std::string& word, const std::vector<std::string>& candidates);
+
+/// The names of the (non-hidden-group) subcommands of `app`, in registration order.
+std::vector<std::string> SubcommandNames(const CLI::App& app);
+
+/// Every long and short option name of `app` (with dashes: "--out", "-o"), help included.
+std::vector<std::string> OptionNames(const CLI::App& app);
+
+/// A bash completion script for `app` (program `name`): completes subcommands at every level
+/// and each command's options, and files for the rest. Generated from the App tree, so it lists
+/// every subcommand and every flag of `aerovo run` as they are registered.
+std::string BashCompletion(const CLI::App& app, const std::string& name);
+
+}  // namespace aerovo::cli

@@ -1,0 +1,247 @@
+// The command-line conventions: the suggestion, and through the built binary the exit codes,
+// `aerovo` alone, `aerovo help CMD`, the unknown command and option messages and the bash
+// completion generated at build time.
+#include "aerovo/cli/conventions.h"
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+namespace aerovo::cli {
+namespace {
+
+TEST(Conventions, EditDistance) {
+  EXPECT_EQ(EditDistance("", ""), 0);
+  EXPECT_EQ(EditDistance("run", "run"), 0);
+  EXPECT_EQ(EditDistance("rnu", "run"), 2);  // a transposition is two edits
+  EXPECT_EQ(EditDistance("simulte", "simulate"), 1);
+  EXPECT_EQ(EditDistance("kitten", "sitting"), 3);
+  EXPECT_EQ(EditDistance("", "abc"), 3);
+}
+
+TEST(Conventions, NearestNameSuggestsOnlyNearNames) {
+  const std::vector<std::string> commands = {"run",    "simulate", "report",  "features",
+                                             "correspondence", "demo", "experiment", "telemetry"};
+  EXPECT_EQ(NearestName("rnu", commands), "run");
+  EXPECT_EQ(NearestName("simualte", commands), "simulate");
+  EXPECT_EQ(NearestName("reprot", commands), "report");
+  EXPECT_EQ(NearestName("corespondance", commands), "correspondence");
+  EXPECT_EQ(NearestName("exp", commands), "experiment");  // a prefix
+  EXPECT_EQ(NearestName("xyzzy", commands), "");
+  EXPECT_EQ(NearestName("", commands), "");
+  const std::vector<std::string> flags = {"--surf-threshold", "--surf-num-threads", "--out", "-o"};
+  EXPECT_EQ(NearestName("--surf-treshold", flags), "--surf-threshold");
+  EXPECT_EQ(NearestName("--outt", flags), "--out");
+  EXPECT_EQ(NearestName("--banana", flags), "");
+}
+
+#ifdef AEROVO_CLI_PATH
+
+struct Cli {
+  int status = -1;
+  std::string out;  // stdout + stderr
+};
+
+// `aerovo ARGS` with stdout and stderr together (or stdout only with `stdout_only`).
+Cli Aerovo(const std::string& args, bool stdout_only = false) {
+  const std::string cmd =
+      std::string(AEROVO_CLI_PATH) + " " + args + (stdout_only ? " 2>/dev/null" : " 2>&1");
+  Cli r;
+  FILE* p = ::popen(cmd.c_str(), "r");
+  if (p == nullptr) return r;
+  char buf[4096];
+  std::size_t n;
+  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
+  const int status = ::pclose(p);
+  r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+bool Has(const std::string& text, const std::string& what) {
+  return text.find(what) != std::string::npos;
+}
+
+// The subcommand names of a --help's "Subcommands:" section.
+std::set<std::string> HelpSubcommands(const std::string& help) {
+  std::set<std::string> names;
+  std::istringstream in(help.substr(help.find("Subcommands:")));
+  std::string line;
+  std::getline(in, line);
+  const std::regex row("^  ([a-z]+) ");
+  while (std::getline(in, line) && !line.empty()) {
+    std::smatch m;
+    if (std::regex_search(line, m, row)) names.insert(m[1]);
+  }
+  return names;
+}
+
+TEST(CliConventions, AloneItPrintsTheUsageWithTheCommandsAndExitsZero) {
+  const Cli r = Aerovo("", /*stdout_only=*/true);
+  EXPECT_EQ(r.status, 0) << r.out;
+  EXPECT_TRUE(Has(r.out, "Usage: aerovo")) << r.out;
+  const std::set<std::string> subs = HelpSubcommands(r.out);
+  for (const char* c : {"run", "simulate", "report", "features", "correspondence", "experiment",
+                        "demo", "telemetry", "help", "completion"}) {
+    EXPECT_EQ(subs.count(c), 1u) << c << "\n" << r.out;
+  }
+  EXPECT_TRUE(Has(r.out, "Exit codes:")) << r.out;
+}
+
+TEST(CliConventions, UsageErrorsExitTwoWithTheNearestName) {
+  Cli r = Aerovo("rnu");
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_TRUE(Has(r.out, "unknown command 'rnu'; did you mean 'run'?")) << r.out;
+  r = Aerovo("experiment rnasac");
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_TRUE(Has(r.out, "aerovo experiment: unknown command 'rnasac'; did you mean 'ransac'?"))
+      << r.out;
+  r = Aerovo("help rnu");
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_TRUE(Has(r.out, "did you mean 'run'?")) << r.out;
+  r = Aerovo("run flight.mp4 --surf-treshold 500 --print-config");
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_TRUE(Has(r.out, "unknown option '--surf-treshold'; did you mean '--surf-threshold'?"))
+      << r.out;
+  // CLI11's own errors (104-109 before): a bad value, a missing argument, an enum not a choice.
+  for (const char* args : {"run flight.mp4 --step abc --print-config", "report",
+                           "run flight.mp4 --correspondence-sampler fast --print-config",
+                           "simulate --height-m"}) {
+    r = Aerovo(args);
+    EXPECT_EQ(r.status, 2) << args << "\n" << r.out;
+    EXPECT_TRUE(Has(r.out, "--help")) << args << "\n" << r.out;
+  }
+  // An option out of its range, found after parsing: also a usage error, naming the key.
+  r = Aerovo("run flight.mp4 --ransac-max-distance-px -1 --print-config");
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_TRUE(Has(r.out, "ransac.max_distance_px must be finite and > 0, got -1")) << r.out;
+  // Bad input data is not a usage error.
+  r = Aerovo("run /nonexistent/flight.mp4 --hfov-deg 70 -o /tmp/aerovo_conventions_test_run");
+  EXPECT_EQ(r.status, 1) << r.out;
+}
+
+TEST(CliConventions, HelpCmdIsCmdHelpAndEveryHelpListsTheExitCodes) {
+  const Cli help = Aerovo("help run", true), direct = Aerovo("run --help", true);
+  EXPECT_EQ(help.status, 0);
+  EXPECT_EQ(help.out, direct.out);
+  EXPECT_TRUE(Has(help.out, "Usage: aerovo run")) << help.out;
+  for (const char* cmd : {"run", "simulate", "experiment ransac", "features detect"}) {
+    const Cli r = Aerovo(std::string("help ") + cmd, true);
+    EXPECT_EQ(r.status, 0) << cmd;
+    EXPECT_TRUE(Has(r.out, "Exit codes:")) << cmd << "\n" << r.out;
+    EXPECT_TRUE(Has(r.out, "  2    usage error")) << cmd << "\n" << r.out;
+  }
+  EXPECT_EQ(Aerovo("help", true).out, Aerovo("--help", true).out);
+}
+
+TEST(CliConventions, OneNameForTheSameOptionInEveryCommand) {
+  // -o/--out everywhere a command writes a folder.
+  for (const char* cmd : {"run", "simulate", "demo", "experiment ransac"}) {
+    const Cli r = Aerovo(std::string("help ") + cmd, true);
+    EXPECT_TRUE(std::regex_search(r.out, std::regex("-o,--out"))) << cmd << "\n" << r.out;
+  }
+  // The SURF threshold: --surf-threshold in run, features detect and correspondence.
+  for (const char* cmd : {"run", "features detect", "correspondence"}) {
+    const Cli r = Aerovo(std::string("help ") + cmd, true);
+    EXPECT_TRUE(Has(r.out, "--surf-threshold")) << cmd << "\n" << r.out;
+  }
+  // The old spelling still works (hidden).
+  const Cli old = Aerovo("features detect --threshold 500 /nonexistent.png");
+  EXPECT_EQ(old.status, 1) << old.out;  // parsed; then the missing image
+}
+
+// `aerovo run` on a small simulated flight, stdout and stderr to files (a log, CI): the
+// configuration is in config.json only (printed with --verbose), progress is plain lines on
+// stderr, and the summary opens with the one-line answer, every line within 80 columns.
+TEST(CliConventions, RunPrintsTheAnswerFirstWithin80ColumnsAndTheConfigOnlyWhenVerbose) {
+  const std::string dir = "/tmp/aerovo_conventions_run_" + std::to_string(::getpid());
+  ASSERT_EQ(Aerovo("simulate --pattern line --length-m 30 --speed-mps 10 --fps 2 --width 640 "
+                "--height 480 -q -o " + dir + "/sim").status, 0);
+  const auto read = [](const std::string& path) {
+    std::ifstream f(path);
+    return std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  };
+  for (const bool verbose : {false, true}) {
+    const std::string out = dir + "/run" + (verbose ? "-v" : "");
+    const std::string cmd = std::string(AEROVO_CLI_PATH) + " run " + dir +
+                            "/sim/video.mp4 --no-report -o " + out + (verbose ? " --verbose" : "") +
+                            " > " + out + ".stdout 2> " + out + ".stderr";
+    ASSERT_EQ(std::system(cmd.c_str()), 0) << read(out + ".stdout") << read(out + ".stderr");
+    const std::string log = read(out + ".stdout"), err = read(out + ".stderr");
+    EXPECT_EQ(Has(log, "effective configuration"), verbose) << log;
+    EXPECT_TRUE(Has(log, "configuration: " + out + "/config.json") || verbose) << log;
+    EXPECT_EQ(err.find('\r'), std::string::npos) << err;
+    EXPECT_TRUE(std::regex_search(err, std::regex("\\d+/\\d+ frames"))) << err;
+    if (verbose) continue;
+    // The answer, then a blank line, then the details; no line over 80 columns.
+    const std::regex headline(
+        "\nTracked (\\d+) of (\\d+) frames over (\\d+) m; the track ends [0-9.]+ m "
+        "\\([0-9.]+ %\\) from GPS\\.\n\n");
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(log, m, headline)) << log;
+    EXPECT_EQ(m[1], m[2]) << "every frame of a textured nadir flight tracked";
+    // GPS's path length of the 30 m line: its 1.5 m noise lengthens it.
+    EXPECT_GE(std::stod(m[3]), 28.0);
+    EXPECT_LE(std::stod(m[3]), 45.0);
+    const std::string summary = log.substr(m.position(0));
+    std::istringstream lines(summary);
+    for (std::string line; std::getline(lines, line);) {
+      if (line.rfind("  " + out, 0) == 0) continue;  // a path may be long
+      EXPECT_LE(line.size(), 80u) << line;
+    }
+    EXPECT_TRUE(Has(summary, "Outputs in " + out + "/:")) << summary;
+    EXPECT_TRUE(Has(summary, "frames.csv")) << summary;
+  }
+  std::system(("rm -rf " + dir).c_str());
+}
+
+// The completion generated at build time (share/bash-completion/completions/aerovo) offers every
+// subcommand and every flag that `aerovo run --help` lists.
+TEST(CliConventions, BashCompletionListsEverySubcommandAndRunFlag) {
+  std::ifstream f(AEROVO_COMPLETION_FILE);
+  ASSERT_TRUE(f.good()) << AEROVO_COMPLETION_FILE;
+  const std::string script((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  EXPECT_TRUE(Has(script, "complete -o filenames -F _aerovo_complete aerovo")) << script;
+  const Cli now = Aerovo("completion bash", true);
+  EXPECT_EQ(now.out, script);  // the installed file is the program's current tables
+  // The root's line: every subcommand of `aerovo --help`.
+  const std::smatch root = [&] {
+    std::smatch m;
+    std::regex_search(script, m, std::regex("'aerovo'\\) subs='([^']*)'"));
+    return m;
+  }();
+  ASSERT_FALSE(root.empty()) << script;
+  const std::string root_subs = " " + root[1].str() + " ";
+  for (const std::string& c : HelpSubcommands(Aerovo("--help", true).out)) {
+    EXPECT_TRUE(Has(root_subs, " " + c + " ")) << c << " missing from " << root_subs;
+  }
+  std::smatch run;
+  ASSERT_TRUE(std::regex_search(script, run, std::regex("'aerovo run'\\) subs='[^']*'; opts='([^']*)'")));
+  const std::string run_opts = " " + run[1].str() + " ";
+  const std::string help = Aerovo("run --help", true).out;
+  const std::regex flag("(^|[ ,])(--[a-z0-9][a-z0-9-]*)");
+  int n = 0;
+  for (auto it = std::sregex_iterator(help.begin(), help.end(), flag); it != std::sregex_iterator();
+       ++it) {
+    const std::string name = (*it)[2];
+    // Flags quoted in the descriptions (of other commands, e.g. "aerovo report ... --no-mosaic")
+    // are not run's; run's own are all offered.
+    if (!Has(help, "  " + name) && !Has(help, "," + name)) continue;
+    EXPECT_TRUE(Has(run_opts, " " + name + " ")) << name;
+    ++n;
+  }
+  EXPECT_GT(n, 60) << "run lists every option of the schema";
+}
+
+#endif  // AEROVO_CLI_PATH
+
+}  // namespace
+}  // namespace aerovo::cli

@@ -1,0 +1,79 @@
+#include "aerovo/cli/run_summary.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <system_error>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "aerovo/eval/trajectory_eval_json.h"
+
+namespace aerovo::cli {
+
+std::string RunHeadline(const RunSummary& s) {
+  const int tracked = std::max(0, s.frames_processed - s.frames_bridged);
+  std::string line = s.interrupted ? "Interrupted: tracked " : "Tracked ";
+  line += fmt::format("{} of {} frames", tracked, s.frames_processed);
+  if (s.evaluation) {
+    const TrajectoryErrors& e = s.evaluation->se2;
+    const double end_m = e.end_point_error_unaligned_m;  // centimetres when under 10 m
+    line += fmt::format(" over {:.0f} m; the track ends {:.{}f} m ({:.2f} %) from GPS.",
+                        e.distance_flown_m, end_m, end_m < 10.0 ? 2 : 1,
+                        e.end_point_error_unaligned_percent);
+  } else {
+    line += fmt::format(" over {:.0f} m (VO); no GPS to compare with.", s.vo_path_length_m);
+  }
+  return line;
+}
+
+std::string WrappedFileList(const std::string& folder, int width) {
+  namespace fs = std::filesystem;
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (const fs::directory_entry& e : fs::directory_iterator(folder, ec)) {
+    names.push_back(e.path().filename().string() + (e.is_directory(ec) ? "/" : ""));
+  }
+  std::sort(names.begin(), names.end());
+  std::string out, line;
+  for (const std::string& n : names) {
+    if (!line.empty() && static_cast<int>(2 + line.size() + 1 + n.size()) > width) {
+      out += "  " + line + "\n";
+      line.clear();
+    }
+    line += (line.empty() ? "" : " ") + n;
+  }
+  if (!line.empty()) out += "  " + line + "\n";
+  return out;
+}
+
+void PrintRunSummary(std::ostream& out, const RunSummary& s) {
+  out << RunHeadline(s) << "\n\n";
+  out << fmt::format("{:<20}{}\n", "Input", s.input);
+  out << fmt::format("{:<20}{} processed{}: ok {}, re-acquired {}, bridged {}\n", "Frames",
+                     s.frames_processed, s.interrupted ? " (interrupted)" : "", s.frames_ok,
+                     s.frames_reacquired, s.frames_bridged);
+  out << fmt::format("{:<20}{} with a GPS fix\n", "", s.frames_with_gps);
+  out << fmt::format("{:<20}{:.1f} m\n", "VO path length", s.vo_path_length_m);
+  out << fmt::format("{:<20}{:.1f} px ({}); heading from {}\n", "Focal length", s.focal_px,
+                     s.focal_source, s.heading_source.empty() ? "-" : s.heading_source);
+  if (s.evaluation) {
+    out << "\nComparison with GPS (ENU, after alignment):\n" << FormatTrajectoryTable(*s.evaluation);
+  } else {
+    out << "\nNo comparison with GPS (fewer than 3 frames with a fix).\n";
+  }
+  if (s.truth_evaluation) {
+    out << fmt::format("\nComparison with the ground truth ({} frames):\n", s.frames_with_truth)
+        << "  " << s.truth << "\n"
+        << FormatTrajectoryTable(*s.truth_evaluation, "truth");
+  }
+  out << fmt::format("\n{:<20}detect {:.1f}, describe {:.1f}, correspond {:.1f}\n",
+                     "Stage times (ms)", s.mean.detect_ms, s.mean.describe_ms,
+                     s.mean.correspond_ms);
+  out << fmt::format("{:<20}estimate {:.1f}, total {:.1f}\n", "", s.mean.estimate_ms,
+                     s.mean.total_ms);
+  out << fmt::format("{:<20}{:.2f} fps ({:.1f} s)\n", "Throughput", s.fps, s.wall_s);
+  out << "\nOutputs in " << s.out_dir.string() << "/:\n" << WrappedFileList(s.out_dir.string());
+}
+
+}  // namespace aerovo::cli
