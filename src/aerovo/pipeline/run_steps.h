@@ -15,6 +15,7 @@
 
 #include <atomic>
 #include <deque>
+#include <map>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -232,6 +233,8 @@ struct LoopEnd {
   /// The input error after the first frame that stopped the run ("" = none).
   std::string failure;
   int frames_without_fix = 0;  ///< Frames given no telemetry fix.
+  /// The first frame flagged by the source with each flag (Frame::flags), for the warning.
+  std::map<std::string, std::string> first_flagged;
 };
 
 /// The frames of a run, one by one: telemetry fix, camera and outputs on the first frame,
@@ -278,6 +281,8 @@ class FrameLoop {
   GeoReferencer georef_;
   std::unique_ptr<VisualOdometry> vo_;
   std::unique_ptr<FrameUndistorter> undistorter_;
+  std::optional<FrameReducer> reducer_;  // frames above config.max_megapixels
+  Eigen::Matrix3d reduced_from_full_ = Eigen::Matrix3d::Identity();
   GrayImage dimmed_;  // the frame at illumination_k < 1
   std::optional<RunOutputs> outputs_;
   RunTotals totals_;
