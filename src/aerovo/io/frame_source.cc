@@ -361,8 +361,8 @@ ImageFolderSource::ImageFolderSource(const std::filesystem::path& folder,
       // Said now, before any decoding: libjpeg's own "Premature end of JPEG file", printed when
       // the photo is decoded, names no file.
       const std::string w = fmt::format(
-          "photo '{}' is {}: it is decoded with the missing part filled in and its frame is "
-          "flagged 'truncated'",
+          "photo '{}' is {}: when it decodes at all, the missing part is filled in (libjpeg: "
+          "grey) and its frame is flagged 'truncated'",
           f.string(), e.check.problem);
       std::cerr << "warning: " << w << std::endl;
       warnings_.push_back(w);
