@@ -353,6 +353,15 @@ TEST(FrameInput, HugePhotosAreReducedToThePixelBudget) {
   EXPECT_NEAR(std::hypot(rows[1].x_m - rows[0].x_m, rows[1].y_m - rows[0].y_m), 0.96, 0.03);
   const nlohmann::json summary = ReadJson(dir / "run" / "summary.json");
   EXPECT_EQ(summary["processed_width_px"], 4898);
+  // transforms.csv in full-frame pixels: frame 1 is 96 rows from frame 0.
+  std::ifstream t(dir / "run" / "transforms.csv");
+  std::string header, row0, row1;
+  ASSERT_TRUE(std::getline(t, header) && std::getline(t, row0) && std::getline(t, row1));
+  std::vector<double> cells;
+  std::stringstream rs(row1);
+  for (std::string cell; std::getline(rs, cell, ',');) cells.push_back(std::stod(cell));
+  ASSERT_EQ(cells.size(), 7u);  // frame, a11, a12, tx, a21, a22, ty
+  EXPECT_NEAR(std::hypot(cells[3], cells[6]), kShiftPx, 0.5);
   fs::remove_all(dir);
 }
 
