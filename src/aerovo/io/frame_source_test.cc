@@ -206,6 +206,13 @@ TEST(VideoFileSource, RepeatedFramesAreFlaggedAndAFrozenDecoderIsAnError) {
   EXPECT_EQ(n, 13);
   EXPECT_EQ(flagged, std::vector<int>{5});
   EXPECT_EQ(src.duplicate_frames(), 1);
+  // A live source (a stream, here read from the file) flags it too: a frozen stream.
+  LiveSource live((dir / "dup.avi").string());
+  flagged.clear();
+  while (live.Next(f)) {
+    if (!f.flags.empty()) flagged.push_back(f.index);
+  }
+  EXPECT_EQ(flagged, std::vector<int>{5});
 
   // Step 2 compares delivered frames: 0 2 4 6 ... none repeats its predecessor.
   FrameSourceOptions two;
