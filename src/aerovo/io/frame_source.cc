@@ -138,8 +138,8 @@ VideoFileSource::VideoFileSource(const std::filesystem::path& path,
   if (std::filesystem::file_size(path, ec) == 0) throw fail("the file is empty (0 bytes)");
   // Frames as stored, never rotated by the container's rotation metadata: the same policy as
   // photos (IMREAD_IGNORE_ORIENTATION). OpenCV 4.6 rotates by default (ORIENTATION_AUTO), which
-  // swaps width and height (a focal length from the field of view 33 % wrong for 4:3) and turns
-  // the image axes 90 degrees against the telemetry's yaw.
+  // swaps width and height (for 4:3, a focal length from the field of view 25 % short: the true
+  // one is 33 % longer) and turns the image axes 90 degrees against the telemetry's yaw.
   if (!capture_.open(p, cv::CAP_FFMPEG)) {
     throw fail(
         "FFmpeg cannot read it (not a video, an unsupported codec, or a damaged or truncated "
@@ -260,6 +260,10 @@ bool VideoFileSource::Next(Frame& frame) {
                                  path_.string(), index, width_, height_, image->cols, image->rows));
   }
   FillFrame(*image, options_.keep_color, frame);
+  // Repeated frames. The pixels are the only witness of a stale decoder: on a 320x240 + 640x360
+  // MPEG-TS, OpenCV 4.6 returned copies of the last 320x240 frame for the whole second clip
+  // while CAP_PROP_FRAME_WIDTH/HEIGHT kept saying 320x240 (FFmpeg's swscale refused the new
+  // size, "Slice parameters 0, 360 are invalid", and the old buffer was handed back).
   frame.flags.clear();
   const std::uint64_t hash = PixelHash(frame.gray);
   if (have_hash_ && hash == last_hash_) {
