@@ -238,8 +238,9 @@ struct LoopEnd {
 };
 
 /// The frames of a run, one by one: telemetry fix, camera and outputs on the first frame,
-/// height, preprocessing (undistortion, illumination), visual odometry, geo-referencing,
-/// outputs, totals, progress.
+/// height, preprocessing (reduction to RunConfig::max_megapixels, undistortion, illumination),
+/// visual odometry, geo-referencing, outputs, totals, progress. A frame the source flagged (Frame::flags) is processed, its status
+/// gets "+flag" and RunSummary::frames_flagged counts it.
 class FrameLoop {
  public:
   /// `inputs`, `telemetry`, `callbacks` and `folder` (the source as a photo folder, or null)
@@ -293,7 +294,8 @@ class FrameLoop {
 // 6. Summary
 
 /// Completes `summary` after the loop (its frames_processed, focal and height already set):
-/// the source's warnings, frames without a fix (when there is telemetry), interrupted, the
+/// the source's warnings, frames without a fix (when there is telemetry), one warning per flag
+/// of the frames the source flagged (count, first frame, meaning), interrupted, the
 /// odometry's counts (`vo_stats` null: no frame) and the warning when nothing was measured,
 /// heading source, mean stage times, fps from `wall_s`, the comparison with GPS (at least 3
 /// fixes) and with `truth` (may be null), error = end.failure. `totals` is consumed.
