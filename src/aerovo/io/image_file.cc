@@ -13,6 +13,42 @@
 #include "aerovo/core/error.h"
 
 namespace aerovo {
+namespace {
+
+// Walks the JPEG's marker segments from the start (done only for a file whose last bytes are
+// not FF D9: data appended after the image, such as a phone's motion-photo video, or a cut
+// file): true when the main image's end-of-image marker comes before the end of the file.
+bool JpegReachesEndOfImage(std::ifstream& in, std::uintmax_t size) {
+  std::vector<unsigned char> d(static_cast<std::size_t>(size));
+  in.clear();
+  in.seekg(0);
+  in.read(reinterpret_cast<char*>(d.data()), static_cast<std::streamsize>(d.size()));
+  if (static_cast<std::size_t>(in.gcount()) != d.size()) return false;
+  std::size_t i = 2;  // after SOI
+  while (true) {
+    if (i >= d.size() || d[i] != 0xFF) return false;  // not at a marker: damaged or cut
+    while (i < d.size() && d[i] == 0xFF) ++i;         // fill bytes
+    if (i >= d.size()) return false;
+    const unsigned char code = d[i++];
+    if (code == 0xD9) return true;                                // EOI
+    if (code == 0x01 || (code >= 0xD0 && code <= 0xD7)) continue;  // TEM, RSTn: no length
+    if (i + 2 > d.size()) return false;
+    const std::size_t length = (static_cast<std::size_t>(d[i]) << 8) | d[i + 1];
+    if (length < 2) return false;
+    i += length;
+    if (code == 0xDA) {
+      // Entropy-coded data after SOS: up to the next marker that is neither a stuffed FF 00 nor
+      // a restart marker (FF D0..D7); that marker is read by the loop.
+      while (i + 1 < d.size()) {
+        if (d[i] == 0xFF && d[i + 1] != 0x00 && !(d[i + 1] >= 0xD0 && d[i + 1] <= 0xD7)) break;
+        ++i;
+      }
+      if (i + 1 >= d.size()) return false;
+    }
+  }
+}
+
+}  // namespace
 
 ImageFileCheck CheckImageFile(const std::filesystem::path& path) {
   ImageFileCheck c;
@@ -61,9 +97,10 @@ ImageFileCheck CheckImageFile(const std::filesystem::path& path) {
   std::size_t end = tail.size();
   if (c.format == "jpeg") {
     while (end > 0 && tail[end - 1] == 0x00) --end;
-    if (end < 2 || tail[end - 2] != 0xFF || tail[end - 1] != 0xD9) {
+    if ((end < 2 || tail[end - 2] != 0xFF || tail[end - 1] != 0xD9) &&
+        !JpegReachesEndOfImage(in, c.size_bytes)) {
       c.truncated = true;
-      c.problem = "truncated (the JPEG does not end with its end-of-image marker FF D9)";
+      c.problem = "truncated (the JPEG ends before its end-of-image marker FF D9)";
     }
   } else {  // png: ... length 0, "IEND", CRC AE 42 60 82
     static constexpr unsigned char kIend[8] = {'I', 'E', 'N', 'D', 0xAE, 0x42, 0x60, 0x82};

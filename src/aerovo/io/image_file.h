@@ -20,14 +20,17 @@ enum class GrayFrom {
   kDecoder,
 };
 
-/// What the bytes of an image file say before it is decoded (its first and last bytes only:
-/// a few microseconds, whatever the file's size).
+/// What the bytes of an image file say before it is decoded (its first 8 and last 4096 bytes:
+/// a few microseconds whatever the file's size; the whole file only for a JPEG that does not
+/// end with FF D9).
 struct ImageFileCheck {
   /// "jpeg", "png", "tiff" from the file's signature; "" when it is none of them.
   std::string format;
   std::uintmax_t size_bytes = 0;
-  /// The file ends before its format's end: a JPEG whose last bytes (trailing zero padding
-  /// ignored) are not the end-of-image marker FF D9, a PNG without its IEND chunk at the end.
+  /// The file ends before its format's end: a JPEG without the end-of-image marker FF D9 of its
+  /// main image (its last bytes, trailing zero padding ignored, are checked; only when they are
+  /// not FF D9, e.g. data appended after the image as in phones' motion photos, is the file read
+  /// and its marker segments walked), a PNG without its IEND chunk at the end.
   /// Decoders fill the missing part (libjpeg: grey, after its own unnamed "Premature end of
   /// JPEG file") or fail (libpng). TIFF has no end marker: a cut TIFF fails to decode.
   bool truncated = false;

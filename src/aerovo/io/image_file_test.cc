@@ -107,6 +107,18 @@ TEST(ImageFile, CheckFindsEmptyForeignAndCutFiles) {
     bytes.append(300, '\0');
     std::ofstream(dir / "padded.jpg", std::ios::binary) << bytes;
     EXPECT_TRUE(CheckImageFile(dir / "padded.jpg").problem.empty());
+    // Data appended after the image (a phone's motion-photo video): whole, found by walking
+    // the marker segments; the same cut inside the image is truncated.
+    std::string appended = bytes.substr(0, bytes.size() - 300);
+    appended += "ftypmp42 a video of 5000 bytes ";
+    appended.append(5000, '\x5a');
+    std::ofstream(dir / "motion.jpg", std::ios::binary) << appended;
+    EXPECT_TRUE(CheckImageFile(dir / "motion.jpg").problem.empty())
+        << CheckImageFile(dir / "motion.jpg").problem;
+    std::string cut_inside = bytes.substr(0, bytes.size() * 2 / 3);
+    cut_inside.append(5000, '\x5a');
+    std::ofstream(dir / "cut_inside.jpg", std::ios::binary) << cut_inside;
+    EXPECT_TRUE(CheckImageFile(dir / "cut_inside.jpg").truncated);
   }
   std::ofstream(dir / "empty.jpg").close();
   const ImageFileCheck e = CheckImageFile(dir / "empty.jpg");
