@@ -144,8 +144,8 @@ void WritePngs(const fs::path& dir, int first, int n, int scale = 1) {
 
 // Two recordings concatenated into one MPEG-TS, 320x240 then 640x480: OpenCV decodes the second
 // as copies of the first's last frame. Before: every frame "ok", the track frozen. Now: the run
-// stops with an error naming the video and the frame, the frames before it kept and the copies
-// that came through flagged.
+// stops at the join (the stream's clock restarts) with an error naming the video and the frame,
+// the frames before it kept.
 TEST(FrameInput, ResolutionChangeMidStreamStopsTheRunNamingTheVideoAndFrame) {
   if (!HaveFfmpeg()) GTEST_SKIP() << "ffmpeg not found on PATH";
   const fs::path dir = TempDir("ts");
@@ -168,21 +168,19 @@ TEST(FrameInput, ResolutionChangeMidStreamStopsTheRunNamingTheVideoAndFrame) {
   } catch (const InputError& e) {
     const std::string m = e.what();
     EXPECT_NE(m.find("flight.ts"), std::string::npos) << m;
-    EXPECT_NE(m.find("the decoder has returned the same image since frame"), std::string::npos)
+    // Frame 11, the first clip's last, is held back by the MPEG-2 decoder and lost at the join.
+    EXPECT_NE(m.find("frame 11: the stream's timestamps go back from 1.000 s to 0.000 s"),
+              std::string::npos)
         << m;
-    EXPECT_NE(m.find("resolution change"), std::string::npos) << m;
+    EXPECT_NE(m.find("recordings joined into one file"), std::string::npos) << m;
   }
   const nlohmann::json summary = ReadJson(dir / "run" / "summary.json");
   EXPECT_NE(summary["error"].get<std::string>().find("flight.ts"), std::string::npos);
   const std::vector<Row> rows = ReadFrames(dir / "run");
-  ASSERT_GE(rows.size(), 10u);
-  ASSERT_LE(rows.size(), 12u + VideoFileSource::kMaxRepeatedFrames);
-  // The frames of the first clip moved 2 m each; the copies after it are flagged.
-  EXPECT_NEAR(std::hypot(rows[9].x_m - rows[0].x_m, rows[9].y_m - rows[0].y_m), 18.0, 0.5);
-  int flagged = 0;
-  for (const Row& r : rows) flagged += r.status.find("+duplicate") != std::string::npos;
-  EXPECT_EQ(flagged, summary["frames_flagged"].value("duplicate", 0));
-  EXPECT_GE(flagged, 1);
+  // The first clip's frames 0-10, 2 m apart; none of the second's.
+  ASSERT_EQ(rows.size(), 11u);
+  EXPECT_NEAR(std::hypot(rows[10].x_m - rows[0].x_m, rows[10].y_m - rows[0].y_m), 20.0, 0.5);
+  for (std::size_t i = 1; i < rows.size(); ++i) EXPECT_EQ(rows[i].status, "ok") << i;
   fs::remove_all(dir);
 }
 
@@ -283,7 +281,9 @@ TEST(FrameInput, TruncatedJpegIsNamedFlaggedAndCounted) {
   const std::size_t named = err.find("frame_0003.jpg' is truncated");
   ASSERT_NE(named, std::string::npos) << err;
   const std::size_t libjpeg = err.find("Premature end of JPEG file");
-  if (libjpeg != std::string::npos) EXPECT_LT(named, libjpeg) << err;
+  if (libjpeg != std::string::npos) {
+    EXPECT_LT(named, libjpeg) << err;
+  }
   const std::vector<Row> rows = ReadFrames(dir / "run");
   ASSERT_EQ(rows.size(), 8u);
   for (std::size_t i = 0; i < rows.size(); ++i) {

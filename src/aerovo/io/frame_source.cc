@@ -192,6 +192,7 @@ VideoFileSource::VideoFileSource(const std::filesystem::path& path,
   ++next_index_;
   width_ = first_frame_.cols;
   height_ = first_frame_.rows;
+  current_ts_ms_ = capture_.get(cv::CAP_PROP_POS_MSEC);
 }
 
 bool VideoFileSource::GrabTo(int target_index) {
@@ -217,9 +218,11 @@ bool VideoFileSource::Next(Frame& frame) {
     bool ok;
     if (lookahead_grabbed_ && target == next_index_ - 1) {
       ok = capture_.retrieve(bgr_) && !bgr_.empty();
+      current_ts_ms_ = lookahead_ts_ms_;
     } else {
       ok = GrabTo(target) && capture_.read(bgr_) && !bgr_.empty();
       if (ok) ++next_index_;
+      current_ts_ms_ = capture_.get(cv::CAP_PROP_POS_MSEC);
     }
     lookahead_grabbed_ = false;
     if (!ok) {
@@ -247,6 +250,7 @@ bool VideoFileSource::Next(Frame& frame) {
   if (capture_.grab()) {
     ++next_index_;
     lookahead_grabbed_ = true;
+    lookahead_ts_ms_ = capture_.get(cv::CAP_PROP_POS_MSEC);
   } else if (frame_count_ > 0 && index < frame_count_ - 1) {
     done_ = true;
     warnings_.push_back(fmt::format(
@@ -259,6 +263,26 @@ bool VideoFileSource::Next(Frame& frame) {
     throw InputError(fmt::format("video '{}' frame {}: size changed from {}x{} to {}x{}",
                                  path_.string(), index, width_, height_, image->cols, image->rows));
   }
+  // The stream's clock going back, then on from there: recordings joined into one file (each
+  // with its own clock, as when MPEG-TS files are concatenated). OpenCV 4.6 decodes the rest at
+  // the first recording's size: a larger second recording as copies of the last frame (caught
+  // below), a smaller one silently rescaled to the first size (measured: 640x360 then 320x240
+  // delivered 320x240 content stretched to 640x360, every frame "different"). A clock that goes
+  // back to 0 and stays there is OpenCV's end of stream (the decoder's last frames carry no
+  // timestamp), hence the look-ahead frame must be later than this one.
+  const double half_frame_ms = fps_ > 0.0 ? 500.0 / fps_ : 0.0;
+  if (std::isfinite(last_ts_ms_) && std::isfinite(current_ts_ms_) && lookahead_grabbed_ &&
+      current_ts_ms_ < last_ts_ms_ - half_frame_ms && lookahead_ts_ms_ > current_ts_ms_) {
+    done_ = true;
+    throw InputError(fmt::format(
+        "video '{}' frame {}: the stream's timestamps go back from {:.3f} s to {:.3f} s: "
+        "recordings joined into one file (concatenated MPEG-TS?) or a damaged stream; OpenCV "
+        "decodes what follows at the first recording's size, so the frames from {} on cannot be "
+        "trusted (split the video where its clock restarts, or re-encode it at one size, e.g. "
+        "ffmpeg -i in -vf scale=W:H out.mp4)",
+        path_.string(), index, last_ts_ms_ / 1000.0, current_ts_ms_ / 1000.0, index));
+  }
+  last_ts_ms_ = current_ts_ms_;
   FillFrame(*image, options_.keep_color, frame);
   // Repeated frames. The pixels are the only witness of a stale decoder: on a 320x240 + 640x360
   // MPEG-TS, OpenCV 4.6 returned copies of the last 320x240 frame for the whole second clip

@@ -102,7 +102,9 @@ class FrameSource {
 /// (Frame::flags); kMaxRepeatedFrames of them in a row after the video has moved mean the
 /// decoder is handing back its last good image (a resolution change mid-stream, as in
 /// concatenated recordings or MPEG-TS, or a damaged stream): Next() throws InputError naming the
-/// video and the frame where the image froze. A change of decoded size throws too.
+/// video and the frame where the image froze. A change of decoded size throws too, and so does
+/// a stream whose timestamps (CAP_PROP_POS_MSEC) go back and then on from there: recordings
+/// joined into one file, whose second part OpenCV rescales to the first's size.
 class VideoFileSource : public FrameSource {
  public:
   explicit VideoFileSource(const std::filesystem::path& path,
@@ -148,6 +150,11 @@ class VideoFileSource : public FrameSource {
   int freeze_index_ = -1;    // index of the frame the repeats copy
   int last_index_ = -1;      // index of the last delivered frame
   int duplicates_ = 0;
+  // CAP_PROP_POS_MSEC of the frame being delivered, of the look-ahead frame, of the last one
+  // delivered (NaN: none yet).
+  double current_ts_ms_ = std::numeric_limits<double>::quiet_NaN();
+  double lookahead_ts_ms_ = std::numeric_limits<double>::quiet_NaN();
+  double last_ts_ms_ = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// The photos of a folder (not recursive): .jpg .jpeg .png .tif .tiff, any case.
