@@ -4,12 +4,14 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <iostream>
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/io/image_file.h"
 #include "aerovo/io/parse_util.h"
 
 namespace aerovo {
@@ -33,7 +35,39 @@ void FillFrame(const cv::Mat& bgr, bool keep_color, Frame& frame) {
   }
 }
 
+// Appends `token` to a '+'-separated flag list.
+void AddFlag(std::string& flags, const char* token) {
+  if (!flags.empty()) flags += '+';
+  flags += token;
+}
+
 }  // namespace
+
+std::uint64_t PixelHash(const GrayImage& image) {
+  // 8 bytes at a time, multiply-rotate mixing (the multipliers are the 64-bit primes of
+  // xxHash); the tail of each row byte by byte.
+  constexpr std::uint64_t kP1 = 0x9E3779B185EBCA87ULL, kP2 = 0xC2B2AE3D27D4EB4FULL;
+  std::uint64_t h = kP2 ^ (static_cast<std::uint64_t>(image.width()) << 32) ^
+                    static_cast<std::uint64_t>(image.height());
+  for (int y = 0; y < image.height(); ++y) {
+    const std::uint8_t* row = image.row(y);
+    int x = 0;
+    for (; x + 8 <= image.width(); x += 8) {
+      std::uint64_t w;
+      std::memcpy(&w, row + x, 8);
+      h ^= w * kP2;
+      h = ((h << 31) | (h >> 33)) * kP1;
+    }
+    for (; x < image.width(); ++x) {
+      h ^= row[x] * kP1;
+      h = ((h << 23) | (h >> 41)) * kP2;
+    }
+  }
+  h ^= h >> 33;
+  h *= kP2;
+  h ^= h >> 29;
+  return h;
+}
 
 void ToGrayImage(const cv::Mat& image, GrayImage& out) {
   if (image.empty()) {
@@ -102,10 +136,29 @@ VideoFileSource::VideoFileSource(const std::filesystem::path& path,
   if (!std::filesystem::exists(path, ec)) throw fail("no such file");
   if (!std::filesystem::is_regular_file(path, ec)) throw fail("not a regular file");
   if (std::filesystem::file_size(path, ec) == 0) throw fail("the file is empty (0 bytes)");
+  // Frames as stored, never rotated by the container's rotation metadata: the same policy as
+  // photos (IMREAD_IGNORE_ORIENTATION). OpenCV 4.6 rotates by default (ORIENTATION_AUTO), which
+  // swaps width and height (for 4:3, a focal length from the field of view 25 % short: the true
+  // one is 33 % longer) and turns the image axes 90 degrees against the telemetry's yaw.
   if (!capture_.open(p, cv::CAP_FFMPEG)) {
     throw fail(
         "FFmpeg cannot read it (not a video, an unsupported codec, or a damaged or truncated "
         "container)");
+  }
+  capture_.set(cv::CAP_PROP_ORIENTATION_AUTO, 0);
+  {
+    const double meta = capture_.get(cv::CAP_PROP_ORIENTATION_META);
+    if (std::isfinite(meta)) {
+      rotation_deg_ = ((static_cast<int>(std::lround(meta)) % 360) + 360) % 360;
+    }
+  }
+  if (rotation_deg_ != 0) {
+    warnings_.push_back(fmt::format(
+        "video '{}' has rotation metadata ({} degrees for display): its frames are processed as "
+        "stored (sensor orientation, not rotated), like photos' EXIF orientation; focal length, "
+        "field of view (hfov_deg: across the stored width) and heading refer to the sensor's "
+        "axes",
+        p, rotation_deg_));
   }
   fps_ = capture_.get(cv::CAP_PROP_FPS);
   if (!std::isfinite(fps_) || fps_ <= 0.0 || fps_ > 10000.0) fps_ = 0.0;
@@ -139,6 +192,7 @@ VideoFileSource::VideoFileSource(const std::filesystem::path& path,
   ++next_index_;
   width_ = first_frame_.cols;
   height_ = first_frame_.rows;
+  current_ts_ms_ = capture_.get(cv::CAP_PROP_POS_MSEC);
 }
 
 bool VideoFileSource::GrabTo(int target_index) {
@@ -164,9 +218,11 @@ bool VideoFileSource::Next(Frame& frame) {
     bool ok;
     if (lookahead_grabbed_ && target == next_index_ - 1) {
       ok = capture_.retrieve(bgr_) && !bgr_.empty();
+      current_ts_ms_ = lookahead_ts_ms_;
     } else {
       ok = GrabTo(target) && capture_.read(bgr_) && !bgr_.empty();
       if (ok) ++next_index_;
+      current_ts_ms_ = capture_.get(cv::CAP_PROP_POS_MSEC);
     }
     lookahead_grabbed_ = false;
     if (!ok) {
@@ -194,6 +250,7 @@ bool VideoFileSource::Next(Frame& frame) {
   if (capture_.grab()) {
     ++next_index_;
     lookahead_grabbed_ = true;
+    lookahead_ts_ms_ = capture_.get(cv::CAP_PROP_POS_MSEC);
   } else if (frame_count_ > 0 && index < frame_count_ - 1) {
     done_ = true;
     warnings_.push_back(fmt::format(
@@ -206,7 +263,55 @@ bool VideoFileSource::Next(Frame& frame) {
     throw InputError(fmt::format("video '{}' frame {}: size changed from {}x{} to {}x{}",
                                  path_.string(), index, width_, height_, image->cols, image->rows));
   }
+  // The stream's clock going back, then on from there: recordings joined into one file (each
+  // with its own clock, as when MPEG-TS files are concatenated). OpenCV 4.6 decodes the rest at
+  // the first recording's size: a larger second recording as copies of the last frame (caught
+  // below), a smaller one silently rescaled to the first size (measured: 640x360 then 320x240
+  // delivered 320x240 content stretched to 640x360, every frame "different"). A clock that goes
+  // back to 0 and stays there is OpenCV's end of stream (the decoder's last frames carry no
+  // timestamp), hence the look-ahead frame must be later than this one.
+  const double half_frame_ms = fps_ > 0.0 ? 500.0 / fps_ : 0.0;
+  if (std::isfinite(last_ts_ms_) && std::isfinite(current_ts_ms_) && lookahead_grabbed_ &&
+      current_ts_ms_ < last_ts_ms_ - half_frame_ms && lookahead_ts_ms_ > current_ts_ms_) {
+    done_ = true;
+    throw InputError(fmt::format(
+        "video '{}' frame {}: the stream's timestamps go back from {:.3f} s to {:.3f} s: "
+        "recordings joined into one file (concatenated MPEG-TS?) or a damaged stream; OpenCV "
+        "decodes what follows at the first recording's size, so the frames from {} on cannot be "
+        "trusted (split the video where its clock restarts, or re-encode it at one size, e.g. "
+        "ffmpeg -i in -vf scale=W:H out.mp4)",
+        path_.string(), index, last_ts_ms_ / 1000.0, current_ts_ms_ / 1000.0, index));
+  }
+  last_ts_ms_ = current_ts_ms_;
   FillFrame(*image, options_.keep_color, frame);
+  // Repeated frames. The pixels are the only witness of a stale decoder: on a 320x240 + 640x360
+  // MPEG-TS, OpenCV 4.6 returned copies of the last 320x240 frame for the whole second clip
+  // while CAP_PROP_FRAME_WIDTH/HEIGHT kept saying 320x240 (FFmpeg's swscale refused the new
+  // size, "Slice parameters 0, 360 are invalid", and the old buffer was handed back).
+  frame.flags.clear();
+  const std::uint64_t hash = PixelHash(frame.gray);
+  if (have_hash_ && hash == last_hash_) {
+    if (repeats_ == 0) freeze_index_ = last_index_;
+    ++repeats_;
+    if (moved_ && repeats_ >= kMaxRepeatedFrames) {
+      done_ = true;
+      throw InputError(fmt::format(
+          "video '{}' frame {}: the decoder has returned the same image since frame {} ({} "
+          "identical frames in a row after the video moved): stale decoding, typically a "
+          "resolution change mid-stream (concatenated recordings, MPEG-TS) or a damaged stream; "
+          "the frames from {} on cannot be trusted (split or re-encode the video at one size, "
+          "e.g. ffmpeg -i in -vf scale=W:H out.mp4)",
+          path_.string(), index, freeze_index_, repeats_ + 1, freeze_index_ + 1));
+    }
+    AddFlag(frame.flags, kFrameFlagDuplicate);
+    ++duplicates_;
+  } else {
+    if (have_hash_) moved_ = true;
+    repeats_ = 0;
+  }
+  have_hash_ = true;
+  last_hash_ = hash;
+  last_index_ = index;
   frame.index = index;
   frame.time_s = t;
   frame.name = fmt::format("{}#{}", path_.filename().string(), index);
@@ -274,11 +379,22 @@ ImageFolderSource::ImageFolderSource(const std::filesystem::path& folder,
   struct Entry {
     std::filesystem::path path;
     ImageMetadata meta;
+    ImageFileCheck check;
   };
   std::vector<Entry> entries;
   bool all_timed = true;
   for (const auto& f : files) {
-    Entry e{f, {}};
+    Entry e{f, {}, CheckImageFile(f)};
+    if (e.check.truncated) {
+      // Said now, before any decoding: libjpeg's own "Premature end of JPEG file", printed when
+      // the photo is decoded, names no file.
+      const std::string w = fmt::format(
+          "photo '{}' is {}: when it decodes at all, the missing part is filled in (libjpeg: "
+          "grey) and its frame is flagged 'truncated'",
+          f.string(), e.check.problem);
+      std::cerr << "warning: " << w << std::endl;
+      warnings_.push_back(w);
+    }
     try {
       e.meta = ReadImageMetadata(f);
     } catch (const InputError& err) {
@@ -315,6 +431,7 @@ ImageFolderSource::ImageFolderSource(const std::filesystem::path& folder,
   }
   for (std::size_t i = 0; i < entries.size(); ++i) {
     paths_.push_back(entries[i].path);
+    checks_.push_back(std::move(entries[i].check));
     times_.push_back(all_timed ? *entries[i].meta.capture_unix_time_s -
                                      *entries.front().meta.capture_unix_time_s
                                : static_cast<double>(i));
@@ -329,12 +446,17 @@ bool ImageFolderSource::Next(Frame& frame) {
   const std::size_t i = next_;
   next_ += static_cast<std::size_t>(options_.step);
   const std::string name = paths_[i].filename().string();
+  const ImageFileCheck& check = checks_[i];
+  if (!check.problem.empty() && !check.truncated) {
+    throw InputError(
+        fmt::format("cannot decode photo '{}' (frame {}): {}", paths_[i].string(), i, check.problem));
+  }
   // Pixel geometry as stored: a nadir camera's EXIF orientation must not rotate the frames.
   const cv::Mat bgr =
       cv::imread(paths_[i].string(), cv::IMREAD_COLOR | cv::IMREAD_IGNORE_ORIENTATION);
   if (bgr.empty()) {
-    throw InputError(fmt::format("cannot decode photo '{}' (frame {}): not an image or damaged",
-                                 paths_[i].string(), i));
+    throw InputError(fmt::format("cannot decode photo '{}' (frame {}): {}", paths_[i].string(), i,
+                                 check.truncated ? check.problem : "not an image or damaged"));
   }
   if (width_ == 0) {
     width_ = bgr.cols;
@@ -346,6 +468,8 @@ bool ImageFolderSource::Next(Frame& frame) {
                     paths_[i].string(), i, bgr.cols, bgr.rows, width_, height_));
   }
   FillFrame(bgr, options_.keep_color, frame);
+  frame.flags.clear();
+  if (check.truncated) AddFlag(frame.flags, kFrameFlagTruncated);
   frame.index = static_cast<int>(i);
   frame.time_s = times_[i];
   frame.name = name;
@@ -419,6 +543,11 @@ bool LiveSource::Next(Frame& frame) {
       return false;
     }
     FillFrame(bgr_, options_.keep_color, frame);
+    frame.flags.clear();
+    const std::uint64_t hash = PixelHash(frame.gray);
+    if (have_hash_ && hash == last_hash_) AddFlag(frame.flags, kFrameFlagDuplicate);
+    have_hash_ = true;
+    last_hash_ = hash;
     frame.index = index;
     frame.time_s = t;
     frame.name = fmt::format("live#{}", index);

@@ -2,6 +2,7 @@
 // all decoded through OpenCV and delivered as 8-bit grey images.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <limits>
 #include <memory>
@@ -12,6 +13,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "aerovo/core/image.h"
+#include "aerovo/io/image_file.h"
 #include "aerovo/io/image_metadata.h"
 
 namespace aerovo {
@@ -28,7 +30,23 @@ struct Frame {
   /// time since the source was opened (steady clock).
   double time_s = 0.0;
   std::string name;  ///< Photo file name, or "<video file name>#<index>", or "live#<index>".
+  /// What is wrong with this frame as read, '+'-separated tokens ("" = nothing found). The run
+  /// processes a flagged frame, appends the flags to its status in frames.csv and counts it in
+  /// summary.json. Tokens:
+  ///  - "duplicate": a video or live frame whose decoded pixels are identical (64-bit hash) to
+  ///    the previous delivered frame's: a repeated or stale frame, whose step is a false zero.
+  ///  - "truncated": a photo file cut short (a JPEG without its end-of-image marker), decoded by
+  ///    libjpeg with the missing part filled in grey.
+  std::string flags;
 };
+
+/// Flag tokens of Frame::flags.
+inline constexpr const char* kFrameFlagDuplicate = "duplicate";
+inline constexpr const char* kFrameFlagTruncated = "truncated";
+
+/// A 64-bit hash of the pixels of `image` (row by row; the same pixels give the same hash).
+/// Used to find repeated frames; about 0.2 ms for a 1920x1080 frame.
+std::uint64_t PixelHash(const GrayImage& image);
 
 /// Options of every frame source. Validate() checks them.
 struct FrameSourceOptions {
@@ -76,6 +94,17 @@ class FrameSource {
 /// first frame cannot be decoded. A video that ends before its header's frame count (a cut
 /// file) ends with a warning, and its last decoded frame is dropped: FFmpeg decodes the cut
 /// final packet into an incomplete image (the next frame is grabbed ahead to know).
+/// Orientation: frames are delivered as stored (sensor orientation), never rotated by the
+/// container's rotation metadata (OpenCV's CAP_PROP_ORIENTATION_AUTO is turned off), the same
+/// policy as photos' EXIF orientation: focal length, field of view and heading refer to the
+/// sensor's axes. A video with rotation metadata gets a warning saying so (rotation_deg()).
+/// Repeated frames: a frame identical to the one delivered before is flagged "duplicate"
+/// (Frame::flags); kMaxRepeatedFrames of them in a row after the video has moved mean the
+/// decoder is handing back its last good image (a resolution change mid-stream, as in
+/// concatenated recordings or MPEG-TS, or a damaged stream): Next() throws InputError naming the
+/// video and the frame where the image froze. A change of decoded size throws too, and so does
+/// a stream whose timestamps (CAP_PROP_POS_MSEC) go back and then on from there: recordings
+/// joined into one file, whose second part OpenCV rescales to the first's size.
 class VideoFileSource : public FrameSource {
  public:
   explicit VideoFileSource(const std::filesystem::path& path,
@@ -87,6 +116,16 @@ class VideoFileSource : public FrameSource {
   int frame_count() const { return frame_count_; }  ///< From the container (may be 0/wrong).
   int width() const { return width_; }
   int height() const { return height_; }
+  /// The container's rotation metadata, degrees clockwise for display (0, 90, 180, 270;
+  /// CAP_PROP_ORIENTATION_META). Frames are not rotated (see the class comment).
+  int rotation_deg() const { return rotation_deg_; }
+  /// Frames delivered flagged "duplicate" so far.
+  int duplicate_frames() const { return duplicates_; }
+  /// Identical frames in a row (after a change) that make the video an error: 5 repeats = 6
+  /// identical frames, 0.2 s at 30 fps. A drone camera's sensor noise makes two real frames
+  /// differ in some pixel; a stale decoder repeats one image exactly (measured: the 640x360
+  /// half of a 320x240 + 640x360 MPEG-TS came out as 20 copies of the last 320x240 frame).
+  static constexpr int kMaxRepeatedFrames = 5;
 
  private:
   bool GrabTo(int target_index);  // grabs frames until next_index_ == target_index
@@ -103,6 +142,19 @@ class VideoFileSource : public FrameSource {
   bool lookahead_grabbed_ = false;  // frame next_index_ - 1 is grabbed, not yet retrieved
   cv::Mat bgr_;
   cv::Mat first_frame_;  // decoded at open to prove the file is readable
+  int rotation_deg_ = 0;
+  std::uint64_t last_hash_ = 0;
+  bool have_hash_ = false;
+  bool moved_ = false;       // two delivered frames differed
+  int repeats_ = 0;          // frames in a row identical to the one before
+  int freeze_index_ = -1;    // index of the frame the repeats copy
+  int last_index_ = -1;      // index of the last delivered frame
+  int duplicates_ = 0;
+  // CAP_PROP_POS_MSEC of the frame being delivered, of the look-ahead frame, of the last one
+  // delivered (NaN: none yet).
+  double current_ts_ms_ = std::numeric_limits<double>::quiet_NaN();
+  double lookahead_ts_ms_ = std::numeric_limits<double>::quiet_NaN();
+  double last_ts_ms_ = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// The photos of a folder (not recursive): .jpg .jpeg .png .tif .tiff, any case.
@@ -112,7 +164,11 @@ class VideoFileSource : public FrameSource {
 /// non-photo files are skipped and counted in warnings() (or throw with skip_non_images =
 /// false). Photos of different
 /// sizes throw InputError naming the odd photo and both sizes (checked from the headers at
-/// opening, and again on decoding). An undecodable photo throws InputError naming it.
+/// opening, and again on decoding). An undecodable photo throws InputError naming it and the
+/// problem (empty file, not an image, cut short: io/image_file.h CheckImageFile, run on every
+/// photo at opening). A JPEG cut short that libjpeg still decodes (the missing part grey) is
+/// delivered flagged "truncated" (Frame::flags), with a warning naming it printed to stderr at
+/// opening (before libjpeg's own unnamed "Premature end of JPEG file") and kept in warnings().
 class ImageFolderSource : public FrameSource {
  public:
   explicit ImageFolderSource(const std::filesystem::path& folder,
@@ -132,6 +188,7 @@ class ImageFolderSource : public FrameSource {
   FrameSourceOptions options_;
   std::vector<std::filesystem::path> paths_;
   std::vector<ImageMetadata> metadata_;
+  std::vector<ImageFileCheck> checks_;
   std::vector<double> times_;
   std::size_t next_ = 0;
   int width_ = 0, height_ = 0;
@@ -142,7 +199,8 @@ class ImageFolderSource : public FrameSource {
 /// ("rtsp://...", "http://..."). Frames are delivered as they arrive; with step k the k-1
 /// frames in between are grabbed and dropped (no decode). time_s = seconds since opening.
 /// Opening throws InputError "cannot open live source '<spec>': ..."; a stream that stops
-/// ends the sequence with a warning.
+/// ends the sequence with a warning. A frame identical to the previous one is flagged
+/// "duplicate" (Frame::flags): a frozen stream.
 class LiveSource : public FrameSource {
  public:
   explicit LiveSource(int camera_index, const FrameSourceOptions& options = {});
@@ -159,6 +217,8 @@ class LiveSource : public FrameSource {
   double t0_ = 0.0;
   bool done_ = false;
   cv::Mat bgr_;
+  std::uint64_t last_hash_ = 0;
+  bool have_hash_ = false;
 };
 
 /// Chooses the source from `spec`: an all-digit string -> camera index; "scheme://..." or a

@@ -1,21 +1,28 @@
 #include "aerovo/io/frame_source.h"
 
+#include <algorithm>
+#include <cstring>
 #include <fstream>
 #include <iterator>
+#include <string>
 #include <vector>
 
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
+#include "aerovo/io/ffmpeg_test_util.h"
 #include "aerovo/io/io_test_util.h"
 
 namespace aerovo {
 namespace {
 
 using io_test::ExpectInputError;
+using io_test::HaveFfmpeg;
+using io_test::RunFfmpeg;
 
 using ::testing::HasSubstr;
 
@@ -149,6 +156,220 @@ TEST(VideoFileSource, BadFilesGiveClearErrors) {
   FrameSourceOptions late;
   late.start_time_s = 100.0;
   ExpectInputError([&] { VideoFileSource s(dir / "full.avi", late); }, {"past the end"});
+}
+
+// An MJPG AVI of `frames` (64x48 BGR).
+void WriteMjpg(const std::filesystem::path& path, const std::vector<cv::Mat>& frames) {
+  cv::VideoWriter w(path.string(), cv::CAP_FFMPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'),
+                    kFps, cv::Size(64, 48));
+  ASSERT_TRUE(w.isOpened()) << path;
+  for (const cv::Mat& f : frames) w.write(f);
+}
+
+TEST(PixelHash, SamePixelsSameHashOnePixelChangesIt) {
+  const GrayImage a = ToGrayImage(io_test::TextureImage(67, 31, 4));
+  GrayImage b = a;
+  EXPECT_EQ(PixelHash(a), PixelHash(b));
+  for (const int x : {0, 7, 63, 66}) {  // in the 8-byte words and in the row tail
+    b = a;
+    b.at(x, 30) = static_cast<std::uint8_t>(b.at(x, 30) ^ 1);
+    EXPECT_NE(PixelHash(a), PixelHash(b)) << x;
+  }
+  // Same bytes, other shape.
+  const GrayImage c = ToGrayImage(io_test::TextureImage(32, 32, 1));
+  GrayImage d(64, 16);
+  std::memcpy(d.data(), c.data(), 32 * 32);
+  EXPECT_NE(PixelHash(c), PixelHash(d));
+}
+
+// A repeated frame is flagged; a long run of them after motion (a decoder handing back its last
+// image) stops the video with an error naming it and the frame where the image froze.
+TEST(VideoFileSource, RepeatedFramesAreFlaggedAndAFrozenDecoderIsAnError) {
+  io_test::TempDir dir("aerovo_video_dup");
+  std::vector<cv::Mat> frames;
+  for (int i = 0; i < 12; ++i) {
+    frames.push_back(io_test::TextureImage(64, 48, i));
+    if (i == 4) frames.push_back(frames.back().clone());  // frame 5 repeats frame 4
+  }
+  WriteMjpg(dir / "dup.avi", frames);
+  VideoFileSource src(dir / "dup.avi");
+  Frame f;
+  std::vector<int> flagged;
+  int n = 0;
+  while (src.Next(f)) {
+    if (!f.flags.empty()) {
+      EXPECT_EQ(f.flags, kFrameFlagDuplicate);
+      flagged.push_back(f.index);
+    }
+    ++n;
+  }
+  EXPECT_EQ(n, 13);
+  EXPECT_EQ(flagged, std::vector<int>{5});
+  EXPECT_EQ(src.duplicate_frames(), 1);
+  // A live source (a stream, here read from the file) flags it too: a frozen stream.
+  LiveSource live((dir / "dup.avi").string());
+  flagged.clear();
+  while (live.Next(f)) {
+    if (!f.flags.empty()) flagged.push_back(f.index);
+  }
+  EXPECT_EQ(flagged, std::vector<int>{5});
+
+  // Step 2 compares delivered frames: 0 2 4 6 ... none repeats its predecessor.
+  FrameSourceOptions two;
+  two.step = 2;
+  VideoFileSource stepped(dir / "dup.avi", two);
+  while (stepped.Next(f)) EXPECT_TRUE(f.flags.empty()) << f.index;
+
+  // Moving, then frozen: frames 6.. repeat frame 5.
+  std::vector<cv::Mat> frozen;
+  for (int i = 0; i < 15; ++i) frozen.push_back(io_test::TextureImage(64, 48, std::min(i, 5)));
+  WriteMjpg(dir / "frozen.avi", frozen);
+  VideoFileSource fs(dir / "frozen.avi");
+  std::vector<int> delivered;
+  ExpectInputError(
+      [&] {
+        while (fs.Next(f)) delivered.push_back(f.index);
+      },
+      {"frozen.avi", "frame 10", "same image since frame 5", "resolution change"});
+  EXPECT_EQ(delivered, (std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7, 8, 9}));
+  EXPECT_FALSE(fs.Next(f));
+
+  // A video that never moves (a static test pattern) is flagged, not an error.
+  WriteMjpg(dir / "still.avi", std::vector<cv::Mat>(10, io_test::TextureImage(64, 48, 9)));
+  VideoFileSource still(dir / "still.avi");
+  n = 0;
+  while (still.Next(f)) {
+    EXPECT_EQ(f.flags, n == 0 ? "" : kFrameFlagDuplicate) << n;
+    ++n;
+  }
+  EXPECT_EQ(n, 10);
+}
+
+// Two recordings of different sizes concatenated into one MPEG-TS, each with its own clock.
+// OpenCV keeps the first size: a larger second part comes out as copies of the first's last
+// frame, a smaller one stretched to the first size. Both are an error at the join, where the
+// stream's clock goes back; a video with B-frames (timestamps reordered inside the decoder)
+// is not.
+TEST(VideoFileSource, RecordingsJoinedIntoOneStreamAreAnErrorAtTheJoin) {
+  if (!HaveFfmpeg()) GTEST_SKIP() << "ffmpeg not found on PATH";
+  io_test::TempDir dir("aerovo_video_ts");
+  const std::string small = (dir / "small.ts").string(), big = (dir / "big.ts").string();
+  ASSERT_TRUE(RunFfmpeg({"-f", "lavfi", "-i", "testsrc=size=320x240:rate=10", "-t", "2", "-c:v",
+                         "mpeg2video", small}));
+  ASSERT_TRUE(RunFfmpeg({"-f", "lavfi", "-i", "testsrc=size=640x360:rate=10", "-t", "2", "-c:v",
+                         "mpeg2video", big}));
+  const auto join = [&](const std::string& name, const std::vector<std::string>& parts) {
+    std::ofstream out(dir / name, std::ios::binary);
+    for (const std::string& p : parts) {
+      std::ifstream in(p, std::ios::binary);
+      out << in.rdbuf();
+    }
+  };
+  join("small_big.ts", {small, big});
+  join("big_small.ts", {big, small});
+  for (const char* name : {"small_big.ts", "big_small.ts"}) {
+    VideoFileSource src(dir / name);
+    Frame f;
+    int n = 0;
+    try {
+      while (src.Next(f)) ++n;
+      ADD_FAILURE() << name << ": no InputError after " << n << " frames";
+    } catch (const InputError& e) {
+      EXPECT_THAT(e.what(), HasSubstr(name));
+      EXPECT_THAT(e.what(), HasSubstr("timestamps go back from 1."));
+      EXPECT_THAT(e.what(), HasSubstr("recordings joined into one file"));
+      // The first recording's 20 frames (FFmpeg may hold back its last one) came through.
+      EXPECT_GE(n, 18) << name;
+      EXPECT_LE(n, 20) << name;
+    }
+    EXPECT_FALSE(src.Next(f));
+  }
+  // H.264 with B-frames: the decoder reorders, and OpenCV reports 0 ms for its last frames; all
+  // 30 frames come through.
+  const std::string h264 = (dir / "bframes.mp4").string();
+  if (RunFfmpeg({"-f", "lavfi", "-i", "testsrc=size=320x240:rate=10", "-t", "3", "-c:v",
+                 "libx264", "-bf", "3", h264})) {
+    VideoFileSource src(h264);
+    Frame f;
+    int n = 0;
+    while (src.Next(f)) ++n;
+    EXPECT_EQ(n, 30);
+    EXPECT_TRUE(src.warnings().empty());
+  }
+}
+
+// Rotation metadata: the frames stay as stored (not rotated to display), with a warning.
+TEST(VideoFileSource, RotationMetadataIsWarnedNotApplied) {
+  if (!HaveFfmpeg()) GTEST_SKIP() << "ffmpeg not found on PATH";
+  io_test::TempDir dir("aerovo_video_rot");
+  WriteTestVideo(dir / "plain.mp4", "mp4v");
+  ASSERT_TRUE(RunFfmpeg({"-i", (dir / "plain.mp4").string(), "-c", "copy", "-metadata:s:v",
+                         "rotate=90", (dir / "rot.mp4").string()}));
+  VideoFileSource plain(dir / "plain.mp4");
+  EXPECT_EQ(plain.rotation_deg(), 0);
+  EXPECT_TRUE(plain.warnings().empty());
+  VideoFileSource rot(dir / "rot.mp4");
+  EXPECT_EQ(rot.rotation_deg(), 90);
+  EXPECT_EQ(rot.width(), 64);
+  EXPECT_EQ(rot.height(), 48);
+  ASSERT_EQ(rot.warnings().size(), 1u);
+  EXPECT_THAT(rot.warnings()[0], HasSubstr("rot.mp4"));
+  EXPECT_THAT(rot.warnings()[0], HasSubstr("rotation metadata (90 degrees"));
+  Frame f;
+  int n = 0;
+  while (rot.Next(f)) {
+    EXPECT_EQ(f.gray.width(), 64);
+    EXPECT_EQ(f.gray.height(), 48);
+    ++n;
+  }
+  EXPECT_EQ(n, kFrames);
+}
+
+// Photos cut short, empty or not images: flagged or an error naming the photo and the problem.
+TEST(ImageFolderSource, TruncatedEmptyAndForeignPhotos) {
+  io_test::TempDir dir("aerovo_folder_cut");
+  for (int i = 0; i < 3; ++i) {
+    ASSERT_TRUE(cv::imwrite((dir / fmt::format("p{}.jpg", i)).string(),
+                            io_test::TextureImage(64, 48, i)));
+  }
+  {
+    std::ifstream in(dir / "p1.jpg", std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    in.close();
+    std::ofstream(dir / "p1.jpg", std::ios::binary | std::ios::trunc)
+        .write(bytes.data(), static_cast<std::streamsize>(bytes.size() * 7 / 10));
+  }
+  {
+    ImageFolderSource s(dir.path());
+    const auto& w = s.warnings();
+    EXPECT_TRUE(std::any_of(w.begin(), w.end(), [](const std::string& m) {
+      return m.find("p1.jpg") != std::string::npos && m.find("truncated") != std::string::npos;
+    }));
+    Frame f;
+    std::vector<std::string> flags;
+    while (s.Next(f)) {
+      flags.push_back(f.flags);
+      EXPECT_EQ(f.gray.width(), 64);
+    }
+    EXPECT_EQ(flags, (std::vector<std::string>{"", kFrameFlagTruncated, ""}));
+  }
+  std::ofstream(dir / "p3.jpg").close();
+  std::ofstream(dir / "p4.jpg") << "not really a jpeg";
+  ImageFolderSource s(dir.path());
+  Frame f;
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(s.Next(f));
+  ExpectInputError([&] { s.Next(f); }, {"cannot decode photo", "p3.jpg", "frame 3", "empty (0 bytes)"});
+  ExpectInputError([&] { s.Next(f); }, {"cannot decode photo", "p4.jpg", "frame 4", "not an image"});
+  // A PNG cut short does not decode: the error says why.
+  std::filesystem::remove(dir / "p3.jpg");
+  std::filesystem::remove(dir / "p4.jpg");
+  io_test::TempDir png_dir("aerovo_folder_cut_png");
+  ASSERT_TRUE(cv::imwrite((png_dir / "a.png").string(), io_test::TextureImage(64, 48, 1)));
+  ASSERT_TRUE(cv::imwrite((png_dir / "b.png").string(), io_test::TextureImage(64, 48, 2)));
+  std::filesystem::resize_file(png_dir / "b.png", std::filesystem::file_size(png_dir / "b.png") / 2);
+  ImageFolderSource p(png_dir.path());
+  ASSERT_TRUE(p.Next(f));
+  ExpectInputError([&] { p.Next(f); }, {"cannot decode photo", "b.png", "frame 1", "truncated"});
 }
 
 TEST(FrameSourceOptions, Validate) {

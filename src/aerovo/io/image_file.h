@@ -2,7 +2,9 @@
 // aerovo correspondence) and the benchmarks. Runs read frames through frame_source.h instead.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
+#include <string>
 
 #include <opencv2/core.hpp>
 
@@ -18,8 +20,32 @@ enum class GrayFrom {
   kDecoder,
 };
 
+/// What the bytes of an image file say before it is decoded (its first 8 and last 4096 bytes:
+/// a few microseconds whatever the file's size; the whole file only for a JPEG that does not
+/// end with FF D9).
+struct ImageFileCheck {
+  /// "jpeg", "png", "tiff" from the file's signature; "" when it is none of them.
+  std::string format;
+  std::uintmax_t size_bytes = 0;
+  /// The file ends before its format's end: a JPEG without the end-of-image marker FF D9 of its
+  /// main image (its last bytes, trailing zero padding ignored, are checked; only when they are
+  /// not FF D9, e.g. data appended after the image as in phones' motion photos, is the file read
+  /// and its marker segments walked), a PNG without its IEND chunk at the end.
+  /// Decoders fill the missing part (libjpeg: grey, after its own unnamed "Premature end of
+  /// JPEG file") or fail (libpng). TIFF has no end marker: a cut TIFF fails to decode.
+  bool truncated = false;
+  /// "" when the file looks whole, else what is wrong: "the file is empty (0 bytes)", "not an
+  /// image (no JPEG, PNG or TIFF signature)", "truncated (...)", "cannot be read".
+  std::string problem;
+};
+
+/// Checks the file at `path` (see ImageFileCheck). Never throws for a bad file.
+ImageFileCheck CheckImageFile(const std::filesystem::path& path);
+
 /// The image at `path` as a CV_8UC1 matrix (EXIF orientation applied, as cv::imread does).
-/// Throws InputError naming the file when it is missing or cannot be decoded.
+/// Throws InputError naming the file when it is missing, empty, not an image, cut short
+/// (CheckImageFile: a truncated file is an error here, not a grey-filled image) or cannot be
+/// decoded.
 cv::Mat ReadGrayImage(const std::filesystem::path& path, GrayFrom how = GrayFrom::kColor);
 
 }  // namespace aerovo

@@ -1,6 +1,7 @@
 #include "aerovo/io/image_file.h"
 
 #include <fstream>
+#include <iterator>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -61,6 +62,74 @@ TEST(ImageFile, ErrorsNameTheFile) {
   EXPECT_NE(m.find("not decodable"), std::string::npos) << m;
   EXPECT_THROW(ReadGrayImage(junk, GrayFrom::kDecoder), InputError);
   EXPECT_THROW(ReadGrayImage(dir.path()), InputError);  // a folder
+}
+
+// Writes the first `fraction` of `from`'s bytes to `to`.
+void WriteCut(const std::filesystem::path& from, const std::filesystem::path& to, double fraction) {
+  std::ifstream in(from, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::ofstream(to, std::ios::binary)
+      .write(bytes.data(), static_cast<std::streamsize>(bytes.size() * fraction));
+}
+
+TEST(ImageFile, CheckFindsEmptyForeignAndCutFiles) {
+  TempDir dir("aerovo_image_check");
+  cv::Mat bgr(120, 160, CV_8UC3);
+  cv::RNG rng(5);
+  rng.fill(bgr, cv::RNG::UNIFORM, 0, 256);
+  for (const char* ext : {".jpg", ".png", ".tif"}) {
+    const std::filesystem::path whole = dir / (std::string("whole") + ext);
+    ASSERT_TRUE(cv::imwrite(whole.string(), bgr));
+    const ImageFileCheck ok = CheckImageFile(whole);
+    EXPECT_TRUE(ok.problem.empty()) << ext << ": " << ok.problem;
+    EXPECT_FALSE(ok.truncated) << ext;
+    EXPECT_EQ(ok.size_bytes, std::filesystem::file_size(whole));
+    const std::filesystem::path cut = dir / (std::string("cut") + ext);
+    WriteCut(whole, cut, 0.6);
+    const ImageFileCheck c = CheckImageFile(cut);
+    EXPECT_EQ(c.format, ok.format) << ext;
+    if (std::string(ext) != ".tif") {  // TIFF has no end marker
+      EXPECT_TRUE(c.truncated) << ext;
+      EXPECT_NE(c.problem.find("truncated"), std::string::npos) << c.problem;
+      // ReadGrayImage refuses a cut file instead of returning a grey-filled image.
+      const std::string m = MessageOf(cut);
+      EXPECT_NE(m.find(cut.string()), std::string::npos) << m;
+      EXPECT_NE(m.find("truncated"), std::string::npos) << m;
+    }
+  }
+  EXPECT_EQ(CheckImageFile(dir / "whole.jpg").format, "jpeg");
+  EXPECT_EQ(CheckImageFile(dir / "whole.png").format, "png");
+  EXPECT_EQ(CheckImageFile(dir / "whole.tif").format, "tiff");
+  // A JPEG padded with zeros after its end marker (some cameras pad to a block) is whole.
+  {
+    std::ifstream in(dir / "whole.jpg", std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    bytes.append(300, '\0');
+    std::ofstream(dir / "padded.jpg", std::ios::binary) << bytes;
+    EXPECT_TRUE(CheckImageFile(dir / "padded.jpg").problem.empty());
+    // Data appended after the image (a phone's motion-photo video): whole, found by walking
+    // the marker segments; the same cut inside the image is truncated.
+    std::string appended = bytes.substr(0, bytes.size() - 300);
+    appended += "ftypmp42 a video of 5000 bytes ";
+    appended.append(5000, '\x5a');
+    std::ofstream(dir / "motion.jpg", std::ios::binary) << appended;
+    EXPECT_TRUE(CheckImageFile(dir / "motion.jpg").problem.empty())
+        << CheckImageFile(dir / "motion.jpg").problem;
+    std::string cut_inside = bytes.substr(0, bytes.size() * 2 / 3);
+    cut_inside.append(5000, '\x5a');
+    std::ofstream(dir / "cut_inside.jpg", std::ios::binary) << cut_inside;
+    EXPECT_TRUE(CheckImageFile(dir / "cut_inside.jpg").truncated);
+  }
+  std::ofstream(dir / "empty.jpg").close();
+  const ImageFileCheck e = CheckImageFile(dir / "empty.jpg");
+  EXPECT_EQ(e.size_bytes, 0u);
+  EXPECT_NE(e.problem.find("empty (0 bytes)"), std::string::npos) << e.problem;
+  std::ofstream(dir / "text.jpg") << "GPS log, not a photo\n";
+  const ImageFileCheck t = CheckImageFile(dir / "text.jpg");
+  EXPECT_EQ(t.format, "");
+  EXPECT_NE(t.problem.find("not an image"), std::string::npos) << t.problem;
+  EXPECT_NE(MessageOf(dir / "empty.jpg").find("empty (0 bytes)"), std::string::npos);
+  EXPECT_FALSE(CheckImageFile(dir / "missing.jpg").problem.empty());
 }
 
 }  // namespace

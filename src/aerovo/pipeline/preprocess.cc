@@ -5,6 +5,8 @@
 #include <cstdint>
 
 #include <fmt/format.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
 #include "aerovo/io/camera.h"
@@ -45,6 +47,49 @@ GrayImageView FrameUndistorter::Apply(const GrayImageView& frame) {
     throw InvalidArgument("FrameUndistorter: frame size differs from the calibrated size");
   }
   return u.Apply(frame, &impl_->out);
+}
+
+FrameReducer::FrameReducer(int width_px, int height_px, double max_megapixels)
+    : w_(width_px), h_(height_px), out_w_(width_px), out_h_(height_px) {
+  if (width_px <= 0 || height_px <= 0) {
+    throw InvalidArgument(
+        fmt::format("FrameReducer: frame size {}x{} must be positive", width_px, height_px));
+  }
+  if (!std::isfinite(max_megapixels)) {
+    throw InvalidArgument("FrameReducer: max_megapixels must be finite");
+  }
+  const double pixels = static_cast<double>(width_px) * height_px;
+  const double budget = max_megapixels * 1e6;
+  if (max_megapixels <= 0.0 || pixels <= budget) return;
+  const double s = std::sqrt(budget / pixels);
+  out_w_ = std::max(1, static_cast<int>(std::floor(width_px * s)));
+  out_h_ = std::max(1, static_cast<int>(std::floor(height_px * s)));
+  sx_ = static_cast<double>(out_w_) / width_px;
+  sy_ = static_cast<double>(out_h_) / height_px;
+  active_ = true;
+}
+
+Eigen::Matrix3d FrameReducer::reduced_from_full() const {
+  Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
+  m(0, 0) = sx_;
+  m(0, 2) = 0.5 * (sx_ - 1.0);
+  m(1, 1) = sy_;
+  m(1, 2) = 0.5 * (sy_ - 1.0);
+  return m;
+}
+
+GrayImageView FrameReducer::Apply(const GrayImageView& frame) {
+  if (frame.width != w_ || frame.height != h_) {
+    throw InvalidArgument(fmt::format("FrameReducer: frame is {}x{}, expected {}x{}", frame.width,
+                                      frame.height, w_, h_));
+  }
+  if (!active_) return frame;
+  if (out_.width() != out_w_ || out_.height() != out_h_) out_ = GrayImage(out_w_, out_h_);
+  const cv::Mat in(frame.height, frame.width, CV_8UC1, const_cast<std::uint8_t*>(frame.data),
+                   static_cast<std::size_t>(frame.stride));
+  cv::Mat dst(out_h_, out_w_, CV_8UC1, out_.data());
+  cv::resize(in, dst, cv::Size(out_w_, out_h_), 0.0, 0.0, cv::INTER_AREA);
+  return out_.view();
 }
 
 GrayImageView ScaleBrightness(const GrayImageView& frame, double k, GrayImage* buffer) {

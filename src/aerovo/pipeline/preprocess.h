@@ -3,9 +3,45 @@
 
 #include <memory>
 
+#include <Eigen/Core>
+
 #include "aerovo/core/image.h"
 
 namespace aerovo {
+
+/// Reduces frames larger than a pixel budget before SURF, so that the work and memory of a
+/// frame are bounded whatever the camera (RunConfig::max_megapixels). The reduced size keeps
+/// the aspect ratio: scale s = sqrt(budget / (width * height)), out = floor(size * s); pixels by
+/// area averaging (cv::resize INTER_AREA, no aliasing). A camera model of the full frame
+/// (focal f, principal point at the centre) becomes, on the reduced frame, focal f * scale()
+/// with the principal point at the reduced centre: reduced_from_full() maps the coordinates.
+class FrameReducer {
+ public:
+  /// Frames of width_px x height_px; max_megapixels <= 0: no budget (active() false). Throws
+  /// InvalidArgument for a non-positive size or a non-finite budget.
+  FrameReducer(int width_px, int height_px, double max_megapixels);
+  /// The frames exceed the budget and are reduced.
+  bool active() const { return active_; }
+  int out_width_px() const { return out_w_; }
+  int out_height_px() const { return out_h_; }
+  /// Reduced pixels per full-frame pixel, horizontally (1 when not active). The vertical factor
+  /// differs by less than one reduced pixel over the height; the focal length scales by their
+  /// mean, focal_scale().
+  double scale() const { return sx_; }
+  double focal_scale() const { return 0.5 * (sx_ + sy_); }
+  /// Homogeneous pixel coordinates of the full frame (pixel centres at integers) to those of
+  /// the reduced frame: x_r = sx x + (sx - 1) / 2 (cv::resize's pixel-area alignment), same for y.
+  Eigen::Matrix3d reduced_from_full() const;
+  /// The reduced copy of `frame` (InvalidArgument for another size), or `frame` itself when
+  /// not active. The view stays valid until the next call.
+  GrayImageView Apply(const GrayImageView& frame);
+
+ private:
+  int w_ = 0, h_ = 0, out_w_ = 0, out_h_ = 0;
+  double sx_ = 1.0, sy_ = 1.0;
+  bool active_ = false;
+  GrayImage out_;
+};
 
 /// Undistorts frames of one size with a pinhole camera (focal_px, principal point at the image
 /// centre ((w-1)/2, (h-1)/2)) and OpenCV distortion coefficients (k1, k2, p1, p2, k3); the output

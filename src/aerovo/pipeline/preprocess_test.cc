@@ -1,6 +1,8 @@
 #include "aerovo/pipeline/preprocess.h"
 
 #include <cmath>
+#include <cstdint>
+#include <utility>
 
 #include <gtest/gtest.h>
 #include <Eigen/Core>
@@ -84,6 +86,62 @@ TEST(Preprocess, ScaleBrightnessRoundsHalfUpAndSaturates) {
   EXPECT_EQ(out.at(1, 0), 150);
   EXPECT_EQ(out.at(2, 0), 255);  // 300 saturates
   EXPECT_THROW(ScaleBrightness(frame.view(), -1.0, &buffer), InvalidArgument);
+}
+
+TEST(Preprocess, FrameReducerKeepsFramesWithinTheBudget) {
+  // Within the budget (24 MP): as read.
+  FrameReducer keep(5472, 3648, 24.0);  // a 20 MP 1-inch sensor
+  EXPECT_FALSE(keep.active());
+  EXPECT_EQ(keep.out_width_px(), 5472);
+  EXPECT_DOUBLE_EQ(keep.scale(), 1.0);
+  EXPECT_TRUE(keep.reduced_from_full().isIdentity());
+  EXPECT_FALSE(FrameReducer(20000, 20000, 0.0).active());  // 0 = no budget
+  // 12000 x 12000 = 144 MP -> 4898 x 4898 = 23.99 MP.
+  FrameReducer big(12000, 12000, 24.0);
+  ASSERT_TRUE(big.active());
+  EXPECT_EQ(big.out_width_px(), 4898);
+  EXPECT_EQ(big.out_height_px(), 4898);
+  EXPECT_LE(static_cast<double>(big.out_width_px()) * big.out_height_px(), 24e6);
+  EXPECT_NEAR(big.scale(), 4898.0 / 12000.0, 1e-15);
+  // The aspect ratio is kept (8000 x 6000 = 48 MP -> 5656 x 4242).
+  FrameReducer wide(8000, 6000, 24.0);
+  EXPECT_EQ(wide.out_width_px(), 5656);
+  EXPECT_EQ(wide.out_height_px(), 4242);
+  EXPECT_NEAR(wide.focal_scale(), 0.707, 1e-3);
+  // The frame centre maps to the reduced centre (the principal point stays central).
+  const Eigen::Vector3d c = wide.reduced_from_full() * Eigen::Vector3d(3999.5, 2999.5, 1.0);
+  EXPECT_NEAR(c.x(), 0.5 * (5656 - 1), 1e-9);
+  EXPECT_NEAR(c.y(), 0.5 * (4242 - 1), 1e-9);
+  EXPECT_THROW(FrameReducer(0, 10, 24.0), InvalidArgument);
+  EXPECT_THROW(FrameReducer(10, 10, std::nan("")), InvalidArgument);
+}
+
+TEST(Preprocess, FrameReducerAveragesAreasAndMapsPixelsConsistently) {
+  // A 400 x 300 frame at a 0.03 MP budget: reduced by 1/2 exactly (200 x 150).
+  GrayImage frame(400, 300);
+  for (int y = 0; y < 300; ++y) {
+    for (int x = 0; x < 400; ++x) frame.at(x, y) = static_cast<std::uint8_t>((x / 2 + y) % 256);
+  }
+  FrameReducer r(400, 300, 0.03);
+  ASSERT_TRUE(r.active());
+  ASSERT_EQ(r.out_width_px(), 200);
+  ASSERT_EQ(r.out_height_px(), 150);
+  const GrayImageView out = r.Apply(frame.view());
+  ASSERT_EQ(out.width, 200);
+  // Area average of the 2x2 block: (x, 2y) and (x, 2y + 1) rows -> mean of v and v + 1.
+  for (const auto& [x, y] : {std::pair{0, 0}, {10, 20}, {199, 100}}) {
+    const double want = 0.5 * ((x + 2 * y) % 256 + (x + 2 * y + 1) % 256);
+    EXPECT_NEAR(out.at(x, y), want, 0.51) << x << "," << y;
+  }
+  // Full-frame pixel (2x + 0.5, 2y + 0.5), the centre of the block, is reduced pixel (x, y).
+  const Eigen::Vector3d p = r.reduced_from_full() * Eigen::Vector3d(20.5, 40.5, 1.0);
+  EXPECT_NEAR(p.x(), 10.0, 1e-12);
+  EXPECT_NEAR(p.y(), 20.0, 1e-12);
+  GrayImage other(300, 300);
+  EXPECT_THROW(r.Apply(other.view()), InvalidArgument);
+  // Not active: the frame itself.
+  FrameReducer none(400, 300, 1.0);
+  EXPECT_EQ(none.Apply(frame.view()).data, frame.view().data);
 }
 
 }  // namespace

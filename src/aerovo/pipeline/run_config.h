@@ -80,6 +80,13 @@ struct RunConfig {
   /// is multiplied by k (ScaleBrightness) after undistortion and before SURF, to study how the
   /// odometry holds in dim light. Default 1 (frames as read).
   double illumination_k = 1.0;
+  /// Pixel budget of a frame, megapixels: larger frames are reduced to it before undistortion and
+  /// SURF (pipeline/preprocess.h FrameReducer; the focal length scales with them, positions stay
+  /// in metres, transforms.csv in full-frame pixels), so one frame's time and memory are bounded
+  /// whatever the camera. 0 = never reduce. Default 24: above every common drone frame (4K video
+  /// 8.3 MP, 20 MP 1-inch sensors), which run as read; BENCHMARKS.md has the time and memory of a
+  /// frame against its size.
+  double max_megapixels = 24.0;
   /// No progress bar, no configuration dump, only errors and the final table.
   bool quiet = false;
   /// MAVLink link to a flight controller (docs/autopilot.md; mavlink/transport.h):
@@ -137,6 +144,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.p2, "p2", "Lens distortion p2 (tangential)", Finite());
   v.Field(c.k3, "k3", "Lens distortion k3", Finite());
   v.Field(c.illumination_k, "illumination_k", "Illumination factor k: every frame's brightness times k before SURF (the paper's f_k = k f)", Interval(0, 1, true, false));
+  v.Field(c.max_megapixels, "max_megapixels", "Frames above this many megapixels are reduced to it before SURF (focal length scaled with them; 0 = never)", AtLeast(0).Finite());
   v.Field(c.quiet, "quiet", "No progress bar or configuration dump", Any().Switch().Flags("-q"));
   v.Field(c.mavlink, "mavlink", "MAVLink link to an autopilot: udp:HOST:PORT, udpin:HOST:PORT or serial:DEVICE:BAUD (docs/autopilot.md)", Any());
   v.Field(c.mavlink_message, "mavlink_message", "Vision message sent per frame", Any());

@@ -230,6 +230,7 @@ PendingFrame PendingFrameOf(const Frame& frame, const FrameResult& r,
   rec.total_ms = r.total_ms;
   rec.status = ToString(r.status);
   if (r.failure != StepFailure::kNone) rec.status += std::string(":") + ToString(r.failure);
+  if (!frame.flags.empty()) rec.status += "+" + frame.flags;
   return p;
 }
 
@@ -399,7 +400,17 @@ void FrameLoop::Start(const Frame& frame, const std::optional<TelemetrySample>& 
       ResolveRunCamera(config_, focal_from_sim_, w, h, photo, sample, frame.name);
   summary->focal_px = camera.focal_px;
   summary->focal_source = camera.focal_source;
-  vo_options_.focal_px = camera.focal_px;
+  // Frames above the pixel budget: reduced first, the camera model with them (focal scaled,
+  // principal point at the reduced centre), so undistortion and SURF work on the reduced frame.
+  reducer_.emplace(w, h, config_.max_megapixels);
+  const double focal_scale = reducer_->focal_scale();
+  const int pw = reducer_->out_width_px(), ph = reducer_->out_height_px();
+  reduced_from_full_ = reducer_->reduced_from_full();
+  if (!reducer_->active()) reducer_.reset();
+  summary->processed_width_px = pw;
+  summary->processed_height_px = ph;
+  summary->frame_scale = static_cast<double>(pw) / w;
+  vo_options_.focal_px = camera.focal_px * focal_scale;
   vo_options_.default_height_m = config_.altitude_m;
   summary->height_source = height_.source();
   if (std::string(height_.source()) == "mavlink" && link_ &&
@@ -408,12 +419,18 @@ void FrameLoop::Start(const Frame& frame, const std::optional<TelemetrySample>& 
                          config_.mavlink_wait_s);
   }
   vo_ = std::make_unique<VisualOdometry>(vo_options_);
-  undistorter_ = MakeUndistorter(config_, w, h, camera.focal_px);
+  undistorter_ = MakeUndistorter(config_, pw, ph, camera.focal_px * focal_scale);
   outputs_.emplace(out_dir_, config_, camera, summary->height_source, w, h, frame.time_s, sample,
                    callbacks_, !telemetry_.empty());
   if (log_) {
     *log_ << fmt::format("camera: {}x{} px, focal {:.1f} px ({}), height from {}\n", w, h,
                          camera.focal_px, camera.focal_source, summary->height_source);
+    if (reducer_) {
+      *log_ << fmt::format(
+          "frames reduced to {}x{} px before SURF ({:.1f} MP > max_megapixels {}), focal {:.1f} px\n",
+          pw, ph, static_cast<double>(w) * h / 1e6, config_.max_megapixels,
+          vo_options_.focal_px);
+    }
   }
 }
 
@@ -452,7 +469,8 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
       attitude = link_->AttitudeNear(capture_mono_s, config_.mavlink_match_s);
     }
     const std::optional<double> yaw = sample ? sample->CameraYawDeg() : std::nullopt;
-    GrayImageView view = undistorter_ ? undistorter_->Apply(frame.gray.view()) : frame.gray.view();
+    GrayImageView view = reducer_ ? reducer_->Apply(frame.gray.view()) : frame.gray.view();
+    if (undistorter_) view = undistorter_->Apply(view);
     if (config_.illumination_k != 1.0) {
       view = ScaleBrightness(view, config_.illumination_k, &dimmed_);
     }
@@ -466,7 +484,10 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
     }
     if (link_) SendVision(r, capture_mono_s, capture_unix_s, height_m, attitude);
     georef_.Observe(r.position_m, gps, yaw);
-    outputs_->AppendTransform(frame.index, r.world_from_frame);
+    // transforms.csv in full-frame pixels whatever the reduction.
+    outputs_->AppendTransform(frame.index, reducer_ ? Eigen::Matrix3d(r.world_from_frame *
+                                                                      reduced_from_full_)
+                                                    : r.world_from_frame);
     PendingFrame pending = PendingFrameOf(frame, r, gps);
     pending.record.height_m = height_m;
     pending.record.height_source = height_.last_source();
@@ -478,6 +499,18 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
     outputs_->Add(std::move(pending), georef_);
     totals_.Add(frame.index, frame.time_s, r, gps, georef_);
     ++summary->frames_processed;
+    if (!frame.flags.empty()) {
+      // Each '+'-separated flag counted once per frame.
+      std::size_t b = 0;
+      while (b <= frame.flags.size()) {
+        const std::size_t e = std::min(frame.flags.find('+', b), frame.flags.size());
+        const std::string flag = frame.flags.substr(b, e - b);
+        if (!flag.empty()) {
+          if (summary->frames_flagged[flag]++ == 0) end.first_flagged[flag] = frame.name;
+        }
+        b = e + 1;
+      }
+    }
     if (callbacks_.progress) {
       callbacks_.progress(summary->frames_processed, summary->frames_expected,
                           summary->frames_processed / std::max(1e-9, wall.elapsed_ms() / 1000.0));
@@ -589,6 +622,22 @@ void Summarize(const std::vector<std::string>& source_warnings, bool has_telemet
         "{} of {} frames have no telemetry fix (the telemetry does not cover them); their gps_* "
         "cells are empty and they are not in the comparison with GPS",
         end.frames_without_fix, s.frames_processed));
+  }
+  for (const auto& [flag, n] : s.frames_flagged) {
+    const auto first = end.first_flagged.find(flag);
+    const std::string first_name = first != end.first_flagged.end() ? first->second : "?";
+    std::string what;
+    if (flag == kFrameFlagDuplicate) {
+      what = "pixels identical to the frame before (a repeated or stale frame): their steps read "
+             "as no motion";
+    } else if (flag == kFrameFlagTruncated) {
+      what = "the photo file is cut short and was decoded with the missing part filled in";
+    } else {
+      what = "flagged by the frame source";
+    }
+    s.warnings.push_back(fmt::format("{} of {} frames flagged '{}' (first: {}): {}; see their "
+                                     "status in frames.csv",
+                                     n, s.frames_processed, flag, first_name, what));
   }
   s.interrupted = end.stopped;
   if (vo_stats != nullptr) {

@@ -15,6 +15,7 @@
 
 #include <atomic>
 #include <deque>
+#include <map>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -248,11 +249,14 @@ struct LoopEnd {
   /// The input error after the first frame that stopped the run ("" = none).
   std::string failure;
   int frames_without_fix = 0;  ///< Frames given no telemetry fix.
+  /// The first frame flagged by the source with each flag (Frame::flags), for the warning.
+  std::map<std::string, std::string> first_flagged;
 };
 
 /// The frames of a run, one by one: telemetry fix, camera and outputs on the first frame,
-/// height, preprocessing (undistortion, illumination), visual odometry, geo-referencing,
-/// outputs, totals, progress.
+/// height, preprocessing (reduction to RunConfig::max_megapixels, undistortion, illumination),
+/// visual odometry, geo-referencing, outputs, totals, progress. A frame the source flagged (Frame::flags) is processed, its status
+/// gets "+flag" and RunSummary::frames_flagged counts it.
 class FrameLoop {
  public:
   /// `inputs`, `telemetry`, `callbacks` and `folder` (the source as a photo folder, or null)
@@ -302,6 +306,8 @@ class FrameLoop {
   GeoReferencer georef_;
   std::unique_ptr<VisualOdometry> vo_;
   std::unique_ptr<FrameUndistorter> undistorter_;
+  std::optional<FrameReducer> reducer_;  // frames above config.max_megapixels
+  Eigen::Matrix3d reduced_from_full_ = Eigen::Matrix3d::Identity();
   GrayImage dimmed_;  // the frame at illumination_k < 1
   std::optional<RunOutputs> outputs_;
   RunTotals totals_;
@@ -312,7 +318,8 @@ class FrameLoop {
 // 6. Summary
 
 /// Completes `summary` after the loop (its frames_processed, focal and height already set):
-/// the source's warnings, frames without a fix (when there is telemetry), interrupted, the
+/// the source's warnings, frames without a fix (when there is telemetry), one warning per flag
+/// of the frames the source flagged (count, first frame, meaning), interrupted, the
 /// odometry's counts (`vo_stats` null: no frame) and the warning when nothing was measured,
 /// heading source, mean stage times, fps from `wall_s`, the comparison with GPS (at least 3
 /// fixes) and with `truth` (may be null), error = end.failure. `totals` is consumed.

@@ -31,6 +31,10 @@ nlohmann::json ToJson(const RunSummary& s) {
                    {"frames_reacquired", s.frames_reacquired},
                    {"frames_bridged", s.frames_bridged},
                    {"frames_with_gps", s.frames_with_gps},
+                   {"frames_flagged", s.frames_flagged},
+                   {"processed_width_px", s.processed_width_px},
+                   {"processed_height_px", s.processed_height_px},
+                   {"frame_scale", s.frame_scale},
                    {"interrupted", s.interrupted},
                    {"wall_s", s.wall_s},
                    {"fps", s.fps},
@@ -64,6 +68,13 @@ std::string FormatSummaryTable(const RunSummary& s) {
                    s.interrupted ? "  (interrupted)" : "");
   t += fmt::format("{:<28}ok {}, re-acquired {}, flagged (bridged) {}\n", "  of which", s.frames_ok,
                    s.frames_reacquired, s.frames_bridged);
+  if (!s.frames_flagged.empty()) {
+    std::string flags;
+    for (const auto& [flag, n] : s.frames_flagged) {
+      flags += fmt::format("{}{} {}", flags.empty() ? "" : ", ", flag, n);
+    }
+    t += fmt::format("{:<28}{}\n", "  flagged by the input", flags);
+  }
   t += fmt::format("{:<28}{}\n", "Frames with GPS", s.frames_with_gps);
   t += fmt::format("{:<28}{:.1f} m\n", "VO path length", s.vo_path_length_m);
   t += fmt::format("{:<28}{:.1f} px ({})\n", "Focal length", s.focal_px, s.focal_source);

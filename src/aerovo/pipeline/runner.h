@@ -52,6 +52,15 @@ struct RunSummary {
   int frames_reacquired = 0;
   int frames_bridged = 0;  ///< Flagged frames (step failed, motion bridged).
   int frames_with_gps = 0;
+  /// Frames the source flagged (io/frame_source.h Frame::flags), by flag: "duplicate" (pixels
+  /// identical to the frame before), "truncated" (a photo cut short). Each such frame is
+  /// processed and its status in frames.csv ends with "+flag"; empty when none.
+  std::map<std::string, int> frames_flagged;
+  /// Size of the frames given to SURF: the source's, or smaller when the frames exceed
+  /// RunConfig::max_megapixels (then reduced by frame_scale, the camera's focal length with
+  /// them; positions in metres and transforms.csv stay in full-frame terms). 0 before a frame.
+  int processed_width_px = 0, processed_height_px = 0;
+  double frame_scale = 1.0;  ///< processed width / source width (1 = frames as read).
   bool interrupted = false;  ///< Stopped by the stop flag (SIGINT/SIGTERM) before the end.
   double wall_s = 0.0;
   double fps = 0.0;  ///< frames_processed / wall_s.
