@@ -42,6 +42,10 @@ void Validate(const RunConfig& c) {
   if (c.out.empty()) fail("out must not be empty");
   options::CheckRanges(c, "", false, context);
   if (c.end_s >= 0.0 && c.end_s < c.start_s) fail("end_s must be >= start_s (or < 0)");
+  if (c.sensor_aspect != 0.0 && c.sensor_aspect < 1.0) {
+    fail("sensor_aspect " + options::FormatNumber(c.sensor_aspect) +
+         " must be 0 (automatic) or in [1, 4] (long side / short side, e.g. 1.3333 for 4:3)");
+  }
   try {
     Validate(c.odometry);
   } catch (const InvalidArgument& e) {
