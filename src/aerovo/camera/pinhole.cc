@@ -32,6 +32,25 @@ double FocalPxFrom35mm(double focal_35mm_mm, int width_px, int height_px) {
   return focal_35mm_mm / kFullFrameDiagonalMm * diag_px;
 }
 
+double FocalPxFrom35mmOfSensor(double focal_35mm_mm, int width_px, int height_px,
+                               double sensor_aspect) {
+  if (!(std::isfinite(sensor_aspect) && sensor_aspect >= 1.0)) {
+    throw InvalidArgument(
+        fmt::format("sensor aspect ratio {} must be >= 1 (long side / short side)", sensor_aspect));
+  }
+  if (!PositiveFinite(focal_35mm_mm)) {
+    throw InvalidArgument(
+        fmt::format("35 mm-equivalent focal length {} mm must be > 0", focal_35mm_mm));
+  }
+  CheckSize(width_px, height_px);
+  const double long_px = std::max(width_px, height_px);
+  const double short_px = std::min(width_px, height_px);
+  const double diag_px = long_px / short_px >= sensor_aspect
+                             ? long_px * std::sqrt(1.0 + 1.0 / (sensor_aspect * sensor_aspect))
+                             : short_px * std::sqrt(1.0 + sensor_aspect * sensor_aspect);
+  return focal_35mm_mm / kFullFrameDiagonalMm * diag_px;
+}
+
 double Focal35mmFromPx(double focal_px, int width_px, int height_px) {
   if (!PositiveFinite(focal_px)) {
     throw InvalidArgument(fmt::format("focal length {} px must be > 0", focal_px));

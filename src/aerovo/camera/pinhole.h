@@ -23,6 +23,22 @@ inline constexpr double kFullFrameDiagonalMm = 43.266615305567875;
 /// Throws InvalidArgument for f35 <= 0 or an empty size.
 double FocalPxFrom35mm(double focal_35mm_mm, int width_px, int height_px);
 
+/// The same for an image that is a crop of a sensor whose full frame has the aspect ratio
+/// `sensor_aspect` (long side / short side, >= 1; e.g. 4/3). A 35 mm equivalent belongs to the
+/// sensor's full frame, not to a cropped photo mode: DJI's specifications give one equivalent
+/// focal length per camera (Phantom 3 Professional: 20 mm, FOV 94 deg, the diagonal FOV of the
+/// 4:3 frame) for its 4:3 and 16:9 photo sizes alike, and its 16:9 photos (4000x2250) keep the
+/// sensor's full width. So the diagonal used is that of the full frame that contains the image
+/// with one side in common: when the image is wider than the sensor (16:9 from 4:3), its long
+/// side is the sensor's; when it is narrower (1:1 from 4:3), its short side is.
+///   f_px = f35_mm / 43.27 mm * diag,  diag = L sqrt(1 + 1/A^2) if L/S >= A, else S sqrt(1 + A^2)
+/// (L, S the image's long and short sides, A = sensor_aspect). With A = L/S it is
+/// FocalPxFrom35mm. Example: Phantom 3, 20 mm at 4000x2250 with A = 4/3: 2311 px (the 16:9
+/// diagonal would give 2121 px, 8 % short). Throws InvalidArgument for f35 <= 0, an empty size
+/// or sensor_aspect < 1.
+double FocalPxFrom35mmOfSensor(double focal_35mm_mm, int width_px, int height_px,
+                               double sensor_aspect);
+
 /// The inverse of FocalPxFrom35mm: f35_mm = f_px * 43.27 mm / sqrt(width_px^2 + height_px^2).
 /// Throws InvalidArgument for f_px <= 0 or an empty size.
 double Focal35mmFromPx(double focal_px, int width_px, int height_px);

@@ -19,6 +19,28 @@ TEST(Pinhole, FocalFrom35mmUsesTheDiagonal) {
   EXPECT_THROW(FocalPxFrom35mm(20.0, 0, 600), InvalidArgument);
 }
 
+TEST(Pinhole, FocalFrom35mmOfTheSensorsFullFrame) {
+  // Phantom 3 (FC300S), 20 mm equivalent: the 4:3 frame 4000x3000 has a 5000 px diagonal.
+  const double f43 = 20.0 / kFullFrameDiagonalMm * 5000.0;
+  EXPECT_NEAR(FocalPxFrom35mmOfSensor(20.0, 4000, 3000, 4.0 / 3.0), f43, 1e-9);
+  EXPECT_NEAR(FocalPxFrom35mm(20.0, 4000, 3000), f43, 1e-9);
+  // Its 16:9 photo 4000x2250 keeps the sensor's width: same focal length, not the 16:9
+  // diagonal's (8 % short).
+  EXPECT_NEAR(FocalPxFrom35mmOfSensor(20.0, 4000, 2250, 4.0 / 3.0), f43, 1e-9);
+  EXPECT_LT(FocalPxFrom35mm(20.0, 4000, 2250), 0.93 * f43);
+  // Portrait and a 1:1 crop (keeps the short side, 3000 px: native frame 4000x3000).
+  EXPECT_NEAR(FocalPxFrom35mmOfSensor(20.0, 2250, 4000, 4.0 / 3.0), f43, 1e-9);
+  EXPECT_NEAR(FocalPxFrom35mmOfSensor(20.0, 3000, 3000, 4.0 / 3.0), f43, 1e-9);
+  // A 3:2 sensor (5472x3648) in 16:9 (5472x3078).
+  const double f32 = 24.0 / kFullFrameDiagonalMm * std::hypot(5472.0, 3648.0);
+  EXPECT_NEAR(FocalPxFrom35mmOfSensor(24.0, 5472, 3078, 1.5), f32, 1e-6);
+  // The image as the full frame: the plain rule.
+  EXPECT_NEAR(FocalPxFrom35mmOfSensor(24.0, 1600, 1300, 1600.0 / 1300.0),
+              FocalPxFrom35mm(24.0, 1600, 1300), 1e-9);
+  EXPECT_THROW(FocalPxFrom35mmOfSensor(20.0, 4000, 2250, 0.9), InvalidArgument);
+  EXPECT_THROW(FocalPxFrom35mmOfSensor(0.0, 4000, 2250, 1.5), InvalidArgument);
+}
+
 TEST(Pinhole, Focal35mmIsTheInverse) {
   EXPECT_NEAR(Focal35mmFromPx(5000.0, 3600, 2400), 50.0, 1e-12);
   // 1280x720 at 73.7 deg (the simulator's default camera): 853.95 px, 25.16 mm (diagonal).

@@ -42,9 +42,17 @@ TelemetryReadResult ReadAny(const TelemetryArgs& args) {
   if (ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff" || ext == ".png" ||
       ext == ".dng") {
     const ImageMetadata m = ReadImageMetadata(path);
-    fmt::print("photo        {}x{} px, {} {}, focal {} mm (35 mm equivalent {} mm)\n", m.width_px,
-               m.height_px, m.make, m.model, Opt(m.focal_length_mm, 2),
-               Opt(m.focal_length_35mm_mm, 1));
+    // Each value is printed with its unit, or "unknown" when the photo does not have it.
+    const auto mm = [](const std::optional<double>& v, int decimals) {
+      return v ? fmt::format("{:.{}f} mm", *v, decimals) : std::string("unknown");
+    };
+    fmt::print("photo        {}x{} px, {} {}{}, focal {} (35 mm equivalent {})\n", m.width_px,
+               m.height_px, m.make.empty() ? "unknown make" : m.make, m.model,
+               m.serial_number.empty() ? "" : fmt::format(" (serial {})", m.serial_number),
+               mm(m.focal_length_mm, 2), mm(m.focal_length_35mm_mm, 1));
+    if (m.xmp_from_exif_packet) {
+      fmt::print("xmp          read from the EXIF tag 0x02bc (XMLPacket)\n");
+    }
     return TelemetryFromImages({m}, options);
   }
   return ReadTelemetryFile(path, options);

@@ -91,8 +91,7 @@ struct RansacOptions {
   /// inliers, kept while the MSAC score improves. 0 returns the minimal-sample model.
   /// Default 3 (MATLAB: 1). Why more than one: when noise is comparable to max_distance_px the
   /// best minimal-sample model misses inliers in the parts of the frame it extrapolates to, and
-  /// a single refit inherits that spatial bias (measured on synthetic-flight in
-  /// bench_correspondence: 0.12 px corner error after one refit, 0.04 px after convergence).
+  /// a single refit inherits that spatial bias (BENCHMARKS.md, "Estimator defaults").
   int final_refit_iterations = 3;
   /// Robust polish after the refits (not in MATLAB): up to polish_iterations rounds of
   /// iteratively reweighted least squares over EVERY correspondence with Geman-McClure weights
@@ -100,15 +99,13 @@ struct RansacOptions {
   /// 1e-4 px over the prev points' bounding box. The polished model is kept when it has at least
   /// the minimal sample of inliers (mask, count and score are those of the returned model).
   /// Why: the refits fit one hard-thresholded inlier set, and on a non-planar scene neighbouring
-  /// inlier sets give models 1.8 px apart at the frame corners depending on the seed (tampa-
-  /// phantom3, BENCHMARKS.md "Correspondence"); the smooth loss has one minimum near them, so
-  /// the result becomes a function of the correspondences alone (seed spread 0.00 px there).
-  /// The price: outliers a few s from the model keep a small weight (0.07 at 5 px), which moves
-  /// an exact fit by thousandths of a pixel. Default 0 (off: MATLAB's estimator, the paper's).
+  /// inlier sets give models that differ at the frame corners depending on the seed; the smooth
+  /// loss has one minimum near them, so the result becomes a function of the correspondences
+  /// alone (BENCHMARKS.md, "Estimator defaults"). The price: outliers a few s from the model
+  /// keep a small weight (0.07 at 5 px). Default 0 (off: MATLAB's estimator, the paper's).
   int polish_iterations = 0;
   /// Scale s of the polish's loss, px: residuals well below s count fully, a residual of s
-  /// counts 1/4, of 3 s 1 %. Default 3 px (twice MaxDistance; our choice: on tampa-phantom3
-  /// s = 1.5 px still left a 0.18 px mean seed-to-seed spread, 3 px none).
+  /// counts 1/4, of 3 s 1 %. Default 3 px (twice MaxDistance; BENCHMARKS.md, "Estimator defaults").
   double polish_scale_px = 3.0;
 };
 
@@ -174,8 +171,8 @@ struct RansacWorkspace {
 /// correspondences of min(e^2, threshold^2), px^2.
 struct MsacScorer {
   // Four independent partial sums: one running sum is a serial chain of FP adds (4-cycle
-  // latency each, and without -ffast-math the compiler may not reassociate it);
-  // BM_RansacAffine/10000 went from 2.2 to 0.87 ms with this.
+  // latency each, and without -ffast-math the compiler may not reassociate it); BENCHMARKS.md,
+  // "Estimator defaults".
   static double Cost(const double* r, int n, double threshold2, int* num_inliers) {
     double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
     int c0 = 0, c1 = 0, c2 = 0, c3 = 0;

@@ -33,12 +33,49 @@ void Validate(const CameraOptions& o) {
   if ((o.cx_px && !std::isfinite(*o.cx_px)) || (o.cy_px && !std::isfinite(*o.cy_px))) {
     throw InvalidArgument("CameraOptions principal point is not finite");
   }
+  if (o.sensor_aspect && !(std::isfinite(*o.sensor_aspect) && *o.sensor_aspect >= 1.0 &&
+                           *o.sensor_aspect <= 4.0)) {
+    throw InvalidArgument(fmt::format(
+        "CameraOptions.sensor_aspect {} must be in [1, 4] (long side / short side)",
+        *o.sensor_aspect));
+  }
   if (!GoodDistortionCount(o.distortion.size())) {
     throw InvalidArgument(
         fmt::format("CameraOptions.distortion has {} coefficients (expected 0, 4, "
                     "5 or 8)",
                     o.distortion.size()));
   }
+}
+
+SensorAspect SensorAspectOf(const CameraOptions& options, const ImageMetadata& metadata,
+                            int width_px, int height_px) {
+  const double long_px = std::max(width_px, height_px);
+  const double short_px = std::max(1, std::min(width_px, height_px));
+  const double image_aspect = long_px / short_px;
+  if (options.sensor_aspect) {
+    return {*options.sensor_aspect, fmt::format("sensor aspect {:.4g} (given)", *options.sensor_aspect)};
+  }
+  // Full-frame photo sizes of drone cameras from DJI's specifications: a photo of another
+  // aspect from these cameras is a crop of that frame.
+  struct Known {
+    const char* model;
+    double aspect;
+    const char* name;
+  };
+  static constexpr Known kKnown[] = {
+      {"FC300S", 4.0 / 3.0, "4:3"}, {"FC300X", 4.0 / 3.0, "4:3"}, {"FC330", 4.0 / 3.0, "4:3"},
+      {"FC220", 4.0 / 3.0, "4:3"},  {"FC6310", 1.5, "3:2"},       {"FC6310S", 1.5, "3:2"},
+      {"L1D-20c", 1.5, "3:2"},
+  };
+  for (const Known& k : kKnown) {
+    if (metadata.model == k.model) {
+      return {k.aspect, fmt::format("the {}'s {} sensor", k.model, k.name)};
+    }
+  }
+  if (image_aspect > 1.7) {
+    return {4.0 / 3.0, fmt::format("a {:.3g}:1 photo taken as a crop of a 4:3 sensor", image_aspect)};
+  }
+  return {image_aspect, "the photo's own frame"};
 }
 
 ResolvedCamera ResolveCamera(const CameraOptions& options, int width_px, int height_px,
@@ -71,9 +108,11 @@ ResolvedCamera ResolveCamera(const CameraOptions& options, int width_px, int hei
                            metadata->source);
     r.source_key = "xmp-calibrated";
   } else if (metadata && metadata->focal_length_35mm_mm) {
-    f = FocalPxFrom35mm(*metadata->focal_length_35mm_mm, width_px, height_px);
-    r.source = fmt::format("focal length {:.1f} px from EXIF FocalLengthIn35mmFilm {} mm of '{}'",
-                           f, *metadata->focal_length_35mm_mm, metadata->source);
+    const SensorAspect a = SensorAspectOf(options, *metadata, width_px, height_px);
+    f = FocalPxFrom35mmOfSensor(*metadata->focal_length_35mm_mm, width_px, height_px, a.aspect);
+    r.source = fmt::format(
+        "focal length {:.1f} px from EXIF FocalLengthIn35mmFilm {} mm of '{}' over {}", f,
+        *metadata->focal_length_35mm_mm, metadata->source, a.why);
     r.source_key = "exif-35mm";
   } else if (telemetry_focal_35mm_mm) {
     f = FocalPxFrom35mm(*telemetry_focal_35mm_mm, width_px, height_px);

@@ -18,14 +18,32 @@ namespace aerovo {
 /// How the camera of a run is known. Every field is optional; the first that is set wins, in
 /// this order: focal_px, hfov_deg, focal_35mm_mm, then the photo/telemetry metadata
 /// (DJI XMP CalibratedFocalLength when the metadata's image size equals the frame size, then
-/// EXIF FocalLengthIn35mmFilm, then the telemetry's 35 mm equivalent, e.g. SRT focal_len).
+/// EXIF FocalLengthIn35mmFilm over the sensor's full frame (sensor_aspect), then the
+/// telemetry's 35 mm equivalent, e.g. SRT focal_len, over the frame's own diagonal).
 struct CameraOptions {
   std::optional<double> focal_px;       ///< Focal length in pixels (e.g. from a calibration).
   std::optional<double> hfov_deg;       ///< Horizontal field of view, degrees.
   std::optional<double> focal_35mm_mm;  ///< 35 mm-equivalent focal length, overrides EXIF.
   std::optional<double> cx_px, cy_px;   ///< Principal point; default the image centre.
   std::vector<double> distortion;       ///< OpenCV order; default none.
+  /// Aspect ratio (long side / short side) of the sensor's full frame, which a photo's EXIF
+  /// FocalLengthIn35mmFilm refers to (camera/pinhole.h FocalPxFrom35mmOfSensor). Unset: known
+  /// from the camera model (SensorAspectOf), else 4:3 for photos wider than 1.7:1 (a 16:9 mode
+  /// of a 4:3 drone sensor), else the photo is the full frame.
+  std::optional<double> sensor_aspect;
 };
+
+/// The sensor aspect ratio ResolveCamera uses for the EXIF 35 mm equivalent of this photo and
+/// why, e.g. {4/3, "the FC300S's 4:3 sensor"}: `options.sensor_aspect` when set; else the
+/// camera models whose full-frame aspect is known (DJI FC300S/FC300X/FC330/FC220: 4:3,
+/// 4000x3000; FC6310/FC6310S/L1D-20c: 3:2, 5472x3648; from DJI's specifications); else 4:3
+/// when the photo is wider than 1.7:1; else the photo's own aspect (it is the full frame).
+struct SensorAspect {
+  double aspect = 0.0;
+  std::string why;
+};
+SensorAspect SensorAspectOf(const CameraOptions& options, const ImageMetadata& metadata,
+                            int width_px, int height_px);
 
 /// Throws InvalidArgument naming the field (non-positive or non-finite values, hfov outside
 /// (0, 180), bad distortion count).

@@ -75,7 +75,9 @@ TEST(Camera, ResolveSourceKeysAndTelemetryFallback) {
   m.focal_length_35mm_mm = 24.0;
   r = ResolveCamera(o, 1280, 720, &m, 25.16);  // the photo's EXIF comes first
   EXPECT_EQ(r.source_key, "exif-35mm");
-  EXPECT_EQ(r.intrinsics.fx_px, FocalPxFrom35mm(24.0, 1280, 720));
+  // A 16:9 photo: over the 4:3 sensor frame it is a crop of (1280x960), the video's telemetry
+  // over its own frame.
+  EXPECT_EQ(r.intrinsics.fx_px, FocalPxFrom35mm(24.0, 1280, 960));
   m.calibrated_focal_px = 900.0;
   EXPECT_EQ(ResolveCamera(o, 1280, 720, &m).source_key, "xmp-calibrated");
   o.focal_35mm_mm = 28.0;
@@ -87,6 +89,43 @@ TEST(Camera, ResolveSourceKeysAndTelemetryFallback) {
   o.focal_px = 1000.0;
   EXPECT_EQ(ResolveCamera(o, 1280, 720, &m).source_key, "flag");
   EXPECT_THROW(ResolveCamera(CameraOptions{}, 1280, 720, nullptr, -3.0), InvalidArgument);
+}
+
+// A 16:9 photo of a 4:3 sensor: the 35 mm equivalent belongs to the sensor's full frame. Truth:
+// the 16:9 photo (4000x2250) is the middle of the 4:3 frame (4000x3000) through the same lens,
+// so its focal length in pixels is the 4:3 photo's: 20 mm equivalent (FC300S: 3.61 mm lens, crop
+// factor 5.54) over the 5000 px diagonal = 2311 px.
+TEST(Camera, SixteenByNinePhotoUsesTheSensorsFullFrame) {
+  ImageMetadata m;
+  m.source = "DJI_0001.JPG";
+  m.make = "DJI";
+  m.model = "FC300S";
+  m.width_px = 4000;
+  m.height_px = 2250;
+  m.focal_length_35mm_mm = 20.0;
+  const double truth_px = 20.0 / kFullFrameDiagonalMm * 5000.0;
+  const ResolvedCamera r = ResolveCamera({}, 4000, 2250, &m);
+  EXPECT_NEAR(r.intrinsics.fx_px, truth_px, 0.01 * truth_px);
+  EXPECT_THAT(r.source, ::testing::HasSubstr("FC300S's 4:3 sensor"));
+  // An unknown model's 16:9 photo: taken as a crop of a 4:3 sensor, said so.
+  m.model = "FC9999";
+  const ResolvedCamera u = ResolveCamera({}, 4000, 2250, &m);
+  EXPECT_NEAR(u.intrinsics.fx_px, truth_px, 0.01 * truth_px);
+  EXPECT_THAT(u.source, ::testing::HasSubstr("crop of a 4:3 sensor"));
+  // Given: a 3:2 sensor; and a 4:3 photo stays on its own diagonal (unchanged).
+  CameraOptions o;
+  o.sensor_aspect = 1.5;
+  EXPECT_NEAR(ResolveCamera(o, 4000, 2250, &m).intrinsics.fx_px,
+              20.0 / kFullFrameDiagonalMm * std::hypot(4000.0, 4000.0 / 1.5), 1e-6);
+  m.width_px = 4000;
+  m.height_px = 3000;
+  EXPECT_NEAR(ResolveCamera({}, 4000, 3000, &m).intrinsics.fx_px,
+              FocalPxFrom35mm(20.0, 4000, 3000), 1e-9);
+  m.model = "FC6310";  // Phantom 4 Pro: 3:2 sensor, its 16:9 photo 5472x3078
+  EXPECT_NEAR(ResolveCamera({}, 5472, 3078, &m).intrinsics.fx_px,
+              20.0 / kFullFrameDiagonalMm * std::hypot(5472.0, 3648.0), 1e-6);
+  o.sensor_aspect = 0.5;
+  EXPECT_THROW(ResolveCamera(o, 4000, 2250, &m), InvalidArgument);
 }
 
 TEST(Camera, TampaFromExif) {

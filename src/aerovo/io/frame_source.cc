@@ -116,6 +116,16 @@ void Validate(const FrameSourceOptions& o) {
     throw InvalidArgument(
         fmt::format("FrameSourceOptions.start_time_s {} must be finite and >= 0", o.start_time_s));
   }
+  if (!std::isfinite(o.photo_gap_s) || o.photo_gap_s < 0.0) {
+    throw InvalidArgument(
+        fmt::format("FrameSourceOptions.photo_gap_s {} must be finite and >= 0", o.photo_gap_s));
+  }
+  if (o.photo_flight < -1) {
+    throw InvalidArgument(fmt::format(
+        "FrameSourceOptions.photo_flight {} must be -1 (all), 0 (refuse a mixed folder) or a "
+        "flight number >= 1",
+        o.photo_flight));
+  }
   if (std::isnan(o.end_time_s) || o.end_time_s < o.start_time_s) {
     throw InvalidArgument(fmt::format("FrameSourceOptions.end_time_s {} must be >= start_time_s {}",
                                       o.end_time_s, o.start_time_s));
@@ -414,6 +424,91 @@ ImageFolderSource::ImageFolderSource(const std::filesystem::path& folder,
     warnings_.push_back(fmt::format(
         "image folder '{}': not every photo has an EXIF capture time: ordered by file name",
         folder.string()));
+  }
+  // Flights: a new one starts at a photo from another camera or after a long gap; a pause
+  // over a minute that is chained is said.
+  constexpr double kLongPhotoPauseS = 60.0;
+  const auto camera_of = [](const ImageMetadata& m) {
+    std::string c = fmt::format("{} {}", m.make, m.model);
+    if (!m.serial_number.empty()) c += fmt::format(" serial {}", m.serial_number);
+    return c;
+  };
+  std::vector<std::size_t> flight_start{0};
+  std::vector<std::string> flight_reason;  // why flight k+1 starts, naming both photos
+  // A photo whose metadata says nothing of its camera (unreadable, stripped) changes no flight.
+  std::size_t last_known = entries.size();
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    if (!entries[i].meta.make.empty() || !entries[i].meta.model.empty()) {
+      last_known = i;
+      break;
+    }
+  }
+  for (std::size_t i = 1; i < entries.size(); ++i) {
+    const ImageMetadata& a = entries[i - 1].meta;
+    const ImageMetadata& b = entries[i].meta;
+    const std::string name_a = entries[i - 1].path.filename().string();
+    const std::string name_b = entries[i].path.filename().string();
+    const bool b_known = !b.make.empty() || !b.model.empty();
+    std::string reason;
+    if (b_known && last_known < i && camera_of(entries[last_known].meta) != camera_of(b)) {
+      reason = fmt::format("'{}' is from another camera ({}) than '{}' ({})", name_b, camera_of(b),
+                           entries[last_known].path.filename().string(),
+                           camera_of(entries[last_known].meta));
+    } else if (all_timed && options_.photo_gap_s > 0.0 &&
+               *b.capture_unix_time_s - *a.capture_unix_time_s > options_.photo_gap_s) {
+      reason = fmt::format("'{}' was taken {:.0f} s after '{}' (a gap longer than photo_gap_s {} s)",
+                           name_b, *b.capture_unix_time_s - *a.capture_unix_time_s, name_a,
+                           options_.photo_gap_s);
+    }
+    if (reason.empty() && all_timed &&
+        *b.capture_unix_time_s - *a.capture_unix_time_s > kLongPhotoPauseS) {
+      warnings_.push_back(fmt::format(
+          "image folder '{}': '{}' was taken {:.0f} s after '{}': chained as one flight (a "
+          "pause shorter than photo_gap_s {} s)",
+          folder.string(), name_b, *b.capture_unix_time_s - *a.capture_unix_time_s, name_a,
+          options_.photo_gap_s));
+    }
+    if (b_known) last_known = i;
+    if (!reason.empty()) {
+      flight_start.push_back(i);
+      flight_reason.push_back(std::move(reason));
+    }
+  }
+  flight_count_ = static_cast<int>(flight_start.size());
+  flight_start.push_back(entries.size());
+  const auto describe_flights = [&] {
+    std::string d;
+    for (int k = 0; k < flight_count_; ++k) {
+      const std::size_t first = flight_start[k], end = flight_start[k + 1];
+      d += fmt::format("{}flight {}: {} photos, '{}' to '{}'", k ? "; " : "", k + 1, end - first,
+                       entries[first].path.filename().string(),
+                       entries[end - 1].path.filename().string());
+    }
+    return d;
+  };
+  if (flight_count_ > 1 && options_.photo_flight == 0) {
+    throw InputError(fmt::format(
+        "image folder '{}' holds {} flights, which would be chained as one: {} ({}); give "
+        "--photo-flight K to process flight K alone, or --photo-flight -1 to chain them",
+        folder.string(), flight_count_, flight_reason.front(), describe_flights()));
+  }
+  if (options_.photo_flight > flight_count_) {
+    throw InputError(fmt::format("image folder '{}': photo_flight {} but the folder holds {} "
+                                 "flight{} ({})",
+                                 folder.string(), options_.photo_flight, flight_count_,
+                                 flight_count_ == 1 ? "" : "s", describe_flights()));
+  }
+  if (flight_count_ > 1 && options_.photo_flight >= 1) {
+    const int k = options_.photo_flight - 1;
+    warnings_.push_back(fmt::format("image folder '{}': processing flight {} of {} ({})",
+                                    folder.string(), k + 1, flight_count_, describe_flights()));
+    entries.erase(entries.begin() + static_cast<std::ptrdiff_t>(flight_start[k + 1]),
+                  entries.end());
+    entries.erase(entries.begin(), entries.begin() + static_cast<std::ptrdiff_t>(flight_start[k]));
+  } else if (flight_count_ > 1) {
+    warnings_.push_back(fmt::format("image folder '{}': {} flights chained as one ({}): {}",
+                                    folder.string(), flight_count_, describe_flights(),
+                                    flight_reason.front()));
   }
   const Entry* sized = nullptr;
   for (const Entry& e : entries) {

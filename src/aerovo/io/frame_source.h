@@ -61,6 +61,17 @@ struct FrameSourceOptions {
   /// Image folders: files that are not images (by extension) are skipped and counted in
   /// warnings() (true, default) or make the folder an error (false).
   bool skip_non_images = true;
+  /// Image folders: a photo taken more than photo_gap_s after the previous one (EXIF capture
+  /// times) starts a new flight, and so does a photo from another camera (EXIF make, model or
+  /// serial number). 0 = no gap check. Default 600 s: a pause within one flight (a hover, a
+  /// mission paused for minutes over the same ground) is not a new flight, two sorties are
+  /// further apart (landing, battery change, take-off and climb); gaps over 60 s shorter than
+  /// this are chained with a warning naming the two photos.
+  double photo_gap_s = 600.0;
+  /// Image folders holding more than one flight: 0 refuses the folder (InputError naming the
+  /// two photos where flights change, the gap or the cameras, and every flight); K >= 1
+  /// delivers flight K only; -1 chains them all as one sequence (before 0.2: silently).
+  int photo_flight = 0;
 };
 
 /// Throws InvalidArgument naming the field: step < 1, start_time_s < 0 or not finite,
@@ -182,6 +193,8 @@ class ImageFolderSource : public FrameSource {
   /// time_s of photo i (see Frame::time_s).
   double TimeOf(std::size_t i) const { return times_[i]; }
   int skipped_files() const { return skipped_files_; }
+  /// Flights found in the folder (FrameSourceOptions::photo_gap_s), >= 1.
+  int flight_count() const { return flight_count_; }
 
  private:
   std::filesystem::path folder_;
@@ -193,6 +206,7 @@ class ImageFolderSource : public FrameSource {
   std::size_t next_ = 0;
   int width_ = 0, height_ = 0;
   int skipped_files_ = 0;
+  int flight_count_ = 1;
 };
 
 /// A camera or stream: a camera index ("0"), a device path ("/dev/video0") or a URL

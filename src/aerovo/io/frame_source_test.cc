@@ -451,6 +451,83 @@ TEST(ImageFolderSource, OrdersByExifTimeThenName) {
   ExpectInputError([&] { ImageFolderSource s(dir.path(), o); }, {"notes.txt", "not a photo"});
 }
 
+// Two flights in one folder (survey data sets often ship like that): another camera, or a long
+// gap between capture times, is refused naming both photos; --photo-flight K takes flight K.
+TEST(ImageFolderSource, MixedFoldersAreRefusedOrSplit) {
+  io_test::TempDir dir("aerovo_flights");
+  const auto shade = [](int v) { return cv::Mat(30, 40, CV_8UC3, cv::Scalar(v, v, v)); };
+  const auto photo = [&](const std::string& name, const std::string& time,
+                         const std::string& model, const std::string& serial) {
+    io_test::WriteJpegWithTags(dir / name, shade(100),
+                               {{"Exif.Photo.DateTimeOriginal", time},
+                                {"Exif.Image.Make", "DJI"},
+                                {"Exif.Image.Model", model},
+                                {"Exif.Photo.BodySerialNumber", serial}});
+  };
+  // Flight 1: 3 photos 2 s apart, then 20 minutes later flight 2, 2 photos.
+  photo("a1.jpg", "2023:05:01 12:00:00", "FC300S", "A");
+  photo("a2.jpg", "2023:05:01 12:00:02", "FC300S", "A");
+  photo("a3.jpg", "2023:05:01 12:00:04", "FC300S", "A");
+  photo("b1.jpg", "2023:05:01 12:20:04", "FC300S", "A");
+  photo("b2.jpg", "2023:05:01 12:20:06", "FC300S", "A");
+  ExpectInputError([&] { ImageFolderSource s(dir.path()); },
+                   {"holds 2 flights", "'b1.jpg' was taken 1200 s after 'a3.jpg'",
+                    "photo_gap_s 600", "flight 1: 3 photos, 'a1.jpg' to 'a3.jpg'",
+                    "flight 2: 2 photos, 'b1.jpg' to 'b2.jpg'", "--photo-flight"});
+  FrameSourceOptions o;
+  o.photo_flight = 2;
+  ImageFolderSource second(dir.path(), o);
+  EXPECT_EQ(second.flight_count(), 2);
+  Frame f;
+  std::vector<std::string> names;
+  std::vector<double> times;
+  while (second.Next(f)) {
+    names.push_back(f.name);
+    times.push_back(f.time_s);
+  }
+  EXPECT_EQ(names, (std::vector<std::string>{"b1.jpg", "b2.jpg"}));
+  EXPECT_EQ(times, (std::vector<double>{0.0, 2.0}));  // from the flight's own first photo
+  ASSERT_EQ(second.metadata().size(), 2u);
+  o.photo_flight = 3;
+  ExpectInputError([&] { ImageFolderSource s(dir.path(), o); }, {"photo_flight 3", "holds 2"});
+  o.photo_flight = -1;
+  EXPECT_EQ(ImageFolderSource(dir.path(), o).paths().size(), 5u);
+  o = {};
+  o.photo_gap_s = 0.0;  // no gap check: one flight
+  EXPECT_EQ(ImageFolderSource(dir.path(), o).flight_count(), 1);
+  o.photo_gap_s = 1500.0;  // a pause: chained, and said
+  const ImageFolderSource paused(dir.path(), o);
+  EXPECT_EQ(paused.flight_count(), 1);
+  EXPECT_THAT(paused.warnings().back(), HasSubstr("'b1.jpg' was taken 1200 s after 'a3.jpg': chained"));
+
+  // Another camera at the same time (a second aircraft, or the serial number differs).
+  io_test::TempDir two("aerovo_cameras");
+  const auto photo2 = [&](const std::string& name, const std::string& time,
+                          const std::string& model, const std::string& serial) {
+    io_test::WriteJpegWithTags(two / name, shade(100),
+                               {{"Exif.Photo.DateTimeOriginal", time},
+                                {"Exif.Image.Make", "DJI"},
+                                {"Exif.Image.Model", model},
+                                {"Exif.Photo.BodySerialNumber", serial}});
+  };
+  photo2("p1.jpg", "2023:05:01 12:00:00", "FC300S", "A");
+  photo2("p2.jpg", "2023:05:01 12:00:02", "FC300S", "B");
+  ExpectInputError([&] { ImageFolderSource s(two.path()); },
+                   {"'p2.jpg' is from another camera (DJI FC300S serial B) than 'p1.jpg' "
+                    "(DJI FC300S serial A)"});
+  // A photo whose metadata names no camera splits nothing.
+  io_test::TempDir three("aerovo_unknown_camera");
+  io_test::WriteJpegWithTags(three / "q1.jpg", shade(100),
+                             {{"Exif.Photo.DateTimeOriginal", "2023:05:01 12:00:00"},
+                              {"Exif.Image.Model", "FC300S"}});
+  io_test::WriteJpegWithTags(three / "q2.jpg", shade(100),
+                             {{"Exif.Photo.DateTimeOriginal", "2023:05:01 12:00:02"}});
+  io_test::WriteJpegWithTags(three / "q3.jpg", shade(100),
+                             {{"Exif.Photo.DateTimeOriginal", "2023:05:01 12:00:04"},
+                              {"Exif.Image.Model", "FC300S"}});
+  EXPECT_EQ(ImageFolderSource(three.path()).flight_count(), 1);
+}
+
 TEST(ImageFolderSource, NameOrderWithoutExifAndPngTiff) {
   io_test::TempDir dir("aerovo_folder_plain");
   cv::imwrite((dir / "frame_2.png").string(), io_test::TextureImage(40, 30, 2));

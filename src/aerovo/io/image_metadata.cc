@@ -117,6 +117,25 @@ void CheckRange(const std::optional<double>& v, double lo, double hi, const char
   }
 }
 
+// The XMP packet some cameras store in the EXIF tag 0x02bc (XMLPacket, TIFF/EP) instead of an
+// APP1 XMP segment: DJI Zenmuse XT/XT2/H20T thermal cameras, some Autel cameras. Decoded into
+// `*out` when the file has no XMP segment of its own; a packet that does not parse is an error
+// naming the file (it is the camera's metadata, not something to ignore silently).
+void XmpFromExifPacket(const Exiv2::ExifData& exif, const std::string& source,
+                       Exiv2::XmpData* out) {
+  const auto it = exif.findKey(Exiv2::ExifKey("Exif.Image.XMLPacket"));
+  if (it == exif.end() || it->size() == 0) return;
+  std::string packet(static_cast<std::size_t>(it->size()), '\0');
+  it->copy(reinterpret_cast<Exiv2::byte*>(packet.data()), Exiv2::invalidByteOrder);
+  while (!packet.empty() && packet.back() == '\0') packet.pop_back();
+  if (packet.find_first_not_of(" \t\r\n") == std::string::npos) return;
+  if (Exiv2::XmpParser::decode(*out, packet) != 0) {
+    throw InputError(fmt::format(
+        "{}: the XMP packet in EXIF tag 0x02bc (XMLPacket, {} bytes) does not parse", source,
+        packet.size()));
+  }
+}
+
 ImageMetadata Extract(Exiv2::Image& image, const std::string& source) {
   image.readMetadata();
   ImageMetadata m;
@@ -124,7 +143,10 @@ ImageMetadata Extract(Exiv2::Image& image, const std::string& source) {
   m.width_px = image.pixelWidth();
   m.height_px = image.pixelHeight();
   const Exiv2::ExifData& exif = image.exifData();
-  const Exiv2::XmpData& xmp = image.xmpData();
+  Exiv2::XmpData packet_xmp;
+  if (image.xmpData().empty()) XmpFromExifPacket(exif, source, &packet_xmp);
+  const Exiv2::XmpData& xmp = image.xmpData().empty() ? packet_xmp : image.xmpData();
+  m.xmp_from_exif_packet = !packet_xmp.empty();
   if (m.width_px <= 0 || m.height_px <= 0) {
     // EXIF's own idea of the size, a fallback only: a value that is no plausible pixel count
     // (1e300 would not even convert to int) leaves the size unknown.
@@ -137,6 +159,16 @@ ImageMetadata Extract(Exiv2::Image& image, const std::string& source) {
   }
   m.make = std::string(io_detail::Trim(ExifString(exif, "Exif.Image.Make").value_or("")));
   m.model = std::string(io_detail::Trim(ExifString(exif, "Exif.Image.Model").value_or("")));
+  for (const char* key : {"Exif.Photo.BodySerialNumber", "Exif.Image.CameraSerialNumber"}) {
+    if (m.serial_number.empty()) {
+      m.serial_number = std::string(io_detail::Trim(ExifString(exif, key).value_or("")));
+    }
+  }
+  if (m.serial_number.empty()) {
+    // DJI writes the camera's serial number in its XMP (drone-dji:CameraSerialNumber).
+    const auto it = xmp.findKey(Exiv2::XmpKey("Xmp.drone-dji.CameraSerialNumber"));
+    if (it != xmp.end()) m.serial_number = std::string(io_detail::Trim(it->toString()));
+  }
 
   m.lat_deg = ExifDms(exif, "Exif.GPSInfo.GPSLatitude", "Exif.GPSInfo.GPSLatitudeRef", "S", source);
   m.lon_deg =

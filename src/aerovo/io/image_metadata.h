@@ -20,6 +20,13 @@ struct ImageMetadata {
   int width_px = 0;    ///< Pixel size of the image (decoded header), 0 if unknown.
   int height_px = 0;
   std::string make, model;  ///< EXIF Make / Model ("DJI", "FC300S").
+  /// EXIF BodySerialNumber, else CameraSerialNumber, else DJI XMP CameraSerialNumber; empty
+  /// when none is written.
+  std::string serial_number;
+  /// True when the XMP fields below came from the XMP packet stored in the EXIF tag 0x02bc
+  /// (XMLPacket; DJI Zenmuse XT/XT2/H20T, some Autel cameras) because the file has no XMP
+  /// segment of its own.
+  bool xmp_from_exif_packet = false;
 
   /// EXIF GPSLatitude/GPSLongitude with their N/S, E/W refs; WGS84 degrees.
   std::optional<double> lat_deg, lon_deg;

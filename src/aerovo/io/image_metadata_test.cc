@@ -126,6 +126,92 @@ TEST(ImageMetadata, SyntheticTagsRoundTrip) {
   EXPECT_EQ(mm.source, "mem");
 }
 
+// A JPEG as DJI Zenmuse XT2 thermal cameras write it: the XMP packet in the EXIF tag 0x02bc
+// (XMLPacket, BYTE) of IFD0 and no APP1 XMP segment. Exiv2 drops that tag when it writes a JPEG,
+// so the APP1 Exif segment is laid out here by hand (little-endian TIFF: header, IFD0 with Make,
+// Model and XMLPacket, their data after the IFD) and put after the SOI of an OpenCV JPEG.
+void WriteJpegWithExifXmlPacket(const std::filesystem::path& path, const std::string& make,
+                                const std::string& model, const std::string& packet) {
+  std::vector<std::uint8_t> tiff = {'I', 'I', 42, 0, 8, 0, 0, 0};
+  const auto u16 = [&](std::vector<std::uint8_t>& b, unsigned v) {
+    b.push_back(v & 0xff);
+    b.push_back((v >> 8) & 0xff);
+  };
+  const auto u32 = [&](std::vector<std::uint8_t>& b, unsigned v) {
+    for (int k = 0; k < 4; ++k) b.push_back((v >> (8 * k)) & 0xff);
+  };
+  const std::string make_z = make + '\0', model_z = model + '\0';
+  const unsigned n = 3, data0 = 8 + 2 + 12 * n + 4;  // first byte after IFD0
+  std::vector<std::uint8_t> data;
+  u16(tiff, n);
+  const auto entry = [&](unsigned tag, unsigned type, const std::string& bytes) {
+    u16(tiff, tag);
+    u16(tiff, type);
+    u32(tiff, static_cast<unsigned>(bytes.size()));
+    if (bytes.size() <= 4) {  // a value of up to 4 bytes sits in the entry itself
+      for (std::size_t k = 0; k < 4; ++k) tiff.push_back(k < bytes.size() ? bytes[k] : 0);
+      return;
+    }
+    u32(tiff, data0 + static_cast<unsigned>(data.size()));
+    data.insert(data.end(), bytes.begin(), bytes.end());
+    if (data.size() % 2) data.push_back(0);  // word alignment
+  };
+  entry(0x010f, 2, make_z);   // Make, ASCII
+  entry(0x0110, 2, model_z);  // Model, ASCII
+  entry(0x02bc, 1, packet);   // XMLPacket, BYTE
+  u32(tiff, 0);               // no IFD1
+  tiff.insert(tiff.end(), data.begin(), data.end());
+  std::vector<std::uint8_t> app1 = {0xff, 0xe1, 0, 0, 'E', 'x', 'i', 'f', 0, 0};
+  app1.insert(app1.end(), tiff.begin(), tiff.end());
+  const std::size_t len = app1.size() - 2;
+  app1[2] = static_cast<std::uint8_t>(len >> 8);
+  app1[3] = static_cast<std::uint8_t>(len & 0xff);
+  std::vector<std::uint8_t> jpeg;
+  cv::imencode(".jpg", io_test::TextureImage(64, 48, 3), jpeg);
+  ASSERT_GE(jpeg.size(), 2u);
+  jpeg.insert(jpeg.begin() + 2, app1.begin(), app1.end());  // right after SOI (FF D8)
+  std::ofstream(path, std::ios::binary)
+      .write(reinterpret_cast<const char*>(jpeg.data()), static_cast<std::streamsize>(jpeg.size()));
+}
+
+const char* const kXt2Packet =
+    R"(<?xpacket begin="" id="W5M0MpCehiHzreSzNTczkc9d"?>)"
+    R"(<x:xmpmeta xmlns:x="adobe:ns:meta/"><rdf:RDF xmlns:rdf="http://www.w3.org/1999/02/22-rdf-syntax-ns#">)"
+    R"(<rdf:Description rdf:about="DJI Meta Data" xmlns:drone-dji="http://www.dji.com/drone-dji/1.0/")"
+    R"( drone-dji:RelativeAltitude="+100.20" drone-dji:AbsoluteAltitude="+312.5")"
+    R"( drone-dji:GimbalPitchDegree="-89.90" drone-dji:GimbalYawDegree="+12.30")"
+    R"( drone-dji:FlightYawDegree="+11.80" drone-dji:FlightPitchDegree="+2.10" drone-dji:FlightRollDegree="-1.40"/>)"
+    R"(</rdf:RDF></x:xmpmeta><?xpacket end="w"?>)";
+
+TEST(ImageMetadata, XmpPacketInsideExifTag0x02bc) {
+  io_test::TempDir dir("aerovo_xt2");
+  const auto path = dir / "DJI_0001_R.JPG";
+  WriteJpegWithExifXmlPacket(path, "DJI", "XT2", std::string(kXt2Packet) + std::string(3, '\0'));
+  const ImageMetadata m = ReadImageMetadata(path);
+  EXPECT_EQ(m.make, "DJI");
+  EXPECT_EQ(m.model, "XT2");
+  EXPECT_TRUE(m.xmp_from_exif_packet);
+  ASSERT_TRUE(m.rel_alt_m);
+  EXPECT_DOUBLE_EQ(*m.rel_alt_m, 100.2);
+  EXPECT_DOUBLE_EQ(*m.abs_alt_m, 312.5);
+  EXPECT_DOUBLE_EQ(*m.gimbal_pitch_deg, -89.9);
+  EXPECT_DOUBLE_EQ(*m.gimbal_yaw_deg, 12.3);
+  EXPECT_DOUBLE_EQ(*m.flight_pitch_deg, 2.1);
+  EXPECT_DOUBLE_EQ(*m.flight_roll_deg, -1.4);
+
+  // A packet that is not XMP is an error naming the photo and the tag, not silently ignored.
+  const auto bad = dir / "bad.jpg";
+  WriteJpegWithExifXmlPacket(bad, "DJI", "XT2", "<x:xmpmeta><rdf:RDF><unclosed");
+  ExpectInputError([&] { ReadImageMetadata(bad); }, {"bad.jpg", "0x02bc", "does not parse"});
+
+  // Without the packet, nothing is made up.
+  const auto none = dir / "none.jpg";
+  WriteJpegWithExifXmlPacket(none, "DJI", "XT2", std::string(8, '\0'));
+  const ImageMetadata mn = ReadImageMetadata(none);
+  EXPECT_FALSE(mn.xmp_from_exif_packet);
+  EXPECT_FALSE(mn.rel_alt_m);
+}
+
 TEST(ImageMetadata, BadValuesAndBadFilesNameTheFile) {
   io_test::TempDir dir("aerovo_exif_bad");
   const auto img = io_test::TextureImage(32, 32, 2);

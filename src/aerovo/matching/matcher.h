@@ -66,23 +66,21 @@ struct MatchOptions {
   /// float rounding of near-ties.
   bool use_avx2 = true;
   /// Search of the top-2 without a motion prior. Default kExhaustive (exact, MATLAB's
-  /// Exhaustive method). kKdForest pays off from ~3k points per frame (1.7x at 5k, 4.7x at
-  /// 20k per call on one core; slower below, where the SIMD exhaustive path is hard to beat;
-  /// BENCHMARKS.md, "Matching") at the price of a recall below 100 %: a query may miss its best
+  /// Exhaustive method). kKdForest pays off from a few thousand points per frame (slower
+  /// below, where the SIMD exhaustive path is hard to beat; BENCHMARKS.md, "Approximate
+  /// matching") at the price of a recall below 100 %: a query may miss its best
   /// or second-best candidate, and then be rejected, or accepted on a too-optimistic ratio.
   MatchAlgorithm algorithm = MatchAlgorithm::kExhaustive;
   /// kKdForest: randomized trees per Laplacian group, searched together. Default 4, FLANN's
-  /// default (Muja & Lowe's library); measured here at 20k points and 64 checks, 1 / 2 / 4 / 8
-  /// trees keep 97.8 / 98.7 / 99.3 / 99.9 % of the exhaustive matches, 8 searching 35 % longer
-  /// than 4 (each tree also costs build time and one index array). Range [1, 64].
+  /// default (Muja & Lowe's library; recall and time per tree count: BENCHMARKS.md,
+  /// "Approximate matching"). Range [1, 64].
   int kd_trees = 4;
   /// kKdForest: distinct candidate points examined per query (all trees together; every tree's
   /// first leaf is always examined and the last leaf is finished, so a few more may be).
   /// 0, or >= the number of curr points: exact search (the exhaustive path is used). Default
-  /// 64, measured (bench_matching BM_KdForest, BM_RealOrtho; BENCHMARKS.md): it keeps 99.3 to
-  /// 99.9 % of the exhaustive matches on 2k-20k random 64-d descriptors with noisy twins and 99.3 %
-  /// on real SURF (5.9k points); 32 is 20-35 % faster at 97.7-99.3 %. With 4 trees of 16-point
-  /// leaves the first leaves alone hold ~50 points, so budgets below that change nothing.
+  /// 64 (recall against budget: bench_matching BM_KdForest, BM_RealOrtho; BENCHMARKS.md,
+  /// "Approximate matching"). With 4 trees of 16-point leaves the first leaves alone hold ~50
+  /// points, so budgets below that change nothing.
   int kd_max_checks = 64;
   /// kKdForest: seed of the trees' random choices; same seed and data, same trees and
   /// matches (whatever num_threads). Default 1.

@@ -71,6 +71,16 @@ struct RunConfig {
   double focal_px = 0.0;
   /// Horizontal field of view, degrees (used when focal_px is 0).
   double hfov_deg = 0.0;
+  /// Aspect ratio (long / short side) of the sensor's full frame, which a photo's EXIF 35 mm
+  /// equivalent refers to; 0 = from the camera model, else 4:3 for photos wider than 1.7:1,
+  /// else the photo's own (io/camera.h SensorAspectOf).
+  double sensor_aspect = 0.0;
+  /// Photo folders: a gap between capture times longer than this, or a change of camera,
+  /// starts another flight (io/frame_source.h FrameSourceOptions::photo_gap_s); 0 = no gap check.
+  double photo_gap_s = 600.0;
+  /// Photo folders holding several flights: 0 refuses them (the error lists the flights), K
+  /// processes flight K alone, -1 chains them all.
+  int photo_flight = 0;
   /// Lens distortion (OpenCV / Brown-Conrady model, coefficients on coordinates normalised by
   /// the focal length, principal point at the image centre): when any is non-zero every frame is
   /// undistorted (cv::remap with maps computed once) before SURF. Default 0 (none; DJI nadir
@@ -138,6 +148,9 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.altitude_m, "altitude_m", "Height above ground, m (overrides telemetry; 0 = from telemetry)", AtLeast(0).Finite().Flags("--altitude"));
   v.Field(c.focal_px, "focal_px", "Focal length in pixels (0 = from hfov_deg, EXIF or telemetry)", AtLeast(0).Finite());
   v.Field(c.hfov_deg, "hfov_deg", "Horizontal field of view, deg (used when focal_px is 0)", Interval(0, 180, false, true));
+  v.Field(c.photo_gap_s, "photo_gap_s", "Photo folders: a capture-time gap longer than this, s, or another camera starts a new flight (0 = no gap check)", AtLeast(0).Finite());
+  v.Field(c.photo_flight, "photo_flight", "Photo folders with several flights: 0 = refuse, K = flight K alone, -1 = chain all", AtLeast(-1));
+  v.Field(c.sensor_aspect, "sensor_aspect", "Sensor full-frame aspect (long/short) for a photo's EXIF 35 mm equivalent; 0 = camera model, 4:3 for photos wider than 1.7:1, else the photo's", Interval(0, 4));
   v.Field(c.k1, "k1", "Lens distortion k1 (OpenCV model; 0 = none)", Finite());
   v.Field(c.k2, "k2", "Lens distortion k2", Finite());
   v.Field(c.p1, "p1", "Lens distortion p1 (tangential)", Finite());

@@ -133,6 +133,7 @@ RunCamera ResolveRunCamera(const RunConfig& config, bool focal_from_sim, int w, 
   CameraOptions camera;
   if (config.focal_px > 0.0) camera.focal_px = config.focal_px;
   if (config.hfov_deg > 0.0) camera.hfov_deg = config.hfov_deg;
+  if (config.sensor_aspect > 0.0) camera.sensor_aspect = config.sensor_aspect;
   ResolvedCamera resolved;
   try {
     resolved = ResolveCamera(camera, w, h, photo,
@@ -145,6 +146,7 @@ RunCamera ResolveRunCamera(const RunConfig& config, bool focal_from_sim, int w, 
   RunCamera c;
   c.focal_px = resolved.intrinsics.fx_px;
   c.focal_source = focal_from_sim && resolved.source_key == "flag" ? "sim.json" : resolved.source_key;
+  c.description = resolved.source;
   return c;
 }
 
@@ -425,6 +427,7 @@ void FrameLoop::Start(const Frame& frame, const std::optional<TelemetrySample>& 
   if (log_) {
     *log_ << fmt::format("camera: {}x{} px, focal {:.1f} px ({}), height from {}\n", w, h,
                          camera.focal_px, camera.focal_source, summary->height_source);
+    *log_ << "camera: " << camera.description << "\n";
     if (reducer_) {
       *log_ << fmt::format(
           "frames reduced to {}x{} px before SURF ({:.1f} MP > max_megapixels {}), focal {:.1f} px\n",

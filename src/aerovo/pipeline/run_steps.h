@@ -107,6 +107,10 @@ struct RunCamera {
   /// RunSummary::focal_source: "flag", "sim.json", "hfov", "xmp-calibrated", "exif-35mm" or
   /// "telemetry-35mm".
   std::string focal_source;
+  /// The same as a sentence for the run log (io/camera.h ResolvedCamera::source), e.g. "focal
+  /// length 2311.2 px from EXIF FocalLengthIn35mmFilm 20 mm of 'a.jpg' over the FC300S's 4:3
+  /// sensor".
+  std::string description;
 };
 
 /// The focal length of width_px x height_px frames by io/camera.h ResolveCamera (the one focal

@@ -148,6 +148,8 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
   so.step = config.step;
   so.start_time_s = config.start_s;
   if (config.end_s >= 0.0) so.end_time_s = config.end_s;
+  so.photo_gap_s = config.photo_gap_s;
+  so.photo_flight = config.photo_flight;
   return RunFlight(config, OpenFrameSource(config.input, so), cb, stop);
 }
 

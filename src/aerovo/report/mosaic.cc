@@ -151,6 +151,8 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
   so.start_time_s = ConfigValue<double>(run.config, "start_s", 0.0);
   const double end_s = ConfigValue<double>(run.config, "end_s", -1.0);
   if (end_s >= 0.0) so.end_time_s = end_s;
+  so.photo_gap_s = ConfigValue<double>(run.config, "photo_gap_s", so.photo_gap_s);
+  so.photo_flight = ConfigValue<int>(run.config, "photo_flight", so.photo_flight);
   so.keep_color = true;
   // Lens distortion, as the run applied it before SURF (pipeline/preprocess.h FrameUndistorter):
   // the same camera and the same maps (io/camera.h Undistorter).
