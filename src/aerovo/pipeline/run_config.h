@@ -70,6 +70,10 @@ struct RunConfig {
   double illumination_k = 1.0;
   /// No progress bar, no configuration dump, only errors and the final table.
   bool quiet = false;
+  /// A run owns its output folder: `aerovo run` refuses a folder that is not empty unless
+  /// force, which first removes aerovo's own files from it (io/run_folder.h; foreign files are
+  /// kept). Default false. (The library's RunFlight does not check; the CLI does.)
+  bool force = false;
   /// The odometry and its stages (keys surf.*, match.*, ransac.*, clustered.*, correspondence.*,
   /// odometry.*); defaults are OdometryOptions' (visual_odometry.h). The run sets its focal_px and
   /// default_height_m from the camera and height it resolves (focal_px, hfov_deg, altitude_m
@@ -107,6 +111,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.k3, "k3", "Lens distortion k3", Finite());
   v.Field(c.illumination_k, "illumination_k", "Illumination factor k: every frame's brightness times k before SURF (the paper's f_k = k f)", Interval(0, 1, true, false));
   v.Field(c.quiet, "quiet", "No progress bar or configuration dump", Any().Switch().Flags("-q"));
+  v.Field(c.force, "force", "Run into a non-empty output folder: first remove aerovo's own files from it (other files are kept)", Any().Switch());
   v.Group("odometry", c.odometry);
 }
 // clang-format on

@@ -232,6 +232,9 @@ struct LoopEnd {
   /// The input error after the first frame that stopped the run ("" = none).
   std::string failure;
   int frames_without_fix = 0;  ///< Frames given no telemetry fix.
+  /// A write to an output file failed (OutputError, in `failure`): the files stay valid but
+  /// the frames still queued cannot be written (skip FrameLoop::Finish).
+  bool output_failed = false;
 };
 
 /// The frames of a run, one by one: telemetry fix, camera and outputs on the first frame,
