@@ -10,10 +10,12 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "aerovo/cli/command.h"
 #include "aerovo/cli/progress.h"
 #include "aerovo/cli/run_cli.h"
+#include "aerovo/io/run_folder.h"
 #include "aerovo/core/error.h"
 #include "aerovo/pipeline/experiment.h"
 #include "aerovo/report/html_report.h"
@@ -56,6 +58,19 @@ void Execute(ExperimentArgs& a) {
   input.run = a.run.Resolve();
   input.out_dir = a.out;
   const bool quiet = input.run.quiet;
+  // Like aerovo run: one experiment at a time in a folder, a new or empty folder unless --force
+  // (which removes what an earlier experiment wrote: experiment.json, tables.md, the report,
+  // its run and sim folders; other files are kept).
+  const RunFolderLock lock(a.out);
+  const ClaimResult claim = ClaimOutputFolder(
+      a.out, input.run.force,
+      OwnEntries(a.out, {"experiment.json", "tables.md", "report.html", "figures", "mosaic.jpg",
+                         "sim"}),
+      "aerovo experiment");
+  if (!claim.removed.empty()) {
+    fmt::print(stderr, "aerovo experiment: --force: removed from '{}': {}\n", a.out,
+               fmt::join(claim.removed, ", "));
+  }
   IlluminationOptions illumination;
   if (a.kind == "illumination") {
     if (!a.k_list.empty()) illumination.k = ParseKList(a.k_list);

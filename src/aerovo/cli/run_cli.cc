@@ -154,7 +154,7 @@ StopSignals::~StopSignals() {
   sigaction(SIGHUP, &old_hup_, nullptr);
   // A closed stdout must not kill the process while it prints its last lines: EPIPE instead.
   if (g_signal == SIGPIPE) {
-    signal(SIGPIPE, SIG_IGN);
+    ::signal(SIGPIPE, SIG_IGN);
   } else {
     sigaction(SIGPIPE, &old_pipe_, nullptr);
   }

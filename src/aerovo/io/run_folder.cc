@@ -141,4 +141,22 @@ ClaimResult ClaimOutputFolder(const fs::path& dir, bool force, const std::vector
   return r;
 }
 
+bool IsAerovoFolder(const fs::path& dir) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return false;
+  for (const char* f : {"summary.json", "config.json", "experiment.json", "sim.json"}) {
+    if (fs::is_regular_file(dir / f, ec)) return true;
+  }
+  return false;
+}
+
+std::vector<std::string> OwnEntries(const fs::path& dir, std::vector<std::string> names) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return names;
+  for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+    if (IsAerovoFolder(e.path())) names.push_back(e.path().filename().string());
+  }
+  return names;
+}
+
 }  // namespace aerovo

@@ -53,4 +53,14 @@ struct ClaimResult {
 ClaimResult ClaimOutputFolder(const std::filesystem::path& dir, bool force,
                               const std::vector<std::string>& own, const std::string& command);
 
+/// True for a sub-folder aerovo wrote as a whole (a run, an experiment or a simulated flight:
+/// it holds summary.json, config.json, experiment.json or sim.json), for commands whose folder
+/// holds such sub-folders under names that vary (aerovo experiment, aerovo demo). `own` of
+/// ClaimOutputFolder then also covers every such sub-folder of `dir` (OwnEntries).
+bool IsAerovoFolder(const std::filesystem::path& dir);
+
+/// `names` plus the sub-folders of `dir` for which IsAerovoFolder holds.
+std::vector<std::string> OwnEntries(const std::filesystem::path& dir,
+                                    std::vector<std::string> names);
+
 }  // namespace aerovo

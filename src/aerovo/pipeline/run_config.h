@@ -68,7 +68,7 @@ struct RunConfig {
   /// is multiplied by k (ScaleBrightness) after undistortion and before SURF, to study how the
   /// odometry holds in dim light. Default 1 (frames as read).
   double illumination_k = 1.0;
-  /// No progress bar, no configuration dump, only errors and the final table.
+  /// No progress bar, no configuration dump: errors, warnings (on stderr) and the final table.
   bool quiet = false;
   /// A run owns its output folder: `aerovo run` refuses a folder that is not empty unless
   /// force, which first removes aerovo's own files from it (io/run_folder.h; foreign files are
@@ -110,7 +110,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.p2, "p2", "Lens distortion p2 (tangential)", Finite());
   v.Field(c.k3, "k3", "Lens distortion k3", Finite());
   v.Field(c.illumination_k, "illumination_k", "Illumination factor k: every frame's brightness times k before SURF (the paper's f_k = k f)", Interval(0, 1, true, false));
-  v.Field(c.quiet, "quiet", "No progress bar or configuration dump", Any().Switch().Flags("-q"));
+  v.Field(c.quiet, "quiet", "No progress bar or configuration dump (warnings still go to stderr)", Any().Switch().Flags("-q"));
   v.Field(c.force, "force", "Run into a non-empty output folder: first remove aerovo's own files from it (other files are kept)", Any().Switch());
   v.Group("odometry", c.odometry);
 }

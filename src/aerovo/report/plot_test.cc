@@ -112,6 +112,27 @@ TEST(Plot, RendersValidSvgAndPng) {
   fs::remove_all(dir);
 }
 
+// gnuplot substitutes `command` in backquotes outside single-quoted strings: hostile text in a
+// title, a series name or the folder's path must not run anything.
+TEST(Plot, HostileTextAndFolderNamesRunNothing) {
+  PlotOptions o;
+  if (FindGnuplot(o).empty()) GTEST_SKIP() << "gnuplot not installed (Debian gnuplot-nox)";
+  const fs::path dir = TempDir("hostile") / "x';`touch PWNED`;$(touch PWNED)'";
+  fs::create_directories(dir);
+  Figure f = TwoSeries();
+  f.title = "`touch PWNED` it's";
+  f.series[0].title = "$(touch PWNED) `touch PWNED`";
+  o.png = false;
+  const FigureFiles files = RenderFigure(f, dir, o);
+  EXPECT_TRUE(fs::exists(files.svg));
+  EXPECT_FALSE(fs::exists(dir / "PWNED"));
+  EXPECT_FALSE(fs::exists(dir.parent_path() / "PWNED"));
+  EXPECT_FALSE(fs::exists("PWNED"));
+  const std::string script = GnuplotScript(f, "d.dat", "o.svg", "");
+  EXPECT_NE(script.find("set title '`touch PWNED` it''s'"), std::string::npos) << script;
+  fs::remove_all(dir.parent_path());
+}
+
 TEST(Plot, MissingGnuplotIsAnInputErrorNamingTheFigure) {
   PlotOptions o;
   o.gnuplot = "/nonexistent/gnuplot";
