@@ -70,8 +70,8 @@ Child Start(const std::vector<std::string>& args, const fs::path& log_dir, const
   c.pid = ::fork();
   if (c.pid == 0) {
     for (const auto& [k, v] : env) ::setenv(k.c_str(), v.c_str(), 1);
-    const int out = stdout_fd >= 0 ? stdout_fd
-                                   : ::open(c.out_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const int out =
+        stdout_fd >= 0 ? stdout_fd : ::open(c.out_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     const int err = ::open(c.err_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     ::dup2(out, 1);
     ::dup2(err, 2);
@@ -96,8 +96,8 @@ Outcome Wait(const Child& c, Clock::time_point since = Clock::now()) {
   return o;
 }
 
-Outcome Run(const std::vector<std::string>& args, const fs::path& log_dir, const std::string& tag,
-            const std::map<std::string, std::string>& env = {}) {
+Outcome RunCli(const std::vector<std::string>& args, const fs::path& log_dir,
+               const std::string& tag, const std::map<std::string, std::string>& env = {}) {
   return Wait(Start(args, log_dir, tag, env));
 }
 
@@ -132,17 +132,53 @@ void ExpectValidFolder(const fs::path& out) {
   }
 }
 
+// A pipe for a child's stdout holding only 4 kB (F_SETPIPE_SZ): a run printing its poses into
+// it blocks once it is full, until Drain() reads it.
+struct PosePipe {
+  PosePipe() {
+    int fds[2] = {-1, -1};
+    // O_CLOEXEC: the child must not keep the read end open (the pipe would never close).
+    if (::pipe2(fds, O_CLOEXEC) == 0) {
+      read_end = fds[0];
+      write_end = fds[1];
+      ::fcntl(write_end, F_SETPIPE_SZ, 4096);
+    }
+  }
+  ~PosePipe() {
+    CloseReadEnd();
+    CloseWriteEnd();
+  }
+  void CloseWriteEnd() {
+    if (write_end >= 0) ::close(write_end);
+    write_end = -1;
+  }
+  void CloseReadEnd() {
+    if (read_end >= 0) ::close(read_end);
+    read_end = -1;
+  }
+  void Drain() const {
+    char buf[4096];
+    while (::read(read_end, buf, sizeof(buf)) > 0) {
+    }
+  }
+  int read_end = -1;
+  int write_end = -1;
+};
+
+// Frames of the simulated flight (120 m at 10 m/s, 10 fps).
+constexpr int kFrames = 121;
+
 class CliOutputs : public ::testing::Test {
  protected:
-  // One small simulated flight (60 frames of 320x240 with a DJI SRT, sim.json beside it).
+  // One small simulated flight (kFrames frames of 320x240 with a DJI SRT, sim.json beside it).
   static void SetUpTestSuite() {
     dir_ = fs::temp_directory_path() / ("aerovo_cli_outputs_" + std::to_string(::getpid()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
-    const Outcome o = Run({"simulate", "--pattern", "line", "--length-m", "60", "--legs", "1",
-                           "--width", "320", "--height", "240", "--fps", "10", "--hfov-deg",
-                           "73.7", "--out", (dir_ / "sim").string()},
-                          dir_, "simulate");
+    const Outcome o = RunCli(
+        {"simulate", "--pattern", "line", "--length-m", "120", "--legs", "1", "--width", "320",
+         "--height", "240", "--fps", "10", "--hfov-deg", "73.7", "--out", (dir_ / "sim").string()},
+        dir_, "simulate");
     ASSERT_EQ(o.exit_code, 0) << o.err;
   }
   static void TearDownTestSuite() { fs::remove_all(dir_); }
@@ -159,8 +195,9 @@ fs::path CliOutputs::dir_;
 TEST_F(CliOutputs, DiskFullMidRunLeavesValidFilesAndASummaryThatSaysWhatFailed) {
   // 1 MiB for the run's summary reserve plus 40 kB: the disk fills up a few frames in.
   const fs::path out = dir_ / "full";
-  const Outcome o = Run(RunArgs(out), dir_, "full",
-                        {{"AEROVO_TEST_FAIL_WRITE_AFTER_BYTES", std::to_string((1 << 20) + 40000)}});
+  const Outcome o =
+      RunCli(RunArgs(out), dir_, "full",
+             {{"AEROVO_TEST_FAIL_WRITE_AFTER_BYTES", std::to_string((1 << 20) + 40000)}});
   EXPECT_EQ(o.exit_code, 1) << o.err;
   EXPECT_NE(o.err.find("No space left on device"), std::string::npos) << o.err;
   EXPECT_NE(o.err.find(out.string() + "/"), std::string::npos) << o.err;  // names the file
@@ -169,7 +206,7 @@ TEST_F(CliOutputs, DiskFullMidRunLeavesValidFilesAndASummaryThatSaysWhatFailed) 
   EXPECT_NE(s["error"].get<std::string>().find("No space left on device"), std::string::npos)
       << s.dump(2);
   EXPECT_GT(s["frames_processed"].get<int>(), 0);
-  EXPECT_LT(s["frames_processed"].get<int>(), 60);
+  EXPECT_LT(s["frames_processed"].get<int>(), kFrames);
   // frames.csv holds the frames processed, at most one more (the frame whose write failed in a
   // later file is not counted as processed), and the reserve is gone.
   EXPECT_LE(CountLines(out / "frames.csv") - 1, s["frames_processed"].get<int>() + 1);
@@ -177,39 +214,48 @@ TEST_F(CliOutputs, DiskFullMidRunLeavesValidFilesAndASummaryThatSaysWhatFailed) 
 }
 
 TEST_F(CliOutputs, ASecondRunIntoTheSameFolderFailsNamingTheFolderAndTheFirstRunsPid) {
+  // The first run prints its poses into a small pipe nobody reads yet: it blocks mid-run,
+  // holding its folder, whatever the machine's speed.
   const fs::path out = dir_ / "twice";
-  const Child first = Start(RunArgs(out), dir_, "first");
+  PosePipe pipe;
+  std::vector<std::string> args = RunArgs(out);
+  args.push_back("--print-poses");
+  const Child first = Start(args, dir_, "first", {}, pipe.write_end);
+  pipe.CloseWriteEnd();
   ASSERT_TRUE(WaitForRows(out / "frames.csv", 1, 60));
-  const Outcome second = Run(RunArgs(out), dir_, "second");
+  const Outcome second = RunCli(RunArgs(out), dir_, "second");
+  std::thread drain([&] { pipe.Drain(); });
   const Outcome a = Wait(first);
+  drain.join();
   EXPECT_EQ(a.exit_code, 0) << a.err;
   EXPECT_EQ(second.exit_code, 1);
-  EXPECT_NE(second.err.find("output folder '" + out.string() + "' is in use by another aerovo "
-                            "run (pid " + std::to_string(first.pid) + ")"),
-            std::string::npos)
+  EXPECT_NE(
+      second.err.find("output folder '" + out.string() + "' is in use by another aerovo run (pid " +
+                      std::to_string(first.pid) + ")"),
+      std::string::npos)
       << second.err;
-  // The first run's files are its own: 60 rows, a summary that agrees.
+  // The first run's files are its own: every frame, a summary that agrees.
   ExpectValidFolder(out);
-  EXPECT_EQ(CountLines(out / "frames.csv"), 61);
+  EXPECT_EQ(CountLines(out / "frames.csv"), kFrames + 1);
   const nlohmann::json s = nlohmann::json::parse(ReadText(out / "summary.json"));
-  EXPECT_EQ(s["frames_processed"], 60);
+  EXPECT_EQ(s["frames_processed"], kFrames);
 }
 
 TEST_F(CliOutputs, ARerunIntoAUsedFolderIsRefusedUnlessForceWhichRemovesOnlyAerovosFiles) {
   const fs::path out = dir_ / "rerun";
   std::vector<std::string> args = RunArgs(out);
   args.insert(args.end(), {"--max-frames", "5"});
-  ASSERT_EQ(Run(args, dir_, "rerun1").exit_code, 0);
+  ASSERT_EQ(RunCli(args, dir_, "rerun1").exit_code, 0);
   std::ofstream(out / "report.html") << "<html>earlier report</html>";
   std::ofstream(out / "my_notes.txt") << "not aerovo's\n";
-  const Outcome refused = Run(args, dir_, "rerun2");
+  const Outcome refused = RunCli(args, dir_, "rerun2");
   EXPECT_EQ(refused.exit_code, 1);
   EXPECT_NE(refused.err.find("output folder '" + out.string() + "' is not empty"),
             std::string::npos)
       << refused.err;
   EXPECT_NE(refused.err.find("--force"), std::string::npos) << refused.err;
   args.push_back("--force");
-  const Outcome forced = Run(args, dir_, "rerun3");
+  const Outcome forced = RunCli(args, dir_, "rerun3");
   EXPECT_EQ(forced.exit_code, 0) << forced.err;
   EXPECT_NE(forced.err.find("--force: removed"), std::string::npos) << forced.err;
   EXPECT_NE(forced.err.find("report.html"), std::string::npos) << forced.err;
@@ -222,21 +268,21 @@ TEST_F(CliOutputs, ARerunIntoAUsedFolderIsRefusedUnlessForceWhichRemovesOnlyAero
 
 TEST_F(CliOutputs, PrintPosesIntoHeadEndsWithASummaryAndExitCode141) {
   const fs::path out = dir_ / "pipe";
-  int fds[2];
-  ASSERT_EQ(::pipe(fds), 0);
+  PosePipe pipe;
   std::vector<std::string> args = RunArgs(out);
   args.push_back("--print-poses");
-  const Child c = Start(args, dir_, "pipe", {}, fds[1]);
-  ::close(fds[1]);
-  // `head -3`: read three lines, then close the pipe.
+  const Child c = Start(args, dir_, "pipe", {}, pipe.write_end);
+  pipe.CloseWriteEnd();
+  // `head -3`: read three lines, then close the pipe (the run is still writing: the pipe holds
+  // 4 kB, the poses of the flight about twice that).
   std::string got;
   char ch;
   int lines = 0;
-  while (lines < 3 && ::read(fds[0], &ch, 1) == 1) {
+  while (lines < 3 && ::read(pipe.read_end, &ch, 1) == 1) {
     got += ch;
     if (ch == '\n') ++lines;
   }
-  ::close(fds[0]);
+  pipe.CloseReadEnd();
   const Outcome o = Wait(c);
   EXPECT_EQ(lines, 3) << got;
   EXPECT_EQ(o.exit_code, 141) << o.err;
@@ -246,15 +292,22 @@ TEST_F(CliOutputs, PrintPosesIntoHeadEndsWithASummaryAndExitCode141) {
   ExpectValidFolder(out);
   const nlohmann::json s = nlohmann::json::parse(ReadText(out / "summary.json"));
   EXPECT_EQ(s["interrupted"], true);
+  EXPECT_LT(s["frames_processed"].get<int>(), kFrames);
   EXPECT_EQ(CountLines(out / "frames.csv") - 1, s["frames_processed"].get<int>());
 }
 
 TEST_F(CliOutputs, SighupStopsLikeSigintWithASummary) {
   const fs::path out = dir_ / "hup";
-  const Child c = Start(RunArgs(out), dir_, "hup");
+  PosePipe pipe;  // blocks the run mid-flight until drained (see above)
+  std::vector<std::string> args = RunArgs(out);
+  args.push_back("--print-poses");
+  const Child c = Start(args, dir_, "hup", {}, pipe.write_end);
+  pipe.CloseWriteEnd();
   ASSERT_TRUE(WaitForRows(out / "frames.csv", 3, 60));
   ::kill(c.pid, SIGHUP);
+  std::thread drain([&] { pipe.Drain(); });
   const Outcome o = Wait(c);
+  drain.join();
   EXPECT_EQ(o.exit_code, 129) << o.err;
   EXPECT_NE(o.err.find("interrupted by SIGHUP"), std::string::npos) << o.err;
   ExpectValidFolder(out);
@@ -312,7 +365,7 @@ TEST_F(CliOutputs, ReportOpenPassesHostileFolderNamesAsOneArgumentWithoutAShell)
   const fs::path run = base / "run";
   std::vector<std::string> args = RunArgs(run);
   args.insert(args.end(), {"--max-frames", "4"});
-  ASSERT_EQ(Run(args, base, "run").exit_code, 0);
+  ASSERT_EQ(RunCli(args, base, "run").exit_code, 0);
   const std::string path = std::string("/usr/bin:/bin");
   const std::vector<std::string> names = {"x';touch PWNED;'", "a \"b\" c", "-dash", "`touch PWNED`",
                                           "$(touch PWNED)"};
@@ -380,7 +433,7 @@ TEST_F(CliOutputs, QuietHidesTheProgressNotTheWarningsWhichGoToStderr) {
   const fs::path out = dir_ / "quiet";
   std::vector<std::string> args = RunArgs(out);
   args.insert(args.end(), {"--telemetry", srt.string(), "-q"});
-  const Outcome o = Run(args, dir_, "quiet");
+  const Outcome o = RunCli(args, dir_, "quiet");
   ASSERT_EQ(o.exit_code, 0) << o.err;
   EXPECT_NE(o.err.find("warning: "), std::string::npos) << o.err;
   EXPECT_NE(o.err.find("have no telemetry fix"), std::string::npos) << o.err;
@@ -395,15 +448,15 @@ TEST_F(CliOutputs, YamlConfigWithAnchorsAndAliases) {
                         "max_frames: &n 6\n"
                         "no_such_key_check: *n\n";
   // An alias as the value of an unknown key is reported as that key, not as the alias.
-  const Outcome bad = Run({"run", Video(), "--config", cfg.string(), "--print-config"}, dir_,
-                          "yaml_bad");
+  const Outcome bad =
+      RunCli({"run", Video(), "--config", cfg.string(), "--print-config"}, dir_, "yaml_bad");
   EXPECT_EQ(bad.exit_code, 1);
   EXPECT_NE((bad.err + bad.out).find("no_such_key_check"), std::string::npos) << bad.err;
   std::ofstream(cfg) << ".common: &common {step: 2, threads: 1}\n"
                         "<<: *common\n"
                         "max_frames: &n 6\n";
   const Outcome ok =
-      Run({"run", Video(), "--config", cfg.string(), "--print-config"}, dir_, "yaml_ok");
+      RunCli({"run", Video(), "--config", cfg.string(), "--print-config"}, dir_, "yaml_ok");
   ASSERT_EQ(ok.exit_code, 0) << ok.err;
   const nlohmann::json j = nlohmann::json::parse(ok.out);
   EXPECT_EQ(j["step"], 2);
@@ -416,7 +469,7 @@ TEST_F(CliOutputs, ATimeWindowThatSelectsNoFrameIsAClearError) {
     std::vector<std::string> flags;
     std::string expect;
   };
-  // The flight lasts 6 s (60 frames at 10 fps).
+  // The flight lasts 12.1 s (kFrames frames at 10 fps).
   const std::vector<Case> cases = {
       {{"--start-s", "1000"}, "past the end"},
       {{"--start-s", "1.01", "--end-s", "1.05"}, "no frame to process"},
@@ -427,11 +480,11 @@ TEST_F(CliOutputs, ATimeWindowThatSelectsNoFrameIsAClearError) {
     const fs::path out = dir_ / ("window" + std::to_string(k++));
     std::vector<std::string> args = RunArgs(out);
     args.insert(args.end(), c.flags.begin(), c.flags.end());
-    const Outcome o = Run(args, dir_, out.filename().string());
+    const Outcome o = RunCli(args, dir_, out.filename().string());
     EXPECT_EQ(o.exit_code, 1) << c.flags[1];
     EXPECT_NE(o.err.find(c.expect), std::string::npos) << o.err;
     if (c.expect == "no frame to process") {
-      EXPECT_NE(o.err.find("lasting 6.000 s"), std::string::npos) << o.err;
+      EXPECT_NE(o.err.find("lasting 12.100 s"), std::string::npos) << o.err;
       const nlohmann::json s = nlohmann::json::parse(ReadText(out / "summary.json"));
       EXPECT_NE(s["error"].get<std::string>().find("no frame to process"), std::string::npos);
     }

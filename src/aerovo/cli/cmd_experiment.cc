@@ -167,7 +167,8 @@ void Execute(ExperimentArgs& a) {
       for (const std::string& n : r.notes) fmt::print("note: {}\n", n);
       fmt::print("Report: {} ({:.1f} s)\n", r.html.string(), r.seconds);
     } catch (const std::exception& e) {
-      fmt::print("warning: no report (the experiment's outputs are complete): {}\n", e.what());
+      fmt::print(stderr, "warning: no report (the experiment's outputs are complete): {}\n",
+                 e.what());
     }
   }
   std::fflush(stdout);

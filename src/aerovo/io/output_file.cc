@@ -48,7 +48,8 @@ size_t AllowedBytes(int fd, size_t size, off_t offset) {
 void Spend(size_t size, off_t offset, long long file_size_before) {
   if (g_budget.load() < 0) return;
   const long long end = static_cast<long long>(offset) + static_cast<long long>(size);
-  if (end > file_size_before) g_budget.fetch_sub(end - std::max<long long>(file_size_before, offset));
+  if (end > file_size_before)
+    g_budget.fetch_sub(end - std::max<long long>(file_size_before, offset));
 }
 
 long long FileSize(int fd) {

@@ -192,8 +192,8 @@ TEST(OutputFile, FileSizeLimitOfTheKernelLeavesValidFiles) {
   ASSERT_EQ(::waitpid(pid, &status, 0), pid);
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 0);
-  for (const char* name : {RunFileNames::kVoGeoJson, RunFileNames::kGpsGeoJson,
-                           RunFileNames::kVoFramesGeoJson}) {
+  for (const char* name :
+       {RunFileNames::kVoGeoJson, RunFileNames::kGpsGeoJson, RunFileNames::kVoFramesGeoJson}) {
     if (!fs::exists(dir / name)) continue;
     EXPECT_NO_THROW(nlohmann::json::parse(ReadText(dir / name))) << name;
   }

@@ -54,8 +54,8 @@ RunFolderLock::RunFolderLock(const fs::path& dir) {
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec || !fs::is_directory(dir)) {
-    throw InputError("cannot create output folder '" + dir.string() + "': " +
-                     (ec ? ec.message() : std::string("not a directory")));
+    throw InputError("cannot create output folder '" + dir.string() +
+                     "': " + (ec ? ec.message() : std::string("not a directory")));
   }
   const fs::path key = fs::weakly_canonical(dir, ec);
   std::lock_guard<std::mutex> guard(g_locks_mutex);

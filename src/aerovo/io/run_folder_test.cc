@@ -68,7 +68,7 @@ TEST(RunFolderLock, ASecondProcessIsRefusedWithTheHoldersPid) {
 TEST(RunFolderLock, NestedLocksInOneProcessShareTheLock) {
   const fs::path dir = TempDir("nested");
   const RunFolderLock outer(dir);
-  { const RunFolderLock inner(dir / "." ); }
+  { const RunFolderLock inner(dir / "."); }
   const RunFolderLock again(dir);
   EXPECT_TRUE(fs::exists(dir / RunFolderFiles::kLock));
   fs::remove_all(dir);
