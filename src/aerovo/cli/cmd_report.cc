@@ -11,11 +11,13 @@
 #include <vector>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include <fmt/format.h>
 
 #include "aerovo/cli/command.h"
+#include "aerovo/io/run_folder.h"
 #include "aerovo/report/html_report.h"
 
 extern char** environ;
@@ -62,6 +64,9 @@ void Execute(const ReportArgs& a) {
   o.mosaic_options.max_frames = a.mosaic_frames;
   o.plot.png = !a.no_png;
   if (!a.quiet) o.log = &std::cout;
+  // Not while a run writes into the folder (io/run_folder.h): it fails naming that run's pid.
+  std::optional<RunFolderLock> lock;
+  if (std::filesystem::is_directory(a.dir)) lock.emplace(a.dir);
   const ReportResult r = WriteReport(a.dir, o);
   for (const std::string& n : r.notes) std::cout << "note: " << n << "\n";
   std::cout << fmt::format("aerovo report: {} report in {:.1f} s: {}\n", r.kind, r.seconds,
