@@ -3,6 +3,7 @@
 // `aerovo demo --surf-only`: SURF on one view of the built-in terrain (the first demo).
 
 #include <fmt/core.h>
+#include <fmt/ranges.h>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -16,6 +17,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/features/surf.h"
+#include "aerovo/io/run_folder.h"
 #include "aerovo/pipeline/demo.h"
 #include "aerovo/sim/terrain.h"
 
@@ -27,6 +29,7 @@ struct DemoArgs {
   bool quick = false;
   bool no_experiments = false;
   std::string out = "aerovo-demo";
+  bool force = false;
   int width = 0;  // 0 = the mode's default
   int height = 0;
   std::uint64_t seed = 1;
@@ -103,6 +106,17 @@ void RunFlightDemo(const DemoArgs& args) {
   o.experiments = !args.no_experiments;
   if (args.quick) o.illumination.k = {1.0, 0.25};
   o.threads = std::max(0, args.threads);
+  // Like aerovo run: one demo at a time in a folder, a new or empty folder unless --force
+  // (which removes what an earlier demo wrote: its index and its run, sim and experiment
+  // folders; other files are kept).
+  const RunFolderLock lock(args.out);
+  const ClaimResult claim = ClaimOutputFolder(
+      args.out, args.force,
+      OwnEntries(args.out, {"index.html", "sim", "run", "illumination", "ransac"}), "aerovo demo");
+  if (!claim.removed.empty()) {
+    fmt::print(stderr, "aerovo demo: --force: removed from '{}': {}\n", args.out,
+               fmt::join(claim.removed, ", "));
+  }
   fmt::print(
       "aerovo demo: a flight simulated over the built-in terrain, the visual odometry, the\n"
       "paper's experiments (illumination, standard vs clustered RANSAC) -> {}\n",
@@ -141,6 +155,9 @@ void Register(CLI::App& app) {
       "visual odometry on it, run the paper's experiments, compare with the exact ground truth "
       "(--surf-only: SURF on one view of the terrain)");
   cmd->add_option("-o,--out", args->out, "Output folder")->capture_default_str();
+  cmd->add_flag("--force", args->force,
+                "Write into a non-empty output folder: first remove what an earlier demo wrote "
+                "there (other files are kept)");
   cmd->add_flag("--quick", args->quick,
                 "A small flight (260 m, 640x360, 53 frames) and 2 illumination runs: ~20 s");
   cmd->add_flag("--no-experiments", args->no_experiments, "Only simulate and run");

@@ -10,11 +10,13 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "aerovo/cli/command.h"
 #include "aerovo/cli/conventions.h"
 #include "aerovo/cli/progress.h"
 #include "aerovo/cli/run_cli.h"
+#include "aerovo/io/run_folder.h"
 #include "aerovo/core/error.h"
 #include "aerovo/pipeline/experiment.h"
 #include "aerovo/report/html_report.h"
@@ -57,6 +59,19 @@ void Execute(ExperimentArgs& a) {
   input.run = CheckUsage([&] { return a.run.Resolve(); });
   input.out_dir = a.out;
   const bool quiet = input.run.quiet;
+  // Like aerovo run: one experiment at a time in a folder, a new or empty folder unless --force
+  // (which removes what an earlier experiment wrote: experiment.json, tables.md, the report,
+  // its run and sim folders; other files are kept).
+  const RunFolderLock lock(a.out);
+  const ClaimResult claim = ClaimOutputFolder(
+      a.out, input.run.force,
+      OwnEntries(a.out, {"experiment.json", "tables.md", "report.html", "figures", "mosaic.jpg",
+                         "sim"}),
+      "aerovo experiment");
+  if (!claim.removed.empty()) {
+    fmt::print(stderr, "aerovo experiment: --force: removed from '{}': {}\n", a.out,
+               fmt::join(claim.removed, ", "));
+  }
   IlluminationOptions illumination;
   if (a.kind == "illumination") {
     CheckUsage([&] {
@@ -157,7 +172,8 @@ void Execute(ExperimentArgs& a) {
       for (const std::string& n : r.notes) fmt::print("note: {}\n", n);
       fmt::print("Report: {} ({:.1f} s)\n", r.html.string(), r.seconds);
     } catch (const std::exception& e) {
-      fmt::print("warning: no report (the experiment's outputs are complete): {}\n", e.what());
+      fmt::print(stderr, "warning: no report (the experiment's outputs are complete): {}\n",
+                 e.what());
     }
   }
   std::fflush(stdout);

@@ -1,14 +1,26 @@
 // `aerovo report DIR`: the HTML report (figures as SVG/PNG, tables, mosaic) of a run or an
 // experiment folder. The work is in aerovo/report/html_report.h.
+#include <fcntl.h>
+#include <spawn.h>
+#include <unistd.h>
+
 #include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <system_error>
+#include <vector>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include <fmt/format.h>
 
 #include "aerovo/cli/command.h"
+#include "aerovo/io/run_folder.h"
 #include "aerovo/report/html_report.h"
+
+extern char** environ;
 
 namespace aerovo::cli {
 namespace {
@@ -23,6 +35,28 @@ struct ReportArgs {
   int mosaic_frames = MosaicOptions{}.max_frames;
 };
 
+// Hands `html` to the desktop's opener (xdg-open, found on PATH) without a shell: the path is
+// one argv element, whatever quotes, semicolons or spaces the folder's name holds; it is made
+// absolute so that a name with a leading dash cannot read as an option. The opener runs on its
+// own (not waited for: it may keep the browser in the foreground), its output to /dev/null.
+// Failing to start it is not an error.
+void OpenInBrowser(const std::filesystem::path& html) {
+  std::error_code ec;
+  const std::string file = std::filesystem::absolute(html, ec).lexically_normal().string();
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
+  std::string exe = "xdg-open";
+  std::vector<char*> argv{exe.data(), const_cast<char*>(file.c_str()), nullptr};
+  pid_t pid = 0;
+  const int err = posix_spawnp(&pid, exe.c_str(), &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (err != 0) {
+    std::cout << "  (could not open a browser: xdg-open: " << std::strerror(err) << ")\n";
+  }
+}
+
 void Execute(const ReportArgs& a) {
   ReportOptions o;
   o.mosaic = !a.no_mosaic;
@@ -30,6 +64,9 @@ void Execute(const ReportArgs& a) {
   o.mosaic_options.max_frames = a.mosaic_frames;
   o.plot.png = !a.no_png;
   if (!a.quiet) o.log = &std::cout;
+  // Not while a run writes into the folder (io/run_folder.h): it fails naming that run's pid.
+  std::optional<RunFolderLock> lock;
+  if (std::filesystem::is_directory(a.dir)) lock.emplace(a.dir);
   const ReportResult r = WriteReport(a.dir, o);
   for (const std::string& n : r.notes) std::cout << "note: " << n << "\n";
   std::cout << fmt::format("aerovo report: {} report in {:.1f} s: {}\n", r.kind, r.seconds,
@@ -38,11 +75,7 @@ void Execute(const ReportArgs& a) {
                            (r.html.parent_path() / ReportFileNames::kFiguresDir).string());
   for (const auto& s : r.sub_reports) std::cout << "  run report: " << s.string() << "\n";
   std::cout.flush();
-  if (a.open) {
-    // xdg-open hands the file to the desktop's browser; failing to open is not an error.
-    const std::string cmd = "xdg-open '" + r.html.string() + "' >/dev/null 2>&1 &";
-    if (std::system(cmd.c_str()) != 0) std::cout << "  (could not open a browser)\n";
-  }
+  if (a.open) OpenInBrowser(r.html);
 }
 
 void Register(CLI::App& app) {

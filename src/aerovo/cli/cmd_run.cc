@@ -5,14 +5,18 @@
 #include <iostream>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "aerovo/cli/command.h"
 #include "aerovo/cli/conventions.h"
 #include "aerovo/cli/progress.h"
 #include "aerovo/cli/run_cli.h"
 #include "aerovo/cli/run_summary.h"
+#include "aerovo/io/run_folder.h"
+#include "aerovo/io/track_writers.h"
 #include "aerovo/pipeline/runner.h"
 #include "aerovo/report/html_report.h"
 
@@ -42,10 +46,35 @@ void Execute(RunArgs& a) {
     return;
   }
 
-  // With --print-poses stdout is the pose stream and stderr its messages: no progress.
+  // A run owns its folder: one run at a time (the lock, held until the end of the report),
+  // started in an empty folder unless --force (which removes aerovo's own files first).
+  const RunFolderLock lock(config.out);
+  {
+    std::vector<std::string> own = RunFileNames::All();
+    for (const char* n : {ReportFileNames::kHtml, ReportFileNames::kFiguresDir,
+                          ReportFileNames::kMosaic}) {
+      own.emplace_back(n);
+    }
+    const ClaimResult claim = ClaimOutputFolder(config.out, config.force, own, "aerovo run");
+    if (!claim.removed.empty()) {
+      std::cerr << fmt::format("aerovo run: --force: removed {} file(s) of an earlier run from "
+                               "'{}': {}\n",
+                               claim.removed.size(), config.out, fmt::join(claim.removed, ", "));
+    }
+    if (!claim.kept.empty()) {
+      std::cerr << fmt::format("aerovo run: --force: kept {} file(s) aerovo did not write in "
+                               "'{}': {}\n",
+                               claim.kept.size(), config.out, fmt::join(claim.kept, ", "));
+    }
+  }
+
+  // With --print-poses stdout is the pose stream: the log, the warnings and the final table go
+  // to stderr, and there is no progress. Warnings always go to stderr, even with -q (which
+  // hides the progress and the configuration dump only).
+  std::ostream& text = a.print_poses ? std::cerr : std::cout;
   Progress progress(DefaultProgressStyle(config.quiet || a.print_poses));
   RunCallbacks cb;
-  cb.log = &std::cout;
+  cb.log = &text;
   cb.log_config = VerboseFlag();  // else config.json only
   if (progress.enabled()) {
     cb.progress = [&progress](int done, int expected, double fps) {
@@ -65,31 +94,31 @@ void Execute(RunArgs& a) {
     // On stderr: with --print-poses stdout is the pose stream.
     std::cerr << fmt::format(
         "aerovo run: interrupted by {} after {} of {} frames; the outputs in '{}' are valid and "
-        "complete up to the last frame processed (summary.json says interrupted)\n",
+        "complete up to the last frame processed (summary.json says interrupted); exit code {}\n",
         StopSignals::Name(signal), s.frames_processed,
         s.frames_expected >= 0 ? std::to_string(s.frames_expected) : std::string("?"),
-        s.out_dir.string());
+        s.out_dir.string(), StopSignals::ExitCode(signal));
     std::cerr.flush();
   }
-  if (!config.quiet) {
-    for (const std::string& w : s.warnings) std::cout << "warning: " << w << "\n";
-  }
-  std::cout << "\n";
-  PrintRunSummary(std::cout, s);
-  std::cout.flush();
+  for (const std::string& w : s.warnings) std::cerr << "warning: " << w << "\n";
+  std::cerr.flush();
+  text << "\n";
+  PrintRunSummary(text, s);
+  text.flush();
   // The HTML report of what was computed (also after an interruption). A failure is a warning:
   // the run's outputs are already complete on disk.
   if (!a.no_report && s.frames_processed > 0) {
     try {
       const ReportResult r = WriteReport(s.out_dir);
-      for (const std::string& n : r.notes) std::cout << "note: " << n << "\n";
-      std::cout << fmt::format("Report: {} ({:.1f} s)\n", r.html.string(), r.seconds);
+      for (const std::string& n : r.notes) text << "note: " << n << "\n";
+      text << fmt::format("Report: {} ({:.1f} s)\n", r.html.string(), r.seconds);
     } catch (const std::exception& e) {
-      std::cout << "warning: no report (the run's outputs are complete): " << e.what() << "\n";
+      std::cerr << "warning: no report (the run's outputs are complete): " << e.what() << "\n";
     }
-    std::cout.flush();
+    text.flush();
   }
-  if (s.interrupted) std::exit(StopSignals::ExitCode(signal));  // 130 SIGINT, 143 SIGTERM
+  // 130 SIGINT, 143 SIGTERM, 129 SIGHUP, 141 SIGPIPE
+  if (s.interrupted) std::exit(StopSignals::ExitCode(signal));
 }
 
 void Register(CLI::App& app) {

@@ -1,6 +1,7 @@
 // `aerovo simulate`: renders a nadir camera flight over an orthophoto or the built-in terrain,
 // with exact ground truth, DJI-style SRT and GPX telemetry (noisy GPS) and a sim.json manifest.
 #include <fmt/core.h>
+#include <fmt/ranges.h>
 
 #include <cmath>
 #include <cstdio>
@@ -12,6 +13,7 @@
 #include "aerovo/cli/progress.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
+#include "aerovo/io/run_folder.h"
 #include "aerovo/sim/ground.h"
 #include "aerovo/sim/sim_writer.h"
 #include "aerovo/sim/simulator.h"
@@ -41,6 +43,7 @@ struct SimulateArgs {
   std::string codec = "avc1";
   std::string start_time = "2026-05-01T10:00:00";
   bool quiet = false;
+  bool force = false;
 };
 
 std::vector<std::vector<double>> ParsePairs(const std::string& text, const char* what) {
@@ -61,6 +64,19 @@ std::vector<std::vector<double>> ParsePairs(const std::string& text, const char*
 
 void Run(const SimulateArgs& a, sim::SimulationOptions o, const sim::WriterOptions& w) {
   Stopwatch clock;
+  // Like aerovo run: one writer at a time in a folder, a new or empty folder unless --force
+  // (which removes what an earlier simulation wrote there, and run folders inside it; other
+  // files are kept).
+  const RunFolderLock lock(a.out);
+  const ClaimResult claim = ClaimOutputFolder(
+      a.out, a.force,
+      OwnEntries(a.out, {"video.mp4", "video.avi", "frames", "telemetry.srt", "track.gpx",
+                         "ground_truth.tum", "ground_truth.csv", "sim.json"}),
+      "aerovo simulate");
+  if (!claim.removed.empty()) {
+    fmt::print(stderr, "aerovo simulate: --force: removed from '{}': {}\n", a.out,
+               fmt::join(claim.removed, ", "));
+  }
   // Flight (waypoints in metres are needed before the terrain can be fitted to the flight).
   o.flight.pattern = sim::ParseFlightPattern(a.pattern);
   if (!a.waypoints.empty() && !a.waypoints_latlon.empty()) {
@@ -136,9 +152,10 @@ void Run(const SimulateArgs& a, sim::SimulationOptions o, const sim::WriterOptio
                o.effects.jpeg_quality, o.gps.horizontal_sigma_m, o.seed);
     fmt::print("  origin     {:.7f} N {:.7f} E (ground truth ENU origin; planned in {:.0f} ms)\n",
                simulator.origin().lat_deg, simulator.origin().lon_deg, plan_ms);
-    for (const auto& warning : simulator.warnings()) fmt::print("  WARNING    {}\n", warning);
     std::fflush(stdout);
   }
+  // Warnings on stderr, with -q too (it hides the progress and the description only).
+  for (const auto& warning : simulator.warnings()) fmt::print(stderr, "warning: {}\n", warning);
   Progress progress(DefaultProgressStyle(a.quiet));
   const sim::SimulationOutput out =
       sim::WriteSimulation(simulator, w, a.out, [&](int done, int total) {
@@ -146,7 +163,11 @@ void Run(const SimulateArgs& a, sim::SimulationOptions o, const sim::WriterOptio
       });
   progress.Finish();
   for (const auto& m : out.messages) {
-    if (m.rfind("warning: ", 0) != 0) fmt::print("  note       {}\n", m);
+    if (m.rfind("warning: ", 0) == 0) {
+      fmt::print(stderr, "{}\n", m);
+    } else {
+      fmt::print("  note       {}\n", m);
+    }
   }
   const auto p = [&](const std::string& f) { return (out.dir / f).string(); };
   fmt::print("wrote {} frames in {:.1f} s (render {:.1f} s, {:.1f} frames/s):\n",
@@ -271,7 +292,10 @@ void Register(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--start-time", args->start_time, "UTC time of the first frame")
       ->capture_default_str();
-  cmd->add_flag("-q,--quiet", args->quiet, "Print only what was written");
+  cmd->add_flag("-q,--quiet", args->quiet, "Print only what was written (and the warnings, on stderr)");
+  cmd->add_flag("--force", args->force,
+                "Write into a non-empty output folder: first remove what an earlier simulation "
+                "wrote there (other files are kept)");
   cmd->callback([args, opt, writer] {
     writer->write_video = !args->frames_only;
     writer->video_codec = args->codec;

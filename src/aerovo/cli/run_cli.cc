@@ -17,7 +17,7 @@ std::atomic<bool> g_stop{false};
 volatile std::sig_atomic_t g_signal = 0;
 
 extern "C" void OnStopSignal(int sig) {
-  g_signal = sig;
+  if (g_signal == 0) g_signal = sig;  // the first one is the cause reported
   g_stop.store(true);  // lock-free on every platform we build for: async-signal-safe
 }
 
@@ -140,11 +140,24 @@ StopSignals::StopSignals() {
   sa.sa_flags = SA_RESETHAND;
   sigaction(SIGINT, &sa, &old_int_);
   sigaction(SIGTERM, &sa, &old_term_);
+  sigaction(SIGHUP, &sa, &old_hup_);  // the terminal went away (a dropped SSH session)
+  // SIGPIPE (the reader of stdout went away, `aerovo run --print-poses | head`): stop, and
+  // without SA_RESETHAND, so that later writes to the closed pipe fail with EPIPE (ignored by
+  // the streams) instead of killing the run before its summary is written.
+  sa.sa_flags = 0;
+  sigaction(SIGPIPE, &sa, &old_pipe_);
 }
 
 StopSignals::~StopSignals() {
   sigaction(SIGINT, &old_int_, nullptr);
   sigaction(SIGTERM, &old_term_, nullptr);
+  sigaction(SIGHUP, &old_hup_, nullptr);
+  // A closed stdout must not kill the process while it prints its last lines: EPIPE instead.
+  if (g_signal == SIGPIPE) {
+    ::signal(SIGPIPE, SIG_IGN);
+  } else {
+    sigaction(SIGPIPE, &old_pipe_, nullptr);
+  }
 }
 
 const std::atomic<bool>* StopSignals::stop() const { return &g_stop; }
@@ -153,6 +166,8 @@ int StopSignals::signal() const { return static_cast<int>(g_signal); }
 std::string StopSignals::Name(int signal) {
   if (signal == SIGINT) return "SIGINT";
   if (signal == SIGTERM) return "SIGTERM";
+  if (signal == SIGHUP) return "SIGHUP (the terminal closed)";
+  if (signal == SIGPIPE) return "SIGPIPE (the reader of the output closed it)";
   return "signal " + std::to_string(signal);
 }
 

@@ -41,10 +41,14 @@ struct RunFlags {
 /// folder, "mode" when it sets the mode itself). `flags` must outlive `cmd`.
 void AddRunFlags(CLI::App* cmd, RunFlags& flags, const std::set<std::string>& skip = {});
 
-/// While alive, SIGINT and SIGTERM set stop() instead of killing the process (no SA_RESTART: a
-/// blocking read returns and the run loop sees the flag); a second signal kills at once (for a run
-/// that cannot stop; its outputs are valid anyway, every record being flushed as written). The
-/// destructor restores the previous handlers. One instance at a time.
+/// While alive, SIGINT, SIGTERM, SIGHUP (terminal closed) and SIGPIPE (the reader of stdout
+/// closed it, `aerovo run --print-poses | head`) set stop() instead of killing the process (no
+/// SA_RESTART: a blocking read returns and the run loop sees the flag); a second SIGINT, SIGTERM
+/// or SIGHUP kills at once (for a run that cannot stop; its outputs are valid anyway, every
+/// record being flushed as written); SIGPIPE never kills (later writes fail with EPIPE).
+/// SIGQUIT (Ctrl-\) keeps its default action: the user's way to kill at once. The destructor
+/// restores the previous handlers (SIGPIPE stays ignored after a SIGPIPE, so the last lines
+/// cannot kill the process). One instance at a time.
 class StopSignals {
  public:
   StopSignals();
@@ -57,12 +61,14 @@ class StopSignals {
   /// "SIGINT", "SIGTERM" or "signal N".
   static std::string Name(int signal);
   /// The conventional exit status of a process stopped by `signal`: 128 + its number (130 for
-  /// SIGINT, 143 for SIGTERM); 130 when `signal` is 0.
+  /// SIGINT, 143 for SIGTERM, 129 for SIGHUP, 141 for SIGPIPE); 130 when `signal` is 0.
   static int ExitCode(int signal);
 
  private:
   struct sigaction old_int_ {};
   struct sigaction old_term_ {};
+  struct sigaction old_hup_ {};
+  struct sigaction old_pipe_ {};
 };
 
 }  // namespace aerovo::cli

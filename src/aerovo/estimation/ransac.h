@@ -56,6 +56,7 @@
 
 #include <Eigen/Core>
 
+#include "aerovo/core/cancel.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/options.h"
 #include "aerovo/core/timer.h"
@@ -389,6 +390,8 @@ RansacResult RunRansac(const RansacOptions& options, const Eigen::Matrix2Xd& pre
   int trial_limit = options.max_num_trials;
   int sample[m];
   while (result.num_trials < trial_limit) {
+    // A stop request (core/cancel.h) ends the frame; every 16 trials, one atomic load.
+    if ((result.num_trials & 15) == 0) ThrowIfCancelled("RANSAC");
     sampler.Draw(sample);
     if (!Model::SolveMinimal(prev_px, curr_px, sample, &model)) {
       if (++result.num_degenerate_samples > options.max_degenerate_samples) break;

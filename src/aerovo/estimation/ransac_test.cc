@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "aerovo/core/cancel.h"
 #include "aerovo/estimation/models.h"
 #include "aerovo/estimation/samplers.h"
 #include "aerovo/estimation/testing.h"
@@ -207,6 +208,22 @@ TEST(RansacLoop, TrialCountAdaptsToInlierRatio) {
   EXPECT_EQ(rm.inlier_mask, sparse.is_inlier);
   // Stops at 4603 if the first clean sample came earlier, else right at that sample.
   EXPECT_GE(rm.num_trials, 4603);
+}
+
+// A stop request (core/cancel.h) ends the trial loop with Cancelled; a clear flag changes
+// nothing (same trials, same model).
+TEST(RansacLoop, AStopRequestEndsTheLoop) {
+  const Eigen::Matrix3d truth = TrueTransform<AffineModel>();
+  const auto sparse = MakeCorrespondences(truth, 30, 270, 0.0, 22);
+  Ransac<AffineModel> ransac;
+  const RansacResult plain = ransac.Estimate(sparse.prev, sparse.curr);
+  std::atomic<bool> stop{false};
+  const CancelScope scope(&stop);
+  const RansacResult same = ransac.Estimate(sparse.prev, sparse.curr);
+  EXPECT_EQ(same.num_trials, plain.num_trials);
+  EXPECT_EQ(same.inlier_mask, plain.inlier_mask);
+  stop = true;
+  EXPECT_THROW(ransac.Estimate(sparse.prev, sparse.curr), Cancelled);
 }
 
 TEST(Degeneracy, CollinearAndCoincidentSamplesAreRejected) {

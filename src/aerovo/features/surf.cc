@@ -1,4 +1,5 @@
 #include "aerovo/features/surf.h"
+#include "aerovo/core/cancel.h"
 
 #include <omp.h>
 
@@ -236,6 +237,7 @@ std::vector<Keypoint> Surf::Impl::FastHessian() {
   std::vector<Keypoint> keypoints;
 
   for (int octave = 0; octave < options.num_octaves; ++octave) {
+    ThrowIfCancelled("SURF detection");  // a band stopped early by a stop request
     const int p = 1 << octave;
     std::vector<BoxFilterLayout> layouts(levels);
     for (int l = 0; l < levels; ++l) {
@@ -310,6 +312,7 @@ std::vector<Keypoint> Surf::Impl::FastHessian() {
       };
       std::vector<Keypoint>& out = found[b];
       for (int r = cb - 1; r <= ce; ++r) {
+        if ((r & 15) == 0 && CancelRequested()) break;  // core/cancel.h; thrown below
         for (int l = 1; l + 1 < levels; ++l) {
           const auto [j0, j1, i0, i1] = region[l];
           if (r < i0 || r > i1 || j0 > j1) continue;
@@ -386,6 +389,7 @@ std::vector<Keypoint> Surf::Impl::FastHessian() {
     }
     for (const auto& f : found) keypoints.insert(keypoints.end(), f.begin(), f.end());
   }
+  ThrowIfCancelled("SURF detection");
   std::sort(keypoints.begin(), keypoints.end(), StrongerFirst);
   if (options.max_keypoints > 0 &&
       keypoints.size() > static_cast<std::size_t>(options.max_keypoints)) {
@@ -477,9 +481,11 @@ void Surf::Impl::Orient(std::vector<Keypoint>& kps) {
   const long n = static_cast<long>(kps.size());
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 32)
   for (long k = 0; k < n; ++k) {
+    if (CancelRequested()) continue;  // core/cancel.h; thrown below
     Keypoint& kp = kps[order[k]];
     kp.orientation = Orientation(kp);
   }
+  ThrowIfCancelled("SURF orientation");
 }
 
 void Surf::Impl::DescribeOne(const Keypoint& kp, float* out) const {
@@ -598,7 +604,11 @@ void Surf::Impl::DescribeAll(const std::vector<Keypoint>& kps, float* out, int d
   const std::vector<std::uint32_t>& order = SpatialOrder(kps);
   const long n = static_cast<long>(kps.size());
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 32)
-  for (long k = 0; k < n; ++k) DescribeOne(kps[order[k]], out + order[k] * dsize);
+  for (long k = 0; k < n; ++k) {
+    if (CancelRequested()) continue;  // core/cancel.h; thrown below
+    DescribeOne(kps[order[k]], out + order[k] * dsize);
+  }
+  ThrowIfCancelled("SURF description");
 }
 
 Surf::Surf(const SurfOptions& options) : impl_(nullptr) {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <string>
 
+#include "aerovo/core/cancel.h"
 #include "aerovo/core/error.h"
 
 namespace aerovo {
@@ -82,6 +83,28 @@ TEST(SurfBlob, DescriptorIsNormalised) {
       EXPECT_NEAR(n2, 1.0, 1e-4);
     }
   }
+}
+
+// A stop request (core/cancel.h) ends detection and description with Cancelled; without one,
+// or with the flag clear, the result is the same as without a scope.
+TEST(SurfCancel, AStopRequestEndsTheFrameAndAClearFlagChangesNothing) {
+  const GrayImage image = MakeBlob(320, 240, 160, 120, 6.0);
+  Surf surf;
+  const SurfResult plain = surf.DetectAndDescribe(image.view());
+  ASSERT_FALSE(plain.features.keypoints.empty());
+  std::atomic<bool> stop{false};
+  {
+    const CancelScope scope(&stop);
+    const SurfResult same = surf.DetectAndDescribe(image.view());
+    EXPECT_EQ(same.features.keypoints.size(), plain.features.keypoints.size());
+    EXPECT_EQ(same.features.descriptors, plain.features.descriptors);
+    stop = true;
+    EXPECT_THROW(surf.DetectAndDescribe(image.view()), Cancelled);
+    EXPECT_THROW(surf.Detect(image.view()), Cancelled);
+  }
+  EXPECT_FALSE(CancelRequested());  // the scope is gone
+  EXPECT_EQ(surf.DetectAndDescribe(image.view()).features.keypoints.size(),
+            plain.features.keypoints.size());
 }
 
 TEST(SurfErrors, BadOptionsNameTheField) {

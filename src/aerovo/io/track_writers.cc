@@ -16,6 +16,7 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/geo/local_enu.h"
+#include "aerovo/io/output_file.h"
 
 namespace aerovo {
 namespace fs = std::filesystem;
@@ -24,11 +25,16 @@ namespace detail {
 
 // POSIX descriptor + pwrite rather than stdio: each Append is then a single write() of the new
 // element plus the tail at a known offset, with no user-space buffer to lose on a kill.
+// A write that fails (disk full, size limit: io/output_file.h) is rolled back: the previous
+// tail is written again where it was (bytes inside the file's size, so no new space is needed)
+// and the file truncated to its previous size, so the file stays valid with everything written
+// before; then OutputError names the file and the errno text. A file that fails before its
+// first complete content is removed (an empty GPX or GeoJSON file would not be valid).
 class ProgressiveFile {
  public:
   explicit ProgressiveFile(fs::path path) : path_(std::move(path)) {
     fd_ = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-    if (fd_ < 0) Fail("cannot create");
+    if (fd_ < 0) ThrowOutputError("cannot create", path_, errno);
   }
   ~ProgressiveFile() { Close(); }
   ProgressiveFile(const ProgressiveFile&) = delete;
@@ -38,26 +44,14 @@ class ProgressiveFile {
 
   /// Replaces the whole content with body + tail.
   void Reset(const std::string& body, const std::string& tail) {
-    body_end_ = 0;
-    Append(body, tail);
+    Write(0, body, tail);
+    reset_body_ = body;
   }
 
   /// Writes `chunk` where the tail starts, then the tail again.
   void Append(const std::string& chunk, const std::string& tail) {
-    if (fd_ < 0) throw InvalidArgument("write to closed output file " + path_.string());
-    const std::string data = chunk + tail;
-    size_t done = 0;
-    while (done < data.size()) {
-      const ssize_t n = ::pwrite(fd_, data.data() + done, data.size() - done,
-                                 static_cast<off_t>(body_end_ + done));
-      if (n < 0 && errno == EINTR) continue;
-      if (n <= 0) Fail("cannot write");
-      done += static_cast<size_t>(n);
-    }
-    body_end_ += chunk.size();
-    const size_t end = body_end_ + tail.size();
-    if (end < size_ && ::ftruncate(fd_, static_cast<off_t>(end)) != 0) Fail("cannot truncate");
-    size_ = end;
+    Write(body_end_, chunk, tail);
+    reset_body_.reset();  // the body is no longer only the last Reset's
   }
 
   void Close() {
@@ -67,14 +61,56 @@ class ProgressiveFile {
   bool closed() const { return fd_ < 0; }
 
  private:
-  [[noreturn]] void Fail(const char* what) const {
-    throw InputError(std::string(what) + " " + path_.string() + ": " + std::strerror(errno));
+  // The file becomes its first `at` bytes + chunk + tail.
+  void Write(size_t at, const std::string& chunk, const std::string& tail) {
+    if (fd_ < 0) throw InvalidArgument("write to closed output file " + path_.string());
+    const std::string data = chunk + tail;
+    try {
+      WriteAllAt(fd_, data.data(), data.size(), static_cast<off_t>(at), path_);
+      const size_t end = at + data.size();
+      if (end < size_ && !TruncateOutput(fd_, static_cast<off_t>(end))) {
+        ThrowOutputError("cannot truncate", path_, errno);
+      }
+      body_end_ = at + chunk.size();
+      size_ = end;
+      tail_ = tail;
+    } catch (const OutputError&) {
+      RollBack(at);
+      throw;
+    }
+  }
+
+  // Restores the content before a failed Write at `at` (see the class comment).
+  void RollBack(size_t at) {
+    bool restored = false;
+    if (size_ > 0) {
+      try {
+        if (at == body_end_) {
+          WriteAllAt(fd_, tail_.data(), tail_.size(), static_cast<off_t>(body_end_), path_);
+          restored = true;
+        } else if (at == 0 && reset_body_) {
+          const std::string old = *reset_body_ + tail_;
+          WriteAllAt(fd_, old.data(), old.size(), 0, path_);
+          restored = true;
+        }
+        if (restored && !TruncateOutput(fd_, static_cast<off_t>(size_))) restored = false;
+      } catch (const OutputError&) {
+        restored = false;
+      }
+    }
+    if (!restored) {
+      if (fd_ >= 0) (void)TruncateOutput(fd_, 0);
+      Close();
+      ::unlink(path_.c_str());
+    }
   }
 
   fs::path path_;
   int fd_ = -1;
   size_t body_end_ = 0;  ///< Offset where the tail starts.
-  size_t size_ = 0;      ///< Current file size.
+  size_t size_ = 0;      ///< Current (valid) file size.
+  std::string tail_;     ///< The tail now at body_end_.
+  std::optional<std::string> reset_body_;  ///< The body, while it is the last Reset's.
 };
 
 }  // namespace detail
@@ -420,22 +456,7 @@ void GpxTrackWriter::Append(const GeoTrackPoint& point) {
 // Atomic text and JSON files
 
 void WriteTextFileAtomic(const fs::path& path, const std::string& text) {
-  const fs::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) {
-      throw InputError("cannot create " + tmp.string() + ": " + std::strerror(errno));
-    }
-    out << text;
-    out.flush();
-    if (!out) throw InputError("cannot write " + tmp.string() + ": " + std::strerror(errno));
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw InputError("cannot write " + path.string() + ": rename from " + tmp.string() + " failed");
-  }
+  WriteFileAtomic(path, text);
 }
 
 void WriteJsonFileAtomic(const fs::path& path, const nlohmann::json& value) {
@@ -443,6 +464,12 @@ void WriteJsonFileAtomic(const fs::path& path, const nlohmann::json& value) {
   // throwing.
   WriteTextFileAtomic(path,
                       value.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + '\n');
+}
+
+std::vector<std::string> RunFileNames::All() {
+  return {kFramesCsv, kVoTum,  kGpsTum,  kVoGeoJson,     kGpsGeoJson, kVoFramesGeoJson,
+          kVoKml,     kGpsKml, kRunKml,  kVoGpx,         kGpsGpx,     kSummaryJson,
+          kTransformsCsv, kConfigJson};
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -16,6 +16,9 @@
 // crash), not a power cut (no fsync per record). A reader racing an Append may briefly see a
 // partial write. Numbers use the C locale: lat/lon with 9 decimals (1e-9 deg ~ 0.1 mm),
 // metres with 4, times with 6; longitudes are wrapped to [-180, 180] in GeoJSON/KML/GPX.
+// A write that fails (disk full, file size limit) leaves the file with its last valid content
+// (the failed append is rolled back, io/output_file.h) and throws OutputError naming the file
+// and the errno text.
 #pragma once
 
 #include <filesystem>
@@ -216,6 +219,9 @@ struct RunFileNames {
   /// frames into a mosaic (aerovo report).
   static constexpr const char* kTransformsCsv = "transforms.csv";
   static constexpr const char* kConfigJson = "config.json";
+  /// Every name above: the files a run writes (io/run_folder.h ClaimOutputFolder removes these
+  /// and only these with --force, with the report's files).
+  static std::vector<std::string> All();
 };
 
 /// Options of TrackWriterSet. Defaults write every format.

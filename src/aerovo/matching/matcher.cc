@@ -1,4 +1,5 @@
 #include "aerovo/matching/matcher.h"
+#include "aerovo/core/cancel.h"
 
 #include <omp.h>
 
@@ -465,6 +466,7 @@ std::int64_t Matcher::Impl::SearchExhaustive(const FeatureSet& fq, const std::ve
     const WorkItem item = work[w];
     for (int s = item.q_begin; s < item.q_end; ++s) matching_detail::ResetLanes(&lanes[s]);
     for (int cb = c_begin[item.group]; cb < c_end[item.group]; cb += block) {
+      if (CancelRequested()) break;  // core/cancel.h; thrown after the loop
       const int n = std::min(block, c_end[item.group] - cb);
       const float* panels = c_panels.data() + static_cast<std::size_t>(cb) * dim;
       for (int s = item.q_begin; s < item.q_end; s += kQueryTile) {
@@ -476,6 +478,7 @@ std::int64_t Matcher::Impl::SearchExhaustive(const FeatureSet& fq, const std::ve
       slot_best[s] = matching_detail::ReduceLanes(lanes[s]);
     }
   }
+  ThrowIfCancelled("descriptor matching");
   out->resize(qids.size());
   for (std::size_t k = 0; k < qids.size(); ++k) {
     const Best2& b = slot_best[q_slot_of[k]];
@@ -550,10 +553,12 @@ std::int64_t Matcher::Impl::SearchStreaming(const FeatureSet& fq, const std::vec
     const float* panels =
         c_panels.data() + static_cast<std::size_t>(item.q_begin) * dim * kPanelWidth;
     for (int k = s_begin[item.group]; k < s_end[item.group]; k += kStreamRows) {
+      if (CancelRequested()) break;  // core/cancel.h; thrown after the loop
       stream(&s_rows[k], &s_norms[k], &s_ids[k], dim, panels, item.q_end - item.q_begin,
              &lanes[item.q_begin]);
     }
   }
+  ThrowIfCancelled("descriptor matching");
   out->resize(qids.size());
   for (std::size_t k = 0; k < qids.size(); ++k) {
     const int slot = c_slot_of[k];
@@ -678,6 +683,7 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
     reduction(|                                                                              \
               : any_bad)
   for (int o = 0; o < nq; ++o) {
+    if (CancelRequested()) continue;  // core/cancel.h; thrown after the loop
     if (o + kGuidedPrefetchDistance < nq) {
       const int ahead = o + kGuidedPrefetchDistance;
       prefetch_row(fq.descriptor(qids[q_order[ahead]]));
@@ -701,6 +707,7 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
     (*out)[k] = MakeExact(kernels->exact, q, dim, b.j1, b.j1 >= 0 ? fc.descriptor(b.j1) : nullptr,
                           b.j2, b.j2 >= 0 ? fc.descriptor(b.j2) : nullptr);
   }
+  ThrowIfCancelled("guided matching");
   if (any_bad) CheckFinite(fq, qids, check_queries);  // throws for the lowest bad index
   return comparisons;
 }
@@ -724,6 +731,7 @@ std::int64_t Matcher::Impl::SearchKdForest(const FeatureSet& fq, const std::vect
 #pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads) if (num_threads > 1) \
     reduction(+ : comparisons)
   for (int k = 0; k < nq; ++k) {
+    if (CancelRequested()) continue;  // core/cancel.h; thrown after the loop
     const float* q = fq.descriptor(qids[k]);
     const int g = GroupOf(fq.keypoints[qids[k]].laplacian, lap);
     if (forest.group_size(g) == 0) {
@@ -736,6 +744,7 @@ std::int64_t Matcher::Impl::SearchKdForest(const FeatureSet& fq, const std::vect
     (*out)[k] = MakeExact(kernels->exact, q, dim, b.j1, b.j1 >= 0 ? fc.descriptor(b.j1) : nullptr,
                           b.j2, b.j2 >= 0 ? fc.descriptor(b.j2) : nullptr);
   }
+  ThrowIfCancelled("k-d forest matching");
   return comparisons;
 }
 

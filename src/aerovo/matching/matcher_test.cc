@@ -1,4 +1,5 @@
 #include "aerovo/matching/matcher.h"
+#include "aerovo/core/cancel.h"
 
 #include "aerovo/matching/distance_kernels.h"
 
@@ -215,6 +216,23 @@ TEST(MatcherTest, RecoversKnownCorrespondences64) {
   for (const Keypoint& k : s.curr.keypoints) pos_c += k.laplacian > 0;
   const std::int64_t neg_p = s.prev.size() - pos_p, neg_c = s.curr.size() - pos_c;
   EXPECT_EQ(r.num_comparisons, pos_p * pos_c + neg_p * neg_c);
+}
+
+// A stop request (core/cancel.h) ends exhaustive and k-d forest matching with Cancelled; a
+// clear flag changes nothing.
+TEST(MatcherTest, AStopRequestEndsMatching) {
+  const Scene s = MakeScene(600, 400, 64, 0.005f, 1);
+  for (MatchAlgorithm algorithm : {MatchAlgorithm::kExhaustive, MatchAlgorithm::kKdForest}) {
+    MatchOptions o;
+    o.algorithm = algorithm;
+    Matcher matcher(o);
+    const MatchResult plain = matcher.Match(s.prev, s.curr);
+    std::atomic<bool> stop{false};
+    const CancelScope scope(&stop);
+    ExpectSameMatches(matcher.Match(s.prev, s.curr).matches, plain.matches);
+    stop = true;
+    EXPECT_THROW(matcher.Match(s.prev, s.curr), Cancelled) << ToString(algorithm);
+  }
 }
 
 TEST(MatcherTest, RecoversKnownCorrespondences128) {

@@ -10,6 +10,7 @@
 #include <limits>
 #include <map>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <type_traits>
 #include <utility>
@@ -153,59 +154,196 @@ nlohmann::json YamlScalar(const std::string& v, bool quoted) {
   return v;
 }
 
-// Parses a flat YAML mapping (key: scalar) with libyaml into a JSON object.
-nlohmann::json ParseFlatYaml(const std::string& text, const std::string& where) {
-  yaml_parser_t parser;
-  if (!yaml_parser_initialize(&parser)) throw InputError(where + ": cannot initialise libyaml");
-  yaml_parser_set_input_string(&parser, reinterpret_cast<const unsigned char*>(text.data()),
-                               text.size());
-  nlohmann::json out = nlohmann::json::object();
-  std::optional<std::string> key;
-  int depth = 0;
-  bool done = false;
-  std::string error;
-  while (!done && error.empty()) {
-    yaml_event_t ev;
-    if (!yaml_parser_parse(&parser, &ev)) {
-      error = fmt::format("line {}: {}", parser.problem_mark.line + 1,
-                          parser.problem ? parser.problem : "YAML syntax error");
-      break;
+// Reads a YAML document with libyaml into JSON: scalars (YamlScalar), mappings, sequences,
+// anchors (&a) and aliases (*a), and merge keys (`<<: *a`, `<<: [*a, *b]`, `<<: {k: v}`; keys
+// of the mapping itself win, then the first merged mapping: YAML 1.1 merge key type).
+class YamlReader {
+ public:
+  YamlReader(const std::string& text, std::string where) : where_(std::move(where)) {
+    if (!yaml_parser_initialize(&parser_)) {
+      throw InputError(where_ + ": cannot initialise libyaml");
     }
-    switch (ev.type) {
-      case YAML_MAPPING_START_EVENT:
-        if (++depth > 1) error = "nested mappings are not allowed (flat key: value only)";
-        break;
-      case YAML_MAPPING_END_EVENT:
-        --depth;
-        break;
-      case YAML_SEQUENCE_START_EVENT:
-        error = fmt::format("line {}: lists are not allowed (flat key: value only)",
-                            ev.start_mark.line + 1);
-        break;
-      case YAML_SCALAR_EVENT: {
-        const std::string v(reinterpret_cast<const char*>(ev.data.scalar.value),
-                            ev.data.scalar.length);
-        if (depth != 1) {
-          error = "the configuration must be a mapping of key: value";
-        } else if (!key) {
-          key = v;
-        } else {
-          out[*key] = YamlScalar(v, ev.data.scalar.style != YAML_PLAIN_SCALAR_STYLE);
-          key.reset();
-        }
-        break;
-      }
-      case YAML_STREAM_END_EVENT:
-        done = true;
-        break;
-      default:
-        break;
-    }
-    yaml_event_delete(&ev);
+    yaml_parser_set_input_string(&parser_, reinterpret_cast<const unsigned char*>(text.data()),
+                                 text.size());
   }
-  yaml_parser_delete(&parser);
-  if (!error.empty()) throw InputError(where + ": " + error);
-  return out;
+  ~YamlReader() { yaml_parser_delete(&parser_); }
+  YamlReader(const YamlReader&) = delete;
+  YamlReader& operator=(const YamlReader&) = delete;
+
+  // The flat configuration: a mapping of key: scalar. A top-level key whose value is an
+  // anchored mapping only used by merge keys is a template (e.g. `.base: &base {...}`) and is
+  // not part of the configuration; any other nested mapping or list is an error.
+  nlohmann::json ReadFlat() {
+    nlohmann::json root;
+    bool have_root = false;
+    for (;;) {
+      Event ev = Next();
+      if (ev.e.type == YAML_STREAM_END_EVENT) break;
+      if (ev.e.type == YAML_STREAM_START_EVENT || ev.e.type == YAML_DOCUMENT_START_EVENT ||
+          ev.e.type == YAML_DOCUMENT_END_EVENT) {
+        continue;
+      }
+      if (have_root) throw Error(ev, "only one YAML document is allowed");
+      if (ev.e.type != YAML_MAPPING_START_EVENT) {
+        throw Error(ev, "the configuration must be a mapping of key: value");
+      }
+      root = Node(ev, /*top=*/true);
+      have_root = true;
+    }
+    if (!have_root) return nlohmann::json::object();
+    nlohmann::json out = nlohmann::json::object();
+    for (auto it = root.begin(); it != root.end(); ++it) {
+      const auto line = top_lines_.find(it.key());
+      const int at = line != top_lines_.end() ? line->second : 0;
+      if (it->is_object()) {
+        const auto anchor = top_anchors_.find(it.key());
+        if (anchor != top_anchors_.end() && merged_anchors_.count(anchor->second) > 0) continue;
+        throw InputError(fmt::format(
+            "{}: line {}: '{}': nested mappings are not allowed (flat key: value only; a mapping "
+            "with an anchor used by a merge key `<<: *name` is allowed as a template)",
+            where_, at, it.key()));
+      }
+      if (it->is_array()) {
+        throw InputError(fmt::format("{}: line {}: '{}': lists are not allowed (flat key: value "
+                                     "only)",
+                                     where_, at, it.key()));
+      }
+      out[it.key()] = *it;
+    }
+    return out;
+  }
+
+ private:
+  struct Event {  // owns a libyaml event
+    yaml_event_t e{};
+    Event() = default;
+    Event(Event&& o) noexcept : e(o.e) { o.e = yaml_event_t{}; }
+    ~Event() { yaml_event_delete(&e); }
+    Event(const Event&) = delete;
+    Event& operator=(const Event&) = delete;
+    Event& operator=(Event&&) = delete;
+  };
+
+  Event Next() {
+    Event ev;
+    if (!yaml_parser_parse(&parser_, &ev.e)) {
+      throw InputError(fmt::format("{}: line {}: {}", where_, parser_.problem_mark.line + 1,
+                                   parser_.problem ? parser_.problem : "YAML syntax error"));
+    }
+    return ev;
+  }
+
+  InputError Error(const Event& ev, const std::string& what) const {
+    return InputError(fmt::format("{}: line {}: {}", where_, ev.e.start_mark.line + 1, what));
+  }
+
+  static std::string Str(const yaml_char_t* s) {
+    return s != nullptr ? std::string(reinterpret_cast<const char*>(s)) : std::string();
+  }
+
+  void Anchor(const yaml_char_t* anchor, const nlohmann::json& value) {
+    if (anchor != nullptr) anchors_[Str(anchor)] = value;
+  }
+
+  // The value starting at `ev` (a scalar, an alias, a mapping or a sequence start).
+  nlohmann::json Node(Event& ev, bool top = false, bool merge_value = false) {
+    switch (ev.e.type) {
+      case YAML_SCALAR_EVENT: {
+        const std::string v(reinterpret_cast<const char*>(ev.e.data.scalar.value),
+                            ev.e.data.scalar.length);
+        nlohmann::json j = YamlScalar(v, ev.e.data.scalar.style != YAML_PLAIN_SCALAR_STYLE);
+        Anchor(ev.e.data.scalar.anchor, j);
+        return j;
+      }
+      case YAML_ALIAS_EVENT: {
+        const std::string name = Str(ev.e.data.alias.anchor);
+        const auto it = anchors_.find(name);
+        if (it == anchors_.end()) throw Error(ev, "alias *" + name + " names no anchor before it");
+        if (merge_value) merged_anchors_.insert(name);
+        return it->second;
+      }
+      case YAML_SEQUENCE_START_EVENT: {
+        const yaml_char_t* anchor_ptr = ev.e.data.sequence_start.anchor;
+        const std::string anchor = Str(anchor_ptr);
+        nlohmann::json arr = nlohmann::json::array();
+        for (;;) {
+          Event item = Next();
+          if (item.e.type == YAML_SEQUENCE_END_EVENT) break;
+          arr.push_back(Node(item, false, merge_value));
+        }
+        if (!anchor.empty()) anchors_[anchor] = arr;
+        return arr;
+      }
+      case YAML_MAPPING_START_EVENT: {
+        const std::string anchor = Str(ev.e.data.mapping_start.anchor);
+        nlohmann::json obj = nlohmann::json::object();
+        std::vector<nlohmann::json> merges;
+        for (;;) {
+          Event k = Next();
+          if (k.e.type == YAML_MAPPING_END_EVENT) break;
+          if (k.e.type != YAML_SCALAR_EVENT) throw Error(k, "a key must be a plain scalar");
+          const std::string key(reinterpret_cast<const char*>(k.e.data.scalar.value),
+                                k.e.data.scalar.length);
+          const bool is_merge = key == "<<" && k.e.data.scalar.style == YAML_PLAIN_SCALAR_STYLE;
+          const int line = static_cast<int>(k.e.start_mark.line) + 1;
+          Event v = Next();
+          const bool anchored_mapping =
+              v.e.type == YAML_MAPPING_START_EVENT && v.e.data.mapping_start.anchor != nullptr;
+          const std::string value_anchor =
+              anchored_mapping ? Str(v.e.data.mapping_start.anchor) : std::string();
+          nlohmann::json value = Node(v, false, is_merge);
+          if (is_merge) {
+            const auto check = [&](const nlohmann::json& m) {
+              if (!m.is_object()) {
+                throw InputError(fmt::format("{}: line {}: a merge key << takes a mapping or a "
+                                             "list of mappings",
+                                             where_, line));
+              }
+            };
+            if (value.is_array()) {
+              for (const auto& m : value) check(m), merges.push_back(m);
+            } else {
+              check(value);
+              merges.push_back(value);
+            }
+            continue;
+          }
+          if (obj.contains(key)) {
+            throw InputError(fmt::format("{}: line {}: key '{}' is given twice", where_, line, key));
+          }
+          obj[key] = std::move(value);
+          if (top) {
+            top_lines_[key] = line;
+            if (anchored_mapping) top_anchors_[key] = value_anchor;
+          }
+        }
+        // Explicit keys win over merged ones; among merged mappings the first wins.
+        for (const nlohmann::json& m : merges) {
+          for (auto it = m.begin(); it != m.end(); ++it) {
+            if (!obj.contains(it.key())) obj[it.key()] = *it;
+          }
+        }
+        if (!anchor.empty()) anchors_[anchor] = obj;
+        return obj;
+      }
+      default:
+        throw Error(ev, "unexpected YAML event");
+    }
+  }
+
+  yaml_parser_t parser_{};
+  std::string where_;
+  std::map<std::string, nlohmann::json> anchors_;
+  std::set<std::string> merged_anchors_;
+  std::map<std::string, std::string> top_anchors_;  // top-level key -> anchor of its mapping
+  std::map<std::string, int> top_lines_;
+};
+
+// Parses a flat YAML mapping (key: scalar, with anchors, aliases and merge keys) into a JSON
+// object.
+nlohmann::json ParseFlatYaml(const std::string& text, const std::string& where) {
+  YamlReader reader(text, where);
+  return reader.ReadFlat();
 }
 
 }  // namespace

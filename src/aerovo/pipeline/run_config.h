@@ -97,8 +97,12 @@ struct RunConfig {
   /// 8.3 MP, 20 MP 1-inch sensors), which run as read; BENCHMARKS.md has the time and memory of a
   /// frame against its size.
   double max_megapixels = 24.0;
-  /// No progress bar, no configuration dump, only errors and the final table.
+  /// No progress bar, no configuration dump: errors, warnings (on stderr) and the final table.
   bool quiet = false;
+  /// A run owns its output folder: `aerovo run` refuses a folder that is not empty unless
+  /// force, which first removes aerovo's own files from it (io/run_folder.h; foreign files are
+  /// kept). Default false. (The library's RunFlight does not check; the CLI does.)
+  bool force = false;
   /// MAVLink link to a flight controller (docs/autopilot.md; mavlink/transport.h):
   /// udp:HOST:PORT, udpin:HOST:PORT or serial:DEVICE:BAUD. Empty (default): none.
   std::string mavlink;
@@ -158,7 +162,8 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.k3, "k3", "Lens distortion k3", Finite());
   v.Field(c.illumination_k, "illumination_k", "Illumination factor k: every frame's brightness times k before SURF (the paper's f_k = k f)", Interval(0, 1, true, false));
   v.Field(c.max_megapixels, "max_megapixels", "Frames above this many megapixels are reduced to it before SURF (focal length scaled with them; 0 = never)", AtLeast(0).Finite());
-  v.Field(c.quiet, "quiet", "No progress bar or configuration dump", Any().Switch().Flags("-q"));
+  v.Field(c.quiet, "quiet", "No progress bar or configuration dump (warnings still go to stderr)", Any().Switch().Flags("-q"));
+  v.Field(c.force, "force", "Run into a non-empty output folder: first remove aerovo's own files from it (other files are kept)", Any().Switch());
   v.Field(c.mavlink, "mavlink", "MAVLink link to an autopilot: udp:HOST:PORT, udpin:HOST:PORT or serial:DEVICE:BAUD (docs/autopilot.md)", Any());
   v.Field(c.mavlink_message, "mavlink_message", "Vision message sent per frame", Any());
   v.Field(c.mavlink_sysid, "mavlink_sysid", "MAVLink system id (the vehicle's)", Interval(1, 255));

@@ -268,3 +268,59 @@ TEST(RunConfigSchema, MavlinkOptions) {
 
 }  // namespace
 }  // namespace aerovo
+
+namespace aerovo {
+namespace {
+
+// YAML anchors (&a), aliases (*a) and merge keys (<<) are resolved, not read as unknown keys.
+TEST(RunConfigYaml, AnchorsAliasesAndMergeKeys) {
+  const RunConfig a = ParseRunConfig(
+      "step: &two 2\n"
+      "max_frames: *two\n"
+      "altitude_m: &h 57.5\n"
+      "focal_px: *h\n",
+      RunConfigFormat::kYaml, Base());
+  EXPECT_EQ(a.step, 2);
+  EXPECT_EQ(a.max_frames, 2);
+  EXPECT_DOUBLE_EQ(a.altitude_m, 57.5);
+  EXPECT_DOUBLE_EQ(a.focal_px, 57.5);
+  // A template mapping merged in; the mapping's own keys win over merged ones.
+  const RunConfig m = ParseRunConfig(
+      ".common: &common {step: 3, altitude_m: 40, max_frames: 9}\n"
+      "<<: *common\n"
+      "max_frames: 5\n",
+      RunConfigFormat::kYaml, Base());
+  EXPECT_EQ(m.step, 3);
+  EXPECT_DOUBLE_EQ(m.altitude_m, 40.0);
+  EXPECT_EQ(m.max_frames, 5);
+  // Several merged mappings: the first wins.
+  const RunConfig l = ParseRunConfig(
+      ".a: &a {step: 4}\n.b: &b {step: 6, max_frames: 7}\n<<: [*a, *b]\n",
+      RunConfigFormat::kYaml, Base());
+  EXPECT_EQ(l.step, 4);
+  EXPECT_EQ(l.max_frames, 7);
+  // Errors name the line and the problem.
+  const auto message = [](const std::string& yaml) {
+    try {
+      ParseRunConfig(yaml, RunConfigFormat::kYaml, Base(), "c.yaml");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    } catch (const InvalidArgument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string unknown = message("step: 2\nmax_frames: *nope\n");
+  EXPECT_NE(unknown.find("c.yaml: line 2"), std::string::npos) << unknown;
+  EXPECT_NE(unknown.find("*nope"), std::string::npos) << unknown;
+  const std::string nested = message("step: 2\nsurf: {hessian_threshold: 3}\n");
+  EXPECT_NE(nested.find("line 2"), std::string::npos) << nested;
+  EXPECT_NE(nested.find("nested mappings are not allowed"), std::string::npos) << nested;
+  const std::string twice = message("step: 2\nstep: 3\n");
+  EXPECT_NE(twice.find("'step' is given twice"), std::string::npos) << twice;
+  const std::string merge_scalar = message("<<: 3\n");
+  EXPECT_NE(merge_scalar.find("merge key"), std::string::npos) << merge_scalar;
+}
+
+}  // namespace
+}  // namespace aerovo

@@ -1,4 +1,6 @@
 #include "aerovo/pipeline/run_steps.h"
+#include "aerovo/core/cancel.h"
+#include "aerovo/io/output_file.h"
 
 #include <algorithm>
 #include <cmath>
@@ -463,7 +465,15 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
     const std::optional<TelemetrySample> sample = telemetry_.SampleOf(frame);
     const std::optional<GeoPoint> gps = GpsOf(sample);
     if (!sample) ++end.frames_without_fix;
-    if (!vo_) Start(frame, sample, summary);
+    if (!vo_) {
+      try {
+        Start(frame, sample, summary);
+      } catch (const OutputError& e) {  // a full disk at the first frame: the summary says so
+        end.failure = e.what();
+        end.output_failed = true;
+        break;
+      }
+    }
 
     const double height_m =
         height_.HeightOf(frame.name, sample, &summary->warnings, capture_mono_s);
@@ -479,7 +489,13 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
     }
     FrameResult r;
     try {
+      // A stop request ends the frame inside SURF, matching or RANSAC (core/cancel.h); the
+      // frame is abandoned, not counted as processed.
+      const CancelScope cancel(stop);
       r = vo_->Process(view, frame.time_s, height_m, yaw);
+    } catch (const Cancelled&) {
+      end.stopped = true;
+      break;
     } catch (const InputError& e) {
       if (summary->frames_processed == 0) throw;
       end.failure = frame.name + ": " + e.what();
@@ -487,19 +503,25 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
     }
     if (link_) SendVision(r, capture_mono_s, capture_unix_s, height_m, attitude);
     georef_.Observe(r.position_m, gps, yaw);
-    // transforms.csv in full-frame pixels whatever the reduction.
-    outputs_->AppendTransform(frame.index, reducer_ ? Eigen::Matrix3d(r.world_from_frame *
-                                                                      reduced_from_full_)
-                                                    : r.world_from_frame);
-    PendingFrame pending = PendingFrameOf(frame, r, gps);
-    pending.record.height_m = height_m;
-    pending.record.height_source = height_.last_source();
-    ++summary->height_sources[height_.last_source()];
-    if (attitude) {
-      pending.record.roll_deg = attitude->roll_rad * 180.0 / M_PI;
-      pending.record.pitch_deg = attitude->pitch_rad * 180.0 / M_PI;
+    try {
+      // transforms.csv in full-frame pixels whatever the reduction.
+      outputs_->AppendTransform(frame.index, reducer_ ? Eigen::Matrix3d(r.world_from_frame *
+                                                                        reduced_from_full_)
+                                                      : r.world_from_frame);
+      PendingFrame pending = PendingFrameOf(frame, r, gps);
+      pending.record.height_m = height_m;
+      pending.record.height_source = height_.last_source();
+      ++summary->height_sources[height_.last_source()];
+      if (attitude) {
+        pending.record.roll_deg = attitude->roll_rad * 180.0 / M_PI;
+        pending.record.pitch_deg = attitude->pitch_rad * 180.0 / M_PI;
+      }
+      outputs_->Add(std::move(pending), georef_);
+    } catch (const OutputError& e) {  // disk full: every file keeps its last valid content
+      end.failure = frame.name + ": " + e.what();
+      end.output_failed = true;
+      break;
     }
-    outputs_->Add(std::move(pending), georef_);
     totals_.Add(frame.index, frame.time_s, r, gps, georef_);
     ++summary->frames_processed;
     if (!frame.flags.empty()) {
@@ -672,6 +694,10 @@ void Summarize(const std::vector<std::string>& source_warnings, bool has_telemet
 
 void WriteSummary(const std::filesystem::path& out_dir, const RunSummary& summary) {
   WriteJsonFileAtomic(out_dir / RunFileNames::kSummaryJson, ToJson(summary));
+  if (!summary.error.empty() && summary.frames_processed == 0) {
+    throw InputError(fmt::format("{} (summary.json in '{}' says so)", summary.error,
+                                 out_dir.string()));
+  }
   if (!summary.error.empty()) {
     throw InputError(fmt::format(
         "{} (the run stopped there: the {} frames processed before are in '{}', each file "

@@ -255,6 +255,9 @@ struct LoopEnd {
   int frames_without_fix = 0;  ///< Frames given no telemetry fix.
   /// The first frame flagged by the source with each flag (Frame::flags), for the warning.
   std::map<std::string, std::string> first_flagged;
+  /// A write to an output file failed (OutputError, in `failure`): the files stay valid but
+  /// the frames still queued cannot be written (skip FrameLoop::Finish).
+  bool output_failed = false;
 };
 
 /// The frames of a run, one by one: telemetry fix, camera and outputs on the first frame,

@@ -12,6 +12,8 @@
 #include "aerovo/core/timer.h"
 #include "aerovo/eval/trajectory_eval_json.h"
 #include "aerovo/io/frame_source.h"
+#include "aerovo/io/output_file.h"
+#include "aerovo/io/run_folder.h"
 #include "aerovo/io/track_writers.h"
 #include "aerovo/matching/matcher.h"
 #include "aerovo/pipeline/run_steps.h"
@@ -105,6 +107,9 @@ std::string FormatSummaryTable(const RunSummary& s) {
 
 namespace {
 
+// Space held for summary.json during a run (a summary is a few kB; its warnings are bounded).
+constexpr size_t kSummaryReserveBytes = size_t{1} << 20;
+
 // The run folder: created, with config.json of the effective configuration (sim.json's settings
 // filled in; RunOutputs rewrites it with the "resolved" block on the first frame), which the
 // log names (and shows, with log_config).
@@ -139,6 +144,13 @@ void DescribeSource(const FrameSource& source, int max_frames, std::ostream* log
   }
 }
 
+// ", lasting 12.3 s" for a video whose container gives its frame count and rate, else "".
+std::string DurationOf(const FrameSource& source) {
+  const auto* video = dynamic_cast<const VideoFileSource*>(&source);
+  if (video == nullptr || video->fps() <= 0.0 || video->frame_count() <= 0) return "";
+  return fmt::format(", lasting {:.3f} s", video->frame_count() / video->fps());
+}
+
 }  // namespace
 
 RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
@@ -169,7 +181,11 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   summary.input = config.input;
   summary.out_dir = config.out;
   std::ostream* log = config.quiet ? nullptr : cb.log;
+  // One run at a time in a folder (io/run_folder.h); the space for summary.json is held from
+  // here on, so the summary is written even if the disk fills up during the run.
+  const RunFolderLock lock(config.out);
   const std::filesystem::path out_dir = PrepareRunFolder(config, cb.log_config, log);
+  SpaceReserve reserve(out_dir / RunFolderFiles::kReserve, kSummaryReserveBytes);
   DescribeSource(*source, config.max_frames, log, &summary);
   const auto* folder = dynamic_cast<const ImageFolderSource*>(source.get());
   const run_steps::RunTelemetry telemetry = run_steps::RunTelemetry::Load(
@@ -179,8 +195,24 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   // 2-5. The frames: camera, height, outputs, odometry.
   run_steps::FrameLoop loop(inputs, telemetry, folder, config.odometry, out_dir, cb,
                             log);
-  const run_steps::LoopEnd end = loop.Run(*source, stop, wall, &summary);
-  loop.Finish();
+  run_steps::LoopEnd end = loop.Run(*source, stop, wall, &summary);
+  if (summary.frames_processed == 0 && !end.stopped && end.failure.empty()) {
+    // Not a silent empty run: a window past the end, an empty window, an empty source.
+    end.failure = fmt::format(
+        "no frame to process in '{}' (start_s {} s, end_s {}, step {}): the window selects no "
+        "frame of {}{}",
+        config.input, config.start_s,
+        config.end_s >= 0.0 ? fmt::format("{} s", config.end_s) : std::string("the end"),
+        config.step, source->Describe(), DurationOf(*source));
+  }
+  if (!end.output_failed) {
+    try {
+      loop.Finish();
+    } catch (const OutputError& e) {  // the files stay valid; the summary says what failed
+      end.failure = e.what();
+      end.output_failed = true;
+    }
+  }
   if (const mavlink::AutopilotLink* link = loop.link()) {
     const mavlink::LinkStats st = link->stats();
     summary.mavlink = {{"url", config.mavlink},
@@ -200,6 +232,9 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   run_steps::Summarize(source->warnings(), !telemetry.empty(), end, loop.vo_stats(), loop.georef(),
                        loop.TakeTotals(), inputs.truth ? &*inputs.truth : nullptr,
                        wall.elapsed_ms() / 1000.0, &summary);
+  reserve.Release();
+  std::error_code ec;
+  std::filesystem::remove(out_dir / RunFolderFiles::kReserve, ec);
   run_steps::WriteSummary(out_dir, summary);
   return summary;
 }

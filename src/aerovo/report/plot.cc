@@ -33,8 +33,19 @@ bool IsHexColor(const std::string& c) {
   return true;
 }
 
-// A gnuplot double-quoted string: backslash and quote escaped.
+// A gnuplot string literal that the script cannot read as anything else: gnuplot substitutes
+// `command` in backquotes everywhere but inside single-quoted strings, so text (titles, file
+// paths with the user's folder names) is single-quoted ('' for a quote). Only text with a
+// newline needs a double-quoted string ("\n"); there a backquote becomes a plain quote.
 std::string Quote(const std::string& s) {
+  if (s.find('\n') == std::string::npos) {
+    std::string out = "'";
+    for (char ch : s) {
+      if (ch == '\'') out += '\'';
+      out += ch;
+    }
+    return out + "'";
+  }
   std::string out = "\"";
   for (char ch : s) {
     if (ch == '"' || ch == '\\') out += '\\';
@@ -42,7 +53,7 @@ std::string Quote(const std::string& s) {
       out += "\\n";
       continue;
     }
-    out += ch;
+    out += ch == '`' ? '\'' : ch;
   }
   out += '"';
   return out;

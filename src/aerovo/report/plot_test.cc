@@ -56,13 +56,13 @@ TEST(Plot, DataHasOneBlockPerSeriesAndMissingValues) {
 
 TEST(Plot, ScriptQuotesTextAndWritesBothTerminals) {
   const std::string s = GnuplotScript(TwoSeries(), "d.dat", "o.svg", "o.png");
-  EXPECT_NE(s.find("set title \"Fig. 9: a \\\"quoted\\\" title\""), std::string::npos) << s;
-  EXPECT_NE(s.find("set xlabel \"frame\""), std::string::npos);
-  EXPECT_NE(s.find("set ylabel \"time (ms)\""), std::string::npos);
+  EXPECT_NE(s.find("set title 'Fig. 9: a \"quoted\" title'"), std::string::npos) << s;
+  EXPECT_NE(s.find("set xlabel 'frame'"), std::string::npos);
+  EXPECT_NE(s.find("set ylabel 'time (ms)'"), std::string::npos);
   EXPECT_NE(s.find("set terminal svg size 900,540"), std::string::npos);
   EXPECT_NE(s.find("set terminal pngcairo size 1800,1080"), std::string::npos);
-  EXPECT_NE(s.find("\"d.dat\" index 1 using 1:2 with linespoints"), std::string::npos);
-  EXPECT_NE(s.find("lc rgb \"#112233\""), std::string::npos);
+  EXPECT_NE(s.find("'d.dat' index 1 using 1:2 with linespoints"), std::string::npos);
+  EXPECT_NE(s.find("lc rgb '#112233'"), std::string::npos);
   const std::string svg_only = GnuplotScript(TwoSeries(), "d.dat", "o.svg", "");
   EXPECT_EQ(svg_only.find("pngcairo"), std::string::npos);
 }
@@ -110,6 +110,27 @@ TEST(Plot, RendersValidSvgAndPng) {
   EXPECT_TRUE(fs::exists(dir / "test_fig.gp"));
   EXPECT_TRUE(fs::exists(dir / "test_fig.dat"));
   fs::remove_all(dir);
+}
+
+// gnuplot substitutes `command` in backquotes outside single-quoted strings: hostile text in a
+// title, a series name or the folder's path must not run anything.
+TEST(Plot, HostileTextAndFolderNamesRunNothing) {
+  PlotOptions o;
+  if (FindGnuplot(o).empty()) GTEST_SKIP() << "gnuplot not installed (Debian gnuplot-nox)";
+  const fs::path dir = TempDir("hostile") / "x';`touch PWNED`;$(touch PWNED)'";
+  fs::create_directories(dir);
+  Figure f = TwoSeries();
+  f.title = "`touch PWNED` it's";
+  f.series[0].title = "$(touch PWNED) `touch PWNED`";
+  o.png = false;
+  const FigureFiles files = RenderFigure(f, dir, o);
+  EXPECT_TRUE(fs::exists(files.svg));
+  EXPECT_FALSE(fs::exists(dir / "PWNED"));
+  EXPECT_FALSE(fs::exists(dir.parent_path() / "PWNED"));
+  EXPECT_FALSE(fs::exists("PWNED"));
+  const std::string script = GnuplotScript(f, "d.dat", "o.svg", "");
+  EXPECT_NE(script.find("set title '`touch PWNED` it''s'"), std::string::npos) << script;
+  fs::remove_all(dir.parent_path());
 }
 
 TEST(Plot, MissingGnuplotIsAnInputErrorNamingTheFigure) {

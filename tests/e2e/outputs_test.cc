@@ -1,0 +1,497 @@
+// Issue 15, outputs and messages at the CLI level, each case with inputs the test makes itself
+// (one small simulated flight, generated photos): a disk that fills up mid-run (the test-only
+// AEROVO_TEST_FAIL_WRITE_AFTER_BYTES budget, io/output_file.h), two runs into one folder, a
+// re-run into a used folder (--force), SIGPIPE (`--print-poses | head`) and SIGHUP, SIGINT
+// inside a huge frame, hostile folder names for `aerovo report --open`, warnings on stderr
+// with -q, YAML anchors, and a time window that selects no frame.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <pugixml.hpp>
+
+namespace aerovo {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+#ifdef AEROVO_CLI_PATH
+
+std::string ReadText(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+int CountLines(const fs::path& p) {
+  std::ifstream in(p);
+  int n = 0;
+  for (std::string line; std::getline(in, line);) ++n;
+  return n;
+}
+
+struct Child {
+  pid_t pid = -1;
+  fs::path out_file, err_file;
+};
+
+struct Outcome {
+  int exit_code = -1;  // exit status, or -signal
+  std::string out, err;
+  double seconds = 0.0;
+};
+
+// Starts the CLI with `args`; stdout and stderr into files under `log_dir` named after `tag`;
+// `env` added to the environment; `stdout_fd` (>= 0) replaces the stdout file.
+Child Start(const std::vector<std::string>& args, const fs::path& log_dir, const std::string& tag,
+            const std::map<std::string, std::string>& env = {}, int stdout_fd = -1) {
+  Child c;
+  c.out_file = log_dir / (tag + ".out");
+  c.err_file = log_dir / (tag + ".err");
+  c.pid = ::fork();
+  if (c.pid == 0) {
+    for (const auto& [k, v] : env) ::setenv(k.c_str(), v.c_str(), 1);
+    const int out =
+        stdout_fd >= 0 ? stdout_fd : ::open(c.out_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const int err = ::open(c.err_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ::dup2(out, 1);
+    ::dup2(err, 2);
+    std::vector<char*> argv;
+    argv.push_back(const_cast<char*>(AEROVO_CLI_PATH));
+    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    ::execv(AEROVO_CLI_PATH, argv.data());
+    ::_exit(127);
+  }
+  return c;
+}
+
+Outcome Wait(const Child& c, Clock::time_point since = Clock::now()) {
+  Outcome o;
+  int status = 0;
+  ::waitpid(c.pid, &status, 0);
+  o.seconds = std::chrono::duration<double>(Clock::now() - since).count();
+  o.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
+  o.out = ReadText(c.out_file);
+  o.err = ReadText(c.err_file);
+  return o;
+}
+
+Outcome RunCli(const std::vector<std::string>& args, const fs::path& log_dir,
+               const std::string& tag, const std::map<std::string, std::string>& env = {}) {
+  return Wait(Start(args, log_dir, tag, env));
+}
+
+bool WaitForRows(const fs::path& csv, int rows, double timeout_s) {
+  const auto start = Clock::now();
+  while (std::chrono::duration<double>(Clock::now() - start).count() < timeout_s) {
+    if (fs::exists(csv) && CountLines(csv) > rows) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return false;
+}
+
+// Every file of a run folder that exists is valid: JSON parses, XML parses, CSV rows complete.
+void ExpectValidFolder(const fs::path& out) {
+  for (const fs::directory_entry& e : fs::directory_iterator(out)) {
+    const fs::path p = e.path();
+    const std::string ext = p.extension().string();
+    SCOPED_TRACE(p.string());
+    if (ext == ".geojson" || ext == ".json") {
+      EXPECT_NO_THROW((void)nlohmann::json::parse(ReadText(p)));
+    } else if (ext == ".gpx" || ext == ".kml") {
+      pugi::xml_document doc;
+      const pugi::xml_parse_result r = doc.load_file(p.c_str());
+      EXPECT_TRUE(r) << r.description() << " at offset " << r.offset;
+    } else if (ext == ".csv" || ext == ".tum") {
+      const std::string text = ReadText(p);
+      if (!text.empty()) EXPECT_EQ(text.back(), '\n');
+      EXPECT_EQ(text.find('\0'), std::string::npos);
+    } else if (ext == ".tmp") {
+      ADD_FAILURE() << "temporary file left";
+    }
+  }
+}
+
+// A pipe for a child's stdout holding only 4 kB (F_SETPIPE_SZ): a run printing its poses into
+// it blocks once it is full, until Drain() reads it.
+struct PosePipe {
+  PosePipe() {
+    int fds[2] = {-1, -1};
+    // O_CLOEXEC: the child must not keep the read end open (the pipe would never close).
+    if (::pipe2(fds, O_CLOEXEC) == 0) {
+      read_end = fds[0];
+      write_end = fds[1];
+      ::fcntl(write_end, F_SETPIPE_SZ, 4096);
+    }
+  }
+  ~PosePipe() {
+    CloseReadEnd();
+    CloseWriteEnd();
+  }
+  void CloseWriteEnd() {
+    if (write_end >= 0) ::close(write_end);
+    write_end = -1;
+  }
+  void CloseReadEnd() {
+    if (read_end >= 0) ::close(read_end);
+    read_end = -1;
+  }
+  void Drain() const {
+    char buf[4096];
+    while (::read(read_end, buf, sizeof(buf)) > 0) {
+    }
+  }
+  int read_end = -1;
+  int write_end = -1;
+};
+
+// Frames of the simulated flight (120 m at 10 m/s, 10 fps).
+constexpr int kFrames = 121;
+
+class CliOutputs : public ::testing::Test {
+ protected:
+  // One small simulated flight (kFrames frames of 320x240 with a DJI SRT, sim.json beside it).
+  static void SetUpTestSuite() {
+    dir_ = fs::temp_directory_path() / ("aerovo_cli_outputs_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    const Outcome o = RunCli(
+        {"simulate", "--pattern", "line", "--length-m", "120", "--legs", "1", "--width", "320",
+         "--height", "240", "--fps", "10", "--hfov-deg", "73.7", "--out", (dir_ / "sim").string()},
+        dir_, "simulate");
+    ASSERT_EQ(o.exit_code, 0) << o.err;
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
+
+  static std::string Video() { return (dir_ / "sim" / "video.mp4").string(); }
+  static std::vector<std::string> RunArgs(const fs::path& out) {
+    return {"run", Video(), "--threads", "1", "--no-report", "-o", out.string()};
+  }
+
+  static fs::path dir_;
+};
+fs::path CliOutputs::dir_;
+
+TEST_F(CliOutputs, DiskFullMidRunLeavesValidFilesAndASummaryThatSaysWhatFailed) {
+  // 1 MiB for the run's summary reserve plus 40 kB: the disk fills up a few frames in.
+  const fs::path out = dir_ / "full";
+  const Outcome o =
+      RunCli(RunArgs(out), dir_, "full",
+             {{"AEROVO_TEST_FAIL_WRITE_AFTER_BYTES", std::to_string((1 << 20) + 40000)}});
+  EXPECT_EQ(o.exit_code, 1) << o.err;
+  EXPECT_NE(o.err.find("No space left on device"), std::string::npos) << o.err;
+  EXPECT_NE(o.err.find(out.string() + "/"), std::string::npos) << o.err;  // names the file
+  ExpectValidFolder(out);
+  const nlohmann::json s = nlohmann::json::parse(ReadText(out / "summary.json"));
+  EXPECT_NE(s["error"].get<std::string>().find("No space left on device"), std::string::npos)
+      << s.dump(2);
+  EXPECT_GT(s["frames_processed"].get<int>(), 0);
+  EXPECT_LT(s["frames_processed"].get<int>(), kFrames);
+  // frames.csv holds the frames processed, at most one more (the frame whose write failed in a
+  // later file is not counted as processed), and the reserve is gone.
+  EXPECT_LE(CountLines(out / "frames.csv") - 1, s["frames_processed"].get<int>() + 1);
+  EXPECT_FALSE(fs::exists(out / ".aerovo.reserve"));
+}
+
+TEST_F(CliOutputs, ASecondRunIntoTheSameFolderFailsNamingTheFolderAndTheFirstRunsPid) {
+  // The first run prints its poses into a small pipe nobody reads yet: it blocks mid-run,
+  // holding its folder, whatever the machine's speed.
+  const fs::path out = dir_ / "twice";
+  PosePipe pipe;
+  std::vector<std::string> args = RunArgs(out);
+  args.push_back("--print-poses");
+  const Child first = Start(args, dir_, "first", {}, pipe.write_end);
+  pipe.CloseWriteEnd();
+  ASSERT_TRUE(WaitForRows(out / "frames.csv", 1, 60));
+  const Outcome second = RunCli(RunArgs(out), dir_, "second");
+  std::thread drain([&] { pipe.Drain(); });
+  const Outcome a = Wait(first);
+  drain.join();
+  EXPECT_EQ(a.exit_code, 0) << a.err;
+  EXPECT_EQ(second.exit_code, 1);
+  EXPECT_NE(
+      second.err.find("output folder '" + out.string() + "' is in use by another aerovo run (pid " +
+                      std::to_string(first.pid) + ")"),
+      std::string::npos)
+      << second.err;
+  // The first run's files are its own: every frame, a summary that agrees.
+  ExpectValidFolder(out);
+  EXPECT_EQ(CountLines(out / "frames.csv"), kFrames + 1);
+  const nlohmann::json s = nlohmann::json::parse(ReadText(out / "summary.json"));
+  EXPECT_EQ(s["frames_processed"], kFrames);
+}
+
+TEST_F(CliOutputs, ARerunIntoAUsedFolderIsRefusedUnlessForceWhichRemovesOnlyAerovosFiles) {
+  const fs::path out = dir_ / "rerun";
+  std::vector<std::string> args = RunArgs(out);
+  args.insert(args.end(), {"--max-frames", "5"});
+  ASSERT_EQ(RunCli(args, dir_, "rerun1").exit_code, 0);
+  std::ofstream(out / "report.html") << "<html>earlier report</html>";
+  std::ofstream(out / "my_notes.txt") << "not aerovo's\n";
+  const Outcome refused = RunCli(args, dir_, "rerun2");
+  EXPECT_EQ(refused.exit_code, 1);
+  EXPECT_NE(refused.err.find("output folder '" + out.string() + "' is not empty"),
+            std::string::npos)
+      << refused.err;
+  EXPECT_NE(refused.err.find("--force"), std::string::npos) << refused.err;
+  args.push_back("--force");
+  const Outcome forced = RunCli(args, dir_, "rerun3");
+  EXPECT_EQ(forced.exit_code, 0) << forced.err;
+  EXPECT_NE(forced.err.find("--force: removed"), std::string::npos) << forced.err;
+  EXPECT_NE(forced.err.find("report.html"), std::string::npos) << forced.err;
+  EXPECT_NE(forced.err.find("kept 1 file(s) aerovo did not write"), std::string::npos)
+      << forced.err;
+  EXPECT_FALSE(fs::exists(out / "report.html"));  // the earlier run's report is gone
+  EXPECT_EQ(ReadText(out / "my_notes.txt"), "not aerovo's\n");
+  EXPECT_EQ(CountLines(out / "frames.csv"), 6);
+}
+
+TEST_F(CliOutputs, PrintPosesIntoHeadEndsWithASummaryAndExitCode141) {
+  const fs::path out = dir_ / "pipe";
+  PosePipe pipe;
+  std::vector<std::string> args = RunArgs(out);
+  args.push_back("--print-poses");
+  const Child c = Start(args, dir_, "pipe", {}, pipe.write_end);
+  pipe.CloseWriteEnd();
+  // `head -3`: read three lines, then close the pipe (the run is still writing: the pipe holds
+  // 4 kB, the poses of the flight about twice that).
+  std::string got;
+  char ch;
+  int lines = 0;
+  while (lines < 3 && ::read(pipe.read_end, &ch, 1) == 1) {
+    got += ch;
+    if (ch == '\n') ++lines;
+  }
+  pipe.CloseReadEnd();
+  const Outcome o = Wait(c);
+  EXPECT_EQ(lines, 3) << got;
+  EXPECT_EQ(o.exit_code, 141) << o.err;
+  EXPECT_NE(o.err.find("interrupted by SIGPIPE"), std::string::npos) << o.err;
+  EXPECT_NE(o.err.find("exit code 141"), std::string::npos) << o.err;
+  EXPECT_NE(o.err.find("Frames processed"), std::string::npos) << o.err;  // the final table
+  ExpectValidFolder(out);
+  const nlohmann::json s = nlohmann::json::parse(ReadText(out / "summary.json"));
+  EXPECT_EQ(s["interrupted"], true);
+  EXPECT_LT(s["frames_processed"].get<int>(), kFrames);
+  EXPECT_EQ(CountLines(out / "frames.csv") - 1, s["frames_processed"].get<int>());
+}
+
+TEST_F(CliOutputs, SighupStopsLikeSigintWithASummary) {
+  const fs::path out = dir_ / "hup";
+  PosePipe pipe;  // blocks the run mid-flight until drained (see above)
+  std::vector<std::string> args = RunArgs(out);
+  args.push_back("--print-poses");
+  const Child c = Start(args, dir_, "hup", {}, pipe.write_end);
+  pipe.CloseWriteEnd();
+  ASSERT_TRUE(WaitForRows(out / "frames.csv", 3, 60));
+  ::kill(c.pid, SIGHUP);
+  std::thread drain([&] { pipe.Drain(); });
+  const Outcome o = Wait(c);
+  drain.join();
+  EXPECT_EQ(o.exit_code, 129) << o.err;
+  EXPECT_NE(o.err.find("interrupted by SIGHUP"), std::string::npos) << o.err;
+  ExpectValidFolder(out);
+  const nlohmann::json s = nlohmann::json::parse(ReadText(out / "summary.json"));
+  EXPECT_EQ(s["interrupted"], true);
+}
+
+// SIGINT inside a huge frame (8000x8000 textured photo): the run stops within a second, with
+// its summary, instead of waiting for the frame's SURF and matching.
+TEST_F(CliOutputs, SigintInsideAHugeFrameTakesEffectWithinASecond) {
+  const fs::path photos = dir_ / "huge_photos";
+  fs::create_directories(photos);
+  cv::Mat img(8000, 8000, CV_8UC1);
+  cv::RNG rng(7);
+  cv::Mat small(500, 500, CV_8UC1);
+  rng.fill(small, cv::RNG::UNIFORM, 0, 256);
+  cv::resize(small, img, img.size(), 0, 0, cv::INTER_CUBIC);
+  ASSERT_TRUE(cv::imwrite((photos / "a.jpg").string(), img, {cv::IMWRITE_JPEG_QUALITY, 80}));
+  fs::copy_file(photos / "a.jpg", photos / "b.jpg");
+  const fs::path out = dir_ / "huge";
+  const Child c = Start({"run", photos.string(), "--altitude", "100", "--hfov-deg", "70",
+                         "--threads", "1", "--no-report", "-o", out.string()},
+                        dir_, "huge");
+  // Wait until the first frame is being processed (config.json rewritten with the resolved
+  // camera), then a little more: inside SURF.
+  const auto start = Clock::now();
+  while (std::chrono::duration<double>(Clock::now() - start).count() < 60) {
+    if (fs::exists(out / "transforms.csv")) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(fs::exists(out / "transforms.csv"));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const auto signalled = Clock::now();
+  ::kill(c.pid, SIGINT);
+  const Outcome o = Wait(c, signalled);
+  EXPECT_EQ(o.exit_code, 130) << o.err;
+  EXPECT_LT(o.seconds, 1.0) << "the stop took " << o.seconds << " s";
+  const nlohmann::json s = nlohmann::json::parse(ReadText(out / "summary.json"));
+  EXPECT_EQ(s["interrupted"], true);
+  EXPECT_EQ(s["frames_processed"], 0);  // the cancelled frame is not counted
+  fs::remove_all(photos);
+}
+
+// `aerovo report --open` on folders with hostile names: the name reaches the opener as one
+// argument (a fake xdg-open on PATH records it), nothing runs through a shell.
+TEST_F(CliOutputs, ReportOpenPassesHostileFolderNamesAsOneArgumentWithoutAShell) {
+  const fs::path base = dir_ / "hostile";
+  fs::create_directories(base / "bin");
+  const fs::path record = base / "opened.txt";
+  {
+    std::ofstream s(base / "bin" / "xdg-open");
+    s << "#!/bin/sh\nprintf '%s\\n' \"$#:$1\" >> '" << record.string() << "'\n";
+  }
+  fs::permissions(base / "bin" / "xdg-open", fs::perms::owner_all);
+  const fs::path run = base / "run";
+  std::vector<std::string> args = RunArgs(run);
+  args.insert(args.end(), {"--max-frames", "4"});
+  ASSERT_EQ(RunCli(args, base, "run").exit_code, 0);
+  const std::string path = std::string("/usr/bin:/bin");
+  const std::vector<std::string> names = {"x';touch PWNED;'", "a \"b\" c", "-dash", "`touch PWNED`",
+                                          "$(touch PWNED)"};
+  int expected_lines = 0;
+  for (const std::string& name : names) {
+    SCOPED_TRACE(name);
+    const fs::path dir = base / name;
+    fs::rename(run, dir);
+    const Child c = [&] {
+      Child ch;
+      ch.out_file = base / "report.out";
+      ch.err_file = base / "report.err";
+      ch.pid = ::fork();
+      if (ch.pid == 0) {
+        ::chdir(base.c_str());  // where a PWNED file would appear
+        ::setenv("PATH", ((base / "bin").string() + ":" + path).c_str(), 1);
+        const int out = ::open(ch.out_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        ::dup2(out, 1);
+        ::dup2(out, 2);
+        // A relative name as a user would type it (a leading dash as ./-dash).
+        const std::string arg = name[0] == '-' ? "./" + name : name;
+        ::execl(AEROVO_CLI_PATH, AEROVO_CLI_PATH, "report", arg.c_str(), "--open", "--no-mosaic",
+                "--no-png", "-q", static_cast<char*>(nullptr));
+        ::_exit(127);
+      }
+      return ch;
+    }();
+    const Outcome o = Wait(c);
+    EXPECT_EQ(o.exit_code, 0) << o.out;
+    ++expected_lines;
+    // The opener runs detached: wait for its record.
+    const auto start = Clock::now();
+    while (CountLines(record) < expected_lines &&
+           std::chrono::duration<double>(Clock::now() - start).count() < 10) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    std::vector<std::string> lines;
+    std::ifstream in(record);
+    for (std::string l; std::getline(in, l);) lines.push_back(l);
+    ASSERT_EQ(static_cast<int>(lines.size()), expected_lines);
+    EXPECT_EQ(lines.back(), "1:" + fs::absolute(dir / "report.html").lexically_normal().string());
+    EXPECT_FALSE(fs::exists(base / "PWNED"));
+    EXPECT_FALSE(fs::exists(dir / "PWNED"));
+    fs::rename(dir, run);
+  }
+}
+
+TEST_F(CliOutputs, QuietHidesTheProgressNotTheWarningsWhichGoToStderr) {
+  // A telemetry that covers only the first half of the flight: a warning about the frames
+  // without a fix.
+  const fs::path srt = dir_ / "half.srt";
+  {
+    const std::string full = ReadText(dir_ / "sim" / "telemetry.srt");
+    // Keep the SRT entries of the first 30 frames (entries are separated by blank lines).
+    std::string kept;
+    size_t at = 0;
+    for (int i = 0; i < 30; ++i) {
+      const size_t end = full.find("\n\n", at);
+      if (end == std::string::npos) break;
+      kept += full.substr(at, end + 2 - at);
+      at = end + 2;
+    }
+    std::ofstream(srt) << kept;
+  }
+  const fs::path out = dir_ / "quiet";
+  std::vector<std::string> args = RunArgs(out);
+  args.insert(args.end(), {"--telemetry", srt.string(), "-q"});
+  const Outcome o = RunCli(args, dir_, "quiet");
+  ASSERT_EQ(o.exit_code, 0) << o.err;
+  EXPECT_NE(o.err.find("warning: "), std::string::npos) << o.err;
+  EXPECT_NE(o.err.find("have no telemetry fix"), std::string::npos) << o.err;
+  EXPECT_EQ(o.out.find("warning"), std::string::npos) << o.out;
+  EXPECT_NE(o.out.find("Frames processed"), std::string::npos) << o.out;  // the final table
+}
+
+TEST_F(CliOutputs, YamlConfigWithAnchorsAndAliases) {
+  const fs::path cfg = dir_ / "anchors.yaml";
+  std::ofstream(cfg) << ".common: &common {step: 2, threads: 1}\n"
+                        "<<: *common\n"
+                        "max_frames: &n 6\n"
+                        "no_such_key_check: *n\n";
+  // An alias as the value of an unknown key is reported as that key, not as the alias.
+  const Outcome bad =
+      RunCli({"run", Video(), "--config", cfg.string(), "--print-config"}, dir_, "yaml_bad");
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE((bad.err + bad.out).find("no_such_key_check"), std::string::npos) << bad.err;
+  std::ofstream(cfg) << ".common: &common {step: 2, threads: 1}\n"
+                        "<<: *common\n"
+                        "max_frames: &n 6\n";
+  const Outcome ok =
+      RunCli({"run", Video(), "--config", cfg.string(), "--print-config"}, dir_, "yaml_ok");
+  ASSERT_EQ(ok.exit_code, 0) << ok.err;
+  const nlohmann::json j = nlohmann::json::parse(ok.out);
+  EXPECT_EQ(j["step"], 2);
+  EXPECT_EQ(j["max_frames"], 6);
+  EXPECT_EQ(j["surf.num_threads"], 1);
+}
+
+TEST_F(CliOutputs, ATimeWindowThatSelectsNoFrameIsAClearError) {
+  struct Case {
+    std::vector<std::string> flags;
+    std::string expect;
+  };
+  // The flight lasts 12.1 s (kFrames frames at 10 fps).
+  const std::vector<Case> cases = {
+      {{"--start-s", "1000"}, "past the end"},
+      {{"--start-s", "1.01", "--end-s", "1.05"}, "no frame to process"},
+      {{"--start-s", "3", "--end-s", "2"}, "end_s must be >= start_s"},
+  };
+  int k = 0;
+  for (const Case& c : cases) {
+    const fs::path out = dir_ / ("window" + std::to_string(k++));
+    std::vector<std::string> args = RunArgs(out);
+    args.insert(args.end(), c.flags.begin(), c.flags.end());
+    const Outcome o = RunCli(args, dir_, out.filename().string());
+    EXPECT_EQ(o.exit_code, 1) << c.flags[1];
+    EXPECT_NE(o.err.find(c.expect), std::string::npos) << o.err;
+    if (c.expect == "no frame to process") {
+      EXPECT_NE(o.err.find("lasting 12.100 s"), std::string::npos) << o.err;
+      const nlohmann::json s = nlohmann::json::parse(ReadText(out / "summary.json"));
+      EXPECT_NE(s["error"].get<std::string>().find("no frame to process"), std::string::npos);
+    }
+  }
+}
+
+#endif  // AEROVO_CLI_PATH
+
+}  // namespace
+}  // namespace aerovo
