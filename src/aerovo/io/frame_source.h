@@ -28,6 +28,11 @@ struct Frame {
   /// time since the source was opened (steady clock).
   double time_s = 0.0;
   std::string name;  ///< Photo file name, or "<video file name>#<index>", or "live#<index>".
+  /// When the frame came out of its source, seconds on the steady clock (SteadySeconds(),
+  /// core/timer.h): set by PrefetchSource's reader thread (io/prefetch_source.h) as the source
+  /// delivers it, else by the run's frame loop as Next() returns; NaN when unset. The start of
+  /// the capture-to-send latency (for a live source: arrival and decoding, not the exposure).
+  double received_s = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Options of every frame source. Validate() checks them.
