@@ -11,6 +11,7 @@
 #include "aerovo/cli/command.h"
 #include "aerovo/cli/progress.h"
 #include "aerovo/cli/run_cli.h"
+#include "aerovo/core/error.h"
 #include "aerovo/pipeline/runner.h"
 #include "aerovo/report/html_report.h"
 
@@ -37,10 +38,16 @@ void Execute(RunArgs& a) {
     return;
   }
 
-  // With --print-poses stdout is the pose stream and stderr its messages: no progress.
+  // With --print-poses or --poses-jsonl - stdout is the pose stream: everything else goes to
+  // stderr (configuration, progress, warnings, summary, report lines).
+  const bool stdout_is_stream = a.print_poses || config.poses_jsonl == "-";
+  if (a.print_poses && config.poses_jsonl == "-") {
+    throw InvalidArgument("--print-poses and --poses-jsonl - both write to stdout: give one");
+  }
+  std::ostream& out = stdout_is_stream ? std::cerr : std::cout;
   Progress progress(DefaultProgressStyle(config.quiet || a.print_poses));
   RunCallbacks cb;
-  cb.log = &std::cout;
+  cb.log = &out;
   if (progress.enabled()) {
     cb.progress = [&progress](int done, int expected, double fps) {
       progress.Update(done, expected, fps);
@@ -56,7 +63,7 @@ void Execute(RunArgs& a) {
   }
   progress.Finish();
   if (s.interrupted) {
-    // On stderr: with --print-poses stdout is the pose stream.
+    // On stderr: stdout may be the pose stream.
     std::cerr << fmt::format(
         "aerovo run: interrupted by {} after {} of {} frames; the outputs in '{}' are valid and "
         "complete up to the last frame processed (summary.json says interrupted)\n",
@@ -66,24 +73,24 @@ void Execute(RunArgs& a) {
     std::cerr.flush();
   }
   if (!config.quiet) {
-    for (const std::string& w : s.warnings) std::cout << "warning: " << w << "\n";
+    for (const std::string& w : s.warnings) out << "warning: " << w << "\n";
   }
-  std::cout << "\n" << FormatSummaryTable(s);
-  std::cout << "\nOutputs: " << s.out_dir.string()
-            << "/{frames.csv, transforms.csv, vo.tum, gps.tum, vo/gps .geojson .kml .gpx, run.kml, "
-               "summary.json, config.json}\n";
-  std::cout.flush();
+  out << "\n" << FormatSummaryTable(s);
+  out << "\nOutputs: " << s.out_dir.string()
+      << "/{frames.csv, transforms.csv, vo.tum, gps.tum, vo/gps .geojson .kml .gpx, run.kml, "
+         "summary.json, config.json}\n";
+  out.flush();
   // The HTML report of what was computed (also after an interruption). A failure is a warning:
   // the run's outputs are already complete on disk.
   if (!a.no_report && s.frames_processed > 0) {
     try {
       const ReportResult r = WriteReport(s.out_dir);
-      for (const std::string& n : r.notes) std::cout << "note: " << n << "\n";
-      std::cout << fmt::format("Report: {} ({:.1f} s)\n", r.html.string(), r.seconds);
+      for (const std::string& n : r.notes) out << "note: " << n << "\n";
+      out << fmt::format("Report: {} ({:.1f} s)\n", r.html.string(), r.seconds);
     } catch (const std::exception& e) {
-      std::cout << "warning: no report (the run's outputs are complete): " << e.what() << "\n";
+      out << "warning: no report (the run's outputs are complete): " << e.what() << "\n";
     }
-    std::cout.flush();
+    out.flush();
   }
   if (s.interrupted) std::exit(StopSignals::ExitCode(signal));  // 130 SIGINT, 143 SIGTERM
 }
@@ -97,8 +104,9 @@ void Register(CLI::App& app) {
       "geo-referenced trajectory, comparison with GPS and per-frame outputs out");
   AddRunFlags(cmd, a.run);
   cmd->add_flag("--print-poses", a.print_poses,
-                "Streaming: print each pose on stdout as soon as it is computed "
-                "(frame time_s x_m y_m lat lon status)");
+                "Streaming: print each pose on stdout as soon as it is written to frames.csv "
+                "(frame time_s x_m y_m lat lon status; held back while the heading waits for "
+                "GPS); everything else goes to stderr. --poses-jsonl - is the JSON stream");
   cmd->add_flag(
       "--no-report", a.no_report,
       "Do not write report.html and figures/ at the end (aerovo report DIR does it later)");

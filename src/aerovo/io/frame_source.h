@@ -68,6 +68,10 @@ class FrameSource {
   virtual std::string Describe() const = 0;
   /// Frames Next() will deliver in total (after step/start/end) if known, else -1.
   virtual int ExpectedFrameCount() const { return -1; }
+  /// True for a source whose frames arrive on their own clock whether or not they are taken
+  /// (camera, stream): a run then keeps only the newest (PrefetchSource, QueuePolicy::
+  /// kDropOldest). False (default) for files, whose every frame waits to be read.
+  virtual bool IsLive() const { return false; }
   /// Non-fatal problems met so far (skipped files, early end of stream).
   const std::vector<std::string>& warnings() const { return warnings_; }
 
@@ -154,6 +158,7 @@ class LiveSource : public FrameSource {
   explicit LiveSource(const std::string& device_or_url, const FrameSourceOptions& options = {});
   bool Next(Frame& frame) override;
   std::string Describe() const override;
+  bool IsLive() const override { return true; }
 
  private:
   void Init();

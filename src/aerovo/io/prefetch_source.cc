@@ -16,6 +16,7 @@ PrefetchSource::PrefetchSource(std::unique_ptr<FrameSource> inner, const Prefetc
   }
   description_ = inner_->Describe();
   expected_ = inner_->ExpectedFrameCount();
+  live_ = inner_->IsLive();
 }
 
 PrefetchSource::~PrefetchSource() {

@@ -40,7 +40,7 @@ struct PrefetchOptions {
 /// once the queue is drained. An exception thrown by `inner` (e.g. InputError naming the frame)
 /// is rethrown by the Next() after the frames queued before it, unchanged (same type and
 /// message). `inner`'s warnings() appear in this source's warnings() as Next() is called.
-/// Describe() and ExpectedFrameCount() are `inner`'s, read at construction.
+/// Describe(), ExpectedFrameCount() and IsLive() are `inner`'s, read at construction.
 /// Next() hands out frames by swapping: the Frame passed in goes back to the pool, so no frame
 /// buffer is allocated once the queue is warm. Next() is called from one thread at a time.
 /// The destructor stops the reader and joins it (it waits for an `inner.Next()` in progress,
@@ -56,6 +56,7 @@ class PrefetchSource : public FrameSource {
   bool Next(Frame& frame) override;
   std::string Describe() const override { return description_; }
   int ExpectedFrameCount() const override { return expected_; }
+  bool IsLive() const override { return live_; }
 
   /// Frames dropped so far by kDropOldest (read by `inner`, never delivered).
   int dropped() const { return dropped_.load(); }
@@ -71,6 +72,7 @@ class PrefetchSource : public FrameSource {
   PrefetchOptions options_;
   std::string description_;
   int expected_ = -1;
+  bool live_ = false;
 
   std::mutex mutex_;
   std::condition_variable changed_;  // queue, end, error or stop changed

@@ -46,8 +46,8 @@ class ProgressiveFile;
 
 /// frames.csv: header `frame,time_s,x_m,y_m,lat_deg,lon_deg,alt_m,n_surf,n_matched,n_inliers,
 /// cluster,detect_ms,describe_ms,correspond_ms,estimate_ms,total_ms,status,gps_lat_deg,
-/// gps_lon_deg,gps_alt_m` (RFC 4180; empty cells for absent geo/GPS). One flushed row per
-/// Append.
+/// gps_lon_deg,gps_alt_m,latency_ms` (RFC 4180; empty cells for absent geo/GPS or latency).
+/// One flushed row per Append.
 class CsvFrameWriter {
  public:
   /// Creates (truncates) `path` and writes the header. Throws InputError naming the path.

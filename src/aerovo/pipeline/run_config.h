@@ -70,6 +70,16 @@ struct RunConfig {
   double illumination_k = 1.0;
   /// No progress bar, no configuration dump, only errors and the final table.
   bool quiet = false;
+  /// The pose stream: one JSON object per frame (pipeline/run_steps.h, "The pose stream") written
+  /// to this file as soon as the frame is done, flushed; "-" = stdout, and then `aerovo run`
+  /// writes nothing else there (configuration, progress, warnings, summary: stderr). Empty
+  /// (default): none.
+  std::string poses_jsonl;
+  /// Frames decoded ahead on a reader thread (io/prefetch_source.h), so that decoding overlaps
+  /// the processing; 0 = decode on the processing thread. A live source (camera, stream) keeps
+  /// only the newest frame whatever the value (older ones are dropped, counted: latency stays
+  /// bounded); files lose nothing. Default 2: one frame being decoded while one waits.
+  int frame_queue = 2;
   /// The odometry and its stages (keys surf.*, match.*, ransac.*, clustered.*, correspondence.*,
   /// odometry.*); defaults are OdometryOptions' (visual_odometry.h). The run sets its focal_px and
   /// default_height_m from the camera and height it resolves (focal_px, hfov_deg, altitude_m
@@ -107,6 +117,8 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.k3, "k3", "Lens distortion k3", Finite());
   v.Field(c.illumination_k, "illumination_k", "Illumination factor k: every frame's brightness times k before SURF (the paper's f_k = k f)", Interval(0, 1, true, false));
   v.Field(c.quiet, "quiet", "No progress bar or configuration dump", Any().Switch().Flags("-q"));
+  v.Field(c.poses_jsonl, "poses_jsonl", "Pose stream: one JSON object per frame, written as it is done ('-' = stdout, then everything else goes to stderr)", Any());
+  v.Field(c.frame_queue, "frame_queue", "Frames decoded ahead on a reader thread (0 = none); a live source keeps only the newest, dropping older ones", AtLeast(0));
   v.Group("odometry", c.odometry);
 }
 // clang-format on

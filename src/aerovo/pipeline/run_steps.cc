@@ -1,7 +1,12 @@
 #include "aerovo/pipeline/run_steps.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <iostream>
 #include <system_error>
 #include <utility>
 
@@ -12,6 +17,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/io/camera.h"
 #include "aerovo/io/telemetry_readers.h"
+#include "aerovo/pipeline/pose_quality.h"
 #include "aerovo/report/run_reader.h"  // AssociateWithTruth
 #include "aerovo/sim/sim_writer.h"
 
@@ -186,11 +192,13 @@ double HeightProvider::HeightOf(const std::string& frame_name,
 // 4. Outputs
 
 PendingFrame PendingFrameOf(const Frame& frame, const FrameResult& r,
-                            const std::optional<GeoPoint>& gps) {
+                            const std::optional<GeoPoint>& gps, double height_m) {
   PendingFrame p;
   p.local_m = r.position_m;
   p.heading_rad = r.heading_rad;
   p.gps = gps;
+  p.height_m = height_m;
+  p.quality = PoseQuality(r);
   FrameRecord& rec = p.record;
   rec.frame = frame.index;
   rec.time_s = frame.time_s;
@@ -206,6 +214,48 @@ PendingFrame PendingFrameOf(const Frame& frame, const FrameResult& r,
   rec.status = ToString(r.status);
   if (r.failure != StepFailure::kNone) rec.status += std::string(":") + ToString(r.failure);
   return p;
+}
+
+namespace {
+
+double Degrees(double rad) { return rad * 180.0 / M_PI; }
+
+// The geographic fields of a pose-stream line.
+void AddGeoFields(const PendingFrame& p, const GeoReferencer& georef, nlohmann::json& j) {
+  const GeoPoint g = georef.Wgs84FromLocal(p.local_m);
+  const Eigen::Vector2d enu = georef.EnuFromLocal(p.local_m);
+  j["lat_deg"] = g.lat_deg;
+  j["lon_deg"] = g.lon_deg;
+  j["east_m"] = enu.x();
+  j["north_m"] = enu.y();
+  j["yaw_enu_deg"] = Degrees(std::remainder(p.heading_rad + georef.rotation_rad(), 2.0 * M_PI));
+}
+
+// A finite number, or null (JSON has no NaN).
+nlohmann::json NumberOrNull(double v) { return std::isfinite(v) ? nlohmann::json(v) : nullptr; }
+
+}  // namespace
+
+std::string PoseJsonLine(const PendingFrame& p, const GeoReferencer& georef) {
+  const FrameRecord& r = p.record;
+  nlohmann::json j{{"type", "pose"},
+                   {"index", r.frame},
+                   {"time_s", r.time_s},
+                   {"x_m", p.local_m.x()},
+                   {"y_m", p.local_m.y()},
+                   {"z_m", p.height_m},
+                   {"heading_deg", Degrees(p.heading_rad)},
+                   {"status", r.status},
+                   {"quality", p.quality},
+                   {"latency_ms", NumberOrNull(r.latency_ms)}};
+  if (georef.ready()) AddGeoFields(p, georef, j);
+  return j.dump() + "\n";
+}
+
+std::string GeoJsonLine(const PendingFrame& p, const GeoReferencer& georef) {
+  nlohmann::json j{{"type", "geo"}, {"index", p.record.frame}, {"time_s", p.record.time_s}};
+  AddGeoFields(p, georef, j);
+  return j.dump() + "\n";
 }
 
 RunOutputs::RunOutputs(const std::filesystem::path& out_dir, const RunConfig& config,
@@ -227,6 +277,18 @@ RunOutputs::RunOutputs(const std::filesystem::path& out_dir, const RunConfig& co
                            {"frame_height_px", h}};
   WriteJsonFileAtomic(out_dir / RunFileNames::kConfigJson, effective);
   transforms_csv_.emplace(out_dir / RunFileNames::kTransformsCsv);
+  jsonl_name_ = config.poses_jsonl == "-" ? "stdout" : config.poses_jsonl;
+  if (config.poses_jsonl == "-") {
+    jsonl_ = &std::cout;
+  } else if (!config.poses_jsonl.empty()) {
+    auto file = std::make_unique<std::ofstream>(config.poses_jsonl, std::ios::trunc);
+    if (!*file) {
+      throw InputError("cannot write the pose stream '" + config.poses_jsonl +
+                       "': " + std::strerror(errno));
+    }
+    jsonl_file_ = std::move(file);
+    jsonl_ = jsonl_file_.get();
+  }
 }
 
 void RunOutputs::AppendTransform(int frame_index, const Eigen::Matrix3d& world_from_frame) {
@@ -251,6 +313,10 @@ void RunOutputs::Emit(PendingFrame& p, const GeoReferencer& georef) {
     p.record.y_m = p.local_m.y();
     p.record.yaw_rad = p.heading_rad;
   }
+  if (jsonl_ != nullptr && !p.sent_geo && georef.ready()) {
+    *jsonl_ << GeoJsonLine(p, georef) << std::flush;
+    p.sent_geo = true;
+  }
   writers_->Append(p.record, p.gps);
   if (callbacks_.frame) callbacks_.frame(p.record);
   if (callbacks_.poses != nullptr) {
@@ -272,6 +338,15 @@ void RunOutputs::Flush(const GeoReferencer& georef, bool final) {
 }
 
 void RunOutputs::Add(PendingFrame frame, const GeoReferencer& georef) {
+  if (jsonl_ != nullptr) {
+    // Frames held back for the heading are still sent at once, in the local frame.
+    *jsonl_ << PoseJsonLine(frame, georef) << std::flush;
+    frame.sent_geo = georef.ready();
+    if (!*jsonl_) {
+      throw InputError("cannot write the pose stream '" + jsonl_name_ +
+                       "' (disk full, or the reader of the pipe went away)");
+    }
+  }
   pending_.push_back(std::move(frame));
   Flush(georef, false);
 }
@@ -280,6 +355,7 @@ void RunOutputs::Finish(GeoReferencer& georef) {
   if (!georef.ready() && georef.has_enu()) georef.FixWithAvailable();
   Flush(georef, true);
   writers_->Close();
+  if (jsonl_ != nullptr) jsonl_->flush();
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -368,6 +444,7 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
     }
     if (config_.max_frames > 0 && summary->frames_processed >= config_.max_frames) break;
     bool more = false;
+    frame.received_s = std::numeric_limits<double>::quiet_NaN();
     try {
       more = source.Next(frame);
     } catch (const InputError& e) {
@@ -376,6 +453,8 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
       break;
     }
     if (!more) break;
+    // A PrefetchSource stamps the frame when decoded; else it is received now.
+    if (!std::isfinite(frame.received_s)) frame.received_s = SteadySeconds();
     const std::optional<TelemetrySample> sample = telemetry_.SampleOf(frame);
     const std::optional<GeoPoint> gps = GpsOf(sample);
     if (!sample) ++end.frames_without_fix;
@@ -397,8 +476,12 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
     }
     georef_.Observe(r.position_m, gps, yaw);
     outputs_->AppendTransform(frame.index, r.world_from_frame);
-    outputs_->Add(PendingFrameOf(frame, r, gps), georef_);
+    PendingFrame pending = PendingFrameOf(frame, r, gps, height_m);
+    pending.record.latency_ms = (SteadySeconds() - frame.received_s) * 1000.0;
+    const float latency_ms = static_cast<float>(pending.record.latency_ms);
+    outputs_->Add(std::move(pending), georef_);
     totals_.Add(frame.index, frame.time_s, r, gps, georef_);
+    totals_.latency_ms.push_back(latency_ms);
     ++summary->frames_processed;
     if (callbacks_.progress) {
       callbacks_.progress(summary->frames_processed, summary->frames_expected,
@@ -502,6 +585,25 @@ void Summarize(const std::vector<std::string>& source_warnings, bool has_telemet
             sum.total_ms / n};
   s.wall_s = wall_s;
   s.fps = s.frames_processed / std::max(1e-9, s.wall_s);
+  if (!totals.latency_ms.empty()) {
+    std::vector<float>& l = totals.latency_ms;
+    const auto at = [&l](double q) {  // nearest-rank percentile
+      const std::size_t k = static_cast<std::size_t>(
+          std::clamp<double>(std::ceil(q * l.size()) - 1.0, 0.0, l.size() - 1.0));
+      std::nth_element(l.begin(), l.begin() + k, l.end());
+      return static_cast<double>(l[k]);
+    };
+    s.latency.frames = static_cast<int>(l.size());
+    s.latency.median_ms = at(0.5);
+    s.latency.p95_ms = at(0.95);
+    s.latency.max_ms = *std::max_element(l.begin(), l.end());
+  }
+  if (s.frames_dropped > 0) {
+    s.warnings.push_back(fmt::format(
+        "{} frames of the live source were dropped: they came faster than they were processed "
+        "(the newest frame is always taken; frames_dropped in summary.json)",
+        s.frames_dropped));
+  }
   CompareWithGps(georef, totals, summary);
   if (truth != nullptr && !totals.local_track.empty()) {
     CompareWithTruth(*truth, totals.local_track, totals.track_frames, georef, summary);

@@ -15,6 +15,7 @@
 #include <atomic>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <ostream>
@@ -40,6 +41,14 @@ struct StageTimes {
   double detect_ms = 0.0, describe_ms = 0.0, correspond_ms = 0.0, estimate_ms = 0.0, total_ms = 0.0;
 };
 
+/// Capture-to-send latency over the frames (FrameRecord::latency_ms), ms; NaN when none.
+struct LatencyStats {
+  int frames = 0;  ///< Frames measured.
+  double median_ms = std::numeric_limits<double>::quiet_NaN();
+  double p95_ms = std::numeric_limits<double>::quiet_NaN();  ///< Nearest-rank 95th percentile.
+  double max_ms = std::numeric_limits<double>::quiet_NaN();
+};
+
 /// What a run did, returned by RunFlight and written as summary.json.
 struct RunSummary {
   std::string input;
@@ -51,6 +60,10 @@ struct RunSummary {
   int frames_reacquired = 0;
   int frames_bridged = 0;  ///< Flagged frames (step failed, motion bridged).
   int frames_with_gps = 0;
+  /// Frames of a live source read but never processed: they came while the newest one waited
+  /// (RunConfig::frame_queue; always 0 for files).
+  int frames_dropped = 0;
+  LatencyStats latency;
   bool interrupted = false;  ///< Stopped by the stop flag (SIGINT/SIGTERM) before the end.
   double wall_s = 0.0;
   double fps = 0.0;  ///< frames_processed / wall_s.
