@@ -221,7 +221,7 @@ namespace {
 double Degrees(double rad) { return rad * 180.0 / M_PI; }
 
 // The geographic fields of a pose-stream line.
-void AddGeoFields(const PendingFrame& p, const GeoReferencer& georef, nlohmann::json& j) {
+void AddGeoFields(const PendingFrame& p, const GeoReferencer& georef, nlohmann::ordered_json& j) {
   const GeoPoint g = georef.Wgs84FromLocal(p.local_m);
   const Eigen::Vector2d enu = georef.EnuFromLocal(p.local_m);
   j["lat_deg"] = g.lat_deg;
@@ -232,13 +232,15 @@ void AddGeoFields(const PendingFrame& p, const GeoReferencer& georef, nlohmann::
 }
 
 // A finite number, or null (JSON has no NaN).
-nlohmann::json NumberOrNull(double v) { return std::isfinite(v) ? nlohmann::json(v) : nullptr; }
+nlohmann::ordered_json NumberOrNull(double v) {
+  return std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json();
+}
 
 }  // namespace
 
 std::string PoseJsonLine(const PendingFrame& p, const GeoReferencer& georef) {
   const FrameRecord& r = p.record;
-  nlohmann::json j{{"type", "pose"},
+  nlohmann::ordered_json j{{"type", "pose"},
                    {"index", r.frame},
                    {"time_s", r.time_s},
                    {"x_m", p.local_m.x()},
@@ -253,7 +255,7 @@ std::string PoseJsonLine(const PendingFrame& p, const GeoReferencer& georef) {
 }
 
 std::string GeoJsonLine(const PendingFrame& p, const GeoReferencer& georef) {
-  nlohmann::json j{{"type", "geo"}, {"index", p.record.frame}, {"time_s", p.record.time_s}};
+  nlohmann::ordered_json j{{"type", "geo"}, {"index", p.record.frame}, {"time_s", p.record.time_s}};
   AddGeoFields(p, georef, j);
   return j.dump() + "\n";
 }
