@@ -241,15 +241,15 @@ nlohmann::ordered_json NumberOrNull(double v) {
 std::string PoseJsonLine(const PendingFrame& p, const GeoReferencer& georef) {
   const FrameRecord& r = p.record;
   nlohmann::ordered_json j{{"type", "pose"},
-                   {"index", r.frame},
-                   {"time_s", r.time_s},
-                   {"x_m", p.local_m.x()},
-                   {"y_m", p.local_m.y()},
-                   {"z_m", p.height_m},
-                   {"heading_deg", Degrees(p.heading_rad)},
-                   {"status", r.status},
-                   {"quality", p.quality},
-                   {"latency_ms", NumberOrNull(r.latency_ms)}};
+                           {"index", r.frame},
+                           {"time_s", r.time_s},
+                           {"x_m", p.local_m.x()},
+                           {"y_m", p.local_m.y()},
+                           {"z_m", p.height_m},
+                           {"heading_deg", Degrees(p.heading_rad)},
+                           {"status", r.status},
+                           {"quality", p.quality},
+                           {"latency_ms", NumberOrNull(r.latency_ms)}};
   if (georef.ready()) AddGeoFields(p, georef, j);
   return j.dump() + "\n";
 }
