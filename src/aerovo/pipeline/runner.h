@@ -123,8 +123,10 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& callbacks = {}
 /// The same run on frames from `source` (any FrameSource: a custom camera driver, frames
 /// generated in memory, ...) instead of opening `config.input`, which then only names the run in
 /// the outputs. Telemetry comes from `config.telemetry` (the EXIF/XMP of the photos when
-/// `source` is an ImageFolderSource and no telemetry file is given). InvalidArgument for a null
-/// source.
+/// `source` is an ImageFolderSource and no telemetry file is given). With config.frame_queue > 0
+/// (default) `source` is read through a PrefetchSource (io/prefetch_source.h): its Next() runs
+/// on a reader thread, ahead of the processing; a source whose IsLive() is true keeps only the
+/// newest frame (RunSummary::frames_dropped). InvalidArgument for a null source.
 RunSummary RunFlight(const RunConfig& config, std::unique_ptr<FrameSource> source,
                      const RunCallbacks& callbacks = {}, const std::atomic<bool>* stop = nullptr);
 
