@@ -17,6 +17,7 @@
 #include "aerovo/cli/run_summary.h"
 #include "aerovo/io/run_folder.h"
 #include "aerovo/io/track_writers.h"
+#include "aerovo/core/error.h"
 #include "aerovo/pipeline/runner.h"
 #include "aerovo/report/html_report.h"
 
@@ -68,10 +69,15 @@ void Execute(RunArgs& a) {
     }
   }
 
-  // With --print-poses stdout is the pose stream: the log, the warnings and the final table go
-  // to stderr, and there is no progress. Warnings always go to stderr, even with -q (which
-  // hides the progress and the configuration dump only).
-  std::ostream& text = a.print_poses ? std::cerr : std::cout;
+  // With --print-poses or --poses-jsonl - stdout is the pose stream: everything else goes to
+  // stderr (configuration, progress, warnings, summary, report lines), and there is no
+  // progress. Warnings always go to stderr, even with -q (which hides the progress and the
+  // configuration dump only).
+  const bool stdout_is_stream = a.print_poses || config.poses_jsonl == "-";
+  if (a.print_poses && config.poses_jsonl == "-") {
+    throw InvalidArgument("--print-poses and --poses-jsonl - both write to stdout: give one");
+  }
+  std::ostream& text = stdout_is_stream ? std::cerr : std::cout;
   Progress progress(DefaultProgressStyle(config.quiet || a.print_poses));
   RunCallbacks cb;
   cb.log = &text;
@@ -91,7 +97,7 @@ void Execute(RunArgs& a) {
   }
   progress.Finish();
   if (s.interrupted) {
-    // On stderr: with --print-poses stdout is the pose stream.
+    // On stderr: stdout may be the pose stream.
     std::cerr << fmt::format(
         "aerovo run: interrupted by {} after {} of {} frames; the outputs in '{}' are valid and "
         "complete up to the last frame processed (summary.json says interrupted); exit code {}\n",
@@ -130,8 +136,9 @@ void Register(CLI::App& app) {
       "geo-referenced trajectory, comparison with GPS and per-frame outputs out");
   AddRunFlags(cmd, a.run);
   cmd->add_flag("--print-poses", a.print_poses,
-                "Streaming: print each pose on stdout as soon as it is computed "
-                "(frame time_s x_m y_m lat lon status)");
+                "Streaming: print each pose on stdout as soon as it is written to frames.csv "
+                "(frame time_s x_m y_m lat lon status; held back while the heading waits for "
+                "GPS); everything else goes to stderr. --poses-jsonl - is the JSON stream");
   cmd->add_flag(
       "--no-report", a.no_report,
       "Do not write report.html and figures/ at the end (aerovo report DIR does it later)");

@@ -5,6 +5,13 @@
 
 namespace aerovo {
 
+/// Seconds on the steady (monotonic) clock since an unspecified epoch: for intervals between
+/// threads of one process (frame capture-to-send latency), never for calendar time.
+inline double SteadySeconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
 class Stopwatch {
  public:
   Stopwatch() : start_(Clock::now()) {}

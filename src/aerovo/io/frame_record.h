@@ -3,6 +3,7 @@
 // KML, GPX).
 #pragma once
 
+#include <limits>
 #include <optional>
 #include <string>
 
@@ -33,6 +34,11 @@ struct FrameRecord {
   double correspond_ms = 0.0;  ///< Matching time, ms.
   double estimate_ms = 0.0;    ///< Transform estimation (RANSAC) time, ms.
   double total_ms = 0.0;       ///< Whole frame, ms.
+  /// Capture-to-send latency, ms: from the moment the source delivered the frame
+  /// (Frame::received_s) to the moment its local pose was sent (the pose stream written, the
+  /// frame handed to the outputs); includes the wait in the decode queue. NaN = not measured
+  /// (empty CSV cell; column latency_ms, the last).
+  double latency_ms = std::numeric_limits<double>::quiet_NaN();
   /// Outcome of the frame, e.g. "ok", "bridged", "dark" (free text written as is; quoted in
   /// the CSV when it contains a comma, quote or newline).
   std::string status = "ok";

@@ -38,6 +38,11 @@ struct Frame {
   ///  - "truncated": a photo file cut short (a JPEG without its end-of-image marker), decoded by
   ///    libjpeg with the missing part filled in grey.
   std::string flags;
+  /// When the frame came out of its source, seconds on the steady clock (SteadySeconds(),
+  /// core/timer.h): set by PrefetchSource's reader thread (io/prefetch_source.h) as the source
+  /// delivers it, else by the run's frame loop as Next() returns; NaN when unset. The start of
+  /// the capture-to-send latency (for a live source: arrival and decoding, not the exposure).
+  double received_s = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Flag tokens of Frame::flags.
@@ -92,6 +97,10 @@ class FrameSource {
   virtual std::string Describe() const = 0;
   /// Frames Next() will deliver in total (after step/start/end) if known, else -1.
   virtual int ExpectedFrameCount() const { return -1; }
+  /// True for a source whose frames arrive on their own clock whether or not they are taken
+  /// (camera, stream): a run then keeps only the newest (PrefetchSource, QueuePolicy::
+  /// kDropOldest). False (default) for files, whose every frame waits to be read.
+  virtual bool IsLive() const { return false; }
   /// Non-fatal problems met so far (skipped files, early end of stream).
   const std::vector<std::string>& warnings() const { return warnings_; }
 
@@ -221,6 +230,7 @@ class LiveSource : public FrameSource {
   explicit LiveSource(const std::string& device_or_url, const FrameSourceOptions& options = {});
   bool Next(Frame& frame) override;
   std::string Describe() const override;
+  bool IsLive() const override { return true; }
 
  private:
   void Init();

@@ -297,6 +297,7 @@ FrameRecord MakeRecord(int i) {
   r.estimate_ms = 2.125;
   r.total_ms = 52.875;
   r.status = i == 4 ? "bridged, dark" : "ok";
+  if (i % 3 != 1) r.latency_ms = 20.0 + 0.125 * i;  // else NaN: not measured (empty cell)
   return r;
 }
 std::optional<GeoPoint> MakeGps(int i) {
@@ -367,7 +368,12 @@ TEST_F(TrackWritersTest, EveryFileValidAfterEveryAppend) {
       EXPECT_NEAR(2.0 * std::atan2(t[6], t[7]), r.yaw_rad, 1e-8);
       EXPECT_NEAR(t[6] * t[6] + t[7] * t[7], 1.0, 1e-8);
       const auto& c = p.csv_rows[k];
-      ASSERT_EQ(c.size(), r.status.find(',') != std::string::npos ? 25u : 24u);
+      ASSERT_EQ(c.size(), r.status.find(',') != std::string::npos ? 26u : 25u);
+      if (std::isnan(r.latency_ms)) {
+        EXPECT_EQ(c.back(), "") << "latency_ms";
+      } else {
+        EXPECT_NEAR(std::stod(c.back()), r.latency_ms, 1e-3);
+      }
       EXPECT_EQ(std::stoi(c[0]), r.frame);
       EXPECT_NEAR(std::stod(c[1]), r.time_s, 1e-6);
       EXPECT_NEAR(std::stod(c[2]), r.x_m, 1e-4);

@@ -122,6 +122,16 @@ struct RunConfig {
   /// udpin/serial without --altitude: the first frame waits up to this many seconds for the
   /// autopilot's first height. Default 5 s (a stream starts within a second or two).
   double mavlink_wait_s = 5.0;
+  /// The pose stream: one JSON object per frame (pipeline/run_steps.h, "The pose stream") written
+  /// to this file as soon as the frame is done, flushed; "-" = stdout, and then `aerovo run`
+  /// writes nothing else there (configuration, progress, warnings, summary: stderr). Empty
+  /// (default): none.
+  std::string poses_jsonl;
+  /// Frames decoded ahead on a reader thread (io/prefetch_source.h), so that decoding overlaps
+  /// the processing; 0 = decode on the processing thread. A live source (camera, stream) keeps
+  /// only the newest frame whatever the value (older ones are dropped, counted: latency stays
+  /// bounded); files lose nothing. Default 2: one frame being decoded while one waits.
+  int frame_queue = 2;
   /// The odometry and its stages (keys surf.*, match.*, ransac.*, clustered.*, correspondence.*,
   /// odometry.*); defaults are OdometryOptions' (visual_odometry.h). The run sets its focal_px and
   /// default_height_m from the camera and height it resolves (focal_px, hfov_deg, altitude_m
@@ -170,6 +180,8 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.mavlink_time, "mavlink_time", "Clock of the MAVLink timestamps: boot (since boot) or unix", Any());
   v.Field(c.mavlink_match_s, "mavlink_match_s", "Largest time between a frame and the autopilot sample used for it, s", GreaterThan(0).Finite());
   v.Field(c.mavlink_wait_s, "mavlink_wait_s", "udpin/serial: wait this long for the autopilot's first height, s", AtLeast(0).Finite());
+  v.Field(c.poses_jsonl, "poses_jsonl", "Pose stream: one JSON object per frame, written as it is done ('-' = stdout, then everything else goes to stderr)", Any());
+  v.Field(c.frame_queue, "frame_queue", "Frames decoded ahead on a reader thread (0 = none); a live source keeps only the newest, dropping older ones", AtLeast(0));
   v.Group("odometry", c.odometry);
 }
 // clang-format on

@@ -3,7 +3,12 @@
 #include "aerovo/io/output_file.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <iostream>
 #include <system_error>
 #include <utility>
 
@@ -14,6 +19,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/io/camera.h"
 #include "aerovo/io/telemetry_readers.h"
+#include "aerovo/pipeline/pose_quality.h"
 #include "aerovo/report/run_reader.h"  // AssociateWithTruth
 #include "aerovo/sim/sim_writer.h"
 
@@ -215,11 +221,13 @@ double HeightProvider::HeightOf(const std::string& frame_name,
 // 4. Outputs
 
 PendingFrame PendingFrameOf(const Frame& frame, const FrameResult& r,
-                            const std::optional<GeoPoint>& gps) {
+                            const std::optional<GeoPoint>& gps, double height_m) {
   PendingFrame p;
   p.local_m = r.position_m;
   p.heading_rad = r.heading_rad;
   p.gps = gps;
+  p.height_m = height_m;
+  p.quality = PoseQuality(r);
   FrameRecord& rec = p.record;
   rec.frame = frame.index;
   rec.time_s = frame.time_s;
@@ -236,6 +244,50 @@ PendingFrame PendingFrameOf(const Frame& frame, const FrameResult& r,
   if (r.failure != StepFailure::kNone) rec.status += std::string(":") + ToString(r.failure);
   if (!frame.flags.empty()) rec.status += "+" + frame.flags;
   return p;
+}
+
+namespace {
+
+double Degrees(double rad) { return rad * 180.0 / M_PI; }
+
+// The geographic fields of a pose-stream line.
+void AddGeoFields(const PendingFrame& p, const GeoReferencer& georef, nlohmann::ordered_json& j) {
+  const GeoPoint g = georef.Wgs84FromLocal(p.local_m);
+  const Eigen::Vector2d enu = georef.EnuFromLocal(p.local_m);
+  j["lat_deg"] = g.lat_deg;
+  j["lon_deg"] = g.lon_deg;
+  j["east_m"] = enu.x();
+  j["north_m"] = enu.y();
+  j["yaw_enu_deg"] = Degrees(std::remainder(p.heading_rad + georef.rotation_rad(), 2.0 * M_PI));
+}
+
+// A finite number, or null (JSON has no NaN).
+nlohmann::ordered_json NumberOrNull(double v) {
+  return std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json();
+}
+
+}  // namespace
+
+std::string PoseJsonLine(const PendingFrame& p, const GeoReferencer& georef) {
+  const FrameRecord& r = p.record;
+  nlohmann::ordered_json j{{"type", "pose"},
+                           {"index", r.frame},
+                           {"time_s", r.time_s},
+                           {"x_m", p.local_m.x()},
+                           {"y_m", p.local_m.y()},
+                           {"z_m", p.height_m},
+                           {"heading_deg", Degrees(p.heading_rad)},
+                           {"status", r.status},
+                           {"quality", p.quality},
+                           {"latency_ms", NumberOrNull(r.latency_ms)}};
+  if (georef.ready()) AddGeoFields(p, georef, j);
+  return j.dump() + "\n";
+}
+
+std::string GeoJsonLine(const PendingFrame& p, const GeoReferencer& georef) {
+  nlohmann::ordered_json j{{"type", "geo"}, {"index", p.record.frame}, {"time_s", p.record.time_s}};
+  AddGeoFields(p, georef, j);
+  return j.dump() + "\n";
 }
 
 RunOutputs::RunOutputs(const std::filesystem::path& out_dir, const RunConfig& config,
@@ -257,6 +309,18 @@ RunOutputs::RunOutputs(const std::filesystem::path& out_dir, const RunConfig& co
                            {"frame_height_px", h}};
   WriteJsonFileAtomic(out_dir / RunFileNames::kConfigJson, effective);
   transforms_csv_.emplace(out_dir / RunFileNames::kTransformsCsv);
+  jsonl_name_ = config.poses_jsonl == "-" ? "stdout" : config.poses_jsonl;
+  if (config.poses_jsonl == "-") {
+    jsonl_ = &std::cout;
+  } else if (!config.poses_jsonl.empty()) {
+    auto file = std::make_unique<std::ofstream>(config.poses_jsonl, std::ios::trunc);
+    if (!*file) {
+      throw InputError("cannot write the pose stream '" + config.poses_jsonl +
+                       "': " + std::strerror(errno));
+    }
+    jsonl_file_ = std::move(file);
+    jsonl_ = jsonl_file_.get();
+  }
 }
 
 void RunOutputs::AppendTransform(int frame_index, const Eigen::Matrix3d& world_from_frame) {
@@ -281,6 +345,10 @@ void RunOutputs::Emit(PendingFrame& p, const GeoReferencer& georef) {
     p.record.y_m = p.local_m.y();
     p.record.yaw_rad = p.heading_rad;
   }
+  if (jsonl_ != nullptr && !p.sent_geo && georef.ready()) {
+    *jsonl_ << GeoJsonLine(p, georef) << std::flush;
+    p.sent_geo = true;
+  }
   writers_->Append(p.record, p.gps);
   if (callbacks_.frame) callbacks_.frame(p.record);
   if (callbacks_.poses != nullptr) {
@@ -302,6 +370,15 @@ void RunOutputs::Flush(const GeoReferencer& georef, bool final) {
 }
 
 void RunOutputs::Add(PendingFrame frame, const GeoReferencer& georef) {
+  if (jsonl_ != nullptr) {
+    // Frames held back for the heading are still sent at once, in the local frame.
+    *jsonl_ << PoseJsonLine(frame, georef) << std::flush;
+    frame.sent_geo = georef.ready();
+    if (!*jsonl_) {
+      throw InputError("cannot write the pose stream '" + jsonl_name_ +
+                       "' (disk full, or the reader of the pipe went away)");
+    }
+  }
   pending_.push_back(std::move(frame));
   Flush(georef, false);
 }
@@ -310,6 +387,7 @@ void RunOutputs::Finish(GeoReferencer& georef) {
   if (!georef.ready() && georef.has_enu()) georef.FixWithAvailable();
   Flush(georef, true);
   writers_->Close();
+  if (jsonl_ != nullptr) jsonl_->flush();
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -450,6 +528,7 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
     }
     if (config_.max_frames > 0 && summary->frames_processed >= config_.max_frames) break;
     bool more = false;
+    frame.received_s = std::numeric_limits<double>::quiet_NaN();
     try {
       more = source.Next(frame);
     } catch (const InputError& e) {
@@ -458,6 +537,8 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
       break;
     }
     if (!more) break;
+    // A PrefetchSource stamps the frame when decoded; else it is received now.
+    if (!std::isfinite(frame.received_s)) frame.received_s = SteadySeconds();
     // The capture time: when the source delivered the frame (a live source's frames arrive as
     // captured; a file's as read).
     const double capture_mono_s = mavlink::MonotonicNowS();
@@ -503,12 +584,13 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
     }
     if (link_) SendVision(r, capture_mono_s, capture_unix_s, height_m, attitude);
     georef_.Observe(r.position_m, gps, yaw);
+    float latency_ms = 0.0f;
     try {
       // transforms.csv in full-frame pixels whatever the reduction.
       outputs_->AppendTransform(frame.index, reducer_ ? Eigen::Matrix3d(r.world_from_frame *
                                                                         reduced_from_full_)
                                                       : r.world_from_frame);
-      PendingFrame pending = PendingFrameOf(frame, r, gps);
+      PendingFrame pending = PendingFrameOf(frame, r, gps, height_m);
       pending.record.height_m = height_m;
       pending.record.height_source = height_.last_source();
       ++summary->height_sources[height_.last_source()];
@@ -516,6 +598,8 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
         pending.record.roll_deg = attitude->roll_rad * 180.0 / M_PI;
         pending.record.pitch_deg = attitude->pitch_rad * 180.0 / M_PI;
       }
+      pending.record.latency_ms = (SteadySeconds() - frame.received_s) * 1000.0;
+      latency_ms = static_cast<float>(pending.record.latency_ms);
       outputs_->Add(std::move(pending), georef_);
     } catch (const OutputError& e) {  // disk full: every file keeps its last valid content
       end.failure = frame.name + ": " + e.what();
@@ -523,6 +607,7 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
       break;
     }
     totals_.Add(frame.index, frame.time_s, r, gps, georef_);
+    totals_.latency_ms.push_back(latency_ms);
     ++summary->frames_processed;
     if (!frame.flags.empty()) {
       // Each '+'-separated flag counted once per frame.
@@ -685,6 +770,25 @@ void Summarize(const std::vector<std::string>& source_warnings, bool has_telemet
             sum.total_ms / n};
   s.wall_s = wall_s;
   s.fps = s.frames_processed / std::max(1e-9, s.wall_s);
+  if (!totals.latency_ms.empty()) {
+    std::vector<float>& l = totals.latency_ms;
+    const auto at = [&l](double q) {  // nearest-rank percentile
+      const std::size_t k = static_cast<std::size_t>(
+          std::clamp<double>(std::ceil(q * l.size()) - 1.0, 0.0, l.size() - 1.0));
+      std::nth_element(l.begin(), l.begin() + k, l.end());
+      return static_cast<double>(l[k]);
+    };
+    s.latency.frames = static_cast<int>(l.size());
+    s.latency.median_ms = at(0.5);
+    s.latency.p95_ms = at(0.95);
+    s.latency.max_ms = *std::max_element(l.begin(), l.end());
+  }
+  if (s.frames_dropped > 0) {
+    s.warnings.push_back(fmt::format(
+        "{} frames of the live source were dropped: they came faster than they were processed "
+        "(the newest frame is always taken; frames_dropped in summary.json)",
+        s.frames_dropped));
+  }
   CompareWithGps(georef, totals, summary);
   if (truth != nullptr && !totals.local_track.empty()) {
     CompareWithTruth(*truth, totals.local_track, totals.track_frames, georef, summary);

@@ -176,11 +176,34 @@ struct PendingFrame {
   Eigen::Vector2d local_m = Eigen::Vector2d::Zero();  ///< Position in the local VO frame.
   double heading_rad = 0.0;                           ///< In the local VO frame.
   std::optional<GeoPoint> gps;                        ///< The frame's fix.
+  double height_m = 0.0;  ///< Height above ground used for the frame (pose stream z_m).
+  int quality = -1;       ///< PoseQuality (pipeline/pose_quality.h).
+  bool sent_geo = false;  ///< The pose stream already has its geographic position.
 };
 
-/// The pending frame of `frame` processed into `result`, with its fix `gps`.
+/// The pending frame of `frame` processed into `result`, with its fix `gps` and its height
+/// above ground `height_m`.
 PendingFrame PendingFrameOf(const Frame& frame, const FrameResult& result,
-                            const std::optional<GeoPoint>& gps);
+                            const std::optional<GeoPoint>& gps, double height_m = 0.0);
+
+/// The pose stream (RunConfig::poses_jsonl): one JSON object per line, flushed when written.
+///   {"type":"pose", "index", "time_s", "x_m", "y_m", "z_m", "heading_deg", "status",
+///    "quality", "latency_ms"[, "lat_deg", "lon_deg", "east_m", "north_m", "yaw_enu_deg"]}
+/// once per frame as soon as the frame is done (never held back): index = Frame::index,
+/// time_s = the capture time (Frame::time_s: video time, photo time, seconds since a live
+/// source opened), x_m/y_m = the local VO frame (metres, x = first image right, y = first image
+/// up), z_m = the height above ground used, heading_deg = the image x axis in the local frame
+/// (counter-clockwise from local x), status as in frames.csv ("ok", "bridged:too-few-inliers",
+/// ...), quality = PoseQuality (0-100, -1 bridged), latency_ms = capture to this line (null
+/// when unmeasured). The geographic fields (WGS84 lat/lon, ENU east/north from the first fix,
+/// yaw of the image x axis in ENU counter-clockwise from east) are there when the track is
+/// already geo-referenced. A frame sent without them while the heading waits for the first
+/// GPS segment gets, as soon as the heading is fixed, one
+///   {"type":"geo", "index", "time_s", "lat_deg", "lon_deg", "east_m", "north_m", "yaw_enu_deg"}
+/// (in frame order, before the next pose line). No other line is written.
+std::string PoseJsonLine(const PendingFrame& frame, const GeoReferencer& georef);
+/// The "geo" line of `frame` (georef.ready()).
+std::string GeoJsonLine(const PendingFrame& frame, const GeoReferencer& georef);
 
 /// The files a run writes as it goes (RunFileNames): the track writers (frames.csv, TUM,
 /// GeoJSON, KML, GPX), transforms.csv and config.json with the "resolved" block; plus the pose
@@ -203,7 +226,8 @@ class RunOutputs {
   /// first_px_from_world * world_from_frame, first_px_from_world being the inverse of the first
   /// call's world_from_frame (metric or first-frame pixels, see FrameResult).
   void AppendTransform(int frame_index, const Eigen::Matrix3d& world_from_frame);
-  /// Queues `frame`, then writes the queue unless it waits for `georef`'s heading.
+  /// Sends `frame` to the pose stream, queues it, then writes the queue unless it waits for
+  /// `georef`'s heading.
   void Add(PendingFrame frame, const GeoReferencer& georef);
   /// At the end: geo-references with what is available if needed (georef.FixWithAvailable),
   /// writes every queued frame and closes the track files.
@@ -220,6 +244,9 @@ class RunOutputs {
   bool have_first_ = false;
   Eigen::Matrix3d first_px_from_world_ = Eigen::Matrix3d::Identity();
   std::deque<PendingFrame> pending_;
+  std::unique_ptr<std::ostream> jsonl_file_;  // RunConfig::poses_jsonl when a file
+  std::ostream* jsonl_ = nullptr;             // the pose stream: jsonl_file_ or stdout
+  std::string jsonl_name_;                    // for messages
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -228,7 +255,7 @@ class RunOutputs {
 /// What the summary needs from the frames, accumulated as they are processed. The only memory
 /// that grows with the run (the rest of the per-frame output is streamed to the files): per
 /// frame with a GPS fix, the VO position (local frame) and the fix (ENU), 48 bytes; with a
-/// truth file, every frame's VO position and index, 28 bytes.
+/// truth file, every frame's VO position and index, 28 bytes; every frame's latency, 4 bytes.
 struct RunTotals {
   explicit RunTotals(bool keep_track) : keep_track(keep_track) {}
   /// Adds frame `frame_index` at `time_s` processed into `result`, with its fix `gps` (in the
@@ -245,6 +272,8 @@ struct RunTotals {
   Eigen::Vector2d last_local_m = Eigen::Vector2d::Zero();
   std::vector<TrajectoryPoint2D> local_at_gps, gps_track, local_track;
   std::vector<int> track_frames;  ///< Frame index of each local_track point.
+  /// Capture-to-send latency of every frame where measured, ms (4 bytes per frame).
+  std::vector<float> latency_ms;
 };
 
 /// How the frame loop ended.
@@ -329,7 +358,8 @@ class FrameLoop {
 /// of the frames the source flagged (count, first frame, meaning), interrupted, the
 /// odometry's counts (`vo_stats` null: no frame) and the warning when nothing was measured,
 /// heading source, mean stage times, fps from `wall_s`, the comparison with GPS (at least 3
-/// fixes) and with `truth` (may be null), error = end.failure. `totals` is consumed.
+/// fixes) and with `truth` (may be null), the latency's median, 95th percentile and maximum,
+/// a warning when summary->frames_dropped > 0, error = end.failure. `totals` is consumed.
 void Summarize(const std::vector<std::string>& source_warnings, bool has_telemetry,
                const LoopEnd& end, const OdometryStats* vo_stats, const GeoReferencer& georef,
                RunTotals totals, const ReferenceTrack* truth, double wall_s, RunSummary* summary);

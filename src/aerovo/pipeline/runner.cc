@@ -1,5 +1,6 @@
 #include "aerovo/pipeline/runner.h"
 
+#include <cmath>
 #include <filesystem>
 #include <memory>
 #include <ostream>
@@ -14,6 +15,7 @@
 #include "aerovo/io/frame_source.h"
 #include "aerovo/io/output_file.h"
 #include "aerovo/io/run_folder.h"
+#include "aerovo/io/prefetch_source.h"
 #include "aerovo/io/track_writers.h"
 #include "aerovo/matching/matcher.h"
 #include "aerovo/pipeline/run_steps.h"
@@ -37,6 +39,7 @@ nlohmann::json ToJson(const RunSummary& s) {
                    {"processed_width_px", s.processed_width_px},
                    {"processed_height_px", s.processed_height_px},
                    {"frame_scale", s.frame_scale},
+                   {"frames_dropped", s.frames_dropped},
                    {"interrupted", s.interrupted},
                    {"wall_s", s.wall_s},
                    {"fps", s.fps},
@@ -58,6 +61,13 @@ nlohmann::json ToJson(const RunSummary& s) {
                    {"frames_with_truth", s.frames_with_truth},
                    {"warnings", s.warnings},
                    {"error", s.error}};
+  const auto number_or_null = [](double v) {
+    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();
+  };
+  j["latency_ms"] = {{"frames", s.latency.frames},
+                     {"median", number_or_null(s.latency.median_ms)},
+                     {"p95", number_or_null(s.latency.p95_ms)},
+                     {"max", number_or_null(s.latency.max_ms)}};
   j["evaluation"] = s.evaluation ? ToJson(*s.evaluation) : nlohmann::json();
   j["truth_evaluation"] = s.truth_evaluation ? ToJson(*s.truth_evaluation) : nlohmann::json();
   return j;
@@ -99,6 +109,14 @@ std::string FormatSummaryTable(const RunSummary& s) {
       "Mean stage times (ms)", s.mean.detect_ms, s.mean.describe_ms, s.mean.correspond_ms,
       s.mean.estimate_ms, s.mean.total_ms);
   t += fmt::format("{:<28}{:.2f} fps ({:.1f} s)\n", "Throughput", s.fps, s.wall_s);
+  if (s.latency.frames > 0) {
+    t += fmt::format("{:<28}median {:.1f}, p95 {:.1f}, max {:.1f}\n", "Latency, capture to pose (ms)",
+                     s.latency.median_ms, s.latency.p95_ms, s.latency.max_ms);
+  }
+  if (s.frames_dropped > 0) {
+    t += fmt::format("{:<28}{} (live source faster than the processing)\n", "Frames dropped",
+                     s.frames_dropped);
+  }
   return t;
 }
 
@@ -188,6 +206,17 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   SpaceReserve reserve(out_dir / RunFolderFiles::kReserve, kSummaryReserveBytes);
   DescribeSource(*source, config.max_frames, log, &summary);
   const auto* folder = dynamic_cast<const ImageFolderSource*>(source.get());
+  // Decoding on its own thread; a live source keeps only the newest frame (bounded latency).
+  PrefetchSource* prefetch = nullptr;
+  if (config.frame_queue > 0) {
+    const bool live = source->IsLive();
+    PrefetchOptions po;
+    po.capacity = live ? 1 : config.frame_queue;
+    po.policy = live ? QueuePolicy::kDropOldest : QueuePolicy::kWait;
+    auto wrapped = std::make_unique<PrefetchSource>(std::move(source), po);
+    prefetch = wrapped.get();
+    source = std::move(wrapped);
+  }
   const run_steps::RunTelemetry telemetry = run_steps::RunTelemetry::Load(
       config.telemetry, config.lenient_telemetry, folder, &summary.warnings);
   if (log) *log << "telemetry: " << telemetry.Describe() << "\n";
@@ -229,6 +258,7 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   }
 
   // 6. Summary.
+  if (prefetch != nullptr) summary.frames_dropped = prefetch->dropped();
   run_steps::Summarize(source->warnings(), !telemetry.empty(), end, loop.vo_stats(), loop.georef(),
                        loop.TakeTotals(), inputs.truth ? &*inputs.truth : nullptr,
                        wall.elapsed_ms() / 1000.0, &summary);

@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <ostream>
@@ -41,6 +42,14 @@ struct StageTimes {
   double detect_ms = 0.0, describe_ms = 0.0, correspond_ms = 0.0, estimate_ms = 0.0, total_ms = 0.0;
 };
 
+/// Capture-to-send latency over the frames (FrameRecord::latency_ms), ms; NaN when none.
+struct LatencyStats {
+  int frames = 0;  ///< Frames measured.
+  double median_ms = std::numeric_limits<double>::quiet_NaN();
+  double p95_ms = std::numeric_limits<double>::quiet_NaN();  ///< Nearest-rank 95th percentile.
+  double max_ms = std::numeric_limits<double>::quiet_NaN();
+};
+
 /// What a run did, returned by RunFlight and written as summary.json.
 struct RunSummary {
   std::string input;
@@ -61,6 +70,10 @@ struct RunSummary {
   /// them; positions in metres and transforms.csv stay in full-frame terms). 0 before a frame.
   int processed_width_px = 0, processed_height_px = 0;
   double frame_scale = 1.0;  ///< processed width / source width (1 = frames as read).
+  /// Frames of a live source read but never processed: they came while the newest one waited
+  /// (RunConfig::frame_queue; always 0 for files).
+  int frames_dropped = 0;
+  LatencyStats latency;
   bool interrupted = false;  ///< Stopped by the stop flag (SIGINT/SIGTERM) before the end.
   double wall_s = 0.0;
   double fps = 0.0;  ///< frames_processed / wall_s.
@@ -129,8 +142,10 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& callbacks = {}
 /// The same run on frames from `source` (any FrameSource: a custom camera driver, frames
 /// generated in memory, ...) instead of opening `config.input`, which then only names the run in
 /// the outputs. Telemetry comes from `config.telemetry` (the EXIF/XMP of the photos when
-/// `source` is an ImageFolderSource and no telemetry file is given). InvalidArgument for a null
-/// source.
+/// `source` is an ImageFolderSource and no telemetry file is given). With config.frame_queue > 0
+/// (default) `source` is read through a PrefetchSource (io/prefetch_source.h): its Next() runs
+/// on a reader thread, ahead of the processing; a source whose IsLive() is true keeps only the
+/// newest frame (RunSummary::frames_dropped). InvalidArgument for a null source.
 RunSummary RunFlight(const RunConfig& config, std::unique_ptr<FrameSource> source,
                      const RunCallbacks& callbacks = {}, const std::atomic<bool>* stop = nullptr);
 
