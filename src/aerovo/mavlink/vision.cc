@@ -135,6 +135,7 @@ VisionMessages VisionMessageBuilder::Add(const VisionPose& p) {
     case VisionPose::Status::kFirst: o.quality = 100; break;
     default: o.quality = static_cast<int8_t>(std::clamp(p.n_inliers, 1, 100)); break;
   }
+  if (p.quality) o.quality = static_cast<int8_t>(std::clamp(*p.quality, -1, 100));
 
   VisionPositionEstimate& e = out.position_estimate;
   e.usec = p.time_usec;

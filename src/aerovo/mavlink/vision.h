@@ -36,6 +36,10 @@ struct VisionPose {
   enum class Status { kFirst, kOk, kReacquired, kBridged };
   Status status = Status::kOk;
   int n_inliers = 0;
+  /// ODOMETRY quality (0-100, -1 for a bridged frame) when the caller has one: `aerovo run`
+  /// gives pipeline/pose_quality.h PoseQuality, the number its pose stream carries too. Unset:
+  /// -1 bridged, 100 first frame, else the inlier count capped at 100.
+  std::optional<int> quality;
   double gsd_m_per_px = 1.0;     ///< Ground sampling distance of the frame.
   double sigma_px = 0.75;        ///< 1-sigma residual of one inlier, px (half the threshold).
   double half_width_px = 320.0;  ///< Half the frame's width: the lever arm of a rotation.

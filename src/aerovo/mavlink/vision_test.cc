@@ -87,6 +87,12 @@ TEST(MavlinkVision, BridgedAndReacquiredFrames) {
   const VisionMessages ok = b.Add(Pose(2.0, 0.5, 19, 0, VisionPose::Status::kOk, 5));
   EXPECT_EQ(ok.odometry.reset_counter, 1);  // stays until the next re-anchoring
   EXPECT_EQ(ok.odometry.quality, 5);
+  // The caller's quality (aerovo run: PoseQuality) is sent as is, within [-1, 100].
+  VisionPose given = Pose(2.5, 0.5, 24, 0, VisionPose::Status::kOk, 5);
+  given.quality = 73;
+  EXPECT_EQ(b.Add(given).odometry.quality, 73);
+  given.quality = 250;
+  EXPECT_EQ(b.Add(given).odometry.quality, 100);
 }
 
 TEST(MavlinkVision, AttitudeFromTheAutopilotInTheQuaternion) {

@@ -647,6 +647,7 @@ void FrameLoop::SendVision(const FrameResult& r, double capture_mono_s, double c
   }
   p.status = StatusOf(r.status);
   p.n_inliers = r.n_inliers;
+  p.quality = PoseQuality(r);  // the pose stream's number
   p.gsd_m_per_px = r.gsd_m_per_px;
   p.sigma_px = 0.5 * vo_options_.correspondence.ransac.max_distance_px;
   p.half_width_px = 0.5 * frame_.gray.width();
