@@ -221,18 +221,105 @@ struct Surf::Impl {
     return order;
   }
 
-  std::vector<Keypoint> FastHessian();
+  // Adaptive selection (SurfOptions::adaptive); buffers reused between calls.
+  std::vector<std::uint32_t> cell_start;
+  std::vector<Keypoint> by_cell, kept, rest;
+  int last_candidates = 0;
+  double last_range = 0.0, last_floor = 0.0;
+
+  // The threshold of the fast-Hessian for this image: hessian_threshold, or in adaptive mode the
+  // floor min_response * (range / 255)^2 (sets last_range, last_floor).
+  float DetectionThreshold(const GrayImageView& image);
+  // Adaptive mode: keeps per cell its strongest points, then the strongest of the rest up to
+  // target_points; then sorts (StrongerFirst) and applies max_keypoints in both modes.
+  void Select(std::vector<Keypoint>& kps);
+  std::vector<Keypoint> FastHessian(float threshold);
   void Orient(std::vector<Keypoint>& kps);
   void DescribeAll(const std::vector<Keypoint>& kps, float* out, int dsize);
   float Orientation(const Keypoint& kp) const;
   void DescribeOne(const Keypoint& kp, float* out) const;
 };
 
-std::vector<Keypoint> Surf::Impl::FastHessian() {
+float Surf::Impl::DetectionThreshold(const GrayImageView& image) {
+  last_candidates = 0;
+  last_range = last_floor = 0.0;
+  if (!options.adaptive) return static_cast<float>(options.hessian_threshold);
+  // Robust intensity range: 1st to 99th percentile of the pixels of the image (or roi) sampled
+  // every 4th pixel of every 4th row (enough for a percentile; ~0.1 ms at 1080p).
+  const RectI r = options.roi ? *options.roi : RectI{0, 0, image.width, image.height};
+  std::array<std::uint32_t, 256> hist{};
+  std::uint32_t n = 0;
+  for (int y = r.y; y < r.y + r.height; y += 4) {
+    const std::uint8_t* row = image.data + static_cast<std::ptrdiff_t>(y) * image.stride;
+    for (int x = r.x; x < r.x + r.width; x += 4) ++hist[row[x]];
+  }
+  for (std::uint32_t h : hist) n += h;
+  const std::uint32_t lo_rank = n / 100, hi_rank = n - 1 - n / 100;
+  int lo = 0, hi = 255;
+  std::uint32_t cum = 0;
+  for (int v = 0; v < 256; ++v) {
+    if (cum <= lo_rank && cum + hist[v] > lo_rank) lo = v;
+    if (cum <= hi_rank && cum + hist[v] > hi_rank) hi = v;
+    cum += hist[v];
+  }
+  constexpr double kMinRange = 8.0;  // A nearly uniform frame is not amplified into noise.
+  last_range = hi - lo;
+  const double c = std::max(last_range, kMinRange) / 255.0;
+  last_floor = options.min_response * c * c;
+  return static_cast<float>(last_floor);
+}
+
+void Surf::Impl::Select(std::vector<Keypoint>& kps) {
+  last_candidates = options.adaptive ? static_cast<int>(kps.size()) : 0;
+  const std::size_t target = static_cast<std::size_t>(options.target_points);
+  if (options.adaptive && kps.size() > target) {
+    const int g = options.grid, cells = g * g;
+    const RectI r = options.roi ? *options.roi : RectI{0, 0, ii.width(), ii.height()};
+    const auto cell_of = [&](const Keypoint& kp) {
+      const int cx = std::clamp(static_cast<int>((kp.x - r.x) * g / r.width), 0, g - 1);
+      const int cy = std::clamp(static_cast<int>((kp.y - r.y) * g / r.height), 0, g - 1);
+      return cy * g + cx;
+    };
+    // Counting sort of the candidates by cell.
+    cell_start.assign(cells + 1, 0);
+    for (const Keypoint& kp : kps) ++cell_start[cell_of(kp) + 1];
+    for (int c = 0; c < cells; ++c) cell_start[c + 1] += cell_start[c];
+    by_cell.resize(kps.size());
+    for (const Keypoint& kp : kps) by_cell[cell_start[cell_of(kp)]++] = kp;
+    for (int c = cells; c > 0; --c) cell_start[c] = cell_start[c - 1];
+    cell_start[0] = 0;
+    // Each cell's strongest `quota` (StrongerFirst is a total order: the same set whatever the
+    // order the threads found them in), then the strongest of the others up to the target.
+    const std::size_t quota = std::max<std::size_t>(1, target / cells);
+    kept.clear();
+    rest.clear();
+    for (int c = 0; c < cells; ++c) {
+      const auto b = by_cell.begin() + cell_start[c], e = by_cell.begin() + cell_start[c + 1];
+      if (static_cast<std::size_t>(e - b) > quota) {
+        std::nth_element(b, b + quota, e, StrongerFirst);
+        kept.insert(kept.end(), b, b + quota);
+        rest.insert(rest.end(), b + quota, e);
+      } else {
+        kept.insert(kept.end(), b, e);
+      }
+    }
+    if (kept.size() < target && !rest.empty()) {
+      const std::size_t more = std::min(target - kept.size(), rest.size());
+      std::nth_element(rest.begin(), rest.begin() + more, rest.end(), StrongerFirst);
+      kept.insert(kept.end(), rest.begin(), rest.begin() + more);
+    }
+    kps.swap(kept);
+  }
+  std::sort(kps.begin(), kps.end(), StrongerFirst);
+  if (options.max_keypoints > 0 && kps.size() > static_cast<std::size_t>(options.max_keypoints)) {
+    kps.resize(options.max_keypoints);
+  }
+}
+
+std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
   const int W = ii.width(), H = ii.height();
   const int levels = options.num_scale_levels;
   const int threads = ResolveThreads(options.num_threads);
-  const float threshold = static_cast<float>(options.hessian_threshold);
   std::vector<Keypoint> keypoints;
 
   for (int octave = 0; octave < options.num_octaves; ++octave) {
@@ -385,11 +472,6 @@ std::vector<Keypoint> Surf::Impl::FastHessian() {
       }
     }
     for (const auto& f : found) keypoints.insert(keypoints.end(), f.begin(), f.end());
-  }
-  std::sort(keypoints.begin(), keypoints.end(), StrongerFirst);
-  if (options.max_keypoints > 0 &&
-      keypoints.size() > static_cast<std::size_t>(options.max_keypoints)) {
-    keypoints.resize(options.max_keypoints);
   }
   return keypoints;
 }
@@ -626,9 +708,13 @@ SurfResult Surf::DetectAndDescribe(const GrayImageView& image) {
   SurfResult result;
   Stopwatch watch;
   impl_->Prepare(image);
-  std::vector<Keypoint> kps = impl_->FastHessian();
+  std::vector<Keypoint> kps = impl_->FastHessian(impl_->DetectionThreshold(image));
+  impl_->Select(kps);
   impl_->Orient(kps);
   result.detect_ms = watch.elapsed_ms();
+  result.candidates = impl_->last_candidates;
+  result.contrast_range = impl_->last_range;
+  result.floor_response = impl_->last_floor;
   watch.restart();
   FeatureSet& fs = result.features;
   fs.descriptor_size = impl_->options.extended ? 128 : 64;
@@ -641,7 +727,8 @@ SurfResult Surf::DetectAndDescribe(const GrayImageView& image) {
 
 std::vector<Keypoint> Surf::Detect(const GrayImageView& image) {
   impl_->Prepare(image);
-  std::vector<Keypoint> kps = impl_->FastHessian();
+  std::vector<Keypoint> kps = impl_->FastHessian(impl_->DetectionThreshold(image));
+  impl_->Select(kps);
   impl_->Orient(kps);
   return kps;
 }
