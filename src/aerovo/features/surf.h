@@ -79,9 +79,10 @@ struct SurfOptions {
   /// Adaptive: the floor of the Hessian determinant, on a frame of full contrast (robust range
   /// 255 intensity levels); the frame's floor is this times (range / 255)^2, the range being the
   /// 1st to 99th percentile of its intensities (at least 8 levels, so that a nearly uniform
-  /// frame is not amplified into noise). Default 20 (1/50 of MATLAB's threshold: candidates
-  /// enough for the weakest cell of a low-texture frame; BENCHMARKS.md).
-  double min_response = 20.0;
+  /// frame is not amplified into noise). Default 100 (1/10 of MATLAB's threshold; the thermal-like
+  /// simulated flight gives the same track at 20, 100 and 300, and the floor sets the cost of
+  /// the adaptation: BENCHMARKS.md, "Adaptive interest points").
+  double min_response = 100.0;
   /// Threads for detection and description; 1 = single-threaded, 0 = all cores. Results are
   /// identical for any value. On a machine shared with other busy processes, run with
   /// OMP_WAIT_POLICY=passive (libgomp's spinning workers otherwise slow every call).
@@ -120,6 +121,13 @@ struct SurfResult {
   int candidates = 0;
   double contrast_range = 0.0;
   double floor_response = 0.0;
+  /// Adaptive mode: a floor (min_response units, full contrast) for the next frame of a stream:
+  /// half the weakest cell's first dropped response, or half this frame's floor when some cell
+  /// (or the frame) had fewer candidates than its share. Passing it to the next call
+  /// (steered_min_response) keeps the candidates few on textured frames (the cost of the
+  /// adaptation: BENCHMARKS.md) and lets the floor fall back to min_response when frames get
+  /// weaker. 0 in fixed-threshold mode.
+  double next_min_response = 0.0;
 };
 
 /// Reusable SURF engine. Keeps its buffers (integral image, response maps) between calls, so
@@ -134,9 +142,12 @@ class Surf {
 
   const SurfOptions& options() const;
 
-  /// Detects keypoints and describes them.
+  /// Detects keypoints and describes them. Adaptive mode: the floor is max(min_response,
+  /// steered_min_response) times the frame's contrast factor; a stream passes the previous
+  /// frame's SurfResult::next_min_response (the odometry does), a single image 0. Ignored in
+  /// fixed-threshold mode.
   /// Throws InvalidArgument if the image is empty or smaller than the smallest filter.
-  SurfResult DetectAndDescribe(const GrayImageView& image);
+  SurfResult DetectAndDescribe(const GrayImageView& image, double steered_min_response = 0.0);
 
   /// Detects keypoints only (with orientation unless upright).
   std::vector<Keypoint> Detect(const GrayImageView& image);
