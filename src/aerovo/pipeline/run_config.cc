@@ -35,11 +35,15 @@ const std::vector<RunShorthand>& RunShorthands() {
   return shorthands;
 }
 
-RunConfig PaperRunConfig() {
-  RunConfig c;
+void ApplyPaperPreset(RunConfig& c) {
   c.odometry.surf.adaptive = false;
   c.odometry.correspondence.guided_matching = false;
   c.odometry.correspondence.clustered.refine = false;
+}
+
+RunConfig PaperRunConfig() {
+  RunConfig c;
+  ApplyPaperPreset(c);
   return c;
 }
 

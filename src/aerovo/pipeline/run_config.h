@@ -117,6 +117,8 @@ void VisitFields(RunConfig& c, V& v) {
 /// frame matched exhaustively, as matchFeatures) and clustered.refine = false (the clustered
 /// RANSAC's best cell fit as it is). Options given after it (flags, config file) still win.
 RunConfig PaperRunConfig();
+/// Sets the paper preset's options (those PaperRunConfig changes) in `config`, leaving the rest.
+void ApplyPaperPreset(RunConfig& config);
 /// The presets in one table (run_config.cc), for docs/options.md: name, what it sets.
 struct RunPreset {
   const char* name;
