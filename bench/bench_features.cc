@@ -116,6 +116,33 @@ void BM_SurfDetectAndDescribe(benchmark::State& state) {
   state.counters["keypoints"] = static_cast<double>(n);
 }
 
+// The default of `aerovo run` (SurfOptions::adaptive with its defaults: a contrast-normalised
+// floor, per-cell selection of target_points, only the kept points described). Counters: points
+// kept and candidates above the floor.
+void BM_SurfAdaptiveDetectAndDescribe(benchmark::State& state) {
+  const cv::Mat* m = GetImage(state);
+  if (m == nullptr) return;
+  aerovo::SurfOptions o = Options(state);
+  o.adaptive = true;
+  if (state.range(2) > 0) o.min_response = static_cast<double>(state.range(2));
+  aerovo::Surf surf(o);
+  std::size_t n = 0;
+  int candidates = 0;
+  // Steered as in a stream of this image (the odometry passes each frame's next_min_response
+  // to the next call): the steady state of a flight over similar ground.
+  double steered = surf.DetectAndDescribe(View(*m)).next_min_response;
+  for (auto _ : state) {
+    aerovo::SurfResult r = surf.DetectAndDescribe(View(*m), steered);
+    steered = r.next_min_response;
+    n = r.features.size();
+    candidates = r.candidates;
+    benchmark::DoNotOptimize(r.features.descriptors.data());
+  }
+  state.counters["keypoints"] = static_cast<double>(n);
+  state.counters["candidates"] = static_cast<double>(candidates);
+  state.counters["floor"] = steered;
+}
+
 template <typename Make>
 void OpenCvDetectAndCompute(benchmark::State& state, Make make) {
   const cv::Mat* m = GetImage(state);
@@ -153,6 +180,13 @@ void SurfArgs(benchmark::internal::Benchmark* b) {
 BENCHMARK(BM_SurfDetect)->Apply(SurfArgs);
 BENCHMARK(BM_SurfDescribe)->Apply(SurfArgs);
 BENCHMARK(BM_SurfDetectAndDescribe)->Apply(SurfArgs);
+// Args: {image, threads, surf.min_response (0 = the default)}: the cost of the floor.
+BENCHMARK(BM_SurfAdaptiveDetectAndDescribe)
+    ->ArgNames({"image", "threads", "min_response"})
+    ->ArgsProduct({{0, 1, 2}, {1, 0}, {0}})
+    ->ArgsProduct({{2}, {1}, {50, 100, 200, 400}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 // OpenCV baselines on the 1080p crop, single-threaded (cv::setNumThreads(1)).
 BENCHMARK(BM_OpenCvSift)
     ->Args({2, 1})

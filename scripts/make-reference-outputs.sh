@@ -1,13 +1,16 @@
 #!/usr/bin/env bash
 # Writes the reference outputs that tests/e2e/reference_outputs_test.cc compares every build
 # with: `aerovo run` on tampa-phantom3 (--altitude 57), turin-p4m and a simulated flight over
-# the built-in terrain, each in the default mode and in the paper's mode (--guided 0 --refine 0).
+# the built-in terrain, each in the default mode and in the paper's mode (--paper).
 # Per case, tests/reference/CASE.csv holds each frame's position (vo.tum, metres, 6 decimals),
 # status, matches, inliers and cell; CASE.summary.json the summary's frame counts and
-# comparisons (with GPS, with the truth). Run it with a build whose behaviour is the reference
-# (the pre-refactor build for issue 17), only when a change of behaviour is intended, and say
-# so in the commit.
-#   scripts/make-reference-outputs.sh path/to/aerovo [shared-dir]
+# comparisons (with GPS, with the truth). Run it with a build whose behaviour is the reference,
+# only when a change of behaviour is intended, and say so in the commit. Which build wrote which:
+# - *-paper.*: the pre-refactor build of issue 17 (then with --guided 0 --refine 0; --paper,
+#   issue 14, reproduces them exactly, which the test proves);
+# - *-default.*: the build of branch feat (issue 14 item 1: adaptive interest points, the new
+#   default), regenerated with MODES=default so that the paper ones stay those of issue 17.
+#   scripts/make-reference-outputs.sh path/to/aerovo [shared-dir]      (MODES="default paper")
 set -euo pipefail
 cli=$(realpath "$1")
 shared=$(realpath "${2:-$(dirname "$0")/../../shared}")
@@ -21,9 +24,9 @@ trap 'rm -rf "$work"' EXIT
 declare -A input=([tampa]="$shared/data/flights/tampa-phantom3 --altitude 57"
   [turin]="$shared/data/flights/turin-p4m" [sim]="$work/sim/frames")
 for name in tampa turin sim; do
-  for mode in default paper; do
+  for mode in ${MODES:-default paper}; do
     extra=""
-    [ "$mode" = paper ] && extra="--guided 0 --refine 0"
+    [ "$mode" = paper ] && extra="--paper"
     out="$work/$name-$mode"
     # shellcheck disable=SC2086
     "$cli" run ${input[$name]} $extra --quiet --no-report -o "$out" > /dev/null

@@ -42,6 +42,7 @@ struct SimulateArgs {
   std::string image_format = "jpg";
   std::string codec = "avc1";
   std::string start_time = "2026-05-01T10:00:00";
+  std::string render = "visible";  // visible | thermal
   bool quiet = false;
   bool force = false;
 };
@@ -147,8 +148,11 @@ void Run(const SimulateArgs& a, sim::SimulationOptions o, const sim::WriterOptio
                o.camera.width_px, o.camera.height_px, sim::FocalPx(o.camera),
                sim::HorizontalFovDeg(o.camera),
                sim::NadirGsdMetresPerPx(o.camera, o.flight.height_m));
-    fmt::print("  effects    k {}, noise {} DN, blur {} px, jpeg {}; GPS noise {} m (seed {})\n",
-               o.effects.illumination_k, o.effects.noise_sigma_dn, o.effects.motion_blur_px,
+    fmt::print("  effects    {}contrast {}, optics blur {} px, k {}, noise {} DN, blur {} px, "
+               "jpeg {}; GPS noise {} m (seed {})\n",
+               o.effects.grayscale ? "grey, " : "", o.effects.contrast,
+               o.effects.optics_blur_sigma_px, o.effects.illumination_k, o.effects.noise_sigma_dn,
+               o.effects.motion_blur_px,
                o.effects.jpeg_quality, o.gps.horizontal_sigma_m, o.seed);
     fmt::print("  origin     {:.7f} N {:.7f} E (ground truth ENU origin; planned in {:.0f} ms)\n",
                simulator.origin().lat_deg, simulator.origin().lon_deg, plan_ms);
@@ -272,6 +276,17 @@ void Register(CLI::App& app) {
   cmd->add_option("--jpeg-quality", opt->effects.jpeg_quality,
                   "JPEG round trip of every frame (1..100; 0 = none)")
       ->capture_default_str();
+  cmd->add_option("--contrast", opt->effects.contrast,
+                  "Contrast factor c in (0, 1]: v -> mean + c (v - mean)")
+      ->capture_default_str();
+  cmd->add_option("--optics-blur", opt->effects.optics_blur_sigma_px,
+                  "Gaussian blur of the optics, sigma (px)")
+      ->capture_default_str();
+  cmd->add_flag("--grey", opt->effects.grayscale, "No colour (luminance in every channel)");
+  cmd->add_option("--render", args->render,
+                  "visible | thermal: a thermal-like camera (640x512, 45 deg hfov, grey, contrast "
+                  "0.15, optics blur 1.2 px, noise 1.5 DN; flags given explicitly win)")
+      ->capture_default_str();
   cmd->add_option("--gps-noise-m", opt->gps.horizontal_sigma_m,
                   "GPS horizontal error sigma per axis (m)")
       ->capture_default_str();
@@ -296,7 +311,21 @@ void Register(CLI::App& app) {
   cmd->add_flag("--force", args->force,
                 "Write into a non-empty output folder: first remove what an earlier simulation "
                 "wrote there (other files are kept)");
-  cmd->callback([args, opt, writer] {
+  cmd->callback([args, opt, writer, cmd] {
+    if (args->render == "thermal") {
+      // The preset fills what the command line did not give.
+      const sim::EffectsOptions t = sim::ThermalEffects();
+      const auto unset = [cmd](const char* flag) { return cmd->count(flag) == 0; };
+      if (unset("--width")) opt->camera.width_px = sim::kThermalWidthPx;
+      if (unset("--height")) opt->camera.height_px = sim::kThermalHeightPx;
+      if (unset("--hfov-deg") && unset("--focal-px")) opt->camera.hfov_deg = sim::kThermalHfovDeg;
+      if (unset("--grey")) opt->effects.grayscale = t.grayscale;
+      if (unset("--contrast")) opt->effects.contrast = t.contrast;
+      if (unset("--optics-blur")) opt->effects.optics_blur_sigma_px = t.optics_blur_sigma_px;
+      if (unset("--noise")) opt->effects.noise_sigma_dn = t.noise_sigma_dn;
+    } else if (args->render != "visible") {
+      throw InvalidArgument("--render must be 'visible' or 'thermal', not '" + args->render + "'");
+    }
     writer->write_video = !args->frames_only;
     writer->video_codec = args->codec;
     writer->image_format = args->image_format;

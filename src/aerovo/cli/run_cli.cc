@@ -114,7 +114,7 @@ class FlagBinder : public options::GroupingVisitor<FlagBinder> {
 }  // namespace
 
 RunConfig RunFlags::Resolve() const {
-  RunConfig config;
+  RunConfig config = paper ? PaperRunConfig() : RunConfig{};
   if (!config_file.empty()) config = LoadRunConfig(config_file, config);
   return RunConfigFromJson(given, config, "command line");
 }
@@ -124,6 +124,9 @@ void AddRunFlags(CLI::App* cmd, RunFlags& a, const std::set<std::string>& skip) 
                   "JSON or YAML (.yaml/.yml) file with any of the options below (keys as in the "
                   "saved config.json, which it accepts as it is; aerovo run --list-options lists "
                   "them); flags given on the command line win");
+  cmd->add_flag("--paper", a.paper,
+                "The paper's exact pipeline: fixed SURF threshold (MATLAB), no guided matching, no "
+                "refinement (docs/options.md, Presets); options given with it still win");
   FlagBinder binder(cmd, a, skip);
   const RunConfig defaults;
   options::Visit(defaults, binder);

@@ -24,12 +24,15 @@ namespace aerovo::cli {
 /// not given leaves the file's (or the default) value.
 struct RunFlags {
   std::string config_file;
+  /// --paper: start from PaperRunConfig() (run_config.h) instead of RunConfig's defaults.
+  bool paper = false;
   /// The options given on the command line, by the config key of the flag used (canonical key,
   /// legacy alias or shorthand): applied over the config file as one more JSON object, so that
   /// two names of one option with different values are an error there too.
   nlohmann::json given = nlohmann::json::object();
 
-  /// The effective configuration: defaults, then the --config file, then the given flags.
+  /// The effective configuration: defaults (or the paper's, --paper), then the --config file,
+  /// then the given flags.
   /// Not validated (the caller may still change fields, then call Validate).
   RunConfig Resolve() const;
 };

@@ -59,6 +59,30 @@ struct SurfOptions {
   bool upright = false;
   /// 128-value descriptor instead of 64. Default false (MATLAB FeatureSize 64).
   bool extended = false;
+  /// Adaptive interest points (aerovo's, not MATLAB's; the default of `aerovo run`, see
+  /// OdometryOptions): instead of the fixed hessian_threshold (then ignored), every frame keeps
+  /// about target_points well-spread points whatever its contrast. The fast-Hessian runs once at
+  /// a low floor, min_response scaled by the frame's contrast ((robust intensity range / 255)^2:
+  /// the determinant scales with the square of the intensities, so a dim or hazy frame has the
+  /// same floor relative to its texture as a bright one); then each cell of a grid x grid grid
+  /// over the image (or roi) keeps its strongest target_points / grid^2 points, and the rest of
+  /// the target goes to the strongest remaining points anywhere; only the kept points get an
+  /// orientation and a descriptor. Default false (MATLAB's fixed threshold).
+  bool adaptive = false;
+  /// Adaptive: points kept per frame (fewer when the frame has fewer above the floor).
+  /// Default 1500 (BENCHMARKS.md, "Adaptive interest points": simulated flights, normal and
+  /// thermal-like, and the shared flights).
+  int target_points = 1500;
+  /// Adaptive: cells per side of the spreading grid. Default 6 (a multiple of the 3x3 cells of
+  /// the clustered RANSAC, so that every one of its cells gets points).
+  int grid = 6;
+  /// Adaptive: the floor of the Hessian determinant, on a frame of full contrast (robust range
+  /// 255 intensity levels); the frame's floor is this times (range / 255)^2, the range being the
+  /// 1st to 99th percentile of its intensities (at least 8 levels, so that a nearly uniform
+  /// frame is not amplified into noise). Default 100 (1/10 of MATLAB's threshold; the thermal-like
+  /// simulated flight gives the same track at 20, 100 and 300, and the floor sets the cost of
+  /// the adaptation: BENCHMARKS.md, "Adaptive interest points").
+  double min_response = 100.0;
   /// Threads for detection and description; 1 = single-threaded, 0 = all cores. Results are
   /// identical for any value. On a machine shared with other busy processes, run with
   /// OMP_WAIT_POLICY=passive (libgomp's spinning workers otherwise slow every call).
@@ -78,6 +102,10 @@ void VisitFields(SurfOptions& o, V& v) {
   v.Field(o.max_keypoints, "max_keypoints", "Keep the N strongest keypoints per frame (0 = all)", AtLeast(0).Alias("max_keypoints"));
   v.Field(o.upright, "upright", "No orientation (faster, not rotation invariant)", Any());
   v.Field(o.extended, "extended", "128-value descriptor instead of 64", Any());
+  v.Field(o.adaptive, "adaptive", "Adaptive points: about target_points per frame spread over a grid, whatever the contrast (false = fixed hessian_threshold, MATLAB)", Any());
+  v.Field(o.target_points, "target_points", "Adaptive: points kept per frame", Interval(1, 1000000));
+  v.Field(o.grid, "grid", "Adaptive: cells per side of the spreading grid (each keeps its strongest points)", Interval(1, 64));
+  v.Field(o.min_response, "min_response", "Adaptive: Hessian floor at full contrast, scaled by (frame's robust intensity range / 255)^2", AtLeast(0).Finite());
   v.Field(o.num_threads, "num_threads", "SURF threads (0 = all cores; same results)", AtLeast(0));
 }
 // clang-format on
@@ -87,6 +115,19 @@ struct SurfResult {
   FeatureSet features;       ///< Keypoints (sorted by decreasing response) and descriptors.
   double detect_ms = 0.0;    ///< Integral image + fast-Hessian + orientation.
   double describe_ms = 0.0;  ///< Descriptor computation.
+  /// Adaptive mode: points found above the frame's floor (before the selection), the frame's
+  /// robust intensity range (1st to 99th percentile, levels) and its floor (determinant units).
+  /// 0 in fixed-threshold mode.
+  int candidates = 0;
+  double contrast_range = 0.0;
+  double floor_response = 0.0;
+  /// Adaptive mode: a floor (min_response units, full contrast) for the next frame of a stream:
+  /// half the weakest cell's first dropped response, or half this frame's floor when some cell
+  /// (or the frame) had fewer candidates than its share. Passing it to the next call
+  /// (steered_min_response) keeps the candidates few on textured frames (the cost of the
+  /// adaptation: BENCHMARKS.md) and lets the floor fall back to min_response when frames get
+  /// weaker. 0 in fixed-threshold mode.
+  double next_min_response = 0.0;
 };
 
 /// Reusable SURF engine. Keeps its buffers (integral image, response maps) between calls, so
@@ -101,9 +142,12 @@ class Surf {
 
   const SurfOptions& options() const;
 
-  /// Detects keypoints and describes them.
+  /// Detects keypoints and describes them. Adaptive mode: the floor is max(min_response,
+  /// steered_min_response) times the frame's contrast factor; a stream passes the previous
+  /// frame's SurfResult::next_min_response (the odometry does), a single image 0. Ignored in
+  /// fixed-threshold mode.
   /// Throws InvalidArgument if the image is empty or smaller than the smallest filter.
-  SurfResult DetectAndDescribe(const GrayImageView& image);
+  SurfResult DetectAndDescribe(const GrayImageView& image, double steered_min_response = 0.0);
 
   /// Detects keypoints only (with orientation unless upright).
   std::vector<Keypoint> Detect(const GrayImageView& image);

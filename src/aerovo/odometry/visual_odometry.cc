@@ -149,6 +149,7 @@ struct VisualOdometry::Impl {
                         o.correspondence.clustered.refine_fallback) {}
 
   Surf surf;
+  double surf_min_response = 0.0;  // Adaptive SURF's floor for the next frame (0 = its option).
   CorrespondenceStage guided, unguided, relocalise;
   // A relocalisation is a standard result: refit on all points like a fall-back
   // (ClusteredRansacOptions::refine_fallback) in a clustered run.
@@ -381,7 +382,9 @@ FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
   const double gsd = Impl::GroundSamplingDistance(o, r.index, height_m);
   r.gsd_m_per_px = gsd;
 
-  SurfResult features = s.surf.DetectAndDescribe(frame);
+  // Adaptive SURF: the floor steered by the previous frame (SurfResult::next_min_response).
+  SurfResult features = s.surf.DetectAndDescribe(frame, s.surf_min_response);
+  s.surf_min_response = features.next_min_response;
   r.detect_ms = features.detect_ms;
   r.describe_ms = features.describe_ms;
   r.n_surf = static_cast<int>(features.features.size());

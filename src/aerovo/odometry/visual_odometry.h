@@ -24,11 +24,16 @@ namespace aerovo {
 
 /// Options of the odometry pipeline. Plain aggregate; check with Validate().
 struct OdometryOptions {
-  /// SURF options. Defaults = MATLAB's (surf.h) except num_threads = 0 (all cores): the
-  /// odometry is the one consumer that owns the whole machine.
+  /// SURF options. Defaults = MATLAB's (surf.h) except:
+  /// - num_threads = 0 (all cores): the odometry is the one consumer that owns the whole machine;
+  /// - adaptive = true: every frame keeps about surf.target_points points spread over the image
+  ///   whatever its contrast (dim, hazy, thermal, low-texture frames still give a step; issue 14,
+  ///   BENCHMARKS.md "Adaptive interest points"). surf.adaptive = false (or `--paper`) is the
+  ///   paper's fixed MATLAB threshold.
   SurfOptions surf = [] {
     SurfOptions s;
     s.num_threads = 0;
+    s.adaptive = true;
     return s;
   }();
   /// Correspondence stage (matching + RANSAC, correspondence.h). Defaults are that module's

@@ -161,6 +161,9 @@ class ExperimentOnSimulatedFlight : public ::testing::Test {
   static ExperimentInput Input(const std::string& name) {
     ExperimentInput in;
     in.run = flight_->run;
+    // The paper's protocol (fixed SURF threshold): what these tests measure (N_SURF falling
+    // with k). The defaults' adaptive points are tested in tests/e2e/adaptive_points_test.cc.
+    ApplyPaperPreset(in.run);
     in.run.quiet = true;
     in.out_dir = *root_ / name;
     return in;

@@ -37,6 +37,32 @@ const std::vector<RunShorthand>& RunShorthands() {
   return shorthands;
 }
 
+void ApplyPaperPreset(RunConfig& c) {
+  c.odometry.surf.adaptive = false;
+  c.odometry.correspondence.guided_matching = false;
+  c.odometry.correspondence.clustered.refine = false;
+}
+
+RunConfig PaperRunConfig() {
+  RunConfig c;
+  ApplyPaperPreset(c);
+  return c;
+}
+
+const std::vector<RunPreset>& RunPresets() {
+  static const std::vector<RunPreset> presets = {
+      {"paper",
+       "The paper's exact pipeline (Ivanov & Muzychuk 2023, MATLAB semantics): SURF with the fixed "
+       "threshold of detectSURFFeatures (surf.hessian_threshold, default 1000), every frame "
+       "matched exhaustively, the clustered RANSAC's best cell fit as it is; what `aerovo "
+       "experiment --paper` uses to reproduce the paper's figures",
+       {{"surf.adaptive", "false"},
+        {"correspondence.guided_matching", "false"},
+        {"clustered.refine", "false"}}},
+  };
+  return presets;
+}
+
 void Validate(const RunConfig& c) {
   const std::string context = "run configuration";
   const auto fail = [&](const std::string& m) { throw InvalidArgument(context + ": " + m); };
@@ -123,6 +149,16 @@ std::string RunOptionsMarkdown() {
     for (const char* k : s.keys) keys += std::string(keys.empty() ? "" : ", ") + "`" + k + "`";
     md += std::string("| `") + s.name + "` | `" + options::FlagName(s.name) + "` | " + keys +
           " | " + s.doc + " |\n";
+  }
+  md += "\n## Presets\n\nA flag that starts from other defaults; options given with it (flags, "
+        "`--config`) still win.\n\n";
+  md += "| Flag | Sets | Description |\n|---|---|---|\n";
+  for (const RunPreset& p : RunPresets()) {
+    std::string keys;
+    for (const auto& [k, v] : p.sets) {
+      keys += std::string(keys.empty() ? "" : ", ") + "`" + k + " = " + v + "`";
+    }
+    md += std::string("| `--") + p.name + "` | " + keys + " | " + p.doc + " |\n";
   }
   return md;
 }

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -185,6 +186,21 @@ void VisitFields(RunConfig& c, V& v) {
   v.Group("odometry", c.odometry);
 }
 // clang-format on
+/// The paper's exact pipeline (Ivanov & Muzychuk 2023; `aerovo run --paper`, also for
+/// `aerovo experiment`): RunConfig's defaults with surf.adaptive = false (MATLAB
+/// detectSURFFeatures' fixed MetricThreshold 1000), correspondence.guided_matching = false (every
+/// frame matched exhaustively, as matchFeatures) and clustered.refine = false (the clustered
+/// RANSAC's best cell fit as it is). Options given after it (flags, config file) still win.
+RunConfig PaperRunConfig();
+/// Sets the paper preset's options (those PaperRunConfig changes) in `config`, leaving the rest.
+void ApplyPaperPreset(RunConfig& config);
+/// The presets in one table (run_config.cc), for docs/options.md: name, what it sets.
+struct RunPreset {
+  const char* name;
+  const char* doc;
+  std::vector<std::pair<const char*, const char*>> sets;  ///< key, value as written in docs.
+};
+const std::vector<RunPreset>& RunPresets();
 /// A flat key that sets several options at once (`threads`); giving it and one of its
 /// keys with different values is an error naming both.
 struct RunShorthand {

@@ -131,6 +131,13 @@ void Validate(const EffectsOptions& e) {
     throw InvalidArgument(
         fmt::format("EffectsOptions: motion_blur_px = {} must be in [0, 200]", e.motion_blur_px));
   }
+  if (!(e.contrast > 0.0 && e.contrast <= 1.0)) {
+    throw InvalidArgument(fmt::format("EffectsOptions: contrast = {} must be in (0, 1]", e.contrast));
+  }
+  if (!(e.optics_blur_sigma_px >= 0.0 && e.optics_blur_sigma_px <= 50.0)) {
+    throw InvalidArgument(fmt::format("EffectsOptions: optics_blur_sigma_px = {} must be in [0, 50]",
+                                      e.optics_blur_sigma_px));
+  }
   if (e.jpeg_quality < 0 || e.jpeg_quality > 100) {
     throw InvalidArgument(fmt::format(
         "EffectsOptions: jpeg_quality = {} must be in [0, 100] (0 = none)", e.jpeg_quality));
@@ -167,6 +174,20 @@ void ApplyEffects(cv::Mat& frame, const EffectsOptions& e, const Eigen::Vector2d
   if (frame.empty() || frame.depth() != CV_8U) {
     throw InvalidArgument("ApplyEffects: the frame must be a non-empty 8-bit image");
   }
+  if (e.grayscale && frame.channels() == 3) {
+    cv::Mat grey;
+    cv::cvtColor(frame, grey, cv::COLOR_BGR2GRAY);
+    cv::cvtColor(grey, frame, cv::COLOR_GRAY2BGR);
+  }
+  if (e.contrast != 1.0) {
+    const cv::Scalar mean = cv::mean(frame);
+    const double m = (mean[0] + mean[1] + mean[2]) / std::max(1, std::min(3, frame.channels()));
+    frame.convertTo(frame, -1, e.contrast, (1.0 - e.contrast) * m);
+  }
+  if (e.optics_blur_sigma_px > 0.0) {
+    cv::GaussianBlur(frame, frame, cv::Size(0, 0), e.optics_blur_sigma_px, e.optics_blur_sigma_px,
+                     cv::BORDER_REFLECT101);
+  }
   if (e.motion_blur_px > 0.0) {
     cv::filter2D(frame, frame, -1, LineKernel(e.motion_blur_px, motion_px), cv::Point(-1, -1), 0,
                  cv::BORDER_REFLECT101);
@@ -186,6 +207,15 @@ void ApplyEffects(cv::Mat& frame, const EffectsOptions& e, const Eigen::Vector2d
     cv::imencode(".jpg", frame, buf, {cv::IMWRITE_JPEG_QUALITY, e.jpeg_quality});
     frame = cv::imdecode(buf, frame.channels() == 1 ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR);
   }
+}
+
+EffectsOptions ThermalEffects() {
+  EffectsOptions e;
+  e.grayscale = true;
+  e.contrast = 0.15;
+  e.optics_blur_sigma_px = 1.2;
+  e.noise_sigma_dn = 1.5;
+  return e;
 }
 
 Eigen::Vector2d ImageMotionPx(const CameraModel& camera, const CameraPose& a, const CameraPose& b) {

@@ -74,8 +74,19 @@ class GroundRenderer {
   int mask_level_ = 0;
 };
 
-/// Image effects, applied in this order: motion blur, illumination k, sensor noise, JPEG.
+/// Image effects, applied in this order: grey, contrast, optics blur, motion blur,
+/// illumination k, sensor noise, JPEG.
 struct EffectsOptions {
+  /// No colour: every pixel becomes its luminance (cv::COLOR_BGR2GRAY), kept in all channels.
+  /// Default false.
+  bool grayscale = false;
+  /// Contrast factor c in (0, 1]: every pixel v becomes m + c (v - m), m the frame's mean
+  /// brightness (a thermal camera sees small temperature differences over a ground of nearly
+  /// one temperature). Default 1 (none).
+  double contrast = 1.0;
+  /// Gaussian blur of the optics, standard deviation in pixels (thermal lenses and detectors
+  /// blur more than visible ones). Default 0 (none).
+  double optics_blur_sigma_px = 0.0;
   /// Illumination factor k in (0, 1]: every pixel's brightness is multiplied by k and rounded
   /// (the paper's f_k = k f, "every pixel's brightness multiplied by k"). Default 1 (none).
   double illumination_k = 1.0;
@@ -93,6 +104,17 @@ struct EffectsOptions {
 
 /// Throws aerovo::InvalidArgument naming the bad field.
 void Validate(const EffectsOptions& effects);
+
+/// The thermal-like render mode's effects (`aerovo simulate --render thermal`): grey, contrast
+/// 0.15, optics blur sigma 1.2 px, sensor noise 1.5 DN. What a radiometric camera's 8-bit
+/// export of a uniform-temperature scene looks like: a few tens of grey levels of texture, soft
+/// edges, visible noise (our model, not a calibrated sensor).
+EffectsOptions ThermalEffects();
+/// The thermal-like camera: 640x512 px (DJI Zenmuse XT2 / FLIR Tau 2 640 detector), 45 degrees
+/// horizontal field of view (the 13 mm lens of the XT2 640; DJI's XT2 specifications).
+inline constexpr int kThermalWidthPx = 640;
+inline constexpr int kThermalHeightPx = 512;
+inline constexpr double kThermalHfovDeg = 45.0;
 
 /// Applies the effects to `frame` in place (CV_8UC1 or CV_8UC3). `motion_px` is the image motion
 /// during a frame interval (its direction orients the blur kernel; zero = no blur direction,

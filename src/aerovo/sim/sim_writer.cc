@@ -220,7 +220,10 @@ std::string SimulationJsonText(const Simulator& sim, const SimulationOutput& out
   j["effects"] = {{"illumination_k", o.effects.illumination_k},
                   {"noise_sigma_dn", o.effects.noise_sigma_dn},
                   {"motion_blur_px", o.effects.motion_blur_px},
-                  {"jpeg_quality", o.effects.jpeg_quality}};
+                  {"jpeg_quality", o.effects.jpeg_quality},
+                  {"grayscale", o.effects.grayscale},
+                  {"contrast", o.effects.contrast},
+                  {"optics_blur_sigma_px", o.effects.optics_blur_sigma_px}};
   j["gps"] = {{"rate_hz", o.gps.rate_hz},
               {"horizontal_sigma_m", o.gps.horizontal_sigma_m},
               {"vertical_sigma_m", o.gps.vertical_sigma_m},

@@ -1,0 +1,202 @@
+// Adaptive interest points (SurfOptions::adaptive): the per-cell selection keeps each cell's
+// strongest points, reaches the target on low-contrast frames, is contrast invariant, and gives
+// identical output for identical input and any thread count.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include "aerovo/features/surf.h"
+
+namespace aerovo {
+namespace {
+
+// Value noise: random levels on grids of 6 and 17 px, bilinearly interpolated and summed, mapped
+// to mean + amplitude * [-1, 1]. `amplitude_right` (when >= 0) replaces the amplitude on the right
+// half (a half-textured frame).
+GrayImage MakeTexture(int w, int h, std::uint32_t seed, double mean, double amplitude,
+                      double amplitude_right = -1.0) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const auto grid = [&](int step) {
+    const int gw = w / step + 2, gh = h / step + 2;
+    std::vector<double> g(static_cast<std::size_t>(gw) * gh);
+    for (double& v : g) v = u(rng);
+    return [g, gw, step](double x, double y) {
+      const int x0 = static_cast<int>(x / step), y0 = static_cast<int>(y / step);
+      const double fx = x / step - x0, fy = y / step - y0;
+      const auto at = [&](int i, int j) { return g[static_cast<std::size_t>(j) * gw + i]; };
+      return (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x0 + 1, y0)) +
+             fy * ((1 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1));
+    };
+  };
+  const auto fine = grid(6), coarse = grid(17);
+  GrayImage image(w, h);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const double a = (amplitude_right >= 0.0 && x >= w / 2) ? amplitude_right : amplitude;
+      const double v = 0.6 * fine(x, y) + 0.4 * coarse(x, y);
+      image.at(x, y) = static_cast<std::uint8_t>(std::clamp(std::lround(mean + a * v), 0L, 255L));
+    }
+  }
+  return image;
+}
+
+SurfOptions Adaptive(int target, int grid) {
+  SurfOptions o;
+  o.adaptive = true;
+  o.target_points = target;
+  o.grid = grid;
+  return o;
+}
+
+int CellOf(const Keypoint& kp, int w, int h, int g) {
+  const int cx = std::clamp(static_cast<int>(kp.x * g / w), 0, g - 1);
+  const int cy = std::clamp(static_cast<int>(kp.y * g / h), 0, g - 1);
+  return cy * g + cx;
+}
+
+TEST(SurfAdaptive, EachCellKeepsItsStrongestAndTheTargetIsReached) {
+  const int w = 480, h = 360, g = 3, target = 360;
+  const GrayImage img = MakeTexture(w, h, 7, 128, 100);
+  Surf adaptive(Adaptive(target, g));
+  const SurfResult r = adaptive.DetectAndDescribe(img.view());
+  ASSERT_GT(r.floor_response, 0.0);
+  ASSERT_GT(r.candidates, 2 * target) << "the floor should leave more candidates than the target";
+  ASSERT_EQ(static_cast<int>(r.features.size()), target);
+  // Every candidate: the fixed-threshold detector at the adaptive floor.
+  SurfOptions all;
+  all.hessian_threshold = r.floor_response;
+  const std::vector<Keypoint> cand = Surf(all).Detect(img.view());
+  ASSERT_EQ(static_cast<int>(cand.size()), r.candidates);
+  const int quota = target / (g * g);
+  for (int c = 0; c < g * g; ++c) {
+    std::vector<float> cand_resp, kept_resp;
+    for (const Keypoint& kp : cand) {
+      if (CellOf(kp, w, h, g) == c) cand_resp.push_back(kp.response);
+    }
+    for (const Keypoint& kp : r.features.keypoints) {
+      if (CellOf(kp, w, h, g) == c) kept_resp.push_back(kp.response);
+    }
+    std::sort(cand_resp.rbegin(), cand_resp.rend());
+    std::sort(kept_resp.rbegin(), kept_resp.rend());
+    const int want = std::min<int>(quota, static_cast<int>(cand_resp.size()));
+    ASSERT_GE(static_cast<int>(kept_resp.size()), want) << "cell " << c;
+    // The cell's `want` strongest candidates are all kept.
+    for (int k = 0; k < want; ++k) EXPECT_EQ(kept_resp[k], cand_resp[k]) << "cell " << c;
+  }
+  // Sorted by decreasing response, as in fixed mode.
+  for (std::size_t k = 1; k < r.features.size(); ++k) {
+    EXPECT_GE(r.features.keypoints[k - 1].response, r.features.keypoints[k].response);
+  }
+}
+
+TEST(SurfAdaptive, ReachesTheTargetOnALowContrastFrameWhereTheFixedThresholdFindsFew) {
+  const int w = 640, h = 512, target = 800;
+  const GrayImage dim = MakeTexture(w, h, 11, 128, 12);  // ~24 grey levels of texture
+  const std::size_t fixed = Surf().Detect(dim.view()).size();
+  const SurfResult r = Surf(Adaptive(target, 4)).DetectAndDescribe(dim.view());
+  EXPECT_LT(fixed, static_cast<std::size_t>(target / 10)) << "MATLAB's threshold on a dim frame";
+  EXPECT_EQ(static_cast<int>(r.features.size()), target);
+  EXPECT_NEAR(r.contrast_range, 19, 6) << "1st to 99th percentile of the texture";
+  // Every cell of the 4x4 grid has points.
+  std::vector<int> per_cell(16, 0);
+  for (const Keypoint& kp : r.features.keypoints) ++per_cell[CellOf(kp, w, h, 4)];
+  for (int c = 0; c < 16; ++c) EXPECT_GE(per_cell[c], target / 16) << "cell " << c;
+}
+
+TEST(SurfAdaptive, TheWeakHalfOfAHalfTexturedFrameGetsItsShare) {
+  const int w = 600, h = 300, g = 6, target = 720;
+  const GrayImage img = MakeTexture(w, h, 3, 128, 110, 8);  // right half nearly flat
+  int fixed_right = 0;
+  for (const Keypoint& kp : Surf().Detect(img.view())) fixed_right += kp.x >= w / 2 ? 1 : 0;
+  // The weak half's responses are ~(8/110)^2 of the strong half's: below the default floor
+  // (min_response 100 gives it 50 points); a floor of 20 gives it its share.
+  SurfOptions o = Adaptive(target, g);
+  o.min_response = 20;
+  const SurfResult r = Surf(o).DetectAndDescribe(img.view());
+  int right = 0;
+  for (const Keypoint& kp : r.features.keypoints) right += kp.x >= w / 2 + 2 ? 1 : 0;
+  EXPECT_LT(fixed_right, 10);
+  // Half of the cells, each with its quota (target / 36 = 20), at least.
+  EXPECT_GE(right, target / 2 - 2 * h / 50);
+}
+
+TEST(SurfAdaptive, ScalingTheBrightnessKeepsThePoints) {
+  // k = 0.25 as in the paper's illumination experiment: the floor follows the contrast, so
+  // most points are the same (rounding to 8 bits moves some).
+  const GrayImage img = MakeTexture(480, 360, 5, 128, 110);
+  GrayImage dark(480, 360);
+  for (int y = 0; y < 360; ++y) {
+    for (int x = 0; x < 480; ++x) dark.at(x, y) = static_cast<std::uint8_t>(std::lround(img.at(x, y) * 0.25));
+  }
+  Surf surf(Adaptive(400, 4));
+  const SurfResult a = surf.DetectAndDescribe(img.view());
+  const SurfResult b = surf.DetectAndDescribe(dark.view());
+  ASSERT_EQ(a.features.size(), 400u);
+  ASSERT_EQ(b.features.size(), 400u);
+  EXPECT_NEAR(b.floor_response / a.floor_response, 0.0625, 0.01);
+  int same = 0;
+  for (const Keypoint& p : a.features.keypoints) {
+    for (const Keypoint& q : b.features.keypoints) {
+      if (std::hypot(p.x - q.x, p.y - q.y) < 1.0 && std::abs(p.scale - q.scale) < 0.3f * p.scale) {
+        ++same;
+        break;
+      }
+    }
+  }
+  EXPECT_GT(same, 300) << "of 400";
+}
+
+TEST(SurfAdaptive, IdenticalForIdenticalInputAndAnyThreadCount) {
+  const GrayImage img = MakeTexture(640, 480, 9, 120, 90);
+  SurfOptions o = Adaptive(500, 6);
+  o.num_threads = 1;
+  Surf one(o);
+  const SurfResult a = one.DetectAndDescribe(img.view());
+  const SurfResult a2 = one.DetectAndDescribe(img.view());
+  o.num_threads = 3;
+  const SurfResult b = Surf(o).DetectAndDescribe(img.view());
+  ASSERT_EQ(a.features.size(), 500u);
+  for (const SurfResult* other : {&a2, &b}) {
+    ASSERT_EQ(other->features.size(), a.features.size());
+    EXPECT_EQ(other->candidates, a.candidates);
+    for (std::size_t k = 0; k < a.features.size(); ++k) {
+      const Keypoint &p = a.features.keypoints[k], &q = other->features.keypoints[k];
+      ASSERT_EQ(p.x, q.x);
+      ASSERT_EQ(p.y, q.y);
+      ASSERT_EQ(p.scale, q.scale);
+      ASSERT_EQ(p.orientation, q.orientation);
+    }
+    EXPECT_EQ(other->features.descriptors, a.features.descriptors);
+  }
+}
+
+TEST(SurfAdaptive, FewerCandidatesThanTheTargetAreAllKeptAndABlankFrameHasNone) {
+  const GrayImage img = MakeTexture(200, 160, 2, 128, 100);
+  const SurfResult r = Surf(Adaptive(100000, 4)).DetectAndDescribe(img.view());
+  EXPECT_EQ(static_cast<int>(r.features.size()), r.candidates);
+  GrayImage blank(200, 160);
+  for (int y = 0; y < 160; ++y) {
+    for (int x = 0; x < 200; ++x) blank.at(x, y) = 90;
+  }
+  EXPECT_EQ(Surf(Adaptive(500, 4)).DetectAndDescribe(blank.view()).features.size(), 0u);
+}
+
+TEST(SurfAdaptive, FixedModeIsUnchangedByTheAdaptiveOptions) {
+  const GrayImage img = MakeTexture(320, 240, 4, 128, 100);
+  SurfOptions o;
+  const std::vector<Keypoint> a = Surf(o).Detect(img.view());
+  o.target_points = 10;
+  o.grid = 2;
+  o.min_response = 500;
+  const std::vector<Keypoint> b = Surf(o).Detect(img.view());
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) EXPECT_EQ(a[k].response, b[k].response);
+}
+
+}  // namespace
+}  // namespace aerovo
