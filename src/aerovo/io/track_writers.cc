@@ -139,7 +139,7 @@ void Validate(const FrameRecord& r) {
 const char* CsvFrameWriter::Header() {
   return "frame,time_s,x_m,y_m,lat_deg,lon_deg,alt_m,n_surf,n_matched,n_inliers,cluster,"
          "detect_ms,describe_ms,correspond_ms,estimate_ms,total_ms,status,gps_lat_deg,"
-         "gps_lon_deg,gps_alt_m";
+         "gps_lon_deg,gps_alt_m,gps_flag";
 }
 
 CsvFrameWriter::CsvFrameWriter(const fs::path& path)
@@ -164,7 +164,7 @@ void CsvFrameWriter::Append(const FrameRecord& r, const std::optional<GeoPoint>&
                   geo_cells(r.geo), r.n_surf, r.n_matched, r.n_inliers, r.cluster);
   row += fmt::format("{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},", r.detect_ms, r.describe_ms,
                      r.correspond_ms, r.estimate_ms, r.total_ms);
-  row += CsvField(r.status) + "," + geo_cells(gps) + "\n";
+  row += CsvField(r.status) + "," + geo_cells(gps) + "," + CsvField(r.gps_flag) + "\n";
   file_->Append(row, "");
 }
 

@@ -42,7 +42,11 @@ void Validate(const RunConfig& c) {
   if (c.out.empty()) fail("out must not be empty");
   options::CheckRanges(c, "", false, context);
   if (c.end_s >= 0.0 && c.end_s < c.start_s) fail("end_s must be >= start_s (or < 0)");
+  if (c.focal_px > 0.0 && c.focal_px < 1.0) {
+    fail("focal_px must be 0 (unknown) or at least 1 px, got " + options::FormatNumber(c.focal_px));
+  }
   try {
+    Validate(c.gps_check);
     Validate(c.odometry);
   } catch (const InvalidArgument& e) {
     fail(e.what());
