@@ -387,19 +387,34 @@ TEST(RunSteps, HeightFallsBackOnTheLastKnownWithOneWarning) {
   EXPECT_EQ(warnings.size(), 1u);
 }
 
-TEST(RunSteps, NoHeightIsAnErrorNamingTheFrame) {
+TEST(RunSteps, NoHeightIsAnErrorNamingTheFrameAndTheCause) {
   HeightProvider height(0.0);
   std::vector<std::string> warnings;
-  for (const std::optional<TelemetrySample>& s :
-       {std::optional<TelemetrySample>(), std::optional<TelemetrySample>(Fix(0, -3.0))}) {
+  TelemetrySample no_rel_alt = Fix(0, 1.0);
+  no_rel_alt.rel_alt_m.reset();
+  const std::vector<std::pair<std::optional<TelemetrySample>, std::string>> cases = {
+      {std::nullopt, "(the frame has no telemetry fix)"},
+      {no_rel_alt, "(the telemetry has no relative altitude)"},
+      {Fix(0, -3.0), "(the telemetry's relative altitude is -3.0 m, not above the take-off point"},
+  };
+  for (const auto& [sample, cause] : cases) {
     try {
-      height.HeightOf("DJI_0054.JPG", s, &warnings);
+      height.HeightOf("DJI_0054.JPG", sample, &warnings);
       FAIL() << "no error";
     } catch (const InputError& e) {
-      EXPECT_EQ(std::string(e.what()),
-                "DJI_0054.JPG: no height above ground (the telemetry has no relative altitude): "
-                "give --altitude");
+      const std::string m = e.what();
+      EXPECT_EQ(m.rfind("DJI_0054.JPG: no height above ground ", 0), 0u) << m;
+      EXPECT_NE(m.find(cause), std::string::npos) << m;
+      EXPECT_NE(m.find("give --altitude"), std::string::npos) << m;
     }
+  }
+  // The frame loop's reason when there is no fix.
+  height.set_no_fix_reason("frame 0 is before the first record of x.srt (frame counter 1001)");
+  try {
+    height.HeightOf("f0", std::nullopt, &warnings);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("frame counter 1001"), std::string::npos) << e.what();
   }
 }
 
