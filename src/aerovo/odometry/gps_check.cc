@@ -9,24 +9,7 @@
 
 namespace aerovo {
 
-void Validate(const GpsCheckOptions& o) {
-  const auto positive = [](double v, const char* name) {
-    if (!(v > 0.0) || !std::isfinite(v)) {
-      throw InvalidArgument(fmt::format("GpsCheckOptions.{} must be > 0 and finite, got {}", name, v));
-    }
-  };
-  positive(o.max_speed_mps, "max_speed_mps");
-  positive(o.max_vertical_speed_mps, "max_vertical_speed_mps");
-  if (!(o.tolerance_m >= 0.0) || !std::isfinite(o.tolerance_m)) {
-    throw InvalidArgument(fmt::format("GpsCheckOptions.tolerance_m must be >= 0, got {}", o.tolerance_m));
-  }
-  if (!(o.vo_ratio >= 0.0) || !std::isfinite(o.vo_ratio)) {
-    throw InvalidArgument(fmt::format("GpsCheckOptions.vo_ratio must be >= 0, got {}", o.vo_ratio));
-  }
-  if (o.min_chain < 1) {
-    throw InvalidArgument(fmt::format("GpsCheckOptions.min_chain must be >= 1, got {}", o.min_chain));
-  }
-}
+void Validate(const GpsCheckOptions& o) { options::CheckRanges(o, "gps_check"); }
 
 GpsFixChecker::GpsFixChecker(const GpsCheckOptions& options) : options_(options) {
   Validate(options_);

@@ -51,6 +51,7 @@ nlohmann::json ToJson(const RunSummary& s) {
                    {"frames_with_truth", s.frames_with_truth},
                    {"warnings", s.warnings},
                    {"error", s.error}};
+  j["gps_comparison_note"] = s.gps_comparison_note;
   j["gps_rejected"] = s.gps_rejected;
   nlohmann::json rejected = nlohmann::json::array();
   for (const auto& r : s.gps_rejected_fixes) {
