@@ -264,8 +264,9 @@ class RunOutputs {
 
 /// What the summary needs from the frames, accumulated as they are processed. The only memory
 /// that grows with the run (the rest of the per-frame output is streamed to the files): per
-/// frame with a GPS fix, the VO position (local frame) and the fix (ENU), 48 bytes; with a
-/// truth file, every frame's VO position and index, 28 bytes.
+/// frame with a GPS fix, the VO position (local frame), the fix (ENU), its frame and flag, 53
+/// bytes; every frame's VO position and index, 28 bytes (the FrameLoop keeps the track always:
+/// the truth and the telemetry offset estimate use it).
 struct RunTotals {
   explicit RunTotals(bool keep_track) : keep_track(keep_track) {}
   /// Adds frame `frame_index` at `time_s` processed into `result`, with its fix `gps` (in the
