@@ -123,8 +123,14 @@ void GeoReferencer::FixFromYaw() {
     const std::size_t n = v.size();
     return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
   };
-  translation_m_ = pairs_.size() == 1 ? pairs_.front().second - r * pairs_.front().first
-                                      : Eigen::Vector2d(median(tx), median(ty));
+  // The first fix's translation (as with yaw_fixes = 1) unless one of the others disagrees with
+  // it by more than outlier_m: then the median, which one bad fix cannot move.
+  const Eigen::Vector2d first(tx.front(), ty.front());
+  bool agree = true;
+  for (std::size_t i = 1; i < tx.size(); ++i) {
+    agree = agree && (Eigen::Vector2d(tx[i], ty[i]) - first).norm() <= options_.outlier_m;
+  }
+  translation_m_ = agree ? first : Eigen::Vector2d(median(tx), median(ty));
   source_used_ = "telemetry-yaw";
   ready_ = true;
   pairs_.clear();

@@ -44,9 +44,10 @@ struct GeoRefOptions {
   /// to GpsCheckOptions::tolerance_m (gps_check.h): a fix that passed the plausibility check but
   /// still disagrees with the segment by more than GPS noise cannot steer the heading.
   double outlier_m = 0.0;
-  /// kTelemetryYaw: the translation is the component-wise median over this many first fixes (1 =
-  /// the first fix alone), so that one bad fix among them cannot shift the track. The run sets it
-  /// to GpsCheckOptions::min_chain (3).
+  /// kTelemetryYaw: the translation is that of the first fix when the first `yaw_fixes` fixes
+  /// agree with it within outlier_m, else their component-wise median, so that one bad fix among
+  /// them cannot shift the track (1 = the first fix alone, ready at once). The run sets it to
+  /// GpsCheckOptions::min_chain (3).
   int yaw_fixes = 1;
 };
 

@@ -128,8 +128,8 @@ TEST(GeoReferencer, RobustSegmentFitDropsAnOutlier) {
   EXPECT_GT(err(rotation[0]), err(rotation[1]));
 }
 
-// Telemetry yaw with yaw_fixes = 3: the translation is the median of three fixes, so a bad first
-// fix does not shift the track.
+// Telemetry yaw with yaw_fixes = 3: the translation is the first fix's when the three agree
+// (as with yaw_fixes = 1), else their median, so a bad first fix does not shift the track.
 TEST(GeoReferencer, YawTranslationIsTheMedianOfTheFirstFixes) {
   const LocalEnu enu(27.95, -82.46, 10.0);
   Flight f = MakeFlight(70.0, enu, {0, 0});
@@ -138,6 +138,16 @@ TEST(GeoReferencer, YawTranslationIsTheMedianOfTheFirstFixes) {
   f.gps[0] = enu.Reverse(e0.x(), e0.y() + 1112.0, 0.0);
   GeoRefOptions opts;
   opts.yaw_fixes = 3;
+  opts.outlier_m = 10.0;
+  {
+    const Flight noisy = MakeFlight(70.0, enu, {1.5, 1.5});
+    GeoReferencer first_only, three(opts);
+    ASSERT_TRUE(first_only.Observe(noisy.local[0], noisy.gps[0], 70.0));
+    three.Observe(noisy.local[0], noisy.gps[0], 70.0);
+    three.Observe(noisy.local[1], noisy.gps[1], 70.0);
+    ASSERT_TRUE(three.Observe(noisy.local[2], noisy.gps[2], 70.0));
+    EXPECT_EQ(three.EnuFromLocal(noisy.local[30]), first_only.EnuFromLocal(noisy.local[30]));
+  }
   GeoReferencer geo(opts);
   EXPECT_FALSE(geo.Observe(f.local[0], f.gps[0], 70.0));
   EXPECT_FALSE(geo.Observe(f.local[1], f.gps[1], 70.0));
