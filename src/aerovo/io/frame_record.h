@@ -42,6 +42,11 @@ struct FrameRecord {
   /// Outcome of the frame, e.g. "ok", "bridged", "dark" (free text written as is; quoted in
   /// the CSV when it contains a comma, quote or newline).
   std::string status = "ok";
+  /// The frame's GPS fix (gps_* CSV cells) failed the plausibility check and is used neither for
+  /// the geo-referencing nor for the comparison with GPS: "rejected:speed", "rejected:altitude",
+  /// "rejected:vo" (a jump the visual odometry does not show) or "rejected:superseded" (outvoted
+  /// by the later fixes); "" when the fix is used or there is none (odometry/gps_check.h).
+  std::string gps_flag;
   /// Height above ground used for the frame, metres (CSV height_m; 0 when not known).
   double height_m = 0.0;
   /// Where that height came from (CSV height_source): "altitude_flag", "telemetry",

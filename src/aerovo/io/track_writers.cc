@@ -176,7 +176,7 @@ void Validate(const FrameRecord& r) {
 const char* CsvFrameWriter::Header() {
   return "frame,time_s,x_m,y_m,lat_deg,lon_deg,alt_m,n_surf,n_matched,n_inliers,cluster,"
          "detect_ms,describe_ms,correspond_ms,estimate_ms,total_ms,status,gps_lat_deg,"
-         "gps_lon_deg,gps_alt_m,height_m,height_source,roll_deg,pitch_deg,latency_ms";
+         "gps_lon_deg,gps_alt_m,gps_flag,height_m,height_source,roll_deg,pitch_deg,latency_ms";
 }
 
 CsvFrameWriter::CsvFrameWriter(const fs::path& path)
@@ -204,7 +204,7 @@ void CsvFrameWriter::Append(const FrameRecord& r, const std::optional<GeoPoint>&
   const auto opt = [](const std::optional<double>& v) {
     return v ? fmt::format("{:.4f}", *v) : std::string();
   };
-  row += CsvField(r.status) + "," + geo_cells(gps) +
+  row += CsvField(r.status) + "," + geo_cells(gps) + "," + CsvField(r.gps_flag) +
          fmt::format(",{:.3f},{},{},{},", r.height_m, CsvField(r.height_source), opt(r.roll_deg),
                      opt(r.pitch_deg));
   if (std::isfinite(r.latency_ms)) row += fmt::format("{:.3f}", r.latency_ms);

@@ -368,7 +368,7 @@ TEST_F(TrackWritersTest, EveryFileValidAfterEveryAppend) {
       EXPECT_NEAR(2.0 * std::atan2(t[6], t[7]), r.yaw_rad, 1e-8);
       EXPECT_NEAR(t[6] * t[6] + t[7] * t[7], 1.0, 1e-8);
       const auto& c = p.csv_rows[k];
-      ASSERT_EQ(c.size(), r.status.find(',') != std::string::npos ? 26u : 25u);
+      ASSERT_EQ(c.size(), r.status.find(',') != std::string::npos ? 27u : 26u);
       if (std::isnan(r.latency_ms)) {
         EXPECT_EQ(c.back(), "") << "latency_ms";
       } else {

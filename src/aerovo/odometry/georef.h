@@ -5,6 +5,8 @@
 
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -36,6 +38,17 @@ struct GeoRefOptions {
   /// noise (1-3 m), i.e. a heading error of a few degrees at most; also the bound on how many
   /// frames a streaming caller must buffer before it can write geographic positions.
   double min_segment_m = 30.0;
+  /// Robust segment fit (kGpsSegment): after the least-squares fit, the fixes whose residual
+  /// exceeds max(outlier_m, 5 x the residuals' robust sigma, 1.4826 x their median) are dropped
+  /// and the fit repeated on the others. 0 = plain least squares over every fix. The run sets it
+  /// to GpsCheckOptions::tolerance_m (gps_check.h): a fix that passed the plausibility check but
+  /// still disagrees with the segment by more than GPS noise cannot steer the heading.
+  double outlier_m = 0.0;
+  /// kTelemetryYaw: the translation is that of the first fix when the first `yaw_fixes` fixes
+  /// agree with it within outlier_m, else their component-wise median, so that one bad fix among
+  /// them cannot shift the track (1 = the first fix alone, ready at once). The run sets it to
+  /// GpsCheckOptions::min_chain (3).
+  int yaw_fixes = 1;
 };
 
 /// Throws InvalidArgument naming the bad field.
@@ -57,6 +70,13 @@ class GeoReferencer {
   /// tracks). Returns ready().
   bool FixWithAvailable();
 
+  /// Forgets the fixes observed so far (they were found to be outliers, gps_check.h), keeping
+  /// the ENU origin; the following Observe() calls start a new segment. Precondition: !ready().
+  void Restart();
+
+  /// Fixes dropped by the robust segment fit (GeoRefOptions::outlier_m).
+  int outliers() const { return outliers_; }
+
   /// True once enu_from_local is known.
   bool ready() const { return ready_; }
   /// The ENU frame (origin = first GPS fix observed). Precondition: a GPS fix was observed.
@@ -75,6 +95,7 @@ class GeoReferencer {
 
  private:
   void FixFromSegment();
+  void FixFromYaw();
 
   GeoRefOptions options_;
   std::optional<LocalEnu> enu_;
@@ -90,6 +111,10 @@ class GeoReferencer {
   double sum_dot_ = 0.0, sum_cross_ = 0.0;
   Eigen::Vector2d sum_local_ = Eigen::Vector2d::Zero(), sum_enu_ = Eigen::Vector2d::Zero();
   int num_pairs_ = 0;
+  bool have_pair0_ = false;
+  // The segment's pairs (local, ENU), kept until ready for the robust fit.
+  std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> pairs_;
+  int outliers_ = 0;
 };
 
 }  // namespace aerovo

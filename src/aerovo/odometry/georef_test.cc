@@ -102,5 +102,77 @@ TEST(GeoReferencer, WaitsForGpsAndValidates) {
   EXPECT_THROW(ParseHeadingSource("north"), InvalidArgument);
 }
 
+// A fix 25 m off inside the segment (it passes a loose plausibility check): with outlier_m the
+// robust pass drops it and the rotation stays that of the clean fixes.
+TEST(GeoReferencer, RobustSegmentFitDropsAnOutlier) {
+  const LocalEnu enu(45.07, 7.66, 250.0);
+  Flight f = MakeFlight(-130.0, enu, {1.0, 1.0});
+  const Eigen::Vector3d e5 = enu.Forward(f.gps[5]);
+  f.gps[5] = enu.Reverse(e5.x() + 25.0, e5.y() - 25.0, 0.0);
+  double rotation[2];
+  for (int robust = 0; robust < 2; ++robust) {
+    GeoRefOptions opts;
+    opts.heading_source = HeadingSource::kGpsSegment;
+    opts.outlier_m = robust ? 10.0 : 0.0;
+    GeoReferencer geo(opts);
+    for (std::size_t i = 0; i < f.local.size() && !geo.ready(); ++i) {
+      geo.Observe(f.local[i], f.gps[i], std::nullopt);
+    }
+    ASSERT_TRUE(geo.ready());
+    EXPECT_EQ(geo.outliers(), robust ? 1 : 0);
+    rotation[robust] = geo.rotation_rad();
+  }
+  const double want = 130.0 * M_PI / 180.0;  // MakeFlight: a rotation of -yaw0
+  const auto err = [&](double a) { return std::abs(std::remainder(a - want, 2.0 * M_PI)); };
+  EXPECT_LT(err(rotation[1]), 0.02);
+  EXPECT_GT(err(rotation[0]), err(rotation[1]));
+}
+
+// Telemetry yaw with yaw_fixes = 3: the translation is the first fix's when the three agree
+// (as with yaw_fixes = 1), else their median, so a bad first fix does not shift the track.
+TEST(GeoReferencer, YawTranslationIsTheMedianOfTheFirstFixes) {
+  const LocalEnu enu(27.95, -82.46, 10.0);
+  Flight f = MakeFlight(70.0, enu, {0, 0});
+  const GeoPoint good0 = f.gps[0];
+  const Eigen::Vector3d e0 = enu.Forward(f.gps[0]);
+  f.gps[0] = enu.Reverse(e0.x(), e0.y() + 1112.0, 0.0);
+  GeoRefOptions opts;
+  opts.yaw_fixes = 3;
+  opts.outlier_m = 10.0;
+  {
+    const Flight noisy = MakeFlight(70.0, enu, {1.5, 1.5});
+    GeoReferencer first_only, three(opts);
+    ASSERT_TRUE(first_only.Observe(noisy.local[0], noisy.gps[0], 70.0));
+    three.Observe(noisy.local[0], noisy.gps[0], 70.0);
+    three.Observe(noisy.local[1], noisy.gps[1], 70.0);
+    ASSERT_TRUE(three.Observe(noisy.local[2], noisy.gps[2], 70.0));
+    EXPECT_EQ(three.EnuFromLocal(noisy.local[30]), first_only.EnuFromLocal(noisy.local[30]));
+  }
+  GeoReferencer geo(opts);
+  EXPECT_FALSE(geo.Observe(f.local[0], f.gps[0], 70.0));
+  EXPECT_FALSE(geo.Observe(f.local[1], f.gps[1], 70.0));
+  ASSERT_TRUE(geo.Observe(f.local[2], f.gps[2], 70.0));
+  EXPECT_LT(GeodesicDistance(geo.Wgs84FromLocal(f.local[0]), good0), 0.01);
+  EXPECT_LT(GeodesicDistance(geo.Wgs84FromLocal(f.local[40]), f.gps[40]), 0.01);
+}
+
+// Restart forgets the segment (the fixes were outliers) but keeps the ENU origin.
+TEST(GeoReferencer, RestartStartsANewSegment) {
+  const LocalEnu enu(45.07, 7.66, 250.0);
+  const Flight f = MakeFlight(-130.0, enu, {0, 0});
+  GeoRefOptions opts;
+  opts.heading_source = HeadingSource::kGpsSegment;
+  GeoReferencer geo(opts);
+  const Eigen::Vector3d e1 = enu.Forward(f.gps[1]);
+  geo.Observe(f.local[0], enu.Reverse(e1.x() + 500.0, e1.y(), 0.0), std::nullopt);
+  geo.Restart();
+  for (std::size_t i = 1; i < f.local.size() && !geo.ready(); ++i) {
+    geo.Observe(f.local[i], f.gps[i], std::nullopt);
+  }
+  ASSERT_TRUE(geo.ready());
+  EXPECT_LT(GeodesicDistance(geo.Wgs84FromLocal(f.local[50]), f.gps[50]), 0.01);
+  EXPECT_THROW(geo.Restart(), InvalidArgument);
+}
+
 }  // namespace
 }  // namespace aerovo

@@ -81,7 +81,11 @@ void Validate(const RunConfig& c) {
     fail("sensor_aspect " + options::FormatNumber(c.sensor_aspect) +
          " must be 0 (automatic) or in [1, 4] (long side / short side, e.g. 1.3333 for 4:3)");
   }
+  if (c.focal_px > 0.0 && c.focal_px < 1.0) {
+    fail("focal_px must be 0 (unknown) or at least 1 px, got " + options::FormatNumber(c.focal_px));
+  }
   try {
+    Validate(c.gps_check);
     Validate(c.odometry);
   } catch (const InvalidArgument& e) {
     fail(e.what());

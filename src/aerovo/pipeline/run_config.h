@@ -16,6 +16,7 @@
 #include "aerovo/core/options.h"
 #include "aerovo/mavlink/vision.h"
 #include "aerovo/odometry/georef.h"
+#include "aerovo/odometry/gps_check.h"
 #include "aerovo/odometry/visual_odometry.h"
 
 namespace aerovo {
@@ -66,9 +67,11 @@ struct RunConfig {
   /// kTelemetryYaw ("yaw"), kGpsSegment ("gps").
   HeadingSource heading = HeadingSource::kAuto;
   /// Height above ground, metres; when > 0 it overrides telemetry (tampa-phantom3 has none).
+  /// At most 100 km (the telemetry readers' altitude limit): larger heights make non-finite
+  /// geometry.
   double altitude_m = 0.0;
   /// Focal length in pixels of the processed frames; when 0, from hfov_deg, else from the
-  /// telemetry/EXIF (XMP calibrated focal, else 35 mm equivalent).
+  /// telemetry/EXIF (XMP calibrated focal, else 35 mm equivalent). 0 or in [1, 1e6] px.
   double focal_px = 0.0;
   /// Horizontal field of view, degrees (used when focal_px is 0).
   double hfov_deg = 0.0;
@@ -133,6 +136,19 @@ struct RunConfig {
   /// only the newest frame whatever the value (older ones are dropped, counted: latency stays
   /// bounded); files lose nothing. Default 2: one frame being decoded while one waits.
   int frame_queue = 2;
+  /// Telemetry time at the video's time 0, seconds: a frame at video time t takes the fix of
+  /// telemetry time t + telemetry_offset_s; non-zero, a telemetry with frame indices (DJI SRT
+  /// FrameCnt) is matched by time too (the SRT's time is the video's). Default 0.
+  double telemetry_offset_s = 0.0;
+  /// After the run, the offset between the telemetry and the video is estimated from the motion
+  /// (VO speed against GPS speed, run_steps.h EstimateTelemetryOffset) and reported; with this
+  /// switch the run is then repeated with the estimate added to telemetry_offset_s when it
+  /// differs from it by more than 0.2 s and the estimate is clear. Default false (reported only).
+  bool telemetry_auto_offset = false;
+  /// Plausibility of the GPS fixes (odometry/gps_check.h): rejected fixes steer neither the
+  /// geo-referencing nor the comparison with GPS; flagged in frames.csv (gps_flag) and listed
+  /// in summary.json (gps_rejected).
+  GpsCheckOptions gps_check;
   /// The odometry and its stages (keys surf.*, match.*, ransac.*, clustered.*, correspondence.*,
   /// odometry.*); defaults are OdometryOptions' (visual_odometry.h). The run sets its focal_px and
   /// default_height_m from the camera and height it resolves (focal_px, hfov_deg, altitude_m
@@ -160,8 +176,8 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.end_s, "end_s", "End time in the source, s (< 0: to the end)", Any());
   v.Field(c.max_frames, "max_frames", "Stop after N frames (0 = all)", AtLeast(0));
   v.Field(c.heading, "heading", "VO heading in ENU: auto, yaw (telemetry) or gps (first GPS segment)", Any());
-  v.Field(c.altitude_m, "altitude_m", "Height above ground, m (overrides telemetry; 0 = from telemetry)", AtLeast(0).Finite().Flags("--altitude"));
-  v.Field(c.focal_px, "focal_px", "Focal length in pixels (0 = from hfov_deg, EXIF or telemetry)", AtLeast(0).Finite());
+  v.Field(c.altitude_m, "altitude_m", "Height above ground, m (overrides telemetry; 0 = from telemetry)", Interval(0, 1e5).Flags("--altitude"));
+  v.Field(c.focal_px, "focal_px", "Focal length in pixels (0 = from hfov_deg, EXIF or telemetry)", Interval(0, 1e6));
   v.Field(c.hfov_deg, "hfov_deg", "Horizontal field of view, deg (used when focal_px is 0)", Interval(0, 180, false, true));
   v.Field(c.photo_gap_s, "photo_gap_s", "Photo folders: a capture-time gap longer than this, s, or another camera starts a new flight (0 = no gap check)", AtLeast(0).Finite());
   v.Field(c.photo_flight, "photo_flight", "Photo folders with several flights: 0 = refuse, K = flight K alone, -1 = chain all", AtLeast(-1));
@@ -183,6 +199,9 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.mavlink_wait_s, "mavlink_wait_s", "udpin/serial: wait this long for the autopilot's first height, s", AtLeast(0).Finite());
   v.Field(c.poses_jsonl, "poses_jsonl", "Pose stream: one JSON object per frame, written as it is done ('-' = stdout, then everything else goes to stderr)", Any());
   v.Field(c.frame_queue, "frame_queue", "Frames decoded ahead on a reader thread (0 = none); a live source keeps only the newest, dropping older ones", AtLeast(0));
+  v.Field(c.telemetry_offset_s, "telemetry_offset_s", "Telemetry time at video time 0, s (shifts every fix)", Interval(-1e6, 1e6));
+  v.Field(c.telemetry_auto_offset, "telemetry_auto_offset", "Estimate the telemetry-video offset from the motion and re-run with it", Any().Switch());
+  v.Group("gps_check", c.gps_check);
   v.Group("odometry", c.odometry);
 }
 // clang-format on

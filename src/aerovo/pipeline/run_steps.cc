@@ -7,8 +7,8 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
-#include <limits>
 #include <iostream>
+#include <limits>
 #include <system_error>
 #include <utility>
 
@@ -124,7 +124,150 @@ RunTelemetry RunTelemetry::Load(const std::string& path, bool lenient,
 
 std::optional<TelemetrySample> RunTelemetry::SampleOf(const Frame& f) const {
   if (telemetry_.empty()) return std::nullopt;
-  return by_frame_index_ ? telemetry_.AtFrame(f.index) : telemetry_.Lookup(f.time_s, 0.5);
+  if (by_frame_index_ && offset_s_ == 0.0) return telemetry_.AtFrame(f.index);
+  return telemetry_.Lookup(f.time_s + offset_s_, 0.5);
+}
+
+std::string RunTelemetry::WhyNoFix(const Frame& f) const {
+  if (telemetry_.empty()) return "there is no telemetry";
+  if (by_frame_index_ && offset_s_ == 0.0) {
+    int lo = std::numeric_limits<int>::max(), hi = -1;
+    for (const TelemetrySample& s : telemetry_.samples()) {
+      if (s.frame_index) {
+        lo = std::min(lo, *s.frame_index);
+        hi = std::max(hi, *s.frame_index);
+      }
+    }
+    if (f.index < lo) {
+      return fmt::format(
+          "frame {} is before the first record of {} (frame counter {}{})", f.index, origin_,
+          lo + 1,
+          lo > 0 ? ": the second clip of a split recording? give the matching telemetry" : "");
+    }
+    return fmt::format("frame {} is after the last record of {} (frame counter {})", f.index,
+                       origin_, hi + 1);
+  }
+  const double t = f.time_s + offset_s_;
+  return fmt::format(
+      "frame {} at {:.3f} s{} is outside the time span of {} ({:.3f} to {:.3f} s): no time "
+      "overlap with the video (see --telemetry-offset-s)",
+      f.index, t, offset_s_ != 0.0 ? fmt::format(" (offset {:+.3f} s)", offset_s_) : "",
+      origin_, telemetry_.start_time_s(), telemetry_.end_time_s());
+}
+
+std::string CheckTelemetryClock(const Telemetry& t, const std::string& source,
+                                double frames_start_s, double frames_end_s) {
+  if (t.size() < 3) return "";
+  const double tel_span = t.end_time_s() - t.start_time_s();
+  const double video_span = frames_end_s - frames_start_s;
+  if (!(video_span >= 1.0) || !(tel_span > 0.0)) return "";  // too short to judge
+  const double ratio = tel_span / video_span;
+  std::string unit;
+  if (ratio >= 500.0 && ratio <= 2000.0) {
+    unit = ": its times look like milliseconds read as seconds (convert them to seconds)";
+  } else if (ratio >= 40.0 && ratio <= 80.0) {
+    unit = ": its times look like seconds while the video's are minutes, or the telemetry is "
+           "of a longer flight";
+  } else if (ratio <= 1.0 / 500.0 && ratio >= 1.0 / 2000.0) {
+    unit = ": its times look like seconds written as kiloseconds or the video's as milliseconds";
+  }
+  if (ratio > 20.0) {
+    return fmt::format(
+        "{}: the telemetry spans {:.1f} s but the frames only {:.1f} s ({:.0f}x){}; every frame "
+        "takes a fix from the first {:.1f}% of it",
+        source, tel_span, video_span, ratio,
+        unit.empty() ? ": another flight, or a clip of a longer recording (--telemetry-offset-s)"
+                     : unit,
+        100.0 / ratio);
+  }
+  if (ratio < 0.05) {
+    return fmt::format(
+        "{}: the telemetry spans {:.3f} s but the frames {:.1f} s ({:.4f}x){}; most frames have "
+        "no fix",
+        source, tel_span, video_span, ratio, unit.empty() ? ": another unit of time?" : unit);
+  }
+  return "";
+}
+
+namespace {
+
+// Speed (m/s) over the window [t - 0.5 s, t + 0.5 s] of a track given as sorted (t, x, y),
+// interpolated linearly; nullopt when the window leaves the track.
+std::optional<double> TrackSpeed(const std::vector<TrajectoryPoint2D>& track, double t) {
+  constexpr double kHalf = 0.5;
+  if (track.size() < 2 || t - kHalf < track.front().t || t + kHalf > track.back().t) {
+    return std::nullopt;
+  }
+  const auto at = [&](double q) {
+    auto it = std::lower_bound(track.begin(), track.end(), q,
+                               [](const TrajectoryPoint2D& p, double v) { return p.t < v; });
+    if (it == track.begin()) return Eigen::Vector2d(it->x, it->y);
+    const TrajectoryPoint2D& b = *it;
+    const TrajectoryPoint2D& a = *(it - 1);
+    const double w = b.t > a.t ? (q - a.t) / (b.t - a.t) : 0.0;
+    return Eigen::Vector2d(a.x + w * (b.x - a.x), a.y + w * (b.y - a.y));
+  };
+  return (at(t + kHalf) - at(t - kHalf)).norm() / (2.0 * kHalf);
+}
+
+}  // namespace
+
+OffsetEstimate EstimateTelemetryOffset(const std::vector<TrajectoryPoint2D>& vo_track_m,
+                                       const Telemetry& telemetry, double max_offset_s) {
+  OffsetEstimate best;
+  if (vo_track_m.size() < 20 || telemetry.size() < 3) return best;
+  // The GPS track in metres (ENU at the first sample), on the telemetry's clock.
+  const LocalEnu enu(telemetry[0].lat_deg, telemetry[0].lon_deg, 0.0);
+  std::vector<TrajectoryPoint2D> gps;
+  gps.reserve(telemetry.size());
+  for (const TelemetrySample& s : telemetry.samples()) {
+    const Eigen::Vector3d e = enu.Forward(s.lat_deg, s.lon_deg, 0.0);
+    if (!gps.empty() && s.time_s <= gps.back().t) continue;  // equal times: keep the first
+    gps.push_back({s.time_s, e.x(), e.y()});
+  }
+  // At most ~2000 frames, evenly spread; their VO speeds once.
+  const std::size_t stride = std::max<std::size_t>(1, vo_track_m.size() / 2000);
+  std::vector<std::pair<double, double>> vo;  // (frame time, speed)
+  for (std::size_t i = 0; i < vo_track_m.size(); i += stride) {
+    if (const auto v = TrackSpeed(vo_track_m, vo_track_m[i].t)) vo.emplace_back(vo_track_m[i].t, *v);
+  }
+  std::vector<std::pair<double, int>> scores;  // (correlation, candidate)
+  const int n_candidates = static_cast<int>(std::floor(max_offset_s / 0.05));
+  double best_corr = -2.0;
+  for (int k = -n_candidates; k <= n_candidates; ++k) {
+    const double d = 0.05 * k;
+    double sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+    int n = 0;
+    for (const auto& [t, v] : vo) {
+      const auto g = TrackSpeed(gps, t + d);
+      if (!g) continue;
+      sx += v;
+      sy += *g;
+      sxx += v * v;
+      syy += *g * *g;
+      sxy += v * *g;
+      ++n;
+    }
+    if (n < 20) continue;
+    const double cov = sxy - sx * sy / n, vx = sxx - sx * sx / n, vy = syy - sy * sy / n;
+    if (!(vx > 1e-9 * n) || !(vy > 1e-9 * n)) continue;  // no speed variation
+    const double corr = cov / std::sqrt(vx * vy);
+    scores.emplace_back(corr, k);
+    if (corr > best_corr) {
+      best_corr = corr;
+      best.valid = true;
+      best.offset_s = d;
+      best.correlation = corr;
+      best.frames = n;
+    }
+  }
+  if (!best.valid) return best;
+  double second = -2.0;
+  for (const auto& [corr, k] : scores) {
+    if (std::abs(0.05 * k - best.offset_s) >= 2.0) second = std::max(second, corr);
+  }
+  best.clear = best.correlation >= 0.8 && best.correlation - second >= 0.1;
+  return best;
 }
 
 std::string RunTelemetry::Describe() const {
@@ -212,9 +355,18 @@ double HeightProvider::HeightOf(const std::string& frame_name,
                      "no downward DISTANCE_SENSOR or GLOBAL_POSITION_INT, and no telemetry "
                      "relative altitude): give --altitude");
   }
-  throw InputError(frame_name +
-                   ": no height above ground (the telemetry has no relative "
-                   "altitude): give --altitude");
+  std::string why;
+  if (!sample) {
+    why = no_fix_reason_.empty() ? "the frame has no telemetry fix" : no_fix_reason_;
+  } else if (!sample->rel_alt_m) {
+    why = "the telemetry has no relative altitude";
+  } else {
+    why = fmt::format(
+        "the telemetry's relative altitude is {:.1f} m, not above the take-off point "
+        "(landed, or a take-off point above the area flown?)",
+        *sample->rel_alt_m);
+  }
+  throw InputError(frame_name + ": no height above ground (" + why + "): give --altitude");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -334,8 +486,18 @@ void RunOutputs::AppendTransform(int frame_index, const Eigen::Matrix3d& world_f
 
 // Writes a frame: geo-referenced when possible, else in the local VO frame.
 void RunOutputs::Emit(PendingFrame& p, const GeoReferencer& georef) {
+  if (!p.local_m.allFinite()) {
+    throw InputError(fmt::format("frame {}: the visual odometry's position is not finite",
+                                 p.record.frame));
+  }
   if (georef.ready()) {
     const Eigen::Vector2d enu = georef.EnuFromLocal(p.local_m);
+    if (!enu.allFinite() || enu.norm() > 1e7) {
+      throw InputError(fmt::format(
+          "frame {}: the geo-referenced position ({}, {}) m is not a place on Earth (height "
+          "or focal length absurd?)",
+          p.record.frame, enu.x(), enu.y()));
+    }
     p.record.x_m = enu.x();
     p.record.y_m = enu.y();
     p.record.geo = georef.Wgs84FromLocal(p.local_m);
@@ -366,6 +528,12 @@ void RunOutputs::Flush(const GeoReferencer& georef, bool final) {
   while (!pending_.empty()) {
     Emit(pending_.front(), georef);
     pending_.pop_front();
+  }
+}
+
+void RunOutputs::Reflag(int frame_index, const std::string& gps_flag) {
+  for (PendingFrame& p : pending_) {
+    if (p.record.frame == frame_index) p.record.gps_flag = gps_flag;
   }
 }
 
@@ -400,12 +568,16 @@ void RunTotals::Add(int frame_index, double time_s, const FrameResult& r,
     local_track.push_back({time_s, r.position_m.x(), r.position_m.y()});
     track_frames.push_back(frame_index);
   }
+  if (gps) ++frames_with_gps;
   if (gps && georef.has_enu()) {
     const Eigen::Vector3d e = georef.enu().Forward(*gps);
     gps_track.push_back({time_s, e.x(), e.y()});
     local_at_gps.push_back({time_s, r.position_m.x(), r.position_m.y()});
-    ++frames_with_gps;
+    gps_frames.push_back(frame_index);
+    gps_rejected.push_back(0);
   }
+  if (frames == 0) first_time_s = time_s;
+  last_time_s = time_s;
   if (frames > 0) path_length_m += (r.position_m - last_local_m).norm();
   last_local_m = r.position_m;
   sum_ms.detect_ms += r.detect_ms;
@@ -416,11 +588,25 @@ void RunTotals::Add(int frame_index, double time_s, const FrameResult& r,
   ++frames;
 }
 
+void RunTotals::SetRejected(int frame_index, bool rejected) {
+  // Frames arrive in order: search from the end (a switch concerns the latest fixes).
+  for (std::size_t i = gps_frames.size(); i-- > 0;) {
+    if (gps_frames[i] == frame_index) {
+      gps_rejected[i] = rejected ? 1 : 0;
+      return;
+    }
+  }
+}
+
 namespace {
 
 GeoRefOptions GeoRefOptionsOf(const RunConfig& config) {
   GeoRefOptions o;
   o.heading_source = config.heading;
+  if (config.gps_check.enabled) {
+    o.outlier_m = config.gps_check.tolerance_m;
+    o.yaw_fixes = config.gps_check.min_chain;
+  }
   return o;
 }
 
@@ -470,7 +656,8 @@ FrameLoop::FrameLoop(const RunInputs& inputs, const RunTelemetry& telemetry,
       height_(inputs.config.altitude_m, link_reads_autopilot_ ? link_.get() : nullptr,
               inputs.config.mavlink_match_s),
       georef_(GeoRefOptionsOf(inputs.config)),
-      totals_(inputs.truth.has_value()) {}
+      gps_check_(inputs.config.gps_check),
+      totals_(true) {}
 
 // First frame: the camera and the outputs can now be set up.
 void FrameLoop::Start(const Frame& frame, const std::optional<TelemetrySample>& sample,
@@ -543,8 +730,8 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
     // captured; a file's as read).
     const double capture_mono_s = mavlink::MonotonicNowS();
     const double capture_unix_s = mavlink::UnixNowS();
-    const std::optional<TelemetrySample> sample = telemetry_.SampleOf(frame);
-    const std::optional<GeoPoint> gps = GpsOf(sample);
+    std::optional<TelemetrySample> sample = telemetry_.SampleOf(frame);
+    std::optional<GeoPoint> gps = GpsOf(sample);
     if (!sample) ++end.frames_without_fix;
     if (!vo_) {
       try {
@@ -556,8 +743,24 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
       }
     }
 
+    if (!sample && !telemetry_.empty() && !height_.last_m()) {
+      height_.set_no_fix_reason(telemetry_.WhyNoFix(frame));
+    }
+    // A relative altitude that jumps beyond the vertical speed limit would scale the step: the
+    // last plausible height is used instead (the fix itself is judged below).
+    std::optional<TelemetrySample> height_sample = sample;
+    if (height_sample && height_sample->rel_alt_m && height_.last_m() &&
+        config_.gps_check.enabled && last_height_time_s_ &&
+        std::abs(*height_sample->rel_alt_m - *height_.last_m()) >
+            config_.gps_check.tolerance_m +
+                config_.gps_check.max_vertical_speed_mps *
+                    std::max(frame.time_s - *last_height_time_s_, 1e-3)) {
+      height_sample->rel_alt_m = height_.last_m();
+    } else if (height_sample && height_sample->rel_alt_m && *height_sample->rel_alt_m > 0.0) {
+      last_height_time_s_ = frame.time_s;
+    }
     const double height_m =
-        height_.HeightOf(frame.name, sample, &summary->warnings, capture_mono_s);
+        height_.HeightOf(frame.name, height_sample, &summary->warnings, capture_mono_s);
     std::optional<mavlink::AutopilotAttitude> attitude;
     if (link_reads_autopilot_) {
       attitude = link_->AttitudeNear(capture_mono_s, config_.mavlink_match_s);
@@ -574,6 +777,11 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
       // frame is abandoned, not counted as processed.
       const CancelScope cancel(stop);
       r = vo_->Process(view, frame.time_s, height_m, yaw);
+      if (!r.position_m.allFinite()) {
+        throw InputError(fmt::format(
+            "the visual odometry's position is not finite (height {} m, focal {} px)", height_m,
+            vo_options_.focal_px));
+      }
     } catch (const Cancelled&) {
       end.stopped = true;
       break;
@@ -583,7 +791,9 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
       break;
     }
     if (link_) SendVision(r, capture_mono_s, capture_unix_s, height_m, attitude);
-    georef_.Observe(r.position_m, gps, yaw);
+    std::string gps_flag;
+    const bool fix_ok = !gps || CheckFix(frame, sample, *gps, r, &gps_flag, summary);
+    georef_.Observe(r.position_m, fix_ok ? gps : std::nullopt, yaw);
     float latency_ms = 0.0f;
     try {
       // transforms.csv in full-frame pixels whatever the reduction.
@@ -591,6 +801,7 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
                                                                         reduced_from_full_)
                                                       : r.world_from_frame);
       PendingFrame pending = PendingFrameOf(frame, r, gps, height_m);
+      pending.record.gps_flag = gps_flag;
       pending.record.height_m = height_m;
       pending.record.height_source = height_.last_source();
       ++summary->height_sources[height_.last_source()];
@@ -605,9 +816,13 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
       end.failure = frame.name + ": " + e.what();
       end.output_failed = true;
       break;
+    } catch (const InputError& e) {  // a geo-referenced position that is not on Earth
+      end.failure = e.what();
+      break;
     }
     totals_.Add(frame.index, frame.time_s, r, gps, georef_);
     totals_.latency_ms.push_back(latency_ms);
+    if (!fix_ok) totals_.SetRejected(frame.index, true);
     ++summary->frames_processed;
     if (!frame.flags.empty()) {
       // Each '+'-separated flag counted once per frame.
@@ -626,6 +841,7 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
                           summary->frames_processed / std::max(1e-9, wall.elapsed_ms() / 1000.0));
     }
   }
+  end.rejected_fixes = RejectedFixes();
   return end;
 }
 
@@ -661,8 +877,63 @@ void FrameLoop::SendVision(const FrameResult& r, double capture_mono_s, double c
   }
 }
 
+bool FrameLoop::CheckFix(const Frame& frame, const std::optional<TelemetrySample>& sample,
+                         const GeoPoint& gps, const FrameResult& r, std::string* flag,
+                         RunSummary* summary) {
+  const int unmeasured = vo_ ? vo_->stats().bridged : 0;
+  GpsFixVerdict v = gps_check_.Check(frame.index, frame.time_s, gps,
+                                     sample ? sample->rel_alt_m : std::nullopt, r.position_m,
+                                     unmeasured);
+  const auto describe = [&](int frame_index, double time_s) {
+    return fmt::format("{}: the GPS fix of frame {} (time {:.3f} s) rejected", telemetry_.origin(),
+                       frame_index, time_s);
+  };
+  if (v.switched) {
+    // The later fixes outvote the earlier ones: those were wrong (a bad first fix).
+    const std::string first_new =
+        v.reinstated.empty() ? std::to_string(frame.index) : std::to_string(v.reinstated[0].frame);
+    for (const int f : v.superseded) {
+      double t = 0.0;
+      for (std::size_t i = 0; i < totals_.gps_frames.size(); ++i) {
+        if (totals_.gps_frames[i] == f) t = totals_.gps_track[i].t;
+      }
+      rejected_[f] = {f, t, "superseded",
+                      describe(f, t) + ": inconsistent with the fixes from frame " + first_new +
+                          " on, which outnumber it"};
+      totals_.SetRejected(f, true);
+      outputs_->Reflag(f, "rejected:superseded");
+    }
+    if (!georef_.ready()) {
+      georef_.Restart();
+      for (const auto& q : v.reinstated) georef_.Observe(q.local_m, q.gps, std::nullopt);
+    } else {
+      summary->warnings.push_back(fmt::format(
+          "{}: the GPS fixes from frame {} on outvote the earlier ones, but the track was "
+          "already geo-referenced with those: check the geo-referenced positions",
+          telemetry_.origin(), first_new));
+    }
+    for (const auto& q : v.reinstated) {
+      rejected_.erase(q.frame);
+      totals_.SetRejected(q.frame, false);
+      outputs_->Reflag(q.frame, "");
+    }
+    return true;
+  }
+  if (v.accepted) return true;
+  *flag = "rejected:" + v.kind;
+  rejected_[frame.index] = {frame.index, frame.time_s, v.kind,
+                            describe(frame.index, frame.time_s) + ": " + v.reason};
+  return false;
+}
+
 void FrameLoop::Finish() {
   if (outputs_) outputs_->Finish(georef_);
+}
+
+std::vector<RejectedFix> FrameLoop::RejectedFixes() const {
+  std::vector<RejectedFix> out;
+  for (const auto& [f, r] : rejected_) out.push_back(r);
+  return out;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -704,20 +975,49 @@ void CompareWithTruth(const ReferenceTrack& truth, const std::vector<TrajectoryP
   }
 }
 
-// The SE(2) / Sim(2) comparison with GPS (ENU when geo-referenced) of at least 3 fixes.
+// The SE(2) / Sim(2) comparison with GPS (ENU when geo-referenced) of at least 3 fixes, the
+// rejected ones left out; a warning saying why when there is none.
 void CompareWithGps(const GeoReferencer& georef, RunTotals& totals, RunSummary* summary) {
-  if (totals.gps_track.size() < 3) return;
+  std::vector<TrajectoryPoint2D> local, gps;
+  for (std::size_t i = 0; i < totals.gps_track.size(); ++i) {
+    if (totals.gps_rejected[i]) continue;
+    local.push_back(totals.local_at_gps[i]);
+    gps.push_back(totals.gps_track[i]);
+  }
+  const auto none = [&](std::string why) {
+    summary->gps_comparison_note = why;
+    summary->warnings.push_back("no comparison with GPS: " + why);
+  };
+  if (totals.frames_with_gps == 0) {
+    summary->gps_comparison_note = "no frame has a GPS fix";
+    return;
+  }
+  if (gps.size() < 3) {
+    none(fmt::format("{} of {} frames have a fix{}: fewer than 3 usable",
+                     totals.frames_with_gps, totals.frames,
+                     gps.size() < totals.gps_track.size()
+                         ? fmt::format(", {} rejected as implausible", totals.gps_track.size() - gps.size())
+                         : std::string()));
+    return;
+  }
   if (georef.ready()) {
-    for (TrajectoryPoint2D& q : totals.local_at_gps) {
+    for (TrajectoryPoint2D& q : local) {
       const Eigen::Vector2d e = georef.EnuFromLocal({q.x, q.y});
       q.x = e.x();
       q.y = e.y();
     }
   }
   try {
-    summary->evaluation = CompareTrajectories(totals.local_at_gps, totals.gps_track);
+    summary->evaluation = CompareTrajectories(local, gps);
   } catch (const InvalidArgument& e) {
-    summary->warnings.push_back(std::string("no comparison with GPS: ") + e.what());
+    if (totals.measured_steps == 0) {
+      none(fmt::format("{} frames have a fix, but no step between frames was measured (every "
+                       "frame after the first is bridged: {})",
+                       gps.size(), e.what()));
+    } else {
+      none(e.what());
+    }
+    return;
   }
 }
 
@@ -749,6 +1049,18 @@ void Summarize(const std::vector<std::string>& source_warnings, bool has_telemet
     s.warnings.push_back(fmt::format("{} of {} frames flagged '{}' (first: {}): {}; see their "
                                      "status in frames.csv",
                                      n, s.frames_processed, flag, first_name, what));
+  }
+  s.gps_rejected = static_cast<int>(end.rejected_fixes.size());
+  for (const RejectedFix& r : end.rejected_fixes) {
+    if (s.gps_rejected_fixes.size() < 100) {
+      s.gps_rejected_fixes.push_back({r.frame, r.time_s, r.kind, r.message});
+    }
+    if (s.gps_rejected_fixes.size() <= 20) s.warnings.push_back(r.message);
+  }
+  if (s.gps_rejected > 20) {
+    s.warnings.push_back(fmt::format("... {} GPS fixes rejected in all (summary.json lists the "
+                                     "first 100, frames.csv flags every one: gps_flag)",
+                                     s.gps_rejected));
   }
   s.interrupted = end.stopped;
   if (vo_stats != nullptr) {

@@ -17,6 +17,7 @@
 #include <deque>
 #include <map>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <optional>
 #include <ostream>
@@ -38,6 +39,7 @@
 #include "aerovo/mavlink/link.h"
 #include "aerovo/mavlink/vision.h"
 #include "aerovo/odometry/georef.h"
+#include "aerovo/odometry/gps_check.h"
 #include "aerovo/odometry/visual_odometry.h"
 #include "aerovo/pipeline/preprocess.h"
 #include "aerovo/pipeline/run_config.h"
@@ -85,10 +87,22 @@ class RunTelemetry {
 
   bool empty() const { return telemetry_.empty(); }
   bool by_frame_index() const { return by_frame_index_; }
+  const Telemetry& telemetry() const { return telemetry_; }
+  /// Where the fixes come from (the file, or "photo EXIF/XMP").
+  const std::string& origin() const { return origin_; }
+  /// RunConfig::telemetry_offset_s: telemetry time at video time 0. Non-zero: every frame
+  /// finds its fix by time (frame.time_s + offset_s), also in a telemetry with frame indices.
+  void set_offset_s(double offset_s) { offset_s_ = offset_s; }
+  double offset_s() const { return offset_s_; }
   /// The fix of `frame`: by frame index when the telemetry has one for every fix (DJI SRT,
-  /// photos, CSV with a frame column), else the nearest within 0.5 s of frame.time_s; nullopt
-  /// without telemetry or when none matches.
+  /// photos, CSV with a frame column) and no offset is set, else the interpolated fix at
+  /// frame.time_s + offset_s (within 0.5 s of the covered span); nullopt without telemetry or
+  /// when none matches.
   std::optional<TelemetrySample> SampleOf(const Frame& frame) const;
+  /// Why `frame` has no fix (SampleOf gave nothing), in words: the frame's time or index against
+  /// the telemetry's span, e.g. "frame 0 is before the first telemetry record (FrameCnt 1001:
+  /// the second clip of a split recording?)".
+  std::string WhyNoFix(const Frame& frame) const;
   /// The log's description: "none" or "N fixes from ORIGIN".
   std::string Describe() const;
 
@@ -96,7 +110,33 @@ class RunTelemetry {
   Telemetry telemetry_;
   bool by_frame_index_ = false;
   std::string origin_;
+  double offset_s_ = 0.0;
 };
+
+/// The telemetry's clock against the frames': "" when they agree, else a warning naming the
+/// telemetry `source`, e.g. when the telemetry's time span is ~1000x the frames' (times in
+/// milliseconds read as seconds) or every frame falls in a small part of it. `frames_start_s`,
+/// `frames_end_s`: the processed frames' first and last time (seconds). Only for a telemetry
+/// matched by time (with frame indices the clock does not matter).
+std::string CheckTelemetryClock(const Telemetry& telemetry, const std::string& source,
+                                double frames_start_s, double frames_end_s);
+
+/// The time offset between the telemetry and the frames estimated from the motion: the offset
+/// d (seconds, telemetry time = frame time + d, the meaning of RunConfig::telemetry_offset_s)
+/// that maximises the correlation of the visual odometry's speed at frame time t with the GPS
+/// speed at telemetry time t + d, over d in [-max_offset_s, max_offset_s] by 0.05 s. Speeds over
+/// a 1 s window. Needs speed changes in the flight (a constant speed says nothing).
+struct OffsetEstimate {
+  bool valid = false;        ///< Enough overlapping frames (>= 20) and speed variation.
+  double offset_s = 0.0;     ///< The estimate, s.
+  double correlation = 0.0;  ///< Pearson correlation at the estimate, [-1, 1].
+  /// The estimate is clear: correlation >= 0.8 at the peak, and at least 0.1 above the best
+  /// correlation 2 s or more away from it (no periodic ambiguity).
+  bool clear = false;
+  int frames = 0;  ///< Frames compared at the estimate.
+};
+OffsetEstimate EstimateTelemetryOffset(const std::vector<TrajectoryPoint2D>& vo_track_m,
+                                       const Telemetry& telemetry, double max_offset_s = 30.0);
 
 // ---------------------------------------------------------------------------------------------
 // 2. Camera
@@ -157,6 +197,13 @@ class HeightProvider {
                   std::vector<std::string>* warnings, double capture_s = 0.0);
   /// Where the last HeightOf came from: FrameRecord::height_source.
   const std::string& last_source() const { return last_source_; }
+  /// Why there is no height for the first frame (the message of HeightOf's InputError):
+  /// RunTelemetry::WhyNoFix when `sample` is missing; "the telemetry has no relative altitude"
+  /// when it lacks one; "relative altitude -3.0 m <= 0 (the aircraft below its take-off point?)"
+  /// when it is not positive. Set by the FrameLoop before HeightOf.
+  void set_no_fix_reason(std::string reason) { no_fix_reason_ = std::move(reason); }
+  /// The last height used, if any.
+  std::optional<double> last_m() const { return last_m_; }
 
  private:
   double flag_m_ = 0.0;
@@ -165,6 +212,7 @@ class HeightProvider {
   std::optional<double> last_m_;
   bool warned_ = false;
   std::string last_source_;
+  std::string no_fix_reason_;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -179,6 +227,14 @@ struct PendingFrame {
   double height_m = 0.0;  ///< Height above ground used for the frame (pose stream z_m).
   int quality = -1;       ///< PoseQuality (pipeline/pose_quality.h).
   bool sent_geo = false;  ///< The pose stream already has its geographic position.
+};
+
+/// A GPS fix rejected by the plausibility check (gps_check.h), for the summary.
+struct RejectedFix {
+  int frame = 0;
+  double time_s = 0.0;   ///< The frame's time, s.
+  std::string kind;      ///< "speed", "altitude", "vo" or "superseded".
+  std::string message;   ///< "<telemetry>: the fix of frame N (time t s) rejected: <reason>".
 };
 
 /// The pending frame of `frame` processed into `result`, with its fix `gps` and its height
@@ -229,6 +285,8 @@ class RunOutputs {
   /// Sends `frame` to the pose stream, queues it, then writes the queue unless it waits for
   /// `georef`'s heading.
   void Add(PendingFrame frame, const GeoReferencer& georef);
+  /// Sets the gps_flag of the queued frame `frame_index` (no effect once it is written).
+  void Reflag(int frame_index, const std::string& gps_flag);
   /// At the end: geo-references with what is available if needed (georef.FixWithAvailable),
   /// writes every queued frame and closes the track files.
   void Finish(GeoReferencer& georef);
@@ -254,14 +312,19 @@ class RunOutputs {
 
 /// What the summary needs from the frames, accumulated as they are processed. The only memory
 /// that grows with the run (the rest of the per-frame output is streamed to the files): per
-/// frame with a GPS fix, the VO position (local frame) and the fix (ENU), 48 bytes; with a
-/// truth file, every frame's VO position and index, 28 bytes; every frame's latency, 4 bytes.
+/// frame with a GPS fix, the VO position (local frame), the fix (ENU), its frame and flag, 53
+/// bytes; every frame's VO position and index, 28 bytes (the FrameLoop keeps the track always:
+/// the truth and the telemetry offset estimate use it); every frame's latency, 4 bytes.
 struct RunTotals {
   explicit RunTotals(bool keep_track) : keep_track(keep_track) {}
   /// Adds frame `frame_index` at `time_s` processed into `result`, with its fix `gps` (in the
   /// GPS track once `georef` has its ENU frame).
   void Add(int frame_index, double time_s, const FrameResult& result,
            const std::optional<GeoPoint>& gps, const GeoReferencer& georef);
+
+  /// Marks the fix of `frame_index` rejected (true) or accepted again: rejected fixes are left
+  /// out of the comparison with GPS.
+  void SetRejected(int frame_index, bool rejected);
 
   bool keep_track = false;  ///< Keep every frame's position (local_track) for the truth.
   int frames = 0;
@@ -274,6 +337,9 @@ struct RunTotals {
   std::vector<int> track_frames;  ///< Frame index of each local_track point.
   /// Capture-to-send latency of every frame where measured, ms (4 bytes per frame).
   std::vector<float> latency_ms;
+  std::vector<int> gps_frames;    ///< Frame index of each gps_track point.
+  std::vector<char> gps_rejected;  ///< Per gps_track point: rejected by the plausibility check.
+  double first_time_s = 0.0, last_time_s = 0.0;  ///< Of the processed frames.
 };
 
 /// How the frame loop ended.
@@ -287,6 +353,8 @@ struct LoopEnd {
   /// A write to an output file failed (OutputError, in `failure`): the files stay valid but
   /// the frames still queued cannot be written (skip FrameLoop::Finish).
   bool output_failed = false;
+  /// The fixes rejected by the plausibility check, by frame.
+  std::vector<RejectedFix> rejected_fixes;
 };
 
 /// The frames of a run, one by one: telemetry fix, camera and outputs on the first frame,
@@ -312,6 +380,8 @@ class FrameLoop {
               RunSummary* summary);
   /// Writes the frames still queued and closes the track files (nothing when no frame came).
   void Finish();
+  /// The fixes rejected by the plausibility check, by frame (for Summarize).
+  std::vector<RejectedFix> RejectedFixes() const;
 
   /// The MAVLink link (null without --mavlink).
   const mavlink::AutopilotLink* link() const { return link_.get(); }
@@ -326,6 +396,9 @@ class FrameLoop {
   void Start(const Frame& frame, const std::optional<TelemetrySample>& sample, RunSummary* summary);
   void SendVision(const FrameResult& r, double capture_mono_s, double capture_unix_s,
                   double height_m, const std::optional<mavlink::AutopilotAttitude>& attitude);
+  // The plausibility check of the fix of `frame` (processed into `r`); false when rejected.
+  bool CheckFix(const Frame& frame, const std::optional<TelemetrySample>& sample,
+                const GeoPoint& gps, const FrameResult& r, std::string* flag, RunSummary* summary);
 
   const RunConfig& config_;
   bool focal_from_sim_ = false;
@@ -340,6 +413,9 @@ class FrameLoop {
   mavlink::VisionMessageBuilder vision_;
   HeightProvider height_;
   GeoReferencer georef_;
+  GpsFixChecker gps_check_;
+  std::map<int, RejectedFix> rejected_;  // frame -> its rejected fix
+  std::optional<double> last_height_time_s_;  // frame time of the last relative altitude used
   std::unique_ptr<VisualOdometry> vo_;
   std::unique_ptr<FrameUndistorter> undistorter_;
   std::optional<FrameReducer> reducer_;  // frames above config.max_megapixels

@@ -261,6 +261,52 @@ TEST(RunSteps, MalformedTelemetryRecordSaysHowToGoOn) {
   fs::remove_all(dir);
 }
 
+// The telemetry's clock against the frames'.
+TEST(RunSteps, TelemetryClockMismatchIsNamed) {
+  std::vector<TelemetrySample> ms, ok;
+  for (int i = 0; i <= 60; ++i) {
+    ms.push_back(Fix(1000.0 * i, 100.0));
+    ok.push_back(Fix(1.0 * i, 100.0));
+  }
+  const std::string w = CheckTelemetryClock(Telemetry(ms), "flight.csv", 0.0, 60.0);
+  EXPECT_NE(w.find("flight.csv"), std::string::npos) << w;
+  EXPECT_NE(w.find("milliseconds"), std::string::npos) << w;
+  EXPECT_NE(w.find("1000x"), std::string::npos) << w;
+  EXPECT_EQ(CheckTelemetryClock(Telemetry(ok), "flight.csv", 0.0, 60.0), "");
+  // Every frame in the first seconds of a much longer telemetry, in seconds.
+  EXPECT_NE(CheckTelemetryClock(Telemetry(ok), "long.csv", 0.0, 2.0).find("30x"),
+            std::string::npos);
+}
+
+// The offset from the motion: a VO track with changing speed against the same track 2.5 s later
+// on the telemetry's clock.
+TEST(RunSteps, TelemetryOffsetIsEstimatedFromTheSpeeds) {
+  // A chirp: the speed changes without a period (a periodic one would be ambiguous).
+  const auto x_at = [](double t) { return 10.0 * t + 6.0 * std::sin(0.05 * t * t); };
+  std::vector<TrajectoryPoint2D> vo;
+  for (int i = 0; i <= 300; ++i) vo.push_back({0.2 * i, 0.0, x_at(0.2 * i)});  // local +y
+  std::vector<TelemetrySample> fixes;
+  const LocalEnu enu(45.0, 7.0, 0.0);
+  for (int i = 0; i <= 140; ++i) {
+    const double tel = 0.5 * i;
+    const GeoPoint g = enu.Reverse(x_at(std::max(0.0, tel - 2.5)), 0.0, 0.0);
+    TelemetrySample s = Fix(tel, 100.0);
+    s.lat_deg = g.lat_deg;
+    s.lon_deg = g.lon_deg;
+    fixes.push_back(s);
+  }
+  const OffsetEstimate e = EstimateTelemetryOffset(vo, Telemetry(fixes));
+  ASSERT_TRUE(e.valid);
+  EXPECT_NEAR(e.offset_s, 2.5, 0.1);
+  EXPECT_GT(e.correlation, 0.95);
+  EXPECT_TRUE(e.clear);
+  // A constant speed says nothing.
+  std::vector<TrajectoryPoint2D> steady;
+  for (int i = 0; i <= 300; ++i) steady.push_back({0.2 * i, 0.0, 2.0 * i});
+  EXPECT_FALSE(EstimateTelemetryOffset(steady, Telemetry(fixes)).valid &&
+               EstimateTelemetryOffset(steady, Telemetry(fixes)).clear);
+}
+
 // ---------------------------------------------------------------------------------------------
 // 2. Camera
 
@@ -392,19 +438,34 @@ TEST(RunSteps, HeightFallsBackOnTheLastKnownWithOneWarning) {
   EXPECT_EQ(warnings.size(), 1u);
 }
 
-TEST(RunSteps, NoHeightIsAnErrorNamingTheFrame) {
+TEST(RunSteps, NoHeightIsAnErrorNamingTheFrameAndTheCause) {
   HeightProvider height(0.0);
   std::vector<std::string> warnings;
-  for (const std::optional<TelemetrySample>& s :
-       {std::optional<TelemetrySample>(), std::optional<TelemetrySample>(Fix(0, -3.0))}) {
+  TelemetrySample no_rel_alt = Fix(0, 1.0);
+  no_rel_alt.rel_alt_m.reset();
+  const std::vector<std::pair<std::optional<TelemetrySample>, std::string>> cases = {
+      {std::nullopt, "(the frame has no telemetry fix)"},
+      {no_rel_alt, "(the telemetry has no relative altitude)"},
+      {Fix(0, -3.0), "(the telemetry's relative altitude is -3.0 m, not above the take-off point"},
+  };
+  for (const auto& [sample, cause] : cases) {
     try {
-      height.HeightOf("DJI_0054.JPG", s, &warnings);
+      height.HeightOf("DJI_0054.JPG", sample, &warnings);
       FAIL() << "no error";
     } catch (const InputError& e) {
-      EXPECT_EQ(std::string(e.what()),
-                "DJI_0054.JPG: no height above ground (the telemetry has no relative altitude): "
-                "give --altitude");
+      const std::string m = e.what();
+      EXPECT_EQ(m.rfind("DJI_0054.JPG: no height above ground ", 0), 0u) << m;
+      EXPECT_NE(m.find(cause), std::string::npos) << m;
+      EXPECT_NE(m.find("give --altitude"), std::string::npos) << m;
     }
+  }
+  // The frame loop's reason when there is no fix.
+  height.set_no_fix_reason("frame 0 is before the first record of x.srt (frame counter 1001)");
+  try {
+    height.HeightOf("f0", std::nullopt, &warnings);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("frame counter 1001"), std::string::npos) << e.what();
   }
 }
 

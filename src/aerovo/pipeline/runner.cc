@@ -68,6 +68,21 @@ nlohmann::json ToJson(const RunSummary& s) {
                      {"median", number_or_null(s.latency.median_ms)},
                      {"p95", number_or_null(s.latency.p95_ms)},
                      {"max", number_or_null(s.latency.max_ms)}};
+  j["gps_comparison_note"] = s.gps_comparison_note;
+  j["gps_rejected"] = s.gps_rejected;
+  nlohmann::json rejected = nlohmann::json::array();
+  for (const auto& r : s.gps_rejected_fixes) {
+    rejected.push_back(
+        {{"frame", r.frame}, {"time_s", r.time_s}, {"kind", r.kind}, {"message", r.message}});
+  }
+  j["gps_rejected_fixes"] = rejected;
+  j["telemetry_offset_s"] = s.telemetry_offset_s;
+  j["telemetry_offset_estimate"] =
+      s.telemetry_offset_estimate_valid
+          ? nlohmann::json{{"offset_s", s.telemetry_offset_estimate_s},
+                           {"correlation", s.telemetry_offset_correlation},
+                           {"clear", s.telemetry_offset_clear}}
+          : nlohmann::json();
   j["evaluation"] = s.evaluation ? ToJson(*s.evaluation) : nlohmann::json();
   j["truth_evaluation"] = s.truth_evaluation ? ToJson(*s.truth_evaluation) : nlohmann::json();
   return j;
@@ -96,7 +111,9 @@ std::string FormatSummaryTable(const RunSummary& s) {
     t += "\nComparison with GPS (ENU, after alignment):\n";
     t += FormatTrajectoryTable(*s.evaluation);
   } else {
-    t += "\nNo comparison with GPS (fewer than 3 frames with a fix).\n";
+    t += fmt::format("\nNo comparison with GPS ({}).\n",
+                     s.gps_comparison_note.empty() ? "no frame has a GPS fix"
+                                                   : s.gps_comparison_note);
   }
   if (s.truth_evaluation) {
     t += fmt::format("\nComparison with the ground truth {} ({} frames):\n", s.truth,
@@ -180,7 +197,39 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
   if (config.end_s >= 0.0) so.end_time_s = config.end_s;
   so.photo_gap_s = config.photo_gap_s;
   so.photo_flight = config.photo_flight;
-  return RunFlight(config, OpenFrameSource(config.input, so), cb, stop);
+  if (!config.telemetry_auto_offset) return RunFlight(config, OpenFrameSource(config.input, so), cb, stop);
+  // telemetry_auto_offset: a first run estimates the offset; when it is clear and differs from
+  // the applied one, the flight is run again with it (the second run's outputs replace the
+  // first's).
+  RunConfig first = config;
+  first.telemetry_auto_offset = false;
+  RunSummary s = RunFlight(first, OpenFrameSource(config.input, so), cb, stop);
+  if (s.interrupted || !s.telemetry_offset_estimate_valid || !s.telemetry_offset_clear ||
+      std::abs(s.telemetry_offset_estimate_s - config.telemetry_offset_s) <= 0.2) {
+    if (s.telemetry_offset_estimate_valid && !s.telemetry_offset_clear) {
+      s.warnings.push_back(fmt::format(
+          "telemetry_auto_offset: the offset estimated from the motion ({:+.2f} s, correlation "
+          "{:.2f}) is not clear: not applied",
+          s.telemetry_offset_estimate_s, s.telemetry_offset_correlation));
+      WriteJsonFileAtomic(std::filesystem::path(config.out) / RunFileNames::kSummaryJson,
+                          ToJson(s));
+    }
+    return s;
+  }
+  RunConfig second = first;
+  second.telemetry_offset_s = s.telemetry_offset_estimate_s;
+  if (cb.log && !config.quiet) {
+    *cb.log << fmt::format("telemetry_auto_offset: running again with --telemetry-offset-s {:.2f}\n",
+                           second.telemetry_offset_s);
+  }
+  RunSummary again = RunFlight(second, OpenFrameSource(config.input, so), cb, stop);
+  again.warnings.insert(again.warnings.begin(),
+                        fmt::format("telemetry_auto_offset: the offset estimated from the motion, "
+                                    "{:+.2f} s (correlation {:.2f}), is applied",
+                                    s.telemetry_offset_estimate_s, s.telemetry_offset_correlation));
+  WriteJsonFileAtomic(std::filesystem::path(config.out) / RunFileNames::kSummaryJson,
+                      ToJson(again));
+  return again;
 }
 
 // The steps are in run_steps.h.
@@ -217,8 +266,10 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
     prefetch = wrapped.get();
     source = std::move(wrapped);
   }
-  const run_steps::RunTelemetry telemetry = run_steps::RunTelemetry::Load(
+  run_steps::RunTelemetry telemetry = run_steps::RunTelemetry::Load(
       config.telemetry, config.lenient_telemetry, folder, &summary.warnings);
+  telemetry.set_offset_s(config.telemetry_offset_s);
+  summary.telemetry_offset_s = config.telemetry_offset_s;
   if (log) *log << "telemetry: " << telemetry.Describe() << "\n";
 
   // 2-5. The frames: camera, height, outputs, odometry.
@@ -255,6 +306,35 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
                        {"attitude_samples", st.attitude_samples},
                        {"autopilot_heartbeats", st.autopilot_heartbeats},
                        {"crc_errors", st.parser.crc_errors}};
+  }
+
+  // The telemetry's clock against the frames': its span, and the offset seen in the motion.
+  if (!telemetry.empty() && loop.totals().frames > 0) {
+    const run_steps::RunTotals& t = loop.totals();
+    if (!telemetry.by_frame_index() || config.telemetry_offset_s != 0.0) {
+      const std::string w = run_steps::CheckTelemetryClock(
+          telemetry.telemetry(), telemetry.origin(), t.first_time_s, t.last_time_s);
+      if (!w.empty()) summary.warnings.push_back(w);
+    }
+    const run_steps::OffsetEstimate e =
+        run_steps::EstimateTelemetryOffset(t.local_track, telemetry.telemetry());
+    summary.telemetry_offset_estimate_valid = e.valid;
+    summary.telemetry_offset_estimate_s = e.offset_s;
+    summary.telemetry_offset_correlation = e.correlation;
+    summary.telemetry_offset_clear = e.clear;
+    if (e.valid && log) {
+      *log << fmt::format(
+          "telemetry offset from the motion: {:+.2f} s (VO/GPS speed correlation {:.2f}{}), "
+          "applied {:+.2f} s\n",
+          e.offset_s, e.correlation, e.clear ? "" : ", not clear", config.telemetry_offset_s);
+    }
+    if (e.valid && e.clear && std::abs(e.offset_s - config.telemetry_offset_s) > 0.2) {
+      summary.warnings.push_back(fmt::format(
+          "{}: the telemetry's clock seems {:+.2f} s off the video's (VO speed against GPS "
+          "speed, correlation {:.2f}; applied {:+.2f} s): --telemetry-offset-s {:.2f}, or "
+          "--telemetry-auto-offset",
+          telemetry.origin(), e.offset_s, e.correlation, config.telemetry_offset_s, e.offset_s));
+    }
   }
 
   // 6. Summary.

@@ -93,6 +93,8 @@ struct RunSummary {
   double vo_path_length_m = 0.0;
   /// SE(2) and Sim(2) comparison with GPS, when at least 3 frames have a GPS fix.
   std::optional<TrajectoryComparison> evaluation;
+  /// Why there is no `evaluation` ("" when there is one), e.g. "no frame has a GPS fix".
+  std::string gps_comparison_note;
   /// The ground-truth file compared with ("" = none) and the SE(2) / Sim(2) comparison with it
   /// (processed frames matched as RunConfig::truth says; in the run's ENU frame when the truth is
   /// geographic).
@@ -100,6 +102,24 @@ struct RunSummary {
   int frames_with_truth = 0;
   std::optional<TrajectoryComparison> truth_evaluation;
   std::vector<std::string> warnings;
+  /// GPS fixes rejected by the plausibility check (odometry/gps_check.h; frames.csv gps_flag):
+  /// their count and, for the first 100, frame, time (s), kind and message. They are not in
+  /// `evaluation` (frames_with_gps counts every frame with a fix, rejected or not).
+  int gps_rejected = 0;
+  struct RejectedGpsFix {
+    int frame = 0;
+    double time_s = 0.0;
+    std::string kind, message;
+  };
+  std::vector<RejectedGpsFix> gps_rejected_fixes;
+  /// The telemetry offset applied (RunConfig::telemetry_offset_s, plus the estimate when
+  /// telemetry_auto_offset re-ran the flight) and the offset estimated from the motion
+  /// (run_steps::EstimateTelemetryOffset; estimate_valid false: not enough motion or frames).
+  double telemetry_offset_s = 0.0;
+  bool telemetry_offset_estimate_valid = false;
+  double telemetry_offset_estimate_s = 0.0;  ///< Telemetry time at video time 0, s.
+  double telemetry_offset_correlation = 0.0;
+  bool telemetry_offset_clear = false;
   /// The input error that stopped the run after its first frame ("" if none): RunFlight writes
   /// the outputs and summary.json of the frames before it, then throws it (InputError).
   std::string error;

@@ -473,7 +473,12 @@ void SummaryTables(Page& page, const nlohmann::json& s) {
   const nlohmann::json none;
   const nlohmann::json& ev = s.contains("evaluation") ? s["evaluation"] : none;
   if (!ev.is_object()) {
-    page.Para("No comparison with GPS (fewer than 3 frames with a fix).");
+    // The run says why (summary.json gps_comparison_note, issue 15); older runs did not.
+    const std::string note = s.contains("gps_comparison_note") && s["gps_comparison_note"].is_string() &&
+                                     !s["gps_comparison_note"].get<std::string>().empty()
+                                 ? s["gps_comparison_note"].get<std::string>()
+                                 : std::string("fewer than 3 frames with a fix");
+    page.Para("No comparison with GPS (" + XmlEscape(note) + ").");
   } else {
     page.H2("Comparison with GPS", "comparison");
     page.Para(

@@ -152,6 +152,8 @@ RunData ReadRunDir(const fs::path& dir) {
     f.total_ms = t.Number(r, "total_ms");
     f.status = t.cell(r, "status");
     f.gps = GeoOf(t, r, "gps_lat_deg", "gps_lon_deg", "gps_alt_m");
+    // A fix the run rejected as implausible (gps_flag, issue 15) is not a GPS position.
+    if (t.has("gps_flag") && !t.cell(r, "gps_flag").empty()) f.gps.reset();
     run.frames.push_back(std::move(f));
   }
   const fs::path transforms = dir / RunFileNames::kTransformsCsv;

@@ -1,0 +1,123 @@
+#include "aerovo/odometry/gps_check.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <vector>
+
+#include "aerovo/core/error.h"
+
+namespace aerovo {
+namespace {
+
+// A flight at 10 m/s eastward, one fix per second (frame i at i s), with 1.5 m of deterministic
+// noise; the VO sees the same motion. `edit(i, east, north, alt)` may damage fix i.
+struct Result {
+  std::vector<GpsFixVerdict> verdicts;
+};
+
+Result Fly(int n, const std::function<void(int, double&, double&, double&)>& edit = {},
+           const GpsCheckOptions& options = {}) {
+  const LocalEnu enu(49.84, 24.03, 300.0);
+  GpsFixChecker checker(options);
+  Result r;
+  for (int i = 0; i < n; ++i) {
+    double e = 10.0 * i + 1.5 * std::sin(7.1 * i), nn = 1.5 * std::cos(5.3 * i), alt = 400.0;
+    if (edit) edit(i, e, nn, alt);
+    const GeoPoint g = enu.Reverse(e, nn, alt - 300.0);
+    r.verdicts.push_back(
+        checker.Check(i, static_cast<double>(i), g, alt - 300.0, Eigen::Vector2d(10.0 * i, 0.0), 0));
+  }
+  return r;
+}
+
+std::vector<int> Rejected(const Result& r) {
+  std::vector<int> out;
+  for (std::size_t i = 0; i < r.verdicts.size(); ++i) {
+    if (!r.verdicts[i].accepted) out.push_back(static_cast<int>(i));
+  }
+  return out;
+}
+
+TEST(GpsFixChecker, NoisyCleanFlightHasNoRejection) {
+  EXPECT_TRUE(Rejected(Fly(100)).empty());
+}
+
+TEST(GpsFixChecker, SpikeIsRejectedAsSpeed) {
+  const Result r = Fly(30, [](int i, double&, double& n, double&) {
+    if (i == 5) n += 1112.0;  // +0.01 deg of latitude
+  });
+  EXPECT_EQ(Rejected(r), std::vector<int>{5});
+  EXPECT_EQ(r.verdicts[5].kind, "speed");
+  EXPECT_NE(r.verdicts[5].reason.find("m/s"), std::string::npos) << r.verdicts[5].reason;
+}
+
+TEST(GpsFixChecker, JumpWithinTheSpeedLimitButNotSeenByTheVoIsRejected) {
+  // 45 m in 1 s is within the speed limit (40 m/s + 10 m) but the camera moved 10 m (the limit
+  // against the VO: 10 m + 3 x 10 m).
+  const Result r = Fly(30, [](int i, double&, double& n, double&) {
+    if (i == 8) n += 45.0;
+  });
+  EXPECT_EQ(Rejected(r), std::vector<int>{8});
+  EXPECT_EQ(r.verdicts[8].kind, "vo");
+}
+
+TEST(GpsFixChecker, RunOfBadFixesIsRejectedWhole) {
+  const Result r = Fly(40, [](int i, double&, double& n, double&) {
+    if (i >= 10 && i < 15) n += 1112.0;
+  });
+  EXPECT_EQ(Rejected(r), (std::vector<int>{10, 11, 12, 13, 14}));
+}
+
+TEST(GpsFixChecker, LateStepStaysRejected) {
+  const Result r = Fly(40, [](int i, double&, double& n, double&) {
+    if (i >= 30) n += 1112.0;
+  });
+  EXPECT_EQ(Rejected(r).size(), 10u);
+  EXPECT_EQ(Rejected(r).front(), 30);
+}
+
+TEST(GpsFixChecker, AltitudeSpikeIsRejected) {
+  const Result r = Fly(30, [](int i, double&, double&, double& alt) {
+    if (i == 6) alt += 500.0;
+  });
+  EXPECT_EQ(Rejected(r), std::vector<int>{6});
+  EXPECT_EQ(r.verdicts[6].kind, "altitude");
+}
+
+TEST(GpsFixChecker, BadFirstFixIsOutvotedByTheNextOnes) {
+  const Result r = Fly(20, [](int i, double&, double& n, double&) {
+    if (i == 0) n += 1112.0;
+  });
+  // Fixes 1 and 2 are rejected against the bad anchor, fix 3 makes the challengers 3 > 1.
+  EXPECT_FALSE(r.verdicts[1].accepted);
+  EXPECT_FALSE(r.verdicts[2].accepted);
+  ASSERT_TRUE(r.verdicts[3].accepted);
+  EXPECT_TRUE(r.verdicts[3].switched);
+  EXPECT_EQ(r.verdicts[3].superseded, std::vector<int>{0});
+  ASSERT_EQ(r.verdicts[3].reinstated.size(), 2u);
+  EXPECT_EQ(r.verdicts[3].reinstated[0].frame, 1);
+  EXPECT_EQ(r.verdicts[3].reinstated[1].frame, 2);
+  for (int i = 4; i < 20; ++i) EXPECT_TRUE(r.verdicts[i].accepted) << i;
+}
+
+TEST(GpsFixChecker, DisabledAcceptsEverything) {
+  GpsCheckOptions o;
+  o.enabled = false;
+  const Result r = Fly(
+      30, [](int i, double&, double& n, double&) { if (i == 5) n += 1112.0; }, o);
+  EXPECT_TRUE(Rejected(r).empty());
+}
+
+TEST(GpsFixChecker, BadOptionsAreRejected) {
+  GpsCheckOptions o;
+  o.max_speed_mps = 0.0;
+  EXPECT_THROW(GpsFixChecker{o}, InvalidArgument);
+  o = {};
+  o.tolerance_m = std::nan("");
+  EXPECT_THROW(GpsFixChecker{o}, InvalidArgument);
+}
+
+}  // namespace
+}  // namespace aerovo
