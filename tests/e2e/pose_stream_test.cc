@@ -166,9 +166,9 @@ TEST(PoseStream, JsonLinesOnStdoutAndNothingElse) {
   EXPECT_EQ(lines[0]["type"], "pose");
   EXPECT_EQ(lines[0]["quality"], 100) << "the origin";
   // The messages went to stderr: the configuration and the summary table.
-  EXPECT_NE(r.err.find("effective configuration"), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find("Frames processed"), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find("Latency, capture to pose"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("configuration: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(" processed: ok "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("capture to pose: median"), std::string::npos) << r.err;
   // summary.json: latency figures, nothing dropped from a file.
   const nlohmann::json s = nlohmann::json::parse(ReadText(out / "summary.json"));
   EXPECT_EQ(s["frames_dropped"], 0);
@@ -186,7 +186,7 @@ TEST(PoseStream, HeadingFromGpsLocalPosesAtOnceGeographicOnesFollow) {
   const Cli r = RunCli(RunArgs(f, out) + " --heading gps --poses-jsonl '" + stream.string() + "'",
                        out.string() + ".err");
   ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_NE(r.out.find("Frames processed"), std::string::npos);
+  EXPECT_NE(r.out.find(" processed: ok "), std::string::npos);
   Cli from_file;
   from_file.out = ReadText(stream);
   std::vector<nlohmann::json> lines;

@@ -67,7 +67,8 @@ async function main() {
   } else {
     aerovoPort = await freePort();
     args.push('--mavlink', `udpin:127.0.0.1:${aerovoPort}`);
-    // The fake autopilot (sysid 1, compid 1): rangefinder and attitude at 50 Hz, TIMESYNC at 2 Hz.
+    // The fake autopilot (sysid 1, compid 1): rangefinder and attitude at 50 Hz, TIMESYNC at 10 Hz
+    // (a short run on an idle machine lasts a fraction of a second).
     const proto = new MavLinkProtocolV2(1, 1);
     let seq = 0;
     const send = m => sock.send(proto.serialize(m, seq++ & 255), aerovoPort, '127.0.0.1');
@@ -83,7 +84,7 @@ async function main() {
       at.timeBootMs = tick * 20; at.roll = 0.05; at.pitch = -0.025; at.yaw = 0.5;
       at.rollspeed = 0; at.pitchspeed = 0; at.yawspeed = 0;
       send(at);
-      if (tick % 25 === 0) {
+      if (tick % 5 === 0) {
         const ts = new common.TimeSync();
         ts.tc1 = 0n; ts.ts1 = BigInt(1000 + tick); ts.targetSystem = 0; ts.targetComponent = 0;
         send(ts);

@@ -53,14 +53,25 @@ void PrintRunSummary(std::ostream& out, const RunSummary& s) {
   out << fmt::format("{:<20}{} processed{}: ok {}, re-acquired {}, bridged {}\n", "Frames",
                      s.frames_processed, s.interrupted ? " (interrupted)" : "", s.frames_ok,
                      s.frames_reacquired, s.frames_bridged);
-  out << fmt::format("{:<20}{} with a GPS fix\n", "", s.frames_with_gps);
+  if (!s.frames_flagged.empty()) {
+    std::string flags;
+    for (const auto& [flag, n] : s.frames_flagged) {
+      flags += fmt::format("{}{} {}", flags.empty() ? "" : ", ", flag, n);
+    }
+    out << fmt::format("{:<20}flagged by the input: {}\n", "", flags);
+  }
+  out << fmt::format("{:<20}{} with a GPS fix{}\n", "", s.frames_with_gps,
+                     s.gps_rejected > 0 ? fmt::format(", {} rejected as implausible", s.gps_rejected)
+                                        : std::string());
   out << fmt::format("{:<20}{:.1f} m\n", "VO path length", s.vo_path_length_m);
   out << fmt::format("{:<20}{:.1f} px ({}); heading from {}\n", "Focal length", s.focal_px,
                      s.focal_source, s.heading_source.empty() ? "-" : s.heading_source);
   if (s.evaluation) {
     out << "\nComparison with GPS (ENU, after alignment):\n" << FormatTrajectoryTable(*s.evaluation);
   } else {
-    out << "\nNo comparison with GPS (fewer than 3 frames with a fix).\n";
+    out << fmt::format("\nNo comparison with GPS ({}).\n", s.gps_comparison_note.empty()
+                                                              ? "no frame has a GPS fix"
+                                                              : s.gps_comparison_note);
   }
   if (s.truth_evaluation) {
     out << fmt::format("\nComparison with the ground truth ({} frames):\n", s.frames_with_truth)
@@ -73,6 +84,14 @@ void PrintRunSummary(std::ostream& out, const RunSummary& s) {
   out << fmt::format("{:<20}estimate {:.1f}, total {:.1f}\n", "", s.mean.estimate_ms,
                      s.mean.total_ms);
   out << fmt::format("{:<20}{:.2f} fps ({:.1f} s)\n", "Throughput", s.fps, s.wall_s);
+  if (s.latency.frames > 0) {
+    out << fmt::format("{:<20}capture to pose: median {:.1f}, p95 {:.1f}, max {:.1f}\n",
+                       "Latency (ms)", s.latency.median_ms, s.latency.p95_ms, s.latency.max_ms);
+  }
+  if (s.frames_dropped > 0) {
+    out << fmt::format("{:<20}{} (a live source faster than the processing)\n", "Frames dropped",
+                       s.frames_dropped);
+  }
   out << "\nOutputs in " << s.out_dir.string() << "/:\n" << WrappedFileList(s.out_dir.string());
 }
 

@@ -69,6 +69,7 @@ bool AutopilotLink::SendLocked(const std::vector<uint8_t>& bytes) {
 void AutopilotLink::Loop() {
   std::vector<uint8_t> buffer(65536);
   double next_heartbeat_s = MonotonicNowS();
+  bool heard_peer = false;
   while (!stop_) {
     const double now_s = MonotonicNowS();
     if (now_s >= next_heartbeat_s) {
@@ -89,6 +90,12 @@ void AutopilotLink::Loop() {
       }
       if (n == 0) break;
       const double t = MonotonicNowS();
+      if (!heard_peer) {
+        // udpin: the peer is known from its first datagram on; announce ourselves at once
+        // rather than at the next period (a short run could otherwise end unannounced).
+        heard_peer = true;
+        next_heartbeat_s = t;
+      }
       parser_.Feed(buffer.data(), n, [&](const Packet& packet) { Handle(packet, t); });
       std::lock_guard<std::mutex> lock(data_mutex_);
       stats_.parser = parser_.stats();

@@ -831,7 +831,7 @@ TEST(RunSteps, FrameLoopProcessesEveryFrame) {
   EXPECT_EQ(s.focal_px, 400.0);
   EXPECT_EQ(s.focal_source, "flag");
   EXPECT_EQ(s.height_source, "flag");
-  EXPECT_EQ(log.str(), "camera: 320x240 px, focal 400.0 px (flag), height from flag\n");
+  EXPECT_EQ(log.str(), "camera: 320x240 px, focal 400.0 px (flag), height from flag\ncamera: focal length 400.0 px (given)\n");
   ASSERT_NE(loop.vo_stats(), nullptr);
   EXPECT_EQ(loop.vo_stats()->ok, 6);
   EXPECT_EQ(loop.totals().measured_steps, 5);

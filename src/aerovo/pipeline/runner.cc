@@ -255,6 +255,8 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   SpaceReserve reserve(out_dir / RunFolderFiles::kReserve, kSummaryReserveBytes);
   DescribeSource(*source, config.max_frames, log, &summary);
   const auto* folder = dynamic_cast<const ImageFolderSource*>(source.get());
+  // Before the source is wrapped (the duration needs the video source itself).
+  const std::string source_duration = DurationOf(*source);
   // Decoding on its own thread; a live source keeps only the newest frame (bounded latency).
   PrefetchSource* prefetch = nullptr;
   if (config.frame_queue > 0) {
@@ -283,7 +285,7 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
         "frame of {}{}",
         config.input, config.start_s,
         config.end_s >= 0.0 ? fmt::format("{} s", config.end_s) : std::string("the end"),
-        config.step, source->Describe(), DurationOf(*source));
+        config.step, source->Describe(), source_duration);
   }
   if (!end.output_failed) {
     try {
