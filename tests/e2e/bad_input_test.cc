@@ -32,6 +32,7 @@
 #include "aerovo/geo/local_enu.h"
 #include "aerovo/pipeline/runner.h"
 #include "aerovo/sim/terrain.h"
+#include "e2e_testing.h"
 
 namespace aerovo {
 namespace {
@@ -41,26 +42,11 @@ namespace fs = std::filesystem;
 constexpr int kW = 320, kH = 240;
 constexpr double kFocalPx = 400.0, kHeightM = 100.0, kGsd = kHeightM / kFocalPx;  // 0.25 m/px
 
-fs::path TempDir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("aerovo_bad_input_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path TempDir(const std::string& name) { return e2e::FreshTempDir("aerovo_bad_input", name); }
 
 // The grey terrain all cases fly over: 1600 x 1600 px = 400 m x 400 m, generated once.
 const cv::Mat& Ground() {
-  static const cv::Mat ground = [] {
-    sim::TerrainOptions t;
-    t.width_px = 1600;
-    t.height_px = 1600;
-    t.metres_per_px = kGsd;
-    t.seed = 7;
-    cv::Mat grey;
-    cv::cvtColor(sim::GenerateTerrain(t), grey, cv::COLOR_BGR2GRAY);
-    return grey;
-  }();
+  static const cv::Mat ground = e2e::GreyTerrain(kGsd, 7);
   return ground;
 }
 
