@@ -3,6 +3,7 @@
 // configuration), the legacy flags and the shorthands, conflicts, docs/options.md up to date,
 // and `aerovo run --config OUT/config.json` reproducing a run.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -121,6 +122,32 @@ TEST(RunCli, LegacyFlagsShorthandsAndConflicts) {
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.out.find("ransac.max_distance_px must be finite and > 0, got -1"), std::string::npos)
       << r.out;
+}
+
+// One boolean style: every boolean is a switch with its negation; `--X=value` too; the last one
+// given wins; a value that is no boolean is a usage error (exit 2) naming the flag.
+TEST(RunCli, BooleansAreSwitchesWithNegations) {
+  const nlohmann::json off = PrintConfig(
+      "flight.mp4 --no-guided --no-refine --no-surf-adaptive --surf-extended "
+      "--no-gps-check-enabled --quiet --no-quiet --odometry-relocalize=off");
+  EXPECT_EQ(off["correspondence.guided_matching"], false);
+  EXPECT_EQ(off["clustered.refine"], false);
+  EXPECT_EQ(off["surf.adaptive"], false);
+  EXPECT_EQ(off["surf.extended"], true);
+  EXPECT_EQ(off["gps_check.enabled"], false);
+  EXPECT_EQ(off["quiet"], false);
+  EXPECT_EQ(off["odometry.relocalize"], false);
+  const nlohmann::json on = PrintConfig(
+      "--correspondence-guided-matching=false --correspondence-guided-matching flight.mp4 "
+      "--match-unique=YES --lenient-telemetry 1");
+  EXPECT_EQ(on["input"], "flight.mp4");
+  EXPECT_EQ(on["correspondence.guided_matching"], true);
+  EXPECT_EQ(on["match.unique"], true);
+  EXPECT_EQ(on["lenient_telemetry"], true);
+  const CliResult bad = RunCli("run flight.mp4 --guided=maybe --print-config 2>&1");
+  EXPECT_EQ(WEXITSTATUS(bad.status), 2) << bad.out;
+  EXPECT_NE(bad.out.find("--guided"), std::string::npos) << bad.out;
+  EXPECT_NE(bad.out.find("'maybe' is not a boolean"), std::string::npos) << bad.out;
 }
 
 TEST(RunCli, FlagsWinOverTheConfigFile) {

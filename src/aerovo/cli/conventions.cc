@@ -1,7 +1,10 @@
 #include "aerovo/cli/conventions.h"
 
 #include <algorithm>
+#include <cctype>
 #include <functional>
+#include <iterator>
+#include <set>
 
 namespace aerovo::cli {
 
@@ -128,6 +131,46 @@ std::string BashCompletion(const CLI::App& app, const std::string& name) {
          "  esac\n"
          "}\n"
          "complete -o filenames -F " + fn + " " + name + "\n";
+}
+
+bool IsBooleanWord(const std::string& word) {
+  std::string w;
+  for (const char c : word) w += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  static const char* const kWords[] = {"true", "false", "1", "0", "on", "off", "yes", "no"};
+  return std::any_of(std::begin(kWords), std::end(kWords),
+                     [&w](const char* k) { return w == k; });
+}
+
+namespace {
+
+void CollectFlagNames(const CLI::App& app, std::set<std::string>& out) {
+  for (const CLI::Option* opt : app.get_options()) {
+    if (opt->get_expected_max() != 0) continue;  // takes a value: not a flag
+    for (const std::string& n : opt->get_lnames()) out.insert("--" + n);
+  }
+  for (const CLI::App* sub : app.get_subcommands({})) CollectFlagNames(*sub, out);
+}
+
+}  // namespace
+
+std::vector<std::string> NormalizeBooleanFlags(const CLI::App& app, std::vector<std::string> args) {
+  std::set<std::string> flags;
+  CollectFlagNames(app, flags);
+  std::vector<std::string> out;
+  out.reserve(args.size());
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    if (args[i] == "--") {
+      out.insert(out.end(), args.begin() + static_cast<std::ptrdiff_t>(i), args.end());
+      break;
+    }
+    if (i + 1 < args.size() && flags.count(args[i]) > 0 && IsBooleanWord(args[i + 1])) {
+      out.push_back(args[i] + "=" + args[i + 1]);
+      ++i;
+    } else {
+      out.push_back(args[i]);
+    }
+  }
+  return out;
 }
 
 }  // namespace aerovo::cli

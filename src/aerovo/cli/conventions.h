@@ -58,6 +58,16 @@ std::vector<std::string> SubcommandNames(const CLI::App& app);
 /// Every long and short option name of `app` (with dashes: "--out", "-o"), help included.
 std::vector<std::string> OptionNames(const CLI::App& app);
 
+/// true/false, 1/0, on/off, yes/no (any case): the values a boolean flag takes after '='.
+bool IsBooleanWord(const std::string& word);
+
+/// Every boolean option is a switch (`--X`, `--no-X`, `--X=false`); earlier versions wrote
+/// `--X 0`. Rewrites each `--X V`, where --X is a long flag name of any command of `app` and V a
+/// boolean word, to `--X=V`, so that old command lines keep their meaning. A positional argument
+/// literally named "0" or "true" after a flag must be given as `--input 0` (or `-- 0`).
+/// Stops at "--" (what follows is positional).
+std::vector<std::string> NormalizeBooleanFlags(const CLI::App& app, std::vector<std::string> args);
+
 /// A bash completion script for `app` (program `name`): completes subcommands at every level
 /// and each command's options, and files for the rest. Generated from the App tree, so it lists
 /// every subcommand and every flag of `aerovo run` as they are registered.

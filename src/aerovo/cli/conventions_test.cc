@@ -44,6 +44,38 @@ TEST(Conventions, NearestNameSuggestsOnlyNearNames) {
   EXPECT_EQ(NearestName("--banana", flags), "");
 }
 
+TEST(Conventions, BooleanWords) {
+  for (const char* w : {"true", "FALSE", "1", "0", "On", "off", "yes", "NO"}) {
+    EXPECT_TRUE(IsBooleanWord(w)) << w;
+  }
+  for (const char* w : {"", "2", "maybe", "truee", "-1", "flight.mp4"}) {
+    EXPECT_FALSE(IsBooleanWord(w)) << w;
+  }
+}
+
+// `--X V` with a boolean word V becomes `--X=V` for the flags of any command; options that take
+// a value, non-boolean words and everything after "--" are left alone.
+TEST(Conventions, NormalizeBooleanFlagsKeepsOldCommandLines) {
+  CLI::App app;
+  CLI::App* run = app.add_subcommand("run");
+  bool b = false;
+  int n = 0;
+  std::string in;
+  run->add_flag("--guided,!--no-guided", b);
+  run->add_option("--count", n);
+  run->add_option("input", in);
+  using V = std::vector<std::string>;
+  EXPECT_EQ(NormalizeBooleanFlags(app, V{"run", "--guided", "0", "a.mp4"}),
+            (V{"run", "--guided=0", "a.mp4"}));
+  EXPECT_EQ(NormalizeBooleanFlags(app, V{"run", "--no-guided", "TRUE"}),
+            (V{"run", "--no-guided=TRUE"}));
+  EXPECT_EQ(NormalizeBooleanFlags(app, V{"run", "--guided", "a.mp4", "--count", "1"}),
+            (V{"run", "--guided", "a.mp4", "--count", "1"}));
+  EXPECT_EQ(NormalizeBooleanFlags(app, V{"run", "--", "--guided", "1"}),
+            (V{"run", "--", "--guided", "1"}));
+  EXPECT_EQ(NormalizeBooleanFlags(app, V{"run", "--guided"}), (V{"run", "--guided"}));
+}
+
 #ifdef AEROVO_CLI_PATH
 
 struct Cli {

@@ -145,6 +145,7 @@ int main(int argc, char** argv) {
     std::cerr << msg << "\n";
     return kExitUsage;
   }
+  args = NormalizeBooleanFlags(app, std::move(args));
   std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 parses a reversed vector
   try {
     app.parse(reversed);

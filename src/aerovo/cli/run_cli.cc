@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "aerovo/cli/conventions.h"
 #include "aerovo/core/options_json.h"
 
 namespace aerovo::cli {
@@ -81,14 +82,20 @@ class FlagBinder : public options::GroupingVisitor<FlagBinder> {
     nlohmann::json& given = flags_.given;
     CLI::Option* opt = nullptr;
     if constexpr (std::is_same_v<T, bool>) {
-      if (spec.cli_switch) {
-        opt = cmd_->add_flag_function(
-            names, [&given, json_key](std::int64_t) { given[json_key] = true; }, help);
-      } else {
-        opt = cmd_->add_option_function<bool>(
-            names, [&given, json_key](const bool& v) { given[json_key] = v; }, help);
-        opt->type_name("BOOL")->default_str(value ? "1" : "0");
+      // One boolean style everywhere: `--X` sets, `--no-X` clears, `--X=false` (true/false,
+      // 1/0, on/off, yes/no) sets a value; the last one given wins. (`--X 0`, the style of
+      // earlier versions, is rewritten to `--X=0` before parsing: NormalizeBooleanFlags.)
+      std::string all = names;
+      std::string rest = names;
+      while (!rest.empty()) {
+        const std::string name = rest.substr(0, rest.find(','));
+        rest = name.size() < rest.size() ? rest.substr(name.size() + 1) : std::string();
+        if (name.rfind("--", 0) == 0) all += ",!" + options::NegatedFlagName(name);
       }
+      opt = cmd_->add_flag_function(
+          all, [&given, json_key](std::int64_t v) { given[json_key] = v > 0; }, help);
+      opt->check(BooleanWord())->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
+      opt->default_str(value ? "true" : "false");
     } else if constexpr (std::is_enum_v<T>) {
       opt = cmd_->add_option_function<std::string>(
           names, [&given, json_key](const std::string& v) { given[json_key] = v; }, help);
@@ -104,6 +111,17 @@ class FlagBinder : public options::GroupingVisitor<FlagBinder> {
       }
     }
     opt->group(group);
+  }
+
+  // The values a boolean flag accepts after '=' (CLI11 would otherwise throw from stoll on
+  // `--guided=maybe`); its description is empty so the help stays one line per flag.
+  static CLI::Validator BooleanWord() {
+    return CLI::Validator(
+        [](std::string& v) -> std::string {
+          return IsBooleanWord(v) ? std::string()
+                                  : "'" + v + "' is not a boolean (true/false, 1/0, on/off, yes/no)";
+        },
+        "");
   }
 
   CLI::App* cmd_;

@@ -316,7 +316,12 @@ inline std::string FlagName(const std::string& key) {
   return out;
 }
 
+/// The negation of a boolean flag: "--guided" -> "--no-guided" (every boolean option of the CLI
+/// is a switch: `--X` sets it, `--no-X` clears it, `--X=false` also works).
+inline std::string NegatedFlagName(const std::string& flag) { return "--no-" + flag.substr(2); }
+
 /// A Markdown table of `fields`: key (and legacy alias), flag, type, default, range, doc.
+/// Boolean options list their negations (`--no-X`) as well.
 inline std::string MarkdownTable(const std::vector<FieldInfo>& fields) {
   const auto cell = [](std::string s) {
     std::string out;
@@ -328,7 +333,9 @@ inline std::string MarkdownTable(const std::vector<FieldInfo>& fields) {
   md << "|---|---|---|---|---|---|\n";
   for (const FieldInfo& f : fields) {
     std::string key = "`" + f.key + "`";
+    const bool boolean = f.type == "bool";
     std::string flag = "`" + FlagName(f.key) + "`";
+    if (boolean) flag += "/`" + NegatedFlagName(FlagName(f.key)) + "`";
     std::string extra = f.extra_flags;  // "-o", "--altitude", "input" (positional)
     while (!extra.empty()) {
       const std::string name = extra.substr(0, extra.find(','));
@@ -338,6 +345,7 @@ inline std::string MarkdownTable(const std::vector<FieldInfo>& fields) {
     if (!f.alias.empty()) {
       key += " (`" + f.alias + "`)";
       flag += ", `" + FlagName(f.alias) + "`";
+      if (boolean) flag += "/`" + NegatedFlagName(FlagName(f.alias)) + "`";
     }
     md << "| " << key << " | " << flag << " | " << cell(f.type) << " | `" << f.value << "` | "
        << f.range << " | " << cell(f.doc) << " |\n";
