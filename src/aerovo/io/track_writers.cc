@@ -572,7 +572,10 @@ void TrackWriterSet::Append(const FrameRecord& r, const std::optional<GeoPoint>&
   if (gps) Validate(*gps, ("GPS of frame " + std::to_string(r.frame)).c_str());
   if (m.csv) m.csv->Append(r, gps);
   if (m.vo_tum) m.vo_tum->Append(r.time_s, {r.x_m, r.y_m, r.z_m}, r.yaw_rad);
-  if (gps && m.gps_tum && m.enu) m.gps_tum->Append(r.time_s, m.enu->Forward(*gps), 0.0);
+  // A fix the run rejected as implausible (gps_flag) stays in frames.csv with its flag, and out of
+  // the GPS tracks, which users load as the reference.
+  const bool gps_track = gps && r.gps_flag.empty();
+  if (gps_track && m.gps_tum && m.enu) m.gps_tum->Append(r.time_s, m.enu->Forward(*gps), 0.0);
   if (r.geo) {
     const GeoTrackPoint vo{r.time_s, *r.geo};
     if (m.vo_geojson) m.vo_geojson->Append(vo);
@@ -591,7 +594,7 @@ void TrackWriterSet::Append(const FrameRecord& r, const std::optional<GeoPoint>&
     if (m.vo_kml) m.vo_kml->Append(vo);
     if (m.vo_gpx) m.vo_gpx->Append(vo);
   }
-  if (gps) {
+  if (gps_track) {
     const GeoTrackPoint g{r.time_s, *gps};
     if (m.gps_geojson) m.gps_geojson->Append(g);
     if (m.gps_kml) m.gps_kml->Append(g);

@@ -254,7 +254,8 @@ class TrackWriterSet {
   TrackWriterSet& operator=(TrackWriterSet&&) noexcept;
 
   /// Appends one frame to every output; `gps` is the GPS position associated with this frame
-  /// (same time_s), added to the gps.* tracks and the CSV gps_* columns. The VO geo tracks
+  /// (same time_s), added to the CSV gps_* columns and, unless record.gps_flag marks it rejected
+  /// (non-empty), to the gps.* tracks. The VO geo tracks
   /// only get frames with record.geo. Throws InvalidArgument for an invalid record/gps (nothing
   /// is written then), InputError naming the file when a write fails.
   void Append(const FrameRecord& record, const std::optional<GeoPoint>& gps = std::nullopt);

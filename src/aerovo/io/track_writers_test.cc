@@ -420,6 +420,39 @@ TEST_F(TrackWritersTest, EveryFileValidAfterEveryAppend) {
   }
 }
 
+// A rejected fix (gps_flag set) is kept, flagged, in frames.csv and left out of every GPS track.
+TEST_F(TrackWritersTest, RejectedFixStaysInTheCsvAndOutOfTheGpsTracks) {
+  TrackWriterOptions o;
+  o.enu_origin = GeoPoint{50.45, 30.52, 180.0};
+  o.time_origin_unix_s = 1600000000.0;
+  {
+    TrackWriterSet set(dir_, o);
+    for (int i = 0; i < 4; ++i) {
+      FrameRecord r = MakeRecord(i);
+      r.geo = GeoPoint{50.45 + 1e-5 * i, 30.52, 180.0};
+      std::optional<GeoPoint> gps = GeoPoint{50.45 + 1e-5 * i, 30.52, 181.0};
+      if (i == 2) {
+        gps = GeoPoint{50.46, 30.52, 181.0};  // 1.1 km off
+        r.gps_flag = "rejected_jump";
+      }
+      set.Append(r, gps);
+    }
+  }
+  const Parsed p = ParseRun(dir_);
+  ASSERT_EQ(p.csv_rows.size(), 4u);
+  EXPECT_EQ(p.gps_tum.size(), 3u);
+  const std::vector<GeoPoint> gps_json = GeoJsonTrack(p.gps_geojson);
+  ASSERT_EQ(gps_json.size(), 3u);
+  for (const GeoPoint& g : gps_json) EXPECT_LT(g.lat_deg, 50.455);
+  ASSERT_EQ(p.gps_kml.size(), 3u);
+  ASSERT_EQ(p.gps_gpx.size(), 3u);
+  for (const GeoPoint& g : p.gps_kml) EXPECT_LT(g.lat_deg, 50.455);
+  for (const GeoPoint& g : p.gps_gpx) EXPECT_LT(g.lat_deg, 50.455);
+  const std::string csv = Slurp(dir_ / RunFileNames::kFramesCsv);
+  EXPECT_NE(csv.find("rejected_jump"), std::string::npos);
+  EXPECT_NE(csv.find("50.46"), std::string::npos);
+}
+
 TEST_F(TrackWritersTest, GpxWithoutTimeOriginOmitsTime) {
   GpxTrackWriter w(dir_.string() + "_x.gpx", "t");
   w.Append({1.0, {10.0, 20.0, 5.0}});
