@@ -28,7 +28,7 @@ def test_every_schema_field_is_an_attribute_with_its_default(cls):
     fields = cls.fields()
     assert len(fields) >= 5
     extras = {"roi", "focal_px", "default_height_m"}  # bound by hand: not in the schema
-    found = [leaf for leaf in leaves(cls()) if leaf[0] not in extras]
+    found = [leaf for leaf in leaves(cls()) if leaf[3] not in extras]
     assert [leaf[0] for leaf in found] == [f["key"] for f in fields]
     for f, (key, value, owner, name) in zip(fields, found):
         if isinstance(value, bool):
