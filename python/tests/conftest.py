@@ -53,8 +53,8 @@ def write_png(path, image):
 @pytest.fixture(scope="session")
 def cli():
     """Runs the aerovo CLI: cli("features", "detect", ...) -> stdout (fails on a non-zero exit)."""
-    exe = os.environ.get("AEROVO_CLI")
-    if not exe or not os.path.exists(exe):
+    exe = os.path.abspath(os.environ.get("AEROVO_CLI", ""))
+    if not os.environ.get("AEROVO_CLI") or not os.path.exists(exe):
         pytest.skip("AEROVO_CLI (the aerovo executable) is not set: run through ctest")
 
     def run(*args):
@@ -63,3 +63,15 @@ def cli():
         return p.stdout
 
     return run
+
+
+@pytest.fixture(scope="session")
+def run_dir(cli, tmp_path_factory):
+    """The folder of `aerovo run` on a short simulated flight (test_run_folder.py, test_docs.py)."""
+    work = tmp_path_factory.mktemp("flight")
+    # 40 m east at 100 m above ground, 5 m per frame: 9 frames of 640x480.
+    cli("simulate", "--pattern", "line", "--length-m", 40, "--speed-mps", 10, "--fps", 2,
+        "--height-m", 100, "--focal-px", 500, "--width", 640, "--height", 480,
+        "-o", work / "sim", "-q")
+    cli("run", work / "sim" / "video.mp4", "-o", work / "run", "--no-report", "-q")
+    return work / "run"

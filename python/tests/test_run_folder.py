@@ -10,17 +10,6 @@ import pytest
 import aerovo
 
 
-@pytest.fixture(scope="module")
-def run_dir(cli, tmp_path_factory):
-    work = tmp_path_factory.mktemp("flight")
-    # 40 m east at 100 m above ground, 5 m per frame: 9 frames of 640x480.
-    cli("simulate", "--pattern", "line", "--length-m", 40, "--speed-mps", 10, "--fps", 2,
-        "--height-m", 100, "--focal-px", 500, "--width", 640, "--height", 480,
-        "-o", work / "sim", "-q")
-    cli("run", work / "sim" / "video.mp4", "-o", work / "run", "--no-report", "-q")
-    return work / "run"
-
-
 def test_frames_are_the_csv_columns(run_dir):
     run = aerovo.read_run(str(run_dir))
     with open(run_dir / "frames.csv", newline="") as f:
