@@ -31,4 +31,18 @@ def test_docs_python_md_runs(cli, run_dir, tmp_path, monkeypatch, capsys):
         exec(compile(block, "docs/python.md", "exec"), namespace)
     out = capsys.readouterr().out
     assert "inliers of" in out and " ok " in out
-    assert namespace["r"].index == 8 and namespace["run"]["frames"]["x_m"].shape == (9,)
+    assert namespace["r"].index == 4 and namespace["run"]["frames"]["x_m"].shape == (9,)
+
+
+def test_readme_python_lines_are_in_docs_python_md():
+    source = os.environ.get("AEROVO_SOURCE_DIR")
+    if not source:
+        pytest.skip("AEROVO_SOURCE_DIR (the source tree) is not set: run through ctest")
+    with open(os.path.join(source, "docs", "python.md")) as f:
+        doc_lines = {line.strip() for line in f}
+    with open(os.path.join(source, "README.md")) as f:
+        readme = blocks(f.read(), "python")
+    lines = [line.strip() for block in readme for line in block.splitlines() if line.strip()]
+    assert len(lines) >= 3, "README.md has no Python excerpt"
+    for line in lines:
+        assert line in doc_lines, f"README line not in docs/python.md: {line}"
