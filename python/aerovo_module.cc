@@ -15,6 +15,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
 
 #include <cmath>
 #include <cstdint>
@@ -239,7 +240,7 @@ py::array_t<T> Column(const std::vector<RunFrameRow>& rows, F get) {
   return out;
 }
 
-py::dict ReadRun(const std::string& dir) {
+py::dict ReadRun(const std::filesystem::path& dir) {
   RunData run;
   {
     py::gil_scoped_release release;
@@ -382,7 +383,7 @@ PYBIND11_MODULE(aerovo, m) {
       "cv::cvtColor (0.299 R + 0.587 G + 0.114 B, fixed point), as aerovo's readers.");
   m.def(
       "read_image",
-      [](const std::string& path) {
+      [](const std::filesystem::path& path) {
         cv::Mat g;
         {
           py::gil_scoped_release release;
@@ -445,7 +446,8 @@ PYBIND11_MODULE(aerovo, m) {
            }),
            py::arg("options") = py::none(),
            "Surf(options=None, **kwargs): a SurfOptions and/or its attributes as keywords.")
-      .def_property_readonly("options", [](PySurf& s) { return s.surf.options(); })
+      .def_property_readonly("options", [](PySurf& s) { return s.surf.options(); },
+                             "A copy of the engine's options.")
       .def(
           "detect_and_describe",
           [](PySurf& s, py::handle image, double steered_min_response, const std::string& channels) {
@@ -539,7 +541,8 @@ PYBIND11_MODULE(aerovo, m) {
              return new PyStage(MakeOptions<CorrespondenceOptions>(options, kwargs, "CorrespondenceOptions"));
            }),
            py::arg("options") = py::none())
-      .def_property_readonly("options", [](PyStage& s) { return s.stage.options(); })
+      .def_property_readonly("options", [](PyStage& s) { return s.stage.options(); },
+                             "A copy of the stage's options.")
       .def(
           "run",
           [optional_transform](PyStage& s, const FeatureSet& prev, const FeatureSet& curr, int prev_width,
@@ -651,7 +654,8 @@ PYBIND11_MODULE(aerovo, m) {
            py::arg("options") = py::none(),
            "VisualOdometry(options=None, **kwargs), e.g. VisualOdometry(focal_px=1000, "
            "default_height_m=100).")
-      .def_property_readonly("options", [](PyOdometry& o) { return o.vo.options(); })
+      .def_property_readonly("options", [](PyOdometry& o) { return o.vo.options(); },
+                             "A copy of the odometry's options.")
       .def(
           "process",
           [](PyOdometry& o, py::handle image, double time_s, std::optional<double> height_m,

@@ -32,7 +32,7 @@ def test_frames_are_the_csv_columns(run_dir):
 
 
 def test_summary_and_config_are_the_json_files(run_dir):
-    run = aerovo.read_run(str(run_dir))
+    run = aerovo.read_run(run_dir)  # a pathlib.Path
     assert run["summary"] == json.loads((run_dir / "summary.json").read_text())
     assert run["config"] == json.loads((run_dir / "config.json").read_text())
     assert run["dir"] == str(run_dir)
