@@ -1,12 +1,14 @@
 """VisualOdometry from Python, frame by frame, on a synthetic nadir flight: crops of one
 texture moving by known whole pixels, so the truth is exact."""
+import os
+import subprocess
 import threading
 
 import numpy as np
 import pytest
 
 import aerovo
-from conftest import texture
+from conftest import texture, write_png
 
 FOCAL_PX, HEIGHT_M = 500.0, 50.0  # ground sampling distance 0.1 m/px
 STEP_PX = (10, 4)                 # camera motion per frame in the ground image: right, down
@@ -72,3 +74,28 @@ def test_two_threads_share_one_engine(flight):
     for per_thread in out:
         for kps in per_thread:
             np.testing.assert_array_equal(kps, expected)
+
+
+def test_same_track_as_the_cpp_example(flight, tmp_path):
+    """examples/odometry_frames.cc (VisualOdometry from C++, default options) on the same
+    frames as PNG files prints the same statuses, SURF and inlier counts and positions."""
+    exe = os.environ.get("AEROVO_EXAMPLE_ODOMETRY")
+    if not exe or not os.path.exists(exe):
+        pytest.skip("AEROVO_EXAMPLE_ODOMETRY (examples' odometry_frames) is not set: run through "
+                    "ctest with AEROVO_BUILD_EXAMPLES")
+    frames, _ = flight
+    paths = []
+    for i, f in enumerate(frames):
+        paths.append(tmp_path / f"frame_{i:02d}.png")
+        write_png(paths[-1], f)
+    out = subprocess.run([exe, str(FOCAL_PX), str(HEIGHT_M), "10", *map(str, paths)],
+                         capture_output=True, text=True, timeout=120, check=True).stdout
+    lines = out.strip().splitlines()
+    assert len(lines) == FRAMES
+    vo = aerovo.VisualOdometry(focal_px=FOCAL_PX, default_height_m=HEIGHT_M)
+    for i, (f, line) in enumerate(zip(frames, lines)):
+        r = vo.process(f, i / 10.0)
+        expected = (f"frame {r.index} t {r.time_s:.2f} s: x {r.position_m[0]:.2f} m, "
+                    f"y {r.position_m[1]:.2f} m, {r.status}, {r.n_surf} SURF points, "
+                    f"{r.n_inliers} inliers")
+        assert line == expected
