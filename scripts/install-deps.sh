@@ -18,6 +18,8 @@ PKGS=(
   clang-format
   clang libclang-rt-14-dev  # libFuzzer + sanitizer runtimes for the fuzz targets (scripts/fuzz.sh)
   llvm                   # llvm-symbolizer: symbolised sanitizer and fuzzer stack traces
+  pybind11-dev python3-dev python3-numpy  # the Python module (python/: import aerovo)
+  python3-pytest         # its tests (ctest python_tests)
 )
 # node + npm: the MAVLink end-to-end tests (tests/mavlink) install node-mavlink from the npm
 # registry, an independent MAVLink implementation, to check aerovo's packets. Debian 12's nodejs
