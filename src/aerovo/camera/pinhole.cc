@@ -73,6 +73,41 @@ double HorizontalFovDeg(double focal_px, int width_px) {
   return 2.0 * std::atan(0.5 * width_px / focal_px) / kDegToRad;
 }
 
+const char* LensModelName(LensModel model) {
+  return model == LensModel::kFisheye ? "fisheye" : "pinhole";
+}
+
+LensModel ParseLensModel(const std::string& name) {
+  if (name == "pinhole") return LensModel::kPinhole;
+  if (name == "fisheye") return LensModel::kFisheye;
+  throw InvalidArgument(fmt::format("lens model '{}' is not one of pinhole, fisheye", name));
+}
+
+CameraIntrinsics ScaledTo(const CameraIntrinsics& k, int width_px, int height_px) {
+  Validate(k);
+  CheckSize(width_px, height_px);
+  if (width_px == k.width_px && height_px == k.height_px) return k;
+  const double aspect_from = static_cast<double>(k.width_px) / k.height_px;
+  const double aspect_to = static_cast<double>(width_px) / height_px;
+  if (std::abs(aspect_to / aspect_from - 1.0) > 0.01) {
+    throw InvalidArgument(fmt::format(
+        "the calibration is for {}x{} frames (aspect {:.4g}), the frames are {}x{} (aspect "
+        "{:.4g}): a crop, not a scaling, so the calibration does not apply",
+        k.width_px, k.height_px, aspect_from, width_px, height_px, aspect_to));
+  }
+  const double sx = static_cast<double>(width_px) / k.width_px;
+  const double sy = static_cast<double>(height_px) / k.height_px;
+  CameraIntrinsics out = k;
+  out.width_px = width_px;
+  out.height_px = height_px;
+  out.fx_px = k.fx_px * sx;
+  out.fy_px = k.fy_px * sy;
+  out.cx_px = std::clamp((k.cx_px + 0.5) * sx - 0.5, 0.0, width_px - 1.0);
+  out.cy_px = std::clamp((k.cy_px + 0.5) * sy - 0.5, 0.0, height_px - 1.0);
+  Validate(out);
+  return out;
+}
+
 bool CameraIntrinsics::HasDistortion() const {
   return std::any_of(distortion.begin(), distortion.end(), [](double d) { return d != 0.0; });
 }
@@ -110,6 +145,11 @@ void Validate(const CameraIntrinsics& k) {
                     k.cy_px, k.width_px, k.height_px));
   }
   const std::size_t n = k.distortion.size();
+  if (k.model == LensModel::kFisheye && !(n == 0 || n == 4)) {
+    throw InvalidArgument(fmt::format(
+        "CameraIntrinsics fisheye distortion has {} coefficients (expected 0 or 4: k1 k2 k3 k4)",
+        n));
+  }
   if (!(n == 0 || n == 4 || n == 5 || n == 8)) {
     throw InvalidArgument(
         fmt::format("CameraIntrinsics distortion has {} coefficients (expected 0, "

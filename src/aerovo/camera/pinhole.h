@@ -5,6 +5,7 @@
 // ResolveCamera.
 #pragma once
 
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -50,10 +51,27 @@ double FocalPxFromHorizontalFov(double hfov_deg, int width_px);
 /// Horizontal field of view (degrees) of a focal length in pixels: 2 atan(w / (2 f)).
 double HorizontalFovDeg(double focal_px, int width_px);
 
-/// Pinhole camera with optional distortion (OpenCV model and order: k1 k2 p1 p2 [k3 [k4 k5
-/// k6]]), all in pixels of the frames as delivered. Camera frame: x to the image right, y to
-/// the image bottom, z along the optical axis. Pixel centres at integer coordinates, so the
-/// centre of a W x H image is ((W - 1) / 2, (H - 1) / 2).
+/// The lens model of CameraIntrinsics::distortion (OpenCV's two models, docs/lenses.md).
+enum class LensModel {
+  /// Pinhole with Brown-Conrady distortion (cv::undistort / calibrateCamera): for normalised
+  /// x = X/Z, y = Y/Z and r^2 = x^2 + y^2, x_d = x (1 + k1 r^2 + k2 r^4 + k3 r^6) /
+  /// (1 + k4 r^2 + k5 r^4 + k6 r^6) + 2 p1 x y + p2 (r^2 + 2 x^2), y_d likewise; coefficients
+  /// k1 k2 p1 p2 [k3 [k4 k5 k6]].
+  kPinhole,
+  /// Equidistant fisheye (cv::fisheye): theta = atan(r), theta_d = theta (1 + k1 theta^2 +
+  /// k2 theta^4 + k3 theta^6 + k4 theta^8), x_d = (theta_d / r) x; coefficients k1 k2 k3 k4.
+  /// Covers fields of view beyond 180 degrees' tangent limit of the pinhole model.
+  kFisheye,
+};
+
+/// "pinhole" / "fisheye"; ParseLensModel throws InvalidArgument for another name.
+const char* LensModelName(LensModel model);
+LensModel ParseLensModel(const std::string& name);
+
+/// Camera with optional distortion (`model`: OpenCV's pinhole or fisheye model and their
+/// coefficient orders, see LensModel), all in pixels of the frames as delivered. Camera frame:
+/// x to the image right, y to the image bottom, z along the optical axis. Pixel centres at
+/// integer coordinates, so the centre of a W x H image is ((W - 1) / 2, (H - 1) / 2).
 struct CameraIntrinsics {
   int width_px = 0;
   int height_px = 0;
@@ -62,6 +80,7 @@ struct CameraIntrinsics {
   double cx_px = 0.0;
   double cy_px = 0.0;
   std::vector<double> distortion;  ///< Empty or all zero = no distortion.
+  LensModel model = LensModel::kPinhole;
 
   bool HasDistortion() const;
   /// K = [fx 0 cx; 0 fy cy; 0 0 1]: pixel (u, v, 1) ~ K * (x, y, z) of a camera-frame point.
@@ -72,8 +91,17 @@ struct CameraIntrinsics {
 /// distortion. Throws InvalidArgument as Validate does.
 CameraIntrinsics IntrinsicsFromFocalPx(double focal_px, int width_px, int height_px);
 
+/// The same camera for frames of another size with the same aspect ratio (a calibration made at
+/// full resolution used on reduced frames, or the reverse): focal lengths scale by
+/// new_width / width and new_height / height, the principal point keeps its place relative to
+/// the pixel-centre grid (c' = (c + 0.5) s - 0.5), the distortion coefficients (on normalised
+/// coordinates) are unchanged. Throws InvalidArgument naming both sizes when the aspect ratios
+/// differ by more than 1 % (a crop, not a scaling: the calibration does not apply).
+CameraIntrinsics ScaledTo(const CameraIntrinsics& intrinsics, int width_px, int height_px);
+
 /// Throws InvalidArgument naming the field: size <= 0, focal <= 0 or not finite, principal
-/// point outside the image, distortion with a count other than 0, 4, 5, 8.
+/// point outside the image, distortion with a count other than 0, 4, 5, 8 (pinhole) or 0, 4
+/// (fisheye).
 void Validate(const CameraIntrinsics& intrinsics);
 
 }  // namespace aerovo

@@ -43,6 +43,7 @@ struct SimulateArgs {
   std::string codec = "avc1";
   std::string start_time = "2026-05-01T10:00:00";
   std::string render = "visible";  // visible | thermal
+  std::string lens = "pinhole";     // pinhole | fisheye
   bool quiet = false;
   bool force = false;
 };
@@ -215,7 +216,7 @@ void Register(CLI::App& app) {
   cmd->add_option("--terrain-mpp", args->terrain_mpp,
                   "Terrain metres per pixel; default: the camera's ground sampling distance");
   // Flight.
-  cmd->add_option("--pattern", args->pattern, "line | lawnmower | turns | waypoints")
+  cmd->add_option("--pattern", args->pattern, "line | lawnmower | turns | waypoints | fixed-wing (turns banked at up to --max-bank-deg, the camera rolling with the wings)")
       ->capture_default_str();
   cmd->add_option("--waypoints", args->waypoints,
                   "'e,n;e,n;...' metres east,north of the ground image centre");
@@ -242,6 +243,9 @@ void Register(CLI::App& app) {
   cmd->add_option("--turn-radius-m", opt->flight.turn_radius_m,
                   "Turn radius (turns; corner rounding for waypoints) (m)")
       ->capture_default_str();
+  cmd->add_option("--max-bank-deg", opt->flight.max_bank_deg,
+                  "Fixed-wing: largest bank in turns (deg); turn radius >= v^2 / (g tan(bank))")
+      ->capture_default_str();
   cmd->add_option("--height-m", opt->flight.height_m, "Height above ground (m)")
       ->capture_default_str();
   cmd->add_option("--speed-mps", opt->flight.speed_mps, "Ground speed (m/s)")
@@ -266,6 +270,13 @@ void Register(CLI::App& app) {
   cmd->add_option("--hfov-deg", opt->camera.hfov_deg, "Horizontal field of view (deg)")
       ->capture_default_str();
   cmd->add_option("--focal-px", opt->camera.focal_px, "Focal length (px); overrides --hfov-deg");
+  cmd->add_option("--lens", args->lens,
+                  "pinhole | fisheye: the lens model of --distortion (OpenCV's; docs/lenses.md)")
+      ->capture_default_str();
+  cmd->add_option("--distortion", opt->camera.distortion,
+                  "Lens distortion coefficients, comma-separated, OpenCV order (pinhole: k1,k2,p1,p2"
+                  "[,k3]; fisheye: k1,k2,k3,k4); the focal is that of the undistorted pinhole")
+      ->delimiter(',');
   // Effects and GPS.
   cmd->add_option("--k", opt->effects.illumination_k, "Illumination factor k: f_k = k f")
       ->capture_default_str();
@@ -326,6 +337,7 @@ void Register(CLI::App& app) {
     } else if (args->render != "visible") {
       throw InvalidArgument("--render must be 'visible' or 'thermal', not '" + args->render + "'");
     }
+    opt->camera.lens = ParseLensModel(args->lens);
     writer->write_video = !args->frames_only;
     writer->video_codec = args->codec;
     writer->image_format = args->image_format;

@@ -86,6 +86,19 @@ ResolvedCamera ResolveCamera(const CameraOptions& options, int width_px, int hei
     throw InvalidArgument(fmt::format("frame size {}x{} must be positive", width_px, height_px));
   }
   ResolvedCamera r;
+  if (options.calibration) {
+    r.intrinsics = ScaledTo(*options.calibration, width_px, height_px);
+    const CameraIntrinsics& c = *options.calibration;
+    r.source = fmt::format(
+        "focal length {:.1f} px from the calibration {} ({} lens{}{})", r.intrinsics.fx_px,
+        options.calibration_source.empty() ? std::string("given") : "'" + options.calibration_source + "'",
+        LensModelName(c.model), r.intrinsics.HasDistortion() ? ", distortion corrected" : "",
+        c.width_px != width_px || c.height_px != height_px
+            ? fmt::format(", scaled from {}x{}", c.width_px, c.height_px)
+            : "");
+    r.source_key = "calibration";
+    return r;
+  }
   double f = 0.0;
   if (options.focal_px) {
     f = *options.focal_px;
@@ -133,12 +146,41 @@ ResolvedCamera ResolveCamera(const CameraOptions& options, int width_px, int hei
   return r;
 }
 
-Undistorter::Undistorter(const CameraIntrinsics& k) : width_(k.width_px), height_(k.height_px) {
+Undistorter::Undistorter(const CameraIntrinsics& k)
+    : width_(k.width_px), height_(k.height_px), input_(k) {
   Validate(k);
+  output_ = IntrinsicsFromFocalPx(k.fx_px, width_, height_);
   const cv::Matx33d camera_matrix(k.fx_px, 0, k.cx_px, 0, k.fy_px, k.cy_px, 0, 0, 1);
-  const cv::Mat dist = k.distortion.empty() ? cv::Mat() : cv::Mat(k.distortion, true);
-  cv::initUndistortRectifyMap(camera_matrix, dist, cv::Matx33d::eye(), camera_matrix,
-                              cv::Size(width_, height_), CV_16SC2, map1_, map2_);
+  const cv::Matx33d new_matrix(output_.fx_px, 0, output_.cx_px, 0, output_.fy_px, output_.cy_px,
+                               0, 0, 1);
+  if (k.model == LensModel::kFisheye) {
+    cv::Vec4d d(0, 0, 0, 0);
+    for (std::size_t i = 0; i < k.distortion.size() && i < 4; ++i) d[i] = k.distortion[i];
+    cv::fisheye::initUndistortRectifyMap(camera_matrix, d, cv::Matx33d::eye(), new_matrix,
+                                         cv::Size(width_, height_), CV_16SC2, map1_, map2_);
+  } else {
+    const cv::Mat dist = k.distortion.empty() ? cv::Mat() : cv::Mat(k.distortion, true);
+    cv::initUndistortRectifyMap(camera_matrix, dist, cv::Matx33d::eye(), new_matrix,
+                                cv::Size(width_, height_), CV_16SC2, map1_, map2_);
+  }
+}
+
+void Undistorter::UndistortPoints(std::vector<cv::Point2f>* points) {
+  if (points->empty()) return;
+  const CameraIntrinsics& k = input_;
+  const cv::Matx33d camera_matrix(k.fx_px, 0, k.cx_px, 0, k.fy_px, k.cy_px, 0, 0, 1);
+  const cv::Matx33d new_matrix(output_.fx_px, 0, output_.cx_px, 0, output_.fy_px, output_.cy_px,
+                               0, 0, 1);
+  scratch_.resize(points->size());
+  if (k.model == LensModel::kFisheye) {
+    cv::Vec4d d(0, 0, 0, 0);
+    for (std::size_t i = 0; i < k.distortion.size() && i < 4; ++i) d[i] = k.distortion[i];
+    cv::fisheye::undistortPoints(*points, scratch_, camera_matrix, d, cv::noArray(), new_matrix);
+  } else {
+    const cv::Mat dist = k.distortion.empty() ? cv::Mat() : cv::Mat(k.distortion, true);
+    cv::undistortPoints(*points, scratch_, camera_matrix, dist, cv::noArray(), new_matrix);
+  }
+  points->swap(scratch_);
 }
 
 void Undistorter::CheckSize(int width_px, int height_px) const {

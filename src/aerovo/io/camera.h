@@ -31,6 +31,12 @@ struct CameraOptions {
   /// from the camera model (SensorAspectOf), else 4:3 for photos wider than 1.7:1 (a 16:9 mode
   /// of a 4:3 drone sensor), else the photo is the full frame.
   std::optional<double> sensor_aspect;
+  /// A calibrated camera (io/calibration.h ReadCalibration): wins over every other source,
+  /// scaled to the frames' size when its aspect ratio matches (ScaledTo), else InvalidArgument
+  /// naming both sizes. Its distortion and lens model replace `distortion`.
+  std::optional<CameraIntrinsics> calibration;
+  /// Where the calibration came from (its file), for the run log.
+  std::string calibration_source;
 };
 
 /// The sensor aspect ratio ResolveCamera uses for the EXIF 35 mm equivalent of this photo and
@@ -52,7 +58,7 @@ void Validate(const CameraOptions& options);
 struct ResolvedCamera {
   CameraIntrinsics intrinsics;
   std::string source;  ///< How the focal length was obtained, for the run log.
-  /// The same as a short key (a run's summary focal_source): "flag" (focal_px), "hfov",
+  /// The same as a short key (a run's summary focal_source): "calibration", "flag" (focal_px), "hfov",
   /// "35mm" (focal_35mm_mm), "xmp-calibrated", "exif-35mm", "telemetry-35mm".
   std::string source_key;
 };
@@ -66,11 +72,16 @@ ResolvedCamera ResolveCamera(const CameraOptions& options, int width_px, int hei
                              const ImageMetadata* metadata,
                              std::optional<double> telemetry_focal_35mm_mm = std::nullopt);
 
-/// Undistorts frames of one camera with OpenCV: the maps (cv::initUndistortRectifyMap, 16-bit
-/// fixed point) are computed once, each frame is one bilinear cv::remap; pixels whose source
-/// falls outside the frame repeat the nearest edge pixel (BORDER_REPLICATE). The output keeps
-/// the same K (no new camera matrix), so focal length and principal point stay valid. The one
-/// undistorter of the run's frames (pipeline/preprocess.h FrameUndistorter) and the mosaic's.
+/// Undistorts frames of one camera with OpenCV, pinhole (Brown-Conrady) or fisheye
+/// (equidistant) lens (CameraIntrinsics::model): the maps (cv::initUndistortRectifyMap or
+/// cv::fisheye::initUndistortRectifyMap, 16-bit fixed point) are computed once, each frame is
+/// one bilinear cv::remap; pixels whose source falls outside the frame repeat the nearest edge
+/// pixel (BORDER_REPLICATE). The output is an ideal pinhole camera of the same size with square
+/// pixels, focal fx_px and the principal point at the image centre (output()): for the usual
+/// camera (fx = fy, centred) that is the same K, so focal length and principal point stay valid.
+/// A fisheye frame undistorted at the same focal length shows the central part of its field
+/// (the pinhole's 2 atan(w / 2f) across; the rim beyond is cut). The one undistorter of the
+/// run's frames (pipeline/preprocess.h FrameUndistorter) and the mosaic's.
 class Undistorter {
  public:
   /// Throws InvalidArgument as Validate(CameraIntrinsics) does.
@@ -78,6 +89,8 @@ class Undistorter {
 
   int width_px() const { return width_; }
   int height_px() const { return height_; }
+  /// The camera of the undistorted frames: IntrinsicsFromFocalPx(fx_px, width, height).
+  const CameraIntrinsics& output() const { return output_; }
 
   /// Precondition: `in` has the intrinsics' size (InvalidArgument otherwise). `out` is resized
   /// if needed and may be reused between calls.
@@ -88,11 +101,20 @@ class Undistorter {
   /// `out` must not share data with `in`.
   void Apply(const cv::Mat& in, cv::Mat& out) const;
 
+  /// The points' alternative to Apply: pixel positions (x, y) in the distorted frame to the
+  /// positions the same rays have in the undistorted frame (output()), by cv::undistortPoints
+  /// or cv::fisheye::undistortPoints (iterative inverse of the lens model). `points` is
+  /// rewritten in place; a scratch buffer of the undistorter is reused (no allocation once it
+  /// has the capacity), so one undistorter serves one thread here.
+  void UndistortPoints(std::vector<cv::Point2f>* points);
+
  private:
   void CheckSize(int width_px, int height_px) const;
 
   int width_ = 0, height_ = 0;
+  CameraIntrinsics input_, output_;
   cv::Mat map1_, map2_;
+  std::vector<cv::Point2f> scratch_;
 };
 
 }  // namespace aerovo

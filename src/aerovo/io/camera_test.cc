@@ -230,5 +230,117 @@ TEST(Camera, UndistorterEqualsTheDirectOpenCvMapsBitForBit) {
   EXPECT_THROW(u.Apply(small, got_color), InvalidArgument);
 }
 
+
+// The fisheye lens (equidistant model with k1..k4): the ray of an undistorted pinhole pixel,
+// imaged by the lens at cv::fisheye::distortPoints' position, is brought back by both the
+// image remap and the points' undistortion.
+TEST(Camera, FisheyeUndistorterImageAndPointsAgree) {
+  const int w = 320, h = 240;
+  CameraIntrinsics k = IntrinsicsFromFocalPx(160.0, w, h);
+  k.model = LensModel::kFisheye;
+  k.distortion = {-0.05, 0.01, -0.002, 0.0005};
+  Undistorter u(k);
+  EXPECT_EQ(u.output().fx_px, 160.0);
+  EXPECT_EQ(u.output().cx_px, 0.5 * (w - 1));
+  // A pinhole point far off-centre: normalised (0.8, 0.5) (about 43 degrees off axis).
+  const cv::Point2d pu(k.cx_px + 0.8 * 160.0, k.cy_px + 0.5 * 160.0);
+  std::vector<cv::Point2d> norm = {{0.8, 0.5}}, dist;
+  const cv::Matx33d km(160.0, 0, k.cx_px, 0, 160.0, k.cy_px, 0, 0, 1);
+  cv::fisheye::distortPoints(norm, dist, km, cv::Vec4d(-0.05, 0.01, -0.002, 0.0005));
+  // theta = atan(0.943) = 0.756 rad; theta_d = theta (1 - 0.05 theta^2 + ...) = 0.736 rad, so
+  // the lens images the point at 0.736 / 0.943 of the pinhole radius.
+  ASSERT_GT(std::hypot(dist[0].x - pu.x, dist[0].y - pu.y), 25.0);
+  std::vector<cv::Point2f> pts = {cv::Point2f(static_cast<float>(dist[0].x),
+                                              static_cast<float>(dist[0].y))};
+  u.UndistortPoints(&pts);
+  EXPECT_NEAR(pts[0].x, pu.x, 0.01);
+  EXPECT_NEAR(pts[0].y, pu.y, 0.01);
+  GrayImage in(w, h, 0);
+  for (int y = -1; y <= 1; ++y) {
+    for (int x = -1; x <= 1; ++x) {
+      in.at(static_cast<int>(std::lround(dist[0].x)) + x,
+            static_cast<int>(std::lround(dist[0].y)) + y) = 255;
+    }
+  }
+  GrayImage out;
+  u.Apply(in, out);
+  double sx = 0, sy = 0, sw = 0;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      sx += x * out.at(x, y);
+      sy += y * out.at(x, y);
+      sw += out.at(x, y);
+    }
+  }
+  ASSERT_GT(sw, 0.0);
+  EXPECT_NEAR(sx / sw, pu.x, 1.0);
+  EXPECT_NEAR(sy / sw, pu.y, 1.0);
+  // A fisheye camera takes 0 or 4 coefficients.
+  k.distortion = {0.1, 0.0, 0.0, 0.0, 0.0};
+  EXPECT_THROW(Undistorter{k}, InvalidArgument);
+}
+
+// An off-centre principal point and fx != fy: the output is the centred square-pixel camera.
+TEST(Camera, PinholeUndistorterPointsMatchOpenCv) {
+  const int w = 400, h = 300;
+  CameraIntrinsics k = IntrinsicsFromFocalPx(300.0, w, h);
+  k.fy_px = 303.0;
+  k.cx_px = 205.0;
+  k.cy_px = 146.0;
+  k.distortion = {-0.2, 0.05, 0.001, -0.001, 0.0};
+  Undistorter u(k);
+  std::vector<cv::Point2f> pts = {{10.0f, 20.0f}, {390.0f, 280.0f}, {205.0f, 146.0f}};
+  std::vector<cv::Point2f> want;
+  const cv::Matx33d km(300, 0, 205, 0, 303, 146, 0, 0, 1);
+  const cv::Matx33d out(300, 0, 199.5, 0, 300, 149.5, 0, 0, 1);
+  cv::undistortPoints(pts, want, km, k.distortion, cv::noArray(), out);
+  u.UndistortPoints(&pts);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    EXPECT_NEAR(pts[i].x, want[i].x, 1e-3);
+    EXPECT_NEAR(pts[i].y, want[i].y, 1e-3);
+  }
+  // The principal point maps to the output's centre.
+  EXPECT_NEAR(pts[2].x, 199.5, 1e-3);
+  EXPECT_NEAR(pts[2].y, 149.5, 1e-3);
+}
+
+TEST(Camera, ScaledToKeepsTheRaysAndRefusesAnotherAspect) {
+  CameraIntrinsics k = IntrinsicsFromFocalPx(3000.0, 4000, 3000);
+  k.cx_px = 2010.0;
+  k.model = LensModel::kFisheye;
+  k.distortion = {0.1, 0.0, 0.0, 0.0};
+  const CameraIntrinsics s = ScaledTo(k, 1000, 750);
+  EXPECT_DOUBLE_EQ(s.fx_px, 750.0);
+  EXPECT_DOUBLE_EQ(s.fy_px, 750.0);
+  EXPECT_DOUBLE_EQ(s.cx_px, (2010.0 + 0.5) * 0.25 - 0.5);
+  EXPECT_DOUBLE_EQ(s.cy_px, 374.5);  // the centre stays the centre
+  EXPECT_EQ(s.model, LensModel::kFisheye);
+  EXPECT_EQ(s.distortion, k.distortion);
+  try {
+    ScaledTo(k, 1920, 1080);
+    FAIL() << "a 16:9 crop of a 4:3 calibration must be refused";
+  } catch (const InvalidArgument& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("4000x3000"));
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("1920x1080"));
+  }
+}
+
+TEST(Camera, CalibrationWinsTheFocalChain) {
+  CameraOptions o;
+  o.focal_px = 500.0;
+  CameraIntrinsics k = IntrinsicsFromFocalPx(1600.0, 1920, 1080);
+  k.model = LensModel::kFisheye;
+  k.distortion = {0.02, 0.0, 0.0, 0.0};
+  o.calibration = k;
+  o.calibration_source = "cam.yaml";
+  const ResolvedCamera r = ResolveCamera(o, 960, 540, nullptr);
+  EXPECT_EQ(r.source_key, "calibration");
+  EXPECT_DOUBLE_EQ(r.intrinsics.fx_px, 800.0);
+  EXPECT_EQ(r.intrinsics.model, LensModel::kFisheye);
+  EXPECT_THAT(r.source, ::testing::HasSubstr("cam.yaml"));
+  EXPECT_THAT(r.source, ::testing::HasSubstr("scaled from 1920x1080"));
+  EXPECT_THROW(ResolveCamera(o, 960, 720, nullptr), InvalidArgument);
+}
+
 }  // namespace
 }  // namespace aerovo

@@ -37,6 +37,8 @@ FrameUndistorter::FrameUndistorter(int width_px, int height_px, double focal_px,
                                    double k2, double p1, double p2, double k3)
     : impl_(std::make_unique<Impl>(
           FrameUndistorterIntrinsics(width_px, height_px, focal_px, k1, k2, p1, p2, k3))) {}
+FrameUndistorter::FrameUndistorter(const CameraIntrinsics& intrinsics)
+    : impl_(std::make_unique<Impl>(intrinsics)) {}
 FrameUndistorter::~FrameUndistorter() = default;
 FrameUndistorter::FrameUndistorter(FrameUndistorter&&) noexcept = default;
 FrameUndistorter& FrameUndistorter::operator=(FrameUndistorter&&) noexcept = default;

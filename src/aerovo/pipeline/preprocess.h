@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 
+#include "aerovo/camera/pinhole.h"
 #include "aerovo/core/image.h"
 
 namespace aerovo {
@@ -52,6 +53,10 @@ class FrameUndistorter {
   /// Throws InvalidArgument for a non-positive size or focal length.
   FrameUndistorter(int width_px, int height_px, double focal_px, double k1, double k2, double p1,
                    double p2, double k3);
+  /// Any calibrated camera (pinhole or fisheye lens, any principal point): the output is the
+  /// centred square-pixel pinhole of focal intrinsics.fx_px (io/camera.h Undistorter). Throws
+  /// InvalidArgument as Validate(CameraIntrinsics) does.
+  explicit FrameUndistorter(const CameraIntrinsics& intrinsics);
   ~FrameUndistorter();
   FrameUndistorter(FrameUndistorter&&) noexcept;
   FrameUndistorter& operator=(FrameUndistorter&&) noexcept;

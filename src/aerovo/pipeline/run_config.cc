@@ -81,6 +81,11 @@ void Validate(const RunConfig& c) {
     fail("sensor_aspect " + options::FormatNumber(c.sensor_aspect) +
          " must be 0 (automatic) or in [1, 4] (long side / short side, e.g. 1.3333 for 4:3)");
   }
+  if (!c.calibration.empty() &&
+      (c.k1 != 0.0 || c.k2 != 0.0 || c.p1 != 0.0 || c.p2 != 0.0 || c.k3 != 0.0)) {
+    fail("calibration '" + c.calibration +
+         "' gives the lens distortion: leave k1, k2, p1, p2, k3 at 0 with it");
+  }
   if (c.focal_px > 0.0 && c.focal_px < 1.0) {
     fail("focal_px must be 0 (unknown) or at least 1 px, got " + options::FormatNumber(c.focal_px));
   }

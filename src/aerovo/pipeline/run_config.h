@@ -90,6 +90,13 @@ struct RunConfig {
   /// undistorted (cv::remap with maps computed once) before SURF. Default 0 (none; DJI nadir
   /// photos and videos are usually already corrected in camera).
   double k1 = 0.0, k2 = 0.0, p1 = 0.0, p2 = 0.0, k3 = 0.0;
+  /// Camera calibration file (io/calibration.h ReadCalibration: OpenCV YAML/XML from
+  /// calibrateCamera, OpenDroneMap cameras.json, COLMAP cameras.txt; pinhole or fisheye lens).
+  /// When given it is the camera: focal lengths, principal point and distortion, scaled to the
+  /// frames when only the resolution differs; it wins over focal_px, hfov_deg, EXIF, telemetry
+  /// and k1..k3 (which must then be 0). Frames are undistorted before SURF to the centred pinhole
+  /// of focal fx (io/camera.h Undistorter). Default none (docs/lenses.md).
+  std::string calibration;
   /// Illumination factor k in (0, 1] (the paper's f_k = k f, Fig. 4-6): every frame's brightness
   /// is multiplied by k (ScaleBrightness) after undistortion and before SURF, to study how the
   /// odometry holds in dim light. Default 1 (frames as read).
@@ -187,6 +194,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.p1, "p1", "Lens distortion p1 (tangential)", Finite());
   v.Field(c.p2, "p2", "Lens distortion p2 (tangential)", Finite());
   v.Field(c.k3, "k3", "Lens distortion k3", Finite());
+  v.Field(c.calibration, "calibration", "Camera calibration file: OpenCV YAML/XML, OpenDroneMap cameras.json or COLMAP cameras.txt (pinhole or fisheye; wins over focal_px, hfov_deg, EXIF)", Any());
   v.Field(c.illumination_k, "illumination_k", "Illumination factor k: every frame's brightness times k before SURF (the paper's f_k = k f)", Interval(0, 1, true, false));
   v.Field(c.max_megapixels, "max_megapixels", "Frames above this many megapixels are reduced to it before SURF (focal length scaled with them; 0 = never)", AtLeast(0).Finite());
   v.Field(c.quiet, "quiet", "No progress bar or configuration dump (warnings still go to stderr)", Any().Switch().Flags("-q"));

@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/io/calibration.h"
 #include "aerovo/io/camera.h"
 #include "aerovo/io/telemetry_readers.h"
 #include "aerovo/pipeline/pose_quality.h"
@@ -285,6 +286,16 @@ RunCamera ResolveRunCamera(const RunConfig& config, bool focal_from_sim, int w, 
   if (config.focal_px > 0.0) camera.focal_px = config.focal_px;
   if (config.hfov_deg > 0.0) camera.hfov_deg = config.hfov_deg;
   if (config.sensor_aspect > 0.0) camera.sensor_aspect = config.sensor_aspect;
+  if (!config.calibration.empty()) {
+    camera.calibration = ReadCalibration(config.calibration).intrinsics;
+    camera.calibration_source = config.calibration;
+    try {
+      (void)ScaledTo(*camera.calibration, w, h);
+    } catch (const InvalidArgument& e) {
+      throw InputError(fmt::format("{}: --calibration '{}': {}", frame_name, config.calibration,
+                                   e.what()));
+    }
+  }
   ResolvedCamera resolved;
   try {
     resolved = ResolveCamera(camera, w, h, photo,
@@ -298,6 +309,7 @@ RunCamera ResolveRunCamera(const RunConfig& config, bool focal_from_sim, int w, 
   c.focal_px = resolved.intrinsics.fx_px;
   c.focal_source = focal_from_sim && resolved.source_key == "flag" ? "sim.json" : resolved.source_key;
   c.description = resolved.source;
+  if (camera.calibration) c.calibrated = resolved.intrinsics;
   return c;
 }
 
@@ -309,6 +321,17 @@ std::unique_ptr<FrameUndistorter> MakeUndistorter(const RunConfig& config, int w
   }
   return std::make_unique<FrameUndistorter>(w, h, focal_px, config.k1, config.k2, config.p1,
                                             config.p2, config.k3);
+}
+
+std::unique_ptr<FrameUndistorter> MakeUndistorter(const CameraIntrinsics& calibrated, int w,
+                                                  int h) {
+  const CameraIntrinsics k = ScaledTo(calibrated, w, h);
+  const CameraIntrinsics ideal = IntrinsicsFromFocalPx(k.fx_px, w, h);
+  if (!k.HasDistortion() && k.fy_px == ideal.fy_px && k.cx_px == ideal.cx_px &&
+      k.cy_px == ideal.cy_px) {
+    return nullptr;
+  }
+  return std::make_unique<FrameUndistorter>(k);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -688,7 +711,8 @@ void FrameLoop::Start(const Frame& frame, const std::optional<TelemetrySample>& 
                          config_.mavlink_wait_s);
   }
   vo_ = std::make_unique<VisualOdometry>(vo_options_);
-  undistorter_ = MakeUndistorter(config_, pw, ph, camera.focal_px * focal_scale);
+  undistorter_ = camera.calibrated ? MakeUndistorter(*camera.calibrated, pw, ph)
+                                   : MakeUndistorter(config_, pw, ph, camera.focal_px * focal_scale);
   outputs_.emplace(out_dir_, config_, camera, summary->height_source, w, h, frame.time_s, sample,
                    callbacks_, !telemetry_.empty());
   if (log_) {

@@ -144,13 +144,16 @@ OffsetEstimate EstimateTelemetryOffset(const std::vector<TrajectoryPoint2D>& vo_
 /// The focal length of the processed frames and where it came from.
 struct RunCamera {
   double focal_px = 0.0;
-  /// RunSummary::focal_source: "flag", "sim.json", "hfov", "xmp-calibrated", "exif-35mm" or
+  /// RunSummary::focal_source: "calibration", "flag", "sim.json", "hfov", "xmp-calibrated", "exif-35mm" or
   /// "telemetry-35mm".
   std::string focal_source;
   /// The same as a sentence for the run log (io/camera.h ResolvedCamera::source), e.g. "focal
   /// length 2311.2 px from EXIF FocalLengthIn35mmFilm 20 mm of 'a.jpg' over the FC300S's 4:3
   /// sensor".
   std::string description;
+  /// The calibrated camera of the frames (config.calibration, scaled to the frames' size);
+  /// unset without a calibration file.
+  std::optional<CameraIntrinsics> calibrated;
 };
 
 /// The focal length of width_px x height_px frames by io/camera.h ResolveCamera (the one focal
@@ -169,6 +172,11 @@ RunCamera ResolveRunCamera(const RunConfig& config, bool focal_from_sim, int wid
 /// frames of focal length focal_px; null when every coefficient is 0 (frames used as read).
 std::unique_ptr<FrameUndistorter> MakeUndistorter(const RunConfig& config, int width_px,
                                                   int height_px, double focal_px);
+/// The undistorter of a calibrated camera (RunCamera::calibrated) scaled to width_px x
+/// height_px (the frames after FrameReducer); null when it is already the centred pinhole
+/// without distortion.
+std::unique_ptr<FrameUndistorter> MakeUndistorter(const CameraIntrinsics& calibrated,
+                                                  int width_px, int height_px);
 
 // ---------------------------------------------------------------------------------------------
 // 3. Height above ground

@@ -26,6 +26,7 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
+#include "aerovo/io/calibration.h"
 #include "aerovo/io/camera.h"
 
 namespace aerovo::run_steps {
@@ -902,6 +903,41 @@ TEST(RunSteps, FrameLoopKeepsTheFramesBeforeAnInputError) {
     EXPECT_EQ(std::string(e.what()).rfind("crop0: no height above ground", 0), 0u) << e.what();
   }
   fs::remove_all(dir);
+}
+
+
+// --calibration: the file is the camera (over focal_px and sim.json), scaled to the frames,
+// refused for another aspect ratio with both sizes named; the undistorter follows its lens.
+TEST(RunSteps, CalibrationFileIsTheCamera) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("aerovo_runsteps_calib_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  CameraIntrinsics k = IntrinsicsFromFocalPx(1800.0, 1920, 1440);
+  k.model = LensModel::kFisheye;
+  k.distortion = {-0.05, 0.01, 0.0, 0.0};
+  const std::string file = (dir / "cam.yaml").string();
+  WriteCalibration(file, k, CalibrationFormat::kOpenCv);
+  RunConfig c;
+  c.focal_px = 500.0;  // e.g. from sim.json: the calibration wins
+  c.calibration = file;
+  const RunCamera cam = ResolveRunCamera(c, true, 960, 720, nullptr, std::nullopt, "f.png");
+  EXPECT_EQ(cam.focal_source, "calibration");
+  EXPECT_DOUBLE_EQ(cam.focal_px, 900.0);
+  ASSERT_TRUE(cam.calibrated.has_value());
+  EXPECT_EQ(cam.calibrated->model, LensModel::kFisheye);
+  EXPECT_NE(MakeUndistorter(*cam.calibrated, 960, 720), nullptr);
+  // Without distortion and centred, nothing to undistort.
+  EXPECT_EQ(MakeUndistorter(IntrinsicsFromFocalPx(900.0, 960, 720), 960, 720), nullptr);
+  try {
+    ResolveRunCamera(c, false, 1280, 720, nullptr, std::nullopt, "f.png");
+    ADD_FAILURE() << "a 16:9 frame with a 4:3 calibration must be refused";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("1920x1440"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("1280x720"), std::string::npos) << e.what();
+  }
+  c.calibration = (dir / "missing.yaml").string();
+  EXPECT_THROW(ResolveRunCamera(c, false, 960, 720, nullptr, std::nullopt, "f.png"), InputError);
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/io/calibration.h"
 #include "aerovo/io/camera.h"
 #include "aerovo/io/frame_source.h"
 
@@ -169,6 +170,11 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
     CameraIntrinsics k = IntrinsicsFromFocalPx(focal_px, w, h);
     k.distortion = {k1, k2, p1, p2, k3};
     undistorter.emplace(k);
+  }
+  // A calibration file (run option calibration): the run's camera, scaled to the frames.
+  const std::string calibration = ConfigValue<std::string>(run.config, "calibration", "");
+  if (!calibration.empty()) {
+    undistorter.emplace(ScaledTo(ReadCalibration(calibration).intrinsics, w, h));
   }
   // The run saw the frames dimmed by illumination_k (illumination experiment): so does the mosaic.
   const double illumination_k = ConfigValue<double>(run.config, "illumination_k", 1.0);

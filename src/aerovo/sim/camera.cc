@@ -28,7 +28,59 @@ void Validate(const CameraModel& c) {
     throw InvalidArgument(
         fmt::format("CameraModel: hfov_deg = {} must be in (1, 170)", c.hfov_deg));
   }
+  try {
+    aerovo::Validate(Intrinsics(c));
+  } catch (const InvalidArgument& e) {
+    throw InvalidArgument(std::string("CameraModel: ") + e.what());
+  }
 }
+
+bool HasDistortion(const CameraModel& c) {
+  for (double d : c.distortion) {
+    if (d != 0.0) return true;
+  }
+  return false;
+}
+
+namespace {
+
+// Normalised pinhole coordinates (x/z, y/z) to where the lens puts them (normalised), OpenCV's
+// models (camera/pinhole.h LensModel).
+Eigen::Vector2d Distort(const CameraModel& c, const Eigen::Vector2d& n) {
+  std::vector<double> d = c.distortion;
+  const double x = n.x(), y = n.y(), r2 = x * x + y * y;
+  if (c.lens == LensModel::kFisheye) {
+    d.resize(4, 0.0);
+    const double r = std::sqrt(r2);
+    if (r < 1e-12) return n;
+    const double t = std::atan(r), t2 = t * t;
+    const double td = t * (1 + t2 * (d[0] + t2 * (d[1] + t2 * (d[2] + t2 * d[3]))));
+    return n * (td / r);
+  }
+  d.resize(8, 0.0);
+  const double radial = (1 + r2 * (d[0] + r2 * (d[1] + r2 * d[4]))) /
+                        (1 + r2 * (d[5] + r2 * (d[6] + r2 * d[7])));
+  return {x * radial + 2 * d[2] * x * y + d[3] * (r2 + 2 * x * x),
+          y * radial + d[2] * (r2 + 2 * y * y) + 2 * d[3] * x * y};
+}
+
+// The inverse of Distort by Gauss-Newton with a numeric Jacobian (converges in a few steps for
+// the monotonic part of any real lens).
+Eigen::Vector2d Undistort(const CameraModel& c, const Eigen::Vector2d& nd) {
+  Eigen::Vector2d n = nd;
+  for (int it = 0; it < 30; ++it) {
+    const Eigen::Vector2d e = Distort(c, n) - nd;
+    if (e.norm() < 1e-13) break;
+    constexpr double h = 1e-7;
+    Eigen::Matrix2d j;
+    j.col(0) = (Distort(c, n + Eigen::Vector2d(h, 0)) - Distort(c, n)) / h;
+    j.col(1) = (Distort(c, n + Eigen::Vector2d(0, h)) - Distort(c, n)) / h;
+    n -= j.inverse() * e;
+  }
+  return n;
+}
+
+}  // namespace
 
 double FocalPx(const CameraModel& c) {
   if (c.focal_px > 0.0) return c.focal_px;
@@ -39,8 +91,15 @@ double HorizontalFovDeg(const CameraModel& c) {
   return aerovo::HorizontalFovDeg(FocalPx(c), c.width_px);
 }
 
+Eigen::Vector2d UndistortNormalised(const CameraModel& camera, const Eigen::Vector2d& distorted) {
+  return HasDistortion(camera) ? Undistort(camera, distorted) : distorted;
+}
+
 CameraIntrinsics Intrinsics(const CameraModel& c) {
-  return IntrinsicsFromFocalPx(FocalPx(c), c.width_px, c.height_px);
+  CameraIntrinsics k = IntrinsicsFromFocalPx(FocalPx(c), c.width_px, c.height_px);
+  k.model = c.lens;
+  k.distortion = c.distortion;
+  return k;
 }
 
 Eigen::Matrix3d IntrinsicMatrix(const CameraModel& c) { return Intrinsics(c).K(); }
@@ -79,14 +138,22 @@ Eigen::Vector2d ProjectGroundPoint(const CameraModel& camera, const CameraPose& 
   if (x_cam.z() <= 0.0) {
     return Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
   }
-  const Eigen::Vector3d p = IntrinsicMatrix(camera) * x_cam;
+  const Eigen::Matrix3d k = IntrinsicMatrix(camera);
+  if (HasDistortion(camera)) {
+    const Eigen::Vector2d d = Distort(camera, x_cam.head<2>() / x_cam.z());
+    return {k(0, 0) * d.x() + k(0, 2), k(1, 1) * d.y() + k(1, 2)};
+  }
+  const Eigen::Vector3d p = k * x_cam;
   return p.head<2>() / p.z();
 }
 
 Eigen::Vector2d BackProjectPixel(const CameraModel& camera, const CameraPose& pose,
                                  const Eigen::Vector2d& pixel) {
-  const Eigen::Vector3d ray_cam =
+  Eigen::Vector3d ray_cam =
       IntrinsicMatrix(camera).inverse() * Eigen::Vector3d(pixel.x(), pixel.y(), 1.0);
+  if (HasDistortion(camera)) {
+    ray_cam.head<2>() = Undistort(camera, ray_cam.head<2>());
+  }
   const Eigen::Vector3d ray = MapFromCameraRotation(pose) * ray_cam;
   if (ray.z() >= 0.0 || pose.position_m.z() <= 0.0) {
     return Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());

@@ -8,14 +8,18 @@
 //   pixel centre; the principal point is the image centre ((w - 1) / 2, (h - 1) / 2).
 #pragma once
 
+#include <vector>
+
 #include <Eigen/Core>
 
 #include "aerovo/camera/pinhole.h"
 
 namespace aerovo::sim {
 
-/// The simulator's camera settings: ideal pinhole (no distortion), square pixels, principal
-/// point at the image centre. Its maths is camera/pinhole.h (Intrinsics below).
+/// The simulator's camera settings: square pixels, principal point at the image centre, an ideal
+/// pinhole by default or a lens with known distortion (`lens`, `distortion`: OpenCV's pinhole or
+/// fisheye model, camera/pinhole.h LensModel) so that undistortion can be checked against exact
+/// truth. Its maths is camera/pinhole.h (Intrinsics below).
 struct CameraModel {
   /// Image size (px). Default 1280 x 720 (720p video); 1920 x 1080 is the other common choice.
   int width_px = 1280;
@@ -25,6 +29,12 @@ struct CameraModel {
   double hfov_deg = 73.7;
   /// Focal length (px); when > 0 it overrides hfov_deg. 0 = derive it from hfov_deg.
   double focal_px = 0.0;
+  /// Lens model of `distortion`. Default pinhole.
+  LensModel lens = LensModel::kPinhole;
+  /// Distortion coefficients in OpenCV's order for `lens` (pinhole: k1 k2 p1 p2 [k3 ...];
+  /// fisheye: k1 k2 k3 k4). Empty (default) = none. With a fisheye lens focal_px / hfov_deg
+  /// are those of the pinhole the frames undistort to (the lens's own f in r_d = f theta_d).
+  std::vector<double> distortion;
 };
 
 /// Throws aerovo::InvalidArgument naming the bad field.
@@ -37,8 +47,8 @@ double FocalPx(const CameraModel& camera);
 /// Horizontal field of view (deg) implied by the model (hfov_deg, or the one focal_px gives).
 double HorizontalFovDeg(const CameraModel& camera);
 
-/// The model as pinhole intrinsics: f = FocalPx, cx = (w - 1) / 2, cy = (h - 1) / 2, no
-/// distortion. Throws InvalidArgument for a non-positive size or focal length.
+/// The model as intrinsics: f = FocalPx, cx = (w - 1) / 2, cy = (h - 1) / 2, the lens and
+/// distortion of the model. Throws InvalidArgument for a non-positive size or focal length.
 CameraIntrinsics Intrinsics(const CameraModel& camera);
 
 /// K = [f 0 cx; 0 f cy; 0 0 1] of Intrinsics(camera).
@@ -64,18 +74,28 @@ struct CameraPose {
 Eigen::Matrix3d MapFromCameraRotation(const CameraPose& pose);
 
 /// Homography image_from_map: (u, v, 1) ~ H * (east_m, north_m, 1) for points on the ground
-/// plane z = 0. Precondition: the camera is above the ground (position z > 0).
+/// plane z = 0, of the ideal pinhole (a distorted camera's undistorted image). Precondition: the
+/// camera is above the ground (position z > 0).
 Eigen::Matrix3d ImageFromGroundHomography(const CameraModel& camera, const CameraPose& pose);
 
-/// Pixel where the ground point (east_m, north_m, 0) appears (may be outside the image; NaN if
-/// the point is behind the camera).
+/// The camera has lens distortion (CameraModel::distortion not all zero).
+bool HasDistortion(const CameraModel& camera);
+
+/// Pixel where the ground point (east_m, north_m, 0) appears, through the lens's distortion
+/// (may be outside the image; NaN if the point is behind the camera).
 Eigen::Vector2d ProjectGroundPoint(const CameraModel& camera, const CameraPose& pose,
                                    const Eigen::Vector2d& ground_en_m);
 
-/// Ground point (east, north) seen at pixel (u, v): the inverse of ProjectGroundPoint. NaN when
-/// the pixel's ray does not hit the ground (horizon).
+/// Ground point (east, north) seen at pixel (u, v): the inverse of ProjectGroundPoint (the
+/// lens's distortion undone iteratively). NaN when the pixel's ray does not hit the ground
+/// (horizon).
 Eigen::Vector2d BackProjectPixel(const CameraModel& camera, const CameraPose& pose,
                                  const Eigen::Vector2d& pixel);
+
+/// The lens's inverse on normalised coordinates: where the ideal pinhole has the ray that the
+/// lens images at normalised (x_d, y_d) = ((u - cx) / f, (v - cy) / f). Identity without
+/// distortion.
+Eigen::Vector2d UndistortNormalised(const CameraModel& camera, const Eigen::Vector2d& distorted);
 
 /// Nadir ground sampling distance h / f (metres per image pixel at the image centre).
 double NadirGsdMetresPerPx(const CameraModel& camera, double height_m);

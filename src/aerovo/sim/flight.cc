@@ -45,6 +45,15 @@ double AppendArc(std::vector<Eigen::Vector2d>& path, const Eigen::Vector2d& star
   return heading_rad + turn_rad;
 }
 
+// Standard gravity (m/s^2), for the coordinated turn tan(bank) = v^2 / (g r).
+constexpr double kGravity = 9.80665;
+
+double TurnRadiusM(const FlightPlan& p) {
+  if (p.pattern != FlightPattern::kFixedWing) return p.turn_radius_m;
+  return std::max(p.turn_radius_m,
+                  p.speed_mps * p.speed_mps / (kGravity * std::tan(p.max_bank_deg * kDegToRad)));
+}
+
 std::vector<Eigen::Vector2d> PatternPath(const FlightPlan& p) {
   const double h0 = p.heading_deg * kDegToRad;
   std::vector<Eigen::Vector2d> path{Eigen::Vector2d::Zero()};
@@ -57,7 +66,7 @@ std::vector<Eigen::Vector2d> PatternPath(const FlightPlan& p) {
       const bool right = (i % 2 == 0) == p.first_turn_right;
       h = AppendArc(path, path.back(), h, 0.5 * p.spacing_m, right ? kPi : -kPi);
     } else {
-      h = AppendArc(path, path.back(), h, p.turn_radius_m, p.turn_angle_deg * kDegToRad);
+      h = AppendArc(path, path.back(), h, TurnRadiusM(p), p.turn_angle_deg * kDegToRad);
     }
   }
   // Centre the bounding box, taken in the frame of the first leg, on the requested centre.
@@ -106,8 +115,9 @@ FlightPattern ParseFlightPattern(const std::string& name) {
   if (name == "line") return FlightPattern::kLine;
   if (name == "lawnmower") return FlightPattern::kLawnmower;
   if (name == "turns") return FlightPattern::kTurns;
+  if (name == "fixed-wing") return FlightPattern::kFixedWing;
   throw InvalidArgument("unknown flight pattern '" + name +
-                        "' (expected waypoints, line, lawnmower or turns)");
+                        "' (expected waypoints, line, lawnmower, turns or fixed-wing)");
 }
 
 const char* FlightPatternName(FlightPattern pattern) {
@@ -120,6 +130,8 @@ const char* FlightPatternName(FlightPattern pattern) {
       return "lawnmower";
     case FlightPattern::kTurns:
       return "turns";
+    case FlightPattern::kFixedWing:
+      return "fixed-wing";
   }
   return "?";
 }
@@ -148,13 +160,19 @@ void Validate(const FlightPlan& p) {
     if (p.pattern == FlightPattern::kLawnmower && !(p.spacing_m > 0 && p.spacing_m < 1e5)) {
       fail(fmt::format("spacing_m = {} must be in (0, 1e5)", p.spacing_m));
     }
-    if (p.pattern == FlightPattern::kTurns &&
+    if ((p.pattern == FlightPattern::kTurns || p.pattern == FlightPattern::kFixedWing) &&
         !(std::abs(p.turn_angle_deg) <= 360 && finite(p.turn_angle_deg))) {
       fail(fmt::format("turn_angle_deg = {} must be within [-360, 360]", p.turn_angle_deg));
     }
   }
   if (!(p.turn_radius_m >= 0 && p.turn_radius_m < 1e5)) {
     fail(fmt::format("turn_radius_m = {} must be in [0, 1e5)", p.turn_radius_m));
+  }
+  if (p.pattern == FlightPattern::kFixedWing &&
+      !(p.max_bank_deg > 0.0 && p.max_bank_deg <= 45.0 && p.bank_ramp_s > 0.0 &&
+        p.bank_ramp_s <= 30.0)) {
+    fail(fmt::format("max_bank_deg = {} must be in (0, 45] and bank_ramp_s = {} in (0, 30]",
+                     p.max_bank_deg, p.bank_ramp_s));
   }
   if (p.pattern == FlightPattern::kTurns && !(p.turn_radius_m > 0)) {
     fail("turn_radius_m must be > 0 for pattern 'turns'");
@@ -239,6 +257,20 @@ PlannedFlight PlanFlight(const FlightPlan& plan, double fps, const Eigen::Vector
     const double w = 2 * kPi * pose.time_s / plan.wobble_period_s;
     pose.pitch_deg = plan.pitch_deg + plan.wobble_deg * std::sin(w + phase_pitch);
     pose.roll_deg = plan.roll_deg + plan.wobble_deg * std::sin(w + phase_roll);
+    if (plan.pattern == FlightPattern::kFixedWing) {
+      // Coordinated turn: bank = atan(v^2 kappa / g) with the curvature averaged over the
+      // roll-in time (heading change across bank_ramp_s of flight, divided by its length).
+      const double half = 0.5 * plan.speed_mps * plan.bank_ramp_s;
+      const Eigen::Vector2d t0 = at(s) - at(s - half - delta), t1 = at(s + half + delta) - at(s);
+      double kappa = 0.0;
+      if (t0.norm() > 1e-9 && t1.norm() > 1e-9) {
+        kappa = WrapPi(HeadingOf(t1) - HeadingOf(t0)) / (half + delta);
+      }
+      const double bank_deg = std::clamp(
+          std::atan(plan.speed_mps * plan.speed_mps * kappa / kGravity) / kDegToRad,
+          -plan.max_bank_deg, plan.max_bank_deg);
+      pose.roll_deg -= bank_deg;
+    }
   }
   out.flown_length_m = std::min(flown, (n - 1) * step);
   return out;

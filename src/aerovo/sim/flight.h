@@ -18,9 +18,16 @@ enum class FlightPattern {
   kLawnmower,  ///< `legs` parallel legs, alternating direction, joined by half-circle turns.
   kTurns,      ///< `legs` legs, each followed by a right turn of turn_angle_deg (radius
                ///< turn_radius_m); 4 legs at 90 deg make a rounded square.
+  /// A fixed-wing aircraft with the camera fixed to the airframe: the legs and turns of kTurns,
+  /// each turn a coordinated banked turn of radius max(turn_radius_m, v^2 / (g tan(max_bank_deg)))
+  /// and the camera rolled with the wings: bank = atan(v^2 kappa / g), kappa the path's
+  /// curvature averaged over bank_ramp_s of flight (the roll-in and roll-out), so the camera's
+  /// roll is -bank (a right turn drops the right wing, the belly camera looks outwards, to the
+  /// image's left).
+  kFixedWing,
 };
 
-/// Parses "waypoints", "line", "lawnmower", "turns"; throws InvalidArgument otherwise.
+/// Parses "waypoints", "line", "lawnmower", "turns", "fixed-wing"; throws InvalidArgument otherwise.
 FlightPattern ParseFlightPattern(const std::string& name);
 const char* FlightPatternName(FlightPattern pattern);
 
@@ -54,6 +61,10 @@ struct FlightPlan {
   /// kTurns: heading change at each turn (deg, positive = right) and the turn radius (m).
   double turn_angle_deg = 90.0;
   double turn_radius_m = 20.0;
+  /// kFixedWing: the largest bank angle in turns (deg; default 20, a gentle survey turn) and the
+  /// time over which the aircraft rolls in and out of a turn (s; default 1.5).
+  double max_bank_deg = 20.0;
+  double bank_ramp_s = 1.5;
   /// Height above the flat ground (m). Default 100 m (issue 5's reference flight).
   double height_m = 100.0;
   /// Ground speed (m/s). Default 10 m/s, a typical survey speed for small multirotors.

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <vector>
 
+#include <Eigen/LU>
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -72,7 +73,39 @@ GroundRenderer::GroundRenderer(GroundImage ground, CameraModel camera)
   }
   // The pyramid blurs no-data edges; a few DN marks the margin as valid data.
   cv::threshold(gray, valid_mask_, 2, 255, cv::THRESH_BINARY);
+  if (HasDistortion(camera_)) {
+    const Eigen::Matrix3d k = IntrinsicMatrix(camera_);
+    rays_.create(camera_.height_px, camera_.width_px, CV_32FC2);
+    for (int v = 0; v < camera_.height_px; ++v) {
+      auto* row = rays_.ptr<cv::Vec2f>(v);
+      for (int u = 0; u < camera_.width_px; ++u) {
+        const Eigen::Vector2d n = UndistortNormalised(
+            camera_, Eigen::Vector2d((u - k(0, 2)) / k(0, 0), (v - k(1, 2)) / k(1, 1)));
+        row[u] = cv::Vec2f(static_cast<float>(n.x()), static_cast<float>(n.y()));
+      }
+    }
+  }
 }
+
+namespace {
+// Level pixel coordinates of every ray of `rays` (normalised pinhole x, y) through
+// levelpx_from_normalised; rays that miss the ground (w <= 0) get -1 (outside: no data).
+void RayMaps(const cv::Mat& rays, const Eigen::Matrix3d& g, int step, cv::Mat* map) {
+  const int h = (rays.rows + step - 1) / step, w = (rays.cols + step - 1) / step;
+  map->create(h, w, CV_32FC2);
+  for (int y = 0; y < h; ++y) {
+    const auto* in = rays.ptr<cv::Vec2f>(y * step);
+    auto* out = map->ptr<cv::Vec2f>(y);
+    for (int x = 0; x < w; ++x) {
+      const cv::Vec2f r = in[x * step];
+      const Eigen::Vector3d p = g * Eigen::Vector3d(r[0], r[1], 1.0);
+      out[x] = p.z() > 1e-12 ? cv::Vec2f(static_cast<float>(p.x() / p.z()),
+                                         static_cast<float>(p.y() / p.z()))
+                             : cv::Vec2f(-1.0f, -1.0f);
+    }
+  }
+}
+}  // namespace
 
 int GroundRenderer::LevelFor(const CameraPose& pose) const {
   const double gsd = NadirGsdMetresPerPx(camera_, std::max(1e-3, pose.position_m.z()));
@@ -91,6 +124,15 @@ void GroundRenderer::Render(const CameraPose& pose, cv::Mat& out) const {
                                       pose.position_m.z()));
   }
   const int level = LevelFor(pose);
+  if (!rays_.empty()) {
+    const Eigen::Matrix3d g =
+        (IntrinsicMatrix(camera_).inverse() * ImageFromGroundLevelPx(pose, level)).inverse();
+    cv::Mat map;
+    RayMaps(rays_, g, 1, &map);
+    cv::remap(pyramid_[level], out, map, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+              cv::Scalar::all(0));
+    return;
+  }
   const cv::Matx33d h = ToCv(ImageFromGroundLevelPx(pose, level));
   cv::warpPerspective(pyramid_[level], out, h, cv::Size(camera_.width_px, camera_.height_px),
                       cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar::all(0));
@@ -104,6 +146,15 @@ cv::Mat GroundRenderer::Render(const CameraPose& pose) const {
 
 double GroundRenderer::NoDataFraction(const CameraPose& pose) const {
   constexpr int kSub = 8;
+  if (!rays_.empty()) {
+    const Eigen::Matrix3d g =
+        (IntrinsicMatrix(camera_).inverse() * ImageFromGroundLevelPx(pose, mask_level_)).inverse();
+    cv::Mat map, view;
+    RayMaps(rays_, g, kSub, &map);
+    cv::remap(valid_mask_, view, map, cv::noArray(), cv::INTER_NEAREST, cv::BORDER_CONSTANT,
+              cv::Scalar(0));
+    return 1.0 - static_cast<double>(cv::countNonZero(view)) / static_cast<double>(view.total());
+  }
   const int w = std::max(4, camera_.width_px / kSub), h = std::max(4, camera_.height_px / kSub);
   // Small camera with the same field of view: scale pixel coordinates by w / width.
   Eigen::Matrix3d scale = Eigen::Matrix3d::Identity();

@@ -59,6 +59,9 @@ class GroundRenderer {
 
   /// Renders the view from `pose` into `out` (same type as the ground image, camera size).
   /// Parts of the view beyond the ground image are black (no data). Bilinear interpolation.
+  /// A camera with lens distortion: every pixel's ray (UndistortNormalised, computed once) is
+  /// followed to the ground (cv::remap through the ground homography), so the frame is exactly
+  /// what the lens sees.
   void Render(const CameraPose& pose, cv::Mat& out) const;
   cv::Mat Render(const CameraPose& pose) const;
 
@@ -71,6 +74,7 @@ class GroundRenderer {
   CameraModel camera_;
   std::vector<cv::Mat> pyramid_;  // level 0 = ground_.image
   cv::Mat valid_mask_;            // 255 where the ground has data, at level mask_level_
+  cv::Mat rays_;                  // distorted cameras: per pixel the pinhole's normalised (x, y)
   int mask_level_ = 0;
 };
 

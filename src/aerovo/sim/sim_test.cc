@@ -98,6 +98,65 @@ TEST(Render, MarkerAppearsAtPredictedPixel) {
   }
 }
 
+// A fisheye camera (known k1..k4): a marker appears where the projection through the lens
+// predicts, off-centre where the lens moves it visibly, and the back-projection inverts it.
+TEST(Render, FisheyeMarkerAppearsWhereTheLensPutsIt) {
+  const double mpp = 0.1;
+  const Eigen::Vector2d marker_px(700.3, 812.6);
+  const Eigen::Vector2d marker_en((marker_px.x() + 0.5) * mpp, -(marker_px.y() + 0.5) * mpp);
+  CameraModel cam;
+  cam.width_px = 320;
+  cam.height_px = 240;
+  cam.focal_px = 150.0;
+  cam.lens = LensModel::kFisheye;
+  cam.distortion = {-0.05, 0.01, -0.002, 0.0005};
+  CameraModel pinhole = cam;
+  pinhole.distortion.clear();
+  const GroundRenderer renderer(MarkerGround(marker_px, 2.5, mpp), cam);
+  CameraPose pose;
+  pose.position_m = Eigen::Vector3d(marker_en.x() + 18.0, marker_en.y() - 12.0, 30.0);
+  pose.yaw_deg = 20.0;
+  const Eigen::Vector2d predicted = ProjectGroundPoint(cam, pose, marker_en);
+  const Eigen::Vector2d ideal = ProjectGroundPoint(pinhole, pose, marker_en);
+  ASSERT_TRUE(predicted.allFinite());
+  EXPECT_GT((predicted - ideal).norm(), 5.0) << "the lens moves the marker visibly";
+  const cv::Mat img = renderer.Render(pose);
+  const Eigen::Vector2d found = BlobCentroid(img, predicted, 9);
+  EXPECT_LT((found - predicted).norm(), 0.5)
+      << "predicted " << predicted.transpose() << " found " << found.transpose();
+  EXPECT_LT((BackProjectPixel(cam, pose, predicted) - marker_en).norm(), 1e-6);
+  EXPECT_EQ(Intrinsics(cam).model, LensModel::kFisheye);
+  cam.distortion = {0.1, 0.0};
+  EXPECT_THROW(Validate(cam), InvalidArgument);
+}
+
+// Fixed wing: turns of radius v^2 / (g tan(max bank)), the camera rolled by -bank in the turn
+// (right turns: to the image's left), level on the legs.
+TEST(Flight, FixedWingBanksInTurns) {
+  FlightPlan plan;
+  plan.pattern = FlightPattern::kFixedWing;
+  plan.legs = 2;
+  plan.leg_length_m = 200.0;
+  plan.turn_angle_deg = 90.0;
+  plan.speed_mps = 22.0;
+  plan.max_bank_deg = 20.0;
+  const PlannedFlight f = PlanFlight(plan, 2.0, Eigen::Vector2d::Zero(), 1);
+  const double radius = 22.0 * 22.0 / (9.80665 * std::tan(20.0 * kPi / 180.0));  // 135.6 m
+  EXPECT_NEAR(f.path_length_m, 400.0 + 0.5 * kPi * radius, 1.0);
+  double min_roll = 0.0, first_roll = 0.0, last_roll = 0.0;
+  for (const CameraPose& p : f.poses) min_roll = std::min(min_roll, p.roll_deg);
+  first_roll = f.poses[3].roll_deg;
+  last_roll = f.poses[f.poses.size() - 4].roll_deg;
+  EXPECT_NEAR(min_roll, -20.0, 0.05);
+  EXPECT_NEAR(first_roll, 0.0, 1e-6);
+  EXPECT_NEAR(last_roll, 0.0, 1e-6);
+  // Mid-turn the full bank: the pose at half the path length.
+  const std::size_t mid = static_cast<std::size_t>((200.0 + 0.25 * kPi * radius) / 11.0);
+  EXPECT_NEAR(f.poses[mid].roll_deg, -20.0, 0.05);
+  plan.max_bank_deg = 50.0;
+  EXPECT_THROW(Validate(plan), InvalidArgument);
+}
+
 TEST(Camera, YawZeroIsNorthUpAndEastRight) {
   CameraModel cam;
   cam.width_px = 101;

@@ -179,7 +179,8 @@ std::string SimulationJsonText(const Simulator& sim, const SimulationOutput& out
   j["fps"] = o.fps;
   j["duration_s"] = sim.frame_count() > 0 ? sim.poses().back().time_s : 0.0;
   j["start_time_utc"] = wo.start_time_utc;
-  j["camera"] = {{"model", "pinhole"},
+  j["camera"] = {{"model", LensModelName(o.camera.lens)},
+                 {"distortion", o.camera.distortion},
                  {"width_px", o.camera.width_px},
                  {"height_px", o.camera.height_px},
                  {"focal_px", k(0, 0)},

@@ -64,10 +64,20 @@ TerrainOptions FitTerrainToFlight(const SimulationOptions& options, TerrainOptio
   // Farthest ground point any frame can see from below the camera: the image corner ray at the
   // largest tilt the plan allows.
   const FlightPlan& f = options.flight;
-  const double tilt_deg = std::max(std::abs(f.pitch_deg), std::abs(f.roll_deg)) + f.wobble_deg;
+  const double tilt_deg =
+      std::max(std::abs(f.pitch_deg),
+               std::abs(f.roll_deg) + (f.pattern == FlightPattern::kFixedWing ? f.max_bank_deg : 0.0)) +
+      f.wobble_deg;
   const double fpx = FocalPx(options.camera);
   const double half_diag_px = 0.5 * std::hypot(options.camera.width_px, options.camera.height_px);
-  const double corner_angle = std::atan(half_diag_px / fpx) + tilt_deg * kDegToRadSim;
+  // (Through the lens: a fisheye's corner ray is farther off axis than the pinhole's.)
+  const double corner_ray =
+      UndistortNormalised(options.camera,
+                          Eigen::Vector2d(0.5 * options.camera.width_px / fpx,
+                                          0.5 * options.camera.height_px / fpx))
+          .norm();
+  const double corner_angle =
+      std::max(std::atan(half_diag_px / fpx), std::atan(corner_ray)) + tilt_deg * kDegToRadSim;
   const double reach =
       f.height_m * std::tan(std::min(corner_angle, 80.0 * kDegToRadSim));  // guard the horizon
   const double width_m = 2.2 * (half_e + reach), height_m = 2.2 * (half_n + reach);

@@ -1,0 +1,114 @@
+// Issue 14 item 4 end to end: a simulated wide-angle fisheye flight (OpenCV's equidistant model
+// with known k1..k4, exact truth) run with the calibration file the test writes is accurate;
+// the same frames taken for an ideal pinhole are not. Item 5: a fast fixed-wing flight with
+// banked turns keeps every frame.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "aerovo/io/calibration.h"
+
+namespace aerovo {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path TempDir(const std::string& name) {
+  const fs::path d =
+      fs::temp_directory_path() / ("aerovo_wide_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  return d;
+}
+
+bool Cli(const std::string& args) {
+  const std::string cmd = std::string(AEROVO_CLI_PATH) + " " + args + " > /dev/null 2>&1";
+  return std::system(cmd.c_str()) == 0;
+}
+
+nlohmann::json ReadJson(const fs::path& p) {
+  std::ifstream in(p);
+  return nlohmann::json::parse(in);
+}
+
+// 960x720 fisheye, focal 450 px (93.7 degrees across once undistorted), k = (-0.05, 0.01,
+// -0.002, 0.0005): the image corners are 8 % closer to the centre than a pinhole's. A 200 m line
+// at 80 m, 2 frames/s (41 frames). Measured: with the calibration end error 0.002 % of the
+// distance, taken as a pinhole 3.6 % (7.3 % unaligned) on the 300 m version of this flight.
+TEST(WideLens, FisheyeFlightIsAccurateWithItsCalibrationFileOnly) {
+  const fs::path dir = TempDir("fisheye");
+  ASSERT_TRUE(Cli("simulate --pattern line --length-m 200 --height-m 80 --fps 2 --width 960 "
+                  "--height 720 --focal-px 450 --lens fisheye "
+                  "--distortion=-0.05,0.01,-0.002,0.0005 --frames-only --image-format png "
+                  "--quiet --out " + (dir / "sim").string()));
+  // The calibration as OpenDroneMap would give it, from the simulator's own record.
+  const nlohmann::json cam = ReadJson(dir / "sim" / "sim.json")["camera"];
+  ASSERT_EQ(cam["model"], "fisheye");
+  CameraIntrinsics k;
+  k.width_px = cam["width_px"];
+  k.height_px = cam["height_px"];
+  k.fx_px = k.fy_px = cam["focal_px"].get<double>();
+  k.cx_px = cam["cx_px"];
+  k.cy_px = cam["cy_px"];
+  k.model = LensModel::kFisheye;
+  k.distortion = cam["distortion"].get<std::vector<double>>();
+  WriteCalibration((dir / "cameras.json").string(), k, CalibrationFormat::kOdmJson);
+
+  const std::string frames = (dir / "sim" / "frames").string();
+  ASSERT_TRUE(Cli("run " + frames + " --calibration " + (dir / "cameras.json").string() +
+                  " --quiet --no-report -o " + (dir / "calibrated").string()));
+  ASSERT_TRUE(Cli("run " + frames + " --quiet --no-report -o " + (dir / "pinhole").string()));
+  const nlohmann::json cal = ReadJson(dir / "calibrated" / "summary.json");
+  const nlohmann::json pin = ReadJson(dir / "pinhole" / "summary.json");
+  EXPECT_EQ(cal["focal_source"], "calibration");
+  EXPECT_EQ(cal["frames_processed"].get<int>(), 41);
+  EXPECT_EQ(cal["frames_bridged"].get<int>(), 0);
+  const double cal_end = cal["truth_evaluation"]["se2"]["end_point_error_percent"].get<double>();
+  const double pin_end = pin["truth_evaluation"]["se2"]["end_point_error_percent"].get<double>();
+  EXPECT_LT(cal_end, 0.05) << "with the calibration";
+  EXPECT_GT(pin_end, 1.0) << "the same frames taken as an ideal pinhole";
+  EXPECT_GT(pin_end, 20 * cal_end);
+  fs::remove_all(dir);
+}
+
+
+// Issue 14 item 5: a fast fixed-wing survey with a 93-degree camera: 22 m/s at 30 m, 1.15 photos/s
+// (19.1 m steps over a 47.5 m along-track footprint: 60 % overlap), two legs joined by a 90-degree
+// turn of the radius a 20-degree bank gives at that speed (v^2 / (g tan 20deg) = 136 m).
+// With the camera stabilised (nadir through the turn) every frame is kept and the track ends
+// within 0.1 % of the distance (measured 0.004 %, 0.10 % unaligned).
+TEST(WideLens, FastFixedWingFlightKeepsEveryFrame) {
+  const fs::path dir = TempDir("fixedwing");
+  const std::string common =
+      " --legs 2 --length-m 150 --turn-angle-deg 90 --speed-mps 22 --height-m 30 --fps 1.15 "
+      "--width 960 --height 720 --hfov-deg 93 --frames-only --image-format png --quiet";
+  ASSERT_TRUE(Cli("simulate --pattern turns --turn-radius-m 136" + common + " --out " +
+                  (dir / "nadir").string()));
+  ASSERT_TRUE(Cli("run " + (dir / "nadir" / "frames").string() + " --quiet --no-report -o " +
+                  (dir / "nadir_run").string()));
+  const nlohmann::json s = ReadJson(dir / "nadir_run" / "summary.json");
+  EXPECT_GE(s["frames_processed"].get<int>(), 20);
+  EXPECT_EQ(s["frames_bridged"].get<int>(), 0);
+  EXPECT_LT(s["truth_evaluation"]["se2"]["end_point_error_percent"].get<double>(), 0.1);
+  EXPECT_LT(s["truth_evaluation"]["se2"]["end_point_error_unaligned_percent"].get<double>(), 0.5);
+  // The camera fixed to the airframe, banking 20 degrees in the turn (pattern fixed-wing): still
+  // no frame bridged, but the tilt's perspective shear takes the place of the turn's rotation in
+  // the affine steps (measured 1 degree per frame instead of 6.2 on the 250 m version), so the
+  // heading is lost in the turn (end error 18 %) until the camera's roll is corrected from the
+  // telemetry (issue 14 item 3). Recorded here so that the correction shows.
+  ASSERT_TRUE(Cli("simulate --pattern fixed-wing --max-bank-deg 20" + common + " --out " +
+                  (dir / "banked").string()));
+  ASSERT_TRUE(Cli("run " + (dir / "banked" / "frames").string() + " --quiet --no-report -o " +
+                  (dir / "banked_run").string()));
+  const nlohmann::json b = ReadJson(dir / "banked_run" / "summary.json");
+  EXPECT_EQ(b["frames_bridged"].get<int>(), 0);
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace aerovo
