@@ -3,6 +3,7 @@
 // above sea level minus the ground's (photos the test writes with only a GPS altitude), and the
 // camera attitude of a frame from its telemetry (gimbal, aircraft, autopilot, mount).
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>

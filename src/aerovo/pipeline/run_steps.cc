@@ -386,7 +386,7 @@ double HeightProvider::HeightOf(const std::string& frame_name,
   } else {
     why = fmt::format(
         "the telemetry's relative altitude is {:.1f} m, not above the take-off point "
-        "(landed, or a take-off point above the area flown?)",
+        "(landed, or a take-off point above the area flown? see --takeoff-height-agl-m)",
         *sample->rel_alt_m);
   }
   throw InputError(frame_name + ": no height above ground (" + why + "): give --altitude");
@@ -832,11 +832,15 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
     if (frame_attitude.reported && !frame_attitude.camera && !warned_attitude_ &&
         TiltFromNadirDeg(*frame_attitude.reported) > config_.attitude_warn_deg) {
       summary->warnings.push_back(fmt::format(
-          "{}: the camera is {:.1f} deg from nadir ({} pitch {:.1f}, roll {:.1f}) and attitude "
+          "{}: the camera is {:.1f} deg from nadir (pitch {:.1f}, roll {:.1f}, from the {}) and attitude "
           "is off: positions are those of the image centre's ground point and the steps' scale "
           "is that of a nadir camera (--attitude auto corrects it)",
-          frame.name, TiltFromNadirDeg(*frame_attitude.reported), frame_attitude.source,
-          frame_attitude.reported->pitch_deg, frame_attitude.reported->roll_deg));
+          frame.name, TiltFromNadirDeg(*frame_attitude.reported),
+          frame_attitude.reported->pitch_deg, frame_attitude.reported->roll_deg,
+          frame_attitude.source == "gimbal"    ? "gimbal angles"
+          : frame_attitude.source == "flight"  ? "aircraft's angles"
+          : frame_attitude.source == "mavlink" ? "autopilot's ATTITUDE"
+                                               : "camera mount"));
       warned_attitude_ = true;
     }
     const std::optional<double> yaw = sample ? sample->CameraYawDeg() : std::nullopt;
