@@ -99,7 +99,15 @@ void Validate(const RunConfig& c) {
   }
 }
 
-nlohmann::json ToJson(const RunConfig& c) { return options::ToFlatJson(c); }
+nlohmann::json ToJson(const RunConfig& c) {
+  nlohmann::json j = options::ToFlatJson(c);
+  // NaN (ground_elevation_m: unknown) as an explicit null: written the same, equal to itself,
+  // read back as NaN.
+  for (auto& [key, value] : j.items()) {
+    if (value.is_number_float() && std::isnan(value.get<double>())) value = nullptr;
+  }
+  return j;
+}
 
 namespace {
 
