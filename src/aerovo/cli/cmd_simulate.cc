@@ -261,6 +261,9 @@ void Register(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--wobble-deg", opt->flight.wobble_deg, "Attitude oscillation amplitude (deg)")
       ->capture_default_str();
+  cmd->add_option("--wobble-period-s", opt->flight.wobble_period_s,
+                  "Period of the attitude oscillation (s)")
+      ->capture_default_str();
   cmd->add_option("--duration-s", opt->flight.max_duration_s, "Stop after this time (0 = all)")
       ->capture_default_str();
   // Camera.

@@ -65,6 +65,8 @@ T FromJsonValue(const nlohmann::json& j, const std::string& name, const std::str
     }
     return wrong("must be an integer, got " + got());
   } else if constexpr (std::is_floating_point_v<T>) {
+    // null: NaN, as the writer above writes it (an option whose NaN means "unknown").
+    if (j.is_null()) return std::numeric_limits<T>::quiet_NaN();
     if (!j.is_number()) return wrong("must be a number, got " + got());
     const double v = j.get<double>();
     if (std::is_same_v<T, float> && std::isfinite(v) &&

@@ -2,6 +2,7 @@
 // as io's SRT reader (telemetry_readers.h) reads it back.
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include "aerovo/geo/geo_point.h"
@@ -28,6 +29,10 @@ struct DjiSrtEntry {
   double focal_35mm_mm = 0.0;
   GeoPoint position;       ///< latitude, longitude (6 decimals) and abs_alt (m above MSL).
   double rel_alt_m = 0.0;  ///< rel_alt: height above the take-off point (m).
+  /// Gimbal pitch and roll (degrees, -90 = nadir; pipeline/run_steps.h CameraAttitudeOf reads
+  /// them): when set, "[gb_pitch: -75.0 gb_roll: 3.2] " follows the altitudes (1 decimal, as DJI
+  /// writes them). Unset: no gimbal field (a nadir flight's entries as before).
+  std::optional<double> gimbal_pitch_deg, gimbal_roll_deg;
 };
 
 /// The text of `entry` (see DjiSrtEntry), ending with the blank line that separates entries.

@@ -361,7 +361,8 @@ VisualOdometry::VisualOdometry(VisualOdometry&&) noexcept = default;
 VisualOdometry& VisualOdometry::operator=(VisualOdometry&&) noexcept = default;
 
 FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
-                                    std::optional<double> height_m, std::optional<double> yaw_deg) {
+                                    std::optional<double> height_m, std::optional<double> yaw_deg,
+                                    std::optional<CameraAttitude> attitude) {
   Stopwatch total;
   Impl& s = *impl_;
   const OdometryOptions& o = options_;
@@ -388,6 +389,22 @@ FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
   r.detect_ms = features.detect_ms;
   r.describe_ms = features.describe_ms;
   r.n_surf = static_cast<int>(features.features.size());
+  if (attitude) {
+    r.tilt_deg = TiltFromNadirDeg(*attitude);
+    if (o.focal_px > 0.0 && (attitude->roll_deg != 0.0 || attitude->pitch_deg != 0.0)) {
+      // Every keypoint to the virtual nadir camera: matching, RANSAC, references and the chain
+      // then see nadir-equivalent frames (attitude.h).
+      const Eigen::Matrix3d h = NadirFromCameraHomography(*attitude, o.focal_px,
+                                                          0.5 * (frame.width - 1),
+                                                          0.5 * (frame.height - 1));
+      for (Keypoint& k : features.features.keypoints) {
+        const Eigen::Vector3d q = h * Eigen::Vector3d(k.x, k.y, 1.0);
+        k.x = static_cast<float>(q.x() / q.z());
+        k.y = static_cast<float>(q.y() / q.z());
+      }
+      r.attitude_corrected = true;
+    }
+  }
   const bool usable = r.n_surf >= o.min_features;
 
   // No usable frame yet (the flight starts dark, blank or textureless): there is nothing to

@@ -18,6 +18,7 @@
 #include "aerovo/core/options.h"
 #include "aerovo/correspondence/correspondence.h"
 #include "aerovo/features/surf.h"
+#include "aerovo/odometry/attitude.h"
 #include "aerovo/odometry/pose_chain.h"
 
 namespace aerovo {
@@ -195,6 +196,10 @@ struct FrameResult {
   double heading_rad = 0.0;   ///< See pose_chain.h.
   double gsd_m_per_px = 1.0;  ///< Ground sampling distance used for this frame.
   double step_scale = 1.0;    ///< sqrt|det| of the step's linear part.
+  /// The frame's keypoints were mapped to the virtual nadir camera of its attitude (attitude.h):
+  /// an attitude was given, focal_px > 0 and the tilt is not exactly 0.
+  bool attitude_corrected = false;
+  double tilt_deg = 0.0;  ///< Tilt from nadir of the attitude given (0: none).
 };
 
 /// Counts over the frames processed so far.
@@ -219,12 +224,19 @@ class VisualOdometry {
 
   /// Processes the next frame. `height_m`: height above ground (else options.default_height_m);
   /// `yaw_deg`: camera compass yaw (used only with options.heading_from_yaw).
+  /// `attitude`: the camera's roll and pitch at this frame (attitude.h: camera FRD frame, 0, 0 =
+  /// nadir). When given (and focal_px > 0, tilt not 0) every keypoint is mapped to the virtual
+  /// nadir camera (NadirFromCameraHomography, principal point at the frame centre) before
+  /// matching, so the step is measured between nadir-equivalent images and position_m is the
+  /// point under the camera, not the ground point of the image centre. Without one the frame is
+  /// processed as a nadir frame (the behaviour before attitudes existed).
   /// Throws InvalidArgument for an empty frame, InputError when the frame size differs from the
   /// first frame's or no height above ground is known for a metric run (message names the
   /// frame).
   FrameResult Process(const GrayImageView& frame, double time_s,
                       std::optional<double> height_m = std::nullopt,
-                      std::optional<double> yaw_deg = std::nullopt);
+                      std::optional<double> yaw_deg = std::nullopt,
+                      std::optional<CameraAttitude> attitude = std::nullopt);
 
   const OdometryStats& stats() const { return stats_; }
 

@@ -41,6 +41,7 @@ void ApplyPaperPreset(RunConfig& c) {
   c.odometry.surf.adaptive = false;
   c.odometry.correspondence.guided_matching = false;
   c.odometry.correspondence.clustered.refine = false;
+  c.attitude = AttitudeMode::kOff;
 }
 
 RunConfig PaperRunConfig() {
@@ -55,10 +56,12 @@ const std::vector<RunPreset>& RunPresets() {
        "The paper's exact pipeline (Ivanov & Muzychuk 2023, MATLAB semantics): SURF with the fixed "
        "threshold of detectSURFFeatures (surf.hessian_threshold, default 1000), every frame "
        "matched exhaustively, the clustered RANSAC's best cell fit as it is; what `aerovo "
-       "experiment --paper` uses to reproduce the paper's figures",
+       "experiment --paper` uses to reproduce the paper's figures; no attitude correction (the paper's "
+       "nadir camera)",
        {{"surf.adaptive", "false"},
         {"correspondence.guided_matching", "false"},
-        {"clustered.refine", "false"}}},
+        {"clustered.refine", "false"},
+        {"attitude", "off"}}},
   };
   return presets;
 }
@@ -89,6 +92,10 @@ void Validate(const RunConfig& c) {
   if (c.focal_px > 0.0 && c.focal_px < 1.0) {
     fail("focal_px must be 0 (unknown) or at least 1 px, got " + options::FormatNumber(c.focal_px));
   }
+  if (!std::isnan(c.ground_elevation_m) && !(std::abs(c.ground_elevation_m) <= 1e4)) {
+    fail("ground_elevation_m must be nan (unknown) or in [-10000, 10000] m, got " +
+         options::FormatNumber(c.ground_elevation_m));
+  }
   try {
     Validate(c.gps_check);
     Validate(c.odometry);
@@ -97,7 +104,15 @@ void Validate(const RunConfig& c) {
   }
 }
 
-nlohmann::json ToJson(const RunConfig& c) { return options::ToFlatJson(c); }
+nlohmann::json ToJson(const RunConfig& c) {
+  nlohmann::json j = options::ToFlatJson(c);
+  // NaN (ground_elevation_m: unknown) as an explicit null: written the same, equal to itself,
+  // read back as NaN.
+  for (auto& [key, value] : j.items()) {
+    if (value.is_number_float() && std::isnan(value.get<double>())) value = nullptr;
+  }
+  return j;
+}
 
 namespace {
 

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -36,6 +37,16 @@ template <>
 struct options::EnumTraits<mavlink::TimestampClock>
     : options::EnumList<mavlink::TimestampClock, mavlink::ToString, mavlink::TimestampClock::kBoot,
                         mavlink::TimestampClock::kUnix> {};
+
+/// Whether the run corrects for the camera's attitude (RunConfig::attitude).
+enum class AttitudeMode {
+  kAuto,  ///< The telemetry's camera attitude when it has one (run_steps.h CameraAttitudeOf).
+  kOff,   ///< Every frame processed as a nadir frame.
+};
+inline const char* ToString(AttitudeMode m) { return m == AttitudeMode::kAuto ? "auto" : "off"; }
+template <>
+struct options::EnumTraits<AttitudeMode>
+    : options::EnumList<AttitudeMode, ToString, AttitudeMode::kAuto, AttitudeMode::kOff> {};
 
 /// Everything a run can be told, as flags (cmd_run.cc) or as a JSON config file with the same
 /// keys (ToJson / RunConfigFromJson). Plain aggregate; Validate() checks it.
@@ -152,6 +163,31 @@ struct RunConfig {
   /// switch the run is then repeated with the estimate added to telemetry_offset_s when it
   /// differs from it by more than 0.2 s and the estimate is clear. Default false (reported only).
   bool telemetry_auto_offset = false;
+  /// Camera attitude (docs/attitude.md): kAuto (default) maps each frame's keypoints to a
+  /// virtual nadir camera (odometry/attitude.h) when the telemetry gives the camera's attitude:
+  /// a gimbal's pitch and roll (DJI XMP GimbalPitchDegree/GimbalRollDegree, SRT gb_pitch/gb_roll,
+  /// CSV gimbal_pitch/gimbal_roll; -90 = nadir), else the aircraft's (XMP Flight*Degree, CSV
+  /// pitch/roll, MAVLink ATTITUDE over udpin/serial) for a camera fixed under it.
+  AttitudeMode attitude = AttitudeMode::kAuto;
+  /// A camera fixed to the airframe (attitude from the aircraft's angles): its tilt forward of
+  /// nadir when the aircraft is level, degrees (> 0 = towards the image top). Default 0 (nadir).
+  double camera_mount_pitch_deg = 0.0;
+  /// A camera attitude less than this far from nadir is taken as nadir (no correction), degrees.
+  /// Default 0.5 (our choice): below a consumer gimbal's and IMU's own attitude accuracy; DJI
+  /// nadir photos report -89.9 (turin-p4m), which stay exactly as without attitude.
+  double attitude_min_deg = 0.5;
+  /// Warn when the telemetry puts the camera more than this far from nadir and the run does not
+  /// correct for it (attitude off), degrees. Default 10 (a 10 deg tilt moves the image centre's
+  /// ground point 18 % of the height away from the aircraft).
+  double attitude_warn_deg = 10.0;
+  /// Altitude of the ground flown over above sea level, m (NaN = unknown, the default): turns
+  /// a telemetry altitude above sea level (GPS altitude, SRT abs_alt) into a height above
+  /// ground when there is no relative altitude.
+  double ground_elevation_m = std::numeric_limits<double>::quiet_NaN();
+  /// Height of the take-off point above the ground flown over, m (e.g. launched from a roof
+  /// 12 m above the field: 12): added to the telemetry's relative altitude (height above the
+  /// take-off point, DJI RelativeAltitude / SRT rel_alt). Default 0 (take-off at ground level).
+  double takeoff_height_agl_m = 0.0;
   /// Plausibility of the GPS fixes (odometry/gps_check.h): rejected fixes steer neither the
   /// geo-referencing nor the comparison with GPS; flagged in frames.csv (gps_flag) and listed
   /// in summary.json (gps_rejected).
@@ -209,6 +245,12 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.frame_queue, "frame_queue", "Frames decoded ahead on a reader thread (0 = none); a live source keeps only the newest, dropping older ones", AtLeast(0));
   v.Field(c.telemetry_offset_s, "telemetry_offset_s", "Telemetry time at video time 0, s (shifts every fix)", Interval(-1e6, 1e6));
   v.Field(c.telemetry_auto_offset, "telemetry_auto_offset", "Estimate the telemetry-video offset from the motion and re-run with it", Any().Switch());
+  v.Field(c.attitude, "attitude", "Camera attitude correction: auto (the telemetry's gimbal or aircraft pitch/roll when present) or off (nadir)", Any());
+  v.Field(c.camera_mount_pitch_deg, "camera_mount_pitch_deg", "Camera fixed to the airframe: its tilt forward of nadir with the aircraft level, deg", Interval(-45, 45));
+  v.Field(c.attitude_min_deg, "attitude_min_deg", "A camera attitude closer to nadir than this is taken as nadir, deg", Interval(0, 45));
+  v.Field(c.attitude_warn_deg, "attitude_warn_deg", "Warn when the telemetry's camera is this far from nadir and attitude is off, deg", Interval(0, 90));
+  v.Field(c.ground_elevation_m, "ground_elevation_m", "Ground altitude above sea level, m, for telemetry with only an altitude above sea level (nan = unknown)", Any());
+  v.Field(c.takeoff_height_agl_m, "takeoff_height_agl_m", "Take-off point's height above the ground flown over, m (added to the relative altitude)", Interval(-1e4, 1e4));
   v.Group("gps_check", c.gps_check);
   v.Group("odometry", c.odometry);
 }
@@ -217,7 +259,8 @@ void VisitFields(RunConfig& c, V& v) {
 /// `aerovo experiment`): RunConfig's defaults with surf.adaptive = false (MATLAB
 /// detectSURFFeatures' fixed MetricThreshold 1000), correspondence.guided_matching = false (every
 /// frame matched exhaustively, as matchFeatures) and clustered.refine = false (the clustered
-/// RANSAC's best cell fit as it is). Options given after it (flags, config file) still win.
+/// RANSAC's best cell fit as it is) and attitude = off (the paper's nadir camera). Options given
+/// after it (flags, config file) still win.
 RunConfig PaperRunConfig();
 /// Sets the paper preset's options (those PaperRunConfig changes) in `config`, leaving the rest.
 void ApplyPaperPreset(RunConfig& config);

@@ -356,10 +356,33 @@ double HeightProvider::HeightOf(const std::string& frame_name,
       return *last_m_;
     }
   }
-  if (sample && sample->rel_alt_m && *sample->rel_alt_m > 0.0) {
-    last_m_ = *sample->rel_alt_m;
-    last_source_ = "telemetry";
+  if (sample && sample->rel_alt_m && *sample->rel_alt_m + takeoff_height_agl_m_ > 0.0) {
+    last_m_ = *sample->rel_alt_m + takeoff_height_agl_m_;
+    last_source_ = takeoff_height_agl_m_ == 0.0 ? "telemetry" : "telemetry_rel_alt+takeoff_height";
     return *last_m_;
+  }
+  const bool amsl_only = sample && !sample->rel_alt_m && sample->abs_alt_m;
+  if (amsl_only && std::isfinite(ground_elevation_m_)) {
+    const double h = *sample->abs_alt_m - ground_elevation_m_;
+    if (!(h > 0.0)) {
+      throw InputError(fmt::format(
+          "{}: the altitude above sea level {:.1f} m minus ground_elevation_m {:.1f} m is {:.1f} "
+          "m, not above the ground: check --ground-elevation-m",
+          frame_name, *sample->abs_alt_m, ground_elevation_m_, h));
+    }
+    last_m_ = h;
+    last_source_ = "telemetry_abs_alt-ground_elevation";
+    return *last_m_;
+  }
+  if (amsl_only && !last_m_) {
+    // Only an altitude above sea level (a photo's GPSAltitude, an SRT's abs_alt): without the
+    // ground's it says nothing about the height above ground.
+    throw InputError(fmt::format(
+        "{}: no height above ground: {} gives only an altitude above sea level ({:.1f} m) and "
+        "no relative altitude: give --ground-elevation-m (the ground's altitude above sea "
+        "level) or --altitude",
+        frame_name, telemetry_name_.empty() ? "the telemetry" : telemetry_name_,
+        *sample->abs_alt_m));
   }
   if (last_m_) {
     if (!warned_) {
@@ -386,10 +409,44 @@ double HeightProvider::HeightOf(const std::string& frame_name,
   } else {
     why = fmt::format(
         "the telemetry's relative altitude is {:.1f} m, not above the take-off point "
-        "(landed, or a take-off point above the area flown?)",
+        "(landed, or a take-off point above the area flown? see --takeoff-height-agl-m)",
         *sample->rel_alt_m);
   }
   throw InputError(frame_name + ": no height above ground (" + why + "): give --altitude");
+}
+
+FrameAttitude CameraAttitudeOf(const RunConfig& config,
+                               const std::optional<TelemetrySample>& sample,
+                               const std::optional<mavlink::AutopilotAttitude>& link) {
+  FrameAttitude out;
+  constexpr double kDeg = M_PI / 180.0;
+  // An aircraft's roll and pitch (radians) to its fixed camera's.
+  const auto fixed_camera = [&](double roll_rad, double pitch_rad) {
+    const Eigen::Matrix3d level_from_camera =
+        LevelFromCameraFrd({roll_rad / kDeg, pitch_rad / kDeg}) *
+        LevelFromCameraFrd({0.0, config.camera_mount_pitch_deg});
+    return AttitudeOfRotation(level_from_camera);
+  };
+  if (sample && (sample->gimbal_pitch_deg || sample->gimbal_roll_deg)) {
+    out.reported = CameraAttitude{sample->gimbal_roll_deg.value_or(0.0),
+                                  sample->gimbal_pitch_deg.value_or(-90.0) + 90.0};
+    out.source = "gimbal";
+  } else if (link) {
+    out.reported = fixed_camera(link->roll_rad, link->pitch_rad);
+    out.source = "mavlink";
+  } else if (sample && (sample->pitch_deg || sample->roll_deg)) {
+    out.reported = fixed_camera(sample->roll_deg.value_or(0.0) * kDeg,
+                                sample->pitch_deg.value_or(0.0) * kDeg);
+    out.source = "flight";
+  } else if (config.camera_mount_pitch_deg != 0.0) {
+    out.reported = fixed_camera(0.0, 0.0);  // the aircraft taken as level
+    out.source = "mount";
+  }
+  if (out.reported && config.attitude == AttitudeMode::kAuto &&
+      TiltFromNadirDeg(*out.reported) >= config.attitude_min_deg) {
+    out.camera = out.reported;
+  }
+  return out;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -680,7 +737,13 @@ FrameLoop::FrameLoop(const RunInputs& inputs, const RunTelemetry& telemetry,
               inputs.config.mavlink_match_s),
       georef_(GeoRefOptionsOf(inputs.config)),
       gps_check_(inputs.config.gps_check),
-      totals_(true) {}
+      totals_(true) {
+  // A photo folder's frames are named by their files; a telemetry file names itself.
+  height_.set_ground(inputs.config.ground_elevation_m, inputs.config.takeoff_height_agl_m,
+                     !inputs.config.telemetry.empty() ? inputs.config.telemetry
+                     : folder != nullptr                ? std::string("the photo's EXIF")
+                                                        : std::string());
+}
 
 // First frame: the camera and the outputs can now be set up.
 void FrameLoop::Start(const Frame& frame, const std::optional<TelemetrySample>& sample,
@@ -789,6 +852,21 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
     if (link_reads_autopilot_) {
       attitude = link_->AttitudeNear(capture_mono_s, config_.mavlink_match_s);
     }
+    const FrameAttitude frame_attitude = CameraAttitudeOf(config_, sample, attitude);
+    if (frame_attitude.reported && !frame_attitude.camera && !warned_attitude_ &&
+        TiltFromNadirDeg(*frame_attitude.reported) > config_.attitude_warn_deg) {
+      summary->warnings.push_back(fmt::format(
+          "{}: the camera is {:.1f} deg from nadir (pitch {:.1f}, roll {:.1f}, from the {}) and attitude "
+          "is off: positions are those of the image centre's ground point and the steps' scale "
+          "is that of a nadir camera (--attitude auto corrects it)",
+          frame.name, TiltFromNadirDeg(*frame_attitude.reported),
+          frame_attitude.reported->pitch_deg, frame_attitude.reported->roll_deg,
+          frame_attitude.source == "gimbal"    ? "gimbal angles"
+          : frame_attitude.source == "flight"  ? "aircraft's angles"
+          : frame_attitude.source == "mavlink" ? "autopilot's ATTITUDE"
+                                               : "camera mount"));
+      warned_attitude_ = true;
+    }
     const std::optional<double> yaw = sample ? sample->CameraYawDeg() : std::nullopt;
     GrayImageView view = reducer_ ? reducer_->Apply(frame.gray.view()) : frame.gray.view();
     if (undistorter_) view = undistorter_->Apply(view);
@@ -800,7 +878,7 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
       // A stop request ends the frame inside SURF, matching or RANSAC (core/cancel.h); the
       // frame is abandoned, not counted as processed.
       const CancelScope cancel(stop);
-      r = vo_->Process(view, frame.time_s, height_m, yaw);
+      r = vo_->Process(view, frame.time_s, height_m, yaw, frame_attitude.camera);
       if (!r.position_m.allFinite()) {
         throw InputError(fmt::format(
             "the visual odometry's position is not finite (height {} m, focal {} px)", height_m,
@@ -829,6 +907,10 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
       pending.record.height_m = height_m;
       pending.record.height_source = height_.last_source();
       ++summary->height_sources[height_.last_source()];
+      if (r.attitude_corrected) {
+        ++summary->attitude_sources[frame_attitude.source];
+        summary->max_tilt_deg = std::max(summary->max_tilt_deg, r.tilt_deg);
+      }
       if (attitude) {
         pending.record.roll_deg = attitude->roll_rad * 180.0 / M_PI;
         pending.record.pitch_deg = attitude->pitch_rad * 180.0 / M_PI;

@@ -18,6 +18,7 @@
 #include <map>
 #include <filesystem>
 #include <map>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <ostream>
@@ -212,6 +213,18 @@ class HeightProvider {
   void set_no_fix_reason(std::string reason) { no_fix_reason_ = std::move(reason); }
   /// The last height used, if any.
   std::optional<double> last_m() const { return last_m_; }
+  /// How a telemetry altitude becomes a height above ground (RunConfig ground_elevation_m,
+  /// takeoff_height_agl_m): a relative altitude (above the take-off point) plus
+  /// `takeoff_height_agl_m` (source "telemetry", or "telemetry_rel_alt+takeoff_height" when the
+  /// offset is not 0); without one, an altitude above sea level minus `ground_elevation_m` when
+  /// that is known (source "telemetry_abs_alt-ground_elevation"), else InputError naming the
+  /// frame (a photo: its file) or `telemetry_name` and the altitude found. Set before HeightOf.
+  void set_ground(double ground_elevation_m, double takeoff_height_agl_m,
+                  std::string telemetry_name = {}) {
+    ground_elevation_m_ = ground_elevation_m;
+    takeoff_height_agl_m_ = takeoff_height_agl_m;
+    telemetry_name_ = std::move(telemetry_name);
+  }
 
  private:
   double flag_m_ = 0.0;
@@ -221,7 +234,29 @@ class HeightProvider {
   bool warned_ = false;
   std::string last_source_;
   std::string no_fix_reason_;
+  double ground_elevation_m_ = std::numeric_limits<double>::quiet_NaN();
+  double takeoff_height_agl_m_ = 0.0;
+  std::string telemetry_name_;
 };
+
+/// The camera attitude of one frame and where it came from (RunConfig::attitude).
+struct FrameAttitude {
+  /// Given to VisualOdometry::Process; none when attitude is off, no source has one, or the
+  /// tilt is below attitude_min_deg.
+  std::optional<CameraAttitude> camera;
+  /// The attitude the sources give, used or not (for the warning of attitude_warn_deg).
+  std::optional<CameraAttitude> reported;
+  /// "gimbal" (the telemetry's gimbal angles), "mavlink" (the autopilot's ATTITUDE, camera fixed
+  /// to the airframe), "flight" (the telemetry's aircraft angles, camera fixed), "" (none).
+  std::string source;
+};
+/// The camera attitude of a frame: the telemetry's gimbal pitch and roll (camera pitch = gimbal
+/// pitch + 90, roll = gimbal roll; either missing = 0), else the autopilot's attitude `link`,
+/// else the telemetry's aircraft pitch and roll; an aircraft's angles make the camera's through
+/// level_from_camera = Ry(pitch) Rx(roll) Ry(camera_mount_pitch_deg) (odometry/attitude.h).
+FrameAttitude CameraAttitudeOf(const RunConfig& config,
+                               const std::optional<TelemetrySample>& sample,
+                               const std::optional<mavlink::AutopilotAttitude>& link);
 
 // ---------------------------------------------------------------------------------------------
 // 4. Outputs
@@ -424,6 +459,7 @@ class FrameLoop {
   GpsFixChecker gps_check_;
   std::map<int, RejectedFix> rejected_;  // frame -> its rejected fix
   std::optional<double> last_height_time_s_;  // frame time of the last relative altitude used
+  bool warned_attitude_ = false;              // the attitude_warn_deg warning was given
   std::unique_ptr<VisualOdometry> vo_;
   std::unique_ptr<FrameUndistorter> undistorter_;
   std::optional<FrameReducer> reducer_;  // frames above config.max_megapixels

@@ -53,6 +53,8 @@ nlohmann::json ToJson(const RunSummary& s) {
                    {"focal_source", s.focal_source},
                    {"height_source", s.height_source},
                    {"height_sources", s.height_sources},
+                   {"attitude_sources", s.attitude_sources},
+                   {"max_tilt_deg", s.max_tilt_deg},
                    {"mavlink", s.mavlink},
                    {"heading_source", s.heading_source},
                    {"sim_manifest", s.sim_manifest},

@@ -83,6 +83,11 @@ struct RunSummary {
   std::string height_source;   ///< "flag", "mavlink" or "telemetry".
   /// Frames per FrameRecord::height_source ("altitude_flag", "mavlink_distance_sensor", ...).
   std::map<std::string, int> height_sources;
+  /// Frames whose keypoints were mapped to a virtual nadir camera (RunConfig::attitude), by
+  /// FrameAttitude::source ("gimbal", "mavlink", "flight", "mount"), and the largest tilt from
+  /// nadir corrected, degrees (0: none).
+  std::map<std::string, int> attitude_sources;
+  double max_tilt_deg = 0.0;
   /// --mavlink: the link's counts (url, sent, send_failed, heartbeats, timesync_answers,
   /// distance_samples, relative_alt_samples, attitude_samples, autopilot_heartbeats,
   /// crc_errors); null without.

@@ -113,6 +113,10 @@ void WriteDjiSrt(std::ostream& out, const Simulator& sim, const std::string& sta
   // off. 2 decimals as DJI writes it: the focal length survives to within 0.02 %.
   const CameraModel& cam = sim.options().camera;
   const double focal_35mm_mm = Focal35mmFromPx(FocalPx(cam), cam.width_px, cam.height_px);
+  // A flight with an attitude (FlightPlan pitch_deg, roll_deg, wobble_deg) writes it as gimbal
+  // angles; a nadir flight's entries have none, as before.
+  const FlightPlan& plan = sim.options().flight;
+  const bool has_attitude = plan.pitch_deg != 0.0 || plan.roll_deg != 0.0 || plan.wobble_deg != 0.0;
   DjiSrtEntry e;
   e.diff_ms = diff_ms;
   e.focal_35mm_mm = focal_35mm_mm;
@@ -125,6 +129,12 @@ void WriteDjiSrt(std::ostream& out, const Simulator& sim, const std::string& sta
     e.date_time = FormatUtc(start, t, ' ');
     e.position = fix.position;
     e.rel_alt_m = fix.position.alt_m - ground_alt;
+    if (has_attitude) {
+      // The camera as a gimbal's (odometry/attitude.h: camera pitch = gimbal pitch + 90, the
+      // simulator's roll tilts the optical axis towards the image right = gimbal roll < 0).
+      e.gimbal_pitch_deg = sim.ground_truth()[i].pitch_deg - 90.0;
+      e.gimbal_roll_deg = -sim.ground_truth()[i].roll_deg;
+    }
     out << FormatDjiSrtEntry(e);
   }
 }

@@ -72,7 +72,10 @@ SimulationOutput WriteSimulation(const Simulator& sim, const WriterOptions& opti
 
 /// DJI-style SRT (io/srt_writer.h DjiSrtEntry, the current bracketed format of DJI Mini/Air/
 /// Mavic 3 video subtitles), one entry per frame with the latest GPS fix. rel_alt = height above
-/// the take-off ground, abs_alt = altitude above MSL, both with the GPS vertical error.
+/// the take-off ground, abs_alt = altitude above MSL, both with the GPS vertical error; a flight
+/// with an attitude (pitch, roll or wobble) adds the camera's as gimbal angles, exact to the
+/// 0.1 deg DJI writes: gb_pitch = pitch_deg - 90, gb_roll = -roll_deg (CameraPose's roll tilts
+/// the optical axis to the image right, a DJI gimbal's roll to the left; odometry/attitude.h).
 /// focal_len = the camera's 35 mm-equivalent focal length in the EXIF (diagonal) convention,
 /// f_px * 43.27 mm / image diagonal (px), which `aerovo run` converts back to the same f_px
 /// (25.16 for the default 73.7 deg hfov camera).
