@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -491,11 +492,29 @@ int CountColour(const cv::Mat& bgr, int r, int g, int b, int tol = 12) {
   return cv::countNonZero(mask);
 }
 
+// The http(s) URLs that a page asked for, from Chromium's network log (--log-net-log): the
+// URL_REQUEST_START_JOB events whose initiator is an origin (a file:// page's is "null"); the
+// browser's own requests (updates, time, accounts) have the initiator "not an origin".
+std::vector<std::string> PageRequests(const fs::path& net_log) {
+  const nlohmann::json log = nlohmann::json::parse(ReadText(net_log));
+  const int start_job = log.at("constants").at("logEventTypes").at("URL_REQUEST_START_JOB");
+  std::vector<std::string> urls;
+  for (const nlohmann::json& e : log.at("events")) {
+    if (e.value("type", -1) != start_job || !e.contains("params")) continue;
+    const nlohmann::json& p = e["params"];
+    const std::string url = p.value("url", ""), initiator = p.value("initiator", "");
+    if (initiator != "not an origin" && (url.rfind("http:", 0) == 0 || url.rfind("https:", 0) == 0)) {
+      urls.push_back(url);
+    }
+  }
+  return urls;
+}
+
 // The report in headless Chromium with the network off (a proxy to nowhere, and the page's
 // Content-Security-Policy whose refusals the page counts): every figure renders, the page asks
-// for nothing, and the map draws the VO and GPS tracks (SVG paths, their colours on a
+// for nothing (Chromium's network log, checked on a page that does ask first), and the map draws the VO and GPS tracks (SVG paths, their colours on a
 // screenshot of the map's area), the geo-referenced mosaic under them, a metric scale bar, and
-// the hover text of a frame. Two browser starts, ~3 s each.
+// the hover text of a frame. Three browser starts, ~3 s each.
 TEST_F(HtmlReport, RendersInHeadlessChromium) {
   const std::string chromium = FindChromium();
   if (chromium.empty()) {
@@ -517,11 +536,28 @@ TEST_F(HtmlReport, RendersInHeadlessChromium) {
       "--disable-component-update --proxy-server=127.0.0.1:9 --proxy-bypass-list='<-loopback>' "
       "--window-size=1400,5000 --virtual-time-budget=5000 --user-data-dir=" +
       profile.string();
-  // 1. The DOM after load: the report's own script counts what rendered.
-  const fs::path dom = root_ / "dom.html";
-  std::string cmd = "timeout 90 " + chromium + " " + flags + " --dump-dom '" + url + "' > " +
-                    dom.string() + " 2>/dev/null";
+  // 0. The network-log check can fail: a page that asks for a tile and a fetch is caught.
+  const fs::path leak = root_ / "leak.html", leak_log = root_ / "leak_net.json";
+  std::ofstream(leak) << "<!DOCTYPE html><html><body><img src=\"https://tiles.invalid/1/0/0.png\">"
+                         "<script>fetch('http://api.invalid/x').catch(function(){});</script>"
+                         "</body></html>\n";
+  std::string cmd = "timeout 90 " + chromium + " " + flags + " --log-net-log=" +
+                    leak_log.string() + " --dump-dom 'file://" + fs::absolute(leak).string() +
+                    "' > /dev/null 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  const std::vector<std::string> leaked = PageRequests(leak_log);
+  EXPECT_EQ(leaked.size(), 2u);
+  EXPECT_NE(std::find(leaked.begin(), leaked.end(), "https://tiles.invalid/1/0/0.png"),
+            leaked.end());
+
+  // 1. The DOM after load: the report's own script counts what rendered; the network log
+  // records what the page asked for.
+  const fs::path dom = root_ / "dom.html", net_log = root_ / "net.json";
+  cmd = "timeout 90 " + chromium + " " + flags + " --log-net-log=" + net_log.string() +
+        " --dump-dom '" + url + "' > " + dom.string() + " 2>/dev/null";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  const std::vector<std::string> requested = PageRequests(net_log);
+  EXPECT_TRUE(requested.empty()) << requested.size() << " requests, the first " << requested[0];
   const std::string body = ReadText(dom);
   auto attribute = [&](const std::string& name) -> std::string {
     std::smatch m;
