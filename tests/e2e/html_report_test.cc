@@ -228,7 +228,7 @@ TEST_F(HtmlReport, RunFolderReport) {
   EXPECT_LT(html.find("id=\"comparison\""), html.find("id=\"figures\""));
   EXPECT_LT(html.find("id=\"figures\""), html.find("id=\"timings\""));
   const nlohmann::json& se2 = data.summary["evaluation"]["se2"];
-  EXPECT_NE(html.find(fmt::format("<strong>End error against GPS: {:.1f} m ({:.1f} % of the "
+  EXPECT_NE(html.find(fmt::format("<strong>End error against GPS: {:.2f} m ({:.2f} % of the "
                                   "distance)</strong>",
                                   se2["end_point_error_m"].get<double>(),
                                   se2["end_point_error_percent"].get<double>())),

@@ -476,6 +476,9 @@ void EvaluationTable(Page& page, const nlohmann::json& ev) {
   page.Table({"", "SE(2)", "Sim(2)"}, e);
 }
 
+// An error for a reader: 2 decimals under 10 (m or %), 1 above.
+std::string Metres(double v) { return Num(v, std::abs(v) < 10.0 ? 2 : 1); }
+
 // The answer a pilot looks for first, in one paragraph: frames tracked, distance flown, end
 // error and ATE against GPS.
 void AnswerBox(Page& page, const nlohmann::json& s) {
@@ -492,9 +495,10 @@ void AnswerBox(Page& page, const nlohmann::json& s) {
         " over {} m flown (GPS). <strong>End error against GPS: {} m ({} % of the distance)"
         "</strong> after the SE(2) alignment, {} m as geo-referenced (no alignment); ATE RMSE "
         "{} m.",
-        Num(JsonNumber(e, {"distance_flown_m"}), 0), Num(JsonNumber(e, {"end_point_error_m"}), 1),
-        Num(JsonNumber(e, {"end_point_error_percent"}), 1),
-        Num(JsonNumber(e, {"end_point_error_unaligned_m"}), 1), Num(JsonNumber(e, {"ate_m", "rmse"}), 1));
+        Num(JsonNumber(e, {"distance_flown_m"}), 0), Metres(JsonNumber(e, {"end_point_error_m"})),
+        Metres(JsonNumber(e, {"end_point_error_percent"})),
+        Metres(JsonNumber(e, {"end_point_error_unaligned_m"})),
+        Metres(JsonNumber(e, {"ate_m", "rmse"})));
   } else {
     const std::string note = s.contains("gps_comparison_note") && s["gps_comparison_note"].is_string() &&
                                      !s["gps_comparison_note"].get<std::string>().empty()
