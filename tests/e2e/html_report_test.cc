@@ -287,6 +287,13 @@ TEST_F(HtmlReport, RunFolderReport) {
   EXPECT_NEAR(e[3].get<double>(), std::hypot(a.x() - b.x(), a.y() - b.y()), 2e-3);
   EXPECT_NEAR(e[3].get<double>(), se2["end_point_error_unaligned_m"].get<double>(), 0.05);
   EXPECT_NEAR(e[4].get<double>(), cmp.comparison->se2.ate_per_point_m.back(), 2e-3);
+  // The SE(2)-aligned VO layer: one point per frame, its last point the SE(2) end error away
+  // from the last GPS fix.
+  ASSERT_EQ(map["vo_se2"].size(), data.frames.size());
+  const Eigen::Vector3d aligned_end =
+      enu.Forward(map["vo_se2"].back()[0].get<double>(), map["vo_se2"].back()[1].get<double>(), 0);
+  EXPECT_NEAR(std::hypot(aligned_end.x() - b.x(), aligned_end.y() - b.y()),
+              se2["end_point_error_m"].get<double>(), 0.02);
 }
 
 // The geo-referenced north-up mosaic (mosaic_geo.json + .png, the contract with `aerovo

@@ -954,6 +954,17 @@ nlohmann::json MapData(const RunData& run, const RunComparison& cmp,
     info.push_back({f.frame, Round3(f.time_s), f.status, drawn, aligned});
     if (f.status.rfind("bridged", 0) == 0) bridged.push_back(vo.size() - 1);
   }
+  // The VO track under the SE(2) alignment of the comparison (a layer shown on demand: the
+  // shape of the track against GPS, whatever its heading at the first fix).
+  nlohmann::json aligned_track = nlohmann::json::array();
+  if (cmp.comparison && enu) {
+    const Similarity2D& t = cmp.comparison->se2.alignment.enu_from_vo;
+    for (const RunFrameRow& f : run.frames) {
+      const Eigen::Vector2d p = t.Apply({f.x_m, f.y_m});
+      const GeoPoint g = enu->Reverse(p.x(), p.y(), 0.0);
+      aligned_track.push_back({Deg7(g.lat_deg), Deg7(g.lon_deg)});
+    }
+  }
   if (truth && truth->comparison && enu) {
     for (const TrajectoryPoint2D& p : truth->reference) {
       const GeoPoint g = enu->Reverse(p.x, p.y, 0.0);
@@ -964,6 +975,7 @@ nlohmann::json MapData(const RunData& run, const RunComparison& cmp,
           {"info", info},
           {"gps", gps},
           {"truth", truth_track},
+          {"vo_se2", aligned_track},
           {"bridged", bridged},
           {"colours",
            {{"vo", style::Hex(style::kVo)},
@@ -1000,6 +1012,10 @@ constexpr const char* kMapScript = R"js(
   if (d.vo.length) {
     layers['VO'] = L.polyline(d.vo, {color: d.colours.vo, weight: 2, className: 'aerovo-vo',
                                      interactive: false}).addTo(map);
+  }
+  if (d.vo_se2.length) {  // off until ticked
+    layers['VO, SE(2)-aligned to GPS'] = L.polyline(d.vo_se2, {color: d.colours.vo, weight: 2,
+        dashArray: '6 6', className: 'aerovo-vo-se2', interactive: false});
   }
   if (d.bridged.length) {
     var g = L.layerGroup();
@@ -1084,7 +1100,8 @@ void MapSection(const fs::path& dir, const RunData& run, const RunComparison& cm
   page.Para(
       std::string("Drag to pan, scroll to zoom; hover over the VO track for a frame's index, "
                   "status and distance to its GPS fix. The tracks are drawn as the run wrote "
-                  "them (VO geo-referenced at the first fix, no alignment). ") +
+                  "them (VO geo-referenced at the first fix, no alignment); tick \"VO, "
+                  "SE(2)-aligned to GPS\" for the track under the comparison's alignment. ") +
       (data["mosaic"].is_null() ? "No geo-referenced mosaic in this folder (mosaic_geo.json)."
                                 : "Under them, the geo-referenced north-up mosaic."));
   // JSON inside <script>: "</" written as "<\/" so that no string ends the element.
