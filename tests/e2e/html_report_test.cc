@@ -16,6 +16,7 @@
 #include <regex>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -460,6 +461,38 @@ TEST_F(HtmlReport, ExperimentFolders) {
   ASSERT_TRUE(c.comparison.has_value());
   EXPECT_EQ(static_cast<int>(c.vo.size()), frames_);
   EXPECT_LT(c.comparison->se2.ate_m.rmse, 1.0);
+}
+
+// A run with no geographic position at all (not geo-referenced, no GPS): no map and no
+// Leaflet in the page, a note on it; the rest of the report is written.
+TEST_F(HtmlReport, NoMapWithoutPositions) {
+  const fs::path run = CopyRun("run_no_geo");
+  std::istringstream in(ReadText(run / RunFileNames::kFramesCsv));
+  std::string line, out;
+  std::getline(in, line);
+  out = line + "\n";
+  while (std::getline(in, line)) {  // empty lat_deg, lon_deg, alt_m and gps_lat/lon/alt_deg
+    std::vector<std::string> cells;
+    std::stringstream ls(line);
+    for (std::string c; std::getline(ls, c, ',');) cells.push_back(c);
+    for (int i : {4, 5, 6, 17, 18, 19}) cells[static_cast<std::size_t>(i)].clear();
+    for (std::size_t i = 0; i < cells.size(); ++i) out += (i ? "," : "") + cells[i];
+    out += "\n";
+  }
+  std::ofstream(run / RunFileNames::kFramesCsv) << out;
+  fs::remove(run / "summary.json");
+  ReportOptions o;
+  o.mosaic = false;
+  o.plot.png = false;
+  const ReportResult r = WriteReport(run, o);
+  const std::string html = ReadText(r.html);
+  EXPECT_TRUE(MapJson(html).is_null());
+  EXPECT_EQ(html.find("<div id=\"aerovo-map\">"), std::string::npos);
+  EXPECT_EQ(html.find(leaflet::Js()), std::string::npos);
+  EXPECT_NE(html.find("No map: the run has neither a geo-referenced VO position nor a GPS fix."),
+            std::string::npos);
+  EXPECT_NE(html.find("No comparison with GPS"), std::string::npos);
+  EXPECT_GE(Count(html, "<svg"), 3);  // Fig. 2, Fig. 3, stage times
 }
 
 TEST(HtmlReportInput, NeitherRunNorExperimentIsAnInputError) {

@@ -1074,8 +1074,8 @@ void MapSection(const fs::path& dir, const RunData& run, const RunComparison& cm
   page.H2("Map", "map");
   nlohmann::json data = MapData(run, cmp, truth);
   if (data["vo"].empty() && data["gps"].empty()) {
-    AddNote(page, result,
-            "No map: the run has neither a geo-referenced VO position nor a GPS fix.");
+    // On the page only: the run's summary already says why there is no comparison.
+    page.Note("No map: the run has neither a geo-referenced VO position nor a GPS fix.");
     return;
   }
   std::string note;
