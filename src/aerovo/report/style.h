@@ -27,8 +27,9 @@ inline constexpr Rgb kStart = 0x000000;
 /// Colours of series that are not tracks, in order: no track colour among them.
 /// Black comes fifth: a figure of four stages draws their total in black (kStart).
 inline constexpr const char* kSeriesPalette[] = {"#56B4E9", "#7B3294", "#999999", "#B8A000",
-                                                  "#000000", "#8C510A", "#01665E", "#E7298A"};
-inline constexpr std::size_t kSeriesPaletteSize = sizeof(kSeriesPalette) / sizeof(kSeriesPalette[0]);
+                                                 "#000000", "#8C510A", "#01665E", "#E7298A"};
+inline constexpr std::size_t kSeriesPaletteSize =
+    sizeof(kSeriesPalette) / sizeof(kSeriesPalette[0]);
 
 /// "#rrggbb" of `rgb` (upper-case hex digits), for gnuplot, HTML and SVG.
 inline std::string Hex(Rgb rgb) {

@@ -47,9 +47,11 @@ TEST(ReportStyle, UncolouredSeriesTakeThePalette) {
   }
   f.series[1].color = style::Hex(style::kVo);
   const std::string script = GnuplotScript(f, "d.dat", "f.svg", "");
-  EXPECT_NE(script.find(std::string("lc rgb '") + style::kSeriesPalette[0] + "'"), std::string::npos);
+  EXPECT_NE(script.find(std::string("lc rgb '") + style::kSeriesPalette[0] + "'"),
+            std::string::npos);
   EXPECT_NE(script.find("lc rgb '#D55E00'"), std::string::npos);
-  EXPECT_NE(script.find(std::string("lc rgb '") + style::kSeriesPalette[2] + "'"), std::string::npos);
+  EXPECT_NE(script.find(std::string("lc rgb '") + style::kSeriesPalette[2] + "'"),
+            std::string::npos);
 }
 
 }  // namespace
