@@ -11,8 +11,8 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
-#include <map>
 #include <fstream>
+#include <map>
 #include <regex>
 #include <sstream>
 #include <string>
@@ -27,9 +27,9 @@
 #include "aerovo/core/error.h"
 #include "aerovo/geo/local_enu.h"
 #include "aerovo/io/track_writers.h"
+#include "aerovo/pipeline/runner.h"
 #include "aerovo/report/leaflet_assets.h"
 #include "aerovo/report/run_reader.h"
-#include "aerovo/pipeline/runner.h"
 
 namespace aerovo {
 namespace {
@@ -234,10 +234,10 @@ TEST_F(HtmlReport, RunFolderReport) {
                                   se2["end_point_error_m"].get<double>(),
                                   se2["end_point_error_percent"].get<double>())),
             std::string::npos);
-  EXPECT_NE(html.find(fmt::format("<strong>Tracked {} of {} frames</strong>",
-                                  data.summary["frames_ok"].get<int>() +
-                                      data.summary["frames_reacquired"].get<int>(),
-                                  frames_)),
+  EXPECT_NE(html.find(fmt::format(
+                "<strong>Tracked {} of {} frames</strong>",
+                data.summary["frames_ok"].get<int>() + data.summary["frames_reacquired"].get<int>(),
+                frames_)),
             std::string::npos);
   EXPECT_NE(html.find("a lower Sim(2) ATE with a higher Sim(2) end error is expected"),
             std::string::npos);
@@ -318,9 +318,11 @@ TEST_F(HtmlReport, GeoMosaicOnTheMap) {
   const std::string uri = map["mosaic"]["uri"].get<std::string>();
   EXPECT_EQ(uri.rfind("data:image/png;base64,", 0), 0u);
 
-  for (const auto& [bad, problem] :
-       std::vector<std::pair<nlohmann::json, std::string>>{
-           {{{"image", "mosaic_geo.png"}, {"south", 1.0}, {"west", 2.0}, {"north", 0.5},
+  for (const auto& [bad, problem] : std::vector<std::pair<nlohmann::json, std::string>>{
+           {{{"image", "mosaic_geo.png"},
+             {"south", 1.0},
+             {"west", 2.0},
+             {"north", 0.5},
              {"east", 3.0}},
             "south < north"},
            {{{"image", "mosaic_geo.png"}, {"south", 1.0}, {"north", 2.0}, {"east", 3.0}},
@@ -543,7 +545,8 @@ std::vector<std::string> PageRequests(const fs::path& net_log) {
     if (e.value("type", -1) != start_job || !e.contains("params")) continue;
     const nlohmann::json& p = e["params"];
     const std::string url = p.value("url", ""), initiator = p.value("initiator", "");
-    if (initiator != "not an origin" && (url.rfind("http:", 0) == 0 || url.rfind("https:", 0) == 0)) {
+    if (initiator != "not an origin" &&
+        (url.rfind("http:", 0) == 0 || url.rfind("https:", 0) == 0)) {
       urls.push_back(url);
     }
   }
@@ -552,9 +555,10 @@ std::vector<std::string> PageRequests(const fs::path& net_log) {
 
 // The report in headless Chromium with the network off (a proxy to nowhere, and the page's
 // Content-Security-Policy whose refusals the page counts): every figure renders, the page asks
-// for nothing (Chromium's network log, checked on a page that does ask first), and the map draws the VO and GPS tracks (SVG paths, their colours on a
-// screenshot of the map's area), the geo-referenced mosaic under them, a metric scale bar, and
-// the hover text of a frame. Three browser starts, ~3 s each.
+// for nothing (Chromium's network log, checked on a page that does ask first), and the map draws
+// the VO and GPS tracks (SVG paths, their colours on a screenshot of the map's area), the
+// geo-referenced mosaic under them, a metric scale bar, and the hover text of a frame. Three
+// browser starts, ~3 s each.
 TEST_F(HtmlReport, RendersInHeadlessChromium) {
   const std::string chromium = FindChromium();
   if (chromium.empty()) {
@@ -581,9 +585,8 @@ TEST_F(HtmlReport, RendersInHeadlessChromium) {
   std::ofstream(leak) << "<!DOCTYPE html><html><body><img src=\"https://tiles.invalid/1/0/0.png\">"
                          "<script>fetch('http://api.invalid/x').catch(function(){});</script>"
                          "</body></html>\n";
-  std::string cmd = "timeout 90 " + chromium + " " + flags + " --log-net-log=" +
-                    leak_log.string() + " --dump-dom 'file://" + fs::absolute(leak).string() +
-                    "' > /dev/null 2>&1";
+  std::string cmd = "timeout 90 " + chromium + " " + flags + " --log-net-log=" + leak_log.string() +
+                    " --dump-dom 'file://" + fs::absolute(leak).string() + "' > /dev/null 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   const std::vector<std::string> leaked = PageRequests(leak_log);
   EXPECT_EQ(leaked.size(), 2u);
@@ -621,11 +624,10 @@ TEST_F(HtmlReport, RendersInHeadlessChromium) {
   // Hover text of the middle VO frame: index, time, status, distance to its GPS fix.
   const nlohmann::json map = MapJson(ReadText(r.html));
   const nlohmann::json& mid = map["info"][map["vo"].size() / 2];
-  EXPECT_EQ(attribute("data-map-hover").rfind(fmt::format("frame {} · {:.1f} s · {} · to GPS ",
-                                                          mid[0].get<int>(),
-                                                          mid[1].get<double>(),
-                                                          mid[2].get<std::string>()),
-                                              0),
+  EXPECT_EQ(attribute("data-map-hover")
+                .rfind(fmt::format("frame {} · {:.1f} s · {} · to GPS ", mid[0].get<int>(),
+                                   mid[1].get<double>(), mid[2].get<std::string>()),
+                       0),
             0u)
       << attribute("data-map-hover");
   int rect[4];
@@ -648,14 +650,15 @@ TEST_F(HtmlReport, RendersInHeadlessChromium) {
   cv::Mat gray;
   cv::cvtColor(img, gray, cv::COLOR_BGR2GRAY);
   EXPECT_GT(cv::countNonZero(gray < 200), 0.02 * gray.total()) << "blank page";
-  const cv::Rect map_area = cv::Rect(rect[0], rect[1], rect[2], rect[3]) & cv::Rect(0, 0, img.cols, img.rows);
+  const cv::Rect map_area =
+      cv::Rect(rect[0], rect[1], rect[2], rect[3]) & cv::Rect(0, 0, img.cols, img.rows);
   ASSERT_EQ(map_area.area(), rect[2] * rect[3]) << "the map is off the screenshot";
   const cv::Mat on_map = img(map_area);
   const int vo_px = CountColour(on_map, 0xD5, 0x5E, 0x00);
   const int gps_px = CountColour(on_map, 0x00, 0x72, 0xB2, 20);
   if (const char* keep = std::getenv("AEROVO_KEEP_MAP_SHOT"); keep != nullptr && *keep != '\0') {
     cv::imwrite(keep, on_map);  // to look at it
-  }  // drawn at 85 % opacity
+  }                             // drawn at 85 % opacity
   EXPECT_GT(vo_px, 300) << "VO track not drawn on the map";
   EXPECT_GT(gps_px, 300) << "GPS track not drawn on the map";
   EXPECT_GT(CountColour(on_map, 200, 200, 200, 3), 0.05 * map_area.area())

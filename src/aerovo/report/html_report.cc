@@ -500,7 +500,8 @@ void AnswerBox(Page& page, const nlohmann::json& s) {
         Metres(JsonNumber(e, {"end_point_error_unaligned_m"})),
         Metres(JsonNumber(e, {"ate_m", "rmse"})));
   } else {
-    const std::string note = s.contains("gps_comparison_note") && s["gps_comparison_note"].is_string() &&
+    const std::string note = s.contains("gps_comparison_note") &&
+                                     s["gps_comparison_note"].is_string() &&
                                      !s["gps_comparison_note"].get<std::string>().empty()
                                  ? s["gps_comparison_note"].get<std::string>()
                                  : std::string("fewer than 3 frames with a fix");
@@ -519,12 +520,13 @@ void ExplainEvaluation(Page& page, const nlohmann::json& ev) {
   const double se2_end = JsonNumber(ev, {"se2", "end_point_error_m"});
   const double sim2_end = JsonNumber(ev, {"sim2", "end_point_error_m"});
   const double scale = JsonNumber(ev, {"sim2", "alignment", "scale"});
-  std::string h = "<div class=\"explain\"><p><strong>How to read it.</strong> ATE (absolute "
-                  "trajectory error) is the RMS, over every frame with a reference position, of "
-                  "the distance between the aligned VO position and the reference; the end-point "
-                  "error is that distance at the last frame only. SE(2) aligns by a rotation and "
-                  "a translation and trusts VO's metric scale (from height and focal length); "
-                  "Sim(2) may also scale the track. ";
+  std::string h =
+      "<div class=\"explain\"><p><strong>How to read it.</strong> ATE (absolute "
+      "trajectory error) is the RMS, over every frame with a reference position, of "
+      "the distance between the aligned VO position and the reference; the end-point "
+      "error is that distance at the last frame only. SE(2) aligns by a rotation and "
+      "a translation and trusts VO's metric scale (from height and focal length); "
+      "Sim(2) may also scale the track. ";
   h += "Because Sim(2) has one more degree of freedom to minimise the RMS, its ATE is never "
        "higher than SE(2)'s; but the least-squares fit spreads the error over the whole flight, "
        "so the scale that best fits the middle of the track can move its end further away: "
@@ -535,9 +537,10 @@ void ExplainEvaluation(Page& page, const nlohmann::json& ev) {
                      Num(sim2_ate), Num(se2_ate), Num(sim2_end), Num(se2_end));
   }
   if (std::isfinite(scale)) {
-    h += fmt::format(" The Sim(2) scale ({}) is the factor by which VO's metric scale is off: "
-                     "far from 1 (e.g. beyond 0.95-1.05), suspect the height or the focal length.",
-                     Num(scale, 3));
+    h += fmt::format(
+        " The Sim(2) scale ({}) is the factor by which VO's metric scale is off: "
+        "far from 1 (e.g. beyond 0.95-1.05), suspect the height or the focal length.",
+        Num(scale, 3));
   }
   h += "</p><p><strong>Relative error over L m</strong> (drift): from every frame, the segment "
        "ends where the reference has flown L m further; the error is the difference between "
@@ -746,7 +749,8 @@ void TrajectoryFigure(const RunData& run, const RunComparison& cmp, const std::s
     f.series.back().line_width = 1.0;
     std::vector<double> x, y;
     AlignedTrack(run, c.se2.alignment.enu_from_vo, &x, &y);
-    f.series.push_back(Series("VO, SE(2)-aligned", x, y, SeriesStyle::kLines, style::Hex(style::kVo)));
+    f.series.push_back(
+        Series("VO, SE(2)-aligned", x, y, SeriesStyle::kLines, style::Hex(style::kVo)));
     f.series.back().line_width = 2.0;
     x.clear();
     y.clear();
@@ -844,10 +848,12 @@ void RunFigures(const RunData& run, const RunComparison& cmp,
     const std::string why =
         " The Sim(2) curve can lie below the SE(2) one on average and still end higher: see "
         "\"How to read it\" above.";
-    sink.Add(error_figure("error_vs_distance", "distance flown (m, " + cmp.reference_name +
-                                                   " path length)", by_distance),
-             "Absolute trajectory error against the distance flown, metres: how the error grows "
-             "along the flight." + why);
+    sink.Add(
+        error_figure("error_vs_distance",
+                     "distance flown (m, " + cmp.reference_name + " path length)", by_distance),
+        "Absolute trajectory error against the distance flown, metres: how the error grows "
+        "along the flight." +
+            why);
     sink.Add(error_figure("error_vs_time", "time (s)", by_time),
              "Absolute trajectory error against the frame's time, metres.");
     sink.Add(error_figure("ate_per_frame", "frame", by_frame),
@@ -901,7 +907,8 @@ nlohmann::json GeoMosaicOverlay(const fs::path& dir, std::string* note) {
       throw InputError("the bounds are not south < north, west < east within [-90, 90]");
     }
     const std::string image = JsonString(j, "image");
-    if (image.empty() || fs::path(image).has_parent_path() || fs::path(image).extension() != ".png") {
+    if (image.empty() || fs::path(image).has_parent_path() ||
+        fs::path(image).extension() != ".png") {
       throw InputError("\"image\" must name a .png file beside it");
     }
     const fs::path png = dir / image;
@@ -1092,21 +1099,22 @@ void MapSection(const fs::path& dir, const RunData& run, const RunComparison& cm
     legend += "<span style=\"background:" + style::Hex(style::kTruth) + "\"></span>ground truth";
   }
   if (!data["bridged"].empty()) {
-    legend += "<span style=\"background:" + style::Hex(style::kBridged) + "\"></span>bridged frames";
+    legend +=
+        "<span style=\"background:" + style::Hex(style::kBridged) + "\"></span>bridged frames";
   }
   legend += "</p>\n";
   page.body += legend;
   page.body += "<div id=\"aerovo-map\"></div>\n";
-  page.Para(
-      std::string("Drag to pan, scroll to zoom; hover over the VO track for a frame's index, "
-                  "status and distance to its GPS fix. The tracks are drawn as the run wrote "
-                  "them (VO geo-referenced at the first fix, no alignment); tick \"VO, "
-                  "SE(2)-aligned to GPS\" for the track under the comparison's alignment. ") +
-      (data["mosaic"].is_null() ? "No geo-referenced mosaic in this folder (mosaic_geo.json)."
-                                : "Under them, the geo-referenced north-up mosaic."));
+  page.Para(std::string("Drag to pan, scroll to zoom; hover over the VO track for a frame's index, "
+                        "status and distance to its GPS fix. The tracks are drawn as the run wrote "
+                        "them (VO geo-referenced at the first fix, no alignment); tick \"VO, "
+                        "SE(2)-aligned to GPS\" for the track under the comparison's alignment. ") +
+            (data["mosaic"].is_null() ? "No geo-referenced mosaic in this folder (mosaic_geo.json)."
+                                      : "Under them, the geo-referenced north-up mosaic."));
   // JSON inside <script>: "</" written as "<\/" so that no string ends the element.
   std::string json = data.dump();
-  for (std::size_t pos = json.find("</"); pos != std::string::npos; pos = json.find("</", pos + 3)) {
+  for (std::size_t pos = json.find("</"); pos != std::string::npos;
+       pos = json.find("</", pos + 3)) {
     json.replace(pos, 2, "<\\/");
   }
   page.body += "<script type=\"application/json\" id=\"aerovo-map-data\">" + json + "</script>\n";
@@ -1420,9 +1428,9 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
             gy.push_back(p.y);
           }
         }
-        f.series.push_back(Series(ref_name, gx, gy, SeriesStyle::kLines,
-                                  style::Hex(ground_truth.points.empty() ? style::kGps
-                                                                         : style::kTruth)));
+        f.series.push_back(
+            Series(ref_name, gx, gy, SeriesStyle::kLines,
+                   style::Hex(ground_truth.points.empty() ? style::kGps : style::kTruth)));
         f.series.back().line_width = 3.0;
         reference_drawn = true;
       }

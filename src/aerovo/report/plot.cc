@@ -22,7 +22,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-
 bool IsHexColor(const std::string& c) {
   if (c.size() != 7 || c[0] != '#') return false;
   for (std::size_t i = 1; i < 7; ++i) {
