@@ -14,6 +14,7 @@ PKGS=(
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   gnuplot-nox            # figures (SVG/PNG)
   chromium               # headless browser test of the HTML report (aerovo report)
+  libjs-leaflet          # the report's offline map: Leaflet compiled into report/ (BSD-2-Clause)
   ffmpeg                 # encoders used by OpenCV's VideoWriter
   clang-format
   clang libclang-rt-14-dev  # libFuzzer + sanitizer runtimes for the fuzz targets (scripts/fuzz.sh)

@@ -7,22 +7,29 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <regex>
 #include <sstream>
 #include <string>
+#include <vector>
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <pugixml.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/geo/local_enu.h"
 #include "aerovo/io/track_writers.h"
-#include "aerovo/report/run_reader.h"
 #include "aerovo/pipeline/runner.h"
+#include "aerovo/report/leaflet_assets.h"
+#include "aerovo/report/run_reader.h"
 
 namespace aerovo {
 namespace {
@@ -61,15 +68,55 @@ void CheckFigureFiles(const ReportResult& r) {
   }
 }
 
-// Self-contained: no http(s) reference anywhere, every src= is a data: URI.
-void CheckSelfContained(const std::string& html) {
-  EXPECT_EQ(html.find("http://"), std::string::npos);
-  EXPECT_EQ(html.find("https://"), std::string::npos);
+// Self-contained: every src= is a data: URI, no href= or CSS url() to the network, and the
+// Content-Security-Policy that refuses whatever the page does not hold. (The inlined Leaflet
+// names two URLs as text, the SVG namespace and its home page in an attribution prefix the
+// report replaces: text, not requests; the browser test checks that nothing is requested.)
+void CheckSelfContained(std::string html) {
+  // Leaflet's own text (its attribution prefix names its home page) is not the page's markup.
+  if (const std::size_t at = html.find(leaflet::Js()); at != std::string::npos) {
+    html.erase(at, leaflet::Js().size());
+  }
   static const std::regex src(R"(\bsrc\s*=\s*["']([^"']{0,10}))");
   for (auto it = std::sregex_iterator(html.begin(), html.end(), src); it != std::sregex_iterator();
        ++it) {
     EXPECT_EQ((*it)[1].str().substr(0, 5), "data:");
   }
+  static const std::regex net(R"re((href\s*=\s*["']|url\(\s*["']?)(https?:)?//)re");
+  std::smatch m;
+  EXPECT_FALSE(std::regex_search(html, m, net)) << m.str();
+  EXPECT_NE(html.find("<meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'"),
+            std::string::npos);
+}
+
+// The JSON of the report's map (<script id="aerovo-map-data">), null when the page has no map.
+nlohmann::json MapJson(const std::string& html) {
+  const std::string open = "<script type=\"application/json\" id=\"aerovo-map-data\">";
+  const std::size_t a = html.find(open);
+  if (a == std::string::npos) return nullptr;
+  const std::size_t b = html.find("</script>", a);
+  return nlohmann::json::parse(html.substr(a + open.size(), b - a - open.size()));
+}
+
+// A small north-up RGBA fixture in place of the geo-referenced mosaic (mosaic_geo.png/.json of
+// `aerovo report`): a light grey square, 20 m larger than the run's GPS fixes on every side.
+void WriteGeoMosaicFixture(const fs::path& run_dir, const RunData& run) {
+  double s = 90, n = -90, w = 180, e = -180;
+  for (const RunFrameRow& f : run.frames) {
+    if (!f.gps) continue;
+    s = std::min(s, f.gps->lat_deg);
+    n = std::max(n, f.gps->lat_deg);
+    w = std::min(w, f.gps->lon_deg);
+    e = std::max(e, f.gps->lon_deg);
+  }
+  const double dlat = 20.0 / 111320.0, dlon = dlat / std::cos(s * M_PI / 180.0);
+  cv::Mat rgba(120, 160, CV_8UC4, cv::Scalar(200, 200, 200, 255));
+  cv::rectangle(rgba, {10, 10}, {150, 110}, cv::Scalar(170, 170, 170, 255), 3);
+  ASSERT_TRUE(cv::imwrite((run_dir / "mosaic_geo.png").string(), rgba));
+  const nlohmann::json j = {{"image", "mosaic_geo.png"}, {"south", s - dlat}, {"west", w - dlon},
+                            {"north", n + dlat},         {"east", e + dlon},  {"width_px", 160},
+                            {"height_px", 120},          {"m_per_px", 1.0}};
+  std::ofstream(run_dir / "mosaic_geo.json") << j.dump(2);
 }
 
 class HtmlReport : public ::testing::Test {
@@ -153,7 +200,8 @@ TEST_F(HtmlReport, RunFolderReport) {
   // The runner compares a simulated flight with its ground truth on its own (sim.json found):
   // then Fig. 2 is drawn against the ground truth too.
   const bool truth = !data.summary.value("truth", std::string()).empty();
-  const int plots = truth ? 5 : 4;
+  // Fig. 2 (and against the truth), Fig. 3, stage times, the error by distance, time, frame.
+  const int plots = truth ? 7 : 6;
   EXPECT_EQ(fs::exists(run / "figures" / "fig2_trajectory_truth.svg"), truth);
   EXPECT_EQ(Count(html, "<figure class=\"plot\""), plots);
   EXPECT_EQ(Count(html, "<svg"), plots);
@@ -168,6 +216,128 @@ TEST_F(HtmlReport, RunFolderReport) {
   // Ids are unique per figure (prefixed), so the inlined SVGs do not share ids.
   EXPECT_NE(html.find("id=\"fig2_trajectory-gnuplot_canvas\""), std::string::npos);
   EXPECT_EQ(html.find("id=\"gnuplot_canvas\""), std::string::npos);
+  for (const char* name : {"error_vs_distance", "error_vs_time"}) {
+    EXPECT_TRUE(fs::exists(run / "figures" / (std::string(name) + ".svg"))) << name;
+  }
+
+  // The accuracy answer first (before the map, the figures and the timings), with the
+  // summary's numbers; the explanation beside the comparison.
+  const std::size_t answer = html.find("id=\"answer\"");
+  ASSERT_NE(answer, std::string::npos);
+  EXPECT_LT(answer, html.find("id=\"map\""));
+  EXPECT_LT(html.find("id=\"map\""), html.find("id=\"comparison\""));
+  EXPECT_LT(html.find("id=\"comparison\""), html.find("id=\"figures\""));
+  EXPECT_LT(html.find("id=\"figures\""), html.find("id=\"timings\""));
+  const nlohmann::json& se2 = data.summary["evaluation"]["se2"];
+  EXPECT_NE(html.find(fmt::format("<strong>End error against GPS: {:.2f} m ({:.2f} % of the "
+                                  "distance)</strong>",
+                                  se2["end_point_error_m"].get<double>(),
+                                  se2["end_point_error_percent"].get<double>())),
+            std::string::npos);
+  EXPECT_NE(html.find(fmt::format(
+                "<strong>Tracked {} of {} frames</strong>",
+                data.summary["frames_ok"].get<int>() + data.summary["frames_reacquired"].get<int>(),
+                frames_)),
+            std::string::npos);
+  EXPECT_NE(html.find("a lower Sim(2) ATE with a higher Sim(2) end error is expected"),
+            std::string::npos);
+  EXPECT_NE(html.find("Relative error over L m</strong> (drift)"), std::string::npos);
+
+  // One colour per track: Fig. 2 draws GPS blue, VO vermillion, VO Sim(2) reddish purple, as
+  // the map and the mosaic do (report/style.h).
+  const std::string gp = ReadText(run / "figures" / "fig2_trajectory.gp");
+  static const std::regex fig2_colour(R"re(lc rgb '(#[0-9A-Fa-f]{6})'.*title '([^']*)')re");
+  std::map<std::string, std::string> colour_of;
+  for (auto it = std::sregex_iterator(gp.begin(), gp.end(), fig2_colour);
+       it != std::sregex_iterator(); ++it) {
+    colour_of[(*it)[2].str()] = (*it)[1].str();
+  }
+  EXPECT_EQ(colour_of["GPS"], "#0072B2");
+  EXPECT_EQ(colour_of["VO, SE(2)-aligned"], "#D55E00");
+  EXPECT_EQ(colour_of["VO, Sim(2)-aligned"], "#CC79A7");
+
+  // The map: Leaflet inlined with its licence, the run's tracks in lat/lon, per-frame hover data.
+  EXPECT_NE(html.find("Redistribution and use in source and binary forms"), std::string::npos);
+  EXPECT_NE(html.find("Vladimir Agafonkin"), std::string::npos);
+  EXPECT_NE(html.find("<div id=\"aerovo-map\"></div>"), std::string::npos);
+  const nlohmann::json map = MapJson(html);
+  ASSERT_TRUE(map.is_object());
+  int geo = 0, gps = 0;
+  for (const RunFrameRow& f : data.frames) {
+    geo += f.geo.has_value();
+    gps += f.gps.has_value();
+  }
+  ASSERT_GT(geo, 20);
+  EXPECT_EQ(static_cast<int>(map["vo"].size()), geo);
+  EXPECT_EQ(static_cast<int>(map["info"].size()), geo);
+  EXPECT_EQ(static_cast<int>(map["gps"].size()), gps);
+  EXPECT_TRUE(map["mosaic"].is_null());  // no mosaic_geo.json in this folder
+  EXPECT_EQ(map["colours"]["vo"], "#D55E00");
+  EXPECT_EQ(map["colours"]["gps"], "#0072B2");
+  // A frame's entry: [frame, time, status, distance to its fix as drawn, SE(2) error]; the
+  // SE(2) error is the figure's (ate_per_point_m of the same frame).
+  const RunFrameRow& last = data.frames.back();
+  ASSERT_TRUE(last.geo && last.gps);
+  const nlohmann::json& e = map["info"].back();
+  EXPECT_EQ(e[0].get<int>(), last.frame);
+  EXPECT_EQ(e[2].get<std::string>(), last.status);
+  EXPECT_NEAR(map["vo"].back()[0].get<double>(), last.geo->lat_deg, 1e-7);
+  EXPECT_NEAR(map["gps"].back()[1].get<double>(), last.gps->lon_deg, 1e-7);
+  const LocalEnu enu(*data.frames.front().gps);
+  const Eigen::Vector3d a = enu.Forward(*last.geo), b = enu.Forward(*last.gps);
+  EXPECT_NEAR(e[3].get<double>(), std::hypot(a.x() - b.x(), a.y() - b.y()), 2e-3);
+  EXPECT_NEAR(e[3].get<double>(), se2["end_point_error_unaligned_m"].get<double>(), 0.05);
+  EXPECT_NEAR(e[4].get<double>(), cmp.comparison->se2.ate_per_point_m.back(), 2e-3);
+  // The SE(2)-aligned VO layer: one point per frame, its last point the SE(2) end error away
+  // from the last GPS fix.
+  ASSERT_EQ(map["vo_se2"].size(), data.frames.size());
+  const Eigen::Vector3d aligned_end =
+      enu.Forward(map["vo_se2"].back()[0].get<double>(), map["vo_se2"].back()[1].get<double>(), 0);
+  EXPECT_NEAR(std::hypot(aligned_end.x() - b.x(), aligned_end.y() - b.y()),
+              se2["end_point_error_m"].get<double>(), 0.02);
+}
+
+// The geo-referenced north-up mosaic (mosaic_geo.json + .png, the contract with `aerovo
+// report`'s geo mosaic) goes under the map's tracks as an image overlay with its bounds; a
+// malformed one is a note naming the file, and the map is drawn without it.
+TEST_F(HtmlReport, GeoMosaicOnTheMap) {
+  const fs::path run = CopyRun("run_geo_mosaic");
+  const RunData data = ReadRunDir(run);
+  WriteGeoMosaicFixture(run, data);
+  ReportOptions o;
+  o.mosaic = false;
+  o.plot.png = false;
+  const ReportResult r = WriteReport(run, o);
+  EXPECT_TRUE(r.notes.empty()) << r.notes[0];
+  const nlohmann::json spec = nlohmann::json::parse(ReadText(run / "mosaic_geo.json"));
+  nlohmann::json map = MapJson(ReadText(r.html));
+  ASSERT_TRUE(map["mosaic"].is_object());
+  for (const char* k : {"south", "west", "north", "east"}) {
+    EXPECT_EQ(map["mosaic"][k].get<double>(), spec[k].get<double>()) << k;
+  }
+  const std::string uri = map["mosaic"]["uri"].get<std::string>();
+  EXPECT_EQ(uri.rfind("data:image/png;base64,", 0), 0u);
+
+  for (const auto& [bad, problem] : std::vector<std::pair<nlohmann::json, std::string>>{
+           {{{"image", "mosaic_geo.png"},
+             {"south", 1.0},
+             {"west", 2.0},
+             {"north", 0.5},
+             {"east", 3.0}},
+            "south < north"},
+           {{{"image", "mosaic_geo.png"}, {"south", 1.0}, {"north", 2.0}, {"east", 3.0}},
+            "\"west\" is missing"},
+           {{{"image", "../x.png"}, {"south", 1.0}, {"west", 2.0}, {"north", 1.5}, {"east", 3.0}},
+            "beside it"}}) {
+    std::ofstream(run / "mosaic_geo.json") << bad.dump();
+    const ReportResult b = WriteReport(run, o);
+    ASSERT_EQ(b.notes.size(), 1u) << bad.dump();
+    EXPECT_NE(b.notes[0].find("mosaic_geo.json"), std::string::npos) << b.notes[0];
+    EXPECT_NE(b.notes[0].find(problem), std::string::npos) << b.notes[0];
+    map = MapJson(ReadText(b.html));
+    EXPECT_TRUE(map["mosaic"].is_null());
+    EXPECT_GT(map["vo"].size(), 20u);
+  }
 }
 
 // frames.csv of a run killed mid-write ends with a partial record: dropped. A broken record
@@ -295,6 +465,38 @@ TEST_F(HtmlReport, ExperimentFolders) {
   EXPECT_LT(c.comparison->se2.ate_m.rmse, 1.0);
 }
 
+// A run with no geographic position at all (not geo-referenced, no GPS): no map and no
+// Leaflet in the page, a note on it; the rest of the report is written.
+TEST_F(HtmlReport, NoMapWithoutPositions) {
+  const fs::path run = CopyRun("run_no_geo");
+  std::istringstream in(ReadText(run / RunFileNames::kFramesCsv));
+  std::string line, out;
+  std::getline(in, line);
+  out = line + "\n";
+  while (std::getline(in, line)) {  // empty lat_deg, lon_deg, alt_m and gps_lat/lon/alt_deg
+    std::vector<std::string> cells;
+    std::stringstream ls(line);
+    for (std::string c; std::getline(ls, c, ',');) cells.push_back(c);
+    for (int i : {4, 5, 6, 17, 18, 19}) cells[static_cast<std::size_t>(i)].clear();
+    for (std::size_t i = 0; i < cells.size(); ++i) out += (i ? "," : "") + cells[i];
+    out += "\n";
+  }
+  std::ofstream(run / RunFileNames::kFramesCsv) << out;
+  fs::remove(run / "summary.json");
+  ReportOptions o;
+  o.mosaic = false;
+  o.plot.png = false;
+  const ReportResult r = WriteReport(run, o);
+  const std::string html = ReadText(r.html);
+  EXPECT_TRUE(MapJson(html).is_null());
+  EXPECT_EQ(html.find("<div id=\"aerovo-map\">"), std::string::npos);
+  EXPECT_EQ(html.find(leaflet::Js()), std::string::npos);
+  EXPECT_NE(html.find("No map: the run has neither a geo-referenced VO position nor a GPS fix."),
+            std::string::npos);
+  EXPECT_NE(html.find("No comparison with GPS"), std::string::npos);
+  EXPECT_GE(Count(html, "<svg"), 3);  // Fig. 2, Fig. 3, stage times
+}
+
 TEST(HtmlReportInput, NeitherRunNorExperimentIsAnInputError) {
   const fs::path empty =
       fs::temp_directory_path() / ("aerovo_html_report_empty_" + std::to_string(::getpid()));
@@ -332,6 +534,31 @@ int CountColour(const cv::Mat& bgr, int r, int g, int b, int tol = 12) {
   return cv::countNonZero(mask);
 }
 
+// The http(s) URLs that a page asked for, from Chromium's network log (--log-net-log): the
+// URL_REQUEST_START_JOB events whose initiator is an origin (a file:// page's is "null"); the
+// browser's own requests (updates, time, accounts) have the initiator "not an origin".
+std::vector<std::string> PageRequests(const fs::path& net_log) {
+  const nlohmann::json log = nlohmann::json::parse(ReadText(net_log));
+  const int start_job = log.at("constants").at("logEventTypes").at("URL_REQUEST_START_JOB");
+  std::vector<std::string> urls;
+  for (const nlohmann::json& e : log.at("events")) {
+    if (e.value("type", -1) != start_job || !e.contains("params")) continue;
+    const nlohmann::json& p = e["params"];
+    const std::string url = p.value("url", ""), initiator = p.value("initiator", "");
+    if (initiator != "not an origin" &&
+        (url.rfind("http:", 0) == 0 || url.rfind("https:", 0) == 0)) {
+      urls.push_back(url);
+    }
+  }
+  return urls;
+}
+
+// The report in headless Chromium with the network off (a proxy to nowhere, and the page's
+// Content-Security-Policy whose refusals the page counts): every figure renders, the page asks
+// for nothing (Chromium's network log, checked on a page that does ask first), and the map draws
+// the VO and GPS tracks (SVG paths, their colours on a screenshot of the map's area), the
+// geo-referenced mosaic under them, a metric scale bar, and the hover text of a frame. Three
+// browser starts, ~3 s each.
 TEST_F(HtmlReport, RendersInHeadlessChromium) {
   const std::string chromium = FindChromium();
   if (chromium.empty()) {
@@ -339,36 +566,82 @@ TEST_F(HtmlReport, RendersInHeadlessChromium) {
                     "installs it): browser rendering not checked";
   }
   const fs::path run = CopyRun("run_browser");
+  const RunData data = ReadRunDir(run);
+  WriteGeoMosaicFixture(run, data);
   ReportOptions o;
   o.plot.png = false;  // the page inlines the SVGs; PNG files play no part in it
   const ReportResult r = WriteReport(run, o);
   const std::string url = "file://" + fs::absolute(r.html).string();
   const fs::path profile = root_ / "chromium-profile";
+  // The same window for both starts: the map lies where the DOM dump says on the screenshot.
   const std::string flags =
       "--headless --no-sandbox --disable-gpu --disable-dev-shm-usage --hide-scrollbars "
-      "--no-first-run --user-data-dir=" +
+      "--no-first-run --disable-extensions --disable-background-networking "
+      "--disable-component-update --proxy-server=127.0.0.1:9 --proxy-bypass-list='<-loopback>' "
+      "--window-size=1400,5000 --virtual-time-budget=5000 --user-data-dir=" +
       profile.string();
-  // 1. The DOM after load: the report's own script counts the figures that rendered.
-  const fs::path dom = root_ / "dom.html";
-  std::string cmd = "timeout 90 " + chromium + " " + flags +
-                    " --virtual-time-budget=5000 --dump-dom '" + url + "' > " + dom.string() +
-                    " 2>/dev/null";
+  // 0. The network-log check can fail: a page that asks for a tile and a fetch is caught.
+  const fs::path leak = root_ / "leak.html", leak_log = root_ / "leak_net.json";
+  std::ofstream(leak) << "<!DOCTYPE html><html><body><img src=\"https://tiles.invalid/1/0/0.png\">"
+                         "<script>fetch('http://api.invalid/x').catch(function(){});</script>"
+                         "</body></html>\n";
+  std::string cmd = "timeout 90 " + chromium + " " + flags + " --log-net-log=" + leak_log.string() +
+                    " --dump-dom 'file://" + fs::absolute(leak).string() + "' > /dev/null 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
-  const std::string body = ReadText(dom);
-  std::smatch m;
-  ASSERT_TRUE(std::regex_search(body, m, std::regex(R"re(data-figures-expected="(\d+)")re")));
-  const int expected = std::stoi(m[1]);
-  EXPECT_GE(expected, 5);  // 4 or 5 plots (with a ground truth) and the mosaic
-  ASSERT_TRUE(std::regex_search(body, m, std::regex(R"re(data-figures-ok="(\d+)")re")))
-      << "the report's check script did not run";
-  EXPECT_EQ(std::stoi(m[1]), expected);
-  ASSERT_TRUE(std::regex_search(body, m, std::regex(R"re(data-figures-failed="([^"]*)")re")));
-  EXPECT_EQ(m[1].str(), "");
+  const std::vector<std::string> leaked = PageRequests(leak_log);
+  EXPECT_EQ(leaked.size(), 2u);
+  EXPECT_NE(std::find(leaked.begin(), leaked.end(), "https://tiles.invalid/1/0/0.png"),
+            leaked.end());
 
-  // 2. A screenshot: not blank, and the plots' colours are on it.
+  // 1. The DOM after load: the report's own script counts what rendered; the network log
+  // records what the page asked for.
+  const fs::path dom = root_ / "dom.html", net_log = root_ / "net.json";
+  cmd = "timeout 90 " + chromium + " " + flags + " --log-net-log=" + net_log.string() +
+        " --dump-dom '" + url + "' > " + dom.string() + " 2>/dev/null";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  const std::vector<std::string> requested = PageRequests(net_log);
+  EXPECT_TRUE(requested.empty()) << requested.size() << " requests, the first " << requested[0];
+  const std::string body = ReadText(dom);
+  auto attribute = [&](const std::string& name) -> std::string {
+    std::smatch m;
+    if (!std::regex_search(body, m, std::regex(name + R"re(="([^"]*)")re"))) return "<absent>";
+    return m[1].str();
+  };
+  ASSERT_NE(attribute("data-figures-ok"), "<absent>") << "the report's check script did not run";
+  const int expected = std::stoi(attribute("data-figures-expected"));
+  EXPECT_GE(expected, 7);  // 6 or 7 plots (with a ground truth) and the mosaic
+  EXPECT_EQ(std::stoi(attribute("data-figures-ok")), expected);
+  EXPECT_EQ(attribute("data-figures-failed"), "");
+  // Nothing requested from outside the page (the policy refuses and counts every attempt).
+  EXPECT_EQ(attribute("data-blocked-requests"), "0") << attribute("data-blocked-urls");
+  // The map: Leaflet ran, both tracks are SVG paths, the overlay decoded, a metric scale bar.
+  EXPECT_EQ(attribute("data-map-ready"), "1");
+  EXPECT_GE(std::stoi(attribute("data-map-vo-vertices")), 4);  // 2 legs: at least 4 corners
+  EXPECT_GE(std::stoi(attribute("data-map-gps-vertices")), 4);
+  EXPECT_EQ(attribute("data-map-overlay"), "1");
+  EXPECT_TRUE(std::regex_match(attribute("data-map-scale"), std::regex(R"(\d+ k?m)")))
+      << attribute("data-map-scale");
+  // Hover text of the middle VO frame: index, time, status, distance to its GPS fix.
+  const nlohmann::json map = MapJson(ReadText(r.html));
+  const nlohmann::json& mid = map["info"][map["vo"].size() / 2];
+  EXPECT_EQ(attribute("data-map-hover")
+                .rfind(fmt::format("frame {} · {:.1f} s · {} · to GPS ", mid[0].get<int>(),
+                                   mid[1].get<double>(), mid[2].get<std::string>()),
+                       0),
+            0u)
+      << attribute("data-map-hover");
+  int rect[4];
+  ASSERT_EQ(std::sscanf(attribute("data-map-rect").c_str(), "%d,%d,%d,%d", &rect[0], &rect[1],
+                        &rect[2], &rect[3]),
+            4)
+      << attribute("data-map-rect");
+  EXPECT_GT(rect[2], 600);
+  EXPECT_GE(rect[3], 500);
+
+  // 2. A screenshot: not blank; on the map's area, the VO and GPS colours (style.h) and the
+  // fixture mosaic's grey; the figures carry the track colours too.
   const fs::path shot = root_ / "shot.png";
-  cmd = "timeout 90 " + chromium + " " + flags +
-        " --window-size=1400,5000 --screenshot=" + shot.string() + " '" + url +
+  cmd = "timeout 90 " + chromium + " " + flags + " --screenshot=" + shot.string() + " '" + url +
         "' > /dev/null 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   const cv::Mat img = cv::imread(shot.string());
@@ -377,11 +650,21 @@ TEST_F(HtmlReport, RendersInHeadlessChromium) {
   cv::Mat gray;
   cv::cvtColor(img, gray, cv::COLOR_BGR2GRAY);
   EXPECT_GT(cv::countNonZero(gray < 200), 0.02 * gray.total()) << "blank page";
-  // Palette colours of the figures (aerovo/report/plot.cc): blue #0072B2, vermillion #D55E00,
-  // green #009E73 — curves drawn in the SVGs.
-  EXPECT_GT(CountColour(img, 0x00, 0x72, 0xB2), 300);
-  EXPECT_GT(CountColour(img, 0xD5, 0x5E, 0x00), 300);
-  EXPECT_GT(CountColour(img, 0x00, 0x9E, 0x73), 100);
+  const cv::Rect map_area =
+      cv::Rect(rect[0], rect[1], rect[2], rect[3]) & cv::Rect(0, 0, img.cols, img.rows);
+  ASSERT_EQ(map_area.area(), rect[2] * rect[3]) << "the map is off the screenshot";
+  const cv::Mat on_map = img(map_area);
+  const int vo_px = CountColour(on_map, 0xD5, 0x5E, 0x00);
+  const int gps_px = CountColour(on_map, 0x00, 0x72, 0xB2, 20);
+  if (const char* keep = std::getenv("AEROVO_KEEP_MAP_SHOT"); keep != nullptr && *keep != '\0') {
+    cv::imwrite(keep, on_map);  // to look at it
+  }                             // drawn at 85 % opacity
+  EXPECT_GT(vo_px, 300) << "VO track not drawn on the map";
+  EXPECT_GT(gps_px, 300) << "GPS track not drawn on the map";
+  EXPECT_GT(CountColour(on_map, 200, 200, 200, 3), 0.05 * map_area.area())
+      << "mosaic overlay not drawn";
+  // Track colours in the figures below the map.
+  EXPECT_GT(CountColour(img, 0xCC, 0x79, 0xA7), 100);  // VO, Sim(2)-aligned
 }
 
 }  // namespace

@@ -17,8 +17,11 @@
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/eval/trajectory_eval_json.h"
+#include "aerovo/geo/local_enu.h"
 #include "aerovo/io/track_writers.h"
+#include "aerovo/report/leaflet_assets.h"
 #include "aerovo/report/run_reader.h"
+#include "aerovo/report/style.h"
 
 namespace aerovo {
 namespace fs = std::filesystem;
@@ -131,6 +134,7 @@ struct Page {
   std::string title;
   std::string body;
   int figures = 0;  // <svg> figures and <img> expected to render
+  std::string head;  // more of <head>: the map's Leaflet CSS and JS when the page has a map
 
   void H2(const std::string& text, const std::string& id = "") {
     body += "<h2" + (id.empty() ? std::string() : " id=\"" + id + "\"") + ">" + XmlEscape(text) +
@@ -163,6 +167,14 @@ struct Page {
     h += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n";
     h += "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n";
     h += "<meta name=\"generator\" content=\"aerovo report\">\n";
+    // Offline by construction: the browser refuses any request for anything not in the page
+    // (scripts, styles and images inline or data: URIs; links to figures/ are navigations, not
+    // requests of the page). A refused request is recorded (securitypolicyviolation) for the
+    // self-check below: data-blocked-requests.
+    h += "<meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; img-src "
+         "data:; style-src 'unsafe-inline'; script-src 'unsafe-inline'\">\n";
+    h += "<script>window.aerovoBlocked=[];document.addEventListener('securitypolicyviolation',"
+         "function(e){window.aerovoBlocked.push(e.blockedURI||e.violatedDirective);});</script>\n";
     h += "<title>" + XmlEscape(title) + "</title>\n<style>\n";
     h +=
         R"(body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,"DejaVu Sans",sans-serif;margin:0 auto;max-width:1280px;padding:1em 2em;color:#1b1b1b;background:#fff}
@@ -176,8 +188,12 @@ figure.image img{display:block;max-width:100%;height:auto;margin:0 auto}
 figcaption{font-size:.9em;color:#444;margin-top:.3em;text-align:center}
 .note{background:#fff7e0;border-left:4px solid #e6a800;padding:.4em .8em}
 .meta{color:#555;font-size:.9em}nav a{margin-right:1em}
+.answer{font-size:1.1em;background:#eef5fb;border-left:4px solid #555;padding:.6em 1em}
+.explain{font-size:.92em;color:#333;max-width:60em}
+#aerovo-map{height:560px;width:100%;background:#f2f1ec;border:1px solid #d0d0d0}
+.map-legend{font-size:.9em}.map-legend span{display:inline-block;width:1.6em;height:.35em;vertical-align:middle;margin:0 .3em 0 1em}
 )";
-    h += "</style>\n</head>\n";
+    h += "</style>\n" + head + "</head>\n";
     h += fmt::format("<body data-figures-expected=\"{}\">\n", figures);
     h += "<h1>" + XmlEscape(title) + "</h1>\n";
     h += body;
@@ -198,6 +214,32 @@ figcaption{font-size:.9em;color:#444;margin-top:.3em;text-align:center}
     });
     document.body.setAttribute('data-figures-ok', String(ok));
     document.body.setAttribute('data-figures-failed', failed.join(' '));
+    document.body.setAttribute('data-blocked-requests', String(window.aerovoBlocked.length));
+    document.body.setAttribute('data-blocked-urls', window.aerovoBlocked.join(' '));
+    // The map (when the page has one): its tracks as SVG paths, the mosaic overlay decoded,
+    // the scale bar, where it lies on the page, and the hover text of its middle VO frame.
+    var el = document.getElementById('aerovo-map');
+    if (el) {
+      var vertices = function (cls) {
+        var p = el.querySelector('path.' + cls);
+        var m = p ? (p.getAttribute('d') || '').match(/[ML]/g) : null;
+        return String(m ? m.length : 0);
+      };
+      var b = document.body, r = el.getBoundingClientRect(), m = window.aerovoMap;
+      b.setAttribute('data-map-ready', m ? '1' : '0');
+      b.setAttribute('data-map-vo-vertices', vertices('aerovo-vo'));
+      b.setAttribute('data-map-gps-vertices', vertices('aerovo-gps'));
+      var img = el.querySelector('img.leaflet-image-layer');
+      b.setAttribute('data-map-overlay', img && img.complete && img.naturalWidth > 0 ? '1' : '0');
+      var scale = el.querySelector('.leaflet-control-scale-line');
+      b.setAttribute('data-map-scale', scale ? scale.textContent : '');
+      b.setAttribute('data-map-rect', [r.left + window.scrollX, r.top + window.scrollY, r.width,
+                                       r.height].map(Math.round).join(','));
+      if (m && m.data.vo.length > 0) {
+        var k = Math.floor(m.data.vo.length / 2);
+        b.setAttribute('data-map-hover', m.text(k));
+      }
+    }
   }
   check();
   window.addEventListener('load', check);
@@ -328,7 +370,7 @@ Figure StageTimesFigure(const RunData& run, const std::string& name, const std::
   f.series.push_back(Series("total", x,
                             Column(
                                 run, [](const RunFrameRow& r) { return r.total_ms; }, true),
-                            SeriesStyle::kLines, "#000000"));
+                            SeriesStyle::kLines, style::Hex(style::kStart)));
   return f;
 }
 
@@ -434,7 +476,105 @@ void EvaluationTable(Page& page, const nlohmann::json& ev) {
   page.Table({"", "SE(2)", "Sim(2)"}, e);
 }
 
-void SummaryTables(Page& page, const nlohmann::json& s) {
+// An error for a reader: 2 decimals under 10 (m or %), 1 above.
+std::string Metres(double v) { return Num(v, std::abs(v) < 10.0 ? 2 : 1); }
+
+// The answer a pilot looks for first, in one paragraph: frames tracked, distance flown, end
+// error and ATE against GPS.
+void AnswerBox(Page& page, const nlohmann::json& s) {
+  const double processed = JsonNumber(s, {"frames_processed"}, 0);
+  const double ok = JsonNumber(s, {"frames_ok"}, 0) + JsonNumber(s, {"frames_reacquired"}, 0);
+  const double bridged = JsonNumber(s, {"frames_bridged"}, 0);
+  std::string a = fmt::format("<strong>Tracked {:.0f} of {:.0f} frames</strong>", ok, processed);
+  if (bridged > 0) a += fmt::format(" ({:.0f} bridged with the previous motion)", bridged);
+  const nlohmann::json none;
+  const nlohmann::json& ev = s.contains("evaluation") ? s["evaluation"] : none;
+  if (ev.is_object() && ev.contains("se2")) {
+    const nlohmann::json& e = ev["se2"];
+    a += fmt::format(
+        " over {} m flown (GPS). <strong>End error against GPS: {} m ({} % of the distance)"
+        "</strong> after the SE(2) alignment, {} m as geo-referenced (no alignment); ATE RMSE "
+        "{} m.",
+        Num(JsonNumber(e, {"distance_flown_m"}), 0), Metres(JsonNumber(e, {"end_point_error_m"})),
+        Metres(JsonNumber(e, {"end_point_error_percent"})),
+        Metres(JsonNumber(e, {"end_point_error_unaligned_m"})),
+        Metres(JsonNumber(e, {"ate_m", "rmse"})));
+  } else {
+    const std::string note = s.contains("gps_comparison_note") &&
+                                     s["gps_comparison_note"].is_string() &&
+                                     !s["gps_comparison_note"].get<std::string>().empty()
+                                 ? s["gps_comparison_note"].get<std::string>()
+                                 : std::string("fewer than 3 frames with a fix");
+    a += fmt::format(", VO path {} m. No comparison with GPS ({}).",
+                     Num(JsonNumber(s, {"vo_path_length_m"}), 0), XmlEscape(note));
+  }
+  if (s.value("interrupted", false)) a += " The run was interrupted.";
+  page.body += "<p class=\"answer\" id=\"answer\">" + a + "</p>\n";
+}
+
+// What the comparison's numbers mean (eval/trajectory_eval.h), beside the table; `ev` its
+// evaluation JSON, to say which case this run is.
+void ExplainEvaluation(Page& page, const nlohmann::json& ev) {
+  const double se2_ate = JsonNumber(ev, {"se2", "ate_m", "rmse"});
+  const double sim2_ate = JsonNumber(ev, {"sim2", "ate_m", "rmse"});
+  const double se2_end = JsonNumber(ev, {"se2", "end_point_error_m"});
+  const double sim2_end = JsonNumber(ev, {"sim2", "end_point_error_m"});
+  const double scale = JsonNumber(ev, {"sim2", "alignment", "scale"});
+  std::string h =
+      "<div class=\"explain\"><p><strong>How to read it.</strong> ATE (absolute "
+      "trajectory error) is the RMS, over every frame with a reference position, of "
+      "the distance between the aligned VO position and the reference; the end-point "
+      "error is that distance at the last frame only. SE(2) aligns by a rotation and "
+      "a translation and trusts VO's metric scale (from height and focal length); "
+      "Sim(2) may also scale the track. ";
+  h += "Because Sim(2) has one more degree of freedom to minimise the RMS, its ATE is never "
+       "higher than SE(2)'s; but the least-squares fit spreads the error over the whole flight, "
+       "so the scale that best fits the middle of the track can move its end further away: "
+       "<em>a lower Sim(2) ATE with a higher Sim(2) end error is expected</em>, not a fault.";
+  if (std::isfinite(sim2_ate) && std::isfinite(se2_ate) && std::isfinite(sim2_end) &&
+      std::isfinite(se2_end) && sim2_ate <= se2_ate && sim2_end > se2_end) {
+    h += fmt::format(" This run is such a case (ATE {} m vs {} m, end error {} m vs {} m).",
+                     Num(sim2_ate), Num(se2_ate), Num(sim2_end), Num(se2_end));
+  }
+  if (std::isfinite(scale)) {
+    h += fmt::format(
+        " The Sim(2) scale ({}) is the factor by which VO's metric scale is off: "
+        "far from 1 (e.g. beyond 0.95-1.05), suspect the height or the focal length.",
+        Num(scale, 3));
+  }
+  h += "</p><p><strong>Relative error over L m</strong> (drift): from every frame, the segment "
+       "ends where the reference has flown L m further; the error is the difference between "
+       "VO's and the reference's displacement over that segment (after the alignment's "
+       "rotation and scale; offsets cancel), in per cent of L. It measures local accuracy, "
+       "wherever the error accumulated. Over short segments GPS noise dominates: a fix 1 m "
+       "off alone makes 10 % over 10 m, so a large drift over 10 m with a small drift over "
+       "100 m is GPS noise, not VO.</p></div>\n";
+  page.body += h;
+}
+
+// The comparisons with GPS and the ground truth, with their explanation.
+void ComparisonTables(Page& page, const nlohmann::json& s) {
+  const nlohmann::json none;
+  const nlohmann::json& ev = s.contains("evaluation") ? s["evaluation"] : none;
+  if (ev.is_object()) {
+    page.H2("Comparison with GPS", "comparison");
+    page.Para(
+        "Local East-North-Up metres, origin at the first GPS fix; the VO track is aligned to "
+        "GPS by a rigid SE(2) motion (the metric scale is trusted) and, for reference, by a "
+        "Sim(2) similarity (Umeyama).");
+    EvaluationTable(page, ev);
+    ExplainEvaluation(page, ev);
+  }
+  if (s.contains("truth_evaluation") && s["truth_evaluation"].is_object()) {
+    page.H2("Comparison with the ground truth", "truth");
+    page.Para("Against <code>" + XmlEscape(JsonString(s, "truth")) +
+              "</code> (frames matched by time), aligned as above.");
+    EvaluationTable(page, s["truth_evaluation"]);
+  }
+}
+
+// The run's details, then its timings (after the accuracy).
+void DetailsTables(Page& page, const nlohmann::json& s) {
   std::vector<std::vector<std::string>> rows;
   rows.push_back({"Input", JsonString(s, "input")});
   if (!JsonString(s, "source").empty()) rows.push_back({"Source", JsonString(s, "source")});
@@ -454,14 +594,6 @@ void SummaryTables(Page& page, const nlohmann::json& s) {
     rows.push_back({"Height source", JsonString(s, "height_source")});
     rows.push_back({"Heading source", JsonString(s, "heading_source")});
   }
-  for (const char* stage : {"detect", "describe", "correspond", "estimate", "total"}) {
-    rows.push_back({std::string("Mean ") + stage + " time (ms)",
-                    Num(JsonNumber(s, {"mean_stage_ms", stage}), 2)});
-  }
-  if (s.contains("fps")) {
-    rows.push_back({"Throughput (frames/s)", Num(JsonNumber(s, {"fps"}), 2) + " (" +
-                                                 Num(JsonNumber(s, {"wall_s"}), 1) + " s)"});
-  }
   page.H2("Summary", "summary");
   if (s.value("recomputed", false)) {
     page.Note(
@@ -470,29 +602,17 @@ void SummaryTables(Page& page, const nlohmann::json& s) {
   }
   page.Table({"", "value"}, rows, "summary");
 
-  const nlohmann::json none;
-  const nlohmann::json& ev = s.contains("evaluation") ? s["evaluation"] : none;
-  if (!ev.is_object()) {
-    // The run says why (summary.json gps_comparison_note, issue 15); older runs did not.
-    const std::string note = s.contains("gps_comparison_note") && s["gps_comparison_note"].is_string() &&
-                                     !s["gps_comparison_note"].get<std::string>().empty()
-                                 ? s["gps_comparison_note"].get<std::string>()
-                                 : std::string("fewer than 3 frames with a fix");
-    page.Para("No comparison with GPS (" + XmlEscape(note) + ").");
-  } else {
-    page.H2("Comparison with GPS", "comparison");
-    page.Para(
-        "Local East-North-Up metres, origin at the first GPS fix; the VO track is aligned to "
-        "GPS by a rigid SE(2) motion (the metric scale is trusted) and, for reference, by a "
-        "Sim(2) similarity (Umeyama).");
-    EvaluationTable(page, ev);
+  std::vector<std::vector<std::string>> times;
+  for (const char* stage : {"detect", "describe", "correspond", "estimate", "total"}) {
+    times.push_back({std::string("Mean ") + stage + " time (ms)",
+                     Num(JsonNumber(s, {"mean_stage_ms", stage}), 2)});
   }
-  if (s.contains("truth_evaluation") && s["truth_evaluation"].is_object()) {
-    page.H2("Comparison with the ground truth", "truth");
-    page.Para("Against <code>" + XmlEscape(JsonString(s, "truth")) +
-              "</code> (frames matched by time), aligned as above.");
-    EvaluationTable(page, s["truth_evaluation"]);
+  if (s.contains("fps")) {
+    times.push_back({"Throughput (frames/s)", Num(JsonNumber(s, {"fps"}), 2) + " (" +
+                                                  Num(JsonNumber(s, {"wall_s"}), 1) + " s)"});
   }
+  page.H2("Timings", "timings");
+  page.Table({"", "value"}, times, "summary");
 }
 
 void FlattenJson(const nlohmann::json& j, const std::string& prefix,
@@ -592,6 +712,26 @@ Figure MapFigure(const std::string& name) {
   return f;
 }
 
+// The colour of `cmp`'s reference track (style.h): GPS or a ground truth.
+std::string ReferenceColour(const RunComparison& cmp) {
+  return style::Hex(cmp.reference_name == "GPS" ? style::kGps : style::kTruth);
+}
+
+// Marks at the bridged frames of `run` (their VO positions mapped by `t`), when there are any.
+void BridgedMarks(const RunData& run, const Similarity2D& t, Figure& f) {
+  std::vector<double> x, y;
+  for (const RunFrameRow& r : run.frames) {
+    if (r.status.rfind("bridged", 0) != 0) continue;
+    const Eigen::Vector2d p = t.Apply({r.x_m, r.y_m});
+    x.push_back(p.x());
+    y.push_back(p.y());
+  }
+  if (x.empty()) return;
+  f.series.push_back(Series(fmt::format("bridged frames ({})", x.size()), x, y,
+                            SeriesStyle::kPoints, style::Hex(style::kBridged)));
+  f.series.back().point_size = 0.8;
+}
+
 // Fig. 2: the VO track against `cmp`'s reference after its SE(2) (and Sim(2)) alignment.
 void TrajectoryFigure(const RunData& run, const RunComparison& cmp, const std::string& name,
                       FigureSink& sink) {
@@ -603,21 +743,25 @@ void TrajectoryFigure(const RunData& run, const RunComparison& cmp, const std::s
       gx.push_back(p.x);
       gy.push_back(p.y);
     }
-    f.series.push_back(Series(cmp.reference_name, gx, gy, SeriesStyle::kLinesPoints, "#000000"));
+    f.series.push_back(
+        Series(cmp.reference_name, gx, gy, SeriesStyle::kLinesPoints, ReferenceColour(cmp)));
     f.series.back().point_size = 0.35;
     f.series.back().line_width = 1.0;
     std::vector<double> x, y;
     AlignedTrack(run, c.se2.alignment.enu_from_vo, &x, &y);
-    f.series.push_back(Series("VO, SE(2)-aligned", x, y, SeriesStyle::kLines, "#D55E00"));
+    f.series.push_back(
+        Series("VO, SE(2)-aligned", x, y, SeriesStyle::kLines, style::Hex(style::kVo)));
     f.series.back().line_width = 2.0;
     x.clear();
     y.clear();
     AlignedTrack(run, c.sim2.alignment.enu_from_vo, &x, &y);
-    f.series.push_back(Series("VO, Sim(2)-aligned", x, y, SeriesStyle::kLines, "#0072B2"));
-    f.series.back().dashed = true;
     f.series.push_back(
-        Series("start", {gx.front()}, {gy.front()}, SeriesStyle::kPoints, "#009E73"));
+        Series("VO, Sim(2)-aligned", x, y, SeriesStyle::kLines, style::Hex(style::kVoSim2)));
+    f.series.back().dashed = true;
+    f.series.push_back(Series("start", {gx.front()}, {gy.front()}, SeriesStyle::kPoints,
+                              style::Hex(style::kStart)));
     f.series.back().point_size = 1.5;
+    BridgedMarks(run, c.se2.alignment.enu_from_vo, f);
     f.title = fmt::format(
         "Fig. 2: VO trajectory against {} (local ENU; ATE RMSE SE(2) {:.2f} m, Sim(2) {:.2f} m "
         "over {:.0f} m)",
@@ -625,7 +769,8 @@ void TrajectoryFigure(const RunData& run, const RunComparison& cmp, const std::s
   } else {
     std::vector<double> x, y;
     AlignedTrack(run, Similarity2D{}, &x, &y);
-    f.series.push_back(Series("VO", x, y, SeriesStyle::kLines, "#D55E00"));
+    f.series.push_back(Series("VO", x, y, SeriesStyle::kLines, style::Hex(style::kVo)));
+    BridgedMarks(run, Similarity2D{}, f);
     f.title = "Fig. 2: VO trajectory (no " + cmp.reference_name + " to compare with)";
     const bool geo = !run.frames.empty() && run.frames.back().geo.has_value();
     if (!geo) {  // not geo-referenced: the local VO frame (odometry/pose_chain.h)
@@ -671,20 +816,309 @@ void RunFigures(const RunData& run, const RunComparison& cmp,
   sink.Add(StageTimesFigure(run, "stage_times", "Time of each stage per frame (log scale)"),
            "Per-frame time of SURF detection, SURF description, matching (correspond), "
            "transform estimation (RANSAC) and the whole frame, milliseconds.");
-  // Error per frame
+  // Error per frame, against the distance flown and against time
   if (cmp.comparison) {
-    Figure f;
-    f.name = "ate_per_frame";
-    f.title = "Position error per frame after alignment (against " + cmp.reference_name + ")";
-    f.x_label = "frame";
-    f.y_label = "position error (m)";
-    std::vector<double> x;
-    for (int r : cmp.row) x.push_back(run.frames[static_cast<std::size_t>(r)].frame);
-    f.series.push_back(Series("SE(2)", x, cmp.comparison->se2.ate_per_point_m));
-    f.series.push_back(Series("Sim(2)", x, cmp.comparison->sim2.ate_per_point_m));
-    f.series.back().dashed = true;
-    sink.Add(f, "Absolute trajectory error of each frame with a reference position, metres.");
+    std::vector<double> by_frame, by_time, by_distance;
+    double flown_m = 0.0;
+    for (std::size_t i = 0; i < cmp.row.size(); ++i) {
+      const RunFrameRow& r = run.frames[static_cast<std::size_t>(cmp.row[i])];
+      by_frame.push_back(r.frame);
+      by_time.push_back(r.time_s);
+      if (i > 0) {  // the reference's path length, as distance_flown_m (eval/trajectory_eval.h)
+        flown_m += std::hypot(cmp.reference[i].x - cmp.reference[i - 1].x,
+                              cmp.reference[i].y - cmp.reference[i - 1].y);
+      }
+      by_distance.push_back(flown_m);
+    }
+    auto error_figure = [&](const std::string& name, const std::string& x_label,
+                            const std::vector<double>& x) {
+      Figure f;
+      f.name = name;
+      f.title = "Position error after alignment (against " + cmp.reference_name + ")";
+      f.x_label = x_label;
+      f.y_label = "position error (m)";
+      f.y_from_zero = true;
+      f.series.push_back(Series("VO, SE(2)-aligned", x, cmp.comparison->se2.ate_per_point_m,
+                                SeriesStyle::kLines, style::Hex(style::kVo)));
+      f.series.push_back(Series("VO, Sim(2)-aligned", x, cmp.comparison->sim2.ate_per_point_m,
+                                SeriesStyle::kLines, style::Hex(style::kVoSim2)));
+      f.series.back().dashed = true;
+      return f;
+    };
+    const std::string why =
+        " The Sim(2) curve can lie below the SE(2) one on average and still end higher: see "
+        "\"How to read it\" above.";
+    sink.Add(
+        error_figure("error_vs_distance",
+                     "distance flown (m, " + cmp.reference_name + " path length)", by_distance),
+        "Absolute trajectory error against the distance flown, metres: how the error grows "
+        "along the flight." +
+            why);
+    sink.Add(error_figure("error_vs_time", "time (s)", by_time),
+             "Absolute trajectory error against the frame's time, metres.");
+    sink.Add(error_figure("ate_per_frame", "frame", by_frame),
+             "Absolute trajectory error of each frame with a reference position, metres.");
   }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The interactive map (Leaflet, inlined: leaflet_assets.h)
+
+// Degrees rounded to 1e-7 (~1 cm): short JSON, no precision a track needs lost.
+double Deg7(double deg) { return std::round(deg * 1e7) / 1e7; }
+double Round3(double v) { return std::round(v * 1e3) / 1e3; }
+
+// leaflet.css with its url(images/NAME) as data: URIs (the page requests nothing).
+std::string LeafletCssInline() {
+  std::string css(leaflet::Css());
+  static const std::regex url(R"(url\(images/([A-Za-z0-9_.-]+)\))");
+  std::string out;
+  auto begin = css.cbegin();
+  for (std::sregex_iterator it(css.begin(), css.end(), url), end; it != end; ++it) {
+    out.append(begin, css.cbegin() + it->position());
+    const std::string_view bytes = leaflet::Image((*it)[1].str());
+    out += bytes.empty() ? std::string("none")
+                         : "url(data:image/png;base64," + Base64(std::string(bytes)) + ")";
+    begin = css.cbegin() + it->position() + it->length();
+  }
+  out.append(begin, css.cend());
+  return out;
+}
+
+// The geo-referenced north-up mosaic of the run (DIR/mosaic_geo.json + its PNG, written by
+// `aerovo report`'s geo mosaic) as {"uri", "south", "west", "north", "east"}; null when there is
+// none. A malformed file is a note naming it, not an error: the map is drawn without it.
+nlohmann::json GeoMosaicOverlay(const fs::path& dir, std::string* note) {
+  const fs::path json_path = dir / ReportFileNames::kGeoMosaicJson;
+  if (!fs::is_regular_file(json_path)) return nullptr;
+  try {
+    const nlohmann::json j = nlohmann::json::parse(ReadFile(json_path));
+    if (!j.is_object()) throw InputError("not a JSON object");
+    nlohmann::json out;
+    for (const char* key : {"south", "west", "north", "east"}) {
+      if (!j.contains(key) || !j[key].is_number() || !std::isfinite(j[key].get<double>())) {
+        throw InputError(std::string("\"") + key + "\" is missing or not a finite number");
+      }
+      out[key] = j[key].get<double>();
+    }
+    if (!(out["south"].get<double>() < out["north"].get<double>()) ||
+        !(out["west"].get<double>() < out["east"].get<double>()) ||
+        out["south"].get<double>() < -90.0 || out["north"].get<double>() > 90.0) {
+      throw InputError("the bounds are not south < north, west < east within [-90, 90]");
+    }
+    const std::string image = JsonString(j, "image");
+    if (image.empty() || fs::path(image).has_parent_path() ||
+        fs::path(image).extension() != ".png") {
+      throw InputError("\"image\" must name a .png file beside it");
+    }
+    const fs::path png = dir / image;
+    const std::string bytes = ReadFile(png);
+    if (bytes.size() < 8 || bytes.compare(0, 8, "\x89PNG\r\n\x1a\n") != 0) {
+      throw InputError("'" + png.string() + "' is not a PNG file");
+    }
+    out["uri"] = "data:image/png;base64," + Base64(bytes);
+    return out;
+  } catch (const std::exception& e) {  // InputError, nlohmann::json::exception
+    *note = "geo-referenced mosaic left off the map: '" + json_path.string() + "': " + e.what();
+    return nullptr;
+  }
+}
+
+// The map's data: lat/lon tracks (VO geo-referenced as frames.csv gives it, GPS fixes, the ground
+// truth), per VO point its frame, time, status and error to GPS, the bridged points, colours.
+nlohmann::json MapData(const RunData& run, const RunComparison& cmp,
+                       const std::optional<RunComparison>& truth) {
+  nlohmann::json vo = nlohmann::json::array(), info = nlohmann::json::array(),
+                 gps = nlohmann::json::array(), bridged = nlohmann::json::array(),
+                 truth_track = nlohmann::json::array();
+  // The run's ENU frame: origin at the first GPS fix (CompareWithGps, odometry/georef.h).
+  std::optional<LocalEnu> enu;
+  for (const RunFrameRow& f : run.frames) {
+    if (f.gps) {
+      enu.emplace(*f.gps);
+      break;
+    }
+  }
+  std::map<int, double> se2_error_of_row;
+  if (cmp.comparison) {
+    for (std::size_t i = 0; i < cmp.row.size(); ++i) {
+      se2_error_of_row[cmp.row[i]] = cmp.comparison->se2.ate_per_point_m[i];
+    }
+  }
+  for (std::size_t r = 0; r < run.frames.size(); ++r) {
+    const RunFrameRow& f = run.frames[r];
+    if (f.gps) gps.push_back({Deg7(f.gps->lat_deg), Deg7(f.gps->lon_deg)});
+    if (!f.geo) continue;
+    vo.push_back({Deg7(f.geo->lat_deg), Deg7(f.geo->lon_deg)});
+    nlohmann::json drawn = nullptr, aligned = nullptr;
+    if (f.gps && enu) {
+      const Eigen::Vector3d a = enu->Forward(*f.geo), b = enu->Forward(*f.gps);
+      drawn = Round3(std::hypot(a.x() - b.x(), a.y() - b.y()));
+    }
+    if (const auto it = se2_error_of_row.find(static_cast<int>(r)); it != se2_error_of_row.end()) {
+      aligned = Round3(it->second);
+    }
+    info.push_back({f.frame, Round3(f.time_s), f.status, drawn, aligned});
+    if (f.status.rfind("bridged", 0) == 0) bridged.push_back(vo.size() - 1);
+  }
+  // The VO track under the SE(2) alignment of the comparison (a layer shown on demand: the
+  // shape of the track against GPS, whatever its heading at the first fix).
+  nlohmann::json aligned_track = nlohmann::json::array();
+  if (cmp.comparison && enu) {
+    const Similarity2D& t = cmp.comparison->se2.alignment.enu_from_vo;
+    for (const RunFrameRow& f : run.frames) {
+      const Eigen::Vector2d p = t.Apply({f.x_m, f.y_m});
+      const GeoPoint g = enu->Reverse(p.x(), p.y(), 0.0);
+      aligned_track.push_back({Deg7(g.lat_deg), Deg7(g.lon_deg)});
+    }
+  }
+  if (truth && truth->comparison && enu) {
+    for (const TrajectoryPoint2D& p : truth->reference) {
+      const GeoPoint g = enu->Reverse(p.x, p.y, 0.0);
+      truth_track.push_back({Deg7(g.lat_deg), Deg7(g.lon_deg)});
+    }
+  }
+  return {{"vo", vo},
+          {"info", info},
+          {"gps", gps},
+          {"truth", truth_track},
+          {"vo_se2", aligned_track},
+          {"bridged", bridged},
+          {"colours",
+           {{"vo", style::Hex(style::kVo)},
+            {"gps", style::Hex(style::kGps)},
+            {"truth", style::Hex(style::kTruth)},
+            {"bridged", style::Hex(style::kBridged)}}}};
+}
+
+// The map's script: reads the JSON of #aerovo-map-data (MapData plus "mosaic"), draws it with
+// Leaflet on a plain background (no tiles), fits the tracks, a metric scale bar, a layer switch,
+// and on hover the nearest VO frame within 14 px: frame, time, status, error to GPS.
+constexpr const char* kMapScript = R"js(
+(function () {
+  var d = JSON.parse(document.getElementById('aerovo-map-data').textContent);
+  var map = L.map('aerovo-map', {zoomSnap: 0.25, maxZoom: 24, attributionControl: false});
+  L.control.attribution({prefix: 'Leaflet (BSD-2-Clause)'}).addTo(map);
+  L.control.scale({imperial: false, maxWidth: 200}).addTo(map);
+  var layers = {};
+  if (d.mosaic) {
+    layers['mosaic (north-up)'] = L.imageOverlay(d.mosaic.uri,
+        [[d.mosaic.south, d.mosaic.west], [d.mosaic.north, d.mosaic.east]]).addTo(map);
+  }
+  if (d.gps.length) {
+    // Widest and underneath, the truth dashed over it, VO thin on top: all three stay visible
+    // where they agree.
+    layers['GPS'] = L.polyline(d.gps, {color: d.colours.gps, weight: 7, opacity: 1,
+                                       className: 'aerovo-gps', interactive: false}).addTo(map);
+  }
+  if (d.truth.length) {
+    layers['ground truth'] = L.polyline(d.truth, {color: d.colours.truth, weight: 4, opacity: 1,
+        dashArray: '8 8',
+        className: 'aerovo-truth', interactive: false}).addTo(map);
+  }
+  if (d.vo.length) {
+    layers['VO'] = L.polyline(d.vo, {color: d.colours.vo, weight: 2, className: 'aerovo-vo',
+                                     interactive: false}).addTo(map);
+  }
+  if (d.vo_se2.length) {  // off until ticked
+    layers['VO, SE(2)-aligned to GPS'] = L.polyline(d.vo_se2, {color: d.colours.vo, weight: 2,
+        dashArray: '6 6', className: 'aerovo-vo-se2', interactive: false});
+  }
+  if (d.bridged.length) {
+    var g = L.layerGroup();
+    d.bridged.forEach(function (i) {
+      L.circleMarker(d.vo[i], {radius: 3, color: d.colours.bridged, weight: 1, fillOpacity: 0.9,
+                               className: 'aerovo-bridged', interactive: false}).addTo(g);
+    });
+    layers['bridged frames'] = g.addTo(map);
+  }
+  L.control.layers(null, layers, {collapsed: false}).addTo(map);
+  var all = d.vo.concat(d.gps, d.truth);
+  if (all.length) map.fitBounds(L.latLngBounds(all), {padding: [24, 24], animate: false});
+  function metres(v) { return v === null ? null : v.toFixed(2) + ' m'; }
+  function text(i) {
+    var f = d.info[i], s = 'frame ' + f[0] + ' · ' + f[1].toFixed(1) + ' s · ' + f[2];
+    if (f[3] === null) return s + ' · no GPS fix';
+    s += ' · to GPS ' + metres(f[3]) + ' as drawn';
+    if (f[4] !== null) s += ', ' + metres(f[4]) + ' after SE(2) alignment';
+    return s;
+  }
+  function escape(t) {
+    return t.replace(/&/g, '&amp;').replace(/</g, '&lt;').replace(/>/g, '&gt;');
+  }
+  var cursor = L.circleMarker([0, 0], {radius: 7, color: '#000', weight: 2, fill: false,
+                                       interactive: false});
+  cursor.bindTooltip('', {direction: 'top', offset: [0, -8]});
+  var projected = [], zoom = null;
+  function show(i) {
+    cursor.setLatLng(d.vo[i]);
+    if (!map.hasLayer(cursor)) cursor.addTo(map);
+    cursor.setTooltipContent(escape(text(i)));
+    cursor.openTooltip();
+  }
+  function hide() { if (map.hasLayer(cursor)) map.removeLayer(cursor); }
+  map.on('mousemove', function (e) {
+    if (zoom !== map.getZoom()) {
+      zoom = map.getZoom();
+      projected = d.vo.map(function (p) { return map.project(p, zoom); });
+    }
+    var q = map.project(e.latlng, zoom), best = -1, best_d2 = 14 * 14;
+    for (var i = 0; i < projected.length; i++) {
+      var dx = projected[i].x - q.x, dy = projected[i].y - q.y, d2 = dx * dx + dy * dy;
+      if (d2 < best_d2) { best_d2 = d2; best = i; }
+    }
+    if (best >= 0) show(best); else hide();
+  });
+  map.on('mouseout', hide);
+  window.aerovoMap = {map: map, data: d, text: text, show: show};
+})();
+)js";
+
+// The map section: the tracks on the geo-referenced mosaic; a note instead when the run has no
+// geographic position at all.
+void MapSection(const fs::path& dir, const RunData& run, const RunComparison& cmp,
+                const std::optional<RunComparison>& truth, Page& page, ReportResult& result) {
+  page.H2("Map", "map");
+  nlohmann::json data = MapData(run, cmp, truth);
+  if (data["vo"].empty() && data["gps"].empty()) {
+    // On the page only: the run's summary already says why there is no comparison.
+    page.Note("No map: the run has neither a geo-referenced VO position nor a GPS fix.");
+    return;
+  }
+  std::string note;
+  data["mosaic"] = GeoMosaicOverlay(dir, &note);
+  if (!note.empty()) AddNote(page, result, note);
+  page.head += "<style>\n" + LeafletCssInline() + "\n</style>\n<script>\n" +
+               leaflet::LicenceComment() + std::string(leaflet::Js()) + "\n</script>\n";
+  std::string legend = "<p class=\"map-legend\">";
+  legend += "<span style=\"background:" + style::Hex(style::kVo) + "\"></span>VO (" +
+            fmt::format("{}", data["vo"].size()) + " geo-referenced frames)";
+  legend += "<span style=\"background:" + style::Hex(style::kGps) + "\"></span>GPS (" +
+            fmt::format("{}", data["gps"].size()) + " fixes)";
+  if (!data["truth"].empty()) {
+    legend += "<span style=\"background:" + style::Hex(style::kTruth) + "\"></span>ground truth";
+  }
+  if (!data["bridged"].empty()) {
+    legend +=
+        "<span style=\"background:" + style::Hex(style::kBridged) + "\"></span>bridged frames";
+  }
+  legend += "</p>\n";
+  page.body += legend;
+  page.body += "<div id=\"aerovo-map\"></div>\n";
+  page.Para(std::string("Drag to pan, scroll to zoom; hover over the VO track for a frame's index, "
+                        "status and distance to its GPS fix. The tracks are drawn as the run wrote "
+                        "them (VO geo-referenced at the first fix, no alignment); tick \"VO, "
+                        "SE(2)-aligned to GPS\" for the track under the comparison's alignment. ") +
+            (data["mosaic"].is_null() ? "No geo-referenced mosaic in this folder (mosaic_geo.json)."
+                                      : "Under them, the geo-referenced north-up mosaic."));
+  // JSON inside <script>: "</" written as "<\/" so that no string ends the element.
+  std::string json = data.dump();
+  for (std::size_t pos = json.find("</"); pos != std::string::npos;
+       pos = json.find("</", pos + 3)) {
+    json.replace(pos, 2, "<\\/");
+  }
+  page.body += "<script type=\"application/json\" id=\"aerovo-map-data\">" + json + "</script>\n";
+  page.body += std::string("<script>") + kMapScript + "</script>\n";
 }
 
 // The run folder `dir` read for its report: throws InputError when it has no frame rows.
@@ -705,26 +1139,34 @@ void RunReport(const fs::path& dir, const RunData& run, const RunComparison& cmp
   page.body += "<p class=\"meta\">Run folder <code>" + XmlEscape(fs::absolute(dir).string()) +
                "</code>; input <code>" + XmlEscape(JsonString(summary, "input")) + "</code>.</p>\n";
   page.body +=
-      "<nav><a href=\"#summary\">Summary</a><a href=\"#figures\">Figures</a>"
+      "<nav><a href=\"#answer\">Answer</a><a href=\"#map\">Map</a>"
+      "<a href=\"#comparison\">Accuracy</a><a href=\"#figures\">Figures</a>"
+      "<a href=\"#summary\">Summary</a><a href=\"#timings\">Timings</a>"
       "<a href=\"#mosaic\">Mosaic</a><a href=\"#config\">Configuration</a></nav>\n";
+  // The accuracy first, then the map, the comparison and figures; details and timings after.
+  AnswerBox(page, summary);
   if (summary.contains("warnings") && summary["warnings"].is_array()) {
     for (const auto& w : summary["warnings"]) {
       if (w.is_string()) page.Note("warning: " + w.get<std::string>());
     }
   }
-  SummaryTables(page, summary);
-
-  page.H2("Figures", "figures");
-  FigureSink sink(dir, options, page, result);
   std::optional<RunComparison> truth;
   if (const std::string file = JsonString(run.summary, "truth"); !file.empty()) {
     try {
       truth = CompareWithTruthFile(run, file);
     } catch (const InputError& e) {
-      sink.Note(std::string("no figure against the ground truth: ") + e.what());
+      AddNote(page, result, std::string("no figure against the ground truth: ") + e.what());
     }
   }
+  // The map is filled in last (below), so that it shows a geo-referenced mosaic written by
+  // this report too; its place is here.
+  const std::size_t map_at = page.body.size();
+  ComparisonTables(page, summary);
+
+  page.H2("Figures", "figures");
+  FigureSink sink(dir, options, page, result);
   RunFigures(run, cmp, truth, sink);
+  DetailsTables(page, summary);
 
   page.H2("Mosaic", "mosaic");
   if (!options.mosaic) {
@@ -736,21 +1178,21 @@ void RunReport(const fs::path& dir, const RunData& run, const RunComparison& cmp
     MosaicTrack gps;
     gps.name = cmp.reference_name + " (through the SE(2) alignment)";
     gps.points_px = GpsInFirstFramePixels(pixels, cmp);
-    gps.color_rgb = 0x0072B2;
+    gps.color_rgb = cmp.reference_name == "GPS" ? style::kGps : style::kTruth;
     gps.line_width_px = 4;
     if (!gps.points_px.empty()) tracks.push_back(gps);
     if (truth) {
       MosaicTrack t;
       t.name = "ground truth (through its SE(2) alignment)";
       t.points_px = GpsInFirstFramePixels(pixels, *truth);
-      t.color_rgb = 0x009E73;
+      t.color_rgb = style::kTruth;
       t.line_width_px = 3;
       if (!t.points_px.empty()) tracks.push_back(t);
     }
     MosaicTrack vo;
     vo.name = "VO (estimated transforms)";
     vo.points_px = pixels.centres_px;
-    vo.color_rgb = 0xD55E00;
+    vo.color_rgb = style::kVo;
     vo.line_width_px = 2;
     tracks.push_back(vo);
     const fs::path file = dir / ReportFileNames::kFiguresDir / ReportFileNames::kMosaic;
@@ -781,6 +1223,11 @@ void RunReport(const fs::path& dir, const RunData& run, const RunComparison& cmp
   } else {
     page.Note("config.json is missing.");
   }
+
+  Page map;
+  MapSection(dir, run, cmp, truth, map, result);
+  page.body.insert(map_at, map.body);
+  page.head += map.head;
 }
 
 // The footer, then DIR/report.html; the time since `sw` started.
@@ -981,7 +1428,9 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
             gy.push_back(p.y);
           }
         }
-        f.series.push_back(Series(ref_name, gx, gy, SeriesStyle::kLines, "#000000"));
+        f.series.push_back(
+            Series(ref_name, gx, gy, SeriesStyle::kLines,
+                   style::Hex(ground_truth.points.empty() ? style::kGps : style::kTruth)));
         f.series.back().line_width = 3.0;
         reference_drawn = true;
       }

@@ -8,8 +8,17 @@
 //   fig3_points       the paper's Fig. 3: N_SURF, matched points, RANSAC inliers per frame
 //   stage_times       detect, describe, correspond, estimate, total per frame, ms
 //   ate_per_frame     SE(2)/Sim(2) position error per frame, m
+//   answer            first: frames tracked, distance flown, end error and ATE against GPS
+//   map               interactive and offline (Leaflet 1.7 of Debian's libjs-leaflet inlined,
+//                     leaflet_assets.h; no tile server, a plain background): the VO track
+//                     (frames.csv lat/lon), the GPS fixes, the ground truth, bridged frames,
+//                     the geo-referenced mosaic (mosaic_geo.json) under them, a metric scale
+//                     bar, per-frame hover (index, time, status, distance to GPS)
+//   error_vs_distance, error_vs_time   the position error against distance flown and time
 //   mosaic.jpg        frames warped into the first frame's pixels with the VO and GPS tracks
-//   tables            summary (summary.json), effective configuration (config.json)
+//   tables            summary (summary.json) with the timings after the accuracy, effective
+//                     configuration (config.json)
+// Colours: one per track in every figure, the mosaic and the map (report/style.h).
 //
 // Experiment folder (EXP/experiment.json, each run in EXP/<dir>/):
 //   {"kind": "illumination" | "ransac" | other,
@@ -24,9 +33,14 @@
 //   every kind:   the tables of experiment.json, a per-run summary table, links to each run's
 //                 own report.html (written too).
 //
+// The page requests nothing: a Content-Security-Policy lets it load only what it holds (inline
+// scripts and styles, data: images), so it works with the network off and cannot reach out.
 // The HTML ends with a small script that, after load, checks that every figure (<svg>) has a
 // non-zero size and every <img> decoded, and writes the count into <body data-figures-ok="N"
-// data-figures-total="M">, so that a headless browser can verify the rendering.
+// data-figures-expected="M">, the requests the policy refused into data-blocked-requests, and
+// for the map data-map-ready, data-map-vo-vertices, data-map-gps-vertices (SVG path vertices),
+// data-map-overlay, data-map-scale, data-map-rect (x,y,w,h in page pixels) and data-map-hover,
+// so that a headless browser can verify the rendering.
 #pragma once
 
 #include <filesystem>
@@ -74,6 +88,10 @@ struct ReportFileNames {
   static constexpr const char* kFiguresDir = "figures";
   static constexpr const char* kMosaic = "mosaic.jpg";
   static constexpr const char* kExperimentJson = "experiment.json";
+  /// The geo-referenced north-up mosaic, shown under the map's tracks when present:
+  /// {"image": "mosaic_geo.png", "south", "west", "north", "east" (degrees WGS84 of the image's
+  /// outer edges), "width_px", "height_px", "m_per_px"}, the image an RGBA PNG beside it.
+  static constexpr const char* kGeoMosaicJson = "mosaic_geo.json";
 };
 
 }  // namespace aerovo

@@ -15,15 +15,12 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/io/track_writers.h"
+#include "aerovo/report/style.h"
 
 namespace aerovo {
 namespace fs = std::filesystem;
 
 namespace {
-
-// Okabe & Ito (2008) colour-blind-safe palette, yellow last (weak on white).
-const char* const kPalette[] = {"#0072B2", "#D55E00", "#009E73", "#E69F00",
-                                "#CC79A7", "#56B4E9", "#000000", "#F0E442"};
 
 bool IsHexColor(const std::string& c) {
   if (c.size() != 7 || c[0] != '#') return false;
@@ -156,7 +153,7 @@ std::string GnuplotScript(const Figure& f, const fs::path& data_file, const fs::
   for (std::size_t k = 0; k < f.series.size(); ++k) {
     const PlotSeries& ser = f.series[k];
     const std::string color =
-        ser.color.empty() ? kPalette[k % (sizeof(kPalette) / sizeof(kPalette[0]))] : ser.color;
+        ser.color.empty() ? style::kSeriesPalette[k % style::kSeriesPaletteSize] : ser.color;
     if (k > 0) plot += ", \\\n     ";
     plot += fmt::format("{} index {} using 1:2 {} {}", data, k, StyleOf(ser, color),
                         ser.title.empty() ? std::string("notitle") : "title " + Quote(ser.title));

@@ -25,7 +25,8 @@ struct PlotSeries {
   std::string title;  ///< Legend entry; empty: not in the legend.
   std::vector<double> x, y;
   SeriesStyle style = SeriesStyle::kLines;
-  /// "#rrggbb"; empty: the next colour of the default palette (colour-blind safe, Okabe-Ito).
+  /// "#rrggbb"; empty: the series' colour of style::kSeriesPalette (report/style.h: no track
+  /// colour). Tracks (GPS, VO, truth) take their style.h colour.
   std::string color;
   double line_width = 1.5;  ///< gnuplot line width units (~1 px at 96 dpi).
   double point_size = 0.6;  ///< gnuplot point size (kPoints / kLinesPoints).
