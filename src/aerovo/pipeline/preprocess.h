@@ -29,8 +29,7 @@ class FrameReducer {
   /// Frames of width_px x height_px; max_megapixels <= 0: no budget, detect_megapixels <= 0: no
   /// integer reduction (neither: active() false). Throws InvalidArgument for a non-positive size
   /// or a non-finite budget.
-  FrameReducer(int width_px, int height_px, double max_megapixels,
-               double detect_megapixels = 0.0);
+  FrameReducer(int width_px, int height_px, double max_megapixels, double detect_megapixels = 0.0);
   /// The integer factor n of a detection reduction (1 when the frames are not reduced by the
   /// detection budget, including an area reduction to max_megapixels alone).
   int factor() const { return factor_; }

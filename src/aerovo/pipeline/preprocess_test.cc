@@ -181,7 +181,8 @@ TEST(Preprocess, DetectionReductionAveragesBlocksAndMapsTheirCentres) {
   // 31 x 22 at factor 3: 10 x 7 blocks of 3 x 3, each reduced pixel the rounded block mean.
   GrayImage frame(31, 22);
   for (int y = 0; y < 22; ++y) {
-    for (int x = 0; x < 31; ++x) frame.at(x, y) = static_cast<std::uint8_t>((x * 37 + y * 11) % 256);
+    for (int x = 0; x < 31; ++x)
+      frame.at(x, y) = static_cast<std::uint8_t>((x * 37 + y * 11) % 256);
   }
   FrameReducer r(31, 22, 0.0, 0.0001);  // 682 px > 100 px budget; 10 x 7 = 70 px fits
   ASSERT_EQ(r.factor(), 3);
