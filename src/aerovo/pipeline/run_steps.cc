@@ -700,8 +700,8 @@ void FrameLoop::Start(const Frame& frame, const std::optional<TelemetrySample>& 
     *log_ << "camera: " << camera.description << "\n";
     if (reducer_) {
       *log_ << fmt::format(
-          "frames reduced to {}x{} px before SURF ({:.1f} MP > {} {}), focal {:.1f} px\n", pw,
-          ph, static_cast<double>(w) * h / 1e6,
+          "frames reduced to {}x{} px before SURF ({:.1f} MP > {} {}), focal {:.1f} px\n", pw, ph,
+          static_cast<double>(w) * h / 1e6,
           reducer_->factor() > 1 ? "detect_megapixels" : "max_megapixels",
           reducer_->factor() > 1 ? config_.detect_megapixels : config_.max_megapixels,
           vo_options_.focal_px);
