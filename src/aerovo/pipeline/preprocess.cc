@@ -51,7 +51,8 @@ GrayImageView FrameUndistorter::Apply(const GrayImageView& frame) {
   return u.Apply(frame, &impl_->out);
 }
 
-FrameReducer::FrameReducer(int width_px, int height_px, double max_megapixels)
+FrameReducer::FrameReducer(int width_px, int height_px, double max_megapixels,
+                           double detect_megapixels)
     : w_(width_px), h_(height_px), out_w_(width_px), out_h_(height_px) {
   if (width_px <= 0 || height_px <= 0) {
     throw InvalidArgument(
@@ -60,8 +61,26 @@ FrameReducer::FrameReducer(int width_px, int height_px, double max_megapixels)
   if (!std::isfinite(max_megapixels)) {
     throw InvalidArgument("FrameReducer: max_megapixels must be finite");
   }
+  if (!std::isfinite(detect_megapixels)) {
+    throw InvalidArgument("FrameReducer: detect_megapixels must be finite");
+  }
   const double pixels = static_cast<double>(width_px) * height_px;
   const double budget = max_megapixels * 1e6;
+  if (detect_megapixels > 0.0 && pixels > detect_megapixels * 1e6) {
+    const double limit =
+        max_megapixels > 0.0 ? std::min(budget, detect_megapixels * 1e6) : detect_megapixels * 1e6;
+    int n = 2;
+    while (static_cast<double>(width_px / n) * (height_px / n) > limit && width_px / n > 1 &&
+           height_px / n > 1) {
+      ++n;
+    }
+    factor_ = n;
+    out_w_ = std::max(1, width_px / n);
+    out_h_ = std::max(1, height_px / n);
+    sx_ = sy_ = 1.0 / n;
+    active_ = true;
+    return;
+  }
   if (max_megapixels <= 0.0 || pixels <= budget) return;
   const double s = std::sqrt(budget / pixels);
   out_w_ = std::max(1, static_cast<int>(std::floor(width_px * s)));
@@ -90,6 +109,13 @@ GrayImageView FrameReducer::Apply(const GrayImageView& frame) {
   const cv::Mat in(frame.height, frame.width, CV_8UC1, const_cast<std::uint8_t*>(frame.data),
                    static_cast<std::size_t>(frame.stride));
   cv::Mat dst(out_h_, out_w_, CV_8UC1, out_.data());
+  if (factor_ > 1) {
+    // The whole n x n blocks only: an exact integer ratio, OpenCV's block-mean path of
+    // INTER_AREA (each output pixel the rounded mean of its block).
+    const cv::Mat blocks = in(cv::Rect(0, 0, out_w_ * factor_, out_h_ * factor_));
+    cv::resize(blocks, dst, cv::Size(out_w_, out_h_), 0.0, 0.0, cv::INTER_AREA);
+    return out_.view();
+  }
   cv::resize(in, dst, cv::Size(out_w_, out_h_), 0.0, 0.0, cv::INTER_AREA);
   return out_.view();
 }

@@ -16,11 +16,24 @@ namespace aerovo {
 /// area averaging (cv::resize INTER_AREA, no aliasing). A camera model of the full frame
 /// (focal f, principal point at the centre) becomes, on the reduced frame, focal f * scale()
 /// with the principal point at the reduced centre: reduced_from_full() maps the coordinates.
+///
+/// Detection budget (RunConfig::detect_megapixels, video and live frames): frames above
+/// detect_megapixels are instead reduced by the smallest integer factor n >= 2 that brings
+/// floor(w / n) x floor(h / n) within both budgets, each reduced pixel the rounded mean of an
+/// n x n block (a box filter; the last w mod n columns and h mod n rows are dropped). Then
+/// scale() = focal_scale() = 1 / n exactly and a full-frame pixel x maps to x / n - (n - 1) / (2n).
+/// SURF at n times the ground sampling distance: 4K (3840x2160) with n = 2 is detected at
+/// 1920x1080, the scale space SURF would otherwise reach at its second octave (Bay et al. 2008
+/// section 4.1: the scale space may start with a sampling step of 2).
 class FrameReducer {
  public:
-  /// Frames of width_px x height_px; max_megapixels <= 0: no budget (active() false). Throws
-  /// InvalidArgument for a non-positive size or a non-finite budget.
-  FrameReducer(int width_px, int height_px, double max_megapixels);
+  /// Frames of width_px x height_px; max_megapixels <= 0: no budget, detect_megapixels <= 0: no
+  /// integer reduction (neither: active() false). Throws InvalidArgument for a non-positive size
+  /// or a non-finite budget.
+  FrameReducer(int width_px, int height_px, double max_megapixels, double detect_megapixels = 0.0);
+  /// The integer factor n of a detection reduction (1 when the frames are not reduced by the
+  /// detection budget, including an area reduction to max_megapixels alone).
+  int factor() const { return factor_; }
   /// The frames exceed the budget and are reduced.
   bool active() const { return active_; }
   int out_width_px() const { return out_w_; }
@@ -40,6 +53,7 @@ class FrameReducer {
  private:
   int w_ = 0, h_ = 0, out_w_ = 0, out_h_ = 0;
   double sx_ = 1.0, sy_ = 1.0;
+  int factor_ = 1;
   bool active_ = false;
   GrayImage out_;
 };

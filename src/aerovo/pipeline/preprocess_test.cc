@@ -11,6 +11,7 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/io/camera.h"
+#include "aerovo/odometry/visual_odometry.h"
 
 namespace aerovo {
 namespace {
@@ -142,6 +143,112 @@ TEST(Preprocess, FrameReducerAveragesAreasAndMapsPixelsConsistently) {
   // Not active: the frame itself.
   FrameReducer none(400, 300, 1.0);
   EXPECT_EQ(none.Apply(frame.view()).data, frame.view().data);
+}
+
+TEST(Preprocess, DetectionBudgetReducesByTheSmallestIntegerFactor) {
+  // 4K UHD at 2.1 MP: halved exactly, 1920 x 1080; 1080p (2.07 MP) and smaller as read.
+  FrameReducer uhd(3840, 2160, 24.0, 2.1);
+  ASSERT_TRUE(uhd.active());
+  EXPECT_EQ(uhd.factor(), 2);
+  EXPECT_EQ(uhd.out_width_px(), 1920);
+  EXPECT_EQ(uhd.out_height_px(), 1080);
+  EXPECT_EQ(uhd.scale(), 0.5);  // exact: the focal length of the reduced frames is f / 2
+  EXPECT_EQ(uhd.focal_scale(), 0.5);
+  FrameReducer hd(1920, 1080, 24.0, 2.1);
+  EXPECT_FALSE(hd.active());
+  EXPECT_EQ(hd.factor(), 1);
+  EXPECT_EQ(hd.focal_scale(), 1.0);
+  EXPECT_FALSE(FrameReducer(3840, 2160, 24.0, 0.0).active());  // 0 = no detection budget
+  // 8K (7680 x 4320): a factor 3 gives 2560 x 1440 = 3.7 MP, over; 4 gives 1920 x 1080.
+  FrameReducer k8(7680, 4320, 0.0, 2.1);
+  EXPECT_EQ(k8.factor(), 4);
+  EXPECT_EQ(k8.out_width_px(), 1920);
+  EXPECT_EQ(k8.focal_scale(), 0.25);
+  // Both budgets are met: at max_megapixels 0.5 the factor is 5 (960 x 540 = 0.52 MP is over).
+  FrameReducer both(3840, 2160, 0.5, 2.1);
+  EXPECT_EQ(both.factor(), 5);
+  EXPECT_EQ(both.out_width_px(), 768);
+  EXPECT_EQ(both.out_height_px(), 432);
+  // Odd sizes: the last column and row are dropped, whole 2 x 2 blocks only.
+  FrameReducer odd(3841, 2161, 24.0, 2.1);
+  EXPECT_EQ(odd.out_width_px(), 1920);
+  EXPECT_EQ(odd.out_height_px(), 1080);
+  EXPECT_EQ(odd.focal_scale(), 0.5);
+  EXPECT_THROW(FrameReducer(10, 10, 24.0, std::nan("")), InvalidArgument);
+}
+
+TEST(Preprocess, DetectionReductionAveragesBlocksAndMapsTheirCentres) {
+  // 31 x 22 at factor 3: 10 x 7 blocks of 3 x 3, each reduced pixel the rounded block mean.
+  GrayImage frame(31, 22);
+  for (int y = 0; y < 22; ++y) {
+    for (int x = 0; x < 31; ++x)
+      frame.at(x, y) = static_cast<std::uint8_t>((x * 37 + y * 11) % 256);
+  }
+  FrameReducer r(31, 22, 0.0, 0.0001);  // 682 px > 100 px budget; 10 x 7 = 70 px fits
+  ASSERT_EQ(r.factor(), 3);
+  ASSERT_EQ(r.out_width_px(), 10);
+  ASSERT_EQ(r.out_height_px(), 7);
+  const GrayImageView out = r.Apply(frame.view());
+  int worst = 0;
+  for (int by = 0; by < 7; ++by) {
+    for (int bx = 0; bx < 10; ++bx) {
+      int sum = 0;
+      for (int dy = 0; dy < 3; ++dy) {
+        for (int dx = 0; dx < 3; ++dx) sum += frame.at(3 * bx + dx, 3 * by + dy);
+      }
+      worst = std::max(worst, std::abs(9 * out.at(bx, by) - sum));
+    }
+  }
+  EXPECT_LE(worst, 5);  // |9 out - sum| <= 4.5: the mean rounded to the nearest integer
+  // The centre of block (bx, by), full pixel (3 bx + 1, 3 by + 1), is reduced pixel (bx, by).
+  const Eigen::Vector3d p = r.reduced_from_full() * Eigen::Vector3d(3 * 4 + 1, 3 * 5 + 1, 1.0);
+  EXPECT_NEAR(p.x(), 4.0, 1e-12);
+  EXPECT_NEAR(p.y(), 5.0, 1e-12);
+}
+
+// A flight over textured ground seen at 640 x 480 (focal 800 px, 40 m: 5 cm/px), processed
+// once as read and once reduced by 2 (focal 400 px): the positions in metres agree.
+TEST(Preprocess, DetectionReductionKeepsPositionsInMetres) {
+  cv::RNG rng(11);
+  cv::Mat ground(1400, 1400, CV_8U, cv::Scalar(90));
+  for (int i = 0; i < 9000; ++i) {
+    cv::circle(ground, cv::Point(rng.uniform(0, 1400), rng.uniform(0, 1400)), rng.uniform(3, 16),
+               cv::Scalar(rng.uniform(0, 256)), cv::FILLED, cv::LINE_AA);
+  }
+  cv::GaussianBlur(ground, ground, cv::Size(0, 0), 1.2);
+  const int w = 640, h = 480;
+  const double focal_px = 800.0, height_m = 40.0, gsd = height_m / focal_px;
+  OdometryOptions full_opt;
+  full_opt.focal_px = focal_px;
+  full_opt.default_height_m = height_m;
+  full_opt.surf.num_threads = 1;
+  full_opt.correspondence.match.num_threads = 1;
+  FrameReducer reducer(w, h, 0.0, 0.1);  // 0.31 MP > 0.1 MP: factor 2, 320 x 240
+  ASSERT_EQ(reducer.factor(), 2);
+  OdometryOptions half_opt = full_opt;
+  half_opt.focal_px = focal_px * reducer.focal_scale();
+  VisualOdometry full(full_opt), half(half_opt);
+  const int frames = 8;
+  const double step_px = 36.0;  // 1.8 m per frame to the east, turning 2 degrees per frame
+  for (int i = 0; i < frames; ++i) {
+    const double a = 2.0 * i * M_PI / 180.0, c = std::cos(a), s = std::sin(a);
+    const double cx = 0.5 * (w - 1), cy = 0.5 * (h - 1);
+    const double tx = 300.0 + step_px * i - (c * cx - s * cy), ty = 700.0 - (s * cx + c * cy);
+    const cv::Matx23d ground_from_frame(c, -s, tx, s, c, ty);
+    cv::Mat frame;
+    cv::warpAffine(ground, frame, ground_from_frame, cv::Size(w, h),
+                   cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REFLECT);
+    const GrayImageView view{frame.data, w, h, static_cast<std::ptrdiff_t>(frame.step)};
+    const FrameResult rf = full.Process(view, 0.1 * i);
+    const FrameResult rh = half.Process(reducer.Apply(view), 0.1 * i);
+    ASSERT_NE(rh.status, FrameStatus::kBridged) << "frame " << i;
+    const double truth_m = step_px * i * gsd;
+    EXPECT_NEAR(rf.position_m.norm(), truth_m, 0.01 + 0.01 * truth_m) << "frame " << i;
+    EXPECT_NEAR(rh.position_m.norm(), truth_m, 0.02 + 0.01 * truth_m) << "frame " << i;
+    EXPECT_NEAR((rh.position_m - rf.position_m).norm(), 0.0, 0.02 + 0.01 * truth_m)
+        << "frame " << i;
+    EXPECT_NEAR(rh.gsd_m_per_px, 2.0 * gsd, 1e-12);  // twice the ground sampling distance
+  }
 }
 
 }  // namespace

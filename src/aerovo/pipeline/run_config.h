@@ -119,6 +119,15 @@ struct RunConfig {
   /// 8.3 MP, 20 MP 1-inch sensors), which run as read; BENCHMARKS.md has the time and memory of a
   /// frame against its size.
   double max_megapixels = 24.0;
+  /// Detection budget of video and live frames, megapixels: larger frames are reduced by the
+  /// smallest integer factor that brings them within it (a box filter; pipeline/preprocess.h
+  /// FrameReducer), before undistortion and SURF, the focal length scaled by the same factor, so
+  /// positions stay in metres and transforms.csv in full-frame pixels. 0 = never. Photo folders
+  /// are not reduced by it (max_megapixels alone). Default 2.1: 1080p (2.07 MP) and smaller
+  /// frames run as read, 4K video is detected at 1920x1080 (twice the ground sampling distance),
+  /// which keeps 4K in real time on 2 cores at a track error within 5 % of full resolution
+  /// (BENCHMARKS.md, "4K video").
+  double detect_megapixels = 2.1;
   /// No progress bar, no configuration dump: errors, warnings (on stderr) and the final table.
   bool quiet = false;
   /// A run owns its output folder: `aerovo run` refuses a folder that is not empty unless
@@ -233,6 +242,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.calibration, "calibration", "Camera calibration file: OpenCV YAML/XML, OpenDroneMap cameras.json or COLMAP cameras.txt (pinhole or fisheye; wins over focal_px, hfov_deg, EXIF)", Any());
   v.Field(c.illumination_k, "illumination_k", "Illumination factor k: every frame's brightness times k before SURF (the paper's f_k = k f)", Interval(0, 1, true, false));
   v.Field(c.max_megapixels, "max_megapixels", "Frames above this many megapixels are reduced to it before SURF (focal length scaled with them; 0 = never)", AtLeast(0).Finite());
+  v.Field(c.detect_megapixels, "detect_megapixels", "Video and live frames above this many megapixels are reduced by the smallest integer factor that fits (box filter) before SURF, focal length scaled with them (0 = never; photo folders: max_megapixels only)", AtLeast(0).Finite());
   v.Field(c.quiet, "quiet", "No progress bar or configuration dump (warnings still go to stderr)", Any().Switch().Flags("-q"));
   v.Field(c.force, "force", "Run into a non-empty output folder: first remove aerovo's own files from it (other files are kept)", Any().Switch());
   v.Field(c.mavlink, "mavlink", "MAVLink link to an autopilot: udp:HOST:PORT, udpin:HOST:PORT or serial:DEVICE:BAUD (docs/autopilot.md)", Any());

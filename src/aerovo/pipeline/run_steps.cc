@@ -757,7 +757,10 @@ void FrameLoop::Start(const Frame& frame, const std::optional<TelemetrySample>& 
   summary->focal_source = camera.focal_source;
   // Frames above the pixel budget: reduced first, the camera model with them (focal scaled,
   // principal point at the reduced centre), so undistortion and SURF work on the reduced frame.
-  reducer_.emplace(w, h, config_.max_megapixels);
+  // Video and live frames above the detection budget: an integer reduction (photo folders: the
+  // pixel budget alone).
+  reducer_.emplace(w, h, config_.max_megapixels,
+                   folder_ != nullptr ? 0.0 : config_.detect_megapixels);
   const double focal_scale = reducer_->focal_scale();
   const int pw = reducer_->out_width_px(), ph = reducer_->out_height_px();
   reduced_from_full_ = reducer_->reduced_from_full();
@@ -784,8 +787,10 @@ void FrameLoop::Start(const Frame& frame, const std::optional<TelemetrySample>& 
     *log_ << "camera: " << camera.description << "\n";
     if (reducer_) {
       *log_ << fmt::format(
-          "frames reduced to {}x{} px before SURF ({:.1f} MP > max_megapixels {}), focal {:.1f} px\n",
-          pw, ph, static_cast<double>(w) * h / 1e6, config_.max_megapixels,
+          "frames reduced to {}x{} px before SURF ({:.1f} MP > {} {}), focal {:.1f} px\n", pw, ph,
+          static_cast<double>(w) * h / 1e6,
+          reducer_->factor() > 1 ? "detect_megapixels" : "max_megapixels",
+          reducer_->factor() > 1 ? config_.detect_megapixels : config_.max_megapixels,
           vo_options_.focal_px);
     }
   }
