@@ -3,12 +3,15 @@
 
 #include <omp.h>
 
-#include <hwy/highway.h>
+#if defined(__SSE2__)
+#include <immintrin.h>
+#elif defined(__ARM_NEON) && defined(__aarch64__)
+#include <arm_neon.h>
+#endif
 
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdint>
 #include <limits>
 #include <string>
 #include <utility>
@@ -144,16 +147,22 @@ bool Interpolate(const float* lo, const float* mid, const float* hi, std::ptrdif
   return true;
 }
 
-// First j in [j, end) with row[j] > threshold, or end. Four samples per step (Highway's
-// static target: SSE4 on x86-64-v2, NEON on aarch64): almost all samples are below the threshold.
+// First j in [j, end) with row[j] > threshold, or end. Four samples per step: almost all
+// samples are below the threshold. Plain intrinsics (SSE2 / NEON): Highway's static NEON target
+// needs +crypto attributes that this file's code does not have.
 inline int NextAbove(const float* row, int j, int end, float threshold) {
-  namespace hn = hwy::HWY_NAMESPACE;
-  const hn::FixedTag<float, 4> d;
-  const auto t = hn::Set(d, threshold);
+#if defined(__SSE2__)
+  const __m128 t = _mm_set1_ps(threshold);
   for (; j + 4 <= end; j += 4) {
-    const std::intptr_t k = hn::FindFirstTrue(d, hn::Gt(hn::LoadU(d, row + j), t));
-    if (k >= 0) return j + static_cast<int>(k);
+    const int m = _mm_movemask_ps(_mm_cmpgt_ps(_mm_loadu_ps(row + j), t));
+    if (m != 0) return j + __builtin_ctz(static_cast<unsigned>(m));
   }
+#elif defined(__ARM_NEON) && defined(__aarch64__)
+  const float32x4_t t = vdupq_n_f32(threshold);
+  for (; j + 4 <= end; j += 4) {
+    if (vmaxvq_u32(vcgtq_f32(vld1q_f32(row + j), t)) != 0) break;  // the first is among these 4
+  }
+#endif
   while (j < end && !(row[j] > threshold)) ++j;
   return j;
 }
