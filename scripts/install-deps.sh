@@ -8,6 +8,7 @@ PKGS=(
   libeigen3-dev          # geometry
   libgeographiclib-dev   # geodesy (LocalCartesian, WGS84)
   libexiv2-dev           # EXIF/XMP telemetry of photos
+  libhwy-dev             # Google Highway: portable SIMD kernels with run-time dispatch (issue 19)
   libpugixml-dev         # GPX (XML) telemetry
   libyaml-dev            # YAML run configuration files (aerovo run --config x.yaml)
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "aerovo/cli/command.h"
+#include "aerovo/core/simd.h"
 #include "aerovo/cli/conventions.h"
 
 namespace aerovo::cli {
@@ -112,11 +113,19 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   // The root's flags also after the command (`aerovo run ... --verbose`).
   app.fallthrough();
-  app.set_version_flag("--version", std::string("aerovo ") + AEROVO_VERSION);
+  // The SIMD kernels in use (AEROVO_SIMD=native|highway|scalar, core/simd.h), e.g.
+  // "aerovo 0.1.0 (SIMD: avx2)".
+  app.set_version_flag("--version", std::string("aerovo ") + AEROVO_VERSION + " (SIMD: " +
+                                        aerovo::SimdTargetName() + ")");
+  if (const std::string problem = aerovo::SimdEnvironmentProblem(); !problem.empty()) {
+    spdlog::warn("{}", problem);
+  }
   app.add_flag("-v,--verbose", VerboseFlag(),
                "Debug logging; `aerovo run` also prints its configuration (config.json)");
   app.parse_complete_callback([&] {
     spdlog::set_level(VerboseFlag() ? spdlog::level::debug : spdlog::level::info);
+    spdlog::debug("SIMD kernels: {} (AEROVO_SIMD=native|highway|scalar)",
+                  aerovo::SimdTargetName());
   });
   for (auto registrar : Registry()) registrar(app);
   std::vector<std::string> help_of;

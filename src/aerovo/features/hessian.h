@@ -36,13 +36,26 @@ BoxFilterLayout MakeBoxFilterLayout(int size, int step);
 /// Writes det = Dxx*Dyy - (0.9*Dxy)^2 for samples i in [i0, i1), j in [j0, j1) to
 /// det[i * det_stride + j]. Preconditions: every filter lies inside the image, i.e.
 /// step*j0 - border >= 0, step*(j1-1) - border + size <= width, and the same for rows.
-/// Uses AVX2 when the CPU has it (chosen once at run time), SSE otherwise.
+/// Kernel: the active SimdMode's (core/simd.h): native = the AVX2 loop on x86 CPUs with
+/// AVX2+FMA, else Highway's best target (SSE4, NEON, SVE, ...); highway; scalar. Results are
+/// bit-identical between scalar and Highway; the AVX2 loop may fuse the final multiply-add
+/// (a difference of at most a few ulp of Dxx*Dyy, tested in hessian_test.cc).
 void ComputeHessianDeterminant(const IntegralImage& ii, const BoxFilterLayout& layout, int i0,
                                int i1, int j0, int j1, float* det, std::ptrdiff_t det_stride);
 
 /// The same for one row i, samples j in [j0, j1), written to out[0 .. j1 - j0).
 void ComputeHessianRow(const IntegralImage& ii, const BoxFilterLayout& layout, int i, int j0,
                        int j1, float* out);
+
+/// ComputeHessianDeterminant's row loop (det points at sample (i0, j0)) in plain C++: the
+/// portable reference (SimdMode::kScalar).
+void HessianRowsScalar(const IntegralImage& ii, const BoxFilterLayout& layout, int i0, int i1,
+                       int j0, int j1, float* det, std::ptrdiff_t det_stride);
+
+/// The same loop written with Google Highway, on the best target of this CPU among those
+/// compiled (hwy::SetSupportedTargetsForTest selects another one in tests).
+void HessianRowsHighway(const IntegralImage& ii, const BoxFilterLayout& layout, int i0, int i1,
+                        int j0, int j1, float* det, std::ptrdiff_t det_stride);
 
 /// Dxx*Dyy - (0.9*Dxy)^2 at one sample (same preconditions), scalar.
 float HessianDeterminant(const IntegralImage& ii, const BoxFilterLayout& layout, int i, int j);

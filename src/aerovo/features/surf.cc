@@ -5,6 +5,8 @@
 
 #if defined(__SSE2__)
 #include <immintrin.h>
+#elif defined(__ARM_NEON) && defined(__aarch64__)
+#include <arm_neon.h>
 #endif
 
 #include <algorithm>
@@ -146,13 +148,19 @@ bool Interpolate(const float* lo, const float* mid, const float* hi, std::ptrdif
 }
 
 // First j in [j, end) with row[j] > threshold, or end. Four samples per step: almost all
-// samples are below the threshold.
+// samples are below the threshold. Plain intrinsics (SSE2 / NEON): Highway's static NEON target
+// needs +crypto attributes that this file's code does not have.
 inline int NextAbove(const float* row, int j, int end, float threshold) {
 #if defined(__SSE2__)
   const __m128 t = _mm_set1_ps(threshold);
   for (; j + 4 <= end; j += 4) {
     const int m = _mm_movemask_ps(_mm_cmpgt_ps(_mm_loadu_ps(row + j), t));
     if (m != 0) return j + __builtin_ctz(static_cast<unsigned>(m));
+  }
+#elif defined(__ARM_NEON) && defined(__aarch64__)
+  const float32x4_t t = vdupq_n_f32(threshold);
+  for (; j + 4 <= end; j += 4) {
+    if (vmaxvq_u32(vcgtq_f32(vld1q_f32(row + j), t)) != 0) break;  // the first is among these 4
   }
 #endif
   while (j < end && !(row[j] > threshold)) ++j;

@@ -1,13 +1,99 @@
 #include "aerovo/matching/distance_kernels.h"
 
+#if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
+#define AEROVO_X86_KERNELS 1
+#else
+#define AEROVO_X86_KERNELS 0
+#endif
 
+#include <cstddef>
 #include <limits>
+
+#include "aerovo/core/simd.h"
 
 namespace aerovo::matching_detail {
 namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
+
+// ---------------------------------------------------------------------------------------------
+// Portable scalar loops (SimdMode::kScalar): per lane exactly the SIMD kernels' semantics
+// (lane j sees slots = j mod 8, strict comparisons, updates in slot / id order), dot products
+// summed over d in order without fused multiply-adds.
+
+inline void UpdateLane(float s, std::int32_t idx, LaneTop2* st, int lane) {
+  if (s < st->b1[lane]) {
+    st->b2[lane] = st->b1[lane];
+    st->i2[lane] = st->i1[lane];
+    st->b1[lane] = s;
+    st->i1[lane] = idx;
+  } else if (s < st->b2[lane]) {
+    st->b2[lane] = s;
+    st->i2[lane] = idx;
+  }
+}
+
+void TileScalar(const float* queries, int dim, const float* panels, const float* norms,
+                int slot_base, int num_slots, LaneTop2* state) {
+  for (int c = 0; c < num_slots; c += kPanelWidth) {
+    const float* p = panels + static_cast<std::ptrdiff_t>(c) * dim;
+    for (int k = 0; k < kQueryTile; ++k) {
+      float acc[kPanelWidth] = {};
+      const float* q = queries + static_cast<std::ptrdiff_t>(k) * dim;
+      for (int d = 0; d < dim; ++d) {
+        for (int l = 0; l < kPanelWidth; ++l) {
+          const float prod = q[d] * p[d * kPanelWidth + l];
+          acc[l] = acc[l] + prod;
+        }
+      }
+      for (int l = 0; l < kPanelWidth; ++l) {
+        const float twice = 2.f * acc[l];
+        UpdateLane(norms[c + l] - twice, slot_base + c + l, &state[k], l);
+      }
+    }
+  }
+}
+
+void StreamScalar(const float* const* rows, const float* norms, const std::int32_t* ids, int dim,
+                  const float* panels, int num_panels, LaneTop2* state) {
+  for (int p = 0; p < num_panels; ++p) {
+    const float* pp = panels + static_cast<std::ptrdiff_t>(p) * dim * kPanelWidth;
+    for (int r = 0; r < kStreamRows; ++r) {
+      float acc[kPanelWidth] = {};
+      for (int d = 0; d < dim; ++d) {
+        for (int l = 0; l < kPanelWidth; ++l) {
+          const float prod = rows[r][d] * pp[d * kPanelWidth + l];
+          acc[l] = acc[l] + prod;
+        }
+      }
+      for (int l = 0; l < kPanelWidth; ++l) {
+        const float twice = 2.f * acc[l];
+        UpdateLane(norms[r] - twice, ids[r], &state[p], l);
+      }
+    }
+  }
+}
+
+void ListScalar(const float* query, int dim, const float* rows, const float* norms,
+                const std::int32_t* slots, int num_slots, const std::int32_t* tie_key,
+                Best2* out) {
+  Best2 b{kInf, kInf, -1, -1};
+  for (int k = 0; k < num_slots; ++k) {
+    const std::int32_t j = slots[k];
+    const float* c = rows + static_cast<std::ptrdiff_t>(j) * dim;
+    float dot = 0.f;
+    for (int d = 0; d < dim; ++d) {
+      const float prod = query[d] * c[d];
+      dot = dot + prod;
+    }
+    const float twice = 2.f * dot;
+    PushTop2ByTieKey(norms[j] - twice, j, tie_key, &b);
+  }
+  *out = b;
+}
+
+#if AEROVO_X86_KERNELS
 
 // ---------------------------------------------------------------------------------------------
 // SSE4.2 baseline (every x86-64-v2 CPU).
@@ -127,21 +213,6 @@ inline float DotSse(const float* a, const float* b, int dim) {
   return sum;
 }
 
-inline void Push(float s, std::int32_t slot, const std::int32_t* tie_key, Best2* b) {
-  const auto better = [&](float sa, std::int32_t ja, float sb, std::int32_t jb) {
-    return jb < 0 || sa < sb || (sa == sb && tie_key[ja] < tie_key[jb]);
-  };
-  if (better(s, slot, b->s1, b->j1)) {
-    b->s2 = b->s1;
-    b->j2 = b->j1;
-    b->s1 = s;
-    b->j1 = slot;
-  } else if (better(s, slot, b->s2, b->j2)) {
-    b->s2 = s;
-    b->j2 = slot;
-  }
-}
-
 void ListSse(const float* query, int dim, const float* rows, const float* norms,
              const std::int32_t* slots, int num_slots, const std::int32_t* tie_key, Best2* out) {
   Best2 b{kInf, kInf, -1, -1};
@@ -149,7 +220,7 @@ void ListSse(const float* query, int dim, const float* rows, const float* norms,
     const std::int32_t j = slots[k];
     const float s =
         norms[j] - 2.f * DotSse(query, rows + static_cast<std::ptrdiff_t>(j) * dim, dim);
-    Push(s, j, tie_key, &b);
+    PushTop2ByTieKey(s, j, tie_key, &b);
   }
   *out = b;
 }
@@ -352,7 +423,7 @@ __attribute__((target("avx2,fma"))) void ListAvx2(const float* query, int dim, c
       _mm_store_ps(dot, dots);
       for (int l = 0; l < 4; ++l) {
         const std::int32_t j = slots[k + l];
-        Push(norms[j] - 2.f * dot[l], j, tie_key, &b);
+        PushTop2ByTieKey(norms[j] - 2.f * dot[l], j, tie_key, &b);
       }
     }
   }
@@ -360,10 +431,12 @@ __attribute__((target("avx2,fma"))) void ListAvx2(const float* query, int dim, c
     const std::int32_t j = slots[k];
     const float s =
         norms[j] - 2.f * DotAvx2(query, rows + static_cast<std::ptrdiff_t>(j) * dim, dim);
-    Push(s, j, tie_key, &b);
+    PushTop2ByTieKey(s, j, tie_key, &b);
   }
   *out = b;
 }
+
+#endif  // AEROVO_X86_KERNELS
 
 // Eight partial sums break the add latency chain (no -ffast-math reassociation to do it for us)
 // and vectorise as four two-lane accumulators; sixteen spilled registers and were slower.
@@ -383,6 +456,7 @@ double ExactSsdScalar(const float* a, const float* b, int dim) {
   return ((s[0] + s[4]) + (s[1] + s[5])) + ((s[2] + s[6]) + (s[3] + s[7]));
 }
 
+#if AEROVO_X86_KERNELS
 // The same sums, four lanes at a time: lanes 0-3 of lo are s[0..3], of hi s[4..7]. Target avx2
 // without fma, so that the compiler cannot fuse the product into the sum (which would round
 // differently from the scalar version).
@@ -408,6 +482,8 @@ __attribute__((target("avx2"))) double ExactSsdAvx(const float* a, const float* 
   return ((s[0] + s[4]) + (s[1] + s[5])) + ((s[2] + s[6]) + (s[3] + s[7]));
 }
 
+#endif  // AEROVO_X86_KERNELS
+
 float SquaredNormScalar(const float* d, int dim) {
   float acc[8] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f};
   int k = 0;
@@ -418,6 +494,7 @@ float SquaredNormScalar(const float* d, int dim) {
   return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
 }
 
+#if AEROVO_X86_KERNELS
 // Lane l of the accumulator is acc[l] of the scalar version; avx2 without fma, as ExactSsdAvx.
 __attribute__((target("avx2"))) float SquaredNormAvx(const float* d, int dim) {
   __m256 acc = _mm256_setzero_ps();
@@ -432,20 +509,49 @@ __attribute__((target("avx2"))) float SquaredNormAvx(const float* d, int dim) {
   return ((a[0] + a[1]) + (a[2] + a[3])) + ((a[4] + a[5]) + (a[6] + a[7]));
 }
 
-bool CpuHasAvx2Fma() {
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-}
+#endif  // AEROVO_X86_KERNELS
 
 }  // namespace
 
-const Kernels& SelectKernels(bool allow_avx2) {
-  static const Kernels kSse{&TileSse,        &ListSse,           &StreamSse,
-                            &ExactSsdScalar, &SquaredNormScalar, "sse4"};
-  static const Kernels kAvx2{&TileAvx2Any, &ListAvx2,       &StreamAvx2Any,
-                             &ExactSsdAvx, &SquaredNormAvx, "avx2"};
+const Kernels& ScalarKernels() {
+  static const Kernels k{&TileScalar,     &ListScalar,        &StreamScalar,
+                         &ExactSsdScalar, &SquaredNormScalar, "scalar"};
+  return k;
+}
+
+const Kernels* Sse4Kernels() {
+#if AEROVO_X86_KERNELS
+  static const Kernels k{&TileSse,        &ListSse,           &StreamSse,
+                         &ExactSsdScalar, &SquaredNormScalar, "sse4"};
+  return &k;
+#else
+  return nullptr;
+#endif
+}
+
+const Kernels* Avx2Kernels() {
+#if AEROVO_X86_KERNELS
+  static const Kernels k{&TileAvx2Any, &ListAvx2,       &StreamAvx2Any,
+                         &ExactSsdAvx, &SquaredNormAvx, "avx2"};
   static const bool has_avx2 = CpuHasAvx2Fma();
-  return (allow_avx2 && has_avx2) ? kAvx2 : kSse;
+  return has_avx2 ? &k : nullptr;
+#else
+  return nullptr;
+#endif
+}
+
+const Kernels& SelectKernels(bool allow_avx2) {
+  switch (ActiveSimdMode()) {
+    case SimdMode::kScalar:
+      return ScalarKernels();
+    case SimdMode::kHighway:
+      return HighwayKernels();
+    case SimdMode::kNative:
+      break;
+  }
+  if (allow_avx2 && Avx2Kernels() != nullptr) return *Avx2Kernels();
+  if (Sse4Kernels() != nullptr) return *Sse4Kernels();
+  return HighwayKernels();
 }
 
 void ResetLanes(LaneTop2* state) {

@@ -74,11 +74,27 @@ struct Kernels {
   StreamFn stream;
   ExactFn exact;
   NormFn norm;
-  const char* name;  ///< "avx2" or "sse4"
+  const char* name;  ///< "avx2", "sse4", "highway" or "scalar"
 };
 
-/// The fastest kernels the CPU supports (AVX2+FMA if present and allowed, else SSE4.2).
+/// The kernels of the active SimdMode (core/simd.h), consulted at each call (a Matcher calls it
+/// once, when constructed): kScalar -> ScalarKernels(), kHighway -> HighwayKernels(),
+/// kNative -> on x86 the hand-written AVX2+FMA kernels if the CPU has them and allow_avx2,
+/// else the SSE4.2 ones; elsewhere HighwayKernels().
+/// Scores (tile, stream, list) may differ in the last bits between sets (fused multiply-adds
+/// in avx2 and in Highway's FMA targets); exact and norm are bit-identical in every set.
 const Kernels& SelectKernels(bool allow_avx2);
+
+/// Plain C++ loops (no intrinsics): the reference the SIMD sets are tested against.
+const Kernels& ScalarKernels();
+
+/// Google Highway kernels (distance_kernels_hwy.cc) on the best target of this CPU among those
+/// compiled; hwy::SetSupportedTargetsForTest selects another one in tests.
+const Kernels& HighwayKernels();
+
+/// The hand-written x86 sets: nullptr where the CPU (or the architecture) lacks them.
+const Kernels* Sse4Kernels();
+const Kernels* Avx2Kernels();
 
 /// Inserts candidate j with score s into a running top-2 (ties: lower j; j < 0 is ignored).
 inline void InsertTop2(float s, std::int32_t j, Best2* b) {
@@ -91,6 +107,23 @@ inline void InsertTop2(float s, std::int32_t j, Best2* b) {
   } else if (b->j2 < 0 || s < b->s2 || (s == b->s2 && j < b->j2)) {
     b->s2 = s;
     b->j2 = j;
+  }
+}
+
+/// Inserts candidate slot `slot` with score s into a running top-2 whose ties go to the smaller
+/// tie_key[slot] (the list kernels' rule).
+inline void PushTop2ByTieKey(float s, std::int32_t slot, const std::int32_t* tie_key, Best2* b) {
+  const auto better = [&](float sa, std::int32_t ja, float sb, std::int32_t jb) {
+    return jb < 0 || sa < sb || (sa == sb && tie_key[ja] < tie_key[jb]);
+  };
+  if (better(s, slot, b->s1, b->j1)) {
+    b->s2 = b->s1;
+    b->j2 = b->j1;
+    b->s1 = s;
+    b->j1 = slot;
+  } else if (better(s, slot, b->s2, b->j2)) {
+    b->s2 = s;
+    b->j2 = slot;
   }
 }
 
