@@ -9,6 +9,7 @@ PKGS=(
   libgeographiclib-dev   # geodesy (LocalCartesian, WGS84)
   libexiv2-dev           # EXIF/XMP telemetry of photos
   libpugixml-dev         # GPX (XML) telemetry
+  libgdal-dev gdal-bin   # GeoTIFF + KMZ of the geo-referenced mosaic (aerovo report); gdalinfo/ogrinfo in tests
   libyaml-dev            # YAML run configuration files (aerovo run --config x.yaml)
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev

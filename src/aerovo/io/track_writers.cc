@@ -402,6 +402,17 @@ void KmlTrackWriter::Append(const GeoTrackPoint& point) {
 // ---------------------------------------------------------------------------------------------
 // GPX
 
+std::string FlightNameOf(const std::string& input) {
+  if (input.empty() || input.find("://") != std::string::npos ||
+      input.find_first_not_of("0123456789") == std::string::npos) {
+    return "aerovo";
+  }
+  fs::path p = input;
+  while (!p.empty() && p.filename().empty()) p = p.parent_path();  // "survey/" -> "survey"
+  const std::string stem = p.stem().string();
+  return stem.empty() || stem == "." || stem == ".." ? "aerovo" : stem;
+}
+
 std::string FormatUtcIso8601(double unix_time_s) {
   if (!std::isfinite(unix_time_s)) {
     throw InvalidArgument("FormatUtcIso8601: time " + fmt::format("{}", unix_time_s) +

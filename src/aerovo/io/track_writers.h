@@ -186,6 +186,11 @@ class GpxTrackWriter {
   std::optional<double> time_origin_unix_s_;
 };
 
+/// The flight's name for track names and titles: the stem of the run's input (a video file
+/// `DJI_0042.MP4` -> "DJI_0042", a photo folder `survey/` -> "survey"); "aerovo" when the input
+/// is empty or a live source (a camera index, a URL).
+std::string FlightNameOf(const std::string& input);
+
 /// ISO 8601 UTC time with milliseconds, e.g. "2020-09-13T12:26:40.250Z".
 std::string FormatUtcIso8601(double unix_time_s);
 

@@ -18,6 +18,7 @@
 #include "aerovo/core/timer.h"
 #include "aerovo/eval/trajectory_eval_json.h"
 #include "aerovo/io/track_writers.h"
+#include "aerovo/report/geo_mosaic.h"
 #include "aerovo/report/run_reader.h"
 
 namespace aerovo {
@@ -771,6 +772,12 @@ void RunReport(const fs::path& dir, const RunData& run, const RunComparison& cmp
     } else {
       AddNote(page, result, m.note);
     }
+    // The geo-referenced north-up mosaics (report/geo_mosaic.h): mosaic.tif, mosaic.kmz,
+    // mosaic_geo.png/.json in DIR; a one-line note when the run is not geo-referenced.
+    const GeoMosaicResult geo = WriteGeoMosaic(
+        run, dir, FlightNameOf(JsonString(run.config, "input")), options.mosaic_options);
+    if (options.log) *options.log << "  geo mosaic: " << geo.note << "\n";
+    if (!geo.written) AddNote(page, result, geo.note);
   }
 
   page.H2("Effective configuration (config.json)", "config");
