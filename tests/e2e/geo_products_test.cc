@@ -235,6 +235,41 @@ TEST_F(GeoProducts, GeoTiffShowsEachFrameWhereGpsSaysItWas) {
             << " (grey levels)\n";
 }
 
+// run.kml as GDAL (and so QGIS) reads it: every frame of both tracks, named after the flight,
+// time-stamped in order (the simulator's SRT gives absolute times).
+TEST_F(GeoProducts, RunKmlListsTheVoAndGpsFeaturesInOgrinfo) {
+  if (!Have("ogrinfo")) GTEST_SKIP() << "ogrinfo (Debian gdal-bin) is not installed";
+  int rc = 0;
+  const std::string out = Output("ogrinfo -ro -al " + (run_ / "run.kml").string() + " 2>&1", &rc);
+  ASSERT_EQ(rc, 0) << out;
+  int vo = 0, gps = 0, points = 0;
+  std::vector<std::string> stamps;
+  std::istringstream lines(out);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.find("Name (String) = frames VO ") != std::string::npos) ++vo;
+    if (line.find("Name (String) = frames GPS ") != std::string::npos) ++gps;
+    if (line.find("POINT") != std::string::npos) ++points;
+    if (const auto at = line.find("timestamp (DateTime) = "); at != std::string::npos) {
+      stamps.push_back(line.substr(at + 23));
+    }
+  }
+  const int frames = static_cast<int>(data_.frames.size());
+  EXPECT_EQ(vo, frames) << out.substr(0, 2000);
+  EXPECT_EQ(gps, frames);
+  EXPECT_EQ(points, 2 * frames);
+  ASSERT_EQ(static_cast<int>(stamps.size()), 2 * frames);
+  // VO and GPS of one frame share its time; frames in order (1 fps).
+  for (int i = 2; i < 2 * frames; i += 2) EXPECT_LT(stamps[i - 2], stamps[i]) << i;
+  // The GPX tracks carry the same name and a <time> per point.
+  const std::string gpx = ReadText(run_ / "vo.gpx");
+  EXPECT_NE(gpx.find("<name>frames VO</name>"), std::string::npos);
+  int times = 0;
+  for (std::size_t p = gpx.find("<time>"); p != std::string::npos; p = gpx.find("<time>", p + 1)) {
+    ++times;
+  }
+  EXPECT_EQ(times, frames);
+}
+
 // <tag>value</tag> of `box`.
 double Child(const pugi::xml_node& box, const char* tag) {
   return std::stod(box.child(tag).text().get());
