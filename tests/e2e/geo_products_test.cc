@@ -268,6 +268,39 @@ TEST_F(GeoProducts, RunKmlListsTheVoAndGpsFeaturesInOgrinfo) {
     ++times;
   }
   EXPECT_EQ(times, frames);
+  // The GPX 1.1 schema's structure (topografix.com/GPX/1/1/gpx.xsd): gpx@version="1.1" with its
+  // namespace and a creator; trk = name, trkseg; trkpt@lat in [-90, 90], @lon in [-180, 180),
+  // children ele then time (xsd:dateTime, UTC).
+  for (const char* f : {"vo.gpx", "gps.gpx"}) {
+    pugi::xml_document doc;
+    ASSERT_TRUE(doc.load_file((run_ / f).c_str())) << f;
+    const pugi::xml_node gpx_node = doc.child("gpx");
+    EXPECT_STREQ(gpx_node.attribute("version").value(), "1.1");
+    EXPECT_STREQ(gpx_node.attribute("xmlns").value(), "http://www.topografix.com/GPX/1/1");
+    EXPECT_STRNE(gpx_node.attribute("creator").value(), "");
+    const pugi::xml_node trk = gpx_node.child("trk");
+    ASSERT_TRUE(trk) << f;
+    EXPECT_STREQ(trk.first_child().name(), "name");
+    EXPECT_STREQ(trk.first_child().next_sibling().name(), "trkseg");
+    static const std::regex date_time(R"(\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d(\.\d+)?Z)");
+    std::string last_time;
+    int n = 0;
+    for (const pugi::xml_node& pt : trk.child("trkseg").children()) {
+      ASSERT_STREQ(pt.name(), "trkpt");
+      const double lat = pt.attribute("lat").as_double(1e9), lon = pt.attribute("lon").as_double(1e9);
+      EXPECT_TRUE(lat >= -90 && lat <= 90 && lon >= -180 && lon < 180) << lat << " " << lon;
+      const pugi::xml_node ele = pt.first_child();
+      EXPECT_STREQ(ele.name(), "ele");
+      EXPECT_STREQ(ele.next_sibling().name(), "time");
+      EXPECT_FALSE(ele.next_sibling().next_sibling());
+      const std::string t = pt.child("time").text().get();
+      EXPECT_TRUE(std::regex_match(t, date_time)) << t;
+      EXPECT_LT(last_time, t);  // monotonic (ISO 8601 UTC sorts as text)
+      last_time = t;
+      ++n;
+    }
+    EXPECT_EQ(n, frames) << f;
+  }
 }
 
 // <tag>value</tag> of `box`.

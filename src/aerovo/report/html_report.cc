@@ -777,7 +777,7 @@ void RunReport(const fs::path& dir, const RunData& run, const RunComparison& cmp
     const GeoMosaicResult geo = WriteGeoMosaic(
         run, dir, FlightNameOf(JsonString(run.config, "input")), options.mosaic_options);
     if (options.log) *options.log << "  geo mosaic: " << geo.note << "\n";
-    if (!geo.written) AddNote(page, result, geo.note);
+    if (!geo.written && m.written) AddNote(page, result, geo.note);  // else: the mosaic's note
   }
 
   page.H2("Effective configuration (config.json)", "config");
