@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <ctime>
@@ -447,8 +448,13 @@ constexpr const char* kGpxTail = "\n</trkseg></trk>\n</gpx>\n";
 }  // namespace
 
 GpxTrackWriter::GpxTrackWriter(const fs::path& path, std::string name,
-                               std::optional<double> time_origin_unix_s)
-    : file_(std::make_unique<ProgressiveFile>(path)), time_origin_unix_s_(time_origin_unix_s) {
+                               std::optional<double> time_origin_unix_s, int decimals)
+    : file_(std::make_unique<ProgressiveFile>(path)),
+      time_origin_unix_s_(time_origin_unix_s),
+      decimals_(decimals) {
+  if (decimals_ < 5 || decimals_ > 12) {
+    throw InvalidArgument("GPX decimals for " + path.string() + " must be within 5..12");
+  }
   if (time_origin_unix_s_ && !std::isfinite(*time_origin_unix_s_)) {
     throw InvalidArgument("GPX time origin for " + path.string() + " is not finite");
   }
@@ -467,8 +473,9 @@ void GpxTrackWriter::Close() { file_->Close(); }
 
 void GpxTrackWriter::Append(const GeoTrackPoint& point) {
   ValidatePoint(point, PathOf(file_));
-  std::string pt = fmt::format("\n<trkpt lat=\"{:.7f}\" lon=\"{:.7f}\"><ele>{:.3f}</ele>",
-                               point.geo.lat_deg, WrapLon(point.geo.lon_deg), point.geo.alt_m);
+  std::string pt = fmt::format("\n<trkpt lat=\"{:.{}f}\" lon=\"{:.{}f}\"><ele>{:.{}f}</ele>",
+                               point.geo.lat_deg, decimals_, WrapLon(point.geo.lon_deg), decimals_,
+                               point.geo.alt_m, std::max(3, decimals_ - 5));
   if (time_origin_unix_s_) {
     pt += "<time>" + FormatUtcIso8601(*time_origin_unix_s_ + point.time_s) + "</time>";
   }

@@ -202,8 +202,10 @@ class RunKmlWriter {
 /// 1.1) rather than invented.
 class GpxTrackWriter {
  public:
+  /// `decimals`: of lat/lon (7 ~ 1 cm, the run's tracks; 9 ~ 0.1 mm for a truth track such as
+  /// the simulator's, read back as telemetry), heights with decimals - 5 (at least 3).
   GpxTrackWriter(const std::filesystem::path& path, std::string name,
-                 std::optional<double> time_origin_unix_s = std::nullopt);
+                 std::optional<double> time_origin_unix_s = std::nullopt, int decimals = 7);
   ~GpxTrackWriter();
   GpxTrackWriter(GpxTrackWriter&&) noexcept;
   GpxTrackWriter& operator=(GpxTrackWriter&&) noexcept;
@@ -214,6 +216,7 @@ class GpxTrackWriter {
  private:
   std::unique_ptr<detail::ProgressiveFile> file_;
   std::optional<double> time_origin_unix_s_;
+  int decimals_ = 7;
 };
 
 /// The flight's name for track names and titles: the stem of the run's input (a video file
