@@ -19,6 +19,7 @@
 #include "aerovo/io/track_writers.h"
 #include "aerovo/core/error.h"
 #include "aerovo/pipeline/runner.h"
+#include "aerovo/report/geo_mosaic.h"
 #include "aerovo/report/html_report.h"
 
 namespace aerovo::cli {
@@ -56,6 +57,7 @@ void Execute(RunArgs& a) {
                           ReportFileNames::kMosaic}) {
       own.emplace_back(n);
     }
+    for (const std::string& n : GeoMosaicFileNames::All()) own.push_back(n);
     const ClaimResult claim = ClaimOutputFolder(config.out, config.force, own, "aerovo run");
     if (!claim.removed.empty()) {
       std::cerr << fmt::format("aerovo run: --force: removed {} file(s) of an earlier run from "

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <ctime>
@@ -142,8 +143,8 @@ double WrapLon(double lon_deg) { return std::remainder(lon_deg, 360.0); }
 std::string LonLatAltJson(const GeoPoint& p) {
   return fmt::format("[{:.9f},{:.9f},{:.4f}]", WrapLon(p.lon_deg), p.lat_deg, p.alt_m);
 }
-std::string LonLatAltKml(const GeoPoint& p) {
-  return fmt::format("{:.9f},{:.9f},{:.4f}", WrapLon(p.lon_deg), p.lat_deg, p.alt_m);
+std::string LonLatAltKml(const GeoPoint& p) {  // 1e-7 deg ~ 1 cm, 1 mm in height
+  return fmt::format("{:.7f},{:.7f},{:.3f}", WrapLon(p.lon_deg), p.lat_deg, p.alt_m);
 }
 
 void ValidatePoint(const GeoTrackPoint& p, const std::string& file) {
@@ -335,6 +336,17 @@ void GeoJsonPointsWriter::Append(const GeoPoint& point, const nlohmann::json& pr
 // ---------------------------------------------------------------------------------------------
 // KML
 
+namespace {
+// A <Style> for a track: its children in the order of the OGC KML 2.2 schema (IconStyle,
+// LabelStyle, LineStyle, PolyStyle; the last two absent here).
+std::string KmlStyle(const std::string& id, const std::string& color_abgr) {
+  return "<Style id=\"" + id + "\"><IconStyle><color>" + XmlEscape(color_abgr) +
+         "</color><scale>0.6</scale></IconStyle><LabelStyle><scale>0</scale></LabelStyle>"
+         "<LineStyle><color>" + XmlEscape(color_abgr) + "</color><width>3</width></LineStyle>"
+         "</Style>\n";
+}
+}  // namespace
+
 struct KmlTrackWriter::State {
   State(const fs::path& path, std::string n, std::string c)
       : file(path), name(std::move(n)), color(std::move(c)) {}
@@ -347,9 +359,7 @@ struct KmlTrackWriter::State {
   std::string DocumentHead() const {
     return "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
            "<kml xmlns=\"http://www.opengis.net/kml/2.2\">\n<Document>\n<name>" +
-           XmlEscape(name) + "</name>\n<Style id=\"track\"><LineStyle><color>" + XmlEscape(color) +
-           "</color><width>3</width></LineStyle><IconStyle><color>" + XmlEscape(color) +
-           "</color></IconStyle></Style>\n";
+           XmlEscape(name) + "</name>\n" + KmlStyle("track", color);
   }
   std::string PlacemarkHead() const {
     return "<Placemark><name>" + XmlEscape(name) + "</name><styleUrl>#track</styleUrl>";
@@ -402,6 +412,17 @@ void KmlTrackWriter::Append(const GeoTrackPoint& point) {
 // ---------------------------------------------------------------------------------------------
 // GPX
 
+std::string FlightNameOf(const std::string& input) {
+  if (input.empty() || input.find("://") != std::string::npos ||
+      input.find_first_not_of("0123456789") == std::string::npos) {
+    return "aerovo";
+  }
+  fs::path p = input;
+  while (!p.empty() && p.filename().empty()) p = p.parent_path();  // "survey/" -> "survey"
+  const std::string stem = p.stem().string();
+  return stem.empty() || stem == "." || stem == ".." ? "aerovo" : stem;
+}
+
 std::string FormatUtcIso8601(double unix_time_s) {
   if (!std::isfinite(unix_time_s)) {
     throw InvalidArgument("FormatUtcIso8601: time " + fmt::format("{}", unix_time_s) +
@@ -427,8 +448,13 @@ constexpr const char* kGpxTail = "\n</trkseg></trk>\n</gpx>\n";
 }  // namespace
 
 GpxTrackWriter::GpxTrackWriter(const fs::path& path, std::string name,
-                               std::optional<double> time_origin_unix_s)
-    : file_(std::make_unique<ProgressiveFile>(path)), time_origin_unix_s_(time_origin_unix_s) {
+                               std::optional<double> time_origin_unix_s, int decimals)
+    : file_(std::make_unique<ProgressiveFile>(path)),
+      time_origin_unix_s_(time_origin_unix_s),
+      decimals_(decimals) {
+  if (decimals_ < 5 || decimals_ > 12) {
+    throw InvalidArgument("GPX decimals for " + path.string() + " must be within 5..12");
+  }
   if (time_origin_unix_s_ && !std::isfinite(*time_origin_unix_s_)) {
     throw InvalidArgument("GPX time origin for " + path.string() + " is not finite");
   }
@@ -447,8 +473,9 @@ void GpxTrackWriter::Close() { file_->Close(); }
 
 void GpxTrackWriter::Append(const GeoTrackPoint& point) {
   ValidatePoint(point, PathOf(file_));
-  std::string pt = fmt::format("\n<trkpt lat=\"{:.9f}\" lon=\"{:.9f}\"><ele>{:.4f}</ele>",
-                               point.geo.lat_deg, WrapLon(point.geo.lon_deg), point.geo.alt_m);
+  std::string pt = fmt::format("\n<trkpt lat=\"{:.{}f}\" lon=\"{:.{}f}\"><ele>{:.{}f}</ele>",
+                               point.geo.lat_deg, decimals_, WrapLon(point.geo.lon_deg), decimals_,
+                               point.geo.alt_m, std::max(3, decimals_ - 5));
   if (time_origin_unix_s_) {
     pt += "<time>" + FormatUtcIso8601(*time_origin_unix_s_ + point.time_s) + "</time>";
   }
@@ -471,7 +498,7 @@ void WriteJsonFileAtomic(const fs::path& path, const nlohmann::json& value) {
 
 std::vector<std::string> RunFileNames::All() {
   return {kFramesCsv, kVoTum,  kGpsTum,  kVoGeoJson,     kGpsGeoJson, kVoFramesGeoJson,
-          kVoKml,     kGpsKml, kRunKml,  kVoGpx,         kGpsGpx,     kSummaryJson,
+          kVoKml,     kGpsKml, kRunKml,  kRunLiveKml, kVoGpx,         kGpsGpx,     kSummaryJson,
           kTransformsCsv, kConfigJson};
 }
 
@@ -487,6 +514,7 @@ struct TrackWriterSet::Impl {
   std::optional<GeoJsonTrackWriter> vo_geojson, gps_geojson;
   std::optional<GeoJsonPointsWriter> vo_frames_geojson;
   std::optional<KmlTrackWriter> vo_kml, gps_kml;
+  std::optional<RunKmlWriter> run_kml;
   std::optional<GpxTrackWriter> vo_gpx, gps_gpx;
   std::vector<fs::path> files;
   int num_records = 0;
@@ -494,21 +522,55 @@ struct TrackWriterSet::Impl {
 };
 
 namespace {
-// run.kml: a static document pulling in both track files, so Google Earth opens the flight
-// with one click while each track file keeps growing on its own.
-void WriteRunKml(const fs::path& path, const std::string& run_name) {
+// run_live.kml: a static document pulling in both track files (network links, refreshed by
+// Google Earth while they grow). GDAL and QGIS do not follow network links: run.kml has the data.
+void WriteRunLiveKml(const fs::path& path, const std::string& run_name) {
   ProgressiveFile f(path);
   std::string body =
       "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
       "<kml xmlns=\"http://www.opengis.net/kml/2.2\">\n<Document>\n<name>" +
-      XmlEscape(run_name) + "</name>\n";
+      XmlEscape(run_name) + " (live)</name>\n";
   for (const char* file : {RunFileNames::kVoKml, RunFileNames::kGpsKml}) {
     body += std::string("<NetworkLink><name>") + file + "</name><Link><href>" + file +
-            "</href></Link></NetworkLink>\n";
+            "</href><refreshMode>onInterval</refreshMode><refreshInterval>2</refreshInterval>"
+            "</Link></NetworkLink>\n";
   }
   f.Reset(body, kKmlDocumentTail);
 }
 }  // namespace
+
+// run.kml (see RunKmlWriter in the header).
+RunKmlWriter::RunKmlWriter(const fs::path& path, std::string name,
+                           std::optional<double> time_origin_unix_s)
+    : file_(std::make_unique<ProgressiveFile>(path)),
+      name_(std::move(name)),
+      time_origin_unix_s_(time_origin_unix_s.value_or(0.0)) {
+  if (!std::isfinite(time_origin_unix_s_)) {
+    throw InvalidArgument("KML time origin for " + path.string() + " is not finite");
+  }
+  file_->Reset("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+               "<kml xmlns=\"http://www.opengis.net/kml/2.2\">\n<Document>\n<name>" +
+                   XmlEscape(name_) + "</name>\n" + KmlStyle("vo", "ff0000ff") +
+                   KmlStyle("gps", "ffff0000"),
+               kKmlDocumentTail);
+}
+RunKmlWriter::~RunKmlWriter() = default;
+RunKmlWriter::RunKmlWriter(RunKmlWriter&&) noexcept = default;
+RunKmlWriter& RunKmlWriter::operator=(RunKmlWriter&&) noexcept = default;
+const fs::path& RunKmlWriter::path() const { return file_->path(); }
+void RunKmlWriter::Close() { file_->Close(); }
+
+void RunKmlWriter::Append(const GeoTrackPoint& point, bool gps, int frame) {
+  ValidatePoint(point, PathOf(file_));
+  const char* track = gps ? "GPS" : "VO";
+  file_->Append(
+      fmt::format("<Placemark><name>{} {} {}</name><styleUrl>#{}</styleUrl>"
+                  "<TimeStamp><when>{}</when></TimeStamp><Point><coordinates>{}</coordinates>"
+                  "</Point></Placemark>\n",
+                  XmlEscape(name_), track, frame, gps ? "gps" : "vo",
+                  FormatUtcIso8601(time_origin_unix_s_ + point.time_s), LonLatAltKml(point.geo)),
+      kKmlDocumentTail);
+}
 
 TrackWriterSet::TrackWriterSet(const fs::path& run_dir, const TrackWriterOptions& options)
     : impl_(std::make_unique<Impl>()) {
@@ -543,11 +605,14 @@ TrackWriterSet::TrackWriterSet(const fs::path& run_dir, const TrackWriterOptions
   if (options.kml) {
     m.vo_kml.emplace(p(RunFileNames::kVoKml), n + " VO", "ff0000ff");     // red
     m.gps_kml.emplace(p(RunFileNames::kGpsKml), n + " GPS", "ffff0000");  // blue
-    WriteRunKml(p(RunFileNames::kRunKml), n);
+    m.run_kml.emplace(p(RunFileNames::kRunKml), n, options.time_origin_unix_s);
+    WriteRunLiveKml(p(RunFileNames::kRunLiveKml), n);
   }
   if (options.gpx) {
-    m.vo_gpx.emplace(p(RunFileNames::kVoGpx), n + " VO", options.time_origin_unix_s);
-    m.gps_gpx.emplace(p(RunFileNames::kGpsGpx), n + " GPS", options.time_origin_unix_s);
+    // Times of the telemetry's clock when known, else from 1970-01-01T00:00:00Z (see the header).
+    const double t0 = options.time_origin_unix_s.value_or(0.0);
+    m.vo_gpx.emplace(p(RunFileNames::kVoGpx), n + " VO", t0);
+    m.gps_gpx.emplace(p(RunFileNames::kGpsGpx), n + " GPS", t0);
   }
 }
 
@@ -592,12 +657,14 @@ void TrackWriterSet::Append(const FrameRecord& r, const std::optional<GeoPoint>&
                                            {"status", r.status}});
     }
     if (m.vo_kml) m.vo_kml->Append(vo);
+    if (m.run_kml) m.run_kml->Append(vo, false, r.frame);
     if (m.vo_gpx) m.vo_gpx->Append(vo);
   }
   if (gps_track) {
     const GeoTrackPoint g{r.time_s, *gps};
     if (m.gps_geojson) m.gps_geojson->Append(g);
     if (m.gps_kml) m.gps_kml->Append(g);
+    if (m.run_kml) m.run_kml->Append(g, true, r.frame);
     if (m.gps_gpx) m.gps_gpx->Append(g);
   }
   ++m.num_records;
@@ -618,6 +685,7 @@ void TrackWriterSet::Close() {
   for (auto* w : {&m.vo_kml, &m.gps_kml}) {
     if (*w) (*w)->Close();
   }
+  if (m.run_kml) m.run_kml->Close();
   for (auto* w : {&m.vo_gpx, &m.gps_gpx}) {
     if (*w) (*w)->Close();
   }

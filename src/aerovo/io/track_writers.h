@@ -10,12 +10,19 @@
 // live runs of any length. Because a LineString needs two positions (RFC 7946 3.1.4, KML 2.2
 // schema), a track with one point is written as a Point and a track with none as an empty
 // collection/document; the small file is rewritten whole at those two transitions only.
-// One track per file (tail rewriting can only grow the end of a file): vo.* and gps.*; a
-// static run.kml links both KML tracks for Google Earth.
+// One track per file (tail rewriting can only grow the end of a file): vo.* and gps.*; run.kml
+// holds both tracks as time-stamped points (one Placemark per frame and track, interleaved, so it
+// grows at its end too) for GDAL/QGIS (`ogrinfo run.kml`) and Google Earth's time slider; a static
+// run_live.kml links vo.kml and gps.kml (network links, refreshed every 2 s) for live viewing.
 // Flushing hands the data to the OS: it survives the process being killed (SIGINT, SIGKILL,
 // crash), not a power cut (no fsync per record). A reader racing an Append may briefly see a
-// partial write. Numbers use the C locale: lat/lon with 9 decimals (1e-9 deg ~ 0.1 mm),
-// metres with 4, times with 6; longitudes are wrapped to [-180, 180] in GeoJSON/KML/GPX.
+// partial write. Numbers use the C locale: lat/lon with 9 decimals (1e-9 deg ~ 0.1 mm) in CSV,
+// TUM and GeoJSON, 7 in KML and GPX (1e-7 deg ~ 1 cm, what viewers show; heights in mm), metres
+// with 4, times with 6; longitudes are wrapped to [-180, 180] in GeoJSON/KML/GPX. Times in KML
+// (<when>) and in the run's GPX (<time>) are ISO 8601 UTC: the telemetry's clock when it gives
+// absolute time (TrackWriterOptions::time_origin_unix_s), else seconds from the start of the
+// source counted from 1970-01-01T00:00:00Z (so a 2-minute video without clock reads 00:00-00:02
+// on 1 January 1970).
 // A write that fails (disk full, file size limit) leaves the file with its last valid content
 // (the failed append is rolled back, io/output_file.h) and throws OutputError naming the file
 // and the errno text.
@@ -166,14 +173,39 @@ class KmlTrackWriter {
   std::unique_ptr<State> state_;
 };
 
+/// run.kml: a KML 2.2 document with both tracks of a run as time-stamped Point placemarks, in
+/// the order appended: `<Placemark><name>NAME VO 12</name><styleUrl>#vo</styleUrl><TimeStamp>
+/// <when>ISO 8601 UTC</when></TimeStamp><Point>...` (styles "vo" red, "gps" blue). Valid after
+/// every Append (the tail `</Document></kml>` is rewritten). `time_origin_unix_s`: the absolute
+/// time of time_s = 0; nullopt = 1970-01-01T00:00:00Z (see the top of this file).
+class RunKmlWriter {
+ public:
+  RunKmlWriter(const std::filesystem::path& path, std::string name,
+               std::optional<double> time_origin_unix_s = std::nullopt);
+  ~RunKmlWriter();
+  RunKmlWriter(RunKmlWriter&&) noexcept;
+  RunKmlWriter& operator=(RunKmlWriter&&) noexcept;
+  /// One point of the VO (gps = false) or GPS track, frame index `frame` in its name.
+  void Append(const GeoTrackPoint& point, bool gps, int frame);
+  void Close();
+  const std::filesystem::path& path() const;
+
+ private:
+  std::unique_ptr<detail::ProgressiveFile> file_;
+  std::string name_;
+  double time_origin_unix_s_ = 0.0;
+};
+
 /// GPX 1.1 with one trk / trkseg; each point is a trkpt with lat, lon, ele and, when the
 /// absolute time of time_s = 0 is known (`time_origin_unix_s`, seconds since 1970 UTC), a
 /// <time> in ISO 8601 UTC with milliseconds. Without it <time> is omitted (optional in GPX
 /// 1.1) rather than invented.
 class GpxTrackWriter {
  public:
+  /// `decimals`: of lat/lon (7 ~ 1 cm, the run's tracks; 9 ~ 0.1 mm for a truth track such as
+  /// the simulator's, read back as telemetry), heights with decimals - 5 (at least 3).
   GpxTrackWriter(const std::filesystem::path& path, std::string name,
-                 std::optional<double> time_origin_unix_s = std::nullopt);
+                 std::optional<double> time_origin_unix_s = std::nullopt, int decimals = 7);
   ~GpxTrackWriter();
   GpxTrackWriter(GpxTrackWriter&&) noexcept;
   GpxTrackWriter& operator=(GpxTrackWriter&&) noexcept;
@@ -184,7 +216,13 @@ class GpxTrackWriter {
  private:
   std::unique_ptr<detail::ProgressiveFile> file_;
   std::optional<double> time_origin_unix_s_;
+  int decimals_ = 7;
 };
+
+/// The flight's name for track names and titles: the stem of the run's input (a video file
+/// `DJI_0042.MP4` -> "DJI_0042", a photo folder `survey/` -> "survey"); "aerovo" when the input
+/// is empty or a live source (a camera index, a URL).
+std::string FlightNameOf(const std::string& input);
 
 /// ISO 8601 UTC time with milliseconds, e.g. "2020-09-13T12:26:40.250Z".
 std::string FormatUtcIso8601(double unix_time_s);
@@ -209,6 +247,7 @@ struct RunFileNames {
   static constexpr const char* kVoKml = "vo.kml";
   static constexpr const char* kGpsKml = "gps.kml";
   static constexpr const char* kRunKml = "run.kml";
+  static constexpr const char* kRunLiveKml = "run_live.kml";
   static constexpr const char* kVoGpx = "vo.gpx";
   static constexpr const char* kGpsGpx = "gps.gpx";
   static constexpr const char* kSummaryJson = "summary.json";
@@ -229,19 +268,21 @@ struct TrackWriterOptions {
   bool csv = true;      ///< frames.csv
   bool tum = true;      ///< vo.tum, gps.tum
   bool geojson = true;  ///< vo.geojson, gps.geojson, vo_frames.geojson
-  bool kml = true;      ///< vo.kml, gps.kml, run.kml
+  bool kml = true;      ///< vo.kml, gps.kml, run.kml, run_live.kml
   bool gpx = true;      ///< vo.gpx, gps.gpx
   /// Origin of the ENU frame of FrameRecord x/y/z. Needed for gps.tum (GPS fixes converted to
   /// the same ENU frame as the VO so that evo can compare them); without it gps.tum stays empty.
   std::optional<GeoPoint> enu_origin;
-  /// Absolute time (seconds since 1970 UTC) of time_s = 0, for GPX <time>; see GpxTrackWriter.
+  /// Absolute time (seconds since 1970 UTC) of time_s = 0, for GPX <time> and KML <when>;
+  /// nullopt: time_s counted from 1970-01-01T00:00:00Z (see the top of this file).
   std::optional<double> time_origin_unix_s;
-  std::string run_name = "aerovo";  ///< Prefix of track names in GeoJSON/KML/GPX.
+  /// Prefix of track names in GeoJSON/KML/GPX: the flight's name (FlightNameOf(input)).
+  std::string run_name = "aerovo";
 };
 
 /// All per-frame outputs of one run folder, written progressively (see the top of this file).
 /// Files present after construction (each valid, possibly empty): frames.csv, vo.tum, gps.tum,
-/// vo/gps .geojson/.kml/.gpx, vo_frames.geojson, run.kml (per the options). Existing files of
+/// vo/gps .geojson/.kml/.gpx, vo_frames.geojson, run.kml, run_live.kml (per the options). Existing files of
 /// those names are replaced. Not thread-safe.
 class TrackWriterSet {
  public:

@@ -1,10 +1,12 @@
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <regex>
 #include <sstream>
 #include <string>
@@ -12,6 +14,7 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <pugixml.hpp>
 
 #include "aerovo/core/error.h"
 #include "aerovo/geo/local_enu.h"
@@ -311,7 +314,7 @@ TEST_F(TrackWritersTest, EveryFileValidAfterEveryAppend) {
   o.time_origin_unix_s = 1600000000.25;  // 2020-09-13T12:26:40.250Z
   o.run_name = "test <run> & co";
   TrackWriterSet set(dir_, o);
-  EXPECT_EQ(set.Files().size(), 11u);
+  EXPECT_EQ(set.Files().size(), 12u);
   for (const fs::path& f : set.Files()) EXPECT_TRUE(fs::exists(f)) << f;
   const LocalEnu enu(*o.enu_origin);
 
@@ -334,20 +337,28 @@ TEST_F(TrackWritersTest, EveryFileValidAfterEveryAppend) {
     ASSERT_EQ(p.vo_gpx.size(), vo_geo.size());
     ASSERT_EQ(p.gps_gpx.size(), gps_geo.size());
     for (size_t k = 0; k < vo_geo.size(); ++k) {
-      for (const GeoPoint& got : {vo_json[k], p.vo_kml[k], p.vo_gpx[k]}) {
-        EXPECT_NEAR(got.lat_deg, vo_geo[k].lat_deg, 1e-9);
-        EXPECT_NEAR(got.lon_deg, vo_geo[k].lon_deg, 1e-9);
-        EXPECT_NEAR(got.alt_m, vo_geo[k].alt_m, 1e-4);
+      // GeoJSON with 9 decimals, KML and GPX with 7 (1 cm) and heights in mm.
+      EXPECT_NEAR(vo_json[k].lat_deg, vo_geo[k].lat_deg, 1e-9);
+      EXPECT_NEAR(vo_json[k].lon_deg, vo_geo[k].lon_deg, 1e-9);
+      EXPECT_NEAR(vo_json[k].alt_m, vo_geo[k].alt_m, 1e-4);
+      for (const GeoPoint& got : {p.vo_kml[k], p.vo_gpx[k]}) {
+        EXPECT_NEAR(got.lat_deg, vo_geo[k].lat_deg, 0.51e-7);
+        EXPECT_NEAR(got.lon_deg, vo_geo[k].lon_deg, 0.51e-7);
+        EXPECT_NEAR(got.alt_m, vo_geo[k].alt_m, 0.51e-3);
       }
       const json& f = p.frames_geojson["features"][k];
       EXPECT_EQ(f["geometry"]["type"], "Point");
       EXPECT_NEAR(f["geometry"]["coordinates"][0].get<double>(), vo_geo[k].lon_deg, 1e-9);
     }
     for (size_t k = 0; k < gps_geo.size(); ++k) {
-      for (const GeoPoint& got : {gps_json[k], p.gps_kml[k], p.gps_gpx[k]}) {
-        EXPECT_NEAR(got.lat_deg, gps_geo[k].lat_deg, 1e-9);
-        EXPECT_NEAR(got.lon_deg, gps_geo[k].lon_deg, 1e-9);
-        EXPECT_NEAR(got.alt_m, gps_geo[k].alt_m, 1e-4);
+      // GeoJSON with 9 decimals, KML and GPX with 7 (1 cm) and heights in mm.
+      EXPECT_NEAR(gps_json[k].lat_deg, gps_geo[k].lat_deg, 1e-9);
+      EXPECT_NEAR(gps_json[k].lon_deg, gps_geo[k].lon_deg, 1e-9);
+      EXPECT_NEAR(gps_json[k].alt_m, gps_geo[k].alt_m, 1e-4);
+      for (const GeoPoint& got : {p.gps_kml[k], p.gps_gpx[k]}) {
+        EXPECT_NEAR(got.lat_deg, gps_geo[k].lat_deg, 0.51e-7);
+        EXPECT_NEAR(got.lon_deg, gps_geo[k].lon_deg, 0.51e-7);
+        EXPECT_NEAR(got.alt_m, gps_geo[k].alt_m, 0.51e-3);
       }
       EXPECT_EQ(p.gps_gpx_times[k], FormatUtcIso8601(1600000000.25 + gps_t[k]));
       const Eigen::Vector3d e = enu.Forward(gps_geo[k]);
@@ -453,6 +464,86 @@ TEST_F(TrackWritersTest, RejectedFixStaysInTheCsvAndOutOfTheGpsTracks) {
   EXPECT_NE(csv.find("50.46"), std::string::npos);
 }
 
+// run.kml: both tracks as time-stamped points, valid after every append; the Style children in
+// the OGC KML 2.2 order (every Style aerovo writes); the flight's name; 7 decimals.
+TEST_F(TrackWritersTest, RunKmlHasTimeStampedPointsOfBothTracks) {
+  TrackWriterOptions o;
+  o.time_origin_unix_s = 1600000000.25;
+  o.run_name = "DJI_0042";
+  TrackWriterSet set(dir_, o);
+  for (int i = 0; i < 6; ++i) {
+    FrameRecord r;
+    r.frame = i;
+    r.time_s = 0.5 * i;
+    r.geo = GeoPoint{50.45 + 1e-5 * i, 30.52, 180.0};
+    set.Append(r, i % 2 == 0 ? std::optional<GeoPoint>(GeoPoint{50.45, 30.52 + 1e-5 * i, 181.0})
+                             : std::nullopt);
+    pugi::xml_document doc;
+    ASSERT_TRUE(doc.load_file((dir_ / "run.kml").c_str())) << i;
+    EXPECT_EQ(doc.select_nodes("//Placemark").size(), static_cast<size_t>(i + 1 + i / 2 + 1));
+  }
+  set.Close();
+  pugi::xml_document doc;
+  ASSERT_TRUE(doc.load_file((dir_ / "run.kml").c_str()));
+  EXPECT_STREQ(doc.child("kml").child("Document").child("name").text().get(), "DJI_0042");
+  std::map<std::string, std::vector<std::string>> when;  // per track
+  for (const pugi::xpath_node& n : doc.select_nodes("//Placemark")) {
+    const std::string name = n.node().child("name").text().get();
+    ASSERT_EQ(name.rfind("DJI_0042 ", 0), 0u) << name;
+    const std::string track = name.find(" GPS ") != std::string::npos ? "gps" : "vo";
+    EXPECT_EQ(n.node().child("styleUrl").text().get(), "#" + track);
+    when[track].push_back(n.node().child("TimeStamp").child("when").text().get());
+    const std::string coords = n.node().child("Point").child("coordinates").text().get();
+    // lon,lat,alt: 7 decimals each angle, 3 for the height.
+    EXPECT_TRUE(std::regex_match(coords, std::regex(R"(-?\d+\.\d{7},-?\d+\.\d{7},-?\d+\.\d{3})")))
+        << coords;
+  }
+  ASSERT_EQ(when["vo"].size(), 6u);
+  ASSERT_EQ(when["gps"].size(), 3u);
+  EXPECT_EQ(when["vo"][0], "2020-09-13T12:26:40.250Z");
+  EXPECT_EQ(when["gps"][2], FormatUtcIso8601(1600000000.25 + 2.0));
+  for (const auto& [track, w] : when) {
+    for (size_t i = 1; i < w.size(); ++i) EXPECT_LT(w[i - 1], w[i]) << track;  // ISO: sortable
+  }
+  // Every Style of every KML file: IconStyle, LabelStyle, LineStyle, PolyStyle in that order.
+  const std::vector<std::string> order = {"IconStyle", "LabelStyle", "LineStyle", "PolyStyle"};
+  int styles = 0;
+  for (const char* f : {"run.kml", "vo.kml", "gps.kml", "run_live.kml"}) {
+    pugi::xml_document d;
+    ASSERT_TRUE(d.load_file((dir_ / f).c_str())) << f;
+    for (const pugi::xpath_node& st : d.select_nodes("//Style")) {
+      ++styles;
+      int last = -1;
+      for (const pugi::xml_node& c : st.node().children()) {
+        const auto it = std::find(order.begin(), order.end(), std::string(c.name()));
+        ASSERT_NE(it, order.end()) << f << ": " << c.name();
+        EXPECT_GT(it - order.begin(), last) << f << ": " << c.name() << " out of order";
+        last = static_cast<int>(it - order.begin());
+      }
+    }
+  }
+  EXPECT_EQ(styles, 4);  // run.kml: vo, gps; vo.kml, gps.kml: track
+  // The track names carry the flight's name; GPX has <time> on every point.
+  EXPECT_NE(Slurp(dir_ / "vo.kml").find("<name>DJI_0042 VO</name>"), std::string::npos);
+  EXPECT_NE(Slurp(dir_ / "gps.gpx").find("<name>DJI_0042 GPS</name>"), std::string::npos);
+  EXPECT_NE(Slurp(dir_ / "run_live.kml").find("<href>vo.kml</href>"), std::string::npos);
+}
+
+// Without the telemetry's clock, the run's GPX and KML count time_s from 1970-01-01T00:00:00Z.
+TEST_F(TrackWritersTest, TimesWithoutAClockStartAt1970) {
+  TrackWriterSet set(dir_, TrackWriterOptions{});
+  FrameRecord r;
+  r.frame = 0;
+  r.time_s = 2.5;
+  r.geo = GeoPoint{50.45, 30.52, 180.0};
+  set.Append(r, GeoPoint{50.45, 30.52, 180.0});
+  set.Close();
+  EXPECT_NE(Slurp(dir_ / "vo.gpx").find("<time>1970-01-01T00:00:02.500Z</time>"),
+            std::string::npos);
+  EXPECT_NE(Slurp(dir_ / "run.kml").find("<when>1970-01-01T00:00:02.500Z</when>"),
+            std::string::npos);
+}
+
 TEST_F(TrackWritersTest, GpxWithoutTimeOriginOmitsTime) {
   GpxTrackWriter w(dir_.string() + "_x.gpx", "t");
   w.Append({1.0, {10.0, 20.0, 5.0}});
@@ -481,8 +572,8 @@ TEST_F(TrackWritersTest, LongitudesWrappedForGisFormats) {
   const double want[] = {179.9999, -179.9999, -169.5};
   for (int i = 0; i < 3; ++i) {
     EXPECT_NEAR(from_json[i].lon_deg, want[i], 1e-9);
-    EXPECT_NEAR(from_kml[i].lon_deg, want[i], 1e-9);
-    EXPECT_NEAR(from_gpx[i].lon_deg, want[i], 1e-9);
+    EXPECT_NEAR(from_kml[i].lon_deg, want[i], 0.51e-7);
+    EXPECT_NEAR(from_gpx[i].lon_deg, want[i], 0.51e-7);
   }
 }
 

@@ -531,7 +531,7 @@ RunOutputs::RunOutputs(const std::filesystem::path& out_dir, const RunConfig& co
   wo.enu_origin = GpsOf(first_sample);
   if (first_sample && first_sample->unix_time_s)
     wo.time_origin_unix_s = *first_sample->unix_time_s - first_time_s;
-  wo.run_name = "aerovo";
+  wo.run_name = FlightNameOf(config.input);  // names the tracks in KML/GPX/GeoJSON
   writers_ = std::make_unique<TrackWriterSet>(out_dir, wo);
   nlohmann::json effective = ToJson(config);
   effective["resolved"] = {{"focal_px", camera.focal_px},

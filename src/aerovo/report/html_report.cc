@@ -19,6 +19,7 @@
 #include "aerovo/eval/trajectory_eval_json.h"
 #include "aerovo/geo/local_enu.h"
 #include "aerovo/io/track_writers.h"
+#include "aerovo/report/geo_mosaic.h"
 #include "aerovo/report/leaflet_assets.h"
 #include "aerovo/report/run_reader.h"
 #include "aerovo/report/style.h"
@@ -1213,6 +1214,12 @@ void RunReport(const fs::path& dir, const RunData& run, const RunComparison& cmp
     } else {
       AddNote(page, result, m.note);
     }
+    // The geo-referenced north-up mosaics (report/geo_mosaic.h): mosaic.tif, mosaic.kmz,
+    // mosaic_geo.png/.json in DIR; a one-line note when the run is not geo-referenced.
+    const GeoMosaicResult geo = WriteGeoMosaic(
+        run, dir, FlightNameOf(JsonString(run.config, "input")), options.mosaic_options);
+    if (options.log) *options.log << "  geo mosaic: " << geo.note << "\n";
+    if (!geo.written && m.written) AddNote(page, result, geo.note);  // else: the mosaic's note
   }
 
   page.H2("Effective configuration (config.json)", "config");

@@ -14,6 +14,7 @@
 #include "aerovo/io/calibration.h"
 #include "aerovo/io/camera.h"
 #include "aerovo/io/frame_source.h"
+#include "aerovo/report/mosaic_warp.h"
 
 namespace aerovo {
 namespace fs = std::filesystem;
@@ -57,11 +58,34 @@ T ConfigValue(const nlohmann::json& c, const char* key, T fallback) {
   }
 }
 
+// The input as given to `aerovo run` (relative to where it ran, or to the run folder); an empty
+// string when it is readable, else the reason.
+std::string InputPath(const RunData& run, fs::path* input_path);
+
 cv::Scalar Bgr(unsigned rgb) {
   return cv::Scalar(rgb & 0xff, (rgb >> 8) & 0xff, (rgb >> 16) & 0xff);
 }
 
+std::string InputPath(const RunData& run, fs::path* input_path) {
+  const std::string input = ConfigValue<std::string>(run.config, "input", "");
+  *input_path = input;
+  if (!input.empty() && !fs::exists(*input_path) && input_path->is_relative() &&
+      fs::exists(run.dir / *input_path)) {
+    *input_path = run.dir / *input_path;
+  }
+  std::error_code ec;
+  if (input.empty() ||
+      !(fs::is_regular_file(*input_path, ec) || fs::is_directory(*input_path, ec))) {
+    return "the run's input '" + input + "' is not readable any more (or is a live source)";
+  }
+  return "";
+}
+
 }  // namespace
+
+bool MosaicFrameSize(const RunData& run, int* width_px, int* height_px) {
+  return FrameSize(run, width_px, height_px);
+}
 
 std::vector<Eigen::Vector2d> FrameCentresPx(const RunData& run, std::vector<int>* frames) {
   std::vector<Eigen::Vector2d> out;
@@ -76,77 +100,34 @@ std::vector<Eigen::Vector2d> FrameCentresPx(const RunData& run, std::vector<int>
   return out;
 }
 
-MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tracks,
-                         const fs::path& out_file, const MosaicOptions& options) {
-  Validate(options);
-  MosaicResult result;
+std::string MosaicInputProblem(const RunData& run) {
   int w = 0, h = 0;
   if (run.transforms.empty()) {
-    result.note =
-        "no mosaic: the run has no transforms.csv (written by aerovo run since the report "
-        "was added)";
-    return result;
+    return "the run has no transforms.csv (written by aerovo run since the report was added)";
   }
-  if (!FrameSize(run, &w, &h)) {
-    result.note = "no mosaic: config.json does not give the frame size";
-    return result;
-  }
-  // The input as given to `aerovo run` (relative to where it ran, or to the run folder).
-  const std::string input = ConfigValue<std::string>(run.config, "input", "");
-  fs::path input_path = input;
-  if (!input.empty() && !fs::exists(input_path) && input_path.is_relative() &&
-      fs::exists(run.dir / input_path)) {
-    input_path = run.dir / input_path;
-  }
-  std::error_code ec;
-  if (input.empty() || !(fs::is_regular_file(input_path, ec) || fs::is_directory(input_path, ec))) {
-    result.note =
-        "no mosaic: the run's input '" + input + "' is not readable any more (or is a live source)";
-    return result;
-  }
+  if (!FrameSize(run, &w, &h)) return "config.json does not give the frame size";
+  fs::path input_path;
+  return InputPath(run, &input_path);
+}
 
-  // Bounds of every frame in first-frame pixels, and of the tracks.
-  double min_x = std::numeric_limits<double>::infinity(), min_y = min_x;
-  double max_x = -min_x, max_y = -min_x;
-  auto grow = [&](double x, double y) {
-    if (!std::isfinite(x) || !std::isfinite(y)) return;
-    min_x = std::min(min_x, x);
-    min_y = std::min(min_y, y);
-    max_x = std::max(max_x, x);
-    max_y = std::max(max_y, y);
-  };
+MosaicWarpOutcome WarpRunFrames(const RunData& run, const MosaicOptions& options,
+                                std::vector<MosaicWarpTarget>& targets) {
+  MosaicWarpOutcome out;
+  out.n_transforms = static_cast<int>(run.transforms.size());
+  if (std::string problem = MosaicInputProblem(run); !problem.empty()) {
+    out.note = problem;
+    return out;
+  }
+  int w = 0, h = 0;
+  FrameSize(run, &w, &h);
+  fs::path input_path;
+  InputPath(run, &input_path);
   std::map<int, cv::Matx23d> by_frame;
-  for (const FrameTransformRow& t : run.transforms) {
-    const cv::Matx23d m = ToMatx(t);
-    by_frame[t.frame] = m;
-    for (const cv::Point2d c : {cv::Point2d(0, 0), cv::Point2d(w - 1, 0), cv::Point2d(w - 1, h - 1),
-                                cv::Point2d(0, h - 1)}) {
-      const cv::Point2d p = Apply(m, c.x, c.y);
-      grow(p.x, p.y);
-    }
-  }
-  for (const MosaicTrack& tr : tracks) {
-    for (const Eigen::Vector2d& p : tr.points_px) grow(p.x(), p.y());
-  }
-  const double margin = 0.02 * std::max(max_x - min_x, max_y - min_y);
-  min_x -= margin;
-  min_y -= margin;
-  max_x += margin;
-  max_y += margin;
-  const double span = std::max(max_x - min_x, max_y - min_y);
-  if (!(span > 0.0) || !std::isfinite(span)) {
-    result.note = "no mosaic: the transforms are degenerate";
-    return result;
-  }
-  const double s = std::min(1.0, options.max_size_px / span);
-  const int cw = std::max(16, static_cast<int>(std::ceil((max_x - min_x) * s)));
-  const int ch = std::max(16, static_cast<int>(std::ceil((max_y - min_y) * s)));
-  const cv::Matx33d canvas_from_first(s, 0, -s * min_x, 0, s, -s * min_y, 0, 0, 1);
-  cv::Mat canvas(ch, cw, CV_8UC3, cv::Scalar(255, 255, 255));
+  for (const FrameTransformRow& t : run.transforms) by_frame[t.frame] = ToMatx(t);
 
-  const int n_transforms = static_cast<int>(run.transforms.size());
+  const int n_transforms = out.n_transforms;
   const int every = std::max(1, (n_transforms + options.max_frames - 1) / options.max_frames);
-  result.every_nth = every;
+  out.every_nth = every;
   FrameSourceOptions so;
   so.step = ConfigValue<int>(run.config, "step", 1) * every;
   so.start_time_s = ConfigValue<double>(run.config, "start_s", 0.0);
@@ -201,57 +182,135 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
         color = dimmed;
       }
       const cv::Matx23d& a = it->second;
-      cv::Matx33d first_from_frame(a(0, 0), a(0, 1), a(0, 2), a(1, 0), a(1, 1), a(1, 2), 0, 0, 1);
-      cv::Matx33d m = canvas_from_first * first_from_frame;
-      // Downscale first (area averaging) when the frame shrinks a lot on the canvas: faster
-      // and without aliasing.
-      const double lin = std::sqrt(std::abs(m(0, 0) * m(1, 1) - m(0, 1) * m(1, 0)));
-      if (!(lin > 0.0) || !std::isfinite(lin)) continue;
-      double f = 1.0;
-      if (lin < 0.5) {
-        f = std::max(lin, 4.0 / std::min(w, h));
-        cv::resize(color, small, cv::Size(), f, f, cv::INTER_AREA);
-        m = m * cv::Matx33d(1.0 / f, 0, 0, 0, 1.0 / f, 0, 0, 0, 1);
-      } else {
-        small = color;
+      const cv::Matx33d first_from_frame(a(0, 0), a(0, 1), a(0, 2), a(1, 0), a(1, 1), a(1, 2), 0,
+                                         0, 1);
+      bool drawn = false;
+      for (MosaicWarpTarget& target : targets) {
+        const cv::Matx23d& c = target.canvas_from_first;
+        const cv::Matx33d canvas_from_first(c(0, 0), c(0, 1), c(0, 2), c(1, 0), c(1, 1), c(1, 2),
+                                            0, 0, 1);
+        cv::Matx33d m = canvas_from_first * first_from_frame;
+        const int cw = target.bgr.cols, ch = target.bgr.rows;
+        // Downscale first (area averaging) when the frame shrinks a lot on the canvas: faster
+        // and without aliasing.
+        const double lin = std::sqrt(std::abs(m(0, 0) * m(1, 1) - m(0, 1) * m(1, 0)));
+        if (!(lin > 0.0) || !std::isfinite(lin)) continue;
+        double f = 1.0;
+        if (lin < 0.5) {
+          f = std::max(lin, 4.0 / std::min(w, h));
+          cv::resize(color, small, cv::Size(), f, f, cv::INTER_AREA);
+          m = m * cv::Matx33d(1.0 / f, 0, 0, 0, 1.0 / f, 0, 0, 0, 1);
+        } else {
+          small = color;
+        }
+        // Warp into the frame's bounding box on the canvas only.
+        double bx0 = 1e300, by0 = 1e300, bx1 = -1e300, by1 = -1e300;
+        for (const cv::Point2d c :
+             {cv::Point2d(0, 0), cv::Point2d(small.cols - 1, 0),
+              cv::Point2d(small.cols - 1, small.rows - 1), cv::Point2d(0, small.rows - 1)}) {
+          const double x = m(0, 0) * c.x + m(0, 1) * c.y + m(0, 2);
+          const double y = m(1, 0) * c.x + m(1, 1) * c.y + m(1, 2);
+          bx0 = std::min(bx0, x);
+          by0 = std::min(by0, y);
+          bx1 = std::max(bx1, x);
+          by1 = std::max(by1, y);
+        }
+        if (!std::isfinite(bx0) || !std::isfinite(by0) || !std::isfinite(bx1) ||
+            !std::isfinite(by1) || bx1 < -1.0 || by1 < -1.0 || bx0 > cw || by0 > ch) {
+          continue;
+        }
+        const cv::Rect box =
+            cv::Rect(cv::Point(static_cast<int>(std::floor(std::max(bx0, -1.0))),
+                               static_cast<int>(std::floor(std::max(by0, -1.0)))),
+                     cv::Point(static_cast<int>(std::ceil(std::min<double>(bx1, cw))) + 1,
+                               static_cast<int>(std::ceil(std::min<double>(by1, ch))) + 1)) &
+            cv::Rect(0, 0, cw, ch);
+        if (box.area() <= 0) continue;
+        const cv::Matx23d roi_from_frame(m(0, 0), m(0, 1), m(0, 2) - box.x, m(1, 0), m(1, 1),
+                                         m(1, 2) - box.y);
+        cv::warpAffine(small, warped, roi_from_frame, box.size(), cv::INTER_LINEAR,
+                       cv::BORDER_CONSTANT);
+        ones = cv::Mat(small.size(), CV_8UC1, cv::Scalar(255));
+        cv::warpAffine(ones, mask, roi_from_frame, box.size(), cv::INTER_NEAREST,
+                       cv::BORDER_CONSTANT);
+        cv::erode(mask, mask, cv::Mat());  // no dark seam from the interpolated border
+        warped.copyTo(target.bgr(box), mask);
+        if (!target.coverage.empty()) target.coverage(box).setTo(255, mask);
+        drawn = true;
       }
-      // Warp into the frame's bounding box on the canvas only.
-      double bx0 = 1e300, by0 = 1e300, bx1 = -1e300, by1 = -1e300;
-      for (const cv::Point2d c :
-           {cv::Point2d(0, 0), cv::Point2d(small.cols - 1, 0),
-            cv::Point2d(small.cols - 1, small.rows - 1), cv::Point2d(0, small.rows - 1)}) {
-        const double x = m(0, 0) * c.x + m(0, 1) * c.y + m(0, 2);
-        const double y = m(1, 0) * c.x + m(1, 1) * c.y + m(1, 2);
-        bx0 = std::min(bx0, x);
-        by0 = std::min(by0, y);
-        bx1 = std::max(bx1, x);
-        by1 = std::max(by1, y);
-      }
-      const cv::Rect box =
-          cv::Rect(cv::Point(static_cast<int>(std::floor(bx0)), static_cast<int>(std::floor(by0))),
-                   cv::Point(static_cast<int>(std::ceil(bx1)) + 1,
-                             static_cast<int>(std::ceil(by1)) + 1)) &
-          cv::Rect(0, 0, cw, ch);
-      if (box.area() <= 0) continue;
-      const cv::Matx23d roi_from_frame(m(0, 0), m(0, 1), m(0, 2) - box.x, m(1, 0), m(1, 1),
-                                       m(1, 2) - box.y);
-      cv::warpAffine(small, warped, roi_from_frame, box.size(), cv::INTER_LINEAR,
-                     cv::BORDER_CONSTANT);
-      ones = cv::Mat(small.size(), CV_8UC1, cv::Scalar(255));
-      cv::warpAffine(ones, mask, roi_from_frame, box.size(), cv::INTER_NEAREST,
-                     cv::BORDER_CONSTANT);
-      cv::erode(mask, mask, cv::Mat());  // no dark seam from the interpolated border
-      warped.copyTo(canvas(box), mask);
-      ++result.frames_used;
+      if (drawn) ++out.frames_used;
     }
   } catch (const InputError& e) {
-    result.note = std::string("no mosaic: cannot re-read the input: ") + e.what();
+    out.note = std::string("cannot re-read the input: ") + e.what();
+    return out;
+  }
+  if (out.frames_used == 0) {
+    out.note = "no frame of the input matched the run's transforms";
+    return out;
+  }
+  out.ok = true;
+  return out;
+}
+
+MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tracks,
+                         const fs::path& out_file, const MosaicOptions& options) {
+  Validate(options);
+  MosaicResult result;
+  int w = 0, h = 0;
+  if (std::string problem = MosaicInputProblem(run); !problem.empty()) {
+    result.note = "no mosaic: " + problem;
     return result;
   }
-  if (result.frames_used == 0) {
-    result.note = "no mosaic: no frame of the input matched the run's transforms";
+  FrameSize(run, &w, &h);
+
+  // Bounds of every frame in first-frame pixels, and of the tracks.
+  double min_x = std::numeric_limits<double>::infinity(), min_y = min_x;
+  double max_x = -min_x, max_y = -min_x;
+  auto grow = [&](double x, double y) {
+    if (!std::isfinite(x) || !std::isfinite(y)) return;
+    min_x = std::min(min_x, x);
+    min_y = std::min(min_y, y);
+    max_x = std::max(max_x, x);
+    max_y = std::max(max_y, y);
+  };
+  for (const FrameTransformRow& t : run.transforms) {
+    const cv::Matx23d m = ToMatx(t);
+    for (const cv::Point2d c : {cv::Point2d(0, 0), cv::Point2d(w - 1, 0), cv::Point2d(w - 1, h - 1),
+                                cv::Point2d(0, h - 1)}) {
+      const cv::Point2d p = Apply(m, c.x, c.y);
+      grow(p.x, p.y);
+    }
+  }
+  for (const MosaicTrack& tr : tracks) {
+    for (const Eigen::Vector2d& p : tr.points_px) grow(p.x(), p.y());
+  }
+  const double margin = 0.02 * std::max(max_x - min_x, max_y - min_y);
+  min_x -= margin;
+  min_y -= margin;
+  max_x += margin;
+  max_y += margin;
+  const double span = std::max(max_x - min_x, max_y - min_y);
+  if (!(span > 0.0) || !std::isfinite(span)) {
+    result.note = "no mosaic: the transforms are degenerate";
     return result;
   }
+  const double s = std::min(1.0, options.max_size_px / span);
+  const int cw = std::max(16, static_cast<int>(std::ceil((max_x - min_x) * s)));
+  const int ch = std::max(16, static_cast<int>(std::ceil((max_y - min_y) * s)));
+  std::vector<MosaicWarpTarget> targets(1);
+  targets[0].canvas_from_first = cv::Matx23d(s, 0, -s * min_x, 0, s, -s * min_y);
+  targets[0].bgr = cv::Mat(ch, cw, CV_8UC3, cv::Scalar(255, 255, 255));
+  const MosaicWarpOutcome warp = WarpRunFrames(run, options, targets);
+  if (!warp.ok) {
+    result.note = "no mosaic: " + warp.note;
+    return result;
+  }
+  cv::Mat& canvas = targets[0].bgr;
+  result.frames_used = warp.frames_used;
+  result.every_nth = warp.every_nth;
+  const int n_transforms = warp.n_transforms;
+  const int every = warp.every_nth;
+  std::error_code ec;
 
   // Tracks (in order: later ones on top, each over a white halo), then a legend box.
   const double size_k = std::max(cw, ch) / 1000.0;  // line widths scale with the mosaic

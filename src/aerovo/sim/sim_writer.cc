@@ -141,7 +141,7 @@ void WriteDjiSrt(std::ostream& out, const Simulator& sim, const std::string& sta
 
 void WriteGpx(const fs::path& path, const Simulator& sim, const std::string& start_time_utc) {
   GpxTrackWriter gpx(path, "aerovo simulated flight",
-                     static_cast<double>(ParseUtc(start_time_utc)));
+                     static_cast<double>(ParseUtc(start_time_utc)), /*decimals=*/9);  // truth
   for (const GpsFix& f : sim.gps()) gpx.Append(GeoTrackPoint{f.time_s, f.position});
   gpx.Close();
 }
