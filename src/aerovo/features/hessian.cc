@@ -98,12 +98,14 @@ void HessianRowsDefault(const IntegralImage& ii, const BoxFilterLayout& l, int i
   HessianRows(ii, l, i0, i1, j0, j1, det, det_stride);
 }
 
+#if defined(__x86_64__) || defined(__i386__)
 __attribute__((target("avx2,fma"))) void HessianRowsAvx2(const IntegralImage& ii,
                                                          const BoxFilterLayout& l, int i0, int i1,
                                                          int j0, int j1, float* det,
                                                          std::ptrdiff_t det_stride) {
   HessianRows(ii, l, i0, i1, j0, j1, det, det_stride);
 }
+#endif
 
 using HessianRowsFn = void (*)(const IntegralImage&, const BoxFilterLayout&, int, int, int, int,
                                float*, std::ptrdiff_t);

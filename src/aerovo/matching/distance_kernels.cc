@@ -1,6 +1,9 @@
 #include "aerovo/matching/distance_kernels.h"
 
+#if defined(__x86_64__) || defined(__i386__)
+#define AEROVO_X86_KERNELS 1
 #include <immintrin.h>
+#endif
 
 #include <limits>
 
@@ -9,6 +12,7 @@ namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
+#if defined(AEROVO_X86_KERNELS)
 // ---------------------------------------------------------------------------------------------
 // SSE4.2 baseline (every x86-64-v2 CPU).
 
@@ -365,6 +369,110 @@ __attribute__((target("avx2,fma"))) void ListAvx2(const float* query, int dim, c
   *out = b;
 }
 
+#else  // not x86: portable kernels
+
+// ---------------------------------------------------------------------------------------------
+// Portable kernels (aarch64 and every other non-x86 target) until the SIMD kernels are written
+// for them: the SSE4.2 kernels lane by lane, in the same order of operations (products and
+// sums rounded separately: this file is compiled with -ffp-contract=off on such targets, see
+// matching/CMakeLists.txt), so they return the same scores and the same matches.
+
+inline void UpdateLane(float s, std::int32_t idx, float& b1, float& b2, std::int32_t& i1,
+                       std::int32_t& i2) {
+  // Strict comparisons: among equal scores in one lane the earlier slot stays best.
+  const bool lt1 = s < b1, lt2 = s < b2;
+  float nb2 = lt2 ? s : b2;
+  std::int32_t ni2 = lt2 ? idx : i2;
+  if (lt1) {
+    nb2 = b1;
+    ni2 = i1;
+    b1 = s;
+    i1 = idx;
+  }
+  b2 = nb2;
+  i2 = ni2;
+}
+
+void TilePortable(const float* queries, int dim, const float* panels, const float* norms,
+                  int slot_base, int num_slots, LaneTop2* state) {
+  for (int c = 0; c < num_slots; c += kPanelWidth) {
+    const float* p = panels + static_cast<std::ptrdiff_t>(c) * dim;
+    float acc[kQueryTile][kPanelWidth] = {};
+    for (int d = 0; d < dim; ++d) {
+      for (int k = 0; k < kQueryTile; ++k) {
+        const float qd = queries[k * dim + d];
+        for (int l = 0; l < kPanelWidth; ++l) acc[k][l] += qd * p[d * kPanelWidth + l];
+      }
+    }
+    for (int k = 0; k < kQueryTile; ++k) {
+      for (int l = 0; l < kPanelWidth; ++l) {
+        UpdateLane(norms[c + l] - 2.f * acc[k][l], slot_base + c + l, state[k].b1[l],
+                   state[k].b2[l], state[k].i1[l], state[k].i2[l]);
+      }
+    }
+  }
+}
+
+void StreamPortable(const float* const* rows, const float* norms, const std::int32_t* ids,
+                    int dim, const float* panels, int num_panels, LaneTop2* state) {
+  for (int p = 0; p < num_panels; ++p) {
+    const float* pp = panels + static_cast<std::ptrdiff_t>(p) * dim * kPanelWidth;
+    LaneTop2& st = state[p];
+    for (int r = 0; r < kStreamRows; ++r) {
+      float acc[kPanelWidth] = {};
+      for (int d = 0; d < dim; ++d) {
+        const float rd = rows[r][d];
+        for (int l = 0; l < kPanelWidth; ++l) acc[l] += rd * pp[d * kPanelWidth + l];
+      }
+      for (int l = 0; l < kPanelWidth; ++l) {
+        UpdateLane(norms[r] - 2.f * acc[l], ids[r], st.b1[l], st.b2[l], st.i1[l], st.i2[l]);
+      }
+    }
+  }
+}
+
+// DotSse's order: two 4-lane accumulators, added lane-wise, then (l0 + l1) + (l2 + l3).
+inline float DotPortable(const float* a, const float* b, int dim) {
+  float acc[8] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f};
+  int d = 0;
+  for (; d + 8 <= dim; d += 8) {
+    for (int l = 0; l < 8; ++l) acc[l] += a[d + l] * b[d + l];
+  }
+  float sum = ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7]));
+  for (; d < dim; ++d) sum += a[d] * b[d];
+  return sum;
+}
+
+inline void Push(float s, std::int32_t slot, const std::int32_t* tie_key, Best2* b) {
+  const auto better = [&](float sa, std::int32_t ja, float sb, std::int32_t jb) {
+    return jb < 0 || sa < sb || (sa == sb && tie_key[ja] < tie_key[jb]);
+  };
+  if (better(s, slot, b->s1, b->j1)) {
+    b->s2 = b->s1;
+    b->j2 = b->j1;
+    b->s1 = s;
+    b->j1 = slot;
+  } else if (better(s, slot, b->s2, b->j2)) {
+    b->s2 = s;
+    b->j2 = slot;
+  }
+}
+
+void ListPortable(const float* query, int dim, const float* rows, const float* norms,
+                  const std::int32_t* slots, int num_slots, const std::int32_t* tie_key,
+                  Best2* out) {
+  Best2 b{kInf, kInf, -1, -1};
+  for (int k = 0; k < num_slots; ++k) {
+    const std::int32_t j = slots[k];
+    const float s =
+        norms[j] - 2.f * DotPortable(query, rows + static_cast<std::ptrdiff_t>(j) * dim, dim);
+    Push(s, j, tie_key, &b);
+  }
+  *out = b;
+}
+
+#endif  // x86
+
 // Eight partial sums break the add latency chain (no -ffast-math reassociation to do it for us)
 // and vectorise as four two-lane accumulators; sixteen spilled registers and were slower.
 double ExactSsdScalar(const float* a, const float* b, int dim) {
@@ -383,6 +491,7 @@ double ExactSsdScalar(const float* a, const float* b, int dim) {
   return ((s[0] + s[4]) + (s[1] + s[5])) + ((s[2] + s[6]) + (s[3] + s[7]));
 }
 
+#if defined(AEROVO_X86_KERNELS)
 // The same sums, four lanes at a time: lanes 0-3 of lo are s[0..3], of hi s[4..7]. Target avx2
 // without fma, so that the compiler cannot fuse the product into the sum (which would round
 // differently from the scalar version).
@@ -408,6 +517,8 @@ __attribute__((target("avx2"))) double ExactSsdAvx(const float* a, const float* 
   return ((s[0] + s[4]) + (s[1] + s[5])) + ((s[2] + s[6]) + (s[3] + s[7]));
 }
 
+#endif  // x86
+
 float SquaredNormScalar(const float* d, int dim) {
   float acc[8] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f};
   int k = 0;
@@ -418,6 +529,7 @@ float SquaredNormScalar(const float* d, int dim) {
   return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
 }
 
+#if defined(AEROVO_X86_KERNELS)
 // Lane l of the accumulator is acc[l] of the scalar version; avx2 without fma, as ExactSsdAvx.
 __attribute__((target("avx2"))) float SquaredNormAvx(const float* d, int dim) {
   __m256 acc = _mm256_setzero_ps();
@@ -437,15 +549,24 @@ bool CpuHasAvx2Fma() {
   return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
 }
 
+#endif  // x86
+
 }  // namespace
 
 const Kernels& SelectKernels(bool allow_avx2) {
+#if defined(AEROVO_X86_KERNELS)
   static const Kernels kSse{&TileSse,        &ListSse,           &StreamSse,
                             &ExactSsdScalar, &SquaredNormScalar, "sse4"};
   static const Kernels kAvx2{&TileAvx2Any, &ListAvx2,       &StreamAvx2Any,
                              &ExactSsdAvx, &SquaredNormAvx, "avx2"};
   static const bool has_avx2 = CpuHasAvx2Fma();
   return (allow_avx2 && has_avx2) ? kAvx2 : kSse;
+#else
+  (void)allow_avx2;
+  static const Kernels kPortable{&TilePortable,   &ListPortable,      &StreamPortable,
+                                 &ExactSsdScalar, &SquaredNormScalar, "portable"};
+  return kPortable;
+#endif
 }
 
 void ResetLanes(LaneTop2* state) {

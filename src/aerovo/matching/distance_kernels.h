@@ -74,7 +74,7 @@ struct Kernels {
   StreamFn stream;
   ExactFn exact;
   NormFn norm;
-  const char* name;  ///< "avx2" or "sse4"
+  const char* name;  ///< "avx2" or "sse4" (x86), "portable" (other targets)
 };
 
 /// The fastest kernels the CPU supports (AVX2+FMA if present and allowed, else SSE4.2).
