@@ -34,7 +34,13 @@ if [ ${#missing[@]} -eq 0 ]; then
 fi
 echo "install-deps-aarch64: installing ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
-# Every package must be Multi-Arch: same (or the host's), never one that replaces a host package.
 $SUDO apt-get update -qq
+# Never let an arm64 package replace a host package (a -dev package that is not Multi-Arch: same
+# would remove the amd64 one and break the x86 build): refuse when apt would remove anything.
+if apt-get install -s --no-install-recommends "${missing[@]}" | grep -q '^Remv'; then
+  echo "install-deps-aarch64: installing ${missing[*]} would remove packages:" >&2
+  apt-get install -s --no-install-recommends "${missing[@]}" | grep '^Remv' >&2
+  exit 1
+fi
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 echo "install-deps-aarch64: done"

@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# The aarch64 stage of scripts/test.sh (issue 19): cross-compiles the core modules (the ones
+# without OpenCV/Exiv2, AEROVO_CORE_ONLY) for aarch64 with Debian's g++-aarch64-linux-gnu
+# (cmake/toolchain-aarch64-linux-gnu.cmake) in build-aarch64/, Release (-O2), and runs their unit
+# tests under qemu-aarch64 through ctest, twice: AEROVO_SIMD=native (the NEON/SVE kernels chosen at
+# run time) and AEROVO_SIMD=scalar (the portable path). SurfMatchGolden compares the keypoints
+# and matches with the ones recorded on x86. Environment:
+#   AARCH64_BUILD_DIR   build directory (build-aarch64)
+#   AEROVO_SKIP_AARCH64=1  skip the stage (scripts/test.sh)
+# Excluded under qemu (ctest -E, the regex below), measured 2026-12-02 with qemu-user 7.2:
+#   - SurfAdaptive.IdenticalForIdenticalInputAndAnyThreadCount: SURF with 3 OpenMP threads does
+#     not finish under qemu-user (600 s timeout; 1 thread passes);
+#   - MavlinkLink.*: the autopilot link's receive thread with UDP sockets and wall-clock
+#     timeouts does not finish under qemu-user (600 s timeout). The framing, CRC, message and
+#     parser tests (Mavlink*, MavlinkParser*, MavlinkUrl*) do run.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BUILD=${AARCH64_BUILD_DIR:-build-aarch64}
+JOBS=$(nproc)
+EXCLUDE='^(SurfAdaptive\.IdenticalForIdenticalInputAndAnyThreadCount|MavlinkLink\..*)$'
+./scripts/install-deps-aarch64.sh
+t0=$(date +%s)
+cmake -S . -B "$BUILD" -G Ninja -DCMAKE_TOOLCHAIN_FILE=cmake/toolchain-aarch64-linux-gnu.cmake \
+  -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_FLAGS_RELEASE="-O2 -DNDEBUG" -DAEROVO_CORE_ONLY=ON \
+  -DAEROVO_BUILD_TESTS=ON -DAEROVO_SANITIZE=OFF -DAEROVO_NATIVE=OFF >/dev/null
+cmake --build "$BUILD" --parallel "$JOBS"
+t1=$(date +%s)
+echo "test-aarch64: build took $((t1 - t0)) s"
+for simd in native scalar; do
+  echo "test-aarch64: ctest under qemu-aarch64, AEROVO_SIMD=$simd"
+  AEROVO_SIMD=$simd ctest --test-dir "$BUILD" --output-on-failure --no-tests=error \
+    --parallel "$JOBS" --timeout 300 -E "$EXCLUDE"
+done
+echo "test-aarch64: tests took $(($(date +%s) - t1)) s"
