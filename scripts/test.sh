@@ -2,11 +2,14 @@
 # Installs the dependencies, builds aerovo and runs every test: this is the README's test command
 # and what CI (.ci/run) runs, on a clean clone with 2 cores. Stages:
 #   1. Release build (tests, benchmarks, examples) in build/, every test (ctest);
+#   1b. aarch64: the core modules cross-compiled for aarch64 (build-aarch64/), their unit tests
+#      under qemu-aarch64, NEON and scalar paths (scripts/test-aarch64.sh);
 #   2. AddressSanitizer + UndefinedBehaviorSanitizer build (-O1 -g1, no benchmarks) in
 #      build-asan/, every test again; any ASan/UBSan/LeakSanitizer report fails the test;
 #   3. the libFuzzer targets (scripts/fuzz.sh, clang++, build-fuzz/), FUZZ_TIME s each (30).
 # Each stage prints its duration. Environment:
 #   AEROVO_TEST_QUICK=1   developers: stage 1 only (Release build + tests)
+#   AEROVO_SKIP_AARCH64=1 skip the aarch64 cross build and its qemu tests
 #   BUILD_DIR, ASAN_BUILD_DIR, FUZZ_BUILD_DIR   build directories (build, build-asan, build-fuzz)
 #   FUZZ_TIME             seconds per fuzz target (default 30)
 #   AEROVO_CONFIGURE_ONLY=1  only configure stage 1's build dir (tests/readme_order_test.sh)
@@ -63,6 +66,7 @@ sanitizers() {
 
 stage release release
 if [ "${AEROVO_TEST_QUICK:-0}" != 1 ]; then
+  [ "${AEROVO_SKIP_AARCH64:-0}" = 1 ] || stage aarch64 ./scripts/test-aarch64.sh
   stage sanitizers sanitizers
   stage fuzz ./scripts/fuzz.sh
 fi

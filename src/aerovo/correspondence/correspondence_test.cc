@@ -10,9 +10,11 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#if AEROVO_TESTS_HAVE_OPENCV  // 0 in the builds without OpenCV (AEROVO_CORE_ONLY, aarch64)
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#endif
 
 #include "aerovo/core/testing.h"
 #include "aerovo/estimation/testing.h"
@@ -813,6 +815,7 @@ TEST(RefitOnAllPoints, ValidateNamesBothFieldsWhenTheRefitHasNoRadius) {
 
 // ---------------------------------------------------------------- real imagery (../shared)
 
+#if AEROVO_TESTS_HAVE_OPENCV  // the orthophoto is a JPEG: read with OpenCV
 // Two 1920x1080 crops of the Callas orthophoto, the second moved by (72, 18) px: the true
 // curr_from_prev is the shift (-72, -18). SURF (MATLAB defaults) on both; standard, clustered
 // (paper) and clustered (refined) must all recover the shift within 1 px at the corners, and
@@ -861,6 +864,7 @@ TEST(CorrespondenceRealData, CallasShiftedCrops) {
     EXPECT_LT(rc.num_comparisons * 5, rs.num_comparisons) << "refine " << refine;
   }
 }
+#endif  // AEROVO_TESTS_HAVE_OPENCV
 
 }  // namespace
 }  // namespace aerovo

@@ -373,7 +373,9 @@ TEST(RansacPolish, MakesTheEstimateIndependentOfTheSeed) {
     polished_spread = std::max(polished_spread, MaxCornerDisplacementPx(polished[k], polished[0],
                                                                         kFrameWidth, kFrameHeight));
   }
-  EXPECT_GT(plain_spread, 0.1);  // The scene does exercise the problem...
+  // The scene does exercise the problem (spreads 50x the polished bound; 0.071 px on aarch64,
+  // whose libm rounds the generated data differently from x86)...
+  EXPECT_GT(plain_spread, 0.05);
   EXPECT_LT(polished_spread, 1e-3)
       << "plain spread " << plain_spread;  // ...and the polish fixes it.
 

@@ -29,7 +29,11 @@ GeodesicInverseResult GeodesicInverse(const GeoPoint& from, const GeoPoint& to) 
   GeodesicInverseResult r;
   GeographicLib::Geodesic::WGS84().Inverse(from.lat_deg, from.lon_deg, to.lat_deg, to.lon_deg,
                                            r.distance_m, r.azimuth1_deg, r.azimuth2_deg);
-  if (r.distance_m == 0.0) {
+  // Coincident points have no bearing: 0 by convention. Equal coordinates are tested as well as
+  // a zero distance: GeographicLib built for aarch64 (fused multiply-adds) returns a distance of
+  // a few nanometres and an azimuth of 180 degrees for two identical points.
+  if (r.distance_m == 0.0 || (from.lat_deg == to.lat_deg && from.lon_deg == to.lon_deg)) {
+    r.distance_m = 0.0;
     r.azimuth1_deg = 0.0;
     r.azimuth2_deg = 0.0;
   }

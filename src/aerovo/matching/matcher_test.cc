@@ -14,7 +14,9 @@
 #include <string>
 #include <vector>
 
+#if AEROVO_TESTS_HAVE_OPENCV  // 0 in the builds without OpenCV (AEROVO_CORE_ONLY, aarch64)
 #include <opencv2/imgcodecs.hpp>
+#endif
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
@@ -758,6 +760,7 @@ TEST(MatcherTest, RejectsInconsistentInputs) {
   EXPECT_THROW(m.Match(s64.prev, s64.curr, {}, bad_prior), InvalidArgument);
 }
 
+#if AEROVO_TESTS_HAVE_OPENCV  // the orthophoto is a JPEG: read with OpenCV
 // Real SURF descriptors: two 800 x 600 crops of the Callas quarry orthophoto (8192 x 6400), the
 // second shifted by (kCropDx, kCropDy) = (+41, -23) px, so a point (u, v) of the first is at
 // (u - 41, v + 23) in the second. A textured part of the quarry terraces (the centre is a flat
@@ -812,6 +815,8 @@ TEST(MatcherTest, RealSurfPairFromOrthophoto) {
     EXPECT_LT(gd.num_comparisons * 10, ex.num_comparisons);
   }
 }
+
+#endif  // AEROVO_TESTS_HAVE_OPENCV
 
 // ------------------------------------------------------------------------------------------
 // k-d forest (MatchAlgorithm::kKdForest).
@@ -1003,6 +1008,7 @@ TEST(MatcherKdForestTest, ValidateRejectsBadKdOptions) {
   expect_bad(o, "algorithm");
 }
 
+#if AEROVO_TESTS_HAVE_OPENCV
 // Real SURF descriptors (the crops of RealSurfPairFromOrthophoto).
 TEST(MatcherKdForestTest, RecallOnRealSurfPair) {
   AEROVO_REQUIRE_SHARED(path, "data/ortho/callas-quarry.jpg");
@@ -1030,6 +1036,7 @@ TEST(MatcherKdForestTest, RecallOnRealSurfPair) {
     }
   }
 }
+#endif  // AEROVO_TESTS_HAVE_OPENCV
 
 }  // namespace
 }  // namespace aerovo

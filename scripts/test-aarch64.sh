@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# The aarch64 stage of scripts/test.sh (issue 19): cross-compiles the core modules (the ones
+# without OpenCV/Exiv2, AEROVO_CORE_ONLY) for aarch64 with Debian's g++-aarch64-linux-gnu
+# (cmake/toolchain-aarch64-linux-gnu.cmake) in build-aarch64/, Release (-O2), and runs their unit
+# tests under qemu-aarch64 through ctest, twice: AEROVO_SIMD=native (the NEON/SVE kernels chosen at
+# run time) and AEROVO_SIMD=scalar (the portable path; the SURF and matcher tests only).
+# SurfMatchGolden compares the keypoints and matches with the ones recorded on x86. Environment:
+#   AARCH64_BUILD_DIR   build directory (build-aarch64)
+#   AEROVO_SKIP_AARCH64=1  skip the stage (scripts/test.sh)
+# Excluded under qemu (ctest -E, the regex below), measured 2026-12-02 with qemu-user 7.2:
+#   - the tests that run OpenMP with several threads do not finish under qemu-user (600 s and
+#     300 s timeouts; the same code with 1 thread passes):
+#     SurfAdaptive.IdenticalForIdenticalInputAndAnyThreadCount (3 threads),
+#     MatcherTest.MultiThreadAndKernelsGiveIdenticalResults,
+#     MatcherKdForestTest.DeterministicAcrossSeedsThreadsAndReuse (2, 3, all threads);
+#   - MavlinkLink.*: the autopilot link's receive thread with UDP sockets and wall-clock
+#     timeouts does not finish under qemu-user (600 s timeout). The framing, CRC, message and
+#     parser tests (Mavlink*, MavlinkParser*, MavlinkUrl*) do run.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BUILD=${AARCH64_BUILD_DIR:-build-aarch64}
+JOBS=$(nproc)
+SIMD_TESTS='^(Surf|Sigmas/SurfBlob|Matcher)'
+EXCLUDE='^(SurfAdaptive\.IdenticalForIdenticalInputAndAnyThreadCount|MatcherTest\.MultiThreadAndKernelsGiveIdenticalResults|MatcherKdForestTest\.DeterministicAcrossSeedsThreadsAndReuse|MavlinkLink\..*)$'
+./scripts/install-deps-aarch64.sh
+t0=$(date +%s)
+cmake -S . -B "$BUILD" -G Ninja -DCMAKE_TOOLCHAIN_FILE=cmake/toolchain-aarch64-linux-gnu.cmake \
+  -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_FLAGS_RELEASE="-O2 -DNDEBUG" -DAEROVO_CORE_ONLY=ON \
+  -DAEROVO_BUILD_TESTS=ON -DAEROVO_SANITIZE=OFF -DAEROVO_NATIVE=OFF >/dev/null
+cmake --build "$BUILD" --parallel "$JOBS"
+t1=$(date +%s)
+echo "test-aarch64: build took $((t1 - t0)) s"
+# Every core unit test with the run-time choice of kernels; then, with the portable (scalar)
+# kernels, the tests of the code that has SIMD kernels (SURF and the matcher, with the golden
+# comparison): the other modules run the same code in both modes.
+echo "test-aarch64: ctest under qemu-aarch64, AEROVO_SIMD=native (all core unit tests)"
+AEROVO_SIMD=native ctest --test-dir "$BUILD" --output-on-failure --no-tests=error \
+  --parallel "$JOBS" --timeout 300 -E "$EXCLUDE"
+t2=$(date +%s)
+echo "test-aarch64: AEROVO_SIMD=native took $((t2 - t1)) s"
+echo "test-aarch64: ctest under qemu-aarch64, AEROVO_SIMD=scalar (SURF, matcher, golden)"
+AEROVO_SIMD=scalar ctest --test-dir "$BUILD" --output-on-failure --no-tests=error \
+  --parallel "$JOBS" --timeout 300 -E "$EXCLUDE" -R "$SIMD_TESTS"
+echo "test-aarch64: AEROVO_SIMD=scalar took $(($(date +%s) - t2)) s"
+echo "test-aarch64: tests took $(($(date +%s) - t1)) s"
