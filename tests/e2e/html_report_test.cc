@@ -271,7 +271,15 @@ TEST_F(HtmlReport, RunFolderReport) {
   EXPECT_EQ(static_cast<int>(map["vo"].size()), geo);
   EXPECT_EQ(static_cast<int>(map["info"].size()), geo);
   EXPECT_EQ(static_cast<int>(map["gps"].size()), gps);
-  EXPECT_TRUE(map["mosaic"].is_null());  // no mosaic_geo.json in this folder
+  // The report's own geo mosaic (mosaic_geo.json/.png) is on the map, around the GPS fixes.
+  ASSERT_TRUE(map["mosaic"].is_object());
+  EXPECT_EQ(map["mosaic"]["uri"].get<std::string>().rfind("data:image/png;base64,", 0), 0u);
+  for (const nlohmann::json& g : map["gps"]) {
+    EXPECT_GT(g[0].get<double>(), map["mosaic"]["south"].get<double>());
+    EXPECT_LT(g[0].get<double>(), map["mosaic"]["north"].get<double>());
+    EXPECT_GT(g[1].get<double>(), map["mosaic"]["west"].get<double>());
+    EXPECT_LT(g[1].get<double>(), map["mosaic"]["east"].get<double>());
+  }
   EXPECT_EQ(map["colours"]["vo"], "#D55E00");
   EXPECT_EQ(map["colours"]["gps"], "#0072B2");
   // A frame's entry: [frame, time, status, distance to its fix as drawn, SE(2) error]; the
@@ -569,6 +577,7 @@ TEST_F(HtmlReport, RendersInHeadlessChromium) {
   const RunData data = ReadRunDir(run);
   WriteGeoMosaicFixture(run, data);
   ReportOptions o;
+  o.mosaic = false;    // the fixture's plain grey is the overlay the screenshot looks for
   o.plot.png = false;  // the page inlines the SVGs; PNG files play no part in it
   const ReportResult r = WriteReport(run, o);
   const std::string url = "file://" + fs::absolute(r.html).string();

@@ -76,6 +76,8 @@ TEST(RunCli, EveryOptionByFlagWithTheSameEffectAsByJson) {
   nlohmann::json expected = ToJson(Base()), expected_by_alias = ToJson(Base());
   std::string args, alias_args = "flight.mp4";
   for (const testing::Sample& s : testing::Samples()) {
+    // A calibration file gives the distortion: not with k1..k3/p1/p2 (RunCli.CalibrationFlag).
+    if (s.key == "calibration") continue;
     // end_s must stay >= start_s (also given): a later end than the sample's.
     const nlohmann::json value = s.key == "end_s" ? nlohmann::json(1000.0) : s.value;
     const std::string word = s.cli_switch ? "" : " " + FlagValue(value);
@@ -94,6 +96,15 @@ TEST(RunCli, EveryOptionByFlagWithTheSameEffectAsByJson) {
     EXPECT_EQ(by_alias[key], value) << key;
   }
   EXPECT_EQ(by_alias, expected_by_alias);
+}
+
+// --calibration: the one option the all-at-once test leaves out (it excludes k1..k3, p1, p2).
+TEST(RunCli, CalibrationFlag) {
+  const nlohmann::json c = PrintConfig("flight.mp4 --calibration cam.yaml");
+  EXPECT_EQ(c["calibration"], "cam.yaml");
+  const CliResult both = RunCli("run flight.mp4 --calibration cam.yaml --k1 0.1 --print-config 2>&1");
+  EXPECT_EQ(WEXITSTATUS(both.status), 2) << both.out;
+  EXPECT_NE(both.out.find("leave k1, k2, p1, p2, k3 at 0"), std::string::npos) << both.out;
 }
 
 TEST(RunCli, LegacyFlagsShorthandsAndConflicts) {
