@@ -113,10 +113,13 @@ void WriteDjiSrt(std::ostream& out, const Simulator& sim, const std::string& sta
   // off. 2 decimals as DJI writes it: the focal length survives to within 0.02 %.
   const CameraModel& cam = sim.options().camera;
   const double focal_35mm_mm = Focal35mmFromPx(FocalPx(cam), cam.width_px, cam.height_px);
-  // A flight with an attitude (FlightPlan pitch_deg, roll_deg, wobble_deg) writes it as gimbal
-  // angles; a nadir flight's entries have none, as before.
-  const FlightPlan& plan = sim.options().flight;
-  const bool has_attitude = plan.pitch_deg != 0.0 || plan.roll_deg != 0.0 || plan.wobble_deg != 0.0;
+  // A flight whose camera tilts at any frame (FlightPlan pitch_deg, roll_deg, wobble_deg, the
+  // banked turns of the fixed-wing pattern) writes its attitude as gimbal angles; a nadir
+  // flight's entries have none, as before.
+  bool has_attitude = false;
+  for (const auto& pose : sim.ground_truth()) {
+    has_attitude = has_attitude || pose.pitch_deg != 0.0 || pose.roll_deg != 0.0;
+  }
   DjiSrtEntry e;
   e.diff_ms = diff_ms;
   e.focal_35mm_mm = focal_35mm_mm;
