@@ -15,6 +15,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "e2e_testing.h"
+
 namespace aerovo {
 namespace {
 
@@ -38,12 +40,7 @@ nlohmann::json Summary(const fs::path& run) {
   return nlohmann::json::parse(in);
 }
 
-std::string ReadText(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using e2e::ReadText;
 
 void WriteText(const fs::path& p, const std::string& text) { std::ofstream(p) << text; }
 

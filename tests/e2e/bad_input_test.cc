@@ -100,24 +100,7 @@ RunConfig Config(const fs::path& input, const fs::path& out) {
   return c;
 }
 
-// frames.csv as rows of column name -> cell.
-std::vector<std::map<std::string, std::string>> ReadFramesCsv(const fs::path& run_dir) {
-  std::ifstream in(run_dir / "frames.csv");
-  std::vector<std::map<std::string, std::string>> rows;
-  std::string line;
-  if (!std::getline(in, line)) return rows;
-  std::vector<std::string> header;
-  std::stringstream hs(line);
-  for (std::string f; std::getline(hs, f, ',');) header.push_back(f);
-  while (std::getline(in, line)) {
-    std::map<std::string, std::string> row;
-    std::stringstream ls(line);
-    std::string f;
-    for (std::size_t i = 0; i < header.size() && std::getline(ls, f, ','); ++i) row[header[i]] = f;
-    rows.push_back(row);
-  }
-  return rows;
-}
+using e2e::ReadFramesCsv;
 
 double Num(const std::map<std::string, std::string>& row, const std::string& key) {
   const auto it = row.find(key);

@@ -22,6 +22,8 @@
 #include <nlohmann/json.hpp>
 #include <pugixml.hpp>
 
+#include "e2e_testing.h"
+
 namespace aerovo {
 namespace {
 
@@ -29,19 +31,8 @@ namespace fs = std::filesystem;
 
 #ifdef AEROVO_CLI_PATH
 
-std::string ReadText(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-int CountLines(const fs::path& p) {
-  std::ifstream in(p);
-  int n = 0;
-  for (std::string line; std::getline(in, line);) ++n;
-  return n;
-}
+using e2e::ReadText;
+using e2e::CountLines;
 
 class CliSignal : public ::testing::Test {
  protected:

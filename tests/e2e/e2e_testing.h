@@ -1,11 +1,16 @@
-// Helpers shared by the end-to-end tests that fly over generated terrain (bad_input_test,
-// frame_input_test, telemetry_trust_test): a fresh scratch folder and the grey terrain.
+// Helpers shared by the end-to-end tests: a fresh scratch folder, the grey terrain of the tests
+// that fly over generated ground, and reading back the files a run wrote (whole text, line
+// count, frames.csv as rows).
 #pragma once
 
 #include <unistd.h>
 
 #include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -33,6 +38,43 @@ inline cv::Mat GreyTerrain(double metres_per_px, unsigned seed, int size_px = 16
   cv::Mat grey;
   cv::cvtColor(sim::GenerateTerrain(t), grey, cv::COLOR_BGR2GRAY);
   return grey;
+}
+
+/// The whole file as bytes ("" when it cannot be read).
+inline std::string ReadText(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// Number of lines of the file (0 when it cannot be read).
+inline int CountLines(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  int n = 0;
+  for (std::string line; std::getline(in, line);) ++n;
+  return n;
+}
+
+/// A run folder's frames.csv as rows of column name -> cell (no quoting: aerovo's cells hold no
+/// comma). Empty when the file is missing or has only its header.
+inline std::vector<std::map<std::string, std::string>> ReadFramesCsv(
+    const std::filesystem::path& run_dir) {
+  std::ifstream in(run_dir / "frames.csv");
+  std::vector<std::map<std::string, std::string>> rows;
+  std::string line;
+  if (!std::getline(in, line)) return rows;
+  std::vector<std::string> header;
+  std::stringstream hs(line);
+  for (std::string f; std::getline(hs, f, ',');) header.push_back(f);
+  while (std::getline(in, line)) {
+    std::map<std::string, std::string> row;
+    std::stringstream ls(line);
+    std::string f;
+    for (std::size_t i = 0; i < header.size() && std::getline(ls, f, ','); ++i) row[header[i]] = f;
+    rows.push_back(row);
+  }
+  return rows;
 }
 
 }  // namespace aerovo::e2e

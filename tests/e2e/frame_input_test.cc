@@ -196,8 +196,8 @@ TEST(FrameInput, RepeatedVideoFrameIsFlaggedAndCounted) {
     EXPECT_EQ(rows[i].status.find("+duplicate") != std::string::npos, i == 5) << i;
   }
   EXPECT_EQ(rows[5].status, "ok+duplicate");
-  EXPECT_NE(FormatSummaryTable(s).find("flagged by the input      duplicate 1"), std::string::npos)
-      << FormatSummaryTable(s);
+  EXPECT_NE(FormatRunSummary(s).find("flagged by the input: duplicate 1"), std::string::npos)
+      << FormatRunSummary(s);
   EXPECT_NEAR(std::hypot(rows[8].x_m, rows[8].y_m), 14.0, 0.5);
   EXPECT_EQ(ReadJson(dir / "run" / "summary.json")["frames_flagged"]["duplicate"], 1);
   fs::remove_all(dir);

@@ -28,6 +28,8 @@
 #include "aerovo/report/geo_mosaic.h"
 #include "aerovo/report/run_reader.h"
 
+#include "e2e_testing.h"
+
 namespace aerovo {
 namespace {
 
@@ -50,12 +52,7 @@ bool Have(const char* tool) {
   return std::system((std::string("command -v ") + tool + " > /dev/null 2>&1").c_str()) == 0;
 }
 
-std::string ReadText(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using e2e::ReadText;
 
 // Band values (R, G, B, A per point) of the GeoTIFF at "lon lat" lines (gdallocationinfo).
 std::vector<int> TifValues(const fs::path& tif, const std::string& lon_lat_lines) {

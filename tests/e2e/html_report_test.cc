@@ -31,17 +31,14 @@
 #include "aerovo/report/leaflet_assets.h"
 #include "aerovo/report/run_reader.h"
 
+#include "e2e_testing.h"
+
 namespace aerovo {
 namespace {
 
 namespace fs = std::filesystem;
 
-std::string ReadText(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using e2e::ReadText;
 
 int Count(const std::string& text, const std::string& what) {
   int n = 0;

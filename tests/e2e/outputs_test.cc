@@ -27,6 +27,8 @@
 #include <opencv2/imgproc.hpp>
 #include <pugixml.hpp>
 
+#include "e2e_testing.h"
+
 namespace aerovo {
 namespace {
 
@@ -35,19 +37,8 @@ using Clock = std::chrono::steady_clock;
 
 #ifdef AEROVO_CLI_PATH
 
-std::string ReadText(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-int CountLines(const fs::path& p) {
-  std::ifstream in(p);
-  int n = 0;
-  for (std::string line; std::getline(in, line);) ++n;
-  return n;
-}
+using e2e::ReadText;
+using e2e::CountLines;
 
 struct Child {
   pid_t pid = -1;

@@ -27,17 +27,14 @@
 #include "aerovo/report/run_reader.h"
 #include "aerovo/sim/simulator.h"
 
+#include "e2e_testing.h"
+
 namespace aerovo {
 namespace {
 
 namespace fs = std::filesystem;
 
-std::string ReadText(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using e2e::ReadText;
 
 std::vector<std::string> Lines(const std::string& text) {
   std::vector<std::string> lines;

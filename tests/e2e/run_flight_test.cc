@@ -31,6 +31,8 @@
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
 
+#include "e2e_testing.h"
+
 namespace aerovo {
 namespace {
 
@@ -44,12 +46,7 @@ fs::path TempDir(const std::string& name) {
   return dir;
 }
 
-std::string ReadText(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using e2e::ReadText;
 
 // Every CSV row complete: as many fields as the header (no quoted commas in our rows).
 int CheckCsvRows(const fs::path& p) {

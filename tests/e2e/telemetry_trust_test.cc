@@ -127,23 +127,7 @@ RunConfig Config(const fs::path& photos, const fs::path& out, const fs::path& te
   return c;
 }
 
-std::vector<std::map<std::string, std::string>> ReadFramesCsv(const fs::path& run_dir) {
-  std::ifstream in(run_dir / "frames.csv");
-  std::vector<std::map<std::string, std::string>> rows;
-  std::string line;
-  if (!std::getline(in, line)) return rows;
-  std::vector<std::string> header;
-  std::stringstream hs(line);
-  for (std::string f; std::getline(hs, f, ',');) header.push_back(f);
-  while (std::getline(in, line)) {
-    std::map<std::string, std::string> row;
-    std::stringstream ls(line);
-    std::string f;
-    for (std::size_t i = 0; i < header.size() && std::getline(ls, f, ','); ++i) row[header[i]] = f;
-    rows.push_back(row);
-  }
-  return rows;
-}
+using e2e::ReadFramesCsv;
 
 // Geodesic distance (m) between the geo-referenced VO position of the last frame and the truth.
 double EndErrorM(const fs::path& run_dir, const std::vector<Eigen::Vector2d>& path) {
@@ -414,8 +398,8 @@ TEST(TelemetryTrust, NoComparisonWithGpsSaysWhy) {
   ASSERT_FALSE(s.evaluation.has_value());
   EXPECT_NE(s.gps_comparison_note.find("no step between frames was measured"), std::string::npos)
       << s.gps_comparison_note;
-  EXPECT_NE(FormatSummaryTable(s).find("no step between frames was measured"), std::string::npos);
-  EXPECT_EQ(FormatSummaryTable(s).find("fewer than 3 frames with a fix"), std::string::npos);
+  EXPECT_NE(FormatRunSummary(s).find("no step between frames was measured"), std::string::npos);
+  EXPECT_EQ(FormatRunSummary(s).find("fewer than 3 frames with a fix"), std::string::npos);
   EXPECT_TRUE(HasWarning(s, "no comparison with GPS")) << Joined(s.warnings);
   fs::remove_all(dir);
 }

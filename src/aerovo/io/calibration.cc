@@ -14,6 +14,7 @@
 #include <opencv2/core.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/io/output_file.h"
 
 namespace aerovo {
 namespace {
@@ -141,9 +142,14 @@ Calibration ReadOpenCv(const std::string& path) {
 }
 
 void WriteOpenCv(const std::string& path, const CameraIntrinsics& k) {
+  // Written to memory in the format of the path's extension (.xml or YAML), then to the file
+  // atomically (io/output_file.h), so a failed write leaves the old file or none.
+  const std::string ext = std::filesystem::path(path).extension().string();
+  const bool xml = ext == ".xml" || ext == ".XML";
   cv::FileStorage out;
+  std::string text;
   try {
-    if (!out.open(path, cv::FileStorage::WRITE)) {
+    if (!out.open(xml ? ".xml" : ".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY)) {
       throw InputError(fmt::format("calibration '{}': cannot be written", path));
     }
     out << "image_width" << k.width_px;
@@ -154,10 +160,11 @@ void WriteOpenCv(const std::string& path, const CameraIntrinsics& k) {
     std::vector<double> d = k.distortion;
     if (d.empty()) d.assign(k.model == LensModel::kFisheye ? 4 : 5, 0.0);
     out << "distortion_coefficients" << cv::Mat(d, true).reshape(1, 1);
-    out.release();
+    text = out.releaseAndGetString();
   } catch (const cv::Exception& e) {
     throw InputError(fmt::format("calibration '{}': cannot be written ({})", path, e.msg));
   }
+  WriteFileAtomic(path, text);
 }
 
 // ---- OpenDroneMap / OpenSfM cameras.json -----------------------------------------------------
@@ -284,9 +291,7 @@ void WriteOdm(const std::string& path, const CameraIntrinsics& k, const std::str
     cam["p2"] = d[3];
     cam["k3"] = d[4];
   }
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out << nlohmann::json{{id, cam}}.dump(2) << "\n";
-  if (!out) throw InputError(fmt::format("calibration '{}': cannot be written", path));
+  WriteFileAtomic(path, nlohmann::json{{id, cam}}.dump(2) + "\n");
 }
 
 // ---- COLMAP cameras.txt ------------------------------------------------------------------------
@@ -416,15 +421,14 @@ void WriteColmap(const std::string& path, const CameraIntrinsics& k, const std::
     d.resize(8, 0.0);
   }
   p.insert(p.end(), d.begin(), d.end());
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out << "# Camera list with one line of data per camera:\n"
-         "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
-         "# Number of cameras: 1\n";
-  out << (id.empty() ? std::string("1") : id) << " " << model << " " << k.width_px << " "
-      << k.height_px;
-  for (double v : p) out << " " << fmt::format("{:.17g}", v);
-  out << "\n";
-  if (!out) throw InputError(fmt::format("calibration '{}': cannot be written", path));
+  std::string text =
+      "# Camera list with one line of data per camera:\n"
+      "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
+      "# Number of cameras: 1\n";
+  text += fmt::format("{} {} {} {}", id.empty() ? std::string("1") : id, model, k.width_px,
+                      k.height_px);
+  for (double v : p) text += fmt::format(" {:.17g}", v);
+  WriteFileAtomic(path, text + "\n");
 }
 
 }  // namespace

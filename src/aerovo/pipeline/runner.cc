@@ -90,55 +90,6 @@ nlohmann::json ToJson(const RunSummary& s) {
   return j;
 }
 
-std::string FormatSummaryTable(const RunSummary& s) {
-  std::string t;
-  t += fmt::format("{:<28}{}\n", "Input", s.input);
-  t += fmt::format("{:<28}{}{}\n", "Frames processed", s.frames_processed,
-                   s.interrupted ? "  (interrupted)" : "");
-  t += fmt::format("{:<28}ok {}, re-acquired {}, flagged (bridged) {}\n", "  of which", s.frames_ok,
-                   s.frames_reacquired, s.frames_bridged);
-  if (!s.frames_flagged.empty()) {
-    std::string flags;
-    for (const auto& [flag, n] : s.frames_flagged) {
-      flags += fmt::format("{}{} {}", flags.empty() ? "" : ", ", flag, n);
-    }
-    t += fmt::format("{:<28}{}\n", "  flagged by the input", flags);
-  }
-  t += fmt::format("{:<28}{}\n", "Frames with GPS", s.frames_with_gps);
-  t += fmt::format("{:<28}{:.1f} m\n", "VO path length", s.vo_path_length_m);
-  t += fmt::format("{:<28}{:.1f} px ({})\n", "Focal length", s.focal_px, s.focal_source);
-  t += fmt::format("{:<28}{}\n", "Heading source",
-                   s.heading_source.empty() ? "-" : s.heading_source);
-  if (s.evaluation) {
-    t += "\nComparison with GPS (ENU, after alignment):\n";
-    t += FormatTrajectoryTable(*s.evaluation);
-  } else {
-    t += fmt::format("\nNo comparison with GPS ({}).\n",
-                     s.gps_comparison_note.empty() ? "no frame has a GPS fix"
-                                                   : s.gps_comparison_note);
-  }
-  if (s.truth_evaluation) {
-    t += fmt::format("\nComparison with the ground truth {} ({} frames):\n", s.truth,
-                     s.frames_with_truth);
-    t += FormatTrajectoryTable(*s.truth_evaluation, "truth");
-  }
-  t += fmt::format(
-      "\n{:<28}detect {:.1f}, describe {:.1f}, correspond {:.1f}, estimate {:.1f}, total "
-      "{:.1f}\n",
-      "Mean stage times (ms)", s.mean.detect_ms, s.mean.describe_ms, s.mean.correspond_ms,
-      s.mean.estimate_ms, s.mean.total_ms);
-  t += fmt::format("{:<28}{:.2f} fps ({:.1f} s)\n", "Throughput", s.fps, s.wall_s);
-  if (s.latency.frames > 0) {
-    t += fmt::format("{:<28}median {:.1f}, p95 {:.1f}, max {:.1f}\n", "Latency, capture to pose (ms)",
-                     s.latency.median_ms, s.latency.p95_ms, s.latency.max_ms);
-  }
-  if (s.frames_dropped > 0) {
-    t += fmt::format("{:<28}{} (live source faster than the processing)\n", "Frames dropped",
-                     s.frames_dropped);
-  }
-  return t;
-}
-
 // ---------------------------------------------------------------------------------------------
 // The run
 

@@ -131,10 +131,16 @@ struct RunSummary {
 };
 
 nlohmann::json ToJson(const RunSummary& summary);
-/// The table printed at the end of a run (frames, distance, ATE SE(2)/Sim(2) against GPS and
-/// against the ground truth, end-point and relative error, mean stage times, fps); lines end
-/// with '\n'.
-std::string FormatSummaryTable(const RunSummary& summary);
+/// The headline of a run's end: "Tracked 170 of 172 frames over 1558 m; the track ends 24.6 m
+/// (1.58 %) from GPS." The end error is the unaligned one (the track as geo-referenced during the
+/// flight, at the last frame with a fix); the distance is GPS's path length, else the VO's. No
+/// newline.
+std::string RunHeadline(const RunSummary& summary);
+/// The text printed at the end of a run, every line within 80 columns and ending with '\n': the
+/// headline, a blank line, then the details (frames and their flags, GPS fixes and rejections,
+/// VO distance, camera, the SE(2)/Sim(2) comparison tables against GPS and the ground truth,
+/// mean stage times, fps, latency, dropped frames). The CLI adds the list of files written.
+std::string FormatRunSummary(const RunSummary& summary);
 
 /// Where RunFlight reports to. `log` gets the configuration and messages (may be null);
 /// `progress`, if set, is called after every frame with (frames done, frames expected or -1,

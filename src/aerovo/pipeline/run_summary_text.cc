@@ -1,0 +1,76 @@
+// The text of a run's end (runner.h RunHeadline, FormatRunSummary): one place for the CLI, the
+// tests and any caller of RunFlight.
+#include <algorithm>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "aerovo/eval/trajectory_eval_json.h"
+#include "aerovo/pipeline/runner.h"
+
+namespace aerovo {
+
+std::string RunHeadline(const RunSummary& s) {
+  const int tracked = std::max(0, s.frames_processed - s.frames_bridged);
+  std::string line = s.interrupted ? "Interrupted: tracked " : "Tracked ";
+  line += fmt::format("{} of {} frames", tracked, s.frames_processed);
+  if (s.evaluation) {
+    const TrajectoryErrors& e = s.evaluation->se2;
+    const double end_m = e.end_point_error_unaligned_m;  // centimetres when under 10 m
+    line += fmt::format(" over {:.0f} m; the track ends {:.{}f} m ({:.2f} %) from GPS.",
+                        e.distance_flown_m, end_m, end_m < 10.0 ? 2 : 1,
+                        e.end_point_error_unaligned_percent);
+  } else {
+    line += fmt::format(" over {:.0f} m (VO); no GPS to compare with.", s.vo_path_length_m);
+  }
+  return line;
+}
+
+std::string FormatRunSummary(const RunSummary& s) {
+  std::string t = RunHeadline(s) + "\n\n";
+  t += fmt::format("{:<20}{}\n", "Input", s.input);
+  t += fmt::format("{:<20}{} processed{}: ok {}, re-acquired {}, bridged {}\n", "Frames",
+                   s.frames_processed, s.interrupted ? " (interrupted)" : "", s.frames_ok,
+                   s.frames_reacquired, s.frames_bridged);
+  if (!s.frames_flagged.empty()) {
+    std::string flags;
+    for (const auto& [flag, n] : s.frames_flagged) {
+      flags += fmt::format("{}{} {}", flags.empty() ? "" : ", ", flag, n);
+    }
+    t += fmt::format("{:<20}flagged by the input: {}\n", "", flags);
+  }
+  t += fmt::format("{:<20}{} with a GPS fix{}\n", "", s.frames_with_gps,
+                   s.gps_rejected > 0 ? fmt::format(", {} rejected as implausible", s.gps_rejected)
+                                      : std::string());
+  t += fmt::format("{:<20}{:.1f} m\n", "VO path length", s.vo_path_length_m);
+  t += fmt::format("{:<20}{:.1f} px ({}); heading from {}\n", "Focal length", s.focal_px,
+                   s.focal_source, s.heading_source.empty() ? "-" : s.heading_source);
+  if (s.evaluation) {
+    t += "\nComparison with GPS (ENU, after alignment):\n" + FormatTrajectoryTable(*s.evaluation);
+  } else {
+    t += fmt::format("\nNo comparison with GPS ({}).\n", s.gps_comparison_note.empty()
+                                                            ? "no frame has a GPS fix"
+                                                            : s.gps_comparison_note);
+  }
+  if (s.truth_evaluation) {
+    t += fmt::format("\nComparison with the ground truth ({} frames):\n  {}\n",
+                     s.frames_with_truth, s.truth);
+    t += FormatTrajectoryTable(*s.truth_evaluation, "truth");
+  }
+  t += fmt::format("\n{:<20}detect {:.1f}, describe {:.1f}, correspond {:.1f}\n",
+                   "Stage times (ms)", s.mean.detect_ms, s.mean.describe_ms, s.mean.correspond_ms);
+  t += fmt::format("{:<20}estimate {:.1f}, total {:.1f}\n", "", s.mean.estimate_ms,
+                   s.mean.total_ms);
+  t += fmt::format("{:<20}{:.2f} fps ({:.1f} s)\n", "Throughput", s.fps, s.wall_s);
+  if (s.latency.frames > 0) {
+    t += fmt::format("{:<20}capture to pose: median {:.1f}, p95 {:.1f}, max {:.1f}\n",
+                     "Latency (ms)", s.latency.median_ms, s.latency.p95_ms, s.latency.max_ms);
+  }
+  if (s.frames_dropped > 0) {
+    t += fmt::format("{:<20}{} (a live source faster than the processing)\n", "Frames dropped",
+                     s.frames_dropped);
+  }
+  return t;
+}
+
+}  // namespace aerovo
