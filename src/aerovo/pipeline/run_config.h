@@ -261,7 +261,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.p2, "p2", "Lens distortion p2 (tangential)", Finite());
   v.Field(c.k3, "k3", "Lens distortion k3", Finite());
   v.Field(c.calibration, "calibration", "Camera calibration file: OpenCV YAML/XML, OpenDroneMap cameras.json or COLMAP cameras.txt (pinhole or fisheye; wins over focal_px, hfov_deg, EXIF)", Any());
-  v.Field(c.undistort, "undistort", "Lens undistortion: frames (remap each frame), points (undistort the SURF keypoints) or auto (points when the lens's local scale change over the frame is at most 5 %)", Any());
+  v.Field(c.undistort, "undistort", "Lens undistortion: frames (remap each frame), points (undistort the SURF keypoints) or auto (points when the lens's local scale change over the frame is at most 35 %)", Any());
   v.Field(c.illumination_k, "illumination_k", "Illumination factor k: every frame's brightness times k before SURF (the paper's f_k = k f)", Interval(0, 1, true, false));
   v.Field(c.max_megapixels, "max_megapixels", "Frames above this many megapixels are reduced to it before SURF (focal length scaled with them; 0 = never)", AtLeast(0).Finite());
   v.Field(c.detect_megapixels, "detect_megapixels", "Video and live frames above this many megapixels are reduced by the smallest integer factor that fits (box filter) before SURF, focal length scaled with them (0 = never; photo folders: max_megapixels only)", AtLeast(0).Finite());
