@@ -4,10 +4,12 @@
 // fisheye lenses.
 #include <benchmark/benchmark.h>
 
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
+#include "aerovo/camera/lens.h"
 #include "aerovo/io/camera.h"
 #include "aerovo/io/frame_source.h"
 
@@ -36,7 +38,8 @@ void BM_UndistortImage(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(u.Apply(in.view(), &out).data);
 }
 BENCHMARK(BM_UndistortImage)
-    ->Args({1920, 1080, 0})->Args({1920, 1080, 1})->Args({4000, 3000, 0})->Args({4000, 3000, 1})
+    ->Args({1920, 1080, 0})->Args({1920, 1080, 1})->Args({3840, 2160, 0})->Args({3840, 2160, 1})
+    ->Args({4000, 3000, 0})->Args({4000, 3000, 1})
     ->Unit(benchmark::kMillisecond);
 
 // Args: width, height, fisheye (0/1), points (the adaptive SURF target is 1500).
@@ -57,6 +60,28 @@ void BM_UndistortPoints(benchmark::State& state) {
 BENCHMARK(BM_UndistortPoints)
     ->Args({1920, 1080, 0, 1500})->Args({1920, 1080, 1, 1500})->Args({4000, 3000, 0, 1500})
     ->Args({4000, 3000, 1, 1500})
+    ->Unit(benchmark::kMillisecond);
+
+// The run's points path (`aerovo run --undistort points`): camera/lens.h LensUndistortion on
+// each keypoint, as odometry/visual_odometry.cc does. Args: width, height, fisheye, points.
+void BM_UndistortKeypoints(benchmark::State& state) {
+  const int w = static_cast<int>(state.range(0)), h = static_cast<int>(state.range(1));
+  const aerovo::LensUndistortion lens(Lens(w, h, state.range(2) != 0));
+  std::vector<std::pair<double, double>> base(static_cast<std::size_t>(state.range(3)));
+  cv::RNG rng(5);
+  for (auto& p : base) p = {rng.uniform(0.0, w - 1.0), rng.uniform(0.0, h - 1.0)};
+  for (auto _ : state) {
+    double sum = 0.0;
+    for (const auto& p : base) {
+      double u = 0.0, v = 0.0;
+      if (lens.UndistortPixel(p.first, p.second, &u, &v)) sum += u + v;
+    }
+    benchmark::DoNotOptimize(sum);
+  }
+}
+BENCHMARK(BM_UndistortKeypoints)
+    ->Args({1920, 1080, 0, 1500})->Args({1920, 1080, 1, 1500})->Args({3840, 2160, 0, 1500})
+    ->Args({3840, 2160, 1, 1500})
     ->Unit(benchmark::kMillisecond);
 
 }  // namespace

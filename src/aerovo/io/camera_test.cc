@@ -1,5 +1,7 @@
 #include "aerovo/io/camera.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 
 #include <gmock/gmock.h>
@@ -7,6 +9,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "aerovo/camera/lens.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
 
@@ -278,6 +281,75 @@ TEST(Camera, FisheyeUndistorterImageAndPointsAgree) {
   // A fisheye camera takes 0 or 4 coefficients.
   k.distortion = {0.1, 0.0, 0.0, 0.0, 0.0};
   EXPECT_THROW(Undistorter{k}, InvalidArgument);
+}
+
+// The points path (camera/lens.h LensUndistortion, OpenCV-free): its forward map is the frame
+// path's remap map (OpenCV's initUndistortRectifyMap, output pixel -> distorted pixel) within
+// 1e-3 px, and its iterative inverse undoes it within 1e-6 px, over the whole output frame.
+TEST(Camera, LensUndistortionMatchesTheFramePathsMapsAndInvertsThem) {
+  const int w = 400, h = 300;
+  for (const bool fisheye : {false, true}) {
+    SCOPED_TRACE(fisheye ? "fisheye" : "pinhole");
+    CameraIntrinsics k = IntrinsicsFromFocalPx(260.0, w, h);
+    k.fy_px = 262.0;
+    k.cx_px = 203.0;
+    k.cy_px = 147.0;
+    if (fisheye) {
+      k.model = LensModel::kFisheye;
+      k.distortion = {-0.05, 0.01, -0.002, 0.0005};
+    } else {
+      k.distortion = {-0.08, 0.01, 0.001, -0.0005, 0.0};
+    }
+    const LensUndistortion lens(k);
+    const cv::Matx33d km(k.fx_px, 0, k.cx_px, 0, k.fy_px, k.cy_px, 0, 0, 1);
+    const cv::Matx33d out(260.0, 0, 199.5, 0, 260.0, 149.5, 0, 0, 1);
+    cv::Mat mx, my;
+    if (fisheye) {
+      cv::fisheye::initUndistortRectifyMap(km, k.distortion, cv::Matx33d::eye(), out,
+                                           cv::Size(w, h), CV_32FC1, mx, my);
+    } else {
+      cv::initUndistortRectifyMap(km, k.distortion, cv::Matx33d::eye(), out, cv::Size(w, h),
+                                  CV_32FC1, mx, my);
+    }
+    double worst_map = 0.0, worst_inverse = 0.0;
+    for (int y = 0; y < h; y += 7) {
+      for (int x = 0; x < w; x += 7) {
+        double u = 0.0, v = 0.0, uo = 0.0, vo = 0.0;
+        ASSERT_TRUE(lens.DistortPixel(x, y, &u, &v));
+        worst_map = std::max({worst_map, std::abs(u - mx.at<float>(y, x)),
+                              std::abs(v - my.at<float>(y, x))});
+        ASSERT_TRUE(lens.UndistortPixel(u, v, &uo, &vo)) << x << "," << y;
+        worst_inverse = std::max({worst_inverse, std::abs(uo - x), std::abs(vo - y)});
+      }
+    }
+    EXPECT_LT(worst_map, 1e-3);
+    EXPECT_LT(worst_inverse, 1e-6);
+  }
+}
+
+// The auto rule's measure (MaxLensScaleChange): 0 for an ideal pinhole; the fisheye's
+// tangential scale theta_d / tan(theta) at 43 degrees off axis; the mild pinhole lens and the
+// fisheye of tests/e2e/wide_lens_test.cc on either side of kPointsMaxScaleChange.
+TEST(Camera, LensScaleChangeOfTheAutoRule) {
+  EXPECT_EQ(MaxLensScaleChange(IntrinsicsFromFocalPx(500.0, 960, 720)), 0.0);
+  CameraIntrinsics f = IntrinsicsFromFocalPx(450.0, 960, 720);
+  f.model = LensModel::kFisheye;
+  f.distortion = {-0.05, 0.01, -0.002, 0.0005};
+  const LensUndistortion fl(f);
+  // Normalised (0.8, 0.5): r = 0.943, theta = 0.756 rad.
+  const double r = std::hypot(0.8, 0.5), t = std::atan(r);
+  const double td = t * (1 - 0.05 * t * t + 0.01 * std::pow(t, 4) - 0.002 * std::pow(t, 6) +
+                         0.0005 * std::pow(t, 8));
+  const std::array<double, 2> s = fl.LocalScale(479.5 + 0.8 * 450.0, 359.5 + 0.5 * 450.0);
+  EXPECT_NEAR(s[1], td / r, 1e-9) << "the tangential scale is the larger one";
+  EXPECT_LT(s[0], s[1]);
+  EXPECT_GT(fl.MaxScaleChange(), kPointsMaxScaleChange);
+  // 960x720 at 73.7 degrees (the simulator's default), k1 = -0.05: 0.145 (measured).
+  CameraIntrinsics p = IntrinsicsFromFocalPx(FocalPxFromHorizontalFov(73.7, 960), 960, 720);
+  p.distortion = {-0.05, 0.0, 0.0, 0.0, 0.0};
+  const double mild = MaxLensScaleChange(p);
+  EXPECT_GT(mild, 0.1);
+  EXPECT_LT(mild, kPointsMaxScaleChange);
 }
 
 // An off-centre principal point and fx != fy: the output is the centred square-pixel camera.

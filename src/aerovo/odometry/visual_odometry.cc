@@ -8,9 +8,11 @@
 #include <vector>
 
 #include <Eigen/Geometry>
+#include <fmt/format.h>
 #include <Eigen/LU>
 #include <Eigen/SVD>
 
+#include "aerovo/camera/lens.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
 
@@ -136,6 +138,31 @@ CorrespondenceOptions RelocaliseOptions(const OdometryOptions& o) {
 
 }  // namespace
 
+namespace {
+
+// The keypoints of a distorted frame to the ideal pinhole (SetLensUndistortion), in place; the
+// ones without a pinhole position are removed with their descriptors (no allocation).
+void UndistortKeypoints(const LensUndistortion& lens, FeatureSet* features) {
+  std::vector<Keypoint>& kps = features->keypoints;
+  const std::size_t dim = static_cast<std::size_t>(features->descriptor_size);
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < kps.size(); ++i) {
+    double u = 0.0, v = 0.0;
+    if (!lens.UndistortPixel(kps[i].x, kps[i].y, &u, &v)) continue;
+    if (kept != i) {
+      kps[kept] = kps[i];
+      std::copy_n(features->descriptor(i), dim, features->descriptor(kept));
+    }
+    kps[kept].x = static_cast<float>(u);
+    kps[kept].y = static_cast<float>(v);
+    ++kept;
+  }
+  kps.resize(kept);
+  features->descriptors.resize(kept * dim);
+}
+
+}  // namespace
+
 struct VisualOdometry::Impl {
   // Frame-to-frame steps use o.correspondence as given (its refinement included), guided or
   // not; keyframes the relocalisation's options.
@@ -149,6 +176,7 @@ struct VisualOdometry::Impl {
                         o.correspondence.clustered.refine_fallback) {}
 
   Surf surf;
+  std::optional<LensUndistortion> lens;  // SetLensUndistortion: keypoints to the ideal pinhole
   double surf_min_response = 0.0;  // Adaptive SURF's floor for the next frame (0 = its option).
   CorrespondenceStage guided, unguided, relocalise;
   // A relocalisation is a standard result: refit on all points like a fall-back
@@ -356,6 +384,9 @@ VisualOdometry::VisualOdometry(const OdometryOptions& options) : options_(option
   Validate(options_);
   impl_ = std::make_unique<Impl>(options_);
 }
+void VisualOdometry::SetLensUndistortion(const CameraIntrinsics& lens) {
+  impl_->lens.emplace(lens);
+}
 VisualOdometry::~VisualOdometry() = default;
 VisualOdometry::VisualOdometry(VisualOdometry&&) noexcept = default;
 VisualOdometry& VisualOdometry::operator=(VisualOdometry&&) noexcept = default;
@@ -388,6 +419,14 @@ FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
   s.surf_min_response = features.next_min_response;
   r.detect_ms = features.detect_ms;
   r.describe_ms = features.describe_ms;
+  if (s.lens) {
+    if (frame.width != s.lens->input().width_px || frame.height != s.lens->input().height_px) {
+      throw InputError(fmt::format("frame {}: size {}x{} differs from the lens's {}x{}", r.index,
+                                   frame.width, frame.height, s.lens->input().width_px,
+                                   s.lens->input().height_px));
+    }
+    UndistortKeypoints(*s.lens, &features.features);
+  }
   r.n_surf = static_cast<int>(features.features.size());
   if (attitude) {
     r.tilt_deg = TiltFromNadirDeg(*attitude);

@@ -14,6 +14,7 @@
 
 #include <Eigen/Core>
 
+#include "aerovo/camera/pinhole.h"
 #include "aerovo/core/image.h"
 #include "aerovo/core/options.h"
 #include "aerovo/correspondence/correspondence.h"
@@ -221,6 +222,17 @@ class VisualOdometry {
   VisualOdometry& operator=(VisualOdometry&&) noexcept;
 
   const OdometryOptions& options() const { return options_; }
+
+  /// The frames given to Process are distorted by `lens` (camera/pinhole.h; pinhole or fisheye
+  /// model): SURF runs on them as they are and every keypoint's position is then mapped to the
+  /// ideal pinhole of focal lens.fx_px centred in the frame (camera/lens.h LensUndistortion,
+  /// iterative inverse, no allocation), before the attitude correction, matching and RANSAC, so
+  /// the steps are those of undistorted frames (the points path of `aerovo run --undistort`,
+  /// docs/lenses.md). A keypoint whose ray has no pinhole position is dropped.
+  /// Preconditions: called before the first frame; options.focal_px is lens.fx_px (or 0).
+  /// Frames of another size than the lens's: InputError naming the frame. Throws
+  /// InvalidArgument as Validate(CameraIntrinsics) does.
+  void SetLensUndistortion(const CameraIntrinsics& lens);
 
   /// Processes the next frame. `height_m`: height above ground (else options.default_height_m);
   /// `yaw_deg`: camera compass yaw (used only with options.heading_from_yaw).

@@ -48,6 +48,20 @@ template <>
 struct options::EnumTraits<AttitudeMode>
     : options::EnumList<AttitudeMode, ToString, AttitudeMode::kAuto, AttitudeMode::kOff> {};
 
+/// How a run undoes lens distortion (RunConfig::undistort; docs/lenses.md "Points or whole frames").
+enum class UndistortMode {
+  kAuto,    ///< kPoints when the lens's local scale change is small (camera/lens.h), else kFrames.
+  kFrames,  ///< Every frame remapped before SURF (io/camera.h Undistorter, one cv::remap).
+  kPoints,  ///< SURF on the distorted frame, its keypoints undistorted (camera/lens.h).
+};
+inline const char* ToString(UndistortMode m) {
+  return m == UndistortMode::kAuto ? "auto" : m == UndistortMode::kFrames ? "frames" : "points";
+}
+template <>
+struct options::EnumTraits<UndistortMode>
+    : options::EnumList<UndistortMode, ToString, UndistortMode::kAuto, UndistortMode::kFrames,
+                        UndistortMode::kPoints> {};
+
 /// Everything a run can be told, as flags (cmd_run.cc) or as a JSON config file with the same
 /// keys (ToJson / RunConfigFromJson). Plain aggregate; Validate() checks it.
 struct RunConfig {
@@ -108,6 +122,13 @@ struct RunConfig {
   /// and k1..k3 (which must then be 0). Frames are undistorted before SURF to the centred pinhole
   /// of focal fx (io/camera.h Undistorter). Default none (docs/lenses.md).
   std::string calibration;
+  /// How the lens distortion (k1..k3, p1, p2 or the calibration) is undone: kFrames remaps every
+  /// frame before SURF; kPoints runs SURF on the distorted frame and undistorts its keypoints
+  /// (odometry/visual_odometry.h SetLensUndistortion), far cheaper per frame; kAuto (default)
+  /// takes kPoints when the lens changes the image's local scale by at most
+  /// kPointsMaxScaleChange over the frame (camera/lens.h MaxLensScaleChange), else kFrames
+  /// (fisheye rims). The mosaic always remaps its frames. Measured in docs/lenses.md.
+  UndistortMode undistort = UndistortMode::kAuto;
   /// Illumination factor k in (0, 1] (the paper's f_k = k f, Fig. 4-6): every frame's brightness
   /// is multiplied by k (ScaleBrightness) after undistortion and before SURF, to study how the
   /// odometry holds in dim light. Default 1 (frames as read).
@@ -240,6 +261,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.p2, "p2", "Lens distortion p2 (tangential)", Finite());
   v.Field(c.k3, "k3", "Lens distortion k3", Finite());
   v.Field(c.calibration, "calibration", "Camera calibration file: OpenCV YAML/XML, OpenDroneMap cameras.json or COLMAP cameras.txt (pinhole or fisheye; wins over focal_px, hfov_deg, EXIF)", Any());
+  v.Field(c.undistort, "undistort", "Lens undistortion: frames (remap each frame), points (undistort the SURF keypoints) or auto (points when the lens's local scale change over the frame is at most 35 %)", Any());
   v.Field(c.illumination_k, "illumination_k", "Illumination factor k: every frame's brightness times k before SURF (the paper's f_k = k f)", Interval(0, 1, true, false));
   v.Field(c.max_megapixels, "max_megapixels", "Frames above this many megapixels are reduced to it before SURF (focal length scaled with them; 0 = never)", AtLeast(0).Finite());
   v.Field(c.detect_megapixels, "detect_megapixels", "Video and live frames above this many megapixels are reduced by the smallest integer factor that fits (box filter) before SURF, focal length scaled with them (0 = never; photo folders: max_megapixels only)", AtLeast(0).Finite());

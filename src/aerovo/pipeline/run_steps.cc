@@ -16,6 +16,7 @@
 #include <Eigen/LU>
 #include <nlohmann/json.hpp>
 
+#include "aerovo/camera/lens.h"
 #include "aerovo/core/error.h"
 #include "aerovo/io/calibration.h"
 #include "aerovo/io/camera.h"
@@ -321,6 +322,33 @@ std::unique_ptr<FrameUndistorter> MakeUndistorter(const RunConfig& config, int w
   }
   return std::make_unique<FrameUndistorter>(w, h, focal_px, config.k1, config.k2, config.p1,
                                             config.p2, config.k3);
+}
+
+std::optional<CameraIntrinsics> RunLens(const RunConfig& config, const RunCamera& camera, int w,
+                                        int h, double focal_px) {
+  if (camera.calibrated) {
+    const CameraIntrinsics k = ScaledTo(*camera.calibrated, w, h);
+    const CameraIntrinsics ideal = IntrinsicsFromFocalPx(k.fx_px, w, h);
+    if (!k.HasDistortion() && k.fy_px == ideal.fy_px && k.cx_px == ideal.cx_px &&
+        k.cy_px == ideal.cy_px) {
+      return std::nullopt;
+    }
+    return k;
+  }
+  if (config.k1 == 0.0 && config.k2 == 0.0 && config.p1 == 0.0 && config.p2 == 0.0 &&
+      config.k3 == 0.0) {
+    return std::nullopt;
+  }
+  CameraIntrinsics k = IntrinsicsFromFocalPx(focal_px, w, h);
+  k.distortion = {config.k1, config.k2, config.p1, config.p2, config.k3};
+  return k;
+}
+
+UndistortMode ChooseUndistortion(UndistortMode mode, const CameraIntrinsics& lens,
+                                 double* scale_change) {
+  *scale_change = MaxLensScaleChange(lens);
+  if (mode != UndistortMode::kAuto) return mode;
+  return *scale_change <= kPointsMaxScaleChange ? UndistortMode::kPoints : UndistortMode::kFrames;
 }
 
 std::unique_ptr<FrameUndistorter> MakeUndistorter(const CameraIntrinsics& calibrated, int w,
@@ -777,14 +805,31 @@ void FrameLoop::Start(const Frame& frame, const std::optional<TelemetrySample>& 
                          config_.mavlink_wait_s);
   }
   vo_ = std::make_unique<VisualOdometry>(vo_options_);
-  undistorter_ = camera.calibrated ? MakeUndistorter(*camera.calibrated, pw, ph)
-                                   : MakeUndistorter(config_, pw, ph, camera.focal_px * focal_scale);
+  // Lens distortion: whole frames remapped before SURF, or the keypoints undistorted in the
+  // odometry (RunConfig::undistort).
+  if (const std::optional<CameraIntrinsics> lens =
+          RunLens(config_, camera, pw, ph, camera.focal_px * focal_scale)) {
+    const UndistortMode path =
+        ChooseUndistortion(config_.undistort, *lens, &summary->lens_scale_change);
+    if (path == UndistortMode::kPoints) {
+      vo_->SetLensUndistortion(*lens);
+    } else {
+      undistorter_ = std::make_unique<FrameUndistorter>(*lens);
+    }
+    summary->undistortion = ToString(path);
+  }
   outputs_.emplace(out_dir_, config_, camera, summary->height_source, w, h, frame.time_s, sample,
                    callbacks_, !telemetry_.empty());
   if (log_) {
     *log_ << fmt::format("camera: {}x{} px, focal {:.1f} px ({}), height from {}\n", w, h,
                          camera.focal_px, camera.focal_source, summary->height_source);
     *log_ << "camera: " << camera.description << "\n";
+    if (summary->undistortion != "none") {
+      *log_ << fmt::format("lens: undistortion of the {} (local scale change {:.1f} % over the "
+                           "frame; undistort {})\n",
+                           summary->undistortion == "points" ? "keypoints" : "whole frames",
+                           100.0 * summary->lens_scale_change, ToString(config_.undistort));
+    }
     if (reducer_) {
       *log_ << fmt::format(
           "frames reduced to {}x{} px before SURF ({:.1f} MP > {} {}), focal {:.1f} px\n", pw, ph,

@@ -173,6 +173,15 @@ RunCamera ResolveRunCamera(const RunConfig& config, bool focal_from_sim, int wid
 /// frames of focal length focal_px; null when every coefficient is 0 (frames used as read).
 std::unique_ptr<FrameUndistorter> MakeUndistorter(const RunConfig& config, int width_px,
                                                   int height_px, double focal_px);
+/// The distorted camera of width_px x height_px frames (the frames after FrameReducer, focal
+/// focal_px): the calibration scaled to them (RunCamera::calibrated), else the centred pinhole
+/// with config.k1 k2 p1 p2 k3; unset when it is already the centred pinhole without distortion.
+std::optional<CameraIntrinsics> RunLens(const RunConfig& config, const RunCamera& camera,
+                                        int width_px, int height_px, double focal_px);
+/// The path RunConfig::undistort takes for `lens`: kFrames or kPoints (kAuto resolved with
+/// camera/lens.h MaxLensScaleChange <= kPointsMaxScaleChange; `scale_change` receives it).
+UndistortMode ChooseUndistortion(UndistortMode mode, const CameraIntrinsics& lens,
+                                 double* scale_change);
 /// The undistorter of a calibrated camera (RunCamera::calibrated) scaled to width_px x
 /// height_px (the frames after FrameReducer); null when it is already the centred pinhole
 /// without distortion.

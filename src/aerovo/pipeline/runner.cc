@@ -51,6 +51,8 @@ nlohmann::json ToJson(const RunSummary& s) {
                      {"total", s.mean.total_ms}}},
                    {"focal_px", s.focal_px},
                    {"focal_source", s.focal_source},
+                   {"undistortion", s.undistortion},
+                   {"lens_scale_change", s.lens_scale_change},
                    {"height_source", s.height_source},
                    {"height_sources", s.height_sources},
                    {"attitude_sources", s.attitude_sources},

@@ -69,6 +69,10 @@ struct RunSummary {
   /// RunConfig::max_megapixels (then reduced by frame_scale, the camera's focal length with
   /// them; positions in metres and transforms.csv stay in full-frame terms). 0 before a frame.
   int processed_width_px = 0, processed_height_px = 0;
+  /// How the lens distortion was undone (RunConfig::undistort): "none" (no distortion),
+  /// "frames" or "points"; lens_scale_change its camera/lens.h MaxLensScaleChange (0: none).
+  std::string undistortion = "none";
+  double lens_scale_change = 0.0;
   double frame_scale = 1.0;  ///< processed width / source width (1 = frames as read).
   /// Frames of a live source read but never processed: they came while the newest one waited
   /// (RunConfig::frame_queue; always 0 for files).
