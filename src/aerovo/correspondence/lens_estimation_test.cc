@@ -8,9 +8,15 @@
 #if AEROVO_TESTS_HAVE_OPENCV  // 0 in the builds without OpenCV (AEROVO_CORE_ONLY, aarch64)
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #endif
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/image.h"
+#include "aerovo/core/testing.h"
+#include "aerovo/features/surf.h"
+#include "aerovo/matching/matcher.h"
 
 namespace aerovo {
 namespace {
@@ -207,6 +213,57 @@ TEST(LensEstimation, IdealPinholeIsNotSignificant) {
     }
   }
 }
+
+#if AEROVO_TESTS_HAVE_OPENCV
+// A lens corrected in camera (DJI Phantom 3, tampa-phantom3 in ../shared): real SURF matches of
+// four photo pairs spread over the flight, reduced to 1000x750 (focal 2311.2 px at 4000 px, the
+// FC300S's 20 mm equivalent over its 4:3 sensor: 577.8 px). The estimate changes nothing.
+TEST(LensEstimation, CorrectedDjiLensIsNotSignificant) {
+  AEROVO_REQUIRE_SHARED(dir, "data/flights/tampa-phantom3/DJI_0054.JPG");
+  const std::filesystem::path flight = dir.parent_path();
+  SurfOptions so;
+  so.adaptive = true;
+  Surf surf(so);
+  Matcher matcher;
+  const auto features = [&](int number) {
+    const cv::Mat color = cv::imread((flight / ("DJI_00" + std::to_string(number) + ".JPG")).string(),
+                                     cv::IMREAD_GRAYSCALE);
+    EXPECT_FALSE(color.empty());
+    cv::Mat small;
+    cv::resize(color, small, cv::Size(1000, 750), 0, 0, cv::INTER_AREA);
+    GrayImage g(small.cols, small.rows);
+    for (int y = 0; y < small.rows; ++y) std::copy_n(small.ptr<std::uint8_t>(y), small.cols, g.row(y));
+    return surf.DetectAndDescribe(g.view()).features;
+  };
+  std::vector<LensPair> pairs;
+  for (int first : {54, 58, 62, 66}) {
+    const FeatureSet a = features(first), b = features(first + 1);
+    const MatchResult m = matcher.Match(a, b);
+    LensPair pair;
+    pair.prev_px.resize(2, static_cast<Eigen::Index>(m.matches.size()));
+    pair.curr_px.resize(2, static_cast<Eigen::Index>(m.matches.size()));
+    for (std::size_t i = 0; i < m.matches.size(); ++i) {
+      const Keypoint& p = a.keypoints[m.matches[i].prev_index];
+      const Keypoint& c = b.keypoints[m.matches[i].curr_index];
+      pair.prev_px.col(static_cast<Eigen::Index>(i)) = Eigen::Vector2d(p.x, p.y);
+      pair.curr_px.col(static_cast<Eigen::Index>(i)) = Eigen::Vector2d(c.x, c.y);
+    }
+    pairs.push_back(std::move(pair));
+  }
+  LensEstimationOptions o;
+  o.focal_px = 2311.2 / 4.0;
+  o.cx_px = 499.5;
+  o.cy_px = 374.5;
+  o.width_px = 1000;
+  o.height_px = 750;
+  const LensEstimate e = EstimateRadialDistortion(pairs, o);
+  RecordProperty("why", e.why);
+  ASSERT_TRUE(e.valid) << e.why;
+  EXPECT_EQ(e.pairs_used, 4) << e.why;
+  EXPECT_FALSE(e.significant) << e.why;
+  EXPECT_LT(e.cost_drop, 0.25) << e.why;
+}
+#endif
 
 TEST(LensEstimation, TooFewPairsGiveNoEstimate) {
   const TrueLens lens{RadialFamily::kFisheyeK1, {-0.04}, 450.0, 960, 720};
