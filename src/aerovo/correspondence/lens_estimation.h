@@ -1,7 +1,8 @@
 // Lens self-calibration from the flight itself (issue 14, wide lenses without a calibration
 // file): a one-parameter radial distortion estimated from matched interest points of a few frame
-// pairs of a nadir flight over roughly planar ground. No I/O; the run's pre-pass that reads the
-// frames is pipeline/lens_probe.h.
+// pairs of a nadir flight over roughly planar ground. No I/O. `aerovo run` does not call it yet:
+// the pre-pass that would read a few frame pairs and apply a significant estimate is open work
+// (issue 14).
 //
 // Principle. The rays of two views of one plane are related by a homography, whatever the lens;
 // undistorting the points with the wrong lens model bends that relation. For a candidate
