@@ -307,7 +307,10 @@ TEST_F(CliOutputs, SighupStopsLikeSigintWithASummary) {
 }
 
 // SIGINT inside a huge frame (8000x8000 textured photo): the run stops within a second, with
-// its summary, instead of waiting for the frame's SURF and matching.
+// its summary, instead of waiting for the frame's SURF and matching, or for the next photo's
+// decoding in progress on the reader thread (io/prefetch_source.h join_timeout_ms). The budget
+// is the second for the optimised build; an instrumented build (ASan+UBSan at -O1, its
+// LeakSanitizer scanning the heap at exit) runs the same path 2-3x slower and gets 2 s.
 TEST_F(CliOutputs, SigintInsideAHugeFrameTakesEffectWithinASecond) {
   const fs::path photos = dir_ / "huge_photos";
   fs::create_directories(photos);
@@ -335,7 +338,12 @@ TEST_F(CliOutputs, SigintInsideAHugeFrameTakesEffectWithinASecond) {
   ::kill(c.pid, SIGINT);
   const Outcome o = Wait(c, signalled);
   EXPECT_EQ(o.exit_code, 130) << o.err;
-  EXPECT_LT(o.seconds, 1.0) << "the stop took " << o.seconds << " s";
+#ifdef AEROVO_INSTRUMENTED_BUILD
+  constexpr double kStopBudgetS = 2.0;
+#else
+  constexpr double kStopBudgetS = 1.0;
+#endif
+  EXPECT_LT(o.seconds, kStopBudgetS) << "the stop took " << o.seconds << " s";
   const nlohmann::json s = nlohmann::json::parse(ReadText(out / "summary.json"));
   EXPECT_EQ(s["interrupted"], true);
   EXPECT_EQ(s["frames_processed"], 0);  // the cancelled frame is not counted

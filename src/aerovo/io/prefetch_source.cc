@@ -1,5 +1,6 @@
 #include "aerovo/io/prefetch_source.h"
 
+#include <chrono>
 #include <utility>
 
 #include "aerovo/core/error.h"
@@ -7,93 +8,138 @@
 
 namespace aerovo {
 
-PrefetchSource::PrefetchSource(std::unique_ptr<FrameSource> inner, const PrefetchOptions& options)
-    : inner_(std::move(inner)), options_(options) {
-  if (!inner_) throw InvalidArgument("PrefetchSource: the inner frame source is null");
-  if (options_.capacity < 1) {
+struct PrefetchSource::State {
+  State(std::unique_ptr<FrameSource> inner_source, const PrefetchOptions& opts)
+      : inner(std::move(inner_source)), options(opts) {}
+
+  std::unique_ptr<FrameSource> inner;
+  const PrefetchOptions options;
+
+  std::mutex mutex;
+  std::condition_variable changed;  // queue, end, error, stop or reader_done changed
+  std::deque<Frame> queue;          // decoded, oldest first
+  std::vector<Frame> pool;          // frames whose buffers are reused by the reader
+  std::vector<std::string> new_warnings;  // inner's warnings not yet moved to warnings_
+  bool end = false;                       // inner ended (or threw: error)
+  bool stop = false;                      // destructor: reader must quit
+  bool reader_done = false;               // ReadLoop returned (joining cannot block)
+  std::exception_ptr error;
+  std::atomic<int> dropped{0};
+};
+
+PrefetchSource::PrefetchSource(std::unique_ptr<FrameSource> inner, const PrefetchOptions& options) {
+  if (!inner) throw InvalidArgument("PrefetchSource: the inner frame source is null");
+  if (options.capacity < 1) {
     throw InvalidArgument("PrefetchSource: capacity must be >= 1, got " +
-                          std::to_string(options_.capacity));
+                          std::to_string(options.capacity));
   }
-  description_ = inner_->Describe();
-  expected_ = inner_->ExpectedFrameCount();
-  live_ = inner_->IsLive();
+  description_ = inner->Describe();
+  expected_ = inner->ExpectedFrameCount();
+  live_ = inner->IsLive();
+  state_ = std::make_shared<State>(std::move(inner), options);
 }
 
 PrefetchSource::~PrefetchSource() {
-  {
-    const std::lock_guard<std::mutex> lock(mutex_);
-    stop_ = true;
+  State& s = *state_;
+  std::unique_lock<std::mutex> lock(s.mutex);
+  s.stop = true;
+  s.changed.notify_all();
+  if (!reader_.joinable()) return;
+  const auto done = [&] { return s.reader_done; };
+  if (s.options.join_timeout_ms < 0) {
+    s.changed.wait(lock, done);
+  } else if (!s.changed.wait_for(lock, std::chrono::milliseconds(s.options.join_timeout_ms),
+                                 done)) {
+    // Inside a long inner.Next(): the reader finishes it on its own and ends (it sees stop);
+    // its copy of state_ keeps everything it touches alive until then.
+    lock.unlock();
+    reader_.detach();
+    return;
   }
-  changed_.notify_all();
-  if (reader_.joinable()) reader_.join();
+  lock.unlock();
+  reader_.join();
 }
 
-void PrefetchSource::ReadLoop() {
+int PrefetchSource::dropped() const { return state_->dropped.load(); }
+const FrameSource& PrefetchSource::inner() const { return *state_->inner; }
+const PrefetchOptions& PrefetchSource::options() const { return state_->options; }
+
+void PrefetchSource::ReadLoop(const std::shared_ptr<State>& state) {
+  State& s = *state;
   Frame spare;
   std::size_t warnings_seen = 0;
+  const auto finish = [&] {
+    const std::lock_guard<std::mutex> lock(s.mutex);
+    s.reader_done = true;
+    s.changed.notify_all();
+  };
   while (true) {
     {
-      std::unique_lock<std::mutex> lock(mutex_);
-      if (options_.policy == QueuePolicy::kWait) {
-        changed_.wait(lock, [&] {
-          return stop_ || static_cast<int>(queue_.size()) < options_.capacity;
+      std::unique_lock<std::mutex> lock(s.mutex);
+      if (s.options.policy == QueuePolicy::kWait) {
+        s.changed.wait(lock, [&] {
+          return s.stop || static_cast<int>(s.queue.size()) < s.options.capacity;
         });
       }
-      if (stop_) return;
+      if (s.stop) {
+        lock.unlock();
+        return finish();
+      }
     }
     bool more = false;
     std::exception_ptr error;
     try {
-      more = inner_->Next(spare);
+      more = s.inner->Next(spare);
     } catch (...) {
       error = std::current_exception();
     }
     const double received_s = SteadySeconds();
     {
-      const std::lock_guard<std::mutex> lock(mutex_);
-      const std::vector<std::string>& w = inner_->warnings();
-      for (; warnings_seen < w.size(); ++warnings_seen) new_warnings_.push_back(w[warnings_seen]);
+      const std::lock_guard<std::mutex> lock(s.mutex);
+      const std::vector<std::string>& w = s.inner->warnings();
+      for (; warnings_seen < w.size(); ++warnings_seen) s.new_warnings.push_back(w[warnings_seen]);
       if (error || !more) {
-        error_ = error;
-        end_ = true;
+        s.error = error;
+        s.end = true;
       } else {
         spare.received_s = received_s;
-        if (static_cast<int>(queue_.size()) >= options_.capacity) {  // kDropOldest only
-          pool_.push_back(std::move(queue_.front()));
-          queue_.pop_front();
-          dropped_.fetch_add(1);
+        if (static_cast<int>(s.queue.size()) >= s.options.capacity) {  // kDropOldest only
+          s.pool.push_back(std::move(s.queue.front()));
+          s.queue.pop_front();
+          s.dropped.fetch_add(1);
         }
-        queue_.push_back(std::move(spare));
-        if (!pool_.empty()) {
-          spare = std::move(pool_.back());
-          pool_.pop_back();
+        s.queue.push_back(std::move(spare));
+        if (!s.pool.empty()) {
+          spare = std::move(s.pool.back());
+          s.pool.pop_back();
         } else {
           spare = Frame();
         }
       }
     }
-    changed_.notify_all();
-    if (error || !more) return;
+    s.changed.notify_all();
+    if (error || !more) return finish();
   }
 }
 
 bool PrefetchSource::Next(Frame& frame) {
-  if (!reader_.joinable()) reader_ = std::thread([this] { ReadLoop(); });
-  std::unique_lock<std::mutex> lock(mutex_);
-  changed_.wait(lock, [&] { return !queue_.empty() || end_; });
-  for (std::string& w : new_warnings_) warnings_.push_back(std::move(w));
-  new_warnings_.clear();
-  if (!queue_.empty()) {
-    std::swap(frame, queue_.front());
-    pool_.push_back(std::move(queue_.front()));  // the caller's previous frame, for reuse
-    queue_.pop_front();
+  State& s = *state_;
+  if (!reader_.joinable()) reader_ = std::thread([state = state_] { ReadLoop(state); });
+  std::unique_lock<std::mutex> lock(s.mutex);
+  s.changed.wait(lock, [&] { return !s.queue.empty() || s.end; });
+  for (std::string& w : s.new_warnings) warnings_.push_back(std::move(w));
+  s.new_warnings.clear();
+  if (!s.queue.empty()) {
+    std::swap(frame, s.queue.front());
+    s.pool.push_back(std::move(s.queue.front()));  // the caller's previous frame, for reuse
+    s.queue.pop_front();
     lock.unlock();
-    changed_.notify_all();
+    s.changed.notify_all();
     return true;
   }
-  if (error_) {
-    std::exception_ptr e = error_;
-    error_ = nullptr;  // thrown once; later calls return false
+  if (s.error) {
+    std::exception_ptr e = s.error;
+    s.error = nullptr;  // thrown once; later calls return false
     std::rethrow_exception(e);
   }
   return false;

@@ -32,6 +32,11 @@ struct PrefetchOptions {
   /// frame to spare; a live source is best served with 1 (only the newest frame waits).
   int capacity = 2;
   QueuePolicy policy = QueuePolicy::kWait;
+  /// How long the destructor waits for an `inner.Next()` in progress before it leaves the
+  /// reader to finish that one read on its own, ms; < 0: wait for it however long it takes.
+  /// A stop must not wait for the next frame's decoding: a 20000x20000 photo's takes seconds,
+  /// a live stream's read can block until its timeout (issue 15: a stop within a second).
+  int join_timeout_ms = 100;
 };
 
 /// Reads `inner` on a reader thread started by the first Next(). Delivers the frames of `inner`
@@ -43,8 +48,10 @@ struct PrefetchOptions {
 /// Describe(), ExpectedFrameCount() and IsLive() are `inner`'s, read at construction.
 /// Next() hands out frames by swapping: the Frame passed in goes back to the pool, so no frame
 /// buffer is allocated once the queue is warm. Next() is called from one thread at a time.
-/// The destructor stops the reader and joins it (it waits for an `inner.Next()` in progress,
-/// e.g. a live stream's read timeout).
+/// The destructor stops the reader and joins it; when the reader is inside an `inner.Next()`
+/// that does not return within `join_timeout_ms`, the reader is detached instead: it finishes
+/// that read, drops the frame and ends, and `inner` is destroyed then, on the reader's thread
+/// (the reader holds the shared state, so nothing it touches is freed under it).
 class PrefetchSource : public FrameSource {
  public:
   /// InvalidArgument for a null `inner` or capacity < 1.
@@ -59,30 +66,20 @@ class PrefetchSource : public FrameSource {
   bool IsLive() const override { return live_; }
 
   /// Frames dropped so far by kDropOldest (read by `inner`, never delivered).
-  int dropped() const { return dropped_.load(); }
+  int dropped() const;
   /// The wrapped source (its const accessors that do not change while it is read, e.g. an
   /// ImageFolderSource's metadata(), may be used from any thread).
-  const FrameSource& inner() const { return *inner_; }
-  const PrefetchOptions& options() const { return options_; }
+  const FrameSource& inner() const;
+  const PrefetchOptions& options() const;
 
  private:
-  void ReadLoop();
+  struct State;  // what the reader thread touches, shared with it (it may outlive *this)
+  static void ReadLoop(const std::shared_ptr<State>& state);
 
-  std::unique_ptr<FrameSource> inner_;
-  PrefetchOptions options_;
+  std::shared_ptr<State> state_;
   std::string description_;
   int expected_ = -1;
   bool live_ = false;
-
-  std::mutex mutex_;
-  std::condition_variable changed_;  // queue, end, error or stop changed
-  std::deque<Frame> queue_;          // decoded, oldest first
-  std::vector<Frame> pool_;          // frames whose buffers are reused by the reader
-  std::vector<std::string> new_warnings_;  // inner's warnings not yet moved to warnings_
-  bool end_ = false;                       // inner ended (or threw: error_)
-  bool stop_ = false;                      // destructor: reader must quit
-  std::exception_ptr error_;
-  std::atomic<int> dropped_{0};
   std::thread reader_;
 };
 

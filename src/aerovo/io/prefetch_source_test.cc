@@ -5,6 +5,8 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <mutex>
 #include <memory>
 #include <string>
 #include <thread>
@@ -183,6 +185,79 @@ TEST(PrefetchSource, DestroyedWhileTheReaderWaitsOrReads) {
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }  // joins without hanging
   PrefetchSource never_started(std::make_unique<CountingSource>(3));
+}
+
+// A source whose second Next() blocks until the test opens the gate (a huge photo's decoding,
+// a stream's read timeout); it records its destruction in a flag the test owns.
+class GatedSource : public FrameSource {
+ public:
+  struct Shared {
+    std::mutex mutex;
+    std::condition_variable cv;
+    bool open = false, inside = false;
+    std::atomic<bool> destroyed{false};
+  };
+  explicit GatedSource(std::shared_ptr<Shared> shared) : shared_(std::move(shared)) {}
+  ~GatedSource() override { shared_->destroyed.store(true); }
+  bool Next(Frame& frame) override {
+    if (next_ > 0) {
+      std::unique_lock<std::mutex> lock(shared_->mutex);
+      shared_->inside = true;
+      shared_->cv.notify_all();
+      shared_->cv.wait(lock, [&] { return shared_->open; });
+    }
+    frame.gray = GrayImage(8, 8);
+    frame.index = next_++;
+    return true;
+  }
+  std::string Describe() const override { return "gated source"; }
+  int ExpectedFrameCount() const override { return -1; }
+
+ private:
+  std::shared_ptr<Shared> shared_;
+  int next_ = 0;
+};
+
+TEST(PrefetchSource, DestructionDoesNotWaitForAReadInProgressBeyondItsTimeout) {
+  auto shared = std::make_shared<GatedSource::Shared>();
+  {
+    PrefetchSource p(std::make_unique<GatedSource>(shared), {2, QueuePolicy::kWait, 20});
+    Frame f;
+    ASSERT_TRUE(p.Next(f));
+    std::unique_lock<std::mutex> lock(shared->mutex);
+    shared->cv.wait(lock, [&] { return shared->inside; });  // the reader is in the blocked read
+  }  // returns although the read has not: the reader was left to finish it
+  EXPECT_FALSE(shared->destroyed.load());  // the reader still owns the inner source
+  {
+    const std::lock_guard<std::mutex> lock(shared->mutex);
+    shared->open = true;
+  }
+  shared->cv.notify_all();
+  for (int i = 0; i < 5000 && !shared->destroyed.load(); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  EXPECT_TRUE(shared->destroyed.load());  // once the read returned, the reader ended and freed it
+
+  // join_timeout_ms < 0: the destructor waits for the read.
+  auto waited = std::make_shared<GatedSource::Shared>();
+  std::thread opener;
+  {
+    PrefetchSource p(std::make_unique<GatedSource>(waited), {2, QueuePolicy::kWait, -1});
+    Frame f;
+    ASSERT_TRUE(p.Next(f));
+    {
+      std::unique_lock<std::mutex> lock(waited->mutex);
+      waited->cv.wait(lock, [&] { return waited->inside; });
+    }
+    opener = std::thread([&] {
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      const std::lock_guard<std::mutex> lock(waited->mutex);
+      waited->open = true;
+      waited->cv.notify_all();
+    });
+  }
+  EXPECT_TRUE(waited->destroyed.load());  // joined: the inner source went with the wrapper
+  opener.join();
 }
 
 TEST(PrefetchSource, RejectsANullSourceAndAZeroCapacity) {

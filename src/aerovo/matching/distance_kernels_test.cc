@@ -75,8 +75,12 @@ void ExpectSameLanes(const LaneTop2& want, const LaneTop2& got, float tol, const
   for (int l = 0; l < kPanelWidth; ++l) {
     ASSERT_EQ(got.i1[l], want.i1[l]) << what << " lane " << l;
     ASSERT_EQ(got.i2[l], want.i2[l]) << what << " lane " << l;
-    if (want.i1[l] >= 0) ASSERT_NEAR(got.b1[l], want.b1[l], tol) << what << " lane " << l;
-    if (want.i2[l] >= 0) ASSERT_NEAR(got.b2[l], want.b2[l], tol) << what << " lane " << l;
+    if (want.i1[l] >= 0) {
+      ASSERT_NEAR(got.b1[l], want.b1[l], tol) << what << " lane " << l;
+    }
+    if (want.i2[l] >= 0) {
+      ASSERT_NEAR(got.b2[l], want.b2[l], tol) << what << " lane " << l;
+    }
   }
 }
 
@@ -177,8 +181,12 @@ TEST(DistanceKernelsTest, ListMatchesScalarIncludingTiesAndTails) {
                                  std::to_string(num);
         ASSERT_EQ(got.j1, want.j1) << what;
         ASSERT_EQ(got.j2, want.j2) << what;
-        if (want.j1 >= 0) ASSERT_NEAR(got.s1, want.s1, ScoreTolerance(dim)) << what;
-        if (want.j2 >= 0) ASSERT_NEAR(got.s2, want.s2, ScoreTolerance(dim)) << what;
+        if (want.j1 >= 0) {
+          ASSERT_NEAR(got.s1, want.s1, ScoreTolerance(dim)) << what;
+        }
+        if (want.j2 >= 0) {
+          ASSERT_NEAR(got.s2, want.s2, ScoreTolerance(dim)) << what;
+        }
       });
       if (num == n) {
         // Rows 1 and 38 tie exactly; tie_key[1] = 7 < tie_key[38] = 26.
