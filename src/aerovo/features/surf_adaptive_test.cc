@@ -75,13 +75,17 @@ TEST(SurfAdaptive, EachCellKeepsItsStrongestAndTheTargetIsReached) {
   Surf adaptive(Adaptive(target, g));
   const SurfResult r = adaptive.DetectAndDescribe(img.view());
   ASSERT_GT(r.floor_response, 0.0);
-  ASSERT_GT(r.candidates, 2 * target) << "the floor should leave more candidates than the target";
   ASSERT_EQ(static_cast<int>(r.features.size()), target);
   // Every candidate: the fixed-threshold detector at the adaptive floor.
   SurfOptions all;
   all.hessian_threshold = r.floor_response;
   const std::vector<Keypoint> cand = Surf(all).Detect(img.view());
-  ASSERT_EQ(static_cast<int>(cand.size()), r.candidates);
+  ASSERT_GT(static_cast<int>(cand.size()), 2 * target)
+      << "the floor should leave more candidates than the target";
+  // `candidates` counts those that reached the selection: the others were rejected early,
+  // already beaten by enough stronger points (surf.h).
+  ASSERT_LE(r.candidates, static_cast<int>(cand.size()));
+  ASSERT_GT(r.candidates, target);
   const int quota = target / (g * g);
   for (int c = 0; c < g * g; ++c) {
     std::vector<float> cand_resp, kept_resp;
@@ -304,7 +308,8 @@ TEST(SurfAdaptive, TheSelectionIsExactlyThePlainSelectionOverAllCandidates) {
     all.hessian_threshold = r.floor_response;
     all.roi = c.roi;
     const std::vector<Keypoint> cand = Surf(all).Detect(img.view());
-    EXPECT_EQ(static_cast<int>(cand.size()), r.candidates) << what;
+    EXPECT_LE(r.candidates, static_cast<int>(cand.size())) << what;
+    EXPECT_GT(r.candidates, c.target) << what;
     const RectI rect = c.roi ? *c.roi : RectI{0, 0, c.w, c.h};
     double next = 0.0;
     const std::vector<Keypoint> want =
