@@ -3,12 +3,6 @@
 
 #include <omp.h>
 
-#if defined(__SSE2__)
-#include <immintrin.h>
-#elif defined(__ARM_NEON) && defined(__aarch64__)
-#include <arm_neon.h>
-#endif
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -145,26 +139,6 @@ bool Interpolate(const float* lo, const float* mid, const float* hi, std::ptrdif
   offset[1] = static_cast<float>(oy);
   offset[2] = static_cast<float>(os);
   return true;
-}
-
-// First j in [j, end) with row[j] > threshold, or end. Four samples per step: almost all
-// samples are below the threshold. Plain intrinsics (SSE2 / NEON): Highway's static NEON target
-// needs +crypto attributes that this file's code does not have.
-inline int NextAbove(const float* row, int j, int end, float threshold) {
-#if defined(__SSE2__)
-  const __m128 t = _mm_set1_ps(threshold);
-  for (; j + 4 <= end; j += 4) {
-    const int m = _mm_movemask_ps(_mm_cmpgt_ps(_mm_loadu_ps(row + j), t));
-    if (m != 0) return j + __builtin_ctz(static_cast<unsigned>(m));
-  }
-#elif defined(__ARM_NEON) && defined(__aarch64__)
-  const float32x4_t t = vdupq_n_f32(threshold);
-  for (; j + 4 <= end; j += 4) {
-    if (vmaxvq_u32(vcgtq_f32(vld1q_f32(row + j), t)) != 0) break;  // the first is among these 4
-  }
-#endif
-  while (j < end && !(row[j] > threshold)) ++j;
-  return j;
 }
 
 inline bool IsMaximum(float v, const float* p, std::ptrdiff_t stride) {
@@ -448,6 +422,8 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
   const int W = ii.width(), H = ii.height();
   const int levels = options.num_scale_levels;
   const int threads = ResolveThreads(options.num_threads);
+  // Samples above the threshold that are maxima of their 3x3 in the layer (SIMD, hessian.h).
+  const surf_detail::InLayerMaximumFn next_in_layer_max = surf_detail::ActiveInLayerMaximum();
   std::vector<Keypoint> keypoints;
 
   // Adaptive mode: candidates the selection cannot keep are rejected as early as the scan for
@@ -599,13 +575,10 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
           const float* m1 = row_of(l, i);
           const float* m2 = row_of(l, i + 1);
           const bool lazy_lo = l - 1 == 0, lazy_hi = l + 1 == levels - 1;
-          // Whether sample j (above the floor) is a keypoint: appended to `out`.
+          // Whether sample j (above the threshold and a maximum of its 3x3 in the layer) is a
+          // keypoint: appended to `out`.
           const auto examine = [&](int j) {
             const float v = m1[j];
-            if (!(v > m1[j - 1] && v > m1[j + 1] && v > m0[j - 1] && v > m0[j] && v > m0[j + 1] &&
-                  v > m2[j - 1] && v > m2[j] && v > m2[j + 1])) {
-              return false;
-            }
             // 3x3 neighbourhoods of the three layers, row-major (stride 3); full neighbour
             // layers are tested first (cheap), lazily evaluated ones last.
             float n[3][9];
@@ -659,7 +632,8 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
             const int a = std::max(s.j_begin, j0), e = std::min(s.j_end, j1 + 1);
             if (a >= e) continue;
             float t = span_threshold(s);
-            for (int j = NextAbove(m1, a, e, t); j < e; j = NextAbove(m1, j + 1, e, t)) {
+            for (int j = next_in_layer_max(m0, m1, m2, a, e, t); j < e;
+                 j = next_in_layer_max(m0, m1, m2, j + 1, e, t)) {
               if (!examine(j) || band_bar == nullptr) continue;
               const Keypoint& kp = out.back();
               band_bar->Add(GridCell(kp.y, sel.y, sel.height, g) * g +
