@@ -431,9 +431,14 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
   // (three quarters of the candidates) meets the bars of the coarser ones; the rows are split in
   // kAdaptiveBands blocks whatever the thread count, each starting from the octaves done, so
   // that the points examined (SurfResult::candidates) do not depend on it either.
+  // The bars keep up to target_points points (each cell's quota) per row block; beyond
+  // kMaxBarPoints (far above the defaults' 1500) every candidate is examined instead.
   constexpr int kAdaptiveBands = 4;
-  const bool early = options.adaptive;
+  constexpr long kMaxBarPoints = 1 << 16;
   const int g = options.grid, cells = g * g;
+  const bool early =
+      options.adaptive &&
+      static_cast<long>(cells) * std::max(1, options.target_points / cells) <= kMaxBarPoints;
   const RectI sel = options.roi ? *options.roi : RectI{0, 0, W, H};
   if (early) {
     bar.Reset(cells, std::max(1, options.target_points / cells), options.target_points);
