@@ -68,8 +68,8 @@ float HessianTrace(const IntegralImage& ii, const BoxFilterLayout& layout, int i
 /// m1[j+1], m2[j-1..j+1] (rows i-1, i, i+1 of one layer); `end` if none. A NaN passes no
 /// comparison. Precondition: the three rows are readable at [j - 1, end]. Every kernel returns
 /// the same j (comparisons only: no rounding).
-using InLayerMaximumFn = int (*)(const float* m0, const float* m1, const float* m2, int j,
-                                 int end, float threshold);
+using InLayerMaximumFn = int (*)(const float* m0, const float* m1, const float* m2, int j, int end,
+                                 float threshold);
 /// The portable loop, one sample at a time (SimdMode::kScalar): the reference.
 int NextInLayerMaximumScalar(const float* m0, const float* m1, const float* m2, int j, int end,
                              float threshold);

@@ -243,15 +243,15 @@ class SelectionBar {
       std::pop_heap(rest_.begin(), rest_.end(), StrongerFirst);
       rest_.pop_back();
     }
-    rest_bar_ = rest_.size() == keep ? rest_.front().response
-                                     : -std::numeric_limits<float>::infinity();
+    rest_bar_ =
+        rest_.size() == keep ? rest_.front().response : -std::numeric_limits<float>::infinity();
   }
   int cells_ = 0, quota_ = 1, target_ = 0, deficit_ = 0;
-  std::vector<Keypoint> top_;     // cells x quota: each cell's strongest (a heap per cell)
-  std::vector<int> top_n_;        // entries used per cell
-  std::vector<float> rest_max_;   // per cell: strongest response beyond its quota
-  std::vector<Keypoint> rest_;    // heap: the strongest beyond their quotas (KeepInRest)
-  float rest_bar_ = 0.f;          // response of the weakest of rest_ when full, else -inf
+  std::vector<Keypoint> top_;    // cells x quota: each cell's strongest (a heap per cell)
+  std::vector<int> top_n_;       // entries used per cell
+  std::vector<float> rest_max_;  // per cell: strongest response beyond its quota
+  std::vector<Keypoint> rest_;   // heap: the strongest beyond their quotas (KeepInRest)
+  float rest_bar_ = 0.f;         // response of the weakest of rest_ when full, else -inf
 };
 
 // Adaptive mode: a column range of samples whose refined x (within one sample of the sample's
@@ -566,12 +566,10 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
         // the cells its points can fall in when that is higher (responses >= the bar pass).
         const auto span_threshold = [&](const ColumnSpan& s) {
           if (band_bar == nullptr) return threshold;
-          const float b = std::min(std::min(band_bar->Bar(cy0 * g + s.cx0),
-                                            band_bar->Bar(cy0 * g + s.cx1)),
-                                   std::min(band_bar->Bar(cy1 * g + s.cx0),
-                                            band_bar->Bar(cy1 * g + s.cx1)));
-          return std::max(threshold,
-                          std::nextafter(b, -std::numeric_limits<float>::infinity()));
+          const float b =
+              std::min(std::min(band_bar->Bar(cy0 * g + s.cx0), band_bar->Bar(cy0 * g + s.cx1)),
+                       std::min(band_bar->Bar(cy1 * g + s.cx0), band_bar->Bar(cy1 * g + s.cx1)));
+          return std::max(threshold, std::nextafter(b, -std::numeric_limits<float>::infinity()));
         };
         for (int l = 1; l + 1 < levels; ++l) {
           const auto [j0, j1, i0, i1] = cand[l];
@@ -641,9 +639,9 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
                  j = next_in_layer_max(m0, m1, m2, j + 1, e, t)) {
               if (!examine(j) || band_bar == nullptr) continue;
               const Keypoint& kp = out.back();
-              band_bar->Add(GridCell(kp.y, sel.y, sel.height, g) * g +
-                                GridCell(kp.x, sel.x, sel.width, g),
-                            kp);
+              band_bar->Add(
+                  GridCell(kp.y, sel.y, sel.height, g) * g + GridCell(kp.x, sel.x, sel.width, g),
+                  kp);
               t = span_threshold(s);
             }
           }
@@ -654,8 +652,7 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
       keypoints.insert(keypoints.end(), found[b].begin(), found[b].end());
       if (!early) continue;
       for (const Keypoint& kp : found[b]) {
-        bar.Add(GridCell(kp.y, sel.y, sel.height, g) * g + GridCell(kp.x, sel.x, sel.width, g),
-                kp);
+        bar.Add(GridCell(kp.y, sel.y, sel.height, g) * g + GridCell(kp.x, sel.x, sel.width, g), kp);
       }
     }
   }

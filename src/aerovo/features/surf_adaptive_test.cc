@@ -271,8 +271,8 @@ void ExpectSameKeypoints(const std::vector<Keypoint>& want, const std::vector<Ke
                 p.orientation == q.orientation && p.laplacian == q.laplacian &&
                 p.octave == q.octave)
         << what << ": keypoint " << k << " expected (" << p.x << ", " << p.y << ", scale "
-        << p.scale << ", response " << p.response << "), got (" << q.x << ", " << q.y
-        << ", scale " << q.scale << ", response " << q.response << ")";
+        << p.scale << ", response " << p.response << "), got (" << q.x << ", " << q.y << ", scale "
+        << q.scale << ", response " << q.response << ")";
   }
 }
 
@@ -287,10 +287,13 @@ TEST(SurfAdaptive, TheSelectionIsExactlyThePlainSelectionOverAllCandidates) {
     double steer;
   };
   const Case cases[] = {
-      {1920, 1080, 1500, 6, 1, std::nullopt, 0.0},  {1920, 1080, 1500, 6, 2, std::nullopt, 0.0},
-      {1920, 1080, 1500, 6, 1, std::nullopt, 300.0}, {1280, 720, 700, 5, 1, std::nullopt, 0.0},
+      {1920, 1080, 1500, 6, 1, std::nullopt, 0.0},
+      {1920, 1080, 1500, 6, 2, std::nullopt, 0.0},
+      {1920, 1080, 1500, 6, 1, std::nullopt, 300.0},
+      {1280, 720, 700, 5, 1, std::nullopt, 0.0},
       {1280, 720, 400, 3, 3, RectI{101, 37, 1000, 601}, 0.0},
-      {800, 600, 2000, 7, 1, std::nullopt, 0.0},   {640, 480, 300, 1, 1, std::nullopt, 0.0},
+      {800, 600, 2000, 7, 1, std::nullopt, 0.0},
+      {640, 480, 300, 1, 1, std::nullopt, 0.0},
   };
   std::uint32_t seed = 21;
   for (const Case& c : cases) {
@@ -300,8 +303,8 @@ TEST(SurfAdaptive, TheSelectionIsExactlyThePlainSelectionOverAllCandidates) {
     o.roi = c.roi;
     const std::string what = std::to_string(c.w) + "x" + std::to_string(c.h) + " target " +
                              std::to_string(c.target) + " grid " + std::to_string(c.grid) +
-                             " threads " + std::to_string(c.threads) +
-                             (c.roi ? " roi" : "") + " steer " + std::to_string(c.steer);
+                             " threads " + std::to_string(c.threads) + (c.roi ? " roi" : "") +
+                             " steer " + std::to_string(c.steer);
     Surf surf(o);
     const SurfResult r = surf.DetectAndDescribe(img.view(), c.steer);
     SurfOptions all;
@@ -312,9 +315,8 @@ TEST(SurfAdaptive, TheSelectionIsExactlyThePlainSelectionOverAllCandidates) {
     EXPECT_GT(r.candidates, c.target) << what;
     const RectI rect = c.roi ? *c.roi : RectI{0, 0, c.w, c.h};
     double next = 0.0;
-    const std::vector<Keypoint> want =
-        ReferenceSelection(cand, rect, c.grid, c.target, r.floor_response,
-                           std::max(o.min_response, c.steer), &next);
+    const std::vector<Keypoint> want = ReferenceSelection(
+        cand, rect, c.grid, c.target, r.floor_response, std::max(o.min_response, c.steer), &next);
     ExpectSameKeypoints(want, r.features.keypoints, what);
     EXPECT_DOUBLE_EQ(r.next_min_response, next) << what;
     SurfOptions d = o;
@@ -365,18 +367,20 @@ void ExpectFingerprints(const GrayImage& img, std::uint64_t first, std::uint64_t
     EXPECT_EQ(static_cast<int>(a.features.size()), points) << what;
     got_first[t] = Fingerprint(a);
     got_steered[t] = Fingerprint(b);
-    std::printf("%s, %d thread(s): %d points of %d candidates, fingerprints 0x%016llxull "
-                "0x%016llxull (steered by %.3f: %d candidates)\n",
-                what.c_str(), t + 1, static_cast<int>(a.features.size()), a.candidates,
-                static_cast<unsigned long long>(got_first[t]),
-                static_cast<unsigned long long>(got_steered[t]), a.next_min_response,
-                b.candidates);
+    std::printf(
+        "%s, %d thread(s): %d points of %d candidates, fingerprints 0x%016llxull "
+        "0x%016llxull (steered by %.3f: %d candidates)\n",
+        what.c_str(), t + 1, static_cast<int>(a.features.size()), a.candidates,
+        static_cast<unsigned long long>(got_first[t]),
+        static_cast<unsigned long long>(got_steered[t]), a.next_min_response, b.candidates);
   }
   EXPECT_EQ(got_first[0], got_first[1]) << what << ": thread count changed the output";
   EXPECT_EQ(got_steered[0], got_steered[1]) << what << ": thread count changed the output";
   if (!pinned) {
-    std::printf("fingerprints not compared: recorded with the native AVX2 kernels, this run "
-                "uses %s\n", SimdTargetName().c_str());
+    std::printf(
+        "fingerprints not compared: recorded with the native AVX2 kernels, this run "
+        "uses %s\n",
+        SimdTargetName().c_str());
     return;
   }
   EXPECT_EQ(got_first[0], first) << what << ": the adaptive output changed";
@@ -385,7 +389,8 @@ void ExpectFingerprints(const GrayImage& img, std::uint64_t first, std::uint64_t
 
 TEST(SurfAdaptive, OutputUnchangedOnASynthetic1080pFrame) {
   const GrayImage img = MakeTexture(1920, 1080, 1080, 128, 100);
-  ExpectFingerprints(img, 0x58cf3892ea85e8f1ull, 0x58cf3892ea85e8f1ull, 1500, "synthetic 1920x1080");
+  ExpectFingerprints(img, 0x58cf3892ea85e8f1ull, 0x58cf3892ea85e8f1ull, 1500,
+                     "synthetic 1920x1080");
 }
 
 #if AEROVO_TESTS_HAVE_OPENCV
