@@ -118,7 +118,7 @@ void BM_SurfDetectAndDescribe(benchmark::State& state) {
 
 // The default of `aerovo run` (SurfOptions::adaptive with its defaults: a contrast-normalised
 // floor, per-cell selection of target_points, only the kept points described). Counters: points
-// kept and candidates above the floor.
+// kept and candidates that reached the selection (SurfResult::candidates).
 void BM_SurfAdaptiveDetectAndDescribe(benchmark::State& state) {
   const cv::Mat* m = GetImage(state);
   if (m == nullptr) return;

@@ -1,5 +1,11 @@
 #include "aerovo/features/hessian.h"
 
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#elif defined(__ARM_NEON) && defined(__aarch64__)
+#include <arm_neon.h>
+#endif
+
 #include <cmath>
 #include <cstdint>
 
@@ -101,6 +107,126 @@ float HessianTrace(const IntegralImage& ii, const BoxFilterLayout& l, int i, int
   const std::int32_t mid_yy = static_cast<std::int32_t>(
       ii.BoxSum(x0 + l.band0, y0 + l.lobe, x0 + l.band1, y0 + 2 * l.lobe));
   return static_cast<float>((all_xx - 3 * mid_xx) + (all_yy - 3 * mid_yy)) * l.inv_area_xx;
+}
+
+int NextInLayerMaximumScalar(const float* m0, const float* m1, const float* m2, int j, int end,
+                             float threshold) {
+  for (; j < end; ++j) {
+    const float v = m1[j];
+    if (v > threshold && v > m1[j - 1] && v > m1[j + 1] && v > m0[j - 1] && v > m0[j] &&
+        v > m0[j + 1] && v > m2[j - 1] && v > m2[j] && v > m2[j + 1]) {
+      return j;
+    }
+  }
+  return end;
+}
+
+namespace {
+
+// The SIMD kernels: a vector of samples is first compared with the threshold alone (most
+// samples are below it: one compare per vector); only a vector with a sample above it gets the
+// eight neighbour compares, and its first lane passing all nine is the answer. The tail is the
+// scalar loop. Ordered compares (false on NaN), as the scalar `>`.
+#if defined(__x86_64__) || defined(__i386__)
+__attribute__((target("avx2"))) inline __m256 GreaterAvx2(__m256 v, const float* p) {
+  return _mm256_cmp_ps(v, _mm256_loadu_ps(p), _CMP_GT_OQ);
+}
+
+__attribute__((target("avx2"))) int NextInLayerMaximumAvx2(const float* m0, const float* m1,
+                                                           const float* m2, int j, int end,
+                                                           float threshold) {
+  const __m256 t = _mm256_set1_ps(threshold);
+  for (; j + 8 <= end; j += 8) {
+    const __m256 v = _mm256_loadu_ps(m1 + j);
+    __m256 m = _mm256_cmp_ps(v, t, _CMP_GT_OQ);
+    if (_mm256_movemask_ps(m) == 0) continue;
+    m = _mm256_and_ps(m, _mm256_and_ps(GreaterAvx2(v, m1 + j - 1), GreaterAvx2(v, m1 + j + 1)));
+    m = _mm256_and_ps(m, _mm256_and_ps(GreaterAvx2(v, m0 + j - 1), GreaterAvx2(v, m0 + j)));
+    m = _mm256_and_ps(m, _mm256_and_ps(GreaterAvx2(v, m0 + j + 1), GreaterAvx2(v, m2 + j - 1)));
+    m = _mm256_and_ps(m, _mm256_and_ps(GreaterAvx2(v, m2 + j), GreaterAvx2(v, m2 + j + 1)));
+    const int bits = _mm256_movemask_ps(m);
+    if (bits != 0) return j + __builtin_ctz(static_cast<unsigned>(bits));
+  }
+  return NextInLayerMaximumScalar(m0, m1, m2, j, end, threshold);
+}
+#endif
+
+#if defined(__SSE2__)
+int NextInLayerMaximumSse2(const float* m0, const float* m1, const float* m2, int j, int end,
+                           float threshold) {
+  const __m128 t = _mm_set1_ps(threshold);
+  for (; j + 4 <= end; j += 4) {
+    const __m128 v = _mm_loadu_ps(m1 + j);
+    __m128 m = _mm_cmpgt_ps(v, t);
+    if (_mm_movemask_ps(m) == 0) continue;
+    const auto gt = [&v](const float* p) { return _mm_cmpgt_ps(v, _mm_loadu_ps(p)); };
+    m = _mm_and_ps(m, _mm_and_ps(gt(m1 + j - 1), gt(m1 + j + 1)));
+    m = _mm_and_ps(m, _mm_and_ps(gt(m0 + j - 1), gt(m0 + j)));
+    m = _mm_and_ps(m, _mm_and_ps(gt(m0 + j + 1), gt(m2 + j - 1)));
+    m = _mm_and_ps(m, _mm_and_ps(gt(m2 + j), gt(m2 + j + 1)));
+    const int bits = _mm_movemask_ps(m);
+    if (bits != 0) return j + __builtin_ctz(static_cast<unsigned>(bits));
+  }
+  return NextInLayerMaximumScalar(m0, m1, m2, j, end, threshold);
+}
+#elif defined(__ARM_NEON) && defined(__aarch64__)
+int NextInLayerMaximumNeon(const float* m0, const float* m1, const float* m2, int j, int end,
+                           float threshold) {
+  const float32x4_t t = vdupq_n_f32(threshold);
+  for (; j + 4 <= end; j += 4) {
+    const float32x4_t v = vld1q_f32(m1 + j);
+    uint32x4_t m = vcgtq_f32(v, t);
+    if (vmaxvq_u32(m) == 0) continue;
+    const auto gt = [&v](const float* p) { return vcgtq_f32(v, vld1q_f32(p)); };
+    m = vandq_u32(m, vandq_u32(gt(m1 + j - 1), gt(m1 + j + 1)));
+    m = vandq_u32(m, vandq_u32(gt(m0 + j - 1), gt(m0 + j)));
+    m = vandq_u32(m, vandq_u32(gt(m0 + j + 1), gt(m2 + j - 1)));
+    m = vandq_u32(m, vandq_u32(gt(m2 + j), gt(m2 + j + 1)));
+    if (vmaxvq_u32(m) == 0) continue;
+    std::uint32_t lanes[4];
+    vst1q_u32(lanes, m);
+    for (int k = 0; k < 4; ++k) {
+      if (lanes[k] != 0) return j + k;
+    }
+  }
+  return NextInLayerMaximumScalar(m0, m1, m2, j, end, threshold);
+}
+#endif
+
+InLayerMaximumFn SelectNativeInLayerMaximum() {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx2")) return &NextInLayerMaximumAvx2;
+#endif
+#if defined(__SSE2__)
+  return &NextInLayerMaximumSse2;
+#elif defined(__ARM_NEON) && defined(__aarch64__)
+  return &NextInLayerMaximumNeon;
+#else
+  return &NextInLayerMaximumScalar;
+#endif
+}
+
+}  // namespace
+
+InLayerMaximumFn ActiveInLayerMaximum() {
+  static const InLayerMaximumFn native = SelectNativeInLayerMaximum();
+  return ActiveSimdMode() == SimdMode::kScalar ? &NextInLayerMaximumScalar : native;
+}
+
+int InLayerMaximumKernels(NamedInLayerMaximum out[4]) {
+  int n = 0;
+  out[n++] = {"scalar", &NextInLayerMaximumScalar};
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx2")) out[n++] = {"avx2", &NextInLayerMaximumAvx2};
+#endif
+#if defined(__SSE2__)
+  out[n++] = {"sse2", &NextInLayerMaximumSse2};
+#elif defined(__ARM_NEON) && defined(__aarch64__)
+  out[n++] = {"neon", &NextInLayerMaximumNeon};
+#endif
+  return n;
 }
 
 }  // namespace aerovo::surf_detail

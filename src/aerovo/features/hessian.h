@@ -63,4 +63,25 @@ float HessianDeterminant(const IntegralImage& ii, const BoxFilterLayout& layout,
 /// Dxx + Dyy (the Laplacian, in the same normalisation) at one sample (same preconditions).
 float HessianTrace(const IntegralImage& ii, const BoxFilterLayout& layout, int i, int j);
 
+/// SURF's in-layer test over a row of responses: the first j in [j, end) with m1[j] >
+/// threshold and m1[j] strictly greater than its eight neighbours m0[j-1..j+1], m1[j-1],
+/// m1[j+1], m2[j-1..j+1] (rows i-1, i, i+1 of one layer); `end` if none. A NaN passes no
+/// comparison. Precondition: the three rows are readable at [j - 1, end]. Every kernel returns
+/// the same j (comparisons only: no rounding).
+using InLayerMaximumFn = int (*)(const float* m0, const float* m1, const float* m2, int j, int end,
+                                 float threshold);
+/// The portable loop, one sample at a time (SimdMode::kScalar): the reference.
+int NextInLayerMaximumScalar(const float* m0, const float* m1, const float* m2, int j, int end,
+                             float threshold);
+/// The kernel of the active SimdMode (core/simd.h): scalar for kScalar; otherwise the widest
+/// hand-written one of this CPU (AVX2 8 samples per step, SSE2 or NEON 4; there is no Highway
+/// version). Resolve once per image: one relaxed atomic load.
+InLayerMaximumFn ActiveInLayerMaximum();
+/// Every kernel compiled in and usable on this CPU, with its name (tests).
+struct NamedInLayerMaximum {
+  const char* name;
+  InLayerMaximumFn fn;
+};
+int InLayerMaximumKernels(NamedInLayerMaximum out[4]);
+
 }  // namespace aerovo::surf_detail

@@ -9,6 +9,7 @@
 #include <cfloat>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -231,6 +232,66 @@ TEST(HessianKernelTest, SurfKeypointsAreTheSameWithEveryKernel) {
       ASSERT_NEAR(scalar.descriptor(k)[d], native.descriptor(k)[d], 1e-5) << k;
     }
   }
+}
+
+// The in-layer maximum scan: every kernel returns the scalar loop's j, from every start and end
+// (every vector tail), on rows with many ties (levels from a small set), NaNs and infinities,
+// for thresholds below, inside and above the values.
+TEST(InLayerMaximumKernelTest, EveryKernelMatchesTheScalarLoop) {
+  surf_detail::NamedInLayerMaximum kernels[4];
+  const int n_kernels = surf_detail::InLayerMaximumKernels(kernels);
+  ASSERT_GE(n_kernels, 2) << "no SIMD kernel on this CPU";
+  std::mt19937 rng(5);
+  const int n = 70;
+  for (int trial = 0; trial < 60; ++trial) {
+    std::uniform_int_distribution<int> level(0, trial % 3 == 0 ? 3 : 40);
+    std::vector<float> rows[3];
+    for (auto& r : rows) {
+      r.resize(n + 2);
+      for (float& v : r) v = static_cast<float>(level(rng)) * 0.5f;
+    }
+    if (trial % 4 == 1) {  // NaNs and infinities scattered on the rows
+      std::uniform_int_distribution<int> pos(0, n + 1);
+      for (int k = 0; k < 6; ++k) {
+        rows[k % 3][pos(rng)] = k % 2 ? std::numeric_limits<float>::quiet_NaN()
+                                      : std::numeric_limits<float>::infinity();
+      }
+    }
+    // rows[*][0] is column -1: j runs over [1, n].
+    const float* m0 = rows[0].data() + 1;
+    const float* m1 = rows[1].data() + 1;
+    const float* m2 = rows[2].data() + 1;
+    for (const float t : {-1.f, 0.f, 3.f, 10.f, 19.5f, 25.f}) {
+      for (int j0 = 0; j0 < 12; ++j0) {
+        for (int end = j0; end <= n; end += (end < j0 + 20 ? 1 : 7)) {
+          // Every maximum in [j0, end), found one after another as the detector does.
+          std::vector<int> want;
+          for (int j = surf_detail::NextInLayerMaximumScalar(m0, m1, m2, j0, end, t); j < end;
+               j = surf_detail::NextInLayerMaximumScalar(m0, m1, m2, j + 1, end, t)) {
+            want.push_back(j);
+          }
+          for (int k = 1; k < n_kernels; ++k) {
+            std::vector<int> got;
+            for (int j = kernels[k].fn(m0, m1, m2, j0, end, t); j < end;
+                 j = kernels[k].fn(m0, m1, m2, j + 1, end, t)) {
+              got.push_back(j);
+            }
+            ASSERT_EQ(got, want) << kernels[k].name << " trial " << trial << " threshold " << t
+                                 << " range [" << j0 << ", " << end << ")";
+          }
+        }
+      }
+    }
+  }
+  // The scalar loop itself on hand-made rows: a plateau (ties) is no maximum, nor is a sample
+  // next to a NaN; the threshold is strict.
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float r0[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  const float r1[8] = {0, 5, 5, 0, 7, 0, 9, 0};
+  const float r2[8] = {0, 0, 0, 0, 0, 0, 0, nan};
+  EXPECT_EQ(surf_detail::NextInLayerMaximumScalar(r0, r1, r2, 1, 7, 1.f), 4);
+  EXPECT_EQ(surf_detail::NextInLayerMaximumScalar(r0, r1, r2, 1, 7, 7.f), 7);
+  EXPECT_EQ(surf_detail::NextInLayerMaximumScalar(r0, r1, r2, 5, 7, 1.f), 7);
 }
 
 }  // namespace

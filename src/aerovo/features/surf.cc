@@ -3,12 +3,6 @@
 
 #include <omp.h>
 
-#if defined(__SSE2__)
-#include <immintrin.h>
-#elif defined(__ARM_NEON) && defined(__aarch64__)
-#include <arm_neon.h>
-#endif
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -147,26 +141,6 @@ bool Interpolate(const float* lo, const float* mid, const float* hi, std::ptrdif
   return true;
 }
 
-// First j in [j, end) with row[j] > threshold, or end. Four samples per step: almost all
-// samples are below the threshold. Plain intrinsics (SSE2 / NEON): Highway's static NEON target
-// needs +crypto attributes that this file's code does not have.
-inline int NextAbove(const float* row, int j, int end, float threshold) {
-#if defined(__SSE2__)
-  const __m128 t = _mm_set1_ps(threshold);
-  for (; j + 4 <= end; j += 4) {
-    const int m = _mm_movemask_ps(_mm_cmpgt_ps(_mm_loadu_ps(row + j), t));
-    if (m != 0) return j + __builtin_ctz(static_cast<unsigned>(m));
-  }
-#elif defined(__ARM_NEON) && defined(__aarch64__)
-  const float32x4_t t = vdupq_n_f32(threshold);
-  for (; j + 4 <= end; j += 4) {
-    if (vmaxvq_u32(vcgtq_f32(vld1q_f32(row + j), t)) != 0) break;  // the first is among these 4
-  }
-#endif
-  while (j < end && !(row[j] > threshold)) ++j;
-  return j;
-}
-
 inline bool IsMaximum(float v, const float* p, std::ptrdiff_t stride) {
   return v > p[-stride - 1] && v > p[-stride] && v > p[-stride + 1] && v > p[-1] && v > p[0] &&
          v > p[1] && v > p[stride - 1] && v > p[stride] && v > p[stride + 1];
@@ -180,6 +154,111 @@ bool StrongerFirst(const Keypoint& a, const Keypoint& b) {
   if (a.x != b.x) return a.x < b.x;
   return a.scale < b.scale;
 }
+
+// Cell of the adaptive grid (g cells per side over [origin, origin + extent)) holding coordinate
+// v; monotone non-decreasing in v. The one formula of the selection and of the early rejection.
+inline int GridCell(float v, int origin, int extent, int g) {
+  return std::clamp(static_cast<int>((v - origin) * g / extent), 0, g - 1);
+}
+
+// Adaptive mode: what the selection (Surf::Impl::Select) has seen so far, enough to reject a
+// candidate it cannot keep before the costly steps (outer layers, refinement). A candidate of
+// response v in cell c cannot be selected, nor be the cell's first dropped point (which sets
+// next_min_response), when among the points already found
+//  - its cell has quota + 1 points stronger than v (it is not among the cell's quota; the
+//    (quota + 1)-th strongest of the cell is the strongest beyond the quota: rest_max[c]), and
+//  - more + 1 points beyond their cells' quotas are stronger than v, where more (the part of
+//    the target filled from the strongest of the others) is at most target - (cells * quota -
+//    deficit): the strongest of those is then out of reach too, and the frame keeps more than
+//    target points (Select's branch).
+// Both counts only grow and the bound on `more` only falls as points are added, so a rejection
+// stays right whatever is found later, and the set Select keeps is exactly the one it keeps
+// from every candidate (SurfAdaptive.TheSelectionIsExactlyThePlainSelectionOverAllCandidates).
+// Ties: only v strictly below a stronger point's response is rejected. Buffers are reused.
+class SelectionBar {
+ public:
+  void Reset(int cells, int quota, int target) {
+    cells_ = cells;
+    quota_ = quota;
+    target_ = target;
+    top_.resize(static_cast<std::size_t>(cells) * quota);
+    top_n_.assign(cells, 0);
+    rest_max_.assign(cells, -std::numeric_limits<float>::infinity());
+    rest_.clear();
+    deficit_ = cells * quota;
+    rest_bar_ = -std::numeric_limits<float>::infinity();
+  }
+  void CopyFrom(const SelectionBar& o) {
+    cells_ = o.cells_;
+    quota_ = o.quota_;
+    target_ = o.target_;
+    top_.assign(o.top_.begin(), o.top_.end());
+    top_n_.assign(o.top_n_.begin(), o.top_n_.end());
+    rest_max_.assign(o.rest_max_.begin(), o.rest_max_.end());
+    rest_.assign(o.rest_.begin(), o.rest_.end());
+    deficit_ = o.deficit_;
+    rest_bar_ = o.rest_bar_;
+  }
+  // A point of `cell` was found (it reaches the selection).
+  void Add(int cell, const Keypoint& kp) {
+    Keypoint* h = top_.data() + static_cast<std::size_t>(cell) * quota_;  // weakest at h[0]
+    int& n = top_n_[cell];
+    if (n < quota_) {
+      h[n++] = kp;
+      std::push_heap(h, h + n, StrongerFirst);
+      --deficit_;
+      Trim();
+      return;
+    }
+    Keypoint out = kp;
+    if (StrongerFirst(kp, h[0])) {
+      std::pop_heap(h, h + quota_, StrongerFirst);
+      out = h[quota_ - 1];
+      h[quota_ - 1] = kp;
+      std::push_heap(h, h + quota_, StrongerFirst);
+    }
+    rest_max_[cell] = std::max(rest_max_[cell], out.response);
+    const std::size_t keep = KeepInRest();
+    if (rest_.size() < keep) {
+      rest_.push_back(out);
+      std::push_heap(rest_.begin(), rest_.end(), StrongerFirst);
+    } else if (StrongerFirst(out, rest_.front())) {
+      std::pop_heap(rest_.begin(), rest_.end(), StrongerFirst);
+      rest_.back() = out;
+      std::push_heap(rest_.begin(), rest_.end(), StrongerFirst);
+    }
+    Trim();
+  }
+  // Candidates of `cell` with a response below this cannot be selected (-inf: none rejected).
+  float Bar(int cell) const { return std::min(rest_max_[cell], rest_bar_); }
+
+ private:
+  // more + 1 with more's bound (the strongest beyond the quotas that can matter).
+  std::size_t KeepInRest() const {
+    return static_cast<std::size_t>(std::max(0, target_ - (cells_ * quota_ - deficit_))) + 1;
+  }
+  void Trim() {
+    const std::size_t keep = KeepInRest();
+    while (rest_.size() > keep) {
+      std::pop_heap(rest_.begin(), rest_.end(), StrongerFirst);
+      rest_.pop_back();
+    }
+    rest_bar_ =
+        rest_.size() == keep ? rest_.front().response : -std::numeric_limits<float>::infinity();
+  }
+  int cells_ = 0, quota_ = 1, target_ = 0, deficit_ = 0;
+  std::vector<Keypoint> top_;    // cells x quota: each cell's strongest (a heap per cell)
+  std::vector<int> top_n_;       // entries used per cell
+  std::vector<float> rest_max_;  // per cell: strongest response beyond its quota
+  std::vector<Keypoint> rest_;   // heap: the strongest beyond their quotas (KeepInRest)
+  float rest_bar_ = 0.f;         // response of the weakest of rest_ when full, else -inf
+};
+
+// Adaptive mode: a column range of samples whose refined x (within one sample of the sample's
+// centre) falls in grid columns cx0..cx1 (cx1 = cx0 or cx0 + 1).
+struct ColumnSpan {
+  int j_begin, j_end, cx0, cx1;
+};
 
 }  // namespace
 
@@ -200,6 +279,11 @@ struct Surf::Impl {
   IntegralImage ii;
   std::vector<std::vector<float>> rings;     // Per thread: 3 response rows per layer.
   std::vector<std::vector<Keypoint>> found;  // Per row block, merged after each octave.
+  // Adaptive mode's early rejection (SelectionBar): the points of the octaves done, and per row
+  // block that plus its own; the column spans of an octave.
+  SelectionBar bar;
+  std::vector<SelectionBar> band_bars;
+  std::vector<ColumnSpan> spans;
 
   void Prepare(const GrayImageView& image) {
     CheckImage(image);
@@ -290,9 +374,7 @@ void Surf::Impl::Select(std::vector<Keypoint>& kps) {
     const int g = options.grid, cells = g * g;
     const RectI r = options.roi ? *options.roi : RectI{0, 0, ii.width(), ii.height()};
     const auto cell_of = [&](const Keypoint& kp) {
-      const int cx = std::clamp(static_cast<int>((kp.x - r.x) * g / r.width), 0, g - 1);
-      const int cy = std::clamp(static_cast<int>((kp.y - r.y) * g / r.height), 0, g - 1);
-      return cy * g + cx;
+      return GridCell(kp.y, r.y, r.height, g) * g + GridCell(kp.x, r.x, r.width, g);
     };
     // Counting sort of the candidates by cell.
     cell_start.assign(cells + 1, 0);
@@ -340,10 +422,33 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
   const int W = ii.width(), H = ii.height();
   const int levels = options.num_scale_levels;
   const int threads = ResolveThreads(options.num_threads);
+  // Samples above the threshold that are maxima of their 3x3 in the layer (SIMD, hessian.h).
+  const surf_detail::InLayerMaximumFn next_in_layer_max = surf_detail::ActiveInLayerMaximum();
   std::vector<Keypoint> keypoints;
 
-  for (int octave = 0; octave < options.num_octaves; ++octave) {
+  // Adaptive mode: candidates the selection cannot keep are rejected as early as the scan for
+  // samples above the floor (SelectionBar). The octaves run coarse to fine, so that the finest
+  // (three quarters of the candidates) meets the bars of the coarser ones; the rows are split in
+  // kAdaptiveBands blocks whatever the thread count, each starting from the octaves done, so
+  // that the points examined (SurfResult::candidates) do not depend on it either.
+  // The bars keep up to target_points points (each cell's quota) per row block; beyond
+  // kMaxBarPoints (far above the defaults' 1500) every candidate is examined instead.
+  // 4 blocks: the 1080p bench crop examines 8 415 of its 20 979 candidates (1 block would
+  // examine ~6 700, 8 ~9 400: BENCHMARKS.md); the adaptive fast-Hessian uses up to 4 threads.
+  constexpr int kAdaptiveBands = 4;
+  constexpr long kMaxBarPoints = 1 << 16;
+  const int g = options.grid, cells = g * g;
+  const bool early =
+      options.adaptive &&
+      static_cast<long>(cells) * std::max(1, options.target_points / cells) <= kMaxBarPoints;
+  const RectI sel = options.roi ? *options.roi : RectI{0, 0, W, H};
+  if (early) {
+    bar.Reset(cells, std::max(1, options.target_points / cells), options.target_points);
+  }
+
+  for (int step = 0; step < options.num_octaves; ++step) {
     ThrowIfCancelled("SURF detection");  // a band stopped early by a stop request
+    const int octave = early ? options.num_octaves - 1 - step : step;
     const int p = 1 << octave;
     std::vector<BoxFilterLayout> layouts(levels);
     for (int l = 0; l < levels; ++l) {
@@ -359,6 +464,7 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
     // must be inside the image; ROI limits centres to within one sample of the rectangle.
     std::vector<std::array<int, 4>> cand(levels);  // j0, j1, i0, i1 inclusive
     bool any = false;
+    int span_j0 = W, span_j1 = -1;
     for (int l = 1; l + 1 < levels; ++l) {
       int j0 = lo_x(l + 1) + 1, j1 = hi_x(l + 1, W) - 1;
       int i0 = lo_x(l + 1) + 1, i1 = hi_x(l + 1, H) - 1;
@@ -372,9 +478,33 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
         i1 = std::min(i1, (r.y + r.height + p) / p + 1);
       }
       cand[l] = {j0, j1, i0, i1};
-      if (j0 <= j1 && i0 <= i1) any = true;
+      if (j0 <= j1 && i0 <= i1) {
+        any = true;
+        span_j0 = std::min(span_j0, j0);
+        span_j1 = std::max(span_j1, j1);
+      }
     }
     if (!any) continue;
+    const float centre_offset = (p - 1) * 0.5f;
+    // The refined centre is p * (j + offset) + centre_offset with |offset| <= 1 (Interpolate):
+    // the grid cells a sample's point can fall in, by the selection's own formula.
+    const auto cells_of = [&](int k, int origin, int extent) {
+      return std::pair<int, int>(GridCell(p * (k + -1.f) + centre_offset, origin, extent, g),
+                                 GridCell(p * (k + 1.f) + centre_offset, origin, extent, g));
+    };
+    spans.clear();
+    if (early) {
+      for (int j = span_j0; j <= span_j1; ++j) {
+        const auto [c0, c1] = cells_of(j, sel.x, sel.width);
+        if (spans.empty() || spans.back().cx0 != c0 || spans.back().cx1 != c1) {
+          spans.push_back({j, j + 1, c0, c1});
+        } else {
+          spans.back().j_end = j + 1;
+        }
+      }
+    } else {
+      spans.push_back({span_j0, span_j1 + 1, 0, 0});
+    }
 
     // Rows of samples are processed in bands (one per task). Within a band the determinants
     // of the middle layers are computed row by row into a ring of three rows per layer, and
@@ -402,8 +532,14 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
       }
     }
     const int rows = c_end - c_begin + 1;
-    const int bands = threads > 1 ? std::min(rows, threads * 4) : 1;
-    found.assign(bands, {});
+    const int bands =
+        early ? std::min(rows, kAdaptiveBands) : (threads > 1 ? std::min(rows, threads * 4) : 1);
+    if (static_cast<int>(found.size()) < bands) found.resize(bands);
+    for (int b = 0; b < bands; ++b) found[b].clear();
+    if (early) {
+      if (static_cast<int>(band_bars.size()) < bands) band_bars.resize(bands);
+      for (int b = 0; b < bands; ++b) band_bars[b].CopyFrom(bar);
+    }
     if (static_cast<int>(rings.size()) < threads) rings.resize(threads);
     const std::size_t ring_floats = static_cast<std::size_t>(3) * levels * grid_w;
 
@@ -417,6 +553,7 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
         return ring.data() + (static_cast<std::size_t>(l) * 3 + r % 3) * grid_w;
       };
       std::vector<Keypoint>& out = found[b];
+      SelectionBar* band_bar = early ? &band_bars[b] : nullptr;
       for (int r = cb - 1; r <= ce; ++r) {
         if ((r & 15) == 0 && CancelRequested()) break;  // core/cancel.h; thrown below
         for (int l = 1; l + 1 < levels; ++l) {
@@ -426,6 +563,16 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
         }
         const int i = r - 1;  // Rows i - 1, i, i + 1 are ready.
         if (i < cb || i >= ce) continue;
+        const auto [cy0, cy1] = cells_of(i, sel.y, sel.height);
+        // The scan's threshold over a span: the floor, or in adaptive mode the lowest bar of
+        // the cells its points can fall in when that is higher (responses >= the bar pass).
+        const auto span_threshold = [&](const ColumnSpan& s) {
+          if (band_bar == nullptr) return threshold;
+          const float b =
+              std::min(std::min(band_bar->Bar(cy0 * g + s.cx0), band_bar->Bar(cy0 * g + s.cx1)),
+                       std::min(band_bar->Bar(cy1 * g + s.cx0), band_bar->Bar(cy1 * g + s.cx1)));
+          return std::max(threshold, std::nextafter(b, -std::numeric_limits<float>::infinity()));
+        };
         for (int l = 1; l + 1 < levels; ++l) {
           const auto [j0, j1, i0, i1] = cand[l];
           if (i < i0 || i > i1 || j0 > j1) continue;
@@ -433,13 +580,10 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
           const float* m1 = row_of(l, i);
           const float* m2 = row_of(l, i + 1);
           const bool lazy_lo = l - 1 == 0, lazy_hi = l + 1 == levels - 1;
-          for (int j = NextAbove(m1, j0, j1 + 1, threshold); j <= j1;
-               j = NextAbove(m1, j + 1, j1 + 1, threshold)) {
+          // Whether sample j (above the threshold and a maximum of its 3x3 in the layer) is a
+          // keypoint: appended to `out`.
+          const auto examine = [&](int j) {
             const float v = m1[j];
-            if (!(v > m1[j - 1] && v > m1[j + 1] && v > m0[j - 1] && v > m0[j] && v > m0[j + 1] &&
-                  v > m2[j - 1] && v > m2[j] && v > m2[j + 1])) {
-              continue;
-            }
             // 3x3 neighbourhoods of the three layers, row-major (stride 3); full neighbour
             // layers are tested first (cheap), lazily evaluated ones last.
             float n[3][9];
@@ -466,33 +610,53 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
             };
             if (!lazy_lo) {
               copy3x3(l - 1, n[0]);
-              if (!IsMaximum(v, n[0] + 4, 3)) continue;
+              if (!IsMaximum(v, n[0] + 4, 3)) return false;
             }
             if (!lazy_hi) {
               copy3x3(l + 1, n[2]);
-              if (!IsMaximum(v, n[2] + 4, 3)) continue;
+              if (!IsMaximum(v, n[2] + 4, 3)) return false;
             }
-            if (lazy_lo && !eval3x3(l - 1, n[0])) continue;
-            if (lazy_hi && !eval3x3(l + 1, n[2])) continue;
+            if (lazy_lo && !eval3x3(l - 1, n[0])) return false;
+            if (lazy_hi && !eval3x3(l + 1, n[2])) return false;
             copy3x3(l, n[1]);
             float off[3];
-            if (!Interpolate(n[0] + 4, n[1] + 4, n[2] + 4, 3, off)) continue;
+            if (!Interpolate(n[0] + 4, n[1] + 4, n[2] + 4, 3, off)) return false;
             Keypoint kp;
-            const float centre_offset = (p - 1) * 0.5f;
             kp.x = p * (j + off[0]) + centre_offset;
             kp.y = p * (i + off[1]) + centre_offset;
-            if (options.roi && !options.roi->contains(kp.x, kp.y)) continue;
+            if (options.roi && !options.roi->contains(kp.x, kp.y)) return false;
             const float size = layouts[l].size + off[2] * (layouts[l].size - layouts[l - 1].size);
             kp.scale = 1.2f * size / kBaseSize;
             kp.response = v;
             kp.laplacian = surf_detail::HessianTrace(ii, layouts[l], i, j) >= 0.f ? 1 : -1;
             kp.octave = static_cast<std::int8_t>(octave);
             out.push_back(kp);
+            return true;
+          };
+          for (const ColumnSpan& s : spans) {
+            const int a = std::max(s.j_begin, j0), e = std::min(s.j_end, j1 + 1);
+            if (a >= e) continue;
+            float t = span_threshold(s);
+            for (int j = next_in_layer_max(m0, m1, m2, a, e, t); j < e;
+                 j = next_in_layer_max(m0, m1, m2, j + 1, e, t)) {
+              if (!examine(j) || band_bar == nullptr) continue;
+              const Keypoint& kp = out.back();
+              band_bar->Add(
+                  GridCell(kp.y, sel.y, sel.height, g) * g + GridCell(kp.x, sel.x, sel.width, g),
+                  kp);
+              t = span_threshold(s);
+            }
           }
         }
       }
     }
-    for (const auto& f : found) keypoints.insert(keypoints.end(), f.begin(), f.end());
+    for (int b = 0; b < bands; ++b) {
+      keypoints.insert(keypoints.end(), found[b].begin(), found[b].end());
+      if (!early) continue;
+      for (const Keypoint& kp : found[b]) {
+        bar.Add(GridCell(kp.y, sel.y, sel.height, g) * g + GridCell(kp.x, sel.x, sel.width, g), kp);
+      }
+    }
   }
   ThrowIfCancelled("SURF detection");
   return keypoints;

@@ -67,7 +67,9 @@ struct SurfOptions {
   /// same floor relative to its texture as a bright one); then each cell of a grid x grid grid
   /// over the image (or roi) keeps its strongest target_points / grid^2 points, and the rest of
   /// the target goes to the strongest remaining points anywhere; only the kept points get an
-  /// orientation and a descriptor. Default false (MATLAB's fixed threshold).
+  /// orientation and a descriptor. Points that can no longer be kept are rejected as soon as
+  /// the scan meets them (SurfResult::candidates), which keeps the cost of the low floor small
+  /// (BENCHMARKS.md, "Adaptive interest points"). Default false (MATLAB's fixed threshold).
   bool adaptive = false;
   /// Adaptive: points kept per frame (fewer when the frame has fewer above the floor).
   /// Default 1500 (BENCHMARKS.md, "Adaptive interest points": simulated flights, normal and
@@ -115,9 +117,14 @@ struct SurfResult {
   FeatureSet features;       ///< Keypoints (sorted by decreasing response) and descriptors.
   double detect_ms = 0.0;    ///< Integral image + fast-Hessian + orientation.
   double describe_ms = 0.0;  ///< Descriptor computation.
-  /// Adaptive mode: points found above the frame's floor (before the selection), the frame's
-  /// robust intensity range (1st to 99th percentile, levels) and its floor (determinant units).
-  /// 0 in fixed-threshold mode.
+  /// Adaptive mode: points found above the frame's floor that reached the selection, the
+  /// frame's robust intensity range (1st to 99th percentile, levels) and its floor (determinant
+  /// units). 0 in fixed-threshold mode. A point already beaten by enough stronger ones (its
+  /// cell's quota and the rest of the target) is rejected before its outer-layer test and
+  /// refinement and not counted, so `candidates` is at most the number of points above the
+  /// floor (all of them when they are no more than target_points); it does not depend on
+  /// num_threads. The kept points are exactly those a selection over every point above the
+  /// floor keeps.
   int candidates = 0;
   double contrast_range = 0.0;
   double floor_response = 0.0;
