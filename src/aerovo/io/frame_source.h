@@ -17,6 +17,7 @@
 #include "aerovo/io/image_file.h"
 #include "aerovo/io/image_metadata.h"
 #include "aerovo/io/video_decoder.h"
+#include "aerovo/io/video_decoder_choice.h"
 
 namespace aerovo {
 
@@ -57,18 +58,6 @@ inline constexpr const char* kFrameFlagTruncated = "truncated";
 /// A 64-bit hash of the pixels of `image` (row by row; the same pixels give the same hash).
 /// Used to find repeated frames; about 0.2 ms for a 1920x1080 frame.
 std::uint64_t PixelHash(const GrayImage& image);
-
-/// Which decoder reads video files (FrameSourceOptions::video_decoder).
-enum class VideoDecoderChoice {
-  kAuto,    ///< kFfmpeg (the default decoder).
-  kFfmpeg,  ///< io/video_decoder.h: FFmpeg's libraries, grey from the luma plane.
-  kOpenCv,  ///< cv::VideoCapture (FFmpeg backend), grey from its BGR image.
-};
-inline const char* ToString(VideoDecoderChoice c) {
-  return c == VideoDecoderChoice::kAuto     ? "auto"
-         : c == VideoDecoderChoice::kFfmpeg ? "ffmpeg"
-                                            : "opencv";
-}
 
 /// Options of every frame source. Validate() checks them.
 struct FrameSourceOptions {
