@@ -1,6 +1,5 @@
 #include "aerovo/io/video_decoder.h"
 
-#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -28,20 +27,6 @@ std::string AvErrorText(int code) {
 }
 
 double Rational(AVRational r) { return r.den == 0 ? 0.0 : static_cast<double>(r.num) / r.den; }
-
-// Limited ("tv") range luma to full range: Y' in [16, 235] -> [0, 255], rounded half up.
-const std::array<std::uint8_t, 256>& LimitedToFullLuma() {
-  static const std::array<std::uint8_t, 256> table = [] {
-    std::array<std::uint8_t, 256> t{};
-    for (int y = 0; y < 256; ++y) {
-      const int v = y - 16;
-      const int full = v <= 0 ? 0 : (v * 255 * 2 + 219) / (2 * 219);
-      t[y] = static_cast<std::uint8_t>(full > 255 ? 255 : full);
-    }
-    return t;
-  }();
-  return table;
-}
 
 // True when plane 0 of `fmt` holds 8-bit luma, one byte per pixel (planar or semi-planar YUV,
 // grey): the Y' plane can be read directly.
@@ -255,14 +240,13 @@ void VideoDecoder::Gray(GrayImage& out) {
   const bool full = IsFullRange(f);
   const auto fmt = static_cast<AVPixelFormat>(f->format);
   if (HasPlainLumaPlane(fmt)) {
-    const std::array<std::uint8_t, 256>& lut = LimitedToFullLuma();
     for (int y = 0; y < h; ++y) {
       const std::uint8_t* src = f->data[0] + static_cast<std::ptrdiff_t>(y) * f->linesize[0];
       std::uint8_t* dst = out.row(y);
       if (full) {
         std::memcpy(dst, src, static_cast<std::size_t>(w));
       } else {
-        for (int x = 0; x < w; ++x) dst[x] = lut[src[x]];
+        for (int x = 0; x < w; ++x) dst[x] = LimitedToFullLuma(src[x]);
       }
     }
     return;

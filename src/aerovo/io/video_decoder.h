@@ -4,6 +4,7 @@
 // ffmpeg. The FFmpeg headers stay in video_decoder.cc (linked PRIVATE to aerovo_io).
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -20,12 +21,14 @@ namespace aerovo {
 ///
 /// Grey (Gray()): for 8-bit YUV formats (yuv420p, yuvj420p, nv12, yuv422p, yuv444p, gray...)
 /// the luma plane Y' itself, which the encoder computed as Y' = Kr R' + Kg G' + Kb B' with the
-/// stream's own colour matrix (BT.601: 0.299 0.587 0.114; BT.709: 0.2126 0.7152 0.0722; ITU-R
-/// BT.601-7 / BT.709-6 table 3), so no matrix is applied here and none can be wrong. Range:
+/// stream's own colour matrix (BT.601: 0.299 0.587 0.114; BT.709: 0.2126 0.7152 0.0722: the
+/// luminance equations of ITU-R BT.601-7 and BT.709-6), so no matrix is applied here and none
+/// can be wrong (OpenCV's path, YUV -> BGR -> grey, clips saturated colours). Range:
 /// full-range ("pc", JPEG; AVCOL_RANGE_JPEG or a yuvj format) is copied as is; limited range
 /// ("tv", AVCOL_RANGE_MPEG, and the default of non-yuvj formats as in FFmpeg) has Y' in
-/// [16, 235] (BT.601-7 / BT.709-6: 219 levels over black 16) and is mapped exactly to full range
-/// by grey = clamp(round((Y' - 16) * 255 / 219), 0, 255), one 256-entry table. Other formats
+/// [16, 235] (the recommendations' 8-bit quantisation, Y' = 219 E'Y + 16) and is mapped exactly
+/// to full range by grey = clamp(round((Y' - 16) * 255 / 219), 0, 255) (LimitedToFullLuma).
+/// Other formats
 /// (10-bit, packed YUYV, RGB, palette) go through swscale to GRAY8 with the frame's source range
 /// and colour matrix (swscale's default BT.601 when the stream states none), full-range output.
 /// Colour (Bgr()): swscale to BGR24 with the frame's matrix and range, for keep_color only.
@@ -74,6 +77,13 @@ class VideoDecoder {
   void Gray(GrayImage& out);
   /// The same frame as 8-bit BGR into `out` (reallocated only when the size changes).
   void Bgr(cv::Mat& out);
+  /// The limited-to-full range rule for one luma value: clamp(round((y - 16) * 255 / 219), 0,
+  /// 255) with halves rounded up, computed as ((clamp(y - 16, 0, 219) * 2385 + 986) >> 11),
+  /// integer arithmetic the compiler vectorises (equal to the rule for all 256 values; tested).
+  static constexpr std::uint8_t LimitedToFullLuma(int y) {
+    const int v = y < 16 ? 0 : (y > 235 ? 219 : y - 16);
+    return static_cast<std::uint8_t>((v * 2385 + 986) >> 11);
+  }
   /// Packets the decoder refused so far (damaged data).
   int failed_packets() const { return failed_packets_; }
   /// Packets in a row without a frame after which Grab() gives up (OpenCV's grab() limit too).

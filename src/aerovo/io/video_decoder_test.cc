@@ -3,6 +3,7 @@
 // (issue 19), rotation metadata, cut files. Inputs are made here with ffmpeg and OpenCV.
 #include "aerovo/io/video_decoder.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -378,6 +379,16 @@ TEST(VideoDecoder, BothDecodersAgreeOnAPlainClip) {
   }
   EXPECT_FALSE(cv.Next(b));
   EXPECT_EQ(n, 4);  // 2 5 8 11
+}
+
+TEST(VideoDecoder, LimitedToFullLumaIsTheRoundedRuleForAllValues) {
+  for (int y = 0; y < 256; ++y) {
+    const double exact = std::clamp((y - 16) * 255.0 / 219.0, 0.0, 255.0);
+    EXPECT_EQ(VideoDecoder::LimitedToFullLuma(y), static_cast<int>(std::floor(exact + 0.5))) << y;
+  }
+  EXPECT_EQ(VideoDecoder::LimitedToFullLuma(16), 0);
+  EXPECT_EQ(VideoDecoder::LimitedToFullLuma(235), 255);
+  EXPECT_EQ(VideoDecoder::LimitedToFullLuma(126), 128);  // 110 * 255 / 219 = 128.08
 }
 
 TEST(VideoDecoder, OpenErrorsNameTheFileAndThreadsAreValidated) {
