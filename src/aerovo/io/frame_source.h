@@ -90,8 +90,9 @@ struct FrameSourceOptions {
   /// Video files through the ffmpeg decoder: the codec's threads (frame + slice threading), 0 =
   /// one per core (FFmpeg's choice). Default 2: the decoder runs on PrefetchSource's reader
   /// thread beside the odometry's frame loop on an on-board computer that is busy with the
-  /// odometry (issue 19.2); 2 threads take 4K H.264 decoding from one core's pace to about
-  /// twice it while leaving the other cores to SURF (measured in BENCHMARKS.md).
+  /// odometry (issue 19.2): two threads let decoding overlap itself without taking every core
+  /// as 0 would; frame threading costs no extra CPU per frame (measured: 1, 2 and one per core
+  /// within noise, BENCHMARKS.md "Video decoding"), only a frame of latency per thread.
   int video_threads = 2;
 };
 
