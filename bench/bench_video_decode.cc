@@ -42,11 +42,19 @@ class Videos {
     }
     const std::string path = (dir_ / fmt::format("{}x{}.mp4", w, h)).string();
     const int mbps = w * h > 2100000 ? 100 : 30;
-    const bool ok = aerovo::io_test::RunFfmpeg(
-        {"-f", "lavfi", "-i", fmt::format("testsrc2=size={}x{}:rate=30", w, h), "-vf",
-         "noise=alls=8:allf=t", "-frames:v", "45", "-pix_fmt", "yuv420p", "-c:v", "libx264",
-         "-preset", "veryfast", "-b:v", fmt::format("{}M", mbps), "-maxrate",
-         fmt::format("{}M", mbps), "-bufsize", fmt::format("{}M", 2 * mbps), "-g", "30", path});
+    const bool ok =
+        aerovo::io_test::RunFfmpeg({"-f",        "lavfi",
+                                    "-i",        fmt::format("testsrc2=size={}x{}:rate=30", w, h),
+                                    "-vf",       "noise=alls=8:allf=t",
+                                    "-frames:v", "45",
+                                    "-pix_fmt",  "yuv420p",
+                                    "-c:v",      "libx264",
+                                    "-preset",   "veryfast",
+                                    "-b:v",      fmt::format("{}M", mbps),
+                                    "-maxrate",  fmt::format("{}M", mbps),
+                                    "-bufsize",  fmt::format("{}M", 2 * mbps),
+                                    "-g",        "30",
+                                    path});
     return paths_[key] = ok ? path : std::string();
   }
 
@@ -97,10 +105,16 @@ void BM_VideoNextFrame(benchmark::State& state) {
 }
 BENCHMARK(BM_VideoNextFrame)
     ->ArgNames({"w", "h", "opencv", "threads", "bgr"})
-    ->Args({1920, 1080, 0, 1, 0})->Args({1920, 1080, 0, 2, 0})->Args({1920, 1080, 1, 0, 0})
-    ->Args({3840, 2160, 0, 1, 0})->Args({3840, 2160, 0, 2, 0})->Args({3840, 2160, 0, 0, 0})
-    ->Args({3840, 2160, 0, 2, 1})->Args({3840, 2160, 1, 0, 0})
-    ->MeasureProcessCPUTime()->Unit(benchmark::kMillisecond);
+    ->Args({1920, 1080, 0, 1, 0})
+    ->Args({1920, 1080, 0, 2, 0})
+    ->Args({1920, 1080, 1, 0, 0})
+    ->Args({3840, 2160, 0, 1, 0})
+    ->Args({3840, 2160, 0, 2, 0})
+    ->Args({3840, 2160, 0, 0, 0})
+    ->Args({3840, 2160, 0, 2, 1})
+    ->Args({3840, 2160, 1, 0, 0})
+    ->MeasureProcessCPUTime()
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
 BENCHMARK_MAIN();

@@ -128,7 +128,8 @@ VideoDecoder::VideoDecoder(const std::filesystem::path& path, int threads) : av_
   av_->codec->thread_type = FF_THREAD_FRAME | FF_THREAD_SLICE;
   av_->codec->pkt_timebase = st->time_base;
   rc = avcodec_open2(av_->codec, codec, nullptr);
-  if (rc < 0) throw fail(fmt::format("cannot open the {} decoder ({})", codec->name, AvErrorText(rc)));
+  if (rc < 0)
+    throw fail(fmt::format("cannot open the {} decoder ({})", codec->name, AvErrorText(rc)));
   av_->packet = av_packet_alloc();
   av_->frame = av_frame_alloc();
   if (av_->packet == nullptr || av_->frame == nullptr) throw fail("out of memory (frame)");
@@ -143,9 +144,8 @@ VideoDecoder::VideoDecoder(const std::filesystem::path& path, int threads) : av_
   if (!std::isfinite(fps_) || fps_ <= 0.0 || fps_ > 10000.0) fps_ = 0.0;
   std::int64_t count = st->nb_frames;
   if (count <= 0 && fps_ > 0.0) {
-    double duration_s = av_->format->duration > 0
-                            ? static_cast<double>(av_->format->duration) / AV_TIME_BASE
-                            : 0.0;
+    double duration_s =
+        av_->format->duration > 0 ? static_cast<double>(av_->format->duration) / AV_TIME_BASE : 0.0;
     if (duration_s <= 0.0 && st->duration > 0) duration_s = st->duration * Rational(st->time_base);
     count = static_cast<std::int64_t>(std::floor(duration_s * fps_ + 0.5));
   }
@@ -155,9 +155,8 @@ VideoDecoder::VideoDecoder(const std::filesystem::path& path, int threads) : av_
   const std::uint8_t* matrix = av_stream_get_side_data(st, AV_PKT_DATA_DISPLAYMATRIX, &size);
   if (matrix != nullptr && size >= 9 * sizeof(std::int32_t)) {
     // av_display_rotation_get's angle as it is, as OpenCV's CAP_PROP_ORIENTATION_META takes
-    // it: measured, an MP4 tagged rotate=90 (FFmpeg's and phones' "turn 90 degrees clockwise
-    // to display") gives 90 (the mov demuxer's matrix is the transpose of the file's, so
-    // FFmpeg's "counter-clockwise" reads here as clockwise for display).
+    // it: measured, MP4s tagged rotate=90/180/270 (ffmpeg -metadata:s:v rotate=N, "turn N
+    // degrees clockwise to display") give 90/180/270 (test VideoDecoder.RotationMetadata...).
     const double deg = av_display_rotation_get(reinterpret_cast<const std::int32_t*>(matrix));
     if (std::isfinite(deg)) {
       rotation_deg_ = ((static_cast<int>(std::lround(deg)) % 360) + 360) % 360;
@@ -227,8 +226,8 @@ double VideoDecoder::timestamp_ms() const {
   if (!a.have_frame || a.frame->best_effort_timestamp == AV_NOPTS_VALUE) {
     return std::numeric_limits<double>::quiet_NaN();
   }
-  return static_cast<double>(a.frame->best_effort_timestamp - a.start_pts) *
-         Rational(a.time_base) * 1000.0;
+  return static_cast<double>(a.frame->best_effort_timestamp - a.start_pts) * Rational(a.time_base) *
+         1000.0;
 }
 
 void VideoDecoder::Gray(GrayImage& out) {
@@ -278,8 +277,7 @@ void VideoDecoder::Bgr(cv::Mat& out) {
                                  av_get_pix_fmt_name(fmt) ? av_get_pix_fmt_name(fmt) : "?"));
   }
   const int* table = SwsTable(f);
-  sws_setColorspaceDetails(a.sws_bgr, table, IsFullRange(f) ? 1 : 0, table, 1, 0, 1 << 16,
-                           1 << 16);
+  sws_setColorspaceDetails(a.sws_bgr, table, IsFullRange(f) ? 1 : 0, table, 1, 0, 1 << 16, 1 << 16);
   std::uint8_t* dst[4] = {out.data, nullptr, nullptr, nullptr};
   int dst_stride[4] = {static_cast<int>(out.step[0]), 0, 0, 0};
   sws_scale(a.sws_bgr, f->data, f->linesize, 0, h, dst, dst_stride);

@@ -44,13 +44,13 @@ std::filesystem::path JoinWithoutClockRestart(const std::filesystem::path& dir, 
   for (const char* size : {a, b}) {
     const std::filesystem::path clip = dir / fmt::format("{}.ts", size);
     if (std::filesystem::exists(clip)) continue;
-    EXPECT_TRUE(RunFfmpeg({"-f", "lavfi", "-i", fmt::format("testsrc=size={}:rate=10", size),
-                           "-t", "2", "-c:v", "mpeg2video", clip.string()}));
+    EXPECT_TRUE(RunFfmpeg({"-f", "lavfi", "-i", fmt::format("testsrc=size={}:rate=10", size), "-t",
+                           "2", "-c:v", "mpeg2video", clip.string()}));
   }
   const std::filesystem::path list = dir / fmt::format("{}_{}.txt", a, b);
   std::ofstream(list) << fmt::format("file '{}.ts'\nfile '{}.ts'\n", a, b);
-  EXPECT_TRUE(RunFfmpeg({"-f", "concat", "-safe", "0", "-i", list.string(), "-c", "copy",
-                         out.string()}));
+  EXPECT_TRUE(
+      RunFfmpeg({"-f", "concat", "-safe", "0", "-i", list.string(), "-c", "copy", out.string()}));
   return out;
 }
 
@@ -178,9 +178,9 @@ TEST(VideoDecoder, GreyIsTheStreamsLumaBt601AndBt709FullAndLimitedRange) {
   cv::Mat3b bgr(120, 160);
   for (int r = 0; r < bgr.rows; ++r) {
     for (int c = 0; c < bgr.cols; ++c) {
-      bgr(r, c) = cv::Vec3b(static_cast<uchar>((c * 255) / 159),
-                            static_cast<uchar>((r * 255) / 119),
-                            static_cast<uchar>(((c / 8 + r / 8) % 2) * 200 + (c * r) % 55));
+      bgr(r, c) =
+          cv::Vec3b(static_cast<uchar>((c * 255) / 159), static_cast<uchar>((r * 255) / 119),
+                    static_cast<uchar>(((c / 8 + r / 8) % 2) * 200 + (c * r) % 55));
     }
   }
   const std::filesystem::path png = dir / "frame.png";
@@ -194,15 +194,16 @@ TEST(VideoDecoder, GreyIsTheStreamsLumaBt601AndBt709FullAndLimitedRange) {
     const cv::Mat1d* other;
     double max_error;
   };
-  for (const Case c : {Case{"bt601", "tv", &y601, &y709, 2.0}, Case{"bt709", "tv", &y709, &y601, 2.0},
-                       Case{"bt601", "pc", &y601, &y709, 1.0}, Case{"bt709", "pc", &y709, &y601, 1.0}}) {
+  for (const Case c :
+       {Case{"bt601", "tv", &y601, &y709, 2.0}, Case{"bt709", "tv", &y709, &y601, 2.0},
+        Case{"bt601", "pc", &y601, &y709, 1.0}, Case{"bt709", "pc", &y709, &y601, 1.0}}) {
     const std::string name = fmt::format("{}_{}.mkv", c.matrix, c.range);
     const std::string colorspace = std::string(c.matrix) == "bt601" ? "smpte170m" : "bt709";
-    ASSERT_TRUE(RunFfmpeg({"-loop", "1", "-i", png.string(), "-frames:v", "3", "-vf",
-                           fmt::format("scale=out_color_matrix={}:out_range={},format=yuv420p",
-                                       c.matrix, c.range),
-                           "-colorspace", colorspace, "-color_range", c.range, "-c:v", "ffv1",
-                           (dir / name).string()}))
+    ASSERT_TRUE(RunFfmpeg(
+        {"-loop", "1", "-i", png.string(), "-frames:v", "3", "-vf",
+         fmt::format("scale=out_color_matrix={}:out_range={},format=yuv420p", c.matrix, c.range),
+         "-colorspace", colorspace, "-color_range", c.range, "-c:v", "ffv1",
+         (dir / name).string()}))
         << name;
     VideoFileSource src(dir / name, WithDecoder(VideoDecoderChoice::kFfmpeg));
     Frame f;
@@ -245,12 +246,12 @@ TEST(VideoDecoder, RotationMetadataBothDecoders) {
   if (!HaveFfmpeg()) GTEST_SKIP() << "ffmpeg not found on PATH";
   io_test::TempDir dir("aerovo_dec_rot");
   const std::string plain = (dir / "plain.mp4").string();
-  ASSERT_TRUE(RunFfmpeg({"-f", "lavfi", "-i", "testsrc=size=96x64:rate=10", "-t", "1", "-c:v",
-                         "mpeg4", plain}));
+  ASSERT_TRUE(RunFfmpeg(
+      {"-f", "lavfi", "-i", "testsrc=size=96x64:rate=10", "-t", "1", "-c:v", "mpeg4", plain}));
   for (const int deg : {90, 180, 270}) {
     const std::filesystem::path rot = dir / fmt::format("rot{}.mp4", deg);
-    ASSERT_TRUE(RunFfmpeg({"-i", plain, "-c", "copy", "-metadata:s:v",
-                           fmt::format("rotate={}", deg), rot.string()}));
+    ASSERT_TRUE(RunFfmpeg(
+        {"-i", plain, "-c", "copy", "-metadata:s:v", fmt::format("rotate={}", deg), rot.string()}));
     for (const VideoDecoderChoice d : {VideoDecoderChoice::kFfmpeg, VideoDecoderChoice::kOpenCv}) {
       VideoFileSource src(rot, WithDecoder(d));
       EXPECT_EQ(src.rotation_deg(), deg) << ToString(d);
@@ -312,8 +313,8 @@ TEST(VideoDecoder, CutFilesEndWithAWarningAndOnlyCompleteFrames) {
   }
   if (!HaveFfmpeg()) GTEST_SKIP() << "ffmpeg not found on PATH (the MPEG-TS case)";
   const std::string ts = (dir / "full.ts").string();
-  if (!RunFfmpeg({"-f", "lavfi", "-i", "testsrc=size=320x240:rate=10", "-t", "4", "-c:v",
-                  "libx264", ts})) {
+  if (!RunFfmpeg({"-f", "lavfi", "-i", "testsrc=size=320x240:rate=10", "-t", "4", "-c:v", "libx264",
+                  ts})) {
     GTEST_SKIP() << "ffmpeg has no libx264";
   }
   {
