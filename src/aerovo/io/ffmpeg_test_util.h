@@ -1,4 +1,4 @@
-// Test helper (used by *_test.cc only): runs the ffmpeg program to make videos that OpenCV's
+// Test and benchmark helper (used by *_test.cc and bench/bench_video_decode.cc only): runs the
 // writer cannot (MPEG-TS clips of different sizes, rotation metadata). No shell: the arguments
 // go to posix_spawnp as they are.
 #pragma once

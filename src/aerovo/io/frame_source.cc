@@ -126,6 +126,11 @@ void Validate(const FrameSourceOptions& o) {
         "flight number >= 1",
         o.photo_flight));
   }
+  if (o.video_threads < 0 || o.video_threads > 64) {
+    throw InvalidArgument(fmt::format(
+        "FrameSourceOptions.video_threads {} must be in [0, 64] (0 = one per core)",
+        o.video_threads));
+  }
   if (std::isnan(o.end_time_s) || o.end_time_s < o.start_time_s) {
     throw InvalidArgument(fmt::format("FrameSourceOptions.end_time_s {} must be >= start_time_s {}",
                                       o.end_time_s, o.start_time_s));
@@ -146,21 +151,36 @@ VideoFileSource::VideoFileSource(const std::filesystem::path& path,
   if (!std::filesystem::exists(path, ec)) throw fail("no such file");
   if (!std::filesystem::is_regular_file(path, ec)) throw fail("not a regular file");
   if (std::filesystem::file_size(path, ec) == 0) throw fail("the file is empty (0 bytes)");
-  // Frames as stored, never rotated by the container's rotation metadata: the same policy as
-  // photos (IMREAD_IGNORE_ORIENTATION). OpenCV 4.6 rotates by default (ORIENTATION_AUTO), which
-  // swaps width and height (for 4:3, a focal length from the field of view 25 % short: the true
-  // one is 33 % longer) and turns the image axes 90 degrees against the telemetry's yaw.
-  if (!capture_.open(p, cv::CAP_FFMPEG)) {
-    throw fail(
-        "FFmpeg cannot read it (not a video, an unsupported codec, or a damaged or truncated "
-        "container)");
-  }
-  capture_.set(cv::CAP_PROP_ORIENTATION_AUTO, 0);
-  {
+  if (options_.video_decoder != VideoDecoderChoice::kOpenCv) {
+    // Ours (VideoDecoder): it never rotates; its errors name the file.
+    decoder_ = std::make_unique<VideoDecoder>(path, options_.video_threads);
+    rotation_deg_ = decoder_->rotation_deg();
+    fps_ = decoder_->fps();
+    frame_count_ = decoder_->frame_count();
+    width_ = decoder_->width();
+    height_ = decoder_->height();
+  } else {
+    // Frames as stored, never rotated by the container's rotation metadata: the same policy as
+    // photos (IMREAD_IGNORE_ORIENTATION). OpenCV 4.6 rotates by default (ORIENTATION_AUTO),
+    // which swaps width and height (for 4:3, a focal length from the field of view 25 % short:
+    // the true one is 33 % longer) and turns the image axes 90 degrees against the telemetry's
+    // yaw.
+    if (!capture_.open(p, cv::CAP_FFMPEG)) {
+      throw fail(
+          "FFmpeg cannot read it (not a video, an unsupported codec, or a damaged or truncated "
+          "container)");
+    }
+    capture_.set(cv::CAP_PROP_ORIENTATION_AUTO, 0);
     const double meta = capture_.get(cv::CAP_PROP_ORIENTATION_META);
     if (std::isfinite(meta)) {
       rotation_deg_ = ((static_cast<int>(std::lround(meta)) % 360) + 360) % 360;
     }
+    fps_ = capture_.get(cv::CAP_PROP_FPS);
+    if (!std::isfinite(fps_) || fps_ <= 0.0 || fps_ > 10000.0) fps_ = 0.0;
+    const double count = capture_.get(cv::CAP_PROP_FRAME_COUNT);
+    frame_count_ = std::isfinite(count) && count > 0 && count < 1e9 ? static_cast<int>(count) : 0;
+    width_ = static_cast<int>(capture_.get(cv::CAP_PROP_FRAME_WIDTH));
+    height_ = static_cast<int>(capture_.get(cv::CAP_PROP_FRAME_HEIGHT));
   }
   if (rotation_deg_ != 0) {
     warnings_.push_back(fmt::format(
@@ -170,12 +190,6 @@ VideoFileSource::VideoFileSource(const std::filesystem::path& path,
         "axes",
         p, rotation_deg_));
   }
-  fps_ = capture_.get(cv::CAP_PROP_FPS);
-  if (!std::isfinite(fps_) || fps_ <= 0.0 || fps_ > 10000.0) fps_ = 0.0;
-  const double count = capture_.get(cv::CAP_PROP_FRAME_COUNT);
-  frame_count_ = std::isfinite(count) && count > 0 && count < 1e9 ? static_cast<int>(count) : 0;
-  width_ = static_cast<int>(capture_.get(cv::CAP_PROP_FRAME_WIDTH));
-  height_ = static_cast<int>(capture_.get(cv::CAP_PROP_FRAME_HEIGHT));
 
   int start_index = 0;
   if (options_.start_time_s > 0.0) {
@@ -185,9 +199,13 @@ VideoFileSource::VideoFileSource(const std::filesystem::path& path,
       throw fail(fmt::format("start time {} s is past the end ({} frames at {} fps)",
                              options_.start_time_s, frame_count_, fps_));
     }
-    // OpenCV's FFmpeg seek lands on the exact frame (it decodes forward from a key frame).
-    if (!capture_.set(cv::CAP_PROP_POS_FRAMES, start_index) ||
-        static_cast<int>(capture_.get(cv::CAP_PROP_POS_FRAMES)) != start_index) {
+    if (decoder_) {
+      // Decode and skip: exact (frame k is the k-th decoded frame, as Next() counts them),
+      // without relying on the container's index or timestamps.
+      if (!GrabTo(start_index)) throw fail(fmt::format("cannot reach frame {}", start_index));
+    } else if (!capture_.set(cv::CAP_PROP_POS_FRAMES, start_index) ||
+               static_cast<int>(capture_.get(cv::CAP_PROP_POS_FRAMES)) != start_index) {
+      // OpenCV's FFmpeg seek lands on the exact frame (it decodes forward from a key frame).
       capture_.set(cv::CAP_PROP_POS_FRAMES, 0);
       for (int i = 0; i < start_index; ++i) {
         if (!capture_.grab()) throw fail(fmt::format("cannot reach frame {}", start_index));
@@ -195,19 +213,55 @@ VideoFileSource::VideoFileSource(const std::filesystem::path& path,
     }
   }
   next_index_ = start_index;
-  if (!capture_.read(first_frame_) || first_frame_.empty()) {
+  if (!GrabOne() || !RetrieveGrabbed()) {
     throw fail(fmt::format("no frame could be decoded at frame {} (damaged or truncated file?)",
                            start_index));
   }
   ++next_index_;
-  width_ = first_frame_.cols;
-  height_ = first_frame_.rows;
-  current_ts_ms_ = capture_.get(cv::CAP_PROP_POS_MSEC);
+  width_ = cur_w_;
+  height_ = cur_h_;
+  current_ts_ms_ = GrabbedTimestampMs();
+}
+
+bool VideoFileSource::GrabOne() { return decoder_ ? decoder_->Grab() : capture_.grab(); }
+
+double VideoFileSource::GrabbedTimestampMs() const {
+  if (decoder_) return decoder_->timestamp_ms();
+  // cv::VideoCapture::get is not const.
+  return const_cast<cv::VideoCapture&>(capture_).get(cv::CAP_PROP_POS_MSEC);
+}
+
+bool VideoFileSource::RetrieveGrabbed() {
+  if (decoder_) {
+    decoder_->Gray(gray_);
+    if (options_.keep_color) decoder_->Bgr(bgr_);
+    cur_w_ = gray_.width();
+    cur_h_ = gray_.height();
+    return !gray_.empty();
+  }
+  if (!capture_.retrieve(bgr_) || bgr_.empty()) return false;
+  cur_w_ = bgr_.cols;
+  cur_h_ = bgr_.rows;
+  return true;
+}
+
+void VideoFileSource::DeliverTo(Frame& frame) {
+  if (!decoder_) {
+    FillFrame(bgr_, options_.keep_color, frame);
+    return;
+  }
+  // The caller's old image becomes the next decode target (same size: no allocation).
+  std::swap(frame.gray, gray_);
+  if (options_.keep_color) {
+    bgr_.copyTo(frame.color);
+  } else {
+    frame.color.release();
+  }
 }
 
 bool VideoFileSource::GrabTo(int target_index) {
   while (next_index_ < target_index) {
-    if (!capture_.grab()) return false;
+    if (!GrabOne()) return false;
     ++next_index_;
   }
   return true;
@@ -216,23 +270,23 @@ bool VideoFileSource::GrabTo(int target_index) {
 bool VideoFileSource::Next(Frame& frame) {
   if (done_) return false;
   int index;
-  const cv::Mat* image;
   if (first_) {
-    first_ = false;
+    first_ = false;  // decoded at opening
     index = next_index_ - 1;
-    image = &first_frame_;
   } else {
-    first_frame_.release();
     // The frame after the last delivered one may already be grabbed (look-ahead below).
     const int target = (lookahead_grabbed_ ? next_index_ - 2 : next_index_ - 1) + options_.step;
     bool ok;
     if (lookahead_grabbed_ && target == next_index_ - 1) {
-      ok = capture_.retrieve(bgr_) && !bgr_.empty();
+      ok = RetrieveGrabbed();
       current_ts_ms_ = lookahead_ts_ms_;
     } else {
-      ok = GrabTo(target) && capture_.read(bgr_) && !bgr_.empty();
-      if (ok) ++next_index_;
-      current_ts_ms_ = capture_.get(cv::CAP_PROP_POS_MSEC);
+      ok = GrabTo(target) && GrabOne();
+      if (ok) {
+        ++next_index_;
+        ok = RetrieveGrabbed();
+      }
+      current_ts_ms_ = GrabbedTimestampMs();
     }
     lookahead_grabbed_ = false;
     if (!ok) {
@@ -245,9 +299,10 @@ bool VideoFileSource::Next(Frame& frame) {
       return false;
     }
     index = next_index_ - 1;
-    image = &bgr_;
   }
-  const double t = fps_ > 0.0 ? index / fps_ : capture_.get(cv::CAP_PROP_POS_MSEC) / 1000.0;
+  const double t = fps_ > 0.0                     ? index / fps_
+                   : std::isfinite(current_ts_ms_) ? current_ts_ms_ / 1000.0
+                                                   : 0.0;
   if (t > options_.end_time_s) {
     done_ = true;
     return false;
@@ -257,10 +312,10 @@ bool VideoFileSource::Next(Frame& frame) {
   // of the one before, i.e. a silently wrong zero-motion step). So the next frame is grabbed
   // now; when the stream ends before its header's frame count, this last decoded frame is the
   // cut one and is dropped.
-  if (capture_.grab()) {
+  if (GrabOne()) {
     ++next_index_;
     lookahead_grabbed_ = true;
-    lookahead_ts_ms_ = capture_.get(cv::CAP_PROP_POS_MSEC);
+    lookahead_ts_ms_ = GrabbedTimestampMs();
   } else if (frame_count_ > 0 && index < frame_count_ - 1) {
     done_ = true;
     warnings_.push_back(fmt::format(
@@ -268,10 +323,6 @@ bool VideoFileSource::Next(Frame& frame) {
         "{}, the last one decoded, is dropped: a file cut mid-frame leaves it incomplete",
         path_.string(), index + 1, frame_count_, index));
     return false;
-  }
-  if (image->cols != width_ || image->rows != height_) {
-    throw InputError(fmt::format("video '{}' frame {}: size changed from {}x{} to {}x{}",
-                                 path_.string(), index, width_, height_, image->cols, image->rows));
   }
   // The stream's clock going back, then on from there: recordings joined into one file (each
   // with its own clock, as when MPEG-TS files are concatenated). OpenCV 4.6 decodes the rest at
@@ -286,14 +337,28 @@ bool VideoFileSource::Next(Frame& frame) {
     done_ = true;
     throw InputError(fmt::format(
         "video '{}' frame {}: the stream's timestamps go back from {:.3f} s to {:.3f} s: "
-        "recordings joined into one file (concatenated MPEG-TS?) or a damaged stream; OpenCV "
-        "decodes what follows at the first recording's size, so the frames from {} on cannot be "
-        "trusted (split the video where its clock restarts, or re-encode it at one size, e.g. "
-        "ffmpeg -i in -vf scale=W:H out.mp4)",
-        path_.string(), index, last_ts_ms_ / 1000.0, current_ts_ms_ / 1000.0, index));
+        "recordings joined into one file (concatenated MPEG-TS?) or a damaged stream, so the "
+        "frames from {} on cannot be trusted as the same flight (OpenCV's decoder even delivers "
+        "them at the first recording's size; split the video where its clock restarts, or re-encode it at one size, e.g. "
+        "ffmpeg -i in -vf scale=W:H out.mp4){}",
+        path_.string(), index, last_ts_ms_ / 1000.0, current_ts_ms_ / 1000.0, index,
+        cur_w_ != width_ || cur_h_ != height_
+            ? fmt::format("; the size changes there too, from {}x{} to {}x{}", width_, height_,
+                          cur_w_, cur_h_)
+            : std::string()));
+  }
+  // A change of decoded size (ours sees every frame's own size; OpenCV's converts to the first
+  // size, so only a larger frame that its swscale refuses would show here).
+  if (cur_w_ != width_ || cur_h_ != height_) {
+    done_ = true;
+    throw InputError(fmt::format(
+        "video '{}' frame {}: size changed from {}x{} to {}x{} (a resolution change mid-stream: "
+        "recordings joined into one file, or a camera that switched modes; split the video "
+        "there, or re-encode it at one size, e.g. ffmpeg -i in -vf scale=W:H out.mp4)",
+        path_.string(), index, width_, height_, cur_w_, cur_h_));
   }
   last_ts_ms_ = current_ts_ms_;
-  FillFrame(*image, options_.keep_color, frame);
+  DeliverTo(frame);
   // Repeated frames. The pixels are the only witness of a stale decoder: on a 320x240 + 640x360
   // MPEG-TS, OpenCV 4.6 returned copies of the last 320x240 frame for the whole second clip
   // while CAP_PROP_FRAME_WIDTH/HEIGHT kept saying 320x240 (FFmpeg's swscale refused the new

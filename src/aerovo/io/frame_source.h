@@ -1,5 +1,6 @@
-// Sources of frames for the odometry: video files, image folders and live cameras/streams,
-// all decoded through OpenCV and delivered as 8-bit grey images.
+// Sources of frames for the odometry: video files (FFmpeg's libraries through io/video_decoder.h,
+// or OpenCV's cv::VideoCapture), image folders and live cameras/streams (OpenCV), delivered as
+// 8-bit grey images.
 #pragma once
 
 #include <cstdint>
@@ -15,12 +16,17 @@
 #include "aerovo/core/image.h"
 #include "aerovo/io/image_file.h"
 #include "aerovo/io/image_metadata.h"
+#include "aerovo/io/video_decoder.h"
+#include "aerovo/io/video_decoder_choice.h"
 
 namespace aerovo {
 
 /// One frame as delivered by a FrameSource.
 struct Frame {
-  GrayImage gray;  ///< 8-bit grey (OpenCV BGR->grey weights: 0.299 R + 0.587 G + 0.114 B).
+  /// 8-bit grey, full range: videos through VideoDecoder, the decoder's luma plane (the
+  /// stream's own colour matrix, io/video_decoder.h); photos, live sources and videos through
+  /// OpenCV, OpenCV's BGR->grey weights 0.299 R + 0.587 G + 0.114 B.
+  GrayImage gray;
   cv::Mat color;   ///< BGR 8-bit, only when FrameSourceOptions::keep_color (else empty).
   /// 0-based position in the source: the video frame number, the photo's rank in the ordered
   /// folder, the count of frames read from a live source. With step k, indices go 0, k, 2k...
@@ -77,10 +83,21 @@ struct FrameSourceOptions {
   /// two photos where flights change, the gap or the cameras, and every flight); K >= 1
   /// delivers flight K only; -1 chains them all as one sequence (before 0.2: silently).
   int photo_flight = 0;
+  /// Video files: the decoder. Default auto = ffmpeg, our own (issue 15: it sees every frame's
+  /// decoded size, so a resolution change mid-stream is an error; issue 19: grey from the luma
+  /// plane, no BGR); opencv = cv::VideoCapture, the decoder before it (BENCHMARKS.md "Video decoding").
+  VideoDecoderChoice video_decoder = VideoDecoderChoice::kAuto;
+  /// Video files through the ffmpeg decoder: the codec's threads (frame + slice threading), 0 =
+  /// one per core (FFmpeg's choice). Default 2: the decoder runs on PrefetchSource's reader
+  /// thread beside the odometry's frame loop on an on-board computer that is busy with the
+  /// odometry (issue 19.2): two threads let decoding overlap itself without taking every core
+  /// as 0 would; frame threading costs no extra CPU per frame (measured: 1, 2 and one per core
+  /// within noise, BENCHMARKS.md "Video decoding"), only a frame of latency per thread.
+  int video_threads = 2;
 };
 
 /// Throws InvalidArgument naming the field: step < 1, start_time_s < 0 or not finite,
-/// end_time_s < start_time_s or NaN.
+/// end_time_s < start_time_s or NaN, video_threads outside [0, 64].
 void Validate(const FrameSourceOptions& options);
 
 /// A sequence of frames. Next() fills `frame` and returns true, or returns false at the end.
@@ -108,23 +125,31 @@ class FrameSource {
   std::vector<std::string> warnings_;
 };
 
-/// A video file read with cv::VideoCapture (FFmpeg backend).
+/// A video file read with our FFmpeg decoder (io/video_decoder.h; FrameSourceOptions::
+/// video_decoder auto or ffmpeg, the default) or with cv::VideoCapture (FFmpeg backend; opencv).
 /// Opening throws InputError "cannot open video '<path>': <reason>" for a missing or empty
 /// file, a file FFmpeg cannot read (text named .mp4, truncated container) or a video whose
 /// first frame cannot be decoded. A video that ends before its header's frame count (a cut
 /// file) ends with a warning, and its last decoded frame is dropped: FFmpeg decodes the cut
 /// final packet into an incomplete image (the next frame is grabbed ahead to know).
 /// Orientation: frames are delivered as stored (sensor orientation), never rotated by the
-/// container's rotation metadata (OpenCV's CAP_PROP_ORIENTATION_AUTO is turned off), the same
-/// policy as photos' EXIF orientation: focal length, field of view and heading refer to the
-/// sensor's axes. A video with rotation metadata gets a warning saying so (rotation_deg()).
+/// container's rotation metadata (OpenCV's CAP_PROP_ORIENTATION_AUTO is turned off; ours never
+/// rotates), the same policy as photos' EXIF orientation: focal length, field of view and heading
+/// refer to the sensor's axes. A video with rotation metadata gets a warning saying so
+/// (rotation_deg()).
+/// Start time: frames before it are decoded and skipped by ours (exact, costs decoding time);
+/// OpenCV seeks.
 /// Repeated frames: a frame identical to the one delivered before is flagged "duplicate"
 /// (Frame::flags); kMaxRepeatedFrames of them in a row after the video has moved mean the
 /// decoder is handing back its last good image (a resolution change mid-stream, as in
 /// concatenated recordings or MPEG-TS, or a damaged stream): Next() throws InputError naming the
-/// video and the frame where the image froze. A change of decoded size throws too, and so does
-/// a stream whose timestamps (CAP_PROP_POS_MSEC) go back and then on from there: recordings
-/// joined into one file, whose second part OpenCV rescales to the first's size.
+/// video and the frame where the image froze. A change of decoded size throws too (InputError
+/// naming the video, the frame and both sizes), and so does a stream whose timestamps go back and
+/// then on from there: recordings joined into one file. Our decoder sees every frame's own
+/// size, so it catches any resolution change; OpenCV's converts every frame to the first size:
+/// a larger later part comes out as copies of the last frame (the repeated-frame error), a
+/// smaller one is silently stretched to the first size, caught only when the clock restarts
+/// there (known limitation of video_decoder opencv, issue 15).
 class VideoFileSource : public FrameSource {
  public:
   explicit VideoFileSource(const std::filesystem::path& path,
@@ -136,8 +161,9 @@ class VideoFileSource : public FrameSource {
   int frame_count() const { return frame_count_; }  ///< From the container (may be 0/wrong).
   int width() const { return width_; }
   int height() const { return height_; }
-  /// The container's rotation metadata, degrees clockwise for display (0, 90, 180, 270;
-  /// CAP_PROP_ORIENTATION_META). Frames are not rotated (see the class comment).
+  /// The container's rotation metadata, degrees clockwise for display (0, 90, 180, 270; the
+  /// stream's display matrix, or CAP_PROP_ORIENTATION_META). Frames are not rotated (see the
+  /// class comment).
   int rotation_deg() const { return rotation_deg_; }
   /// Frames delivered flagged "duplicate" so far.
   int duplicate_frames() const { return duplicates_; }
@@ -146,22 +172,32 @@ class VideoFileSource : public FrameSource {
   /// differ in some pixel; a stale decoder repeats one image exactly (measured: the 640x360
   /// half of a 320x240 + 640x360 MPEG-TS came out as 20 copies of the last 320x240 frame).
   static constexpr int kMaxRepeatedFrames = 5;
+  /// The decoder in use: kFfmpeg or kOpenCv (auto resolved).
+  VideoDecoderChoice decoder() const {
+    return decoder_ ? VideoDecoderChoice::kFfmpeg : VideoDecoderChoice::kOpenCv;
+  }
 
  private:
   bool GrabTo(int target_index);  // grabs frames until next_index_ == target_index
+  bool GrabOne();                 // decodes the next frame (no conversion)
+  double GrabbedTimestampMs() const;  // of the frame last grabbed (NaN: unknown)
+  bool RetrieveGrabbed();  // converts the frame last grabbed into gray_/bgr_; sets cur_w_/cur_h_
+  void DeliverTo(Frame& frame);  // the retrieved frame into frame.gray/frame.color
 
   std::filesystem::path path_;
   FrameSourceOptions options_;
+  std::unique_ptr<VideoDecoder> decoder_;  // ours; null: capture_ (opencv)
   cv::VideoCapture capture_;
   double fps_ = 0.0;
   int frame_count_ = 0;
   int width_ = 0, height_ = 0;
+  int cur_w_ = 0, cur_h_ = 0;  // decoded size of the frame in gray_/bgr_
   int next_index_ = 0;  // index of the frame the next grab() returns
   bool first_ = true;
   bool done_ = false;
   bool lookahead_grabbed_ = false;  // frame next_index_ - 1 is grabbed, not yet retrieved
-  cv::Mat bgr_;
-  cv::Mat first_frame_;  // decoded at open to prove the file is readable
+  cv::Mat bgr_;    // opencv: the frame; ffmpeg: its colour when keep_color
+  GrayImage gray_;  // ffmpeg: the frame (swapped into Frame::gray)
   int rotation_deg_ = 0;
   std::uint64_t last_hash_ = 0;
   bool have_hash_ = false;

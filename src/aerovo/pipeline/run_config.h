@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "aerovo/core/options.h"
+#include "aerovo/io/video_decoder_choice.h"
 #include "aerovo/mavlink/vision.h"
 #include "aerovo/odometry/georef.h"
 #include "aerovo/odometry/gps_check.h"
@@ -110,6 +111,13 @@ struct RunConfig {
   /// Photo folders holding several flights: 0 refuses them (the error lists the flights), K
   /// processes flight K alone, -1 chains them all.
   int photo_flight = 0;
+  /// Video files: auto (= ffmpeg, default), ffmpeg (io/video_decoder.h: grey from the luma
+  /// plane, every frame's size checked) or opencv (cv::VideoCapture); FrameSourceOptions::
+  /// video_decoder.
+  VideoDecoderChoice video_decoder = VideoDecoderChoice::kAuto;
+  /// Video files through the ffmpeg decoder: codec threads, 0 = one per core; default 2
+  /// (FrameSourceOptions::video_threads says why).
+  int video_threads = 2;
   /// Lens distortion (OpenCV / Brown-Conrady model, coefficients on coordinates normalised by
   /// the focal length, principal point at the image centre): when any is non-zero every frame is
   /// undistorted (cv::remap with maps computed once) before SURF. Default 0 (none; DJI nadir
@@ -254,6 +262,8 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.hfov_deg, "hfov_deg", "Horizontal field of view, deg (used when focal_px is 0)", Interval(0, 180, false, true));
   v.Field(c.photo_gap_s, "photo_gap_s", "Photo folders: a capture-time gap longer than this, s, or another camera starts a new flight (0 = no gap check)", AtLeast(0).Finite());
   v.Field(c.photo_flight, "photo_flight", "Photo folders with several flights: 0 = refuse, K = flight K alone, -1 = chain all", AtLeast(-1));
+  v.Field(c.video_decoder, "video_decoder", "Video decoder: auto (= ffmpeg), ffmpeg (FFmpeg's libraries, grey from the luma plane, every frame's size checked) or opencv (cv::VideoCapture)", Any());
+  v.Field(c.video_threads, "video_threads", "Video decoder threads (ffmpeg decoder; 0 = one per core): 2 leaves the other cores to the odometry", Interval(0, 64));
   v.Field(c.sensor_aspect, "sensor_aspect", "Sensor full-frame aspect (long/short) for a photo's EXIF 35 mm equivalent; 0 = camera model, 4:3 for photos wider than 1.7:1, else the photo's", Interval(0, 4));
   v.Field(c.k1, "k1", "Lens distortion k1 (OpenCV model; 0 = none)", Finite());
   v.Field(c.k2, "k2", "Lens distortion k2", Finite());

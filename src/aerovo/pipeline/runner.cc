@@ -152,6 +152,8 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
   if (config.end_s >= 0.0) so.end_time_s = config.end_s;
   so.photo_gap_s = config.photo_gap_s;
   so.photo_flight = config.photo_flight;
+  so.video_decoder = config.video_decoder;
+  so.video_threads = config.video_threads;
   if (!config.telemetry_auto_offset) return RunFlight(config, OpenFrameSource(config.input, so), cb, stop);
   // telemetry_auto_offset: a first run estimates the offset; when it is clear and differs from
   // the applied one, the flight is run again with it (the second run's outputs replace the

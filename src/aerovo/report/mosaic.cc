@@ -135,6 +135,12 @@ MosaicWarpOutcome WarpRunFrames(const RunData& run, const MosaicOptions& options
   if (end_s >= 0.0) so.end_time_s = end_s;
   so.photo_gap_s = ConfigValue<double>(run.config, "photo_gap_s", so.photo_gap_s);
   so.photo_flight = ConfigValue<int>(run.config, "photo_flight", so.photo_flight);
+  // The run's video decoder (an unknown name: the default).
+  so.video_decoder =
+      options::ParseEnum<VideoDecoderChoice>(ConfigValue<std::string>(run.config, "video_decoder",
+                                                                      "auto"))
+          .value_or(VideoDecoderChoice::kAuto);
+  so.video_threads = ConfigValue<int>(run.config, "video_threads", so.video_threads);
   so.keep_color = true;
   // Lens distortion, as the run applied it before SURF (pipeline/preprocess.h FrameUndistorter):
   // the same camera and the same maps (io/camera.h Undistorter).
