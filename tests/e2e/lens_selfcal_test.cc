@@ -98,7 +98,7 @@ TEST(LensSelfCalibration, GoProLikeBarrelIsEstimatedAndApplied) {
   ASSERT_EQ(le["status"], "applied") << le.dump();
   EXPECT_TRUE(le["applied"].get<bool>());
   EXPECT_EQ(le["family"], "pinhole") << le.dump();
-  EXPECT_NEAR(le["k"].get<double>(), -0.1, 0.01) << le.dump();
+  EXPECT_NEAR(le["k"].get<double>(), -0.1, 0.003) << le.dump();
   EXPECT_GT(le["cost_drop"].get<double>(), 0.5) << le.dump();
   EXPECT_EQ(le["pairs_read"].get<int>(), 5);
   // The estimate is a calibration file the run reads back.
@@ -120,22 +120,24 @@ TEST(LensSelfCalibration, GoProLikeBarrelIsEstimatedAndApplied) {
   fs::remove_all(dir);
 }
 
-// The simulator's wide fisheye (tests/e2e/wide_lens_test.cc: OpenCV equidistant k = (-0.05,
-// 0.01, -0.002, 0.0005), focal 450 px at 960x720, here 640x480 with focal 300 px: the same
-// 93.7 degrees once undistorted), approximated by one fisheye coefficient; a 120 m line at 80 m.
+// A wide fisheye of one coefficient (OpenCV equidistant k1 = -0.04, the one-parameter model the
+// estimator fits; lens_estimation_test.cc RecoversAFisheyeK1): 640x480, focal 300 px (93.7
+// degrees across once undistorted); a 120 m line at 80 m. The simulator's four-coefficient
+// fisheye of wide_lens_test.cc is only approximated by one coefficient: measured in
+// BENCHMARKS.md "Lens self-calibration" (end error 0.23 % against 0.014 % with its calibration
+// and 1.28 % without).
 TEST(LensSelfCalibration, FisheyeIsEstimatedAndApplied) {
   const fs::path dir = TempDir("fisheye");
   ASSERT_TRUE(Cli("simulate --pattern line --length-m 120 --height-m 80 --fps 2 --width 640 "
-                  "--height 480 --focal-px 300 --lens fisheye "
-                  "--distortion=-0.05,0.01,-0.002,0.0005 --frames-only --image-format png "
-                  "--quiet --out " + (dir / "sim").string()));
+                  "--height 480 --focal-px 300 --lens fisheye --distortion=-0.04,0,0,0 "
+                  "--frames-only --image-format png --quiet --out " + (dir / "sim").string()));
   WriteTrueCalibration(dir / "sim", dir / "true.yaml");
   const ThreeRuns r = RunThreeWays(dir, (dir / "sim" / "frames").string(), dir / "true.yaml");
   const nlohmann::json& le = r.estimated["lens_estimate"];
   RecordProperty("why", le["why"].get<std::string>());
   ASSERT_EQ(le["status"], "applied") << le.dump();
   EXPECT_EQ(le["family"], "fisheye") << le.dump();
-  EXPECT_NEAR(le["k"].get<double>(), -0.035, 0.01) << le.dump();
+  EXPECT_NEAR(le["k"].get<double>(), -0.04, 0.003) << le.dump();
   EXPECT_GT(le["cost_drop"].get<double>(), 0.5) << le.dump();
   const CameraIntrinsics k =
       ReadCalibration((dir / "estimated" / "lens_estimate.yaml").string()).intrinsics;

@@ -132,12 +132,16 @@ LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_p
       const FeatureSet a = features(prev);
       const FeatureSet b = features(curr);
       const MatchResult m = matcher.Match(a, b);
+      // At most kLensPrepassMaxMatches, by an even stride over the matches.
+      const std::size_t n = m.matches.size();
+      const std::size_t kept = std::min<std::size_t>(n, kLensPrepassMaxMatches);
       LensPair pair;
-      pair.prev_px.resize(2, static_cast<Eigen::Index>(m.matches.size()));
-      pair.curr_px.resize(2, static_cast<Eigen::Index>(m.matches.size()));
-      for (std::size_t i = 0; i < m.matches.size(); ++i) {
-        const Keypoint& p = a.keypoints[m.matches[i].prev_index];
-        const Keypoint& c = b.keypoints[m.matches[i].curr_index];
+      pair.prev_px.resize(2, static_cast<Eigen::Index>(kept));
+      pair.curr_px.resize(2, static_cast<Eigen::Index>(kept));
+      for (std::size_t i = 0; i < kept; ++i) {
+        const Match& match = m.matches[i * n / kept];
+        const Keypoint& p = a.keypoints[match.prev_index];
+        const Keypoint& c = b.keypoints[match.curr_index];
         pair.prev_px.col(static_cast<Eigen::Index>(i)) = Eigen::Vector2d(p.x, p.y);
         pair.curr_px.col(static_cast<Eigen::Index>(i)) = Eigen::Vector2d(c.x, c.y);
       }

@@ -33,6 +33,11 @@ inline constexpr int kLensPrepassPairs = 5;
 /// (RecoversAFisheyeK1: 960x720 gives k within 0.002). Our choice: keeps the pre-pass's SURF and
 /// matching at about 2x the cost of one frame of a 1080p run per pair.
 inline constexpr double kLensPrepassMegapixels = 1.0;
+/// Matches of a pair given to the estimator, at most: a larger set is thinned by an even stride
+/// over the matcher's order (deterministic). The estimator's cost grows with the points (every
+/// candidate k refits each pair's homography); 400 points per pair fix k to about 1e-3
+/// (LensEstimation.RecoversAFisheyeK1: 500 points, 0.5 px noise). Our choice.
+inline constexpr int kLensPrepassMaxMatches = 400;
 /// The file a significant estimate is written to in the run folder (OpenCV YAML, io/calibration.h
 /// WriteCalibration; `aerovo run --calibration` reads it back).
 inline constexpr const char* kLensEstimateYaml = RunFileNames::kLensEstimateYaml;
