@@ -85,7 +85,9 @@ ThreeRuns RunThreeWays(const fs::path& dir, const std::string& frames, const fs:
 
 // A GoPro-like barrel in the pinhole (Brown) model: 640x480, focal 341 px, k1 = -0.1 (the
 // distorted frame spans 93 degrees across, like the HERO5 of issue 14, whose undistorted
-// pinhole keeps 86 degrees); a 120 m line at 80 m, 2 frames/s.
+// pinhole keeps 86 degrees); a 120 m line at 80 m, 2 frames/s (25 frames). Measured: k1 =
+// -0.1002 +- 0.0002, cost drop 85 %; end error (SE(2) aligned) 0.013 % estimated, 0.0028 % with
+// the true calibration, 2.3 % without.
 TEST(LensSelfCalibration, GoProLikeBarrelIsEstimatedAndApplied) {
   const fs::path dir = TempDir("brown");
   ASSERT_TRUE(Cli("simulate --pattern line --length-m 120 --height-m 80 --fps 2 --width 640 "
@@ -115,8 +117,10 @@ TEST(LensSelfCalibration, GoProLikeBarrelIsEstimatedAndApplied) {
   const double est = EndError(r.estimated), cal = EndError(r.calibrated), off = EndError(r.off);
   RecordProperty("end_error_percent", Describe(est, cal, off));
   EXPECT_EQ(r.estimated["frames_bridged"].get<int>(), 0);
-  EXPECT_LT(est, 2.0 * cal + 0.01) << "estimated " << est << " % vs calibrated " << cal << " %";
-  EXPECT_GT(off, 10.0 * est) << "off " << off << " % vs estimated " << est << " %";
+  // Within 2x of the run with the true calibration, plus 0.02 % of the distance (2.4 cm on
+  // 120 m: both runs are then at the simulation's own precision), and far better than without.
+  EXPECT_LT(est, 2.0 * cal + 0.02) << "estimated " << est << " % vs calibrated " << cal << " %";
+  EXPECT_GT(off, 20.0 * est) << "off " << off << " % vs estimated " << est << " %";
   fs::remove_all(dir);
 }
 
@@ -147,8 +151,10 @@ TEST(LensSelfCalibration, FisheyeIsEstimatedAndApplied) {
   const double est = EndError(r.estimated), cal = EndError(r.calibrated), off = EndError(r.off);
   RecordProperty("end_error_percent", Describe(est, cal, off));
   EXPECT_EQ(r.estimated["frames_bridged"].get<int>(), 0);
-  EXPECT_LT(est, 2.0 * cal + 0.01) << "estimated " << est << " % vs calibrated " << cal << " %";
-  EXPECT_GT(off, 10.0 * est) << "off " << off << " % vs estimated " << est << " %";
+  // Within 2x of the run with the true calibration, plus 0.02 % of the distance (2.4 cm on
+  // 120 m: both runs are then at the simulation's own precision), and far better than without.
+  EXPECT_LT(est, 2.0 * cal + 0.02) << "estimated " << est << " % vs calibrated " << cal << " %";
+  EXPECT_GT(off, 20.0 * est) << "off " << off << " % vs estimated " << est << " %";
   fs::remove_all(dir);
 }
 
