@@ -16,6 +16,15 @@
 
 namespace aerovo::run_steps {
 
+namespace {
+// The run's decision threshold on the total cost drop (LensEstimationOptions::min_cost_drop;
+// the estimator's default 0.25). Measured (BENCHMARKS.md "Lens self-calibration"): tampa-phantom3
+// drops 2 %, turin-p4m 24.8 % (fisheye k1 -0.046 on its 1600x1300 bands: a residual lens, or
+// relief, just under 0.25), the simulated wide lenses 85-89 %: 0.5 keeps a wide margin on both
+// sides. Our choice.
+constexpr double kRunMinCostDrop = 0.5;
+}  // namespace
+
 FrameSourceOptions SourceOptionsOf(const RunConfig& config) {
   FrameSourceOptions so;
   so.step = config.step;
@@ -164,6 +173,7 @@ LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_p
   o.width_px = out.width_px;
   o.height_px = out.height_px;
   o.seed = config.odometry.correspondence.ransac.seed;
+  o.min_cost_drop = kRunMinCostDrop;
   const std::string read_note = out.why;
   out.estimate = EstimateRadialDistortion(pairs, o);
   out.estimate_ms = estimate_sw.elapsed_ms();
