@@ -605,6 +605,14 @@ bool ImageFolderSource::Next(Frame& frame) {
   if (next_ >= paths_.size() || times_[next_] > options_.end_time_s) return false;
   const std::size_t i = next_;
   next_ += static_cast<std::size_t>(options_.step);
+  Read(i, frame);
+  return true;
+}
+
+void ImageFolderSource::Read(std::size_t i, Frame& frame) {
+  if (i >= paths_.size()) {
+    throw InvalidArgument(fmt::format("ImageFolderSource::Read: photo {} of {}", i, paths_.size()));
+  }
   const std::string name = paths_[i].filename().string();
   const ImageFileCheck& check = checks_[i];
   if (!check.problem.empty() && !check.truncated) {
@@ -633,7 +641,6 @@ bool ImageFolderSource::Next(Frame& frame) {
   frame.index = static_cast<int>(i);
   frame.time_s = times_[i];
   frame.name = name;
-  return true;
 }
 
 std::string ImageFolderSource::Describe() const {

@@ -237,6 +237,10 @@ class ImageFolderSource : public FrameSource {
   const std::vector<ImageMetadata>& metadata() const { return metadata_; }
   /// time_s of photo i (see Frame::time_s).
   double TimeOf(std::size_t i) const { return times_[i]; }
+  /// Photo i of paths() into `frame` as Next() would deliver it (index i), whatever the
+  /// position of Next(), which it does not move: random access for a second reader (the lens
+  /// self-calibration pre-pass). InvalidArgument for i out of range; InputError as Next().
+  void Read(std::size_t i, Frame& frame);
   int skipped_files() const { return skipped_files_; }
   /// Flights found in the folder (FrameSourceOptions::photo_gap_s), >= 1.
   int flight_count() const { return flight_count_; }

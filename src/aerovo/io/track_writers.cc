@@ -499,7 +499,7 @@ void WriteJsonFileAtomic(const fs::path& path, const nlohmann::json& value) {
 std::vector<std::string> RunFileNames::All() {
   return {kFramesCsv, kVoTum,  kGpsTum,  kVoGeoJson,     kGpsGeoJson, kVoFramesGeoJson,
           kVoKml,     kGpsKml, kRunKml,  kRunLiveKml, kVoGpx,         kGpsGpx,     kSummaryJson,
-          kTransformsCsv, kConfigJson};
+          kTransformsCsv, kConfigJson, kLensEstimateYaml};
 }
 
 // ---------------------------------------------------------------------------------------------

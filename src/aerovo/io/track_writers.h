@@ -258,6 +258,8 @@ struct RunFileNames {
   /// frames into a mosaic (aerovo report).
   static constexpr const char* kTransformsCsv = "transforms.csv";
   static constexpr const char* kConfigJson = "config.json";
+  /// The lens self-calibration's estimate when applied (pipeline/lens_prepass.h; OpenCV YAML).
+  static constexpr const char* kLensEstimateYaml = "lens_estimate.yaml";
   /// Every name above: the files a run writes (io/run_folder.h ClaimOutputFolder removes these
   /// and only these with --force, with the report's files).
   static std::vector<std::string> All();

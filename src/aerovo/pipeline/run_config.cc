@@ -42,6 +42,7 @@ void ApplyPaperPreset(RunConfig& c) {
   c.odometry.correspondence.guided_matching = false;
   c.odometry.correspondence.clustered.refine = false;
   c.attitude = AttitudeMode::kOff;
+  c.lens_estimation = LensEstimationMode::kOff;
 }
 
 RunConfig PaperRunConfig() {
@@ -57,11 +58,12 @@ const std::vector<RunPreset>& RunPresets() {
        "threshold of detectSURFFeatures (surf.hessian_threshold, default 1000), every frame "
        "matched exhaustively, the clustered RANSAC's best cell fit as it is; what `aerovo "
        "experiment --paper` uses to reproduce the paper's figures; no attitude correction (the paper's "
-       "nadir camera)",
+       "nadir camera), no lens self-calibration",
        {{"surf.adaptive", "false"},
         {"correspondence.guided_matching", "false"},
         {"clustered.refine", "false"},
-        {"attitude", "off"}}},
+        {"attitude", "off"},
+        {"lens_estimation", "off"}}},
   };
   return presets;
 }

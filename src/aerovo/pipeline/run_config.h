@@ -63,6 +63,20 @@ struct options::EnumTraits<UndistortMode>
     : options::EnumList<UndistortMode, ToString, UndistortMode::kAuto, UndistortMode::kFrames,
                         UndistortMode::kPoints> {};
 
+/// Whether a run estimates the lens from the flight itself (RunConfig::lens_estimation;
+/// docs/lenses.md "Self-calibration").
+enum class LensEstimationMode {
+  kAuto,  ///< When no calibration file and no distortion are given and the input can be re-read.
+  kOff,   ///< Never.
+};
+inline const char* ToString(LensEstimationMode m) {
+  return m == LensEstimationMode::kAuto ? "auto" : "off";
+}
+template <>
+struct options::EnumTraits<LensEstimationMode>
+    : options::EnumList<LensEstimationMode, ToString, LensEstimationMode::kAuto,
+                        LensEstimationMode::kOff> {};
+
 /// Everything a run can be told, as flags (cmd_run.cc) or as a JSON config file with the same
 /// keys (ToJson / RunConfigFromJson). Plain aggregate; Validate() checks it.
 struct RunConfig {
@@ -137,6 +151,14 @@ struct RunConfig {
   /// kPointsMaxScaleChange over the frame (camera/lens.h MaxLensScaleChange), else kFrames
   /// (fisheye rims). The mosaic always remaps its frames. Measured in docs/lenses.md.
   UndistortMode undistort = UndistortMode::kAuto;
+  /// Lens self-calibration pre-pass (pipeline/lens_prepass.h, docs/lenses.md "Self-calibration"):
+  /// kAuto (default) estimates a one-parameter radial lens (correspondence/lens_estimation.h)
+  /// from a few frame pairs spread over the flight, read by a second frame source, when no
+  /// calibration file and no k1..k3, p1, p2 are given and the input can be re-read (photo
+  /// folder, video file; a live source is skipped with a note); a significant estimate becomes
+  /// the run's lens as a calibration file would (undistort applies) and is written to
+  /// lens_estimate.yaml. kOff: never (the `--paper` preset).
+  LensEstimationMode lens_estimation = LensEstimationMode::kAuto;
   /// Illumination factor k in (0, 1] (the paper's f_k = k f, Fig. 4-6): every frame's brightness
   /// is multiplied by k (ScaleBrightness) after undistortion and before SURF, to study how the
   /// odometry holds in dim light. Default 1 (frames as read).
@@ -272,6 +294,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.k3, "k3", "Lens distortion k3", Finite());
   v.Field(c.calibration, "calibration", "Camera calibration file: OpenCV YAML/XML, OpenDroneMap cameras.json or COLMAP cameras.txt (pinhole or fisheye; wins over focal_px, hfov_deg, EXIF)", Any());
   v.Field(c.undistort, "undistort", "Lens undistortion: frames (remap each frame), points (undistort the SURF keypoints) or auto (points when the lens's local scale change over the frame is at most 35 %)", Any());
+  v.Field(c.lens_estimation, "lens_estimation", "Lens self-calibration: auto (without a calibration file or k1..k3, estimate a radial lens from a few frame pairs of the flight and apply it when significant; lens_estimate.yaml) or off", Any());
   v.Field(c.illumination_k, "illumination_k", "Illumination factor k: every frame's brightness times k before SURF (the paper's f_k = k f)", Interval(0, 1, true, false));
   v.Field(c.max_megapixels, "max_megapixels", "Frames above this many megapixels are reduced to it before SURF (focal length scaled with them; 0 = never)", AtLeast(0).Finite());
   v.Field(c.detect_megapixels, "detect_megapixels", "Video and live frames above this many megapixels are reduced by the smallest integer factor that fits (box filter) before SURF, focal length scaled with them (0 = never; photo folders: max_megapixels only)", AtLeast(0).Finite());
@@ -300,9 +323,9 @@ void VisitFields(RunConfig& c, V& v) {
 /// The paper's exact pipeline (Ivanov & Muzychuk 2023; `aerovo run --paper`, also for
 /// `aerovo experiment`): RunConfig's defaults with surf.adaptive = false (MATLAB
 /// detectSURFFeatures' fixed MetricThreshold 1000), correspondence.guided_matching = false (every
-/// frame matched exhaustively, as matchFeatures) and clustered.refine = false (the clustered
-/// RANSAC's best cell fit as it is) and attitude = off (the paper's nadir camera). Options given
-/// after it (flags, config file) still win.
+/// frame matched exhaustively, as matchFeatures), clustered.refine = false (the clustered
+/// RANSAC's best cell fit as it is), attitude = off (the paper's nadir camera) and
+/// lens_estimation = off. Options given after it (flags, config file) still win.
 RunConfig PaperRunConfig();
 /// Sets the paper preset's options (those PaperRunConfig changes) in `config`, leaving the rest.
 void ApplyPaperPreset(RunConfig& config);

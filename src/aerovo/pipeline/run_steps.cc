@@ -21,6 +21,7 @@
 #include "aerovo/io/calibration.h"
 #include "aerovo/io/camera.h"
 #include "aerovo/io/telemetry_readers.h"
+#include "aerovo/pipeline/lens_prepass.h"
 #include "aerovo/pipeline/pose_quality.h"
 #include "aerovo/report/run_reader.h"  // AssociateWithTruth
 #include "aerovo/sim/sim_writer.h"
@@ -779,8 +780,7 @@ void FrameLoop::Start(const Frame& frame, const std::optional<TelemetrySample>& 
   const int w = frame.gray.width(), h = frame.gray.height();
   const ImageMetadata* photo =
       folder_ != nullptr && !folder_->metadata().empty() ? &folder_->metadata().front() : nullptr;
-  const RunCamera camera =
-      ResolveRunCamera(config_, focal_from_sim_, w, h, photo, sample, frame.name);
+  RunCamera camera = ResolveRunCamera(config_, focal_from_sim_, w, h, photo, sample, frame.name);
   summary->focal_px = camera.focal_px;
   summary->focal_source = camera.focal_source;
   // Frames above the pixel budget: reduced first, the camera model with them (focal scaled,
@@ -805,6 +805,35 @@ void FrameLoop::Start(const Frame& frame, const std::optional<TelemetrySample>& 
                          config_.mavlink_wait_s);
   }
   vo_ = std::make_unique<VisualOdometry>(vo_options_);
+  // Lens self-calibration (RunConfig::lens_estimation): a significant estimate is the camera's
+  // lens as a calibration file would be, and is written to lens_estimate.yaml.
+  LensPrepass prepass;
+  prepass.why = LensPrepassSkipReason(config_, source_live_);
+  if (prepass.why.empty()) {
+    prepass = RunLensPrepass(config_, w, h, camera.focal_px);
+    if (prepass.applied) {
+      camera.calibrated = *prepass.lens;
+      WriteCalibration((out_dir_ / kLensEstimateYaml).string(), *prepass.lens,
+                       CalibrationFormat::kOpenCv);
+    }
+  }
+  summary->lens_estimate = ToJson(prepass);
+  if (log_ && (prepass.status != "skipped" || (config_.lens_estimation == LensEstimationMode::kAuto &&
+                                               source_live_))) {
+    if (prepass.applied) {
+      *log_ << fmt::format(
+          "lens: estimated from {} frame pairs: {} k1 = {:.4f} +- {:.4f} (cost drop {:.0f} %), "
+          "applied; written to {} ({:.0f} ms)\n",
+          prepass.estimate->pairs_used, ToString(prepass.estimate->family), prepass.estimate->k,
+          prepass.estimate->sigma_k, 100.0 * prepass.estimate->cost_drop,
+          (out_dir_ / kLensEstimateYaml).string(), prepass.total_ms);
+    } else {
+      *log_ << fmt::format("lens: self-calibration {}: {}{}\n", prepass.status, prepass.why,
+                           prepass.status == "skipped"
+                               ? ""
+                               : fmt::format(" ({:.0f} ms)", prepass.total_ms));
+    }
+  }
   // Lens distortion: whole frames remapped before SURF, or the keypoints undistorted in the
   // odometry (RunConfig::undistort).
   if (const std::optional<CameraIntrinsics> lens =

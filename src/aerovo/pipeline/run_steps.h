@@ -437,6 +437,9 @@ class FrameLoop {
 
   /// The MAVLink link (null without --mavlink).
   const mavlink::AutopilotLink* link() const { return link_.get(); }
+  /// The main source is live (FrameSource::IsLive): the lens self-calibration pre-pass is
+  /// skipped (pipeline/lens_prepass.h). Set before Run.
+  void set_source_live(bool live) { source_live_ = live; }
   /// Counts of the odometry, null when no frame came.
   const OdometryStats* vo_stats() const { return vo_ ? &vo_->stats() : nullptr; }
   const GeoReferencer& georef() const { return georef_; }
@@ -468,6 +471,7 @@ class FrameLoop {
   GpsFixChecker gps_check_;
   std::map<int, RejectedFix> rejected_;  // frame -> its rejected fix
   std::optional<double> last_height_time_s_;  // frame time of the last relative altitude used
+  bool source_live_ = false;
   bool warned_attitude_ = false;              // the attitude_warn_deg warning was given
   std::unique_ptr<VisualOdometry> vo_;
   std::unique_ptr<FrameUndistorter> undistorter_;

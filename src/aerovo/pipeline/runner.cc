@@ -18,6 +18,7 @@
 #include "aerovo/io/prefetch_source.h"
 #include "aerovo/io/track_writers.h"
 #include "aerovo/matching/matcher.h"
+#include "aerovo/pipeline/lens_prepass.h"
 #include "aerovo/pipeline/run_steps.h"
 
 namespace aerovo {
@@ -53,6 +54,7 @@ nlohmann::json ToJson(const RunSummary& s) {
                    {"focal_source", s.focal_source},
                    {"undistortion", s.undistortion},
                    {"lens_scale_change", s.lens_scale_change},
+                   {"lens_estimate", s.lens_estimate},
                    {"height_source", s.height_source},
                    {"height_sources", s.height_sources},
                    {"attitude_sources", s.attitude_sources},
@@ -146,14 +148,7 @@ std::string DurationOf(const FrameSource& source) {
 RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
                      const std::atomic<bool>* stop) {
   Validate(config);
-  FrameSourceOptions so;
-  so.step = config.step;
-  so.start_time_s = config.start_s;
-  if (config.end_s >= 0.0) so.end_time_s = config.end_s;
-  so.photo_gap_s = config.photo_gap_s;
-  so.photo_flight = config.photo_flight;
-  so.video_decoder = config.video_decoder;
-  so.video_threads = config.video_threads;
+  const FrameSourceOptions so = run_steps::SourceOptionsOf(config);
   if (!config.telemetry_auto_offset) return RunFlight(config, OpenFrameSource(config.input, so), cb, stop);
   // telemetry_auto_offset: a first run estimates the offset; when it is clear and differs from
   // the applied one, the flight is run again with it (the second run's outputs replace the
@@ -216,8 +211,8 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   const std::string source_duration = DurationOf(*source);
   // Decoding on its own thread; a live source keeps only the newest frame (bounded latency).
   PrefetchSource* prefetch = nullptr;
+  const bool live = source->IsLive();
   if (config.frame_queue > 0) {
-    const bool live = source->IsLive();
     PrefetchOptions po;
     po.capacity = live ? 1 : config.frame_queue;
     po.policy = live ? QueuePolicy::kDropOldest : QueuePolicy::kWait;
@@ -234,6 +229,7 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   // 2-5. The frames: camera, height, outputs, odometry.
   run_steps::FrameLoop loop(inputs, telemetry, folder, config.odometry, out_dir, cb,
                             log);
+  loop.set_source_live(live);
   run_steps::LoopEnd end = loop.Run(*source, stop, wall, &summary);
   if (summary.frames_processed == 0 && !end.stopped && end.failure.empty()) {
     // Not a silent empty run: a window past the end, an empty window, an empty source.

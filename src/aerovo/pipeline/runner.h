@@ -73,6 +73,10 @@ struct RunSummary {
   /// "frames" or "points"; lens_scale_change its camera/lens.h MaxLensScaleChange (0: none).
   std::string undistortion = "none";
   double lens_scale_change = 0.0;
+  /// The lens self-calibration pre-pass (RunConfig::lens_estimation; pipeline/lens_prepass.h
+  /// ToJson): status ("applied", "not significant", "no estimate", "skipped", "failed"),
+  /// applied, why, and with an estimate its family, k, sigma_k, cost_drop, pairs and times.
+  nlohmann::json lens_estimate;
   double frame_scale = 1.0;  ///< processed width / source width (1 = frames as read).
   /// Frames of a live source read but never processed: they came while the newest one waited
   /// (RunConfig::frame_queue; always 0 for files).

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <map>
 #include <optional>
@@ -14,6 +15,7 @@
 #include "aerovo/io/calibration.h"
 #include "aerovo/io/camera.h"
 #include "aerovo/io/frame_source.h"
+#include "aerovo/io/track_writers.h"
 #include "aerovo/report/mosaic_warp.h"
 
 namespace aerovo {
@@ -162,6 +164,13 @@ MosaicWarpOutcome WarpRunFrames(const RunData& run, const MosaicOptions& options
   const std::string calibration = ConfigValue<std::string>(run.config, "calibration", "");
   if (!calibration.empty()) {
     undistorter.emplace(ScaledTo(ReadCalibration(calibration).intrinsics, w, h));
+  }
+  // The run's lens self-calibration, when it was applied (pipeline/lens_prepass.h).
+  const std::filesystem::path estimate = run.dir / RunFileNames::kLensEstimateYaml;
+  if (calibration.empty() && run.summary.is_object() && run.summary.contains("lens_estimate") &&
+      run.summary["lens_estimate"].is_object() &&
+      run.summary["lens_estimate"].value("applied", false) && std::filesystem::exists(estimate)) {
+    undistorter.emplace(ScaledTo(ReadCalibration(estimate.string()).intrinsics, w, h));
   }
   // The run saw the frames dimmed by illumination_k (illumination experiment): so does the mosaic.
   const double illumination_k = ConfigValue<double>(run.config, "illumination_k", 1.0);

@@ -1,0 +1,236 @@
+#include "aerovo/pipeline/lens_prepass.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <utility>
+
+#include <fmt/format.h>
+
+#include "aerovo/core/error.h"
+#include "aerovo/core/timer.h"
+#include "aerovo/features/surf.h"
+#include "aerovo/matching/matcher.h"
+#include "aerovo/pipeline/preprocess.h"
+
+namespace aerovo::run_steps {
+
+namespace {
+// The run's decision threshold on the total cost drop (LensEstimationOptions::min_cost_drop;
+// the estimator's default 0.25). Measured (BENCHMARKS.md "Lens self-calibration"): tampa-phantom3
+// drops 2 %, turin-p4m 24.8 % (fisheye k1 -0.046 on its 1600x1300 bands: a residual lens, or
+// relief, just under 0.25), the simulated wide lenses 85-89 %: 0.5 keeps a wide margin on both
+// sides. Our choice.
+constexpr double kRunMinCostDrop = 0.5;
+}  // namespace
+
+FrameSourceOptions SourceOptionsOf(const RunConfig& config) {
+  FrameSourceOptions so;
+  so.step = config.step;
+  so.start_time_s = config.start_s;
+  if (config.end_s >= 0.0) so.end_time_s = config.end_s;
+  so.photo_gap_s = config.photo_gap_s;
+  so.photo_flight = config.photo_flight;
+  so.video_decoder = config.video_decoder;
+  so.video_threads = config.video_threads;
+  return so;
+}
+
+std::string LensPrepassSkipReason(const RunConfig& config, bool live) {
+  if (config.lens_estimation == LensEstimationMode::kOff) return "lens_estimation off";
+  if (!config.calibration.empty()) return "a calibration file is given";
+  if (config.k1 != 0.0 || config.k2 != 0.0 || config.p1 != 0.0 || config.p2 != 0.0 ||
+      config.k3 != 0.0) {
+    return "lens distortion coefficients are given";
+  }
+  if (live) return "a live source cannot be read twice";
+  std::error_code ec;
+  if (config.input.empty() || !std::filesystem::exists(config.input, ec)) {
+    return "the input is not a file or folder that can be read again";
+  }
+  return "";
+}
+
+std::vector<int> LensPrepassPairStarts(int frames, int pairs) {
+  std::vector<int> starts;
+  if (frames < 2 || pairs < 1) return starts;
+  for (int i = 0; i < pairs; ++i) {
+    const int k = std::min(frames - 2, static_cast<int>(std::floor((i + 0.5) * frames / pairs)));
+    if (starts.empty() || k > starts.back()) starts.push_back(k);
+  }
+  return starts;
+}
+
+namespace {
+
+// The pairs of frames as the run would deliver them (see the header): photo folders by random
+// access, videos by one seeking source per pair. `read_ms` receives the time spent.
+std::vector<std::pair<Frame, Frame>> ReadPairs(const RunConfig& config, double* read_ms,
+                                               std::string* why) {
+  const Stopwatch sw;
+  std::vector<std::pair<Frame, Frame>> pairs;
+  const FrameSourceOptions so = SourceOptionsOf(config);
+  std::unique_ptr<FrameSource> probe = OpenFrameSource(config.input, so);
+  if (auto* folder = dynamic_cast<ImageFolderSource*>(probe.get())) {
+    std::size_t first = 0;
+    while (first < folder->paths().size() && folder->TimeOf(first) < so.start_time_s) ++first;
+    const int frames = folder->ExpectedFrameCount();
+    for (int k : LensPrepassPairStarts(frames, kLensPrepassPairs)) {
+      std::pair<Frame, Frame> p;
+      const std::size_t a = first + static_cast<std::size_t>(k) * so.step;
+      folder->Read(a, p.first);
+      folder->Read(a + so.step, p.second);
+      pairs.push_back(std::move(p));
+    }
+  } else if (auto* video = dynamic_cast<VideoFileSource*>(probe.get())) {
+    const int frames = video->ExpectedFrameCount();
+    if (frames < 0) *why = "the video's frame count or rate is unknown";
+    const double fps = video->fps();
+    const int first =
+        fps > 0.0 ? static_cast<int>(std::ceil(so.start_time_s * fps - 1e-6)) : 0;
+    probe.reset();
+    for (int k : LensPrepassPairStarts(frames, kLensPrepassPairs)) {
+      FrameSourceOptions at = so;
+      // Video frame n is delivered by a source starting at (n - 0.25) / fps (the source rounds
+      // the start up to a frame).
+      at.start_time_s = std::max(0.0, (first + k * so.step - 0.25) / fps);
+      VideoFileSource source(config.input, at);
+      std::pair<Frame, Frame> p;
+      if (source.Next(p.first) && source.Next(p.second)) pairs.push_back(std::move(p));
+    }
+  } else {
+    *why = "the input is not a photo folder or a video file";
+  }
+  *read_ms = sw.elapsed_ms();
+  return pairs;
+}
+
+}  // namespace
+
+LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_px) {
+  if (w <= 0 || h <= 0 || !(focal_px > 0.0) || !std::isfinite(focal_px)) {
+    throw InvalidArgument(fmt::format("RunLensPrepass: frames {}x{}, focal {} px", w, h, focal_px));
+  }
+  const Stopwatch total;
+  LensPrepass out;
+  std::vector<std::pair<Frame, Frame>> frames;
+  try {
+    frames = ReadPairs(config, &out.read_ms, &out.why);
+  } catch (const InputError& e) {
+    out.status = "failed";
+    out.why = std::string("reading the frame pairs: ") + e.what();
+    out.total_ms = total.elapsed_ms();
+    return out;
+  }
+  // Reduced to the pre-pass's budget; SURF and matching with the run's options.
+  const Stopwatch match_sw;
+  FrameReducer reducer(w, h, kLensPrepassMegapixels);
+  out.width_px = reducer.out_width_px();
+  out.height_px = reducer.out_height_px();
+  Surf surf(config.odometry.surf);
+  Matcher matcher(config.odometry.correspondence.match);
+  std::vector<LensPair> pairs;
+  const auto features = [&](const Frame& f) {
+    if (f.gray.width() != w || f.gray.height() != h) {
+      throw InputError(fmt::format("{}: {}x{} px, but the run's frames are {}x{}", f.name,
+                                   f.gray.width(), f.gray.height(), w, h));
+    }
+    return surf.DetectAndDescribe(reducer.Apply(f.gray.view())).features;
+  };
+  try {
+    for (const auto& [prev, curr] : frames) {
+      const FeatureSet a = features(prev);
+      const FeatureSet b = features(curr);
+      const MatchResult m = matcher.Match(a, b);
+      // At most kLensPrepassMaxMatches, by an even stride over the matches.
+      const std::size_t n = m.matches.size();
+      const std::size_t kept = std::min<std::size_t>(n, kLensPrepassMaxMatches);
+      LensPair pair;
+      pair.prev_px.resize(2, static_cast<Eigen::Index>(kept));
+      pair.curr_px.resize(2, static_cast<Eigen::Index>(kept));
+      for (std::size_t i = 0; i < kept; ++i) {
+        const Match& match = m.matches[i * n / kept];
+        const Keypoint& p = a.keypoints[match.prev_index];
+        const Keypoint& c = b.keypoints[match.curr_index];
+        pair.prev_px.col(static_cast<Eigen::Index>(i)) = Eigen::Vector2d(p.x, p.y);
+        pair.curr_px.col(static_cast<Eigen::Index>(i)) = Eigen::Vector2d(c.x, c.y);
+      }
+      pairs.push_back(std::move(pair));
+    }
+  } catch (const InputError& e) {
+    out.status = "failed";
+    out.why = std::string("matching the frame pairs: ") + e.what();
+    out.total_ms = total.elapsed_ms();
+    return out;
+  }
+  out.pairs_read = static_cast<int>(pairs.size());
+  out.match_ms = match_sw.elapsed_ms();
+
+  const Stopwatch estimate_sw;
+  LensEstimationOptions o;
+  o.focal_px = focal_px * reducer.focal_scale();
+  o.cx_px = (out.width_px - 1) / 2.0;
+  o.cy_px = (out.height_px - 1) / 2.0;
+  o.width_px = out.width_px;
+  o.height_px = out.height_px;
+  o.seed = config.odometry.correspondence.ransac.seed;
+  o.min_cost_drop = kRunMinCostDrop;
+  const std::string read_note = out.why;
+  out.estimate = EstimateRadialDistortion(pairs, o);
+  out.estimate_ms = estimate_sw.elapsed_ms();
+  const LensEstimate& e = *out.estimate;
+  out.why = read_note.empty() ? e.why : read_note + "; " + e.why;
+  if (!e.valid) {
+    out.status = "no estimate";
+  } else if (!e.significant) {
+    out.status = "not significant";
+  } else {
+    out.status = "applied";
+    out.applied = true;
+    CameraIntrinsics lens = IntrinsicsFromFocalPx(focal_px, w, h);
+    if (e.family == RadialFamily::kFisheyeK1) {
+      lens.model = LensModel::kFisheye;
+      lens.distortion = {e.k, 0.0, 0.0, 0.0};
+    } else {
+      lens.model = LensModel::kPinhole;
+      lens.distortion = {e.k, 0.0, 0.0, 0.0, 0.0};
+    }
+    out.lens = lens;
+  }
+  out.total_ms = total.elapsed_ms();
+  return out;
+}
+
+nlohmann::json ToJson(const LensPrepass& p) {
+  nlohmann::json j{{"status", p.status}, {"applied", p.applied}, {"why", p.why}};
+  if (p.status == "skipped") return j;
+  j["pairs_read"] = p.pairs_read;
+  j["frame_width_px"] = p.width_px;
+  j["frame_height_px"] = p.height_px;
+  j["time_ms"] = {{"read", p.read_ms},
+                  {"match", p.match_ms},
+                  {"estimate", p.estimate_ms},
+                  {"total", p.total_ms}};
+  if (p.estimate) {
+    const LensEstimate& e = *p.estimate;
+    j["family"] = ToString(e.family);
+    j["k"] = e.k;
+    j["sigma_k"] = e.sigma_k;
+    j["cost_drop"] = e.cost_drop;
+    j["cost"] = e.cost;
+    j["cost_pinhole"] = e.cost_pinhole;
+    j["median_residual_px"] = e.median_residual_px;
+    j["median_residual_pinhole_px"] = e.median_residual_pinhole_px;
+    j["pairs_used"] = e.pairs_used;
+    j["pairs_improved"] = e.pairs_improved;
+    j["pair_fraction_improved"] =
+        e.pairs_used > 0 ? static_cast<double>(e.pairs_improved) / e.pairs_used : 0.0;
+    j["points_used"] = e.points_used;
+    j["pair_k"] = e.pair_k;
+  }
+  if (p.applied) j["file"] = kLensEstimateYaml;
+  return j;
+}
+
+}  // namespace aerovo::run_steps

@@ -1,0 +1,91 @@
+// The lens self-calibration pre-pass of `aerovo run` (issue 14 item 4: wide lenses without a
+// calibration file; RunConfig::lens_estimation, docs/lenses.md "Self-calibration"). Before the
+// first frame is processed, a SECOND frame source on the same input (a photo folder: random
+// access to its photos; a video file: one source per pair, seeking to it) reads a few pairs of
+// consecutive frames (consecutive as the run delivers them: `step` apart) spread evenly over the
+// flight's window; each frame is reduced to at most kLensPrepassMegapixels, SURF points are
+// detected and matched (the run's surf and match options), and correspondence/lens_estimation.h
+// EstimateRadialDistortion decides whether a one-parameter radial lens (OpenCV fisheye k1 or
+// Brown k1) is significant. The main stream is not touched. A significant estimate is the run's
+// lens as a calibration file would be (run_steps.h RunCamera::calibrated, so undistort
+// auto|points|frames applies) and is written as lens_estimate.yaml (OpenCV YAML).
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "aerovo/camera/pinhole.h"
+#include "aerovo/correspondence/lens_estimation.h"
+#include "aerovo/io/frame_source.h"
+#include "aerovo/io/track_writers.h"
+#include "aerovo/pipeline/run_config.h"
+
+namespace aerovo::run_steps {
+
+/// Frame pairs the pre-pass reads (the estimator needs at least LensEstimationOptions::min_pairs
+/// = 3; 5 leaves two to lose to water or blur). Our choice.
+inline constexpr int kLensPrepassPairs = 5;
+/// Pixel budget of the pre-pass's frames, megapixels (FrameReducer, area reduction): the
+/// estimate's coefficients are on normalised coordinates, so the reduction only costs precision
+/// (RecoversAFisheyeK1: 960x720 gives k within 0.002). Our choice: keeps the pre-pass's SURF and
+/// matching at about 2x the cost of one frame of a 1080p run per pair.
+inline constexpr double kLensPrepassMegapixels = 1.0;
+/// Matches of a pair given to the estimator, at most: a larger set is thinned by an even stride
+/// over the matcher's order (deterministic). The estimator's cost grows with the points (every
+/// candidate k refits each pair's homography); 400 points per pair fix k to about 1e-3
+/// (LensEstimation.RecoversAFisheyeK1: 500 points, 0.5 px noise). Our choice.
+inline constexpr int kLensPrepassMaxMatches = 400;
+/// The file a significant estimate is written to in the run folder (OpenCV YAML, io/calibration.h
+/// WriteCalibration; `aerovo run --calibration` reads it back).
+inline constexpr const char* kLensEstimateYaml = RunFileNames::kLensEstimateYaml;
+
+/// The frame source options of a run (step, window, photo flights): the main source's and the
+/// pre-pass's.
+FrameSourceOptions SourceOptionsOf(const RunConfig& config);
+
+/// Why the pre-pass does not run for `config` ("" = it runs): lens_estimation off, a calibration
+/// file or distortion coefficients given, a live source (`live`), or an input that is not a
+/// file or folder that can be opened again.
+std::string LensPrepassSkipReason(const RunConfig& config, bool live);
+
+/// First frames of the pre-pass's pairs, as ranks among the `frames` frames the run delivers:
+/// `pairs` ranks spread evenly ((i + 0.5) / pairs of the way), each followed by the next rank;
+/// fewer when the flight is short (distinct ranks only), none below 2 frames.
+std::vector<int> LensPrepassPairStarts(int frames, int pairs);
+
+/// What the pre-pass did: summary.json "lens_estimate".
+struct LensPrepass {
+  /// "applied", "not significant", "no estimate" (too few usable pairs or points), "skipped"
+  /// (LensPrepassSkipReason) or "failed" (an input error while reading the pairs; the run goes
+  /// on without an estimate).
+  std::string status = "skipped";
+  bool applied = false;
+  std::string why;  ///< The decision (or the skip, the failure) in one sentence.
+  std::optional<LensEstimate> estimate;
+  /// The estimated camera of the frames as delivered (full size, focal of the run, centred
+  /// principal point, the family's one coefficient); set when applied.
+  std::optional<CameraIntrinsics> lens;
+  int pairs_read = 0;                ///< Pairs read and matched.
+  int width_px = 0, height_px = 0;   ///< The pre-pass's (reduced) frame size.
+  double read_ms = 0.0;    ///< Opening the second source and decoding the frames.
+  double match_ms = 0.0;   ///< Reduction, SURF and matching.
+  double estimate_ms = 0.0;  ///< EstimateRadialDistortion.
+  double total_ms = 0.0;
+};
+
+/// The pre-pass on `config.input` (LensPrepassSkipReason must be "") for frames of width_px x
+/// height_px as delivered with focal length focal_px (the run's resolved focal, full frames).
+/// Input errors while reading are caught (status "failed"); InvalidArgument for a bad size or
+/// focal. Deterministic: the RANSAC seed is config.odometry.correspondence.ransac.seed.
+LensPrepass RunLensPrepass(const RunConfig& config, int width_px, int height_px, double focal_px);
+
+/// summary.json's "lens_estimate": status, applied, why, and with an estimate family ("fisheye"
+/// or "pinhole": the OpenCV model of k), k, sigma_k, cost_drop, cost, cost_pinhole (px^2),
+/// median residuals (px), pairs_used, pairs_improved, points_used, pair_k; pairs_read,
+/// frame size, stage times (ms), file (when applied).
+nlohmann::json ToJson(const LensPrepass& prepass);
+
+}  // namespace aerovo::run_steps
