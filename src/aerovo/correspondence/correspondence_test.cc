@@ -398,6 +398,11 @@ TEST(ClusteredRansac, RefinementMatchesStandardAccuracy) {
   EXPECT_GT(rr.num_inliers, 150);
   // 0.5 px of noise on one cell's ~70 points: its fit is off by more than 1 px at the far
   // corners, the spread fit moves it by that much, so the default runs the final pass.
+  // FRAGILE, by the draw: this scene (seed 5, DrawYThenX) gives 1.92 px; the same seed drawn
+  // x before y gives 0.91 px (what aarch64 drew before the draws were ordered: the final pass
+  // rightly did not run). Over seeds 0-59 in both draw orders the shift ranges 0.37-2.44 px
+  // (median 1.10) and is > 1 px, with the final pass, in 69 of 120 scenes; the gate always agreed
+  // with the shift. The seed is kept because the assertions below need a scene that crosses it.
   std::printf("spread refinement moved the cell's fit by %.2f px\n", rd.refine_shift_px);
   EXPECT_TRUE(rd.final_pass);
   EXPECT_GT(rd.refine_shift_px, 1.0);
