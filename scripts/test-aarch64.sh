@@ -7,7 +7,8 @@
 # SurfMatchGolden compares the keypoints and matches with the ones recorded on x86. Environment:
 #   AARCH64_BUILD_DIR   build directory (build-aarch64)
 #   AEROVO_SKIP_AARCH64=1  skip the stage (scripts/test.sh)
-# Excluded under qemu (ctest -E, the regex below), measured 2026-12-02 with qemu-user 7.2:
+# Excluded under qemu (ctest -E, the regex below), measured 2026-12-02 with qemu-user 7.2 (a
+# run: 223 tests native in 553 s and 51 scalar in 154 s at load average 12-15, BENCHMARKS.md):
 #   - the tests that run OpenMP with several threads do not finish under qemu-user (600 s and
 #     300 s timeouts; the same code with 1 thread passes):
 #     SurfAdaptive.IdenticalForIdenticalInputAndAnyThreadCount (3 threads),
