@@ -48,7 +48,12 @@ void BM_UndistortPoints(benchmark::State& state) {
   aerovo::Undistorter u(Lens(w, h, state.range(2) != 0));
   std::vector<cv::Point2f> base(static_cast<std::size_t>(state.range(3)));
   cv::RNG rng(5);
-  for (auto& p : base) p = cv::Point2f(rng.uniform(0.0f, w - 1.0f), rng.uniform(0.0f, h - 1.0f));
+  // y drawn before x in its own statement (a call's argument order is unspecified; this is the
+  // order x86-64 GCC used for cv::Point2f(rng.uniform(..), rng.uniform(..))).
+  for (auto& p : base) {
+    const float y = rng.uniform(0.0f, h - 1.0f);
+    p = cv::Point2f(rng.uniform(0.0f, w - 1.0f), y);
+  }
   std::vector<cv::Point2f> pts;
   pts.reserve(base.size());
   for (auto _ : state) {
@@ -69,6 +74,7 @@ void BM_UndistortKeypoints(benchmark::State& state) {
   const aerovo::LensUndistortion lens(Lens(w, h, state.range(2) != 0));
   std::vector<std::pair<double, double>> base(static_cast<std::size_t>(state.range(3)));
   cv::RNG rng(5);
+  // A braced list is evaluated left to right ([dcl.init.list]): x then y on every compiler.
   for (auto& p : base) p = {rng.uniform(0.0, w - 1.0), rng.uniform(0.0, h - 1.0)};
   for (auto _ : state) {
     double sum = 0.0;

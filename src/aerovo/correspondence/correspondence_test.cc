@@ -74,7 +74,7 @@ class SceneBuilder {
                 const Eigen::Matrix3d& motion) {
     std::uniform_real_distribution<double> ux(x0 + 2, x1 - 2), uy(y0 + 2, y1 - 2);
     for (int i = 0; i < count; ++i) {
-      const Eigen::Vector2d p(ux(rng_), uy(rng_));
+      const Eigen::Vector2d p = testing::DrawYThenX(ux, uy, rng_);
       Add(p, TransformPoint(motion, p));
     }
   }
@@ -83,6 +83,7 @@ class SceneBuilder {
   void AddScrambledInBox(int count, double x0, double y0, double x1, double y1) {
     std::uniform_real_distribution<double> ux(x0 + 2, x1 - 2), uy(y0 + 2, y1 - 2);
     std::uniform_real_distribution<double> fx(0, kFrameWidth - 1), fy(0, kFrameHeight - 1);
+    // Braced lists are evaluated left to right ([dcl.init.list]): the same draws everywhere.
     for (int i = 0; i < count; ++i) Add({ux(rng_), uy(rng_)}, {fx(rng_), fy(rng_)});
   }
 
@@ -371,8 +372,8 @@ TEST(ClusteredRansac, RefinementMatchesStandardAccuracy) {
   std::uniform_real_distribution<double> ux(0, kFrameWidth - 1), uy(0, kFrameHeight - 1);
   std::normal_distribution<double> noise(0.0, 0.5);
   for (int i = 0; i < 600; ++i) {
-    const Eigen::Vector2d p(ux(rng), uy(rng));
-    scene.Add(p, TransformPoint(motion, p) + Eigen::Vector2d(noise(rng), noise(rng)));
+    const Eigen::Vector2d p = testing::DrawYThenX(ux, uy, rng);
+    scene.Add(p, TransformPoint(motion, p) + testing::DrawYThenX(noise, noise, rng));
   }
   CorrespondenceOptions paper, all, spread;
   paper.clustered.refine = false;
@@ -397,6 +398,11 @@ TEST(ClusteredRansac, RefinementMatchesStandardAccuracy) {
   EXPECT_GT(rr.num_inliers, 150);
   // 0.5 px of noise on one cell's ~70 points: its fit is off by more than 1 px at the far
   // corners, the spread fit moves it by that much, so the default runs the final pass.
+  // FRAGILE, by the draw: this scene (seed 5, DrawYThenX) gives 1.92 px; the same seed drawn
+  // x before y gives 0.91 px (what aarch64 drew before the draws were ordered: the final pass
+  // rightly did not run). Over seeds 0-59 in both draw orders the shift ranges 0.37-2.44 px
+  // (median 1.10) and is > 1 px, with the final pass, in 69 of 120 scenes; the gate always agreed
+  // with the shift. The seed is kept because the assertions below need a scene that crosses it.
   std::printf("spread refinement moved the cell's fit by %.2f px\n", rd.refine_shift_px);
   EXPECT_TRUE(rd.final_pass);
   EXPECT_GT(rd.refine_shift_px, 1.0);
@@ -708,7 +714,7 @@ RepeatedTexture MakeRepeatedTexture() {
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<double> ux(40, kFrameWidth - 40), uy(40, kFrameHeight - 40);
   for (int i = 0; i < 300; ++i) {
-    const Eigen::Vector2d p(ux(rng), uy(rng));
+    const Eigen::Vector2d p = testing::DrawYThenX(ux, uy, rng);
     const Eigen::Vector2d q = TransformPoint(scene.truth, p);
     b.Add(p, q);
     ++scene.pairs;

@@ -15,6 +15,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/core/image.h"
 #include "aerovo/core/testing.h"
+#include "aerovo/estimation/testing.h"
 #include "aerovo/features/surf.h"
 #include "aerovo/matching/matcher.h"
 
@@ -77,14 +78,19 @@ std::vector<LensPair> Synthetic(const TrueLens& lens, int num_pairs, double heig
     const double psi_a = (unit(rng) - 0.5) * 0.1, psi_b = psi_a + (unit(rng) - 0.5) * 0.1;
     std::vector<Eigen::Vector2d> a, b;
     while (a.size() < 500) {
-      const Eigen::Vector3d g(ca.x() + ground(rng), ca.y() + ground(rng), 0.0);
+      // Two draws per point in a fixed order (testing::DrawYThenX: y first, as x86-64 GCC
+      // evaluated the former Vector3d(ca.x() + ground(rng), ca.y() + ground(rng), 0) arguments).
+      const Eigen::Vector2d gxy = testing::DrawYThenX(ground, ground, rng);
+      const Eigen::Vector3d g(ca.x() + gxy.x(), ca.y() + gxy.y(), 0.0);
       Eigen::Vector2d pa, pb;
       if (!Project(lens, CameraRay(g, ca, psi_a), &pa) || !Project(lens, CameraRay(g, cb, psi_b), &pb)) {
         continue;
       }
-      pa += Eigen::Vector2d(noise(rng), noise(rng));
-      pb += Eigen::Vector2d(noise(rng), noise(rng));
-      if (unit(rng) < outliers) pb = Eigen::Vector2d(unit(rng) * lens.width, unit(rng) * lens.height);
+      pa += testing::DrawYThenX(noise, noise, rng);
+      pb += testing::DrawYThenX(noise, noise, rng);
+      if (unit(rng) < outliers) {
+        pb = testing::DrawYThenX(unit, unit, rng).cwiseProduct(Eigen::Vector2d(lens.width, lens.height));
+      }
       a.push_back(pa);
       b.push_back(pb);
     }

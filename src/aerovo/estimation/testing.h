@@ -24,6 +24,21 @@ struct SyntheticCorrespondences {
   std::vector<float> quality;           // Fake match SSD: inliers and outliers alike random.
 };
 
+/// A 2-vector (x, y) drawn from `dist_x` and `dist_y` with `rng`, y FIRST, then x: a fixed order
+/// on every compiler and architecture. C++ leaves the evaluation order of function arguments
+/// unspecified: `Eigen::Vector2d(ux(rng), uy(rng))` draws uy first with GCC on x86-64 (it
+/// evaluates arguments right to left) but ux first with GCC on aarch64 (and with Clang), so one
+/// seed gave other scenes per architecture (issue 19). y-then-x is the order x86-64 GCC used, so
+/// the x86 scenes, and every x86 test's numbers, are the ones recorded before. A braced list
+/// `{ux(rng), uy(rng)}` needs no helper: its elements are evaluated left to right
+/// ([dcl.init.list]), so it draws x first everywhere.
+template <typename DistX, typename DistY, typename Engine>
+Eigen::Vector2d DrawYThenX(DistX& dist_x, DistY& dist_y, Engine& rng) {
+  const double y = dist_y(rng);
+  const double x = dist_x(rng);
+  return Eigen::Vector2d(x, y);
+}
+
 /// `num_inliers` prev points uniform in the 800x600 frame mapped by `curr_from_prev` plus
 /// Gaussian noise of `noise_px` per coordinate, mixed at random positions with `num_outliers`
 /// correspondences whose curr point is uniform in the frame and at least 5 px from where the
@@ -46,16 +61,16 @@ inline SyntheticCorrespondences MakeCorrespondences(const Eigen::Matrix3d& curr_
   s.quality.assign(static_cast<std::size_t>(n), 0.f);
   for (int k = 0; k < n; ++k) {
     const int i = slot[static_cast<std::size_t>(k)];
-    const Eigen::Vector2d p(ux(rng), uy(rng));
+    const Eigen::Vector2d p = DrawYThenX(ux, uy, rng);
     const Eigen::Vector2d truth = TransformPoint(curr_from_prev, p);
     Eigen::Vector2d c;
     if (k < num_inliers) {
       c = truth;
-      if (noise_px > 0) c += Eigen::Vector2d(noise(rng), noise(rng));
+      if (noise_px > 0) c += DrawYThenX(noise, noise, rng);
       s.is_inlier[static_cast<std::size_t>(i)] = 1;
     } else {
       do {
-        c = Eigen::Vector2d(ux(rng), uy(rng));
+        c = DrawYThenX(ux, uy, rng);
       } while ((c - truth).norm() < 5.0);
     }
     s.prev.col(i) = p;

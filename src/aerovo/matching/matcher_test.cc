@@ -130,7 +130,13 @@ FeatureSet RandomSet(int n, int dim, std::mt19937& rng, float w = 1920.f, float 
   for (int i = 0; i < n; ++i) {
     for (float& v : d) v = g(rng);
     Normalize(d.data(), dim);
-    AddPoint(&f, ux(rng), uy(rng), sign(rng) ? 1 : -1, d);
+    // One draw per statement: the order of a call's argument evaluations is unspecified (x86-64
+    // GCC: right to left, aarch64 GCC: left to right). This is the order x86-64 GCC used for the
+    // former AddPoint(&f, ux(rng), uy(rng), sign(rng) ? 1 : -1, d), so the x86 sets are unchanged.
+    const std::int8_t lap = sign(rng) ? 1 : -1;
+    const float y = uy(rng);
+    const float x = ux(rng);
+    AddPoint(&f, x, y, lap, d);
   }
   return f;
 }

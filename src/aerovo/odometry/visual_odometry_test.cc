@@ -32,14 +32,24 @@ cv::Mat MakeGround(int size, std::uint64_t seed) {
     cv::resize(noise, up, ground.size(), 0, 0, cv::INTER_CUBIC);
     ground += up * (40.0 / (1 << octave));
   }
+  // One draw per statement, y before x: a call's arguments are evaluated in an unspecified order
+  // (x86-64 GCC: right to left, aarch64 GCC: left to right); this is the order x86-64 GCC used
+  // for the former cv::Point(rng.uniform(0, size), rng.uniform(0, size)), so the ground is the
+  // one the x86 tests were written against.
   for (int i = 0; i < size * size / 400; ++i) {
-    const cv::Point c(rng.uniform(0, size), rng.uniform(0, size));
+    const int cy = rng.uniform(0, size);
+    const int cx = rng.uniform(0, size);
+    const cv::Point c(cx, cy);
     const int radius = rng.uniform(2, 12);
     cv::circle(ground, c, radius, cv::Scalar(rng.uniform(0.0, 255.0)), cv::FILLED, cv::LINE_AA);
   }
   for (int i = 0; i < size * size / 4000; ++i) {
-    const cv::Point a(rng.uniform(0, size), rng.uniform(0, size));
-    const cv::Point b = a + cv::Point(rng.uniform(-30, 30), rng.uniform(-30, 30));
+    const int ay = rng.uniform(0, size);
+    const int ax = rng.uniform(0, size);
+    const cv::Point a(ax, ay);
+    const int dy = rng.uniform(-30, 30);
+    const int dx = rng.uniform(-30, 30);
+    const cv::Point b = a + cv::Point(dx, dy);
     cv::rectangle(ground, a, b, cv::Scalar(rng.uniform(0.0, 255.0)), cv::FILLED);
   }
   cv::GaussianBlur(ground, ground, cv::Size(0, 0), 1.0);

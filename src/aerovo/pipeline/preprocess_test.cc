@@ -212,8 +212,13 @@ TEST(Preprocess, DetectionReductionKeepsPositionsInMetres) {
   cv::RNG rng(11);
   cv::Mat ground(1400, 1400, CV_8U, cv::Scalar(90));
   for (int i = 0; i < 9000; ++i) {
-    cv::circle(ground, cv::Point(rng.uniform(0, 1400), rng.uniform(0, 1400)), rng.uniform(3, 16),
-               cv::Scalar(rng.uniform(0, 256)), cv::FILLED, cv::LINE_AA);
+    // One draw per statement (a call's arguments are evaluated in an unspecified order): the
+    // order x86-64 GCC used for the former one-call form, last argument first.
+    const int grey = rng.uniform(0, 256);
+    const int radius = rng.uniform(3, 16);
+    const int y = rng.uniform(0, 1400);
+    const int x = rng.uniform(0, 1400);
+    cv::circle(ground, cv::Point(x, y), radius, cv::Scalar(grey), cv::FILLED, cv::LINE_AA);
   }
   cv::GaussianBlur(ground, ground, cv::Size(0, 0), 1.2);
   const int w = 640, h = 480;

@@ -9,6 +9,20 @@
 #include "aerovo/sim/random.h"
 
 namespace aerovo::sim {
+namespace {
+
+// Three standard normals (x, y, z), drawn z, then y, then x, one per statement: the evaluation
+// order of a call's arguments is unspecified, and the former Eigen::Vector3d(rng.Normal(),
+// rng.Normal(), rng.Normal()) drew z first with GCC on x86-64 (right to left) but x first on
+// aarch64, so one seed gave other GPS errors per architecture. z-y-x keeps the x86 fixes.
+Eigen::Vector3d NormalZyx(Rng& rng) {
+  const double z = rng.Normal();
+  const double y = rng.Normal();
+  const double x = rng.Normal();
+  return Eigen::Vector3d(x, y, z);
+}
+
+}  // namespace
 
 void Validate(const GpsOptions& g) {
   if (!(g.rate_hz > 0.0 && g.rate_hz <= 1000.0)) {
@@ -43,7 +57,7 @@ std::vector<GpsFix> SimulateGps(const std::vector<CameraPose>& poses, const GpsO
   const double a = o.correlation_time_s > 0 ? std::exp(-dt / o.correlation_time_s) : 0.0;
   const double b = std::sqrt(1.0 - a * a);
   const Eigen::Vector3d sigma(o.horizontal_sigma_m, o.horizontal_sigma_m, o.vertical_sigma_m);
-  Eigen::Vector3d err(rng.Normal(), rng.Normal(), rng.Normal());
+  Eigen::Vector3d err = NormalZyx(rng);
   err = err.cwiseProduct(sigma);
   size_t k = 0;
   for (long i = 0; i < n; ++i) {
@@ -56,7 +70,7 @@ std::vector<GpsFix> SimulateGps(const std::vector<CameraPose>& poses, const GpsO
       truth += f * (poses[k + 1].position_m - poses[k].position_m);
     }
     if (i > 0) {
-      const Eigen::Vector3d w(rng.Normal(), rng.Normal(), rng.Normal());
+      const Eigen::Vector3d w = NormalZyx(rng);
       err = a * err + b * w.cwiseProduct(sigma);
     }
     GpsFix fix;

@@ -50,6 +50,17 @@ void Validate(const TerrainOptions& o) {
 
 namespace {
 
+// Two uniform draws in [a, b) as (first, second), the second drawn FIRST, in separate statements:
+// the evaluation order of a call's arguments is unspecified (GCC on x86-64 evaluates them right
+// to left, on aarch64 left to right), so a call with two draws as arguments, like the former
+// cv::Point2f(rng.Uniform(-1, 1), rng.Uniform(-1, 1)), gave another terrain per architecture for
+// one seed. Second-first is the order x86-64 GCC used, so the x86 terrains are unchanged.
+cv::Point2f UniformPairSecondFirst(Rng& rng, double a, double b) {
+  const float second = static_cast<float>(rng.Uniform(a, b));
+  const float first = static_cast<float>(rng.Uniform(a, b));
+  return cv::Point2f(first, second);
+}
+
 using Quad = std::array<cv::Point2f, 4>;  // corners in order a, b, c, d (b = a + u, d = a + v)
 
 enum class Kind { kCrop, kStubble, kPloughed, kMeadow, kVillage, kForest, kOrchard };
@@ -176,8 +187,8 @@ cv::Mat GenerateTerrain(const TerrainOptions& o) {
   auto node = [&](int i, int j) -> cv::Point2f& { return nodes[static_cast<size_t>(j) * nx + i]; };
   for (int j = 0; j < ny; ++j) {
     for (int i = 0; i < nx; ++i) {
-      node(i, j) = cv::Point2f(xs[i] + cell * 0.18f * static_cast<float>(rng.Uniform(-1, 1)),
-                               ys[j] + cell * 0.18f * static_cast<float>(rng.Uniform(-1, 1)));
+      const cv::Point2f jitter = UniformPairSecondFirst(rng, -1, 1);
+      node(i, j) = cv::Point2f(xs[i] + cell * 0.18f * jitter.x, ys[j] + cell * 0.18f * jitter.y);
     }
   }
 
@@ -347,10 +358,8 @@ cv::Mat GenerateTerrain(const TerrainOptions& o) {
       const float len = static_cast<float>(cv::norm(b - a));
       for (float s = 0; s < len;) {
         const float rad = static_cast<float>(rng.Uniform(1.2, 3.5)) * px_per_m;
-        const cv::Point2f c = a + (s / len) * (b - a) +
-                              cv::Point2f(static_cast<float>(rng.Uniform(-1, 1)),
-                                          static_cast<float>(rng.Uniform(-1, 1))) *
-                                  px_per_m;
+        const cv::Point2f c =
+            a + (s / len) * (b - a) + UniformPairSecondFirst(rng, -1, 1) * px_per_m;
         trees.push_back({c, rad, Jitter(rng, kTreeGreen, 0.2f)});
         s += rad * static_cast<float>(rng.Uniform(1.2, 3.5));
       }
@@ -458,8 +467,8 @@ cv::Mat GenerateTerrain(const TerrainOptions& o) {
     } else if (f.kind == Kind::kMeadow) {
       const int n = static_cast<int>(lu * lv / (900.0f * px_per_m * px_per_m));  // 1 per 30x30 m
       for (int k = 0; k < n; ++k) {
-        const cv::Point2f c =
-            Bilinear(f.quad, static_cast<float>(rng.Uniform()), static_cast<float>(rng.Uniform()));
+        const cv::Point2f uv = UniformPairSecondFirst(rng, 0, 1);
+        const cv::Point2f c = Bilinear(f.quad, uv.x, uv.y);
         trees.push_back({c, static_cast<float>(rng.Uniform(1.0, 4.0)) * px_per_m,
                          Jitter(rng, kTreeGreen, 0.25f)});
       }
@@ -508,9 +517,8 @@ cv::Mat GenerateTerrain(const TerrainOptions& o) {
       // Roof fixtures (vents, AC units): small dark and bright squares.
       const int n = 1 + rng.Int(3);
       for (int k = 0; k < n; ++k) {
-        const cv::Point2f p = Bilinear({inner[0], inner[1], inner[2], inner[3]},
-                                       static_cast<float>(rng.Uniform(0.2, 0.8)),
-                                       static_cast<float>(rng.Uniform(0.2, 0.8)));
+        const cv::Point2f uv = UniformPairSecondFirst(rng, 0.2, 0.8);
+        const cv::Point2f p = Bilinear({inner[0], inner[1], inner[2], inner[3]}, uv.x, uv.y);
         const float h = static_cast<float>(rng.Uniform(0.6, 1.2)) * px_per_m;
         const cv::Point2f sq[4] = {p + cv::Point2f(-h, -h), p + cv::Point2f(h, -h),
                                    p + cv::Point2f(h, h), p + cv::Point2f(-h, h)};
