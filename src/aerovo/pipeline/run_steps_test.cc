@@ -654,12 +654,12 @@ TEST(RunSteps, SummaryComparesWithGpsAndSaysWhatIsMissing) {
     r.detect_ms = 2.0 * i;
     GeoPoint gps{45.0 + 10.0 * i / 111132.0, 7.0, 0.0};
     georef.Observe(r.position_m, gps, 0.0);
-    totals.Add(i, 0.5 * i, r, gps, georef);
+    totals.Add(i, 0.5 * i, r, gps);
   }
   FrameResult last = FakeResult(5);
   last.position_m = {0.0, 50.0};
   georef.Observe(last.position_m, std::nullopt, std::nullopt);
-  totals.Add(5, 2.5, last, std::nullopt, georef);
+  totals.Add(5, 2.5, last, std::nullopt);
   EXPECT_EQ(totals.frames, 6);
   EXPECT_EQ(totals.frames_with_gps, 5);
   EXPECT_EQ(totals.measured_steps, 5);
@@ -691,10 +691,10 @@ TEST(RunSteps, SummaryComparesWithGpsAndSaysWhatIsMissing) {
   RunTotals unmeasured(false);
   GeoReferencer none;
   FrameResult first = FakeResult(0);
-  unmeasured.Add(0, 0.0, first, std::nullopt, none);
+  unmeasured.Add(0, 0.0, first, std::nullopt);
   FrameResult bridged = FakeResult(1);
   bridged.status = FrameStatus::kBridged;
-  unmeasured.Add(1, 0.5, bridged, std::nullopt, none);
+  unmeasured.Add(1, 0.5, bridged, std::nullopt);
   RunSummary u;
   u.frames_processed = 2;
   end = LoopEnd();
@@ -719,7 +719,7 @@ TEST(RunSteps, SummaryComparesWithTheTruth) {
   for (int i = 0; i < 5; ++i) {
     FrameResult r = FakeResult(i);
     r.position_m = {1.0 * i, 0.0};
-    totals.Add(i, 0.5 * i, r, std::nullopt, georef);
+    totals.Add(i, 0.5 * i, r, std::nullopt);
     ReferencePoint p;
     p.time_s = 0.5 * i;
     p.x_m = 1.0 * i;
