@@ -17,6 +17,7 @@
 #include <iostream>
 #include <map>
 #include <system_error>
+#include <utility>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -260,8 +261,9 @@ TEST(TelemetryTrust, ImplausibleAltitudeOrLateStepDoesNotSteerTheTrack) {
 
 // The run's ENU frame (x_m/y_m, vo.tum, gps.tum, the comparisons with GPS and the truth, the
 // report) has its origin at the first fix the check accepted and kept, never at a rejected one:
-// a bad first fix 1.1 km off, a fix at 0,0 (null island: 5500 km away, where the horizontal
-// plane is tilted 50 degrees against the flight's), and two bad first fixes in a row. Every
+// a bad first fix 1.1 km off, a first fix with latitude and longitude swapped (24.03 N 49.84 E:
+// 3000 km away, where the horizontal plane is tilted 30 degrees against the flight's), and two
+// bad first fixes in a row. Every
 // output in that frame agrees: gps.tum starts at (0, 0) at the first good fix, vo.tum and
 // frames.csv hold the same positions and follow gps.tum within GPS noise, summary.json and the
 // report name the same origin, and the truth (noise-free SRT) is met as in the clean run.
@@ -302,7 +304,7 @@ TEST(TelemetryTrust, EnuOriginIsTheFirstAcceptedFix) {
   };
   const Case cases[] = {
       {"origin_glitch", [](int i, Fix& f) { if (i == 0) North(f, 0.01); }, 1},
-      {"origin_null_island", [](int i, Fix& f) { if (i == 0) f.geo = GeoPoint{0.0, 0.0, 0.0}; }, 1},
+      {"origin_swapped", [](int i, Fix& f) { if (i == 0) std::swap(f.geo.lat_deg, f.geo.lon_deg); }, 1},
       {"origin_two_bad", [](int i, Fix& f) { if (i < 2) North(f, 0.01); }, 2},
   };
   for (const Case& c : cases) {
