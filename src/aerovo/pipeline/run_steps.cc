@@ -158,14 +158,27 @@ std::string RunTelemetry::WhyNoFix(const Frame& f) const {
 }
 
 std::string CheckTelemetryClock(const Telemetry& t, const std::string& source,
-                                double frames_start_s, double frames_end_s) {
+                                double frames_start_s, double frames_end_s, double offset_s) {
   if (t.size() < 3) return "";
   const double tel_span = t.end_time_s() - t.start_time_s();
   const double video_span = frames_end_s - frames_start_s;
+  const double first_s = frames_start_s + offset_s, last_s = frames_end_s + offset_s;
+  if (t.start_time_s() > last_s || t.end_time_s() < first_s) {
+    // No frame can take a fix from it; a bare "N frames have no fix" would not say why.
+    return fmt::format(
+        "{}: no time overlap with the frames: the telemetry spans {:.3f} to {:.3f} s, the frames "
+        "{:.3f} to {:.3f} s on its clock{}: another flight, or another clock (GPS-week or "
+        "absolute seconds against the frames' from 0?); no frame takes a fix from it "
+        "(--telemetry-offset-s shifts it)",
+        source, t.start_time_s(), t.end_time_s(), first_s, last_s,
+        offset_s != 0.0 ? fmt::format(" (offset {:+.3f} s applied)", offset_s) : std::string());
+  }
   if (!(video_span >= 1.0) || !(tel_span > 0.0)) return "";  // too short to judge
   const double ratio = tel_span / video_span;
   std::string unit;
-  if (ratio >= 500.0 && ratio <= 2000.0) {
+  if (ratio >= 5e5 && ratio <= 2e6) {
+    unit = ": its times look like microseconds read as seconds (convert them to seconds)";
+  } else if (ratio >= 500.0 && ratio <= 2000.0) {
     unit = ": its times look like milliseconds read as seconds (convert them to seconds)";
   } else if (ratio >= 40.0 && ratio <= 80.0) {
     unit = ": its times look like seconds while the video's are minutes, or the telemetry is "

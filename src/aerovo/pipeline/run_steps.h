@@ -117,10 +117,12 @@ class RunTelemetry {
 /// The telemetry's clock against the frames': "" when they agree, else a warning naming the
 /// telemetry `source`, e.g. when the telemetry's time span is ~1000x the frames' (times in
 /// milliseconds read as seconds) or every frame falls in a small part of it. `frames_start_s`,
-/// `frames_end_s`: the processed frames' first and last time (seconds). Only for a telemetry
-/// matched by time (with frame indices the clock does not matter).
+/// `frames_end_s`: the processed frames' first and last time (seconds), `offset_s` the offset
+/// applied (telemetry time = frame time + offset_s). Only for a telemetry matched by time (with
+/// frame indices the clock does not matter). Spans that do not overlap at all (another flight,
+/// GPS-week or absolute seconds against the frames' from 0) are said first, with both spans.
 std::string CheckTelemetryClock(const Telemetry& telemetry, const std::string& source,
-                                double frames_start_s, double frames_end_s);
+                                double frames_start_s, double frames_end_s, double offset_s = 0.0);
 
 /// The time offset between the telemetry and the frames estimated from the motion: the offset
 /// d (seconds, telemetry time = frame time + d, the meaning of RunConfig::telemetry_offset_s)

@@ -277,6 +277,24 @@ TEST(RunSteps, TelemetryClockMismatchIsNamed) {
   // Every frame in the first seconds of a much longer telemetry, in seconds.
   EXPECT_NE(CheckTelemetryClock(Telemetry(ok), "long.csv", 0.0, 2.0).find("30x"),
             std::string::npos);
+  // Microseconds: the unit is named (before: "another flight, or a clip").
+  std::vector<TelemetrySample> us, week;
+  for (int i = 0; i <= 60; ++i) {
+    us.push_back(Fix(1e6 * i, 100.0));
+    week.push_back(Fix(345600.0 + i, 100.0));  // seconds of the GPS week
+  }
+  const std::string u = CheckTelemetryClock(Telemetry(us), "us.csv", 0.0, 60.0);
+  EXPECT_NE(u.find("microseconds"), std::string::npos) << u;
+  EXPECT_NE(u.find("1000000x"), std::string::npos) << u;
+  // No overlap at all (GPS-week seconds against frames from 0; the same span): said with both
+  // spans (before: nothing, the spans' ratio is 1).
+  const std::string g = CheckTelemetryClock(Telemetry(week), "week.csv", 0.0, 60.0);
+  EXPECT_NE(g.find("week.csv: no time overlap with the frames: the telemetry spans 345600.000 to "
+                   "345660.000 s, the frames 0.000 to 60.000 s"),
+            std::string::npos)
+      << g;
+  // The offset that aligns them: no warning.
+  EXPECT_EQ(CheckTelemetryClock(Telemetry(week), "week.csv", 0.0, 60.0, 345600.0), "");
 }
 
 // The offset from the motion: a VO track with changing speed against the same track 2.5 s later

@@ -290,7 +290,8 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
     const run_steps::RunTotals& t = loop.totals();
     if (!telemetry.by_frame_index() || config.telemetry_offset_s != 0.0) {
       const std::string w = run_steps::CheckTelemetryClock(
-          telemetry.telemetry(), telemetry.origin(), t.first_time_s, t.last_time_s);
+          telemetry.telemetry(), telemetry.origin(), t.first_time_s, t.last_time_s,
+          config.telemetry_offset_s);
       if (!w.empty()) summary.warnings.push_back(w);
     }
     const run_steps::OffsetEstimate e =
