@@ -17,6 +17,7 @@
 #include <iostream>
 #include <map>
 #include <system_error>
+#include <utility>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -30,6 +31,7 @@
 #include "aerovo/geo/geodesic.h"
 #include "aerovo/geo/local_enu.h"
 #include "aerovo/pipeline/runner.h"
+#include "aerovo/report/run_reader.h"
 #include "aerovo/sim/terrain.h"
 #include "e2e_testing.h"
 
@@ -255,6 +257,118 @@ TEST(TelemetryTrust, ImplausibleAltitudeOrLateStepDoesNotSteerTheTrack) {
   std::vector<int> late;
   for (int i = 24; i <= kGlitchSteps; ++i) late.push_back(i);
   ExpectGlitchHandled({"late_step", [](int i, Fix& f) { if (i >= 24) North(f, 0.01); }, late});
+}
+
+// The run's ENU frame (x_m/y_m, vo.tum, gps.tum, the comparisons with GPS and the truth, the
+// report) has its origin at the first fix the check accepted and kept, never at a rejected one:
+// a bad first fix 1.1 km off, a first fix with latitude and longitude swapped (24.03 N 49.84 E:
+// 3000 km away, where the horizontal plane is tilted 30 degrees against the flight's), and two
+// bad first fixes in a row. Every
+// output in that frame agrees: gps.tum starts at (0, 0) at the first good fix, vo.tum and
+// frames.csv hold the same positions and follow gps.tum within GPS noise, summary.json and the
+// report name the same origin, and the truth (noise-free SRT) is met as in the clean run.
+std::vector<std::vector<double>> ReadTum(const fs::path& file) {
+  std::vector<std::vector<double>> rows;
+  std::ifstream in(file);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ss(line);
+    std::vector<double> v;
+    double x = 0.0;
+    while (ss >> x) v.push_back(x);
+    rows.push_back(v);
+  }
+  return rows;
+}
+
+TEST(TelemetryTrust, EnuOriginIsTheFirstAcceptedFix) {
+  const CleanRun& clean = Clean();
+  const fs::path& dir = clean.dir;
+  const std::vector<Eigen::Vector2d>& path = clean.path;
+  std::vector<Fix> truth;
+  for (const Eigen::Vector2d& p : path) truth.push_back({GeoOf(p)});
+  std::ofstream(dir / "truth.srt") << MakeSrt(truth);
+  RunConfig cc = Config(dir / "photos", dir / "clean_truth", dir / "clean.srt");
+  cc.truth = (dir / "truth.srt").string();
+  const RunSummary clean_truth = RunFlight(cc);
+  ASSERT_TRUE(clean_truth.truth_evaluation.has_value());
+  ASSERT_TRUE(clean_truth.enu_origin.has_value());
+  // The SRT has 7 decimals (1e-7 deg, 1 cm).
+  EXPECT_NEAR(clean_truth.enu_origin->lat_deg, FixesOf(path)[0].geo.lat_deg, 1e-7);
+  const double clean_truth_end_m = clean_truth.truth_evaluation->se2.end_point_error_unaligned_m;
+
+  struct Case {
+    const char* name;
+    std::function<void(int, Fix&)> edit;
+    int first_good;
+  };
+  const Case cases[] = {
+      {"origin_glitch", [](int i, Fix& f) { if (i == 0) North(f, 0.01); }, 1},
+      {"origin_swapped", [](int i, Fix& f) { if (i == 0) std::swap(f.geo.lat_deg, f.geo.lon_deg); }, 1},
+      {"origin_two_bad", [](int i, Fix& f) { if (i < 2) North(f, 0.01); }, 2},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    std::vector<Fix> fixes = FixesOf(path);
+    for (int i = 0; i < static_cast<int>(fixes.size()); ++i) c.edit(i, fixes[i]);
+    const GeoPoint good = fixes[static_cast<std::size_t>(c.first_good)].geo;
+    const fs::path srt = dir / (std::string(c.name) + ".srt"), out = dir / c.name;
+    std::ofstream(srt) << MakeSrt(fixes);
+    RunConfig config = Config(dir / "photos", out, srt);
+    config.truth = (dir / "truth.srt").string();
+    const RunSummary s = RunFlight(config);
+    EXPECT_EQ(s.gps_rejected, c.first_good) << Joined(s.warnings);
+    // summary: the origin is the first good fix.
+    ASSERT_TRUE(s.enu_origin.has_value());
+    EXPECT_NEAR(s.enu_origin->lat_deg, good.lat_deg, 1e-7);
+    EXPECT_NEAR(s.enu_origin->lon_deg, good.lon_deg, 1e-7);
+    const RunData run = ReadRunDir(out);
+    ASSERT_TRUE(run.summary.contains("enu_origin"));
+    EXPECT_DOUBLE_EQ(run.summary["enu_origin"]["lat_deg"].get<double>(), s.enu_origin->lat_deg);
+    // gps.tum: the rejected fixes left out, the first row the origin itself.
+    const auto gps = ReadTum(out / "gps.tum");
+    ASSERT_EQ(gps.size(), path.size() - static_cast<std::size_t>(c.first_good));
+    EXPECT_DOUBLE_EQ(gps[0][0], static_cast<double>(c.first_good));
+    EXPECT_NEAR(gps[0][1], 0.0, 1e-6);
+    EXPECT_NEAR(gps[0][2], 0.0, 1e-6);
+    // vo.tum = frames.csv x/y, within GPS noise (1.4 m) + VO drift of gps.tum at the same time.
+    const auto vo = ReadTum(out / "vo.tum");
+    ASSERT_EQ(vo.size(), path.size());
+    ASSERT_EQ(run.frames.size(), path.size());
+    double worst_m = 0.0;
+    for (std::size_t i = 0; i < vo.size(); ++i) {
+      EXPECT_NEAR(vo[i][1], run.frames[i].x_m, 1e-3) << i;
+      EXPECT_NEAR(vo[i][2], run.frames[i].y_m, 1e-3) << i;
+      if (i >= static_cast<std::size_t>(c.first_good)) {
+        const auto& g = gps[i - static_cast<std::size_t>(c.first_good)];
+        EXPECT_DOUBLE_EQ(g[0], vo[i][0]);
+        worst_m = std::max(worst_m, std::hypot(vo[i][1] - g[1], vo[i][2] - g[2]));
+      }
+    }
+    EXPECT_LT(worst_m, 3.0);
+    // The report: same frame, same comparison as summary.json.
+    const std::optional<LocalEnu> enu = RunEnuFrame(run);
+    ASSERT_TRUE(enu.has_value());
+    EXPECT_DOUBLE_EQ(enu->origin().lat_deg, s.enu_origin->lat_deg);
+    const RunComparison cmp = CompareWithGps(run);
+    ASSERT_TRUE(cmp.comparison.has_value());
+    ASSERT_TRUE(s.evaluation.has_value());
+    EXPECT_NEAR(cmp.reference.front().x, 0.0, 1e-6);
+    EXPECT_NEAR(cmp.comparison->se2.ate_m.rmse, s.evaluation->se2.ate_m.rmse, 0.01);
+    EXPECT_NEAR(s.evaluation->se2.ate_m.rmse, clean.summary.evaluation->se2.ate_m.rmse, 0.3);
+    // The truth, in the same frame: met as in the clean run; and the track on Earth.
+    ASSERT_TRUE(s.truth_evaluation.has_value());
+    const double end_m = s.truth_evaluation->se2.end_point_error_unaligned_m;
+    EXPECT_NEAR(end_m, clean_truth_end_m, 1.0);
+    const double geo_end_m = EndErrorM(out, path);
+    EXPECT_NEAR(geo_end_m, clean.end_error_m, 1.0);
+    std::cout << fmt::format(
+        "{}: origin = fix {}; gps.tum {} rows from (0, 0); |vo - gps| <= {:.2f} m; truth end "
+        "error {:.2f} m (clean {:.2f} m); geo end error {:.2f} m (clean {:.2f} m)\n",
+        c.name, c.first_good, gps.size(), worst_m, end_m, clean_truth_end_m, geo_end_m,
+        clean.end_error_m);
+  }
 }
 
 // With the check disabled (gps_check.enabled = false, the behaviour before issue 15) the same

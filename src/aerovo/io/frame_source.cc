@@ -638,6 +638,11 @@ void ImageFolderSource::Read(std::size_t i, Frame& frame) {
   FillFrame(bgr, options_.keep_color, frame);
   frame.flags.clear();
   if (check.truncated) AddFlag(frame.flags, kFrameFlagTruncated);
+  // A photo copied under another name (or shot twice): its step would read as a true standstill.
+  const std::uint64_t hash = PixelHash(frame.gray);
+  if (have_hash_ && hash == last_hash_) AddFlag(frame.flags, kFrameFlagDuplicate);
+  have_hash_ = true;
+  last_hash_ = hash;
   frame.index = static_cast<int>(i);
   frame.time_s = times_[i];
   frame.name = name;

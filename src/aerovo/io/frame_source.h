@@ -39,8 +39,9 @@ struct Frame {
   /// What is wrong with this frame as read, '+'-separated tokens ("" = nothing found). The run
   /// processes a flagged frame, appends the flags to its status in frames.csv and counts it in
   /// summary.json. Tokens:
-  ///  - "duplicate": a video or live frame whose decoded pixels are identical (64-bit hash) to
-  ///    the previous delivered frame's: a repeated or stale frame, whose step is a false zero.
+  ///  - "duplicate": a video, live or photo frame whose decoded pixels are identical (64-bit
+  ///    hash) to the previous delivered frame's: a repeated or stale frame, or a photo copied
+  ///    under a second name, whose step is a false zero.
   ///  - "truncated": a photo file cut short (a JPEG without its end-of-image marker), decoded by
   ///    libjpeg with the missing part filled in grey.
   std::string flags;
@@ -256,6 +257,8 @@ class ImageFolderSource : public FrameSource {
   int width_ = 0, height_ = 0;
   int skipped_files_ = 0;
   int flight_count_ = 1;
+  bool have_hash_ = false;       // the last delivered photo's pixel hash (duplicate flag)
+  std::uint64_t last_hash_ = 0;
 };
 
 /// A camera or stream: a camera index ("0"), a device path ("/dev/video0") or a URL

@@ -518,6 +518,8 @@ struct TrackWriterSet::Impl {
   std::optional<GpxTrackWriter> vo_gpx, gps_gpx;
   std::vector<fs::path> files;
   int num_records = 0;
+  int csv_rows = 0;
+  bool appended_gps = false;  // a GPS fix reached the tracks (gps.tum needs its origin before)
   bool closed = false;
 };
 
@@ -627,6 +629,7 @@ TrackWriterSet& TrackWriterSet::operator=(TrackWriterSet&&) noexcept = default;
 const fs::path& TrackWriterSet::dir() const { return impl_->dir; }
 std::vector<fs::path> TrackWriterSet::Files() const { return impl_->files; }
 int TrackWriterSet::num_records() const { return impl_->num_records; }
+int TrackWriterSet::csv_rows() const { return impl_->csv_rows; }
 
 void TrackWriterSet::Append(const FrameRecord& r, const std::optional<GeoPoint>& gps) {
   Impl& m = *impl_;
@@ -635,12 +638,16 @@ void TrackWriterSet::Append(const FrameRecord& r, const std::optional<GeoPoint>&
   // consistent with each other.
   Validate(r);
   if (gps) Validate(*gps, ("GPS of frame " + std::to_string(r.frame)).c_str());
-  if (m.csv) m.csv->Append(r, gps);
+  if (m.csv) {
+    m.csv->Append(r, gps);
+    ++m.csv_rows;
+  }
   if (m.vo_tum) m.vo_tum->Append(r.time_s, {r.x_m, r.y_m, r.z_m}, r.yaw_rad);
   // A fix the run rejected as implausible (gps_flag) stays in frames.csv with its flag, and out of
   // the GPS tracks, which users load as the reference.
   const bool gps_track = gps && r.gps_flag.empty();
   if (gps_track && m.gps_tum && m.enu) m.gps_tum->Append(r.time_s, m.enu->Forward(*gps), 0.0);
+  if (gps_track) m.appended_gps = true;
   if (r.geo) {
     const GeoTrackPoint vo{r.time_s, *r.geo};
     if (m.vo_geojson) m.vo_geojson->Append(vo);
@@ -669,6 +676,17 @@ void TrackWriterSet::Append(const FrameRecord& r, const std::optional<GeoPoint>&
   }
   ++m.num_records;
 }
+
+void TrackWriterSet::SetEnuOrigin(const GeoPoint& origin) {
+  Impl& m = *impl_;
+  if (m.enu) throw InvalidArgument("TrackWriterSet::SetEnuOrigin: the ENU origin is already set");
+  if (m.appended_gps) {
+    throw InvalidArgument("TrackWriterSet::SetEnuOrigin after a GPS fix was written");
+  }
+  m.enu.emplace(origin);  // validates
+}
+
+bool TrackWriterSet::has_enu_origin() const { return impl_->enu.has_value(); }
 
 void TrackWriterSet::Close() {
   Impl& m = *impl_;

@@ -273,7 +273,8 @@ struct TrackWriterOptions {
   bool kml = true;      ///< vo.kml, gps.kml, run.kml, run_live.kml
   bool gpx = true;      ///< vo.gpx, gps.gpx
   /// Origin of the ENU frame of FrameRecord x/y/z. Needed for gps.tum (GPS fixes converted to
-  /// the same ENU frame as the VO so that evo can compare them); without it gps.tum stays empty.
+  /// the same ENU frame as the VO so that evo can compare them); without it (and without
+  /// TrackWriterSet::SetEnuOrigin) gps.tum stays empty.
   std::optional<GeoPoint> enu_origin;
   /// Absolute time (seconds since 1970 UTC) of time_s = 0, for GPX <time> and KML <when>;
   /// nullopt: time_s counted from 1970-01-01T00:00:00Z (see the top of this file).
@@ -302,12 +303,21 @@ class TrackWriterSet {
   /// only get frames with record.geo. Throws InvalidArgument for an invalid record/gps (nothing
   /// is written then), InputError naming the file when a write fails.
   void Append(const FrameRecord& record, const std::optional<GeoPoint>& gps = std::nullopt);
+  /// Sets the origin of the ENU frame (TrackWriterOptions::enu_origin) when it is known only
+  /// after the writers were opened (the run's origin is its first accepted GPS fix, which a
+  /// plausibility check may settle frames after the first). Throws InvalidArgument when an
+  /// origin is already set or a GPS fix has already been appended (gps.tum would mix frames).
+  void SetEnuOrigin(const GeoPoint& origin);
+  bool has_enu_origin() const;
   /// Closes every file (they are already valid). Idempotent. Append after Close throws.
   void Close();
 
   const std::filesystem::path& dir() const;
   std::vector<std::filesystem::path> Files() const;  ///< Paths of the files written.
   int num_records() const;
+  /// Rows of frames.csv: num_records(), or one more when the last Append wrote its row and then
+  /// failed in a later file.
+  int csv_rows() const;
 
  private:
   struct Impl;

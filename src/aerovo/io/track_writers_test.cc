@@ -464,6 +464,37 @@ TEST_F(TrackWritersTest, RejectedFixStaysInTheCsvAndOutOfTheGpsTracks) {
   EXPECT_NE(csv.find("50.46"), std::string::npos);
 }
 
+// The ENU origin set after the writers were opened (the run's first accepted fix, known frames
+// later): gps.tum is in that frame, starting at (0, 0) at the origin fix; a rejected fix written
+// before it does not prevent it; a second origin, or one after a GPS row, is refused.
+TEST_F(TrackWritersTest, EnuOriginSetLaterIsTheFrameOfGpsTum) {
+  const GeoPoint origin{50.45, 30.52, 181.0};
+  {
+    TrackWriterSet set(dir_);
+    EXPECT_FALSE(set.has_enu_origin());
+    FrameRecord bad = MakeRecord(0);
+    bad.gps_flag = "rejected:superseded";
+    set.Append(bad, GeoPoint{50.46, 30.52, 181.0});  // 1.1 km off, rejected: not in gps.tum
+    set.SetEnuOrigin(origin);
+    EXPECT_TRUE(set.has_enu_origin());
+    EXPECT_THROW(set.SetEnuOrigin(origin), InvalidArgument);
+    for (int i = 1; i < 4; ++i) {
+      set.Append(MakeRecord(i), GeoPoint{50.45 + 1e-5 * (i - 1), 30.52, 181.0});
+    }
+    EXPECT_EQ(set.csv_rows(), 4);
+  }
+  const Parsed p = ParseRun(dir_);
+  ASSERT_EQ(p.gps_tum.size(), 3u);
+  EXPECT_NEAR(p.gps_tum[0][1], 0.0, 1e-6);
+  EXPECT_NEAR(p.gps_tum[0][2], 0.0, 1e-6);
+  EXPECT_NEAR(p.gps_tum[2][2], 2.22, 0.01);  // 2e-5 deg of latitude north
+  // Too late: a fix already went into the GPS tracks without a frame.
+  fs::remove_all(dir_);
+  TrackWriterSet late(dir_);
+  late.Append(MakeRecord(0), origin);
+  EXPECT_THROW(late.SetEnuOrigin(origin), InvalidArgument);
+}
+
 // run.kml: both tracks as time-stamped points, valid after every append; the Style children in
 // the OGC KML 2.2 order (every Style aerovo writes); the flight's name; 7 decimals.
 TEST_F(TrackWritersTest, RunKmlHasTimeStampedPointsOfBothTracks) {

@@ -99,6 +99,7 @@ bool GeoReferencer::Observe(const Eigen::Vector2d& local_m, const std::optional<
 
 void GeoReferencer::Restart() {
   if (ready_) throw InvalidArgument("GeoReferencer::Restart after the frame is known");
+  enu_.reset();
   have_pair0_ = false;
   sum_dot_ = sum_cross_ = 0.0;
   sum_local_.setZero();

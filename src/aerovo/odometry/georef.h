@@ -1,5 +1,6 @@
 // Geo-referencing of the visual-odometry trajectory: local VO frame (metres, see pose_chain.h)
-// -> East-North-Up (GeographicLib LocalCartesian, origin at the first GPS fix) -> WGS84.
+// -> East-North-Up (GeographicLib LocalCartesian, origin at the first GPS fix observed, see
+// enu()) -> WGS84.
 // No I/O: the caller feeds frame positions with whatever telemetry it has.
 #pragma once
 
@@ -70,8 +71,10 @@ class GeoReferencer {
   /// tracks). Returns ready().
   bool FixWithAvailable();
 
-  /// Forgets the fixes observed so far (they were found to be outliers, gps_check.h), keeping
-  /// the ENU origin; the following Observe() calls start a new segment. Precondition: !ready().
+  /// Forgets the fixes observed so far (they were found to be outliers, gps_check.h) and the ENU
+  /// origin they set: the following Observe() calls start a new segment, whose first fix is the
+  /// new origin (a rejected fix is never the origin of the run's ENU frame). Precondition:
+  /// !ready().
   void Restart();
 
   /// Fixes dropped by the robust segment fit (GeoRefOptions::outlier_m).
@@ -79,7 +82,9 @@ class GeoReferencer {
 
   /// True once enu_from_local is known.
   bool ready() const { return ready_; }
-  /// The ENU frame (origin = first GPS fix observed). Precondition: a GPS fix was observed.
+  /// The ENU frame: origin = the first GPS fix observed since construction or the last
+  /// Restart() (the run feeds only accepted fixes: the first accepted fix that was not
+  /// superseded). Fixed once ready(). Precondition: has_enu().
   const LocalEnu& enu() const;
   bool has_enu() const { return enu_.has_value(); }
 

@@ -156,7 +156,8 @@ TEST(GeoReferencer, YawTranslationIsTheMedianOfTheFirstFixes) {
   EXPECT_LT(GeodesicDistance(geo.Wgs84FromLocal(f.local[40]), f.gps[40]), 0.01);
 }
 
-// Restart forgets the segment (the fixes were outliers) but keeps the ENU origin.
+// Restart forgets the segment (the fixes were outliers) and the origin they set: the ENU frame's
+// origin is the new segment's first fix, not the outlier 500 m away.
 TEST(GeoReferencer, RestartStartsANewSegment) {
   const LocalEnu enu(45.07, 7.66, 250.0);
   const Flight f = MakeFlight(-130.0, enu, {0, 0});
@@ -164,12 +165,18 @@ TEST(GeoReferencer, RestartStartsANewSegment) {
   opts.heading_source = HeadingSource::kGpsSegment;
   GeoReferencer geo(opts);
   const Eigen::Vector3d e1 = enu.Forward(f.gps[1]);
-  geo.Observe(f.local[0], enu.Reverse(e1.x() + 500.0, e1.y(), 0.0), std::nullopt);
+  const GeoPoint outlier = enu.Reverse(e1.x() + 500.0, e1.y(), 0.0);
+  geo.Observe(f.local[0], outlier, std::nullopt);
+  ASSERT_TRUE(geo.has_enu());
+  EXPECT_DOUBLE_EQ(geo.enu().origin().lat_deg, outlier.lat_deg);
   geo.Restart();
+  EXPECT_FALSE(geo.has_enu());
   for (std::size_t i = 1; i < f.local.size() && !geo.ready(); ++i) {
     geo.Observe(f.local[i], f.gps[i], std::nullopt);
   }
   ASSERT_TRUE(geo.ready());
+  EXPECT_DOUBLE_EQ(geo.enu().origin().lat_deg, f.gps[1].lat_deg);
+  EXPECT_DOUBLE_EQ(geo.enu().origin().lon_deg, f.gps[1].lon_deg);
   EXPECT_LT(GeodesicDistance(geo.Wgs84FromLocal(f.local[50]), f.gps[50]), 0.01);
   EXPECT_THROW(geo.Restart(), InvalidArgument);
 }

@@ -89,6 +89,10 @@ GpsFixVerdict GpsFixChecker::Check(int frame_index, double time_s, const GeoPoin
       anchor_chain_.push_back(c.frame);
     }
     anchor_chain_.push_back(frame_index);
+    // The ENU frame was centred on a fix now superseded (possibly far away: a fix at 0,0, where
+    // the horizontal plane is tilted against the flight's): centre it on the new chain's first fix.
+    enu_.emplace(challenger_.front().gps);
+    f.enu = enu_->Forward(f.gps);
     anchor_ = f;
     challenger_.clear();
     return v;

@@ -112,6 +112,7 @@ class GpsFixChecker {
   std::string Compare(const Fix& a, const Fix& b, std::string* reason) const;
 
   GpsCheckOptions options_;
+  // Centred on the first fix, then on the first fix of the chain that replaced the anchor chain.
   std::optional<LocalEnu> enu_;
   std::optional<Fix> anchor_;
   std::vector<int> anchor_chain_;  // frames of the accepted chain (since the last switch)

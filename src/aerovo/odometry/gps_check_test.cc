@@ -102,6 +102,26 @@ TEST(GpsFixChecker, BadFirstFixIsOutvotedByTheNextOnes) {
   for (int i = 4; i < 20; ++i) EXPECT_TRUE(r.verdicts[i].accepted) << i;
 }
 
+// A first fix at 0,0 (null island: a receiver without a fix yet) is outvoted, and the checker's
+// ENU frame moves to the flight: a 45 m jump 8 s later is measured as 45 m (against the VO),
+// not foreshortened in a horizontal plane tangent 5500 km away.
+TEST(GpsFixChecker, NullIslandFirstFixIsOutvotedAndTheFrameMovesToTheFlight) {
+  const LocalEnu enu(49.84, 24.03, 300.0);
+  GpsFixChecker checker;
+  std::vector<GpsFixVerdict> v;
+  for (int i = 0; i < 20; ++i) {
+    double e = 10.0 * i + 1.5 * std::sin(7.1 * i), n = 1.5 * std::cos(5.3 * i);
+    if (i == 8) n += 45.0;
+    const GeoPoint g = i == 0 ? GeoPoint{0.0, 0.0, 0.0} : enu.Reverse(e, n, 100.0);
+    v.push_back(checker.Check(i, i, g, 100.0, Eigen::Vector2d(10.0 * i, 0.0), 0));
+  }
+  ASSERT_TRUE(v[3].switched);
+  EXPECT_EQ(v[3].superseded, std::vector<int>{0});
+  for (int i = 4; i < 20; ++i) EXPECT_EQ(v[i].accepted, i != 8) << i << ": " << v[i].reason;
+  EXPECT_EQ(v[8].kind, "vo");
+  EXPECT_NE(v[8].reason.find("jumps 4"), std::string::npos) << v[8].reason;
+}
+
 TEST(GpsFixChecker, DisabledAcceptsEverything) {
   GpsCheckOptions o;
   o.enabled = false;

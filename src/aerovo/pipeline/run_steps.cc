@@ -159,14 +159,27 @@ std::string RunTelemetry::WhyNoFix(const Frame& f) const {
 }
 
 std::string CheckTelemetryClock(const Telemetry& t, const std::string& source,
-                                double frames_start_s, double frames_end_s) {
+                                double frames_start_s, double frames_end_s, double offset_s) {
   if (t.size() < 3) return "";
   const double tel_span = t.end_time_s() - t.start_time_s();
   const double video_span = frames_end_s - frames_start_s;
+  const double first_s = frames_start_s + offset_s, last_s = frames_end_s + offset_s;
+  if (t.start_time_s() > last_s || t.end_time_s() < first_s) {
+    // No frame can take a fix from it; a bare "N frames have no fix" would not say why.
+    return fmt::format(
+        "{}: no time overlap with the frames: the telemetry spans {:.3f} to {:.3f} s, the frames "
+        "{:.3f} to {:.3f} s on its clock{}: another flight, or another clock (GPS-week or "
+        "absolute seconds against the frames' from 0?); no frame takes a fix from it "
+        "(--telemetry-offset-s shifts it)",
+        source, t.start_time_s(), t.end_time_s(), first_s, last_s,
+        offset_s != 0.0 ? fmt::format(" (offset {:+.3f} s applied)", offset_s) : std::string());
+  }
   if (!(video_span >= 1.0) || !(tel_span > 0.0)) return "";  // too short to judge
   const double ratio = tel_span / video_span;
   std::string unit;
-  if (ratio >= 500.0 && ratio <= 2000.0) {
+  if (ratio >= 5e5 && ratio <= 2e6) {
+    unit = ": its times look like microseconds read as seconds (convert them to seconds)";
+  } else if (ratio >= 500.0 && ratio <= 2000.0) {
     unit = ": its times look like milliseconds read as seconds (convert them to seconds)";
   } else if (ratio >= 40.0 && ratio <= 80.0) {
     unit = ": its times look like seconds while the video's are minutes, or the telemetry is "
@@ -557,7 +570,8 @@ RunOutputs::RunOutputs(const std::filesystem::path& out_dir, const RunConfig& co
                        const RunCallbacks& callbacks, bool wait_for_heading)
     : callbacks_(callbacks), wait_for_heading_(wait_for_heading) {
   TrackWriterOptions wo;
-  wo.enu_origin = GpsOf(first_sample);
+  // No ENU origin yet: it is the run's (GeoReferencer::enu(), the first accepted fix), set at
+  // the first frame written (Emit), which waits for the heading when there is telemetry.
   if (first_sample && first_sample->unix_time_s)
     wo.time_origin_unix_s = *first_sample->unix_time_s - first_time_s;
   wo.run_name = FlightNameOf(config.input);  // names the tracks in KML/GPX/GeoJSON
@@ -616,6 +630,8 @@ void RunOutputs::Emit(PendingFrame& p, const GeoReferencer& georef) {
     p.record.y_m = p.local_m.y();
     p.record.yaw_rad = p.heading_rad;
   }
+  // gps.tum's frame: the run's ENU frame, the same as x_m/y_m, vo.tum and the comparisons.
+  if (georef.has_enu() && !writers_->has_enu_origin()) writers_->SetEnuOrigin(georef.enu().origin());
   if (jsonl_ != nullptr && !p.sent_geo && georef.ready()) {
     *jsonl_ << GeoJsonLine(p, georef) << std::flush;
     p.sent_geo = true;
@@ -660,6 +676,8 @@ void RunOutputs::Add(PendingFrame frame, const GeoReferencer& georef) {
   Flush(georef, false);
 }
 
+int RunOutputs::frames_written() const { return writers_->csv_rows(); }
+
 void RunOutputs::Finish(GeoReferencer& georef) {
   if (!georef.ready() && georef.has_enu()) georef.FixWithAvailable();
   Flush(georef, true);
@@ -671,16 +689,16 @@ void RunOutputs::Finish(GeoReferencer& georef) {
 // 5. The per-frame loop
 
 void RunTotals::Add(int frame_index, double time_s, const FrameResult& r,
-                    const std::optional<GeoPoint>& gps, const GeoReferencer& georef) {
+                    const std::optional<GeoPoint>& gps) {
   if (r.status == FrameStatus::kOk || r.status == FrameStatus::kReacquired) ++measured_steps;
   if (keep_track) {
     local_track.push_back({time_s, r.position_m.x(), r.position_m.y()});
     track_frames.push_back(frame_index);
   }
   if (gps) ++frames_with_gps;
-  if (gps && georef.has_enu()) {
-    const Eigen::Vector3d e = georef.enu().Forward(*gps);
-    gps_track.push_back({time_s, e.x(), e.y()});
+  if (gps) {
+    gps_track.push_back({time_s, 0.0, 0.0});  // x/y: CompareWithGps, in the final ENU frame
+    gps_geo.push_back(*gps);
     local_at_gps.push_back({time_s, r.position_m.x(), r.position_m.y()});
     gps_frames.push_back(frame_index);
     gps_rejected.push_back(0);
@@ -1005,7 +1023,7 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
       end.failure = e.what();
       break;
     }
-    totals_.Add(frame.index, frame.time_s, r, gps, georef_);
+    totals_.Add(frame.index, frame.time_s, r, gps);
     totals_.latency_ms.push_back(latency_ms);
     if (!fix_ok) totals_.SetRejected(frame.index, true);
     ++summary->frames_processed;
@@ -1163,9 +1181,17 @@ void CompareWithTruth(const ReferenceTrack& truth, const std::vector<TrajectoryP
 // The SE(2) / Sim(2) comparison with GPS (ENU when geo-referenced) of at least 3 fixes, the
 // rejected ones left out; a warning saying why when there is none.
 void CompareWithGps(const GeoReferencer& georef, RunTotals& totals, RunSummary* summary) {
+  // The run's ENU frame (origin: the first accepted fix, georef.h); the fixes were kept as WGS84
+  // because a bad first fix may have been superseded (and the frame moved) after they came.
+  std::optional<LocalEnu> enu;
+  if (georef.has_enu()) enu.emplace(georef.enu());
   std::vector<TrajectoryPoint2D> local, gps;
   for (std::size_t i = 0; i < totals.gps_track.size(); ++i) {
     if (totals.gps_rejected[i]) continue;
+    if (!enu) enu.emplace(totals.gps_geo[i]);
+    const Eigen::Vector3d e = enu->Forward(totals.gps_geo[i]);
+    totals.gps_track[i].x = e.x();
+    totals.gps_track[i].y = e.y();
     local.push_back(totals.local_at_gps[i]);
     gps.push_back(totals.gps_track[i]);
   }
@@ -1262,6 +1288,7 @@ void Summarize(const std::vector<std::string>& source_warnings, bool has_telemet
   s.frames_with_gps = totals.frames_with_gps;
   s.vo_path_length_m = totals.path_length_m;
   s.heading_source = georef.heading_source_used();
+  if (georef.has_enu()) s.enu_origin = georef.enu().origin();
   const double n = std::max(1, s.frames_processed);
   const StageTimes& sum = totals.sum_ms;
   s.mean = {sum.detect_ms / n, sum.describe_ms / n, sum.correspond_ms / n, sum.estimate_ms / n,

@@ -117,10 +117,12 @@ class RunTelemetry {
 /// The telemetry's clock against the frames': "" when they agree, else a warning naming the
 /// telemetry `source`, e.g. when the telemetry's time span is ~1000x the frames' (times in
 /// milliseconds read as seconds) or every frame falls in a small part of it. `frames_start_s`,
-/// `frames_end_s`: the processed frames' first and last time (seconds). Only for a telemetry
-/// matched by time (with frame indices the clock does not matter).
+/// `frames_end_s`: the processed frames' first and last time (seconds), `offset_s` the offset
+/// applied (telemetry time = frame time + offset_s). Only for a telemetry matched by time (with
+/// frame indices the clock does not matter). Spans that do not overlap at all (another flight,
+/// GPS-week or absolute seconds against the frames' from 0) are said first, with both spans.
 std::string CheckTelemetryClock(const Telemetry& telemetry, const std::string& source,
-                                double frames_start_s, double frames_end_s);
+                                double frames_start_s, double frames_end_s, double offset_s = 0.0);
 
 /// The time offset between the telemetry and the frames estimated from the motion: the offset
 /// d (seconds, telemetry time = frame time + d, the meaning of RunConfig::telemetry_offset_s)
@@ -319,8 +321,9 @@ std::string GeoJsonLine(const PendingFrame& frame, const GeoReferencer& georef);
 /// the run waits for a heading, then written in order.
 class RunOutputs {
  public:
-  /// Opens the track writers in `out_dir` (ENU origin: `first_sample`'s fix; time origin: its
-  /// unix time minus first_time_s), writes config.json (ToJson(config) and a "resolved" block:
+  /// Opens the track writers in `out_dir` (ENU origin: the run's, GeoReferencer::enu(), set
+  /// when the first frame is written; time origin: `first_sample`'s unix time minus
+  /// first_time_s), writes config.json (ToJson(config) and a "resolved" block:
   /// focal_px, focal_source, height_source, frame_width_px, frame_height_px) and opens
   /// transforms.csv. `wait_for_heading`: the run has GPS telemetry, so frames wait for the
   /// geo-referencing (bounded: GeoRefOptions::min_segment_m). `callbacks` (frame, poses) must
@@ -342,6 +345,8 @@ class RunOutputs {
   /// At the end: geo-references with what is available if needed (georef.FixWithAvailable),
   /// writes every queued frame and closes the track files.
   void Finish(GeoReferencer& georef);
+  /// Rows written to frames.csv so far (frames still queued for the heading are not).
+  int frames_written() const;
 
  private:
   void Flush(const GeoReferencer& georef, bool final);
@@ -369,10 +374,11 @@ class RunOutputs {
 /// the truth and the telemetry offset estimate use it); every frame's latency, 4 bytes.
 struct RunTotals {
   explicit RunTotals(bool keep_track) : keep_track(keep_track) {}
-  /// Adds frame `frame_index` at `time_s` processed into `result`, with its fix `gps` (in the
-  /// GPS track once `georef` has its ENU frame).
+  /// Adds frame `frame_index` at `time_s` processed into `result`, with its fix `gps` (kept as
+  /// WGS84 in gps_geo: the comparison with GPS uses the run's ENU frame as it is at the end,
+  /// whose origin is a fix that was accepted, odometry/georef.h).
   void Add(int frame_index, double time_s, const FrameResult& result,
-           const std::optional<GeoPoint>& gps, const GeoReferencer& georef);
+           const std::optional<GeoPoint>& gps);
 
   /// Marks the fix of `frame_index` rejected (true) or accepted again: rejected fixes are left
   /// out of the comparison with GPS.
@@ -390,6 +396,9 @@ struct RunTotals {
   /// Capture-to-send latency of every frame where measured, ms (4 bytes per frame).
   std::vector<float> latency_ms;
   std::vector<int> gps_frames;    ///< Frame index of each gps_track point.
+  /// The fix of each gps_track point (gps_track holds its time; its x/y are set in the run's
+  /// final ENU frame by the comparison with GPS).
+  std::vector<GeoPoint> gps_geo;
   std::vector<char> gps_rejected;  ///< Per gps_track point: rejected by the plausibility check.
   double first_time_s = 0.0, last_time_s = 0.0;  ///< Of the processed frames.
 };
@@ -444,6 +453,8 @@ class FrameLoop {
   const OdometryStats* vo_stats() const { return vo_ ? &vo_->stats() : nullptr; }
   const GeoReferencer& georef() const { return georef_; }
   const RunTotals& totals() const { return totals_; }
+  /// Rows of frames.csv (RunOutputs::frames_written; 0 before the first frame).
+  int frames_written() const { return outputs_ ? outputs_->frames_written() : 0; }
   /// The totals, moved out (for Summarize, at the end).
   RunTotals TakeTotals() { return std::move(totals_); }
 

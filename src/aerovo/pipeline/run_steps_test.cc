@@ -277,6 +277,24 @@ TEST(RunSteps, TelemetryClockMismatchIsNamed) {
   // Every frame in the first seconds of a much longer telemetry, in seconds.
   EXPECT_NE(CheckTelemetryClock(Telemetry(ok), "long.csv", 0.0, 2.0).find("30x"),
             std::string::npos);
+  // Microseconds: the unit is named (before: "another flight, or a clip").
+  std::vector<TelemetrySample> us, week;
+  for (int i = 0; i <= 60; ++i) {
+    us.push_back(Fix(1e6 * i, 100.0));
+    week.push_back(Fix(345600.0 + i, 100.0));  // seconds of the GPS week
+  }
+  const std::string u = CheckTelemetryClock(Telemetry(us), "us.csv", 0.0, 60.0);
+  EXPECT_NE(u.find("microseconds"), std::string::npos) << u;
+  EXPECT_NE(u.find("1000000x"), std::string::npos) << u;
+  // No overlap at all (GPS-week seconds against frames from 0; the same span): said with both
+  // spans (before: nothing, the spans' ratio is 1).
+  const std::string g = CheckTelemetryClock(Telemetry(week), "week.csv", 0.0, 60.0);
+  EXPECT_NE(g.find("week.csv: no time overlap with the frames: the telemetry spans 345600.000 to "
+                   "345660.000 s, the frames 0.000 to 60.000 s"),
+            std::string::npos)
+      << g;
+  // The offset that aligns them: no warning.
+  EXPECT_EQ(CheckTelemetryClock(Telemetry(week), "week.csv", 0.0, 60.0, 345600.0), "");
 }
 
 // The offset from the motion: a VO track with changing speed against the same track 2.5 s later
@@ -654,12 +672,12 @@ TEST(RunSteps, SummaryComparesWithGpsAndSaysWhatIsMissing) {
     r.detect_ms = 2.0 * i;
     GeoPoint gps{45.0 + 10.0 * i / 111132.0, 7.0, 0.0};
     georef.Observe(r.position_m, gps, 0.0);
-    totals.Add(i, 0.5 * i, r, gps, georef);
+    totals.Add(i, 0.5 * i, r, gps);
   }
   FrameResult last = FakeResult(5);
   last.position_m = {0.0, 50.0};
   georef.Observe(last.position_m, std::nullopt, std::nullopt);
-  totals.Add(5, 2.5, last, std::nullopt, georef);
+  totals.Add(5, 2.5, last, std::nullopt);
   EXPECT_EQ(totals.frames, 6);
   EXPECT_EQ(totals.frames_with_gps, 5);
   EXPECT_EQ(totals.measured_steps, 5);
@@ -691,10 +709,10 @@ TEST(RunSteps, SummaryComparesWithGpsAndSaysWhatIsMissing) {
   RunTotals unmeasured(false);
   GeoReferencer none;
   FrameResult first = FakeResult(0);
-  unmeasured.Add(0, 0.0, first, std::nullopt, none);
+  unmeasured.Add(0, 0.0, first, std::nullopt);
   FrameResult bridged = FakeResult(1);
   bridged.status = FrameStatus::kBridged;
-  unmeasured.Add(1, 0.5, bridged, std::nullopt, none);
+  unmeasured.Add(1, 0.5, bridged, std::nullopt);
   RunSummary u;
   u.frames_processed = 2;
   end = LoopEnd();
@@ -719,7 +737,7 @@ TEST(RunSteps, SummaryComparesWithTheTruth) {
   for (int i = 0; i < 5; ++i) {
     FrameResult r = FakeResult(i);
     r.position_m = {1.0 * i, 0.0};
-    totals.Add(i, 0.5 * i, r, std::nullopt, georef);
+    totals.Add(i, 0.5 * i, r, std::nullopt);
     ReferencePoint p;
     p.time_s = 0.5 * i;
     p.x_m = 1.0 * i;

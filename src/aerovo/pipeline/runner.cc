@@ -31,6 +31,7 @@ nlohmann::json ToJson(const RunSummary& s) {
                    {"source", s.source_description},
                    {"out_dir", s.out_dir.string()},
                    {"frames_processed", s.frames_processed},
+                   {"frames_not_written", s.frames_not_written},
                    {"frames_expected", s.frames_expected},
                    {"frames_ok", s.frames_ok},
                    {"frames_reacquired", s.frames_reacquired},
@@ -74,6 +75,10 @@ nlohmann::json ToJson(const RunSummary& s) {
                      {"median", number_or_null(s.latency.median_ms)},
                      {"p95", number_or_null(s.latency.p95_ms)},
                      {"max", number_or_null(s.latency.max_ms)}};
+  j["enu_origin"] = s.enu_origin ? nlohmann::json{{"lat_deg", s.enu_origin->lat_deg},
+                                                   {"lon_deg", s.enu_origin->lon_deg},
+                                                   {"alt_m", s.enu_origin->alt_m}}
+                                 : nlohmann::json();
   j["gps_comparison_note"] = s.gps_comparison_note;
   j["gps_rejected"] = s.gps_rejected;
   nlohmann::json rejected = nlohmann::json::array();
@@ -246,7 +251,22 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
     } catch (const OutputError& e) {  // the files stay valid; the summary says what failed
       end.failure = e.what();
       end.output_failed = true;
+    } catch (const InputError& e) {  // a queued frame's position is not on Earth
+      if (end.failure.empty()) end.failure = e.what();
     }
+  }
+  // summary.json counts what frames.csv holds, on every exit path: frames processed but never
+  // written (queued for the heading when a write failed) are counted apart and said.
+  if (const int written = loop.frames_written(); written != summary.frames_processed) {
+    summary.frames_not_written = std::max(0, summary.frames_processed - written);
+    if (summary.frames_not_written > 0) {
+      summary.warnings.push_back(fmt::format(
+          "{} of the {} frames processed are not in frames.csv nor the tracks: writing them "
+          "failed ({}); frames_processed counts the {} written",
+          summary.frames_not_written, summary.frames_processed,
+          end.failure.empty() ? std::string("see the error") : end.failure, written));
+    }
+    summary.frames_processed = written;
   }
   if (const mavlink::AutopilotLink* link = loop.link()) {
     const mavlink::LinkStats st = link->stats();
@@ -268,7 +288,8 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
     const run_steps::RunTotals& t = loop.totals();
     if (!telemetry.by_frame_index() || config.telemetry_offset_s != 0.0) {
       const std::string w = run_steps::CheckTelemetryClock(
-          telemetry.telemetry(), telemetry.origin(), t.first_time_s, t.last_time_s);
+          telemetry.telemetry(), telemetry.origin(), t.first_time_s, t.last_time_s,
+          config.telemetry_offset_s);
       if (!w.empty()) summary.warnings.push_back(w);
     }
     const run_steps::OffsetEstimate e =

@@ -55,7 +55,11 @@ struct RunSummary {
   std::string input;
   std::string source_description;
   std::filesystem::path out_dir;
+  /// Frames processed and written: always the number of rows of frames.csv, whatever ended the
+  /// run (frames processed but not written, e.g. queued for the heading when the disk filled
+  /// up, are frames_not_written).
   int frames_processed = 0;
+  int frames_not_written = 0;
   int frames_expected = -1;  ///< From the source, -1 when unknown (live).
   int frames_ok = 0;         ///< Including the first frame.
   int frames_reacquired = 0;
@@ -101,6 +105,10 @@ struct RunSummary {
   /// crc_errors); null without.
   nlohmann::json mavlink;
   std::string heading_source;  ///< GeoReferencer::heading_source_used(), "" if none.
+  /// Origin of the run's ENU frame (x_m/y_m of frames.csv once geo-referenced, vo.tum, gps.tum,
+  /// the comparisons with GPS and the truth): the first GPS fix the plausibility check accepted
+  /// and kept (never a rejected one); nullopt without GPS. summary.json `enu_origin`.
+  std::optional<GeoPoint> enu_origin;
   /// The simulator's sim.json used to fill in settings ("" when the input is not a simulation).
   std::string sim_manifest;
   double vo_path_length_m = 0.0;

@@ -560,8 +560,8 @@ void ComparisonTables(Page& page, const nlohmann::json& s) {
   if (ev.is_object()) {
     page.H2("Comparison with GPS", "comparison");
     page.Para(
-        "Local East-North-Up metres, origin at the first GPS fix; the VO track is aligned to "
-        "GPS by a rigid SE(2) motion (the metric scale is trusted) and, for reference, by a "
+        "Local East-North-Up metres, origin at the first accepted GPS fix; the VO track is "
+        "aligned to GPS by a rigid SE(2) motion (the metric scale is trusted) and, for reference, by a "
         "Sim(2) similarity (Umeyama).");
     EvaluationTable(page, ev);
     ExplainEvaluation(page, ev);
@@ -932,14 +932,8 @@ nlohmann::json MapData(const RunData& run, const RunComparison& cmp,
   nlohmann::json vo = nlohmann::json::array(), info = nlohmann::json::array(),
                  gps = nlohmann::json::array(), bridged = nlohmann::json::array(),
                  truth_track = nlohmann::json::array();
-  // The run's ENU frame: origin at the first GPS fix (CompareWithGps, odometry/georef.h).
-  std::optional<LocalEnu> enu;
-  for (const RunFrameRow& f : run.frames) {
-    if (f.gps) {
-      enu.emplace(*f.gps);
-      break;
-    }
-  }
+  // The run's ENU frame: origin at its first accepted fix (RunEnuFrame, odometry/georef.h).
+  const std::optional<LocalEnu> enu = RunEnuFrame(run);
   std::map<int, double> se2_error_of_row;
   if (cmp.comparison) {
     for (std::size_t i = 0; i < cmp.row.size(); ++i) {

@@ -172,14 +172,32 @@ RunData ReadRunDir(const fs::path& dir) {
   return run;
 }
 
+std::optional<LocalEnu> RunEnuFrame(const RunData& run) {
+  if (run.summary.is_object() && run.summary.contains("enu_origin")) {
+    const nlohmann::json& o = run.summary["enu_origin"];
+    if (o.is_object() && o.contains("lat_deg") && o.contains("lon_deg") && o.contains("alt_m") &&
+        o["lat_deg"].is_number() && o["lon_deg"].is_number() && o["alt_m"].is_number()) {
+      try {
+        return LocalEnu(o["lat_deg"].get<double>(), o["lon_deg"].get<double>(),
+                        o["alt_m"].get<double>());
+      } catch (const InvalidArgument&) {
+        // Not a position: fall back on frames.csv.
+      }
+    }
+  }
+  for (const RunFrameRow& f : run.frames) {
+    if (f.gps) return LocalEnu(*f.gps);  // rejected fixes were dropped when read
+  }
+  return std::nullopt;
+}
+
 RunComparison CompareWithGps(const RunData& run) {
   RunComparison c;
   c.reference_name = "GPS";
-  std::optional<LocalEnu> enu;
+  const std::optional<LocalEnu> enu = RunEnuFrame(run);
   for (std::size_t i = 0; i < run.frames.size(); ++i) {
     const RunFrameRow& f = run.frames[i];
     if (!f.gps) continue;
-    if (!enu) enu.emplace(*f.gps);  // the run's ENU origin: the first GPS fix observed
     const Eigen::Vector3d e = enu->Forward(*f.gps);
     c.vo.push_back({f.time_s, f.x_m, f.y_m});
     c.reference.push_back({f.time_s, e.x(), e.y()});
@@ -251,11 +269,10 @@ RunComparison CompareWithTruthFile(const RunData& run, const fs::path& truth_pat
   c.reference_name = "ground truth";
   std::vector<TrajectoryPoint2D> estimate;
   std::vector<int> frames;
-  std::optional<LocalEnu> enu;
+  const std::optional<LocalEnu> enu = RunEnuFrame(run);
   for (const RunFrameRow& f : run.frames) {
     estimate.push_back({f.time_s, f.x_m, f.y_m});
     frames.push_back(f.frame);
-    if (!enu && f.gps) enu.emplace(*f.gps);
   }
   try {
     const AssociatedTrajectories a = AssociateWithTruth(estimate, frames, truth, enu);

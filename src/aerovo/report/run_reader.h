@@ -64,9 +64,15 @@ struct RunComparison {
   std::string reference_name;                      ///< "GPS" or "ground truth".
 };
 
-/// The comparison `aerovo run` puts in summary.json: frames with a GPS fix, GPS converted to ENU
-/// with the first fix as origin (the run's ENU frame, odometry/georef.h), SE(2) and Sim(2)
-/// alignment (eval/trajectory_eval.h). No comparison (nullopt) when fewer than 3 frames have GPS.
+/// The run's ENU frame (that of frames.csv x_m/y_m, vo.tum, gps.tum): origin summary.json's
+/// `enu_origin` (the first fix the run accepted and kept, odometry/georef.h), else (a folder of
+/// an older aerovo, or without summary.json) the first fix of frames.csv not flagged rejected;
+/// nullopt without a fix.
+std::optional<LocalEnu> RunEnuFrame(const RunData& run);
+
+/// The comparison `aerovo run` puts in summary.json: frames with a GPS fix not rejected, GPS
+/// converted to the run's ENU frame (RunEnuFrame), SE(2) and Sim(2) alignment
+/// (eval/trajectory_eval.h). No comparison (nullopt) when fewer than 3 frames have GPS.
 RunComparison CompareWithGps(const RunData& run);
 
 /// The run's VO track against a simulated flight's ground truth in the simulator's frame
@@ -88,8 +94,7 @@ AssociatedTrajectories AssociateWithTruth(const std::vector<TrajectoryPoint2D>& 
 
 /// The run's VO track against a ground-truth file (io/reference_track.h: TUM, or a telemetry
 /// file with positions such as the simulator's ground_truth.csv), as `aerovo run --truth` compares
-/// them in summary.json (AssociateWithTruth with the ENU frame at the first GPS fix of
-/// frames.csv). Throws InputError when the file cannot be read.
+/// them in summary.json (AssociateWithTruth in the run's ENU frame, RunEnuFrame). Throws InputError when the file cannot be read.
 RunComparison CompareWithTruthFile(const RunData& run, const std::filesystem::path& truth);
 
 }  // namespace aerovo
