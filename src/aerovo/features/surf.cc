@@ -563,7 +563,9 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
         }
         const int i = r - 1;  // Rows i - 1, i, i + 1 are ready.
         if (i < cb || i >= ce) continue;
-        const auto [cy0, cy1] = cells_of(i, sel.y, sel.height);
+        // Plain variables, not a structured binding: C++17 does not let a lambda capture one.
+        const std::pair<int, int> cy = cells_of(i, sel.y, sel.height);
+        const int cy0 = cy.first, cy1 = cy.second;
         // The scan's threshold over a span: the floor, or in adaptive mode the lowest bar of
         // the cells its points can fall in when that is higher (responses >= the bar pass).
         const auto span_threshold = [&](const ColumnSpan& s) {
