@@ -7,6 +7,7 @@
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -53,9 +54,12 @@ struct Outcome {
 };
 
 // Starts the CLI with `args`; stdout and stderr into files under `log_dir` named after `tag`;
-// `env` added to the environment; `stdout_fd` (>= 0) replaces the stdout file.
+// `env` added to the environment; `stdout_fd` (>= 0) replaces the stdout file; a
+// `file_size_limit_bytes` (> 0) is the child's RLIMIT_FSIZE, as `ulimit -f` sets it (SIGXFSZ
+// left at its default action: aerovo must not die of it).
 Child Start(const std::vector<std::string>& args, const fs::path& log_dir, const std::string& tag,
-            const std::map<std::string, std::string>& env = {}, int stdout_fd = -1) {
+            const std::map<std::string, std::string>& env = {}, int stdout_fd = -1,
+            rlim_t file_size_limit_bytes = 0) {
   Child c;
   c.out_file = log_dir / (tag + ".out");
   c.err_file = log_dir / (tag + ".err");
@@ -67,6 +71,10 @@ Child Start(const std::vector<std::string>& args, const fs::path& log_dir, const
     const int err = ::open(c.err_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     ::dup2(out, 1);
     ::dup2(err, 2);
+    if (file_size_limit_bytes > 0) {
+      const rlimit lim{file_size_limit_bytes, file_size_limit_bytes};
+      ::setrlimit(RLIMIT_FSIZE, &lim);
+    }
     std::vector<char*> argv;
     argv.push_back(const_cast<char*>(AEROVO_CLI_PATH));
     for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
@@ -228,6 +236,29 @@ TEST_F(CliOutputs, DiskFullLaterStillAgreesWithFramesCsv) {
   ExpectDiskFullRun(out, o);
 }
 
+
+// A file size limit (`ulimit -f`) is a full disk for each file: the first file that reaches it
+// (run.kml or frames.csv, the largest that grow frame by frame) fails with EFBIG. Before, SIGXFSZ killed the
+// run in the middle of that write: the file cut, no summary.json.
+TEST_F(CliOutputs, FileSizeLimitEndsTheRunLikeAFullDisk) {
+  const fs::path out = dir_ / "fsize";
+  constexpr rlim_t kLimit = 12000;  // run.kml of the whole flight is ~4x larger
+  const Outcome o = Wait(Start(RunArgs(out), dir_, "fsize", {}, -1, kLimit));
+  ASSERT_EQ(o.exit_code, 1) << "exit " << o.exit_code << " (negative: killed by that signal)\n"
+                            << o.err;
+  EXPECT_NE(o.err.find("File too large"), std::string::npos) << o.err;
+  EXPECT_NE(o.err.find("cannot write " + out.string() + "/"), std::string::npos) << o.err;
+  ExpectValidFolder(out);
+  const nlohmann::json s = nlohmann::json::parse(ReadText(out / "summary.json"));
+  EXPECT_NE(s["error"].get<std::string>().find("File too large"), std::string::npos)
+      << s.dump(2);
+  EXPECT_GT(s["frames_processed"].get<int>(), 0);
+  EXPECT_LT(s["frames_processed"].get<int>(), kFrames);
+  EXPECT_EQ(CountLines(out / "frames.csv") - 1, s["frames_processed"].get<int>());
+  for (const fs::directory_entry& e : fs::directory_iterator(out)) {
+    EXPECT_LE(e.file_size(), kLimit) << e.path();
+  }
+}
 
 TEST_F(CliOutputs, ASecondRunIntoTheSameFolderFailsNamingTheFolderAndTheFirstRunsPid) {
   // The first run prints its poses into a small pipe nobody reads yet: it blocks mid-run,

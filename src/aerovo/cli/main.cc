@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <signal.h>
 #include <unistd.h>
 
 #include <cstdlib>
@@ -101,10 +102,17 @@ void PreferPassiveOpenMpWaits(char** argv) {
   ::unsetenv("OMP_WAIT_POLICY");  // exec failed: nothing changed
 }
 
+// A file size limit (`ulimit -f`, RLIMIT_FSIZE) is a full disk for one file: SIGXFSZ's default
+// action kills the process in the middle of a write, leaving that file cut and no summary.json.
+// Ignored, the write fails with EFBIG ("File too large") and takes the full-disk path (io/
+// output_file.h): the error names the file, every file stays valid, the summary is written.
+void TreatFileSizeLimitsAsWriteErrors() { ::signal(SIGXFSZ, SIG_IGN); }
+
 }  // namespace
 
 int main(int argc, char** argv) {
   PreferPassiveOpenMpWaits(argv);
+  TreatFileSizeLimitsAsWriteErrors();
   using namespace aerovo::cli;
   CLI::App app{
       "aerovo: where a UAV is, from its downward-looking camera alone.\n"
