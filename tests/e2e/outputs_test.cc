@@ -260,6 +260,51 @@ TEST_F(CliOutputs, FileSizeLimitEndsTheRunLikeAFullDisk) {
   }
 }
 
+// A pose stream on a stdout that cannot be written (a full disk behind `> poses.txt`; /dev/full
+// here) stops the run as any output file that fails does: before, --print-poses went on
+// printing into nothing and exited 0, so a consumer got no poses from a run that said success.
+TEST_F(CliOutputs, APoseStreamThatCannotBeWrittenStopsTheRunNamingStdout) {
+  if (!fs::exists("/dev/full")) GTEST_SKIP() << "no /dev/full on this machine";
+  const std::vector<std::pair<std::string, std::string>> streams = {
+      {"--print-poses", "stdout (--print-poses)"}, {"--poses-jsonl=-", "stdout (--poses-jsonl -)"}};
+  for (const auto& [flag, name] : streams) {
+    SCOPED_TRACE(flag);
+    const fs::path out = dir_ / ("devfull" + std::to_string(flag.size()));
+    std::vector<std::string> args = RunArgs(out);
+    args.push_back(flag);
+    const int full = ::open("/dev/full", O_WRONLY);
+    ASSERT_GE(full, 0);
+    const Outcome o = Wait(Start(args, dir_, "devfull", {}, full));
+    ::close(full);
+    EXPECT_EQ(o.exit_code, 1) << o.err;
+    EXPECT_NE(o.err.find("cannot write the pose stream to " + name + ": No space left on device"),
+              std::string::npos)
+        << o.err;
+    ExpectValidFolder(out);
+    const nlohmann::json s = nlohmann::json::parse(ReadText(out / "summary.json"));
+    EXPECT_NE(s["error"].get<std::string>().find("No space left on device"), std::string::npos)
+        << s.dump(2);
+    EXPECT_LT(s["frames_processed"].get<int>(), kFrames);
+    EXPECT_EQ(CountLines(out / "frames.csv") - 1, s["frames_processed"].get<int>());
+  }
+}
+
+// The run's text (configuration, summary table) on a stdout that cannot be written: the run's
+// files are complete, but the exit status says the text was lost (before: exit 0).
+TEST_F(CliOutputs, AStdoutThatCannotBeWrittenIsExitOne) {
+  if (!fs::exists("/dev/full")) GTEST_SKIP() << "no /dev/full on this machine";
+  const fs::path out = dir_ / "devfull_text";
+  const int full = ::open("/dev/full", O_WRONLY);
+  ASSERT_GE(full, 0);
+  const Outcome o = Wait(Start(RunArgs(out), dir_, "devfull_text", {}, full));
+  ::close(full);
+  EXPECT_EQ(o.exit_code, 1) << o.err;
+  EXPECT_NE(o.err.find("cannot write to stdout"), std::string::npos) << o.err;
+  ExpectValidFolder(out);
+  const nlohmann::json s = nlohmann::json::parse(ReadText(out / "summary.json"));
+  EXPECT_EQ(s["frames_processed"].get<int>(), kFrames);
+}
+
 TEST_F(CliOutputs, ASecondRunIntoTheSameFolderFailsNamingTheFolderAndTheFirstRunsPid) {
   // The first run prints its poses into a small pipe nobody reads yet: it blocks mid-run,
   // holding its folder, whatever the machine's speed.
@@ -314,33 +359,38 @@ TEST_F(CliOutputs, ARerunIntoAUsedFolderIsRefusedUnlessForceWhichRemovesOnlyAero
 }
 
 TEST_F(CliOutputs, PrintPosesIntoHeadEndsWithASummaryAndExitCode141) {
-  const fs::path out = dir_ / "pipe";
-  PosePipe pipe;
-  std::vector<std::string> args = RunArgs(out);
-  args.push_back("--print-poses");
-  const Child c = Start(args, dir_, "pipe", {}, pipe.write_end);
-  pipe.CloseWriteEnd();
-  // `head -3`: read three lines, then close the pipe (the run is still writing: the pipe holds
-  // 4 kB, the poses of the flight about twice that).
-  std::string got;
-  char ch;
-  int lines = 0;
-  while (lines < 3 && ::read(pipe.read_end, &ch, 1) == 1) {
-    got += ch;
-    if (ch == '\n') ++lines;
+  // Both pose streams on stdout: the text one and the JSON one (`--poses-jsonl - | head`).
+  for (const std::string flag : {"--print-poses", "--poses-jsonl=-"}) {
+    SCOPED_TRACE(flag);
+    const fs::path out = dir_ / ("pipe" + std::to_string(flag.size()));
+    PosePipe pipe;
+    std::vector<std::string> args = RunArgs(out);
+    args.push_back(flag);
+    const Child c = Start(args, dir_, "pipe", {}, pipe.write_end);
+    pipe.CloseWriteEnd();
+    // `head -3`: read three lines, then close the pipe (the run is still writing: the pipe
+    // holds 4 kB, the poses of the flight about twice that).
+    std::string got;
+    char ch;
+    int lines = 0;
+    while (lines < 3 && ::read(pipe.read_end, &ch, 1) == 1) {
+      got += ch;
+      if (ch == '\n') ++lines;
+    }
+    pipe.CloseReadEnd();
+    const Outcome o = Wait(c);
+    EXPECT_EQ(lines, 3) << got;
+    EXPECT_EQ(o.exit_code, 141) << o.err;
+    EXPECT_NE(o.err.find("interrupted by SIGPIPE"), std::string::npos) << o.err;
+    EXPECT_NE(o.err.find("exit code 141"), std::string::npos) << o.err;
+    EXPECT_NE(o.err.find(" processed (interrupted): ok "), std::string::npos)
+        << o.err;  // the final table
+    ExpectValidFolder(out);
+    const nlohmann::json s = nlohmann::json::parse(ReadText(out / "summary.json"));
+    EXPECT_EQ(s["interrupted"], true);
+    EXPECT_LT(s["frames_processed"].get<int>(), kFrames);
+    EXPECT_EQ(CountLines(out / "frames.csv") - 1, s["frames_processed"].get<int>());
   }
-  pipe.CloseReadEnd();
-  const Outcome o = Wait(c);
-  EXPECT_EQ(lines, 3) << got;
-  EXPECT_EQ(o.exit_code, 141) << o.err;
-  EXPECT_NE(o.err.find("interrupted by SIGPIPE"), std::string::npos) << o.err;
-  EXPECT_NE(o.err.find("exit code 141"), std::string::npos) << o.err;
-  EXPECT_NE(o.err.find(" processed (interrupted): ok "), std::string::npos) << o.err;  // the final table
-  ExpectValidFolder(out);
-  const nlohmann::json s = nlohmann::json::parse(ReadText(out / "summary.json"));
-  EXPECT_EQ(s["interrupted"], true);
-  EXPECT_LT(s["frames_processed"].get<int>(), kFrames);
-  EXPECT_EQ(CountLines(out / "frames.csv") - 1, s["frames_processed"].get<int>());
 }
 
 TEST_F(CliOutputs, SighupStopsLikeSigintWithASummary) {

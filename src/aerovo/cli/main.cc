@@ -7,7 +7,10 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <iostream>
 #include <string>
@@ -205,6 +208,18 @@ int main(int argc, char** argv) {
     return kExitUsage;
   } catch (const std::exception& e) {
     std::cerr << "aerovo: error: " << e.what() << "\n";
+    return kExitFailure;
+  }
+  // A stdout that could not be written (a full disk behind `> out.txt`, /dev/full, an I/O
+  // error) lost the command's text: the exit status says so, as coreutils' do. (A reader that
+  // went away is SIGPIPE: `aerovo run` stops on it; other commands die of it, the default.)
+  errno = 0;
+  std::cout.flush();
+  if (!std::cout || std::fflush(stdout) != 0 || std::ferror(stdout) != 0) {
+    const int err = errno;
+    std::cerr << "aerovo: error: cannot write to stdout: "
+              << (err != 0 ? std::strerror(err) : "a write failed (disk full or an I/O error)")
+              << "\n";
     return kExitFailure;
   }
   return kExitOk;

@@ -2,6 +2,8 @@
 #include "aerovo/core/cancel.h"
 #include "aerovo/io/output_file.h"
 
+#include <signal.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
@@ -535,6 +537,28 @@ void AddGeoFields(const PendingFrame& p, const GeoReferencer& georef, nlohmann::
   j["yaw_enu_deg"] = Degrees(std::remainder(p.heading_rad + georef.rotation_rad(), 2.0 * M_PI));
 }
 
+// A pose stream that could not take a line (disk full, an I/O error) stops the run like any
+// output file that cannot be written: its consumer (an autopilot bridge, a logger) must not go
+// on without poses while the run reports success. `errno` is the failed write's (stdio and the
+// file buffer leave it set). A reader that went away (EPIPE) raised SIGPIPE for the same write:
+// when a handler takes it (`aerovo run`'s StopSignals: the run stops as for SIGINT, exit 141)
+// the handler decides (the stream's state is cleared, so that each later write fails with EPIPE
+// again rather than silently); only when SIGPIPE is ignored does the broken pipe stop the run
+// here.
+void CheckPoseStream(std::ostream& os, const std::string& name) {
+  if (os) return;
+  const int err = errno;
+  if (err == EPIPE) {
+    struct sigaction current {};
+    if (::sigaction(SIGPIPE, nullptr, &current) == 0 && current.sa_handler != SIG_IGN) {
+      os.clear();
+      return;
+    }
+  }
+  throw InputError(fmt::format("cannot write the pose stream to {}: {}", name,
+                               err != 0 ? std::strerror(err) : "write failed"));
+}
+
 // A finite number, or null (JSON has no NaN).
 nlohmann::ordered_json NumberOrNull(double v) {
   return std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json();
@@ -584,7 +608,8 @@ RunOutputs::RunOutputs(const std::filesystem::path& out_dir, const RunConfig& co
                            {"frame_height_px", h}};
   WriteJsonFileAtomic(out_dir / RunFileNames::kConfigJson, effective);
   transforms_csv_.emplace(out_dir / RunFileNames::kTransformsCsv);
-  jsonl_name_ = config.poses_jsonl == "-" ? "stdout" : config.poses_jsonl;
+  jsonl_name_ =
+      config.poses_jsonl == "-" ? "stdout (--poses-jsonl -)" : "'" + config.poses_jsonl + "'";
   if (config.poses_jsonl == "-") {
     jsonl_ = &std::cout;
   } else if (!config.poses_jsonl.empty()) {
@@ -633,17 +658,21 @@ void RunOutputs::Emit(PendingFrame& p, const GeoReferencer& georef) {
   // gps.tum's frame: the run's ENU frame, the same as x_m/y_m, vo.tum and the comparisons.
   if (georef.has_enu() && !writers_->has_enu_origin()) writers_->SetEnuOrigin(georef.enu().origin());
   if (jsonl_ != nullptr && !p.sent_geo && georef.ready()) {
+    errno = 0;
     *jsonl_ << GeoJsonLine(p, georef) << std::flush;
+    CheckPoseStream(*jsonl_, jsonl_name_);
     p.sent_geo = true;
   }
   writers_->Append(p.record, p.gps);
   if (callbacks_.frame) callbacks_.frame(p.record);
   if (callbacks_.poses != nullptr) {
     const FrameRecord& q = p.record;
+    errno = 0;
     *callbacks_.poses << fmt::format("{} {:.6f} {:.4f} {:.4f} {} {} {}\n", q.frame, q.time_s, q.x_m,
                                      q.y_m, q.geo ? fmt::format("{:.9f}", q.geo->lat_deg) : "-",
                                      q.geo ? fmt::format("{:.9f}", q.geo->lon_deg) : "-", q.status)
                       << std::flush;
+    CheckPoseStream(*callbacks_.poses, "stdout (--print-poses)");
   }
 }
 
@@ -665,12 +694,10 @@ void RunOutputs::Reflag(int frame_index, const std::string& gps_flag) {
 void RunOutputs::Add(PendingFrame frame, const GeoReferencer& georef) {
   if (jsonl_ != nullptr) {
     // Frames held back for the heading are still sent at once, in the local frame.
+    errno = 0;
     *jsonl_ << PoseJsonLine(frame, georef) << std::flush;
     frame.sent_geo = georef.ready();
-    if (!*jsonl_) {
-      throw InputError("cannot write the pose stream '" + jsonl_name_ +
-                       "' (disk full, or the reader of the pipe went away)");
-    }
+    CheckPoseStream(*jsonl_, jsonl_name_);
   }
   pending_.push_back(std::move(frame));
   Flush(georef, false);
