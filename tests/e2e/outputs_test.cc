@@ -305,6 +305,39 @@ TEST_F(CliOutputs, AStdoutThatCannotBeWrittenIsExitOne) {
   EXPECT_EQ(s["frames_processed"].get<int>(), kFrames);
 }
 
+// A run that fails before or at its first frame (telemetry that does not parse; no height for
+// frame 0) still leaves summary.json with the error, and no space reserve (before: config.json
+// and empty tracks, no summary, the reserve file left).
+TEST_F(CliOutputs, AFailureBeforeTheFirstFrameStillWritesTheSummary) {
+  const fs::path bad = dir_ / "bad.srt";
+  std::ofstream(bad) << "garbage\n1\n";
+  // The flight's SRT without its first 12 records: frame 0 has no record, so no height.
+  const std::string srt = ReadText(dir_ / "sim" / "telemetry.srt");
+  std::size_t cut = 0;
+  for (int i = 0; i < 12; ++i) cut = srt.find("\n\n", cut) + 2;
+  const fs::path late = dir_ / "late.srt";
+  std::ofstream(late) << srt.substr(cut);
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+      {{"--telemetry", bad.string(), "--focal-px", "213.5"}, "bad.srt:1: "},
+      {{"--telemetry", late.string(), "--focal-px", "213.5"}, "#0: no height above ground"}};
+  int k = 0;
+  for (const auto& [extra, error] : cases) {
+    SCOPED_TRACE(error);
+    const fs::path out = dir_ / ("early" + std::to_string(k++));
+    std::vector<std::string> args = RunArgs(out);
+    args.insert(args.end(), extra.begin(), extra.end());
+    const Outcome o = RunCli(args, dir_, "early");
+    EXPECT_EQ(o.exit_code, 1) << o.err;
+    EXPECT_NE(o.err.find(error), std::string::npos) << o.err;
+    ASSERT_TRUE(fs::exists(out / "summary.json")) << o.err;
+    const nlohmann::json s = nlohmann::json::parse(ReadText(out / "summary.json"));
+    EXPECT_NE(s["error"].get<std::string>().find(error), std::string::npos) << s.dump(2);
+    EXPECT_EQ(s["frames_processed"].get<int>(), 0);
+    EXPECT_FALSE(fs::exists(out / ".aerovo.reserve"));
+    ExpectValidFolder(out);
+  }
+}
+
 TEST_F(CliOutputs, ASecondRunIntoTheSameFolderFailsNamingTheFolderAndTheFirstRunsPid) {
   // The first run prints its poses into a small pipe nobody reads yet: it blocks mid-run,
   // holding its folder, whatever the machine's speed.

@@ -927,10 +927,12 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
     if (config_.max_frames > 0 && summary->frames_processed >= config_.max_frames) break;
     bool more = false;
     frame.received_s = std::numeric_limits<double>::quiet_NaN();
+    // A failure stops the run with the frames before it kept, and summary.json written with
+    // the error (WriteSummary), at the first frame too: a run folder never ends with outputs
+    // and no summary (an undecodable first photo, no height or no camera for the first frame).
     try {
       more = source.Next(frame);
     } catch (const InputError& e) {
-      if (summary->frames_processed == 0) throw;
       end.failure = e.what();
       break;
     }
@@ -951,6 +953,9 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
         end.failure = e.what();
         end.output_failed = true;
         break;
+      } catch (const InputError& e) {  // no camera (focal length, calibration): names the frame
+        end.failure = e.what();
+        break;
       }
     }
 
@@ -970,8 +975,13 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
     } else if (height_sample && height_sample->rel_alt_m && *height_sample->rel_alt_m > 0.0) {
       last_height_time_s_ = frame.time_s;
     }
-    const double height_m =
-        height_.HeightOf(frame.name, height_sample, &summary->warnings, capture_mono_s);
+    double height_m = 0.0;
+    try {
+      height_m = height_.HeightOf(frame.name, height_sample, &summary->warnings, capture_mono_s);
+    } catch (const InputError& e) {  // names the frame
+      end.failure = e.what();
+      break;
+    }
     std::optional<mavlink::AutopilotAttitude> attitude;
     if (link_reads_autopilot_) {
       attitude = link_->AttitudeNear(capture_mono_s, config_.mavlink_match_s);
@@ -1012,7 +1022,6 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
       end.stopped = true;
       break;
     } catch (const InputError& e) {
-      if (summary->frames_processed == 0) throw;
       end.failure = frame.name + ": " + e.what();
       break;
     }

@@ -908,18 +908,17 @@ TEST(RunSteps, FrameLoopKeepsTheFramesBeforeAnInputError) {
   EXPECT_EQ(end.failure.rfind("crop3: ", 0), 0u) << end.failure;
   EXPECT_EQ(CsvRows(dir / "frames.csv"), 3);
 
-  // A missing height is thrown, even on the first frame (no outputs to keep).
+  // A missing height at the first frame ends the loop the same way (no frame processed), so that
+  // RunFlight writes summary.json with the error (before: thrown past the summary).
   ShiftedCrops first_odd(3, 6);
   RunInputs no_height = LoopInputs(dir);
   no_height.config.altitude_m = 0.0;
   FrameLoop unknown(no_height, telemetry, nullptr, OdometryOptions(), dir, cb, nullptr);
   RunSummary u;
-  try {
-    unknown.Run(first_odd, nullptr, Stopwatch(), &u);
-    FAIL() << "no error";
-  } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()).rfind("crop0: no height above ground", 0), 0u) << e.what();
-  }
+  const LoopEnd none = unknown.Run(first_odd, nullptr, Stopwatch(), &u);
+  EXPECT_EQ(u.frames_processed, 0);
+  EXPECT_FALSE(none.stopped);
+  EXPECT_EQ(none.failure.rfind("crop0: no height above ground", 0), 0u) << none.failure;
   fs::remove_all(dir);
 }
 
