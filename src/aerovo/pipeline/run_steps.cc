@@ -537,15 +537,17 @@ void AddGeoFields(const PendingFrame& p, const GeoReferencer& georef, nlohmann::
   j["yaw_enu_deg"] = Degrees(std::remainder(p.heading_rad + georef.rotation_rad(), 2.0 * M_PI));
 }
 
-// A pose stream that could not take a line (disk full, an I/O error) stops the run like any
-// output file that cannot be written: its consumer (an autopilot bridge, a logger) must not go
-// on without poses while the run reports success. `errno` is the failed write's (stdio and the
-// file buffer leave it set). A reader that went away (EPIPE) raised SIGPIPE for the same write:
-// when a handler takes it (`aerovo run`'s StopSignals: the run stops as for SIGINT, exit 141)
-// the handler decides (the stream's state is cleared, so that each later write fails with EPIPE
-// again rather than silently); only when SIGPIPE is ignored does the broken pipe stop the run
-// here.
-void CheckPoseStream(std::ostream& os, const std::string& name) {
+// Writes and flushes one line of a pose stream. A stream that cannot take it (disk full, an I/O
+// error) stops the run like any output file that cannot be written: its consumer (an autopilot
+// bridge, a logger) must not go on without poses while the run reports success. `errno` is the
+// failed write's (stdio and the file buffer leave it set). A reader that went away (EPIPE)
+// raised SIGPIPE for the same write: when a handler takes it (`aerovo run`'s StopSignals: the
+// run stops as for SIGINT, exit 141) the handler decides, and the stream's state is cleared so
+// that a later write fails with EPIPE again rather than silently; only when SIGPIPE is ignored
+// does the broken pipe stop the run here.
+void WritePoseLine(std::ostream& os, const std::string& line, const std::string& name) {
+  errno = 0;
+  os << line << std::flush;
   if (os) return;
   const int err = errno;
   if (err == EPIPE) {
@@ -658,21 +660,18 @@ void RunOutputs::Emit(PendingFrame& p, const GeoReferencer& georef) {
   // gps.tum's frame: the run's ENU frame, the same as x_m/y_m, vo.tum and the comparisons.
   if (georef.has_enu() && !writers_->has_enu_origin()) writers_->SetEnuOrigin(georef.enu().origin());
   if (jsonl_ != nullptr && !p.sent_geo && georef.ready()) {
-    errno = 0;
-    *jsonl_ << GeoJsonLine(p, georef) << std::flush;
-    CheckPoseStream(*jsonl_, jsonl_name_);
+    WritePoseLine(*jsonl_, GeoJsonLine(p, georef), jsonl_name_);
     p.sent_geo = true;
   }
   writers_->Append(p.record, p.gps);
   if (callbacks_.frame) callbacks_.frame(p.record);
   if (callbacks_.poses != nullptr) {
     const FrameRecord& q = p.record;
-    errno = 0;
-    *callbacks_.poses << fmt::format("{} {:.6f} {:.4f} {:.4f} {} {} {}\n", q.frame, q.time_s, q.x_m,
-                                     q.y_m, q.geo ? fmt::format("{:.9f}", q.geo->lat_deg) : "-",
-                                     q.geo ? fmt::format("{:.9f}", q.geo->lon_deg) : "-", q.status)
-                      << std::flush;
-    CheckPoseStream(*callbacks_.poses, "stdout (--print-poses)");
+    WritePoseLine(*callbacks_.poses,
+                  fmt::format("{} {:.6f} {:.4f} {:.4f} {} {} {}\n", q.frame, q.time_s, q.x_m, q.y_m,
+                              q.geo ? fmt::format("{:.9f}", q.geo->lat_deg) : "-",
+                              q.geo ? fmt::format("{:.9f}", q.geo->lon_deg) : "-", q.status),
+                  "stdout (--print-poses)");
   }
 }
 
@@ -694,10 +693,8 @@ void RunOutputs::Reflag(int frame_index, const std::string& gps_flag) {
 void RunOutputs::Add(PendingFrame frame, const GeoReferencer& georef) {
   if (jsonl_ != nullptr) {
     // Frames held back for the heading are still sent at once, in the local frame.
-    errno = 0;
-    *jsonl_ << PoseJsonLine(frame, georef) << std::flush;
+    WritePoseLine(*jsonl_, PoseJsonLine(frame, georef), jsonl_name_);
     frame.sent_geo = georef.ready();
-    CheckPoseStream(*jsonl_, jsonl_name_);
   }
   pending_.push_back(std::move(frame));
   Flush(georef, false);

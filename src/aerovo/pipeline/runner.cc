@@ -189,6 +189,128 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
   return again;
 }
 
+namespace {
+
+// Steps 2-6 of RunFlight in its prepared folder `out_dir`: the source, the telemetry, the frames
+// and the summary (not written yet). A failure of the frame loop ends it and is in the summary
+// (LoopEnd::failure); one before it (telemetry that does not parse, a link that cannot open)
+// escapes.
+void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource> source,
+                 const RunCallbacks& cb, const std::atomic<bool>* stop, const Stopwatch& wall,
+                 std::ostream* log, const std::filesystem::path& out_dir, RunSummary& summary) {
+  const RunConfig& config = inputs.config;
+  DescribeSource(*source, config.max_frames, log, &summary);
+  const auto* folder = dynamic_cast<const ImageFolderSource*>(source.get());
+  // Before the source is wrapped (the duration needs the video source itself).
+  const std::string source_duration = DurationOf(*source);
+  // Decoding on its own thread; a live source keeps only the newest frame (bounded latency).
+  PrefetchSource* prefetch = nullptr;
+  const bool live = source->IsLive();
+  if (config.frame_queue > 0) {
+    PrefetchOptions po;
+    po.capacity = live ? 1 : config.frame_queue;
+    po.policy = live ? QueuePolicy::kDropOldest : QueuePolicy::kWait;
+    auto wrapped = std::make_unique<PrefetchSource>(std::move(source), po);
+    prefetch = wrapped.get();
+    source = std::move(wrapped);
+  }
+  run_steps::RunTelemetry telemetry = run_steps::RunTelemetry::Load(
+      config.telemetry, config.lenient_telemetry, folder, &summary.warnings);
+  telemetry.set_offset_s(config.telemetry_offset_s);
+  summary.telemetry_offset_s = config.telemetry_offset_s;
+  if (log) *log << "telemetry: " << telemetry.Describe() << "\n";
+
+  // 2-5. The frames: camera, height, outputs, odometry.
+  run_steps::FrameLoop loop(inputs, telemetry, folder, config.odometry, out_dir, cb,
+                            log);
+  loop.set_source_live(live);
+  run_steps::LoopEnd end = loop.Run(*source, stop, wall, &summary);
+  if (summary.frames_processed == 0 && !end.stopped && end.failure.empty()) {
+    // Not a silent empty run: a window past the end, an empty window, an empty source.
+    end.failure = fmt::format(
+        "no frame to process in '{}' (start_s {} s, end_s {}, step {}): the window selects no "
+        "frame of {}{}",
+        config.input, config.start_s,
+        config.end_s >= 0.0 ? fmt::format("{} s", config.end_s) : std::string("the end"),
+        config.step, source->Describe(), source_duration);
+  }
+  if (!end.output_failed) {
+    try {
+      loop.Finish();
+    } catch (const OutputError& e) {  // the files stay valid; the summary says what failed
+      end.failure = e.what();
+      end.output_failed = true;
+    } catch (const InputError& e) {  // a queued frame's position is not on Earth
+      if (end.failure.empty()) end.failure = e.what();
+    }
+  }
+  // summary.json counts what frames.csv holds, on every exit path: frames processed but never
+  // written (queued for the heading when a write failed) are counted apart and said.
+  if (const int written = loop.frames_written(); written != summary.frames_processed) {
+    summary.frames_not_written = std::max(0, summary.frames_processed - written);
+    if (summary.frames_not_written > 0) {
+      summary.warnings.push_back(fmt::format(
+          "{} of the {} frames processed are not in frames.csv nor the tracks: writing them "
+          "failed ({}); frames_processed counts the {} written",
+          summary.frames_not_written, summary.frames_processed,
+          end.failure.empty() ? std::string("see the error") : end.failure, written));
+    }
+    summary.frames_processed = written;
+  }
+  if (const mavlink::AutopilotLink* link = loop.link()) {
+    const mavlink::LinkStats st = link->stats();
+    summary.mavlink = {{"url", config.mavlink},
+                       {"message", ToString(config.mavlink_message)},
+                       {"sent", st.sent},
+                       {"send_failed", st.send_failed},
+                       {"heartbeats", st.heartbeats},
+                       {"timesync_answers", st.timesync_answers},
+                       {"distance_samples", st.distance_samples},
+                       {"relative_alt_samples", st.relative_alt_samples},
+                       {"attitude_samples", st.attitude_samples},
+                       {"autopilot_heartbeats", st.autopilot_heartbeats},
+                       {"crc_errors", st.parser.crc_errors}};
+  }
+
+  // The telemetry's clock against the frames': its span, and the offset seen in the motion.
+  if (!telemetry.empty() && loop.totals().frames > 0) {
+    const run_steps::RunTotals& t = loop.totals();
+    if (!telemetry.by_frame_index() || config.telemetry_offset_s != 0.0) {
+      const std::string w = run_steps::CheckTelemetryClock(
+          telemetry.telemetry(), telemetry.origin(), t.first_time_s, t.last_time_s,
+          config.telemetry_offset_s);
+      if (!w.empty()) summary.warnings.push_back(w);
+    }
+    const run_steps::OffsetEstimate e =
+        run_steps::EstimateTelemetryOffset(t.local_track, telemetry.telemetry());
+    summary.telemetry_offset_estimate_valid = e.valid;
+    summary.telemetry_offset_estimate_s = e.offset_s;
+    summary.telemetry_offset_correlation = e.correlation;
+    summary.telemetry_offset_clear = e.clear;
+    if (e.valid && log) {
+      *log << fmt::format(
+          "telemetry offset from the motion: {:+.2f} s (VO/GPS speed correlation {:.2f}{}), "
+          "applied {:+.2f} s\n",
+          e.offset_s, e.correlation, e.clear ? "" : ", not clear", config.telemetry_offset_s);
+    }
+    if (e.valid && e.clear && std::abs(e.offset_s - config.telemetry_offset_s) > 0.2) {
+      summary.warnings.push_back(fmt::format(
+          "{}: the telemetry's clock seems {:+.2f} s off the video's (VO speed against GPS "
+          "speed, correlation {:.2f}; applied {:+.2f} s): --telemetry-offset-s {:.2f}, or "
+          "--telemetry-auto-offset",
+          telemetry.origin(), e.offset_s, e.correlation, config.telemetry_offset_s, e.offset_s));
+    }
+  }
+
+  // 6. Summary.
+  if (prefetch != nullptr) summary.frames_dropped = prefetch->dropped();
+  run_steps::Summarize(source->warnings(), !telemetry.empty(), end, loop.vo_stats(), loop.georef(),
+                       loop.TakeTotals(), inputs.truth ? &*inputs.truth : nullptr,
+                       wall.elapsed_ms() / 1000.0, &summary);
+}
+
+}  // namespace
+
 // The steps are in run_steps.h.
 RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source,
                      const RunCallbacks& cb, const std::atomic<bool>* stop) {
@@ -210,139 +332,27 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   const RunFolderLock lock(config.out);
   const std::filesystem::path out_dir = PrepareRunFolder(config, cb.log_config, log);
   SpaceReserve reserve(out_dir / RunFolderFiles::kReserve, kSummaryReserveBytes);
-  // Whatever fails from here on (telemetry that does not parse, a link that cannot open, a
-  // frame that cannot be processed), the folder ends with summary.json saying what happened:
-  // the frame loop's failures are in the summary Summarize makes; one before the frames gets
-  // a summary with the error alone.
-  bool summary_written = false;
-  try {
-    DescribeSource(*source, config.max_frames, log, &summary);
-    const auto* folder = dynamic_cast<const ImageFolderSource*>(source.get());
-    // Before the source is wrapped (the duration needs the video source itself).
-    const std::string source_duration = DurationOf(*source);
-    // Decoding on its own thread; a live source keeps only the newest frame (bounded latency).
-    PrefetchSource* prefetch = nullptr;
-    const bool live = source->IsLive();
-    if (config.frame_queue > 0) {
-      PrefetchOptions po;
-      po.capacity = live ? 1 : config.frame_queue;
-      po.policy = live ? QueuePolicy::kDropOldest : QueuePolicy::kWait;
-      auto wrapped = std::make_unique<PrefetchSource>(std::move(source), po);
-      prefetch = wrapped.get();
-      source = std::move(wrapped);
-    }
-    run_steps::RunTelemetry telemetry = run_steps::RunTelemetry::Load(
-        config.telemetry, config.lenient_telemetry, folder, &summary.warnings);
-    telemetry.set_offset_s(config.telemetry_offset_s);
-    summary.telemetry_offset_s = config.telemetry_offset_s;
-    if (log) *log << "telemetry: " << telemetry.Describe() << "\n";
-
-    // 2-5. The frames: camera, height, outputs, odometry.
-    run_steps::FrameLoop loop(inputs, telemetry, folder, config.odometry, out_dir, cb,
-                              log);
-    loop.set_source_live(live);
-    run_steps::LoopEnd end = loop.Run(*source, stop, wall, &summary);
-    if (summary.frames_processed == 0 && !end.stopped && end.failure.empty()) {
-      // Not a silent empty run: a window past the end, an empty window, an empty source.
-      end.failure = fmt::format(
-          "no frame to process in '{}' (start_s {} s, end_s {}, step {}): the window selects no "
-          "frame of {}{}",
-          config.input, config.start_s,
-          config.end_s >= 0.0 ? fmt::format("{} s", config.end_s) : std::string("the end"),
-          config.step, source->Describe(), source_duration);
-    }
-    if (!end.output_failed) {
-      try {
-        loop.Finish();
-      } catch (const OutputError& e) {  // the files stay valid; the summary says what failed
-        end.failure = e.what();
-        end.output_failed = true;
-      } catch (const InputError& e) {  // a queued frame's position is not on Earth
-        if (end.failure.empty()) end.failure = e.what();
-      }
-    }
-    // summary.json counts what frames.csv holds, on every exit path: frames processed but never
-    // written (queued for the heading when a write failed) are counted apart and said.
-    if (const int written = loop.frames_written(); written != summary.frames_processed) {
-      summary.frames_not_written = std::max(0, summary.frames_processed - written);
-      if (summary.frames_not_written > 0) {
-        summary.warnings.push_back(fmt::format(
-            "{} of the {} frames processed are not in frames.csv nor the tracks: writing them "
-            "failed ({}); frames_processed counts the {} written",
-            summary.frames_not_written, summary.frames_processed,
-            end.failure.empty() ? std::string("see the error") : end.failure, written));
-      }
-      summary.frames_processed = written;
-    }
-    if (const mavlink::AutopilotLink* link = loop.link()) {
-      const mavlink::LinkStats st = link->stats();
-      summary.mavlink = {{"url", config.mavlink},
-                         {"message", ToString(config.mavlink_message)},
-                         {"sent", st.sent},
-                         {"send_failed", st.send_failed},
-                         {"heartbeats", st.heartbeats},
-                         {"timesync_answers", st.timesync_answers},
-                         {"distance_samples", st.distance_samples},
-                         {"relative_alt_samples", st.relative_alt_samples},
-                         {"attitude_samples", st.attitude_samples},
-                         {"autopilot_heartbeats", st.autopilot_heartbeats},
-                         {"crc_errors", st.parser.crc_errors}};
-    }
-
-    // The telemetry's clock against the frames': its span, and the offset seen in the motion.
-    if (!telemetry.empty() && loop.totals().frames > 0) {
-      const run_steps::RunTotals& t = loop.totals();
-      if (!telemetry.by_frame_index() || config.telemetry_offset_s != 0.0) {
-        const std::string w = run_steps::CheckTelemetryClock(
-            telemetry.telemetry(), telemetry.origin(), t.first_time_s, t.last_time_s,
-            config.telemetry_offset_s);
-        if (!w.empty()) summary.warnings.push_back(w);
-      }
-      const run_steps::OffsetEstimate e =
-          run_steps::EstimateTelemetryOffset(t.local_track, telemetry.telemetry());
-      summary.telemetry_offset_estimate_valid = e.valid;
-      summary.telemetry_offset_estimate_s = e.offset_s;
-      summary.telemetry_offset_correlation = e.correlation;
-      summary.telemetry_offset_clear = e.clear;
-      if (e.valid && log) {
-        *log << fmt::format(
-            "telemetry offset from the motion: {:+.2f} s (VO/GPS speed correlation {:.2f}{}), "
-            "applied {:+.2f} s\n",
-            e.offset_s, e.correlation, e.clear ? "" : ", not clear", config.telemetry_offset_s);
-      }
-      if (e.valid && e.clear && std::abs(e.offset_s - config.telemetry_offset_s) > 0.2) {
-        summary.warnings.push_back(fmt::format(
-            "{}: the telemetry's clock seems {:+.2f} s off the video's (VO speed against GPS "
-            "speed, correlation {:.2f}; applied {:+.2f} s): --telemetry-offset-s {:.2f}, or "
-            "--telemetry-auto-offset",
-            telemetry.origin(), e.offset_s, e.correlation, config.telemetry_offset_s, e.offset_s));
-      }
-    }
-
-    // 6. Summary.
-    if (prefetch != nullptr) summary.frames_dropped = prefetch->dropped();
-    run_steps::Summarize(source->warnings(), !telemetry.empty(), end, loop.vo_stats(),
-                         loop.georef(),
-                         loop.TakeTotals(), inputs.truth ? &*inputs.truth : nullptr,
-                         wall.elapsed_ms() / 1000.0, &summary);
+  // Whatever fails from here on, the folder ends with summary.json saying what happened: the
+  // frame loop's failures are in the summary RunInFolder makes; one before the frames gets a
+  // summary with the error alone.
+  const auto release_reserve = [&] {
     reserve.Release();
     std::error_code ec;
     std::filesystem::remove(out_dir / RunFolderFiles::kReserve, ec);
-    summary_written = true;  // WriteSummary writes it, then throws a failure
-    run_steps::WriteSummary(out_dir, summary);
+  };
+  try {
+    RunInFolder(inputs, std::move(source), cb, stop, wall, log, out_dir, summary);
   } catch (const std::exception& e) {
-    if (!summary_written) {
-      if (summary.error.empty()) summary.error = e.what();
-      reserve.Release();
-      std::error_code ec;
-      std::filesystem::remove(out_dir / RunFolderFiles::kReserve, ec);
-      try {
-        WriteJsonFileAtomic(out_dir / RunFileNames::kSummaryJson, ToJson(summary));
-      } catch (const std::exception&) {  // the original error is the one to report
-      }
+    if (summary.error.empty()) summary.error = e.what();
+    release_reserve();
+    try {
+      WriteJsonFileAtomic(out_dir / RunFileNames::kSummaryJson, ToJson(summary));
+    } catch (const std::exception&) {  // the original error is the one to report
     }
     throw;
   }
+  release_reserve();
+  run_steps::WriteSummary(out_dir, summary);
   return summary;
 }
 
