@@ -15,14 +15,10 @@
 #include <stdexcept>
 #include <string>
 
+#include "aerovo/core/error.h"
+
 namespace aerovo {
 
-/// Thrown by a computation stopped by CancelRequested(); the frame being processed is
-/// abandoned (not counted as processed).
-class Cancelled : public std::runtime_error {
- public:
-  explicit Cancelled(const std::string& where) : std::runtime_error("cancelled in " + where) {}
-};
 
 namespace cancel_detail {
 inline std::atomic<const std::atomic<bool>*>& Flag() {

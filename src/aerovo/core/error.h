@@ -1,5 +1,14 @@
 // Error types. Every error aerovo raises says what was wrong and, where there is one, which
 // file, line or frame it concerns.
+//
+// One hierarchy under aerovo::Error for what the outside world or a stop request causes:
+//   Error
+//   ├── InputError      bad outside data: an unreadable or malformed file, stream or frame
+//   │   └── OutputError a write to an output file failed (disk full, size limit, I/O error)
+//   ├── Cancelled       a computation stopped by a stop request (core/cancel.h)
+//   └── InternalError   a broken invariant of aerovo itself (a bug, never the user's data)
+// InvalidArgument (bad options: the caller's bug or a bad configuration) stays a
+// std::invalid_argument so that it reads as a usage error wherever options are checked.
 #pragma once
 
 #include <stdexcept>
@@ -13,11 +22,37 @@ class InvalidArgument : public std::invalid_argument {
   using std::invalid_argument::invalid_argument;
 };
 
-/// Bad outside data: an unreadable or malformed file, stream or frame. The message names the
-/// source (file path, and line or frame where known) and the problem.
-class InputError : public std::runtime_error {
+/// The base of aerovo's run-time errors (see the hierarchy above).
+class Error : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
+};
+
+/// Bad outside data: an unreadable or malformed file, stream or frame. The message names the
+/// source (file path, and line or frame where known) and the problem.
+class InputError : public Error {
+ public:
+  using Error::Error;
+};
+
+/// A write to an output file failed (disk full, size limit, I/O error). The message names the
+/// file and the errno text.
+class OutputError : public InputError {
+ public:
+  using InputError::InputError;
+};
+
+/// Thrown by a computation stopped by CancelRequested() (core/cancel.h); the frame being
+/// processed is abandoned (not counted as processed).
+class Cancelled : public Error {
+ public:
+  explicit Cancelled(const std::string& where) : Error("cancelled in " + where) {}
+};
+
+/// A broken invariant of aerovo itself: a bug, never the user's data.
+class InternalError : public Error {
+ public:
+  using Error::Error;
 };
 
 }  // namespace aerovo

@@ -28,13 +28,6 @@
 
 namespace aerovo {
 
-/// A write to an output file failed (disk full, size limit, I/O error). An InputError (the
-/// outside world is at fault) whose message names the file and the errno text.
-class OutputError : public InputError {
- public:
-  using InputError::InputError;
-};
-
 /// Throws OutputError "`what` `path`: strerror(errno_value)".
 [[noreturn]] void ThrowOutputError(const char* what, const std::filesystem::path& path,
                                    int errno_value);
