@@ -153,6 +153,156 @@ TEST(ClusteredCrop, DropsTheStripsTheContentMovesToward) {
   EXPECT_THROW(ClusteredCrop(800, 600, Shift(NAN, 0)), InvalidArgument);
 }
 
+// One motion of CropAndChosenCellForEachMotion: the direction, its label, the cell that should
+// be chosen (13 points) and the decoy below the minimum (11 points).
+struct MotionCase {
+  const Direction& d;
+  std::string what;
+  Eigen::Matrix3d motion;
+  int target, decoy;
+};
+
+// The scene of `c`: every cell of the expected crop gets a distinct number of points, plus a few
+// points in each strip that should be dropped.
+SceneBuilder CellScene(const MotionCase& c, std::uint64_t seed) {
+  SceneBuilder scene(seed);
+  const RectI& crop = c.d.expected_crop;
+  for (int cell = 0; cell < 9; ++cell) {
+    const int count = cell == c.target ? 13 : cell == c.decoy ? 11 : 20 + 3 * cell;
+    const CellBounds b = ClusterCellBounds(crop, 3, 3, cell / 3, cell % 3);
+    scene.AddInBox(count, b.x0, b.y0, b.x1, b.y1, c.motion);
+  }
+  // Strips outside the crop: few points each, so a wrong crop would change the counts.
+  if (crop.x > 0) scene.AddInBox(5, 0, 0, crop.x, kFrameHeight, c.motion);
+  if (crop.x + crop.width < kFrameWidth) {
+    scene.AddInBox(5, crop.x + crop.width, 0, kFrameWidth, kFrameHeight, c.motion);
+  }
+  if (crop.y > 0) scene.AddInBox(5, 0, 0, kFrameWidth, crop.y, c.motion);
+  if (crop.y + crop.height < kFrameHeight) {
+    scene.AddInBox(5, 0, crop.y + crop.height, kFrameWidth, kFrameHeight, c.motion);
+  }
+  return scene;
+}
+
+// The paper's algorithm exactly (no refinement): the crop, the target cell in one attempt, and
+// the cell's own fit on its 13 points.
+void ExpectPaperCellFit(const SceneBuilder& scene, const MotionCase& c) {
+  const std::string& what = c.what;
+  const RectI& crop = c.d.expected_crop;
+  CorrespondenceOptions paper;  // The paper's algorithm exactly: the cell's own fit.
+  paper.clustered.refine = false;
+  CorrespondenceStage stage(paper);
+  const CorrespondenceResult r =
+      stage.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), c.motion);
+  ExpectRectEq(r.crop, crop, what);
+  EXPECT_FALSE(r.refined);
+  ASSERT_TRUE(r.success) << what;
+  EXPECT_FALSE(r.fell_back) << what;
+  EXPECT_EQ(r.method_used, CorrespondenceMethod::kClustered);
+  EXPECT_EQ(r.cell_row, c.target / 3) << what;
+  EXPECT_EQ(r.cell_col, c.target % 3) << what;
+  EXPECT_EQ(r.attempts, 1) << what;
+  EXPECT_EQ(r.cell_point_counts[static_cast<std::size_t>(c.decoy)], 11) << what;
+  EXPECT_EQ(r.cell_point_counts[static_cast<std::size_t>(c.target)], 13) << what;
+  ASSERT_EQ(r.matches.size(), 13u) << what;
+  EXPECT_EQ(r.num_inliers, 13) << what;
+  const CellBounds b = ClusterCellBounds(crop, 3, 3, c.target / 3, c.target % 3);
+  for (const Match& m : r.matches) {
+    const Keypoint& k = scene.prev().keypoints[static_cast<std::size_t>(m.prev_index)];
+    EXPECT_TRUE(b.contains(k.x, k.y)) << what;
+  }
+  EXPECT_LT(MaxCornerDisplacementPx(r.curr_from_prev, c.motion, kFrameWidth, kFrameHeight), 0.01)
+      << what;
+  EXPECT_GT(r.match_ms + r.estimate_ms, 0.0);
+  EXPECT_GE(r.total_ms, r.match_ms + r.estimate_ms);
+}
+
+// A refined run with options `o`: same cell as the paper's, in one attempt, refined.
+CorrespondenceResult RefinedRun(const SceneBuilder& scene, const MotionCase& c,
+                                const CorrespondenceOptions& o) {
+  CorrespondenceStage stage_refined(o);
+  const CorrespondenceResult x =
+      stage_refined.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), c.motion);
+  EXPECT_TRUE(x.success) << c.what;
+  EXPECT_TRUE(x.refined) << c.what;
+  EXPECT_EQ(x.cell_row * 3 + x.cell_col, c.target) << c.what;
+  EXPECT_EQ(x.attempts, 1) << c.what;
+  return x;
+}
+
+// Refinement without the final pass, in one pass: up to 20 points of every cell are re-matched.
+void ExpectSpreadRefinement(const SceneBuilder& scene, const MotionCase& c) {
+  const std::string& what = c.what;
+  CorrespondenceOptions spread;
+  spread.clustered.refine_final_radius_px = 0.f;
+  spread.clustered.refine_early_exit = false;
+  const CorrespondenceResult rr = RefinedRun(scene, c, spread);
+  // 20 points per other cell (all 11 of the decoy), all 13 of the chosen cell; no strip point.
+  const std::size_t expected = 7 * 20 + 11 + 13;
+  EXPECT_EQ(rr.matches.size(), expected) << what;
+  EXPECT_EQ(rr.num_inliers, static_cast<int>(expected)) << what;
+  for (const Match& m : rr.matches) {
+    const Keypoint& k = scene.prev().keypoints[static_cast<std::size_t>(m.prev_index)];
+    EXPECT_TRUE(c.d.expected_crop.contains(k.x, k.y)) << what;
+  }
+  EXPECT_LT(MaxCornerDisplacementPx(rr.curr_from_prev, c.motion, kFrameWidth, kFrameHeight), 0.01)
+      << what;
+  EXPECT_FALSE(rr.final_pass) << what;
+  EXPECT_LT(rr.refine_shift_px, 0.01) << what;
+  EXPECT_FALSE(rr.refine_early_exit) << what;
+}
+
+// Default: the motion is exact, so the fit on the first half of the spread points (10 per other
+// cell) stays on the cell's: the other half and the final pass are skipped.
+void ExpectEarlyExit(const SceneBuilder& scene, const MotionCase& c) {
+  const std::string& what = c.what;
+  const CorrespondenceResult rs = RefinedRun(scene, c, CorrespondenceOptions{});
+  EXPECT_TRUE(rs.refine_early_exit) << what;
+  EXPECT_FALSE(rs.final_pass) << what;
+  EXPECT_EQ(rs.matches.size(), 7u * 10u + 10u + 13u) << what;
+  EXPECT_EQ(rs.num_inliers, static_cast<int>(rs.matches.size())) << what;
+  EXPECT_LT(rs.refine_shift_px, 0.01) << what;
+  EXPECT_LT(MaxCornerDisplacementPx(rs.curr_from_prev, c.motion, kFrameWidth, kFrameHeight), 0.01)
+      << what;
+}
+
+// Final pass forced: it matches every prev point (strips included) around the refined
+// prediction, i.e. every point that is still in view (the only ones with a curr twin).
+void ExpectForcedFinalPass(const SceneBuilder& scene, const MotionCase& c) {
+  const std::string& what = c.what;
+  CorrespondenceOptions always;
+  always.clustered.refine_final_min_shift_px = 0.f;
+  const CorrespondenceResult rd = RefinedRun(scene, c, always);
+  EXPECT_TRUE(rd.final_pass) << what;
+  EXPECT_EQ(rd.matches.size(), scene.curr().size()) << what;
+  EXPECT_EQ(rd.num_inliers, static_cast<int>(scene.curr().size())) << what;
+  for (const Match& m : rd.matches) {
+    const Keypoint& p = scene.prev().keypoints[static_cast<std::size_t>(m.prev_index)];
+    const Keypoint& k = scene.curr().keypoints[static_cast<std::size_t>(m.curr_index)];
+    EXPECT_LT(
+        (TransformPoint(c.motion, Eigen::Vector2d(p.x, p.y)) - Eigen::Vector2d(k.x, k.y)).norm(),
+        1e-3)
+        << what;
+  }
+  EXPECT_LT(MaxCornerDisplacementPx(rd.curr_from_prev, c.motion, kFrameWidth, kFrameHeight), 0.01)
+      << what;
+}
+
+// Most-first takes the fullest cell (count 20 + 3 * 8 = 44 unless it is target/decoy).
+void ExpectMostFirstTakesFullest(const SceneBuilder& scene, const MotionCase& c) {
+  CorrespondenceOptions most;
+  most.clustered.cell_order = CellOrder::kMostFirst;
+  CorrespondenceStage stage_most(most);
+  const CorrespondenceResult rm =
+      stage_most.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), c.motion);
+  int fullest = 0;
+  for (int cell = 1; cell < 9; ++cell) {
+    if (rm.cell_point_counts[cell] > rm.cell_point_counts[fullest]) fullest = cell;
+  }
+  ASSERT_TRUE(rm.success) << c.what;
+  EXPECT_EQ(rm.cell_row * 3 + rm.cell_col, fullest) << c.what;
+}
+
 // For each motion: every cell of the expected crop gets a distinct number of points (one with
 // 11, below the paper's minimum 12, one with 13 = the fewest eligible), plus points in the strips
 // that should be dropped. The motion repeats from n-1 to n.
@@ -160,124 +310,14 @@ TEST(ClusteredRansac, CropAndChosenCellForEachMotion) {
   const std::vector<Direction> dirs = Directions();
   for (std::size_t di = 0; di < dirs.size(); ++di) {
     const Direction& d = dirs[di];
-    const std::string what = "t = (" + std::to_string(d.tu) + ", " + std::to_string(d.tv) + ")";
-    const Eigen::Matrix3d motion = Shift(d.tu, d.tv);
-    const int target = static_cast<int>(di % 9), decoy = static_cast<int>((di + 4) % 9);
-    SceneBuilder scene(100 + di);
-    const RectI& crop = d.expected_crop;
-    for (int cell = 0; cell < 9; ++cell) {
-      const int count = cell == target ? 13 : cell == decoy ? 11 : 20 + 3 * cell;
-      const CellBounds b = ClusterCellBounds(crop, 3, 3, cell / 3, cell % 3);
-      scene.AddInBox(count, b.x0, b.y0, b.x1, b.y1, motion);
-    }
-    // Strips outside the crop: few points each, so a wrong crop would change the counts.
-    if (crop.x > 0) scene.AddInBox(5, 0, 0, crop.x, kFrameHeight, motion);
-    if (crop.x + crop.width < kFrameWidth) {
-      scene.AddInBox(5, crop.x + crop.width, 0, kFrameWidth, kFrameHeight, motion);
-    }
-    if (crop.y > 0) scene.AddInBox(5, 0, 0, kFrameWidth, crop.y, motion);
-    if (crop.y + crop.height < kFrameHeight) {
-      scene.AddInBox(5, 0, crop.y + crop.height, kFrameWidth, kFrameHeight, motion);
-    }
-
-    CorrespondenceOptions paper;  // The paper's algorithm exactly: the cell's own fit.
-    paper.clustered.refine = false;
-    CorrespondenceStage stage(paper);
-    const CorrespondenceResult r =
-        stage.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), motion);
-    ExpectRectEq(r.crop, crop, what);
-    EXPECT_FALSE(r.refined);
-    ASSERT_TRUE(r.success) << what;
-    EXPECT_FALSE(r.fell_back) << what;
-    EXPECT_EQ(r.method_used, CorrespondenceMethod::kClustered);
-    EXPECT_EQ(r.cell_row, target / 3) << what;
-    EXPECT_EQ(r.cell_col, target % 3) << what;
-    EXPECT_EQ(r.attempts, 1) << what;
-    EXPECT_EQ(r.cell_point_counts[static_cast<std::size_t>(decoy)], 11) << what;
-    EXPECT_EQ(r.cell_point_counts[static_cast<std::size_t>(target)], 13) << what;
-    ASSERT_EQ(r.matches.size(), 13u) << what;
-    EXPECT_EQ(r.num_inliers, 13) << what;
-    const CellBounds b = ClusterCellBounds(crop, 3, 3, target / 3, target % 3);
-    for (const Match& m : r.matches) {
-      const Keypoint& k = scene.prev().keypoints[static_cast<std::size_t>(m.prev_index)];
-      EXPECT_TRUE(b.contains(k.x, k.y)) << what;
-    }
-    EXPECT_LT(MaxCornerDisplacementPx(r.curr_from_prev, motion, kFrameWidth, kFrameHeight), 0.01)
-        << what;
-    EXPECT_GT(r.match_ms + r.estimate_ms, 0.0);
-    EXPECT_GE(r.total_ms, r.match_ms + r.estimate_ms);
-
-    // A refined run: same cell as the paper's, in one attempt, refined.
-    const auto refined_run = [&](const CorrespondenceOptions& o) {
-      CorrespondenceStage stage_refined(o);
-      const CorrespondenceResult x =
-          stage_refined.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), motion);
-      EXPECT_TRUE(x.success) << what;
-      EXPECT_TRUE(x.refined) << what;
-      EXPECT_EQ(x.cell_row * 3 + x.cell_col, target) << what;
-      EXPECT_EQ(x.attempts, 1) << what;
-      return x;
-    };
-    // Refinement without the final pass, in one pass: up to 20 points of every cell are
-    // re-matched.
-    CorrespondenceOptions spread;
-    spread.clustered.refine_final_radius_px = 0.f;
-    spread.clustered.refine_early_exit = false;
-    const CorrespondenceResult rr = refined_run(spread);
-    // 20 points per other cell (all 11 of the decoy), all 13 of the chosen cell; no strip point.
-    const std::size_t expected = 7 * 20 + 11 + 13;
-    EXPECT_EQ(rr.matches.size(), expected) << what;
-    EXPECT_EQ(rr.num_inliers, static_cast<int>(expected)) << what;
-    for (const Match& m : rr.matches) {
-      const Keypoint& k = scene.prev().keypoints[static_cast<std::size_t>(m.prev_index)];
-      EXPECT_TRUE(crop.contains(k.x, k.y)) << what;
-    }
-    EXPECT_LT(MaxCornerDisplacementPx(rr.curr_from_prev, motion, kFrameWidth, kFrameHeight), 0.01)
-        << what;
-    EXPECT_FALSE(rr.final_pass) << what;
-    EXPECT_LT(rr.refine_shift_px, 0.01) << what;
-    EXPECT_FALSE(rr.refine_early_exit) << what;
-    // Default: the motion is exact, so the fit on the first half of the spread points (10 per
-    // other cell) stays on the cell's: the other half and the final pass are skipped.
-    const CorrespondenceResult rs = refined_run(CorrespondenceOptions{});
-    EXPECT_TRUE(rs.refine_early_exit) << what;
-    EXPECT_FALSE(rs.final_pass) << what;
-    EXPECT_EQ(rs.matches.size(), 7u * 10u + 10u + 13u) << what;
-    EXPECT_EQ(rs.num_inliers, static_cast<int>(rs.matches.size())) << what;
-    EXPECT_LT(rs.refine_shift_px, 0.01) << what;
-    EXPECT_LT(MaxCornerDisplacementPx(rs.curr_from_prev, motion, kFrameWidth, kFrameHeight), 0.01)
-        << what;
-    // Final pass forced: it matches every prev point (strips included) around the refined
-    // prediction, i.e. every point that is still in view (the only ones with a curr twin).
-    CorrespondenceOptions always;
-    always.clustered.refine_final_min_shift_px = 0.f;
-    const CorrespondenceResult rd = refined_run(always);
-    EXPECT_TRUE(rd.final_pass) << what;
-    EXPECT_EQ(rd.matches.size(), scene.curr().size()) << what;
-    EXPECT_EQ(rd.num_inliers, static_cast<int>(scene.curr().size())) << what;
-    for (const Match& m : rd.matches) {
-      const Keypoint& p = scene.prev().keypoints[static_cast<std::size_t>(m.prev_index)];
-      const Keypoint& c = scene.curr().keypoints[static_cast<std::size_t>(m.curr_index)];
-      EXPECT_LT(
-          (TransformPoint(motion, Eigen::Vector2d(p.x, p.y)) - Eigen::Vector2d(c.x, c.y)).norm(),
-          1e-3)
-          << what;
-    }
-    EXPECT_LT(MaxCornerDisplacementPx(rd.curr_from_prev, motion, kFrameWidth, kFrameHeight), 0.01)
-        << what;
-
-    // Most-first takes the fullest cell (count 20 + 3 * 8 = 44 unless it is target/decoy).
-    CorrespondenceOptions most;
-    most.clustered.cell_order = CellOrder::kMostFirst;
-    CorrespondenceStage stage_most(most);
-    const CorrespondenceResult rm =
-        stage_most.Clustered(scene.prev(), kFrameWidth, kFrameHeight, scene.curr(), motion);
-    int fullest = 0;
-    for (int cell = 1; cell < 9; ++cell) {
-      if (rm.cell_point_counts[cell] > rm.cell_point_counts[fullest]) fullest = cell;
-    }
-    ASSERT_TRUE(rm.success) << what;
-    EXPECT_EQ(rm.cell_row * 3 + rm.cell_col, fullest) << what;
+    const MotionCase c{d, "t = (" + std::to_string(d.tu) + ", " + std::to_string(d.tv) + ")",
+                       Shift(d.tu, d.tv), static_cast<int>(di % 9), static_cast<int>((di + 4) % 9)};
+    const SceneBuilder scene = CellScene(c, 100 + di);
+    ASSERT_NO_FATAL_FAILURE(ExpectPaperCellFit(scene, c));
+    ExpectSpreadRefinement(scene, c);
+    ExpectEarlyExit(scene, c);
+    ExpectForcedFinalPass(scene, c);
+    ASSERT_NO_FATAL_FAILURE(ExpectMostFirstTakesFullest(scene, c));
   }
 }
 

@@ -302,21 +302,14 @@ double MedianResidual(const std::vector<PairData>& data) {
   return Median(std::move(e));
 }
 
-}  // namespace
-
-LensEstimate EstimateRadialDistortion(const std::vector<LensPair>& pairs,
-                                      const LensEstimationOptions& o) {
-  Validate(o);
-  LensEstimate out;
-  const double diag = std::hypot(o.width_px, o.height_px);
-  CostSettings cs;
-  cs.focal_px = o.focal_px;
-  cs.s2 = o.loss_scale_px * o.loss_scale_px;
-  cs.outlier_px = o.widen_fraction * diag;
-  // 1. Inliers of a widened RANSAC homography on the raw pixels (k = 0).
+// Step 1 of EstimateRadialDistortion: the inliers of a widened RANSAC homography on the raw
+// pixels (k = 0) of each pair with enough of them, in normalised distorted coordinates.
+// d_max: the largest normalised radius of any kept point; points_used: their count.
+std::vector<PairData> CollectInliers(const std::vector<LensPair>& pairs,
+                                     const LensEstimationOptions& o, const CostSettings& cs,
+                                     double* d_max, int* points_used) {
   std::vector<PairData> data;
   RansacWorkspace workspace;
-  double d_max = 0.0;
   for (std::size_t p = 0; p < pairs.size(); ++p) {
     const LensPair& pair = pairs[p];
     if (pair.prev_px.cols() != pair.curr_px.cols()) {
@@ -339,13 +332,122 @@ LensEstimate EstimateRadialDistortion(const std::vector<LensPair>& pairs,
                               (pair.prev_px(1, i) - o.cy_px) / o.focal_px);
       const Eigen::Vector2d b((pair.curr_px(0, i) - o.cx_px) / o.focal_px,
                               (pair.curr_px(1, i) - o.cy_px) / o.focal_px);
-      d_max = std::max({d_max, a.norm(), b.norm()});
+      *d_max = std::max({*d_max, a.norm(), b.norm()});
       d.prev.push_back(a);
       d.curr.push_back(b);
     }
-    out.points_used += static_cast<int>(d.prev.size());
+    *points_used += static_cast<int>(d.prev.size());
     data.push_back(std::move(d));
   }
+  return data;
+}
+
+// The uncertainty of fit->k (see LensFamilyFit::sigma_k): the spread of the per-pair minima and
+// the Laplace estimate from the total cost's curvature at k over [lo, hi] (the searched range,
+// grid of g points); dof: the residual degrees of freedom.
+void EstimateUncertainty(double lo, double hi, int g, double dof, const CostSettings& cs,
+                         std::vector<PairData>& data, LensFamilyFit* fit) {
+  const int num_pairs = static_cast<int>(data.size());
+  std::vector<double> dev;
+  const double med = Median(fit->pair_k);
+  for (double k : fit->pair_k) dev.push_back(std::abs(k - med));
+  fit->sigma_k_pairs = 1.4826 * Median(dev) / std::sqrt(static_cast<double>(num_pairs));
+  const double step = std::max(1e-5, (hi - lo) / (g - 1) / 8.0);
+  const double cp = TotalCost(fit->family, std::min(hi, fit->k + step), cs, data);
+  const double cm = TotalCost(fit->family, std::max(lo, fit->k - step), cs, data);
+  const double curvature = (cp - 2.0 * fit->cost + cm) / (step * step);
+  fit->sigma_k_curvature = curvature > 0.0 ? std::sqrt(2.0 * fit->cost / dof / curvature)
+                                           : std::numeric_limits<double>::infinity();
+  fit->sigma_k = std::max(fit->sigma_k_pairs, fit->sigma_k_curvature);
+}
+
+// Step 3 of EstimateRadialDistortion for one family: a grid over the range the data allows
+// (every point of normalised radius up to d_max has its inverse), golden section around the best
+// grid point for the total and for each pair, and the uncertainty. pinhole_pair: each pair's cost
+// at the ideal pinhole; dof: the residual degrees of freedom. False when the range is empty.
+bool FitFamily(RadialFamily family, const LensEstimationOptions& o, const CostSettings& cs,
+               double d_max, double dof, const std::vector<double>& pinhole_pair,
+               std::vector<PairData>& data, LensFamilyFit* fit) {
+  const int num_pairs = static_cast<int>(data.size());
+  fit->family = family;
+  const double lo0 = family == RadialFamily::kFisheyeK1 ? o.fisheye_k_min : o.brown_k_min;
+  const double hi = family == RadialFamily::kFisheyeK1 ? o.fisheye_k_max : o.brown_k_max;
+  const double lo = LowerBoundOfK(family, d_max, lo0, hi);
+  fit->k_min = lo;
+  fit->k_max = hi;
+  if (!(lo < hi)) return false;
+  const int g = o.grid_points;
+  std::vector<double> grid(g);
+  std::vector<std::vector<double>> pair_cost(num_pairs, std::vector<double>(g));
+  std::vector<double> total(g, 0.0);
+  for (int j = 0; j < g; ++j) {
+    grid[j] = lo + (hi - lo) * j / (g - 1);
+    for (int p = 0; p < num_pairs; ++p) {
+      pair_cost[p][j] = PairCost(family, grid[j], cs, data[p]);
+      total[j] += pair_cost[p][j];
+    }
+  }
+  const auto bracket = [&](const std::vector<double>& c) {
+    const int j = static_cast<int>(std::min_element(c.begin(), c.end()) - c.begin());
+    return std::make_pair(grid[std::max(j - 1, 0)], grid[std::min(j + 1, g - 1)]);
+  };
+  const auto [a, b] = bracket(total);
+  fit->k = GoldenMinimum([&](double k) { return TotalCost(family, k, cs, data); }, a, b);
+  fit->cost = TotalCost(family, fit->k, cs, data);
+  for (int p = 0; p < num_pairs; ++p) {
+    const auto [pa, pb] = bracket(pair_cost[p]);
+    fit->pair_k.push_back(
+        GoldenMinimum([&](double k) { return PairCost(family, k, cs, data[p]); }, pa, pb));
+    const double at_k = PairCost(family, fit->k, cs, data[p]);
+    if (at_k <= (1.0 - o.min_pair_drop) * pinhole_pair[p]) ++fit->pairs_improved;
+  }
+  EstimateUncertainty(lo, hi, g, dof, cs, data, fit);
+  return true;
+}
+
+// Step 4 of EstimateRadialDistortion: out->significant and out->why from the chosen family's
+// figures (out->cost_drop, pairs_improved, k, sigma_k) and the decision thresholds of `o`.
+void Decide(const LensEstimationOptions& o, int num_pairs, LensEstimate* out) {
+  const int needed =
+      static_cast<int>(std::ceil(o.min_pair_fraction * static_cast<double>(num_pairs) - 1e-9));
+  const bool drop_ok = out->cost_drop >= o.min_cost_drop;
+  const bool pairs_ok = out->pairs_improved >= needed;
+  const bool away_from_pinhole =
+      out->family != RadialFamily::kBrownK1 || std::abs(out->k) > 3.0 * out->sigma_k;
+  out->significant = drop_ok && pairs_ok && away_from_pinhole;
+  const std::string figures = Format(
+      "%s k1 = %.4f +- %.4f: cost %.0f%% below the ideal pinhole's (median residual %.2f "
+      "-> %.2f px), %d of %d pairs improved by >= %.0f%%",
+      ToString(out->family), out->k, out->sigma_k, 100.0 * out->cost_drop,
+      out->median_residual_pinhole_px, out->median_residual_px, out->pairs_improved, num_pairs,
+      100.0 * o.min_pair_drop);
+  if (out->significant) {
+    out->why = "significant: " + figures;
+  } else if (!drop_ok) {
+    out->why =
+        Format("not significant (the cost drops by less than %.0f%%): ", 100.0 * o.min_cost_drop) +
+        figures;
+  } else if (!pairs_ok) {
+    out->why = Format("not significant (fewer than %d pairs improved): ", needed) + figures;
+  } else {
+    out->why = "not significant (k1 within 3 sigma of 0): " + figures;
+  }
+}
+
+}  // namespace
+
+LensEstimate EstimateRadialDistortion(const std::vector<LensPair>& pairs,
+                                      const LensEstimationOptions& o) {
+  Validate(o);
+  LensEstimate out;
+  const double diag = std::hypot(o.width_px, o.height_px);
+  CostSettings cs;
+  cs.focal_px = o.focal_px;
+  cs.s2 = o.loss_scale_px * o.loss_scale_px;
+  cs.outlier_px = o.widen_fraction * diag;
+  // 1. Inliers of a widened RANSAC homography on the raw pixels (k = 0).
+  double d_max = 0.0;
+  std::vector<PairData> data = CollectInliers(pairs, o, cs, &d_max, &out.points_used);
   out.pairs_used = static_cast<int>(data.size());
   if (out.pairs_used < o.min_pairs) {
     out.why = Format("%d usable frame pairs (at least %d with %d RANSAC inliers needed)",
@@ -370,50 +472,9 @@ LensEstimate EstimateRadialDistortion(const std::vector<LensPair>& pairs,
   // 3. Each family: grid, golden section, per-pair minima, uncertainty.
   for (RadialFamily family : {RadialFamily::kFisheyeK1, RadialFamily::kBrownK1}) {
     LensFamilyFit fit;
-    fit.family = family;
-    const double lo0 = family == RadialFamily::kFisheyeK1 ? o.fisheye_k_min : o.brown_k_min;
-    const double hi = family == RadialFamily::kFisheyeK1 ? o.fisheye_k_max : o.brown_k_max;
-    const double lo = LowerBoundOfK(family, d_max, lo0, hi);
-    fit.k_min = lo;
-    fit.k_max = hi;
-    if (!(lo < hi)) continue;
-    const int g = o.grid_points;
-    std::vector<double> grid(g);
-    std::vector<std::vector<double>> pair_cost(num_pairs, std::vector<double>(g));
-    std::vector<double> total(g, 0.0);
-    for (int j = 0; j < g; ++j) {
-      grid[j] = lo + (hi - lo) * j / (g - 1);
-      for (int p = 0; p < num_pairs; ++p) {
-        pair_cost[p][j] = PairCost(family, grid[j], cs, data[p]);
-        total[j] += pair_cost[p][j];
-      }
+    if (FitFamily(family, o, cs, d_max, dof, pinhole_pair, data, &fit)) {
+      out.fits.push_back(std::move(fit));
     }
-    const auto bracket = [&](const std::vector<double>& c) {
-      const int j = static_cast<int>(std::min_element(c.begin(), c.end()) - c.begin());
-      return std::make_pair(grid[std::max(j - 1, 0)], grid[std::min(j + 1, g - 1)]);
-    };
-    const auto [a, b] = bracket(total);
-    fit.k = GoldenMinimum([&](double k) { return TotalCost(family, k, cs, data); }, a, b);
-    fit.cost = TotalCost(family, fit.k, cs, data);
-    for (int p = 0; p < num_pairs; ++p) {
-      const auto [pa, pb] = bracket(pair_cost[p]);
-      fit.pair_k.push_back(GoldenMinimum(
-          [&](double k) { return PairCost(family, k, cs, data[p]); }, pa, pb));
-      const double at_k = PairCost(family, fit.k, cs, data[p]);
-      if (at_k <= (1.0 - o.min_pair_drop) * pinhole_pair[p]) ++fit.pairs_improved;
-    }
-    std::vector<double> dev;
-    const double med = Median(fit.pair_k);
-    for (double k : fit.pair_k) dev.push_back(std::abs(k - med));
-    fit.sigma_k_pairs = 1.4826 * Median(dev) / std::sqrt(static_cast<double>(num_pairs));
-    const double step = std::max(1e-5, (hi - lo) / (g - 1) / 8.0);
-    const double cp = TotalCost(family, std::min(hi, fit.k + step), cs, data);
-    const double cm = TotalCost(family, std::max(lo, fit.k - step), cs, data);
-    const double curvature = (cp - 2.0 * fit.cost + cm) / (step * step);
-    fit.sigma_k_curvature = curvature > 0.0 ? std::sqrt(2.0 * fit.cost / dof / curvature)
-                                            : std::numeric_limits<double>::infinity();
-    fit.sigma_k = std::max(fit.sigma_k_pairs, fit.sigma_k_curvature);
-    out.fits.push_back(std::move(fit));
   }
   if (out.fits.empty()) {
     out.valid = false;
@@ -433,29 +494,7 @@ LensEstimate EstimateRadialDistortion(const std::vector<LensPair>& pairs,
   out.cost_drop = out.cost_pinhole > 0.0 ? 1.0 - out.cost / out.cost_pinhole : 0.0;
   (void)TotalCost(out.family, out.k, cs, data);
   out.median_residual_px = MedianResidual(data);
-  const int needed =
-      static_cast<int>(std::ceil(o.min_pair_fraction * static_cast<double>(num_pairs) - 1e-9));
-  const bool drop_ok = out.cost_drop >= o.min_cost_drop;
-  const bool pairs_ok = out.pairs_improved >= needed;
-  const bool away_from_pinhole =
-      out.family != RadialFamily::kBrownK1 || std::abs(out.k) > 3.0 * out.sigma_k;
-  out.significant = drop_ok && pairs_ok && away_from_pinhole;
-  const std::string figures = Format(
-      "%s k1 = %.4f +- %.4f: cost %.0f%% below the ideal pinhole's (median residual %.2f "
-      "-> %.2f px), %d of %d pairs improved by >= %.0f%%",
-      ToString(out.family), out.k, out.sigma_k, 100.0 * out.cost_drop,
-      out.median_residual_pinhole_px, out.median_residual_px, out.pairs_improved, num_pairs,
-      100.0 * o.min_pair_drop);
-  if (out.significant) {
-    out.why = "significant: " + figures;
-  } else if (!drop_ok) {
-    out.why = Format("not significant (the cost drops by less than %.0f%%): ",
-                     100.0 * o.min_cost_drop) + figures;
-  } else if (!pairs_ok) {
-    out.why = Format("not significant (fewer than %d pairs improved): ", needed) + figures;
-  } else {
-    out.why = "not significant (k1 within 3 sigma of 0): " + figures;
-  }
+  Decide(o, num_pairs, &out);
   return out;
 }
 

@@ -26,6 +26,37 @@ void AddCosts(const CorrespondenceResult& pass, CorrespondenceResult* out) {
   out->ransac_trials += pass.ransac_trials;
 }
 
+// One guided pass of the refinement, on its own result *pass (MatchAndFit::Run overwrites it):
+// matches the prev points `subset` (empty: every point) with `matcher` around `prior` on `fit`,
+// `known` matches taking part as they are (nullptr: none), adds the pass's costs to *out and
+// adopts its fit into *out (refined = true) when it succeeds with at least min_inliers inliers.
+// With known matches an empty subset skips the pass: a crop holding only the chosen cell has
+// nothing else to match.
+void RefinePass(MatchAndFit& fit, Matcher& matcher, const FeatureSet& prev,
+                const std::vector<int>& subset, const Eigen::Matrix3d& prior,
+                const std::vector<Match>* known, int min_inliers, CorrespondenceResult* pass,
+                CorrespondenceResult* out) {
+  if (known != nullptr && subset.empty()) return;
+  fit.Run(matcher, true, prev, subset, prior, pass, known);
+  AddCosts(*pass, out);
+  if (!pass->success || pass->num_inliers < min_inliers) return;
+  out->curr_from_prev = pass->curr_from_prev;
+  out->matches = pass->matches;
+  out->inlier_mask = pass->inlier_mask;
+  out->num_inliers = pass->num_inliers;
+  out->refined = true;
+}
+
+// Puts the fit of `kept` (transform, matches, mask, inliers, shift) back into *out; the costs
+// and flags of *out stay.
+void RestoreFit(const CorrespondenceResult& kept, CorrespondenceResult* out) {
+  out->curr_from_prev = kept.curr_from_prev;
+  out->matches = kept.matches;
+  out->inlier_mask = kept.inlier_mask;
+  out->num_inliers = kept.num_inliers;
+  out->refine_shift_px = kept.refine_shift_px;
+}
+
 }  // namespace
 
 GuidedRefinement::GuidedRefinement(const CorrespondenceOptions& options)
@@ -52,22 +83,11 @@ void GuidedRefinement::RefineCell(const CorrespondenceOptions& options, MatchAnd
   SelectSpreadPoints(cell_of, num_cells, chosen, per_cell, first_half);
   const CorrespondenceResult cell = *out;  // restored if a one-pass refinement would keep it
   const Eigen::Matrix3d& cell_fit = cell.curr_from_prev;
-  // Each pass works on its own result (MatchAndFit::Run overwrites it), whose cost is added to
-  // `out` and which replaces `out`'s fit when it succeeds with at least `min_inliers` inliers.
+  // Each pass works on its own result (see RefinePass).
   const auto refine_pass = [&](Matcher& matcher, const std::vector<int>& subset,
                                const Eigen::Matrix3d& prior, const std::vector<Match>* known,
                                int min_inliers, CorrespondenceResult* pass) {
-    // An empty subset means every point: a crop holding only the chosen cell has nothing else
-    // to match.
-    if (known != nullptr && subset.empty()) return;
-    fit.Run(matcher, true, prev, subset, prior, pass, known);
-    AddCosts(*pass, out);
-    if (!pass->success || pass->num_inliers < min_inliers) return;
-    out->curr_from_prev = pass->curr_from_prev;
-    out->matches = pass->matches;
-    out->inlier_mask = pass->inlier_mask;
-    out->num_inliers = pass->num_inliers;
-    out->refined = true;
+    RefinePass(fit, matcher, prev, subset, prior, known, min_inliers, pass, out);
   };
   const auto shift = [&] {
     return MaxCornerDisplacementPx(cell_fit, out->curr_from_prev, width, height);
@@ -98,11 +118,7 @@ void GuidedRefinement::RefineCell(const CorrespondenceOptions& options, MatchAnd
       out->refine_shift_px = shift();
     } else {
       // Not adopted: the cell's fit stays, as after a one-pass refinement (the costs stay).
-      out->curr_from_prev = cell_fit;
-      out->matches = cell.matches;
-      out->inlier_mask = cell.inlier_mask;
-      out->num_inliers = cell.num_inliers;
-      out->refine_shift_px = cell.refine_shift_px;
+      RestoreFit(cell, out);
     }
   }
   if (co.refine_final_radius_px <= 0.f) return;

@@ -161,6 +161,20 @@ void UndistortKeypoints(const LensUndistortion& lens, FeatureSet* features) {
   features->descriptors.resize(kept * dim);
 }
 
+// The keypoints of a width x height frame seen with `attitude` to the virtual nadir camera
+// (focal length focal_px, principal point at the frame centre), in place: matching, RANSAC,
+// references and the chain then see nadir-equivalent frames (attitude.h).
+void KeypointsToNadir(const CameraAttitude& attitude, double focal_px, int width, int height,
+                      FeatureSet* features) {
+  const Eigen::Matrix3d h =
+      NadirFromCameraHomography(attitude, focal_px, 0.5 * (width - 1), 0.5 * (height - 1));
+  for (Keypoint& k : features->keypoints) {
+    const Eigen::Vector3d q = h * Eigen::Vector3d(k.x, k.y, 1.0);
+    k.x = static_cast<float>(q.x() / q.z());
+    k.y = static_cast<float>(q.y() / q.z());
+  }
+}
+
 }  // namespace
 
 struct VisualOdometry::Impl {
@@ -199,6 +213,48 @@ struct VisualOdometry::Impl {
   // Motion of the last measured one-frame step (constant-velocity model).
   Eigen::Matrix3d velocity = Eigen::Matrix3d::Identity();
   bool have_velocity = false;
+
+  // Frame `index`'s size: the first frame sets it, every later one must have it (InputError).
+  void CheckFrameSize(const GrayImageView& frame, int index) {
+    if (index == 0) {
+      width = frame.width;
+      height = frame.height;
+    } else if (frame.width != width || frame.height != height) {
+      throw InputError("frame " + std::to_string(index) + ": size " + std::to_string(frame.width) +
+                       "x" + std::to_string(frame.height) + " differs from the first frame's " +
+                       std::to_string(width) + "x" + std::to_string(height));
+    }
+  }
+
+  // The features of frame r->index: adaptive SURF (the floor steered by the previous frame,
+  // SurfResult::next_min_response), the keypoints to the ideal pinhole (SetLensUndistortion;
+  // InputError when the frame is not the lens's size), then, with a focal length and an
+  // attitude off nadir, to the virtual nadir camera. Sets r's detect_ms, describe_ms, n_surf,
+  // tilt_deg and attitude_corrected.
+  SurfResult Detect(const OdometryOptions& o, const GrayImageView& frame,
+                    const std::optional<CameraAttitude>& attitude, FrameResult* r) {
+    SurfResult features = surf.DetectAndDescribe(frame, surf_min_response);
+    surf_min_response = features.next_min_response;
+    r->detect_ms = features.detect_ms;
+    r->describe_ms = features.describe_ms;
+    if (lens) {
+      if (frame.width != lens->input().width_px || frame.height != lens->input().height_px) {
+        throw InputError(fmt::format("frame {}: size {}x{} differs from the lens's {}x{}", r->index,
+                                     frame.width, frame.height, lens->input().width_px,
+                                     lens->input().height_px));
+      }
+      UndistortKeypoints(*lens, &features.features);
+    }
+    r->n_surf = static_cast<int>(features.features.size());
+    if (attitude) {
+      r->tilt_deg = TiltFromNadirDeg(*attitude);
+      if (o.focal_px > 0.0 && (attitude->roll_deg != 0.0 || attitude->pitch_deg != 0.0)) {
+        KeypointsToNadir(*attitude, o.focal_px, frame.width, frame.height, &features.features);
+        r->attitude_corrected = true;
+      }
+    }
+    return features;
+  }
 
   // Correspondence of `ref` and `curr`; `prior` = predicted curr_from_ref (clustered: used for
   // the crop and, when guided, the search windows; standard guided: the search windows).
@@ -403,47 +459,11 @@ FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
   if (frame.empty()) {
     throw InvalidArgument("VisualOdometry: frame " + std::to_string(r.index) + " is empty");
   }
-  if (r.index == 0) {
-    s.width = frame.width;
-    s.height = frame.height;
-  } else if (frame.width != s.width || frame.height != s.height) {
-    throw InputError("frame " + std::to_string(r.index) + ": size " + std::to_string(frame.width) +
-                     "x" + std::to_string(frame.height) + " differs from the first frame's " +
-                     std::to_string(s.width) + "x" + std::to_string(s.height));
-  }
+  s.CheckFrameSize(frame, r.index);
   const double gsd = Impl::GroundSamplingDistance(o, r.index, height_m);
   r.gsd_m_per_px = gsd;
 
-  // Adaptive SURF: the floor steered by the previous frame (SurfResult::next_min_response).
-  SurfResult features = s.surf.DetectAndDescribe(frame, s.surf_min_response);
-  s.surf_min_response = features.next_min_response;
-  r.detect_ms = features.detect_ms;
-  r.describe_ms = features.describe_ms;
-  if (s.lens) {
-    if (frame.width != s.lens->input().width_px || frame.height != s.lens->input().height_px) {
-      throw InputError(fmt::format("frame {}: size {}x{} differs from the lens's {}x{}", r.index,
-                                   frame.width, frame.height, s.lens->input().width_px,
-                                   s.lens->input().height_px));
-    }
-    UndistortKeypoints(*s.lens, &features.features);
-  }
-  r.n_surf = static_cast<int>(features.features.size());
-  if (attitude) {
-    r.tilt_deg = TiltFromNadirDeg(*attitude);
-    if (o.focal_px > 0.0 && (attitude->roll_deg != 0.0 || attitude->pitch_deg != 0.0)) {
-      // Every keypoint to the virtual nadir camera: matching, RANSAC, references and the chain
-      // then see nadir-equivalent frames (attitude.h).
-      const Eigen::Matrix3d h = NadirFromCameraHomography(*attitude, o.focal_px,
-                                                          0.5 * (frame.width - 1),
-                                                          0.5 * (frame.height - 1));
-      for (Keypoint& k : features.features.keypoints) {
-        const Eigen::Vector3d q = h * Eigen::Vector3d(k.x, k.y, 1.0);
-        k.x = static_cast<float>(q.x() / q.z());
-        k.y = static_cast<float>(q.y() / q.z());
-      }
-      r.attitude_corrected = true;
-    }
-  }
+  SurfResult features = s.Detect(o, frame, attitude, &r);
   const bool usable = r.n_surf >= o.min_features;
 
   // No usable frame yet (the flight starts dark, blank or textureless): there is nothing to
