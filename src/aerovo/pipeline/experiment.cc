@@ -434,7 +434,10 @@ std::vector<ExperimentTable> IlluminationTables(const std::vector<ExperimentRun>
   return {features, traj};
 }
 
-std::vector<ExperimentTable> RansacTables(const std::vector<ExperimentRun>& runs) {
+namespace {
+
+// RansacTables' "stage_times": mean, median and p95 of each stage's time per step, per run.
+ExperimentTable StageTimesTable(const std::vector<ExperimentRun>& runs) {
   static const char* kStages[] = {"detect",   "describe",       "correspond",
                                   "estimate", "correspondence", "total"};
   ExperimentTable stages;
@@ -459,13 +462,12 @@ std::vector<ExperimentTable> RansacTables(const std::vector<ExperimentRun>& runs
     }
     stages.rows.push_back(std::move(row));
   }
+  return stages;
+}
 
-  const ExperimentRun* standard = nullptr;
-  const ExperimentRun* clustered = nullptr;
-  for (const ExperimentRun& r : runs) {
-    if (r.mode == "standard") standard = &r;
-    if (r.mode == "clustered") clustered = &r;
-  }
+// RansacTables' "speedup": statistics of the correspondence-stage time per step of the standard
+// and the clustered run (either may be null: its cells are then not available).
+ExperimentTable SpeedupTable(const ExperimentRun* standard, const ExperimentRun* clustered) {
   ExperimentTable speed;
   speed.name = "speedup";
   speed.title = "Correspondence stage (matching + RANSAC) per step: standard vs clustered RANSAC";
@@ -492,7 +494,12 @@ std::vector<ExperimentTable> RansacTables(const std::vector<ExperimentRun>& runs
            (std::isfinite(a) && std::isfinite(b) && b > 0) ? Num(a / b, 2) : NotAvailable()});
     }
   }
+  return speed;
+}
 
+// RansacTables' "trajectory": frame counts, mean matches and inliers and the trajectory columns
+// of each run.
+ExperimentTable ModeTrajectoryTable(const std::vector<ExperimentRun>& runs) {
   const bool with_gt = AnyGroundTruth(runs);
   ExperimentTable traj;
   traj.name = "trajectory";
@@ -510,7 +517,12 @@ std::vector<ExperimentTable> RansacTables(const std::vector<ExperimentRun>& runs
     TrajectoryCells(r, with_gt, &row);
     traj.rows.push_back(std::move(row));
   }
+  return traj;
+}
 
+// RansacTables' "agreement": the distance between the clustered and the standard run's
+// positions, paired by frame (no row unless both ran and share frames).
+ExperimentTable AgreementTable(const ExperimentRun* standard, const ExperimentRun* clustered) {
   ExperimentTable agree;
   agree.name = "agreement";
   agree.title = "How far apart the two trajectories are";
@@ -529,7 +541,20 @@ std::vector<ExperimentTable> RansacTables(const std::vector<ExperimentRun>& runs
     } catch (const InvalidArgument&) {
     }
   }
-  return {stages, speed, traj, agree};
+  return agree;
+}
+
+}  // namespace
+
+std::vector<ExperimentTable> RansacTables(const std::vector<ExperimentRun>& runs) {
+  const ExperimentRun* standard = nullptr;
+  const ExperimentRun* clustered = nullptr;
+  for (const ExperimentRun& r : runs) {
+    if (r.mode == "standard") standard = &r;
+    if (r.mode == "clustered") clustered = &r;
+  }
+  return {StageTimesTable(runs), SpeedupTable(standard, clustered), ModeTrajectoryTable(runs),
+          AgreementTable(standard, clustered)};
 }
 
 // ---------------------------------------------------------------------------------------------

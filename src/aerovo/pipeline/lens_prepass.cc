@@ -106,6 +106,59 @@ std::vector<std::pair<Frame, Frame>> ReadPairs(const RunConfig& config, double* 
   return pairs;
 }
 
+// The matches `m` of features a (prev) and b (curr) as a LensPair of pixel positions: at most
+// kLensPrepassMaxMatches of them, by an even stride over the matches.
+LensPair SampledPair(const FeatureSet& a, const FeatureSet& b, const MatchResult& m) {
+  const std::size_t n = m.matches.size();
+  const std::size_t kept = std::min<std::size_t>(n, kLensPrepassMaxMatches);
+  LensPair pair;
+  pair.prev_px.resize(2, static_cast<Eigen::Index>(kept));
+  pair.curr_px.resize(2, static_cast<Eigen::Index>(kept));
+  for (std::size_t i = 0; i < kept; ++i) {
+    const Match& match = m.matches[i * n / kept];
+    const Keypoint& p = a.keypoints[match.prev_index];
+    const Keypoint& c = b.keypoints[match.curr_index];
+    pair.prev_px.col(static_cast<Eigen::Index>(i)) = Eigen::Vector2d(p.x, p.y);
+    pair.curr_px.col(static_cast<Eigen::Index>(i)) = Eigen::Vector2d(c.x, c.y);
+  }
+  return pair;
+}
+
+// The matched points of each frame pair, on the frames reduced by `reducer`, with `surf` and
+// `matcher`. InputError when a frame is not w x h px (the run's frames).
+std::vector<LensPair> MatchPairs(const std::vector<std::pair<Frame, Frame>>& frames, int w, int h,
+                                 FrameReducer& reducer, Surf& surf, Matcher& matcher) {
+  std::vector<LensPair> pairs;
+  const auto features = [&](const Frame& f) {
+    if (f.gray.width() != w || f.gray.height() != h) {
+      throw InputError(fmt::format("{}: {}x{} px, but the run's frames are {}x{}", f.name,
+                                   f.gray.width(), f.gray.height(), w, h));
+    }
+    return surf.DetectAndDescribe(reducer.Apply(f.gray.view())).features;
+  };
+  for (const auto& [prev, curr] : frames) {
+    const FeatureSet a = features(prev);
+    const FeatureSet b = features(curr);
+    const MatchResult m = matcher.Match(a, b);
+    pairs.push_back(SampledPair(a, b, m));
+  }
+  return pairs;
+}
+
+// The run's lens of a significant estimate `e`: the w x h camera of focal length focal_px with
+// the estimated family and coefficient k1 (the other coefficients 0).
+CameraIntrinsics LensOfEstimate(const LensEstimate& e, double focal_px, int w, int h) {
+  CameraIntrinsics lens = IntrinsicsFromFocalPx(focal_px, w, h);
+  if (e.family == RadialFamily::kFisheyeK1) {
+    lens.model = LensModel::kFisheye;
+    lens.distortion = {e.k, 0.0, 0.0, 0.0};
+  } else {
+    lens.model = LensModel::kPinhole;
+    lens.distortion = {e.k, 0.0, 0.0, 0.0, 0.0};
+  }
+  return lens;
+}
+
 }  // namespace
 
 LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_px) {
@@ -131,33 +184,8 @@ LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_p
   Surf surf(config.odometry.surf);
   Matcher matcher(config.odometry.correspondence.match);
   std::vector<LensPair> pairs;
-  const auto features = [&](const Frame& f) {
-    if (f.gray.width() != w || f.gray.height() != h) {
-      throw InputError(fmt::format("{}: {}x{} px, but the run's frames are {}x{}", f.name,
-                                   f.gray.width(), f.gray.height(), w, h));
-    }
-    return surf.DetectAndDescribe(reducer.Apply(f.gray.view())).features;
-  };
   try {
-    for (const auto& [prev, curr] : frames) {
-      const FeatureSet a = features(prev);
-      const FeatureSet b = features(curr);
-      const MatchResult m = matcher.Match(a, b);
-      // At most kLensPrepassMaxMatches, by an even stride over the matches.
-      const std::size_t n = m.matches.size();
-      const std::size_t kept = std::min<std::size_t>(n, kLensPrepassMaxMatches);
-      LensPair pair;
-      pair.prev_px.resize(2, static_cast<Eigen::Index>(kept));
-      pair.curr_px.resize(2, static_cast<Eigen::Index>(kept));
-      for (std::size_t i = 0; i < kept; ++i) {
-        const Match& match = m.matches[i * n / kept];
-        const Keypoint& p = a.keypoints[match.prev_index];
-        const Keypoint& c = b.keypoints[match.curr_index];
-        pair.prev_px.col(static_cast<Eigen::Index>(i)) = Eigen::Vector2d(p.x, p.y);
-        pair.curr_px.col(static_cast<Eigen::Index>(i)) = Eigen::Vector2d(c.x, c.y);
-      }
-      pairs.push_back(std::move(pair));
-    }
+    pairs = MatchPairs(frames, w, h, reducer, surf, matcher);
   } catch (const InputError& e) {
     out.status = "failed";
     out.why = std::string("matching the frame pairs: ") + e.what();
@@ -188,15 +216,7 @@ LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_p
   } else {
     out.status = "applied";
     out.applied = true;
-    CameraIntrinsics lens = IntrinsicsFromFocalPx(focal_px, w, h);
-    if (e.family == RadialFamily::kFisheyeK1) {
-      lens.model = LensModel::kFisheye;
-      lens.distortion = {e.k, 0.0, 0.0, 0.0};
-    } else {
-      lens.model = LensModel::kPinhole;
-      lens.distortion = {e.k, 0.0, 0.0, 0.0, 0.0};
-    }
-    out.lens = lens;
+    out.lens = LensOfEstimate(e, focal_px, w, h);
   }
   out.total_ms = total.elapsed_ms();
   return out;

@@ -191,6 +191,84 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
 
 namespace {
 
+// Decoding on its own thread (config.frame_queue > 0): *source is wrapped in a PrefetchSource,
+// which a live source fills with its newest frame only (bounded latency). Returns the wrapper,
+// nullptr when the source is not wrapped.
+PrefetchSource* WrapInPrefetch(const RunConfig& config, bool live,
+                               std::unique_ptr<FrameSource>* source) {
+  if (config.frame_queue <= 0) return nullptr;
+  PrefetchOptions po;
+  po.capacity = live ? 1 : config.frame_queue;
+  po.policy = live ? QueuePolicy::kDropOldest : QueuePolicy::kWait;
+  auto wrapped = std::make_unique<PrefetchSource>(std::move(*source), po);
+  PrefetchSource* prefetch = wrapped.get();
+  *source = std::move(wrapped);
+  return prefetch;
+}
+
+// summary.json counts what frames.csv holds, on every exit path: frames processed but never
+// written (`written` of them were; queued for the heading when a write failed) are counted apart
+// and said.
+void CountUnwrittenFrames(int written, const run_steps::LoopEnd& end, RunSummary* summary) {
+  if (written == summary->frames_processed) return;
+  summary->frames_not_written = std::max(0, summary->frames_processed - written);
+  if (summary->frames_not_written > 0) {
+    summary->warnings.push_back(fmt::format(
+        "{} of the {} frames processed are not in frames.csv nor the tracks: writing them "
+        "failed ({}); frames_processed counts the {} written",
+        summary->frames_not_written, summary->frames_processed,
+        end.failure.empty() ? std::string("see the error") : end.failure, written));
+  }
+  summary->frames_processed = written;
+}
+
+// The summary's "mavlink" object: the link's URL, message and counters.
+nlohmann::json MavlinkSummary(const RunConfig& config, const mavlink::LinkStats& st) {
+  return {{"url", config.mavlink},
+          {"message", ToString(config.mavlink_message)},
+          {"sent", st.sent},
+          {"send_failed", st.send_failed},
+          {"heartbeats", st.heartbeats},
+          {"timesync_answers", st.timesync_answers},
+          {"distance_samples", st.distance_samples},
+          {"relative_alt_samples", st.relative_alt_samples},
+          {"attitude_samples", st.attitude_samples},
+          {"autopilot_heartbeats", st.autopilot_heartbeats},
+          {"crc_errors", st.parser.crc_errors}};
+}
+
+// The telemetry's clock against the frames' (totals of a run with frames, telemetry not empty):
+// its span, and the offset seen in the motion, into the summary's warnings and offset estimate;
+// the estimate is logged.
+void CheckTelemetryTiming(const RunConfig& config, const run_steps::RunTelemetry& telemetry,
+                          const run_steps::RunTotals& t, std::ostream* log, RunSummary* summary) {
+  if (!telemetry.by_frame_index() || config.telemetry_offset_s != 0.0) {
+    const std::string w =
+        run_steps::CheckTelemetryClock(telemetry.telemetry(), telemetry.origin(), t.first_time_s,
+                                       t.last_time_s, config.telemetry_offset_s);
+    if (!w.empty()) summary->warnings.push_back(w);
+  }
+  const run_steps::OffsetEstimate e =
+      run_steps::EstimateTelemetryOffset(t.local_track, telemetry.telemetry());
+  summary->telemetry_offset_estimate_valid = e.valid;
+  summary->telemetry_offset_estimate_s = e.offset_s;
+  summary->telemetry_offset_correlation = e.correlation;
+  summary->telemetry_offset_clear = e.clear;
+  if (e.valid && log) {
+    *log << fmt::format(
+        "telemetry offset from the motion: {:+.2f} s (VO/GPS speed correlation {:.2f}{}), "
+        "applied {:+.2f} s\n",
+        e.offset_s, e.correlation, e.clear ? "" : ", not clear", config.telemetry_offset_s);
+  }
+  if (e.valid && e.clear && std::abs(e.offset_s - config.telemetry_offset_s) > 0.2) {
+    summary->warnings.push_back(fmt::format(
+        "{}: the telemetry's clock seems {:+.2f} s off the video's (VO speed against GPS "
+        "speed, correlation {:.2f}; applied {:+.2f} s): --telemetry-offset-s {:.2f}, or "
+        "--telemetry-auto-offset",
+        telemetry.origin(), e.offset_s, e.correlation, config.telemetry_offset_s, e.offset_s));
+  }
+}
+
 // Steps 2-6 of RunFlight in its prepared folder `out_dir`: the source, the telemetry, the frames
 // and the summary (not written yet). A failure of the frame loop ends it and is in the summary
 // (LoopEnd::failure); one before it (telemetry that does not parse, a link that cannot open)
@@ -204,16 +282,8 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
   // Before the source is wrapped (the duration needs the video source itself).
   const std::string source_duration = DurationOf(*source);
   // Decoding on its own thread; a live source keeps only the newest frame (bounded latency).
-  PrefetchSource* prefetch = nullptr;
   const bool live = source->IsLive();
-  if (config.frame_queue > 0) {
-    PrefetchOptions po;
-    po.capacity = live ? 1 : config.frame_queue;
-    po.policy = live ? QueuePolicy::kDropOldest : QueuePolicy::kWait;
-    auto wrapped = std::make_unique<PrefetchSource>(std::move(source), po);
-    prefetch = wrapped.get();
-    source = std::move(wrapped);
-  }
+  PrefetchSource* prefetch = WrapInPrefetch(config, live, &source);
   run_steps::RunTelemetry telemetry = run_steps::RunTelemetry::Load(
       config.telemetry, config.lenient_telemetry, folder, &summary.warnings);
   telemetry.set_offset_s(config.telemetry_offset_s);
@@ -244,62 +314,15 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
       if (end.failure.empty()) end.failure = e.what();
     }
   }
-  // summary.json counts what frames.csv holds, on every exit path: frames processed but never
-  // written (queued for the heading when a write failed) are counted apart and said.
-  if (const int written = loop.frames_written(); written != summary.frames_processed) {
-    summary.frames_not_written = std::max(0, summary.frames_processed - written);
-    if (summary.frames_not_written > 0) {
-      summary.warnings.push_back(fmt::format(
-          "{} of the {} frames processed are not in frames.csv nor the tracks: writing them "
-          "failed ({}); frames_processed counts the {} written",
-          summary.frames_not_written, summary.frames_processed,
-          end.failure.empty() ? std::string("see the error") : end.failure, written));
-    }
-    summary.frames_processed = written;
-  }
+  // summary.json counts what frames.csv holds, on every exit path.
+  CountUnwrittenFrames(loop.frames_written(), end, &summary);
   if (const mavlink::AutopilotLink* link = loop.link()) {
-    const mavlink::LinkStats st = link->stats();
-    summary.mavlink = {{"url", config.mavlink},
-                       {"message", ToString(config.mavlink_message)},
-                       {"sent", st.sent},
-                       {"send_failed", st.send_failed},
-                       {"heartbeats", st.heartbeats},
-                       {"timesync_answers", st.timesync_answers},
-                       {"distance_samples", st.distance_samples},
-                       {"relative_alt_samples", st.relative_alt_samples},
-                       {"attitude_samples", st.attitude_samples},
-                       {"autopilot_heartbeats", st.autopilot_heartbeats},
-                       {"crc_errors", st.parser.crc_errors}};
+    summary.mavlink = MavlinkSummary(config, link->stats());
   }
 
   // The telemetry's clock against the frames': its span, and the offset seen in the motion.
   if (!telemetry.empty() && loop.totals().frames > 0) {
-    const run_steps::RunTotals& t = loop.totals();
-    if (!telemetry.by_frame_index() || config.telemetry_offset_s != 0.0) {
-      const std::string w = run_steps::CheckTelemetryClock(
-          telemetry.telemetry(), telemetry.origin(), t.first_time_s, t.last_time_s,
-          config.telemetry_offset_s);
-      if (!w.empty()) summary.warnings.push_back(w);
-    }
-    const run_steps::OffsetEstimate e =
-        run_steps::EstimateTelemetryOffset(t.local_track, telemetry.telemetry());
-    summary.telemetry_offset_estimate_valid = e.valid;
-    summary.telemetry_offset_estimate_s = e.offset_s;
-    summary.telemetry_offset_correlation = e.correlation;
-    summary.telemetry_offset_clear = e.clear;
-    if (e.valid && log) {
-      *log << fmt::format(
-          "telemetry offset from the motion: {:+.2f} s (VO/GPS speed correlation {:.2f}{}), "
-          "applied {:+.2f} s\n",
-          e.offset_s, e.correlation, e.clear ? "" : ", not clear", config.telemetry_offset_s);
-    }
-    if (e.valid && e.clear && std::abs(e.offset_s - config.telemetry_offset_s) > 0.2) {
-      summary.warnings.push_back(fmt::format(
-          "{}: the telemetry's clock seems {:+.2f} s off the video's (VO speed against GPS "
-          "speed, correlation {:.2f}; applied {:+.2f} s): --telemetry-offset-s {:.2f}, or "
-          "--telemetry-auto-offset",
-          telemetry.origin(), e.offset_s, e.correlation, config.telemetry_offset_s, e.offset_s));
-    }
+    CheckTelemetryTiming(config, telemetry, loop.totals(), log, &summary);
   }
 
   // 6. Summary.
