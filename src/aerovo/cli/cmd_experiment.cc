@@ -1,6 +1,6 @@
 // `aerovo experiment illumination|ransac`: the paper's measurements on any flight (or on a
 // simulated one with exact ground truth). The work is in aerovo/pipeline/experiment.h; this file
-// maps flags, signals and terminal output onto it.
+// maps flags, signals and terminal output onto it, one subcommand per entry of Experiments().
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -25,7 +25,7 @@ namespace aerovo::cli {
 namespace {
 
 struct ExperimentArgs {
-  std::string kind;  // "illumination" | "ransac"
+  ExperimentKind kind = ExperimentKind::kIllumination;
   RunFlags run;
   std::string out = "aerovo-experiment";
   bool simulate = false;
@@ -72,14 +72,14 @@ void Execute(ExperimentArgs& a) {
     fmt::print(stderr, "aerovo experiment: --force: removed from '{}': {}\n", a.out,
                fmt::join(claim.removed, ", "));
   }
-  IlluminationOptions illumination;
-  if (a.kind == "illumination") {
-    CheckUsage([&] {
-      if (!a.k_list.empty()) illumination.k = ParseKList(a.k_list);
-      illumination.scale_threshold = a.scale_threshold;
-      Validate(illumination);
-    });
-  }
+  ExperimentOptions options;
+  CheckUsage([&] {
+    if (a.kind == ExperimentKind::kIllumination) {
+      if (!a.k_list.empty()) options.illumination.k = ParseKList(a.k_list);
+      options.illumination.scale_threshold = a.scale_threshold;
+    }
+    FindExperiment(a.kind).validate(options);
+  });
 
   if (a.simulate) {
     CheckUsage([&] {
@@ -94,7 +94,8 @@ void Execute(ExperimentArgs& a) {
     });
     const std::filesystem::path dir = std::filesystem::path(a.out) / "sim";
     if (!quiet)
-      fmt::print("aerovo experiment {}: simulating a flight into {}\n", a.kind, dir.string());
+      fmt::print("aerovo experiment {}: simulating a flight into {}\n", ToString(a.kind),
+                 dir.string());
     std::fflush(stdout);
     Progress rendering(DefaultProgressStyle(quiet));
     const SimulatedFlight flight = SimulateExperimentFlight(a.sim, dir, [&](int done, int total) {
@@ -149,9 +150,7 @@ void Execute(ExperimentArgs& a) {
   int signal = 0;
   {
     const StopSignals signals;
-    result = a.kind == "illumination"
-                 ? RunIlluminationExperiment(input, illumination, cb, signals.stop())
-                 : RunRansacExperiment(input, cb, signals.stop());
+    result = RunExperiment(a.kind, input, options, cb, signals.stop());
     signal = signals.signal();
   }
   if (result.interrupted) {
@@ -180,20 +179,20 @@ void Execute(ExperimentArgs& a) {
   if (result.interrupted) std::exit(StopSignals::ExitCode(signal));
 }
 
-void AddExperiment(CLI::App* parent, const std::string& kind, const std::string& help) {
+void AddExperiment(CLI::App* parent, const ExperimentDefinition& def) {
   auto args = std::make_shared<ExperimentArgs>();
   ExperimentArgs& a = *args;
-  a.kind = kind;
-  CLI::App* cmd = parent->add_subcommand(kind, help);
+  a.kind = def.kind;
+  CLI::App* cmd = parent->add_subcommand(ToString(def.kind), def.help);
   // The experiment sets its own parameter and output folders.
-  AddRunFlags(cmd, a.run,
-              kind == "illumination" ? std::set<std::string>{"out", "illumination_k"}
-                                     : std::set<std::string>{"out", "mode"});
+  std::set<std::string> own_keys(def.own_run_keys.begin(), def.own_run_keys.end());
+  own_keys.insert("out");
+  AddRunFlags(cmd, a.run, own_keys);
   cmd->add_option("-o,--out", a.out,
                   "Experiment folder EXP (experiment.json, tables.md, one "
                   "run folder per run)")
       ->capture_default_str();
-  if (kind == "illumination") {
+  if (def.kind == ExperimentKind::kIllumination) {
     cmd->add_option("--k", a.k_list,
                     "Illumination factors, comma separated, each in (0, 1] (default "
                     "1,0.75,0.5,0.25,0.1)");
@@ -240,12 +239,7 @@ void Register(CLI::App& app) {
       "The paper's experiments on a flight (or a simulated one): illumination (Fig. 4-6) and "
       "standard vs clustered RANSAC (Fig. 7-8)");
   exp->require_subcommand(1);
-  AddExperiment(exp, "illumination",
-                "Run the flight with brightness f_k = k f for each k; N_SURF, matches, inliers, "
-                "ATE per k and the distance of each trajectory from the k = 1 one");
-  AddExperiment(exp, "ransac",
-                "Run the flight with standard and with clustered RANSAC; time of each stage per "
-                "step, speed-up of the correspondence stage, ATE and trajectory distance");
+  for (const ExperimentDefinition& def : Experiments()) AddExperiment(exp, def);
 }
 
 }  // namespace
