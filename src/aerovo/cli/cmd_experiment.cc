@@ -54,6 +54,62 @@ std::vector<double> ParseKList(const std::string& text) {
   return out;
 }
 
+// --simulate: checks the simulation flags, simulates the flight into EXP/sim and makes it
+// `input`'s flight (video, telemetry, focal length, ground truth).
+void SimulateFlight(ExperimentArgs& a, ExperimentInput& input) {
+  const bool quiet = input.run.quiet;
+  CheckUsage([&] {
+    if (!input.run.input.empty()) {
+      throw InvalidArgument("give an input flight or --simulate, not both");
+    }
+    if (!input.run.truth.empty()) {
+      throw InvalidArgument("--truth is for a given input; --simulate has its own ground truth");
+    }
+    a.sim.sim.flight.pattern = sim::ParseFlightPattern(a.sim_pattern);
+    Validate(a.sim);
+  });
+  const std::filesystem::path dir = std::filesystem::path(a.out) / "sim";
+  if (!quiet)
+    fmt::print("aerovo experiment {}: simulating a flight into {}\n", ToString(a.kind),
+               dir.string());
+  std::fflush(stdout);
+  Progress rendering(DefaultProgressStyle(quiet));
+  const SimulatedFlight flight = SimulateExperimentFlight(
+      a.sim, dir, [&](int done, int total) { rendering.Update(done, total, "  rendering "); });
+  rendering.Finish();
+  if (!quiet) {
+    fmt::print("  {} frames, {:.0f} m flown, focal {:.1f} px; ground truth {}\n", flight.frames,
+               flight.distance_m, flight.run.focal_px, flight.ground_truth_csv.string());
+    for (const std::string& m : flight.messages) fmt::print("  note: {}\n", m);
+  }
+  input.run.input = flight.run.input;
+  input.run.telemetry = flight.run.telemetry;
+  input.run.focal_px = flight.run.focal_px;
+  input.run.hfov_deg = 0.0;
+  input.run.truth = flight.run.truth;
+}
+
+// The tables, the outputs and, unless --no-report or interrupted, the report of `result`.
+void PrintOutcome(const ExperimentArgs& a, const ExperimentResult& result) {
+  fmt::print("\n");
+  for (const ExperimentTable& t : result.tables) fmt::print("{}\n", FormatTableText(t));
+  fmt::print("Outputs: {0}/experiment.json, {0}/tables.md, runs in {0}/<", a.out);
+  for (std::size_t i = 0; i < result.runs.size(); ++i) {
+    fmt::print("{}{}", i ? "|" : "", result.runs[i].dir);
+  }
+  fmt::print(">/\n");
+  if (!a.no_report && !result.interrupted && !result.runs.empty()) {
+    try {
+      const ReportResult r = WriteReport(a.out);
+      for (const std::string& n : r.notes) fmt::print("note: {}\n", n);
+      fmt::print("Report: {} ({:.1f} s)\n", r.html.string(), r.seconds);
+    } catch (const std::exception& e) {
+      fmt::print(stderr, "warning: no report (the experiment's outputs are complete): {}\n",
+                 e.what());
+    }
+  }
+}
+
 void Execute(ExperimentArgs& a) {
   ExperimentInput input;
   input.run = CheckUsage([&] { return a.run.Resolve(); });
@@ -82,36 +138,7 @@ void Execute(ExperimentArgs& a) {
   });
 
   if (a.simulate) {
-    CheckUsage([&] {
-      if (!input.run.input.empty()) {
-        throw InvalidArgument("give an input flight or --simulate, not both");
-      }
-      if (!input.run.truth.empty()) {
-        throw InvalidArgument("--truth is for a given input; --simulate has its own ground truth");
-      }
-      a.sim.sim.flight.pattern = sim::ParseFlightPattern(a.sim_pattern);
-      Validate(a.sim);
-    });
-    const std::filesystem::path dir = std::filesystem::path(a.out) / "sim";
-    if (!quiet)
-      fmt::print("aerovo experiment {}: simulating a flight into {}\n", ToString(a.kind),
-                 dir.string());
-    std::fflush(stdout);
-    Progress rendering(DefaultProgressStyle(quiet));
-    const SimulatedFlight flight = SimulateExperimentFlight(a.sim, dir, [&](int done, int total) {
-      rendering.Update(done, total, "  rendering ");
-    });
-    rendering.Finish();
-    if (!quiet) {
-      fmt::print("  {} frames, {:.0f} m flown, focal {:.1f} px; ground truth {}\n", flight.frames,
-                 flight.distance_m, flight.run.focal_px, flight.ground_truth_csv.string());
-      for (const std::string& m : flight.messages) fmt::print("  note: {}\n", m);
-    }
-    input.run.input = flight.run.input;
-    input.run.telemetry = flight.run.telemetry;
-    input.run.focal_px = flight.run.focal_px;
-    input.run.hfov_deg = 0.0;
-    input.run.truth = flight.run.truth;
+    SimulateFlight(a, input);
   } else if (input.run.input.empty()) {
     throw InvalidArgument(
         "give an input flight (as for aerovo run: video, photo folder, with --telemetry, "
@@ -158,23 +185,7 @@ void Execute(ExperimentArgs& a) {
     fmt::print("aerovo experiment: stopped by signal {}; {} finished run(s) kept in '{}'\n", signal,
                result.runs.size(), a.out);
   }
-  fmt::print("\n");
-  for (const ExperimentTable& t : result.tables) fmt::print("{}\n", FormatTableText(t));
-  fmt::print("Outputs: {0}/experiment.json, {0}/tables.md, runs in {0}/<", a.out);
-  for (std::size_t i = 0; i < result.runs.size(); ++i) {
-    fmt::print("{}{}", i ? "|" : "", result.runs[i].dir);
-  }
-  fmt::print(">/\n");
-  if (!a.no_report && !result.interrupted && !result.runs.empty()) {
-    try {
-      const ReportResult r = WriteReport(a.out);
-      for (const std::string& n : r.notes) fmt::print("note: {}\n", n);
-      fmt::print("Report: {} ({:.1f} s)\n", r.html.string(), r.seconds);
-    } catch (const std::exception& e) {
-      fmt::print(stderr, "warning: no report (the experiment's outputs are complete): {}\n",
-                 e.what());
-    }
-  }
+  PrintOutcome(a, result);
   std::fflush(stdout);
   if (result.interrupted) std::exit(StopSignals::ExitCode(signal));
 }
