@@ -10,7 +10,8 @@
 // each object serialises its own calls (one mutex each), so sharing one between threads is
 // safe, if not parallel.
 // Errors: aerovo::InvalidArgument -> ValueError, aerovo::InputError -> aerovo.InputError (a
-// ValueError); the messages are the C++ ones (they name the field, file or frame).
+// ValueError), aerovo::OutputError -> aerovo.OutputError (an OSError: a write that failed);
+// the messages are the C++ ones (they name the field, file or frame).
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -309,6 +310,8 @@ PYBIND11_MODULE(aerovo, m) {
 
   // InvalidArgument is a std::invalid_argument: pybind11 raises ValueError for it.
   py::register_exception<InputError>(m, "InputError", PyExc_ValueError);
+  // A sibling of InputError (core/error.h), not a kind of it.
+  py::register_exception<OutputError>(m, "OutputError", PyExc_OSError);
 
   // ---- options, from the schema
   auto surf_opts = BindOptions<SurfOptions>(

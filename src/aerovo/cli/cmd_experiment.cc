@@ -1,6 +1,6 @@
 // `aerovo experiment illumination|ransac`: the paper's measurements on any flight (or on a
 // simulated one with exact ground truth). The work is in aerovo/pipeline/experiment.h; this file
-// maps flags, signals and terminal output onto it.
+// maps flags, signals and terminal output onto it, one subcommand per entry of Experiments().
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -25,7 +25,7 @@ namespace aerovo::cli {
 namespace {
 
 struct ExperimentArgs {
-  std::string kind;  // "illumination" | "ransac"
+  ExperimentKind kind = ExperimentKind::kIllumination;
   RunFlags run;
   std::string out = "aerovo-experiment";
   bool simulate = false;
@@ -54,6 +54,62 @@ std::vector<double> ParseKList(const std::string& text) {
   return out;
 }
 
+// --simulate: checks the simulation flags, simulates the flight into EXP/sim and makes it
+// `input`'s flight (video, telemetry, focal length, ground truth).
+void SimulateFlight(ExperimentArgs& a, ExperimentInput& input) {
+  const bool quiet = input.run.quiet;
+  CheckUsage([&] {
+    if (!input.run.input.empty()) {
+      throw InvalidArgument("give an input flight or --simulate, not both");
+    }
+    if (!input.run.truth.empty()) {
+      throw InvalidArgument("--truth is for a given input; --simulate has its own ground truth");
+    }
+    a.sim.sim.flight.pattern = sim::ParseFlightPattern(a.sim_pattern);
+    Validate(a.sim);
+  });
+  const std::filesystem::path dir = std::filesystem::path(a.out) / "sim";
+  if (!quiet)
+    fmt::print("aerovo experiment {}: simulating a flight into {}\n", ToString(a.kind),
+               dir.string());
+  std::fflush(stdout);
+  Progress rendering(DefaultProgressStyle(quiet));
+  const SimulatedFlight flight = SimulateExperimentFlight(
+      a.sim, dir, [&](int done, int total) { rendering.Update(done, total, "  rendering "); });
+  rendering.Finish();
+  if (!quiet) {
+    fmt::print("  {} frames, {:.0f} m flown, focal {:.1f} px; ground truth {}\n", flight.frames,
+               flight.distance_m, flight.run.focal_px, flight.ground_truth_csv.string());
+    for (const std::string& m : flight.messages) fmt::print("  note: {}\n", m);
+  }
+  input.run.input = flight.run.input;
+  input.run.telemetry = flight.run.telemetry;
+  input.run.focal_px = flight.run.focal_px;
+  input.run.hfov_deg = 0.0;
+  input.run.truth = flight.run.truth;
+}
+
+// The tables, the outputs and, unless --no-report or interrupted, the report of `result`.
+void PrintOutcome(const ExperimentArgs& a, const ExperimentResult& result) {
+  fmt::print("\n");
+  for (const ExperimentTable& t : result.tables) fmt::print("{}\n", FormatTableText(t));
+  fmt::print("Outputs: {0}/experiment.json, {0}/tables.md, runs in {0}/<", a.out);
+  for (std::size_t i = 0; i < result.runs.size(); ++i) {
+    fmt::print("{}{}", i ? "|" : "", result.runs[i].dir);
+  }
+  fmt::print(">/\n");
+  if (!a.no_report && !result.interrupted && !result.runs.empty()) {
+    try {
+      const ReportResult r = WriteReport(a.out);
+      for (const std::string& n : r.notes) fmt::print("note: {}\n", n);
+      fmt::print("Report: {} ({:.1f} s)\n", r.html.string(), r.seconds);
+    } catch (const std::exception& e) {
+      fmt::print(stderr, "warning: no report (the experiment's outputs are complete): {}\n",
+                 e.what());
+    }
+  }
+}
+
 void Execute(ExperimentArgs& a) {
   ExperimentInput input;
   input.run = CheckUsage([&] { return a.run.Resolve(); });
@@ -72,45 +128,17 @@ void Execute(ExperimentArgs& a) {
     fmt::print(stderr, "aerovo experiment: --force: removed from '{}': {}\n", a.out,
                fmt::join(claim.removed, ", "));
   }
-  IlluminationOptions illumination;
-  if (a.kind == "illumination") {
-    CheckUsage([&] {
-      if (!a.k_list.empty()) illumination.k = ParseKList(a.k_list);
-      illumination.scale_threshold = a.scale_threshold;
-      Validate(illumination);
-    });
-  }
+  ExperimentOptions options;
+  CheckUsage([&] {
+    if (a.kind == ExperimentKind::kIllumination) {
+      if (!a.k_list.empty()) options.illumination.k = ParseKList(a.k_list);
+      options.illumination.scale_threshold = a.scale_threshold;
+    }
+    FindExperiment(a.kind).validate(options);
+  });
 
   if (a.simulate) {
-    CheckUsage([&] {
-      if (!input.run.input.empty()) {
-        throw InvalidArgument("give an input flight or --simulate, not both");
-      }
-      if (!input.run.truth.empty()) {
-        throw InvalidArgument("--truth is for a given input; --simulate has its own ground truth");
-      }
-      a.sim.sim.flight.pattern = sim::ParseFlightPattern(a.sim_pattern);
-      Validate(a.sim);
-    });
-    const std::filesystem::path dir = std::filesystem::path(a.out) / "sim";
-    if (!quiet)
-      fmt::print("aerovo experiment {}: simulating a flight into {}\n", a.kind, dir.string());
-    std::fflush(stdout);
-    Progress rendering(DefaultProgressStyle(quiet));
-    const SimulatedFlight flight = SimulateExperimentFlight(a.sim, dir, [&](int done, int total) {
-      rendering.Update(done, total, "  rendering ");
-    });
-    rendering.Finish();
-    if (!quiet) {
-      fmt::print("  {} frames, {:.0f} m flown, focal {:.1f} px; ground truth {}\n", flight.frames,
-                 flight.distance_m, flight.run.focal_px, flight.ground_truth_csv.string());
-      for (const std::string& m : flight.messages) fmt::print("  note: {}\n", m);
-    }
-    input.run.input = flight.run.input;
-    input.run.telemetry = flight.run.telemetry;
-    input.run.focal_px = flight.run.focal_px;
-    input.run.hfov_deg = 0.0;
-    input.run.truth = flight.run.truth;
+    SimulateFlight(a, input);
   } else if (input.run.input.empty()) {
     throw InvalidArgument(
         "give an input flight (as for aerovo run: video, photo folder, with --telemetry, "
@@ -149,9 +177,7 @@ void Execute(ExperimentArgs& a) {
   int signal = 0;
   {
     const StopSignals signals;
-    result = a.kind == "illumination"
-                 ? RunIlluminationExperiment(input, illumination, cb, signals.stop())
-                 : RunRansacExperiment(input, cb, signals.stop());
+    result = RunExperiment(a.kind, input, options, cb, signals.stop());
     signal = signals.signal();
   }
   if (result.interrupted) {
@@ -159,41 +185,25 @@ void Execute(ExperimentArgs& a) {
     fmt::print("aerovo experiment: stopped by signal {}; {} finished run(s) kept in '{}'\n", signal,
                result.runs.size(), a.out);
   }
-  fmt::print("\n");
-  for (const ExperimentTable& t : result.tables) fmt::print("{}\n", FormatTableText(t));
-  fmt::print("Outputs: {0}/experiment.json, {0}/tables.md, runs in {0}/<", a.out);
-  for (std::size_t i = 0; i < result.runs.size(); ++i) {
-    fmt::print("{}{}", i ? "|" : "", result.runs[i].dir);
-  }
-  fmt::print(">/\n");
-  if (!a.no_report && !result.interrupted && !result.runs.empty()) {
-    try {
-      const ReportResult r = WriteReport(a.out);
-      for (const std::string& n : r.notes) fmt::print("note: {}\n", n);
-      fmt::print("Report: {} ({:.1f} s)\n", r.html.string(), r.seconds);
-    } catch (const std::exception& e) {
-      fmt::print(stderr, "warning: no report (the experiment's outputs are complete): {}\n",
-                 e.what());
-    }
-  }
+  PrintOutcome(a, result);
   std::fflush(stdout);
   if (result.interrupted) std::exit(StopSignals::ExitCode(signal));
 }
 
-void AddExperiment(CLI::App* parent, const std::string& kind, const std::string& help) {
+void AddExperiment(CLI::App* parent, const ExperimentDefinition& def) {
   auto args = std::make_shared<ExperimentArgs>();
   ExperimentArgs& a = *args;
-  a.kind = kind;
-  CLI::App* cmd = parent->add_subcommand(kind, help);
+  a.kind = def.kind;
+  CLI::App* cmd = parent->add_subcommand(ToString(def.kind), def.help);
   // The experiment sets its own parameter and output folders.
-  AddRunFlags(cmd, a.run,
-              kind == "illumination" ? std::set<std::string>{"out", "illumination_k"}
-                                     : std::set<std::string>{"out", "mode"});
+  std::set<std::string> own_keys(def.own_run_keys.begin(), def.own_run_keys.end());
+  own_keys.insert("out");
+  AddRunFlags(cmd, a.run, own_keys);
   cmd->add_option("-o,--out", a.out,
                   "Experiment folder EXP (experiment.json, tables.md, one "
                   "run folder per run)")
       ->capture_default_str();
-  if (kind == "illumination") {
+  if (def.kind == ExperimentKind::kIllumination) {
     cmd->add_option("--k", a.k_list,
                     "Illumination factors, comma separated, each in (0, 1] (default "
                     "1,0.75,0.5,0.25,0.1)");
@@ -240,12 +250,7 @@ void Register(CLI::App& app) {
       "The paper's experiments on a flight (or a simulated one): illumination (Fig. 4-6) and "
       "standard vs clustered RANSAC (Fig. 7-8)");
   exp->require_subcommand(1);
-  AddExperiment(exp, "illumination",
-                "Run the flight with brightness f_k = k f for each k; N_SURF, matches, inliers, "
-                "ATE per k and the distance of each trajectory from the k = 1 one");
-  AddExperiment(exp, "ransac",
-                "Run the flight with standard and with clustered RANSAC; time of each stage per "
-                "step, speed-up of the correspondence stage, ATE and trajectory distance");
+  for (const ExperimentDefinition& def : Experiments()) AddExperiment(exp, def);
 }
 
 }  // namespace

@@ -8,6 +8,25 @@
 
 namespace aerovo::cli {
 
+namespace {
+
+template <class T>
+bool Is(const std::exception& e) {
+  return dynamic_cast<const T*>(&e) != nullptr;
+}
+
+}  // namespace
+
+int ExitCodeForError(const std::exception& error) {
+  // The types are disjoint (core/error.h): the order of the tests carries no meaning.
+  if (Is<UsageError>(error)) return kExitUsage;
+  if (Is<InputError>(error)) return kExitFailure;
+  if (Is<OutputError>(error)) return kExitFailure;
+  if (Is<Cancelled>(error)) return kExitFailure;
+  if (Is<InternalError>(error)) return kExitFailure;
+  return kExitFailure;  // InvalidArgument, another std::exception
+}
+
 std::string ExitCodesHelp() {
   return "Exit codes:\n"
          "  0    success (also --help, --version, aerovo alone)\n"

@@ -41,6 +41,19 @@ auto CheckUsage(F&& f) -> decltype(f()) {
   }
 }
 
+/// The exit code of a command that failed with `error` (thrown out of its callback to main, which
+/// prints "aerovo: error: " + what()). The one place that maps error types to exit codes:
+///   UsageError                            kExitUsage (2)
+///   InputError   bad input data           kExitFailure (1)
+///   OutputError  a write that failed      kExitFailure (1)
+///   Cancelled    a stop request           kExitFailure (1): a command stopped by a signal exits
+///                                         128 + the signal itself (StopSignals::ExitCode in
+///                                         run_cli.h); a Cancelled reaching main names none
+///   InternalError, InvalidArgument (options not checked through CheckUsage), any other
+///   std::exception                        kExitFailure (1)
+/// CLI11's parse errors are main's own (the help and suggestion they print): not handled here.
+int ExitCodeForError(const std::exception& error);
+
 /// The "Exit codes:" paragraph of every --help.
 std::string ExitCodesHelp();
 

@@ -19,6 +19,38 @@
 namespace aerovo::cli {
 namespace {
 
+// Every error type maps to its exit code whatever the type's place in core/error.h, through
+// a reference to its base as main catches it.
+TEST(Conventions, ExitCodeForEachErrorType) {
+  const auto code = [](const std::exception& e) { return ExitCodeForError(e); };
+  EXPECT_EQ(code(UsageError("--k: 2 is not in (0, 1]")), kExitUsage);
+  EXPECT_EQ(code(InputError("frames.csv:3: bad number")), kExitFailure);
+  EXPECT_EQ(code(OutputError("cannot write 'vo.tum': No space left on device")), kExitFailure);
+  EXPECT_EQ(code(Cancelled("SURF detection")), kExitFailure);
+  EXPECT_EQ(code(InternalError("broken invariant")), kExitFailure);
+  EXPECT_EQ(code(InvalidArgument("give an input flight or --simulate")), kExitFailure);
+  EXPECT_EQ(code(std::runtime_error("other")), kExitFailure);
+  EXPECT_EQ(kExitUsage, 2);
+  EXPECT_EQ(kExitFailure, 1);
+}
+
+// OutputError is a sibling of InputError: a handler of one does not catch the other.
+TEST(Conventions, OutputErrorIsNotAnInputError) {
+  EXPECT_THROW(
+      {
+        try {
+          throw OutputError("disk full");
+        } catch (const InputError&) {
+          FAIL() << "an OutputError caught as an InputError";
+        }
+      },
+      OutputError);
+  EXPECT_THROW(throw OutputError("x"), Error);
+  EXPECT_THROW(throw InputError("x"), Error);
+  EXPECT_THROW(throw Cancelled("x"), Error);
+  EXPECT_THROW(throw InternalError("x"), Error);
+}
+
 TEST(Conventions, EditDistance) {
   EXPECT_EQ(EditDistance("", ""), 0);
   EXPECT_EQ(EditDistance("run", "run"), 0);

@@ -203,12 +203,9 @@ int main(int argc, char** argv) {
     }
     std::cerr << path << ": " << msg << "\nRun '" << path << " --help' for more information.\n";
     return kExitUsage;
-  } catch (const UsageError& e) {  // a bad option value, options that disagree
+  } catch (const std::exception& e) {  // every error of a command: UsageError, InputError, ...
     std::cerr << "aerovo: error: " << e.what() << "\n";
-    return kExitUsage;
-  } catch (const std::exception& e) {
-    std::cerr << "aerovo: error: " << e.what() << "\n";
-    return kExitFailure;
+    return ExitCodeForError(e);
   }
   // A stdout that could not be written (a full disk behind `> out.txt`, /dev/full, an I/O
   // error) lost the command's text: the exit status says so, as coreutils' do. (A reader that

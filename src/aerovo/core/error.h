@@ -4,9 +4,12 @@
 // One hierarchy under aerovo::Error for what the outside world or a stop request causes:
 //   Error
 //   ├── InputError      bad outside data: an unreadable or malformed file, stream or frame
-//   │   └── OutputError a write to an output file failed (disk full, size limit, I/O error)
+//   ├── OutputError     a write to an output file or folder failed (disk full, size limit,
+//   │                   I/O error, a folder that cannot be created)
 //   ├── Cancelled       a computation stopped by a stop request (core/cancel.h)
 //   └── InternalError   a broken invariant of aerovo itself (a bug, never the user's data)
+// The four are siblings: a handler names each type it handles (catch order carries no meaning),
+// and the CLI maps each to its exit code in one place (ExitCodeForError, cli/conventions.h).
 // InvalidArgument (bad options: the caller's bug or a bad configuration) stays a
 // std::invalid_argument so that it reads as a usage error wherever options are checked.
 #pragma once
@@ -35,11 +38,11 @@ class InputError : public Error {
   using Error::Error;
 };
 
-/// A write to an output file failed (disk full, size limit, I/O error). The message names the
-/// file and the errno text.
-class OutputError : public InputError {
+/// A write to an output file or folder failed (disk full, size limit, I/O error). The message
+/// names the file and the errno text.
+class OutputError : public Error {
  public:
-  using InputError::InputError;
+  using Error::Error;
 };
 
 /// Thrown by a computation stopped by CancelRequested() (core/cancel.h); the frame being

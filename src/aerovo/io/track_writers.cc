@@ -586,8 +586,8 @@ TrackWriterSet::TrackWriterSet(const fs::path& run_dir, const TrackWriterOptions
   std::error_code ec;
   fs::create_directories(run_dir, ec);
   if (ec || !fs::is_directory(run_dir)) {
-    throw InputError("cannot create run folder " + run_dir.string() + ": " +
-                     (ec ? ec.message() : std::string("not a directory")));
+    throw OutputError("cannot create run folder " + run_dir.string() + ": " +
+                      (ec ? ec.message() : std::string("not a directory")));
   }
   const auto p = [&](const char* name) {
     m.files.push_back(run_dir / name);

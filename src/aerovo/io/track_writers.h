@@ -60,13 +60,13 @@ class ProgressiveFile;
 /// cells for absent geo/GPS/attitude or latency). One flushed row per Append.
 class CsvFrameWriter {
  public:
-  /// Creates (truncates) `path` and writes the header. Throws InputError naming the path.
+  /// Creates (truncates) `path` and writes the header. Throws OutputError naming the path.
   explicit CsvFrameWriter(const std::filesystem::path& path);
   ~CsvFrameWriter();
   CsvFrameWriter(CsvFrameWriter&&) noexcept;
   CsvFrameWriter& operator=(CsvFrameWriter&&) noexcept;
   /// Validates `record` (InvalidArgument) and appends one row; `gps` fills the gps_* columns.
-  /// Throws InputError naming the path when the write fails.
+  /// Throws OutputError naming the path when the write fails.
   void Append(const FrameRecord& record, const std::optional<GeoPoint>& gps = std::nullopt);
   void Close();  ///< Idempotent; Append after Close throws InvalidArgument.
   const std::filesystem::path& path() const;
@@ -80,7 +80,7 @@ class CsvFrameWriter {
 /// readable by evo (`evo_traj tum vo.tum`, `evo_ape tum gps.tum vo.tum --align`).
 class TumWriter {
  public:
-  explicit TumWriter(const std::filesystem::path& path);  ///< InputError naming the path.
+  explicit TumWriter(const std::filesystem::path& path);  ///< OutputError naming the path.
   ~TumWriter();
   TumWriter(TumWriter&&) noexcept;
   TumWriter& operator=(TumWriter&&) noexcept;
@@ -102,11 +102,11 @@ class TumWriter {
 /// flushed row per frame with the 2x3 affine part of first_px_from_frame (see RunFileNames).
 class TransformsCsvWriter {
  public:
-  explicit TransformsCsvWriter(const std::filesystem::path& path);  ///< InputError naming it.
+  explicit TransformsCsvWriter(const std::filesystem::path& path);  ///< OutputError naming it.
   ~TransformsCsvWriter();
   TransformsCsvWriter(TransformsCsvWriter&&) noexcept;
   TransformsCsvWriter& operator=(TransformsCsvWriter&&) noexcept;
-  /// Appends frame `frame`'s row. Throws InputError naming the path when the write fails.
+  /// Appends frame `frame`'s row. Throws OutputError naming the path when the write fails.
   void Append(int frame, const Eigen::Matrix3d& first_px_from_frame);
   void Close();
   const std::filesystem::path& path() const;
@@ -228,12 +228,12 @@ std::string FlightNameOf(const std::string& input);
 std::string FormatUtcIso8601(double unix_time_s);
 
 /// Writes `text` to `path` atomically (temporary file `path`.tmp in the same folder, then
-/// rename), so readers see the old or the new file, never a partial one. Throws InputError
+/// rename), so readers see the old or the new file, never a partial one. Throws OutputError
 /// naming the path.
 void WriteTextFileAtomic(const std::filesystem::path& path, const std::string& text);
 
 /// Writes `value` as indented JSON to `path` atomically (WriteTextFileAtomic). Throws
-/// InputError naming the path.
+/// OutputError naming the path.
 void WriteJsonFileAtomic(const std::filesystem::path& path, const nlohmann::json& value);
 
 /// File names inside a run folder.
@@ -289,7 +289,7 @@ struct TrackWriterOptions {
 /// those names are replaced. Not thread-safe.
 class TrackWriterSet {
  public:
-  /// Creates `run_dir` (and parents) if needed and opens the outputs. Throws InputError naming
+  /// Creates `run_dir` (and parents) if needed and opens the outputs. Throws OutputError naming
   /// the folder or file that cannot be created, InvalidArgument for invalid options.
   explicit TrackWriterSet(const std::filesystem::path& run_dir,
                           const TrackWriterOptions& options = {});
@@ -301,7 +301,7 @@ class TrackWriterSet {
   /// (same time_s), added to the CSV gps_* columns and, unless record.gps_flag marks it rejected
   /// (non-empty), to the gps.* tracks. The VO geo tracks
   /// only get frames with record.geo. Throws InvalidArgument for an invalid record/gps (nothing
-  /// is written then), InputError naming the file when a write fails.
+  /// is written then), OutputError naming the file when a write fails.
   void Append(const FrameRecord& record, const std::optional<GeoPoint>& gps = std::nullopt);
   /// Sets the origin of the ENU frame (TrackWriterOptions::enu_origin) when it is known only
   /// after the writers were opened (the run's origin is its first accepted GPS fix, which a

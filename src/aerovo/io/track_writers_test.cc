@@ -660,17 +660,17 @@ TEST_F(TrackWritersTest, UnwritablePathsNameThePath) {
   try {
     TrackWriterSet set(blocker / "run1");
     FAIL();
-  } catch (const InputError& e) {
+  } catch (const OutputError& e) {
     EXPECT_NE(std::string(e.what()).find((blocker / "run1").string()), std::string::npos)
         << e.what();
   }
   try {
     CsvFrameWriter w(dir_ / "missing" / "frames.csv");
     FAIL();
-  } catch (const InputError& e) {
+  } catch (const OutputError& e) {
     EXPECT_NE(std::string(e.what()).find("missing/frames.csv"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(WriteJsonFileAtomic(dir_ / "missing" / "summary.json", json::object()), InputError);
+  EXPECT_THROW(WriteJsonFileAtomic(dir_ / "missing" / "summary.json", json::object()), OutputError);
   EXPECT_THROW(KmlTrackWriter(dir_ / "a.kml", "a", "red"), InvalidArgument);
 }
 

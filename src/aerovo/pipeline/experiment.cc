@@ -278,11 +278,7 @@ nlohmann::json ToJson(const ExperimentResult& r) {
   nlohmann::json runs = nlohmann::json::array();
   for (const ExperimentRun& run : r.runs) {
     nlohmann::json j{{"label", run.label}, {"dir", run.dir}};
-    if (r.kind == "illumination") {
-      j["k"] = run.k;
-    } else {
-      j["mode"] = run.mode;
-    }
+    FindExperiment(r.kind).describe_run(run, &j);
     runs.push_back(j);
   }
   nlohmann::json tables = nlohmann::json::object();
@@ -304,7 +300,7 @@ nlohmann::json ToJson(const ExperimentResult& r) {
     tables[t.name] = {{"columns", t.columns}, {"rows", rows}};
   }
   return nlohmann::json{
-      {"kind", r.kind},
+      {"kind", ToString(r.kind)},
       {"runs", runs},
       {"ground_truth", r.ground_truth.empty() ? nlohmann::json() : nlohmann::json(r.ground_truth)},
       {"tables", tables}};
@@ -562,15 +558,9 @@ std::vector<ExperimentTable> RansacTables(const std::vector<ExperimentRun>& runs
 
 namespace {
 
-struct PlannedRun {
-  std::string label, dir, mode;
-  double k = 1.0;
-  RunConfig config;
-};
-
 void WriteOutputs(const ExperimentResult& result) {
   WriteJsonFileAtomic(result.out_dir / "experiment.json", ToJson(result));
-  std::string md = fmt::format("## Experiment: {}\n\nRuns: ", result.kind);
+  std::string md = fmt::format("## Experiment: {}\n\nRuns: ", ToString(result.kind));
   for (std::size_t i = 0; i < result.runs.size(); ++i) {
     md += (i ? ", " : "") + result.runs[i].label + " (`" + result.runs[i].dir + "/`)";
   }
@@ -591,22 +581,23 @@ bool IsGroundTruthCsv(const std::string& path) {
   }
 }
 
-ExperimentResult RunExperiment(
-    const std::string& kind, const ExperimentInput& input, const std::vector<PlannedRun>& plan,
-    const std::function<std::vector<ExperimentTable>(const std::vector<ExperimentRun>&)>& tables,
-    const ExperimentCallbacks& cb, const std::atomic<bool>* stop) {
+// Runs `plan` of experiment `def`, writing EXP after every finished run.
+ExperimentResult RunPlanned(const ExperimentDefinition& def, const ExperimentInput& input,
+                            const std::vector<PlannedRun>& plan, const ExperimentCallbacks& cb,
+                            const std::atomic<bool>* stop) {
+  const auto tables = def.tables;
   namespace fs = std::filesystem;
   if (input.out_dir.empty()) throw InvalidArgument("experiment: the output folder is empty");
   for (const PlannedRun& p : plan) Validate(p.config);  // every bad option before any work
 
   ExperimentResult result;
-  result.kind = kind;
+  result.kind = def.kind;
   result.out_dir = input.out_dir;
   std::error_code ec;
   fs::create_directories(input.out_dir, ec);
   if (ec) {
-    throw InputError("cannot create output folder '" + input.out_dir.string() +
-                     "': " + ec.message());
+    throw OutputError("cannot create output folder '" + input.out_dir.string() +
+                      "': " + ec.message());
   }
   result.tables = tables(result.runs);
   WriteOutputs(result);
@@ -652,13 +643,10 @@ ExperimentResult RunExperiment(
   return result;
 }
 
-}  // namespace
-
-ExperimentResult RunIlluminationExperiment(const ExperimentInput& input,
-                                           const IlluminationOptions& options,
-                                           const ExperimentCallbacks& callbacks,
-                                           const std::atomic<bool>* stop) {
-  Validate(options);
+// The runs of the illumination experiment: one per k.
+std::vector<PlannedRun> PlanIllumination(const ExperimentInput& input,
+                                         const ExperimentOptions& experiment) {
+  const IlluminationOptions& options = experiment.illumination;
   std::vector<PlannedRun> plan;
   for (double k : options.k) {
     PlannedRun p;
@@ -674,12 +662,11 @@ ExperimentResult RunIlluminationExperiment(const ExperimentInput& input,
     p.mode = options::EnumName(p.config.odometry.correspondence.method);
     plan.push_back(std::move(p));
   }
-  return RunExperiment("illumination", input, plan, IlluminationTables, callbacks, stop);
+  return plan;
 }
 
-ExperimentResult RunRansacExperiment(const ExperimentInput& input,
-                                     const ExperimentCallbacks& callbacks,
-                                     const std::atomic<bool>* stop) {
+// The runs of the ransac experiment: standard, then clustered.
+std::vector<PlannedRun> PlanRansac(const ExperimentInput& input, const ExperimentOptions&) {
   std::vector<PlannedRun> plan;
   for (const CorrespondenceMethod method :
        {CorrespondenceMethod::kStandard, CorrespondenceMethod::kClustered}) {
@@ -691,7 +678,62 @@ ExperimentResult RunRansacExperiment(const ExperimentInput& input,
     p.k = p.config.illumination_k;
     plan.push_back(std::move(p));
   }
-  return RunExperiment("ransac", input, plan, RansacTables, callbacks, stop);
+  return plan;
+}
+
+}  // namespace
+
+const std::vector<ExperimentDefinition>& Experiments() {
+  static const std::vector<ExperimentDefinition> kExperiments = {
+      {ExperimentKind::kIllumination,
+       "Run the flight with brightness f_k = k f for each k; N_SURF, matches, inliers, ATE per k "
+       "and the distance of each trajectory from the k = 1 one",
+       {"illumination_k"},
+       [](const ExperimentOptions& o) { Validate(o.illumination); },
+       PlanIllumination,
+       IlluminationTables,
+       [](const ExperimentRun& run, nlohmann::json* entry) { (*entry)["k"] = run.k; }},
+      {ExperimentKind::kRansac,
+       "Run the flight with standard and with clustered RANSAC; time of each stage per step, "
+       "speed-up of the correspondence stage, ATE and trajectory distance",
+       {"mode"},
+       [](const ExperimentOptions&) {},
+       PlanRansac,
+       RansacTables,
+       [](const ExperimentRun& run, nlohmann::json* entry) { (*entry)["mode"] = run.mode; }},
+  };
+  return kExperiments;
+}
+
+const ExperimentDefinition& FindExperiment(ExperimentKind kind) {
+  for (const ExperimentDefinition& def : Experiments()) {
+    if (def.kind == kind) return def;
+  }
+  throw InternalError(std::string("experiment '") + ToString(kind) + "' has no registry entry");
+}
+
+ExperimentResult RunExperiment(ExperimentKind kind, const ExperimentInput& input,
+                               const ExperimentOptions& options,
+                               const ExperimentCallbacks& callbacks,
+                               const std::atomic<bool>* stop) {
+  const ExperimentDefinition& def = FindExperiment(kind);
+  def.validate(options);
+  return RunPlanned(def, input, def.plan(input, options), callbacks, stop);
+}
+
+ExperimentResult RunIlluminationExperiment(const ExperimentInput& input,
+                                           const IlluminationOptions& options,
+                                           const ExperimentCallbacks& callbacks,
+                                           const std::atomic<bool>* stop) {
+  ExperimentOptions o;
+  o.illumination = options;
+  return RunExperiment(ExperimentKind::kIllumination, input, o, callbacks, stop);
+}
+
+ExperimentResult RunRansacExperiment(const ExperimentInput& input,
+                                     const ExperimentCallbacks& callbacks,
+                                     const std::atomic<bool>* stop) {
+  return RunExperiment(ExperimentKind::kRansac, input, ExperimentOptions{}, callbacks, stop);
 }
 
 }  // namespace aerovo

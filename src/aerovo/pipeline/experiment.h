@@ -1,6 +1,8 @@
 // Experiments that reproduce the paper's measurements on any flight (../shared/docs/METHOD.md,
 // "What the paper measures"): the same flight run several times with one parameter changed, every
-// run a normal run folder (RunFlight), and tables comparing the runs.
+// run a normal run folder (RunFlight), and tables comparing the runs. The experiments are the
+// entries of Experiments() below, one per ExperimentKind (report/experiment_kind.h: how to add
+// one):
 //
 //   illumination  Fig. 4-6: brightness f_k = k f for k in a list (RunConfig::illumination_k);
 //                 interest points, matches, inliers and the trajectory per k, and how far each
@@ -37,6 +39,7 @@
 #include "aerovo/eval/trajectory_eval.h"
 #include "aerovo/io/frame_record.h"
 #include "aerovo/pipeline/runner.h"
+#include "aerovo/report/experiment_kind.h"
 #include "aerovo/sim/simulator.h"
 
 namespace aerovo {
@@ -124,7 +127,8 @@ struct SimulatedFlight {
 
 /// Renders `options` into `dir` as `aerovo simulate` does (H.264 video, DJI SRT,
 /// GPX, ground truth, sim.json). `progress(done, total)` is called as frames are written.
-/// Throws InvalidArgument for bad options, InputError when a file cannot be read or written.
+/// Throws InvalidArgument for bad options, InputError when a file cannot be read, OutputError when
+/// one cannot be written.
 SimulatedFlight SimulateExperimentFlight(const ExperimentSimulation& options,
                                          const std::filesystem::path& dir,
                                          const std::function<void(int, int)>& progress = {});
@@ -199,7 +203,7 @@ double DistanceFlownM(const ExperimentRun& run);
 std::vector<double> StageTimesMs(const ExperimentRun& run, const std::string& stage);
 
 struct ExperimentResult {
-  std::string kind;  ///< "illumination" or "ransac".
+  ExperimentKind kind = ExperimentKind::kIllumination;
   std::filesystem::path out_dir;
   std::vector<ExperimentRun> runs;  ///< Finished runs, in run order.
   std::string ground_truth;         ///< As written in experiment.json; empty = null.
@@ -230,15 +234,63 @@ struct ExperimentCallbacks {
   std::function<void(int index, int total, const ExperimentRun& run)> run_finished;
 };
 
-/// Runs the flight once per k (RunConfig::illumination_k = k), writing EXP as above. Stops
-/// cleanly when `stop` becomes true (the interrupted run is not listed). Throws InvalidArgument
-/// for bad options (before running anything), InputError for unreadable input.
+// ---------------------------------------------------------------------------------------------
+// The registry of experiments
+
+/// The options of the experiments that have any; each experiment reads its own.
+struct ExperimentOptions {
+  IlluminationOptions illumination;  ///< kIllumination.
+};
+
+/// One run an experiment plans.
+struct PlannedRun {
+  std::string label;  ///< As ExperimentRun::label.
+  std::string dir;    ///< Folder under out_dir.
+  std::string mode;   ///< Correspondence mode of the run.
+  double k = 1.0;     ///< Illumination factor of the run.
+  RunConfig config;   ///< Everything of the run, `out` included (out_dir / dir).
+};
+
+/// One experiment: everything the driver (RunExperiment), experiment.json and the CLI need of
+/// it. Its figures are the report's (kExperimentFigures in report/html_report.cc).
+struct ExperimentDefinition {
+  ExperimentKind kind;
+  /// The description of its `aerovo experiment` subcommand.
+  const char* help;
+  /// The run flags the experiment sets itself, by option key (RunConfig's schema): its command
+  /// does not offer them.
+  std::vector<std::string> own_run_keys;
+  /// Throws InvalidArgument for bad options of the experiment (called before any work).
+  void (*validate)(const ExperimentOptions& options);
+  /// The runs, in order: input.run with the experiment's parameter changed.
+  std::vector<PlannedRun> (*plan)(const ExperimentInput& input, const ExperimentOptions& options);
+  /// The tables of experiment.json and tables.md from the finished runs (may be none).
+  std::vector<ExperimentTable> (*tables)(const std::vector<ExperimentRun>& runs);
+  /// The experiment's parameter in the run's entry of experiment.json ("k" or "mode").
+  void (*describe_run)(const ExperimentRun& run, nlohmann::json* entry);
+};
+
+/// Every experiment, one per ExperimentKind, in enum order.
+const std::vector<ExperimentDefinition>& Experiments();
+/// The entry of `kind`.
+const ExperimentDefinition& FindExperiment(ExperimentKind kind);
+
+/// Runs experiment `kind` (its plan), writing EXP as above. Stops cleanly when `stop` becomes
+/// true (the interrupted run is not listed). Throws InvalidArgument for bad options (before
+/// running anything), InputError for unreadable input, OutputError when EXP cannot be written.
+ExperimentResult RunExperiment(ExperimentKind kind, const ExperimentInput& input,
+                               const ExperimentOptions& options,
+                               const ExperimentCallbacks& callbacks = {},
+                               const std::atomic<bool>* stop = nullptr);
+
+/// RunExperiment(kIllumination): the flight once per k (RunConfig::illumination_k = k).
 ExperimentResult RunIlluminationExperiment(const ExperimentInput& input,
                                            const IlluminationOptions& options,
                                            const ExperimentCallbacks& callbacks = {},
                                            const std::atomic<bool>* stop = nullptr);
 
-/// Runs the flight with mode "standard", then "clustered", everything else equal. As above.
+/// RunExperiment(kRansac): the flight with mode "standard", then "clustered", everything else
+/// equal.
 ExperimentResult RunRansacExperiment(const ExperimentInput& input,
                                      const ExperimentCallbacks& callbacks = {},
                                      const std::atomic<bool>* stop = nullptr);

@@ -118,6 +118,65 @@ TEST(ExperimentOptions, BadIlluminationOptionsAreClearErrors) {
                InvalidArgument);
 }
 
+// The registry: one entry per ExperimentKind, in enum order, each complete; the names are the
+// subcommands and experiment.json's "kind".
+TEST(ExperimentRegistry, EveryKindOnce) {
+  ASSERT_EQ(Experiments().size(), kNumExperimentKinds);
+  for (std::size_t i = 0; i < kNumExperimentKinds; ++i) {
+    const ExperimentDefinition& def = Experiments()[i];
+    EXPECT_EQ(def.kind, kAllExperimentKinds[i]);
+    EXPECT_EQ(&FindExperiment(def.kind), &def);
+    EXPECT_NE(std::string(def.help), "");
+    EXPECT_FALSE(def.own_run_keys.empty());
+    EXPECT_NE(def.validate, nullptr);
+    EXPECT_NE(def.plan, nullptr);
+    EXPECT_NE(def.tables, nullptr);
+    EXPECT_NE(def.describe_run, nullptr);
+  }
+  EXPECT_EQ(options::EnumNames<ExperimentKind>(),
+            (std::vector<std::string>{"illumination", "ransac"}));
+  EXPECT_EQ(ParseExperimentKind("ransac"), ExperimentKind::kRansac);
+  EXPECT_EQ(ParseExperimentKind("Ransac"), std::nullopt);
+}
+
+// What each experiment plans: its parameter changed, everything else as given, one folder each.
+TEST(ExperimentRegistry, PlansChangeOnlyTheirParameter) {
+  ExperimentInput in;
+  in.run.input = "flight.mp4";
+  in.run.odometry.surf.hessian_threshold = 400.0;
+  in.out_dir = "EXP";
+  ExperimentOptions o;
+  o.illumination.k = {1.0, 0.5};
+  o.illumination.scale_threshold = true;
+  const std::vector<PlannedRun> ill = FindExperiment(ExperimentKind::kIllumination).plan(in, o);
+  ASSERT_EQ(ill.size(), 2u);
+  EXPECT_EQ(ill[1].label, "k=0.50");
+  EXPECT_EQ(ill[1].dir, "k0.50");
+  EXPECT_EQ(ill[1].config.out, (fs::path("EXP") / "k0.50").string());
+  EXPECT_DOUBLE_EQ(ill[1].config.illumination_k, 0.5);
+  EXPECT_DOUBLE_EQ(ill[1].config.odometry.surf.hessian_threshold, 100.0);  // 400 x 0.5^2
+  EXPECT_EQ(ill[1].config.input, "flight.mp4");
+
+  const std::vector<PlannedRun> ransac = FindExperiment(ExperimentKind::kRansac).plan(in, o);
+  ASSERT_EQ(ransac.size(), 2u);
+  EXPECT_EQ(ransac[0].dir, "standard");
+  EXPECT_EQ(ransac[1].dir, "clustered");
+  EXPECT_EQ(ransac[0].config.odometry.correspondence.method, CorrespondenceMethod::kStandard);
+  EXPECT_EQ(ransac[1].config.odometry.correspondence.method, CorrespondenceMethod::kClustered);
+  EXPECT_DOUBLE_EQ(ransac[1].config.odometry.surf.hessian_threshold, 400.0);
+
+  ExperimentRun run;
+  run.k = 0.25;
+  run.mode = "clustered";
+  nlohmann::json a = nlohmann::json::object(), b = nlohmann::json::object();
+  FindExperiment(ExperimentKind::kIllumination).describe_run(run, &a);
+  FindExperiment(ExperimentKind::kRansac).describe_run(run, &b);
+  EXPECT_EQ(a, (nlohmann::json{{"k", 0.25}}));
+  EXPECT_EQ(b, (nlohmann::json{{"mode", "clustered"}}));
+  EXPECT_THROW(FindExperiment(ExperimentKind::kIllumination).validate(ExperimentOptions{{{2.0}}}),
+               InvalidArgument);
+}
+
 TEST(ExperimentOptions, ScaleBrightnessRoundsHalfUp) {
   GrayImage in(6, 2);
   const std::uint8_t values[6] = {0, 1, 3, 100, 254, 255};

@@ -19,7 +19,9 @@
 #include "aerovo/eval/trajectory_eval_json.h"
 #include "aerovo/geo/local_enu.h"
 #include "aerovo/io/track_writers.h"
+#include "aerovo/report/experiment_kind.h"
 #include "aerovo/report/geo_mosaic.h"
+#include "aerovo/report/html_builder.h"
 #include "aerovo/report/leaflet_assets.h"
 #include "aerovo/report/run_reader.h"
 #include "aerovo/report/style.h"
@@ -133,34 +135,43 @@ std::string JsonString(const nlohmann::json& j, const char* key) {
 
 struct Page {
   std::string title;
-  std::string body;
-  int figures = 0;  // <svg> figures and <img> expected to render
+  HtmlBuilder body;  // the page's content, between the <h1> and the self-check script
+  int figures = 0;   // <svg> figures and <img> expected to render
   std::string head;  // more of <head>: the map's Leaflet CSS and JS when the page has a map
 
   void H2(const std::string& text, const std::string& id = "") {
-    body += "<h2" + (id.empty() ? std::string() : " id=\"" + id + "\"") + ">" + XmlEscape(text) +
-            "</h2>\n";
+    body.Element("h2", id.empty() ? HtmlBuilder::Attributes{} : HtmlBuilder::Attributes{{"id", id}},
+                 text)
+        .Newline();
   }
-  void Para(const std::string& html) { body += "<p>" + html + "</p>\n"; }
-  void Note(const std::string& text) { body += "<p class=\"note\">" + XmlEscape(text) + "</p>\n"; }
+  /// A paragraph of markup (`html` is HTML, not text).
+  void Para(const std::string& html) { body.Open("p").Raw(html).Close("p").Newline(); }
+  /// A paragraph of markup built with HtmlBuilder.
+  void Para(const HtmlBuilder& html) { Para(html.str()); }
+  void Note(const std::string& text) { body.Element("p", {{"class", "note"}}, text).Newline(); }
   void Table(const std::vector<std::string>& header,
              const std::vector<std::vector<std::string>>& rows, const std::string& cls = "") {
-    body += "<table" + (cls.empty() ? std::string() : " class=\"" + cls + "\"") + ">\n";
+    body.Open("table",
+              cls.empty() ? HtmlBuilder::Attributes{} : HtmlBuilder::Attributes{{"class", cls}})
+        .Newline();
     if (!header.empty()) {
-      body += "<thead><tr>";
-      for (const std::string& h : header) body += "<th>" + XmlEscape(h) + "</th>";
-      body += "</tr></thead>\n";
+      body.Open("thead").Open("tr");
+      for (const std::string& h : header) body.Element("th", {}, h);
+      body.Close("tr").Close("thead").Newline();
     }
-    body += "<tbody>\n";
+    body.Open("tbody").Newline();
     for (const auto& r : rows) {
-      body += "<tr>";
+      body.Open("tr");
       for (std::size_t i = 0; i < r.size(); ++i) {
-        body += (i == 0 ? "<th scope=\"row\">" : "<td>") + XmlEscape(r[i]) +
-                (i == 0 ? "</th>" : "</td>");
+        if (i == 0) {
+          body.Element("th", {{"scope", "row"}}, r[i]);
+        } else {
+          body.Element("td", {}, r[i]);
+        }
       }
-      body += "</tr>\n";
+      body.Close("tr").Newline();
     }
-    body += "</tbody></table>\n";
+    body.Close("tbody").Close("table").Newline();
   }
 
   std::string Html() const {
@@ -176,7 +187,7 @@ struct Page {
          "data:; style-src 'unsafe-inline'; script-src 'unsafe-inline'\">\n";
     h += "<script>window.aerovoBlocked=[];document.addEventListener('securitypolicyviolation',"
          "function(e){window.aerovoBlocked.push(e.blockedURI||e.violatedDirective);});</script>\n";
-    h += "<title>" + XmlEscape(title) + "</title>\n<style>\n";
+    h += HtmlBuilder().Element("title", {}, title).str() + "\n<style>\n";
     h +=
         R"(body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,"DejaVu Sans",sans-serif;margin:0 auto;max-width:1280px;padding:1em 2em;color:#1b1b1b;background:#fff}
 h1{font-size:1.6em;margin-bottom:.2em}h2{border-bottom:1px solid #ccc;padding-bottom:.2em;margin-top:1.6em}
@@ -196,8 +207,8 @@ figcaption{font-size:.9em;color:#444;margin-top:.3em;text-align:center}
 )";
     h += "</style>\n" + head + "</head>\n";
     h += fmt::format("<body data-figures-expected=\"{}\">\n", figures);
-    h += "<h1>" + XmlEscape(title) + "</h1>\n";
-    h += body;
+    h += HtmlBuilder().Element("h1", {}, title).Newline().str();
+    h += body.str();
     // Self-check for headless browsers (report_browser_test): each figure laid out with a
     // non-zero size and drawn, each image decoded.
     h += R"(<script>
@@ -271,11 +282,13 @@ class FigureSink {
     result_.figures.push_back(files.svg);
     if (!files.png.empty()) result_.figures.push_back(files.png);
     const std::string rel = std::string(ReportFileNames::kFiguresDir) + "/" + figure.name;
-    page_.body += "<figure class=\"plot\" id=\"fig-" + figure.name + "\">\n";
-    page_.body += InlineSvg(files.svg, figure.name + "-");
-    page_.body += "\n<figcaption>" + XmlEscape(caption) + " — <a href=\"" + rel + ".svg\">SVG</a>";
-    if (!files.png.empty()) page_.body += " · <a href=\"" + rel + ".png\">PNG</a>";
-    page_.body += " · <a href=\"" + rel + ".gp\">gnuplot script</a></figcaption>\n</figure>\n";
+    HtmlBuilder& b = page_.body;
+    b.Open("figure", {{"class", "plot"}, {"id", "fig-" + figure.name}}).Newline();
+    b.Raw(InlineSvg(files.svg, figure.name + "-")).Newline();
+    b.Open("figcaption").Text(caption + " — ").Element("a", {{"href", rel + ".svg"}}, "SVG");
+    if (!files.png.empty()) b.Text(" · ").Element("a", {{"href", rel + ".png"}}, "PNG");
+    b.Text(" · ").Element("a", {{"href", rel + ".gp"}}, "gnuplot script").Close("figcaption");
+    b.Newline().Close("figure").Newline();
     ++page_.figures;
     if (options_.log) *options_.log << "  figure " << files.svg.string() << "\n";
   }
@@ -287,10 +300,13 @@ class FigureSink {
     const std::string mime = (ext == ".png") ? "image/png" : "image/jpeg";
     const std::string rel =
         std::string(ReportFileNames::kFiguresDir) + "/" + file.filename().string();
-    page_.body += "<figure class=\"image\"><img id=\"" + id + "\" alt=\"" + XmlEscape(caption) +
-                  "\" src=\"data:" + mime + ";base64," + Base64(ReadFile(file)) + "\">\n";
-    page_.body += "<figcaption>" + XmlEscape(caption) + " — <a href=\"" + rel + "\">" +
-                  XmlEscape(file.filename().string()) + "</a></figcaption></figure>\n";
+    const std::string src = "data:" + mime + ";base64," + Base64(ReadFile(file));
+    HtmlBuilder& b = page_.body;
+    b.Open("figure", {{"class", "image"}})
+        .Open("img", {{"id", id}, {"alt", caption}, {"src", src}});
+    b.Newline().Open("figcaption").Text(caption + " — ");
+    b.Element("a", {{"href", rel}}, file.filename().string()).Close("figcaption").Close("figure");
+    b.Newline();
     ++page_.figures;
   }
 
@@ -486,31 +502,33 @@ void AnswerBox(Page& page, const nlohmann::json& s) {
   const double processed = JsonNumber(s, {"frames_processed"}, 0);
   const double ok = JsonNumber(s, {"frames_ok"}, 0) + JsonNumber(s, {"frames_reacquired"}, 0);
   const double bridged = JsonNumber(s, {"frames_bridged"}, 0);
-  std::string a = fmt::format("<strong>Tracked {:.0f} of {:.0f} frames</strong>", ok, processed);
-  if (bridged > 0) a += fmt::format(" ({:.0f} bridged with the previous motion)", bridged);
+  HtmlBuilder a;
+  a.Element("strong", {}, fmt::format("Tracked {:.0f} of {:.0f} frames", ok, processed));
+  if (bridged > 0) a.Text(fmt::format(" ({:.0f} bridged with the previous motion)", bridged));
   const nlohmann::json none;
   const nlohmann::json& ev = s.contains("evaluation") ? s["evaluation"] : none;
   if (ev.is_object() && ev.contains("se2")) {
     const nlohmann::json& e = ev["se2"];
-    a += fmt::format(
-        " over {} m flown (GPS). <strong>End error against GPS: {} m ({} % of the distance)"
-        "</strong> after the SE(2) alignment, {} m as geo-referenced (no alignment); ATE RMSE "
-        "{} m.",
-        Num(JsonNumber(e, {"distance_flown_m"}), 0), Metres(JsonNumber(e, {"end_point_error_m"})),
-        Metres(JsonNumber(e, {"end_point_error_percent"})),
+    a.Text(fmt::format(" over {} m flown (GPS). ", Num(JsonNumber(e, {"distance_flown_m"}), 0)));
+    a.Element("strong", {},
+              fmt::format("End error against GPS: {} m ({} % of the distance)",
+                          Metres(JsonNumber(e, {"end_point_error_m"})),
+                          Metres(JsonNumber(e, {"end_point_error_percent"}))));
+    a.Text(fmt::format(
+        " after the SE(2) alignment, {} m as geo-referenced (no alignment); ATE RMSE {} m.",
         Metres(JsonNumber(e, {"end_point_error_unaligned_m"})),
-        Metres(JsonNumber(e, {"ate_m", "rmse"})));
+        Metres(JsonNumber(e, {"ate_m", "rmse"}))));
   } else {
     const std::string note = s.contains("gps_comparison_note") &&
                                      s["gps_comparison_note"].is_string() &&
                                      !s["gps_comparison_note"].get<std::string>().empty()
                                  ? s["gps_comparison_note"].get<std::string>()
                                  : std::string("fewer than 3 frames with a fix");
-    a += fmt::format(", VO path {} m. No comparison with GPS ({}).",
-                     Num(JsonNumber(s, {"vo_path_length_m"}), 0), XmlEscape(note));
+    a.Text(fmt::format(", VO path {} m. No comparison with GPS ({}).",
+                       Num(JsonNumber(s, {"vo_path_length_m"}), 0), note));
   }
-  if (s.value("interrupted", false)) a += " The run was interrupted.";
-  page.body += "<p class=\"answer\" id=\"answer\">" + a + "</p>\n";
+  if (s.value("interrupted", false)) a.Text(" The run was interrupted.");
+  page.body.Open("p", {{"class", "answer"}, {"id", "answer"}}).Raw(a.str()).Close("p").Newline();
 }
 
 // What the comparison's numbers mean (eval/trajectory_eval.h), beside the table; `ev` its
@@ -550,7 +568,7 @@ void ExplainEvaluation(Page& page, const nlohmann::json& ev) {
        "wherever the error accumulated. Over short segments GPS noise dominates: a fix 1 m "
        "off alone makes 10 % over 10 m, so a large drift over 10 m with a small drift over "
        "100 m is GPS noise, not VO.</p></div>\n";
-  page.body += h;
+  page.body.Raw(h);  // literal markup and numbers
 }
 
 // The comparisons with GPS and the ground truth, with their explanation.
@@ -568,8 +586,10 @@ void ComparisonTables(Page& page, const nlohmann::json& s) {
   }
   if (s.contains("truth_evaluation") && s["truth_evaluation"].is_object()) {
     page.H2("Comparison with the ground truth", "truth");
-    page.Para("Against <code>" + XmlEscape(JsonString(s, "truth")) +
-              "</code> (frames matched by time), aligned as above.");
+    page.Para(HtmlBuilder()
+                  .Text("Against ")
+                  .Element("code", {}, JsonString(s, "truth"))
+                  .Text(" (frames matched by time), aligned as above."));
     EvaluationTable(page, s["truth_evaluation"]);
   }
 }
@@ -1085,21 +1105,17 @@ void MapSection(const fs::path& dir, const RunData& run, const RunComparison& cm
   if (!note.empty()) AddNote(page, result, note);
   page.head += "<style>\n" + LeafletCssInline() + "\n</style>\n<script>\n" +
                leaflet::LicenceComment() + std::string(leaflet::Js()) + "\n</script>\n";
-  std::string legend = "<p class=\"map-legend\">";
-  legend += "<span style=\"background:" + style::Hex(style::kVo) + "\"></span>VO (" +
-            fmt::format("{}", data["vo"].size()) + " geo-referenced frames)";
-  legend += "<span style=\"background:" + style::Hex(style::kGps) + "\"></span>GPS (" +
-            fmt::format("{}", data["gps"].size()) + " fixes)";
-  if (!data["truth"].empty()) {
-    legend += "<span style=\"background:" + style::Hex(style::kTruth) + "\"></span>ground truth";
-  }
-  if (!data["bridged"].empty()) {
-    legend +=
-        "<span style=\"background:" + style::Hex(style::kBridged) + "\"></span>bridged frames";
-  }
-  legend += "</p>\n";
-  page.body += legend;
-  page.body += "<div id=\"aerovo-map\"></div>\n";
+  HtmlBuilder& b = page.body;
+  const auto key = [&b](style::Rgb colour, const std::string& text) {
+    b.Open("span", {{"style", "background:" + style::Hex(colour)}}).Close("span").Text(text);
+  };
+  b.Open("p", {{"class", "map-legend"}});
+  key(style::kVo, fmt::format("VO ({} geo-referenced frames)", data["vo"].size()));
+  key(style::kGps, fmt::format("GPS ({} fixes)", data["gps"].size()));
+  if (!data["truth"].empty()) key(style::kTruth, "ground truth");
+  if (!data["bridged"].empty()) key(style::kBridged, "bridged frames");
+  b.Close("p").Newline();
+  page.body.Open("div", {{"id", "aerovo-map"}}).Close("div").Newline();
   page.Para(std::string("Drag to pan, scroll to zoom; hover over the VO track for a frame's index, "
                         "status and distance to its GPS fix. The tracks are drawn as the run wrote "
                         "them (VO geo-referenced at the first fix, no alignment); tick \"VO, "
@@ -1112,8 +1128,9 @@ void MapSection(const fs::path& dir, const RunData& run, const RunComparison& cm
        pos = json.find("</", pos + 3)) {
     json.replace(pos, 2, "<\\/");
   }
-  page.body += "<script type=\"application/json\" id=\"aerovo-map-data\">" + json + "</script>\n";
-  page.body += std::string("<script>") + kMapScript + "</script>\n";
+  page.body.Open("script", {{"type", "application/json"}, {"id", "aerovo-map-data"}});
+  page.body.Raw(json).Close("script").Newline();
+  page.body.Open("script").Raw(kMapScript).Close("script").Newline();
 }
 
 // The run folder `dir` read for its report: throws InputError when it has no frame rows.
@@ -1131,13 +1148,19 @@ void RunReport(const fs::path& dir, const RunData& run, const RunComparison& cmp
                const ReportOptions& options, Page& page, ReportResult& result) {
   const nlohmann::json summary = EffectiveSummary(run, cmp);
   page.title = "aerovo run report — " + DirName(dir);
-  page.body += "<p class=\"meta\">Run folder <code>" + XmlEscape(fs::absolute(dir).string()) +
-               "</code>; input <code>" + XmlEscape(JsonString(summary, "input")) + "</code>.</p>\n";
-  page.body +=
+  page.body.Open("p", {{"class", "meta"}})
+      .Text("Run folder ")
+      .Element("code", {}, fs::absolute(dir).string())
+      .Text("; input ")
+      .Element("code", {}, JsonString(summary, "input"))
+      .Text(".")
+      .Close("p")
+      .Newline();
+  page.body.Raw(
       "<nav><a href=\"#answer\">Answer</a><a href=\"#map\">Map</a>"
       "<a href=\"#comparison\">Accuracy</a><a href=\"#figures\">Figures</a>"
       "<a href=\"#summary\">Summary</a><a href=\"#timings\">Timings</a>"
-      "<a href=\"#mosaic\">Mosaic</a><a href=\"#config\">Configuration</a></nav>\n";
+      "<a href=\"#mosaic\">Mosaic</a><a href=\"#config\">Configuration</a></nav>\n");
   // The accuracy first, then the map, the comparison and figures; details and timings after.
   AnswerBox(page, summary);
   if (summary.contains("warnings") && summary["warnings"].is_array()) {
@@ -1227,15 +1250,15 @@ void RunReport(const fs::path& dir, const RunData& run, const RunComparison& cmp
 
   Page map;
   MapSection(dir, run, cmp, truth, map, result);
-  page.body.insert(map_at, map.body);
+  page.body.Insert(map_at, map.body);
   page.head += map.head;
 }
 
 // The footer, then DIR/report.html; the time since `sw` started.
 void FinishReport(const fs::path& dir, const Stopwatch& sw, Page& page, ReportResult& result) {
-  page.body +=
+  page.body.Raw(
       "<p class=\"meta\">Generated by <code>aerovo report</code>; figures drawn with "
-      "gnuplot, also in <code>figures/</code> as SVG and PNG.</p>\n";
+      "gnuplot, also in <code>figures/</code> as SVG and PNG.</p>\n");
   result.html = dir / ReportFileNames::kHtml;
   WriteTextFileAtomic(result.html, page.Html());
   result.seconds = sw.elapsed_ms() / 1000.0;
@@ -1263,9 +1286,8 @@ struct ExpRun {
   RunComparison cmp;
 };
 
-void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& page,
-                      ReportResult& result) {
-  const fs::path json_path = dir / ReportFileNames::kExperimentJson;
+// EXP/experiment.json, an object with a "runs" array.
+nlohmann::json ReadExperimentJson(const fs::path& json_path) {
   nlohmann::json exp;
   try {
     exp = nlohmann::json::parse(ReadFile(json_path));
@@ -1275,13 +1297,13 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
   if (!exp.is_object() || !exp.contains("runs") || !exp["runs"].is_array()) {
     throw InputError("'" + json_path.string() + "': expected an object with a \"runs\" array");
   }
-  const std::string kind = JsonString(exp, "kind");
-  page.title = "aerovo experiment report — " + (kind.empty() ? std::string("experiment") : kind) +
-               " (" + DirName(dir) + ")";
-  page.body += "<p class=\"meta\">Experiment folder <code>" +
-               XmlEscape(fs::absolute(dir).string()) + "</code>.</p>\n";
+  return exp;
+}
 
-  // Reference: the simulated flight's ground truth, else each run's GPS.
+// The simulated flight's ground truth of experiment.json; no points when none or unreadable
+// (then a note says why).
+ReferenceTrack ReadExperimentGroundTruth(const fs::path& dir, const nlohmann::json& exp, Page& page,
+                                         ReportResult& result) {
   ReferenceTrack ground_truth;  // no points: none
   if (exp.contains("ground_truth") && exp["ground_truth"].is_string()) {
     fs::path gt = exp["ground_truth"].get<std::string>();
@@ -1293,7 +1315,39 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
       AddNote(page, result, note);
     }
   }
+  return ground_truth;
+}
 
+// The run's own report (options.sub_reports): a failure is a note.
+void WriteExperimentSubReport(const ExpRun& run, const fs::path& run_dir,
+                              const ReferenceTrack& ground_truth, const ReportOptions& options,
+                              Page& page, ReportResult& result) {
+  ReportOptions sub = options;
+  sub.log = nullptr;
+  try {
+    const Stopwatch sub_sw;
+    // From the rows read above; the run's own report compares it with its own GPS. A run
+    // folder holding an experiment.json is an experiment for WriteReport.
+    const ReportResult s =
+        fs::is_regular_file(run_dir / ReportFileNames::kExperimentJson)
+            ? WriteReport(run_dir, sub)
+            : WriteRunReport(run_dir, run.data,
+                             ground_truth.points.empty() ? run.cmp : CompareWithGps(run.data), sub,
+                             sub_sw);
+    result.sub_reports.push_back(s.html);
+  } catch (const std::exception& e) {
+    const std::string note = "run '" + run.label + "': its own report failed: " + e.what();
+    AddNote(page, result, note);
+  }
+}
+
+// The runs of experiment.json that have results, read and compared with the reference; the
+// others are notes. Throws InputError when none has.
+std::vector<ExpRun> ReadExperimentRuns(const fs::path& dir, const fs::path& json_path,
+                                       const nlohmann::json& exp,
+                                       const ReferenceTrack& ground_truth,
+                                       const ReportOptions& options, Page& page,
+                                       ReportResult& result) {
   std::vector<ExpRun> runs;
   for (std::size_t i = 0; i < exp["runs"].size(); ++i) {
     const nlohmann::json& r = exp["runs"][i];
@@ -1322,226 +1376,284 @@ void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& p
     run.cmp = ground_truth.points.empty() ? CompareWithGps(run.data)
                                           : CompareWithReference(run.data, ground_truth);
     if (options.sub_reports) {
-      ReportOptions sub = options;
-      sub.log = nullptr;
-      try {
-        const Stopwatch sub_sw;
-        // From the rows read above; the run's own report compares it with its own GPS. A run
-        // folder holding an experiment.json is an experiment for WriteReport.
-        const ReportResult s =
-            fs::is_regular_file(run_dir / ReportFileNames::kExperimentJson)
-                ? WriteReport(run_dir, sub)
-                : WriteRunReport(run_dir, run.data,
-                                 ground_truth.points.empty() ? run.cmp : CompareWithGps(run.data),
-                                 sub, sub_sw);
-        result.sub_reports.push_back(s.html);
-      } catch (const std::exception& e) {
-        const std::string note = "run '" + run.label + "': its own report failed: " + e.what();
-        AddNote(page, result, note);
-      }
+      WriteExperimentSubReport(run, run_dir, ground_truth, options, page, result);
     }
     runs.push_back(std::move(run));
   }
   if (runs.empty()) throw InputError("'" + json_path.string() + "': none of the runs has results");
+  return runs;
+}
+
+// "Runs": one row per run, and the links to each run's own report.
+void ExperimentRunsSection(const std::vector<ExpRun>& runs, const std::string& ref_name,
+                           Page& page) {
+  page.H2("Runs", "runs");
+  std::vector<std::vector<std::string>> rows;
+  for (const ExpRun& r : runs) {
+    const RunData& d = r.data;
+    double nsurf = 0, corr = 0, total = 0;
+    int bridged = 0;
+    for (const RunFrameRow& f : d.frames) {
+      nsurf += f.n_surf;
+      corr += f.correspond_ms;
+      total += f.total_ms;
+      if (f.status.rfind("bridged", 0) == 0) ++bridged;
+    }
+    const double n = static_cast<double>(d.frames.size());
+    const auto& c = r.cmp.comparison;
+    rows.push_back({r.label, fmt::format("{}", d.frames.size()), fmt::format("{}", bridged),
+                    Num(nsurf / n, 0), c ? Num(c->se2.ate_m.rmse, 2) : "–",
+                    c ? Num(c->sim2.ate_m.rmse, 2) : "–",
+                    c ? Num(c->se2.end_point_error_percent, 2) : "–", Num(corr / n, 2),
+                    Num(total / n, 1), Num(JsonNumber(d.summary, {"fps"}), 2)});
+  }
+  page.Table(
+      {"run", "frames", "bridged", "mean N_SURF", "ATE RMSE SE(2) (m)", "ATE RMSE Sim(2) (m)",
+       "end-point error SE(2) (%)", "mean correspond (ms)", "mean total (ms)", "fps"},
+      rows);
+  page.Para(HtmlBuilder().Text("Errors against ").Text(ref_name).Raw(". Each run's own report:"));
+  page.body.Open("ul").Newline();
+  for (const ExpRun& r : runs) {
+    const std::string href = r.dir + "/" + ReportFileNames::kHtml;
+    page.body.Open("li").Element("a", {{"href", href}}, r.label).Close("li").Newline();
+  }
+  page.body.Close("ul").Newline();
+}
+
+// One "Table: name" section per table of experiment.json, in its order.
+void ExperimentTablesSection(const nlohmann::json& exp, Page& page) {
+  if (!exp.contains("tables") || !exp["tables"].is_object()) return;
+  for (auto it = exp["tables"].begin(); it != exp["tables"].end(); ++it) {
+    const nlohmann::json& t = *it;
+    std::vector<std::string> header;
+    std::vector<std::vector<std::string>> rows;
+    if (t.contains("columns") && t["columns"].is_array()) {
+      for (const auto& c : t["columns"]) header.push_back(JsonCell(c));
+    }
+    if (t.contains("rows") && t["rows"].is_array()) {
+      for (const auto& r : t["rows"]) {
+        std::vector<std::string> row;
+        if (r.is_array()) {
+          for (const auto& c : r) row.push_back(JsonCell(c));
+        }
+        rows.push_back(row);
+      }
+    }
+    page.H2("Table: " + it.key());
+    page.Table(header, rows);
+  }
+}
+
+// What an experiment's figures are drawn from.
+struct ExperimentFigureInput {
+  const std::vector<ExpRun>& runs;
+  const ReferenceTrack& ground_truth;  ///< No points: the reference is each run's GPS.
+  const std::string& ref_name;         ///< "ground truth" or "GPS".
+  FigureSink& sink;
+  Page& page;
+};
+
+// The trajectories of every run against the reference, in one figure.
+void TrajectoriesFigure(const ExperimentFigureInput& in, const std::string& name,
+                        const std::string& title, const std::string& caption) {
+  Figure f = MapFigure(name);
+  f.title = title;
+  bool reference_drawn = false;
+  std::string skipped;
+  for (const ExpRun& r : in.runs) {
+    if (!r.cmp.comparison) {
+      skipped += (skipped.empty() ? "" : ", ") + r.label;
+      continue;
+    }
+    if (!reference_drawn) {
+      std::vector<double> gx, gy;
+      if (!in.ground_truth.points.empty()) {
+        for (const ReferencePoint& p : in.ground_truth.points) {
+          gx.push_back(p.x_m);
+          gy.push_back(p.y_m);
+        }
+      } else {
+        for (const TrajectoryPoint2D& p : r.cmp.reference) {
+          gx.push_back(p.x);
+          gy.push_back(p.y);
+        }
+      }
+      f.series.push_back(
+          Series(in.ref_name, gx, gy, SeriesStyle::kLines,
+                 style::Hex(in.ground_truth.points.empty() ? style::kGps : style::kTruth)));
+      f.series.back().line_width = 3.0;
+      reference_drawn = true;
+    }
+    std::vector<double> x, y;
+    AlignedTrack(r.data, r.cmp.comparison->se2.alignment.enu_from_vo, &x, &y);
+    f.series.push_back(
+        Series(fmt::format("{} (ATE {:.2f} m)", r.label, r.cmp.comparison->se2.ate_m.rmse), x, y));
+  }
+  if (f.series.empty()) {
+    in.page.Note("No trajectory figure: no run could be compared with " + in.ref_name + ".");
+    return;
+  }
+  FitMapHeight(f);
+  in.sink.Add(f, caption);
+  if (!skipped.empty()) {
+    in.sink.Note("Not in the trajectory figure (fewer than 3 frames could be aligned with " +
+                 in.ref_name + ", e.g. every step bridged): " + skipped + ".");
+  }
+}
+
+// N_SURF per frame, one curve per run.
+Figure NsurfPerFrameFigure(const std::vector<ExpRun>& runs, const std::string& name,
+                           const std::string& title) {
+  Figure f;
+  f.name = name;
+  f.title = title;
+  f.x_label = "frame";
+  f.y_label = "N_SURF (interest points per frame)";
+  f.key = "outside right top";
+  for (const ExpRun& r : runs) {
+    f.series.push_back(Series(r.label, FrameAxis(r.data),
+                              Column(r.data, [](const RunFrameRow& q) { return q.n_surf; })));
+  }
+  return f;
+}
+
+// Illumination (paper Figs. 4-6): N_SURF per frame, mean N_SURF against k, the trajectories.
+void IlluminationFigures(const ExperimentFigureInput& in) {
+  Figure f4 = NsurfPerFrameFigure(in.runs, "fig4_nsurf_per_frame",
+                                  "Fig. 4: N_SURF per frame, one curve per illumination f_k = k f");
+  f4.y_from_zero = true;
+  std::vector<std::pair<double, double>> k_mean;  // (k, mean N_SURF)
+  for (const ExpRun& r : in.runs) {
+    if (r.spec.contains("k") && r.spec["k"].is_number()) {
+      double sum = 0;
+      for (const RunFrameRow& q : r.data.frames) sum += q.n_surf;
+      k_mean.emplace_back(r.spec["k"].get<double>(), sum / r.data.frames.size());
+    }
+  }
+  in.sink.Add(f4,
+              "Figs. 4 and 5 of the paper: the number of interest points on each frame, one "
+              "curve per illumination factor k.");
+  if (!k_mean.empty()) {
+    std::stable_sort(k_mean.begin(), k_mean.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::vector<double> sk, sm;
+    for (const auto& [k, mean] : k_mean) {
+      sk.push_back(k);
+      sm.push_back(mean);
+    }
+    Figure f5;
+    f5.name = "fig5_mean_nsurf_vs_k";
+    f5.title = "Fig. 5: mean N_SURF per frame against the illumination factor k";
+    f5.x_label = "illumination factor k (pixel brightness x k)";
+    f5.y_label = "mean N_SURF per frame";
+    f5.key = "top left";
+    f5.series.push_back(Series("mean N_SURF", sk, sm, SeriesStyle::kLinesPoints));
+    f5.series.back().point_size = 1.2;
+    in.sink.Add(f5, "Mean number of interest points per frame against k (summary of Figs. 4, 5).");
+  }
+  TrajectoriesFigure(in, "fig6_trajectories",
+                     "Fig. 6: trajectories at different illumination k against " + in.ref_name,
+                     "Fig. 6 of the paper: trajectories computed at each k with the same "
+                     "parameters, each SE(2)-aligned to " +
+                         in.ref_name + ".");
+}
+
+// RANSAC (paper Figs. 7-8): the stage times per step of each mode, the correspondence stage of
+// both side by side, the trajectories.
+void RansacFigures(const ExperimentFigureInput& in) {
+  Figure f8;
+  f8.name = "fig8_correspond_per_step";
+  f8.title = "Correspondence stage time per step, by RANSAC mode";
+  f8.x_label = "frame";
+  f8.y_label = "correspond time (ms)";
+  f8.log_y = true;
+  for (const ExpRun& r : in.runs) {
+    const std::string mode = JsonString(r.spec, "mode");
+    const bool clustered = mode == "clustered" || r.dir == "clustered";
+    std::string name = std::string(clustered ? "fig8" : "fig7") + "_stage_times_" + r.dir;
+    for (char& ch : name) {
+      if (!(std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-')) ch = '_';
+    }
+    const Figure f = StageTimesFigure(
+        r.data, name,
+        fmt::format("Fig. {}: time of each stage per step, {} RANSAC", clustered ? 8 : 7, r.label));
+    in.sink.Add(f, fmt::format("Fig. {} of the paper: time of each stage per step with {} "
+                               "RANSAC, milliseconds (log scale).",
+                               clustered ? 8 : 7, r.label));
+    const PlotSeries& correspond = f.series[kStageTimesCorrespond];
+    f8.series.push_back(Series(r.label, correspond.x, correspond.y));
+  }
+  in.sink.Add(f8,
+              "The correspondence stage (matching + RANSAC) of each mode side by side, "
+              "milliseconds (log scale).");
+  TrajectoriesFigure(in, "trajectories", "Trajectories of each RANSAC mode against " + in.ref_name,
+                     "Each mode's trajectory, SE(2)-aligned to " + in.ref_name + ".");
+}
+
+// An experiment of a kind this version does not know: N_SURF per frame and the trajectories.
+void GenericExperimentFigures(const ExperimentFigureInput& in) {
+  in.sink.Add(NsurfPerFrameFigure(in.runs, "nsurf_per_frame", "N_SURF per frame, each run"),
+              "Interest points per frame of each run.");
+  TrajectoriesFigure(in, "trajectories", "Trajectories of each run against " + in.ref_name,
+                     "Each run's trajectory, SE(2)-aligned to " + in.ref_name + ".");
+}
+
+// The figures of each experiment kind (report/experiment_kind.h), in enum order.
+struct ExperimentFigures {
+  ExperimentKind kind;
+  void (*add)(const ExperimentFigureInput& in);
+};
+constexpr ExperimentFigures kExperimentFigures[] = {
+    {ExperimentKind::kIllumination, IlluminationFigures},
+    {ExperimentKind::kRansac, RansacFigures},
+};
+
+constexpr bool EveryExperimentKindHasFigures() {
+  if (std::size(kExperimentFigures) != kNumExperimentKinds) return false;
+  for (std::size_t i = 0; i < kNumExperimentKinds; ++i) {
+    if (kExperimentFigures[i].kind != kAllExperimentKinds[i]) return false;
+  }
+  return true;
+}
+static_assert(EveryExperimentKindHasFigures(),
+              "kExperimentFigures: one entry per ExperimentKind, in enum order");
+
+// The figures of experiment `kind` (experiment.json's "kind"); the generic ones for a kind
+// this version does not know.
+void AddExperimentFigures(const std::string& kind, const ExperimentFigureInput& in) {
+  if (const std::optional<ExperimentKind> k = ParseExperimentKind(kind)) {
+    for (const ExperimentFigures& e : kExperimentFigures) {
+      if (e.kind == *k) return e.add(in);
+    }
+  }
+  GenericExperimentFigures(in);
+}
+
+void ExperimentReport(const fs::path& dir, const ReportOptions& options, Page& page,
+                      ReportResult& result) {
+  const fs::path json_path = dir / ReportFileNames::kExperimentJson;
+  const nlohmann::json exp = ReadExperimentJson(json_path);
+  const std::string kind = JsonString(exp, "kind");
+  page.title = "aerovo experiment report — " + (kind.empty() ? std::string("experiment") : kind) +
+               " (" + DirName(dir) + ")";
+  page.body.Open("p", {{"class", "meta"}})
+      .Text("Experiment folder ")
+      .Element("code", {}, fs::absolute(dir).string())
+      .Text(".")
+      .Close("p")
+      .Newline();
+
+  // Reference: the simulated flight's ground truth, else each run's GPS.
+  const ReferenceTrack ground_truth = ReadExperimentGroundTruth(dir, exp, page, result);
+  const std::vector<ExpRun> runs =
+      ReadExperimentRuns(dir, json_path, exp, ground_truth, options, page, result);
   const std::string ref_name = ground_truth.points.empty() ? "GPS" : "ground truth";
 
-  // Per-run table and links.
-  page.H2("Runs", "runs");
-  {
-    std::vector<std::vector<std::string>> rows;
-    for (const ExpRun& r : runs) {
-      const RunData& d = r.data;
-      double nsurf = 0, corr = 0, total = 0;
-      int bridged = 0;
-      for (const RunFrameRow& f : d.frames) {
-        nsurf += f.n_surf;
-        corr += f.correspond_ms;
-        total += f.total_ms;
-        if (f.status.rfind("bridged", 0) == 0) ++bridged;
-      }
-      const double n = static_cast<double>(d.frames.size());
-      const auto& c = r.cmp.comparison;
-      rows.push_back({r.label, fmt::format("{}", d.frames.size()), fmt::format("{}", bridged),
-                      Num(nsurf / n, 0), c ? Num(c->se2.ate_m.rmse, 2) : "–",
-                      c ? Num(c->sim2.ate_m.rmse, 2) : "–",
-                      c ? Num(c->se2.end_point_error_percent, 2) : "–", Num(corr / n, 2),
-                      Num(total / n, 1), Num(JsonNumber(d.summary, {"fps"}), 2)});
-    }
-    page.Table(
-        {"run", "frames", "bridged", "mean N_SURF", "ATE RMSE SE(2) (m)", "ATE RMSE Sim(2) (m)",
-         "end-point error SE(2) (%)", "mean correspond (ms)", "mean total (ms)", "fps"},
-        rows);
-    page.Para("Errors against " + XmlEscape(ref_name) + ". Each run's own report:");
-    page.body += "<ul>\n";
-    for (const ExpRun& r : runs) {
-      page.body += "<li><a href=\"" + XmlEscape(r.dir) + "/" + ReportFileNames::kHtml + "\">" +
-                   XmlEscape(r.label) + "</a></li>\n";
-    }
-    page.body += "</ul>\n";
-  }
-
-  if (exp.contains("tables") && exp["tables"].is_object()) {
-    for (auto it = exp["tables"].begin(); it != exp["tables"].end(); ++it) {
-      const nlohmann::json& t = *it;
-      std::vector<std::string> header;
-      std::vector<std::vector<std::string>> rows;
-      if (t.contains("columns") && t["columns"].is_array()) {
-        for (const auto& c : t["columns"]) header.push_back(JsonCell(c));
-      }
-      if (t.contains("rows") && t["rows"].is_array()) {
-        for (const auto& r : t["rows"]) {
-          std::vector<std::string> row;
-          if (r.is_array()) {
-            for (const auto& c : r) row.push_back(JsonCell(c));
-          }
-          rows.push_back(row);
-        }
-      }
-      page.H2("Table: " + it.key());
-      page.Table(header, rows);
-    }
-  }
-
+  ExperimentRunsSection(runs, ref_name, page);
+  ExperimentTablesSection(exp, page);
   page.H2("Figures", "figures");
   FigureSink sink(dir, options, page, result);
-  // Trajectories of every run against the reference.
-  auto trajectories = [&](const std::string& name, const std::string& title,
-                          const std::string& caption) {
-    Figure f = MapFigure(name);
-    f.title = title;
-    bool reference_drawn = false;
-    std::string skipped;
-    for (const ExpRun& r : runs) {
-      if (!r.cmp.comparison) {
-        skipped += (skipped.empty() ? "" : ", ") + r.label;
-        continue;
-      }
-      if (!reference_drawn) {
-        std::vector<double> gx, gy;
-        if (!ground_truth.points.empty()) {
-          for (const ReferencePoint& p : ground_truth.points) {
-            gx.push_back(p.x_m);
-            gy.push_back(p.y_m);
-          }
-        } else {
-          for (const TrajectoryPoint2D& p : r.cmp.reference) {
-            gx.push_back(p.x);
-            gy.push_back(p.y);
-          }
-        }
-        f.series.push_back(
-            Series(ref_name, gx, gy, SeriesStyle::kLines,
-                   style::Hex(ground_truth.points.empty() ? style::kGps : style::kTruth)));
-        f.series.back().line_width = 3.0;
-        reference_drawn = true;
-      }
-      std::vector<double> x, y;
-      AlignedTrack(r.data, r.cmp.comparison->se2.alignment.enu_from_vo, &x, &y);
-      f.series.push_back(Series(
-          fmt::format("{} (ATE {:.2f} m)", r.label, r.cmp.comparison->se2.ate_m.rmse), x, y));
-    }
-    if (f.series.empty()) {
-      page.Note("No trajectory figure: no run could be compared with " + ref_name + ".");
-      return;
-    }
-    FitMapHeight(f);
-    sink.Add(f, caption);
-    if (!skipped.empty()) {
-      sink.Note("Not in the trajectory figure (fewer than 3 frames could be aligned with " +
-                ref_name + ", e.g. every step bridged): " + skipped + ".");
-    }
-  };
-
-  if (kind == "illumination") {
-    Figure f4;
-    f4.name = "fig4_nsurf_per_frame";
-    f4.title = "Fig. 4: N_SURF per frame, one curve per illumination f_k = k f";
-    f4.x_label = "frame";
-    f4.y_label = "N_SURF (interest points per frame)";
-    f4.key = "outside right top";
-    f4.y_from_zero = true;
-    std::vector<double> ks, means;
-    for (const ExpRun& r : runs) {
-      f4.series.push_back(Series(r.label, FrameAxis(r.data),
-                                 Column(r.data, [](const RunFrameRow& q) { return q.n_surf; })));
-      if (r.spec.contains("k") && r.spec["k"].is_number()) {
-        double sum = 0;
-        for (const RunFrameRow& q : r.data.frames) sum += q.n_surf;
-        ks.push_back(r.spec["k"].get<double>());
-        means.push_back(sum / r.data.frames.size());
-      }
-    }
-    sink.Add(f4,
-             "Figs. 4 and 5 of the paper: the number of interest points on each frame, one "
-             "curve per illumination factor k.");
-    if (!ks.empty()) {
-      std::vector<std::size_t> order(ks.size());
-      for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-      std::sort(order.begin(), order.end(), [&](auto a, auto b) { return ks[a] < ks[b]; });
-      std::vector<double> sk, sm;
-      for (std::size_t i : order) {
-        sk.push_back(ks[i]);
-        sm.push_back(means[i]);
-      }
-      Figure f5;
-      f5.name = "fig5_mean_nsurf_vs_k";
-      f5.title = "Fig. 5: mean N_SURF per frame against the illumination factor k";
-      f5.x_label = "illumination factor k (pixel brightness x k)";
-      f5.y_label = "mean N_SURF per frame";
-      f5.key = "top left";
-      f5.series.push_back(Series("mean N_SURF", sk, sm, SeriesStyle::kLinesPoints));
-      f5.series.back().point_size = 1.2;
-      sink.Add(f5, "Mean number of interest points per frame against k (summary of Figs. 4, 5).");
-    }
-    trajectories("fig6_trajectories",
-                 "Fig. 6: trajectories at different illumination k against " + ref_name,
-                 "Fig. 6 of the paper: trajectories computed at each k with the same parameters, "
-                 "each SE(2)-aligned to " +
-                     ref_name + ".");
-  } else if (kind == "ransac") {
-    Figure f8;
-    f8.name = "fig8_correspond_per_step";
-    f8.title = "Correspondence stage time per step, by RANSAC mode";
-    f8.x_label = "frame";
-    f8.y_label = "correspond time (ms)";
-    f8.log_y = true;
-    for (const ExpRun& r : runs) {
-      const std::string mode = JsonString(r.spec, "mode");
-      const bool clustered = mode == "clustered" || r.dir == "clustered";
-      std::string name = std::string(clustered ? "fig8" : "fig7") + "_stage_times_" + r.dir;
-      for (char& ch : name) {
-        if (!(std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-')) ch = '_';
-      }
-      const Figure f =
-          StageTimesFigure(r.data, name,
-                           fmt::format("Fig. {}: time of each stage per step, {} RANSAC",
-                                       clustered ? 8 : 7, r.label));
-      sink.Add(f, fmt::format("Fig. {} of the paper: time of each stage per step with {} "
-                              "RANSAC, milliseconds (log scale).",
-                              clustered ? 8 : 7, r.label));
-      const PlotSeries& correspond = f.series[kStageTimesCorrespond];
-      f8.series.push_back(Series(r.label, correspond.x, correspond.y));
-    }
-    sink.Add(f8,
-             "The correspondence stage (matching + RANSAC) of each mode side by side, "
-             "milliseconds (log scale).");
-    trajectories("trajectories", "Trajectories of each RANSAC mode against " + ref_name,
-                 "Each mode's trajectory, SE(2)-aligned to " + ref_name + ".");
-  } else {
-    Figure f;
-    f.name = "nsurf_per_frame";
-    f.title = "N_SURF per frame, each run";
-    f.x_label = "frame";
-    f.y_label = "N_SURF (interest points per frame)";
-    f.key = "outside right top";
-    for (const ExpRun& r : runs) {
-      f.series.push_back(Series(r.label, FrameAxis(r.data),
-                                Column(r.data, [](const RunFrameRow& q) { return q.n_surf; })));
-    }
-    sink.Add(f, "Interest points per frame of each run.");
-    trajectories("trajectories", "Trajectories of each run against " + ref_name,
-                 "Each run's trajectory, SE(2)-aligned to " + ref_name + ".");
-  }
+  AddExperimentFigures(kind, {runs, ground_truth, ref_name, sink, page});
 }
 
 }  // namespace

@@ -205,8 +205,8 @@ namespace {
 void WriteText(const fs::path& path, const std::string& text, const std::string& where) {
   try {
     WriteTextFileAtomic(path, text);
-  } catch (const InputError& e) {
-    throw InputError(where + ": " + e.what());
+  } catch (const OutputError& e) {
+    throw OutputError(where + ": " + e.what());
   }
 }
 
@@ -258,7 +258,7 @@ FigureFiles RenderFigure(const Figure& figure, const fs::path& out_dir,
   }
   std::error_code ec;
   fs::create_directories(out_dir, ec);
-  if (ec) throw InputError(where + ": cannot create '" + out_dir.string() + "': " + ec.message());
+  if (ec) throw OutputError(where + ": cannot create '" + out_dir.string() + "': " + ec.message());
   FigureFiles files;
   if (options.svg) files.svg = out_dir / (figure.name + ".svg");
   if (options.png) files.png = out_dir / (figure.name + ".png");

@@ -92,8 +92,8 @@ std::filesystem::path FindGnuplot(const PlotOptions& options);
 
 /// Writes the script and data into `out_dir` (created if missing), runs gnuplot and checks that
 /// the requested outputs exist and are not empty. Throws InputError naming the figure when gnuplot
-/// is missing ("install gnuplot-nox") or fails (with gnuplot's error message), or a file cannot
-/// be written; InvalidArgument for an invalid figure.
+/// is missing ("install gnuplot-nox") or fails (with gnuplot's error message); OutputError naming
+/// the figure when a file or the folder cannot be written; InvalidArgument for an invalid figure.
 FigureFiles RenderFigure(const Figure& figure, const std::filesystem::path& out_dir,
                          const PlotOptions& options = {});
 

@@ -74,13 +74,13 @@ std::string FormatUtc(std::int64_t start, double t_s, char sep) {
 
 std::ofstream OpenOut(const fs::path& path) {
   std::ofstream f(path);
-  if (!f) throw InputError(fmt::format("{}: cannot open for writing", path.string()));
+  if (!f) throw OutputError(fmt::format("{}: cannot open for writing", path.string()));
   return f;
 }
 
 void CheckWritten(std::ofstream& f, const fs::path& path) {
   f.flush();
-  if (!f) throw InputError(fmt::format("{}: write failed (disk full?)", path.string()));
+  if (!f) throw OutputError(fmt::format("{}: write failed (disk full?)", path.string()));
 }
 
 }  // namespace
@@ -276,8 +276,8 @@ SimulationOutput WriteSimulation(const Simulator& sim, const WriterOptions& opti
   std::error_code ec;
   fs::create_directories(out_dir, ec);
   if (ec || !fs::is_directory(out_dir)) {
-    throw InputError(fmt::format("{}: cannot create the output folder ({})", out_dir.string(),
-                                 ec ? ec.message() : "not a folder"));
+    throw OutputError(fmt::format("{}: cannot create the output folder ({})", out_dir.string(),
+                                  ec ? ec.message() : "not a folder"));
   }
   SimulationOutput out;
   out.dir = out_dir;
@@ -304,8 +304,8 @@ SimulationOutput WriteSimulation(const Simulator& sim, const WriterOptions& opti
           fmt::format("video codec {} in {} is not available here", t.codec, t.file));
     }
     if (!video.isOpened()) {
-      throw InputError(fmt::format("{}: no video writer could be opened (tried {}, mp4v, MJPG)",
-                                   out_dir.string(), options.video_codec));
+      throw OutputError(fmt::format("{}: no video writer could be opened (tried {}, mp4v, MJPG)",
+                                    out_dir.string(), options.video_codec));
     }
     if (out.video_codec != options.video_codec) {
       out.messages.push_back(
@@ -316,7 +316,7 @@ SimulationOutput WriteSimulation(const Simulator& sim, const WriterOptions& opti
     out.frame_pattern = "frame_%06d." + options.image_format;
     fs::create_directories(out_dir / out.frames_dir, ec);
     if (ec) {
-      throw InputError(
+      throw OutputError(
           fmt::format("{}: cannot create ({})", (out_dir / out.frames_dir).string(), ec.message()));
     }
   }
@@ -348,8 +348,8 @@ SimulationOutput WriteSimulation(const Simulator& sim, const WriterOptions& opti
       if (options.write_video) {
         video.write(frames[k]);
       } else if (write_failed[k]) {
-        throw InputError(fmt::format("{}: cannot write frame {}",
-                                     (out_dir / out.frames_dir).string(), first + k));
+        throw OutputError(fmt::format("{}: cannot write frame {}",
+                                      (out_dir / out.frames_dir).string(), first + k));
       }
     }
     out.frames_written += count;

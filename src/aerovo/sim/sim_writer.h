@@ -64,7 +64,7 @@ struct SimulationOutput {
 
 /// Renders every frame of `sim` and writes all outputs into `out_dir` (created if missing;
 /// existing files of the same names are replaced). Frames are rendered in parallel batches.
-/// `progress(done, total)` is called after each batch when given. Throws InputError when a
+/// `progress(done, total)` is called after each batch when given. Throws OutputError when a
 /// file cannot be written (naming it).
 SimulationOutput WriteSimulation(const Simulator& sim, const WriterOptions& options,
                                  const std::filesystem::path& out_dir,
@@ -82,13 +82,13 @@ SimulationOutput WriteSimulation(const Simulator& sim, const WriterOptions& opti
 void WriteDjiSrt(std::ostream& out, const Simulator& sim, const std::string& start_time_utc);
 
 /// GPX 1.1 track at `path` with one point per GPS fix (lat, lon, ele = altitude, UTC time from
-/// start_time_utc), written by io's GpxTrackWriter. Throws InputError naming the file.
+/// start_time_utc), written by io's GpxTrackWriter. Throws OutputError naming the file.
 void WriteGpx(const std::filesystem::path& path, const Simulator& sim,
               const std::string& start_time_utc);
 
 /// TUM trajectory at `path`: "t x y z qx qy qz qw" per frame; t in seconds from the first
 /// frame, position in GT ENU metres, quaternion of enu_from_camera (camera x right, y down, z
-/// optical axis); written by io's TumWriter. Throws InputError naming the file.
+/// optical axis); written by io's TumWriter. Throws OutputError naming the file.
 void WriteTum(const std::filesystem::path& path, const Simulator& sim);
 
 /// CSV with header: frame,time_s,east_m,north_m,up_m,lat_deg,lon_deg,alt_m,yaw_deg,pitch_deg,

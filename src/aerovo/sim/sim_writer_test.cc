@@ -193,7 +193,7 @@ TEST(SimWriter, TumAndGpxThroughIoWriters) {
     ASSERT_TRUE(s.unix_time_s.has_value());
     EXPECT_NEAR(*s.unix_time_s, 1777629600.0 + f.time_s, 1e-3);  // 2026-05-01T10:00:00Z
   }
-  EXPECT_THROW(WriteTum(dir / "no" / "such" / "dir" / "gt.tum", sim), InputError);
+  EXPECT_THROW(WriteTum(dir / "no" / "such" / "dir" / "gt.tum", sim), OutputError);
   fs::remove_all(dir);
 }
 
