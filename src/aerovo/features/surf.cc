@@ -340,7 +340,8 @@ float Surf::Impl::DetectionThreshold(const GrayImageView& image, double steered_
   last_range = last_floor = next_min_response = 0.0;
   if (!options.adaptive) return static_cast<float>(options.hessian_threshold);
   // Robust intensity range: 1st to 99th percentile of the pixels of the image (or roi) sampled
-  // every 4th pixel of every 4th row (enough for a percentile; ~0.1 ms at 1080p).
+  // every 4th pixel of every 4th row (enough for a percentile; cost in BENCHMARKS.md, "Adaptive
+  // threshold histogram").
   const RectI r = options.roi ? *options.roi : RectI{0, 0, image.width, image.height};
   std::array<std::uint32_t, 256> hist{};
   std::uint32_t n = 0;
@@ -433,8 +434,8 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
   // that the points examined (SurfResult::candidates) do not depend on it either.
   // The bars keep up to target_points points (each cell's quota) per row block; beyond
   // kMaxBarPoints (far above the defaults' 1500) every candidate is examined instead.
-  // 4 blocks: the 1080p bench crop examines 8 415 of its 20 979 candidates (1 block would
-  // examine ~6 700, 8 ~9 400: BENCHMARKS.md); the adaptive fast-Hessian uses up to 4 threads.
+  // 4 blocks: the candidates examined against the block count are in BENCHMARKS.md ("Adaptive
+  // interest points"); the adaptive fast-Hessian uses up to 4 threads.
   constexpr int kAdaptiveBands = 4;
   constexpr long kMaxBarPoints = 1 << 16;
   const int g = options.grid, cells = g * g;

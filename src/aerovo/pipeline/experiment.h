@@ -1,5 +1,5 @@
-// Experiments that reproduce the paper's measurements on any flight (../shared/docs/METHOD.md,
-// "What the paper measures"): the same flight run several times with one parameter changed, every
+// Experiments that reproduce the paper's measurements on any flight (docs/method.md,
+// "The paper's figures"): the same flight run several times with one parameter changed, every
 // run a normal run folder (RunFlight), and tables comparing the runs.
 //
 //   illumination  Fig. 4-6: brightness f_k = k f for k in a list (RunConfig::illumination_k);
