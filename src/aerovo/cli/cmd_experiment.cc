@@ -145,15 +145,11 @@ void Execute(ExperimentArgs& a) {
     std::fflush(stdout);
   };
 
-  ExperimentResult result;
   int signal = 0;
-  {
-    const StopSignals signals;
-    result = a.kind == "illumination"
-                 ? RunIlluminationExperiment(input, illumination, cb, signals.stop())
-                 : RunRansacExperiment(input, cb, signals.stop());
-    signal = signals.signal();
-  }
+  const ExperimentResult result = WithStopSignals(&signal, [&](const std::atomic<bool>* stop) {
+    return a.kind == "illumination" ? RunIlluminationExperiment(input, illumination, cb, stop)
+                                    : RunRansacExperiment(input, cb, stop);
+  });
   if (result.interrupted) {
     progress.Finish();
     fmt::print("aerovo experiment: stopped by signal {}; {} finished run(s) kept in '{}'\n", signal,

@@ -315,6 +315,22 @@ struct Surf::Impl {
     return order;
   }
 
+  // Calls fn(k) for every index k of `kps`, in SpatialOrder, on options.num_threads threads
+  // (dynamic chunks of 32); a stop request (core/cancel.h) skips the rest and then throws
+  // Cancelled naming `stage`. fn must only touch keypoint k's own data.
+  template <class Fn>
+  void ForEachInSpatialOrder(const std::vector<Keypoint>& kps, const char* stage, Fn&& fn) {
+    const int threads = ResolveThreads(options.num_threads);
+    const std::vector<std::uint32_t>& sorted = SpatialOrder(kps);
+    const long n = static_cast<long>(kps.size());
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 32)
+    for (long k = 0; k < n; ++k) {
+      if (CancelRequested()) continue;  // thrown below
+      fn(sorted[k]);
+    }
+    ThrowIfCancelled(stage);
+  }
+
   // Adaptive selection (SurfOptions::adaptive); buffers reused between calls.
   std::vector<std::uint32_t> cell_start;
   std::vector<Keypoint> by_cell, kept, rest;
@@ -743,16 +759,8 @@ void Surf::Impl::Orient(std::vector<Keypoint>& kps) {
     for (Keypoint& kp : kps) kp.orientation = 0.f;
     return;
   }
-  const int threads = ResolveThreads(options.num_threads);
-  const std::vector<std::uint32_t>& order = SpatialOrder(kps);
-  const long n = static_cast<long>(kps.size());
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 32)
-  for (long k = 0; k < n; ++k) {
-    if (CancelRequested()) continue;  // core/cancel.h; thrown below
-    Keypoint& kp = kps[order[k]];
-    kp.orientation = Orientation(kp);
-  }
-  ThrowIfCancelled("SURF orientation");
+  ForEachInSpatialOrder(kps, "SURF orientation",
+                        [&](std::uint32_t k) { kps[k].orientation = Orientation(kps[k]); });
 }
 
 void Surf::Impl::DescribeOne(const Keypoint& kp, float* out) const {
@@ -867,15 +875,8 @@ void Surf::Impl::DescribeOne(const Keypoint& kp, float* out) const {
 }
 
 void Surf::Impl::DescribeAll(const std::vector<Keypoint>& kps, float* out, int dsize) {
-  const int threads = ResolveThreads(options.num_threads);
-  const std::vector<std::uint32_t>& order = SpatialOrder(kps);
-  const long n = static_cast<long>(kps.size());
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 32)
-  for (long k = 0; k < n; ++k) {
-    if (CancelRequested()) continue;  // core/cancel.h; thrown below
-    DescribeOne(kps[order[k]], out + order[k] * dsize);
-  }
-  ThrowIfCancelled("SURF description");
+  ForEachInSpatialOrder(kps, "SURF description",
+                        [&](std::uint32_t k) { DescribeOne(kps[k], out + k * dsize); });
 }
 
 Surf::Surf(const SurfOptions& options) : impl_(nullptr) {
