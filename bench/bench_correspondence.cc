@@ -6,10 +6,10 @@
 // - synthetic correspondences (affine RANSAC scaling with N at 50 % outliers);
 // - "synthetic-flight": 8 frames of 800 x 600 over a plane of random SURF-like points (random
 //   unit descriptors + noise, ~3000 points per frame), constant image motion (-30, +12) px/step;
-// - "tampa": all consecutive frames of ../shared/data/flights/tampa-phantom3 (800 x 600, real
+// - "tampa": all consecutive frames of $AEROVO_SHARED/data/flights/tampa-phantom3 (800 x 600, real
 //   flight, unknown ground truth: clustered is compared with standard); "tampa-dense": its first
 //   25 frames at SURF threshold 100 (~3700 points per frame, the paper's premise);
-// - "callas": 1920 x 1080 crops of ../shared/data/ortho/callas-quarry.jpg moved by a known
+// - "callas": 1920 x 1080 crops of $AEROVO_SHARED/data/ortho/callas-quarry.jpg moved by a known
 //   (72, 18) px per frame, so the true curr_from_prev is the shift (-72, -18).
 // SURF (aerovo, MATLAB defaults) is computed once at start-up and is not timed.
 // In every pair the clustered run gets the previous pair's clustered result as the previous
@@ -284,8 +284,9 @@ const std::vector<PairMatches>& StandardMatches(const Sequence& s) {
 
 enum class CvMethod { kRansac, kMagsac };
 
-// OpenCV's defaults as documented (METHOD.md): RANSAC, 3 px, 2000 iterations, 0.99, 10 LM
-// refinement iterations; USAC_MAGSAC with the same threshold (its sigma bound) and limits.
+// OpenCV's defaults as documented (docs/method.md, "Estimation defaults"): RANSAC, 3 px, 2000
+// iterations, 0.99, 10 LM refinement iterations; USAC_MAGSAC with the same threshold (its sigma
+// bound) and limits.
 std::optional<Eigen::Matrix3d> CvEstimate(const PairMatches& pm, CvMethod method) {
   if (pm.prev_cv.size() < 3) return std::nullopt;
   cv::Mat inliers;

@@ -1,4 +1,5 @@
-// The per-frame checks and bounds of issue 15: the repeated-frame hash every video frame pays
+// The per-frame input checks and bounds (docs/inputs.md, "Frames that are not what the camera
+// saw" and "Frame size: the pixel budget"): the repeated-frame hash every video frame pays
 // (io/frame_source.h PixelHash) and the reduction of frames above the pixel budget
 // (pipeline/preprocess.h FrameReducer).
 #include <benchmark/benchmark.h>

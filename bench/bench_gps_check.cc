@@ -1,7 +1,7 @@
-// The cost of the GPS plausibility checks per fix (issue 15): GpsFixChecker::Check and
-// GeoReferencer::Observe over a long simulated track (10 000 fixes, 10 m/s, 1.5 m of noise, one
-// spike every 500 fixes), against Observe alone (the geo-referencing before the checks).
-// Results in BENCHMARKS.md ("GPS plausibility checks").
+// The cost of the GPS plausibility checks per fix (docs/reliability.md, "Telemetry that lies"):
+// GpsFixChecker::Check and GeoReferencer::Observe over a long simulated track (10 000 fixes,
+// 10 m/s, 1.5 m of noise, one spike every 500 fixes), against Observe alone (the geo-referencing
+// before the checks). Results in BENCHMARKS.md ("GPS plausibility checks").
 #include <benchmark/benchmark.h>
 
 #include <cmath>

@@ -1,7 +1,7 @@
-// Issue 14 item 4: lens undistortion of the whole frame (io/camera.h Undistorter::Apply, one
-// cv::remap with maps computed once) against undistorting only the interest points
-// (Undistorter::UndistortPoints, OpenCV's iterative inverse of the lens model), pinhole and
-// fisheye lenses.
+// Lens undistortion of the whole frame (docs/lenses.md, "Points or whole frames";
+// io/camera.h Undistorter::Apply, one cv::remap with maps computed once) against undistorting only
+// the interest points (Undistorter::UndistortPoints, OpenCV's iterative inverse of the lens model),
+// pinhole and fisheye lenses.
 #include <benchmark/benchmark.h>
 
 #include <utility>

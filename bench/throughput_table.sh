@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The throughput table of BENCHMARKS.md ("Throughput: 720p, 1080p, 4K"; issue 19): CPU time per
+# The throughput table of BENCHMARKS.md ("Throughput: 720p, 1080p, 4K"): CPU time per
 # frame, peak memory and processed frames per second of `aerovo run` (default settings, no HTML
 # report) on simulated videos at 1280x720, 1920x1080 and 3840x2160, with 1 and 2 threads
 # (--threads: SURF and matching; decoding is on its own reader thread either way), on an idle

@@ -8,7 +8,7 @@ PKGS=(
   libeigen3-dev          # geometry
   libgeographiclib-dev   # geodesy (LocalCartesian, WGS84)
   libexiv2-dev           # EXIF/XMP telemetry of photos
-  libhwy-dev             # Google Highway: portable SIMD kernels with run-time dispatch (issue 19)
+  libhwy-dev             # Google Highway: portable SIMD kernels with run-time dispatch
   libpugixml-dev         # GPX (XML) telemetry
   libavformat-dev libavcodec-dev libavutil-dev libswscale-dev  # io's video decoder (io/video_decoder.h)
   libgdal-dev gdal-bin   # GeoTIFF + KMZ of the geo-referenced mosaic (aerovo report); gdalinfo/ogrinfo in tests

@@ -6,10 +6,10 @@
 # status, matches, inliers and cell; CASE.summary.json the summary's frame counts and
 # comparisons (with GPS, with the truth). Run it with a build whose behaviour is the reference,
 # only when a change of behaviour is intended, and say so in the commit. Which build wrote which:
-# - *-paper.*: the pre-refactor build of issue 17 (then with --guided 0 --refine 0; --paper,
-#   issue 14, reproduces them exactly, which the test proves);
-# - *-default.*: the build of branch feat (issue 14 item 1: adaptive interest points, the new
-#   default), regenerated with MODES=default so that the paper ones stay those of issue 17.
+# - *-paper.*: the build before the pipeline refactor (then with --guided 0 --refine 0; --paper
+#   reproduces them exactly, which the test proves);
+# - *-default.*: the build of branch feat (adaptive interest points, the new default),
+#   regenerated with MODES=default so that the paper ones stay those of the pre-refactor build.
 #   scripts/make-reference-outputs.sh path/to/aerovo [shared-dir]      (MODES="default paper")
 set -euo pipefail
 cli=$(realpath "$1")

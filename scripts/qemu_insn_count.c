@@ -1,7 +1,8 @@
-// A qemu-user TCG plugin that counts the guest instructions executed (issue 19: instructions per
-// frame on aarch64 without hardware counters). Debian 12's qemu-user (7.2) is built with plugin
-// support but ships neither the plugins nor qemu-plugin.h, so the few declarations of the plugin
-// API (version 1, QEMU 7.2's include/qemu/qemu-plugin.h) it uses are written out here.
+// A qemu-user TCG plugin that counts the guest instructions executed (instructions per frame on
+// aarch64 without hardware counters; BENCHMARKS.md "Instructions per frame").
+// Debian 12's qemu-user (7.2) is built with plugin support but ships neither the plugins nor
+// qemu-plugin.h, so the few declarations of the plugin API (version 1, QEMU 7.2's
+// include/qemu/qemu-plugin.h) it uses are written out here.
 // Counting: at translation each block gets an inline "add its instruction count to a 64-bit
 // counter" op, run every time the block executes (so a block left early by an exception counts
 // in full; single-threaded guests only: the add is not atomic).

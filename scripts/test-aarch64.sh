@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The aarch64 stage of scripts/test.sh (issue 19): cross-compiles the core modules (the ones
+# The aarch64 stage of scripts/test.sh: cross-compiles the core modules (the ones
 # without OpenCV/Exiv2, AEROVO_CORE_ONLY) for aarch64 with Debian's g++-aarch64-linux-gnu
 # (cmake/toolchain-aarch64-linux-gnu.cmake) in build-aarch64/, Release (-O2), and runs their unit
 # tests under qemu-aarch64 through ctest, twice: AEROVO_SIMD=native (the NEON/SVE kernels chosen at

@@ -1,6 +1,7 @@
-// Issue 14 item 1 on simulated flights with exact truth: adaptive interest points (the default of
-// `aerovo run`) keep a thermal-like flight and the paper's illumination experiment tracked, where
-// the paper's fixed threshold (`--paper`) loses them.
+// Adaptive interest points (BENCHMARKS.md, "Adaptive interest points") on simulated flights
+// with exact truth: adaptive interest points (the default of `aerovo run`) keep a thermal-like
+// flight and the paper's illumination experiment tracked, where the paper's fixed threshold
+// (`--paper`) loses them.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -14,27 +15,18 @@
 
 #include <nlohmann/json.hpp>
 
+#include "e2e_testing.h"
+
 namespace aerovo {
 namespace {
 
 namespace fs = std::filesystem;
 
-fs::path TempDir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("aerovo_adaptive_" + name + "_" +
-                                                  std::to_string(::getpid()));
-  fs::remove_all(d);
-  return d;
-}
+fs::path TempDir(const std::string& name) { return e2e::UnusedTempPath("aerovo_adaptive", name); }
 
-bool Cli(const std::string& args) {
-  const std::string cmd = std::string(AEROVO_CLI_PATH) + " " + args + " > /dev/null 2>&1";
-  return std::system(cmd.c_str()) == 0;
-}
+using e2e::Cli;
 
-nlohmann::json Summary(const fs::path& run) {
-  std::ifstream in(run / "summary.json");
-  return nlohmann::json::parse(in);
-}
+nlohmann::json Summary(const fs::path& run) { return e2e::ReadJson(run / "summary.json"); }
 
 // The frame centres (cx, cy) in the VO's own frame (transforms.csv: world_from_frame in the first
 // frame's pixels), before any geo-referencing.

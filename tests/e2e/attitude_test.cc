@@ -1,8 +1,9 @@
-// Issue 14 item 3 on simulated flights with exact truth: a camera tilted up to 15 degrees in
-// pitch and roll, known to aerovo through the flight's SRT gimbal angles as a user's DJI video
-// gives them, is tracked at least 3x more accurately with the attitude correction (the default,
-// `--attitude auto`) than without (`--attitude off`); a nadir flight whose SRT says nadir is
-// unchanged by it. Item 2's tail: an SRT with only abs_alt needs the ground's elevation.
+// The attitude correction (docs/attitude.md) on simulated flights with exact truth: a camera
+// tilted up to 15 degrees in pitch and roll, known to aerovo through the flight's SRT gimbal
+// angles as a user's DJI video gives them, is tracked at least 3x more accurately with the
+// attitude correction (the default, `--attitude auto`) than without (`--attitude off`); a nadir
+// flight whose SRT says nadir is unchanged by it. Heights (docs/attitude.md, "Heights: which
+// one, from where"): an SRT with only abs_alt needs the ground's elevation.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -22,23 +23,14 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path TempDir(const std::string& name) {
-  const fs::path d =
-      fs::temp_directory_path() / ("aerovo_attitude_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  return d;
-}
+fs::path TempDir(const std::string& name) { return e2e::UnusedTempPath("aerovo_attitude", name); }
 
+// Returns std::system's status: 0, or 1 << 8 for exit code 1.
 int Cli(const std::string& args, const fs::path& log = "/dev/null") {
-  const std::string cmd =
-      std::string(AEROVO_CLI_PATH) + " " + args + " > " + log.string() + " 2>&1";
-  return std::system(cmd.c_str());
+  return e2e::RunCli(args, log);
 }
 
-nlohmann::json Summary(const fs::path& run) {
-  std::ifstream in(run / "summary.json");
-  return nlohmann::json::parse(in);
-}
+nlohmann::json Summary(const fs::path& run) { return e2e::ReadJson(run / "summary.json"); }
 
 using e2e::ReadText;
 

@@ -1,7 +1,7 @@
-// The bad-input corpus of `aerovo run` (issue 6): every case is generated here, in a temporary
-// folder, and run through RunFlight (the `aerovo run` path). Each case asserts one of the two
-// acceptable outcomes: an InputError whose message names the file and the problem, or a
-// completed run whose damaged frames are flagged in frames.csv and whose trajectory is not
+// The bad-input corpus of `aerovo run` (docs/inputs.md, "Bad inputs"): every case is generated
+// here, in a temporary folder, and run through RunFlight (the `aerovo run` path). Each case asserts
+// one of the two acceptable outcomes: an InputError whose message names the file and the problem,
+// or a completed run whose damaged frames are flagged in frames.csv and whose trajectory is not
 // silently wrong (no NaN, no jump, flagged frames bridged). docs/reliability.md lists the cases.
 //
 // Frames: 320x240 crops of the simulator's procedural terrain (0.25 m/px), seen by a nadir

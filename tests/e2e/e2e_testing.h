@@ -1,10 +1,11 @@
-// Helpers shared by the end-to-end tests: a fresh scratch folder, the grey terrain of the tests
-// that fly over generated ground, and reading back the files a run wrote (whole text, line
-// count, frames.csv as rows).
+// Helpers shared by the end-to-end tests: a fresh scratch folder, running the built `aerovo`,
+// the grey terrain of the tests that fly over generated ground, and reading back the files a
+// run wrote (whole text, JSON, line count, frames.csv as rows).
 #pragma once
 
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -12,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -19,14 +21,34 @@
 
 namespace aerovo::e2e {
 
-/// An empty folder temp/<prefix>_<name>_<pid> (removed first if it exists).
-inline std::filesystem::path FreshTempDir(const std::string& prefix, const std::string& name) {
+/// The path temp/<prefix>_<name>_<pid>, removed if it exists and not created (for a command
+/// that makes its output folder itself, or a test that creates it).
+inline std::filesystem::path UnusedTempPath(const std::string& prefix, const std::string& name) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() /
                                     (prefix + "_" + name + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
+  return dir;
+}
+
+/// An empty folder temp/<prefix>_<name>_<pid> (removed first if it exists).
+inline std::filesystem::path FreshTempDir(const std::string& prefix, const std::string& name) {
+  const std::filesystem::path dir = UnusedTempPath(prefix, name);
   std::filesystem::create_directories(dir);
   return dir;
 }
+
+#ifdef AEROVO_CLI_PATH
+/// Runs the built `aerovo` with `args` (a shell command line), its stdout and stderr to `log`;
+/// returns std::system's status (0 = exit 0).
+inline int RunCli(const std::string& args, const std::filesystem::path& log = "/dev/null") {
+  const std::string cmd =
+      std::string(AEROVO_CLI_PATH) + " " + args + " > " + log.string() + " 2>&1";
+  return std::system(cmd.c_str());
+}
+
+/// RunCli with the output discarded: true when `aerovo` exited with 0.
+inline bool Cli(const std::string& args) { return RunCli(args) == 0; }
+#endif
 
 /// Grey procedural terrain of size_px x size_px at metres_per_px (sim::GenerateTerrain, seed).
 inline cv::Mat GreyTerrain(double metres_per_px, unsigned seed, int size_px = 1600) {
@@ -46,6 +68,15 @@ inline std::string ReadText(const std::filesystem::path& p) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+/// The file parsed as JSON; null when it cannot be opened (a run that wrote no summary: the
+/// test's assertions on the fields then fail), nlohmann::json::parse_error when malformed.
+inline nlohmann::json ReadJson(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  nlohmann::json j;
+  if (in) in >> j;
+  return j;
 }
 
 /// Number of lines of the file (0 when it cannot be read).

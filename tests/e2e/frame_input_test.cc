@@ -1,5 +1,6 @@
-// Frames that lie (issue 15): inputs whose decoded frames are not what the camera saw, or are
-// too large to process, each generated here and run through RunFlight (the `aerovo run` path):
+// Frames that lie (docs/inputs.md, "Frames that are not what the camera saw"): inputs whose decoded
+// frames are not what the camera saw, or are too large to process, each generated here and run
+// through RunFlight (the `aerovo run` path):
 //  - a video whose resolution changes mid-stream (two MPEG-TS clips concatenated): OpenCV hands
 //    back the last frame of the first size; the run stops with an error naming the video and the
 //    frame instead of a frozen track of "ok" frames;
@@ -103,10 +104,7 @@ std::vector<Row> ReadFrames(const fs::path& run_dir) {
   return rows;
 }
 
-nlohmann::json ReadJson(const fs::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
-}
+using e2e::ReadJson;
 
 bool HasWarning(const RunSummary& s, const std::string& part) {
   for (const std::string& w : s.warnings) {

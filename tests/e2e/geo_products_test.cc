@@ -121,7 +121,7 @@ std::string GeoProducts::report_log_;
 RunData GeoProducts::data_;
 GeoPoint GeoProducts::mean_gps_{0.0, 0.0, 0.0};
 
-// The criterion: the mosaic's centre within 100 m of the flight's mean GPS fix. The centre
+// The criterion: the mosaic's centre within 100 m of the flight's mean GPS fix. The centre
 // of the frames' bounding box is not the mean of the positions (13 m apart for this lawnmower),
 // so the tight check is GeoTiffShowsEachFrameWhereGpsSaysItWas: pixels at the GPS fixes.
 constexpr double kCentreToleranceM = 100.0;

@@ -1,7 +1,8 @@
-// Issue 14 item 4, wide lenses without a calibration file: `aerovo run`'s lens self-calibration
-// pre-pass (pipeline/lens_prepass.h, option lens_estimation). Simulated flights with a known
-// lens (exact truth), each run three ways: without a calibration file (the pre-pass decides),
-// with the true calibration file, and with --lens-estimation off (taken as an ideal pinhole).
+// Wide lenses without a calibration file (docs/lenses.md, "Self-calibration"): `aerovo run`'s lens
+// self-calibration pre-pass (pipeline/lens_prepass.h, option lens_estimation). Simulated flights
+// with a known lens (exact truth), each run three ways: without a calibration file (the pre-pass
+// decides), with the true calibration file, and with --lens-estimation off (taken as an ideal
+// pinhole).
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -14,33 +15,18 @@
 #include <nlohmann/json.hpp>
 
 #include "aerovo/io/calibration.h"
+#include "e2e_testing.h"
 
 namespace aerovo {
 namespace {
 
 namespace fs = std::filesystem;
 
-fs::path TempDir(const std::string& name) {
-  const fs::path d =
-      fs::temp_directory_path() / ("aerovo_selfcal_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  return d;
-}
+fs::path TempDir(const std::string& name) { return e2e::UnusedTempPath("aerovo_selfcal", name); }
 
-bool Cli(const std::string& args) {
-  const std::string cmd = std::string(AEROVO_CLI_PATH) + " " + args + " > /dev/null 2>&1";
-  return std::system(cmd.c_str()) == 0;
-}
-
-nlohmann::json ReadJson(const fs::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
-}
-
-std::string ReadFile(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
+using e2e::Cli;
+using e2e::ReadJson;
+using e2e::ReadText;
 
 // The simulator's lens (sim.json "camera") as an OpenCV calibration file.
 void WriteTrueCalibration(const fs::path& sim_dir, const fs::path& file) {
@@ -84,10 +70,9 @@ ThreeRuns RunThreeWays(const fs::path& dir, const std::string& frames, const fs:
 }
 
 // A GoPro-like barrel in the pinhole (Brown) model: 640x480, focal 341 px, k1 = -0.1 (the
-// distorted frame spans 93 degrees across, like the HERO5 of issue 14, whose undistorted
-// pinhole keeps 86 degrees); a 120 m line at 80 m, 2 frames/s (25 frames). Measured: k1 =
-// -0.1001 +- 0.0003, cost drop 86 %; end error (SE(2) aligned) 0.0051 % estimated, 0.0028 % with
-// the true calibration, 2.3 % without.
+// distorted frame spans 93 degrees across, like a GoPro HERO5's, whose undistorted
+// pinhole keeps 86 degrees); a 120 m line at 80 m, 2 frames/s (25 frames). The figures
+// the bounds sit above: BENCHMARKS.md, "Lens self-calibration end to end".
 TEST(LensSelfCalibration, GoProLikeBarrelIsEstimatedAndApplied) {
   const fs::path dir = TempDir("brown");
   ASSERT_TRUE(Cli("simulate --pattern line --length-m 120 --height-m 80 --fps 2 --width 640 "
@@ -127,10 +112,9 @@ TEST(LensSelfCalibration, GoProLikeBarrelIsEstimatedAndApplied) {
 // A wide fisheye of one coefficient (OpenCV equidistant k1 = -0.04, the one-parameter model the
 // estimator fits; lens_estimation_test.cc RecoversAFisheyeK1): 640x480, focal 300 px (93.7
 // degrees across once undistorted); a 120 m line at 80 m. The simulator's four-coefficient
-// fisheye of wide_lens_test.cc is only approximated by one coefficient: measured in
-// BENCHMARKS.md "Lens self-calibration" (end error 0.23 % against 0.014 % with its calibration
-// and 1.28 % without). Measured here: k1 = -0.0401 +- 0.0005, cost drop 91 %; end error 0.018 %
-// estimated, 0.013 % with the true calibration, 1.13 % without.
+// fisheye of wide_lens_test.cc is only approximated by one coefficient (BENCHMARKS.md "Lens
+// self-calibration"). The figures the bounds sit above: BENCHMARKS.md, "Lens self-calibration
+// end to end".
 TEST(LensSelfCalibration, FisheyeIsEstimatedAndApplied) {
   const fs::path dir = TempDir("fisheye");
   ASSERT_TRUE(Cli("simulate --pattern line --length-m 120 --height-m 80 --fps 2 --width 640 "
@@ -178,9 +162,9 @@ TEST(LensSelfCalibration, PinholeIsNotAppliedAndTheTrackIsUnchanged) {
   EXPECT_LT(le["cost_drop"].get<double>(), 0.25) << le.dump();
   EXPECT_EQ(a["undistortion"], "none");
   EXPECT_FALSE(fs::exists(dir / "auto" / "lens_estimate.yaml"));
-  const std::string track = ReadFile(dir / "auto" / "vo.tum");
+  const std::string track = ReadText(dir / "auto" / "vo.tum");
   EXPECT_FALSE(track.empty());
-  EXPECT_EQ(track, ReadFile(dir / "off" / "vo.tum"));
+  EXPECT_EQ(track, ReadText(dir / "off" / "vo.tum"));
   fs::remove_all(dir);
 }
 

@@ -1,7 +1,7 @@
-// The live outputs of `aerovo run` (issue 16): the JSONL pose stream on stdout with nothing else
-// there (--poses-jsonl -), its geographic follow-up lines when the heading waits for GPS, the
-// capture-to-send latency in frames.csv and summary.json, and a live source faster than the
-// processing: the newest frame is taken, older ones dropped and counted.
+// The live outputs of `aerovo run` (docs/options.md, --poses-jsonl): the JSONL pose stream on
+// stdout with nothing else there (--poses-jsonl -), its geographic follow-up lines when the heading
+// waits for GPS, the capture-to-send latency in frames.csv and summary.json, and a live source
+// faster than the processing: the newest frame is taken, older ones dropped and counted.
 #include <gtest/gtest.h>
 #include <unistd.h>
 

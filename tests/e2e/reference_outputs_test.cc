@@ -1,10 +1,11 @@
 // Behaviour unchanged: `aerovo run` on tampa-phantom3, turin-p4m and a simulated flight, in the
 // default mode and in the paper's mode (--paper), against the reference outputs in
 // tests/reference/ (written by scripts/make-reference-outputs.sh: the paper ones by the
-// pre-refactor build of issue 17 with --guided 0 --refine 0, which --paper reproduces exactly; the
-// default ones by the build of issue 14's adaptive interest points). Every frame's position within 1e-6 m as printed (vo.tum has 6 decimals, so the
-// computed positions agree within 2e-6 m), the same status, match and inlier counts and cell;
-// the summary's counts and comparisons (GPS, truth) within 1e-6 relative.
+// pre-refactor build with --guided 0 --refine 0, which --paper reproduces exactly; the default
+// ones by the build that introduced adaptive interest points). Every frame's position within
+// 1e-6 m as printed (vo.tum has 6 decimals, so the computed positions agree within 2e-6 m), the
+// same status, match and inlier counts and cell; the summary's counts and comparisons (GPS, truth)
+// within 1e-6 relative.
 #include <gtest/gtest.h>
 #include <unistd.h>
 

@@ -1,4 +1,4 @@
-// `aerovo run` on the real flights of ../shared (tampa-phantom3, turin-p4m), a flight with a
+// `aerovo run` on the real flights in $AEROVO_SHARED (tampa-phantom3, turin-p4m), a flight with a
 // black frame, and a run interrupted by SIGINT. Figures asserted here are those first measured
 // (BENCHMARKS.md, "Odometry on real flights") plus a margin.
 #include "aerovo/pipeline/runner.h"
@@ -38,13 +38,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path TempDir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("aerovo_runner_test_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path TempDir(const std::string& name) { return e2e::FreshTempDir("aerovo_runner_test", name); }
 
 using e2e::ReadText;
 
@@ -109,7 +103,7 @@ TEST(Runner, TampaPhantom3MeetsTheOnePercentTarget) {
   RunConfig c;
   c.input = flight.parent_path().string();
   c.out = TempDir("tampa").string();
-  c.altitude_m = 57.0;  // not in the EXIF; about 55-60 m (../shared/README.md)
+  c.altitude_m = 57.0;  // not in the EXIF; flown at about 55-60 m above the ground
   c.quiet = true;
   const RunSummary s = RunFlight(c);
   EXPECT_EQ(s.frames_processed, 172);
@@ -125,7 +119,7 @@ TEST(Runner, TampaPhantom3MeetsTheOnePercentTarget) {
   // 0.558 %), SE(2) 10.5-11.2 m, end-point Sim(2) 12.2-14.2 m, SE(2) 5.7-7.6 m (0.37-0.49 %);
   // seed 1 after the 2026-11-24 refinement changes: Sim(2) 8.77 m, SE(2) 11.12 m, end-point
   // SE(2) 7.31 m (0.47 %), Sim(2) 13.6 m.
-  // Adaptive interest points, the default since issue 14 (2026-12-02): Sim(2) 10.76 m, SE(2)
+  // Adaptive interest points, the default since 2026-12-02: Sim(2) 10.76 m, SE(2)
   // 12.92 m (0.83 %), end-point SE(2) 7.64 m (0.49 %).
   // Target: Sim(2) ATE RMSE < 1 % of the distance flown.
   EXPECT_LT(e.sim2.ate_m.rmse, 11.5);
@@ -157,7 +151,7 @@ TEST(Runner, TampaRelocalisationDoesNotDependOnTheSeed) {
     EXPECT_GE(s.frames_reacquired, 1) << "seed " << seed;
     EXPECT_EQ(s.frames_bridged, 0) << "seed " << seed;
     ASSERT_TRUE(s.evaluation.has_value());
-    // Adaptive points (issue 14): 10.76-10.88 m.
+    // Adaptive points: 10.76-10.88 m.
     EXPECT_LT(s.evaluation->sim2.ate_m.rmse, 11.5) << "seed " << seed;
     fs::remove_all(c.out);
   }
@@ -237,7 +231,7 @@ TEST(Runner, TurinP4mWithXmpAltitudeAndYaw) {
   // before the spread refinement kept the cell's matches: 0.750 / 0.733 / 0.42 m).
   EXPECT_LT(s.evaluation->se2.ate_m.rmse, 1.0);
   EXPECT_LT(s.evaluation->sim2.ate_m.rmse, 1.0);
-  // Adaptive points (issue 14, 2026-12-02): end-point 0.93 m.
+  // Adaptive points (2026-12-02): end-point 0.93 m.
   EXPECT_LT(s.evaluation->se2.end_point_error_m, 1.0);
   // Geo-referenced with the first yaw and fix only (no alignment): within 2 % at the end.
   EXPECT_LT(s.evaluation->se2.end_point_error_unaligned_percent, 2.0);
@@ -287,7 +281,7 @@ TEST(Runner, BlackFrameMidFlightIsFlaggedAndTheRunCompletes) {
   fs::remove_all(c.out);
 }
 
-// Regression (issue 6, fuzzing): numbers that do not fit the field were static_cast by
+// Regression (found by fuzzing, fuzz/): numbers that do not fit the field were static_cast by
 // nlohmann's get<int>() (1e300 into an int is undefined behaviour; -1 into the uint64 seed and
 // 4294967297 into an int wrapped silently). Now they are errors naming the key.
 TEST(RunnerConfigRegression, OutOfRangeNumbersAreErrorsNotCasts) {
@@ -429,7 +423,7 @@ TEST(Runner, VideoWithDjiSrtFromTheSimulator) {
 }
 
 TEST(Runner, SimulatedCallasFlightAgainstExactTruth) {
-  // Issue 5: a lawnmower flight (2 x 150 m legs, 40 m apart, 362 m) at 100 m over the Callas
+  // A lawnmower flight (2 x 150 m legs, 40 m apart, 362 m) at 100 m over the Callas
   // orthophoto, 960x540 at 5 fps, GPS noise 1.5 m. `run` is given only the video: telemetry
   // (SRT), the exact focal length and the truth (ground_truth.csv) come from sim.json. The
   // full-size flight (1080p, 1040 m) is in BENCHMARKS.md. About 20 s on the loaded 2-core VM.

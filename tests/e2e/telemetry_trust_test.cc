@@ -1,8 +1,8 @@
-// Telemetry that lies (issue 15): implausible GPS fixes, telemetry clocks that do not match the
-// video, and the messages that say why a run has no height or no comparison with GPS. Every
-// case generates its own input in a temporary folder (photos rendered from the simulator's
-// procedural terrain, as in bad_input_test.cc; telemetry written here) and runs it through
-// RunFlight. docs/reliability.md lists the cases.
+// Telemetry that lies (docs/reliability.md, "Telemetry that lies"): implausible GPS fixes,
+// telemetry clocks that do not match the video, and the messages that say why a run has no height
+// or no comparison with GPS. Every case generates its own input in a temporary folder (photos
+// rendered from the simulator's procedural terrain, as in bad_input_test.cc; telemetry written
+// here) and runs it through RunFlight. docs/reliability.md lists the cases.
 //
 // Frames: 320x240 nadir views of a 0.25 m/px terrain (focal 400 px at 100 m), one per second
 // (a photo folder without EXIF: time = rank). The flight goes east.
@@ -371,7 +371,7 @@ TEST(TelemetryTrust, EnuOriginIsTheFirstAcceptedFix) {
   }
 }
 
-// With the check disabled (gps_check.enabled = false, the behaviour before issue 15) the same
+// With the check disabled (gps_check.enabled = false, the behaviour before the checks) the same
 // spike rotates the track: the test above would fail without the check.
 TEST(TelemetryTrust, WithoutTheCheckASpikeSteersTheTrack) {
   const fs::path dir = TempDir("nocheck");

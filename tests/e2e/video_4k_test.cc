@@ -1,6 +1,7 @@
-// 4K video (issue 19 item 3): the default run detects a 3840x2160 video at 1920x1080
-// (RunConfig::detect_megapixels, pipeline/preprocess.h FrameReducer) and its track against the
-// simulator's exact truth stays within 5 % of the full-resolution run's (detect_megapixels 0).
+// 4K video (docs/inputs.md, "Video above 1080p: the detection budget"): the default run detects a
+// 3840x2160 video at 1920x1080 (RunConfig::detect_megapixels, pipeline/preprocess.h FrameReducer)
+// and its track against the simulator's exact truth stays within 5 % of the full-resolution run's
+// (detect_megapixels 0).
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -17,12 +18,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-nlohmann::json ReadJson(const fs::path& path) {
-  std::ifstream in(path);
-  nlohmann::json j;
-  if (in) in >> j;
-  return j;
-}
+using e2e::ReadJson;
 
 // A 4K flight of 16 frames at 5 fps: 10 m/s at 80 m, 2 m (64 px at 3.1 cm/px) per frame along
 // a straight line (30 m), sensor noise 1.5 DN (the simulator's truth is exact).

@@ -1,7 +1,7 @@
-// Issue 14 item 4 end to end: a simulated wide-angle fisheye flight (OpenCV's equidistant model
-// with known k1..k4, exact truth) run with the calibration file the test writes is accurate;
-// the same frames taken for an ideal pinhole are not. Item 5: a fast fixed-wing flight with
-// banked turns keeps every frame.
+// Wide lenses end to end (docs/lenses.md): a simulated wide-angle fisheye flight (OpenCV's
+// equidistant model with known k1..k4, exact truth) run with the calibration file the test writes
+// is accurate; the same frames taken for an ideal pinhole are not. Also: a fast fixed-wing flight
+// with banked turns keeps every frame.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -13,33 +13,21 @@
 #include <nlohmann/json.hpp>
 
 #include "aerovo/io/calibration.h"
+#include "e2e_testing.h"
 
 namespace aerovo {
 namespace {
 
 namespace fs = std::filesystem;
 
-fs::path TempDir(const std::string& name) {
-  const fs::path d =
-      fs::temp_directory_path() / ("aerovo_wide_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  return d;
-}
+fs::path TempDir(const std::string& name) { return e2e::UnusedTempPath("aerovo_wide", name); }
 
-bool Cli(const std::string& args) {
-  const std::string cmd = std::string(AEROVO_CLI_PATH) + " " + args + " > /dev/null 2>&1";
-  return std::system(cmd.c_str()) == 0;
-}
-
-nlohmann::json ReadJson(const fs::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
-}
+using e2e::Cli;
+using e2e::ReadJson;
 
 // 960x720 fisheye, focal 450 px (93.7 degrees across once undistorted), k = (-0.05, 0.01,
 // -0.002, 0.0005): the image corners are 8 % closer to the centre than a pinhole's. A 200 m line
-// at 80 m, 2 frames/s (41 frames). Measured: with the calibration end error 0.002 % of the
-// distance, taken as a pinhole 3.6 % (7.3 % unaligned) on the 300 m version of this flight.
+// at 80 m, 2 frames/s (41 frames). Figures: BENCHMARKS.md, "Wide lenses end to end".
 TEST(WideLens, FisheyeFlightIsAccurateWithItsCalibrationFileOnly) {
   const fs::path dir = TempDir("fisheye");
   ASSERT_TRUE(Cli("simulate --pattern line --length-m 200 --height-m 80 --fps 2 --width 960 "
@@ -82,11 +70,11 @@ TEST(WideLens, FisheyeFlightIsAccurateWithItsCalibrationFileOnly) {
   fs::remove_all(dir);
 }
 
-// Issue 14 item 4, points or whole frames: a mildly distorted pinhole lens (k1 = -0.05 at 960x720,
+// Points or whole frames (docs/lenses.md): a mildly distorted pinhole lens (k1 = -0.05 at 960x720,
 // 73.7 degrees; local scale change 0.145 over the frame) run with undistort points (SURF on the
 // distorted frames, keypoints undistorted) and auto (which picks points) ends as close to the
-// truth as the frames path. Measured (200 m line at 80 m, 41 frames): frames 0.0025 %, points
-// 0.0024 % of the distance (SE(2) aligned); without undistortion 0.98 %.
+// truth as the frames path (200 m line at 80 m, 41 frames; figures: BENCHMARKS.md, "Wide lenses
+// end to end").
 TEST(WideLens, MildPinholeLensPointsPathMatchesTheFramesPath) {
   const fs::path dir = TempDir("mild");
   ASSERT_TRUE(Cli("simulate --pattern line --length-m 200 --height-m 80 --fps 2 --width 960 "
@@ -124,11 +112,11 @@ TEST(WideLens, MildPinholeLensPointsPathMatchesTheFramesPath) {
   fs::remove_all(dir);
 }
 
-// Issue 14 item 5: a fast fixed-wing survey with a 93-degree camera: 22 m/s at 30 m, 1.15 photos/s
-// (19.1 m steps over a 47.5 m along-track footprint: 60 % overlap), two legs joined by a 90-degree
-// turn of the radius a 20-degree bank gives at that speed (v^2 / (g tan 20deg) = 136 m).
-// With the camera stabilised (nadir through the turn) every frame is kept and the track ends
-// within 0.1 % of the distance (measured 0.004 %, 0.10 % unaligned).
+// A fast fixed-wing survey (docs/attitude.md, "A banking fixed-wing aircraft") with a 93-degree
+// camera: 22 m/s at 30 m, 1.15 photos/s (19.1 m steps over a 47.5 m along-track footprint: 60 %
+// overlap), two legs joined by a 90-degree turn of the radius a 20-degree bank gives at that speed
+// (v^2 / (g tan 20deg) = 136 m). With the camera stabilised (nadir through the turn) every frame is
+// kept and the track ends within 0.1 % of the distance (BENCHMARKS.md, "Wide lenses end to end").
 TEST(WideLens, FastFixedWingFlightKeepsEveryFrame) {
   const fs::path dir = TempDir("fixedwing");
   const std::string common =
@@ -145,10 +133,9 @@ TEST(WideLens, FastFixedWingFlightKeepsEveryFrame) {
   EXPECT_LT(s["truth_evaluation"]["se2"]["end_point_error_unaligned_percent"].get<double>(), 0.5);
   // The camera fixed to the airframe, banking 20 degrees in the turn (pattern fixed-wing): the
   // tilt's perspective shear takes the place of the turn's rotation in the affine steps, so
-  // without the attitude the heading is lost in the turn (measured: end error 17.8 %, 59 %
-  // unaligned). The simulator writes the bank into its SRT (gb_roll), and the attitude
-  // correction (issue 14 item 3, odometry/attitude.h) keeps the track (measured 0.012 %,
-  // 0.16 % unaligned).
+  // without the attitude the heading is lost in the turn. The simulator writes the bank into its
+  // SRT (gb_roll), and the attitude correction (odometry/attitude.h, docs/attitude.md) keeps the
+  // track (figures: BENCHMARKS.md, "Wide lenses end to end").
   std::string video_common = common;
   video_common.replace(video_common.find(" --frames-only --image-format png"),
                        std::string(" --frames-only --image-format png").size(), "");

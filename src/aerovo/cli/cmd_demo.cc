@@ -132,13 +132,9 @@ void RunFlightDemo(const DemoArgs& args) {
     stage = name;
   };
   cb.progress = [&](int done, int total) { progress.Update(done, total, "  " + stage + " "); };
-  DemoResult r;
   int signal = 0;
-  {
-    const StopSignals signals;
-    r = RunDemo(o, cb, signals.stop());
-    signal = signals.signal();
-  }
+  const DemoResult r =
+      WithStopSignals(&signal, [&](const std::atomic<bool>* stop) { return RunDemo(o, cb, stop); });
   progress.Clear();
   for (const std::string& n : r.notes) fmt::print("  note         {}\n", n);
   fmt::print("\n{}\nOpen {} in a browser (reports, tables, tracks); everything is in {}/\n",

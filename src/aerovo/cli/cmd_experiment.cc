@@ -173,13 +173,10 @@ void Execute(ExperimentArgs& a) {
     std::fflush(stdout);
   };
 
-  ExperimentResult result;
   int signal = 0;
-  {
-    const StopSignals signals;
-    result = RunExperiment(a.kind, input, options, cb, signals.stop());
-    signal = signals.signal();
-  }
+  const ExperimentResult result = WithStopSignals(&signal, [&](const std::atomic<bool>* stop) {
+    return RunExperiment(a.kind, input, options, cb, stop);
+  });
   if (result.interrupted) {
     progress.Finish();
     fmt::print("aerovo experiment: stopped by signal {}; {} finished run(s) kept in '{}'\n", signal,

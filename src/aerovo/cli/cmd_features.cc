@@ -222,7 +222,9 @@ void Register(CLI::App& app) {
       "eval",
       "Repeatability and matching score on the Oxford benchmark (Mikolajczyk et al. IJCV "
       "2005 protocol, as cv::evaluateFeatureDetector), detectors side by side");
-  eval->add_option("DIR", eval_args->dir, "Oxford dataset folder (e.g. ../shared/data/oxford)")
+  eval->add_option("DIR", eval_args->dir,
+                   "Oxford benchmark folder: one folder per sequence (bark, bikes, ...) holding "
+                   "img1..img6 (.png/.ppm/.pgm/.jpg) and the homographies H1to2p..H1to6p")
       ->required();
   eval->add_option("--detectors", eval_args->detectors, "Comma-separated: surf,sift,orb,akaze")
       ->capture_default_str();

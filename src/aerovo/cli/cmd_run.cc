@@ -90,13 +90,9 @@ void Execute(RunArgs& a) {
     };
   }
   if (a.print_poses) cb.poses = &std::cout;
-  RunSummary s;
   int signal = 0;
-  {
-    const StopSignals signals;
-    s = RunFlight(config, cb, signals.stop());
-    signal = signals.signal();
-  }
+  const RunSummary s = WithStopSignals(
+      &signal, [&](const std::atomic<bool>* stop) { return RunFlight(config, cb, stop); });
   progress.Finish();
   if (s.interrupted) {
     // On stderr: stdout may be the pose stream.

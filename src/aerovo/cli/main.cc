@@ -88,7 +88,7 @@ void SetFooters(CLI::App& app) {
 
 namespace {
 
-// Passive OpenMP waits by default (issue 19): libgomp's threads spin up to ~300,000 iterations
+// Passive OpenMP waits by default: libgomp's threads spin up to ~300,000 iterations
 // before sleeping at the end of each parallel region, which on a machine whose cores are shared
 // with other work (an autopilot link, an encoder, a logger) steals the CPU those need and halves
 // a 1080p run's speed (BENCHMARKS.md, "Busy machine"). libgomp reads OMP_WAIT_POLICY and

@@ -74,4 +74,16 @@ class StopSignals {
   struct sigaction old_pipe_ {};
 };
 
+/// Runs `work(stop)` with StopSignals installed for its duration (`stop` = StopSignals::stop(),
+/// for the run's stop flag) and returns what it returns; `*signal` is set to the signal received
+/// (0 if none) before the previous handlers are restored. If `work` throws, the handlers are
+/// restored and `*signal` is left as it was.
+template <class Work>
+auto WithStopSignals(int* signal, Work&& work) {
+  const StopSignals signals;
+  auto result = work(signals.stop());
+  *signal = signals.signal();
+  return result;
+}
+
 }  // namespace aerovo::cli

@@ -1,4 +1,4 @@
-// The correspondence stage of the pipeline (../shared/docs/METHOD.md): match the interest points
+// The correspondence stage of the pipeline (docs/method.md, "Pipeline"): match the interest points
 // of frame n-1 ("prev") with those of frame n ("curr") and fit the frame-to-frame transform
 // robustly, either on all points ("standard", what MATLAB's matchFeatures +
 // estimateGeometricTransform2D do) or with the paper's clustered RANSAC (Ivanov & Muzychuk 2023,

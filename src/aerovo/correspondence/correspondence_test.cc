@@ -859,7 +859,7 @@ TEST(RefitOnAllPoints, ValidateNamesBothFieldsWhenTheRefitHasNoRadius) {
   EXPECT_NO_THROW(Validate(o));
 }
 
-// ---------------------------------------------------------------- real imagery (../shared)
+// ---------------------------------------------------------------- real imagery ($AEROVO_SHARED)
 
 #if AEROVO_TESTS_HAVE_OPENCV  // the orthophoto is a JPEG: read with OpenCV
 // Two 1920x1080 crops of the Callas orthophoto, the second moved by (72, 18) px: the true

@@ -1,8 +1,8 @@
-// Lens self-calibration from the flight itself (issue 14, wide lenses without a calibration
-// file): a one-parameter radial distortion estimated from matched interest points of a few frame
-// pairs of a nadir flight over roughly planar ground. No I/O. `aerovo run` calls it from its
-// self-calibration pre-pass (pipeline/lens_prepass.h, option lens_estimation), which reads the
-// pairs and applies a significant estimate.
+// Lens self-calibration from the flight itself (wide lenses without a calibration file;
+// docs/lenses.md, "Self-calibration"): a one-parameter radial distortion estimated from matched
+// interest points of a few frame pairs of a nadir flight over roughly planar ground. No I/O.
+// `aerovo run` calls it from its self-calibration pre-pass (pipeline/lens_prepass.h, option
+// lens_estimation), which reads the pairs and applies a significant estimate.
 //
 // Principle. The rays of two views of one plane are related by a homography, whatever the lens;
 // undistorting the points with the wrong lens model bends that relation. For a candidate

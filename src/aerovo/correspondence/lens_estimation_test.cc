@@ -221,8 +221,8 @@ TEST(LensEstimation, IdealPinholeIsNotSignificant) {
 }
 
 #if AEROVO_TESTS_HAVE_OPENCV
-// A lens corrected in camera (DJI Phantom 3, tampa-phantom3 in ../shared): real SURF matches of
-// four photo pairs spread over the flight, reduced to 1000x750 (focal 2311.2 px at 4000 px, the
+// A lens corrected in camera (DJI Phantom 3, tampa-phantom3 in $AEROVO_SHARED): real SURF matches
+// of four photo pairs spread over the flight, reduced to 1000x750 (focal 2311.2 px at 4000 px, the
 // FC300S's 20 mm equivalent over its 4:3 sensor: 577.8 px). The estimate changes nothing.
 TEST(LensEstimation, CorrectedDjiLensIsNotSignificant) {
   AEROVO_REQUIRE_SHARED(dir, "data/flights/tampa-phantom3/DJI_0054.JPG");

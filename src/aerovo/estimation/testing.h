@@ -28,7 +28,7 @@ struct SyntheticCorrespondences {
 /// on every compiler and architecture. C++ leaves the evaluation order of function arguments
 /// unspecified: `Eigen::Vector2d(ux(rng), uy(rng))` draws uy first with GCC on x86-64 (it
 /// evaluates arguments right to left) but ux first with GCC on aarch64 (and with Clang), so one
-/// seed gave other scenes per architecture (issue 19). y-then-x is the order x86-64 GCC used, so
+/// seed gave other scenes per architecture. y-then-x is the order x86-64 GCC used, so
 /// the x86 scenes, and every x86 test's numbers, are the ones recorded before. A braced list
 /// `{ux(rng), uy(rng)}` needs no helper: its elements are evaluated left to right
 /// ([dcl.init.list]), so it draws x first everywhere.

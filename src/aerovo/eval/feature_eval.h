@@ -2,8 +2,7 @@
 // homography, after Mikolajczyk, Tuytelaars, Schmid, Zisserman, Matas, Schaffalitzky, Kadir,
 // Van Gool, "A comparison of affine region detectors", IJCV 65(1/2):43-72, 2005 (the Oxford
 // benchmark protocol), with the conventions of OpenCV's cv::evaluateFeatureDetector
-// (modules/features2d/src/evaluation.cpp), see ../shared/docs/METHOD.md "Measuring features the
-// standard way".
+// (modules/features2d/src/evaluation.cpp), see docs/method.md, "Measuring features".
 //
 // Protocol, precisely (every number below is an option of FeatureEvalOptions):
 //  1. A keypoint is the circular region of radius KeyPoint::size / 2 around its position

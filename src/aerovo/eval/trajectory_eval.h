@@ -1,7 +1,7 @@
 // Trajectory evaluation in the horizontal plane: 2-D Umeyama alignment (SE(2) / Sim(2)),
 // absolute trajectory error, end-point drift, relative error over fixed segment lengths, and
 // association of reference fixes (GPS) with estimated poses (visual odometry) by time.
-// Conventions: ../shared/docs/METHOD.md, "Trajectory evaluation conventions". Everything here
+// Conventions: docs/method.md, "Trajectory evaluation". Everything here
 // is pure math on plain structs (no file I/O). Units: seconds and metres; both trajectories
 // are expected in the same local metric frame (ENU east = x, north = y, see geo/local_enu.h).
 #pragma once
@@ -89,8 +89,9 @@ struct SegmentErrors {
 };
 
 /// Options of EvaluateTrajectory. Defaults: SE(2) alignment (aerovo takes the metric scale from
-/// altitude and focal length, METHOD.md), segments of 10, 50 and 100 m (the flights in
-/// ../shared are 0.3 to 2 km long, so 100 m still gives many segments).
+/// altitude and focal length, docs/method.md "Trajectory evaluation"), segments of 10, 50 and
+/// 100 m (the project's reference flights are 0.3 to 2 km long, so 100 m still gives many
+/// segments).
 struct TrajectoryEvalOptions {
   AlignmentModel model = AlignmentModel::kSE2;
   /// Segment lengths for the relative error, metres, each > 0. Lengths longer than the
@@ -127,8 +128,8 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<TrajectoryPoint2D>& estima
                                     const std::vector<TrajectoryPoint2D>& reference,
                                     const TrajectoryEvalOptions& options = {});
 
-/// SE(2) and Sim(2) evaluations side by side (the issue asks for Sim(2) always to be reported
-/// beside the primary SE(2) figures).
+/// SE(2) and Sim(2) evaluations side by side (Sim(2) is always reported beside the primary
+/// SE(2) figures: it shows what the track's shape is worth whatever its scale).
 struct TrajectoryComparison {
   TrajectoryErrors se2;
   TrajectoryErrors sim2;

@@ -1,4 +1,5 @@
-// Geodesy and trajectory evaluation on a real flight's GPS (../shared/data/flights).
+// Geodesy and trajectory evaluation on a real flight's GPS (the tampa-phantom3 photos in
+// $AEROVO_SHARED/data/flights; skipped without them).
 #include <algorithm>
 #include <filesystem>
 #include <vector>
@@ -30,7 +31,7 @@ TEST(TrajectoryEvalFlight, TampaGpsTrackInEnu) {
     // EXIF altitude of this flight is invalid (README): keep the fixes on the ellipsoid.
     fixes.push_back({*m.lat_deg, *m.lon_deg, 0.0});
   }
-  // METHOD.md convention: first fix as ENU origin.
+  // docs/method.md, "Trajectory evaluation": first fix as ENU origin.
   const LocalEnu enu(fixes.front());
   std::vector<TrajectoryPoint2D> track;
   double geodesic_length = 0.0;
@@ -43,7 +44,7 @@ TEST(TrajectoryEvalFlight, TampaGpsTrackInEnu) {
   // length equals the sum of ellipsoidal geodesics to within 1 cm.
   const double enu_length = PathLength(track);
   EXPECT_NEAR(enu_length, geodesic_length, 0.01);
-  // METHOD.md: "ATE about 47 m over 1.56 km" for this flight.
+  // docs/method.md, "Pitfalls on real flights": this flight is 1.56 km long.
   EXPECT_NEAR(enu_length, 1560.0, 0.05 * 1560.0);
 
   // The real (noisy, lawnmower) shape under a known Sim(2): exact recovery and zero errors.

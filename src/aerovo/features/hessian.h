@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 
 #include "aerovo/features/integral_image.h"
 
@@ -32,6 +33,57 @@ struct BoxFilterLayout {
 /// Layout of the filter of side `size` (odd multiple of 3 times `step`, size >= 9*step) with
 /// sampling step `step`.
 BoxFilterLayout MakeBoxFilterLayout(int size, int step);
+
+/// The integral-image rows and column offsets the box filters of one row of samples read: for
+/// sample j (at x = step * j), a box with rows (lo, hi) and columns (c0, c1) is
+/// hi[x + c1] - lo[x + c1] - hi[x + c0] + lo[x + c0]. Shared by the scalar and the Highway
+/// kernels (hessian_row-inl.h, hessian_hwy.cc).
+struct BoxFilterRows {
+  // Dxx: rows band0 (xa) and band1 (xb); columns 0, lobe, 2 lobe, size.
+  const std::uint32_t* xa;
+  const std::uint32_t* xb;
+  // Dyy: rows 0, lobe, 2 lobe, size; columns band0 (ya) and band1 (yb).
+  const std::uint32_t* r0;
+  const std::uint32_t* r1;
+  const std::uint32_t* r2;
+  const std::uint32_t* r3;
+  // Dxy: rows and columns xy0 (a1), xy1 (b1), xy2 (a2), xy3 (b2).
+  const std::uint32_t* q1;
+  const std::uint32_t* q2;
+  const std::uint32_t* q3;
+  const std::uint32_t* q4;
+  std::ptrdiff_t S, L, L2;  ///< size, lobe, 2 lobe
+  std::ptrdiff_t ya, yb;    ///< band0, band1
+  std::ptrdiff_t a1, b1, a2, b2;
+};
+
+/// The rows of sample row i at sampling step `step` (the layout's, or its compile-time value)
+/// in the integral image `ii` of `stride` values per row.
+inline BoxFilterRows MakeBoxFilterRows(const std::uint32_t* ii, std::ptrdiff_t stride,
+                                       const BoxFilterLayout& l, std::ptrdiff_t step, int i) {
+  const std::uint32_t* base = ii + (step * i - l.border) * stride - l.border;
+  BoxFilterRows b;
+  b.S = l.size;
+  b.L = l.lobe;
+  b.L2 = 2 * l.lobe;
+  b.ya = l.band0;
+  b.yb = l.band1;
+  b.a1 = l.xy0;
+  b.b1 = l.xy1;
+  b.a2 = l.xy2;
+  b.b2 = l.xy3;
+  b.xa = base + b.ya * stride;
+  b.xb = base + b.yb * stride;
+  b.r0 = base;
+  b.r1 = base + b.L * stride;
+  b.r2 = base + b.L2 * stride;
+  b.r3 = base + b.S * stride;
+  b.q1 = base + b.a1 * stride;
+  b.q2 = base + b.b1 * stride;
+  b.q3 = base + b.a2 * stride;
+  b.q4 = base + b.b2 * stride;
+  return b;
+}
 
 /// Writes det = Dxx*Dyy - (0.9*Dxy)^2 for samples i in [i0, i1), j in [j0, j1) to
 /// det[i * det_stride + j]. Preconditions: every filter lies inside the image, i.e.

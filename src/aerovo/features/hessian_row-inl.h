@@ -21,23 +21,11 @@ __attribute__((always_inline)) inline void HessianRow(const std::uint32_t* ii, s
                                                       const BoxFilterLayout& l, int i, int j0,
                                                       int j1, float* out) {  // out[0] <- sample j0
   const std::ptrdiff_t p = kStep > 0 ? kStep : l.step;
-  const std::uint32_t* base = ii + (p * i - l.border) * s - l.border;
-  const std::ptrdiff_t S = l.size, L = l.lobe, L2 = 2 * l.lobe;
-  const std::ptrdiff_t ya = l.band0, yb = l.band1;
-  const std::ptrdiff_t a1 = l.xy0, b1 = l.xy1, a2 = l.xy2, b2 = l.xy3;
-  // Dxx: rows ya, yb; columns 0, L, 2L, S.
-  const std::uint32_t* xa = base + ya * s;
-  const std::uint32_t* xb = base + yb * s;
-  // Dyy: rows 0, L, 2L, S; columns ya, yb.
-  const std::uint32_t* r0 = base;
-  const std::uint32_t* r1 = base + L * s;
-  const std::uint32_t* r2 = base + L2 * s;
-  const std::uint32_t* r3 = base + S * s;
-  // Dxy: rows and columns a1, b1, a2, b2.
-  const std::uint32_t* q1 = base + a1 * s;
-  const std::uint32_t* q2 = base + b1 * s;
-  const std::uint32_t* q3 = base + a2 * s;
-  const std::uint32_t* q4 = base + b2 * s;
+  const BoxFilterRows b = MakeBoxFilterRows(ii, s, l, p, i);
+  const std::ptrdiff_t S = b.S, L = b.L, L2 = b.L2, ya = b.ya, yb = b.yb;
+  const std::ptrdiff_t a1 = b.a1, b1 = b.b1, a2 = b.a2, b2 = b.b2;
+  const std::uint32_t *xa = b.xa, *xb = b.xb, *r0 = b.r0, *r1 = b.r1, *r2 = b.r2, *r3 = b.r3;
+  const std::uint32_t *q1 = b.q1, *q2 = b.q2, *q3 = b.q3, *q4 = b.q4;
   const float inv_xx = l.inv_area_xx, inv_xy = l.inv_area_xy;
   for (int j = j0; j < j1; ++j) {
     const std::ptrdiff_t x = p * j;

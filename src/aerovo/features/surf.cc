@@ -315,6 +315,22 @@ struct Surf::Impl {
     return order;
   }
 
+  // Calls fn(k) for every index k of `kps`, in SpatialOrder, on options.num_threads threads
+  // (dynamic chunks of 32); a stop request (core/cancel.h) skips the rest and then throws
+  // Cancelled naming `stage`. fn must only touch keypoint k's own data.
+  template <class Fn>
+  void ForEachInSpatialOrder(const std::vector<Keypoint>& kps, const char* stage, Fn&& fn) {
+    const int threads = ResolveThreads(options.num_threads);
+    const std::vector<std::uint32_t>& sorted = SpatialOrder(kps);
+    const long n = static_cast<long>(kps.size());
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 32)
+    for (long k = 0; k < n; ++k) {
+      if (CancelRequested()) continue;  // thrown below
+      fn(sorted[k]);
+    }
+    ThrowIfCancelled(stage);
+  }
+
   // Adaptive selection (SurfOptions::adaptive); buffers reused between calls.
   std::vector<std::uint32_t> cell_start;
   std::vector<Keypoint> by_cell, kept, rest;
@@ -340,7 +356,8 @@ float Surf::Impl::DetectionThreshold(const GrayImageView& image, double steered_
   last_range = last_floor = next_min_response = 0.0;
   if (!options.adaptive) return static_cast<float>(options.hessian_threshold);
   // Robust intensity range: 1st to 99th percentile of the pixels of the image (or roi) sampled
-  // every 4th pixel of every 4th row (enough for a percentile; ~0.1 ms at 1080p).
+  // every 4th pixel of every 4th row (enough for a percentile; cost in BENCHMARKS.md, "Adaptive
+  // threshold histogram").
   const RectI r = options.roi ? *options.roi : RectI{0, 0, image.width, image.height};
   std::array<std::uint32_t, 256> hist{};
   std::uint32_t n = 0;
@@ -433,8 +450,8 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
   // that the points examined (SurfResult::candidates) do not depend on it either.
   // The bars keep up to target_points points (each cell's quota) per row block; beyond
   // kMaxBarPoints (far above the defaults' 1500) every candidate is examined instead.
-  // 4 blocks: the 1080p bench crop examines 8 415 of its 20 979 candidates (1 block would
-  // examine ~6 700, 8 ~9 400: BENCHMARKS.md); the adaptive fast-Hessian uses up to 4 threads.
+  // 4 blocks: the candidates examined against the block count are in BENCHMARKS.md ("Adaptive
+  // interest points"); the adaptive fast-Hessian uses up to 4 threads.
   constexpr int kAdaptiveBands = 4;
   constexpr long kMaxBarPoints = 1 << 16;
   const int g = options.grid, cells = g * g;
@@ -742,16 +759,8 @@ void Surf::Impl::Orient(std::vector<Keypoint>& kps) {
     for (Keypoint& kp : kps) kp.orientation = 0.f;
     return;
   }
-  const int threads = ResolveThreads(options.num_threads);
-  const std::vector<std::uint32_t>& order = SpatialOrder(kps);
-  const long n = static_cast<long>(kps.size());
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 32)
-  for (long k = 0; k < n; ++k) {
-    if (CancelRequested()) continue;  // core/cancel.h; thrown below
-    Keypoint& kp = kps[order[k]];
-    kp.orientation = Orientation(kp);
-  }
-  ThrowIfCancelled("SURF orientation");
+  ForEachInSpatialOrder(kps, "SURF orientation",
+                        [&](std::uint32_t k) { kps[k].orientation = Orientation(kps[k]); });
 }
 
 void Surf::Impl::DescribeOne(const Keypoint& kp, float* out) const {
@@ -866,15 +875,8 @@ void Surf::Impl::DescribeOne(const Keypoint& kp, float* out) const {
 }
 
 void Surf::Impl::DescribeAll(const std::vector<Keypoint>& kps, float* out, int dsize) {
-  const int threads = ResolveThreads(options.num_threads);
-  const std::vector<std::uint32_t>& order = SpatialOrder(kps);
-  const long n = static_cast<long>(kps.size());
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 32)
-  for (long k = 0; k < n; ++k) {
-    if (CancelRequested()) continue;  // core/cancel.h; thrown below
-    DescribeOne(kps[order[k]], out + order[k] * dsize);
-  }
-  ThrowIfCancelled("SURF description");
+  ForEachInSpatialOrder(kps, "SURF description",
+                        [&](std::uint32_t k) { DescribeOne(kps[k], out + k * dsize); });
 }
 
 Surf::Surf(const SurfOptions& options) : impl_(nullptr) {

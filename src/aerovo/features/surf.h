@@ -1,7 +1,7 @@
 // SURF: Speeded-Up Robust Features (Bay, Ess, Tuytelaars, Van Gool, CVIU 110(3), 2008),
 // aerovo's own implementation. Semantics follow MATLAB's detectSURFFeatures/extractFeatures
 // (which call OpenCV's fast-Hessian), as used by Ivanov & Muzychuk (2023); see
-// ../shared/docs/METHOD.md, "Semantics of the MATLAB functions".
+// docs/method.md, "Detection defaults" and "SURF details".
 //
 // What Surf computes (facts from Bay et al. 2008 and OpenCV's documented SURF; the code is ours):
 // - Integral image in uint32 (exact box sums, see integral_image.h).

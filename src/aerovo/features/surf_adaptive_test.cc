@@ -349,7 +349,7 @@ std::uint64_t Fingerprint(const SurfResult& r) {
 }
 
 // The adaptive defaults' output, bit for bit, as computed before the early rejection of
-// candidates (issue 14 item 1, the SURF speed budget; recorded with main at 94bfcea): a first
+// candidates (the SURF speed budget; recorded with main at 94bfcea): a first
 // call and a call steered by its next_min_response (as bench_features and a stream do), with 1
 // and 2 threads. The values are those of the native kernels on x86-64 with AVX2+FMA (the
 // Hessian rows may fuse a multiply-add, hessian.h); elsewhere only the thread invariance is

@@ -1,7 +1,7 @@
 // Local East-North-Up frame tangent to the WGS84 ellipsoid at an origin (GeographicLib's
 // LocalCartesian). This is the frame aerovo uses for metric trajectories: GPS fixes and the
-// geo-referenced visual odometry both live in it (METHOD.md, "Trajectory evaluation
-// conventions": first GPS fix as origin).
+// geo-referenced visual odometry both live in it (docs/method.md, "Trajectory
+// evaluation": first GPS fix as origin).
 #pragma once
 
 #include <memory>

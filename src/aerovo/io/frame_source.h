@@ -84,14 +84,14 @@ struct FrameSourceOptions {
   /// two photos where flights change, the gap or the cameras, and every flight); K >= 1
   /// delivers flight K only; -1 chains them all as one sequence (before 0.2: silently).
   int photo_flight = 0;
-  /// Video files: the decoder. Default auto = ffmpeg, our own (issue 15: it sees every frame's
-  /// decoded size, so a resolution change mid-stream is an error; issue 19: grey from the luma
-  /// plane, no BGR); opencv = cv::VideoCapture, the decoder before it (BENCHMARKS.md "Video decoding").
+  /// Video files: the decoder. Default auto = ffmpeg, our own (it sees every frame's
+  /// decoded size, so a resolution change mid-stream is an error; grey from the luma plane,
+  /// no BGR); opencv = cv::VideoCapture, the decoder before it (BENCHMARKS.md "Video decoding").
   VideoDecoderChoice video_decoder = VideoDecoderChoice::kAuto;
   /// Video files through the ffmpeg decoder: the codec's threads (frame + slice threading), 0 =
   /// one per core (FFmpeg's choice). Default 2: the decoder runs on PrefetchSource's reader
   /// thread beside the odometry's frame loop on an on-board computer that is busy with the
-  /// odometry (issue 19.2): two threads let decoding overlap itself without taking every core
+  /// odometry: two threads let decoding overlap itself without taking every core
   /// as 0 would; frame threading costs no extra CPU per frame (measured: 1, 2 and one per core
   /// within noise, BENCHMARKS.md "Video decoding"), only a frame of latency per thread.
   int video_threads = 2;
@@ -150,7 +150,8 @@ class FrameSource {
 /// size, so it catches any resolution change; OpenCV's converts every frame to the first size:
 /// a larger later part comes out as copies of the last frame (the repeated-frame error), a
 /// smaller one is silently stretched to the first size, caught only when the clock restarts
-/// there (known limitation of video_decoder opencv, issue 15).
+/// there (known limitation of video_decoder opencv, docs/inputs.md "Frames that are not what the
+/// camera saw").
 class VideoFileSource : public FrameSource {
  public:
   explicit VideoFileSource(const std::filesystem::path& path,

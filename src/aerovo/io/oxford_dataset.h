@@ -2,8 +2,9 @@
 // affine region detectors", IJCV 65(1/2), 2005; www.robots.ox.ac.uk/~vgg/research/affine):
 // eight sequences (bark, bikes, boat, graf, leuven, trees, ubc, wall), each six images
 // img1..img6 of a planar scene and homographies H1to2p..H1to6p mapping img1 to imgN.
-// Layout expected (as in ../shared/data/oxford): <dir>/img<N>.png (or .ppm/.pgm/.jpg) and
-// <dir>/H1to<N>p, a 3x3 matrix as 9 numbers in row-major order, whitespace-separated.
+// Layout expected, one folder per sequence as the benchmark is distributed: <dir>/img<N>.png (or
+// .ppm/.pgm/.jpg) and <dir>/H1to<N>p, a 3x3 matrix as 9 numbers in row-major order,
+// whitespace-separated.
 #pragma once
 
 #include <filesystem>

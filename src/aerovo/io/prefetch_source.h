@@ -35,7 +35,8 @@ struct PrefetchOptions {
   /// How long the destructor waits for an `inner.Next()` in progress before it leaves the
   /// reader to finish that one read on its own, ms; < 0: wait for it however long it takes.
   /// A stop must not wait for the next frame's decoding: a 20000x20000 photo's takes seconds,
-  /// a live stream's read can block until its timeout (issue 15: a stop within a second).
+  /// a live stream's read can block until its timeout (docs/reliability.md, "SIGINT inside a huge
+  /// frame": a stop within a second).
   int join_timeout_ms = 100;
 };
 

@@ -176,15 +176,76 @@ TEST(PrefetchSource, AnErrorAtTheFirstFrameIsThrownByTheFirstNext) {
   EXPECT_THROW(p.Next(f), InputError);
 }
 
+// A CountingSource that reports, to a probe the test owns, how many frames it produced and
+// whether it was destroyed (the probe outlives it).
+struct SourceProbe {
+  std::atomic<int> produced{0};
+  std::atomic<bool> destroyed{false};
+};
+class ProbedSource : public CountingSource {
+ public:
+  ProbedSource(std::shared_ptr<SourceProbe> probe, int count, std::chrono::microseconds delay)
+      : CountingSource(count, delay), probe_(std::move(probe)) {}
+  ~ProbedSource() override { probe_->destroyed.store(true); }
+  bool Next(Frame& frame) override {
+    const bool more = CountingSource::Next(frame);
+    probe_->produced.store(produced_.load());
+    return more;
+  }
+
+ private:
+  std::shared_ptr<SourceProbe> probe_;
+};
+
+// Waits up to 5 s for `pred`; true when it held.
+template <typename Pred>
+bool WaitFor(Pred pred) {
+  for (int i = 0; i < 5000 && !pred(); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  return pred();
+}
+
+// The destructor stops and joins a reader that is blocked waiting for room in a full queue
+// (kWait) and one that is reading frame after frame (kDropOldest, endless source): it returns
+// promptly, the reader reads nothing more, and the inner source is destroyed with the wrapper.
 TEST(PrefetchSource, DestroyedWhileTheReaderWaitsOrReads) {
   for (const QueuePolicy policy : {QueuePolicy::kWait, QueuePolicy::kDropOldest}) {
-    PrefetchSource p(std::make_unique<CountingSource>(-1, std::chrono::microseconds(200)),
-                     {2, policy});
-    Frame f;
-    ASSERT_TRUE(p.Next(f));
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }  // joins without hanging
-  PrefetchSource never_started(std::make_unique<CountingSource>(3));
+    SCOPED_TRACE(policy == QueuePolicy::kWait ? "kWait" : "kDropOldest");
+    auto probe = std::make_shared<SourceProbe>();
+    std::chrono::steady_clock::time_point destroying;
+    {
+      // join_timeout_ms -1: the destructor joins the reader (it never leaves it running), so
+      // a reader that did not see the stop would hang here instead of passing.
+      PrefetchSource p(std::make_unique<ProbedSource>(probe, -1, std::chrono::microseconds(200)),
+                       {2, policy, -1});
+      Frame f;
+      ASSERT_TRUE(p.Next(f));
+      if (policy == QueuePolicy::kWait) {
+        // 1 taken + 2 queued: then the reader waits for room before it reads again.
+        ASSERT_TRUE(WaitFor([&] { return probe->produced.load() >= 3; }));
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        EXPECT_EQ(probe->produced.load(), 3) << "the reader is waiting, not reading";
+      } else {
+        // The newest frame replaces the queued one: the reader keeps reading.
+        ASSERT_TRUE(WaitFor([&] { return probe->produced.load() >= 20; }));
+      }
+      EXPECT_FALSE(probe->destroyed.load());
+      destroying = std::chrono::steady_clock::now();
+    }
+    const double destroy_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - destroying).count();
+    EXPECT_TRUE(probe->destroyed.load()) << "joined: the inner source went with the wrapper";
+    EXPECT_LT(destroy_s, 2.0) << "the reader saw the stop within one 200 us read";
+  }
+  // A wrapper whose frames are never asked for starts no reader: nothing is read.
+  auto unread = std::make_shared<SourceProbe>();
+  {
+    PrefetchSource never_read(
+        std::make_unique<ProbedSource>(unread, 3, std::chrono::microseconds(0)),
+        {2, QueuePolicy::kWait, -1});
+  }
+  EXPECT_TRUE(unread->destroyed.load());
+  EXPECT_EQ(unread->produced.load(), 0);
 }
 
 // A source whose second Next() blocks until the test opens the gate (a huge photo's decoding,

@@ -493,7 +493,7 @@ TEST(TelemetryFiles, DispatchByExtensionAndMissingFile) {
   std::filesystem::remove_all(dir);
 }
 
-// ---------------------------------------------------------------- regressions (fuzzing, issue 6)
+// ---------------------------------------------------------------- regressions (fuzzing, fuzz/)
 // Inputs that once made a parser misbehave, inlined; the sanitizer stage of scripts/test.sh
 // runs them under ASan/UBSan (-fsanitize=float-cast-overflow included).
 

@@ -73,6 +73,28 @@ const int* SwsTable(const AVFrame* f) {
   return sws_getCoefficients(cs);
 }
 
+// Converts frame `f` (any size and format) into `dst_format`, one packed plane at `dst` with
+// `dst_stride` bytes per row, with swscale at the same size (bilinear, accurate rounding) and the
+// frame's own matrix and range; `*ctx` is the cached context of that target, created or reused.
+// Throws InputError naming `target` ("grey", "BGR") when swscale cannot convert the format.
+void SwsConvert(const AVFrame* f, AVPixelFormat dst_format, const char* target, SwsContext** ctx,
+                std::uint8_t* dst, int dst_stride) {
+  const int w = f->width, h = f->height;
+  const auto fmt = static_cast<AVPixelFormat>(f->format);
+  *ctx = sws_getCachedContext(*ctx, w, h, fmt, w, h, dst_format, SWS_BILINEAR | SWS_ACCURATE_RND,
+                              nullptr, nullptr, nullptr);
+  if (*ctx == nullptr) {
+    throw InputError(fmt::format("video: swscale cannot convert pixel format {} to {}",
+                                 av_get_pix_fmt_name(fmt) ? av_get_pix_fmt_name(fmt) : "?",
+                                 target));
+  }
+  const int* table = SwsTable(f);
+  sws_setColorspaceDetails(*ctx, table, IsFullRange(f) ? 1 : 0, table, 1, 0, 1 << 16, 1 << 16);
+  std::uint8_t* planes[4] = {dst, nullptr, nullptr, nullptr};
+  int strides[4] = {dst_stride, 0, 0, 0};
+  sws_scale(*ctx, f->data, f->linesize, 0, h, planes, strides);
+}
+
 }  // namespace
 
 struct VideoDecoder::Av {
@@ -250,37 +272,15 @@ void VideoDecoder::Gray(GrayImage& out) {
     }
     return;
   }
-  a.sws_gray = sws_getCachedContext(a.sws_gray, w, h, fmt, w, h, AV_PIX_FMT_GRAY8,
-                                    SWS_BILINEAR | SWS_ACCURATE_RND, nullptr, nullptr, nullptr);
-  if (a.sws_gray == nullptr) {
-    throw InputError(fmt::format("video: swscale cannot convert pixel format {} to grey",
-                                 av_get_pix_fmt_name(fmt) ? av_get_pix_fmt_name(fmt) : "?"));
-  }
-  const int* table = SwsTable(f);
-  sws_setColorspaceDetails(a.sws_gray, table, full ? 1 : 0, table, 1, 0, 1 << 16, 1 << 16);
-  std::uint8_t* dst[4] = {out.data(), nullptr, nullptr, nullptr};
-  int dst_stride[4] = {w, 0, 0, 0};
-  sws_scale(a.sws_gray, f->data, f->linesize, 0, h, dst, dst_stride);
+  SwsConvert(f, AV_PIX_FMT_GRAY8, "grey", &a.sws_gray, out.data(), w);
 }
 
 void VideoDecoder::Bgr(cv::Mat& out) {
   Av& a = *av_;
   if (!a.have_frame) throw InvalidArgument("VideoDecoder::Bgr: no frame grabbed");
   const AVFrame* f = a.frame;
-  const int w = f->width, h = f->height;
-  const auto fmt = static_cast<AVPixelFormat>(f->format);
-  out.create(h, w, CV_8UC3);
-  a.sws_bgr = sws_getCachedContext(a.sws_bgr, w, h, fmt, w, h, AV_PIX_FMT_BGR24,
-                                   SWS_BILINEAR | SWS_ACCURATE_RND, nullptr, nullptr, nullptr);
-  if (a.sws_bgr == nullptr) {
-    throw InputError(fmt::format("video: swscale cannot convert pixel format {} to BGR",
-                                 av_get_pix_fmt_name(fmt) ? av_get_pix_fmt_name(fmt) : "?"));
-  }
-  const int* table = SwsTable(f);
-  sws_setColorspaceDetails(a.sws_bgr, table, IsFullRange(f) ? 1 : 0, table, 1, 0, 1 << 16, 1 << 16);
-  std::uint8_t* dst[4] = {out.data, nullptr, nullptr, nullptr};
-  int dst_stride[4] = {static_cast<int>(out.step[0]), 0, 0, 0};
-  sws_scale(a.sws_bgr, f->data, f->linesize, 0, h, dst, dst_stride);
+  out.create(f->height, f->width, CV_8UC3);
+  SwsConvert(f, AV_PIX_FMT_BGR24, "BGR", &a.sws_bgr, out.data, static_cast<int>(out.step[0]));
 }
 
 }  // namespace aerovo

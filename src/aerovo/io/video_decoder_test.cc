@@ -1,6 +1,6 @@
 // VideoDecoder (io/video_decoder.h) and VideoFileSource with each decoder: resolution changes
-// mid-stream (issue 15), grey from the luma plane against an exact BT.601/709 conversion
-// (issue 19), rotation metadata, cut files. Inputs are made here with ffmpeg and OpenCV.
+// mid-stream, grey from the luma plane against an exact BT.601/709 conversion, rotation metadata,
+// cut files. Inputs are made here with ffmpeg and OpenCV.
 #include "aerovo/io/video_decoder.h"
 
 #include <algorithm>
@@ -54,7 +54,7 @@ std::filesystem::path JoinWithoutClockRestart(const std::filesystem::path& dir, 
   return out;
 }
 
-// Issue 15: a video that shrinks (or grows) mid-stream without a clock restart. Ours reports
+// A video that shrinks (or grows) mid-stream without a clock restart. Ours reports
 // the frame where the size changes (the first of the second clip, counted by decoding the file
 // with VideoDecoder); the first clip's frames come through first.
 TEST(VideoDecoder, ResolutionChangeWithoutClockRestartIsAnErrorNamingFrameAndSizes) {

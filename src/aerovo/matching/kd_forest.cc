@@ -12,9 +12,8 @@ namespace {
 constexpr float kInf = std::numeric_limits<float>::infinity();
 // Points per leaf at most. Muja & Lowe's randomized trees go down to single points; here the
 // traversal (node reads, queue operations) costs more than the distances, so leaves of up to
-// 16 points (4 steps of the 4-wide list kernel) are faster at equal recall than 8 (measured,
-// bench_matching BM_KdForest, 20k points: 4 trees x 64 checks, 51 ms at recall 0.993 vs 8-point
-// leaves at 32 checks, 54 ms at 0.990) and halve the build time.
+// 16 points (4 steps of the 4-wide list kernel) are faster at equal recall than 8 and halve the
+// build time (BENCHMARKS.md, "k-d forest leaf size").
 constexpr int kLeafSize = 16;
 // Points whose mean and variance choose a node's split: the first ones of the node's range
 // (the ids are shuffled once per tree, and partitions keep them in an order unrelated to the
@@ -205,8 +204,9 @@ int KdForest::Search(int g, const float* q, const float* rows, const float* norm
   while (checks < max_checks && !queue.empty()) {
     // Unsorted queue: pushes (~10 per descent) are appends and the few pops scan it. A binary
     // heap spent more on sifting the pushes than this spends on the scans (a query pops only
-    // a few branches at the default budget): 15-25 % faster searches at 64 and 128 checks,
-    // the same branches popped in the same order (same results).
+    // a few branches at the default budget): faster searches (BENCHMARKS.md, "Approximate
+    // matching: randomized k-d forest"), the same branches popped in the same order (same
+    // results).
     std::size_t best_k = 0;
     for (std::size_t k = 1; k < queue.size(); ++k) {
       if (Later{}(queue[best_k], queue[k])) best_k = k;

@@ -40,8 +40,7 @@ constexpr int kTilesPerItem = 16;
 // work item, so it should stay in L2 (1-2 MB per core on current x86) with room to spare.
 constexpr int kBlockBytes = 256 * 1024;
 // Below these amounts of work a parallel region costs more than it saves (fork/join and, on a
-// loaded machine, waiting for a descheduled thread): ~2 ms of single-thread exhaustive work,
-// ~1 ms of guided queries.
+// loaded machine, waiting for a descheduled thread); BENCHMARKS.md, "Matcher thresholds".
 constexpr std::int64_t kMinPairsForThreads = 1 << 20;
 constexpr int kMinGuidedQueriesForThreads = 4096;
 // Exhaustive searches with at most this many queries (and at most half as many as candidates)
@@ -58,8 +57,8 @@ constexpr double kGuidedSortMinCandidates = 4.0;
 constexpr double kPi = 3.14159265358979323846;
 // Upper bound on guided-grid cells per Laplacian group (memory bound for tiny radii).
 constexpr std::int64_t kMaxGridCells = 1 << 18;
-// k-d forest search: queries from which a parallel region pays (~1-2 us of work per query at
-// the default budget, so ~1-2 ms in all).
+// k-d forest search: queries from which a parallel region pays (BENCHMARKS.md, "Matcher
+// thresholds").
 constexpr int kMinKdQueriesForThreads = 1024;
 // Largest MatchOptions::kd_trees accepted (memory: one index array per tree and group).
 constexpr int kMaxKdTrees = 64;
@@ -629,7 +628,7 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
   // Pass 1, positions only: the candidates of every query, in visiting order. Knowing them in
   // advance lets pass 2 fetch the descriptor rows of later queries while it compares the
   // current one; the rows are scattered over arrays larger than L2, so without that each
-  // comparison would wait for memory (~4x slower with ~1 candidate per query).
+  // comparison would wait for memory (BENCHMARKS.md, "Matcher thresholds").
   cand_start.resize(static_cast<std::size_t>(nq) + 1);
   // Branch-free append: every scanned slot is written and the count advances only for those in
   // the disc (whether a slot is in the disc is a coin flip for the branch predictor). The buffer

@@ -1,5 +1,5 @@
 // Descriptor matching between the features of two frames (prev = frame n-1, curr = frame n),
-// with MATLAB matchFeatures semantics by default (see ../shared/docs/METHOD.md).
+// with MATLAB matchFeatures semantics by default (docs/method.md, "Matching defaults").
 #pragma once
 
 #include <cstdint>

@@ -1,4 +1,4 @@
-// The camera's attitude and the virtual nadir camera (issue 14 item 3): a camera that is not
+// The camera's attitude and the virtual nadir camera (docs/attitude.md): a camera that is not
 // looking straight down sees the ground point under its image centre h tan(tilt) away from the
 // point under the aircraft, and its ground sampling distance varies across the frame. Mapping
 // each keypoint through the frame's rotation to a virtual nadir camera with the same centre and

@@ -24,7 +24,7 @@
 namespace aerovo {
 
 struct GpsCheckOptions {
-  /// Off: every fix is accepted (the behaviour before issue 15).
+  /// Off: every fix is accepted (the behaviour before these checks existed).
   bool enabled = true;
   /// Largest plausible horizontal ground speed, m/s. 40 m/s = 144 km/h: above the top speed of
   /// consumer multirotors (DJI spec sheets: Mavic 3 21 m/s, Phantom 4 20 m/s).

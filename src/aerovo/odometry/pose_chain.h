@@ -22,8 +22,9 @@ enum class ScaleMode {
   /// Default. Each step's displacement of the image centre is converted to metres with the
   /// ground sampling distance of the frame it is measured in (height above ground / focal
   /// length in pixels), and the heading is integrated from each step's rotation; the step's
-  /// scale is not chained. This is the cure METHOD.md prescribes for the tilt-induced scale
-  /// drift measured on tampa-phantom3 (chained affine scale swinging 0.6x-2.6x).
+  /// scale is not chained. This is the cure docs/method.md ("Pitfalls on real flights")
+  /// prescribes for the tilt-induced scale drift measured on tampa-phantom3 (chained affine
+  /// scale swinging 0.6x-2.6x).
   kMetric,
   /// The paper's pure chaining: world_from_frame_n = world_from_frame_{n-1} * prev_from_curr
   /// in the first frame's pixels, converted to metres once with the first frame's ground

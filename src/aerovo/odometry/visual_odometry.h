@@ -1,4 +1,4 @@
-// Streaming visual odometry for a downward-looking camera (Ivanov & Muzychuk 2023, METHOD.md):
+// Streaming visual odometry for a downward-looking camera (Ivanov & Muzychuk 2023, docs/method.md):
 // per frame, SURF -> matching -> (clustered) RANSAC against the previous frame -> chaining into
 // a trajectory (pose_chain.h documents the frames), with failure handling: a step that fails
 // (dark or textureless frame, no overlap, too few inliers, implausible motion) is flagged and
@@ -29,7 +29,7 @@ struct OdometryOptions {
   /// SURF options. Defaults = MATLAB's (surf.h) except:
   /// - num_threads = 0 (all cores): the odometry is the one consumer that owns the whole machine;
   /// - adaptive = true: every frame keeps about surf.target_points points spread over the image
-  ///   whatever its contrast (dim, hazy, thermal, low-texture frames still give a step; issue 14,
+  ///   whatever its contrast (dim, hazy, thermal, low-texture frames still give a step;
   ///   BENCHMARKS.md "Adaptive interest points"). surf.adaptive = false (or `--paper`) is the
   ///   paper's fixed MATLAB threshold.
   SurfOptions surf = [] {
@@ -67,7 +67,8 @@ struct OdometryOptions {
     c.clustered.refine_fallback = true;
     return c;
   }();
-  /// How the steps become metric positions. Default kMetric (METHOD.md pitfall on tilt).
+  /// How the steps become metric positions. Default kMetric (docs/method.md, "Pitfalls on real
+  /// flights": tilt).
   ScaleMode scale_mode = ScaleMode::kMetric;
   /// Camera focal length in pixels (of the frames given to Process). 0 = unknown: positions are
   /// then in pixels of the first frame (ground sampling distance taken as 1 m/px).

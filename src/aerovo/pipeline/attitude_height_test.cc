@@ -1,4 +1,4 @@
-// Issue 14 items 2 (which height, from where) and 3 (attitude) in the run's steps: the height
+// Heights (which one, from where) and attitude (docs/attitude.md) in the run's steps: the height
 // above ground from a relative altitude plus the take-off point's height, or from an altitude
 // above sea level minus the ground's (photos the test writes with only a GPS altitude), and the
 // camera attitude of a frame from its telemetry (gimbal, aircraft, autopilot, mount).

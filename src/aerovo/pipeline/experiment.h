@@ -1,5 +1,5 @@
-// Experiments that reproduce the paper's measurements on any flight (../shared/docs/METHOD.md,
-// "What the paper measures"): the same flight run several times with one parameter changed, every
+// Experiments that reproduce the paper's measurements on any flight (docs/method.md,
+// "The paper's figures"): the same flight run several times with one parameter changed, every
 // run a normal run folder (RunFlight), and tables comparing the runs. The experiments are the
 // entries of Experiments() below, one per ExperimentKind (report/experiment_kind.h: how to add
 // one):

@@ -1,4 +1,4 @@
-// The lens self-calibration pre-pass of `aerovo run` (issue 14 item 4: wide lenses without a
+// The lens self-calibration pre-pass of `aerovo run` (wide lenses without a
 // calibration file; RunConfig::lens_estimation, docs/lenses.md "Self-calibration"). Before the
 // first frame is processed, a SECOND frame source on the same input (a photo folder: random
 // access to its photos; a video file: one source per pair, seeking to it) reads a few pairs of

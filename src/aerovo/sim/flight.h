@@ -65,7 +65,8 @@ struct FlightPlan {
   /// time over which the aircraft rolls in and out of a turn (s; default 1.5).
   double max_bank_deg = 20.0;
   double bank_ramp_s = 1.5;
-  /// Height above the flat ground (m). Default 100 m (issue 5's reference flight).
+  /// Height above the flat ground (m). Default 100 m (the simulated reference flight of
+  /// BENCHMARKS.md, "Odometry on a simulated flight against exact ground truth").
   double height_m = 100.0;
   /// Ground speed (m/s). Default 10 m/s, a typical survey speed for small multirotors.
   double speed_mps = 10.0;
