@@ -432,12 +432,6 @@ def run_python_pages():
     page = os.path.join("docs", "python.md")
     cwd = page_dir(page)
     code_blocks = [(ln, t) for lang, ln, t in BLOCKS[page] if lang == "python"]
-    if not PYTHON_MODULE or not os.path.isdir(PYTHON_MODULE) or not any(
-            n.startswith("aerovo.") and n.endswith(".so") for n in os.listdir(PYTHON_MODULE)):
-        for ln, _ in code_blocks:
-            skipped(f"{page}:{ln} ```python", "the Python module was not built (pybind11-dev, "
-                    "python3-dev, python3-numpy missing)")
-        return
     # Its shell command again, into the used folder: --force makes it repeatable; without it,
     # the refusal the page describes.
     (cmd,) = [c for lang, _, t in BLOCKS[page] if lang == "sh" for c in shell_commands(t)]
@@ -454,6 +448,19 @@ def run_python_pages():
                f"exit {code}", out[-2000:])
     else:
         passed(f"{page}: without --force a second run stops: exit 1, {said!r}")
+    if not PYTHON_MODULE or not os.path.isdir(PYTHON_MODULE) or not any(
+            n.startswith("aerovo.") and n.endswith(".so") for n in os.listdir(PYTHON_MODULE)):
+        for ln, _ in code_blocks:
+            skipped(f"{page}:{ln} ```python", "the Python module was not built (pybind11-dev, "
+                    "python3-dev, python3-numpy missing)")
+        return
+    try:
+        import numpy  # noqa: F401  (the blocks' own import; the module needs it too)
+    except ImportError:
+        for ln, _ in code_blocks:
+            skipped(f"{page}:{ln} ```python", f"{sys.executable} has no numpy: run this test with "
+                    "the interpreter the module was built for (ctest does)")
+        return
     text = doc_text(page)
     m = re.search(r"`(aerovo run sim/frames -o run --force)`", text)
     if not m:
