@@ -50,8 +50,26 @@ TelemetryReadResult ReadAny(const TelemetryArgs& args) {
                m.height_px, m.make.empty() ? "unknown make" : m.make, m.model,
                m.serial_number.empty() ? "" : fmt::format(" (serial {})", m.serial_number),
                mm(m.focal_length_mm, 2), mm(m.focal_length_35mm_mm, 1));
-    if (m.xmp_from_exif_packet) {
-      fmt::print("xmp          read from the EXIF tag 0x02bc (XMLPacket)\n");
+    // Where the DJI XMP values came from (docs/inputs.md, "XMP in EXIF 0x02bc"), and each of
+    // them or "unknown".
+    const bool has_xmp = m.rel_alt_m || m.abs_alt_m || m.gimbal_yaw_deg || m.gimbal_pitch_deg ||
+                         m.gimbal_roll_deg || m.flight_yaw_deg || m.flight_pitch_deg ||
+                         m.flight_roll_deg || m.calibrated_focal_px;
+    fmt::print("xmp          {}\n", m.xmp_from_exif_packet
+                                        ? "read from the EXIF tag 0x02bc (XMLPacket)"
+                                    : has_xmp ? "read from the photo's XMP segment"
+                                              : "none (the photo has no DJI XMP values)");
+    if (has_xmp) {
+      const auto val = [](const std::optional<double>& v, const char* unit) {
+        return v ? fmt::format("{:.1f} {}", *v, unit) : std::string("unknown");
+      };
+      fmt::print(
+          "xmp values   relative altitude {}, absolute altitude {}, gimbal yaw {}, pitch {}, "
+          "roll {}, flight yaw {}, pitch {}, roll {}\n",
+          val(m.rel_alt_m, "m"), val(m.abs_alt_m, "m"), val(m.gimbal_yaw_deg, "deg"),
+          val(m.gimbal_pitch_deg, "deg"), val(m.gimbal_roll_deg, "deg"),
+          val(m.flight_yaw_deg, "deg"), val(m.flight_pitch_deg, "deg"),
+          val(m.flight_roll_deg, "deg"));
     }
     return TelemetryFromImages({m}, options);
   }

@@ -31,8 +31,11 @@ std::string ExitCodesHelp() {
   return "Exit codes:\n"
          "  0    success (also --help, --version, aerovo alone)\n"
          "  1    the command failed: bad input data, a file it could not read or write\n"
-         "  2    usage error: unknown command or option, bad or missing value\n"
-         "  130  stopped by SIGINT (Ctrl-C), 143 by SIGTERM: outputs valid up to that frame\n";
+         "  2    usage error: unknown command or option, bad or missing value, a value out of\n"
+         "       its range\n"
+         "  130  stopped by SIGINT (Ctrl-C), 143 by SIGTERM, 129 by SIGHUP (the terminal closed),\n"
+         "       141 by SIGPIPE (the reader of the output went away): 128 + the signal; run,\n"
+         "       experiment and demo stop after the current frame, every output valid up to it\n";
 }
 
 int EditDistance(const std::string& a, const std::string& b) {

@@ -16,11 +16,13 @@ namespace aerovo::cli {
 
 /// The exit codes of `aerovo` (also in `aerovo --help` and the README).
 enum ExitCode : int {
-  kExitOk = 0,       ///< Success (also --help, --version, `aerovo` alone).
-  kExitFailure = 1,  ///< The command failed: bad input data, a file it could not read or write.
-  kExitUsage = 2,    ///< Usage error: unknown command or option, bad or missing value.
+  kExitOk = 0,         ///< Success (also --help, --version, `aerovo` alone).
+  kExitFailure = 1,    ///< The command failed: bad input data, a file it could not read or write.
+  kExitUsage = 2,      ///< Usage error: unknown command or option, bad or missing value.
   kExitSigint = 130,   ///< Stopped by SIGINT (128 + 2); the outputs are valid up to that frame.
   kExitSigterm = 143,  ///< Stopped by SIGTERM (128 + 15); same.
+  kExitSighup = 129,   ///< Stopped by SIGHUP (128 + 1, the terminal closed); same.
+  kExitSigpipe = 141,  ///< Stopped by SIGPIPE (128 + 13, the reader of stdout went away); same.
 };
 
 /// A usage error found by a command after parsing (an option's value out of range, options that

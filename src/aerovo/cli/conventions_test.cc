@@ -8,6 +8,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <regex>
 #include <set>
@@ -202,6 +203,11 @@ TEST(CliConventions, HelpCmdIsCmdHelpAndEveryHelpListsTheExitCodes) {
     EXPECT_EQ(r.status, 0) << cmd;
     EXPECT_TRUE(Has(r.out, "Exit codes:")) << cmd << "\n" << r.out;
     EXPECT_TRUE(Has(r.out, "  2    usage error")) << cmd << "\n" << r.out;
+    // Every code a run can end with (cli/run_cli.h StopSignals::ExitCode: 128 + the signal).
+    for (const char* code :
+         {"130  stopped by SIGINT", "143 by SIGTERM", "129 by SIGHUP", "141 by SIGPIPE"}) {
+      EXPECT_TRUE(Has(r.out, code)) << cmd << ": " << code << "\n" << r.out;
+    }
   }
   EXPECT_EQ(Aerovo("help", true).out, Aerovo("--help", true).out);
 }
@@ -263,6 +269,9 @@ TEST(CliConventions, RunPrintsTheAnswerFirstWithin80ColumnsAndTheConfigOnlyWhenV
     }
     EXPECT_TRUE(Has(summary, "Outputs in " + out + "/:")) << summary;
     EXPECT_TRUE(Has(summary, "frames.csv")) << summary;
+    // The folder's lock stays (io/run_folder.h) but is not an output.
+    EXPECT_TRUE(std::filesystem::exists(out + "/.aerovo.lock")) << out;
+    EXPECT_FALSE(Has(summary, ".aerovo.lock")) << summary;
   }
   std::system(("rm -rf " + dir).c_str());
 }

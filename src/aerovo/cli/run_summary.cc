@@ -5,6 +5,8 @@
 #include <system_error>
 #include <vector>
 
+#include "aerovo/io/run_folder.h"
+
 namespace aerovo::cli {
 
 std::string WrappedFileList(const std::string& folder, int width) {
@@ -12,7 +14,11 @@ std::string WrappedFileList(const std::string& folder, int width) {
   std::vector<std::string> names;
   std::error_code ec;
   for (const fs::directory_entry& e : fs::directory_iterator(folder, ec)) {
-    names.push_back(e.path().filename().string() + (e.is_directory(ec) ? "/" : ""));
+    const std::string name = e.path().filename().string();
+    // The folder's lock and space reserve (io/run_folder.h) are the run's bookkeeping, not
+    // its outputs: the lock file stays after the run by design, the reserve is removed.
+    if (name == RunFolderFiles::kLock || name == RunFolderFiles::kReserve) continue;
+    names.push_back(name + (e.is_directory(ec) ? "/" : ""));
   }
   std::sort(names.begin(), names.end());
   std::string out, line;

@@ -113,15 +113,24 @@ std::string FormatNumber(T v) {
   return std::string(buf.data(), r.ptr);
 }
 
+/// A range's bound as a reader writes it: a whole number below 1e15 in plain digits ("100000",
+/// "-1000000", where FormatNumber gives "1e+05"), any other value as FormatNumber.
+inline std::string FormatBound(double v) {
+  if (std::isfinite(v) && v == std::trunc(v) && std::fabs(v) < 1e15) {
+    return std::to_string(static_cast<long long>(v));
+  }
+  return FormatNumber(v);
+}
+
 inline std::string Spec::Describe() const {
   std::string range;
   if (has_min && has_max) {
-    range = std::string("in ") + (min_open ? "(" : "[") + FormatNumber(min) + ", " +
-            FormatNumber(max) + (max_open ? ")" : "]");
+    range = std::string("in ") + (min_open ? "(" : "[") + FormatBound(min) + ", " +
+            FormatBound(max) + (max_open ? ")" : "]");
   } else if (has_min) {
-    range = std::string(min_open ? "> " : ">= ") + FormatNumber(min);
+    range = std::string(min_open ? "> " : ">= ") + FormatBound(min);
   } else if (has_max) {
-    range = std::string(max_open ? "< " : "<= ") + FormatNumber(max);
+    range = std::string(max_open ? "< " : "<= ") + FormatBound(max);
   }
   if (!finite) return range;
   return range.empty() ? "finite" : "finite and " + range;

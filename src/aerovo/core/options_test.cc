@@ -73,6 +73,11 @@ TEST(Options, SpecDescribesAndContains) {
   EXPECT_EQ(options::Finite().Describe(), "finite");
   EXPECT_EQ(options::GreaterThan(0).Finite().Describe(), "finite and > 0");
   EXPECT_EQ(options::Any().Describe(), "");
+  // Whole bounds in plain digits, as docs/options.md and the messages quote them.
+  EXPECT_EQ(options::Interval(0, 1e5).Describe(), "in [0, 100000]");
+  EXPECT_EQ(options::Interval(-1e6, 1e6).Describe(), "in [-1000000, 1000000]");
+  EXPECT_EQ(options::AtMost(1e300).Describe(), "<= 1e+300");
+  EXPECT_EQ(options::AtLeast(-0.25).Describe(), ">= -0.25");
   EXPECT_TRUE(options::Interval(0, 1, true, false).Contains(1.0));
   EXPECT_FALSE(options::Interval(0, 1, true, false).Contains(0.0));
   EXPECT_FALSE(options::AtLeast(0).Contains(std::nan("")));

@@ -2,9 +2,11 @@
 // parser is hand-written (no std::regex: its recursion can overflow on hostile input).
 #include <cctype>
 #include <istream>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -50,6 +52,9 @@ struct BlockFields {
   std::optional<long long> counter;
   std::optional<double> unix_time;
   std::string error;  // First problem met (value that does not parse).
+  long line = 0;      // Number of the line being parsed (1-based).
+  long counter_line = 0;
+  std::map<const std::optional<double>*, long> line_of;  // Line that set each value.
 
   void Fail(std::string msg) {
     if (error.empty()) error = std::move(msg);
@@ -61,6 +66,12 @@ struct BlockFields {
       return;
     }
     field = v;
+    line_of[&field] = line;
+  }
+  void SetCounter(std::optional<long long> c) {
+    if (!c) return;
+    counter = c;
+    counter_line = line;
   }
 };
 
@@ -137,8 +148,8 @@ std::optional<std::vector<std::string_view>> ParenValues(std::string_view line,
 }
 
 void ParseTextLine(std::string_view line, BlockFields& f) {
-  if (auto c = CounterAfter(line, "FrameCnt")) f.counter = c;
-  if (auto c = CounterAfter(line, "SrtCnt")) f.counter = c;
+  f.SetCounter(CounterAfter(line, "FrameCnt"));
+  f.SetCounter(CounterAfter(line, "SrtCnt"));
   // Bracketed fields.
   for (std::size_t p = line.find('['); p != std::string_view::npos; p = line.find('[', p)) {
     const std::size_t close = line.find(']', p);
@@ -188,6 +199,42 @@ void ParseTextLine(std::string_view line, BlockFields& f) {
   if (!line.empty() && std::isdigit(static_cast<unsigned char>(line.front()))) {
     if (auto t = io_detail::ParseDateTime(line)) f.unix_time = t;
   }
+}
+
+// The line holding the value ValidateSample refuses in `s` (built from `f`): each value of `f`
+// alone in an otherwise valid sample, the one refused with the whole sample's message; else
+// `fallback` (the sample is valid, or no single value explains it).
+long LineOfRefusedValue(const TelemetrySample& s, const BlockFields& f, long fallback) {
+  const auto refusal = [](const TelemetrySample& t) -> std::string {
+    try {
+      ValidateSample(t, "");
+      return "";
+    } catch (const InputError& e) {
+      return e.what();
+    }
+  };
+  const std::string whole = refusal(s);
+  if (whole.empty()) return fallback;
+  TelemetrySample valid;
+  valid.time_s = s.time_s;
+  const std::pair<const std::optional<double>*, void (*)(TelemetrySample&, double)> fields[] = {
+      {&f.lat, [](TelemetrySample& t, double v) { t.lat_deg = v; }},
+      {&f.lon, [](TelemetrySample& t, double v) { t.lon_deg = v; }},
+      {&f.abs_alt, [](TelemetrySample& t, double v) { t.abs_alt_m = v; }},
+      {&f.rel_alt, [](TelemetrySample& t, double v) { t.rel_alt_m = v; }},
+      {&f.gb_yaw, [](TelemetrySample& t, double v) { t.gimbal_yaw_deg = v; }},
+      {&f.gb_pitch, [](TelemetrySample& t, double v) { t.gimbal_pitch_deg = v; }},
+      {&f.gb_roll, [](TelemetrySample& t, double v) { t.gimbal_roll_deg = v; }},
+      {&f.focal35, [](TelemetrySample& t, double v) { t.focal_length_35mm_mm = v; }},
+  };
+  for (const auto& [value, set] : fields) {
+    const auto at = f.line_of.find(value);
+    if (!*value || at == f.line_of.end()) continue;
+    TelemetrySample alone = valid;
+    set(alone, **value);
+    if (refusal(alone) == whole) return at->second;
+  }
+  return fallback;
 }
 
 }  // namespace
@@ -259,6 +306,7 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
         break;
       }
       const bool had_error = !f.error.empty();
+      f.line = lines[i].number;
       ParseTextLine(StripTags(lines[i].text), f);
       if (!had_error && !f.error.empty()) error_line = lines[i].number;
     }
@@ -282,7 +330,7 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
     s.unix_time_s = f.unix_time;
     if (f.counter) {
       if (*f.counter < 1 || *f.counter > 100000000) {
-        errors.Report(block_line, fmt::format("frame counter {} out of range", *f.counter));
+        errors.Report(f.counter_line, fmt::format("frame counter {} out of range", *f.counter));
         continue;
       }
       s.frame_index = static_cast<int>(*f.counter - 1);
@@ -295,7 +343,8 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
     s.gimbal_yaw_deg = f.gb_yaw;
     s.gimbal_pitch_deg = f.gb_pitch;
     s.gimbal_roll_deg = f.gb_roll;
-    if (!io_detail::AcceptSample(s, block_line, errors)) continue;
+    // A value out of range is named at its own line, not the subtitle's first.
+    if (!io_detail::AcceptSample(s, LineOfRefusedValue(s, f, block_line), errors)) continue;
     if (last_time && s.time_s < *last_time) {
       errors.Report(timing_line,
                     fmt::format("time {:.3f} s is earlier than the previous subtitle's {:.3f} s "

@@ -188,8 +188,49 @@ std::string SrtWithBadBlock(const std::string& bad_block) {
 TEST(DjiSrt, OutOfRangeLatitudeNamesFileAndLine) {
   std::istringstream in(
       SrtWithBadBlock("3\n00:00:00,066 --> 00:00:00,100\n[latitude: 123.4] [longitude: 6.3]\n"));
+  // Line 11 holds the value (line 9 is the subtitle's number).
   ExpectInputError([&] { ParseDjiSrt(in, "flight.srt"); },
-                   {"flight.srt:9: latitude 123.4 out of range [-90, 90]"});
+                   {"flight.srt:11: latitude 123.4 out of range [-90, 90]"});
+}
+
+// A DJI subtitle spreads its values over several lines: an out-of-range value is named at the
+// line that holds it, not at the subtitle's first line (9 here).
+TEST(DjiSrt, AValueOutOfRangeIsNamedAtTheLineHoldingIt) {
+  const auto block = [](const std::string& counter, const std::string& position,
+                        const std::string& height, const std::string& gimbal) {
+    const std::string lines[] = {
+        "3",                                                              // line 9
+        "00:00:00,066 --> 00:00:00,100",                                  // 10
+        "<font size=\"28\">FrameCnt: " + counter + ", DiffTime: 34ms",    // 11
+        "2023-05-01 12:00:00,190,000",                                    // 12
+        "[latitude: " + position + "]",                                   // 13
+        "[rel_alt: " + height + " abs_alt: 350.0] [focal_len : 240]",     // 14
+        "[gb_yaw: -12.5 gb_pitch: " + gimbal + " gb_roll: 0.0] </font>",  // 15
+    };
+    std::string text;
+    for (const std::string& l : lines) text += l + "\n";
+    return text;
+  };
+  const struct {
+    std::string text, expected;
+  } cases[] = {
+      {block("3", "43.3] [longitude: 200", "100.0", "-90.0"),
+       "c.srt:13: longitude 200 out of range [-180, 180]"},
+      {block("3", "43.3] [longitude: 6.3", "1e6", "-90.0"),
+       "c.srt:14: relative altitude (m) 1000000 out of range [-100000, 100000]"},
+      {block("3", "43.3] [longitude: 6.3", "100.0", "-900"),
+       "c.srt:15: gimbal pitch -900 out of range [-360, 360]"},
+      {block("0", "43.3] [longitude: 6.3", "100.0", "-90.0"),
+       "c.srt:11: frame counter 0 out of range"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.expected);
+    std::istringstream in(SrtWithBadBlock(c.text));
+    ExpectInputError([&] { ParseDjiSrt(in, "c.srt"); }, {c.expected.c_str()});
+  }
+  // The same block with valid values reads.
+  std::istringstream in(SrtWithBadBlock(block("3", "43.3] [longitude: 6.3", "100.0", "-90.0")));
+  EXPECT_EQ(ParseDjiSrt(in, "c.srt").records, 4);
 }
 
 TEST(DjiSrt, GarbageStrictThrowsLenientSkipsAndCounts) {
