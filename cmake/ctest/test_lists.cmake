@@ -35,6 +35,8 @@ set(AEROVO_TEST_COSTS
   LongRun.TenThousandFramesWithFlatMemory 37
   CliOutputs 36
   Video4k.DefaultRunDetectsAtHalfResolutionWithinFivePercentOfFullResolution 34
+  Runner.TampaRelocalisationDoesNotDependOnTheSeed 20
+  ReferenceOutputs 18
   CliSignal 17
   HtmlReport 15
   Runner.TampaPhantom3MeetsTheOnePercentTarget 10
