@@ -22,7 +22,7 @@ B=${FUZZ_BUILD_DIR:-build-fuzz}
 
 if [ "${FUZZ_CONFIGURE:-1}" != 0 ]; then
   link=()  # mold when installed (scripts/install-deps.sh; scripts/test.sh says why)
-  command -v ld.mold >/dev/null && link=(-DCMAKE_EXE_LINKER_FLAGS=-fuse-ld=mold)
+  command -v ld.mold >/dev/null && link=("-DCMAKE_EXE_LINKER_FLAGS=-fuse-ld=mold -Wl,--no-fork")
   cmake -S . -B "$B" -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DAEROVO_BUILD_FUZZERS=ON \
     -DAEROVO_BUILD_TESTS=OFF -DAEROVO_BUILD_BENCHMARKS=OFF "${link[@]}" >/dev/null

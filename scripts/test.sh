@@ -24,10 +24,12 @@ cd "$(dirname "$0")/.."
 BUILD_DIR=${BUILD_DIR:-build}
 # mold (scripts/install-deps.sh) links the executables and shared libraries: a build links ~30
 # test executables, each in about a sixth of GNU ld's CPU time (BENCHMARKS.md, CI time). Python's
-# extension module (MODULE, possibly with LTO) keeps the default linker.
+# extension module (MODULE, possibly with LTO) keeps the default linker. --no-fork: mold links
+# in the process the compiler driver waits for, so its CPU time counts in the stage's.
 LINK_OPTIONS=()
 if command -v ld.mold >/dev/null; then
-  LINK_OPTIONS=(-DCMAKE_EXE_LINKER_FLAGS=-fuse-ld=mold -DCMAKE_SHARED_LINKER_FLAGS=-fuse-ld=mold)
+  LINK_OPTIONS=("-DCMAKE_EXE_LINKER_FLAGS=-fuse-ld=mold -Wl,--no-fork"
+    "-DCMAKE_SHARED_LINKER_FLAGS=-fuse-ld=mold -Wl,--no-fork")
 fi
 RELEASE_OPTIONS=(-G Ninja -DCMAKE_BUILD_TYPE=Release -DAEROVO_BUILD_TESTS=ON
   -DAEROVO_BUILD_BENCHMARKS=ON -DAEROVO_BUILD_EXAMPLES=ON -DAEROVO_SANITIZE=OFF
