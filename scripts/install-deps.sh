@@ -4,6 +4,7 @@
 set -euo pipefail
 PKGS=(
   build-essential cmake ninja-build pkg-config git
+  mold                   # linker of scripts/test.sh's builds (many test executables)
   libopencv-dev          # video/image I/O, colour, drawing, SIFT/ORB/AKAZE baselines
   libeigen3-dev          # geometry
   libgeographiclib-dev   # geodesy (LocalCartesian, WGS84)

@@ -5,6 +5,7 @@
 # tests under qemu-aarch64 through ctest, twice: AEROVO_SIMD=native (the NEON/SVE kernels chosen at
 # run time) and AEROVO_SIMD=scalar (the portable path; the SURF and matcher tests only).
 # SurfMatchGolden compares the keypoints and matches with the ones recorded on x86. Environment:
+# Usage: scripts/test-aarch64.sh [build|test]   (default: both; scripts/test.sh times them apart)
 #   AARCH64_BUILD_DIR   build directory (build-aarch64)
 #   AEROVO_SKIP_AARCH64=1  skip the stage (scripts/test.sh)
 # Excluded under qemu (ctest -E, the regex below), measured 2026-12-02 with qemu-user 7.2 (a
@@ -33,14 +34,19 @@ BUILD=${AARCH64_BUILD_DIR:-build-aarch64}
 JOBS=$(nproc)
 SIMD_TESTS='^(Surf|Sigmas/SurfBlob|Matcher)'
 EXCLUDE='^(SurfAdaptive\.IdenticalForIdenticalInputAndAnyThreadCount|SurfAdaptive\.OutputUnchangedOnASynthetic1080pFrame|SurfAdaptive\.TheSelectionIsExactlyThePlainSelectionOverAllCandidates|MatcherTest\.MultiThreadAndKernelsGiveIdenticalResults|MatcherKdForestTest\.DeterministicAcrossSeedsThreadsAndReuse|MavlinkLink\..*)$'
-./scripts/install-deps-aarch64.sh
-t0=$(date +%s)
-cmake -S . -B "$BUILD" -G Ninja -DCMAKE_TOOLCHAIN_FILE=cmake/toolchain-aarch64-linux-gnu.cmake \
-  -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_FLAGS_RELEASE="-O2 -DNDEBUG" -DAEROVO_CORE_ONLY=ON \
-  -DAEROVO_BUILD_TESTS=ON -DAEROVO_SANITIZE=OFF -DAEROVO_NATIVE=OFF >/dev/null
-cmake --build "$BUILD" --parallel "$JOBS"
+STEP=${1:-all}
+case $STEP in all | build | test) ;; *) echo "usage: $0 [build|test]" >&2; exit 2 ;; esac
+if [ "$STEP" != test ]; then
+  ./scripts/install-deps-aarch64.sh
+  t0=$(date +%s)
+  cmake -S . -B "$BUILD" -G Ninja -DCMAKE_TOOLCHAIN_FILE=cmake/toolchain-aarch64-linux-gnu.cmake \
+    -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_FLAGS_RELEASE="-O2 -DNDEBUG" -DAEROVO_CORE_ONLY=ON \
+    -DAEROVO_BUILD_TESTS=ON -DAEROVO_SANITIZE=OFF -DAEROVO_NATIVE=OFF >/dev/null
+  cmake --build "$BUILD" --parallel "$JOBS"
+  echo "test-aarch64: build took $(($(date +%s) - t0)) s"
+fi
+[ "$STEP" != build ] || exit 0
 t1=$(date +%s)
-echo "test-aarch64: build took $((t1 - t0)) s"
 # Every core unit test with the run-time choice of kernels; then, with the portable (scalar)
 # kernels, the tests of the code that has SIMD kernels (SURF and the matcher, with the golden
 # comparison): the other modules run the same code in both modes.

@@ -5,10 +5,13 @@
 #   1b. aarch64: the core modules cross-compiled for aarch64 (build-aarch64/), their unit tests
 #      under qemu-aarch64, NEON and scalar paths (scripts/test-aarch64.sh);
 #   2. AddressSanitizer + UndefinedBehaviorSanitizer build (-O1 -g1, no benchmarks) in
-#      build-asan/, every test again but four long accuracy runs (see sanitizers()); any
-#      ASan/UBSan/LeakSanitizer report fails the test;
-#   3. the libFuzzer targets (scripts/fuzz.sh, clang++, build-fuzz/), FUZZ_TIME s each (30).
-# Each stage prints its duration. Environment:
+#      build-asan/, every test again but the "accuracy" ones (long flights that the Release stage
+#      runs; cmake/ctest/test_lists.cmake says which and why); any ASan/UBSan/LeakSanitizer report
+#      fails the test;
+#   3. the libFuzzer targets (scripts/fuzz.sh, clang++, build-fuzz/), FUZZ_TIME s each (30), as
+#      many at a time as there are cores.
+# Each stage prints its wall and CPU (user+sys) time, build and tests separately; the end prints
+# a table of them and the 15 slowest tests. Environment:
 #   AEROVO_TEST_QUICK=1   developers: stage 1 only (Release build + tests)
 #   AEROVO_SKIP_AARCH64=1 skip the aarch64 cross build and its qemu tests
 #   BUILD_DIR, ASAN_BUILD_DIR, FUZZ_BUILD_DIR   build directories (build, build-asan, build-fuzz)
@@ -19,64 +22,118 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=${BUILD_DIR:-build}
+# mold (scripts/install-deps.sh) links the executables and shared libraries: a build links ~30
+# test executables, each in about a sixth of GNU ld's CPU time (BENCHMARKS.md, CI time). Python's
+# extension module (MODULE, possibly with LTO) keeps the default linker. --no-fork: mold links
+# in the process the compiler driver waits for, so its CPU time counts in the stage's.
+LINK_OPTIONS=()
+if command -v ld.mold >/dev/null; then
+  LINK_OPTIONS=("-DCMAKE_EXE_LINKER_FLAGS=-fuse-ld=mold -Wl,--no-fork"
+    "-DCMAKE_SHARED_LINKER_FLAGS=-fuse-ld=mold -Wl,--no-fork")
+fi
 RELEASE_OPTIONS=(-G Ninja -DCMAKE_BUILD_TYPE=Release -DAEROVO_BUILD_TESTS=ON
   -DAEROVO_BUILD_BENCHMARKS=ON -DAEROVO_BUILD_EXAMPLES=ON -DAEROVO_SANITIZE=OFF
-  -DAEROVO_BUILD_FUZZERS=OFF -DAEROVO_NATIVE=OFF)
+  -DAEROVO_BUILD_FUZZERS=OFF -DAEROVO_NATIVE=OFF "${LINK_OPTIONS[@]}")
 if [ "${AEROVO_CONFIGURE_ONLY:-0}" = 1 ]; then
   exec cmake -S . -B "$BUILD_DIR" "${RELEASE_OPTIONS[@]}"
 fi
-./scripts/install-deps.sh
 ASAN_BUILD_DIR=${ASAN_BUILD_DIR:-build-asan}
 JOBS=$(nproc)
-declare -A STAGE_S
 t_all=$(date +%s)
+STAGES=()   # "name wall_s cpu_s", in order
+TESTLOGS=() # "stage:ctest log", for the slowest tests
 
-stage() {  # stage NAME COMMAND...: runs and times one stage
-  local name=$1 t0
+# CPU_S: user+sys CPU seconds of every child process finished so far (bash `times`, second line;
+# run in this shell, not a subshell, so that it sees this shell's children).
+TIMES_FILE=$(mktemp)
+CURRENT=""
+# On a failure: which stage, and the times so far.
+trap 'rc=$?; rm -f "$TIMES_FILE"; if [ $rc -ne 0 ] && [ -n "$CURRENT" ]; then
+  echo "=== test.sh: FAILED in stage $CURRENT (exit $rc)"; summary; fi' EXIT
+cpu_now() {
+  times >"$TIMES_FILE"
+  CPU_S=$(awk 'NR == 2 { for (i = 1; i <= 2; i++) { split($i, t, /[ms]/); s += t[1] * 60 + t[2] } }
+    END { printf "%.0f", s }' "$TIMES_FILE")
+}
+
+stage() {  # stage NAME COMMAND...: runs one step, prints and records its wall and CPU time
+  local name=$1 t0 c0
   shift
   echo "=== test.sh: $name"
+  CURRENT=$name
+  cpu_now
+  c0=$CPU_S
   t0=$(date +%s)
   "$@"
-  STAGE_S[$name]=$(($(date +%s) - t0))
-  echo "=== test.sh: $name took ${STAGE_S[$name]} s"
+  cpu_now
+  STAGES+=("$name $(($(date +%s) - t0)) $((CPU_S - c0))")
+  echo "=== test.sh: $name took $(($(date +%s) - t0)) s wall, $((CPU_S - c0)) s CPU"
 }
 
-release() {
+run_ctest() {  # run_ctest STAGE BUILD_DIR [ctest args...]: ctest, its log kept for the summary
+  local name=$1 dir=$2
+  shift 2
+  TESTLOGS+=("$name:$dir/ctest.log")
+  ctest --test-dir "$dir" --output-on-failure --no-tests=error --parallel "$JOBS" "$@" |
+    tee "$dir/ctest.log"
+}
+
+release_build() {
   cmake -S . -B "$BUILD_DIR" "${RELEASE_OPTIONS[@]}"
   cmake --build "$BUILD_DIR" --parallel "$JOBS"
-  ctest --test-dir "$BUILD_DIR" --output-on-failure --no-tests=error --parallel "$JOBS" \
-    --timeout 1500
 }
+release_tests() { run_ctest release "$BUILD_DIR" --timeout 1500; }
 
-sanitizers() {
+sanitizers_build() {
   # -O1 -g1 (line tables): sanitizer builds compile ~2x slower than Release; -O1 keeps the tests
   # fast enough and the reports still name file:line.
   cmake -S . -B "$ASAN_BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DAEROVO_SANITIZE=ON \
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DAEROVO_BUILD_TESTS=ON \
     -DAEROVO_BUILD_BENCHMARKS=OFF -DAEROVO_BUILD_EXAMPLES=OFF -DAEROVO_BUILD_FUZZERS=OFF \
-    -DAEROVO_NATIVE=OFF
+    -DAEROVO_NATIVE=OFF "${LINK_OPTIONS[@]}"
   cmake --build "$ASAN_BUILD_DIR" --parallel "$JOBS"
+}
+sanitizers_tests() {
   # detect_leaks: LeakSanitizer at exit; third-party leaks are suppressed in scripts/lsan.supp
   # (each entry explained). UBSan: -fno-sanitize-recover=all already aborts on the first report.
-  # Not repeated under the sanitizers (they run in the Release stage): the long accuracy runs that
-  # only repeat code paths shorter tests cover here too — the 4K flight (Video4k: the detection
-  # reduction, also Preprocess.* and FrameInput.*), the 10 000-frame run (LongRun: the per-frame
-  # path of every flight test; its flat-memory check means nothing under ASan's allocator) and the
-  # seed-independence runs of tampa (the same flight as Runner.TampaPhantom3MeetsTheOnePercentTarget,
-  # run again with other seeds).
-  local skip='^(Video4k\..*|LongRun\..*|Runner\.TampaRelocalisationDoesNotDependOnTheSeed|Runner\.PolishMakesTheTrackIndependentOfTheSeed)$'
+  # -LE accuracy: not the long accuracy runs the Release stage runs (cmake/ctest/test_lists.cmake).
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:strict_string_checks=1 \
     UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
     LSAN_OPTIONS=suppressions=$PWD/scripts/lsan.supp:print_suppressions=0 \
-    ctest --test-dir "$ASAN_BUILD_DIR" --output-on-failure --no-tests=error --parallel "$JOBS" \
-    --timeout 3000 -E "$skip"
+    run_ctest sanitizers "$ASAN_BUILD_DIR" --timeout 3000 -LE accuracy
 }
 
-stage release release
+summary() {
+  local row name wall cpu log
+  echo "=== test.sh: stage times (wall and user+sys CPU, seconds; $JOBS cores)"
+  printf '%-20s %8s %8s\n' stage wall_s cpu_s
+  for row in "${STAGES[@]}"; do
+    read -r name wall cpu <<<"$row"
+    printf '%-20s %8s %8s\n' "$name" "$wall" "$cpu"
+  done
+  printf '%-20s %8s\n' total "$(($(date +%s) - t_all))"
+  echo "=== test.sh: the 15 slowest tests (wall s, under ctest --parallel $JOBS)"
+  # ctest's lines: "  12/300 Test  #45: Name ......   Passed   12.34 sec".
+  for row in "${TESTLOGS[@]}"; do
+    name=${row%%:*}
+    log=${row#*:}
+    sed -nE "s/^ *[0-9]+\/[0-9]+ Test +#[0-9]+: ([^ ]+) .* ([0-9.]+) sec$/\2 $name \1/p" "$log"
+  done | sort -rn | head -15 | awk '{ printf "%8.1f  %-11s %s\n", $1, $2, $3 }'
+}
+
+stage install-deps ./scripts/install-deps.sh
+stage release-build release_build
+stage release-tests release_tests
 if [ "${AEROVO_TEST_QUICK:-0}" != 1 ]; then
-  [ "${AEROVO_SKIP_AARCH64:-0}" = 1 ] || stage aarch64 ./scripts/test-aarch64.sh
-  stage sanitizers sanitizers
-  stage fuzz ./scripts/fuzz.sh
+  if [ "${AEROVO_SKIP_AARCH64:-0}" != 1 ]; then
+    stage aarch64-build ./scripts/test-aarch64.sh build
+    stage aarch64-tests ./scripts/test-aarch64.sh test
+  fi
+  stage sanitizers-build sanitizers_build
+  stage sanitizers-tests sanitizers_tests
+  stage fuzz-build env FUZZ_BUILD_ONLY=1 ./scripts/fuzz.sh
+  stage fuzz-run env FUZZ_CONFIGURE=0 ./scripts/fuzz.sh
 fi
-echo "=== test.sh: all stages passed in $(($(date +%s) - t_all)) s" \
-  "($(for k in "${!STAGE_S[@]}"; do printf '%s %s s; ' "$k" "${STAGE_S[$k]}"; done))"
+CURRENT=""
+summary
+echo "=== test.sh: all stages passed in $(($(date +%s) - t_all)) s"

@@ -1,0 +1,85 @@
+# Test registration shared by the module test executables (aerovo_module in CMakeLists.txt) and
+# the end-to-end tests (tests/CMakeLists.txt).
+#
+# gtest_discover_tests registers one ctest test per GoogleTest test, each run as its own process.
+# A suite whose tests share one expensive fixture (SetUpTestSuite simulates or runs a flight)
+# would then set the fixture up again for every test. The suites listed here are registered as
+# one ctest test per suite instead (name: the suite's name; --gtest_filter=Suite.*, and for
+# value-parameterised suites */Suite.*): the same tests run, the fixture once. A failure names
+# the GoogleTest test in the output. Configuring fails when a listed suite is in no test source.
+set(AEROVO_WHOLE_SUITE_TESTS
+  CliOutputs            # tests/e2e/outputs_test.cc: a simulated 121-frame video flight
+  GeoProducts           # tests/e2e/geo_products_test.cc: simulate, run and report a flight
+  HtmlReport            # tests/e2e/html_report_test.cc: simulate, run and report flights
+  CliSignal             # tests/e2e/cli_signal_test.cc: a simulated 301-frame flight
+  ReferenceOutputs      # tests/e2e/reference_outputs_test.cc: a simulated flight
+  ExperimentOnSimulatedFlight  # src/aerovo/pipeline/experiment_test.cc: a simulated flight
+)
+
+# aerovo_discover_tests(TARGET [gtest_discover_tests arguments...]): gtest_discover_tests for
+# TARGET's tests except the listed suites found in its sources, which get one ctest test each.
+# The arguments' PROPERTIES (ENVIRONMENT ...) apply to both.
+function(aerovo_discover_tests target)
+  cmake_parse_arguments(D "" "" "PROPERTIES" ${ARGN})
+  get_target_property(_srcs ${target} SOURCES)
+  get_target_property(_dir ${target} SOURCE_DIR)
+  set(_filter "")
+  foreach(_suite ${AEROVO_WHOLE_SUITE_TESTS})
+    set(_found FALSE)
+    foreach(_src ${_srcs})
+      if(NOT IS_ABSOLUTE "${_src}")
+        set(_src "${_dir}/${_src}")
+      endif()
+      file(STRINGS "${_src}" _m REGEX "^TEST_[FP]\\(${_suite},")
+      if(_m)
+        set(_found TRUE)
+        break()
+      endif()
+    endforeach()
+    if(_found)
+      set(_suite_filter "${_suite}.*:*/${_suite}.*")
+      add_test(NAME ${_suite} COMMAND ${target} --gtest_filter=${_suite_filter})
+      if(D_PROPERTIES)
+        set_tests_properties(${_suite} PROPERTIES ${D_PROPERTIES})
+      endif()
+      list(APPEND _filter ${_suite_filter})
+      set_property(GLOBAL APPEND PROPERTY AEROVO_WHOLE_SUITES_FOUND ${_suite})
+    endif()
+  endforeach()
+  set(_args ${D_UNPARSED_ARGUMENTS})
+  if(D_PROPERTIES)
+    list(APPEND _args PROPERTIES ${D_PROPERTIES})
+  endif()
+  if(_filter)
+    list(JOIN _filter ":" _filter)
+    gtest_discover_tests(${target} TEST_FILTER "-${_filter}" ${_args})
+  else()
+    gtest_discover_tests(${target} ${_args})
+  endif()
+endfunction()
+
+# At the end of configuring: every listed suite was found (a renamed or moved suite must not
+# silently fall back to one process per test, nor vanish).
+function(aerovo_check_whole_suite_tests)
+  get_property(_found GLOBAL PROPERTY AEROVO_WHOLE_SUITES_FOUND)
+  foreach(_suite ${AEROVO_WHOLE_SUITE_TESTS})
+    if(NOT _suite IN_LIST _found)
+      message(FATAL_ERROR "cmake/AerovoTesting.cmake lists the test suite ${_suite}, which no "
+        "test source defines (TEST_F/TEST_P(${_suite}, ...)): update the list")
+    endif()
+  endforeach()
+endfunction()
+
+# aerovo_test_optimisation(TARGET): the test executable's own sources at -O1 in the Release
+# build (appended after the build type's -O3, so the last -O wins); the library code under test
+# keeps the build's flags. A test TU is mostly GoogleTest macros, expectations and scene
+# generators, and compiles 25-45 % faster at -O1 than at -O3 (BENCHMARKS.md, CI time); it
+# computes the same: without -ffast-math GCC and Clang keep IEEE semantics at every -O level
+# (no reassociation; no FMA on the x86-64-v2 baseline, -ffp-contract=off elsewhere).
+# The sanitizer and fuzz builds (RelWithDebInfo) are at -O1 already. Not in cross builds: their
+# tests run under an emulator (scripts/test-aarch64.sh), where test code runs at its -O2.
+function(aerovo_test_optimisation target)
+  if(NOT CMAKE_CROSSCOMPILING)
+    target_compile_options(${target} PRIVATE $<$<CONFIG:Release>:-O1>)
+  endif()
+endfunction()

@@ -1,0 +1,53 @@
+# Lists of tests by ctest name, read by test_properties.cmake (ctest) and check_listed_tests.cmake
+# (the test ctest.listed_tests_exist). Names are exact (no patterns).
+
+# Label "accuracy": end-to-end accuracy runs over whole flights. The Release stage of
+# scripts/test.sh runs them; the sanitizer stage leaves them out (ctest -LE accuracy): each
+# repeats, on more frames or with other figures, a path that a test still run under the
+# sanitizers takes too (named below), and their accuracy figures are those of the optimised build.
+#   - Video4k: the 4K flight (the detection reduction; also Preprocess.* and FrameInput.*);
+#   - LongRun: 10 000 frames, the per-frame path of every flight test (its flat-memory check
+#     means nothing under ASan's allocator);
+#   - Runner.Tampa...Seed, Runner.Polish...: tampa again with other seeds (the same flight as
+#     Runner.TampaPhantom3MeetsTheOnePercentTarget, which stays);
+#   - ReferenceOutputs: skipped in instrumented builds anyway (their figures are the Release
+#     build's; tests/e2e/reference_outputs_test.cc), after simulating the suite's flight;
+#   - AdaptivePoints.IlluminationDownToATenth...: the adaptive detection of the defaults on darker
+#     frames (AdaptivePoints.ThermalLikeFlight..., which stays, and the features unit tests);
+#   - Attitude.NadirFlightIsUnchanged...: the attitude correction on a nadir flight, the code of
+#     Attitude.TiltedFlight..., which stays.
+set(AEROVO_ACCURACY_TESTS
+  Video4k.DefaultRunDetectsAtHalfResolutionWithinFivePercentOfFullResolution
+  LongRun.TenThousandFramesWithFlatMemory
+  Runner.TampaRelocalisationDoesNotDependOnTheSeed
+  Runner.PolishMakesTheTrackIndependentOfTheSeed
+  ReferenceOutputs
+  AdaptivePoints.IlluminationDownToATenthKeepsTheTrackWithTheDefaults
+  Attitude.NadirFlightIsUnchangedByTheCorrection
+)
+
+# COST: relative run time, so that ctest --parallel starts the long tests first instead of
+# ending on one long test with a core idle (the end-to-end tests are registered last). Figures:
+# user+sys CPU seconds of the Release build's test, 2026-12-04 (BENCHMARKS.md, CI time). ctest
+# uses its own measured times instead once a build dir has run its tests
+# (Testing/Temporary/CTestCostData.txt). Pairs: name cost.
+set(AEROVO_TEST_COSTS
+  LongRun.TenThousandFramesWithFlatMemory 37
+  CliOutputs 36
+  Video4k.DefaultRunDetectsAtHalfResolutionWithinFivePercentOfFullResolution 34
+  Runner.TampaRelocalisationDoesNotDependOnTheSeed 20
+  ReferenceOutputs 18
+  CliSignal 17
+  HtmlReport 15
+  Runner.TampaPhantom3MeetsTheOnePercentTarget 10
+  AdaptivePoints.IlluminationDownToATenthKeepsTheTrackWithTheDefaults 10
+  LensSelfCalibration.FisheyeIsEstimatedAndApplied 8
+  ExperimentOnSimulatedFlight 7
+  GeoProducts 6
+  TelemetryTrust.ImplausibleSpikeOrFirstFixDoesNotSteerTheGeoReference 6
+  LensSelfCalibration.GoProLikeBarrelIsEstimatedAndApplied 6
+  Runner.VideoWithDjiSrtFromTheSimulator 5.5
+  Attitude.TiltedFlightIsThreeTimesMoreAccurateWithTheCorrection 5
+  Attitude.NadirFlightIsUnchangedByTheCorrection 5
+  AdaptivePoints.ThermalLikeFlightIsTrackedWithTheDefaults 5
+)

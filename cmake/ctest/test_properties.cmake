@@ -1,0 +1,15 @@
+# Included by ctest (TEST_INCLUDE_FILES, cmake/ctest/CMakeLists.txt) after every test is
+# registered: the lists of test_lists.cmake become test properties.
+include(${CMAKE_CURRENT_LIST_DIR}/test_lists.cmake)
+if(AEROVO_ACCURACY_TESTS)
+  set_tests_properties(${AEROVO_ACCURACY_TESTS} PROPERTIES LABELS accuracy)
+endif()
+list(LENGTH AEROVO_TEST_COSTS _n)
+set(_i 0)
+while(_i LESS _n)
+  list(GET AEROVO_TEST_COSTS ${_i} _name)
+  math(EXPR _i "${_i} + 1")
+  list(GET AEROVO_TEST_COSTS ${_i} _cost)
+  math(EXPR _i "${_i} + 1")
+  set_tests_properties(${_name} PROPERTIES COST ${_cost})
+endwhile()
