@@ -5,7 +5,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "aerovo/io/frame_source.h"
+#include "aerovo/frames/frame_source.h"
 #include "aerovo/pipeline/preprocess.h"
 
 namespace {

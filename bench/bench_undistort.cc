@@ -10,8 +10,8 @@
 #include <opencv2/core.hpp>
 
 #include "aerovo/camera/lens.h"
-#include "aerovo/io/camera.h"
-#include "aerovo/io/frame_source.h"
+#include "aerovo/frames/camera.h"
+#include "aerovo/frames/frame_source.h"
 
 namespace {
 

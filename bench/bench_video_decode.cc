@@ -18,8 +18,8 @@
 
 #include <fmt/format.h>
 
-#include "aerovo/io/ffmpeg_test_util.h"
-#include "aerovo/io/frame_source.h"
+#include "aerovo/frames/ffmpeg_test_util.h"
+#include "aerovo/frames/frame_source.h"
 
 namespace {
 

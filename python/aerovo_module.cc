@@ -33,7 +33,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/correspondence/correspondence.h"
 #include "aerovo/features/surf.h"
-#include "aerovo/io/image_file.h"
+#include "aerovo/frames/image_file.h"
 #include "aerovo/odometry/visual_odometry.h"
 #include "aerovo/report/run_reader.h"
 #include "aerovo/version.h"

@@ -13,7 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "aerovo/io/calibration.h"
+#include "aerovo/camera_files/calibration.h"
 
 namespace aerovo {
 namespace {

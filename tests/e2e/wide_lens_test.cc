@@ -12,7 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "aerovo/io/calibration.h"
+#include "aerovo/camera_files/calibration.h"
 
 namespace aerovo {
 namespace {

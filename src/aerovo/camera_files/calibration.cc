@@ -1,4 +1,4 @@
-#include "aerovo/io/calibration.h"
+#include "aerovo/camera_files/calibration.h"
 
 #include <algorithm>
 #include <cctype>
@@ -14,7 +14,7 @@
 #include <opencv2/core.hpp>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/output_file.h"
+#include "aerovo/outputs/output_file.h"
 
 namespace aerovo {
 namespace {

@@ -1,4 +1,4 @@
-#include "aerovo/io/calibration.h"
+#include "aerovo/camera_files/calibration.h"
 
 #include <fstream>
 
@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/io_test_util.h"
+#include "aerovo/telemetry/io_test_util.h"
 
 namespace aerovo {
 namespace {

@@ -17,7 +17,7 @@
 #include <fmt/format.h>
 
 #include "aerovo/cli/command.h"
-#include "aerovo/io/run_folder.h"
+#include "aerovo/outputs/run_folder.h"
 #include "aerovo/report/html_report.h"
 
 extern char** environ;

@@ -1,4 +1,4 @@
-#include "aerovo/io/oxford_dataset.h"
+#include "aerovo/eval/oxford_dataset.h"
 
 #include <cmath>
 #include <fstream>

@@ -11,7 +11,7 @@
 
 #include "aerovo/camera/pinhole.h"
 #include "aerovo/core/image.h"
-#include "aerovo/io/image_metadata.h"
+#include "aerovo/frames/image_metadata.h"
 
 namespace aerovo {
 

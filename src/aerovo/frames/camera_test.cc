@@ -1,4 +1,4 @@
-#include "aerovo/io/camera.h"
+#include "aerovo/frames/camera.h"
 
 #include <algorithm>
 #include <array>

@@ -1,4 +1,4 @@
-#include "aerovo/io/frame_source.h"
+#include "aerovo/frames/frame_source.h"
 
 #include <algorithm>
 #include <chrono>
@@ -11,8 +11,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/image_file.h"
-#include "aerovo/io/parse_util.h"
+#include "aerovo/frames/image_file.h"
+#include "aerovo/telemetry/parse_util.h"
 
 namespace aerovo {
 namespace {

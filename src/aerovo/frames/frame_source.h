@@ -14,10 +14,10 @@
 #include <opencv2/videoio.hpp>
 
 #include "aerovo/core/image.h"
-#include "aerovo/io/image_file.h"
-#include "aerovo/io/image_metadata.h"
-#include "aerovo/io/video_decoder.h"
-#include "aerovo/io/video_decoder_choice.h"
+#include "aerovo/frames/image_file.h"
+#include "aerovo/frames/image_metadata.h"
+#include "aerovo/frames/video_decoder.h"
+#include "aerovo/frames/video_decoder_choice.h"
 
 namespace aerovo {
 

@@ -1,4 +1,4 @@
-#include "aerovo/io/frame_source.h"
+#include "aerovo/frames/frame_source.h"
 
 #include <algorithm>
 #include <cstring>
@@ -14,8 +14,9 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
-#include "aerovo/io/ffmpeg_test_util.h"
-#include "aerovo/io/io_test_util.h"
+#include "aerovo/frames/ffmpeg_test_util.h"
+#include "aerovo/frames/image_test_util.h"
+#include "aerovo/telemetry/io_test_util.h"
 
 namespace aerovo {
 namespace {

@@ -1,4 +1,4 @@
-#include "aerovo/io/image_file.h"
+#include "aerovo/frames/image_file.h"
 
 #include <algorithm>
 #include <array>

@@ -1,4 +1,4 @@
-#include "aerovo/io/image_file.h"
+#include "aerovo/frames/image_file.h"
 
 #include <fstream>
 #include <iterator>
@@ -9,7 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/io_test_util.h"
+#include "aerovo/telemetry/io_test_util.h"
 
 namespace aerovo {
 namespace {

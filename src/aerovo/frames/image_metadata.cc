@@ -1,4 +1,4 @@
-#include "aerovo/io/image_metadata.h"
+#include "aerovo/frames/image_metadata.h"
 
 #include <algorithm>
 #include <cmath>
@@ -13,7 +13,7 @@
 #include <exiv2/exiv2.hpp>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/parse_util.h"
+#include "aerovo/telemetry/parse_util.h"
 
 namespace aerovo {
 namespace {

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "aerovo/io/telemetry_readers.h"
+#include "aerovo/telemetry/telemetry_readers.h"
 
 namespace aerovo {
 

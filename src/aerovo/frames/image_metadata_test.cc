@@ -1,4 +1,4 @@
-#include "aerovo/io/image_metadata.h"
+#include "aerovo/frames/image_metadata.h"
 
 #include <fstream>
 #include <iterator>
@@ -9,7 +9,8 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
-#include "aerovo/io/io_test_util.h"
+#include "aerovo/frames/image_test_util.h"
+#include "aerovo/telemetry/io_test_util.h"
 
 namespace aerovo {
 namespace {

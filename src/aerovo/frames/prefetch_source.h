@@ -14,7 +14,7 @@
 #include <thread>
 #include <vector>
 
-#include "aerovo/io/frame_source.h"
+#include "aerovo/frames/frame_source.h"
 
 namespace aerovo {
 

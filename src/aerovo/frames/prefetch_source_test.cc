@@ -1,4 +1,4 @@
-#include "aerovo/io/prefetch_source.h"
+#include "aerovo/frames/prefetch_source.h"
 
 #include <gtest/gtest.h>
 

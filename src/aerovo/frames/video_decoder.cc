@@ -1,4 +1,4 @@
-#include "aerovo/io/video_decoder.h"
+#include "aerovo/frames/video_decoder.h"
 
 #include <cmath>
 #include <cstdint>

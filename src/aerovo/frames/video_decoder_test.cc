@@ -1,7 +1,7 @@
 // VideoDecoder (io/video_decoder.h) and VideoFileSource with each decoder: resolution changes
 // mid-stream (issue 15), grey from the luma plane against an exact BT.601/709 conversion
 // (issue 19), rotation metadata, cut files. Inputs are made here with ffmpeg and OpenCV.
-#include "aerovo/io/video_decoder.h"
+#include "aerovo/frames/video_decoder.h"
 
 #include <algorithm>
 #include <cmath>
@@ -18,9 +18,10 @@
 #include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/ffmpeg_test_util.h"
-#include "aerovo/io/frame_source.h"
-#include "aerovo/io/io_test_util.h"
+#include "aerovo/frames/ffmpeg_test_util.h"
+#include "aerovo/frames/frame_source.h"
+#include "aerovo/frames/image_test_util.h"
+#include "aerovo/telemetry/io_test_util.h"
 
 namespace aerovo {
 namespace {

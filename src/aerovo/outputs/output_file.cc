@@ -1,4 +1,4 @@
-#include "aerovo/io/output_file.h"
+#include "aerovo/outputs/output_file.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>

@@ -2,7 +2,7 @@
 // output_file_testing, the same counter) and a real per-process file size limit (RLIMIT_FSIZE in
 // a child process, SIGXFSZ ignored so that write() fails with EFBIG). Every file left must be
 // valid with everything written before the failure, and the error must name the file.
-#include "aerovo/io/output_file.h"
+#include "aerovo/outputs/output_file.h"
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -17,7 +17,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "aerovo/io/track_writers.h"
+#include "aerovo/outputs/track_writers.h"
 
 namespace aerovo {
 namespace {

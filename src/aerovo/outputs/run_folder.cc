@@ -1,4 +1,4 @@
-#include "aerovo/io/run_folder.h"
+#include "aerovo/outputs/run_folder.h"
 
 #include <fcntl.h>
 #include <sys/file.h>

@@ -1,6 +1,6 @@
 // A run owns its folder: the lock between processes (a forked child holds it), shared within
 // one process, and the claim of a used folder with and without --force.
-#include "aerovo/io/run_folder.h"
+#include "aerovo/outputs/run_folder.h"
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>

@@ -1,4 +1,4 @@
-#include "aerovo/io/track_writers.h"
+#include "aerovo/outputs/track_writers.h"
 #include "aerovo/core/text.h"
 
 #include <fcntl.h>
@@ -17,7 +17,7 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/geo/local_enu.h"
-#include "aerovo/io/output_file.h"
+#include "aerovo/outputs/output_file.h"
 
 namespace aerovo {
 namespace fs = std::filesystem;

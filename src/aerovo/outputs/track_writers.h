@@ -39,7 +39,7 @@
 #include <nlohmann/json.hpp>
 
 #include "aerovo/geo/geo_point.h"
-#include "aerovo/io/frame_record.h"
+#include "aerovo/outputs/frame_record.h"
 
 namespace aerovo {
 

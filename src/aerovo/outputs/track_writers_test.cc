@@ -18,7 +18,7 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/geo/local_enu.h"
-#include "aerovo/io/track_writers.h"
+#include "aerovo/outputs/track_writers.h"
 
 namespace aerovo {
 namespace {

@@ -35,7 +35,7 @@
 #include <nlohmann/json.hpp>
 
 #include "aerovo/eval/trajectory_eval.h"
-#include "aerovo/io/frame_record.h"
+#include "aerovo/outputs/frame_record.h"
 #include "aerovo/pipeline/runner.h"
 #include "aerovo/sim/simulator.h"
 

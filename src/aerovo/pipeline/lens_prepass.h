@@ -19,8 +19,8 @@
 
 #include "aerovo/camera/pinhole.h"
 #include "aerovo/correspondence/lens_estimation.h"
-#include "aerovo/io/frame_source.h"
-#include "aerovo/io/track_writers.h"
+#include "aerovo/frames/frame_source.h"
+#include "aerovo/outputs/track_writers.h"
 #include "aerovo/pipeline/run_config.h"
 
 namespace aerovo::run_steps {

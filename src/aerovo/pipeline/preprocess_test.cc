@@ -10,7 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/camera.h"
+#include "aerovo/frames/camera.h"
 #include "aerovo/odometry/visual_odometry.h"
 
 namespace aerovo {

@@ -15,7 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "aerovo/core/options.h"
-#include "aerovo/io/video_decoder_choice.h"
+#include "aerovo/frames/video_decoder_choice.h"
 #include "aerovo/mavlink/vision.h"
 #include "aerovo/odometry/georef.h"
 #include "aerovo/odometry/gps_check.h"

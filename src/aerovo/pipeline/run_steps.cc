@@ -1,6 +1,6 @@
 #include "aerovo/pipeline/run_steps.h"
 #include "aerovo/core/cancel.h"
-#include "aerovo/io/output_file.h"
+#include "aerovo/outputs/output_file.h"
 
 #include <signal.h>
 
@@ -20,9 +20,9 @@
 
 #include "aerovo/camera/lens.h"
 #include "aerovo/core/error.h"
-#include "aerovo/io/calibration.h"
-#include "aerovo/io/camera.h"
-#include "aerovo/io/telemetry_readers.h"
+#include "aerovo/camera_files/calibration.h"
+#include "aerovo/frames/camera.h"
+#include "aerovo/telemetry/telemetry_readers.h"
 #include "aerovo/pipeline/lens_prepass.h"
 #include "aerovo/pipeline/pose_quality.h"
 #include "aerovo/report/run_reader.h"  // AssociateWithTruth

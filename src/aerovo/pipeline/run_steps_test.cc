@@ -26,8 +26,8 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
-#include "aerovo/io/calibration.h"
-#include "aerovo/io/camera.h"
+#include "aerovo/camera_files/calibration.h"
+#include "aerovo/frames/camera.h"
 
 namespace aerovo::run_steps {
 namespace {

@@ -27,9 +27,9 @@
 
 #include "aerovo/core/image.h"
 #include "aerovo/eval/trajectory_eval.h"
-#include "aerovo/io/frame_record.h"
 #include "aerovo/odometry/georef.h"
 #include "aerovo/odometry/visual_odometry.h"
+#include "aerovo/outputs/frame_record.h"
 #include "aerovo/pipeline/preprocess.h"
 #include "aerovo/pipeline/run_config.h"
 

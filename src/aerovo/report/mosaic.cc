@@ -11,11 +11,11 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "aerovo/camera_files/calibration.h"
 #include "aerovo/core/error.h"
-#include "aerovo/io/calibration.h"
-#include "aerovo/io/camera.h"
-#include "aerovo/io/frame_source.h"
-#include "aerovo/io/track_writers.h"
+#include "aerovo/frames/camera.h"
+#include "aerovo/frames/frame_source.h"
+#include "aerovo/outputs/track_writers.h"
 #include "aerovo/report/mosaic_warp.h"
 
 namespace aerovo {

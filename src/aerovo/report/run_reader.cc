@@ -10,9 +10,9 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/geo/local_enu.h"
-#include "aerovo/io/csv_lines.h"
-#include "aerovo/io/reference_track.h"
-#include "aerovo/io/track_writers.h"
+#include "aerovo/outputs/track_writers.h"
+#include "aerovo/telemetry/csv_lines.h"
+#include "aerovo/telemetry/reference_track.h"
 
 namespace aerovo {
 namespace fs = std::filesystem;

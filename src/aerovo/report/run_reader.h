@@ -14,7 +14,7 @@
 #include "aerovo/eval/trajectory_eval.h"
 #include "aerovo/geo/geo_point.h"
 #include "aerovo/geo/local_enu.h"
-#include "aerovo/io/reference_track.h"
+#include "aerovo/telemetry/reference_track.h"
 
 namespace aerovo {
 

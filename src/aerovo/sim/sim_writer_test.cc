@@ -20,8 +20,8 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/geo/local_enu.h"
-#include "aerovo/io/telemetry_readers.h"
 #include "aerovo/sim/simulator.h"
+#include "aerovo/telemetry/telemetry_readers.h"
 
 namespace aerovo::sim {
 namespace {

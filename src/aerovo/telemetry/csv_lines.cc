@@ -1,4 +1,4 @@
-#include "aerovo/io/csv_lines.h"
+#include "aerovo/telemetry/csv_lines.h"
 
 #include <algorithm>
 #include <string_view>
@@ -6,7 +6,7 @@
 #include <fmt/format.h>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/parse_util.h"
+#include "aerovo/telemetry/parse_util.h"
 
 namespace aerovo {
 namespace {

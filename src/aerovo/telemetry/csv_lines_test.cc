@@ -1,12 +1,12 @@
 // CsvLines and SplitCsv: the CSV tokenizer shared by the named-column readers.
-#include "aerovo/io/csv_lines.h"
+#include "aerovo/telemetry/csv_lines.h"
 
 #include <gtest/gtest.h>
 
 #include <sstream>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/io_test_util.h"
+#include "aerovo/telemetry/io_test_util.h"
 
 namespace aerovo {
 namespace {

@@ -8,9 +8,9 @@
 
 #include <fmt/format.h>
 
-#include "aerovo/io/csv_lines.h"
-#include "aerovo/io/parse_util.h"
-#include "aerovo/io/telemetry_readers.h"
+#include "aerovo/telemetry/csv_lines.h"
+#include "aerovo/telemetry/parse_util.h"
+#include "aerovo/telemetry/telemetry_readers.h"
 
 namespace aerovo {
 namespace {

@@ -10,8 +10,8 @@
 #include <fmt/format.h>
 #include <pugixml.hpp>
 
-#include "aerovo/io/parse_util.h"
-#include "aerovo/io/telemetry_readers.h"
+#include "aerovo/telemetry/parse_util.h"
+#include "aerovo/telemetry/telemetry_readers.h"
 
 namespace aerovo {
 namespace {

@@ -1,4 +1,4 @@
-#include "aerovo/io/parse_util.h"
+#include "aerovo/telemetry/parse_util.h"
 
 #include <cctype>
 #include <cerrno>

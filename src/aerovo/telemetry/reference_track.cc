@@ -1,4 +1,4 @@
-#include "aerovo/io/reference_track.h"
+#include "aerovo/telemetry/reference_track.h"
 
 #include <algorithm>
 #include <cctype>
@@ -9,9 +9,9 @@
 #include <fmt/format.h>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/csv_lines.h"
-#include "aerovo/io/parse_util.h"
-#include "aerovo/io/telemetry_readers.h"
+#include "aerovo/telemetry/csv_lines.h"
+#include "aerovo/telemetry/parse_util.h"
+#include "aerovo/telemetry/telemetry_readers.h"
 
 namespace aerovo {
 namespace {

@@ -1,12 +1,12 @@
 // Reference (ground-truth) track reading: TUM and CSV with named columns, and bad input.
-#include "aerovo/io/reference_track.h"
+#include "aerovo/telemetry/reference_track.h"
 
 #include <gtest/gtest.h>
 
 #include <fstream>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/io_test_util.h"
+#include "aerovo/telemetry/io_test_util.h"
 
 namespace aerovo {
 namespace {

@@ -1,4 +1,4 @@
-#include "aerovo/io/srt_writer.h"
+#include "aerovo/telemetry/srt_writer.h"
 
 #include <cmath>
 #include <cstdint>

@@ -1,11 +1,11 @@
-#include "aerovo/io/srt_writer.h"
+#include "aerovo/telemetry/srt_writer.h"
 
 #include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
 
-#include "aerovo/io/telemetry_readers.h"
+#include "aerovo/telemetry/telemetry_readers.h"
 
 namespace aerovo {
 namespace {

@@ -1,4 +1,4 @@
-#include "aerovo/io/telemetry.h"
+#include "aerovo/telemetry/telemetry.h"
 
 #include <algorithm>
 #include <cmath>

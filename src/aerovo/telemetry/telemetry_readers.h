@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/telemetry.h"
+#include "aerovo/telemetry/telemetry.h"
 
 namespace aerovo {
 

@@ -1,4 +1,4 @@
-#include "aerovo/io/telemetry_readers.h"
+#include "aerovo/telemetry/telemetry_readers.h"
 
 #include <filesystem>
 #include <fstream>
@@ -8,8 +8,8 @@
 #include <gtest/gtest.h>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/io_test_util.h"
-#include "aerovo/io/parse_util.h"
+#include "aerovo/telemetry/io_test_util.h"
+#include "aerovo/telemetry/parse_util.h"
 
 namespace aerovo {
 namespace {
