@@ -219,7 +219,7 @@ struct RunConfig {
   /// FrameCnt) is matched by time too (the SRT's time is the video's). Default 0.
   double telemetry_offset_s = 0.0;
   /// After the run, the offset between the telemetry and the video is estimated from the motion
-  /// (VO speed against GPS speed, run_steps.h EstimateTelemetryOffset) and reported; with this
+  /// (VO against GPS speed, telemetry/clock.h EstimateTelemetryOffset) and reported; with this
   /// switch the run is then repeated with the estimate added to telemetry_offset_s when it
   /// differs from it by more than 0.2 s and the estimate is clear. Default false (reported only).
   bool telemetry_auto_offset = false;

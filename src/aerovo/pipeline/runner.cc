@@ -6,6 +6,7 @@
 #include <ostream>
 #include <string>
 #include <system_error>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -20,6 +21,7 @@
 #include "aerovo/outputs/track_writers.h"
 #include "aerovo/pipeline/lens_prepass.h"
 #include "aerovo/pipeline/run_steps.h"
+#include "aerovo/telemetry/clock.h"
 
 namespace aerovo {
 
@@ -276,13 +278,15 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
   if (!telemetry.empty() && loop.totals().frames > 0) {
     const run_steps::RunTotals& t = loop.totals();
     if (!telemetry.by_frame_index() || config.telemetry_offset_s != 0.0) {
-      const std::string w = run_steps::CheckTelemetryClock(
-          telemetry.telemetry(), telemetry.origin(), t.first_time_s, t.last_time_s,
-          config.telemetry_offset_s);
+      const std::string w =
+          CheckTelemetryClock(telemetry.telemetry(), telemetry.origin(), t.first_time_s,
+                              t.last_time_s, config.telemetry_offset_s);
       if (!w.empty()) summary.warnings.push_back(w);
     }
-    const run_steps::OffsetEstimate e =
-        run_steps::EstimateTelemetryOffset(t.local_track, telemetry.telemetry());
+    std::vector<PlanarTrackPoint> vo_track;
+    vo_track.reserve(t.local_track.size());
+    for (const TrajectoryPoint2D& p : t.local_track) vo_track.push_back({p.t, p.x, p.y});
+    const OffsetEstimate e = EstimateTelemetryOffset(vo_track, telemetry.telemetry());
     summary.telemetry_offset_estimate_valid = e.valid;
     summary.telemetry_offset_estimate_s = e.offset_s;
     summary.telemetry_offset_correlation = e.correlation;

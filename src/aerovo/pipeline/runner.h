@@ -135,7 +135,8 @@ struct RunSummary {
   std::vector<RejectedGpsFix> gps_rejected_fixes;
   /// The telemetry offset applied (RunConfig::telemetry_offset_s, plus the estimate when
   /// telemetry_auto_offset re-ran the flight) and the offset estimated from the motion
-  /// (run_steps::EstimateTelemetryOffset; estimate_valid false: not enough motion or frames).
+  /// (telemetry/clock.h EstimateTelemetryOffset; estimate_valid false: not enough motion or
+  /// frames).
   double telemetry_offset_s = 0.0;
   bool telemetry_offset_estimate_valid = false;
   double telemetry_offset_estimate_s = 0.0;  ///< Telemetry time at video time 0, s.
