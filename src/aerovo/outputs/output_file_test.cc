@@ -79,7 +79,7 @@ TEST(OutputFile, FailedAppendsLeaveEveryTrackFileValidAndNameTheFile) {
       step(geojson_ok, n_geojson, [&] { geojson.Append(Point(i)); });
       step(gpx_ok, n_gpx, [&] { gpx.Append(Point(i)); });
       step(kml_ok, n_kml, [&] { kml.Append(Point(i)); });
-      step(points_ok, n_points, [&] { points.Append(Point(i).geo, {{"frame", i}}); });
+      step(points_ok, n_points, [&] { points.Append(Point(i).geo, nlohmann::json{{"frame", i}}); });
     }
     ASSERT_FALSE(geojson_ok && gpx_ok && kml_ok && points_ok) << "budget " << budget;
     EXPECT_NE(message.find(dir.string()), std::string::npos) << message;

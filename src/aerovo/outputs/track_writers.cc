@@ -5,8 +5,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include <cerrno>
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <ctime>
@@ -108,11 +108,18 @@ class ProgressiveFile {
 
   fs::path path_;
   int fd_ = -1;
-  size_t body_end_ = 0;  ///< Offset where the tail starts.
-  size_t size_ = 0;      ///< Current (valid) file size.
-  std::string tail_;     ///< The tail now at body_end_.
+  size_t body_end_ = 0;                    ///< Offset where the tail starts.
+  size_t size_ = 0;                        ///< Current (valid) file size.
+  std::string tail_;                       ///< The tail now at body_end_.
   std::optional<std::string> reset_body_;  ///< The body, while it is the last Reset's.
 };
+
+void ProgressiveFileDeleter::operator()(ProgressiveFile* file) const { delete file; }
+ProgressiveFilePtr CreateProgressiveFile(const fs::path& path) {
+  return ProgressiveFilePtr(new ProgressiveFile(path));
+}
+const fs::path& PathOf(const ProgressiveFile& file) { return file.path(); }
+void Close(ProgressiveFile& file) { file.Close(); }
 
 }  // namespace detail
 
@@ -152,8 +159,6 @@ void ValidatePoint(const GeoTrackPoint& p, const std::string& file) {
   Validate(p.geo, ("track point for " + file).c_str());
 }
 
-const std::string& PathOf(const std::unique_ptr<ProgressiveFile>& f) { return f->path().native(); }
-
 }  // namespace
 
 void Validate(const FrameRecord& r) {
@@ -174,23 +179,16 @@ void Validate(const FrameRecord& r) {
 // ---------------------------------------------------------------------------------------------
 // CSV
 
-const char* CsvFrameWriter::Header() {
+const char* CsvFrameFormat::Header() {
   return "frame,time_s,x_m,y_m,lat_deg,lon_deg,alt_m,n_surf,n_matched,n_inliers,cluster,"
          "detect_ms,describe_ms,correspond_ms,estimate_ms,total_ms,status,gps_lat_deg,"
          "gps_lon_deg,gps_alt_m,gps_flag,height_m,height_source,roll_deg,pitch_deg,latency_ms";
 }
 
-CsvFrameWriter::CsvFrameWriter(const fs::path& path)
-    : file_(std::make_unique<ProgressiveFile>(path)) {
-  file_->Reset(std::string(Header()) + "\n", "");
-}
-CsvFrameWriter::~CsvFrameWriter() = default;
-CsvFrameWriter::CsvFrameWriter(CsvFrameWriter&&) noexcept = default;
-CsvFrameWriter& CsvFrameWriter::operator=(CsvFrameWriter&&) noexcept = default;
-const fs::path& CsvFrameWriter::path() const { return file_->path(); }
-void CsvFrameWriter::Close() { file_->Close(); }
+void CsvFrameFormat::Open(ProgressiveFile& file) { file.Reset(std::string(Header()) + "\n", ""); }
 
-void CsvFrameWriter::Append(const FrameRecord& r, const std::optional<GeoPoint>& gps) {
+void CsvFrameFormat::Append(ProgressiveFile& file, const FrameRecord& r,
+                            const std::optional<GeoPoint>& gps) {
   Validate(r);
   if (gps) Validate(*gps, ("GPS of frame " + std::to_string(r.frame)).c_str());
   const auto geo_cells = [](const std::optional<GeoPoint>& g) {
@@ -210,65 +208,46 @@ void CsvFrameWriter::Append(const FrameRecord& r, const std::optional<GeoPoint>&
                      opt(r.pitch_deg));
   if (std::isfinite(r.latency_ms)) row += fmt::format("{:.3f}", r.latency_ms);
   row += "\n";
-  file_->Append(row, "");
+  file.Append(row, "");
 }
 
 // ---------------------------------------------------------------------------------------------
 // TUM
 
-TumWriter::TumWriter(const fs::path& path) : file_(std::make_unique<ProgressiveFile>(path)) {}
-TumWriter::~TumWriter() = default;
-TumWriter::TumWriter(TumWriter&&) noexcept = default;
-TumWriter& TumWriter::operator=(TumWriter&&) noexcept = default;
-const fs::path& TumWriter::path() const { return file_->path(); }
-void TumWriter::Close() { file_->Close(); }
-
-void TumWriter::Append(double time_s, const Eigen::Vector3d& p, double yaw_rad) {
-  const std::string where = "TUM pose for " + PathOf(file_);
+void TumFormat::Append(ProgressiveFile& file, double time_s, const Eigen::Vector3d& p,
+                       double yaw_rad) {
+  const std::string where = "TUM pose for " + file.path().string();
   CheckFinite(time_s, "time", where);
   if (!p.allFinite()) throw InvalidArgument(where + ": position is not finite");
   CheckFinite(yaw_rad, "yaw", where);
-  file_->Append(fmt::format("{:.6f} {:.6f} {:.6f} {:.6f} 0 0 {:.9f} {:.9f}\n", time_s, p.x(), p.y(),
-                            p.z(), std::sin(0.5 * yaw_rad), std::cos(0.5 * yaw_rad)),
-                "");
+  file.Append(fmt::format("{:.6f} {:.6f} {:.6f} {:.6f} 0 0 {:.9f} {:.9f}\n", time_s, p.x(), p.y(),
+                          p.z(), std::sin(0.5 * yaw_rad), std::cos(0.5 * yaw_rad)),
+              "");
 }
 
-void TumWriter::Append(double time_s, const Eigen::Vector3d& p, const Eigen::Quaterniond& q) {
-  const std::string where = "TUM pose for " + PathOf(file_);
+void TumFormat::Append(ProgressiveFile& file, double time_s, const Eigen::Vector3d& p,
+                       const Eigen::Quaterniond& q) {
+  const std::string where = "TUM pose for " + file.path().string();
   CheckFinite(time_s, "time", where);
   if (!p.allFinite()) throw InvalidArgument(where + ": position is not finite");
   if (!q.coeffs().allFinite()) throw InvalidArgument(where + ": orientation is not finite");
-  file_->Append(fmt::format("{:.6f} {:.6f} {:.6f} {:.6f} {:.9f} {:.9f} {:.9f} {:.9f}\n", time_s,
-                            p.x(), p.y(), p.z(), q.x(), q.y(), q.z(), q.w()),
-                "");
+  file.Append(fmt::format("{:.6f} {:.6f} {:.6f} {:.6f} {:.9f} {:.9f} {:.9f} {:.9f}\n", time_s,
+                          p.x(), p.y(), p.z(), q.x(), q.y(), q.z(), q.w()),
+              "");
 }
 
-TransformsCsvWriter::TransformsCsvWriter(const fs::path& path)
-    : file_(std::make_unique<ProgressiveFile>(path)) {
-  file_->Reset("frame,a11,a12,tx,a21,a22,ty\n", "");
+void TransformsCsvFormat::Open(ProgressiveFile& file) {
+  file.Reset("frame,a11,a12,tx,a21,a22,ty\n", "");
 }
-TransformsCsvWriter::~TransformsCsvWriter() = default;
-TransformsCsvWriter::TransformsCsvWriter(TransformsCsvWriter&&) noexcept = default;
-TransformsCsvWriter& TransformsCsvWriter::operator=(TransformsCsvWriter&&) noexcept = default;
-const fs::path& TransformsCsvWriter::path() const { return file_->path(); }
-void TransformsCsvWriter::Close() { file_->Close(); }
 
-void TransformsCsvWriter::Append(int frame, const Eigen::Matrix3d& m) {
-  file_->Append(fmt::format("{},{:.9g},{:.9g},{:.6f},{:.9g},{:.9g},{:.6f}\n", frame, m(0, 0),
-                            m(0, 1), m(0, 2), m(1, 0), m(1, 1), m(1, 2)),
-                "");
+void TransformsCsvFormat::Append(ProgressiveFile& file, int frame, const Eigen::Matrix3d& m) {
+  file.Append(fmt::format("{},{:.9g},{:.9g},{:.6f},{:.9g},{:.9g},{:.6f}\n", frame, m(0, 0), m(0, 1),
+                          m(0, 2), m(1, 0), m(1, 1), m(1, 2)),
+              "");
 }
 
 // ---------------------------------------------------------------------------------------------
 // GeoJSON
-
-struct GeoJsonTrackWriter::State {
-  State(const fs::path& path, std::string n) : file(path), name(std::move(n)) {}
-  ProgressiveFile file;
-  std::string name;
-  int count = 0;
-  GeoPoint first;  // kept to rewrite the Point as a LineString on the second point
-};
 
 namespace {
 constexpr const char* kFeatureCollectionHead = "{\"type\":\"FeatureCollection\",\"features\":[";
@@ -281,55 +260,39 @@ std::string GeoJsonFeatureHead(const std::string& name, const char* geometry_typ
 }
 }  // namespace
 
-GeoJsonTrackWriter::GeoJsonTrackWriter(const fs::path& path, std::string name)
-    : state_(std::make_unique<State>(path, std::move(name))) {
-  state_->file.Reset(kFeatureCollectionHead, "]}\n");
-}
-GeoJsonTrackWriter::~GeoJsonTrackWriter() = default;
-GeoJsonTrackWriter::GeoJsonTrackWriter(GeoJsonTrackWriter&&) noexcept = default;
-GeoJsonTrackWriter& GeoJsonTrackWriter::operator=(GeoJsonTrackWriter&&) noexcept = default;
-const fs::path& GeoJsonTrackWriter::path() const { return state_->file.path(); }
-void GeoJsonTrackWriter::Close() { state_->file.Close(); }
-int GeoJsonTrackWriter::size() const { return state_->count; }
+void GeoJsonTrackFormat::Open(ProgressiveFile& file) { file.Reset(kFeatureCollectionHead, "]}\n"); }
 
-void GeoJsonTrackWriter::Append(const GeoTrackPoint& point) {
-  State& s = *state_;
-  ValidatePoint(point, s.file.path().string());
-  if (s.file.closed()) throw InvalidArgument("write to closed output file " + path().string());
+void GeoJsonTrackFormat::Append(ProgressiveFile& file, const GeoTrackPoint& point) {
+  ValidatePoint(point, file.path().string());
   const std::string head = kFeatureCollectionHead;
-  if (s.count == 0) {
-    s.file.Reset(head + GeoJsonFeatureHead(s.name, "Point") + LonLatAltJson(point.geo), "}}]}\n");
-    s.first = point.geo;
-  } else if (s.count == 1) {
-    s.file.Reset(head + GeoJsonFeatureHead(s.name, "LineString") + "[\n" + LonLatAltJson(s.first) +
-                     ",\n" + LonLatAltJson(point.geo),
-                 kGeoJsonLineTail);
+  if (count_ == 0) {
+    file.Reset(head + GeoJsonFeatureHead(name_, "Point") + LonLatAltJson(point.geo), "}}]}\n");
+    first_ = point.geo;
+  } else if (count_ == 1) {
+    file.Reset(head + GeoJsonFeatureHead(name_, "LineString") + "[\n" + LonLatAltJson(first_) +
+                   ",\n" + LonLatAltJson(point.geo),
+               kGeoJsonLineTail);
   } else {
-    s.file.Append(",\n" + LonLatAltJson(point.geo), kGeoJsonLineTail);
+    file.Append(",\n" + LonLatAltJson(point.geo), kGeoJsonLineTail);
   }
-  ++s.count;
+  ++count_;
 }
 
-GeoJsonPointsWriter::GeoJsonPointsWriter(const fs::path& path)
-    : file_(std::make_unique<ProgressiveFile>(path)) {
-  file_->Reset(kFeatureCollectionHead, "\n]}\n");
+void GeoJsonPointsFormat::Open(ProgressiveFile& file) {
+  file.Reset(kFeatureCollectionHead, "\n]}\n");
 }
-GeoJsonPointsWriter::~GeoJsonPointsWriter() = default;
-GeoJsonPointsWriter::GeoJsonPointsWriter(GeoJsonPointsWriter&&) noexcept = default;
-GeoJsonPointsWriter& GeoJsonPointsWriter::operator=(GeoJsonPointsWriter&&) noexcept = default;
-const fs::path& GeoJsonPointsWriter::path() const { return file_->path(); }
-void GeoJsonPointsWriter::Close() { file_->Close(); }
 
-void GeoJsonPointsWriter::Append(const GeoPoint& point, const nlohmann::json& properties) {
-  Validate(point, ("point for " + PathOf(file_)).c_str());
+void GeoJsonPointsFormat::Append(ProgressiveFile& file, const GeoPoint& point,
+                                 const nlohmann::json& properties) {
+  Validate(point, ("point for " + file.path().string()).c_str());
   if (!properties.is_object()) {
-    throw InvalidArgument("GeoJSON point properties for " + PathOf(file_) +
+    throw InvalidArgument("GeoJSON point properties for " + file.path().string() +
                           " must be a JSON object");
   }
   const std::string feature =
       "{\"type\":\"Feature\",\"properties\":" + properties.dump() +
       ",\"geometry\":{\"type\":\"Point\",\"coordinates\":" + LonLatAltJson(point) + "}}";
-  file_->Append((count_ == 0 ? "\n" : ",\n") + feature, "\n]}\n");
+  file.Append((count_ == 0 ? "\n" : ",\n") + feature, "\n]}\n");
   ++count_;
 }
 
@@ -342,29 +305,12 @@ namespace {
 std::string KmlStyle(const std::string& id, const std::string& color_abgr) {
   return "<Style id=\"" + id + "\"><IconStyle><color>" + XmlEscape(color_abgr) +
          "</color><scale>0.6</scale></IconStyle><LabelStyle><scale>0</scale></LabelStyle>"
-         "<LineStyle><color>" + XmlEscape(color_abgr) + "</color><width>3</width></LineStyle>"
+         "<LineStyle><color>" +
+         XmlEscape(color_abgr) +
+         "</color><width>3</width></LineStyle>"
          "</Style>\n";
 }
 }  // namespace
-
-struct KmlTrackWriter::State {
-  State(const fs::path& path, std::string n, std::string c)
-      : file(path), name(std::move(n)), color(std::move(c)) {}
-  ProgressiveFile file;
-  std::string name;
-  std::string color;
-  int count = 0;
-  GeoPoint first;
-
-  std::string DocumentHead() const {
-    return "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
-           "<kml xmlns=\"http://www.opengis.net/kml/2.2\">\n<Document>\n<name>" +
-           XmlEscape(name) + "</name>\n" + KmlStyle("track", color);
-  }
-  std::string PlacemarkHead() const {
-    return "<Placemark><name>" + XmlEscape(name) + "</name><styleUrl>#track</styleUrl>";
-  }
-};
 
 namespace {
 constexpr const char* kKmlDocumentTail = "</Document>\n</kml>\n";
@@ -372,41 +318,44 @@ constexpr const char* kKmlLineTail =
     "\n</coordinates></LineString></Placemark>\n</Document>\n</kml>\n";
 }  // namespace
 
-KmlTrackWriter::KmlTrackWriter(const fs::path& path, std::string name, std::string color_abgr)
-    : state_(std::make_unique<State>(path, std::move(name), std::move(color_abgr))) {
-  if (state_->color.size() != 8 ||
-      state_->color.find_first_not_of("0123456789abcdefABCDEF") != std::string::npos) {
-    throw InvalidArgument("KML colour \"" + state_->color + "\" for " + path.string() +
+KmlTrackFormat::KmlTrackFormat(const fs::path& path, std::string name, std::string color_abgr)
+    : name_(std::move(name)), color_(std::move(color_abgr)) {
+  if (color_.size() != 8 ||
+      color_.find_first_not_of("0123456789abcdefABCDEF") != std::string::npos) {
+    throw InvalidArgument("KML colour \"" + color_ + "\" for " + path.string() +
                           " must be 8 hex digits aabbggrr");
   }
-  state_->file.Reset(state_->DocumentHead(), kKmlDocumentTail);
 }
-KmlTrackWriter::~KmlTrackWriter() = default;
-KmlTrackWriter::KmlTrackWriter(KmlTrackWriter&&) noexcept = default;
-KmlTrackWriter& KmlTrackWriter::operator=(KmlTrackWriter&&) noexcept = default;
-const fs::path& KmlTrackWriter::path() const { return state_->file.path(); }
-void KmlTrackWriter::Close() { state_->file.Close(); }
-int KmlTrackWriter::size() const { return state_->count; }
 
-void KmlTrackWriter::Append(const GeoTrackPoint& point) {
-  State& s = *state_;
-  ValidatePoint(point, s.file.path().string());
-  if (s.file.closed()) throw InvalidArgument("write to closed output file " + path().string());
-  if (s.count == 0) {
-    s.file.Reset(s.DocumentHead() + s.PlacemarkHead() + "<Point><coordinates>" +
-                     LonLatAltKml(point.geo) + "</coordinates></Point></Placemark>\n",
-                 kKmlDocumentTail);
-    s.first = point.geo;
-  } else if (s.count == 1) {
-    s.file.Reset(s.DocumentHead() + s.PlacemarkHead() +
-                     "<LineString><tessellate>1</tessellate><altitudeMode>clampToGround"
-                     "</altitudeMode><coordinates>\n" +
-                     LonLatAltKml(s.first) + "\n" + LonLatAltKml(point.geo),
-                 kKmlLineTail);
+std::string KmlTrackFormat::DocumentHead() const {
+  return "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+         "<kml xmlns=\"http://www.opengis.net/kml/2.2\">\n<Document>\n<name>" +
+         XmlEscape(name_) + "</name>\n" + KmlStyle("track", color_);
+}
+
+std::string KmlTrackFormat::PlacemarkHead() const {
+  return "<Placemark><name>" + XmlEscape(name_) + "</name><styleUrl>#track</styleUrl>";
+}
+
+void KmlTrackFormat::Open(ProgressiveFile& file) { file.Reset(DocumentHead(), kKmlDocumentTail); }
+
+void KmlTrackFormat::Append(ProgressiveFile& file, const GeoTrackPoint& point) {
+  ValidatePoint(point, file.path().string());
+  if (count_ == 0) {
+    file.Reset(DocumentHead() + PlacemarkHead() + "<Point><coordinates>" + LonLatAltKml(point.geo) +
+                   "</coordinates></Point></Placemark>\n",
+               kKmlDocumentTail);
+    first_ = point.geo;
+  } else if (count_ == 1) {
+    file.Reset(DocumentHead() + PlacemarkHead() +
+                   "<LineString><tessellate>1</tessellate><altitudeMode>clampToGround"
+                   "</altitudeMode><coordinates>\n" +
+                   LonLatAltKml(first_) + "\n" + LonLatAltKml(point.geo),
+               kKmlLineTail);
   } else {
-    s.file.Append("\n" + LonLatAltKml(point.geo), kKmlLineTail);
+    file.Append("\n" + LonLatAltKml(point.geo), kKmlLineTail);
   }
-  ++s.count;
+  ++count_;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -447,39 +396,35 @@ namespace {
 constexpr const char* kGpxTail = "\n</trkseg></trk>\n</gpx>\n";
 }  // namespace
 
-GpxTrackWriter::GpxTrackWriter(const fs::path& path, std::string name,
+GpxTrackFormat::GpxTrackFormat(const fs::path& path, std::string name,
                                std::optional<double> time_origin_unix_s, int decimals)
-    : file_(std::make_unique<ProgressiveFile>(path)),
-      time_origin_unix_s_(time_origin_unix_s),
-      decimals_(decimals) {
+    : name_(std::move(name)), time_origin_unix_s_(time_origin_unix_s), decimals_(decimals) {
   if (decimals_ < 5 || decimals_ > 12) {
     throw InvalidArgument("GPX decimals for " + path.string() + " must be within 5..12");
   }
   if (time_origin_unix_s_ && !std::isfinite(*time_origin_unix_s_)) {
     throw InvalidArgument("GPX time origin for " + path.string() + " is not finite");
   }
-  file_->Reset(
+}
+
+void GpxTrackFormat::Open(ProgressiveFile& file) {
+  file.Reset(
       "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
       "<gpx version=\"1.1\" creator=\"aerovo\" xmlns=\"http://www.topografix.com/GPX/1/1\">\n"
       "<trk><name>" +
-          XmlEscape(name) + "</name><trkseg>",
+          XmlEscape(name_) + "</name><trkseg>",
       kGpxTail);
 }
-GpxTrackWriter::~GpxTrackWriter() = default;
-GpxTrackWriter::GpxTrackWriter(GpxTrackWriter&&) noexcept = default;
-GpxTrackWriter& GpxTrackWriter::operator=(GpxTrackWriter&&) noexcept = default;
-const fs::path& GpxTrackWriter::path() const { return file_->path(); }
-void GpxTrackWriter::Close() { file_->Close(); }
 
-void GpxTrackWriter::Append(const GeoTrackPoint& point) {
-  ValidatePoint(point, PathOf(file_));
+void GpxTrackFormat::Append(ProgressiveFile& file, const GeoTrackPoint& point) {
+  ValidatePoint(point, file.path().string());
   std::string pt = fmt::format("\n<trkpt lat=\"{:.{}f}\" lon=\"{:.{}f}\"><ele>{:.{}f}</ele>",
                                point.geo.lat_deg, decimals_, WrapLon(point.geo.lon_deg), decimals_,
                                point.geo.alt_m, std::max(3, decimals_ - 5));
   if (time_origin_unix_s_) {
     pt += "<time>" + FormatUtcIso8601(*time_origin_unix_s_ + point.time_s) + "</time>";
   }
-  file_->Append(pt + "</trkpt>", kGpxTail);
+  file.Append(pt + "</trkpt>", kGpxTail);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -497,9 +442,10 @@ void WriteJsonFileAtomic(const fs::path& path, const nlohmann::json& value) {
 }
 
 std::vector<std::string> RunFileNames::All() {
-  return {kFramesCsv, kVoTum,  kGpsTum,  kVoGeoJson,     kGpsGeoJson, kVoFramesGeoJson,
-          kVoKml,     kGpsKml, kRunKml,  kRunLiveKml, kVoGpx,         kGpsGpx,     kSummaryJson,
-          kTransformsCsv, kConfigJson, kLensEstimateYaml};
+  return {kFramesCsv,   kVoTum,           kGpsTum,     kVoGeoJson,
+          kGpsGeoJson,  kVoFramesGeoJson, kVoKml,      kGpsKml,
+          kRunKml,      kRunLiveKml,      kVoGpx,      kGpsGpx,
+          kSummaryJson, kTransformsCsv,   kConfigJson, kLensEstimateYaml};
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -542,30 +488,26 @@ void WriteRunLiveKml(const fs::path& path, const std::string& run_name) {
 }  // namespace
 
 // run.kml (see RunKmlWriter in the header).
-RunKmlWriter::RunKmlWriter(const fs::path& path, std::string name,
+RunKmlFormat::RunKmlFormat(const fs::path& path, std::string name,
                            std::optional<double> time_origin_unix_s)
-    : file_(std::make_unique<ProgressiveFile>(path)),
-      name_(std::move(name)),
-      time_origin_unix_s_(time_origin_unix_s.value_or(0.0)) {
+    : name_(std::move(name)), time_origin_unix_s_(time_origin_unix_s.value_or(0.0)) {
   if (!std::isfinite(time_origin_unix_s_)) {
     throw InvalidArgument("KML time origin for " + path.string() + " is not finite");
   }
-  file_->Reset("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
-               "<kml xmlns=\"http://www.opengis.net/kml/2.2\">\n<Document>\n<name>" +
-                   XmlEscape(name_) + "</name>\n" + KmlStyle("vo", "ff0000ff") +
-                   KmlStyle("gps", "ffff0000"),
-               kKmlDocumentTail);
 }
-RunKmlWriter::~RunKmlWriter() = default;
-RunKmlWriter::RunKmlWriter(RunKmlWriter&&) noexcept = default;
-RunKmlWriter& RunKmlWriter::operator=(RunKmlWriter&&) noexcept = default;
-const fs::path& RunKmlWriter::path() const { return file_->path(); }
-void RunKmlWriter::Close() { file_->Close(); }
 
-void RunKmlWriter::Append(const GeoTrackPoint& point, bool gps, int frame) {
-  ValidatePoint(point, PathOf(file_));
+void RunKmlFormat::Open(ProgressiveFile& file) {
+  file.Reset(
+      "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+      "<kml xmlns=\"http://www.opengis.net/kml/2.2\">\n<Document>\n<name>" +
+          XmlEscape(name_) + "</name>\n" + KmlStyle("vo", "ff0000ff") + KmlStyle("gps", "ffff0000"),
+      kKmlDocumentTail);
+}
+
+void RunKmlFormat::Append(ProgressiveFile& file, const GeoTrackPoint& point, bool gps, int frame) {
+  ValidatePoint(point, file.path().string());
   const char* track = gps ? "GPS" : "VO";
-  file_->Append(
+  file.Append(
       fmt::format("<Placemark><name>{} {} {}</name><styleUrl>#{}</styleUrl>"
                   "<TimeStamp><when>{}</when></TimeStamp><Point><coordinates>{}</coordinates>"
                   "</Point></Placemark>\n",
@@ -642,7 +584,7 @@ void TrackWriterSet::Append(const FrameRecord& r, const std::optional<GeoPoint>&
     m.csv->Append(r, gps);
     ++m.csv_rows;
   }
-  if (m.vo_tum) m.vo_tum->Append(r.time_s, {r.x_m, r.y_m, r.z_m}, r.yaw_rad);
+  if (m.vo_tum) m.vo_tum->Append(r.time_s, Eigen::Vector3d(r.x_m, r.y_m, r.z_m), r.yaw_rad);
   // A fix the run rejected as implausible (gps_flag) stays in frames.csv with its flag, and out of
   // the GPS tracks, which users load as the reference.
   const bool gps_track = gps && r.gps_flag.empty();
@@ -652,16 +594,16 @@ void TrackWriterSet::Append(const FrameRecord& r, const std::optional<GeoPoint>&
     const GeoTrackPoint vo{r.time_s, *r.geo};
     if (m.vo_geojson) m.vo_geojson->Append(vo);
     if (m.vo_frames_geojson) {
-      m.vo_frames_geojson->Append(*r.geo, {{"frame", r.frame},
-                                           {"time_s", r.time_s},
-                                           {"x_m", r.x_m},
-                                           {"y_m", r.y_m},
-                                           {"n_surf", r.n_surf},
-                                           {"n_matched", r.n_matched},
-                                           {"n_inliers", r.n_inliers},
-                                           {"cluster", r.cluster},
-                                           {"total_ms", r.total_ms},
-                                           {"status", r.status}});
+      m.vo_frames_geojson->Append(*r.geo, nlohmann::json{{"frame", r.frame},
+                                                         {"time_s", r.time_s},
+                                                         {"x_m", r.x_m},
+                                                         {"y_m", r.y_m},
+                                                         {"n_surf", r.n_surf},
+                                                         {"n_matched", r.n_matched},
+                                                         {"n_inliers", r.n_inliers},
+                                                         {"cluster", r.cluster},
+                                                         {"total_ms", r.total_ms},
+                                                         {"status", r.status}});
     }
     if (m.vo_kml) m.vo_kml->Append(vo);
     if (m.run_kml) m.run_kml->Append(vo, false, r.frame);

@@ -32,6 +32,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -52,172 +53,192 @@ struct GeoTrackPoint {
 namespace detail {
 /// A file whose content is body + tail, growing by inserting before the tail (see above).
 class ProgressiveFile;
+/// Closes and frees a ProgressiveFile (the deleter of ProgressiveWriter's file).
+struct ProgressiveFileDeleter {
+  void operator()(ProgressiveFile* file) const;
+};
+using ProgressiveFilePtr = std::unique_ptr<ProgressiveFile, ProgressiveFileDeleter>;
+/// Creates (truncates) `path`, empty. Throws OutputError naming the path.
+ProgressiveFilePtr CreateProgressiveFile(const std::filesystem::path& path);
+const std::filesystem::path& PathOf(const ProgressiveFile& file);
+void Close(ProgressiveFile& file);  ///< Idempotent; a write after it throws InvalidArgument.
 }  // namespace detail
+
+/// One progressive output file (see the top of this file) in the format `Format`, a policy class
+/// that says what the file holds when it is created and what each Append adds:
+///   Format(const std::filesystem::path& path, options...): the format's options (names,
+///     colours, time origin), validated after the file is created (InvalidArgument naming it);
+///   void Open(detail::ProgressiveFile& file): writes the content of an empty file;
+///   void Append(detail::ProgressiveFile& file, element...): validates the element
+///     (InvalidArgument, nothing written) and writes it; its overloads are the writer's Append.
+/// The writer owns the file: created (truncated) by the constructor, closed by Close or the
+/// destructor; movable, not copyable. A write that fails throws OutputError naming the file and
+/// leaves it with its last valid content; Append after Close throws InvalidArgument.
+template <typename Format>
+class ProgressiveWriter {
+ public:
+  /// Creates `path` (OutputError naming it), then Format(path, options...) and Format::Open.
+  template <typename... Options>
+  explicit ProgressiveWriter(const std::filesystem::path& path, Options&&... options)
+      : file_(detail::CreateProgressiveFile(path)),
+        format_(path, std::forward<Options>(options)...) {
+    format_.Open(*file_);
+  }
+
+  /// Format::Append. Arguments are forwarded: a braced list must name its type
+  /// (Append(GeoTrackPoint{t, p}), not Append({t, p})).
+  template <typename... Element>
+  void Append(Element&&... element) {
+    format_.Append(*file_, std::forward<Element>(element)...);
+  }
+  void Close() { detail::Close(*file_); }  ///< Idempotent.
+  const std::filesystem::path& path() const { return detail::PathOf(*file_); }
+  /// Points written, for the formats that count them (the GeoJSON and KML tracks).
+  int size() const { return format_.size(); }
+
+ private:
+  detail::ProgressiveFilePtr file_;
+  Format format_;
+};
 
 /// frames.csv: header `frame,time_s,x_m,y_m,lat_deg,lon_deg,alt_m,n_surf,n_matched,n_inliers,
 /// cluster,detect_ms,describe_ms,correspond_ms,estimate_ms,total_ms,status,gps_lat_deg,
-/// gps_lon_deg,gps_alt_m,gps_flag,height_m,height_source,roll_deg,pitch_deg,latency_ms` (RFC 4180; empty
-/// cells for absent geo/GPS/attitude or latency). One flushed row per Append.
-class CsvFrameWriter {
+/// gps_lon_deg,gps_alt_m,gps_flag,height_m,height_source,roll_deg,pitch_deg,latency_ms` (RFC
+/// 4180; empty cells for absent geo/GPS/attitude or latency). One flushed row per Append.
+class CsvFrameFormat {
  public:
-  /// Creates (truncates) `path` and writes the header. Throws InputError naming the path.
-  explicit CsvFrameWriter(const std::filesystem::path& path);
-  ~CsvFrameWriter();
-  CsvFrameWriter(CsvFrameWriter&&) noexcept;
-  CsvFrameWriter& operator=(CsvFrameWriter&&) noexcept;
+  explicit CsvFrameFormat(const std::filesystem::path&) {}
+  void Open(detail::ProgressiveFile& file);
   /// Validates `record` (InvalidArgument) and appends one row; `gps` fills the gps_* columns.
-  /// Throws InputError naming the path when the write fails.
-  void Append(const FrameRecord& record, const std::optional<GeoPoint>& gps = std::nullopt);
-  void Close();  ///< Idempotent; Append after Close throws InvalidArgument.
-  const std::filesystem::path& path() const;
+  void Append(detail::ProgressiveFile& file, const FrameRecord& record,
+              const std::optional<GeoPoint>& gps = std::nullopt);
   static const char* Header();  ///< The header line without newline.
-
- private:
-  std::unique_ptr<detail::ProgressiveFile> file_;
 };
+using CsvFrameWriter = ProgressiveWriter<CsvFrameFormat>;
 
 /// TUM trajectory `t tx ty tz qx qy qz qw` (space separated, one pose per line, no header),
 /// readable by evo (`evo_traj tum vo.tum`, `evo_ape tum gps.tum vo.tum --align`).
-class TumWriter {
+class TumFormat {
  public:
-  explicit TumWriter(const std::filesystem::path& path);  ///< InputError naming the path.
-  ~TumWriter();
-  TumWriter(TumWriter&&) noexcept;
-  TumWriter& operator=(TumWriter&&) noexcept;
+  explicit TumFormat(const std::filesystem::path&) {}
+  void Open(detail::ProgressiveFile&) {}
   /// Appends a pose: position in metres, orientation a rotation of yaw_rad about +z
   /// (q = [0, 0, sin(yaw/2), cos(yaw/2)]). InvalidArgument when not finite.
-  void Append(double time_s, const Eigen::Vector3d& position_m, double yaw_rad);
+  void Append(detail::ProgressiveFile& file, double time_s, const Eigen::Vector3d& position_m,
+              double yaw_rad);
   /// Appends a pose with a full orientation (e.g. the simulator's enu_from_camera): time and
   /// position with 6 decimals, the quaternion's x y z w with 9. InvalidArgument when not finite.
-  void Append(double time_s, const Eigen::Vector3d& position_m,
+  void Append(detail::ProgressiveFile& file, double time_s, const Eigen::Vector3d& position_m,
               const Eigen::Quaterniond& orientation);
-  void Close();
-  const std::filesystem::path& path() const;
-
- private:
-  std::unique_ptr<detail::ProgressiveFile> file_;
 };
+using TumWriter = ProgressiveWriter<TumFormat>;
 
 /// transforms.csv (RunFileNames::kTransformsCsv): header `frame,a11,a12,tx,a21,a22,ty`, one
 /// flushed row per frame with the 2x3 affine part of first_px_from_frame (see RunFileNames).
-class TransformsCsvWriter {
+class TransformsCsvFormat {
  public:
-  explicit TransformsCsvWriter(const std::filesystem::path& path);  ///< InputError naming it.
-  ~TransformsCsvWriter();
-  TransformsCsvWriter(TransformsCsvWriter&&) noexcept;
-  TransformsCsvWriter& operator=(TransformsCsvWriter&&) noexcept;
-  /// Appends frame `frame`'s row. Throws InputError naming the path when the write fails.
-  void Append(int frame, const Eigen::Matrix3d& first_px_from_frame);
-  void Close();
-  const std::filesystem::path& path() const;
-
- private:
-  std::unique_ptr<detail::ProgressiveFile> file_;
+  explicit TransformsCsvFormat(const std::filesystem::path&) {}
+  void Open(detail::ProgressiveFile& file);
+  /// Appends frame `frame`'s row.
+  void Append(detail::ProgressiveFile& file, int frame, const Eigen::Matrix3d& first_px_from_frame);
 };
+using TransformsCsvWriter = ProgressiveWriter<TransformsCsvFormat>;
 
 /// GeoJSON FeatureCollection (RFC 7946: WGS84, positions [lon, lat, alt]) with one Feature
 /// holding the track: no feature when empty, a Point after the first point, a LineString from
 /// the second on. Feature properties: {"name": name, "generator": "aerovo"}.
-class GeoJsonTrackWriter {
+class GeoJsonTrackFormat {
  public:
-  GeoJsonTrackWriter(const std::filesystem::path& path, std::string name);
-  ~GeoJsonTrackWriter();
-  GeoJsonTrackWriter(GeoJsonTrackWriter&&) noexcept;
-  GeoJsonTrackWriter& operator=(GeoJsonTrackWriter&&) noexcept;
-  void Append(const GeoTrackPoint& point);  ///< InvalidArgument for an invalid point.
-  void Close();
-  const std::filesystem::path& path() const;
-  int size() const;
+  GeoJsonTrackFormat(const std::filesystem::path&, std::string name) : name_(std::move(name)) {}
+  void Open(detail::ProgressiveFile& file);
+  /// InvalidArgument for an invalid point.
+  void Append(detail::ProgressiveFile& file, const GeoTrackPoint& point);
+  int size() const { return count_; }
 
  private:
-  struct State;
-  std::unique_ptr<State> state_;
+  std::string name_;
+  int count_ = 0;
+  GeoPoint first_;  ///< Kept to rewrite the Point as a LineString on the second point.
 };
+using GeoJsonTrackWriter = ProgressiveWriter<GeoJsonTrackFormat>;
 
 /// GeoJSON FeatureCollection of Point features, each with its own properties (e.g. per-frame
 /// counts and status), appended one by one.
-class GeoJsonPointsWriter {
+class GeoJsonPointsFormat {
  public:
-  explicit GeoJsonPointsWriter(const std::filesystem::path& path);
-  ~GeoJsonPointsWriter();
-  GeoJsonPointsWriter(GeoJsonPointsWriter&&) noexcept;
-  GeoJsonPointsWriter& operator=(GeoJsonPointsWriter&&) noexcept;
+  explicit GeoJsonPointsFormat(const std::filesystem::path&) {}
+  void Open(detail::ProgressiveFile& file);
   /// `properties` must be a JSON object (InvalidArgument otherwise); non-finite numbers in it
   /// are written as null.
-  void Append(const GeoPoint& point, const nlohmann::json& properties);
-  void Close();
-  const std::filesystem::path& path() const;
+  void Append(detail::ProgressiveFile& file, const GeoPoint& point,
+              const nlohmann::json& properties);
 
  private:
-  std::unique_ptr<detail::ProgressiveFile> file_;
   int count_ = 0;
 };
+using GeoJsonPointsWriter = ProgressiveWriter<GeoJsonPointsFormat>;
 
 /// KML 2.2 document with one Placemark: a LineString (tessellated, clamped to ground, so it
 /// drapes on the terrain in Google Earth; coordinates `lon,lat,alt`), a Point while the track
-/// has one point, nothing while empty. `color_abgr` is KML's aabbggrr hex, e.g. "ff0000ff" red.
-class KmlTrackWriter {
+/// has one point, nothing while empty. `color_abgr` is KML's aabbggrr hex, e.g. "ff0000ff" red
+/// (InvalidArgument naming the path when it is not 8 hex digits).
+class KmlTrackFormat {
  public:
-  KmlTrackWriter(const std::filesystem::path& path, std::string name,
+  KmlTrackFormat(const std::filesystem::path& path, std::string name,
                  std::string color_abgr = "ff0000ff");
-  ~KmlTrackWriter();
-  KmlTrackWriter(KmlTrackWriter&&) noexcept;
-  KmlTrackWriter& operator=(KmlTrackWriter&&) noexcept;
-  void Append(const GeoTrackPoint& point);
-  void Close();
-  const std::filesystem::path& path() const;
-  int size() const;
+  void Open(detail::ProgressiveFile& file);
+  void Append(detail::ProgressiveFile& file, const GeoTrackPoint& point);
+  int size() const { return count_; }
 
  private:
-  struct State;
-  std::unique_ptr<State> state_;
+  std::string DocumentHead() const;
+  std::string PlacemarkHead() const;
+
+  std::string name_;
+  std::string color_;
+  int count_ = 0;
+  GeoPoint first_;
 };
+using KmlTrackWriter = ProgressiveWriter<KmlTrackFormat>;
 
 /// run.kml: a KML 2.2 document with both tracks of a run as time-stamped Point placemarks, in
 /// the order appended: `<Placemark><name>NAME VO 12</name><styleUrl>#vo</styleUrl><TimeStamp>
 /// <when>ISO 8601 UTC</when></TimeStamp><Point>...` (styles "vo" red, "gps" blue). Valid after
 /// every Append (the tail `</Document></kml>` is rewritten). `time_origin_unix_s`: the absolute
 /// time of time_s = 0; nullopt = 1970-01-01T00:00:00Z (see the top of this file).
-class RunKmlWriter {
+class RunKmlFormat {
  public:
-  RunKmlWriter(const std::filesystem::path& path, std::string name,
+  RunKmlFormat(const std::filesystem::path& path, std::string name,
                std::optional<double> time_origin_unix_s = std::nullopt);
-  ~RunKmlWriter();
-  RunKmlWriter(RunKmlWriter&&) noexcept;
-  RunKmlWriter& operator=(RunKmlWriter&&) noexcept;
+  void Open(detail::ProgressiveFile& file);
   /// One point of the VO (gps = false) or GPS track, frame index `frame` in its name.
-  void Append(const GeoTrackPoint& point, bool gps, int frame);
-  void Close();
-  const std::filesystem::path& path() const;
+  void Append(detail::ProgressiveFile& file, const GeoTrackPoint& point, bool gps, int frame);
 
  private:
-  std::unique_ptr<detail::ProgressiveFile> file_;
   std::string name_;
   double time_origin_unix_s_ = 0.0;
 };
+using RunKmlWriter = ProgressiveWriter<RunKmlFormat>;
 
 /// GPX 1.1 with one trk / trkseg; each point is a trkpt with lat, lon, ele and, when the
 /// absolute time of time_s = 0 is known (`time_origin_unix_s`, seconds since 1970 UTC), a
 /// <time> in ISO 8601 UTC with milliseconds. Without it <time> is omitted (optional in GPX
 /// 1.1) rather than invented.
-class GpxTrackWriter {
+class GpxTrackFormat {
  public:
   /// `decimals`: of lat/lon (7 ~ 1 cm, the run's tracks; 9 ~ 0.1 mm for a truth track such as
   /// the simulator's, read back as telemetry), heights with decimals - 5 (at least 3).
-  GpxTrackWriter(const std::filesystem::path& path, std::string name,
+  GpxTrackFormat(const std::filesystem::path& path, std::string name,
                  std::optional<double> time_origin_unix_s = std::nullopt, int decimals = 7);
-  ~GpxTrackWriter();
-  GpxTrackWriter(GpxTrackWriter&&) noexcept;
-  GpxTrackWriter& operator=(GpxTrackWriter&&) noexcept;
-  void Append(const GeoTrackPoint& point);
-  void Close();
-  const std::filesystem::path& path() const;
+  void Open(detail::ProgressiveFile& file);
+  void Append(detail::ProgressiveFile& file, const GeoTrackPoint& point);
 
  private:
-  std::unique_ptr<detail::ProgressiveFile> file_;
+  std::string name_;
   std::optional<double> time_origin_unix_s_;
   int decimals_ = 7;
 };
+using GpxTrackWriter = ProgressiveWriter<GpxTrackFormat>;
 
 /// The flight's name for track names and titles: the stem of the run's input (a video file
 /// `DJI_0042.MP4` -> "DJI_0042", a photo folder `survey/` -> "survey"); "aerovo" when the input
@@ -285,8 +306,8 @@ struct TrackWriterOptions {
 
 /// All per-frame outputs of one run folder, written progressively (see the top of this file).
 /// Files present after construction (each valid, possibly empty): frames.csv, vo.tum, gps.tum,
-/// vo/gps .geojson/.kml/.gpx, vo_frames.geojson, run.kml, run_live.kml (per the options). Existing files of
-/// those names are replaced. Not thread-safe.
+/// vo/gps .geojson/.kml/.gpx, vo_frames.geojson, run.kml, run_live.kml (per the options). Existing
+/// files of those names are replaced. Not thread-safe.
 class TrackWriterSet {
  public:
   /// Creates `run_dir` (and parents) if needed and opens the outputs. Throws InputError naming

@@ -235,7 +235,7 @@ Parsed ParseRun(const fs::path& dir) {
   const auto csv_lines = Lines(Slurp(dir / "frames.csv"));
   EXPECT_GE(csv_lines.size(), 1u);
   if (!csv_lines.empty()) {
-    EXPECT_EQ(csv_lines[0], CsvFrameWriter::Header());
+    EXPECT_EQ(csv_lines[0], CsvFrameFormat::Header());
   }
   for (size_t i = 1; i < csv_lines.size(); ++i) {
     std::vector<std::string> cells;
@@ -577,7 +577,7 @@ TEST_F(TrackWritersTest, TimesWithoutAClockStartAt1970) {
 
 TEST_F(TrackWritersTest, GpxWithoutTimeOriginOmitsTime) {
   GpxTrackWriter w(dir_.string() + "_x.gpx", "t");
-  w.Append({1.0, {10.0, 20.0, 5.0}});
+  w.Append(GeoTrackPoint{1.0, {10.0, 20.0, 5.0}});
   const std::string s = Slurp(w.path());
   EXPECT_EQ(XmlProblem(s), "");
   EXPECT_EQ(s.find("<time>"), std::string::npos);
@@ -590,9 +590,9 @@ TEST_F(TrackWritersTest, LongitudesWrappedForGisFormats) {
   KmlTrackWriter k(dir_ / "w.kml", "w");
   GpxTrackWriter g(dir_ / "w.gpx", "w");
   for (double lon : {179.9999, 180.0001, 190.5}) {
-    j.Append({0.0, {-16.5, lon, 0.0}});
-    k.Append({0.0, {-16.5, lon, 0.0}});
-    g.Append({0.0, {-16.5, lon, 0.0}});
+    j.Append(GeoTrackPoint{0.0, {-16.5, lon, 0.0}});
+    k.Append(GeoTrackPoint{0.0, {-16.5, lon, 0.0}});
+    g.Append(GeoTrackPoint{0.0, {-16.5, lon, 0.0}});
   }
   const std::vector<GeoPoint> from_json = GeoJsonTrack(json::parse(Slurp(dir_ / "w.geojson")));
   const std::vector<GeoPoint> from_kml = ParseKml(dir_ / "w.kml");
