@@ -1,5 +1,5 @@
 // The per-frame checks and bounds of issue 15: the repeated-frame hash every video frame pays
-// (io/frame_source.h PixelHash) and the reduction of frames above the pixel budget
+// (frames/frame_source.h PixelHash) and the reduction of frames above the pixel budget
 // (pipeline/preprocess.h FrameReducer).
 #include <benchmark/benchmark.h>
 

@@ -1,4 +1,4 @@
-// Issue 14 item 4: lens undistortion of the whole frame (io/camera.h Undistorter::Apply, one
+// Issue 14 item 4: lens undistortion of the whole frame (frames/camera.h Undistorter::Apply, one
 // cv::remap with maps computed once) against undistorting only the interest points
 // (Undistorter::UndistortPoints, OpenCV's iterative inverse of the lens model), pinhole and
 // fisheye lenses.

@@ -143,7 +143,7 @@ Calibration ReadOpenCv(const std::string& path) {
 
 void WriteOpenCv(const std::string& path, const CameraIntrinsics& k) {
   // Written to memory in the format of the path's extension (.xml or YAML), then to the file
-  // atomically (io/output_file.h), so a failed write leaves the old file or none.
+  // atomically (outputs/output_file.h), so a failed write leaves the old file or none.
   const std::string ext = std::filesystem::path(path).extension().string();
   const bool xml = ext == ".xml" || ext == ".XML";
   cv::FileStorage out;

@@ -51,7 +51,7 @@ Calibration ReadCalibration(const std::string& path);
 /// ReadCalibration gives them back (to 1e-9 relative). Formats that cannot hold the camera
 /// throw InvalidArgument: ODM and COLMAP have no 5- or 8-coefficient pinhole of their own
 /// besides brown (k1 k2 p1 p2 k3) / FULL_OPENCV (8 coefficients). InputError when the file cannot
-/// be written. The file is written atomically (io/output_file.h WriteFileAtomic): a failure
+/// be written. The file is written atomically (outputs/output_file.h WriteFileAtomic): a failure
 /// leaves the earlier file or none, never a part.
 void WriteCalibration(const std::string& path, const CameraIntrinsics& intrinsics,
                       CalibrationFormat format, const std::string& camera_id = "aerovo");

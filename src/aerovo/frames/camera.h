@@ -31,9 +31,9 @@ struct CameraOptions {
   /// from the camera model (SensorAspectOf), else 4:3 for photos wider than 1.7:1 (a 16:9 mode
   /// of a 4:3 drone sensor), else the photo is the full frame.
   std::optional<double> sensor_aspect;
-  /// A calibrated camera (io/calibration.h ReadCalibration): wins over every other source,
-  /// scaled to the frames' size when its aspect ratio matches (ScaledTo), else InvalidArgument
-  /// naming both sizes. Its distortion and lens model replace `distortion`.
+  /// A calibrated camera (camera_files/calibration.h ReadCalibration): wins over every other
+  /// source, scaled to the frames' size when its aspect ratio matches (ScaledTo), else
+  /// InvalidArgument naming both sizes. Its distortion and lens model replace `distortion`.
   std::optional<CameraIntrinsics> calibration;
   /// Where the calibration came from (its file), for the run log.
   std::string calibration_source;

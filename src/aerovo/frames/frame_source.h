@@ -1,6 +1,6 @@
-// Sources of frames for the odometry: video files (FFmpeg's libraries through io/video_decoder.h,
-// or OpenCV's cv::VideoCapture), image folders and live cameras/streams (OpenCV), delivered as
-// 8-bit grey images.
+// Sources of frames for the odometry: video files (FFmpeg's libraries through
+// frames/video_decoder.h, or OpenCV's cv::VideoCapture), image folders and live cameras/streams
+// (OpenCV), delivered as 8-bit grey images.
 #pragma once
 
 #include <cstdint>
@@ -24,7 +24,7 @@ namespace aerovo {
 /// One frame as delivered by a FrameSource.
 struct Frame {
   /// 8-bit grey, full range: videos through VideoDecoder, the decoder's luma plane (the
-  /// stream's own colour matrix, io/video_decoder.h); photos, live sources and videos through
+  /// stream's own colour matrix, frames/video_decoder.h); photos, live sources and videos through
   /// OpenCV, OpenCV's BGR->grey weights 0.299 R + 0.587 G + 0.114 B.
   GrayImage gray;
   cv::Mat color;   ///< BGR 8-bit, only when FrameSourceOptions::keep_color (else empty).
@@ -46,7 +46,7 @@ struct Frame {
   ///    libjpeg with the missing part filled in grey.
   std::string flags;
   /// When the frame came out of its source, seconds on the steady clock (SteadySeconds(),
-  /// core/timer.h): set by PrefetchSource's reader thread (io/prefetch_source.h) as the source
+  /// core/timer.h): set by PrefetchSource's reader thread (frames/prefetch_source.h) as the source
   /// delivers it, else by the run's frame loop as Next() returns; NaN when unset. The start of
   /// the capture-to-send latency (for a live source: arrival and decoding, not the exposure).
   double received_s = std::numeric_limits<double>::quiet_NaN();
@@ -126,7 +126,7 @@ class FrameSource {
   std::vector<std::string> warnings_;
 };
 
-/// A video file read with our FFmpeg decoder (io/video_decoder.h; FrameSourceOptions::
+/// A video file read with our FFmpeg decoder (frames/video_decoder.h; FrameSourceOptions::
 /// video_decoder auto or ffmpeg, the default) or with cv::VideoCapture (FFmpeg backend; opencv).
 /// Opening throws InputError "cannot open video '<path>': <reason>" for a missing or empty
 /// file, a file FFmpeg cannot read (text named .mp4, truncated container) or a video whose
@@ -222,7 +222,7 @@ class VideoFileSource : public FrameSource {
 /// false). Photos of different
 /// sizes throw InputError naming the odd photo and both sizes (checked from the headers at
 /// opening, and again on decoding). An undecodable photo throws InputError naming it and the
-/// problem (empty file, not an image, cut short: io/image_file.h CheckImageFile, run on every
+/// problem (empty file, not an image, cut short: frames/image_file.h CheckImageFile, run on every
 /// photo at opening). A JPEG cut short that libjpeg still decodes (the missing part grey) is
 /// delivered flagged "truncated" (Frame::flags), with a warning naming it printed to stderr at
 /// opening (before libjpeg's own unnamed "Premature end of JPEG file") and kept in warnings().

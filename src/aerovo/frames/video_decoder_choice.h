@@ -1,5 +1,5 @@
-// Which decoder reads video files: FrameSourceOptions::video_decoder (io/frame_source.h) and the
-// run option video_decoder (pipeline/run_config.h). A header of its own so that the options'
+// Which decoder reads video files: FrameSourceOptions::video_decoder (frames/frame_source.h) and
+// the run option video_decoder (pipeline/run_config.h). A header of its own so that the options'
 // schema can name it without OpenCV's or FFmpeg's headers.
 #pragma once
 
@@ -9,7 +9,7 @@ namespace aerovo {
 
 enum class VideoDecoderChoice {
   kAuto,    ///< kFfmpeg (the default decoder).
-  kFfmpeg,  ///< io/video_decoder.h: FFmpeg's libraries, grey from the luma plane.
+  kFfmpeg,  ///< frames/video_decoder.h: FFmpeg's libraries, grey from the luma plane.
   kOpenCv,  ///< cv::VideoCapture (FFmpeg backend), grey from its BGR image.
 };
 

@@ -1,4 +1,4 @@
-// VideoDecoder (io/video_decoder.h) and VideoFileSource with each decoder: resolution changes
+// VideoDecoder (frames/video_decoder.h) and VideoFileSource with each decoder: resolution changes
 // mid-stream (issue 15), grey from the luma plane against an exact BT.601/709 conversion
 // (issue 19), rotation metadata, cut files. Inputs are made here with ffmpeg and OpenCV.
 #include "aerovo/frames/video_decoder.h"

@@ -1,5 +1,5 @@
 // One row of a run's per-frame log: where the camera was and what each pipeline stage did.
-// Filled by the odometry pipeline, written by io/track_writers.h (frames.csv, TUM, GeoJSON,
+// Filled by the odometry pipeline, written by outputs/track_writers.h (frames.csv, TUM, GeoJSON,
 // KML, GPX).
 #pragma once
 

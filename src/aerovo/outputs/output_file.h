@@ -1,4 +1,4 @@
-// The one place where aerovo writes bytes of its output files (io/track_writers.h, the SRT
+// The one place where aerovo writes bytes of its output files (outputs/track_writers.h, the SRT
 // writer, config.json, summary.json), so that a full disk (ENOSPC), a file size limit (EFBIG)
 // or any other write error is handled the same way everywhere:
 //   * a write error throws OutputError naming the file and the errno text;

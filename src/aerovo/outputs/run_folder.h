@@ -13,7 +13,7 @@ namespace aerovo {
 struct RunFolderFiles {
   /// flock()ed for the run; holds the pid of the run that holds it ("1234\n").
   static constexpr const char* kLock = ".aerovo.lock";
-  /// Disk space held during a run (io/output_file.h SpaceReserve), removed at its end.
+  /// Disk space held during a run (outputs/output_file.h SpaceReserve), removed at its end.
   static constexpr const char* kReserve = ".aerovo.reserve";
 };
 

@@ -26,7 +26,7 @@ namespace detail {
 
 // POSIX descriptor + pwrite rather than stdio: each Append is then a single write() of the new
 // element plus the tail at a known offset, with no user-space buffer to lose on a kill.
-// A write that fails (disk full, size limit: io/output_file.h) is rolled back: the previous
+// A write that fails (disk full, size limit: outputs/output_file.h) is rolled back: the previous
 // tail is written again where it was (bytes inside the file's size, so no new space is needed)
 // and the file truncated to its previous size, so the file stays valid with everything written
 // before; then OutputError names the file and the errno text. A file that fails before its

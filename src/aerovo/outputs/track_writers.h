@@ -24,7 +24,7 @@
 // source counted from 1970-01-01T00:00:00Z (so a 2-minute video without clock reads 00:00-00:02
 // on 1 January 1970).
 // A write that fails (disk full, file size limit) leaves the file with its last valid content
-// (the failed append is rolled back, io/output_file.h) and throws OutputError naming the file
+// (the failed append is rolled back, outputs/output_file.h) and throws OutputError naming the file
 // and the errno text.
 #pragma once
 
@@ -281,7 +281,7 @@ struct RunFileNames {
   static constexpr const char* kConfigJson = "config.json";
   /// The lens self-calibration's estimate when applied (pipeline/lens_prepass.h; OpenCV YAML).
   static constexpr const char* kLensEstimateYaml = "lens_estimate.yaml";
-  /// Every name above: the files a run writes (io/run_folder.h ClaimOutputFolder removes these
+  /// Every name above: the files a run writes (outputs/run_folder.h ClaimOutputFolder removes these
   /// and only these with --force, with the report's files).
   static std::vector<std::string> All();
 };

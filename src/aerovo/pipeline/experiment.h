@@ -83,7 +83,7 @@ std::string FormatTableMarkdown(const ExperimentTable& table);
 // ---------------------------------------------------------------------------------------------
 // Inputs
 
-// The simulator's ground_truth.csv is read by ReadGroundTruthCsv (io/reference_track.h).
+// The simulator's ground_truth.csv is read by ReadGroundTruthCsv (telemetry/reference_track.h).
 
 /// The simulator's defaults (lawnmower, 3 legs of 300 m 50 m apart at 100 m height and 10 m/s,
 /// 1280x720 camera with a 73.7 deg field of view, no image effects, exact GPS at 10 Hz) rendered

@@ -16,7 +16,7 @@
 namespace aerovo {
 namespace {
 
-// The run's undistorter is io's Undistorter with the run's camera: the same pixels.
+// The run's undistorter is frames' Undistorter with the run's camera: the same pixels.
 TEST(Preprocess, FrameUndistorterIsTheCameraUndistorter) {
   const int w = 96, h = 64;
   GrayImage frame(w, h);

@@ -331,7 +331,7 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   summary.input = config.input;
   summary.out_dir = config.out;
   std::ostream* log = config.quiet ? nullptr : cb.log;
-  // One run at a time in a folder (io/run_folder.h); the space for summary.json is held from
+  // One run at a time in a folder (outputs/run_folder.h); the space for summary.json is held from
   // here on, so the summary is written even if the disk fills up during the run.
   const RunFolderLock lock(config.out);
   const std::filesystem::path out_dir = PrepareRunFolder(config, cb.log_config, log);

@@ -65,7 +65,7 @@ struct RunSummary {
   int frames_reacquired = 0;
   int frames_bridged = 0;  ///< Flagged frames (step failed, motion bridged).
   int frames_with_gps = 0;
-  /// Frames the source flagged (io/frame_source.h Frame::flags), by flag: "duplicate" (pixels
+  /// Frames the source flagged (frames/frame_source.h Frame::flags), by flag: "duplicate" (pixels
   /// identical to the frame before), "truncated" (a photo cut short). Each such frame is
   /// processed and its status in frames.csv ends with "+flag"; empty when none.
   std::map<std::string, int> frames_flagged;
@@ -191,7 +191,7 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& callbacks = {}
 /// generated in memory, ...) instead of opening `config.input`, which then only names the run in
 /// the outputs. Telemetry comes from `config.telemetry` (the EXIF/XMP of the photos when
 /// `source` is an ImageFolderSource and no telemetry file is given). With config.frame_queue > 0
-/// (default) `source` is read through a PrefetchSource (io/prefetch_source.h): its Next() runs
+/// (default) `source` is read through a PrefetchSource (frames/prefetch_source.h): its Next() runs
 /// on a reader thread, ahead of the processing; a source whose IsLive() is true keeps only the
 /// newest frame (RunSummary::frames_dropped). InvalidArgument for a null source.
 RunSummary RunFlight(const RunConfig& config, std::unique_ptr<FrameSource> source,

@@ -1,5 +1,5 @@
 // Writing DJI-style SRT telemetry (the subtitle track of DJI videos), as the simulator does and
-// as io's SRT reader (telemetry_readers.h) reads it back.
+// as the SRT reader (telemetry_readers.h) reads it back.
 #pragma once
 
 #include <optional>
