@@ -127,9 +127,9 @@ void Validate(const FrameSourceOptions& o) {
         o.photo_flight));
   }
   if (o.video_threads < 0 || o.video_threads > 64) {
-    throw InvalidArgument(fmt::format(
-        "FrameSourceOptions.video_threads {} must be in [0, 64] (0 = one per core)",
-        o.video_threads));
+    throw InvalidArgument(
+        fmt::format("FrameSourceOptions.video_threads {} must be in [0, 64] (0 = one per core)",
+                    o.video_threads));
   }
   if (std::isnan(o.end_time_s) || o.end_time_s < o.start_time_s) {
     throw InvalidArgument(fmt::format("FrameSourceOptions.end_time_s {} must be >= start_time_s {}",
@@ -139,14 +139,91 @@ void Validate(const FrameSourceOptions& o) {
 
 // ------------------------------------------------------------------------------ video
 
+namespace {
+
+InputError VideoOpenError(const std::string& path, const std::string& why) {
+  return InputError(fmt::format("cannot open video '{}': {}", path, why));
+}
+
+// What cv::VideoCapture says of an opened video (0: unknown).
+struct OpenCvVideoInfo {
+  int rotation_deg = 0;
+  double fps = 0.0;
+  int frame_count = 0;
+  int width = 0, height = 0;
+};
+
+// Opens `path` with OpenCV's FFmpeg backend, frames as stored, never rotated by the
+// container's rotation metadata: the same policy as photos (IMREAD_IGNORE_ORIENTATION). OpenCV
+// 4.6 rotates by default (ORIENTATION_AUTO), which swaps width and height (for 4:3, a focal
+// length from the field of view 25 % short: the true one is 33 % longer) and turns the image
+// axes 90 degrees against the telemetry's yaw. Throws InputError when FFmpeg cannot read it.
+OpenCvVideoInfo OpenWithOpenCv(cv::VideoCapture& capture, const std::string& path) {
+  if (!capture.open(path, cv::CAP_FFMPEG)) {
+    throw VideoOpenError(
+        path,
+        "FFmpeg cannot read it (not a video, an unsupported codec, or a damaged or truncated "
+        "container)");
+  }
+  OpenCvVideoInfo info;
+  capture.set(cv::CAP_PROP_ORIENTATION_AUTO, 0);
+  const double meta = capture.get(cv::CAP_PROP_ORIENTATION_META);
+  if (std::isfinite(meta)) {
+    info.rotation_deg = ((static_cast<int>(std::lround(meta)) % 360) + 360) % 360;
+  }
+  info.fps = capture.get(cv::CAP_PROP_FPS);
+  if (!std::isfinite(info.fps) || info.fps <= 0.0 || info.fps > 10000.0) info.fps = 0.0;
+  const double count = capture.get(cv::CAP_PROP_FRAME_COUNT);
+  info.frame_count = std::isfinite(count) && count > 0 && count < 1e9 ? static_cast<int>(count) : 0;
+  info.width = static_cast<int>(capture.get(cv::CAP_PROP_FRAME_WIDTH));
+  info.height = static_cast<int>(capture.get(cv::CAP_PROP_FRAME_HEIGHT));
+  return info;
+}
+
+// The stream's clock went back at frame `index` (see VideoFileSource::Next).
+std::string ClockWentBackMessage(const std::string& path, int index, double last_ts_ms,
+                                 double current_ts_ms, int width, int height, int cur_w,
+                                 int cur_h) {
+  return fmt::format(
+      "video '{}' frame {}: the stream's timestamps go back from {:.3f} s to {:.3f} s: "
+      "recordings joined into one file (concatenated MPEG-TS?) or a damaged stream, so the "
+      "frames from {} on cannot be trusted as the same flight (OpenCV's decoder even delivers "
+      "them at the first recording's size; split the video where its clock restarts, or "
+      "re-encode it at one size, e.g. ffmpeg -i in -vf scale=W:H out.mp4){}",
+      path, index, last_ts_ms / 1000.0, current_ts_ms / 1000.0, index,
+      cur_w != width || cur_h != height
+          ? fmt::format("; the size changes there too, from {}x{} to {}x{}", width, height, cur_w,
+                        cur_h)
+          : std::string());
+}
+
+std::string SizeChangedMessage(const std::string& path, int index, int width, int height, int cur_w,
+                               int cur_h) {
+  return fmt::format(
+      "video '{}' frame {}: size changed from {}x{} to {}x{} (a resolution change mid-stream: "
+      "recordings joined into one file, or a camera that switched modes; split the video "
+      "there, or re-encode it at one size, e.g. ffmpeg -i in -vf scale=W:H out.mp4)",
+      path, index, width, height, cur_w, cur_h);
+}
+
+std::string StaleDecoderMessage(const std::string& path, int index, int freeze_index, int repeats) {
+  return fmt::format(
+      "video '{}' frame {}: the decoder has returned the same image since frame {} ({} "
+      "identical frames in a row after the video moved): stale decoding, typically a "
+      "resolution change mid-stream (concatenated recordings, MPEG-TS) or a damaged stream; "
+      "the frames from {} on cannot be trusted (split or re-encode the video at one size, "
+      "e.g. ffmpeg -i in -vf scale=W:H out.mp4)",
+      path, index, freeze_index, repeats + 1, freeze_index + 1);
+}
+
+}  // namespace
+
 VideoFileSource::VideoFileSource(const std::filesystem::path& path,
                                  const FrameSourceOptions& options)
     : path_(path), options_(options) {
   Validate(options_);
   const std::string p = path.string();
-  const auto fail = [&](const std::string& why) {
-    return InputError(fmt::format("cannot open video '{}': {}", p, why));
-  };
+  const auto fail = [&](const std::string& why) { return VideoOpenError(p, why); };
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw fail("no such file");
   if (!std::filesystem::is_regular_file(path, ec)) throw fail("not a regular file");
@@ -160,27 +237,12 @@ VideoFileSource::VideoFileSource(const std::filesystem::path& path,
     width_ = decoder_->width();
     height_ = decoder_->height();
   } else {
-    // Frames as stored, never rotated by the container's rotation metadata: the same policy as
-    // photos (IMREAD_IGNORE_ORIENTATION). OpenCV 4.6 rotates by default (ORIENTATION_AUTO),
-    // which swaps width and height (for 4:3, a focal length from the field of view 25 % short:
-    // the true one is 33 % longer) and turns the image axes 90 degrees against the telemetry's
-    // yaw.
-    if (!capture_.open(p, cv::CAP_FFMPEG)) {
-      throw fail(
-          "FFmpeg cannot read it (not a video, an unsupported codec, or a damaged or truncated "
-          "container)");
-    }
-    capture_.set(cv::CAP_PROP_ORIENTATION_AUTO, 0);
-    const double meta = capture_.get(cv::CAP_PROP_ORIENTATION_META);
-    if (std::isfinite(meta)) {
-      rotation_deg_ = ((static_cast<int>(std::lround(meta)) % 360) + 360) % 360;
-    }
-    fps_ = capture_.get(cv::CAP_PROP_FPS);
-    if (!std::isfinite(fps_) || fps_ <= 0.0 || fps_ > 10000.0) fps_ = 0.0;
-    const double count = capture_.get(cv::CAP_PROP_FRAME_COUNT);
-    frame_count_ = std::isfinite(count) && count > 0 && count < 1e9 ? static_cast<int>(count) : 0;
-    width_ = static_cast<int>(capture_.get(cv::CAP_PROP_FRAME_WIDTH));
-    height_ = static_cast<int>(capture_.get(cv::CAP_PROP_FRAME_HEIGHT));
+    const OpenCvVideoInfo info = OpenWithOpenCv(capture_, p);
+    rotation_deg_ = info.rotation_deg;
+    fps_ = info.fps;
+    frame_count_ = info.frame_count;
+    width_ = info.width;
+    height_ = info.height;
   }
   if (rotation_deg_ != 0) {
     warnings_.push_back(fmt::format(
@@ -267,51 +329,34 @@ bool VideoFileSource::GrabTo(int target_index) {
   return true;
 }
 
-bool VideoFileSource::Next(Frame& frame) {
-  if (done_) return false;
-  int index;
-  if (first_) {
-    first_ = false;  // decoded at opening
-    index = next_index_ - 1;
+bool VideoFileSource::DecodeNextStep() {
+  // The frame after the last delivered one may already be grabbed (look-ahead in Next).
+  const int target = (lookahead_grabbed_ ? next_index_ - 2 : next_index_ - 1) + options_.step;
+  bool ok;
+  if (lookahead_grabbed_ && target == next_index_ - 1) {
+    ok = RetrieveGrabbed();
+    current_ts_ms_ = lookahead_ts_ms_;
   } else {
-    // The frame after the last delivered one may already be grabbed (look-ahead below).
-    const int target = (lookahead_grabbed_ ? next_index_ - 2 : next_index_ - 1) + options_.step;
-    bool ok;
-    if (lookahead_grabbed_ && target == next_index_ - 1) {
+    ok = GrabTo(target) && GrabOne();
+    if (ok) {
+      ++next_index_;
       ok = RetrieveGrabbed();
-      current_ts_ms_ = lookahead_ts_ms_;
-    } else {
-      ok = GrabTo(target) && GrabOne();
-      if (ok) {
-        ++next_index_;
-        ok = RetrieveGrabbed();
-      }
-      current_ts_ms_ = GrabbedTimestampMs();
     }
-    lookahead_grabbed_ = false;
-    if (!ok) {
-      done_ = true;
-      if (frame_count_ > 0 && target < frame_count_ - 1) {
-        warnings_.push_back(fmt::format(
-            "video '{}' ended at frame {} but its header announces {} frames (truncated?)",
-            path_.string(), next_index_, frame_count_));
-      }
-      return false;
-    }
-    index = next_index_ - 1;
+    current_ts_ms_ = GrabbedTimestampMs();
   }
-  const double t = fps_ > 0.0                     ? index / fps_
-                   : std::isfinite(current_ts_ms_) ? current_ts_ms_ / 1000.0
-                                                   : 0.0;
-  if (t > options_.end_time_s) {
+  lookahead_grabbed_ = false;
+  if (!ok) {
     done_ = true;
-    return false;
+    if (frame_count_ > 0 && target < frame_count_ - 1) {
+      warnings_.push_back(fmt::format(
+          "video '{}' ended at frame {} but its header announces {} frames (truncated?)",
+          path_.string(), next_index_, frame_count_));
+    }
   }
-  // Look-ahead: a file cut mid-frame ends with a partial packet that FFmpeg still decodes into
-  // an incomplete or stale image (measured on a cut MJPG AVI: the last frame came out as a copy
-  // of the one before, i.e. a silently wrong zero-motion step). So the next frame is grabbed
-  // now; when the stream ends before its header's frame count, this last decoded frame is the
-  // cut one and is dropped.
+  return ok;
+}
+
+bool VideoFileSource::LookAhead(int index) {
   if (GrabOne()) {
     ++next_index_;
     lookahead_grabbed_ = true;
@@ -324,6 +369,32 @@ bool VideoFileSource::Next(Frame& frame) {
         path_.string(), index + 1, frame_count_, index));
     return false;
   }
+  return true;
+}
+
+bool VideoFileSource::Next(Frame& frame) {
+  if (done_) return false;
+  int index;
+  if (first_) {
+    first_ = false;  // decoded at opening
+    index = next_index_ - 1;
+  } else {
+    if (!DecodeNextStep()) return false;
+    index = next_index_ - 1;
+  }
+  const double t = fps_ > 0.0                      ? index / fps_
+                   : std::isfinite(current_ts_ms_) ? current_ts_ms_ / 1000.0
+                                                   : 0.0;
+  if (t > options_.end_time_s) {
+    done_ = true;
+    return false;
+  }
+  // Look-ahead: a file cut mid-frame ends with a partial packet that FFmpeg still decodes into
+  // an incomplete or stale image (measured on a cut MJPG AVI: the last frame came out as a copy
+  // of the one before, i.e. a silently wrong zero-motion step). So the next frame is grabbed
+  // now; when the stream ends before its header's frame count, this last decoded frame is the
+  // cut one and is dropped.
+  if (!LookAhead(index)) return false;
   // The stream's clock going back, then on from there: recordings joined into one file (each
   // with its own clock, as when MPEG-TS files are concatenated). OpenCV 4.6 decodes the rest at
   // the first recording's size: a larger second recording as copies of the last frame (caught
@@ -335,27 +406,14 @@ bool VideoFileSource::Next(Frame& frame) {
   if (std::isfinite(last_ts_ms_) && std::isfinite(current_ts_ms_) && lookahead_grabbed_ &&
       current_ts_ms_ < last_ts_ms_ - half_frame_ms && lookahead_ts_ms_ > current_ts_ms_) {
     done_ = true;
-    throw InputError(fmt::format(
-        "video '{}' frame {}: the stream's timestamps go back from {:.3f} s to {:.3f} s: "
-        "recordings joined into one file (concatenated MPEG-TS?) or a damaged stream, so the "
-        "frames from {} on cannot be trusted as the same flight (OpenCV's decoder even delivers "
-        "them at the first recording's size; split the video where its clock restarts, or re-encode it at one size, e.g. "
-        "ffmpeg -i in -vf scale=W:H out.mp4){}",
-        path_.string(), index, last_ts_ms_ / 1000.0, current_ts_ms_ / 1000.0, index,
-        cur_w_ != width_ || cur_h_ != height_
-            ? fmt::format("; the size changes there too, from {}x{} to {}x{}", width_, height_,
-                          cur_w_, cur_h_)
-            : std::string()));
+    throw InputError(ClockWentBackMessage(path_.string(), index, last_ts_ms_, current_ts_ms_,
+                                          width_, height_, cur_w_, cur_h_));
   }
   // A change of decoded size (ours sees every frame's own size; OpenCV's converts to the first
   // size, so only a larger frame that its swscale refuses would show here).
   if (cur_w_ != width_ || cur_h_ != height_) {
     done_ = true;
-    throw InputError(fmt::format(
-        "video '{}' frame {}: size changed from {}x{} to {}x{} (a resolution change mid-stream: "
-        "recordings joined into one file, or a camera that switched modes; split the video "
-        "there, or re-encode it at one size, e.g. ffmpeg -i in -vf scale=W:H out.mp4)",
-        path_.string(), index, width_, height_, cur_w_, cur_h_));
+    throw InputError(SizeChangedMessage(path_.string(), index, width_, height_, cur_w_, cur_h_));
   }
   last_ts_ms_ = current_ts_ms_;
   DeliverTo(frame);
@@ -370,13 +428,7 @@ bool VideoFileSource::Next(Frame& frame) {
     ++repeats_;
     if (moved_ && repeats_ >= kMaxRepeatedFrames) {
       done_ = true;
-      throw InputError(fmt::format(
-          "video '{}' frame {}: the decoder has returned the same image since frame {} ({} "
-          "identical frames in a row after the video moved): stale decoding, typically a "
-          "resolution change mid-stream (concatenated recordings, MPEG-TS) or a damaged stream; "
-          "the frames from {} on cannot be trusted (split or re-encode the video at one size, "
-          "e.g. ffmpeg -i in -vf scale=W:H out.mp4)",
-          path_.string(), index, freeze_index_, repeats_ + 1, freeze_index_ + 1));
+      throw InputError(StaleDecoderMessage(path_.string(), index, freeze_index_, repeats_));
     }
     AddFlag(frame.flags, kFrameFlagDuplicate);
     ++duplicates_;
@@ -410,31 +462,32 @@ int VideoFileSource::ExpectedFrameCount() const {
 
 // ------------------------------------------------------------------------------ folder
 
-ImageFolderSource::ImageFolderSource(const std::filesystem::path& folder,
-                                     const FrameSourceOptions& options)
-    : folder_(folder), options_(options) {
-  Validate(options_);
+namespace {
+
+namespace fs = std::filesystem;
+
+// The photos of `folder`, sorted by file name. Hidden files and (with skip_non_images) other
+// files are skipped with a warning and counted; another file throws InputError, as do an
+// unreadable folder and one without photos.
+std::vector<fs::path> ListPhotos(const fs::path& folder, const FrameSourceOptions& options,
+                                 int& skipped_files, std::vector<std::string>& warnings) {
   std::error_code ec;
-  if (!std::filesystem::is_directory(folder, ec)) {
-    throw InputError(
-        fmt::format("cannot open image folder '{}': not a directory", folder.string()));
-  }
-  std::vector<std::filesystem::path> files;
-  for (const auto& entry : std::filesystem::directory_iterator(folder, ec)) {
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator(folder, ec)) {
     if (!entry.is_regular_file(ec)) continue;
     const std::string fname = entry.path().filename().string();
     if (!fname.empty() && fname[0] == '.') {
       // Hidden files: macOS "._DJI_0001.JPG" resource forks, ".DS_Store", editor backups.
-      ++skipped_files_;
-      warnings_.push_back(fmt::format("skipped hidden file '{}'", entry.path().string()));
+      ++skipped_files;
+      warnings.push_back(fmt::format("skipped hidden file '{}'", entry.path().string()));
       continue;
     }
     if (IsImageExtension(entry.path())) {
       files.push_back(entry.path());
-    } else if (options_.skip_non_images) {
-      ++skipped_files_;
-      warnings_.push_back(fmt::format("skipped '{}': not a photo (.jpg .jpeg .png .tif .tiff)",
-                                      entry.path().string()));
+    } else if (options.skip_non_images) {
+      ++skipped_files;
+      warnings.push_back(fmt::format("skipped '{}': not a photo (.jpg .jpeg .png .tif .tiff)",
+                                     entry.path().string()));
     } else {
       throw InputError(
           fmt::format("image folder '{}' contains '{}', which is not a photo "
@@ -451,15 +504,23 @@ ImageFolderSource::ImageFolderSource(const std::filesystem::path& folder,
                                  folder.string()));
   }
   std::sort(files.begin(), files.end());
-  struct Entry {
-    std::filesystem::path path;
-    ImageMetadata meta;
-    ImageFileCheck check;
-  };
-  std::vector<Entry> entries;
-  bool all_timed = true;
+  return files;
+}
+
+struct PhotoEntry {
+  fs::path path;
+  ImageMetadata meta;
+  ImageFileCheck check;
+};
+
+// Each photo's file check (a truncated photo is said now, also on stderr) and metadata (when
+// unreadable: a warning and empty metadata). all_timed: every photo has a capture time.
+std::vector<PhotoEntry> ReadPhotoEntries(const std::vector<fs::path>& files,
+                                         std::vector<std::string>& warnings, bool& all_timed) {
+  std::vector<PhotoEntry> entries;
+  all_timed = true;
   for (const auto& f : files) {
-    Entry e{f, {}, CheckImageFile(f)};
+    PhotoEntry e{f, {}, CheckImageFile(f)};
     if (e.check.truncated) {
       // Said now, before any decoding: libjpeg's own "Premature end of JPEG file", printed when
       // the photo is decoded, names no file.
@@ -468,7 +529,7 @@ ImageFolderSource::ImageFolderSource(const std::filesystem::path& folder,
           "grey) and its frame is flagged 'truncated'",
           f.string(), e.check.problem);
       std::cerr << "warning: " << w << std::endl;
-      warnings_.push_back(w);
+      warnings.push_back(w);
     }
     try {
       e.meta = ReadImageMetadata(f);
@@ -476,30 +537,35 @@ ImageFolderSource::ImageFolderSource(const std::filesystem::path& folder,
       // The photo may still decode; its metadata is just unusable. Say so, keep going.
       e.meta = ImageMetadata();
       e.meta.source = f.string();
-      warnings_.push_back(fmt::format("metadata ignored: {}", err.what()));
+      warnings.push_back(fmt::format("metadata ignored: {}", err.what()));
     }
     all_timed = all_timed && e.meta.capture_unix_time_s.has_value();
     entries.push_back(std::move(e));
   }
-  if (all_timed) {
-    std::stable_sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
-      return *a.meta.capture_unix_time_s < *b.meta.capture_unix_time_s;
-    });
-  } else {
-    warnings_.push_back(fmt::format(
-        "image folder '{}': not every photo has an EXIF capture time: ordered by file name",
-        folder.string()));
-  }
-  // Flights: a new one starts at a photo from another camera or after a long gap; a pause
-  // over a minute that is chained is said.
+  return entries;
+}
+
+std::string CameraOf(const ImageMetadata& m) {
+  std::string c = fmt::format("{} {}", m.make, m.model);
+  if (!m.serial_number.empty()) c += fmt::format(" serial {}", m.serial_number);
+  return c;
+}
+
+// The flights of a photo sequence: start[k] is the first photo of flight k (then one past the
+// last photo), reason[k] why flight k + 1 starts, naming both photos.
+struct PhotoFlights {
+  std::vector<std::size_t> start;
+  std::vector<std::string> reason;
+  int count() const { return static_cast<int>(start.size()) - 1; }
+};
+
+// A new flight starts at a photo from another camera or after a gap over photo_gap_s; a pause
+// over a minute that is chained is said in `warnings`.
+PhotoFlights SplitFlights(const std::vector<PhotoEntry>& entries, bool all_timed,
+                          const FrameSourceOptions& options, const fs::path& folder,
+                          std::vector<std::string>& warnings) {
   constexpr double kLongPhotoPauseS = 60.0;
-  const auto camera_of = [](const ImageMetadata& m) {
-    std::string c = fmt::format("{} {}", m.make, m.model);
-    if (!m.serial_number.empty()) c += fmt::format(" serial {}", m.serial_number);
-    return c;
-  };
-  std::vector<std::size_t> flight_start{0};
-  std::vector<std::string> flight_reason;  // why flight k+1 starts, naming both photos
+  PhotoFlights flights{{0}, {}};
   // A photo whose metadata says nothing of its camera (unreadable, stripped) changes no flight.
   std::size_t last_known = entries.size();
   for (std::size_t i = 0; i < entries.size(); ++i) {
@@ -515,68 +581,83 @@ ImageFolderSource::ImageFolderSource(const std::filesystem::path& folder,
     const std::string name_b = entries[i].path.filename().string();
     const bool b_known = !b.make.empty() || !b.model.empty();
     std::string reason;
-    if (b_known && last_known < i && camera_of(entries[last_known].meta) != camera_of(b)) {
-      reason = fmt::format("'{}' is from another camera ({}) than '{}' ({})", name_b, camera_of(b),
+    if (b_known && last_known < i && CameraOf(entries[last_known].meta) != CameraOf(b)) {
+      reason = fmt::format("'{}' is from another camera ({}) than '{}' ({})", name_b, CameraOf(b),
                            entries[last_known].path.filename().string(),
-                           camera_of(entries[last_known].meta));
-    } else if (all_timed && options_.photo_gap_s > 0.0 &&
-               *b.capture_unix_time_s - *a.capture_unix_time_s > options_.photo_gap_s) {
-      reason = fmt::format("'{}' was taken {:.0f} s after '{}' (a gap longer than photo_gap_s {} s)",
-                           name_b, *b.capture_unix_time_s - *a.capture_unix_time_s, name_a,
-                           options_.photo_gap_s);
+                           CameraOf(entries[last_known].meta));
+    } else if (all_timed && options.photo_gap_s > 0.0 &&
+               *b.capture_unix_time_s - *a.capture_unix_time_s > options.photo_gap_s) {
+      reason = fmt::format(
+          "'{}' was taken {:.0f} s after '{}' (a gap longer than photo_gap_s {} s)", name_b,
+          *b.capture_unix_time_s - *a.capture_unix_time_s, name_a, options.photo_gap_s);
     }
     if (reason.empty() && all_timed &&
         *b.capture_unix_time_s - *a.capture_unix_time_s > kLongPhotoPauseS) {
-      warnings_.push_back(fmt::format(
+      warnings.push_back(fmt::format(
           "image folder '{}': '{}' was taken {:.0f} s after '{}': chained as one flight (a "
           "pause shorter than photo_gap_s {} s)",
           folder.string(), name_b, *b.capture_unix_time_s - *a.capture_unix_time_s, name_a,
-          options_.photo_gap_s));
+          options.photo_gap_s));
     }
     if (b_known) last_known = i;
     if (!reason.empty()) {
-      flight_start.push_back(i);
-      flight_reason.push_back(std::move(reason));
+      flights.start.push_back(i);
+      flights.reason.push_back(std::move(reason));
     }
   }
-  flight_count_ = static_cast<int>(flight_start.size());
-  flight_start.push_back(entries.size());
-  const auto describe_flights = [&] {
-    std::string d;
-    for (int k = 0; k < flight_count_; ++k) {
-      const std::size_t first = flight_start[k], end = flight_start[k + 1];
-      d += fmt::format("{}flight {}: {} photos, '{}' to '{}'", k ? "; " : "", k + 1, end - first,
-                       entries[first].path.filename().string(),
-                       entries[end - 1].path.filename().string());
-    }
-    return d;
-  };
-  if (flight_count_ > 1 && options_.photo_flight == 0) {
+  flights.start.push_back(entries.size());
+  return flights;
+}
+
+std::string DescribeFlights(const std::vector<PhotoEntry>& entries, const PhotoFlights& flights) {
+  std::string d;
+  for (int k = 0; k < flights.count(); ++k) {
+    const std::size_t first = flights.start[k], end = flights.start[k + 1];
+    d += fmt::format("{}flight {}: {} photos, '{}' to '{}'", k ? "; " : "", k + 1, end - first,
+                     entries[first].path.filename().string(),
+                     entries[end - 1].path.filename().string());
+  }
+  return d;
+}
+
+// Keeps the flight FrameSourceOptions::photo_flight asks for (all of them chained: -1), or
+// throws InputError when the folder holds several and none was chosen, or fewer than asked.
+void SelectFlight(std::vector<PhotoEntry>& entries, const PhotoFlights& flights,
+                  const FrameSourceOptions& options, const fs::path& folder,
+                  std::vector<std::string>& warnings) {
+  const int count = flights.count();
+  if (count > 1 && options.photo_flight == 0) {
     throw InputError(fmt::format(
         "image folder '{}' holds {} flights, which would be chained as one: {} ({}); give "
         "--photo-flight K to process flight K alone, or --photo-flight -1 to chain them",
-        folder.string(), flight_count_, flight_reason.front(), describe_flights()));
+        folder.string(), count, flights.reason.front(), DescribeFlights(entries, flights)));
   }
-  if (options_.photo_flight > flight_count_) {
-    throw InputError(fmt::format("image folder '{}': photo_flight {} but the folder holds {} "
-                                 "flight{} ({})",
-                                 folder.string(), options_.photo_flight, flight_count_,
-                                 flight_count_ == 1 ? "" : "s", describe_flights()));
+  if (options.photo_flight > count) {
+    throw InputError(
+        fmt::format("image folder '{}': photo_flight {} but the folder holds {} "
+                    "flight{} ({})",
+                    folder.string(), options.photo_flight, count, count == 1 ? "" : "s",
+                    DescribeFlights(entries, flights)));
   }
-  if (flight_count_ > 1 && options_.photo_flight >= 1) {
-    const int k = options_.photo_flight - 1;
-    warnings_.push_back(fmt::format("image folder '{}': processing flight {} of {} ({})",
-                                    folder.string(), k + 1, flight_count_, describe_flights()));
-    entries.erase(entries.begin() + static_cast<std::ptrdiff_t>(flight_start[k + 1]),
+  if (count > 1 && options.photo_flight >= 1) {
+    const int k = options.photo_flight - 1;
+    warnings.push_back(fmt::format("image folder '{}': processing flight {} of {} ({})",
+                                   folder.string(), k + 1, count,
+                                   DescribeFlights(entries, flights)));
+    entries.erase(entries.begin() + static_cast<std::ptrdiff_t>(flights.start[k + 1]),
                   entries.end());
-    entries.erase(entries.begin(), entries.begin() + static_cast<std::ptrdiff_t>(flight_start[k]));
-  } else if (flight_count_ > 1) {
-    warnings_.push_back(fmt::format("image folder '{}': {} flights chained as one ({}): {}",
-                                    folder.string(), flight_count_, describe_flights(),
-                                    flight_reason.front()));
+    entries.erase(entries.begin(), entries.begin() + static_cast<std::ptrdiff_t>(flights.start[k]));
+  } else if (count > 1) {
+    warnings.push_back(fmt::format("image folder '{}': {} flights chained as one ({}): {}",
+                                   folder.string(), count, DescribeFlights(entries, flights),
+                                   flights.reason.front()));
   }
-  const Entry* sized = nullptr;
-  for (const Entry& e : entries) {
+}
+
+// Throws InputError when two photos whose size is known differ in size.
+void CheckOneSize(const std::vector<PhotoEntry>& entries, const fs::path& folder) {
+  const PhotoEntry* sized = nullptr;
+  for (const PhotoEntry& e : entries) {
     if (e.meta.width_px <= 0 || e.meta.height_px <= 0) continue;
     if (!sized) {
       sized = &e;
@@ -589,6 +670,35 @@ ImageFolderSource::ImageFolderSource(const std::filesystem::path& folder,
           sized->path.filename().string(), sized->meta.width_px, sized->meta.height_px));
     }
   }
+}
+
+}  // namespace
+
+ImageFolderSource::ImageFolderSource(const std::filesystem::path& folder,
+                                     const FrameSourceOptions& options)
+    : folder_(folder), options_(options) {
+  Validate(options_);
+  std::error_code ec;
+  if (!std::filesystem::is_directory(folder, ec)) {
+    throw InputError(
+        fmt::format("cannot open image folder '{}': not a directory", folder.string()));
+  }
+  const std::vector<fs::path> files = ListPhotos(folder, options_, skipped_files_, warnings_);
+  bool all_timed = true;
+  std::vector<PhotoEntry> entries = ReadPhotoEntries(files, warnings_, all_timed);
+  if (all_timed) {
+    std::stable_sort(entries.begin(), entries.end(), [](const PhotoEntry& a, const PhotoEntry& b) {
+      return *a.meta.capture_unix_time_s < *b.meta.capture_unix_time_s;
+    });
+  } else {
+    warnings_.push_back(fmt::format(
+        "image folder '{}': not every photo has an EXIF capture time: ordered by file name",
+        folder.string()));
+  }
+  const PhotoFlights flights = SplitFlights(entries, all_timed, options_, folder, warnings_);
+  flight_count_ = flights.count();
+  SelectFlight(entries, flights, options_, folder, warnings_);
+  CheckOneSize(entries, folder);
   for (std::size_t i = 0; i < entries.size(); ++i) {
     paths_.push_back(entries[i].path);
     checks_.push_back(std::move(entries[i].check));
@@ -616,8 +726,8 @@ void ImageFolderSource::Read(std::size_t i, Frame& frame) {
   const std::string name = paths_[i].filename().string();
   const ImageFileCheck& check = checks_[i];
   if (!check.problem.empty() && !check.truncated) {
-    throw InputError(
-        fmt::format("cannot decode photo '{}' (frame {}): {}", paths_[i].string(), i, check.problem));
+    throw InputError(fmt::format("cannot decode photo '{}' (frame {}): {}", paths_[i].string(), i,
+                                 check.problem));
   }
   // Pixel geometry as stored: a nadir camera's EXIF orientation must not rotate the frames.
   const cv::Mat bgr =

@@ -184,6 +184,12 @@ class VideoFileSource : public FrameSource {
   double GrabbedTimestampMs() const;  // of the frame last grabbed (NaN: unknown)
   bool RetrieveGrabbed();  // converts the frame last grabbed into gray_/bgr_; sets cur_w_/cur_h_
   void DeliverTo(Frame& frame);  // the retrieved frame into frame.gray/frame.color
+  // Decodes the frame `step` after the last delivered one (or takes the look-ahead frame);
+  // false at the end of the stream (done_ set, a truncation warning when the header said more).
+  bool DecodeNextStep();
+  // Grabs the frame after `index` ahead (see Next); false when the stream ends early, before
+  // its header's frame count: `index` is then the cut frame and is dropped (done_ set).
+  bool LookAhead(int index);
 
   std::filesystem::path path_;
   FrameSourceOptions options_;

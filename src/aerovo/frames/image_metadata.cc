@@ -130,10 +130,94 @@ void XmpFromExifPacket(const Exiv2::ExifData& exif, const std::string& source,
   while (!packet.empty() && packet.back() == '\0') packet.pop_back();
   if (packet.find_first_not_of(" \t\r\n") == std::string::npos) return;
   if (Exiv2::XmpParser::decode(*out, packet) != 0) {
-    throw InputError(fmt::format(
-        "{}: the XMP packet in EXIF tag 0x02bc (XMLPacket, {} bytes) does not parse", source,
-        packet.size()));
+    throw InputError(
+        fmt::format("{}: the XMP packet in EXIF tag 0x02bc (XMLPacket, {} bytes) does not parse",
+                    source, packet.size()));
   }
+}
+
+// EXIF Make, Model and serial number (EXIF BodySerialNumber, CameraSerialNumber, else DJI XMP).
+void ReadCameraIdentity(const Exiv2::ExifData& exif, const Exiv2::XmpData& xmp, ImageMetadata& m) {
+  m.make = std::string(io_detail::Trim(ExifString(exif, "Exif.Image.Make").value_or("")));
+  m.model = std::string(io_detail::Trim(ExifString(exif, "Exif.Image.Model").value_or("")));
+  for (const char* key : {"Exif.Photo.BodySerialNumber", "Exif.Image.CameraSerialNumber"}) {
+    if (m.serial_number.empty()) {
+      m.serial_number = std::string(io_detail::Trim(ExifString(exif, key).value_or("")));
+    }
+  }
+  if (m.serial_number.empty()) {
+    // DJI writes the camera's serial number in its XMP (drone-dji:CameraSerialNumber).
+    const auto it = xmp.findKey(Exiv2::XmpKey("Xmp.drone-dji.CameraSerialNumber"));
+    if (it != xmp.end()) m.serial_number = std::string(io_detail::Trim(it->toString()));
+  }
+}
+
+// EXIF GPS position and altitude; InputError for a value out of range or half a position.
+void ReadExifGps(const Exiv2::ExifData& exif, const std::string& source, ImageMetadata& m) {
+  m.lat_deg = ExifDms(exif, "Exif.GPSInfo.GPSLatitude", "Exif.GPSInfo.GPSLatitudeRef", "S", source);
+  m.lon_deg =
+      ExifDms(exif, "Exif.GPSInfo.GPSLongitude", "Exif.GPSInfo.GPSLongitudeRef", "W", source);
+  CheckRange(m.lat_deg, -90.0, 90.0, "EXIF GPS latitude", source);
+  CheckRange(m.lon_deg, -180.0, 180.0, "EXIF GPS longitude", source);
+  if (m.lat_deg.has_value() != m.lon_deg.has_value()) {
+    throw InputError(fmt::format("{}: EXIF GPS has a {} but no {}", source,
+                                 m.lat_deg ? "latitude" : "longitude",
+                                 m.lat_deg ? "longitude" : "latitude"));
+  }
+  m.gps_alt_m = ExifNumber(exif, "Exif.GPSInfo.GPSAltitude", source);
+  if (m.gps_alt_m) {
+    const auto ref = ExifNumber(exif, "Exif.GPSInfo.GPSAltitudeRef", source);
+    if (ref && *ref == 1.0) m.gps_alt_m = -*m.gps_alt_m;
+  }
+  CheckRange(m.gps_alt_m, -1e5, 1e5, "EXIF GPS altitude", source);
+}
+
+// EXIF DateTimeOriginal + SubSecTimeOriginal as seconds since 1970 (read as UTC).
+void ReadCaptureTime(const Exiv2::ExifData& exif, ImageMetadata& m) {
+  if (auto dt = ExifString(exif, "Exif.Photo.DateTimeOriginal")) {
+    m.capture_unix_time_s = io_detail::ParseDateTime(*dt);
+    if (m.capture_unix_time_s) {
+      if (auto sub = ExifString(exif, "Exif.Photo.SubSecTimeOriginal")) {
+        // SubSecTime holds the digits of the fraction: "123" = 0.123 s, "5" = 0.5 s.
+        const std::string_view digits = io_detail::Trim(*sub);
+        double frac = 0.0, scale = 0.1;
+        bool ok = !digits.empty() && digits.size() <= 9;
+        for (char c : digits) {
+          if (c < '0' || c > '9') ok = false;
+          frac += (c - '0') * scale;
+          scale *= 0.1;
+        }
+        if (ok) *m.capture_unix_time_s += frac;
+      }
+    }
+  }
+}
+
+// DJI XMP (drone-dji): heights, flight and gimbal attitude, calibrated focal length and centre;
+// InputError for a value out of range.
+void ReadDjiXmp(const Exiv2::XmpData& xmp, const std::string& source, ImageMetadata& m) {
+  m.rel_alt_m = XmpNumber(xmp, "Xmp.drone-dji.RelativeAltitude", source);
+  m.abs_alt_m = XmpNumber(xmp, "Xmp.drone-dji.AbsoluteAltitude", source);
+  m.flight_yaw_deg = XmpNumber(xmp, "Xmp.drone-dji.FlightYawDegree", source);
+  m.flight_pitch_deg = XmpNumber(xmp, "Xmp.drone-dji.FlightPitchDegree", source);
+  m.flight_roll_deg = XmpNumber(xmp, "Xmp.drone-dji.FlightRollDegree", source);
+  m.gimbal_yaw_deg = XmpNumber(xmp, "Xmp.drone-dji.GimbalYawDegree", source);
+  m.gimbal_pitch_deg = XmpNumber(xmp, "Xmp.drone-dji.GimbalPitchDegree", source);
+  m.gimbal_roll_deg = XmpNumber(xmp, "Xmp.drone-dji.GimbalRollDegree", source);
+  m.calibrated_focal_px = XmpNumber(xmp, "Xmp.drone-dji.CalibratedFocalLength", source);
+  m.calibrated_cx_px = XmpNumber(xmp, "Xmp.drone-dji.CalibratedOpticalCenterX", source);
+  m.calibrated_cy_px = XmpNumber(xmp, "Xmp.drone-dji.CalibratedOpticalCenterY", source);
+  CheckRange(m.rel_alt_m, -1e5, 1e5, "XMP RelativeAltitude", source);
+  CheckRange(m.abs_alt_m, -1e5, 1e5, "XMP AbsoluteAltitude", source);
+  for (auto [v, what] : {std::pair{&m.flight_yaw_deg, "XMP FlightYawDegree"},
+                         {&m.flight_pitch_deg, "XMP FlightPitchDegree"},
+                         {&m.flight_roll_deg, "XMP FlightRollDegree"},
+                         {&m.gimbal_yaw_deg, "XMP GimbalYawDegree"},
+                         {&m.gimbal_pitch_deg, "XMP GimbalPitchDegree"},
+                         {&m.gimbal_roll_deg, "XMP GimbalRollDegree"}}) {
+    CheckRange(*v, -360.0, 360.0, what, source);
+  }
+  CheckRange(m.calibrated_focal_px, 1e-3, 1e7, "XMP CalibratedFocalLength (px)", source);
 }
 
 ImageMetadata Extract(Exiv2::Image& image, const std::string& source) {
@@ -157,53 +241,11 @@ ImageMetadata Extract(Exiv2::Image& image, const std::string& source) {
     m.width_px = pixels("Exif.Photo.PixelXDimension");
     m.height_px = pixels("Exif.Photo.PixelYDimension");
   }
-  m.make = std::string(io_detail::Trim(ExifString(exif, "Exif.Image.Make").value_or("")));
-  m.model = std::string(io_detail::Trim(ExifString(exif, "Exif.Image.Model").value_or("")));
-  for (const char* key : {"Exif.Photo.BodySerialNumber", "Exif.Image.CameraSerialNumber"}) {
-    if (m.serial_number.empty()) {
-      m.serial_number = std::string(io_detail::Trim(ExifString(exif, key).value_or("")));
-    }
-  }
-  if (m.serial_number.empty()) {
-    // DJI writes the camera's serial number in its XMP (drone-dji:CameraSerialNumber).
-    const auto it = xmp.findKey(Exiv2::XmpKey("Xmp.drone-dji.CameraSerialNumber"));
-    if (it != xmp.end()) m.serial_number = std::string(io_detail::Trim(it->toString()));
-  }
+  ReadCameraIdentity(exif, xmp, m);
 
-  m.lat_deg = ExifDms(exif, "Exif.GPSInfo.GPSLatitude", "Exif.GPSInfo.GPSLatitudeRef", "S", source);
-  m.lon_deg =
-      ExifDms(exif, "Exif.GPSInfo.GPSLongitude", "Exif.GPSInfo.GPSLongitudeRef", "W", source);
-  CheckRange(m.lat_deg, -90.0, 90.0, "EXIF GPS latitude", source);
-  CheckRange(m.lon_deg, -180.0, 180.0, "EXIF GPS longitude", source);
-  if (m.lat_deg.has_value() != m.lon_deg.has_value()) {
-    throw InputError(fmt::format("{}: EXIF GPS has a {} but no {}", source,
-                                 m.lat_deg ? "latitude" : "longitude",
-                                 m.lat_deg ? "longitude" : "latitude"));
-  }
-  m.gps_alt_m = ExifNumber(exif, "Exif.GPSInfo.GPSAltitude", source);
-  if (m.gps_alt_m) {
-    const auto ref = ExifNumber(exif, "Exif.GPSInfo.GPSAltitudeRef", source);
-    if (ref && *ref == 1.0) m.gps_alt_m = -*m.gps_alt_m;
-  }
-  CheckRange(m.gps_alt_m, -1e5, 1e5, "EXIF GPS altitude", source);
+  ReadExifGps(exif, source, m);
 
-  if (auto dt = ExifString(exif, "Exif.Photo.DateTimeOriginal")) {
-    m.capture_unix_time_s = io_detail::ParseDateTime(*dt);
-    if (m.capture_unix_time_s) {
-      if (auto sub = ExifString(exif, "Exif.Photo.SubSecTimeOriginal")) {
-        // SubSecTime holds the digits of the fraction: "123" = 0.123 s, "5" = 0.5 s.
-        const std::string_view digits = io_detail::Trim(*sub);
-        double frac = 0.0, scale = 0.1;
-        bool ok = !digits.empty() && digits.size() <= 9;
-        for (char c : digits) {
-          if (c < '0' || c > '9') ok = false;
-          frac += (c - '0') * scale;
-          scale *= 0.1;
-        }
-        if (ok) *m.capture_unix_time_s += frac;
-      }
-    }
-  }
+  ReadCaptureTime(exif, m);
 
   m.focal_length_mm = ExifNumber(exif, "Exif.Photo.FocalLength", source);
   m.focal_length_35mm_mm = ExifNumber(exif, "Exif.Photo.FocalLengthIn35mmFilm", source);
@@ -213,28 +255,7 @@ ImageMetadata Extract(Exiv2::Image& image, const std::string& source) {
   CheckRange(m.focal_length_mm, 0.0, 1e4, "EXIF FocalLength (mm)", source);
   CheckRange(m.focal_length_35mm_mm, 0.0, 1e4, "EXIF FocalLengthIn35mmFilm (mm)", source);
 
-  m.rel_alt_m = XmpNumber(xmp, "Xmp.drone-dji.RelativeAltitude", source);
-  m.abs_alt_m = XmpNumber(xmp, "Xmp.drone-dji.AbsoluteAltitude", source);
-  m.flight_yaw_deg = XmpNumber(xmp, "Xmp.drone-dji.FlightYawDegree", source);
-  m.flight_pitch_deg = XmpNumber(xmp, "Xmp.drone-dji.FlightPitchDegree", source);
-  m.flight_roll_deg = XmpNumber(xmp, "Xmp.drone-dji.FlightRollDegree", source);
-  m.gimbal_yaw_deg = XmpNumber(xmp, "Xmp.drone-dji.GimbalYawDegree", source);
-  m.gimbal_pitch_deg = XmpNumber(xmp, "Xmp.drone-dji.GimbalPitchDegree", source);
-  m.gimbal_roll_deg = XmpNumber(xmp, "Xmp.drone-dji.GimbalRollDegree", source);
-  m.calibrated_focal_px = XmpNumber(xmp, "Xmp.drone-dji.CalibratedFocalLength", source);
-  m.calibrated_cx_px = XmpNumber(xmp, "Xmp.drone-dji.CalibratedOpticalCenterX", source);
-  m.calibrated_cy_px = XmpNumber(xmp, "Xmp.drone-dji.CalibratedOpticalCenterY", source);
-  CheckRange(m.rel_alt_m, -1e5, 1e5, "XMP RelativeAltitude", source);
-  CheckRange(m.abs_alt_m, -1e5, 1e5, "XMP AbsoluteAltitude", source);
-  for (auto [v, what] : {std::pair{&m.flight_yaw_deg, "XMP FlightYawDegree"},
-                         {&m.flight_pitch_deg, "XMP FlightPitchDegree"},
-                         {&m.flight_roll_deg, "XMP FlightRollDegree"},
-                         {&m.gimbal_yaw_deg, "XMP GimbalYawDegree"},
-                         {&m.gimbal_pitch_deg, "XMP GimbalPitchDegree"},
-                         {&m.gimbal_roll_deg, "XMP GimbalRollDegree"}}) {
-    CheckRange(*v, -360.0, 360.0, what, source);
-  }
-  CheckRange(m.calibrated_focal_px, 1e-3, 1e7, "XMP CalibratedFocalLength (px)", source);
+  ReadDjiXmp(xmp, source, m);
   return m;
 }
 

@@ -92,16 +92,14 @@ std::optional<Column> ColumnOf(const std::string& name) {
   return std::nullopt;
 }
 
-}  // namespace
+using ColumnIndex = std::array<int, kNumColumns>;
 
-TelemetryReadResult ParseTelemetryCsv(std::istream& in, const std::string& source_name,
-                                      const TelemetryReadOptions& options) {
-  Validate(options);
-  RecordErrors errors(options, source_name);
-  CsvLines csv(in, source_name);
-  const long header_line = csv.header_line();
-  const std::vector<std::string>& header = csv.header();
-  std::array<int, kNumColumns> index;
+// The column of each known field in `header` (-1: absent; unknown columns are ignored). Throws
+// InputError "<source>:<line>: ..." for a field named twice, no latitude or longitude column, or
+// neither a time nor a frame column.
+ColumnIndex IndexColumns(const std::vector<std::string>& header, const std::string& source_name,
+                         long header_line) {
+  ColumnIndex index;
   index.fill(-1);
   for (std::size_t c = 0; c < header.size(); ++c) {
     const std::string name = io_detail::ToLower(Trim(header[c]));
@@ -125,7 +123,54 @@ TelemetryReadResult ParseTelemetryCsv(std::istream& in, const std::string& sourc
                     "frame column",
                     source_name, header_line));
   }
-  const std::size_t num_header_cells = header.size();
+  return index;
+}
+
+// The values of one record's known cells: numbers, or for the time column a date.
+struct RecordValues {
+  std::array<std::optional<double>, kNumColumns> v;
+  std::optional<double> date;
+  std::string problem;  ///< Why the record is malformed; empty when it is not.
+};
+
+RecordValues ParseRecordValues(const std::vector<std::string>& cells, const ColumnIndex& index) {
+  RecordValues r;
+  std::string& problem = r.problem;
+  std::array<std::optional<double>, kNumColumns>& v = r.v;
+  for (int c = 0; c < kNumColumns && problem.empty(); ++c) {
+    if (index[c] < 0) continue;
+    const std::string_view cell = Trim(cells[index[c]]);
+    if (cell.empty()) {
+      if (c == kLat || c == kLon || (c == kTime && index[kFrame] < 0) ||
+          (c == kFrame && index[kTime] < 0)) {
+        problem = fmt::format("empty {} (column {})", kColumnNames[c], index[c] + 1);
+      }
+      continue;
+    }
+    v[c] = ParseDouble(cell);
+    if (!v[c] && c == kTime) {
+      r.date = io_detail::ParseDateTime(cell);
+      if (r.date) continue;
+    }
+    if (!v[c]) {
+      problem = fmt::format("{} '{}' is not a number", kColumnNames[c], cell.substr(0, 40));
+    }
+  }
+  if (problem.empty() && v[kFrame] && !io_detail::IsFrameNumber(*v[kFrame])) {
+    problem = fmt::format("frame {} is not a non-negative integer", *v[kFrame]);
+  }
+  return r;
+}
+
+}  // namespace
+
+TelemetryReadResult ParseTelemetryCsv(std::istream& in, const std::string& source_name,
+                                      const TelemetryReadOptions& options) {
+  Validate(options);
+  RecordErrors errors(options, source_name);
+  CsvLines csv(in, source_name);
+  const ColumnIndex index = IndexColumns(csv.header(), source_name, csv.header_line());
+  const std::size_t num_header_cells = csv.header().size();
 
   std::vector<TelemetrySample> samples;
   int no_fix = 0;
@@ -142,33 +187,11 @@ TelemetryReadResult ParseTelemetryCsv(std::istream& in, const std::string& sourc
       continue;
     }
     TelemetrySample s;
-    std::string problem;
-    std::array<std::optional<double>, kNumColumns> v;
-    std::optional<double> date;
-    for (int c = 0; c < kNumColumns && problem.empty(); ++c) {
-      if (index[c] < 0) continue;
-      const std::string_view cell = Trim(cells[index[c]]);
-      if (cell.empty()) {
-        if (c == kLat || c == kLon || (c == kTime && index[kFrame] < 0) ||
-            (c == kFrame && index[kTime] < 0)) {
-          problem = fmt::format("empty {} (column {})", kColumnNames[c], index[c] + 1);
-        }
-        continue;
-      }
-      v[c] = ParseDouble(cell);
-      if (!v[c] && c == kTime) {
-        date = io_detail::ParseDateTime(cell);
-        if (date) continue;
-      }
-      if (!v[c]) {
-        problem = fmt::format("{} '{}' is not a number", kColumnNames[c], cell.substr(0, 40));
-      }
-    }
-    if (problem.empty() && v[kFrame] && !io_detail::IsFrameNumber(*v[kFrame])) {
-      problem = fmt::format("frame {} is not a non-negative integer", *v[kFrame]);
-    }
-    if (!problem.empty()) {
-      errors.Report(n, problem);
+    const RecordValues values = ParseRecordValues(cells, index);
+    const std::array<std::optional<double>, kNumColumns>& v = values.v;
+    const std::optional<double>& date = values.date;
+    if (!values.problem.empty()) {
+      errors.Report(n, values.problem);
       continue;
     }
     s.lat_deg = *v[kLat];

@@ -4,6 +4,7 @@
 #include <cstring>
 #include <istream>
 #include <iterator>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -73,6 +74,63 @@ void Collect(const pugi::xml_node& root, const char* local, std::vector<pugi::xm
   }
 }
 
+struct ParsedPoint {
+  TelemetrySample sample;
+  long line;
+  bool has_time;
+};
+
+// One <trkpt>/<rtept> at `line`: its sample (time_s not yet set), or nullopt when it is
+// malformed (reported through `errors`), has no GPS fix (counted in no_fix) or fails
+// AcceptSample.
+std::optional<ParsedPoint> ParsePoint(const pugi::xml_node& pt, long line, RecordErrors& errors,
+                                      int& no_fix) {
+  const pugi::xml_attribute lat_a = pt.attribute("lat");
+  const pugi::xml_attribute lon_a = pt.attribute("lon");
+  if (!lat_a || !lon_a) {
+    errors.Report(line,
+                  fmt::format("<{}> without {} attribute", pt.name(), !lat_a ? "a lat" : "a lon"));
+    return std::nullopt;
+  }
+  const auto lat = ParseDouble(lat_a.value());
+  const auto lon = ParseDouble(lon_a.value());
+  if (!lat || !lon) {
+    errors.Report(line, fmt::format("{} '{}' is not a number", !lat ? "lat" : "lon",
+                                    !lat ? lat_a.value() : lon_a.value()));
+    return std::nullopt;
+  }
+  TelemetrySample s;
+  s.lat_deg = *lat;
+  s.lon_deg = *lon;
+  if (const pugi::xml_node ele = Child(pt, "ele")) {
+    const auto v = ParseDouble(ele.text().get());
+    if (!v) {
+      errors.Report(line, fmt::format("<ele> '{}' is not a number", ele.text().get()));
+      return std::nullopt;
+    }
+    s.abs_alt_m = v;
+  }
+  bool has_time = false;
+  if (const pugi::xml_node t = Child(pt, "time")) {
+    const auto v = io_detail::ParseDateTime(t.text().get());
+    if (!v) {
+      errors.Report(line, fmt::format("<time> '{}' is not an ISO 8601 date", t.text().get()));
+      return std::nullopt;
+    }
+    s.unix_time_s = v;
+    has_time = true;
+  }
+  if (const pugi::xml_node c = Child(pt, "course")) {  // GPX 1.0 heading
+    if (auto v = ParseDouble(c.text().get())) s.yaw_deg = v;
+  }
+  if (*lat == 0.0 && *lon == 0.0) {
+    ++no_fix;
+    return std::nullopt;
+  }
+  if (!io_detail::AcceptSample(s, line, errors)) return std::nullopt;
+  return ParsedPoint{s, line, has_time};
+}
+
 }  // namespace
 
 TelemetryReadResult ParseGpx(std::istream& in, const std::string& source_name,
@@ -99,63 +157,15 @@ TelemetryReadResult ParseGpx(std::istream& in, const std::string& source_name,
   Collect(root, "trkpt", points);
   if (points.empty()) Collect(root, "rtept", points);
 
-  struct Parsed {
-    TelemetrySample sample;
-    long line;
-    bool has_time;
-  };
-  std::vector<Parsed> parsed_points;
+  std::vector<ParsedPoint> parsed_points;
   int no_fix = 0;
   for (const pugi::xml_node& pt : points) {
     const long line = lines.LineOf(pt.offset_debug());
-    const pugi::xml_attribute lat_a = pt.attribute("lat");
-    const pugi::xml_attribute lon_a = pt.attribute("lon");
-    if (!lat_a || !lon_a) {
-      errors.Report(
-          line, fmt::format("<{}> without {} attribute", pt.name(), !lat_a ? "a lat" : "a lon"));
-      continue;
-    }
-    const auto lat = ParseDouble(lat_a.value());
-    const auto lon = ParseDouble(lon_a.value());
-    if (!lat || !lon) {
-      errors.Report(line, fmt::format("{} '{}' is not a number", !lat ? "lat" : "lon",
-                                      !lat ? lat_a.value() : lon_a.value()));
-      continue;
-    }
-    TelemetrySample s;
-    s.lat_deg = *lat;
-    s.lon_deg = *lon;
-    if (const pugi::xml_node ele = Child(pt, "ele")) {
-      const auto v = ParseDouble(ele.text().get());
-      if (!v) {
-        errors.Report(line, fmt::format("<ele> '{}' is not a number", ele.text().get()));
-        continue;
-      }
-      s.abs_alt_m = v;
-    }
-    bool has_time = false;
-    if (const pugi::xml_node t = Child(pt, "time")) {
-      const auto v = io_detail::ParseDateTime(t.text().get());
-      if (!v) {
-        errors.Report(line, fmt::format("<time> '{}' is not an ISO 8601 date", t.text().get()));
-        continue;
-      }
-      s.unix_time_s = v;
-      has_time = true;
-    }
-    if (const pugi::xml_node c = Child(pt, "course")) {  // GPX 1.0 heading
-      if (auto v = ParseDouble(c.text().get())) s.yaw_deg = v;
-    }
-    if (*lat == 0.0 && *lon == 0.0) {
-      ++no_fix;
-      continue;
-    }
-    if (!io_detail::AcceptSample(s, line, errors)) continue;
-    parsed_points.push_back({s, line, has_time});
+    if (auto p = ParsePoint(pt, line, errors, no_fix)) parsed_points.push_back(*p);
   }
 
   const bool any_time = std::any_of(parsed_points.begin(), parsed_points.end(),
-                                    [](const Parsed& p) { return p.has_time; });
+                                    [](const ParsedPoint& p) { return p.has_time; });
   std::vector<TelemetrySample> samples;
   if (!any_time) {
     if (!parsed_points.empty()) {
@@ -169,7 +179,7 @@ TelemetryReadResult ParseGpx(std::istream& in, const std::string& source_name,
     return io_detail::Finish(std::move(samples), errors, no_fix, "GPX file");
   }
   std::optional<double> t0, last;
-  for (Parsed& p : parsed_points) {
+  for (ParsedPoint& p : parsed_points) {
     if (!p.has_time) {
       errors.Report(p.line, "point without <time> in a track whose other points have one");
       continue;

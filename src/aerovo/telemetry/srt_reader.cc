@@ -190,23 +190,70 @@ void ParseTextLine(std::string_view line, BlockFields& f) {
   }
 }
 
+// The lines of the file, numbered from 1, without "\r" line ends and the UTF-8 byte-order mark.
+std::vector<Line> ReadLines(std::istream& in) {
+  std::vector<Line> lines;
+  std::string s;
+  long n = 0;
+  while (std::getline(in, s)) {
+    ++n;
+    if (!s.empty() && s.back() == '\r') s.pop_back();
+    if (n == 1 && s.rfind("\xEF\xBB\xBF", 0) == 0) s.erase(0, 3);  // UTF-8 BOM
+    lines.push_back({n, std::move(s)});
+  }
+  return lines;
+}
+
+// The sample of subtitle `number` (block at `block_line`, start time `start_s`) from its text's
+// fields: nullopt when the fields are malformed (reported through `errors` at error_line or
+// block_line), say no GPS fix (counted in no_fix) or fail AcceptSample.
+std::optional<TelemetrySample> SampleOfBlock(const BlockFields& f, long long number, double start_s,
+                                             long block_line, long error_line, RecordErrors& errors,
+                                             int& no_fix) {
+  if (!f.error.empty()) {
+    errors.Report(error_line, f.error);
+    return std::nullopt;
+  }
+  if (!f.lat || !f.lon) {
+    errors.Report(block_line, fmt::format("subtitle {} has no {}", number,
+                                          !f.lat && !f.lon ? "latitude and longitude"
+                                          : !f.lat         ? "latitude"
+                                                           : "longitude"));
+    return std::nullopt;
+  }
+  if (*f.lat == 0.0 && *f.lon == 0.0) {
+    ++no_fix;
+    return std::nullopt;
+  }
+  TelemetrySample s;
+  s.time_s = start_s;
+  s.unix_time_s = f.unix_time;
+  if (f.counter) {
+    if (*f.counter < 1 || *f.counter > 100000000) {
+      errors.Report(block_line, fmt::format("frame counter {} out of range", *f.counter));
+      return std::nullopt;
+    }
+    s.frame_index = static_cast<int>(*f.counter - 1);
+  }
+  s.lat_deg = *f.lat;
+  s.lon_deg = *f.lon;
+  s.rel_alt_m = f.rel_alt;
+  s.abs_alt_m = f.abs_alt;
+  s.focal_length_35mm_mm = f.focal35;
+  s.gimbal_yaw_deg = f.gb_yaw;
+  s.gimbal_pitch_deg = f.gb_pitch;
+  s.gimbal_roll_deg = f.gb_roll;
+  if (!io_detail::AcceptSample(s, block_line, errors)) return std::nullopt;
+  return s;
+}
+
 }  // namespace
 
 TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name,
                                 const TelemetryReadOptions& options) {
   Validate(options);
   RecordErrors errors(options, source_name);
-  std::vector<Line> lines;
-  {
-    std::string s;
-    long n = 0;
-    while (std::getline(in, s)) {
-      ++n;
-      if (!s.empty() && s.back() == '\r') s.pop_back();
-      if (n == 1 && s.rfind("\xEF\xBB\xBF", 0) == 0) s.erase(0, 3);  // UTF-8 BOM
-      lines.push_back({n, std::move(s)});
-    }
-  }
+  const std::vector<Line> lines = ReadLines(in);
   std::vector<TelemetrySample> samples;
   int no_fix = 0;
   std::optional<double> last_time;
@@ -262,40 +309,10 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
       ParseTextLine(StripTags(lines[i].text), f);
       if (!had_error && !f.error.empty()) error_line = lines[i].number;
     }
-    if (!f.error.empty()) {
-      errors.Report(error_line, f.error);
-      continue;
-    }
-    if (!f.lat || !f.lon) {
-      errors.Report(block_line, fmt::format("subtitle {} has no {}", *number,
-                                            !f.lat && !f.lon ? "latitude and longitude"
-                                            : !f.lat         ? "latitude"
-                                                             : "longitude"));
-      continue;
-    }
-    if (*f.lat == 0.0 && *f.lon == 0.0) {
-      ++no_fix;
-      continue;
-    }
-    TelemetrySample s;
-    s.time_s = *start;
-    s.unix_time_s = f.unix_time;
-    if (f.counter) {
-      if (*f.counter < 1 || *f.counter > 100000000) {
-        errors.Report(block_line, fmt::format("frame counter {} out of range", *f.counter));
-        continue;
-      }
-      s.frame_index = static_cast<int>(*f.counter - 1);
-    }
-    s.lat_deg = *f.lat;
-    s.lon_deg = *f.lon;
-    s.rel_alt_m = f.rel_alt;
-    s.abs_alt_m = f.abs_alt;
-    s.focal_length_35mm_mm = f.focal35;
-    s.gimbal_yaw_deg = f.gb_yaw;
-    s.gimbal_pitch_deg = f.gb_pitch;
-    s.gimbal_roll_deg = f.gb_roll;
-    if (!io_detail::AcceptSample(s, block_line, errors)) continue;
+    std::optional<TelemetrySample> sample =
+        SampleOfBlock(f, *number, *start, block_line, error_line, errors, no_fix);
+    if (!sample) continue;
+    TelemetrySample& s = *sample;
     if (last_time && s.time_s < *last_time) {
       errors.Report(timing_line,
                     fmt::format("time {:.3f} s is earlier than the previous subtitle's {:.3f} s "
