@@ -1,7 +1,7 @@
 // A video file decoded with FFmpeg's libraries (libavformat + libavcodec + libswscale), frame
 // by frame, delivering 8-bit grey straight from the decoder's luma plane (no BGR on the way).
 // Used by VideoFileSource (frames/frame_source.h) when FrameSourceOptions::video_decoder is auto or
-// ffmpeg. The FFmpeg headers stay in video_decoder.cc (linked PRIVATE to aerovo_io).
+// ffmpeg. The FFmpeg headers stay in video_decoder.cc (linked PRIVATE to aerovo_frames).
 #pragma once
 
 #include <cstdint>
