@@ -47,7 +47,7 @@
 #include "aerovo/estimation/ransac.h"
 #include "aerovo/estimation/testing.h"
 #include "aerovo/features/surf.h"
-#include "aerovo/io/image_file.h"
+#include "aerovo/frames/image_file.h"
 
 namespace {
 

@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "aerovo/features/surf.h"
-#include "aerovo/io/image_file.h"
+#include "aerovo/frames/image_file.h"
 
 namespace {
 

@@ -1,12 +1,12 @@
 // The per-frame input checks and bounds (docs/inputs.md, "Frames that are not what the camera
 // saw" and "Frame size: the pixel budget"): the repeated-frame hash every video frame pays
-// (io/frame_source.h PixelHash) and the reduction of frames above the pixel budget
+// (frames/frame_source.h PixelHash) and the reduction of frames above the pixel budget
 // (pipeline/preprocess.h FrameReducer).
 #include <benchmark/benchmark.h>
 
 #include <opencv2/core.hpp>
 
-#include "aerovo/io/frame_source.h"
+#include "aerovo/frames/frame_source.h"
 #include "aerovo/pipeline/preprocess.h"
 
 namespace {

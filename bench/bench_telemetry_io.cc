@@ -8,8 +8,8 @@
 
 #include <fmt/format.h>
 
-#include "aerovo/io/frame_source.h"
-#include "aerovo/io/telemetry_readers.h"
+#include "aerovo/frames/frame_source.h"
+#include "aerovo/telemetry/telemetry_readers.h"
 
 namespace {
 

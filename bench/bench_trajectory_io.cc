@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "aerovo/eval/trajectory_eval.h"
-#include "aerovo/io/track_writers.h"
+#include "aerovo/outputs/track_writers.h"
 
 namespace {
 

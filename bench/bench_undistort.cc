@@ -1,5 +1,5 @@
 // Lens undistortion of the whole frame (docs/lenses.md, "Points or whole frames";
-// io/camera.h Undistorter::Apply, one cv::remap with maps computed once) against undistorting only
+// frames/camera.h Undistorter::Apply, one cv::remap with maps computed once) against undistorting only
 // the interest points (Undistorter::UndistortPoints, OpenCV's iterative inverse of the lens model),
 // pinhole and fisheye lenses.
 #include <benchmark/benchmark.h>
@@ -10,8 +10,8 @@
 #include <opencv2/core.hpp>
 
 #include "aerovo/camera/lens.h"
-#include "aerovo/io/camera.h"
-#include "aerovo/io/frame_source.h"
+#include "aerovo/frames/camera.h"
+#include "aerovo/frames/frame_source.h"
 
 namespace {
 

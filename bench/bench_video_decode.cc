@@ -1,4 +1,4 @@
-// Decoding a video to grey frames, our decoder (io/video_decoder.h: FFmpeg's
+// Decoding a video to grey frames, our decoder (frames/video_decoder.h: FFmpeg's
 // libraries, grey from the luma plane) against OpenCV's cv::VideoCapture (BGR, then
 // cv::cvtColor), side by side: VideoFileSource::Next per iteration (one frame), 1080p and 4K
 // H.264. CPU time is the whole process's (MeasureProcessCPUTime: the codec's own threads
@@ -18,8 +18,8 @@
 
 #include <fmt/format.h>
 
-#include "aerovo/io/ffmpeg_test_util.h"
-#include "aerovo/io/frame_source.h"
+#include "aerovo/frames/ffmpeg_test_util.h"
+#include "aerovo/frames/frame_source.h"
 
 namespace {
 

@@ -2,7 +2,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "aerovo/io/telemetry_readers.h"
+#include "aerovo/telemetry/telemetry_readers.h"
 #include "fuzz_telemetry.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/image_metadata.h"
+#include "aerovo/frames/image_metadata.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   try {

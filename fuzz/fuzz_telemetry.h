@@ -11,7 +11,7 @@
 #include <string>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/telemetry_readers.h"
+#include "aerovo/telemetry/telemetry_readers.h"
 
 namespace aerovo::fuzz {
 

@@ -3,7 +3,7 @@
 //
 // Images: numpy uint8 arrays, 2-D (height, width) grey, or 3-D (height, width, 1 | 3 | 4);
 // colour becomes grey with cv::cvtColor (0.299 R + 0.587 G + 0.114 B, fixed point), the
-// formula of io's ReadGrayImage (GrayFrom::kColor) and of the frame sources; channels="rgb"
+// formula of frames' ReadGrayImage (GrayFrom::kColor) and of the frame sources; channels="rgb"
 // (numpy's usual order: imageio, PIL, matplotlib) or "bgr" (cv2.imread). Any other dtype is a
 // TypeError, any other shape a ValueError; arrays that are not C-contiguous are copied.
 // The heavy calls (SURF, the correspondence stage, VisualOdometry.process) release the GIL;
@@ -34,7 +34,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/correspondence/correspondence.h"
 #include "aerovo/features/surf.h"
-#include "aerovo/io/image_file.h"
+#include "aerovo/frames/image_file.h"
 #include "aerovo/odometry/visual_odometry.h"
 #include "aerovo/report/run_reader.h"
 #include "aerovo/version.h"

@@ -11,7 +11,7 @@ PKGS=(
   libexiv2-dev           # EXIF/XMP telemetry of photos
   libhwy-dev             # Google Highway: portable SIMD kernels with run-time dispatch
   libpugixml-dev         # GPX (XML) telemetry
-  libavformat-dev libavcodec-dev libavutil-dev libswscale-dev  # io's video decoder (io/video_decoder.h)
+  libavformat-dev libavcodec-dev libavutil-dev libswscale-dev  # the video decoder (frames/video_decoder.h)
   libgdal-dev gdal-bin   # GeoTIFF + KMZ of the geo-referenced mosaic (aerovo report); gdalinfo/ogrinfo in tests
   libyaml-dev            # YAML run configuration files (aerovo run --config x.yaml)
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev

@@ -63,7 +63,7 @@ def test_colour_is_grey_as_the_cpp_reader(tmp_path):
     rgb = np.stack([texture(120, 160, s) for s in (3, 4, 5)], axis=2)
     png = tmp_path / "rgb.png"
     write_png(png, rgb)
-    grey_cpp = aerovo.read_image(png)  # a str or a pathlib.Path  # io's ReadGrayImage: decoded as BGR, cvtColor
+    grey_cpp = aerovo.read_image(png)  # a str or a pathlib.Path  # frames' ReadGrayImage: decoded as BGR, cvtColor
     grey = aerovo.to_gray(rgb)
     np.testing.assert_array_equal(grey, grey_cpp)
     np.testing.assert_array_equal(aerovo.to_gray(rgb[:, :, ::-1], channels="bgr"), grey)

@@ -33,8 +33,8 @@
 #include <opencv2/videoio.hpp>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/ffmpeg_test_util.h"
-#include "aerovo/io/frame_source.h"
+#include "aerovo/frames/ffmpeg_test_util.h"
+#include "aerovo/frames/frame_source.h"
 #include "aerovo/pipeline/runner.h"
 #include "aerovo/sim/terrain.h"
 #include "e2e_testing.h"

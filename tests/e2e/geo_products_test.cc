@@ -24,7 +24,7 @@
 #include <pugixml.hpp>
 
 #include "aerovo/geo/local_enu.h"
-#include "aerovo/io/track_writers.h"
+#include "aerovo/outputs/track_writers.h"
 #include "aerovo/report/geo_mosaic.h"
 #include "aerovo/report/run_reader.h"
 

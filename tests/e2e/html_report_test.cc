@@ -26,7 +26,7 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/geo/local_enu.h"
-#include "aerovo/io/track_writers.h"
+#include "aerovo/outputs/track_writers.h"
 #include "aerovo/pipeline/runner.h"
 #include "aerovo/report/leaflet_assets.h"
 #include "aerovo/report/run_reader.h"

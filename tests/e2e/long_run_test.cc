@@ -16,7 +16,7 @@
 #include <fmt/format.h>
 
 #include "aerovo/core/timer.h"
-#include "aerovo/io/frame_source.h"
+#include "aerovo/frames/frame_source.h"
 #include "aerovo/pipeline/runner.h"
 #include "aerovo/sim/sim_writer.h"
 #include "aerovo/sim/simulator.h"

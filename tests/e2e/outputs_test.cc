@@ -1,7 +1,7 @@
 // Outputs and messages at the CLI level (docs/reliability.md, "Outputs, the output folder,
 // security, messages"), each case with inputs the test makes itself
 // (one small simulated flight, generated photos): a disk that fills up mid-run (the test-only
-// AEROVO_TEST_FAIL_WRITE_AFTER_BYTES budget, io/output_file.h), two runs into one folder, a
+// AEROVO_TEST_FAIL_WRITE_AFTER_BYTES budget, outputs/output_file.h), two runs into one folder, a
 // re-run into a used folder (--force), SIGPIPE (`--print-poses | head`) and SIGHUP, SIGINT
 // inside a huge frame, hostile folder names for `aerovo report --open`, warnings on stderr
 // with -q, YAML anchors, and a time window that selects no frame.
@@ -442,7 +442,7 @@ TEST_F(CliOutputs, SighupStopsLikeSigintWithASummary) {
 
 // SIGINT inside a huge frame (8000x8000 textured photo): the run stops within a second, with
 // its summary, instead of waiting for the frame's SURF and matching, or for the next photo's
-// decoding in progress on the reader thread (io/prefetch_source.h join_timeout_ms). The budget
+// decoding in progress on the reader thread (frames/prefetch_source.h join_timeout_ms). The budget
 // is the required second (docs/reliability.md, "SIGINT inside a huge frame") for the optimised
 // build; an instrumented build (ASan+UBSan at -O1, its LeakSanitizer scanning the heap at exit)
 // runs the same path 2-3x slower and gets 2 s.

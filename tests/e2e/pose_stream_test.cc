@@ -20,7 +20,7 @@
 #include <nlohmann/json.hpp>
 
 #include "aerovo/core/options.h"
-#include "aerovo/io/frame_source.h"
+#include "aerovo/frames/frame_source.h"
 #include "aerovo/pipeline/demo.h"
 #include "aerovo/pipeline/experiment.h"
 #include "aerovo/pipeline/runner.h"

@@ -1,8 +1,8 @@
 // `aerovo run` on the real flights in $AEROVO_SHARED (tampa-phantom3, turin-p4m), a flight with a
 // black frame, and a run interrupted by SIGINT. Figures asserted here are those first measured
 // (BENCHMARKS.md, "Odometry on real flights") plus a margin.
+#include "aerovo/frames/camera.h"
 #include "aerovo/pipeline/runner.h"
-#include "aerovo/io/camera.h"
 
 #include <gtest/gtest.h>
 #include <signal.h>

@@ -12,7 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "aerovo/io/calibration.h"
+#include "aerovo/camera_files/calibration.h"
 #include "e2e_testing.h"
 
 namespace aerovo {

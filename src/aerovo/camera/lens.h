@@ -2,7 +2,7 @@
 // LensModel) as functions of points, without OpenCV: where the lens puts a ray (Distort), the
 // inverse by iteration (Undistort), and how much the lens changes the local scale of the image
 // across a frame (the rule of `aerovo run --undistort auto`, docs/lenses.md "Points or whole
-// frames"). The frames' counterpart (one cv::remap per frame) is io/camera.h Undistorter.
+// frames"). The frames' counterpart (one cv::remap per frame) is frames/camera.h Undistorter.
 #pragma once
 
 #include <array>
@@ -11,8 +11,8 @@
 
 namespace aerovo {
 
-/// The point undistortion of one camera: pixels of the distorted frames (`lens`, as delivered)
-/// to pixels of the ideal pinhole the frame path undistorts to (io/camera.h Undistorter::output:
+/// The point undistortion of one camera: pixels of the distorted frames (`lens`, as delivered) to
+/// pixels of the ideal pinhole the frame path undistorts to (frames/camera.h Undistorter::output:
 /// the same size, square pixels, focal lens.fx_px, principal point at the centre
 /// ((w - 1) / 2, (h - 1) / 2)). Plain value, no allocation after construction; const methods
 /// are thread-safe.

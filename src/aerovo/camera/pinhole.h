@@ -1,7 +1,7 @@
 // The camera model shared by every module: pinhole intrinsics with optional lens distortion
 // coefficients, and the conversions between a focal length in pixels, a 35 mm-equivalent focal
 // length and a horizontal field of view. No OpenCV here (sim/ uses it); undistorting frames is
-// io/camera.h Undistorter, resolving a run's camera from options and metadata io/camera.h
+// frames/camera.h Undistorter, resolving a run's camera from options and metadata frames/camera.h
 // ResolveCamera.
 #pragma once
 

@@ -13,7 +13,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/correspondence/correspondence.h"
 #include "aerovo/features/surf.h"
-#include "aerovo/io/image_file.h"
+#include "aerovo/frames/image_file.h"
 #include "aerovo/matching/matcher.h"
 
 namespace aerovo::cli {

@@ -17,7 +17,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/features/surf.h"
-#include "aerovo/io/run_folder.h"
+#include "aerovo/outputs/run_folder.h"
 #include "aerovo/pipeline/demo.h"
 #include "aerovo/sim/terrain.h"
 

@@ -16,8 +16,8 @@
 #include "aerovo/cli/conventions.h"
 #include "aerovo/cli/progress.h"
 #include "aerovo/cli/run_cli.h"
-#include "aerovo/io/run_folder.h"
 #include "aerovo/core/error.h"
+#include "aerovo/outputs/run_folder.h"
 #include "aerovo/pipeline/experiment.h"
 #include "aerovo/report/html_report.h"
 

@@ -15,9 +15,9 @@
 #include "aerovo/cli/conventions.h"
 #include "aerovo/core/error.h"
 #include "aerovo/eval/feature_eval.h"
+#include "aerovo/eval/oxford_dataset.h"
 #include "aerovo/features/surf.h"
-#include "aerovo/io/image_file.h"
-#include "aerovo/io/oxford_dataset.h"
+#include "aerovo/frames/image_file.h"
 
 namespace aerovo::cli {
 namespace {

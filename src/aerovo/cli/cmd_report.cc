@@ -17,7 +17,7 @@
 #include <fmt/format.h>
 
 #include "aerovo/cli/command.h"
-#include "aerovo/io/run_folder.h"
+#include "aerovo/outputs/run_folder.h"
 #include "aerovo/report/html_report.h"
 
 extern char** environ;
@@ -64,7 +64,7 @@ void Execute(const ReportArgs& a) {
   o.mosaic_options.max_frames = a.mosaic_frames;
   o.plot.png = !a.no_png;
   if (!a.quiet) o.log = &std::cout;
-  // Not while a run writes into the folder (io/run_folder.h): it fails naming that run's pid.
+  // Not while a run writes into the folder (outputs/run_folder.h): it fails naming that run's pid.
   std::optional<RunFolderLock> lock;
   if (std::filesystem::is_directory(a.dir)) lock.emplace(a.dir);
   const ReportResult r = WriteReport(a.dir, o);

@@ -13,7 +13,7 @@
 #include "aerovo/cli/progress.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
-#include "aerovo/io/run_folder.h"
+#include "aerovo/outputs/run_folder.h"
 #include "aerovo/sim/ground.h"
 #include "aerovo/sim/sim_writer.h"
 #include "aerovo/sim/simulator.h"

@@ -9,9 +9,9 @@
 
 #include "aerovo/cli/command.h"
 #include "aerovo/core/error.h"
-#include "aerovo/io/frame_source.h"
-#include "aerovo/io/image_metadata.h"
-#include "aerovo/io/telemetry_readers.h"
+#include "aerovo/frames/frame_source.h"
+#include "aerovo/frames/image_metadata.h"
+#include "aerovo/telemetry/telemetry_readers.h"
 
 namespace aerovo::cli {
 namespace {

@@ -269,7 +269,7 @@ TEST(CliConventions, RunPrintsTheAnswerFirstWithin80ColumnsAndTheConfigOnlyWhenV
     }
     EXPECT_TRUE(Has(summary, "Outputs in " + out + "/:")) << summary;
     EXPECT_TRUE(Has(summary, "frames.csv")) << summary;
-    // The folder's lock stays (io/run_folder.h) but is not an output.
+    // The folder's lock stays (outputs/run_folder.h) but is not an output.
     EXPECT_TRUE(std::filesystem::exists(out + "/.aerovo.lock")) << out;
     EXPECT_FALSE(Has(summary, ".aerovo.lock")) << summary;
   }

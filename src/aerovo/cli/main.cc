@@ -107,7 +107,7 @@ void PreferPassiveOpenMpWaits(char** argv) {
 
 // A file size limit (`ulimit -f`, RLIMIT_FSIZE) is a full disk for one file: SIGXFSZ's default
 // action kills the process in the middle of a write, leaving that file cut and no summary.json.
-// Ignored, the write fails with EFBIG ("File too large") and takes the full-disk path (io/
+// Ignored, the write fails with EFBIG ("File too large") and takes the full-disk path (outputs/
 // output_file.h): the error names the file, every file stays valid, the summary is written.
 void TreatFileSizeLimitsAsWriteErrors() { ::signal(SIGXFSZ, SIG_IGN); }
 

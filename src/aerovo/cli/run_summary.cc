@@ -5,7 +5,7 @@
 #include <system_error>
 #include <vector>
 
-#include "aerovo/io/run_folder.h"
+#include "aerovo/outputs/run_folder.h"
 
 namespace aerovo::cli {
 
@@ -15,7 +15,7 @@ std::string WrappedFileList(const std::string& folder, int width) {
   std::error_code ec;
   for (const fs::directory_entry& e : fs::directory_iterator(folder, ec)) {
     const std::string name = e.path().filename().string();
-    // The folder's lock and space reserve (io/run_folder.h) are the run's bookkeeping, not
+    // The folder's lock and space reserve (outputs/run_folder.h) are the run's bookkeeping, not
     // its outputs: the lock file stays after the run by design, the reserve is removed.
     if (name == RunFolderFiles::kLock || name == RunFolderFiles::kReserve) continue;
     names.push_back(name + (e.is_directory(ec) ? "/" : ""));

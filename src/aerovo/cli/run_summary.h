@@ -11,7 +11,7 @@
 namespace aerovo::cli {
 
 /// `folder`'s file names (and sub-folders, with a '/'), sorted, as lines of at most `width`
-/// columns after an indent of two spaces; the folder's lock and space reserve (io/run_folder.h
+/// columns after an indent of two spaces; the folder's lock and space reserve (outputs/run_folder.h
 /// RunFolderFiles) are left out.
 std::string WrappedFileList(const std::string& folder, int width = 80);
 

@@ -13,7 +13,7 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
-#include "aerovo/io/oxford_dataset.h"
+#include "aerovo/eval/oxford_dataset.h"
 
 namespace aerovo {
 namespace {

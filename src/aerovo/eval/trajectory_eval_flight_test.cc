@@ -8,9 +8,9 @@
 
 #include "aerovo/core/testing.h"
 #include "aerovo/eval/trajectory_eval.h"
+#include "aerovo/frames/image_metadata.h"
 #include "aerovo/geo/geodesic.h"
 #include "aerovo/geo/local_enu.h"
-#include "aerovo/io/image_metadata.h"
 
 namespace aerovo {
 namespace {

@@ -12,8 +12,9 @@
 #include <vector>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/io_test_util.h"
+#include "aerovo/frames/image_test_util.h"
 #include "aerovo/pipeline/run_steps.h"
+#include "aerovo/telemetry/io_test_util.h"
 
 namespace aerovo::run_steps {
 namespace {

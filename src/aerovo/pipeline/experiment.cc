@@ -11,10 +11,10 @@
 #include <fmt/format.h>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/reference_track.h"
-#include "aerovo/io/track_writers.h"
-#include "aerovo/sim/sim_writer.h"
+#include "aerovo/outputs/track_writers.h"
 #include "aerovo/sim/ground.h"
+#include "aerovo/sim/sim_writer.h"
+#include "aerovo/telemetry/reference_track.h"
 
 namespace aerovo {
 

@@ -37,7 +37,7 @@
 #include <nlohmann/json.hpp>
 
 #include "aerovo/eval/trajectory_eval.h"
-#include "aerovo/io/frame_record.h"
+#include "aerovo/outputs/frame_record.h"
 #include "aerovo/pipeline/runner.h"
 #include "aerovo/report/experiment_kind.h"
 #include "aerovo/sim/simulator.h"
@@ -86,7 +86,7 @@ std::string FormatTableMarkdown(const ExperimentTable& table);
 // ---------------------------------------------------------------------------------------------
 // Inputs
 
-// The simulator's ground_truth.csv is read by ReadGroundTruthCsv (io/reference_track.h).
+// The simulator's ground_truth.csv is read by ReadGroundTruthCsv (telemetry/reference_track.h).
 
 /// The simulator's defaults (lawnmower, 3 legs of 300 m 50 m apart at 100 m height and 10 m/s,
 /// 1280x720 camera with a 73.7 deg field of view, no image effects, exact GPS at 10 Hz) rendered

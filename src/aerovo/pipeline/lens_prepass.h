@@ -19,8 +19,8 @@
 
 #include "aerovo/camera/pinhole.h"
 #include "aerovo/correspondence/lens_estimation.h"
-#include "aerovo/io/frame_source.h"
-#include "aerovo/io/track_writers.h"
+#include "aerovo/frames/frame_source.h"
+#include "aerovo/outputs/track_writers.h"
 #include "aerovo/pipeline/run_config.h"
 
 namespace aerovo::run_steps {
@@ -38,8 +38,8 @@ inline constexpr double kLensPrepassMegapixels = 1.0;
 /// candidate k refits each pair's homography); 400 points per pair fix k to about 1e-3
 /// (LensEstimation.RecoversAFisheyeK1: 500 points, 0.5 px noise). Our choice.
 inline constexpr int kLensPrepassMaxMatches = 400;
-/// The file a significant estimate is written to in the run folder (OpenCV YAML, io/calibration.h
-/// WriteCalibration; `aerovo run --calibration` reads it back).
+/// The file a significant estimate is written to in the run folder (OpenCV YAML,
+/// camera_files/calibration.h WriteCalibration; `aerovo run --calibration` reads it back).
 inline constexpr const char* kLensEstimateYaml = RunFileNames::kLensEstimateYaml;
 
 /// The frame source options of a run (step, window, photo flights): the main source's and the

@@ -9,7 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/camera.h"
+#include "aerovo/frames/camera.h"
 
 namespace aerovo {
 

@@ -61,14 +61,14 @@ class FrameReducer {
 /// Undistorts frames of one size with a pinhole camera (focal_px, principal point at the image
 /// centre ((w-1)/2, (h-1)/2)) and OpenCV distortion coefficients (k1, k2, p1, p2, k3); the output
 /// keeps the same camera matrix, so focal_px still converts pixels to angles. The run's form of
-/// io/camera.h Undistorter (which does the work) with an output buffer of its own.
+/// frames/camera.h Undistorter (which does the work) with an output buffer of its own.
 class FrameUndistorter {
  public:
   /// Throws InvalidArgument for a non-positive size or focal length.
   FrameUndistorter(int width_px, int height_px, double focal_px, double k1, double k2, double p1,
                    double p2, double k3);
   /// Any calibrated camera (pinhole or fisheye lens, any principal point): the output is the
-  /// centred square-pixel pinhole of focal intrinsics.fx_px (io/camera.h Undistorter). Throws
+  /// centred square-pixel pinhole of focal intrinsics.fx_px (frames/camera.h Undistorter). Throws
   /// InvalidArgument as Validate(CameraIntrinsics) does.
   explicit FrameUndistorter(const CameraIntrinsics& intrinsics);
   ~FrameUndistorter();

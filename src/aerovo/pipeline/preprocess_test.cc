@@ -10,13 +10,13 @@
 #include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/camera.h"
+#include "aerovo/frames/camera.h"
 #include "aerovo/odometry/visual_odometry.h"
 
 namespace aerovo {
 namespace {
 
-// The run's undistorter is io's Undistorter with the run's camera: the same pixels.
+// The run's undistorter is frames' Undistorter with the run's camera: the same pixels.
 TEST(Preprocess, FrameUndistorterIsTheCameraUndistorter) {
   const int w = 96, h = 64;
   GrayImage frame(w, h);

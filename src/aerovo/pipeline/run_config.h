@@ -15,7 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "aerovo/core/options.h"
-#include "aerovo/io/video_decoder_choice.h"
+#include "aerovo/frames/video_decoder_choice.h"
 #include "aerovo/mavlink/vision.h"
 #include "aerovo/odometry/georef.h"
 #include "aerovo/odometry/gps_check.h"
@@ -52,7 +52,7 @@ struct options::EnumTraits<AttitudeMode>
 /// How a run undoes lens distortion (RunConfig::undistort; docs/lenses.md "Points or whole frames").
 enum class UndistortMode {
   kAuto,    ///< kPoints when the lens's local scale change is small (camera/lens.h), else kFrames.
-  kFrames,  ///< Every frame remapped before SURF (io/camera.h Undistorter, one cv::remap).
+  kFrames,  ///< Every frame remapped before SURF (frames/camera.h Undistorter, one cv::remap).
   kPoints,  ///< SURF on the distorted frame, its keypoints undistorted (camera/lens.h).
 };
 inline const char* ToString(UndistortMode m) {
@@ -80,7 +80,7 @@ struct options::EnumTraits<LensEstimationMode>
 /// Everything a run can be told, as flags (cmd_run.cc) or as a JSON config file with the same
 /// keys (ToJson / RunConfigFromJson). Plain aggregate; Validate() checks it.
 struct RunConfig {
-  /// Video file, image folder, camera index, device path or stream URL (io/frame_source.h).
+  /// Video file, image folder, camera index, device path or stream URL (frames/frame_source.h).
   std::string input;
   /// Telemetry file (.srt, .gpx, .csv); empty: none, or the photos' EXIF/XMP for a folder.
   std::string telemetry;
@@ -89,7 +89,7 @@ struct RunConfig {
   /// true = they are skipped, counted and reported in the summary's warnings (their frames then
   /// have no GPS). Default false: a damaged file is worth a look before trusting it.
   bool lenient_telemetry = false;
-  /// Ground-truth track to compare with, beside GPS (io/reference_track.h: the simulator's
+  /// Ground-truth track to compare with, beside GPS (telemetry/reference_track.h: the simulator's
   /// ground_truth.csv / .tum, any TUM file, or a telemetry file with positions); matched to the
   /// frames by frame index when the file gives one for every point (CSV frame column, SRT), else
   /// by time. Empty: none, or the simulator's ground_truth.csv when sim.json is found.
@@ -117,15 +117,15 @@ struct RunConfig {
   double hfov_deg = 0.0;
   /// Aspect ratio (long / short side) of the sensor's full frame, which a photo's EXIF 35 mm
   /// equivalent refers to; 0 = from the camera model, else 4:3 for photos wider than 1.7:1,
-  /// else the photo's own (io/camera.h SensorAspectOf).
+  /// else the photo's own (frames/camera.h SensorAspectOf).
   double sensor_aspect = 0.0;
-  /// Photo folders: a gap between capture times longer than this, or a change of camera,
-  /// starts another flight (io/frame_source.h FrameSourceOptions::photo_gap_s); 0 = no gap check.
+  /// Photo folders: a gap between capture times longer than this, or a change of camera, starts
+  /// another flight (frames/frame_source.h FrameSourceOptions::photo_gap_s); 0 = no gap check.
   double photo_gap_s = 600.0;
   /// Photo folders holding several flights: 0 refuses them (the error lists the flights), K
   /// processes flight K alone, -1 chains them all.
   int photo_flight = 0;
-  /// Video files: auto (= ffmpeg, default), ffmpeg (io/video_decoder.h: grey from the luma
+  /// Video files: auto (= ffmpeg, default), ffmpeg (frames/video_decoder.h: grey from the luma
   /// plane, every frame's size checked) or opencv (cv::VideoCapture); FrameSourceOptions::
   /// video_decoder.
   VideoDecoderChoice video_decoder = VideoDecoderChoice::kAuto;
@@ -137,12 +137,12 @@ struct RunConfig {
   /// undistorted (cv::remap with maps computed once) before SURF. Default 0 (none; DJI nadir
   /// photos and videos are usually already corrected in camera).
   double k1 = 0.0, k2 = 0.0, p1 = 0.0, p2 = 0.0, k3 = 0.0;
-  /// Camera calibration file (io/calibration.h ReadCalibration: OpenCV YAML/XML from
+  /// Camera calibration file (camera_files/calibration.h ReadCalibration: OpenCV YAML/XML from
   /// calibrateCamera, OpenDroneMap cameras.json, COLMAP cameras.txt; pinhole or fisheye lens).
   /// When given it is the camera: focal lengths, principal point and distortion, scaled to the
   /// frames when only the resolution differs; it wins over focal_px, hfov_deg, EXIF, telemetry
   /// and k1..k3 (which must then be 0). Frames are undistorted before SURF to the centred pinhole
-  /// of focal fx (io/camera.h Undistorter). Default none (docs/lenses.md).
+  /// of focal fx (frames/camera.h Undistorter). Default none (docs/lenses.md).
   std::string calibration;
   /// How the lens distortion (k1..k3, p1, p2 or the calibration) is undone: kFrames remaps every
   /// frame before SURF; kPoints runs SURF on the distorted frame and undistorts its keypoints
@@ -182,7 +182,7 @@ struct RunConfig {
   /// No progress bar, no configuration dump: errors, warnings (on stderr) and the final table.
   bool quiet = false;
   /// A run owns its output folder: `aerovo run` refuses a folder that is not empty unless
-  /// force, which first removes aerovo's own files from it (io/run_folder.h; foreign files are
+  /// force, which first removes aerovo's own files from it (outputs/run_folder.h; foreign files are
   /// kept). Default false. (The library's RunFlight does not check; the CLI does.)
   bool force = false;
   /// MAVLink link to a flight controller (docs/autopilot.md; mavlink/transport.h):
@@ -209,7 +209,7 @@ struct RunConfig {
   /// writes nothing else there (configuration, progress, warnings, summary: stderr). Empty
   /// (default): none.
   std::string poses_jsonl;
-  /// Frames decoded ahead on a reader thread (io/prefetch_source.h), so that decoding overlaps
+  /// Frames decoded ahead on a reader thread (frames/prefetch_source.h), so that decoding overlaps
   /// the processing; 0 = decode on the processing thread. A live source (camera, stream) keeps
   /// only the newest frame whatever the value (older ones are dropped, counted: latency stays
   /// bounded); files lose nothing. Default 2: one frame being decoded while one waits.
@@ -219,7 +219,7 @@ struct RunConfig {
   /// FrameCnt) is matched by time too (the SRT's time is the video's). Default 0.
   double telemetry_offset_s = 0.0;
   /// After the run, the offset between the telemetry and the video is estimated from the motion
-  /// (VO speed against GPS speed, run_steps.h EstimateTelemetryOffset) and reported; with this
+  /// (VO against GPS speed, telemetry/clock.h EstimateTelemetryOffset) and reported; with this
   /// switch the run is then repeated with the estimate added to telemetry_offset_s when it
   /// differs from it by more than 0.2 s and the estimate is clear. Default false (reported only).
   bool telemetry_auto_offset = false;

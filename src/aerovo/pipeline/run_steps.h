@@ -31,12 +31,12 @@
 #include "aerovo/core/image.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/eval/trajectory_eval.h"
-#include "aerovo/io/frame_record.h"
-#include "aerovo/io/frame_source.h"
-#include "aerovo/io/image_metadata.h"
-#include "aerovo/io/reference_track.h"
-#include "aerovo/io/telemetry.h"
-#include "aerovo/io/track_writers.h"
+#include "aerovo/outputs/frame_record.h"
+#include "aerovo/frames/frame_source.h"
+#include "aerovo/frames/image_metadata.h"
+#include "aerovo/telemetry/reference_track.h"
+#include "aerovo/telemetry/telemetry.h"
+#include "aerovo/outputs/track_writers.h"
 #include "aerovo/mavlink/link.h"
 #include "aerovo/mavlink/vision.h"
 #include "aerovo/odometry/georef.h"
@@ -114,33 +114,6 @@ class RunTelemetry {
   double offset_s_ = 0.0;
 };
 
-/// The telemetry's clock against the frames': "" when they agree, else a warning naming the
-/// telemetry `source`, e.g. when the telemetry's time span is ~1000x the frames' (times in
-/// milliseconds read as seconds) or every frame falls in a small part of it. `frames_start_s`,
-/// `frames_end_s`: the processed frames' first and last time (seconds), `offset_s` the offset
-/// applied (telemetry time = frame time + offset_s). Only for a telemetry matched by time (with
-/// frame indices the clock does not matter). Spans that do not overlap at all (another flight,
-/// GPS-week or absolute seconds against the frames' from 0) are said first, with both spans.
-std::string CheckTelemetryClock(const Telemetry& telemetry, const std::string& source,
-                                double frames_start_s, double frames_end_s, double offset_s = 0.0);
-
-/// The time offset between the telemetry and the frames estimated from the motion: the offset
-/// d (seconds, telemetry time = frame time + d, the meaning of RunConfig::telemetry_offset_s)
-/// that maximises the correlation of the visual odometry's speed at frame time t with the GPS
-/// speed at telemetry time t + d, over d in [-max_offset_s, max_offset_s] by 0.05 s. Speeds over
-/// a 1 s window. Needs speed changes in the flight (a constant speed says nothing).
-struct OffsetEstimate {
-  bool valid = false;        ///< Enough overlapping frames (>= 20) and speed variation.
-  double offset_s = 0.0;     ///< The estimate, s.
-  double correlation = 0.0;  ///< Pearson correlation at the estimate, [-1, 1].
-  /// The estimate is clear: correlation >= 0.8 at the peak, and at least 0.1 above the best
-  /// correlation 2 s or more away from it (no periodic ambiguity).
-  bool clear = false;
-  int frames = 0;  ///< Frames compared at the estimate.
-};
-OffsetEstimate EstimateTelemetryOffset(const std::vector<TrajectoryPoint2D>& vo_track_m,
-                                       const Telemetry& telemetry, double max_offset_s = 30.0);
-
 // ---------------------------------------------------------------------------------------------
 // 2. Camera
 
@@ -150,7 +123,7 @@ struct RunCamera {
   /// RunSummary::focal_source: "calibration", "flag", "sim.json", "hfov", "xmp-calibrated", "exif-35mm" or
   /// "telemetry-35mm".
   std::string focal_source;
-  /// The same as a sentence for the run log (io/camera.h ResolvedCamera::source), e.g. "focal
+  /// The same as a sentence for the run log (frames/camera.h ResolvedCamera::source), e.g. "focal
   /// length 2311.2 px from EXIF FocalLengthIn35mmFilm 20 mm of 'a.jpg' over the FC300S's 4:3
   /// sensor".
   std::string description;
@@ -159,7 +132,7 @@ struct RunCamera {
   std::optional<CameraIntrinsics> calibrated;
 };
 
-/// The focal length of width_px x height_px frames by io/camera.h ResolveCamera (the one focal
+/// The focal length of width_px x height_px frames by frames/camera.h ResolveCamera (the one focal
 /// chain): config.focal_px ("flag", or "sim.json" when `focal_from_sim`), config.hfov_deg
 /// ("hfov"), the first photo's DJI XMP calibrated focal length when the photo has the frames'
 /// size ("xmp-calibrated"), its EXIF 35 mm equivalent ("exif-35mm"), the first frame's telemetry

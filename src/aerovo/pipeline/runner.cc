@@ -6,20 +6,22 @@
 #include <ostream>
 #include <string>
 #include <system_error>
+#include <vector>
 
 #include <fmt/format.h>
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/eval/trajectory_eval_json.h"
-#include "aerovo/io/frame_source.h"
-#include "aerovo/io/output_file.h"
-#include "aerovo/io/run_folder.h"
-#include "aerovo/io/prefetch_source.h"
-#include "aerovo/io/track_writers.h"
+#include "aerovo/frames/frame_source.h"
+#include "aerovo/frames/prefetch_source.h"
 #include "aerovo/matching/matcher.h"
+#include "aerovo/outputs/output_file.h"
+#include "aerovo/outputs/run_folder.h"
+#include "aerovo/outputs/track_writers.h"
 #include "aerovo/pipeline/lens_prepass.h"
 #include "aerovo/pipeline/run_steps.h"
+#include "aerovo/telemetry/clock.h"
 
 namespace aerovo {
 
@@ -244,12 +246,14 @@ void CheckTelemetryTiming(const RunConfig& config, const run_steps::RunTelemetry
                           const run_steps::RunTotals& t, std::ostream* log, RunSummary* summary) {
   if (!telemetry.by_frame_index() || config.telemetry_offset_s != 0.0) {
     const std::string w =
-        run_steps::CheckTelemetryClock(telemetry.telemetry(), telemetry.origin(), t.first_time_s,
-                                       t.last_time_s, config.telemetry_offset_s);
+        CheckTelemetryClock(telemetry.telemetry(), telemetry.origin(), t.first_time_s,
+                            t.last_time_s, config.telemetry_offset_s);
     if (!w.empty()) summary->warnings.push_back(w);
   }
-  const run_steps::OffsetEstimate e =
-      run_steps::EstimateTelemetryOffset(t.local_track, telemetry.telemetry());
+  std::vector<PlanarTrackPoint> vo_track;
+  vo_track.reserve(t.local_track.size());
+  for (const TrajectoryPoint2D& p : t.local_track) vo_track.push_back({p.t, p.x, p.y});
+  const OffsetEstimate e = EstimateTelemetryOffset(vo_track, telemetry.telemetry());
   summary->telemetry_offset_estimate_valid = e.valid;
   summary->telemetry_offset_estimate_s = e.offset_s;
   summary->telemetry_offset_correlation = e.correlation;
@@ -350,7 +354,7 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   summary.input = config.input;
   summary.out_dir = config.out;
   std::ostream* log = config.quiet ? nullptr : cb.log;
-  // One run at a time in a folder (io/run_folder.h); the space for summary.json is held from
+  // One run at a time in a folder (outputs/run_folder.h); the space for summary.json is held from
   // here on, so the summary is written even if the disk fills up during the run.
   const RunFolderLock lock(config.out);
   const std::filesystem::path out_dir = PrepareRunFolder(config, cb.log_config, log);

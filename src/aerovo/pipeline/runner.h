@@ -27,9 +27,9 @@
 
 #include "aerovo/core/image.h"
 #include "aerovo/eval/trajectory_eval.h"
-#include "aerovo/io/frame_record.h"
 #include "aerovo/odometry/georef.h"
 #include "aerovo/odometry/visual_odometry.h"
+#include "aerovo/outputs/frame_record.h"
 #include "aerovo/pipeline/preprocess.h"
 #include "aerovo/pipeline/run_config.h"
 
@@ -65,7 +65,7 @@ struct RunSummary {
   int frames_reacquired = 0;
   int frames_bridged = 0;  ///< Flagged frames (step failed, motion bridged).
   int frames_with_gps = 0;
-  /// Frames the source flagged (io/frame_source.h Frame::flags), by flag: "duplicate" (pixels
+  /// Frames the source flagged (frames/frame_source.h Frame::flags), by flag: "duplicate" (pixels
   /// identical to the frame before), "truncated" (a photo cut short). Each such frame is
   /// processed and its status in frames.csv ends with "+flag"; empty when none.
   std::map<std::string, int> frames_flagged;
@@ -135,7 +135,8 @@ struct RunSummary {
   std::vector<RejectedGpsFix> gps_rejected_fixes;
   /// The telemetry offset applied (RunConfig::telemetry_offset_s, plus the estimate when
   /// telemetry_auto_offset re-ran the flight) and the offset estimated from the motion
-  /// (run_steps::EstimateTelemetryOffset; estimate_valid false: not enough motion or frames).
+  /// (telemetry/clock.h EstimateTelemetryOffset; estimate_valid false: not enough motion or
+  /// frames).
   double telemetry_offset_s = 0.0;
   bool telemetry_offset_estimate_valid = false;
   double telemetry_offset_estimate_s = 0.0;  ///< Telemetry time at video time 0, s.
@@ -190,7 +191,7 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& callbacks = {}
 /// generated in memory, ...) instead of opening `config.input`, which then only names the run in
 /// the outputs. Telemetry comes from `config.telemetry` (the EXIF/XMP of the photos when
 /// `source` is an ImageFolderSource and no telemetry file is given). With config.frame_queue > 0
-/// (default) `source` is read through a PrefetchSource (io/prefetch_source.h): its Next() runs
+/// (default) `source` is read through a PrefetchSource (frames/prefetch_source.h): its Next() runs
 /// on a reader thread, ahead of the processing; a source whose IsLive() is true keeps only the
 /// newest frame (RunSummary::frames_dropped). InvalidArgument for a null source.
 RunSummary RunFlight(const RunConfig& config, std::unique_ptr<FrameSource> source,

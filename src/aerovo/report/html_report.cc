@@ -18,7 +18,7 @@
 #include "aerovo/core/timer.h"
 #include "aerovo/eval/trajectory_eval_json.h"
 #include "aerovo/geo/local_enu.h"
-#include "aerovo/io/track_writers.h"
+#include "aerovo/outputs/track_writers.h"
 #include "aerovo/report/experiment_kind.h"
 #include "aerovo/report/geo_mosaic.h"
 #include "aerovo/report/html_builder.h"

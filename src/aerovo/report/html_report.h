@@ -2,7 +2,7 @@
 // inlined as SVG, the mosaic as a data: URI) for a run folder (`aerovo run`) or an experiment
 // folder (`aerovo experiment`), plus every figure as SVG and PNG in DIR/figures/ (for papers).
 //
-// Run folder (frames.csv, transforms.csv, summary.json, config.json; io/track_writers.h):
+// Run folder (frames.csv, transforms.csv, summary.json, config.json; outputs/track_writers.h):
 //   fig2_trajectory   the paper's Fig. 2: VO against GPS in local ENU metres after the SE(2)
 //                     alignment of summary.json (eval/trajectory_eval.h), Sim(2) dashed
 //   fig3_points       the paper's Fig. 3: N_SURF, matched points, RANSAC inliers per frame

@@ -11,11 +11,11 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "aerovo/camera_files/calibration.h"
 #include "aerovo/core/error.h"
-#include "aerovo/io/calibration.h"
-#include "aerovo/io/camera.h"
-#include "aerovo/io/frame_source.h"
-#include "aerovo/io/track_writers.h"
+#include "aerovo/frames/camera.h"
+#include "aerovo/frames/frame_source.h"
+#include "aerovo/outputs/track_writers.h"
 #include "aerovo/report/mosaic_warp.h"
 
 namespace aerovo {
@@ -145,7 +145,7 @@ MosaicWarpOutcome WarpRunFrames(const RunData& run, const MosaicOptions& options
   so.video_threads = ConfigValue<int>(run.config, "video_threads", so.video_threads);
   so.keep_color = true;
   // Lens distortion, as the run applied it before SURF (pipeline/preprocess.h FrameUndistorter):
-  // the same camera and the same maps (io/camera.h Undistorter).
+  // the same camera and the same maps (frames/camera.h Undistorter).
   const double k1 = ConfigValue<double>(run.config, "k1", 0.0),
                k2 = ConfigValue<double>(run.config, "k2", 0.0),
                p1 = ConfigValue<double>(run.config, "p1", 0.0),

@@ -48,7 +48,7 @@ struct MosaicResult {
 
 /// Builds the mosaic of `run` (needs transforms.csv and config.json with input, step, start_s,
 /// end_s and resolved frame size) into `out_file` (.jpg or .png). Frames are re-read with
-/// io/frame_source.h. Returns written = false with a note, not an error, when the run has no
+/// frames/frame_source.h. Returns written = false with a note, not an error, when the run has no
 /// transforms, the input is not a file or folder any more (or a live source), or cannot be read.
 /// Throws InputError only when `out_file` cannot be written.
 MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tracks,

@@ -14,7 +14,7 @@
 #include <fmt/format.h>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/track_writers.h"
+#include "aerovo/outputs/track_writers.h"
 #include "aerovo/report/style.h"
 
 namespace aerovo {

@@ -10,9 +10,9 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/geo/local_enu.h"
-#include "aerovo/io/csv_lines.h"
-#include "aerovo/io/reference_track.h"
-#include "aerovo/io/track_writers.h"
+#include "aerovo/outputs/track_writers.h"
+#include "aerovo/telemetry/csv_lines.h"
+#include "aerovo/telemetry/reference_track.h"
 
 namespace aerovo {
 namespace fs = std::filesystem;
@@ -152,7 +152,7 @@ RunData ReadRunDir(const fs::path& dir) {
     f.total_ms = t.Number(r, "total_ms");
     f.status = t.cell(r, "status");
     f.gps = GeoOf(t, r, "gps_lat_deg", "gps_lon_deg", "gps_alt_m");
-    // A fix the run rejected as implausible (gps_flag, issue 15) is not a GPS position.
+    // A fix the run rejected as implausible (gps_flag; docs/reliability.md) is not a GPS position.
     if (t.has("gps_flag") && !t.cell(r, "gps_flag").empty()) f.gps.reset();
     run.frames.push_back(std::move(f));
   }

@@ -1,4 +1,4 @@
-// Reading back a run folder written by `aerovo run` (report/runner.h, io/track_writers.h) for
+// Reading back a run folder written by `aerovo run` (report/runner.h, outputs/track_writers.h) for
 // the report: frames.csv, transforms.csv, summary.json, config.json; and a simulated flight's
 // ground_truth.csv (sim/sim_writer.h). Also the trajectory comparison the report draws.
 #pragma once
@@ -14,11 +14,11 @@
 #include "aerovo/eval/trajectory_eval.h"
 #include "aerovo/geo/geo_point.h"
 #include "aerovo/geo/local_enu.h"
-#include "aerovo/io/reference_track.h"
+#include "aerovo/telemetry/reference_track.h"
 
 namespace aerovo {
 
-/// One row of frames.csv (columns: io/track_writers.h, CsvFrameWriter).
+/// One row of frames.csv (columns: outputs/track_writers.h, CsvFrameWriter).
 struct RunFrameRow {
   int frame = 0;
   double time_s = 0.0;
@@ -76,7 +76,7 @@ std::optional<LocalEnu> RunEnuFrame(const RunData& run);
 RunComparison CompareWithGps(const RunData& run);
 
 /// The run's VO track against a simulated flight's ground truth in the simulator's frame
-/// (ReadGroundTruthCsv in io/reference_track.h: local points with frame indices), paired by
+/// (ReadGroundTruthCsv in telemetry/reference_track.h: local points with frame indices), paired by
 /// frame index as the experiments do, SE(2)/Sim(2). Points without a frame index are not paired.
 /// Throws InvalidArgument for a geographic track (its x_m, y_m mean nothing).
 RunComparison CompareWithReference(const RunData& run, const ReferenceTrack& ground_truth);
@@ -92,7 +92,7 @@ AssociatedTrajectories AssociateWithTruth(const std::vector<TrajectoryPoint2D>& 
                                           const ReferenceTrack& truth,
                                           const std::optional<LocalEnu>& enu);
 
-/// The run's VO track against a ground-truth file (io/reference_track.h: TUM, or a telemetry
+/// The run's VO track against a ground-truth file (telemetry/reference_track.h: TUM, or a telemetry
 /// file with positions such as the simulator's ground_truth.csv), as `aerovo run --truth` compares
 /// them in summary.json (AssociateWithTruth in the run's ENU frame, RunEnuFrame). Throws InputError when the file cannot be read.
 RunComparison CompareWithTruthFile(const RunData& run, const std::filesystem::path& truth);

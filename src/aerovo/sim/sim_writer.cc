@@ -16,8 +16,8 @@
 #include <opencv2/videoio.hpp>
 
 #include "aerovo/core/error.h"
-#include "aerovo/io/srt_writer.h"
-#include "aerovo/io/track_writers.h"
+#include "aerovo/outputs/track_writers.h"
+#include "aerovo/telemetry/srt_writer.h"
 
 namespace aerovo::sim {
 

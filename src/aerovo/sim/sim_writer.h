@@ -70,7 +70,7 @@ SimulationOutput WriteSimulation(const Simulator& sim, const WriterOptions& opti
                                  const std::filesystem::path& out_dir,
                                  const std::function<void(int, int)>& progress = {});
 
-/// DJI-style SRT (io/srt_writer.h DjiSrtEntry, the current bracketed format of DJI Mini/Air/
+/// DJI-style SRT (telemetry/srt_writer.h DjiSrtEntry, the current bracketed format of DJI Mini/Air/
 /// Mavic 3 video subtitles), one entry per frame with the latest GPS fix. rel_alt = height above
 /// the take-off ground, abs_alt = altitude above MSL, both with the GPS vertical error; a flight
 /// with an attitude (pitch, roll or wobble) adds the camera's as gimbal angles, exact to the
@@ -82,13 +82,13 @@ SimulationOutput WriteSimulation(const Simulator& sim, const WriterOptions& opti
 void WriteDjiSrt(std::ostream& out, const Simulator& sim, const std::string& start_time_utc);
 
 /// GPX 1.1 track at `path` with one point per GPS fix (lat, lon, ele = altitude, UTC time from
-/// start_time_utc), written by io's GpxTrackWriter. Throws OutputError naming the file.
+/// start_time_utc), written by outputs' GpxTrackWriter. Throws OutputError naming the file.
 void WriteGpx(const std::filesystem::path& path, const Simulator& sim,
               const std::string& start_time_utc);
 
 /// TUM trajectory at `path`: "t x y z qx qy qz qw" per frame; t in seconds from the first
 /// frame, position in GT ENU metres, quaternion of enu_from_camera (camera x right, y down, z
-/// optical axis); written by io's TumWriter. Throws OutputError naming the file.
+/// optical axis); written by outputs' TumWriter. Throws OutputError naming the file.
 void WriteTum(const std::filesystem::path& path, const Simulator& sim);
 
 /// CSV with header: frame,time_s,east_m,north_m,up_m,lat_deg,lon_deg,alt_m,yaw_deg,pitch_deg,

@@ -20,8 +20,8 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/geo/local_enu.h"
-#include "aerovo/io/telemetry_readers.h"
 #include "aerovo/sim/simulator.h"
+#include "aerovo/telemetry/telemetry_readers.h"
 
 namespace aerovo::sim {
 namespace {
@@ -160,9 +160,9 @@ TEST(SimWriter, VideoReopensWithTheRightFrameCount) {
   fs::remove_all(dir);
 }
 
-// TUM and GPX go through io's writers: the TUM file has the simulator's format byte for byte
-// ("%.6f" time and position, "%.9f" quaternion); the GPX reads back with io's reader as the GPS
-// fixes, with the UTC times of start_time_utc.
+// TUM and GPX go through outputs' writers: the TUM file has the simulator's format byte for byte
+// ("%.6f" time and position, "%.9f" quaternion); the GPX reads back with telemetry's reader as the
+// GPS fixes, with the UTC times of start_time_utc.
 TEST(SimWriter, TumAndGpxThroughIoWriters) {
   const Simulator sim(SmallGround(), SmallFlight());
   const fs::path dir = TempDir("io_writers");

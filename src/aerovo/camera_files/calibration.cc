@@ -1,0 +1,482 @@
+#include "aerovo/camera_files/calibration.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <sstream>
+#include <vector>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "aerovo/core/error.h"
+#include "aerovo/outputs/output_file.h"
+
+namespace aerovo {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string Lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+std::string ReadText(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(fmt::format("calibration '{}': cannot be read", path));
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// Validates the result and names the file when it is not a camera.
+CameraIntrinsics Checked(const std::string& path, const std::string& where, CameraIntrinsics k) {
+  try {
+    Validate(k);
+  } catch (const InvalidArgument& e) {
+    throw InputError(fmt::format("calibration '{}'{}: {}", path, where, e.what()));
+  }
+  return k;
+}
+
+// ---- OpenCV cv::FileStorage -------------------------------------------------------------------
+
+Calibration ReadOpenCv(const std::string& path) {
+  cv::FileStorage fsx;
+  try {
+    if (!fsx.open(path, cv::FileStorage::READ)) {
+      throw InputError(fmt::format("calibration '{}': not an OpenCV YAML/XML file", path));
+    }
+  } catch (const cv::Exception& e) {
+    throw InputError(
+        fmt::format("calibration '{}': not a valid OpenCV YAML/XML file ({})", path, e.msg));
+  }
+  auto need = [&](const char* key) {
+    const cv::FileNode n = fsx[key];
+    if (n.empty()) throw InputError(fmt::format("calibration '{}': no key '{}'", path, key));
+    return n;
+  };
+  auto need_int = [&](const char* key) {
+    const cv::FileNode n = need(key);
+    if (!n.isInt() && !n.isReal()) {
+      throw InputError(fmt::format("calibration '{}': key '{}' is not a number", path, key));
+    }
+    return static_cast<int>(std::lround(static_cast<double>(n)));
+  };
+  auto need_mat = [&](const char* key) {
+    cv::Mat m;
+    try {
+      need(key) >> m;
+    } catch (const cv::Exception& e) {
+      throw InputError(fmt::format("calibration '{}': key '{}' is not a matrix ({})", path, key,
+                                   e.msg));
+    }
+    if (m.empty()) {
+      throw InputError(fmt::format("calibration '{}': key '{}' is not a matrix", path, key));
+    }
+    cv::Mat d;
+    m.convertTo(d, CV_64F);
+    return d;
+  };
+  Calibration c;
+  c.format = CalibrationFormat::kOpenCv;
+  CameraIntrinsics& k = c.intrinsics;
+  k.width_px = need_int("image_width");
+  k.height_px = need_int("image_height");
+  const cv::Mat km = need_mat("camera_matrix");
+  if (km.rows != 3 || km.cols != 3) {
+    throw InputError(fmt::format("calibration '{}': key 'camera_matrix' is {}x{}, not 3x3", path,
+                                 km.rows, km.cols));
+  }
+  k.fx_px = km.at<double>(0, 0);
+  k.fy_px = km.at<double>(1, 1);
+  k.cx_px = km.at<double>(0, 2);
+  k.cy_px = km.at<double>(1, 2);
+  if (km.at<double>(0, 1) != 0.0) {
+    throw InputError(fmt::format("calibration '{}': key 'camera_matrix' has a skew {} (not "
+                                 "supported: pixels must be rectangular)",
+                                 path, km.at<double>(0, 1)));
+  }
+  if (!fsx["distortion_coefficients"].empty()) {
+    const cv::Mat d = need_mat("distortion_coefficients");
+    if (d.rows != 1 && d.cols != 1) {
+      throw InputError(fmt::format(
+          "calibration '{}': key 'distortion_coefficients' is {}x{}, not a vector", path, d.rows,
+          d.cols));
+    }
+    k.distortion.assign(d.begin<double>(), d.end<double>());
+  }
+  bool fisheye = false;
+  const cv::FileNode model = fsx["distortion_model"];
+  if (!model.empty()) {
+    const std::string m = Lower(static_cast<std::string>(model));
+    if (m == "fisheye" || m == "equidistant") {
+      fisheye = true;
+    } else if (!(m == "pinhole" || m == "plumb_bob" || m == "radtan" || m == "rational_polynomial")) {
+      throw InputError(fmt::format("calibration '{}': key 'distortion_model' '{}' is not one of "
+                                   "pinhole, plumb_bob, rational_polynomial, fisheye, equidistant",
+                                   path, m));
+    }
+  }
+  const cv::FileNode fisheye_model = fsx["fisheye_model"];
+  if (!fisheye_model.empty() && (fisheye_model.isInt() || fisheye_model.isReal()) &&
+      static_cast<double>(fisheye_model) != 0.0) {
+    fisheye = true;
+  }
+  if (fisheye) k.model = LensModel::kFisheye;
+  // calibrateCamera with CALIB_RATIONAL_MODEL etc. writes 12 or 14 coefficients; the thin-prism
+  // and tilt terms are beyond our model, but trailing zeros are harmless.
+  while (k.distortion.size() > 8 && k.distortion.back() == 0.0) k.distortion.pop_back();
+  if (!fisheye && (k.distortion.size() == 6 || k.distortion.size() == 7)) k.distortion.resize(8, 0.0);
+  if (!fisheye && (k.distortion.size() == 1 || k.distortion.size() == 2 || k.distortion.size() == 3)) {
+    k.distortion.resize(k.distortion.size() == 3 ? 5 : 4, 0.0);
+  }
+  c.intrinsics = Checked(path, " (key 'distortion_coefficients')", k);
+  return c;
+}
+
+void WriteOpenCv(const std::string& path, const CameraIntrinsics& k) {
+  // Written to memory in the format of the path's extension (.xml or YAML), then to the file
+  // atomically (outputs/output_file.h), so a failed write leaves the old file or none.
+  const std::string ext = std::filesystem::path(path).extension().string();
+  const bool xml = ext == ".xml" || ext == ".XML";
+  cv::FileStorage out;
+  std::string text;
+  try {
+    if (!out.open(xml ? ".xml" : ".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY)) {
+      throw InputError(fmt::format("calibration '{}': cannot be written", path));
+    }
+    out << "image_width" << k.width_px;
+    out << "image_height" << k.height_px;
+    out << "distortion_model" << LensModelName(k.model);
+    const cv::Mat km = (cv::Mat_<double>(3, 3) << k.fx_px, 0, k.cx_px, 0, k.fy_px, k.cy_px, 0, 0, 1);
+    out << "camera_matrix" << km;
+    std::vector<double> d = k.distortion;
+    if (d.empty()) d.assign(k.model == LensModel::kFisheye ? 4 : 5, 0.0);
+    out << "distortion_coefficients" << cv::Mat(d, true).reshape(1, 1);
+    text = out.releaseAndGetString();
+  } catch (const cv::Exception& e) {
+    throw InputError(fmt::format("calibration '{}': cannot be written ({})", path, e.msg));
+  }
+  WriteFileAtomic(path, text);
+}
+
+// ---- OpenDroneMap / OpenSfM cameras.json -----------------------------------------------------
+// OpenSfM's camera models (opensfm docs, "Camera models"; ODM writes cameras.json with them):
+// normalised image coordinates put the image centre at 0 with the larger side spanning
+// [-0.5, 0.5], so a pixel (integer centres) is u = x max(w, h) + (w - 1) / 2; focal, focal_x,
+// focal_y and c_x, c_y are in those units.
+//   perspective:     focal, k1, k2                 radial (1 + k1 r^2 + k2 r^4)
+//   simple_radial:   focal_x, focal_y, c_x, c_y, k1
+//   radial:          focal_x, focal_y, c_x, c_y, k1, k2
+//   brown:           focal_x, focal_y, c_x, c_y, k1, k2, k3, p1, p2 (OpenCV's pinhole model)
+//   fisheye:         focal, k1, k2                 theta_d = theta (1 + k1 theta^2 + k2 theta^4)
+//   fisheye_opencv:  focal_x, focal_y, c_x, c_y, k1, k2, k3, k4 (OpenCV's fisheye model)
+
+Calibration ReadOdm(const std::string& path) {
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(ReadText(path));
+  } catch (const nlohmann::json::parse_error& e) {
+    throw InputError(fmt::format("calibration '{}': not valid JSON ({})", path, e.what()));
+  }
+  if (!j.is_object() || j.empty()) {
+    throw InputError(fmt::format(
+        "calibration '{}': expected an OpenDroneMap cameras.json object of cameras", path));
+  }
+  if (j.size() > 1) {
+    std::string names;
+    for (auto it = j.begin(); it != j.end(); ++it) names += (names.empty() ? "'" : ", '") + it.key() + "'";
+    throw InputError(fmt::format(
+        "calibration '{}' has {} cameras ({}): keep the one of this flight", path, j.size(), names));
+  }
+  const std::string id = j.begin().key();
+  const nlohmann::json& cam = j.begin().value();
+  auto num = [&](const char* key, std::optional<double> fallback = std::nullopt) {
+    if (!cam.contains(key)) {
+      if (fallback) return *fallback;
+      throw InputError(fmt::format("calibration '{}': camera '{}' has no key '{}'", path, id, key));
+    }
+    if (!cam[key].is_number()) {
+      throw InputError(
+          fmt::format("calibration '{}': camera '{}' key '{}' is not a number", path, id, key));
+    }
+    return cam[key].get<double>();
+  };
+  if (!cam.is_object() || !cam.contains("projection_type") || !cam["projection_type"].is_string()) {
+    throw InputError(
+        fmt::format("calibration '{}': camera '{}' has no string key 'projection_type'", path, id));
+  }
+  const std::string type = cam["projection_type"].get<std::string>();
+  static const char* const kTypes[] = {"perspective", "simple_radial", "radial",
+                                       "brown",       "fisheye",       "fisheye_opencv"};
+  if (std::find(std::begin(kTypes), std::end(kTypes), type) == std::end(kTypes)) {
+    throw InputError(fmt::format(
+        "calibration '{}': camera '{}' projection_type '{}' is not supported (perspective, "
+        "simple_radial, radial, brown, fisheye, fisheye_opencv)",
+        path, id, type));
+  }
+  Calibration c;
+  c.format = CalibrationFormat::kOdmJson;
+  c.camera_id = id;
+  CameraIntrinsics& k = c.intrinsics;
+  k.width_px = static_cast<int>(std::lround(num("width")));
+  k.height_px = static_cast<int>(std::lround(num("height")));
+  const double size = std::max(k.width_px, k.height_px);
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  const bool single_focal = type == "perspective" || type == "fisheye";
+  if (single_focal) {
+    fx = fy = num("focal");
+  } else {
+    fx = num("focal_x");
+    fy = num("focal_y", fx);
+    cx = num("c_x", 0.0);
+    cy = num("c_y", 0.0);
+  }
+  k.fx_px = fx * size;
+  k.fy_px = fy * size;
+  k.cx_px = cx * size + 0.5 * (k.width_px - 1);
+  k.cy_px = cy * size + 0.5 * (k.height_px - 1);
+  if (type == "perspective") {
+    k.distortion = {num("k1", 0.0), num("k2", 0.0), 0.0, 0.0};
+  } else if (type == "simple_radial") {
+    k.distortion = {num("k1", 0.0), 0.0, 0.0, 0.0};
+  } else if (type == "radial") {
+    k.distortion = {num("k1", 0.0), num("k2", 0.0), 0.0, 0.0};
+  } else if (type == "brown") {
+    k.distortion = {num("k1", 0.0), num("k2", 0.0), num("p1", 0.0), num("p2", 0.0), num("k3", 0.0)};
+  } else if (type == "fisheye") {
+    k.model = LensModel::kFisheye;
+    k.distortion = {num("k1", 0.0), num("k2", 0.0), 0.0, 0.0};
+  } else if (type == "fisheye_opencv") {
+    k.model = LensModel::kFisheye;
+    k.distortion = {num("k1", 0.0), num("k2", 0.0), num("k3", 0.0), num("k4", 0.0)};
+  }
+  c.intrinsics = Checked(path, fmt::format(" camera '{}'", id), k);
+  return c;
+}
+
+void WriteOdm(const std::string& path, const CameraIntrinsics& k, const std::string& id) {
+  const double size = std::max(k.width_px, k.height_px);
+  nlohmann::json cam = {{"width", k.width_px},
+                        {"height", k.height_px},
+                        {"focal_x", k.fx_px / size},
+                        {"focal_y", k.fy_px / size},
+                        {"c_x", (k.cx_px - 0.5 * (k.width_px - 1)) / size},
+                        {"c_y", (k.cy_px - 0.5 * (k.height_px - 1)) / size}};
+  std::vector<double> d = k.distortion;
+  if (k.model == LensModel::kFisheye) {
+    d.resize(4, 0.0);
+    cam["projection_type"] = "fisheye_opencv";
+    cam["k1"] = d[0];
+    cam["k2"] = d[1];
+    cam["k3"] = d[2];
+    cam["k4"] = d[3];
+  } else {
+    if (d.size() > 5 && std::any_of(d.begin() + 5, d.end(), [](double v) { return v != 0.0; })) {
+      throw InvalidArgument(fmt::format(
+          "calibration '{}': OpenDroneMap's brown model has no k4 k5 k6 (rational model)", path));
+    }
+    d.resize(5, 0.0);
+    cam["projection_type"] = "brown";
+    cam["k1"] = d[0];
+    cam["k2"] = d[1];
+    cam["p1"] = d[2];
+    cam["p2"] = d[3];
+    cam["k3"] = d[4];
+  }
+  WriteFileAtomic(path, nlohmann::json{{id, cam}}.dump(2) + "\n");
+}
+
+// ---- COLMAP cameras.txt ------------------------------------------------------------------------
+// COLMAP's camera models (colmap.github.io/cameras.html and src/colmap/sensor/models.h): the
+// parameter order of each model below. COLMAP's image coordinates put the upper-left corner of
+// the image at (0, 0), so the first pixel's centre is (0.5, 0.5) (colmap.github.io/format.html):
+// cx_px = cx - 0.5. The *_FISHEYE models are OpenCV's fisheye with fewer coefficients.
+
+struct ColmapModel {
+  const char* name;
+  int params;
+};
+
+Calibration ReadColmap(const std::string& path) {
+  std::istringstream text(ReadText(path));
+  std::string line;
+  int line_no = 0;
+  Calibration c;
+  c.format = CalibrationFormat::kColmapTxt;
+  int cameras = 0, first_line = 0;
+  while (std::getline(text, line)) {
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    const auto first = line.find_first_not_of(" \t");
+    if (first == std::string::npos || line[first] == '#') continue;
+    ++cameras;
+    if (cameras > 1) {
+      throw InputError(fmt::format(
+          "calibration '{}' line {}: a second camera (the first is on line {}): keep the one of "
+          "this flight",
+          path, line_no, first_line));
+    }
+    first_line = line_no;
+    std::istringstream fields(line);
+    std::string id, model;
+    double w = 0, h = 0;
+    if (!(fields >> id >> model >> w >> h)) {
+      throw InputError(fmt::format(
+          "calibration '{}' line {}: expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS...", path, line_no));
+    }
+    std::vector<double> p;
+    std::string tok;
+    while (fields >> tok) {
+      try {
+        std::size_t used = 0;
+        p.push_back(std::stod(tok, &used));
+        if (used != tok.size()) throw std::invalid_argument(tok);
+      } catch (const std::exception&) {
+        throw InputError(
+            fmt::format("calibration '{}' line {}: parameter '{}' is not a number", path, line_no, tok));
+      }
+    }
+    static constexpr ColmapModel kModels[] = {
+        {"SIMPLE_PINHOLE", 3}, {"PINHOLE", 4},        {"SIMPLE_RADIAL", 4},
+        {"RADIAL", 5},         {"OPENCV", 8},         {"OPENCV_FISHEYE", 8},
+        {"FULL_OPENCV", 12},   {"SIMPLE_RADIAL_FISHEYE", 4}, {"RADIAL_FISHEYE", 5},
+    };
+    const ColmapModel* m = nullptr;
+    for (const ColmapModel& candidate : kModels) {
+      if (model == candidate.name) m = &candidate;
+    }
+    if (m == nullptr) {
+      throw InputError(fmt::format(
+          "calibration '{}' line {}: camera model '{}' is not supported (SIMPLE_PINHOLE, PINHOLE, "
+          "SIMPLE_RADIAL, RADIAL, OPENCV, OPENCV_FISHEYE, FULL_OPENCV, SIMPLE_RADIAL_FISHEYE, "
+          "RADIAL_FISHEYE)",
+          path, line_no, model));
+    }
+    if (static_cast<int>(p.size()) != m->params) {
+      throw InputError(fmt::format("calibration '{}' line {}: model {} has {} parameters, not {}",
+                                   path, line_no, model, m->params, p.size()));
+    }
+    c.camera_id = id;
+    CameraIntrinsics& k = c.intrinsics;
+    k.width_px = static_cast<int>(std::lround(w));
+    k.height_px = static_cast<int>(std::lround(h));
+    const bool one_focal = p.size() == 3 || model == "SIMPLE_RADIAL" || model == "RADIAL" ||
+                           model == "SIMPLE_RADIAL_FISHEYE" || model == "RADIAL_FISHEYE";
+    std::size_t i = 0;
+    k.fx_px = p[i++];
+    k.fy_px = one_focal ? k.fx_px : p[i++];
+    k.cx_px = p[i++] - 0.5;
+    k.cy_px = p[i++] - 0.5;
+    const std::vector<double> rest(p.begin() + static_cast<long>(i), p.end());
+    if (model == "SIMPLE_RADIAL") {
+      k.distortion = {rest[0], 0, 0, 0};
+    } else if (model == "RADIAL") {
+      k.distortion = {rest[0], rest[1], 0, 0};
+    } else if (model == "OPENCV") {
+      k.distortion = rest;
+    } else if (model == "FULL_OPENCV") {
+      // COLMAP: k1 k2 p1 p2 k3 k4 k5 k6, OpenCV's order.
+      k.distortion = rest;
+    } else if (model == "OPENCV_FISHEYE") {
+      k.model = LensModel::kFisheye;
+      k.distortion = rest;
+    } else if (model == "SIMPLE_RADIAL_FISHEYE") {
+      k.model = LensModel::kFisheye;
+      k.distortion = {rest[0], 0, 0, 0};
+    } else if (model == "RADIAL_FISHEYE") {
+      k.model = LensModel::kFisheye;
+      k.distortion = {rest[0], rest[1], 0, 0};
+    }
+    k = Checked(path, fmt::format(" line {}", line_no), k);
+  }
+  if (cameras == 0) {
+    throw InputError(fmt::format("calibration '{}': no camera line (CAMERA_ID MODEL WIDTH HEIGHT "
+                                 "PARAMS...)",
+                                 path));
+  }
+  return c;
+}
+
+void WriteColmap(const std::string& path, const CameraIntrinsics& k, const std::string& id) {
+  std::vector<double> d = k.distortion;
+  std::string model;
+  std::vector<double> p = {k.fx_px, k.fy_px, k.cx_px + 0.5, k.cy_px + 0.5};
+  if (k.model == LensModel::kFisheye) {
+    model = "OPENCV_FISHEYE";
+    d.resize(4, 0.0);
+  } else if (d.empty()) {
+    model = "PINHOLE";
+  } else if (d.size() == 4) {
+    model = "OPENCV";
+  } else {
+    model = "FULL_OPENCV";
+    d.resize(8, 0.0);
+  }
+  p.insert(p.end(), d.begin(), d.end());
+  std::string text =
+      "# Camera list with one line of data per camera:\n"
+      "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
+      "# Number of cameras: 1\n";
+  text += fmt::format("{} {} {} {}", id.empty() ? std::string("1") : id, model, k.width_px,
+                      k.height_px);
+  for (double v : p) text += fmt::format(" {:.17g}", v);
+  WriteFileAtomic(path, text + "\n");
+}
+
+}  // namespace
+
+const char* CalibrationFormatName(CalibrationFormat format) {
+  switch (format) {
+    case CalibrationFormat::kOpenCv: return "OpenCV YAML/XML";
+    case CalibrationFormat::kOdmJson: return "OpenDroneMap cameras.json";
+    case CalibrationFormat::kColmapTxt: return "COLMAP cameras.txt";
+  }
+  return "?";
+}
+
+CalibrationFormat DetectCalibrationFormat(const std::string& path) {
+  const std::string ext = Lower(fs::path(path).extension().string());
+  if (ext == ".yaml" || ext == ".yml" || ext == ".xml") return CalibrationFormat::kOpenCv;
+  if (ext == ".json") return CalibrationFormat::kOdmJson;
+  if (ext == ".txt") return CalibrationFormat::kColmapTxt;
+  const std::string text = ReadText(path);
+  const auto first = text.find_first_not_of(" \t\r\n");
+  if (first == std::string::npos) throw InputError(fmt::format("calibration '{}' is empty", path));
+  if (text.compare(first, 5, "%YAML") == 0 || text.compare(first, 5, "<?xml") == 0) {
+    return CalibrationFormat::kOpenCv;
+  }
+  if (text[first] == '{') return CalibrationFormat::kOdmJson;
+  return CalibrationFormat::kColmapTxt;
+}
+
+Calibration ReadCalibration(const std::string& path) {
+  if (!fs::is_regular_file(path)) {
+    throw InputError(fmt::format("calibration '{}': no such file", path));
+  }
+  switch (DetectCalibrationFormat(path)) {
+    case CalibrationFormat::kOpenCv: return ReadOpenCv(path);
+    case CalibrationFormat::kOdmJson: return ReadOdm(path);
+    case CalibrationFormat::kColmapTxt: return ReadColmap(path);
+  }
+  throw InputError(fmt::format("calibration '{}': unknown format", path));
+}
+
+void WriteCalibration(const std::string& path, const CameraIntrinsics& intrinsics,
+                      CalibrationFormat format, const std::string& camera_id) {
+  Validate(intrinsics);
+  switch (format) {
+    case CalibrationFormat::kOpenCv: WriteOpenCv(path, intrinsics); return;
+    case CalibrationFormat::kOdmJson: WriteOdm(path, intrinsics, camera_id); return;
+    case CalibrationFormat::kColmapTxt: WriteColmap(path, intrinsics, camera_id); return;
+  }
+}
+
+}  // namespace aerovo

@@ -1,0 +1,203 @@
+#include "aerovo/camera_files/calibration.h"
+
+#include <fstream>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "aerovo/core/error.h"
+#include "aerovo/telemetry/io_test_util.h"
+
+namespace aerovo {
+namespace {
+
+using io_test::TempDir;
+using ::testing::HasSubstr;
+
+void WriteText(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+}
+
+std::string ErrorOf(const std::filesystem::path& path) {
+  try {
+    ReadCalibration(path.string());
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+CameraIntrinsics Pinhole5() {
+  CameraIntrinsics k;
+  k.width_px = 4000;
+  k.height_px = 3000;
+  k.fx_px = 2345.678;
+  k.fy_px = 2351.25;
+  k.cx_px = 2003.5;
+  k.cy_px = 1490.25;
+  k.distortion = {-0.123, 0.045, 0.0012, -0.0007, -0.011};
+  return k;
+}
+
+CameraIntrinsics Fisheye4() {
+  CameraIntrinsics k;
+  k.width_px = 1920;
+  k.height_px = 1080;
+  k.fx_px = 905.5;
+  k.fy_px = 904.0;
+  k.cx_px = 961.0;
+  k.cy_px = 538.75;
+  k.model = LensModel::kFisheye;
+  k.distortion = {-0.04, 0.012, -0.003, 0.0004};
+  return k;
+}
+
+void ExpectSame(const CameraIntrinsics& got, const CameraIntrinsics& want) {
+  EXPECT_EQ(got.width_px, want.width_px);
+  EXPECT_EQ(got.height_px, want.height_px);
+  EXPECT_NEAR(got.fx_px, want.fx_px, 1e-9 * want.fx_px);
+  EXPECT_NEAR(got.fy_px, want.fy_px, 1e-9 * want.fy_px);
+  EXPECT_NEAR(got.cx_px, want.cx_px, 1e-9 * want.width_px);
+  EXPECT_NEAR(got.cy_px, want.cy_px, 1e-9 * want.height_px);
+  EXPECT_EQ(got.model, want.model);
+  std::vector<double> g = got.distortion, w = want.distortion;
+  g.resize(std::max(g.size(), w.size()), 0.0);
+  w.resize(g.size(), 0.0);
+  for (std::size_t i = 0; i < g.size(); ++i) EXPECT_NEAR(g[i], w[i], 1e-12) << "coefficient " << i;
+}
+
+TEST(Calibration, EveryFormatRoundTripsPinholeAndFisheye) {
+  TempDir dir("aerovo_calib_rt");
+  struct Case {
+    const char* file;
+    CalibrationFormat format;
+  };
+  const Case cases[] = {{"cam.yaml", CalibrationFormat::kOpenCv},
+                        {"cam.xml", CalibrationFormat::kOpenCv},
+                        {"cameras.json", CalibrationFormat::kOdmJson},
+                        {"cameras.txt", CalibrationFormat::kColmapTxt}};
+  for (const Case& c : cases) {
+    for (const CameraIntrinsics& k : {Pinhole5(), Fisheye4()}) {
+      SCOPED_TRACE(std::string(c.file) + " " + LensModelName(k.model));
+      const std::string path = (dir / c.file).string();
+      WriteCalibration(path, k, c.format);
+      EXPECT_EQ(DetectCalibrationFormat(path), c.format);
+      const Calibration got = ReadCalibration(path);
+      EXPECT_EQ(got.format, c.format);
+      ExpectSame(got.intrinsics, k);
+    }
+  }
+  // Without an extension the content decides.
+  for (const Case& c : cases) {
+    const std::string path = (dir / "noext").string();
+    WriteCalibration((dir / c.file).string(), Fisheye4(), c.format);
+    std::filesystem::copy_file(dir / c.file, path, std::filesystem::copy_options::overwrite_existing);
+    EXPECT_EQ(DetectCalibrationFormat(path), c.format) << c.file;
+    ExpectSame(ReadCalibration(path).intrinsics, Fisheye4());
+  }
+}
+
+// Files as the tools write them.
+TEST(Calibration, ReadsTheToolsOwnFiles) {
+  TempDir dir("aerovo_calib_tools");
+  // OpenCV's camera_calibration sample (saveCameraParams).
+  WriteText(dir / "out_camera_data.yml", R"(%YAML:1.0
+---
+calibration_time: "Tue 01 Dec 2026"
+nr_of_frames: 25
+image_width: 1280
+image_height: 720
+flags: 0
+fisheye_model: 0
+camera_matrix: !!opencv-matrix
+   rows: 3
+   cols: 3
+   dt: d
+   data: [ 1.0042e+03, 0., 6.395e+02, 0., 1.0031e+03, 3.601e+02, 0., 0., 1. ]
+distortion_coefficients: !!opencv-matrix
+   rows: 5
+   cols: 1
+   dt: d
+   data: [ -0.31, 0.12, 1.0e-03, -2.0e-04, -0.02 ]
+avg_reprojection_error: 0.31
+)");
+  const CameraIntrinsics cv = ReadCalibration((dir / "out_camera_data.yml").string()).intrinsics;
+  EXPECT_EQ(cv.width_px, 1280);
+  EXPECT_DOUBLE_EQ(cv.fx_px, 1004.2);
+  EXPECT_DOUBLE_EQ(cv.cy_px, 360.1);
+  EXPECT_EQ(cv.model, LensModel::kPinhole);
+  EXPECT_EQ(cv.distortion, (std::vector<double>{-0.31, 0.12, 1.0e-03, -2.0e-04, -0.02}));
+
+  // OpenDroneMap (OpenSfM "perspective": one focal, k1 k2, principal point at the centre).
+  WriteText(dir / "cameras.json", R"({
+    "v2 dji fc300s 4000 3000 perspective 0.5555": {
+        "projection_type": "perspective", "width": 4000, "height": 3000,
+        "focal": 0.5555, "k1": -0.01, "k2": 0.002 }
+})");
+  const Calibration odm = ReadCalibration((dir / "cameras.json").string());
+  EXPECT_EQ(odm.camera_id, "v2 dji fc300s 4000 3000 perspective 0.5555");
+  EXPECT_DOUBLE_EQ(odm.intrinsics.fx_px, 0.5555 * 4000);
+  EXPECT_DOUBLE_EQ(odm.intrinsics.cx_px, 1999.5);
+  EXPECT_DOUBLE_EQ(odm.intrinsics.cy_px, 1499.5);
+  EXPECT_EQ(odm.intrinsics.distortion, (std::vector<double>{-0.01, 0.002, 0.0, 0.0}));
+  // ODM brown: c_x, c_y offsets normalised by the larger side.
+  WriteText(dir / "brown.json", R"({"v2 dji fc6310r 5472 3648 brown 0.6666": {
+      "projection_type": "brown", "width": 1368, "height": 912, "focal_x": 0.6664, "focal_y": 0.6665,
+      "c_x": -0.0015, "c_y": 0.0047, "k1": -0.264, "k2": 0.1018, "p1": 0.00073, "p2": 0.00026,
+      "k3": -0.0258}})");
+  const CameraIntrinsics brown = ReadCalibration((dir / "brown.json").string()).intrinsics;
+  EXPECT_DOUBLE_EQ(brown.fy_px, 0.6665 * 1368);
+  EXPECT_DOUBLE_EQ(brown.cx_px, 683.5 - 0.0015 * 1368);
+  EXPECT_DOUBLE_EQ(brown.cy_px, 455.5 + 0.0047 * 1368);
+  EXPECT_EQ(brown.distortion, (std::vector<double>{-0.264, 0.1018, 0.00073, 0.00026, -0.0258}));
+
+  // COLMAP: comments, SIMPLE_RADIAL f cx cy k, pixel centres at half-integers.
+  WriteText(dir / "cameras.txt",
+            "# Camera list with one line of data per camera:\n"
+            "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
+            "# Number of cameras: 1\n"
+            "1 SIMPLE_RADIAL 3072 2304 2559.81 1536 1152 -0.0204\n");
+  const CameraIntrinsics colmap = ReadCalibration((dir / "cameras.txt").string()).intrinsics;
+  EXPECT_DOUBLE_EQ(colmap.fx_px, 2559.81);
+  EXPECT_DOUBLE_EQ(colmap.fy_px, 2559.81);
+  EXPECT_DOUBLE_EQ(colmap.cx_px, 1535.5);
+  EXPECT_DOUBLE_EQ(colmap.cy_px, 1151.5);
+  EXPECT_EQ(colmap.distortion, (std::vector<double>{-0.0204, 0, 0, 0}));
+  WriteText(dir / "fish.txt", "7 RADIAL_FISHEYE 640 480 300 320 240 0.1 -0.01\n");
+  const CameraIntrinsics fish = ReadCalibration((dir / "fish.txt").string()).intrinsics;
+  EXPECT_EQ(fish.model, LensModel::kFisheye);
+  EXPECT_EQ(fish.distortion, (std::vector<double>{0.1, -0.01, 0, 0}));
+}
+
+TEST(Calibration, ErrorsNameTheFileAndTheLineOrKey) {
+  TempDir dir("aerovo_calib_err");
+  EXPECT_THAT(ErrorOf(dir / "missing.yaml"), HasSubstr("no such file"));
+  WriteText(dir / "nokey.yaml", "%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\n");
+  EXPECT_THAT(ErrorOf(dir / "nokey.yaml"), HasSubstr("no key 'camera_matrix'"));
+  EXPECT_THAT(ErrorOf(dir / "nokey.yaml"), HasSubstr("nokey.yaml"));
+  WriteText(dir / "broken.yaml", "%YAML:1.0\n---\nimage_width: [1, \n");
+  EXPECT_THAT(ErrorOf(dir / "broken.yaml"), HasSubstr("broken.yaml"));
+
+  WriteText(dir / "bad.txt", "# cameras\n1 PINHOLE 640 480 500 500 320 240\n2 PINHOLE 640 480 1 1 1 1\n");
+  EXPECT_THAT(ErrorOf(dir / "bad.txt"), HasSubstr("line 3: a second camera (the first is on line 2)"));
+  WriteText(dir / "fov.txt", "1 FOV 640 480 500 500 320 240 0.9\n");
+  EXPECT_THAT(ErrorOf(dir / "fov.txt"), HasSubstr("line 1: camera model 'FOV' is not supported"));
+  WriteText(dir / "count.txt", "\n\n1 OPENCV 640 480 500 500 320 240 0.1\n");
+  EXPECT_THAT(ErrorOf(dir / "count.txt"), HasSubstr("line 3: model OPENCV has 8 parameters, not 5"));
+  WriteText(dir / "nan.txt", "1 PINHOLE 640 480 500 abc 320 240\n");
+  EXPECT_THAT(ErrorOf(dir / "nan.txt"), HasSubstr("line 1: parameter 'abc' is not a number"));
+  WriteText(dir / "outside.txt", "1 PINHOLE 640 480 500 500 900 240\n");
+  EXPECT_THAT(ErrorOf(dir / "outside.txt"), HasSubstr("line 1: CameraIntrinsics principal point"));
+
+  WriteText(dir / "two.json", R"({"a": {"projection_type": "brown"}, "b": {}})");
+  EXPECT_THAT(ErrorOf(dir / "two.json"), HasSubstr("has 2 cameras ('a', 'b')"));
+  WriteText(dir / "nofocal.json", R"({"cam": {"projection_type": "brown", "width": 10, "height": 10}})");
+  EXPECT_THAT(ErrorOf(dir / "nofocal.json"), HasSubstr("camera 'cam' has no key 'focal_x'"));
+  WriteText(dir / "sph.json", R"({"cam": {"projection_type": "spherical", "width": 10, "height": 5}})");
+  EXPECT_THAT(ErrorOf(dir / "sph.json"), HasSubstr("projection_type 'spherical' is not supported"));
+  WriteText(dir / "notjson.json", "{ nope");
+  EXPECT_THAT(ErrorOf(dir / "notjson.json"), HasSubstr("not valid JSON"));
+}
+
+}  // namespace
+}  // namespace aerovo

@@ -1,0 +1,137 @@
+#include "aerovo/frames/image_file.h"
+
+#include <algorithm>
+#include <array>
+#include <cstring>
+#include <fstream>
+#include <system_error>
+#include <vector>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "aerovo/core/error.h"
+
+namespace aerovo {
+namespace {
+
+// Walks the JPEG's marker segments from the start (done only for a file whose last bytes are
+// not FF D9: data appended after the image, such as a phone's motion-photo video, or a cut
+// file): true when the main image's end-of-image marker comes before the end of the file.
+bool JpegReachesEndOfImage(std::ifstream& in, std::uintmax_t size) {
+  std::vector<unsigned char> d(static_cast<std::size_t>(size));
+  in.clear();
+  in.seekg(0);
+  in.read(reinterpret_cast<char*>(d.data()), static_cast<std::streamsize>(d.size()));
+  if (static_cast<std::size_t>(in.gcount()) != d.size()) return false;
+  std::size_t i = 2;  // after SOI
+  while (true) {
+    if (i >= d.size() || d[i] != 0xFF) return false;  // not at a marker: damaged or cut
+    while (i < d.size() && d[i] == 0xFF) ++i;         // fill bytes
+    if (i >= d.size()) return false;
+    const unsigned char code = d[i++];
+    if (code == 0xD9) return true;                                // EOI
+    if (code == 0x01 || (code >= 0xD0 && code <= 0xD7)) continue;  // TEM, RSTn: no length
+    if (i + 2 > d.size()) return false;
+    const std::size_t length = (static_cast<std::size_t>(d[i]) << 8) | d[i + 1];
+    if (length < 2) return false;
+    i += length;
+    if (code == 0xDA) {
+      // Entropy-coded data after SOS: up to the next marker that is neither a stuffed FF 00 nor
+      // a restart marker (FF D0..D7); that marker is read by the loop.
+      while (i + 1 < d.size()) {
+        if (d[i] == 0xFF && d[i + 1] != 0x00 && !(d[i + 1] >= 0xD0 && d[i + 1] <= 0xD7)) break;
+        ++i;
+      }
+      if (i + 1 >= d.size()) return false;
+    }
+  }
+}
+
+}  // namespace
+
+ImageFileCheck CheckImageFile(const std::filesystem::path& path) {
+  ImageFileCheck c;
+  std::error_code ec;
+  c.size_bytes = std::filesystem::file_size(path, ec);
+  if (ec) {
+    c.problem = "cannot be read (" + ec.message() + ")";
+    return c;
+  }
+  if (c.size_bytes == 0) {
+    c.problem = "the file is empty (0 bytes)";
+    return c;
+  }
+  std::ifstream in(path, std::ios::binary);
+  std::array<unsigned char, 8> head{};
+  in.read(reinterpret_cast<char*>(head.data()), head.size());
+  const std::size_t got = static_cast<std::size_t>(in.gcount());
+  if (!in && got == 0) {
+    c.problem = "cannot be read";
+    return c;
+  }
+  static constexpr unsigned char kPng[8] = {0x89, 'P', 'N', 'G', 0x0D, 0x0A, 0x1A, 0x0A};
+  if (got >= 3 && head[0] == 0xFF && head[1] == 0xD8 && head[2] == 0xFF) {
+    c.format = "jpeg";
+  } else if (got >= 8 && std::memcmp(head.data(), kPng, 8) == 0) {
+    c.format = "png";
+  } else if (got >= 4 && ((head[0] == 'I' && head[1] == 'I' && head[2] == 42 && head[3] == 0) ||
+                          (head[0] == 'M' && head[1] == 'M' && head[2] == 0 && head[3] == 42))) {
+    c.format = "tiff";
+  } else {
+    c.problem = "not an image (no JPEG, PNG or TIFF signature at its start)";
+    return c;
+  }
+  if (c.format == "tiff") return c;
+  // The last 4 KiB: enough for a JPEG's zero padding (some cameras pad to a block size) and
+  // for the 12-byte IEND chunk.
+  const std::uintmax_t tail_size = std::min<std::uintmax_t>(c.size_bytes, 4096);
+  std::vector<unsigned char> tail(static_cast<std::size_t>(tail_size));
+  in.clear();
+  in.seekg(static_cast<std::streamoff>(c.size_bytes - tail_size));
+  in.read(reinterpret_cast<char*>(tail.data()), static_cast<std::streamsize>(tail.size()));
+  if (static_cast<std::size_t>(in.gcount()) != tail.size()) {
+    c.problem = "cannot be read to its end";
+    return c;
+  }
+  std::size_t end = tail.size();
+  if (c.format == "jpeg") {
+    while (end > 0 && tail[end - 1] == 0x00) --end;
+    if ((end < 2 || tail[end - 2] != 0xFF || tail[end - 1] != 0xD9) &&
+        !JpegReachesEndOfImage(in, c.size_bytes)) {
+      c.truncated = true;
+      c.problem = "truncated (the JPEG ends before its end-of-image marker FF D9)";
+    }
+  } else {  // png: ... length 0, "IEND", CRC AE 42 60 82
+    static constexpr unsigned char kIend[8] = {'I', 'E', 'N', 'D', 0xAE, 0x42, 0x60, 0x82};
+    if (end < 8 || std::memcmp(tail.data() + end - 8, kIend, 8) != 0) {
+      c.truncated = true;
+      c.problem = "truncated (the PNG does not end with its IEND chunk)";
+    }
+  }
+  return c;
+}
+
+cv::Mat ReadGrayImage(const std::filesystem::path& path, GrayFrom how) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    throw InputError(path.string() + ": cannot read image (no such file)");
+  }
+  const ImageFileCheck check = CheckImageFile(path);
+  if (!check.problem.empty()) {
+    throw InputError(path.string() + ": cannot read image (not decodable): " + check.problem);
+  }
+  cv::Mat gray;
+  if (how == GrayFrom::kDecoder) {
+    gray = cv::imread(path.string(), cv::IMREAD_GRAYSCALE);
+  } else {
+    const cv::Mat bgr = cv::imread(path.string(), cv::IMREAD_COLOR);
+    if (!bgr.empty()) cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
+  }
+  if (gray.empty()) {
+    throw InputError(path.string() + ": cannot read image (not decodable)");
+  }
+  return gray;
+}
+
+}  // namespace aerovo

@@ -1,0 +1,376 @@
+#include "aerovo/frames/image_metadata.h"
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+
+#include <fmt/format.h>
+
+// Exiv2 0.27's API hands out std::auto_ptr (deprecated in C++11, still shipped by libstdc++);
+// the warnings come from its headers and its return types, not from anything we can change.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
+#include <exiv2/exiv2.hpp>
+
+#include "aerovo/core/error.h"
+#include "aerovo/telemetry/parse_util.h"
+
+namespace aerovo {
+namespace {
+
+using io_detail::ParseDouble;
+
+void InitExiv2Once() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    // Exiv2 prints warnings about odd-but-harmless maker notes to stderr; problems that matter
+    // surface as exceptions or as missing/invalid values we check ourselves.
+    Exiv2::LogMsg::setLevel(Exiv2::LogMsg::mute);
+    Exiv2::XmpParser::initialize();
+    // Looking up "Xmp.drone-dji.*" keys needs the prefix known even for files without DJI XMP.
+    Exiv2::XmpProperties::registerNs("http://www.dji.com/drone-dji/1.0/", "drone-dji");
+  });
+}
+
+// Message of an exception thrown while Exiv2 reads a file. Besides Exiv2::AnyError, Exiv2 0.27
+// lets standard exceptions out on corrupt files (std::overflow_error from its Safe:: arithmetic,
+// std::out_of_range, std::bad_alloc for absurd sizes): all mean "this file cannot be read".
+std::string ExivWhat(const std::exception& e) {
+  if (dynamic_cast<const Exiv2::AnyError*>(&e) != nullptr) return e.what();
+  return fmt::format("corrupt metadata ({})", e.what());
+}
+
+std::optional<std::string> ExifString(const Exiv2::ExifData& exif, const char* key) {
+  const auto it = exif.findKey(Exiv2::ExifKey(key));
+  if (it == exif.end() || it->count() == 0) return std::nullopt;
+  return it->toString();
+}
+
+// A single rational/short/long EXIF value as a double; throws on a zero denominator.
+std::optional<double> ExifNumber(const Exiv2::ExifData& exif, const char* key,
+                                 const std::string& source) {
+  const auto it = exif.findKey(Exiv2::ExifKey(key));
+  if (it == exif.end() || it->count() == 0) return std::nullopt;
+  const Exiv2::TypeId type = it->typeId();
+  if (type == Exiv2::unsignedRational || type == Exiv2::signedRational) {
+    const Exiv2::Rational r = it->toRational(0);
+    if (r.second == 0) {
+      if (r.first == 0) return std::nullopt;  // 0/0: cameras write it for "unknown"
+      throw InputError(fmt::format("{}: EXIF {} has a zero denominator", source, key));
+    }
+    return static_cast<double>(r.first) / static_cast<double>(r.second);
+  }
+  if (type == Exiv2::unsignedShort || type == Exiv2::unsignedLong || type == Exiv2::signedShort ||
+      type == Exiv2::signedLong || type == Exiv2::unsignedByte) {
+    return static_cast<double>(it->toLong(0));
+  }
+  return ParseDouble(it->toString());
+}
+
+// Degrees/minutes/seconds rational triple with its hemisphere reference.
+std::optional<double> ExifDms(const Exiv2::ExifData& exif, const char* key, const char* ref_key,
+                              const char* negative_ref, const std::string& source) {
+  const auto it = exif.findKey(Exiv2::ExifKey(key));
+  if (it == exif.end()) return std::nullopt;
+  if (it->count() != 3) {
+    throw InputError(
+        fmt::format("{}: EXIF {} has {} components (expected 3)", source, key, it->count()));
+  }
+  double parts[3];
+  for (long i = 0; i < 3; ++i) {
+    const Exiv2::Rational r = it->toRational(i);
+    if (r.second == 0) {
+      if (r.first == 0 && i > 0) {  // 0/0 minutes or seconds: some writers mean "0"
+        parts[i] = 0.0;
+        continue;
+      }
+      throw InputError(fmt::format("{}: EXIF {} has a zero denominator", source, key));
+    }
+    parts[i] = static_cast<double>(r.first) / static_cast<double>(r.second);
+    if (parts[i] < 0.0) {
+      throw InputError(fmt::format("{}: EXIF {} has a negative component", source, key));
+    }
+  }
+  double deg = parts[0] + parts[1] / 60.0 + parts[2] / 3600.0;
+  const auto ref = ExifString(exif, ref_key);
+  if (ref && !ref->empty() && (*ref)[0] == negative_ref[0]) deg = -deg;
+  return deg;
+}
+
+std::optional<double> XmpNumber(const Exiv2::XmpData& xmp, const char* key,
+                                const std::string& source) {
+  const auto it = xmp.findKey(Exiv2::XmpKey(key));
+  if (it == xmp.end()) return std::nullopt;
+  const std::string text = it->toString();
+  const auto v = ParseDouble(text);
+  if (!v) {
+    throw InputError(fmt::format("{}: XMP {} '{}' is not a number", source, key,
+                                 std::string_view(text).substr(0, 40)));
+  }
+  return v;
+}
+
+void CheckRange(const std::optional<double>& v, double lo, double hi, const char* what,
+                const std::string& source) {
+  if (v && (!std::isfinite(*v) || *v < lo || *v > hi)) {
+    throw InputError(fmt::format("{}: {} {} out of range [{}, {}]", source, what, *v, lo, hi));
+  }
+}
+
+// The XMP packet some cameras store in the EXIF tag 0x02bc (XMLPacket, TIFF/EP) instead of an
+// APP1 XMP segment: DJI Zenmuse XT/XT2/H20T thermal cameras, some Autel cameras. Decoded into
+// `*out` when the file has no XMP segment of its own; a packet that does not parse is an error
+// naming the file (it is the camera's metadata, not something to ignore silently).
+void XmpFromExifPacket(const Exiv2::ExifData& exif, const std::string& source,
+                       Exiv2::XmpData* out) {
+  const auto it = exif.findKey(Exiv2::ExifKey("Exif.Image.XMLPacket"));
+  if (it == exif.end() || it->size() == 0) return;
+  std::string packet(static_cast<std::size_t>(it->size()), '\0');
+  it->copy(reinterpret_cast<Exiv2::byte*>(packet.data()), Exiv2::invalidByteOrder);
+  while (!packet.empty() && packet.back() == '\0') packet.pop_back();
+  if (packet.find_first_not_of(" \t\r\n") == std::string::npos) return;
+  if (Exiv2::XmpParser::decode(*out, packet) != 0) {
+    throw InputError(
+        fmt::format("{}: the XMP packet in EXIF tag 0x02bc (XMLPacket, {} bytes) does not parse",
+                    source, packet.size()));
+  }
+}
+
+// EXIF Make, Model and serial number (EXIF BodySerialNumber, CameraSerialNumber, else DJI XMP).
+void ReadCameraIdentity(const Exiv2::ExifData& exif, const Exiv2::XmpData& xmp, ImageMetadata& m) {
+  m.make = std::string(io_detail::Trim(ExifString(exif, "Exif.Image.Make").value_or("")));
+  m.model = std::string(io_detail::Trim(ExifString(exif, "Exif.Image.Model").value_or("")));
+  for (const char* key : {"Exif.Photo.BodySerialNumber", "Exif.Image.CameraSerialNumber"}) {
+    if (m.serial_number.empty()) {
+      m.serial_number = std::string(io_detail::Trim(ExifString(exif, key).value_or("")));
+    }
+  }
+  if (m.serial_number.empty()) {
+    // DJI writes the camera's serial number in its XMP (drone-dji:CameraSerialNumber).
+    const auto it = xmp.findKey(Exiv2::XmpKey("Xmp.drone-dji.CameraSerialNumber"));
+    if (it != xmp.end()) m.serial_number = std::string(io_detail::Trim(it->toString()));
+  }
+}
+
+// EXIF GPS position and altitude; InputError for a value out of range or half a position.
+void ReadExifGps(const Exiv2::ExifData& exif, const std::string& source, ImageMetadata& m) {
+  m.lat_deg = ExifDms(exif, "Exif.GPSInfo.GPSLatitude", "Exif.GPSInfo.GPSLatitudeRef", "S", source);
+  m.lon_deg =
+      ExifDms(exif, "Exif.GPSInfo.GPSLongitude", "Exif.GPSInfo.GPSLongitudeRef", "W", source);
+  CheckRange(m.lat_deg, -90.0, 90.0, "EXIF GPS latitude", source);
+  CheckRange(m.lon_deg, -180.0, 180.0, "EXIF GPS longitude", source);
+  if (m.lat_deg.has_value() != m.lon_deg.has_value()) {
+    throw InputError(fmt::format("{}: EXIF GPS has a {} but no {}", source,
+                                 m.lat_deg ? "latitude" : "longitude",
+                                 m.lat_deg ? "longitude" : "latitude"));
+  }
+  m.gps_alt_m = ExifNumber(exif, "Exif.GPSInfo.GPSAltitude", source);
+  if (m.gps_alt_m) {
+    const auto ref = ExifNumber(exif, "Exif.GPSInfo.GPSAltitudeRef", source);
+    if (ref && *ref == 1.0) m.gps_alt_m = -*m.gps_alt_m;
+  }
+  CheckRange(m.gps_alt_m, -1e5, 1e5, "EXIF GPS altitude", source);
+}
+
+// EXIF DateTimeOriginal + SubSecTimeOriginal as seconds since 1970 (read as UTC).
+void ReadCaptureTime(const Exiv2::ExifData& exif, ImageMetadata& m) {
+  if (auto dt = ExifString(exif, "Exif.Photo.DateTimeOriginal")) {
+    m.capture_unix_time_s = io_detail::ParseDateTime(*dt);
+    if (m.capture_unix_time_s) {
+      if (auto sub = ExifString(exif, "Exif.Photo.SubSecTimeOriginal")) {
+        // SubSecTime holds the digits of the fraction: "123" = 0.123 s, "5" = 0.5 s.
+        const std::string_view digits = io_detail::Trim(*sub);
+        double frac = 0.0, scale = 0.1;
+        bool ok = !digits.empty() && digits.size() <= 9;
+        for (char c : digits) {
+          if (c < '0' || c > '9') ok = false;
+          frac += (c - '0') * scale;
+          scale *= 0.1;
+        }
+        if (ok) *m.capture_unix_time_s += frac;
+      }
+    }
+  }
+}
+
+// DJI XMP (drone-dji): heights, flight and gimbal attitude, calibrated focal length and centre;
+// InputError for a value out of range.
+void ReadDjiXmp(const Exiv2::XmpData& xmp, const std::string& source, ImageMetadata& m) {
+  m.rel_alt_m = XmpNumber(xmp, "Xmp.drone-dji.RelativeAltitude", source);
+  m.abs_alt_m = XmpNumber(xmp, "Xmp.drone-dji.AbsoluteAltitude", source);
+  m.flight_yaw_deg = XmpNumber(xmp, "Xmp.drone-dji.FlightYawDegree", source);
+  m.flight_pitch_deg = XmpNumber(xmp, "Xmp.drone-dji.FlightPitchDegree", source);
+  m.flight_roll_deg = XmpNumber(xmp, "Xmp.drone-dji.FlightRollDegree", source);
+  m.gimbal_yaw_deg = XmpNumber(xmp, "Xmp.drone-dji.GimbalYawDegree", source);
+  m.gimbal_pitch_deg = XmpNumber(xmp, "Xmp.drone-dji.GimbalPitchDegree", source);
+  m.gimbal_roll_deg = XmpNumber(xmp, "Xmp.drone-dji.GimbalRollDegree", source);
+  m.calibrated_focal_px = XmpNumber(xmp, "Xmp.drone-dji.CalibratedFocalLength", source);
+  m.calibrated_cx_px = XmpNumber(xmp, "Xmp.drone-dji.CalibratedOpticalCenterX", source);
+  m.calibrated_cy_px = XmpNumber(xmp, "Xmp.drone-dji.CalibratedOpticalCenterY", source);
+  CheckRange(m.rel_alt_m, -1e5, 1e5, "XMP RelativeAltitude", source);
+  CheckRange(m.abs_alt_m, -1e5, 1e5, "XMP AbsoluteAltitude", source);
+  for (auto [v, what] : {std::pair{&m.flight_yaw_deg, "XMP FlightYawDegree"},
+                         {&m.flight_pitch_deg, "XMP FlightPitchDegree"},
+                         {&m.flight_roll_deg, "XMP FlightRollDegree"},
+                         {&m.gimbal_yaw_deg, "XMP GimbalYawDegree"},
+                         {&m.gimbal_pitch_deg, "XMP GimbalPitchDegree"},
+                         {&m.gimbal_roll_deg, "XMP GimbalRollDegree"}}) {
+    CheckRange(*v, -360.0, 360.0, what, source);
+  }
+  CheckRange(m.calibrated_focal_px, 1e-3, 1e7, "XMP CalibratedFocalLength (px)", source);
+}
+
+ImageMetadata Extract(Exiv2::Image& image, const std::string& source) {
+  image.readMetadata();
+  ImageMetadata m;
+  m.source = source;
+  m.width_px = image.pixelWidth();
+  m.height_px = image.pixelHeight();
+  const Exiv2::ExifData& exif = image.exifData();
+  Exiv2::XmpData packet_xmp;
+  if (image.xmpData().empty()) XmpFromExifPacket(exif, source, &packet_xmp);
+  const Exiv2::XmpData& xmp = image.xmpData().empty() ? packet_xmp : image.xmpData();
+  m.xmp_from_exif_packet = !packet_xmp.empty();
+  if (m.width_px <= 0 || m.height_px <= 0) {
+    // EXIF's own idea of the size, a fallback only: a value that is no plausible pixel count
+    // (1e300 would not even convert to int) leaves the size unknown.
+    const auto pixels = [&](const char* key) {
+      const double v = ExifNumber(exif, key, source).value_or(0.0);
+      return v >= 1.0 && v <= 1e6 ? static_cast<int>(v) : 0;
+    };
+    m.width_px = pixels("Exif.Photo.PixelXDimension");
+    m.height_px = pixels("Exif.Photo.PixelYDimension");
+  }
+  ReadCameraIdentity(exif, xmp, m);
+
+  ReadExifGps(exif, source, m);
+
+  ReadCaptureTime(exif, m);
+
+  m.focal_length_mm = ExifNumber(exif, "Exif.Photo.FocalLength", source);
+  m.focal_length_35mm_mm = ExifNumber(exif, "Exif.Photo.FocalLengthIn35mmFilm", source);
+  // 0 means "unknown" in EXIF.
+  if (m.focal_length_mm && *m.focal_length_mm == 0.0) m.focal_length_mm.reset();
+  if (m.focal_length_35mm_mm && *m.focal_length_35mm_mm == 0.0) m.focal_length_35mm_mm.reset();
+  CheckRange(m.focal_length_mm, 0.0, 1e4, "EXIF FocalLength (mm)", source);
+  CheckRange(m.focal_length_35mm_mm, 0.0, 1e4, "EXIF FocalLengthIn35mmFilm (mm)", source);
+
+  ReadDjiXmp(xmp, source, m);
+  return m;
+}
+
+}  // namespace
+
+TelemetrySample ImageMetadata::ToSample() const {
+  TelemetrySample s;
+  s.lat_deg = lat_deg.value_or(0.0);
+  s.lon_deg = lon_deg.value_or(0.0);
+  s.unix_time_s = capture_unix_time_s;
+  s.abs_alt_m = abs_alt_m ? abs_alt_m : gps_alt_m;
+  s.rel_alt_m = rel_alt_m;
+  s.yaw_deg = flight_yaw_deg;
+  s.pitch_deg = flight_pitch_deg;
+  s.roll_deg = flight_roll_deg;
+  s.gimbal_yaw_deg = gimbal_yaw_deg;
+  s.gimbal_pitch_deg = gimbal_pitch_deg;
+  s.gimbal_roll_deg = gimbal_roll_deg;
+  s.focal_length_mm = focal_length_mm;
+  s.focal_length_35mm_mm = focal_length_35mm_mm;
+  return s;
+}
+
+namespace {
+
+// Opens the image with `open` (file or memory) and extracts its metadata; every failure becomes
+// one InputError naming `source`.
+template <class Open>
+ImageMetadata OpenAndExtract(Open open, const std::string& source) {
+  try {
+    auto image = open();
+    if (image.get() == nullptr) {
+      throw InputError(fmt::format("cannot read metadata of '{}': unknown format", source));
+    }
+    return Extract(*image, source);
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw InputError(fmt::format("cannot read metadata of '{}': {}", source, ExivWhat(e)));
+  }
+}
+
+}  // namespace
+
+ImageMetadata ReadImageMetadata(const std::filesystem::path& path) {
+  InitExiv2Once();
+  const std::string source = path.string();
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    throw InputError(
+        fmt::format("cannot read metadata of '{}': {}", source,
+                    std::filesystem::exists(path, ec) ? "not a regular file" : "no such file"));
+  }
+  return OpenAndExtract([&] { return Exiv2::ImageFactory::open(source, /*useCurl=*/false); },
+                        source);
+}
+
+ImageMetadata ParseImageMetadata(const std::uint8_t* data, std::size_t size,
+                                 const std::string& source_name) {
+  InitExiv2Once();
+  if (data == nullptr || size == 0) {
+    throw InputError(fmt::format("cannot read metadata of '{}': empty data", source_name));
+  }
+  return OpenAndExtract([&] { return Exiv2::ImageFactory::open(data, static_cast<long>(size)); },
+                        source_name);
+}
+
+TelemetryReadResult TelemetryFromImages(const std::vector<ImageMetadata>& images,
+                                        const TelemetryReadOptions& options) {
+  Validate(options);
+  io_detail::RecordErrors errors(options, "image metadata");
+  const bool all_timed =
+      !images.empty() && std::all_of(images.begin(), images.end(), [](const ImageMetadata& m) {
+        return m.capture_unix_time_s.has_value();
+      });
+  if (!images.empty() && !all_timed) {
+    errors.warnings().push_back(
+        "image metadata: not every photo has a capture time: time_s is the photo's rank");
+  }
+  std::vector<TelemetrySample> samples;
+  int no_fix = 0;
+  std::optional<double> t0, last;
+  for (std::size_t k = 0; k < images.size(); ++k) {
+    const ImageMetadata& m = images[k];
+    if (!m.HasGps() || (*m.lat_deg == 0.0 && *m.lon_deg == 0.0)) {
+      ++no_fix;
+      continue;
+    }
+    TelemetrySample s = m.ToSample();
+    s.frame_index = static_cast<int>(k);
+    if (all_timed) {
+      const double t = *m.capture_unix_time_s;
+      if (last && t < *last) {
+        errors.ReportMessage(fmt::format(
+            "{}: capture time {:.3f} s earlier than the previous photo's (out of order)", m.source,
+            *last - t));
+        continue;
+      }
+      if (!t0) t0 = *images.front().capture_unix_time_s;
+      last = t;
+      s.time_s = t - *t0;
+    } else {
+      s.time_s = static_cast<double>(k);
+    }
+    try {
+      ValidateSample(s, m.source);
+    } catch (const InputError& e) {
+      errors.ReportMessage(e.what());
+      continue;
+    }
+    samples.push_back(s);
+  }
+  return io_detail::Finish(std::move(samples), errors, no_fix, "photo set");
+}
+
+}  // namespace aerovo
+
+#pragma GCC diagnostic pop

@@ -1,0 +1,76 @@
+// EXIF / XMP metadata of photos (through Exiv2): GPS position, capture time, DJI XMP flight
+// and gimbal attitude and relative altitude, focal lengths and image size.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "aerovo/telemetry/telemetry_readers.h"
+
+namespace aerovo {
+
+/// What a photo says about itself. Angles in degrees (yaw clockwise from north), lengths in
+/// metres unless the name says otherwise. Fields the file does not have stay unset.
+struct ImageMetadata {
+  std::string source;  ///< Path (or name) the metadata was read from; used in messages.
+  int width_px = 0;    ///< Pixel size of the image (decoded header), 0 if unknown.
+  int height_px = 0;
+  std::string make, model;  ///< EXIF Make / Model ("DJI", "FC300S").
+  /// EXIF BodySerialNumber, else CameraSerialNumber, else DJI XMP CameraSerialNumber; empty
+  /// when none is written.
+  std::string serial_number;
+  /// True when the XMP fields below came from the XMP packet stored in the EXIF tag 0x02bc
+  /// (XMLPacket; DJI Zenmuse XT/XT2/H20T, some Autel cameras) because the file has no XMP
+  /// segment of its own.
+  bool xmp_from_exif_packet = false;
+
+  /// EXIF GPSLatitude/GPSLongitude with their N/S, E/W refs; WGS84 degrees.
+  std::optional<double> lat_deg, lon_deg;
+  /// EXIF GPSAltitude (negative when GPSAltitudeRef = 1, below sea level).
+  std::optional<double> gps_alt_m;
+  /// EXIF DateTimeOriginal + SubSecTimeOriginal as seconds since 1970 (the camera's clock has
+  /// no time zone; it is read as if UTC). Unset when missing or blank ("    :  :  ").
+  std::optional<double> capture_unix_time_s;
+
+  // DJI XMP (namespace drone-dji, http://www.dji.com/drone-dji/1.0/).
+  std::optional<double> rel_alt_m;  ///< RelativeAltitude: height above the take-off point.
+  std::optional<double> abs_alt_m;  ///< AbsoluteAltitude.
+  std::optional<double> flight_yaw_deg, flight_pitch_deg, flight_roll_deg;
+  std::optional<double> gimbal_yaw_deg, gimbal_pitch_deg, gimbal_roll_deg;
+  /// CalibratedFocalLength (pixels, at this image's size) and optical centre, when written.
+  std::optional<double> calibrated_focal_px, calibrated_cx_px, calibrated_cy_px;
+
+  std::optional<double> focal_length_mm;       ///< EXIF FocalLength.
+  std::optional<double> focal_length_35mm_mm;  ///< EXIF FocalLengthIn35mmFilm.
+
+  bool HasGps() const { return lat_deg.has_value() && lon_deg.has_value(); }
+
+  /// The telemetry fix of this photo (time_s = 0, frame_index unset; the caller places it).
+  /// abs_alt_m = XMP AbsoluteAltitude, else the EXIF GPS altitude. Precondition: HasGps().
+  TelemetrySample ToSample() const;
+};
+
+/// Reads the metadata of an image file (JPEG, TIFF, PNG, DNG ... whatever Exiv2 reads).
+/// Throws InputError "cannot read metadata of '<path>': <reason>" for a missing, unreadable or
+/// unrecognised file, and "<path>: EXIF GPS latitude 95 out of range [-90, 90]"-style errors
+/// for values out of range or malformed (zero denominators, wrong component counts).
+ImageMetadata ReadImageMetadata(const std::filesystem::path& path);
+
+/// The same from an encoded image held in memory (`source_name` is used in messages). This
+/// is the entry point the fuzz target drives.
+ImageMetadata ParseImageMetadata(const std::uint8_t* data, std::size_t size,
+                                 const std::string& source_name);
+
+/// Telemetry of a photo sequence, in the given order (frame_index = rank in `images`).
+/// time_s = capture time - the first photo's when every photo has a capture time, else the
+/// rank (with a warning). Photos without GPS are counted in no_fix_records and left out;
+/// capture times that go backwards are malformed records (strict: InputError naming the
+/// photo; lenient: skipped and counted). Throws InputError when no photo has GPS.
+TelemetryReadResult TelemetryFromImages(const std::vector<ImageMetadata>& images,
+                                        const TelemetryReadOptions& options = {});
+
+}  // namespace aerovo

@@ -1,0 +1,335 @@
+#include "aerovo/frames/image_metadata.h"
+
+#include <fstream>
+#include <iterator>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "aerovo/core/error.h"
+#include "aerovo/core/testing.h"
+#include "aerovo/frames/image_test_util.h"
+#include "aerovo/telemetry/io_test_util.h"
+
+namespace aerovo {
+namespace {
+
+using io_test::ExpectInputError;
+
+// Values cross-checked with Exiv2's own tag dump (exiv2 -pa equivalent through the library):
+// GPSLatitude 28/1 2/1 285116/10000 N, GPSLongitude 82/1 41/1 545072/10000 W, GPSAltitude
+// 5677/1000 with GPSAltitudeRef 1, DateTimeOriginal 2018:04:29 12:06:46, FocalLength 361/100,
+// FocalLengthIn35mmFilm 20, 800x600, Make DJI, Model FC300S. No XMP.
+TEST(ImageMetadata, TampaPhantom3) {
+  AEROVO_REQUIRE_SHARED(path, "data/flights/tampa-phantom3/DJI_0054.JPG");
+  const ImageMetadata m = ReadImageMetadata(path);
+  EXPECT_EQ(m.width_px, 800);
+  EXPECT_EQ(m.height_px, 600);
+  EXPECT_EQ(m.make, "DJI");
+  EXPECT_EQ(m.model, "FC300S");
+  ASSERT_TRUE(m.HasGps());
+  EXPECT_NEAR(*m.lat_deg, 28.0 + 2.0 / 60.0 + 28.5116 / 3600.0, 1e-10);      // 28.041253 N
+  EXPECT_NEAR(*m.lon_deg, -(82.0 + 41.0 / 60.0 + 54.5072 / 3600.0), 1e-10);  // 82.698474 W
+  EXPECT_NEAR(*m.gps_alt_m, -5.677, 1e-9);  // "below sea level": the invalid altitude
+  ASSERT_TRUE(m.capture_unix_time_s);
+  EXPECT_DOUBLE_EQ(*m.capture_unix_time_s, 1525003606.0);  // 2018-04-29 12:06:46
+  EXPECT_DOUBLE_EQ(*m.focal_length_mm, 3.61);
+  EXPECT_DOUBLE_EQ(*m.focal_length_35mm_mm, 20.0);
+  EXPECT_FALSE(m.rel_alt_m);
+  EXPECT_FALSE(m.gimbal_yaw_deg);
+}
+
+// XMP drone-dji values as stored: RelativeAltitude +44.47, AbsoluteAltitude +349.58,
+// GimbalYawDegree +106.80, GimbalPitchDegree -90.00, FlightYawDegree +107.00,
+// FlightRollDegree +0.80, CalibratedFocalLength 1913.333374 (800, 650 centre).
+TEST(ImageMetadata, TurinP4Multispectral) {
+  AEROVO_REQUIRE_SHARED(path, "data/flights/turin-p4m/DJI_0010.JPG");
+  const ImageMetadata m = ReadImageMetadata(path);
+  EXPECT_EQ(m.width_px, 1600);
+  EXPECT_EQ(m.height_px, 1300);
+  EXPECT_EQ(m.model, "FC6360");
+  EXPECT_NEAR(*m.lat_deg, 45.0 + 1.0 / 60.0 + 53.7444 / 3600.0, 1e-10);
+  EXPECT_NEAR(*m.lon_deg, 7.0 + 37.0 / 60.0 + 13.6771 / 3600.0, 1e-10);
+  EXPECT_NEAR(*m.lat_deg, 45.03159568, 1e-7);  // XMP GpsLatitude agrees
+  EXPECT_NEAR(*m.lon_deg, 7.62046587, 1e-7);
+  EXPECT_NEAR(*m.gps_alt_m, 349.583, 1e-9);
+  EXPECT_DOUBLE_EQ(*m.rel_alt_m, 44.47);
+  EXPECT_DOUBLE_EQ(*m.abs_alt_m, 349.58);
+  EXPECT_DOUBLE_EQ(*m.gimbal_yaw_deg, 106.8);
+  EXPECT_DOUBLE_EQ(*m.gimbal_pitch_deg, -90.0);
+  EXPECT_DOUBLE_EQ(*m.gimbal_roll_deg, 0.0);
+  EXPECT_DOUBLE_EQ(*m.flight_yaw_deg, 107.0);
+  EXPECT_DOUBLE_EQ(*m.flight_roll_deg, 0.8);
+  EXPECT_DOUBLE_EQ(*m.focal_length_mm, 5.74);
+  EXPECT_DOUBLE_EQ(*m.focal_length_35mm_mm, 40.0);
+  EXPECT_NEAR(*m.calibrated_focal_px, 1913.333374, 1e-6);
+  EXPECT_DOUBLE_EQ(*m.calibrated_cx_px, 800.0);
+  EXPECT_DOUBLE_EQ(*m.calibrated_cy_px, 650.0);
+  EXPECT_DOUBLE_EQ(*m.capture_unix_time_s, 1769435417.0);  // 2026-01-26 13:50:17
+
+  const TelemetrySample s = m.ToSample();
+  EXPECT_DOUBLE_EQ(*s.abs_alt_m, 349.58);  // XMP absolute altitude preferred
+  EXPECT_DOUBLE_EQ(*s.CameraYawDeg(), 106.8);
+}
+
+TEST(ImageMetadata, TurinSequenceTelemetry) {
+  AEROVO_REQUIRE_SHARED(dir, "data/flights/turin-p4m");
+  std::vector<std::filesystem::path> files;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  std::vector<ImageMetadata> metas;
+  for (const auto& f : files) metas.push_back(ReadImageMetadata(f));
+  ASSERT_EQ(metas.size(), 32u);
+  const TelemetryReadResult r = TelemetryFromImages(metas);
+  EXPECT_EQ(r.records, 32);
+  EXPECT_EQ(r.no_fix_records, 0);
+  for (const TelemetrySample& s : r.telemetry.samples()) {
+    ASSERT_TRUE(s.rel_alt_m);
+    EXPECT_NEAR(*s.rel_alt_m, 44.5, 0.5);  // README: RelativeAltitude 44.5 m
+    EXPECT_NEAR(*s.gimbal_pitch_deg, -90.0, 0.5);
+  }
+  EXPECT_EQ(r.telemetry[0].frame_index, 0);
+  EXPECT_DOUBLE_EQ(r.telemetry[0].time_s, 0.0);
+  EXPECT_GT(r.telemetry.end_time_s(), 0.0);
+}
+
+TEST(ImageMetadata, SyntheticTagsRoundTrip) {
+  io_test::TempDir dir("aerovo_exif");
+  const auto path = dir / "a.jpg";
+  io_test::WriteJpegWithTags(
+      path, io_test::TextureImage(64, 48, 1),
+      {{"Exif.GPSInfo.GPSLatitude", "33/1 52/1 0/1"},
+       {"Exif.GPSInfo.GPSLatitudeRef", "S"},
+       {"Exif.GPSInfo.GPSLongitude", "151/1 12/1 36/1"},
+       {"Exif.GPSInfo.GPSLongitudeRef", "E"},
+       {"Exif.Photo.DateTimeOriginal", "2023:05:01 12:00:00"},
+       {"Exif.Photo.SubSecTimeOriginal", "25"},
+       {"Exif.Photo.FocalLengthIn35mmFilm", "24"}},
+      {{"Xmp.drone-dji.RelativeAltitude", "+80.25"}, {"Xmp.drone-dji.FlightYawDegree", "-45.5"}});
+  const ImageMetadata m = ReadImageMetadata(path);
+  EXPECT_EQ(m.width_px, 64);
+  EXPECT_EQ(m.height_px, 48);
+  EXPECT_NEAR(*m.lat_deg, -(33.0 + 52.0 / 60.0), 1e-12);
+  EXPECT_NEAR(*m.lon_deg, 151.0 + 12.0 / 60.0 + 36.0 / 3600.0, 1e-12);
+  EXPECT_NEAR(*m.capture_unix_time_s, 1682942400.25, 1e-6);
+  EXPECT_DOUBLE_EQ(*m.focal_length_35mm_mm, 24.0);
+  EXPECT_DOUBLE_EQ(*m.rel_alt_m, 80.25);
+  EXPECT_DOUBLE_EQ(*m.flight_yaw_deg, -45.5);
+  EXPECT_FALSE(m.gps_alt_m);
+
+  // The same bytes through the in-memory entry point.
+  std::ifstream in(path, std::ios::binary);
+  const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)),
+                                        std::istreambuf_iterator<char>());
+  const ImageMetadata mm = ParseImageMetadata(bytes.data(), bytes.size(), "mem");
+  EXPECT_EQ(*mm.lat_deg, *m.lat_deg);
+  EXPECT_EQ(mm.source, "mem");
+}
+
+// A JPEG as DJI Zenmuse XT2 thermal cameras write it: the XMP packet in the EXIF tag 0x02bc
+// (XMLPacket, BYTE) of IFD0 and no APP1 XMP segment. Exiv2 drops that tag when it writes a JPEG,
+// so the APP1 Exif segment is laid out here by hand (little-endian TIFF: header, IFD0 with Make,
+// Model and XMLPacket, their data after the IFD) and put after the SOI of an OpenCV JPEG.
+void WriteJpegWithExifXmlPacket(const std::filesystem::path& path, const std::string& make,
+                                const std::string& model, const std::string& packet) {
+  std::vector<std::uint8_t> tiff = {'I', 'I', 42, 0, 8, 0, 0, 0};
+  const auto u16 = [&](std::vector<std::uint8_t>& b, unsigned v) {
+    b.push_back(v & 0xff);
+    b.push_back((v >> 8) & 0xff);
+  };
+  const auto u32 = [&](std::vector<std::uint8_t>& b, unsigned v) {
+    for (int k = 0; k < 4; ++k) b.push_back((v >> (8 * k)) & 0xff);
+  };
+  const std::string make_z = make + '\0', model_z = model + '\0';
+  const unsigned n = 3, data0 = 8 + 2 + 12 * n + 4;  // first byte after IFD0
+  std::vector<std::uint8_t> data;
+  u16(tiff, n);
+  const auto entry = [&](unsigned tag, unsigned type, const std::string& bytes) {
+    u16(tiff, tag);
+    u16(tiff, type);
+    u32(tiff, static_cast<unsigned>(bytes.size()));
+    if (bytes.size() <= 4) {  // a value of up to 4 bytes sits in the entry itself
+      for (std::size_t k = 0; k < 4; ++k) tiff.push_back(k < bytes.size() ? bytes[k] : 0);
+      return;
+    }
+    u32(tiff, data0 + static_cast<unsigned>(data.size()));
+    data.insert(data.end(), bytes.begin(), bytes.end());
+    if (data.size() % 2) data.push_back(0);  // word alignment
+  };
+  entry(0x010f, 2, make_z);   // Make, ASCII
+  entry(0x0110, 2, model_z);  // Model, ASCII
+  entry(0x02bc, 1, packet);   // XMLPacket, BYTE
+  u32(tiff, 0);               // no IFD1
+  tiff.insert(tiff.end(), data.begin(), data.end());
+  std::vector<std::uint8_t> app1 = {0xff, 0xe1, 0, 0, 'E', 'x', 'i', 'f', 0, 0};
+  app1.insert(app1.end(), tiff.begin(), tiff.end());
+  const std::size_t len = app1.size() - 2;
+  app1[2] = static_cast<std::uint8_t>(len >> 8);
+  app1[3] = static_cast<std::uint8_t>(len & 0xff);
+  std::vector<std::uint8_t> jpeg;
+  cv::imencode(".jpg", io_test::TextureImage(64, 48, 3), jpeg);
+  ASSERT_GE(jpeg.size(), 2u);
+  jpeg.insert(jpeg.begin() + 2, app1.begin(), app1.end());  // right after SOI (FF D8)
+  std::ofstream(path, std::ios::binary)
+      .write(reinterpret_cast<const char*>(jpeg.data()), static_cast<std::streamsize>(jpeg.size()));
+}
+
+const char* const kXt2Packet =
+    R"(<?xpacket begin="" id="W5M0MpCehiHzreSzNTczkc9d"?>)"
+    R"(<x:xmpmeta xmlns:x="adobe:ns:meta/"><rdf:RDF xmlns:rdf="http://www.w3.org/1999/02/22-rdf-syntax-ns#">)"
+    R"(<rdf:Description rdf:about="DJI Meta Data" xmlns:drone-dji="http://www.dji.com/drone-dji/1.0/")"
+    R"( drone-dji:RelativeAltitude="+100.20" drone-dji:AbsoluteAltitude="+312.5")"
+    R"( drone-dji:GimbalPitchDegree="-89.90" drone-dji:GimbalYawDegree="+12.30")"
+    R"( drone-dji:FlightYawDegree="+11.80" drone-dji:FlightPitchDegree="+2.10" drone-dji:FlightRollDegree="-1.40"/>)"
+    R"(</rdf:RDF></x:xmpmeta><?xpacket end="w"?>)";
+
+TEST(ImageMetadata, XmpPacketInsideExifTag0x02bc) {
+  io_test::TempDir dir("aerovo_xt2");
+  const auto path = dir / "DJI_0001_R.JPG";
+  WriteJpegWithExifXmlPacket(path, "DJI", "XT2", std::string(kXt2Packet) + std::string(3, '\0'));
+  const ImageMetadata m = ReadImageMetadata(path);
+  EXPECT_EQ(m.make, "DJI");
+  EXPECT_EQ(m.model, "XT2");
+  EXPECT_TRUE(m.xmp_from_exif_packet);
+  ASSERT_TRUE(m.rel_alt_m);
+  EXPECT_DOUBLE_EQ(*m.rel_alt_m, 100.2);
+  EXPECT_DOUBLE_EQ(*m.abs_alt_m, 312.5);
+  EXPECT_DOUBLE_EQ(*m.gimbal_pitch_deg, -89.9);
+  EXPECT_DOUBLE_EQ(*m.gimbal_yaw_deg, 12.3);
+  EXPECT_DOUBLE_EQ(*m.flight_pitch_deg, 2.1);
+  EXPECT_DOUBLE_EQ(*m.flight_roll_deg, -1.4);
+
+  // A packet that is not XMP is an error naming the photo and the tag, not silently ignored.
+  const auto bad = dir / "bad.jpg";
+  WriteJpegWithExifXmlPacket(bad, "DJI", "XT2", "<x:xmpmeta><rdf:RDF><unclosed");
+  ExpectInputError([&] { ReadImageMetadata(bad); }, {"bad.jpg", "0x02bc", "does not parse"});
+
+  // Without the packet, nothing is made up.
+  const auto none = dir / "none.jpg";
+  WriteJpegWithExifXmlPacket(none, "DJI", "XT2", std::string(8, '\0'));
+  const ImageMetadata mn = ReadImageMetadata(none);
+  EXPECT_FALSE(mn.xmp_from_exif_packet);
+  EXPECT_FALSE(mn.rel_alt_m);
+}
+
+TEST(ImageMetadata, BadValuesAndBadFilesNameTheFile) {
+  io_test::TempDir dir("aerovo_exif_bad");
+  const auto img = io_test::TextureImage(32, 32, 2);
+  io_test::WriteJpegWithTags(dir / "lat95.jpg", img,
+                             {{"Exif.GPSInfo.GPSLatitude", "95/1 0/1 0/1"},
+                              {"Exif.GPSInfo.GPSLatitudeRef", "N"},
+                              {"Exif.GPSInfo.GPSLongitude", "10/1 0/1 0/1"},
+                              {"Exif.GPSInfo.GPSLongitudeRef", "E"}});
+  ExpectInputError([&] { ReadImageMetadata(dir / "lat95.jpg"); },
+                   {"lat95.jpg", "EXIF GPS latitude 95 out of range [-90, 90]"});
+  io_test::WriteJpegWithTags(dir / "zero.jpg", img,
+                             {{"Exif.GPSInfo.GPSLatitude", "45/0 0/1 0/1"},
+                              {"Exif.GPSInfo.GPSLongitude", "10/1 0/1 0/1"}});
+  ExpectInputError([&] { ReadImageMetadata(dir / "zero.jpg"); }, {"zero.jpg", "zero denominator"});
+  io_test::WriteJpegWithTags(dir / "two.jpg", img, {{"Exif.GPSInfo.GPSLatitude", "45/1 3/1"}});
+  ExpectInputError([&] { ReadImageMetadata(dir / "two.jpg"); },
+                   {"two.jpg", "2 components (expected 3)"});
+  io_test::WriteJpegWithTags(dir / "xmp.jpg", img, {},
+                             {{"Xmp.drone-dji.RelativeAltitude", "high"}});
+  ExpectInputError([&] { ReadImageMetadata(dir / "xmp.jpg"); },
+                   {"xmp.jpg", "RelativeAltitude 'high' is not a number"});
+
+  std::ofstream(dir / "empty.jpg").close();
+  ExpectInputError([&] { ReadImageMetadata(dir / "empty.jpg"); },
+                   {"cannot read metadata of", "empty.jpg"});
+  std::ofstream(dir / "text.jpg") << "this is not an image\n";
+  ExpectInputError([&] { ReadImageMetadata(dir / "text.jpg"); }, {"text.jpg"});
+  ExpectInputError([&] { ReadImageMetadata(dir / "missing.jpg"); }, {"missing.jpg", "no such"});
+  // A JPEG cut in the middle of its EXIF segment.
+  {
+    std::ifstream in(dir / "lat95.jpg", std::ios::binary);
+    std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(dir / "cut.jpg", std::ios::binary).write(bytes.data(), 40);
+  }
+  ExpectInputError([&] { ReadImageMetadata(dir / "cut.jpg"); }, {"cut.jpg"});
+  const std::uint8_t junk[] = {0xFF, 0xD8, 0xFF, 0xE1, 0xFF, 0xFF, 'E', 'x', 'i', 'f', 0, 0};
+  ExpectInputError([&] { ParseImageMetadata(junk, sizeof(junk), "junk"); }, {"junk"});
+  ExpectInputError([&] { ParseImageMetadata(nullptr, 0, "none"); }, {"none", "empty"});
+}
+
+// The EXIF size is used only when the decoder finds none (a JPEG without its frame header):
+// a plausible value is taken, an absurd one (4000000000, which does not fit an int: the cast
+// was undefined) leaves the size unknown instead.
+TEST(ImageMetadata, ExifPixelDimensionsFallbackIsRangeChecked) {
+  io_test::TempDir dir("aerovo_exif_dims");
+  const auto headerless = [&](const std::string& x, const std::string& y) {
+    const auto path = dir / "dims.jpg";
+    io_test::WriteJpegWithTags(path, io_test::TextureImage(32, 24, 3),
+                               {{"Exif.Photo.PixelXDimension", x},
+                                {"Exif.Photo.PixelYDimension", y},
+                                {"Exif.GPSInfo.GPSLatitude", "45/1 0/1 0/1"},
+                                {"Exif.GPSInfo.GPSLongitude", "10/1 0/1 0/1"}});
+    std::ifstream in(path, std::ios::binary);
+    const std::vector<std::uint8_t> jpeg((std::istreambuf_iterator<char>(in)),
+                                         std::istreambuf_iterator<char>());
+    // SOI + the APP1 (EXIF) segment + EOI: no SOF, so Exiv2 knows no pixel size.
+    std::size_t p = 2;
+    while (p + 4 <= jpeg.size() && !(jpeg[p] == 0xFF && jpeg[p + 1] == 0xE1)) {
+      p += 2 + (std::size_t{jpeg[p + 2]} << 8 | jpeg[p + 3]);
+    }
+    EXPECT_LT(p + 4, jpeg.size());
+    const std::size_t len = 2 + (std::size_t{jpeg[p + 2]} << 8 | jpeg[p + 3]);
+    std::vector<std::uint8_t> bytes = {0xFF, 0xD8};
+    bytes.insert(bytes.end(), jpeg.begin() + p, jpeg.begin() + p + len);
+    bytes.insert(bytes.end(), {0xFF, 0xD9});
+    return ParseImageMetadata(bytes.data(), bytes.size(), "dims");
+  };
+  const ImageMetadata ok = headerless("4000", "3000");
+  EXPECT_EQ(ok.width_px, 4000);
+  EXPECT_EQ(ok.height_px, 3000);
+  EXPECT_NEAR(*ok.lat_deg, 45.0, 1e-12);
+  const ImageMetadata huge = headerless("4000000000", "2000000");
+  EXPECT_EQ(huge.width_px, 0);
+  EXPECT_EQ(huge.height_px, 0);
+  EXPECT_NEAR(*huge.lat_deg, 45.0, 1e-12);  // the rest of the metadata is still read
+}
+
+TEST(ImageMetadata, TelemetryFromImagesOrderAndMissingGps) {
+  ImageMetadata a, b, c, d;
+  a.source = "a.jpg";
+  a.lat_deg = 10.0;
+  a.lon_deg = 20.0;
+  a.capture_unix_time_s = 1000.0;
+  b = a;
+  b.source = "b.jpg";
+  b.lat_deg.reset();
+  b.lon_deg.reset();
+  b.capture_unix_time_s = 1002.0;
+  c = a;
+  c.source = "c.jpg";
+  c.lat_deg = 10.5;
+  c.capture_unix_time_s = 1004.0;
+  d = a;
+  d.source = "d.jpg";
+  d.capture_unix_time_s = 1003.0;  // earlier than c
+  {
+    const TelemetryReadResult r = TelemetryFromImages({a, b, c});
+    ASSERT_EQ(r.records, 2);
+    EXPECT_EQ(r.no_fix_records, 1);
+    EXPECT_EQ(r.telemetry[1].frame_index, 2);
+    EXPECT_DOUBLE_EQ(r.telemetry[1].time_s, 4.0);
+    auto mid = r.telemetry.AtFrame(1);  // the photo without GPS, interpolated
+    ASSERT_TRUE(mid);
+    EXPECT_NEAR(mid->lat_deg, 10.25, 1e-12);
+  }
+  ExpectInputError([&] { TelemetryFromImages({a, c, d}); }, {"d.jpg", "out of order"});
+  TelemetryReadOptions lenient;
+  lenient.lenient = true;
+  EXPECT_EQ(TelemetryFromImages({a, c, d}, lenient).skipped_records, 1);
+  b.capture_unix_time_s.reset();
+  b.lat_deg = 1.0;
+  b.lon_deg = 2.0;
+  const TelemetryReadResult ranks = TelemetryFromImages({a, b});
+  EXPECT_DOUBLE_EQ(ranks.telemetry[1].time_s, 1.0);
+  EXPECT_EQ(ranks.warnings.size(), 1u);
+  ExpectInputError([&] { TelemetryFromImages({}); }, {"no telemetry samples"});
+}
+
+}  // namespace
+}  // namespace aerovo

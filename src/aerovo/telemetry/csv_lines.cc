@@ -1,0 +1,90 @@
+#include "aerovo/telemetry/csv_lines.h"
+
+#include <algorithm>
+#include <string_view>
+
+#include <fmt/format.h>
+
+#include "aerovo/core/error.h"
+#include "aerovo/telemetry/parse_util.h"
+
+namespace aerovo {
+namespace {
+
+// Reads one line into `line` without its '\r'; false at the end of the input.
+bool ReadLine(std::istream& in, std::string& line) {
+  if (!std::getline(in, line)) return false;
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  return true;
+}
+
+bool BlankOrComment(std::string_view line) {
+  const std::string_view t = io_detail::Trim(line);
+  return t.empty() || t.front() == '#';
+}
+
+}  // namespace
+
+bool SplitCsv(const std::string& line, char sep, std::vector<std::string>& cells) {
+  cells.clear();
+  std::string cell;
+  bool quoted = false;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted) {
+      if (c == '"') {
+        if (i + 1 < line.size() && line[i + 1] == '"') {
+          cell.push_back('"');
+          ++i;
+        } else {
+          quoted = false;
+        }
+      } else {
+        cell.push_back(c);
+      }
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == sep) {
+      cells.push_back(std::move(cell));
+      cell.clear();
+    } else {
+      cell.push_back(c);
+    }
+  }
+  cells.push_back(std::move(cell));
+  return !quoted;
+}
+
+CsvLines::CsvLines(std::istream& in, std::string source_name) : in_(in) {
+  std::string line;
+  bool found = false;
+  while (ReadLine(in_, line)) {
+    ++line_;
+    if (line_ == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
+    if (!BlankOrComment(line)) {
+      found = true;
+      break;
+    }
+  }
+  if (!found) throw InputError(fmt::format("{}: empty CSV file (no header)", source_name));
+  header_line_ = line_;
+  sep_ = std::count(line.begin(), line.end(), ';') > std::count(line.begin(), line.end(), ',')
+             ? ';'
+             : ',';
+  if (!SplitCsv(line, sep_, header_)) {
+    throw InputError(fmt::format("{}:{}: unterminated quote in header", source_name, line_));
+  }
+}
+
+bool CsvLines::Next(std::vector<std::string>& cells) {
+  std::string line;
+  while (ReadLine(in_, line)) {
+    ++line_;
+    if (BlankOrComment(line)) continue;
+    unterminated_quote_ = !SplitCsv(line, sep_, cells);
+    return true;
+  }
+  return false;
+}
+
+}  // namespace aerovo

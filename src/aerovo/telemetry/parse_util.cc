@@ -1,0 +1,240 @@
+#include "aerovo/telemetry/parse_util.h"
+
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+
+#include <fmt/format.h>
+
+namespace aerovo::io_detail {
+
+std::string_view Trim(std::string_view s) {
+  std::size_t b = 0, e = s.size();
+  while (b < e && std::isspace(static_cast<unsigned char>(s[b]))) ++b;
+  while (e > b && std::isspace(static_cast<unsigned char>(s[e - 1]))) --e;
+  return s.substr(b, e - b);
+}
+
+std::string ToLower(std::string_view s) {
+  std::string r(s);
+  for (char& c : r) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return r;
+}
+
+std::optional<double> ParseDouble(std::string_view s) {
+  s = Trim(s);
+  if (s.empty() || s.size() > 64) return std::nullopt;
+  // strtod accepts "inf", "nan" and hex; outside data must be plain decimal.
+  for (char c : s) {
+    if (!(std::isdigit(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '+' ||
+          c == 'e' || c == 'E')) {
+      return std::nullopt;
+    }
+  }
+  char buf[65];
+  std::memcpy(buf, s.data(), s.size());
+  buf[s.size()] = '\0';
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(buf, &end);
+  if (end != buf + s.size() || errno == ERANGE || !std::isfinite(v)) return std::nullopt;
+  return v;
+}
+
+std::optional<long long> ParseInt(std::string_view s) {
+  s = Trim(s);
+  if (s.empty() || s.size() > 18) return std::nullopt;
+  std::size_t i = 0;
+  bool neg = false;
+  if (s[0] == '+' || s[0] == '-') {
+    neg = s[0] == '-';
+    i = 1;
+  }
+  if (i == s.size()) return std::nullopt;
+  long long v = 0;
+  for (; i < s.size(); ++i) {
+    if (!std::isdigit(static_cast<unsigned char>(s[i]))) return std::nullopt;
+    v = v * 10 + (s[i] - '0');
+  }
+  return neg ? -v : v;
+}
+
+long long DaysFromCivil(int y, int m, int d) {
+  y -= m <= 2;
+  const long long era = (y >= 0 ? y : y - 399) / 400;
+  const long long yoe = y - era * 400;
+  const long long doy = (153 * (m + (m > 2 ? -3 : 9)) + 2) / 5 + d - 1;
+  const long long doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+  return era * 146097 + doe - 719468;
+}
+
+namespace {
+
+// Reads exactly n digits at s[pos..]; advances pos.
+bool Digits(std::string_view s, std::size_t& pos, int n, int& out) {
+  if (pos + n > s.size()) return false;
+  int v = 0;
+  for (int i = 0; i < n; ++i) {
+    const char c = s[pos + i];
+    if (!std::isdigit(static_cast<unsigned char>(c))) return false;
+    v = v * 10 + (c - '0');
+  }
+  out = v;
+  pos += n;
+  return true;
+}
+
+bool Expect(std::string_view s, std::size_t& pos, std::string_view chars) {
+  if (pos < s.size() && chars.find(s[pos]) != std::string_view::npos) {
+    ++pos;
+    return true;
+  }
+  return false;
+}
+
+int DaysInMonth(int y, int m) {
+  static const int kDays[] = {31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
+  const bool leap = (y % 4 == 0 && y % 100 != 0) || y % 400 == 0;
+  return m == 2 && leap ? 29 : kDays[m - 1];
+}
+
+}  // namespace
+
+std::optional<double> ParseDateTime(std::string_view s) {
+  s = Trim(s);
+  std::size_t p = 0;
+  int y, mo, d, h, mi, sec;
+  if (!Digits(s, p, 4, y) || !Expect(s, p, "-:.") || !Digits(s, p, 2, mo) || !Expect(s, p, "-:.") ||
+      !Digits(s, p, 2, d) || !Expect(s, p, "T ") || !Digits(s, p, 2, h) || !Expect(s, p, ":") ||
+      !Digits(s, p, 2, mi) || !Expect(s, p, ":") || !Digits(s, p, 2, sec)) {
+    return std::nullopt;
+  }
+  if (mo < 1 || mo > 12 || d < 1 || d > DaysInMonth(y, mo) || h > 23 || mi > 59 || sec > 60) {
+    return std::nullopt;
+  }
+  double frac = 0.0;
+  if (p < s.size() && (s[p] == '.' || s[p] == ',')) {
+    // ".123456" (ISO) or ",123,456" (DJI SRT: milliseconds, then microseconds).
+    const bool dji = s[p] == ',';
+    ++p;
+    double scale = 0.1;
+    std::size_t n = 0;
+    while (p < s.size() &&
+           (std::isdigit(static_cast<unsigned char>(s[p])) || (dji && s[p] == ',' && n == 3))) {
+      if (s[p] != ',') {
+        frac += (s[p] - '0') * scale;
+        scale *= 0.1;
+        ++n;
+      }
+      ++p;
+    }
+    if (n == 0) return std::nullopt;
+  }
+  double offset_s = 0.0;
+  if (p < s.size()) {
+    if (s[p] == 'Z' || s[p] == 'z') {
+      ++p;
+    } else if (s[p] == '+' || s[p] == '-') {
+      const double sign = s[p] == '-' ? -1.0 : 1.0;
+      ++p;
+      int oh, om = 0;
+      if (!Digits(s, p, 2, oh)) return std::nullopt;
+      if (p < s.size()) {
+        Expect(s, p, ":");
+        if (!Digits(s, p, 2, om)) return std::nullopt;
+      }
+      if (oh > 23 || om > 59) return std::nullopt;
+      offset_s = sign * (oh * 3600.0 + om * 60.0);
+    }
+  }
+  if (p != s.size()) return std::nullopt;
+  const double days = static_cast<double>(DaysFromCivil(y, mo, d));
+  return days * 86400.0 + h * 3600.0 + mi * 60.0 + sec + frac - offset_s;
+}
+
+std::optional<double> ParseSrtClock(std::string_view s) {
+  s = Trim(s);
+  std::size_t p = 0;
+  int h, m, sec, ms;
+  if (!Digits(s, p, 2, h) || !Expect(s, p, ":") || !Digits(s, p, 2, m) || !Expect(s, p, ":") ||
+      !Digits(s, p, 2, sec) || !Expect(s, p, ",.") || !Digits(s, p, 3, ms) || p != s.size()) {
+    return std::nullopt;
+  }
+  if (m > 59 || sec > 59) return std::nullopt;
+  return h * 3600.0 + m * 60.0 + sec + ms / 1000.0;
+}
+
+std::string RecordErrors::At(long line) const { return fmt::format("{}:{}", source_, line); }
+
+void RecordErrors::Report(long line, const std::string& message) {
+  std::string full = fmt::format("{}:{}: {}", source_, line, message);
+  if (!options_.lenient) throw MalformedRecordError(full);
+  ++skipped_;
+  if (static_cast<int>(warnings_.size()) < options_.max_warnings) {
+    warnings_.push_back(std::move(full));
+  }
+}
+
+void RecordErrors::ReportMessage(const std::string& full_message) {
+  if (!options_.lenient) throw MalformedRecordError(full_message);
+  ++skipped_;
+  if (static_cast<int>(warnings_.size()) < options_.max_warnings) {
+    warnings_.push_back(full_message);
+  }
+}
+
+bool AcceptSample(const TelemetrySample& sample, long line, RecordErrors& errors) {
+  try {
+    ValidateSample(sample, errors.At(line));
+    return true;
+  } catch (const InputError& e) {
+    errors.ReportMessage(e.what());
+    return false;
+  }
+}
+
+std::ifstream OpenInput(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) {
+    throw InputError(fmt::format("cannot open '{}': no such file", path.string()));
+  }
+  if (std::filesystem::is_directory(path, ec)) {
+    throw InputError(fmt::format("cannot open '{}': is a directory", path.string()));
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    throw InputError(fmt::format("cannot open '{}': {}", path.string(), std::strerror(errno)));
+  }
+  return in;
+}
+
+TelemetryReadResult Finish(std::vector<TelemetrySample> samples, RecordErrors& errors,
+                           int no_fix_records, const char* what) {
+  if (samples.empty()) {
+    throw InputError(
+        fmt::format("{}: no telemetry samples in this {} ({} malformed, {} without "
+                    "GPS fix)",
+                    errors.source(), what, errors.skipped(), no_fix_records));
+  }
+  TelemetryReadResult r;
+  r.records = static_cast<int>(samples.size());
+  r.skipped_records = errors.skipped();
+  r.no_fix_records = no_fix_records;
+  r.warnings = std::move(errors.warnings());
+  r.telemetry = Telemetry(std::move(samples), errors.source());
+  return r;
+}
+
+}  // namespace aerovo::io_detail
+
+namespace aerovo {
+
+void Validate(const TelemetryReadOptions& options) {
+  if (options.max_warnings < 0) {
+    throw InvalidArgument("TelemetryReadOptions.max_warnings must be >= 0");
+  }
+}
+
+}  // namespace aerovo

@@ -1,0 +1,108 @@
+// Readers of flight telemetry files: DJI .SRT subtitles, GPX tracks and CSV tables.
+//
+// Every reader is a pure parsing function over a std::istream (`source_name` is used only in
+// messages) plus a wrapper that opens a file. Errors are InputError with the message
+// "<source>:<line>: <problem>", e.g. "flight.srt:42: latitude 123.4 out of range [-90, 90]".
+//
+// Malformed records (a line that cannot be parsed, a record missing latitude or longitude, a
+// value out of range, a timestamp earlier than the previous record's):
+//  - strict (default, TelemetryReadOptions::lenient = false): the first one throws InputError;
+//  - lenient: the record is skipped, counted in TelemetryReadResult::skipped_records, and its
+//    message kept in `warnings` (the first max_warnings of them).
+// In both modes a file with no valid record at all throws InputError ("no telemetry samples").
+// Records that say "no GPS fix" (DJI writes latitude 0 and longitude 0 before the fix) are
+// dropped in both modes and counted in no_fix_records: they are not damage.
+#pragma once
+
+#include <filesystem>
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+#include "aerovo/core/error.h"
+#include "aerovo/telemetry/telemetry.h"
+
+namespace aerovo {
+
+/// The InputError of a malformed record (unreadable number, missing field, value out of range)
+/// in strict mode: exactly what TelemetryReadOptions::lenient would have skipped. Other input
+/// errors (no such file, not a GPX file, bad CSV header, no record at all) are plain InputError.
+class MalformedRecordError : public InputError {
+ public:
+  using InputError::InputError;
+};
+
+struct TelemetryReadOptions {
+  /// false: the first malformed record throws MalformedRecordError; true: skip and count it.
+  bool lenient = false;
+  /// Messages of skipped records kept in TelemetryReadResult::warnings (the count is exact).
+  int max_warnings = 20;
+};
+
+/// Throws InvalidArgument when max_warnings < 0.
+void Validate(const TelemetryReadOptions& options);
+
+struct TelemetryReadResult {
+  Telemetry telemetry;                ///< Sorted by time; time_s = 0 at the first record.
+  int records = 0;                    ///< Records accepted (== telemetry.size()).
+  int skipped_records = 0;            ///< Malformed records skipped (lenient mode only).
+  int no_fix_records = 0;             ///< Records with latitude = longitude = 0 (no GPS fix).
+  std::vector<std::string> warnings;  ///< "<source>:<line>: <problem>" of skipped records.
+};
+
+/// DJI .SRT subtitles. Each subtitle block is: a number line, a timing line
+/// "HH:MM:SS,mmm --> HH:MM:SS,mmm" and text lines. Understood text (HTML tags such as <font>
+/// are removed first):
+///  - bracketed fields (Mavic Air 2 / Mini / Mavic 3 style):
+///    "[latitude: 43.5367] [longitude: 6.5567] [rel_alt: 100.000 abs_alt: 350.123]",
+///    also "[longtitude : ...]" (Mavic Pro's misspelling), "[altitude: ...]" (= abs_alt),
+///    "[focal_len : 240]" (35 mm equivalent: an integer >= 100 is in tenths of mm, 240 = 24 mm;
+///    a value with decimals is in mm, 24.00 = 24 mm),
+///    "[gb_yaw: .. gb_pitch: .. gb_roll: ..]" (gimbal angles);
+///  - "FrameCnt: 12, DiffTime: 33ms" or "SrtCnt : 12, ..." (frame counter, 1-based);
+///  - a date line "2023-05-01 12:00:00,123,456" / "2023-05-01 12:00:00.123";
+///  - the older Phantom format: "GPS(6.5567,43.5367,19)" / "GPS (6.5567, 43.5367, 19)" with
+///    longitude FIRST, "BAROMETER:100.5" (height above take-off, m), "HOME(lon,lat) date", and
+///    the Mavic 2 "H 19.30m" height. The third GPS value is ignored: depending on the model it
+///    is a satellite count or a rounded altitude.
+/// time_s = the block's start time (video time). frame_index = counter - 1 (0-based video
+/// frame) when the block has FrameCnt/SrtCnt; unset otherwise (old formats write one subtitle
+/// per second, not per frame: match those by time).
+TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name,
+                                const TelemetryReadOptions& options = {});
+TelemetryReadResult ReadDjiSrt(const std::filesystem::path& path,
+                               const TelemetryReadOptions& options = {});
+
+/// GPX 1.0/1.1 track points (<trkpt lat=".." lon=".."> with optional <ele> -> abs_alt_m and
+/// <time> ISO 8601 -> unix_time_s). Route points (<rtept>) are read when there is no <trkpt>.
+/// Every point needs a <time> (time_s = seconds since the first point) unless no point has
+/// one, in which case time_s = the point's rank and a warning says so. Line numbers in errors
+/// are those of the <trkpt> element. XML syntax errors throw in both modes.
+TelemetryReadResult ParseGpx(std::istream& in, const std::string& source_name,
+                             const TelemetryReadOptions& options = {});
+TelemetryReadResult ReadGpx(const std::filesystem::path& path,
+                            const TelemetryReadOptions& options = {});
+
+/// CSV with a header row naming the columns, separated by ',' or ';' (whichever the header
+/// has more of; '"' quoting allowed). Column names are case-insensitive; aliases:
+///   latitude: lat, latitude, lat_deg     longitude: lon, lng, long, longitude, lon_deg
+///   abs_alt_m: alt, altitude, abs_alt, abs_alt_m, ele, elevation
+///   rel_alt_m: rel_alt, rel_alt_m, height, relative_altitude, height_m
+///   time: time, t, timestamp, time_s  (seconds as a number, or an ISO 8601 date)
+///   frame: frame, frame_index, frame_idx
+///   yaw: yaw, heading, yaw_deg, flight_yaw; pitch, roll; gimbal_yaw, gimbal_pitch, gimbal_roll
+///   focal_length_mm: focal_length, focal_mm; focal_length_35mm_mm: focal_35mm, focal35
+/// Latitude and longitude columns are required, and a time or a frame column. Without a time
+/// column time_s = frame index. Empty cells leave optional fields unset. Blank lines and lines
+/// starting with '#' are ignored.
+TelemetryReadResult ParseTelemetryCsv(std::istream& in, const std::string& source_name,
+                                      const TelemetryReadOptions& options = {});
+TelemetryReadResult ReadTelemetryCsv(const std::filesystem::path& path,
+                                     const TelemetryReadOptions& options = {});
+
+/// Picks the reader by extension (case-insensitive): .srt, .gpx, .csv/.txt. Throws InputError
+/// for a missing/unreadable file or an unknown extension.
+TelemetryReadResult ReadTelemetryFile(const std::filesystem::path& path,
+                                      const TelemetryReadOptions& options = {});
+
+}  // namespace aerovo
