@@ -106,6 +106,37 @@ std::vector<std::pair<Frame, Frame>> ReadPairs(const RunConfig& config, double* 
   return pairs;
 }
 
+// The matches `m` of features `a` (previous frame) and `b` as the estimator's pair: at most
+// kLensPrepassMaxMatches, by an even stride over the matches.
+LensPair LensPairOf(const FeatureSet& a, const FeatureSet& b, const MatchResult& m) {
+  const std::size_t n = m.matches.size();
+  const std::size_t kept = std::min<std::size_t>(n, kLensPrepassMaxMatches);
+  LensPair pair;
+  pair.prev_px.resize(2, static_cast<Eigen::Index>(kept));
+  pair.curr_px.resize(2, static_cast<Eigen::Index>(kept));
+  for (std::size_t i = 0; i < kept; ++i) {
+    const Match& match = m.matches[i * n / kept];
+    const Keypoint& p = a.keypoints[match.prev_index];
+    const Keypoint& c = b.keypoints[match.curr_index];
+    pair.prev_px.col(static_cast<Eigen::Index>(i)) = Eigen::Vector2d(p.x, p.y);
+    pair.curr_px.col(static_cast<Eigen::Index>(i)) = Eigen::Vector2d(c.x, c.y);
+  }
+  return pair;
+}
+
+// The camera of w x h frames with focal length focal_px and the estimate's one coefficient.
+CameraIntrinsics LensOf(const LensEstimate& e, double focal_px, int w, int h) {
+  CameraIntrinsics lens = IntrinsicsFromFocalPx(focal_px, w, h);
+  if (e.family == RadialFamily::kFisheyeK1) {
+    lens.model = LensModel::kFisheye;
+    lens.distortion = {e.k, 0.0, 0.0, 0.0};
+  } else {
+    lens.model = LensModel::kPinhole;
+    lens.distortion = {e.k, 0.0, 0.0, 0.0, 0.0};
+  }
+  return lens;
+}
+
 }  // namespace
 
 LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_px) {
@@ -118,7 +149,7 @@ LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_p
   try {
     frames = ReadPairs(config, &out.read_ms, &out.why);
   } catch (const InputError& e) {
-    out.status = "failed";
+    out.status = LensPrepassStatus::kFailed;
     out.why = std::string("reading the frame pairs: ") + e.what();
     out.total_ms = total.elapsed_ms();
     return out;
@@ -142,24 +173,10 @@ LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_p
     for (const auto& [prev, curr] : frames) {
       const FeatureSet a = features(prev);
       const FeatureSet b = features(curr);
-      const MatchResult m = matcher.Match(a, b);
-      // At most kLensPrepassMaxMatches, by an even stride over the matches.
-      const std::size_t n = m.matches.size();
-      const std::size_t kept = std::min<std::size_t>(n, kLensPrepassMaxMatches);
-      LensPair pair;
-      pair.prev_px.resize(2, static_cast<Eigen::Index>(kept));
-      pair.curr_px.resize(2, static_cast<Eigen::Index>(kept));
-      for (std::size_t i = 0; i < kept; ++i) {
-        const Match& match = m.matches[i * n / kept];
-        const Keypoint& p = a.keypoints[match.prev_index];
-        const Keypoint& c = b.keypoints[match.curr_index];
-        pair.prev_px.col(static_cast<Eigen::Index>(i)) = Eigen::Vector2d(p.x, p.y);
-        pair.curr_px.col(static_cast<Eigen::Index>(i)) = Eigen::Vector2d(c.x, c.y);
-      }
-      pairs.push_back(std::move(pair));
+      pairs.push_back(LensPairOf(a, b, matcher.Match(a, b)));
     }
   } catch (const InputError& e) {
-    out.status = "failed";
+    out.status = LensPrepassStatus::kFailed;
     out.why = std::string("matching the frame pairs: ") + e.what();
     out.total_ms = total.elapsed_ms();
     return out;
@@ -182,29 +199,21 @@ LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_p
   const LensEstimate& e = *out.estimate;
   out.why = read_note.empty() ? e.why : read_note + "; " + e.why;
   if (!e.valid) {
-    out.status = "no estimate";
+    out.status = LensPrepassStatus::kNoEstimate;
   } else if (!e.significant) {
-    out.status = "not significant";
+    out.status = LensPrepassStatus::kNotSignificant;
   } else {
-    out.status = "applied";
+    out.status = LensPrepassStatus::kApplied;
     out.applied = true;
-    CameraIntrinsics lens = IntrinsicsFromFocalPx(focal_px, w, h);
-    if (e.family == RadialFamily::kFisheyeK1) {
-      lens.model = LensModel::kFisheye;
-      lens.distortion = {e.k, 0.0, 0.0, 0.0};
-    } else {
-      lens.model = LensModel::kPinhole;
-      lens.distortion = {e.k, 0.0, 0.0, 0.0, 0.0};
-    }
-    out.lens = lens;
+    out.lens = LensOf(e, focal_px, w, h);
   }
   out.total_ms = total.elapsed_ms();
   return out;
 }
 
 nlohmann::json ToJson(const LensPrepass& p) {
-  nlohmann::json j{{"status", p.status}, {"applied", p.applied}, {"why", p.why}};
-  if (p.status == "skipped") return j;
+  nlohmann::json j{{"status", ToString(p.status)}, {"applied", p.applied}, {"why", p.why}};
+  if (p.status == LensPrepassStatus::kSkipped) return j;
   j["pairs_read"] = p.pairs_read;
   j["frame_width_px"] = p.width_px;
   j["frame_height_px"] = p.height_px;
