@@ -96,6 +96,43 @@ std::string EndPoint(const RunSummary& s) {
   return fmt::format("{:.2f} m ({:.3f} %)", e.end_point_error_m, e.end_point_error_percent);
 }
 
+// Step 3 of RunDemo: the illumination and RANSAC experiments on the run's configuration
+// `base`, each skipped once `stop` is set; their results and stage times into `r`.
+void RunDemoExperiments(const DemoOptions& options, const RunConfig& base,
+                        const DemoCallbacks& cb, const std::atomic<bool>* stop, DemoResult& r) {
+  const auto stopped = [&] { return stop != nullptr && stop->load(); };
+  const auto start = [&](const char* stage, const std::string& what) {
+    if (cb.stage_started) cb.stage_started(stage, what);
+  };
+  Stopwatch clock;
+  ExperimentInput in;
+  in.run = base;
+  ExperimentCallbacks ecb;
+  ecb.progress = [&](int done, int total, double) {
+    if (cb.progress) cb.progress(done, total);
+  };
+  if (!stopped()) {
+    clock.restart();
+    in.out_dir = r.out_dir / "illumination";
+    std::string ks;
+    for (double k : options.illumination.k) ks += (ks.empty() ? "" : ", ") + fmt::format("{}", k);
+    start("illumination", fmt::format("k = {} -> {}", ks, in.out_dir.string()));
+    r.illumination = RunIlluminationExperiment(in, options.illumination, ecb, stop);
+    r.stages.push_back({"illumination", clock.elapsed_ms() / 1000.0});
+  }
+  if (!stopped()) {
+    clock.restart();
+    in.out_dir = r.out_dir / "ransac";
+    if (options.ransac_unguided) in.run.odometry.correspondence.guided_matching = false;
+    start("ransac",
+          fmt::format("standard, clustered{} -> {}",
+                      options.ransac_unguided ? " (unguided matching, as the paper)" : "",
+                      in.out_dir.string()));
+    r.ransac = RunRansacExperiment(in, ecb, stop);
+    r.stages.push_back({"ransac", clock.elapsed_ms() / 1000.0});
+  }
+}
+
 }  // namespace
 
 DemoResult RunDemo(const DemoOptions& options, const DemoCallbacks& cb,
@@ -142,32 +179,7 @@ DemoResult RunDemo(const DemoOptions& options, const DemoCallbacks& cb,
   }
 
   // 3. The experiments on the same flight.
-  if (options.experiments) {
-    ExperimentInput in;
-    in.run = base;
-    ExperimentCallbacks ecb;
-    ecb.progress = [&](int done, int total, double) { progress(done, total); };
-    if (!stopped()) {
-      clock.restart();
-      in.out_dir = r.out_dir / "illumination";
-      std::string ks;
-      for (double k : options.illumination.k) ks += (ks.empty() ? "" : ", ") + fmt::format("{}", k);
-      start("illumination", fmt::format("k = {} -> {}", ks, in.out_dir.string()));
-      r.illumination = RunIlluminationExperiment(in, options.illumination, ecb, stop);
-      r.stages.push_back({"illumination", clock.elapsed_ms() / 1000.0});
-    }
-    if (!stopped()) {
-      clock.restart();
-      in.out_dir = r.out_dir / "ransac";
-      if (options.ransac_unguided) in.run.odometry.correspondence.guided_matching = false;
-      start("ransac",
-            fmt::format("standard, clustered{} -> {}",
-                        options.ransac_unguided ? " (unguided matching, as the paper)" : "",
-                        in.out_dir.string()));
-      r.ransac = RunRansacExperiment(in, ecb, stop);
-      r.stages.push_back({"ransac", clock.elapsed_ms() / 1000.0});
-    }
-  }
+  if (options.experiments) RunDemoExperiments(options, base, cb, stop, r);
 
   // 4. The HTML reports of what finished (a failure is a note: the outputs are complete).
   if (options.report && !stopped()) {

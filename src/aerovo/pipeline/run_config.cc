@@ -307,6 +307,60 @@ class YamlReader {
     if (anchor != nullptr) anchors_[Str(anchor)] = value;
   }
 
+  // The mapping starting at `ev` (its keys in order; merge keys << applied after them).
+  nlohmann::json Mapping(Event& ev, bool top) {
+    const std::string anchor = Str(ev.e.data.mapping_start.anchor);
+    nlohmann::json obj = nlohmann::json::object();
+    std::vector<nlohmann::json> merges;
+    for (;;) {
+      Event k = Next();
+      if (k.e.type == YAML_MAPPING_END_EVENT) break;
+      if (k.e.type != YAML_SCALAR_EVENT) throw Error(k, "a key must be a plain scalar");
+      const std::string key(reinterpret_cast<const char*>(k.e.data.scalar.value),
+                            k.e.data.scalar.length);
+      const bool is_merge = key == "<<" && k.e.data.scalar.style == YAML_PLAIN_SCALAR_STYLE;
+      const int line = static_cast<int>(k.e.start_mark.line) + 1;
+      Event v = Next();
+      const bool anchored_mapping =
+          v.e.type == YAML_MAPPING_START_EVENT && v.e.data.mapping_start.anchor != nullptr;
+      const std::string value_anchor =
+          anchored_mapping ? Str(v.e.data.mapping_start.anchor) : std::string();
+      nlohmann::json value = Node(v, false, is_merge);
+      if (is_merge) {
+        const auto check = [&](const nlohmann::json& m) {
+          if (!m.is_object()) {
+            throw InputError(fmt::format("{}: line {}: a merge key << takes a mapping or a "
+                                         "list of mappings",
+                                         where_, line));
+          }
+        };
+        if (value.is_array()) {
+          for (const auto& m : value) check(m), merges.push_back(m);
+        } else {
+          check(value);
+          merges.push_back(value);
+        }
+        continue;
+      }
+      if (obj.contains(key)) {
+        throw InputError(fmt::format("{}: line {}: key '{}' is given twice", where_, line, key));
+      }
+      obj[key] = std::move(value);
+      if (top) {
+        top_lines_[key] = line;
+        if (anchored_mapping) top_anchors_[key] = value_anchor;
+      }
+    }
+    // Explicit keys win over merged ones; among merged mappings the first wins.
+    for (const nlohmann::json& m : merges) {
+      for (auto it = m.begin(); it != m.end(); ++it) {
+        if (!obj.contains(it.key())) obj[it.key()] = *it;
+      }
+    }
+    if (!anchor.empty()) anchors_[anchor] = obj;
+    return obj;
+  }
+
   // The value starting at `ev` (a scalar, an alias, a mapping or a sequence start).
   nlohmann::json Node(Event& ev, bool top = false, bool merge_value = false) {
     switch (ev.e.type) {
@@ -336,58 +390,8 @@ class YamlReader {
         if (!anchor.empty()) anchors_[anchor] = arr;
         return arr;
       }
-      case YAML_MAPPING_START_EVENT: {
-        const std::string anchor = Str(ev.e.data.mapping_start.anchor);
-        nlohmann::json obj = nlohmann::json::object();
-        std::vector<nlohmann::json> merges;
-        for (;;) {
-          Event k = Next();
-          if (k.e.type == YAML_MAPPING_END_EVENT) break;
-          if (k.e.type != YAML_SCALAR_EVENT) throw Error(k, "a key must be a plain scalar");
-          const std::string key(reinterpret_cast<const char*>(k.e.data.scalar.value),
-                                k.e.data.scalar.length);
-          const bool is_merge = key == "<<" && k.e.data.scalar.style == YAML_PLAIN_SCALAR_STYLE;
-          const int line = static_cast<int>(k.e.start_mark.line) + 1;
-          Event v = Next();
-          const bool anchored_mapping =
-              v.e.type == YAML_MAPPING_START_EVENT && v.e.data.mapping_start.anchor != nullptr;
-          const std::string value_anchor =
-              anchored_mapping ? Str(v.e.data.mapping_start.anchor) : std::string();
-          nlohmann::json value = Node(v, false, is_merge);
-          if (is_merge) {
-            const auto check = [&](const nlohmann::json& m) {
-              if (!m.is_object()) {
-                throw InputError(fmt::format("{}: line {}: a merge key << takes a mapping or a "
-                                             "list of mappings",
-                                             where_, line));
-              }
-            };
-            if (value.is_array()) {
-              for (const auto& m : value) check(m), merges.push_back(m);
-            } else {
-              check(value);
-              merges.push_back(value);
-            }
-            continue;
-          }
-          if (obj.contains(key)) {
-            throw InputError(fmt::format("{}: line {}: key '{}' is given twice", where_, line, key));
-          }
-          obj[key] = std::move(value);
-          if (top) {
-            top_lines_[key] = line;
-            if (anchored_mapping) top_anchors_[key] = value_anchor;
-          }
-        }
-        // Explicit keys win over merged ones; among merged mappings the first wins.
-        for (const nlohmann::json& m : merges) {
-          for (auto it = m.begin(); it != m.end(); ++it) {
-            if (!obj.contains(it.key())) obj[it.key()] = *it;
-          }
-        }
-        if (!anchor.empty()) anchors_[anchor] = obj;
-        return obj;
-      }
+      case YAML_MAPPING_START_EVENT:
+        return Mapping(ev, top);
       default:
         throw Error(ev, "unexpected YAML event");
     }
