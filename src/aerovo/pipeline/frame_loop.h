@@ -1,4 +1,4 @@
-// The per-frame loop of `aerovo run` (step 5 of run_steps.h): frames are read (FrameReader:
+// The per-frame loop of `aerovo run` (step 5 of run_steps.h): frames are read (ReadFrame:
 // decoding, telemetry fix), the run is set up from the first one (SetUpRun: camera, reduction,
 // lens, odometry, outputs), then each frame goes through the stages (MakeStages) and is handed
 // to the sinks (MakeSinks). Types: pipeline/frame_state.h. Adding a stage or a sink: one file

@@ -45,7 +45,7 @@ enum class FixCheck {
 /// One frame on its way through the stages. The loop clears it (but for the decoding buffer)
 /// before each frame; each stage fills in its part, in the order of MakeStages.
 struct FrameState {
-  // Read (FrameReader): the frame as the source delivered it and its telemetry fix.
+  // Read (ReadFrame): the frame as the source delivered it and its telemetry fix.
   Frame frame;
   bool delivered = false;       ///< `frame` is this iteration's (else a decoding failed).
   double capture_mono_s = 0.0;  ///< When the source delivered it, mavlink::MonotonicNowS, s.
