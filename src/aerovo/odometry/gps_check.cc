@@ -103,4 +103,16 @@ GpsFixVerdict GpsFixChecker::Check(int frame_index, double time_s, const GeoPoin
   return v;
 }
 
+double GpsFixChecker::PlausibleRelAlt(double time_s, double rel_alt_m,
+                                      std::optional<double> last_height_m) {
+  if (options_.enabled && last_height_m && last_rel_alt_time_s_ &&
+      std::abs(rel_alt_m - *last_height_m) >
+          options_.tolerance_m +
+              options_.max_vertical_speed_mps * std::max(time_s - *last_rel_alt_time_s_, 1e-3)) {
+    return *last_height_m;
+  }
+  if (rel_alt_m > 0.0) last_rel_alt_time_s_ = time_s;
+  return rel_alt_m;
+}
+
 }  // namespace aerovo

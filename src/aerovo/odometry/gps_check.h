@@ -96,6 +96,16 @@ class GpsFixChecker {
                       std::optional<double> rel_alt_m, const Eigen::Vector2d& local_m,
                       int unmeasured_frames);
 
+  /// The relative altitude (metres) to take for the height above ground of the frame at
+  /// `time_s` (seconds, the frames' clock) whose telemetry gives `rel_alt_m`: `rel_alt_m`, or
+  /// `last_height_m` (the height used for the frame before, metres) when the check is enabled
+  /// and the change since the last plausible relative altitude exceeds tolerance_m +
+  /// max_vertical_speed_mps x the time since it (at least 1 ms): such a jump would scale the
+  /// visual odometry's step (the fix itself is judged by Check). A plausible positive
+  /// `rel_alt_m` becomes the last plausible one. One call per frame with a relative altitude, in
+  /// frame order.
+  double PlausibleRelAlt(double time_s, double rel_alt_m, std::optional<double> last_height_m);
+
   const GpsCheckOptions& options() const { return options_; }
 
  private:
@@ -117,6 +127,7 @@ class GpsFixChecker {
   std::optional<Fix> anchor_;
   std::vector<int> anchor_chain_;  // frames of the accepted chain (since the last switch)
   std::vector<Fix> challenger_;    // consecutive mutually consistent rejected fixes
+  std::optional<double> last_rel_alt_time_s_;  // frame time of the last plausible rel. altitude
 };
 
 }  // namespace aerovo

@@ -130,6 +130,22 @@ TEST(GpsFixChecker, DisabledAcceptsEverything) {
   EXPECT_TRUE(Rejected(r).empty());
 }
 
+// The height's relative altitude: a jump beyond tolerance_m + max_vertical_speed_mps x dt keeps
+// the height used before, and does not move the time of the last plausible altitude.
+TEST(GpsFixChecker, ImplausibleRelativeAltitudeKeepsTheLastHeight) {
+  GpsFixChecker c;  // 15 m/s, 10 m
+  EXPECT_DOUBLE_EQ(c.PlausibleRelAlt(0.0, 50.0, std::nullopt), 50.0);
+  EXPECT_DOUBLE_EQ(c.PlausibleRelAlt(1.0, 70.0, 50.0), 70.0);     // 20 m in 1 s <= 25 m
+  EXPECT_DOUBLE_EQ(c.PlausibleRelAlt(2.0, 150.0, 70.0), 70.0);    // 80 m in 1 s > 25 m
+  EXPECT_DOUBLE_EQ(c.PlausibleRelAlt(3.0, 110.0, 70.0), 110.0);   // 40 m in 2 s <= 40 m
+  EXPECT_DOUBLE_EQ(c.PlausibleRelAlt(3.0005, 121.0, 110.0), 110.0);  // 11 m in 0.5 ms > 10 m
+  GpsCheckOptions off;
+  off.enabled = false;
+  GpsFixChecker d(off);
+  EXPECT_DOUBLE_EQ(d.PlausibleRelAlt(0.0, 50.0, std::nullopt), 50.0);
+  EXPECT_DOUBLE_EQ(d.PlausibleRelAlt(1.0, 500.0, 50.0), 500.0);
+}
+
 TEST(GpsFixChecker, BadOptionsAreRejected) {
   GpsCheckOptions o;
   o.max_speed_mps = 0.0;

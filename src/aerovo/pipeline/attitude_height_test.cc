@@ -124,14 +124,14 @@ TEST(CameraAttitude, FromTheGimbalTheAircraftTheAutopilotOrTheMount) {
   s.roll_deg = 4.0;
   FrameAttitude a = CameraAttitudeOf(c, s, std::nullopt);
   ASSERT_TRUE(a.camera.has_value());
-  EXPECT_EQ(a.source, "gimbal");
+  EXPECT_EQ(a.source, AttitudeSource::kGimbal);
   EXPECT_NEAR(a.camera->pitch_deg, 15.0, 1e-12);
   EXPECT_NEAR(a.camera->roll_deg, 2.0, 1e-12);
   // A camera fixed under the aircraft: the aircraft's angles.
   s.gimbal_pitch_deg.reset();
   s.gimbal_roll_deg.reset();
   a = CameraAttitudeOf(c, s, std::nullopt);
-  EXPECT_EQ(a.source, "flight");
+  EXPECT_EQ(a.source, AttitudeSource::kFlight);
   EXPECT_NEAR(a.camera->pitch_deg, -8.0, 1e-9);
   EXPECT_NEAR(a.camera->roll_deg, 4.0, 1e-9);
   // The autopilot's ATTITUDE over MAVLink wins over the telemetry file's aircraft angles.
@@ -139,13 +139,13 @@ TEST(CameraAttitude, FromTheGimbalTheAircraftTheAutopilotOrTheMount) {
   link.roll_rad = 3.0 * M_PI / 180.0;
   link.pitch_rad = 5.0 * M_PI / 180.0;
   a = CameraAttitudeOf(c, s, link);
-  EXPECT_EQ(a.source, "mavlink");
+  EXPECT_EQ(a.source, AttitudeSource::kMavlink);
   EXPECT_NEAR(a.camera->pitch_deg, 5.0, 1e-9);
   EXPECT_NEAR(a.camera->roll_deg, 3.0, 1e-9);
   // A mount tilt adds to a level aircraft's pitch.
   c.camera_mount_pitch_deg = 20.0;
   a = CameraAttitudeOf(c, Sample(80.0, std::nullopt), std::nullopt);
-  EXPECT_EQ(a.source, "mount");
+  EXPECT_EQ(a.source, AttitudeSource::kMount);
   EXPECT_NEAR(a.camera->pitch_deg, 20.0, 1e-9);
   link.roll_rad = 0.0;
   a = CameraAttitudeOf(c, std::nullopt, link);

@@ -96,74 +96,41 @@ std::string EndPoint(const RunSummary& s) {
   return fmt::format("{:.2f} m ({:.3f} %)", e.end_point_error_m, e.end_point_error_percent);
 }
 
-// The callbacks and stop flag of RunDemo, as its stages use them.
-class DemoControl {
- public:
-  DemoControl(const DemoCallbacks& cb, const std::atomic<bool>* stop) : cb_(cb), stop_(stop) {}
-  bool stopped() const { return stop_ != nullptr && stop_->load(); }
-  void start(const char* stage, const std::string& what) const {
-    if (cb_.stage_started) cb_.stage_started(stage, what);
-  }
-  void progress(int done, int total) const {
-    if (cb_.progress) cb_.progress(done, total);
-  }
-  const std::atomic<bool>* stop() const { return stop_; }
-
- private:
-  const DemoCallbacks& cb_;
-  const std::atomic<bool>* stop_;
-};
-
-// Step 3 of RunDemo: the illumination and RANSAC experiments on the flight of `base` (each
-// unless stopped before it starts), into r->out_dir's illumination/ and ransac/.
-void RunDemoExperiments(const DemoOptions& options, const RunConfig& base, const DemoControl& ctl,
-                        DemoResult* r) {
+// Step 3 of RunDemo: the illumination and RANSAC experiments on the run's configuration
+// `base`, each skipped once `stop` is set; their results and stage times into `r`.
+void RunDemoExperiments(const DemoOptions& options, const RunConfig& base,
+                        const DemoCallbacks& cb, const std::atomic<bool>* stop, DemoResult& r) {
+  const auto stopped = [&] { return stop != nullptr && stop->load(); };
+  const auto start = [&](const char* stage, const std::string& what) {
+    if (cb.stage_started) cb.stage_started(stage, what);
+  };
+  Stopwatch clock;
   ExperimentInput in;
   in.run = base;
   ExperimentCallbacks ecb;
-  ecb.progress = [&](int done, int total, double) { ctl.progress(done, total); };
-  if (!ctl.stopped()) {
-    Stopwatch clock;
-    in.out_dir = r->out_dir / "illumination";
+  ecb.progress = [&](int done, int total, double) {
+    if (cb.progress) cb.progress(done, total);
+  };
+  if (!stopped()) {
+    clock.restart();
+    in.out_dir = r.out_dir / "illumination";
     std::string ks;
     for (double k : options.illumination.k) ks += (ks.empty() ? "" : ", ") + fmt::format("{}", k);
-    ctl.start("illumination", fmt::format("k = {} -> {}", ks, in.out_dir.string()));
-    r->illumination = RunIlluminationExperiment(in, options.illumination, ecb, ctl.stop());
-    r->stages.push_back({"illumination", clock.elapsed_ms() / 1000.0});
+    start("illumination", fmt::format("k = {} -> {}", ks, in.out_dir.string()));
+    r.illumination = RunIlluminationExperiment(in, options.illumination, ecb, stop);
+    r.stages.push_back({"illumination", clock.elapsed_ms() / 1000.0});
   }
-  if (!ctl.stopped()) {
-    Stopwatch clock;
-    in.out_dir = r->out_dir / "ransac";
+  if (!stopped()) {
+    clock.restart();
+    in.out_dir = r.out_dir / "ransac";
     if (options.ransac_unguided) in.run.odometry.correspondence.guided_matching = false;
-    ctl.start("ransac",
-              fmt::format("standard, clustered{} -> {}",
-                          options.ransac_unguided ? " (unguided matching, as the paper)" : "",
-                          in.out_dir.string()));
-    r->ransac = RunRansacExperiment(in, ecb, ctl.stop());
-    r->stages.push_back({"ransac", clock.elapsed_ms() / 1000.0});
+    start("ransac",
+          fmt::format("standard, clustered{} -> {}",
+                      options.ransac_unguided ? " (unguided matching, as the paper)" : "",
+                      in.out_dir.string()));
+    r.ransac = RunRansacExperiment(in, ecb, stop);
+    r.stages.push_back({"ransac", clock.elapsed_ms() / 1000.0});
   }
-}
-
-// Step 4 of RunDemo: the HTML reports of the folders that finished (a failure is a note in
-// r->notes: the outputs are complete).
-void WriteDemoReports(const DemoControl& ctl, DemoResult* r) {
-  namespace fs = std::filesystem;
-  Stopwatch clock;
-  ctl.start("report",
-            "HTML reports -> " + (r->out_dir / "{run,illumination,ransac}/report.html").string());
-  for (const char* dir : {"run", "illumination", "ransac"}) {
-    const fs::path d = r->out_dir / dir;
-    if (!fs::exists(d / "summary.json") && !fs::exists(d / ReportFileNames::kExperimentJson)) {
-      continue;
-    }
-    try {
-      const ReportResult rep = WriteReport(d);
-      for (const std::string& n : rep.notes) r->notes.push_back(std::string(dir) + ": " + n);
-    } catch (const std::exception& e) {
-      r->notes.push_back(fmt::format("no report for {}: {}", d.string(), e.what()));
-    }
-  }
-  r->stages.push_back({"report", clock.elapsed_ms() / 1000.0});
 }
 
 }  // namespace
@@ -180,13 +147,18 @@ DemoResult RunDemo(const DemoOptions& options, const DemoCallbacks& cb,
   std::error_code ec;
   fs::create_directories(r.out_dir, ec);
   if (ec) throw InputError("cannot create '" + r.out_dir.string() + "': " + ec.message());
-  const DemoControl ctl(cb, stop);
+  const auto stopped = [&] { return stop != nullptr && stop->load(); };
+  const auto start = [&](const char* stage, const std::string& what) {
+    if (cb.stage_started) cb.stage_started(stage, what);
+  };
+  const auto progress = [&](int done, int total) {
+    if (cb.progress) cb.progress(done, total);
+  };
 
   // 1. The flight.
   Stopwatch clock;
-  ctl.start("simulate", "flight over the built-in terrain -> " + (r.out_dir / "sim").string());
-  r.flight = SimulateExperimentFlight(options.flight, r.out_dir / "sim",
-                                      [&](int done, int total) { ctl.progress(done, total); });
+  start("simulate", "flight over the built-in terrain -> " + (r.out_dir / "sim").string());
+  r.flight = SimulateExperimentFlight(options.flight, r.out_dir / "sim", progress);
   r.stages.push_back({"simulate", clock.elapsed_ms() / 1000.0});
   for (const std::string& m : r.flight.messages) r.notes.push_back(m);
 
@@ -195,24 +167,41 @@ DemoResult RunDemo(const DemoOptions& options, const DemoCallbacks& cb,
   base.odometry.surf.num_threads = options.threads;
   base.odometry.correspondence.match.num_threads = options.threads;
   base.quiet = true;
-  if (!ctl.stopped()) {
+  if (!stopped()) {
     clock.restart();
     RunConfig run = base;
     run.out = (r.out_dir / "run").string();
-    ctl.start("run", "visual odometry (clustered RANSAC) -> " + run.out);
+    start("run", "visual odometry (clustered RANSAC) -> " + run.out);
     RunCallbacks rcb;
-    rcb.progress = [&](int done, int total, double) { ctl.progress(done, total); };
+    rcb.progress = [&](int done, int total, double) { progress(done, total); };
     r.run = RunFlight(run, rcb, stop);
     r.stages.push_back({"run", clock.elapsed_ms() / 1000.0});
   }
 
   // 3. The experiments on the same flight.
-  if (options.experiments) RunDemoExperiments(options, base, ctl, &r);
+  if (options.experiments) RunDemoExperiments(options, base, cb, stop, r);
 
   // 4. The HTML reports of what finished (a failure is a note: the outputs are complete).
-  if (options.report && !ctl.stopped()) WriteDemoReports(ctl, &r);
+  if (options.report && !stopped()) {
+    clock.restart();
+    start("report",
+          "HTML reports -> " + (r.out_dir / "{run,illumination,ransac}/report.html").string());
+    for (const char* dir : {"run", "illumination", "ransac"}) {
+      const fs::path d = r.out_dir / dir;
+      if (!fs::exists(d / "summary.json") && !fs::exists(d / ReportFileNames::kExperimentJson)) {
+        continue;
+      }
+      try {
+        const ReportResult rep = WriteReport(d);
+        for (const std::string& n : rep.notes) r.notes.push_back(std::string(dir) + ": " + n);
+      } catch (const std::exception& e) {
+        r.notes.push_back(fmt::format("no report for {}: {}", d.string(), e.what()));
+      }
+    }
+    r.stages.push_back({"report", clock.elapsed_ms() / 1000.0});
+  }
 
-  r.interrupted = ctl.stopped();
+  r.interrupted = stopped();
   r.wall_s = wall.elapsed_ms() / 1000.0;
   r.index_html = r.out_dir / "index.html";
   const std::string summary = FormatDemoSummary(r);

@@ -106,9 +106,9 @@ std::vector<std::pair<Frame, Frame>> ReadPairs(const RunConfig& config, double* 
   return pairs;
 }
 
-// The matches `m` of features a (prev) and b (curr) as a LensPair of pixel positions: at most
-// kLensPrepassMaxMatches of them, by an even stride over the matches.
-LensPair SampledPair(const FeatureSet& a, const FeatureSet& b, const MatchResult& m) {
+// The matches `m` of features `a` (previous frame) and `b` as the estimator's pair: at most
+// kLensPrepassMaxMatches, by an even stride over the matches.
+LensPair LensPairOf(const FeatureSet& a, const FeatureSet& b, const MatchResult& m) {
   const std::size_t n = m.matches.size();
   const std::size_t kept = std::min<std::size_t>(n, kLensPrepassMaxMatches);
   LensPair pair;
@@ -124,30 +124,8 @@ LensPair SampledPair(const FeatureSet& a, const FeatureSet& b, const MatchResult
   return pair;
 }
 
-// The matched points of each frame pair, on the frames reduced by `reducer`, with `surf` and
-// `matcher`. InputError when a frame is not w x h px (the run's frames).
-std::vector<LensPair> MatchPairs(const std::vector<std::pair<Frame, Frame>>& frames, int w, int h,
-                                 FrameReducer& reducer, Surf& surf, Matcher& matcher) {
-  std::vector<LensPair> pairs;
-  const auto features = [&](const Frame& f) {
-    if (f.gray.width() != w || f.gray.height() != h) {
-      throw InputError(fmt::format("{}: {}x{} px, but the run's frames are {}x{}", f.name,
-                                   f.gray.width(), f.gray.height(), w, h));
-    }
-    return surf.DetectAndDescribe(reducer.Apply(f.gray.view())).features;
-  };
-  for (const auto& [prev, curr] : frames) {
-    const FeatureSet a = features(prev);
-    const FeatureSet b = features(curr);
-    const MatchResult m = matcher.Match(a, b);
-    pairs.push_back(SampledPair(a, b, m));
-  }
-  return pairs;
-}
-
-// The run's lens of a significant estimate `e`: the w x h camera of focal length focal_px with
-// the estimated family and coefficient k1 (the other coefficients 0).
-CameraIntrinsics LensOfEstimate(const LensEstimate& e, double focal_px, int w, int h) {
+// The camera of w x h frames with focal length focal_px and the estimate's one coefficient.
+CameraIntrinsics LensOf(const LensEstimate& e, double focal_px, int w, int h) {
   CameraIntrinsics lens = IntrinsicsFromFocalPx(focal_px, w, h);
   if (e.family == RadialFamily::kFisheyeK1) {
     lens.model = LensModel::kFisheye;
@@ -171,7 +149,7 @@ LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_p
   try {
     frames = ReadPairs(config, &out.read_ms, &out.why);
   } catch (const InputError& e) {
-    out.status = "failed";
+    out.status = LensPrepassStatus::kFailed;
     out.why = std::string("reading the frame pairs: ") + e.what();
     out.total_ms = total.elapsed_ms();
     return out;
@@ -184,10 +162,21 @@ LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_p
   Surf surf(config.odometry.surf);
   Matcher matcher(config.odometry.correspondence.match);
   std::vector<LensPair> pairs;
+  const auto features = [&](const Frame& f) {
+    if (f.gray.width() != w || f.gray.height() != h) {
+      throw InputError(fmt::format("{}: {}x{} px, but the run's frames are {}x{}", f.name,
+                                   f.gray.width(), f.gray.height(), w, h));
+    }
+    return surf.DetectAndDescribe(reducer.Apply(f.gray.view())).features;
+  };
   try {
-    pairs = MatchPairs(frames, w, h, reducer, surf, matcher);
+    for (const auto& [prev, curr] : frames) {
+      const FeatureSet a = features(prev);
+      const FeatureSet b = features(curr);
+      pairs.push_back(LensPairOf(a, b, matcher.Match(a, b)));
+    }
   } catch (const InputError& e) {
-    out.status = "failed";
+    out.status = LensPrepassStatus::kFailed;
     out.why = std::string("matching the frame pairs: ") + e.what();
     out.total_ms = total.elapsed_ms();
     return out;
@@ -210,21 +199,21 @@ LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_p
   const LensEstimate& e = *out.estimate;
   out.why = read_note.empty() ? e.why : read_note + "; " + e.why;
   if (!e.valid) {
-    out.status = "no estimate";
+    out.status = LensPrepassStatus::kNoEstimate;
   } else if (!e.significant) {
-    out.status = "not significant";
+    out.status = LensPrepassStatus::kNotSignificant;
   } else {
-    out.status = "applied";
+    out.status = LensPrepassStatus::kApplied;
     out.applied = true;
-    out.lens = LensOfEstimate(e, focal_px, w, h);
+    out.lens = LensOf(e, focal_px, w, h);
   }
   out.total_ms = total.elapsed_ms();
   return out;
 }
 
 nlohmann::json ToJson(const LensPrepass& p) {
-  nlohmann::json j{{"status", p.status}, {"applied", p.applied}, {"why", p.why}};
-  if (p.status == "skipped") return j;
+  nlohmann::json j{{"status", ToString(p.status)}, {"applied", p.applied}, {"why", p.why}};
+  if (p.status == LensPrepassStatus::kSkipped) return j;
   j["pairs_read"] = p.pairs_read;
   j["frame_width_px"] = p.width_px;
   j["frame_height_px"] = p.height_px;

@@ -22,6 +22,7 @@
 #include "aerovo/frames/frame_source.h"
 #include "aerovo/outputs/track_writers.h"
 #include "aerovo/pipeline/run_config.h"
+#include "aerovo/pipeline/run_types.h"
 
 namespace aerovo::run_steps {
 
@@ -58,10 +59,10 @@ std::vector<int> LensPrepassPairStarts(int frames, int pairs);
 
 /// What the pre-pass did: summary.json "lens_estimate".
 struct LensPrepass {
-  /// "applied", "not significant", "no estimate" (too few usable pairs or points), "skipped"
-  /// (LensPrepassSkipReason) or "failed" (an input error while reading the pairs; the run goes
+  /// kApplied, kNotSignificant, kNoEstimate (too few usable pairs or points), kSkipped
+  /// (LensPrepassSkipReason) or kFailed (an input error while reading the pairs; the run goes
   /// on without an estimate).
-  std::string status = "skipped";
+  LensPrepassStatus status = LensPrepassStatus::kSkipped;
   bool applied = false;
   std::string why;  ///< The decision (or the skip, the failure) in one sentence.
   std::optional<LensEstimate> estimate;

@@ -307,70 +307,7 @@ class YamlReader {
     if (anchor != nullptr) anchors_[Str(anchor)] = value;
   }
 
-  // The value starting at `ev` (a scalar, an alias, a mapping or a sequence start); top: the
-  // document's top-level mapping (its keys' lines and anchors are kept); merge_value: the value
-  // of a merge key << (the anchors it names are recorded).
-  nlohmann::json Node(Event& ev, bool top = false, bool merge_value = false) {
-    switch (ev.e.type) {
-      case YAML_SCALAR_EVENT:
-        return Scalar(ev);
-      case YAML_ALIAS_EVENT:
-        return Alias(ev, merge_value);
-      case YAML_SEQUENCE_START_EVENT:
-        return Sequence(ev, merge_value);
-      case YAML_MAPPING_START_EVENT:
-        return Mapping(ev, top);
-      default:
-        throw Error(ev, "unexpected YAML event");
-    }
-  }
-
-  nlohmann::json Scalar(Event& ev) {
-    const std::string v(reinterpret_cast<const char*>(ev.e.data.scalar.value),
-                        ev.e.data.scalar.length);
-    nlohmann::json j = YamlScalar(v, ev.e.data.scalar.style != YAML_PLAIN_SCALAR_STYLE);
-    Anchor(ev.e.data.scalar.anchor, j);
-    return j;
-  }
-
-  nlohmann::json Alias(Event& ev, bool merge_value) {
-    const std::string name = Str(ev.e.data.alias.anchor);
-    const auto it = anchors_.find(name);
-    if (it == anchors_.end()) throw Error(ev, "alias *" + name + " names no anchor before it");
-    if (merge_value) merged_anchors_.insert(name);
-    return it->second;
-  }
-
-  nlohmann::json Sequence(Event& ev, bool merge_value) {
-    const std::string anchor = Str(ev.e.data.sequence_start.anchor);
-    nlohmann::json arr = nlohmann::json::array();
-    for (;;) {
-      Event item = Next();
-      if (item.e.type == YAML_SEQUENCE_END_EVENT) break;
-      arr.push_back(Node(item, false, merge_value));
-    }
-    if (!anchor.empty()) anchors_[anchor] = arr;
-    return arr;
-  }
-
-  // The value of a merge key << on `line`: a mapping or a list of mappings, appended to merges.
-  void AddMerge(const nlohmann::json& value, int line, std::vector<nlohmann::json>* merges) const {
-    const auto check = [&](const nlohmann::json& m) {
-      if (!m.is_object()) {
-        throw InputError(
-            fmt::format("{}: line {}: a merge key << takes a mapping or a "
-                        "list of mappings",
-                        where_, line));
-      }
-    };
-    if (value.is_array()) {
-      for (const auto& m : value) check(m), merges->push_back(m);
-    } else {
-      check(value);
-      merges->push_back(value);
-    }
-  }
-
+  // The mapping starting at `ev` (its keys in order; merge keys << applied after them).
   nlohmann::json Mapping(Event& ev, bool top) {
     const std::string anchor = Str(ev.e.data.mapping_start.anchor);
     nlohmann::json obj = nlohmann::json::object();
@@ -390,7 +327,19 @@ class YamlReader {
           anchored_mapping ? Str(v.e.data.mapping_start.anchor) : std::string();
       nlohmann::json value = Node(v, false, is_merge);
       if (is_merge) {
-        AddMerge(value, line, &merges);
+        const auto check = [&](const nlohmann::json& m) {
+          if (!m.is_object()) {
+            throw InputError(fmt::format("{}: line {}: a merge key << takes a mapping or a "
+                                         "list of mappings",
+                                         where_, line));
+          }
+        };
+        if (value.is_array()) {
+          for (const auto& m : value) check(m), merges.push_back(m);
+        } else {
+          check(value);
+          merges.push_back(value);
+        }
         continue;
       }
       if (obj.contains(key)) {
@@ -410,6 +359,42 @@ class YamlReader {
     }
     if (!anchor.empty()) anchors_[anchor] = obj;
     return obj;
+  }
+
+  // The value starting at `ev` (a scalar, an alias, a mapping or a sequence start).
+  nlohmann::json Node(Event& ev, bool top = false, bool merge_value = false) {
+    switch (ev.e.type) {
+      case YAML_SCALAR_EVENT: {
+        const std::string v(reinterpret_cast<const char*>(ev.e.data.scalar.value),
+                            ev.e.data.scalar.length);
+        nlohmann::json j = YamlScalar(v, ev.e.data.scalar.style != YAML_PLAIN_SCALAR_STYLE);
+        Anchor(ev.e.data.scalar.anchor, j);
+        return j;
+      }
+      case YAML_ALIAS_EVENT: {
+        const std::string name = Str(ev.e.data.alias.anchor);
+        const auto it = anchors_.find(name);
+        if (it == anchors_.end()) throw Error(ev, "alias *" + name + " names no anchor before it");
+        if (merge_value) merged_anchors_.insert(name);
+        return it->second;
+      }
+      case YAML_SEQUENCE_START_EVENT: {
+        const yaml_char_t* anchor_ptr = ev.e.data.sequence_start.anchor;
+        const std::string anchor = Str(anchor_ptr);
+        nlohmann::json arr = nlohmann::json::array();
+        for (;;) {
+          Event item = Next();
+          if (item.e.type == YAML_SEQUENCE_END_EVENT) break;
+          arr.push_back(Node(item, false, merge_value));
+        }
+        if (!anchor.empty()) anchors_[anchor] = arr;
+        return arr;
+      }
+      case YAML_MAPPING_START_EVENT:
+        return Mapping(ev, top);
+      default:
+        throw Error(ev, "unexpected YAML event");
+    }
   }
 
   yaml_parser_t parser_{};

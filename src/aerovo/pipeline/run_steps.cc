@@ -257,7 +257,7 @@ double HeightProvider::HeightOf(const std::string& frame_name,
                                 const std::optional<TelemetrySample>& sample,
                                 std::vector<std::string>* warnings, double capture_s) {
   if (flag_m_ > 0.0) {
-    last_source_ = "altitude_flag";
+    last_source_ = FrameHeightSource::kAltitudeFlag;
     return flag_m_;
   }
   if (link_ != nullptr) {
@@ -267,14 +267,15 @@ double HeightProvider::HeightOf(const std::string& frame_name,
     if (h && h->height_m > 0.0) {
       last_m_ = h->height_m;
       last_source_ = h->source == mavlink::HeightSourceKind::kDistanceSensor
-                         ? "mavlink_distance_sensor"
-                         : "mavlink_relative_alt";
+                         ? FrameHeightSource::kMavlinkDistanceSensor
+                         : FrameHeightSource::kMavlinkRelativeAlt;
       return *last_m_;
     }
   }
   if (sample && sample->rel_alt_m && *sample->rel_alt_m + takeoff_height_agl_m_ > 0.0) {
     last_m_ = *sample->rel_alt_m + takeoff_height_agl_m_;
-    last_source_ = takeoff_height_agl_m_ == 0.0 ? "telemetry" : "telemetry_rel_alt+takeoff_height";
+    last_source_ = takeoff_height_agl_m_ == 0.0 ? FrameHeightSource::kTelemetry
+                                                : FrameHeightSource::kTelemetryRelAltTakeoff;
     return *last_m_;
   }
   const bool amsl_only = sample && !sample->rel_alt_m && sample->abs_alt_m;
@@ -287,7 +288,7 @@ double HeightProvider::HeightOf(const std::string& frame_name,
           frame_name, *sample->abs_alt_m, ground_elevation_m_, h));
     }
     last_m_ = h;
-    last_source_ = "telemetry_abs_alt-ground_elevation";
+    last_source_ = FrameHeightSource::kTelemetryAbsAltGround;
     return *last_m_;
   }
   if (amsl_only && !last_m_) {
@@ -308,7 +309,7 @@ double HeightProvider::HeightOf(const std::string& frame_name,
                           fmt::format("{:.1f}", *last_m_) + " m)");
       warned_ = true;
     }
-    last_source_ = "last_known";
+    last_source_ = FrameHeightSource::kLastKnown;
     return *last_m_;
   }
   if (link_ != nullptr) {
@@ -346,17 +347,17 @@ FrameAttitude CameraAttitudeOf(const RunConfig& config,
   if (sample && (sample->gimbal_pitch_deg || sample->gimbal_roll_deg)) {
     out.reported = CameraAttitude{sample->gimbal_roll_deg.value_or(0.0),
                                   sample->gimbal_pitch_deg.value_or(-90.0) + 90.0};
-    out.source = "gimbal";
+    out.source = AttitudeSource::kGimbal;
   } else if (link) {
     out.reported = fixed_camera(link->roll_rad, link->pitch_rad);
-    out.source = "mavlink";
+    out.source = AttitudeSource::kMavlink;
   } else if (sample && (sample->pitch_deg || sample->roll_deg)) {
     out.reported = fixed_camera(sample->roll_deg.value_or(0.0) * kDeg,
                                 sample->pitch_deg.value_or(0.0) * kDeg);
-    out.source = "flight";
+    out.source = AttitudeSource::kFlight;
   } else if (config.camera_mount_pitch_deg != 0.0) {
     out.reported = fixed_camera(0.0, 0.0);  // the aircraft taken as level
-    out.source = "mount";
+    out.source = AttitudeSource::kMount;
   }
   if (out.reported && config.attitude == AttitudeMode::kAuto &&
       TiltFromNadirDeg(*out.reported) >= config.attitude_min_deg) {
@@ -563,11 +564,18 @@ void RunOutputs::Reflag(int frame_index, const std::string& gps_flag) {
 }
 
 void RunOutputs::Add(PendingFrame frame, const GeoReferencer& georef) {
-  if (jsonl_ != nullptr) {
-    // Frames held back for the heading are still sent at once, in the local frame.
-    WritePoseLine(*jsonl_, PoseJsonLine(frame, georef), jsonl_name_);
-    frame.sent_geo = georef.ready();
-  }
+  SendPose(frame, georef);
+  Enqueue(std::move(frame), georef);
+}
+
+void RunOutputs::SendPose(PendingFrame& frame, const GeoReferencer& georef) {
+  if (jsonl_ == nullptr) return;
+  // Frames held back for the heading are still sent at once, in the local frame.
+  WritePoseLine(*jsonl_, PoseJsonLine(frame, georef), jsonl_name_);
+  frame.sent_geo = georef.ready();
+}
+
+void RunOutputs::Enqueue(PendingFrame frame, const GeoReferencer& georef) {
   pending_.push_back(std::move(frame));
   Flush(georef, false);
 }
@@ -582,7 +590,7 @@ void RunOutputs::Finish(GeoReferencer& georef) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// 5. The per-frame loop
+// 5. What the per-frame loop accumulates (pipeline/frame_loop.h)
 
 void RunTotals::Add(int frame_index, double time_s, const FrameResult& r,
                     const std::optional<GeoPoint>& gps) {
@@ -619,429 +627,6 @@ void RunTotals::SetRejected(int frame_index, bool rejected) {
       return;
     }
   }
-}
-
-namespace {
-
-GeoRefOptions GeoRefOptionsOf(const RunConfig& config) {
-  GeoRefOptions o;
-  o.heading_source = config.heading;
-  if (config.gps_check.enabled) {
-    o.outlier_m = config.gps_check.tolerance_m;
-    o.yaw_fixes = config.gps_check.min_chain;
-  }
-  return o;
-}
-
-// The --mavlink link (null without): InvalidArgument / InputError naming the URL.
-std::unique_ptr<mavlink::AutopilotLink> OpenLink(const RunConfig& config, std::ostream* log) {
-  if (config.mavlink.empty()) return nullptr;
-  const mavlink::LinkUrl url = mavlink::ParseLinkUrl(config.mavlink);
-  mavlink::AutopilotLink::Options o;
-  o.sysid = static_cast<uint8_t>(config.mavlink_sysid);
-  auto link = std::make_unique<mavlink::AutopilotLink>(mavlink::OpenTransport(url), o);
-  if (log) {
-    *log << fmt::format("mavlink: {} ({}, sysid {}, compid {}, {} time{})\n", url.text,
-                        ToString(config.mavlink_message), config.mavlink_sysid, o.compid,
-                        ToString(config.mavlink_time),
-                        url.reads_autopilot() ? "; height and attitude from the autopilot" : "");
-  }
-  return link;
-}
-
-mavlink::VisionPose::Status StatusOf(FrameStatus s) {
-  switch (s) {
-    case FrameStatus::kFirst: return mavlink::VisionPose::Status::kFirst;
-    case FrameStatus::kOk: return mavlink::VisionPose::Status::kOk;
-    case FrameStatus::kReacquired: return mavlink::VisionPose::Status::kReacquired;
-    case FrameStatus::kBridged: return mavlink::VisionPose::Status::kBridged;
-  }
-  return mavlink::VisionPose::Status::kBridged;
-}
-
-}  // namespace
-
-FrameLoop::FrameLoop(const RunInputs& inputs, const RunTelemetry& telemetry,
-                     const ImageFolderSource* folder, OdometryOptions vo_options,
-                     const std::filesystem::path& out_dir, const RunCallbacks& callbacks,
-                     std::ostream* log)
-    : config_(inputs.config),
-      focal_from_sim_(inputs.focal_from_sim),
-      telemetry_(telemetry),
-      folder_(folder),
-      vo_options_(std::move(vo_options)),
-      out_dir_(out_dir),
-      callbacks_(callbacks),
-      log_(log),
-      link_(OpenLink(inputs.config, log)),
-      link_reads_autopilot_(link_ &&
-                            mavlink::ParseLinkUrl(inputs.config.mavlink).reads_autopilot()),
-      height_(inputs.config.altitude_m, link_reads_autopilot_ ? link_.get() : nullptr,
-              inputs.config.mavlink_match_s),
-      georef_(GeoRefOptionsOf(inputs.config)),
-      gps_check_(inputs.config.gps_check),
-      totals_(true) {
-  // A photo folder's frames are named by their files; a telemetry file names itself.
-  height_.set_ground(inputs.config.ground_elevation_m, inputs.config.takeoff_height_agl_m,
-                     !inputs.config.telemetry.empty() ? inputs.config.telemetry
-                     : folder != nullptr                ? std::string("the photo's EXIF")
-                                                        : std::string());
-}
-
-// First frame: the camera and the outputs can now be set up.
-void FrameLoop::Start(const Frame& frame, const std::optional<TelemetrySample>& sample,
-                      RunSummary* summary) {
-  const int w = frame.gray.width(), h = frame.gray.height();
-  const ImageMetadata* photo =
-      folder_ != nullptr && !folder_->metadata().empty() ? &folder_->metadata().front() : nullptr;
-  RunCamera camera = ResolveRunCamera(config_, focal_from_sim_, w, h, photo, sample, frame.name);
-  summary->focal_px = camera.focal_px;
-  summary->focal_source = camera.focal_source;
-  // Frames above the pixel budget: reduced first, the camera model with them (focal scaled,
-  // principal point at the reduced centre), so undistortion and SURF work on the reduced frame.
-  // Video and live frames above the detection budget: an integer reduction (photo folders: the
-  // pixel budget alone).
-  reducer_.emplace(w, h, config_.max_megapixels,
-                   folder_ != nullptr ? 0.0 : config_.detect_megapixels);
-  const double focal_scale = reducer_->focal_scale();
-  const int pw = reducer_->out_width_px(), ph = reducer_->out_height_px();
-  reduced_from_full_ = reducer_->reduced_from_full();
-  if (!reducer_->active()) reducer_.reset();
-  summary->processed_width_px = pw;
-  summary->processed_height_px = ph;
-  summary->frame_scale = static_cast<double>(pw) / w;
-  vo_options_.focal_px = camera.focal_px * focal_scale;
-  vo_options_.default_height_m = config_.altitude_m;
-  summary->height_source = height_.source();
-  if (std::string(height_.source()) == "mavlink" && link_ &&
-      !link_->WaitForHeight(config_.mavlink_wait_s) && log_) {
-    *log_ << fmt::format("mavlink: no height from the autopilot after {:.1f} s\n",
-                         config_.mavlink_wait_s);
-  }
-  vo_ = std::make_unique<VisualOdometry>(vo_options_);
-  // Lens self-calibration (RunConfig::lens_estimation): a significant estimate is the camera's
-  // lens as a calibration file would be, and is written to lens_estimate.yaml.
-  LensPrepass prepass;
-  prepass.why = LensPrepassSkipReason(config_, source_live_);
-  if (prepass.why.empty()) {
-    prepass = RunLensPrepass(config_, w, h, camera.focal_px);
-    if (prepass.applied) {
-      camera.calibrated = *prepass.lens;
-      WriteCalibration((out_dir_ / kLensEstimateYaml).string(), *prepass.lens,
-                       CalibrationFormat::kOpenCv);
-    }
-  }
-  summary->lens_estimate = ToJson(prepass);
-  if (log_ && (prepass.status != "skipped" || (config_.lens_estimation == LensEstimationMode::kAuto &&
-                                               source_live_))) {
-    if (prepass.applied) {
-      *log_ << fmt::format(
-          "lens: estimated from {} frame pairs: {} k1 = {:.4f} +- {:.4f} (cost drop {:.0f} %), "
-          "applied; written to {} ({:.0f} ms)\n",
-          prepass.estimate->pairs_used, ToString(prepass.estimate->family), prepass.estimate->k,
-          prepass.estimate->sigma_k, 100.0 * prepass.estimate->cost_drop,
-          (out_dir_ / kLensEstimateYaml).string(), prepass.total_ms);
-    } else {
-      *log_ << fmt::format("lens: self-calibration {}: {}{}\n", prepass.status, prepass.why,
-                           prepass.status == "skipped"
-                               ? ""
-                               : fmt::format(" ({:.0f} ms)", prepass.total_ms));
-    }
-  }
-  // Lens distortion: whole frames remapped before SURF, or the keypoints undistorted in the
-  // odometry (RunConfig::undistort).
-  if (const std::optional<CameraIntrinsics> lens =
-          RunLens(config_, camera, pw, ph, camera.focal_px * focal_scale)) {
-    const UndistortMode path =
-        ChooseUndistortion(config_.undistort, *lens, &summary->lens_scale_change);
-    if (path == UndistortMode::kPoints) {
-      vo_->SetLensUndistortion(*lens);
-    } else {
-      undistorter_ = std::make_unique<FrameUndistorter>(*lens);
-    }
-    summary->undistortion = ToString(path);
-  }
-  outputs_.emplace(out_dir_, config_, camera, summary->height_source, w, h, frame.time_s, sample,
-                   callbacks_, !telemetry_.empty());
-  if (log_) {
-    *log_ << fmt::format("camera: {}x{} px, focal {:.1f} px ({}), height from {}\n", w, h,
-                         camera.focal_px, camera.focal_source, summary->height_source);
-    *log_ << "camera: " << camera.description << "\n";
-    if (summary->undistortion != "none") {
-      *log_ << fmt::format("lens: undistortion of the {} (local scale change {:.1f} % over the "
-                           "frame; undistort {})\n",
-                           summary->undistortion == "points" ? "keypoints" : "whole frames",
-                           100.0 * summary->lens_scale_change, ToString(config_.undistort));
-    }
-    if (reducer_) {
-      *log_ << fmt::format(
-          "frames reduced to {}x{} px before SURF ({:.1f} MP > {} {}), focal {:.1f} px\n", pw, ph,
-          static_cast<double>(w) * h / 1e6,
-          reducer_->factor() > 1 ? "detect_megapixels" : "max_megapixels",
-          reducer_->factor() > 1 ? config_.detect_megapixels : config_.max_megapixels,
-          vo_options_.focal_px);
-    }
-  }
-}
-
-LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const Stopwatch& wall,
-                       RunSummary* summary) {
-  LoopEnd end;
-  Frame& frame = frame_;
-  while (true) {
-    if (stop != nullptr && stop->load()) {
-      end.stopped = true;
-      break;
-    }
-    if (config_.max_frames > 0 && summary->frames_processed >= config_.max_frames) break;
-    bool more = false;
-    frame.received_s = std::numeric_limits<double>::quiet_NaN();
-    // A failure stops the run with the frames before it kept, and summary.json written with
-    // the error (WriteSummary), at the first frame too: a run folder never ends with outputs
-    // and no summary (an undecodable first photo, no height or no camera for the first frame).
-    try {
-      more = source.Next(frame);
-    } catch (const InputError& e) {
-      end.failure = e.what();
-      break;
-    }
-    if (!more) break;
-    // A PrefetchSource stamps the frame when decoded; else it is received now.
-    if (!std::isfinite(frame.received_s)) frame.received_s = SteadySeconds();
-    // The capture time: when the source delivered the frame (a live source's frames arrive as
-    // captured; a file's as read).
-    const double capture_mono_s = mavlink::MonotonicNowS();
-    const double capture_unix_s = mavlink::UnixNowS();
-    std::optional<TelemetrySample> sample = telemetry_.SampleOf(frame);
-    std::optional<GeoPoint> gps = GpsOf(sample);
-    if (!sample) ++end.frames_without_fix;
-    if (!vo_) {
-      try {
-        Start(frame, sample, summary);
-      } catch (const OutputError& e) {  // a full disk at the first frame: the summary says so
-        end.failure = e.what();
-        end.output_failed = true;
-        break;
-      } catch (const InputError& e) {  // no camera (focal length, calibration): names the frame
-        end.failure = e.what();
-        break;
-      }
-    }
-
-    if (!sample && !telemetry_.empty() && !height_.last_m()) {
-      height_.set_no_fix_reason(telemetry_.WhyNoFix(frame));
-    }
-    // A relative altitude that jumps beyond the vertical speed limit would scale the step: the
-    // last plausible height is used instead (the fix itself is judged below).
-    std::optional<TelemetrySample> height_sample = sample;
-    if (height_sample && height_sample->rel_alt_m && height_.last_m() &&
-        config_.gps_check.enabled && last_height_time_s_ &&
-        std::abs(*height_sample->rel_alt_m - *height_.last_m()) >
-            config_.gps_check.tolerance_m +
-                config_.gps_check.max_vertical_speed_mps *
-                    std::max(frame.time_s - *last_height_time_s_, 1e-3)) {
-      height_sample->rel_alt_m = height_.last_m();
-    } else if (height_sample && height_sample->rel_alt_m && *height_sample->rel_alt_m > 0.0) {
-      last_height_time_s_ = frame.time_s;
-    }
-    double height_m = 0.0;
-    try {
-      height_m = height_.HeightOf(frame.name, height_sample, &summary->warnings, capture_mono_s);
-    } catch (const InputError& e) {  // names the frame
-      end.failure = e.what();
-      break;
-    }
-    std::optional<mavlink::AutopilotAttitude> attitude;
-    if (link_reads_autopilot_) {
-      attitude = link_->AttitudeNear(capture_mono_s, config_.mavlink_match_s);
-    }
-    const FrameAttitude frame_attitude = CameraAttitudeOf(config_, sample, attitude);
-    if (frame_attitude.reported && !frame_attitude.camera && !warned_attitude_ &&
-        TiltFromNadirDeg(*frame_attitude.reported) > config_.attitude_warn_deg) {
-      summary->warnings.push_back(fmt::format(
-          "{}: the camera is {:.1f} deg from nadir (pitch {:.1f}, roll {:.1f}, from the {}) and attitude "
-          "is off: positions are those of the image centre's ground point and the steps' scale "
-          "is that of a nadir camera (--attitude auto corrects it)",
-          frame.name, TiltFromNadirDeg(*frame_attitude.reported),
-          frame_attitude.reported->pitch_deg, frame_attitude.reported->roll_deg,
-          frame_attitude.source == "gimbal"    ? "gimbal angles"
-          : frame_attitude.source == "flight"  ? "aircraft's angles"
-          : frame_attitude.source == "mavlink" ? "autopilot's ATTITUDE"
-                                               : "camera mount"));
-      warned_attitude_ = true;
-    }
-    const std::optional<double> yaw = sample ? sample->CameraYawDeg() : std::nullopt;
-    GrayImageView view = reducer_ ? reducer_->Apply(frame.gray.view()) : frame.gray.view();
-    if (undistorter_) view = undistorter_->Apply(view);
-    if (config_.illumination_k != 1.0) {
-      view = ScaleBrightness(view, config_.illumination_k, &dimmed_);
-    }
-    FrameResult r;
-    try {
-      // A stop request ends the frame inside SURF, matching or RANSAC (core/cancel.h); the
-      // frame is abandoned, not counted as processed.
-      const CancelScope cancel(stop);
-      r = vo_->Process(view, frame.time_s, height_m, yaw, frame_attitude.camera);
-      if (!r.position_m.allFinite()) {
-        throw InputError(fmt::format(
-            "the visual odometry's position is not finite (height {} m, focal {} px)", height_m,
-            vo_options_.focal_px));
-      }
-    } catch (const Cancelled&) {
-      end.stopped = true;
-      break;
-    } catch (const InputError& e) {
-      end.failure = frame.name + ": " + e.what();
-      break;
-    }
-    if (link_) SendVision(r, capture_mono_s, capture_unix_s, height_m, attitude);
-    std::string gps_flag;
-    const bool fix_ok = !gps || CheckFix(frame, sample, *gps, r, &gps_flag, summary);
-    georef_.Observe(r.position_m, fix_ok ? gps : std::nullopt, yaw);
-    float latency_ms = 0.0f;
-    try {
-      // transforms.csv in full-frame pixels whatever the reduction.
-      outputs_->AppendTransform(frame.index, reducer_ ? Eigen::Matrix3d(r.world_from_frame *
-                                                                        reduced_from_full_)
-                                                      : r.world_from_frame);
-      PendingFrame pending = PendingFrameOf(frame, r, gps, height_m);
-      pending.record.gps_flag = gps_flag;
-      pending.record.height_m = height_m;
-      pending.record.height_source = height_.last_source();
-      ++summary->height_sources[height_.last_source()];
-      if (r.attitude_corrected) {
-        ++summary->attitude_sources[frame_attitude.source];
-        summary->max_tilt_deg = std::max(summary->max_tilt_deg, r.tilt_deg);
-      }
-      if (attitude) {
-        pending.record.roll_deg = attitude->roll_rad * 180.0 / M_PI;
-        pending.record.pitch_deg = attitude->pitch_rad * 180.0 / M_PI;
-      }
-      pending.record.latency_ms = (SteadySeconds() - frame.received_s) * 1000.0;
-      latency_ms = static_cast<float>(pending.record.latency_ms);
-      outputs_->Add(std::move(pending), georef_);
-    } catch (const OutputError& e) {  // disk full: every file keeps its last valid content
-      end.failure = frame.name + ": " + e.what();
-      end.output_failed = true;
-      break;
-    } catch (const InputError& e) {  // a geo-referenced position that is not on Earth
-      end.failure = e.what();
-      break;
-    }
-    totals_.Add(frame.index, frame.time_s, r, gps);
-    totals_.latency_ms.push_back(latency_ms);
-    if (!fix_ok) totals_.SetRejected(frame.index, true);
-    ++summary->frames_processed;
-    if (!frame.flags.empty()) {
-      // Each '+'-separated flag counted once per frame.
-      std::size_t b = 0;
-      while (b <= frame.flags.size()) {
-        const std::size_t e = std::min(frame.flags.find('+', b), frame.flags.size());
-        const std::string flag = frame.flags.substr(b, e - b);
-        if (!flag.empty()) {
-          if (summary->frames_flagged[flag]++ == 0) end.first_flagged[flag] = frame.name;
-        }
-        b = e + 1;
-      }
-    }
-    if (callbacks_.progress) {
-      callbacks_.progress(summary->frames_processed, summary->frames_expected,
-                          summary->frames_processed / std::max(1e-9, wall.elapsed_ms() / 1000.0));
-    }
-  }
-  end.rejected_fixes = RejectedFixes();
-  return end;
-}
-
-void FrameLoop::SendVision(const FrameResult& r, double capture_mono_s, double capture_unix_s,
-                           double height_m,
-                           const std::optional<mavlink::AutopilotAttitude>& attitude) {
-  mavlink::VisionPose p;
-  const double t = config_.mavlink_time == mavlink::TimestampClock::kUnix ? capture_unix_s
-                                                                          : capture_mono_s;
-  p.time_usec = static_cast<uint64_t>(std::llround(t * 1e6));
-  p.time_s = capture_mono_s;
-  p.local_x_m = r.position_m.x();
-  p.local_y_m = r.position_m.y();
-  p.height_m = height_m;
-  p.heading_rad = r.heading_rad;
-  if (attitude) {
-    p.roll_rad = attitude->roll_rad;
-    p.pitch_rad = attitude->pitch_rad;
-  }
-  p.status = StatusOf(r.status);
-  p.n_inliers = r.n_inliers;
-  p.quality = PoseQuality(r);  // the pose stream's number
-  p.gsd_m_per_px = r.gsd_m_per_px;
-  p.sigma_px = 0.5 * vo_options_.correspondence.ransac.max_distance_px;
-  p.half_width_px = 0.5 * frame_.gray.width();
-  const mavlink::VisionMessages m = vision_.Add(p);
-  switch (config_.mavlink_message) {
-    case mavlink::VisionMessageKind::kOdometry: link_->Send(m.odometry); break;
-    case mavlink::VisionMessageKind::kVisionPositionEstimate:
-      link_->Send(m.position_estimate);
-      break;
-    case mavlink::VisionMessageKind::kVisionPositionDelta: link_->Send(m.position_delta); break;
-  }
-}
-
-bool FrameLoop::CheckFix(const Frame& frame, const std::optional<TelemetrySample>& sample,
-                         const GeoPoint& gps, const FrameResult& r, std::string* flag,
-                         RunSummary* summary) {
-  const int unmeasured = vo_ ? vo_->stats().bridged : 0;
-  GpsFixVerdict v = gps_check_.Check(frame.index, frame.time_s, gps,
-                                     sample ? sample->rel_alt_m : std::nullopt, r.position_m,
-                                     unmeasured);
-  const auto describe = [&](int frame_index, double time_s) {
-    return fmt::format("{}: the GPS fix of frame {} (time {:.3f} s) rejected", telemetry_.origin(),
-                       frame_index, time_s);
-  };
-  if (v.switched) {
-    // The later fixes outvote the earlier ones: those were wrong (a bad first fix).
-    const std::string first_new =
-        v.reinstated.empty() ? std::to_string(frame.index) : std::to_string(v.reinstated[0].frame);
-    for (const int f : v.superseded) {
-      double t = 0.0;
-      for (std::size_t i = 0; i < totals_.gps_frames.size(); ++i) {
-        if (totals_.gps_frames[i] == f) t = totals_.gps_track[i].t;
-      }
-      rejected_[f] = {f, t, "superseded",
-                      describe(f, t) + ": inconsistent with the fixes from frame " + first_new +
-                          " on, which outnumber it"};
-      totals_.SetRejected(f, true);
-      outputs_->Reflag(f, "rejected:superseded");
-    }
-    if (!georef_.ready()) {
-      georef_.Restart();
-      for (const auto& q : v.reinstated) georef_.Observe(q.local_m, q.gps, std::nullopt);
-    } else {
-      summary->warnings.push_back(fmt::format(
-          "{}: the GPS fixes from frame {} on outvote the earlier ones, but the track was "
-          "already geo-referenced with those: check the geo-referenced positions",
-          telemetry_.origin(), first_new));
-    }
-    for (const auto& q : v.reinstated) {
-      rejected_.erase(q.frame);
-      totals_.SetRejected(q.frame, false);
-      outputs_->Reflag(q.frame, "");
-    }
-    return true;
-  }
-  if (v.accepted) return true;
-  *flag = "rejected:" + v.kind;
-  rejected_[frame.index] = {frame.index, frame.time_s, v.kind,
-                            describe(frame.index, frame.time_s) + ": " + v.reason};
-  return false;
-}
-
-void FrameLoop::Finish() {
-  if (outputs_) outputs_->Finish(georef_);
-}
-
-std::vector<RejectedFix> FrameLoop::RejectedFixes() const {
-  std::vector<RejectedFix> out;
-  for (const auto& [f, r] : rejected_) out.push_back(r);
-  return out;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1137,19 +722,10 @@ void CompareWithGps(const GeoReferencer& georef, RunTotals& totals, RunSummary* 
   }
 }
 
-}  // namespace
-
-void Summarize(const std::vector<std::string>& source_warnings, bool has_telemetry,
-               const LoopEnd& end, const OdometryStats* vo_stats, const GeoReferencer& georef,
-               RunTotals totals, const ReferenceTrack* truth, double wall_s, RunSummary* summary) {
+// The warnings about single frames: one per flag of the frames the source flagged (count,
+// first frame, meaning), the GPS fixes rejected (the first 20 said, 100 listed).
+void AddFrameWarnings(const LoopEnd& end, RunSummary* summary) {
   RunSummary& s = *summary;
-  for (const std::string& w : source_warnings) s.warnings.push_back(w);
-  if (has_telemetry && end.frames_without_fix > 0) {
-    s.warnings.push_back(fmt::format(
-        "{} of {} frames have no telemetry fix (the telemetry does not cover them); their gps_* "
-        "cells are empty and they are not in the comparison with GPS",
-        end.frames_without_fix, s.frames_processed));
-  }
   for (const auto& [flag, n] : s.frames_flagged) {
     const auto first = end.first_flagged.find(flag);
     const std::string first_name = first != end.first_flagged.end() ? first->second : "?";
@@ -1178,6 +754,22 @@ void Summarize(const std::vector<std::string>& source_warnings, bool has_telemet
                                      "first 100, frames.csv flags every one: gps_flag)",
                                      s.gps_rejected));
   }
+}
+
+}  // namespace
+
+void Summarize(const std::vector<std::string>& source_warnings, bool has_telemetry,
+               const LoopEnd& end, const OdometryStats* vo_stats, const GeoReferencer& georef,
+               RunTotals totals, const ReferenceTrack* truth, double wall_s, RunSummary* summary) {
+  RunSummary& s = *summary;
+  for (const std::string& w : source_warnings) s.warnings.push_back(w);
+  if (has_telemetry && end.frames_without_fix > 0) {
+    s.warnings.push_back(fmt::format(
+        "{} of {} frames have no telemetry fix (the telemetry does not cover them); their gps_* "
+        "cells are empty and they are not in the comparison with GPS",
+        end.frames_without_fix, s.frames_processed));
+  }
+  AddFrameWarnings(end, summary);
   s.interrupted = end.stopped;
   if (vo_stats != nullptr) {
     s.frames_ok = vo_stats->ok;
@@ -1223,7 +815,7 @@ void Summarize(const std::vector<std::string>& source_warnings, bool has_telemet
   if (truth != nullptr && !totals.local_track.empty()) {
     CompareWithTruth(*truth, totals.local_track, totals.track_frames, georef, summary);
   }
-  s.error = end.failure;
+  s.error = end.failure ? end.failure->Text() : std::string();
 }
 
 void WriteSummary(const std::filesystem::path& out_dir, const RunSummary& summary) {

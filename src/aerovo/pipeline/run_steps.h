@@ -5,8 +5,8 @@
 //   3. the height above ground of each frame (HeightProvider);
 //   4. the run's outputs: track writers, the queue of frames waiting for the geo-referencing,
 //      the pose stream, transforms.csv, config.json with its "resolved" block (RunOutputs);
-//   5. the per-frame loop (FrameLoop), which also accumulates what the summary needs
-//      (RunTotals);
+//   5. what the per-frame loop (pipeline/frame_loop.h FrameLoop) accumulates for the summary
+//      (RunTotals) and how it ended (LoopEnd);
 //   6. the summary: statistics, comparisons with GPS and the truth (Summarize), summary.json
 //      (WriteSummary).
 // RunFlight chains them; its API (runner.h) is the public one. These are for runner.cc and the
@@ -44,6 +44,7 @@
 #include "aerovo/odometry/visual_odometry.h"
 #include "aerovo/pipeline/preprocess.h"
 #include "aerovo/pipeline/run_config.h"
+#include "aerovo/pipeline/run_types.h"
 #include "aerovo/pipeline/runner.h"
 
 namespace aerovo::run_steps {
@@ -177,9 +178,11 @@ class HeightProvider {
   explicit HeightProvider(double flag_m, const mavlink::AutopilotLink* link = nullptr,
                           double match_s = 0.25)
       : flag_m_(flag_m), link_(link), match_s_(match_s) {}
-  /// RunSummary::height_source: "flag", "mavlink" or "telemetry".
-  const char* source() const {
-    return flag_m_ > 0.0 ? "flag" : link_ != nullptr ? "mavlink" : "telemetry";
+  /// RunSummary::height_source: kFlag, kMavlink or kTelemetry.
+  HeightSource source() const {
+    return flag_m_ > 0.0         ? HeightSource::kFlag
+           : link_ != nullptr    ? HeightSource::kMavlink
+                                 : HeightSource::kTelemetry;
   }
   /// Height above ground of frame `frame_name`, metres: the flag; else the link's sample nearest
   /// `capture_s` (MonotonicNowS clock) within match_s (for the first frame, when none is that
@@ -188,8 +191,10 @@ class HeightProvider {
   /// InputError naming the frame.
   double HeightOf(const std::string& frame_name, const std::optional<TelemetrySample>& sample,
                   std::vector<std::string>* warnings, double capture_s = 0.0);
-  /// Where the last HeightOf came from: FrameRecord::height_source.
-  const std::string& last_source() const { return last_source_; }
+  /// Where the last HeightOf came from.
+  FrameHeightSource last_kind() const { return last_source_; }
+  /// The same as FrameRecord::height_source writes it ("altitude_flag", "telemetry", ...).
+  std::string last_source() const { return ToString(last_source_); }
   /// Why there is no height for the first frame (the message of HeightOf's InputError):
   /// RunTelemetry::WhyNoFix when `sample` is missing; "the telemetry has no relative altitude"
   /// when it lacks one; "relative altitude -3.0 m <= 0 (the aircraft below its take-off point?)"
@@ -216,7 +221,7 @@ class HeightProvider {
   double match_s_ = 0.25;
   std::optional<double> last_m_;
   bool warned_ = false;
-  std::string last_source_;
+  FrameHeightSource last_source_ = FrameHeightSource::kNone;
   std::string no_fix_reason_;
   double ground_elevation_m_ = std::numeric_limits<double>::quiet_NaN();
   double takeoff_height_agl_m_ = 0.0;
@@ -230,9 +235,10 @@ struct FrameAttitude {
   std::optional<CameraAttitude> camera;
   /// The attitude the sources give, used or not (for the warning of attitude_warn_deg).
   std::optional<CameraAttitude> reported;
-  /// "gimbal" (the telemetry's gimbal angles), "mavlink" (the autopilot's ATTITUDE, camera fixed
-  /// to the airframe), "flight" (the telemetry's aircraft angles, camera fixed), "" (none).
-  std::string source;
+  /// kGimbal (the telemetry's gimbal angles), kMavlink (the autopilot's ATTITUDE, camera fixed
+  /// to the airframe), kFlight (the telemetry's aircraft angles, camera fixed), kMount (the mount
+  /// pitch, the aircraft taken as level), kNone.
+  AttitudeSource source = AttitudeSource::kNone;
 };
 /// The camera attitude of a frame: the telemetry's gimbal pitch and roll (camera pitch = gimbal
 /// pitch + 90, roll = gimbal roll; either missing = 0), else the autopilot's attitude `link`,
@@ -310,9 +316,14 @@ class RunOutputs {
   /// first_px_from_world * world_from_frame, first_px_from_world being the inverse of the first
   /// call's world_from_frame (metric or first-frame pixels, see FrameResult).
   void AppendTransform(int frame_index, const Eigen::Matrix3d& world_from_frame);
-  /// Sends `frame` to the pose stream, queues it, then writes the queue unless it waits for
-  /// `georef`'s heading.
+  /// SendPose then Enqueue.
   void Add(PendingFrame frame, const GeoReferencer& georef);
+  /// Sends `frame` to the pose stream (RunConfig::poses_jsonl; nothing without one) at once, in
+  /// the local frame while `georef` waits for the heading (frame.sent_geo says whether its
+  /// geographic position went with it). OutputError/InputError when the stream cannot take it.
+  void SendPose(PendingFrame& frame, const GeoReferencer& georef);
+  /// Queues `frame`, then writes the queue unless it waits for `georef`'s heading.
+  void Enqueue(PendingFrame frame, const GeoReferencer& georef);
   /// Sets the gps_flag of the queued frame `frame_index` (no effect once it is written).
   void Reflag(int frame_index, const std::string& gps_flag);
   /// At the end: geo-references with what is available if needed (georef.FixWithAvailable),
@@ -379,92 +390,16 @@ struct RunTotals {
 /// How the frame loop ended.
 struct LoopEnd {
   bool stopped = false;  ///< By the stop flag.
-  /// The input error after the first frame that stopped the run ("" = none).
-  std::string failure;
+  /// The error that stopped the run (none: the source ended, max_frames or the stop flag).
+  std::optional<RunFailure> failure;
   int frames_without_fix = 0;  ///< Frames given no telemetry fix.
   /// The first frame flagged by the source with each flag (Frame::flags), for the warning.
   std::map<std::string, std::string> first_flagged;
-  /// A write to an output file failed (OutputError, in `failure`): the files stay valid but
+  /// A write to an output file failed (failure of kind kOutput): the files stay valid but
   /// the frames still queued cannot be written (skip FrameLoop::Finish).
-  bool output_failed = false;
+  bool output_failed() const { return failure && failure->kind == RunFailureKind::kOutput; }
   /// The fixes rejected by the plausibility check, by frame.
   std::vector<RejectedFix> rejected_fixes;
-};
-
-/// The frames of a run, one by one: telemetry fix, camera and outputs on the first frame,
-/// height, preprocessing (reduction to RunConfig::max_megapixels, undistortion, illumination),
-/// visual odometry, geo-referencing, outputs, totals, progress. A frame the source flagged (Frame::flags) is processed, its status
-/// gets "+flag" and RunSummary::frames_flagged counts it.
-class FrameLoop {
- public:
-  /// `inputs`, `telemetry`, `callbacks` and `folder` (the source as a photo folder, or null)
-  /// must outlive the loop. `log` may be null.
-  FrameLoop(const RunInputs& inputs, const RunTelemetry& telemetry, const ImageFolderSource* folder,
-            OdometryOptions vo_options, const std::filesystem::path& out_dir,
-            const RunCallbacks& callbacks, std::ostream* log);
-
-  /// Processes `source` until its end, config.max_frames or `stop` (may be null); call once,
-  /// then Finish(). Fills in `summary`'s frames_processed, focal, height source and the height
-  /// warning (frames_expected: read for the progress callback). Throws the input errors of the
-  /// first frame, a missing focal length or height; an input error after the first frame ends
-  /// the loop instead (LoopEnd::failure). With --mavlink each frame's vision message is sent as
-  /// soon as it is processed (config.mavlink_message), stamped with its capture time. `wall`: the run's stopwatch, for the progress
-  /// callback's frames per second.
-  LoopEnd Run(FrameSource& source, const std::atomic<bool>* stop, const Stopwatch& wall,
-              RunSummary* summary);
-  /// Writes the frames still queued and closes the track files (nothing when no frame came).
-  void Finish();
-  /// The fixes rejected by the plausibility check, by frame (for Summarize).
-  std::vector<RejectedFix> RejectedFixes() const;
-
-  /// The MAVLink link (null without --mavlink).
-  const mavlink::AutopilotLink* link() const { return link_.get(); }
-  /// The main source is live (FrameSource::IsLive): the lens self-calibration pre-pass is
-  /// skipped (pipeline/lens_prepass.h). Set before Run.
-  void set_source_live(bool live) { source_live_ = live; }
-  /// Counts of the odometry, null when no frame came.
-  const OdometryStats* vo_stats() const { return vo_ ? &vo_->stats() : nullptr; }
-  const GeoReferencer& georef() const { return georef_; }
-  const RunTotals& totals() const { return totals_; }
-  /// Rows of frames.csv (RunOutputs::frames_written; 0 before the first frame).
-  int frames_written() const { return outputs_ ? outputs_->frames_written() : 0; }
-  /// The totals, moved out (for Summarize, at the end).
-  RunTotals TakeTotals() { return std::move(totals_); }
-
- private:
-  void Start(const Frame& frame, const std::optional<TelemetrySample>& sample, RunSummary* summary);
-  void SendVision(const FrameResult& r, double capture_mono_s, double capture_unix_s,
-                  double height_m, const std::optional<mavlink::AutopilotAttitude>& attitude);
-  // The plausibility check of the fix of `frame` (processed into `r`); false when rejected.
-  bool CheckFix(const Frame& frame, const std::optional<TelemetrySample>& sample,
-                const GeoPoint& gps, const FrameResult& r, std::string* flag, RunSummary* summary);
-
-  const RunConfig& config_;
-  bool focal_from_sim_ = false;
-  const RunTelemetry& telemetry_;
-  const ImageFolderSource* folder_ = nullptr;
-  OdometryOptions vo_options_;
-  std::filesystem::path out_dir_;
-  const RunCallbacks& callbacks_;
-  std::ostream* log_ = nullptr;
-  std::unique_ptr<mavlink::AutopilotLink> link_;  // --mavlink (null: none)
-  bool link_reads_autopilot_ = false;             // udpin/serial: height and attitude in
-  mavlink::VisionMessageBuilder vision_;
-  HeightProvider height_;
-  GeoReferencer georef_;
-  GpsFixChecker gps_check_;
-  std::map<int, RejectedFix> rejected_;  // frame -> its rejected fix
-  std::optional<double> last_height_time_s_;  // frame time of the last relative altitude used
-  bool source_live_ = false;
-  bool warned_attitude_ = false;              // the attitude_warn_deg warning was given
-  std::unique_ptr<VisualOdometry> vo_;
-  std::unique_ptr<FrameUndistorter> undistorter_;
-  std::optional<FrameReducer> reducer_;  // frames above config.max_megapixels
-  Eigen::Matrix3d reduced_from_full_ = Eigen::Matrix3d::Identity();
-  GrayImage dimmed_;  // the frame at illumination_k < 1
-  std::optional<RunOutputs> outputs_;
-  RunTotals totals_;
-  Frame frame_;  // reused between frames
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -476,7 +411,7 @@ class FrameLoop {
 /// odometry's counts (`vo_stats` null: no frame) and the warning when nothing was measured,
 /// heading source, mean stage times, fps from `wall_s`, the comparison with GPS (at least 3
 /// fixes) and with `truth` (may be null), the latency's median, 95th percentile and maximum,
-/// a warning when summary->frames_dropped > 0, error = end.failure. `totals` is consumed.
+/// a warning when summary->frames_dropped > 0, error = end.failure's text. `totals` is consumed.
 void Summarize(const std::vector<std::string>& source_warnings, bool has_telemetry,
                const LoopEnd& end, const OdometryStats* vo_stats, const GeoReferencer& georef,
                RunTotals totals, const ReferenceTrack* truth, double wall_s, RunSummary* summary);

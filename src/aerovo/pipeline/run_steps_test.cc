@@ -1,6 +1,6 @@
 // The steps of a run (run_steps.h) on synthetic inputs: sim.json resolution, telemetry lookup,
-// the camera's focal chain, the height provider, the outputs, the totals and summary, and the
-// frame loop on frames generated in memory. RunFlight end to end: tests/e2e.
+// the camera's focal chain, the height provider, the outputs, the totals and summary (the frame
+// loop: frame_loop_test.cc). RunFlight end to end: tests/e2e.
 #include "aerovo/pipeline/run_steps.h"
 
 #include <arpa/inet.h>
@@ -371,7 +371,7 @@ TEST(RunSteps, PhotoTelemetryAndFocalFromTheirMetadata) {
 
 TEST(RunSteps, HeightFlagWinsOverTelemetry) {
   HeightProvider height(57.0);
-  EXPECT_STREQ(height.source(), "flag");
+  EXPECT_EQ(height.source(), HeightSource::kFlag);
   std::vector<std::string> warnings;
   EXPECT_EQ(height.HeightOf("f0", Fix(0, 100.0), &warnings), 57.0);
   EXPECT_EQ(height.HeightOf("f1", std::nullopt, &warnings), 57.0);
@@ -380,7 +380,7 @@ TEST(RunSteps, HeightFlagWinsOverTelemetry) {
 
 TEST(RunSteps, HeightFallsBackOnTheLastKnownWithOneWarning) {
   HeightProvider height(0.0);
-  EXPECT_STREQ(height.source(), "telemetry");
+  EXPECT_EQ(height.source(), HeightSource::kTelemetry);
   std::vector<std::string> warnings;
   EXPECT_EQ(height.HeightOf("f0", Fix(0, 80.0), &warnings), 80.0);
   EXPECT_EQ(height.HeightOf("f1", Fix(1, std::nullopt), &warnings), 80.0);
@@ -460,7 +460,7 @@ TEST(RunSteps, HeightFromTheAutopilotLink) {
   std::this_thread::sleep_for(std::chrono::milliseconds(100));  // both in
   std::vector<std::string> warnings;
   HeightProvider height(0.0, &link, 0.25);
-  EXPECT_STREQ(height.source(), "mavlink");
+  EXPECT_EQ(height.source(), HeightSource::kMavlink);
   const double now = mavlink::MonotonicNowS();
   EXPECT_DOUBLE_EQ(height.HeightOf("live#0", Fix(0, 80.0), &warnings, now), 58.75);
   EXPECT_EQ(height.last_source(), "mavlink_distance_sensor");
@@ -711,150 +711,6 @@ TEST(RunSteps, WriteSummaryThenThrowTheFailure) {
   }
   EXPECT_EQ(nlohmann::json::parse(ReadText(dir / "summary.json")).at("error"),
             "f4.jpg: cannot decode");
-  fs::remove_all(dir);
-}
-
-// ---------------------------------------------------------------------------------------------
-// 5. The frame loop
-
-// Frames cut from one smooth random texture, each `shift_px` further right; the frame
-// `odd_index` (if >= 0) has another size.
-class ShiftedCrops : public FrameSource {
- public:
-  ShiftedCrops(int count, int shift_px, int odd_index = -1)
-      : count_(count), shift_px_(shift_px), odd_index_(odd_index) {
-    cv::Mat noise(kH + 64, kW + 64 + count * shift_px, CV_32F);
-    cv::RNG rng(7);
-    rng.fill(noise, cv::RNG::NORMAL, 0.0, 1.0);
-    cv::GaussianBlur(noise, noise, cv::Size(0, 0), 2.5);
-    cv::normalize(noise, noise, 0.0, 255.0, cv::NORM_MINMAX);
-    noise.convertTo(texture_, CV_8U);
-  }
-  bool Next(Frame& frame) override {
-    if (next_ >= count_) return false;
-    const int w = next_ == odd_index_ ? kW / 2 : kW;
-    const cv::Mat crop = texture_(cv::Rect(32 + next_ * shift_px_, 32, w, kH));
-    frame.gray = GrayImage(w, kH);
-    for (int y = 0; y < kH; ++y) std::copy_n(crop.ptr<std::uint8_t>(y), w, frame.gray.row(y));
-    frame.index = next_;
-    frame.time_s = 0.1 * next_;
-    frame.name = "crop" + std::to_string(next_);
-    ++next_;
-    return true;
-  }
-  std::string Describe() const override { return "shifted crops"; }
-  int ExpectedFrameCount() const override { return count_; }
-
-  static constexpr int kW = 320, kH = 240;
-
- private:
-  int count_, shift_px_, odd_index_;
-  int next_ = 0;
-  cv::Mat texture_;
-};
-
-RunInputs LoopInputs(const fs::path& out) {
-  RunInputs in;
-  in.config.out = out.string();
-  in.config.altitude_m = 50.0;
-  in.config.focal_px = 400.0;
-  return in;
-}
-
-TEST(RunSteps, FrameLoopProcessesEveryFrame) {
-  const fs::path dir = TempDir("loop");
-  const RunInputs inputs = LoopInputs(dir);
-  const RunTelemetry telemetry;
-  RunCallbacks cb;
-  std::vector<int> progress;
-  cb.progress = [&](int done, int expected, double) {
-    progress.push_back(done);
-    EXPECT_EQ(expected, 6);
-  };
-  std::ostringstream log;
-  FrameLoop loop(inputs, telemetry, nullptr, OdometryOptions(), dir, cb, &log);
-  ShiftedCrops source(6, 6);
-  RunSummary s;
-  s.frames_expected = source.ExpectedFrameCount();
-  const LoopEnd end = loop.Run(source, nullptr, Stopwatch(), &s);
-  loop.Finish();
-  EXPECT_FALSE(end.stopped);
-  EXPECT_TRUE(end.failure.empty());
-  EXPECT_EQ(end.frames_without_fix, 6);
-  EXPECT_EQ(s.frames_processed, 6);
-  EXPECT_EQ(progress, (std::vector<int>{1, 2, 3, 4, 5, 6}));
-  EXPECT_EQ(s.focal_px, 400.0);
-  EXPECT_EQ(s.focal_source, "flag");
-  EXPECT_EQ(s.height_source, "flag");
-  EXPECT_EQ(log.str(), "camera: 320x240 px, focal 400.0 px (flag), height from flag\ncamera: focal length 400.0 px (given)\n");
-  ASSERT_NE(loop.vo_stats(), nullptr);
-  EXPECT_EQ(loop.vo_stats()->ok, 6);
-  EXPECT_EQ(loop.totals().measured_steps, 5);
-  // 6 px per frame at 50 m and 400 px: 0.75 m per step.
-  EXPECT_NEAR(loop.totals().path_length_m, 5 * 0.75, 0.05);
-  EXPECT_EQ(CsvRows(dir / "frames.csv"), 6);
-  EXPECT_EQ(CsvRows(dir / "transforms.csv"), 6);
-  fs::remove_all(dir);
-}
-
-TEST(RunSteps, FrameLoopStopsAtMaxFramesAndOnTheStopFlag) {
-  const fs::path dir = TempDir("loop_stop");
-  RunInputs inputs = LoopInputs(dir);
-  inputs.config.max_frames = 3;
-  const RunTelemetry telemetry;
-  const RunCallbacks cb;
-  {
-    FrameLoop loop(inputs, telemetry, nullptr, OdometryOptions(), dir, cb, nullptr);
-    ShiftedCrops source(6, 6);
-    RunSummary s;
-    const LoopEnd end = loop.Run(source, nullptr, Stopwatch(), &s);
-    loop.Finish();
-    EXPECT_FALSE(end.stopped);
-    EXPECT_EQ(s.frames_processed, 3);
-    EXPECT_EQ(CsvRows(dir / "frames.csv"), 3);
-  }
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  {
-    FrameLoop loop(inputs, telemetry, nullptr, OdometryOptions(), dir, cb, nullptr);
-    ShiftedCrops source(6, 6);
-    RunSummary s;
-    const std::atomic<bool> stop{true};
-    const LoopEnd end = loop.Run(source, &stop, Stopwatch(), &s);
-    loop.Finish();
-    EXPECT_TRUE(end.stopped);
-    EXPECT_EQ(s.frames_processed, 0);
-    EXPECT_EQ(loop.vo_stats(), nullptr);
-    EXPECT_FALSE(fs::exists(dir / "frames.csv"));
-  }
-  fs::remove_all(dir);
-}
-
-TEST(RunSteps, FrameLoopKeepsTheFramesBeforeAnInputError) {
-  const fs::path dir = TempDir("loop_error");
-  const RunInputs inputs = LoopInputs(dir);
-  const RunTelemetry telemetry;
-  const RunCallbacks cb;
-  FrameLoop loop(inputs, telemetry, nullptr, OdometryOptions(), dir, cb, nullptr);
-  ShiftedCrops source(6, 6, 3);  // crop3 has another size
-  RunSummary s;
-  const LoopEnd end = loop.Run(source, nullptr, Stopwatch(), &s);
-  loop.Finish();
-  EXPECT_EQ(s.frames_processed, 3);
-  EXPECT_EQ(end.failure.rfind("crop3: ", 0), 0u) << end.failure;
-  EXPECT_EQ(CsvRows(dir / "frames.csv"), 3);
-
-  // A missing height at the first frame ends the loop the same way (no frame processed), so that
-  // RunFlight writes summary.json with the error (before: thrown past the summary).
-  ShiftedCrops first_odd(3, 6);
-  RunInputs no_height = LoopInputs(dir);
-  no_height.config.altitude_m = 0.0;
-  FrameLoop unknown(no_height, telemetry, nullptr, OdometryOptions(), dir, cb, nullptr);
-  RunSummary u;
-  const LoopEnd none = unknown.Run(first_odd, nullptr, Stopwatch(), &u);
-  EXPECT_EQ(u.frames_processed, 0);
-  EXPECT_FALSE(none.stopped);
-  EXPECT_EQ(none.failure.rfind("crop0: no height above ground", 0), 0u) << none.failure;
   fs::remove_all(dir);
 }
 

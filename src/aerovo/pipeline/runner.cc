@@ -14,12 +14,13 @@
 #include "aerovo/core/timer.h"
 #include "aerovo/eval/trajectory_eval_json.h"
 #include "aerovo/frames/frame_source.h"
-#include "aerovo/frames/prefetch_source.h"
-#include "aerovo/matching/matcher.h"
 #include "aerovo/outputs/output_file.h"
 #include "aerovo/outputs/run_folder.h"
+#include "aerovo/frames/prefetch_source.h"
 #include "aerovo/outputs/track_writers.h"
+#include "aerovo/matching/matcher.h"
 #include "aerovo/pipeline/lens_prepass.h"
+#include "aerovo/pipeline/frame_loop.h"
 #include "aerovo/pipeline/run_steps.h"
 #include "aerovo/telemetry/clock.h"
 
@@ -193,61 +194,77 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
 
 namespace {
 
-// Decoding on its own thread (config.frame_queue > 0): *source is wrapped in a PrefetchSource,
-// which a live source fills with its newest frame only (bounded latency). Returns the wrapper,
-// nullptr when the source is not wrapped.
-PrefetchSource* WrapInPrefetch(const RunConfig& config, bool live,
-                               std::unique_ptr<FrameSource>* source) {
+// Decoding on its own thread (config.frame_queue > 0): `source` wrapped in a PrefetchSource,
+// returned (else null); a live source keeps only the newest frame (bounded latency).
+PrefetchSource* Prefetch(const RunConfig& config, std::unique_ptr<FrameSource>& source) {
   if (config.frame_queue <= 0) return nullptr;
+  const bool live = source->IsLive();
   PrefetchOptions po;
   po.capacity = live ? 1 : config.frame_queue;
   po.policy = live ? QueuePolicy::kDropOldest : QueuePolicy::kWait;
-  auto wrapped = std::make_unique<PrefetchSource>(std::move(*source), po);
+  auto wrapped = std::make_unique<PrefetchSource>(std::move(source), po);
   PrefetchSource* prefetch = wrapped.get();
-  *source = std::move(wrapped);
+  source = std::move(wrapped);
   return prefetch;
 }
 
-// summary.json counts what frames.csv holds, on every exit path: frames processed but never
-// written (`written` of them were; queued for the heading when a write failed) are counted apart
-// and said.
-void CountUnwrittenFrames(int written, const run_steps::LoopEnd& end, RunSummary* summary) {
-  if (written == summary->frames_processed) return;
-  summary->frames_not_written = std::max(0, summary->frames_processed - written);
-  if (summary->frames_not_written > 0) {
-    summary->warnings.push_back(fmt::format(
-        "{} of the {} frames processed are not in frames.csv nor the tracks: writing them "
-        "failed ({}); frames_processed counts the {} written",
-        summary->frames_not_written, summary->frames_processed,
-        end.failure.empty() ? std::string("see the error") : end.failure, written));
+// The frames still queued written (FrameLoop::Finish); its error is the run's failure (an
+// output one over any other).
+void Finish(run_steps::FrameLoop& loop, run_steps::LoopEnd* end) {
+  try {
+    loop.Finish();
+  } catch (const OutputError& e) {  // the files stay valid; the summary says what failed
+    end->failure = run_steps::RunFailure{run_steps::RunFailureKind::kOutput, -1, "", e.what()};
+  } catch (const InputError& e) {  // a queued frame's position is not on Earth
+    if (!end->failure) {
+      end->failure = run_steps::RunFailure{run_steps::RunFailureKind::kInput, -1, "", e.what()};
+    }
   }
-  summary->frames_processed = written;
 }
 
-// The summary's "mavlink" object: the link's URL, message and counters.
-nlohmann::json MavlinkSummary(const RunConfig& config, const mavlink::LinkStats& st) {
+// summary.json counts what frames.csv holds, on every exit path: frames processed but never
+// written (queued for the heading when a write failed) are counted apart and said.
+void CountWritten(const run_steps::FrameLoop& loop, const run_steps::LoopEnd& end,
+                  RunSummary* summary_out) {
+  RunSummary& summary = *summary_out;
+  if (const int written = loop.frames_written(); written != summary.frames_processed) {
+    summary.frames_not_written = std::max(0, summary.frames_processed - written);
+    if (summary.frames_not_written > 0) {
+      summary.warnings.push_back(fmt::format(
+          "{} of the {} frames processed are not in frames.csv nor the tracks: writing them "
+          "failed ({}); frames_processed counts the {} written",
+          summary.frames_not_written, summary.frames_processed,
+          end.failure ? end.failure->Text() : std::string("see the error"), written));
+    }
+    summary.frames_processed = written;
+  }
+}
+
+// summary.json "mavlink": the link's counts.
+nlohmann::json LinkStats(const mavlink::AutopilotLink& link, const RunConfig& config) {
+  const mavlink::LinkStats st = link.stats();
   return {{"url", config.mavlink},
-          {"message", ToString(config.mavlink_message)},
-          {"sent", st.sent},
-          {"send_failed", st.send_failed},
-          {"heartbeats", st.heartbeats},
-          {"timesync_answers", st.timesync_answers},
-          {"distance_samples", st.distance_samples},
-          {"relative_alt_samples", st.relative_alt_samples},
-          {"attitude_samples", st.attitude_samples},
-          {"autopilot_heartbeats", st.autopilot_heartbeats},
-          {"crc_errors", st.parser.crc_errors}};
+                     {"message", ToString(config.mavlink_message)},
+                     {"sent", st.sent},
+                     {"send_failed", st.send_failed},
+                     {"heartbeats", st.heartbeats},
+                     {"timesync_answers", st.timesync_answers},
+                     {"distance_samples", st.distance_samples},
+                     {"relative_alt_samples", st.relative_alt_samples},
+                     {"attitude_samples", st.attitude_samples},
+                     {"autopilot_heartbeats", st.autopilot_heartbeats},
+                     {"crc_errors", st.parser.crc_errors}};
 }
 
-// The telemetry's clock against the frames' (totals of a run with frames, telemetry not empty):
-// its span, and the offset seen in the motion, into the summary's warnings and offset estimate;
-// the estimate is logged.
+// The telemetry's clock against the frames' (`t`): a warning in `summary` when its span does not
+// cover them, and the offset seen in the motion (VO speed against GPS speed) in the summary, the
+// log, and a warning when it differs from the applied offset by more than 0.2 s.
 void CheckTelemetryTiming(const RunConfig& config, const run_steps::RunTelemetry& telemetry,
                           const run_steps::RunTotals& t, std::ostream* log, RunSummary* summary) {
   if (!telemetry.by_frame_index() || config.telemetry_offset_s != 0.0) {
-    const std::string w =
-        CheckTelemetryClock(telemetry.telemetry(), telemetry.origin(), t.first_time_s,
-                            t.last_time_s, config.telemetry_offset_s);
+    const std::string w = CheckTelemetryClock(telemetry.telemetry(), telemetry.origin(),
+                                              t.first_time_s, t.last_time_s,
+                                              config.telemetry_offset_s);
     if (!w.empty()) summary->warnings.push_back(w);
   }
   std::vector<PlanarTrackPoint> vo_track;
@@ -275,8 +292,8 @@ void CheckTelemetryTiming(const RunConfig& config, const run_steps::RunTelemetry
 
 // Steps 2-6 of RunFlight in its prepared folder `out_dir`: the source, the telemetry, the frames
 // and the summary (not written yet). A failure of the frame loop ends it and is in the summary
-// (LoopEnd::failure); one before it (telemetry that does not parse, a link that cannot open)
-// escapes.
+// (LoopEnd::failure, a RunFailure); one before it (telemetry that does not parse, a link that
+// cannot open) escapes.
 void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource> source,
                  const RunCallbacks& cb, const std::atomic<bool>* stop, const Stopwatch& wall,
                  std::ostream* log, const std::filesystem::path& out_dir, RunSummary& summary) {
@@ -285,9 +302,8 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
   const auto* folder = dynamic_cast<const ImageFolderSource*>(source.get());
   // Before the source is wrapped (the duration needs the video source itself).
   const std::string source_duration = DurationOf(*source);
-  // Decoding on its own thread; a live source keeps only the newest frame (bounded latency).
   const bool live = source->IsLive();
-  PrefetchSource* prefetch = WrapInPrefetch(config, live, &source);
+  PrefetchSource* prefetch = Prefetch(config, source);
   run_steps::RunTelemetry telemetry = run_steps::RunTelemetry::Load(
       config.telemetry, config.lenient_telemetry, folder, &summary.warnings);
   telemetry.set_offset_s(config.telemetry_offset_s);
@@ -295,34 +311,22 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
   if (log) *log << "telemetry: " << telemetry.Describe() << "\n";
 
   // 2-5. The frames: camera, height, outputs, odometry.
-  run_steps::FrameLoop loop(inputs, telemetry, folder, config.odometry, out_dir, cb,
-                            log);
+  run_steps::FrameLoop loop(inputs, telemetry, folder, config.odometry, out_dir, cb, log);
   loop.set_source_live(live);
   run_steps::LoopEnd end = loop.Run(*source, stop, wall, &summary);
-  if (summary.frames_processed == 0 && !end.stopped && end.failure.empty()) {
+  if (summary.frames_processed == 0 && !end.stopped && !end.failure) {
     // Not a silent empty run: a window past the end, an empty window, an empty source.
-    end.failure = fmt::format(
+    end.failure = run_steps::RunFailure();
+    end.failure->message = fmt::format(
         "no frame to process in '{}' (start_s {} s, end_s {}, step {}): the window selects no "
         "frame of {}{}",
         config.input, config.start_s,
         config.end_s >= 0.0 ? fmt::format("{} s", config.end_s) : std::string("the end"),
         config.step, source->Describe(), source_duration);
   }
-  if (!end.output_failed) {
-    try {
-      loop.Finish();
-    } catch (const OutputError& e) {  // the files stay valid; the summary says what failed
-      end.failure = e.what();
-      end.output_failed = true;
-    } catch (const InputError& e) {  // a queued frame's position is not on Earth
-      if (end.failure.empty()) end.failure = e.what();
-    }
-  }
-  // summary.json counts what frames.csv holds, on every exit path.
-  CountUnwrittenFrames(loop.frames_written(), end, &summary);
-  if (const mavlink::AutopilotLink* link = loop.link()) {
-    summary.mavlink = MavlinkSummary(config, link->stats());
-  }
+  if (!end.output_failed()) Finish(loop, &end);
+  CountWritten(loop, end, &summary);
+  if (const mavlink::AutopilotLink* link = loop.link()) summary.mavlink = LinkStats(*link, config);
 
   // The telemetry's clock against the frames': its span, and the offset seen in the motion.
   if (!telemetry.empty() && loop.totals().frames > 0) {

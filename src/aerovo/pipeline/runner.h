@@ -22,6 +22,7 @@
 #include <ostream>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -36,6 +37,10 @@
 namespace aerovo {
 
 class FrameSource;
+namespace run_steps {
+class FrameStage;
+class FrameSink;
+}  // namespace run_steps
 
 /// Mean per-frame stage times, ms.
 struct StageTimes {
@@ -176,6 +181,13 @@ struct RunCallbacks {
   /// When set, called with each frame's record as it is written to frames.csv (same content:
   /// ENU x/y once the track is geo-referenced, counts, stage times, status).
   std::function<void(const FrameRecord&)> frame;
+  /// Steps and consumers of every frame added to the run's own (pipeline/frame_state.h): each
+  /// stage runs after the built-in ones (it sees the odometry's result, the GPS check, the
+  /// output record), each sink after the built-in ones (the frame is written), in this order;
+  /// an exception from one ends the run at that frame like any other. A run that re-runs itself
+  /// (telemetry_auto_offset) calls them again for the second pass.
+  std::vector<std::shared_ptr<run_steps::FrameStage>> stages;
+  std::vector<std::shared_ptr<run_steps::FrameSink>> sinks;
 };
 
 /// Runs a whole flight. Writes config.json at the start, the per-frame outputs as frames are

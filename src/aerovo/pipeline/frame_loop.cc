@@ -1,0 +1,221 @@
+#include "aerovo/pipeline/frame_loop.h"
+
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include <fmt/format.h>
+
+#include "aerovo/core/error.h"
+
+namespace aerovo::run_steps {
+
+// ---------------------------------------------------------------------------------------------
+// The lists. A new stage or sink: its file, and one line here.
+
+std::vector<StagePtr> MakeStages(const RunContext& run, const std::vector<StagePtr>& extra) {
+  std::vector<StagePtr> stages;
+  stages.push_back(MakeHeightStage(run));
+  stages.push_back(MakeAttitudeStage());
+  stages.push_back(MakePreprocessStage());
+  stages.push_back(MakeOdometryStage());
+  stages.push_back(MakeGpsCheckStage());
+  stages.push_back(MakeGeoreferenceStage());
+  stages.push_back(MakeRecordStage());
+  stages.insert(stages.end(), extra.begin(), extra.end());
+  return stages;
+}
+
+std::vector<SinkPtr> MakeSinks(const RunContext& run, const std::vector<SinkPtr>& extra) {
+  std::vector<SinkPtr> sinks;
+  if (run.link != nullptr) sinks.push_back(MakeMavlinkSink());
+  sinks.push_back(MakeTransformsSink());
+  sinks.push_back(MakeSourceCountsSink());
+  sinks.push_back(MakePoseStreamSink());
+  sinks.push_back(MakeRunFilesSink());
+  sinks.push_back(MakeTotalsSink());
+  sinks.push_back(MakeProgressSink());
+  sinks.insert(sinks.end(), extra.begin(), extra.end());
+  return sinks;
+}
+
+// ---------------------------------------------------------------------------------------------
+// State
+
+void FrameState::Clear() {
+  Frame keep = std::move(frame);
+  *this = FrameState();
+  frame = std::move(keep);
+}
+
+namespace {
+
+GeoRefOptions GeoRefOptionsOf(const RunConfig& config) {
+  GeoRefOptions o;
+  o.heading_source = config.heading;
+  if (config.gps_check.enabled) {
+    o.outlier_m = config.gps_check.tolerance_m;
+    o.yaw_fixes = config.gps_check.min_chain;
+  }
+  return o;
+}
+
+// The --mavlink link (null without): InvalidArgument / InputError naming the URL.
+std::unique_ptr<mavlink::AutopilotLink> OpenLink(const RunConfig& config, std::ostream* log) {
+  if (config.mavlink.empty()) return nullptr;
+  const mavlink::LinkUrl url = mavlink::ParseLinkUrl(config.mavlink);
+  mavlink::AutopilotLink::Options o;
+  o.sysid = static_cast<uint8_t>(config.mavlink_sysid);
+  auto link = std::make_unique<mavlink::AutopilotLink>(mavlink::OpenTransport(url), o);
+  if (log) {
+    *log << fmt::format("mavlink: {} ({}, sysid {}, compid {}, {} time{})\n", url.text,
+                        ToString(config.mavlink_message), config.mavlink_sysid, o.compid,
+                        ToString(config.mavlink_time),
+                        url.reads_autopilot() ? "; height and attitude from the autopilot" : "");
+  }
+  return link;
+}
+
+}  // namespace
+
+RunState::RunState(const RunConfig& config)
+    : georef(GeoRefOptionsOf(config)), gps_check(config.gps_check) {}
+
+// ---------------------------------------------------------------------------------------------
+// Reading
+
+ReadResult ReadFrame(FrameSource& source, const RunConfig& config, const RunTelemetry& telemetry,
+                     const std::atomic<bool>* stop, int frames_processed, RunState* state,
+                     FrameState& f) {
+  f.Clear();
+  if (stop != nullptr && stop->load()) return ReadResult::kStopped;
+  if (config.max_frames > 0 && frames_processed >= config.max_frames) return ReadResult::kEnd;
+  f.frame.received_s = std::numeric_limits<double>::quiet_NaN();
+  if (!source.Next(f.frame)) return ReadResult::kEnd;
+  f.delivered = true;
+  // A PrefetchSource stamps the frame when decoded; else it is received now.
+  if (!std::isfinite(f.frame.received_s)) f.frame.received_s = SteadySeconds();
+  // The capture time: when the source delivered the frame (a live source's frames arrive as
+  // captured; a file's as read).
+  f.capture_mono_s = mavlink::MonotonicNowS();
+  f.capture_unix_s = mavlink::UnixNowS();
+  f.sample = telemetry.SampleOf(f.frame);
+  f.gps = GpsOf(f.sample);
+  if (!f.sample) ++state->frames_without_fix;
+  f.flags = FrameFlags::Parse(f.frame.flags);
+  return ReadResult::kFrame;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The loop
+
+FrameLoop::FrameLoop(const RunInputs& inputs, const RunTelemetry& telemetry,
+                     const ImageFolderSource* folder, OdometryOptions vo_options,
+                     const std::filesystem::path& out_dir, const RunCallbacks& callbacks,
+                     std::ostream* log)
+    : inputs_(inputs),
+      telemetry_(telemetry),
+      folder_(folder),
+      vo_options_(std::move(vo_options)),
+      out_dir_(out_dir),
+      callbacks_(callbacks),
+      log_(log),
+      link_(OpenLink(inputs.config, log)),
+      state_(inputs.config) {}
+
+FrameLoop::~FrameLoop() = default;
+
+void FrameLoop::Process(FrameState& frame, const std::atomic<bool>* stop, const Stopwatch& wall,
+                        RunSummary* summary) {
+  if (!run_) {
+    RunSetup setup;
+    RunContext& base = setup.base;
+    base.config = &inputs_.config;
+    base.telemetry = &telemetry_;
+    base.callbacks = &callbacks_;
+    base.log = log_;
+    base.out_dir = out_dir_;
+    base.photo_folder = folder_ != nullptr;
+    base.link = link_.get();
+    base.link_reads_autopilot =
+        link_ && mavlink::ParseLinkUrl(inputs_.config.mavlink).reads_autopilot();
+    base.stop = stop;
+    base.wall = &wall;
+    base.summary = summary;
+    base.state = &state_;
+    setup.focal_from_sim = inputs_.focal_from_sim;
+    setup.folder = folder_;
+    setup.source_live = source_live_;
+    setup.vo_options = vo_options_;
+    run_ = SetUpRun(std::move(setup), frame);
+    stages_ = MakeStages(*run_, callbacks_.stages);
+    sinks_ = MakeSinks(*run_, callbacks_.sinks);
+  }
+  in_frame_steps_ = true;
+  for (const StagePtr& stage : stages_) {
+    errors_name_frame_ = stage->ErrorsNameTheFrame();
+    stage->Process(frame, *run_);
+  }
+  errors_name_frame_ = true;
+  for (const SinkPtr& sink : sinks_) sink->Write(frame, *run_);
+  in_frame_steps_ = false;
+}
+
+RunFailure FrameLoop::FailureOf(RunFailureKind kind, const char* what,
+                                const FrameState& frame) const {
+  RunFailure f;
+  f.kind = kind;
+  f.frame = frame.delivered ? frame.frame.index : -1;
+  f.message = what;
+  // An output file that cannot be written while a frame is written, or an error of the
+  // odometry (which does not know the frame): said with the frame's name.
+  const bool name_it = in_frame_steps_ && (kind == RunFailureKind::kOutput || !errors_name_frame_);
+  if (name_it) f.file = frame.frame.name;
+  return f;
+}
+
+LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const Stopwatch& wall,
+                       RunSummary* summary) {
+  LoopEnd end;
+  FrameState frame;
+  // Any failure stops the run with the frames before it kept, and summary.json written with
+  // the error (WriteSummary), at the first frame too: a run folder never ends with outputs and
+  // no summary (an undecodable first photo, no height or no camera for the first frame).
+  while (!end.failure && !end.stopped) {
+    try {
+      const ReadResult read = ReadFrame(source, inputs_.config, telemetry_, stop,
+                                        summary->frames_processed, &state_, frame);
+      if (read != ReadResult::kFrame) {
+        end.stopped = read == ReadResult::kStopped;
+        break;
+      }
+      Process(frame, stop, wall, summary);
+    } catch (const Cancelled&) {  // a stop inside SURF, matching or RANSAC: frame abandoned
+      end.stopped = true;
+    } catch (const OutputError& e) {  // disk full: every file keeps its last valid content
+      end.failure = FailureOf(RunFailureKind::kOutput, e.what(), frame);
+    } catch (const InputError& e) {
+      end.failure = FailureOf(RunFailureKind::kInput, e.what(), frame);
+    }
+  }
+  end.frames_without_fix = state_.frames_without_fix;
+  end.first_flagged = state_.first_flagged;
+  end.rejected_fixes = RejectedFixes();
+  for (const SinkPtr& sink : sinks_) sink->End(end, run_.get());
+  for (const SinkPtr& sink : callbacks_.sinks) {
+    if (!run_) sink->End(end, nullptr);  // never set up: the callers' sinks still hear the end
+  }
+  return end;
+}
+
+void FrameLoop::Finish() {
+  if (run_) run_->outputs->Finish(state_.georef);
+}
+
+std::vector<RejectedFix> FrameLoop::RejectedFixes() const {
+  std::vector<RejectedFix> out;
+  for (const auto& [f, r] : state_.rejected) out.push_back(r);
+  return out;
+}
+
+}  // namespace aerovo::run_steps

@@ -1,0 +1,154 @@
+// The per-frame loop of `aerovo run` (step 5 of run_steps.h): frames are read (ReadFrame:
+// decoding, telemetry fix), the run is set up from the first one (SetUpRun: camera, reduction,
+// lens, odometry, outputs), then each frame goes through the stages (MakeStages) and is handed
+// to the sinks (MakeSinks). Types: pipeline/frame_state.h. Adding a stage or a sink: one file
+// (stage_*.cc / sink_*.cc) and one line in MakeStages / MakeSinks (frame_loop.cc); from outside
+// the pipeline, RunCallbacks::stages / sinks.
+#pragma once
+
+#include <atomic>
+#include <filesystem>
+#include <memory>
+#include <ostream>
+#include <vector>
+
+#include "aerovo/core/timer.h"
+#include "aerovo/pipeline/frame_state.h"
+#include "aerovo/pipeline/run_steps.h"
+
+namespace aerovo::run_steps {
+
+// ---------------------------------------------------------------------------------------------
+// The built-in stages, in the order MakeStages lists them (one file each).
+
+std::unique_ptr<FrameStage> MakeHeightStage(const RunContext& run);  // stage_height.cc
+std::unique_ptr<FrameStage> MakeAttitudeStage();                     // stage_attitude.cc
+std::unique_ptr<FrameStage> MakePreprocessStage();                   // stage_preprocess.cc
+std::unique_ptr<FrameStage> MakeOdometryStage();                     // stage_odometry.cc
+std::unique_ptr<FrameStage> MakeGpsCheckStage();                     // stage_gps_check.cc
+std::unique_ptr<FrameStage> MakeGeoreferenceStage();                 // stage_georef.cc
+std::unique_ptr<FrameStage> MakeRecordStage();                       // stage_record.cc
+
+// The built-in sinks, in the order MakeSinks lists them (one file each).
+
+std::unique_ptr<FrameSink> MakeMavlinkSink();       // sink_mavlink.cc
+std::unique_ptr<FrameSink> MakeTransformsSink();    // sink_transforms.cc
+std::unique_ptr<FrameSink> MakeSourceCountsSink();  // sink_source_counts.cc
+std::unique_ptr<FrameSink> MakePoseStreamSink();    // sink_pose_stream.cc
+std::unique_ptr<FrameSink> MakeRunFilesSink();      // sink_run_files.cc
+std::unique_ptr<FrameSink> MakeTotalsSink();        // sink_totals.cc
+std::unique_ptr<FrameSink> MakeProgressSink();      // sink_progress.cc
+
+/// A stage or sink the loop calls, owned by it or by the caller (RunCallbacks).
+using StagePtr = std::shared_ptr<FrameStage>;
+using SinkPtr = std::shared_ptr<FrameSink>;
+
+/// Every frame's stages: height, attitude, preprocess (reduction, undistortion, dimming),
+/// odometry, GPS check, geo-reference, record; then `extra` (RunCallbacks::stages).
+std::vector<StagePtr> MakeStages(const RunContext& run, const std::vector<StagePtr>& extra);
+/// Every frame's sinks: MAVLink (the vision message as soon as the pose is known),
+/// transforms.csv, the height/attitude source counts, the pose stream, the run files (queued
+/// for the heading), the totals, the progress callback; then `extra` (RunCallbacks::sinks).
+std::vector<SinkPtr> MakeSinks(const RunContext& run, const std::vector<SinkPtr>& extra);
+
+// ---------------------------------------------------------------------------------------------
+// Reading and setting up.
+
+/// Reads the next frame into `frame` (cleared first): nothing once the stop flag is set
+/// (kStopped) or max_frames are processed or the source ends (kEnd); else the frame with its
+/// capture time (the source's delivery), its telemetry fix (counted in
+/// state->frames_without_fix when it has none) and its flags (kFrame). The source's
+/// InputError escapes (frame.delivered stays false).
+enum class ReadResult { kFrame, kEnd, kStopped };
+ReadResult ReadFrame(FrameSource& source, const RunConfig& config, const RunTelemetry& telemetry,
+                     const std::atomic<bool>* stop, int frames_processed, RunState* state,
+                     FrameState& frame);
+
+/// What SetUpRun needs besides the first frame.
+struct RunSetup {
+  RunContext base;              ///< Its "given before the first frame" part filled in.
+  bool focal_from_sim = false;  ///< RunInputs::focal_from_sim.
+  const ImageFolderSource* folder = nullptr;  ///< The source as a photo folder (or null).
+  bool source_live = false;                   ///< The lens pre-pass is skipped (lens_prepass.h).
+  OdometryOptions vo_options;                 ///< RunConfig::odometry.
+};
+/// The run from its first frame `first`: the camera (ResolveRunCamera), the reduction to the
+/// pixel budget, the height source (waiting for the link's first height with MAVLink), the
+/// odometry, the lens pre-pass and undistortion, the outputs (config.json, ...); fills in the
+/// summary's focal, frame size, height source, lens fields and logs them. InputError (no camera,
+/// no calibration) or OutputError (config.json cannot be written); the messages name the frame
+/// or file.
+std::unique_ptr<const RunContext> SetUpRun(RunSetup setup, const FrameState& first);
+
+// ---------------------------------------------------------------------------------------------
+// The loop.
+
+/// The frames of a run, one by one. A frame the source flagged (Frame::flags) is processed, its
+/// status gets "+flag" and RunSummary::frames_flagged counts it.
+class FrameLoop {
+ public:
+  /// `inputs`, `telemetry`, `callbacks` and `folder` (the source as a photo folder, or null)
+  /// must outlive the loop. `log` may be null.
+  FrameLoop(const RunInputs& inputs, const RunTelemetry& telemetry, const ImageFolderSource* folder,
+            OdometryOptions vo_options, const std::filesystem::path& out_dir,
+            const RunCallbacks& callbacks, std::ostream* log);
+  ~FrameLoop();
+
+  /// Processes `source` until its end, config.max_frames or `stop` (may be null); call once,
+  /// then Finish(). Fills in `summary`'s frames_processed, focal, height source and the height
+  /// warning (frames_expected: read for the progress callback). Any error of a frame (at the
+  /// first frame too: no camera, no height, an undecodable photo) ends the loop with the frames
+  /// before it kept: LoopEnd::failure, a RunFailure naming the frame. With --mavlink each
+  /// frame's vision message is sent as soon as it is processed (config.mavlink_message),
+  /// stamped with its capture time. `wall`: the run's stopwatch, for the progress callback's
+  /// frames per second.
+  LoopEnd Run(FrameSource& source, const std::atomic<bool>* stop, const Stopwatch& wall,
+              RunSummary* summary);
+  /// Writes the frames still queued and closes the track files (nothing when no frame came).
+  void Finish();
+  /// The fixes rejected by the plausibility check, by frame (for Summarize).
+  std::vector<RejectedFix> RejectedFixes() const;
+
+  /// The MAVLink link (null without --mavlink).
+  const mavlink::AutopilotLink* link() const { return link_.get(); }
+  /// The main source is live (FrameSource::IsLive): the lens self-calibration pre-pass is
+  /// skipped (pipeline/lens_prepass.h). Set before Run.
+  void set_source_live(bool live) { source_live_ = live; }
+  /// Counts of the odometry, null when no frame came.
+  const OdometryStats* vo_stats() const {
+    return run_ && run_->odometry ? &run_->odometry->stats() : nullptr;
+  }
+  const GeoReferencer& georef() const { return state_.georef; }
+  const RunTotals& totals() const { return state_.totals; }
+  /// Rows of frames.csv (RunOutputs::frames_written; 0 before the first frame).
+  int frames_written() const { return run_ ? run_->outputs->frames_written() : 0; }
+  /// The totals, moved out (for Summarize, at the end).
+  RunTotals TakeTotals() { return std::move(state_.totals); }
+
+ private:
+  // Sets up the run at the first frame, then the frame's stages and sinks.
+  void Process(FrameState& frame, const std::atomic<bool>* stop, const Stopwatch& wall,
+               RunSummary* summary);
+  // The failure of an exception of `kind` with message `what` at `frame`.
+  RunFailure FailureOf(RunFailureKind kind, const char* what, const FrameState& frame) const;
+
+  const RunInputs& inputs_;
+  const RunTelemetry& telemetry_;
+  const ImageFolderSource* folder_ = nullptr;
+  OdometryOptions vo_options_;
+  std::filesystem::path out_dir_;
+  const RunCallbacks& callbacks_;
+  std::ostream* log_ = nullptr;
+  std::unique_ptr<mavlink::AutopilotLink> link_;  // --mavlink (null: none)
+  bool source_live_ = false;
+  RunState state_;
+  std::unique_ptr<const RunContext> run_;  // from the first frame
+  std::vector<StagePtr> stages_;
+  std::vector<SinkPtr> sinks_;
+  // Where the frame is (for FailureOf): in a stage or sink (not the reading or the set-up), and
+  // whether that step's input errors name the frame.
+  bool in_frame_steps_ = false;
+  bool errors_name_frame_ = true;
+};
+
+}  // namespace aerovo::run_steps

@@ -1,0 +1,338 @@
+// The per-frame loop (frame_loop.h) on frames generated in memory: every frame processed and
+// written, max_frames and the stop flag, a failure keeping the frames before it, and stages and
+// sinks added by a caller (RunCallbacks) alone, called in order for every frame.
+#include "aerovo/pipeline/frame_loop.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "aerovo/core/error.h"
+#include "aerovo/pipeline/frame_state.h"
+#include "aerovo/pipeline/runner.h"
+
+namespace aerovo::run_steps {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path TempDir(const std::string& name) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("aerovo_frame_loop_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string ReadText(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// Rows of a CSV file after its header.
+int CsvRows(const fs::path& p) {
+  std::istringstream in(ReadText(p));
+  std::string line;
+  int n = 0;
+  while (std::getline(in, line)) ++n;
+  return n - 1;
+}
+
+// ---------------------------------------------------------------------------------------------
+// 5. The frame loop
+
+// Frames cut from one smooth random texture, each `shift_px` further right; the frame
+// `odd_index` (if >= 0) has another size, the frame `blank_index` (if >= 0) is uniform grey (no
+// feature: the odometry bridges it).
+class ShiftedCrops : public FrameSource {
+ public:
+  ShiftedCrops(int count, int shift_px, int odd_index = -1, int blank_index = -1)
+      : count_(count), shift_px_(shift_px), odd_index_(odd_index), blank_index_(blank_index) {
+    cv::Mat noise(kH + 64, kW + 64 + count * shift_px, CV_32F);
+    cv::RNG rng(7);
+    rng.fill(noise, cv::RNG::NORMAL, 0.0, 1.0);
+    cv::GaussianBlur(noise, noise, cv::Size(0, 0), 2.5);
+    cv::normalize(noise, noise, 0.0, 255.0, cv::NORM_MINMAX);
+    noise.convertTo(texture_, CV_8U);
+  }
+  bool Next(Frame& frame) override {
+    if (next_ >= count_) return false;
+    const int w = next_ == odd_index_ ? kW / 2 : kW;
+    const cv::Mat crop = texture_(cv::Rect(32 + next_ * shift_px_, 32, w, kH));
+    frame.gray = GrayImage(w, kH);
+    for (int y = 0; y < kH; ++y) std::copy_n(crop.ptr<std::uint8_t>(y), w, frame.gray.row(y));
+    if (next_ == blank_index_) {
+      for (int y = 0; y < kH; ++y) std::fill_n(frame.gray.row(y), w, std::uint8_t{128});
+    }
+    frame.index = next_;
+    frame.time_s = 0.1 * next_;
+    frame.name = "crop" + std::to_string(next_);
+    ++next_;
+    return true;
+  }
+  std::string Describe() const override { return "shifted crops"; }
+  int ExpectedFrameCount() const override { return count_; }
+
+  static constexpr int kW = 320, kH = 240;
+
+ private:
+  int count_, shift_px_, odd_index_, blank_index_;
+  int next_ = 0;
+  cv::Mat texture_;
+};
+
+RunInputs LoopInputs(const fs::path& out) {
+  RunInputs in;
+  in.config.out = out.string();
+  in.config.altitude_m = 50.0;
+  in.config.focal_px = 400.0;
+  return in;
+}
+
+TEST(FrameLoop, ProcessesEveryFrame) {
+  const fs::path dir = TempDir("loop");
+  const RunInputs inputs = LoopInputs(dir);
+  const RunTelemetry telemetry;
+  RunCallbacks cb;
+  std::vector<int> progress;
+  cb.progress = [&](int done, int expected, double) {
+    progress.push_back(done);
+    EXPECT_EQ(expected, 6);
+  };
+  std::ostringstream log;
+  FrameLoop loop(inputs, telemetry, nullptr, OdometryOptions(), dir, cb, &log);
+  ShiftedCrops source(6, 6);
+  RunSummary s;
+  s.frames_expected = source.ExpectedFrameCount();
+  const LoopEnd end = loop.Run(source, nullptr, Stopwatch(), &s);
+  loop.Finish();
+  EXPECT_FALSE(end.stopped);
+  EXPECT_FALSE(end.failure.has_value());
+  EXPECT_EQ(end.frames_without_fix, 6);
+  EXPECT_EQ(s.frames_processed, 6);
+  EXPECT_EQ(progress, (std::vector<int>{1, 2, 3, 4, 5, 6}));
+  EXPECT_EQ(s.focal_px, 400.0);
+  EXPECT_EQ(s.focal_source, "flag");
+  EXPECT_EQ(s.height_source, "flag");
+  EXPECT_EQ(log.str(),
+            "camera: 320x240 px, focal 400.0 px (flag), height from flag\ncamera: focal length "
+            "400.0 px (given)\n");
+  ASSERT_NE(loop.vo_stats(), nullptr);
+  EXPECT_EQ(loop.vo_stats()->ok, 6);
+  EXPECT_EQ(loop.totals().measured_steps, 5);
+  // 6 px per frame at 50 m and 400 px: 0.75 m per step.
+  EXPECT_NEAR(loop.totals().path_length_m, 5 * 0.75, 0.05);
+  EXPECT_EQ(CsvRows(dir / "frames.csv"), 6);
+  EXPECT_EQ(CsvRows(dir / "transforms.csv"), 6);
+  fs::remove_all(dir);
+}
+
+TEST(FrameLoop, StopsAtMaxFramesAndOnTheStopFlag) {
+  const fs::path dir = TempDir("loop_stop");
+  RunInputs inputs = LoopInputs(dir);
+  inputs.config.max_frames = 3;
+  const RunTelemetry telemetry;
+  const RunCallbacks cb;
+  {
+    FrameLoop loop(inputs, telemetry, nullptr, OdometryOptions(), dir, cb, nullptr);
+    ShiftedCrops source(6, 6);
+    RunSummary s;
+    const LoopEnd end = loop.Run(source, nullptr, Stopwatch(), &s);
+    loop.Finish();
+    EXPECT_FALSE(end.stopped);
+    EXPECT_EQ(s.frames_processed, 3);
+    EXPECT_EQ(CsvRows(dir / "frames.csv"), 3);
+  }
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  {
+    FrameLoop loop(inputs, telemetry, nullptr, OdometryOptions(), dir, cb, nullptr);
+    ShiftedCrops source(6, 6);
+    RunSummary s;
+    const std::atomic<bool> stop{true};
+    const LoopEnd end = loop.Run(source, &stop, Stopwatch(), &s);
+    loop.Finish();
+    EXPECT_TRUE(end.stopped);
+    EXPECT_EQ(s.frames_processed, 0);
+    EXPECT_EQ(loop.vo_stats(), nullptr);
+    EXPECT_FALSE(fs::exists(dir / "frames.csv"));
+  }
+  fs::remove_all(dir);
+}
+
+TEST(FrameLoop, KeepsTheFramesBeforeAnInputError) {
+  const fs::path dir = TempDir("loop_error");
+  const RunInputs inputs = LoopInputs(dir);
+  const RunTelemetry telemetry;
+  const RunCallbacks cb;
+  FrameLoop loop(inputs, telemetry, nullptr, OdometryOptions(), dir, cb, nullptr);
+  ShiftedCrops source(6, 6, 3);  // crop3 has another size
+  RunSummary s;
+  const LoopEnd end = loop.Run(source, nullptr, Stopwatch(), &s);
+  loop.Finish();
+  EXPECT_EQ(s.frames_processed, 3);
+  ASSERT_TRUE(end.failure.has_value());
+  EXPECT_EQ(end.failure->kind, RunFailureKind::kInput);
+  EXPECT_EQ(end.failure->frame, 3);
+  EXPECT_EQ(end.failure->file, "crop3");  // the odometry's error does not name the frame
+  EXPECT_EQ(end.failure->Text().rfind("crop3: ", 0), 0u) << end.failure->Text();
+  EXPECT_EQ(CsvRows(dir / "frames.csv"), 3);
+
+  // A missing height at the first frame ends the loop the same way (no frame processed), so that
+  // RunFlight writes summary.json with the error (before: thrown past the summary).
+  ShiftedCrops first_odd(3, 6);
+  RunInputs no_height = LoopInputs(dir);
+  no_height.config.altitude_m = 0.0;
+  FrameLoop unknown(no_height, telemetry, nullptr, OdometryOptions(), dir, cb, nullptr);
+  RunSummary u;
+  const LoopEnd none = unknown.Run(first_odd, nullptr, Stopwatch(), &u);
+  EXPECT_EQ(u.frames_processed, 0);
+  EXPECT_FALSE(none.stopped);
+  ASSERT_TRUE(none.failure.has_value());
+  EXPECT_EQ(none.failure->frame, 0);
+  EXPECT_EQ(none.failure->file, "");  // the height's error names the frame itself
+  EXPECT_EQ(none.failure->Text().rfind("crop0: no height above ground", 0), 0u)
+      << none.failure->Text();
+  fs::remove_all(dir);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Stages and sinks added by a caller: this file alone, no edit of the pipeline.
+
+// Every call, in order: "stage <index> <status>", "sink <index> <frames processed>",
+// "end <kind> <frame> <file>" (or "end ok").
+using CallLog = std::vector<std::string>;
+
+// After the built-in stages: sees the odometry's result. Throws an InputError at `throw_at`.
+class LoggingStage : public FrameStage {
+ public:
+  LoggingStage(CallLog* log, int throw_at = -1) : log_(log), throw_at_(throw_at) {}
+  const char* name() const override { return "test_logging"; }
+  void Process(FrameState& f, const RunContext& run) override {
+    (void)run;
+    log_->push_back("stage " + std::to_string(f.frame.index) + " " + ToString(f.result.status));
+    if (f.frame.index == throw_at_) throw InputError(f.frame.name + ": refused by the test stage");
+  }
+
+ private:
+  CallLog* log_;
+  int throw_at_;
+};
+
+// After the built-in sinks: the frame is counted (frames_processed) and in frames.csv or queued.
+class LoggingSink : public FrameSink {
+ public:
+  explicit LoggingSink(CallLog* log) : log_(log) {}
+  const char* name() const override { return "test_logging"; }
+  void Write(FrameState& f, const RunContext& run) override {
+    log_->push_back("sink " + std::to_string(f.frame.index) + " " +
+                    std::to_string(run.summary->frames_processed));
+  }
+  void End(const LoopEnd& end, const RunContext* run) override {
+    EXPECT_NE(run, nullptr);
+    log_->push_back(end.failure ? std::string("end ") + ToString(end.failure->kind) + " " +
+                                      std::to_string(end.failure->frame) + " " + end.failure->file
+                                : std::string("end ok"));
+  }
+
+ private:
+  CallLog* log_;
+};
+
+RunConfig FlightConfig(const fs::path& out) {
+  RunConfig c;
+  c.input = "shifted-crops";
+  c.out = out.string();
+  c.altitude_m = 50.0;
+  c.focal_px = 400.0;
+  c.quiet = true;
+  return c;
+}
+
+TEST(FrameLoop, CallersStagesAndSinksSeeEveryFrameInOrderBridgedAndFailedOnes) {
+  const fs::path dir = TempDir("extra");
+  CallLog calls;
+  RunCallbacks cb;
+  cb.stages.push_back(std::make_shared<LoggingStage>(&calls));
+  cb.sinks.push_back(std::make_shared<LoggingSink>(&calls));
+  // Frame 2 uniform grey (bridged), frame 5 of another size (the odometry refuses it).
+  try {
+    RunFlight(FlightConfig(dir), std::make_unique<ShiftedCrops>(6, 6, 5, 2), cb);
+    ADD_FAILURE() << "frame 5 must stop the run";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("crop5: ", 0), 0u) << e.what();
+  }
+  const CallLog expected = {"stage 0 first",   "sink 0 1", "stage 1 ok",       "sink 1 2",
+                            "stage 2 bridged", "sink 2 3", calls.at(6),        "sink 3 4",
+                            calls.at(8),       "sink 4 5", "end input 5 crop5"};
+  EXPECT_EQ(calls, expected);
+  // Frames 3 and 4 follow the bridged one: measured again (ok or reacquired), never skipped.
+  EXPECT_EQ(calls.at(6).rfind("stage 3 ", 0), 0u);
+  EXPECT_EQ(calls.at(8).rfind("stage 4 ", 0), 0u);
+  EXPECT_EQ(CsvRows(dir / "frames.csv"), 5);
+  const nlohmann::json summary = nlohmann::json::parse(ReadText(dir / "summary.json"));
+  EXPECT_EQ(summary.at("frames_processed"), 5);
+  EXPECT_EQ(summary.at("frames_bridged"), 1);
+  EXPECT_EQ(summary.at("error").get<std::string>().rfind("crop5: ", 0), 0u);
+  fs::remove_all(dir);
+}
+
+TEST(FrameLoop, ACallersStageThatThrowsEndsTheRunAtItsFrame) {
+  const fs::path dir = TempDir("extra_throws");
+  CallLog calls;
+  RunCallbacks cb;
+  cb.stages.push_back(std::make_shared<LoggingStage>(&calls, 3));
+  cb.sinks.push_back(std::make_shared<LoggingSink>(&calls));
+  try {
+    RunFlight(FlightConfig(dir), std::make_unique<ShiftedCrops>(6, 6), cb);
+    ADD_FAILURE() << "the test stage must stop the run";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("crop3: refused by the test stage (the run stopped "
+                                          "there: the 3 frames processed before are in",
+                                          0),
+              0u)
+        << e.what();
+  }
+  const CallLog expected = {"stage 0 first", "sink 0 1", "stage 1 ok", "sink 1 2",
+                            "stage 2 ok",    "sink 2 3", "stage 3 ok", "end input 3 "};
+  EXPECT_EQ(calls, expected);
+  EXPECT_EQ(CsvRows(dir / "frames.csv"), 3);
+  fs::remove_all(dir);
+}
+
+TEST(FrameLoop, StagesAndSinksAreListedInTheirOrder) {
+  const RunConfig config;
+  RunContext run;  // no link
+  run.config = &config;
+  CallLog calls;
+  const std::vector<StagePtr> stages = MakeStages(run, {std::make_shared<LoggingStage>(&calls)});
+  std::vector<std::string> names;
+  for (const StagePtr& s : stages) names.emplace_back(s->name());
+  EXPECT_EQ(names,
+            (std::vector<std::string>{"height", "attitude", "preprocess", "odometry", "gps_check",
+                                      "georeference", "record", "test_logging"}));
+  names.clear();
+  for (const SinkPtr& s : MakeSinks(run, {std::make_shared<LoggingSink>(&calls)})) {
+    names.emplace_back(s->name());
+  }
+  // No MAVLink sink without a link.
+  EXPECT_EQ(names, (std::vector<std::string>{"transforms", "source_counts", "pose_stream",
+                                             "run_files", "totals", "progress", "test_logging"}));
+}
+
+}  // namespace
+}  // namespace aerovo::run_steps

@@ -1,0 +1,154 @@
+// What the per-frame loop of `aerovo run` (pipeline/frame_loop.h) passes around:
+//   - RunContext: the run, set up once from its first frame (camera, frame reduction, lens
+//     undistortion, odometry, outputs) and not changed after; it points to the run's state
+//     (RunState: geo-referencing, GPS check, totals) and summary, which the frames change;
+//   - FrameState: one frame as a value, filled in by the stages in order (telemetry fix,
+//     height, attitude, pixels, odometry result, GPS check, output record);
+//   - FrameStage: one step of a frame (stage_*.cc), FrameSink: one consumer of a finished frame
+//     (sink_*.cc). The loop calls every stage, then every sink, for each frame; an exception
+//     from any of them ends the run at that frame (the loop's one error boundary makes it a
+//     RunFailure).
+#pragma once
+
+#include <atomic>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <optional>
+#include <ostream>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "aerovo/core/image.h"
+#include "aerovo/core/timer.h"
+#include "aerovo/frames/frame_source.h"
+#include "aerovo/telemetry/telemetry.h"
+#include "aerovo/mavlink/link.h"
+#include "aerovo/odometry/georef.h"
+#include "aerovo/odometry/gps_check.h"
+#include "aerovo/odometry/visual_odometry.h"
+#include "aerovo/pipeline/preprocess.h"
+#include "aerovo/pipeline/run_steps.h"
+#include "aerovo/pipeline/run_types.h"
+#include "aerovo/pipeline/runner.h"
+
+namespace aerovo::run_steps {
+
+/// The GPS plausibility check's verdict on a frame's fix (odometry/gps_check.h).
+enum class FixCheck {
+  kNoFix,     ///< The frame has no fix.
+  kAccepted,  ///< The fix is used (geo-referencing, comparison with GPS).
+  kRejected,  ///< Left out; FrameState::fix_rejection says why.
+};
+
+/// One frame on its way through the stages. The loop clears it (but for the decoding buffer)
+/// before each frame; each stage fills in its part, in the order of MakeStages.
+struct FrameState {
+  // Read (ReadFrame): the frame as the source delivered it and its telemetry fix.
+  Frame frame;
+  bool delivered = false;       ///< `frame` is this iteration's (else a decoding failed).
+  double capture_mono_s = 0.0;  ///< When the source delivered it, mavlink::MonotonicNowS, s.
+  double capture_unix_s = 0.0;  ///< The same on the Unix clock, s.
+  std::optional<TelemetrySample> sample;  ///< Its telemetry fix (none: no telemetry or no match).
+  std::optional<GeoPoint> gps;            ///< GpsOf(sample).
+  FrameFlags flags;                       ///< Frame::flags, typed.
+  // Height (stage_height.cc).
+  double height_m = 0.0;  ///< Height above ground, metres.
+  FrameHeightSource height_source = FrameHeightSource::kNone;
+  // Attitude (stage_attitude.cc).
+  std::optional<mavlink::AutopilotAttitude> autopilot_attitude;  ///< The link's, near capture.
+  FrameAttitude attitude;
+  // Preprocessing (stage_preprocess.cc): the pixels given to the odometry (a view into the
+  // frame or a stage's buffer, valid until the next frame).
+  GrayImageView pixels;
+  // Odometry (stage_odometry.cc).
+  FrameResult result;
+  // GPS check (stage_gps_check.cc).
+  FixCheck fix = FixCheck::kNoFix;
+  std::string fix_rejection;  ///< GpsFixVerdict::kind when kRejected.
+  // Record (stage_record.cc): the frame as the outputs write it; `latency_ms` set by the pose
+  // stream sink when the frame is handed to the outputs (capture to then, ms).
+  PendingFrame output;
+  float latency_ms = 0.0f;
+
+  /// Back to an empty state, keeping `frame`'s pixel buffer for the next decoding.
+  void Clear();
+};
+
+/// What the frames change for the whole run (owned by the FrameLoop, shared by the stages and
+/// sinks through RunContext::state).
+struct RunState {
+  explicit RunState(const RunConfig& config);
+  GeoReferencer georef;
+  GpsFixChecker gps_check;  ///< Fixes (stage_gps_check.cc) and the heights' relative altitudes.
+  RunTotals totals{true};
+  std::map<int, RejectedFix> rejected;  ///< Frame -> its rejected fix.
+  int frames_without_fix = 0;
+  /// The first frame flagged with each flag (FrameFlags names), for the summary's warning.
+  std::map<std::string, std::string> first_flagged;
+};
+
+/// A run as set up from its first frame: what every frame goes through. The FrameLoop makes it
+/// once (SetUpRun, run_setup.cc) and hands it to the stages and sinks as const: its pointers do
+/// not change, the objects behind `odometry`, `outputs`, `reducer`, `undistorter`, `link`,
+/// `state` and `summary` do (they carry the run's history).
+struct RunContext {
+  // Given before the first frame.
+  const RunConfig* config = nullptr;
+  const RunTelemetry* telemetry = nullptr;
+  const RunCallbacks* callbacks = nullptr;
+  std::ostream* log = nullptr;  ///< May be null.
+  std::filesystem::path out_dir;
+  bool photo_folder = false;                ///< The source is a photo folder (ImageFolderSource).
+  mavlink::AutopilotLink* link = nullptr;   ///< --mavlink (null: none).
+  bool link_reads_autopilot = false;        ///< udpin/serial: height and attitude in.
+  const std::atomic<bool>* stop = nullptr;  ///< May be null.
+  const Stopwatch* wall = nullptr;          ///< The run's stopwatch (frames per second).
+  RunSummary* summary = nullptr;
+  RunState* state = nullptr;
+  // From the first frame.
+  RunCamera camera;                 ///< Of the frames as delivered.
+  int width_px = 0, height_px = 0;  ///< The frames as delivered.
+  HeightSource height_source = HeightSource::kTelemetry;
+  OdometryOptions vo_options;             ///< focal_px: of the processed (reduced) frames.
+  std::unique_ptr<FrameReducer> reducer;  ///< Frames above the pixel budget; null: none.
+  Eigen::Matrix3d reduced_from_full = Eigen::Matrix3d::Identity();
+  std::unique_ptr<FrameUndistorter> undistorter;  ///< Whole frames remapped; null: none.
+  UndistortionPath undistortion = UndistortionPath::kNone;
+  std::unique_ptr<VisualOdometry> odometry;
+  std::unique_ptr<RunOutputs> outputs;
+};
+
+/// One step of every frame (height, attitude, preprocessing, odometry, ...): reads what the
+/// stages before it put in `frame`, adds its part. Throws to end the run at this frame:
+/// InputError (the frame cannot be used), OutputError, Cancelled (the stop flag).
+class FrameStage {
+ public:
+  virtual ~FrameStage() = default;
+  /// For messages and tests, e.g. "height".
+  virtual const char* name() const = 0;
+  virtual void Process(FrameState& frame, const RunContext& run) = 0;
+  /// Its InputError messages name the frame already; false: the run's failure is given the
+  /// frame's name as its file (RunFailure::file), as for the odometry's.
+  virtual bool ErrorsNameTheFrame() const { return true; }
+};
+
+/// A consumer of every frame the stages finished (the run files, the pose streams, MAVLink,
+/// the totals, the progress callback), in the order of MakeSinks. Write may take what it needs
+/// out of `frame` (the sinks after it see it moved from). An OutputError from Write is the
+/// frame's: the run's failure names the frame (RunFailure::file).
+class FrameSink {
+ public:
+  virtual ~FrameSink() = default;
+  virtual const char* name() const = 0;
+  virtual void Write(FrameState& frame, const RunContext& run) = 0;
+  /// Once, when the loop ends (`end.failure`: the frame and error that ended it, if any);
+  /// `run` is null when no frame was set up. Nothing by default.
+  virtual void End(const LoopEnd& end, const RunContext* run) {
+    (void)end;
+    (void)run;
+  }
+};
+
+}  // namespace aerovo::run_steps

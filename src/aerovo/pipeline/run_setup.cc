@@ -1,0 +1,152 @@
+// SetUpRun (frame_loop.h): the run from its first frame.
+#include <string>
+#include <utility>
+
+#include <fmt/format.h>
+
+#include "aerovo/camera_files/calibration.h"
+#include "aerovo/pipeline/frame_loop.h"
+#include "aerovo/pipeline/lens_prepass.h"
+
+namespace aerovo::run_steps {
+namespace {
+
+// The camera of the first frame, and the reduction of frames above the pixel budget: reduced
+// first, the camera model with them (focal scaled, principal point at the reduced centre), so
+// undistortion and SURF work on the reduced frame. Video and live frames above the detection
+// budget: an integer reduction (photo folders: the pixel budget alone).
+void SetUpFrames(const RunSetup& setup, const FrameState& first, RunContext& run) {
+  const RunConfig& config = *run.config;
+  const Frame& frame = first.frame;
+  run.width_px = frame.gray.width();
+  run.height_px = frame.gray.height();
+  const ImageFolderSource* folder = setup.folder;
+  const ImageMetadata* photo =
+      folder != nullptr && !folder->metadata().empty() ? &folder->metadata().front() : nullptr;
+  run.camera = ResolveRunCamera(config, setup.focal_from_sim, run.width_px, run.height_px, photo,
+                                first.sample, frame.name);
+  run.summary->focal_px = run.camera.focal_px;
+  run.summary->focal_source = run.camera.focal_source;
+  run.reducer = std::make_unique<FrameReducer>(run.width_px, run.height_px, config.max_megapixels,
+                                               folder != nullptr ? 0.0 : config.detect_megapixels);
+  const int pw = run.reducer->out_width_px(), ph = run.reducer->out_height_px();
+  run.reduced_from_full = run.reducer->reduced_from_full();
+  run.vo_options = setup.vo_options;
+  run.vo_options.focal_px = run.camera.focal_px * run.reducer->focal_scale();
+  run.vo_options.default_height_m = config.altitude_m;
+  if (!run.reducer->active()) run.reducer.reset();
+  run.summary->processed_width_px = pw;
+  run.summary->processed_height_px = ph;
+  run.summary->frame_scale = static_cast<double>(pw) / run.width_px;
+}
+
+// Where the heights come from; with the autopilot's, waits for its first one.
+void SetUpHeight(RunContext& run) {
+  const RunConfig& config = *run.config;
+  run.height_source = config.altitude_m > 0.0    ? HeightSource::kFlag
+                      : run.link_reads_autopilot ? HeightSource::kMavlink
+                                                 : HeightSource::kTelemetry;
+  run.summary->height_source = ToString(run.height_source);
+  if (run.height_source == HeightSource::kMavlink &&
+      !run.link->WaitForHeight(config.mavlink_wait_s) && run.log) {
+    *run.log << fmt::format("mavlink: no height from the autopilot after {:.1f} s\n",
+                            config.mavlink_wait_s);
+  }
+}
+
+// Lens self-calibration (RunConfig::lens_estimation): a significant estimate is the camera's
+// lens as a calibration file would be, and is written to lens_estimate.yaml.
+void RunPrepass(const RunSetup& setup, RunContext& run) {
+  const RunConfig& config = *run.config;
+  const std::string yaml = (run.out_dir / kLensEstimateYaml).string();
+  LensPrepass prepass;
+  prepass.why = LensPrepassSkipReason(config, setup.source_live);
+  if (prepass.why.empty()) {
+    prepass = RunLensPrepass(config, run.width_px, run.height_px, run.camera.focal_px);
+    if (prepass.applied) {
+      run.camera.calibrated = *prepass.lens;
+      WriteCalibration(yaml, *prepass.lens, CalibrationFormat::kOpenCv);
+    }
+  }
+  run.summary->lens_estimate = ToJson(prepass);
+  const bool skipped = prepass.status == LensPrepassStatus::kSkipped;
+  if (!run.log ||
+      (skipped && !(config.lens_estimation == LensEstimationMode::kAuto && setup.source_live))) {
+    return;
+  }
+  if (prepass.applied) {
+    *run.log << fmt::format(
+        "lens: estimated from {} frame pairs: {} k1 = {:.4f} +- {:.4f} (cost drop {:.0f} %), "
+        "applied; written to {} ({:.0f} ms)\n",
+        prepass.estimate->pairs_used, ToString(prepass.estimate->family), prepass.estimate->k,
+        prepass.estimate->sigma_k, 100.0 * prepass.estimate->cost_drop, yaml, prepass.total_ms);
+  } else {
+    *run.log << fmt::format("lens: self-calibration {}: {}{}\n", ToString(prepass.status),
+                            prepass.why,
+                            skipped ? "" : fmt::format(" ({:.0f} ms)", prepass.total_ms));
+  }
+}
+
+// Lens distortion: whole frames remapped before SURF, or the keypoints undistorted in the
+// odometry (RunConfig::undistort).
+void SetUpUndistortion(RunContext& run) {
+  const RunConfig& config = *run.config;
+  const int pw = run.summary->processed_width_px, ph = run.summary->processed_height_px;
+  const std::optional<CameraIntrinsics> lens =
+      RunLens(config, run.camera, pw, ph, run.vo_options.focal_px);
+  if (!lens) return;
+  const UndistortMode path =
+      ChooseUndistortion(config.undistort, *lens, &run.summary->lens_scale_change);
+  if (path == UndistortMode::kPoints) {
+    run.odometry->SetLensUndistortion(*lens);
+    run.undistortion = UndistortionPath::kPoints;
+  } else {
+    run.undistorter = std::make_unique<FrameUndistorter>(*lens);
+    run.undistortion = UndistortionPath::kFrames;
+  }
+  run.summary->undistortion = ToString(run.undistortion);
+}
+
+void LogSetUp(const RunContext& run) {
+  if (!run.log) return;
+  const RunConfig& config = *run.config;
+  std::ostream& log = *run.log;
+  log << fmt::format("camera: {}x{} px, focal {:.1f} px ({}), height from {}\n", run.width_px,
+                     run.height_px, run.camera.focal_px, run.camera.focal_source,
+                     ToString(run.height_source));
+  log << "camera: " << run.camera.description << "\n";
+  if (run.undistortion != UndistortionPath::kNone) {
+    log << fmt::format(
+        "lens: undistortion of the {} (local scale change {:.1f} % over the "
+        "frame; undistort {})\n",
+        run.undistortion == UndistortionPath::kPoints ? "keypoints" : "whole frames",
+        100.0 * run.summary->lens_scale_change, ToString(config.undistort));
+  }
+  if (run.reducer) {
+    const bool detect = run.reducer->factor() > 1;
+    log << fmt::format(
+        "frames reduced to {}x{} px before SURF ({:.1f} MP > {} {}), focal {:.1f} px\n",
+        run.summary->processed_width_px, run.summary->processed_height_px,
+        static_cast<double>(run.width_px) * run.height_px / 1e6,
+        detect ? "detect_megapixels" : "max_megapixels",
+        detect ? config.detect_megapixels : config.max_megapixels, run.vo_options.focal_px);
+  }
+}
+
+}  // namespace
+
+std::unique_ptr<const RunContext> SetUpRun(RunSetup setup, const FrameState& first) {
+  auto run = std::make_unique<RunContext>(std::move(setup.base));
+  SetUpFrames(setup, first, *run);
+  SetUpHeight(*run);
+  run->odometry = std::make_unique<VisualOdometry>(run->vo_options);
+  RunPrepass(setup, *run);
+  SetUpUndistortion(*run);
+  run->outputs = std::make_unique<RunOutputs>(
+      run->out_dir, *run->config, run->camera, run->summary->height_source, run->width_px,
+      run->height_px, first.frame.time_s, first.sample, *run->callbacks, !run->telemetry->empty());
+  LogSetUp(*run);
+  return run;
+}
+
+}  // namespace aerovo::run_steps

@@ -1,0 +1,33 @@
+// The totals sink: the frame counted as processed (RunSummary::frames_processed) and in what the
+// summary needs (run_steps.h RunTotals: track, fixes, latency; a rejected fix left out of the
+// comparison with GPS), and each of its flags (RunSummary::frames_flagged, the first frame with
+// each for the warning).
+#include <memory>
+
+#include "aerovo/pipeline/frame_loop.h"
+
+namespace aerovo::run_steps {
+namespace {
+
+class TotalsSink : public FrameSink {
+ public:
+  const char* name() const override { return "totals"; }
+
+  void Write(FrameState& f, const RunContext& run) override {
+    RunState& state = *run.state;
+    RunSummary& summary = *run.summary;
+    state.totals.Add(f.frame.index, f.frame.time_s, f.result, f.gps);
+    state.totals.latency_ms.push_back(f.latency_ms);
+    if (f.fix == FixCheck::kRejected) state.totals.SetRejected(f.frame.index, true);
+    ++summary.frames_processed;
+    for (const std::string& flag : f.flags.Names()) {
+      if (summary.frames_flagged[flag]++ == 0) state.first_flagged[flag] = f.frame.name;
+    }
+  }
+};
+
+}  // namespace
+
+std::unique_ptr<FrameSink> MakeTotalsSink() { return std::make_unique<TotalsSink>(); }
+
+}  // namespace aerovo::run_steps

@@ -1,0 +1,35 @@
+// The record stage: the frame as the outputs write it (run_steps.h PendingFrame: frames.csv's
+// record, the pose stream's fields), from what the stages before found: the odometry's result,
+// the fix and its check, the height and its source, the autopilot's attitude.
+#include <cmath>
+#include <memory>
+#include <string>
+
+#include "aerovo/pipeline/frame_loop.h"
+
+namespace aerovo::run_steps {
+namespace {
+
+class RecordStage : public FrameStage {
+ public:
+  const char* name() const override { return "record"; }
+
+  void Process(FrameState& f, const RunContext& run) override {
+    (void)run;
+    f.output = PendingFrameOf(f.frame, f.result, f.gps, f.height_m);
+    FrameRecord& rec = f.output.record;
+    if (f.fix == FixCheck::kRejected) rec.gps_flag = "rejected:" + f.fix_rejection;
+    rec.height_m = f.height_m;
+    rec.height_source = ToString(f.height_source);
+    if (f.autopilot_attitude) {
+      rec.roll_deg = f.autopilot_attitude->roll_rad * 180.0 / M_PI;
+      rec.pitch_deg = f.autopilot_attitude->pitch_rad * 180.0 / M_PI;
+    }
+  }
+};
+
+}  // namespace
+
+std::unique_ptr<FrameStage> MakeRecordStage() { return std::make_unique<RecordStage>(); }
+
+}  // namespace aerovo::run_steps
