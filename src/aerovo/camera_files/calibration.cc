@@ -47,8 +47,8 @@ CameraIntrinsics Checked(const std::string& path, const std::string& where, Came
 
 // ---- OpenCV cv::FileStorage -------------------------------------------------------------------
 
-Calibration ReadOpenCv(const std::string& path) {
-  cv::FileStorage fsx;
+// Opens `path` for reading into `fsx`; InputError when it is not an OpenCV YAML/XML file.
+void OpenOpenCv(const std::string& path, cv::FileStorage& fsx) {
   try {
     if (!fsx.open(path, cv::FileStorage::READ)) {
       throw InputError(fmt::format("calibration '{}': not an OpenCV YAML/XML file", path));
@@ -57,25 +57,35 @@ Calibration ReadOpenCv(const std::string& path) {
     throw InputError(
         fmt::format("calibration '{}': not a valid OpenCV YAML/XML file ({})", path, e.msg));
   }
-  auto need = [&](const char* key) {
+}
+
+// The keys of an open OpenCV file; each getter throws InputError naming the file and the key.
+struct OpenCvKeys {
+  const std::string& path;
+  const cv::FileStorage& fsx;
+
+  // The node of `key`; InputError when it is missing.
+  cv::FileNode Need(const char* key) const {
     const cv::FileNode n = fsx[key];
     if (n.empty()) throw InputError(fmt::format("calibration '{}': no key '{}'", path, key));
     return n;
-  };
-  auto need_int = [&](const char* key) {
-    const cv::FileNode n = need(key);
+  }
+  // The number of `key` rounded to an int; InputError when missing or not a number.
+  int NeedInt(const char* key) const {
+    const cv::FileNode n = Need(key);
     if (!n.isInt() && !n.isReal()) {
       throw InputError(fmt::format("calibration '{}': key '{}' is not a number", path, key));
     }
     return static_cast<int>(std::lround(static_cast<double>(n)));
-  };
-  auto need_mat = [&](const char* key) {
+  }
+  // The matrix of `key` as CV_64F; InputError when missing, not a matrix or empty.
+  cv::Mat NeedMat(const char* key) const {
     cv::Mat m;
     try {
-      need(key) >> m;
+      Need(key) >> m;
     } catch (const cv::Exception& e) {
-      throw InputError(fmt::format("calibration '{}': key '{}' is not a matrix ({})", path, key,
-                                   e.msg));
+      throw InputError(
+          fmt::format("calibration '{}': key '{}' is not a matrix ({})", path, key, e.msg));
     }
     if (m.empty()) {
       throw InputError(fmt::format("calibration '{}': key '{}' is not a matrix", path, key));
@@ -83,60 +93,95 @@ Calibration ReadOpenCv(const std::string& path) {
     cv::Mat d;
     m.convertTo(d, CV_64F);
     return d;
-  };
-  Calibration c;
-  c.format = CalibrationFormat::kOpenCv;
-  CameraIntrinsics& k = c.intrinsics;
-  k.width_px = need_int("image_width");
-  k.height_px = need_int("image_height");
-  const cv::Mat km = need_mat("camera_matrix");
+  }
+};
+
+// Sets fx, fy, cx, cy (pixels) of `k` from camera_matrix; InputError when it is not 3x3 or has
+// a skew.
+void ReadOpenCvCameraMatrix(const OpenCvKeys& keys, CameraIntrinsics& k) {
+  const cv::Mat km = keys.NeedMat("camera_matrix");
   if (km.rows != 3 || km.cols != 3) {
-    throw InputError(fmt::format("calibration '{}': key 'camera_matrix' is {}x{}, not 3x3", path,
-                                 km.rows, km.cols));
+    throw InputError(fmt::format("calibration '{}': key 'camera_matrix' is {}x{}, not 3x3",
+                                 keys.path, km.rows, km.cols));
   }
   k.fx_px = km.at<double>(0, 0);
   k.fy_px = km.at<double>(1, 1);
   k.cx_px = km.at<double>(0, 2);
   k.cy_px = km.at<double>(1, 2);
   if (km.at<double>(0, 1) != 0.0) {
-    throw InputError(fmt::format("calibration '{}': key 'camera_matrix' has a skew {} (not "
-                                 "supported: pixels must be rectangular)",
-                                 path, km.at<double>(0, 1)));
+    throw InputError(
+        fmt::format("calibration '{}': key 'camera_matrix' has a skew {} (not "
+                    "supported: pixels must be rectangular)",
+                    keys.path, km.at<double>(0, 1)));
   }
-  if (!fsx["distortion_coefficients"].empty()) {
-    const cv::Mat d = need_mat("distortion_coefficients");
-    if (d.rows != 1 && d.cols != 1) {
-      throw InputError(fmt::format(
-          "calibration '{}': key 'distortion_coefficients' is {}x{}, not a vector", path, d.rows,
-          d.cols));
-    }
-    k.distortion.assign(d.begin<double>(), d.end<double>());
+}
+
+// The distortion_coefficients as written (empty when the key is absent); InputError when they
+// are not a vector.
+std::vector<double> ReadOpenCvDistortion(const OpenCvKeys& keys) {
+  if (keys.fsx["distortion_coefficients"].empty()) return {};
+  const cv::Mat d = keys.NeedMat("distortion_coefficients");
+  if (d.rows != 1 && d.cols != 1) {
+    throw InputError(
+        fmt::format("calibration '{}': key 'distortion_coefficients' is {}x{}, not a vector",
+                    keys.path, d.rows, d.cols));
   }
+  return std::vector<double>(d.begin<double>(), d.end<double>());
+}
+
+// Whether the file names a fisheye lens (distortion_model fisheye or equidistant, or a non-zero
+// fisheye_model); InputError for a distortion_model that is not one we know.
+bool OpenCvIsFisheye(const OpenCvKeys& keys) {
   bool fisheye = false;
-  const cv::FileNode model = fsx["distortion_model"];
+  const cv::FileNode model = keys.fsx["distortion_model"];
   if (!model.empty()) {
     const std::string m = Lower(static_cast<std::string>(model));
     if (m == "fisheye" || m == "equidistant") {
       fisheye = true;
-    } else if (!(m == "pinhole" || m == "plumb_bob" || m == "radtan" || m == "rational_polynomial")) {
-      throw InputError(fmt::format("calibration '{}': key 'distortion_model' '{}' is not one of "
-                                   "pinhole, plumb_bob, rational_polynomial, fisheye, equidistant",
-                                   path, m));
+    } else if (!(m == "pinhole" || m == "plumb_bob" || m == "radtan" ||
+                 m == "rational_polynomial")) {
+      throw InputError(
+          fmt::format("calibration '{}': key 'distortion_model' '{}' is not one of "
+                      "pinhole, plumb_bob, rational_polynomial, fisheye, equidistant",
+                      keys.path, m));
     }
   }
-  const cv::FileNode fisheye_model = fsx["fisheye_model"];
+  const cv::FileNode fisheye_model = keys.fsx["fisheye_model"];
   if (!fisheye_model.empty() && (fisheye_model.isInt() || fisheye_model.isReal()) &&
       static_cast<double>(fisheye_model) != 0.0) {
     fisheye = true;
   }
-  if (fisheye) k.model = LensModel::kFisheye;
+  return fisheye;
+}
+
+// Brings OpenCV's coefficient counts to the ones CameraIntrinsics takes (camera/pinhole.h):
+// trailing zeros past 8 dropped, a pinhole's 1-3 padded to 4 or 5 and 6-7 to 8 with zeros.
+void NormaliseOpenCvDistortion(bool fisheye, std::vector<double>& d) {
   // calibrateCamera with CALIB_RATIONAL_MODEL etc. writes 12 or 14 coefficients; the thin-prism
   // and tilt terms are beyond our model, but trailing zeros are harmless.
-  while (k.distortion.size() > 8 && k.distortion.back() == 0.0) k.distortion.pop_back();
-  if (!fisheye && (k.distortion.size() == 6 || k.distortion.size() == 7)) k.distortion.resize(8, 0.0);
-  if (!fisheye && (k.distortion.size() == 1 || k.distortion.size() == 2 || k.distortion.size() == 3)) {
-    k.distortion.resize(k.distortion.size() == 3 ? 5 : 4, 0.0);
+  while (d.size() > 8 && d.back() == 0.0) d.pop_back();
+  if (!fisheye && (d.size() == 6 || d.size() == 7)) d.resize(8, 0.0);
+  if (!fisheye && (d.size() == 1 || d.size() == 2 || d.size() == 3)) {
+    d.resize(d.size() == 3 ? 5 : 4, 0.0);
   }
+}
+
+// Reads an OpenCV calibrateCamera YAML/XML file (CalibrationFormat::kOpenCv); InputError naming
+// the file and key for every problem.
+Calibration ReadOpenCv(const std::string& path) {
+  cv::FileStorage fsx;
+  OpenOpenCv(path, fsx);
+  const OpenCvKeys keys{path, fsx};
+  Calibration c;
+  c.format = CalibrationFormat::kOpenCv;
+  CameraIntrinsics& k = c.intrinsics;
+  k.width_px = keys.NeedInt("image_width");
+  k.height_px = keys.NeedInt("image_height");
+  ReadOpenCvCameraMatrix(keys, k);
+  k.distortion = ReadOpenCvDistortion(keys);
+  const bool fisheye = OpenCvIsFisheye(keys);
+  if (fisheye) k.model = LensModel::kFisheye;
+  NormaliseOpenCvDistortion(fisheye, k.distortion);
   c.intrinsics = Checked(path, " (key 'distortion_coefficients')", k);
   return c;
 }
@@ -179,7 +224,9 @@ void WriteOpenCv(const std::string& path, const CameraIntrinsics& k) {
 //   fisheye:         focal, k1, k2                 theta_d = theta (1 + k1 theta^2 + k2 theta^4)
 //   fisheye_opencv:  focal_x, focal_y, c_x, c_y, k1, k2, k3, k4 (OpenCV's fisheye model)
 
-Calibration ReadOdm(const std::string& path) {
+// The parsed cameras.json of `path`: an object holding exactly one camera; InputError when the
+// file is not JSON, not an object of cameras, or holds several cameras (named in the message).
+nlohmann::json ReadOdmCameras(const std::string& path) {
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(ReadText(path));
@@ -192,13 +239,25 @@ Calibration ReadOdm(const std::string& path) {
   }
   if (j.size() > 1) {
     std::string names;
-    for (auto it = j.begin(); it != j.end(); ++it) names += (names.empty() ? "'" : ", '") + it.key() + "'";
-    throw InputError(fmt::format(
-        "calibration '{}' has {} cameras ({}): keep the one of this flight", path, j.size(), names));
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      names += (names.empty() ? "'" : ", '") + it.key() + "'";
+    }
+    throw InputError(
+        fmt::format("calibration '{}' has {} cameras ({}): keep the one of this flight", path,
+                    j.size(), names));
   }
-  const std::string id = j.begin().key();
-  const nlohmann::json& cam = j.begin().value();
-  auto num = [&](const char* key, std::optional<double> fallback = std::nullopt) {
+  return j;
+}
+
+// One camera of a cameras.json; Num throws InputError naming the file, camera and key.
+struct OdmCamera {
+  const std::string& path;
+  const std::string& id;
+  const nlohmann::json& cam;
+
+  // The number of `key`, or `fallback` when the key is absent (InputError without a fallback, or
+  // when the value is not a number).
+  double Num(const char* key, std::optional<double> fallback = std::nullopt) const {
     if (!cam.contains(key)) {
       if (fallback) return *fallback;
       throw InputError(fmt::format("calibration '{}': camera '{}' has no key '{}'", path, id, key));
@@ -208,10 +267,16 @@ Calibration ReadOdm(const std::string& path) {
           fmt::format("calibration '{}': camera '{}' key '{}' is not a number", path, id, key));
     }
     return cam[key].get<double>();
-  };
+  }
+};
+
+// The camera's projection_type; InputError when it is missing, not a string or not one of the
+// models above.
+std::string ReadOdmProjectionType(const OdmCamera& odm) {
+  const nlohmann::json& cam = odm.cam;
   if (!cam.is_object() || !cam.contains("projection_type") || !cam["projection_type"].is_string()) {
-    throw InputError(
-        fmt::format("calibration '{}': camera '{}' has no string key 'projection_type'", path, id));
+    throw InputError(fmt::format(
+        "calibration '{}': camera '{}' has no string key 'projection_type'", odm.path, odm.id));
   }
   const std::string type = cam["projection_type"].get<std::string>();
   static const char* const kTypes[] = {"perspective", "simple_radial", "radial",
@@ -220,44 +285,61 @@ Calibration ReadOdm(const std::string& path) {
     throw InputError(fmt::format(
         "calibration '{}': camera '{}' projection_type '{}' is not supported (perspective, "
         "simple_radial, radial, brown, fisheye, fisheye_opencv)",
-        path, id, type));
+        odm.path, odm.id, type));
   }
+  return type;
+}
+
+// Sets the lens model and the OpenCV-order distortion coefficients of `k` from the camera's k1..
+// (absent ones 0) for projection `type` (one of the models above).
+void ReadOdmDistortion(const OdmCamera& odm, const std::string& type, CameraIntrinsics& k) {
+  if (type == "perspective") {
+    k.distortion = {odm.Num("k1", 0.0), odm.Num("k2", 0.0), 0.0, 0.0};
+  } else if (type == "simple_radial") {
+    k.distortion = {odm.Num("k1", 0.0), 0.0, 0.0, 0.0};
+  } else if (type == "radial") {
+    k.distortion = {odm.Num("k1", 0.0), odm.Num("k2", 0.0), 0.0, 0.0};
+  } else if (type == "brown") {
+    k.distortion = {odm.Num("k1", 0.0), odm.Num("k2", 0.0), odm.Num("p1", 0.0), odm.Num("p2", 0.0),
+                    odm.Num("k3", 0.0)};
+  } else if (type == "fisheye") {
+    k.model = LensModel::kFisheye;
+    k.distortion = {odm.Num("k1", 0.0), odm.Num("k2", 0.0), 0.0, 0.0};
+  } else if (type == "fisheye_opencv") {
+    k.model = LensModel::kFisheye;
+    k.distortion = {odm.Num("k1", 0.0), odm.Num("k2", 0.0), odm.Num("k3", 0.0), odm.Num("k4", 0.0)};
+  }
+}
+
+// Reads an OpenDroneMap / OpenSfM cameras.json (CalibrationFormat::kOdmJson): size in pixels,
+// focal and principal point from normalised units to pixels; InputError naming file, camera, key.
+Calibration ReadOdm(const std::string& path) {
+  const nlohmann::json j = ReadOdmCameras(path);
+  const std::string id = j.begin().key();
+  const OdmCamera odm{path, id, j.begin().value()};
+  const std::string type = ReadOdmProjectionType(odm);
   Calibration c;
   c.format = CalibrationFormat::kOdmJson;
   c.camera_id = id;
   CameraIntrinsics& k = c.intrinsics;
-  k.width_px = static_cast<int>(std::lround(num("width")));
-  k.height_px = static_cast<int>(std::lround(num("height")));
+  k.width_px = static_cast<int>(std::lround(odm.Num("width")));
+  k.height_px = static_cast<int>(std::lround(odm.Num("height")));
   const double size = std::max(k.width_px, k.height_px);
   double fx = 0, fy = 0, cx = 0, cy = 0;
   const bool single_focal = type == "perspective" || type == "fisheye";
   if (single_focal) {
-    fx = fy = num("focal");
+    fx = fy = odm.Num("focal");
   } else {
-    fx = num("focal_x");
-    fy = num("focal_y", fx);
-    cx = num("c_x", 0.0);
-    cy = num("c_y", 0.0);
+    fx = odm.Num("focal_x");
+    fy = odm.Num("focal_y", fx);
+    cx = odm.Num("c_x", 0.0);
+    cy = odm.Num("c_y", 0.0);
   }
   k.fx_px = fx * size;
   k.fy_px = fy * size;
   k.cx_px = cx * size + 0.5 * (k.width_px - 1);
   k.cy_px = cy * size + 0.5 * (k.height_px - 1);
-  if (type == "perspective") {
-    k.distortion = {num("k1", 0.0), num("k2", 0.0), 0.0, 0.0};
-  } else if (type == "simple_radial") {
-    k.distortion = {num("k1", 0.0), 0.0, 0.0, 0.0};
-  } else if (type == "radial") {
-    k.distortion = {num("k1", 0.0), num("k2", 0.0), 0.0, 0.0};
-  } else if (type == "brown") {
-    k.distortion = {num("k1", 0.0), num("k2", 0.0), num("p1", 0.0), num("p2", 0.0), num("k3", 0.0)};
-  } else if (type == "fisheye") {
-    k.model = LensModel::kFisheye;
-    k.distortion = {num("k1", 0.0), num("k2", 0.0), 0.0, 0.0};
-  } else if (type == "fisheye_opencv") {
-    k.model = LensModel::kFisheye;
-    k.distortion = {num("k1", 0.0), num("k2", 0.0), num("k3", 0.0), num("k4", 0.0)};
-  }
+  ReadOdmDistortion(odm, type, k);
   c.intrinsics = Checked(path, fmt::format(" camera '{}'", id), k);
   return c;
 }
@@ -305,6 +387,106 @@ struct ColmapModel {
   int params;
 };
 
+constexpr ColmapModel kColmapModels[] = {
+    {"SIMPLE_PINHOLE", 3}, {"PINHOLE", 4},
+    {"SIMPLE_RADIAL", 4},  {"RADIAL", 5},
+    {"OPENCV", 8},         {"OPENCV_FISHEYE", 8},
+    {"FULL_OPENCV", 12},   {"SIMPLE_RADIAL_FISHEYE", 4},
+    {"RADIAL_FISHEYE", 5},
+};
+
+// One camera line of cameras.txt as written: CAMERA_ID MODEL WIDTH HEIGHT PARAMS...
+struct ColmapLine {
+  std::string id, model;
+  double width = 0, height = 0;
+  std::vector<double> params;
+};
+
+// Splits camera line `line_no` of `path` into its fields; InputError naming the file and line
+// when the first four are missing or a parameter is not a number.
+ColmapLine ParseColmapLine(const std::string& path, int line_no, const std::string& line) {
+  std::istringstream fields(line);
+  ColmapLine l;
+  if (!(fields >> l.id >> l.model >> l.width >> l.height)) {
+    throw InputError(
+        fmt::format("calibration '{}' line {}: expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS...",
+                    path, line_no));
+  }
+  std::string tok;
+  while (fields >> tok) {
+    try {
+      std::size_t used = 0;
+      l.params.push_back(std::stod(tok, &used));
+      if (used != tok.size()) throw std::invalid_argument(tok);
+    } catch (const std::exception&) {
+      throw InputError(fmt::format("calibration '{}' line {}: parameter '{}' is not a number", path,
+                                   line_no, tok));
+    }
+  }
+  return l;
+}
+
+// Checks that the line's model is one of kColmapModels and has its number of parameters;
+// InputError naming the file and line otherwise.
+void CheckColmapModel(const std::string& path, int line_no, const ColmapLine& l) {
+  const ColmapModel* m = nullptr;
+  for (const ColmapModel& candidate : kColmapModels) {
+    if (l.model == candidate.name) m = &candidate;
+  }
+  if (m == nullptr) {
+    throw InputError(fmt::format(
+        "calibration '{}' line {}: camera model '{}' is not supported (SIMPLE_PINHOLE, PINHOLE, "
+        "SIMPLE_RADIAL, RADIAL, OPENCV, OPENCV_FISHEYE, FULL_OPENCV, SIMPLE_RADIAL_FISHEYE, "
+        "RADIAL_FISHEYE)",
+        path, line_no, l.model));
+  }
+  if (static_cast<int>(l.params.size()) != m->params) {
+    throw InputError(fmt::format("calibration '{}' line {}: model {} has {} parameters, not {}",
+                                 path, line_no, l.model, m->params, l.params.size()));
+  }
+}
+
+// The intrinsics of a checked camera line (not yet validated): size rounded to pixels, the
+// principal point moved from COLMAP's half-integer pixel centres to ours, the coefficients in
+// OpenCV's order.
+CameraIntrinsics ColmapIntrinsics(const ColmapLine& l) {
+  const std::string& model = l.model;
+  const std::vector<double>& p = l.params;
+  CameraIntrinsics k;
+  k.width_px = static_cast<int>(std::lround(l.width));
+  k.height_px = static_cast<int>(std::lround(l.height));
+  const bool one_focal = p.size() == 3 || model == "SIMPLE_RADIAL" || model == "RADIAL" ||
+                         model == "SIMPLE_RADIAL_FISHEYE" || model == "RADIAL_FISHEYE";
+  std::size_t i = 0;
+  k.fx_px = p[i++];
+  k.fy_px = one_focal ? k.fx_px : p[i++];
+  k.cx_px = p[i++] - 0.5;
+  k.cy_px = p[i++] - 0.5;
+  const std::vector<double> rest(p.begin() + static_cast<long>(i), p.end());
+  if (model == "SIMPLE_RADIAL") {
+    k.distortion = {rest[0], 0, 0, 0};
+  } else if (model == "RADIAL") {
+    k.distortion = {rest[0], rest[1], 0, 0};
+  } else if (model == "OPENCV") {
+    k.distortion = rest;
+  } else if (model == "FULL_OPENCV") {
+    // COLMAP: k1 k2 p1 p2 k3 k4 k5 k6, OpenCV's order.
+    k.distortion = rest;
+  } else if (model == "OPENCV_FISHEYE") {
+    k.model = LensModel::kFisheye;
+    k.distortion = rest;
+  } else if (model == "SIMPLE_RADIAL_FISHEYE") {
+    k.model = LensModel::kFisheye;
+    k.distortion = {rest[0], 0, 0, 0};
+  } else if (model == "RADIAL_FISHEYE") {
+    k.model = LensModel::kFisheye;
+    k.distortion = {rest[0], rest[1], 0, 0};
+  }
+  return k;
+}
+
+// Reads a COLMAP cameras.txt (CalibrationFormat::kColmapTxt) holding one camera line ('#'
+// comments and blank lines skipped); InputError naming the file and line for every problem.
 Calibration ReadColmap(const std::string& path) {
   std::istringstream text(ReadText(path));
   std::string line;
@@ -325,77 +507,10 @@ Calibration ReadColmap(const std::string& path) {
           path, line_no, first_line));
     }
     first_line = line_no;
-    std::istringstream fields(line);
-    std::string id, model;
-    double w = 0, h = 0;
-    if (!(fields >> id >> model >> w >> h)) {
-      throw InputError(fmt::format(
-          "calibration '{}' line {}: expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS...", path, line_no));
-    }
-    std::vector<double> p;
-    std::string tok;
-    while (fields >> tok) {
-      try {
-        std::size_t used = 0;
-        p.push_back(std::stod(tok, &used));
-        if (used != tok.size()) throw std::invalid_argument(tok);
-      } catch (const std::exception&) {
-        throw InputError(
-            fmt::format("calibration '{}' line {}: parameter '{}' is not a number", path, line_no, tok));
-      }
-    }
-    static constexpr ColmapModel kModels[] = {
-        {"SIMPLE_PINHOLE", 3}, {"PINHOLE", 4},        {"SIMPLE_RADIAL", 4},
-        {"RADIAL", 5},         {"OPENCV", 8},         {"OPENCV_FISHEYE", 8},
-        {"FULL_OPENCV", 12},   {"SIMPLE_RADIAL_FISHEYE", 4}, {"RADIAL_FISHEYE", 5},
-    };
-    const ColmapModel* m = nullptr;
-    for (const ColmapModel& candidate : kModels) {
-      if (model == candidate.name) m = &candidate;
-    }
-    if (m == nullptr) {
-      throw InputError(fmt::format(
-          "calibration '{}' line {}: camera model '{}' is not supported (SIMPLE_PINHOLE, PINHOLE, "
-          "SIMPLE_RADIAL, RADIAL, OPENCV, OPENCV_FISHEYE, FULL_OPENCV, SIMPLE_RADIAL_FISHEYE, "
-          "RADIAL_FISHEYE)",
-          path, line_no, model));
-    }
-    if (static_cast<int>(p.size()) != m->params) {
-      throw InputError(fmt::format("calibration '{}' line {}: model {} has {} parameters, not {}",
-                                   path, line_no, model, m->params, p.size()));
-    }
-    c.camera_id = id;
-    CameraIntrinsics& k = c.intrinsics;
-    k.width_px = static_cast<int>(std::lround(w));
-    k.height_px = static_cast<int>(std::lround(h));
-    const bool one_focal = p.size() == 3 || model == "SIMPLE_RADIAL" || model == "RADIAL" ||
-                           model == "SIMPLE_RADIAL_FISHEYE" || model == "RADIAL_FISHEYE";
-    std::size_t i = 0;
-    k.fx_px = p[i++];
-    k.fy_px = one_focal ? k.fx_px : p[i++];
-    k.cx_px = p[i++] - 0.5;
-    k.cy_px = p[i++] - 0.5;
-    const std::vector<double> rest(p.begin() + static_cast<long>(i), p.end());
-    if (model == "SIMPLE_RADIAL") {
-      k.distortion = {rest[0], 0, 0, 0};
-    } else if (model == "RADIAL") {
-      k.distortion = {rest[0], rest[1], 0, 0};
-    } else if (model == "OPENCV") {
-      k.distortion = rest;
-    } else if (model == "FULL_OPENCV") {
-      // COLMAP: k1 k2 p1 p2 k3 k4 k5 k6, OpenCV's order.
-      k.distortion = rest;
-    } else if (model == "OPENCV_FISHEYE") {
-      k.model = LensModel::kFisheye;
-      k.distortion = rest;
-    } else if (model == "SIMPLE_RADIAL_FISHEYE") {
-      k.model = LensModel::kFisheye;
-      k.distortion = {rest[0], 0, 0, 0};
-    } else if (model == "RADIAL_FISHEYE") {
-      k.model = LensModel::kFisheye;
-      k.distortion = {rest[0], rest[1], 0, 0};
-    }
-    k = Checked(path, fmt::format(" line {}", line_no), k);
+    const ColmapLine l = ParseColmapLine(path, line_no, line);
+    CheckColmapModel(path, line_no, l);
+    c.camera_id = l.id;
+    c.intrinsics = Checked(path, fmt::format(" line {}", line_no), ColmapIntrinsics(l));
   }
   if (cameras == 0) {
     throw InputError(fmt::format("calibration '{}': no camera line (CAMERA_ID MODEL WIDTH HEIGHT "
