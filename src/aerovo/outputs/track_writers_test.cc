@@ -55,16 +55,43 @@ std::vector<std::string> Lines(const std::string& s) {
 
 // Minimal XML 1.0 well-formedness check: one root element, every start tag closed in order,
 // attributes quoted, no stray '<' or unknown entity in text, nothing but whitespace outside
-// the root. Returns "" when well-formed, else the first problem.
-std::string XmlProblem(const std::string& s, std::string* root = nullptr) {
-  std::vector<std::string> stack;
-  bool root_done = false;
-  size_t i = 0;
-  const auto name_char = [](char c) {
+// the root. Each step reads one item at i_ and returns "" when it is well-formed, else the
+// problem; the first root element's name goes to *root when root is given.
+class XmlScanner {
+ public:
+  XmlScanner(const std::string& s, std::string* root) : s_(s), root_(root) {}
+
+  // The whole document: "" when well-formed, else the first problem.
+  std::string Run() {
+    while (i_ < s_.size()) {
+      std::string problem;
+      if (s_[i_] != '<') {
+        problem = Text();
+      } else if (s_.compare(i_, 2, "<?") == 0) {
+        problem = ProcessingInstruction();
+      } else if (s_.compare(i_, 4, "<!--") == 0) {
+        problem = Comment();
+      } else if (s_.compare(i_, 2, "</") == 0) {
+        problem = EndTag();
+      } else {
+        problem = StartTag();
+      }
+      if (!problem.empty()) return problem;
+    }
+    if (!stack_.empty()) return "unclosed <" + stack_.back() + ">";
+    if (!root_done_) return "no root element";
+    return "";
+  }
+
+ private:
+  // Whether c may be part of a tag or attribute name.
+  static bool NameChar(char c) {
     return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == ':' || c == '-' ||
            c == '.';
-  };
-  const auto check_entities = [](const std::string& text) -> std::string {
+  }
+
+  // "" when every '&' in text starts one of XML's five entities or a character reference.
+  static std::string CheckEntities(const std::string& text) {
     static const std::regex entity("&(amp|lt|gt|quot|apos|#[0-9]+|#x[0-9a-fA-F]+);");
     for (size_t k = text.find('&'); k != std::string::npos; k = text.find('&', k + 1)) {
       std::smatch m;
@@ -74,83 +101,111 @@ std::string XmlProblem(const std::string& s, std::string* root = nullptr) {
       }
     }
     return "";
-  };
-  while (i < s.size()) {
-    if (s[i] != '<') {
-      const size_t next = s.find('<', i);
-      const std::string text =
-          s.substr(i, next == std::string::npos ? std::string::npos : next - i);
-      if (stack.empty() && text.find_first_not_of(" \t\r\n") != std::string::npos) {
-        return "text outside the root element: " + text.substr(0, 20);
-      }
-      if (std::string e = check_entities(text); !e.empty()) return e;
-      if (text.find('>') != std::string::npos && stack.empty()) return "stray '>'";
-      i = next == std::string::npos ? s.size() : next;
-      continue;
+  }
+
+  // Character data up to the next '<' (or the end).
+  std::string Text() {
+    const size_t next = s_.find('<', i_);
+    const std::string text =
+        s_.substr(i_, next == std::string::npos ? std::string::npos : next - i_);
+    if (stack_.empty() && text.find_first_not_of(" \t\r\n") != std::string::npos) {
+      return "text outside the root element: " + text.substr(0, 20);
     }
-    if (s.compare(i, 2, "<?") == 0) {
-      const size_t e = s.find("?>", i);
-      if (e == std::string::npos) return "unterminated processing instruction";
-      if (i != 0 && s.compare(i, 5, "<?xml") == 0) return "XML declaration not at the start";
-      i = e + 2;
-      continue;
+    if (std::string e = CheckEntities(text); !e.empty()) return e;
+    if (text.find('>') != std::string::npos && stack_.empty()) return "stray '>'";
+    i_ = next == std::string::npos ? s_.size() : next;
+    return "";
+  }
+
+  // "<?...?>"; the XML declaration only at the very start.
+  std::string ProcessingInstruction() {
+    const size_t e = s_.find("?>", i_);
+    if (e == std::string::npos) return "unterminated processing instruction";
+    if (i_ != 0 && s_.compare(i_, 5, "<?xml") == 0) return "XML declaration not at the start";
+    i_ = e + 2;
+    return "";
+  }
+
+  // "<!--...-->".
+  std::string Comment() {
+    const size_t e = s_.find("-->", i_);
+    if (e == std::string::npos) return "unterminated comment";
+    i_ = e + 3;
+    return "";
+  }
+
+  // "</name>", which must close the innermost open element.
+  std::string EndTag() {
+    size_t k = i_ + 2;
+    while (k < s_.size() && NameChar(s_[k])) ++k;
+    const std::string name = s_.substr(i_ + 2, k - i_ - 2);
+    while (k < s_.size() && std::isspace(static_cast<unsigned char>(s_[k]))) ++k;
+    if (k >= s_.size() || s_[k] != '>') return "bad end tag " + name;
+    if (stack_.empty() || stack_.back() != name) {
+      return "end tag </" + name + "> does not match <" + (stack_.empty() ? "" : stack_.back()) +
+             ">";
     }
-    if (s.compare(i, 4, "<!--") == 0) {
-      const size_t e = s.find("-->", i);
-      if (e == std::string::npos) return "unterminated comment";
-      i = e + 3;
-      continue;
-    }
-    if (s.compare(i, 2, "</") == 0) {
-      size_t k = i + 2;
-      while (k < s.size() && name_char(s[k])) ++k;
-      const std::string name = s.substr(i + 2, k - i - 2);
-      while (k < s.size() && std::isspace(static_cast<unsigned char>(s[k]))) ++k;
-      if (k >= s.size() || s[k] != '>') return "bad end tag " + name;
-      if (stack.empty() || stack.back() != name) {
-        return "end tag </" + name + "> does not match <" + (stack.empty() ? "" : stack.back()) +
-               ">";
-      }
-      stack.pop_back();
-      if (stack.empty()) root_done = true;
-      i = k + 1;
-      continue;
-    }
-    size_t k = i + 1;
-    while (k < s.size() && name_char(s[k])) ++k;
-    const std::string name = s.substr(i + 1, k - i - 1);
+    stack_.pop_back();
+    if (stack_.empty()) root_done_ = true;
+    i_ = k + 1;
+    return "";
+  }
+
+  // "<name attributes>" (opens an element) or "<name attributes/>" (an empty element).
+  std::string StartTag() {
+    size_t k = i_ + 1;
+    while (k < s_.size() && NameChar(s_[k])) ++k;
+    const std::string name = s_.substr(i_ + 1, k - i_ - 1);
     if (name.empty()) return "empty tag name";
-    if (root_done || (stack.empty() && root && !root->empty())) return "second root <" + name + ">";
-    if (stack.empty() && root) *root = name;
-    // Attributes.
+    if (root_done_ || (stack_.empty() && root_ && !root_->empty())) {
+      return "second root <" + name + ">";
+    }
+    if (stack_.empty() && root_) *root_ = name;
+    if (std::string e = Attributes(name, &k); !e.empty()) return e;
+    if (s_[k] == '/') {
+      i_ = k + 2;
+      if (stack_.empty()) root_done_ = true;
+    } else {
+      stack_.push_back(name);
+      i_ = k + 1;
+    }
+    return "";
+  }
+
+  // The attributes of start tag <name from *k on; leaves *k at its '>' or "/>".
+  std::string Attributes(const std::string& name, size_t* k_io) {
+    size_t& k = *k_io;
     for (;;) {
-      while (k < s.size() && std::isspace(static_cast<unsigned char>(s[k]))) ++k;
-      if (k >= s.size()) return "unterminated tag <" + name;
-      if (s[k] == '>' || s.compare(k, 2, "/>") == 0) break;
+      while (k < s_.size() && std::isspace(static_cast<unsigned char>(s_[k]))) ++k;
+      if (k >= s_.size()) return "unterminated tag <" + name;
+      if (s_[k] == '>' || s_.compare(k, 2, "/>") == 0) return "";
       const size_t a = k;
-      while (k < s.size() && name_char(s[k])) ++k;
-      if (k == a || k >= s.size() || s[k] != '=') return "bad attribute in <" + name + ">";
+      while (k < s_.size() && NameChar(s_[k])) ++k;
+      if (k == a || k >= s_.size() || s_[k] != '=') return "bad attribute in <" + name + ">";
       ++k;
-      if (k >= s.size() || (s[k] != '"' && s[k] != '\'')) return "unquoted attribute in <" + name;
-      const char q = s[k];
-      const size_t e = s.find(q, k + 1);
+      if (k >= s_.size() || (s_[k] != '"' && s_[k] != '\''))
+        return "unquoted attribute in <" + name;
+      const char q = s_[k];
+      const size_t e = s_.find(q, k + 1);
       if (e == std::string::npos) return "unterminated attribute in <" + name;
-      const std::string value = s.substr(k + 1, e - k - 1);
+      const std::string value = s_.substr(k + 1, e - k - 1);
       if (value.find('<') != std::string::npos) return "'<' in attribute of <" + name;
-      if (std::string err = check_entities(value); !err.empty()) return err;
+      if (std::string err = CheckEntities(value); !err.empty()) return err;
       k = e + 1;
     }
-    if (s[k] == '/') {
-      i = k + 2;
-      if (stack.empty()) root_done = true;
-    } else {
-      stack.push_back(name);
-      i = k + 1;
-    }
   }
-  if (!stack.empty()) return "unclosed <" + stack.back() + ">";
-  if (!root_done) return "no root element";
-  return "";
+
+  const std::string& s_;
+  std::string* root_;
+  std::vector<std::string> stack_;  // names of the open elements, innermost last
+  bool root_done_ = false;          // the root element has been closed
+  size_t i_ = 0;                    // read position in s_
+};
+
+// "" when s is a well-formed XML document (XmlScanner), else the first problem; the root
+// element's name goes to *root when given.
+std::string XmlProblem(const std::string& s, std::string* root = nullptr) {
+  return XmlScanner(s, root).Run();
 }
 
 TEST(XmlChecker, DetectsMalformedDocuments) {
@@ -308,6 +363,163 @@ std::optional<GeoPoint> MakeGps(int i) {
   return GeoPoint{50.4500000007 + 2.69e-6 * i, 30.5199999993 + 6.11e-6 * i, 181.5 + 0.01 * i};
 }
 
+// What a test has appended to a TrackWriterSet so far: the records, their geo positions (VO
+// track) and the GPS fixes with their record times in seconds.
+struct Appended {
+  std::vector<FrameRecord> records;
+  std::vector<GeoPoint> vo_geo, gps_geo;
+  std::vector<double> gps_t;
+};
+
+// Appends MakeRecord(i) with MakeGps(i) to `set` and to `a`.
+void AppendRecord(int i, TrackWriterSet& set, Appended& a) {
+  a.records.push_back(MakeRecord(i));
+  const std::optional<GeoPoint> gps = MakeGps(i);
+  set.Append(a.records.back(), gps);
+  if (a.records.back().geo) a.vo_geo.push_back(*a.records.back().geo);
+  if (gps) a.gps_geo.push_back(*gps), a.gps_t.push_back(a.records.back().time_s);
+}
+
+// Fatal failure unless the CSV and TUM files hold one row per appended record / GPS fix.
+void AssertTableRowCounts(const Parsed& p, const Appended& a) {
+  ASSERT_EQ(p.csv_rows.size(), a.records.size());
+  ASSERT_EQ(p.vo_tum.size(), a.records.size());
+  ASSERT_EQ(p.gps_tum.size(), a.gps_geo.size());
+}
+
+// Fatal failure unless every track file (GeoJSON points vo_json, gps_json; KML, GPX) holds one
+// point per appended geo position / GPS fix.
+void AssertTrackPointCounts(const Parsed& p, const std::vector<GeoPoint>& vo_json,
+                            const std::vector<GeoPoint>& gps_json, const Appended& a) {
+  ASSERT_EQ(vo_json.size(), a.vo_geo.size());
+  ASSERT_EQ(gps_json.size(), a.gps_geo.size());
+  ASSERT_EQ(p.frames_geojson.at("features").size(), a.vo_geo.size());
+  ASSERT_EQ(p.vo_kml.size(), a.vo_geo.size());
+  ASSERT_EQ(p.gps_kml.size(), a.gps_geo.size());
+  ASSERT_EQ(p.vo_gpx.size(), a.vo_geo.size());
+  ASSERT_EQ(p.gps_gpx.size(), a.gps_geo.size());
+}
+
+// The VO track in GeoJSON (vo_json, 1e-9 deg), KML and GPX (1e-7 deg, 1 mm) and the per-frame
+// GeoJSON points match the appended geo positions vo_geo (degrees, metres).
+void ExpectVoTrack(const Parsed& p, const std::vector<GeoPoint>& vo_json,
+                   const std::vector<GeoPoint>& vo_geo) {
+  for (size_t k = 0; k < vo_geo.size(); ++k) {
+    // GeoJSON with 9 decimals, KML and GPX with 7 (1 cm) and heights in mm.
+    EXPECT_NEAR(vo_json[k].lat_deg, vo_geo[k].lat_deg, 1e-9);
+    EXPECT_NEAR(vo_json[k].lon_deg, vo_geo[k].lon_deg, 1e-9);
+    EXPECT_NEAR(vo_json[k].alt_m, vo_geo[k].alt_m, 1e-4);
+    for (const GeoPoint& got : {p.vo_kml[k], p.vo_gpx[k]}) {
+      EXPECT_NEAR(got.lat_deg, vo_geo[k].lat_deg, 0.51e-7);
+      EXPECT_NEAR(got.lon_deg, vo_geo[k].lon_deg, 0.51e-7);
+      EXPECT_NEAR(got.alt_m, vo_geo[k].alt_m, 0.51e-3);
+    }
+    const json& f = p.frames_geojson["features"][k];
+    EXPECT_EQ(f["geometry"]["type"], "Point");
+    EXPECT_NEAR(f["geometry"]["coordinates"][0].get<double>(), vo_geo[k].lon_deg, 1e-9);
+  }
+}
+
+// The GPS track in GeoJSON (gps_json), KML and GPX matches the appended fixes as ExpectVoTrack,
+// the GPX times are time_origin_unix_s + the record times (ISO 8601 UTC), and gps.tum holds the
+// record times (s) and the fixes in `enu` (m, 1e-6).
+void ExpectGpsTrack(const Parsed& p, const std::vector<GeoPoint>& gps_json, const Appended& a,
+                    const LocalEnu& enu, double time_origin_unix_s) {
+  const std::vector<GeoPoint>& gps_geo = a.gps_geo;
+  const std::vector<double>& gps_t = a.gps_t;
+  for (size_t k = 0; k < gps_geo.size(); ++k) {
+    // GeoJSON with 9 decimals, KML and GPX with 7 (1 cm) and heights in mm.
+    EXPECT_NEAR(gps_json[k].lat_deg, gps_geo[k].lat_deg, 1e-9);
+    EXPECT_NEAR(gps_json[k].lon_deg, gps_geo[k].lon_deg, 1e-9);
+    EXPECT_NEAR(gps_json[k].alt_m, gps_geo[k].alt_m, 1e-4);
+    for (const GeoPoint& got : {p.gps_kml[k], p.gps_gpx[k]}) {
+      EXPECT_NEAR(got.lat_deg, gps_geo[k].lat_deg, 0.51e-7);
+      EXPECT_NEAR(got.lon_deg, gps_geo[k].lon_deg, 0.51e-7);
+      EXPECT_NEAR(got.alt_m, gps_geo[k].alt_m, 0.51e-3);
+    }
+    EXPECT_EQ(p.gps_gpx_times[k], FormatUtcIso8601(time_origin_unix_s + gps_t[k]));
+    const Eigen::Vector3d e = enu.Forward(gps_geo[k]);
+    EXPECT_NEAR(p.gps_tum[k][0], gps_t[k], 1e-6);
+    EXPECT_NEAR(p.gps_tum[k][1], e.x(), 1e-6);
+    EXPECT_NEAR(p.gps_tum[k][2], e.y(), 1e-6);
+    EXPECT_NEAR(p.gps_tum[k][3], e.z(), 1e-6);
+  }
+}
+
+// vo.tum row `t` holds record r's time (s), position (m) and yaw (rad) as a unit quaternion
+// about z.
+void ExpectVoTumRow(const std::vector<double>& t, const FrameRecord& r) {
+  EXPECT_NEAR(t[0], r.time_s, 1e-6);
+  EXPECT_NEAR(t[1], r.x_m, 1e-6);
+  EXPECT_NEAR(t[2], r.y_m, 1e-6);
+  EXPECT_NEAR(t[3], r.z_m, 1e-6);
+  EXPECT_EQ(t[4], 0.0);
+  EXPECT_EQ(t[5], 0.0);
+  EXPECT_NEAR(2.0 * std::atan2(t[6], t[7]), r.yaw_rad, 1e-8);
+  EXPECT_NEAR(t[6] * t[6] + t[7] * t[7], 1.0, 1e-8);
+}
+
+// frames.csv row `c` (cells split at commas) holds record r's fields; fatal failure when it has
+// the wrong number of cells (one more when the status holds a comma).
+void AssertCsvRow(const std::vector<std::string>& c, const FrameRecord& r) {
+  ASSERT_EQ(c.size(), r.status.find(',') != std::string::npos ? 27u : 26u);
+  if (std::isnan(r.latency_ms)) {
+    EXPECT_EQ(c.back(), "") << "latency_ms";
+  } else {
+    EXPECT_NEAR(std::stod(c.back()), r.latency_ms, 1e-3);
+  }
+  EXPECT_EQ(std::stoi(c[0]), r.frame);
+  EXPECT_NEAR(std::stod(c[1]), r.time_s, 1e-6);
+  EXPECT_NEAR(std::stod(c[2]), r.x_m, 1e-4);
+  EXPECT_NEAR(std::stod(c[3]), r.y_m, 1e-4);
+  if (r.geo) {
+    EXPECT_NEAR(std::stod(c[4]), r.geo->lat_deg, 1e-9);
+    EXPECT_NEAR(std::stod(c[5]), r.geo->lon_deg, 1e-9);
+  } else {
+    EXPECT_EQ(c[4], "");
+    EXPECT_EQ(c[6], "");
+  }
+  EXPECT_EQ(std::stoi(c[9]), r.n_inliers);
+  EXPECT_EQ(std::stoi(c[10]), r.cluster);
+  EXPECT_NEAR(std::stod(c[15]), r.total_ms, 1e-3);
+  if (r.status == "ok") {
+    EXPECT_EQ(c[16], "ok");
+  }
+}
+
+// Every appended record is in vo.tum and frames.csv (fatal failure at the first CSV row of the
+// wrong length).
+void AssertRecordRows(const Parsed& p, const std::vector<FrameRecord>& records) {
+  for (size_t k = 0; k < records.size(); ++k) {
+    ExpectVoTumRow(p.vo_tum[k], records[k]);
+    ASSERT_NO_FATAL_FAILURE(AssertCsvRow(p.csv_rows[k], records[k]));
+  }
+}
+
+// Every file of the run folder `dir` parses and holds exactly what `a` says was appended, with
+// times from time_origin_unix_s and local positions in `enu`; fatal failure on a count mismatch.
+void AssertRunFolderHolds(const fs::path& dir, const Appended& a, const LocalEnu& enu,
+                          double time_origin_unix_s) {
+  const Parsed p = ParseRun(dir);
+  ASSERT_NO_FATAL_FAILURE(AssertTableRowCounts(p, a));
+  const std::vector<GeoPoint> vo_json = GeoJsonTrack(p.vo_geojson);
+  const std::vector<GeoPoint> gps_json = GeoJsonTrack(p.gps_geojson);
+  ASSERT_NO_FATAL_FAILURE(AssertTrackPointCounts(p, vo_json, gps_json, a));
+  ExpectVoTrack(p, vo_json, a.vo_geo);
+  ExpectGpsTrack(p, gps_json, a, enu, time_origin_unix_s);
+  ASSERT_NO_FATAL_FAILURE(AssertRecordRows(p, a.records));
+}
+
+// xmllint, when installed, agrees that the XML files of run folder `dir` are well-formed.
+void ExpectXmllintAccepts(const fs::path& dir) {
+  if (std::system("command -v xmllint >/dev/null 2>&1") == 0) {
+    for (const char* f : {"vo.kml", "gps.kml", "run.kml", "vo.gpx", "gps.gpx"}) {
+      const std::string cmd = "xmllint --noout '" + (dir / f).string() + "' 2>&1";
+      EXPECT_EQ(std::system(cmd.c_str()), 0) << f;
+    }
+  }
+}
+
 TEST_F(TrackWritersTest, EveryFileValidAfterEveryAppend) {
   TrackWriterOptions o;
   o.enu_origin = GeoPoint{50.45, 30.52, 180.0};
@@ -318,97 +530,12 @@ TEST_F(TrackWritersTest, EveryFileValidAfterEveryAppend) {
   for (const fs::path& f : set.Files()) EXPECT_TRUE(fs::exists(f)) << f;
   const LocalEnu enu(*o.enu_origin);
 
-  std::vector<FrameRecord> records;
-  std::vector<GeoPoint> vo_geo, gps_geo;
-  std::vector<double> gps_t;
+  Appended appended;
   for (int i = 0; i <= 24; ++i) {
     // Read everything *before* this append too: the state an interrupted run leaves.
-    const Parsed p = ParseRun(dir_);
-    ASSERT_EQ(p.csv_rows.size(), records.size());
-    ASSERT_EQ(p.vo_tum.size(), records.size());
-    ASSERT_EQ(p.gps_tum.size(), gps_geo.size());
-    const std::vector<GeoPoint> vo_json = GeoJsonTrack(p.vo_geojson);
-    const std::vector<GeoPoint> gps_json = GeoJsonTrack(p.gps_geojson);
-    ASSERT_EQ(vo_json.size(), vo_geo.size());
-    ASSERT_EQ(gps_json.size(), gps_geo.size());
-    ASSERT_EQ(p.frames_geojson.at("features").size(), vo_geo.size());
-    ASSERT_EQ(p.vo_kml.size(), vo_geo.size());
-    ASSERT_EQ(p.gps_kml.size(), gps_geo.size());
-    ASSERT_EQ(p.vo_gpx.size(), vo_geo.size());
-    ASSERT_EQ(p.gps_gpx.size(), gps_geo.size());
-    for (size_t k = 0; k < vo_geo.size(); ++k) {
-      // GeoJSON with 9 decimals, KML and GPX with 7 (1 cm) and heights in mm.
-      EXPECT_NEAR(vo_json[k].lat_deg, vo_geo[k].lat_deg, 1e-9);
-      EXPECT_NEAR(vo_json[k].lon_deg, vo_geo[k].lon_deg, 1e-9);
-      EXPECT_NEAR(vo_json[k].alt_m, vo_geo[k].alt_m, 1e-4);
-      for (const GeoPoint& got : {p.vo_kml[k], p.vo_gpx[k]}) {
-        EXPECT_NEAR(got.lat_deg, vo_geo[k].lat_deg, 0.51e-7);
-        EXPECT_NEAR(got.lon_deg, vo_geo[k].lon_deg, 0.51e-7);
-        EXPECT_NEAR(got.alt_m, vo_geo[k].alt_m, 0.51e-3);
-      }
-      const json& f = p.frames_geojson["features"][k];
-      EXPECT_EQ(f["geometry"]["type"], "Point");
-      EXPECT_NEAR(f["geometry"]["coordinates"][0].get<double>(), vo_geo[k].lon_deg, 1e-9);
-    }
-    for (size_t k = 0; k < gps_geo.size(); ++k) {
-      // GeoJSON with 9 decimals, KML and GPX with 7 (1 cm) and heights in mm.
-      EXPECT_NEAR(gps_json[k].lat_deg, gps_geo[k].lat_deg, 1e-9);
-      EXPECT_NEAR(gps_json[k].lon_deg, gps_geo[k].lon_deg, 1e-9);
-      EXPECT_NEAR(gps_json[k].alt_m, gps_geo[k].alt_m, 1e-4);
-      for (const GeoPoint& got : {p.gps_kml[k], p.gps_gpx[k]}) {
-        EXPECT_NEAR(got.lat_deg, gps_geo[k].lat_deg, 0.51e-7);
-        EXPECT_NEAR(got.lon_deg, gps_geo[k].lon_deg, 0.51e-7);
-        EXPECT_NEAR(got.alt_m, gps_geo[k].alt_m, 0.51e-3);
-      }
-      EXPECT_EQ(p.gps_gpx_times[k], FormatUtcIso8601(1600000000.25 + gps_t[k]));
-      const Eigen::Vector3d e = enu.Forward(gps_geo[k]);
-      EXPECT_NEAR(p.gps_tum[k][0], gps_t[k], 1e-6);
-      EXPECT_NEAR(p.gps_tum[k][1], e.x(), 1e-6);
-      EXPECT_NEAR(p.gps_tum[k][2], e.y(), 1e-6);
-      EXPECT_NEAR(p.gps_tum[k][3], e.z(), 1e-6);
-    }
-    for (size_t k = 0; k < records.size(); ++k) {
-      const FrameRecord& r = records[k];
-      const std::vector<double>& t = p.vo_tum[k];
-      EXPECT_NEAR(t[0], r.time_s, 1e-6);
-      EXPECT_NEAR(t[1], r.x_m, 1e-6);
-      EXPECT_NEAR(t[2], r.y_m, 1e-6);
-      EXPECT_NEAR(t[3], r.z_m, 1e-6);
-      EXPECT_EQ(t[4], 0.0);
-      EXPECT_EQ(t[5], 0.0);
-      EXPECT_NEAR(2.0 * std::atan2(t[6], t[7]), r.yaw_rad, 1e-8);
-      EXPECT_NEAR(t[6] * t[6] + t[7] * t[7], 1.0, 1e-8);
-      const auto& c = p.csv_rows[k];
-      ASSERT_EQ(c.size(), r.status.find(',') != std::string::npos ? 27u : 26u);
-      if (std::isnan(r.latency_ms)) {
-        EXPECT_EQ(c.back(), "") << "latency_ms";
-      } else {
-        EXPECT_NEAR(std::stod(c.back()), r.latency_ms, 1e-3);
-      }
-      EXPECT_EQ(std::stoi(c[0]), r.frame);
-      EXPECT_NEAR(std::stod(c[1]), r.time_s, 1e-6);
-      EXPECT_NEAR(std::stod(c[2]), r.x_m, 1e-4);
-      EXPECT_NEAR(std::stod(c[3]), r.y_m, 1e-4);
-      if (r.geo) {
-        EXPECT_NEAR(std::stod(c[4]), r.geo->lat_deg, 1e-9);
-        EXPECT_NEAR(std::stod(c[5]), r.geo->lon_deg, 1e-9);
-      } else {
-        EXPECT_EQ(c[4], "");
-        EXPECT_EQ(c[6], "");
-      }
-      EXPECT_EQ(std::stoi(c[9]), r.n_inliers);
-      EXPECT_EQ(std::stoi(c[10]), r.cluster);
-      EXPECT_NEAR(std::stod(c[15]), r.total_ms, 1e-3);
-      if (r.status == "ok") {
-        EXPECT_EQ(c[16], "ok");
-      }
-    }
+    ASSERT_NO_FATAL_FAILURE(AssertRunFolderHolds(dir_, appended, enu, 1600000000.25));
     if (i == 24) break;
-    records.push_back(MakeRecord(i));
-    const std::optional<GeoPoint> gps = MakeGps(i);
-    set.Append(records.back(), gps);
-    if (records.back().geo) vo_geo.push_back(*records.back().geo);
-    if (gps) gps_geo.push_back(*gps), gps_t.push_back(records.back().time_s);
+    AppendRecord(i, set, appended);
   }
   EXPECT_EQ(set.num_records(), 24);
   // The quoted status survives as one CSV field.
@@ -422,13 +549,7 @@ TEST_F(TrackWritersTest, EveryFileValidAfterEveryAppend) {
   const Parsed after = ParseRun(dir_);  // still valid after Close
   EXPECT_EQ(after.csv_rows.size(), 24u);
 
-  // xmllint, when installed, agrees that the XML files are well-formed.
-  if (std::system("command -v xmllint >/dev/null 2>&1") == 0) {
-    for (const char* f : {"vo.kml", "gps.kml", "run.kml", "vo.gpx", "gps.gpx"}) {
-      const std::string cmd = "xmllint --noout '" + (dir_ / f).string() + "' 2>&1";
-      EXPECT_EQ(std::system(cmd.c_str()), 0) << f;
-    }
-  }
+  ExpectXmllintAccepts(dir_);
 }
 
 // A rejected fix (gps_flag set) is kept, flagged, in frames.csv and left out of every GPS track.
