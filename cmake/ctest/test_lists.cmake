@@ -26,6 +26,53 @@ set(AEROVO_ACCURACY_TESTS
   Attitude.NadirFlightIsUnchangedByTheCorrection
 )
 
+# Label "repeated_flight": end-to-end runs that repeat, under other settings, a whole-flight path
+# that a test still run under the sanitizers takes (named for each below). The Release stage of
+# scripts/test.sh runs them; the sanitizer stage leaves them out (ctest -LE), where each costs
+# 0.5-4 minutes of an instrumented flight and finds no code the kept test does not run. What the
+# sanitizers are for stays there: every unit test, the bad-input, CLI, outputs, signal, telemetry
+# and report tests, and at least one flight through each input kind, lens and option family.
+#   - docs.commands_run_as_written: the commands of README.md and docs/ (their CLI paths: RunCli.*,
+#     CliOutputs, GeoProducts, HtmlReport, BadInput.*);
+#   - Demo.QuickDemo...: the demo's simulate, run, report (GeoProducts, HtmlReport do the same);
+#   - Runner.SimulatedCallasFlight..., Runner.TurinP4m...: accuracy against truth or GPS on a
+#     simulated and a real flight (Runner.VideoWithDjiSrtFromTheSimulator, Runner.TampaPhantom3...;
+#     photo metadata: the image-metadata unit tests and fuzzer);
+#   - Runner.SigintLeavesValidOutputs: SIGINT on tampa (CliSignal: SIGINT, SIGTERM, SIGHUP);
+#   - TelemetryTrust.EnuOrigin..., ImplausibleRun..., ImplausibleAltitude..., ShiftedTelemetry...:
+#     the GPS checks on more flights (TelemetryTrust.ImplausibleSpike..., the gps_check and clock
+#     unit tests);
+#   - WideLens.FastFixedWing..., WideLens.MildPinhole...: (WideLens.FisheyeFlight...);
+#   - LensSelfCalibration.Pinhole..., GoProLike...: (LensSelfCalibration.Fisheye...);
+#   - RunCli.RunFromItsSavedConfigJson...: the same run twice (RunConfigSchema.SavedConfigJson...);
+#   - CliConventions.RunPrintsTheAnswerFirst..., OneNameForTheSameOption..., HelpCmdIsCmdHelp...:
+#     the text of help and answers (CliConventions.UsageErrorsExitTwo...: the argument parsing);
+#   - Attitude.SrtWithOnlyAnAltitudeAboveSeaLevel...: (Height.*, Attitude.TiltedFlight...);
+#   - BadInput.DamagedTelemetryWithLenientTelemetry...: a 12-frame flight per damage
+#     (BadInput.DamagedSrt.../DamagedGpx...: the same damages parsed; the lenient readers' unit
+#     tests in telemetry_readers_test.cc; the fuzzers).
+set(AEROVO_REPEATED_FLIGHT_TESTS
+  docs.commands_run_as_written
+  Demo.QuickDemoWritesEverythingAndTracksTheTruth
+  Runner.SimulatedCallasFlightAgainstExactTruth
+  Runner.TurinP4mWithXmpAltitudeAndYaw
+  Runner.SigintLeavesValidOutputs
+  TelemetryTrust.EnuOriginIsTheFirstAcceptedFix
+  TelemetryTrust.ImplausibleRunOrSmallJumpDoesNotSteerTheGeoReference
+  TelemetryTrust.ImplausibleAltitudeOrLateStepDoesNotSteerTheTrack
+  TelemetryTrust.ShiftedTelemetryOffsetIsEstimatedAndApplied
+  WideLens.FastFixedWingFlightKeepsEveryFrame
+  WideLens.MildPinholeLensPointsPathMatchesTheFramesPath
+  LensSelfCalibration.PinholeIsNotAppliedAndTheTrackIsUnchanged
+  LensSelfCalibration.GoProLikeBarrelIsEstimatedAndApplied
+  RunCli.RunFromItsSavedConfigJsonReproducesTheRun
+  CliConventions.RunPrintsTheAnswerFirstWithin80ColumnsAndTheConfigOnlyWhenVerbose
+  CliConventions.OneNameForTheSameOptionInEveryCommand
+  CliConventions.HelpCmdIsCmdHelpAndEveryHelpListsTheExitCodes
+  Attitude.SrtWithOnlyAnAltitudeAboveSeaLevelNeedsTheGroundElevation
+  BadInput.DamagedTelemetryWithLenientTelemetryIsSkippedAndReported
+)
+
 # COST: relative run time, so that ctest --parallel starts the long tests first instead of
 # ending on one long test with a core idle (the end-to-end tests are registered last). Figures:
 # user+sys CPU seconds of the Release build's test, 2026-12-04 (BENCHMARKS.md, CI time). ctest
