@@ -58,6 +58,45 @@ function(aerovo_discover_tests target)
   endif()
 endfunction()
 
+# aerovo_add_whole_executable_test(TARGET [PROPERTIES ...]): one ctest test, named TARGET, that
+# runs every GoogleTest test of TARGET in one process, leaving out the tests labelled "accuracy"
+# and "repeated_flight" (cmake/ctest/test_lists.cmake), which the builds using this mode do not
+# run. For AEROVO_TEST_WHOLE_EXECUTABLES (the sanitizer stage of scripts/test.sh): under
+# AddressSanitizer each test process costs about half a second of start-up, more than most unit
+# tests take (BENCHMARKS.md, CI time). A failure names the GoogleTest test in the output; a
+# sanitizer report ends the process, so the tests after it in that executable do not run.
+function(aerovo_add_whole_executable_test target)
+  cmake_parse_arguments(W "" "" "PROPERTIES" ${ARGN})
+  include(${PROJECT_SOURCE_DIR}/cmake/ctest/test_lists.cmake)
+  set(_out "")
+  foreach(_name ${AEROVO_ACCURACY_TESTS} ${AEROVO_REPEATED_FLIGHT_TESTS})
+    if(_name MATCHES "\\.")
+      list(APPEND _out "${_name}")
+    else()  # a whole suite registered as one test
+      list(APPEND _out "${_name}.*" "*/${_name}.*")
+    endif()
+  endforeach()
+  list(JOIN _out ":" _out)
+  add_test(NAME ${target} COMMAND ${target} --gtest_filter=-${_out})
+  # Start these before the short end-to-end tests (test_lists.cmake, COST).
+  set_tests_properties(${target} PROPERTIES COST 20 ${W_PROPERTIES})
+  # The suites of AEROVO_WHOLE_SUITE_TESTS in TARGET's sources run in this one process too.
+  get_target_property(_srcs ${target} SOURCES)
+  get_target_property(_dir ${target} SOURCE_DIR)
+  foreach(_suite ${AEROVO_WHOLE_SUITE_TESTS})
+    foreach(_src ${_srcs})
+      if(NOT IS_ABSOLUTE "${_src}")
+        set(_src "${_dir}/${_src}")
+      endif()
+      file(STRINGS "${_src}" _m REGEX "^TEST_[FP]\\(${_suite},")
+      if(_m)
+        set_property(GLOBAL APPEND PROPERTY AEROVO_WHOLE_SUITES_FOUND ${_suite})
+        break()
+      endif()
+    endforeach()
+  endforeach()
+endfunction()
+
 # At the end of configuring: every listed suite was found (a renamed or moved suite must not
 # silently fall back to one process per test, nor vanish).
 function(aerovo_check_whole_suite_tests)

@@ -1,21 +1,24 @@
 #!/usr/bin/env bash
 # Installs the dependencies, builds aerovo and runs every test: this is the README's test command
 # and what CI (.ci/run) runs, on a clean clone with 2 cores. Stages:
-#   1. Release build (tests, benchmarks, examples) in build/, every test (ctest);
+#   1. Release build (tests, benchmarks, examples) in build/, every test (ctest) but the unit
+#      tests of the modules other than pipeline, which stage 2 runs (all of them with
+#      AEROVO_TEST_QUICK=1);
 #   1b. aarch64: the core modules cross-compiled for aarch64 (build-aarch64/), their unit tests
 #      under qemu-aarch64, NEON and scalar paths (scripts/test-aarch64.sh);
-#   2. AddressSanitizer + UndefinedBehaviorSanitizer build (-O1 -g1, no benchmarks) in
+#   2. AddressSanitizer + UndefinedBehaviorSanitizer build (clang++, -O1 -g1, no benchmarks) in
 #      build-asan/, every test again but the labels "accuracy" and "repeated_flight" (long
 #      flights that the Release stage runs, each path kept under the sanitizers by a shorter
-#      test; cmake/ctest/test_lists.cmake says which and why); any ASan/UBSan/LeakSanitizer
-#      report fails the test;
-#   3. the libFuzzer targets (scripts/fuzz.sh, clang++, build-fuzz/), FUZZ_TIME s each (30), as
-#      many at a time as there are cores.
+#      test; cmake/ctest/test_lists.cmake says which and why), each module's unit tests in one
+#      process; any ASan/UBSan/LeakSanitizer report fails the test;
+#   3. the libFuzzer targets (scripts/fuzz.sh), built in stage 2's build dir, FUZZ_TIME s each
+#      (30), as many at a time as there are cores.
 # Each stage prints its wall and CPU (user+sys) time, build and tests separately; the end prints
 # a table of them and the 15 slowest tests. Environment:
 #   AEROVO_TEST_QUICK=1   developers: stage 1 only (Release build + tests)
 #   AEROVO_SKIP_AARCH64=1 skip the aarch64 cross build and its qemu tests
-#   BUILD_DIR, ASAN_BUILD_DIR, FUZZ_BUILD_DIR   build directories (build, build-asan, build-fuzz)
+#   BUILD_DIR, ASAN_BUILD_DIR   build directories (build, build-asan)
+#   FUZZ_BUILD_DIR        the fuzzers' own build dir (build-fuzz), only without clang++
 #   FUZZ_TIME             seconds per fuzz target (default 30)
 #   AEROVO_CONFIGURE_ONLY=1  only configure stage 1's build dir (tests/readme_order_test.sh)
 # Every cache option a stage relies on is set on its cmake line: a build dir configured before
@@ -32,7 +35,13 @@ if command -v ld.mold >/dev/null; then
   LINK_OPTIONS=("-DCMAKE_EXE_LINKER_FLAGS=-fuse-ld=mold -Wl,--no-fork"
     "-DCMAKE_SHARED_LINKER_FLAGS=-fuse-ld=mold -Wl,--no-fork")
 fi
+# The Release stage builds only the pipeline's unit tests when the sanitizer stage follows, which
+# builds and runs every module's (CMakeLists.txt, AEROVO_UNIT_TESTS); with AEROVO_TEST_QUICK=1
+# (and AEROVO_CONFIGURE_ONLY=1) it builds them all.
+UNIT_TESTS=pipeline
+if [ "${AEROVO_TEST_QUICK:-0}" = 1 ] || [ "${AEROVO_CONFIGURE_ONLY:-0}" = 1 ]; then UNIT_TESTS=ALL; fi
 RELEASE_OPTIONS=(-G Ninja -DCMAKE_BUILD_TYPE=Release -DAEROVO_BUILD_TESTS=ON
+  -DAEROVO_UNIT_TESTS="$UNIT_TESTS"
   -DAEROVO_BUILD_BENCHMARKS=ON -DAEROVO_BUILD_EXAMPLES=ON -DAEROVO_SANITIZE=OFF
   -DAEROVO_BUILD_FUZZERS=OFF -DAEROVO_NATIVE=OFF "${LINK_OPTIONS[@]}")
 if [ "${AEROVO_CONFIGURE_ONLY:-0}" = 1 ]; then
@@ -85,17 +94,24 @@ release_build() {
 }
 release_tests() { run_ctest release "$BUILD_DIR" --timeout 1500; }
 
+# clang++ (scripts/install-deps.sh) builds the sanitizer stage and the fuzzers together: one
+# instrumented build of the library instead of two (BENCHMARKS.md, CI time). Without clang++,
+# g++ builds the sanitizer stage and scripts/fuzz.sh (which needs clang++) fails in its own stage.
+HAVE_CLANG=0
+command -v clang++ >/dev/null && HAVE_CLANG=1
 sanitizers_build() {
   # -O1 -g1 (line tables): sanitizer builds compile ~2x slower than Release; -O1 keeps the tests
-  # fast enough and the reports still name file:line. clang++ (installed for the fuzzers)
-  # compiles the instrumented code in less CPU than g++, whose UBSan instrumentation about
-  # doubles a TU's compile time (BENCHMARKS.md, CI time); g++ when clang++ is missing.
-  local cxx=()
-  command -v clang++ >/dev/null && cxx=(-DCMAKE_CXX_COMPILER=clang++)
+  # fast enough and the reports still name file:line. clang++ compiles the instrumented code in
+  # less CPU than g++, whose UBSan instrumentation about doubles a TU's compile time
+  # (BENCHMARKS.md, CI time). AEROVO_TEST_WHOLE_EXECUTABLES: each module's unit tests run as one
+  # process (under ASan a process takes ~0.5 s to start, more than most unit tests).
+  local cxx=(-DAEROVO_BUILD_FUZZERS=OFF)
+  [ "$HAVE_CLANG" = 1 ] && cxx=(-DCMAKE_CXX_COMPILER=clang++ -DAEROVO_BUILD_FUZZERS=ON)
   cmake -S . -B "$ASAN_BUILD_DIR" -G Ninja "${cxx[@]}" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DAEROVO_SANITIZE=ON \
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DAEROVO_BUILD_TESTS=ON \
-    -DAEROVO_BUILD_BENCHMARKS=OFF -DAEROVO_BUILD_EXAMPLES=OFF -DAEROVO_BUILD_FUZZERS=OFF \
+    -DAEROVO_TEST_WHOLE_EXECUTABLES=ON -DAEROVO_UNIT_TESTS=ALL \
+    -DAEROVO_BUILD_BENCHMARKS=OFF -DAEROVO_BUILD_EXAMPLES=OFF \
     -DAEROVO_NATIVE=OFF "${LINK_OPTIONS[@]}"
   cmake --build "$ASAN_BUILD_DIR" --parallel "$JOBS"
 }
@@ -140,8 +156,12 @@ if [ "${AEROVO_TEST_QUICK:-0}" != 1 ]; then
   fi
   stage sanitizers-build sanitizers_build
   stage sanitizers-tests sanitizers_tests
-  stage fuzz-build env FUZZ_BUILD_ONLY=1 ./scripts/fuzz.sh
-  stage fuzz-run env FUZZ_CONFIGURE=0 ./scripts/fuzz.sh
+  if [ "$HAVE_CLANG" = 1 ]; then
+    stage fuzz-run env FUZZ_BUILD_DIR="$ASAN_BUILD_DIR" FUZZ_CONFIGURE=0 ./scripts/fuzz.sh
+  else
+    stage fuzz-build env FUZZ_BUILD_ONLY=1 ./scripts/fuzz.sh
+    stage fuzz-run env FUZZ_CONFIGURE=0 ./scripts/fuzz.sh
+  fi
 fi
 CURRENT=""
 summary

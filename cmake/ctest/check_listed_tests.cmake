@@ -1,5 +1,8 @@
 # cmake -DCTEST=<ctest> -DBUILD_DIR=<build dir> -P check_listed_tests.cmake
-# Fails naming every test of test_lists.cmake that the build dir does not register.
+# Fails naming every test of test_lists.cmake that the build dir does not register. With
+# -DWHOLE_EXECUTABLES=ON (AEROVO_TEST_WHOLE_EXECUTABLES: the module unit tests run as one ctest
+# test per executable, so their names are not registered) it only says which names it did not
+# find; the builds registering every test (scripts/test.sh's Release stage) check them all.
 cmake_minimum_required(VERSION 3.20)  # IN_LIST
 include(${CMAKE_CURRENT_LIST_DIR}/test_lists.cmake)
 execute_process(COMMAND ${CTEST} --test-dir ${BUILD_DIR} -N OUTPUT_VARIABLE _out
@@ -28,9 +31,14 @@ foreach(_name ${_listed})
   endif()
 endforeach()
 list(LENGTH _names _count)
-if(_missing)
+if(_missing AND WHOLE_EXECUTABLES)
+  list(JOIN _missing " " _missing)
+  message(STATUS "not registered here (run inside whole test executables, or not at all): "
+    "${_missing}")
+elseif(_missing)
   list(JOIN _missing "\n  " _missing)
   message(FATAL_ERROR "cmake/ctest/test_lists.cmake names tests that ${BUILD_DIR} does not "
     "register (renamed or removed? update the list):\n  ${_missing}")
+else()
+  message(STATUS "every listed test is registered (${_count} tests)")
 endif()
-message(STATUS "every listed test is registered (${_count} tests)")
