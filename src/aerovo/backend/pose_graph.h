@@ -47,7 +47,7 @@
 // heading) keeps the undetermined directions near their initial estimate through the damping.
 #pragma once
 
-#include <optional>
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -138,12 +138,18 @@ struct AbsoluteFactor {
 };
 
 /// The graph: poses (their current estimates) and factors. Poses are numbered 0, 1, ... in the
-/// order added.
+/// order added; a factor names poses already added. Every addition is checked as it is made, so
+/// that a graph is always solvable and a solve costs nothing per factor outside its window:
+/// InvalidArgument names the factor and what is wrong ("pose graph: relative factor 3 (poses
+/// 2 -> 7): pose 7 is not in the graph (5 poses)"): a pose not in the graph, a relative factor
+/// from a pose to itself, a measurement that is not finite, an information matrix (of the measured
+/// components) that is not finite, not symmetric or not positive definite; and a pose estimate
+/// that is not finite ("pose graph: the estimate of pose 4 is not finite").
 class PoseGraph {
  public:
   /// Adds a pose with its initial estimate; returns its index.
   int AddPose(const Similarity2& local_from_frame);
-  /// Adds a factor; returns its index among the factors of its kind. Checked when solved.
+  /// Adds a factor; returns its index among the factors of its kind.
   int AddRelative(const RelativeFactor& factor);
   int AddAbsolute(const AbsoluteFactor& factor);
   /// A prior: an absolute factor on all four components.
@@ -160,19 +166,33 @@ class PoseGraph {
   const std::vector<char>& held() const { return held_; }
   const std::vector<RelativeFactor>& relative_factors() const { return relative_; }
   const std::vector<AbsoluteFactor>& absolute_factors() const { return absolute_; }
+  /// The upper-triangular U with U'U = the factor's information (of the measured components;
+  /// the rows of the others are zero): the whitened residual is U r.
+  const Eigen::Matrix4d& relative_sqrt_information(int k) const {
+    return relative_sqrt_info_[static_cast<std::size_t>(k)];
+  }
+  const Eigen::Matrix4d& absolute_sqrt_information(int k) const {
+    return absolute_sqrt_info_[static_cast<std::size_t>(k)];
+  }
+  /// The indices of the factors that name `pose`, in the order added.
+  const std::vector<int>& relative_factors_of(int pose) const {
+    return relative_of_pose_[static_cast<std::size_t>(pose)];
+  }
+  const std::vector<int>& absolute_factors_of(int pose) const {
+    return absolute_of_pose_[static_cast<std::size_t>(pose)];
+  }
 
  private:
   std::vector<Similarity2> poses_;
   std::vector<char> held_;
   std::vector<RelativeFactor> relative_;
   std::vector<AbsoluteFactor> absolute_;
+  std::vector<Eigen::Matrix4d> relative_sqrt_info_, absolute_sqrt_info_;
+  std::vector<std::vector<int>> relative_of_pose_, absolute_of_pose_;
 };
 
-/// Throws InvalidArgument for a graph that cannot be solved, naming what is wrong: no poses; no
-/// factors; a pose estimate that is not finite; a factor naming a pose not in the graph ("relative
-/// factor 3 (poses 2 -> 7): pose 7 is not in the graph (5 poses)"), a relative factor from a pose
-/// to itself, a measurement that is not finite, an information matrix (of the measured
-/// components) that is not finite, not symmetric or not positive definite.
+/// Throws InvalidArgument for a graph that cannot be solved: no poses ("pose graph: no poses");
+/// no factors ("pose graph: 1 pose and no factors: nothing to optimise").
 void Validate(const PoseGraph& graph);
 
 /// The residual (x, y, heading, log-scale) of a relative factor with measurement
