@@ -182,10 +182,10 @@ TEST(PoseGraph, LoopClosuresCutTheEndPointErrorOfALawnmower) {
   const double end = EndPointError(r.local_from_frame, l.truth);
   const double max = MaxPositionError(r.local_from_frame, l.truth);
   std::printf(
-      "chained: end %.2f m, max %.2f m; optimised: end %.2f m, max %.2f m, rms %.2f m, "
-      "%d iterations\n",
-      chained_end, chained_max, end, max, RmsPositionError(r.local_from_frame, l.truth),
-      r.iterations);
+      "chained: end %.2f m, max %.2f m; optimised with %zu closures: end %.2f m, max %.2f m, "
+      "rms %.2f m, %d iterations\n",
+      chained_end, chained_max, l.closures.size(), end, max,
+      RmsPositionError(r.local_from_frame, l.truth), r.iterations);
   EXPECT_GT(chained_end, 20.0);  // The drift the closures must take out.
   EXPECT_LE(end, chained_end / 3.0);
   EXPECT_LE(end, 5.0);
