@@ -17,10 +17,10 @@
 //   absolute on i, measurement z = local_from_frame:
 //     r = (t_i - t_z,  wrap(a_i - a_z),  s_i - s_z), the components not measured left out.
 // Cost: 1/2 sum_k rho(r_k' Omega_k r_k), rho the robust kernel of the options (Huber: P. J.
-// Huber, "Robust estimation of a location parameter", Ann. Math. Statist. 35(1), 1964; Cauchy:
-// the Lorentzian of B. Triggs et al., "Bundle adjustment - a modern synthesis", 2000, sec. 3.3),
-// applied to the whitened residual norm e = sqrt(r' Omega r) with the scale in standard
-// deviations.
+// Huber, "Robust estimation of a location parameter", Ann. Math. Statist. 35(1), 1964; Cauchy,
+// or Lorentzian: the table of M-estimators in Z. Zhang, "Parameter estimation techniques: a
+// tutorial with application to conic fitting", Image and Vision Computing 15(1), 1997), applied
+// to the whitened residual norm e = sqrt(r' Omega r) with the scale in standard deviations.
 //
 // Solver: Levenberg-Marquardt (K. Madsen, H. B. Nielsen, O. Tingleff, "Methods for non-linear
 // least squares problems", IMM DTU 2004, sec. 3.2: Marquardt's diagonal scaling, Nielsen's
@@ -29,10 +29,12 @@
 // Eigen's SimplicialLDLT (sparse LDL' with an AMD fill-reducing ordering computed once per
 // problem). Why Eigen and not Ceres Solver or g2o: Eigen is already the core's one linear-algebra
 // dependency and is all the aarch64 cross build needs (AEROVO_CORE_ONLY, scripts/test-aarch64.sh);
-// the problem is small and of one fixed structure (4 parameters per pose, residuals of 4), so
-// the generic machinery of a general solver (automatic differentiation, parameter blocks of any
-// size, its own threading) buys nothing here; Ceres is not installed and would be a new
-// dependency of every build. BENCHMARKS.md ("Pose-graph back-end") has the solve times.
+// the problem has one fixed structure (4 parameters per pose, residuals of 4, Jacobians written
+// out), so a general solver's automatic differentiation and parameter blocks of any size are not
+// needed. What Ceres would add here is a supernodal sparse Cholesky (SuiteSparse's CHOLMOD),
+// which would pay on the largest graphs, where Eigen's simplicial factorisation is most of the
+// time (BENCHMARKS.md, "Pose-graph back-end", has the solve times); Ceres is not installed and
+// would be a new dependency of every build, the cross build's included.
 //
 // Incremental use: OptimizeWindow solves for the poses of an index range only; every other pose
 // a factor of the window touches is held at its current estimate (a fixed prior: the old poses
