@@ -311,6 +311,7 @@ class Solver {
     result.initial_cost = Cost(free_, kernel);
     result.termination = Minimise(kernel, &result.iterations);
     result.final_cost = Cost(free_, kernel);
+    if (options_.covariance) Covariances(kernel, &result.covariance);
     result.relative.resize(graph_.relative_factors().size());
     result.absolute.resize(graph_.absolute_factors().size());
     for (const SolveFactor& f : factors_) {
@@ -518,6 +519,38 @@ class Solver {
         const Mat4 ab = w * wa.transpose() * wb;
         AddBlock(f.block_offsets[2], ab);
         AddBlock(f.block_offsets[3], ab.transpose());
+      }
+    }
+  }
+
+  // The 4x4 diagonal blocks of H^-1 at free_, per pose (zero for poses not free); empty when H
+  // is singular.
+  void Covariances(RobustKernel kernel, std::vector<Mat4>* out) {
+    out->clear();
+    if (num_vars_ == 0) return;
+    Linearise(kernel);
+    ldlt_.factorize(h_);
+    if (ldlt_.info() != Eigen::Success) return;
+    const int dim = kDim * num_vars_;
+    std::vector<Mat4> blocks(static_cast<std::size_t>(num_vars_));
+    Eigen::VectorXd unit = Eigen::VectorXd::Zero(dim), column(dim);
+    for (int v = 0; v < num_vars_; ++v) {
+      for (int k = 0; k < kDim; ++k) {
+        unit(kDim * v + k) = 1.0;
+        column = ldlt_.solve(unit);
+        unit(kDim * v + k) = 0.0;
+        blocks[static_cast<std::size_t>(v)].col(k) = column.segment<kDim>(kDim * v);
+      }
+      const Mat4& b = blocks[static_cast<std::size_t>(v)];
+      // A singular H may factorise with zero or negative pivots: no covariance then.
+      if (!b.allFinite() || !(b.diagonal().minCoeff() > 0.0)) return;
+    }
+    out->assign(graph_.estimates().size(), Mat4::Zero());
+    for (int p = first_; p <= last_; ++p) {
+      const int v = VarOf(p);
+      if (v >= 0) {
+        const Mat4& b = blocks[static_cast<std::size_t>(v)];
+        (*out)[static_cast<std::size_t>(p)] = 0.5 * (b + b.transpose());
       }
     }
   }

@@ -97,6 +97,9 @@ struct PoseGraphOptions {
   /// A factor whose final whitened residual norm exceeds outlier_sigmas is reported as
   /// down-weighted (FactorResidual::outlier). Default 4 (as robust_scale).
   double outlier_sigmas = 4.0;
+  /// Also compute each free pose's marginal covariance (PoseGraphResult::covariance): 4 solves
+  /// with the factorised normal matrix per free pose, so off by default for whole flights.
+  bool covariance = false;
 };
 
 /// Throws InvalidArgument naming the field ("backend.robust_scale must be ...").
@@ -113,6 +116,7 @@ void VisitFields(PoseGraphOptions& o, V& v) {
   v.Field(o.step_tolerance, "step_tolerance", "Stop when the largest step component is below this", AtLeast(0).Finite());
   v.Field(o.initial_damping, "initial_damping", "Initial damping, relative to the normal matrix's diagonal", GreaterThan(0).Finite());
   v.Field(o.outlier_sigmas, "outlier_sigmas", "A factor with a larger final whitened residual is reported as an outlier", GreaterThan(0).Finite());
+  v.Field(o.covariance, "covariance", "Compute each free pose's marginal covariance", Any());
 }
 // clang-format on
 
@@ -229,6 +233,12 @@ struct PoseGraphResult {
   /// Every pose of the graph (the held and out-of-window ones as they were), heading wrapped to
   /// (-pi, pi].
   std::vector<Similarity2> local_from_frame;
+  /// With PoseGraphOptions::covariance: per pose, the marginal covariance of (x [m], y [m],
+  /// heading [rad], log-scale) of a free pose (zero for the poses not solved for): its 4x4 block
+  /// of the inverse of the re-weighted normal matrix at the solution (first order; with a robust
+  /// kernel each factor counts with its final weight). Empty when not asked, or when that matrix
+  /// is singular (an under-determined graph, e.g. one position fix and no heading).
+  std::vector<Eigen::Matrix4d> covariance;
   std::vector<FactorResidual> relative;  ///< One per relative factor, in the graph's order.
   std::vector<FactorResidual> absolute;  ///< One per absolute factor.
   int free_poses = 0;                    ///< Poses solved for.
