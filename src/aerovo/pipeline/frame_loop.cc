@@ -197,10 +197,10 @@ void FrameLoop::SayWhenAheadOfTheClock(const FrameState& f, const FrameSource& s
   if (ahead_s <= kAheadS) return;
   state_.said_ahead_of_clock = true;
   *log_ << fmt::format(
-      "mavlink: {} is processed faster than real time (frame {} at {:.2f} s of the stream, "
-      "{:.2f} s ahead of the clock): messages carry the frames' own times, velocities from their "
-      "differences\n",
-      source.Describe(), f.frame.index, f.frame.time_s, ahead_s);
+      "mavlink: the file is processed faster than real time (frame {} at {:.2f} s of the "
+      "stream, {:.2f} s ahead of the clock): messages carry the frames' own times, velocities "
+      "from their differences\n",
+      f.frame.index, f.frame.time_s, ahead_s);
 }
 
 LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const Stopwatch& wall,
