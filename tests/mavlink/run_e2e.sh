@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# ctest driver of tests/mavlink/e2e.cjs (MODE: udp or udpin): installs node-mavlink from the
+# ctest driver of tests/mavlink/e2e.cjs (MODE: udp or udpin) and autopilots.cjs (MODE: contract,
+# the frames as a video): installs node-mavlink from the
 # npm registry (the version pinned in package.json / package-lock.json) into WORK, simulates a
 # short flight (one black frame mid-flight: bridged, then re-acquired), runs the check.
 # Skips (exit 77) only when node or npm is missing or `npm ci` fails, saying why.
@@ -34,4 +35,12 @@ N=$(ls "$FRAMES" | wc -l)
 [ "$N" -ge 12 ] || { echo "FAIL: only $N simulated frames"; exit 1; }
 BLACK=$(ls "$FRAMES" | sort | sed -n 8p)
 ffmpeg -loglevel error -y -f lavfi -i color=c=black:s=640x360 -frames:v 1 "$FRAMES/$BLACK" || exit 1
+if [ "$MODE" = contract ]; then
+  # The same frames as a video (lossless, 4 fps): a file whose frames carry presentation times,
+  # put through ArduPilot's and PX4's arithmetic (autopilots.cjs).
+  SPEED=$(node -e 'console.log(require(process.argv[1]).flight.speed_mps)' "$SIM/sim.json") || exit 1
+  VIDEO="$WORK/flight-$MODE.mkv"
+  ffmpeg -loglevel error -y -framerate 4 -pattern_type glob -i "$FRAMES/*.png" -c:v ffv1 "$VIDEO" || exit 1
+  cd "$NODE_DIR" && NODE_PATH="$NODE_DIR/node_modules" exec node "$SRC/autopilots.cjs" "$AEROVO" "$VIDEO" "$FOCAL" 60 "$SPEED" "$WORK/run-$MODE"
+fi
 cd "$NODE_DIR" && NODE_PATH="$NODE_DIR/node_modules" node "$SRC/e2e.cjs" "$MODE" "$AEROVO" "$FRAMES" "$FOCAL" 60 "$WORK/run-$MODE"

@@ -98,13 +98,14 @@ VisionMessages VisionMessageBuilder::Add(const VisionPose& p) {
   o.q = QuaternionOf(roll, pitch, yaw);
   o.pose_covariance.fill(0.f);
   o.velocity_covariance.fill(0.f);
+  // Every variance either consumer reads is finite (docs/autopilot.md "Quality, covariance,
+  // reset counter"): z, roll and pitch are not measured by the vision, and carry the
+  // horizontal and yaw variances, so that ArduPilot's single position and angle errors (which
+  // combine [0], [6], [11] and [15], [18], [20]) are the measured axes' and PX4's all-finite
+  // checks pass.
   auto& pc = o.pose_covariance;
-  pc[UpperTriangleIndex(0, 0)] = static_cast<float>(var_xy_m2_);
-  pc[UpperTriangleIndex(1, 1)] = static_cast<float>(var_xy_m2_);
-  pc[UpperTriangleIndex(2, 2)] = kNaN;
-  pc[UpperTriangleIndex(3, 3)] = kNaN;
-  pc[UpperTriangleIndex(4, 4)] = kNaN;
-  pc[UpperTriangleIndex(5, 5)] = static_cast<float>(var_yaw_rad2_);
+  for (int i = 0; i < 3; ++i) pc[UpperTriangleIndex(i, i)] = static_cast<float>(var_xy_m2_);
+  for (int i = 3; i < 6; ++i) pc[UpperTriangleIndex(i, i)] = static_cast<float>(var_yaw_rad2_);
   auto& vc = o.velocity_covariance;
   if (have_previous_ && dt > 0.0) {
     const double local_v[3] = {dx / dt, dy / dt, dz / dt};
@@ -115,19 +116,18 @@ VisionMessages VisionMessageBuilder::Add(const VisionPose& p) {
     o.vz = static_cast<float>(body_v[2]);
     o.yawspeed = static_cast<float>(dyaw / dt);
     const double v_var = 2.0 * step_var_xy / (dt * dt);
-    vc[UpperTriangleIndex(0, 0)] = static_cast<float>(v_var);
-    vc[UpperTriangleIndex(1, 1)] = static_cast<float>(v_var);
+    for (int i = 0; i < 3; ++i) vc[UpperTriangleIndex(i, i)] = static_cast<float>(v_var);
     vc[UpperTriangleIndex(5, 5)] = static_cast<float>(2.0 * step_var_yaw / (dt * dt));
+    // Roll and pitch rates are not sent (NaN below): their variances are unknown too.
+    vc[UpperTriangleIndex(3, 3)] = kNaN;
+    vc[UpperTriangleIndex(4, 4)] = kNaN;
   } else {
+    // No velocity before a second frame: the velocities and their whole covariance unknown
+    // (NaN in the first element, as the ODOMETRY definition marks an unknown covariance).
     o.vx = o.vy = o.vz = o.yawspeed = kNaN;
-    vc[UpperTriangleIndex(0, 0)] = kNaN;
-    vc[UpperTriangleIndex(1, 1)] = kNaN;
-    vc[UpperTriangleIndex(5, 5)] = kNaN;
+    vc.fill(kNaN);
   }
   o.rollspeed = o.pitchspeed = kNaN;
-  vc[UpperTriangleIndex(2, 2)] = kNaN;
-  vc[UpperTriangleIndex(3, 3)] = kNaN;
-  vc[UpperTriangleIndex(4, 4)] = kNaN;
   o.reset_counter = reset_counter_;
   o.estimator_type = kMavEstimatorTypeVision;
   switch (p.status) {

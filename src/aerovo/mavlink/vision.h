@@ -28,7 +28,8 @@ const char* ToString(TimestampClock clock);
 /// One processed frame as the vision messages need it.
 struct VisionPose {
   uint64_t time_usec = 0;  ///< Capture time to send (boot or Unix clock, us).
-  double time_s = 0.0;     ///< The same instant in seconds (any clock; differences are used).
+  /// The same instant in seconds (any clock; differences are used: velocities, deltas).
+  double time_s = 0.0;
   double local_x_m = 0.0, local_y_m = 0.0;  ///< Position in aerovo's local frame.
   double height_m = 0.0;                    ///< Height above ground used for the frame.
   double heading_rad = 0.0;  ///< Counter-clockwise from the local +y axis.
@@ -61,9 +62,13 @@ struct VisionMessages {
 /// sampling distance in metres, and its rotation sigma_px / sqrt(n) / half_width_px rad. A
 /// bridged step (predicted, not measured) adds its own length squared. Position and yaw
 /// variances add up from the first frame (odometry drifts); velocity variance is twice the
-/// step's over dt squared. z, roll and pitch are not measured by the vision (z echoes the
-/// height aerovo was given, roll and pitch the autopilot's): their variances are NaN (unknown),
-/// and the autopilot should not fuse them (docs/autopilot.md).
+/// step's over dt squared (vx, vy, vz; yawspeed likewise). z, roll and pitch are not measured
+/// by the vision (z echoes the height aerovo was given, roll and pitch the autopilot's): z
+/// carries the x/y variance and roll and pitch the yaw variance, so that every variance
+/// ArduPilot and PX4 read is finite and their combined errors are the measured axes'
+/// (docs/autopilot.md "Quality, covariance, reset counter"); the autopilot should not fuse them.
+/// Before a second frame the velocities and the whole velocity covariance are NaN (unknown);
+/// roll and pitch rates are never sent (NaN, and their variances).
 /// Quality: -1 for a bridged frame, 100 for the first (the origin, exact by definition), else
 /// the inlier count capped at 100 (12, the acceptance minimum, gives 12).
 class VisionMessageBuilder {

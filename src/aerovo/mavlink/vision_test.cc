@@ -31,8 +31,10 @@ TEST(MavlinkVision, LocalFrameToFrdAndBodyVelocity) {
   EXPECT_EQ(m0.odometry.frame_id, kMavFrameLocalFrd);
   EXPECT_EQ(m0.odometry.child_frame_id, kMavFrameBodyFrd);
   EXPECT_EQ(m0.odometry.quality, 100);
-  EXPECT_TRUE(std::isnan(m0.odometry.vx));  // no velocity before a second frame
-  EXPECT_EQ(m0.odometry.pose_covariance[0], 0.f);
+  // No velocity before a second frame; its covariance unknown (NaN first element).
+  EXPECT_TRUE(std::isnan(m0.odometry.vx));
+  EXPECT_TRUE(std::isnan(m0.odometry.velocity_covariance[0]));
+  for (float v : m0.odometry.pose_covariance) EXPECT_EQ(v, 0.f);  // the origin, exact
   // 2 m to the right of the first image and 10 m up it (forward), turned 90 deg
   // counter-clockwise (to the left): FRD x = 10 (forward), y = 2 (right), yaw = -90 deg.
   VisionPose p1 = Pose(2.0, 2.0, 10.0, M_PI / 2, VisionPose::Status::kOk, 100);
@@ -54,9 +56,18 @@ TEST(MavlinkVision, LocalFrameToFrdAndBodyVelocity) {
   // Step sigma: 0.75 px / sqrt(100) * 0.1 m/px = 7.5 mm; variance 5.625e-5 m^2.
   EXPECT_NEAR(o.pose_covariance[UpperTriangleIndex(0, 0)], 5.625e-5, 1e-9);
   EXPECT_NEAR(o.pose_covariance[UpperTriangleIndex(1, 1)], 5.625e-5, 1e-9);
-  EXPECT_TRUE(std::isnan(o.pose_covariance[UpperTriangleIndex(2, 2)]));  // z not measured
-  EXPECT_TRUE(std::isnan(o.pose_covariance[UpperTriangleIndex(3, 3)]));  // roll unknown
-  EXPECT_NEAR(o.velocity_covariance[0], 2 * 5.625e-5, 1e-9);
+  // z (not measured) carries the x/y variance, roll and pitch the yaw's: all finite.
+  EXPECT_NEAR(o.pose_covariance[UpperTriangleIndex(2, 2)], 5.625e-5, 1e-9);
+  // Yaw step sigma: 0.75 px / sqrt(100) / 320 px rad; variance 5.493e-8 rad^2.
+  const double var_yaw = std::pow(0.075 / 320.0, 2);
+  for (int i = 3; i < 6; ++i)
+    EXPECT_NEAR(o.pose_covariance[UpperTriangleIndex(i, i)], var_yaw, 1e-12) << i;
+  for (float v : o.pose_covariance) EXPECT_TRUE(std::isfinite(v));
+  for (int i = 0; i < 3; ++i)
+    EXPECT_NEAR(o.velocity_covariance[UpperTriangleIndex(i, i)], 2 * 5.625e-5, 1e-9) << i;
+  EXPECT_TRUE(std::isnan(o.rollspeed));  // not sent
+  EXPECT_TRUE(std::isnan(o.velocity_covariance[UpperTriangleIndex(3, 3)]));
+  EXPECT_EQ(m1.position_estimate.covariance, o.pose_covariance);
   EXPECT_EQ(o.quality, 100);
   EXPECT_EQ(o.reset_counter, 0);
   EXPECT_EQ(o.estimator_type, kMavEstimatorTypeVision);

@@ -1,5 +1,6 @@
 #include "aerovo/pipeline/frame_loop.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <utility>
@@ -95,10 +96,23 @@ ReadResult ReadFrame(FrameSource& source, const RunConfig& config, const RunTele
   f.delivered = true;
   // A PrefetchSource stamps the frame when decoded; else it is received now.
   if (!std::isfinite(f.frame.received_s)) f.frame.received_s = SteadySeconds();
-  // The capture time: when the source delivered the frame (a live source's frames arrive as
-  // captured; a file's as read).
+  // When the source delivered the frame (a live source's frames arrive as captured; a file's
+  // as read), and the frame's own capture time (FrameState::frame_mono_s).
   f.capture_mono_s = mavlink::MonotonicNowS();
   f.capture_unix_s = mavlink::UnixNowS();
+  if (source.IsLive()) {
+    // Frame::received_s is on the steady clock (CLOCK_MONOTONIC on Linux): back-dated by the
+    // time the frame waited in the decode-ahead queue.
+    const double waited_s = std::max(0.0, SteadySeconds() - f.frame.received_s);
+    f.frame_mono_s = f.capture_mono_s - waited_s;
+    f.frame_unix_s = f.capture_unix_s - waited_s;
+  } else {
+    RunState::FrameClock& c = state->frame_clock;
+    if (!c.set) c = {true, f.frame.time_s, f.capture_mono_s, f.capture_unix_s};
+    const double since_first_s = f.frame.time_s - c.first_time_s;
+    f.frame_mono_s = c.first_mono_s + since_first_s;
+    f.frame_unix_s = c.first_unix_s + since_first_s;
+  }
   f.sample = telemetry.SampleOf(f.frame);
   f.gps = GpsOf(f.sample);
   if (!f.sample) ++state->frames_without_fix;
@@ -174,6 +188,21 @@ RunFailure FrameLoop::FailureOf(RunFailureKind kind, const char* what,
   return f;
 }
 
+void FrameLoop::SayWhenAheadOfTheClock(const FrameState& f, const FrameSource& source) {
+  // A file read faster than it was filmed: its frames' times run ahead of the clock. Said once,
+  // with --mavlink only (the messages carry those times; nothing else reads the clock).
+  constexpr double kAheadS = 0.5;
+  if (!link_ || !log_ || source.IsLive() || state_.said_ahead_of_clock) return;
+  const double ahead_s = f.frame_mono_s - f.capture_mono_s;
+  if (ahead_s <= kAheadS) return;
+  state_.said_ahead_of_clock = true;
+  *log_ << fmt::format(
+      "mavlink: the file is processed faster than real time (frame {} at {:.2f} s of the "
+      "stream, {:.2f} s ahead of the clock): messages carry the frames' own times, velocities "
+      "from their differences\n",
+      f.frame.index, f.frame.time_s, ahead_s);
+}
+
 LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const Stopwatch& wall,
                        RunSummary* summary) {
   LoopEnd end;
@@ -189,6 +218,7 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
         end.stopped = read == ReadResult::kStopped;
         break;
       }
+      SayWhenAheadOfTheClock(frame, source);
       Process(frame, stop, wall, summary);
     } catch (const Cancelled&) {  // a stop inside SURF, matching or RANSAC: frame abandoned
       end.stopped = true;

@@ -55,8 +55,9 @@ std::vector<SinkPtr> MakeSinks(const RunContext& run, const std::vector<SinkPtr>
 // Reading and setting up.
 
 /// Reads the next frame into `frame` (cleared first): nothing once the stop flag is set
-/// (kStopped) or max_frames are processed or the source ends (kEnd); else the frame with its
-/// capture time (the source's delivery), its telemetry fix (counted in
+/// (kStopped) or max_frames are processed or the source ends (kEnd); else the frame with the
+/// time the source delivered it and its own capture time (FrameState::frame_mono_s: a file's
+/// presentation time placed by state->frame_clock), its telemetry fix (counted in
 /// state->frames_without_fix when it has none) and its flags (kFrame). The source's
 /// InputError escapes (frame.delivered stays false).
 enum class ReadResult { kFrame, kEnd, kStopped };
@@ -100,8 +101,8 @@ class FrameLoop {
   /// first frame too: no camera, no height, an undecodable photo) ends the loop with the frames
   /// before it kept: LoopEnd::failure, a RunFailure naming the frame. With --mavlink each
   /// frame's vision message is sent as soon as it is processed (config.mavlink_message),
-  /// stamped with its capture time. `wall`: the run's stopwatch, for the progress callback's
-  /// frames per second.
+  /// stamped with the frame's own capture time (FrameState::frame_mono_s). `wall`: the run's
+  /// stopwatch, for the progress callback's frames per second.
   LoopEnd Run(FrameSource& source, const std::atomic<bool>* stop, const Stopwatch& wall,
               RunSummary* summary);
   /// Writes the frames still queued and closes the track files (nothing when no frame came).
@@ -129,6 +130,8 @@ class FrameLoop {
   // Sets up the run at the first frame, then the frame's stages and sinks.
   void Process(FrameState& frame, const std::atomic<bool>* stop, const Stopwatch& wall,
                RunSummary* summary);
+  // Logs once (with --mavlink) when a file's frame time runs ahead of the clock.
+  void SayWhenAheadOfTheClock(const FrameState& frame, const FrameSource& source);
   // The failure of an exception of `kind` with message `what` at `frame`.
   RunFailure FailureOf(RunFailureKind kind, const char* what, const FrameState& frame) const;
 

@@ -20,6 +20,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/timer.h"
 #include "aerovo/pipeline/frame_state.h"
 #include "aerovo/pipeline/runner.h"
 
@@ -312,6 +313,55 @@ TEST(FrameLoop, ACallersStageThatThrowsEndsTheRunAtItsFrame) {
   EXPECT_EQ(calls, expected);
   EXPECT_EQ(CsvRows(dir / "frames.csv"), 3);
   fs::remove_all(dir);
+}
+
+// A live source: ShiftedCrops delivered as a camera would, each frame stamped as received
+// `waited_s` before it is read.
+class LiveCrops : public ShiftedCrops {
+ public:
+  LiveCrops(int count, double waited_s) : ShiftedCrops(count, 6), waited_s_(waited_s) {}
+  bool Next(Frame& frame) override {
+    if (!ShiftedCrops::Next(frame)) return false;
+    frame.received_s = SteadySeconds() - waited_s_;
+    return true;
+  }
+  bool IsLive() const override { return true; }
+
+ private:
+  double waited_s_;
+};
+
+TEST(FrameLoop, AFilesFramesCarryTheirPresentationTimesALiveFrameItsArrival) {
+  const RunInputs in = LoopInputs(TempDir("times"));
+  const RunTelemetry telemetry;
+  RunState state(in.config);
+  FrameState f;
+  // A file read as fast as it comes (the crops are 0.1 s apart in the stream): the frames' own
+  // times are 0.1 s apart on both clocks, from when the first was read (within 1 us, the
+  // messages' resolution; a Unix time in double seconds resolves 0.24 us).
+  ShiftedCrops file(4, 6);
+  std::vector<FrameState> got;
+  for (int i = 0; i < 4; ++i) {
+    ASSERT_EQ(ReadFrame(file, in.config, telemetry, nullptr, i, &state, f), ReadResult::kFrame);
+    got.push_back(f);
+    got.back().frame = Frame();
+  }
+  EXPECT_NEAR(got[0].frame_mono_s, got[0].capture_mono_s, 1e-9);
+  EXPECT_NEAR(got[0].frame_unix_s, got[0].capture_unix_s, 1e-9);
+  for (int i = 1; i < 4; ++i) {
+    EXPECT_NEAR(got[i].frame_mono_s - got[0].frame_mono_s, 0.1 * i, 1e-6) << i;
+    EXPECT_NEAR(got[i].frame_unix_s - got[0].frame_unix_s, 0.1 * i, 1e-6) << i;
+    // Read back to back: far less than 0.1 s apart on the clock, which the height and attitude
+    // of the autopilot are matched to.
+    EXPECT_LT(got[i].capture_mono_s - got[i - 1].capture_mono_s, 0.05) << i;
+  }
+  // A live frame: when its source delivered it, 0.2 s before the loop read it.
+  RunState live_state(in.config);
+  LiveCrops live(1, 0.2);
+  ASSERT_EQ(ReadFrame(live, in.config, telemetry, nullptr, 0, &live_state, f), ReadResult::kFrame);
+  EXPECT_NEAR(f.capture_mono_s - f.frame_mono_s, 0.2, 0.01);
+  EXPECT_NEAR(f.capture_unix_s - f.frame_unix_s, 0.2, 0.01);
+  fs::remove_all(in.config.out);
 }
 
 TEST(FrameLoop, StagesAndSinksAreListedInTheirOrder) {

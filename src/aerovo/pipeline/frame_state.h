@@ -47,9 +47,18 @@ enum class FixCheck {
 struct FrameState {
   // Read (ReadFrame): the frame as the source delivered it and its telemetry fix.
   Frame frame;
-  bool delivered = false;       ///< `frame` is this iteration's (else a decoding failed).
-  double capture_mono_s = 0.0;  ///< When the source delivered it, mavlink::MonotonicNowS, s.
+  bool delivered = false;  ///< `frame` is this iteration's (else a decoding failed).
+  /// When the source delivered it, mavlink::MonotonicNowS, s: the instant the autopilot's
+  /// samples (height, attitude) are matched to, on the link's clock.
+  double capture_mono_s = 0.0;
   double capture_unix_s = 0.0;  ///< The same on the Unix clock, s.
+  /// The frame's own capture time, s, on CLOCK_MONOTONIC and CLOCK_REALTIME (the MAVLink
+  /// messages' timestamps and the time differences of their velocities): a file's frame
+  /// (video, photos) at its presentation time Frame::time_s, counted from the first frame's,
+  /// which is placed when it was read (RunState::frame_clock); a live frame when its source
+  /// delivered it (Frame::received_s, on the reader thread of a PrefetchSource).
+  double frame_mono_s = 0.0;
+  double frame_unix_s = 0.0;
   std::optional<TelemetrySample> sample;  ///< Its telemetry fix (none: no telemetry or no match).
   std::optional<GeoPoint> gps;            ///< GpsOf(sample).
   FrameFlags flags;                       ///< Frame::flags, typed.
@@ -87,6 +96,13 @@ struct RunState {
   int frames_without_fix = 0;
   /// The first frame flagged with each flag (FrameFlags names), for the summary's warning.
   std::map<std::string, std::string> first_flagged;
+  /// Where a file's presentation times are placed on the clocks (FrameState::frame_mono_s):
+  /// the first frame's Frame::time_s and when it was read.
+  struct FrameClock {
+    bool set = false;
+    double first_time_s = 0.0, first_mono_s = 0.0, first_unix_s = 0.0;
+  } frame_clock;
+  bool said_ahead_of_clock = false;  ///< "processed faster than real time" logged.
 };
 
 /// A run as set up from its first frame: what every frame goes through. The FrameLoop makes it

@@ -1,6 +1,7 @@
 // The MAVLink sink (--mavlink): each frame's vision message (RunConfig::mavlink_message) as
-// soon as its pose is known, stamped with its capture time (RunConfig::mavlink_time), with the
-// pose stream's quality and the autopilot's attitude when the link gives one.
+// soon as its pose is known, stamped with the frame's own capture time (FrameState::
+// frame_mono_s, on the clock of RunConfig::mavlink_time), with the pose stream's quality and
+// the autopilot's attitude when the link gives one.
 #include <cmath>
 #include <cstdint>
 #include <memory>
@@ -35,9 +36,9 @@ class MavlinkSink : public FrameSink {
     const FrameResult& r = f.result;
     mavlink::VisionPose p;
     const double t =
-        config.mavlink_time == mavlink::TimestampClock::kUnix ? f.capture_unix_s : f.capture_mono_s;
+        config.mavlink_time == mavlink::TimestampClock::kUnix ? f.frame_unix_s : f.frame_mono_s;
     p.time_usec = static_cast<uint64_t>(std::llround(t * 1e6));
-    p.time_s = f.capture_mono_s;
+    p.time_s = f.frame_mono_s;
     p.local_x_m = r.position_m.x();
     p.local_y_m = r.position_m.y();
     p.height_m = f.height_m;
