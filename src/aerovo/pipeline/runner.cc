@@ -253,7 +253,12 @@ nlohmann::json LinkStats(const mavlink::AutopilotLink& link, const RunConfig& co
                      {"relative_alt_samples", st.relative_alt_samples},
                      {"attitude_samples", st.attitude_samples},
                      {"autopilot_heartbeats", st.autopilot_heartbeats},
-                     {"crc_errors", st.parser.crc_errors}};
+                     {"crc_errors", st.parser.crc_errors},
+                     {"signing", st.signing},
+                     {"signed_accepted", st.signed_accepted},
+                     {"rejected_unsigned", st.rejected_unsigned},
+                     {"rejected_bad_signature", st.rejected_bad_signature},
+                     {"rejected_replayed", st.rejected_replayed}};
 }
 
 // The telemetry's clock against the frames' (`t`): a warning in `summary` when its span does not
