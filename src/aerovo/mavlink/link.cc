@@ -98,13 +98,14 @@ void AutopilotLink::Loop() {
       bool authentic = false;
       parser_.Feed(buffer.data(), n, [&](const Packet& packet) {
         if (!Authentic(packet)) return;
+        if (signing_ && !authentic) {
+          // Its sender becomes the peer before Handle() answers it (a TIMESYNC).
+          std::lock_guard<std::mutex> lock(send_mutex_);
+          transport_->KeepLastSender();
+        }
         authentic = true;
         Handle(packet, t);
       });
-      if (signing_ && authentic) {
-        std::lock_guard<std::mutex> lock(send_mutex_);
-        transport_->KeepLastSender();
-      }
       if (!heard_peer && (authentic || !signing_)) {
         // udpin: the peer is known from its first datagram on (with a key: its first one with
         // a correctly signed packet); announce ourselves at once rather than at the next period
