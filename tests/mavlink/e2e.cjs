@@ -17,13 +17,13 @@
 //     captured (signed with the key but older than what was sent since), each with another
 //     height: the run must use only HEIGHT_M and count them in summary.json; every packet of
 //     aerovo must carry a signature that node-mavlink verifies with the key, timestamps strictly
-//     increasing.
+//     increasing. Before that, the same run with the key file in mode 644 must exit 1 naming it.
 // Exit 0 = pass, 1 = fail (the reasons printed).
 'use strict';
 const dgram = require('dgram');
 const fs = require('fs');
 const path = require('path');
-const { spawn } = require('child_process');
+const { spawn, spawnSync } = require('child_process');
 const crypto = require('crypto');
 const { MavLinkPacketSplitter, MavLinkPacketParser, MavLinkProtocolV2, minimal, common } =
   require('node-mavlink');
@@ -147,6 +147,18 @@ async function main() {
       }
       ++tick;
     }, 20);
+  }
+  if (signing) {
+    // A key file others may read is bad input (exit 1), named in the error, before any frame.
+    const loose = path.join(path.dirname(runDir), 'mavlink-key-loose.hex');
+    fs.rmSync(loose, { force: true });
+    fs.writeFileSync(loose, key.toString('hex') + '\n', { mode: 0o644 });
+    fs.chmodSync(loose, 0o644);
+    const bad = args.map(a => (a.endsWith('mavlink-key-signed.hex') ? loose : a === runDir ? runDir + '-loose' : a));
+    fs.rmSync(runDir + '-loose', { recursive: true, force: true });
+    const r = spawnSync(aerovo, bad, { encoding: 'utf8' });
+    check(r.status === 1, `a mode 644 key file: exit ${r.status}, expected 1`);
+    check(r.stderr.includes(loose) && r.stderr.includes('chmod 600'), `a mode 644 key file: ${r.stderr.trim()}`);
   }
   const child = spawn(aerovo, args, { stdio: ['ignore', 'inherit', 'inherit'] });
   const code = await new Promise(r => child.on('exit', c => r(c)));

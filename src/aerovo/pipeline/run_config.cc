@@ -82,9 +82,6 @@ void Validate(const RunConfig& c) {
       fail(e.what());
     }
   }
-  if (!c.mavlink_key.empty() && c.mavlink.empty()) {
-    fail("mavlink_key '" + c.mavlink_key + "' is given without mavlink (the link it signs)");
-  }
   if (c.sensor_aspect != 0.0 && c.sensor_aspect < 1.0) {
     fail("sensor_aspect " + options::FormatNumber(c.sensor_aspect) +
          " must be 0 (automatic) or in [1, 4] (long side / short side, e.g. 1.3333 for 4:3)");

@@ -207,7 +207,8 @@ struct RunConfig {
   /// MAVLink 2 signing key file (mavlink/signing.h; docs/autopilot.md, "Message signing"): 64
   /// hexadecimal digits, mode 600. With it every packet sent is signed and only packets of the
   /// autopilot signed with the same key, timestamps moving forward, are used (the others are
-  /// counted in summary.json). Empty (default): unsigned, every valid packet used.
+  /// counted in summary.json). Empty (default): unsigned, every valid packet used. Like the
+  /// other mavlink_* options, unused without mavlink.
   std::string mavlink_key;
   /// The pose stream: one JSON object per frame (pipeline/run_steps.h, "The pose stream") written
   /// to this file as soon as the frame is done, flushed; "-" = stdout, and then `aerovo run`
