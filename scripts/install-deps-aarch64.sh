@@ -16,6 +16,9 @@ ARM_PKGS=(
   # headers are architecture-independent (the host's), the top CMakeLists.txt links the .so.23.
   libgeographiclib23:arm64
   libfmt-dev:arm64             # camera, mavlink, odometry
+  # mavlink: libcrypto's SHA-256 (message signing). Multi-Arch: same, so apt keeps the host's
+  # libssl-dev, at the same version (it upgrades the host's when the arm64 one is newer).
+  libssl-dev:arm64
   libhwy-dev:arm64             # Google Highway (the SIMD kernels: NEON/SVE at run time)
   libgtest-dev:arm64 libgmock-dev:arm64  # the unit tests
 )

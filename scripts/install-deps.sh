@@ -14,6 +14,7 @@ PKGS=(
   libavformat-dev libavcodec-dev libavutil-dev libswscale-dev  # the video decoder (frames/video_decoder.h)
   libgdal-dev gdal-bin   # GeoTIFF + KMZ of the geo-referenced mosaic (aerovo report); gdalinfo/ogrinfo in tests
   libyaml-dev            # YAML run configuration files (aerovo run --config x.yaml)
+  libssl-dev             # libcrypto's SHA-256: MAVLink 2 message signing (aerovo run --mavlink-key)
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   gnuplot-nox            # figures (SVG/PNG)

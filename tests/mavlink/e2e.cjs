@@ -10,12 +10,21 @@
 //     --altitude; this script sends DISTANCE_SENSOR (HEIGHT_M, facing down) and ATTITUDE at
 //     50 Hz and a TIMESYNC request: the run must use that height (frames.csv height_m,
 //     height_source, roll/pitch; summary.json), answer the TIMESYNC and send its ODOMETRY here.
+//   node e2e.cjs signed AEROVO FRAMES_DIR FOCAL_PX HEIGHT_M RUN_DIR
+//     as udpin with --mavlink-key (a random key, 64 hex digits, mode 600) and node-mavlink's own
+//     signing on both sides: the fake autopilot signs what it sends, and also sends DISTANCE_SENSOR
+//     forged (signed with another key), unsigned, replayed (a copy of one already sent) and
+//     captured (signed with the key but older than what was sent since), each with another
+//     height: the run must use only HEIGHT_M and count them in summary.json; every packet of
+//     aerovo must carry a signature that node-mavlink verifies with the key, timestamps strictly
+//     increasing. Before that, the same run with the key file in mode 644 must exit 1 naming it.
 // Exit 0 = pass, 1 = fail (the reasons printed).
 'use strict';
 const dgram = require('dgram');
 const fs = require('fs');
 const path = require('path');
-const { spawn } = require('child_process');
+const { spawn, spawnSync } = require('child_process');
+const crypto = require('crypto');
 const { MavLinkPacketSplitter, MavLinkPacketParser, MavLinkProtocolV2, minimal, common } =
   require('node-mavlink');
 
@@ -47,7 +56,21 @@ async function main() {
   const splitter = new MavLinkPacketSplitter();
   const parser = splitter.pipe(new MavLinkPacketParser());
   const got = { odometry: [], heartbeats: [], timesync: [] };
+  const signing = mode === 'signed';
+  const key = crypto.randomBytes(32);
+  const signatures = { total: 0, unsigned: 0, bad: 0, backwards: 0, last: new Map() };
   parser.on('data', packet => {
+    ++signatures.total;
+    const sig = packet.signature;
+    if (!sig) {
+      ++signatures.unsigned;
+    } else {
+      if (!sig.matches(key)) ++signatures.bad;
+      const stream = `${packet.header.sysid}/${packet.header.compid}/${sig.linkId}`;
+      const last = signatures.last.get(stream);
+      if (last !== undefined && !(sig.timestamp > last)) ++signatures.backwards;
+      signatures.last.set(stream, sig.timestamp);
+    }
     const clazz = REGISTRY[packet.header.msgid];
     if (!clazz) return;
     const data = packet.protocol.data(packet.payload, clazz);
@@ -60,6 +83,12 @@ async function main() {
   const myPort = sock.address().port;
 
   const args = ['run', frames, '--focal-px', focal, '--out', runDir, '-q', '--no-report'];
+  if (signing) {
+    const keyFile = path.join(path.dirname(runDir), 'mavlink-key-signed.hex');
+    fs.rmSync(keyFile, { force: true });
+    fs.writeFileSync(keyFile, key.toString('hex') + '\n', { mode: 0o600 });
+    args.push('--mavlink-key', keyFile);
+  }
   let aerovoPort = myPort;
   let timer = null;
   if (mode === 'udp') {
@@ -70,16 +99,43 @@ async function main() {
     // The fake autopilot (sysid 1, compid 1): rangefinder and attitude at 50 Hz, TIMESYNC at 10 Hz
     // (a short run on an idle machine lasts a fraction of a second).
     const proto = new MavLinkProtocolV2(1, 1);
+    const signer = new MavLinkProtocolV2(1, 1, MavLinkProtocolV2.IFLAG_SIGNED);
     let seq = 0;
-    const send = m => sock.send(proto.serialize(m, seq++ & 255), aerovoPort, '127.0.0.1');
-    let tick = 0;
-    timer = setInterval(() => {
+    // Signing timestamps in Unix ms for node-mavlink's sign(): at least 1 ms (100 units) apart,
+    // since a stream's timestamps must increase from packet to packet.
+    let lastMs = 0;
+    const signedBytes = (m, withKey) => {
+      lastMs = Math.max(Date.now(), lastMs + 1);
+      return signer.sign(signer.serialize(m, seq++ & 255), 0, withKey, lastMs);
+    };
+    const raw = b => sock.send(b, aerovoPort, '127.0.0.1');
+    const send = m => raw(signing ? signedBytes(m, key) : proto.serialize(m, seq++ & 255));
+    const distance = cm => {
       const ds = new common.DistanceSensor();
-      ds.timeBootMs = tick * 20; ds.minDistance = 20; ds.maxDistance = 20000;
-      ds.currentDistance = Math.round(Number(heightM) * 100); ds.type = 0; ds.id = 0;
+      ds.timeBootMs = 0; ds.minDistance = 20; ds.maxDistance = 20000;
+      ds.currentDistance = cm; ds.type = 0; ds.id = 0;
       ds.orientation = 25; ds.covariance = 255; ds.horizontalFov = 0; ds.verticalFov = 0;
       ds.quaternion = [0, 0, 0, 0]; ds.signalQuality = 0;
-      send(ds);
+      return ds;
+    };
+    const goodCm = Math.round(Number(heightM) * 100);
+    // Signed with the key before anything else is sent, sent later: older than its stream.
+    const captured = signing ? signedBytes(distance(2 * goodCm), key) : null;
+    let lastGood = null;
+    let tick = 0;
+    timer = setInterval(() => {
+      const ds = distance(goodCm);
+      ds.timeBootMs = tick * 20;
+      if (signing) {
+        if (tick % 10 === 3) raw(lastGood);  // a replay of the last genuine one
+        if (tick % 10 === 5) raw(signedBytes(distance(3 * goodCm), crypto.randomBytes(32)));  // forged
+        if (tick % 10 === 7) raw(proto.serialize(distance(4 * goodCm), seq++ & 255));  // unsigned
+        if (tick % 10 === 9) raw(captured);
+        lastGood = signedBytes(ds, key);
+        raw(lastGood);
+      } else {
+        send(ds);
+      }
       const at = new common.Attitude();
       at.timeBootMs = tick * 20; at.roll = 0.05; at.pitch = -0.025; at.yaw = 0.5;
       at.rollspeed = 0; at.pitchspeed = 0; at.yawspeed = 0;
@@ -91,6 +147,18 @@ async function main() {
       }
       ++tick;
     }, 20);
+  }
+  if (signing) {
+    // A key file others may read is bad input (exit 1), named in the error, before any frame.
+    const loose = path.join(path.dirname(runDir), 'mavlink-key-loose.hex');
+    fs.rmSync(loose, { force: true });
+    fs.writeFileSync(loose, key.toString('hex') + '\n', { mode: 0o644 });
+    fs.chmodSync(loose, 0o644);
+    const bad = args.map(a => (a.endsWith('mavlink-key-signed.hex') ? loose : a === runDir ? runDir + '-loose' : a));
+    fs.rmSync(runDir + '-loose', { recursive: true, force: true });
+    const r = spawnSync(aerovo, bad, { encoding: 'utf8' });
+    check(r.status === 1, `a mode 644 key file: exit ${r.status}, expected 1`);
+    check(r.stderr.includes(loose) && r.stderr.includes('chmod 600'), `a mode 644 key file: ${r.stderr.trim()}`);
   }
   const child = spawn(aerovo, args, { stdio: ['ignore', 'inherit', 'inherit'] });
   const code = await new Promise(r => child.on('exit', c => r(c)));
@@ -146,6 +214,20 @@ async function main() {
     check(summary.height_sources && summary.height_sources.mavlink_distance_sensor === rows.length,
       `summary height_sources ${JSON.stringify(summary.height_sources)}`);
     check(summary.mavlink && summary.mavlink.distance_samples > 0, 'summary mavlink.distance_samples');
+    const m = summary.mavlink || {};
+    if (signing) {
+      check(m.signing === true, `summary mavlink.signing ${m.signing}`);
+      check(m.signed_accepted > 0, `summary mavlink.signed_accepted ${m.signed_accepted}`);
+      check(m.rejected_bad_signature >= 1, `summary mavlink.rejected_bad_signature ${m.rejected_bad_signature}`);
+      check(m.rejected_unsigned >= 1, `summary mavlink.rejected_unsigned ${m.rejected_unsigned}`);
+      check(m.rejected_replayed >= 2, `summary mavlink.rejected_replayed ${m.rejected_replayed} (a replay and a captured packet)`);
+      check(signatures.total > 0 && signatures.unsigned === 0, `${signatures.unsigned} of aerovo's ${signatures.total} packets unsigned`);
+      check(signatures.bad === 0, `${signatures.bad} of aerovo's packets with a signature node-mavlink rejects`);
+      check(signatures.backwards === 0, `${signatures.backwards} of aerovo's signing timestamps not after the previous one`);
+    } else {
+      check(m.signing === false && m.rejected_unsigned === 0, `summary mavlink signing ${m.signing}, rejected_unsigned ${m.rejected_unsigned}`);
+      check(signatures.total > 0 && signatures.unsigned === signatures.total, 'aerovo signed without a key');
+    }
     const answers = got.timesync.filter(t => t.d.tc1 !== 0n);
     check(answers.length >= 1, 'no TIMESYNC answer');
     if (answers.length) {

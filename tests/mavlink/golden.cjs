@@ -63,3 +63,15 @@ const at = new common.Attitude();
 at.timeBootMs = 62000; at.roll = 0.0625; at.pitch = -0.03125; at.yaw = 1.5; at.rollspeed = 0;
 at.pitchspeed = 0; at.yawspeed = 0;
 console.log('attitude', hex(at, 11, 1, 1));
+
+// Signed packets (src/aerovo/mavlink/signing_test.cc): node-mavlink's own signing, with the key
+// 00 01 02 .. 1f, link id 0 and a fixed time. node-mavlink's sign() takes Unix milliseconds and
+// writes (ms - 2015-01-01) * 100, the timestamp in 10 us units. The header's signed flag is set
+// before serialising (the checksum covers it).
+function signedHex(msg, seq, sysid, compid, linkId, unixMs) {
+  const p = new MavLinkProtocolV2(sysid, compid, MavLinkProtocolV2.IFLAG_SIGNED);
+  const key = Buffer.from(Array.from({ length: 32 }, (_, i) => i));
+  return p.sign(p.serialize(msg, seq), linkId, key, unixMs).toString('hex');
+}
+console.log('distance_sensor_signed', signedHex(ds, 9, 1, 1, 0, 1764806400123));
+console.log('heartbeat_signed', signedHex(hb, 7, 42, 197, 3, 1764806400124));

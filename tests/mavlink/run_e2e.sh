@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# ctest driver of tests/mavlink/e2e.cjs (MODE: udp or udpin) and autopilots.cjs (MODE: contract,
-# the frames as a video): installs node-mavlink from the
+# ctest driver of tests/mavlink/e2e.cjs (MODE: udp, udpin or signed) and autopilots.cjs (MODE:
+# contract, the frames as a video): installs node-mavlink from the
 # npm registry (the version pinned in package.json / package-lock.json) into WORK, simulates a
 # short flight (one black frame mid-flight: bridged, then re-acquired), runs the check.
 # Skips (exit 77) only when node or npm is missing or `npm ci` fails, saying why.

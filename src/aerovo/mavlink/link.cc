@@ -51,6 +51,11 @@ double UnixNowS() { return ClockS(CLOCK_REALTIME); }
 AutopilotLink::AutopilotLink(std::unique_ptr<Transport> transport, Options options)
     : transport_(std::move(transport)), options_(options) {
   if (!transport_) throw InvalidArgument("AutopilotLink: the transport is null");
+  if (options_.signing_key) {
+    signing_ = std::make_unique<SigningState>(*options_.signing_key, options_.link_id);
+    transport_->RequireConfirmedPeer();
+    stats_.signing = true;
+  }
   thread_ = std::thread([this] { Loop(); });
 }
 
@@ -90,17 +95,49 @@ void AutopilotLink::Loop() {
       }
       if (n == 0) break;
       const double t = MonotonicNowS();
-      if (!heard_peer) {
-        // udpin: the peer is known from its first datagram on; announce ourselves at once
-        // rather than at the next period (a short run could otherwise end unannounced).
+      bool authentic = false;
+      parser_.Feed(buffer.data(), n, [&](const Packet& packet) {
+        if (!Authentic(packet)) return;
+        if (signing_ && !authentic) {
+          // Its sender becomes the peer before Handle() answers it (a TIMESYNC).
+          std::lock_guard<std::mutex> lock(send_mutex_);
+          transport_->KeepLastSender();
+        }
+        authentic = true;
+        Handle(packet, t);
+      });
+      if (!heard_peer && (authentic || !signing_)) {
+        // udpin: the peer is known from its first datagram on (with a key: its first one with
+        // a correctly signed packet); announce ourselves at once rather than at the next period
+        // (a short run could otherwise end unannounced).
         heard_peer = true;
         next_heartbeat_s = t;
       }
-      parser_.Feed(buffer.data(), n, [&](const Packet& packet) { Handle(packet, t); });
       std::lock_guard<std::mutex> lock(data_mutex_);
       stats_.parser = parser_.stats();
     }
   }
+}
+
+bool AutopilotLink::Authentic(const Packet& packet) {
+  if (!signing_) return true;
+  const SignatureCheck c = signing_->Check(packet, UnixNowS());
+  std::lock_guard<std::mutex> lock(data_mutex_);
+  switch (c) {
+    case SignatureCheck::kAccepted:
+      ++stats_.signed_accepted;
+      return true;
+    case SignatureCheck::kUnsigned:
+      ++stats_.rejected_unsigned;
+      break;
+    case SignatureCheck::kBadSignature:
+      ++stats_.rejected_bad_signature;
+      break;
+    case SignatureCheck::kReplayed:
+      ++stats_.rejected_replayed;
+      break;
+  }
+  return false;
 }
 
 void AutopilotLink::Handle(const Packet& packet, double now_s) {

@@ -3,6 +3,10 @@
 // the autopilot's recent height and attitude samples (DISTANCE_SENSOR facing down,
 // GLOBAL_POSITION_INT.relative_alt, ATTITUDE), each stamped with aerovo's monotonic clock at
 // reception; and Send() for the frame loop (never blocks on the network). Thread-safe.
+// With a signing key (Options::signing_key; signing.h) every packet sent is signed and only
+// packets signed with the key whose timestamps move forward are used; the others are counted
+// and dropped before anything reads them, and on udpin only such a packet's sender becomes the
+// peer that aerovo's packets go to.
 #pragma once
 
 #include <atomic>
@@ -16,6 +20,7 @@
 
 #include "aerovo/mavlink/messages.h"
 #include "aerovo/mavlink/protocol.h"
+#include "aerovo/mavlink/signing.h"
 #include "aerovo/mavlink/transport.h"
 
 namespace aerovo::mavlink {
@@ -51,6 +56,11 @@ struct LinkStats {
   uint64_t relative_alt_samples = 0;  ///< GLOBAL_POSITION_INT readings kept.
   uint64_t attitude_samples = 0;
   uint64_t autopilot_heartbeats = 0;  ///< HEARTBEATs received.
+  bool signing = false;               ///< A signing key is set (signing.h).
+  uint64_t signed_accepted = 0;       ///< Signing: packets accepted (key and timestamp right).
+  uint64_t rejected_unsigned = 0;     ///< Signing: unsigned packets dropped.
+  uint64_t rejected_bad_signature = 0;  ///< Signing: signature not made with the key (forged).
+  uint64_t rejected_replayed = 0;  ///< Signing: timestamp not after its stream's last (replay).
   ParserStats parser;
 };
 
@@ -61,6 +71,9 @@ class AutopilotLink {
     uint8_t compid = kMavCompIdVisualInertialOdometry;
     double heartbeat_period_s = 1.0;  ///< HEARTBEAT rate 1 Hz (MAVLink heartbeat protocol).
     std::size_t max_samples = 512;    ///< Samples kept per kind (newest; a few s at 50-100 Hz).
+    /// MAVLink 2 signing key: sign everything sent, accept only packets signed with it.
+    std::optional<SigningKey> signing_key;
+    uint8_t link_id = 0;  ///< The link id of our signatures (one link: 0).
   };
   /// Starts the receive thread on `transport` (not null).
   AutopilotLink(std::unique_ptr<Transport> transport, Options options);
@@ -72,7 +85,9 @@ class AutopilotLink {
   template <class M>
   bool Send(const M& m) {
     std::lock_guard<std::mutex> lock(send_mutex_);
-    return SendLocked(Encode(m, seq_++, options_.sysid, options_.compid));
+    std::vector<uint8_t> bytes = Encode(m, seq_++, options_.sysid, options_.compid);
+    if (signing_) signing_->Sign(&bytes, M::kCrcExtra, UnixNowS());
+    return SendLocked(bytes);
   }
 
   /// The height sample nearest to `time_s` (MonotonicNowS clock) within `tolerance_s`, of the
@@ -87,11 +102,14 @@ class AutopilotLink {
 
  private:
   void Loop();
+  // Signing: whether `packet` may be used (counted when not).
+  bool Authentic(const Packet& packet);
   void Handle(const Packet& packet, double now_s);
   bool SendLocked(const std::vector<uint8_t>& bytes);
 
   std::unique_ptr<Transport> transport_;
   Options options_;
+  std::unique_ptr<SigningState> signing_;  // null without a key
   std::mutex send_mutex_;  // transport writes, seq_, send counters
   uint8_t seq_ = 0;
   mutable std::mutex data_mutex_;  // samples and the other counters

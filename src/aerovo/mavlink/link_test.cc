@@ -206,5 +206,69 @@ TEST(MavlinkLink, UdpinReadsTheAutopilotAndAnswersTimesync) {
   EXPECT_NEAR(r->height_m, 45.5, 1e-9);
 }
 
+// --mavlink-key on udpin: only the signed packets of the key are used; unsigned, forged and
+// replayed ones are counted, and their senders never become the peer aerovo sends to.
+TEST(MavlinkLink, SignedUdpinUsesAndAnswersOnlySignedPackets) {
+  SigningKey key{};
+  for (std::size_t i = 0; i < key.size(); ++i) key[i] = static_cast<uint8_t>(0xA0 + i);
+  SigningKey other = key;
+  other[0] ^= 0xFF;
+  const int port = FreePort();
+  AutopilotLink::Options o;
+  o.heartbeat_period_s = 0.05;
+  o.signing_key = key;
+  AutopilotLink link(OpenTransport(ParseLinkUrl("udpin:127.0.0.1:" + std::to_string(port))), o);
+  DistanceSensor d;
+  d.orientation = kMavSensorRotationPitch270;
+  d.min_distance = 10;
+  d.max_distance = 10000;
+  d.current_distance = 5000;  // 50 m: the genuine reading
+  const auto signed_bytes = [&](const DistanceSensor& m, uint8_t seq, const SigningKey& k,
+                                uint64_t ts) {
+    std::vector<uint8_t> b = Encode(m, seq, 1, 1);
+    SignPacket(&b, DistanceSensor::kCrcExtra, k, 0, ts);
+    return b;
+  };
+  const uint64_t now = SigningTimestampFromUnixS(UnixNowS());
+  DistanceSensor fake = d;
+  fake.current_distance = 900;  // 9 m: what the attacker wants used
+  TestSocket attacker, fc;
+  attacker.SendTo(port, Encode(fake, 0, 1, 1));                   // unsigned
+  attacker.SendTo(port, signed_bytes(fake, 1, other, now + 10));  // forged
+  const std::vector<uint8_t> genuine = signed_bytes(d, 2, key, now + 20);
+  std::this_thread::sleep_for(std::chrono::milliseconds(150));
+  EXPECT_FALSE(link.Send(Odometry{}));  // no peer yet: the attacker's datagrams do not count
+  fc.SendTo(port, genuine);
+  ASSERT_TRUE(link.WaitForHeight(1.0));
+  // Heartbeats go to the flight controller, signed with the key, timestamps increasing.
+  SigningState verifier(key, 0);
+  int heartbeats = 0;
+  fc.Receive(2000, [&](const Packet& k) {
+    if (Decode<Heartbeat>(k)) {
+      EXPECT_EQ(verifier.Check(k, UnixNowS()), SignatureCheck::kAccepted);
+      ++heartbeats;
+    }
+    return heartbeats >= 2;
+  });
+  EXPECT_GE(heartbeats, 2);
+  // The attacker's forged datagram, then the genuine packet again (a replay).
+  attacker.SendTo(port, signed_bytes(fake, 3, other, now + 30));
+  fc.SendTo(port, genuine);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  int to_attacker = 0;
+  attacker.Receive(200, [&](const Packet&) { return ++to_attacker > 0; });
+  EXPECT_EQ(to_attacker, 0);
+  const auto h = link.HeightNear(MonotonicNowS(), 10.0);
+  ASSERT_TRUE(h);
+  EXPECT_NEAR(h->height_m, 50.0, 1e-9);
+  const LinkStats s = link.stats();
+  EXPECT_TRUE(s.signing);
+  EXPECT_EQ(s.distance_samples, 1u);
+  EXPECT_EQ(s.rejected_unsigned, 1u);
+  EXPECT_EQ(s.rejected_bad_signature, 2u);
+  EXPECT_EQ(s.rejected_replayed, 1u);
+  EXPECT_EQ(s.signed_accepted, 1u);
+}
+
 }  // namespace
 }  // namespace aerovo::mavlink

@@ -127,6 +127,8 @@ bool Parser::Complete() {
   packet_.wire_length = static_cast<uint8_t>(len);
   packet_.payload.assign(info->max_length, 0);
   for (std::size_t i = 0; i < len; ++i) packet_.payload[i] = buf_[kHeaderBytes + i];
+  packet_.is_signed = (buf_[2] & kIncompatSigned) != 0;
+  packet_.frame.assign(buf_.begin(), buf_.end());
   ++stats_.packets;
   buf_.clear();
   expected_ = 0;

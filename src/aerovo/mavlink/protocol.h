@@ -40,6 +40,8 @@ struct Packet {
   PacketHeader header;
   uint8_t wire_length = 0;       ///< Payload bytes that were on the wire (after truncation).
   std::vector<uint8_t> payload;  ///< Padded payload.
+  bool is_signed = false;        ///< incompat_flags & kIncompatSigned: 13 signature bytes follow.
+  std::vector<uint8_t> frame;    ///< The whole packet as received, magic to signature.
 };
 
 /// What the parser must know of a message to check it: its CRC_EXTRA and payload lengths
@@ -71,7 +73,8 @@ struct ParserStats {
 /// message ids FindMessageInfo knows; a wrong one, an unknown id or unknown incompatibility
 /// flags drop the candidate and rescan from the byte after its magic, so a packet hidden behind
 /// a false start is still found (once the false start's claimed length has arrived: at most
-/// 280 bytes of delay, as in every MAVLink parser). Signed packets are accepted, the signature is not verified.
+/// 280 bytes of delay, as in every MAVLink parser). Signed packets are delivered with their frame;
+/// the signature is checked by the link when it has a key (signing.h), not here.
 /// No allocation per byte once warm.
 class Parser {
  public:

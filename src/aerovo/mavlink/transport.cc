@@ -103,16 +103,25 @@ class UdpTransport : public Transport {
     const ssize_t r = recvfrom(fd_, buffer, capacity, MSG_DONTWAIT,
                                reinterpret_cast<sockaddr*>(&from), &len);
     if (r <= 0) return 0;
-    if (listen_) {  // answer whoever talks to us
+    last_sender_ = from;
+    if (listen_ && !confirmed_peer_) {  // answer whoever talks to us
       peer_ = from;
       have_peer_ = true;
     }
     return static_cast<std::size_t>(r);
   }
   int fd() const override { return fd_; }
+  void RequireConfirmedPeer() override { confirmed_peer_ = true; }
+  void KeepLastSender() override {
+    if (!listen_ || !confirmed_peer_) return;
+    peer_ = last_sender_;
+    have_peer_ = true;
+  }
 
  private:
   bool listen_ = false;
+  bool confirmed_peer_ = false;  // udpin: the peer changes on KeepLastSender() only
+  sockaddr_in last_sender_{};
   int fd_ = -1;
   sockaddr_in peer_{};
   bool have_peer_ = false;

@@ -2,7 +2,8 @@
 //   udp:HOST:PORT     send to HOST:PORT (a ground station, mavlink-router, a flight controller's
 //                     UDP port); replies sent back to aerovo's port are read too;
 //   udpin:HOST:PORT   listen on HOST:PORT (0.0.0.0 for every interface); packets are sent to
-//                     whoever sent the last datagram (nothing is sent before one arrives);
+//                     whoever sent the last datagram (nothing is sent before one arrives; with
+//                     a signing key: the last datagram with a correctly signed packet);
 //   serial:DEVICE:BAUD  a serial port (termios raw 8N1, no flow control), e.g.
 //                     serial:/dev/ttyAMA0:921600 for a flight controller's TELEM port.
 // Every transport is non-blocking: Send never waits (a full buffer drops the packet, counted),
@@ -44,6 +45,14 @@ class Transport {
   virtual std::size_t Receive(uint8_t* buffer, std::size_t capacity) = 0;
   /// The file descriptor to poll() for reading.
   virtual int fd() const = 0;
+  /// udpin: from now on the peer is no longer whoever sent the last datagram but the sender of
+  /// the last datagram confirmed with KeepLastSender() (a link with a signing key confirms a
+  /// datagram that held a correctly signed packet, so that no one without the key can redirect
+  /// what aerovo sends). Nothing for the other transports.
+  virtual void RequireConfirmedPeer() {}
+  /// udpin after RequireConfirmedPeer(): the sender of the last datagram Receive() returned
+  /// becomes the peer.
+  virtual void KeepLastSender() {}
 };
 
 /// Opens `url`: InputError naming the URL and the system's reason when it cannot be opened

@@ -67,11 +67,12 @@ std::unique_ptr<mavlink::AutopilotLink> OpenLink(const RunConfig& config, std::o
   const mavlink::LinkUrl url = mavlink::ParseLinkUrl(config.mavlink);
   mavlink::AutopilotLink::Options o;
   o.sysid = static_cast<uint8_t>(config.mavlink_sysid);
+  if (!config.mavlink_key.empty()) o.signing_key = mavlink::ReadSigningKey(config.mavlink_key);
   auto link = std::make_unique<mavlink::AutopilotLink>(mavlink::OpenTransport(url), o);
   if (log) {
-    *log << fmt::format("mavlink: {} ({}, sysid {}, compid {}, {} time{})\n", url.text,
+    *log << fmt::format("mavlink: {} ({}, sysid {}, compid {}, {} time{}{})\n", url.text,
                         ToString(config.mavlink_message), config.mavlink_sysid, o.compid,
-                        ToString(config.mavlink_time),
+                        ToString(config.mavlink_time), o.signing_key ? ", signed" : "",
                         url.reads_autopilot() ? "; height and attitude from the autopilot" : "");
   }
   return link;

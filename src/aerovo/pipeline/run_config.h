@@ -204,6 +204,12 @@ struct RunConfig {
   /// udpin/serial without --altitude: the first frame waits up to this many seconds for the
   /// autopilot's first height. Default 5 s (a stream starts within a second or two).
   double mavlink_wait_s = 5.0;
+  /// MAVLink 2 signing key file (mavlink/signing.h; docs/autopilot.md, "Message signing"): 64
+  /// hexadecimal digits, mode 600. With it every packet sent is signed and only packets of the
+  /// autopilot signed with the same key, timestamps moving forward, are used (the others are
+  /// counted in summary.json). Empty (default): unsigned, every valid packet used. Like the
+  /// other mavlink_* options, unused without mavlink.
+  std::string mavlink_key;
   /// The pose stream: one JSON object per frame (pipeline/run_steps.h, "The pose stream") written
   /// to this file as soon as the frame is done, flushed; "-" = stdout, and then `aerovo run`
   /// writes nothing else there (configuration, progress, warnings, summary: stderr). Empty
@@ -306,6 +312,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.mavlink_time, "mavlink_time", "Clock of the MAVLink timestamps: boot (since boot) or unix", Any());
   v.Field(c.mavlink_match_s, "mavlink_match_s", "Largest time between a frame and the autopilot sample used for it, s", GreaterThan(0).Finite());
   v.Field(c.mavlink_wait_s, "mavlink_wait_s", "udpin/serial: wait this long for the autopilot's first height, s", AtLeast(0).Finite());
+  v.Field(c.mavlink_key, "mavlink_key", "MAVLink 2 signing key file (64 hex digits, mode 600): sign what is sent, use only packets signed with it (docs/autopilot.md)", Any());
   v.Field(c.poses_jsonl, "poses_jsonl", "Pose stream: one JSON object per frame, written as it is done ('-' = stdout, then everything else goes to stderr)", Any());
   v.Field(c.frame_queue, "frame_queue", "Frames decoded ahead on a reader thread (0 = none); a live source keeps only the newest, dropping older ones", AtLeast(0));
   v.Field(c.telemetry_offset_s, "telemetry_offset_s", "Telemetry time at video time 0, s (shifts every fix)", Interval(-1e6, 1e6));

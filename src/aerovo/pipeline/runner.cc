@@ -244,16 +244,21 @@ void CountWritten(const run_steps::FrameLoop& loop, const run_steps::LoopEnd& en
 nlohmann::json LinkStats(const mavlink::AutopilotLink& link, const RunConfig& config) {
   const mavlink::LinkStats st = link.stats();
   return {{"url", config.mavlink},
-                     {"message", ToString(config.mavlink_message)},
-                     {"sent", st.sent},
-                     {"send_failed", st.send_failed},
-                     {"heartbeats", st.heartbeats},
-                     {"timesync_answers", st.timesync_answers},
-                     {"distance_samples", st.distance_samples},
-                     {"relative_alt_samples", st.relative_alt_samples},
-                     {"attitude_samples", st.attitude_samples},
-                     {"autopilot_heartbeats", st.autopilot_heartbeats},
-                     {"crc_errors", st.parser.crc_errors}};
+          {"message", ToString(config.mavlink_message)},
+          {"sent", st.sent},
+          {"send_failed", st.send_failed},
+          {"heartbeats", st.heartbeats},
+          {"timesync_answers", st.timesync_answers},
+          {"distance_samples", st.distance_samples},
+          {"relative_alt_samples", st.relative_alt_samples},
+          {"attitude_samples", st.attitude_samples},
+          {"autopilot_heartbeats", st.autopilot_heartbeats},
+          {"crc_errors", st.parser.crc_errors},
+          {"signing", st.signing},
+          {"signed_accepted", st.signed_accepted},
+          {"rejected_unsigned", st.rejected_unsigned},
+          {"rejected_bad_signature", st.rejected_bad_signature},
+          {"rejected_replayed", st.rejected_replayed}};
 }
 
 // The telemetry's clock against the frames' (`t`): a warning in `summary` when its span does not

@@ -107,7 +107,8 @@ struct RunSummary {
   double max_tilt_deg = 0.0;
   /// --mavlink: the link's counts (url, sent, send_failed, heartbeats, timesync_answers,
   /// distance_samples, relative_alt_samples, attitude_samples, autopilot_heartbeats,
-  /// crc_errors); null without.
+  /// crc_errors, and of --mavlink-key: signing, signed_accepted, rejected_unsigned,
+  /// rejected_bad_signature, rejected_replayed); null without.
   nlohmann::json mavlink;
   std::string heading_source;  ///< GeoReferencer::heading_source_used(), "" if none.
   /// Origin of the run's ENU frame (x_m/y_m of frames.csv once geo-referenced, vo.tum, gps.tum,
