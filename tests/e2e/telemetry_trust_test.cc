@@ -216,6 +216,12 @@ void ExpectGlitchHandled(const Glitch& g) {
     EXPECT_NE(s.gps_rejected_fixes[k].message.find(fmt::format("frame {} ", g.rejected[k])),
               std::string::npos)
         << s.gps_rejected_fixes[k].message;
+    // ... and the record the fix was read from: MakeSrt's subtitle of frame f starts at line
+    // 6 f + 1.
+    EXPECT_NE(
+        s.gps_rejected_fixes[k].message.find(fmt::format("{}:{})", file, 6 * g.rejected[k] + 1)),
+        std::string::npos)
+        << s.gps_rejected_fixes[k].message;
   }
   EXPECT_TRUE(HasWarning(s, "rejected")) << Joined(s.warnings);
   // frames.csv flags exactly those frames.
