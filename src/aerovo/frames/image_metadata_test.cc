@@ -13,6 +13,7 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
+#include "aerovo/frames/exif_test_writer.h"
 #include "aerovo/frames/image_test_util.h"
 #include "aerovo/telemetry/io_test_util.h"
 
@@ -131,89 +132,19 @@ TEST(ImageMetadata, SyntheticTagsRoundTrip) {
   EXPECT_EQ(mm.source, "mem");
 }
 
-// One entry of a TIFF IFD as a camera writes it: tag, TIFF type (1 BYTE, 2 ASCII, 4 LONG,
-// 5 RATIONAL, 7 UNDEFINED), count and the value's bytes (little-endian), or a sub-IFD (Exif 0x8769,
-// GPS 0x8825: a LONG whose value is the offset of `sub`).
-struct TiffEntry {
-  unsigned tag, type, count;
-  std::string bytes;
-  std::vector<TiffEntry> sub;
-};
-
-std::string Le32(unsigned v) {
-  std::string b;
-  for (int k = 0; k < 4; ++k) b.push_back(static_cast<char>((v >> (8 * k)) & 0xff));
-  return b;
-}
-std::string Rationals(std::initializer_list<std::pair<unsigned, unsigned>> r) {
-  std::string b;
-  for (const auto& [n, d] : r) b += Le32(n) + Le32(d);
-  return b;
-}
-TiffEntry Ascii(unsigned tag, const std::string& text) {
-  return {tag, 2, static_cast<unsigned>(text.size() + 1), text + '\0', {}};
-}
-
-// Appends the IFD `entries` (sorted by tag, as TIFF 6.0 section 2 requires) at the end of `tiff`,
-// its sub-IFDs and out-of-line values after it, word aligned; no next IFD.
-void AppendIfd(std::string& tiff, const std::vector<TiffEntry>& entries) {
-  const std::size_t ifd = tiff.size();
-  tiff.resize(ifd + 2 + 12 * entries.size() + 4, '\0');
-  tiff[ifd] = static_cast<char>(entries.size() & 0xff);
-  tiff[ifd + 1] = static_cast<char>(entries.size() >> 8);
-  for (std::size_t i = 0; i < entries.size(); ++i) {
-    const TiffEntry& e = entries[i];
-    std::string value = e.bytes;
-    if (!e.sub.empty()) {  // pointer to a sub-IFD written here
-      if (tiff.size() % 2) tiff.push_back('\0');
-      value = Le32(static_cast<unsigned>(tiff.size()));
-      AppendIfd(tiff, e.sub);
-    }
-    std::string field;
-    field += static_cast<char>(e.tag & 0xff);
-    field += static_cast<char>(e.tag >> 8);
-    field += static_cast<char>(e.type & 0xff);
-    field += static_cast<char>(e.type >> 8);
-    field += Le32(e.count);
-    if (value.size() <= 4) {  // a value of up to 4 bytes sits in the entry itself
-      value.resize(4, '\0');
-      field += value;
-    } else {
-      if (tiff.size() % 2) tiff.push_back('\0');
-      field += Le32(static_cast<unsigned>(tiff.size()));
-      tiff += value;
-    }
-    tiff.replace(ifd + 2 + 12 * i, 12, field);
-  }
-}
-
-// A JPEG whose only metadata is one APP1 Exif segment right after the SOI, holding the
-// little-endian TIFF structure with IFD0 `ifd0` (no APP1 XMP segment). Exiv2 drops unknown and
-// 0x02bc tags when it writes a JPEG, so the segment is laid out here byte for byte, as the
-// cameras write it, and put into an OpenCV JPEG.
-void WriteJpegWithExif(const std::filesystem::path& path, const std::vector<TiffEntry>& ifd0) {
-  std::string tiff = {'I', 'I', 42, 0, 8, 0, 0, 0};
-  AppendIfd(tiff, ifd0);
-  std::string app1 = {'\xff', '\xe1', 0, 0, 'E', 'x', 'i', 'f', 0, 0};
-  app1 += tiff;
-  const std::size_t len = app1.size() - 2;
-  app1[2] = static_cast<char>(len >> 8);
-  app1[3] = static_cast<char>(len & 0xff);
-  std::vector<std::uint8_t> jpeg;
-  cv::imencode(".jpg", io_test::TextureImage(64, 48, 3), jpeg);
-  ASSERT_GE(jpeg.size(), 2u);
-  jpeg.insert(jpeg.begin() + 2, app1.begin(), app1.end());  // right after SOI (FF D8)
-  std::ofstream(path, std::ios::binary)
-      .write(reinterpret_cast<const char*>(jpeg.data()), static_cast<std::streamsize>(jpeg.size()));
-}
+using io_test::Ascii;
+using io_test::Rationals;
+using io_test::TiffEntry;
+using io_test::WriteJpegWithExif;
 
 // A JPEG as DJI Zenmuse XT/H20T thermal cameras write it: the XMP packet in the TIFF tag 0x02bc
 // (XMLPacket, BYTE) of IFD0, after Make and Model.
 void WriteJpegWithExifXmlPacket(const std::filesystem::path& path, const std::string& make,
                                 const std::string& model, const std::string& packet) {
-  WriteJpegWithExif(path, {Ascii(0x010f, make),
-                           Ascii(0x0110, model),
-                           {0x02bc, 1, static_cast<unsigned>(packet.size()), packet, {}}});
+  WriteJpegWithExif(path, io_test::TextureImage(64, 48, 3),
+                    {Ascii(0x010f, make),
+                     Ascii(0x0110, model),
+                     {0x02bc, 1, static_cast<unsigned>(packet.size()), packet, {}}});
 }
 
 const char* const kXt2Packet =
@@ -282,10 +213,11 @@ TEST(ImageMetadata, XmpPacketInTheExifSubIfdApplicationNotes) {
         {0x02bc, type, static_cast<unsigned>(packet.size()), packet, {}},  // ApplicationNotes
         {0x9000, 7, 4, "0230", {}}};                                       // ExifVersion
     const auto path = dir / fmt::format("DJI_0001_R_{}.JPG", type);
-    WriteJpegWithExif(path, {Ascii(0x010f, "DJI"),
-                             Ascii(0x0110, "XT2"),
-                             {0x8769, 4, 1, "", exif_ifd},
-                             {0x8825, 4, 1, "", gps}});
+    WriteJpegWithExif(path, io_test::TextureImage(64, 48, 3),
+                      {Ascii(0x010f, "DJI"),
+                       Ascii(0x0110, "XT2"),
+                       {0x8769, 4, 1, "", exif_ifd},
+                       {0x8825, 4, 1, "", gps}});
     const ImageMetadata m = ReadImageMetadata(path);
     EXPECT_EQ(m.model, "XT2");
     EXPECT_EQ(m.xmp_source, ImageMetadata::XmpSource::kExifIfdApplicationNotes);
@@ -317,7 +249,8 @@ TEST(ImageMetadata, XmpPacketInTheExifSubIfdApplicationNotes) {
   // A broken packet in the Exif sub-IFD is an error naming the photo and the place.
   const auto bad = dir / "bad.jpg";
   WriteJpegWithExif(
-      bad, {Ascii(0x010f, "DJI"), {0x8769, 4, 1, "", {{0x02bc, 7, 12, "<x:xmpmeta><", {}}}}});
+      bad, io_test::TextureImage(64, 48, 3),
+      {Ascii(0x010f, "DJI"), {0x8769, 4, 1, "", {{0x02bc, 7, 12, "<x:xmpmeta><", {}}}}});
   ExpectInputError([&] { ReadImageMetadata(bad); },
                    {"bad.jpg", "0x02bc", "Exif sub-IFD ApplicationNotes", "does not parse"});
 
