@@ -215,7 +215,7 @@ GpsOrder OrderOfThirdValue(std::string_view c) {
 }
 
 // The values of the position record of `line` ("GPS(...)", "GPS (...)" or "RTK (...)"), or
-// nullopt when the line has none; `at` is set to where it starts.
+// nullopt when the line has none; `*name` is set to the record's name.
 std::optional<std::vector<std::string_view>> PositionValues(std::string_view line,
                                                             std::string_view* name) {
   for (std::string_view n : {"GPS", "RTK"}) {
@@ -278,9 +278,16 @@ void ParseTextLine(std::string_view line, BlockFields& f) {
       }
     }
   }
-  if (auto v = ValueAfter(line, "BAROMETER")) f.SetNumber(f.rel_alt, "BAROMETER", *v);
-  if (auto v = ValueAfter(line, "Hb")) f.SetNumber(f.hb, "Hb", *v);
-  if (auto v = ValueAfter(line, "Hs")) f.SetNumber(f.hs, "Hs", *v);
+  // Heights; "N/A" leaves one unknown.
+  const struct {
+    const char* key;
+    std::optional<double> BlockFields::*field;
+  } heights[] = {
+      {"BAROMETER", &BlockFields::rel_alt}, {"Hb", &BlockFields::hb}, {"Hs", &BlockFields::hs}};
+  for (const auto& h : heights) {
+    const auto v = ValueAfter(line, h.key);
+    if (v && !IsNotAvailable(*v)) f.SetNumber(f.*h.field, h.key, *v);
+  }
   if (const std::size_t h = FindWord(line, "HOME"); h != std::string_view::npos) {
     const std::size_t close = line.find(')', h);
     if (close != std::string_view::npos) {
