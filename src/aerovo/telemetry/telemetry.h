@@ -76,6 +76,8 @@ class Telemetry {
   /// longitude, altitudes, focal lengths linear; angles along the shorter arc; longitude
   /// unwrapped across +-180). Optional fields are interpolated when both neighbours have
   /// them, else taken from the nearer neighbour. frame_index is kept only on an exact hit.
+  /// Between a sample with a fix and one without (has_fix), the result has no fix; `origin`
+  /// is "between A and B".
   /// Outside [start - tolerance_s, end + tolerance_s] -> nullopt; inside the tolerance band the
   /// end sample is returned unchanged (time_s set to the query).
   std::optional<TelemetrySample> Lookup(double time_s, double tolerance_s = 0.0) const;
