@@ -27,14 +27,20 @@ inline void CheckResult(const TelemetryReadResult& r, const TelemetryReadOptions
   Check(options.lenient || r.skipped_records == 0);
   Check(static_cast<int>(r.warnings.size()) <= options.max_warnings + 1);
   double last = -INFINITY;
+  int without_fix = 0;
   for (const TelemetrySample& s : r.telemetry.samples()) {
     Check(std::isfinite(s.time_s) && s.time_s >= last);
     last = s.time_s;
     Check(s.lat_deg >= -90.0 && s.lat_deg <= 90.0);
     Check(s.lon_deg >= -180.0 && s.lon_deg <= 180.0);
-    Check(!(s.lat_deg == 0.0 && s.lon_deg == 0.0));
+    // A sample has a position other than 0, 0, or says it has none (TelemetrySample::has_fix).
+    Check(s.has_fix ? !(s.lat_deg == 0.0 && s.lon_deg == 0.0)
+                    : s.lat_deg == 0.0 && s.lon_deg == 0.0);
+    without_fix += s.has_fix ? 0 : 1;
     Check(!s.frame_index || *s.frame_index >= 0);
+    Check(!s.origin.empty());
   }
+  Check(without_fix <= r.no_fix_records);
 }
 
 template <typename ParseFn>

@@ -3,6 +3,11 @@
 //   g++ -std=c++17 fuzz/make_image_seeds.cc -o /tmp/make_image_seeds \
 //     $(pkg-config --cflags --libs exiv2 opencv4) && /tmp/make_image_seeds
 //     fuzz/corpus/image_metadata
+// Not written here (Exiv2 drops tag 0x02bc from a JPEG): xt2_exif_ifd_packet.jpg (a DJI XT2
+// photo's layout: the XMP packet in tag 0x02bc of the Exif sub-IFD, GPS with an altitude above
+// sea level) and ifd0_xml_packet.jpg (the packet in IFD0's XMLPacket), written with
+// io_test::WriteJpegWithExif (src/aerovo/frames/exif_test_writer.h) as in
+// ImageMetadata.XmpPacketInTheExifSubIfdApplicationNotes.
 #pragma GCC diagnostic ignored "-Wdeprecated-declarations"
 #include <exiv2/exiv2.hpp>
 #include <fstream>

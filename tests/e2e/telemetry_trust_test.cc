@@ -28,6 +28,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/frames/exif_test_writer.h"
 #include "aerovo/geo/geodesic.h"
 #include "aerovo/geo/local_enu.h"
 #include "aerovo/pipeline/runner.h"
@@ -216,6 +217,12 @@ void ExpectGlitchHandled(const Glitch& g) {
     EXPECT_NE(s.gps_rejected_fixes[k].message.find(fmt::format("frame {} ", g.rejected[k])),
               std::string::npos)
         << s.gps_rejected_fixes[k].message;
+    // ... and the record the fix was read from: MakeSrt's subtitle of frame f starts at line
+    // 6 f + 1.
+    EXPECT_NE(
+        s.gps_rejected_fixes[k].message.find(fmt::format("{}:{})", file, 6 * g.rejected[k] + 1)),
+        std::string::npos)
+        << s.gps_rejected_fixes[k].message;
   }
   EXPECT_TRUE(HasWarning(s, "rejected")) << Joined(s.warnings);
   // frames.csv flags exactly those frames.
@@ -257,6 +264,45 @@ TEST(TelemetryTrust, ImplausibleAltitudeOrLateStepDoesNotSteerTheTrack) {
   std::vector<int> late;
   for (int i = 24; i <= kGlitchSteps; ++i) late.push_back(i);
   ExpectGlitchHandled({"late_step", [](int i, Fix& f) { if (i >= 24) North(f, 0.01); }, late});
+}
+
+// A fix read from a photo's EXIF and rejected as implausible is named by its photo (before, the
+// warning said "frame 5" only). The photos carry EXIF GPS as a camera writes it (IFD0 with the
+// GPS IFD pointer); the fifth is 1.1 km north.
+TEST(TelemetryTrust, RejectedPhotoFixNamesThePhoto) {
+  const fs::path dir = TempDir("photo_fix");
+  const std::vector<Eigen::Vector2d> path = Path(Steady(kGlitchSteps));
+  std::vector<Fix> fixes = FixesOf(path);
+  North(fixes[5], 0.01);
+  // Degrees, minutes and seconds (1/10000 s) as EXIF RATIONALs.
+  const auto dms = [](double deg) {
+    const unsigned d = static_cast<unsigned>(deg);
+    const double min = (deg - d) * 60.0;
+    const unsigned m = static_cast<unsigned>(min);
+    const unsigned s = static_cast<unsigned>(std::lround((min - m) * 60.0 * 10000.0));
+    return io_test::Rationals({{d, 1}, {m, 1}, {s, 10000}});
+  };
+  fs::create_directories(dir / "photos");
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    const GeoPoint& g = fixes[i].geo;
+    const std::vector<io_test::TiffEntry> gps = {
+        {0x0001, 2, 2, std::string("N\0", 2), {}},  // GPSLatitudeRef
+        {0x0002, 5, 3, dms(g.lat_deg), {}},         // GPSLatitude
+        {0x0003, 2, 2, std::string("E\0", 2), {}},  // GPSLongitudeRef
+        {0x0004, 5, 3, dms(g.lon_deg), {}}};        // GPSLongitude
+    io_test::WriteJpegWithExif(dir / "photos" / fmt::format("DJI_{:04d}.JPG", i), Render(path[i]),
+                               {io_test::Ascii(0x010f, "DJI"), {0x8825, 4, 1, "", gps}});
+  }
+  RunConfig c = Config(dir / "photos", dir / "out", "");
+  c.altitude_m = kHeightM;
+  const RunSummary s = RunFlight(c);
+  ASSERT_EQ(s.gps_rejected, 1) << Joined(s.warnings);
+  ASSERT_EQ(s.gps_rejected_fixes.size(), 1u);
+  EXPECT_EQ(s.gps_rejected_fixes[0].frame, 5);
+  const std::string& message = s.gps_rejected_fixes[0].message;
+  EXPECT_NE(message.find("frame 5 (time 5.000 s, "), std::string::npos) << message;
+  EXPECT_NE(message.find("DJI_0005.JPG) rejected"), std::string::npos) << message;
+  EXPECT_TRUE(HasWarning(s, "DJI_0005.JPG")) << Joined(s.warnings);
 }
 
 // The run's ENU frame (x_m/y_m, vo.tum, gps.tum, the comparisons with GPS and the truth, the

@@ -55,10 +55,14 @@ TelemetryReadResult ReadAny(const TelemetryArgs& args) {
     const bool has_xmp = m.rel_alt_m || m.abs_alt_m || m.gimbal_yaw_deg || m.gimbal_pitch_deg ||
                          m.gimbal_roll_deg || m.flight_yaw_deg || m.flight_pitch_deg ||
                          m.flight_roll_deg || m.calibrated_focal_px;
-    fmt::print("xmp          {}\n", m.xmp_from_exif_packet
-                                        ? "read from the EXIF tag 0x02bc (XMLPacket)"
-                                    : has_xmp ? "read from the photo's XMP segment"
-                                              : "none (the photo has no DJI XMP values)");
+    using Src = ImageMetadata::XmpSource;
+    fmt::print("xmp          {}\n",
+               m.xmp_source == Src::kIfd0XmlPacket
+                   ? "read from the EXIF tag 0x02bc of IFD0 (XMLPacket)"
+               : m.xmp_source == Src::kExifIfdApplicationNotes
+                   ? "read from the EXIF tag 0x02bc of the Exif sub-IFD (ApplicationNotes)"
+               : has_xmp ? "read from the photo's XMP segment"
+                         : "none (the photo has no DJI XMP values)");
     if (has_xmp) {
       const auto val = [](const std::optional<double>& v, const char* unit) {
         return v ? fmt::format("{:.1f} {}", *v, unit) : std::string("unknown");
@@ -82,10 +86,12 @@ void Run(const TelemetryArgs& args) {
   double lat0 = 90, lat1 = -90, lon0 = 180, lon1 = -180;
   int frames = 0, rel = 0, abs = 0, yaw = 0;
   for (const TelemetrySample& s : t.samples()) {
-    lat0 = std::min(lat0, s.lat_deg);
-    lat1 = std::max(lat1, s.lat_deg);
-    lon0 = std::min(lon0, s.lon_deg);
-    lon1 = std::max(lon1, s.lon_deg);
+    if (s.has_fix) {  // records without a fix keep heights and angles, not a position
+      lat0 = std::min(lat0, s.lat_deg);
+      lat1 = std::max(lat1, s.lat_deg);
+      lon0 = std::min(lon0, s.lon_deg);
+      lon1 = std::max(lon1, s.lon_deg);
+    }
     frames += s.frame_index.has_value();
     rel += s.rel_alt_m.has_value();
     abs += s.abs_alt_m.has_value();
@@ -105,9 +111,10 @@ void Run(const TelemetryArgs& args) {
         "time_s,frame,lat_deg,lon_deg,abs_alt_m,rel_alt_m,yaw_deg,gimbal_yaw_deg,"
         "gimbal_pitch_deg,focal_35mm_mm\n");
     for (const TelemetrySample& s : t.samples()) {
-      fmt::print("{:.3f},{},{:.8f},{:.8f},{},{},{},{},{},{}\n", s.time_s,
-                 s.frame_index ? std::to_string(*s.frame_index) : std::string(), s.lat_deg,
-                 s.lon_deg, Opt(s.abs_alt_m), Opt(s.rel_alt_m), Opt(s.yaw_deg, 2),
+      const auto deg = [&](double v) { return s.has_fix ? fmt::format("{:.8f}", v) : ""; };
+      fmt::print("{:.3f},{},{},{},{},{},{},{},{},{}\n", s.time_s,
+                 s.frame_index ? std::to_string(*s.frame_index) : std::string(), deg(s.lat_deg),
+                 deg(s.lon_deg), Opt(s.abs_alt_m), Opt(s.rel_alt_m), Opt(s.yaw_deg, 2),
                  Opt(s.gimbal_yaw_deg, 2), Opt(s.gimbal_pitch_deg, 2),
                  Opt(s.focal_length_35mm_mm, 1));
     }

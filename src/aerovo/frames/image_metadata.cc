@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <mutex>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -117,23 +118,33 @@ void CheckRange(const std::optional<double>& v, double lo, double hi, const char
   }
 }
 
-// The XMP packet some cameras store in the EXIF tag 0x02bc (XMLPacket, TIFF/EP) instead of an
-// APP1 XMP segment: DJI Zenmuse XT/XT2/H20T thermal cameras, some Autel cameras. Decoded into
-// `*out` when the file has no XMP segment of its own; a packet that does not parse is an error
-// naming the file (it is the camera's metadata, not something to ignore silently).
-void XmpFromExifPacket(const Exiv2::ExifData& exif, const std::string& source,
-                       Exiv2::XmpData* out) {
-  const auto it = exif.findKey(Exiv2::ExifKey("Exif.Image.XMLPacket"));
-  if (it == exif.end() || it->size() == 0) return;
+// The XMP packet some cameras store in the EXIF tag 0x02bc instead of an APP1 XMP segment:
+// in IFD0 (XMLPacket, TIFF/EP; DJI Zenmuse XT/H20T, some Autel cameras) or in the Exif sub-IFD
+// (exiftool's ExifIFD:ApplicationNotes; DJI Zenmuse XT2), of type BYTE or UNDEFINED. Decoded
+// into `*out`; false when the tag is absent or holds only blanks and NULs. A packet that does
+// not parse is an error naming the file and the tag (it is the camera's metadata, not
+// something to ignore silently).
+bool XmpFromExifPacket(const Exiv2::ExifData& exif, const Exiv2::ExifKey& key, const char* what,
+                       const std::string& source, Exiv2::XmpData* out) {
+  const auto it = exif.findKey(key);
+  if (it == exif.end() || it->size() == 0) return false;
   std::string packet(static_cast<std::size_t>(it->size()), '\0');
   it->copy(reinterpret_cast<Exiv2::byte*>(packet.data()), Exiv2::invalidByteOrder);
   while (!packet.empty() && packet.back() == '\0') packet.pop_back();
-  if (packet.find_first_not_of(" \t\r\n") == std::string::npos) return;
+  if (packet.find_first_not_of(" \t\r\n") == std::string::npos) return false;
   if (Exiv2::XmpParser::decode(*out, packet) != 0) {
     throw InputError(
-        fmt::format("{}: the XMP packet in EXIF tag 0x02bc (XMLPacket, {} bytes) does not parse",
-                    source, packet.size()));
+        fmt::format("{}: the XMP packet in EXIF tag 0x02bc ({}, {} bytes) does not parse", source,
+                    what, packet.size()));
   }
+  return !out->empty();
+}
+
+bool HasDjiXmp(const Exiv2::XmpData& xmp) {
+  for (const auto& d : xmp) {
+    if (d.groupName() == "drone-dji") return true;
+  }
+  return false;
 }
 
 // EXIF Make, Model and serial number (EXIF BodySerialNumber, CameraSerialNumber, else DJI XMP).
@@ -227,10 +238,39 @@ ImageMetadata Extract(Exiv2::Image& image, const std::string& source) {
   m.width_px = image.pixelWidth();
   m.height_px = image.pixelHeight();
   const Exiv2::ExifData& exif = image.exifData();
-  Exiv2::XmpData packet_xmp;
-  if (image.xmpData().empty()) XmpFromExifPacket(exif, source, &packet_xmp);
-  const Exiv2::XmpData& xmp = image.xmpData().empty() ? packet_xmp : image.xmpData();
-  m.xmp_from_exif_packet = !packet_xmp.empty();
+  // The XMP places in ImageMetadata::XmpSource order: the first with DJI values, else the first
+  // with a packet.
+  using Src = ImageMetadata::XmpSource;
+  // The packets are decoded only when the APP1 segment has no DJI values.
+  const bool app1_dji = HasDjiXmp(image.xmpData());
+  Exiv2::XmpData ifd0_xmp, exif_ifd_xmp;
+  const bool has_ifd0 = !app1_dji && XmpFromExifPacket(exif, Exiv2::ExifKey("Exif.Image.XMLPacket"),
+                                                       "IFD0 XMLPacket", source, &ifd0_xmp);
+  const bool has_exif_ifd =
+      !app1_dji && XmpFromExifPacket(exif, Exiv2::ExifKey(0x02bc, "Photo"),
+                                     "Exif sub-IFD ApplicationNotes", source, &exif_ifd_xmp);
+  const std::pair<const Exiv2::XmpData*, Src> places[] = {
+      {image.xmpData().empty() ? nullptr : &image.xmpData(), Src::kApp1Segment},
+      {has_ifd0 ? &ifd0_xmp : nullptr, Src::kIfd0XmlPacket},
+      {has_exif_ifd ? &exif_ifd_xmp : nullptr, Src::kExifIfdApplicationNotes}};
+  const Exiv2::XmpData empty_xmp;
+  const Exiv2::XmpData* chosen = nullptr;
+  for (const auto& [data, src] : places) {
+    if (data != nullptr && HasDjiXmp(*data)) {
+      chosen = data;
+      m.xmp_source = src;
+      break;
+    }
+  }
+  for (const auto& [data, src] : places) {
+    if (chosen == nullptr && data != nullptr) {
+      chosen = data;
+      m.xmp_source = src;
+    }
+  }
+  const Exiv2::XmpData& xmp = chosen != nullptr ? *chosen : empty_xmp;
+  m.xmp_from_exif_packet =
+      m.xmp_source == Src::kIfd0XmlPacket || m.xmp_source == Src::kExifIfdApplicationNotes;
   if (m.width_px <= 0 || m.height_px <= 0) {
     // EXIF's own idea of the size, a fallback only: a value that is no plausible pixel count
     // (1e300 would not even convert to int) leaves the size unknown.
@@ -276,6 +316,7 @@ TelemetrySample ImageMetadata::ToSample() const {
   s.gimbal_roll_deg = gimbal_roll_deg;
   s.focal_length_mm = focal_length_mm;
   s.focal_length_35mm_mm = focal_length_35mm_mm;
+  s.origin = source;
   return s;
 }
 

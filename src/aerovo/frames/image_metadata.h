@@ -23,9 +23,14 @@ struct ImageMetadata {
   /// EXIF BodySerialNumber, else CameraSerialNumber, else DJI XMP CameraSerialNumber; empty
   /// when none is written.
   std::string serial_number;
-  /// True when the XMP fields below came from the XMP packet stored in the EXIF tag 0x02bc
-  /// (XMLPacket; DJI Zenmuse XT/XT2/H20T, some Autel cameras) because the file has no XMP
-  /// segment of its own.
+  /// Where the XMP fields below were read. A JPEG's XMP is the APP1 segment of the XMP
+  /// specification (part 3, 1.1.3); some cameras store the packet instead in the TIFF tag 0x02bc
+  /// (XMLPacket, TIFF/EP; exiftool "IFD0:XMP"), others in the same tag of the Exif sub-IFD
+  /// (exiftool "ExifIFD:ApplicationNotes": DJI Zenmuse XT2). The first of these places (in this
+  /// order) that holds DJI (drone-dji) values is used, else the first that holds a packet.
+  enum class XmpSource { kNone, kApp1Segment, kIfd0XmlPacket, kExifIfdApplicationNotes };
+  XmpSource xmp_source = XmpSource::kNone;
+  /// True when the XMP fields came from an EXIF tag 0x02bc packet (IFD0 or the Exif sub-IFD).
   bool xmp_from_exif_packet = false;
 
   /// EXIF GPSLatitude/GPSLongitude with their N/S, E/W refs; WGS84 degrees.
@@ -50,7 +55,8 @@ struct ImageMetadata {
   bool HasGps() const { return lat_deg.has_value() && lon_deg.has_value(); }
 
   /// The telemetry fix of this photo (time_s = 0, frame_index unset; the caller places it).
-  /// abs_alt_m = XMP AbsoluteAltitude, else the EXIF GPS altitude. Precondition: HasGps().
+  /// abs_alt_m = XMP AbsoluteAltitude, else the EXIF GPS altitude; origin = `source`.
+  /// Precondition: HasGps().
   TelemetrySample ToSample() const;
 };
 

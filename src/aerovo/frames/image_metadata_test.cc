@@ -1,14 +1,19 @@
 #include "aerovo/frames/image_metadata.h"
 
 #include <fstream>
+#include <initializer_list>
 #include <iterator>
+#include <string>
+#include <utility>
 #include <vector>
 
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
+#include "aerovo/frames/exif_test_writer.h"
 #include "aerovo/frames/image_test_util.h"
 #include "aerovo/telemetry/io_test_util.h"
 
@@ -127,52 +132,19 @@ TEST(ImageMetadata, SyntheticTagsRoundTrip) {
   EXPECT_EQ(mm.source, "mem");
 }
 
-// A JPEG as DJI Zenmuse XT2 thermal cameras write it: the XMP packet in the EXIF tag 0x02bc
-// (XMLPacket, BYTE) of IFD0 and no APP1 XMP segment. Exiv2 drops that tag when it writes a JPEG,
-// so the APP1 Exif segment is laid out here by hand (little-endian TIFF: header, IFD0 with Make,
-// Model and XMLPacket, their data after the IFD) and put after the SOI of an OpenCV JPEG.
+using io_test::Ascii;
+using io_test::Rationals;
+using io_test::TiffEntry;
+using io_test::WriteJpegWithExif;
+
+// A JPEG as DJI Zenmuse XT/H20T thermal cameras write it: the XMP packet in the TIFF tag 0x02bc
+// (XMLPacket, BYTE) of IFD0, after Make and Model.
 void WriteJpegWithExifXmlPacket(const std::filesystem::path& path, const std::string& make,
                                 const std::string& model, const std::string& packet) {
-  std::vector<std::uint8_t> tiff = {'I', 'I', 42, 0, 8, 0, 0, 0};
-  const auto u16 = [&](std::vector<std::uint8_t>& b, unsigned v) {
-    b.push_back(v & 0xff);
-    b.push_back((v >> 8) & 0xff);
-  };
-  const auto u32 = [&](std::vector<std::uint8_t>& b, unsigned v) {
-    for (int k = 0; k < 4; ++k) b.push_back((v >> (8 * k)) & 0xff);
-  };
-  const std::string make_z = make + '\0', model_z = model + '\0';
-  const unsigned n = 3, data0 = 8 + 2 + 12 * n + 4;  // first byte after IFD0
-  std::vector<std::uint8_t> data;
-  u16(tiff, n);
-  const auto entry = [&](unsigned tag, unsigned type, const std::string& bytes) {
-    u16(tiff, tag);
-    u16(tiff, type);
-    u32(tiff, static_cast<unsigned>(bytes.size()));
-    if (bytes.size() <= 4) {  // a value of up to 4 bytes sits in the entry itself
-      for (std::size_t k = 0; k < 4; ++k) tiff.push_back(k < bytes.size() ? bytes[k] : 0);
-      return;
-    }
-    u32(tiff, data0 + static_cast<unsigned>(data.size()));
-    data.insert(data.end(), bytes.begin(), bytes.end());
-    if (data.size() % 2) data.push_back(0);  // word alignment
-  };
-  entry(0x010f, 2, make_z);   // Make, ASCII
-  entry(0x0110, 2, model_z);  // Model, ASCII
-  entry(0x02bc, 1, packet);   // XMLPacket, BYTE
-  u32(tiff, 0);               // no IFD1
-  tiff.insert(tiff.end(), data.begin(), data.end());
-  std::vector<std::uint8_t> app1 = {0xff, 0xe1, 0, 0, 'E', 'x', 'i', 'f', 0, 0};
-  app1.insert(app1.end(), tiff.begin(), tiff.end());
-  const std::size_t len = app1.size() - 2;
-  app1[2] = static_cast<std::uint8_t>(len >> 8);
-  app1[3] = static_cast<std::uint8_t>(len & 0xff);
-  std::vector<std::uint8_t> jpeg;
-  cv::imencode(".jpg", io_test::TextureImage(64, 48, 3), jpeg);
-  ASSERT_GE(jpeg.size(), 2u);
-  jpeg.insert(jpeg.begin() + 2, app1.begin(), app1.end());  // right after SOI (FF D8)
-  std::ofstream(path, std::ios::binary)
-      .write(reinterpret_cast<const char*>(jpeg.data()), static_cast<std::streamsize>(jpeg.size()));
+  WriteJpegWithExif(path, io_test::TextureImage(64, 48, 3),
+                    {Ascii(0x010f, make),
+                     Ascii(0x0110, model),
+                     {0x02bc, 1, static_cast<unsigned>(packet.size()), packet, {}}});
 }
 
 const char* const kXt2Packet =
@@ -211,6 +183,85 @@ TEST(ImageMetadata, XmpPacketInsideExifTag0x02bc) {
   const ImageMetadata mn = ReadImageMetadata(none);
   EXPECT_FALSE(mn.xmp_from_exif_packet);
   EXPECT_FALSE(mn.rel_alt_m);
+}
+
+// A photo as a DJI Zenmuse XT2 writes it: IFD0 with Make, Model, the Exif sub-IFD pointer and
+// the GPS IFD pointer; the XMP packet in tag 0x02bc of the Exif sub-IFD (exiftool
+// "ExifIFD:ApplicationNotes"), BYTE or UNDEFINED; GPS with an altitude above sea level only.
+// Before, aerovo read IFD0's 0x02bc alone and refused such a flight with "only an altitude above
+// sea level (558.5 m)": the relative altitude and the gimbal angles must come from the packet.
+TEST(ImageMetadata, XmpPacketInTheExifSubIfdApplicationNotes) {
+  io_test::TempDir dir("aerovo_xt2_exififd");
+  const std::string packet =
+      R"(<?xpacket begin="" id="W5M0MpCehiHzreSzNTczkc9d"?>)"
+      R"(<x:xmpmeta xmlns:x="adobe:ns:meta/"><rdf:RDF xmlns:rdf="http://www.w3.org/1999/02/22-rdf-syntax-ns#">)"
+      R"(<rdf:Description rdf:about="DJI Meta Data" xmlns:drone-dji="http://www.dji.com/drone-dji/1.0/")"
+      R"( drone-dji:AbsoluteAltitude="+558.50" drone-dji:RelativeAltitude="+100.00")"
+      R"( drone-dji:GimbalRollDegree="+0.00" drone-dji:GimbalYawDegree="-24.70" drone-dji:GimbalPitchDegree="-90.00")"
+      R"( drone-dji:FlightRollDegree="+1.20" drone-dji:FlightYawDegree="-25.10" drone-dji:FlightPitchDegree="-3.40"/>)"
+      R"(</rdf:RDF></x:xmpmeta><?xpacket end="w"?>)";
+  const std::vector<TiffEntry> gps = {
+      {0x0001, 2, 2, std::string("N\0", 2), {}},                         // GPSLatitudeRef
+      {0x0002, 5, 3, Rationals({{45, 1}, {30, 1}, {36000, 1000}}), {}},  // GPSLatitude
+      {0x0003, 2, 2, std::string("E\0", 2), {}},                         // GPSLongitudeRef
+      {0x0004, 5, 3, Rationals({{7, 1}, {12, 1}, {18000, 1000}}), {}},   // GPSLongitude
+      {0x0005, 1, 1, std::string(1, '\0'), {}},                          // above sea level
+      {0x0006, 5, 1, Rationals({{5585, 10}}), {}}};                      // GPSAltitude
+  for (const unsigned type : {1u, 7u}) {                                 // BYTE, UNDEFINED
+    SCOPED_TRACE(type);
+    const std::vector<TiffEntry> exif_ifd = {
+        {0x02bc, type, static_cast<unsigned>(packet.size()), packet, {}},  // ApplicationNotes
+        {0x9000, 7, 4, "0230", {}}};                                       // ExifVersion
+    const auto path = dir / fmt::format("DJI_0001_R_{}.JPG", type);
+    WriteJpegWithExif(path, io_test::TextureImage(64, 48, 3),
+                      {Ascii(0x010f, "DJI"),
+                       Ascii(0x0110, "XT2"),
+                       {0x8769, 4, 1, "", exif_ifd},
+                       {0x8825, 4, 1, "", gps}});
+    const ImageMetadata m = ReadImageMetadata(path);
+    EXPECT_EQ(m.model, "XT2");
+    EXPECT_EQ(m.xmp_source, ImageMetadata::XmpSource::kExifIfdApplicationNotes);
+    EXPECT_TRUE(m.xmp_from_exif_packet);
+    ASSERT_TRUE(m.rel_alt_m);
+    EXPECT_DOUBLE_EQ(*m.rel_alt_m, 100.0);
+    EXPECT_DOUBLE_EQ(*m.abs_alt_m, 558.5);
+    EXPECT_DOUBLE_EQ(*m.gps_alt_m, 558.5);
+    EXPECT_DOUBLE_EQ(*m.gimbal_pitch_deg, -90.0);
+    EXPECT_DOUBLE_EQ(*m.gimbal_yaw_deg, -24.7);
+    EXPECT_DOUBLE_EQ(*m.flight_yaw_deg, -25.1);
+    EXPECT_DOUBLE_EQ(*m.flight_pitch_deg, -3.4);
+    EXPECT_NEAR(*m.lat_deg, 45.51, 1e-9);
+    EXPECT_NEAR(*m.lon_deg, 7.205, 1e-9);
+    // The telemetry of the photo: its relative altitude, and its file named as the origin.
+    const TelemetryReadResult t = TelemetryFromImages({m});
+    ASSERT_EQ(t.records, 1);
+    EXPECT_DOUBLE_EQ(*t.telemetry[0].rel_alt_m, 100.0);
+    EXPECT_EQ(t.telemetry[0].origin, path.string());
+  }
+
+  // The same packet in IFD0's XMLPacket is read from there (and said so).
+  const auto ifd0 = dir / "ifd0.jpg";
+  WriteJpegWithExifXmlPacket(ifd0, "DJI", "XT2", packet);
+  const ImageMetadata m0 = ReadImageMetadata(ifd0);
+  EXPECT_EQ(m0.xmp_source, ImageMetadata::XmpSource::kIfd0XmlPacket);
+  EXPECT_DOUBLE_EQ(*m0.rel_alt_m, 100.0);
+
+  // A broken packet in the Exif sub-IFD is an error naming the photo and the place.
+  const auto bad = dir / "bad.jpg";
+  WriteJpegWithExif(
+      bad, io_test::TextureImage(64, 48, 3),
+      {Ascii(0x010f, "DJI"), {0x8769, 4, 1, "", {{0x02bc, 7, 12, "<x:xmpmeta><", {}}}}});
+  ExpectInputError([&] { ReadImageMetadata(bad); },
+                   {"bad.jpg", "0x02bc", "Exif sub-IFD ApplicationNotes", "does not parse"});
+
+  // A photo written by Exiv2 with an APP1 XMP segment: read from there.
+  const auto app1 = dir / "app1.jpg";
+  io_test::WriteJpegWithTags(app1, io_test::TextureImage(64, 48, 1), {{"Exif.Image.Make", "DJI"}},
+                             {{"Xmp.drone-dji.RelativeAltitude", "+42.0"}});
+  const ImageMetadata ma = ReadImageMetadata(app1);
+  EXPECT_EQ(ma.xmp_source, ImageMetadata::XmpSource::kApp1Segment);
+  EXPECT_FALSE(ma.xmp_from_exif_packet);
+  EXPECT_DOUBLE_EQ(*ma.rel_alt_m, 42.0);
 }
 
 TEST(ImageMetadata, BadValuesAndBadFilesNameTheFile) {

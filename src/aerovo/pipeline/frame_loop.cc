@@ -116,7 +116,7 @@ ReadResult ReadFrame(FrameSource& source, const RunConfig& config, const RunTele
   }
   f.sample = telemetry.SampleOf(f.frame);
   f.gps = GpsOf(f.sample);
-  if (!f.sample) ++state->frames_without_fix;
+  if (!f.gps) ++state->frames_without_fix;  // no sample, or a sample without a GPS fix
   f.flags = FrameFlags::Parse(f.frame.flags);
   return ReadResult::kFrame;
 }

@@ -31,7 +31,7 @@
 namespace aerovo::run_steps {
 
 std::optional<GeoPoint> GpsOf(const std::optional<TelemetrySample>& s) {
-  if (!s) return std::nullopt;
+  if (!s || !s->has_fix) return std::nullopt;
   GeoPoint p;
   p.lat_deg = s->lat_deg;
   p.lon_deg = s->lon_deg;
@@ -765,7 +765,8 @@ void Summarize(const std::vector<std::string>& source_warnings, bool has_telemet
   for (const std::string& w : source_warnings) s.warnings.push_back(w);
   if (has_telemetry && end.frames_without_fix > 0) {
     s.warnings.push_back(fmt::format(
-        "{} of {} frames have no telemetry fix (the telemetry does not cover them); their gps_* "
+        "{} of {} frames have no telemetry fix (the telemetry does not cover them, or its "
+        "records say no GPS fix there); their gps_* "
         "cells are empty and they are not in the comparison with GPS",
         end.frames_without_fix, s.frames_processed));
   }

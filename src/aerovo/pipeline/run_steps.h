@@ -50,7 +50,7 @@
 namespace aerovo::run_steps {
 
 /// The GPS fix of a telemetry sample (altitude: absolute, else relative, else 0 m); nullopt
-/// without a sample.
+/// without a sample or when the sample has no fix (TelemetrySample::has_fix).
 std::optional<GeoPoint> GpsOf(const std::optional<TelemetrySample>& sample);
 
 // ---------------------------------------------------------------------------------------------

@@ -89,10 +89,15 @@ OffsetEstimate EstimateTelemetryOffset(const std::vector<PlanarTrackPoint>& vo_t
   OffsetEstimate best;
   if (vo_track_m.size() < 20 || telemetry.size() < 3) return best;
   // The GPS track in metres (ENU at the first sample), on the telemetry's clock.
-  const LocalEnu enu(telemetry[0].lat_deg, telemetry[0].lon_deg, 0.0);
+  // Samples without a fix (TelemetrySample::has_fix) have no position and are left out.
+  const auto first_fix = std::find_if(telemetry.samples().begin(), telemetry.samples().end(),
+                                      [](const TelemetrySample& s) { return s.has_fix; });
+  if (first_fix == telemetry.samples().end()) return best;
+  const LocalEnu enu(first_fix->lat_deg, first_fix->lon_deg, 0.0);
   std::vector<PlanarTrackPoint> gps;
   gps.reserve(telemetry.size());
   for (const TelemetrySample& s : telemetry.samples()) {
+    if (!s.has_fix) continue;
     const Eigen::Vector3d e = enu.Forward(s.lat_deg, s.lon_deg, 0.0);
     if (!gps.empty() && s.time_s <= gps.back().time_s) continue;  // equal times: keep the first
     gps.push_back({s.time_s, e.x(), e.y()});

@@ -228,6 +228,7 @@ TelemetryReadResult ParseTelemetryCsv(std::istream& in, const std::string& sourc
       continue;
     }
     last_time = s.time_s;
+    s.origin = errors.At(n);
     samples.push_back(s);
   }
   return io_detail::Finish(std::move(samples), errors, no_fix, "CSV file");

@@ -128,6 +128,7 @@ std::optional<ParsedPoint> ParsePoint(const pugi::xml_node& pt, long line, Recor
     return std::nullopt;
   }
   if (!io_detail::AcceptSample(s, line, errors)) return std::nullopt;
+  s.origin = errors.At(line);
   return ParsedPoint{s, line, has_time};
 }
 

@@ -69,6 +69,7 @@ ReferenceTrack ReadReferenceTrack(const std::filesystem::path& path) {
     track.format = ext.empty() ? "telemetry" : ext.substr(1);
     track.geographic = true;
     for (const TelemetrySample& s : t.telemetry.samples()) {
+      if (!s.has_fix) continue;  // a record without a position
       ReferencePoint p;
       p.time_s = s.time_s;
       p.geo = GeoPoint{s.lat_deg, s.lon_deg, s.abs_alt_m.value_or(s.rel_alt_m.value_or(0.0))};

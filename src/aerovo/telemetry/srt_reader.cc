@@ -1,6 +1,7 @@
 // DJI .SRT subtitle telemetry. Formats seen in DJI files (see telemetry_readers.h); the
 // parser is hand-written (no std::regex: its recursion can overflow on hostile input).
 #include <cctype>
+#include <cmath>
 #include <istream>
 #include <map>
 #include <optional>
@@ -27,6 +28,15 @@ struct Line {
   std::string text;
 };
 
+// The order of the values of a positional "GPS(a, b, c)" / "RTK (a, b, c)" record.
+enum class GpsOrder { kUnknown, kLonLat, kLatLon };
+
+// "N/A" (DJI's "no value" before the GPS fix).
+bool IsNotAvailable(std::string_view v) {
+  v = Trim(v);
+  return v == "N/A" || v == "n/a" || v == "NA";
+}
+
 // Removes HTML-like tags (<font size="28">, </font>) that DJI wraps around the text.
 std::string StripTags(std::string_view s) {
   std::string r;
@@ -49,6 +59,10 @@ bool IsKeyChar(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c
 // Fields of one subtitle block as read from its text.
 struct BlockFields {
   std::optional<double> lat, lon, rel_alt, abs_alt, focal35, gb_yaw, gb_pitch, gb_roll;
+  std::optional<double> yaw, pitch, roll;  // aircraft attitude (drone_*, Drone: Yaw, F.PRY)
+  std::optional<double> hb, hs;            // "Hb:" / "Hs:" heights, used without BAROMETER/H
+  bool no_fix = false;                     // a latitude or longitude written "N/A"
+  GpsOrder order = GpsOrder::kUnknown;     // the file's GPS(...) order (FileGpsOrder)
   std::optional<long long> counter;
   std::optional<double> unix_time;
   std::string error;  // First problem met (value that does not parse).
@@ -75,22 +89,35 @@ struct BlockFields {
   }
 };
 
-// "key : value key2: value2" inside one [...] group.
+// "key : value key2: value2" inside one [...] group. A key whose value is another key names a
+// group (Mavic 2 Enterprise: "[Drone: Yaw:-146.0, Pitch:-0.6, Roll:1.3]"); values end at a
+// blank or a ','.
 void ParseBracket(std::string_view content, BlockFields& f) {
   std::size_t p = 0;
+  std::string group;
   while (p < content.size()) {
     while (p < content.size() && !IsKeyChar(content[p])) ++p;
     const std::size_t kb = p;
     while (p < content.size() && IsKeyChar(content[p])) ++p;
-    const std::string key = io_detail::ToLower(content.substr(kb, p - kb));
+    std::string key = io_detail::ToLower(content.substr(kb, p - kb));
     while (p < content.size() && content[p] == ' ') ++p;
     if (p >= content.size() || content[p] != ':') continue;  // Not a key: skip the word.
     ++p;
     while (p < content.size() && content[p] == ' ') ++p;
+    std::size_t q = p;
+    while (q < content.size() && IsKeyChar(content[q])) ++q;
+    if (q > p && q < content.size() && content[q] == ':' &&
+        !std::isdigit(static_cast<unsigned char>(content[p]))) {
+      group = key;  // "Drone:" followed by "Yaw:..."
+      continue;
+    }
+    if (!group.empty()) key = group + "_" + key;
     const std::size_t vb = p;
-    while (p < content.size() && content[p] != ' ') ++p;
+    while (p < content.size() && content[p] != ' ' && content[p] != ',') ++p;
     const std::string_view value = content.substr(vb, p - vb);
-    if (key == "latitude") {
+    if ((key == "latitude" || key == "longitude" || key == "longtitude") && IsNotAvailable(value)) {
+      f.no_fix = true;
+    } else if (key == "latitude") {
       f.SetNumber(f.lat, key, value);
     } else if (key == "longitude" || key == "longtitude") {
       f.SetNumber(f.lon, key, value);
@@ -112,6 +139,12 @@ void ParseBracket(std::string_view content, BlockFields& f) {
       f.SetNumber(f.gb_pitch, key, value);
     } else if (key == "gb_roll") {
       f.SetNumber(f.gb_roll, key, value);
+    } else if (key == "drone_yaw") {
+      f.SetNumber(f.yaw, key, value);
+    } else if (key == "drone_pitch") {
+      f.SetNumber(f.pitch, key, value);
+    } else if (key == "drone_roll") {
+      f.SetNumber(f.roll, key, value);
     }
   }
 }
@@ -147,6 +180,70 @@ std::optional<std::vector<std::string_view>> ParenValues(std::string_view line,
   return values;
 }
 
+// Position of the word `name` in `line` (not inside a longer word), from `from`; npos if none.
+std::size_t FindWord(std::string_view line, std::string_view name, std::size_t from = 0) {
+  for (std::size_t p = line.find(name, from); p != std::string_view::npos;
+       p = line.find(name, p + 1)) {
+    const bool starts = p == 0 || !IsKeyChar(line[p - 1]);
+    const std::size_t e = p + name.size();
+    const bool ends = e >= line.size() || !IsKeyChar(line[e]) || line[e] == '(';
+    if (starts && ends) return p;
+  }
+  return std::string_view::npos;
+}
+
+// A value of a DJI record without its unit: "0.0M" -> "0.0", "85.80m" -> "85.80",
+// "-24.4°" -> "-24.4" (the degree sign in UTF-8, C2 B0, or Latin-1, B0).
+std::string_view WithoutUnit(std::string_view v) {
+  v = Trim(v);
+  if (v.size() >= 2 && v.substr(v.size() - 2) == "\xC2\xB0") v.remove_suffix(2);
+  if (!v.empty() && (v.back() == 'm' || v.back() == 'M' || v.back() == '\xB0')) v.remove_suffix(1);
+  return Trim(v);
+}
+
+// What the third value of "GPS(a, b, c)" says about the order of a and b: an altitude in metres
+// ("0.0M": the enterprise M200/M300 records, GPS(latitude, longitude, altitude)) or a satellite
+// count (an integer: Phantom 3/4, Mavic, P4 RTK, GPS(longitude, latitude, satellites)).
+GpsOrder OrderOfThirdValue(std::string_view c) {
+  c = Trim(c);
+  if (c.empty()) return GpsOrder::kUnknown;
+  if (c.back() == 'M' || c.back() == 'm') {
+    return ParseDouble(c.substr(0, c.size() - 1)) ? GpsOrder::kLatLon : GpsOrder::kUnknown;
+  }
+  if (c.find_first_not_of("0123456789") == std::string_view::npos) return GpsOrder::kLonLat;
+  return GpsOrder::kUnknown;
+}
+
+// The values of the position record of `line` ("GPS(...)", "GPS (...)" or "RTK (...)"), or
+// nullopt when the line has none; `*name` is set to the record's name.
+std::optional<std::vector<std::string_view>> PositionValues(std::string_view line,
+                                                            std::string_view* name) {
+  for (std::string_view n : {"GPS", "RTK"}) {
+    const std::size_t g = FindWord(line, n);
+    if (g == std::string_view::npos) continue;
+    if (auto v = ParenValues(line, g + n.size())) {
+      *name = n;
+      return v;
+    }
+  }
+  return std::nullopt;
+}
+
+// A number after "<key>" and optional blanks, ':' or '(' (BAROMETER:99.8, BAROMETER:0.3M,
+// BAROMETER(91.2), Hb:12.3m), its unit removed; nullopt when the key is not on the line, and the
+// raw text (which then does not parse) otherwise.
+std::optional<std::string_view> ValueAfter(std::string_view line, std::string_view key) {
+  const std::size_t b = FindWord(line, key);
+  if (b == std::string_view::npos) return std::nullopt;
+  std::size_t p = b + key.size();
+  const std::size_t after_key = p;
+  while (p < line.size() && (line[p] == ' ' || line[p] == ':' || line[p] == '(')) ++p;
+  if (p == after_key) return std::nullopt;  // a word, not a key ("H.S", "Hbar")
+  std::size_t e = p;
+  while (e < line.size() && line[e] != ' ' && line[e] != ',' && line[e] != ')') ++e;
+  return WithoutUnit(line.substr(p, e - p));
+}
+
 void ParseTextLine(std::string_view line, BlockFields& f) {
   f.SetCounter(CounterAfter(line, "FrameCnt"));
   f.SetCounter(CounterAfter(line, "SrtCnt"));
@@ -160,33 +257,44 @@ void ParseTextLine(std::string_view line, BlockFields& f) {
     ParseBracket(line.substr(p + 1, close - p - 1), f);
     p = close;
   }
-  // Older formats.
-  if (const std::size_t g = line.find("GPS"); g != std::string_view::npos) {
-    if (auto v = ParenValues(line, g + 3)) {
-      if (v->size() < 2) {
-        f.Fail("GPS(...) needs longitude and latitude");
-      } else {
-        f.SetNumber(f.lon, "GPS longitude", (*v)[0]);
-        f.SetNumber(f.lat, "GPS latitude", (*v)[1]);
+  // Positional records: the order of latitude and longitude is the file's (FileGpsOrder).
+  std::string_view name;
+  if (auto v = PositionValues(line, &name)) {
+    if (v->size() < 2) {
+      f.Fail(fmt::format("{}(...) needs latitude and longitude", name));
+    } else if (IsNotAvailable((*v)[0]) || IsNotAvailable((*v)[1])) {
+      f.no_fix = true;  // "GPS(N/A,N/A,5)": no fix yet
+    } else {
+      const auto a = ParseDouble((*v)[0]), b = ParseDouble((*v)[1]);
+      if (!a || !b) {
+        f.Fail(fmt::format("{} value '{}' is not a number", name, !a ? (*v)[0] : (*v)[1]));
+      } else if (*a == 0.0 && *b == 0.0) {
+        f.no_fix = true;  // "GPS(0.0, 0.0, 0)": no fix yet, in either order
+      } else if (f.order != GpsOrder::kUnknown) {
+        const bool lat_first = f.order == GpsOrder::kLatLon;
+        f.lat = lat_first ? a : b;
+        f.lon = lat_first ? b : a;
+        f.line_of[&f.lat] = f.line_of[&f.lon] = f.line;
       }
     }
   }
-  if (const std::size_t b = line.find("BAROMETER"); b != std::string_view::npos) {
-    std::size_t p = b + 9;
-    while (p < line.size() && (line[p] == ' ' || line[p] == ':')) ++p;
-    std::size_t e = p;
-    while (e < line.size() && line[e] != ' ' && line[e] != ',') ++e;
-    std::string_view v = line.substr(p, e - p);
-    if (!v.empty() && (v.back() == 'm' || v.back() == 'M')) v.remove_suffix(1);
-    f.SetNumber(f.rel_alt, "BAROMETER", v);
+  // Heights; "N/A" leaves one unknown.
+  const struct {
+    const char* key;
+    std::optional<double> BlockFields::*field;
+  } heights[] = {
+      {"BAROMETER", &BlockFields::rel_alt}, {"Hb", &BlockFields::hb}, {"Hs", &BlockFields::hs}};
+  for (const auto& h : heights) {
+    const auto v = ValueAfter(line, h.key);
+    if (v && !IsNotAvailable(*v)) f.SetNumber(f.*h.field, h.key, *v);
   }
-  if (const std::size_t h = line.find("HOME"); h != std::string_view::npos) {
+  if (const std::size_t h = FindWord(line, "HOME"); h != std::string_view::npos) {
     const std::size_t close = line.find(')', h);
     if (close != std::string_view::npos) {
       if (auto t = io_detail::ParseDateTime(line.substr(close + 1))) f.unix_time = t;
     }
   }
-  // Mavic 2: "..., D 24.38m, H 19.30m, H.S 0.00m/s, ..."
+  // Mavic 2 / Mini / P4 RTK: "..., D 24.38m, H 19.30m, H.S 0.00m/s, ..."
   for (std::size_t p = line.find("H "); p != std::string_view::npos; p = line.find("H ", p + 1)) {
     if (p > 0 && !(line[p - 1] == ' ' || line[p - 1] == ',')) continue;
     std::size_t e = p + 2;
@@ -195,10 +303,84 @@ void ParseTextLine(std::string_view line, BlockFields& f) {
       f.SetNumber(f.rel_alt, "H", line.substr(p + 2, e - p - 2));
     break;
   }
+  // P4 RTK / Phantom 4 Pro: "F.PRY (2.7°, -7.0°, 110.1°), G.PRY (-24.4°, 0.0°, 110.4°)": pitch,
+  // roll and yaw of the aircraft (F) and of the gimbal (G), degrees.
+  const struct {
+    const char* name;
+    std::optional<double> BlockFields::*pitch, BlockFields::*roll, BlockFields::*yaw;
+  } attitudes[] = {{"F.PRY", &BlockFields::pitch, &BlockFields::roll, &BlockFields::yaw},
+                   {"G.PRY", &BlockFields::gb_pitch, &BlockFields::gb_roll, &BlockFields::gb_yaw}};
+  for (const auto& a : attitudes) {
+    const std::size_t k = line.find(a.name);
+    if (k == std::string_view::npos) continue;
+    const auto v = ParenValues(line, k + 5);
+    if (!v || v->size() != 3) {
+      f.Fail(fmt::format("{} needs (pitch, roll, yaw)", a.name));
+      continue;
+    }
+    f.SetNumber(f.*a.pitch, fmt::format("{} pitch", a.name), WithoutUnit((*v)[0]));
+    f.SetNumber(f.*a.roll, fmt::format("{} roll", a.name), WithoutUnit((*v)[1]));
+    f.SetNumber(f.*a.yaw, fmt::format("{} yaw", a.name), WithoutUnit((*v)[2]));
+  }
   // A whole line that is a date ("2023-05-01 12:00:00,123,456").
   if (!line.empty() && std::isdigit(static_cast<unsigned char>(line.front()))) {
     if (auto t = io_detail::ParseDateTime(line)) f.unix_time = t;
   }
+}
+
+// The order of the positional GPS/RTK records of the file, from their own markers (the third
+// value, OrderOfThirdValue) or, without a marker, from a value that can only be a longitude
+// (beyond +-90). kUnknown when the file has no positional record with a position. Throws
+// InputError naming file:line when two records say different orders, or when no record decides
+// (then naming the first one and both readings): the order is never guessed.
+GpsOrder FileGpsOrder(const std::vector<Line>& lines, const std::string& source) {
+  GpsOrder order = GpsOrder::kUnknown;
+  long decided_line = 0;
+  long undecided_line = 0;
+  std::string undecided;
+  std::string_view name;
+  for (const Line& l : lines) {
+    if (l.text.find('(') == std::string::npos) continue;
+    const std::string text = StripTags(l.text);
+    const auto v = PositionValues(text, &name);
+    if (!v || v->size() < 2 || IsNotAvailable((*v)[0]) || IsNotAvailable((*v)[1])) continue;
+    const auto a = ParseDouble((*v)[0]), b = ParseDouble((*v)[1]);
+    if (!a || !b || (*a == 0.0 && *b == 0.0)) continue;  // bad numbers are reported later
+    GpsOrder here = v->size() >= 3 ? OrderOfThirdValue((*v)[2]) : GpsOrder::kUnknown;
+    if (here == GpsOrder::kUnknown) {
+      if (std::abs(*a) > 90.0 && std::abs(*b) <= 90.0) here = GpsOrder::kLonLat;
+      if (std::abs(*b) > 90.0 && std::abs(*a) <= 90.0) here = GpsOrder::kLatLon;
+    }
+    if (here == GpsOrder::kUnknown) {
+      if (undecided_line == 0) {
+        undecided_line = l.number;
+        undecided = fmt::format(
+            "{}({}, {}{}) does not say which value is the latitude (the third value is neither "
+            "a satellite count nor an altitude in M): as (latitude, longitude) it is {}, {}; as "
+            "(longitude, latitude) it is {}, {}",
+            name, (*v)[0], (*v)[1], v->size() >= 3 ? ", " + std::string((*v)[2]) : "", *a, *b, *b,
+            *a);
+      }
+      continue;
+    }
+    if (order == GpsOrder::kUnknown) {
+      order = here;
+      decided_line = l.number;
+    } else if (here != order) {
+      const auto say = [](GpsOrder o) {
+        return o == GpsOrder::kLatLon ? "(latitude, longitude, altitude)"
+                                      : "(longitude, latitude, satellites)";
+      };
+      throw InputError(fmt::format(
+          "{}:{}: {} records in two orders: line {} reads as {}, this line as {}; which one is "
+          "right cannot be decided",
+          source, l.number, name, decided_line, say(order), say(here)));
+    }
+  }
+  if (order == GpsOrder::kUnknown && undecided_line != 0) {
+    throw InputError(fmt::format("{}:{}: {}", source, undecided_line, undecided));
+  }
+  return order;
 }
 
 // The line holding the value ValidateSample refuses in `s` (built from `f`): each value of `f`
@@ -222,6 +404,11 @@ long LineOfRefusedValue(const TelemetrySample& s, const BlockFields& f, long fal
       {&f.lon, [](TelemetrySample& t, double v) { t.lon_deg = v; }},
       {&f.abs_alt, [](TelemetrySample& t, double v) { t.abs_alt_m = v; }},
       {&f.rel_alt, [](TelemetrySample& t, double v) { t.rel_alt_m = v; }},
+      {&f.hb, [](TelemetrySample& t, double v) { t.rel_alt_m = v; }},
+      {&f.hs, [](TelemetrySample& t, double v) { t.rel_alt_m = v; }},
+      {&f.yaw, [](TelemetrySample& t, double v) { t.yaw_deg = v; }},
+      {&f.pitch, [](TelemetrySample& t, double v) { t.pitch_deg = v; }},
+      {&f.roll, [](TelemetrySample& t, double v) { t.roll_deg = v; }},
       {&f.gb_yaw, [](TelemetrySample& t, double v) { t.gimbal_yaw_deg = v; }},
       {&f.gb_pitch, [](TelemetrySample& t, double v) { t.gimbal_pitch_deg = v; }},
       {&f.gb_roll, [](TelemetrySample& t, double v) { t.gimbal_roll_deg = v; }},
@@ -253,23 +440,22 @@ std::vector<Line> ReadLines(std::istream& in) {
 
 // The sample of subtitle `number` (block at `block_line`, start time `start_s`) from its text's
 // fields: nullopt when the fields are malformed (reported through `errors` at error_line or
-// block_line), say no GPS fix (counted in no_fix) or fail AcceptSample.
+// block_line) or fail AcceptSample. A record without a fix ("N/A", or 0, 0) is a sample with
+// has_fix = false that keeps its heights and angles.
 std::optional<TelemetrySample> SampleOfBlock(const BlockFields& f, long long number, double start_s,
-                                             long block_line, long error_line, RecordErrors& errors,
-                                             int& no_fix) {
+                                             long block_line, long error_line,
+                                             RecordErrors& errors) {
   if (!f.error.empty()) {
     errors.Report(error_line, f.error);
     return std::nullopt;
   }
-  if (!f.lat || !f.lon) {
+  // No fix: "N/A", or latitude = longitude = 0 (DJI's values before the fix).
+  const bool no_fix_record = f.no_fix || (f.lat && f.lon && *f.lat == 0.0 && *f.lon == 0.0);
+  if (!no_fix_record && (!f.lat || !f.lon)) {
     errors.Report(block_line, fmt::format("subtitle {} has no {}", number,
                                           !f.lat && !f.lon ? "latitude and longitude"
                                           : !f.lat         ? "latitude"
                                                            : "longitude"));
-    return std::nullopt;
-  }
-  if (*f.lat == 0.0 && *f.lon == 0.0) {
-    ++no_fix;
     return std::nullopt;
   }
   TelemetrySample s;
@@ -282,11 +468,16 @@ std::optional<TelemetrySample> SampleOfBlock(const BlockFields& f, long long num
     }
     s.frame_index = static_cast<int>(*f.counter - 1);
   }
-  s.lat_deg = *f.lat;
-  s.lon_deg = *f.lon;
-  s.rel_alt_m = f.rel_alt;
+  s.has_fix = !no_fix_record;
+  s.lat_deg = s.has_fix ? *f.lat : 0.0;
+  s.lon_deg = s.has_fix ? *f.lon : 0.0;
+  // Height above the take-off point: rel_alt, BAROMETER or H, else Hb, else Hs.
+  s.rel_alt_m = f.rel_alt ? f.rel_alt : f.hb ? f.hb : f.hs;
   s.abs_alt_m = f.abs_alt;
   s.focal_length_35mm_mm = f.focal35;
+  s.yaw_deg = f.yaw;
+  s.pitch_deg = f.pitch;
+  s.roll_deg = f.roll;
   s.gimbal_yaw_deg = f.gb_yaw;
   s.gimbal_pitch_deg = f.gb_pitch;
   s.gimbal_roll_deg = f.gb_roll;
@@ -294,6 +485,7 @@ std::optional<TelemetrySample> SampleOfBlock(const BlockFields& f, long long num
   if (!io_detail::AcceptSample(s, LineOfRefusedValue(s, f, block_line), errors)) {
     return std::nullopt;
   }
+  s.origin = errors.At(block_line);
   return s;
 }
 
@@ -304,6 +496,7 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
   Validate(options);
   RecordErrors errors(options, source_name);
   const std::vector<Line> lines = ReadLines(in);
+  const GpsOrder order = FileGpsOrder(lines, source_name);
   std::vector<TelemetrySample> samples;
   int no_fix = 0;
   std::optional<double> last_time;
@@ -347,21 +540,35 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
     const long timing_line = lines[i].number;
     ++i;
     BlockFields f;
+    f.order = order;
     long error_line = timing_line;
-    for (; i < lines.size() && !blank(i); ++i) {
-      // A subtitle number followed by a timing line starts the next block even when the
-      // blank separator line is missing (seen in hand-edited and concatenated files).
-      if (i + 1 < lines.size() && ParseInt(lines[i].text) &&
-          lines[i + 1].text.find("-->") != std::string::npos) {
-        break;
+    const auto starts_block = [&](std::size_t k) {
+      return k + 1 < lines.size() && ParseInt(lines[k].text) &&
+             lines[k + 1].text.find("-->") != std::string::npos;
+    };
+    while (true) {
+      for (; i < lines.size() && !blank(i); ++i) {
+        // A subtitle number followed by a timing line starts the next block even when the
+        // blank separator line is missing (seen in hand-edited and concatenated files).
+        if (starts_block(i)) break;
+        const bool had_error = !f.error.empty();
+        f.line = lines[i].number;
+        ParseTextLine(StripTags(lines[i].text), f);
+        if (!had_error && !f.error.empty()) error_line = lines[i].number;
       }
-      const bool had_error = !f.error.empty();
-      f.line = lines[i].number;
-      ParseTextLine(StripTags(lines[i].text), f);
-      if (!had_error && !f.error.empty()) error_line = lines[i].number;
+      // The enterprise records (M30/M300 with H20-class cameras) go on after a blank line with a
+      // line holding only "0", then "[dzoom_ratio: ...] [color_md : default]" and "</font>":
+      // the rest of the same subtitle, not a new one.
+      std::size_t k = i;
+      while (k < lines.size() && blank(k)) ++k;
+      if (k < lines.size() && Trim(StripTags(lines[k].text)) == "0" && !starts_block(k)) {
+        i = k + 1;
+        continue;
+      }
+      break;
     }
     std::optional<TelemetrySample> sample =
-        SampleOfBlock(f, *number, *start, block_line, error_line, errors, no_fix);
+        SampleOfBlock(f, *number, *start, block_line, error_line, errors);
     if (!sample) continue;
     TelemetrySample& s = *sample;
     if (last_time && s.time_s < *last_time) {
@@ -372,6 +579,7 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
       continue;
     }
     last_time = s.time_s;
+    if (!s.has_fix) ++no_fix;
     samples.push_back(std::move(s));
   }
   return io_detail::Finish(std::move(samples), errors, no_fix, "SRT file");

@@ -109,6 +109,13 @@ TelemetrySample InterpolateSamples(const TelemetrySample& a, const TelemetrySamp
   r.gimbal_roll_deg = LerpOpt(a.gimbal_roll_deg, b.gimbal_roll_deg, w, true);
   r.focal_length_mm = LerpOpt(a.focal_length_mm, b.focal_length_mm, w, false);
   r.focal_length_35mm_mm = LerpOpt(a.focal_length_35mm_mm, b.focal_length_35mm_mm, w, false);
+  if (w == 0.0 || w == 1.0) return r;  // `near` itself: its fix (or none) and its origin.
+  // Between a sample with a fix and one without there is no position to interpolate.
+  r.has_fix = a.has_fix && b.has_fix;
+  if (!r.has_fix) r.lat_deg = r.lon_deg = 0.0;
+  r.origin = a.origin.empty() || b.origin.empty()
+                 ? std::string()
+                 : fmt::format("between {} and {}", a.origin, b.origin);
   return r;
 }
 

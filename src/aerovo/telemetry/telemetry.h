@@ -23,8 +23,12 @@ struct TelemetrySample {
   /// 0-based index of the video frame / photo this fix belongs to, when the source says so
   /// (DJI SRT: FrameCnt - 1 or subtitle number - 1; CSV: the frame column; photos: their rank).
   std::optional<int> frame_index;
-  double lat_deg = 0.0;             ///< WGS84 latitude, [-90, 90].
-  double lon_deg = 0.0;             ///< WGS84 longitude, [-180, 180].
+  /// false: the record gives no position (DJI writes "N/A" or latitude = longitude = 0 until
+  /// the receiver has a fix); lat_deg and lon_deg are then 0 and mean nothing, while the
+  /// heights, angles and focal lengths of the record are kept.
+  bool has_fix = true;
+  double lat_deg = 0.0;             ///< WGS84 latitude, [-90, 90] (0 without a fix).
+  double lon_deg = 0.0;             ///< WGS84 longitude, [-180, 180] (0 without a fix).
   std::optional<double> abs_alt_m;  ///< Altitude above sea level / ellipsoid as the source says.
   std::optional<double> rel_alt_m;  ///< Height above the take-off point (DJI relative altitude).
   /// Aircraft heading, degrees clockwise from north (DJI FlightYawDegree, CSV yaw/heading).
@@ -37,6 +41,9 @@ struct TelemetrySample {
   std::optional<double> gimbal_roll_deg;
   std::optional<double> focal_length_mm;       ///< Real focal length (EXIF FocalLength).
   std::optional<double> focal_length_35mm_mm;  ///< 35 mm equivalent (EXIF, SRT focal_len).
+  /// Where the sample was read, for messages: "<file>:<line>" of its record (SRT, GPX, CSV) or
+  /// the photo's path; "between A and B" when interpolated; empty when unknown.
+  std::string origin;
 
   /// The heading of the camera: gimbal yaw when known, else aircraft yaw.
   std::optional<double> CameraYawDeg() const { return gimbal_yaw_deg ? gimbal_yaw_deg : yaw_deg; }
@@ -69,6 +76,8 @@ class Telemetry {
   /// longitude, altitudes, focal lengths linear; angles along the shorter arc; longitude
   /// unwrapped across +-180). Optional fields are interpolated when both neighbours have
   /// them, else taken from the nearer neighbour. frame_index is kept only on an exact hit.
+  /// Between a sample with a fix and one without (has_fix), the result has no fix; `origin`
+  /// is "between A and B".
   /// Outside [start - tolerance_s, end + tolerance_s] -> nullopt; inside the tolerance band the
   /// end sample is returned unchanged (time_s set to the query).
   std::optional<TelemetrySample> Lookup(double time_s, double tolerance_s = 0.0) const;

@@ -10,8 +10,10 @@
 //  - lenient: the record is skipped, counted in TelemetryReadResult::skipped_records, and its
 //    message kept in `warnings` (the first max_warnings of them).
 // In both modes a file with no valid record at all throws InputError ("no telemetry samples").
-// Records that say "no GPS fix" (DJI writes latitude 0 and longitude 0 before the fix) are
-// dropped in both modes and counted in no_fix_records: they are not damage.
+// Records that say "no GPS fix" (DJI writes latitude 0 and longitude 0, or "N/A", before the fix)
+// are not damage: in DJI SRT files they are samples with has_fix = false that keep their heights
+// and angles, in GPX and CSV files they are dropped; both modes count them in no_fix_records.
+// Every sample's `origin` is "<source>:<line>" of its record.
 #pragma once
 
 #include <filesystem>
@@ -46,25 +48,36 @@ struct TelemetryReadResult {
   Telemetry telemetry;                ///< Sorted by time; time_s = 0 at the first record.
   int records = 0;                    ///< Records accepted (== telemetry.size()).
   int skipped_records = 0;            ///< Malformed records skipped (lenient mode only).
-  int no_fix_records = 0;             ///< Records with latitude = longitude = 0 (no GPS fix).
+  int no_fix_records = 0;  ///< Records without a GPS fix (latitude = longitude = 0, "N/A").
   std::vector<std::string> warnings;  ///< "<source>:<line>: <problem>" of skipped records.
 };
 
 /// DJI .SRT subtitles. Each subtitle block is: a number line, a timing line
-/// "HH:MM:SS,mmm --> HH:MM:SS,mmm" and text lines. Understood text (HTML tags such as <font>
-/// are removed first):
+/// "HH:MM:SS,mmm --> HH:MM:SS,mmm" and text lines (HTML tags such as <font> are removed first).
+/// The families read (docs/inputs.md "DJI .SRT families" has an example line of each):
 ///  - bracketed fields (Mavic Air 2 / Mini / Mavic 3 style):
 ///    "[latitude: 43.5367] [longitude: 6.5567] [rel_alt: 100.000 abs_alt: 350.123]",
 ///    also "[longtitude : ...]" (Mavic Pro's misspelling), "[altitude: ...]" (= abs_alt),
 ///    "[focal_len : 240]" (35 mm equivalent: an integer >= 100 is in tenths of mm, 240 = 24 mm;
 ///    a value with decimals is in mm, 24.00 = 24 mm),
-///    "[gb_yaw: .. gb_pitch: .. gb_roll: ..]" (gimbal angles);
+///    "[gb_yaw: .. gb_pitch: .. gb_roll: ..]" (gimbal angles), "[drone_yaw: .. drone_pitch: ..
+///    drone_roll: ..]" and "[Drone: Yaw:.., Pitch:.., Roll:..]" (aircraft angles);
+///  - the multi-line records of enterprise aircraft (M30/M300 with H20-class cameras): the same
+///    fields over several lines, then a blank line, a line "0" and more lines of the same
+///    subtitle;
 ///  - "FrameCnt: 12, DiffTime: 33ms" or "SrtCnt : 12, ..." (frame counter, 1-based);
 ///  - a date line "2023-05-01 12:00:00,123,456" / "2023-05-01 12:00:00.123";
-///  - the older Phantom format: "GPS(6.5567,43.5367,19)" / "GPS (6.5567, 43.5367, 19)" with
-///    longitude FIRST, "BAROMETER:100.5" (height above take-off, m), "HOME(lon,lat) date", and
-///    the Mavic 2 "H 19.30m" height. The third GPS value is ignored: depending on the model it
-///    is a satellite count or a rounded altitude.
+///  - 1 Hz records: "GPS(6.5567,43.5367,19)" / "GPS (6.5567, 43.5367, 19)" / "RTK (...)" with
+///    the order of latitude and longitude given by the third value: an integer (satellites) ->
+///    longitude first (Phantom, Mavic 2, P4 RTK); an altitude with "M" -> latitude first
+///    (M200/M300: "GPS(36.6146,-6.1120,0.0M)"); no marker: a value beyond +-90 is the longitude.
+///    A file with two orders, or with a GPS(...) that no marker or value decides, throws
+///    InputError "<source>:<line>: ..." naming both readings (in both modes: never a guess).
+///    "BAROMETER:100.5" / "BAROMETER:0.3M" / "BAROMETER(91.2)" and "H 19.30m" (height above
+///    take-off); "Hb:35.2m", else "Hs:34.8m" when there is neither; "HOME(lon,lat) date";
+///    "F.PRY (p°, r°, y°)" / "G.PRY (...)" (pitch, roll, yaw of the aircraft / the gimbal).
+///  - no fix: "GPS(N/A,N/A,n)", "[latitude: N/A]" or latitude = longitude = 0: a sample with
+///    has_fix = false, keeping its heights and angles.
 /// time_s = the block's start time (video time). frame_index = counter - 1 (0-based video
 /// frame) when the block has FrameCnt/SrtCnt; unset otherwise (old formats write one subtitle
 /// per second, not per frame: match those by time).

@@ -287,13 +287,246 @@ TEST(DjiSrt, MissingBlankSeparatorLine) {
   EXPECT_DOUBLE_EQ(r.telemetry[1].time_s, 0.033);
 }
 
-TEST(DjiSrt, NoFixRecordsAreDroppedAndCounted) {
+// A record without a fix (latitude = longitude = 0, "N/A") is a sample without a position that
+// keeps its heights and angles; before, it was dropped (and a GPS(N/A,...) record refused the
+// file).
+TEST(DjiSrt, NoFixRecordsKeepTheirHeightAndAngles) {
   std::istringstream in(SrtWithBadBlock(
-      "3\n00:00:00,066 --> 00:00:00,100\n[latitude: 0.000000] [longitude: 0.000000]\n"));
+      "3\n00:00:00,066 --> 00:00:00,100\n[latitude: 0.000000] [longitude: 0.000000] "
+      "[rel_alt: 50.500 abs_alt: 300.500] [gb_yaw: 10.0 gb_pitch: -45.0 gb_roll: 0.0]\n"));
   const TelemetryReadResult r = ParseDjiSrt(in, "nofix.srt");
-  EXPECT_EQ(r.records, 3);
+  ASSERT_EQ(r.records, 4);
   EXPECT_EQ(r.no_fix_records, 1);
   EXPECT_EQ(r.skipped_records, 0);
+  const TelemetrySample& s = r.telemetry[2];
+  EXPECT_FALSE(s.has_fix);
+  EXPECT_DOUBLE_EQ(*s.rel_alt_m, 50.5);
+  EXPECT_DOUBLE_EQ(*s.gimbal_pitch_deg, -45.0);
+  EXPECT_TRUE(r.telemetry[1].has_fix);
+  EXPECT_EQ(r.telemetry[1].origin, "nofix.srt:5");
+  // Between a fix and a record without one there is no position.
+  const auto mid = r.telemetry.Lookup(0.08);
+  ASSERT_TRUE(mid);
+  EXPECT_FALSE(mid->has_fix);
+  EXPECT_EQ(r.telemetry.Lookup(0.02)->origin, "between nofix.srt:1 and nofix.srt:5");
+}
+
+// ---- Every family of DJI SRT records, as the aircraft write them (lines of real files, from
+// public samples: JuanIrache/DJI_SRT_Parser samples/, PhilipQuirke/SkyCombAnalystHelp
+// FlightLogs.md, OpenDroneMap opendm/video/srtparser.py).
+
+// Phantom 3/4, Inspire 1 (1 Hz): HOME(lon,lat) date, GPS(lon,lat,satellites) BAROMETER:height.
+TEST(DjiSrtFamilies, PhantomOneHertzLongitudeFirst) {
+  std::istringstream in(
+      "1\n00:00:00,000 --> 00:00:01,000\n"
+      "HOME(149.0251,-20.2532) 2017.08.05 14:11:51\n"
+      "GPS(149.0251,-20.2533,16) BAROMETER:1.9\n"
+      "ISO:110 Shutter:120 EV: Fnum:F2.8 \n\n"
+      "2\n00:00:01,000 --> 00:00:02,000\n"
+      "HOME(149.0251,-20.2532) 2017.08.05 14:11:52\n"
+      "GPS(149.0252,-20.2534,16) BAROMETER:3.4\n"
+      "ISO:110 Shutter:120 EV: Fnum:F2.8 \n");
+  const TelemetryReadResult r = ParseDjiSrt(in, "p3.srt");
+  ASSERT_EQ(r.records, 2);
+  EXPECT_DOUBLE_EQ(r.telemetry[1].lat_deg, -20.2534);
+  EXPECT_DOUBLE_EQ(r.telemetry[1].lon_deg, 149.0252);
+  EXPECT_DOUBLE_EQ(*r.telemetry[1].rel_alt_m, 3.4);
+  EXPECT_DOUBLE_EQ(*r.telemetry[1].unix_time_s - *r.telemetry[0].unix_time_s, 1.0);
+}
+
+// The "Hb:" (barometric) and "Hs:" heights of some 1 Hz records: the height when there is no
+// BAROMETER (Hb before Hs).
+TEST(DjiSrtFamilies, HbAndHsHeights) {
+  std::istringstream in(
+      "1\n00:00:00,000 --> 00:00:01,000\n"
+      "HOME(6.5500,43.5300) 2018.03.01 10:00:00\n"
+      "GPS(6.5567,43.5367,18) Hb:35.2m Hs:34.8m\n\n"
+      "2\n00:00:01,000 --> 00:00:02,000\n"
+      "HOME(6.5500,43.5300) 2018.03.01 10:00:01\n"
+      "GPS(6.5568,43.5368,18) Hs:36.1m\n");
+  const TelemetryReadResult r = ParseDjiSrt(in, "hb.srt");
+  ASSERT_EQ(r.records, 2);
+  EXPECT_DOUBLE_EQ(r.telemetry[0].lat_deg, 43.5367);
+  EXPECT_DOUBLE_EQ(*r.telemetry[0].rel_alt_m, 35.2);
+  EXPECT_DOUBLE_EQ(*r.telemetry[1].rel_alt_m, 36.1);
+}
+
+// Phantom 4 Pro / P4 RTK (1 Hz, one line): GPS or RTK (lon, lat, satellites), HOME (lon, lat,
+// altitude), H (height), F.PRY / G.PRY (pitch, roll, yaw) of the aircraft and the gimbal. An
+// oblique camera (G.PRY pitch -24.4) must be read as such.
+TEST(DjiSrtFamilies, P4RtkOneLineWithAttitudes) {
+  std::istringstream in(
+      "1\n00:00:00,000 --> 00:00:01,000\n"
+      "F/5.6, SS 400, ISO 100, EV 0, GPS (-58.851745, -34.237922, 15), HOME (-58.847509, "
+      "-34.232707, -57.98m), D 698.70m, H 85.80m, H.S 0.00m/s, V.S 0.00m/s, F.PRY (2.7\xC2\xB0, "
+      "-7.0\xC2\xB0, 110.1\xC2\xB0), G.PRY (-24.4\xC2\xB0, 0.0\xC2\xB0, 110.4\xC2\xB0)\n\n"
+      "36\n00:00:35,000 --> 00:00:36,000\n"
+      "F/6.3, SS 60, ISO 100, EV 0, RTK (120.083799, 30.213635, 28), HOME (120.084146, "
+      "30.214243, 103.55m), D 75.36m, H 76.19m, H.S 0.30m/s, V.S 0.00m/s, F.PRY (-5.3\xC2\xB0, "
+      "2.1\xC2\xB0, 28.3\xC2\xB0), G.PRY (-40.0\xC2\xB0, 0.0\xC2\xB0, 28.2\xC2\xB0)\n");
+  const TelemetryReadResult r = ParseDjiSrt(in, "p4rtk.srt");
+  ASSERT_EQ(r.records, 2);
+  const TelemetrySample& a = r.telemetry[0];
+  EXPECT_DOUBLE_EQ(a.lat_deg, -34.237922);
+  EXPECT_DOUBLE_EQ(a.lon_deg, -58.851745);
+  EXPECT_DOUBLE_EQ(*a.rel_alt_m, 85.8);
+  EXPECT_DOUBLE_EQ(*a.pitch_deg, 2.7);
+  EXPECT_DOUBLE_EQ(*a.roll_deg, -7.0);
+  EXPECT_DOUBLE_EQ(*a.yaw_deg, 110.1);
+  EXPECT_DOUBLE_EQ(*a.gimbal_pitch_deg, -24.4);
+  EXPECT_DOUBLE_EQ(*a.gimbal_roll_deg, 0.0);
+  EXPECT_DOUBLE_EQ(*a.gimbal_yaw_deg, 110.4);
+  const TelemetrySample& b = r.telemetry[1];
+  EXPECT_DOUBLE_EQ(b.lat_deg, 30.213635);  // RTK (lon, lat, satellites)
+  EXPECT_DOUBLE_EQ(b.lon_deg, 120.083799);
+  EXPECT_DOUBLE_EQ(*b.rel_alt_m, 76.19);
+  EXPECT_DOUBLE_EQ(*b.gimbal_pitch_deg, -40.0);
+  EXPECT_EQ(b.origin, "p4rtk.srt:5");
+}
+
+// Matrice 200/300 with XT2/Z30 (1 Hz): GPS(latitude, longitude, altitude M) — latitude FIRST,
+// the third value an altitude with its unit. Before, it was read in the Phantom order, which
+// moved the flight to another continent.
+TEST(DjiSrtFamilies, EnterpriseGpsLatitudeFirst) {
+  std::istringstream in(
+      "1\n00:00:00,000 --> 00:00:01,000\n"
+      "2022.06.21 16:06:17\n"
+      "GPS(36.6146,-6.1120,0.0M) BAROMETER:0.3M\n\n"
+      "2\n00:00:01,000 --> 00:00:02,000\n"
+      "2022.06.21 16:06:18\n"
+      "GPS(36.6146,-6.1120,0.0M) BAROMETER:0.8M\n\n"
+      "405\n00:06:44,000 --> 00:06:45,000\n"
+      "2023.08.07 20:10:01\n"
+      "GPS(-41.3899,174.0177,0.0M) BAROMETER:97.7M\n");
+  const TelemetryReadResult r = ParseDjiSrt(in, "m300.srt");
+  ASSERT_EQ(r.records, 3);
+  EXPECT_DOUBLE_EQ(r.telemetry[0].lat_deg, 36.6146);
+  EXPECT_DOUBLE_EQ(r.telemetry[0].lon_deg, -6.112);
+  EXPECT_DOUBLE_EQ(*r.telemetry[1].rel_alt_m, 0.8);
+  EXPECT_FALSE(r.telemetry[0].abs_alt_m);  // the third value is not the altitude above sea
+  EXPECT_DOUBLE_EQ(r.telemetry[2].lat_deg, -41.3899);
+  EXPECT_DOUBLE_EQ(r.telemetry[2].lon_deg, 174.0177);
+  EXPECT_DOUBLE_EQ(*r.telemetry[2].rel_alt_m, 97.7);
+}
+
+// A GPS(...) whose third value marks neither order, with values that both fit a latitude: an
+// error naming file:line and both readings. Two orders in one file: an error naming both lines.
+// Values that can only be read one way (a longitude beyond 90) decide by themselves.
+TEST(DjiSrtFamilies, AmbiguousGpsOrderIsAnErrorNeverAGuess) {
+  {
+    std::istringstream in(
+        "1\n00:00:00,000 --> 00:00:01,000\nGPS(36.6146,-6.1120,17.5) BAROMETER:0.3\n");
+    ExpectInputError([&] { ParseDjiSrt(in, "amb.srt"); },
+                     {"amb.srt:3:", "GPS(36.6146, -6.1120, 17.5)",
+                      "as (latitude, longitude) it is 36.6146, -6.112",
+                      "as (longitude, latitude) it is -6.112, 36.6146"});
+  }
+  {
+    std::istringstream in(
+        "1\n00:00:00,000 --> 00:00:01,000\nGPS(36.6146,-6.1120,0.0M) BAROMETER:0.3M\n\n"
+        "2\n00:00:01,000 --> 00:00:02,000\nGPS(-6.1120,36.6146,17) BAROMETER:0.3\n");
+    ExpectInputError([&] { ParseDjiSrt(in, "mixed.srt"); },
+                     {"mixed.srt:7:", "line 3 reads as (latitude, longitude, altitude)",
+                      "this line as (longitude, latitude, satellites)"});
+  }
+  std::istringstream in(
+      "1\n00:00:00,000 --> 00:00:01,000\nGPS(39.906217,116.391305,69.800) BAROMETER(91.2)\n");
+  const TelemetryReadResult r = ParseDjiSrt(in, "proof.srt");
+  EXPECT_DOUBLE_EQ(r.telemetry[0].lat_deg, 39.906217);
+  EXPECT_DOUBLE_EQ(r.telemetry[0].lon_deg, 116.391305);
+  EXPECT_DOUBLE_EQ(*r.telemetry[0].rel_alt_m, 91.2);
+}
+
+// GPS(N/A,N/A,n) before the fix: a sample without a fix that keeps its height; the file is read.
+TEST(DjiSrtFamilies, NotAvailableGpsIsASampleWithoutFix) {
+  std::istringstream in(
+      "1\n00:00:00,000 --> 00:00:01,000\n"
+      "HOME(149.0251,-20.2532) 2017.08.05 14:11:51\n"
+      "GPS(N/A,N/A,4) BAROMETER:0.5\n\n"
+      "2\n00:00:01,000 --> 00:00:02,000\n"
+      "HOME(149.0251,-20.2532) 2017.08.05 14:11:52\n"
+      "GPS(149.0251,-20.2533,9) BAROMETER:1.9\n");
+  const TelemetryReadResult r = ParseDjiSrt(in, "na.srt");
+  ASSERT_EQ(r.records, 2);
+  EXPECT_EQ(r.no_fix_records, 1);
+  EXPECT_FALSE(r.telemetry[0].has_fix);
+  EXPECT_DOUBLE_EQ(*r.telemetry[0].rel_alt_m, 0.5);
+  EXPECT_TRUE(r.telemetry[1].has_fix);
+  EXPECT_DOUBLE_EQ(r.telemetry[1].lat_deg, -20.2533);
+}
+
+// Mavic 2 Enterprise: "[longtitude: ...] [altitude: ...] [Drone: Yaw:.., Pitch:.., Roll:..]".
+TEST(DjiSrtFamilies, Mavic2EnterpriseDroneAngles) {
+  std::istringstream in(
+      "4\n00:00:00,341 --> 00:00:00,455\n"
+      "<font size=\"36\">FrameCnt : 4, DiffTime : 114ms\n"
+      "2022-09-08 06:26:55,549,370\n"
+      "[color_md : default] [latitude: -36.885326] [longtitude: 174.697242] [altitude: "
+      "28.736000] [Drone: Yaw:-146.0, Pitch:-0.6, Roll:1.3] </font>\n");
+  const TelemetryReadResult r = ParseDjiSrt(in, "m2e.srt");
+  ASSERT_EQ(r.records, 1);
+  const TelemetrySample& s = r.telemetry[0];
+  EXPECT_EQ(s.frame_index, 3);
+  EXPECT_DOUBLE_EQ(s.lat_deg, -36.885326);
+  EXPECT_DOUBLE_EQ(s.lon_deg, 174.697242);
+  EXPECT_DOUBLE_EQ(*s.abs_alt_m, 28.736);
+  EXPECT_DOUBLE_EQ(*s.yaw_deg, -146.0);
+  EXPECT_DOUBLE_EQ(*s.pitch_deg, -0.6);
+  EXPECT_DOUBLE_EQ(*s.roll_deg, 1.3);
+}
+
+// M300 with H20T / H20N: one subtitle over many lines (counter, date, camera, position, heights,
+// speed, aircraft and gimbal angles), a blank line, a lone "0", then the zoom and </font>. Before,
+// the "0" was taken for a new subtitle and the file refused ("bad timing line").
+TEST(DjiSrtFamilies, EnterpriseMultiLineRecords) {
+  const std::string text =
+      "1\n"
+      "00:00:00,000 --> 00:00:00,033\n"
+      "< font size=\"28\" >FrameCnt: 1, DiffTime: 33ms\n"
+      "2024-02-27 22:30:45.395\n"
+      "[fnum: 1.0] [focal_len: 58.00] [dzoom: 1.00] \n"
+      "[latitude: -44.228828] [longitude: 171.193516] [rel_alt: 40.162 abs_alt: 97.829] \n"
+      "[drone_speedx: 0.2 drone_speedy: 0.0 drone_speedz: 0.0] \n"
+      "[drone_yaw: -20.4 drone_pitch: 2.4 drone_roll: -2.1] \n"
+      "[gb_yaw: -30.0 gb_pitch: -29.9 gb_roll: 0.0] \n"
+      "\n"
+      "0\n"
+      "[dzoom_ratio: 10000, delta:0] [color_md : default] \n"
+      "< /font >\n"
+      "\n"
+      "2\n"
+      "00:00:00,033 --> 00:00:00,069\n"
+      "< font size=\"28\" >SrtCnt : 2, DiffTime : 36ms\n"
+      "2024-02-28 00:13:26.240\n"
+      "[fnum: 1.0] [focal_len: 52.00] [dzoom: 1.79] \n"
+      "[latitude: -44.228930] [longitude: 171.193573] [rel_alt: 40.050 abs_alt: 104.235] \n"
+      "[drone_speedx: 0.5 drone_speedy: -0.1 drone_speedz: 0.0] \n"
+      "[drone_yaw: -19.8 drone_pitch: -3.3 drone_roll: 0.0] \n"
+      "[gb_yaw: -35.4 gb_pitch: -30.3 gb_roll: 0.0] \n"
+      "\n"
+      "0\n"
+      "[dzoom_ratio: 17871, delta:0] < /font >\n";
+  std::istringstream in(text);
+  const TelemetryReadResult r = ParseDjiSrt(in, "h20t.srt");
+  ASSERT_EQ(r.records, 2);
+  EXPECT_EQ(r.skipped_records, 0);
+  const TelemetrySample& a = r.telemetry[0];
+  EXPECT_EQ(a.frame_index, 0);
+  EXPECT_DOUBLE_EQ(a.lat_deg, -44.228828);
+  EXPECT_DOUBLE_EQ(a.lon_deg, 171.193516);
+  EXPECT_DOUBLE_EQ(*a.rel_alt_m, 40.162);
+  EXPECT_DOUBLE_EQ(*a.abs_alt_m, 97.829);
+  EXPECT_DOUBLE_EQ(*a.yaw_deg, -20.4);
+  EXPECT_DOUBLE_EQ(*a.pitch_deg, 2.4);
+  EXPECT_DOUBLE_EQ(*a.roll_deg, -2.1);
+  EXPECT_DOUBLE_EQ(*a.gimbal_yaw_deg, -30.0);
+  EXPECT_DOUBLE_EQ(*a.gimbal_pitch_deg, -29.9);  // oblique camera
+  EXPECT_DOUBLE_EQ(*a.focal_length_35mm_mm, 58.0);
+  const TelemetrySample& b = r.telemetry[1];
+  EXPECT_EQ(b.frame_index, 1);
+  EXPECT_DOUBLE_EQ(b.time_s, 0.033);
+  EXPECT_DOUBLE_EQ(*b.gimbal_pitch_deg, -30.3);
+  EXPECT_EQ(b.origin, "h20t.srt:15");
 }
 
 TEST(DjiSrt, EmptyAndAllGarbageFilesThrow) {
