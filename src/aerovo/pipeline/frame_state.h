@@ -93,9 +93,6 @@ struct RunState {
   GpsFixChecker gps_check;  ///< Fixes (stage_gps_check.cc) and the heights' relative altitudes.
   RunTotals totals{true};
   std::map<int, RejectedFix> rejected;  ///< Frame -> its rejected fix.
-  /// Frame -> where its fix was read (TelemetrySample::origin: the photo, or the SRT/GPX/CSV
-  /// file and line), named when the fix is rejected, also later (superseded).
-  std::map<int, std::string> fix_origin;
   int frames_without_fix = 0;
   /// The first frame flagged with each flag (FrameFlags names), for the summary's warning.
   std::map<std::string, std::string> first_flagged;

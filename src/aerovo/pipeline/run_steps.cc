@@ -133,6 +133,14 @@ std::optional<TelemetrySample> RunTelemetry::SampleOf(const Frame& f) const {
   return telemetry_.Lookup(f.time_s + offset_s_, 0.5);
 }
 
+std::string RunTelemetry::OriginOf(int frame_index, double time_s) const {
+  if (telemetry_.empty()) return {};
+  const std::optional<TelemetrySample> s = by_frame_index_ && offset_s_ == 0.0
+                                               ? telemetry_.AtFrame(frame_index)
+                                               : telemetry_.Lookup(time_s + offset_s_, 0.5);
+  return s ? s->origin : std::string();
+}
+
 std::string RunTelemetry::WhyNoFix(const Frame& f) const {
   if (telemetry_.empty()) return "there is no telemetry";
   if (by_frame_index_ && offset_s_ == 0.0) {

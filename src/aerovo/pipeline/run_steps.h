@@ -101,6 +101,10 @@ class RunTelemetry {
   /// frame.time_s + offset_s (within 0.5 s of the covered span); nullopt without telemetry or
   /// when none matches.
   std::optional<TelemetrySample> SampleOf(const Frame& frame) const;
+  /// Where the fix of the frame with this index and capture time was read
+  /// (TelemetrySample::origin of SampleOf); empty when unknown. Looked up again when a message
+  /// needs it, so that a run keeps no per-frame record of it.
+  std::string OriginOf(int frame_index, double time_s) const;
   /// Why `frame` has no fix (SampleOf gave nothing), in words: the frame's time or index against
   /// the telemetry's span, e.g. "frame 0 is before the first telemetry record (FrameCnt 1001:
   /// the second clip of a split recording?)".

@@ -14,11 +14,10 @@ namespace aerovo::run_steps {
 namespace {
 
 // "<telemetry>: the GPS fix of frame N (time t s, <origin>) rejected", naming the photo or
-// the record the fix was read from when the sample says (RunState::fix_origin).
+// the record the fix was read from when the sample says (RunTelemetry::OriginOf).
 std::string Rejected(const RunContext& run, int frame_index, double time_s) {
-  const auto at = run.state->fix_origin.find(frame_index);
-  const std::string from =
-      at == run.state->fix_origin.end() || at->second.empty() ? "" : ", " + at->second;
+  const std::string origin = run.telemetry->OriginOf(frame_index, time_s);
+  const std::string from = origin.empty() ? "" : ", " + origin;
   return fmt::format("{}: the GPS fix of frame {} (time {:.3f} s{}) rejected",
                      run.telemetry->origin(), frame_index, time_s, from);
 }
@@ -67,8 +66,6 @@ class GpsCheckStage : public FrameStage {
       return;
     }
     const Frame& frame = f.frame;
-    if (f.sample && !f.sample->origin.empty())
-      run.state->fix_origin[frame.index] = f.sample->origin;
     const int unmeasured = run.odometry->stats().bridged;
     const GpsFixVerdict v = run.state->gps_check.Check(
         frame.index, frame.time_s, *f.gps, f.sample ? f.sample->rel_alt_m : std::nullopt,
