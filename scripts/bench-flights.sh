@@ -14,8 +14,44 @@
 # --write FILE: also the first BUILD's figures as a tab-separated table (bench/real_flights.tsv:
 # read by tests/e2e/run_flight_test.cc and quoted by README.md and BENCHMARKS.md).
 # --keep DIR: keep the run folders in DIR (default: a temporary folder, removed at the end).
+#
+#   scripts/bench-flights.sh --quote bench/real_flights.tsv
+#
+# runs nothing: prints README.md's real-flight rows (Results) from a stored table.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
+
+# README.md's rows from a stored table (tests/e2e/run_flight_test.cc RealFlights.* checks them).
+quote() {
+  python3 - "$1" <<'PY'
+import sys
+from collections import OrderedDict
+t = OrderedDict()  # flight -> (flags, {figure: {seed1, mean, min, max}})
+with open(sys.argv[1]) as fh:
+    lines = [l.rstrip("\n") for l in fh if not l.startswith("#")]
+for line in lines[1:]:
+    f, flags, fig, seed1, mean, lo, hi = line.split("\t")
+    t.setdefault(f, (flags, {}))[1][fig] = dict(seed1=float(seed1), mean=float(mean),
+                                                min=float(lo), max=float(hi))
+print("| flight | frames | distance (GPS) | ATE RMSE SE(2) | ATE RMSE Sim(2) | end-point error "
+      "| end error, no alignment | Sim(2) ATE, all seeds |")
+print("|---|---|---|---|---|---|---|---|")
+for f, (flags, g) in t.items():
+    v = lambda k: g[k]["seed1"]
+    name = f + (f" (`{flags}`)" if flags else "")
+    print(f"| {name} | {v('frames'):.0f} | {v('distance_m'):.0f} m "
+          f"| {v('se2_ate_m'):.2f} m ({v('se2_ate_percent'):.2f} %) "
+          f"| **{v('sim2_ate_m'):.2f} m ({v('sim2_ate_percent'):.3f} %)** "
+          f"| {v('se2_end_m'):.2f} m ({v('se2_end_percent'):.2f} %) "
+          f"| {v('end_unaligned_m'):.2f} m ({v('end_unaligned_percent'):.2f} %) "
+          f"| {g['sim2_ate_m']['min']:.2f}-{g['sim2_ate_m']['max']:.2f} m |")
+PY
+}
+if [ "${1:-}" = --quote ]; then
+  [ -f "${2:-}" ] || { echo "bench-flights.sh: --quote needs a stored table (bench/real_flights.tsv)" >&2; exit 2; }
+  quote "$2"
+  exit 0
+fi
 
 # Flags a flight needs beyond the defaults (what README.md and tests/e2e/run_flight_test.cc use):
 # tampa's EXIF altitude is invalid (flown at about 55-60 m, judged from a tennis court); turin
@@ -35,7 +71,7 @@ while [ $# -gt 0 ]; do
     --shared) shared=$2; shift 2 ;;
     --write) write=$2; shift 2 ;;
     --keep) keep=$2; shift 2 ;;
-    -h|--help) sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     -*) echo "bench-flights.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
     *) builds+=("$1"); shift ;;
   esac
@@ -153,7 +189,7 @@ for (f, i), r in runs.items():
         cell(st["sim2_ate_m"], "{:.2f}"), cell(st["se2_ate_m"], "{:.2f}"),
         cell(st["end_unaligned_m"], "{:.2f}", st["end_unaligned_percent"]),
         cell(st["bridged"], "{:g}") + " / " +
-        cell(st["reacquired"], "{:.1f}" if seeds > 1 else "{:.0f}"),
+        cell(st["reacquired"], "{:g}"),
         cell(st["fps"], "{:.1f}"), cell(st["cpu_ms_per_frame"], "{:.1f}")]
     print("| " + " | ".join(row) + " |")
 if seeds > 1:
