@@ -1,6 +1,8 @@
-// `aerovo run` on the real flights in $AEROVO_SHARED (tampa-phantom3, turin-p4m), a flight with a
-// black frame, and a run interrupted by SIGINT. Figures asserted here are those first measured
-// (BENCHMARKS.md, "Odometry on real flights") plus a margin.
+// `aerovo run` on the real flights in $AEROVO_SHARED (tampa-phantom3, turin-p4m,
+// brighton-phantom3-16x9), a flight with a black frame, and a run interrupted by SIGINT. The
+// accuracy targets are asserted with a margin, and the default runs' figures against the stored
+// real-flight table bench/real_flights.tsv within its seed-to-seed spread (BENCHMARKS.md, "Real
+// flights: the benchmark").
 #include "aerovo/frames/camera.h"
 #include "aerovo/pipeline/runner.h"
 
