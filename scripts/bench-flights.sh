@@ -4,7 +4,8 @@
 # for one or more builds and RANSAC seeds, and ONE Markdown table of what the runs' summary.json
 # say (their `evaluation` against the photos' GPS, frame counts, fps, CPU per frame).
 #
-#   scripts/bench-flights.sh [--seeds N] [--shared DIR] [--write FILE] [--keep DIR] [BUILD...]
+#   scripts/bench-flights.sh [--seeds N] [--flight NAME]... [--shared DIR] [--write FILE]
+#                            [--keep DIR] [BUILD...]
 #
 # BUILD: a build folder (default: build), whose src/aerovo/cli/aerovo runs; a BUILD may carry
 # extra `aerovo run` flags in the same argument ("build --no-surf-adaptive"), to compare a
@@ -13,6 +14,7 @@
 # seeds in brackets (min-max), and the seed-1 run is the one the tests compare with.
 # --write FILE: also the first BUILD's figures as a tab-separated table (bench/real_flights.tsv:
 # read by tests/e2e/run_flight_test.cc and quoted by README.md and BENCHMARKS.md).
+# --flight NAME: only this flight folder (repeatable; default: every folder).
 # --keep DIR: keep the run folders in DIR (default: a temporary folder, removed at the end).
 #
 #   scripts/bench-flights.sh --quote bench/real_flights.tsv
@@ -64,14 +66,16 @@ seeds=1
 shared=${AEROVO_SHARED:-$root/../shared}
 write=""
 keep=""
+only=()
 builds=()
 while [ $# -gt 0 ]; do
   case $1 in
     --seeds) seeds=$2; shift 2 ;;
+    --flight) only+=("$2"); shift 2 ;;
     --shared) shared=$2; shift 2 ;;
     --write) write=$2; shift 2 ;;
     --keep) keep=$2; shift 2 ;;
-    -h|--help) sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,22p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     -*) echo "bench-flights.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
     *) builds+=("$1"); shift ;;
   esac
@@ -105,6 +109,12 @@ for d in "$flights_dir"/*/; do
   d=${d%/}
   compgen -G "$d/*.[jJ][pP][gG]" >/dev/null && flights+=("$(basename "$d")")
 done
+if [ ${#only[@]} -gt 0 ]; then
+  for f in "${only[@]}"; do
+    [ -d "$flights_dir/$f" ] || { echo "bench-flights.sh: no flight folder $flights_dir/$f" >&2; exit 1; }
+  done
+  flights=("${only[@]}")
+fi
 [ ${#flights[@]} -gt 0 ] || { echo "bench-flights.sh: no flight folder in $flights_dir" >&2; exit 1; }
 
 # The runs, one at a time (fps and CPU per frame are those of a lone run); list.tsv names each
