@@ -1,0 +1,229 @@
+#include "aerovo/features/flat_field.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "aerovo/core/error.h"
+
+namespace aerovo {
+
+const char* ToString(FlatFieldMode mode) {
+  switch (mode) {
+    case FlatFieldMode::kAuto:
+      return "auto";
+    case FlatFieldMode::kOn:
+      return "on";
+    case FlatFieldMode::kOff:
+      return "off";
+  }
+  return "?";
+}
+
+void Validate(const FlatFieldOptions& o) { options::CheckRanges(o, "flat_field"); }
+
+int FlatFieldGridFactor(int width_px, int height_px) {
+  if (width_px <= 0 || height_px <= 0) {
+    throw InvalidArgument("FlatFieldGridFactor: frame size " + std::to_string(width_px) + "x" +
+                          std::to_string(height_px));
+  }
+  int n = 1;
+  while (static_cast<double>(width_px / n) * (height_px / n) > kFlatFieldGridMegapixels * 1e6) ++n;
+  return n;
+}
+
+namespace {
+
+constexpr double kHalfPi = 1.5707963267948966;
+
+FlatFieldEstimate EmptyEstimate(int width_px, int height_px) {
+  FlatFieldEstimate e;
+  e.factor = FlatFieldGridFactor(width_px, height_px);
+  e.width_px = width_px;
+  e.height_px = height_px;
+  e.grid_width = width_px / e.factor;
+  e.grid_height = height_px / e.factor;
+  e.pattern_dn.assign(static_cast<std::size_t>(e.grid_width) * e.grid_height, 0.0f);
+  return e;
+}
+
+void CheckSize(const GrayImageView& frame, int width_px, int height_px, const char* who) {
+  if (frame.empty() || frame.width != width_px || frame.height != height_px) {
+    throw InvalidArgument(std::string(who) + ": a " + std::to_string(frame.width) + "x" +
+                          std::to_string(frame.height) + " frame, but the estimate is of " +
+                          std::to_string(width_px) + "x" + std::to_string(height_px));
+  }
+}
+
+// `frame` binned by `n` (n x n block means) into `grid` (gw x gh), less the mean of the grid;
+// returns that mean, DN.
+double BinCentred(const GrayImageView& frame, int n, int gw, int gh, float* grid) {
+  const float inv = 1.0f / static_cast<float>(n * n);
+  double sum = 0.0;
+  for (int gy = 0; gy < gh; ++gy) {
+    float* out = grid + static_cast<std::size_t>(gy) * gw;
+    std::fill(out, out + gw, 0.0f);
+    for (int dy = 0; dy < n; ++dy) {
+      const std::uint8_t* row = frame.row(gy * n + dy);
+      for (int gx = 0; gx < gw; ++gx) {
+        int s = 0;
+        for (int dx = 0; dx < n; ++dx) s += row[gx * n + dx];
+        out[gx] += static_cast<float>(s);
+      }
+    }
+    double row_sum = 0.0;
+    for (int gx = 0; gx < gw; ++gx) row_sum += (out[gx] *= inv);
+    sum += row_sum;
+  }
+  const double mean = sum / (static_cast<double>(gw) * gh);
+  const float m = static_cast<float>(mean);
+  for (std::size_t i = 0, size = static_cast<std::size_t>(gw) * gh; i < size; ++i) grid[i] -= m;
+  return mean;
+}
+
+// Spatial standard deviation of `e.pattern_dn` less `noise_var` (the estimate's own error
+// variance), and the significance against varying_std_dn.
+void Judge(FlatFieldEstimate& e, double noise_var) {
+  double sum = 0.0, sum_sq = 0.0;
+  for (const float p : e.pattern_dn) {
+    sum += p;
+    sum_sq += static_cast<double>(p) * p;
+  }
+  const double n = static_cast<double>(e.pattern_dn.size());
+  const double var = std::max(0.0, sum_sq / n - (sum / n) * (sum / n));
+  e.pattern_std_dn = std::sqrt(std::max(0.0, var - noise_var));
+  e.significance = e.varying_std_dn > 0.0 ? e.pattern_std_dn / e.varying_std_dn : 0.0;
+}
+
+}  // namespace
+
+bool FlatFieldApplies(const FlatFieldEstimate& estimate, const FlatFieldOptions& options) {
+  if (estimate.empty() || options.mode == FlatFieldMode::kOff) return false;
+  return options.mode == FlatFieldMode::kOn || estimate.significance >= options.min_significance;
+}
+
+FlatFieldEstimate EstimateFlatField(const std::vector<GrayImageView>& frames) {
+  if (frames.size() < 3) {
+    throw InvalidArgument("EstimateFlatField: " + std::to_string(frames.size()) +
+                          " frames, at least 3 needed");
+  }
+  FlatFieldEstimate e = EmptyEstimate(frames.front().width, frames.front().height);
+  const std::size_t k = frames.size(), size = e.pattern_dn.size();
+  // Sample-major storage: the k values of a grid pixel are k floats apart by `size`.
+  std::vector<float> samples(k * size);
+  for (std::size_t i = 0; i < k; ++i) {
+    CheckSize(frames[i], e.width_px, e.height_px, "EstimateFlatField");
+    BinCentred(frames[i], e.factor, e.grid_width, e.grid_height, samples.data() + i * size);
+  }
+  std::vector<float> values(k);
+  double varying_sq = 0.0;
+  for (std::size_t p = 0; p < size; ++p) {
+    for (std::size_t i = 0; i < k; ++i) values[i] = samples[i * size + p];
+    auto mid = values.begin() + static_cast<std::ptrdiff_t>(k / 2);
+    std::nth_element(values.begin(), mid, values.end());
+    float median = *mid;
+    if (k % 2 == 0) median = 0.5f * (median + *std::max_element(values.begin(), mid));
+    e.pattern_dn[p] = median;
+    for (std::size_t i = 0; i < k; ++i) {
+      const double d = samples[i * size + p] - median;
+      varying_sq += d * d;
+    }
+  }
+  e.samples = static_cast<int>(k);
+  e.varying_std_dn = std::sqrt(varying_sq / (static_cast<double>(size) * k));
+  // A median of k samples varies as pi / 2 / k times one sample (its asymptotic variance for a
+  // normal distribution).
+  Judge(e, kHalfPi / static_cast<double>(k) * e.varying_std_dn * e.varying_std_dn);
+  return e;
+}
+
+RunningFlatField::RunningFlatField(int width_px, int height_px, int window_samples) {
+  if (window_samples < 1) {
+    throw InvalidArgument("RunningFlatField: window " + std::to_string(window_samples) + " < 1");
+  }
+  estimate_ = EmptyEstimate(width_px, height_px);
+  window_ = window_samples;
+  variance_.assign(estimate_.pattern_dn.size(), 0.0f);
+  binned_.assign(estimate_.pattern_dn.size(), 0.0f);
+}
+
+void RunningFlatField::Add(const GrayImageView& frame) {
+  FlatFieldEstimate& e = estimate_;
+  CheckSize(frame, e.width_px, e.height_px, "RunningFlatField::Add");
+  BinCentred(frame, e.factor, e.grid_width, e.grid_height, binned_.data());
+  ++e.samples;
+  const float a = 1.0f / static_cast<float>(std::min(e.samples, window_));
+  // Exponentially weighted mean and variance (West 1979, "Updating mean and variance estimates:
+  // an improved method", Comm. ACM 22(9)): m += a d, v = (1 - a) (v + a d^2), d = x - m.
+  double variance_sum = 0.0;
+  for (std::size_t i = 0, n = binned_.size(); i < n; ++i) {
+    const float d = binned_[i] - e.pattern_dn[i];
+    e.pattern_dn[i] += a * d;
+    variance_[i] = (1.0f - a) * (variance_[i] + a * d * d);
+    variance_sum += variance_[i];
+  }
+  weight_sq_ = (1.0 - a) * (1.0 - a) * weight_sq_ + static_cast<double>(a) * a;
+  const double varying_var = variance_sum / static_cast<double>(binned_.size());
+  e.varying_std_dn = std::sqrt(varying_var);
+  Judge(e, weight_sq_ * varying_var);
+}
+
+void FlatFieldCorrector::Set(const FlatFieldEstimate& e, const FlatFieldOptions& options) {
+  if (e.empty()) throw InvalidArgument("FlatFieldCorrector::Set: an empty estimate");
+  width_ = e.width_px;
+  height_ = e.height_px;
+  pattern_.resize(static_cast<std::size_t>(width_) * height_);
+  const int n = e.factor, gw = e.grid_width, gh = e.grid_height;
+  // Grid pixel (gx, gy) is the mean of frame pixels n gx .. n gx + n - 1: its centre is at frame
+  // x = n gx + (n - 1) / 2. Bilinear between grid centres, clamped at the border.
+  for (int y = 0; y < height_; ++y) {
+    const double gy = std::clamp((y - 0.5 * (n - 1)) / n, 0.0, gh - 1.0);
+    const int y0 = std::min(static_cast<int>(gy), gh - 1), y1 = std::min(y0 + 1, gh - 1);
+    const float fy = static_cast<float>(gy - y0);
+    const float* r0 = e.pattern_dn.data() + static_cast<std::size_t>(y0) * gw;
+    const float* r1 = e.pattern_dn.data() + static_cast<std::size_t>(y1) * gw;
+    float* out = pattern_.data() + static_cast<std::size_t>(y) * width_;
+    for (int x = 0; x < width_; ++x) {
+      const double gx = std::clamp((x - 0.5 * (n - 1)) / n, 0.0, gw - 1.0);
+      const int x0 = std::min(static_cast<int>(gx), gw - 1), x1 = std::min(x0 + 1, gw - 1);
+      const float fx = static_cast<float>(gx - x0);
+      const float top = r0[x0] + fx * (r0[x1] - r0[x0]);
+      const float bottom = r1[x0] + fx * (r1[x1] - r1[x0]);
+      out[x] = top + fy * (bottom - top);
+    }
+  }
+  gain_ = e.varying_std_dn > 0.0
+              ? std::clamp(options.target_std_dn / e.varying_std_dn, 1.0, options.max_gain)
+              : 1.0;
+  ready_ = true;
+}
+
+GrayImageView FlatFieldCorrector::Apply(const GrayImageView& frame) {
+  if (!ready_) throw InvalidArgument("FlatFieldCorrector::Apply before Set");
+  CheckSize(frame, width_, height_, "FlatFieldCorrector::Apply");
+  if (out_.width() != width_ || out_.height() != height_) out_ = GrayImage(width_, height_);
+  double sum = 0.0;
+  for (int y = 0; y < height_; ++y) {
+    const std::uint8_t* in = frame.row(y);
+    const float* p = pattern_.data() + static_cast<std::size_t>(y) * width_;
+    float row_sum = 0.0f;
+    for (int x = 0; x < width_; ++x) row_sum += static_cast<float>(in[x]) - p[x];
+    sum += row_sum;
+  }
+  const float g = static_cast<float>(gain_);
+  // out = 128 + g (in - p - mean) + 0.5 rounding, as one offset.
+  const float offset =
+      128.5f - g * static_cast<float>(sum / (static_cast<double>(width_) * height_));
+  for (int y = 0; y < height_; ++y) {
+    const std::uint8_t* in = frame.row(y);
+    const float* p = pattern_.data() + static_cast<std::size_t>(y) * width_;
+    std::uint8_t* out = out_.row(y);
+    for (int x = 0; x < width_; ++x) {
+      const float v = offset + g * (static_cast<float>(in[x]) - p[x]);
+      out[x] = static_cast<std::uint8_t>(std::clamp(v, 0.0f, 255.0f));
+    }
+  }
+  return out_.view();
+}
+
+}  // namespace aerovo
