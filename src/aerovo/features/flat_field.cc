@@ -60,7 +60,17 @@ void CheckSize(const GrayImageView& frame, int width_px, int height_px, const ch
 double BinCentred(const GrayImageView& frame, int n, int gw, int gh, float* grid) {
   const float inv = 1.0f / static_cast<float>(n * n);
   double sum = 0.0;
-  for (int gy = 0; gy < gh; ++gy) {
+  for (int gy = 0; n == 1 && gy < gh; ++gy) {  // the frame's own pixels
+    const std::uint8_t* row = frame.row(gy);
+    float* out = grid + static_cast<std::size_t>(gy) * gw;
+    std::uint32_t row_sum = 0;
+    for (int gx = 0; gx < gw; ++gx) {
+      out[gx] = row[gx];
+      row_sum += row[gx];
+    }
+    sum += row_sum;
+  }
+  for (int gy = 0; n > 1 && gy < gh; ++gy) {
     float* out = grid + static_cast<std::size_t>(gy) * gw;
     std::fill(out, out + gw, 0.0f);
     for (int dy = 0; dy < n; ++dy) {
@@ -102,39 +112,64 @@ bool FlatFieldApplies(const FlatFieldEstimate& estimate, const FlatFieldOptions&
   return options.mode == FlatFieldMode::kOn || estimate.significance >= options.min_significance;
 }
 
-FlatFieldEstimate EstimateFlatField(const std::vector<GrayImageView>& frames) {
-  if (frames.size() < 3) {
-    throw InvalidArgument("EstimateFlatField: " + std::to_string(frames.size()) +
+MedianFlatField::MedianFlatField(int width_px, int height_px, int capacity) {
+  if (capacity < 3) {
+    throw InvalidArgument("MedianFlatField: capacity " + std::to_string(capacity) + " < 3");
+  }
+  shape_ = EmptyEstimate(width_px, height_px);
+  capacity_ = capacity;
+  values_.resize(static_cast<std::size_t>(capacity) * shape_.pattern_dn.size());
+}
+
+void MedianFlatField::Add(const GrayImageView& frame) {
+  CheckSize(frame, shape_.width_px, shape_.height_px, "MedianFlatField::Add");
+  if (samples_ == capacity_) {
+    throw InvalidArgument("MedianFlatField::Add: more than " + std::to_string(capacity_) +
+                          " frames");
+  }
+  BinCentred(frame, shape_.factor, shape_.grid_width, shape_.grid_height,
+             values_.data() + static_cast<std::size_t>(samples_) * shape_.pattern_dn.size());
+  ++samples_;
+}
+
+FlatFieldEstimate MedianFlatField::Estimate() const {
+  if (samples_ < 3) {
+    throw InvalidArgument("MedianFlatField: " + std::to_string(samples_) +
                           " frames, at least 3 needed");
   }
-  FlatFieldEstimate e = EmptyEstimate(frames.front().width, frames.front().height);
-  const std::size_t k = frames.size(), size = e.pattern_dn.size();
-  // Sample-major storage: the k values of a grid pixel are k floats apart by `size`.
-  std::vector<float> samples(k * size);
-  for (std::size_t i = 0; i < k; ++i) {
-    CheckSize(frames[i], e.width_px, e.height_px, "EstimateFlatField");
-    BinCentred(frames[i], e.factor, e.grid_width, e.grid_height, samples.data() + i * size);
-  }
+  FlatFieldEstimate e = shape_;
+  const std::size_t k = static_cast<std::size_t>(samples_), size = e.pattern_dn.size();
   std::vector<float> values(k);
   double varying_sq = 0.0;
   for (std::size_t p = 0; p < size; ++p) {
-    for (std::size_t i = 0; i < k; ++i) values[i] = samples[i * size + p];
+    for (std::size_t i = 0; i < k; ++i) values[i] = values_[i * size + p];
     auto mid = values.begin() + static_cast<std::ptrdiff_t>(k / 2);
     std::nth_element(values.begin(), mid, values.end());
     float median = *mid;
     if (k % 2 == 0) median = 0.5f * (median + *std::max_element(values.begin(), mid));
     e.pattern_dn[p] = median;
     for (std::size_t i = 0; i < k; ++i) {
-      const double d = samples[i * size + p] - median;
+      const double d = values_[i * size + p] - median;
       varying_sq += d * d;
     }
   }
-  e.samples = static_cast<int>(k);
+  e.samples = samples_;
   e.varying_std_dn = std::sqrt(varying_sq / (static_cast<double>(size) * k));
   // A median of k samples varies as pi / 2 / k times one sample (its asymptotic variance for a
   // normal distribution).
   Judge(e, kHalfPi / static_cast<double>(k) * e.varying_std_dn * e.varying_std_dn);
   return e;
+}
+
+FlatFieldEstimate EstimateFlatField(const std::vector<GrayImageView>& frames) {
+  if (frames.size() < 3) {
+    throw InvalidArgument("EstimateFlatField: " + std::to_string(frames.size()) +
+                          " frames, at least 3 needed");
+  }
+  MedianFlatField median(frames.front().width, frames.front().height,
+                         static_cast<int>(frames.size()));
+  for (const GrayImageView& f : frames) median.Add(f);
+  return median.Estimate();
 }
 
 RunningFlatField::RunningFlatField(int width_px, int height_px, int window_samples) {
@@ -174,6 +209,10 @@ void FlatFieldCorrector::Set(const FlatFieldEstimate& e, const FlatFieldOptions&
   height_ = e.height_px;
   pattern_.resize(static_cast<std::size_t>(width_) * height_);
   const int n = e.factor, gw = e.grid_width, gh = e.grid_height;
+  if (n == 1) {
+    std::copy(e.pattern_dn.begin(), e.pattern_dn.end(), pattern_.begin());
+    height_ = 0;  // skips the interpolation below
+  }
   // Grid pixel (gx, gy) is the mean of frame pixels n gx .. n gx + n - 1: its centre is at frame
   // x = n gx + (n - 1) / 2. Bilinear between grid centres, clamped at the border.
   for (int y = 0; y < height_; ++y) {
@@ -192,6 +231,7 @@ void FlatFieldCorrector::Set(const FlatFieldEstimate& e, const FlatFieldOptions&
       out[x] = top + fy * (bottom - top);
     }
   }
+  height_ = e.height_px;
   gain_ = e.varying_std_dn > 0.0
               ? std::clamp(options.target_std_dn / e.varying_std_dn, 1.0, options.max_gain)
               : 1.0;

@@ -47,9 +47,10 @@ struct FlatFieldOptions {
   /// "Sensor non-uniformity").
   double min_significance = 0.5;
   /// Photo folders: frames of the flight (spread evenly) whose per-pixel median is the
-  /// estimate. 31: the median of 31 samples has 1/sqrt(31 * 2 / pi) = 0.23 of one sample's
-  /// noise, and 31 frames at 1 MP are 31 MB.
-  int photo_samples = 31;
+  /// estimate. 15 (our choice): the median of 15 samples has sqrt(pi / 2 / 15) = 0.32 of one
+  /// sample's spread, and reading 15 photos costs a 12 MP flight about a second and a half
+  /// (BENCHMARKS.md, "Sensor non-uniformity").
+  int photo_samples = 15;
   /// Video and live frames: a frame joins the running estimate when at least this many
   /// seconds (of the source's time) passed since the last one that joined, so that the ground
   /// has moved between samples. 0.5 s (our choice): at 5 m/s and 100 m above ground a 45 degree
@@ -119,9 +120,27 @@ struct FlatFieldEstimate {
 /// its significance is at least min_significance.
 bool FlatFieldApplies(const FlatFieldEstimate& estimate, const FlatFieldOptions& options);
 
-/// The per-pixel median of the mean-removed `frames` (all of one size, at least 3; else
-/// InvalidArgument), binned to the grid first. Cost: one pass per frame and a selection of
-/// frames.size() values per grid pixel.
+/// The per-pixel median of mean-removed frames (a photo folder's subsample): each frame is binned
+/// to the grid as it is added, so only the grid samples are kept (capacity x grid pixels floats,
+/// allocated by the constructor).
+class MedianFlatField {
+ public:
+  /// Frames of width_px x height_px, at most `capacity` of them (>= 3); InvalidArgument else.
+  MedianFlatField(int width_px, int height_px, int capacity);
+  /// InvalidArgument for another size or beyond the capacity.
+  void Add(const GrayImageView& frame);
+  int samples() const { return samples_; }
+  /// The estimate of the frames added (at least 3, else InvalidArgument). Cost: a selection of
+  /// samples() values per grid pixel.
+  FlatFieldEstimate Estimate() const;
+
+ private:
+  FlatFieldEstimate shape_;    // sizes only
+  std::vector<float> values_;  // sample-major: sample i at i * grid pixels
+  int capacity_ = 0, samples_ = 0;
+};
+
+/// MedianFlatField of `frames` (all of one size, at least 3; else InvalidArgument).
 FlatFieldEstimate EstimateFlatField(const std::vector<GrayImageView>& frames);
 
 /// The running estimate of video and live frames: per grid pixel an exponentially weighted mean
@@ -153,6 +172,8 @@ class FlatFieldCorrector {
   /// Takes `estimate` (not empty, else InvalidArgument) and the stretch of `options`.
   void Set(const FlatFieldEstimate& estimate, const FlatFieldOptions& options);
   bool ready() const { return ready_; }
+  int width() const { return width_; }  ///< Of the frames of the estimate set (0 before).
+  int height() const { return height_; }
   double gain() const { return gain_; }
   /// The corrected copy of `frame` (the estimate's size, else InvalidArgument), in a buffer of
   /// the corrector: valid until the next Apply.

@@ -1,0 +1,175 @@
+// The flat-field stage: the sensor's static pattern (vignetting, fixed-pattern noise; features/
+// flat_field.h) estimated from the flight and removed from every frame as read, before the
+// reduction, undistortion and SURF (stage_preprocess.cc starts from FrameState::pixels when this
+// stage set it), when significant (RunConfig::flat_field). A photo folder: on the first frame a
+// pre-pass reads flat_field.photo_samples photos spread evenly over the flight (a second frame
+// source, random access; the main stream is not touched) and takes their per-pixel median. Video
+// and live frames: a running mean fed with a frame every sample_interval_s of the source's time,
+// judged and used after warmup_samples, then on or off with hysteresis (off below 3/4 of
+// min_significance). What it did: summary.json "flat_field" (RunSummary::flat_field).
+#include <algorithm>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "aerovo/core/error.h"
+#include "aerovo/core/timer.h"
+#include "aerovo/features/flat_field.h"
+#include "aerovo/pipeline/frame_loop.h"
+#include "aerovo/pipeline/lens_prepass.h"
+
+namespace aerovo::run_steps {
+namespace {
+
+// The photo folder's pre-pass (see the top): the median of up to `samples` photos spread evenly
+// ((i + 0.5) / n of the way) over the frames the run delivers, of width_px x height_px (photos of
+// another size are left out). nullopt, with `why`, when fewer than 3 could be read.
+std::optional<FlatFieldEstimate> PhotoMedian(const RunConfig& config, int width_px, int height_px,
+                                             std::string* why) {
+  const FrameSourceOptions so = SourceOptionsOf(config);
+  std::unique_ptr<FrameSource> source = OpenFrameSource(config.input, so);
+  auto* folder = dynamic_cast<ImageFolderSource*>(source.get());
+  if (folder == nullptr) {
+    *why = "the input is not a photo folder";
+    return std::nullopt;
+  }
+  std::size_t first = 0;
+  while (first < folder->paths().size() && folder->TimeOf(first) < so.start_time_s) ++first;
+  const int frames = folder->ExpectedFrameCount();
+  const int n = std::min(frames, config.flat_field.photo_samples);
+  if (n < 3) {
+    *why = fmt::format("{} photos: at least 3 are needed", std::max(frames, 0));
+    return std::nullopt;
+  }
+  MedianFlatField median(width_px, height_px, n);
+  Frame frame;
+  int other_size = 0;
+  for (int i = 0; i < n; ++i) {
+    const std::size_t rank = static_cast<std::size_t>((i + 0.5) * frames / n);
+    folder->Read(first + rank * so.step, frame);
+    if (frame.gray.width() != width_px || frame.gray.height() != height_px) {
+      ++other_size;
+      continue;
+    }
+    median.Add(frame.gray.view());
+  }
+  if (median.samples() < 3) {
+    *why = fmt::format("{} of {} photos have the first photo's size: at least 3 are needed",
+                       median.samples(), n);
+    return std::nullopt;
+  }
+  if (other_size > 0) *why = fmt::format("{} photos of another size left out; ", other_size);
+  return median.Estimate();
+}
+
+class FlatFieldStage : public FrameStage {
+ public:
+  const char* name() const override { return "flat_field"; }
+
+  void Process(FrameState& f, const RunContext& run) override {
+    const Stopwatch sw;
+    const GrayImageView raw = f.frame.gray.view();
+    FlatFieldReport& report = run.summary->flat_field;
+    const FlatFieldOptions& o = run.config->flat_field;
+    double prepass_ms = 0.0;
+    if (!started_) {
+      Start(raw, run);
+      prepass_ms = report.prepass_ms;
+    }
+    if (running_ && raw.width == running_->estimate().width_px &&
+        raw.height == running_->estimate().height_px && f.frame.time_s >= next_sample_s_) {
+      next_sample_s_ = f.frame.time_s + o.sample_interval_s;
+      running_->Add(raw);
+      if (running_->estimate().samples >= o.warmup_samples) Decide(running_->estimate(), run);
+    }
+    if (applied_ && raw.width == corrector_.width() && raw.height == corrector_.height()) {
+      f.pixels = corrector_.Apply(raw);
+      ++report.frames_corrected;
+      report.applied = true;
+    }
+    total_ms_ += sw.elapsed_ms() - prepass_ms;
+    report.mean_frame_ms = total_ms_ / ++frames_;
+  }
+
+ private:
+  // On the first frame: the photo folder's median, or the running estimate's buffers.
+  void Start(const GrayImageView& first, const RunContext& run) {
+    started_ = true;
+    const FlatFieldOptions& o = run.config->flat_field;
+    FlatFieldReport& report = run.summary->flat_field;
+    report.mode = ToString(o.mode);
+    if (o.mode == FlatFieldMode::kOff) {
+      report.why = "flat_field.mode off";
+      return;
+    }
+    if (!run.photo_folder) {
+      running_.emplace(first.width, first.height, o.window_samples);
+      report.estimate = "running";
+      report.why = fmt::format("running estimate: not judged before {} samples", o.warmup_samples);
+      return;
+    }
+    const Stopwatch sw;
+    std::string why;
+    std::optional<FlatFieldEstimate> e;
+    try {
+      e = PhotoMedian(*run.config, first.width, first.height, &why);
+    } catch (const InputError& error) {
+      why = std::string("a photo could not be read: ") + error.what();
+    }
+    report.prepass_ms = sw.elapsed_ms();
+    if (!e) {
+      report.why = "no estimate: " + why;
+    } else {
+      report.estimate = "photo median";
+      report.why = why;
+      Decide(*e, run);
+    }
+    if (run.log) {
+      *run.log << fmt::format("flat field: {} ({:.0f} ms)\n", report.why, report.prepass_ms);
+    }
+  }
+
+  // Applies the estimate or not (FlatFieldApplies; a running estimate that was applied stays
+  // so down to 3/4 of min_significance), and records the decision.
+  void Decide(const FlatFieldEstimate& e, const RunContext& run) {
+    const FlatFieldOptions& o = run.config->flat_field;
+    FlatFieldOptions keep = o;
+    if (applied_ && o.mode == FlatFieldMode::kAuto) keep.min_significance *= 0.75;
+    const bool apply = FlatFieldApplies(e, keep);
+    if (apply) corrector_.Set(e, o);
+    FlatFieldReport& report = run.summary->flat_field;
+    report.samples = e.samples;
+    report.significance = e.significance;
+    report.pattern_std_dn = e.pattern_std_dn;
+    report.varying_std_dn = e.varying_std_dn;
+    report.gain = apply ? corrector_.gain() : 1.0;
+    if (apply == applied_ && running_) return;  // the running decision's text stays
+    applied_ = apply;
+    const std::string rule =
+        o.mode == FlatFieldMode::kOn
+            ? std::string("mode on")
+            : fmt::format("{} {:.2f}", apply ? ">=" : "<", keep.min_significance);
+    report.why = (running_ ? std::string() : report.why) +
+                 fmt::format(
+                     "{} of {} frames: pattern {:.2f} DN over a varying part of {:.2f} DN, "
+                     "significance {:.2f} ({}): {}",
+                     report.estimate, e.samples, e.pattern_std_dn, e.varying_std_dn, e.significance,
+                     rule, apply ? "removed" : "not removed");
+    if (running_ && run.log) *run.log << "flat field: " << report.why << "\n";
+  }
+
+  bool started_ = false, applied_ = false;
+  std::optional<RunningFlatField> running_;
+  double next_sample_s_ = -1e300;
+  FlatFieldCorrector corrector_;
+  double total_ms_ = 0.0;
+  long frames_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<FrameStage> MakeFlatFieldStage() { return std::make_unique<FlatFieldStage>(); }
+
+}  // namespace aerovo::run_steps
