@@ -34,7 +34,15 @@ int FlatFieldGridFactor(int width_px, int height_px) {
 
 namespace {
 
-constexpr double kHalfPi = 1.5707963267948966;
+// The median of v[0..n) (n >= 1; reorders v): the middle value, or the mean of the two middle
+// values for an even n.
+float Median(float* v, std::size_t n) {
+  float* mid = v + n / 2;
+  std::nth_element(v, mid, v + n);
+  float m = *mid;
+  if (n % 2 == 0) m = 0.5f * (m + *std::max_element(v, mid));
+  return m;
+}
 
 FlatFieldEstimate EmptyEstimate(int width_px, int height_px) {
   FlatFieldEstimate e;
@@ -91,17 +99,20 @@ double BinCentred(const GrayImageView& frame, int n, int gw, int gh, float* grid
   return mean;
 }
 
-// Spatial standard deviation of `e.pattern_dn` less `noise_var` (the estimate's own error
-// variance), and the significance against varying_std_dn.
-void Judge(FlatFieldEstimate& e, double noise_var) {
-  double sum = 0.0, sum_sq = 0.0;
-  for (const float p : e.pattern_dn) {
-    sum += p;
-    sum_sq += static_cast<double>(p) * p;
+// pattern_std_dn from two estimates `a` and `b` of disjoint samples (FlatFieldEstimate), the
+// varying part from the frames' spatial variance `frame_var` (mean over the samples) less the
+// pattern's, and the significance.
+void Judge(FlatFieldEstimate& e, const float* a, const float* b, std::size_t n, double frame_var) {
+  double sa = 0.0, sb = 0.0, sab = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    sa += a[i];
+    sb += b[i];
+    sab += static_cast<double>(a[i]) * b[i];
   }
-  const double n = static_cast<double>(e.pattern_dn.size());
-  const double var = std::max(0.0, sum_sq / n - (sum / n) * (sum / n));
-  e.pattern_std_dn = std::sqrt(std::max(0.0, var - noise_var));
+  const double nn = static_cast<double>(n);
+  const double cov = std::max(0.0, sab / nn - (sa / nn) * (sb / nn));
+  e.pattern_std_dn = std::sqrt(cov);
+  e.varying_std_dn = std::sqrt(std::max(0.0, frame_var - cov));
   e.significance = e.varying_std_dn > 0.0 ? e.pattern_std_dn / e.varying_std_dn : 0.0;
 }
 
@@ -139,25 +150,24 @@ FlatFieldEstimate MedianFlatField::Estimate() const {
   }
   FlatFieldEstimate e = shape_;
   const std::size_t k = static_cast<std::size_t>(samples_), size = e.pattern_dn.size();
-  std::vector<float> values(k);
-  double varying_sq = 0.0;
+  std::vector<float> values(k), first(size), second(size);
+  // The first and the last third of the samples (in flight order): the farthest apart on the
+  // ground, so that what they share of it is least.
+  const std::size_t third = k / 3;
+  double frame_sq = 0.0;  // the samples are centred: their spatial variance
   for (std::size_t p = 0; p < size; ++p) {
     for (std::size_t i = 0; i < k; ++i) values[i] = values_[i * size + p];
-    auto mid = values.begin() + static_cast<std::ptrdiff_t>(k / 2);
-    std::nth_element(values.begin(), mid, values.end());
-    float median = *mid;
-    if (k % 2 == 0) median = 0.5f * (median + *std::max_element(values.begin(), mid));
+    first[p] = Median(values.data(), third);
+    second[p] = Median(values.data() + (k - third), third);
+    for (std::size_t i = 0; i < k; ++i) values[i] = values_[i * size + p];
+    const float median = Median(values.data(), k);
     e.pattern_dn[p] = median;
     for (std::size_t i = 0; i < k; ++i) {
-      const double d = values_[i * size + p] - median;
-      varying_sq += d * d;
+      frame_sq += static_cast<double>(values[i]) * values[i];
     }
   }
   e.samples = samples_;
-  e.varying_std_dn = std::sqrt(varying_sq / (static_cast<double>(size) * k));
-  // A median of k samples varies as pi / 2 / k times one sample (its asymptotic variance for a
-  // normal distribution).
-  Judge(e, kHalfPi / static_cast<double>(k) * e.varying_std_dn * e.varying_std_dn);
+  Judge(e, first.data(), second.data(), size, frame_sq / (static_cast<double>(size) * k));
   return e;
 }
 
@@ -173,11 +183,13 @@ FlatFieldEstimate EstimateFlatField(const std::vector<GrayImageView>& frames) {
 }
 
 RunningFlatField::RunningFlatField(int width_px, int height_px, int window_samples) {
-  if (window_samples < 1) {
-    throw InvalidArgument("RunningFlatField: window " + std::to_string(window_samples) + " < 1");
+  if (window_samples < 2) {
+    throw InvalidArgument("RunningFlatField: window " + std::to_string(window_samples) + " < 2");
   }
   estimate_ = EmptyEstimate(width_px, height_px);
   window_ = window_samples;
+  block_ = std::max(1, window_samples / 8);
+  for (std::vector<float>& m : mean_) m.assign(estimate_.pattern_dn.size(), 0.0f);
   variance_.assign(estimate_.pattern_dn.size(), 0.0f);
   binned_.assign(estimate_.pattern_dn.size(), 0.0f);
 }
@@ -186,21 +198,35 @@ void RunningFlatField::Add(const GrayImageView& frame) {
   FlatFieldEstimate& e = estimate_;
   CheckSize(frame, e.width_px, e.height_px, "RunningFlatField::Add");
   BinCentred(frame, e.factor, e.grid_width, e.grid_height, binned_.data());
+  const int which = (e.samples / block_) % 2;  // alternate blocks of samples
   ++e.samples;
-  const float a = 1.0f / static_cast<float>(std::min(e.samples, window_));
+  const int count = ++count_[which];
+  const float a = 1.0f / static_cast<float>(std::min(count, std::max(1, window_ / 2)));
   // Exponentially weighted mean and variance (West 1979, "Updating mean and variance estimates:
   // an improved method", Comm. ACM 22(9)): m += a d, v = (1 - a) (v + a d^2), d = x - m.
-  double variance_sum = 0.0;
+  float* m = mean_[which].data();
+  const float* other = mean_[1 - which].data();
+  const bool both = count_[1 - which] > 0;
+  double variance_sum = 0.0, pattern_sq = 0.0;
   for (std::size_t i = 0, n = binned_.size(); i < n; ++i) {
-    const float d = binned_[i] - e.pattern_dn[i];
-    e.pattern_dn[i] += a * d;
+    const float d = binned_[i] - m[i];
+    m[i] += a * d;
     variance_[i] = (1.0f - a) * (variance_[i] + a * d * d);
     variance_sum += variance_[i];
+    e.pattern_dn[i] = both ? 0.5f * (m[i] + other[i]) : m[i];
+    pattern_sq += static_cast<double>(e.pattern_dn[i]) * e.pattern_dn[i];
   }
-  weight_sq_ = (1.0 - a) * (1.0 - a) * weight_sq_ + static_cast<double>(a) * a;
-  const double varying_var = variance_sum / static_cast<double>(binned_.size());
-  e.varying_std_dn = std::sqrt(varying_var);
-  Judge(e, weight_sq_ * varying_var);
+  // The frames' spatial variance: the running mean's (zero-mean: the frames are centred) plus
+  // the mean temporal variance about it (the law of total variance).
+  const double n = static_cast<double>(binned_.size());
+  const double frame_var = (pattern_sq + variance_sum) / n;
+  e.varying_std_dn = std::sqrt(frame_var);
+  if (both) {
+    Judge(e, mean_[0].data(), mean_[1].data(), binned_.size(), frame_var);
+  } else {
+    e.pattern_std_dn = 0.0;
+    e.significance = 0.0;
+  }
 }
 
 void FlatFieldCorrector::Set(const FlatFieldEstimate& e, const FlatFieldOptions& options) {

@@ -43,14 +43,14 @@ struct FlatFieldOptions {
   /// kAuto removes the pattern when FlatFieldEstimate::significance (the pattern's spatial
   /// standard deviation over the frames' varying part's) is at least this. 0.5 (our choice):
   /// a pattern half as strong as the ground's texture already puts SURF's strongest responses
-  /// on it; the simulated and real visible flights measure below 0.2 (BENCHMARKS.md,
-  /// "Sensor non-uniformity").
+  /// on it; the simulated thermal flight measures about 1.4, the real visible flights far less
+  /// (BENCHMARKS.md, "Sensor non-uniformity").
   double min_significance = 0.5;
   /// Photo folders: frames of the flight (spread evenly) whose per-pixel median is the
-  /// estimate. 15 (our choice): the median of 15 samples has sqrt(pi / 2 / 15) = 0.32 of one
-  /// sample's spread, and reading 15 photos costs a 12 MP flight about a second and a half
-  /// (BENCHMARKS.md, "Sensor non-uniformity").
-  int photo_samples = 15;
+  /// estimate. 21 (our choice): the median of 21 samples has sqrt(pi / 2 / 21) = 0.27 of one
+  /// sample's spread (15 left a frame of the simulated thermal flight bridged, 21 none), and
+  /// reading them costs a run a fraction of a second (BENCHMARKS.md, "Sensor non-uniformity").
+  int photo_samples = 21;
   /// Video and live frames: a frame joins the running estimate when at least this many
   /// seconds (of the source's time) passed since the last one that joined, so that the ground
   /// has moved between samples. 0.5 s (our choice): at 5 m/s and 100 m above ground a 45 degree
@@ -104,9 +104,11 @@ struct FlatFieldEstimate {
   /// pattern(x, y) in DN, zero-mean, row-major on the grid (grid_width x grid_height).
   std::vector<float> pattern_dn;
   int samples = 0;  ///< Frames the estimate is made of.
-  /// Spatial standard deviation of the pattern, DN, less the part the estimate's own noise
-  /// explains (the varying part over the samples: pi / 2 / samples for a median, sum w_i^2 for
-  /// a weighted mean; independent samples assumed); >= 0.
+  /// The part of the pattern that two estimates from disjoint parts of the flight share, DN:
+  /// sqrt(max(0, spatial covariance of the two)). A sensor's pattern is in both; what the
+  /// median keeps of the ground (frames that overlap) and the estimates' noise are not, as the
+  /// two parts see other ground (the photo median: the first and second half of the samples in
+  /// flight order; the running estimate: alternate blocks of samples).
   double pattern_std_dn = 0.0;
   /// Root mean square over pixels and samples of the frames' varying part (frame - mean -
   /// pattern), DN: the ground's texture and the temporal noise.
@@ -143,9 +145,12 @@ class MedianFlatField {
 /// MedianFlatField of `frames` (all of one size, at least 3; else InvalidArgument).
 FlatFieldEstimate EstimateFlatField(const std::vector<GrayImageView>& frames);
 
-/// The running estimate of video and live frames: per grid pixel an exponentially weighted mean
-/// (weight 1 / min(samples, window)) of the mean-removed frames and of its squared deviation.
-/// Buffers sized once by the constructor; Add allocates nothing.
+/// The running estimate of video and live frames: per grid pixel two exponentially weighted means
+/// (weight 1 / min(samples, window / 2) each) of the mean-removed frames, fed by alternate blocks
+/// of max(1, window / 8) samples (15 s at the defaults' 0.5 s and 120: the camera has moved on
+/// between blocks), and the squared deviations; the pattern is their mean, pattern_std_dn their
+/// shared part (0 until both have samples). Buffers sized once by the constructor; Add allocates
+/// nothing.
 class RunningFlatField {
  public:
   /// Frames of width_px x height_px; InvalidArgument for a non-positive size or window < 1.
@@ -155,11 +160,12 @@ class RunningFlatField {
   const FlatFieldEstimate& estimate() const { return estimate_; }
 
  private:
-  FlatFieldEstimate estimate_;   // pattern_dn is the running mean
+  FlatFieldEstimate estimate_;   // pattern_dn: the mean of the two running means
+  std::vector<float> mean_[2];   // the two running means
   std::vector<float> variance_;  // per grid pixel, exponentially weighted
   std::vector<float> binned_;    // the frame on the grid
-  int window_ = 1;
-  double weight_sq_ = 0.0;  // sum of the current weights squared
+  int window_ = 1, block_ = 1;
+  int count_[2] = {0, 0};  // samples in each mean
 };
 
 /// Removes a flat field from frames and stretches their contrast:
