@@ -26,8 +26,8 @@ constexpr const char* kThermalFlight =
     "--length-m 120 --legs 2 --spacing-m 40 --height-m 80 --fps 2 --gps-noise-m 1.5 --quiet ";
 
 nlohmann::json RunOn(const fs::path& input, const fs::path& out, const std::string& flags) {
-  EXPECT_TRUE(Cli("run " + input.string() + " " + flags + " --quiet --no-report -o " +
-                  out.string()));
+  EXPECT_TRUE(
+      Cli("run " + input.string() + " " + flags + " --quiet --no-report -o " + out.string()));
   return e2e::ReadJson(out / "summary.json");
 }
 
@@ -54,9 +54,10 @@ TEST(SensorPattern, ThermalFlightWithVignettingAndFixedPatternIsTrackedWithTheDe
   EXPECT_EQ(off["flat_field"]["applied"], false);
   const int bridged_off = off["frames_bridged"].get<int>();
   const double end_off = off["truth_evaluation"]["se2"]["end_point_error_percent"].get<double>();
-  std::printf("flat field off: %d of %d frames bridged, end-point error %.1f %% (on: %d, %.3f %%)\n",
-              bridged_off, n, end_off, s["frames_bridged"].get<int>(),
-              s["truth_evaluation"]["se2"]["end_point_error_percent"].get<double>());
+  std::printf(
+      "flat field off: %d of %d frames bridged, end-point error %.1f %% (on: %d, %.3f %%)\n",
+      bridged_off, n, end_off, s["frames_bridged"].get<int>(),
+      s["truth_evaluation"]["se2"]["end_point_error_percent"].get<double>());
   EXPECT_GE(bridged_off, 10);
   EXPECT_GT(end_off, 20.0);
   fs::remove_all(dir);
