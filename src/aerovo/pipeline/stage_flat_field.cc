@@ -23,6 +23,12 @@
 namespace aerovo::run_steps {
 namespace {
 
+// A running estimate that is applied is handed to the corrector again (FlatFieldCorrector::Set,
+// which interpolates it to the frame's pixels, the stage's largest cost on a 1080p frame) every
+// this many samples: 5 s at the default 0.5 s, while the pattern's estimate moves with a window
+// of 60 s. Our choice.
+constexpr int kRefreshSamples = 10;
+
 // The photo folder's pre-pass (see the top): the median of up to `samples` photos spread evenly
 // ((i + 0.5) / n of the way) over the frames the run delivers, of width_px x height_px (photos of
 // another size are left out). nullopt, with `why`, when fewer than 3 could be read.
@@ -82,6 +88,7 @@ class FlatFieldStage : public FrameStage {
         raw.height == running_->estimate().height_px && f.frame.time_s >= next_sample_s_) {
       next_sample_s_ = f.frame.time_s + o.sample_interval_s;
       running_->Add(raw);
+      ++samples_since_set_;
       if (running_->estimate().samples >= o.warmup_samples) Decide(running_->estimate(), run);
     }
     if (applied_ && raw.width == corrector_.width() && raw.height == corrector_.height()) {
@@ -138,7 +145,10 @@ class FlatFieldStage : public FrameStage {
     FlatFieldOptions keep = o;
     if (applied_ && o.mode == FlatFieldMode::kAuto) keep.min_significance *= 0.75;
     const bool apply = FlatFieldApplies(e, keep);
-    if (apply) corrector_.Set(e, o);
+    if (apply && (!applied_ || samples_since_set_ >= kRefreshSamples)) {
+      corrector_.Set(e, o);
+      samples_since_set_ = 0;
+    }
     FlatFieldReport& report = run.summary->flat_field;
     report.samples = e.samples;
     report.significance = e.significance;
@@ -163,6 +173,7 @@ class FlatFieldStage : public FrameStage {
   bool started_ = false, applied_ = false;
   std::optional<RunningFlatField> running_;
   double next_sample_s_ = -1e300;
+  int samples_since_set_ = 0;
   FlatFieldCorrector corrector_;
   double total_ms_ = 0.0;
   long frames_ = 0;
