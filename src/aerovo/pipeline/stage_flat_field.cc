@@ -29,9 +29,37 @@ namespace {
 // of 60 s. Our choice.
 constexpr int kRefreshSamples = 10;
 
-// The photo folder's pre-pass (see the top): the median of up to `samples` photos spread evenly
-// ((i + 0.5) / n of the way) over the frames the run delivers, of width_px x height_px (photos of
-// another size are left out). nullopt, with `why`, when fewer than 3 could be read.
+// Photos of a first look (the pre-pass's screening): a flight whose pattern measures below half
+// of min_significance on them is not read further. 7 (our choice): the first and last third have
+// 2 photos each; a visible flight then costs a third of the full pre-pass, a thermal flight a
+// third more (BENCHMARKS.md, "Sensor non-uniformity").
+constexpr int kScreenSamples = 7;
+
+// The median of `n` (>= 3) photos of `folder` spread evenly ((i + 0.5) / n of the way) over the
+// `frames` the run delivers (from photo `first`, every `step`), of width_px x height_px (photos
+// of another size are left out and counted in `other_size`). nullopt when fewer than 3 are left.
+std::optional<FlatFieldEstimate> MedianOf(ImageFolderSource& folder, std::size_t first, int step,
+                                          int frames, int n, int width_px, int height_px,
+                                          int* other_size) {
+  MedianFlatField median(width_px, height_px, n);
+  Frame frame;
+  *other_size = 0;
+  for (int i = 0; i < n; ++i) {
+    const std::size_t rank = static_cast<std::size_t>((i + 0.5) * frames / n);
+    folder.Read(first + rank * static_cast<std::size_t>(step), frame);
+    if (frame.gray.width() != width_px || frame.gray.height() != height_px) {
+      ++*other_size;
+      continue;
+    }
+    median.Add(frame.gray.view());
+  }
+  if (median.samples() < 3) return std::nullopt;
+  return median.Estimate();
+}
+
+// The photo folder's pre-pass (see the top): with mode auto, a first look at kScreenSamples
+// photos, then the median of photo_samples photos unless the first look found nothing. nullopt,
+// with `why`, when fewer than 3 photos could be used.
 std::optional<FlatFieldEstimate> PhotoMedian(const RunConfig& config, int width_px, int height_px,
                                              std::string* why) {
   const FrameSourceOptions so = SourceOptionsOf(config);
@@ -43,31 +71,31 @@ std::optional<FlatFieldEstimate> PhotoMedian(const RunConfig& config, int width_
   }
   std::size_t first = 0;
   while (first < folder->paths().size() && folder->TimeOf(first) < so.start_time_s) ++first;
+  const FlatFieldOptions& o = config.flat_field;
   const int frames = folder->ExpectedFrameCount();
-  const int n = std::min(frames, config.flat_field.photo_samples);
+  const int n = std::min(frames, o.photo_samples);
   if (n < 3) {
     *why = fmt::format("{} photos: at least 3 are needed", std::max(frames, 0));
     return std::nullopt;
   }
-  MedianFlatField median(width_px, height_px, n);
-  Frame frame;
   int other_size = 0;
-  for (int i = 0; i < n; ++i) {
-    const std::size_t rank = static_cast<std::size_t>((i + 0.5) * frames / n);
-    folder->Read(first + rank * so.step, frame);
-    if (frame.gray.width() != width_px || frame.gray.height() != height_px) {
-      ++other_size;
-      continue;
+  std::optional<FlatFieldEstimate> e;
+  if (o.mode == FlatFieldMode::kAuto && n > kScreenSamples) {
+    e = MedianOf(*folder, first, so.step, frames, kScreenSamples, width_px, height_px,
+                 &other_size);
+    if (e && e->significance < 0.5 * o.min_significance) {
+      *why = fmt::format("first look at {} photos (below half of min_significance): ",
+                         kScreenSamples);
+      return e;
     }
-    median.Add(frame.gray.view());
   }
-  if (median.samples() < 3) {
-    *why = fmt::format("{} of {} photos have the first photo's size: at least 3 are needed",
-                       median.samples(), n);
-    return std::nullopt;
+  e = MedianOf(*folder, first, so.step, frames, n, width_px, height_px, &other_size);
+  if (!e) {
+    *why = fmt::format("fewer than 3 of {} photos have the first photo's size", n);
+  } else if (other_size > 0) {
+    *why = fmt::format("{} photos of another size left out; ", other_size);
   }
-  if (other_size > 0) *why = fmt::format("{} photos of another size left out; ", other_size);
-  return median.Estimate();
+  return e;
 }
 
 class FlatFieldStage : public FrameStage {
