@@ -81,11 +81,10 @@ std::optional<FlatFieldEstimate> PhotoMedian(const RunConfig& config, int width_
   int other_size = 0;
   std::optional<FlatFieldEstimate> e;
   if (o.mode == FlatFieldMode::kAuto && n > kScreenSamples) {
-    e = MedianOf(*folder, first, so.step, frames, kScreenSamples, width_px, height_px,
-                 &other_size);
+    e = MedianOf(*folder, first, so.step, frames, kScreenSamples, width_px, height_px, &other_size);
     if (e && e->significance < 0.5 * o.min_significance) {
-      *why = fmt::format("first look at {} photos (below half of min_significance): ",
-                         kScreenSamples);
+      *why =
+          fmt::format("first look at {} photos (below half of min_significance): ", kScreenSamples);
       return e;
     }
   }
