@@ -235,13 +235,11 @@ void FlatFieldCorrector::Set(const FlatFieldEstimate& e, const FlatFieldOptions&
   height_ = e.height_px;
   pattern_.resize(static_cast<std::size_t>(width_) * height_);
   const int n = e.factor, gw = e.grid_width, gh = e.grid_height;
-  if (n == 1) {
-    std::copy(e.pattern_dn.begin(), e.pattern_dn.end(), pattern_.begin());
-    height_ = 0;  // skips the interpolation below
-  }
+  if (n == 1) std::copy(e.pattern_dn.begin(), e.pattern_dn.end(), pattern_.begin());
   // Grid pixel (gx, gy) is the mean of frame pixels n gx .. n gx + n - 1: its centre is at frame
   // x = n gx + (n - 1) / 2. Bilinear between grid centres, clamped at the border.
-  for (int y = 0; y < height_; ++y) {
+  const int interpolated_rows = n == 1 ? 0 : height_;
+  for (int y = 0; y < interpolated_rows; ++y) {
     const double gy = std::clamp((y - 0.5 * (n - 1)) / n, 0.0, gh - 1.0);
     const int y0 = std::min(static_cast<int>(gy), gh - 1), y1 = std::min(y0 + 1, gh - 1);
     const float fy = static_cast<float>(gy - y0);
@@ -257,7 +255,6 @@ void FlatFieldCorrector::Set(const FlatFieldEstimate& e, const FlatFieldOptions&
       out[x] = top + fy * (bottom - top);
     }
   }
-  height_ = e.height_px;
   gain_ = e.varying_std_dn > 0.0
               ? std::clamp(options.target_std_dn / e.varying_std_dn, 1.0, options.max_gain)
               : 1.0;
