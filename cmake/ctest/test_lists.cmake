@@ -16,6 +16,9 @@
 #     frames (AdaptivePoints.ThermalLikeFlight..., which stays, and the features unit tests);
 #   - Attitude.NadirFlightIsUnchanged...: the attitude correction on a nadir flight, the code of
 #     Attitude.TiltedFlight..., which stays.
+#   - Runner.BrightonPhantom3...: a third real photo flight against the stored real-flight table
+#     (the photo-folder path of Runner.TampaPhantom3..., which stays; 16:9 photo metadata: the
+#     image-metadata unit tests and fuzzer).
 set(AEROVO_ACCURACY_TESTS
   Video4k.DefaultRunDetectsAtHalfResolutionWithinFivePercentOfFullResolution
   LongRun.TenThousandFramesWithFlatMemory
@@ -24,6 +27,7 @@ set(AEROVO_ACCURACY_TESTS
   ReferenceOutputs
   AdaptivePoints.IlluminationDownToATenthKeepsTheTrackWithTheDefaults
   Attitude.NadirFlightIsUnchangedByTheCorrection
+  Runner.BrightonPhantom3SixteenByNineHoldsTheStoredFigures
 )
 
 # Label "repeated_flight": end-to-end runs that repeat, under other settings, a whole-flight path

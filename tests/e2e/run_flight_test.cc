@@ -1,6 +1,8 @@
-// `aerovo run` on the real flights in $AEROVO_SHARED (tampa-phantom3, turin-p4m), a flight with a
-// black frame, and a run interrupted by SIGINT. Figures asserted here are those first measured
-// (BENCHMARKS.md, "Odometry on real flights") plus a margin.
+// `aerovo run` on the real flights in $AEROVO_SHARED (tampa-phantom3, turin-p4m,
+// brighton-phantom3-16x9), a flight with a black frame, and a run interrupted by SIGINT. The
+// accuracy targets are asserted with a margin, and the default runs' figures against the stored
+// real-flight table bench/real_flights.tsv within its seed-to-seed spread (BENCHMARKS.md, "Real
+// flights: the benchmark").
 #include "aerovo/frames/camera.h"
 #include "aerovo/pipeline/runner.h"
 
@@ -12,10 +14,12 @@
 #include <fcntl.h>
 
 #include <algorithm>
+#include <cmath>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <regex>
 #include <sstream>
 #include <string>
@@ -98,6 +102,74 @@ void CheckOutputs(const fs::path& dir, int expected_rows) {
   EXPECT_EQ(poses, expected_rows);
 }
 
+// One figure of a flight in the stored real-flight table (bench/real_flights.tsv, written by
+// scripts/bench-flights.sh --write): the default run (RANSAC seed 1) and the mean, min and max
+// over the seeds the table was measured with.
+struct StoredFigure {
+  double seed1 = 0, mean = 0, min = 0, max = 0;
+};
+
+fs::path RealFlightsTable() { return fs::path(AEROVO_SOURCE_DIR) / "bench" / "real_flights.tsv"; }
+
+// The figures of `flight` in the stored table, by name (sim2_ate_m, se2_ate_m, ...); empty when
+// the table has no row for it.
+std::map<std::string, StoredFigure> StoredFigures(const std::string& flight) {
+  std::ifstream in(RealFlightsTable());
+  EXPECT_TRUE(in.good()) << "cannot read " << RealFlightsTable();
+  std::map<std::string, StoredFigure> out;
+  std::string line;
+  bool header = true;
+  for (int n = 1; std::getline(in, line); ++n) {
+    if (line.empty() || line[0] == '#') continue;
+    if (header) {  // flight flags figure seed1 mean min max
+      header = false;
+      continue;
+    }
+    std::vector<std::string> f;
+    std::istringstream ls(line);
+    for (std::string cell; std::getline(ls, cell, '\t');) f.push_back(cell);
+    EXPECT_EQ(f.size(), 7u) << RealFlightsTable() << ":" << n << ": " << line;
+    if (f.size() != 7 || f[0] != flight) continue;
+    out[f[2]] = {std::stod(f[3]), std::stod(f[4]), std::stod(f[5]), std::stod(f[6])};
+  }
+  return out;
+}
+
+// A default run (seed 1) of `flight` against the stored table: each accuracy figure within the
+// table's seed-to-seed spread (max - min over its seeds) of the stored seed-1 figure, and the
+// frame counts as stored within their spread. A build that moves a figure further has changed
+// the results: re-run scripts/bench-flights.sh --write and update README.md and BENCHMARKS.md.
+// fps and CPU per frame depend on the machine and are not compared. The figures are those of the
+// optimised x86-64 build: an instrumented build (-O1, other rounding) only checks the table reads.
+void ExpectTheStoredFigures(const std::string& flight, const RunSummary& s) {
+  const std::map<std::string, StoredFigure> stored = StoredFigures(flight);
+  ASSERT_FALSE(stored.empty()) << RealFlightsTable() << " has no row for " << flight;
+  ASSERT_TRUE(s.evaluation.has_value());
+  const TrajectoryComparison& e = *s.evaluation;
+  const std::vector<std::pair<std::string, double>> measured = {
+      {"frames", s.frames_processed},
+      {"distance_m", e.se2.distance_flown_m},
+      {"sim2_ate_m", e.sim2.ate_m.rmse},
+      {"se2_ate_m", e.se2.ate_m.rmse},
+      {"se2_end_m", e.se2.end_point_error_m},
+      {"end_unaligned_m", e.se2.end_point_error_unaligned_m},
+      {"bridged", s.frames_bridged},
+      {"reacquired", s.frames_reacquired}};
+  for (const auto& [name, value] : measured) {
+    ASSERT_TRUE(stored.count(name)) << RealFlightsTable() << ": no " << name << " for " << flight;
+#ifndef AEROVO_INSTRUMENTED_BUILD
+    const StoredFigure& f = stored.at(name);
+    const double spread = f.max - f.min;
+    // 1e-3 of slack: the table's figures have 6 significant digits.
+    EXPECT_LE(std::abs(value - f.seed1), spread + 1e-3 * std::max(1.0, std::abs(f.seed1)))
+        << flight << " " << name << ": this build " << value << ", the stored table "
+        << f.seed1 << " (seed 1; spread over its seeds " << f.min << "-" << f.max
+        << "): re-run scripts/bench-flights.sh --seeds 10 --write bench/real_flights.tsv and "
+           "update README.md and BENCHMARKS.md";
+#endif
+  }
+}
+
 TEST(Runner, TampaPhantom3MeetsTheOnePercentTarget) {
   AEROVO_REQUIRE_SHARED(flight, "data/flights/tampa-phantom3/DJI_0054.JPG");
   RunConfig c;
@@ -127,6 +199,7 @@ TEST(Runner, TampaPhantom3MeetsTheOnePercentTarget) {
   EXPECT_LT(e.se2.ate_m.rmse, 13.5);
   EXPECT_LT(e.sim2.end_point_error_m, 15.5);
   EXPECT_LT(e.se2.end_point_error_percent, 0.6);
+  ExpectTheStoredFigures("tampa-phantom3", s);
   CheckOutputs(c.out, 172);
   const nlohmann::json summary = nlohmann::json::parse(ReadText(fs::path(c.out) / "summary.json"));
   EXPECT_EQ(summary["frames_processed"], 172);
@@ -235,8 +308,63 @@ TEST(Runner, TurinP4mWithXmpAltitudeAndYaw) {
   EXPECT_LT(s.evaluation->se2.end_point_error_m, 1.0);
   // Geo-referenced with the first yaw and fix only (no alignment): within 2 % at the end.
   EXPECT_LT(s.evaluation->se2.end_point_error_unaligned_percent, 2.0);
+  ExpectTheStoredFigures("turin-p4m", s);
   CheckOutputs(c.out, 32);
   fs::remove_all(c.out);
+}
+
+// 16:9 photos of a 4:3 sensor (the EXIF 35 mm equivalent is the 4:3 frame's), height from XMP
+// RelativeAltitude, beach and dunes.
+TEST(Runner, BrightonPhantom3SixteenByNineHoldsTheStoredFigures) {
+  AEROVO_REQUIRE_SHARED(flight, "data/flights/brighton-phantom3-16x9/DJI_0018.JPG");
+  RunConfig c;
+  c.input = flight.parent_path().string();
+  c.out = TempDir("brighton").string();
+  c.quiet = true;
+  const RunSummary s = RunFlight(c);
+  EXPECT_EQ(s.frames_processed, 18);
+  EXPECT_EQ(s.frames_bridged, 0);
+  EXPECT_EQ(s.height_source, "telemetry");
+  ASSERT_TRUE(s.evaluation.has_value());
+  // Measured (bench/real_flights.tsv): Sim(2) ATE 1.43 m (0.56 %) over 256 m.
+  EXPECT_LT(s.evaluation->sim2.ate_m.rmse, 0.01 * s.evaluation->sim2.distance_flown_m);
+  ExpectTheStoredFigures("brighton-phantom3-16x9", s);
+  fs::remove_all(c.out);
+}
+
+// README.md's real-flight rows (Results) quote the stored table: each figure as the table's
+// seed-1 run gives it, to the digits README.md prints; the last column is the Sim(2) ATE's range
+// over the table's seeds. `scripts/bench-flights.sh --quote bench/real_flights.tsv` prints them.
+TEST(RealFlights, ReadmeQuotesTheStoredTable) {
+  const std::string readme = ReadText(fs::path(AEROVO_SOURCE_DIR) / "README.md");
+  const std::string num = R"(([\d.]+))";
+  for (const std::string flight : {"tampa-phantom3", "turin-p4m", "brighton-phantom3-16x9"}) {
+    SCOPED_TRACE(flight);
+    const std::map<std::string, StoredFigure> f = StoredFigures(flight);
+    ASSERT_FALSE(f.empty()) << RealFlightsTable() << " has no row for " << flight;
+    const std::regex row("\\| " + flight + R"([^|]*\| (\d+) \| )" + num + " m \\| " + num +
+                         " m \\(" + num + " %\\) \\| \\*\\*" + num + " m \\(" + num +
+                         " %\\)\\*\\* \\| " + num + " m \\(" + num + " %\\) \\| " + num +
+                         " m \\(" + num + " %\\) \\| " + num + "-" + num + " m \\|");
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(readme, m, row)) << "README.md has no Results row for " << flight;
+    const std::vector<double> stored = {
+        f.at("frames").seed1,          f.at("distance_m").seed1,
+        f.at("se2_ate_m").seed1,       f.at("se2_ate_percent").seed1,
+        f.at("sim2_ate_m").seed1,      f.at("sim2_ate_percent").seed1,
+        f.at("se2_end_m").seed1,       f.at("se2_end_percent").seed1,
+        f.at("end_unaligned_m").seed1, f.at("end_unaligned_percent").seed1,
+        f.at("sim2_ate_m").min,        f.at("sim2_ate_m").max};
+    for (std::size_t k = 0; k < stored.size(); ++k) {
+      const std::string quoted = m[k + 1].str();
+      const std::size_t dot = quoted.find('.');
+      const int decimals = dot == std::string::npos ? 0 : static_cast<int>(quoted.size() - dot - 1);
+      // Rounded to the printed digits (half a unit of the last one, plus float slack).
+      EXPECT_LE(std::abs(std::stod(quoted) - stored[k]), 0.5 * std::pow(10.0, -decimals) + 1e-9)
+          << "README.md quotes " << quoted << " (column " << k + 2 << "), the table has "
+          << stored[k];
+    }
+  }
 }
 
 TEST(Runner, BlackFrameMidFlightIsFlaggedAndTheRunCompletes) {

@@ -61,7 +61,8 @@ std::string FormatRunSummary(const RunSummary& s) {
                    "Stage times (ms)", s.mean.detect_ms, s.mean.describe_ms, s.mean.correspond_ms);
   t += fmt::format("{:<20}estimate {:.1f}, total {:.1f}\n", "", s.mean.estimate_ms,
                    s.mean.total_ms);
-  t += fmt::format("{:<20}{:.2f} fps ({:.1f} s)\n", "Throughput", s.fps, s.wall_s);
+  t += fmt::format("{:<20}{:.2f} fps ({:.1f} s); CPU {:.1f} ms per frame\n", "Throughput", s.fps,
+                   s.wall_s, s.cpu_ms_per_frame);
   if (s.latency.frames > 0) {
     t += fmt::format("{:<20}capture to pose: median {:.1f}, p95 {:.1f}, max {:.1f}\n",
                      "Latency (ms)", s.latency.median_ms, s.latency.p95_ms, s.latency.max_ms);

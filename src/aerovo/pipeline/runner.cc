@@ -1,5 +1,6 @@
 #include "aerovo/pipeline/runner.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <memory>
@@ -48,6 +49,8 @@ nlohmann::json ToJson(const RunSummary& s) {
                    {"interrupted", s.interrupted},
                    {"wall_s", s.wall_s},
                    {"fps", s.fps},
+                   {"cpu_s", s.cpu_s},
+                   {"cpu_ms_per_frame", s.cpu_ms_per_frame},
                    {"mean_stage_ms",
                     {{"detect", s.mean.detect_ms},
                      {"describe", s.mean.describe_ms},
@@ -366,6 +369,7 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   Validate(given);
   if (!source) throw InvalidArgument("RunFlight: the frame source is null");
   Stopwatch wall;
+  const CpuStopwatch cpu;
   RunSummary summary;
   // 1. Inputs: what sim.json fills in (a simulated flight), the truth; then the output folder,
   // the source and the telemetry (a file, or the photos' own EXIF/XMP).
@@ -401,6 +405,8 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
     throw;
   }
   release_reserve();
+  summary.cpu_s = cpu.elapsed_s();
+  summary.cpu_ms_per_frame = 1000.0 * summary.cpu_s / std::max(1, summary.frames_processed);
   run_steps::WriteSummary(out_dir, summary);
   return summary;
 }

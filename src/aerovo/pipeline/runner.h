@@ -114,6 +114,10 @@ struct RunSummary {
   bool interrupted = false;  ///< Stopped by the stop flag (SIGINT/SIGTERM) before the end.
   double wall_s = 0.0;
   double fps = 0.0;  ///< frames_processed / wall_s.
+  /// CPU time of the process during RunFlight (all threads, user + system; core/timer.h
+  /// CpuStopwatch), seconds, and per processed frame, milliseconds.
+  double cpu_s = 0.0;
+  double cpu_ms_per_frame = 0.0;
   StageTimes mean;
   double focal_px = 0.0;
   std::string focal_source;    ///< "flag", "hfov", "xmp-calibrated", "exif-35mm", ...
