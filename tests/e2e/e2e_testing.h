@@ -3,8 +3,6 @@
 // run wrote (whole text, JSON, line count, frames.csv as rows).
 #pragma once
 
-#include <unistd.h>
-
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -17,25 +15,15 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "aerovo/core/testing.h"
 #include "aerovo/sim/terrain.h"
 
 namespace aerovo::e2e {
 
-/// The path temp/<prefix>_<name>_<pid>, removed if it exists and not created (for a command
-/// that makes its output folder itself, or a test that creates it).
-inline std::filesystem::path UnusedTempPath(const std::string& prefix, const std::string& name) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
-                                    (prefix + "_" + name + "_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(dir);
-  return dir;
-}
-
-/// An empty folder temp/<prefix>_<name>_<pid> (removed first if it exists).
-inline std::filesystem::path FreshTempDir(const std::string& prefix, const std::string& name) {
-  const std::filesystem::path dir = UnusedTempPath(prefix, name);
-  std::filesystem::create_directories(dir);
-  return dir;
-}
+// Scratch folders and whole files: core/testing.h (shared with the modules' tests).
+using ::aerovo::testing::FreshTempDir;
+using ::aerovo::testing::ReadText;
+using ::aerovo::testing::UnusedTempPath;
 
 #ifdef AEROVO_CLI_PATH
 /// Runs the built `aerovo` with `args` (a shell command line), its stdout and stderr to `log`;
@@ -60,14 +48,6 @@ inline cv::Mat GreyTerrain(double metres_per_px, unsigned seed, int size_px = 16
   cv::Mat grey;
   cv::cvtColor(sim::GenerateTerrain(t), grey, cv::COLOR_BGR2GRAY);
   return grey;
-}
-
-/// The whole file as bytes ("" when it cannot be read).
-inline std::string ReadText(const std::filesystem::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
 }
 
 /// The file parsed as JSON; null when it cannot be opened (a run that wrote no summary: the

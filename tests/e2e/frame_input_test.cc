@@ -253,9 +253,9 @@ TEST(FrameInput, TruncatedJpegIsNamedFlaggedAndCounted) {
   }
   const fs::path cut = dir / "photos" / "frame_0003.jpg";
   fs::resize_file(cut, fs::file_size(cut) * 8 / 10);
-  testing::internal::CaptureStderr();
+  ::testing::internal::CaptureStderr();
   const RunSummary s = RunFlight(Config(dir / "photos", dir / "run"));
-  const std::string err = testing::internal::GetCapturedStderr();
+  const std::string err = ::testing::internal::GetCapturedStderr();
   EXPECT_EQ(s.frames_processed, 8);
   ASSERT_EQ(s.frames_flagged.count("truncated"), 1u);
   EXPECT_EQ(s.frames_flagged.at("truncated"), 1);

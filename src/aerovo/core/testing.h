@@ -1,8 +1,14 @@
-// Test helpers (not installed): locating ../shared and skipping cleanly when it is absent.
+// Test helpers (not installed): locating ../shared and skipping cleanly when it is absent;
+// scratch folders named after the test and the process, and reading a file back whole (for the
+// tests of every module and tests/e2e/e2e_testing.h).
 #pragma once
+
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 
 namespace aerovo::testing {
@@ -18,6 +24,30 @@ inline std::filesystem::path SharedDir() {
   if (fs::is_directory(AEROVO_SHARED_DIR_DEFAULT)) return fs::path(AEROVO_SHARED_DIR_DEFAULT);
 #endif
   return {};
+}
+
+/// The path temp/<prefix>_<name>_<pid>, removed if it exists and not created (for a command
+/// that makes its output folder itself, or a test that creates it).
+inline std::filesystem::path UnusedTempPath(const std::string& prefix, const std::string& name) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    (prefix + "_" + name + "_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  return dir;
+}
+
+/// An empty folder temp/<prefix>_<name>_<pid> (removed first if it exists).
+inline std::filesystem::path FreshTempDir(const std::string& prefix, const std::string& name) {
+  const std::filesystem::path dir = UnusedTempPath(prefix, name);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+/// The whole file as bytes ("" when it cannot be read).
+inline std::string ReadText(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
 }
 
 }  // namespace aerovo::testing
