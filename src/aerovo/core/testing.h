@@ -1,15 +1,19 @@
 // Test helpers (not installed): locating ../shared and skipping cleanly when it is absent;
-// scratch folders named after the test and the process, and reading a file back whole (for the
-// tests of every module and tests/e2e/e2e_testing.h).
+// scratch folders named after the test and the process, reading a file back whole or by lines,
+// and a shell command's standard output (for the tests of every module and
+// tests/e2e/e2e_testing.h).
 #pragma once
 
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 namespace aerovo::testing {
 
@@ -48,6 +52,35 @@ inline std::string ReadText(const std::filesystem::path& p) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+/// The lines of `text`, without their '\n'.
+inline std::vector<std::string> Lines(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  std::string line;
+  while (std::getline(in, line)) lines.push_back(line);
+  return lines;
+}
+
+/// What a shell command wrote to its standard output, and how it ended.
+struct CommandOutput {
+  int status = -1;  ///< pclose's wait status (0 = exit 0); -1 when the command could not start.
+  std::string out;
+  /// The exit code; -1 when the command did not exit normally (a signal) or did not start.
+  int ExitCode() const { return WIFEXITED(status) ? WEXITSTATUS(status) : -1; }
+};
+
+/// Runs `cmd` through /bin/sh (popen), its standard output captured; stderr as `cmd` redirects.
+inline CommandOutput RunCommand(const std::string& cmd) {
+  CommandOutput r;
+  FILE* p = ::popen(cmd.c_str(), "r");
+  if (p == nullptr) return r;
+  char buf[4096];
+  std::size_t n;
+  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
+  r.status = ::pclose(p);
+  return r;
 }
 
 }  // namespace aerovo::testing

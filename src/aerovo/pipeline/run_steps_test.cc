@@ -34,6 +34,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
+using ::aerovo::testing::Lines;
 using ::aerovo::testing::ReadText;
 
 fs::path TempDir(const std::string& name) {
@@ -43,14 +44,6 @@ fs::path TempDir(const std::string& name) {
 void WriteText(const fs::path& p, const std::string& text) {
   std::ofstream out(p);
   out << text;
-}
-
-std::vector<std::string> Lines(const std::string& text) {
-  std::vector<std::string> lines;
-  std::istringstream in(text);
-  std::string line;
-  while (std::getline(in, line)) lines.push_back(line);
-  return lines;
 }
 
 // Rows of a CSV file after its header.
