@@ -15,6 +15,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "aerovo/camera/pinhole.h"
 #include "aerovo/core/testing.h"
 #include "aerovo/sim/terrain.h"
 
@@ -57,6 +58,21 @@ inline nlohmann::json ReadJson(const std::filesystem::path& p) {
   nlohmann::json j;
   if (in) in >> j;
   return j;
+}
+
+/// The camera of a simulated flight (`aerovo simulate`'s sim.json "camera" in `sim_dir`):
+/// pinhole or fisheye lens, its focal length, principal point and distortion.
+inline CameraIntrinsics SimCamera(const std::filesystem::path& sim_dir) {
+  const nlohmann::json cam = ReadJson(sim_dir / "sim.json")["camera"];
+  CameraIntrinsics k;
+  k.width_px = cam["width_px"];
+  k.height_px = cam["height_px"];
+  k.fx_px = k.fy_px = cam["focal_px"].get<double>();
+  k.cx_px = cam["cx_px"];
+  k.cy_px = cam["cy_px"];
+  k.model = cam["model"] == "fisheye" ? LensModel::kFisheye : LensModel::kPinhole;
+  k.distortion = cam["distortion"].get<std::vector<double>>();
+  return k;
 }
 
 /// Number of lines of the file (0 when it cannot be read).
