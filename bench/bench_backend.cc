@@ -6,7 +6,6 @@
 // Results in BENCHMARKS.md ("Pose-graph back-end").
 #include <benchmark/benchmark.h>
 
-#include <algorithm>
 #include <map>
 
 #include "aerovo/backend/pose_graph.h"
@@ -92,20 +91,7 @@ void BM_SlidingWindow30(benchmark::State& state) {
   const Lawnmower& l = Survey(static_cast<int>(state.range(0)));
   double end_error_m = 0.0;
   for (auto _ : state) {
-    PoseGraph g;
-    std::size_t next_closure = 0;
-    for (std::size_t i = 0; i < l.truth.size(); ++i) {
-      g.AddPose(i == 0 ? l.truth[0] : g.estimates().back() * l.odometry[i - 1].prev_from_curr);
-      if (i == 0) continue;
-      g.AddRelative(l.odometry[i - 1]);
-      while (next_closure < l.closures.size() &&
-             l.closures[next_closure].curr <= static_cast<int>(i)) {
-        g.AddRelative(l.closures[next_closure++]);
-      }
-      const int last = static_cast<int>(i);
-      g.SetEstimates(
-          aerovo::backend::OptimizeWindow(g, std::max(1, last - 29), last).local_from_frame);
-    }
+    const PoseGraph g = aerovo::backend::testing::SlideWindow(l, 30);
     end_error_m = (g.estimates().back().translation_m - l.truth.back().translation_m).norm();
   }
   state.counters["poses"] = static_cast<double>(l.truth.size());

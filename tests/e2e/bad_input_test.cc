@@ -33,22 +33,16 @@
 #include "aerovo/pipeline/runner.h"
 #include "aerovo/sim/terrain.h"
 #include "e2e_testing.h"
+#include "nadir_ground.h"
 
 namespace aerovo {
 namespace {
 
 namespace fs = std::filesystem;
 
-constexpr int kW = 320, kH = 240;
-constexpr double kFocalPx = 400.0, kHeightM = 100.0, kGsd = kHeightM / kFocalPx;  // 0.25 m/px
+using namespace e2e::nadir;  // kW, kH, kFocalPx, kHeightM, kGsd, Ground(), Config()
 
 fs::path TempDir(const std::string& name) { return e2e::FreshTempDir("aerovo_bad_input", name); }
-
-// The grey terrain all cases fly over: 1600 x 1600 px = 400 m x 400 m, generated once.
-const cv::Mat& Ground() {
-  static const cv::Mat ground = e2e::GreyTerrain(kGsd, 7);
-  return ground;
-}
 
 // A camera pose in the local frame of the ground's centre: x east, y north (m); heading = the
 // image-up direction, rad counter-clockwise from north (the VO's heading convention).
@@ -88,16 +82,6 @@ std::vector<cv::Mat> RenderAll(const std::vector<Pose>& poses) {
   std::vector<cv::Mat> frames;
   for (const Pose& p : poses) frames.push_back(Render(p));
   return frames;
-}
-
-RunConfig Config(const fs::path& input, const fs::path& out) {
-  RunConfig c;
-  c.input = input.string();
-  c.out = out.string();
-  c.focal_px = kFocalPx;
-  c.altitude_m = kHeightM;
-  c.quiet = true;
-  return c;
 }
 
 using e2e::ReadFramesCsv;

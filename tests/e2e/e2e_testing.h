@@ -3,8 +3,6 @@
 // run wrote (whole text, JSON, line count, frames.csv as rows).
 #pragma once
 
-#include <unistd.h>
-
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -17,25 +15,16 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "aerovo/camera/pinhole.h"
+#include "aerovo/core/testing.h"
 #include "aerovo/sim/terrain.h"
 
 namespace aerovo::e2e {
 
-/// The path temp/<prefix>_<name>_<pid>, removed if it exists and not created (for a command
-/// that makes its output folder itself, or a test that creates it).
-inline std::filesystem::path UnusedTempPath(const std::string& prefix, const std::string& name) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
-                                    (prefix + "_" + name + "_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(dir);
-  return dir;
-}
-
-/// An empty folder temp/<prefix>_<name>_<pid> (removed first if it exists).
-inline std::filesystem::path FreshTempDir(const std::string& prefix, const std::string& name) {
-  const std::filesystem::path dir = UnusedTempPath(prefix, name);
-  std::filesystem::create_directories(dir);
-  return dir;
-}
+// Scratch folders and whole files: core/testing.h (shared with the modules' tests).
+using ::aerovo::testing::FreshTempDir;
+using ::aerovo::testing::ReadText;
+using ::aerovo::testing::UnusedTempPath;
 
 #ifdef AEROVO_CLI_PATH
 /// Runs the built `aerovo` with `args` (a shell command line), its stdout and stderr to `log`;
@@ -62,14 +51,6 @@ inline cv::Mat GreyTerrain(double metres_per_px, unsigned seed, int size_px = 16
   return grey;
 }
 
-/// The whole file as bytes ("" when it cannot be read).
-inline std::string ReadText(const std::filesystem::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 /// The file parsed as JSON; null when it cannot be opened (a run that wrote no summary: the
 /// test's assertions on the fields then fail), nlohmann::json::parse_error when malformed.
 inline nlohmann::json ReadJson(const std::filesystem::path& p) {
@@ -77,6 +58,21 @@ inline nlohmann::json ReadJson(const std::filesystem::path& p) {
   nlohmann::json j;
   if (in) in >> j;
   return j;
+}
+
+/// The camera of a simulated flight (`aerovo simulate`'s sim.json "camera" in `sim_dir`):
+/// pinhole or fisheye lens, its focal length, principal point and distortion.
+inline CameraIntrinsics SimCamera(const std::filesystem::path& sim_dir) {
+  const nlohmann::json cam = ReadJson(sim_dir / "sim.json")["camera"];
+  CameraIntrinsics k;
+  k.width_px = cam["width_px"];
+  k.height_px = cam["height_px"];
+  k.fx_px = k.fy_px = cam["focal_px"].get<double>();
+  k.cx_px = cam["cx_px"];
+  k.cy_px = cam["cy_px"];
+  k.model = cam["model"] == "fisheye" ? LensModel::kFisheye : LensModel::kPinhole;
+  k.distortion = cam["distortion"].get<std::vector<double>>();
+  return k;
 }
 
 /// Number of lines of the file (0 when it cannot be read).

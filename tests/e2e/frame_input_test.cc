@@ -38,6 +38,7 @@
 #include "aerovo/pipeline/runner.h"
 #include "aerovo/sim/terrain.h"
 #include "e2e_testing.h"
+#include "nadir_ground.h"
 
 namespace aerovo {
 namespace {
@@ -46,15 +47,9 @@ namespace fs = std::filesystem;
 using io_test::HaveFfmpeg;
 using io_test::RunFfmpeg;
 
-constexpr int kW = 320, kH = 240;
-constexpr double kFocalPx = 400.0, kHeightM = 100.0, kGsd = kHeightM / kFocalPx;  // 0.25 m/px
+using namespace e2e::nadir;  // kW, kH, kFocalPx, kHeightM, kGsd, Ground(), Config()
 
 fs::path TempDir(const std::string& name) { return e2e::FreshTempDir("aerovo_frame_input", name); }
-
-const cv::Mat& Ground() {
-  static const cv::Mat ground = e2e::GreyTerrain(kGsd, 7);
-  return ground;
-}
 
 // Frame i of an eastward leg: 2 m (8 px) per frame, `scale` times the 320x240 size (the same
 // ground seen by a sensor with `scale` times the pixels).
@@ -69,16 +64,6 @@ cv::Mat Render(int i, int scale = 1) {
   cv::warpAffine(g, frame, ground_from_frame, cv::Size(kW * scale, kH * scale),
                  cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REFLECT);
   return frame;
-}
-
-RunConfig Config(const fs::path& input, const fs::path& out) {
-  RunConfig c;
-  c.input = input.string();
-  c.out = out.string();
-  c.focal_px = kFocalPx;
-  c.altitude_m = kHeightM;
-  c.quiet = true;
-  return c;
 }
 
 struct Row {
@@ -253,9 +238,9 @@ TEST(FrameInput, TruncatedJpegIsNamedFlaggedAndCounted) {
   }
   const fs::path cut = dir / "photos" / "frame_0003.jpg";
   fs::resize_file(cut, fs::file_size(cut) * 8 / 10);
-  testing::internal::CaptureStderr();
+  ::testing::internal::CaptureStderr();
   const RunSummary s = RunFlight(Config(dir / "photos", dir / "run"));
-  const std::string err = testing::internal::GetCapturedStderr();
+  const std::string err = ::testing::internal::GetCapturedStderr();
   EXPECT_EQ(s.frames_processed, 8);
   ASSERT_EQ(s.frames_flagged.count("truncated"), 1u);
   EXPECT_EQ(s.frames_flagged.at("truncated"), 1);

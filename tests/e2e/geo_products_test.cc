@@ -37,15 +37,9 @@ namespace fs = std::filesystem;
 
 // stdout of `cmd`; *rc its exit status.
 std::string Output(const std::string& cmd, int* rc = nullptr) {
-  std::string out;
-  FILE* p = ::popen(cmd.c_str(), "r");
-  if (!p) return out;
-  char buf[4096];
-  std::size_t n = 0;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
-  const int status = ::pclose(p);
-  if (rc) *rc = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return out;
+  const testing::CommandOutput c = testing::RunCommand(cmd);
+  if (rc) *rc = c.ExitCode();
+  return c.out;
 }
 
 bool Have(const char* tool) {

@@ -30,16 +30,7 @@ using e2e::ReadText;
 
 // The simulator's lens (sim.json "camera") as an OpenCV calibration file.
 void WriteTrueCalibration(const fs::path& sim_dir, const fs::path& file) {
-  const nlohmann::json cam = ReadJson(sim_dir / "sim.json")["camera"];
-  CameraIntrinsics k;
-  k.width_px = cam["width_px"];
-  k.height_px = cam["height_px"];
-  k.fx_px = k.fy_px = cam["focal_px"].get<double>();
-  k.cx_px = cam["cx_px"];
-  k.cy_px = cam["cy_px"];
-  k.model = cam["model"] == "fisheye" ? LensModel::kFisheye : LensModel::kPinhole;
-  k.distortion = cam["distortion"].get<std::vector<double>>();
-  WriteCalibration(file.string(), k, CalibrationFormat::kOpenCv);
+  WriteCalibration(file.string(), e2e::SimCamera(sim_dir), CalibrationFormat::kOpenCv);
 }
 
 double EndError(const nlohmann::json& s) {

@@ -35,14 +35,7 @@ namespace {
 namespace fs = std::filesystem;
 
 using e2e::ReadText;
-
-std::vector<std::string> Lines(const std::string& text) {
-  std::vector<std::string> lines;
-  std::istringstream in(text);
-  std::string line;
-  while (std::getline(in, line)) lines.push_back(line);
-  return lines;
-}
+using ::aerovo::testing::Lines;
 
 // frames.csv as rows of named cells.
 std::vector<std::map<std::string, std::string>> CsvRows(const fs::path& p) {
@@ -89,17 +82,9 @@ struct Cli {
 
 // Runs the CLI with stdout and stderr captured apart.
 Cli RunCli(const std::string& args, const fs::path& err_file) {
-  const std::string cmd =
-      std::string(AEROVO_CLI_PATH) + " " + args + " 2> '" + err_file.string() + "'";
-  Cli r;
-  FILE* p = ::popen(cmd.c_str(), "r");
-  if (p == nullptr) return r;
-  char buf[4096];
-  std::size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
-  r.status = ::pclose(p);
-  r.err = ReadText(err_file);
-  return r;
+  const testing::CommandOutput c = testing::RunCommand(std::string(AEROVO_CLI_PATH) + " " + args +
+                                                        " 2> '" + err_file.string() + "'");
+  return {c.status, c.out, ReadText(err_file)};
 }
 
 std::string RunArgs(const SimulatedFlight& f, const fs::path& out) {

@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "aerovo/core/options.h"
+#include "aerovo/core/testing.h"
 #include "aerovo/pipeline/demo.h"
 #include "aerovo/pipeline/experiment.h"
 #include "aerovo/pipeline/run_config.h"
@@ -29,21 +30,11 @@ namespace fs = std::filesystem;
 
 #ifdef AEROVO_CLI_PATH
 
-struct CliResult {
-  int status = -1;
-  std::string out;  // stdout (stderr is folded in with 2>&1 when asked)
-};
+// stdout (stderr is folded in with 2>&1 when asked) and the wait status.
+using CliResult = testing::CommandOutput;
 
 CliResult RunCli(const std::string& args) {
-  const std::string cmd = std::string(AEROVO_CLI_PATH) + " " + args;
-  CliResult r;
-  FILE* p = ::popen(cmd.c_str(), "r");
-  if (p == nullptr) return r;
-  char buf[4096];
-  std::size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
-  r.status = ::pclose(p);
-  return r;
+  return testing::RunCommand(std::string(AEROVO_CLI_PATH) + " " + args);
 }
 
 // The shell word for a JSON value given as a flag's value.

@@ -35,16 +35,8 @@ TEST(WideLens, FisheyeFlightIsAccurateWithItsCalibrationFileOnly) {
                   "--distortion=-0.05,0.01,-0.002,0.0005 --frames-only --image-format png "
                   "--quiet --out " + (dir / "sim").string()));
   // The calibration as OpenDroneMap would give it, from the simulator's own record.
-  const nlohmann::json cam = ReadJson(dir / "sim" / "sim.json")["camera"];
-  ASSERT_EQ(cam["model"], "fisheye");
-  CameraIntrinsics k;
-  k.width_px = cam["width_px"];
-  k.height_px = cam["height_px"];
-  k.fx_px = k.fy_px = cam["focal_px"].get<double>();
-  k.cx_px = cam["cx_px"];
-  k.cy_px = cam["cy_px"];
-  k.model = LensModel::kFisheye;
-  k.distortion = cam["distortion"].get<std::vector<double>>();
+  ASSERT_EQ(ReadJson(dir / "sim" / "sim.json")["camera"]["model"], "fisheye");
+  const CameraIntrinsics k = e2e::SimCamera(dir / "sim");
   WriteCalibration((dir / "cameras.json").string(), k, CalibrationFormat::kOdmJson);
 
   const std::string frames = (dir / "sim" / "frames").string();

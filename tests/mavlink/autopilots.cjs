@@ -25,18 +25,13 @@
 // (frames.csv time_s, 1 ms), and on a velocity more than 5 % off SPEED_MPS along the track.
 // Exit 0 = pass, 1 = fail (the reasons printed).
 'use strict';
-const dgram = require('dgram');
-const fs = require('fs');
 const path = require('path');
-const { spawn } = require('child_process');
-const { MavLinkPacketSplitter, MavLinkPacketParser, minimal, common, ardupilotmega } =
-  require('node-mavlink');
+const { minimal, common, ardupilotmega } = require('node-mavlink');
+const { failures, check, readCsv, listen, runAerovo, finish } = require('./harness.cjs');
 
 const [aerovo, video, focal, heightM, speedMps, runRoot] = process.argv.slice(2);
 const SPEED = Number(speedMps);
 const REGISTRY = { ...minimal.REGISTRY, ...common.REGISTRY, ...ardupilotmega.REGISTRY };
-const failures = [];
-const check = (ok, what) => { if (!ok) failures.push(what); return ok; };
 const finite = v => typeof v === 'number' && Number.isFinite(v);
 const allFinite = a => a.every(finite);
 
@@ -44,17 +39,6 @@ const allFinite = a => a.every(finite);
 const VISO_POS_M_NSE = 0.2, VISO_YAW_M_NSE = 0.2, VISO_QUAL_MIN = 0;  // ArduPilot AP_VisualOdom
 const EKF3_DT_MIN_S = 0.0025;  // the smallest EKF3 step (400 Hz loop) a delta must span
 const EKF2_EVP_NOISE = 0.1, EKF2_EVV_NOISE = 0.1, EKF2_EVA_NOISE = 0.05, EKF2_EV_QMIN = 0;
-
-function readCsv(file) {
-  const lines = fs.readFileSync(file, 'utf8').trim().split('\n');
-  const head = lines[0].split(',');
-  return lines.slice(1).map(l => {
-    const cells = l.split(',');
-    const row = {};
-    head.forEach((h, i) => { row[h] = cells[i]; });
-    return row;
-  });
-}
 
 // ArduPilot's constrain_value_line (AP_Math.cpp): a NaN is an internal error.
 function apConstrain(v, lo, hi, what) {
@@ -97,23 +81,15 @@ function checkVelocity(who, i, vLocal) {
 
 async function runOnce(kind) {
   const runDir = path.join(runRoot, kind);
-  const sock = dgram.createSocket('udp4');
-  const splitter = new MavLinkPacketSplitter();
-  const parser = splitter.pipe(new MavLinkPacketParser());
   const msgs = [];
-  parser.on('data', packet => {
+  const { sock, splitter, port } = await listen(packet => {
     const clazz = REGISTRY[packet.header.msgid];
     if (!clazz || packet.header.msgid === minimal.Heartbeat.MSG_ID) return;
     msgs.push({ id: packet.header.msgid, d: packet.protocol.data(packet.payload, clazz) });
   });
-  sock.on('message', m => splitter.write(m));
-  await new Promise(r => sock.bind(0, '127.0.0.1', r));
   const args = ['run', video, '--focal-px', focal, '--altitude', heightM, '--out', runDir, '-q',
-                '--no-report', '--mavlink', `udp:127.0.0.1:${sock.address().port}`,
-                '--mavlink-message', kind];
-  const child = spawn(aerovo, args, { stdio: ['ignore', 'inherit', 'inherit'] });
-  const code = await new Promise(r => child.on('exit', c => r(c)));
-  await new Promise(r => setTimeout(r, 300));  // the last datagrams
+                '--no-report', '--mavlink', `udp:127.0.0.1:${port}`, '--mavlink-message', kind];
+  const code = await runAerovo(aerovo, args);
   sock.close();
   check(code === 0, `${kind}: aerovo exited with ${code}`);
   check(splitter.invalidPackages === 0, `${kind}: ${splitter.invalidPackages} packets with a bad CRC`);
@@ -271,10 +247,4 @@ async function main() {
   positionDelta(await runOnce('vision_position_delta'));
 }
 
-main().then(() => {
-  if (failures.length) {
-    console.error(`FAIL (${failures.length}):\n  ` + failures.slice(0, 40).join('\n  '));
-    process.exit(1);
-  }
-  console.log('PASS');
-}, e => { console.error(e); process.exit(1); });
+finish(main, 40);

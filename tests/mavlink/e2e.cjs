@@ -23,26 +23,13 @@
 const dgram = require('dgram');
 const fs = require('fs');
 const path = require('path');
-const { spawn, spawnSync } = require('child_process');
+const { spawnSync } = require('child_process');
 const crypto = require('crypto');
-const { MavLinkPacketSplitter, MavLinkPacketParser, MavLinkProtocolV2, minimal, common } =
-  require('node-mavlink');
+const { MavLinkProtocolV2, minimal, common } = require('node-mavlink');
+const { failures, check, readCsv, listen, runAerovo, finish } = require('./harness.cjs');
 
 const [mode, aerovo, frames, focal, heightM, runDir] = process.argv.slice(2);
 const REGISTRY = { ...minimal.REGISTRY, ...common.REGISTRY };
-const failures = [];
-const check = (ok, what) => { if (!ok) failures.push(what); };
-
-function readCsv(file) {
-  const lines = fs.readFileSync(file, 'utf8').trim().split('\n');
-  const head = lines[0].split(',');
-  return lines.slice(1).map(l => {
-    const cells = l.split(',');
-    const row = {};
-    head.forEach((h, i) => { row[h] = cells[i]; });
-    return row;
-  });
-}
 
 function freePort() {
   return new Promise(resolve => {
@@ -52,14 +39,11 @@ function freePort() {
 }
 
 async function main() {
-  const sock = dgram.createSocket('udp4');
-  const splitter = new MavLinkPacketSplitter();
-  const parser = splitter.pipe(new MavLinkPacketParser());
   const got = { odometry: [], heartbeats: [], timesync: [] };
   const signing = mode === 'signed';
   const key = crypto.randomBytes(32);
   const signatures = { total: 0, unsigned: 0, bad: 0, backwards: 0, last: new Map() };
-  parser.on('data', packet => {
+  const { sock, splitter, port: myPort } = await listen(packet => {
     ++signatures.total;
     const sig = packet.signature;
     if (!sig) {
@@ -78,9 +62,6 @@ async function main() {
     if (packet.header.msgid === minimal.Heartbeat.MSG_ID) got.heartbeats.push({ h: packet.header, d: data });
     if (packet.header.msgid === common.TimeSync.MSG_ID) got.timesync.push({ h: packet.header, d: data });
   });
-  sock.on('message', msg => splitter.write(msg));
-  await new Promise(r => sock.bind(0, '127.0.0.1', r));
-  const myPort = sock.address().port;
 
   const args = ['run', frames, '--focal-px', focal, '--out', runDir, '-q', '--no-report'];
   if (signing) {
@@ -160,9 +141,7 @@ async function main() {
     check(r.status === 1, `a mode 644 key file: exit ${r.status}, expected 1`);
     check(r.stderr.includes(loose) && r.stderr.includes('chmod 600'), `a mode 644 key file: ${r.stderr.trim()}`);
   }
-  const child = spawn(aerovo, args, { stdio: ['ignore', 'inherit', 'inherit'] });
-  const code = await new Promise(r => child.on('exit', c => r(c)));
-  await new Promise(r => setTimeout(r, 300));  // the last datagrams
+  const code = await runAerovo(aerovo, args);
   if (timer) clearInterval(timer);
   sock.close();
   check(code === 0, `aerovo exited with ${code}`);
@@ -238,10 +217,4 @@ async function main() {
   console.log(`${mode}: ${odo.length} ODOMETRY, ${hb.length} HEARTBEAT, ${got.timesync.length} TIMESYNC for ${rows.length} frames`);
 }
 
-main().then(() => {
-  if (failures.length) {
-    console.error(`FAIL (${failures.length}):\n  ` + failures.slice(0, 30).join('\n  '));
-    process.exit(1);
-  }
-  console.log('PASS');
-}, e => { console.error(e); process.exit(1); });
+finish(main, 30);

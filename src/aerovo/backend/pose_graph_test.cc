@@ -322,21 +322,8 @@ TEST(PoseGraph, SlidingWindowOverTheFlightBeatsTheChain) {
   // The online use: after each new pose, the last 30 poses are optimised with the older ones
   // held; closures enter when both their poses exist.
   const Lawnmower& l = Survey();
-  PoseGraph g;
-  std::size_t next_closure = 0;
   constexpr int kWindow = 30;
-  for (std::size_t i = 0; i < l.truth.size(); ++i) {
-    g.AddPose(i == 0 ? l.truth[0] : g.estimates().back() * l.odometry[i - 1].prev_from_curr);
-    if (i == 0) continue;
-    g.AddRelative(l.odometry[i - 1]);
-    while (next_closure < l.closures.size() &&
-           l.closures[next_closure].curr <= static_cast<int>(i)) {
-      g.AddRelative(l.closures[next_closure++]);
-    }
-    const int last = static_cast<int>(i);
-    const PoseGraphResult r = OptimizeWindow(g, std::max(1, last - kWindow + 1), last);
-    g.SetEstimates(r.local_from_frame);
-  }
+  const PoseGraph g = testing::SlideWindow(l, kWindow);
   const double chained_end = EndPointError(l.chained, l.truth);
   const double windowed_end = EndPointError(g.estimates(), l.truth);
   std::printf("sliding window of %d: end %.2f m (chained %.2f m)\n", kWindow, windowed_end,

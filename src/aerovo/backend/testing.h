@@ -1,5 +1,6 @@
 // Test-only helpers (not installed: testing.h is excluded): a synthetic lawnmower survey with
-// exact truth for the back-end's tests and benchmark (pose_graph_test.cc, bench/bench_backend.cc).
+// exact truth, its graph and its online sliding-window solve, for the back-end's tests and
+// benchmark (pose_graph_test.cc, bench/bench_backend.cc).
 #pragma once
 
 #include <algorithm>
@@ -159,6 +160,28 @@ inline PoseGraph MakeGraph(const Lawnmower& l, bool with_closures) {
   for (const RelativeFactor& f : l.odometry) g.AddRelative(f);
   if (with_closures) {
     for (const RelativeFactor& f : l.closures) g.AddRelative(f);
+  }
+  return g;
+}
+
+/// The online use of the back-end through the whole survey: each pose added at its
+/// predecessor's estimate times its odometry (the first at the truth) with its odometry factor
+/// and the closures whose later pose it is, then the last `window` poses optimised with the older
+/// ones held at their estimates (pose 0 always held), as a run would per frame. Returns the graph
+/// at the final estimates.
+inline PoseGraph SlideWindow(const Lawnmower& l, int window) {
+  PoseGraph g;
+  std::size_t next_closure = 0;
+  for (std::size_t i = 0; i < l.truth.size(); ++i) {
+    g.AddPose(i == 0 ? l.truth[0] : g.estimates().back() * l.odometry[i - 1].prev_from_curr);
+    if (i == 0) continue;
+    g.AddRelative(l.odometry[i - 1]);
+    while (next_closure < l.closures.size() &&
+           l.closures[next_closure].curr <= static_cast<int>(i)) {
+      g.AddRelative(l.closures[next_closure++]);
+    }
+    const int last = static_cast<int>(i);
+    g.SetEstimates(OptimizeWindow(g, std::max(1, last - window + 1), last).local_from_frame);
   }
   return g;
 }

@@ -3,7 +3,6 @@
 // completion generated at build time.
 #include "aerovo/cli/conventions.h"
 
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -16,6 +15,8 @@
 #include <string>
 
 #include <gtest/gtest.h>
+
+#include "aerovo/core/testing.h"
 
 namespace aerovo::cli {
 namespace {
@@ -118,17 +119,9 @@ struct Cli {
 
 // `aerovo ARGS` with stdout and stderr together (or stdout only with `stdout_only`).
 Cli Aerovo(const std::string& args, bool stdout_only = false) {
-  const std::string cmd =
-      std::string(AEROVO_CLI_PATH) + " " + args + (stdout_only ? " 2>/dev/null" : " 2>&1");
-  Cli r;
-  FILE* p = ::popen(cmd.c_str(), "r");
-  if (p == nullptr) return r;
-  char buf[4096];
-  std::size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
-  const int status = ::pclose(p);
-  r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
+  const testing::CommandOutput c = testing::RunCommand(
+      std::string(AEROVO_CLI_PATH) + " " + args + (stdout_only ? " 2>/dev/null" : " 2>&1"));
+  return {c.ExitCode(), c.out};
 }
 
 bool Has(const std::string& text, const std::string& what) {

@@ -39,18 +39,18 @@ class FlagBinder : public options::GroupingVisitor<FlagBinder> {
     std::string help = doc;
     if (spec.HasRange()) help += " (" + spec.Describe() + ")";
     if (!spec.alias) {
-      Add(names, k, help, value, spec, StageGroup(k));
+      Add(names, k, help, value, StageGroup(k));
     } else {
-      Add(names, k, help + "; also --" + Dashed(spec.alias), value, spec, StageGroup(k));
+      Add(names, k, help + "; also --" + Dashed(spec.alias), value, StageGroup(k));
       Add(options::FlagName(spec.alias), spec.alias, help + " (= " + options::FlagName(k) + ")",
-          value, spec, kRunGroup);
+          value, kRunGroup);
     }
     for (const RunShorthand& s : RunShorthands()) {
       if (s.keys.front() != k || skip_.count(s.name) > 0) continue;
       std::string sets;
       for (const char* t : s.keys) sets += (sets.empty() ? "" : " and ") + options::FlagName(t);
       Add(options::FlagName(s.name), s.name, std::string(s.doc) + " (sets " + sets + ")", value,
-          spec, kRunGroup);
+          kRunGroup);
     }
   }
 
@@ -79,7 +79,7 @@ class FlagBinder : public options::GroupingVisitor<FlagBinder> {
 
   template <class T>
   void Add(const std::string& names, const std::string& json_key, const std::string& help,
-           const T& value, const options::Spec& spec, const std::string& group) {
+           const T& value, const std::string& group) {
     nlohmann::json& given = flags_.given;
     CLI::Option* opt = nullptr;
     if constexpr (std::is_same_v<T, bool>) {

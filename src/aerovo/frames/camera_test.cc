@@ -148,6 +148,33 @@ TEST(Camera, TurinCalibratedAgreesWith35mm) {
   EXPECT_NEAR(*m.calibrated_focal_px / f35, 1.0, 0.005);
 }
 
+// A black w x h image with a 3x3 white dot centred on the pixel nearest (x, y) (pixels).
+GrayImage Dot(int w, int h, double x, double y) {
+  GrayImage img(w, h, 0);
+  const int cx = static_cast<int>(std::lround(x)), cy = static_cast<int>(std::lround(y));
+  for (int dy = -1; dy <= 1; ++dy) {
+    for (int dx = -1; dx <= 1; ++dx) img.at(cx + dx, cy + dy) = 255;
+  }
+  return img;
+}
+
+// The intensity-weighted centroid of an image (pixels) and its weight, the sum of the grey
+// levels (0 for a black image, whose centroid is then (0, 0)).
+struct Centroid {
+  double x = 0.0, y = 0.0, weight = 0.0;
+};
+Centroid CentroidOf(const GrayImage& img) {
+  double sx = 0, sy = 0, sw = 0;
+  for (int y = 0; y < img.height(); ++y) {
+    for (int x = 0; x < img.width(); ++x) {
+      sx += x * img.at(x, y);
+      sy += y * img.at(x, y);
+      sw += img.at(x, y);
+    }
+  }
+  return sw > 0.0 ? Centroid{sx / sw, sy / sw, sw} : Centroid{};
+}
+
 TEST(Camera, UndistorterMovesPointsToThePinholePosition) {
   const int w = 200, h = 160;
   CameraIntrinsics k = IntrinsicsFromFocalPx(150.0, w, h);
@@ -159,26 +186,14 @@ TEST(Camera, UndistorterMovesPointsToThePinholePosition) {
   const double xd = k.cx_px + nx * s * k.fx_px, yd = k.cy_px + ny * s * k.fy_px;
   ASSERT_GT(std::hypot(xd - xu, yd - yu), 3.0);  // the lens moves it visibly
 
-  GrayImage in(w, h, 0);
-  for (int y = -1; y <= 1; ++y) {
-    for (int x = -1; x <= 1; ++x) {
-      in.at(static_cast<int>(std::lround(xd)) + x, static_cast<int>(std::lround(yd)) + y) = 255;
-    }
-  }
+  const GrayImage in = Dot(w, h, xd, yd);
   Undistorter u(k);
   GrayImage out;
   u.Apply(in, out);
-  double sx = 0, sy = 0, sw = 0;
-  for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
-      sx += x * out.at(x, y);
-      sy += y * out.at(x, y);
-      sw += out.at(x, y);
-    }
-  }
-  ASSERT_GT(sw, 0.0);
-  EXPECT_NEAR(sx / sw, xu, 0.75);
-  EXPECT_NEAR(sy / sw, yu, 0.75);
+  const Centroid c = CentroidOf(out);
+  ASSERT_GT(c.weight, 0.0);
+  EXPECT_NEAR(c.x, xu, 0.75);
+  EXPECT_NEAR(c.y, yu, 0.75);
   EXPECT_THROW(u.Apply(GrayImage(10, 10), out), InvalidArgument);
 }
 
@@ -258,26 +273,12 @@ TEST(Camera, FisheyeUndistorterImageAndPointsAgree) {
   u.UndistortPoints(&pts);
   EXPECT_NEAR(pts[0].x, pu.x, 0.01);
   EXPECT_NEAR(pts[0].y, pu.y, 0.01);
-  GrayImage in(w, h, 0);
-  for (int y = -1; y <= 1; ++y) {
-    for (int x = -1; x <= 1; ++x) {
-      in.at(static_cast<int>(std::lround(dist[0].x)) + x,
-            static_cast<int>(std::lround(dist[0].y)) + y) = 255;
-    }
-  }
   GrayImage out;
-  u.Apply(in, out);
-  double sx = 0, sy = 0, sw = 0;
-  for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
-      sx += x * out.at(x, y);
-      sy += y * out.at(x, y);
-      sw += out.at(x, y);
-    }
-  }
-  ASSERT_GT(sw, 0.0);
-  EXPECT_NEAR(sx / sw, pu.x, 1.0);
-  EXPECT_NEAR(sy / sw, pu.y, 1.0);
+  u.Apply(Dot(w, h, dist[0].x, dist[0].y), out);
+  const Centroid c = CentroidOf(out);
+  ASSERT_GT(c.weight, 0.0);
+  EXPECT_NEAR(c.x, pu.x, 1.0);
+  EXPECT_NEAR(c.y, pu.y, 1.0);
   // A fisheye camera takes 0 or 4 coefficients.
   k.distortion = {0.1, 0.0, 0.0, 0.0, 0.0};
   EXPECT_THROW(Undistorter{k}, InvalidArgument);

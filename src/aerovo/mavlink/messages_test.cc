@@ -12,9 +12,14 @@
 #include <vector>
 
 #include "aerovo/mavlink/protocol.h"
+#include "aerovo/mavlink/testing.h"
 
 namespace aerovo::mavlink {
 namespace {
+
+using testing::Bytes;
+using testing::Hex;
+using testing::ParseOne;
 
 // Golden packets (node-mavlink; regenerate: the top of tests/mavlink/golden.cjs).
 namespace golden {
@@ -47,22 +52,6 @@ constexpr const char* kAttitude =
 
 }  // namespace golden
 
-std::string Hex(const std::vector<uint8_t>& b) {
-  static const char* d = "0123456789abcdef";
-  std::string s;
-  for (uint8_t v : b) {
-    s += d[v >> 4];
-    s += d[v & 15];
-  }
-  return s;
-}
-
-std::vector<uint8_t> Bytes(const std::string& hex) {
-  std::vector<uint8_t> b;
-  for (std::size_t i = 0; i + 1 < hex.size(); i += 2) b.push_back(std::stoi(hex.substr(i, 2), nullptr, 16));
-  return b;
-}
-
 // CRC-16/MCRF4XX bit by bit (reflected polynomial 0x8408, init 0xFFFF), independent of the
 // table-free byte-wise formula of protocol.cc.
 uint16_t BitwiseCrc(const std::vector<uint8_t>& data) {
@@ -72,15 +61,6 @@ uint16_t BitwiseCrc(const std::vector<uint8_t>& data) {
     for (int i = 0; i < 8; ++i) crc = (crc & 1) ? static_cast<uint16_t>((crc >> 1) ^ 0x8408) : crc >> 1;
   }
   return crc;
-}
-
-// One decoded packet of `bytes` (exactly one expected).
-Packet ParseOne(const std::vector<uint8_t>& bytes) {
-  Parser p;
-  std::vector<Packet> got;
-  p.Feed(bytes.data(), bytes.size(), [&](const Packet& k) { got.push_back(k); });
-  EXPECT_EQ(got.size(), 1u);
-  return got.empty() ? Packet{} : got.front();
 }
 
 TEST(MavlinkCrc, CheckValueAndBitwiseAgree) {

@@ -16,9 +16,14 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/mavlink/messages.h"
+#include "aerovo/mavlink/testing.h"
 
 namespace aerovo::mavlink {
 namespace {
+
+using testing::Bytes;
+using testing::Hex;
+using testing::ParseOne;
 
 namespace golden {
 // DISTANCE_SENSOR as in messages_test.cc (seq 9, sysid 1, compid 1), link id 0, Unix time
@@ -38,24 +43,6 @@ SigningKey TestKey() {
   return k;
 }
 
-std::string Hex(const std::vector<uint8_t>& b) {
-  static const char* d = "0123456789abcdef";
-  std::string s;
-  for (uint8_t v : b) {
-    s += d[v >> 4];
-    s += d[v & 15];
-  }
-  return s;
-}
-
-std::vector<uint8_t> Bytes(const std::string& hex) {
-  std::vector<uint8_t> out;
-  for (std::size_t i = 0; i + 1 < hex.size(); i += 2) {
-    out.push_back(static_cast<uint8_t>(std::stoi(hex.substr(i, 2), nullptr, 16)));
-  }
-  return out;
-}
-
 DistanceSensor GoldenDistance() {  // the field values of golden.cjs
   DistanceSensor d;
   d.time_boot_ms = 60000;
@@ -67,15 +54,6 @@ DistanceSensor GoldenDistance() {  // the field values of golden.cjs
   d.orientation = 25;
   d.covariance = 255;
   return d;
-}
-
-// The one packet `bytes` holds, parsed.
-Packet Parse(const std::vector<uint8_t>& bytes) {
-  Parser p;
-  std::vector<Packet> got;
-  p.Feed(bytes.data(), bytes.size(), [&](const Packet& k) { got.push_back(k); });
-  EXPECT_EQ(got.size(), 1u);
-  return got.empty() ? Packet{} : got[0];
 }
 
 // Unix seconds of a signing timestamp (for the clock argument).
@@ -111,54 +89,54 @@ TEST(MavlinkSigning, AcceptsOnlySignedForwardPackets) {
   const std::vector<uint8_t> good = Bytes(golden::kDistanceSensorSigned);
   const double now = UnixOf(golden::kDistanceSensorTimestamp);
   SigningState s(TestKey(), 0);
-  const Packet p = Parse(good);
+  const Packet p = ParseOne(good);
   ASSERT_TRUE(p.is_signed);
   EXPECT_EQ(p.frame, good);
   ASSERT_TRUE(Decode<DistanceSensor>(p));
   EXPECT_EQ(Decode<DistanceSensor>(p)->current_distance, 8123);
   EXPECT_EQ(s.Check(p, now), SignatureCheck::kAccepted);
   // The same bytes again: a replay.
-  EXPECT_EQ(s.Check(Parse(good), now), SignatureCheck::kReplayed);
+  EXPECT_EQ(s.Check(ParseOne(good), now), SignatureCheck::kReplayed);
   // Unsigned, same message.
-  EXPECT_EQ(s.Check(Parse(Encode(GoldenDistance(), 10, 1, 1)), now), SignatureCheck::kUnsigned);
+  EXPECT_EQ(s.Check(ParseOne(Encode(GoldenDistance(), 10, 1, 1)), now), SignatureCheck::kUnsigned);
   // Forged: signed with another key, a later timestamp.
   SigningKey other = TestKey();
   other[31] ^= 0x01;
   std::vector<uint8_t> forged = Encode(GoldenDistance(), 11, 1, 1);
   SignPacket(&forged, DistanceSensor::kCrcExtra, other, 0, golden::kDistanceSensorTimestamp + 5);
-  EXPECT_EQ(s.Check(Parse(forged), now), SignatureCheck::kBadSignature);
+  EXPECT_EQ(s.Check(ParseOne(forged), now), SignatureCheck::kBadSignature);
   // One bit of the signed timestamp changed (the checksum does not cover the signature block).
   std::vector<uint8_t> tampered = good;
   tampered[tampered.size() - 12] ^= 0x40;
-  EXPECT_EQ(s.Check(Parse(tampered), now), SignatureCheck::kBadSignature);
+  EXPECT_EQ(s.Check(ParseOne(tampered), now), SignatureCheck::kBadSignature);
   // The real key, a later timestamp: accepted, and an earlier one after it is not.
   std::vector<uint8_t> later = Encode(GoldenDistance(), 12, 1, 1);
   SignPacket(&later, DistanceSensor::kCrcExtra, TestKey(), 0, golden::kDistanceSensorTimestamp + 7);
-  EXPECT_EQ(s.Check(Parse(later), now), SignatureCheck::kAccepted);
+  EXPECT_EQ(s.Check(ParseOne(later), now), SignatureCheck::kAccepted);
   std::vector<uint8_t> older = Encode(GoldenDistance(), 13, 1, 1);
   SignPacket(&older, DistanceSensor::kCrcExtra, TestKey(), 0, golden::kDistanceSensorTimestamp + 6);
-  EXPECT_EQ(s.Check(Parse(older), now), SignatureCheck::kReplayed);
+  EXPECT_EQ(s.Check(ParseOne(older), now), SignatureCheck::kReplayed);
   // Another stream (link id 1) has its own last timestamp.
   std::vector<uint8_t> link1 = Encode(GoldenDistance(), 14, 1, 1);
   SignPacket(&link1, DistanceSensor::kCrcExtra, TestKey(), 1, golden::kDistanceSensorTimestamp + 6);
-  EXPECT_EQ(s.Check(Parse(link1), now), SignatureCheck::kAccepted);
+  EXPECT_EQ(s.Check(ParseOne(link1), now), SignatureCheck::kAccepted);
 }
 
 TEST(MavlinkSigning, NewStreamWithinOneMinuteOfTheLocalTimestamp) {
   const uint64_t t = golden::kDistanceSensorTimestamp;
   SigningState s(TestKey(), 0);
   const double now = UnixOf(t + kSigningNewStreamWindow + 100);  // the clock: 1 min + 1 ms later
-  EXPECT_EQ(s.Check(Parse(Bytes(golden::kDistanceSensorSigned)), now), SignatureCheck::kReplayed);
+  EXPECT_EQ(s.Check(ParseOne(Bytes(golden::kDistanceSensorSigned)), now), SignatureCheck::kReplayed);
   std::vector<uint8_t> recent = Encode(GoldenDistance(), 1, 1, 2);        // compid 2: a new stream
   SignPacket(&recent, DistanceSensor::kCrcExtra, TestKey(), 0, t + 200);  // 59.999 s old
-  EXPECT_EQ(s.Check(Parse(recent), now), SignatureCheck::kAccepted);
+  EXPECT_EQ(s.Check(ParseOne(recent), now), SignatureCheck::kAccepted);
   // The local timestamp also follows what was accepted: a clock far behind does not reopen the
   // window for a stream older than a minute before the accepted one.
   SigningState s2(TestKey(), 0);
   std::vector<uint8_t> ahead = Encode(GoldenDistance(), 1, 1, 3);
   SignPacket(&ahead, DistanceSensor::kCrcExtra, TestKey(), 0, t + 2 * kSigningNewStreamWindow);
-  EXPECT_EQ(s2.Check(Parse(ahead), UnixOf(t)), SignatureCheck::kAccepted);
-  EXPECT_EQ(s2.Check(Parse(Bytes(golden::kDistanceSensorSigned)), UnixOf(t)),
+  EXPECT_EQ(s2.Check(ParseOne(ahead), UnixOf(t)), SignatureCheck::kAccepted);
+  EXPECT_EQ(s2.Check(ParseOne(Bytes(golden::kDistanceSensorSigned)), UnixOf(t)),
             SignatureCheck::kReplayed);
 }
 
@@ -171,7 +149,7 @@ TEST(MavlinkSigning, SentTimestampsIncreaseAndFollowAcceptedOnes) {
     std::vector<uint8_t> b = Encode(Heartbeat{}, static_cast<uint8_t>(i), 1, 197);
     // The same clock reading each time, then one going backwards by a second.
     s.Sign(&b, Heartbeat::kCrcExtra, i < 3 ? clock : clock - 1.0);
-    const Packet p = Parse(b);
+    const Packet p = ParseOne(b);
     ASSERT_TRUE(p.is_signed);
     EXPECT_EQ(receiver.Check(p, clock), SignatureCheck::kAccepted) << i;
     uint64_t ts = 0;
@@ -184,10 +162,10 @@ TEST(MavlinkSigning, SentTimestampsIncreaseAndFollowAcceptedOnes) {
   // An accepted packet from the autopilot with a later timestamp moves ours past it.
   std::vector<uint8_t> fc = Encode(GoldenDistance(), 0, 1, 1);
   SignPacket(&fc, DistanceSensor::kCrcExtra, TestKey(), 0, last + 1000);
-  EXPECT_EQ(s.Check(Parse(fc), clock), SignatureCheck::kAccepted);
+  EXPECT_EQ(s.Check(ParseOne(fc), clock), SignatureCheck::kAccepted);
   std::vector<uint8_t> b = Encode(Heartbeat{}, 9, 1, 197);
   s.Sign(&b, Heartbeat::kCrcExtra, clock);
-  EXPECT_EQ(receiver.Check(Parse(b), clock), SignatureCheck::kAccepted);
+  EXPECT_EQ(receiver.Check(ParseOne(b), clock), SignatureCheck::kAccepted);
   uint64_t ts = 0;
   for (int k = 5; k >= 0; --k) ts = (ts << 8) | b[b.size() - 12 + k];
   EXPECT_EQ(ts, last + 1001);

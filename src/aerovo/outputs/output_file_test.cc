@@ -12,11 +12,11 @@
 
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <string>
 
 #include <nlohmann/json.hpp>
 
+#include "aerovo/core/testing.h"
 #include "aerovo/outputs/track_writers.h"
 
 namespace aerovo {
@@ -24,19 +24,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string ReadText(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using ::aerovo::testing::ReadText;
 
 fs::path TempDir(const std::string& name) {
-  const fs::path d =
-      fs::temp_directory_path() / ("aerovo_output_file_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
+  return ::aerovo::testing::FreshTempDir("aerovo_output_file", name);
 }
 
 int Count(const std::string& text, const std::string& what) {

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/testing.h"
 
 namespace aerovo {
 namespace {
@@ -18,10 +19,7 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path TempDir(const std::string& name) {
-  const fs::path d =
-      fs::temp_directory_path() / ("aerovo_run_folder_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  return d;
+  return ::aerovo::testing::UnusedTempPath("aerovo_run_folder", name);
 }
 
 TEST(RunFolderLock, ASecondProcessIsRefusedWithTheHoldersPid) {

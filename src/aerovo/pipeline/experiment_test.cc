@@ -4,7 +4,6 @@
 #include "aerovo/pipeline/experiment.h"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <atomic>
 #include <cmath>
@@ -18,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/testing.h"
 
 namespace aerovo {
 namespace {
@@ -25,10 +25,7 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() /
-                       ("aerovo_experiment_test_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  return dir;
+  return ::aerovo::testing::UnusedTempPath("aerovo_experiment_test", name);
 }
 
 nlohmann::json ReadJson(const fs::path& p) {

@@ -4,12 +4,10 @@
 #include "aerovo/pipeline/frame_loop.h"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -20,6 +18,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/testing.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/pipeline/frame_state.h"
 #include "aerovo/pipeline/runner.h"
@@ -29,19 +28,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path TempDir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("aerovo_frame_loop_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+using ::aerovo::testing::ReadText;
 
-std::string ReadText(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+fs::path TempDir(const std::string& name) {
+  return ::aerovo::testing::FreshTempDir("aerovo_frame_loop", name);
 }
 
 // Rows of a CSV file after its header.

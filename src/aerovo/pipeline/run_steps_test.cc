@@ -34,32 +34,16 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path TempDir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("aerovo_run_steps_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+using ::aerovo::testing::Lines;
+using ::aerovo::testing::ReadText;
 
-std::string ReadText(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+fs::path TempDir(const std::string& name) {
+  return ::aerovo::testing::FreshTempDir("aerovo_run_steps", name);
 }
 
 void WriteText(const fs::path& p, const std::string& text) {
   std::ofstream out(p);
   out << text;
-}
-
-std::vector<std::string> Lines(const std::string& text) {
-  std::vector<std::string> lines;
-  std::istringstream in(text);
-  std::string line;
-  while (std::getline(in, line)) lines.push_back(line);
-  return lines;
 }
 
 // Rows of a CSV file after its header.

@@ -3,7 +3,6 @@
 #include "aerovo/report/plot.h"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -14,6 +13,7 @@
 #include <pugixml.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/testing.h"
 
 namespace aerovo {
 namespace {
@@ -41,11 +41,7 @@ Figure TwoSeries() {
 }
 
 fs::path TempDir(const std::string& name) {
-  const fs::path d =
-      fs::temp_directory_path() / ("aerovo_plot_test_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
+  return ::aerovo::testing::FreshTempDir("aerovo_plot_test", name);
 }
 
 TEST(Plot, DataHasOneBlockPerSeriesAndMissingValues) {

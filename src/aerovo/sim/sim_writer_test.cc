@@ -10,7 +10,6 @@
 #include <sstream>
 #include <string>
 
-#include <unistd.h>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
@@ -19,6 +18,7 @@
 #include <fmt/format.h>
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/testing.h"
 #include "aerovo/geo/local_enu.h"
 #include "aerovo/sim/simulator.h"
 #include "aerovo/telemetry/telemetry_readers.h"
@@ -29,10 +29,7 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path TempDir(const std::string& name) {
-  const fs::path p =
-      fs::temp_directory_path() / ("aerovo_sim_writer_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(p);
-  return p;
+  return ::aerovo::testing::UnusedTempPath("aerovo_sim_writer", name);
 }
 
 SimulationOptions SmallFlight() {
