@@ -15,6 +15,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -28,6 +29,7 @@
 #include "aerovo/core/testing.h"
 #include "aerovo/camera_files/calibration.h"
 #include "aerovo/frames/camera.h"
+#include "aerovo/pipeline/autopilot_attitude.h"
 
 namespace aerovo::run_steps {
 namespace {
@@ -408,38 +410,57 @@ TEST(RunSteps, NoHeightIsAnErrorNamingTheFrameAndTheCause) {
   }
 }
 
+// A flight controller on a loopback UDP socket and an AutopilotLink listening for it (udpin on
+// a free port).
+struct FakeFlightController {
+  FakeFlightController() {
+    fc = socket(AF_INET, SOCK_DGRAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    EXPECT_EQ(bind(fc, reinterpret_cast<sockaddr*>(&a), sizeof(a)), 0);
+    // A free port for the link: bind one, read it, close it.
+    const int probe = socket(AF_INET, SOCK_DGRAM, 0);
+    to = a;
+    EXPECT_EQ(bind(probe, reinterpret_cast<sockaddr*>(&to), sizeof(to)), 0);
+    socklen_t len = sizeof(to);
+    getsockname(probe, reinterpret_cast<sockaddr*>(&to), &len);
+    close(probe);
+    link = std::make_unique<mavlink::AutopilotLink>(
+        mavlink::OpenTransport(
+            mavlink::ParseLinkUrl("udpin:127.0.0.1:" + std::to_string(ntohs(to.sin_port)))),
+        mavlink::AutopilotLink::Options{});
+  }
+  ~FakeFlightController() {
+    link.reset();
+    close(fc);
+  }
+  template <class M>
+  void Send(const M& m) {
+    const std::vector<uint8_t> bytes = mavlink::Encode(m, seq++, 1, 1);
+    sendto(fc, bytes.data(), bytes.size(), 0, reinterpret_cast<const sockaddr*>(&to), sizeof(to));
+  }
+  int fc = -1;
+  sockaddr_in to{};
+  uint8_t seq = 0;
+  std::unique_ptr<mavlink::AutopilotLink> link;
+};
+
 // The autopilot's height over a udpin link (a loopback socket plays the flight controller):
 // the rangefinder first, the relative altitude when no rangefinder reading is near, the flag
 // above all; each frame's source recorded.
 TEST(RunSteps, HeightFromTheAutopilotLink) {
-  const int fc = socket(AF_INET, SOCK_DGRAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ASSERT_EQ(bind(fc, reinterpret_cast<sockaddr*>(&a), sizeof(a)), 0);
-  // A free port for the link: bind one, read it, close it.
-  const int probe = socket(AF_INET, SOCK_DGRAM, 0);
-  sockaddr_in b = a;
-  ASSERT_EQ(bind(probe, reinterpret_cast<sockaddr*>(&b), sizeof(b)), 0);
-  socklen_t len = sizeof(b);
-  getsockname(probe, reinterpret_cast<sockaddr*>(&b), &len);
-  close(probe);
-  const int port = ntohs(b.sin_port);
-  mavlink::AutopilotLink link(
-      mavlink::OpenTransport(mavlink::ParseLinkUrl("udpin:127.0.0.1:" + std::to_string(port))),
-      mavlink::AutopilotLink::Options{});
-  const auto send = [&](const std::vector<uint8_t>& bytes) {
-    sendto(fc, bytes.data(), bytes.size(), 0, reinterpret_cast<const sockaddr*>(&b), sizeof(b));
-  };
+  FakeFlightController fc;
+  mavlink::AutopilotLink& link = *fc.link;
   mavlink::GlobalPositionInt g;
   g.relative_alt = 61500;  // 61.5 m above home
-  send(mavlink::Encode(g, 0, 1, 1));
+  fc.Send(g);
   mavlink::DistanceSensor d;
   d.orientation = mavlink::kMavSensorRotationPitch270;
   d.min_distance = 20;
   d.max_distance = 10000;
   d.current_distance = 5875;  // 58.75 m
-  send(mavlink::Encode(d, 1, 1, 1));
+  fc.Send(d);
   ASSERT_TRUE(link.WaitForHeight(2.0));
   std::this_thread::sleep_for(std::chrono::milliseconds(100));  // both in
   std::vector<std::string> warnings;
@@ -460,7 +481,34 @@ TEST(RunSteps, HeightFromTheAutopilotLink) {
   HeightProvider flag(40.0, &link, 0.25);
   EXPECT_EQ(flag.HeightOf("live#0", std::nullopt, &warnings, now), 40.0);
   EXPECT_EQ(flag.last_source(), "altitude_flag");
-  close(fc);
+}
+
+// The autopilot's attitude of a frame: the sample nearest its capture time; the first frame,
+// read before the run waited for the link, gets the sample received since, later frames only a
+// sample near their own capture time.
+TEST(RunSteps, AttitudeFromTheAutopilotLinkAlsoForAFirstFrameReadBeforeTheLinksFirstSample) {
+  FakeFlightController fc;
+  mavlink::Attitude at;
+  at.roll = 0.05f;
+  at.pitch = -0.025f;
+  at.yaw = 0.5f;
+  const double before_s = mavlink::MonotonicNowS() - 10.0;  // a frame read 10 s before
+  fc.Send(at);
+  for (int i = 0; i < 200 && !fc.link->AttitudeNear(mavlink::MonotonicNowS(), 1.0); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(fc.link->AttitudeNear(mavlink::MonotonicNowS(), 1.0)) << "no ATTITUDE received";
+  AutopilotAttitudeMatcher first(fc.link.get(), 0.25);
+  const std::optional<mavlink::AutopilotAttitude> a0 = first.AttitudeOf(before_s);
+  ASSERT_TRUE(a0.has_value()) << "the first frame got no attitude";
+  EXPECT_NEAR(a0->roll_rad, 0.05, 1e-6);
+  EXPECT_NEAR(a0->pitch_rad, -0.025, 1e-6);
+  EXPECT_NEAR(a0->yaw_rad, 0.5, 1e-6);
+  // Once a sample has matched, a frame far from every sample has none.
+  EXPECT_FALSE(first.AttitudeOf(before_s).has_value());
+  AutopilotAttitudeMatcher later(fc.link.get(), 0.25);
+  ASSERT_TRUE(later.AttitudeOf(mavlink::MonotonicNowS()).has_value());
+  EXPECT_FALSE(later.AttitudeOf(before_s).has_value());
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -513,7 +561,7 @@ TEST(RunSteps, OutputsWaitForTheHeadingThenWriteEveryFrame) {
   RunCallbacks cb;
   cb.poses = &poses;
   cb.frame = [&](const FrameRecord& r) { called.push_back(r.frame); };
-  const RunCamera camera{400.0, "flag"};
+  const RunCamera camera{400.0, "flag", {}, std::nullopt};
   std::optional<RunOutputs> out;
   out.emplace(dir, config, camera, "flag", 320, 240, 0.0, std::nullopt, cb, true);
 
@@ -561,8 +609,8 @@ TEST(RunSteps, OutputsWithoutGpsTelemetryWriteAtOnceAndGeoReferenceWhenReady) {
   RunCallbacks cb;
   cb.poses = &poses;
   const TelemetrySample first = Fix(0.0, 50.0);
-  RunOutputs out(dir, config, RunCamera{400.0, "hfov"}, "telemetry", 320, 240, 0.0, first, cb,
-                 false);
+  RunOutputs out(dir, config, RunCamera{400.0, "hfov", {}, std::nullopt}, "telemetry", 320, 240,
+                 0.0, first, cb, false);
   GeoReferencer georef;
   out.Add(PendingFrameOf(FakeFrame(0), FakeResult(0), std::nullopt), georef);
   EXPECT_EQ(CsvRows(dir / "frames.csv"), 1);

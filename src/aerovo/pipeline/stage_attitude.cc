@@ -3,10 +3,12 @@
 // the mount), and once per run a warning when attitude is off and the camera is tilted beyond
 // RunConfig::attitude_warn_deg.
 #include <memory>
+#include <optional>
 
 #include <fmt/format.h>
 
 #include "aerovo/odometry/attitude.h"
+#include "aerovo/pipeline/autopilot_attitude.h"
 #include "aerovo/pipeline/frame_loop.h"
 
 namespace aerovo::run_steps {
@@ -19,7 +21,8 @@ class AttitudeStage : public FrameStage {
   void Process(FrameState& f, const RunContext& run) override {
     const RunConfig& config = *run.config;
     if (run.link_reads_autopilot) {
-      f.autopilot_attitude = run.link->AttitudeNear(f.capture_mono_s, config.mavlink_match_s);
+      if (!matcher_) matcher_.emplace(run.link, config.mavlink_match_s);
+      f.autopilot_attitude = matcher_->AttitudeOf(f.capture_mono_s);
     }
     f.attitude = CameraAttitudeOf(config, f.sample, f.autopilot_attitude);
     const FrameAttitude& a = f.attitude;
@@ -36,7 +39,8 @@ class AttitudeStage : public FrameStage {
   }
 
  private:
-  bool warned_ = false;  // the attitude_warn_deg warning was given
+  bool warned_ = false;                              // the attitude_warn_deg warning was given
+  std::optional<AutopilotAttitudeMatcher> matcher_;  // with an autopilot link
 };
 
 }  // namespace
