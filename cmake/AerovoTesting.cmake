@@ -109,10 +109,18 @@ endfunction()
 # generators, and compiles 25-45 % faster at -O1 than at -O3 (BENCHMARKS.md, CI time); it
 # computes the same: without -ffast-math GCC and Clang keep IEEE semantics at every -O level
 # (no reassociation; no FMA on the x86-64-v2 baseline, -ffp-contract=off elsewhere).
-# The sanitizer and fuzz builds (RelWithDebInfo) are at -O1 already. Not in cross builds: their
-# tests run under an emulator (scripts/test-aarch64.sh), where test code runs at its -O2.
+# Not in cross builds: their tests run under an emulator (scripts/test-aarch64.sh), where test
+# code runs at its -O2. In the sanitizer build (library at -O1) the test sources are at -O0: an
+# instrumented test TU compiles in about a third of its -O1 CPU time, and the tests stay as
+# checked (ASan and UBSan instrument -O0 code alike). The cost: where a test TU and the library
+# both instantiate an inline function (Eigen's, mostly), the linker may keep the test's -O0 copy,
+# so some library code runs slower in the test executables (BENCHMARKS.md, CI time: less in all
+# than the compile time saved).
 function(aerovo_test_optimisation target)
   if(NOT CMAKE_CROSSCOMPILING)
     target_compile_options(${target} PRIVATE $<$<CONFIG:Release>:-O1>)
+  endif()
+  if(AEROVO_SANITIZE OR AEROVO_BUILD_FUZZERS)
+    target_compile_options(${target} PRIVATE -O0)
   endif()
 endfunction()

@@ -45,5 +45,6 @@ if apt-get install -s --no-install-recommends "${missing[@]}" | grep -q '^Remv';
   apt-get install -s --no-install-recommends "${missing[@]}" | grep '^Remv' >&2
   exit 1
 fi
-$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+$SUDO apt-get install -y -qq --no-install-recommends -o Dpkg::Options::=--force-unsafe-io \
+  "${missing[@]}" >/dev/null
 echo "install-deps-aarch64: done"
