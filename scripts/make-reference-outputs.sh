@@ -9,7 +9,10 @@
 # - *-paper.*: the build before the pipeline refactor (then with --guided 0 --refine 0; --paper
 #   reproduces them exactly, which the test proves);
 # - *-default.*: the build of branch feat (adaptive interest points, the new default),
-#   regenerated with MODES=default so that the paper ones stay those of the pre-refactor build.
+#   regenerated with MODES=default so that the paper ones stay those of the pre-refactor build;
+#   tampa-default.* again by the build that estimates the camera's tilt from the flight
+#   (attitude_estimation auto: tampa's 15 deg; turin and sim unchanged, their telemetry gives
+#   the attitude or the estimate is not significant).
 #   scripts/make-reference-outputs.sh path/to/aerovo [shared-dir]      (MODES="default paper")
 set -euo pipefail
 cli=$(realpath "$1")

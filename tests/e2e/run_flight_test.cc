@@ -193,12 +193,22 @@ TEST(Runner, TampaPhantom3MeetsTheOnePercentTarget) {
   // SE(2) 7.31 m (0.47 %), Sim(2) 13.6 m.
   // Adaptive interest points, the default since 2026-12-02: Sim(2) 10.76 m, SE(2)
   // 12.92 m (0.83 %), end-point SE(2) 7.64 m (0.49 %).
-  // Target: Sim(2) ATE RMSE < 1 % of the distance flown.
-  EXPECT_LT(e.sim2.ate_m.rmse, 11.5);
-  EXPECT_LT(e.sim2.ate_m.rmse, 0.01 * e.sim2.distance_flown_m);
-  EXPECT_LT(e.se2.ate_m.rmse, 13.5);
-  EXPECT_LT(e.sim2.end_point_error_m, 15.5);
-  EXPECT_LT(e.se2.end_point_error_percent, 0.6);
+  // The camera's tilt estimated from the flight (its photos carry no attitude; docs/attitude.md
+  // "Estimated from the flight"): pitch 15.1 deg; Sim(2) 1.34 m, SE(2) 5.37 m (the 57 m height
+  // is a guess: Sim(2) scale 1.105), end-point SE(2) 5.51 m (0.35 %), Sim(2) 3.67 m, unaligned
+  // 15.2 m (0.98 %).
+  const nlohmann::json attitude =
+      nlohmann::json::parse(ReadText(fs::path(c.out) / "summary.json"))["attitude_estimate"];
+  EXPECT_EQ(attitude["status"], "applied") << attitude.dump();
+  EXPECT_NEAR(attitude["pitch_deg"].get<double>(), 15.1, 1.0) << attitude.dump();
+  EXPECT_NEAR(attitude["roll_deg"].get<double>(), 0.0, 1.0) << attitude.dump();
+  // Target: Sim(2) ATE RMSE < 0.15 % of the distance flown.
+  EXPECT_LT(e.sim2.ate_m.rmse, 2.0);
+  EXPECT_LT(e.sim2.ate_m.rmse, 0.0015 * e.sim2.distance_flown_m);
+  EXPECT_LT(e.se2.ate_m.rmse, 6.0);
+  EXPECT_LT(e.sim2.end_point_error_m, 5.0);
+  EXPECT_LT(e.se2.end_point_error_percent, 0.45);
+  EXPECT_LT(e.se2.end_point_error_unaligned_percent, 1.2);
   ExpectTheStoredFigures("tampa-phantom3", s);
   CheckOutputs(c.out, 172);
   const nlohmann::json summary = nlohmann::json::parse(ReadText(fs::path(c.out) / "summary.json"));
@@ -224,8 +234,8 @@ TEST(Runner, TampaRelocalisationDoesNotDependOnTheSeed) {
     EXPECT_GE(s.frames_reacquired, 1) << "seed " << seed;
     EXPECT_EQ(s.frames_bridged, 0) << "seed " << seed;
     ASSERT_TRUE(s.evaluation.has_value());
-    // Adaptive points: 10.76-10.88 m.
-    EXPECT_LT(s.evaluation->sim2.ate_m.rmse, 11.5) << "seed " << seed;
+    // Seeds 1-10 with the estimated camera tilt: 1.31-1.60 m (bench/real_flights.tsv).
+    EXPECT_LT(s.evaluation->sim2.ate_m.rmse, 2.0) << "seed " << seed;
     fs::remove_all(c.out);
   }
 }
@@ -255,6 +265,10 @@ TEST(Runner, PolishMakesTheTrackIndependentOfTheSeed) {
     c.max_frames = 40;
     c.odometry.correspondence.ransac.seed = seed;
     c.odometry.correspondence.ransac.polish_iterations = polish;
+    // As a nadir camera (its 15 deg tilt not estimated): the affine model's mismatch with the
+    // tilted views is what lets two seeds' fits end apart (with the tilt corrected they end
+    // 0.10 m apart without the polish).
+    c.attitude_estimation = AttitudeEstimationMode::kOff;
     c.quiet = true;
     c.odometry.surf.num_threads = 1;
     c.odometry.correspondence.match.num_threads = 1;

@@ -167,5 +167,32 @@ TEST(CameraAttitude, FromTheGimbalTheAircraftTheAutopilotOrTheMount) {
   EXPECT_FALSE(CameraAttitudeOf(RunConfig{}, Sample(80.0, std::nullopt), std::nullopt).reported);
 }
 
+TEST(CameraAttitude, TheFlightsOwnEstimateOnlyWhereNothingElseGivesOne) {
+  const CameraAttitude estimated{-0.5, 15.0};
+  RunConfig c;
+  FrameAttitude a = CameraAttitudeOf(c, Sample(80.0, std::nullopt), std::nullopt, estimated);
+  EXPECT_EQ(a.source, AttitudeSource::kEstimated);
+  ASSERT_TRUE(a.camera.has_value());
+  EXPECT_EQ(a.camera->pitch_deg, 15.0);
+  EXPECT_EQ(a.camera->roll_deg, -0.5);
+  EXPECT_STREQ(ToString(a.source), "estimated");
+  // The telemetry's gimbal wins.
+  TelemetrySample s = Sample(80.0, std::nullopt);
+  s.gimbal_pitch_deg = -80.0;
+  a = CameraAttitudeOf(c, s, std::nullopt, estimated);
+  EXPECT_EQ(a.source, AttitudeSource::kGimbal);
+  EXPECT_NEAR(a.camera->pitch_deg, 10.0, 1e-12);
+  // A mount pitch given wins.
+  c.camera_mount_pitch_deg = 5.0;
+  a = CameraAttitudeOf(c, Sample(80.0, std::nullopt), std::nullopt, estimated);
+  EXPECT_EQ(a.source, AttitudeSource::kMount);
+  // attitude = off: reported, not used.
+  c = RunConfig{};
+  c.attitude = AttitudeMode::kOff;
+  a = CameraAttitudeOf(c, std::nullopt, std::nullopt, estimated);
+  EXPECT_FALSE(a.camera.has_value());
+  EXPECT_EQ(a.source, AttitudeSource::kEstimated);
+}
+
 }  // namespace
 }  // namespace aerovo::run_steps

@@ -125,6 +125,9 @@ struct RunContext {
   RunState* state = nullptr;
   // From the first frame.
   RunCamera camera;                 ///< Of the frames as delivered.
+  /// The camera's attitude estimated from the flight when significant (RunConfig::
+  /// attitude_estimation, pipeline/lens_prepass.h): every frame's, when nothing else gives it.
+  std::optional<CameraAttitude> estimated_attitude;
   int width_px = 0, height_px = 0;  ///< The frames as delivered.
   HeightSource height_source = HeightSource::kTelemetry;
   OdometryOptions vo_options;             ///< focal_px: of the processed (reduced) frames.

@@ -9,10 +9,12 @@
 #include <fmt/format.h>
 
 #include "aerovo/core/error.h"
+#include "aerovo/camera/lens.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/features/surf.h"
 #include "aerovo/matching/matcher.h"
 #include "aerovo/pipeline/preprocess.h"
+#include "aerovo/pipeline/run_steps.h"
 
 namespace aerovo::run_steps {
 
@@ -43,6 +45,24 @@ std::string LensPrepassSkipReason(const RunConfig& config, bool live) {
   if (config.k1 != 0.0 || config.k2 != 0.0 || config.p1 != 0.0 || config.p2 != 0.0 ||
       config.k3 != 0.0) {
     return "lens distortion coefficients are given";
+  }
+  if (live) return "a live source cannot be read twice";
+  std::error_code ec;
+  if (config.input.empty() || !std::filesystem::exists(config.input, ec)) {
+    return "the input is not a file or folder that can be read again";
+  }
+  return "";
+}
+
+std::string AttitudePrepassSkipReason(const RunConfig& config, bool live, bool autopilot_attitude,
+                                      const std::optional<TelemetrySample>& first_sample) {
+  if (config.attitude_estimation == AttitudeEstimationMode::kOff) return "attitude_estimation off";
+  if (config.attitude == AttitudeMode::kOff) return "attitude off";
+  if (config.camera_mount_pitch_deg != 0.0) return "a camera mount pitch is given";
+  if (autopilot_attitude) return "the autopilot's ATTITUDE gives it";
+  if (first_sample && (first_sample->gimbal_pitch_deg || first_sample->gimbal_roll_deg ||
+                       first_sample->pitch_deg || first_sample->roll_deg)) {
+    return "the telemetry gives it";
   }
   if (live) return "a live source cannot be read twice";
   std::error_code ec;
@@ -139,29 +159,117 @@ CameraIntrinsics LensOf(const LensEstimate& e, double focal_px, int w, int h) {
 
 }  // namespace
 
-LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_px) {
-  if (w <= 0 || h <= 0 || !(focal_px > 0.0) || !std::isfinite(focal_px)) {
-    throw InvalidArgument(fmt::format("RunLensPrepass: frames {}x{}, focal {} px", w, h, focal_px));
+namespace {
+
+// The lens part of the pre-pass on the matched `pairs` (reduced frames of out->width_px x
+// out->height_px, the reduced focal `reduced_focal_px`): the estimate and the decision, in *out.
+void EstimateLens(const RunConfig& config, const std::vector<LensPair>& pairs, int w, int h,
+                  double focal_px, double reduced_focal_px, LensPrepass* out) {
+  const Stopwatch estimate_sw;
+  LensEstimationOptions o;
+  o.focal_px = reduced_focal_px;
+  o.cx_px = (out->width_px - 1) / 2.0;
+  o.cy_px = (out->height_px - 1) / 2.0;
+  o.width_px = out->width_px;
+  o.height_px = out->height_px;
+  o.seed = config.odometry.correspondence.ransac.seed;
+  o.min_cost_drop = kRunMinCostDrop;
+  const std::string read_note = out->why;
+  out->estimate = EstimateRadialDistortion(pairs, o);
+  out->estimate_ms = estimate_sw.elapsed_ms();
+  const LensEstimate& e = *out->estimate;
+  out->why = read_note.empty() ? e.why : read_note + "; " + e.why;
+  if (!e.valid) {
+    out->status = LensPrepassStatus::kNoEstimate;
+  } else if (!e.significant) {
+    out->status = LensPrepassStatus::kNotSignificant;
+  } else {
+    out->status = LensPrepassStatus::kApplied;
+    out->applied = true;
+    out->lens = LensOf(e, focal_px, w, h);
   }
-  const Stopwatch total;
-  LensPrepass out;
+}
+
+// The attitude part of the pre-pass on the matched `pairs` of the reduced frames: their points
+// undistorted with the run's lens (`calibrated` or config's coefficients, or out->lens when the
+// lens estimate is applied), then EstimateCameraAttitude; in out->attitude.
+void EstimateAttitude(const RunConfig& config, std::vector<LensPair> pairs, double focal_px,
+                      double reduced_focal_px, const std::optional<CameraIntrinsics>& calibrated,
+                      LensPrepass* out) {
+  const Stopwatch sw;
+  AttitudePrepass& a = out->attitude;
+  RunCamera camera;
+  camera.focal_px = focal_px;
+  camera.calibrated = out->applied ? out->lens : calibrated;
+  const std::optional<CameraIntrinsics> lens =
+      RunLens(config, camera, out->width_px, out->height_px, reduced_focal_px);
+  AttitudeEstimationOptions o;
+  o.focal_px = reduced_focal_px;
+  o.cx_px = (out->width_px - 1) / 2.0;
+  o.cy_px = (out->height_px - 1) / 2.0;
+  if (lens) {
+    // The points in the undistorted pinhole camera (camera/lens.h LensUndistortion::output);
+    // a point the lens model cannot undistort is dropped from its pair.
+    const LensUndistortion undistortion(*lens);
+    o.focal_px = undistortion.output().fx_px;
+    o.cx_px = undistortion.output().cx_px;
+    o.cy_px = undistortion.output().cy_px;
+    for (LensPair& pair : pairs) {
+      Eigen::Index kept = 0;
+      for (Eigen::Index i = 0; i < pair.prev_px.cols(); ++i) {
+        double pu = 0, pv = 0, cu = 0, cv = 0;
+        if (!undistortion.UndistortPixel(pair.prev_px(0, i), pair.prev_px(1, i), &pu, &pv) ||
+            !undistortion.UndistortPixel(pair.curr_px(0, i), pair.curr_px(1, i), &cu, &cv)) {
+          continue;
+        }
+        pair.prev_px.col(kept) = Eigen::Vector2d(pu, pv);
+        pair.curr_px.col(kept++) = Eigen::Vector2d(cu, cv);
+      }
+      pair.prev_px.conservativeResize(2, kept);
+      pair.curr_px.conservativeResize(2, kept);
+    }
+  }
+  o.width_px = out->width_px;
+  o.height_px = out->height_px;
+  o.seed = config.odometry.correspondence.ransac.seed;
+  a.estimate = EstimateCameraAttitude(pairs, o);
+  a.estimate_ms = sw.elapsed_ms();
+  const AttitudeEstimate& e = *a.estimate;
+  a.why = e.why;
+  a.status = !e.valid          ? LensPrepassStatus::kNoEstimate
+             : !e.significant  ? LensPrepassStatus::kNotSignificant
+                               : LensPrepassStatus::kApplied;
+  a.applied = e.significant;
+}
+
+// Reads and matches the pairs into *pairs; false (out's statuses "failed", the reason in their
+// why) on an input error.
+bool ReadAndMatch(const RunConfig& config, int w, int h, const PrepassRequest& request,
+                  std::vector<LensPair>* pairs, LensPrepass* out) {
+  const auto fail = [&](const std::string& why) {
+    if (request.lens) {
+      out->status = LensPrepassStatus::kFailed;
+      out->why = why;
+    }
+    if (request.attitude) {
+      out->attitude.status = LensPrepassStatus::kFailed;
+      out->attitude.why = why;
+    }
+    return false;
+  };
   std::vector<std::pair<Frame, Frame>> frames;
   try {
-    frames = ReadPairs(config, &out.read_ms, &out.why);
+    frames = ReadPairs(config, &out->read_ms, &out->why);
   } catch (const InputError& e) {
-    out.status = LensPrepassStatus::kFailed;
-    out.why = std::string("reading the frame pairs: ") + e.what();
-    out.total_ms = total.elapsed_ms();
-    return out;
+    return fail(std::string("reading the frame pairs: ") + e.what());
   }
   // Reduced to the pre-pass's budget; SURF and matching with the run's options.
   const Stopwatch match_sw;
   FrameReducer reducer(w, h, kLensPrepassMegapixels);
-  out.width_px = reducer.out_width_px();
-  out.height_px = reducer.out_height_px();
+  out->width_px = reducer.out_width_px();
+  out->height_px = reducer.out_height_px();
   Surf surf(config.odometry.surf);
   Matcher matcher(config.odometry.correspondence.match);
-  std::vector<LensPair> pairs;
   const auto features = [&](const Frame& f) {
     if (f.gray.width() != w || f.gray.height() != h) {
       throw InputError(fmt::format("{}: {}x{} px, but the run's frames are {}x{}", f.name,
@@ -173,39 +281,33 @@ LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_p
     for (const auto& [prev, curr] : frames) {
       const FeatureSet a = features(prev);
       const FeatureSet b = features(curr);
-      pairs.push_back(LensPairOf(a, b, matcher.Match(a, b)));
+      pairs->push_back(LensPairOf(a, b, matcher.Match(a, b)));
     }
   } catch (const InputError& e) {
-    out.status = LensPrepassStatus::kFailed;
-    out.why = std::string("matching the frame pairs: ") + e.what();
-    out.total_ms = total.elapsed_ms();
-    return out;
+    return fail(std::string("matching the frame pairs: ") + e.what());
   }
-  out.pairs_read = static_cast<int>(pairs.size());
-  out.match_ms = match_sw.elapsed_ms();
+  out->pairs_read = static_cast<int>(pairs->size());
+  out->match_ms = match_sw.elapsed_ms();
+  return true;
+}
 
-  const Stopwatch estimate_sw;
-  LensEstimationOptions o;
-  o.focal_px = focal_px * reducer.focal_scale();
-  o.cx_px = (out.width_px - 1) / 2.0;
-  o.cy_px = (out.height_px - 1) / 2.0;
-  o.width_px = out.width_px;
-  o.height_px = out.height_px;
-  o.seed = config.odometry.correspondence.ransac.seed;
-  o.min_cost_drop = kRunMinCostDrop;
-  const std::string read_note = out.why;
-  out.estimate = EstimateRadialDistortion(pairs, o);
-  out.estimate_ms = estimate_sw.elapsed_ms();
-  const LensEstimate& e = *out.estimate;
-  out.why = read_note.empty() ? e.why : read_note + "; " + e.why;
-  if (!e.valid) {
-    out.status = LensPrepassStatus::kNoEstimate;
-  } else if (!e.significant) {
-    out.status = LensPrepassStatus::kNotSignificant;
-  } else {
-    out.status = LensPrepassStatus::kApplied;
-    out.applied = true;
-    out.lens = LensOf(e, focal_px, w, h);
+}  // namespace
+
+LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_px,
+                           const PrepassRequest& request) {
+  if (w <= 0 || h <= 0 || !(focal_px > 0.0) || !std::isfinite(focal_px)) {
+    throw InvalidArgument(fmt::format("RunLensPrepass: frames {}x{}, focal {} px", w, h, focal_px));
+  }
+  const Stopwatch total;
+  LensPrepass out;
+  std::vector<LensPair> pairs;
+  if (ReadAndMatch(config, w, h, request, &pairs, &out)) {
+    const double reduced_focal_px = focal_px * out.width_px / w;
+    if (request.lens) EstimateLens(config, pairs, w, h, focal_px, reduced_focal_px, &out);
+    if (request.attitude) {
+      EstimateAttitude(config, std::move(pairs), focal_px, reduced_focal_px, request.calibrated,
+                       &out);
+    }
   }
   out.total_ms = total.elapsed_ms();
   return out;
@@ -239,6 +341,35 @@ nlohmann::json ToJson(const LensPrepass& p) {
     j["pair_k"] = e.pair_k;
   }
   if (p.applied) j["file"] = kLensEstimateYaml;
+  return j;
+}
+
+
+nlohmann::json ToJson(const AttitudePrepass& a) {
+  nlohmann::json j{{"status", ToString(a.status)}, {"applied", a.applied}, {"why", a.why}};
+  if (!a.estimate) return j;
+  const AttitudeEstimate& e = *a.estimate;
+  j["roll_deg"] = e.attitude.roll_deg;
+  j["pitch_deg"] = e.attitude.pitch_deg;
+  j["tilt_deg"] = e.tilt_deg;
+  j["sigma_roll_deg"] = e.sigma_roll_deg;
+  j["sigma_pitch_deg"] = e.sigma_pitch_deg;
+  j["cost_drop"] = e.cost_drop;
+  j["cost"] = e.cost;
+  j["cost_nadir"] = e.cost_nadir;
+  j["median_residual_px"] = e.median_residual_px;
+  j["median_residual_nadir_px"] = e.median_residual_nadir_px;
+  j["pairs_used"] = e.pairs_used;
+  j["pairs_improved"] = e.pairs_improved;
+  j["points_used"] = e.points_used;
+  std::vector<double> rolls, pitches;
+  for (const CameraAttitude& p : e.pair_attitude) {
+    rolls.push_back(p.roll_deg);
+    pitches.push_back(p.pitch_deg);
+  }
+  j["pair_roll_deg"] = rolls;
+  j["pair_pitch_deg"] = pitches;
+  j["time_ms"] = a.estimate_ms;
   return j;
 }
 

@@ -9,6 +9,11 @@
 // Brown k1) is significant. The main stream is not touched. A significant estimate is the run's
 // lens as a calibration file would be (run_steps.h RunCamera::calibrated, so undistort
 // auto|points|frames applies) and is written as lens_estimate.yaml (OpenCV YAML).
+//
+// The same pairs give the camera's tilt (RunConfig::attitude_estimation, odometry/
+// attitude_estimation.h EstimateCameraAttitude, docs/attitude.md "Estimated from the flight"):
+// their points undistorted with the run's lens (given, or the significant estimate), one roll
+// and pitch for the flight; a significant estimate is every frame's camera attitude.
 #pragma once
 
 #include <optional>
@@ -20,6 +25,8 @@
 #include "aerovo/camera/pinhole.h"
 #include "aerovo/correspondence/lens_estimation.h"
 #include "aerovo/frames/frame_source.h"
+#include "aerovo/odometry/attitude_estimation.h"
+#include "aerovo/telemetry/telemetry.h"
 #include "aerovo/outputs/track_writers.h"
 #include "aerovo/pipeline/run_config.h"
 #include "aerovo/pipeline/run_types.h"
@@ -52,6 +59,33 @@ FrameSourceOptions SourceOptionsOf(const RunConfig& config);
 /// file or folder that can be opened again.
 std::string LensPrepassSkipReason(const RunConfig& config, bool live);
 
+/// Why the pre-pass does not estimate the camera's attitude ("" = it does): attitude_estimation
+/// or attitude off, a camera_mount_pitch_deg given, an autopilot link that gives ATTITUDE
+/// (`autopilot_attitude`), the first frame's telemetry `first_sample` with gimbal or aircraft
+/// angles, a live source (`live`), or an input that cannot be read again.
+std::string AttitudePrepassSkipReason(const RunConfig& config, bool live, bool autopilot_attitude,
+                                      const std::optional<TelemetrySample>& first_sample);
+
+/// What the pre-pass is asked to estimate.
+struct PrepassRequest {
+  bool lens = true;       ///< The lens (LensPrepassSkipReason is "").
+  bool attitude = false;  ///< The camera's attitude (AttitudePrepassSkipReason is "").
+  /// The run's calibrated camera of the frames as delivered (RunCamera::calibrated; unset
+  /// without a calibration file): the attitude estimate's points are undistorted with it, with
+  /// config.k1..k3, p1, p2, or with a significant lens estimate.
+  std::optional<CameraIntrinsics> calibrated;
+};
+
+/// What the pre-pass found about the camera's attitude: summary.json "attitude_estimate".
+struct AttitudePrepass {
+  /// As LensPrepass::status, for the attitude.
+  LensPrepassStatus status = LensPrepassStatus::kSkipped;
+  bool applied = false;
+  std::string why;
+  std::optional<AttitudeEstimate> estimate;
+  double estimate_ms = 0.0;  ///< Undistortion of the points and EstimateCameraAttitude.
+};
+
 /// First frames of the pre-pass's pairs, as ranks among the `frames` frames the run delivers:
 /// `pairs` ranks spread evenly ((i + 0.5) / pairs of the way), each followed by the next rank;
 /// fewer when the flight is short (distinct ranks only), none below 2 frames.
@@ -75,18 +109,27 @@ struct LensPrepass {
   double match_ms = 0.0;   ///< Reduction, SURF and matching.
   double estimate_ms = 0.0;  ///< EstimateRadialDistortion.
   double total_ms = 0.0;
+  AttitudePrepass attitude;  ///< The camera's attitude from the same pairs.
 };
 
-/// The pre-pass on `config.input` (LensPrepassSkipReason must be "") for frames of width_px x
-/// height_px as delivered with focal length focal_px (the run's resolved focal, full frames).
-/// Input errors while reading are caught (status "failed"); InvalidArgument for a bad size or
-/// focal. Deterministic: the RANSAC seed is config.odometry.correspondence.ransac.seed.
-LensPrepass RunLensPrepass(const RunConfig& config, int width_px, int height_px, double focal_px);
+/// The pre-pass on `config.input` (what `request` asks for; LensPrepassSkipReason must be "" for
+/// the lens, AttitudePrepassSkipReason for the attitude) for frames of width_px x height_px as
+/// delivered with focal length focal_px (the run's resolved focal, full frames). Input errors
+/// while reading are caught (status "failed"); InvalidArgument for a bad size or focal.
+/// Deterministic: the RANSAC seed is config.odometry.correspondence.ransac.seed.
+LensPrepass RunLensPrepass(const RunConfig& config, int width_px, int height_px, double focal_px,
+                           const PrepassRequest& request = {});
 
 /// summary.json's "lens_estimate": status, applied, why, and with an estimate family ("fisheye"
 /// or "pinhole": the OpenCV model of k), k, sigma_k, cost_drop, cost, cost_pinhole (px^2),
 /// median residuals (px), pairs_used, pairs_improved, points_used, pair_k; pairs_read,
 /// frame size, stage times (ms), file (when applied).
 nlohmann::json ToJson(const LensPrepass& prepass);
+
+/// summary.json's "attitude_estimate": status, applied, why, and with an estimate roll_deg,
+/// pitch_deg, tilt_deg, sigma_roll_deg, sigma_pitch_deg, cost_drop, cost, cost_nadir, median
+/// residuals (px), pairs_used, pairs_improved, points_used, pair_roll_deg, pair_pitch_deg,
+/// time_ms.
+nlohmann::json ToJson(const AttitudePrepass& attitude);
 
 }  // namespace aerovo::run_steps

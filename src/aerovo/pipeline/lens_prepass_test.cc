@@ -43,6 +43,59 @@ TEST(LensPrepass, RunsOnlyWithoutALensAndOnAnInputReadTwice) {
   EXPECT_EQ(RunConfig().lens_estimation, LensEstimationMode::kAuto);
 }
 
+TEST(LensPrepass, EstimatesTheAttitudeOnlyWhenNothingGivesIt) {
+  RunConfig c;
+  c.input = std::filesystem::temp_directory_path().string();  // an existing folder
+  EXPECT_EQ(AttitudePrepassSkipReason(c, false, false, std::nullopt), "");
+  TelemetrySample plain;
+  EXPECT_EQ(AttitudePrepassSkipReason(c, false, false, plain), "");
+  EXPECT_EQ(AttitudePrepassSkipReason(c, true, false, plain), "a live source cannot be read twice");
+  EXPECT_EQ(AttitudePrepassSkipReason(c, false, true, plain), "the autopilot's ATTITUDE gives it");
+  TelemetrySample gimbal = plain;
+  gimbal.gimbal_pitch_deg = -90.0;
+  EXPECT_EQ(AttitudePrepassSkipReason(c, false, false, gimbal), "the telemetry gives it");
+  TelemetrySample aircraft = plain;
+  aircraft.roll_deg = 0.0;
+  EXPECT_EQ(AttitudePrepassSkipReason(c, false, false, aircraft), "the telemetry gives it");
+  RunConfig mount = c;
+  mount.camera_mount_pitch_deg = 10.0;
+  EXPECT_EQ(AttitudePrepassSkipReason(mount, false, false, plain), "a camera mount pitch is given");
+  RunConfig off = c;
+  off.attitude_estimation = AttitudeEstimationMode::kOff;
+  EXPECT_EQ(AttitudePrepassSkipReason(off, false, false, plain), "attitude_estimation off");
+  RunConfig no_attitude = c;
+  no_attitude.attitude = AttitudeMode::kOff;
+  EXPECT_EQ(AttitudePrepassSkipReason(no_attitude, false, false, plain), "attitude off");
+  RunConfig missing = c;
+  missing.input = "/nonexistent/aerovo/photos";
+  EXPECT_EQ(AttitudePrepassSkipReason(missing, false, false, plain),
+            "the input is not a file or folder that can be read again");
+  // The paper's pipeline: a nadir camera, no estimate.
+  EXPECT_EQ(PaperRunConfig().attitude_estimation, AttitudeEstimationMode::kOff);
+  EXPECT_EQ(RunConfig().attitude_estimation, AttitudeEstimationMode::kAuto);
+}
+
+TEST(LensPrepass, AttitudeSummaryOfAnEstimate) {
+  AttitudePrepass a;
+  a.why = "attitude_estimation off";
+  nlohmann::json j = ToJson(a);
+  EXPECT_EQ(j["status"], "skipped");
+  EXPECT_FALSE(j.contains("pitch_deg"));
+  AttitudeEstimate e;
+  e.valid = e.significant = true;
+  e.attitude = {-0.25, 15.0};
+  e.tilt_deg = 15.002;
+  e.pair_attitude = {{0.0, 14.0}, {-0.5, 16.0}};
+  a.status = LensPrepassStatus::kApplied;
+  a.applied = true;
+  a.estimate = e;
+  j = ToJson(a);
+  EXPECT_EQ(j["status"], "applied");
+  EXPECT_EQ(j["pitch_deg"], 15.0);
+  EXPECT_EQ(j["roll_deg"], -0.25);
+  EXPECT_EQ(j["pair_pitch_deg"], (std::vector<double>{14.0, 16.0}));
+}
+
 TEST(LensPrepass, SkippedSummaryHasNoEstimate) {
   LensPrepass p;
   p.why = "lens_estimation off";

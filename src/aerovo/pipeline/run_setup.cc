@@ -54,20 +54,48 @@ void SetUpHeight(RunContext& run) {
   }
 }
 
+// The camera's tilt from the pre-pass (RunConfig::attitude_estimation): a significant estimate
+// is every frame's camera attitude (RunContext::estimated_attitude); logged.
+void ApplyAttitudeEstimate(const AttitudePrepass& a, RunContext& run) {
+  run.summary->attitude_estimate = ToJson(a);
+  if (a.applied) run.estimated_attitude = a.estimate->attitude;
+  if (!run.log || a.status == LensPrepassStatus::kSkipped) return;
+  if (a.applied) {
+    const AttitudeEstimate& e = *a.estimate;
+    *run.log << fmt::format(
+        "attitude: estimated from {} frame pairs: roll {:.2f} +- {:.2f}, pitch {:.2f} +- {:.2f} "
+        "deg ({:.1f} deg from nadir, cost drop {:.0f} %), applied to every frame ({:.0f} ms)\n",
+        e.pairs_used, e.attitude.roll_deg, e.sigma_roll_deg, e.attitude.pitch_deg,
+        e.sigma_pitch_deg, e.tilt_deg, 100.0 * e.cost_drop, a.estimate_ms);
+  } else {
+    *run.log << fmt::format("attitude: self-calibration {}: {}\n", ToString(a.status), a.why);
+  }
+}
+
 // Lens self-calibration (RunConfig::lens_estimation): a significant estimate is the camera's
-// lens as a calibration file would be, and is written to lens_estimate.yaml.
-void RunPrepass(const RunSetup& setup, RunContext& run) {
+// lens as a calibration file would be, and is written to lens_estimate.yaml. The same pairs give
+// the camera's tilt (RunConfig::attitude_estimation, ApplyAttitudeEstimate).
+void RunPrepass(const RunSetup& setup, const FrameState& first, RunContext& run) {
   const RunConfig& config = *run.config;
   const std::string yaml = (run.out_dir / kLensEstimateYaml).string();
+  const std::string lens_skip = LensPrepassSkipReason(config, setup.source_live);
+  const std::string attitude_skip = AttitudePrepassSkipReason(
+      config, setup.source_live, run.link_reads_autopilot, first.sample);
+  PrepassRequest request;
+  request.lens = lens_skip.empty();
+  request.attitude = attitude_skip.empty();
+  request.calibrated = run.camera.calibrated;
   LensPrepass prepass;
-  prepass.why = LensPrepassSkipReason(config, setup.source_live);
-  if (prepass.why.empty()) {
-    prepass = RunLensPrepass(config, run.width_px, run.height_px, run.camera.focal_px);
+  if (request.lens || request.attitude) {
+    prepass = RunLensPrepass(config, run.width_px, run.height_px, run.camera.focal_px, request);
     if (prepass.applied) {
       run.camera.calibrated = *prepass.lens;
       WriteCalibration(yaml, *prepass.lens, CalibrationFormat::kOpenCv);
     }
   }
+  if (!request.lens) prepass.why = lens_skip;
+  if (!request.attitude) prepass.attitude.why = attitude_skip;
+  ApplyAttitudeEstimate(prepass.attitude, run);
   run.summary->lens_estimate = ToJson(prepass);
   const bool skipped = prepass.status == LensPrepassStatus::kSkipped;
   if (!run.log ||
@@ -140,7 +168,7 @@ std::unique_ptr<const RunContext> SetUpRun(RunSetup setup, const FrameState& fir
   SetUpFrames(setup, first, *run);
   SetUpHeight(*run);
   run->odometry = std::make_unique<VisualOdometry>(run->vo_options);
-  RunPrepass(setup, *run);
+  RunPrepass(setup, first, *run);
   SetUpUndistortion(*run);
   run->outputs = std::make_unique<RunOutputs>(
       run->out_dir, *run->config, run->camera, run->summary->height_source, run->width_px,

@@ -342,7 +342,8 @@ double HeightProvider::HeightOf(const std::string& frame_name,
 
 FrameAttitude CameraAttitudeOf(const RunConfig& config,
                                const std::optional<TelemetrySample>& sample,
-                               const std::optional<mavlink::AutopilotAttitude>& link) {
+                               const std::optional<mavlink::AutopilotAttitude>& link,
+                               const std::optional<CameraAttitude>& estimated) {
   FrameAttitude out;
   constexpr double kDeg = M_PI / 180.0;
   // An aircraft's roll and pitch (radians) to its fixed camera's.
@@ -366,6 +367,9 @@ FrameAttitude CameraAttitudeOf(const RunConfig& config,
   } else if (config.camera_mount_pitch_deg != 0.0) {
     out.reported = fixed_camera(0.0, 0.0);  // the aircraft taken as level
     out.source = AttitudeSource::kMount;
+  } else if (estimated) {
+    out.reported = estimated;
+    out.source = AttitudeSource::kEstimated;
   }
   if (out.reported && config.attitude == AttitudeMode::kAuto &&
       TiltFromNadirDeg(*out.reported) >= config.attitude_min_deg) {

@@ -241,16 +241,19 @@ struct FrameAttitude {
   std::optional<CameraAttitude> reported;
   /// kGimbal (the telemetry's gimbal angles), kMavlink (the autopilot's ATTITUDE, camera fixed
   /// to the airframe), kFlight (the telemetry's aircraft angles, camera fixed), kMount (the mount
-  /// pitch, the aircraft taken as level), kNone.
+  /// pitch, the aircraft taken as level), kEstimated (the flight's own estimate), kNone.
   AttitudeSource source = AttitudeSource::kNone;
 };
 /// The camera attitude of a frame: the telemetry's gimbal pitch and roll (camera pitch = gimbal
 /// pitch + 90, roll = gimbal roll; either missing = 0), else the autopilot's attitude `link`,
 /// else the telemetry's aircraft pitch and roll; an aircraft's angles make the camera's through
-/// level_from_camera = Ry(pitch) Rx(roll) Ry(camera_mount_pitch_deg) (odometry/attitude.h).
+/// level_from_camera = Ry(pitch) Rx(roll) Ry(camera_mount_pitch_deg) (odometry/attitude.h);
+/// else the mount pitch alone, else the flight's own estimate `estimated`
+/// (RunContext::estimated_attitude).
 FrameAttitude CameraAttitudeOf(const RunConfig& config,
                                const std::optional<TelemetrySample>& sample,
-                               const std::optional<mavlink::AutopilotAttitude>& link);
+                               const std::optional<mavlink::AutopilotAttitude>& link,
+                               const std::optional<CameraAttitude>& estimated = std::nullopt);
 
 // ---------------------------------------------------------------------------------------------
 // 4. Outputs

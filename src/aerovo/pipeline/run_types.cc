@@ -52,6 +52,8 @@ const char* ToString(AttitudeSource s) {
       return "flight";
     case AttitudeSource::kMount:
       return "mount";
+    case AttitudeSource::kEstimated:
+      return "estimated";
   }
   return "?";
 }
@@ -64,6 +66,8 @@ const char* Describe(AttitudeSource s) {
       return "aircraft's angles";
     case AttitudeSource::kMavlink:
       return "autopilot's ATTITUDE";
+    case AttitudeSource::kEstimated:
+      return "estimate from the flight";
     case AttitudeSource::kMount:
     case AttitudeSource::kNone:
       return "camera mount";

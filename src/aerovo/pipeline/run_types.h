@@ -41,10 +41,13 @@ enum class AttitudeSource {
   kMavlink,  ///< "mavlink": the autopilot's ATTITUDE, camera fixed to the airframe.
   kFlight,   ///< "flight": the telemetry's aircraft angles, camera fixed.
   kMount,    ///< "mount": the camera mount's pitch, the aircraft taken as level.
+  /// "estimated": the flight's own estimate (RunConfig::attitude_estimation), the same for every
+  /// frame.
+  kEstimated,
 };
 const char* ToString(AttitudeSource s);
 /// The source in the attitude warning's words: "gimbal angles", "aircraft's angles",
-/// "autopilot's ATTITUDE", "camera mount".
+/// "autopilot's ATTITUDE", "camera mount", "estimate from the flight".
 const char* Describe(AttitudeSource s);
 
 /// What the lens self-calibration pre-pass did (pipeline/lens_prepass.h LensPrepass::status).
@@ -121,7 +124,8 @@ struct options::EnumTraits<run_steps::AttitudeSource>
     : options::EnumList<run_steps::AttitudeSource, run_steps::ToString,
                         run_steps::AttitudeSource::kNone, run_steps::AttitudeSource::kGimbal,
                         run_steps::AttitudeSource::kMavlink, run_steps::AttitudeSource::kFlight,
-                        run_steps::AttitudeSource::kMount> {};
+                        run_steps::AttitudeSource::kMount,
+                        run_steps::AttitudeSource::kEstimated> {};
 template <>
 struct options::EnumTraits<run_steps::LensPrepassStatus>
     : options::EnumList<

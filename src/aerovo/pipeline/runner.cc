@@ -62,6 +62,7 @@ nlohmann::json ToJson(const RunSummary& s) {
                    {"undistortion", s.undistortion},
                    {"lens_scale_change", s.lens_scale_change},
                    {"lens_estimate", s.lens_estimate},
+                   {"attitude_estimate", s.attitude_estimate},
                    {"height_source", s.height_source},
                    {"height_sources", s.height_sources},
                    {"attitude_sources", s.attitude_sources},

@@ -86,6 +86,8 @@ struct RunSummary {
   /// ToJson): status ("applied", "not significant", "no estimate", "skipped", "failed"),
   /// applied, why, and with an estimate its family, k, sigma_k, cost_drop, pairs and times.
   nlohmann::json lens_estimate;
+  /// The camera tilt self-calibration (pipeline/lens_prepass.h ToJson(AttitudePrepass)).
+  nlohmann::json attitude_estimate;
   double frame_scale = 1.0;  ///< processed width / source width (1 = frames as read).
   /// Frames of a live source read but never processed: they came while the newest one waited
   /// (RunConfig::frame_queue; always 0 for files).

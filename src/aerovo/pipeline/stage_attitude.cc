@@ -24,7 +24,7 @@ class AttitudeStage : public FrameStage {
       if (!matcher_) matcher_.emplace(run.link, config.mavlink_match_s);
       f.autopilot_attitude = matcher_->AttitudeOf(f.capture_mono_s);
     }
-    f.attitude = CameraAttitudeOf(config, f.sample, f.autopilot_attitude);
+    f.attitude = CameraAttitudeOf(config, f.sample, f.autopilot_attitude, run.estimated_attitude);
     const FrameAttitude& a = f.attitude;
     if (a.reported && !a.camera && !warned_ &&
         TiltFromNadirDeg(*a.reported) > config.attitude_warn_deg) {
