@@ -43,6 +43,7 @@ void ApplyPaperPreset(RunConfig& c) {
   c.odometry.correspondence.clustered.refine = false;
   c.attitude = AttitudeMode::kOff;
   c.lens_estimation = LensEstimationMode::kOff;
+  c.flat_field.mode = FlatFieldMode::kOff;
 }
 
 RunConfig PaperRunConfig() {
@@ -58,12 +59,13 @@ const std::vector<RunPreset>& RunPresets() {
        "threshold of detectSURFFeatures (surf.hessian_threshold, default 1000), every frame "
        "matched exhaustively, the clustered RANSAC's best cell fit as it is; what `aerovo "
        "experiment --paper` uses to reproduce the paper's figures; no attitude correction (the paper's "
-       "nadir camera), no lens self-calibration",
+       "nadir camera), no lens self-calibration, no flat-field correction",
        {{"surf.adaptive", "false"},
         {"correspondence.guided_matching", "false"},
         {"clustered.refine", "false"},
         {"attitude", "off"},
-        {"lens_estimation", "off"}}},
+        {"lens_estimation", "off"},
+        {"flat_field.mode", "off"}}},
   };
   return presets;
 }
@@ -100,6 +102,7 @@ void Validate(const RunConfig& c) {
   }
   try {
     Validate(c.gps_check);
+    Validate(c.flat_field);
     Validate(c.odometry);
   } catch (const InvalidArgument& e) {
     fail(e.what());

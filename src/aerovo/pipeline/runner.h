@@ -43,6 +43,25 @@ class FrameSink;
 }  // namespace run_steps
 
 /// Mean per-frame stage times, ms.
+/// What the flat-field stage did (RunConfig::flat_field, pipeline/stage_flat_field.cc):
+/// summary.json "flat_field".
+struct FlatFieldReport {
+  std::string mode = "auto";  ///< FlatFieldOptions::mode.
+  /// "photo median" (a photo folder's pre-pass), "running" (video and live), "none" (mode off,
+  /// or no estimate: why says).
+  std::string estimate = "none";
+  bool applied = false;  ///< Removed from at least one frame.
+  int frames_corrected = 0;
+  int samples = 0;              ///< Frames the (last) estimate is made of.
+  double significance = 0.0;    ///< FlatFieldEstimate::significance of the (last) estimate.
+  double pattern_std_dn = 0.0;  ///< FlatFieldEstimate::pattern_std_dn.
+  double varying_std_dn = 0.0;  ///< FlatFieldEstimate::varying_std_dn.
+  double gain = 1.0;            ///< The contrast stretch (FlatFieldCorrector::gain), 1 if none.
+  double prepass_ms = 0.0;      ///< Photo folders: reading the samples and the median.
+  double mean_frame_ms = 0.0;   ///< The stage's mean cost per frame (sampling, removal), without the pre-pass.
+  std::string why;              ///< The decision in one sentence.
+};
+
 struct StageTimes {
   double detect_ms = 0.0, describe_ms = 0.0, correspond_ms = 0.0, estimate_ms = 0.0, total_ms = 0.0;
 };
@@ -86,6 +105,7 @@ struct RunSummary {
   /// ToJson): status ("applied", "not significant", "no estimate", "skipped", "failed"),
   /// applied, why, and with an estimate its family, k, sigma_k, cost_drop, pairs and times.
   nlohmann::json lens_estimate;
+  FlatFieldReport flat_field;
   double frame_scale = 1.0;  ///< processed width / source width (1 = frames as read).
   /// Frames of a live source read but never processed: they came while the newest one waited
   /// (RunConfig::frame_queue; always 0 for files).

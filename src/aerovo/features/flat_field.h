@@ -1,0 +1,196 @@
+// Sensor non-uniformity (a "flat field"): the part of a flight's frames that stays still in the
+// frame while the ground moves through it — the lens's vignetting and the detector's fixed
+// pattern (per-pixel and per-column offsets of an uncooled microbolometer, the shading of its
+// housing). On a thermal camera over ground of nearly one temperature it can be larger than the
+// ground's own contrast, and SURF then finds the sensor instead of the ground: every frame
+// "matches" the previous one at zero motion.
+//
+// Model (additive, in digital numbers): frame_t(x, y) = mu_t + ground_t(x, y) + pattern(x, y),
+// with mu_t the frame's mean (a thermal camera's automatic gain moves it from frame to frame),
+// ground_t the moving scene and pattern zero-mean and static. The pattern is estimated from the
+// flight itself as the per-pixel median (EstimateFlatField: a photo folder's subsample) or a
+// running mean (RunningFlatField: video and live frames) of the mean-removed frames, whose
+// moving ground averages out; the same idea as the median flat field of astronomical sky frames
+// and as scene-based non-uniformity correction of infrared focal-plane arrays (Harris &
+// Chiang 1999, "Nonuniformity correction of infrared image sequences using the constant-statistics
+// constraint", IEEE Trans. Image Processing 8(8)). FlatFieldCorrector removes it and stretches
+// the remaining contrast. No I/O.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "aerovo/core/image.h"
+#include "aerovo/core/options.h"
+
+namespace aerovo {
+
+/// Whether the run removes the flat field (FlatFieldOptions::mode).
+enum class FlatFieldMode {
+  kAuto,  ///< When its significance is at least FlatFieldOptions::min_significance.
+  kOn,    ///< Always (once estimated).
+  kOff,   ///< Never (frames as read; the estimate is still made and reported).
+};
+const char* ToString(FlatFieldMode mode);
+template <>
+struct options::EnumTraits<FlatFieldMode>
+    : options::EnumList<FlatFieldMode, ToString, FlatFieldMode::kAuto, FlatFieldMode::kOn,
+                        FlatFieldMode::kOff> {};
+
+/// The options of the flat-field stage (`aerovo run` keys flat_field.*).
+struct FlatFieldOptions {
+  FlatFieldMode mode = FlatFieldMode::kAuto;
+  /// kAuto removes the pattern when FlatFieldEstimate::significance (the pattern's spatial
+  /// standard deviation over the frames' varying part's) is at least this. 0.5 (our choice):
+  /// a pattern half as strong as the ground's texture already puts SURF's strongest responses
+  /// on it; the simulated thermal flight measures about 1.4, the real visible flights far less
+  /// (BENCHMARKS.md, "Sensor non-uniformity").
+  double min_significance = 0.5;
+  /// Photo folders: frames of the flight (spread evenly) whose per-pixel median is the
+  /// estimate. 21 (our choice): the median of 21 samples has sqrt(pi / 2 / 21) = 0.27 of one
+  /// sample's spread (15 left a frame of the simulated thermal flight bridged, 21 none), and
+  /// reading them costs a run a fraction of a second (BENCHMARKS.md, "Sensor non-uniformity").
+  int photo_samples = 21;
+  /// Video and live frames: a frame joins the running estimate when at least this many
+  /// seconds (of the source's time) passed since the last one that joined, so that the ground
+  /// has moved between samples. 0.5 s (our choice): at 5 m/s and 100 m above ground a 45 degree
+  /// camera has moved 3 % of its footprint.
+  double sample_interval_s = 0.5;
+  /// Video and live frames: samples before the estimate is judged and used (frames before are
+  /// processed as read).
+  int warmup_samples = 20;
+  /// Video and live frames: the running mean's window, samples (an exponential average of
+  /// weight 1 / window once more samples joined; before, the plain mean). 120 samples = 60 s
+  /// at 0.5 s: long enough for the ground to move several footprints.
+  int window_samples = 120;
+  /// Contrast stretch after the removal: the varying part's standard deviation becomes this
+  /// many DN (within gain 1..max_gain). 32 DN: +-4 standard deviations within 0..255.
+  double target_std_dn = 32.0;
+  /// Largest gain of the stretch (noise grows with it).
+  double max_gain = 8.0;
+};
+
+/// Throws InvalidArgument naming the bad field.
+void Validate(const FlatFieldOptions& options);
+
+// clang-format off
+template <class V>
+void VisitFields(FlatFieldOptions& o, V& v) {
+  using namespace options;
+  v.Field(o.mode, "mode", "Remove the sensor's static pattern (vignetting, fixed-pattern noise) estimated from the flight: auto (when significant), on or off", Any());
+  v.Field(o.min_significance, "min_significance", "auto: remove it when the pattern's standard deviation is at least this times the frames' varying part's", AtLeast(0).Finite());
+  v.Field(o.photo_samples, "photo_samples", "Photo folders: frames (spread over the flight) whose per-pixel median is the estimate", Interval(3, 1000));
+  v.Field(o.sample_interval_s, "sample_interval_s", "Video and live: least time between two frames that join the running estimate, s", AtLeast(0).Finite());
+  v.Field(o.warmup_samples, "warmup_samples", "Video and live: samples before the running estimate is judged and used", Interval(2, 100000));
+  v.Field(o.window_samples, "window_samples", "Video and live: window of the running mean, samples", Interval(2, 100000));
+  v.Field(o.target_std_dn, "target_std_dn", "Contrast stretch after the removal: the varying part's standard deviation, DN", Interval(1, 127));
+  v.Field(o.max_gain, "max_gain", "Largest gain of the contrast stretch", Interval(1, 64));
+}
+// clang-format on
+
+/// Pixel budget of the estimate's grid, megapixels: larger frames are binned by the smallest
+/// integer factor n with (w / n) (h / n) within it (FlatFieldGridFactor), so that a photo
+/// folder's samples fit in memory (31 x 1 MP). Thermal detectors (640x512, 0.33 MP) keep their
+/// pixels, and so their per-pixel pattern; larger (visible) frames keep the vignetting.
+inline constexpr double kFlatFieldGridMegapixels = 1.0;
+/// The binning factor n of frames of width_px x height_px (>= 1).
+int FlatFieldGridFactor(int width_px, int height_px);
+
+/// The static pattern of a flight's frames, on the grid (frames binned by `factor`).
+struct FlatFieldEstimate {
+  int width_px = 0, height_px = 0;      ///< Of the frames.
+  int factor = 1;                       ///< Grid binning factor (FlatFieldGridFactor).
+  int grid_width = 0, grid_height = 0;  ///< floor(width / factor) x floor(height / factor).
+  /// pattern(x, y) in DN, zero-mean, row-major on the grid (grid_width x grid_height).
+  std::vector<float> pattern_dn;
+  int samples = 0;  ///< Frames the estimate is made of.
+  /// The part of the pattern that two estimates from disjoint parts of the flight share, DN:
+  /// sqrt(max(0, spatial covariance of the two)). A sensor's pattern is in both; what the
+  /// median keeps of the ground (frames that overlap) and the estimates' noise are not, as the
+  /// two parts see other ground (the photo median: the first and second half of the samples in
+  /// flight order; the running estimate: alternate blocks of samples).
+  double pattern_std_dn = 0.0;
+  /// Root mean square over pixels and samples of the frames' varying part (frame - mean -
+  /// pattern), DN: the ground's texture and the temporal noise.
+  double varying_std_dn = 0.0;
+  /// pattern_std_dn / varying_std_dn (0 when the frames do not vary).
+  double significance = 0.0;
+  bool empty() const { return samples == 0; }
+};
+
+/// Whether `options` remove `estimate`: mode kOn (a non-empty estimate), kOff never, kAuto when
+/// its significance is at least min_significance.
+bool FlatFieldApplies(const FlatFieldEstimate& estimate, const FlatFieldOptions& options);
+
+/// The per-pixel median of mean-removed frames (a photo folder's subsample): each frame is binned
+/// to the grid as it is added, so only the grid samples are kept (capacity x grid pixels floats,
+/// allocated by the constructor).
+class MedianFlatField {
+ public:
+  /// Frames of width_px x height_px, at most `capacity` of them (>= 3); InvalidArgument else.
+  MedianFlatField(int width_px, int height_px, int capacity);
+  /// InvalidArgument for another size or beyond the capacity.
+  void Add(const GrayImageView& frame);
+  int samples() const { return samples_; }
+  /// The estimate of the frames added (at least 3, else InvalidArgument). Cost: a selection of
+  /// samples() values per grid pixel.
+  FlatFieldEstimate Estimate() const;
+
+ private:
+  FlatFieldEstimate shape_;    // sizes only
+  std::vector<float> values_;  // sample-major: sample i at i * grid pixels
+  int capacity_ = 0, samples_ = 0;
+};
+
+/// MedianFlatField of `frames` (all of one size, at least 3; else InvalidArgument).
+FlatFieldEstimate EstimateFlatField(const std::vector<GrayImageView>& frames);
+
+/// The running estimate of video and live frames: per grid pixel two exponentially weighted means
+/// (weight 1 / min(samples, window / 2) each) of the mean-removed frames, fed by alternate blocks
+/// of max(1, window / 8) samples (15 s at the defaults' 0.5 s and 120: the camera has moved on
+/// between blocks), and the squared deviations; the pattern is their mean, pattern_std_dn their
+/// shared part (0 until both have samples). Buffers sized once by the constructor; Add allocates
+/// nothing.
+class RunningFlatField {
+ public:
+  /// Frames of width_px x height_px; InvalidArgument for a non-positive size or window < 1.
+  RunningFlatField(int width_px, int height_px, int window_samples);
+  /// Adds a frame (InvalidArgument for another size) and updates estimate().
+  void Add(const GrayImageView& frame);
+  const FlatFieldEstimate& estimate() const { return estimate_; }
+
+ private:
+  FlatFieldEstimate estimate_;   // pattern_dn: the mean of the two running means
+  std::vector<float> mean_[2];   // the two running means
+  std::vector<float> variance_;  // per grid pixel, exponentially weighted
+  std::vector<float> binned_;    // the frame on the grid
+  int window_ = 1, block_ = 1;
+  int count_[2] = {0, 0};  // samples in each mean
+};
+
+/// Removes a flat field from frames and stretches their contrast:
+///   out = clamp(round(128 + g (in - pattern - mean(in - pattern)))), g = clamp(target_std_dn /
+///   varying_std_dn, 1, max_gain),
+/// the pattern bilinearly interpolated from the grid to the frame's pixels (once per Set).
+/// Buffers reused: Apply allocates nothing after the first frame of a size.
+class FlatFieldCorrector {
+ public:
+  /// Takes `estimate` (not empty, else InvalidArgument) and the stretch of `options`.
+  void Set(const FlatFieldEstimate& estimate, const FlatFieldOptions& options);
+  bool ready() const { return ready_; }
+  int width() const { return width_; }  ///< Of the frames of the estimate set (0 before).
+  int height() const { return height_; }
+  double gain() const { return gain_; }
+  /// The corrected copy of `frame` (the estimate's size, else InvalidArgument), in a buffer of
+  /// the corrector: valid until the next Apply.
+  GrayImageView Apply(const GrayImageView& frame);
+
+ private:
+  std::vector<float> pattern_;  // at the frame's resolution
+  int width_ = 0, height_ = 0;
+  double gain_ = 1.0;
+  bool ready_ = false;
+  GrayImage out_;
+};
+
+}  // namespace aerovo
