@@ -116,11 +116,114 @@ void Judge(FlatFieldEstimate& e, const float* a, const float* b, std::size_t n, 
   e.significance = e.varying_std_dn > 0.0 ? e.pattern_std_dn / e.varying_std_dn : 0.0;
 }
 
+// a - b into out (n floats).
+void Difference(const float* a, const float* b, std::size_t n, float* out) {
+  for (std::size_t i = 0; i < n; ++i) out[i] = a[i] - b[i];
+}
+
 }  // namespace
+
+GroundMotion::GroundMotion(int grid_width, int grid_height) {
+  if (grid_width <= 0 || grid_height <= 0) {
+    throw InvalidArgument("GroundMotion: grid size " + std::to_string(grid_width) + "x" +
+                          std::to_string(grid_height));
+  }
+  grid_width_ = grid_width;
+  grid_height_ = grid_height;
+  factor_ = (std::max(grid_width, grid_height) + kGroundMotionPixels - 1) / kGroundMotionPixels;
+  width_ = std::max(1, grid_width / factor_);
+  height_ = std::max(1, grid_height / factor_);
+  binned_.assign(size(), 0.0f);
+  const std::size_t table = static_cast<std::size_t>(width_ + 1) * (height_ + 1);
+  for (std::vector<double>* t : {&sum_a_, &sq_a_, &sum_b_, &sq_b_}) t->assign(table, 0.0);
+}
+
+void GroundMotion::Coarse(const float* grid, float* out) {
+  const int n = factor_, w = width_, h = height_;
+  std::fill(binned_.begin(), binned_.end(), 0.0f);
+  for (int y = 0; y < h * n && y < grid_height_; ++y) {
+    const float* row = grid + static_cast<std::size_t>(y) * grid_width_;
+    float* b = binned_.data() + static_cast<std::size_t>(y / n) * w;
+    for (int x = 0; x < w * n; ++x) b[x / n] += row[x];
+  }
+  // Band-pass: less the mean of the 5 x 5 window (clipped at the border).
+  constexpr int kRadius = 2;
+  for (int y = 0; y < h; ++y) {
+    const int y0 = std::max(0, y - kRadius), y1 = std::min(h - 1, y + kRadius);
+    for (int x = 0; x < w; ++x) {
+      const int x0 = std::max(0, x - kRadius), x1 = std::min(w - 1, x + kRadius);
+      float sum = 0.0f;
+      for (int yy = y0; yy <= y1; ++yy) {
+        const float* b = binned_.data() + static_cast<std::size_t>(yy) * w;
+        for (int xx = x0; xx <= x1; ++xx) sum += b[xx];
+      }
+      const float mean = sum / static_cast<float>((y1 - y0 + 1) * (x1 - x0 + 1));
+      out[static_cast<std::size_t>(y) * w + x] =
+          (binned_[static_cast<std::size_t>(y) * w + x] - mean) / static_cast<float>(n * n);
+    }
+  }
+}
+
+void GroundMotion::Tables(const float* image, std::vector<double>* sum,
+                          std::vector<double>* sum_sq) {
+  const int w = width_;
+  for (int y = 0; y < height_; ++y) {
+    double row = 0.0, row_sq = 0.0;
+    for (int x = 0; x < w; ++x) {
+      const double v = image[static_cast<std::size_t>(y) * w + x];
+      row += v;
+      row_sq += v * v;
+      const std::size_t i = static_cast<std::size_t>(y + 1) * (w + 1) + x + 1;
+      (*sum)[i] = (*sum)[i - (w + 1)] + row;
+      (*sum_sq)[i] = (*sum_sq)[i - (w + 1)] + row_sq;
+    }
+  }
+}
+
+GroundPeak GroundMotion::Best(const float* a, const float* b) {
+  const int w = width_, h = height_;
+  Tables(a, &sum_a_, &sq_a_);
+  Tables(b, &sum_b_, &sq_b_);
+  // The sum of an integral table over [x0, x1) x [y0, y1).
+  const auto box = [w](const std::vector<double>& t, int x0, int y0, int x1, int y1) {
+    const auto at = [&](int x, int y) { return t[static_cast<std::size_t>(y) * (w + 1) + x]; };
+    return at(x1, y1) - at(x0, y1) - at(x1, y0) + at(x0, y0);
+  };
+  GroundPeak best;
+  best.ncc = -2.0;
+  for (int dy = -h / 2; dy <= h / 2; ++dy) {
+    for (int dx = -w / 2; dx <= w / 2; ++dx) {
+      // b(x, y) against a(x + dx, y + dy), x in [bx0, bx1), y in [by0, by1).
+      const int bx0 = std::max(0, -dx), bx1 = std::min(w, w - dx);
+      const int by0 = std::max(0, -dy), by1 = std::min(h, h - dy);
+      const int cols = bx1 - bx0;
+      double ab = 0.0;
+      for (int y = by0; y < by1; ++y) {
+        const float* pa = a + static_cast<std::size_t>(y + dy) * w + bx0 + dx;
+        const float* pb = b + static_cast<std::size_t>(y) * w + bx0;
+        float row = 0.0f;
+        for (int x = 0; x < cols; ++x) row += pa[x] * pb[x];
+        ab += row;
+      }
+      const double n = static_cast<double>(cols) * (by1 - by0);
+      const double sa = box(sum_a_, bx0 + dx, by0 + dy, bx1 + dx, by1 + dy);
+      const double sb = box(sum_b_, bx0, by0, bx1, by1);
+      const double va = box(sq_a_, bx0 + dx, by0 + dy, bx1 + dx, by1 + dy) - sa * sa / n;
+      const double vb = box(sq_b_, bx0, by0, bx1, by1) - sb * sb / n;
+      if (va <= 0.0 || vb <= 0.0) continue;
+      const double ncc = (ab - sa * sb / n) / std::sqrt(va * vb);
+      if (ncc > best.ncc) best = {ncc, dx, dy, n / (static_cast<double>(w) * h)};
+    }
+  }
+  if (best.ncc < -1.0) best = GroundPeak{};
+  return best;
+}
 
 bool FlatFieldApplies(const FlatFieldEstimate& estimate, const FlatFieldOptions& options) {
   if (estimate.empty() || options.mode == FlatFieldMode::kOff) return false;
-  return options.mode == FlatFieldMode::kOn || estimate.significance >= options.min_significance;
+  return options.mode == FlatFieldMode::kOn ||
+         (estimate.significance >= options.min_significance && estimate.ground_seen &&
+          estimate.ground_overlap <= options.max_ground_overlap);
 }
 
 MedianFlatField::MedianFlatField(int width_px, int height_px, int capacity) {
@@ -142,6 +245,49 @@ void MedianFlatField::Add(const GrayImageView& frame) {
              values_.data() + static_cast<std::size_t>(samples_) * shape_.pattern_dn.size());
   ++samples_;
 }
+
+namespace {
+
+// The motion test of a photo median (FlatFieldEstimate::ground_seen, ground_overlap): the k
+// samples in flight order (sample-major in `values`, centred grids of e's grid), the medians of
+// the first and the last `third` of them (`first`, `second`) and of all (e.pattern_dn). The
+// frames of one part are taken less the other part's median (their ground stays, a sensor's
+// pattern goes; a ground both parts share at the same place goes too, and then shows nowhere),
+// paired in order (the j-th of each part). The ground is seen moving when a pair, or two
+// successive samples less the median of all, correlate at a non-zero shift.
+void TestMotion(const float* values, std::size_t k, std::size_t third,
+                const std::vector<float>& first, const std::vector<float>& second,
+                FlatFieldEstimate& e) {
+  GroundMotion m(e.grid_width, e.grid_height);
+  const std::size_t size = e.pattern_dn.size(), c = m.size();
+  std::vector<float> p_first(c), p_second(c), p_all(c), a(c), b(c), ra(c), rb(c);
+  m.Coarse(first.data(), p_first.data());
+  m.Coarse(second.data(), p_second.data());
+  m.Coarse(e.pattern_dn.data(), p_all.data());
+  double overlap = 0.0;
+  bool seen = false;
+  for (std::size_t j = 0; j < third; ++j) {
+    m.Coarse(values + j * size, a.data());
+    m.Coarse(values + (k - third + j) * size, b.data());
+    Difference(a.data(), p_second.data(), c, ra.data());
+    Difference(b.data(), p_first.data(), c, rb.data());
+    const GroundPeak peak = m.Best(ra.data(), rb.data());
+    if (peak.clear()) overlap = std::max(overlap, peak.overlap);
+    seen = seen || peak.moved();
+  }
+  e.ground_overlap = third > 0 ? overlap : 1.0;
+  m.Coarse(values, a.data());
+  Difference(a.data(), p_all.data(), c, ra.data());
+  for (std::size_t i = 1; i < k && !seen; ++i) {
+    m.Coarse(values + i * size, b.data());
+    Difference(b.data(), p_all.data(), c, rb.data());
+    seen = m.Best(ra.data(), rb.data()).moved();
+    std::swap(ra, rb);
+  }
+  e.ground_seen = seen;
+}
+
+}  // namespace
 
 FlatFieldEstimate MedianFlatField::Estimate() const {
   if (samples_ < 3) {
@@ -168,6 +314,7 @@ FlatFieldEstimate MedianFlatField::Estimate() const {
   }
   e.samples = samples_;
   Judge(e, first.data(), second.data(), size, frame_sq / (static_cast<double>(size) * k));
+  TestMotion(values_.data(), k, third, first, second, e);
   return e;
 }
 
@@ -192,6 +339,35 @@ RunningFlatField::RunningFlatField(int width_px, int height_px, int window_sampl
   for (std::vector<float>& m : mean_) m.assign(estimate_.pattern_dn.size(), 0.0f);
   variance_.assign(estimate_.pattern_dn.size(), 0.0f);
   binned_.assign(estimate_.pattern_dn.size(), 0.0f);
+  motion_ = GroundMotion(estimate_.grid_width, estimate_.grid_height);
+  for (std::vector<float>* v : {&now_, &previous_, &pattern_, &ra_, &rb_}) {
+    v->assign(motion_.size(), 0.0f);
+  }
+  snapshots_.assign(kSnapshots * motion_.size(), 0.0f);
+}
+
+void RunningFlatField::TestMotion(bool block_start) {
+  FlatFieldEstimate& e = estimate_;
+  const std::size_t c = motion_.size();
+  motion_.Coarse(binned_.data(), now_.data());
+  motion_.Coarse(e.pattern_dn.data(), pattern_.data());
+  Difference(now_.data(), pattern_.data(), c, ra_.data());
+  if (e.samples > 1 && !e.ground_seen) {
+    Difference(previous_.data(), pattern_.data(), c, rb_.data());
+    e.ground_seen = motion_.Best(rb_.data(), ra_.data()).moved();
+  }
+  const int kept = static_cast<int>(std::min<long>(snapshots_taken_, kSnapshots));
+  if (kept > 0) {  // the oldest kept
+    const float* oldest = snapshots_.data() + (snapshots_taken_ - kept) % kSnapshots * c;
+    Difference(oldest, pattern_.data(), c, rb_.data());
+    const GroundPeak peak = motion_.Best(rb_.data(), ra_.data());
+    e.ground_overlap = peak.clear() ? peak.overlap : 0.0;
+  }
+  if (block_start) {
+    std::copy(now_.begin(), now_.end(), snapshots_.begin() + snapshots_taken_ % kSnapshots * c);
+    ++snapshots_taken_;
+  }
+  std::swap(previous_, now_);
 }
 
 void RunningFlatField::Add(const GrayImageView& frame) {
@@ -199,6 +375,7 @@ void RunningFlatField::Add(const GrayImageView& frame) {
   CheckSize(frame, e.width_px, e.height_px, "RunningFlatField::Add");
   BinCentred(frame, e.factor, e.grid_width, e.grid_height, binned_.data());
   const int which = (e.samples / block_) % 2;  // alternate blocks of samples
+  const bool block_start = e.samples % block_ == 0;
   ++e.samples;
   const int count = ++count_[which];
   const float a = 1.0f / static_cast<float>(std::min(count, std::max(1, window_ / 2)));
@@ -227,6 +404,7 @@ void RunningFlatField::Add(const GrayImageView& frame) {
     e.pattern_std_dn = 0.0;
     e.significance = 0.0;
   }
+  TestMotion(block_start);
 }
 
 void FlatFieldCorrector::Set(const FlatFieldEstimate& e, const FlatFieldOptions& options) {

@@ -68,6 +68,13 @@ struct FlatFieldOptions {
   double target_std_dn = 32.0;
   /// Largest gain of the stretch (noise grows with it).
   double max_gain = 8.0;
+  /// kAuto also needs the ground seen moving through the frames the estimate is judged from
+  /// (FlatFieldEstimate::ground_seen) and the two disjoint parts of the estimate sharing at most
+  /// this share of their ground (FlatFieldEstimate::ground_overlap): ground that stays (a hover,
+  /// a slow or short flight, photos of large overlap) is as static in the frame as the sensor's
+  /// pattern, and the two parts would agree on it. 0.5 (our choice): the parts' frames share at
+  /// most half of their footprint.
+  double max_ground_overlap = 0.5;
 };
 
 /// Throws InvalidArgument naming the bad field.
@@ -85,6 +92,7 @@ void VisitFields(FlatFieldOptions& o, V& v) {
   v.Field(o.window_samples, "window_samples", "Video and live: window of the running mean, samples", Interval(2, 100000));
   v.Field(o.target_std_dn, "target_std_dn", "Contrast stretch after the removal: the varying part's standard deviation, DN", Interval(1, 127));
   v.Field(o.max_gain, "max_gain", "Largest gain of the contrast stretch", Interval(1, 64));
+  v.Field(o.max_ground_overlap, "max_ground_overlap", "auto: remove it only when the frames of the estimate's two disjoint parts share at most this share of their ground (and the ground was seen moving)", Interval(0, 1));
 }
 // clang-format on
 
@@ -115,12 +123,64 @@ struct FlatFieldEstimate {
   double varying_std_dn = 0.0;
   /// pattern_std_dn / varying_std_dn (0 when the frames do not vary).
   double significance = 0.0;
+  /// The motion test (GroundMotion): whether some two frames of the estimate show the ground
+  /// moved between them (a clear correlation peak of their ground at a non-zero shift). Without
+  /// it a static pattern and a static ground cannot be told apart.
+  bool ground_seen = false;
+  /// The motion test: the mean share of the frame (0..1) that the frames of the two disjoint
+  /// parts (pattern_std_dn) have in common on the ground, from the shift of their correlation
+  /// peak (0: no common ground found; 1: the ground did not move between them, or no test).
+  double ground_overlap = 1.0;
   bool empty() const { return samples == 0; }
 };
 
 /// Whether `options` remove `estimate`: mode kOn (a non-empty estimate), kOff never, kAuto when
-/// its significance is at least min_significance.
+/// its significance is at least min_significance, the ground was seen moving and the estimate's
+/// two parts share at most max_ground_overlap of their ground.
 bool FlatFieldApplies(const FlatFieldEstimate& estimate, const FlatFieldOptions& options);
+
+/// The motion test of the flat field: frames on the estimate's grid, less an estimate of the
+/// pattern, are binned to a coarse image of at most kGroundMotionPixels on its longer side and
+/// band-passed (less their 5 x 5 box mean: the smooth vignetting and the ground's slow gradients
+/// go, the fixed pattern's pixels and columns average out in the bins); the shift of two such
+/// images is the one of largest zero-mean normalised cross-correlation (NCC) over shifts of up
+/// to half the image each way. A peak of at least kGroundPeakNcc is the ground both show; its
+/// shift says how far the ground moved, and the overlap (1 - |dx| / w) (1 - |dy| / h) how much
+/// of it they share. Buffers allocated by the constructor; no allocation after.
+inline constexpr int kGroundMotionPixels = 64;
+/// A clear peak (our choice): the ground of two 64-pixel images, band-passed, correlates at
+/// 0.7-0.95 where it is shared, chance peaks of unshared ground stay below 0.35
+/// (BENCHMARKS.md, "Sensor non-uniformity").
+inline constexpr double kGroundPeakNcc = 0.5;
+
+/// The best shift of two coarse images (GroundMotion::Best): b(x, y) ~ a(x + dx, y + dy).
+struct GroundPeak {
+  double ncc = 0.0;      ///< Zero-mean NCC at the shift (-1..1).
+  int dx = 0, dy = 0;    ///< Coarse pixels.
+  double overlap = 0.0;  ///< (1 - |dx| / w) (1 - |dy| / h).
+  bool clear() const { return ncc >= kGroundPeakNcc; }
+  bool moved() const { return clear() && (dx != 0 || dy != 0); }
+};
+
+class GroundMotion {
+ public:
+  GroundMotion() = default;
+  /// For a grid of grid_width x grid_height (InvalidArgument if not positive).
+  GroundMotion(int grid_width, int grid_height);
+  int width() const { return width_; }  ///< Of the coarse images.
+  int height() const { return height_; }
+  std::size_t size() const { return static_cast<std::size_t>(width_) * height_; }
+  /// The coarse band-passed image of `grid` (grid_width x grid_height) into `out` (size()).
+  void Coarse(const float* grid, float* out);
+  /// The best shift of a and b (coarse images of size()).
+  GroundPeak Best(const float* a, const float* b);
+
+ private:
+  void Tables(const float* image, std::vector<double>* sum, std::vector<double>* sum_sq);
+  int grid_width_ = 0, grid_height_ = 0, factor_ = 1, width_ = 0, height_ = 0;
+  std::vector<float> binned_;
+  std::vector<double> sum_a_, sq_a_, sum_b_, sq_b_;  // integral tables, (w + 1) x (h + 1)
+};
 
 /// The per-pixel median of mean-removed frames (a photo folder's subsample): each frame is binned
 /// to the grid as it is added, so only the grid samples are kept (capacity x grid pixels floats,
@@ -149,8 +209,12 @@ FlatFieldEstimate EstimateFlatField(const std::vector<GrayImageView>& frames);
 /// (weight 1 / min(samples, window / 2) each) of the mean-removed frames, fed by alternate blocks
 /// of max(1, window / 8) samples (15 s at the defaults' 0.5 s and 120: the camera has moved on
 /// between blocks), and the squared deviations; the pattern is their mean, pattern_std_dn their
-/// shared part (0 until both have samples). Buffers sized once by the constructor; Add allocates
-/// nothing.
+/// shared part (0 until both have samples). The motion test (GroundMotion, on the frames less
+/// the pattern): ground_seen once two successive samples showed the ground moved; ground_overlap
+/// what the newest sample shares with the oldest of the first samples of the last 4 blocks (up
+/// to half a window back, the span the running means mostly hold; the first sample while fewer
+/// samples joined; 1 before the second sample). Buffers sized once by the constructor; Add
+/// allocates nothing.
 class RunningFlatField {
  public:
   /// Frames of width_px x height_px; InvalidArgument for a non-positive size or window < 1.
@@ -160,12 +224,20 @@ class RunningFlatField {
   const FlatFieldEstimate& estimate() const { return estimate_; }
 
  private:
+  void TestMotion(bool block_start);
+
   FlatFieldEstimate estimate_;   // pattern_dn: the mean of the two running means
   std::vector<float> mean_[2];   // the two running means
   std::vector<float> variance_;  // per grid pixel, exponentially weighted
   std::vector<float> binned_;    // the frame on the grid
   int window_ = 1, block_ = 1;
   int count_[2] = {0, 0};  // samples in each mean
+  // The motion test (GroundMotion): coarse images of the newest and the previous sample, of
+  // the first samples of the last kSnapshots blocks (a ring), the pattern's, and residuals.
+  static constexpr int kSnapshots = 4;
+  GroundMotion motion_;
+  std::vector<float> now_, previous_, snapshots_, pattern_, ra_, rb_;
+  long snapshots_taken_ = 0;
 };
 
 /// Removes a flat field from frames and stretches their contrast:

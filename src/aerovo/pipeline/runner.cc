@@ -71,6 +71,8 @@ nlohmann::json ToJson(const RunSummary& s) {
                      {"significance", s.flat_field.significance},
                      {"pattern_std_dn", s.flat_field.pattern_std_dn},
                      {"varying_std_dn", s.flat_field.varying_std_dn},
+                     {"ground_seen", s.flat_field.ground_seen},
+                     {"ground_overlap", s.flat_field.ground_overlap},
                      {"gain", s.flat_field.gain},
                      {"prepass_ms", s.flat_field.prepass_ms},
                      {"mean_frame_ms", s.flat_field.mean_frame_ms},

@@ -42,7 +42,6 @@ class FrameStage;
 class FrameSink;
 }  // namespace run_steps
 
-/// Mean per-frame stage times, ms.
 /// What the flat-field stage did (RunConfig::flat_field, pipeline/stage_flat_field.cc):
 /// summary.json "flat_field".
 struct FlatFieldReport {
@@ -56,12 +55,15 @@ struct FlatFieldReport {
   double significance = 0.0;    ///< FlatFieldEstimate::significance of the (last) estimate.
   double pattern_std_dn = 0.0;  ///< FlatFieldEstimate::pattern_std_dn.
   double varying_std_dn = 0.0;  ///< FlatFieldEstimate::varying_std_dn.
+  bool ground_seen = false;     ///< FlatFieldEstimate::ground_seen (the motion test).
+  double ground_overlap = 1.0;  ///< FlatFieldEstimate::ground_overlap (the motion test).
   double gain = 1.0;            ///< The contrast stretch (FlatFieldCorrector::gain), 1 if none.
   double prepass_ms = 0.0;      ///< Photo folders: reading the samples and the median.
   double mean_frame_ms = 0.0;   ///< The stage's mean cost per frame (sampling, removal), without the pre-pass.
   std::string why;              ///< The decision in one sentence.
 };
 
+/// Mean per-frame stage times, ms.
 struct StageTimes {
   double detect_ms = 0.0, describe_ms = 0.0, correspond_ms = 0.0, estimate_ms = 0.0, total_ms = 0.0;
 };

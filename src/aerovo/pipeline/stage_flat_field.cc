@@ -6,7 +6,8 @@
 // source, random access; the main stream is not touched) and takes their per-pixel median. Video
 // and live frames: a running mean fed with a frame every sample_interval_s of the source's time,
 // judged and used after warmup_samples, then on or off with hysteresis (off below 3/4 of
-// min_significance). What it did: summary.json "flat_field" (RunSummary::flat_field).
+// min_significance or above 3/2 of max_ground_overlap). What it did: summary.json "flat_field"
+// (RunSummary::flat_field).
 #include <algorithm>
 #include <memory>
 #include <optional>
@@ -97,6 +98,18 @@ std::optional<FlatFieldEstimate> PhotoMedian(const RunConfig& config, int width_
   return e;
 }
 
+// Why FlatFieldApplies(e, o) is `apply`, in a few words.
+std::string Rule(const FlatFieldEstimate& e, const FlatFieldOptions& o, bool apply) {
+  if (o.mode == FlatFieldMode::kOn) return "mode on";
+  if (e.significance < o.min_significance) return fmt::format("< {:.2f}", o.min_significance);
+  const std::string motion =
+      fmt::format("ground seen moving: {}, the parts share {:.0f} % of their ground",
+                  e.ground_seen ? "yes" : "no", 100.0 * e.ground_overlap);
+  if (apply) return fmt::format(">= {:.2f}, {}", o.min_significance, motion);
+  return fmt::format(">= {:.2f} but undecided: {} (at most {:.0f} % and moving needed)",
+                     o.min_significance, motion, 100.0 * o.max_ground_overlap);
+}
+
 class FlatFieldStage : public FrameStage {
  public:
   const char* name() const override { return "flat_field"; }
@@ -166,11 +179,15 @@ class FlatFieldStage : public FrameStage {
   }
 
   // Applies the estimate or not (FlatFieldApplies; a running estimate that was applied stays
-  // so down to 3/4 of min_significance), and records the decision.
+  // so down to 3/4 of min_significance and up to 3/2 of max_ground_overlap), and records the
+  // decision.
   void Decide(const FlatFieldEstimate& e, const RunContext& run) {
     const FlatFieldOptions& o = run.config->flat_field;
     FlatFieldOptions keep = o;
-    if (applied_ && o.mode == FlatFieldMode::kAuto) keep.min_significance *= 0.75;
+    if (applied_ && o.mode == FlatFieldMode::kAuto) {
+      keep.min_significance *= 0.75;
+      keep.max_ground_overlap = std::min(1.0, 1.5 * o.max_ground_overlap);
+    }
     const bool apply = FlatFieldApplies(e, keep);
     if (apply && (!applied_ || samples_since_set_ >= kRefreshSamples)) {
       corrector_.Set(e, o);
@@ -181,19 +198,17 @@ class FlatFieldStage : public FrameStage {
     report.significance = e.significance;
     report.pattern_std_dn = e.pattern_std_dn;
     report.varying_std_dn = e.varying_std_dn;
+    report.ground_seen = e.ground_seen;
+    report.ground_overlap = e.ground_overlap;
     report.gain = apply ? corrector_.gain() : 1.0;
     if (apply == applied_ && running_) return;  // the running decision's text stays
     applied_ = apply;
-    const std::string rule =
-        o.mode == FlatFieldMode::kOn
-            ? std::string("mode on")
-            : fmt::format("{} {:.2f}", apply ? ">=" : "<", keep.min_significance);
     report.why = (running_ ? std::string() : report.why) +
                  fmt::format(
                      "{} of {} frames: pattern {:.2f} DN over a varying part of {:.2f} DN, "
                      "significance {:.2f} ({}): {}",
                      report.estimate, e.samples, e.pattern_std_dn, e.varying_std_dn, e.significance,
-                     rule, apply ? "removed" : "not removed");
+                     Rule(e, keep, apply), apply ? "removed" : "not removed");
     if (running_ && run.log) *run.log << "flat field: " << report.why << "\n";
   }
 
