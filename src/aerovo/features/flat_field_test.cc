@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstdio>
 #include <random>
 #include <utility>
 #include <vector>
@@ -213,7 +212,6 @@ TEST(FlatField, AHoverOverStaticGroundIsNotCorrected) {
       RunningFlatField running(kW, kH, 16);
       for (const GrayImage& f : MakeHover(40, range, none, seed)) running.Add(f.view());
       const FlatFieldEstimate& r = running.estimate();
-      std::printf("DEBUG hover %d %u: median sig %.2f seen %d ov %.2f; running sig %.2f seen %d ov %.2f\n", range, seed, e.significance, e.ground_seen, e.ground_overlap, r.significance, r.ground_seen, r.ground_overlap);
       EXPECT_FALSE(FlatFieldApplies(r, FlatFieldOptions{}))
           << "running, range " << range << " seed " << seed << ": significance " << r.significance
           << ", seen " << r.ground_seen << ", overlap " << r.ground_overlap;
