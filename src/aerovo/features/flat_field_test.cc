@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <random>
 #include <utility>
 #include <vector>
@@ -310,6 +311,43 @@ TEST(FlatField, LargeFramesAreEstimatedOnABinnedGrid) {
     }
   }
   EXPECT_NEAR(centre, corner, 2.0);
+}
+
+// The motion test's shift search on frames of known ground (a sensor's pattern added to both):
+// the shift of a shared ground is found to the coarse pixel with a clear peak (measured 0.77: the
+// pattern in both frames takes a part of their variance); frames of unrelated ground (other
+// seeds) have no clear peak (measured: at most 0.23 over 20 pairs).
+TEST(FlatField, GroundMotionFindsTheShiftOfSharedGroundOnly) {
+  const std::vector<float> pattern = MakePattern(20.0, 2.0, 3);
+  GroundMotion m(kW, kH);
+  EXPECT_EQ(m.width(), 53);  // 160 / 3
+  EXPECT_EQ(m.height(), 42);
+  std::vector<float> grid(pattern.size()), a(m.size()), b(m.size());
+  const auto coarse = [&](const GrayImage& f, std::vector<float>& out) {
+    for (int y = 0; y < kH; ++y) {
+      for (int x = 0; x < kW; ++x) grid[static_cast<std::size_t>(y) * kW + x] = f.at(x, y);
+    }
+    m.Coarse(grid.data(), out.data());
+  };
+  const std::vector<GrayImage> pair = MakeFrames({{30, 30}, {51, 21}}, 8.0, pattern, 5);
+  coarse(pair[0], a);
+  coarse(pair[1], b);
+  const GroundPeak shared = m.Best(a.data(), b.data());
+  EXPECT_GT(shared.ncc, 0.65);
+  EXPECT_EQ(shared.dx, 7);  // 21 px
+  EXPECT_EQ(shared.dy, -3);  // -9 px
+  EXPECT_NEAR(shared.overlap, (1.0 - 7.0 / 53) * (1.0 - 3.0 / 42), 1e-9);
+  EXPECT_TRUE(shared.moved());
+  double chance = 0.0;
+  const std::vector<float> none(pattern.size(), 0.0f);
+  for (std::uint32_t seed = 100; seed < 120; ++seed) {
+    coarse(MakeFrames({{0, 0}}, 8.0, none, seed)[0], a);
+    coarse(MakeFrames({{0, 0}}, 8.0, none, seed + 1000)[0], b);
+    chance = std::max(chance, m.Best(a.data(), b.data()).ncc);
+  }
+  EXPECT_LT(chance, 0.4);
+  std::printf("GroundMotion: shared ground %.2f, unrelated ground at most %.2f\n", shared.ncc,
+              chance);
 }
 
 TEST(FlatField, OptionsAreValidated) {
