@@ -141,10 +141,16 @@ GroundMotion::GroundMotion(int grid_width, int grid_height) {
 void GroundMotion::Coarse(const float* grid, float* out) {
   const int n = factor_, w = width_, h = height_;
   std::fill(binned_.begin(), binned_.end(), 0.0f);
-  for (int y = 0; y < h * n && y < grid_height_; ++y) {
+  // A grid thinner than the factor in one direction (w or h clamped to 1) bins what it has.
+  const int rows = std::min(h, grid_height_ / n) * n, cols = std::min(w, grid_width_ / n);
+  for (int y = 0; y < rows; ++y) {
     const float* row = grid + static_cast<std::size_t>(y) * grid_width_;
     float* b = binned_.data() + static_cast<std::size_t>(y / n) * w;
-    for (int x = 0; x < w * n; ++x) b[x / n] += row[x];
+    for (int cx = 0; cx < cols; ++cx, row += n) {
+      float sum = 0.0f;
+      for (int dx = 0; dx < n; ++dx) sum += row[dx];
+      b[cx] += sum;
+    }
   }
   // Band-pass: less the mean of the 5 x 5 window (clipped at the border).
   constexpr int kRadius = 2;
