@@ -113,10 +113,11 @@ struct FlatFieldEstimate {
   std::vector<float> pattern_dn;
   int samples = 0;  ///< Frames the estimate is made of.
   /// The part of the pattern that two estimates from disjoint parts of the flight share, DN:
-  /// sqrt(max(0, spatial covariance of the two)). A sensor's pattern is in both; what the
-  /// median keeps of the ground (frames that overlap) and the estimates' noise are not, as the
-  /// two parts see other ground (the photo median: the first and second half of the samples in
-  /// flight order; the running estimate: alternate blocks of samples).
+  /// sqrt(max(0, spatial covariance of the two)). A sensor's pattern is in both; the estimates'
+  /// noise is not, nor what the medians keep of the ground when the two parts see other ground
+  /// (the photo median: the first and the last third of the samples in flight order; the running
+  /// estimate: alternate blocks of samples). Whether they do is the motion test's
+  /// (ground_seen, ground_overlap): a ground that stays in the frame is in both too.
   double pattern_std_dn = 0.0;
   /// Root mean square over pixels and samples of the frames' varying part (frame - mean -
   /// pattern), DN: the ground's texture and the temporal noise.
@@ -182,9 +183,9 @@ class GroundMotion {
   std::vector<double> sum_a_, sq_a_, sum_b_, sq_b_;  // integral tables, (w + 1) x (h + 1)
 };
 
-/// The per-pixel median of mean-removed frames (a photo folder's subsample): each frame is binned
-/// to the grid as it is added, so only the grid samples are kept (capacity x grid pixels floats,
-/// allocated by the constructor).
+/// The per-pixel median of mean-removed frames (a photo folder's subsample, added in flight
+/// order): each frame is binned to the grid as it is added, so only the grid samples are kept
+/// (capacity x grid pixels floats, allocated by the constructor).
 class MedianFlatField {
  public:
   /// Frames of width_px x height_px, at most `capacity` of them (>= 3); InvalidArgument else.
@@ -192,8 +193,12 @@ class MedianFlatField {
   /// InvalidArgument for another size or beyond the capacity.
   void Add(const GrayImageView& frame);
   int samples() const { return samples_; }
-  /// The estimate of the frames added (at least 3, else InvalidArgument). Cost: a selection of
-  /// samples() values per grid pixel.
+  /// The estimate of the frames added (at least 3, else InvalidArgument), with the motion test:
+  /// the j-th sample of the first third, less the last third's median, against the j-th of the
+  /// last third, less the first third's (a shared ground both parts hold at one place cancels
+  /// there and shows elsewhere); successive samples, less the median of all, until one pair
+  /// shows the ground moved. Cost: a selection of samples() values per grid pixel and up to
+  /// samples() - 1 + samples() / 3 shift searches (GroundMotion::Best).
   FlatFieldEstimate Estimate() const;
 
  private:
