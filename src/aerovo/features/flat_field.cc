@@ -225,6 +225,19 @@ GroundPeak GroundMotion::Best(const float* a, const float* b) {
   return best;
 }
 
+double GroundMotion::StillCorrelation(const float* a, const float* b) {
+  Tables(a, &sum_a_, &sq_a_);  // the whole image's sums are the tables' last entries
+  Tables(b, &sum_b_, &sq_b_);
+  const std::size_t last = sum_a_.size() - 1;
+  const double n = static_cast<double>(size());
+  double ab = 0.0;
+  for (std::size_t i = 0; i < size(); ++i) ab += static_cast<double>(a[i]) * b[i];
+  const double va = sq_a_[last] - sum_a_[last] * sum_a_[last] / n;
+  const double vb = sq_b_[last] - sum_b_[last] * sum_b_[last] / n;
+  if (va <= 0.0 || vb <= 0.0) return 0.0;
+  return (ab - sum_a_[last] * sum_b_[last] / n) / std::sqrt(va * vb);
+}
+
 bool FlatFieldApplies(const FlatFieldEstimate& estimate, const FlatFieldOptions& options) {
   if (estimate.empty() || options.mode == FlatFieldMode::kOff) return false;
   return options.mode == FlatFieldMode::kOn ||
@@ -278,7 +291,11 @@ void TestMotion(const float* values, std::size_t k, std::size_t third,
     Difference(a.data(), p_second.data(), c, ra.data());
     Difference(b.data(), p_first.data(), c, rb.data());
     const GroundPeak peak = m.Best(ra.data(), rb.data());
-    if (peak.clear()) overlap = std::max(overlap, peak.overlap);
+    if (peak.clear()) {
+      overlap = std::max(overlap, peak.overlap);
+    } else if (m.Still(a.data(), b.data())) {
+      overlap = 1.0;  // no peak as their common ground cancelled: it did not move
+    }
     seen = seen || peak.moved();
   }
   e.ground_overlap = third > 0 ? overlap : 1.0;
@@ -364,14 +381,16 @@ void RunningFlatField::TestMotion(bool block_start) {
   }
   const int kept = static_cast<int>(std::min<long>(snapshots_taken_, kSnapshots));
   if (kept > 0) {  // the oldest kept
-    const float* oldest = snapshots_.data() + (snapshots_taken_ - kept) % kSnapshots * c;
-    Difference(oldest, pattern_.data(), c, rb_.data());
+    const long oldest = (snapshots_taken_ - kept) % kSnapshots;
+    const float* old = snapshots_.data() + oldest * c;
+    Difference(old, pattern_.data(), c, rb_.data());
     const GroundPeak peak = motion_.Best(rb_.data(), ra_.data());
-    e.ground_overlap = peak.clear() ? peak.overlap : 0.0;
+    e.ground_overlap =
+        peak.clear() ? peak.overlap : (motion_.Still(now_.data(), old) ? 1.0 : 0.0);
   }
   if (block_start) {
-    std::copy(now_.begin(), now_.end(), snapshots_.begin() + snapshots_taken_ % kSnapshots * c);
-    ++snapshots_taken_;
+    const long slot = snapshots_taken_++ % kSnapshots;
+    std::copy(now_.begin(), now_.end(), snapshots_.begin() + slot * c);
   }
   std::swap(previous_, now_);
 }

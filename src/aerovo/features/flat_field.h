@@ -153,6 +153,12 @@ inline constexpr int kGroundMotionPixels = 64;
 /// FlatField.GroundMotionFindsTheShiftOfSharedGroundOnly): the shared ground of two such images
 /// correlates at about 0.8 with a sensor's pattern in both, and unrelated ground at most 0.23.
 inline constexpr double kGroundPeakNcc = 0.5;
+/// GroundMotion::Still's bound (our choice, between the two measured in
+/// FlatField.StillCorrelationTellsAStaticGroundFromAMovedOne): the same ground at the same
+/// place, its gain changed, correlates at 0.986 (its noise, binned, is the rest); moved by 2 px,
+/// at 0.82. A pattern strong
+/// enough to keep frames of a moved ground above it leaves no ground to see at this scale.
+inline constexpr double kStillNcc = 0.95;
 
 /// The best shift of two coarse images (GroundMotion::Best): b(x, y) ~ a(x + dx, y + dy).
 struct GroundPeak {
@@ -175,6 +181,13 @@ class GroundMotion {
   void Coarse(const float* grid, float* out);
   /// The best shift of a and b (coarse images of size()).
   GroundPeak Best(const float* a, const float* b);
+  /// The zero-shift NCC of coarse images a and b (-1..1; 0 when one is flat): close to 1 when
+  /// the frames show the same ground at the same place (their noise, binned, is a small part
+  /// of the coarse images), lower when the ground moved (a static pattern alone keeps its part).
+  double StillCorrelation(const float* a, const float* b);
+  /// Whether two frames show the same ground at the same place: StillCorrelation at least
+  /// kStillNcc.
+  bool Still(const float* a, const float* b) { return StillCorrelation(a, b) >= kStillNcc; }
 
  private:
   void Tables(const float* image, std::vector<double>* sum, std::vector<double>* sum_sq);

@@ -350,6 +350,57 @@ TEST(FlatField, GroundMotionFindsTheShiftOfSharedGroundOnly) {
               chance);
 }
 
+// The motion test's stillness: two frames of the same ground at the same place (the pattern in
+// both, other noise, the second at 1.1 times the contrast: an automatic gain) correlate at zero
+// shift far closer to 1 than frames whose ground moved by 2 px or by 21 px.
+TEST(FlatField, StillCorrelationTellsAStaticGroundFromAMovedOne) {
+  const std::vector<float> pattern = MakePattern(20.0, 2.0, 3);
+  GroundMotion m(kW, kH);
+  std::vector<float> grid(pattern.size());
+  const auto coarse = [&](const GrayImage& f, double gain) {
+    for (int y = 0; y < kH; ++y) {
+      for (int x = 0; x < kW; ++x) {
+        grid[static_cast<std::size_t>(y) * kW + x] = static_cast<float>(gain * f.at(x, y));
+      }
+    }
+    std::vector<float> out(m.size());
+    m.Coarse(grid.data(), out.data());
+    return out;
+  };
+  const std::vector<GrayImage> f =
+      MakeFrames({{30, 30}, {30, 30}, {32, 30}, {51, 21}}, 8.0, pattern, 5);
+  const std::vector<float> a = coarse(f[0], 1.0);
+  const double still = m.StillCorrelation(a.data(), coarse(f[1], 1.1).data());
+  const double two_px = m.StillCorrelation(a.data(), coarse(f[2], 1.0).data());
+  const double moved = m.StillCorrelation(a.data(), coarse(f[3], 1.0).data());
+  std::printf("StillCorrelation: still %.3f, moved 2 px %.3f, moved 21 px %.3f\n", still, two_px,
+              moved);
+  EXPECT_GT(still, 0.97);
+  EXPECT_TRUE(m.Still(a.data(), a.data()));
+  EXPECT_LT(two_px, 0.9);
+  EXPECT_LT(moved, 0.5);
+}
+
+// A flight that starts and ends hovering over the same spot (7 samples there, 7 flying away
+// 9 px per frame, 7 back over the spot): the medians of the first and the last third are the
+// same ground, which cancels from the frames less the other third's median, so no pair of the
+// thirds correlates; their stillness (GroundMotion::Still) says they share it all, and it is
+// not removed.
+TEST(FlatField, AFlightThatReturnsToItsHoverIsNotCorrected) {
+  const std::vector<float> none(static_cast<std::size_t>(kW) * kH, 0.0f);
+  std::vector<std::pair<int, int>> offsets;
+  for (int t = 0; t < 21; ++t) {
+    const int away = t < 7 || t >= 14 ? 0 : 9 * (t - 6);
+    offsets.emplace_back(away, away / 2);
+  }
+  const FlatFieldEstimate e = EstimateFlatField(Views(MakeFrames(offsets, 8.0, none, 31)));
+  EXPECT_GT(e.significance, 1.0);
+  EXPECT_EQ(e.ground_overlap, 1.0);
+  EXPECT_FALSE(FlatFieldApplies(e, FlatFieldOptions{}));
+  std::printf("return to the hover: significance %.2f, seen %d, overlap %.2f\n", e.significance,
+              e.ground_seen, e.ground_overlap);
+}
+
 TEST(FlatField, OptionsAreValidated) {
   FlatFieldOptions o;
   EXPECT_NO_THROW(Validate(o));
