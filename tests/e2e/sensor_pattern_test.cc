@@ -95,8 +95,8 @@ TEST(SensorPattern, ThermalVideoIsCorrectedByTheRunningEstimate) {
   EXPECT_GT(ff["significance"].get<double>(), 1.0);
   EXPECT_TRUE(ff["ground_seen"].get<bool>());
   EXPECT_LE(ff["ground_overlap"].get<double>(), 0.75);  // applied: up to 3/2 of 0.5
-  std::printf("running: significance %.2f, ground overlap %.2f\n",
-              ff["significance"].get<double>(), ff["ground_overlap"].get<double>());
+  std::printf("running: significance %.2f, ground overlap %.2f\n", ff["significance"].get<double>(),
+              ff["ground_overlap"].get<double>());
   EXPECT_LE(s["frames_bridged"].get<int>(), n / 50);
   EXPECT_LT(s["truth_evaluation"]["se2"]["end_point_error_percent"].get<double>(), 1.0);
   fs::remove_all(dir);
@@ -167,8 +167,8 @@ TEST(SensorPattern, AHoverOverTexturedGroundIsNotCorrected) {
 
 // The same ground at a thermal camera's contrast flown over (a 40-photo leg, 8 px = 2 m per
 // photo, the last third 216 px from the first in a 320 px frame) with a sensor pattern (20 DN
-// vignetting, 3 DN per pixel and per column): the motion test sees the ground move and the two thirds share less than half of it,
-// so the pattern is removed.
+// vignetting, 3 DN per pixel and per column): the motion test sees the ground move and the two
+// thirds share less than half of it, so the pattern is removed.
 TEST(SensorPattern, AMovingGroundWithAPatternIsCorrected) {
   const fs::path dir = e2e::UnusedTempPath("aerovo_flat_field", "leg");
   std::vector<std::pair<int, int>> offsets;

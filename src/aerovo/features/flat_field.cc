@@ -385,8 +385,7 @@ void RunningFlatField::TestMotion(bool block_start) {
     const float* old = snapshots_.data() + oldest * c;
     Difference(old, pattern_.data(), c, rb_.data());
     const GroundPeak peak = motion_.Best(rb_.data(), ra_.data());
-    e.ground_overlap =
-        peak.clear() ? peak.overlap : (motion_.Still(now_.data(), old) ? 1.0 : 0.0);
+    e.ground_overlap = peak.clear() ? peak.overlap : (motion_.Still(now_.data(), old) ? 1.0 : 0.0);
   }
   if (block_start) {
     const long slot = snapshots_taken_++ % kSnapshots;

@@ -334,7 +334,7 @@ TEST(FlatField, GroundMotionFindsTheShiftOfSharedGroundOnly) {
   coarse(pair[1], b);
   const GroundPeak shared = m.Best(a.data(), b.data());
   EXPECT_GT(shared.ncc, 0.65);
-  EXPECT_EQ(shared.dx, 7);  // 21 px
+  EXPECT_EQ(shared.dx, 7);   // 21 px
   EXPECT_EQ(shared.dy, -3);  // -9 px
   EXPECT_NEAR(shared.overlap, (1.0 - 7.0 / 53) * (1.0 - 3.0 / 42), 1e-9);
   EXPECT_TRUE(shared.moved());
