@@ -128,9 +128,11 @@ struct FlatFieldEstimate {
   /// moved between them (a clear correlation peak of their ground at a non-zero shift). Without
   /// it a static pattern and a static ground cannot be told apart.
   bool ground_seen = false;
-  /// The motion test: the mean share of the frame (0..1) that the frames of the two disjoint
-  /// parts (pattern_std_dn) have in common on the ground, from the shift of their correlation
-  /// peak (0: no common ground found; 1: the ground did not move between them, or no test).
+  /// The motion test: the largest share of the frame (0..1) that a frame of one of the two
+  /// disjoint parts (pattern_std_dn) has in common on the ground with its partner in the other,
+  /// from the shift of their correlation peak; 1 for a pair without a peak that is still
+  /// (GroundMotion::Still: the same ground at the same place), 0 for one that is not (no common
+  /// ground found); 1 before any test.
   double ground_overlap = 1.0;
   bool empty() const { return samples == 0; }
 };
@@ -156,8 +158,8 @@ inline constexpr double kGroundPeakNcc = 0.5;
 /// GroundMotion::Still's bound (our choice, between the two measured in
 /// FlatField.StillCorrelationTellsAStaticGroundFromAMovedOne): the same ground at the same
 /// place, its gain changed, correlates at 0.986 (its noise, binned, is the rest); moved by 2 px,
-/// at 0.82. A pattern strong
-/// enough to keep frames of a moved ground above it leaves no ground to see at this scale.
+/// at 0.82. A pattern strong enough to keep frames of a moved ground above it leaves no ground
+/// to see at this scale.
 inline constexpr double kStillNcc = 0.95;
 
 /// The best shift of two coarse images (GroundMotion::Best): b(x, y) ~ a(x + dx, y + dy).
@@ -208,9 +210,9 @@ class MedianFlatField {
   int samples() const { return samples_; }
   /// The estimate of the frames added (at least 3, else InvalidArgument), with the motion test:
   /// the j-th sample of the first third, less the last third's median, against the j-th of the
-  /// last third, less the first third's (a shared ground both parts hold at one place cancels
-  /// there and shows elsewhere); successive samples, less the median of all, until one pair
-  /// shows the ground moved. Cost: a selection of samples() values per grid pixel and up to
+  /// last third, less the first third's (a ground both parts hold at one place cancels from
+  /// both: such a pair shows no peak, and its stillness says it shares all); successive
+  /// samples, less the median of all, until one pair shows the ground moved. Cost: a selection of samples() values per grid pixel and up to
   /// samples() - 1 + samples() / 3 shift searches (GroundMotion::Best).
   FlatFieldEstimate Estimate() const;
 
@@ -231,7 +233,7 @@ FlatFieldEstimate EstimateFlatField(const std::vector<GrayImageView>& frames);
 /// the pattern): ground_seen once two successive samples showed the ground moved; ground_overlap
 /// what the newest sample shares with the oldest of the first samples of the last 4 blocks (up
 /// to half a window back, the span the running means mostly hold; the first sample while fewer
-/// samples joined; 1 before the second sample). Buffers sized once by the constructor; Add
+/// samples joined; 1 before the second sample; a pair without a peak: 1 if still, else 0). Buffers sized once by the constructor; Add
 /// allocates nothing.
 class RunningFlatField {
  public:
