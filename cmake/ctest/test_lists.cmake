@@ -55,7 +55,12 @@ set(AEROVO_ACCURACY_TESTS
 #   - BadInput.DamagedTelemetryWithLenientTelemetry...: a 12-frame flight per damage
 #     (BadInput.DamagedSrt.../DamagedGpx...: the same damages parsed; the lenient readers' unit
 #     tests in telemetry_readers_test.cc; the fuzzers).
+#   - SensorPattern.ThermalFlightWithVignettingAndFixedPattern...: the flat field's photo median on
+#     the thermal flight, with and without it (AdaptivePoints.ThermalLikeFlight..., whose
+#     thermal preset has the pattern too and takes the same path; SensorPattern.ThermalVideo...,
+#     the running estimate; the flat_field unit tests).
 set(AEROVO_REPEATED_FLIGHT_TESTS
+  SensorPattern.ThermalFlightWithVignettingAndFixedPatternIsTrackedWithTheDefaults
   docs.commands_run_as_written
   Demo.QuickDemoWritesEverythingAndTracksTheTruth
   Runner.SimulatedCallasFlightAgainstExactTruth
@@ -101,4 +106,6 @@ set(AEROVO_TEST_COSTS
   Attitude.TiltedFlightIsThreeTimesMoreAccurateWithTheCorrection 5
   Attitude.NadirFlightIsUnchangedByTheCorrection 5
   AdaptivePoints.ThermalLikeFlightIsTrackedWithTheDefaults 5
+  SensorPattern.ThermalFlightWithVignettingAndFixedPatternIsTrackedWithTheDefaults 5
+  SensorPattern.ThermalVideoIsCorrectedByTheRunningEstimate 5
 )

@@ -47,8 +47,9 @@ std::vector<std::pair<double, double>> LocalCentres(const fs::path& p, double cx
   return xy;
 }
 
-// 640x512 thermal-like camera (grey, contrast 0.15, optics blur 1.2 px, noise 1.5 DN) over the
-// built-in terrain: 61 frames, 300 m at 80 m.
+// 640x512 thermal-like camera (grey, contrast 0.15, optics blur 1.2 px, noise 1.5 DN, and the
+// sensor's vignetting and fixed pattern, which the defaults' flat field removes:
+// SensorPattern.*) over the built-in terrain: 61 frames, 300 m at 80 m.
 TEST(AdaptivePoints, ThermalLikeFlightIsTrackedWithTheDefaults) {
   const fs::path dir = TempDir("thermal");
   ASSERT_TRUE(Cli("simulate --render thermal --pattern lawnmower --length-m 120 --legs 2 "

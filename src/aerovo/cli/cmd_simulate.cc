@@ -297,9 +297,18 @@ void Register(CLI::App& app) {
                   "Gaussian blur of the optics, sigma (px)")
       ->capture_default_str();
   cmd->add_flag("--grey", opt->effects.grayscale, "No colour (luminance in every channel)");
+  cmd->add_option("--vignetting", opt->effects.vignetting_dn,
+                  "Vignetting, DN: a static offset falling from 0 at the centre to -DN at the "
+                  "corners (squared distance)")
+      ->capture_default_str();
+  cmd->add_option("--fixed-pattern", opt->effects.fixed_pattern_dn,
+                  "Fixed-pattern noise, DN: static Gaussian per-pixel and per-column offsets of "
+                  "this standard deviation each")
+      ->capture_default_str();
   cmd->add_option("--render", args->render,
                   "visible | thermal: a thermal-like camera (640x512, 45 deg hfov, grey, contrast "
-                  "0.15, optics blur 1.2 px, noise 1.5 DN; flags given explicitly win)")
+                  "0.15, optics blur 1.2 px, vignetting 30 DN, fixed pattern 3 DN, noise 1.5 DN; "
+                  "flags given explicitly win)")
       ->capture_default_str();
   cmd->add_option("--gps-noise-m", opt->gps.horizontal_sigma_m,
                   "GPS horizontal error sigma per axis (m)")
@@ -337,9 +346,12 @@ void Register(CLI::App& app) {
       if (unset("--contrast")) opt->effects.contrast = t.contrast;
       if (unset("--optics-blur")) opt->effects.optics_blur_sigma_px = t.optics_blur_sigma_px;
       if (unset("--noise")) opt->effects.noise_sigma_dn = t.noise_sigma_dn;
+      if (unset("--vignetting")) opt->effects.vignetting_dn = t.vignetting_dn;
+      if (unset("--fixed-pattern")) opt->effects.fixed_pattern_dn = t.fixed_pattern_dn;
     } else if (args->render != "visible") {
       throw InvalidArgument("--render must be 'visible' or 'thermal', not '" + args->render + "'");
     }
+    opt->effects.fixed_pattern_seed = opt->seed;  // one sensor per seed
     opt->camera.lens = ParseLensModel(args->lens);
     writer->write_video = !args->frames_only;
     writer->video_codec = args->codec;

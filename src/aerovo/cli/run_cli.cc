@@ -64,6 +64,7 @@ class FlagBinder : public options::GroupingVisitor<FlagBinder> {
     const std::string group = key.substr(0, key.find('.'));
     if (group == key) return kRunGroup;
     static const std::pair<const char*, const char*> kTitles[] = {
+        {"flat_field", "Flat field"},
         {"surf", "SURF"},
         {"match", "Matching"},
         {"ransac", "RANSAC"},

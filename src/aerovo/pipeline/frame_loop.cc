@@ -18,6 +18,7 @@ std::vector<StagePtr> MakeStages(const RunContext& run, const std::vector<StageP
   std::vector<StagePtr> stages;
   stages.push_back(MakeHeightStage(run));
   stages.push_back(MakeAttitudeStage());
+  stages.push_back(MakeFlatFieldStage());
   stages.push_back(MakePreprocessStage());
   stages.push_back(MakeOdometryStage());
   stages.push_back(MakeGpsCheckStage());

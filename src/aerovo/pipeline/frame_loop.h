@@ -23,6 +23,7 @@ namespace aerovo::run_steps {
 
 std::unique_ptr<FrameStage> MakeHeightStage(const RunContext& run);  // stage_height.cc
 std::unique_ptr<FrameStage> MakeAttitudeStage();                     // stage_attitude.cc
+std::unique_ptr<FrameStage> MakeFlatFieldStage();                    // stage_flat_field.cc
 std::unique_ptr<FrameStage> MakePreprocessStage();                   // stage_preprocess.cc
 std::unique_ptr<FrameStage> MakeOdometryStage();                     // stage_odometry.cc
 std::unique_ptr<FrameStage> MakeGpsCheckStage();                     // stage_gps_check.cc

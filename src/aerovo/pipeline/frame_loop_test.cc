@@ -363,8 +363,8 @@ TEST(FrameLoop, StagesAndSinksAreListedInTheirOrder) {
   std::vector<std::string> names;
   for (const StagePtr& s : stages) names.emplace_back(s->name());
   EXPECT_EQ(names,
-            (std::vector<std::string>{"height", "attitude", "preprocess", "odometry", "gps_check",
-                                      "georeference", "record", "test_logging"}));
+            (std::vector<std::string>{"height", "attitude", "flat_field", "preprocess", "odometry",
+                                      "gps_check", "georeference", "record", "test_logging"}));
   names.clear();
   for (const SinkPtr& s : MakeSinks(run, {std::make_shared<LoggingSink>(&calls)})) {
     names.emplace_back(s->name());

@@ -68,8 +68,10 @@ struct FrameState {
   // Attitude (stage_attitude.cc).
   std::optional<mavlink::AutopilotAttitude> autopilot_attitude;  ///< The link's, near capture.
   FrameAttitude attitude;
-  // Preprocessing (stage_preprocess.cc): the pixels given to the odometry (a view into the
-  // frame or a stage's buffer, valid until the next frame).
+  // Flat field (stage_flat_field.cc): the frame with the sensor's static pattern removed, when
+  // it is; then preprocessing (stage_preprocess.cc, from these pixels when set, else from
+  // `frame`): the pixels given to the odometry (a view into the frame or a stage's buffer,
+  // valid until the next frame).
   GrayImageView pixels;
   // Odometry (stage_odometry.cc).
   FrameResult result;

@@ -44,6 +44,7 @@ void ApplyPaperPreset(RunConfig& c) {
   c.attitude = AttitudeMode::kOff;
   c.lens_estimation = LensEstimationMode::kOff;
   c.attitude_estimation = AttitudeEstimationMode::kOff;
+  c.flat_field.mode = FlatFieldMode::kOff;
 }
 
 RunConfig PaperRunConfig() {
@@ -59,13 +60,14 @@ const std::vector<RunPreset>& RunPresets() {
        "threshold of detectSURFFeatures (surf.hessian_threshold, default 1000), every frame "
        "matched exhaustively, the clustered RANSAC's best cell fit as it is; what `aerovo "
        "experiment --paper` uses to reproduce the paper's figures; no attitude correction (the paper's "
-       "nadir camera), no lens or tilt self-calibration",
+       "nadir camera), no lens or tilt self-calibration, no flat-field correction",
        {{"surf.adaptive", "false"},
         {"correspondence.guided_matching", "false"},
         {"clustered.refine", "false"},
         {"attitude", "off"},
         {"lens_estimation", "off"},
-        {"attitude_estimation", "off"}}},
+        {"attitude_estimation", "off"},
+        {"flat_field.mode", "off"}}},
   };
   return presets;
 }
@@ -102,6 +104,7 @@ void Validate(const RunConfig& c) {
   }
   try {
     Validate(c.gps_check);
+    Validate(c.flat_field);
     Validate(c.odometry);
   } catch (const InvalidArgument& e) {
     fail(e.what());

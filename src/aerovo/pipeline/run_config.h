@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "aerovo/core/options.h"
+#include "aerovo/features/flat_field.h"
 #include "aerovo/frames/video_decoder_choice.h"
 #include "aerovo/mavlink/vision.h"
 #include "aerovo/odometry/georef.h"
@@ -280,6 +281,11 @@ struct RunConfig {
   /// geo-referencing nor the comparison with GPS; flagged in frames.csv (gps_flag) and listed
   /// in summary.json (gps_rejected).
   GpsCheckOptions gps_check;
+  /// The sensor's static pattern (vignetting, fixed-pattern noise) estimated from the flight and
+  /// removed before the reduction and SURF when significant (features/flat_field.h; the stage
+  /// pipeline/stage_flat_field.cc): a photo folder's median of photo_samples photos spread over
+  /// the flight, a running mean for video and live frames; summary.json "flat_field".
+  FlatFieldOptions flat_field;
   /// The odometry and its stages (keys surf.*, match.*, ransac.*, clustered.*, correspondence.*,
   /// odometry.*); defaults are OdometryOptions' (visual_odometry.h). The run sets its focal_px and
   /// default_height_m from the camera and height it resolves (focal_px, hfov_deg, altitude_m
@@ -347,6 +353,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.ground_elevation_m, "ground_elevation_m", "Ground altitude above sea level, m, for telemetry with only an altitude above sea level (nan = unknown)", Any());
   v.Field(c.takeoff_height_agl_m, "takeoff_height_agl_m", "Take-off point's height above the ground flown over, m (added to the relative altitude)", Interval(-1e4, 1e4));
   v.Group("gps_check", c.gps_check);
+  v.Group("flat_field", c.flat_field);
   v.Group("odometry", c.odometry);
 }
 // clang-format on
@@ -354,8 +361,8 @@ void VisitFields(RunConfig& c, V& v) {
 /// `aerovo experiment`): RunConfig's defaults with surf.adaptive = false (MATLAB
 /// detectSURFFeatures' fixed MetricThreshold 1000), correspondence.guided_matching = false (every
 /// frame matched exhaustively, as matchFeatures), clustered.refine = false (the clustered
-/// RANSAC's best cell fit as it is), attitude = off (the paper's nadir camera) and
-/// lens_estimation = off. Options given after it (flags, config file) still win.
+/// RANSAC's best cell fit as it is), attitude = off (the paper's nadir camera),
+/// lens_estimation = off and flat_field.mode = off. Options given after it (flags, config file) still win.
 RunConfig PaperRunConfig();
 /// Sets the paper preset's options (those PaperRunConfig changes) in `config`, leaving the rest.
 void ApplyPaperPreset(RunConfig& config);

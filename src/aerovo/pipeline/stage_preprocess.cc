@@ -13,8 +13,9 @@ class PreprocessStage : public FrameStage {
   const char* name() const override { return "preprocess"; }
 
   void Process(FrameState& f, const RunContext& run) override {
-    GrayImageView view =
-        run.reducer ? run.reducer->Apply(f.frame.gray.view()) : f.frame.gray.view();
+    // The frame as read, or as the flat-field stage corrected it.
+    GrayImageView view = f.pixels.empty() ? f.frame.gray.view() : f.pixels;
+    if (run.reducer) view = run.reducer->Apply(view);
     if (run.undistorter) view = run.undistorter->Apply(view);
     if (run.config->illumination_k != 1.0) {
       view = ScaleBrightness(view, run.config->illumination_k, &dimmed_);

@@ -189,6 +189,14 @@ void Validate(const EffectsOptions& e) {
     throw InvalidArgument(fmt::format("EffectsOptions: optics_blur_sigma_px = {} must be in [0, 50]",
                                       e.optics_blur_sigma_px));
   }
+  if (!(e.vignetting_dn >= 0.0 && e.vignetting_dn <= 255.0)) {
+    throw InvalidArgument(
+        fmt::format("EffectsOptions: vignetting_dn = {} must be in [0, 255]", e.vignetting_dn));
+  }
+  if (!(e.fixed_pattern_dn >= 0.0 && e.fixed_pattern_dn <= 100.0)) {
+    throw InvalidArgument(fmt::format("EffectsOptions: fixed_pattern_dn = {} must be in [0, 100]",
+                                      e.fixed_pattern_dn));
+  }
   if (e.jpeg_quality < 0 || e.jpeg_quality > 100) {
     throw InvalidArgument(fmt::format(
         "EffectsOptions: jpeg_quality = {} must be in [0, 100] (0 = none)", e.jpeg_quality));
@@ -217,6 +225,31 @@ cv::Mat LineKernel(double length, Eigen::Vector2d dir) {
   k /= cv::sum(k)[0];
   return k;
 }
+
+// The static offset of the sensor (EffectsOptions::vignetting_dn, fixed_pattern_dn), DN, one
+// float per pixel of a w x h frame: the same for every frame of a camera.
+cv::Mat SensorPattern(int w, int h, const EffectsOptions& e) {
+  cv::Mat pattern(h, w, CV_32F, cv::Scalar(0));
+  if (e.fixed_pattern_dn > 0.0) {
+    cv::RNG rng(e.fixed_pattern_seed);
+    rng.fill(pattern, cv::RNG::NORMAL, 0.0, e.fixed_pattern_dn);
+    cv::Mat column(1, w, CV_32F);
+    rng.fill(column, cv::RNG::NORMAL, 0.0, e.fixed_pattern_dn);
+    for (int y = 0; y < h; ++y) pattern.row(y) += column;
+  }
+  if (e.vignetting_dn > 0.0) {
+    const double cx = 0.5 * (w - 1), cy = 0.5 * (h - 1), r2max = cx * cx + cy * cy;
+    for (int y = 0; y < h; ++y) {
+      float* row = pattern.ptr<float>(y);
+      for (int x = 0; x < w; ++x) {
+        const double r2 = ((x - cx) * (x - cx) + (y - cy) * (y - cy)) / r2max;
+        row[x] -= static_cast<float>(e.vignetting_dn * r2);
+      }
+    }
+  }
+  return pattern;
+}
+
 }  // namespace
 
 void ApplyEffects(cv::Mat& frame, const EffectsOptions& e, const Eigen::Vector2d& motion_px,
@@ -244,10 +277,17 @@ void ApplyEffects(cv::Mat& frame, const EffectsOptions& e, const Eigen::Vector2d
                  cv::BORDER_REFLECT101);
   }
   if (e.illumination_k != 1.0) frame.convertTo(frame, -1, e.illumination_k, 0.0);
-  if (e.noise_sigma_dn > 0.0) {
-    cv::Mat noise(frame.size(), CV_32FC(frame.channels()));
-    cv::RNG rng(seed);
-    rng.fill(noise, cv::RNG::NORMAL, 0.0, e.noise_sigma_dn);
+  if (e.noise_sigma_dn > 0.0 || e.vignetting_dn > 0.0 || e.fixed_pattern_dn > 0.0) {
+    cv::Mat noise(frame.size(), CV_32FC(frame.channels()), cv::Scalar::all(0));
+    if (e.noise_sigma_dn > 0.0) {
+      cv::RNG rng(seed);
+      rng.fill(noise, cv::RNG::NORMAL, 0.0, e.noise_sigma_dn);
+    }
+    if (e.vignetting_dn > 0.0 || e.fixed_pattern_dn > 0.0) {
+      cv::Mat pattern = SensorPattern(frame.cols, frame.rows, e);
+      if (frame.channels() > 1) cv::merge(std::vector<cv::Mat>(frame.channels(), pattern), pattern);
+      noise += pattern;
+    }
     cv::Mat f;
     frame.convertTo(f, CV_32F);
     f += noise;
@@ -266,6 +306,8 @@ EffectsOptions ThermalEffects() {
   e.contrast = 0.15;
   e.optics_blur_sigma_px = 1.2;
   e.noise_sigma_dn = 1.5;
+  e.vignetting_dn = 30.0;
+  e.fixed_pattern_dn = 3.0;
   return e;
 }
 

@@ -79,7 +79,7 @@ class GroundRenderer {
 };
 
 /// Image effects, applied in this order: grey, contrast, optics blur, motion blur,
-/// illumination k, sensor noise, JPEG.
+/// illumination k, sensor non-uniformity (vignetting, fixed pattern), sensor noise, JPEG.
 struct EffectsOptions {
   /// No colour: every pixel becomes its luminance (cv::COLOR_BGR2GRAY), kept in all channels.
   /// Default false.
@@ -104,15 +104,28 @@ struct EffectsOptions {
   double motion_blur_px = 0.0;
   /// JPEG compression round trip at this quality (1..100); 0 = none. Default 0.
   int jpeg_quality = 0;
+  /// Vignetting, DN: an offset static in the frame, 0 at the centre falling as the squared
+  /// distance from it to -vignetting_dn at the corners (additive, as the shading of an uncooled
+  /// thermal camera's optics and housing). Default 0 (none).
+  double vignetting_dn = 0.0;
+  /// Fixed-pattern noise, DN: a static Gaussian offset of this standard deviation per pixel plus
+  /// one of the same standard deviation per column (a microbolometer's readout), the same in
+  /// every frame (drawn from fixed_pattern_seed). Default 0 (none).
+  double fixed_pattern_dn = 0.0;
+  /// Seed of the fixed pattern (one pattern per camera, not per frame).
+  std::uint64_t fixed_pattern_seed = 1;
 };
 
 /// Throws aerovo::InvalidArgument naming the bad field.
 void Validate(const EffectsOptions& effects);
 
 /// The thermal-like render mode's effects (`aerovo simulate --render thermal`): grey, contrast
-/// 0.15, optics blur sigma 1.2 px, sensor noise 1.5 DN. What a radiometric camera's 8-bit
-/// export of a uniform-temperature scene looks like: a few tens of grey levels of texture, soft
-/// edges, visible noise (our model, not a calibrated sensor).
+/// 0.15, optics blur sigma 1.2 px, vignetting 30 DN, fixed pattern 3 DN, sensor noise 1.5 DN.
+/// What a radiometric camera's 8-bit export of a uniform-temperature scene looks like: a few
+/// tens of grey levels of texture, soft edges, visible noise, and a static shading and pattern
+/// of the sensor as strong as the ground's texture (our model, not a calibrated sensor; with
+/// them most frames of the simulated flight are bridged unless the run removes the flat
+/// field, BENCHMARKS.md "Sensor non-uniformity").
 EffectsOptions ThermalEffects();
 /// The thermal-like camera: 640x512 px (DJI Zenmuse XT2 / FLIR Tau 2 640 detector), 45 degrees
 /// horizontal field of view (the 13 mm lens of the XT2 640; DJI's XT2 specifications).

@@ -285,6 +285,39 @@ TEST(Effects, SensorNoiseHasRequestedSigmaAndFollowsSeed) {
   EXPECT_GT(cv::norm(a, c, cv::NORM_INF), 0.0);
 }
 
+// The thermal preset's vignetting (30 DN at the corners, r^2) and fixed pattern (3 DN per pixel
+// and per column) are the same in every frame whatever the frame's seed, and differ per
+// fixed_pattern_seed.
+TEST(Effects, VignettingAndFixedPatternAreStaticInTheFrame) {
+  const EffectsOptions e = ThermalEffects();
+  EXPECT_EQ(e.vignetting_dn, 30.0);
+  EXPECT_EQ(e.fixed_pattern_dn, 3.0);
+  EffectsOptions still = e;
+  still.noise_sigma_dn = 0.0;
+  still.contrast = 1.0;
+  still.optics_blur_sigma_px = 0.0;
+  cv::Mat a(512, 640, CV_8UC1, cv::Scalar(150)), b = a.clone(), c = a.clone();
+  ApplyEffects(a, still, {0, 0}, 1);
+  ApplyEffects(b, still, {0, 0}, 2);
+  EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0) << "the pattern does not follow the frame's seed";
+  still.fixed_pattern_seed = 2;
+  ApplyEffects(c, still, {0, 0}, 1);
+  EXPECT_GT(cv::norm(a, c, cv::NORM_INF), 0.0);
+  // Centre against the corner block (32x32 px whose centre is (304, 240) px from the frame's, at
+  // r^2 = 0.896 of the corner's): 30 x 0.896 = 26.9 DN of vignetting; the fixed pattern averages
+  // to about 3 / sqrt(32) = 0.5 DN over a block (its column part).
+  const double centre = cv::mean(a(cv::Rect(304, 240, 32, 32)))[0];
+  const double corner = cv::mean(a(cv::Rect(0, 0, 32, 32)))[0];
+  EXPECT_NEAR(centre, 150.0, 1.5);
+  EXPECT_NEAR(centre - corner, 26.9, 2.0);
+  cv::Mat diff;
+  cv::absdiff(a(cv::Rect(304, 240, 32, 32)), cv::Scalar(150), diff);
+  EXPECT_GT(cv::mean(diff)[0], 1.5) << "per-pixel fixed pattern present";
+  EffectsOptions bad;
+  bad.vignetting_dn = -1.0;
+  EXPECT_THROW(Validate(bad), InvalidArgument);
+}
+
 TEST(Effects, MotionBlurSpreadsAlongTheMotionOnly) {
   EffectsOptions e;
   e.motion_blur_px = 9.0;

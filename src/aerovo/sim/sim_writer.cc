@@ -237,7 +237,10 @@ std::string SimulationJsonText(const Simulator& sim, const SimulationOutput& out
                   {"jpeg_quality", o.effects.jpeg_quality},
                   {"grayscale", o.effects.grayscale},
                   {"contrast", o.effects.contrast},
-                  {"optics_blur_sigma_px", o.effects.optics_blur_sigma_px}};
+                  {"optics_blur_sigma_px", o.effects.optics_blur_sigma_px},
+                  {"vignetting_dn", o.effects.vignetting_dn},
+                  {"fixed_pattern_dn", o.effects.fixed_pattern_dn},
+                  {"fixed_pattern_seed", o.effects.fixed_pattern_seed}};
   j["gps"] = {{"rate_hz", o.gps.rate_hz},
               {"horizontal_sigma_m", o.gps.horizontal_sigma_m},
               {"vertical_sigma_m", o.gps.vertical_sigma_m},
