@@ -202,6 +202,15 @@ struct FrameResult {
   /// an attitude was given, focal_px > 0 and the tilt is not exactly 0.
   bool attitude_corrected = false;
   double tilt_deg = 0.0;  ///< Tilt from nadir of the attitude given (0: none).
+  /// The frame's features as they were matched (keypoints undistorted and mapped to the virtual
+  /// nadir camera when those apply; pixels of this frame), shared with the odometry's own
+  /// references (no copy); null when the frame had too few to be used (min_features). For the
+  /// offline optimisation (odometry/flight_graph.h), which keeps those of its keyframes.
+  std::shared_ptr<const FeatureSet> features;
+  /// The accepted step's RANSAC inliers in this frame's pixels (one column each; empty when
+  /// bridged or first): the evidence of the step's information matrix
+  /// (backend/pixel_step.h SimilarityFitInformation).
+  Eigen::Matrix2Xd step_inliers_curr_px;
 };
 
 /// Counts over the frames processed so far.
