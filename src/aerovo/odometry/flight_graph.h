@@ -144,6 +144,8 @@ class FlightGraph {
   /// becomes a keyframe.
   void Add(const FrameResult& r);
 
+  int width() const { return width_; }
+  int height() const { return height_; }
   int num_frames() const { return static_cast<int>(poses_.size()); }
   int num_keyframes() const { return static_cast<int>(keyframes_.size()); }
   const backend::PoseGraph& graph() const { return graph_; }

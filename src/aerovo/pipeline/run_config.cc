@@ -100,6 +100,7 @@ void Validate(const RunConfig& c) {
   }
   try {
     Validate(c.gps_check);
+    Validate(c.backend);
     Validate(c.odometry);
   } catch (const InvalidArgument& e) {
     fail(e.what());

@@ -19,6 +19,7 @@
 #include "aerovo/mavlink/vision.h"
 #include "aerovo/odometry/georef.h"
 #include "aerovo/odometry/gps_check.h"
+#include "aerovo/odometry/flight_graph.h"
 #include "aerovo/odometry/visual_odometry.h"
 
 namespace aerovo {
@@ -263,6 +264,9 @@ struct RunConfig {
   /// default_height_m from the camera and height it resolves (focal_px, hfov_deg, altitude_m
   /// above).
   OdometryOptions odometry;
+  /// The offline whole-flight optimisation after the last frame (keys backend.*;
+  /// odometry/flight_graph.h, docs/backend.md): vo_optimized.* and summary.json "optimized".
+  BackendOptions backend;
 };
 
 /// Throws InvalidArgument naming the bad key ("run configuration: ransac.max_distance_px must be
@@ -325,6 +329,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.takeoff_height_agl_m, "takeoff_height_agl_m", "Take-off point's height above the ground flown over, m (added to the relative altitude)", Interval(-1e4, 1e4));
   v.Group("gps_check", c.gps_check);
   v.Group("odometry", c.odometry);
+  v.Group("backend", c.backend);
 }
 // clang-format on
 /// The paper's exact pipeline (Ivanov & Muzychuk 2023; `aerovo run --paper`, also for

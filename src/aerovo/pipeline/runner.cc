@@ -102,6 +102,23 @@ nlohmann::json ToJson(const RunSummary& s) {
           : nlohmann::json();
   j["evaluation"] = s.evaluation ? ToJson(*s.evaluation) : nlohmann::json();
   j["truth_evaluation"] = s.truth_evaluation ? ToJson(*s.truth_evaluation) : nlohmann::json();
+  if (s.optimized) {
+    const RunSummary::Optimized& o = *s.optimized;
+    j["optimized"] = {
+        {"keyframes", o.keyframes},
+        {"pairs_tried", o.pairs_tried},
+        {"pairs_verified", o.pairs_verified},
+        {"pairs_rejected", o.pairs_rejected},
+        {"pairs_gated", o.pairs_gated},
+        {"outliers", o.outliers},
+        {"match_s", o.match_s},
+        {"solve_s", o.solve_s},
+        {"iterations", o.iterations},
+        {"evaluation", o.evaluation ? ToJson(*o.evaluation) : nlohmann::json()},
+        {"truth_evaluation", o.truth_evaluation ? ToJson(*o.truth_evaluation) : nlohmann::json()}};
+  } else {
+    j["optimized"] = nlohmann::json();
+  }
   return j;
 }
 
@@ -339,6 +356,12 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
   // The telemetry's clock against the frames': its span, and the offset seen in the motion.
   if (!telemetry.empty() && loop.totals().frames > 0) {
     CheckTelemetryTiming(config, telemetry, loop.totals(), log, &summary);
+  }
+
+  // 7. The offline whole-flight optimisation (backend.enable), on the causal totals.
+  if (config.backend.enable && !end.stopped && !end.output_failed()) {
+    run_steps::OptimizeFlight(config, loop.flight(), loop.georef(), loop.totals(),
+                              inputs.truth ? &*inputs.truth : nullptr, out_dir, &summary);
   }
 
   // 6. Summary.

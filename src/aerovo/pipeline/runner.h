@@ -132,6 +132,19 @@ struct RunSummary {
   std::string truth;
   int frames_with_truth = 0;
   std::optional<TrajectoryComparison> truth_evaluation;
+  /// The offline whole-flight optimisation (RunConfig::backend, odometry/flight_graph.h;
+  /// summary.json "optimized"): what it did and the optimised track (vo_optimized.*) against GPS
+  /// and the truth as `evaluation` and `truth_evaluation` compare the causal one.
+  struct Optimized {
+    int keyframes = 0;
+    int pairs_tried = 0, pairs_verified = 0, pairs_rejected = 0, pairs_gated = 0, outliers = 0;
+    double match_s = 0.0;  ///< Matching and fitting the pairs, wall s.
+    double solve_s = 0.0;  ///< The graph solve, wall s.
+    int iterations = 0;
+    std::optional<TrajectoryComparison> evaluation;        ///< Against GPS.
+    std::optional<TrajectoryComparison> truth_evaluation;  ///< Against the truth.
+  };
+  std::optional<Optimized> optimized;  ///< nullopt: backend.enable off, or no frame.
   std::vector<std::string> warnings;
   /// GPS fixes rejected by the plausibility check (odometry/gps_check.h; frames.csv gps_flag):
   /// their count and, for the first 100, frame, time (s), kind and message. They are not in
