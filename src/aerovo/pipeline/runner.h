@@ -140,6 +140,9 @@ struct RunSummary {
     int pairs_tried = 0, pairs_verified = 0, pairs_rejected = 0, pairs_gated = 0, outliers = 0;
     double match_s = 0.0;  ///< Matching and fitting the pairs, wall s.
     double solve_s = 0.0;  ///< The graph solve, wall s.
+    /// CPU time of the whole offline step (pairs, solve, vo_optimized.*, comparisons), s of all
+    /// threads; RunSummary::cpu_s leaves it out.
+    double cpu_s = 0.0;
     int iterations = 0;
     std::optional<TrajectoryComparison> evaluation;        ///< Against GPS.
     std::optional<TrajectoryComparison> truth_evaluation;  ///< Against the truth.
