@@ -101,4 +101,5 @@ set(AEROVO_TEST_COSTS
   Attitude.TiltedFlightIsThreeTimesMoreAccurateWithTheCorrection 5
   Attitude.NadirFlightIsUnchangedByTheCorrection 5
   AdaptivePoints.ThermalLikeFlightIsTrackedWithTheDefaults 5
+  OfflineOptimisation 8
 )
