@@ -32,8 +32,8 @@ namespace {
 std::string FormatOptimized(const RunSummary& s) {
   const RunSummary::Optimized& o = *s.optimized;
   std::string t = fmt::format(
-      "\nOffline optimisation (vo_optimized.*): {} keyframes, {} pairs tried, {} verified, {} "
-      "rejected ({} by the gate), {} down-weighted; {:.2f} s CPU\n",
+      "\nOffline optimisation (vo_optimized.*): {} keyframes, {} pairs tried\n"
+      "  {} verified, {} rejected ({} by the gate), {} down-weighted; {:.2f} s CPU\n",
       o.keyframes, o.pairs_tried, o.pairs_verified, o.pairs_rejected, o.pairs_gated, o.outliers,
       o.cpu_s);
   const auto rows = [&](const char* what, const std::optional<TrajectoryComparison>& causal,

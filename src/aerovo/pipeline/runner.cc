@@ -30,6 +30,22 @@ namespace aerovo {
 // ---------------------------------------------------------------------------------------------
 // Summary
 
+// summary.json "optimized".
+nlohmann::json ToJson(const RunSummary::Optimized& o) {
+  return {{"keyframes", o.keyframes},
+          {"pairs_tried", o.pairs_tried},
+          {"pairs_verified", o.pairs_verified},
+          {"pairs_rejected", o.pairs_rejected},
+          {"pairs_gated", o.pairs_gated},
+          {"outliers", o.outliers},
+          {"match_s", o.match_s},
+          {"solve_s", o.solve_s},
+          {"cpu_s", o.cpu_s},
+          {"iterations", o.iterations},
+          {"evaluation", o.evaluation ? ToJson(*o.evaluation) : nlohmann::json()},
+          {"truth_evaluation", o.truth_evaluation ? ToJson(*o.truth_evaluation) : nlohmann::json()}};
+}
+
 nlohmann::json ToJson(const RunSummary& s) {
   nlohmann::json j{{"input", s.input},
                    {"source", s.source_description},
@@ -102,24 +118,7 @@ nlohmann::json ToJson(const RunSummary& s) {
           : nlohmann::json();
   j["evaluation"] = s.evaluation ? ToJson(*s.evaluation) : nlohmann::json();
   j["truth_evaluation"] = s.truth_evaluation ? ToJson(*s.truth_evaluation) : nlohmann::json();
-  if (s.optimized) {
-    const RunSummary::Optimized& o = *s.optimized;
-    j["optimized"] = {
-        {"keyframes", o.keyframes},
-        {"pairs_tried", o.pairs_tried},
-        {"pairs_verified", o.pairs_verified},
-        {"pairs_rejected", o.pairs_rejected},
-        {"pairs_gated", o.pairs_gated},
-        {"outliers", o.outliers},
-        {"match_s", o.match_s},
-        {"solve_s", o.solve_s},
-        {"cpu_s", o.cpu_s},
-        {"iterations", o.iterations},
-        {"evaluation", o.evaluation ? ToJson(*o.evaluation) : nlohmann::json()},
-        {"truth_evaluation", o.truth_evaluation ? ToJson(*o.truth_evaluation) : nlohmann::json()}};
-  } else {
-    j["optimized"] = nlohmann::json();
-  }
+  j["optimized"] = s.optimized ? ToJson(*s.optimized) : nlohmann::json();
   return j;
 }
 

@@ -95,7 +95,8 @@ struct RunSummary {
   double wall_s = 0.0;
   double fps = 0.0;  ///< frames_processed / wall_s.
   /// CPU time of the process during RunFlight (all threads, user + system; core/timer.h
-  /// CpuStopwatch), seconds, and per processed frame, milliseconds.
+  /// CpuStopwatch), seconds, and per processed frame, milliseconds; the offline optimisation's
+  /// is left out (Optimized::cpu_s).
   double cpu_s = 0.0;
   double cpu_ms_per_frame = 0.0;
   StageTimes mean;
@@ -174,6 +175,8 @@ struct RunSummary {
 };
 
 nlohmann::json ToJson(const RunSummary& summary);
+/// summary.json's "optimized" block (docs/backend.md).
+nlohmann::json ToJson(const RunSummary::Optimized& optimized);
 /// The headline of a run's end: "Tracked 170 of 172 frames over 1558 m; the track ends 24.6 m
 /// (1.58 %) from GPS." The end error is the unaligned one (the track as geo-referenced during the
 /// flight, at the last frame with a fix); the distance is GPS's path length, else the VO's. No
