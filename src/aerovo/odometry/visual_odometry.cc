@@ -203,6 +203,7 @@ struct VisualOdometry::Impl {
 
   int width = 0, height = 0;
   int next_index = 0;
+  bool share_features = false;  // SetShareFeatures
   PoseChain chain{ScaleMode::kMetric, 1, 1};
   double gsd_prev_frame = 1.0;
   std::optional<double> yaw0_deg;
@@ -410,7 +411,7 @@ struct VisualOdometry::Impl {
       r->status = gap == 1 ? FrameStatus::kOk : FrameStatus::kReacquired;
       r->reference_index = accepted->index;
       r->curr_from_prev = best.curr_from_ref;
-      StepInliers(best, curr, r);
+      if (share_features) StepInliers(best, curr, r);
       // Re-anchor on the reference's pose (discarding any bridged guesses since).
       chain = accepted->chain;
       chain.Step(best.curr_from_ref, accepted->gsd, gsd, heading_override);
@@ -434,7 +435,7 @@ struct VisualOdometry::Impl {
     if (usable) {
       Reference ref;
       ref.features = std::make_shared<const FeatureSet>(std::move(*features));
-      out->features = ref.features;
+      if (share_features) out->features = ref.features;
       ref.index = r.index;
       ref.gsd = gsd;
       ref.measured = measured;
@@ -464,6 +465,7 @@ VisualOdometry::VisualOdometry(const OdometryOptions& options) : options_(option
 void VisualOdometry::SetLensUndistortion(const CameraIntrinsics& lens) {
   impl_->lens.emplace(lens);
 }
+void VisualOdometry::SetShareFeatures(bool share) { impl_->share_features = share; }
 VisualOdometry::~VisualOdometry() = default;
 VisualOdometry::VisualOdometry(VisualOdometry&&) noexcept = default;
 VisualOdometry& VisualOdometry::operator=(VisualOdometry&&) noexcept = default;
