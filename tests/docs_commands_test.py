@@ -282,6 +282,14 @@ def check_mavlink(cwd, out):
 
 HARDWARE = "needs hardware this machine does not have"
 PLAN = {
+    # docs/backend.md
+    "aerovo simulate --pattern lawnmower --legs 4 --length-m 250 --spacing-m 50 --width 480 "
+    "--height 270 --fps 1.5 --quiet -o backend_sim": Row(
+        files=["backend_sim/video.mp4", "backend_sim/sim.json"]),
+    "aerovo run backend_sim/video.mp4 --backend-enable --quiet --no-report -o "
+    "backend_run": Row(
+        files=["backend_run/vo_optimized.tum", "backend_run/vo_optimized.gpx",
+               "backend_run/summary.json"]),
     # README.md
     "./scripts/demo.sh": Row(skip="installs Debian packages (apt-get, as root, over the network) "
                              "and builds; its `aerovo demo` takes minutes (the README says ~2-3 "

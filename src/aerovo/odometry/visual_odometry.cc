@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <deque>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -70,7 +72,7 @@ namespace {
 // A frame that later frames may be matched against: its features and the trajectory state at
 // that frame (so that a match against it re-anchors the pose, undoing any bridged guesses).
 struct Reference {
-  FeatureSet features;
+  std::shared_ptr<const FeatureSet> features;  // shared with FrameResult::features
   int index = -1;
   double gsd = 1.0;
   bool measured = false;  // its pose came from a match (or it is the first frame), not bridged
@@ -88,6 +90,8 @@ struct Attempt {
   bool fell_back = false;
   double correspond_ms = 0.0;
   double estimate_ms = 0.0;
+  std::vector<Match> matches;            // the fit's matches (indices into ref, curr)
+  std::vector<std::uint8_t> inlier_mask;  // 1 for the fit's inliers
 };
 
 Eigen::Matrix3d Power(const Eigen::Matrix3d& m, int k) {
@@ -199,6 +203,7 @@ struct VisualOdometry::Impl {
 
   int width = 0, height = 0;
   int next_index = 0;
+  bool share_features = false;  // SetShareFeatures
   PoseChain chain{ScaleMode::kMetric, 1, 1};
   double gsd_prev_frame = 1.0;
   std::optional<double> yaw0_deg;
@@ -275,6 +280,8 @@ struct VisualOdometry::Impl {
     a.fell_back = c.fell_back;
     a.correspond_ms = c.match_ms;
     a.estimate_ms = c.estimate_ms;
+    a.matches = std::move(c.matches);
+    a.inlier_mask = std::move(c.inlier_mask);
     return a;
   }
 
@@ -325,7 +332,7 @@ struct VisualOdometry::Impl {
       for (int pass = 0; pass < 2; ++pass) {
         const bool use_guided = pass == 0;
         if (use_guided && (!o.correspondence.guided_matching || !prior)) continue;
-        const Attempt a = Correspond(use_guided, ref.features, curr, prior);
+        const Attempt a = Correspond(use_guided, *ref.features, curr, prior);
         r->correspond_ms += a.correspond_ms;
         r->estimate_ms += a.estimate_ms;
         const StepFailure why = Judge(o, a, o.correspondence.min_inliers, width, height);
@@ -353,7 +360,7 @@ struct VisualOdometry::Impl {
     Attempt best_keyframe;
     for (std::size_t c = n_local; c < candidates.size(); ++c) {
       const Reference& ref = *candidates[c];
-      const Attempt a = Correspond(false, ref.features, curr, std::nullopt, true);
+      const Attempt a = Correspond(false, *ref.features, curr, std::nullopt, true);
       r->correspond_ms += a.correspond_ms;
       r->estimate_ms += a.estimate_ms;
       if (Judge(o, a, o.relocalize_min_inliers, width, height) != StepFailure::kNone ||
@@ -374,6 +381,19 @@ struct VisualOdometry::Impl {
     return best_ref;
   }
 
+  // The accepted step's inlier points in frame r (FrameResult::step_inliers_curr_px).
+  static void StepInliers(const Attempt& a, const FeatureSet& curr, FrameResult* r) {
+    int n = 0;
+    for (std::uint8_t m : a.inlier_mask) n += m != 0;
+    r->step_inliers_curr_px.resize(2, n);
+    int k = 0;
+    for (std::size_t i = 0; i < a.matches.size() && i < a.inlier_mask.size(); ++i) {
+      if (a.inlier_mask[i] == 0) continue;
+      const Keypoint& p = curr.keypoints[static_cast<std::size_t>(a.matches[i].curr_index)];
+      r->step_inliers_curr_px.col(k++) = Eigen::Vector2d(p.x, p.y);
+    }
+  }
+
   // The step of frame r against the candidate references: accepted (re-anchored on the
   // reference's pose) or bridged with the previous step's motion.
   void Step(const OdometryOptions& o, const FeatureSet& curr, bool usable, double gsd,
@@ -391,6 +411,7 @@ struct VisualOdometry::Impl {
       r->status = gap == 1 ? FrameStatus::kOk : FrameStatus::kReacquired;
       r->reference_index = accepted->index;
       r->curr_from_prev = best.curr_from_ref;
+      if (share_features) StepInliers(best, curr, r);
       // Re-anchor on the reference's pose (discarding any bridged guesses since).
       chain = accepted->chain;
       chain.Step(best.curr_from_ref, accepted->gsd, gsd, heading_override);
@@ -409,11 +430,12 @@ struct VisualOdometry::Impl {
 
   // Bookkeeping of the references after frame r (its features are moved in when usable).
   void UpdateReferences(const OdometryOptions& o, const FrameResult& r, bool usable, double gsd,
-                        FeatureSet* features) {
+                        FeatureSet* features, FrameResult* out) {
     const bool measured = r.status != FrameStatus::kBridged;
     if (usable) {
       Reference ref;
-      ref.features = std::move(*features);
+      ref.features = std::make_shared<const FeatureSet>(std::move(*features));
+      if (share_features) out->features = ref.features;
       ref.index = r.index;
       ref.gsd = gsd;
       ref.measured = measured;
@@ -443,6 +465,7 @@ VisualOdometry::VisualOdometry(const OdometryOptions& options) : options_(option
 void VisualOdometry::SetLensUndistortion(const CameraIntrinsics& lens) {
   impl_->lens.emplace(lens);
 }
+void VisualOdometry::SetShareFeatures(bool share) { impl_->share_features = share; }
 VisualOdometry::~VisualOdometry() = default;
 VisualOdometry::VisualOdometry(VisualOdometry&&) noexcept = default;
 VisualOdometry& VisualOdometry::operator=(VisualOdometry&&) noexcept = default;
@@ -487,7 +510,7 @@ FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
     s.Step(o, features.features, usable, gsd, heading_override ? &*heading_override : nullptr,
            &r);
   }
-  s.UpdateReferences(o, r, usable, gsd, &features.features);
+  s.UpdateReferences(o, r, usable, gsd, &features.features, &r);
 
   r.world_from_frame = s.chain.world_from_frame();
   r.position_m = s.chain.position_m();

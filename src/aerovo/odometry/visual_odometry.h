@@ -202,6 +202,17 @@ struct FrameResult {
   /// an attitude was given, focal_px > 0 and the tilt is not exactly 0.
   bool attitude_corrected = false;
   double tilt_deg = 0.0;  ///< Tilt from nadir of the attitude given (0: none).
+  /// The frame's features as they were matched (keypoints undistorted and mapped to the virtual
+  /// nadir camera when those apply; pixels of this frame), shared with the odometry's own
+  /// references (no copy); null when the frame had too few to be used (min_features), or
+  /// without VisualOdometry::SetShareFeatures. For the offline optimisation
+  /// (odometry/flight_graph.h), which keeps those of its keyframes.
+  std::shared_ptr<const FeatureSet> features;
+  /// The accepted step's RANSAC inliers in this frame's pixels (one column each; empty when
+  /// bridged or first, or without VisualOdometry::SetShareFeatures): the evidence of the step's
+  /// information matrix
+  /// (backend/pixel_step.h SimilarityFitInformation).
+  Eigen::Matrix2Xd step_inliers_curr_px;
 };
 
 /// Counts over the frames processed so far.
@@ -234,6 +245,12 @@ class VisualOdometry {
   /// Frames of another size than the lens's: InputError naming the frame. Throws
   /// InvalidArgument as Validate(CameraIntrinsics) does.
   void SetLensUndistortion(const CameraIntrinsics& lens);
+
+  /// With `share` (default false), each FrameResult carries the frame's features
+  /// (FrameResult::features, shared with the odometry: no copy) and the accepted step's inliers
+  /// (step_inliers_curr_px), for the offline optimisation (odometry/flight_graph.h). Off, results
+  /// hold neither, so a caller that keeps its results keeps no features.
+  void SetShareFeatures(bool share);
 
   /// Processes the next frame. `height_m`: height above ground (else options.default_height_m);
   /// `yaw_deg`: camera compass yaw (used only with options.heading_from_yaw).

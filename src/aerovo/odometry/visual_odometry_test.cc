@@ -1,5 +1,8 @@
 #include "aerovo/odometry/visual_odometry.h"
 
+#include "aerovo/backend/pixel_step.h"
+#include "aerovo/backend/similarity2.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -135,6 +138,35 @@ TEST_F(SyntheticFlight, RecoversCurvedTrajectory) {
   }
   EXPECT_EQ(vo.stats().frames, 30);
   EXPECT_EQ(vo.stats().bridged, 0);
+}
+
+// SetShareFeatures: the results carry the frame's features and the step's inliers (for the
+// offline optimisation, flight_graph.h), and the track is the same as without; each step's
+// ground-plane factor (backend/pixel_step.h) is the true relative pose.
+TEST_F(SyntheticFlight, SharesFeaturesAndStepInliersOnlyWhenAsked) {
+  const std::vector<TruePose> truth = CurvedFlight(6);
+  VisualOdometry plain(SyntheticOptions()), shared(SyntheticOptions());
+  shared.SetShareFeatures(true);
+  const Eigen::Vector2d centre(0.5 * (kW - 1), 0.5 * (kH - 1));
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    const cv::Mat frame = Render(*ground_, q0_, truth[i]);
+    const FrameResult a = plain.Process(View(frame), 0.5 * i);
+    const FrameResult b = shared.Process(View(frame), 0.5 * i);
+    EXPECT_EQ(a.features, nullptr);
+    EXPECT_EQ(a.step_inliers_curr_px.cols(), 0);
+    ASSERT_NE(b.features, nullptr);
+    EXPECT_EQ(static_cast<int>(b.features->size()), b.n_surf);
+    EXPECT_EQ(a.position_m, b.position_m);
+    if (i == 0) continue;
+    EXPECT_EQ(b.step_inliers_curr_px.cols(), b.n_inliers) << "frame " << i;
+    const backend::Similarity2 step =
+        backend::PrevFromCurrOfPixelStep(b.curr_from_prev, centre, kGsd, kGsd);
+    const backend::Similarity2 prev{truth[i - 1].pos_m, truth[i - 1].heading, 0.0};
+    const backend::Similarity2 curr{truth[i].pos_m, truth[i].heading, 0.0};
+    const backend::Similarity2 expected = backend::Between(prev, curr);
+    EXPECT_LT((step.translation_m - expected.translation_m).norm(), 0.02) << "frame " << i;
+    EXPECT_NEAR(backend::WrapAngleRad(step.heading_rad - expected.heading_rad), 0.0, 1e-3);
+  }
 }
 
 TEST_F(SyntheticFlight, BridgesBlackAndForeignFramesAndReacquires) {

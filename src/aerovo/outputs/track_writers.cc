@@ -445,7 +445,8 @@ std::vector<std::string> RunFileNames::All() {
   return {kFramesCsv,   kVoTum,           kGpsTum,     kVoGeoJson,
           kGpsGeoJson,  kVoFramesGeoJson, kVoKml,      kGpsKml,
           kRunKml,      kRunLiveKml,      kVoGpx,      kGpsGpx,
-          kSummaryJson, kTransformsCsv,   kConfigJson, kLensEstimateYaml};
+          kSummaryJson, kTransformsCsv,   kConfigJson, kLensEstimateYaml,
+          kVoOptimizedTum, kVoOptimizedGeoJson, kVoOptimizedKml, kVoOptimizedGpx};
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -281,6 +281,13 @@ struct RunFileNames {
   static constexpr const char* kConfigJson = "config.json";
   /// The lens self-calibration's estimate when applied (pipeline/lens_prepass.h; OpenCV YAML).
   static constexpr const char* kLensEstimateYaml = "lens_estimate.yaml";
+  /// The offline whole-flight optimisation's track (pipeline/run_steps.h OptimizeFlight), written
+  /// after the last frame in the formats of vo.tum, vo.geojson, vo.kml and vo.gpx (the last three
+  /// only when the run is geo-referenced).
+  static constexpr const char* kVoOptimizedTum = "vo_optimized.tum";
+  static constexpr const char* kVoOptimizedGeoJson = "vo_optimized.geojson";
+  static constexpr const char* kVoOptimizedKml = "vo_optimized.kml";
+  static constexpr const char* kVoOptimizedGpx = "vo_optimized.gpx";
   /// Every name above: the files a run writes (outputs/run_folder.h ClaimOutputFolder removes these
   /// and only these with --force, with the report's files).
   static std::vector<std::string> All();

@@ -35,6 +35,7 @@ std::vector<SinkPtr> MakeSinks(const RunContext& run, const std::vector<SinkPtr>
   sinks.push_back(MakeSourceCountsSink());
   sinks.push_back(MakePoseStreamSink());
   sinks.push_back(MakeRunFilesSink());
+  if (run.config->backend.enable) sinks.push_back(MakeFlightGraphSink());
   sinks.push_back(MakeTotalsSink());
   sinks.push_back(MakeProgressSink());
   sinks.insert(sinks.end(), extra.begin(), extra.end());

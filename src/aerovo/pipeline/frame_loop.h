@@ -37,6 +37,7 @@ std::unique_ptr<FrameSink> MakeTransformsSink();    // sink_transforms.cc
 std::unique_ptr<FrameSink> MakeSourceCountsSink();  // sink_source_counts.cc
 std::unique_ptr<FrameSink> MakePoseStreamSink();    // sink_pose_stream.cc
 std::unique_ptr<FrameSink> MakeRunFilesSink();      // sink_run_files.cc
+std::unique_ptr<FrameSink> MakeFlightGraphSink();   // sink_flight_graph.cc
 std::unique_ptr<FrameSink> MakeTotalsSink();        // sink_totals.cc
 std::unique_ptr<FrameSink> MakeProgressSink();      // sink_progress.cc
 
@@ -49,7 +50,7 @@ using SinkPtr = std::shared_ptr<FrameSink>;
 std::vector<StagePtr> MakeStages(const RunContext& run, const std::vector<StagePtr>& extra);
 /// Every frame's sinks: MAVLink (the vision message as soon as the pose is known),
 /// transforms.csv, the height/attitude source counts, the pose stream, the run files (queued
-/// for the heading), the totals, the progress callback; then `extra` (RunCallbacks::sinks).
+/// for the heading), the flight graph (backend.enable), the totals, the progress callback; then `extra` (RunCallbacks::sinks).
 std::vector<SinkPtr> MakeSinks(const RunContext& run, const std::vector<SinkPtr>& extra);
 
 // ---------------------------------------------------------------------------------------------
@@ -121,6 +122,8 @@ class FrameLoop {
     return run_ && run_->odometry ? &run_->odometry->stats() : nullptr;
   }
   const GeoReferencer& georef() const { return state_.georef; }
+  /// The flight recorded for the offline optimisation (graph null: backend off or no frame).
+  const FlightRecording& flight() const { return state_.flight; }
   const RunTotals& totals() const { return state_.totals; }
   /// Rows of frames.csv (RunOutputs::frames_written; 0 before the first frame).
   int frames_written() const { return run_ ? run_->outputs->frames_written() : 0; }

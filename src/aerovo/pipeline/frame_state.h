@@ -25,6 +25,7 @@
 #include "aerovo/frames/frame_source.h"
 #include "aerovo/telemetry/telemetry.h"
 #include "aerovo/mavlink/link.h"
+#include "aerovo/odometry/flight_graph.h"
 #include "aerovo/odometry/georef.h"
 #include "aerovo/odometry/gps_check.h"
 #include "aerovo/odometry/visual_odometry.h"
@@ -105,6 +106,9 @@ struct RunState {
     double first_time_s = 0.0, first_mono_s = 0.0, first_unix_s = 0.0;
   } frame_clock;
   bool said_ahead_of_clock = false;  ///< "processed faster than real time" logged.
+  /// backend.enable: every frame's pose, step and keyframe features for the offline
+  /// optimisation after the last frame (sink_flight_graph.cc; graph null before the first frame).
+  FlightRecording flight;
 };
 
 /// A run as set up from its first frame: what every frame goes through. The FrameLoop makes it

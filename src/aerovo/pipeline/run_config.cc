@@ -105,6 +105,7 @@ void Validate(const RunConfig& c) {
   try {
     Validate(c.gps_check);
     Validate(c.flat_field);
+    Validate(c.backend);
     Validate(c.odometry);
   } catch (const InvalidArgument& e) {
     fail(e.what());

@@ -20,6 +20,7 @@
 #include "aerovo/mavlink/vision.h"
 #include "aerovo/odometry/georef.h"
 #include "aerovo/odometry/gps_check.h"
+#include "aerovo/odometry/flight_graph.h"
 #include "aerovo/odometry/visual_odometry.h"
 
 namespace aerovo {
@@ -291,6 +292,9 @@ struct RunConfig {
   /// default_height_m from the camera and height it resolves (focal_px, hfov_deg, altitude_m
   /// above).
   OdometryOptions odometry;
+  /// The offline whole-flight optimisation after the last frame (keys backend.*;
+  /// odometry/flight_graph.h, docs/backend.md): vo_optimized.* and summary.json "optimized".
+  BackendOptions backend;
 };
 
 /// Throws InvalidArgument naming the bad key ("run configuration: ransac.max_distance_px must be
@@ -355,6 +359,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Group("gps_check", c.gps_check);
   v.Group("flat_field", c.flat_field);
   v.Group("odometry", c.odometry);
+  v.Group("backend", c.backend);
 }
 // clang-format on
 /// The paper's exact pipeline (Ivanov & Muzychuk 2023; `aerovo run --paper`, also for

@@ -168,6 +168,8 @@ std::unique_ptr<const RunContext> SetUpRun(RunSetup setup, const FrameState& fir
   SetUpFrames(setup, first, *run);
   SetUpHeight(*run);
   run->odometry = std::make_unique<VisualOdometry>(run->vo_options);
+  // The offline optimisation's keyframes and step factors (sink_flight_graph.cc).
+  run->odometry->SetShareFeatures(run->config->backend.enable);
   RunPrepass(setup, first, *run);
   SetUpUndistortion(*run);
   run->outputs = std::make_unique<RunOutputs>(

@@ -831,6 +831,95 @@ void Summarize(const std::vector<std::string>& source_warnings, bool has_telemet
   s.error = end.failure ? end.failure->Text() : std::string();
 }
 
+namespace {
+
+// `totals` with every local position replaced by the optimised one of its frame (source index;
+// `flight.frames` is increasing).
+RunTotals OptimizedTotals(const FlightRecording& flight, const OptimizedFlight& opt,
+                          RunTotals totals) {
+  const auto at = [&](int frame, TrajectoryPoint2D* p) {
+    const auto it = std::lower_bound(flight.frames.begin(), flight.frames.end(), frame);
+    if (it == flight.frames.end() || *it != frame) return;
+    const Eigen::Vector2d& q =
+        opt.local_from_frame[static_cast<std::size_t>(it - flight.frames.begin())].translation_m;
+    p->x = q.x();
+    p->y = q.y();
+  };
+  for (std::size_t k = 0; k < totals.local_track.size(); ++k) {
+    at(totals.track_frames[k], &totals.local_track[k]);
+  }
+  for (std::size_t k = 0; k < totals.local_at_gps.size(); ++k) {
+    at(totals.gps_frames[k], &totals.local_at_gps[k]);
+  }
+  return totals;
+}
+
+// vo_optimized.* (RunFileNames): as vo.tum / vo.geojson / vo.kml / vo.gpx.
+void WriteOptimizedTrack(const RunConfig& config, const FlightRecording& flight,
+                         const OptimizedFlight& opt, const GeoReferencer& georef,
+                         const std::filesystem::path& out_dir) {
+  TumWriter tum(out_dir / RunFileNames::kVoOptimizedTum);
+  const std::string name = FlightNameOf(config.input) + " VO optimised";
+  std::optional<GeoJsonTrackWriter> geojson;
+  std::optional<KmlTrackWriter> kml;
+  std::optional<GpxTrackWriter> gpx;
+  if (georef.ready()) {
+    geojson.emplace(out_dir / RunFileNames::kVoOptimizedGeoJson, name);
+    kml.emplace(out_dir / RunFileNames::kVoOptimizedKml, name, "ff00ff00");
+    gpx.emplace(out_dir / RunFileNames::kVoOptimizedGpx, name);
+  }
+  for (std::size_t k = 0; k < opt.local_from_frame.size(); ++k) {
+    const backend::Similarity2& p = opt.local_from_frame[k];
+    const double t = flight.times_s[k];
+    if (!georef.ready()) {
+      tum.Append(t, Eigen::Vector3d(p.translation_m.x(), p.translation_m.y(), 0.0), p.heading_rad);
+      continue;
+    }
+    const Eigen::Vector2d enu = georef.EnuFromLocal(p.translation_m);
+    tum.Append(t, Eigen::Vector3d(enu.x(), enu.y(), 0.0),
+               std::remainder(p.heading_rad + georef.rotation_rad(), 2.0 * M_PI));
+    const GeoTrackPoint g{t, georef.Wgs84FromLocal(p.translation_m)};
+    geojson->Append(g);
+    kml->Append(g);
+    gpx->Append(g);
+  }
+}
+
+}  // namespace
+
+void OptimizeFlight(const RunConfig& config, const FlightRecording& flight,
+                    const GeoReferencer& georef, const RunTotals& totals,
+                    const ReferenceTrack* truth, const std::filesystem::path& out_dir,
+                    RunSummary* summary) {
+  if (!flight.graph || flight.graph->num_frames() == 0) return;
+  CorrespondenceOptions pair_options = config.odometry.correspondence;
+  pair_options.sampler = config.odometry.relocalize_sampler;
+  const OptimizedFlight opt = flight.graph->Optimize(
+      MakeStandardPairFitter(pair_options, flight.graph->width(), flight.graph->height()),
+      config.odometry.correspondence.ransac.seed);
+  WriteOptimizedTrack(config, flight, opt, georef, out_dir);
+  RunSummary::Optimized o;
+  o.keyframes = opt.keyframes;
+  o.pairs_tried = opt.pairs_tried;
+  o.pairs_verified = opt.pairs_verified;
+  o.pairs_rejected = opt.pairs_rejected;
+  o.pairs_gated = opt.pairs_gated;
+  o.outliers = opt.outliers;
+  o.match_s = opt.match_s;
+  o.solve_s = opt.solve_s;
+  o.iterations = opt.iterations;
+  // The same comparisons as the causal track's, on a scratch summary.
+  RunSummary scratch;
+  RunTotals t = OptimizedTotals(flight, opt, totals);
+  CompareWithGps(georef, t, &scratch);
+  if (truth != nullptr && !t.local_track.empty()) {
+    CompareWithTruth(*truth, t.local_track, t.track_frames, georef, &scratch);
+  }
+  o.evaluation = scratch.evaluation;
+  o.truth_evaluation = scratch.truth_evaluation;
+  summary->optimized = std::move(o);
+}
+
 void WriteSummary(const std::filesystem::path& out_dir, const RunSummary& summary) {
   WriteJsonFileAtomic(out_dir / RunFileNames::kSummaryJson, ToJson(summary));
   if (!summary.error.empty() && summary.frames_processed == 0) {

@@ -423,6 +423,30 @@ void Summarize(const std::vector<std::string>& source_warnings, bool has_telemet
                const LoopEnd& end, const OdometryStats* vo_stats, const GeoReferencer& georef,
                RunTotals totals, const ReferenceTrack* truth, double wall_s, RunSummary* summary);
 
+// ---------------------------------------------------------------------------------------------
+// 7. The offline whole-flight optimisation (RunConfig::backend, odometry/flight_graph.h)
+
+/// What the flight graph sink (sink_flight_graph.cc) records: the graph of the frames processed,
+/// and each graph frame's source frame index and time (s), in order.
+struct FlightRecording {
+  std::unique_ptr<FlightGraph> graph;
+  std::vector<int> frames;
+  std::vector<double> times_s;
+};
+
+/// After the loop, with backend.enable and at least one frame recorded: the candidate pairs,
+/// their fits (the odometry's correspondence options, standard method, its relocalisation
+/// sampler, each pair seeded from ransac.seed) and the solve (FlightGraph::Optimize); writes
+/// vo_optimized.tum (the run's ENU frame when geo-referenced, else local; as vo.tum) and, once
+/// geo-referenced, vo_optimized.geojson, .kml and .gpx; fills in summary->optimized with the
+/// counts, the times and the optimised track against GPS and `truth` (may be null), as
+/// Summarize compares the causal track (`totals`: the causal totals, before Summarize consumes
+/// them). OutputError naming a file that cannot be written.
+void OptimizeFlight(const RunConfig& config, const FlightRecording& flight,
+                    const GeoReferencer& georef, const RunTotals& totals,
+                    const ReferenceTrack* truth, const std::filesystem::path& out_dir,
+                    RunSummary* summary);
+
 /// Writes summary.json in `out_dir`; then, when summary.error is set, throws it as an InputError
 /// saying where the frames before it are.
 void WriteSummary(const std::filesystem::path& out_dir, const RunSummary& summary);

@@ -26,6 +26,38 @@ std::string RunHeadline(const RunSummary& s) {
   return line;
 }
 
+namespace {
+
+// The offline optimisation's section: what it did, then its track beside the causal one.
+std::string FormatOptimized(const RunSummary& s) {
+  const RunSummary::Optimized& o = *s.optimized;
+  std::string t = fmt::format(
+      "\nOffline optimisation (vo_optimized.*): {} keyframes, {} pairs tried\n"
+      "  {} verified, {} rejected ({} by the gate), {} down-weighted; {:.2f} s CPU\n",
+      o.keyframes, o.pairs_tried, o.pairs_verified, o.pairs_rejected, o.pairs_gated, o.outliers,
+      o.cpu_s);
+  const auto rows = [&](const char* what, const std::optional<TrajectoryComparison>& causal,
+                        const std::optional<TrajectoryComparison>& optimised) {
+    if (!causal || !optimised) return;
+    t += fmt::format("{:<42}{:>10}{:>11}\n", std::string("vs ") + what + " (m)", "causal",
+                     "optimised");
+    const auto row = [&](const char* name, double a, double b) {
+      t += fmt::format("  {:<40}{:>10.3f}{:>11.3f}\n", name, a, b);
+    };
+    row("ATE RMSE Sim(2)", causal->sim2.ate_m.rmse, optimised->sim2.ate_m.rmse);
+    row("ATE RMSE SE(2)", causal->se2.ate_m.rmse, optimised->se2.ate_m.rmse);
+    row("end-point error, SE(2)-aligned", causal->se2.end_point_error_m,
+        optimised->se2.end_point_error_m);
+    row("end-point error, unaligned", causal->se2.end_point_error_unaligned_m,
+        optimised->se2.end_point_error_unaligned_m);
+  };
+  rows("GPS", s.evaluation, o.evaluation);
+  rows("truth", s.truth_evaluation, o.truth_evaluation);
+  return t;
+}
+
+}  // namespace
+
 std::string FormatRunSummary(const RunSummary& s) {
   std::string t = RunHeadline(s) + "\n\n";
   t += fmt::format("{:<20}{}\n", "Input", s.input);
@@ -57,6 +89,7 @@ std::string FormatRunSummary(const RunSummary& s) {
                      s.frames_with_truth, s.truth);
     t += FormatTrajectoryTable(*s.truth_evaluation, "truth");
   }
+  if (s.optimized) t += FormatOptimized(s);
   t += fmt::format("\n{:<20}detect {:.1f}, describe {:.1f}, correspond {:.1f}\n",
                    "Stage times (ms)", s.mean.detect_ms, s.mean.describe_ms, s.mean.correspond_ms);
   t += fmt::format("{:<20}estimate {:.1f}, total {:.1f}\n", "", s.mean.estimate_ms,

@@ -119,7 +119,8 @@ struct RunSummary {
   double wall_s = 0.0;
   double fps = 0.0;  ///< frames_processed / wall_s.
   /// CPU time of the process during RunFlight (all threads, user + system; core/timer.h
-  /// CpuStopwatch), seconds, and per processed frame, milliseconds.
+  /// CpuStopwatch), seconds, and per processed frame, milliseconds; the offline optimisation's
+  /// is left out (Optimized::cpu_s).
   double cpu_s = 0.0;
   double cpu_ms_per_frame = 0.0;
   StageTimes mean;
@@ -156,6 +157,22 @@ struct RunSummary {
   std::string truth;
   int frames_with_truth = 0;
   std::optional<TrajectoryComparison> truth_evaluation;
+  /// The offline whole-flight optimisation (RunConfig::backend, odometry/flight_graph.h;
+  /// summary.json "optimized"): what it did and the optimised track (vo_optimized.*) against GPS
+  /// and the truth as `evaluation` and `truth_evaluation` compare the causal one.
+  struct Optimized {
+    int keyframes = 0;
+    int pairs_tried = 0, pairs_verified = 0, pairs_rejected = 0, pairs_gated = 0, outliers = 0;
+    double match_s = 0.0;  ///< Matching and fitting the pairs, wall s.
+    double solve_s = 0.0;  ///< The graph solve, wall s.
+    /// CPU time of the whole offline step (pairs, solve, vo_optimized.*, comparisons), s of all
+    /// threads; RunSummary::cpu_s leaves it out.
+    double cpu_s = 0.0;
+    int iterations = 0;
+    std::optional<TrajectoryComparison> evaluation;        ///< Against GPS.
+    std::optional<TrajectoryComparison> truth_evaluation;  ///< Against the truth.
+  };
+  std::optional<Optimized> optimized;  ///< nullopt: backend.enable off, or no frame.
   std::vector<std::string> warnings;
   /// GPS fixes rejected by the plausibility check (odometry/gps_check.h; frames.csv gps_flag):
   /// their count and, for the first 100, frame, time (s), kind and message. They are not in
@@ -182,6 +199,8 @@ struct RunSummary {
 };
 
 nlohmann::json ToJson(const RunSummary& summary);
+/// summary.json's "optimized" block (docs/backend.md).
+nlohmann::json ToJson(const RunSummary::Optimized& optimized);
 /// The headline of a run's end: "Tracked 170 of 172 frames over 1558 m; the track ends 24.6 m
 /// (1.58 %) from GPS." The end error is the unaligned one (the track as geo-referenced during the
 /// flight, at the last frame with a fix); the distance is GPS's path length, else the VO's. No

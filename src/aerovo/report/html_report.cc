@@ -571,6 +571,29 @@ void ExplainEvaluation(Page& page, const nlohmann::json& ev) {
   page.body.Raw(h);  // literal markup and numbers
 }
 
+// The offline whole-flight optimisation's track (summary.json "optimized", vo_optimized.*):
+// what it did, then the same comparisons as the causal track's.
+void OptimizedTables(Page& page, const nlohmann::json& o) {
+  page.H2("Offline optimisation", "optimized");
+  page.Para(fmt::format(
+      "After the last frame, keyframes whose footprints overlap were matched again and the "
+      "whole track optimised with them (docs/backend.md; vo_optimized.*): {:.0f} keyframes, "
+      "{:.0f} pairs tried, {:.0f} verified, {:.0f} rejected ({:.0f} by the gate against the "
+      "track), {:.0f} down-weighted by the robust cost; {:.2f} s of CPU.",
+      JsonNumber(o, {"keyframes"}, 0), JsonNumber(o, {"pairs_tried"}, 0),
+      JsonNumber(o, {"pairs_verified"}, 0), JsonNumber(o, {"pairs_rejected"}, 0),
+      JsonNumber(o, {"pairs_gated"}, 0), JsonNumber(o, {"outliers"}, 0),
+      JsonNumber(o, {"cpu_s"}, 0)));
+  if (o.contains("evaluation") && o["evaluation"].is_object()) {
+    page.Para("The optimised track against GPS, aligned as the causal one above:");
+    EvaluationTable(page, o["evaluation"]);
+  }
+  if (o.contains("truth_evaluation") && o["truth_evaluation"].is_object()) {
+    page.Para("The optimised track against the ground truth:");
+    EvaluationTable(page, o["truth_evaluation"]);
+  }
+}
+
 // The comparisons with GPS and the ground truth, with their explanation.
 void ComparisonTables(Page& page, const nlohmann::json& s) {
   const nlohmann::json none;
@@ -592,6 +615,7 @@ void ComparisonTables(Page& page, const nlohmann::json& s) {
                   .Text(" (frames matched by time), aligned as above."));
     EvaluationTable(page, s["truth_evaluation"]);
   }
+  if (s.contains("optimized") && s["optimized"].is_object()) OptimizedTables(page, s["optimized"]);
 }
 
 // The run's details, then its timings (after the accuracy).

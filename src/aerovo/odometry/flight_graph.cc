@@ -1,0 +1,286 @@
+#include "aerovo/odometry/flight_graph.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <utility>
+
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+
+#include "aerovo/backend/pixel_step.h"
+#include "aerovo/core/error.h"
+#include "aerovo/core/timer.h"
+
+namespace aerovo {
+
+namespace {
+
+using backend::Similarity2;
+
+// Noise of one matched point per axis, px: SURF's localisation on the RANSAC inliers (within
+// the 1.5 px threshold of RansacOptions).
+constexpr double kPointSigmaPx = 1.0;
+// What a fit's information leaves out (pixel_step.h: a plane, independent point errors): a
+// translation error of kModelFraction of the measured displacement plus kFloorPx pixels, and a
+// heading error of kHeadingSigmaRad, added to the fit's covariance. Our choice: the causal
+// tracks drift by 1-2 % of the path (BENCHMARKS.md), which a chain of steps whose covariance is
+// the fit's alone (millimetres) would call impossible, and the robust cost would then ignore
+// every true overlap as an outlier.
+constexpr double kModelFraction = 0.01;
+constexpr double kFloorPx = 0.5;
+constexpr double kHeadingSigmaRad = 0.002;
+// The log-scale of every relative factor: 0 with this standard deviation (file comment).
+constexpr double kLogScaleSigma = 1e-3;
+// A bridged step (no measurement, the constant-velocity guess): its translation is known to its
+// own length plus half a footprint side, its heading to 0.3 rad.
+constexpr double kBridgedHeadingSigmaRad = 0.3;
+// The gate's floor, fraction of the footprint side; and the largest log-scale disagreement.
+constexpr double kGateFloorFraction = 0.1;
+constexpr double kGateLogScale = 0.2;
+
+// The information of covariance `cov` with the log-scale row and column replaced by the
+// log-scale's own (kLogScaleSigma, uncorrelated).
+Eigen::Matrix4d InformationOf(Eigen::Matrix4d cov) {
+  cov.row(3).setZero();
+  cov.col(3).setZero();
+  cov(3, 3) = kLogScaleSigma * kLogScaleSigma;
+  cov = 0.5 * (cov + cov.transpose());
+  Eigen::Matrix4d info = cov.ldlt().solve(Eigen::Matrix4d::Identity());
+  return 0.5 * (info + info.transpose());
+}
+
+// The information of a fitted pair: the fit's covariance (pixel_step.h) plus the model's.
+Eigen::Matrix4d FitInformation(const Eigen::Matrix2Xd& inliers_curr_px, const Similarity2& z,
+                               const Eigen::Vector2d& centre_px, double gsd_prev,
+                               double gsd_curr) {
+  const Eigen::Matrix4d fit_info = backend::SimilarityFitInformation(
+      inliers_curr_px, z, centre_px, gsd_prev, gsd_curr, kPointSigmaPx);
+  Eigen::Matrix4d cov = fit_info.ldlt().solve(Eigen::Matrix4d::Identity());
+  const double st = kModelFraction * z.translation_m.norm() + kFloorPx * gsd_prev;
+  cov(0, 0) += st * st;
+  cov(1, 1) += st * st;
+  cov(2, 2) += kHeadingSigmaRad * kHeadingSigmaRad;
+  return InformationOf(cov);
+}
+
+std::uint64_t SplitMix64(std::uint64_t x) {
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+// The inliers' bounding box, fraction of a width x height image.
+double SpreadOf(const Eigen::Matrix2Xd& p, int width, int height) {
+  if (p.cols() < 2) return 0.0;
+  const Eigen::Vector2d lo = p.rowwise().minCoeff(), hi = p.rowwise().maxCoeff();
+  return (hi - lo).prod() / (static_cast<double>(width) * height);
+}
+
+}  // namespace
+
+void Validate(const BackendOptions& o) { options::CheckRanges(o, "backend"); }
+
+std::uint64_t PairSeed(std::uint64_t run_seed, int a, int b) {
+  const std::uint64_t lo = static_cast<std::uint64_t>(std::min(a, b));
+  const std::uint64_t hi = static_cast<std::uint64_t>(std::max(a, b));
+  return SplitMix64(SplitMix64(SplitMix64(run_seed) ^ lo) ^ hi);
+}
+
+PairFitter MakeStandardPairFitter(const CorrespondenceOptions& options, int width, int height) {
+  CorrespondenceOptions c = options;
+  c.method = CorrespondenceMethod::kStandard;
+  c.guided_matching = false;
+  Validate(c);
+  const bool refit = c.clustered.refine && c.clustered.refine_fallback &&
+                     c.clustered.refine_final_radius_px > 0.f;
+  return [c, refit, width, height](const FeatureSet& prev, const FeatureSet& curr,
+                                   std::uint64_t seed) -> std::optional<PairFit> {
+    CorrespondenceOptions seeded = c;
+    seeded.ransac.seed = seed;
+    CorrespondenceStage stage(seeded);
+    CorrespondenceResult r = stage.Run(prev, width, height, curr, std::nullopt);
+    if (refit) stage.RefitOnAllPoints(prev, curr, &r);
+    if (!r.success) return std::nullopt;
+    PairFit fit;
+    fit.curr_from_prev_px = r.curr_from_prev;
+    fit.inliers_curr_px.resize(2, r.num_inliers);
+    Eigen::Index k = 0;
+    for (std::size_t i = 0; i < r.matches.size() && k < r.num_inliers; ++i) {
+      if (r.inlier_mask[i] == 0) continue;
+      const Keypoint& p = curr.keypoints[static_cast<std::size_t>(r.matches[i].curr_index)];
+      fit.inliers_curr_px.col(k++) = Eigen::Vector2d(p.x, p.y);
+    }
+    fit.inliers_curr_px.conservativeResize(2, k);
+    return fit;
+  };
+}
+
+PairVerdict JudgePair(const BackendOptions& o, const Similarity2& fit, const Similarity2& predicted,
+                      int n_inliers, double spread, double path_m, double side_m) {
+  if (n_inliers < o.min_inliers) return PairVerdict::kTooFewInliers;
+  if (spread < o.min_spread) return PairVerdict::kTooLittleSpread;
+  const double allowed_m = o.gate * path_m + kGateFloorFraction * side_m;
+  const double heading_deg =
+      std::abs(backend::WrapAngleRad(fit.heading_rad - predicted.heading_rad)) * 180.0 / M_PI;
+  if (!((fit.translation_m - predicted.translation_m).norm() <= allowed_m) ||
+      !(heading_deg <= o.gate_heading_deg) ||
+      !(std::abs(fit.log_scale - predicted.log_scale) <= kGateLogScale)) {
+    return PairVerdict::kGate;
+  }
+  return PairVerdict::kAdded;
+}
+
+FlightGraph::FlightGraph(const BackendOptions& options, int width, int height)
+    : options_(options), width_(width), height_(height) {
+  Validate(options_);
+  if (width <= 0 || height <= 0) {
+    throw InvalidArgument("FlightGraph: the frame size must be positive, got " +
+                          std::to_string(width) + "x" + std::to_string(height));
+  }
+}
+
+backend::RelativeFactor FlightGraph::StepFactor(const FrameResult& r) const {
+  const Eigen::Vector2d centre(0.5 * (width_ - 1), 0.5 * (height_ - 1));
+  const Similarity2 pose{r.position_m, r.heading_rad, 0.0};
+  backend::RelativeFactor f;
+  f.curr = r.index;
+  const bool measured = (r.status == FrameStatus::kOk || r.status == FrameStatus::kReacquired) &&
+                        r.reference_index >= 0 && r.reference_index < r.index &&
+                        r.step_inliers_curr_px.cols() >= 2;
+  if (measured) {
+    f.prev = r.reference_index;
+    const double gsd_prev = gsd_[static_cast<std::size_t>(f.prev)];
+    f.prev_from_curr =
+        backend::PrevFromCurrOfPixelStep(r.curr_from_prev, centre, gsd_prev, r.gsd_m_per_px);
+    f.information = FitInformation(r.step_inliers_curr_px, f.prev_from_curr, centre, gsd_prev,
+                                   r.gsd_m_per_px);
+    f.prev_from_curr.log_scale = 0.0;
+    return f;
+  }
+  // Bridged (or a restart after unusable frames): the causal guess, weakly.
+  f.prev = r.index - 1;
+  f.prev_from_curr = backend::Between(poses_.back(), pose);
+  f.prev_from_curr.log_scale = 0.0;
+  const double st = f.prev_from_curr.translation_m.norm() +
+                    0.5 * r.gsd_m_per_px * std::min(width_, height_);
+  Eigen::Matrix4d cov = Eigen::Matrix4d::Zero();
+  cov.diagonal() << st * st, st * st, kBridgedHeadingSigmaRad * kBridgedHeadingSigmaRad, 0.0;
+  f.information = InformationOf(cov);
+  return f;
+}
+
+void FlightGraph::Add(const FrameResult& r) {
+  if (r.index != num_frames()) {
+    throw InvalidArgument("FlightGraph::Add: frame " + std::to_string(r.index) +
+                          " given after " + std::to_string(num_frames()) + " frames");
+  }
+  const Similarity2 pose{r.position_m, r.heading_rad, 0.0};
+  const double path = poses_.empty()
+                          ? 0.0
+                          : path_m_.back() + (pose.translation_m - poses_.back().translation_m).norm();
+  if (r.index > 0) {
+    const backend::RelativeFactor f = StepFactor(r);
+    graph_.AddPose(pose);
+    graph_.AddRelative(f);
+  } else {
+    graph_.AddPose(pose);
+  }
+  poses_.push_back(pose);
+  gsd_.push_back(r.gsd_m_per_px);
+  path_m_.push_back(path);
+  const bool measured = r.status != FrameStatus::kBridged;
+  if (!measured || r.features == nullptr) return;
+  const double side_m = r.gsd_m_per_px * std::min(width_, height_);
+  if (!keyframes_.empty()) {
+    const Eigen::Vector2d last = poses_[static_cast<std::size_t>(keyframes_.back().frame)].translation_m;
+    if ((pose.translation_m - last).norm() < options_.keyframe_spacing * side_m) return;
+  }
+  keyframes_.push_back({r.index, r.gsd_m_per_px, path, r.features});
+}
+
+std::vector<int> FlightGraph::CandidatesOf(int i) const {
+  const Keyframe& a = keyframes_[static_cast<std::size_t>(i)];
+  const Eigen::Vector2d& ca = poses_[static_cast<std::size_t>(a.frame)].translation_m;
+  std::vector<std::pair<double, int>> near;
+  for (int j = i + 2; j < num_keyframes(); ++j) {
+    const Keyframe& b = keyframes_[static_cast<std::size_t>(j)];
+    const double side_m = std::min(a.gsd, b.gsd) * std::min(width_, height_);
+    const double d = (poses_[static_cast<std::size_t>(b.frame)].translation_m - ca).norm();
+    if (d <= options_.search_radius * side_m) near.emplace_back(d, j);
+  }
+  std::sort(near.begin(), near.end());
+  std::vector<int> out;
+  for (const auto& [d, j] : near) {
+    if (static_cast<int>(out.size()) >= options_.max_pairs_per_keyframe) break;
+    out.push_back(j);
+  }
+  return out;
+}
+
+PairVerdict FlightGraph::TryPair(const Keyframe& a, const Keyframe& b, const PairFitter& fitter,
+                                 std::uint64_t run_seed, backend::RelativeFactor* f) const {
+  const std::optional<PairFit> fit =
+      fitter(*a.features, *b.features, PairSeed(run_seed, a.frame, b.frame));
+  if (!fit || fit->inliers_curr_px.cols() < 2) return PairVerdict::kNoFit;
+  const Eigen::Vector2d centre(0.5 * (width_ - 1), 0.5 * (height_ - 1));
+  try {
+    f->prev = a.frame;
+    f->curr = b.frame;
+    f->prev_from_curr =
+        backend::PrevFromCurrOfPixelStep(fit->curr_from_prev_px, centre, a.gsd, b.gsd);
+    const Similarity2 predicted = backend::Between(poses_[static_cast<std::size_t>(a.frame)],
+                                                   poses_[static_cast<std::size_t>(b.frame)]);
+    const PairVerdict verdict =
+        JudgePair(options_, f->prev_from_curr, predicted,
+                  static_cast<int>(fit->inliers_curr_px.cols()),
+                  SpreadOf(fit->inliers_curr_px, width_, height_), b.path_m - a.path_m,
+                  std::min(a.gsd, b.gsd) * std::min(width_, height_));
+    if (verdict != PairVerdict::kAdded) return verdict;
+    f->information = FitInformation(fit->inliers_curr_px, f->prev_from_curr, centre, a.gsd, b.gsd);
+    f->prev_from_curr.log_scale = 0.0;
+    return verdict;
+  } catch (const InvalidArgument&) {  // a singular or degenerate fit
+    return PairVerdict::kNoFit;
+  }
+}
+
+OptimizedFlight FlightGraph::Optimize(const PairFitter& fitter, std::uint64_t run_seed) const {
+  if (poses_.empty()) throw InvalidArgument("FlightGraph::Optimize: no frame was added");
+  OptimizedFlight out;
+  out.keyframes = num_keyframes();
+  out.local_from_frame = poses_;
+  backend::PoseGraph graph = graph_;
+  const std::size_t base_factors = graph.relative_factors().size();
+  const Stopwatch match_time;
+  for (int i = 0; i < num_keyframes(); ++i) {
+    for (const int j : CandidatesOf(i)) {
+      ++out.pairs_tried;
+      backend::RelativeFactor f;
+      const PairVerdict verdict = TryPair(keyframes_[static_cast<std::size_t>(i)],
+                                          keyframes_[static_cast<std::size_t>(j)], fitter,
+                                          run_seed, &f);
+      if (verdict == PairVerdict::kAdded) {
+        graph.AddRelative(f);
+        ++out.pairs_verified;
+      } else {
+        ++out.pairs_rejected;
+        if (verdict == PairVerdict::kGate) ++out.pairs_gated;
+      }
+    }
+  }
+  out.match_s = match_time.elapsed_ms() / 1000.0;
+  if (graph.num_poses() < 2) return out;
+  const Stopwatch solve_time;
+  const backend::PoseGraphResult result = backend::OptimizeAll(graph, backend::PoseGraphOptions{});
+  out.solve_s = solve_time.elapsed_ms() / 1000.0;
+  out.iterations = result.iterations;
+  out.local_from_frame = result.local_from_frame;
+  for (std::size_t k = base_factors; k < result.relative.size(); ++k) {
+    out.outliers += result.relative[k].outlier ? 1 : 0;
+  }
+  return out;
+}
+
+}  // namespace aerovo

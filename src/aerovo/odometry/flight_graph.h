@@ -1,0 +1,182 @@
+// The offline whole-flight optimisation of a run (docs/backend.md): while the flight is
+// processed, FlightGraph collects each frame's causal pose (FrameResult, pose_chain.h frames),
+// each step as a relative factor of the pose graph (backend/pose_graph.h, backend/pixel_step.h)
+// and, for keyframes spaced over the ground, the features needed to match them again; after the
+// last frame, Optimize finds pairs of keyframes whose predicted footprints overlap (from the
+// causal track), matches and fits each pair (standard RANSAC, seeded per pair from the run's
+// seed), verifies the fit (inliers, their spread over the image, agreement with the graph's
+// prediction: the gate) and adds the verified ones as relative factors; then OptimizeAll with the
+// robust (Cauchy) cost gives every frame's optimised pose.
+//
+// Frames: local = the run's local metric frame (pose_chain.h); a frame's ground coordinates and
+// the poses `local_from_frame` as in backend/similarity2.h (position of the camera centre's ground
+// point in metres, heading = FrameResult::heading_rad, log-scale 0 = the height's scale).
+// Scale: the causal track takes each frame's scale from its height (ScaleMode::kMetric), so every
+// relative factor measures a log-scale change of 0 with a standard deviation of 1e-3: the graph
+// moves and turns frames but keeps the heights' scale, as the causal track does.
+// No I/O (the run writes vo_optimized.*: pipeline/run_steps.h).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "aerovo/backend/pose_graph.h"
+#include "aerovo/backend/similarity2.h"
+#include "aerovo/core/options.h"
+#include "aerovo/correspondence/correspondence.h"
+#include "aerovo/features/keypoint.h"
+#include "aerovo/odometry/visual_odometry.h"
+
+namespace aerovo {
+
+/// Options of the offline whole-flight optimisation (`backend.*` of a run configuration).
+/// Lengths are fractions of the footprint's smaller side (the frame's smaller side in pixels
+/// times its ground sampling distance), so that they hold at any height and resolution.
+struct BackendOptions {
+  /// Run the offline optimisation after the last frame (vo_optimized.*, summary.json
+  /// "optimized"). Default false: on the simulated lawnmowers it cuts the end error by several
+  /// times, but on the real flights of BENCHMARKS.md ("Offline optimisation") it does not lower
+  /// the error against GPS (tampa-phantom3's rises); false leaves the run exactly as without a
+  /// back-end (no vo_optimized.*).
+  bool enable = false;
+  /// A measured frame becomes a keyframe (its features kept) when its causal centre is at least
+  /// this far from the last keyframe's. Memory: at most path length / (keyframe_spacing x
+  /// footprint side) + 1 keyframes of ~0.3 kB per SURF point. Default 0.3 (each point of the
+  /// ground is then in about three keyframes along the track).
+  double keyframe_spacing = 0.3;
+  /// Two keyframes that are not neighbours in the keyframe order are a candidate pair when their
+  /// causal centres are at most this far apart. Default 0.8 (footprints overlapping by about a
+  /// fifth or more, with room for the causal drift).
+  double search_radius = 0.8;
+  /// Candidate pairs tried per keyframe at most (its nearest by the causal track). Default 6:
+  /// bounds the matching time (one exhaustive match each).
+  int max_pairs_per_keyframe = 6;
+  /// A pair's fit is kept only with at least this many RANSAC inliers. Default 40 (more than a
+  /// step's 12: a pair far apart in time has no motion prior to confirm it).
+  int min_inliers = 40;
+  /// The inliers' bounding box in the later frame must cover at least this fraction of its
+  /// area. Default 0.05 (a fit on one small patch, e.g. a repeated texture, is not kept).
+  double min_spread = 0.05;
+  /// Gate: the fit's translation may differ from the graph's prediction (the causal track) by
+  /// at most gate x the causal path length between the two frames, plus a tenth of the
+  /// footprint side; its heading by at most gate_heading_deg. Default 0.05 (the causal drift on
+  /// the real flights is 1-2 % of the path: BENCHMARKS.md); a false overlap (two places that
+  /// look alike) placing a frame farther from its predicted place is rejected.
+  double gate = 0.05;
+  /// Gate on the heading, degrees. Default 15.
+  double gate_heading_deg = 15.0;
+};
+
+/// Throws InvalidArgument naming the field ("backend.gate must be ...").
+void Validate(const BackendOptions& options);
+
+// clang-format off
+template <class V>
+void VisitFields(BackendOptions& o, V& v) {
+  using namespace options;
+  v.Field(o.enable, "enable", "Offline whole-flight optimisation after the last frame (vo_optimized.*)", Any());
+  v.Field(o.keyframe_spacing, "keyframe_spacing", "Keyframe spacing, fraction of the footprint's smaller side", GreaterThan(0).Finite());
+  v.Field(o.search_radius, "search_radius", "Candidate pairs within this distance, fraction of the footprint's smaller side", GreaterThan(0).Finite());
+  v.Field(o.max_pairs_per_keyframe, "max_pairs_per_keyframe", "Candidate pairs tried per keyframe at most", AtLeast(1));
+  v.Field(o.min_inliers, "min_inliers", "RANSAC inliers needed to keep a pair's fit", AtLeast(3));
+  v.Field(o.min_spread, "min_spread", "Inliers' bounding box, least fraction of the image area", Interval(0, 1, true, true));
+  v.Field(o.gate, "gate", "Largest disagreement of a fit with the track, fraction of the path between the frames", GreaterThan(0).Finite());
+  v.Field(o.gate_heading_deg, "gate_heading_deg", "Largest heading disagreement of a fit with the track, degrees", Interval(0, 180, false, true));
+}
+// clang-format on
+
+/// A pair's fitted pixel transform: curr_from_prev maps the earlier frame's pixels to the later
+/// one's; inliers_curr_px are the RANSAC inliers in the later frame's pixels.
+struct PairFit {
+  Eigen::Matrix3d curr_from_prev_px = Eigen::Matrix3d::Identity();
+  Eigen::Matrix2Xd inliers_curr_px;
+};
+/// Matches and fits two keyframes' features; nullopt when no fit. `seed`: the RANSAC seed.
+using PairFitter = std::function<std::optional<PairFit>(const FeatureSet& prev,
+                                                        const FeatureSet& curr, std::uint64_t seed)>;
+/// The standard method (correspondence.h: all points, unguided) of `options` with the seed of
+/// each call, then the refit on all points (CorrespondenceStage::RefitOnAllPoints) when
+/// `options` refines fall-backs; frames of width x height pixels.
+PairFitter MakeStandardPairFitter(const CorrespondenceOptions& options, int width, int height);
+
+/// The seed of pair (a, b) from the run's seed: SplitMix64 of the three (S. Vigna, "Further
+/// scramblings of Marsaglia's xorshift generators", 2017): the same for a pair whatever the
+/// order or threads the pairs are tried in.
+std::uint64_t PairSeed(std::uint64_t run_seed, int a, int b);
+
+/// Why a pair's fit was not added.
+enum class PairVerdict { kAdded, kNoFit, kTooFewInliers, kTooLittleSpread, kGate };
+
+/// The verdict on a fit of frames a (earlier) -> b: `fit` and `predicted` are prev_from_curr in
+/// frame a's metres, `path_m` the causal path length between them, `side_m` the footprint's
+/// smaller side, `spread` the inliers' bounding-box fraction of the image.
+PairVerdict JudgePair(const BackendOptions& options, const backend::Similarity2& fit,
+                      const backend::Similarity2& predicted, int n_inliers, double spread,
+                      double path_m, double side_m);
+
+/// What the offline optimisation did, and the optimised poses.
+struct OptimizedFlight {
+  /// Per frame given to Add, in order: the optimised local_from_frame.
+  std::vector<backend::Similarity2> local_from_frame;
+  int keyframes = 0;
+  int pairs_tried = 0;     ///< Candidate pairs matched.
+  int pairs_verified = 0;  ///< Added as factors.
+  int pairs_rejected = 0;  ///< Tried and not added (no fit, inliers, spread or gate).
+  int pairs_gated = 0;     ///< Of those, rejected by the gate.
+  int outliers = 0;        ///< Added pairs the robust cost down-weighted (pose_graph.h).
+  double match_s = 0.0;    ///< Wall time of the pairs' matching and fitting, s.
+  double solve_s = 0.0;    ///< Wall time of the graph solve, s.
+  int iterations = 0;
+};
+
+/// The frames of a run in order, built as they come (Add), optimised at the end (Optimize).
+class FlightGraph {
+ public:
+  /// Frames of width x height pixels (the ones given to the odometry). InvalidArgument for
+  /// invalid options.
+  FlightGraph(const BackendOptions& options, int width, int height);
+
+  /// Adds the next frame's odometry result (frames in the order processed; r.index must be the
+  /// number of frames added so far: InvalidArgument otherwise). Keeps r.features when the frame
+  /// becomes a keyframe.
+  void Add(const FrameResult& r);
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  int num_frames() const { return static_cast<int>(poses_.size()); }
+  int num_keyframes() const { return static_cast<int>(keyframes_.size()); }
+  const backend::PoseGraph& graph() const { return graph_; }
+
+  /// The pairs, their verdicts, the solve. `fitter`: how a pair is matched
+  /// (MakeStandardPairFitter in a run); `run_seed`: the run's RANSAC seed. Throws
+  /// InvalidArgument when no frame was added.
+  OptimizedFlight Optimize(const PairFitter& fitter, std::uint64_t run_seed) const;
+
+ private:
+  struct Keyframe {
+    int frame = 0;
+    double gsd = 1.0;
+    double path_m = 0.0;  // causal path length from the first frame
+    std::shared_ptr<const FeatureSet> features;
+  };
+  backend::RelativeFactor StepFactor(const FrameResult& r) const;
+  // Keyframe i's candidate partners j > i + 1, nearest first, at most max_pairs_per_keyframe.
+  std::vector<int> CandidatesOf(int i) const;
+  // Fits and judges the pair (a, b); *f is the factor when kAdded.
+  PairVerdict TryPair(const Keyframe& a, const Keyframe& b, const PairFitter& fitter,
+                      std::uint64_t run_seed, backend::RelativeFactor* f) const;
+
+  BackendOptions options_;
+  int width_ = 0, height_ = 0;
+  backend::PoseGraph graph_;
+  std::vector<backend::Similarity2> poses_;
+  std::vector<double> gsd_, path_m_;
+  std::vector<Keyframe> keyframes_;
+};
+
+}  // namespace aerovo

@@ -1,0 +1,246 @@
+#include "aerovo/odometry/flight_graph.h"
+
+#include <cmath>
+#include <map>
+#include <memory>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include <Eigen/LU>
+#include <gtest/gtest.h>
+
+#include "aerovo/core/error.h"
+
+namespace aerovo {
+namespace {
+
+using backend::Similarity2;
+
+constexpr int kWidth = 640, kHeight = 480;
+constexpr double kGsd = 0.1;  // m/px: a 64 m x 48 m footprint
+
+const Eigen::Vector2d kCentre(0.5 * (kWidth - 1), 0.5 * (kHeight - 1));
+
+// The pixel transform curr_from_prev of a ground-plane step prev_from_curr (backend/similarity2.h
+// frames, scale 1, both frames at kGsd): px_prev = c + F R F (px_curr - c) + F t / g, F =
+// diag(1, -1) (the inverse of backend/pixel_step.h PrevFromCurrOfPixelStep).
+Eigen::Matrix3d CurrFromPrevPx(const Similarity2& prev_from_curr) {
+  Eigen::Matrix2d f = Eigen::Matrix2d::Identity();
+  f(1, 1) = -1.0;
+  const Eigen::Matrix2d l = f * prev_from_curr.Linear() * f;
+  Eigen::Matrix3d prev_from_curr_px = Eigen::Matrix3d::Identity();
+  prev_from_curr_px.topLeftCorner<2, 2>() = l;
+  prev_from_curr_px.topRightCorner<2, 1>() = kCentre + f * prev_from_curr.translation_m / kGsd - l * kCentre;
+  return prev_from_curr_px.inverse();
+}
+
+// A 7 x 7 grid of points over the frame: the inliers of a well-spread fit.
+Eigen::Matrix2Xd SpreadPoints() {
+  Eigen::Matrix2Xd p(2, 49);
+  for (int i = 0; i < 49; ++i) p.col(i) << 20.0 + 100.0 * (i % 7), 20.0 + 73.0 * (i / 7);
+  return p;
+}
+
+// The frame index a test FeatureSet stands for (its one keypoint's x): the injected pair fitter
+// of these tests knows the frames' true poses by it.
+std::shared_ptr<const FeatureSet> FeaturesOf(int frame) {
+  auto f = std::make_shared<FeatureSet>();
+  Keypoint k;
+  k.x = static_cast<float>(frame);
+  f->keypoints.push_back(k);
+  f->descriptors.assign(64, 0.f);
+  return f;
+}
+int FrameOf(const FeatureSet& f) { return static_cast<int>(f.keypoints.at(0).x); }
+
+// A lawnmower of `legs` legs of `steps` steps of 4 m, 30 m apart (footprints overlapping by 18 m
+// across the legs), the image up along the track; the odometry's steps turn by `bias_rad` more
+// than the truth each, so the causal track drifts.
+struct Flight {
+  std::vector<Similarity2> truth;
+  std::vector<FrameResult> results;
+};
+Flight MakeFlight(int legs, int steps, double bias_rad) {
+  Flight f;
+  for (int leg = 0; leg < legs; ++leg) {
+    const double heading = leg % 2 == 0 ? -M_PI / 2 : M_PI / 2;  // east, then west
+    for (int s = 0; s < steps; ++s) {
+      const double along = leg % 2 == 0 ? 4.0 * s : 4.0 * (steps - 1 - s);
+      f.truth.push_back({Eigen::Vector2d(along, -30.0 * leg), heading, 0.0});
+    }
+  }
+  Similarity2 causal = f.truth[0];
+  for (std::size_t i = 0; i < f.truth.size(); ++i) {
+    FrameResult r;
+    r.index = static_cast<int>(i);
+    r.gsd_m_per_px = kGsd;
+    r.features = FeaturesOf(r.index);
+    if (i > 0) {
+      Similarity2 step = backend::Between(f.truth[i - 1], f.truth[i]);
+      step.heading_rad += bias_rad;
+      causal = causal * step;
+      r.status = FrameStatus::kOk;
+      r.reference_index = r.index - 1;
+      r.curr_from_prev = CurrFromPrevPx(step);
+      r.step_inliers_curr_px = SpreadPoints();
+    }
+    r.position_m = causal.translation_m;
+    r.heading_rad = causal.heading_rad;
+    f.results.push_back(r);
+  }
+  return f;
+}
+
+// A fitter that returns the true transform of every pair, except those in `wrong` (moved by the
+// given ground offset in metres: a false overlap) and those in `none` (no fit).
+PairFitter TruthFitter(const Flight& f, std::map<std::pair<int, int>, Eigen::Vector2d> wrong = {},
+                       std::vector<std::pair<int, int>> none = {}) {
+  return [&f, wrong, none](const FeatureSet& prev, const FeatureSet& curr,
+                           std::uint64_t) -> std::optional<PairFit> {
+    const std::pair<int, int> key(FrameOf(prev), FrameOf(curr));
+    for (const auto& n : none) {
+      if (n == key) return std::nullopt;
+    }
+    Similarity2 z = backend::Between(f.truth[static_cast<std::size_t>(key.first)],
+                                     f.truth[static_cast<std::size_t>(key.second)]);
+    if (const auto it = wrong.find(key); it != wrong.end()) z.translation_m += it->second;
+    return PairFit{CurrFromPrevPx(z), SpreadPoints()};
+  };
+}
+
+double EndError(const Flight& f, const std::vector<Similarity2>& poses) {
+  return (poses.back().translation_m - f.truth.back().translation_m).norm();
+}
+
+FlightGraph Build(const Flight& f, const BackendOptions& o = {}) {
+  FlightGraph g(o, kWidth, kHeight);
+  for (const FrameResult& r : f.results) g.Add(r);
+  return g;
+}
+
+TEST(FlightGraph, OverlapsBetweenLegsCutTheEndErrorByMoreThanThreeQuarters) {
+  const Flight f = MakeFlight(4, 40, 0.002);
+  const FlightGraph g = Build(f);
+  // Keyframes every 0.3 x 48 m: every fourth frame (16 m).
+  EXPECT_EQ(g.num_keyframes(), 4 * 10);
+  const OptimizedFlight o = g.Optimize(TruthFitter(f), 1);
+  std::vector<Similarity2> causal;
+  for (const FrameResult& r : f.results) causal.push_back({r.position_m, r.heading_rad, 0.0});
+  const double before = EndError(f, causal), after = EndError(f, o.local_from_frame);
+  EXPECT_GT(before, 10.0);  // 160 steps turning 0.002 rad too much each
+  EXPECT_LT(after, 0.25 * before) << before << " m -> " << after << " m";
+  RecordProperty("end_error_m", std::to_string(before) + " -> " + std::to_string(after));
+  EXPECT_GT(o.pairs_verified, 30);
+  EXPECT_EQ(o.pairs_rejected, 0);
+  EXPECT_EQ(o.pairs_tried, o.pairs_verified);
+}
+
+// The candidate pairs FlightGraph::Optimize tries, in order.
+std::vector<std::pair<int, int>> TriedPairs(const FlightGraph& g) {
+  std::vector<std::pair<int, int>> tried;
+  g.Optimize(
+      [&](const FeatureSet& a, const FeatureSet& b, std::uint64_t) -> std::optional<PairFit> {
+        tried.emplace_back(FrameOf(a), FrameOf(b));
+        return std::nullopt;
+      },
+      1);
+  return tried;
+}
+
+TEST(FlightGraph, TheGateRejectsAFalseOverlapAndTheTrackIsUnchangedByIt) {
+  const Flight f = MakeFlight(4, 40, 0.002);
+  const FlightGraph g = Build(f);
+  // A candidate pair across legs 0 and 1 whose fit puts the later frame 30 m off (a repeated
+  // field: perceptual aliasing), where the track says it cannot be.
+  std::pair<int, int> pair(-1, -1);
+  for (const auto& p : TriedPairs(g)) {
+    if (p.first / 40 == 0 && p.second / 40 == 1) pair = p;
+  }
+  ASSERT_GE(pair.first, 0) << "no candidate pair across the first two legs";
+  const OptimizedFlight clean = g.Optimize(TruthFitter(f, {}, {pair}), 1);
+  const OptimizedFlight aliased = g.Optimize(TruthFitter(f, {{pair, {30.0, 0.0}}}), 1);
+  ASSERT_EQ(aliased.pairs_tried, clean.pairs_tried);
+  EXPECT_EQ(clean.pairs_gated, 0);
+  EXPECT_EQ(aliased.pairs_gated, 1);
+  EXPECT_EQ(aliased.pairs_verified, clean.pairs_verified);
+  ASSERT_EQ(aliased.local_from_frame.size(), clean.local_from_frame.size());
+  for (std::size_t i = 0; i < clean.local_from_frame.size(); ++i) {
+    EXPECT_EQ(aliased.local_from_frame[i].translation_m, clean.local_from_frame[i].translation_m);
+  }
+  // Without the gate (a huge one) the false overlap goes in, and the robust cost (Cauchy,
+  // pose_graph.h) is left to down-weight it: the second line of defence.
+  BackendOptions open;
+  open.gate = 100.0;
+  open.gate_heading_deg = 179.0;
+  const OptimizedFlight ungated =
+      Build(f, open).Optimize(TruthFitter(f, {{pair, {30.0, 0.0}}}), 1);
+  EXPECT_EQ(ungated.pairs_gated, 0);
+  EXPECT_EQ(ungated.pairs_verified, clean.pairs_verified + 1);
+  EXPECT_GE(ungated.outliers, 1);
+  EXPECT_LT((ungated.local_from_frame.back().translation_m -
+             clean.local_from_frame.back().translation_m).norm(), 0.05);
+}
+
+TEST(FlightGraph, PairSearchTakesOnlyOverlappingNonNeighbourKeyframes) {
+  const Flight f = MakeFlight(2, 40, 0.0);
+  BackendOptions o;
+  o.search_radius = 0.7;  // 33.6 m
+  const FlightGraph g = Build(f, o);
+  std::vector<std::pair<int, int>> tried;
+  tried = TriedPairs(g);
+  ASSERT_FALSE(tried.empty());
+  for (const auto& [a, b] : tried) {
+    const double d = (f.truth[static_cast<std::size_t>(a)].translation_m -
+                      f.truth[static_cast<std::size_t>(b)].translation_m).norm();
+    EXPECT_LE(d, 33.6 + 1e-9) << a << "-" << b;
+    EXPECT_GT(b - a, 4) << "keyframe neighbours are not a pair";
+  }
+  // Pairs along a leg (keyframes two apart, 32 m) and across the legs (30 m apart).
+  int across = 0;
+  for (const auto& [a, b] : tried) across += a / 40 != b / 40;
+  EXPECT_GT(across, 0);
+  EXPECT_LT(across, static_cast<int>(tried.size()));
+}
+
+TEST(FlightGraph, JudgePairChecksInliersSpreadAndTheGate) {
+  BackendOptions o;
+  const Similarity2 pred{Eigen::Vector2d(10.0, 0.0), 0.0, 0.0};
+  EXPECT_EQ(JudgePair(o, pred, pred, 100, 0.5, 200.0, 48.0), PairVerdict::kAdded);
+  EXPECT_EQ(JudgePair(o, pred, pred, 39, 0.5, 200.0, 48.0), PairVerdict::kTooFewInliers);
+  EXPECT_EQ(JudgePair(o, pred, pred, 100, 0.01, 200.0, 48.0), PairVerdict::kTooLittleSpread);
+  // Allowed: 0.05 x 200 m + 4.8 m = 14.8 m.
+  Similarity2 fit = pred;
+  fit.translation_m.x() += 14.0;
+  EXPECT_EQ(JudgePair(o, fit, pred, 100, 0.5, 200.0, 48.0), PairVerdict::kAdded);
+  fit.translation_m.x() += 1.0;
+  EXPECT_EQ(JudgePair(o, fit, pred, 100, 0.5, 200.0, 48.0), PairVerdict::kGate);
+  fit = pred;
+  fit.heading_rad = 16.0 * M_PI / 180.0;
+  EXPECT_EQ(JudgePair(o, fit, pred, 100, 0.5, 200.0, 48.0), PairVerdict::kGate);
+}
+
+TEST(FlightGraph, PairSeedIsThePairsWhateverTheOrder) {
+  EXPECT_EQ(PairSeed(1, 3, 9), PairSeed(1, 9, 3));
+  EXPECT_NE(PairSeed(1, 3, 9), PairSeed(2, 3, 9));
+  EXPECT_NE(PairSeed(1, 3, 9), PairSeed(1, 3, 10));
+}
+
+TEST(FlightGraph, BadOptionsAndFramesAreClearErrors) {
+  BackendOptions o;
+  o.gate = -1.0;
+  try {
+    FlightGraph g(o, kWidth, kHeight);
+    FAIL() << "no error";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("backend.gate"), std::string::npos) << e.what();
+  }
+  FlightGraph g(BackendOptions{}, kWidth, kHeight);
+  FrameResult r;
+  r.index = 3;
+  EXPECT_THROW(g.Add(r), InvalidArgument);
+  EXPECT_THROW(g.Optimize(TruthFitter(Flight{}), 1), InvalidArgument);
+}
+
+}  // namespace
+}  // namespace aerovo
