@@ -79,7 +79,7 @@ struct RunSetup {
 /// summary's focal, frame size, height source, lens fields and logs them. InputError (no camera,
 /// no calibration) or OutputError (config.json cannot be written); the messages name the frame
 /// or file.
-std::unique_ptr<const RunContext> SetUpRun(RunSetup setup, const FrameState& first);
+std::unique_ptr<RunContext> SetUpRun(RunSetup setup, const FrameState& first);
 
 // ---------------------------------------------------------------------------------------------
 // The loop.
@@ -145,7 +145,7 @@ class FrameLoop {
   std::unique_ptr<mavlink::AutopilotLink> link_;  // --mavlink (null: none)
   bool source_live_ = false;
   RunState state_;
-  std::unique_ptr<const RunContext> run_;  // from the first frame
+  std::unique_ptr<RunContext> run_;  // from the first frame (stages and sinks get it const)
   std::vector<StagePtr> stages_;
   std::vector<SinkPtr> sinks_;
   // Where the frame is (for FailureOf): in a stage or sink (not the reading or the set-up), and

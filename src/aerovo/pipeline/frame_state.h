@@ -28,6 +28,7 @@
 #include "aerovo/odometry/georef.h"
 #include "aerovo/odometry/gps_check.h"
 #include "aerovo/odometry/visual_odometry.h"
+#include "aerovo/pipeline/lens_switch.h"
 #include "aerovo/pipeline/preprocess.h"
 #include "aerovo/pipeline/run_steps.h"
 #include "aerovo/pipeline/run_types.h"
@@ -80,6 +81,9 @@ struct FrameState {
   // stream sink when the frame is handed to the outputs (capture to then, ms).
   PendingFrame output;
   float latency_ms = 0.0f;
+  /// The lens estimate was applied at this frame (pipeline/lens_switch.h): its position may
+  /// jump from the frames before (frames.csv status "+lens", MAVLink reset_counter + 1).
+  bool lens_switched = false;
 
   /// Back to an empty state, keeping `frame`'s pixel buffer for the next decoding.
   void Clear();
@@ -134,6 +138,10 @@ struct RunContext {
   UndistortionPath undistortion = UndistortionPath::kNone;
   std::unique_ptr<VisualOdometry> odometry;
   std::unique_ptr<RunOutputs> outputs;
+  /// The lens self-calibration beside the odometry (null: skipped); the FrameLoop calls it
+  /// around the stages and it replaces `camera.calibrated`, `odometry`, `undistorter` and
+  /// `undistortion` at its switch frame, the one change of a RunContext after the first frame.
+  std::unique_ptr<LensSwitch> lens_switch;
 };
 
 /// One step of every frame (height, attitude, preprocessing, odometry, ...): reads what the

@@ -1,8 +1,10 @@
 #include "aerovo/pipeline/lens_prepass.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <utility>
 
@@ -11,6 +13,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/features/surf.h"
+#include "aerovo/frames/video_decoder.h"
 #include "aerovo/matching/matcher.h"
 #include "aerovo/pipeline/preprocess.h"
 
@@ -64,8 +67,83 @@ std::vector<int> LensPrepassPairStarts(int frames, int pairs) {
 
 namespace {
 
+// The frame pairs of a video with the FFmpeg decoder: pair i at video frame starts[i] (increasing)
+// and the one `step` after it. ONE decoder reads forward from pair to pair, and seeks
+// (VideoDecoder::SeekBefore: to the key frame before) only when the next pair is more than
+// kLensPrepassSeekS ahead: the seek costs the frames from that key frame on, up to a key-frame
+// interval, and finds the frames by their timestamps, so a pair may start at the key frame
+// when the container's index lands after the frame asked for. Frames between pairs are decoded,
+// never converted (VideoDecoder::Grab alone).
+std::vector<std::pair<Frame, Frame>> ReadVideoPairsFfmpeg(const RunConfig& config, int threads,
+                                                          double fps, int step,
+                                                          const std::vector<int>& starts) {
+  VideoDecoder decoder(config.input, threads);
+  const std::string name = std::filesystem::path(config.input).filename().string();
+  const auto gray = [&](int index, Frame& out) {
+    decoder.Gray(out.gray);
+    out.index = index;
+    out.name = fmt::format("{}#{}", name, index);
+  };
+  std::vector<std::pair<Frame, Frame>> pairs;
+  int pos = -1;  // the video frame last grabbed
+  const auto advance = [&](int to) {
+    while (pos < to) {
+      if (!decoder.Grab()) return false;
+      ++pos;
+    }
+    return true;
+  };
+  for (int a : starts) {
+    if (fps > 0.0 && a - pos > kLensPrepassSeekS * fps && decoder.SeekBefore(a / fps)) {
+      if (!decoder.Grab() || !std::isfinite(decoder.timestamp_ms())) break;
+      pos = static_cast<int>(std::llround(decoder.timestamp_ms() * fps / 1000.0));
+      a = std::max(a, pos);
+    }
+    std::pair<Frame, Frame> p;
+    if (!advance(a)) break;
+    gray(pos, p.first);
+    if (!advance(a + step)) break;
+    gray(pos, p.second);
+    pairs.push_back(std::move(p));
+  }
+  return pairs;
+}
+
+// The frame pairs of a video, pair i at video frame starts[i] (increasing) and the one `step`
+// after it: ReadVideoPairsFfmpeg, or with video_decoder opencv the run's own source read forward
+// frame by frame. Either way ONE source: one per pair, each seeking exactly by decoding from
+// the start (VideoFileSource's decode-and-skip), decoded up to 2.5x the clip. The run's checks
+// of the stream (cut files, clocks, repeats) stay with the main source.
+std::vector<std::pair<Frame, Frame>> ReadVideoPairs(const RunConfig& config,
+                                                    const FrameSourceOptions& so, double fps,
+                                                    const std::vector<int>& starts) {
+  if (so.video_decoder != VideoDecoderChoice::kOpenCv) {
+    return ReadVideoPairsFfmpeg(config, so.video_threads, fps, so.step, starts);
+  }
+  FrameSourceOptions from_start = so;
+  from_start.start_time_s = 0.0;
+  from_start.step = 1;
+  from_start.end_time_s = std::numeric_limits<double>::infinity();
+  VideoFileSource source(config.input, from_start);
+  std::vector<std::pair<Frame, Frame>> pairs(starts.size());
+  std::vector<int> got(starts.size(), 0);
+  const int last = starts.empty() ? -1 : starts.back() + so.step;
+  Frame f;
+  for (int index = 0; index <= last && source.Next(f); ++index) {
+    for (std::size_t i = 0; i < starts.size(); ++i) {
+      if (index == starts[i]) pairs[i].first = f, ++got[i];
+      if (index == starts[i] + so.step) pairs[i].second = f, ++got[i];
+    }
+  }
+  std::vector<std::pair<Frame, Frame>> out;
+  for (std::size_t i = 0; i < starts.size(); ++i) {
+    if (got[i] == 2) out.push_back(std::move(pairs[i]));
+  }
+  return out;
+}
+
 // The pairs of frames as the run would deliver them (see the header): photo folders by random
-// access, videos by one seeking source per pair. `read_ms` receives the time spent.
+// access, videos read forward once (ReadVideoPairs). `read_ms` receives the time spent.
 std::vector<std::pair<Frame, Frame>> ReadPairs(const RunConfig& config, double* read_ms,
                                                std::string* why) {
   const Stopwatch sw;
@@ -87,18 +165,11 @@ std::vector<std::pair<Frame, Frame>> ReadPairs(const RunConfig& config, double* 
     const int frames = video->ExpectedFrameCount();
     if (frames < 0) *why = "the video's frame count or rate is unknown";
     const double fps = video->fps();
-    const int first =
-        fps > 0.0 ? static_cast<int>(std::ceil(so.start_time_s * fps - 1e-6)) : 0;
+    const int first = fps > 0.0 ? static_cast<int>(std::ceil(so.start_time_s * fps - 1e-6)) : 0;
     probe.reset();
-    for (int k : LensPrepassPairStarts(frames, kLensPrepassPairs)) {
-      FrameSourceOptions at = so;
-      // Video frame n is delivered by a source starting at (n - 0.25) / fps (the source rounds
-      // the start up to a frame).
-      at.start_time_s = std::max(0.0, (first + k * so.step - 0.25) / fps);
-      VideoFileSource source(config.input, at);
-      std::pair<Frame, Frame> p;
-      if (source.Next(p.first) && source.Next(p.second)) pairs.push_back(std::move(p));
-    }
+    std::vector<int> starts;  // as video frames
+    for (int k : LensPrepassPairStarts(frames, kLensPrepassPairs)) starts.push_back(first + k * so.step);
+    pairs = ReadVideoPairs(config, so, fps, starts);
   } else {
     *why = "the input is not a photo folder or a video file";
   }
@@ -209,6 +280,25 @@ LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_p
   }
   out.total_ms = total.elapsed_ms();
   return out;
+}
+
+LensPrepassTask::LensPrepassTask(const RunConfig& config, int w, int h, double focal_px)
+    : result_(std::async(std::launch::async,
+                         [&config, w, h, focal_px] { return RunLensPrepass(config, w, h, focal_px); })) {}
+
+LensPrepassTask::~LensPrepassTask() {
+  if (result_.valid()) result_.wait();
+}
+
+LensPrepass LensPrepassTask::Get(const std::atomic<bool>* stop, double* waited_ms) {
+  if (taken_) throw InvalidArgument("LensPrepassTask::Get: called twice");
+  const Stopwatch sw;
+  while (result_.wait_for(std::chrono::milliseconds(20)) != std::future_status::ready) {
+    if (stop != nullptr && stop->load()) throw Cancelled("waiting for the lens estimate");
+  }
+  if (waited_ms != nullptr) *waited_ms = sw.elapsed_ms();
+  taken_ = true;
+  return result_.get();
 }
 
 nlohmann::json ToJson(const LensPrepass& p) {

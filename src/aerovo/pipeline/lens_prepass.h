@@ -1,16 +1,20 @@
 // The lens self-calibration pre-pass of `aerovo run` (wide lenses without a
-// calibration file; RunConfig::lens_estimation, docs/lenses.md "Self-calibration"). Before the
-// first frame is processed, a SECOND frame source on the same input (a photo folder: random
-// access to its photos; a video file: one source per pair, seeking to it) reads a few pairs of
+// calibration file; RunConfig::lens_estimation, docs/lenses.md "Self-calibration"). On its own
+// thread (LensPrepassTask), started at the first frame and running beside the odometry, a SECOND
+// frame source on the same input (a photo folder: random access to its photos; a video file:
+// one source reading forward from pair to pair, never seeking) reads a few pairs of
 // consecutive frames (consecutive as the run delivers them: `step` apart) spread evenly over the
 // flight's window; each frame is reduced to at most kLensPrepassMegapixels, SURF points are
 // detected and matched (the run's surf and match options), and correspondence/lens_estimation.h
 // EstimateRadialDistortion decides whether a one-parameter radial lens (OpenCV fisheye k1 or
-// Brown k1) is significant. The main stream is not touched. A significant estimate is the run's
-// lens as a calibration file would be (run_steps.h RunCamera::calibrated, so undistort
-// auto|points|frames applies) and is written as lens_estimate.yaml (OpenCV YAML).
+// Brown k1) is significant. The main stream is not touched. A significant estimate becomes the
+// run's lens at a fixed frame (pipeline/lens_switch.h) as a calibration file would be
+// (run_steps.h RunCamera::calibrated, so undistort auto|points|frames applies) and is written as
+// lens_estimate.yaml (OpenCV YAML).
 #pragma once
 
+#include <atomic>
+#include <future>
 #include <optional>
 #include <string>
 #include <vector>
@@ -29,6 +33,12 @@ namespace aerovo::run_steps {
 /// Frame pairs the pre-pass reads (the estimator needs at least LensEstimationOptions::min_pairs
 /// = 3; 5 leaves two to lose to water or blur). Our choice.
 inline constexpr int kLensPrepassPairs = 5;
+/// A video's next pair further ahead than this, seconds of stream: the pre-pass seeks to the key
+/// frame before it instead of decoding the frames between (lens_prepass.cc ReadVideoPairsFfmpeg).
+/// Below it, reading forward decodes no more frames than a seek would with key frames up to this
+/// far apart. Our choice (drone cameras put key frames 0.5-2 s apart; a 12 s clip's pairs, 2.4 s
+/// apart, are read forward).
+inline constexpr double kLensPrepassSeekS = 5.0;
 /// Pixel budget of the pre-pass's frames, megapixels (FrameReducer, area reduction): the
 /// estimate's coefficients are on normalised coordinates, so the reduction only costs precision
 /// (RecoversAFisheyeK1: 960x720 gives k within 0.002). Our choice: keeps the pre-pass's SURF and
@@ -82,6 +92,27 @@ struct LensPrepass {
 /// Input errors while reading are caught (status "failed"); InvalidArgument for a bad size or
 /// focal. Deterministic: the RANSAC seed is config.odometry.correspondence.ransac.seed.
 LensPrepass RunLensPrepass(const RunConfig& config, int width_px, int height_px, double focal_px);
+
+/// RunLensPrepass on its own thread, started by the constructor: the first frames do not wait
+/// for it. Get() waits for the result (once). The destructor waits for the thread (the
+/// pre-pass's own duration at most). `config` must outlive the task.
+class LensPrepassTask {
+ public:
+  LensPrepassTask(const RunConfig& config, int width_px, int height_px, double focal_px);
+  ~LensPrepassTask();
+  LensPrepassTask(const LensPrepassTask&) = delete;
+  LensPrepassTask& operator=(const LensPrepassTask&) = delete;
+  /// The pre-pass's result, waiting for it (its errors rethrown: InvalidArgument); Cancelled
+  /// when `stop` (may be null) is set while waiting. `waited_ms` (may be null) receives the time
+  /// waited. Call once.
+  LensPrepass Get(const std::atomic<bool>* stop, double* waited_ms = nullptr);
+  /// Get() was called.
+  bool taken() const { return taken_; }
+
+ private:
+  std::future<LensPrepass> result_;
+  bool taken_ = false;
+};
 
 /// summary.json's "lens_estimate": status, applied, why, and with an estimate family ("fisheye"
 /// or "pinhole": the OpenCV model of k), k, sigma_k, cost_drop, cost, cost_pinhole (px^2),
