@@ -384,9 +384,9 @@ TEST(VideoDecoder, BothDecodersAgreeOnAPlainClip) {
   EXPECT_EQ(n, 4);  // 2 5 8 11
 }
 
-// SeekBefore lands on the key frame at or before the time asked (every frame of MJPG; every
-// 10th of an MPEG-4 Part 2 stream written with -g 10) and the frames from there are the ones
-// read in order.
+// SeekBefore lands on the key frame at or before the time asked (every frame of MJPG; in an
+// MPEG-4 Part 2 stream written with -g 10, at most 10 frames apart: the encoder adds key frames
+// at scene changes) and the frames from there are the ones read in order.
 TEST(VideoDecoder, SeekBeforeLandsOnTheKeyFrameBeforeAndReadsOnFromThere) {
   if (!io_test::HaveFfmpeg()) GTEST_SKIP() << "ffmpeg not on PATH (writes the MPEG-4 clip)";
   io_test::TempDir dir("aerovo_dec_seek");
@@ -412,9 +412,12 @@ TEST(VideoDecoder, SeekBeforeLandsOnTheKeyFrameBeforeAndReadsOnFromThere) {
       ASSERT_TRUE(d.SeekBefore(target / 10.0 + 0.01)) << file << " " << target;
       ASSERT_TRUE(d.Grab());
       const int landed = static_cast<int>(std::lround(d.timestamp_ms() / 100.0));
-      EXPECT_EQ(landed, target / key_every * key_every) << file << " " << target;
+      EXPECT_LE(landed, target) << file;
+      EXPECT_GT(landed, target - key_every) << file;
       for (int i = landed; i < landed + 3; ++i) {
-        if (i > landed) ASSERT_TRUE(d.Grab());
+        if (i > landed) {
+          ASSERT_TRUE(d.Grab());
+        }
         GrayImage g;
         d.Gray(g);
         ASSERT_EQ(g.width(), in_order[i].width());
