@@ -242,6 +242,7 @@ LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_p
   };
   try {
     for (const auto& [prev, curr] : frames) {
+      out.pair_frames.push_back(prev.index);
       const FeatureSet a = features(prev);
       const FeatureSet b = features(curr);
       pairs.push_back(LensPairOf(a, b, matcher.Match(a, b)));
@@ -305,6 +306,7 @@ nlohmann::json ToJson(const LensPrepass& p) {
   nlohmann::json j{{"status", ToString(p.status)}, {"applied", p.applied}, {"why", p.why}};
   if (p.status == LensPrepassStatus::kSkipped) return j;
   j["pairs_read"] = p.pairs_read;
+  j["pair_frames"] = p.pair_frames;
   j["frame_width_px"] = p.width_px;
   j["frame_height_px"] = p.height_px;
   j["time_ms"] = {{"read", p.read_ms},

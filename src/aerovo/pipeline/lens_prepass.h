@@ -80,6 +80,7 @@ struct LensPrepass {
   /// principal point, the family's one coefficient); set when applied.
   std::optional<CameraIntrinsics> lens;
   int pairs_read = 0;                ///< Pairs read and matched.
+  std::vector<int> pair_frames;      ///< Frame::index of each pair's first frame, as read.
   int width_px = 0, height_px = 0;   ///< The pre-pass's (reduced) frame size.
   double read_ms = 0.0;    ///< Opening the second source and decoding the frames.
   double match_ms = 0.0;   ///< Reduction, SURF and matching.
@@ -117,7 +118,7 @@ class LensPrepassTask {
 /// summary.json's "lens_estimate": status, applied, why, and with an estimate family ("fisheye"
 /// or "pinhole": the OpenCV model of k), k, sigma_k, cost_drop, cost, cost_pinhole (px^2),
 /// median residuals (px), pairs_used, pairs_improved, points_used, pair_k; pairs_read,
-/// frame size, stage times (ms), file (when applied).
+/// pair_frames, frame size, stage times (ms), file (when applied).
 nlohmann::json ToJson(const LensPrepass& prepass);
 
 }  // namespace aerovo::run_steps
