@@ -55,6 +55,17 @@ std::string LensPrepassSkipReason(const RunConfig& config, bool live) {
   return "";
 }
 
+namespace {
+// The run's stop flag on the pre-pass's thread (LensPrepassTask; null: none).
+thread_local const std::atomic<bool>* t_stop = nullptr;
+// Cancelled once the run's stop flag is set: checked per frame decoded and per pair matched.
+void ThrowIfStopped() {
+  if (t_stop != nullptr && t_stop->load(std::memory_order_relaxed)) {
+    throw Cancelled("the lens pre-pass");
+  }
+}
+}  // namespace
+
 std::vector<int> LensPrepassPairStarts(int frames, int pairs) {
   std::vector<int> starts;
   if (frames < 2 || pairs < 1) return starts;
@@ -88,6 +99,7 @@ std::vector<std::pair<Frame, Frame>> ReadVideoPairsFfmpeg(const RunConfig& confi
   int pos = -1;  // the video frame last grabbed
   const auto advance = [&](int to) {
     while (pos < to) {
+      ThrowIfStopped();
       if (!decoder.Grab()) return false;
       ++pos;
     }
@@ -130,6 +142,7 @@ std::vector<std::pair<Frame, Frame>> ReadVideoPairs(const RunConfig& config,
   const int last = starts.empty() ? -1 : starts.back() + so.step;
   Frame f;
   for (int index = 0; index <= last && source.Next(f); ++index) {
+    ThrowIfStopped();
     for (std::size_t i = 0; i < starts.size(); ++i) {
       if (index == starts[i]) pairs[i].first = f, ++got[i];
       if (index == starts[i] + so.step) pairs[i].second = f, ++got[i];
@@ -155,6 +168,7 @@ std::vector<std::pair<Frame, Frame>> ReadPairs(const RunConfig& config, double* 
     while (first < folder->paths().size() && folder->TimeOf(first) < so.start_time_s) ++first;
     const int frames = folder->ExpectedFrameCount();
     for (int k : LensPrepassPairStarts(frames, kLensPrepassPairs)) {
+      ThrowIfStopped();
       std::pair<Frame, Frame> p;
       const std::size_t a = first + static_cast<std::size_t>(k) * so.step;
       folder->Read(a, p.first);
@@ -242,6 +256,7 @@ LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_p
   };
   try {
     for (const auto& [prev, curr] : frames) {
+      ThrowIfStopped();
       out.pair_frames.push_back(prev.index);
       const FeatureSet a = features(prev);
       const FeatureSet b = features(curr);
@@ -283,9 +298,19 @@ LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_p
   return out;
 }
 
-LensPrepassTask::LensPrepassTask(const RunConfig& config, int w, int h, double focal_px)
-    : result_(std::async(std::launch::async,
-                         [&config, w, h, focal_px] { return RunLensPrepass(config, w, h, focal_px); })) {}
+LensPrepassTask::LensPrepassTask(const RunConfig& config, int w, int h, double focal_px,
+                                 const std::atomic<bool>* stop)
+    : result_(std::async(std::launch::async, [&config, w, h, focal_px, stop] {
+        t_stop = stop;
+        try {
+          return RunLensPrepass(config, w, h, focal_px);
+        } catch (const Cancelled& e) {
+          LensPrepass out;
+          out.status = LensPrepassStatus::kFailed;
+          out.why = std::string("stopped: ") + e.what();
+          return out;
+        }
+      })) {}
 
 LensPrepassTask::~LensPrepassTask() {
   if (result_.valid()) result_.wait();
@@ -298,7 +323,7 @@ LensPrepass LensPrepassTask::Get(const std::atomic<bool>* stop, double* waited_m
     if (stop != nullptr && stop->load()) throw Cancelled("waiting for the lens estimate");
   }
   if (waited_ms != nullptr) *waited_ms = sw.elapsed_ms();
-  taken_ = true;
+  taken_ = true;  // not before: a Get() cancelled while waiting can be called again
   return result_.get();
 }
 

@@ -2,7 +2,8 @@
 // calibration file; RunConfig::lens_estimation, docs/lenses.md "Self-calibration"). On its own
 // thread (LensPrepassTask), started at the first frame and running beside the odometry, a SECOND
 // frame source on the same input (a photo folder: random access to its photos; a video file:
-// one source reading forward from pair to pair, never seeking) reads a few pairs of
+// one decoder reading forward from pair to pair, seeking only to a pair more than
+// kLensPrepassSeekS ahead) reads a few pairs of
 // consecutive frames (consecutive as the run delivers them: `step` apart) spread evenly over the
 // flight's window; each frame is reduced to at most kLensPrepassMegapixels, SURF points are
 // detected and matched (the run's surf and match options), and correspondence/lens_estimation.h
@@ -95,17 +96,20 @@ struct LensPrepass {
 LensPrepass RunLensPrepass(const RunConfig& config, int width_px, int height_px, double focal_px);
 
 /// RunLensPrepass on its own thread, started by the constructor: the first frames do not wait
-/// for it. Get() waits for the result (once). The destructor waits for the thread (the
-/// pre-pass's own duration at most). `config` must outlive the task.
+/// for it. Get() waits for the result (once). `stop` (the run's stop flag; may be null) ends
+/// the reading and matching early (checked per frame and pair; status kFailed, "stopped"). The
+/// destructor waits for the thread. `config` and `stop` must outlive the task.
 class LensPrepassTask {
  public:
-  LensPrepassTask(const RunConfig& config, int width_px, int height_px, double focal_px);
+  LensPrepassTask(const RunConfig& config, int width_px, int height_px, double focal_px,
+                  const std::atomic<bool>* stop = nullptr);
   ~LensPrepassTask();
   LensPrepassTask(const LensPrepassTask&) = delete;
   LensPrepassTask& operator=(const LensPrepassTask&) = delete;
   /// The pre-pass's result, waiting for it (its errors rethrown: InvalidArgument); Cancelled
-  /// when `stop` (may be null) is set while waiting. `waited_ms` (may be null) receives the time
-  /// waited. Call once.
+  /// when `stop` (may be null) is set while waiting (it may be called again then).
+  /// `waited_ms` (may be null) receives the time waited. Once it returned or rethrew, a second
+  /// call is InvalidArgument.
   LensPrepass Get(const std::atomic<bool>* stop, double* waited_ms = nullptr);
   /// Get() was called.
   bool taken() const { return taken_; }

@@ -1,5 +1,6 @@
 #include "aerovo/pipeline/lens_prepass.h"
 
+#include <atomic>
 #include <filesystem>
 #include <vector>
 
@@ -105,6 +106,14 @@ TEST(LensPrepass, VideoPairsSeekedAreThePairsReadForward) {
   EXPECT_EQ(forward.pair_frames, seeked.pair_frames);
   EXPECT_EQ(seeked.estimate->pairs_used, forward.estimate->pairs_used);
   EXPECT_FALSE(seeked.applied) << seeked.why;
+  // On its thread with the run's stop flag set: it stops before reading a frame.
+  const std::atomic<bool> stop{true};
+  c.video_decoder = VideoDecoderChoice::kFfmpeg;
+  LensPrepassTask task(c, kW, kH, 300.0, &stop);
+  const LensPrepass stopped = task.Get(nullptr);
+  EXPECT_EQ(stopped.status, LensPrepassStatus::kFailed);
+  EXPECT_EQ(stopped.why, "stopped: cancelled in the lens pre-pass");
+  EXPECT_EQ(stopped.pairs_read, 0);
 }
 
 }  // namespace

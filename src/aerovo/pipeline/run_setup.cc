@@ -64,7 +64,7 @@ void StartPrepass(const RunSetup& setup, const FrameState& first, RunContext& ru
   if (skipped.why.empty()) {
     run.lens_switch = std::make_unique<LensSwitch>(
         std::make_unique<LensPrepassTask>(config, run.width_px, run.height_px,
-                                          run.camera.focal_px),
+                                          run.camera.focal_px, run.stop),
         first.frame.time_s);
     run.summary->lens_estimate = {{"status", "pending"}, {"applied", false}};
     if (run.log) {
