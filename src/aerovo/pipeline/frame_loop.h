@@ -75,8 +75,9 @@ struct RunSetup {
 };
 /// The run from its first frame `first`: the camera (ResolveRunCamera), the reduction to the
 /// pixel budget, the height source (waiting for the link's first height with MAVLink), the
-/// odometry, the lens pre-pass and undistortion, the outputs (config.json, ...); fills in the
-/// summary's focal, frame size, height source, lens fields and logs them. InputError (no camera,
+/// odometry, the lens pre-pass started beside it (pipeline/lens_switch.h) and undistortion, the
+/// outputs (config.json, ...); fills in the summary's focal, frame size, height source, lens
+/// fields and logs them. InputError (no camera,
 /// no calibration) or OutputError (config.json cannot be written); the messages name the frame
 /// or file.
 std::unique_ptr<RunContext> SetUpRun(RunSetup setup, const FrameState& first);

@@ -1,6 +1,7 @@
 // What the per-frame loop of `aerovo run` (pipeline/frame_loop.h) passes around:
 //   - RunContext: the run, set up once from its first frame (camera, frame reduction, lens
-//     undistortion, odometry, outputs) and not changed after; it points to the run's state
+//     undistortion, odometry, outputs) and not changed after, but for the lens self-calibration's
+//     switch frame (pipeline/lens_switch.h: the lens, odometry and undistortion replaced); it points to the run's state
 //     (RunState: geo-referencing, GPS check, totals) and summary, which the frames change;
 //   - FrameState: one frame as a value, filled in by the stages in order (telemetry fix,
 //     height, attitude, pixels, odometry result, GPS check, output record);
@@ -111,7 +112,7 @@ struct RunState {
 
 /// A run as set up from its first frame: what every frame goes through. The FrameLoop makes it
 /// once (SetUpRun, run_setup.cc) and hands it to the stages and sinks as const: its pointers do
-/// not change, the objects behind `odometry`, `outputs`, `reducer`, `undistorter`, `link`,
+/// not change (but at the lens switch frame, between two frames: `lens_switch`), the objects behind `odometry`, `outputs`, `reducer`, `undistorter`, `link`,
 /// `state` and `summary` do (they carry the run's history).
 struct RunContext {
   // Given before the first frame.
