@@ -4,6 +4,9 @@
 // decides), with the true calibration file, and with --lens-estimation off (taken as an ideal
 // pinhole).
 #include <gtest/gtest.h>
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -18,6 +21,8 @@
 #include <nlohmann/json.hpp>
 
 #include "aerovo/camera_files/calibration.h"
+#include "aerovo/mavlink/messages.h"
+#include "aerovo/mavlink/protocol.h"
 #include "aerovo/pipeline/frame_state.h"
 #include "aerovo/pipeline/lens_switch.h"
 #include "aerovo/pipeline/runner.h"
@@ -175,11 +180,49 @@ std::vector<std::vector<double>> TumRowsFrom(const fs::path& file, double from_s
   return rows;
 }
 
+// A loopback UDP socket playing the autopilot: the reset_counter of every ODOMETRY received.
+class OdometryListener {
+ public:
+  OdometryListener() : fd_(::socket(AF_INET, SOCK_DGRAM, 0)) {
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t n = sizeof a;
+    if (fd_ < 0 || ::bind(fd_, reinterpret_cast<sockaddr*>(&a), n) != 0 ||
+        ::getsockname(fd_, reinterpret_cast<sockaddr*>(&a), &n) != 0) {
+      port_ = -1;
+    } else {
+      port_ = ntohs(a.sin_port);
+    }
+  }
+  ~OdometryListener() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  int port() const { return port_; }
+  // The datagrams received so far (the run has ended: nothing waits).
+  std::vector<int> ResetCounters() {
+    std::vector<int> out;
+    mavlink::Parser parser;
+    uint8_t buf[2048];
+    for (ssize_t n; (n = ::recv(fd_, buf, sizeof buf, MSG_DONTWAIT)) > 0;) {
+      parser.Feed(buf, static_cast<std::size_t>(n), [&](const mavlink::Packet& p) {
+        if (const auto o = mavlink::Decode<mavlink::Odometry>(p)) out.push_back(o->reset_counter);
+      });
+    }
+    return out;
+  }
+
+ private:
+  int fd_;
+  int port_ = -1;
+};
+
 // The estimate comes beside the odometry (pipeline/lens_switch.h): the first frames are
 // processed and handed to the outputs before it is taken; it is applied at the switch frame,
 // the first one kLensSwitchAfterS (2 s) into the stream (frame 4 at 2 frames/s), the same on
 // every run; from there on the steps are the ones of a run given the estimate as its calibration
-// file from the first frame (the frames before are replayed under the lens). Photos without
+// file from the first frame (the frames before are replayed under the lens). The autopilot sees
+// the switch as a reset: ODOMETRY's reset_counter 1 from the switch frame on. Photos without
 // capture times are 1 s apart (Frame::time_s is the rank): the switch frame is frame 2.
 TEST(LensSelfCalibration, FirstPosesComeBeforeTheEstimateAppliedAtAFixedFrame) {
   const fs::path dir = TempDir("switch");
@@ -194,6 +237,9 @@ TEST(LensSelfCalibration, FirstPosesComeBeforeTheEstimateAppliedAtAFixedFrame) {
   c.input = frames;
   c.out = (dir / "a").string();
   c.quiet = true;
+  OdometryListener autopilot;
+  ASSERT_GT(autopilot.port(), 0);
+  c.mavlink = "udp:127.0.0.1:" + std::to_string(autopilot.port());
   const RunSummary s = RunFlight(c, cb);
   const nlohmann::json& le = s.lens_estimate;
   ASSERT_EQ(le["status"], "applied") << le.dump();
@@ -210,6 +256,11 @@ TEST(LensSelfCalibration, FirstPosesComeBeforeTheEstimateAppliedAtAFixedFrame) {
   for (std::size_t i = switch_frame; i < seen.size(); ++i) {
     EXPECT_TRUE(seen[i].lens) << "frame " << i;
     EXPECT_EQ(seen[i].switched, static_cast<int>(i) == switch_frame) << "frame " << i;
+  }
+  const std::vector<int> resets = autopilot.ResetCounters();
+  ASSERT_EQ(resets.size(), 25u);
+  for (std::size_t i = 0; i < resets.size(); ++i) {
+    EXPECT_EQ(resets[i], static_cast<int>(i) >= switch_frame ? 1 : 0) << "frame " << i;
   }
   const auto rows = e2e::ReadFramesCsv(dir / "a");
   ASSERT_EQ(rows.size(), 25u);
