@@ -33,13 +33,14 @@ namespace aerovo::run_steps {
 struct RunContext;
 struct FrameState;
 
-/// Stream seconds from the first frame to the switch frame. The pre-pass takes 0.5-3 s of one
-/// core on a 12 s clip (BENCHMARKS.md "First pose"): 2 s of frames cover it at 30 fps or more, a
-/// slower run waits at the switch frame for the rest. Our choice.
+/// Stream seconds from the first frame to the switch frame: photos 0.5-2 s apart switch at their
+/// 2nd-5th frame. The pre-pass takes 1.5-2.2 s beside the odometry on a 12 s 720p or 1080p clip
+/// and about 6 s at 4K on a busy 2-core machine (BENCHMARKS.md "First pose within a second"):
+/// the run waits at the switch frame for what is left. Our choice.
 inline constexpr double kLensSwitchAfterS = 2.0;
 /// Frames kept for the replay, at most (their processed pixels: 2.1 MP each at most with the
-/// default detect_megapixels): the switch frame comes no later than this. Our choice (about
-/// 100 MB).
+/// default detect_megapixels, about 100 MB for 48): the switch frame comes no later than this
+/// (frame 48, 1.6 s into a 30 fps video). Our choice.
 inline constexpr int kLensSwitchMaxFrames = 48;
 
 /// The lens switch of a run (see the file comment); owned by the run (RunContext::lens_switch).
