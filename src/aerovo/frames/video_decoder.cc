@@ -202,6 +202,10 @@ bool VideoDecoder::SeekBefore(double time_s) {
   return true;
 }
 
+void VideoDecoder::SkipNonReferenceFrames(bool skip) {
+  av_->codec->skip_frame = skip ? AVDISCARD_NONREF : AVDISCARD_DEFAULT;
+}
+
 bool VideoDecoder::Grab() {
   Av& a = *av_;
   a.have_frame = false;

@@ -70,6 +70,11 @@ class VideoDecoder {
   /// decoder flushed): the next Grab() returns that key frame, whose own timestamp_ms() says
   /// where it landed. False when the file cannot seek (nothing moved).
   bool SeekBefore(double time_s);
+  /// From the next packet on, frames no other frame refers to (non-reference B frames) are not
+  /// decoded at all (AVCodecContext::skip_frame AVDISCARD_NONREF; `skip` false: every frame,
+  /// the default). The frames still decoded are decoded exactly as without; Grab() returns the
+  /// next decoded one, so its timestamp_ms() says which.
+  void SkipNonReferenceFrames(bool skip);
   /// Of the frame Grab() last returned: its own decoded size, pixels.
   int frame_width() const;
   int frame_height() const;

@@ -56,6 +56,10 @@ std::string LensPrepassSkipReason(const RunConfig& config, bool live) {
 }
 
 namespace {
+// Frames a decoder may output after the packet that starts them (H.264's largest reorder depth,
+// ITU-T H.264 A.3.1 max_dpb_frames 16): within this many frames of a pair, every frame is
+// decoded, so the pair's own frames are never skipped.
+constexpr int kReorderFrames = 16;
 // The run's stop flag on the pre-pass's thread (LensPrepassTask; null: none).
 thread_local const std::atomic<bool>* t_stop = nullptr;
 // Cancelled once the run's stop flag is set: checked per frame decoded and per pair matched.
@@ -83,8 +87,10 @@ namespace {
 // (VideoDecoder::SeekBefore: to the key frame before) only when the next pair is more than
 // kLensPrepassSeekS ahead: the seek costs the frames from that key frame on, up to a key-frame
 // interval, and finds the frames by their timestamps, so a pair may start at the key frame
-// when the container's index lands after the frame asked for. Frames between pairs are decoded,
-// never converted (VideoDecoder::Grab alone).
+// when the container's index lands after the frame asked for. Frames between pairs are never
+// converted (VideoDecoder::Grab alone), and those no other frame refers to not even decoded
+// (B frames: three quarters of the simulator's H.264 frames); the pairs' frames decode exactly
+// as when reading every frame.
 std::vector<std::pair<Frame, Frame>> ReadVideoPairsFfmpeg(const RunConfig& config, int threads,
                                                           double fps, int step,
                                                           const std::vector<int>& starts) {
@@ -96,12 +102,19 @@ std::vector<std::pair<Frame, Frame>> ReadVideoPairsFfmpeg(const RunConfig& confi
     out.name = fmt::format("{}#{}", name, index);
   };
   std::vector<std::pair<Frame, Frame>> pairs;
-  int pos = -1;  // the video frame last grabbed
+  int pos = -1;            // the video frame last grabbed
+  bool by_time = fps > 0;  // frames found by their timestamps (else counted)
+  // Grabs up to frame `to`. More than kReorderFrames before it, non-reference frames are not
+  // decoded (VideoDecoder::SkipNonReferenceFrames) and the frames are found by their timestamps;
+  // a stream without them is counted frame by frame, every frame decoded.
   const auto advance = [&](int to) {
     while (pos < to) {
       ThrowIfStopped();
+      decoder.SkipNonReferenceFrames(by_time && to - pos > kReorderFrames);
       if (!decoder.Grab()) return false;
-      ++pos;
+      const double ts = decoder.timestamp_ms();
+      by_time = by_time && std::isfinite(ts);
+      pos = by_time ? std::max(pos + 1, static_cast<int>(std::llround(ts * fps / 1000.0))) : pos + 1;
     }
     return true;
   };
@@ -113,6 +126,7 @@ std::vector<std::pair<Frame, Frame>> ReadVideoPairsFfmpeg(const RunConfig& confi
     }
     std::pair<Frame, Frame> p;
     if (!advance(a)) break;
+    a = pos;  // past `a` when `a` was not decoded
     gray(pos, p.first);
     if (!advance(a + step)) break;
     gray(pos, p.second);
