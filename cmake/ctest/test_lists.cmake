@@ -47,7 +47,8 @@ set(AEROVO_ACCURACY_TESTS
 #     the GPS checks on more flights (TelemetryTrust.ImplausibleSpike..., the gps_check and clock
 #     unit tests);
 #   - WideLens.FastFixedWing..., WideLens.MildPinhole...: (WideLens.FisheyeFlight...);
-#   - LensSelfCalibration.Pinhole..., GoProLike...: (LensSelfCalibration.Fisheye...);
+#   - LensSelfCalibration.Pinhole..., GoProLike..., FirstPoses...: (LensSelfCalibration.Fisheye...,
+#     which applies the estimate at its switch frame too);
 #   - RunCli.RunFromItsSavedConfigJson...: the same run twice (RunConfigSchema.SavedConfigJson...);
 #   - CliConventions.RunPrintsTheAnswerFirst..., OneNameForTheSameOption..., HelpCmdIsCmdHelp...:
 #     the text of help and answers (CliConventions.UsageErrorsExitTwo...: the argument parsing);
@@ -74,6 +75,7 @@ set(AEROVO_REPEATED_FLIGHT_TESTS
   WideLens.MildPinholeLensPointsPathMatchesTheFramesPath
   LensSelfCalibration.PinholeIsNotAppliedAndTheTrackIsUnchanged
   LensSelfCalibration.GoProLikeBarrelIsEstimatedAndApplied
+  LensSelfCalibration.FirstPosesComeBeforeTheEstimateAppliedAtAFixedFrame
   RunCli.RunFromItsSavedConfigJsonReproducesTheRun
   CliConventions.RunPrintsTheAnswerFirstWithin80ColumnsAndTheConfigOnlyWhenVerbose
   CliConventions.OneNameForTheSameOptionInEveryCommand
@@ -102,6 +104,7 @@ set(AEROVO_TEST_COSTS
   GeoProducts 6
   TelemetryTrust.ImplausibleSpikeOrFirstFixDoesNotSteerTheGeoReference 6
   LensSelfCalibration.GoProLikeBarrelIsEstimatedAndApplied 6
+  LensSelfCalibration.FirstPosesComeBeforeTheEstimateAppliedAtAFixedFrame 5
   Runner.VideoWithDjiSrtFromTheSimulator 5.5
   Attitude.TiltedFlightIsThreeTimesMoreAccurateWithTheCorrection 5
   Attitude.NadirFlightIsUnchangedByTheCorrection 5

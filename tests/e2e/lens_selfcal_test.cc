@@ -4,17 +4,28 @@
 // decides), with the true calibration file, and with --lens-estimation off (taken as an ideal
 // pinhole).
 #include <gtest/gtest.h>
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "aerovo/camera_files/calibration.h"
+#include "aerovo/mavlink/messages.h"
+#include "aerovo/mavlink/protocol.h"
+#include "aerovo/pipeline/frame_state.h"
+#include "aerovo/pipeline/lens_switch.h"
+#include "aerovo/pipeline/runner.h"
 #include "e2e_testing.h"
 
 namespace aerovo {
@@ -131,6 +142,155 @@ TEST(LensSelfCalibration, FisheyeIsEstimatedAndApplied) {
   // 120 m: both runs are then at the simulation's own precision), and far better than without.
   EXPECT_LT(est, 2.0 * cal + 0.02) << "estimated " << est << " % vs calibrated " << cal << " %";
   EXPECT_GT(off, 20.0 * est) << "off " << off << " % vs estimated " << est << " %";
+  fs::remove_all(dir);
+}
+
+// What a sink sees of each frame: whether the run had the estimated lens then, and what
+// summary.json's lens_estimate said (its status: "pending" until the estimate is taken).
+struct SeenFrame {
+  int index = -1;
+  bool lens = false;
+  bool switched = false;
+  std::string estimate_status;
+};
+class LensWatchSink : public run_steps::FrameSink {
+ public:
+  explicit LensWatchSink(std::vector<SeenFrame>* seen) : seen_(seen) {}
+  const char* name() const override { return "lens watch"; }
+  void Write(run_steps::FrameState& f, const run_steps::RunContext& run) override {
+    seen_->push_back({f.frame.index, run.camera.calibrated.has_value(), f.lens_switched,
+                      run.summary->lens_estimate.value("status", std::string())});
+  }
+
+ private:
+  std::vector<SeenFrame>* seen_;
+};
+
+// vo.tum's rows (time x y z ...) from the row of time `from_s` on, as numbers.
+std::vector<std::vector<double>> TumRowsFrom(const fs::path& file, double from_s) {
+  std::vector<std::vector<double>> rows;
+  std::istringstream in(ReadText(file));
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ls(line);
+    std::vector<double> row;
+    for (double v; ls >> v;) row.push_back(v);
+    if (!row.empty() && row[0] >= from_s - 1e-9) rows.push_back(row);
+  }
+  return rows;
+}
+
+// A loopback UDP socket playing the autopilot: the reset_counter of every ODOMETRY received.
+class OdometryListener {
+ public:
+  OdometryListener() : fd_(::socket(AF_INET, SOCK_DGRAM, 0)) {
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t n = sizeof a;
+    if (fd_ < 0 || ::bind(fd_, reinterpret_cast<sockaddr*>(&a), n) != 0 ||
+        ::getsockname(fd_, reinterpret_cast<sockaddr*>(&a), &n) != 0) {
+      port_ = -1;
+    } else {
+      port_ = ntohs(a.sin_port);
+    }
+  }
+  ~OdometryListener() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  int port() const { return port_; }
+  // The datagrams received so far (the run has ended: nothing waits).
+  std::vector<int> ResetCounters() {
+    std::vector<int> out;
+    mavlink::Parser parser;
+    uint8_t buf[2048];
+    for (ssize_t n; (n = ::recv(fd_, buf, sizeof buf, MSG_DONTWAIT)) > 0;) {
+      parser.Feed(buf, static_cast<std::size_t>(n), [&](const mavlink::Packet& p) {
+        if (const auto o = mavlink::Decode<mavlink::Odometry>(p)) out.push_back(o->reset_counter);
+      });
+    }
+    return out;
+  }
+
+ private:
+  int fd_;
+  int port_ = -1;
+};
+
+// The estimate comes beside the odometry (pipeline/lens_switch.h): the first frames are
+// processed and handed to the outputs before it is taken; it is applied at the switch frame,
+// the first one kLensSwitchAfterS (2 s) into the stream (frame 4 at 2 frames/s), the same on
+// every run; from there on the steps are the ones of a run given the estimate as its calibration
+// file from the first frame (the frames before are replayed under the lens). The autopilot sees
+// the switch as a reset: ODOMETRY's reset_counter 1 from the switch frame on. Photos without
+// capture times are 1 s apart (Frame::time_s is the rank): the switch frame is frame 2.
+TEST(LensSelfCalibration, FirstPosesComeBeforeTheEstimateAppliedAtAFixedFrame) {
+  const fs::path dir = TempDir("switch");
+  ASSERT_TRUE(Cli("simulate --pattern line --length-m 120 --height-m 80 --fps 2 --width 640 "
+                  "--height 480 --focal-px 300 --lens fisheye --distortion=-0.04,0,0,0 "
+                  "--frames-only --image-format png --quiet --out " + (dir / "sim").string()));
+  const std::string frames = (dir / "sim" / "frames").string();
+  std::vector<SeenFrame> seen;
+  RunCallbacks cb;
+  cb.sinks.push_back(std::make_shared<LensWatchSink>(&seen));
+  RunConfig c;
+  c.input = frames;
+  c.out = (dir / "a").string();
+  c.quiet = true;
+  // The lens alone (a camera tilt estimated too would run the pre-pass before the first frame,
+  // pipeline/lens_prepass.h).
+  c.attitude_estimation = AttitudeEstimationMode::kOff;
+  OdometryListener autopilot;
+  ASSERT_GT(autopilot.port(), 0);
+  c.mavlink = "udp:127.0.0.1:" + std::to_string(autopilot.port());
+  const RunSummary s = RunFlight(c, cb);
+  const nlohmann::json& le = s.lens_estimate;
+  ASSERT_EQ(le["status"], "applied") << le.dump();
+  const int switch_frame = le["switch_frame"].get<int>();
+  EXPECT_EQ(switch_frame, static_cast<int>(run_steps::kLensSwitchAfterS));
+  EXPECT_EQ(le["frames_replayed"].get<int>(), switch_frame);
+  ASSERT_EQ(seen.size(), 25u);
+  // Ordering: frames 0..3 reached the outputs while the estimate was still pending.
+  for (int i = 0; i < switch_frame; ++i) {
+    EXPECT_FALSE(seen[i].lens) << "frame " << i;
+    EXPECT_FALSE(seen[i].switched) << "frame " << i;
+    EXPECT_EQ(seen[i].estimate_status, "pending") << "frame " << i;
+  }
+  for (std::size_t i = switch_frame; i < seen.size(); ++i) {
+    EXPECT_TRUE(seen[i].lens) << "frame " << i;
+    EXPECT_EQ(seen[i].switched, static_cast<int>(i) == switch_frame) << "frame " << i;
+  }
+  const std::vector<int> resets = autopilot.ResetCounters();
+  ASSERT_EQ(resets.size(), 25u);
+  for (std::size_t i = 0; i < resets.size(); ++i) {
+    EXPECT_EQ(resets[i], static_cast<int>(i) >= switch_frame ? 1 : 0) << "frame " << i;
+  }
+  const auto rows = e2e::ReadFramesCsv(dir / "a");
+  ASSERT_EQ(rows.size(), 25u);
+  EXPECT_EQ(rows[switch_frame].at("status"), "ok+lens");
+  EXPECT_EQ(rows[switch_frame - 1].at("status"), "ok");
+  // Deterministic: the same switch frame and track again (the CLI this time).
+  ASSERT_TRUE(Cli("run " + frames + " --attitude-estimation off --quiet --no-report -o " +
+                  (dir / "b").string()));
+  EXPECT_EQ(ReadJson(dir / "b" / "summary.json")["lens_estimate"]["switch_frame"], switch_frame);
+  EXPECT_EQ(ReadText(dir / "a" / "vo.tum"), ReadText(dir / "b" / "vo.tum"));
+  // From the switch frame on: the track of the estimate given as a calibration file.
+  ASSERT_TRUE(Cli("run " + frames + " --calibration " + (dir / "a" / "lens_estimate.yaml").string() +
+                  " --attitude-estimation off --quiet --no-report -o " + (dir / "cal").string()));
+  const double t_switch = std::stod(rows[switch_frame].at("time_s"));
+  EXPECT_EQ(t_switch, run_steps::kLensSwitchAfterS);
+  const auto est = TumRowsFrom(dir / "a" / "vo.tum", t_switch);
+  const auto cal = TumRowsFrom(dir / "cal" / "vo.tum", t_switch);
+  ASSERT_EQ(est.size(), 25u - switch_frame);
+  ASSERT_EQ(cal.size(), est.size());
+  // The steps from the switch frame on (the geo-referencing's fit to the GPS, which rotates the
+  // whole track, saw the frames before the switch under the pinhole: compared are the steps'
+  // lengths, to 1 mm of 5 m steps).
+  for (std::size_t i = 1; i < est.size(); ++i) {
+    const double e = std::hypot(est[i][1] - est[i - 1][1], est[i][2] - est[i - 1][2]);
+    const double k = std::hypot(cal[i][1] - cal[i - 1][1], cal[i][2] - cal[i - 1][2]);
+    EXPECT_NEAR(e, k, 1e-3) << "step into row " << i << " after the switch";
+  }
   fs::remove_all(dir);
 }
 

@@ -190,6 +190,22 @@ VideoDecoder::~VideoDecoder() = default;
 
 int VideoDecoder::threads() const { return av_->codec->thread_count; }
 
+bool VideoDecoder::SeekBefore(double time_s) {
+  Av& a = *av_;
+  if (!std::isfinite(time_s) || a.time_base.num <= 0 || a.time_base.den <= 0) return false;
+  const auto ts = a.start_pts + static_cast<std::int64_t>(std::floor(time_s / av_q2d(a.time_base)));
+  if (av_seek_frame(a.format, a.stream, ts, AVSEEK_FLAG_BACKWARD) < 0) return false;
+  avcodec_flush_buffers(a.codec);
+  a.flushing = false;
+  a.ended = false;
+  a.have_frame = false;
+  return true;
+}
+
+void VideoDecoder::SkipNonReferenceFrames(bool skip) {
+  av_->codec->skip_frame = skip ? AVDISCARD_NONREF : AVDISCARD_DEFAULT;
+}
+
 bool VideoDecoder::Grab() {
   Av& a = *av_;
   a.have_frame = false;

@@ -65,6 +65,16 @@ class VideoDecoder {
 
   /// Decodes the next frame (no conversion). False at the end of the stream.
   bool Grab();
+  /// Moves to the key frame at or before `time_s` (seconds from the stream's start time, the
+  /// clock of timestamp_ms()) with the demuxer's seek (av_seek_frame, AVSEEK_FLAG_BACKWARD; the
+  /// decoder flushed): the next Grab() returns that key frame, whose own timestamp_ms() says
+  /// where it landed. False when the file cannot seek (nothing moved).
+  bool SeekBefore(double time_s);
+  /// From the next packet on, frames no other frame refers to (non-reference B frames) are not
+  /// decoded at all (AVCodecContext::skip_frame AVDISCARD_NONREF; `skip` false: every frame,
+  /// the default). The frames still decoded are decoded exactly as without; Grab() returns the
+  /// next decoded one, so its timestamp_ms() says which.
+  void SkipNonReferenceFrames(bool skip);
   /// Of the frame Grab() last returned: its own decoded size, pixels.
   int frame_width() const;
   int frame_height() const;

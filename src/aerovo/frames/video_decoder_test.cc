@@ -9,6 +9,7 @@
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -381,6 +382,73 @@ TEST(VideoDecoder, BothDecodersAgreeOnAPlainClip) {
   }
   EXPECT_FALSE(cv.Next(b));
   EXPECT_EQ(n, 4);  // 2 5 8 11
+}
+
+// SeekBefore lands on the key frame at or before the time asked (every frame of MJPG; in an
+// MPEG-4 Part 2 stream written with -g 10, at most 10 frames apart: the encoder adds key frames
+// at scene changes) and the frames from there are the ones read in order.
+TEST(VideoDecoder, SeekBeforeAndSkippingNonReferenceFramesKeepTheFramesExact) {
+  if (!io_test::HaveFfmpeg()) GTEST_SKIP() << "ffmpeg not on PATH (writes the MPEG-4 clip)";
+  io_test::TempDir dir("aerovo_dec_seek");
+  {
+    cv::VideoWriter w((dir / "clip.avi").string(), cv::CAP_FFMPEG,
+                      cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 10.0, cv::Size(64, 48));
+    ASSERT_TRUE(w.isOpened());
+    for (int i = 0; i < 40; ++i) {
+      cv::Mat smooth;
+      cv::GaussianBlur(io_test::TextureImage(64, 48, i), smooth, cv::Size(9, 9), 3.0);
+      w.write(smooth);
+    }
+  }
+  ASSERT_TRUE(io_test::RunFfmpeg({"-i", (dir / "clip.avi").string(), "-c:v", "mpeg4", "-q:v",
+                                  "2", "-g", "10", "-bf", "0", (dir / "clip.mp4").string()}));
+  // Skipping the non-reference frames (B frames of a stream written with -bf 2): fewer frames
+  // come out, each the frame of its timestamp exactly as decoded in full.
+  ASSERT_TRUE(io_test::RunFfmpeg({"-i", (dir / "clip.avi").string(), "-c:v", "mpeg4", "-q:v",
+                                  "2", "-g", "10", "-bf", "2", (dir / "clip_b.mp4").string()}));
+  {
+    std::vector<GrayImage> full;
+    VideoDecoder all(dir / "clip_b.mp4", 1);
+    while (all.Grab()) all.Gray(full.emplace_back());
+    ASSERT_EQ(full.size(), 40u);
+    VideoDecoder d(dir / "clip_b.mp4", 1);
+    d.SkipNonReferenceFrames(true);
+    int decoded = 0;
+    while (d.Grab()) {
+      const int i = static_cast<int>(std::lround(d.timestamp_ms() / 100.0));
+      ASSERT_TRUE(i >= 0 && i < 40) << i;
+      GrayImage g;
+      d.Gray(g);
+      EXPECT_TRUE(std::equal(g.data(), g.data() + g.width() * g.height(), full[i].data())) << i;
+      ++decoded;
+    }
+    EXPECT_LT(decoded, 30);  // about a third: I and P frames
+    EXPECT_GE(decoded, 4);   // the key frames at least
+  }
+  for (const auto& [file, key_every] : {std::pair<std::string, int>{"clip.avi", 1}, {"clip.mp4", 10}}) {
+    std::vector<GrayImage> in_order;
+    VideoDecoder all(dir / file, 1);
+    while (all.Grab()) all.Gray(in_order.emplace_back());
+    ASSERT_EQ(in_order.size(), 40u) << file;
+    VideoDecoder d(dir / file, 1);
+    for (int target : {25, 33, 7}) {  // forward, forward, back
+      ASSERT_TRUE(d.SeekBefore(target / 10.0 + 0.01)) << file << " " << target;
+      ASSERT_TRUE(d.Grab());
+      const int landed = static_cast<int>(std::lround(d.timestamp_ms() / 100.0));
+      EXPECT_LE(landed, target) << file;
+      EXPECT_GT(landed, target - key_every) << file;
+      for (int i = landed; i < landed + 3; ++i) {
+        if (i > landed) {
+          ASSERT_TRUE(d.Grab());
+        }
+        GrayImage g;
+        d.Gray(g);
+        ASSERT_EQ(g.width(), in_order[i].width());
+        EXPECT_TRUE(std::equal(g.data(), g.data() + g.width() * g.height(), in_order[i].data()))
+            << file << " frame " << i;
+      }
+    }
+  }
 }
 
 TEST(VideoDecoder, LimitedToFullLumaIsTheRoundedRuleForAllValues) {

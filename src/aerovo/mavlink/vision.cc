@@ -64,7 +64,8 @@ VisionMessages VisionMessageBuilder::Add(const VisionPose& p) {
   const double roll = p.roll_rad.value_or(0.0), pitch = p.pitch_rad.value_or(0.0);
   const bool measured = p.status == VisionPose::Status::kOk ||
                         p.status == VisionPose::Status::kReacquired;
-  if (p.status == VisionPose::Status::kReacquired) ++reset_counter_;  // re-anchored (wraps)
+  // Re-anchored, or the track re-made (wraps).
+  if (p.status == VisionPose::Status::kReacquired || p.reset) ++reset_counter_;
 
   // Variances of this step, added to the accumulated ones.
   double step_var_xy = 0.0, step_var_yaw = 0.0;

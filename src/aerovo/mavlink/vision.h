@@ -36,6 +36,9 @@ struct VisionPose {
   std::optional<double> roll_rad, pitch_rad;  ///< From the autopilot, when known.
   enum class Status { kFirst, kOk, kReacquired, kBridged };
   Status status = Status::kOk;
+  /// The track was made again from this frame on (`aerovo run`'s lens estimate applied:
+  /// pipeline/lens_switch.h): the position may jump, reset_counter + 1 as for kReacquired.
+  bool reset = false;
   int n_inliers = 0;
   /// ODOMETRY quality (0-100, -1 for a bridged frame) when the caller has one: `aerovo run`
   /// gives pipeline/pose_quality.h PoseQuality, the number its pose stream carries too. Unset:

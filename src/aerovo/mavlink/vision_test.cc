@@ -104,6 +104,12 @@ TEST(MavlinkVision, BridgedAndReacquiredFrames) {
   EXPECT_EQ(b.Add(given).odometry.quality, 73);
   given.quality = 250;
   EXPECT_EQ(b.Add(given).odometry.quality, 100);
+  // A measured frame from which the track is made again (aerovo run's lens estimate applied):
+  // a reset as well, kept after.
+  VisionPose remade = Pose(3.0, 0.6, 29.5, 0, VisionPose::Status::kOk, 50);
+  remade.reset = true;
+  EXPECT_EQ(b.Add(remade).odometry.reset_counter, 2);
+  EXPECT_EQ(b.Add(Pose(3.5, 0.6, 34.5, 0, VisionPose::Status::kOk, 50)).odometry.reset_counter, 2);
 }
 
 TEST(MavlinkVision, AttitudeFromTheAutopilotInTheQuaternion) {

@@ -168,12 +168,15 @@ void FrameLoop::Process(FrameState& frame, const std::atomic<bool>* stop, const 
     stages_ = MakeStages(*run_, callbacks_.stages);
     sinks_ = MakeSinks(*run_, callbacks_.sinks);
   }
+  LensSwitch* lens = run_->lens_switch.get();  // the lens estimate (pipeline/lens_switch.h)
+  if (lens != nullptr && !lens->done() && lens->Due(frame)) lens->Apply(*run_, frame);
   in_frame_steps_ = true;
   for (const StagePtr& stage : stages_) {
     errors_name_frame_ = stage->ErrorsNameTheFrame();
     stage->Process(frame, *run_);
   }
   errors_name_frame_ = true;
+  if (lens != nullptr && !lens->done()) lens->Keep(frame);
   for (const SinkPtr& sink : sinks_) sink->Write(frame, *run_);
   in_frame_steps_ = false;
 }
@@ -229,6 +232,13 @@ LoopEnd FrameLoop::Run(FrameSource& source, const std::atomic<bool>* stop, const
       end.failure = FailureOf(RunFailureKind::kOutput, e.what(), frame);
     } catch (const InputError& e) {
       end.failure = FailureOf(RunFailureKind::kInput, e.what(), frame);
+    }
+  }
+  if (run_ && run_->lens_switch) {
+    try {
+      run_->lens_switch->Finish(*run_);
+    } catch (const Cancelled&) {  // stopped while waiting for the estimate
+      end.stopped = true;
     }
   }
   end.frames_without_fix = state_.frames_without_fix;

@@ -77,11 +77,12 @@ struct RunSetup {
 };
 /// The run from its first frame `first`: the camera (ResolveRunCamera), the reduction to the
 /// pixel budget, the height source (waiting for the link's first height with MAVLink), the
-/// odometry, the lens pre-pass and undistortion, the outputs (config.json, ...); fills in the
-/// summary's focal, frame size, height source, lens fields and logs them. InputError (no camera,
+/// odometry, the lens pre-pass started beside it (pipeline/lens_switch.h) and undistortion, the
+/// outputs (config.json, ...); fills in the summary's focal, frame size, height source, lens
+/// fields and logs them. InputError (no camera,
 /// no calibration) or OutputError (config.json cannot be written); the messages name the frame
 /// or file.
-std::unique_ptr<const RunContext> SetUpRun(RunSetup setup, const FrameState& first);
+std::unique_ptr<RunContext> SetUpRun(RunSetup setup, const FrameState& first);
 
 // ---------------------------------------------------------------------------------------------
 // The loop.
@@ -149,7 +150,7 @@ class FrameLoop {
   std::unique_ptr<mavlink::AutopilotLink> link_;  // --mavlink (null: none)
   bool source_live_ = false;
   RunState state_;
-  std::unique_ptr<const RunContext> run_;  // from the first frame
+  std::unique_ptr<RunContext> run_;  // from the first frame (stages and sinks get it const)
   std::vector<StagePtr> stages_;
   std::vector<SinkPtr> sinks_;
   // Where the frame is (for FailureOf): in a stage or sink (not the reading or the set-up), and

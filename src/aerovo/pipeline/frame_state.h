@@ -1,6 +1,7 @@
 // What the per-frame loop of `aerovo run` (pipeline/frame_loop.h) passes around:
 //   - RunContext: the run, set up once from its first frame (camera, frame reduction, lens
-//     undistortion, odometry, outputs) and not changed after; it points to the run's state
+//     undistortion, odometry, outputs) and not changed after, but for the lens self-calibration's
+//     switch frame (pipeline/lens_switch.h: the lens, odometry and undistortion replaced); it points to the run's state
 //     (RunState: geo-referencing, GPS check, totals) and summary, which the frames change;
 //   - FrameState: one frame as a value, filled in by the stages in order (telemetry fix,
 //     height, attitude, pixels, odometry result, GPS check, output record);
@@ -29,6 +30,7 @@
 #include "aerovo/odometry/georef.h"
 #include "aerovo/odometry/gps_check.h"
 #include "aerovo/odometry/visual_odometry.h"
+#include "aerovo/pipeline/lens_switch.h"
 #include "aerovo/pipeline/preprocess.h"
 #include "aerovo/pipeline/run_steps.h"
 #include "aerovo/pipeline/run_types.h"
@@ -83,6 +85,9 @@ struct FrameState {
   // stream sink when the frame is handed to the outputs (capture to then, ms).
   PendingFrame output;
   float latency_ms = 0.0f;
+  /// The lens estimate was applied at this frame (pipeline/lens_switch.h): its position may
+  /// jump from the frames before (frames.csv status "+lens", MAVLink reset_counter + 1).
+  bool lens_switched = false;
 
   /// Back to an empty state, keeping `frame`'s pixel buffer for the next decoding.
   void Clear();
@@ -113,7 +118,7 @@ struct RunState {
 
 /// A run as set up from its first frame: what every frame goes through. The FrameLoop makes it
 /// once (SetUpRun, run_setup.cc) and hands it to the stages and sinks as const: its pointers do
-/// not change, the objects behind `odometry`, `outputs`, `reducer`, `undistorter`, `link`,
+/// not change (but at the lens switch frame, between two frames: `lens_switch`), the objects behind `odometry`, `outputs`, `reducer`, `undistorter`, `link`,
 /// `state` and `summary` do (they carry the run's history).
 struct RunContext {
   // Given before the first frame.
@@ -143,6 +148,10 @@ struct RunContext {
   UndistortionPath undistortion = UndistortionPath::kNone;
   std::unique_ptr<VisualOdometry> odometry;
   std::unique_ptr<RunOutputs> outputs;
+  /// The lens self-calibration beside the odometry (null: skipped); the FrameLoop calls it
+  /// around the stages and it replaces `camera.calibrated`, `odometry`, `undistorter` and
+  /// `undistortion` at its switch frame, the one change of a RunContext after the first frame.
+  std::unique_ptr<LensSwitch> lens_switch;
 };
 
 /// One step of every frame (height, attitude, preprocessing, odometry, ...): reads what the

@@ -1,8 +1,10 @@
 #include "aerovo/pipeline/lens_prepass.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <utility>
 
@@ -12,6 +14,7 @@
 #include "aerovo/camera/lens.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/features/surf.h"
+#include "aerovo/frames/video_decoder.h"
 #include "aerovo/matching/matcher.h"
 #include "aerovo/pipeline/preprocess.h"
 #include "aerovo/pipeline/run_steps.h"
@@ -54,8 +57,24 @@ std::string LensPrepassSkipReason(const RunConfig& config, bool live) {
   return "";
 }
 
+namespace {
+// Frames a decoder may output after the packet that starts them (H.264's largest reorder depth,
+// ITU-T H.264 A.3.1 max_dpb_frames 16): within this many frames of a pair, every frame is
+// decoded, so the pair's own frames are never skipped.
+constexpr int kReorderFrames = 16;
+// The run's stop flag on the pre-pass's thread (LensPrepassTask; null: none).
+thread_local const std::atomic<bool>* t_stop = nullptr;
+// Cancelled once the run's stop flag is set: checked per frame decoded and per pair matched.
+void ThrowIfStopped() {
+  if (t_stop != nullptr && t_stop->load(std::memory_order_relaxed)) {
+    throw Cancelled("the lens pre-pass");
+  }
+}
+}  // namespace
+
 std::string AttitudePrepassSkipReason(const RunConfig& config, bool live, bool autopilot_attitude,
-                                      const std::optional<TelemetrySample>& first_sample) {
+                                      const std::optional<TelemetrySample>& first_sample,
+                                      bool photo_folder) {
   if (config.attitude_estimation == AttitudeEstimationMode::kOff) return "attitude_estimation off";
   if (config.attitude == AttitudeMode::kOff) return "attitude off";
   if (config.camera_mount_pitch_deg != 0.0) return "a camera mount pitch is given";
@@ -65,6 +84,10 @@ std::string AttitudePrepassSkipReason(const RunConfig& config, bool live, bool a
     return "the telemetry gives it";
   }
   if (live) return "a live source cannot be read twice";
+  if (!photo_folder) {
+    return "not a photo folder (a video's first pose does not wait for a tilt estimate; give "
+           "--camera-mount-pitch-deg)";
+  }
   std::error_code ec;
   if (config.input.empty() || !std::filesystem::exists(config.input, ec)) {
     return "the input is not a file or folder that can be read again";
@@ -84,8 +107,95 @@ std::vector<int> LensPrepassPairStarts(int frames, int pairs) {
 
 namespace {
 
+// The frame pairs of a video with the FFmpeg decoder: pair i at video frame starts[i] (increasing)
+// and the one `step` after it. ONE decoder reads forward from pair to pair, and seeks
+// (VideoDecoder::SeekBefore: to the key frame before) only when the next pair is more than
+// kLensPrepassSeekS ahead: the seek costs the frames from that key frame on, up to a key-frame
+// interval, and finds the frames by their timestamps, so a pair may start at the key frame
+// when the container's index lands after the frame asked for. Frames between pairs are never
+// converted (VideoDecoder::Grab alone), and those no other frame refers to not even decoded
+// (B frames: three quarters of the simulator's H.264 frames); the pairs' frames decode exactly
+// as when reading every frame.
+std::vector<std::pair<Frame, Frame>> ReadVideoPairsFfmpeg(const RunConfig& config, int threads,
+                                                          double fps, int step,
+                                                          const std::vector<int>& starts) {
+  VideoDecoder decoder(config.input, threads);
+  const std::string name = std::filesystem::path(config.input).filename().string();
+  const auto gray = [&](int index, Frame& out) {
+    decoder.Gray(out.gray);
+    out.index = index;
+    out.name = fmt::format("{}#{}", name, index);
+  };
+  std::vector<std::pair<Frame, Frame>> pairs;
+  int pos = -1;            // the video frame last grabbed
+  bool by_time = fps > 0;  // frames found by their timestamps (else counted)
+  // Grabs up to frame `to`. More than kReorderFrames before it, non-reference frames are not
+  // decoded (VideoDecoder::SkipNonReferenceFrames) and the frames are found by their timestamps;
+  // a stream without them is counted frame by frame, every frame decoded.
+  const auto advance = [&](int to) {
+    while (pos < to) {
+      ThrowIfStopped();
+      decoder.SkipNonReferenceFrames(by_time && to - pos > kReorderFrames);
+      if (!decoder.Grab()) return false;
+      const double ts = decoder.timestamp_ms();
+      by_time = by_time && std::isfinite(ts);
+      pos = by_time ? std::max(pos + 1, static_cast<int>(std::llround(ts * fps / 1000.0))) : pos + 1;
+    }
+    return true;
+  };
+  for (int a : starts) {
+    if (fps > 0.0 && a - pos > kLensPrepassSeekS * fps && decoder.SeekBefore(a / fps)) {
+      if (!decoder.Grab() || !std::isfinite(decoder.timestamp_ms())) break;
+      pos = static_cast<int>(std::llround(decoder.timestamp_ms() * fps / 1000.0));
+      a = std::max(a, pos);
+    }
+    std::pair<Frame, Frame> p;
+    if (!advance(a)) break;
+    a = pos;  // past `a` when `a` was not decoded
+    gray(pos, p.first);
+    if (!advance(a + step)) break;
+    gray(pos, p.second);
+    pairs.push_back(std::move(p));
+  }
+  return pairs;
+}
+
+// The frame pairs of a video, pair i at video frame starts[i] (increasing) and the one `step`
+// after it: ReadVideoPairsFfmpeg, or with video_decoder opencv the run's own source read forward
+// frame by frame. Either way ONE source: one per pair, each seeking exactly by decoding from
+// the start (VideoFileSource's decode-and-skip), decoded up to 2.5x the clip. The run's checks
+// of the stream (cut files, clocks, repeats) stay with the main source.
+std::vector<std::pair<Frame, Frame>> ReadVideoPairs(const RunConfig& config,
+                                                    const FrameSourceOptions& so, double fps,
+                                                    const std::vector<int>& starts) {
+  if (so.video_decoder != VideoDecoderChoice::kOpenCv) {
+    return ReadVideoPairsFfmpeg(config, so.video_threads, fps, so.step, starts);
+  }
+  FrameSourceOptions from_start = so;
+  from_start.start_time_s = 0.0;
+  from_start.step = 1;
+  from_start.end_time_s = std::numeric_limits<double>::infinity();
+  VideoFileSource source(config.input, from_start);
+  std::vector<std::pair<Frame, Frame>> pairs(starts.size());
+  std::vector<int> got(starts.size(), 0);
+  const int last = starts.empty() ? -1 : starts.back() + so.step;
+  Frame f;
+  for (int index = 0; index <= last && source.Next(f); ++index) {
+    ThrowIfStopped();
+    for (std::size_t i = 0; i < starts.size(); ++i) {
+      if (index == starts[i]) pairs[i].first = f, ++got[i];
+      if (index == starts[i] + so.step) pairs[i].second = f, ++got[i];
+    }
+  }
+  std::vector<std::pair<Frame, Frame>> out;
+  for (std::size_t i = 0; i < starts.size(); ++i) {
+    if (got[i] == 2) out.push_back(std::move(pairs[i]));
+  }
+  return out;
+}
+
 // The pairs of frames as the run would deliver them (see the header): photo folders by random
-// access, videos by one seeking source per pair. `read_ms` receives the time spent.
+// access, videos read forward once (ReadVideoPairs). `read_ms` receives the time spent.
 std::vector<std::pair<Frame, Frame>> ReadPairs(const RunConfig& config, double* read_ms,
                                                std::string* why) {
   const Stopwatch sw;
@@ -97,6 +207,7 @@ std::vector<std::pair<Frame, Frame>> ReadPairs(const RunConfig& config, double* 
     while (first < folder->paths().size() && folder->TimeOf(first) < so.start_time_s) ++first;
     const int frames = folder->ExpectedFrameCount();
     for (int k : LensPrepassPairStarts(frames, kLensPrepassPairs)) {
+      ThrowIfStopped();
       std::pair<Frame, Frame> p;
       const std::size_t a = first + static_cast<std::size_t>(k) * so.step;
       folder->Read(a, p.first);
@@ -107,18 +218,11 @@ std::vector<std::pair<Frame, Frame>> ReadPairs(const RunConfig& config, double* 
     const int frames = video->ExpectedFrameCount();
     if (frames < 0) *why = "the video's frame count or rate is unknown";
     const double fps = video->fps();
-    const int first =
-        fps > 0.0 ? static_cast<int>(std::ceil(so.start_time_s * fps - 1e-6)) : 0;
+    const int first = fps > 0.0 ? static_cast<int>(std::ceil(so.start_time_s * fps - 1e-6)) : 0;
     probe.reset();
-    for (int k : LensPrepassPairStarts(frames, kLensPrepassPairs)) {
-      FrameSourceOptions at = so;
-      // Video frame n is delivered by a source starting at (n - 0.25) / fps (the source rounds
-      // the start up to a frame).
-      at.start_time_s = std::max(0.0, (first + k * so.step - 0.25) / fps);
-      VideoFileSource source(config.input, at);
-      std::pair<Frame, Frame> p;
-      if (source.Next(p.first) && source.Next(p.second)) pairs.push_back(std::move(p));
-    }
+    std::vector<int> starts;  // as video frames
+    for (int k : LensPrepassPairStarts(frames, kLensPrepassPairs)) starts.push_back(first + k * so.step);
+    pairs = ReadVideoPairs(config, so, fps, starts);
   } else {
     *why = "the input is not a photo folder or a video file";
   }
@@ -279,6 +383,8 @@ bool ReadAndMatch(const RunConfig& config, int w, int h, const PrepassRequest& r
   };
   try {
     for (const auto& [prev, curr] : frames) {
+      ThrowIfStopped();
+      out->pair_frames.push_back(prev.index);
       const FeatureSet a = features(prev);
       const FeatureSet b = features(curr);
       pairs->push_back(LensPairOf(a, b, matcher.Match(a, b)));
@@ -313,10 +419,40 @@ LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_p
   return out;
 }
 
+LensPrepassTask::LensPrepassTask(const RunConfig& config, int w, int h, double focal_px,
+                                 const std::atomic<bool>* stop)
+    : result_(std::async(std::launch::async, [&config, w, h, focal_px, stop] {
+        t_stop = stop;
+        try {
+          return RunLensPrepass(config, w, h, focal_px);
+        } catch (const Cancelled& e) {
+          LensPrepass out;
+          out.status = LensPrepassStatus::kFailed;
+          out.why = std::string("stopped: ") + e.what();
+          return out;
+        }
+      })) {}
+
+LensPrepassTask::~LensPrepassTask() {
+  if (result_.valid()) result_.wait();
+}
+
+LensPrepass LensPrepassTask::Get(const std::atomic<bool>* stop, double* waited_ms) {
+  if (taken_) throw InvalidArgument("LensPrepassTask::Get: called twice");
+  const Stopwatch sw;
+  while (result_.wait_for(std::chrono::milliseconds(20)) != std::future_status::ready) {
+    if (stop != nullptr && stop->load()) throw Cancelled("waiting for the lens estimate");
+  }
+  if (waited_ms != nullptr) *waited_ms = sw.elapsed_ms();
+  taken_ = true;  // not before: a Get() cancelled while waiting can be called again
+  return result_.get();
+}
+
 nlohmann::json ToJson(const LensPrepass& p) {
   nlohmann::json j{{"status", ToString(p.status)}, {"applied", p.applied}, {"why", p.why}};
   if (p.status == LensPrepassStatus::kSkipped) return j;
   j["pairs_read"] = p.pairs_read;
+  j["pair_frames"] = p.pair_frames;
   j["frame_width_px"] = p.width_px;
   j["frame_height_px"] = p.height_px;
   j["time_ms"] = {{"read", p.read_ms},

@@ -1,21 +1,29 @@
 // The lens self-calibration pre-pass of `aerovo run` (wide lenses without a
-// calibration file; RunConfig::lens_estimation, docs/lenses.md "Self-calibration"). Before the
-// first frame is processed, a SECOND frame source on the same input (a photo folder: random
-// access to its photos; a video file: one source per pair, seeking to it) reads a few pairs of
+// calibration file; RunConfig::lens_estimation, docs/lenses.md "Self-calibration"). On its own
+// thread (LensPrepassTask), started at the first frame and running beside the odometry, a SECOND
+// frame source on the same input (a photo folder: random access to its photos; a video file:
+// one decoder reading forward from pair to pair, seeking only to a pair more than
+// kLensPrepassSeekS ahead) reads a few pairs of
 // consecutive frames (consecutive as the run delivers them: `step` apart) spread evenly over the
 // flight's window; each frame is reduced to at most kLensPrepassMegapixels, SURF points are
 // detected and matched (the run's surf and match options), and correspondence/lens_estimation.h
 // EstimateRadialDistortion decides whether a one-parameter radial lens (OpenCV fisheye k1 or
-// Brown k1) is significant. The main stream is not touched. A significant estimate is the run's
-// lens as a calibration file would be (run_steps.h RunCamera::calibrated, so undistort
-// auto|points|frames applies) and is written as lens_estimate.yaml (OpenCV YAML).
+// Brown k1) is significant. The main stream is not touched. A significant estimate becomes the
+// run's lens at a fixed frame (pipeline/lens_switch.h) as a calibration file would be
+// (run_steps.h RunCamera::calibrated, so undistort auto|points|frames applies) and is written as
+// lens_estimate.yaml (OpenCV YAML).
 //
 // The same pairs give the camera's tilt (RunConfig::attitude_estimation, odometry/
 // attitude_estimation.h EstimateCameraAttitude, docs/attitude.md "Estimated from the flight"):
 // their points undistorted with the run's lens (given, or the significant estimate), one roll
-// and pitch for the flight; a significant estimate is every frame's camera attitude.
+// and pitch for the flight; a significant estimate is every frame's camera attitude. The attitude
+// is estimated for photo folders only (AttitudePrepassSkipReason), and then the pre-pass runs
+// before the first frame is processed (RunLensPrepass with PrepassRequest::attitude), lens and
+// attitude applied from the first frame.
 #pragma once
 
+#include <atomic>
+#include <future>
 #include <optional>
 #include <string>
 #include <vector>
@@ -36,6 +44,12 @@ namespace aerovo::run_steps {
 /// Frame pairs the pre-pass reads (the estimator needs at least LensEstimationOptions::min_pairs
 /// = 3; 5 leaves two to lose to water or blur). Our choice.
 inline constexpr int kLensPrepassPairs = 5;
+/// A video's next pair further ahead than this, seconds of stream: the pre-pass seeks to the key
+/// frame before it instead of decoding the frames between (lens_prepass.cc ReadVideoPairsFfmpeg).
+/// Below it, reading forward decodes no more frames than a seek would with key frames up to this
+/// far apart. Our choice (drone cameras put key frames 0.5-2 s apart; a 12 s clip's pairs, 2.4 s
+/// apart, are read forward).
+inline constexpr double kLensPrepassSeekS = 5.0;
 /// Pixel budget of the pre-pass's frames, megapixels (FrameReducer, area reduction): the
 /// estimate's coefficients are on normalised coordinates, so the reduction only costs precision
 /// (RecoversAFisheyeK1: 960x720 gives k within 0.002). Our choice: keeps the pre-pass's SURF and
@@ -62,9 +76,12 @@ std::string LensPrepassSkipReason(const RunConfig& config, bool live);
 /// Why the pre-pass does not estimate the camera's attitude ("" = it does): attitude_estimation
 /// or attitude off, a camera_mount_pitch_deg given, an autopilot link that gives ATTITUDE
 /// (`autopilot_attitude`), the first frame's telemetry `first_sample` with gimbal or aircraft
-/// angles, a live source (`live`), or an input that cannot be read again.
+/// angles, a live source (`live`), an input that is not a photo folder (`photo_folder` false: a
+/// video's first pose does not wait for the pre-pass, pipeline/lens_switch.h, and the tilt must
+/// hold from the first frame), or an input that cannot be read again.
 std::string AttitudePrepassSkipReason(const RunConfig& config, bool live, bool autopilot_attitude,
-                                      const std::optional<TelemetrySample>& first_sample);
+                                      const std::optional<TelemetrySample>& first_sample,
+                                      bool photo_folder = true);
 
 /// What the pre-pass is asked to estimate.
 struct PrepassRequest {
@@ -104,6 +121,7 @@ struct LensPrepass {
   /// principal point, the family's one coefficient); set when applied.
   std::optional<CameraIntrinsics> lens;
   int pairs_read = 0;                ///< Pairs read and matched.
+  std::vector<int> pair_frames;      ///< Frame::index of each pair's first frame, as read.
   int width_px = 0, height_px = 0;   ///< The pre-pass's (reduced) frame size.
   double read_ms = 0.0;    ///< Opening the second source and decoding the frames.
   double match_ms = 0.0;   ///< Reduction, SURF and matching.
@@ -120,10 +138,34 @@ struct LensPrepass {
 LensPrepass RunLensPrepass(const RunConfig& config, int width_px, int height_px, double focal_px,
                            const PrepassRequest& request = {});
 
+/// RunLensPrepass on its own thread, started by the constructor: the first frames do not wait
+/// for it. Get() waits for the result (once). `stop` (the run's stop flag; may be null) ends
+/// the reading and matching early (checked per frame and pair; status kFailed, "stopped"). The
+/// destructor waits for the thread. `config` and `stop` must outlive the task.
+class LensPrepassTask {
+ public:
+  LensPrepassTask(const RunConfig& config, int width_px, int height_px, double focal_px,
+                  const std::atomic<bool>* stop = nullptr);
+  ~LensPrepassTask();
+  LensPrepassTask(const LensPrepassTask&) = delete;
+  LensPrepassTask& operator=(const LensPrepassTask&) = delete;
+  /// The pre-pass's result, waiting for it (its errors rethrown: InvalidArgument); Cancelled
+  /// when `stop` (may be null) is set while waiting (it may be called again then).
+  /// `waited_ms` (may be null) receives the time waited. Once it returned or rethrew, a second
+  /// call is InvalidArgument.
+  LensPrepass Get(const std::atomic<bool>* stop, double* waited_ms = nullptr);
+  /// Get() was called.
+  bool taken() const { return taken_; }
+
+ private:
+  std::future<LensPrepass> result_;
+  bool taken_ = false;
+};
+
 /// summary.json's "lens_estimate": status, applied, why, and with an estimate family ("fisheye"
 /// or "pinhole": the OpenCV model of k), k, sigma_k, cost_drop, cost, cost_pinhole (px^2),
 /// median residuals (px), pairs_used, pairs_improved, points_used, pair_k; pairs_read,
-/// frame size, stage times (ms), file (when applied).
+/// pair_frames, frame size, stage times (ms), file (when applied).
 nlohmann::json ToJson(const LensPrepass& prepass);
 
 /// summary.json's "attitude_estimate": status, applied, why, and with an estimate roll_deg,

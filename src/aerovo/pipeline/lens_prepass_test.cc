@@ -1,11 +1,17 @@
 #include "aerovo/pipeline/lens_prepass.h"
 
+#include <atomic>
 #include <filesystem>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
 #include "aerovo/core/error.h"
+#include "aerovo/frames/image_test_util.h"
+#include "aerovo/telemetry/io_test_util.h"
 
 namespace aerovo::run_steps {
 namespace {
@@ -66,6 +72,9 @@ TEST(LensPrepass, EstimatesTheAttitudeOnlyWhenNothingGivesIt) {
   RunConfig no_attitude = c;
   no_attitude.attitude = AttitudeMode::kOff;
   EXPECT_EQ(AttitudePrepassSkipReason(no_attitude, false, false, plain), "attitude off");
+  EXPECT_EQ(AttitudePrepassSkipReason(c, false, false, plain, /*photo_folder=*/false),
+            "not a photo folder (a video's first pose does not wait for a tilt estimate; give "
+            "--camera-mount-pitch-deg)");
   RunConfig missing = c;
   missing.input = "/nonexistent/aerovo/photos";
   EXPECT_EQ(AttitudePrepassSkipReason(missing, false, false, plain),
@@ -111,6 +120,56 @@ TEST(LensPrepass, BadFrameSizeIsAnError) {
   c.input = std::filesystem::temp_directory_path().string();
   EXPECT_THROW(RunLensPrepass(c, 0, 480, 300.0), InvalidArgument);
   EXPECT_THROW(RunLensPrepass(c, 640, 480, 0.0), InvalidArgument);
+}
+
+// The task: the pre-pass's errors come out of Get(), which is called once.
+TEST(LensPrepass, TaskRethrowsItsErrorAndIsTakenOnce) {
+  RunConfig c;
+  c.input = std::filesystem::temp_directory_path().string();
+  LensPrepassTask task(c, 0, 480, 300.0);
+  EXPECT_THROW(task.Get(nullptr), InvalidArgument);
+  EXPECT_TRUE(task.taken());
+  EXPECT_THROW(task.Get(nullptr), InvalidArgument);
+}
+
+// A 60 s video (MJPG: every frame a key frame) whose pairs are 12 s apart, more than
+// kLensPrepassSeekS: the FFmpeg path seeks to each pair, the OpenCV path reads every frame;
+// both read the same 5 pairs (a texture panned 3 px per frame, an ideal pinhole: not
+// significant).
+TEST(LensPrepass, VideoPairsSeekedAreThePairsReadForward) {
+  io_test::TempDir dir("aerovo_prepass_seek");
+  const std::filesystem::path video = dir / "pan.avi";
+  constexpr int kW = 320, kH = 240, kFrames = 120;
+  {
+    cv::Mat texture;
+    cv::GaussianBlur(io_test::TextureImage(kW + 3 * kFrames, kH, 5), texture, cv::Size(0, 0), 1.5);
+    cv::VideoWriter w(video.string(), cv::CAP_FFMPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'),
+                      2.0, cv::Size(kW, kH));
+    ASSERT_TRUE(w.isOpened());
+    for (int i = 0; i < kFrames; ++i) w.write(texture(cv::Rect(3 * i, 0, kW, kH)).clone());
+  }
+  ASSERT_GT(60.0 / kLensPrepassPairs, kLensPrepassSeekS);
+  RunConfig c;
+  c.input = video.string();
+  c.video_decoder = VideoDecoderChoice::kFfmpeg;
+  const LensPrepass seeked = RunLensPrepass(c, kW, kH, 300.0);
+  c.video_decoder = VideoDecoderChoice::kOpenCv;
+  const LensPrepass forward = RunLensPrepass(c, kW, kH, 300.0);
+  EXPECT_EQ(seeked.pairs_read, kLensPrepassPairs) << seeked.why;
+  EXPECT_EQ(forward.pairs_read, kLensPrepassPairs) << forward.why;
+  ASSERT_TRUE(seeked.estimate && forward.estimate) << seeked.why;
+  EXPECT_EQ(seeked.pair_frames, (std::vector<int>{12, 36, 60, 84, 108}));
+  EXPECT_EQ(forward.pair_frames, seeked.pair_frames);
+  EXPECT_EQ(seeked.estimate->pairs_used, forward.estimate->pairs_used);
+  EXPECT_FALSE(seeked.applied) << seeked.why;
+  // On its thread with the run's stop flag set: it stops before reading a frame.
+  const std::atomic<bool> stop{true};
+  c.video_decoder = VideoDecoderChoice::kFfmpeg;
+  LensPrepassTask task(c, kW, kH, 300.0, &stop);
+  const LensPrepass stopped = task.Get(nullptr);
+  EXPECT_EQ(stopped.status, LensPrepassStatus::kFailed);
+  EXPECT_EQ(stopped.why, "stopped: cancelled in the lens pre-pass");
+  EXPECT_EQ(stopped.pairs_read, 0);
 }
 
 }  // namespace

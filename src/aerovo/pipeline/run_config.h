@@ -82,7 +82,7 @@ struct options::EnumTraits<LensEstimationMode>
 /// Whether a run estimates the camera's tilt from the flight itself (RunConfig::
 /// attitude_estimation; docs/attitude.md "Estimated from the flight").
 enum class AttitudeEstimationMode {
-  kAuto,  ///< When nothing gives the camera's attitude and the input can be re-read.
+  kAuto,  ///< A photo folder when nothing gives the camera's attitude.
   kOff,   ///< Never.
 };
 inline const char* ToString(AttitudeEstimationMode m) {
@@ -258,7 +258,7 @@ struct RunConfig {
   /// from the flight"): kAuto (default) estimates one roll and pitch for the whole flight from
   /// the frame pairs of the self-calibration pre-pass (pipeline/lens_prepass.h) when attitude is
   /// auto, no camera_mount_pitch_deg is given, the first frame's telemetry has no gimbal or
-  /// aircraft angles, no autopilot link gives ATTITUDE and the input can be re-read; a
+  /// aircraft angles, no autopilot link gives ATTITUDE and the input is a photo folder; a
   /// significant estimate is every frame's camera attitude (source "estimated"). kOff: never
   /// (the `--paper` preset).
   AttitudeEstimationMode attitude_estimation = AttitudeEstimationMode::kAuto;
@@ -351,7 +351,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.telemetry_auto_offset, "telemetry_auto_offset", "Estimate the telemetry-video offset from the motion and re-run with it", Any().Switch());
   v.Field(c.attitude, "attitude", "Camera attitude correction: auto (the telemetry's gimbal or aircraft pitch/roll when present) or off (nadir)", Any());
   v.Field(c.camera_mount_pitch_deg, "camera_mount_pitch_deg", "Camera fixed to the airframe: its tilt forward of nadir with the aircraft level, deg", Interval(-45, 45));
-  v.Field(c.attitude_estimation, "attitude_estimation", "Camera tilt self-calibration: auto (when nothing gives the camera's attitude, estimate one roll and pitch from a few frame pairs of the flight and apply it when significant) or off", Any());
+  v.Field(c.attitude_estimation, "attitude_estimation", "Camera tilt self-calibration: auto (a photo folder with nothing giving the camera's attitude: estimate one roll and pitch from a few frame pairs of the flight and apply it when significant) or off", Any());
   v.Field(c.attitude_min_deg, "attitude_min_deg", "A camera attitude closer to nadir than this is taken as nadir, deg", Interval(0, 45));
   v.Field(c.attitude_warn_deg, "attitude_warn_deg", "Warn when the telemetry's camera is this far from nadir and attitude is off, deg", Interval(0, 90));
   v.Field(c.ground_elevation_m, "ground_elevation_m", "Ground altitude above sea level, m, for telemetry with only an altitude above sea level (nan = unknown)", Any());

@@ -7,6 +7,7 @@
 #include "aerovo/camera_files/calibration.h"
 #include "aerovo/pipeline/frame_loop.h"
 #include "aerovo/pipeline/lens_prepass.h"
+#include "aerovo/pipeline/lens_switch.h"
 
 namespace aerovo::run_steps {
 namespace {
@@ -72,46 +73,99 @@ void ApplyAttitudeEstimate(const AttitudePrepass& a, RunContext& run) {
   }
 }
 
-// Lens self-calibration (RunConfig::lens_estimation): a significant estimate is the camera's
-// lens as a calibration file would be, and is written to lens_estimate.yaml. The same pairs give
-// the camera's tilt (RunConfig::attitude_estimation, ApplyAttitudeEstimate).
-void RunPrepass(const RunSetup& setup, const FrameState& first, RunContext& run) {
+// The pre-pass before the first frame is processed, when the camera's tilt is estimated
+// (RunConfig::attitude_estimation; `lens_skip`: why the lens is not, "" = it is too): both
+// applied from the first frame; a significant lens estimate is written to lens_estimate.yaml.
+void RunPrepassNow(const std::string& lens_skip, RunContext& run) {
   const RunConfig& config = *run.config;
-  const std::string yaml = (run.out_dir / kLensEstimateYaml).string();
-  const std::string lens_skip = LensPrepassSkipReason(config, setup.source_live);
-  const std::string attitude_skip = AttitudePrepassSkipReason(
-      config, setup.source_live, run.link_reads_autopilot, first.sample);
   PrepassRequest request;
   request.lens = lens_skip.empty();
-  request.attitude = attitude_skip.empty();
+  request.attitude = true;
   request.calibrated = run.camera.calibrated;
-  LensPrepass prepass;
-  if (request.lens || request.attitude) {
-    prepass = RunLensPrepass(config, run.width_px, run.height_px, run.camera.focal_px, request);
-    if (prepass.applied) {
-      run.camera.calibrated = *prepass.lens;
-      WriteCalibration(yaml, *prepass.lens, CalibrationFormat::kOpenCv);
-    }
+  LensPrepass prepass =
+      RunLensPrepass(config, run.width_px, run.height_px, run.camera.focal_px, request);
+  if (prepass.applied) {
+    run.camera.calibrated = *prepass.lens;
+    WriteCalibration((run.out_dir / kLensEstimateYaml).string(), *prepass.lens,
+                     CalibrationFormat::kOpenCv);
   }
   if (!request.lens) prepass.why = lens_skip;
-  if (!request.attitude) prepass.attitude.why = attitude_skip;
   ApplyAttitudeEstimate(prepass.attitude, run);
-  run.summary->lens_estimate = ToJson(prepass);
-  const bool skipped = prepass.status == LensPrepassStatus::kSkipped;
-  if (!run.log ||
-      (skipped && !(config.lens_estimation == LensEstimationMode::kAuto && setup.source_live))) {
-    return;
+  nlohmann::json lens = ToJson(prepass);
+  if (request.lens) {
+    lens["switch_frame"] = 0;  // applied from the first frame
+    lens["wait_ms"] = prepass.total_ms;
+    lens["frames_replayed"] = 0;
   }
+  run.summary->lens_estimate = lens;
+  if (!request.lens || !run.log) return;
   if (prepass.applied) {
     *run.log << fmt::format(
-        "lens: estimated from {} frame pairs: {} k1 = {:.4f} +- {:.4f} (cost drop {:.0f} %), "
-        "applied; written to {} ({:.0f} ms)\n",
+        "lens: estimated from {} frame pairs before the first frame: {} k1 = {:.4f} +- {:.4f} "
+        "(cost drop {:.0f} %), applied; written to {} ({:.0f} ms)\n",
         prepass.estimate->pairs_used, ToString(prepass.estimate->family), prepass.estimate->k,
-        prepass.estimate->sigma_k, 100.0 * prepass.estimate->cost_drop, yaml, prepass.total_ms);
+        prepass.estimate->sigma_k, 100.0 * prepass.estimate->cost_drop,
+        (run.out_dir / kLensEstimateYaml).string(), prepass.total_ms);
   } else {
-    *run.log << fmt::format("lens: self-calibration {}: {}{}\n", ToString(prepass.status),
-                            prepass.why,
-                            skipped ? "" : fmt::format(" ({:.0f} ms)", prepass.total_ms));
+    *run.log << fmt::format("lens: self-calibration {}: {} ({:.0f} ms)\n",
+                            ToString(prepass.status), prepass.why, prepass.total_ms);
+  }
+}
+
+// Lens self-calibration (RunConfig::lens_estimation): the pre-pass started on its own thread,
+// its estimate applied at the switch frame (pipeline/lens_switch.h); when the camera's tilt is
+// estimated too (AttitudePrepassSkipReason ""), before the first frame (RunPrepassNow).
+void StartPrepass(const RunSetup& setup, const FrameState& first, RunContext& run) {
+  const RunConfig& config = *run.config;
+  LensPrepass skipped;
+  skipped.why = LensPrepassSkipReason(config, setup.source_live);
+  AttitudePrepass attitude;
+  attitude.why = AttitudePrepassSkipReason(config, setup.source_live, run.link_reads_autopilot,
+                                           first.sample, setup.folder != nullptr);
+  if (attitude.why.empty()) {
+    RunPrepassNow(skipped.why, run);
+    return;
+  }
+  ApplyAttitudeEstimate(attitude, run);
+  if (skipped.why.empty()) {
+    run.lens_switch = std::make_unique<LensSwitch>(
+        std::make_unique<LensPrepassTask>(config, run.width_px, run.height_px,
+                                          run.camera.focal_px, run.stop),
+        first.frame.time_s);
+    run.summary->lens_estimate = {{"status", "pending"}, {"applied", false}};
+    if (run.log) {
+      *run.log << fmt::format(
+          "lens: self-calibration started beside the odometry; its estimate is taken at the "
+          "first frame {:.1f} s into the stream (or the {}th)\n",
+          kLensSwitchAfterS, kLensSwitchMaxFrames + 1);
+    }
+    return;
+  }
+  run.summary->lens_estimate = ToJson(skipped);
+  if (config.lens_estimation == LensEstimationMode::kAuto && setup.source_live) {
+    LogLensPrepass(run, skipped, -1, 0.0);
+  }
+}
+
+}  // namespace
+
+void LogLensPrepass(const RunContext& run, const LensPrepass& prepass, int switch_frame,
+                    double waited_ms) {
+  if (!run.log) return;
+  const std::string waited =
+      waited_ms >= 1.0 ? fmt::format(", the run waited {:.0f} ms for it", waited_ms) : "";
+  if (prepass.applied && switch_frame >= 0) {
+    *run.log << fmt::format(
+        "lens: estimated from {} frame pairs beside the odometry: {} k1 = {:.4f} +- {:.4f} "
+        "(cost drop {:.0f} %), applied from frame {} on (reset); written to {} ({:.0f} ms{})\n",
+        prepass.estimate->pairs_used, ToString(prepass.estimate->family), prepass.estimate->k,
+        prepass.estimate->sigma_k, 100.0 * prepass.estimate->cost_drop, switch_frame,
+        (run.out_dir / kLensEstimateYaml).string(), prepass.total_ms, waited);
+  } else {
+    const bool skipped = prepass.status == LensPrepassStatus::kSkipped;
+    *run.log << fmt::format(
+        "lens: self-calibration {}: {}{}\n", ToString(prepass.status), prepass.why,
+        skipped ? "" : fmt::format(" ({:.0f} ms{})", prepass.total_ms, waited));
   }
 }
 
@@ -134,6 +188,8 @@ void SetUpUndistortion(RunContext& run) {
   }
   run.summary->undistortion = ToString(run.undistortion);
 }
+
+namespace {
 
 void LogSetUp(const RunContext& run) {
   if (!run.log) return;
@@ -163,14 +219,14 @@ void LogSetUp(const RunContext& run) {
 
 }  // namespace
 
-std::unique_ptr<const RunContext> SetUpRun(RunSetup setup, const FrameState& first) {
+std::unique_ptr<RunContext> SetUpRun(RunSetup setup, const FrameState& first) {
   auto run = std::make_unique<RunContext>(std::move(setup.base));
   SetUpFrames(setup, first, *run);
   SetUpHeight(*run);
   run->odometry = std::make_unique<VisualOdometry>(run->vo_options);
   // The offline optimisation's keyframes and step factors (sink_flight_graph.cc).
   run->odometry->SetShareFeatures(run->config->backend.enable);
-  RunPrepass(setup, first, *run);
+  StartPrepass(setup, first, *run);
   SetUpUndistortion(*run);
   run->outputs = std::make_unique<RunOutputs>(
       run->out_dir, *run->config, run->camera, run->summary->height_source, run->width_px,

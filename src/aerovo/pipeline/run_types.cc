@@ -87,6 +87,8 @@ const char* ToString(LensPrepassStatus s) {
       return "skipped";
     case LensPrepassStatus::kFailed:
       return "failed";
+    case LensPrepassStatus::kNotApplied:
+      return "not applied";
   }
   return "?";
 }

@@ -50,8 +50,16 @@ const char* ToString(AttitudeSource s);
 /// "autopilot's ATTITUDE", "camera mount", "estimate from the flight".
 const char* Describe(AttitudeSource s);
 
-/// What the lens self-calibration pre-pass did (pipeline/lens_prepass.h LensPrepass::status).
-enum class LensPrepassStatus { kApplied, kNotSignificant, kNoEstimate, kSkipped, kFailed };
+/// What the lens self-calibration pre-pass did (pipeline/lens_prepass.h LensPrepass::status);
+/// kNotApplied: significant, but the run ended before its switch frame (pipeline/lens_switch.h).
+enum class LensPrepassStatus {
+  kApplied,
+  kNotSignificant,
+  kNoEstimate,
+  kSkipped,
+  kFailed,
+  kNotApplied
+};
 const char* ToString(LensPrepassStatus s);
 
 /// How the run undoes the lens distortion (RunSummary::undistortion): not at all, whole frames
@@ -131,7 +139,8 @@ struct options::EnumTraits<run_steps::LensPrepassStatus>
     : options::EnumList<
           run_steps::LensPrepassStatus, run_steps::ToString, run_steps::LensPrepassStatus::kApplied,
           run_steps::LensPrepassStatus::kNotSignificant, run_steps::LensPrepassStatus::kNoEstimate,
-          run_steps::LensPrepassStatus::kSkipped, run_steps::LensPrepassStatus::kFailed> {};
+          run_steps::LensPrepassStatus::kSkipped, run_steps::LensPrepassStatus::kFailed,
+          run_steps::LensPrepassStatus::kNotApplied> {};
 template <>
 struct options::EnumTraits<run_steps::UndistortionPath>
     : options::EnumList<run_steps::UndistortionPath, run_steps::ToString,

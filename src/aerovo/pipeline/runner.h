@@ -104,8 +104,10 @@ struct RunSummary {
   std::string undistortion = "none";
   double lens_scale_change = 0.0;
   /// The lens self-calibration pre-pass (RunConfig::lens_estimation; pipeline/lens_prepass.h
-  /// ToJson): status ("applied", "not significant", "no estimate", "skipped", "failed"),
-  /// applied, why, and with an estimate its family, k, sigma_k, cost_drop, pairs and times.
+  /// ToJson): status ("applied", "not significant", "no estimate", "skipped", "failed", "not
+  /// applied"), applied, why, and with an estimate its family, k, sigma_k, cost_drop, pairs and
+  /// times; where it was taken (pipeline/lens_switch.h): switch_frame, wait_ms,
+  /// frames_replayed.
   nlohmann::json lens_estimate;
   /// The camera tilt self-calibration (pipeline/lens_prepass.h ToJson(AttitudePrepass)).
   nlohmann::json attitude_estimate;

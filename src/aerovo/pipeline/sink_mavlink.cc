@@ -48,6 +48,7 @@ class MavlinkSink : public FrameSink {
       p.pitch_rad = f.autopilot_attitude->pitch_rad;
     }
     p.status = StatusOf(r.status);
+    p.reset = f.lens_switched;  // the track re-made under the estimated lens (lens_switch.h)
     p.n_inliers = r.n_inliers;
     p.quality = PoseQuality(r);  // the pose stream's number
     p.gsd_m_per_px = r.gsd_m_per_px;

@@ -19,6 +19,7 @@ class RecordStage : public FrameStage {
     f.output = PendingFrameOf(f.frame, f.result, f.gps, f.height_m);
     FrameRecord& rec = f.output.record;
     if (f.fix == FixCheck::kRejected) rec.gps_flag = "rejected:" + f.fix_rejection;
+    if (f.lens_switched) rec.status += "+lens";  // the lens estimate applied (lens_switch.h)
     rec.height_m = f.height_m;
     rec.height_source = ToString(f.height_source);
     if (f.autopilot_attitude) {
