@@ -485,6 +485,10 @@ nlohmann::json ToJson(const AttitudePrepass& a) {
   nlohmann::json j{{"status", ToString(a.status)}, {"applied", a.applied}, {"why", a.why}};
   if (!a.estimate) return j;
   const AttitudeEstimate& e = *a.estimate;
+  j["pairs_used"] = e.pairs_used;
+  j["points_used"] = e.points_used;
+  j["time_ms"] = a.estimate_ms;
+  if (!e.valid) return j;  // no attitude to report (too few pairs with motion)
   j["roll_deg"] = e.attitude.roll_deg;
   j["pitch_deg"] = e.attitude.pitch_deg;
   j["tilt_deg"] = e.tilt_deg;
@@ -495,9 +499,7 @@ nlohmann::json ToJson(const AttitudePrepass& a) {
   j["cost_nadir"] = e.cost_nadir;
   j["median_residual_px"] = e.median_residual_px;
   j["median_residual_nadir_px"] = e.median_residual_nadir_px;
-  j["pairs_used"] = e.pairs_used;
   j["pairs_improved"] = e.pairs_improved;
-  j["points_used"] = e.points_used;
   std::vector<double> rolls, pitches;
   for (const CameraAttitude& p : e.pair_attitude) {
     rolls.push_back(p.roll_deg);
@@ -505,7 +507,6 @@ nlohmann::json ToJson(const AttitudePrepass& a) {
   }
   j["pair_roll_deg"] = rolls;
   j["pair_pitch_deg"] = pitches;
-  j["time_ms"] = a.estimate_ms;
   return j;
 }
 

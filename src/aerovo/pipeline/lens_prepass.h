@@ -168,10 +168,10 @@ class LensPrepassTask {
 /// pair_frames, frame size, stage times (ms), file (when applied).
 nlohmann::json ToJson(const LensPrepass& prepass);
 
-/// summary.json's "attitude_estimate": status, applied, why, and with an estimate roll_deg,
-/// pitch_deg, tilt_deg, sigma_roll_deg, sigma_pitch_deg, cost_drop, cost, cost_nadir, median
-/// residuals (px), pairs_used, pairs_improved, points_used, pair_roll_deg, pair_pitch_deg,
-/// time_ms.
+/// summary.json's "attitude_estimate": status, applied, why; when the estimator ran pairs_used,
+/// points_used, time_ms; with a valid estimate also roll_deg, pitch_deg, tilt_deg,
+/// sigma_roll_deg, sigma_pitch_deg, cost_drop, cost, cost_nadir, median residuals (px),
+/// pairs_improved, pair_roll_deg, pair_pitch_deg.
 nlohmann::json ToJson(const AttitudePrepass& attitude);
 
 }  // namespace aerovo::run_steps

@@ -91,6 +91,14 @@ TEST(LensPrepass, AttitudeSummaryOfAnEstimate) {
   EXPECT_EQ(j["status"], "skipped");
   EXPECT_FALSE(j.contains("pitch_deg"));
   AttitudeEstimate e;
+  e.pairs_used = 1;
+  a.status = LensPrepassStatus::kNoEstimate;
+  a.estimate = e;  // not valid: no attitude in the summary
+  j = ToJson(a);
+  EXPECT_EQ(j["status"], "no estimate");
+  EXPECT_EQ(j["pairs_used"], 1);
+  EXPECT_FALSE(j.contains("pitch_deg")) << j.dump();
+  EXPECT_FALSE(j.contains("roll_deg")) << j.dump();
   e.valid = e.significant = true;
   e.attitude = {-0.25, 15.0};
   e.tilt_deg = 15.002;
