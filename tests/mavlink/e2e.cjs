@@ -43,7 +43,12 @@ async function main() {
   const signing = mode === 'signed';
   const key = crypto.randomBytes(32);
   const signatures = { total: 0, unsigned: 0, bad: 0, backwards: 0, last: new Map() };
+  // The tick at which the first packet of aerovo arrived (its socket is bound and has heard the
+  // fake autopilot's genuine stream): the hostile packets start only after it.
+  let heardAtTick = null;
+  let tick = 0;
   const { sock, splitter, port: myPort } = await listen(packet => {
+    if (heardAtTick === null) heardAtTick = tick;
     ++signatures.total;
     const sig = packet.signature;
     if (!sig) {
@@ -103,15 +108,19 @@ async function main() {
     // Signed with the key before anything else is sent, sent later: older than its stream.
     const captured = signing ? signedBytes(distance(2 * goodCm), key) : null;
     let lastGood = null;
-    let tick = 0;
     timer = setInterval(() => {
       const ds = distance(goodCm);
       ds.timeBootMs = tick * 20;
+      // A signed stream new to the receiver is accepted from any recent timestamp (MAVLink
+      // signing, https://mavlink.io/en/guide/message_signing.html "Accepting Incoming
+      // Packets"), so the captured packet is a replay only once aerovo has heard genuine ones:
+      // under a sanitizer the run may bind its socket after the first ticks were sent.
+      const hostile = signing && heardAtTick !== null && tick >= heardAtTick + 2;
       if (signing) {
-        if (tick % 10 === 3) raw(lastGood);  // a replay of the last genuine one
-        if (tick % 10 === 5) raw(signedBytes(distance(3 * goodCm), crypto.randomBytes(32)));  // forged
-        if (tick % 10 === 7) raw(proto.serialize(distance(4 * goodCm), seq++ & 255));  // unsigned
-        if (tick % 10 === 9) raw(captured);
+        if (hostile && tick % 10 === 3) raw(lastGood);  // a replay of the last genuine one
+        if (hostile && tick % 10 === 5) raw(signedBytes(distance(3 * goodCm), crypto.randomBytes(32)));  // forged
+        if (hostile && tick % 10 === 7) raw(proto.serialize(distance(4 * goodCm), seq++ & 255));  // unsigned
+        if (hostile && tick % 10 === 9) raw(captured);
         lastGood = signedBytes(ds, key);
         raw(lastGood);
       } else {
