@@ -19,6 +19,27 @@ const char* ToString(AlignmentModel model) {
   return model == AlignmentModel::kSim2 ? "Sim2" : "SE2";
 }
 
+nlohmann::json ToJson(const DeniedError& d) {
+  nlohmann::json at = nlohmann::json::array();
+  for (const DeniedErrorAt& a : d.at) {
+    at.push_back({{"after_s", a.after_s},
+                  {"time_s", a.time_s},
+                  {"error_m", a.error_m},
+                  {"distance_m", a.distance_m}});
+  }
+  return {{"denied_at_s", d.denied_at_s},
+          {"pairs", d.pairs},
+          {"duration_s", d.duration_s},
+          {"distance_m", d.distance_m},
+          {"first_error_m", d.first_error_m},
+          {"end_error_m", d.end_error_m},
+          {"max_error_m", d.max_error_m},
+          {"rmse_m", d.rmse_m},
+          {"end_error_per_km_m",
+           d.end_error_per_km_m ? nlohmann::json(*d.end_error_per_km_m) : nlohmann::json()},
+          {"at", at}};
+}
+
 nlohmann::json ToJson(const TrajectoryErrorStats& s) {
   return {
       {"count", s.count}, {"rmse", s.rmse}, {"mean", s.mean}, {"median", s.median}, {"max", s.max}};

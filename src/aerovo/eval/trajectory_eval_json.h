@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "aerovo/eval/denied_error.h"
 #include "aerovo/eval/trajectory_eval.h"
 
 namespace aerovo {
@@ -23,6 +24,11 @@ nlohmann::json ToJson(const AlignmentResult& alignment);
 nlohmann::json ToJson(const TrajectoryErrors& errors, bool include_per_point = false);
 /// {"se2": ..., "sim2": ...}.
 nlohmann::json ToJson(const TrajectoryComparison& comparison, bool include_per_point = false);
+
+/// {"denied_at_s", "pairs", "duration_s", "distance_m", "first_error_m", "end_error_m",
+///  "max_error_m", "rmse_m", "end_error_per_km_m" (null under 1 m flown), "at": [{"after_s",
+///  "time_s", "error_m", "distance_m"}...]}.
+nlohmann::json ToJson(const DeniedError& denied);
 
 const char* ToString(AlignmentModel model);  ///< "SE2" or "Sim2".
 

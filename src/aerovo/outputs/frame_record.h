@@ -11,6 +11,10 @@
 
 namespace aerovo {
 
+/// FrameRecord::gps_flag of a fix withheld from the run by GPS denial (RunConfig::
+/// gps_denied_after_s): a GPS position for the comparison, in the gps.* tracks, used for nothing else.
+inline constexpr const char* kGpsFlagWithheld = "withheld";
+
 /// Per-frame record. Positions are the camera centre in the run's local East-North-Up frame
 /// (metres; x = east, y = north, z = up), and in WGS84 when the track is geo-referenced.
 struct FrameRecord {
@@ -45,7 +49,9 @@ struct FrameRecord {
   /// The frame's GPS fix (gps_* CSV cells) failed the plausibility check and is used neither for
   /// the geo-referencing nor for the comparison with GPS: "rejected:speed", "rejected:altitude",
   /// "rejected:vo" (a jump the visual odometry does not show) or "rejected:superseded" (outvoted
-  /// by the later fixes); "" when the fix is used or there is none (odometry/gps_check.h).
+  /// by the later fixes); "withheld" (kGpsFlagWithheld): GPS denial (pipeline/run_config.h
+  /// gps_denied_after_s), the fix is kept only for the comparison with GPS; "" when the fix is
+  /// used or there is none (odometry/gps_check.h).
   std::string gps_flag;
   /// Height above ground used for the frame, metres (CSV height_m; 0 when not known).
   double height_m = 0.0;

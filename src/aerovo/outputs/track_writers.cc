@@ -587,8 +587,8 @@ void TrackWriterSet::Append(const FrameRecord& r, const std::optional<GeoPoint>&
   }
   if (m.vo_tum) m.vo_tum->Append(r.time_s, Eigen::Vector3d(r.x_m, r.y_m, r.z_m), r.yaw_rad);
   // A fix the run rejected as implausible (gps_flag) stays in frames.csv with its flag, and out of
-  // the GPS tracks, which users load as the reference.
-  const bool gps_track = gps && r.gps_flag.empty();
+  // the GPS tracks, which users load as the reference; a withheld one (GPS denial) is a reference.
+  const bool gps_track = gps && (r.gps_flag.empty() || r.gps_flag == kGpsFlagWithheld);
   if (gps_track && m.gps_tum && m.enu) m.gps_tum->Append(r.time_s, m.enu->Forward(*gps), 0.0);
   if (gps_track) m.appended_gps = true;
   if (r.geo) {

@@ -327,7 +327,7 @@ class TrackWriterSet {
 
   /// Appends one frame to every output; `gps` is the GPS position associated with this frame
   /// (same time_s), added to the CSV gps_* columns and, unless record.gps_flag marks it rejected
-  /// (non-empty), to the gps.* tracks. The VO geo tracks
+  /// (non-empty but kGpsFlagWithheld), to the gps.* tracks. The VO geo tracks
   /// only get frames with record.geo. Throws InvalidArgument for an invalid record/gps (nothing
   /// is written then), OutputError naming the file when a write fails.
   void Append(const FrameRecord& record, const std::optional<GeoPoint>& gps = std::nullopt);

@@ -80,6 +80,28 @@ std::unique_ptr<mavlink::AutopilotLink> OpenLink(const RunConfig& config, std::o
   return link;
 }
 
+// GPS denial (RunConfig::gps_denied_after_s): from the first frame at or after that time since
+// the first frame on, the sample's horizontal position is moved to `f.withheld_gps` and the
+// sample keeps no position (has_fix false, latitude and longitude 0), so that no stage can
+// read it; the first denied frame is recorded in the totals.
+void WithholdPositions(const RunConfig& config, RunState* state, FrameState& f) {
+  if (!state->first_frame_time_s) state->first_frame_time_s = f.frame.time_s;
+  if (config.gps_denied_after_s < 0.0 ||
+      f.frame.time_s - *state->first_frame_time_s < config.gps_denied_after_s) {
+    return;
+  }
+  f.gps_denied = true;
+  if (!state->totals.denied_at_s) {
+    state->totals.denied_at_s = f.frame.time_s;
+    state->totals.denied_from_frame = f.frame.index;
+  }
+  if (!f.sample) return;
+  f.withheld_gps = GpsOf(f.sample);
+  f.sample->has_fix = false;
+  f.sample->lat_deg = 0.0;
+  f.sample->lon_deg = 0.0;
+}
+
 }  // namespace
 
 RunState::RunState(const RunConfig& config)
@@ -117,8 +139,10 @@ ReadResult ReadFrame(FrameSource& source, const RunConfig& config, const RunTele
     f.frame_unix_s = c.first_unix_s + since_first_s;
   }
   f.sample = telemetry.SampleOf(f.frame);
+  WithholdPositions(config, state, f);
   f.gps = GpsOf(f.sample);
-  if (!f.gps) ++state->frames_without_fix;  // no sample, or a sample without a GPS fix
+  // No sample, or a sample without a GPS fix (a withheld one is a fix).
+  if (!f.gps && !f.withheld_gps) ++state->frames_without_fix;
   f.flags = FrameFlags::Parse(f.frame.flags);
   return ReadResult::kFrame;
 }

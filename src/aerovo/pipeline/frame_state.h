@@ -64,6 +64,11 @@ struct FrameState {
   double frame_unix_s = 0.0;
   std::optional<TelemetrySample> sample;  ///< Its telemetry fix (none: no telemetry or no match).
   std::optional<GeoPoint> gps;            ///< GpsOf(sample).
+  /// GPS denial (RunConfig::gps_denied_after_s) from this frame on: `sample` has no position
+  /// (has_fix false), `gps` is empty, and the fix it had is here, for the comparison with GPS
+  /// only (frames.csv gps_* with gps_flag "withheld", RunTotals): no stage reads it.
+  bool gps_denied = false;
+  std::optional<GeoPoint> withheld_gps;
   FrameFlags flags;                       ///< Frame::flags, typed.
   // Height (stage_height.cc).
   double height_m = 0.0;  ///< Height above ground, metres.
@@ -102,6 +107,10 @@ struct RunState {
   RunTotals totals{true};
   std::map<int, RejectedFix> rejected;  ///< Frame -> its rejected fix.
   int frames_without_fix = 0;
+  std::optional<double> first_frame_time_s;  ///< Frame::time_s of the first frame read.
+  /// GPS denial: the georef stage has handled the first denied frame (fixed the heading with the
+  /// fixes before, or said that it could not).
+  bool denial_seen = false;
   /// The first frame flagged with each flag (FrameFlags names), for the summary's warning.
   std::map<std::string, std::string> first_flagged;
   /// Where a file's presentation times are placed on the clocks (FrameState::frame_mono_s):

@@ -282,6 +282,16 @@ struct RunConfig {
   /// geo-referencing nor the comparison with GPS; flagged in frames.csv (gps_flag) and listed
   /// in summary.json (gps_rejected).
   GpsCheckOptions gps_check;
+  /// GPS denial, seconds after the first frame processed (its Frame::time_s): from the first
+  /// frame at or after that time on, the telemetry's horizontal positions (latitude, longitude)
+  /// are withheld from the run (ReadFrame, pipeline/frame_loop.cc): neither the geo-referencing
+  /// (fixed then from the fixes before, odometry/georef.h FixWithAvailable), the GPS check, the
+  /// heights' plausibility nor the telemetry clock's estimate sees them; they are kept only for
+  /// the comparison with GPS (frames.csv gps_* with gps_flag "withheld", summary.json
+  /// "gps_denied": the error against them over time and per km). The altitudes and angles stay
+  /// (barometer, compass, gimbal). 0 = from the start (the track is then not geo-referenced);
+  /// negative (default -1) = never.
+  double gps_denied_after_s = -1.0;
   /// The sensor's static pattern (vignetting, fixed-pattern noise) estimated from the flight and
   /// removed before the reduction and SURF when significant (features/flat_field.h; the stage
   /// pipeline/stage_flat_field.cc): a photo folder's median of photo_samples photos spread over
@@ -356,6 +366,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.attitude_warn_deg, "attitude_warn_deg", "Warn when the telemetry's camera is this far from nadir and attitude is off, deg", Interval(0, 90));
   v.Field(c.ground_elevation_m, "ground_elevation_m", "Ground altitude above sea level, m, for telemetry with only an altitude above sea level (nan = unknown)", Any());
   v.Field(c.takeoff_height_agl_m, "takeoff_height_agl_m", "Take-off point's height above the ground flown over, m (added to the relative altitude)", Interval(-1e4, 1e4));
+  v.Field(c.gps_denied_after_s, "gps_denied_after_s", "Withhold the telemetry's positions from this many seconds after the first frame on (0 = from the start, negative = never): kept only for the comparison with GPS", Interval(-1e9, 1e9));
   v.Group("gps_check", c.gps_check);
   v.Group("flat_field", c.flat_field);
   v.Group("odometry", c.odometry);

@@ -605,7 +605,7 @@ void RunOutputs::Finish(GeoReferencer& georef) {
 // 5. What the per-frame loop accumulates (pipeline/frame_loop.h)
 
 void RunTotals::Add(int frame_index, double time_s, const FrameResult& r,
-                    const std::optional<GeoPoint>& gps) {
+                    const std::optional<GeoPoint>& gps, bool withheld) {
   if (r.status == FrameStatus::kOk || r.status == FrameStatus::kReacquired) ++measured_steps;
   if (keep_track) {
     local_track.push_back({time_s, r.position_m.x(), r.position_m.y()});
@@ -618,6 +618,7 @@ void RunTotals::Add(int frame_index, double time_s, const FrameResult& r,
     local_at_gps.push_back({time_s, r.position_m.x(), r.position_m.y()});
     gps_frames.push_back(frame_index);
     gps_rejected.push_back(0);
+    gps_withheld.push_back(withheld ? 1 : 0);
   }
   if (frames == 0) first_time_s = time_s;
   last_time_s = time_s;
@@ -734,6 +735,46 @@ void CompareWithGps(const GeoReferencer& georef, RunTotals& totals, RunSummary* 
   }
 }
 
+// GPS denial (RunConfig::gps_denied_after_s): the geo-referenced track against the withheld
+// fixes from the first denied frame on, unaligned (eval/denied_error.h); nullopt with a note
+// when the track is not geo-referenced or no fix was withheld.
+std::optional<DeniedError> CompareWithWithheld(const GeoReferencer& georef,
+                                               const RunTotals& totals, std::string* note) {
+  if (!georef.ready()) {
+    *note = "the track is not geo-referenced (GPS denied before the heading was known)";
+    return std::nullopt;
+  }
+  std::vector<TrajectoryPoint2D> estimate, withheld;
+  for (std::size_t i = 0; i < totals.gps_geo.size(); ++i) {
+    if (!totals.gps_withheld[i]) continue;
+    const Eigen::Vector3d g = georef.enu().Forward(totals.gps_geo[i]);
+    const TrajectoryPoint2D& l = totals.local_at_gps[i];
+    const Eigen::Vector2d e = georef.EnuFromLocal({l.x, l.y});
+    estimate.push_back({l.t, e.x(), e.y()});
+    withheld.push_back({l.t, g.x(), g.y()});
+  }
+  std::optional<DeniedError> d = CompareSinceDenial(estimate, withheld, *totals.denied_at_s);
+  if (!d) *note = "no frame after the denial has a fix in the telemetry";
+  return d;
+}
+
+// summary->gps_denied when the run was asked to deny GPS (summary->gps_denied->after_s set).
+void SummarizeDenial(const GeoReferencer& georef, const RunTotals& totals, RunSummary* summary) {
+  if (!summary->gps_denied) return;
+  RunSummary::GpsDenied& d = *summary->gps_denied;
+  if (!totals.denied_at_s) {
+    d.note = fmt::format("the flight ended before the GPS denial ({} s after the first frame)",
+                         d.after_s);
+    summary->warnings.push_back("no GPS denial: " + d.note);
+    return;
+  }
+  d.from_frame = totals.denied_from_frame;
+  d.from_time_s = *totals.denied_at_s;
+  d.fixes_withheld = static_cast<int>(
+      std::count(totals.gps_withheld.begin(), totals.gps_withheld.end(), char{1}));
+  d.error = CompareWithWithheld(georef, totals, &d.note);
+}
+
 // The warnings about single frames: one per flag of the frames the source flagged (count,
 // first frame, meaning), the GPS fixes rejected (the first 20 said, 100 listed).
 void AddFrameWarnings(const LoopEnd& end, RunSummary* summary) {
@@ -825,6 +866,7 @@ void Summarize(const std::vector<std::string>& source_warnings, bool has_telemet
         s.frames_dropped));
   }
   CompareWithGps(georef, totals, summary);
+  SummarizeDenial(georef, totals, summary);
   if (truth != nullptr && !totals.local_track.empty()) {
     CompareWithTruth(*truth, totals.local_track, totals.track_frames, georef, summary);
   }
@@ -917,6 +959,10 @@ void OptimizeFlight(const RunConfig& config, const FlightRecording& flight,
   }
   o.evaluation = scratch.evaluation;
   o.truth_evaluation = scratch.truth_evaluation;
+  if (t.denied_at_s) {
+    std::string note;
+    o.gps_denied_error = CompareWithWithheld(georef, t, &note);
+  }
   summary->optimized = std::move(o);
 }
 

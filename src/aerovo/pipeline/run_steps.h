@@ -331,6 +331,9 @@ class RunOutputs {
   void SendPose(PendingFrame& frame, const GeoReferencer& georef);
   /// Queues `frame`, then writes the queue unless it waits for `georef`'s heading.
   void Enqueue(PendingFrame frame, const GeoReferencer& georef);
+  /// The frames no longer wait for the heading (GPS denied before it was known): the queue is
+  /// written with the next frame, in the local frame.
+  void StopWaitingForHeading() { wait_for_heading_ = false; }
   /// Sets the gps_flag of the queued frame `frame_index` (no effect once it is written).
   void Reflag(int frame_index, const std::string& gps_flag);
   /// At the end: geo-references with what is available if needed (georef.FixWithAvailable),
@@ -368,8 +371,9 @@ struct RunTotals {
   /// Adds frame `frame_index` at `time_s` processed into `result`, with its fix `gps` (kept as
   /// WGS84 in gps_geo: the comparison with GPS uses the run's ENU frame as it is at the end,
   /// whose origin is a fix that was accepted, odometry/georef.h).
+  /// `withheld`: the fix was withheld by GPS denial (compared, never used).
   void Add(int frame_index, double time_s, const FrameResult& result,
-           const std::optional<GeoPoint>& gps);
+           const std::optional<GeoPoint>& gps, bool withheld = false);
 
   /// Marks the fix of `frame_index` rejected (true) or accepted again: rejected fixes are left
   /// out of the comparison with GPS.
@@ -391,6 +395,11 @@ struct RunTotals {
   /// final ENU frame by the comparison with GPS).
   std::vector<GeoPoint> gps_geo;
   std::vector<char> gps_rejected;  ///< Per gps_track point: rejected by the plausibility check.
+  std::vector<char> gps_withheld;  ///< Per gps_track point: withheld by GPS denial.
+  /// GPS denial (RunConfig::gps_denied_after_s): the first denied frame's index and Frame::time_s
+  /// (set by ReadFrame; nullopt: no frame was denied).
+  std::optional<double> denied_at_s;
+  int denied_from_frame = -1;
   double first_time_s = 0.0, last_time_s = 0.0;  ///< Of the processed frames.
 };
 
@@ -417,7 +426,8 @@ struct LoopEnd {
 /// of the frames the source flagged (count, first frame, meaning), interrupted, the
 /// odometry's counts (`vo_stats` null: no frame) and the warning when nothing was measured,
 /// heading source, mean stage times, fps from `wall_s`, the comparison with GPS (at least 3
-/// fixes) and with `truth` (may be null), the latency's median, 95th percentile and maximum,
+/// fixes, withheld ones included), the GPS denial's error against the withheld fixes
+/// (summary->gps_denied, when RunFlight set it) and the comparison with `truth` (may be null), the latency's median, 95th percentile and maximum,
 /// a warning when summary->frames_dropped > 0, error = end.failure's text. `totals` is consumed.
 void Summarize(const std::vector<std::string>& source_warnings, bool has_telemetry,
                const LoopEnd& end, const OdometryStats* vo_stats, const GeoReferencer& georef,

@@ -56,6 +56,33 @@ std::string FormatOptimized(const RunSummary& s) {
   return t;
 }
 
+// The GPS denial's section: when it began, the error against the withheld fixes over time.
+std::string FormatDenial(const RunSummary::GpsDenied& d) {
+  if (d.from_frame < 0 || !d.error) {
+    return fmt::format("\nGPS denied after {} s: no error against the withheld GPS ({}).\n",
+                       d.after_s, d.note);
+  }
+  const DeniedError& e = *d.error;
+  std::string t = fmt::format(
+      "\nGPS denied from frame {} ({:.1f} s), {} fixes withheld: the geo-referenced track "
+      "against them, unaligned\n",
+      d.from_frame, d.from_time_s, d.fixes_withheld);
+  t += fmt::format("  {:<40}{:.2f} m\n", "at the denial", e.first_error_m);
+  for (const DeniedErrorAt& a : e.at) {
+    t += fmt::format("  {:<40}{:.2f} m ({:.0f} m flown)\n",
+                     fmt::format("after {:.0f} min", a.after_s / 60.0), a.error_m, a.distance_m);
+  }
+  t += fmt::format("  {:<40}{:.2f} m ({:.0f} m flown in {:.0f} s)\n", "at the end",
+                   e.end_error_m, e.distance_m, e.duration_s);
+  t += fmt::format("  {:<40}{:.2f} m RMSE, {:.2f} m max\n", "over the denial", e.rmse_m,
+                   e.max_error_m);
+  if (e.end_error_per_km_m) {
+    t += fmt::format("  {:<40}{:.2f} m per km\n", "end error per km without GPS",
+                     *e.end_error_per_km_m);
+  }
+  return t;
+}
+
 }  // namespace
 
 std::string FormatRunSummary(const RunSummary& s) {
@@ -89,6 +116,7 @@ std::string FormatRunSummary(const RunSummary& s) {
                      s.frames_with_truth, s.truth);
     t += FormatTrajectoryTable(*s.truth_evaluation, "truth");
   }
+  if (s.gps_denied) t += FormatDenial(*s.gps_denied);
   if (s.optimized) t += FormatOptimized(s);
   t += fmt::format("\n{:<20}detect {:.1f}, describe {:.1f}, correspond {:.1f}\n",
                    "Stage times (ms)", s.mean.detect_ms, s.mean.describe_ms, s.mean.correspond_ms);

@@ -43,7 +43,18 @@ nlohmann::json ToJson(const RunSummary::Optimized& o) {
           {"cpu_s", o.cpu_s},
           {"iterations", o.iterations},
           {"evaluation", o.evaluation ? ToJson(*o.evaluation) : nlohmann::json()},
-          {"truth_evaluation", o.truth_evaluation ? ToJson(*o.truth_evaluation) : nlohmann::json()}};
+          {"truth_evaluation", o.truth_evaluation ? ToJson(*o.truth_evaluation) : nlohmann::json()},
+          {"gps_denied_error", o.gps_denied_error ? ToJson(*o.gps_denied_error) : nlohmann::json()}};
+}
+
+// summary.json "gps_denied".
+nlohmann::json ToJson(const RunSummary::GpsDenied& d) {
+  return {{"after_s", d.after_s},
+          {"from_frame", d.from_frame >= 0 ? nlohmann::json(d.from_frame) : nlohmann::json()},
+          {"from_time_s", d.from_frame >= 0 ? nlohmann::json(d.from_time_s) : nlohmann::json()},
+          {"fixes_withheld", d.fixes_withheld},
+          {"error", d.error ? ToJson(*d.error) : nlohmann::json()},
+          {"note", d.note}};
 }
 
 nlohmann::json ToJson(const RunSummary& s) {
@@ -135,6 +146,7 @@ nlohmann::json ToJson(const RunSummary& s) {
   j["evaluation"] = s.evaluation ? ToJson(*s.evaluation) : nlohmann::json();
   j["truth_evaluation"] = s.truth_evaluation ? ToJson(*s.truth_evaluation) : nlohmann::json();
   j["optimized"] = s.optimized ? ToJson(*s.optimized) : nlohmann::json();
+  j["gps_denied"] = s.gps_denied ? ToJson(*s.gps_denied) : nlohmann::json();
   return j;
 }
 
@@ -297,6 +309,23 @@ nlohmann::json LinkStats(const mavlink::AutopilotLink& link, const RunConfig& co
           {"rejected_replayed", st.rejected_replayed}};
 }
 
+// The samples of `telemetry` before the GPS denial of the run (`t.denied_at_s`; all of them
+// without one): by frame index when the telemetry is matched by index, else by time (telemetry
+// time = frame time + the offset applied).
+Telemetry TelemetryBeforeDenial(const run_steps::RunTelemetry& telemetry,
+                                const run_steps::RunTotals& t, const RunConfig& config) {
+  if (!t.denied_at_s) return telemetry.telemetry();
+  const bool by_index = telemetry.by_frame_index() && config.telemetry_offset_s == 0.0;
+  std::vector<TelemetrySample> kept;
+  for (const TelemetrySample& s : telemetry.telemetry().samples()) {
+    const bool before = by_index && s.frame_index
+                            ? *s.frame_index < t.denied_from_frame
+                            : s.time_s < *t.denied_at_s + config.telemetry_offset_s;
+    if (before) kept.push_back(s);
+  }
+  return Telemetry(std::move(kept), telemetry.telemetry().source());
+}
+
 // The telemetry's clock against the frames' (`t`): a warning in `summary` when its span does not
 // cover them, and the offset seen in the motion (VO speed against GPS speed) in the summary, the
 // log, and a warning when it differs from the applied offset by more than 0.2 s.
@@ -308,10 +337,15 @@ void CheckTelemetryTiming(const RunConfig& config, const run_steps::RunTelemetry
                                               config.telemetry_offset_s);
     if (!w.empty()) summary->warnings.push_back(w);
   }
+  // GPS denial: the positions from the denial on are not the run's to use (RunConfig::
+  // gps_denied_after_s), neither the frames' nor the telemetry's.
   std::vector<PlanarTrackPoint> vo_track;
   vo_track.reserve(t.local_track.size());
-  for (const TrajectoryPoint2D& p : t.local_track) vo_track.push_back({p.t, p.x, p.y});
-  const OffsetEstimate e = EstimateTelemetryOffset(vo_track, telemetry.telemetry());
+  for (const TrajectoryPoint2D& p : t.local_track) {
+    if (!t.denied_at_s || p.t < *t.denied_at_s) vo_track.push_back({p.t, p.x, p.y});
+  }
+  const OffsetEstimate e =
+      EstimateTelemetryOffset(vo_track, TelemetryBeforeDenial(telemetry, t, config));
   summary->telemetry_offset_estimate_valid = e.valid;
   summary->telemetry_offset_estimate_s = e.offset_s;
   summary->telemetry_offset_correlation = e.correlation;
@@ -349,6 +383,10 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
       config.telemetry, config.lenient_telemetry, folder, &summary.warnings);
   telemetry.set_offset_s(config.telemetry_offset_s);
   summary.telemetry_offset_s = config.telemetry_offset_s;
+  if (config.gps_denied_after_s >= 0.0) {
+    summary.gps_denied.emplace();
+    summary.gps_denied->after_s = config.gps_denied_after_s;
+  }
   if (log) *log << "telemetry: " << telemetry.Describe() << "\n";
 
   // 2-5. The frames: camera, height, outputs, odometry.

@@ -27,6 +27,7 @@
 #include <nlohmann/json.hpp>
 
 #include "aerovo/core/image.h"
+#include "aerovo/eval/denied_error.h"
 #include "aerovo/eval/trajectory_eval.h"
 #include "aerovo/odometry/georef.h"
 #include "aerovo/odometry/visual_odometry.h"
@@ -173,8 +174,21 @@ struct RunSummary {
     int iterations = 0;
     std::optional<TrajectoryComparison> evaluation;        ///< Against GPS.
     std::optional<TrajectoryComparison> truth_evaluation;  ///< Against the truth.
+    std::optional<DeniedError> gps_denied_error;  ///< As GpsDenied::error, for this track.
   };
   std::optional<Optimized> optimized;  ///< nullopt: backend.enable off, or no frame.
+  /// GPS denial (RunConfig::gps_denied_after_s >= 0; summary.json "gps_denied", null without):
+  /// when it began and the geo-referenced track's error against the withheld fixes, unaligned
+  /// (eval/denied_error.h: 1, 5 and 10 minutes after, per km flown without GPS).
+  struct GpsDenied {
+    double after_s = -1.0;  ///< RunConfig::gps_denied_after_s.
+    int from_frame = -1;    ///< The first denied frame (-1: the flight ended before).
+    double from_time_s = 0.0;   ///< Its Frame::time_s.
+    int fixes_withheld = 0;     ///< Frames whose fix was withheld.
+    std::optional<DeniedError> error;  ///< nullopt: see `note`.
+    std::string note;  ///< Why there is no `error` ("" when there is one).
+  };
+  std::optional<GpsDenied> gps_denied;
   std::vector<std::string> warnings;
   /// GPS fixes rejected by the plausibility check (odometry/gps_check.h; frames.csv gps_flag):
   /// their count and, for the first 100, frame, time (s), kind and message. They are not in

@@ -16,7 +16,9 @@ class TotalsSink : public FrameSink {
   void Write(FrameState& f, const RunContext& run) override {
     RunState& state = *run.state;
     RunSummary& summary = *run.summary;
-    state.totals.Add(f.frame.index, f.frame.time_s, f.result, f.gps);
+    // A fix withheld by GPS denial joins the comparison with GPS (and nothing else).
+    state.totals.Add(f.frame.index, f.frame.time_s, f.result, f.gps ? f.gps : f.withheld_gps,
+                     f.withheld_gps.has_value());
     state.totals.latency_ms.push_back(f.latency_ms);
     if (f.fix == FixCheck::kRejected) state.totals.SetRejected(f.frame.index, true);
     ++summary.frames_processed;

@@ -1,12 +1,37 @@
 // The geo-referencing stage: the frame's VO position and accepted fix (none when rejected or
 // missing) and the telemetry's camera yaw to the run's GeoReferencer (odometry/georef.h), which
-// fixes the heading and the ENU frame.
+// fixes the heading and the ENU frame. At the first frame of a GPS denial (RunConfig::
+// gps_denied_after_s) a geo-reference still open is fixed from the fixes before
+// (GeoReferencer::FixWithAvailable), so that the track goes on geo-referenced without GPS; when
+// it cannot be (no fix before, or no spread), the summary says so.
 #include <memory>
+
+#include <fmt/format.h>
 
 #include "aerovo/pipeline/frame_loop.h"
 
 namespace aerovo::run_steps {
 namespace {
+
+// The first denied frame: fix the geo-reference with what was observed, or say why not.
+void OnDenial(const FrameState& f, const RunContext& run) {
+  GeoReferencer& georef = run.state->georef;
+  if (georef.ready()) return;
+  if (georef.has_enu() && georef.FixWithAvailable()) {
+    if (run.log != nullptr) {
+      *run.log << fmt::format(
+          "gps denied from frame {}: the heading fixed from the fixes before ({})\n",
+          f.frame.index, georef.heading_source_used());
+    }
+    return;
+  }
+  run.outputs->StopWaitingForHeading();
+  run.summary->warnings.push_back(fmt::format(
+      "GPS denied from frame {} (time {:.3f} s) before the track could be geo-referenced ({}): "
+      "the track stays in the local frame and has no error against the withheld GPS",
+      f.frame.index, f.frame.time_s,
+      georef.has_enu() ? "the fixes before do not give the heading" : "no fix before"));
+}
 
 class GeoreferenceStage : public FrameStage {
  public:
@@ -16,6 +41,10 @@ class GeoreferenceStage : public FrameStage {
     const std::optional<double> yaw = f.sample ? f.sample->CameraYawDeg() : std::nullopt;
     run.state->georef.Observe(f.result.position_m,
                               f.fix == FixCheck::kAccepted ? f.gps : std::nullopt, yaw);
+    if (f.gps_denied && !run.state->denial_seen) {
+      run.state->denial_seen = true;
+      OnDenial(f, run);
+    }
   }
 };
 

@@ -16,9 +16,10 @@ class RecordStage : public FrameStage {
 
   void Process(FrameState& f, const RunContext& run) override {
     (void)run;
-    f.output = PendingFrameOf(f.frame, f.result, f.gps, f.height_m);
+    f.output = PendingFrameOf(f.frame, f.result, f.gps ? f.gps : f.withheld_gps, f.height_m);
     FrameRecord& rec = f.output.record;
     if (f.fix == FixCheck::kRejected) rec.gps_flag = "rejected:" + f.fix_rejection;
+    if (f.withheld_gps) rec.gps_flag = kGpsFlagWithheld;
     if (f.lens_switched) rec.status += "+lens";  // the lens estimate applied (lens_switch.h)
     rec.height_m = f.height_m;
     rec.height_source = ToString(f.height_source);

@@ -152,8 +152,12 @@ RunData ReadRunDir(const fs::path& dir) {
     f.total_ms = t.Number(r, "total_ms");
     f.status = t.cell(r, "status");
     f.gps = GeoOf(t, r, "gps_lat_deg", "gps_lon_deg", "gps_alt_m");
-    // A fix the run rejected as implausible (gps_flag; docs/reliability.md) is not a GPS position.
-    if (t.has("gps_flag") && !t.cell(r, "gps_flag").empty()) f.gps.reset();
+    // A fix the run rejected as implausible (gps_flag; docs/reliability.md) is not a GPS position;
+    // one withheld by GPS denial is (the run did not use it, the comparison does).
+    if (t.has("gps_flag") && !t.cell(r, "gps_flag").empty() &&
+        t.cell(r, "gps_flag") != kGpsFlagWithheld) {
+      f.gps.reset();
+    }
     run.frames.push_back(std::move(f));
   }
   const fs::path transforms = dir / RunFileNames::kTransformsCsv;
