@@ -282,6 +282,11 @@ def check_mavlink(cwd, out):
 
 HARDWARE = "needs hardware this machine does not have"
 PLAN = {
+    # docs/map.md
+    "aerovo run flight.mp4 --telemetry flight.SRT --gps-denied-after-s 3 -o denied": Row(
+        extra=["--no-report"], extra_why="the page is about summary.json and the summary text",
+        says=["GPS denied from frame", "end error per km without GPS"],
+        files=["denied/summary.json", "denied/frames.csv"]),
     # docs/backend.md
     "aerovo simulate --pattern lawnmower --legs 4 --length-m 250 --spacing-m 50 --width 480 "
     "--height 270 --fps 1.5 --quiet -o backend_sim": Row(
