@@ -1,0 +1,115 @@
+#include "aerovo/map/map_build.h"
+
+#include <system_error>
+
+#include <cpl_error.h>
+#include <cpl_string.h>
+#include <fmt/format.h>
+#include <gdal_priv.h>
+
+#include "aerovo/core/error.h"
+#include "aerovo/report/geo_mosaic.h"
+#include "aerovo/report/run_reader.h"
+
+namespace aerovo::map {
+namespace fs = std::filesystem;
+
+void Validate(const MapBuildOptions& o) {
+  if (o.max_size_px < 100 || o.max_size_px > 20000) {
+    throw InvalidArgument(fmt::format("map build: max_size_px must be in [100, 20000], got {}",
+                                      o.max_size_px));
+  }
+  if (o.max_frames < 1) {
+    throw InvalidArgument(fmt::format("map build: max_frames must be >= 1, got {}", o.max_frames));
+  }
+}
+
+namespace {
+
+// A scratch folder beside `out` for the mosaic, removed when it goes out of scope.
+struct ScratchDir {
+  fs::path dir;
+  explicit ScratchDir(const fs::path& out)
+      : dir(out.parent_path() / ("." + out.filename().string() + ".mosaic")) {
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+    fs::create_directories(dir, ec);
+    if (ec) throw InputError("cannot write '" + out.string() + "': " + ec.message());
+  }
+  ~ScratchDir() {
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+  }
+};
+
+std::string LastGdalError(const std::string& fallback) {
+  const char* m = CPLGetLastErrorMsg();
+  return m != nullptr && *m != '\0' ? std::string(m) : fallback;
+}
+
+// `tif` (the mosaic's GeoTIFF, which WriteGeoMosaic wrote: GDAL is registered) copied to `out`
+// as a COG, through a temporary file.
+void WriteCog(const fs::path& tif, const fs::path& out) {
+  CPLErrorReset();
+  GDALDataset* src = static_cast<GDALDataset*>(GDALOpen(tif.c_str(), GA_ReadOnly));
+  if (src == nullptr) {
+    throw InputError("cannot read the mosaic '" + tif.string() + "': " + LastGdalError("GDAL error"));
+  }
+  GDALDriver* cog = GetGDALDriverManager()->GetDriverByName("COG");
+  if (cog == nullptr) {
+    GDALClose(src);
+    throw InputError("cannot write '" + out.string() + "': GDAL has no COG driver");
+  }
+  const fs::path tmp = out.parent_path() / ("." + out.filename().string() + ".tmp");
+  char** opts = nullptr;
+  opts = CSLSetNameValue(opts, "COMPRESS", "DEFLATE");
+  opts = CSLSetNameValue(opts, "BLOCKSIZE", "512");
+  opts = CSLSetNameValue(opts, "OVERVIEWS", "AUTO");
+  opts = CSLSetNameValue(opts, "OVERVIEW_RESAMPLING", "AVERAGE");
+  opts = CSLSetNameValue(opts, "BIGTIFF", "IF_SAFER");
+  CPLErrorReset();
+  GDALDataset* dst = cog->CreateCopy(tmp.c_str(), src, FALSE, opts, nullptr, nullptr);
+  CSLDestroy(opts);
+  GDALClose(src);
+  const bool ok = dst != nullptr;
+  if (dst != nullptr) GDALClose(dst);
+  std::error_code ec;
+  if (!ok) {
+    fs::remove(tmp, ec);
+    throw InputError("cannot write '" + out.string() + "': " + LastGdalError("GDAL error"));
+  }
+  fs::rename(tmp, out, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    throw InputError("cannot write '" + out.string() + "': " + ec.message());
+  }
+}
+
+}  // namespace
+
+MapBuildResult BuildMapFromRun(const fs::path& run_dir, const fs::path& out,
+                               const MapBuildOptions& options) {
+  Validate(options);
+  if (!IsRunDir(run_dir)) {
+    throw InputError("'" + run_dir.string() + "': not a run folder (no frames.csv): give a run "
+                     "folder of `aerovo run`, or the flight itself");
+  }
+  const RunData run = ReadRunDir(run_dir);
+  const ScratchDir scratch(fs::absolute(out));
+  MosaicOptions mo;
+  mo.max_size_px = options.max_size_px;
+  mo.max_frames = options.max_frames;
+  const GeoMosaicResult g =
+      WriteGeoMosaic(run, scratch.dir, out.stem().string() + " (aerovo map)", mo);
+  if (!g.written) {
+    throw InputError("'" + run_dir.string() + "': cannot build a map from this run: " + g.note);
+  }
+  WriteCog(scratch.dir / GeoMosaicFileNames::kGeoTiff, out);
+  MapBuildResult r;
+  r.info = ReadMapInfo(out);
+  r.frames_used = g.frames_used;
+  r.fit_rmse_m = g.fit_rmse_m;
+  return r;
+}
+
+}  // namespace aerovo::map

@@ -1,0 +1,40 @@
+// `aerovo map build`: a reference map from a flight with GPS. The run's geo-referenced mosaic
+// (report/geo_mosaic.h: the frames placed by the transforms and the geo-referenced track, north-up
+// in the UTM zone of the flight) written as a Cloud Optimized GeoTIFF (GDAL's COG driver: tiled
+// 512 x 512, DEFLATE, RGB + alpha, overviews down to under 512 px, averaged). docs/map.md.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include "aerovo/map/map_info.h"
+
+namespace aerovo::map {
+
+struct MapBuildOptions {
+  /// The longer side of the map, pixels (report/mosaic.h MosaicOptions::max_size_px: the flight
+  /// is scaled to fit, never finer than the frames' own ground sampling), 100..20000.
+  int max_size_px = 4000;
+  /// At most this many frames are warped (every n-th processed frame), >= 1.
+  int max_frames = 2000;
+};
+
+/// Throws InvalidArgument naming the field.
+void Validate(const MapBuildOptions& options);
+
+struct MapBuildResult {
+  MapInfo info;             ///< The written map, read back.
+  int frames_used = 0;      ///< Frames warped into it.
+  double fit_rmse_m = 0.0;  ///< report/geo_mosaic.h GeoMosaicResult::fit_rmse_m.
+};
+
+/// Builds `out` (a .tif; replaced atomically) from the run folder `run_dir` (written by `aerovo
+/// run` on a flight with GPS: frames.csv geo-referenced, transforms.csv, config.json; the frames
+/// are re-read from the run's input). Throws InputError naming the folder when it is not a run or
+/// its track is not geo-referenced (no GPS, or GPS denied from the start), or naming `out` when it
+/// cannot be written.
+MapBuildResult BuildMapFromRun(const std::filesystem::path& run_dir,
+                               const std::filesystem::path& out,
+                               const MapBuildOptions& options = {});
+
+}  // namespace aerovo::map

@@ -1,0 +1,251 @@
+#include "aerovo/map/map_info.h"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <mutex>
+#include <system_error>
+
+#include <cpl_error.h>
+#include <fmt/format.h>
+#include <gdal_priv.h>
+#include <ogr_spatialref.h>
+
+#include "aerovo/core/error.h"
+#include "aerovo/geo/geodesic.h"
+
+namespace aerovo::map {
+namespace {
+
+struct DatasetCloser {
+  void operator()(GDALDataset* ds) const {
+    if (ds != nullptr) GDALClose(ds);
+  }
+};
+using DatasetPtr = std::unique_ptr<GDALDataset, DatasetCloser>;
+
+// GDALAllRegister once per process.
+void RegisterGdal() {
+  static std::once_flag once;
+  std::call_once(once, [] { GDALAllRegister(); });
+}
+
+// GDAL's last error message, or `fallback` when it has none.
+std::string LastGdalError(const std::string& fallback) {
+  const char* m = CPLGetLastErrorMsg();
+  return m != nullptr && *m != '\0' ? std::string(m) : fallback;
+}
+
+// `path` opened read-only as a raster; InputError naming the file when it does not exist or
+// GDAL cannot open it (with GDAL's message).
+DatasetPtr OpenRaster(const std::filesystem::path& path) {
+  RegisterGdal();
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) {
+    throw InputError("'" + path.string() + "': no such map file");
+  }
+  if (std::filesystem::is_directory(path, ec)) {
+    throw InputError("'" + path.string() + "': a folder, not a map file");
+  }
+  CPLErrorReset();
+  CPLPushErrorHandler(CPLQuietErrorHandler);
+  GDALDataset* ds = static_cast<GDALDataset*>(
+      GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr));
+  CPLPopErrorHandler();
+  if (ds == nullptr) {
+    throw InputError("'" + path.string() + "': not a raster GDAL can read (corrupt, or not an "
+                     "image): " + LastGdalError("unrecognised format"));
+  }
+  DatasetPtr out(ds);
+  if (ds->GetRasterCount() < 1 || ds->GetRasterXSize() < 1 || ds->GetRasterYSize() < 1) {
+    throw InputError("'" + path.string() + "': the raster has no band or no pixel");
+  }
+  return out;
+}
+
+
+// The map's CRS (InputError naming the file when it has none) into `info`.
+OGRSpatialReference CrsOf(GDALDataset& ds, MapInfo* info) {
+  const OGRSpatialReference* srs = ds.GetSpatialRef();
+  if (srs == nullptr || srs->IsEmpty()) {
+    throw InputError("'" + info->path.string() +
+                     "': the raster has no coordinate reference system (CRS): a map must be "
+                     "geo-referenced (GeoTIFF keys, or a .prj / .aux.xml beside it)");
+  }
+  OGRSpatialReference crs(*srs);
+  crs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  info->crs_name = crs.GetName() != nullptr ? crs.GetName() : "";
+  const char* auth = crs.GetAuthorityName(nullptr);
+  const char* code = crs.GetAuthorityCode(nullptr);
+  if (auth != nullptr && code != nullptr && std::string(auth) == "EPSG") {
+    info->epsg = std::atoi(code);
+  }
+  info->crs_geographic = crs.IsGeographic() != 0;
+  const char* unit = nullptr;
+  if (info->crs_geographic) {
+    crs.GetAngularUnits(&unit);
+  } else {
+    crs.GetLinearUnits(&unit);
+  }
+  info->crs_units = unit != nullptr ? unit : "";
+  return crs;
+}
+
+// The CRS coordinates of pixel corner (col, row).
+std::pair<double, double> At(const std::array<double, 6>& gt, double col, double row) {
+  return {gt[0] + col * gt[1] + row * gt[2], gt[3] + col * gt[4] + row * gt[5]};
+}
+
+// extent_crs, extent_lonlat (edges sampled: 32 points a side) and the resolution in metres.
+void PlaceOnEarth(const OGRSpatialReference& crs, MapInfo* info) {
+  const std::array<double, 6>& gt = info->geotransform;
+  const double w = info->width_px, h = info->height_px;
+  std::vector<std::pair<double, double>> edge;
+  constexpr int kSteps = 32;
+  for (int i = 0; i <= kSteps; ++i) {
+    const double f = static_cast<double>(i) / kSteps;
+    for (const auto& [c, r] : {std::pair{f * w, 0.0}, {f * w, h}, {0.0, f * h}, {w, f * h}}) {
+      edge.push_back(At(gt, c, r));
+    }
+  }
+  Extent& e = info->extent_crs;
+  e = {1e300, 1e300, -1e300, -1e300};
+  for (const auto& [x, y] : edge) {
+    e = {std::min(e.min_x, x), std::min(e.min_y, y), std::max(e.max_x, x), std::max(e.max_y, y)};
+  }
+  OGRSpatialReference wgs84;
+  wgs84.importFromEPSG(4326);
+  wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  std::unique_ptr<OGRCoordinateTransformation> to_lonlat(
+      OGRCreateCoordinateTransformation(&crs, &wgs84));
+  if (!to_lonlat) {
+    throw InputError("'" + info->path.string() + "': its CRS (" + info->crs_name +
+                     ") cannot be transformed to WGS84: " + LastGdalError("PROJ error"));
+  }
+  std::vector<double> xs, ys;
+  for (const auto& [x, y] : edge) {
+    xs.push_back(x);
+    ys.push_back(y);
+  }
+  std::vector<int> ok(xs.size(), 0);
+  to_lonlat->Transform(static_cast<int>(xs.size()), xs.data(), ys.data(), nullptr, ok.data());
+  Extent& g = info->extent_lonlat;
+  g = {1e300, 1e300, -1e300, -1e300};
+  for (std::size_t i = 0; i < xs.size(); ++i) {
+    if (!ok[i]) continue;
+    g = {std::min(g.min_x, xs[i]), std::min(g.min_y, ys[i]), std::max(g.max_x, xs[i]),
+         std::max(g.max_y, ys[i])};
+  }
+  if (g.min_x > g.max_x) {
+    throw InputError("'" + info->path.string() + "': no point of the map's edges has a WGS84 "
+                     "position in its CRS (" + info->crs_name + ")");
+  }
+  const double col_m = std::hypot(gt[1], gt[4]), row_m = std::hypot(gt[2], gt[5]);
+  if (!info->crs_geographic) {
+    const double unit_m = crs.GetLinearUnits(nullptr);
+    info->m_per_px_x = col_m * unit_m;
+    info->m_per_px_y = row_m * unit_m;
+    return;
+  }
+  // Geographic: one pixel's geodesic length at the centre (x, y = lon, lat in degrees).
+  double x = 0.5 * (e.min_x + e.max_x), y = 0.5 * (e.min_y + e.max_y);
+  std::unique_ptr<OGRCoordinateTransformation> t(OGRCreateCoordinateTransformation(&crs, &wgs84));
+  double x1 = x + gt[1], y1 = y + gt[4], x2 = x + gt[2], y2 = y + gt[5];
+  t->Transform(1, &x, &y);
+  t->Transform(1, &x1, &y1);
+  t->Transform(1, &x2, &y2);
+  info->m_per_px_x = GeodesicDistance({y, x, 0.0}, {y1, x1, 0.0});
+  info->m_per_px_y = GeodesicDistance({y, x, 0.0}, {y2, x2, 0.0});
+}
+
+}  // namespace
+
+MapInfo ReadMapInfo(const std::filesystem::path& path) {
+  MapInfo info;
+  info.path = path;
+  const DatasetPtr ds = OpenRaster(path);
+  info.driver = ds->GetDriver() != nullptr ? ds->GetDriver()->GetDescription() : "";
+  info.width_px = ds->GetRasterXSize();
+  info.height_px = ds->GetRasterYSize();
+  info.bands = ds->GetRasterCount();
+  const OGRSpatialReference crs = CrsOf(*ds, &info);
+  if (ds->GetGeoTransform(info.geotransform.data()) != CE_None) {
+    throw InputError("'" + path.string() + "': the raster has no geotransform (" +
+                     (ds->GetGCPCount() > 0 ? "only ground control points: warp it first, "
+                                              "gdalwarp"
+                                            : "a plain image") +
+                     "): a map must say where each pixel is");
+  }
+  const std::array<double, 6>& gt = info.geotransform;
+  if (!(gt[1] * gt[5] - gt[2] * gt[4] != 0.0) ||
+      !std::all_of(gt.begin(), gt.end(), [](double v) { return std::isfinite(v); })) {
+    throw InputError("'" + path.string() + "': its geotransform is degenerate");
+  }
+  info.rotated = gt[2] != 0.0 || gt[4] != 0.0;
+  PlaceOnEarth(crs, &info);
+  GDALRasterBand* band = ds->GetRasterBand(1);
+  for (int i = 0; i < band->GetOverviewCount(); ++i) {
+    GDALRasterBand* o = band->GetOverview(i);
+    if (o != nullptr) info.overviews.emplace_back(o->GetXSize(), o->GetYSize());
+  }
+  band->GetBlockSize(&info.block_x_px, &info.block_y_px);
+  const char* c = ds->GetMetadataItem("COMPRESSION", "IMAGE_STRUCTURE");
+  info.compression = c != nullptr ? c : "";
+  return info;
+}
+
+std::string FormatMapInfo(const MapInfo& m) {
+  std::string t = fmt::format("{:<13}{}\n", "map", m.path.string());
+  t += fmt::format("{:<13}{} x {} px, {} band{} ({})\n", "size", m.width_px, m.height_px, m.bands,
+                   m.bands == 1 ? "" : "s", m.driver);
+  t += fmt::format("{:<13}{}{}, {}\n", "crs", m.crs_name,
+                   m.epsg ? fmt::format(" (EPSG:{})", *m.epsg) : std::string(),
+                   m.crs_geographic ? "geographic" : "projected");
+  t += fmt::format("{:<13}{:.4f} x {:.4f} m/px ({:.9g} x {:.9g} {} per px){}\n", "resolution",
+                   m.m_per_px_x, m.m_per_px_y, std::hypot(m.geotransform[1], m.geotransform[4]),
+                   std::hypot(m.geotransform[2], m.geotransform[5]), m.crs_units,
+                   m.rotated ? ", rotated" : "");
+  const Extent& e = m.extent_crs;
+  t += fmt::format("{:<13}x {:.9g} .. {:.9g}, y {:.9g} .. {:.9g} {} ({:.1f} x {:.1f} m)\n",
+                   "extent", e.min_x, e.max_x, e.min_y, e.max_y, m.crs_units,
+                   m.width_px * m.m_per_px_x, m.height_px * m.m_per_px_y);
+  const Extent& g = m.extent_lonlat;
+  t += fmt::format("{:<13}lon {:.7f} .. {:.7f}, lat {:.7f} .. {:.7f} deg\n", "extent wgs84",
+                   g.min_x, g.max_x, g.min_y, g.max_y);
+  std::string ov;
+  for (const auto& [w, h] : m.overviews) ov += fmt::format("{}{}x{}", ov.empty() ? "" : ", ", w, h);
+  t += fmt::format("{:<13}{}\n", "overviews", ov.empty() ? "none" : ov);
+  t += fmt::format("{:<13}{} x {} px blocks, compression {}\n", "layout", m.block_x_px,
+                   m.block_y_px, m.compression.empty() ? "none" : m.compression);
+  return t;
+}
+
+nlohmann::json ToJson(const MapInfo& m) {
+  const auto extent = [](const Extent& e) {
+    return nlohmann::json{{"min_x", e.min_x}, {"min_y", e.min_y}, {"max_x", e.max_x},
+                          {"max_y", e.max_y}};
+  };
+  nlohmann::json overviews = nlohmann::json::array();
+  for (const auto& [w, h] : m.overviews) overviews.push_back({w, h});
+  return {{"path", m.path.string()},
+          {"driver", m.driver},
+          {"width_px", m.width_px},
+          {"height_px", m.height_px},
+          {"bands", m.bands},
+          {"crs_name", m.crs_name},
+          {"epsg", m.epsg ? nlohmann::json(*m.epsg) : nlohmann::json()},
+          {"crs_geographic", m.crs_geographic},
+          {"crs_units", m.crs_units},
+          {"geotransform", m.geotransform},
+          {"rotated", m.rotated},
+          {"m_per_px_x", m.m_per_px_x},
+          {"m_per_px_y", m.m_per_px_y},
+          {"extent_crs", extent(m.extent_crs)},
+          {"extent_lonlat", extent(m.extent_lonlat)},
+          {"overviews", overviews},
+          {"block_x_px", m.block_x_px},
+          {"block_y_px", m.block_y_px},
+          {"compression", m.compression}};
+}
+
+}  // namespace aerovo::map

@@ -1,0 +1,141 @@
+// `aerovo map build` and `aerovo map info` (docs/map.md) through the CLI, on a short simulated
+// flight with exact truth: 60 m east at 100 m over flat ground (`aerovo simulate --pattern line`,
+// 640x480, focal 427 px: a footprint of 150 m across and 112 m along the track, the image's top
+// towards the east), GPS with 0.5 m of noise. The map built from the flight given as a source
+// (run first) must cover what the camera saw: the truth's track widened by the footprint, in
+// WGS84 and at the frames' ground sampling, as a tiled, compressed GeoTIFF with an overview.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <string>
+#include <utility>
+
+#include <GeographicLib/UTMUPS.hpp>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "aerovo/geo/local_enu.h"
+#include "e2e_testing.h"
+
+namespace aerovo {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct MapFlight {
+  fs::path dir;
+  int simulate_rc = -1, build_rc = -1;
+  MapFlight() : dir(e2e::FreshTempDir("aerovo_map", "flight")) {
+    simulate_rc = e2e::RunCli(
+        fmt::format("simulate --pattern line --length-m 60 --speed-mps 10 --fps 5 --width 640 "
+                    "--height 480 --gps-noise-m 0.5 -q -o {}",
+                    (dir / "sim").string()));
+    build_rc = e2e::RunCli(fmt::format("map build {} -q -o {}", (dir / "sim" / "video.mp4").string(),
+                                       (dir / "map.tif").string()),
+                           dir / "build.log");
+  }
+  ~MapFlight() {
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+  }
+};
+
+const MapFlight& Flight() {
+  static const MapFlight f;
+  return f;
+}
+
+nlohmann::json Info(const fs::path& map) {
+  const testing::CommandOutput c =
+      testing::RunCommand(std::string(AEROVO_CLI_PATH) + " map info --json " + map.string());
+  EXPECT_EQ(c.ExitCode(), 0) << c.out;
+  return nlohmann::json::parse(c.out, nullptr, false);
+}
+
+TEST(MapBuild, FromASimulatedFlightCoversWhatTheCameraSaw) {
+  const MapFlight& f = Flight();
+  ASSERT_EQ(f.simulate_rc, 0);
+  ASSERT_EQ(f.build_rc, 0) << e2e::ReadText(f.dir / "build.log");
+  // The source was run first, beside the map.
+  EXPECT_TRUE(fs::exists(f.dir / "map_run" / "frames.csv"));
+  const nlohmann::json m = Info(f.dir / "map.tif");
+  ASSERT_TRUE(m.is_object());
+  EXPECT_EQ(m.at("epsg"), 32635);  // UTM 35N: longitude 24.03 E
+  EXPECT_EQ(m.at("bands"), 4);
+  EXPECT_EQ(m.at("compression"), "DEFLATE");
+  EXPECT_EQ(m.at("block_x_px"), 512);
+  EXPECT_GE(m.at("overviews").size(), 1u);
+  // The frames' own ground sampling: 100 m / 427 px (the map is smaller than 4000 px).
+  const double gsd = 100.0 / 426.9755;
+  EXPECT_NEAR(m.at("m_per_px_x").get<double>(), gsd, 0.02 * gsd);
+  // The camera's footprint over the truth's track, in the simulation's ENU frame: east from
+  // -56.2 m to 60 + 56.2 m (the image's 480 rows along the track), north +-74.9 m (640 columns).
+  // The map is north-up in UTM zone 35, whose grid is turned 2.3 degrees from true north there:
+  // its extent is the UTM bounds of the footprint, and those bounds' WGS84 bounds (edges sampled).
+  const nlohmann::json sim = e2e::ReadJson(f.dir / "sim" / "sim.json");
+  const LocalEnu enu(sim.at("origin").at("lat_deg").get<double>(),
+                     sim.at("origin").at("lon_deg").get<double>(), 0.0);
+  const double along = 240.0 * gsd, across = 320.0 * gsd;
+  double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+  for (const double e : {-along, 60.0 + along}) {
+    for (const double n : {-across, across}) {
+      const GeoPoint p = enu.Reverse(e, n, 0.0);
+      double x = 0.0, y = 0.0, gamma = 0.0, k = 0.0;
+      int zone = 0;
+      bool north = true;
+      GeographicLib::UTMUPS::Forward(p.lat_deg, p.lon_deg, zone, north, x, y, gamma, k, 35);
+      x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+    }
+  }
+  double lon0 = 1e300, lon1 = -1e300, lat0 = 1e300, lat1 = -1e300;
+  for (int i = 0; i <= 32; ++i) {
+    const double f_i = i / 32.0;
+    for (const auto& [x, y] : {std::pair{x0 + f_i * (x1 - x0), y0}, {x0 + f_i * (x1 - x0), y1},
+                               {x0, y0 + f_i * (y1 - y0)}, {x1, y0 + f_i * (y1 - y0)}}) {
+      double lat = 0.0, lon = 0.0;
+      GeographicLib::UTMUPS::Reverse(35, true, x, y, lat, lon);
+      lon0 = std::min(lon0, lon), lon1 = std::max(lon1, lon);
+      lat0 = std::min(lat0, lat), lat1 = std::max(lat1, lat);
+    }
+  }
+  const nlohmann::json& g = m.at("extent_lonlat");
+  // 1 m (0.25 m measured): GPS noise (0.5 m) in the geo-reference, the odometry's drift over
+  // 60 m and the mosaic's rounding to whole pixels (0.23 m).
+  const double deg_lat = 1.0 / 111200.0, deg_lon = deg_lat / std::cos(49.84 * M_PI / 180.0);
+  EXPECT_NEAR(g.at("min_x").get<double>(), lon0, deg_lon);
+  EXPECT_NEAR(g.at("max_x").get<double>(), lon1, deg_lon);
+  EXPECT_NEAR(g.at("min_y").get<double>(), lat0, deg_lat);
+  EXPECT_NEAR(g.at("max_y").get<double>(), lat1, deg_lat);
+  const std::string log = e2e::ReadText(f.dir / "build.log");
+  EXPECT_NE(log.find("overviews"), std::string::npos) << log;
+}
+
+TEST(MapBuild, ARunWithoutGeoReferenceIsAnErrorNamingIt) {
+  const MapFlight& f = Flight();
+  ASSERT_EQ(f.simulate_rc, 0);
+  const fs::path run = f.dir / "denied";
+  ASSERT_EQ(e2e::RunCli(fmt::format("run {} --gps-denied-after-s 0 --no-report -q -o {}",
+                                    (f.dir / "sim" / "video.mp4").string(), run.string())),
+            0);
+  const fs::path log = f.dir / "denied.log";
+  EXPECT_EQ(e2e::RunCli(fmt::format("map build {} -o {}", run.string(),
+                                    (f.dir / "denied.tif").string()),
+                        log) >> 8,
+            1);
+  const std::string text = e2e::ReadText(log);
+  EXPECT_NE(text.find("'" + run.string() + "': cannot build a map from this run"),
+            std::string::npos)
+      << text;
+  EXPECT_FALSE(fs::exists(f.dir / "denied.tif"));
+  // `map info` on a file that is not a map: exit 1, the file named.
+  const testing::CommandOutput c = testing::RunCommand(
+      std::string(AEROVO_CLI_PATH) + " map info " + (run / "frames.csv").string() + " 2>&1");
+  EXPECT_EQ(c.ExitCode(), 1);
+  EXPECT_NE(c.out.find((run / "frames.csv").string() + "': not a raster"), std::string::npos)
+      << c.out;
+}
+
+}  // namespace
+}  // namespace aerovo
