@@ -287,6 +287,13 @@ PLAN = {
         extra=["--no-report"], extra_why="the page is about summary.json and the summary text",
         says=["GPS denied from frame", "end error per km without GPS"],
         files=["denied/summary.json", "denied/frames.csv"]),
+    "aerovo map build flight.mp4 --telemetry flight.SRT -o map.tif": Row(
+        says=["running the flight into", "overviews"], files=["map.tif", "map_run/frames.csv"]),
+    "aerovo map build map_run -o survey.tif --mosaic-size-px 1000": Row(
+        says=["from the run 'map_run'", "512 x 512 px blocks, compression DEFLATE"],
+        files=["survey.tif"]),
+    "aerovo map info map.tif": Row(says=["(EPSG:326", "m/px", "extent wgs84"]),
+    "aerovo map info --json survey.tif": Row(says=['"extent_lonlat"', '"overviews"']),
     # docs/backend.md
     "aerovo simulate --pattern lawnmower --legs 4 --length-m 250 --spacing-m 50 --width 480 "
     "--height 270 --fps 1.5 --quiet -o backend_sim": Row(

@@ -90,8 +90,8 @@ void RunBuild(BuildArgs& a) {
     RunFlightFirst(config, run_dir);
   }
   const map::MapBuildResult r = map::BuildMapFromRun(run_dir, a.out, a.options);
-  std::cout << fmt::format("map build: {} from the run '{}' ({} frames warped; frames placed "
-                           "within {:.2f} m RMS of the geo-referenced track)\n",
+  std::cout << fmt::format("map build: {} from the run '{}' ({} frames warped; their centres fit "
+                           "the geo-referenced track to {:.2f} m RMS)\n",
                            a.out, run_dir.string(), r.frames_used, r.fit_rmse_m)
             << map::FormatMapInfo(r.info);
 }
