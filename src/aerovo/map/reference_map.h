@@ -1,0 +1,71 @@
+// The reference maps of a run (several allowed, the first that covers a place wins: a recent
+// survey given before an older satellite mosaic), read as windows: a north-up square of the
+// ground around a geographic point, at a requested ground resolution, in the local East-North
+// plane of that point (geo/local_enu.h) — what a frame brought to the map's geometry is matched
+// against. GDAL reads the map's overview nearest the resolution asked (averaged), and the window
+// is resampled bilinearly through the map's CRS (an affine fit of the window's corners: the
+// CRS's curvature over a window of a few hundred metres is centimetres, checked). docs/map.md.
+#pragma once
+
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "aerovo/core/image.h"
+#include "aerovo/geo/geo_point.h"
+#include "aerovo/map/map_info.h"
+
+namespace aerovo::map {
+
+/// A window of a map. Pixel (x, y) is at east = (x - (size - 1) / 2) m_per_px, north =
+/// ((size - 1) / 2 - y) m_per_px of `centre` (row 0 is the northern edge).
+struct MapWindow {
+  GrayImage pixels;  ///< Grey (luma of RGB maps: 0.299 R + 0.587 G + 0.114 B); 0 where invalid.
+  GrayImage valid;   ///< 255 where the map has data (inside it, alpha or nodata not empty), else 0.
+  double valid_fraction = 0.0;
+  double m_per_px = 0.0;
+  GeoPoint centre;
+  int map_index = 0;  ///< Which map (ReferenceMaps::infos()).
+};
+
+/// How much of a set of positions the maps cover.
+struct MapCover {
+  int points = 0, covered = 0;
+  bool none() const { return points > 0 && covered == 0; }
+  bool partial() const { return covered > 0 && covered < points; }
+};
+
+class ReferenceMaps {
+ public:
+  /// Opens every map (ReadMapInfo: InputError naming a missing, corrupt, CRS-less or
+  /// geotransform-less one). Throws InvalidArgument when `paths` is empty.
+  explicit ReferenceMaps(const std::vector<std::filesystem::path>& paths);
+  ~ReferenceMaps();
+  ReferenceMaps(ReferenceMaps&&) noexcept;
+  ReferenceMaps& operator=(ReferenceMaps&&) noexcept;
+
+  const std::vector<MapInfo>& infos() const { return infos_; }
+
+  /// Which of `points` fall on a map's data (its extent and a non-empty pixel there).
+  MapCover CoverOf(const std::vector<GeoPoint>& points) const;
+
+  /// The window of `size_px` x `size_px` pixels of `m_per_px` metres centred on `centre`, from
+  /// the first map whose extent it overlaps with data; nullopt when none has data there.
+  /// Throws InvalidArgument for size_px < 2 or m_per_px not finite and > 0, InputError naming
+  /// the map when reading it fails.
+  std::optional<MapWindow> Window(const GeoPoint& centre, int size_px, double m_per_px) const;
+
+ private:
+  struct Open;
+  std::vector<MapInfo> infos_;
+  std::vector<std::unique_ptr<Open>> open_;
+};
+
+/// The flight's cover check of `aerovo run --map` before the run: InputError naming the maps when
+/// none covers any of `track` (e.g. the telemetry's first fixes), a warning (returned) naming them
+/// with the covered share when the cover is partial, "" when full.
+std::string CheckCover(const ReferenceMaps& maps, const std::vector<GeoPoint>& track);
+
+}  // namespace aerovo::map
