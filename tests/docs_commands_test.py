@@ -280,6 +280,14 @@ def check_mavlink(cwd, out):
         f"summary.json mavlink says nothing was sent: {m}"
 
 
+def check_map_cover(cwd, out):
+    """docs/map.md: summary.json `map` says the map covers the whole track."""
+    with open(os.path.join(cwd, "with-map", "summary.json")) as f:
+        m = json.load(f).get("map") or {}
+    return "" if m.get("track_points", 0) > 0 and m.get("covered") == m.get("track_points") else \
+        f"summary.json map says {m}"
+
+
 HARDWARE = "needs hardware this machine does not have"
 PLAN = {
     # docs/map.md
@@ -292,6 +300,8 @@ PLAN = {
     "aerovo map build map_run -o survey.tif --mosaic-size-px 1000": Row(
         says=["from the run 'map_run'", "512 x 512 px blocks, compression DEFLATE"],
         files=["survey.tif"]),
+    "aerovo run flight.mp4 --telemetry flight.SRT --map map.tif --no-report -o with-map": Row(
+        files=["with-map/summary.json"], check=check_map_cover),
     "aerovo map info map.tif": Row(says=["(EPSG:326", "m/px", "extent wgs84"]),
     "aerovo map info --json survey.tif": Row(says=['"extent_lonlat"', '"overviews"']),
     # docs/backend.md

@@ -8,7 +8,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <utility>
 
@@ -135,6 +137,66 @@ TEST(MapBuild, ARunWithoutGeoReferenceIsAnErrorNamingIt) {
   EXPECT_EQ(c.ExitCode(), 1);
   EXPECT_NE(c.out.find((run / "frames.csv").string() + "': not a raster"), std::string::npos)
       << c.out;
+}
+
+// `aerovo run --map`: the map is checked before the frames (an error naming a map that is
+// corrupt or covers none of the flight) and its cover of the geo-referenced track is reported
+// (summary.json "map", a warning when partial). The partial and the distant maps are the built
+// map cut to its western half and moved 10 km east (gdal_translate, gdal-bin).
+TEST(MapRun, TheMapIsCheckedAgainstTheFlightAndItsCoverReported) {
+  const MapFlight& f = Flight();
+  ASSERT_EQ(f.build_rc, 0);
+  const std::string video = (f.dir / "sim" / "video.mp4").string();
+  const auto run = [&](const std::string& map, const std::string& name) {
+    const int rc = e2e::RunCli(fmt::format("run {} --map {} --no-report -q -o {}", video, map,
+                                           (f.dir / name).string()),
+                               f.dir / (name + ".log"));
+    return rc >> 8;
+  };
+  ASSERT_EQ(run((f.dir / "map.tif").string(), "full"), 0);
+  const nlohmann::json full = e2e::ReadJson(f.dir / "full" / "summary.json").at("map");
+  EXPECT_GT(full.at("track_points").get<int>(), 20);
+  EXPECT_EQ(full.at("covered"), full.at("track_points"));
+
+  if (std::system("command -v gdal_translate > /dev/null 2>&1") != 0) {
+    GTEST_SKIP() << "gdal_translate (gdal-bin) not installed: the partial and distant maps";
+  }
+  const nlohmann::json m = Info(f.dir / "map.tif");
+  const int w = m.at("width_px"), h = m.at("height_px");
+  const fs::path west = f.dir / "west.tif", far = f.dir / "far.tif";
+  ASSERT_EQ(std::system(fmt::format("gdal_translate -q -srcwin 0 0 {} {} {} {}", w / 2, h,
+                                    (f.dir / "map.tif").string(), west.string())
+                            .c_str()),
+            0);
+  const nlohmann::json& e = m.at("extent_crs");
+  ASSERT_EQ(std::system(fmt::format("gdal_translate -q -a_ullr {} {} {} {} {} {}",
+                                    e.at("min_x").get<double>() + 10000.0,
+                                    e.at("max_y").get<double>(),
+                                    e.at("max_x").get<double>() + 10000.0,
+                                    e.at("min_y").get<double>(), (f.dir / "map.tif").string(),
+                                    far.string())
+                            .c_str()),
+            0);
+  // The western half: the track's first half on it (0 to 60 m east; the half ends near 30 m).
+  ASSERT_EQ(run(west.string(), "west"), 0) << e2e::ReadText(f.dir / "west.log");
+  const nlohmann::json part = e2e::ReadJson(f.dir / "west" / "summary.json");
+  const int covered = part.at("map").at("covered"), points = part.at("map").at("track_points");
+  EXPECT_GT(covered, points / 4);
+  EXPECT_LT(covered, 3 * points / 4);
+  EXPECT_NE(e2e::ReadText(f.dir / "west.log").find("'" + west.string() + "': the map covers"),
+            std::string::npos);
+  // 10 km away: an error naming it, before any frame.
+  EXPECT_EQ(run(far.string(), "far"), 1);
+  EXPECT_NE(e2e::ReadText(f.dir / "far.log").find("'" + far.string() + "': the map covers none"),
+            std::string::npos)
+      << e2e::ReadText(f.dir / "far.log");
+  // Not a map: an error naming it.
+  const fs::path bad = f.dir / "bad.tif";
+  std::ofstream(bad) << "not a GeoTIFF";
+  EXPECT_EQ(run(bad.string(), "bad"), 1);
+  EXPECT_NE(e2e::ReadText(f.dir / "bad.log").find("'" + bad.string() + "': not a raster"),
+            std::string::npos)
+      << e2e::ReadText(f.dir / "bad.log");
 }
 
 }  // namespace

@@ -292,6 +292,12 @@ struct RunConfig {
   /// (barometer, compass, gimbal). 0 = from the start (the track is then not geo-referenced);
   /// negative (default -1) = never.
   double gps_denied_after_s = -1.0;
+  /// A reference map (docs/map.md; map/reference_map.h): any geo-referenced raster GDAL opens.
+  /// Opened and checked before the frames (an InputError naming it when it is missing, corrupt,
+  /// has no CRS or geotransform, or covers none of the telemetry's positions the run may use:
+  /// those before gps_denied_after_s); after the run, its cover of the geo-referenced track
+  /// (summary.json "map", a warning when partial). No fixes from it yet. "" = none.
+  std::string map;
   /// The sensor's static pattern (vignetting, fixed-pattern noise) estimated from the flight and
   /// removed before the reduction and SURF when significant (features/flat_field.h; the stage
   /// pipeline/stage_flat_field.cc): a photo folder's median of photo_samples photos spread over
@@ -366,6 +372,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.attitude_warn_deg, "attitude_warn_deg", "Warn when the telemetry's camera is this far from nadir and attitude is off, deg", Interval(0, 90));
   v.Field(c.ground_elevation_m, "ground_elevation_m", "Ground altitude above sea level, m, for telemetry with only an altitude above sea level (nan = unknown)", Any());
   v.Field(c.takeoff_height_agl_m, "takeoff_height_agl_m", "Take-off point's height above the ground flown over, m (added to the relative altitude)", Interval(-1e4, 1e4));
+  v.Field(c.map, "map", "Reference map (GeoTIFF/COG, VRT, MBTiles; docs/map.md): checked against the flight, its cover of the track reported (no fixes yet)", Any());
   v.Field(c.gps_denied_after_s, "gps_denied_after_s", "Withhold the telemetry's positions from this many seconds after the first frame on (0 = from the start, negative = never): kept only for the comparison with GPS", Interval(-1e9, 1e9));
   v.Group("gps_check", c.gps_check);
   v.Group("flat_field", c.flat_field);

@@ -23,6 +23,7 @@
 #include "aerovo/pipeline/lens_prepass.h"
 #include "aerovo/pipeline/frame_loop.h"
 #include "aerovo/pipeline/run_steps.h"
+#include "aerovo/map/reference_map.h"
 #include "aerovo/telemetry/clock.h"
 
 namespace aerovo {
@@ -45,6 +46,14 @@ nlohmann::json ToJson(const RunSummary::Optimized& o) {
           {"evaluation", o.evaluation ? ToJson(*o.evaluation) : nlohmann::json()},
           {"truth_evaluation", o.truth_evaluation ? ToJson(*o.truth_evaluation) : nlohmann::json()},
           {"gps_denied_error", o.gps_denied_error ? ToJson(*o.gps_denied_error) : nlohmann::json()}};
+}
+
+// summary.json "map".
+nlohmann::json ToJson(const RunSummary::MapCover& m) {
+  return {{"path", m.path},
+          {"track_points", m.track_points},
+          {"covered", m.covered},
+          {"note", m.note}};
 }
 
 // summary.json "gps_denied".
@@ -147,6 +156,7 @@ nlohmann::json ToJson(const RunSummary& s) {
   j["truth_evaluation"] = s.truth_evaluation ? ToJson(*s.truth_evaluation) : nlohmann::json();
   j["optimized"] = s.optimized ? ToJson(*s.optimized) : nlohmann::json();
   j["gps_denied"] = s.gps_denied ? ToJson(*s.gps_denied) : nlohmann::json();
+  j["map"] = s.map ? ToJson(*s.map) : nlohmann::json();
   return j;
 }
 
@@ -309,6 +319,56 @@ nlohmann::json LinkStats(const mavlink::AutopilotLink& link, const RunConfig& co
           {"rejected_replayed", st.rejected_replayed}};
 }
 
+// RunConfig::map opened and checked against the telemetry's fixes the run may use (those of
+// its first gps_denied_after_s seconds under GPS denial): InputError naming the map when it
+// cannot be read or covers none of them, a warning when it covers part (map/reference_map.h).
+std::optional<map::ReferenceMaps> OpenMap(const RunConfig& config,
+                                          const run_steps::RunTelemetry& telemetry,
+                                          RunSummary* summary) {
+  if (config.map.empty()) return std::nullopt;
+  map::ReferenceMaps maps({config.map});
+  summary->map.emplace();
+  summary->map->path = config.map;
+  std::vector<GeoPoint> fixes;
+  const double t0 = telemetry.telemetry().start_time_s();
+  for (const TelemetrySample& s : telemetry.telemetry().samples()) {
+    if (!s.has_fix) continue;
+    if (config.gps_denied_after_s >= 0.0 && s.time_s - t0 >= config.gps_denied_after_s) continue;
+    fixes.push_back({s.lat_deg, s.lon_deg, 0.0});
+  }
+  if (fixes.empty()) {
+    summary->warnings.push_back(fmt::format(
+        "'{}': the map's cover of the flight is not checked before the run: no telemetry "
+        "position the run may use", config.map));
+    return maps;
+  }
+  const std::string partial = map::CheckCover(maps, fixes);
+  if (!partial.empty()) summary->warnings.push_back(partial + " (the telemetry's)");
+  return maps;
+}
+
+// summary->map's cover of the geo-referenced track (at most 1000 positions, evenly spread).
+void MapCoverOfTrack(const map::ReferenceMaps& maps, const GeoReferencer& georef,
+                     const run_steps::RunTotals& totals, RunSummary* summary) {
+  RunSummary::MapCover& m = *summary->map;
+  if (!georef.ready() || totals.local_track.empty()) {
+    m.note = "the track is not geo-referenced";
+    return;
+  }
+  const std::size_t n = totals.local_track.size(), step = std::max<std::size_t>(1, n / 1000);
+  std::vector<GeoPoint> track;
+  for (std::size_t i = 0; i < n; i += step) {
+    track.push_back(georef.Wgs84FromLocal({totals.local_track[i].x, totals.local_track[i].y}));
+  }
+  const map::MapCover c = maps.CoverOf(track);
+  m.track_points = c.points;
+  m.covered = c.covered;
+  if (c.covered < c.points) {
+    summary->warnings.push_back(fmt::format(
+        "'{}': the map covers {} of the {} track positions checked", m.path, c.covered, c.points));
+  }
+}
+
 // The samples of `telemetry` before the GPS denial of the run (`t.denied_at_s`; all of them
 // without one): by frame index when the telemetry is matched by index, else by time (telemetry
 // time = frame time + the offset applied).
@@ -388,6 +448,7 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
     summary.gps_denied->after_s = config.gps_denied_after_s;
   }
   if (log) *log << "telemetry: " << telemetry.Describe() << "\n";
+  const std::optional<map::ReferenceMaps> maps = OpenMap(config, telemetry, &summary);
 
   // 2-5. The frames: camera, height, outputs, odometry.
   run_steps::FrameLoop loop(inputs, telemetry, folder, config.odometry, out_dir, cb, log);
@@ -418,6 +479,7 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
   const bool optimize = config.backend.enable && !end.stopped && !end.output_failed();
   std::optional<run_steps::RunTotals> causal;
   if (optimize) causal = loop.totals();
+  if (maps) MapCoverOfTrack(*maps, loop.georef(), loop.totals(), &summary);
   run_steps::Summarize(source->warnings(), !telemetry.empty(), end, loop.vo_stats(), loop.georef(),
                        loop.TakeTotals(), inputs.truth ? &*inputs.truth : nullptr,
                        wall.elapsed_ms() / 1000.0, &summary);

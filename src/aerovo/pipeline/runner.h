@@ -189,6 +189,15 @@ struct RunSummary {
     std::string note;  ///< Why there is no `error` ("" when there is one).
   };
   std::optional<GpsDenied> gps_denied;
+  /// RunConfig::map (summary.json "map", null without): the map and its cover of the
+  /// geo-referenced track (frames whose position falls on the map's data; `note` when the track
+  /// is not geo-referenced).
+  struct MapCover {
+    std::string path;
+    int track_points = 0, covered = 0;
+    std::string note;
+  };
+  std::optional<MapCover> map;
   std::vector<std::string> warnings;
   /// GPS fixes rejected by the plausibility check (odometry/gps_check.h; frames.csv gps_flag):
   /// their count and, for the first 100, frame, time (s), kind and message. They are not in
