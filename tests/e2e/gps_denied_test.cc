@@ -25,6 +25,7 @@
 #include "aerovo/geo/geodesic.h"
 #include "aerovo/geo/local_enu.h"
 #include "aerovo/pipeline/runner.h"
+#include "aerovo/report/html_report.h"
 #include "e2e_testing.h"
 
 namespace aerovo {
@@ -222,6 +223,14 @@ TEST(GpsDenied, ErrorOverTimeIsTheTracksAgainstTheWithheldFixes) {
   EXPECT_NE(text.find("GPS denied from frame 20 (20.0 s), 71 fixes withheld"), std::string::npos)
       << text;
   EXPECT_NE(text.find("after 1 min"), std::string::npos) << text;
+  // The report's section (no mosaic: the figures from summary.json and frames.csv).
+  ReportOptions ro;
+  ro.mosaic = false;
+  const ReportResult report = WriteReport(TheFlight().dir / "denied_20", ro);
+  const std::string html = e2e::ReadText(report.html);
+  EXPECT_NE(html.find("Without GPS"), std::string::npos);
+  EXPECT_NE(html.find("GPS withheld from frame 20 (20.0 s)"), std::string::npos);
+  EXPECT_NE(html.find("end error per km without GPS"), std::string::npos);
 }
 
 // Denied from the start (the first 30 photos): no position ever reaches the run, so the track is not geo-referenced;

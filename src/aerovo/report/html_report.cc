@@ -594,6 +594,39 @@ void OptimizedTables(Page& page, const nlohmann::json& o) {
   }
 }
 
+// GPS denial (summary.json "gps_denied"; docs/map.md): the track against the withheld fixes,
+// unaligned, over time since the denial.
+void DeniedTable(Page& page, const nlohmann::json& d) {
+  page.H2("Without GPS", "gps-denied");
+  const nlohmann::json& e = d.contains("error") ? d["error"] : d;
+  if (!e.is_object() || !e.contains("end_error_m")) {
+    page.Para("GPS denied after " + Num(JsonNumber(d, {"after_s"}, 0), 1) +
+              " s: no error against the withheld GPS (" + JsonString(d, "note") + ").");
+    return;
+  }
+  page.Para(fmt::format(
+      "GPS withheld from frame {:.0f} ({:.1f} s) on (docs/map.md): the geo-referenced track "
+      "against the withheld fixes, not aligned.",
+      JsonNumber(d, {"from_frame"}, 0), JsonNumber(d, {"from_time_s"}, 0)));
+  std::vector<std::vector<std::string>> rows;
+  rows.push_back({"at the denial", Num(JsonNumber(e, {"first_error_m"}, 0), 2), "0"});
+  if (e.contains("at") && e["at"].is_array()) {
+    for (const auto& a : e["at"]) {
+      rows.push_back({fmt::format("after {:.0f} min", JsonNumber(a, {"after_s"}, 0) / 60.0),
+                      Num(JsonNumber(a, {"error_m"}, 0), 2), Num(JsonNumber(a, {"distance_m"}, 0), 0)});
+    }
+  }
+  rows.push_back({"at the end", Num(JsonNumber(e, {"end_error_m"}, 0), 2),
+                  Num(JsonNumber(e, {"distance_m"}, 0), 0)});
+  rows.push_back({"RMSE / max", Num(JsonNumber(e, {"rmse_m"}, 0), 2) + " / " +
+                                    Num(JsonNumber(e, {"max_error_m"}, 0), 2), ""});
+  if (e.contains("end_error_per_km_m") && e["end_error_per_km_m"].is_number()) {
+    rows.push_back({"end error per km without GPS",
+                    Num(e["end_error_per_km_m"].get<double>(), 2), "1000"});
+  }
+  page.Table({"", "error (m)", "flown without GPS (m)"}, rows, "summary");
+}
+
 // The comparisons with GPS and the ground truth, with their explanation.
 void ComparisonTables(Page& page, const nlohmann::json& s) {
   const nlohmann::json none;
@@ -615,6 +648,7 @@ void ComparisonTables(Page& page, const nlohmann::json& s) {
                   .Text(" (frames matched by time), aligned as above."));
     EvaluationTable(page, s["truth_evaluation"]);
   }
+  if (s.contains("gps_denied") && s["gps_denied"].is_object()) DeniedTable(page, s["gps_denied"]);
   if (s.contains("optimized") && s["optimized"].is_object()) OptimizedTables(page, s["optimized"]);
 }
 
