@@ -48,6 +48,8 @@ nlohmann::json ToJson(const RunSummary::Optimized& o) {
           {"gps_denied_error", o.gps_denied_error ? ToJson(*o.gps_denied_error) : nlohmann::json()}};
 }
 
+namespace {
+
 // summary.json "map".
 nlohmann::json ToJson(const RunSummary::MapCover& m) {
   return {{"path", m.path},
@@ -65,6 +67,15 @@ nlohmann::json ToJson(const RunSummary::GpsDenied& d) {
           {"error", d.error ? ToJson(*d.error) : nlohmann::json()},
           {"note", d.note}};
 }
+
+// The blocks of summary.json that are null unless their feature ran: optimized, gps_denied, map.
+void AddOptionalBlocks(const RunSummary& s, nlohmann::json* j) {
+  (*j)["optimized"] = s.optimized ? ToJson(*s.optimized) : nlohmann::json();
+  (*j)["gps_denied"] = s.gps_denied ? ToJson(*s.gps_denied) : nlohmann::json();
+  (*j)["map"] = s.map ? ToJson(*s.map) : nlohmann::json();
+}
+
+}  // namespace
 
 nlohmann::json ToJson(const RunSummary& s) {
   nlohmann::json j{{"input", s.input},
@@ -154,9 +165,7 @@ nlohmann::json ToJson(const RunSummary& s) {
           : nlohmann::json();
   j["evaluation"] = s.evaluation ? ToJson(*s.evaluation) : nlohmann::json();
   j["truth_evaluation"] = s.truth_evaluation ? ToJson(*s.truth_evaluation) : nlohmann::json();
-  j["optimized"] = s.optimized ? ToJson(*s.optimized) : nlohmann::json();
-  j["gps_denied"] = s.gps_denied ? ToJson(*s.gps_denied) : nlohmann::json();
-  j["map"] = s.map ? ToJson(*s.map) : nlohmann::json();
+  AddOptionalBlocks(s, &j);
   return j;
 }
 
