@@ -97,7 +97,8 @@ Flight MakeFlight(int legs, int steps, double bias_rad) {
 PairFitter TruthFitter(const Flight& f, std::map<std::pair<int, int>, Eigen::Vector2d> wrong = {},
                        std::vector<std::pair<int, int>> none = {}) {
   return [&f, wrong, none](const FeatureSet& prev, const FeatureSet& curr,
-                           std::uint64_t) -> std::optional<PairFit> {
+                           std::uint64_t,
+                           const std::optional<Eigen::Matrix3d>&) -> std::optional<PairFit> {
     const std::pair<int, int> key(FrameOf(prev), FrameOf(curr));
     for (const auto& n : none) {
       if (n == key) return std::nullopt;
@@ -140,7 +141,8 @@ TEST(FlightGraph, OverlapsBetweenLegsCutTheEndErrorByMoreThanThreeQuarters) {
 std::vector<std::pair<int, int>> TriedPairs(const FlightGraph& g) {
   std::vector<std::pair<int, int>> tried;
   g.Optimize(
-      [&](const FeatureSet& a, const FeatureSet& b, std::uint64_t) -> std::optional<PairFit> {
+      [&](const FeatureSet& a, const FeatureSet& b, std::uint64_t,
+          const std::optional<Eigen::Matrix3d>&) -> std::optional<PairFit> {
         tried.emplace_back(FrameOf(a), FrameOf(b));
         return std::nullopt;
       },

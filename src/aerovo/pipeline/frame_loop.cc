@@ -21,6 +21,7 @@ std::vector<StagePtr> MakeStages(const RunContext& run, const std::vector<StageP
   stages.push_back(MakeFlatFieldStage());
   stages.push_back(MakePreprocessStage());
   stages.push_back(MakeOdometryStage());
+  if (run.config->backend.online) stages.push_back(MakeWindowStage());
   stages.push_back(MakeGpsCheckStage());
   stages.push_back(MakeGeoreferenceStage());
   stages.push_back(MakeRecordStage());
@@ -35,7 +36,9 @@ std::vector<SinkPtr> MakeSinks(const RunContext& run, const std::vector<SinkPtr>
   sinks.push_back(MakeSourceCountsSink());
   sinks.push_back(MakePoseStreamSink());
   sinks.push_back(MakeRunFilesSink());
-  if (run.config->backend.enable) sinks.push_back(MakeFlightGraphSink());
+  if (run.config->backend.enable && !run.config->backend.online) {
+    sinks.push_back(MakeFlightGraphSink());  // online, the window stage builds the graph
+  }
   sinks.push_back(MakeTotalsSink());
   sinks.push_back(MakeProgressSink());
   sinks.insert(sinks.end(), extra.begin(), extra.end());

@@ -26,6 +26,7 @@ std::unique_ptr<FrameStage> MakeAttitudeStage();                     // stage_at
 std::unique_ptr<FrameStage> MakeFlatFieldStage();                    // stage_flat_field.cc
 std::unique_ptr<FrameStage> MakePreprocessStage();                   // stage_preprocess.cc
 std::unique_ptr<FrameStage> MakeOdometryStage();                     // stage_odometry.cc
+std::unique_ptr<FrameStage> MakeWindowStage();                       // stage_window.cc
 std::unique_ptr<FrameStage> MakeGpsCheckStage();                     // stage_gps_check.cc
 std::unique_ptr<FrameStage> MakeGeoreferenceStage();                 // stage_georef.cc
 std::unique_ptr<FrameStage> MakeRecordStage();                       // stage_record.cc

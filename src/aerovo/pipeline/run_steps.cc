@@ -465,6 +465,10 @@ std::string PoseJsonLine(const PendingFrame& p, const GeoReferencer& georef) {
                            {"status", r.status},
                            {"quality", p.quality},
                            {"latency_ms", NumberOrNull(r.latency_ms)}};
+  if (std::isfinite(p.sigma_xy_m)) {
+    j["sigma_xy_m"] = p.sigma_xy_m;
+    j["sigma_heading_deg"] = NumberOrNull(p.sigma_heading_deg);
+  }
   if (georef.ready()) AddGeoFields(p, georef, j);
   return j.dump() + "\n";
 }
@@ -887,15 +891,20 @@ void WriteOptimizedTrack(const RunConfig& config, const FlightRecording& flight,
 
 }  // namespace
 
+CorrespondenceOptions PairCorrespondenceOptions(const RunConfig& config) {
+  CorrespondenceOptions pair_options = config.odometry.correspondence;
+  pair_options.sampler = config.odometry.relocalize_sampler;
+  return pair_options;
+}
+
 void OptimizeFlight(const RunConfig& config, const FlightRecording& flight,
                     const GeoReferencer& georef, const RunTotals& totals,
                     const ReferenceTrack* truth, const std::filesystem::path& out_dir,
                     RunSummary* summary) {
   if (!flight.graph || flight.graph->num_frames() == 0) return;
-  CorrespondenceOptions pair_options = config.odometry.correspondence;
-  pair_options.sampler = config.odometry.relocalize_sampler;
   const OptimizedFlight opt = flight.graph->Optimize(
-      MakeStandardPairFitter(pair_options, flight.graph->width(), flight.graph->height()),
+      MakeStandardPairFitter(PairCorrespondenceOptions(config), flight.graph->width(),
+                             flight.graph->height()),
       config.odometry.correspondence.ransac.seed);
   WriteOptimizedTrack(config, flight, opt, georef, out_dir);
   RunSummary::Optimized o;
