@@ -46,6 +46,15 @@ nlohmann::json ToJson(const RunSummary::Optimized& o) {
           {"truth_evaluation", o.truth_evaluation ? ToJson(*o.truth_evaluation) : nlohmann::json()}};
 }
 
+// summary.json "online".
+nlohmann::json ToJson(const RunSummary::Online& o) {
+  return {{"window", o.window},
+          {"pairs_tried", o.pairs_tried},
+          {"pairs_verified", o.pairs_verified},
+          {"pairs_gated", o.pairs_gated},
+          {"total_ms", o.total_ms}};
+}
+
 nlohmann::json ToJson(const RunSummary& s) {
   nlohmann::json j{{"input", s.input},
                    {"source", s.source_description},
@@ -135,6 +144,7 @@ nlohmann::json ToJson(const RunSummary& s) {
   j["evaluation"] = s.evaluation ? ToJson(*s.evaluation) : nlohmann::json();
   j["truth_evaluation"] = s.truth_evaluation ? ToJson(*s.truth_evaluation) : nlohmann::json();
   j["optimized"] = s.optimized ? ToJson(*s.optimized) : nlohmann::json();
+  j["online"] = s.online ? ToJson(*s.online) : nlohmann::json();
   return j;
 }
 

@@ -175,6 +175,14 @@ struct RunSummary {
     std::optional<TrajectoryComparison> truth_evaluation;  ///< Against the truth.
   };
   std::optional<Optimized> optimized;  ///< nullopt: backend.enable off, or no frame.
+  /// The online window (backend.online, pipeline/stage_window.cc; summary.json "online"): the
+  /// frame-to-keyframe pairs it matched over the run (FlightGraph::AddOnline) and its wall time.
+  struct Online {
+    int window = 0;  ///< backend.window.
+    int pairs_tried = 0, pairs_verified = 0, pairs_gated = 0;
+    double total_ms = 0.0;  ///< Wall time of the window stage over all frames, ms.
+  };
+  std::optional<Online> online;  ///< nullopt: backend.online off, or no frame.
   std::vector<std::string> warnings;
   /// GPS fixes rejected by the plausibility check (odometry/gps_check.h; frames.csv gps_flag):
   /// their count and, for the first 100, frame, time (s), kind and message. They are not in

@@ -5,10 +5,11 @@
 // (GPS check, geo-referencing, frames.csv and the track files, the pose stream, MAVLink) carries
 // it. The causal pixel transform (FrameResult::world_from_frame, transforms.csv) is left as the
 // odometry made it. The frame's features are released from the FrameState here (the graph keeps
-// those of its keyframes only).
+// those of its keyframes only). summary.json "online" counts the pairs and the stage's time.
 #include <memory>
 #include <optional>
 
+#include "aerovo/core/timer.h"
 #include "aerovo/pipeline/frame_loop.h"
 
 namespace aerovo::run_steps {
@@ -26,8 +27,15 @@ class WindowStage : public FrameStage {
       fitter_ = MakeStandardPairFitter(PairCorrespondenceOptions(*run.config),
                                        f.pixels.width, f.pixels.height);
     }
+    const Stopwatch time;
     const WindowedPose w = flight.graph->AddOnline(
         f.result, fitter_, run.config->odometry.correspondence.ransac.seed);
+    if (!run.summary->online) run.summary->online = RunSummary::Online{run.config->backend.window};
+    RunSummary::Online& s = *run.summary->online;
+    s.pairs_tried += w.pairs_tried;
+    s.pairs_verified += w.pairs_verified;
+    s.pairs_gated += w.pairs_gated;
+    s.total_ms += time.elapsed_ms();
     flight.frames.push_back(f.frame.index);
     flight.times_s.push_back(f.frame.time_s);
     f.result.features.reset();
