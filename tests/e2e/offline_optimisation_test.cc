@@ -4,8 +4,13 @@
 // alignment (the run's geo-referencing is the causal track's, so the unaligned end error of the
 // optimised track keeps the causal heading's error), the causal files are those of a run
 // without the optimisation, and the same seed gives the same vo_optimized.tum at any thread
-// count.
+// count. The online window (`--backend-online`) on the same flight: its live track (vo.tum,
+// the windowed estimates) is closer to the truth than the causal one, every frame is matched
+// against recent keyframes and none is gated, the pose stream carries the window's standard
+// deviations, and the same seed gives the same track at any thread count.
 #include <gtest/gtest.h>
+
+#include <fstream>
 
 #include <filesystem>
 #include <string>
@@ -80,6 +85,51 @@ TEST_F(OfflineOptimisation, SameSeedSameOptimisedTrackAtAnyThreadCount) {
   EXPECT_EQ(a, e2e::ReadText(one / "vo_optimized.tum"));
   EXPECT_EQ(e2e::ReadText(two / "vo_optimized.geojson"),
             e2e::ReadText(one / "vo_optimized.geojson"));
+}
+
+TEST_F(OfflineOptimisation, OnlineWindowBeatsTheCausalTrackTheSameAtAnyThreadCount) {
+  const fs::path off = Flight() / "off";
+  if (!fs::exists(off / "summary.json")) RunFlight("off", "--threads 2");
+  const fs::path two = Flight() / "online_two";
+  RunFlight("online_two", "--backend-online --threads 2 --poses-jsonl " +
+                              (Flight() / "online_poses.jsonl").string());
+  const fs::path one = RunFlight("online_one", "--backend-online --threads 1");
+  const nlohmann::json s = e2e::ReadJson(two / "summary.json");
+  ASSERT_TRUE(s["online"].is_object()) << s.dump();
+  EXPECT_EQ(s["online"]["window"].get<int>(), 10);
+  EXPECT_GT(s["online"]["pairs_verified"].get<int>(), 150);
+  EXPECT_EQ(s["online"]["pairs_gated"].get<int>(), 0);
+  EXPECT_TRUE(s["optimized"].is_null());
+  const nlohmann::json off_summary = e2e::ReadJson(off / "summary.json");
+  const nlohmann::json& causal = off_summary["truth_evaluation"]["se2"];
+  const nlohmann::json& online = s["truth_evaluation"]["se2"];
+  const double end_causal = causal["end_point_error_m"].get<double>();
+  const double end_online = online["end_point_error_m"].get<double>();
+  EXPECT_LT(2.0 * end_online, end_causal)
+      << "end error " << end_causal << " m causal, " << end_online << " m online";
+  EXPECT_LT(online["end_point_error_unaligned_m"].get<double>(),
+            causal["end_point_error_unaligned_m"].get<double>());
+  // The pose stream: every frame after the first with the window's standard deviations.
+  std::ifstream in(Flight() / "online_poses.jsonl");
+  std::string line;
+  int with_sigma = 0, poses = 0;
+  while (std::getline(in, line)) {
+    const nlohmann::json j = nlohmann::json::parse(line);
+    if (j["type"] != "pose") continue;
+    ++poses;
+    if (j.contains("sigma_xy_m")) {
+      EXPECT_GT(j["sigma_xy_m"].get<double>(), 0.0);
+      EXPECT_LT(j["sigma_xy_m"].get<double>(), 5.0);
+      ++with_sigma;
+    }
+  }
+  EXPECT_EQ(poses, s["frames_processed"].get<int>());
+  EXPECT_EQ(with_sigma, poses - 1);
+  // Same seed, same windowed track at any thread count; and not the causal track.
+  const std::string a = e2e::ReadText(two / "vo.tum");
+  EXPECT_EQ(a, e2e::ReadText(one / "vo.tum"));
+  EXPECT_EQ(e2e::ReadText(two / "vo.geojson"), e2e::ReadText(one / "vo.geojson"));
+  EXPECT_NE(a, e2e::ReadText(off / "vo.tum"));
 }
 
 }  // namespace
