@@ -440,6 +440,17 @@ struct FlightRecording {
   std::unique_ptr<FlightGraph> graph;
   std::vector<int> frames;
   std::vector<double> times_s;
+
+  /// The graph, made on the first call for frames of width x height pixels (the odometry's).
+  FlightGraph& GraphOf(const BackendOptions& options, int width, int height) {
+    if (!graph) graph = std::make_unique<FlightGraph>(options, width, height);
+    return *graph;
+  }
+  /// The source index and time (s) of the frame just added to the graph.
+  void Record(int frame, double time_s) {
+    frames.push_back(frame);
+    times_s.push_back(time_s);
+  }
 };
 
 /// How the back-end matches a pair of keyframes (offline) or a frame and a recent keyframe

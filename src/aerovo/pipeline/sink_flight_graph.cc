@@ -16,13 +16,8 @@ class FlightGraphSink : public FrameSink {
 
   void Write(FrameState& f, const RunContext& run) override {
     FlightRecording& flight = run.state->flight;
-    if (!flight.graph) {
-      flight.graph = std::make_unique<FlightGraph>(run.config->backend, f.pixels.width,
-                                                   f.pixels.height);
-    }
-    flight.graph->Add(f.result);
-    flight.frames.push_back(f.frame.index);
-    flight.times_s.push_back(f.frame.time_s);
+    flight.GraphOf(run.config->backend, f.pixels.width, f.pixels.height).Add(f.result);
+    flight.Record(f.frame.index, f.frame.time_s);
     f.result.features.reset();
   }
 };

@@ -21,23 +21,21 @@ class WindowStage : public FrameStage {
 
   void Process(FrameState& f, const RunContext& run) override {
     FlightRecording& flight = run.state->flight;
-    if (!flight.graph) {
-      flight.graph = std::make_unique<FlightGraph>(run.config->backend, f.pixels.width,
-                                                   f.pixels.height);
+    if (!fitter_) {
       fitter_ = MakeStandardPairFitter(PairCorrespondenceOptions(*run.config),
                                        f.pixels.width, f.pixels.height);
     }
     const Stopwatch time;
-    const WindowedPose w = flight.graph->AddOnline(
-        f.result, fitter_, run.config->odometry.correspondence.ransac.seed);
+    const WindowedPose w =
+        flight.GraphOf(run.config->backend, f.pixels.width, f.pixels.height)
+            .AddOnline(f.result, fitter_, run.config->odometry.correspondence.ransac.seed);
+    flight.Record(f.frame.index, f.frame.time_s);
     if (!run.summary->online) run.summary->online = RunSummary::Online{run.config->backend.window};
     RunSummary::Online& s = *run.summary->online;
     s.pairs_tried += w.pairs_tried;
     s.pairs_verified += w.pairs_verified;
     s.pairs_gated += w.pairs_gated;
     s.total_ms += time.elapsed_ms();
-    flight.frames.push_back(f.frame.index);
-    flight.times_s.push_back(f.frame.time_s);
     f.result.features.reset();
     f.result.position_m = w.local_from_frame.translation_m;
     f.result.heading_rad = w.local_from_frame.heading_rad;
