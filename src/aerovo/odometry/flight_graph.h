@@ -6,7 +6,9 @@
 // causal track), matches and fits each pair (standard RANSAC, seeded per pair from the run's
 // seed), verifies the fit (inliers, their spread over the image, agreement with the graph's
 // prediction: the gate) and adds the verified ones as relative factors; then OptimizeAll with the
-// robust (Cauchy) cost gives every frame's optimised pose.
+// robust (Cauchy) cost gives every frame's optimised pose. Online (BackendOptions::online,
+// AddOnline), the same graph grows per frame: the frame is matched against recent keyframes with
+// the same pair fitter and verification, and the last poses are optimised (OptimizeWindow).
 //
 // Frames: local = the run's local metric frame (pose_chain.h); a frame's ground coordinates and
 // the poses `local_from_frame` as in backend/similarity2.h (position of the camera centre's ground
@@ -34,7 +36,8 @@
 
 namespace aerovo {
 
-/// Options of the offline whole-flight optimisation (`backend.*` of a run configuration).
+/// Options of the offline whole-flight optimisation and the online window (`backend.*` of a run
+/// configuration).
 /// Lengths are fractions of the footprint's smaller side (the frame's smaller side in pixels
 /// times its ground sampling distance), so that they hold at any height and resolution.
 struct BackendOptions {
