@@ -189,6 +189,12 @@ class FlightGraph {
   /// pose's estimate moved by the causal step. Returns the frame's windowed pose.
   WindowedPose AddOnline(const FrameResult& r, const PairFitter& fitter, std::uint64_t run_seed);
 
+  /// Forgets the keyframes added so far (their features are released and never matched again):
+  /// at a change of the lens model (pipeline/lens_switch.h) the earlier frames' features are
+  /// under the old lens, and a match of them against the later frames' would be biased. The
+  /// poses and factors stay.
+  void DropKeyframes() { keyframes_.clear(); }
+
   int width() const { return width_; }
   int height() const { return height_; }
   int num_frames() const { return static_cast<int>(poses_.size()); }

@@ -311,6 +311,29 @@ TEST(FlightGraph, OnlineWindowGatesAFalseMatchAndKeepsTheTrack) {
                InvalidArgument);
 }
 
+TEST(FlightGraph, DroppedKeyframesAreNotMatchedAgain) {
+  const Flight f = MakeFlight(1, 40, 0.0);
+  BackendOptions o;
+  o.online = true;
+  FlightGraph g(o, kWidth, kHeight);
+  std::vector<std::pair<int, int>> tried;
+  const PairFitter record = [&](const FeatureSet& a, const FeatureSet& b, std::uint64_t,
+                                const std::optional<Eigen::Matrix3d>&) -> std::optional<PairFit> {
+    tried.emplace_back(FrameOf(a), FrameOf(b));
+    return std::nullopt;
+  };
+  for (int i = 0; i < 20; ++i) g.AddOnline(f.results[static_cast<std::size_t>(i)], record, 1);
+  EXPECT_EQ(g.num_keyframes(), 5);  // frames 0, 4, 8, 12, 16
+  g.DropKeyframes();                // a lens switch at frame 20
+  EXPECT_EQ(g.num_keyframes(), 0);
+  tried.clear();
+  for (int i = 20; i < 40; ++i) g.AddOnline(f.results[static_cast<std::size_t>(i)], record, 1);
+  EXPECT_EQ(g.num_frames(), 40);
+  EXPECT_EQ(g.num_keyframes(), 5);  // frames 20, 24, ...
+  ASSERT_FALSE(tried.empty());
+  for (const auto& [a, b] : tried) EXPECT_GE(a, 20) << a << "-" << b;
+}
+
 TEST(FlightGraph, BadOptionsAndFramesAreClearErrors) {
   BackendOptions o;
   o.gate = -1.0;

@@ -16,6 +16,7 @@ class FlightGraphSink : public FrameSink {
 
   void Write(FrameState& f, const RunContext& run) override {
     FlightRecording& flight = run.state->flight;
+    if (f.lens_switched && flight.graph) flight.graph->DropKeyframes();
     flight.GraphOf(run.config->backend, f.pixels.width, f.pixels.height).Add(f.result);
     flight.Record(f.frame.index, f.frame.time_s);
     f.result.features.reset();

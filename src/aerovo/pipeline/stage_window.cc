@@ -21,6 +21,7 @@ class WindowStage : public FrameStage {
 
   void Process(FrameState& f, const RunContext& run) override {
     FlightRecording& flight = run.state->flight;
+    if (f.lens_switched && flight.graph) flight.graph->DropKeyframes();
     if (!fitter_) {
       fitter_ = MakeStandardPairFitter(PairCorrespondenceOptions(*run.config),
                                        f.pixels.width, f.pixels.height);
