@@ -115,6 +115,7 @@ class FrameLoop {
 
   /// The MAVLink link (null without --mavlink).
   const mavlink::AutopilotLink* link() const { return link_.get(); }
+  mavlink::AutopilotLink* link() { return link_.get(); }
   /// The main source is live (FrameSource::IsLive): the lens self-calibration pre-pass is
   /// skipped (pipeline/lens_prepass.h). Set before Run.
   void set_source_live(bool live) { source_live_ = live; }
