@@ -8,15 +8,18 @@
 // to the truth than the causal placements.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <map>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "aerovo/eval/trajectory_eval.h"
+#include "aerovo/report/html_report.h"
 #include "aerovo/report/mosaic.h"
 #include "aerovo/report/run_reader.h"
 #include "aerovo/telemetry/reference_track.h"
@@ -68,6 +71,12 @@ TEST_F(OfflineOptimisation, LawnmowerEndErrorIsAtMostAThirdOfTheCausalOne) {
       << "end error " << end_causal << " m causal, " << end_optimised << " m optimised";
   EXPECT_LT(3.0 * optimised["ate_m"]["rmse"].get<double>(), causal["ate_m"]["rmse"].get<double>());
   EXPECT_TRUE(o["evaluation"].is_object());  // against the simulated GPS too
+  // Every pair tried is listed with its verdict.
+  ASSERT_TRUE(o["pairs"].is_array());
+  EXPECT_EQ(o["pairs"].size(), o["pairs_tried"].get<std::size_t>());
+  int added = 0;
+  for (const nlohmann::json& p : o["pairs"]) added += p["verdict"] == "added" ? 1 : 0;
+  EXPECT_EQ(added, o["pairs_verified"].get<int>());
   for (const char* f : {"vo_optimized.tum", "vo_optimized.geojson", "vo_optimized.kml",
                         "vo_optimized.gpx"}) {
     EXPECT_TRUE(fs::is_regular_file(run / f)) << f;
@@ -164,6 +173,32 @@ TEST_F(OfflineOptimisation, MosaicPlacesTheFramesByTheOptimisedPosesCloserToTheT
   EXPECT_TRUE(m.written) << m.note;
   EXPECT_TRUE(m.optimized);
   EXPECT_GT(m.frames_used, 5);
+}
+
+TEST_F(OfflineOptimisation, ReportShowsBothTracks) {
+  const fs::path dir = Flight() / "on";
+  if (!fs::exists(dir / "vo_optimized.tum")) RunFlight("on", "--backend-enable --threads 2");
+  ReportOptions options;  // the page only: no mosaic, no figure files
+  options.mosaic = false;
+  options.plot.svg = false;
+  options.plot.png = false;
+  const ReportResult r = WriteReport(dir, options);
+  const std::string html = e2e::ReadText(r.html);
+  const nlohmann::json s = e2e::ReadJson(dir / "summary.json");
+  // The answer and the side-by-side table carry both tracks' Sim(2) ATE against GPS.
+  for (const nlohmann::json* ev : {&s["evaluation"], &s["optimized"]["evaluation"]}) {
+    const double ate = (*ev)["sim2"]["ate_m"]["rmse"].get<double>();
+    EXPECT_NE(html.find(fmt::format("{:.2f}", ate)), std::string::npos) << ate;
+  }
+  EXPECT_NE(html.find("Optimised after the flight (vo_optimized.*)"), std::string::npos);
+  EXPECT_NE(html.find("optimised (vo_optimized.*)"), std::string::npos);  // the table's column
+  // The map's data: the optimised track, one point per frame of vo_optimized.tum.
+  const std::size_t at = html.find("\"vo_optimized\":[[");
+  ASSERT_NE(at, std::string::npos);
+  const std::size_t end = html.find("]]", at);
+  const std::string points = html.substr(at, end - at);
+  EXPECT_EQ(static_cast<std::size_t>(std::count(points.begin(), points.end(), '[')) - 1,
+            ReadRunDir(dir).optimized.size());
 }
 
 }  // namespace
