@@ -185,8 +185,7 @@ class FlightGraph {
   std::vector<int> CandidatesOf(int i) const;
   // Fits and judges the pair (a, b); *f is the factor when kAdded; *record what was found.
   PairVerdict TryPair(const Keyframe& a, const Keyframe& b, const PairFitter& fitter,
-                      std::uint64_t run_seed, backend::RelativeFactor* f,
-                      TriedPair* record) const;
+                      std::uint64_t run_seed, backend::RelativeFactor* f, TriedPair* record) const;
 
   BackendOptions options_;
   int width_ = 0, height_ = 0;
