@@ -127,7 +127,8 @@ std::vector<FrameTransformRow> ReadTransformsIfPresent(const fs::path& path) {
 }
 
 // A TUM track written by the run (`t x y z qx qy qz qw`), when present: t, x, y of each line.
-// InputError naming the file and line for a line that does not start with three numbers.
+// InputError naming the file and line for a line that does not start with three numbers, but a
+// last line without its newline (a run killed mid-write), which is ignored.
 std::vector<TrajectoryPoint2D> ReadTumIfPresent(const fs::path& path) {
   std::vector<TrajectoryPoint2D> out;
   if (!fs::exists(path)) return out;
@@ -139,6 +140,7 @@ std::vector<TrajectoryPoint2D> ReadTumIfPresent(const fs::path& path) {
     TrajectoryPoint2D p;
     if (!(ss >> p.t >> p.x >> p.y) || !std::isfinite(p.t) || !std::isfinite(p.x) ||
         !std::isfinite(p.y)) {
+      if (in.eof()) break;  // the last line, cut short
       throw InputError("'" + path.string() + "' line " + std::to_string(n) +
                        ": expected 't x y z qx qy qz qw' with finite numbers");
     }
