@@ -289,7 +289,7 @@ PLAN = {
     "aerovo run backend_sim/video.mp4 --backend-enable --quiet --no-report -o "
     "backend_run": Row(
         files=["backend_run/vo_optimized.tum", "backend_run/vo_optimized.gpx",
-               "backend_run/summary.json"]),
+               "backend_run/transforms_optimized.csv", "backend_run/summary.json"]),
     # README.md
     "./scripts/demo.sh": Row(skip="installs Debian packages (apt-get, as root, over the network) "
                              "and builds; its `aerovo demo` takes minutes (the README says ~2-3 "

@@ -119,6 +119,21 @@ PairVerdict JudgePair(const BackendOptions& options, const backend::Similarity2&
                       const backend::Similarity2& predicted, int n_inliers, double spread,
                       double path_m, double side_m);
 
+/// "added", "no_fit", "too_few_inliers", "too_little_spread", "gate".
+const char* ToString(PairVerdict verdict);
+
+/// One candidate pair tried (OptimizedFlight::pairs).
+struct TriedPair {
+  int a = 0, b = 0;  ///< The two frames (their order given to Add), a < b.
+  PairVerdict verdict = PairVerdict::kNoFit;
+  int inliers = 0;      ///< RANSAC inliers of the fit (0: no fit).
+  double spread = 0.0;  ///< The inliers' bounding box, fraction of the image.
+  /// prev_from_curr measured by the fit (log-scale as measured, before the factor sets it to 0)
+  /// and predicted by the causal track, in frame a's metres; the fit is the identity without one.
+  backend::Similarity2 fit, predicted;
+  bool down_weighted = false;  ///< Added, and down-weighted by the robust cost.
+};
+
 /// What the offline optimisation did, and the optimised poses.
 struct OptimizedFlight {
   /// Per frame given to Add, in order: the optimised local_from_frame.
@@ -132,6 +147,7 @@ struct OptimizedFlight {
   double match_s = 0.0;    ///< Wall time of the pairs' matching and fitting, s.
   double solve_s = 0.0;    ///< Wall time of the graph solve, s.
   int iterations = 0;
+  std::vector<TriedPair> pairs;  ///< Every pair tried, in the order tried.
 };
 
 /// The frames of a run in order, built as they come (Add), optimised at the end (Optimize).
@@ -167,9 +183,9 @@ class FlightGraph {
   backend::RelativeFactor StepFactor(const FrameResult& r) const;
   // Keyframe i's candidate partners j > i + 1, nearest first, at most max_pairs_per_keyframe.
   std::vector<int> CandidatesOf(int i) const;
-  // Fits and judges the pair (a, b); *f is the factor when kAdded.
+  // Fits and judges the pair (a, b); *f is the factor when kAdded; *record what was found.
   PairVerdict TryPair(const Keyframe& a, const Keyframe& b, const PairFitter& fitter,
-                      std::uint64_t run_seed, backend::RelativeFactor* f) const;
+                      std::uint64_t run_seed, backend::RelativeFactor* f, TriedPair* record) const;
 
   BackendOptions options_;
   int width_ = 0, height_ = 0;

@@ -42,6 +42,7 @@ nlohmann::json ToJson(const RunSummary::Optimized& o) {
           {"solve_s", o.solve_s},
           {"cpu_s", o.cpu_s},
           {"iterations", o.iterations},
+          {"pairs", o.pairs},
           {"evaluation", o.evaluation ? ToJson(*o.evaluation) : nlohmann::json()},
           {"truth_evaluation", o.truth_evaluation ? ToJson(*o.truth_evaluation) : nlohmann::json()}};
 }
