@@ -296,7 +296,7 @@ PLAN = {
     "aerovo run backend_sim/video.mp4 --backend-enable --quiet --no-report -o "
     "backend_run": Row(
         files=["backend_run/vo_optimized.tum", "backend_run/vo_optimized.gpx",
-               "backend_run/summary.json"]),
+               "backend_run/transforms_optimized.csv", "backend_run/summary.json"]),
     "aerovo run backend_sim/video.mp4 --backend-online --quiet --no-report -o "
     "online_run": Row(files=["online_run/vo.tum", "online_run/summary.json"],
                       check=check_online),

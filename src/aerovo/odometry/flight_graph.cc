@@ -120,6 +120,17 @@ PairFitter MakeStandardPairFitter(const CorrespondenceOptions& options, int widt
   };
 }
 
+const char* ToString(PairVerdict verdict) {
+  switch (verdict) {
+    case PairVerdict::kAdded: return "added";
+    case PairVerdict::kNoFit: return "no_fit";
+    case PairVerdict::kTooFewInliers: return "too_few_inliers";
+    case PairVerdict::kTooLittleSpread: return "too_little_spread";
+    case PairVerdict::kGate: return "gate";
+  }
+  return "unknown";
+}
+
 PairVerdict JudgePair(const BackendOptions& o, const Similarity2& fit, const Similarity2& predicted,
                       int n_inliers, double spread, double path_m, double side_m) {
   if (n_inliers < o.min_inliers) return PairVerdict::kTooFewInliers;
@@ -228,25 +239,29 @@ std::vector<int> FlightGraph::CandidatesOf(int i) const {
 
 PairVerdict FlightGraph::TryPair(const Keyframe& a, const Keyframe& b, const PairFitter& fitter,
                                  std::uint64_t run_seed, bool guided,
-                                 backend::RelativeFactor* f) const {
+                                 backend::RelativeFactor* f, TriedPair* record) const {
+  record->a = a.frame;
+  record->b = b.frame;
+  record->predicted = backend::Between(poses_[static_cast<std::size_t>(a.frame)],
+                                       poses_[static_cast<std::size_t>(b.frame)]);
   const Eigen::Vector2d centre(0.5 * (width_ - 1), 0.5 * (height_ - 1));
-  const Similarity2 predicted = backend::Between(poses_[static_cast<std::size_t>(a.frame)],
-                                                 poses_[static_cast<std::size_t>(b.frame)]);
   std::optional<Eigen::Matrix3d> prior;
-  if (guided) prior = backend::PixelStepOfPrevFromCurr(predicted, centre, a.gsd, b.gsd);
+  if (guided) prior = backend::PixelStepOfPrevFromCurr(record->predicted, centre, a.gsd, b.gsd);
   const std::optional<PairFit> fit =
       fitter(*a.features, *b.features, PairSeed(run_seed, a.frame, b.frame), prior);
+  if (fit) record->inliers = static_cast<int>(fit->inliers_curr_px.cols());
   if (!fit || fit->inliers_curr_px.cols() < 2) return PairVerdict::kNoFit;
   try {
     f->prev = a.frame;
     f->curr = b.frame;
     f->prev_from_curr =
         backend::PrevFromCurrOfPixelStep(fit->curr_from_prev_px, centre, a.gsd, b.gsd);
+    record->fit = f->prev_from_curr;
+    record->spread = SpreadOf(fit->inliers_curr_px, width_, height_);
     const PairVerdict verdict =
-        JudgePair(options_, f->prev_from_curr, predicted,
-                  static_cast<int>(fit->inliers_curr_px.cols()),
-                  SpreadOf(fit->inliers_curr_px, width_, height_), b.path_m - a.path_m,
-                  std::min(a.gsd, b.gsd) * std::min(width_, height_));
+        JudgePair(options_, f->prev_from_curr, record->predicted,
+                  static_cast<int>(fit->inliers_curr_px.cols()), record->spread,
+                  b.path_m - a.path_m, std::min(a.gsd, b.gsd) * std::min(width_, height_));
     if (verdict != PairVerdict::kAdded) return verdict;
     f->information = FitInformation(fit->inliers_curr_px, f->prev_from_curr, centre, a.gsd, b.gsd);
     f->prev_from_curr.log_scale = 0.0;
@@ -267,7 +282,8 @@ void FlightGraph::MatchRecent(const Keyframe& cur, int reference, const PairFitt
     if (d > options_.search_radius * side_m) break;  // older keyframes are farther still
     ++out->pairs_tried;
     backend::RelativeFactor f;
-    const PairVerdict verdict = TryPair(kf, cur, fitter, run_seed, true, &f);
+    TriedPair record;
+    const PairVerdict verdict = TryPair(kf, cur, fitter, run_seed, true, &f, &record);
     if (verdict == PairVerdict::kAdded) {
       graph_.AddRelative(f);
       ++out->pairs_verified;
@@ -317,9 +333,12 @@ OptimizedFlight FlightGraph::Optimize(const PairFitter& fitter, std::uint64_t ru
     for (const int j : CandidatesOf(i)) {
       ++out.pairs_tried;
       backend::RelativeFactor f;
+      TriedPair record;
       const PairVerdict verdict = TryPair(keyframes_[static_cast<std::size_t>(i)],
                                           keyframes_[static_cast<std::size_t>(j)], fitter,
-                                          run_seed, false, &f);
+                                          run_seed, false, &f, &record);
+      record.verdict = verdict;
+      out.pairs.push_back(record);
       if (verdict == PairVerdict::kAdded) {
         graph.AddRelative(f);
         ++out.pairs_verified;
@@ -336,8 +355,11 @@ OptimizedFlight FlightGraph::Optimize(const PairFitter& fitter, std::uint64_t ru
   out.solve_s = solve_time.elapsed_ms() / 1000.0;
   out.iterations = result.iterations;
   out.local_from_frame = result.local_from_frame;
-  for (std::size_t k = base_factors; k < result.relative.size(); ++k) {
-    out.outliers += result.relative[k].outlier ? 1 : 0;
+  std::size_t k = base_factors;
+  for (TriedPair& p : out.pairs) {
+    if (p.verdict != PairVerdict::kAdded || k >= result.relative.size()) continue;
+    p.down_weighted = result.relative[k++].outlier;
+    out.outliers += p.down_weighted ? 1 : 0;
   }
   return out;
 }

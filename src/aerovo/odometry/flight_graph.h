@@ -140,6 +140,21 @@ PairVerdict JudgePair(const BackendOptions& options, const backend::Similarity2&
                       const backend::Similarity2& predicted, int n_inliers, double spread,
                       double path_m, double side_m);
 
+/// "added", "no_fit", "too_few_inliers", "too_little_spread", "gate".
+const char* ToString(PairVerdict verdict);
+
+/// One candidate pair tried (OptimizedFlight::pairs).
+struct TriedPair {
+  int a = 0, b = 0;  ///< The two frames (their order given to Add), a < b.
+  PairVerdict verdict = PairVerdict::kNoFit;
+  int inliers = 0;      ///< RANSAC inliers of the fit (0: no fit).
+  double spread = 0.0;  ///< The inliers' bounding box, fraction of the image.
+  /// prev_from_curr measured by the fit (log-scale as measured, before the factor sets it to 0)
+  /// and predicted by the causal track, in frame a's metres; the fit is the identity without one.
+  backend::Similarity2 fit, predicted;
+  bool down_weighted = false;  ///< Added, and down-weighted by the robust cost.
+};
+
 /// What the offline optimisation did, and the optimised poses.
 struct OptimizedFlight {
   /// Per frame given to Add, in order: the optimised local_from_frame.
@@ -153,6 +168,7 @@ struct OptimizedFlight {
   double match_s = 0.0;    ///< Wall time of the pairs' matching and fitting, s.
   double solve_s = 0.0;    ///< Wall time of the graph solve, s.
   int iterations = 0;
+  std::vector<TriedPair> pairs;  ///< Every pair tried, in the order tried.
 };
 
 /// A frame's pose from the online window (FlightGraph::AddOnline).
@@ -216,10 +232,11 @@ class FlightGraph {
   backend::RelativeFactor StepFactor(const FrameResult& r) const;
   // Keyframe i's candidate partners j > i + 1, nearest first, at most max_pairs_per_keyframe.
   std::vector<int> CandidatesOf(int i) const;
-  // Fits and judges the pair (a, b); *f is the factor when kAdded.
+  // Fits and judges the pair (a, b); *f is the factor when kAdded; *record what was found.
   // `guided`: the fitter is given the causal prediction as its prior.
   PairVerdict TryPair(const Keyframe& a, const Keyframe& b, const PairFitter& fitter,
-                      std::uint64_t run_seed, bool guided, backend::RelativeFactor* f) const;
+                      std::uint64_t run_seed, bool guided, backend::RelativeFactor* f,
+                      TriedPair* record) const;
   // The online matches of the newest frame `cur` (AddOnline), added to graph_.
   void MatchRecent(const Keyframe& cur, int reference, const PairFitter& fitter,
                    std::uint64_t run_seed, WindowedPose* out);

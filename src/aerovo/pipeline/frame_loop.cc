@@ -66,13 +66,30 @@ GeoRefOptions GeoRefOptionsOf(const RunConfig& config) {
   return o;
 }
 
+// The file the signing timestamp is kept in (RunConfig::mavlink_key_timestamp); "" = none.
+std::string SigningTimestampFile(const RunConfig& config) {
+  if (config.mavlink_key_timestamp == "none") return "";
+  if (!config.mavlink_key_timestamp.empty()) return config.mavlink_key_timestamp;
+  return config.mavlink_key + ".timestamp";
+}
+
 // The --mavlink link (null without): InvalidArgument / InputError naming the URL.
 std::unique_ptr<mavlink::AutopilotLink> OpenLink(const RunConfig& config, std::ostream* log) {
   if (config.mavlink.empty()) return nullptr;
   const mavlink::LinkUrl url = mavlink::ParseLinkUrl(config.mavlink);
   mavlink::AutopilotLink::Options o;
   o.sysid = static_cast<uint8_t>(config.mavlink_sysid);
-  if (!config.mavlink_key.empty()) o.signing_key = mavlink::ReadSigningKey(config.mavlink_key);
+  if (!config.mavlink_key.empty()) {
+    o.signing_key = mavlink::ReadSigningKey(config.mavlink_key);
+    o.signing_timestamp_file = SigningTimestampFile(config);
+  }
+  if (!o.signing_timestamp_file.empty()) {
+    std::string problem;
+    const std::optional<uint64_t> stored =
+        mavlink::ReadSigningTimestamp(o.signing_timestamp_file, &problem);
+    if (stored) o.signing_initial_timestamp = *stored;
+    if (!problem.empty() && log) *log << "warning: " << problem << "\n";
+  }
   auto link = std::make_unique<mavlink::AutopilotLink>(mavlink::OpenTransport(url), o);
   if (log) {
     *log << fmt::format("mavlink: {} ({}, sysid {}, compid {}, {} time{}{})\n", url.text,

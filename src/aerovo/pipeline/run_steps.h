@@ -440,16 +440,19 @@ struct FlightRecording {
   std::unique_ptr<FlightGraph> graph;
   std::vector<int> frames;
   std::vector<double> times_s;
+  /// Per graph frame, for transforms_optimized.csv: world_from_frame as the transforms sink
+  /// writes it (FrameResult::world_from_frame, full-frame pixels), and the causal pose
+  /// local_from_frame (FrameResult position_m, heading_rad; backend/similarity2.h).
+  std::vector<Eigen::Matrix3d> world_from_frame;
+  std::vector<backend::Similarity2> causal;
+  /// The odometry's world frame from the local one (pose_chain.h): the identity in the metric
+  /// scale mode, first-frame pixels from local metres in the affine-chain mode.
+  Eigen::Matrix3d world_from_local = Eigen::Matrix3d::Identity();
 
   /// The graph, made on the first call for frames of width x height pixels (the odometry's).
   FlightGraph& GraphOf(const BackendOptions& options, int width, int height) {
     if (!graph) graph = std::make_unique<FlightGraph>(options, width, height);
     return *graph;
-  }
-  /// The source index and time (s) of the frame just added to the graph.
-  void Record(int frame, double time_s) {
-    frames.push_back(frame);
-    times_s.push_back(time_s);
   }
 };
 

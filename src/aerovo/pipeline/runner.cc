@@ -42,6 +42,7 @@ nlohmann::json ToJson(const RunSummary::Optimized& o) {
           {"solve_s", o.solve_s},
           {"cpu_s", o.cpu_s},
           {"iterations", o.iterations},
+          {"pairs", o.pairs},
           {"evaluation", o.evaluation ? ToJson(*o.evaluation) : nlohmann::json()},
           {"truth_evaluation", o.truth_evaluation ? ToJson(*o.truth_evaluation) : nlohmann::json()}};
 }
@@ -304,7 +305,9 @@ nlohmann::json LinkStats(const mavlink::AutopilotLink& link, const RunConfig& co
           {"signed_accepted", st.signed_accepted},
           {"rejected_unsigned", st.rejected_unsigned},
           {"rejected_bad_signature", st.rejected_bad_signature},
-          {"rejected_replayed", st.rejected_replayed}};
+          {"rejected_replayed", st.rejected_replayed},
+          {"signing_timestamp_saves", st.signing_timestamp_saves},
+          {"signing_timestamp_save_failed", st.signing_timestamp_save_failed}};
 }
 
 // The telemetry's clock against the frames' (`t`): a warning in `summary` when its span does not
@@ -377,7 +380,10 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
   }
   if (!end.output_failed()) Finish(loop, &end);
   CountWritten(loop, end, &summary);
-  if (const mavlink::AutopilotLink* link = loop.link()) summary.mavlink = LinkStats(*link, config);
+  if (mavlink::AutopilotLink* link = loop.link()) {
+    link->SaveSigningTimestamp();  // the timestamp of the run's last packet, before the stats
+    summary.mavlink = LinkStats(*link, config);
+  }
 
   // The telemetry's clock against the frames': its span, and the offset seen in the motion.
   if (!telemetry.empty() && loop.totals().frames > 0) {

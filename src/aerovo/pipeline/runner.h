@@ -171,6 +171,11 @@ struct RunSummary {
     /// threads; RunSummary::cpu_s leaves it out.
     double cpu_s = 0.0;
     int iterations = 0;
+    /// Every candidate pair tried (odometry/flight_graph.h TriedPair): {"a", "b" (source frame
+    /// indices), "verdict" (ToString(PairVerdict)), "inliers", "spread", "fit" and "predicted"
+    /// ([x m, y m, heading deg, log-scale] of prev_from_curr in frame a's metres: the pair's fit,
+    /// the causal track's), "down_weighted"}.
+    nlohmann::json pairs = nlohmann::json::array();
     std::optional<TrajectoryComparison> evaluation;        ///< Against GPS.
     std::optional<TrajectoryComparison> truth_evaluation;  ///< Against the truth.
   };

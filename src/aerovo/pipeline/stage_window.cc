@@ -30,7 +30,7 @@ class WindowStage : public FrameStage {
     const WindowedPose w =
         flight.GraphOf(run.config->backend, f.pixels.width, f.pixels.height)
             .AddOnline(f.result, fitter_, run.config->odometry.correspondence.ransac.seed);
-    flight.Record(f.frame.index, f.frame.time_s);
+    RecordFlightFrame(f, run);  // the causal pose, before it is replaced below
     if (!run.summary->online) run.summary->online = RunSummary::Online{run.config->backend.window};
     RunSummary::Online& s = *run.summary->online;
     s.pairs_tried += w.pairs_tried;
