@@ -147,6 +147,7 @@ TEST_F(OfflineOptimisation, OnlineWindowBeatsTheCausalTrackTheSameAtAnyThreadCou
   EXPECT_EQ(a, e2e::ReadText(one / "vo.tum"));
   EXPECT_EQ(e2e::ReadText(two / "vo.geojson"), e2e::ReadText(one / "vo.geojson"));
   EXPECT_NE(a, e2e::ReadText(off / "vo.tum"));
+}
 
 // The frame centres of `rows` (first-frame pixels, y flipped up) paired by frame index with the
 // points of `truth` (metres) and with `frames_csv` (the run's frames.csv positions, metres).
