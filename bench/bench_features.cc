@@ -8,6 +8,7 @@
 // Each benchmark reports `keypoints`. Benchmarks whose image is missing skip with a message.
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <opencv2/core.hpp>
@@ -143,6 +144,33 @@ void BM_SurfAdaptiveDetectAndDescribe(benchmark::State& state) {
   state.counters["floor"] = steered;
 }
 
+// The fixed threshold at the adaptive default's number of points: hessian_threshold found by
+// bisection (outside the timing) so that the fixed detector keeps about SurfOptions::
+// target_points (1500) on the image, the cost the adaptive selection is compared with at equal
+// output (BM_SurfAdaptiveDetectAndDescribe). Counters: points kept, the threshold found.
+void BM_SurfFixedAtTargetPoints(benchmark::State& state) {
+  const cv::Mat* m = GetImage(state);
+  if (m == nullptr) return;
+  aerovo::SurfOptions o = Options(state);
+  const int target = aerovo::SurfOptions{}.target_points;
+  double lo = 1.0, hi = 20000.0;  // Hessian thresholds (MATLAB units): many points .. few
+  for (int i = 0; i < 30 && hi / lo > 1.01; ++i) {
+    o.hessian_threshold = std::sqrt(lo * hi);
+    const std::size_t n = aerovo::Surf(o).Detect(View(*m)).size();
+    (static_cast<int>(n) > target ? lo : hi) = o.hessian_threshold;
+  }
+  o.hessian_threshold = hi;  // at most target points
+  aerovo::Surf surf(o);
+  std::size_t n = 0;
+  for (auto _ : state) {
+    aerovo::SurfResult r = surf.DetectAndDescribe(View(*m));
+    n = r.features.size();
+    benchmark::DoNotOptimize(r.features.descriptors.data());
+  }
+  state.counters["keypoints"] = static_cast<double>(n);
+  state.counters["threshold"] = o.hessian_threshold;
+}
+
 template <typename Make>
 void OpenCvDetectAndCompute(benchmark::State& state, Make make) {
   const cv::Mat* m = GetImage(state);
@@ -180,6 +208,7 @@ void SurfArgs(benchmark::internal::Benchmark* b) {
 BENCHMARK(BM_SurfDetect)->Apply(SurfArgs);
 BENCHMARK(BM_SurfDescribe)->Apply(SurfArgs);
 BENCHMARK(BM_SurfDetectAndDescribe)->Apply(SurfArgs);
+BENCHMARK(BM_SurfFixedAtTargetPoints)->Apply(SurfArgs);
 // Args: {image, threads, surf.min_response (0 = the default)}: the cost of the floor.
 BENCHMARK(BM_SurfAdaptiveDetectAndDescribe)
     ->ArgNames({"image", "threads", "min_response"})

@@ -288,6 +288,13 @@ def check_map_cover(cwd, out):
         f"summary.json map says {m}"
 
 
+def check_online(cwd, out):
+    with open(os.path.join(cwd, "online_run", "summary.json")) as f:
+        o = json.load(f).get("online") or {}
+    return "" if o.get("pairs_verified", 0) > 0 else \
+        f"summary.json online says no pair was verified: {o}"
+
+
 HARDWARE = "needs hardware this machine does not have"
 PLAN = {
     # docs/map.md
@@ -311,7 +318,10 @@ PLAN = {
     "aerovo run backend_sim/video.mp4 --backend-enable --quiet --no-report -o "
     "backend_run": Row(
         files=["backend_run/vo_optimized.tum", "backend_run/vo_optimized.gpx",
-               "backend_run/summary.json"]),
+               "backend_run/transforms_optimized.csv", "backend_run/summary.json"]),
+    "aerovo run backend_sim/video.mp4 --backend-online --quiet --no-report -o "
+    "online_run": Row(files=["online_run/vo.tum", "online_run/summary.json"],
+                      check=check_online),
     # README.md
     "./scripts/demo.sh": Row(skip="installs Debian packages (apt-get, as root, over the network) "
                              "and builds; its `aerovo demo` takes minutes (the README says ~2-3 "

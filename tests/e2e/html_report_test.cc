@@ -366,6 +366,22 @@ TEST_F(HtmlReport, RunReaderDropsOnlyABrokenLastRecord) {
           << e.what();
     }
   }
+  // vo_optimized.tum (the offline optimisation) likewise: a cut last line is dropped, a bad line
+  // before the last is an InputError naming the file and line.
+  std::ofstream(csv) << whole;
+  const fs::path tum = run / RunFileNames::kVoOptimizedTum;
+  const std::string rows = "# timestamp tx ty tz qx qy qz qw\n0.0 1.0 2.0 0 0 0 0 1\n";
+  std::ofstream(tum) << rows << "0.5 3.0";
+  ASSERT_EQ(ReadRunDir(run).optimized.size(), 1u);
+  EXPECT_EQ(ReadRunDir(run).optimized[0].y, 2.0);
+  std::ofstream(tum) << rows << "0.5 3.0\n" << rows;
+  try {
+    ReadRunDir(run);
+    ADD_FAILURE() << "no InputError for a cut line before the last";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("vo_optimized.tum' line 3"), std::string::npos)
+        << e.what();
+  }
 }
 
 TEST_F(HtmlReport, InterruptedRunWithoutSummaryAndInputGone) {

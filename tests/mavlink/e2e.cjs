@@ -72,6 +72,7 @@ async function main() {
   if (signing) {
     const keyFile = path.join(path.dirname(runDir), 'mavlink-key-signed.hex');
     fs.rmSync(keyFile, { force: true });
+    fs.rmSync(keyFile + '.timestamp', { force: true });
     fs.writeFileSync(keyFile, key.toString('hex') + '\n', { mode: 0o600 });
     args.push('--mavlink-key', keyFile);
   }
@@ -212,6 +213,14 @@ async function main() {
       check(signatures.total > 0 && signatures.unsigned === 0, `${signatures.unsigned} of aerovo's ${signatures.total} packets unsigned`);
       check(signatures.bad === 0, `${signatures.bad} of aerovo's packets with a signature node-mavlink rejects`);
       check(signatures.backwards === 0, `${signatures.backwards} of aerovo's signing timestamps not after the previous one`);
+      // The signing timestamp kept across runs, beside the key: at least the last one sent.
+      const tsFile = path.join(path.dirname(runDir), 'mavlink-key-signed.hex.timestamp');
+      const kept = fs.existsSync(tsFile) ? fs.readFileSync(tsFile, 'utf8') : '';
+      const lastSent = [...signatures.last.values()].reduce((a, b) => (b > a ? b : a), 0n);
+      check(/^\d+\n$/.test(kept) && BigInt(kept.trim()) >= BigInt(lastSent),
+        `signing timestamp file ${tsFile}: '${kept.trim()}', last sent ${lastSent}`);
+      check(m.signing_timestamp_saves >= 1 && m.signing_timestamp_save_failed === 0,
+        `summary mavlink.signing_timestamp_saves ${m.signing_timestamp_saves}, failed ${m.signing_timestamp_save_failed}`);
     } else {
       check(m.signing === false && m.rejected_unsigned === 0, `summary mavlink signing ${m.signing}, rejected_unsigned ${m.rejected_unsigned}`);
       check(signatures.total > 0 && signatures.unsigned === signatures.total, 'aerovo signed without a key');

@@ -58,6 +58,28 @@ Similarity2 PrevFromCurrOfPixelStep(const Eigen::Matrix3d& curr_from_prev_px,
   return out;
 }
 
+Eigen::Matrix3d PixelStepOfPrevFromCurr(const Similarity2& prev_from_curr,
+                                        const Eigen::Vector2d& centre_px, double gsd_prev_m_per_px,
+                                        double gsd_curr_m_per_px) {
+  CheckGsd("gsd_prev_m_per_px", gsd_prev_m_per_px);
+  CheckGsd("gsd_curr_m_per_px", gsd_curr_m_per_px);
+  if (!prev_from_curr.AllFinite() || !centre_px.allFinite()) {
+    throw InvalidArgument("PixelStepOfPrevFromCurr: the step or the centre is not finite");
+  }
+  // Pixels to ground (x right, y up, about the centre) and back: p_m = g F (p_px - c).
+  Eigen::Matrix3d ground_from_px_curr = Eigen::Matrix3d::Identity();
+  ground_from_px_curr.topLeftCorner<2, 2>() << gsd_curr_m_per_px, 0.0, 0.0, -gsd_curr_m_per_px;
+  ground_from_px_curr.topRightCorner<2, 1>() =
+      -(ground_from_px_curr.topLeftCorner<2, 2>() * centre_px);
+  Eigen::Matrix3d px_from_ground_prev = Eigen::Matrix3d::Identity();
+  px_from_ground_prev.topLeftCorner<2, 2>() << 1.0 / gsd_prev_m_per_px, 0.0, 0.0,
+      -1.0 / gsd_prev_m_per_px;
+  px_from_ground_prev.topRightCorner<2, 1>() = centre_px;
+  const Eigen::Matrix3d prev_from_curr_px =
+      px_from_ground_prev * prev_from_curr.Matrix() * ground_from_px_curr;
+  return prev_from_curr_px.inverse();
+}
+
 Eigen::Matrix4d SimilarityFitInformation(const Eigen::Matrix2Xd& curr_px,
                                          const Similarity2& prev_from_curr,
                                          const Eigen::Vector2d& centre_px, double gsd_prev_m_per_px,

@@ -26,6 +26,15 @@ Similarity2 PrevFromCurrOfPixelStep(const Eigen::Matrix3d& curr_from_prev_px,
                                     const Eigen::Vector2d& centre_px, double gsd_prev_m_per_px,
                                     double gsd_curr_m_per_px);
 
+/// The inverse of PrevFromCurrOfPixelStep for a similarity: the pixel transform
+/// curr_from_prev_px (3x3, maps frame prev's pixels to frame curr's) of the ground-plane step
+/// `prev_from_curr` between frames of the given ground sampling distances (e.g. a pair's
+/// predicted step as a matching prior). Throws InvalidArgument for a step that is not finite or
+/// a gsd not finite and > 0.
+Eigen::Matrix3d PixelStepOfPrevFromCurr(const Similarity2& prev_from_curr,
+                                        const Eigen::Vector2d& centre_px, double gsd_prev_m_per_px,
+                                        double gsd_curr_m_per_px);
+
 /// The information matrix (inverse covariance of x, y [frame prev's metres], heading [rad],
 /// log-scale) of a least-squares similarity fit of the step `prev_from_curr` (ground
 /// coordinates, as PrevFromCurrOfPixelStep gives) on inlier pairs whose frame-curr points are

@@ -42,6 +42,9 @@ TEST(PixelStep, GroundStepRoundTripsThroughPixels) {
     EXPECT_LT((back.translation_m - z.translation_m).norm(), 1e-9);
     EXPECT_NEAR(back.heading_rad, z.heading_rad, 1e-12);
     EXPECT_NEAR(back.log_scale, z.log_scale, 1e-12);
+    // And the inverse: the pixel step of the ground step is the same transform.
+    const Eigen::Matrix3d again = PixelStepOfPrevFromCurr(z, kCentre, 0.05, gsd_curr);
+    EXPECT_LT((again - px).cwiseAbs().maxCoeff(), 1e-9) << again << "\n" << px;
   }
   // A pure pixel shift: the camera moved right by 100 px of frame prev, so the scene moved left.
   Eigen::Matrix3d shift = Eigen::Matrix3d::Identity();

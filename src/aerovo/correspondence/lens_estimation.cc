@@ -10,6 +10,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/statistics.h"
 #include "aerovo/estimation/models.h"
 #include "aerovo/estimation/ransac.h"
 #include "aerovo/estimation/samplers.h"
@@ -279,15 +280,6 @@ double GoldenMinimum(F&& f, double a, double b) {
   return fc <= fd ? c : d;
 }
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const std::size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + mid, v.end());
-  double m = v[mid];
-  if (v.size() % 2 == 0) m = 0.5 * (m + *std::max_element(v.begin(), v.begin() + mid));
-  return m;
-}
-
 double TotalCost(RadialFamily family, double k, const CostSettings& cs,
                  std::vector<PairData>& data) {
   double c = 0.0;
@@ -347,11 +339,7 @@ std::vector<PairData> CollectInliers(const std::vector<LensPair>& pairs,
 // grid of g points); dof: the residual degrees of freedom.
 void EstimateUncertainty(double lo, double hi, int g, double dof, const CostSettings& cs,
                          std::vector<PairData>& data, LensFamilyFit* fit) {
-  const int num_pairs = static_cast<int>(data.size());
-  std::vector<double> dev;
-  const double med = Median(fit->pair_k);
-  for (double k : fit->pair_k) dev.push_back(std::abs(k - med));
-  fit->sigma_k_pairs = 1.4826 * Median(dev) / std::sqrt(static_cast<double>(num_pairs));
+  fit->sigma_k_pairs = RobustStandardError(fit->pair_k);
   const double step = std::max(1e-5, (hi - lo) / (g - 1) / 8.0);
   const double cp = TotalCost(fit->family, std::min(hi, fit->k + step), cs, data);
   const double cm = TotalCost(fit->family, std::max(lo, fit->k - step), cs, data);

@@ -55,9 +55,35 @@ bool Comparable(const FeatureSet& prev, int p, const FeatureSet& curr, int c, co
   return !prior || InDisc(prev.keypoints[p], curr.keypoints[c], *prior, o.guided_radius_px);
 }
 
+// Every prev x curr SSD of two feature sets, computed once (Ssd's double arithmetic): the
+// reference reads it instead of recomputing each pair per option set (the matcher tests run under
+// qemu-aarch64 in CI, where the reference's scalar loops were most of their time).
+class SsdTable {
+ public:
+  SsdTable(const FeatureSet& prev, const FeatureSet& curr)
+      : curr_size_(static_cast<int>(curr.size())), ssd_(prev.size() * curr.size()) {
+    for (int p = 0; p < static_cast<int>(prev.size()); ++p) {
+      for (int c = 0; c < curr_size_; ++c) ssd_[Index(p, c)] = Ssd(prev, p, curr, c);
+    }
+  }
+  double operator()(int p, int c) const { return ssd_[Index(p, c)]; }
+
+ private:
+  std::size_t Index(int p, int c) const {
+    return static_cast<std::size_t>(p) * static_cast<std::size_t>(curr_size_) +
+           static_cast<std::size_t>(c);
+  }
+  int curr_size_;
+  std::vector<double> ssd_;
+};
+
+// `table`: the SSDs of prev x curr when the caller has them (several option sets over one
+// scene); each pair computed when needed otherwise.
 std::vector<Match> Reference(const FeatureSet& prev, const FeatureSet& curr,
                              std::vector<int> subset, const MatchOptions& o,
-                             const std::optional<Affine>& prior = std::nullopt) {
+                             const std::optional<Affine>& prior = std::nullopt,
+                             const SsdTable* table = nullptr) {
+  const auto ssd = [&](int p, int c) { return table ? (*table)(p, c) : Ssd(prev, p, curr, c); };
   if (subset.empty()) {
     subset.resize(prev.size());
     std::iota(subset.begin(), subset.end(), 0);
@@ -71,7 +97,7 @@ std::vector<Match> Reference(const FeatureSet& prev, const FeatureSet& curr,
     int j1 = -1, j2 = -1;
     for (int c = 0; c < static_cast<int>(curr.size()); ++c) {
       if (!Comparable(prev, p, curr, c, o, prior)) continue;
-      const double s = Ssd(prev, p, curr, c);
+      const double s = ssd(p, c);
       if (s < s1) {
         s2 = s1, j2 = j1, s1 = s, j1 = c;
       } else if (s < s2) {
@@ -87,10 +113,10 @@ std::vector<Match> Reference(const FeatureSet& prev, const FeatureSet& curr,
     std::vector<Match> kept;
     for (const Match& m : out) {
       bool best = true;
+      const double own = ssd(m.prev_index, m.curr_index);
       for (int q : subset) {
         if (q == m.prev_index || !Comparable(prev, q, curr, m.curr_index, o, prior)) continue;
-        const double s = Ssd(prev, q, curr, m.curr_index);
-        const double own = Ssd(prev, m.prev_index, curr, m.curr_index);
+        const double s = ssd(q, m.curr_index);
         if (s < own || (s == own && q < m.prev_index)) best = false;
       }
       if (best) kept.push_back(m);
@@ -260,6 +286,7 @@ TEST(MatcherTest, AgreesWithBruteForceOnHardData) {
     // SSD of a noised, renormalised copy is ~ (dim - 1) sigma^2: centred just under 0.04.
     const float sigma = static_cast<float>(std::sqrt(0.038 / (dim - 1)));
     const Scene s = MakeScene(500, 300, dim, sigma, 3 + dim);
+    const SsdTable table(s.prev, s.curr);
     for (bool unique : {false, true}) {
       for (bool lap : {true, false}) {
         MatchOptions o;
@@ -268,7 +295,7 @@ TEST(MatcherTest, AgreesWithBruteForceOnHardData) {
         o.max_ratio = 0.8f;
         Matcher matcher(o);
         const MatchResult r = matcher.Match(s.prev, s.curr);
-        const std::vector<Match> want = Reference(s.prev, s.curr, {}, o);
+        const std::vector<Match> want = Reference(s.prev, s.curr, {}, o, std::nullopt, &table);
         EXPECT_GT(want.size(), 50u);
         EXPECT_LT(want.size(), s.prev.size());  // the threshold really cuts
         ExpectSameMatches(r.matches, want);
@@ -879,6 +906,7 @@ TEST(MatcherKdForestTest, FullBudgetEqualsExhaustive) {
                                      [&](const Keypoint& k) { return k.laplacian == sign; }));
   }
   ASSERT_LE(largest_group, 590);
+  const SsdTable table(s.prev, s.curr);
   for (bool unique : {false, true}) {
     for (float ratio : {0.6f, 0.95f}) {
       MatchOptions ex;
@@ -887,7 +915,7 @@ TEST(MatcherKdForestTest, FullBudgetEqualsExhaustive) {
       ex.match_threshold_percent = 30.f;  // the look-alikes reach the ratio test
       const MatchResult want = Matcher(ex).Match(s.prev, s.curr);
       ASSERT_GT(want.matches.size(), 300u);
-      ExpectSameMatches(want.matches, Reference(s.prev, s.curr, {}, ex));
+      ExpectSameMatches(want.matches, Reference(s.prev, s.curr, {}, ex, std::nullopt, &table));
       // A budget covering each group but below the point counts (600 queries, 900 candidates):
       // the forests (forward, and reverse for unique) examine every candidate of the query's
       // group through the trees; 0 and >= curr size: the exhaustive path.

@@ -52,7 +52,8 @@ AutopilotLink::AutopilotLink(std::unique_ptr<Transport> transport, Options optio
     : transport_(std::move(transport)), options_(options) {
   if (!transport_) throw InvalidArgument("AutopilotLink: the transport is null");
   if (options_.signing_key) {
-    signing_ = std::make_unique<SigningState>(*options_.signing_key, options_.link_id);
+    signing_ = std::make_unique<SigningState>(*options_.signing_key, options_.link_id,
+                                              options_.signing_initial_timestamp);
     transport_->RequireConfirmedPeer();
     stats_.signing = true;
   }
@@ -62,6 +63,19 @@ AutopilotLink::AutopilotLink(std::unique_ptr<Transport> transport, Options optio
 AutopilotLink::~AutopilotLink() {
   stop_ = true;
   if (thread_.joinable()) thread_.join();
+  SaveSigningTimestamp();
+}
+
+void AutopilotLink::SaveSigningTimestamp() {
+  if (!signing_ || options_.signing_timestamp_file.empty()) return;
+  bool ok = true;
+  try {
+    WriteSigningTimestamp(options_.signing_timestamp_file, signing_->local_timestamp());
+  } catch (const InputError&) {
+    ok = false;
+  }
+  std::lock_guard<std::mutex> lock(data_mutex_);
+  ++(ok ? stats_.signing_timestamp_saves : stats_.signing_timestamp_save_failed);
 }
 
 bool AutopilotLink::SendLocked(const std::vector<uint8_t>& bytes) {
@@ -74,9 +88,14 @@ bool AutopilotLink::SendLocked(const std::vector<uint8_t>& bytes) {
 void AutopilotLink::Loop() {
   std::vector<uint8_t> buffer(65536);
   double next_heartbeat_s = MonotonicNowS();
+  double next_timestamp_save_s = next_heartbeat_s + options_.signing_timestamp_period_s;
   bool heard_peer = false;
   while (!stop_) {
     const double now_s = MonotonicNowS();
+    if (now_s >= next_timestamp_save_s) {
+      SaveSigningTimestamp();
+      next_timestamp_save_s = now_s + options_.signing_timestamp_period_s;
+    }
     if (now_s >= next_heartbeat_s) {
       if (Send(Heartbeat{})) {
         std::lock_guard<std::mutex> lock(data_mutex_);

@@ -15,6 +15,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -61,6 +62,8 @@ struct LinkStats {
   uint64_t rejected_unsigned = 0;     ///< Signing: unsigned packets dropped.
   uint64_t rejected_bad_signature = 0;  ///< Signing: signature not made with the key (forged).
   uint64_t rejected_replayed = 0;  ///< Signing: timestamp not after its stream's last (replay).
+  uint64_t signing_timestamp_saves = 0;   ///< Signing: the timestamp file written.
+  uint64_t signing_timestamp_save_failed = 0;  ///< Signing: the timestamp file not written.
   ParserStats parser;
 };
 
@@ -74,6 +77,14 @@ class AutopilotLink {
     /// MAVLink 2 signing key: sign everything sent, accept only packets signed with it.
     std::optional<SigningKey> signing_key;
     uint8_t link_id = 0;  ///< The link id of our signatures (one link: 0).
+    /// Signing: the first timestamp is after this one (a stored timestamp: signing.h
+    /// ReadSigningTimestamp).
+    uint64_t signing_initial_timestamp = 0;
+    /// Signing: the file the local timestamp is written to every signing_timestamp_period_s
+    /// and when the link closes (WriteSigningTimestamp); "" = not kept.
+    std::string signing_timestamp_file;
+    /// Default 10 s (the MAVLink guide asks for at least once a minute).
+    double signing_timestamp_period_s = 10.0;
   };
   /// Starts the receive thread on `transport` (not null).
   AutopilotLink(std::unique_ptr<Transport> transport, Options options);
@@ -98,6 +109,10 @@ class AutopilotLink {
   std::optional<AutopilotAttitude> AttitudeNear(double time_s, double tolerance_s) const;
   /// Waits until a height sample has arrived or `timeout_s` has passed; true when there is one.
   bool WaitForHeight(double timeout_s) const;
+  /// Signing: writes the local timestamp to Options::signing_timestamp_file now (counted in
+  /// LinkStats; nothing without a key or a file). Also done every signing_timestamp_period_s and
+  /// by the destructor.
+  void SaveSigningTimestamp();
   LinkStats stats() const;
 
  private:

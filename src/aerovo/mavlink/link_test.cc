@@ -270,5 +270,47 @@ TEST(MavlinkLink, SignedUdpinUsesAndAnswersOnlySignedPackets) {
   EXPECT_EQ(s.signed_accepted, 1u);
 }
 
+// Signing with a timestamp file: the first packet is signed after the stored timestamp (a day
+// ahead of the clock here), the file follows the timestamps while the link runs and holds the
+// last one sent after the link is closed.
+TEST(MavlinkLink, SigningTimestampIsKeptInItsFile) {
+  const std::string file =
+      ::testing::TempDir() + "aerovo_link_timestamp_" + std::to_string(getpid());
+  const uint64_t stored = SigningTimestampFromUnixS(UnixNowS()) + 8640000000ULL;  // + 1 day
+  WriteSigningTimestamp(file, stored);
+  TestSocket gcs;
+  uint64_t first = 0, last = 0;
+  {
+    AutopilotLink::Options o;
+    o.heartbeat_period_s = 0.02;
+    o.signing_key = SigningKey{};
+    o.signing_initial_timestamp = *ReadSigningTimestamp(file, nullptr);
+    o.signing_timestamp_file = file;
+    o.signing_timestamp_period_s = 0.05;
+    AutopilotLink link(OpenTransport(ParseLinkUrl("udp:127.0.0.1:" + std::to_string(gcs.port))),
+                       o);
+    int heartbeats = 0;
+    gcs.Receive(3000, [&](const Packet& k) {
+      EXPECT_TRUE(k.is_signed);
+      uint64_t ts = 0;
+      for (int b = 5; b >= 0; --b) ts = (ts << 8) | k.frame[k.frame.size() - 12 + b];
+      if (first == 0) first = ts;
+      last = ts;
+      return ++heartbeats >= 8;
+    });
+    EXPECT_EQ(first, stored + 1);
+    EXPECT_GE(link.stats().signing_timestamp_saves, 1u);  // periodic saves while running
+    const std::optional<uint64_t> meanwhile = ReadSigningTimestamp(file, nullptr);
+    ASSERT_TRUE(meanwhile);
+    EXPECT_GT(*meanwhile, stored);
+  }
+  std::string problem;
+  const std::optional<uint64_t> kept = ReadSigningTimestamp(file, &problem);
+  ASSERT_TRUE(kept) << problem;
+  EXPECT_GE(*kept, last);
+  EXPECT_LE(*kept, last + 100);  // a heartbeat or two may have gone out after the test's last
+  std::remove(file.c_str());
+}
+
 }  // namespace
 }  // namespace aerovo::mavlink

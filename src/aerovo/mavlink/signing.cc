@@ -6,6 +6,7 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -125,6 +126,59 @@ void SignPacket(std::vector<uint8_t>* packet, uint8_t crc_extra, const SigningKe
   for (int i = 0; i < 6; ++i) p.push_back(static_cast<uint8_t>((timestamp >> (8 * i)) & 0xFF));
   const auto sig = ComputeSignature(key, p.data(), p.size());
   p.insert(p.end(), sig.begin(), sig.end());
+}
+
+std::optional<uint64_t> ReadSigningTimestamp(const std::string& path, std::string* problem) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    struct stat st {};
+    if (stat(path.c_str(), &st) != 0 && errno == ENOENT) return std::nullopt;
+    if (problem) *problem = fmt::format("MAVLink signing timestamp file '{}': cannot be read", path);
+    return std::nullopt;
+  }
+  char buf[64];
+  in.read(buf, sizeof(buf));
+  const std::string text(buf, static_cast<std::size_t>(in.gcount()));
+  std::size_t i = 0;
+  uint64_t value = 0;
+  while (i < text.size() && text[i] >= '0' && text[i] <= '9' && value <= kMaxSigningTimestamp) {
+    value = value * 10 + static_cast<uint64_t>(text[i] - '0');
+    ++i;
+  }
+  std::size_t end = i;
+  while (end < text.size() && std::isspace(static_cast<unsigned char>(text[end]))) ++end;
+  if (i == 0 || end != text.size() || value > kMaxSigningTimestamp) {
+    if (problem) {
+      *problem = fmt::format(
+          "MAVLink signing timestamp file '{}': not one decimal timestamp of at most 48 bits; "
+          "ignored (the timestamps start from the clock)",
+          path);
+    }
+    return std::nullopt;
+  }
+  return value;
+}
+
+void WriteSigningTimestamp(const std::string& path, uint64_t timestamp) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << timestamp << "\n";
+    out.flush();
+    if (!out) {
+      throw InputError(
+          fmt::format("MAVLink signing timestamp file '{}': cannot be written", tmp));
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    throw InputError(fmt::format("MAVLink signing timestamp file '{}': {}", path,
+                                 std::strerror(errno)));
+  }
+}
+
+uint64_t SigningState::local_timestamp() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return local_timestamp_;
 }
 
 void SigningState::Sign(std::vector<uint8_t>* packet, uint8_t crc_extra, double unix_now_s) {

@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -44,6 +45,21 @@ SigningKey ParseSigningKey(const std::string& text, const std::string& source);
 
 /// The signing timestamp of Unix time `unix_s` (10 us units since 2015-01-01 UTC; 0 before).
 uint64_t SigningTimestampFromUnixS(double unix_s);
+/// The largest signing timestamp (48 bits).
+constexpr uint64_t kMaxSigningTimestamp = (uint64_t{1} << 48) - 1;
+/// The signing timestamp kept across runs (the MAVLink guide's "Timestamp handling": a signing
+/// system stores its timestamp persistently, at least once a minute, and starts from the larger
+/// of its clock and the stored one, so that a restart on a companion whose clock is behind, e.g.
+/// one without a real-time clock, does not send timestamps the autopilot already saw from this
+/// stream and rejects as replays). The file: one decimal number (the timestamp, 10 us units since
+/// 2015-01-01 UTC) and a newline. nullopt when the file does not exist; when it exists but is not
+/// such a number (or larger than 48 bits) also nullopt, with `problem` (may be null) set to a
+/// sentence naming the file: the run goes on from the clock.
+std::optional<uint64_t> ReadSigningTimestamp(const std::string& path, std::string* problem);
+/// Writes `timestamp` to `path` in that format, atomically (a temporary file in the same folder,
+/// then rename: a power cut leaves the old or the new file, never a truncated one). InputError
+/// naming the file when it cannot be written.
+void WriteSigningTimestamp(const std::string& path, uint64_t timestamp);
 
 /// The 6-byte signature of `n` packet bytes (from the magic through link_id and timestamp).
 std::array<uint8_t, kSignatureValueBytes> ComputeSignature(const SigningKey& key,
@@ -67,7 +83,12 @@ enum class SignatureCheck {
 /// timestamp of every stream we accepted. Thread-safe (sending and receiving threads).
 class SigningState {
  public:
-  SigningState(const SigningKey& key, uint8_t link_id) : key_(key), link_id_(link_id) {}
+  /// `initial_timestamp`: a stored timestamp (ReadSigningTimestamp); the first packet is signed
+  /// after it even when the clock is behind.
+  SigningState(const SigningKey& key, uint8_t link_id, uint64_t initial_timestamp = 0)
+      : key_(key), link_id_(link_id), local_timestamp_(initial_timestamp) {}
+  /// The local timestamp: the last sent or accepted, whichever is larger (what is stored).
+  uint64_t local_timestamp() const;
   /// Signs `packet` (unsigned, message CRC_EXTRA `crc_extra`) with the next timestamp: the
   /// larger of the clock (`unix_now_s`) and one after the local timestamp.
   void Sign(std::vector<uint8_t>* packet, uint8_t crc_extra, double unix_now_s);
@@ -78,7 +99,7 @@ class SigningState {
  private:
   SigningKey key_;
   uint8_t link_id_;
-  std::mutex mutex_;
+  mutable std::mutex mutex_;
   uint64_t local_timestamp_ = 0;  // the last sent or accepted, whichever is larger
   std::map<std::tuple<uint8_t, uint8_t, uint8_t>, uint64_t> streams_;  // (sysid, compid, link)
 };

@@ -11,6 +11,7 @@
 
 #include <cstdio>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -155,8 +156,11 @@ TEST(MavlinkSigning, SentTimestampsIncreaseAndFollowAcceptedOnes) {
     uint64_t ts = 0;
     for (int k = 5; k >= 0; --k) ts = (ts << 8) | b[b.size() - 12 + k];
     EXPECT_EQ(b[b.size() - 13], 5);  // our link id
-    if (i == 0) EXPECT_EQ(ts, golden::kDistanceSensorTimestamp);
-    if (i > 0) EXPECT_EQ(ts, last + 1);
+    if (i == 0) {
+      EXPECT_EQ(ts, golden::kDistanceSensorTimestamp);
+    } else {
+      EXPECT_EQ(ts, last + 1);
+    }
     last = ts;
   }
   // An accepted packet from the autopilot with a later timestamp moves ours past it.
@@ -169,6 +173,75 @@ TEST(MavlinkSigning, SentTimestampsIncreaseAndFollowAcceptedOnes) {
   uint64_t ts = 0;
   for (int k = 5; k >= 0; --k) ts = (ts << 8) | b[b.size() - 12 + k];
   EXPECT_EQ(ts, last + 1001);
+}
+
+// The timestamp kept across runs: a restart whose clock is behind the last run's timestamps
+// (a companion without a real-time clock) still signs after them, so that the autopilot, which
+// remembers this stream's last timestamp, does not reject the new packets as replays.
+TEST(MavlinkSigning, AStoredTimestampOutranksAClockThatIsBehind) {
+  const uint64_t stored = golden::kDistanceSensorTimestamp + 500000;  // 5 s after the clock
+  SigningState s(TestKey(), 0, stored);
+  EXPECT_EQ(s.local_timestamp(), stored);
+  std::vector<uint8_t> b = Encode(Heartbeat{}, 0, 1, 197);
+  s.Sign(&b, Heartbeat::kCrcExtra, UnixOf(golden::kDistanceSensorTimestamp));
+  uint64_t ts = 0;
+  for (int k = 5; k >= 0; --k) ts = (ts << 8) | b[b.size() - 12 + k];
+  EXPECT_EQ(ts, stored + 1);
+  EXPECT_EQ(s.local_timestamp(), stored + 1);
+  // A receiver that saw the stored timestamp on this stream accepts the restarted stream.
+  SigningState receiver(TestKey(), 0);
+  std::vector<uint8_t> before = Encode(Heartbeat{}, 9, 1, 197);
+  SignPacket(&before, Heartbeat::kCrcExtra, TestKey(), 0, stored);
+  const double clock = UnixOf(golden::kDistanceSensorTimestamp);
+  ASSERT_EQ(receiver.Check(ParseOne(before), clock), SignatureCheck::kAccepted);
+  EXPECT_EQ(receiver.Check(ParseOne(b), clock), SignatureCheck::kAccepted);
+}
+
+class MavlinkTimestampFile : public ::testing::Test {
+ protected:
+  void TearDown() override {
+    std::remove(path_.c_str());
+    std::remove((path_ + ".tmp").c_str());
+  }
+  std::string path_ =
+      ::testing::TempDir() + "aerovo_signing_timestamp_" + std::to_string(getpid());
+};
+
+TEST_F(MavlinkTimestampFile, WrittenAndReadBack) {
+  std::string problem;
+  EXPECT_FALSE(ReadSigningTimestamp(path_, &problem));  // no file yet: no problem either
+  EXPECT_EQ(problem, "");
+  WriteSigningTimestamp(path_, golden::kHeartbeatTimestamp);
+  std::ifstream in(path_);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(text, std::to_string(golden::kHeartbeatTimestamp) + "\n");
+  EXPECT_EQ(ReadSigningTimestamp(path_, &problem), golden::kHeartbeatTimestamp);
+  EXPECT_EQ(problem, "");
+  WriteSigningTimestamp(path_, kMaxSigningTimestamp);
+  EXPECT_EQ(ReadSigningTimestamp(path_, &problem), kMaxSigningTimestamp);
+  EXPECT_FALSE(std::ifstream(path_ + ".tmp"));  // renamed into place
+}
+
+TEST_F(MavlinkTimestampFile, AFileThatIsNotATimestampIsNamedAndIgnored) {
+  for (const std::string& text :
+       {std::string(""), std::string("12x\n"), std::string("-5\n"), std::string("1 2\n"),
+        std::to_string(kMaxSigningTimestamp + 1) + "\n", std::string(40, '9')}) {
+    std::ofstream(path_, std::ios::binary | std::ios::trunc) << text;
+    std::string problem;
+    EXPECT_FALSE(ReadSigningTimestamp(path_, &problem)) << text;
+    EXPECT_NE(problem.find(path_), std::string::npos) << text << ": " << problem;
+    EXPECT_NE(problem.find("48 bits"), std::string::npos) << problem;
+  }
+}
+
+TEST_F(MavlinkTimestampFile, AnUnwritableFolderIsAnErrorNamingTheFile) {
+  const std::string path = "/nonexistent-folder-of-aerovo/ts";
+  try {
+    WriteSigningTimestamp(path, 1);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
 }
 
 class MavlinkKeyFile : public ::testing::Test {

@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/statistics.h"
 #include "aerovo/estimation/models.h"
 #include "aerovo/estimation/ransac.h"
 #include "aerovo/estimation/samplers.h"
@@ -28,13 +29,6 @@ constexpr double kHorizonResidualScales = 100.0;
 // Rays closer than 5 degrees to the horizon after the rotation: the smallest cosine of the
 // virtual ray's angle from nadir.
 const double kMinNadirCos = std::sin(5.0 * M_PI / 180.0);
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
 
 // The cost of one pair under the rotation `m` (nadir_from_camera on rays; the points are
 // normalised coordinates (x - cx) / f): the Cauchy loss of the current frame's pixel residuals
@@ -300,14 +294,8 @@ AttitudeEstimate EstimateCameraAttitude(const std::vector<LensPair>& pairs,
     rolls.push_back(e.pair_attitude.back().roll_deg);
     pitches.push_back(e.pair_attitude.back().pitch_deg);
   }
-  const auto spread = [&](const std::vector<double>& v) {
-    const double med = Median(v);
-    std::vector<double> dev;
-    for (double x : v) dev.push_back(std::abs(x - med));
-    return 1.4826 * Median(dev) / std::sqrt(static_cast<double>(v.size()));
-  };
-  e.sigma_roll_deg = spread(rolls);
-  e.sigma_pitch_deg = spread(pitches);
+  e.sigma_roll_deg = RobustStandardError(rolls);
+  e.sigma_pitch_deg = RobustStandardError(pitches);
   Decide(o, &e);
   return e;
 }

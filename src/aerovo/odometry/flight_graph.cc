@@ -96,11 +96,14 @@ PairFitter MakeStandardPairFitter(const CorrespondenceOptions& options, int widt
   const bool refit = c.clustered.refine && c.clustered.refine_fallback &&
                      c.clustered.refine_final_radius_px > 0.f;
   return [c, refit, width, height](const FeatureSet& prev, const FeatureSet& curr,
-                                   std::uint64_t seed) -> std::optional<PairFit> {
+                                   std::uint64_t seed,
+                                   const std::optional<Eigen::Matrix3d>& prior)
+             -> std::optional<PairFit> {
     CorrespondenceOptions seeded = c;
     seeded.ransac.seed = seed;
+    seeded.guided_matching = prior.has_value();
     CorrespondenceStage stage(seeded);
-    CorrespondenceResult r = stage.Run(prev, width, height, curr, std::nullopt);
+    CorrespondenceResult r = stage.Run(prev, width, height, curr, prior);
     if (refit) stage.RefitOnAllPoints(prev, curr, &r);
     if (!r.success) return std::nullopt;
     PairFit fit;
@@ -115,6 +118,17 @@ PairFitter MakeStandardPairFitter(const CorrespondenceOptions& options, int widt
     fit.inliers_curr_px.conservativeResize(2, k);
     return fit;
   };
+}
+
+const char* ToString(PairVerdict verdict) {
+  switch (verdict) {
+    case PairVerdict::kAdded: return "added";
+    case PairVerdict::kNoFit: return "no_fit";
+    case PairVerdict::kTooFewInliers: return "too_few_inliers";
+    case PairVerdict::kTooLittleSpread: return "too_little_spread";
+    case PairVerdict::kGate: return "gate";
+  }
+  return "unknown";
 }
 
 PairVerdict JudgePair(const BackendOptions& o, const Similarity2& fit, const Similarity2& predicted,
@@ -182,7 +196,11 @@ void FlightGraph::Add(const FrameResult& r) {
                           : path_m_.back() + (pose.translation_m - poses_.back().translation_m).norm();
   if (r.index > 0) {
     const backend::RelativeFactor f = StepFactor(r);
-    graph_.AddPose(pose);
+    // Online, the estimates before this frame may have moved from the causal poses: the new
+    // pose starts at the previous estimate moved by the causal step.
+    graph_.AddPose(options_.online ? graph_.estimates().back() *
+                                         backend::Between(poses_.back(), pose)
+                                   : pose);
     graph_.AddRelative(f);
   } else {
     graph_.AddPose(pose);
@@ -220,23 +238,30 @@ std::vector<int> FlightGraph::CandidatesOf(int i) const {
 }
 
 PairVerdict FlightGraph::TryPair(const Keyframe& a, const Keyframe& b, const PairFitter& fitter,
-                                 std::uint64_t run_seed, backend::RelativeFactor* f) const {
-  const std::optional<PairFit> fit =
-      fitter(*a.features, *b.features, PairSeed(run_seed, a.frame, b.frame));
-  if (!fit || fit->inliers_curr_px.cols() < 2) return PairVerdict::kNoFit;
+                                 std::uint64_t run_seed, bool guided,
+                                 backend::RelativeFactor* f, TriedPair* record) const {
+  record->a = a.frame;
+  record->b = b.frame;
+  record->predicted = backend::Between(poses_[static_cast<std::size_t>(a.frame)],
+                                       poses_[static_cast<std::size_t>(b.frame)]);
   const Eigen::Vector2d centre(0.5 * (width_ - 1), 0.5 * (height_ - 1));
+  std::optional<Eigen::Matrix3d> prior;
+  if (guided) prior = backend::PixelStepOfPrevFromCurr(record->predicted, centre, a.gsd, b.gsd);
+  const std::optional<PairFit> fit =
+      fitter(*a.features, *b.features, PairSeed(run_seed, a.frame, b.frame), prior);
+  if (fit) record->inliers = static_cast<int>(fit->inliers_curr_px.cols());
+  if (!fit || fit->inliers_curr_px.cols() < 2) return PairVerdict::kNoFit;
   try {
     f->prev = a.frame;
     f->curr = b.frame;
     f->prev_from_curr =
         backend::PrevFromCurrOfPixelStep(fit->curr_from_prev_px, centre, a.gsd, b.gsd);
-    const Similarity2 predicted = backend::Between(poses_[static_cast<std::size_t>(a.frame)],
-                                                   poses_[static_cast<std::size_t>(b.frame)]);
+    record->fit = f->prev_from_curr;
+    record->spread = SpreadOf(fit->inliers_curr_px, width_, height_);
     const PairVerdict verdict =
-        JudgePair(options_, f->prev_from_curr, predicted,
-                  static_cast<int>(fit->inliers_curr_px.cols()),
-                  SpreadOf(fit->inliers_curr_px, width_, height_), b.path_m - a.path_m,
-                  std::min(a.gsd, b.gsd) * std::min(width_, height_));
+        JudgePair(options_, f->prev_from_curr, record->predicted,
+                  static_cast<int>(fit->inliers_curr_px.cols()), record->spread,
+                  b.path_m - a.path_m, std::min(a.gsd, b.gsd) * std::min(width_, height_));
     if (verdict != PairVerdict::kAdded) return verdict;
     f->information = FitInformation(fit->inliers_curr_px, f->prev_from_curr, centre, a.gsd, b.gsd);
     f->prev_from_curr.log_scale = 0.0;
@@ -244,6 +269,56 @@ PairVerdict FlightGraph::TryPair(const Keyframe& a, const Keyframe& b, const Pai
   } catch (const InvalidArgument&) {  // a singular or degenerate fit
     return PairVerdict::kNoFit;
   }
+}
+
+void FlightGraph::MatchRecent(const Keyframe& cur, int reference, const PairFitter& fitter,
+                              std::uint64_t run_seed, WindowedPose* out) {
+  const Eigen::Vector2d& c = poses_[static_cast<std::size_t>(cur.frame)].translation_m;
+  for (int k = num_keyframes() - 1; k >= 0 && out->pairs_tried < options_.online_keyframes; --k) {
+    const Keyframe& kf = keyframes_[static_cast<std::size_t>(k)];
+    if (kf.frame >= cur.frame || kf.frame == reference) continue;
+    const double side_m = std::min(kf.gsd, cur.gsd) * std::min(width_, height_);
+    const double d = (poses_[static_cast<std::size_t>(kf.frame)].translation_m - c).norm();
+    if (d > options_.search_radius * side_m) break;  // older keyframes are farther still
+    ++out->pairs_tried;
+    backend::RelativeFactor f;
+    TriedPair record;
+    const PairVerdict verdict = TryPair(kf, cur, fitter, run_seed, true, &f, &record);
+    if (verdict == PairVerdict::kAdded) {
+      graph_.AddRelative(f);
+      ++out->pairs_verified;
+    } else if (verdict == PairVerdict::kGate) {
+      ++out->pairs_gated;
+    }
+  }
+}
+
+WindowedPose FlightGraph::AddOnline(const FrameResult& r, const PairFitter& fitter,
+                                    std::uint64_t run_seed) {
+  if (!options_.online) throw InvalidArgument("FlightGraph::AddOnline: backend.online is off");
+  Add(r);
+  WindowedPose out;
+  const int n = num_frames();
+  if (r.features != nullptr && r.status != FrameStatus::kBridged && n > 1) {
+    MatchRecent({r.index, r.gsd_m_per_px, path_m_.back(), r.features}, r.reference_index, fitter,
+                run_seed, &out);
+  }
+  out.window_first = std::max(0, n - options_.window);
+  out.local_from_frame = graph_.estimates().back();
+  if (n < 2) return out;
+  backend::PoseGraphOptions solve;
+  solve.covariance = true;
+  const backend::PoseGraphResult result =
+      backend::OptimizeWindow(graph_, out.window_first, n - 1, solve);
+  for (int i = out.window_first; i < n; ++i) {
+    graph_.SetEstimate(i, result.local_from_frame[static_cast<std::size_t>(i)]);
+  }
+  out.local_from_frame = result.local_from_frame.back();
+  if (!result.covariance.empty() && result.covariance.back().allFinite()) {
+    out.covariance = result.covariance.back();
+    out.has_covariance = true;
+  }
+  return out;
 }
 
 OptimizedFlight FlightGraph::Optimize(const PairFitter& fitter, std::uint64_t run_seed) const {
@@ -258,9 +333,12 @@ OptimizedFlight FlightGraph::Optimize(const PairFitter& fitter, std::uint64_t ru
     for (const int j : CandidatesOf(i)) {
       ++out.pairs_tried;
       backend::RelativeFactor f;
+      TriedPair record;
       const PairVerdict verdict = TryPair(keyframes_[static_cast<std::size_t>(i)],
                                           keyframes_[static_cast<std::size_t>(j)], fitter,
-                                          run_seed, &f);
+                                          run_seed, false, &f, &record);
+      record.verdict = verdict;
+      out.pairs.push_back(record);
       if (verdict == PairVerdict::kAdded) {
         graph.AddRelative(f);
         ++out.pairs_verified;
@@ -277,8 +355,11 @@ OptimizedFlight FlightGraph::Optimize(const PairFitter& fitter, std::uint64_t ru
   out.solve_s = solve_time.elapsed_ms() / 1000.0;
   out.iterations = result.iterations;
   out.local_from_frame = result.local_from_frame;
-  for (std::size_t k = base_factors; k < result.relative.size(); ++k) {
-    out.outliers += result.relative[k].outlier ? 1 : 0;
+  std::size_t k = base_factors;
+  for (TriedPair& p : out.pairs) {
+    if (p.verdict != PairVerdict::kAdded || k >= result.relative.size()) continue;
+    p.down_weighted = result.relative[k++].outlier;
+    out.outliers += p.down_weighted ? 1 : 0;
   }
   return out;
 }

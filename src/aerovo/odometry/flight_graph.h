@@ -6,7 +6,9 @@
 // causal track), matches and fits each pair (standard RANSAC, seeded per pair from the run's
 // seed), verifies the fit (inliers, their spread over the image, agreement with the graph's
 // prediction: the gate) and adds the verified ones as relative factors; then OptimizeAll with the
-// robust (Cauchy) cost gives every frame's optimised pose.
+// robust (Cauchy) cost gives every frame's optimised pose. Online (BackendOptions::online,
+// AddOnline), the same graph grows per frame: the frame is matched against recent keyframes with
+// the same pair fitter and verification, and the last poses are optimised (OptimizeWindow).
 //
 // Frames: local = the run's local metric frame (pose_chain.h); a frame's ground coordinates and
 // the poses `local_from_frame` as in backend/similarity2.h (position of the camera centre's ground
@@ -34,7 +36,8 @@
 
 namespace aerovo {
 
-/// Options of the offline whole-flight optimisation (`backend.*` of a run configuration).
+/// Options of the offline whole-flight optimisation and the online window (`backend.*` of a run
+/// configuration).
 /// Lengths are fractions of the footprint's smaller side (the frame's smaller side in pixels
 /// times its ground sampling distance), so that they hold at any height and resolution.
 struct BackendOptions {
@@ -70,6 +73,18 @@ struct BackendOptions {
   double gate = 0.05;
   /// Gate on the heading, degrees. Default 15.
   double gate_heading_deg = 15.0;
+  /// The online window (docs/backend.md, "Online window"): each new frame is also matched
+  /// against up to online_keyframes recent keyframes (guided by the graph's prediction, judged
+  /// as the offline pairs: min_inliers, min_spread, gate), and the last `window` poses are
+  /// optimised per frame (backend::OptimizeWindow, older poses held: final); the live outputs
+  /// (pose stream, MAVLink, frames.csv and the track files) carry the windowed estimate.
+  /// Default false: BENCHMARKS.md, "Online window".
+  bool online = false;
+  /// Poses optimised per frame (the newest ones). Default 10.
+  int window = 10;
+  /// Recent keyframes (other than the step's own reference, within search_radius of the frame
+  /// by the causal track) a new frame is matched against. Default 2.
+  int online_keyframes = 2;
 };
 
 /// Throws InvalidArgument naming the field ("backend.gate must be ...").
@@ -87,6 +102,9 @@ void VisitFields(BackendOptions& o, V& v) {
   v.Field(o.min_spread, "min_spread", "Inliers' bounding box, least fraction of the image area", Interval(0, 1, true, true));
   v.Field(o.gate, "gate", "Largest disagreement of a fit with the track, fraction of the path between the frames", GreaterThan(0).Finite());
   v.Field(o.gate_heading_deg, "gate_heading_deg", "Largest heading disagreement of a fit with the track, degrees", Interval(0, 180, false, true));
+  v.Field(o.online, "online", "Online window: match each frame against recent keyframes and optimise the last poses per frame; the live outputs carry the windowed estimate", Any());
+  v.Field(o.window, "window", "Online window: poses optimised per frame (older ones are final)", AtLeast(2));
+  v.Field(o.online_keyframes, "online_keyframes", "Online window: recent keyframes matched per frame", AtLeast(1));
 }
 // clang-format on
 
@@ -96,12 +114,15 @@ struct PairFit {
   Eigen::Matrix3d curr_from_prev_px = Eigen::Matrix3d::Identity();
   Eigen::Matrix2Xd inliers_curr_px;
 };
-/// Matches and fits two keyframes' features; nullopt when no fit. `seed`: the RANSAC seed.
-using PairFitter = std::function<std::optional<PairFit>(const FeatureSet& prev,
-                                                        const FeatureSet& curr, std::uint64_t seed)>;
-/// The standard method (correspondence.h: all points, unguided) of `options` with the seed of
-/// each call, then the refit on all points (CorrespondenceStage::RefitOnAllPoints) when
-/// `options` refines fall-backs; frames of width x height pixels.
+/// Matches and fits two keyframes' features; nullopt when no fit. `seed`: the RANSAC seed;
+/// `prior`: the predicted curr_from_prev pixel transform (nullopt: none, match unguided).
+using PairFitter = std::function<std::optional<PairFit>(
+    const FeatureSet& prev, const FeatureSet& curr, std::uint64_t seed,
+    const std::optional<Eigen::Matrix3d>& prior)>;
+/// The standard method (correspondence.h: all points; guided by the prior when one is given,
+/// else unguided) of `options` with the seed of each call, then the refit on all points
+/// (CorrespondenceStage::RefitOnAllPoints) when `options` refines fall-backs; frames of width x
+/// height pixels.
 PairFitter MakeStandardPairFitter(const CorrespondenceOptions& options, int width, int height);
 
 /// The seed of pair (a, b) from the run's seed: SplitMix64 of the three (S. Vigna, "Further
@@ -119,6 +140,21 @@ PairVerdict JudgePair(const BackendOptions& options, const backend::Similarity2&
                       const backend::Similarity2& predicted, int n_inliers, double spread,
                       double path_m, double side_m);
 
+/// "added", "no_fit", "too_few_inliers", "too_little_spread", "gate".
+const char* ToString(PairVerdict verdict);
+
+/// One candidate pair tried (OptimizedFlight::pairs).
+struct TriedPair {
+  int a = 0, b = 0;  ///< The two frames (their order given to Add), a < b.
+  PairVerdict verdict = PairVerdict::kNoFit;
+  int inliers = 0;      ///< RANSAC inliers of the fit (0: no fit).
+  double spread = 0.0;  ///< The inliers' bounding box, fraction of the image.
+  /// prev_from_curr measured by the fit (log-scale as measured, before the factor sets it to 0)
+  /// and predicted by the causal track, in frame a's metres; the fit is the identity without one.
+  backend::Similarity2 fit, predicted;
+  bool down_weighted = false;  ///< Added, and down-weighted by the robust cost.
+};
+
 /// What the offline optimisation did, and the optimised poses.
 struct OptimizedFlight {
   /// Per frame given to Add, in order: the optimised local_from_frame.
@@ -132,6 +168,20 @@ struct OptimizedFlight {
   double match_s = 0.0;    ///< Wall time of the pairs' matching and fitting, s.
   double solve_s = 0.0;    ///< Wall time of the graph solve, s.
   int iterations = 0;
+  std::vector<TriedPair> pairs;  ///< Every pair tried, in the order tried.
+};
+
+/// A frame's pose from the online window (FlightGraph::AddOnline).
+struct WindowedPose {
+  backend::Similarity2 local_from_frame;  ///< The windowed estimate (log-scale 0).
+  /// Marginal covariance of (x [m], y [m], heading [rad], log-scale) given the poses before
+  /// the window (held: backend::PoseGraphResult::covariance); valid when has_covariance.
+  Eigen::Matrix4d covariance = Eigen::Matrix4d::Zero();
+  bool has_covariance = false;
+  int pairs_tried = 0;     ///< Keyframes this frame was matched against.
+  int pairs_verified = 0;  ///< Added as factors.
+  int pairs_gated = 0;     ///< Rejected by the gate.
+  int window_first = 0;    ///< The window's first pose (the ones before it are final).
 };
 
 /// The frames of a run in order, built as they come (Add), optimised at the end (Optimize).
@@ -145,6 +195,21 @@ class FlightGraph {
   /// number of frames added so far: InvalidArgument otherwise). Keeps r.features when the frame
   /// becomes a keyframe.
   void Add(const FrameResult& r);
+
+  /// The online window (BackendOptions::online): Add(r), then r's features matched against up
+  /// to online_keyframes recent keyframes (newest first; not r's reference, not r itself, within
+  /// search_radius by the causal track), each guided by the causal prediction, seeded with
+  /// PairSeed and judged by JudgePair; the verified ones become factors; then the last `window`
+  /// poses are optimised (OptimizeWindow, with covariance) and their estimates replace the
+  /// graph's (the poses before the window keep theirs: final). A new pose starts at the previous
+  /// pose's estimate moved by the causal step. Returns the frame's windowed pose.
+  WindowedPose AddOnline(const FrameResult& r, const PairFitter& fitter, std::uint64_t run_seed);
+
+  /// Forgets the keyframes added so far (their features are released and never matched again):
+  /// at a change of the lens model (pipeline/lens_switch.h) the earlier frames' features are
+  /// under the old lens, and a match of them against the later frames' would be biased. The
+  /// poses and factors stay.
+  void DropKeyframes() { keyframes_.clear(); }
 
   int width() const { return width_; }
   int height() const { return height_; }
@@ -167,9 +232,14 @@ class FlightGraph {
   backend::RelativeFactor StepFactor(const FrameResult& r) const;
   // Keyframe i's candidate partners j > i + 1, nearest first, at most max_pairs_per_keyframe.
   std::vector<int> CandidatesOf(int i) const;
-  // Fits and judges the pair (a, b); *f is the factor when kAdded.
+  // Fits and judges the pair (a, b); *f is the factor when kAdded; *record what was found.
+  // `guided`: the fitter is given the causal prediction as its prior.
   PairVerdict TryPair(const Keyframe& a, const Keyframe& b, const PairFitter& fitter,
-                      std::uint64_t run_seed, backend::RelativeFactor* f) const;
+                      std::uint64_t run_seed, bool guided, backend::RelativeFactor* f,
+                      TriedPair* record) const;
+  // The online matches of the newest frame `cur` (AddOnline), added to graph_.
+  void MatchRecent(const Keyframe& cur, int reference, const PairFitter& fitter,
+                   std::uint64_t run_seed, WindowedPose* out);
 
   BackendOptions options_;
   int width_ = 0, height_ = 0;

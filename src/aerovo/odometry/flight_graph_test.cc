@@ -1,5 +1,6 @@
 #include "aerovo/odometry/flight_graph.h"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <memory>
@@ -97,7 +98,8 @@ Flight MakeFlight(int legs, int steps, double bias_rad) {
 PairFitter TruthFitter(const Flight& f, std::map<std::pair<int, int>, Eigen::Vector2d> wrong = {},
                        std::vector<std::pair<int, int>> none = {}) {
   return [&f, wrong, none](const FeatureSet& prev, const FeatureSet& curr,
-                           std::uint64_t) -> std::optional<PairFit> {
+                           std::uint64_t,
+                           const std::optional<Eigen::Matrix3d>&) -> std::optional<PairFit> {
     const std::pair<int, int> key(FrameOf(prev), FrameOf(curr));
     for (const auto& n : none) {
       if (n == key) return std::nullopt;
@@ -140,7 +142,8 @@ TEST(FlightGraph, OverlapsBetweenLegsCutTheEndErrorByMoreThanThreeQuarters) {
 std::vector<std::pair<int, int>> TriedPairs(const FlightGraph& g) {
   std::vector<std::pair<int, int>> tried;
   g.Optimize(
-      [&](const FeatureSet& a, const FeatureSet& b, std::uint64_t) -> std::optional<PairFit> {
+      [&](const FeatureSet& a, const FeatureSet& b, std::uint64_t,
+          const std::optional<Eigen::Matrix3d>&) -> std::optional<PairFit> {
         tried.emplace_back(FrameOf(a), FrameOf(b));
         return std::nullopt;
       },
@@ -224,6 +227,111 @@ TEST(FlightGraph, PairSeedIsThePairsWhateverTheOrder) {
   EXPECT_EQ(PairSeed(1, 3, 9), PairSeed(1, 9, 3));
   EXPECT_NE(PairSeed(1, 3, 9), PairSeed(2, 3, 9));
   EXPECT_NE(PairSeed(1, 3, 9), PairSeed(1, 3, 10));
+}
+
+// The online window over a flight: each frame through AddOnline with `fitter`; the windowed
+// pose of every frame as it was output (the live stream's), and the counts.
+struct OnlineRun {
+  std::vector<Similarity2> live;
+  int tried = 0, verified = 0, gated = 0;
+};
+OnlineRun RunOnline(const Flight& f, const PairFitter& fitter, BackendOptions o = {}) {
+  o.online = true;
+  FlightGraph g(o, kWidth, kHeight);
+  OnlineRun run;
+  for (const FrameResult& r : f.results) {
+    const WindowedPose w = g.AddOnline(r, fitter, 7);
+    run.live.push_back(w.local_from_frame);
+    run.tried += w.pairs_tried;
+    run.verified += w.pairs_verified;
+    run.gated += w.pairs_gated;
+    EXPECT_EQ(w.window_first, std::max(0, r.index + 1 - o.window));
+    if (r.index > 0) {
+      EXPECT_TRUE(w.has_covariance) << r.index;
+      EXPECT_GT(w.covariance(0, 0), 0.0);
+    }
+  }
+  return run;
+}
+
+double RmsError(const Flight& f, const std::vector<Similarity2>& poses) {
+  double sum = 0.0;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    sum += (poses[i].translation_m - f.truth[i].translation_m).squaredNorm();
+  }
+  return std::sqrt(sum / static_cast<double>(poses.size()));
+}
+
+TEST(FlightGraph, OnlineWindowMakesADriftingChainBetter) {
+  const Flight f = MakeFlight(2, 40, 0.002);
+  std::vector<Similarity2> causal;
+  for (const FrameResult& r : f.results) causal.push_back({r.position_m, r.heading_rad, 0.0});
+  const OnlineRun online = RunOnline(f, TruthFitter(f));
+  // Keyframes every fourth frame: from the first keyframe on, up to two per frame (40 m reach).
+  EXPECT_GT(online.verified, 100);
+  EXPECT_EQ(online.gated, 0);
+  EXPECT_EQ(online.tried, online.verified);
+  const double before = EndError(f, causal), after = EndError(f, online.live);
+  EXPECT_GT(before, 3.0);  // 79 steps turning 0.002 rad too much each
+  EXPECT_LT(after, 0.5 * before) << before << " m -> " << after << " m";
+  EXPECT_LT(RmsError(f, online.live), 0.6 * RmsError(f, causal));
+  RecordProperty("end_error_m", std::to_string(before) + " -> " + std::to_string(after));
+  // The same run again gives the same poses (no hidden state, no clock).
+  const OnlineRun again = RunOnline(f, TruthFitter(f));
+  for (std::size_t i = 0; i < online.live.size(); ++i) {
+    ASSERT_EQ(again.live[i].translation_m, online.live[i].translation_m) << i;
+    ASSERT_EQ(again.live[i].heading_rad, online.live[i].heading_rad) << i;
+  }
+}
+
+TEST(FlightGraph, OnlineWindowGatesAFalseMatchAndKeepsTheTrack) {
+  const Flight f = MakeFlight(1, 60, 0.002);
+  // The pairs the window tries, in order.
+  std::vector<std::pair<int, int>> tried;
+  const PairFitter truth = TruthFitter(f);
+  RunOnline(f, [&](const FeatureSet& a, const FeatureSet& b, std::uint64_t seed,
+                   const std::optional<Eigen::Matrix3d>& prior) {
+    tried.emplace_back(FrameOf(a), FrameOf(b));
+    EXPECT_TRUE(prior.has_value());  // online matching is guided by the prediction
+    return truth(a, b, seed, prior);
+  });
+  ASSERT_GT(tried.size(), 20u);
+  const std::pair<int, int> pair = tried[tried.size() / 2];
+  // A false match (a repeated field) 20 m off where the track puts the frame.
+  const OnlineRun clean = RunOnline(f, TruthFitter(f, {}, {pair}));
+  const OnlineRun aliased = RunOnline(f, TruthFitter(f, {{pair, {20.0, 0.0}}}));
+  EXPECT_EQ(clean.gated, 0);
+  EXPECT_EQ(aliased.gated, 1);
+  EXPECT_EQ(aliased.verified, clean.verified);
+  for (std::size_t i = 0; i < clean.live.size(); ++i) {
+    ASSERT_EQ(aliased.live[i].translation_m, clean.live[i].translation_m) << i;
+  }
+  BackendOptions off;
+  EXPECT_THROW(FlightGraph(off, kWidth, kHeight).AddOnline(f.results[0], truth, 1),
+               InvalidArgument);
+}
+
+TEST(FlightGraph, DroppedKeyframesAreNotMatchedAgain) {
+  const Flight f = MakeFlight(1, 40, 0.0);
+  BackendOptions o;
+  o.online = true;
+  FlightGraph g(o, kWidth, kHeight);
+  std::vector<std::pair<int, int>> tried;
+  const PairFitter record = [&](const FeatureSet& a, const FeatureSet& b, std::uint64_t,
+                                const std::optional<Eigen::Matrix3d>&) -> std::optional<PairFit> {
+    tried.emplace_back(FrameOf(a), FrameOf(b));
+    return std::nullopt;
+  };
+  for (int i = 0; i < 20; ++i) g.AddOnline(f.results[static_cast<std::size_t>(i)], record, 1);
+  EXPECT_EQ(g.num_keyframes(), 5);  // frames 0, 4, 8, 12, 16
+  g.DropKeyframes();                // a lens switch at frame 20
+  EXPECT_EQ(g.num_keyframes(), 0);
+  tried.clear();
+  for (int i = 20; i < 40; ++i) g.AddOnline(f.results[static_cast<std::size_t>(i)], record, 1);
+  EXPECT_EQ(g.num_frames(), 40);
+  EXPECT_EQ(g.num_keyframes(), 5);  // frames 20, 24, ...
+  ASSERT_FALSE(tried.empty());
+  for (const auto& [a, b] : tried) EXPECT_GE(a, 20) << a << "-" << b;
 }
 
 TEST(FlightGraph, BadOptionsAndFramesAreClearErrors) {

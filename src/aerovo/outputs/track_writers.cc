@@ -446,7 +446,8 @@ std::vector<std::string> RunFileNames::All() {
           kGpsGeoJson,  kVoFramesGeoJson, kVoKml,      kGpsKml,
           kRunKml,      kRunLiveKml,      kVoGpx,      kGpsGpx,
           kSummaryJson, kTransformsCsv,   kConfigJson, kLensEstimateYaml,
-          kVoOptimizedTum, kVoOptimizedGeoJson, kVoOptimizedKml, kVoOptimizedGpx};
+          kVoOptimizedTum, kVoOptimizedGeoJson, kVoOptimizedKml, kVoOptimizedGpx,
+          kTransformsOptimizedCsv};
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -288,6 +288,11 @@ struct RunFileNames {
   static constexpr const char* kVoOptimizedGeoJson = "vo_optimized.geojson";
   static constexpr const char* kVoOptimizedKml = "vo_optimized.kml";
   static constexpr const char* kVoOptimizedGpx = "vo_optimized.gpx";
+  /// The offline optimisation's frame placements, in the format of transforms.csv: each frame's
+  /// first_px_from_frame moved by the rigid motion of the local plane that takes its causal
+  /// pose to its optimised one (pipeline/run_steps.h OptimizeFlight), the first frame's pixels
+  /// those of transforms.csv. `aerovo report` builds its mosaics from it when present.
+  static constexpr const char* kTransformsOptimizedCsv = "transforms_optimized.csv";
   /// Every name above: the files a run writes (outputs/run_folder.h ClaimOutputFolder removes these
   /// and only these with --force, with the report's files).
   static std::vector<std::string> All();

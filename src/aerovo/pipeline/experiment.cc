@@ -57,7 +57,6 @@ double Percentile(std::vector<double> values, double p) {
   return values[lo] + (h - static_cast<double>(lo)) * (values[hi] - values[lo]);
 }
 
-double Median(std::vector<double> values) { return Percentile(std::move(values), 50.0); }
 
 // ---------------------------------------------------------------------------------------------
 // Tables

@@ -36,6 +36,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "aerovo/core/statistics.h"
 #include "aerovo/eval/trajectory_eval.h"
 #include "aerovo/outputs/frame_record.h"
 #include "aerovo/pipeline/runner.h"
@@ -56,8 +57,7 @@ double StdDev(const std::vector<double>& values);
 /// result is v_floor(h) + (h - floor(h)) (v_floor(h)+1 - v_floor(h)). Throws InvalidArgument for an
 /// empty set, a non-finite value or p outside [0, 100].
 double Percentile(std::vector<double> values, double p);
-/// Percentile(values, 50): the middle value, or the mean of the two middle values.
-double Median(std::vector<double> values);
+// Median: core/statistics.h (equal to Percentile(values, 50)).
 
 // ---------------------------------------------------------------------------------------------
 // Tables

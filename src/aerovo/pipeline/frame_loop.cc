@@ -21,6 +21,7 @@ std::vector<StagePtr> MakeStages(const RunContext& run, const std::vector<StageP
   stages.push_back(MakeFlatFieldStage());
   stages.push_back(MakePreprocessStage());
   stages.push_back(MakeOdometryStage());
+  if (run.config->backend.online) stages.push_back(MakeWindowStage());
   stages.push_back(MakeGpsCheckStage());
   stages.push_back(MakeGeoreferenceStage());
   stages.push_back(MakeRecordStage());
@@ -35,7 +36,9 @@ std::vector<SinkPtr> MakeSinks(const RunContext& run, const std::vector<SinkPtr>
   sinks.push_back(MakeSourceCountsSink());
   sinks.push_back(MakePoseStreamSink());
   sinks.push_back(MakeRunFilesSink());
-  if (run.config->backend.enable) sinks.push_back(MakeFlightGraphSink());
+  if (run.config->backend.enable && !run.config->backend.online) {
+    sinks.push_back(MakeFlightGraphSink());  // online, the window stage builds the graph
+  }
   sinks.push_back(MakeTotalsSink());
   sinks.push_back(MakeProgressSink());
   sinks.insert(sinks.end(), extra.begin(), extra.end());
@@ -63,13 +66,30 @@ GeoRefOptions GeoRefOptionsOf(const RunConfig& config) {
   return o;
 }
 
+// The file the signing timestamp is kept in (RunConfig::mavlink_key_timestamp); "" = none.
+std::string SigningTimestampFile(const RunConfig& config) {
+  if (config.mavlink_key_timestamp == "none") return "";
+  if (!config.mavlink_key_timestamp.empty()) return config.mavlink_key_timestamp;
+  return config.mavlink_key + ".timestamp";
+}
+
 // The --mavlink link (null without): InvalidArgument / InputError naming the URL.
 std::unique_ptr<mavlink::AutopilotLink> OpenLink(const RunConfig& config, std::ostream* log) {
   if (config.mavlink.empty()) return nullptr;
   const mavlink::LinkUrl url = mavlink::ParseLinkUrl(config.mavlink);
   mavlink::AutopilotLink::Options o;
   o.sysid = static_cast<uint8_t>(config.mavlink_sysid);
-  if (!config.mavlink_key.empty()) o.signing_key = mavlink::ReadSigningKey(config.mavlink_key);
+  if (!config.mavlink_key.empty()) {
+    o.signing_key = mavlink::ReadSigningKey(config.mavlink_key);
+    o.signing_timestamp_file = SigningTimestampFile(config);
+  }
+  if (!o.signing_timestamp_file.empty()) {
+    std::string problem;
+    const std::optional<uint64_t> stored =
+        mavlink::ReadSigningTimestamp(o.signing_timestamp_file, &problem);
+    if (stored) o.signing_initial_timestamp = *stored;
+    if (!problem.empty() && log) *log << "warning: " << problem << "\n";
+  }
   auto link = std::make_unique<mavlink::AutopilotLink>(mavlink::OpenTransport(url), o);
   if (log) {
     *log << fmt::format("mavlink: {} ({}, sysid {}, compid {}, {} time{}{})\n", url.text,

@@ -26,6 +26,12 @@ std::unique_ptr<FrameStage> MakeAttitudeStage();                     // stage_at
 std::unique_ptr<FrameStage> MakeFlatFieldStage();                    // stage_flat_field.cc
 std::unique_ptr<FrameStage> MakePreprocessStage();                   // stage_preprocess.cc
 std::unique_ptr<FrameStage> MakeOdometryStage();                     // stage_odometry.cc
+std::unique_ptr<FrameStage> MakeWindowStage();                       // stage_window.cc
+/// The frame's source index, time, world_from_frame (full-frame pixels) and causal pose into
+/// RunState::flight (run_steps.h FlightRecording), after its result went into the flight graph:
+/// the flight graph sink's and the window stage's (sink_flight_graph.cc). Call it with the
+/// odometry's causal result (before the window replaces its pose).
+void RecordFlightFrame(const FrameState& f, const RunContext& run);
 std::unique_ptr<FrameStage> MakeGpsCheckStage();                     // stage_gps_check.cc
 std::unique_ptr<FrameStage> MakeGeoreferenceStage();                 // stage_georef.cc
 std::unique_ptr<FrameStage> MakeRecordStage();                       // stage_record.cc
@@ -115,6 +121,7 @@ class FrameLoop {
 
   /// The MAVLink link (null without --mavlink).
   const mavlink::AutopilotLink* link() const { return link_.get(); }
+  mavlink::AutopilotLink* link() { return link_.get(); }
   /// The main source is live (FrameSource::IsLive): the lens self-calibration pre-pass is
   /// skipped (pipeline/lens_prepass.h). Set before Run.
   void set_source_live(bool live) { source_live_ = live; }

@@ -83,6 +83,9 @@ struct FrameState {
   GrayImageView pixels;
   // Odometry (stage_odometry.cc).
   FrameResult result;
+  // Online window (stage_window.cc, backend.online): the frame's windowed pose (the result's
+  // position and heading are its).
+  std::optional<WindowedPose> window;
   // GPS check (stage_gps_check.cc).
   FixCheck fix = FixCheck::kNoFix;
   std::string fix_rejection;  ///< GpsFixVerdict::kind when kRejected.

@@ -226,6 +226,11 @@ struct RunConfig {
   /// counted in summary.json). Empty (default): unsigned, every valid packet used. Like the
   /// other mavlink_* options, unused without mavlink.
   std::string mavlink_key;
+  /// With mavlink_key: the file the signing timestamp is kept in across runs (mavlink/signing.h
+  /// ReadSigningTimestamp: read at the start, the first timestamp after it; written every 10 s
+  /// and at the end). Empty (default): the key file's name with ".timestamp" appended; "none":
+  /// not kept (each run starts from the clock).
+  std::string mavlink_key_timestamp;
   /// The pose stream: one JSON object per frame (pipeline/run_steps.h, "The pose stream") written
   /// to this file as soon as the frame is done, flushed; "-" = stdout, and then `aerovo run`
   /// writes nothing else there (configuration, progress, warnings, summary: stderr). Empty
@@ -361,6 +366,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.mavlink_match_s, "mavlink_match_s", "Largest time between a frame and the autopilot sample used for it, s", GreaterThan(0).Finite());
   v.Field(c.mavlink_wait_s, "mavlink_wait_s", "udpin/serial: wait this long for the autopilot's first height, s", AtLeast(0).Finite());
   v.Field(c.mavlink_key, "mavlink_key", "MAVLink 2 signing key file (64 hex digits, mode 600): sign what is sent, use only packets signed with it (docs/autopilot.md)", Any());
+  v.Field(c.mavlink_key_timestamp, "mavlink_key_timestamp", "File the signing timestamp is kept in across runs ('' = the key file + .timestamp, 'none' = not kept)", Any());
   v.Field(c.poses_jsonl, "poses_jsonl", "Pose stream: one JSON object per frame, written as it is done ('-' = stdout, then everything else goes to stderr)", Any());
   v.Field(c.frame_queue, "frame_queue", "Frames decoded ahead on a reader thread (0 = none); a live source keeps only the newest, dropping older ones", AtLeast(0));
   v.Field(c.telemetry_offset_s, "telemetry_offset_s", "Telemetry time at video time 0, s (shifts every fix)", Interval(-1e6, 1e6));

@@ -465,6 +465,10 @@ std::string PoseJsonLine(const PendingFrame& p, const GeoReferencer& georef) {
                            {"status", r.status},
                            {"quality", p.quality},
                            {"latency_ms", NumberOrNull(r.latency_ms)}};
+  if (std::isfinite(p.sigma_xy_m)) {
+    j["sigma_xy_m"] = p.sigma_xy_m;
+    j["sigma_heading_deg"] = NumberOrNull(p.sigma_heading_deg);
+  }
   if (georef.ready()) AddGeoFields(p, georef, j);
   return j.dump() + "\n";
 }
@@ -927,19 +931,67 @@ void WriteOptimizedTrack(const RunConfig& config, const FlightRecording& flight,
   }
 }
 
+// summary.json "optimized"."pairs" (RunSummary::Optimized::pairs).
+nlohmann::json PairsJson(const FlightRecording& flight, const OptimizedFlight& opt) {
+  const auto pose = [](const backend::Similarity2& p) {
+    return nlohmann::json::array({p.translation_m.x(), p.translation_m.y(),
+                                  p.heading_rad * 180.0 / M_PI, p.log_scale});
+  };
+  nlohmann::json out = nlohmann::json::array();
+  for (const TriedPair& p : opt.pairs) {
+    out.push_back({{"a", flight.frames[static_cast<std::size_t>(p.a)]},
+                   {"b", flight.frames[static_cast<std::size_t>(p.b)]},
+                   {"verdict", ToString(p.verdict)},
+                   {"inliers", p.inliers},
+                   {"spread", p.spread},
+                   {"fit", pose(p.fit)},
+                   {"predicted", pose(p.predicted)},
+                   {"down_weighted", p.down_weighted}});
+  }
+  return out;
+}
+
+// transforms_optimized.csv (RunFileNames): frame k's world_from_frame moved by the rigid motion
+// of the local plane taking its causal pose to its optimised one (C = optimised * causal^-1,
+// carried into the world frame by world_from_local), then into the first frame's pixels as
+// RunOutputs::AppendTransform does.
+void WriteOptimizedTransforms(const FlightRecording& flight, const OptimizedFlight& opt,
+                              const std::filesystem::path& out_dir) {
+  if (flight.world_from_frame.size() != opt.local_from_frame.size() ||
+      flight.causal.size() != opt.local_from_frame.size() || flight.world_from_frame.empty()) {
+    return;
+  }
+  TransformsCsvWriter csv(out_dir / RunFileNames::kTransformsOptimizedCsv);
+  const Eigen::Matrix3d first_px_from_world = flight.world_from_frame.front().inverse();
+  const Eigen::Matrix3d& world_from_local = flight.world_from_local;
+  const Eigen::Matrix3d local_from_world = world_from_local.inverse();
+  for (std::size_t k = 0; k < opt.local_from_frame.size(); ++k) {
+    const Eigen::Matrix3d moved = opt.local_from_frame[k].Matrix() *
+                                  flight.causal[k].Matrix().inverse();
+    csv.Append(flight.frames[k], first_px_from_world * world_from_local * moved *
+                                     local_from_world * flight.world_from_frame[k]);
+  }
+}
+
 }  // namespace
+
+CorrespondenceOptions PairCorrespondenceOptions(const RunConfig& config) {
+  CorrespondenceOptions pair_options = config.odometry.correspondence;
+  pair_options.sampler = config.odometry.relocalize_sampler;
+  return pair_options;
+}
 
 void OptimizeFlight(const RunConfig& config, const FlightRecording& flight,
                     const GeoReferencer& georef, const RunTotals& totals,
                     const ReferenceTrack* truth, const std::filesystem::path& out_dir,
                     RunSummary* summary) {
   if (!flight.graph || flight.graph->num_frames() == 0) return;
-  CorrespondenceOptions pair_options = config.odometry.correspondence;
-  pair_options.sampler = config.odometry.relocalize_sampler;
   const OptimizedFlight opt = flight.graph->Optimize(
-      MakeStandardPairFitter(pair_options, flight.graph->width(), flight.graph->height()),
+      MakeStandardPairFitter(PairCorrespondenceOptions(config), flight.graph->width(),
+                             flight.graph->height()),
       config.odometry.correspondence.ransac.seed);
   WriteOptimizedTrack(config, flight, opt, georef, out_dir);
+  WriteOptimizedTransforms(flight, opt, out_dir);
   RunSummary::Optimized o;
   o.keyframes = opt.keyframes;
   o.pairs_tried = opt.pairs_tried;
@@ -950,6 +1002,7 @@ void OptimizeFlight(const RunConfig& config, const FlightRecording& flight,
   o.match_s = opt.match_s;
   o.solve_s = opt.solve_s;
   o.iterations = opt.iterations;
+  o.pairs = PairsJson(flight, opt);
   // The same comparisons as the causal track's, on a scratch summary.
   RunSummary scratch;
   RunTotals t = OptimizedTotals(flight, opt, totals);

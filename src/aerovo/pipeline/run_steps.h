@@ -266,6 +266,11 @@ struct PendingFrame {
   std::optional<GeoPoint> gps;                        ///< The frame's fix.
   double height_m = 0.0;  ///< Height above ground used for the frame (pose stream z_m).
   int quality = -1;       ///< PoseQuality (pipeline/pose_quality.h).
+  /// backend.online: the windowed pose's standard deviations given the final poses before the
+  /// window (FlightGraph::AddOnline's covariance: the larger axis of the position's, metres; the
+  /// heading's, degrees); NaN when there is none (pose stream "sigma_xy_m", "sigma_heading_deg").
+  double sigma_xy_m = std::numeric_limits<double>::quiet_NaN();
+  double sigma_heading_deg = std::numeric_limits<double>::quiet_NaN();
   bool sent_geo = false;  ///< The pose stream already has its geographic position.
 };
 
@@ -284,14 +289,17 @@ PendingFrame PendingFrameOf(const Frame& frame, const FrameResult& result,
 
 /// The pose stream (RunConfig::poses_jsonl): one JSON object per line, flushed when written.
 ///   {"type":"pose", "index", "time_s", "x_m", "y_m", "z_m", "heading_deg", "status",
-///    "quality", "latency_ms"[, "lat_deg", "lon_deg", "east_m", "north_m", "yaw_enu_deg"]}
+///    "quality", "latency_ms"[, "sigma_xy_m", "sigma_heading_deg"][, "lat_deg", "lon_deg", "east_m",
+///    "north_m", "yaw_enu_deg"]}
 /// once per frame as soon as the frame is done (never held back): index = Frame::index,
 /// time_s = the capture time (Frame::time_s: video time, photo time, seconds since a live
 /// source opened), x_m/y_m = the local VO frame (metres, x = first image right, y = first image
 /// up), z_m = the height above ground used, heading_deg = the image x axis in the local frame
 /// (counter-clockwise from local x), status as in frames.csv ("ok", "bridged:too-few-inliers",
 /// ...), quality = PoseQuality (0-100, -1 bridged), latency_ms = capture to this line (null
-/// when unmeasured). The geographic fields (WGS84 lat/lon, ENU east/north from the first fix,
+/// when unmeasured); with backend.online, x_m/y_m/heading_deg are the online window's estimate
+/// and sigma_xy_m/sigma_heading_deg its standard deviations given the final poses before the
+/// window (PendingFrame). The geographic fields (WGS84 lat/lon, ENU east/north from the first fix,
 /// yaw of the image x axis in ENU counter-clockwise from east) are there when the track is
 /// already geo-referenced. A frame sent without them while the heading waits for the first
 /// GPS segment gets, as soon as the heading is fixed, one
@@ -442,7 +450,25 @@ struct FlightRecording {
   std::unique_ptr<FlightGraph> graph;
   std::vector<int> frames;
   std::vector<double> times_s;
+  /// Per graph frame, for transforms_optimized.csv: world_from_frame as the transforms sink
+  /// writes it (FrameResult::world_from_frame, full-frame pixels), and the causal pose
+  /// local_from_frame (FrameResult position_m, heading_rad; backend/similarity2.h).
+  std::vector<Eigen::Matrix3d> world_from_frame;
+  std::vector<backend::Similarity2> causal;
+  /// The odometry's world frame from the local one (pose_chain.h): the identity in the metric
+  /// scale mode, first-frame pixels from local metres in the affine-chain mode.
+  Eigen::Matrix3d world_from_local = Eigen::Matrix3d::Identity();
+
+  /// The graph, made on the first call for frames of width x height pixels (the odometry's).
+  FlightGraph& GraphOf(const BackendOptions& options, int width, int height) {
+    if (!graph) graph = std::make_unique<FlightGraph>(options, width, height);
+    return *graph;
+  }
 };
+
+/// How the back-end matches a pair of keyframes (offline) or a frame and a recent keyframe
+/// (online): the odometry's correspondence options with its relocalisation sampler.
+CorrespondenceOptions PairCorrespondenceOptions(const RunConfig& config);
 
 /// After the loop, with backend.enable and at least one frame recorded: the candidate pairs,
 /// their fits (the odometry's correspondence options, standard method, its relocalisation

@@ -43,9 +43,19 @@ nlohmann::json ToJson(const RunSummary::Optimized& o) {
           {"solve_s", o.solve_s},
           {"cpu_s", o.cpu_s},
           {"iterations", o.iterations},
+          {"pairs", o.pairs},
           {"evaluation", o.evaluation ? ToJson(*o.evaluation) : nlohmann::json()},
           {"truth_evaluation", o.truth_evaluation ? ToJson(*o.truth_evaluation) : nlohmann::json()},
           {"gps_denied_error", o.gps_denied_error ? ToJson(*o.gps_denied_error) : nlohmann::json()}};
+}
+
+// summary.json "online".
+nlohmann::json ToJson(const RunSummary::Online& o) {
+  return {{"window", o.window},
+          {"pairs_tried", o.pairs_tried},
+          {"pairs_verified", o.pairs_verified},
+          {"pairs_gated", o.pairs_gated},
+          {"total_ms", o.total_ms}};
 }
 
 namespace {
@@ -68,9 +78,11 @@ nlohmann::json ToJson(const RunSummary::GpsDenied& d) {
           {"note", d.note}};
 }
 
-// The blocks of summary.json that are null unless their feature ran: optimized, gps_denied, map.
+// The blocks of summary.json that are null unless their feature ran: optimized, online,
+// gps_denied, map.
 void AddOptionalBlocks(const RunSummary& s, nlohmann::json* j) {
   (*j)["optimized"] = s.optimized ? ToJson(*s.optimized) : nlohmann::json();
+  (*j)["online"] = s.online ? ToJson(*s.online) : nlohmann::json();
   (*j)["gps_denied"] = s.gps_denied ? ToJson(*s.gps_denied) : nlohmann::json();
   (*j)["map"] = s.map ? ToJson(*s.map) : nlohmann::json();
 }
@@ -325,7 +337,9 @@ nlohmann::json LinkStats(const mavlink::AutopilotLink& link, const RunConfig& co
           {"signed_accepted", st.signed_accepted},
           {"rejected_unsigned", st.rejected_unsigned},
           {"rejected_bad_signature", st.rejected_bad_signature},
-          {"rejected_replayed", st.rejected_replayed}};
+          {"rejected_replayed", st.rejected_replayed},
+          {"signing_timestamp_saves", st.signing_timestamp_saves},
+          {"signing_timestamp_save_failed", st.signing_timestamp_save_failed}};
 }
 
 // RunConfig::map opened and checked against the telemetry's fixes the run may use (those of
@@ -475,7 +489,10 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
   }
   if (!end.output_failed()) Finish(loop, &end);
   CountWritten(loop, end, &summary);
-  if (const mavlink::AutopilotLink* link = loop.link()) summary.mavlink = LinkStats(*link, config);
+  if (mavlink::AutopilotLink* link = loop.link()) {
+    link->SaveSigningTimestamp();  // the timestamp of the run's last packet, before the stats
+    summary.mavlink = LinkStats(*link, config);
+  }
 
   // The telemetry's clock against the frames': its span, and the offset seen in the motion.
   if (!telemetry.empty() && loop.totals().frames > 0) {

@@ -172,11 +172,24 @@ struct RunSummary {
     /// threads; RunSummary::cpu_s leaves it out.
     double cpu_s = 0.0;
     int iterations = 0;
+    /// Every candidate pair tried (odometry/flight_graph.h TriedPair): {"a", "b" (source frame
+    /// indices), "verdict" (ToString(PairVerdict)), "inliers", "spread", "fit" and "predicted"
+    /// ([x m, y m, heading deg, log-scale] of prev_from_curr in frame a's metres: the pair's fit,
+    /// the causal track's), "down_weighted"}.
+    nlohmann::json pairs = nlohmann::json::array();
     std::optional<TrajectoryComparison> evaluation;        ///< Against GPS.
     std::optional<TrajectoryComparison> truth_evaluation;  ///< Against the truth.
     std::optional<DeniedError> gps_denied_error;  ///< As GpsDenied::error, for this track.
   };
   std::optional<Optimized> optimized;  ///< nullopt: backend.enable off, or no frame.
+  /// The online window (backend.online, pipeline/stage_window.cc; summary.json "online"): the
+  /// frame-to-keyframe pairs it matched over the run (FlightGraph::AddOnline) and its wall time.
+  struct Online {
+    int window = 0;  ///< backend.window.
+    int pairs_tried = 0, pairs_verified = 0, pairs_gated = 0;
+    double total_ms = 0.0;  ///< Wall time of the window stage over all frames, ms.
+  };
+  std::optional<Online> online;  ///< nullopt: backend.online off, or no frame.
   /// GPS denial (RunConfig::gps_denied_after_s >= 0; summary.json "gps_denied", null without):
   /// when it began and the geo-referenced track's error against the withheld fixes, unaligned
   /// (eval/denied_error.h: 1, 5 and 10 minutes after, per km flown without GPS).

@@ -1,9 +1,12 @@
 // The record stage: the frame as the outputs write it (run_steps.h PendingFrame: frames.csv's
 // record, the pose stream's fields), from what the stages before found: the odometry's result,
 // the fix and its check, the height and its source, the autopilot's attitude.
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <string>
+
+#include <Eigen/Eigenvalues>
 
 #include "aerovo/pipeline/frame_loop.h"
 
@@ -20,6 +23,14 @@ class RecordStage : public FrameStage {
     FrameRecord& rec = f.output.record;
     if (f.fix == FixCheck::kRejected) rec.gps_flag = "rejected:" + f.fix_rejection;
     if (f.withheld_gps) rec.gps_flag = kGpsFlagWithheld;
+    if (f.window && f.window->has_covariance) {
+      const Eigen::Matrix4d& c = f.window->covariance;
+      const Eigen::Matrix2d xy = c.topLeftCorner<2, 2>();
+      f.output.sigma_xy_m =
+          std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(xy,
+                                      Eigen::EigenvaluesOnly).eigenvalues().maxCoeff()));
+      f.output.sigma_heading_deg = std::sqrt(std::max(0.0, c(2, 2))) * 180.0 / M_PI;
+    }
     if (f.lens_switched) rec.status += "+lens";  // the lens estimate applied (lens_switch.h)
     rec.height_m = f.height_m;
     rec.height_source = ToString(f.height_source);

@@ -275,7 +275,12 @@ GeoMosaicResult WriteGeoMosaic(const RunData& run, const fs::path& dir, const st
   // Every frame corner in first-frame pixels; their ENU bounds.
   double u0 = 1e300, v0 = 1e300, u1 = -1e300, v1 = -1e300;
   std::vector<Eigen::Vector2d> corners_px;
-  for (const FrameTransformRow& t : run.transforms) {
+  // The frames placed as the mosaic warps them (MosaicPlacements: the optimised poses when the
+  // run has them); the first-frame pixel -> ENU similarity fitted above on the causal ones holds
+  // for both (transforms_optimized.csv keeps transforms.csv's first-frame pixels).
+  const std::vector<FrameTransformRow>& placements = MosaicPlacements(run, options);
+  r.optimized = &placements == &run.transforms_optimized;
+  for (const FrameTransformRow& t : placements) {
     for (const auto& [cx, cy] : {std::pair<double, double>{-0.5, -0.5}, {w - 0.5, -0.5},
                                  {w - 0.5, h - 0.5}, {-0.5, h - 0.5}}) {
       const Eigen::Vector2d p(t.a[0] * cx + t.a[1] * cy + t.a[2],
@@ -406,7 +411,8 @@ GeoMosaicResult WriteGeoMosaic(const RunData& run, const fs::path& dir, const st
                       {"geotiff", GeoMosaicFileNames::kGeoTiff},
                       {"geotiff_epsg", r.epsg},
                       {"fit_rmse_m", fit.rmse_m},
-                      {"frames_used", warp.frames_used}};
+                      {"frames_used", warp.frames_used},
+                      {"optimized", r.optimized}};
   {
     const fs::path tmp = dir / "mosaic_geo.tmp.json";
     std::ofstream out(tmp);
@@ -419,9 +425,10 @@ GeoMosaicResult WriteGeoMosaic(const RunData& run, const fs::path& dir, const st
   r.files = {tif, kmz, png, json};
   r.note = fmt::format(
       "mosaic.tif (UTM zone {}{}, EPSG:{}, {}x{} px), mosaic.kmz, mosaic_geo.png ({}x{} px): "
-      "{:.2f} m per px, {} frames, fit RMS {:.2f} m, UTM affine residual {:.3f} m",
+      "{:.2f} m per px, {} frames{}, fit RMS {:.2f} m, UTM affine residual {:.3f} m",
       zone, north ? "N" : "S", r.epsg, r.tif_width_px, r.tif_height_px, r.width_px, r.height_px, m,
-      warp.frames_used, fit.rmse_m, utm_residual_m);
+      warp.frames_used, r.optimized ? " placed by the optimised poses" : "", fit.rmse_m,
+      utm_residual_m);
   return r;
 }
 

@@ -11,7 +11,7 @@
 //                    Leaflet, report.html's map).
 //   mosaic_geo.json  {"image": "mosaic_geo.png", "south", "west", "north", "east" (WGS84 degrees
 //                    of the image's outer edges), "width_px", "height_px", "m_per_px",
-//                    "overlay_max_error_m"}.
+//                    "overlay_max_error_m", "optimized" (frames placed by the optimised poses)}.
 //
 // How a pixel is placed: first-frame pixel (transforms.csv, first_px_from_frame) -> ENU metres
 // by the similarity fitted by least squares between the frames' centres in first-frame pixels and
@@ -21,6 +21,9 @@
 // is reported; millimetres over a few km). The overlay is stretched linearly between its lat/lon
 // bounds by Leaflet and Google Earth: over a flight of a few km the linear stretch departs from the
 // ENU plane by less than overlay_max_error_m (computed at the corners, centimetres at 2 km).
+//
+// The frames are placed by transforms_optimized.csv when the run ran the offline optimisation
+// (MosaicPlacements, report/mosaic.h; the fit above stays the causal frames' against frames.csv).
 //
 // A run without geo-referenced frames (no GPS, or no heading) gets no geo mosaic: written = false
 // with a one-line note, not an error. File I/O: report module.
@@ -58,6 +61,7 @@ struct GeoMosaicResult {
   double south_deg = 0, west_deg = 0, north_deg = 0, east_deg = 0;  ///< mosaic_geo.png's edges.
   double fit_rmse_m = 0.0;  ///< RMS residual of the first-frame pixel -> ENU similarity.
   int frames_used = 0;
+  bool optimized = false;   ///< Frames placed by transforms_optimized.csv (MosaicPlacements).
 };
 
 /// Writes mosaic.tif, mosaic.kmz, mosaic_geo.png and mosaic_geo.json into `dir` for `run`

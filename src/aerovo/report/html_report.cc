@@ -518,6 +518,17 @@ void AnswerBox(Page& page, const nlohmann::json& s) {
         " after the SE(2) alignment, {} m as geo-referenced (no alignment); ATE RMSE {} m.",
         Metres(JsonNumber(e, {"end_point_error_unaligned_m"})),
         Metres(JsonNumber(e, {"ate_m", "rmse"}))));
+    const nlohmann::json& o = s.contains("optimized") ? s["optimized"] : none;
+    if (o.is_object() && o.contains("evaluation") && o["evaluation"].is_object()) {
+      const nlohmann::json& oe = o["evaluation"];
+      a.Text(fmt::format(
+          " Optimised after the flight (vo_optimized.*): ATE RMSE {} m SE(2), {} m Sim(2), "
+          "against {} m and {} m for the causal track.",
+          Metres(JsonNumber(oe, {"se2", "ate_m", "rmse"})),
+          Metres(JsonNumber(oe, {"sim2", "ate_m", "rmse"})),
+          Metres(JsonNumber(e, {"ate_m", "rmse"})),
+          Metres(JsonNumber(ev, {"sim2", "ate_m", "rmse"}))));
+    }
   } else {
     const std::string note = s.contains("gps_comparison_note") &&
                                      s["gps_comparison_note"].is_string() &&
@@ -571,9 +582,31 @@ void ExplainEvaluation(Page& page, const nlohmann::json& ev) {
   page.body.Raw(h);  // literal markup and numbers
 }
 
+// The causal and the optimised track's figures side by side: `causal` and `optimised` are two
+// evaluation JSONs (summary.json "evaluation" and "optimized"."evaluation", or the truth's).
+void SideBySideTable(Page& page, const nlohmann::json& causal, const nlohmann::json& optimised) {
+  std::vector<std::vector<std::string>> rows;
+  const nlohmann::json none;
+  const auto at = [&none](const nlohmann::json& ev, const char* model) -> const nlohmann::json& {
+    return ev.is_object() && ev.contains(model) ? ev[model] : none;
+  };
+  const auto row = [&](const std::string& label, const char* model,
+                       std::initializer_list<const char*> path) {
+    rows.push_back({label, Metres(JsonNumber(at(causal, model), path)),
+                    Metres(JsonNumber(at(optimised, model), path))});
+  };
+  row("ATE RMSE, SE(2)-aligned (m)", "se2", {"ate_m", "rmse"});
+  row("ATE RMSE, Sim(2)-aligned (m)", "sim2", {"ate_m", "rmse"});
+  row("End-point error, SE(2)-aligned (m)", "se2", {"end_point_error_m"});
+  row("End-point error, no alignment (m)", "se2", {"end_point_error_unaligned_m"});
+  page.Table({"", "causal (vo.*)", "optimised (vo_optimized.*)"}, rows);
+}
+
 // The offline whole-flight optimisation's track (summary.json "optimized", vo_optimized.*):
-// what it did, then the same comparisons as the causal track's.
-void OptimizedTables(Page& page, const nlohmann::json& o) {
+// what it did, its figures beside the causal track's, then the same comparisons as the causal
+// track's.
+void OptimizedTables(Page& page, const nlohmann::json& s) {
+  const nlohmann::json& o = s["optimized"];
   page.H2("Offline optimisation", "optimized");
   page.Para(fmt::format(
       "After the last frame, keyframes whose footprints overlap were matched again and the "
@@ -584,13 +617,16 @@ void OptimizedTables(Page& page, const nlohmann::json& o) {
       JsonNumber(o, {"pairs_verified"}, 0), JsonNumber(o, {"pairs_rejected"}, 0),
       JsonNumber(o, {"pairs_gated"}, 0), JsonNumber(o, {"outliers"}, 0),
       JsonNumber(o, {"cpu_s"}, 0)));
-  if (o.contains("evaluation") && o["evaluation"].is_object()) {
-    page.Para("The optimised track against GPS, aligned as the causal one above:");
-    EvaluationTable(page, o["evaluation"]);
-  }
-  if (o.contains("truth_evaluation") && o["truth_evaluation"].is_object()) {
-    page.Para("The optimised track against the ground truth:");
-    EvaluationTable(page, o["truth_evaluation"]);
+  for (const auto& [key, name] : {std::pair<const char*, const char*>{"evaluation", "GPS"},
+                                  {"truth_evaluation", "the ground truth"}}) {
+    if (!o.contains(key) || !o[key].is_object()) continue;
+    if (s.contains(key) && s[key].is_object()) {
+      page.Para(std::string("Both tracks against ") + name + ":");
+      SideBySideTable(page, s[key], o[key]);
+    }
+    page.Para(std::string("The optimised track against ") + name +
+              ", aligned as the causal one above:");
+    EvaluationTable(page, o[key]);
   }
 }
 
@@ -649,7 +685,7 @@ void ComparisonTables(Page& page, const nlohmann::json& s) {
     EvaluationTable(page, s["truth_evaluation"]);
   }
   if (s.contains("gps_denied") && s["gps_denied"].is_object()) DeniedTable(page, s["gps_denied"]);
-  if (s.contains("optimized") && s["optimized"].is_object()) OptimizedTables(page, s["optimized"]);
+  if (s.contains("optimized") && s["optimized"].is_object()) OptimizedTables(page, s);
 }
 
 // The run's details, then its timings (after the accuracy).
@@ -1045,6 +1081,15 @@ nlohmann::json MapData(const RunData& run, const RunComparison& cmp,
       aligned_track.push_back({Deg7(g.lat_deg), Deg7(g.lon_deg)});
     }
   }
+  // The optimised track (vo_optimized.tum, the run's ENU frame), drawn as the run wrote it.
+  nlohmann::json optimized = nlohmann::json::array();
+  const bool geo = !run.frames.empty() && run.frames.back().geo.has_value();
+  if (geo && enu) {
+    for (const TrajectoryPoint2D& p : run.optimized) {
+      const GeoPoint g = enu->Reverse(p.x, p.y, 0.0);
+      optimized.push_back({Deg7(g.lat_deg), Deg7(g.lon_deg)});
+    }
+  }
   if (truth && truth->comparison && enu) {
     for (const TrajectoryPoint2D& p : truth->reference) {
       const GeoPoint g = enu->Reverse(p.x, p.y, 0.0);
@@ -1056,9 +1101,11 @@ nlohmann::json MapData(const RunData& run, const RunComparison& cmp,
           {"gps", gps},
           {"truth", truth_track},
           {"vo_se2", aligned_track},
+          {"vo_optimized", optimized},
           {"bridged", bridged},
           {"colours",
            {{"vo", style::Hex(style::kVo)},
+            {"vo_optimized", style::Hex(style::kVoOptimized)},
             {"gps", style::Hex(style::kGps)},
             {"truth", style::Hex(style::kTruth)},
             {"bridged", style::Hex(style::kBridged)}}}};
@@ -1093,6 +1140,10 @@ constexpr const char* kMapScript = R"js(
     layers['VO'] = L.polyline(d.vo, {color: d.colours.vo, weight: 2, className: 'aerovo-vo',
                                      interactive: false}).addTo(map);
   }
+  if (d.vo_optimized.length) {
+    layers['VO optimised (offline)'] = L.polyline(d.vo_optimized, {color: d.colours.vo_optimized,
+        weight: 2, className: 'aerovo-vo-optimized', interactive: false}).addTo(map);
+  }
   if (d.vo_se2.length) {  // off until ticked
     layers['VO, SE(2)-aligned to GPS'] = L.polyline(d.vo_se2, {color: d.colours.vo, weight: 2,
         dashArray: '6 6', className: 'aerovo-vo-se2', interactive: false});
@@ -1106,7 +1157,7 @@ constexpr const char* kMapScript = R"js(
     layers['bridged frames'] = g.addTo(map);
   }
   L.control.layers(null, layers, {collapsed: false}).addTo(map);
-  var all = d.vo.concat(d.gps, d.truth);
+  var all = d.vo.concat(d.gps, d.truth, d.vo_optimized);
   if (all.length) map.fitBounds(L.latLngBounds(all), {padding: [24, 24], animate: false});
   function metres(v) { return v === null ? null : v.toFixed(2) + ' m'; }
   function text(i) {
@@ -1171,6 +1222,9 @@ void MapSection(const fs::path& dir, const RunData& run, const RunComparison& cm
   key(style::kVo, fmt::format("VO ({} geo-referenced frames)", data["vo"].size()));
   key(style::kGps, fmt::format("GPS ({} fixes)", data["gps"].size()));
   if (!data["truth"].empty()) key(style::kTruth, "ground truth");
+  if (!data["vo_optimized"].empty()) {
+    key(style::kVoOptimized, "VO optimised after the flight (vo_optimized.*)");
+  }
   if (!data["bridged"].empty()) key(style::kBridged, "bridged frames");
   b.Close("p").Newline();
   page.body.Open("div", {{"id", "aerovo-map"}}).Close("div").Newline();
@@ -1266,11 +1320,19 @@ void RunReport(const fs::path& dir, const RunData& run, const RunComparison& cmp
       if (!t.points_px.empty()) tracks.push_back(t);
     }
     MosaicTrack vo;
-    vo.name = "VO (estimated transforms)";
+    vo.name = run.transforms_optimized.empty() ? "VO (estimated transforms)" : "VO, causal";
     vo.points_px = pixels.centres_px;
     vo.color_rgb = style::kVo;
     vo.line_width_px = 2;
     tracks.push_back(vo);
+    if (!run.transforms_optimized.empty()) {
+      MosaicTrack opt;
+      opt.name = "VO optimised after the flight";
+      opt.points_px = FrameCentresPx(run, nullptr, &run.transforms_optimized);
+      opt.color_rgb = style::kVoOptimized;
+      opt.line_width_px = 2;
+      tracks.push_back(opt);
+    }
     const fs::path file = dir / ReportFileNames::kFiguresDir / ReportFileNames::kMosaic;
     Stopwatch sw;
     const MosaicResult m = BuildMosaic(run, tracks, file, options.mosaic_options);
@@ -1281,8 +1343,11 @@ void RunReport(const fs::path& dir, const RunData& run, const RunComparison& cmp
       result.mosaic = m.file;
       result.figures.push_back(m.file);
       sink.AddImage(m.file, "mosaic",
-                    "Mosaic: frames warped by the estimated transforms into the first frame's "
-                    "pixels, with the VO track (orange), the " +
+                    std::string(m.optimized ? "Mosaic: frames placed by the offline "
+                                              "optimisation's poses (transforms_optimized.csv)"
+                                            : "Mosaic: frames warped by the estimated transforms") +
+                        " into the first frame's pixels, with the VO track (orange" +
+                        (m.optimized ? "; the optimised one purple" : "") + "), the " +
                         cmp.reference_name + " track (blue)" +
                         (truth ? std::string(" and the ground truth (green)") : std::string()) +
                         "; " + m.note + ".");

@@ -89,12 +89,20 @@ bool MosaicFrameSize(const RunData& run, int* width_px, int* height_px) {
   return FrameSize(run, width_px, height_px);
 }
 
-std::vector<Eigen::Vector2d> FrameCentresPx(const RunData& run, std::vector<int>* frames) {
+const std::vector<FrameTransformRow>& MosaicPlacements(const RunData& run,
+                                                       const MosaicOptions& options) {
+  const bool use = options.optimized && !run.transforms_optimized.empty() &&
+                   run.transforms_optimized.size() == run.transforms.size();
+  return use ? run.transforms_optimized : run.transforms;
+}
+
+std::vector<Eigen::Vector2d> FrameCentresPx(const RunData& run, std::vector<int>* frames,
+                                            const std::vector<FrameTransformRow>* rows) {
   std::vector<Eigen::Vector2d> out;
   int w = 0, h = 0;
   if (!FrameSize(run, &w, &h)) return out;
   const double cx = 0.5 * (w - 1), cy = 0.5 * (h - 1);
-  for (const FrameTransformRow& t : run.transforms) {
+  for (const FrameTransformRow& t : rows != nullptr ? *rows : run.transforms) {
     const cv::Point2d p = Apply(ToMatx(t), cx, cy);
     out.emplace_back(p.x, p.y);
     if (frames) frames->push_back(t.frame);
@@ -115,7 +123,8 @@ std::string MosaicInputProblem(const RunData& run) {
 MosaicWarpOutcome WarpRunFrames(const RunData& run, const MosaicOptions& options,
                                 std::vector<MosaicWarpTarget>& targets) {
   MosaicWarpOutcome out;
-  out.n_transforms = static_cast<int>(run.transforms.size());
+  const std::vector<FrameTransformRow>& placements = MosaicPlacements(run, options);
+  out.n_transforms = static_cast<int>(placements.size());
   if (std::string problem = MosaicInputProblem(run); !problem.empty()) {
     out.note = problem;
     return out;
@@ -125,7 +134,7 @@ MosaicWarpOutcome WarpRunFrames(const RunData& run, const MosaicOptions& options
   fs::path input_path;
   InputPath(run, &input_path);
   std::map<int, cv::Matx23d> by_frame;
-  for (const FrameTransformRow& t : run.transforms) by_frame[t.frame] = ToMatx(t);
+  for (const FrameTransformRow& t : placements) by_frame[t.frame] = ToMatx(t);
 
   const int n_transforms = out.n_transforms;
   const int every = std::max(1, (n_transforms + options.max_frames - 1) / options.max_frames);
@@ -174,7 +183,7 @@ MosaicWarpOutcome WarpRunFrames(const RunData& run, const MosaicOptions& options
   }
   // The run saw the frames dimmed by illumination_k (illumination experiment): so does the mosaic.
   const double illumination_k = ConfigValue<double>(run.config, "illumination_k", 1.0);
-  const int last_frame = run.transforms.back().frame;
+  const int last_frame = placements.back().frame;
   try {
     std::unique_ptr<FrameSource> source = OpenFrameSource(input_path.string(), so);
     Frame frame;
@@ -288,7 +297,7 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
     max_x = std::max(max_x, x);
     max_y = std::max(max_y, y);
   };
-  for (const FrameTransformRow& t : run.transforms) {
+  for (const FrameTransformRow& t : MosaicPlacements(run, options)) {
     const cv::Matx23d m = ToMatx(t);
     for (const cv::Point2d c : {cv::Point2d(0, 0), cv::Point2d(w - 1, 0), cv::Point2d(w - 1, h - 1),
                                 cv::Point2d(0, h - 1)}) {
@@ -394,14 +403,16 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
   }
   if (!ok) throw InputError("cannot write the mosaic '" + out_file.string() + "'");
   result.written = true;
+  result.optimized = &MosaicPlacements(run, options) == &run.transforms_optimized;
   result.file = out_file;
   result.width_px = cw;
   result.height_px = ch;
   result.scale = s;
   result.note =
-      fmt::format("{} of {} frames warped ({}), {}x{} px, {:.3f} mosaic px per first-frame px",
+      fmt::format("{} of {} frames warped ({}), {}x{} px, {:.3f} mosaic px per first-frame px{}",
                   result.frames_used, n_transforms,
-                  every == 1 ? std::string("all") : fmt::format("one in {}", every), cw, ch, s);
+                  every == 1 ? std::string("all") : fmt::format("one in {}", every), cw, ch, s,
+                  result.optimized ? ", placed by the optimised poses" : "");
   return result;
 }
 

@@ -1,5 +1,6 @@
 // A mosaic of a flight: frames re-read from the run's input, warped by the estimated transforms
-// (transforms.csv: first_px_from_frame) into the first frame's pixel frame, downscaled to fit,
+// (transforms.csv: first_px_from_frame; transforms_optimized.csv instead when the run ran the
+// offline optimisation, docs/backend.md) into the first frame's pixel frame, downscaled to fit,
 // with tracks (VO, GPS) drawn on it. File I/O (reads frames, writes an image): report module.
 #pragma once
 
@@ -20,6 +21,9 @@ struct MosaicOptions {
   /// At most this many frames are warped (every n-th processed frame; the last one on top).
   int max_frames = 60;
   int jpeg_quality = 88;  ///< 1..100, for a .jpg output.
+  /// Place the frames by the offline optimisation's poses (transforms_optimized.csv) when the
+  /// run has them; false, or a run without them: by the causal ones (transforms.csv).
+  bool optimized = true;
 };
 
 /// Throws InvalidArgument naming the field.
@@ -44,7 +48,14 @@ struct MosaicResult {
   int every_nth = 1;                ///< Every n-th processed frame was used.
   int width_px = 0, height_px = 0;  ///< Mosaic size.
   double scale = 1.0;               ///< Mosaic pixels per first-frame pixel.
+  bool optimized = false;           ///< Frames placed by transforms_optimized.csv.
 };
+
+/// The frame placements (first_px_from_frame rows) the mosaics warp with:
+/// run.transforms_optimized when `options.optimized` and the run has them (one per row of
+/// run.transforms), else run.transforms.
+const std::vector<FrameTransformRow>& MosaicPlacements(const RunData& run,
+                                                       const MosaicOptions& options);
 
 /// Builds the mosaic of `run` (needs transforms.csv and config.json with input, step, start_s,
 /// end_s and resolved frame size) into `out_file` (.jpg or .png). Frames are re-read with
@@ -55,8 +66,9 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
                          const std::filesystem::path& out_file, const MosaicOptions& options = {});
 
 /// Centre of every frame of `run` with a transform, in first-frame pixels (frame order of
-/// transforms.csv); `frames` receives their frame indices. Needs config.json's resolved frame
-/// size; empty when unknown.
-std::vector<Eigen::Vector2d> FrameCentresPx(const RunData& run, std::vector<int>* frames = nullptr);
+/// transforms.csv, or of `rows` when given, e.g. run.transforms_optimized); `frames` receives
+/// their frame indices. Needs config.json's resolved frame size; empty when unknown.
+std::vector<Eigen::Vector2d> FrameCentresPx(const RunData& run, std::vector<int>* frames = nullptr,
+                                            const std::vector<FrameTransformRow>* rows = nullptr);
 
 }  // namespace aerovo

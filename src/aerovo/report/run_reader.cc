@@ -111,6 +111,44 @@ std::optional<GeoPoint> GeoOf(const CsvTable& t, std::size_t r, const char* lat,
   return p;
 }
 
+// A transforms.csv-format file (RunFileNames::kTransformsCsv), when present.
+std::vector<FrameTransformRow> ReadTransformsIfPresent(const fs::path& path) {
+  std::vector<FrameTransformRow> out;
+  if (!fs::exists(path)) return out;
+  const CsvTable tt(path, {"frame", "a11", "a12", "tx", "a21", "a22", "ty"});
+  for (std::size_t r = 0; r < tt.size(); ++r) {
+    FrameTransformRow row;
+    row.frame = static_cast<int>(tt.Number(r, "frame"));
+    const char* names[6] = {"a11", "a12", "tx", "a21", "a22", "ty"};
+    for (int k = 0; k < 6; ++k) row.a[static_cast<std::size_t>(k)] = tt.Number(r, names[k]);
+    out.push_back(row);
+  }
+  return out;
+}
+
+// A TUM track written by the run (`t x y z qx qy qz qw`), when present: t, x, y of each line.
+// InputError naming the file and line for a line that does not start with three numbers, but a
+// last line without its newline (a run killed mid-write), which is ignored.
+std::vector<TrajectoryPoint2D> ReadTumIfPresent(const fs::path& path) {
+  std::vector<TrajectoryPoint2D> out;
+  if (!fs::exists(path)) return out;
+  std::ifstream in(path);
+  std::string line;
+  for (long n = 1; std::getline(in, line); ++n) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ss(line);
+    TrajectoryPoint2D p;
+    if (!(ss >> p.t >> p.x >> p.y) || !std::isfinite(p.t) || !std::isfinite(p.x) ||
+        !std::isfinite(p.y)) {
+      if (in.eof()) break;  // the last line, cut short
+      throw InputError("'" + path.string() + "' line " + std::to_string(n) +
+                       ": expected 't x y z qx qy qz qw' with finite numbers");
+    }
+    out.push_back(p);
+  }
+  return out;
+}
+
 void Compare(RunComparison& c) {
   if (c.vo.size() < 3) return;
   try {
@@ -160,17 +198,9 @@ RunData ReadRunDir(const fs::path& dir) {
     }
     run.frames.push_back(std::move(f));
   }
-  const fs::path transforms = dir / RunFileNames::kTransformsCsv;
-  if (fs::exists(transforms)) {
-    const CsvTable tt(transforms, {"frame", "a11", "a12", "tx", "a21", "a22", "ty"});
-    for (std::size_t r = 0; r < tt.size(); ++r) {
-      FrameTransformRow row;
-      row.frame = static_cast<int>(tt.Number(r, "frame"));
-      const char* names[6] = {"a11", "a12", "tx", "a21", "a22", "ty"};
-      for (int k = 0; k < 6; ++k) row.a[static_cast<std::size_t>(k)] = tt.Number(r, names[k]);
-      run.transforms.push_back(row);
-    }
-  }
+  run.transforms = ReadTransformsIfPresent(dir / RunFileNames::kTransformsCsv);
+  run.transforms_optimized = ReadTransformsIfPresent(dir / RunFileNames::kTransformsOptimizedCsv);
+  run.optimized = ReadTumIfPresent(dir / RunFileNames::kVoOptimizedTum);
   run.summary = ReadJsonIfPresent(dir / RunFileNames::kSummaryJson);
   run.config = ReadJsonIfPresent(dir / RunFileNames::kConfigJson);
   return run;

@@ -43,6 +43,12 @@ struct RunData {
   std::filesystem::path dir;
   std::vector<RunFrameRow> frames;
   std::vector<FrameTransformRow> transforms;
+  /// transforms_optimized.csv (the offline optimisation's placements, docs/backend.md): rows as
+  /// `transforms`; empty when the run has none.
+  std::vector<FrameTransformRow> transforms_optimized;
+  /// vo_optimized.tum: the optimised track (time s, x, y in the frame of frames.csv x_m, y_m);
+  /// empty when the run has none.
+  std::vector<TrajectoryPoint2D> optimized;
   nlohmann::json summary;  ///< null when summary.json is absent.
   nlohmann::json config;   ///< null when config.json is absent.
 };
@@ -50,7 +56,8 @@ struct RunData {
 /// True when `dir` looks like a run folder (frames.csv present).
 bool IsRunDir(const std::filesystem::path& dir);
 
-/// Reads frames.csv (required) and, when present, transforms.csv, summary.json, config.json.
+/// Reads frames.csv (required) and, when present, transforms.csv, transforms_optimized.csv,
+/// vo_optimized.tum, summary.json, config.json.
 /// Throws InputError naming the file and line for a missing frames.csv, a bad header or a bad
 /// cell. A last line cut short (a run killed mid-write) is ignored.
 RunData ReadRunDir(const std::filesystem::path& dir);

@@ -19,6 +19,9 @@ inline constexpr Rgb kVo = 0xD55E00;     ///< The visual-odometry track (vermill
 inline constexpr Rgb kTruth = 0x009E73;  ///< A ground truth, e.g. the simulator's (bluish green).
 /// The VO track under the Sim(2) alignment (a second view of the VO track, drawn dashed).
 inline constexpr Rgb kVoSim2 = 0xCC79A7;  // reddish purple
+/// The offline optimisation's track (vo_optimized.*, docs/backend.md) beside the causal VO track
+/// (dark purple: not in Okabe & Ito's eight, whose remaining yellow is unreadable on white).
+inline constexpr Rgb kVoOptimized = 0x5E3C99;
 /// Frames bridged with the previous motion (no image measurement), marked on tracks (orange).
 inline constexpr Rgb kBridged = 0xE69F00;
 /// Start of a track (a mark), and a whole-frame total among stage times.

@@ -1,0 +1,54 @@
+// The online window stage (backend.online, docs/backend.md "Online window"): the frame's
+// odometry result added to the run's flight graph (odometry/flight_graph.h AddOnline: its step,
+// its matches against recent keyframes, the last backend.window poses optimised), and the
+// frame's position and heading replaced by the windowed estimate, so that every output after it
+// (GPS check, geo-referencing, frames.csv and the track files, the pose stream, MAVLink) carries
+// it. The causal pixel transform (FrameResult::world_from_frame, transforms.csv) is left as the
+// odometry made it. The frame's features are released from the FrameState here (the graph keeps
+// those of its keyframes only). summary.json "online" counts the pairs and the stage's time.
+#include <memory>
+#include <optional>
+
+#include "aerovo/core/timer.h"
+#include "aerovo/pipeline/frame_loop.h"
+
+namespace aerovo::run_steps {
+namespace {
+
+class WindowStage : public FrameStage {
+ public:
+  const char* name() const override { return "window"; }
+
+  void Process(FrameState& f, const RunContext& run) override {
+    FlightRecording& flight = run.state->flight;
+    if (f.lens_switched && flight.graph) flight.graph->DropKeyframes();
+    if (!fitter_) {
+      fitter_ = MakeStandardPairFitter(PairCorrespondenceOptions(*run.config),
+                                       f.pixels.width, f.pixels.height);
+    }
+    const Stopwatch time;
+    const WindowedPose w =
+        flight.GraphOf(run.config->backend, f.pixels.width, f.pixels.height)
+            .AddOnline(f.result, fitter_, run.config->odometry.correspondence.ransac.seed);
+    RecordFlightFrame(f, run);  // the causal pose, before it is replaced below
+    if (!run.summary->online) run.summary->online = RunSummary::Online{run.config->backend.window};
+    RunSummary::Online& s = *run.summary->online;
+    s.pairs_tried += w.pairs_tried;
+    s.pairs_verified += w.pairs_verified;
+    s.pairs_gated += w.pairs_gated;
+    s.total_ms += time.elapsed_ms();
+    f.result.features.reset();
+    f.result.position_m = w.local_from_frame.translation_m;
+    f.result.heading_rad = w.local_from_frame.heading_rad;
+    f.window = w;
+  }
+
+ private:
+  PairFitter fitter_;
+};
+
+}  // namespace
+
+std::unique_ptr<FrameStage> MakeWindowStage() { return std::make_unique<WindowStage>(); }
+
+}  // namespace aerovo::run_steps
