@@ -52,15 +52,7 @@ struct Pose {
 
 // The nadir frame at `pose`: ground pixel = centre + (x, -y) / gsd + R(-heading) (p - c).
 cv::Mat Render(const Pose& pose) {
-  const cv::Mat& g = Ground();
-  const double c = std::cos(-pose.heading_rad), s = std::sin(-pose.heading_rad);
-  const double cx = 0.5 * (kW - 1), cy = 0.5 * (kH - 1);
-  const double gx = 0.5 * (g.cols - 1) + pose.x_m / kGsd, gy = 0.5 * (g.rows - 1) - pose.y_m / kGsd;
-  const cv::Matx23d ground_from_frame(c, -s, gx - (c * cx - s * cy), s, c, gy - (s * cx + c * cy));
-  cv::Mat frame;
-  cv::warpAffine(g, frame, ground_from_frame, cv::Size(kW, kH),
-                 cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REFLECT);
-  return frame;
+  return e2e::RenderNadir(Ground(), kGsd, pose.x_m, pose.y_m, pose.heading_rad, kW, kH);
 }
 
 // A straight eastward leg: n poses, 2 m (8 px) apart, starting at (x0, y0).

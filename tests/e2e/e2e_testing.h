@@ -3,6 +3,7 @@
 // run wrote (whole text, JSON, line count, frames.csv as rows).
 #pragma once
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -49,6 +50,24 @@ inline cv::Mat GreyTerrain(double metres_per_px, unsigned seed, int size_px = 16
   cv::Mat grey;
   cv::cvtColor(sim::GenerateTerrain(t), grey, cv::COLOR_BGR2GRAY);
   return grey;
+}
+
+/// The nadir frame of width x height pixels cut from `ground` (metres_per_px per pixel) at
+/// (x_m east, y_m north) metres from the ground image's centre, turned by heading_rad
+/// (counter-clockwise seen from above), seen by a sensor with `scale` times the pixels per side:
+/// ground pixel = centre + (x, -y) / metres_per_px + R(-heading) (p - c) / scale, c the frame's
+/// centre. Bilinear, the ground reflected at its borders.
+inline cv::Mat RenderNadir(const cv::Mat& ground, double metres_per_px, double x_m, double y_m,
+                           double heading_rad, int width, int height, int scale = 1) {
+  const double c = std::cos(-heading_rad) / scale, s = std::sin(-heading_rad) / scale;
+  const double cx = 0.5 * (width * scale - 1), cy = 0.5 * (height * scale - 1);
+  const double gx = 0.5 * (ground.cols - 1) + x_m / metres_per_px;
+  const double gy = 0.5 * (ground.rows - 1) - y_m / metres_per_px;
+  const cv::Matx23d ground_from_frame(c, -s, gx - (c * cx - s * cy), s, c, gy - (s * cx + c * cy));
+  cv::Mat frame;
+  cv::warpAffine(ground, frame, ground_from_frame, cv::Size(width * scale, height * scale),
+                 cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REFLECT);
+  return frame;
 }
 
 /// The file parsed as JSON; null when it cannot be opened (a run that wrote no summary: the

@@ -54,16 +54,7 @@ fs::path TempDir(const std::string& name) { return e2e::FreshTempDir("aerovo_fra
 // Frame i of an eastward leg: 2 m (8 px) per frame, `scale` times the 320x240 size (the same
 // ground seen by a sensor with `scale` times the pixels).
 cv::Mat Render(int i, int scale = 1) {
-  const cv::Mat& g = Ground();
-  const double x_px = 0.5 * (g.cols - 1) + (-120.0 + 2.0 * i) / kGsd;
-  const double y_px = 0.5 * (g.rows - 1) - 60.0 / kGsd;
-  const double s = 1.0 / scale;
-  const double cx = 0.5 * (kW * scale - 1), cy = 0.5 * (kH * scale - 1);
-  const cv::Matx23d ground_from_frame(s, 0, x_px - s * cx, 0, s, y_px - s * cy);
-  cv::Mat frame;
-  cv::warpAffine(g, frame, ground_from_frame, cv::Size(kW * scale, kH * scale),
-                 cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REFLECT);
-  return frame;
+  return e2e::RenderNadir(Ground(), kGsd, -120.0 + 2.0 * i, 60.0, 0.0, kW, kH, scale);
 }
 
 struct Row {

@@ -47,13 +47,7 @@ const cv::Mat& Ground() {
 
 // The nadir frame centred at (x east, y north) metres from the ground's centre.
 cv::Mat Render(const Eigen::Vector2d& p) {
-  const cv::Mat& g = Ground();
-  const double gx = 0.5 * (g.cols - 1) + p.x() / kGsd, gy = 0.5 * (g.rows - 1) - p.y() / kGsd;
-  const cv::Matx23d ground_from_frame(1, 0, gx - 0.5 * (kW - 1), 0, 1, gy - 0.5 * (kH - 1));
-  cv::Mat frame;
-  cv::warpAffine(g, frame, ground_from_frame, cv::Size(kW, kH),
-                 cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REFLECT);
-  return frame;
+  return e2e::RenderNadir(Ground(), kGsd, p.x(), p.y(), 0.0, kW, kH);
 }
 
 std::vector<Eigen::Vector2d> Path() {
