@@ -118,14 +118,16 @@ void ExpectValidFolder(const fs::path& out) {
     const std::string ext = p.extension().string();
     SCOPED_TRACE(p.string());
     if (ext == ".geojson" || ext == ".json") {
-      EXPECT_NO_THROW((void)nlohmann::json::parse(ReadText(p)));
+      EXPECT_FALSE(nlohmann::json::parse(ReadText(p), nullptr, false).is_discarded());
     } else if (ext == ".gpx" || ext == ".kml") {
       pugi::xml_document doc;
       const pugi::xml_parse_result r = doc.load_file(p.c_str());
       EXPECT_TRUE(r) << r.description() << " at offset " << r.offset;
     } else if (ext == ".csv" || ext == ".tum") {
       const std::string text = ReadText(p);
-      if (!text.empty()) EXPECT_EQ(text.back(), '\n');
+      if (!text.empty()) {
+        EXPECT_EQ(text.back(), '\n');
+      }
       EXPECT_EQ(text.find('\0'), std::string::npos);
     } else if (ext == ".tmp") {
       ADD_FAILURE() << "temporary file left";
