@@ -350,7 +350,7 @@ std::optional<map::ReferenceMaps> OpenMap(const RunConfig& config,
                                           RunSummary* summary) {
   if (config.map.empty()) return std::nullopt;
   map::ReferenceMaps maps({config.map});
-  summary->map.emplace();
+  summary->map = RunSummary::MapCover{};
   summary->map->path = config.map;
   std::vector<GeoPoint> fixes;
   const double t0 = telemetry.telemetry().start_time_s();
@@ -467,7 +467,7 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
   telemetry.set_offset_s(config.telemetry_offset_s);
   summary.telemetry_offset_s = config.telemetry_offset_s;
   if (config.gps_denied_after_s >= 0.0) {
-    summary.gps_denied.emplace();
+    summary.gps_denied = RunSummary::GpsDenied{};
     summary.gps_denied->after_s = config.gps_denied_after_s;
   }
   if (log) *log << "telemetry: " << telemetry.Describe() << "\n";
