@@ -104,17 +104,23 @@ void BM_SurfDescribe(benchmark::State& state) {
   state.counters["keypoints"] = static_cast<double>(kps.size());
 }
 
-void BM_SurfDetectAndDescribe(benchmark::State& state) {
-  const cv::Mat* m = GetImage(state);
-  if (m == nullptr) return;
-  aerovo::Surf surf(Options(state));
+// The timed loop of a fixed-threshold SURF with `options` on `m`; counter: points kept.
+void TimeDetectAndDescribe(benchmark::State& state, const cv::Mat& m,
+                           const aerovo::SurfOptions& options) {
+  aerovo::Surf surf(options);
   std::size_t n = 0;
   for (auto _ : state) {
-    aerovo::SurfResult r = surf.DetectAndDescribe(View(*m));
+    aerovo::SurfResult r = surf.DetectAndDescribe(View(m));
     n = r.features.size();
     benchmark::DoNotOptimize(r.features.descriptors.data());
   }
   state.counters["keypoints"] = static_cast<double>(n);
+}
+
+void BM_SurfDetectAndDescribe(benchmark::State& state) {
+  const cv::Mat* m = GetImage(state);
+  if (m == nullptr) return;
+  TimeDetectAndDescribe(state, *m, Options(state));
 }
 
 // The default of `aerovo run` (SurfOptions::adaptive with its defaults: a contrast-normalised
@@ -160,14 +166,7 @@ void BM_SurfFixedAtTargetPoints(benchmark::State& state) {
     (static_cast<int>(n) > target ? lo : hi) = o.hessian_threshold;
   }
   o.hessian_threshold = hi;  // at most target points
-  aerovo::Surf surf(o);
-  std::size_t n = 0;
-  for (auto _ : state) {
-    aerovo::SurfResult r = surf.DetectAndDescribe(View(*m));
-    n = r.features.size();
-    benchmark::DoNotOptimize(r.features.descriptors.data());
-  }
-  state.counters["keypoints"] = static_cast<double>(n);
+  TimeDetectAndDescribe(state, *m, o);
   state.counters["threshold"] = o.hessian_threshold;
 }
 
