@@ -1,8 +1,10 @@
 #include "aerovo/pipeline/frame_loop.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
+#include <thread>
 #include <utility>
 
 #include <fmt/format.h>
@@ -100,6 +102,18 @@ std::unique_ptr<mavlink::AutopilotLink> OpenLink(const RunConfig& config, std::o
   return link;
 }
 
+// RunConfig::realtime: sleeps until mavlink::MonotonicNowS() reaches `mono_s`, in slices of at
+// most 50 ms so that a stop request (SIGINT) ends the wait within them. False when stopped.
+bool WaitUntilMonotonic(double mono_s, const std::atomic<bool>* stop) {
+  constexpr double kSliceS = 0.05;
+  for (;;) {
+    if (stop != nullptr && stop->load()) return false;
+    const double left_s = mono_s - mavlink::MonotonicNowS();
+    if (left_s <= 0.0) return true;
+    std::this_thread::sleep_for(std::chrono::duration<double>(std::min(left_s, kSliceS)));
+  }
+}
+
 // GPS denial (RunConfig::gps_denied_after_s): from the first frame at or after that time since
 // the first frame on, the sample's horizontal position is moved to `f.withheld_gps` and the
 // sample keeps no position (has_fix false, latitude and longitude 0), so that no stage can
@@ -157,6 +171,11 @@ ReadResult ReadFrame(FrameSource& source, const RunConfig& config, const RunTele
     const double since_first_s = f.frame.time_s - c.first_time_s;
     f.frame_mono_s = c.first_mono_s + since_first_s;
     f.frame_unix_s = c.first_unix_s + since_first_s;
+    if (config.realtime) {
+      if (!WaitUntilMonotonic(f.frame_mono_s, stop)) return ReadResult::kStopped;
+      f.capture_mono_s = mavlink::MonotonicNowS();
+      f.capture_unix_s = mavlink::UnixNowS();
+    }
   }
   f.sample = telemetry.SampleOf(f.frame);
   WithholdPositions(config, state, f);

@@ -7,10 +7,12 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <memory>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -351,6 +353,52 @@ TEST(FrameLoop, AFilesFramesCarryTheirPresentationTimesALiveFrameItsArrival) {
   ASSERT_EQ(ReadFrame(live, in.config, telemetry, nullptr, 0, &live_state, f), ReadResult::kFrame);
   EXPECT_NEAR(f.capture_mono_s - f.frame_mono_s, 0.2, 0.01);
   EXPECT_NEAR(f.capture_unix_s - f.frame_unix_s, 0.2, 0.01);
+  fs::remove_all(in.config.out);
+}
+
+TEST(FrameLoop, RealtimeDeliversAFilesFramesNoEarlierThanTheirOwnTimes) {
+  RunInputs in = LoopInputs(TempDir("realtime"));
+  in.config.realtime = true;
+  const RunTelemetry telemetry;
+  RunState state(in.config);
+  FrameState f;
+  // The crops are 0.1 s apart in the stream: each is delivered at or after its own time on the
+  // clock, so the messages' times are never ahead of it, and the frame is stamped when
+  // delivered (not earlier than its own time; the bound above allows a loaded machine's sleep).
+  ShiftedCrops file(4, 6);
+  std::vector<FrameState> got;
+  for (int i = 0; i < 4; ++i) {
+    ASSERT_EQ(ReadFrame(file, in.config, telemetry, nullptr, i, &state, f), ReadResult::kFrame);
+    got.push_back(f);
+    got.back().frame = Frame();
+  }
+  for (int i = 1; i < 4; ++i) {
+    EXPECT_NEAR(got[i].frame_mono_s - got[0].frame_mono_s, 0.1 * i, 1e-6) << i;
+    EXPECT_GE(got[i].capture_mono_s, got[i].frame_mono_s) << i;
+    EXPECT_LT(got[i].capture_mono_s - got[i].frame_mono_s, 0.5) << i;
+    EXPECT_GE(got[i].capture_mono_s - got[i - 1].capture_mono_s, 0.1 - 1e-3) << i;
+  }
+  // A stop request ends the wait for a frame 100 s ahead within its 50 ms slices.
+  class FarApart : public ShiftedCrops {
+   public:
+    FarApart() : ShiftedCrops(2, 6) {}
+    bool Next(Frame& frame) override {
+      if (!ShiftedCrops::Next(frame)) return false;
+      frame.time_s = 100.0 * frame.index;
+      return true;
+    }
+  } far;
+  RunState far_state(in.config);
+  std::atomic<bool> stop{false};
+  ASSERT_EQ(ReadFrame(far, in.config, telemetry, &stop, 0, &far_state, f), ReadResult::kFrame);
+  const double t0 = SteadySeconds();
+  std::thread stopper([&stop] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    stop = true;
+  });
+  EXPECT_EQ(ReadFrame(far, in.config, telemetry, &stop, 1, &far_state, f), ReadResult::kStopped);
+  stopper.join();
+  EXPECT_LT(SteadySeconds() - t0, 5.0);
   fs::remove_all(in.config.out);
 }
 

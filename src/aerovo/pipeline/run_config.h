@@ -119,6 +119,11 @@ struct RunConfig {
   double end_s = -1.0;
   /// Stop after this many processed frames (0 = all).
   int max_frames = 0;
+  /// Files (video, photo folder): deliver each frame no earlier than its own time, the first
+  /// frame's read plus its presentation time in the stream, as a camera would deliver it; for
+  /// bench replays against an autopilot, whose timestamp filter absorbs an offset but not a
+  /// file read faster than it was filmed (docs/autopilot.md). Live sources: no effect.
+  bool realtime = false;
   /// Heading of the VO track in ENU: kAuto (default: telemetry yaw, else first GPS segment),
   /// kTelemetryYaw ("yaw"), kGpsSegment ("gps").
   HeadingSource heading = HeadingSource::kAuto;
@@ -337,6 +342,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.start_s, "start_s", "Start time in the source, s", AtLeast(0));
   v.Field(c.end_s, "end_s", "End time in the source, s (< 0: to the end)", Any());
   v.Field(c.max_frames, "max_frames", "Stop after N frames (0 = all)", AtLeast(0));
+  v.Field(c.realtime, "realtime", "Files: deliver each frame at its own time in the stream, as a camera would (bench replays against an autopilot)", Any().Switch());
   v.Field(c.heading, "heading", "VO heading in ENU: auto, yaw (telemetry) or gps (first GPS segment)", Any());
   v.Field(c.altitude_m, "altitude_m", "Height above ground, m (overrides telemetry; 0 = from telemetry)", Interval(0, 1e5).Flags("--altitude"));
   v.Field(c.focal_px, "focal_px", "Focal length in pixels (0 = from hfov_deg, EXIF or telemetry)", Interval(0, 1e6));
