@@ -818,7 +818,15 @@ bool LiveSource::Next(Frame& frame) {
       return false;
     }
     const int index = next_index_++;
-    const double t = SteadySeconds() - t0_;
+    std::string unusable;
+    const double t =
+        times_.Next(SteadySeconds() - t0_, capture_.get(cv::CAP_PROP_POS_MSEC), &unusable);
+    if (!unusable.empty() && times_.arrival_steps() == 1) {
+      warnings_.push_back(fmt::format(
+          "live source '{}': frame {} has no usable presentation time ({}): timed by its "
+          "arrival when so",
+          spec_, index, unusable));
+    }
     if (t < options_.start_time_s) continue;
     if (t > options_.end_time_s) {
       done_ = true;
@@ -836,6 +844,34 @@ bool LiveSource::Next(Frame& frame) {
     return true;
   }
   return false;
+}
+
+double LiveFrameTimes::Next(double arrival_s, double stream_ms, std::string* unusable) {
+  // A step of the source's own time counts when it moves forward by no more than the arrival did
+  // plus kMaxEarlyS: frames buffered at a stream's start arrive together, but a jump of minutes
+  // (a restarted sender, a timestamp wrap) is not the flight's time.
+  constexpr double kMaxEarlyS = 1.0;
+  const double stream_s = stream_ms / 1000.0;
+  double t = arrival_s;
+  if (have_) {
+    const double arrival_step_s = arrival_s - last_arrival_s_;
+    const double stream_step_s = stream_s - last_stream_s_;
+    const bool usable = std::isfinite(stream_step_s) && stream_step_s > 0.0 &&
+                        stream_step_s <= arrival_step_s + kMaxEarlyS;
+    t = last_time_s_ + (usable ? stream_step_s : std::max(arrival_step_s, 1e-6));
+    if (!usable) {
+      ++arrival_steps_;
+      if (unusable != nullptr) {
+        *unusable = fmt::format("{:.3f} s after the previous frame's, arrived {:.3f} s after it",
+                                stream_step_s, arrival_step_s);
+      }
+    }
+  }
+  have_ = true;
+  last_arrival_s_ = arrival_s;
+  last_stream_s_ = stream_s;
+  last_time_s_ = t;
+  return t;
 }
 
 std::string LiveSource::Describe() const {

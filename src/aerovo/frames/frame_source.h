@@ -33,7 +33,7 @@ struct Frame {
   int index = -1;
   /// Seconds: video = index / fps (the container's timestamp when fps is unknown); photos =
   /// capture time - the first photo's (or the rank when a photo has no capture time); live =
-  /// time since the source was opened (steady clock).
+  /// the frame's own time, from when the source was opened (LiveSource).
   double time_s = 0.0;
   std::string name;  ///< Photo file name, or "<video file name>#<index>", or "live#<index>".
   /// What is wrong with this frame as read, '+'-separated tokens ("" = nothing found). The run
@@ -268,9 +268,33 @@ class ImageFolderSource : public FrameSource {
   std::uint64_t last_hash_ = 0;
 };
 
+/// The own times of a live source's frames (Frame::time_s, LiveSource), seconds: the first
+/// frame's arrival, then each frame the source's own time step after the previous one, so that
+/// frames buffered at a stream's start and delivered together keep their spacing. A step of the
+/// source's own time that does not move forward, is not finite, or runs more than 1 s ahead of
+/// the arrivals (a restarted sender, a timestamp wrap) is replaced by the arrival step.
+class LiveFrameTimes {
+ public:
+  /// The time of a frame that arrived at `arrival_s` (seconds, steady clock, any origin) with
+  /// the source's own time `stream_ms` (milliseconds, any origin; NaN or a constant when the
+  /// source has none). When the arrival step replaces the source's, `unusable` (if not null)
+  /// says why; else it is left as it was.
+  double Next(double arrival_s, double stream_ms, std::string* unusable);
+  /// Frames timed by their arrival step so far (not counting the first frame).
+  int arrival_steps() const { return arrival_steps_; }
+
+ private:
+  bool have_ = false;
+  int arrival_steps_ = 0;
+  double last_arrival_s_ = 0.0, last_stream_s_ = 0.0, last_time_s_ = 0.0;
+};
+
 /// A camera or stream: a camera index ("0"), a device path ("/dev/video0") or a URL
 /// ("rtsp://...", "http://..."). Frames are delivered as they arrive; with step k the k-1
-/// frames in between are grabbed and dropped (no decode). time_s = seconds since opening.
+/// frames in between are grabbed and dropped (no decode). time_s is the frame's own time
+/// (LiveFrameTimes), from the source's opening: a stream's presentation times or a V4L2
+/// camera's capture timestamps (cv::CAP_PROP_POS_MSEC), else arrivals, with a warning the first
+/// time a frame is timed by its arrival.
 /// Opening throws InputError "cannot open live source '<spec>': ..."; a stream that stops
 /// ends the sequence with a warning. A frame identical to the previous one is flagged
 /// "duplicate" (Frame::flags): a frozen stream.
@@ -293,6 +317,7 @@ class LiveSource : public FrameSource {
   cv::Mat bgr_;
   std::uint64_t last_hash_ = 0;
   bool have_hash_ = false;
+  LiveFrameTimes times_;
 };
 
 /// Chooses the source from `spec`: an all-digit string -> camera index; "scheme://..." or a

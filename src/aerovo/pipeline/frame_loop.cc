@@ -163,8 +163,15 @@ ReadResult ReadFrame(FrameSource& source, const RunConfig& config, const RunTele
     // Frame::received_s is on the steady clock (CLOCK_MONOTONIC on Linux): back-dated by the
     // time the frame waited in the decode-ahead queue.
     const double waited_s = std::max(0.0, SteadySeconds() - f.frame.received_s);
-    f.frame_mono_s = f.capture_mono_s - waited_s;
-    f.frame_unix_s = f.capture_unix_s - waited_s;
+    const double arrival_mono_s = f.capture_mono_s - waited_s;
+    // Its own time (Frame::time_s: a stream's presentation time) placed on the clock by the
+    // least delayed frame so far, so that no frame is stamped after it arrived: frames that
+    // waited in a stream's start-up buffer keep their spacing.
+    RunState::LiveClock& c = state->live_clock;
+    const double offset_s = arrival_mono_s - f.frame.time_s;
+    if (!c.set || offset_s < c.mono_minus_own_s) c = {true, offset_s};
+    f.frame_mono_s = f.frame.time_s + c.mono_minus_own_s;
+    f.frame_unix_s = f.frame_mono_s + (f.capture_unix_s - f.capture_mono_s);
   } else {
     RunState::FrameClock& c = state->frame_clock;
     if (!c.set) c = {true, f.frame.time_s, f.capture_mono_s, f.capture_unix_s};

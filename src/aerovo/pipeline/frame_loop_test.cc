@@ -356,6 +356,50 @@ TEST(FrameLoop, AFilesFramesCarryTheirPresentationTimesALiveFrameItsArrival) {
   fs::remove_all(in.config.out);
 }
 
+// A stream's start-up burst: frames 0.1 s apart in the stream (Frame::time_s, LiveFrameTimes)
+// delivered 1 ms apart, then at their pace.
+class BurstCrops : public ShiftedCrops {
+ public:
+  BurstCrops() : ShiftedCrops(6, 6), t0_(SteadySeconds() - 1.0) {}  // all arrived before read
+  bool Next(Frame& frame) override {
+    if (!ShiftedCrops::Next(frame)) return false;
+    const int i = frame.index;
+    frame.received_s = t0_ + (i < 3 ? 0.001 * i : 0.1 * i - 0.198);  // 0, 1, 2 ms, then 0.102...
+    return true;
+  }
+  bool IsLive() const override { return true; }
+
+ private:
+  double t0_;
+};
+
+TEST(FrameLoop, ALiveFramesOwnTimeIsPlacedByTheLeastDelayedFrame) {
+  const RunInputs in = LoopInputs(TempDir("burst"));
+  const RunTelemetry telemetry;
+  RunState state(in.config);
+  FrameState f;
+  BurstCrops live;
+  std::vector<FrameState> got;
+  for (int i = 0; i < 6; ++i) {
+    ASSERT_EQ(ReadFrame(live, in.config, telemetry, nullptr, i, &state, f), ReadResult::kFrame);
+    got.push_back(f);
+    got.back().frame = Frame();
+  }
+  for (int i = 1; i < 6; ++i) {
+    EXPECT_GT(got[i].frame_mono_s, got[i - 1].frame_mono_s) << i;  // strictly increasing
+    EXPECT_NEAR(got[i].frame_unix_s - got[i].frame_mono_s,
+                got[i].capture_unix_s - got[i].capture_mono_s, 1e-6) << i;
+  }
+  // Frame 1 arrived 99 ms early for its own time: stamped at its arrival, never after it; from
+  // then on the frames keep their own spacing (0.1 s), although frame 3 arrived 100 ms after 2.
+  EXPECT_NEAR(got[1].frame_mono_s - got[0].frame_mono_s, 0.001, 2e-4);
+  EXPECT_NEAR(got[2].frame_mono_s - got[1].frame_mono_s, 0.001, 2e-4);
+  for (int i = 3; i < 6; ++i) {
+    EXPECT_NEAR(got[i].frame_mono_s - got[i - 1].frame_mono_s, 0.1, 2e-4) << i;
+  }
+  fs::remove_all(in.config.out);
+}
+
 TEST(FrameLoop, RealtimeDeliversAFilesFramesNoEarlierThanTheirOwnTimes) {
   RunInputs in = LoopInputs(TempDir("realtime"));
   in.config.realtime = true;

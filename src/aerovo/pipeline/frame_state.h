@@ -58,8 +58,11 @@ struct FrameState {
   /// The frame's own capture time, s, on CLOCK_MONOTONIC and CLOCK_REALTIME (the MAVLink
   /// messages' timestamps and the time differences of their velocities): a file's frame
   /// (video, photos) at its presentation time Frame::time_s, counted from the first frame's,
-  /// which is placed when it was read (RunState::frame_clock); a live frame when its source
-  /// delivered it (Frame::received_s, on the reader thread of a PrefetchSource).
+  /// which is placed when it was read (RunState::frame_clock); a live frame at its own time
+  /// (Frame::time_s: a stream's presentation time), placed by the least delayed frame so far
+  /// (RunState::live_clock): never after its source delivered it (Frame::received_s, on the
+  /// reader thread of a PrefetchSource). Velocities and deltas use the differences of
+  /// Frame::time_s, which a live stream's start-up burst does not compress.
   double frame_mono_s = 0.0;
   double frame_unix_s = 0.0;
   std::optional<TelemetrySample> sample;  ///< Its telemetry fix (none: no telemetry or no match).
@@ -122,6 +125,12 @@ struct RunState {
     bool set = false;
     double first_time_s = 0.0, first_mono_s = 0.0, first_unix_s = 0.0;
   } frame_clock;
+  /// Where a live frame's own time (Frame::time_s) is placed on CLOCK_MONOTONIC: the smallest
+  /// arrival - own time so far (the least delayed frame).
+  struct LiveClock {
+    bool set = false;
+    double mono_minus_own_s = 0.0;
+  } live_clock;
   bool said_ahead_of_clock = false;  ///< "processed faster than real time" logged.
   /// backend.enable: every frame's pose, step and keyframe features for the offline
   /// optimisation after the last frame (sink_flight_graph.cc; graph null before the first frame).

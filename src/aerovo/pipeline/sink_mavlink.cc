@@ -38,7 +38,7 @@ class MavlinkSink : public FrameSink {
     const double t =
         config.mavlink_time == mavlink::TimestampClock::kUnix ? f.frame_unix_s : f.frame_mono_s;
     p.time_usec = static_cast<uint64_t>(std::llround(t * 1e6));
-    p.time_s = f.frame_mono_s;
+    p.time_s = f.frame.time_s;  // the frame's own time: velocities from its differences
     p.local_x_m = r.position_m.x();
     p.local_y_m = r.position_m.y();
     p.height_m = f.height_m;
