@@ -3,13 +3,16 @@
 // run wrote (whole text, JSON, line count, frames.csv as rows).
 #pragma once
 
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -18,6 +21,7 @@
 
 #include "aerovo/camera/pinhole.h"
 #include "aerovo/core/testing.h"
+#include "aerovo/frames/frame_source.h"
 #include "aerovo/sim/terrain.h"
 
 namespace aerovo::e2e {
@@ -122,5 +126,29 @@ inline std::vector<std::map<std::string, std::string>> ReadFramesCsv(
   }
   return rows;
 }
+
+// A live source delivering `source`'s frames at `fps` whether or not they are taken (a camera
+// or stream): frame k at k / fps s after the first Next(), as Frame::time_s and index k.
+class PacedLiveSource : public FrameSource {
+ public:
+  PacedLiveSource(std::unique_ptr<FrameSource> source, double fps)
+      : source_(std::move(source)), period_s_(1.0 / fps) {}
+  bool Next(Frame& frame) override {
+    if (count_ == 0) start_ = std::chrono::steady_clock::now();
+    std::this_thread::sleep_until(start_ + std::chrono::duration<double>(period_s_ * count_));
+    if (!source_->Next(frame)) return false;
+    frame.time_s = period_s_ * count_;
+    frame.index = count_++;
+    return true;
+  }
+  std::string Describe() const override { return "paced live source"; }
+  bool IsLive() const override { return true; }
+
+ private:
+  std::unique_ptr<FrameSource> source_;
+  double period_s_;
+  std::chrono::steady_clock::time_point start_;
+  int count_ = 0;
+};
 
 }  // namespace aerovo::e2e

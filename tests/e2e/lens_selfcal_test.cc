@@ -21,6 +21,7 @@
 #include <nlohmann/json.hpp>
 
 #include "aerovo/camera_files/calibration.h"
+#include "aerovo/frames/frame_source.h"
 #include "aerovo/mavlink/messages.h"
 #include "aerovo/mavlink/protocol.h"
 #include "aerovo/pipeline/frame_state.h"
@@ -291,6 +292,43 @@ TEST(LensSelfCalibration, FirstPosesComeBeforeTheEstimateAppliedAtAFixedFrame) {
     const double k = std::hypot(cal[i][1] - cal[i - 1][1], cal[i][2] - cal[i - 1][2]);
     EXPECT_NEAR(e, k, 1e-3) << "step into row " << i << " after the switch";
   }
+  fs::remove_all(dir);
+}
+
+// A live source (a camera or stream, never read twice): the pairs are its own frames as
+// delivered (lens_switch.h), the estimate taken at the switch frame 2 s into the stream. The
+// fisheye of FisheyeIsEstimatedAndApplied, 10 frames/s, delivered at that rate (3 s).
+TEST(LensSelfCalibration, ALiveSourcesLensIsEstimatedFromItsOwnFrames) {
+  const fs::path dir = TempDir("live");
+  ASSERT_TRUE(Cli("simulate --pattern line --length-m 30 --height-m 80 --fps 10 --width 640 "
+                  "--height 480 --focal-px 300 --lens fisheye --distortion=-0.04,0,0,0 "
+                  "--frames-only --image-format png --quiet --out " + (dir / "sim").string()));
+  RunConfig c;
+  c.input = "live";  // not read: the source is given
+  c.out = (dir / "run").string();
+  c.quiet = true;
+  c.focal_px = 300.0;
+  c.altitude_m = 80.0;
+  c.attitude_estimation = AttitudeEstimationMode::kOff;
+  auto folder = std::make_unique<ImageFolderSource>((dir / "sim" / "frames").string());
+  const RunSummary s =
+      RunFlight(c, std::make_unique<e2e::PacedLiveSource>(std::move(folder), 10.0));
+  const nlohmann::json& le = s.lens_estimate;
+  RecordProperty("why", le.value("why", std::string()));
+  ASSERT_EQ(le["status"], "applied") << le.dump();
+  EXPECT_EQ(le["family"], "fisheye") << le.dump();
+  EXPECT_NEAR(le["k"].get<double>(), -0.04, 0.005) << le.dump();
+  EXPECT_EQ(le["pairs_read"].get<int>(), run_steps::kLensPrepassPairs) << le.dump();
+  // The pairs start 0.3 s of stream apart (or 8 frames), each before the switch frame.
+  const int switch_frame = le["switch_frame"].get<int>();
+  EXPECT_GE(switch_frame, 1) << le.dump();
+  EXPECT_GT(le["frames_replayed"].get<int>(), 0) << le.dump();
+  for (const auto& f : le["pair_frames"]) EXPECT_LT(f.get<int>(), switch_frame) << le.dump();
+  const auto rows = e2e::ReadFramesCsv(dir / "run");
+  int lens_rows = 0;
+  for (const auto& r : rows) lens_rows += r.at("status").find("+lens") != std::string::npos;
+  EXPECT_EQ(lens_rows, 1);
+  EXPECT_TRUE(fs::exists(dir / "run" / "lens_estimate.yaml"));
   fs::remove_all(dir);
 }
 

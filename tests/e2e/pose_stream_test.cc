@@ -219,28 +219,7 @@ TEST(PoseStream, PrintPosesAndJsonOnStdoutConflict) {
 
 #endif  // AEROVO_CLI_PATH
 
-// A live source delivering the simulated flight's frames at a fixed rate whether or not they are
-// taken, faster than a deliberately slow pipeline processes them.
-class PacedLiveSource : public FrameSource {
- public:
-  PacedLiveSource(const fs::path& video, double fps) : video_(video), period_s_(1.0 / fps) {}
-  bool Next(Frame& frame) override {
-    const auto due = start_ + std::chrono::duration<double>(period_s_ * count_);
-    std::this_thread::sleep_until(due);
-    if (!video_.Next(frame)) return false;
-    frame.time_s = period_s_ * count_;
-    frame.index = count_++;
-    return true;
-  }
-  std::string Describe() const override { return "paced live source"; }
-  bool IsLive() const override { return true; }
-
- private:
-  VideoFileSource video_;
-  double period_s_;
-  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
-  int count_ = 0;
-};
+using e2e::PacedLiveSource;
 
 TEST(LiveSource, FasterThanTheProcessingTheNewestFrameIsTakenAndTheRestCounted) {
   const SimulatedFlight& f = Flight();
@@ -251,7 +230,8 @@ TEST(LiveSource, FasterThanTheProcessingTheNewestFrameIsTakenAndTheRestCounted) 
   c.odometry.surf.num_threads = 1;
   c.odometry.correspondence.match.num_threads = 1;
   // A frame every 2 ms: SURF and matching on a 640x360 frame take longer than that.
-  const RunSummary s = RunFlight(c, std::make_unique<PacedLiveSource>(f.run.input, 500.0));
+  const RunSummary s = RunFlight(
+      c, std::make_unique<PacedLiveSource>(std::make_unique<VideoFileSource>(f.run.input), 500.0));
   const auto rows = CsvRows(fs::path(c.out) / "frames.csv");
   ASSERT_EQ(static_cast<int>(rows.size()), s.frames_processed);
   EXPECT_GT(s.frames_dropped, 0);

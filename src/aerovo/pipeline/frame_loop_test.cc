@@ -407,8 +407,8 @@ TEST(FrameLoop, RealtimeDeliversAFilesFramesNoEarlierThanTheirOwnTimes) {
   RunState state(in.config);
   FrameState f;
   // The crops are 0.1 s apart in the stream: each is delivered at or after its own time on the
-  // clock, so the messages' times are never ahead of it, and the frame is stamped when
-  // delivered (not earlier than its own time; the bound above allows a loaded machine's sleep).
+  // clock, so the messages' times are never ahead of it (within 0.5 s after it: a loaded
+  // machine's sleep).
   ShiftedCrops file(4, 6);
   std::vector<FrameState> got;
   for (int i = 0; i < 4; ++i) {
@@ -420,7 +420,6 @@ TEST(FrameLoop, RealtimeDeliversAFilesFramesNoEarlierThanTheirOwnTimes) {
     EXPECT_NEAR(got[i].frame_mono_s - got[0].frame_mono_s, 0.1 * i, 1e-6) << i;
     EXPECT_GE(got[i].capture_mono_s, got[i].frame_mono_s) << i;
     EXPECT_LT(got[i].capture_mono_s - got[i].frame_mono_s, 0.5) << i;
-    EXPECT_GE(got[i].capture_mono_s - got[i - 1].capture_mono_s, 0.1 - 1e-3) << i;
   }
   // A stop request ends the wait for a frame 100 s ahead within its 50 ms slices.
   class FarApart : public ShiftedCrops {

@@ -49,7 +49,7 @@ std::string LensPrepassSkipReason(const RunConfig& config, bool live) {
       config.k3 != 0.0) {
     return "lens distortion coefficients are given";
   }
-  if (live) return "a live source cannot be read twice";
+  if (live) return "";
   std::error_code ec;
   if (config.input.empty() || !std::filesystem::exists(config.input, ec)) {
     return "the input is not a file or folder that can be read again";
@@ -346,55 +346,113 @@ void EstimateAttitude(const RunConfig& config, std::vector<LensPair> pairs, doub
   a.applied = e.significant;
 }
 
+// SURF and matching of the pre-pass's pairs: each frame reduced to the pre-pass's budget, the
+// run's surf and match options.
+class PairMatcher {
+ public:
+  PairMatcher(const RunConfig& config, int w, int h)
+      : w_(w), h_(h), reducer_(w, h, kLensPrepassMegapixels), surf_(config.odometry.surf),
+        matcher_(config.odometry.correspondence.match) {}
+  int width_px() const { return reducer_.out_width_px(); }
+  int height_px() const { return reducer_.out_height_px(); }
+  /// InputError naming a frame of another size than the run's.
+  LensPair Match(const Frame& prev, const Frame& curr) {
+    const FeatureSet a = Features(prev);
+    const FeatureSet b = Features(curr);
+    return LensPairOf(a, b, matcher_.Match(a, b));
+  }
+
+ private:
+  FeatureSet Features(const Frame& f) {
+    if (f.gray.width() != w_ || f.gray.height() != h_) {
+      throw InputError(fmt::format("{}: {}x{} px, but the run's frames are {}x{}", f.name,
+                                   f.gray.width(), f.gray.height(), w_, h_));
+    }
+    return surf_.DetectAndDescribe(reducer_.Apply(f.gray.view())).features;
+  }
+  int w_, h_;
+  FrameReducer reducer_;
+  Surf surf_;
+  Matcher matcher_;
+};
+
+// Marks the request's statuses "failed" with `why`; false.
+bool Fail(const PrepassRequest& request, const std::string& why, LensPrepass* out) {
+  if (request.lens) {
+    out->status = LensPrepassStatus::kFailed;
+    out->why = why;
+  }
+  if (request.attitude) {
+    out->attitude.status = LensPrepassStatus::kFailed;
+    out->attitude.why = why;
+  }
+  return false;
+}
+
 // Reads and matches the pairs into *pairs; false (out's statuses "failed", the reason in their
 // why) on an input error.
 bool ReadAndMatch(const RunConfig& config, int w, int h, const PrepassRequest& request,
                   std::vector<LensPair>* pairs, LensPrepass* out) {
-  const auto fail = [&](const std::string& why) {
-    if (request.lens) {
-      out->status = LensPrepassStatus::kFailed;
-      out->why = why;
-    }
-    if (request.attitude) {
-      out->attitude.status = LensPrepassStatus::kFailed;
-      out->attitude.why = why;
-    }
-    return false;
-  };
   std::vector<std::pair<Frame, Frame>> frames;
   try {
     frames = ReadPairs(config, &out->read_ms, &out->why);
   } catch (const InputError& e) {
-    return fail(std::string("reading the frame pairs: ") + e.what());
+    return Fail(request, std::string("reading the frame pairs: ") + e.what(), out);
   }
-  // Reduced to the pre-pass's budget; SURF and matching with the run's options.
   const Stopwatch match_sw;
-  FrameReducer reducer(w, h, kLensPrepassMegapixels);
-  out->width_px = reducer.out_width_px();
-  out->height_px = reducer.out_height_px();
-  Surf surf(config.odometry.surf);
-  Matcher matcher(config.odometry.correspondence.match);
-  const auto features = [&](const Frame& f) {
-    if (f.gray.width() != w || f.gray.height() != h) {
-      throw InputError(fmt::format("{}: {}x{} px, but the run's frames are {}x{}", f.name,
-                                   f.gray.width(), f.gray.height(), w, h));
-    }
-    return surf.DetectAndDescribe(reducer.Apply(f.gray.view())).features;
-  };
+  PairMatcher matcher(config, w, h);
+  out->width_px = matcher.width_px();
+  out->height_px = matcher.height_px();
   try {
     for (const auto& [prev, curr] : frames) {
       ThrowIfStopped();
       out->pair_frames.push_back(prev.index);
-      const FeatureSet a = features(prev);
-      const FeatureSet b = features(curr);
-      pairs->push_back(LensPairOf(a, b, matcher.Match(a, b)));
+      pairs->push_back(matcher.Match(prev, curr));
     }
   } catch (const InputError& e) {
-    return fail(std::string("matching the frame pairs: ") + e.what());
+    return Fail(request, std::string("matching the frame pairs: ") + e.what(), out);
   }
   out->pairs_read = static_cast<int>(pairs->size());
   out->match_ms = match_sw.elapsed_ms();
   return true;
+}
+
+// The pairs of a live source as the feed hands them over, matched as they come, until it is
+// closed; false (status "failed") on a frame of another size.
+bool MatchFeed(const RunConfig& config, int w, int h, LivePairFeed& feed,
+               std::vector<LensPair>* pairs, LensPrepass* out) {
+  PairMatcher matcher(config, w, h);
+  out->width_px = matcher.width_px();
+  out->height_px = matcher.height_px();
+  std::pair<Frame, Frame> pair;
+  for (;;) {
+    const Stopwatch wait_sw;
+    if (!feed.Pop(&pair, t_stop)) break;
+    out->read_ms += wait_sw.elapsed_ms();
+    const Stopwatch match_sw;
+    try {
+      out->pair_frames.push_back(pair.first.index);
+      pairs->push_back(matcher.Match(pair.first, pair.second));
+    } catch (const InputError& e) {
+      return Fail(PrepassRequest{}, std::string("matching the frame pairs: ") + e.what(), out);
+    }
+    out->match_ms += match_sw.elapsed_ms();
+  }
+  out->pairs_read = static_cast<int>(pairs->size());
+  return true;
+}
+
+// The lens estimated from a live source's pairs (LensPrepassTask with a feed).
+LensPrepass RunLivePrepass(const RunConfig& config, int w, int h, double focal_px,
+                           LivePairFeed& feed) {
+  const Stopwatch total;
+  LensPrepass out;
+  std::vector<LensPair> pairs;
+  if (MatchFeed(config, w, h, feed, &pairs, &out)) {
+    EstimateLens(config, pairs, w, h, focal_px, focal_px * out.width_px / w, &out);
+  }
+  out.total_ms = total.elapsed_ms();
+  return out;
 }
 
 }  // namespace
@@ -419,11 +477,42 @@ LensPrepass RunLensPrepass(const RunConfig& config, int w, int h, double focal_p
   return out;
 }
 
+void LivePairFeed::Push(Frame prev, Frame curr) {
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    if (closed_) return;
+    pairs_.emplace_back(std::move(prev), std::move(curr));
+  }
+  ready_.notify_one();
+}
+
+void LivePairFeed::Close() {
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    closed_ = true;
+  }
+  ready_.notify_one();
+}
+
+bool LivePairFeed::Pop(std::pair<Frame, Frame>* pair, const std::atomic<bool>* stop) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (pairs_.empty() && !closed_) {
+    if (stop != nullptr && stop->load()) throw Cancelled("waiting for the live frame pairs");
+    ready_.wait_for(lock, std::chrono::milliseconds(20));
+  }
+  if (pairs_.empty()) return false;
+  *pair = std::move(pairs_.front());
+  pairs_.pop_front();
+  return true;
+}
+
 LensPrepassTask::LensPrepassTask(const RunConfig& config, int w, int h, double focal_px,
-                                 const std::atomic<bool>* stop)
-    : result_(std::async(std::launch::async, [&config, w, h, focal_px, stop] {
+                                 const std::atomic<bool>* stop,
+                                 std::shared_ptr<LivePairFeed> live_feed)
+    : result_(std::async(std::launch::async, [&config, w, h, focal_px, stop, live_feed] {
         t_stop = stop;
         try {
+          if (live_feed) return RunLivePrepass(config, w, h, focal_px, *live_feed);
           return RunLensPrepass(config, w, h, focal_px);
         } catch (const Cancelled& e) {
           LensPrepass out;

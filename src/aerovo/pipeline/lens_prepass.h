@@ -23,9 +23,14 @@
 #pragma once
 
 #include <atomic>
+#include <condition_variable>
+#include <deque>
+#include <memory>
+#include <mutex>
 #include <future>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -69,8 +74,9 @@ inline constexpr const char* kLensEstimateYaml = RunFileNames::kLensEstimateYaml
 FrameSourceOptions SourceOptionsOf(const RunConfig& config);
 
 /// Why the pre-pass does not run for `config` ("" = it runs): lens_estimation off, a calibration
-/// file or distortion coefficients given, a live source (`live`), or an input that is not a
-/// file or folder that can be opened again.
+/// file or distortion coefficients given, or (not `live`) an input that is not a file or folder
+/// that can be opened again. A live source's pairs come from its frames as delivered
+/// (LivePairFeed).
 std::string LensPrepassSkipReason(const RunConfig& config, bool live);
 
 /// Why the pre-pass does not estimate the camera's attitude ("" = it does): attitude_estimation
@@ -138,14 +144,37 @@ struct LensPrepass {
 LensPrepass RunLensPrepass(const RunConfig& config, int width_px, int height_px, double focal_px,
                            const PrepassRequest& request = {});
 
+/// The frame pairs of a live source, which cannot be read twice: the run hands over copies of
+/// pairs of consecutive frames as it delivers them (LensSwitch), the pre-pass's thread matches
+/// each as it comes and estimates once the feed is closed. Thread-safe.
+class LivePairFeed {
+ public:
+  /// Adds a pair (ignored once closed).
+  void Push(Frame prev, Frame curr);
+  /// No more pairs: the pre-pass estimates from those it has.
+  void Close();
+  /// The next pair, waiting for it; false once closed and empty. Cancelled when `stop` (may be
+  /// null) is set while waiting.
+  bool Pop(std::pair<Frame, Frame>* pair, const std::atomic<bool>* stop);
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable ready_;
+  std::deque<std::pair<Frame, Frame>> pairs_;
+  bool closed_ = false;
+};
+
 /// RunLensPrepass on its own thread, started by the constructor: the first frames do not wait
-/// for it. Get() waits for the result (once). `stop` (the run's stop flag; may be null) ends
+/// for it. With a `live_feed`, the pairs are the feed's instead of read from config.input
+/// (LensPrepassSkipReason's file check does not apply), the lens alone is estimated, and
+/// LensPrepass::read_ms is the time spent waiting for pairs. Get() waits for the result (once). `stop` (the run's stop flag; may be null) ends
 /// the reading and matching early (checked per frame and pair; status kFailed, "stopped"). The
 /// destructor waits for the thread. `config` and `stop` must outlive the task.
 class LensPrepassTask {
  public:
   LensPrepassTask(const RunConfig& config, int width_px, int height_px, double focal_px,
-                  const std::atomic<bool>* stop = nullptr);
+                  const std::atomic<bool>* stop = nullptr,
+                  std::shared_ptr<LivePairFeed> live_feed = nullptr);
   ~LensPrepassTask();
   LensPrepassTask(const LensPrepassTask&) = delete;
   LensPrepassTask& operator=(const LensPrepassTask&) = delete;

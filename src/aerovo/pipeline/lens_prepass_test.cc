@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <filesystem>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -30,7 +31,12 @@ TEST(LensPrepass, RunsOnlyWithoutALensAndOnAnInputReadTwice) {
   RunConfig c;
   c.input = std::filesystem::temp_directory_path().string();  // an existing folder
   EXPECT_EQ(LensPrepassSkipReason(c, false), "");
-  EXPECT_EQ(LensPrepassSkipReason(c, true), "a live source cannot be read twice");
+  // A live source (a URL, not a path) pairs its own frames as delivered (LivePairFeed).
+  RunConfig url = c;
+  url.input = "udp://127.0.0.1:5600";
+  EXPECT_EQ(LensPrepassSkipReason(url, true), "");
+  EXPECT_EQ(LensPrepassSkipReason(url, false),
+            "the input is not a file or folder that can be read again");
   RunConfig off = c;
   off.lens_estimation = LensEstimationMode::kOff;
   EXPECT_EQ(LensPrepassSkipReason(off, false), "lens_estimation off");
@@ -121,6 +127,30 @@ TEST(LensPrepass, SkippedSummaryHasNoEstimate) {
   EXPECT_EQ(j["applied"], false);
   EXPECT_EQ(j["why"], "lens_estimation off");
   EXPECT_FALSE(j.contains("k"));
+}
+
+TEST(LensPrepass, LivePairFeedHandsOverInOrderUntilClosed) {
+  LivePairFeed feed;
+  const auto frame = [](int index) {
+    Frame f;
+    f.index = index;
+    return f;
+  };
+  feed.Push(frame(0), frame(1));
+  feed.Push(frame(3), frame(4));
+  feed.Close();
+  feed.Push(frame(6), frame(7));  // after Close: ignored
+  std::pair<Frame, Frame> p;
+  ASSERT_TRUE(feed.Pop(&p, nullptr));
+  EXPECT_EQ(p.first.index, 0);
+  EXPECT_EQ(p.second.index, 1);
+  ASSERT_TRUE(feed.Pop(&p, nullptr));
+  EXPECT_EQ(p.first.index, 3);
+  EXPECT_FALSE(feed.Pop(&p, nullptr));
+  // Waiting on an open, empty feed ends with the stop flag.
+  LivePairFeed open;
+  std::atomic<bool> stop{true};
+  EXPECT_THROW(open.Pop(&p, &stop), Cancelled);
 }
 
 TEST(LensPrepass, BadFrameSizeIsAnError) {

@@ -12,10 +12,38 @@
 
 namespace aerovo::run_steps {
 
-LensSwitch::LensSwitch(std::unique_ptr<LensPrepassTask> task, double first_time_s)
-    : task_(std::move(task)), first_time_s_(first_time_s) {}
+LensSwitch::LensSwitch(std::unique_ptr<LensPrepassTask> task, double first_time_s,
+                       std::shared_ptr<LivePairFeed> live_feed)
+    : task_(std::move(task)), first_time_s_(first_time_s), live_feed_(std::move(live_feed)) {}
 
-LensSwitch::~LensSwitch() = default;
+LensSwitch::~LensSwitch() {
+  if (live_feed_) live_feed_->Close();  // the task's thread ends; task_ waits for it
+}
+
+void LensSwitch::FeedLivePair(const FrameState& f) {
+  if (f.frame.gray.empty()) return;
+  const auto copy = [&f] {
+    Frame c;
+    c.gray = GrayImage(f.frame.gray.width(), f.frame.gray.height());
+    std::memcpy(c.gray.data(), f.frame.gray.data(),
+                static_cast<std::size_t>(f.frame.gray.width()) * f.frame.gray.height());
+    c.index = f.frame.index;
+    c.time_s = f.frame.time_s;
+    c.name = f.frame.name;
+    return c;
+  };
+  if (pair_start_) {
+    live_feed_->Push(std::move(*pair_start_), copy());
+    pair_start_.reset();
+  }
+  const bool due = live_pairs_ < kLensPrepassPairs &&
+                   (f.frame.time_s - first_time_s_ >= live_pairs_ * kLivePairSpacingS ||
+                    static_cast<int>(kept_.size()) >= live_pairs_ * kLivePairSpacingFrames);
+  if (due) {
+    pair_start_ = copy();
+    ++live_pairs_;
+  }
+}
 
 bool LensSwitch::Due(const FrameState& f) const {
   if (done_) return false;
@@ -24,7 +52,9 @@ bool LensSwitch::Due(const FrameState& f) const {
 }
 
 void LensSwitch::Keep(const FrameState& f) {
-  if (done_ || f.pixels.empty()) return;
+  if (done_) return;
+  if (live_feed_) FeedLivePair(f);
+  if (f.pixels.empty()) return;
   Kept k;
   const GrayImageView& v = f.pixels;
   k.pixels = GrayImage(v.width, v.height);
@@ -57,6 +87,7 @@ void LensSwitch::Replay(RunContext& run, const LensPrepass& prepass) {
 }
 
 void LensSwitch::Apply(RunContext& run, FrameState& f) {
+  if (live_feed_) live_feed_->Close();
   double waited_ms = 0.0;
   const LensPrepass prepass = task_->Get(run.stop, &waited_ms);
   done_ = true;
@@ -77,6 +108,7 @@ void LensSwitch::Apply(RunContext& run, FrameState& f) {
 
 void LensSwitch::Finish(RunContext& run) {
   if (done_) return;
+  if (live_feed_) live_feed_->Close();
   double waited_ms = 0.0;
   LensPrepass prepass = task_->Get(run.stop, &waited_ms);
   done_ = true;

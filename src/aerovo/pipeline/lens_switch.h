@@ -17,7 +17,12 @@
 // summary.json lens_estimate says where (switch_frame, frames_replayed, wait_ms). An estimate
 // that is not significant changes nothing (the kept frames are dropped).
 //
-// A live source never gets here (lens_prepass.h LensPrepassSkipReason: it cannot be read twice).
+// A live source cannot be read twice: its pairs are copies of the frames it delivers before the
+// switch frame (lens_prepass.h LivePairFeed), a pair started every kLivePairSpacingS of stream
+// time (or every kLivePairSpacingFrames frames, whichever comes first) and completed by the next
+// frame delivered, matched on the pre-pass's thread as they come; the feed is closed at the switch
+// frame, where the run waits only for the pairs not matched yet and the estimate. Which frames
+// pair then depends on which the live source delivered (as everything of a live run).
 #pragma once
 
 #include <memory>
@@ -42,18 +47,27 @@ inline constexpr double kLensSwitchAfterS = 2.0;
 /// default detect_megapixels, about 100 MB for 48): the switch frame comes no later than this
 /// (frame 48, 1.6 s into a 30 fps video). Our choice.
 inline constexpr int kLensSwitchMaxFrames = 48;
+/// A live source: a pair of the lens pre-pass starts every this many seconds of stream time, or
+/// every kLivePairSpacingFrames frames, before the switch frame: kLensPrepassPairs pairs by
+/// 1.2 s (or by frame 32), inside both limits above. Our choice.
+inline constexpr double kLivePairSpacingS = 0.3;
+inline constexpr int kLivePairSpacingFrames = 8;
 
 /// The lens switch of a run (see the file comment); owned by the run (RunContext::lens_switch).
 class LensSwitch {
  public:
-  /// `task`: the pre-pass, started; `first_time_s`: the first frame's Frame::time_s.
-  LensSwitch(std::unique_ptr<LensPrepassTask> task, double first_time_s);
+  /// `task`: the pre-pass, started; `first_time_s`: the first frame's Frame::time_s;
+  /// `live_feed`: a live source's pairs, which Keep() fills and the switch closes (the task's
+  /// feed), else null.
+  LensSwitch(std::unique_ptr<LensPrepassTask> task, double first_time_s,
+             std::shared_ptr<LivePairFeed> live_feed = nullptr);
   ~LensSwitch();
 
   /// `frame` (read, not processed yet) is the switch frame.
   bool Due(const FrameState& frame) const;
   /// Keeps `frame`'s processed pixels (FrameState::pixels) and odometry inputs, after its stages
-  /// ran (frames before the switch frame; nothing after it).
+  /// ran (frames before the switch frame; nothing after it); with a live feed, hands over the
+  /// frame as delivered when it starts or completes a pair.
   void Keep(const FrameState& frame);
   /// At the switch frame, before its stages: waits for the estimate (Cancelled on the run's stop
   /// flag), records it in the summary and the log and, when significant, applies it (camera,
@@ -77,11 +91,16 @@ class LensSwitch {
   };
   // The estimate applied to `run` and the kept frames given to its new odometry.
   void Replay(RunContext& run, const LensPrepass& prepass);
+  // A live source: `f` completes the pending pair and/or starts the next one.
+  void FeedLivePair(const FrameState& f);
 
   std::unique_ptr<LensPrepassTask> task_;
   double first_time_s_ = 0.0;
   std::vector<Kept> kept_;
   bool done_ = false;
+  std::shared_ptr<LivePairFeed> live_feed_;
+  std::optional<Frame> pair_start_;  // a live pair's first frame, waiting for the next
+  int live_pairs_ = 0;               // pairs started so far
 };
 
 /// Undistortion of `run`'s lens (RunLens of its camera; none: nothing) on run.odometry (points)

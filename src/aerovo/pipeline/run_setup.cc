@@ -128,10 +128,12 @@ void StartPrepass(const RunSetup& setup, const FrameState& first, RunContext& ru
   }
   ApplyAttitudeEstimate(attitude, run);
   if (skipped.why.empty()) {
+    // A live source's pairs are its own frames as delivered (lens_switch.h).
+    auto feed = setup.source_live ? std::make_shared<LivePairFeed>() : nullptr;
     run.lens_switch = std::make_unique<LensSwitch>(
         std::make_unique<LensPrepassTask>(config, run.width_px, run.height_px,
-                                          run.camera.focal_px, run.stop),
-        first.frame.time_s);
+                                          run.camera.focal_px, run.stop, feed),
+        first.frame.time_s, feed);
     run.summary->lens_estimate = {{"status", "pending"}, {"applied", false}};
     if (run.log) {
       *run.log << fmt::format(
@@ -142,9 +144,6 @@ void StartPrepass(const RunSetup& setup, const FrameState& first, RunContext& ru
     return;
   }
   run.summary->lens_estimate = ToJson(skipped);
-  if (config.lens_estimation == LensEstimationMode::kAuto && setup.source_live) {
-    LogLensPrepass(run, skipped, -1, 0.0);
-  }
 }
 
 }  // namespace
