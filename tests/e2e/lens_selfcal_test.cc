@@ -318,7 +318,9 @@ TEST(LensSelfCalibration, ALiveSourcesLensIsEstimatedFromItsOwnFrames) {
   ASSERT_EQ(le["status"], "applied") << le.dump();
   EXPECT_EQ(le["family"], "fisheye") << le.dump();
   EXPECT_NEAR(le["k"].get<double>(), -0.04, 0.005) << le.dump();
-  EXPECT_EQ(le["pairs_read"].get<int>(), run_steps::kLensPrepassPairs) << le.dump();
+  // All 5 when the run keeps up (a sanitizer build may take fewer frames before the switch).
+  EXPECT_GE(le["pairs_read"].get<int>(), 3) << le.dump();
+  EXPECT_LE(le["pairs_read"].get<int>(), run_steps::kLensPrepassPairs) << le.dump();
   // The pairs start 0.3 s of stream apart (or 8 frames), each before the switch frame.
   const int switch_frame = le["switch_frame"].get<int>();
   EXPECT_GE(switch_frame, 1) << le.dump();
