@@ -3,7 +3,7 @@
 //   node gps_input.cjs AEROVO VIDEO SRT FOCAL_PX TRUTH_CSV MAX_SIGMA_M RUN_DIR
 // VIDEO, SRT, TRUTH_CSV: a simulated flight (`aerovo simulate`: its frames as a video, its telemetry with
 // the camera's yaw, its ground_truth.csv) with a black frame mid-flight (bridged, then
-// re-acquired). `aerovo run VIDEO --telemetry SRT --focal-px FOCAL_PX --mavlink
+// re-acquired). `aerovo run VIDEO --telemetry SRT --gps-denied-after-s 1 --focal-px FOCAL_PX --mavlink
 // udp:... --mavlink-gps-input --mavlink-gps-input-max-sigma-m MAX_SIGMA_M --mavlink-time unix`
 // sends to this script, which applies, to every GPS_INPUT, what these ArduPilot functions do
 // (docs/autopilot.md "GPS_INPUT: what ArduPilot does with each field"):
@@ -17,7 +17,7 @@
 //   NavEKF3_core::calcGpsGoodToAlign (AP_NavEKF3_VehicleStatus.cpp): a 3D fix passes its
 //     satellite (>= 6), HDOP (<= 2.5) and hAcc (<= 5 m) checks.
 // Fails on any NaN or out-of-range value reaching that arithmetic, on a position more than
-// 1.2 cm from frames.csv's lat/lon (degE7 quantises to 1.1 cm), on a GPS time that is not the
+// 1.2 cm from frames.csv's lat/lon (degE7 quantises to 1.1 cm) or 0.5 m from the truth's, on a GPS time that is not the
 // message's Unix time plus 18 s or whose differences are not the frames' (1 ms), on a fix type
 // that disagrees with horiz_accuracy against MAX_SIGMA_M, and on a velocity more than 5 % of
 // the speed off the simulator's (ground_truth.csv, between consecutive measured frames) or a
@@ -91,7 +91,9 @@ async function main() {
     msgs.push(packet.protocol.data(packet.payload, common.GpsInput));
   });
   const args = ['run', frames, '--telemetry', srt, '--focal-px', focal, '--out', runDir, '-q', '--no-report', '--mavlink', `udp:127.0.0.1:${port}`,
-                '--mavlink-time', 'unix', '--mavlink-gps-input', '--mavlink-gps-input-max-sigma-m', maxSigma];
+                '--mavlink-time', 'unix', '--mavlink-gps-input', '--mavlink-gps-input-max-sigma-m', maxSigma,
+                // GPS off after take-off: from 1 s on, GPS_INPUT carries aerovo's own position.
+                '--gps-denied-after-s', '1'];
   const startMs = Date.now();
   const code = await runAerovo(aerovo, args);
   const endMs = Date.now();
@@ -109,7 +111,7 @@ async function main() {
   const n = msgs.length;
   const state = { alignable: 0 };
   let withFix = 0, worstPosM = 0, worstVel = 0, nVel = 0, worstYaw = 0, bridged = 0, reacquired = 0;
-  let speedSum = 0;
+  let speedSum = 0, worstTruthM = 0;
   for (let k = 0; k < n; ++k) {
     const i = k + skipped;
     const d = msgs[k], r = rows[i], who = `GPS_INPUT frame ${i} (${r.status})`;
@@ -125,6 +127,12 @@ async function main() {
     const dm = metresApart(Number(r.lat_deg), Number(r.lon_deg), d.lat / 1e7, d.lon / 1e7);
     worstPosM = Math.max(worstPosM, dm);
     check(dm <= 0.012, `${who}: ${(100 * dm).toFixed(2)} cm from frames.csv`);
+    // And from the simulator's truth (the odometry's error since the geo-reference: the SRT's
+    // fixes are rounded to 1e-6 degrees, 0.1 m).
+    const tt = truth[Number(r.frame)];
+    const dTruth = metresApart(Number(tt.lat_deg), Number(tt.lon_deg), d.lat / 1e7, d.lon / 1e7);
+    worstTruthM = Math.max(worstTruthM, dTruth);
+    check(dTruth <= 0.5, `${who}: ${dTruth.toFixed(3)} m from the simulator's truth`);
     // GPS time = the message's Unix time + 18 s, within the run; the frames' own differences.
     const gpsMs = d.timeWeek * MS_PER_WEEK + d.timeWeekMs;
     const unixMs = Number(d.timeUsec) / 1000;
@@ -158,6 +166,8 @@ async function main() {
       check(e <= 2, `${who}: yaw ${s.gpsYaw} deg, truth ${t.yaw_deg}`);
     }
   }
+  const denied = rows.filter(r => r.gps_flag === 'withheld').length;
+  check(denied >= rows.length - 6, `only ${denied} of ${rows.length} frames without GPS`);
   check(bridged >= 1 && reacquired >= 1, `the flight must bridge and re-acquire (bridged ${bridged}, reacquired ${reacquired})`);
   check(withFix >= 3 && n - withFix >= 3, `both 3D fixes and no-fix messages expected (limit ${MAX_SIGMA} m): ${withFix} of ${n} with a fix`);
   check(nVel >= 5, `only ${nVel} velocities checked`);
@@ -165,7 +175,7 @@ async function main() {
   check(g && g.sent === n && g.with_fix === withFix && g.without_fix === n - withFix,
         `summary.json mavlink.gps_input ${JSON.stringify(g)}: ${n} sent, ${withFix} with a fix`);
   console.log(`GPS_INPUT: ${n} messages, ${withFix} 3D fixes (${state.alignable} within EKF3's 5 m), ` +
-              `positions within ${(100 * worstPosM).toFixed(2)} cm of frames.csv, ${nVel} velocities ` +
+              `positions within ${(100 * worstPosM).toFixed(2)} cm of frames.csv and ${worstTruthM.toFixed(3)} m of the truth, ${nVel} velocities ` +
               `within ${(100 * worstVel).toFixed(2)} % of the truth (${(speedSum / Math.max(1, nVel)).toFixed(2)} m/s), yaw within ${worstYaw.toFixed(2)} deg`);
 }
 
