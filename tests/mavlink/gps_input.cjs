@@ -49,6 +49,8 @@ function metresApart(lat1, lon1, lat2, lon2) {
 function ardupilot(d, state, who) {
   const has = f => (d.ignoreFlags & f) === 0;
   const s = { status: d.fixType, lat: d.lat, lng: d.lon };
+  // Recent master drops a gps_id other than the instance's index: GPS1_TYPE 14 is instance 0.
+  check(d.gpsId === 0, `${who}: gps_id ${d.gpsId}, not the first GPS instance`);
   check(Number.isInteger(d.lat) && Math.abs(d.lat) <= 900000000 && Math.abs(d.lon) <= 1800000000, `${who}: lat/lon ${d.lat}/${d.lon} out of range`);
   if (has(F.ALT)) { s.altCm = d.alt * 100; check(finite(s.altCm) && Math.abs(s.altCm) < 2 ** 31, `${who}: alt ${d.alt}`); }
   if (has(F.HDOP)) { s.hdopCm = d.hdop * 100; check(finite(s.hdopCm) && s.hdopCm >= 0 && s.hdopCm <= 65535, `${who}: hdop ${d.hdop} does not fit AP_GPS's uint16 cm`); }

@@ -70,6 +70,9 @@ TEST(GpsInput, GoodFixIs3dWithEverythingButTheVerticalFields) {
   EXPECT_EQ(m.time_week, t->week);
   EXPECT_EQ(m.time_week_ms, t->ms);
   EXPECT_EQ(m.gps_id, 0);
+  GpsInputOptions second;
+  second.gps_id = 1;
+  EXPECT_EQ(MakeGpsInput(GoodFix(), second).gps_id, 1);
 }
 
 TEST(GpsInput, YawWrapsToCentidegreesClockwiseFromNorth) {

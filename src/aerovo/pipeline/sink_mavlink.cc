@@ -157,6 +157,7 @@ class MavlinkSink : public FrameSink {
   void SendGpsInput(const mavlink::GeoFix& fix, const RunContext& run) {
     mavlink::GpsInputOptions o;
     o.max_horizontal_sigma_m = run.config->mavlink_gps_input_max_sigma_m;
+    o.gps_id = static_cast<uint8_t>(run.config->mavlink_gps_input_id);
     const mavlink::GpsInput g = mavlink::MakeGpsInput(fix, o);
     if (!run.link->Send(g)) ++send_failed_;
     ++sent_;
