@@ -49,6 +49,9 @@ class GpsInputOfPoses {
     const double previous_time_s = previous_time_s_;
     previous_local_ = local;
     previous_time_s_ = f.frame_mono_s;
+    // The distance flown from the first frame, whose track the geo-reference anchors (metres:
+    // the local frame is metric, the geo-reference only turns and moves it).
+    if (previous && !f.lens_switched) distance_m_ += (local - *previous).norm();
     if (!georef.ready()) return std::nullopt;
     const RunConfig& config = *run.config;
     mavlink::GeoFix fix;
@@ -69,12 +72,11 @@ class GpsInputOfPoses {
       const Eigen::Vector2d v = (georef.EnuFromLocal(local) - georef.EnuFromLocal(*previous)) / dt;
       fix.vel_east_mps = v.x();
       fix.vel_north_mps = v.y();
-      distance_m_ += v.norm() * dt;
       // ODOMETRY's velocity variance (vx, the same for every axis; NaN at the first frame).
       fix.sigma_velocity_mps = std::sqrt(std::max(0.0, double(m.odometry.velocity_covariance[0])));
     }
     // The step model's position variance (ODOMETRY pose_covariance[0], per axis), the online
-    // window's own when it has one, and the drift over the distance flown since geo-referencing.
+    // window's own when it has one, and the drift over the distance flown from the first frame.
     double var = std::max(0.0, double(m.odometry.pose_covariance[0]));
     if (std::isfinite(f.output.sigma_xy_m)) var += f.output.sigma_xy_m * f.output.sigma_xy_m;
     var += std::pow(config.mavlink_gps_input_drift * distance_m_, 2);
