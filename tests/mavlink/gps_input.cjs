@@ -14,14 +14,15 @@
 //     when fix_type >= 3 and time_week > 0, satellites;
 //   NavEKF3_core::readGpsData (AP_NavEKF3_Measurements.cpp): only a 3D fix is used; hAcc and
 //     sAcc capped at 100 m and 50 m/s;
-//   NavEKF3_core::calcGpsGoodToAlign (AP_NavEKF3_VehicleStatus.cpp): a 3D fix passes its
-//     satellite (>= 6), HDOP (<= 2.5) and hAcc (<= 5 m) checks.
+//   NavEKF3_core::calcGpsGoodToAlign (AP_NavEKF3_VehicleStatus.cpp): a 3D fix must pass its
+//     satellite (>= 6) and HDOP (<= 2.5) checks (the fixes within its hAcc 5 m are counted).
 // Fails on any NaN or out-of-range value reaching that arithmetic, on a position more than
-// 1.2 cm from frames.csv's lat/lon (degE7 quantises to 1.1 cm) or 0.5 m from the truth's, on a GPS time that is not the
-// message's Unix time plus 18 s or whose differences are not the frames' (1 ms), on a fix type
-// that disagrees with horiz_accuracy against MAX_SIGMA_M, and on a velocity more than 5 % of
-// the speed off the simulator's (ground_truth.csv, between consecutive measured frames) or a
-// yaw more than 2 degrees off its yaw. Exit 0 = pass, 1 = fail (the reasons printed).
+// 1.2 cm from frames.csv's lat/lon (degE7 quantises to 1.1 cm) or 0.5 m from the truth's, on a
+// GPS time that is not the message's Unix time as ArduPilot converts it back (18 leap seconds)
+// or whose differences are not the frames' (1 ms), on a fix type that disagrees with
+// horiz_accuracy against MAX_SIGMA_M, and on a velocity more than 5 % of the speed off the
+// simulator's (ground_truth.csv, between consecutive measured frames) or a yaw more than 2
+// degrees off its yaw. Exit 0 = pass, 1 = fail (the reasons printed).
 'use strict';
 const fs = require('fs');
 const path = require('path');
@@ -32,8 +33,8 @@ const [aerovo, frames, srt, focal, truthCsv, maxSigma, runDir] = process.argv.sl
 const MAX_SIGMA = Number(maxSigma);
 const finite = v => typeof v === 'number' && Number.isFinite(v);
 const MS_PER_WEEK = 604800000;
-const GPS_EPOCH_UNIX_MS = 315964800000;
-const LEAP_MS = 18000;
+// ArduPilot's GPS time to Unix time (AP_GPS.h): 1980-01-06 less the 18 leap seconds.
+const UNIX_OFFSET_MSEC = 17000 * 86400 + 52 * 10 * MS_PER_WEEK - 18000;
 // GPS_INPUT_IGNORE_FLAGS (common.xml).
 const F = { ALT: 1, HDOP: 2, VDOP: 4, VEL_HORIZ: 8, VEL_VERT: 16, SPEED_ACC: 32, HACC: 64, VACC: 128 };
 const wrap360 = d => ((d % 360) + 360) % 360;
@@ -135,10 +136,12 @@ async function main() {
     const dTruth = metresApart(Number(tt.lat_deg), Number(tt.lon_deg), d.lat / 1e7, d.lon / 1e7);
     worstTruthM = Math.max(worstTruthM, dTruth);
     check(dTruth <= 0.5, `${who}: ${dTruth.toFixed(3)} m from the simulator's truth`);
-    // GPS time = the message's Unix time + 18 s, within the run; the frames' own differences.
+    // GPS time back to UTC as ArduPilot does for its clock (AP_GPS.h UNIX_OFFSET_MSEC, with
+    // GPS_LEAPSECONDS_MILLIS 18000): the message's Unix time (time_usec, --mavlink-time unix),
+    // within the run; differences the frames' own.
     const gpsMs = d.timeWeek * MS_PER_WEEK + d.timeWeekMs;
     const unixMs = Number(d.timeUsec) / 1000;
-    check(Math.abs(gpsMs - (unixMs - GPS_EPOCH_UNIX_MS + LEAP_MS)) <= 1, `${who}: GPS time ${gpsMs} ms is not time_usec + 18 s`);
+    check(Math.abs(UNIX_OFFSET_MSEC + gpsMs - unixMs) <= 1, `${who}: GPS time ${gpsMs} ms is ${UNIX_OFFSET_MSEC + gpsMs - unixMs} ms off time_usec in UTC`);
     check(unixMs >= startMs - 1000 && unixMs <= endMs + 60000, `${who}: Unix time ${unixMs} ms outside the run (${startMs}..${endMs})`);
     if (k > 0) {
       const p = msgs[k - 1];
