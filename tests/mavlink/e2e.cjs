@@ -4,7 +4,9 @@
 //     ODOMETRY per processed frame with a valid CRC, timestamps strictly increasing, positions
 //     equal to frames.csv within 1 mm under docs/autopilot.md's conversion (x_frd = y_local,
 //     y_frd = x_local), quality -1 exactly on bridged frames, reset_counter + 1 on every
-//     re-acquired frame, a HEARTBEAT from sysid 3 / compid 197.
+//     re-acquired frame, a HEARTBEAT from sysid 3 / compid 197; with --mavlink-gps-input but no
+//     telemetry (the track is never geo-referenced) no GPS_INPUT at all, and summary.json's
+//     mavlink.gps_input says 0 sent (gps_input.cjs checks a geo-referenced flight's).
 //   node e2e.cjs udpin AEROVO FRAMES_DIR FOCAL_PX HEIGHT_M RUN_DIR
 //     a fake autopilot: aerovo run FRAMES_DIR --mavlink udpin:127.0.0.1:PORT without
 //     --altitude; this script sends DISTANCE_SENSOR (HEIGHT_M, facing down) and ATTITUDE at
@@ -39,7 +41,7 @@ function freePort() {
 }
 
 async function main() {
-  const got = { odometry: [], heartbeats: [], timesync: [] };
+  const got = { odometry: [], heartbeats: [], timesync: [], gpsInput: 0 };
   const signing = mode === 'signed';
   const key = crypto.randomBytes(32);
   const signatures = { total: 0, unsigned: 0, bad: 0, backwards: 0, last: new Map() };
@@ -66,6 +68,7 @@ async function main() {
     if (packet.header.msgid === common.Odometry.MSG_ID) got.odometry.push({ h: packet.header, d: data });
     if (packet.header.msgid === minimal.Heartbeat.MSG_ID) got.heartbeats.push({ h: packet.header, d: data });
     if (packet.header.msgid === common.TimeSync.MSG_ID) got.timesync.push({ h: packet.header, d: data });
+    if (packet.header.msgid === common.GpsInput.MSG_ID) ++got.gpsInput;
   });
 
   const args = ['run', frames, '--focal-px', focal, '--out', runDir, '-q', '--no-report'];
@@ -79,7 +82,8 @@ async function main() {
   let aerovoPort = myPort;
   let timer = null;
   if (mode === 'udp') {
-    args.push('--altitude', heightM, '--mavlink', `udp:127.0.0.1:${myPort}`, '--mavlink-sysid', '3');
+    args.push('--altitude', heightM, '--mavlink', `udp:127.0.0.1:${myPort}`, '--mavlink-sysid', '3',
+              '--mavlink-gps-input');
   } else {
     aerovoPort = await freePort();
     args.push('--mavlink', `udpin:127.0.0.1:${aerovoPort}`);
@@ -191,6 +195,9 @@ async function main() {
     check(odo.length === 0 || odo[0].h.sysid === 3, 'ODOMETRY sysid');
     check(reacquired >= 1 && bridged >= 1, `the flight must bridge and re-acquire (bridged ${bridged}, reacquired ${reacquired})`);
     check(resets === reacquired, `final reset_counter ${resets}, ${reacquired} re-acquired frames`);
+    const g = (summary.mavlink || {}).gps_input;
+    check(got.gpsInput === 0, `${got.gpsInput} GPS_INPUT sent for a track that is not geo-referenced`);
+    check(g && g.sent === 0 && g.with_fix === 0, `summary.json mavlink.gps_input ${JSON.stringify(g)}: none sent`);
   } else {
     const want = Number(heightM);
     rows.forEach((r, i) => {

@@ -64,6 +64,20 @@ at.timeBootMs = 62000; at.roll = 0.0625; at.pitch = -0.03125; at.yaw = 1.5; at.r
 at.pitchspeed = 0; at.yawspeed = 0;
 console.log('attitude', hex(at, 11, 1, 1));
 
+const gi = new common.GpsInput();
+gi.timeUsec = 1764806400123456n; gi.gpsId = 0; gi.ignoreFlags = 4 | 16 | 128;
+gi.timeWeekMs = 345618123; gi.timeWeek = 2395; gi.fixType = 3; gi.lat = 435511234;
+gi.lon = 71234567; gi.alt = 182.5; gi.hdop = 1; gi.vdop = 0; gi.vn = 4.75; gi.ve = -1.25;
+gi.vd = 0; gi.speedAccuracy = 0.125; gi.horizAccuracy = 1.5; gi.vertAccuracy = 0;
+gi.satellitesVisible = 10; gi.yaw = 36000;
+console.log('gps_input', hex(gi, 12, 1, 197));
+
+// yaw 0 (unknown): the extension is all zeros and truncated away.
+const gi0 = new common.GpsInput();
+gi0.timeUsec = 5n; gi0.ignoreFlags = 255; gi0.fixType = 1; gi0.lat = -335000000;
+gi0.lon = -1800000000; gi0.hdop = 99.99; gi0.vdop = 99.99; gi0.yaw = 0;
+console.log('gps_input_no_fix', hex(gi0, 13, 1, 197));
+
 // Signed packets (src/aerovo/mavlink/signing_test.cc): node-mavlink's own signing, with the key
 // 00 01 02 .. 1f, link id 0 and a fixed time. node-mavlink's sign() takes Unix milliseconds and
 // writes (ms - 2015-01-01) * 100, the timestamp in 10 us units. The header's signed flag is set

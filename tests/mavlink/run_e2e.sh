@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# ctest driver of tests/mavlink/e2e.cjs (MODE: udp, udpin or signed) and autopilots.cjs (MODE:
-# contract, the frames as a video): installs node-mavlink from the
+# ctest driver of tests/mavlink/e2e.cjs (MODE: udp, udpin or signed), autopilots.cjs (MODE:
+# contract, the frames as a video) and gps_input.cjs (MODE: gps_input, the simulated flight with
+# its telemetry, so that the track is geo-referenced): installs node-mavlink from the
 # npm registry (the version pinned in package.json / package-lock.json) into WORK, simulates a
 # short flight (one black frame mid-flight: bridged, then re-acquired), runs the check.
 # Skips (exit 77) only when node or npm is missing or `npm ci` fails, saying why.
@@ -22,6 +23,28 @@ if [ ! -f "$NODE_DIR/.installed" ] || ! cmp -s "$SRC/package-lock.json" "$NODE_D
     exit 77
   fi
   touch "$NODE_DIR/.installed"
+fi
+if [ "$MODE" = gps_input ]; then
+  # The flight with its telemetry (GPS without noise; the camera's yaw added as a DJI gimbal's,
+  # the line's constant heading from ground_truth.csv): geo-referenced from the first frame.
+  # Frame 8 blackened: bridged, then re-acquired.
+  SIM="$WORK/sim-$MODE"
+  rm -rf "$SIM" "$WORK/run-$MODE"
+  "$AEROVO" simulate --pattern line --length-m 50 --height-m 60 --width 640 --height 360 --fps 4 \
+    --gps-noise-m 0 --frames-only --image-format png --quiet --out "$SIM" || exit 1
+  FOCAL=$(node -e 'console.log(require(process.argv[1]).camera.focal_px)' "$SIM/sim.json") || exit 1
+  YAW=$(awk -F, 'NR == 2 { print $9 }' "$SIM/ground_truth.csv")
+  sed "s/\[ct: /[gb_yaw: $YAW gb_pitch: -90.0 gb_roll: 0.0] [ct: /" "$SIM/telemetry.srt" > "$SIM/telemetry-yaw.srt"
+  grep -q "gb_yaw: $YAW" "$SIM/telemetry-yaw.srt" || { echo "FAIL: no yaw written into the SRT"; exit 1; }
+  BLACK=$(ls "$SIM/frames" | sort | sed -n 8p)
+  ffmpeg -loglevel error -y -f lavfi -i color=c=black:s=640x360 -frames:v 1 "$SIM/frames/$BLACK" || exit 1
+  # As a video (lossless, 4 fps): frames with presentation times, the SRT's times.
+  VIDEO="$WORK/flight-$MODE.mkv"
+  ffmpeg -loglevel error -y -framerate 4 -pattern_type glob -i "$SIM/frames/*.png" -c:v ffv1 "$VIDEO" || exit 1
+  # horiz_accuracy grows with the distance flown (1 % of it) and by the bridged step's length
+  # (2.5 m): a 0.3 m limit gives 3D fixes before the black frame and "no fix" after it.
+  cd "$NODE_DIR" && NODE_PATH="$NODE_DIR/node_modules" exec node "$SRC/gps_input.cjs" "$AEROVO" \
+    "$VIDEO" "$SIM/telemetry-yaw.srt" "$FOCAL" "$SIM/ground_truth.csv" 0.3 "$WORK/run-$MODE"
 fi
 # A simulated flight (no sim.json beside the frames: no telemetry, positions in the local frame).
 SIM="$WORK/sim-$MODE"

@@ -1,5 +1,5 @@
 // The MAVLink messages aerovo sends (ODOMETRY, VISION_POSITION_ESTIMATE, VISION_POSITION_DELTA,
-// HEARTBEAT, TIMESYNC) and reads (DISTANCE_SENSOR, GLOBAL_POSITION_INT, ATTITUDE, TIMESYNC,
+// GPS_INPUT, HEARTBEAT, TIMESYNC) and reads (DISTANCE_SENSOR, GLOBAL_POSITION_INT, ATTITUDE, TIMESYNC,
 // HEARTBEAT). Field lists, units, CRC_EXTRA and ids from the official definitions
 // (mavlink/mavlink message_definitions/v1.0: common.xml, minimal.xml for HEARTBEAT, standard.xml
 // for GLOBAL_POSITION_INT in recent trees, ardupilotmega.xml for VISION_POSITION_DELTA).
@@ -186,6 +186,53 @@ struct DistanceSensor {
     io(m.time_boot_ms), io(m.min_distance), io(m.max_distance), io(m.current_distance),
         io(m.type), io(m.id), io(m.orientation), io(m.covariance);
     io(m.horizontal_fov), io(m.vertical_fov), io(m.quaternion), io(m.signal_quality);
+  }
+};
+
+/// GPS_INPUT_IGNORE_FLAGS (common.xml): a set bit tells the receiver to ignore the field(s).
+enum GpsInputIgnoreFlag : uint16_t {
+  kGpsInputIgnoreAlt = 1,
+  kGpsInputIgnoreHdop = 2,
+  kGpsInputIgnoreVdop = 4,
+  kGpsInputIgnoreVelHoriz = 8,             ///< vn and ve
+  kGpsInputIgnoreVelVert = 16,             ///< vd
+  kGpsInputIgnoreSpeedAccuracy = 32,
+  kGpsInputIgnoreHorizontalAccuracy = 64,
+  kGpsInputIgnoreVerticalAccuracy = 128,
+};
+/// GPS_FIX_TYPE (common.xml) values used.
+constexpr uint8_t kGpsFixTypeNoFix = 1;  ///< GPS_FIX_TYPE_NO_FIX
+constexpr uint8_t kGpsFixType3d = 3;     ///< GPS_FIX_TYPE_3D_FIX
+
+/// GPS_INPUT (#232, common.xml): a position to be used as a GPS receiver's, with its extension
+/// yaw. Wire order: the 8-byte field, the 4-byte ones, the 2-byte ones, the 1-byte ones, each
+/// group in XML order, then yaw.
+struct GpsInput {
+  static constexpr uint32_t kId = 232;
+  static constexpr uint8_t kCrcExtra = 151;
+  static constexpr uint8_t kMinLength = 63, kLength = 65;
+  uint64_t time_usec = 0;     ///< us, Unix epoch or since boot (not read by ArduPilot)
+  uint32_t time_week_ms = 0;  ///< ms since the start of the GPS week (GPS time)
+  int32_t lat = 0, lon = 0;   ///< degE7, WGS84
+  float alt = 0;              ///< m, above mean sea level
+  float hdop = 0, vdop = 0;   ///< dilution of precision, no unit
+  float vn = 0, ve = 0, vd = 0;  ///< m/s, NED
+  float speed_accuracy = 0;   ///< m/s
+  float horiz_accuracy = 0;   ///< m
+  float vert_accuracy = 0;    ///< m
+  uint16_t ignore_flags = 0;  ///< GpsInputIgnoreFlag bits
+  uint16_t time_week = 0;     ///< GPS week number
+  uint8_t gps_id = 0;         ///< the receiving GPS instance (0 = the first)
+  uint8_t fix_type = 0;       ///< GPS_FIX_TYPE: 0-1 no fix, 2 2D, 3 3D
+  uint8_t satellites_visible = 0;
+  uint16_t yaw = 0;           ///< cdeg from north, clockwise; 0 = unknown, 36000 = north
+  template <class IO, class M>
+  static void Fields(IO& io, M& m) {
+    io(m.time_usec), io(m.time_week_ms), io(m.lat), io(m.lon), io(m.alt), io(m.hdop),
+        io(m.vdop), io(m.vn), io(m.ve), io(m.vd), io(m.speed_accuracy), io(m.horiz_accuracy),
+        io(m.vert_accuracy), io(m.ignore_flags), io(m.time_week), io(m.gps_id), io(m.fix_type),
+        io(m.satellites_visible);
+    io(m.yaw);  // extension
   }
 };
 

@@ -47,6 +47,12 @@ constexpr const char* kDistanceSensor =
       "fd0e000009010184000060ea00001400a00fbb1f000119ff7458";
 constexpr const char* kGlobalPositionInt =
       "fd1c00000a010121000048ee00004c52401c44f41705407207007a39010088ff2300000078697926";
+constexpr const char* kGpsInput =
+      "fd4100000c01c5e8000040a2930215450600cbb69914c25ff51907f43e04008036430000803f000000000000"
+      "98400000a0bf000000000000003e0000c03f0000000094005b0900030aa08c37de";
+constexpr const char* kGpsInputNoFix =
+      "fd3e00000d01c5e80000050000000000000000000000404e08ec002eb69400000000e1fac742e1fac7420000"
+      "00000000000000000000000000000000000000000000ff0000000001e6da";
 constexpr const char* kAttitude =
       "fd1000000b01011e000030f200000000803d000000bd0000c03f08f0";
 
@@ -171,6 +177,51 @@ TEST(MavlinkEncode, TimesyncAnswer) {
   t.target_system = 255;
   t.target_component = 190;
   EXPECT_EQ(Hex(Encode(t, 3, 1, 197)), golden::kTimesync);
+}
+
+TEST(MavlinkEncode, GpsInputWithYaw) {
+  GpsInput g;
+  g.time_usec = 1764806400123456ull;
+  g.ignore_flags = kGpsInputIgnoreVdop | kGpsInputIgnoreVelVert | kGpsInputIgnoreVerticalAccuracy;
+  g.time_week_ms = 345618123;
+  g.time_week = 2395;
+  g.fix_type = kGpsFixType3d;
+  g.lat = 435511234;
+  g.lon = 71234567;
+  g.alt = 182.5f;
+  g.hdop = 1.0f;
+  g.vn = 4.75f;
+  g.ve = -1.25f;
+  g.speed_accuracy = 0.125f;
+  g.horiz_accuracy = 1.5f;
+  g.satellites_visible = 10;
+  g.yaw = 36000;
+  EXPECT_EQ(Hex(Encode(g, 12, 1, 197)), golden::kGpsInput);
+  const auto back = Decode<GpsInput>(ParseOne(Bytes(golden::kGpsInput)));
+  ASSERT_TRUE(back);
+  EXPECT_EQ(back->lat, 435511234);
+  EXPECT_EQ(back->time_week, 2395);
+  EXPECT_EQ(back->yaw, 36000);
+  EXPECT_EQ(back->satellites_visible, 10);
+}
+
+TEST(MavlinkEncode, GpsInputNoFixTruncated) {
+  // yaw 0 (unknown) and satellites_visible 0 at the end: both cut from the payload (62 bytes).
+  GpsInput g;
+  g.time_usec = 5;
+  g.ignore_flags = 255;
+  g.fix_type = kGpsFixTypeNoFix;
+  g.lat = -335000000;
+  g.lon = -1800000000;
+  g.hdop = g.vdop = 99.99f;
+  const auto bytes = Encode(g, 13, 1, 197);
+  EXPECT_EQ(Hex(bytes), golden::kGpsInputNoFix);
+  EXPECT_EQ(bytes[1], 62);
+  const auto back = Decode<GpsInput>(ParseOne(bytes));
+  ASSERT_TRUE(back);
+  EXPECT_EQ(back->fix_type, kGpsFixTypeNoFix);
+  EXPECT_EQ(back->lon, -1800000000);
+  EXPECT_EQ(back->yaw, 0);
 }
 
 TEST(MavlinkDecode, WhatTheAutopilotSends) {

@@ -19,7 +19,7 @@ const MessageInfo* FindMessageInfo(uint32_t msgid) {
   static const MessageInfo kKnown[] = {
       Info<Heartbeat>(),     Info<Attitude>(),       Info<GlobalPositionInt>(),
       Info<VisionPositionEstimate>(), Info<Timesync>(), Info<DistanceSensor>(),
-      Info<Odometry>(),      Info<VisionPositionDelta>(),
+      Info<GpsInput>(),      Info<Odometry>(),       Info<VisionPositionDelta>(),
   };
   for (const MessageInfo& m : kKnown) {
     if (m.id == msgid) return &m;

@@ -25,6 +25,7 @@
 #include "aerovo/core/timer.h"
 #include "aerovo/frames/frame_source.h"
 #include "aerovo/telemetry/telemetry.h"
+#include "aerovo/mavlink/gps_input.h"
 #include "aerovo/mavlink/link.h"
 #include "aerovo/odometry/flight_graph.h"
 #include "aerovo/odometry/georef.h"
@@ -99,6 +100,10 @@ struct FrameState {
   /// The lens estimate was applied at this frame (pipeline/lens_switch.h): its position may
   /// jump from the frames before (frames.csv status "+lens", MAVLink reset_counter + 1).
   bool lens_switched = false;
+  /// An absolute position of this frame with its accuracy found by another stage (a fix against
+  /// a map): the MAVLink sink sends it as GPS_INPUT (RunConfig::mavlink_gps_input) instead of
+  /// the geo-referenced odometry pose. Unset: the odometry pose is sent.
+  std::optional<mavlink::GeoFix> absolute_fix;
 
   /// Back to an empty state, keeping `frame`'s pixel buffer for the next decoding.
   void Clear();

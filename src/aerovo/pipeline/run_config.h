@@ -236,6 +236,22 @@ struct RunConfig {
   /// and at the end). Empty (default): the key file's name with ".timestamp" appended; "none":
   /// not kept (each run starts from the clock).
   std::string mavlink_key_timestamp;
+  /// Also send each frame's geo-referenced position as GPS_INPUT (#232), for ArduPilot to take
+  /// as a GPS receiver (GPS1_TYPE 14; mavlink/gps_input.h, docs/autopilot.md "GPS_INPUT"), beside
+  /// the vision message. Default false.
+  bool mavlink_gps_input = false;
+  /// GPS_INPUT: a 3D fix only while the position's standard deviation (its horiz_accuracy) is
+  /// at most this, m; else "no fix", which ArduPilot does not use. Default 10 m: twice EKF3's
+  /// 5 m alignment limit, a position still worth more than dead reckoning.
+  double mavlink_gps_input_max_sigma_m = 10.0;
+  /// GPS_INPUT: the odometry's drift as a fraction of the distance flown from the first frame
+  /// (the track the geo-reference anchors), added to the position's standard deviation (the
+  /// step model alone does not see drift). Default 0.01 (1 %: aerovo's end-point errors on real flights are 0.4-1 % of the
+  /// distance, BENCHMARKS.md).
+  double mavlink_gps_input_drift = 0.01;
+  /// GPS_INPUT.gps_id: the ArduPilot GPS instance that takes it, 0 = the first (GPS1_TYPE 14);
+  /// 1 with a real receiver as the first and aerovo as the second (GPS2_TYPE 14).
+  int mavlink_gps_input_id = 0;
   /// The pose stream: one JSON object per frame (pipeline/run_steps.h, "The pose stream") written
   /// to this file as soon as the frame is done, flushed; "-" = stdout, and then `aerovo run`
   /// writes nothing else there (configuration, progress, warnings, summary: stderr). Empty
@@ -373,6 +389,10 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.mavlink_wait_s, "mavlink_wait_s", "udpin/serial: wait this long for the autopilot's first height, s", AtLeast(0).Finite());
   v.Field(c.mavlink_key, "mavlink_key", "MAVLink 2 signing key file (64 hex digits, mode 600): sign what is sent, use only packets signed with it (docs/autopilot.md)", Any());
   v.Field(c.mavlink_key_timestamp, "mavlink_key_timestamp", "File the signing timestamp is kept in across runs ('' = the key file + .timestamp, 'none' = not kept)", Any());
+  v.Field(c.mavlink_gps_input, "mavlink_gps_input", "Also send each geo-referenced frame's position as GPS_INPUT (#232) for ArduPilot's GPS1_TYPE 14 (docs/autopilot.md)", Any().Switch());
+  v.Field(c.mavlink_gps_input_max_sigma_m, "mavlink_gps_input_max_sigma_m", "GPS_INPUT: 3D fix only while the position's standard deviation is at most this, m", GreaterThan(0).Finite());
+  v.Field(c.mavlink_gps_input_drift, "mavlink_gps_input_drift", "GPS_INPUT: odometry drift as a fraction of the distance flown from the first frame, added to the position's standard deviation", Interval(0, 1));
+  v.Field(c.mavlink_gps_input_id, "mavlink_gps_input_id", "GPS_INPUT: gps_id, the autopilot's GPS instance that takes it (0 = the first)", Interval(0, 255));
   v.Field(c.poses_jsonl, "poses_jsonl", "Pose stream: one JSON object per frame, written as it is done ('-' = stdout, then everything else goes to stderr)", Any());
   v.Field(c.frame_queue, "frame_queue", "Frames decoded ahead on a reader thread (0 = none); a live source keeps only the newest, dropping older ones", AtLeast(0));
   v.Field(c.telemetry_offset_s, "telemetry_offset_s", "Telemetry time at video time 0, s (shifts every fix)", Interval(-1e6, 1e6));

@@ -491,7 +491,10 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
   CountWritten(loop, end, &summary);
   if (mavlink::AutopilotLink* link = loop.link()) {
     link->SaveSigningTimestamp();  // the timestamp of the run's last packet, before the stats
+    // The link's counts, beside the MAVLink sink's own (GPS_INPUT's, written when the loop ended).
+    nlohmann::json sink_counts = std::move(summary.mavlink);
     summary.mavlink = LinkStats(*link, config);
+    if (sink_counts.is_object()) summary.mavlink.update(sink_counts);
   }
 
   // The telemetry's clock against the frames': its span, and the offset seen in the motion.

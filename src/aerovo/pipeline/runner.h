@@ -140,7 +140,9 @@ struct RunSummary {
   /// --mavlink: the link's counts (url, sent, send_failed, heartbeats, timesync_answers,
   /// distance_samples, relative_alt_samples, attitude_samples, autopilot_heartbeats,
   /// crc_errors, and of --mavlink-key: signing, signed_accepted, rejected_unsigned,
-  /// rejected_bad_signature, rejected_replayed); null without.
+  /// rejected_bad_signature, rejected_replayed), and with --mavlink-gps-input "gps_input": sent,
+  /// with_fix, without_fix, send_failed, max_sigma_m, largest_sigma_m (sink_mavlink.cc); null
+  /// without.
   nlohmann::json mavlink;
   std::string heading_source;  ///< GeoReferencer::heading_source_used(), "" if none.
   /// Origin of the run's ENU frame (x_m/y_m of frames.csv once geo-referenced, vo.tum, gps.tum,

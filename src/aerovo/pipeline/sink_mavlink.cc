@@ -1,11 +1,18 @@
 // The MAVLink sink (--mavlink): each frame's vision message (RunConfig::mavlink_message) as
 // soon as its pose is known, stamped with the frame's own capture time (FrameState::
 // frame_mono_s, on the clock of RunConfig::mavlink_time), with the pose stream's quality and
-// the autopilot's attitude when the link gives one.
+// the autopilot's attitude when the link gives one; with RunConfig::mavlink_gps_input also the
+// frame's absolute position as GPS_INPUT (mavlink/gps_input.h): the frame's absolute fix when a
+// stage found one (FrameState::absolute_fix), else its geo-referenced odometry pose.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <optional>
 
+#include <Eigen/Core>
+
+#include "aerovo/mavlink/gps_input.h"
 #include "aerovo/mavlink/vision.h"
 #include "aerovo/pipeline/frame_loop.h"
 #include "aerovo/pipeline/pose_quality.h"
@@ -27,11 +34,103 @@ mavlink::VisionPose::Status StatusOf(FrameStatus s) {
   return mavlink::VisionPose::Status::kBridged;
 }
 
+// GPS_INPUT of the odometry poses: each frame's geo-referenced position (the one frames.csv
+// gets: GeoReferencer::Wgs84FromLocal), its velocity from the previous frame's over the frames'
+// own time difference, its accuracy from the vision messages' covariance model plus the drift.
+class GpsInputOfPoses {
+ public:
+  /// The GeoFix of frame `f` whose vision messages are `m`; nullopt until the track is
+  /// geo-referenced (the heading still unknown).
+  std::optional<mavlink::GeoFix> Of(const FrameState& f, const RunContext& run,
+                                    const mavlink::VisionMessages& m) {
+    const GeoReferencer& georef = run.state->georef;
+    const Eigen::Vector2d local = f.result.position_m;
+    std::optional<Eigen::Vector2d> previous = previous_local_;
+    const double previous_time_s = previous_time_s_;
+    previous_local_ = local;
+    previous_time_s_ = f.frame_mono_s;
+    // The distance flown from the first frame, whose track the geo-reference anchors (metres:
+    // the local frame is metric, the geo-reference only turns and moves it).
+    if (previous && !f.lens_switched) distance_m_ += (local - *previous).norm();
+    if (!georef.ready()) return std::nullopt;
+    const RunConfig& config = *run.config;
+    mavlink::GeoFix fix;
+    fix.unix_time_s = f.frame_unix_s;
+    fix.time_usec = static_cast<uint64_t>(std::llround(
+        (config.mavlink_time == mavlink::TimestampClock::kUnix ? f.frame_unix_s : f.frame_mono_s) *
+        1e6));
+    const GeoPoint g = georef.Wgs84FromLocal(local);
+    fix.lat_deg = g.lat_deg;
+    fix.lon_deg = g.lon_deg;
+    // The ENU origin's altitude (the first accepted fix's) plus the height gained since the
+    // first geo-referenced frame: the height aerovo was given, not measured (vert fields ignored).
+    if (!first_height_m_) first_height_m_ = f.height_m;
+    fix.alt_msl_m = g.alt_m + (f.height_m - *first_height_m_);
+    const double dt = f.frame_mono_s - previous_time_s;
+    // Not across the lens switch: the track was re-made there, the step is no motion.
+    if (previous && dt > 0.0 && !f.lens_switched) {
+      const Eigen::Vector2d v = (georef.EnuFromLocal(local) - georef.EnuFromLocal(*previous)) / dt;
+      fix.vel_east_mps = v.x();
+      fix.vel_north_mps = v.y();
+      // ODOMETRY's velocity variance (vx, the same for every axis; NaN at the first frame).
+      fix.sigma_velocity_mps = std::sqrt(std::max(0.0, double(m.odometry.velocity_covariance[0])));
+    }
+    // The step model's position variance (ODOMETRY pose_covariance[0], per axis), the online
+    // window's own when it has one, and the drift over the distance flown from the first frame.
+    double var = std::max(0.0, double(m.odometry.pose_covariance[0]));
+    if (std::isfinite(f.output.sigma_xy_m)) var += f.output.sigma_xy_m * f.output.sigma_xy_m;
+    var += std::pow(config.mavlink_gps_input_drift * distance_m_, 2);
+    fix.sigma_horizontal_m = std::sqrt(var);
+    // The image's up (the nose, camera mounted nose-up as for ODOMETRY) clockwise from north:
+    // minus the image x axis' angle counter-clockwise from east (the pose stream's yaw_enu_deg).
+    fix.yaw_deg = -(f.result.heading_rad + georef.rotation_rad()) * 180.0 / M_PI;
+    return fix;
+  }
+
+ private:
+  std::optional<Eigen::Vector2d> previous_local_;
+  double previous_time_s_ = 0.0;
+  std::optional<double> first_height_m_;
+  double distance_m_ = 0.0;
+};
+
 class MavlinkSink : public FrameSink {
  public:
   const char* name() const override { return "mavlink"; }
 
   void Write(FrameState& f, const RunContext& run) override {
+    const mavlink::VisionMessages m = vision_.Add(PoseOf(f, run));
+    switch (run.config->mavlink_message) {
+      case mavlink::VisionMessageKind::kOdometry:
+        run.link->Send(m.odometry);
+        break;
+      case mavlink::VisionMessageKind::kVisionPositionEstimate:
+        run.link->Send(m.position_estimate);
+        break;
+      case mavlink::VisionMessageKind::kVisionPositionDelta:
+        run.link->Send(m.position_delta);
+        break;
+    }
+    if (!run.config->mavlink_gps_input) return;
+    const std::optional<mavlink::GeoFix> pose_fix = gps_.Of(f, run, m);
+    const std::optional<mavlink::GeoFix>& fix = f.absolute_fix ? f.absolute_fix : pose_fix;
+    if (fix) SendGpsInput(*fix, run);
+  }
+
+  void End(const LoopEnd& end, const RunContext* run) override {
+    (void)end;
+    if (run == nullptr || !run->config->mavlink_gps_input) return;
+    run->summary->mavlink["gps_input"] = {{"sent", sent_},
+                                          {"with_fix", with_fix_},
+                                          {"without_fix", sent_ - with_fix_},
+                                          {"send_failed", send_failed_},
+                                          {"max_sigma_m", run->config->mavlink_gps_input_max_sigma_m},
+                                          {"largest_sigma_m", largest_sigma_m_}};
+  }
+
+ private:
+  // The frame as the vision messages need it.
+  static mavlink::VisionPose PoseOf(const FrameState& f, const RunContext& run) {
     const RunConfig& config = *run.config;
     const FrameResult& r = f.result;
     mavlink::VisionPose p;
@@ -54,22 +153,25 @@ class MavlinkSink : public FrameSink {
     p.gsd_m_per_px = r.gsd_m_per_px;
     p.sigma_px = 0.5 * run.vo_options.correspondence.ransac.max_distance_px;
     p.half_width_px = 0.5 * f.frame.gray.width();
-    const mavlink::VisionMessages m = vision_.Add(p);
-    switch (config.mavlink_message) {
-      case mavlink::VisionMessageKind::kOdometry:
-        run.link->Send(m.odometry);
-        break;
-      case mavlink::VisionMessageKind::kVisionPositionEstimate:
-        run.link->Send(m.position_estimate);
-        break;
-      case mavlink::VisionMessageKind::kVisionPositionDelta:
-        run.link->Send(m.position_delta);
-        break;
-    }
+    return p;
   }
 
- private:
+  void SendGpsInput(const mavlink::GeoFix& fix, const RunContext& run) {
+    mavlink::GpsInputOptions o;
+    o.max_horizontal_sigma_m = run.config->mavlink_gps_input_max_sigma_m;
+    o.gps_id = static_cast<uint8_t>(run.config->mavlink_gps_input_id);
+    const mavlink::GpsInput g = mavlink::MakeGpsInput(fix, o);
+    if (!run.link->Send(g)) ++send_failed_;
+    ++sent_;
+    if (g.fix_type == mavlink::kGpsFixType3d) ++with_fix_;
+    if (std::isfinite(fix.sigma_horizontal_m))
+      largest_sigma_m_ = std::max(largest_sigma_m_, fix.sigma_horizontal_m);
+  }
+
   mavlink::VisionMessageBuilder vision_;
+  GpsInputOfPoses gps_;
+  int sent_ = 0, with_fix_ = 0, send_failed_ = 0;
+  double largest_sigma_m_ = 0.0;
 };
 
 }  // namespace

@@ -1,0 +1,201 @@
+// The MAVLink sink's GPS_INPUT (RunConfig::mavlink_gps_input), frame by frame on a loopback
+// link: nothing before the track is geo-referenced, then each frame's geographic position, its
+// velocity from the frames' own times, an accuracy that grows with the distance flown until the
+// fix is dropped, a stage's absolute fix sent instead of the pose, and summary.json's counts.
+// A synthetic straight flight north with known truth; aerovo's own decoder reads the packets
+// (its bytes are checked against node-mavlink in messages_test.cc and tests/mavlink/).
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "aerovo/mavlink/gps_input.h"
+#include "aerovo/mavlink/transport.h"
+#include "aerovo/pipeline/frame_loop.h"
+
+namespace aerovo::run_steps {
+namespace {
+
+// A loopback UDP socket that aerovo's link (udp:127.0.0.1:PORT) sends to.
+struct Receiver {
+  Receiver() {
+    fd = socket(AF_INET, SOCK_DGRAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    EXPECT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a)), 0);
+    socklen_t len = sizeof(a);
+    getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
+    port = ntohs(a.sin_port);
+  }
+  ~Receiver() { close(fd); }
+  // The GPS_INPUTs that arrive within `wait_ms` of the last datagram.
+  std::vector<mavlink::GpsInput> Take(int wait_ms = 300) {
+    std::vector<mavlink::GpsInput> out;
+    uint8_t buf[2048];
+    pollfd p{fd, POLLIN, 0};
+    while (poll(&p, 1, wait_ms) > 0) {
+      const ssize_t n = recv(fd, buf, sizeof(buf), 0);
+      if (n <= 0) break;
+      parser.Feed(buf, static_cast<std::size_t>(n), [&](const mavlink::Packet& k) {
+        if (auto g = mavlink::Decode<mavlink::GpsInput>(k)) out.push_back(*g);
+      });
+    }
+    return out;
+  }
+  int fd = -1;
+  int port = 0;
+  mavlink::Parser parser;
+};
+
+constexpr double kUnix0 = 1764806400.0;  // 2025-12-04 00:00 UTC
+constexpr double kDt = 0.5, kStepM = 5.0;  // 10 m/s north
+
+struct SinkRun {
+  SinkRun() : state(Config()) {
+    config = Config();
+    config.mavlink = "udp:127.0.0.1:" + std::to_string(receiver.port);
+    link = std::make_unique<mavlink::AutopilotLink>(
+        mavlink::OpenTransport(mavlink::ParseLinkUrl(config.mavlink)),
+        mavlink::AutopilotLink::Options{});
+    run.config = &config;
+    run.link = link.get();
+    run.state = &state;
+    run.summary = &summary;
+    sink = MakeMavlinkSink();
+  }
+  static RunConfig Config() {
+    RunConfig c;
+    c.mavlink_gps_input = true;
+    c.mavlink_time = mavlink::TimestampClock::kUnix;
+    c.mavlink_gps_input_max_sigma_m = 0.3;
+    c.mavlink_gps_input_drift = 0.01;
+    return c;
+  }
+  // Frame k: 5 m north of frame k-1 (local +y, the image's up facing north), 0.5 s later; its
+  // GPS fix and the camera's yaw (north) to the geo-reference first, as the stages do.
+  FrameState Frame(int k) {
+    FrameState f;
+    f.frame.index = k;
+    f.result.position_m = Eigen::Vector2d(0.0, kStepM * k);
+    f.result.heading_rad = 0.0;
+    f.result.status = k == 0 ? FrameStatus::kFirst : FrameStatus::kOk;
+    f.result.n_inliers = 200;
+    f.result.gsd_m_per_px = 0.05;
+    f.frame_mono_s = 1000.0 + kDt * k;
+    f.frame_unix_s = kUnix0 + kDt * k;
+    f.height_m = 60.0;
+    const double north_deg = kStepM * k / 6378137.0 * 180.0 / M_PI;
+    state.georef.Observe(f.result.position_m, GeoPoint{45.0 + north_deg, 6.0, 500.0}, 0.0);
+    return f;
+  }
+  Receiver receiver;
+  RunConfig config;
+  RunState state;
+  RunSummary summary;
+  std::unique_ptr<mavlink::AutopilotLink> link;
+  RunContext run;
+  std::unique_ptr<FrameSink> sink;
+};
+
+TEST(MavlinkSink, GpsInputFromTheGeoReferencedPoses) {
+  SinkRun r;
+  std::vector<bool> ready;
+  for (int k = 0; k < 12; ++k) {
+    FrameState f = r.Frame(k);
+    ready.push_back(r.state.georef.ready());
+    r.sink->Write(f, r.run);
+  }
+  const std::vector<mavlink::GpsInput> got = r.receiver.Take();
+  // Nothing while the heading waits for the first fixes to agree (GpsCheckOptions::min_chain).
+  int first = 0;
+  while (first < 12 && !ready[first]) ++first;
+  ASSERT_GE(first, 1);
+  ASSERT_EQ(got.size(), static_cast<std::size_t>(12 - first));
+  double previous_hacc = -1.0;
+  int fixes = 0;
+  for (std::size_t j = 0; j < got.size(); ++j) {
+    const int k = first + static_cast<int>(j);
+    const mavlink::GpsInput& g = got[j];
+    SCOPED_TRACE("frame " + std::to_string(k));
+    const GeoPoint want = r.state.georef.Wgs84FromLocal({0.0, kStepM * k});
+    EXPECT_NEAR(g.lat, want.lat_deg * 1e7, 0.5);
+    EXPECT_NEAR(g.lon, want.lon_deg * 1e7, 0.5);
+    EXPECT_NEAR(g.alt, 500.0, 1e-3);  // the origin fix's altitude, no height gained
+    const auto t = mavlink::GpsTimeOfUnix(kUnix0 + kDt * k);
+    EXPECT_EQ(g.time_week, t->week);
+    EXPECT_EQ(g.time_week_ms, t->ms);
+    EXPECT_EQ(g.time_usec, static_cast<uint64_t>(std::llround((kUnix0 + kDt * k) * 1e6)));
+    EXPECT_EQ(g.ignore_flags & mavlink::kGpsInputIgnoreVelHoriz, 0);  // a frame before it
+    EXPECT_NEAR(g.vn, kStepM / kDt, 1e-3);
+    EXPECT_NEAR(g.ve, 0.0, 1e-3);
+    EXPECT_EQ(g.yaw, 36000);  // the nose north
+    // The accuracy: the drift (1 % of the distance from the first frame) and the model.
+    const double distance = kStepM * k;
+    EXPECT_GE(g.horiz_accuracy, 0.01 * distance - 1e-4);
+    EXPECT_LE(g.horiz_accuracy, 0.01 * distance + 0.01);
+    EXPECT_GT(g.horiz_accuracy, previous_hacc);
+    previous_hacc = g.horiz_accuracy;
+    EXPECT_EQ(g.fix_type == mavlink::kGpsFixType3d, g.horiz_accuracy <= 0.3f);
+    if (g.fix_type == mavlink::kGpsFixType3d) ++fixes;
+  }
+  EXPECT_GE(fixes, 3);
+  EXPECT_LT(fixes, static_cast<int>(got.size()));  // the drift passed the 0.3 m limit
+  r.sink->End(LoopEnd{}, &r.run);
+  const nlohmann::json& counts = r.summary.mavlink["gps_input"];
+  EXPECT_EQ(counts["sent"], got.size());
+  EXPECT_EQ(counts["with_fix"], fixes);
+  EXPECT_EQ(counts["without_fix"], static_cast<int>(got.size()) - fixes);
+}
+
+TEST(MavlinkSink, AnAbsoluteFixOfTheFrameIsSentInsteadOfThePose) {
+  SinkRun r;
+  for (int k = 0; k < 4; ++k) {
+    FrameState f = r.Frame(k);
+    r.sink->Write(f, r.run);
+  }
+  r.receiver.Take();
+  FrameState f = r.Frame(4);
+  mavlink::GeoFix fix;  // a map fix: another position, its own accuracy and time
+  fix.unix_time_s = f.frame_unix_s;
+  fix.time_usec = 42;
+  fix.lat_deg = 45.001;
+  fix.lon_deg = 6.002;
+  fix.sigma_horizontal_m = 0.2;
+  f.absolute_fix = fix;
+  r.sink->Write(f, r.run);
+  const std::vector<mavlink::GpsInput> got = r.receiver.Take();
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(got[0].lat, 450010000);
+  EXPECT_EQ(got[0].lon, 60020000);
+  EXPECT_FLOAT_EQ(got[0].horiz_accuracy, 0.2f);
+  EXPECT_EQ(got[0].fix_type, mavlink::kGpsFixType3d);
+  EXPECT_EQ(got[0].time_usec, 42u);
+  // Unknown to the fix: velocity, altitude and yaw ignored or unknown, not the pose's.
+  EXPECT_NE(got[0].ignore_flags & mavlink::kGpsInputIgnoreVelHoriz, 0);
+  EXPECT_NE(got[0].ignore_flags & mavlink::kGpsInputIgnoreAlt, 0);
+  EXPECT_EQ(got[0].yaw, 0);
+}
+
+TEST(MavlinkSink, NoGpsInputUnlessAskedFor) {
+  SinkRun r;
+  r.config.mavlink_gps_input = false;
+  for (int k = 0; k < 6; ++k) {
+    FrameState f = r.Frame(k);
+    r.sink->Write(f, r.run);
+  }
+  EXPECT_TRUE(r.receiver.Take().empty());
+  r.sink->End(LoopEnd{}, &r.run);
+  EXPECT_FALSE(r.summary.mavlink.contains("gps_input"));
+}
+
+}  // namespace
+}  // namespace aerovo::run_steps
