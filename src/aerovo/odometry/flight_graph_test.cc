@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "aerovo/core/error.h"
+#include "aerovo/sim/random.h"
 
 namespace aerovo {
 namespace {
@@ -332,6 +333,198 @@ TEST(FlightGraph, DroppedKeyframesAreNotMatchedAgain) {
   EXPECT_EQ(g.num_keyframes(), 5);  // frames 20, 24, ...
   ASSERT_FALSE(tried.empty());
   for (const auto& [a, b] : tried) EXPECT_GE(a, 20) << a << "-" << b;
+}
+
+
+// ---------------------------------------------------------------------------------------------
+// Loop closures by appearance (BackendOptions::closures) on a synthetic ground of landmarks with
+// known descriptors: every frame's features are the landmarks its true footprint sees, with a
+// little noise, so that descriptor similarity follows the true overlap whatever the causal
+// track says.
+
+// Landmarks on a 2.5 m grid (jittered up to 0.8 m) over [x0, x1] x [y0, y1] metres, each with
+// a random unit descriptor of 64 values. With period_m > 0 the ground repeats every period_m
+// along x (rows of identical roofs: perceptual aliasing).
+struct Ground {
+  std::vector<Eigen::Vector2d> points;
+  std::vector<float> descriptors;  // 64 per point
+};
+Ground MakeGround(double x0, double x1, double y0, double y1, double period_m) {
+  constexpr double kCell = 2.5;
+  const int period_cells = period_m > 0.0 ? static_cast<int>(std::lround(period_m / kCell)) : 0;
+  Ground g;
+  for (int iy = 0; iy * kCell <= y1 - y0; ++iy) {
+    for (int ix = 0; ix * kCell <= x1 - x0; ++ix) {
+      const int key_x = period_cells > 0 ? ix % period_cells : ix;
+      sim::Rng rng(sim::SubSeed(11, static_cast<std::uint64_t>(iy) * 100003u +
+                                        static_cast<std::uint64_t>(key_x)));
+      g.points.emplace_back(x0 + kCell * ix + rng.Uniform(-0.8, 0.8),
+                            y0 + kCell * iy + rng.Uniform(-0.8, 0.8));
+      double n2 = 0.0;
+      const std::size_t at = g.descriptors.size();
+      for (int k = 0; k < 64; ++k) {
+        const double v = rng.Normal();
+        g.descriptors.push_back(static_cast<float>(v));
+        n2 += v * v;
+      }
+      for (int k = 0; k < 64; ++k) g.descriptors[at + k] /= static_cast<float>(std::sqrt(n2));
+    }
+  }
+  return g;
+}
+
+// The features frame `index` at the true pose `truth` sees: each landmark in the frame, at its
+// pixel (0.3 px noise), its descriptor with noise 0.02 per value, re-normalised.
+std::shared_ptr<const FeatureSet> FeaturesSeen(const Ground& g, const Similarity2& truth,
+                                               int index) {
+  auto f = std::make_shared<FeatureSet>();
+  sim::Rng rng(sim::SubSeed(23, static_cast<std::uint64_t>(index)));
+  const Similarity2 frame_from_local = truth.Inverse();
+  for (std::size_t i = 0; i < g.points.size(); ++i) {
+    const Eigen::Vector2d q = frame_from_local.Apply(g.points[i]);
+    Keypoint k;
+    k.x = static_cast<float>(kCentre.x() + q.x() / kGsd + 0.3 * rng.Normal());
+    k.y = static_cast<float>(kCentre.y() - q.y() / kGsd + 0.3 * rng.Normal());
+    if (k.x < 0.f || k.y < 0.f || k.x > kWidth - 1 || k.y > kHeight - 1) continue;
+    k.scale = 2.f;
+    k.response = 1.f;
+    k.laplacian = 1;
+    f->keypoints.push_back(k);
+    double n2 = 0.0;
+    const std::size_t at = f->descriptors.size();
+    for (int d = 0; d < 64; ++d) {
+      const double v = g.descriptors[i * 64 + d] + 0.02 * rng.Normal();
+      f->descriptors.push_back(static_cast<float>(v));
+      n2 += v * v;
+    }
+    for (int d = 0; d < 64; ++d) f->descriptors[at + d] /= static_cast<float>(std::sqrt(n2));
+  }
+  return f;
+}
+
+// The flight over `g` through the true poses `truth`, whose causal track (the odometry's) is
+// `causal`: each frame's step measures the causal step, its features those of the true pose.
+Flight FlightOver(const Ground& g, std::vector<Similarity2> truth,
+                  const std::vector<Similarity2>& causal) {
+  Flight f;
+  f.truth = std::move(truth);
+  for (std::size_t i = 0; i < f.truth.size(); ++i) {
+    FrameResult r;
+    r.index = static_cast<int>(i);
+    r.gsd_m_per_px = kGsd;
+    r.features = FeaturesSeen(g, f.truth[i], r.index);
+    if (i > 0) {
+      r.status = FrameStatus::kOk;
+      r.reference_index = r.index - 1;
+      r.curr_from_prev = CurrFromPrevPx(backend::Between(causal[i - 1], causal[i]));
+      r.step_inliers_curr_px = SpreadPoints();
+    }
+    r.position_m = causal[i].translation_m;
+    r.heading_rad = causal[i].heading_rad;
+    f.results.push_back(r);
+  }
+  return f;
+}
+
+// A square loop of 4 x 88 steps of 4 m (352 m sides, 1408 m), the image up along the track,
+// back over the first frame; the causal track drifts by (-0.1, 0.1) m per step (50 m at the
+// end, 3.5 % of the path: more than the footprint search radius, within the gate).
+Flight MakeDriftingLoop(const Ground& g) {
+  constexpr int kSide = 88;
+  std::vector<Similarity2> truth, causal;
+  for (int k = 0; k <= 4 * kSide; ++k) {
+    const int side = (k / kSide) % 4, s = k % kSide;
+    const double d = 4.0 * s, l = 4.0 * kSide;
+    const Eigen::Vector2d p = side == 0   ? Eigen::Vector2d(d, 0.0)
+                              : side == 1 ? Eigen::Vector2d(l, d)
+                              : side == 2 ? Eigen::Vector2d(l - d, l)
+                                          : Eigen::Vector2d(0.0, l - d);
+    truth.push_back({p, side * M_PI / 2 - M_PI / 2, 0.0});
+    causal.push_back({p + 0.1 * k * Eigen::Vector2d(-1.0, 1.0), truth.back().heading_rad, 0.0});
+  }
+  return FlightOver(g, truth, causal);
+}
+
+// A fitter that returns the true transform of every pair (frames known by their features).
+PairFitter TrueFitterOf(const Flight& f) {
+  std::map<const FeatureSet*, int> frame;
+  for (const FrameResult& r : f.results) frame[r.features.get()] = r.index;
+  return [&f, frame](const FeatureSet& prev, const FeatureSet& curr, std::uint64_t,
+                     const std::optional<Eigen::Matrix3d>&) -> std::optional<PairFit> {
+    const Similarity2 z = backend::Between(f.truth[static_cast<std::size_t>(frame.at(&prev))],
+                                           f.truth[static_cast<std::size_t>(frame.at(&curr))]);
+    return PairFit{CurrFromPrevPx(z), SpreadPoints()};
+  };
+}
+
+// The pairs (frames) FlightGraph::Optimize tries, in order, on a flight over a Ground.
+std::vector<std::pair<int, int>> TriedFramePairs(const Flight& f, const FlightGraph& g) {
+  std::map<const FeatureSet*, int> frame;
+  for (const FrameResult& r : f.results) frame[r.features.get()] = r.index;
+  std::vector<std::pair<int, int>> tried;
+  g.Optimize(
+      [&](const FeatureSet& a, const FeatureSet& b, std::uint64_t,
+          const std::optional<Eigen::Matrix3d>&) -> std::optional<PairFit> {
+        tried.emplace_back(frame.at(&a), frame.at(&b));
+        return std::nullopt;
+      },
+      1);
+  return tried;
+}
+
+std::vector<Similarity2> CausalOf(const Flight& f) {
+  std::vector<Similarity2> causal;
+  for (const FrameResult& r : f.results) causal.push_back({r.position_m, r.heading_rad, 0.0});
+  return causal;
+}
+
+TEST(LoopClosures, AppearanceFindsTheRevisitTheDriftedFootprintsMiss) {
+  const Ground ground = MakeGround(-40.0, 392.0, -40.0, 392.0, 0.0);
+  const Flight f = MakeDriftingLoop(ground);
+  const PairFitter fitter = TrueFitterOf(f);
+  BackendOptions o;
+  const FlightGraph plain = Build(f, o);
+  // The footprint search alone pairs nothing across the loop's start and end.
+  for (const auto& [a, b] : TriedFramePairs(f, plain)) {
+    EXPECT_FALSE(a < 44 && b > 308) << a << "-" << b << " is a footprint pair";
+  }
+  const OptimizedFlight without = plain.Optimize(fitter, 1);
+  o.closures = true;
+  const OptimizedFlight with = Build(f, o).Optimize(fitter, 1);
+  EXPECT_EQ(without.closures_tried, 0);
+  EXPECT_GE(with.closures_verified, 3);
+  EXPECT_EQ(with.closures_gated, 0);
+  int across = 0;
+  for (const TriedPair& p : with.pairs) {
+    across += p.by_appearance && p.verdict == PairVerdict::kAdded && p.a < 44 && p.b > 308;
+  }
+  EXPECT_GE(across, 2) << "no closure across the loop's start and end";
+  const double causal_end = EndError(f, CausalOf(f));
+  const double before = EndError(f, without.local_from_frame);
+  const double after = EndError(f, with.local_from_frame);
+  EXPECT_GT(causal_end, 45.0);
+  // The footprint pairs along the sides and at the corners halve the end error at best.
+  EXPECT_GT(before, 20.0);
+  EXPECT_LT(after, 0.01 * before) << before << " m -> " << after << " m";
+  EXPECT_LT(RmsError(f, with.local_from_frame), 0.2 * RmsError(f, without.local_from_frame));
+  RecordProperty("end_error_m", std::to_string(before) + " -> " + std::to_string(after));
+
+  // Online: the closure reaches far behind the window; the whole graph is re-optimised.
+  o.online = true;
+  FlightGraph g(o, kWidth, kHeight);
+  WindowedPose last;
+  int full_solves = 0, verified = 0;
+  for (const FrameResult& r : f.results) {
+    last = g.AddOnline(r, fitter, 1);
+    full_solves += last.full_solve;
+    verified += last.closures_verified;
+  }
+  EXPECT_GE(verified, 1);
+  EXPECT_GE(full_solves, 1);
+  const double live_end = (last.local_from_frame.translation_m - f.truth.back().translation_m).norm();
+  EXPECT_LT(live_end, 0.1 * causal_end) << causal_end << " m -> " << live_end << " m";
+  EXPECT_LT(RmsError(f, g.graph().estimates()), 0.1 * RmsError(f, CausalOf(f)));
+  RecordProperty("online_end_error_m", std::to_string(causal_end) + " -> " + std::to_string(live_end));
 }
 
 TEST(FlightGraph, BadOptionsAndFramesAreClearErrors) {
