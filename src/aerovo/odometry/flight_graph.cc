@@ -443,6 +443,12 @@ OptimizedFlight FlightGraph::Optimize(const PairFitter& fitter, std::uint64_t ru
   std::vector<std::pair<int, int>> tried;  // keyframe indices, as tried
   for (int i = 0; i < num_keyframes(); ++i) {
     for (const int j : CandidatesOf(i)) {
+      const std::pair<int, int> frames(keyframes_[static_cast<std::size_t>(i)].frame,
+                                       keyframes_[static_cast<std::size_t>(j)].frame);
+      if (std::find(online_closures_.begin(), online_closures_.end(), frames) !=
+          online_closures_.end()) {
+        continue;  // already a factor of the graph (an online closure)
+      }
       tried.emplace_back(i, j);
       ++out.pairs_tried;
       backend::RelativeFactor f;
