@@ -38,6 +38,10 @@ constexpr double kBridgedHeadingSigmaRad = 0.3;
 // The gate's floor, fraction of the footprint side; and the largest log-scale disagreement.
 constexpr double kGateFloorFraction = 0.1;
 constexpr double kGateLogScale = 0.2;
+// The closures' chi-square gate (JudgeClosure): 3 degrees of freedom at 0.999, and its square
+// root, the linear gate's bound in standard deviations of the drift model.
+constexpr double kClosureGateChi2 = 16.27;
+constexpr double kClosureGateSigmas = 4.034;
 // Random projections per descriptor word of the keyframe signatures (place_signature.h): 2^16
 // words, so that two unrelated frames of ~1000 points share few words by chance (about
 // 1000^2 / 2^16 = 15 of 1000) while a ground point seen twice keeps its word about half the time.
@@ -150,6 +154,27 @@ PairVerdict JudgePair(const BackendOptions& o, const Similarity2& fit, const Sim
   return PairVerdict::kAdded;
 }
 
+PairVerdict JudgeClosure(const BackendOptions& o, const Similarity2& fit,
+                         const Similarity2& predicted, int n_inliers, double spread,
+                         const Eigen::Matrix3d& chain_cov, const Eigen::Matrix3d& fit_cov,
+                         double path_m, double side_m) {
+  if (n_inliers < o.min_inliers) return PairVerdict::kTooFewInliers;
+  if (spread < o.min_spread) return PairVerdict::kTooLittleSpread;
+  const double st = (o.gate * path_m + kGateFloorFraction * side_m) / kClosureGateSigmas;
+  const double sh = o.gate_heading_deg * M_PI / 180.0 / kClosureGateSigmas;
+  Eigen::Matrix3d cov = chain_cov + fit_cov;
+  cov.diagonal() += Eigen::Vector3d(st * st, st * st, sh * sh);
+  Eigen::Vector3d e;
+  e << fit.translation_m - predicted.translation_m,
+      backend::WrapAngleRad(fit.heading_rad - predicted.heading_rad);
+  const double d2 = e.dot(cov.ldlt().solve(e));
+  if (!(d2 <= kClosureGateChi2) ||
+      !(std::abs(fit.log_scale - predicted.log_scale) <= kGateLogScale)) {
+    return PairVerdict::kGate;
+  }
+  return PairVerdict::kAdded;
+}
+
 FlightGraph::FlightGraph(const BackendOptions& options, int width, int height,
                          std::uint64_t seed)
     : options_(options), width_(width), height_(height), seed_(seed) {
@@ -206,9 +231,10 @@ void FlightGraph::Add(const FrameResult& r) {
     graph_.AddPose(options_.online ? graph_.estimates().back() *
                                          backend::Between(poses_.back(), pose)
                                    : pose);
-    graph_.AddRelative(f);
+    step_factor_.push_back(graph_.AddRelative(f));
   } else {
     graph_.AddPose(pose);
+    step_factor_.push_back(-1);
   }
   poses_.push_back(pose);
   gsd_.push_back(r.gsd_m_per_px);
@@ -277,9 +303,32 @@ std::vector<int> FlightGraph::CandidatesOf(int i) const {
   return out;
 }
 
+Eigen::Matrix3d FlightGraph::ChainCovariance(int a, int b) const {
+  std::vector<Eigen::Matrix3d> cov(static_cast<std::size_t>(b - a + 1), Eigen::Matrix3d::Zero());
+  const Similarity2 a_from_local = poses_[static_cast<std::size_t>(a)].Inverse();
+  for (int k = a + 1; k <= b; ++k) {
+    const backend::RelativeFactor& f =
+        graph_.relative_factors()[static_cast<std::size_t>(step_factor_[static_cast<std::size_t>(k)])];
+    const Eigen::Matrix3d q =
+        f.information.ldlt().solve(Eigen::Matrix4d::Identity()).topLeftCorner<3, 3>();
+    // The step's start in frame a's coordinates (a_from_prev), and its translation there.
+    const int p = std::max(f.prev, a);
+    const Similarity2 a_from_prev = a_from_local * poses_[static_cast<std::size_t>(p)];
+    const Eigen::Vector2d d = a_from_prev.Linear() * f.prev_from_curr.translation_m;
+    Eigen::Matrix3d j1 = Eigen::Matrix3d::Identity(), j2 = Eigen::Matrix3d::Identity();
+    j1(0, 2) = -d.y();
+    j1(1, 2) = d.x();
+    j2.topLeftCorner<2, 2>() = a_from_prev.Linear();
+    const Eigen::Matrix3d& before = cov[static_cast<std::size_t>(p - a)];
+    cov[static_cast<std::size_t>(k - a)] = j1 * before * j1.transpose() + j2 * q * j2.transpose();
+  }
+  return cov.back();
+}
+
 PairVerdict FlightGraph::TryPair(const Keyframe& a, const Keyframe& b, const PairFitter& fitter,
                                  std::uint64_t run_seed, bool guided,
-                                 backend::RelativeFactor* f, TriedPair* record) const {
+                                 backend::RelativeFactor* f, TriedPair* record,
+                                 bool closure) const {
   record->a = a.frame;
   record->b = b.frame;
   record->predicted = backend::Between(poses_[static_cast<std::size_t>(a.frame)],
@@ -298,12 +347,19 @@ PairVerdict FlightGraph::TryPair(const Keyframe& a, const Keyframe& b, const Pai
         backend::PrevFromCurrOfPixelStep(fit->curr_from_prev_px, centre, a.gsd, b.gsd);
     record->fit = f->prev_from_curr;
     record->spread = SpreadOf(fit->inliers_curr_px, width_, height_);
-    const PairVerdict verdict =
-        JudgePair(options_, f->prev_from_curr, record->predicted,
-                  static_cast<int>(fit->inliers_curr_px.cols()), record->spread,
-                  b.path_m - a.path_m, std::min(a.gsd, b.gsd) * std::min(width_, height_));
-    if (verdict != PairVerdict::kAdded) return verdict;
+    const int n = static_cast<int>(fit->inliers_curr_px.cols());
+    const double path_m = b.path_m - a.path_m;
+    const double side_m = std::min(a.gsd, b.gsd) * std::min(width_, height_);
     f->information = FitInformation(fit->inliers_curr_px, f->prev_from_curr, centre, a.gsd, b.gsd);
+    const PairVerdict verdict =
+        closure ? JudgeClosure(options_, f->prev_from_curr, record->predicted, n, record->spread,
+                               ChainCovariance(a.frame, b.frame),
+                               f->information.ldlt().solve(Eigen::Matrix4d::Identity())
+                                   .topLeftCorner<3, 3>(),
+                               path_m, side_m)
+                : JudgePair(options_, f->prev_from_curr, record->predicted, n, record->spread,
+                            path_m, side_m);
+    if (verdict != PairVerdict::kAdded) return verdict;
     f->prev_from_curr.log_scale = 0.0;
     return verdict;
   } catch (const InvalidArgument&) {  // a singular or degenerate fit
@@ -346,7 +402,7 @@ bool FlightGraph::MatchClosures(const PairFitter& fitter, std::uint64_t run_seed
     ++out->closures_tried;
     backend::RelativeFactor f;
     TriedPair record;
-    const PairVerdict verdict = TryPair(kf, cur, fitter, run_seed, false, &f, &record);
+    const PairVerdict verdict = TryPair(kf, cur, fitter, run_seed, false, &f, &record, true);
     if (verdict == PairVerdict::kAdded) {
       graph_.AddRelative(f);
       online_closures_.emplace_back(kf.frame, cur.frame);
@@ -414,7 +470,7 @@ void FlightGraph::TryClosures(const PairFitter& fitter, std::uint64_t run_seed,
       ++out->closures_tried;
       backend::RelativeFactor f;
       TriedPair record;
-      record.verdict = TryPair(a, b, fitter, run_seed, false, &f, &record);
+      record.verdict = TryPair(a, b, fitter, run_seed, false, &f, &record, true);
       record.by_appearance = true;
       out->pairs.push_back(record);
       if (record.verdict == PairVerdict::kAdded) {

@@ -90,7 +90,8 @@ struct BackendOptions {
   /// (place_signature.h: a bag of its quantised SURF descriptors) is compared with those of every
   /// older keyframe outside the recent window, so that a revisit is found when the causal track
   /// has drifted too far for the predicted footprints to overlap; the candidates are fitted
-  /// unguided and judged as the other pairs (min_inliers, min_spread, the gate). Offline they
+  /// unguided and judged by JudgeClosure (min_inliers, min_spread, and the gate as a chi-square
+  /// test against the uncertainty chained since the candidate). Offline they
   /// join the footprint pairs; online (backend.online) a verified one re-optimises the whole
   /// graph. Default false: BENCHMARKS.md, "Loop closures".
   bool closures = false;
@@ -162,6 +163,20 @@ enum class PairVerdict { kAdded, kNoFit, kTooFewInliers, kTooLittleSpread, kGate
 PairVerdict JudgePair(const BackendOptions& options, const backend::Similarity2& fit,
                       const backend::Similarity2& predicted, int n_inliers, double spread,
                       double path_m, double side_m);
+
+/// The verdict on a loop closure by appearance (BackendOptions::closures) of frames a -> b: as
+/// JudgePair, but the gate is a chi-square test of the closure's implied correction e = (fit -
+/// predicted translation, wrapped heading difference) against the uncertainty accumulated since
+/// a: d^2 = e' (chain_cov + fit_cov + D)^-1 e <= 16.27 (chi-square, 3 degrees of freedom, 0.999),
+/// where chain_cov is the covariance of (x, y, heading) chained from the steps' factors between
+/// a and b (FlightGraph), fit_cov the fit's, and D the drift model of the linear gate: standard
+/// deviations (gate x path_m + side_m / 10) / 4.03 per axis and gate_heading_deg / 4.03 (so
+/// that with negligible chain and fit covariances the test is JudgePair's bound); all in frame
+/// a's metres and radians. A stretch of weak steps (bridged frames) widens it.
+PairVerdict JudgeClosure(const BackendOptions& options, const backend::Similarity2& fit,
+                         const backend::Similarity2& predicted, int n_inliers, double spread,
+                         const Eigen::Matrix3d& chain_cov, const Eigen::Matrix3d& fit_cov,
+                         double path_m, double side_m);
 
 /// "added", "no_fit", "too_few_inliers", "too_little_spread", "gate".
 const char* ToString(PairVerdict verdict);
@@ -281,10 +296,15 @@ class FlightGraph {
   // Keyframe i's candidate partners j > i + 1, nearest first, at most max_pairs_per_keyframe.
   std::vector<int> CandidatesOf(int i) const;
   // Fits and judges the pair (a, b); *f is the factor when kAdded; *record what was found.
-  // `guided`: the fitter is given the causal prediction as its prior.
+  // `guided`: the fitter is given the causal prediction as its prior; `closure`: judged by
+  // JudgeClosure (a loop closure by appearance), else by JudgePair.
   PairVerdict TryPair(const Keyframe& a, const Keyframe& b, const PairFitter& fitter,
                       std::uint64_t run_seed, bool guided, backend::RelativeFactor* f,
-                      TriedPair* record) const;
+                      TriedPair* record, bool closure = false) const;
+  // The covariance of (x, y, heading) of frame b in frame a's coordinates (a < b), chained from
+  // the step factors of frames a + 1..b along the causal poses (a step from a frame before a
+  // starts from zero).
+  Eigen::Matrix3d ChainCovariance(int a, int b) const;
   // Keyframe i's closure candidates by appearance: older keyframes j <= i - 2 whose frame is
   // at least `window` frames before i's, within closure_search_radius by the causal track, with
   // a relative similarity of at least closure_similarity; the most similar first (ties: the
@@ -309,6 +329,7 @@ class FlightGraph {
   backend::PoseGraph graph_;
   std::vector<backend::Similarity2> poses_;
   std::vector<double> gsd_, path_m_;
+  std::vector<int> step_factor_;  // per frame: its step's index in graph_ (-1: the first frame)
   std::vector<Keyframe> keyframes_;
   std::uint64_t seed_ = 0;
   std::optional<DescriptorQuantizer> quantizer_;  // made at the first keyframe (closures)

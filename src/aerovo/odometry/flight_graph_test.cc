@@ -224,6 +224,39 @@ TEST(FlightGraph, JudgePairChecksInliersSpreadAndTheGate) {
   EXPECT_EQ(JudgePair(o, fit, pred, 100, 0.5, 200.0, 48.0), PairVerdict::kGate);
 }
 
+TEST(FlightGraph, JudgeClosureIsAChiSquareTestOfTheCorrectionAgainstTheChainedUncertainty) {
+  BackendOptions o;
+  const Similarity2 pred{Eigen::Vector2d(10.0, 0.0), 0.0, 0.0};
+  const Eigen::Matrix3d zero = Eigen::Matrix3d::Zero();
+  EXPECT_EQ(JudgeClosure(o, pred, pred, 100, 0.5, zero, zero, 200.0, 48.0), PairVerdict::kAdded);
+  EXPECT_EQ(JudgeClosure(o, pred, pred, 39, 0.5, zero, zero, 200.0, 48.0),
+            PairVerdict::kTooFewInliers);
+  EXPECT_EQ(JudgeClosure(o, pred, pred, 100, 0.01, zero, zero, 200.0, 48.0),
+            PairVerdict::kTooLittleSpread);
+  // Negligible chain and fit covariances: JudgePair's bound, 0.05 x 200 m + 4.8 m = 14.8 m.
+  Similarity2 fit = pred;
+  fit.translation_m.x() += 14.6;
+  EXPECT_EQ(JudgeClosure(o, fit, pred, 100, 0.5, zero, zero, 200.0, 48.0), PairVerdict::kAdded);
+  fit.translation_m.x() += 0.4;
+  EXPECT_EQ(JudgeClosure(o, fit, pred, 100, 0.5, zero, zero, 200.0, 48.0), PairVerdict::kGate);
+  // Steps that are uncertain across the track (a bridged stretch: 10 m in y) widen it there
+  // only: 30 m off in y passes, 15 m in x still does not.
+  Eigen::Matrix3d chain = zero;
+  chain(1, 1) = 100.0;
+  fit = pred;
+  fit.translation_m.y() += 30.0;
+  EXPECT_EQ(JudgeClosure(o, fit, pred, 100, 0.5, chain, zero, 200.0, 48.0), PairVerdict::kAdded);
+  fit = pred;
+  fit.translation_m.x() += 15.0;
+  EXPECT_EQ(JudgeClosure(o, fit, pred, 100, 0.5, chain, zero, 200.0, 48.0), PairVerdict::kGate);
+  // Heading: 15 degrees at most with negligible covariances.
+  fit = pred;
+  fit.heading_rad = 14.5 * M_PI / 180.0;
+  EXPECT_EQ(JudgeClosure(o, fit, pred, 100, 0.5, zero, zero, 200.0, 48.0), PairVerdict::kAdded);
+  fit.heading_rad = 15.5 * M_PI / 180.0;
+  EXPECT_EQ(JudgeClosure(o, fit, pred, 100, 0.5, zero, zero, 200.0, 48.0), PairVerdict::kGate);
+}
+
 TEST(FlightGraph, PairSeedIsThePairsWhateverTheOrder) {
   EXPECT_EQ(PairSeed(1, 3, 9), PairSeed(1, 9, 3));
   EXPECT_NE(PairSeed(1, 3, 9), PairSeed(2, 3, 9));
