@@ -295,6 +295,16 @@ def check_online(cwd, out):
         f"summary.json online says no pair was verified: {o}"
 
 
+def check_closures(cwd, out):
+    with open(os.path.join(cwd, "closures_run", "summary.json")) as f:
+        o = json.load(f).get("optimized") or {}
+    keys = ("closures_tried", "closures_verified", "closures_gated")
+    if any(k not in o for k in keys):
+        return f"summary.json optimized lacks the closure counts: {o.keys()}"
+    return "" if o["closures_verified"] + o["closures_gated"] <= o["closures_tried"] else \
+        f"summary.json optimized's closure counts do not add up: {[o[k] for k in keys]}"
+
+
 HARDWARE = "needs hardware this machine does not have"
 PLAN = {
     # docs/map.md
@@ -322,6 +332,8 @@ PLAN = {
     "aerovo run backend_sim/video.mp4 --backend-online --quiet --no-report -o "
     "online_run": Row(files=["online_run/vo.tum", "online_run/summary.json"],
                       check=check_online),
+    "aerovo run backend_sim/video.mp4 --backend-enable --backend-closures --quiet --no-report -o "
+    "closures_run": Row(files=["closures_run/vo_optimized.tum"], check=check_closures),
     # README.md
     "./scripts/demo.sh": Row(skip="installs Debian packages (apt-get, as root, over the network) "
                              "and builds; its `aerovo demo` takes minutes (the README says ~2-3 "

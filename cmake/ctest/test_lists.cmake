@@ -111,5 +111,5 @@ set(AEROVO_TEST_COSTS
   AdaptivePoints.ThermalLikeFlightIsTrackedWithTheDefaults 5
   SensorPattern.ThermalFlightWithVignettingAndFixedPatternIsTrackedWithTheDefaults 5
   SensorPattern.ThermalVideoIsCorrectedByTheRunningEstimate 5
-  OfflineOptimisation 13
+  OfflineOptimisation 20
 )

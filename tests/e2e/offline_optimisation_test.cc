@@ -9,7 +9,8 @@
 // flight: its live track (vo.tum, the windowed estimates) is closer to the truth than the causal
 // one, every frame is matched against recent keyframes and none is gated, the pose stream
 // carries the window's standard deviations, and the same seed gives the same track at any
-// thread count.
+// thread count. Loop closures by appearance (`--backend-closures`), online and offline: the
+// same tracks at any thread count, their counts in summary.json, the optimised track not worse.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -170,6 +171,35 @@ Pairs PairCentres(const RunData& run, const std::vector<FrameTransformRow>& rows
     out.truth_m.push_back({0.0, it->second.x(), it->second.y()});
   }
   return out;
+}
+
+TEST_F(OfflineOptimisation, LoopClosuresOnlineAndOfflineTheSameAtAnyThreadCount) {
+  const std::string flags = "--backend-online --backend-enable --backend-closures";
+  const fs::path two = RunFlight("closures_two", flags + " --threads 2");
+  const fs::path one = RunFlight("closures_one", flags + " --threads 1");
+  EXPECT_EQ(e2e::ReadText(two / "vo.tum"), e2e::ReadText(one / "vo.tum"));
+  EXPECT_EQ(e2e::ReadText(two / "vo_optimized.tum"), e2e::ReadText(one / "vo_optimized.tum"));
+  const nlohmann::json s = e2e::ReadJson(two / "summary.json");
+  ASSERT_TRUE(s["online"].is_object() && s["optimized"].is_object()) << s.dump();
+  for (const char* block : {"online", "optimized"}) {
+    const nlohmann::json& b = s[block];
+    const int tried = b["closures_tried"].get<int>();
+    EXPECT_LE(b["closures_verified"].get<int>() + b["closures_gated"].get<int>(), tried) << block;
+  }
+  const nlohmann::json& online = s["online"];
+  EXPECT_EQ(online["full_solves"].get<int>() > 0, online["closures_verified"].get<int>() > 0);
+  int by_appearance = 0;
+  for (const nlohmann::json& p : s["optimized"]["pairs"]) by_appearance += p["by_appearance"].get<bool>();
+  EXPECT_EQ(by_appearance, s["optimized"]["closures_tried"].get<int>());
+  const fs::path plain = Flight() / "on";
+  if (!fs::exists(plain / "vo_optimized.tum")) RunFlight("on", "--backend-enable --threads 2");
+  const double with = s["optimized"]["truth_evaluation"]["se2"]["ate_m"]["rmse"].get<double>();
+  const double without = e2e::ReadJson(plain / "summary.json")["optimized"]["truth_evaluation"]
+                                                                 ["se2"]["ate_m"]["rmse"].get<double>();
+  // The strips' overlaps are found by the footprints too; the closures by appearance (and the
+  // window's start) must not make the optimised track worse against the truth.
+  EXPECT_LE(with, 1.1 * without + 0.005) << without << " m without closures, " << with << " m with";
+  RecordProperty("closures", online.dump() + " " + s["optimized"]["closures_verified"].dump());
 }
 
 TEST_F(OfflineOptimisation, MosaicPlacesTheFramesByTheOptimisedPosesCloserToTheTruth) {

@@ -38,6 +38,14 @@ constexpr double kBridgedHeadingSigmaRad = 0.3;
 // The gate's floor, fraction of the footprint side; and the largest log-scale disagreement.
 constexpr double kGateFloorFraction = 0.1;
 constexpr double kGateLogScale = 0.2;
+// The closures' chi-square gate (JudgeClosure): 3 degrees of freedom at 0.999, and its square
+// root, the linear gate's bound in standard deviations of the drift model.
+constexpr double kClosureGateChi2 = 16.27;
+constexpr double kClosureGateSigmas = 4.034;
+// Random projections per descriptor word of the keyframe signatures (place_signature.h): 2^16
+// words, so that two unrelated frames of ~1000 points share few words by chance (about
+// 1000^2 / 2^16 = 15 of 1000) while a ground point seen twice keeps its word about half the time.
+constexpr int kSignatureBits = 16;
 
 // The information of covariance `cov` with the log-scale row and column replaced by the
 // log-scale's own (kLogScaleSigma, uncorrelated).
@@ -146,8 +154,30 @@ PairVerdict JudgePair(const BackendOptions& o, const Similarity2& fit, const Sim
   return PairVerdict::kAdded;
 }
 
-FlightGraph::FlightGraph(const BackendOptions& options, int width, int height)
-    : options_(options), width_(width), height_(height) {
+PairVerdict JudgeClosure(const BackendOptions& o, const Similarity2& fit,
+                         const Similarity2& predicted, int n_inliers, double spread,
+                         const Eigen::Matrix3d& chain_cov, const Eigen::Matrix3d& fit_cov,
+                         double path_m, double side_m) {
+  if (n_inliers < o.min_inliers) return PairVerdict::kTooFewInliers;
+  if (spread < o.min_spread) return PairVerdict::kTooLittleSpread;
+  const double st = (o.gate * path_m + kGateFloorFraction * side_m) / kClosureGateSigmas;
+  const double sh = o.gate_heading_deg * M_PI / 180.0 / kClosureGateSigmas;
+  Eigen::Matrix3d cov = chain_cov + fit_cov;
+  cov.diagonal() += Eigen::Vector3d(st * st, st * st, sh * sh);
+  Eigen::Vector3d e;
+  e << fit.translation_m - predicted.translation_m,
+      backend::WrapAngleRad(fit.heading_rad - predicted.heading_rad);
+  const double d2 = e.dot(cov.ldlt().solve(e));
+  if (!(d2 <= kClosureGateChi2) ||
+      !(std::abs(fit.log_scale - predicted.log_scale) <= kGateLogScale)) {
+    return PairVerdict::kGate;
+  }
+  return PairVerdict::kAdded;
+}
+
+FlightGraph::FlightGraph(const BackendOptions& options, int width, int height,
+                         std::uint64_t seed)
+    : options_(options), width_(width), height_(height), seed_(seed) {
   Validate(options_);
   if (width <= 0 || height <= 0) {
     throw InvalidArgument("FlightGraph: the frame size must be positive, got " +
@@ -201,9 +231,10 @@ void FlightGraph::Add(const FrameResult& r) {
     graph_.AddPose(options_.online ? graph_.estimates().back() *
                                          backend::Between(poses_.back(), pose)
                                    : pose);
-    graph_.AddRelative(f);
+    step_factor_.push_back(graph_.AddRelative(f));
   } else {
     graph_.AddPose(pose);
+    step_factor_.push_back(-1);
   }
   poses_.push_back(pose);
   gsd_.push_back(r.gsd_m_per_px);
@@ -215,7 +246,42 @@ void FlightGraph::Add(const FrameResult& r) {
     const Eigen::Vector2d last = poses_[static_cast<std::size_t>(keyframes_.back().frame)].translation_m;
     if ((pose.translation_m - last).norm() < options_.keyframe_spacing * side_m) return;
   }
-  keyframes_.push_back({r.index, r.gsd_m_per_px, path, r.features});
+  std::shared_ptr<const PlaceSignature> signature;
+  if (options_.closures) {
+    if (!quantizer_) quantizer_.emplace(*r.features, kSignatureBits, seed_);
+    if (r.features->descriptor_size == quantizer_->descriptor_size()) {
+      signature = std::make_shared<const PlaceSignature>(SignatureOf(*quantizer_, *r.features));
+    }
+  }
+  keyframes_.push_back({r.index, r.gsd_m_per_px, path, r.features, std::move(signature)});
+}
+
+std::vector<int> FlightGraph::ClosureCandidatesOf(int i) const {
+  std::vector<int> out;
+  if (i < 2) return out;
+  const Keyframe& a = keyframes_[static_cast<std::size_t>(i)];
+  const Keyframe& before = keyframes_[static_cast<std::size_t>(i - 1)];
+  if (!a.signature || !before.signature) return out;
+  const double reference = Similarity(*a.signature, *before.signature);
+  if (!(reference > 0.0)) return out;
+  const Eigen::Vector2d& ca = poses_[static_cast<std::size_t>(a.frame)].translation_m;
+  std::vector<std::pair<double, int>> similar;
+  for (int j = 0; j <= i - 2; ++j) {
+    const Keyframe& b = keyframes_[static_cast<std::size_t>(j)];
+    if (b.frame > a.frame - options_.window) break;  // keyframes in frame order
+    if (!b.signature) continue;
+    const double side_m = std::min(a.gsd, b.gsd) * std::min(width_, height_);
+    const double d = (poses_[static_cast<std::size_t>(b.frame)].translation_m - ca).norm();
+    if (d > options_.closure_search_radius * side_m) continue;
+    const double score = Similarity(*a.signature, *b.signature) / reference;
+    if (score >= options_.closure_similarity) similar.emplace_back(-score, j);
+  }
+  std::sort(similar.begin(), similar.end());
+  for (const auto& [negative_score, j] : similar) {
+    if (static_cast<int>(out.size()) >= options_.closure_max_candidates) break;
+    out.push_back(j);
+  }
+  return out;
 }
 
 std::vector<int> FlightGraph::CandidatesOf(int i) const {
@@ -237,9 +303,32 @@ std::vector<int> FlightGraph::CandidatesOf(int i) const {
   return out;
 }
 
+Eigen::Matrix3d FlightGraph::ChainCovariance(int a, int b) const {
+  std::vector<Eigen::Matrix3d> cov(static_cast<std::size_t>(b - a + 1), Eigen::Matrix3d::Zero());
+  const Similarity2 a_from_local = poses_[static_cast<std::size_t>(a)].Inverse();
+  for (int k = a + 1; k <= b; ++k) {
+    const backend::RelativeFactor& f =
+        graph_.relative_factors()[static_cast<std::size_t>(step_factor_[static_cast<std::size_t>(k)])];
+    const Eigen::Matrix3d q =
+        f.information.ldlt().solve(Eigen::Matrix4d::Identity()).topLeftCorner<3, 3>();
+    // The step's start in frame a's coordinates (a_from_prev), and its translation there.
+    const int p = std::max(f.prev, a);
+    const Similarity2 a_from_prev = a_from_local * poses_[static_cast<std::size_t>(p)];
+    const Eigen::Vector2d d = a_from_prev.Linear() * f.prev_from_curr.translation_m;
+    Eigen::Matrix3d j1 = Eigen::Matrix3d::Identity(), j2 = Eigen::Matrix3d::Identity();
+    j1(0, 2) = -d.y();
+    j1(1, 2) = d.x();
+    j2.topLeftCorner<2, 2>() = a_from_prev.Linear();
+    const Eigen::Matrix3d& before = cov[static_cast<std::size_t>(p - a)];
+    cov[static_cast<std::size_t>(k - a)] = j1 * before * j1.transpose() + j2 * q * j2.transpose();
+  }
+  return cov.back();
+}
+
 PairVerdict FlightGraph::TryPair(const Keyframe& a, const Keyframe& b, const PairFitter& fitter,
                                  std::uint64_t run_seed, bool guided,
-                                 backend::RelativeFactor* f, TriedPair* record) const {
+                                 backend::RelativeFactor* f, TriedPair* record,
+                                 bool closure) const {
   record->a = a.frame;
   record->b = b.frame;
   record->predicted = backend::Between(poses_[static_cast<std::size_t>(a.frame)],
@@ -258,12 +347,19 @@ PairVerdict FlightGraph::TryPair(const Keyframe& a, const Keyframe& b, const Pai
         backend::PrevFromCurrOfPixelStep(fit->curr_from_prev_px, centre, a.gsd, b.gsd);
     record->fit = f->prev_from_curr;
     record->spread = SpreadOf(fit->inliers_curr_px, width_, height_);
-    const PairVerdict verdict =
-        JudgePair(options_, f->prev_from_curr, record->predicted,
-                  static_cast<int>(fit->inliers_curr_px.cols()), record->spread,
-                  b.path_m - a.path_m, std::min(a.gsd, b.gsd) * std::min(width_, height_));
-    if (verdict != PairVerdict::kAdded) return verdict;
+    const int n = static_cast<int>(fit->inliers_curr_px.cols());
+    const double path_m = b.path_m - a.path_m;
+    const double side_m = std::min(a.gsd, b.gsd) * std::min(width_, height_);
     f->information = FitInformation(fit->inliers_curr_px, f->prev_from_curr, centre, a.gsd, b.gsd);
+    const PairVerdict verdict =
+        closure ? JudgeClosure(options_, f->prev_from_curr, record->predicted, n, record->spread,
+                               ChainCovariance(a.frame, b.frame),
+                               f->information.ldlt().solve(Eigen::Matrix4d::Identity())
+                                   .topLeftCorner<3, 3>(),
+                               path_m, side_m)
+                : JudgePair(options_, f->prev_from_curr, record->predicted, n, record->spread,
+                            path_m, side_m);
+    if (verdict != PairVerdict::kAdded) return verdict;
     f->prev_from_curr.log_scale = 0.0;
     return verdict;
   } catch (const InvalidArgument&) {  // a singular or degenerate fit
@@ -272,7 +368,8 @@ PairVerdict FlightGraph::TryPair(const Keyframe& a, const Keyframe& b, const Pai
 }
 
 void FlightGraph::MatchRecent(const Keyframe& cur, int reference, const PairFitter& fitter,
-                              std::uint64_t run_seed, WindowedPose* out) {
+                              std::uint64_t run_seed, WindowedPose* out,
+                              std::vector<int>* tried) {
   const Eigen::Vector2d& c = poses_[static_cast<std::size_t>(cur.frame)].translation_m;
   for (int k = num_keyframes() - 1; k >= 0 && out->pairs_tried < options_.online_keyframes; --k) {
     const Keyframe& kf = keyframes_[static_cast<std::size_t>(k)];
@@ -281,6 +378,7 @@ void FlightGraph::MatchRecent(const Keyframe& cur, int reference, const PairFitt
     const double d = (poses_[static_cast<std::size_t>(kf.frame)].translation_m - c).norm();
     if (d > options_.search_radius * side_m) break;  // older keyframes are farther still
     ++out->pairs_tried;
+    tried->push_back(kf.frame);
     backend::RelativeFactor f;
     TriedPair record;
     const PairVerdict verdict = TryPair(kf, cur, fitter, run_seed, true, &f, &record);
@@ -293,15 +391,49 @@ void FlightGraph::MatchRecent(const Keyframe& cur, int reference, const PairFitt
   }
 }
 
+bool FlightGraph::MatchClosures(const PairFitter& fitter, std::uint64_t run_seed,
+                                const std::vector<int>& tried, WindowedPose* out) {
+  const int i = num_keyframes() - 1;
+  const Keyframe& cur = keyframes_[static_cast<std::size_t>(i)];
+  bool added = false;
+  for (const int j : ClosureCandidatesOf(i)) {
+    const Keyframe& kf = keyframes_[static_cast<std::size_t>(j)];
+    if (std::find(tried.begin(), tried.end(), kf.frame) != tried.end()) continue;
+    ++out->closures_tried;
+    backend::RelativeFactor f;
+    TriedPair record;
+    const PairVerdict verdict = TryPair(kf, cur, fitter, run_seed, false, &f, &record, true);
+    if (verdict == PairVerdict::kAdded) {
+      graph_.AddRelative(f);
+      online_closures_.emplace_back(kf.frame, cur.frame);
+      ++out->closures_verified;
+      added = true;
+    } else if (verdict == PairVerdict::kGate) {
+      ++out->closures_gated;
+    }
+  }
+  return added;
+}
+
 WindowedPose FlightGraph::AddOnline(const FrameResult& r, const PairFitter& fitter,
                                     std::uint64_t run_seed) {
   if (!options_.online) throw InvalidArgument("FlightGraph::AddOnline: backend.online is off");
   Add(r);
   WindowedPose out;
   const int n = num_frames();
+  std::vector<int> tried;
   if (r.features != nullptr && r.status != FrameStatus::kBridged && n > 1) {
-    MatchRecent({r.index, r.gsd_m_per_px, path_m_.back(), r.features}, r.reference_index, fitter,
-                run_seed, &out);
+    MatchRecent({r.index, r.gsd_m_per_px, path_m_.back(), r.features, nullptr}, r.reference_index,
+                fitter, run_seed, &out, &tried);
+  }
+  if (options_.closures && !keyframes_.empty() && keyframes_.back().frame == r.index &&
+      MatchClosures(fitter, run_seed, tried, &out)) {
+    // A closure reaches far behind the window: the poses between its ends must move too, which
+    // the window (older poses held) cannot do; the whole graph is solved (docs/backend.md).
+    const Stopwatch full_time;
+    graph_.SetEstimates(backend::OptimizeAll(graph_, backend::PoseGraphOptions{}).local_from_frame);
+    out.full_solve = true;
+    out.full_solve_ms = full_time.elapsed_ms();
   }
   out.window_first = std::max(0, n - options_.window);
   out.local_from_frame = graph_.estimates().back();
@@ -321,6 +453,41 @@ WindowedPose FlightGraph::AddOnline(const FrameResult& r, const PairFitter& fitt
   return out;
 }
 
+void FlightGraph::TryClosures(const PairFitter& fitter, std::uint64_t run_seed,
+                              const std::vector<std::pair<int, int>>& tried,
+                              backend::PoseGraph* graph, OptimizedFlight* out) const {
+  for (int i = 0; i < num_keyframes(); ++i) {
+    const Keyframe& b = keyframes_[static_cast<std::size_t>(i)];
+    for (const int j : ClosureCandidatesOf(i)) {
+      const Keyframe& a = keyframes_[static_cast<std::size_t>(j)];
+      const std::pair<int, int> frames(a.frame, b.frame);
+      if (std::find(tried.begin(), tried.end(), std::make_pair(j, i)) != tried.end() ||
+          std::find(online_closures_.begin(), online_closures_.end(), frames) !=
+              online_closures_.end()) {
+        continue;  // a footprint pair, or a closure already in the graph
+      }
+      ++out->pairs_tried;
+      ++out->closures_tried;
+      backend::RelativeFactor f;
+      TriedPair record;
+      record.verdict = TryPair(a, b, fitter, run_seed, false, &f, &record, true);
+      record.by_appearance = true;
+      out->pairs.push_back(record);
+      if (record.verdict == PairVerdict::kAdded) {
+        graph->AddRelative(f);
+        ++out->pairs_verified;
+        ++out->closures_verified;
+      } else {
+        ++out->pairs_rejected;
+        if (record.verdict == PairVerdict::kGate) {
+          ++out->pairs_gated;
+          ++out->closures_gated;
+        }
+      }
+    }
+  }
+}
+
 OptimizedFlight FlightGraph::Optimize(const PairFitter& fitter, std::uint64_t run_seed) const {
   if (poses_.empty()) throw InvalidArgument("FlightGraph::Optimize: no frame was added");
   OptimizedFlight out;
@@ -329,8 +496,16 @@ OptimizedFlight FlightGraph::Optimize(const PairFitter& fitter, std::uint64_t ru
   backend::PoseGraph graph = graph_;
   const std::size_t base_factors = graph.relative_factors().size();
   const Stopwatch match_time;
+  std::vector<std::pair<int, int>> tried;  // keyframe indices, as tried
   for (int i = 0; i < num_keyframes(); ++i) {
     for (const int j : CandidatesOf(i)) {
+      const std::pair<int, int> frames(keyframes_[static_cast<std::size_t>(i)].frame,
+                                       keyframes_[static_cast<std::size_t>(j)].frame);
+      if (std::find(online_closures_.begin(), online_closures_.end(), frames) !=
+          online_closures_.end()) {
+        continue;  // already a factor of the graph (an online closure)
+      }
+      tried.emplace_back(i, j);
       ++out.pairs_tried;
       backend::RelativeFactor f;
       TriedPair record;
@@ -348,6 +523,7 @@ OptimizedFlight FlightGraph::Optimize(const PairFitter& fitter, std::uint64_t ru
       }
     }
   }
+  if (options_.closures) TryClosures(fitter, run_seed, tried, &graph, &out);
   out.match_s = match_time.elapsed_ms() / 1000.0;
   if (graph.num_poses() < 2) return out;
   const Stopwatch solve_time;

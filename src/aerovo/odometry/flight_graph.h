@@ -32,6 +32,7 @@
 #include "aerovo/core/options.h"
 #include "aerovo/correspondence/correspondence.h"
 #include "aerovo/features/keypoint.h"
+#include "aerovo/odometry/place_signature.h"
 #include "aerovo/odometry/visual_odometry.h"
 
 namespace aerovo {
@@ -85,6 +86,25 @@ struct BackendOptions {
   /// Recent keyframes (other than the step's own reference, within search_radius of the frame
   /// by the causal track) a new frame is matched against. Default 2.
   int online_keyframes = 2;
+  /// Loop closures by appearance (docs/backend.md, "Loop closures"): each keyframe's signature
+  /// (place_signature.h: a bag of its quantised SURF descriptors) is compared with those of every
+  /// older keyframe outside the recent window, so that a revisit is found when the causal track
+  /// has drifted too far for the predicted footprints to overlap; the candidates are fitted
+  /// unguided and judged by JudgeClosure (min_inliers, min_spread, and the gate as a chi-square
+  /// test against the uncertainty chained since the candidate). Offline they
+  /// join the footprint pairs; online (backend.online) a verified one re-optimises the whole
+  /// graph. Default false: BENCHMARKS.md, "Loop closures".
+  bool closures = false;
+  /// Closure candidates only among keyframes whose causal centres are at most this far,
+  /// fraction of the footprint's smaller side. Default 20 (the gate bounds the correction a
+  /// closure may make anyway).
+  double closure_search_radius = 20.0;
+  /// A keyframe is a closure candidate when its signature's similarity to the new keyframe's is
+  /// at least this fraction of the new keyframe's similarity to its previous keyframe (about
+  /// 70 % overlap at the default keyframe spacing). Default 0.3.
+  double closure_similarity = 0.3;
+  /// Closure candidates tried per keyframe at most (the most similar first). Default 2.
+  int closure_max_candidates = 2;
 };
 
 /// Throws InvalidArgument naming the field ("backend.gate must be ...").
@@ -105,6 +125,10 @@ void VisitFields(BackendOptions& o, V& v) {
   v.Field(o.online, "online", "Online window: match each frame against recent keyframes and optimise the last poses per frame; the live outputs carry the windowed estimate", Any());
   v.Field(o.window, "window", "Online window: poses optimised per frame (older ones are final)", AtLeast(2));
   v.Field(o.online_keyframes, "online_keyframes", "Online window: recent keyframes matched per frame", AtLeast(1));
+  v.Field(o.closures, "closures", "Loop closures by appearance: keyframes compared by their bags of quantised descriptors with older ones outside the window", Any());
+  v.Field(o.closure_search_radius, "closure_search_radius", "Loop closures: candidates within this causal distance, fraction of the footprint's smaller side", GreaterThan(0).Finite());
+  v.Field(o.closure_similarity, "closure_similarity", "Loop closures: least similarity, relative to the previous keyframe's", GreaterThan(0).Finite());
+  v.Field(o.closure_max_candidates, "closure_max_candidates", "Loop closures: candidates tried per keyframe at most", AtLeast(1));
 }
 // clang-format on
 
@@ -140,6 +164,20 @@ PairVerdict JudgePair(const BackendOptions& options, const backend::Similarity2&
                       const backend::Similarity2& predicted, int n_inliers, double spread,
                       double path_m, double side_m);
 
+/// The verdict on a loop closure by appearance (BackendOptions::closures) of frames a -> b: as
+/// JudgePair, but the gate is a chi-square test of the closure's implied correction e = (fit -
+/// predicted translation, wrapped heading difference) against the uncertainty accumulated since
+/// a: d^2 = e' (chain_cov + fit_cov + D)^-1 e <= 16.27 (chi-square, 3 degrees of freedom, 0.999),
+/// where chain_cov is the covariance of (x, y, heading) chained from the steps' factors between
+/// a and b (FlightGraph), fit_cov the fit's, and D the drift model of the linear gate: standard
+/// deviations (gate x path_m + side_m / 10) / 4.03 per axis and gate_heading_deg / 4.03 (so
+/// that with negligible chain and fit covariances the test is JudgePair's bound); all in frame
+/// a's metres and radians. A stretch of weak steps (bridged frames) widens it.
+PairVerdict JudgeClosure(const BackendOptions& options, const backend::Similarity2& fit,
+                         const backend::Similarity2& predicted, int n_inliers, double spread,
+                         const Eigen::Matrix3d& chain_cov, const Eigen::Matrix3d& fit_cov,
+                         double path_m, double side_m);
+
 /// "added", "no_fit", "too_few_inliers", "too_little_spread", "gate".
 const char* ToString(PairVerdict verdict);
 
@@ -153,6 +191,9 @@ struct TriedPair {
   /// and predicted by the causal track, in frame a's metres; the fit is the identity without one.
   backend::Similarity2 fit, predicted;
   bool down_weighted = false;  ///< Added, and down-weighted by the robust cost.
+  /// A loop-closure candidate found by appearance (BackendOptions::closures), not by the
+  /// predicted footprints.
+  bool by_appearance = false;
 };
 
 /// What the offline optimisation did, and the optimised poses.
@@ -165,6 +206,9 @@ struct OptimizedFlight {
   int pairs_rejected = 0;  ///< Tried and not added (no fit, inliers, spread or gate).
   int pairs_gated = 0;     ///< Of those, rejected by the gate.
   int outliers = 0;        ///< Added pairs the robust cost down-weighted (pose_graph.h).
+  /// Of the pairs, the loop-closure candidates found by appearance (BackendOptions::closures):
+  /// tried, verified (added), rejected by the gate.
+  int closures_tried = 0, closures_verified = 0, closures_gated = 0;
   double match_s = 0.0;    ///< Wall time of the pairs' matching and fitting, s.
   double solve_s = 0.0;    ///< Wall time of the graph solve, s.
   int iterations = 0;
@@ -182,14 +226,22 @@ struct WindowedPose {
   int pairs_verified = 0;  ///< Added as factors.
   int pairs_gated = 0;     ///< Rejected by the gate.
   int window_first = 0;    ///< The window's first pose (the ones before it are final).
+  /// Loop closures by appearance (BackendOptions::closures) tried at this frame (when it became
+  /// a keyframe), verified (added as factors), rejected by the gate.
+  int closures_tried = 0, closures_verified = 0, closures_gated = 0;
+  /// A verified closure made the whole graph re-optimised (OptimizeAll) before the window's
+  /// solve; its wall time, ms.
+  bool full_solve = false;
+  double full_solve_ms = 0.0;
 };
 
 /// The frames of a run in order, built as they come (Add), optimised at the end (Optimize).
 class FlightGraph {
  public:
-  /// Frames of width x height pixels (the ones given to the odometry). InvalidArgument for
-  /// invalid options.
-  FlightGraph(const BackendOptions& options, int width, int height);
+  /// Frames of width x height pixels (the ones given to the odometry). `seed`: the random
+  /// projections of the keyframe signatures (BackendOptions::closures; place_signature.h).
+  /// InvalidArgument for invalid options.
+  FlightGraph(const BackendOptions& options, int width, int height, std::uint64_t seed = 0);
 
   /// Adds the next frame's odometry result (frames in the order processed; r.index must be the
   /// number of frames added so far: InvalidArgument otherwise). Keeps r.features when the frame
@@ -202,7 +254,12 @@ class FlightGraph {
   /// PairSeed and judged by JudgePair; the verified ones become factors; then the last `window`
   /// poses are optimised (OptimizeWindow, with covariance) and their estimates replace the
   /// graph's (the poses before the window keep theirs: final). A new pose starts at the previous
-  /// pose's estimate moved by the causal step. Returns the frame's windowed pose.
+  /// pose's estimate moved by the causal step. With BackendOptions::closures, a frame that
+  /// becomes a keyframe is also matched (unguided) against its closure candidates by appearance
+  /// among the keyframes before the window; a verified closure is added and the whole graph is
+  /// re-optimised (OptimizeAll) before the window's solve, so that the poses between the two
+  /// ends of the loop move too (docs/backend.md, "Loop closures"). Returns the frame's windowed
+  /// pose.
   WindowedPose AddOnline(const FrameResult& r, const PairFitter& fitter, std::uint64_t run_seed);
 
   /// Forgets the keyframes added so far (their features are released and never matched again):
@@ -210,6 +267,11 @@ class FlightGraph {
   /// under the old lens, and a match of them against the later frames' would be biased. The
   /// poses and factors stay.
   void DropKeyframes() { keyframes_.clear(); }
+  /// The signature of keyframe k (null without BackendOptions::closures).
+  const PlaceSignature* signature(int k) const {
+    return keyframes_[static_cast<std::size_t>(k)].signature.get();
+  }
+  int keyframe_frame(int k) const { return keyframes_[static_cast<std::size_t>(k)].frame; }
 
   int width() const { return width_; }
   int height() const { return height_; }
@@ -228,25 +290,50 @@ class FlightGraph {
     double gsd = 1.0;
     double path_m = 0.0;  // causal path length from the first frame
     std::shared_ptr<const FeatureSet> features;
+    std::shared_ptr<const PlaceSignature> signature;  // with BackendOptions::closures
   };
   backend::RelativeFactor StepFactor(const FrameResult& r) const;
   // Keyframe i's candidate partners j > i + 1, nearest first, at most max_pairs_per_keyframe.
   std::vector<int> CandidatesOf(int i) const;
   // Fits and judges the pair (a, b); *f is the factor when kAdded; *record what was found.
-  // `guided`: the fitter is given the causal prediction as its prior.
+  // `guided`: the fitter is given the causal prediction as its prior; `closure`: judged by
+  // JudgeClosure (a loop closure by appearance), else by JudgePair.
   PairVerdict TryPair(const Keyframe& a, const Keyframe& b, const PairFitter& fitter,
                       std::uint64_t run_seed, bool guided, backend::RelativeFactor* f,
-                      TriedPair* record) const;
-  // The online matches of the newest frame `cur` (AddOnline), added to graph_.
+                      TriedPair* record, bool closure = false) const;
+  // The covariance of (x, y, heading) of frame b in frame a's coordinates (a < b), chained from
+  // the step factors of frames a + 1..b along the causal poses (a step from a frame before a
+  // starts from zero).
+  Eigen::Matrix3d ChainCovariance(int a, int b) const;
+  // Keyframe i's closure candidates by appearance: older keyframes j <= i - 2 whose frame is
+  // at least `window` frames before i's, within closure_search_radius by the causal track, with
+  // a relative similarity of at least closure_similarity; the most similar first (ties: the
+  // older first), at most closure_max_candidates.
+  std::vector<int> ClosureCandidatesOf(int i) const;
+  // The online matches of the newest frame `cur` (AddOnline), added to graph_; the frames
+  // matched appended to *tried.
   void MatchRecent(const Keyframe& cur, int reference, const PairFitter& fitter,
-                   std::uint64_t run_seed, WindowedPose* out);
+                   std::uint64_t run_seed, WindowedPose* out, std::vector<int>* tried);
+  // The online closures of the newest keyframe (AddOnline), skipping the frames in `tried`;
+  // returns whether one was added to graph_.
+  bool MatchClosures(const PairFitter& fitter, std::uint64_t run_seed,
+                     const std::vector<int>& tried, WindowedPose* out);
+  // Offline: the closure candidates of every keyframe (skipping the pairs in `tried`, keyframe
+  // indices), tried, judged, recorded in *out and the verified ones added to *graph.
+  void TryClosures(const PairFitter& fitter, std::uint64_t run_seed,
+                   const std::vector<std::pair<int, int>>& tried, backend::PoseGraph* graph,
+                   OptimizedFlight* out) const;
 
   BackendOptions options_;
   int width_ = 0, height_ = 0;
   backend::PoseGraph graph_;
   std::vector<backend::Similarity2> poses_;
   std::vector<double> gsd_, path_m_;
+  std::vector<int> step_factor_;  // per frame: its step's index in graph_ (-1: the first frame)
   std::vector<Keyframe> keyframes_;
+  std::uint64_t seed_ = 0;
+  std::optional<DescriptorQuantizer> quantizer_;  // made at the first keyframe (closures)
+  std::vector<std::pair<int, int>> online_closures_;  // frame pairs added online (a < b)
 };
 
 }  // namespace aerovo

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "aerovo/core/error.h"
+#include "aerovo/sim/random.h"
 
 namespace aerovo {
 namespace {
@@ -223,6 +224,39 @@ TEST(FlightGraph, JudgePairChecksInliersSpreadAndTheGate) {
   EXPECT_EQ(JudgePair(o, fit, pred, 100, 0.5, 200.0, 48.0), PairVerdict::kGate);
 }
 
+TEST(FlightGraph, JudgeClosureIsAChiSquareTestOfTheCorrectionAgainstTheChainedUncertainty) {
+  BackendOptions o;
+  const Similarity2 pred{Eigen::Vector2d(10.0, 0.0), 0.0, 0.0};
+  const Eigen::Matrix3d zero = Eigen::Matrix3d::Zero();
+  EXPECT_EQ(JudgeClosure(o, pred, pred, 100, 0.5, zero, zero, 200.0, 48.0), PairVerdict::kAdded);
+  EXPECT_EQ(JudgeClosure(o, pred, pred, 39, 0.5, zero, zero, 200.0, 48.0),
+            PairVerdict::kTooFewInliers);
+  EXPECT_EQ(JudgeClosure(o, pred, pred, 100, 0.01, zero, zero, 200.0, 48.0),
+            PairVerdict::kTooLittleSpread);
+  // Negligible chain and fit covariances: JudgePair's bound, 0.05 x 200 m + 4.8 m = 14.8 m.
+  Similarity2 fit = pred;
+  fit.translation_m.x() += 14.6;
+  EXPECT_EQ(JudgeClosure(o, fit, pred, 100, 0.5, zero, zero, 200.0, 48.0), PairVerdict::kAdded);
+  fit.translation_m.x() += 0.4;
+  EXPECT_EQ(JudgeClosure(o, fit, pred, 100, 0.5, zero, zero, 200.0, 48.0), PairVerdict::kGate);
+  // Steps that are uncertain across the track (a bridged stretch: 10 m in y) widen it there
+  // only: 30 m off in y passes, 15 m in x still does not.
+  Eigen::Matrix3d chain = zero;
+  chain(1, 1) = 100.0;
+  fit = pred;
+  fit.translation_m.y() += 30.0;
+  EXPECT_EQ(JudgeClosure(o, fit, pred, 100, 0.5, chain, zero, 200.0, 48.0), PairVerdict::kAdded);
+  fit = pred;
+  fit.translation_m.x() += 15.0;
+  EXPECT_EQ(JudgeClosure(o, fit, pred, 100, 0.5, chain, zero, 200.0, 48.0), PairVerdict::kGate);
+  // Heading: 15 degrees at most with negligible covariances.
+  fit = pred;
+  fit.heading_rad = 14.5 * M_PI / 180.0;
+  EXPECT_EQ(JudgeClosure(o, fit, pred, 100, 0.5, zero, zero, 200.0, 48.0), PairVerdict::kAdded);
+  fit.heading_rad = 15.5 * M_PI / 180.0;
+  EXPECT_EQ(JudgeClosure(o, fit, pred, 100, 0.5, zero, zero, 200.0, 48.0), PairVerdict::kGate);
+}
+
 TEST(FlightGraph, PairSeedIsThePairsWhateverTheOrder) {
   EXPECT_EQ(PairSeed(1, 3, 9), PairSeed(1, 9, 3));
   EXPECT_NE(PairSeed(1, 3, 9), PairSeed(2, 3, 9));
@@ -332,6 +366,323 @@ TEST(FlightGraph, DroppedKeyframesAreNotMatchedAgain) {
   EXPECT_EQ(g.num_keyframes(), 5);  // frames 20, 24, ...
   ASSERT_FALSE(tried.empty());
   for (const auto& [a, b] : tried) EXPECT_GE(a, 20) << a << "-" << b;
+}
+
+
+// ---------------------------------------------------------------------------------------------
+// Loop closures by appearance (BackendOptions::closures) on a synthetic ground of landmarks with
+// known descriptors: every frame's features are the landmarks its true footprint sees, with a
+// little noise, so that descriptor similarity follows the true overlap whatever the causal
+// track says.
+
+// Landmarks on a 2.5 m grid (jittered up to 0.8 m) over [x0, x1] x [y0, y1] metres, each with
+// a random unit descriptor of 64 values. With period_m > 0 the ground repeats every period_m
+// along x (rows of identical roofs: perceptual aliasing).
+struct Ground {
+  std::vector<Eigen::Vector2d> points;
+  std::vector<float> descriptors;  // 64 per point
+};
+Ground MakeGround(double x0, double x1, double y0, double y1, double period_m) {
+  constexpr double kCell = 2.5;
+  const int period_cells = period_m > 0.0 ? static_cast<int>(std::lround(period_m / kCell)) : 0;
+  Ground g;
+  for (int iy = 0; iy * kCell <= y1 - y0; ++iy) {
+    for (int ix = 0; ix * kCell <= x1 - x0; ++ix) {
+      const int key_x = period_cells > 0 ? ix % period_cells : ix;
+      sim::Rng rng(sim::SubSeed(11, static_cast<std::uint64_t>(iy) * 100003u +
+                                        static_cast<std::uint64_t>(key_x)));
+      g.points.emplace_back(x0 + kCell * ix + rng.Uniform(-0.8, 0.8),
+                            y0 + kCell * iy + rng.Uniform(-0.8, 0.8));
+      double n2 = 0.0;
+      const std::size_t at = g.descriptors.size();
+      for (int k = 0; k < 64; ++k) {
+        const double v = rng.Normal();
+        g.descriptors.push_back(static_cast<float>(v));
+        n2 += v * v;
+      }
+      for (int k = 0; k < 64; ++k) g.descriptors[at + k] /= static_cast<float>(std::sqrt(n2));
+    }
+  }
+  return g;
+}
+
+// The features frame `index` at the true pose `truth` sees: each landmark in the frame, at its
+// pixel (0.3 px noise), its descriptor with noise 0.01 per value, re-normalised.
+std::shared_ptr<const FeatureSet> FeaturesSeen(const Ground& g, const Similarity2& truth,
+                                               int index) {
+  auto f = std::make_shared<FeatureSet>();
+  sim::Rng rng(sim::SubSeed(23, static_cast<std::uint64_t>(index)));
+  const Similarity2 frame_from_local = truth.Inverse();
+  for (std::size_t i = 0; i < g.points.size(); ++i) {
+    const Eigen::Vector2d q = frame_from_local.Apply(g.points[i]);
+    Keypoint k;
+    k.x = static_cast<float>(kCentre.x() + q.x() / kGsd + 0.3 * rng.Normal());
+    k.y = static_cast<float>(kCentre.y() - q.y() / kGsd + 0.3 * rng.Normal());
+    if (k.x < 0.f || k.y < 0.f || k.x > kWidth - 1 || k.y > kHeight - 1) continue;
+    k.scale = 2.f;
+    k.response = 1.f;
+    k.laplacian = 1;
+    f->keypoints.push_back(k);
+    double n2 = 0.0;
+    const std::size_t at = f->descriptors.size();
+    for (int d = 0; d < 64; ++d) {
+      const double v = g.descriptors[i * 64 + d] + 0.01 * rng.Normal();
+      f->descriptors.push_back(static_cast<float>(v));
+      n2 += v * v;
+    }
+    for (int d = 0; d < 64; ++d) f->descriptors[at + d] /= static_cast<float>(std::sqrt(n2));
+  }
+  return f;
+}
+
+// The flight over `g` through the true poses `truth`, whose causal track (the odometry's) is
+// `causal`: each frame's step measures the causal step, its features those of the true pose.
+Flight FlightOver(const Ground& g, std::vector<Similarity2> truth,
+                  const std::vector<Similarity2>& causal) {
+  Flight f;
+  f.truth = std::move(truth);
+  for (std::size_t i = 0; i < f.truth.size(); ++i) {
+    FrameResult r;
+    r.index = static_cast<int>(i);
+    r.gsd_m_per_px = kGsd;
+    r.features = FeaturesSeen(g, f.truth[i], r.index);
+    if (i > 0) {
+      r.status = FrameStatus::kOk;
+      r.reference_index = r.index - 1;
+      r.curr_from_prev = CurrFromPrevPx(backend::Between(causal[i - 1], causal[i]));
+      r.step_inliers_curr_px = SpreadPoints();
+    }
+    r.position_m = causal[i].translation_m;
+    r.heading_rad = causal[i].heading_rad;
+    f.results.push_back(r);
+  }
+  return f;
+}
+
+// A square loop of 4 x 88 steps of 4 m (352 m sides, 1408 m), the image up along the track,
+// back over the first frame; the causal track drifts by (-0.1, 0.1) m per step (50 m at the
+// end, 3.5 % of the path: more than the footprint search radius, within the gate).
+Flight MakeDriftingLoop(const Ground& g) {
+  constexpr int kSide = 88;
+  std::vector<Similarity2> truth, causal;
+  for (int k = 0; k <= 4 * kSide; ++k) {
+    const int side = (k / kSide) % 4, s = k % kSide;
+    const double d = 4.0 * s, l = 4.0 * kSide;
+    const Eigen::Vector2d p = side == 0   ? Eigen::Vector2d(d, 0.0)
+                              : side == 1 ? Eigen::Vector2d(l, d)
+                              : side == 2 ? Eigen::Vector2d(l - d, l)
+                                          : Eigen::Vector2d(0.0, l - d);
+    truth.push_back({p, side * M_PI / 2 - M_PI / 2, 0.0});
+    causal.push_back({p + 0.1 * k * Eigen::Vector2d(-1.0, 1.0), truth.back().heading_rad, 0.0});
+  }
+  return FlightOver(g, truth, causal);
+}
+
+// A fitter that returns the true transform of every pair (frames known by their features).
+PairFitter TrueFitterOf(const Flight& f) {
+  std::map<const FeatureSet*, int> frame;
+  for (const FrameResult& r : f.results) frame[r.features.get()] = r.index;
+  return [&f, frame](const FeatureSet& prev, const FeatureSet& curr, std::uint64_t,
+                     const std::optional<Eigen::Matrix3d>&) -> std::optional<PairFit> {
+    const Similarity2 z = backend::Between(f.truth[static_cast<std::size_t>(frame.at(&prev))],
+                                           f.truth[static_cast<std::size_t>(frame.at(&curr))]);
+    return PairFit{CurrFromPrevPx(z), SpreadPoints()};
+  };
+}
+
+// The pairs (frames) FlightGraph::Optimize tries, in order, on a flight over a Ground.
+std::vector<std::pair<int, int>> TriedFramePairs(const Flight& f, const FlightGraph& g) {
+  std::map<const FeatureSet*, int> frame;
+  for (const FrameResult& r : f.results) frame[r.features.get()] = r.index;
+  std::vector<std::pair<int, int>> tried;
+  g.Optimize(
+      [&](const FeatureSet& a, const FeatureSet& b, std::uint64_t,
+          const std::optional<Eigen::Matrix3d>&) -> std::optional<PairFit> {
+        tried.emplace_back(frame.at(&a), frame.at(&b));
+        return std::nullopt;
+      },
+      1);
+  return tried;
+}
+
+std::vector<Similarity2> CausalOf(const Flight& f) {
+  std::vector<Similarity2> causal;
+  for (const FrameResult& r : f.results) causal.push_back({r.position_m, r.heading_rad, 0.0});
+  return causal;
+}
+
+TEST(LoopClosures, AppearanceFindsTheRevisitTheDriftedFootprintsMiss) {
+  const Ground ground = MakeGround(-40.0, 392.0, -40.0, 392.0, 0.0);
+  const Flight f = MakeDriftingLoop(ground);
+  const PairFitter fitter = TrueFitterOf(f);
+  BackendOptions o;
+  const FlightGraph plain = Build(f, o);
+  // The footprint search alone pairs nothing across the loop's start and end.
+  for (const auto& [a, b] : TriedFramePairs(f, plain)) {
+    EXPECT_FALSE(a < 44 && b > 308) << a << "-" << b << " is a footprint pair";
+  }
+  const OptimizedFlight without = plain.Optimize(fitter, 1);
+  o.closures = true;
+  const OptimizedFlight with = Build(f, o).Optimize(fitter, 1);
+  EXPECT_EQ(without.closures_tried, 0);
+  EXPECT_GE(with.closures_verified, 3);
+  EXPECT_EQ(with.closures_gated, 0);
+  int across = 0;
+  for (const TriedPair& p : with.pairs) {
+    across += p.by_appearance && p.verdict == PairVerdict::kAdded && p.a < 44 && p.b > 308;
+  }
+  EXPECT_GE(across, 2) << "no closure across the loop's start and end";
+  const double causal_end = EndError(f, CausalOf(f));
+  const double before = EndError(f, without.local_from_frame);
+  const double after = EndError(f, with.local_from_frame);
+  EXPECT_GT(causal_end, 45.0);
+  // The footprint pairs along the sides and at the corners halve the end error at best.
+  EXPECT_GT(before, 20.0);
+  EXPECT_LT(after, 0.01 * before) << before << " m -> " << after << " m";
+  EXPECT_LT(RmsError(f, with.local_from_frame), 0.2 * RmsError(f, without.local_from_frame));
+  RecordProperty("end_error_m", std::to_string(before) + " -> " + std::to_string(after));
+
+  // Online: the closure reaches far behind the window; the whole graph is re-optimised.
+  o.online = true;
+  FlightGraph g(o, kWidth, kHeight);
+  WindowedPose last;
+  int full_solves = 0, verified = 0;
+  for (const FrameResult& r : f.results) {
+    last = g.AddOnline(r, fitter, 1);
+    full_solves += last.full_solve;
+    verified += last.closures_verified;
+  }
+  EXPECT_GE(verified, 1);
+  EXPECT_GE(full_solves, 1);
+  const double live_end = (last.local_from_frame.translation_m - f.truth.back().translation_m).norm();
+  EXPECT_LT(live_end, 0.1 * causal_end) << causal_end << " m -> " << live_end << " m";
+  EXPECT_LT(RmsError(f, g.graph().estimates()), 0.1 * RmsError(f, CausalOf(f)));
+  RecordProperty("online_end_error_m", std::to_string(causal_end) + " -> " + std::to_string(live_end));
+}
+
+// A line of `steps` steps of 4 m east over `g`, the image up along the track; the odometry's
+// steps turn by 0.001 rad more than the truth each.
+Flight MakeLine(const Ground& g, int steps) {
+  std::vector<Similarity2> truth, causal;
+  Similarity2 c;
+  for (int k = 0; k <= steps; ++k) {
+    truth.push_back({Eigen::Vector2d(4.0 * k, 0.0), -M_PI / 2, 0.0});
+    if (k == 0) {
+      c = truth[0];
+    } else {
+      Similarity2 step = backend::Between(truth[k - 1], truth[k]);
+      step.heading_rad += 0.001;
+      c = c * step;
+    }
+    causal.push_back(c);
+  }
+  return FlightOver(g, truth, causal);
+}
+
+// The run's pair fitter (the odometry's correspondence options with its relocalisation
+// sampler, as pipeline/run_steps.h PairCorrespondenceOptions) with `threads` matching threads.
+PairFitter RealFitter(int threads) {
+  const OdometryOptions odometry;
+  CorrespondenceOptions c = odometry.correspondence;
+  c.sampler = odometry.relocalize_sampler;
+  c.match.num_threads = threads;
+  return MakeStandardPairFitter(c, kWidth, kHeight);
+}
+
+TEST(LoopClosures, TheGateRejectsARepeatedFieldThatVerifiesGeometrically) {
+  // A field repeating every 100 m along the line (rows of identical roofs): a frame 100 m on
+  // looks exactly like an earlier one, and the real matcher and RANSAC fit it with many inliers
+  // spread over the frame; only the gate can tell, since the track puts it 100 m away.
+  const Ground ground = MakeGround(-40.0, 380.0, -40.0, 40.0, 100.0);
+  const Flight f = MakeLine(ground, 80);
+  BackendOptions o;
+  const OptimizedFlight plain = Build(f, o).Optimize(RealFitter(1), 3);
+  o.closures = true;
+  const OptimizedFlight aliased = Build(f, o).Optimize(RealFitter(1), 3);
+  EXPECT_EQ(plain.closures_tried, 0);
+  EXPECT_GE(aliased.closures_tried, 5);
+  EXPECT_EQ(aliased.closures_verified, 0);
+  int verified_geometrically = 0;
+  for (const TriedPair& p : aliased.pairs) {
+    if (!p.by_appearance) continue;
+    const double offset_m = (p.fit.translation_m - p.predicted.translation_m).norm();
+    if (p.verdict == PairVerdict::kGate && p.inliers >= o.min_inliers &&
+        p.spread >= o.min_spread) {
+      ++verified_geometrically;
+      EXPECT_GT(offset_m, 80.0) << p.a << "-" << p.b;  // the fit: one period off the track
+    }
+  }
+  EXPECT_GE(verified_geometrically, 5);
+  EXPECT_GT(plain.pairs_verified, 10);  // the footprint pairs (the true overlaps) are kept
+  EXPECT_EQ(aliased.pairs_verified, plain.pairs_verified);
+  // The track is the one without closures.
+  ASSERT_EQ(aliased.local_from_frame.size(), plain.local_from_frame.size());
+  for (std::size_t i = 0; i < plain.local_from_frame.size(); ++i) {
+    ASSERT_LT((aliased.local_from_frame[i].translation_m - plain.local_from_frame[i].translation_m)
+                  .norm(), 1e-9) << i;
+    ASSERT_NEAR(aliased.local_from_frame[i].heading_rad, plain.local_from_frame[i].heading_rad,
+                1e-12) << i;
+  }
+  // Without the gate (a huge one) the false closures go in and bend the track by decimetres
+  // although the robust cost (Cauchy) down-weights them: the check above would see it.
+  BackendOptions open = o;
+  open.gate = 100.0;
+  open.gate_heading_deg = 179.0;
+  const OptimizedFlight ungated = Build(f, open).Optimize(RealFitter(1), 3);
+  EXPECT_GE(ungated.closures_verified, 5);
+  double moved_m = 0.0;
+  for (std::size_t i = 0; i < plain.local_from_frame.size(); ++i) {
+    moved_m = std::max(moved_m, (ungated.local_from_frame[i].translation_m -
+                                 plain.local_from_frame[i].translation_m).norm());
+  }
+  EXPECT_GE(ungated.outliers, 5);  // the robust cost down-weights them, but not to nothing
+  EXPECT_GT(moved_m, 0.1);
+  // Online too: the live track is the one without closures.
+  BackendOptions on;
+  on.online = true;
+  FlightGraph a(on, kWidth, kHeight, 3);
+  on.closures = true;
+  FlightGraph b(on, kWidth, kHeight, 3);
+  int gated = 0, verified = 0;
+  const PairFitter fitter = RealFitter(1);
+  for (const FrameResult& r : f.results) {
+    const WindowedPose wa = a.AddOnline(r, fitter, 3), wb = b.AddOnline(r, fitter, 3);
+    gated += wb.closures_gated;
+    verified += wb.closures_verified;
+    ASSERT_LT((wa.local_from_frame.translation_m - wb.local_from_frame.translation_m).norm(), 1e-9)
+        << r.index;
+  }
+  EXPECT_GE(gated, 5);
+  EXPECT_EQ(verified, 0);
+}
+
+TEST(LoopClosures, TheSameSeedGivesTheSameResultWithOneOrTwoThreads) {
+  const Ground ground = MakeGround(-40.0, 380.0, -40.0, 40.0, 100.0);
+  const Flight f = MakeLine(ground, 80);
+  BackendOptions o;
+  o.closures = true;
+  const FlightGraph g = Build(f, o);
+  const OptimizedFlight one = g.Optimize(RealFitter(1), 5);
+  const OptimizedFlight two = g.Optimize(RealFitter(2), 5);
+  ASSERT_GT(one.closures_tried, 0);
+  ASSERT_EQ(one.pairs.size(), two.pairs.size());
+  for (std::size_t k = 0; k < one.pairs.size(); ++k) {
+    EXPECT_EQ(one.pairs[k].a, two.pairs[k].a);
+    EXPECT_EQ(one.pairs[k].b, two.pairs[k].b);
+    EXPECT_EQ(one.pairs[k].verdict, two.pairs[k].verdict);
+    EXPECT_EQ(one.pairs[k].inliers, two.pairs[k].inliers);
+    EXPECT_EQ(one.pairs[k].fit.translation_m, two.pairs[k].fit.translation_m);
+  }
+  for (std::size_t i = 0; i < one.local_from_frame.size(); ++i) {
+    ASSERT_EQ(one.local_from_frame[i].translation_m, two.local_from_frame[i].translation_m) << i;
+  }
+  // The signatures depend on the seed and on nothing else.
+  const FlightGraph again = Build(f, o);
+  ASSERT_EQ(again.num_keyframes(), g.num_keyframes());
+  for (int k = 0; k < g.num_keyframes(); ++k) {
+    EXPECT_EQ(again.signature(k)->words, g.signature(k)->words);
+    EXPECT_EQ(again.signature(k)->weights, g.signature(k)->weights);
+  }
 }
 
 TEST(FlightGraph, BadOptionsAndFramesAreClearErrors) {

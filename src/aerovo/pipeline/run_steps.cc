@@ -946,7 +946,8 @@ nlohmann::json PairsJson(const FlightRecording& flight, const OptimizedFlight& o
                    {"spread", p.spread},
                    {"fit", pose(p.fit)},
                    {"predicted", pose(p.predicted)},
-                   {"down_weighted", p.down_weighted}});
+                   {"down_weighted", p.down_weighted},
+                   {"by_appearance", p.by_appearance}});
   }
   return out;
 }
@@ -999,6 +1000,9 @@ void OptimizeFlight(const RunConfig& config, const FlightRecording& flight,
   o.pairs_rejected = opt.pairs_rejected;
   o.pairs_gated = opt.pairs_gated;
   o.outliers = opt.outliers;
+  o.closures_tried = opt.closures_tried;
+  o.closures_verified = opt.closures_verified;
+  o.closures_gated = opt.closures_gated;
   o.match_s = opt.match_s;
   o.solve_s = opt.solve_s;
   o.iterations = opt.iterations;

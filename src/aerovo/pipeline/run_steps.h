@@ -459,9 +459,11 @@ struct FlightRecording {
   /// scale mode, first-frame pixels from local metres in the affine-chain mode.
   Eigen::Matrix3d world_from_local = Eigen::Matrix3d::Identity();
 
-  /// The graph, made on the first call for frames of width x height pixels (the odometry's).
-  FlightGraph& GraphOf(const BackendOptions& options, int width, int height) {
-    if (!graph) graph = std::make_unique<FlightGraph>(options, width, height);
+  /// The graph, made on the first call for frames of width x height pixels (the odometry's);
+  /// `seed`: the run's seed (the keyframe signatures' projections, FlightGraph).
+  FlightGraph& GraphOf(const BackendOptions& options, int width, int height,
+                       std::uint64_t seed) {
+    if (!graph) graph = std::make_unique<FlightGraph>(options, width, height, seed);
     return *graph;
   }
 };

@@ -36,6 +36,10 @@ std::string FormatOptimized(const RunSummary& s) {
       "  {} verified, {} rejected ({} by the gate), {} down-weighted; {:.2f} s CPU\n",
       o.keyframes, o.pairs_tried, o.pairs_verified, o.pairs_rejected, o.pairs_gated, o.outliers,
       o.cpu_s);
+  if (o.closures_tried > 0) {
+    t += fmt::format("  loop closures by appearance: {} tried, {} verified, {} rejected by the gate\n",
+                     o.closures_tried, o.closures_verified, o.closures_gated);
+  }
   const auto rows = [&](const char* what, const std::optional<TrajectoryComparison>& causal,
                         const std::optional<TrajectoryComparison>& optimised) {
     if (!causal || !optimised) return;

@@ -39,6 +39,9 @@ nlohmann::json ToJson(const RunSummary::Optimized& o) {
           {"pairs_rejected", o.pairs_rejected},
           {"pairs_gated", o.pairs_gated},
           {"outliers", o.outliers},
+          {"closures_tried", o.closures_tried},
+          {"closures_verified", o.closures_verified},
+          {"closures_gated", o.closures_gated},
           {"match_s", o.match_s},
           {"solve_s", o.solve_s},
           {"cpu_s", o.cpu_s},
@@ -55,6 +58,11 @@ nlohmann::json ToJson(const RunSummary::Online& o) {
           {"pairs_tried", o.pairs_tried},
           {"pairs_verified", o.pairs_verified},
           {"pairs_gated", o.pairs_gated},
+          {"closures_tried", o.closures_tried},
+          {"closures_verified", o.closures_verified},
+          {"closures_gated", o.closures_gated},
+          {"full_solves", o.full_solves},
+          {"full_solve_ms", o.full_solve_ms},
           {"total_ms", o.total_ms}};
 }
 

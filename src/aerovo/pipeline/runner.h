@@ -168,6 +168,9 @@ struct RunSummary {
   struct Optimized {
     int keyframes = 0;
     int pairs_tried = 0, pairs_verified = 0, pairs_rejected = 0, pairs_gated = 0, outliers = 0;
+    /// Of the pairs, the loop-closure candidates found by appearance (backend.closures): tried,
+    /// verified, rejected by the gate.
+    int closures_tried = 0, closures_verified = 0, closures_gated = 0;
     double match_s = 0.0;  ///< Matching and fitting the pairs, wall s.
     double solve_s = 0.0;  ///< The graph solve, wall s.
     /// CPU time of the whole offline step (pairs, solve, vo_optimized.*, comparisons), s of all
@@ -177,7 +180,8 @@ struct RunSummary {
     /// Every candidate pair tried (odometry/flight_graph.h TriedPair): {"a", "b" (source frame
     /// indices), "verdict" (ToString(PairVerdict)), "inliers", "spread", "fit" and "predicted"
     /// ([x m, y m, heading deg, log-scale] of prev_from_curr in frame a's metres: the pair's fit,
-    /// the causal track's), "down_weighted"}.
+    /// the causal track's), "down_weighted", "by_appearance" (a loop-closure candidate found by
+    /// appearance, backend.closures)}.
     nlohmann::json pairs = nlohmann::json::array();
     std::optional<TrajectoryComparison> evaluation;        ///< Against GPS.
     std::optional<TrajectoryComparison> truth_evaluation;  ///< Against the truth.
@@ -189,6 +193,10 @@ struct RunSummary {
   struct Online {
     int window = 0;  ///< backend.window.
     int pairs_tried = 0, pairs_verified = 0, pairs_gated = 0;
+    /// Loop closures by appearance (backend.closures): candidates tried, verified (added),
+    /// rejected by the gate; whole-graph solves they caused and their wall time, ms.
+    int closures_tried = 0, closures_verified = 0, closures_gated = 0, full_solves = 0;
+    double full_solve_ms = 0.0;
     double total_ms = 0.0;  ///< Wall time of the window stage over all frames, ms.
   };
   std::optional<Online> online;  ///< nullopt: backend.online off, or no frame.

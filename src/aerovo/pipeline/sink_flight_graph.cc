@@ -41,7 +41,9 @@ class FlightGraphSink : public FrameSink {
   void Write(FrameState& f, const RunContext& run) override {
     FlightRecording& flight = run.state->flight;
     if (f.lens_switched && flight.graph) flight.graph->DropKeyframes();
-    flight.GraphOf(run.config->backend, f.pixels.width, f.pixels.height).Add(f.result);
+    flight.GraphOf(run.config->backend, f.pixels.width, f.pixels.height,
+                   run.config->odometry.correspondence.ransac.seed)
+        .Add(f.result);
     RecordFlightFrame(f, run);
     f.result.features.reset();
   }

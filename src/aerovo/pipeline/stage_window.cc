@@ -27,15 +27,21 @@ class WindowStage : public FrameStage {
                                        f.pixels.width, f.pixels.height);
     }
     const Stopwatch time;
+    const std::uint64_t seed = run.config->odometry.correspondence.ransac.seed;
     const WindowedPose w =
-        flight.GraphOf(run.config->backend, f.pixels.width, f.pixels.height)
-            .AddOnline(f.result, fitter_, run.config->odometry.correspondence.ransac.seed);
+        flight.GraphOf(run.config->backend, f.pixels.width, f.pixels.height, seed)
+            .AddOnline(f.result, fitter_, seed);
     RecordFlightFrame(f, run);  // the causal pose, before it is replaced below
     if (!run.summary->online) run.summary->online = RunSummary::Online{run.config->backend.window};
     RunSummary::Online& s = *run.summary->online;
     s.pairs_tried += w.pairs_tried;
     s.pairs_verified += w.pairs_verified;
     s.pairs_gated += w.pairs_gated;
+    s.closures_tried += w.closures_tried;
+    s.closures_verified += w.closures_verified;
+    s.closures_gated += w.closures_gated;
+    s.full_solves += w.full_solve ? 1 : 0;
+    s.full_solve_ms += w.full_solve_ms;
     s.total_ms += time.elapsed_ms();
     f.result.features.reset();
     f.result.position_m = w.local_from_frame.translation_m;
