@@ -125,7 +125,8 @@ void BM_SurfDetectAndDescribe(benchmark::State& state) {
 
 // The default of `aerovo run` (SurfOptions::adaptive with its defaults: a contrast-normalised
 // floor, per-cell selection of target_points, only the kept points described). Counters: points
-// kept and candidates that reached the selection (SurfResult::candidates).
+// kept, candidates that reached the selection (SurfResult::candidates), the steered floor and
+// the calls whose cell floors had to be redone (SurfResult::cell_floors_redone).
 void BM_SurfAdaptiveDetectAndDescribe(benchmark::State& state) {
   const cv::Mat* m = GetImage(state);
   if (m == nullptr) return;
@@ -136,11 +137,17 @@ void BM_SurfAdaptiveDetectAndDescribe(benchmark::State& state) {
   std::size_t n = 0;
   int candidates = 0;
   // Steered as in a stream of this image (the odometry passes each frame's next_min_response
-  // to the next call): the steady state of a flight over similar ground.
-  double steered = surf.DetectAndDescribe(View(*m)).next_min_response;
+  // and next_cell_min_response to the next call): the steady state of a flight over similar
+  // ground.
+  aerovo::SurfResult first = surf.DetectAndDescribe(View(*m));
+  double steered = first.next_min_response;
+  std::vector<float> steered_cells = std::move(first.next_cell_min_response);
+  int redone = 0;
   for (auto _ : state) {
-    aerovo::SurfResult r = surf.DetectAndDescribe(View(*m), steered);
+    aerovo::SurfResult r = surf.DetectAndDescribe(View(*m), steered, steered_cells);
     steered = r.next_min_response;
+    steered_cells.swap(r.next_cell_min_response);
+    redone += r.cell_floors_redone ? 1 : 0;
     n = r.features.size();
     candidates = r.candidates;
     benchmark::DoNotOptimize(r.features.descriptors.data());
@@ -148,6 +155,7 @@ void BM_SurfAdaptiveDetectAndDescribe(benchmark::State& state) {
   state.counters["keypoints"] = static_cast<double>(n);
   state.counters["candidates"] = static_cast<double>(candidates);
   state.counters["floor"] = steered;
+  state.counters["redone"] = static_cast<double>(redone);
 }
 
 // The fixed threshold at the adaptive default's number of points: hessian_threshold found by

@@ -337,13 +337,37 @@ struct Surf::Impl {
   int last_candidates = 0;
   double last_range = 0.0, last_floor = 0.0, last_c2 = 1.0, last_min_response = 0.0;
   double next_min_response = 0.0;
+  // Adaptive mode's cell floors (determinant units, grid x grid row-major; empty: none): a
+  // candidate of cell c needs a response above cell_floor[c] (>= the frame's floor). Set from
+  // the steering (SetCellFloors); cleared when the detection is redone at the frame's floor.
+  std::vector<float> cell_floor;
+  // Set by Select: whether the cell floors cut no point the selection over every candidate
+  // above the frame's floor keeps (SelectionOverFloor), and the next frame's cell floors
+  // (SurfResult::next_cell_min_response).
+  bool cell_floors_exact = true;
+  std::vector<float> next_cell_min_response;
 
   // The threshold of the fast-Hessian for this image: hessian_threshold, or in adaptive mode the
   // floor min_response * (range / 255)^2 (sets last_range, last_floor).
   float DetectionThreshold(const GrayImageView& image, double steered_min_response);
+  // Adaptive mode: cell_floor from the steering's cells (min_response units, full contrast):
+  // max(frame's floor, steered * contrast factor); none when `steered` is empty or all its
+  // floors are at or below the frame's. Throws InvalidArgument for a wrong size or value.
+  void SetCellFloors(const std::vector<float>& steered);
+  // Adaptive mode, after Select with cell floors: whether the floors cut a point that the
+  // selection over every candidate above the frame's floor would keep or use (see Select).
+  bool CellFloorsCut(std::size_t quota, std::size_t more, float weakest_pick) const;
+  // Adaptive mode: next_cell_min_response from each cell's first dropped response and the
+  // weakest point kept beyond the quotas (infinity when none was needed).
+  void SteerCells(std::size_t quota, float weakest_pick);
   // Adaptive mode: keeps per cell its strongest points, then the strongest of the rest up to
   // target_points; then sorts (StrongerFirst) and applies max_keypoints in both modes.
   void Select(std::vector<Keypoint>& kps);
+  // DetectionThreshold, SetCellFloors, FastHessian and Select; when the cell floors cut a point
+  // the selection needs (cell_floors_exact false), FastHessian and Select again without them
+  // (*redone true). The points are those of a call without cell floors either way.
+  std::vector<Keypoint> DetectSelected(const GrayImageView& image, double steered_min_response,
+                                       const std::vector<float>& steered_cells, bool* redone);
   std::vector<Keypoint> FastHessian(float threshold);
   void Orient(std::vector<Keypoint>& kps);
   void DescribeAll(const std::vector<Keypoint>& kps, float* out, int dsize);
@@ -383,10 +407,73 @@ float Surf::Impl::DetectionThreshold(const GrayImageView& image, double steered_
   return static_cast<float>(last_floor);
 }
 
+void Surf::Impl::SetCellFloors(const std::vector<float>& steered) {
+  cell_floor.clear();
+  if (!options.adaptive || steered.empty()) return;
+  const std::size_t cells = static_cast<std::size_t>(options.grid) * options.grid;
+  if (steered.size() != cells) {
+    throw InvalidArgument("Surf: steered_cell_min_response has " +
+                          std::to_string(steered.size()) + " values; the grid (SurfOptions::grid " +
+                          std::to_string(options.grid) + ") needs " + std::to_string(cells));
+  }
+  const float floor = static_cast<float>(last_floor);
+  bool any = false;
+  cell_floor.resize(cells);
+  for (std::size_t c = 0; c < cells; ++c) {
+    if (!(std::isfinite(steered[c]) && steered[c] >= 0.f)) {
+      throw InvalidArgument("Surf: steered_cell_min_response[" + std::to_string(c) + "] is " +
+                            std::to_string(steered[c]) + "; it must be finite and >= 0");
+    }
+    cell_floor[c] = std::max(floor, static_cast<float>(steered[c] * last_c2));
+    any = any || cell_floor[c] > floor;
+  }
+  if (!any) cell_floor.clear();
+}
+
+// A cell whose floor is above the frame's may have lost candidates below it. The selection over
+// every candidate above the frame's floor is still this one when, for each such cell, the cell
+// kept more than its quota (its quota and first dropped point are above its floor, so the same)
+// and every point taken beyond the quotas is stronger than the cell's floor (a lost point would
+// have lost to each of them); the frame then had more than target_points candidates either way.
+bool Surf::Impl::CellFloorsCut(std::size_t quota, std::size_t more, float weakest_pick) const {
+  const float floor = static_cast<float>(last_floor);
+  const std::size_t target = static_cast<std::size_t>(options.target_points);
+  const bool short_of_target = kept.size() + more < target;  // every candidate was kept
+  for (std::size_t c = 0; c < cell_floor.size(); ++c) {
+    if (!(cell_floor[c] > floor)) continue;
+    if (short_of_target || cell_start[c + 1] - cell_start[c] <= quota ||
+        !(weakest_pick > cell_floor[c])) {
+      return true;
+    }
+  }
+  return false;
+}
+
+void Surf::Impl::SteerCells(std::size_t quota, float weakest_pick) {
+  const std::size_t cells = cell_start.size() - 1;
+  next_cell_min_response.assign(cells, 0.f);
+  for (std::size_t c = 0; c < cells; ++c) {
+    if (cell_start[c + 1] - cell_start[c] <= quota) continue;
+    const float first_dropped = by_cell[cell_start[c] + quota].response;
+    next_cell_min_response[c] =
+        static_cast<float>(0.5 * std::min(first_dropped, weakest_pick) / last_c2);
+  }
+}
+
 void Surf::Impl::Select(std::vector<Keypoint>& kps) {
   last_candidates = options.adaptive ? static_cast<int>(kps.size()) : 0;
+  cell_floors_exact = true;
+  next_cell_min_response.clear();
   const std::size_t target = static_cast<std::size_t>(options.target_points);
-  if (options.adaptive && kps.size() <= target) next_min_response = 0.5 * last_min_response;
+  const std::size_t all_cells = static_cast<std::size_t>(options.grid) * options.grid;
+  if (options.adaptive && kps.size() <= target) {
+    next_min_response = 0.5 * last_min_response;
+    next_cell_min_response.assign(all_cells, 0.f);
+    // Every candidate is kept: a cell floor above the frame's may have lost one.
+    for (const float f : cell_floor) {
+      cell_floors_exact = cell_floors_exact && !(f > static_cast<float>(last_floor));
+    }
+  }
   if (options.adaptive && kps.size() > target) {
     const int g = options.grid, cells = g * g;
     const RectI r = options.roi ? *options.roi : RectI{0, 0, ii.width(), ii.height()};
@@ -422,11 +509,17 @@ void Surf::Impl::Select(std::vector<Keypoint>& kps) {
       }
     }
     next_min_response = 0.5 * weakest / last_c2;
+    std::size_t more = 0;
+    float weakest_pick = std::numeric_limits<float>::infinity();
     if (kept.size() < target && !rest.empty()) {
-      const std::size_t more = std::min(target - kept.size(), rest.size());
+      more = std::min(target - kept.size(), rest.size());
       std::nth_element(rest.begin(), rest.begin() + more, rest.end(), StrongerFirst);
-      kept.insert(kept.end(), rest.begin(), rest.begin() + more);
+      for (std::size_t k = 0; k < more; ++k) weakest_pick = std::min(weakest_pick, rest[k].response);
     }
+    cell_floors_exact = !CellFloorsCut(quota, more, weakest_pick);
+    if (kept.size() + more < target) weakest_pick = 0.f;  // all kept: no cell floor next time
+    SteerCells(quota, weakest_pick);
+    kept.insert(kept.end(), rest.begin(), rest.begin() + more);
     kps.swap(kept);
   }
   std::sort(kps.begin(), kps.end(), StrongerFirst);
@@ -461,6 +554,8 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
   const RectI sel = options.roi ? *options.roi : RectI{0, 0, W, H};
   if (early) {
     bar.Reset(cells, std::max(1, options.target_points / cells), options.target_points);
+  } else {
+    cell_floor.clear();
   }
 
   for (int step = 0; step < options.num_octaves; ++step) {
@@ -585,12 +680,18 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
         const int cy0 = cy.first, cy1 = cy.second;
         // The scan's threshold over a span: the floor, or in adaptive mode the lowest bar of
         // the cells its points can fall in when that is higher (responses >= the bar pass).
+        // With cell floors (SetCellFloors), a cell's own requirement is the higher of its floor
+        // and its bar, and the span's threshold the lowest requirement of its cells.
         const auto span_threshold = [&](const ColumnSpan& s) {
           if (band_bar == nullptr) return threshold;
-          const float b =
-              std::min(std::min(band_bar->Bar(cy0 * g + s.cx0), band_bar->Bar(cy0 * g + s.cx1)),
-                       std::min(band_bar->Bar(cy1 * g + s.cx0), band_bar->Bar(cy1 * g + s.cx1)));
-          return std::max(threshold, std::nextafter(b, -std::numeric_limits<float>::infinity()));
+          const auto need = [&](int c) {
+            const float b =
+                std::nextafter(band_bar->Bar(c), -std::numeric_limits<float>::infinity());
+            return cell_floor.empty() ? b : std::max(cell_floor[c], b);
+          };
+          const float t = std::min(std::min(need(cy0 * g + s.cx0), need(cy0 * g + s.cx1)),
+                                   std::min(need(cy1 * g + s.cx0), need(cy1 * g + s.cx1)));
+          return std::max(threshold, t);
         };
         for (int l = 1; l + 1 < levels; ++l) {
           const auto [j0, j1, i0, i1] = cand[l];
@@ -660,9 +761,13 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
                  j = next_in_layer_max(m0, m1, m2, j + 1, e, t)) {
               if (!examine(j) || band_bar == nullptr) continue;
               const Keypoint& kp = out.back();
-              band_bar->Add(
-                  GridCell(kp.y, sel.y, sel.height, g) * g + GridCell(kp.x, sel.x, sel.width, g),
-                  kp);
+              const int cell =
+                  GridCell(kp.y, sel.y, sel.height, g) * g + GridCell(kp.x, sel.x, sel.width, g);
+              if (!cell_floor.empty() && !(kp.response > cell_floor[cell])) {
+                out.pop_back();  // below its own cell's floor: not a candidate
+                continue;
+              }
+              band_bar->Add(cell, kp);
               t = span_threshold(s);
             }
           }
@@ -900,19 +1005,38 @@ Surf& Surf::operator=(Surf&& other) noexcept {
 
 const SurfOptions& Surf::options() const { return impl_->options; }
 
-SurfResult Surf::DetectAndDescribe(const GrayImageView& image, double steered_min_response) {
+std::vector<Keypoint> Surf::Impl::DetectSelected(const GrayImageView& image,
+                                                 double steered_min_response,
+                                                 const std::vector<float>& steered_cells,
+                                                 bool* redone) {
+  const float threshold = DetectionThreshold(image, steered_min_response);
+  SetCellFloors(steered_cells);
+  std::vector<Keypoint> kps = FastHessian(threshold);
+  Select(kps);
+  *redone = !cell_floors_exact;
+  if (*redone) {  // Again at the frame's floor alone: the output of a call without cell floors.
+    cell_floor.clear();
+    kps = FastHessian(threshold);
+    Select(kps);
+  }
+  return kps;
+}
+
+SurfResult Surf::DetectAndDescribe(const GrayImageView& image, double steered_min_response,
+                                   const std::vector<float>& steered_cell_min_response) {
   SurfResult result;
   Stopwatch watch;
   impl_->Prepare(image);
-  std::vector<Keypoint> kps =
-      impl_->FastHessian(impl_->DetectionThreshold(image, steered_min_response));
-  impl_->Select(kps);
+  std::vector<Keypoint> kps = impl_->DetectSelected(image, steered_min_response,
+                                                    steered_cell_min_response,
+                                                    &result.cell_floors_redone);
   impl_->Orient(kps);
   result.detect_ms = watch.elapsed_ms();
   result.candidates = impl_->last_candidates;
   result.contrast_range = impl_->last_range;
   result.floor_response = impl_->last_floor;
   result.next_min_response = impl_->next_min_response;
+  result.next_cell_min_response = impl_->next_cell_min_response;
   watch.restart();
   FeatureSet& fs = result.features;
   fs.descriptor_size = impl_->options.extended ? 128 : 64;
@@ -925,8 +1049,8 @@ SurfResult Surf::DetectAndDescribe(const GrayImageView& image, double steered_mi
 
 std::vector<Keypoint> Surf::Detect(const GrayImageView& image) {
   impl_->Prepare(image);
-  std::vector<Keypoint> kps = impl_->FastHessian(impl_->DetectionThreshold(image, 0.0));
-  impl_->Select(kps);
+  bool redone = false;
+  std::vector<Keypoint> kps = impl_->DetectSelected(image, 0.0, {}, &redone);
   impl_->Orient(kps);
   return kps;
 }

@@ -135,6 +135,21 @@ struct SurfResult {
   /// adaptation: BENCHMARKS.md) and lets the floor fall back to min_response when frames get
   /// weaker. 0 in fixed-threshold mode.
   double next_min_response = 0.0;
+  /// Adaptive mode: a floor per cell of the grid (grid x grid values, row-major from the top
+  /// left of the image or roi; min_response units, full contrast) for the next frame of a
+  /// stream: half the lower of the cell's first dropped response and the weakest point kept
+  /// beyond the cells' quotas; 0 for a cell that had no more candidates than its quota, and for
+  /// every cell when the frame had no more than target_points. Passed to the next call
+  /// (steered_cell_min_response), each cell is searched only above its own floor, so that one
+  /// flat cell no longer holds the whole frame at next_min_response (the cost of the
+  /// adaptation: BENCHMARKS.md, "SURF at the same number of points"). Empty in fixed-threshold
+  /// mode.
+  std::vector<float> next_cell_min_response;
+  /// Adaptive mode: true when the cell floors passed in cut a point the selection keeps (or the
+  /// first dropped point of a cell), so the detection ran a second time at the frame's floor
+  /// alone: the output is the same as without cell floors, at the cost of a second
+  /// fast-Hessian. False otherwise.
+  bool cell_floors_redone = false;
 };
 
 /// Reusable SURF engine. Keeps its buffers (integral image, response maps) between calls, so
@@ -151,10 +166,17 @@ class Surf {
 
   /// Detects keypoints and describes them. Adaptive mode: the floor is max(min_response,
   /// steered_min_response) times the frame's contrast factor; a stream passes the previous
-  /// frame's SurfResult::next_min_response (the odometry does), a single image 0. Ignored in
-  /// fixed-threshold mode.
-  /// Throws InvalidArgument if the image is empty or smaller than the smallest filter.
-  SurfResult DetectAndDescribe(const GrayImageView& image, double steered_min_response = 0.0);
+  /// frame's SurfResult::next_min_response (the odometry does), a single image 0. A stream
+  /// also passes the previous frame's SurfResult::next_cell_min_response as
+  /// steered_cell_min_response (empty: none): cell c is then searched only above
+  /// max(floor, steered_cell_min_response[c] times the contrast factor). The output (points,
+  /// descriptors, next_min_response) is exactly that of the call without cell floors: when a
+  /// cell floor cut a point the selection needs, the detection is redone without them
+  /// (SurfResult::cell_floors_redone). Both are ignored in fixed-threshold mode.
+  /// Throws InvalidArgument if the image is empty or smaller than the smallest filter, or if
+  /// steered_cell_min_response is neither empty nor grid x grid finite values >= 0.
+  SurfResult DetectAndDescribe(const GrayImageView& image, double steered_min_response = 0.0,
+                               const std::vector<float>& steered_cell_min_response = {});
 
   /// Detects keypoints only (with orientation unless upright).
   std::vector<Keypoint> Detect(const GrayImageView& image);
