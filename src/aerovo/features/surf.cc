@@ -412,9 +412,9 @@ void Surf::Impl::SetCellFloors(const std::vector<float>& steered) {
   if (!options.adaptive || steered.empty()) return;
   const std::size_t cells = static_cast<std::size_t>(options.grid) * options.grid;
   if (steered.size() != cells) {
-    throw InvalidArgument("Surf: steered_cell_min_response has " +
-                          std::to_string(steered.size()) + " values; the grid (SurfOptions::grid " +
-                          std::to_string(options.grid) + ") needs " + std::to_string(cells));
+    throw InvalidArgument("Surf: steered_cell_min_response has " + std::to_string(steered.size()) +
+                          " values; the grid (SurfOptions::grid " + std::to_string(options.grid) +
+                          ") needs " + std::to_string(cells));
   }
   const float floor = static_cast<float>(last_floor);
   bool any = false;
@@ -514,7 +514,9 @@ void Surf::Impl::Select(std::vector<Keypoint>& kps) {
     if (kept.size() < target && !rest.empty()) {
       more = std::min(target - kept.size(), rest.size());
       std::nth_element(rest.begin(), rest.begin() + more, rest.end(), StrongerFirst);
-      for (std::size_t k = 0; k < more; ++k) weakest_pick = std::min(weakest_pick, rest[k].response);
+      for (std::size_t k = 0; k < more; ++k) {
+        weakest_pick = std::min(weakest_pick, rest[k].response);
+      }
     }
     cell_floors_exact = !CellFloorsCut(quota, more, weakest_pick);
     if (kept.size() + more < target) weakest_pick = 0.f;  // all kept: no cell floor next time
@@ -1027,9 +1029,8 @@ SurfResult Surf::DetectAndDescribe(const GrayImageView& image, double steered_mi
   SurfResult result;
   Stopwatch watch;
   impl_->Prepare(image);
-  std::vector<Keypoint> kps = impl_->DetectSelected(image, steered_min_response,
-                                                    steered_cell_min_response,
-                                                    &result.cell_floors_redone);
+  std::vector<Keypoint> kps = impl_->DetectSelected(
+      image, steered_min_response, steered_cell_min_response, &result.cell_floors_redone);
   impl_->Orient(kps);
   result.detect_ms = watch.elapsed_ms();
   result.candidates = impl_->last_candidates;
