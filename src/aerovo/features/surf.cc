@@ -338,14 +338,19 @@ struct Surf::Impl {
   double last_range = 0.0, last_floor = 0.0, last_c2 = 1.0, last_min_response = 0.0;
   double next_min_response = 0.0;
   // Adaptive mode's cell floors (determinant units, grid x grid row-major; empty: none): a
-  // candidate of cell c needs a response above cell_floor[c] (>= the frame's floor). Set from
-  // the steering (SetCellFloors); cleared when the detection is redone at the frame's floor.
-  std::vector<float> cell_floor;
-  // Set by Select: whether the cell floors cut no point the selection over every candidate
-  // above the frame's floor keeps (SelectionOverFloor), and the next frame's cell floors
-  // (SurfResult::next_cell_min_response).
-  bool cell_floors_exact = true;
+  // candidate of cell c needs a response above cell_floor[c] (>= the frame's floor) and, when
+  // cell_ceiling is not empty, not above cell_ceiling[c]. Set from the steering
+  // (SetCellFloors), then by RedoCells.
+  std::vector<float> cell_floor, cell_ceiling;
+  // Set by Select: the cells whose floor may have cut a point the selection over every
+  // candidate above the frame's floor keeps or uses (CellFloorsCut), and the next frame's cell
+  // floors (SurfResult::next_cell_min_response).
+  std::vector<int> cut_cells;
   std::vector<float> next_cell_min_response;
+  // RedoCells: every candidate so far, the bar they set, the cells' floors before the redo.
+  std::vector<Keypoint> all_found;
+  SelectionBar seed_bar;
+  std::vector<float> pass_floor;
 
   // The threshold of the fast-Hessian for this image: hessian_threshold, or in adaptive mode the
   // floor min_response * (range / 255)^2 (sets last_range, last_floor).
@@ -356,19 +361,26 @@ struct Surf::Impl {
   void SetCellFloors(const std::vector<float>& steered);
   // Adaptive mode, after Select with cell floors: whether the floors cut a point that the
   // selection over every candidate above the frame's floor would keep or use (see Select).
-  bool CellFloorsCut(std::size_t quota, std::size_t more, float weakest_pick) const;
+  void CellFloorsCut(std::size_t quota, std::size_t more, float weakest_pick);
   // Adaptive mode: next_cell_min_response from each cell's first dropped response and the
   // weakest point kept beyond the quotas (infinity when none was needed).
   void SteerCells(std::size_t quota, float weakest_pick);
   // Adaptive mode: keeps per cell its strongest points, then the strongest of the rest up to
   // target_points; then sorts (StrongerFirst) and applies max_keypoints in both modes.
   void Select(std::vector<Keypoint>& kps);
-  // DetectionThreshold, SetCellFloors, FastHessian and Select; when the cell floors cut a point
-  // the selection needs (cell_floors_exact false), FastHessian and Select again without them
-  // (*redone true). The points are those of a call without cell floors either way.
+  // DetectionThreshold, SetCellFloors, FastHessian and Select; then RedoCells for the cells
+  // whose floor cut a point the selection needs (*redone: how many; grid x grid when the whole
+  // frame was detected again). The points are those of a call without cell floors either way.
   std::vector<Keypoint> DetectSelected(const GrayImageView& image, double steered_min_response,
-                                       const std::vector<float>& steered_cells, bool* redone);
-  std::vector<Keypoint> FastHessian(float threshold);
+                                       const std::vector<float>& steered_cells, int* redone);
+  // After Select reported cut_cells: each of them searched again, over its own rectangle, for
+  // the candidates between the frame's floor and its cell floor, and the selection made again
+  // over every candidate. Returns the kept points.
+  std::vector<Keypoint> RedoCells(float threshold);
+  // The fast-Hessian's candidates above `threshold` (and the cell floors); with `scan`, only
+  // those within one sample of that rectangle (pixels) are searched, and in adaptive mode the
+  // bar starts from seed_bar instead of empty.
+  std::vector<Keypoint> FastHessian(float threshold, const RectI* scan = nullptr);
   void Orient(std::vector<Keypoint>& kps);
   void DescribeAll(const std::vector<Keypoint>& kps, float* out, int dsize);
   float Orientation(const Keypoint& kp) const;
@@ -435,7 +447,7 @@ void Surf::Impl::SetCellFloors(const std::vector<float>& steered) {
 // kept more than its quota (its quota and first dropped point are above its floor, so the same)
 // and every point taken beyond the quotas is stronger than the cell's floor (a lost point would
 // have lost to each of them); the frame then had more than target_points candidates either way.
-bool Surf::Impl::CellFloorsCut(std::size_t quota, std::size_t more, float weakest_pick) const {
+void Surf::Impl::CellFloorsCut(std::size_t quota, std::size_t more, float weakest_pick) {
   const float floor = static_cast<float>(last_floor);
   const std::size_t target = static_cast<std::size_t>(options.target_points);
   const bool short_of_target = kept.size() + more < target;  // every candidate was kept
@@ -443,10 +455,9 @@ bool Surf::Impl::CellFloorsCut(std::size_t quota, std::size_t more, float weakes
     if (!(cell_floor[c] > floor)) continue;
     if (short_of_target || cell_start[c + 1] - cell_start[c] <= quota ||
         !(weakest_pick > cell_floor[c])) {
-      return true;
+      cut_cells.push_back(static_cast<int>(c));
     }
   }
-  return false;
 }
 
 void Surf::Impl::SteerCells(std::size_t quota, float weakest_pick) {
@@ -462,7 +473,7 @@ void Surf::Impl::SteerCells(std::size_t quota, float weakest_pick) {
 
 void Surf::Impl::Select(std::vector<Keypoint>& kps) {
   last_candidates = options.adaptive ? static_cast<int>(kps.size()) : 0;
-  cell_floors_exact = true;
+  cut_cells.clear();
   next_cell_min_response.clear();
   const std::size_t target = static_cast<std::size_t>(options.target_points);
   const std::size_t all_cells = static_cast<std::size_t>(options.grid) * options.grid;
@@ -470,9 +481,10 @@ void Surf::Impl::Select(std::vector<Keypoint>& kps) {
     next_min_response = 0.5 * last_min_response;
     next_cell_min_response.assign(all_cells, 0.f);
     // Every candidate is kept: a cell floor above the frame's may have lost one.
-    for (const float f : cell_floor) {
-      cell_floors_exact = cell_floors_exact && !(f > static_cast<float>(last_floor));
+    for (std::size_t c = 0; c < cell_floor.size(); ++c) {
+      if (cell_floor[c] > static_cast<float>(last_floor)) cut_cells.push_back(static_cast<int>(c));
     }
+    if (!cut_cells.empty()) by_cell.assign(kps.begin(), kps.end());  // for RedoCells
   }
   if (options.adaptive && kps.size() > target) {
     const int g = options.grid, cells = g * g;
@@ -518,7 +530,7 @@ void Surf::Impl::Select(std::vector<Keypoint>& kps) {
         weakest_pick = std::min(weakest_pick, rest[k].response);
       }
     }
-    cell_floors_exact = !CellFloorsCut(quota, more, weakest_pick);
+    CellFloorsCut(quota, more, weakest_pick);
     if (kept.size() + more < target) weakest_pick = 0.f;  // all kept: no cell floor next time
     SteerCells(quota, weakest_pick);
     kept.insert(kept.end(), rest.begin(), rest.begin() + more);
@@ -530,7 +542,7 @@ void Surf::Impl::Select(std::vector<Keypoint>& kps) {
   }
 }
 
-std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
+std::vector<Keypoint> Surf::Impl::FastHessian(float threshold, const RectI* scan) {
   const int W = ii.width(), H = ii.height();
   const int levels = options.num_scale_levels;
   const int threads = ResolveThreads(options.num_threads);
@@ -554,11 +566,15 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
       options.adaptive &&
       static_cast<long>(cells) * std::max(1, options.target_points / cells) <= kMaxBarPoints;
   const RectI sel = options.roi ? *options.roi : RectI{0, 0, W, H};
-  if (early) {
+  if (early && scan != nullptr) {
+    bar.CopyFrom(seed_bar);
+  } else if (early) {
     bar.Reset(cells, std::max(1, options.target_points / cells), options.target_points);
   } else {
     cell_floor.clear();
+    cell_ceiling.clear();
   }
+  if (scan == nullptr && options.roi) scan = &*options.roi;
 
   for (int step = 0; step < options.num_octaves; ++step) {
     ThrowIfCancelled("SURF detection");  // a band stopped early by a stop request
@@ -583,8 +599,8 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
       int j0 = lo_x(l + 1) + 1, j1 = hi_x(l + 1, W) - 1;
       int i0 = lo_x(l + 1) + 1, i1 = hi_x(l + 1, H) - 1;
       if (layouts[l + 1].size > W || layouts[l + 1].size > H) j1 = j0 - 1;
-      if (options.roi) {
-        const RectI& r = *options.roi;
+      if (scan != nullptr) {
+        const RectI& r = *scan;
         // centre c = p*j + (p-1)/2 moves by at most p in refinement.
         j0 = std::max(j0, (r.x - p) / p - 1);
         j1 = std::min(j1, (r.x + r.width + p) / p + 1);
@@ -765,8 +781,10 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
               const Keypoint& kp = out.back();
               const int cell =
                   GridCell(kp.y, sel.y, sel.height, g) * g + GridCell(kp.x, sel.x, sel.width, g);
-              if (!cell_floor.empty() && !(kp.response > cell_floor[cell])) {
-                out.pop_back();  // below its own cell's floor: not a candidate
+              if (!cell_floor.empty() &&
+                  (!(kp.response > cell_floor[cell]) ||
+                   (!cell_ceiling.empty() && kp.response > cell_ceiling[cell]))) {
+                out.pop_back();  // outside its own cell's range: not a candidate
                 continue;
               }
               band_bar->Add(cell, kp);
@@ -1010,17 +1028,65 @@ const SurfOptions& Surf::options() const { return impl_->options; }
 std::vector<Keypoint> Surf::Impl::DetectSelected(const GrayImageView& image,
                                                  double steered_min_response,
                                                  const std::vector<float>& steered_cells,
-                                                 bool* redone) {
+                                                 int* redone) {
   const float threshold = DetectionThreshold(image, steered_min_response);
   SetCellFloors(steered_cells);
+  cell_ceiling.clear();
   std::vector<Keypoint> kps = FastHessian(threshold);
   Select(kps);
-  *redone = !cell_floors_exact;
-  if (*redone) {  // Again at the frame's floor alone: the output of a call without cell floors.
+  *redone = static_cast<int>(cut_cells.size());
+  if (!cut_cells.empty()) kps = RedoCells(threshold);
+  if (!cut_cells.empty()) {  // Not expected (RedoCells): the whole frame at its floor alone.
+    *redone = options.grid * options.grid;
     cell_floor.clear();
+    cell_ceiling.clear();
     kps = FastHessian(threshold);
     Select(kps);
   }
+  return kps;
+}
+
+std::vector<Keypoint> Surf::Impl::RedoCells(float threshold) {
+  const int g = options.grid, cells = g * g;
+  const RectI sel = options.roi ? *options.roi : RectI{0, 0, ii.width(), ii.height()};
+  all_found.assign(by_cell.begin(), by_cell.end());  // Select keeps every candidate there
+  seed_bar.Reset(cells, std::max(1, options.target_points / cells), options.target_points);
+  for (const Keypoint& kp : all_found) {
+    seed_bar.Add(GridCell(kp.y, sel.y, sel.height, g) * g + GridCell(kp.x, sel.x, sel.width, g),
+                 kp);
+  }
+  pass_floor.assign(cell_floor.begin(), cell_floor.end());
+  const std::vector<int> redo = cut_cells;
+  cell_ceiling.assign(cells, std::numeric_limits<float>::infinity());
+  for (const int c : redo) {
+    // Only cell c, only between the frame's floor and its old floor (the first pass found the
+    // rest); its rectangle covers every pixel GridCell puts in it.
+    std::fill(cell_floor.begin(), cell_floor.end(), std::numeric_limits<float>::infinity());
+    cell_floor[c] = threshold;
+    cell_ceiling[c] = pass_floor[c];
+    // GridCell clamps: the first and last cells of a row or column reach beyond the image
+    // (the roi test of FastHessian still applies).
+    constexpr int kFar = 1 << 20;
+    const auto edge = [&](int k, int origin, int extent) {
+      return k == 0 ? -kFar : origin + static_cast<int>(static_cast<long>(k) * extent / g) - 1;
+    };
+    const auto end = [&](int k, int origin, int extent) {
+      return k == g - 1 ? kFar
+                        : origin + static_cast<int>(static_cast<long>(k + 1) * extent / g) + 1;
+    };
+    const int cx = c % g, cy = c / g;
+    const int x0 = edge(cx, sel.x, sel.width), y0 = edge(cy, sel.y, sel.height);
+    const RectI rect{x0, y0, end(cx, sel.x, sel.width) - x0, end(cy, sel.y, sel.height) - y0};
+    const std::vector<Keypoint> more = FastHessian(threshold, &rect);
+    all_found.insert(all_found.end(), more.begin(), more.end());
+    cell_ceiling[c] = std::numeric_limits<float>::infinity();
+  }
+  // The candidates now are those of cell floors at the frame's floor in the redone cells.
+  cell_floor.swap(pass_floor);
+  for (const int c : redo) cell_floor[c] = threshold;
+  cell_ceiling.clear();
+  std::vector<Keypoint> kps(all_found.begin(), all_found.end());
+  Select(kps);
   return kps;
 }
 
@@ -1030,7 +1096,7 @@ SurfResult Surf::DetectAndDescribe(const GrayImageView& image, double steered_mi
   Stopwatch watch;
   impl_->Prepare(image);
   std::vector<Keypoint> kps = impl_->DetectSelected(
-      image, steered_min_response, steered_cell_min_response, &result.cell_floors_redone);
+      image, steered_min_response, steered_cell_min_response, &result.cells_redone);
   impl_->Orient(kps);
   result.detect_ms = watch.elapsed_ms();
   result.candidates = impl_->last_candidates;
@@ -1050,7 +1116,7 @@ SurfResult Surf::DetectAndDescribe(const GrayImageView& image, double steered_mi
 
 std::vector<Keypoint> Surf::Detect(const GrayImageView& image) {
   impl_->Prepare(image);
-  bool redone = false;
+  int redone = 0;
   std::vector<Keypoint> kps = impl_->DetectSelected(image, 0.0, {}, &redone);
   impl_->Orient(kps);
   return kps;

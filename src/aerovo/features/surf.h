@@ -145,11 +145,11 @@ struct SurfResult {
   /// adaptation: BENCHMARKS.md, "SURF at the same number of points"). Empty in fixed-threshold
   /// mode.
   std::vector<float> next_cell_min_response;
-  /// Adaptive mode: true when the cell floors passed in cut a point the selection keeps (or the
-  /// first dropped point of a cell), so the detection ran a second time at the frame's floor
-  /// alone: the output is the same as without cell floors, at the cost of a second
-  /// fast-Hessian. False otherwise.
-  bool cell_floors_redone = false;
+  /// Adaptive mode: the cells whose floor (steered_cell_min_response) may have cut a point the
+  /// selection keeps (or a cell's first dropped point): each was searched again over its own
+  /// rectangle down to the frame's floor, so that the output is the same as without cell
+  /// floors, at the cost of that second search. 0 when the floors held (or none was given).
+  int cells_redone = 0;
 };
 
 /// Reusable SURF engine. Keeps its buffers (integral image, response maps) between calls, so
@@ -172,7 +172,7 @@ class Surf {
   /// max(floor, steered_cell_min_response[c] times the contrast factor). The output (points,
   /// descriptors, next_min_response) is exactly that of the call without cell floors: when a
   /// cell floor cut a point the selection needs, the detection is redone without them
-  /// (SurfResult::cell_floors_redone). Both are ignored in fixed-threshold mode.
+  /// (SurfResult::cells_redone). Both are ignored in fixed-threshold mode.
   /// Throws InvalidArgument if the image is empty or smaller than the smallest filter, or if
   /// steered_cell_min_response is neither empty nor grid x grid finite values >= 0.
   SurfResult DetectAndDescribe(const GrayImageView& image, double steered_min_response = 0.0,
