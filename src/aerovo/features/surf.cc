@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <string>
 #include <utility>
@@ -153,6 +155,19 @@ bool StrongerFirst(const Keypoint& a, const Keypoint& b) {
   if (a.y != b.y) return a.y < b.y;
   if (a.x != b.x) return a.x < b.x;
   return a.scale < b.scale;
+}
+
+// The largest float below b (std::nextafter towards -infinity), without the libm call for the
+// usual b (positive and finite: the previous bit pattern).
+inline float JustBelow(float b) {
+  if (b > 0.f && b <= std::numeric_limits<float>::max()) {
+    std::uint32_t u;
+    std::memcpy(&u, &b, sizeof u);
+    --u;
+    std::memcpy(&b, &u, sizeof b);
+    return b;
+  }
+  return std::nextafter(b, -std::numeric_limits<float>::infinity());
 }
 
 // Cell of the adaptive grid (g cells per side over [origin, origin + extent)) holding coordinate
@@ -703,8 +718,7 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold, const RectI* scan
         const auto span_threshold = [&](const ColumnSpan& s) {
           if (band_bar == nullptr) return threshold;
           const auto need = [&](int c) {
-            const float b =
-                std::nextafter(band_bar->Bar(c), -std::numeric_limits<float>::infinity());
+            const float b = JustBelow(band_bar->Bar(c));
             return cell_floor.empty() ? b : std::max(cell_floor[c], b);
           };
           const float t = std::min(std::min(need(cy0 * g + s.cx0), need(cy0 * g + s.cx1)),
