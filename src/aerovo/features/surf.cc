@@ -149,13 +149,17 @@ inline bool IsMaximum(float v, const float* p, std::ptrdiff_t stride) {
 }
 
 // Keypoints sorted by decreasing response; ties broken by position and scale so that the order
-// is a total order (deterministic whatever the thread count).
-bool StrongerFirst(const Keypoint& a, const Keypoint& b) {
-  if (a.response != b.response) return a.response > b.response;
-  if (a.y != b.y) return a.y < b.y;
-  if (a.x != b.x) return a.x < b.x;
-  return a.scale < b.scale;
-}
+// is a total order (deterministic whatever the thread count). A function object, so that the
+// heaps, nth_element and sort inline it (a function pointer is called per comparison).
+struct StrongerFirstOrder {
+  bool operator()(const Keypoint& a, const Keypoint& b) const {
+    if (a.response != b.response) return a.response > b.response;
+    if (a.y != b.y) return a.y < b.y;
+    if (a.x != b.x) return a.x < b.x;
+    return a.scale < b.scale;
+  }
+};
+constexpr StrongerFirstOrder StrongerFirst{};
 
 // The largest float below b (std::nextafter towards -infinity), without the libm call for the
 // usual b (positive and finite: the previous bit pattern).
