@@ -396,6 +396,9 @@ struct Surf::Impl {
   // the candidates between the frame's floor and its cell floor, and the selection made again
   // over every candidate. Returns the kept points.
   std::vector<Keypoint> RedoCells(float threshold);
+  // The rectangle (pixels) that holds every point GridCell puts in cells c0..c1 of one grid row
+  // of `sel`.
+  RectI CellsRect(const RectI& sel, int c0, int c1) const;
   // The fast-Hessian's candidates above `threshold` (and the cell floors); with `scan`, only
   // those within one sample of that rectangle (pixels) are searched, and in adaptive mode the
   // bar starts from seed_bar instead of empty.
@@ -1064,6 +1067,21 @@ std::vector<Keypoint> Surf::Impl::DetectSelected(const GrayImageView& image,
   return kps;
 }
 
+RectI Surf::Impl::CellsRect(const RectI& sel, int c0, int c1) const {
+  const int g = options.grid;
+  // GridCell clamps: the first and last cells of a row or column reach beyond the image (the
+  // roi test of FastHessian still applies). One pixel of margin against rounding.
+  constexpr int kFar = 1 << 20;
+  const auto begin = [&](int k, int origin, int extent) {
+    return k == 0 ? -kFar : origin + static_cast<int>(static_cast<long>(k) * extent / g) - 1;
+  };
+  const auto end = [&](int k, int origin, int extent) {
+    return k == g - 1 ? kFar : origin + static_cast<int>(static_cast<long>(k + 1) * extent / g) + 1;
+  };
+  const int x0 = begin(c0 % g, sel.x, sel.width), y0 = begin(c0 / g, sel.y, sel.height);
+  return RectI{x0, y0, end(c1 % g, sel.x, sel.width) - x0, end(c0 / g, sel.y, sel.height) - y0};
+}
+
 std::vector<Keypoint> Surf::Impl::RedoCells(float threshold) {
   const int g = options.grid, cells = g * g;
   const RectI sel = options.roi ? *options.roi : RectI{0, 0, ii.width(), ii.height()};
@@ -1076,28 +1094,22 @@ std::vector<Keypoint> Surf::Impl::RedoCells(float threshold) {
   pass_floor.assign(cell_floor.begin(), cell_floor.end());
   const std::vector<int> redo = cut_cells;
   cell_ceiling.assign(cells, std::numeric_limits<float>::infinity());
-  for (const int c : redo) {
-    // Only cell c, only between the frame's floor and its old floor (the first pass found the
-    // rest); its rectangle covers every pixel GridCell puts in it.
+  // Runs of consecutive cells of one grid row, each searched over one rectangle: only its cells,
+  // only between the frame's floor and their old floors (the first pass found the rest).
+  for (std::size_t k = 0; k < redo.size();) {
+    std::size_t e = k + 1;
+    while (e < redo.size() && redo[e] == redo[e - 1] + 1 && redo[e] % g != 0) ++e;
     std::fill(cell_floor.begin(), cell_floor.end(), std::numeric_limits<float>::infinity());
-    cell_floor[c] = threshold;
-    cell_ceiling[c] = pass_floor[c];
-    // GridCell clamps: the first and last cells of a row or column reach beyond the image
-    // (the roi test of FastHessian still applies).
-    constexpr int kFar = 1 << 20;
-    const auto edge = [&](int k, int origin, int extent) {
-      return k == 0 ? -kFar : origin + static_cast<int>(static_cast<long>(k) * extent / g) - 1;
-    };
-    const auto end = [&](int k, int origin, int extent) {
-      return k == g - 1 ? kFar
-                        : origin + static_cast<int>(static_cast<long>(k + 1) * extent / g) + 1;
-    };
-    const int cx = c % g, cy = c / g;
-    const int x0 = edge(cx, sel.x, sel.width), y0 = edge(cy, sel.y, sel.height);
-    const RectI rect{x0, y0, end(cx, sel.x, sel.width) - x0, end(cy, sel.y, sel.height) - y0};
+    for (std::size_t i = k; i < e; ++i) {
+      cell_floor[redo[i]] = threshold;
+      cell_ceiling[redo[i]] = pass_floor[redo[i]];
+    }
+    const RectI rect = CellsRect(sel, redo[k], redo[e - 1]);
     const std::vector<Keypoint> more = FastHessian(threshold, &rect);
     all_found.insert(all_found.end(), more.begin(), more.end());
-    cell_ceiling[c] = std::numeric_limits<float>::infinity();
+    for (std::size_t i = k; i < e; ++i)
+      cell_ceiling[redo[i]] = std::numeric_limits<float>::infinity();
+    k = e;
   }
   // The candidates now are those of cell floors at the frame's floor in the redone cells.
   cell_floor.swap(pass_floor);
