@@ -40,6 +40,12 @@ constexpr float kDescSigma = 3.3f;
 
 constexpr int kOriMaxSamples = 128;  // >= samples in the disc (113), padded for SIMD.
 
+// Adaptive mode's cell floors for the next frame, as a fraction of each cell's first dropped
+// response (SurfResult::next_cell_min_response): after a frame whose cell floors held, and
+// after one where some were cut (or that had none).
+constexpr double kCellMarginHeld = 0.8;
+constexpr double kCellMarginCut = 0.5;
+
 struct Tables {
   // Orientation disc, structure of arrays: offsets in units of s and Gaussian weights.
   int ori_count = 0;
@@ -370,6 +376,7 @@ struct Surf::Impl {
   std::vector<Keypoint> all_found;
   SelectionBar seed_bar;
   std::vector<float> pass_floor;
+  bool redoing = false;
 
   // The threshold of the fast-Hessian for this image: hessian_threshold, or in adaptive mode the
   // floor min_response * (range / 255)^2 (sets last_range, last_floor).
@@ -484,12 +491,16 @@ void Surf::Impl::CellFloorsCut(std::size_t quota, std::size_t more, float weakes
 
 void Surf::Impl::SteerCells(std::size_t quota, float weakest_pick) {
   const std::size_t cells = cell_start.size() - 1;
+  // The margin for the next frame's change: kCellMarginHeld when this frame's cell floors all
+  // held (a stream of similar frames: few candidates), kCellMarginCut after any was cut or
+  // when there were none (BENCHMARKS.md, "SURF at the same number of points").
+  const double margin = (redoing || !cut_cells.empty()) ? kCellMarginCut : kCellMarginHeld;
   next_cell_min_response.assign(cells, 0.f);
   for (std::size_t c = 0; c < cells; ++c) {
     if (cell_start[c + 1] - cell_start[c] <= quota) continue;
     const float first_dropped = by_cell[cell_start[c] + quota].response;
     next_cell_min_response[c] =
-        static_cast<float>(0.5 * std::min(first_dropped, weakest_pick) / last_c2);
+        static_cast<float>(margin * std::min(first_dropped, weakest_pick) / last_c2);
   }
 }
 
@@ -1086,6 +1097,7 @@ std::vector<Keypoint> Surf::Impl::RedoCells(float threshold) {
   const int g = options.grid, cells = g * g;
   const RectI sel = options.roi ? *options.roi : RectI{0, 0, ii.width(), ii.height()};
   all_found.assign(by_cell.begin(), by_cell.end());  // Select keeps every candidate there
+  redoing = true;
   seed_bar.Reset(cells, std::max(1, options.target_points / cells), options.target_points);
   for (const Keypoint& kp : all_found) {
     seed_bar.Add(GridCell(kp.y, sel.y, sel.height, g) * g + GridCell(kp.x, sel.x, sel.width, g),
@@ -1117,6 +1129,7 @@ std::vector<Keypoint> Surf::Impl::RedoCells(float threshold) {
   cell_ceiling.clear();
   std::vector<Keypoint> kps(all_found.begin(), all_found.end());
   Select(kps);
+  redoing = false;
   return kps;
 }
 

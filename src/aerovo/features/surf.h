@@ -137,9 +137,10 @@ struct SurfResult {
   double next_min_response = 0.0;
   /// Adaptive mode: a floor per cell of the grid (grid x grid values, row-major from the top
   /// left of the image or roi; min_response units, full contrast) for the next frame of a
-  /// stream: half the lower of the cell's first dropped response and the weakest point kept
-  /// beyond the cells' quotas; 0 for a cell that had no more candidates than its quota, and for
-  /// every cell when the frame had no more than target_points. Passed to the next call
+  /// stream: a fraction of the lower of the cell's first dropped response and the weakest point
+  /// kept beyond the cells' quotas, 0.8 when this frame's own cell floors all held (none was
+  /// searched again), else 0.5; 0 for a cell that had no more candidates than its quota, and
+  /// for every cell when the frame had no more than target_points. Passed to the next call
   /// (steered_cell_min_response), each cell is searched only above its own floor, so that one
   /// flat cell no longer holds the whole frame at next_min_response (the cost of the
   /// adaptation: BENCHMARKS.md, "SURF at the same number of points"). Empty in fixed-threshold
