@@ -68,8 +68,11 @@ struct SurfOptions {
   /// over the image (or roi) keeps its strongest target_points / grid^2 points, and the rest of
   /// the target goes to the strongest remaining points anywhere; only the kept points get an
   /// orientation and a descriptor. Points that can no longer be kept are rejected as soon as
-  /// the scan meets them (SurfResult::candidates), which keeps the cost of the low floor small
-  /// (BENCHMARKS.md, "Adaptive interest points"). Default false (MATLAB's fixed threshold).
+  /// the scan meets them (SurfResult::candidates), and in a stream each grid cell is searched
+  /// only above a floor of its own steered by the previous frame (SurfResult::
+  /// next_cell_min_response), which keeps the cost of the low floor small (BENCHMARKS.md,
+  /// "Adaptive interest points", "SURF at the same number of points"). Default false (MATLAB's
+  /// fixed threshold).
   bool adaptive = false;
   /// Adaptive: points kept per frame (fewer when the frame has fewer above the floor).
   /// Default 1500 (BENCHMARKS.md, "Adaptive interest points": simulated flights, normal and
@@ -171,8 +174,8 @@ class Surf {
   /// also passes the previous frame's SurfResult::next_cell_min_response as
   /// steered_cell_min_response (empty: none): cell c is then searched only above
   /// max(floor, steered_cell_min_response[c] times the contrast factor). The output (points,
-  /// descriptors, next_min_response) is exactly that of the call without cell floors: when a
-  /// cell floor cut a point the selection needs, the detection is redone without them
+  /// descriptors, next_min_response) is exactly that of the call without cell floors: a cell
+  /// whose floor cut a point the selection needs is searched again down to the frame's floor
   /// (SurfResult::cells_redone). Both are ignored in fixed-threshold mode.
   /// Throws InvalidArgument if the image is empty or smaller than the smallest filter, or if
   /// steered_cell_min_response is neither empty nor grid x grid finite values >= 0.
