@@ -501,6 +501,22 @@ TEST(SurfAdaptive, CellFloorsChangeNoPointOfAStream) {
     ExpectSameKeypoints(want.features.keypoints, got.features.keypoints, "floors of 1e9");
     EXPECT_EQ(got.features.descriptors, want.features.descriptors);
     EXPECT_EQ(got.next_min_response, want.next_min_response);
+    // With a roi: the cells (over the roi) searched again reach beyond it, the roi still holds.
+    SurfOptions r = o;
+    r.roi = RectI{37, 21, 560, 433};
+    Surf cells_roi(r), plain_roi(r);
+    const SurfResult first = plain_roi.DetectAndDescribe(img.view());
+    const GrayImage next = Window(ground, 9, 4, w, h);
+    const SurfResult want_roi = plain_roi.DetectAndDescribe(next.view(), first.next_min_response);
+    for (const float scale : {1.f, 1e9f}) {
+      std::vector<float> floors = first.next_cell_min_response;
+      for (float& f : floors) f *= scale;
+      const SurfResult got_roi =
+          cells_roi.DetectAndDescribe(next.view(), first.next_min_response, floors);
+      ExpectSameKeypoints(want_roi.features.keypoints, got_roi.features.keypoints, "roi");
+      EXPECT_EQ(got_roi.features.descriptors, want_roi.features.descriptors);
+      if (scale > 1.f) EXPECT_GT(got_roi.cells_redone, 0);
+    }
     std::printf("%d thread(s): %zu frames, fewer candidates on %d, %d cells redone\n", threads,
                 std::size(steps), fewer, redone);
   }
