@@ -125,7 +125,8 @@ void BM_SurfDetectAndDescribe(benchmark::State& state) {
 
 // The default of `aerovo run` (SurfOptions::adaptive with its defaults: a contrast-normalised
 // floor, per-cell selection of target_points, only the kept points described). Counters: points
-// kept and candidates that reached the selection (SurfResult::candidates).
+// kept, candidates that reached the selection (SurfResult::candidates), the steered floor and
+// the cells searched again below their floor per call (SurfResult::cells_redone, mean).
 void BM_SurfAdaptiveDetectAndDescribe(benchmark::State& state) {
   const cv::Mat* m = GetImage(state);
   if (m == nullptr) return;
@@ -136,11 +137,18 @@ void BM_SurfAdaptiveDetectAndDescribe(benchmark::State& state) {
   std::size_t n = 0;
   int candidates = 0;
   // Steered as in a stream of this image (the odometry passes each frame's next_min_response
-  // to the next call): the steady state of a flight over similar ground.
-  double steered = surf.DetectAndDescribe(View(*m)).next_min_response;
+  // and next_cell_min_response to the next call): the steady state of a flight over similar
+  // ground.
+  aerovo::SurfResult first = surf.DetectAndDescribe(View(*m));
+  double steered = first.next_min_response;
+  std::vector<float> steered_cells = std::move(first.next_cell_min_response);
+  long redone = 0, calls = 0;
   for (auto _ : state) {
-    aerovo::SurfResult r = surf.DetectAndDescribe(View(*m), steered);
+    aerovo::SurfResult r = surf.DetectAndDescribe(View(*m), steered, steered_cells);
     steered = r.next_min_response;
+    steered_cells.swap(r.next_cell_min_response);
+    redone += r.cells_redone;
+    ++calls;
     n = r.features.size();
     candidates = r.candidates;
     benchmark::DoNotOptimize(r.features.descriptors.data());
@@ -148,6 +156,7 @@ void BM_SurfAdaptiveDetectAndDescribe(benchmark::State& state) {
   state.counters["keypoints"] = static_cast<double>(n);
   state.counters["candidates"] = static_cast<double>(candidates);
   state.counters["floor"] = steered;
+  state.counters["cells_redone"] = calls > 0 ? static_cast<double>(redone) / calls : 0.0;
 }
 
 // The fixed threshold at the adaptive default's number of points: hessian_threshold found by

@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <string>
 #include <utility>
@@ -37,6 +39,12 @@ constexpr int kPatch = 20;
 constexpr float kDescSigma = 3.3f;
 
 constexpr int kOriMaxSamples = 128;  // >= samples in the disc (113), padded for SIMD.
+
+// Adaptive mode's cell floors for the next frame, as a fraction of each cell's first dropped
+// response (SurfResult::next_cell_min_response): after a frame whose cell floors held, and
+// after one where some were cut (or that had none).
+constexpr double kCellMarginHeld = 0.8;
+constexpr double kCellMarginCut = 0.5;
 
 struct Tables {
   // Orientation disc, structure of arrays: offsets in units of s and Gaussian weights.
@@ -147,12 +155,29 @@ inline bool IsMaximum(float v, const float* p, std::ptrdiff_t stride) {
 }
 
 // Keypoints sorted by decreasing response; ties broken by position and scale so that the order
-// is a total order (deterministic whatever the thread count).
-bool StrongerFirst(const Keypoint& a, const Keypoint& b) {
-  if (a.response != b.response) return a.response > b.response;
-  if (a.y != b.y) return a.y < b.y;
-  if (a.x != b.x) return a.x < b.x;
-  return a.scale < b.scale;
+// is a total order (deterministic whatever the thread count). A function object, so that the
+// heaps, nth_element and sort inline it (a function pointer is called per comparison).
+struct StrongerFirstOrder {
+  bool operator()(const Keypoint& a, const Keypoint& b) const {
+    if (a.response != b.response) return a.response > b.response;
+    if (a.y != b.y) return a.y < b.y;
+    if (a.x != b.x) return a.x < b.x;
+    return a.scale < b.scale;
+  }
+};
+constexpr StrongerFirstOrder StrongerFirst{};
+
+// The largest float below b (std::nextafter towards -infinity), without the libm call for the
+// usual b (positive and finite: the previous bit pattern).
+inline float JustBelow(float b) {
+  if (b > 0.f && b <= std::numeric_limits<float>::max()) {
+    std::uint32_t u;
+    std::memcpy(&u, &b, sizeof u);
+    --u;
+    std::memcpy(&b, &u, sizeof b);
+    return b;
+  }
+  return std::nextafter(b, -std::numeric_limits<float>::infinity());
 }
 
 // Cell of the adaptive grid (g cells per side over [origin, origin + extent)) holding coordinate
@@ -337,14 +362,54 @@ struct Surf::Impl {
   int last_candidates = 0;
   double last_range = 0.0, last_floor = 0.0, last_c2 = 1.0, last_min_response = 0.0;
   double next_min_response = 0.0;
+  // Adaptive mode's cell floors (determinant units, grid x grid row-major; empty: none): a
+  // candidate of cell c needs a response above cell_floor[c] (>= the frame's floor) and, when
+  // cell_ceiling is not empty, not above cell_ceiling[c]. Set from the steering
+  // (SetCellFloors), then by RedoCells.
+  std::vector<float> cell_floor, cell_ceiling;
+  // Set by Select: the cells whose floor may have cut a point the selection over every
+  // candidate above the frame's floor keeps or uses (CellFloorsCut), and the next frame's cell
+  // floors (SurfResult::next_cell_min_response).
+  std::vector<int> cut_cells;
+  std::vector<float> next_cell_min_response;
+  // RedoCells: every candidate so far, the bar they set, the cells' floors before the redo.
+  std::vector<Keypoint> all_found;
+  SelectionBar seed_bar;
+  std::vector<float> pass_floor;
+  bool redoing = false;
 
   // The threshold of the fast-Hessian for this image: hessian_threshold, or in adaptive mode the
   // floor min_response * (range / 255)^2 (sets last_range, last_floor).
   float DetectionThreshold(const GrayImageView& image, double steered_min_response);
+  // Adaptive mode: cell_floor from the steering's cells (min_response units, full contrast):
+  // max(frame's floor, steered * contrast factor); none when `steered` is empty or all its
+  // floors are at or below the frame's. Throws InvalidArgument for a wrong size or value.
+  void SetCellFloors(const std::vector<float>& steered);
+  // Adaptive mode, after Select with cell floors: whether the floors cut a point that the
+  // selection over every candidate above the frame's floor would keep or use (see Select).
+  void CellFloorsCut(std::size_t quota, std::size_t more, float weakest_pick);
+  // Adaptive mode: next_cell_min_response from each cell's first dropped response and the
+  // weakest point kept beyond the quotas (infinity when none was needed).
+  void SteerCells(std::size_t quota, float weakest_pick);
   // Adaptive mode: keeps per cell its strongest points, then the strongest of the rest up to
   // target_points; then sorts (StrongerFirst) and applies max_keypoints in both modes.
   void Select(std::vector<Keypoint>& kps);
-  std::vector<Keypoint> FastHessian(float threshold);
+  // DetectionThreshold, SetCellFloors, FastHessian and Select; then RedoCells for the cells
+  // whose floor cut a point the selection needs (*redone: how many; grid x grid when the whole
+  // frame was detected again). The points are those of a call without cell floors either way.
+  std::vector<Keypoint> DetectSelected(const GrayImageView& image, double steered_min_response,
+                                       const std::vector<float>& steered_cells, int* redone);
+  // After Select reported cut_cells: each of them searched again, over its own rectangle, for
+  // the candidates between the frame's floor and its cell floor, and the selection made again
+  // over every candidate. Returns the kept points.
+  std::vector<Keypoint> RedoCells(float threshold);
+  // The rectangle (pixels) that holds every point GridCell puts in cells c0..c1 of one grid row
+  // of `sel`.
+  RectI CellsRect(const RectI& sel, int c0, int c1) const;
+  // The fast-Hessian's candidates above `threshold` (and the cell floors); with `scan`, only
+  // those within one sample of that rectangle (pixels) are searched, and in adaptive mode the
+  // bar starts from seed_bar instead of empty.
+  std::vector<Keypoint> FastHessian(float threshold, const RectI* scan = nullptr);
   void Orient(std::vector<Keypoint>& kps);
   void DescribeAll(const std::vector<Keypoint>& kps, float* out, int dsize);
   float Orientation(const Keypoint& kp) const;
@@ -383,10 +448,77 @@ float Surf::Impl::DetectionThreshold(const GrayImageView& image, double steered_
   return static_cast<float>(last_floor);
 }
 
+void Surf::Impl::SetCellFloors(const std::vector<float>& steered) {
+  cell_floor.clear();
+  if (!options.adaptive || steered.empty()) return;
+  const std::size_t cells = static_cast<std::size_t>(options.grid) * options.grid;
+  if (steered.size() != cells) {
+    throw InvalidArgument("Surf: steered_cell_min_response has " + std::to_string(steered.size()) +
+                          " values; the grid (SurfOptions::grid " + std::to_string(options.grid) +
+                          ") needs " + std::to_string(cells));
+  }
+  const float floor = static_cast<float>(last_floor);
+  bool any = false;
+  cell_floor.resize(cells);
+  for (std::size_t c = 0; c < cells; ++c) {
+    if (!(std::isfinite(steered[c]) && steered[c] >= 0.f)) {
+      throw InvalidArgument("Surf: steered_cell_min_response[" + std::to_string(c) + "] is " +
+                            std::to_string(steered[c]) + "; it must be finite and >= 0");
+    }
+    cell_floor[c] = std::max(floor, static_cast<float>(steered[c] * last_c2));
+    any = any || cell_floor[c] > floor;
+  }
+  if (!any) cell_floor.clear();
+}
+
+// A cell whose floor is above the frame's may have lost candidates below it. The selection over
+// every candidate above the frame's floor is still this one when, for each such cell, the cell
+// kept more than its quota (its quota and first dropped point are above its floor, so the same)
+// and every point taken beyond the quotas is stronger than the cell's floor (a lost point would
+// have lost to each of them); the frame then had more than target_points candidates either way.
+void Surf::Impl::CellFloorsCut(std::size_t quota, std::size_t more, float weakest_pick) {
+  const float floor = static_cast<float>(last_floor);
+  const std::size_t target = static_cast<std::size_t>(options.target_points);
+  const bool short_of_target = kept.size() + more < target;  // every candidate was kept
+  for (std::size_t c = 0; c < cell_floor.size(); ++c) {
+    if (!(cell_floor[c] > floor)) continue;
+    if (short_of_target || cell_start[c + 1] - cell_start[c] <= quota ||
+        !(weakest_pick > cell_floor[c])) {
+      cut_cells.push_back(static_cast<int>(c));
+    }
+  }
+}
+
+void Surf::Impl::SteerCells(std::size_t quota, float weakest_pick) {
+  const std::size_t cells = cell_start.size() - 1;
+  // The margin for the next frame's change: kCellMarginHeld when this frame's cell floors all
+  // held (a stream of similar frames: few candidates), kCellMarginCut after any was cut or
+  // when there were none (BENCHMARKS.md, "SURF at the same number of points").
+  const double margin = (redoing || !cut_cells.empty()) ? kCellMarginCut : kCellMarginHeld;
+  next_cell_min_response.assign(cells, 0.f);
+  for (std::size_t c = 0; c < cells; ++c) {
+    if (cell_start[c + 1] - cell_start[c] <= quota) continue;
+    const float first_dropped = by_cell[cell_start[c] + quota].response;
+    next_cell_min_response[c] =
+        static_cast<float>(margin * std::min(first_dropped, weakest_pick) / last_c2);
+  }
+}
+
 void Surf::Impl::Select(std::vector<Keypoint>& kps) {
   last_candidates = options.adaptive ? static_cast<int>(kps.size()) : 0;
+  cut_cells.clear();
+  next_cell_min_response.clear();
   const std::size_t target = static_cast<std::size_t>(options.target_points);
-  if (options.adaptive && kps.size() <= target) next_min_response = 0.5 * last_min_response;
+  const std::size_t all_cells = static_cast<std::size_t>(options.grid) * options.grid;
+  if (options.adaptive && kps.size() <= target) {
+    next_min_response = 0.5 * last_min_response;
+    next_cell_min_response.assign(all_cells, 0.f);
+    // Every candidate is kept: a cell floor above the frame's may have lost one.
+    for (std::size_t c = 0; c < cell_floor.size(); ++c) {
+      if (cell_floor[c] > static_cast<float>(last_floor)) cut_cells.push_back(static_cast<int>(c));
+    }
+    if (!cut_cells.empty()) by_cell.assign(kps.begin(), kps.end());  // for RedoCells
+  }
   if (options.adaptive && kps.size() > target) {
     const int g = options.grid, cells = g * g;
     const RectI r = options.roi ? *options.roi : RectI{0, 0, ii.width(), ii.height()};
@@ -422,11 +554,19 @@ void Surf::Impl::Select(std::vector<Keypoint>& kps) {
       }
     }
     next_min_response = 0.5 * weakest / last_c2;
+    std::size_t more = 0;
+    float weakest_pick = std::numeric_limits<float>::infinity();
     if (kept.size() < target && !rest.empty()) {
-      const std::size_t more = std::min(target - kept.size(), rest.size());
+      more = std::min(target - kept.size(), rest.size());
       std::nth_element(rest.begin(), rest.begin() + more, rest.end(), StrongerFirst);
-      kept.insert(kept.end(), rest.begin(), rest.begin() + more);
+      for (std::size_t k = 0; k < more; ++k) {
+        weakest_pick = std::min(weakest_pick, rest[k].response);
+      }
     }
+    CellFloorsCut(quota, more, weakest_pick);
+    if (kept.size() + more < target) weakest_pick = 0.f;  // all kept: no cell floor next time
+    SteerCells(quota, weakest_pick);
+    kept.insert(kept.end(), rest.begin(), rest.begin() + more);
     kps.swap(kept);
   }
   std::sort(kps.begin(), kps.end(), StrongerFirst);
@@ -435,7 +575,7 @@ void Surf::Impl::Select(std::vector<Keypoint>& kps) {
   }
 }
 
-std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
+std::vector<Keypoint> Surf::Impl::FastHessian(float threshold, const RectI* scan) {
   const int W = ii.width(), H = ii.height();
   const int levels = options.num_scale_levels;
   const int threads = ResolveThreads(options.num_threads);
@@ -459,9 +599,15 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
       options.adaptive &&
       static_cast<long>(cells) * std::max(1, options.target_points / cells) <= kMaxBarPoints;
   const RectI sel = options.roi ? *options.roi : RectI{0, 0, W, H};
-  if (early) {
+  if (early && scan != nullptr) {
+    bar.CopyFrom(seed_bar);
+  } else if (early) {
     bar.Reset(cells, std::max(1, options.target_points / cells), options.target_points);
+  } else {
+    cell_floor.clear();
+    cell_ceiling.clear();
   }
+  if (scan == nullptr && options.roi) scan = &*options.roi;
 
   for (int step = 0; step < options.num_octaves; ++step) {
     ThrowIfCancelled("SURF detection");  // a band stopped early by a stop request
@@ -486,8 +632,8 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
       int j0 = lo_x(l + 1) + 1, j1 = hi_x(l + 1, W) - 1;
       int i0 = lo_x(l + 1) + 1, i1 = hi_x(l + 1, H) - 1;
       if (layouts[l + 1].size > W || layouts[l + 1].size > H) j1 = j0 - 1;
-      if (options.roi) {
-        const RectI& r = *options.roi;
+      if (scan != nullptr) {
+        const RectI& r = *scan;
         // centre c = p*j + (p-1)/2 moves by at most p in refinement.
         j0 = std::max(j0, (r.x - p) / p - 1);
         j1 = std::min(j1, (r.x + r.width + p) / p + 1);
@@ -585,12 +731,17 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
         const int cy0 = cy.first, cy1 = cy.second;
         // The scan's threshold over a span: the floor, or in adaptive mode the lowest bar of
         // the cells its points can fall in when that is higher (responses >= the bar pass).
+        // With cell floors (SetCellFloors), a cell's own requirement is the higher of its floor
+        // and its bar, and the span's threshold the lowest requirement of its cells.
         const auto span_threshold = [&](const ColumnSpan& s) {
           if (band_bar == nullptr) return threshold;
-          const float b =
-              std::min(std::min(band_bar->Bar(cy0 * g + s.cx0), band_bar->Bar(cy0 * g + s.cx1)),
-                       std::min(band_bar->Bar(cy1 * g + s.cx0), band_bar->Bar(cy1 * g + s.cx1)));
-          return std::max(threshold, std::nextafter(b, -std::numeric_limits<float>::infinity()));
+          const auto need = [&](int c) {
+            const float b = JustBelow(band_bar->Bar(c));
+            return cell_floor.empty() ? b : std::max(cell_floor[c], b);
+          };
+          const float t = std::min(std::min(need(cy0 * g + s.cx0), need(cy0 * g + s.cx1)),
+                                   std::min(need(cy1 * g + s.cx0), need(cy1 * g + s.cx1)));
+          return std::max(threshold, t);
         };
         for (int l = 1; l + 1 < levels; ++l) {
           const auto [j0, j1, i0, i1] = cand[l];
@@ -660,9 +811,15 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold) {
                  j = next_in_layer_max(m0, m1, m2, j + 1, e, t)) {
               if (!examine(j) || band_bar == nullptr) continue;
               const Keypoint& kp = out.back();
-              band_bar->Add(
-                  GridCell(kp.y, sel.y, sel.height, g) * g + GridCell(kp.x, sel.x, sel.width, g),
-                  kp);
+              const int cell =
+                  GridCell(kp.y, sel.y, sel.height, g) * g + GridCell(kp.x, sel.x, sel.width, g);
+              if (!cell_floor.empty() &&
+                  (!(kp.response > cell_floor[cell]) ||
+                   (!cell_ceiling.empty() && kp.response > cell_ceiling[cell]))) {
+                out.pop_back();  // outside its own cell's range: not a candidate
+                continue;
+              }
+              band_bar->Add(cell, kp);
               t = span_threshold(s);
             }
           }
@@ -900,19 +1057,96 @@ Surf& Surf::operator=(Surf&& other) noexcept {
 
 const SurfOptions& Surf::options() const { return impl_->options; }
 
-SurfResult Surf::DetectAndDescribe(const GrayImageView& image, double steered_min_response) {
+std::vector<Keypoint> Surf::Impl::DetectSelected(const GrayImageView& image,
+                                                 double steered_min_response,
+                                                 const std::vector<float>& steered_cells,
+                                                 int* redone) {
+  const float threshold = DetectionThreshold(image, steered_min_response);
+  SetCellFloors(steered_cells);
+  cell_ceiling.clear();
+  std::vector<Keypoint> kps = FastHessian(threshold);
+  Select(kps);
+  *redone = static_cast<int>(cut_cells.size());
+  if (!cut_cells.empty()) kps = RedoCells(threshold);
+  if (!cut_cells.empty()) {  // Not expected (RedoCells): the whole frame at its floor alone.
+    *redone = options.grid * options.grid;
+    cell_floor.clear();
+    cell_ceiling.clear();
+    kps = FastHessian(threshold);
+    Select(kps);
+  }
+  return kps;
+}
+
+RectI Surf::Impl::CellsRect(const RectI& sel, int c0, int c1) const {
+  const int g = options.grid;
+  // GridCell clamps: the first and last cells of a row or column reach beyond the image (the
+  // roi test of FastHessian still applies). One pixel of margin against rounding.
+  constexpr int kFar = 1 << 20;
+  const auto begin = [&](int k, int origin, int extent) {
+    return k == 0 ? -kFar : origin + static_cast<int>(static_cast<long>(k) * extent / g) - 1;
+  };
+  const auto end = [&](int k, int origin, int extent) {
+    return k == g - 1 ? kFar : origin + static_cast<int>(static_cast<long>(k + 1) * extent / g) + 1;
+  };
+  const int x0 = begin(c0 % g, sel.x, sel.width), y0 = begin(c0 / g, sel.y, sel.height);
+  return RectI{x0, y0, end(c1 % g, sel.x, sel.width) - x0, end(c0 / g, sel.y, sel.height) - y0};
+}
+
+std::vector<Keypoint> Surf::Impl::RedoCells(float threshold) {
+  const int g = options.grid, cells = g * g;
+  const RectI sel = options.roi ? *options.roi : RectI{0, 0, ii.width(), ii.height()};
+  all_found.assign(by_cell.begin(), by_cell.end());  // Select keeps every candidate there
+  redoing = true;
+  seed_bar.Reset(cells, std::max(1, options.target_points / cells), options.target_points);
+  for (const Keypoint& kp : all_found) {
+    seed_bar.Add(GridCell(kp.y, sel.y, sel.height, g) * g + GridCell(kp.x, sel.x, sel.width, g),
+                 kp);
+  }
+  pass_floor.assign(cell_floor.begin(), cell_floor.end());
+  const std::vector<int> redo = cut_cells;
+  cell_ceiling.assign(cells, std::numeric_limits<float>::infinity());
+  // Runs of consecutive cells of one grid row, each searched over one rectangle: only its cells,
+  // only between the frame's floor and their old floors (the first pass found the rest).
+  for (std::size_t k = 0; k < redo.size();) {
+    std::size_t e = k + 1;
+    while (e < redo.size() && redo[e] == redo[e - 1] + 1 && redo[e] % g != 0) ++e;
+    std::fill(cell_floor.begin(), cell_floor.end(), std::numeric_limits<float>::infinity());
+    for (std::size_t i = k; i < e; ++i) {
+      cell_floor[redo[i]] = threshold;
+      cell_ceiling[redo[i]] = pass_floor[redo[i]];
+    }
+    const RectI rect = CellsRect(sel, redo[k], redo[e - 1]);
+    const std::vector<Keypoint> more = FastHessian(threshold, &rect);
+    all_found.insert(all_found.end(), more.begin(), more.end());
+    for (std::size_t i = k; i < e; ++i)
+      cell_ceiling[redo[i]] = std::numeric_limits<float>::infinity();
+    k = e;
+  }
+  // The candidates now are those of cell floors at the frame's floor in the redone cells.
+  cell_floor.swap(pass_floor);
+  for (const int c : redo) cell_floor[c] = threshold;
+  cell_ceiling.clear();
+  std::vector<Keypoint> kps(all_found.begin(), all_found.end());
+  Select(kps);
+  redoing = false;
+  return kps;
+}
+
+SurfResult Surf::DetectAndDescribe(const GrayImageView& image, double steered_min_response,
+                                   const std::vector<float>& steered_cell_min_response) {
   SurfResult result;
   Stopwatch watch;
   impl_->Prepare(image);
-  std::vector<Keypoint> kps =
-      impl_->FastHessian(impl_->DetectionThreshold(image, steered_min_response));
-  impl_->Select(kps);
+  std::vector<Keypoint> kps = impl_->DetectSelected(
+      image, steered_min_response, steered_cell_min_response, &result.cells_redone);
   impl_->Orient(kps);
   result.detect_ms = watch.elapsed_ms();
   result.candidates = impl_->last_candidates;
   result.contrast_range = impl_->last_range;
   result.floor_response = impl_->last_floor;
   result.next_min_response = impl_->next_min_response;
+  result.next_cell_min_response = impl_->next_cell_min_response;
   watch.restart();
   FeatureSet& fs = result.features;
   fs.descriptor_size = impl_->options.extended ? 128 : 64;
@@ -925,8 +1159,8 @@ SurfResult Surf::DetectAndDescribe(const GrayImageView& image, double steered_mi
 
 std::vector<Keypoint> Surf::Detect(const GrayImageView& image) {
   impl_->Prepare(image);
-  std::vector<Keypoint> kps = impl_->FastHessian(impl_->DetectionThreshold(image, 0.0));
-  impl_->Select(kps);
+  int redone = 0;
+  std::vector<Keypoint> kps = impl_->DetectSelected(image, 0.0, {}, &redone);
   impl_->Orient(kps);
   return kps;
 }

@@ -68,8 +68,11 @@ struct SurfOptions {
   /// over the image (or roi) keeps its strongest target_points / grid^2 points, and the rest of
   /// the target goes to the strongest remaining points anywhere; only the kept points get an
   /// orientation and a descriptor. Points that can no longer be kept are rejected as soon as
-  /// the scan meets them (SurfResult::candidates), which keeps the cost of the low floor small
-  /// (BENCHMARKS.md, "Adaptive interest points"). Default false (MATLAB's fixed threshold).
+  /// the scan meets them (SurfResult::candidates), and in a stream each grid cell is searched
+  /// only above a floor of its own steered by the previous frame (SurfResult::
+  /// next_cell_min_response), which keeps the cost of the low floor small (BENCHMARKS.md,
+  /// "Adaptive interest points", "SURF at the same number of points"). Default false (MATLAB's
+  /// fixed threshold).
   bool adaptive = false;
   /// Adaptive: points kept per frame (fewer when the frame has fewer above the floor).
   /// Default 1500 (BENCHMARKS.md, "Adaptive interest points": simulated flights, normal and
@@ -135,6 +138,22 @@ struct SurfResult {
   /// adaptation: BENCHMARKS.md) and lets the floor fall back to min_response when frames get
   /// weaker. 0 in fixed-threshold mode.
   double next_min_response = 0.0;
+  /// Adaptive mode: a floor per cell of the grid (grid x grid values, row-major from the top
+  /// left of the image or roi; min_response units, full contrast) for the next frame of a
+  /// stream: a fraction of the lower of the cell's first dropped response and the weakest point
+  /// kept beyond the cells' quotas, 0.8 when this frame's own cell floors all held (none was
+  /// searched again), else 0.5; 0 for a cell that had no more candidates than its quota, and
+  /// for every cell when the frame had no more than target_points. Passed to the next call
+  /// (steered_cell_min_response), each cell is searched only above its own floor, so that one
+  /// flat cell no longer holds the whole frame at next_min_response (the cost of the
+  /// adaptation: BENCHMARKS.md, "SURF at the same number of points"). Empty in fixed-threshold
+  /// mode.
+  std::vector<float> next_cell_min_response;
+  /// Adaptive mode: the cells whose floor (steered_cell_min_response) may have cut a point the
+  /// selection keeps (or a cell's first dropped point): each was searched again over its own
+  /// rectangle down to the frame's floor, so that the output is the same as without cell
+  /// floors, at the cost of that second search. 0 when the floors held (or none was given).
+  int cells_redone = 0;
 };
 
 /// Reusable SURF engine. Keeps its buffers (integral image, response maps) between calls, so
@@ -151,10 +170,17 @@ class Surf {
 
   /// Detects keypoints and describes them. Adaptive mode: the floor is max(min_response,
   /// steered_min_response) times the frame's contrast factor; a stream passes the previous
-  /// frame's SurfResult::next_min_response (the odometry does), a single image 0. Ignored in
-  /// fixed-threshold mode.
-  /// Throws InvalidArgument if the image is empty or smaller than the smallest filter.
-  SurfResult DetectAndDescribe(const GrayImageView& image, double steered_min_response = 0.0);
+  /// frame's SurfResult::next_min_response (the odometry does), a single image 0. A stream
+  /// also passes the previous frame's SurfResult::next_cell_min_response as
+  /// steered_cell_min_response (empty: none): cell c is then searched only above
+  /// max(floor, steered_cell_min_response[c] times the contrast factor). The output (points,
+  /// descriptors, next_min_response) is exactly that of the call without cell floors: a cell
+  /// whose floor cut a point the selection needs is searched again down to the frame's floor
+  /// (SurfResult::cells_redone). Both are ignored in fixed-threshold mode.
+  /// Throws InvalidArgument if the image is empty or smaller than the smallest filter, or if
+  /// steered_cell_min_response is neither empty nor grid x grid finite values >= 0.
+  SurfResult DetectAndDescribe(const GrayImageView& image, double steered_min_response = 0.0,
+                               const std::vector<float>& steered_cell_min_response = {});
 
   /// Detects keypoints only (with orientation unless upright).
   std::vector<Keypoint> Detect(const GrayImageView& image);

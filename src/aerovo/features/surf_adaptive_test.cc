@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <iterator>
 #include <limits>
 #include <optional>
 #include <random>
@@ -17,6 +18,7 @@
 #include <opencv2/imgcodecs.hpp>
 #endif
 
+#include "aerovo/core/error.h"
 #include "aerovo/core/simd.h"
 #include "aerovo/core/testing.h"
 #include "aerovo/features/surf.h"
@@ -370,15 +372,23 @@ void ExpectFingerprints(const GrayImage& img, std::uint64_t first, std::uint64_t
     Surf surf(o);
     const SurfResult a = surf.DetectAndDescribe(img.view());
     const SurfResult b = surf.DetectAndDescribe(img.view(), a.next_min_response);
+    // Steered per cell too (as the odometry does): the same output, fewer candidates.
+    const SurfResult c =
+        surf.DetectAndDescribe(img.view(), a.next_min_response, a.next_cell_min_response);
+    EXPECT_EQ(Fingerprint(c), Fingerprint(b)) << what << ": the cell floors changed the output";
+    EXPECT_EQ(c.next_cell_min_response, b.next_cell_min_response) << what;
+    EXPECT_EQ(c.cells_redone, 0) << what;
+    EXPECT_LT(c.candidates, b.candidates) << what;
     EXPECT_EQ(static_cast<int>(a.features.size()), points) << what;
     got_first[t] = Fingerprint(a);
     got_steered[t] = Fingerprint(b);
     std::printf(
         "%s, %d thread(s): %d points of %d candidates, fingerprints 0x%016llxull "
-        "0x%016llxull (steered by %.3f: %d candidates)\n",
+        "0x%016llxull (steered by %.3f: %d candidates; and per cell: %d)\n",
         what.c_str(), t + 1, static_cast<int>(a.features.size()), a.candidates,
         static_cast<unsigned long long>(got_first[t]),
-        static_cast<unsigned long long>(got_steered[t]), a.next_min_response, b.candidates);
+        static_cast<unsigned long long>(got_steered[t]), a.next_min_response, b.candidates,
+        c.candidates);
   }
   EXPECT_EQ(got_first[0], got_first[1]) << what << ": thread count changed the output";
   EXPECT_EQ(got_steered[0], got_steered[1]) << what << ": thread count changed the output";
@@ -414,6 +424,117 @@ TEST(SurfAdaptive, OutputUnchangedOnTheBench1080pCrop) {
                      "bench 1080p callas crop");
 }
 #endif
+
+// ---------------------------------------------------------------- cell floors of a stream
+
+// The w x h window of `src` at (x0, y0), intensities v -> mean + gain * (v - mean).
+GrayImage Window(const GrayImage& src, int x0, int y0, int w, int h, double gain = 1.0) {
+  GrayImage out(w, h);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const double v = 128.0 + gain * (src.at(x0 + x, y0 + y) - 128.0);
+      out.at(x, y) = static_cast<std::uint8_t>(std::clamp(std::lround(v), 0L, 255L));
+    }
+  }
+  return out;
+}
+
+// A stream steered per cell (next_cell_min_response passed on, as the odometry does) gives,
+// frame by frame, exactly the output of the stream steered by next_min_response alone: the same
+// points, descriptors and next_min_response, whether the cell floors held (fewer candidates) or
+// cut a point the selection needs (those cells searched again). The frames: a window moving over a
+// texture whose right half is nearly flat (a flat cell holds the frame's floor low), a jump to new
+// ground, a contrast change; then cell floors far too high, every one cut.
+TEST(SurfAdaptive, CellFloorsChangeNoPointOfAStream) {
+  const GrayImage ground = MakeTexture(1100, 700, 31, 128, 100, 6);
+  struct Step {
+    int x, y;
+    double gain;
+  };
+  const Step steps[] = {{0, 0, 1.0},     {9, 4, 1.0},     {18, 8, 1.0},    {27, 12, 1.0},
+                        {420, 150, 1.0}, {429, 154, 1.0}, {438, 158, 0.6}, {447, 162, 0.6}};
+  const int w = 640, h = 480, g = 6;
+  for (const int threads : {1, 2}) {
+    SurfOptions o = Adaptive(600, g);
+    o.num_threads = threads;
+    Surf cells(o), plain(o);
+    double steer = 0.0;
+    std::vector<float> steer_cells;
+    int fewer = 0, redone = 0;
+    for (const Step& s : steps) {
+      const GrayImage img = Window(ground, s.x, s.y, w, h, s.gain);
+      const std::string what = "frame at (" + std::to_string(s.x) + ", " + std::to_string(s.y) +
+                               "), " + std::to_string(threads) + " thread(s)";
+      const SurfResult a = cells.DetectAndDescribe(img.view(), steer, steer_cells);
+      const SurfResult b = plain.DetectAndDescribe(img.view(), steer);
+      ExpectSameKeypoints(b.features.keypoints, a.features.keypoints, what);
+      EXPECT_EQ(a.features.descriptors, b.features.descriptors) << what;
+      EXPECT_EQ(a.next_min_response, b.next_min_response) << what;
+      EXPECT_EQ(b.cells_redone, 0) << what;
+      // The next cell floors: 0.8 of each cell's bound after floors that all held (and without
+      // floors), 0.5 after a cut.
+      ASSERT_EQ(a.next_cell_min_response.size(), static_cast<std::size_t>(g * g)) << what;
+      ASSERT_EQ(b.next_cell_min_response.size(), static_cast<std::size_t>(g * g)) << what;
+      const double ratio = a.cells_redone > 0 ? 0.5 / 0.8 : 1.0;
+      for (int c = 0; c < g * g; ++c) {
+        EXPECT_NEAR(a.next_cell_min_response[c], ratio * b.next_cell_min_response[c],
+                    1e-6 * b.next_cell_min_response[c])
+            << what << ", cell " << c;
+      }
+      EXPECT_LE(a.candidates, b.candidates) << what;
+      fewer += a.candidates < b.candidates ? 1 : 0;
+      redone += a.cells_redone;
+      steer = a.next_min_response;
+      steer_cells = a.next_cell_min_response;
+    }
+    // The floors save candidates on most frames, and cut needed points on some (the jump to
+    // new ground above all), whose cells were searched again: the check, not luck, keeps the
+    // output.
+    EXPECT_GE(fewer, 5) << threads << " thread(s)";
+    EXPECT_GT(redone, 0) << threads << " thread(s)";
+    // Floors far above every response: each cell cut, so the detection is redone.
+    const GrayImage img = Window(ground, 0, 0, w, h);
+    const SurfResult want = plain.DetectAndDescribe(img.view());
+    const SurfResult got =
+        cells.DetectAndDescribe(img.view(), 0.0, std::vector<float>(g * g, 1e9f));
+    EXPECT_EQ(got.cells_redone, g * g);
+    ExpectSameKeypoints(want.features.keypoints, got.features.keypoints, "floors of 1e9");
+    EXPECT_EQ(got.features.descriptors, want.features.descriptors);
+    EXPECT_EQ(got.next_min_response, want.next_min_response);
+    // With a roi: the cells (over the roi) searched again reach beyond it, the roi still holds.
+    SurfOptions r = o;
+    r.roi = RectI{37, 21, 560, 433};
+    Surf cells_roi(r), plain_roi(r);
+    const SurfResult first = plain_roi.DetectAndDescribe(img.view());
+    const GrayImage next = Window(ground, 9, 4, w, h);
+    const SurfResult want_roi = plain_roi.DetectAndDescribe(next.view(), first.next_min_response);
+    for (const float scale : {1.f, 1e9f}) {
+      std::vector<float> floors = first.next_cell_min_response;
+      for (float& f : floors) f *= scale;
+      const SurfResult got_roi =
+          cells_roi.DetectAndDescribe(next.view(), first.next_min_response, floors);
+      ExpectSameKeypoints(want_roi.features.keypoints, got_roi.features.keypoints, "roi");
+      EXPECT_EQ(got_roi.features.descriptors, want_roi.features.descriptors);
+      if (scale > 1.f) EXPECT_GT(got_roi.cells_redone, 0);
+    }
+    std::printf("%d thread(s): %zu frames, fewer candidates on %d, %d cells redone\n", threads,
+                std::size(steps), fewer, redone);
+  }
+}
+
+TEST(SurfAdaptive, CellFloorsOfTheWrongSizeOrValueAreRefused) {
+  const GrayImage img = MakeTexture(320, 240, 5, 128, 100);
+  Surf surf(Adaptive(300, 4));
+  EXPECT_THROW(surf.DetectAndDescribe(img.view(), 0.0, std::vector<float>(15, 1.f)),
+               InvalidArgument);
+  std::vector<float> bad(16, 1.f);
+  bad[3] = -1.f;
+  EXPECT_THROW(surf.DetectAndDescribe(img.view(), 0.0, bad), InvalidArgument);
+  bad[3] = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_THROW(surf.DetectAndDescribe(img.view(), 0.0, bad), InvalidArgument);
+  // Fixed-threshold mode ignores them (as steered_min_response).
+  EXPECT_NO_THROW(Surf(SurfOptions{}).DetectAndDescribe(img.view(), 0.0, bad));
+}
 
 }  // namespace
 }  // namespace aerovo

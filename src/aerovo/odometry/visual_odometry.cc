@@ -196,6 +196,7 @@ struct VisualOdometry::Impl {
   Surf surf;
   std::optional<LensUndistortion> lens;  // SetLensUndistortion: keypoints to the ideal pinhole
   double surf_min_response = 0.0;  // Adaptive SURF's floor for the next frame (0 = its option).
+  std::vector<float> surf_cell_min_response;  // ... and its floor per grid cell (empty = none).
   CorrespondenceStage guided, unguided, relocalise;
   // A relocalisation is a standard result: refit on all points like a fall-back
   // (ClusteredRansacOptions::refine_fallback) in a clustered run.
@@ -232,14 +233,15 @@ struct VisualOdometry::Impl {
   }
 
   // The features of frame r->index: adaptive SURF (the floor steered by the previous frame,
-  // SurfResult::next_min_response), the keypoints to the ideal pinhole (SetLensUndistortion;
-  // InputError when the frame is not the lens's size), then, with a focal length and an
-  // attitude off nadir, to the virtual nadir camera. Sets r's detect_ms, describe_ms, n_surf,
-  // tilt_deg and attitude_corrected.
+  // SurfResult::next_min_response and next_cell_min_response), the keypoints to the ideal
+  // pinhole (SetLensUndistortion; InputError when the frame is not the lens's size), then, with a
+  // focal length and an attitude off nadir, to the virtual nadir camera. Sets r's detect_ms,
+  // describe_ms, n_surf, tilt_deg and attitude_corrected.
   SurfResult Detect(const OdometryOptions& o, const GrayImageView& frame,
                     const std::optional<CameraAttitude>& attitude, FrameResult* r) {
-    SurfResult features = surf.DetectAndDescribe(frame, surf_min_response);
+    SurfResult features = surf.DetectAndDescribe(frame, surf_min_response, surf_cell_min_response);
     surf_min_response = features.next_min_response;
+    surf_cell_min_response.swap(features.next_cell_min_response);
     r->detect_ms = features.detect_ms;
     r->describe_ms = features.describe_ms;
     if (lens) {
