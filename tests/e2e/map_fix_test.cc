@@ -73,13 +73,13 @@ bool WriteMap(const fs::path& ortho, const fs::path& dir) {
   return std::system(cmd.c_str()) == 0;
 }
 
-// A lawnmower flight (2 legs of 300 m, 60 m apart) at 100 m over the quarry, 640 x 360 at 2 fps,
+// A lawnmower flight (2 legs of 250 m, 60 m apart) at 100 m over the quarry, 640 x 360 at 2 fps,
 // GPS denied after 5 s, every 5th frame matched against the map within 40 m of the track: the
 // attempts before the track is geo-referenced (the first 30 m of GPS fix its heading) are
 // counted apart, at least 80 % of the others are fixes, within 1 m of the truth at the median and
-// 3 m at most (measured: all 44 of every 3rd frame fixes, median 0.07 m, max 0.13 m); two runs
-// give the same attempts and fixes (a file source waits for each fix before the next: the
-// thread does not make the result depend on timing).
+// 3 m at most (measured on 2 legs of 300 m: all 44 of every 3rd frame fixes, median 0.07 m, max
+// 0.13 m; BENCHMARKS.md); two runs give the same attempts and fixes (a file source waits for each
+// fix before the next: the thread does not make the result depend on timing).
 TEST(MapFix, SimulatedFlightFixesAgainstAnotherSeasonMap) {
   AEROVO_REQUIRE_SHARED(ortho, "data/ortho/callas-quarry.jpg");
   if (std::system("command -v gdal_translate > /dev/null 2>&1") != 0) {
@@ -88,7 +88,7 @@ TEST(MapFix, SimulatedFlightFixesAgainstAnotherSeasonMap) {
   const fs::path dir = e2e::FreshTempDir("aerovo_map_fix", "flight");
   ASSERT_EQ(e2e::RunCli(fmt::format(
                 "simulate --ortho {} --mpp {} --nw-lat {} --nw-lon {} --ground-alt-m 300 "
-                "--pattern lawnmower --length-m 300 --legs 2 --spacing-m 60 --height-m 100 "
+                "--pattern lawnmower --length-m 250 --legs 2 --spacing-m 60 --height-m 100 "
                 "--width 640 --height 360 --fps 2 --gps-noise-m 0 --centre-north-m 80 -q -o {}",
                 ortho.string(), kOrthoMpp, kNwLat, kNwLon, (dir / "sim").string())),
             0);
@@ -107,7 +107,7 @@ TEST(MapFix, SimulatedFlightFixesAgainstAnotherSeasonMap) {
   const nlohmann::json& m = s.at("map_fixes");
   ASSERT_TRUE(m.is_object()) << s.dump(1);
   const int attempted = m.at("attempted"), fixes = m.at("fixes");
-  EXPECT_GE(attempted, 24);
+  EXPECT_GE(attempted, 18);
   EXPECT_GE(fixes, 0.8 * attempted) << m.dump(1);
   EXPECT_LE(m.at("no_prediction").get<int>(), 2);
   const nlohmann::json& gps = m.at("against_gps");
