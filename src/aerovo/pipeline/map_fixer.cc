@@ -73,11 +73,23 @@ void MapFixer::Work() {
   }
 }
 
+std::optional<MapFixRecord> MapFixer::TakeFix(bool due) {
+  std::unique_lock lock(mutex_);
+  if (due && !live_) done_.wait(lock, [this] { return !busy_ && !job_; });
+  if (taken_ >= records_.size()) return std::nullopt;
+  MapFixRecord& newest = records_.back();
+  taken_ = records_.size();
+  if (newest.fix.status != MapFixStatus::kFix) return std::nullopt;
+  newest.applied = true;
+  return newest;
+}
+
 MapFixRecord MapFixer::Attempt(MapFixJob& job) {
   const Stopwatch watch;
   MapFixRecord r;
   r.frame = job.frame;
   r.time_s = job.time_s;
+  r.predicted = job.predicted;
   const double gsd = job.height_m / job.focal_px;
   const double mpp = MapMatchResolution(options_, job.pixels.width(), gsd, map_m_per_px_);
   const int size =
@@ -110,19 +122,20 @@ std::string Cell(const std::optional<double>& v, const char* format) {
 std::string FixesCsv(const std::vector<MapFixRecord>& records) {
   std::string text =
       "frame,time_s,status,lat_deg,lon_deg,heading_deg,sigma_m,inliers,matches,residual_m,scale,"
-      "track_distance_m,gps_error_m,track_gps_error_m,ms\n";
+      "track_distance_m,gps_error_m,track_gps_error_m,ms,applied\n";
   for (const MapFixRecord& r : records) {
     const MapFix& f = r.fix;
     const bool fitted = f.fitted;
     const auto when = [&](double v) { return fitted ? std::optional<double>(v) : std::nullopt; };
-    text += fmt::format("{},{:.3f},{},{},{},{},{},{},{},{},{},{},{},{},{:.1f}\n", r.frame, r.time_s,
-                        ToString(f.status), r.geo ? fmt::format("{:.8f}", r.geo->lat_deg) : "",
-                        r.geo ? fmt::format("{:.8f}", r.geo->lon_deg) : "",
-                        Cell(when(f.heading_rad * 180.0 / 3.14159265358979323846), "{:.3f}"),
-                        Cell(when(std::sqrt(f.position_cov_m2.trace())), "{:.3f}"), f.inliers,
-                        f.matches, Cell(when(f.residual_m), "{:.3f}"),
-                        Cell(when(f.scale), "{:.4f}"), Cell(when(f.prior_distance_m), "{:.3f}"),
-                        Cell(r.gps_error_m, "{:.3f}"), Cell(r.track_gps_error_m, "{:.3f}"), f.ms);
+    text +=
+        fmt::format("{},{:.3f},{},{},{},{},{},{},{},{},{},{},{},{},{:.1f},{}\n", r.frame, r.time_s,
+                    ToString(f.status), r.geo ? fmt::format("{:.8f}", r.geo->lat_deg) : "",
+                    r.geo ? fmt::format("{:.8f}", r.geo->lon_deg) : "",
+                    Cell(when(f.heading_rad * 180.0 / 3.14159265358979323846), "{:.3f}"),
+                    Cell(when(std::sqrt(f.position_cov_m2.trace())), "{:.3f}"), f.inliers,
+                    f.matches, Cell(when(f.residual_m), "{:.3f}"), Cell(when(f.scale), "{:.4f}"),
+                    Cell(when(f.prior_distance_m), "{:.3f}"), Cell(r.gps_error_m, "{:.3f}"),
+                    Cell(r.track_gps_error_m, "{:.3f}"), f.ms, r.applied ? 1 : 0);
   }
   return text;
 }
@@ -157,6 +170,7 @@ void MapFixer::Finish(const std::filesystem::path& out_dir, RunSummary* summary)
   double total_ms = 0.0;
   for (const MapFixRecord& r : records_) {
     ++counts[static_cast<std::size_t>(r.fix.status)];
+    if (r.applied) ++s.applied;
     total_ms += r.fix.ms;
     if (r.fix.status == MapFixStatus::kFix && r.gps_error_m && r.track_gps_error_m) {
       errors.push_back(*r.gps_error_m);

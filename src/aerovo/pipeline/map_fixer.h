@@ -46,6 +46,8 @@ struct MapFixJob {
 struct MapFixRecord {
   int frame = 0;
   double time_s = 0.0;
+  GeoPoint predicted;    ///< The job's prediction.
+  bool applied = false;  ///< The track was moved by it (map_fix.apply).
   MapFix fix;
   std::optional<GeoPoint> geo;              ///< The fit's position (when fitted).
   std::optional<double> gps_error_m;        ///< |fit - GPS|, m (fitted, with GPS).
@@ -68,6 +70,11 @@ class MapFixer {
   void Submit(MapFixJob job);
   /// A frame was due but the track is not geo-referenced yet (no prediction).
   void CountNoPrediction() { ++no_prediction_; }
+  /// map_fix.apply: the newest finished attempt not taken yet, when it is a fix (marked applied).
+  /// At a due frame of a file source it first waits for the attempt in flight (so that a fix is
+  /// taken at a frame that does not depend on the machine's speed); else it does not wait.
+  std::optional<MapFixRecord> TakeFix(bool due);
+  const MapMatchOptions& options() const { return options_; }
   /// Waits for the last attempt, stops the worker, writes `out_dir`/map_fixes.csv and fills in
   /// summary->map_fixes. Idempotent.
   void Finish(const std::filesystem::path& out_dir, RunSummary* summary);
@@ -88,6 +95,7 @@ class MapFixer {
   std::exception_ptr error_;
   std::vector<MapFixRecord> records_;  // in the order of the attempts
   int skipped_busy_ = 0, no_prediction_ = 0;
+  std::size_t taken_ = 0;  // records_ before it were offered to TakeFix
   std::thread worker_;
 };
 

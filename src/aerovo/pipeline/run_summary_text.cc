@@ -91,8 +91,10 @@ std::string FormatMapFixes(const RunSummary::MapFixes& m) {
       failed += fmt::format("{}{} {}", failed.empty() ? "" : ", ", status, n);
   }
   std::string t = fmt::format(
-      "\nMap fixes (every {} frames, not applied to the track): {} of {} attempts{}{}\n",
-      m.every_n_frames, m.fixes, m.attempted, failed.empty() ? "" : "; " + failed,
+      "\nMap fixes (every {} frames, {}): {} of {} attempts{}{}\n", m.every_n_frames,
+      m.applied > 0 ? fmt::format("{} applied to the track", m.applied)
+                    : std::string("not applied to the track"),
+      m.fixes, m.attempted, failed.empty() ? "" : "; " + failed,
       m.no_prediction > 0 ? fmt::format("; {} before the geo-reference", m.no_prediction)
                           : std::string());
   if (m.with_gps > 0) {

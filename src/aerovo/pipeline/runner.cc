@@ -80,7 +80,8 @@ nlohmann::json ToJson(const RunSummary::MapFixes& m) {
            {"track_max_m", m.track_max_m}};
   }
   return {{"every_n_frames", m.every_n_frames}, {"attempted", m.attempted},
-          {"fixes", m.fixes},                   {"by_status", by_status},
+          {"fixes", m.fixes},                   {"applied", m.applied},
+          {"by_status", by_status},
           {"no_prediction", m.no_prediction},   {"skipped_busy", m.skipped_busy},
           {"mean_ms", m.mean_ms},               {"against_gps", gps}};
 }

@@ -6,7 +6,14 @@
 // and the frame's GPS (withheld or not) for the comparison. After the georeference stage, so
 // that the frame that fixes the geo-reference is predicted already. The sink's End waits for
 // the last attempt and writes map_fixes.csv and summary.json "map_fixes".
+// With map_fix.apply, a fix moves the track: from the frame it is taken at (MapFixer::TakeFix:
+// a file source's next due frame, a live source's first frame after it is done) every frame's
+// odometry position (FrameResult::position_m, local frame) is shifted by the sum of the fixes'
+// differences from their predictions, rotated into the local frame; every output after this
+// stage (frames.csv, the tracks, the pose stream, MAVLink, the comparisons) carries it.
+#include <cmath>
 #include <memory>
+#include <optional>
 #include <utility>
 
 #include "aerovo/pipeline/frame_loop.h"
@@ -21,8 +28,11 @@ class MapFixStage : public FrameStage {
 
   void Process(FrameState& f, const RunContext& run) override {
     MapFixer& fixer = *run.map_fixer;
-    if (!fixer.Due(processed_++)) return;
+    const bool due = fixer.Due(processed_++);
     const GeoReferencer& georef = run.state->georef;
+    if (fixer.options().apply && georef.ready()) Apply(fixer.TakeFix(due), georef);
+    f.result.position_m += offset_local_m_;
+    if (!due) return;
     const double focal_px = run.vo_options.focal_px;
     if (!georef.ready() || f.pixels.empty() || !(f.height_m > 0.0) || !(focal_px > 0.0)) {
       fixer.CountNoPrediction();
@@ -44,7 +54,20 @@ class MapFixStage : public FrameStage {
   }
 
  private:
-  int processed_ = 0;  // frames seen by this stage
+  // Adds `fix`'s difference from its prediction (the run's ENU, rotated into the local frame)
+  // to the offset.
+  void Apply(const std::optional<MapFixRecord>& fix, const GeoReferencer& georef) {
+    if (!fix || !fix->geo) return;
+    const LocalEnu& enu = georef.enu();
+    const Eigen::Vector2d delta_enu =
+        (enu.Forward(*fix->geo) - enu.Forward(fix->predicted)).head<2>();
+    const double c = std::cos(georef.rotation_rad()), s = std::sin(georef.rotation_rad());
+    offset_local_m_ += Eigen::Vector2d(c * delta_enu.x() + s * delta_enu.y(),
+                                       -s * delta_enu.x() + c * delta_enu.y());
+  }
+
+  int processed_ = 0;                                         // frames seen by this stage
+  Eigen::Vector2d offset_local_m_ = Eigen::Vector2d::Zero();  // the applied fixes' sum
 };
 
 class MapFixSink : public FrameSink {
