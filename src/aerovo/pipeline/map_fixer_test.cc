@@ -55,6 +55,10 @@ struct TexturedMap {
     ds->SetSpatialRef(&srs);
     GDALClose(ds);
   }
+  ~TexturedMap() {
+    std::error_code ec;
+    fs::remove_all(path.parent_path(), ec);
+  }
   // A 240 x 180 frame whose centre is at map pixel (cx, cy) (heading 0, 0.5 m/px: focal 100 px
   // at 50 m), its true position and a prediction `off_east_m` east of it.
   MapFixJob Job(int frame, int cx, int cy, double off_east_m) const {
