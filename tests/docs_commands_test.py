@@ -288,6 +288,16 @@ def check_map_cover(cwd, out):
         f"summary.json map says {m}"
 
 
+def check_map_fixes(cwd, out):
+    """docs/map.md: summary.json `map_fixes` counts the attempts, map_fixes.csv has a row each."""
+    with open(os.path.join(cwd, "map-fixes", "summary.json")) as f:
+        m = json.load(f).get("map_fixes") or {}
+    with open(os.path.join(cwd, "map-fixes", "map_fixes.csv")) as f:
+        rows = len(f.read().splitlines()) - 1
+    return "" if m.get("attempted", 0) > 0 and rows == m.get("attempted") else \
+        f"summary.json map_fixes says {m}, map_fixes.csv has {rows} rows"
+
+
 def check_online(cwd, out):
     with open(os.path.join(cwd, "online_run", "summary.json")) as f:
         o = json.load(f).get("online") or {}
@@ -319,6 +329,9 @@ PLAN = {
         files=["survey.tif"]),
     "aerovo run flight.mp4 --telemetry flight.SRT --map map.tif --no-report -o with-map": Row(
         files=["with-map/summary.json"], check=check_map_cover),
+    "aerovo run flight.mp4 --telemetry flight.SRT --map map.tif --gps-denied-after-s 3 "
+    "--map-fix-every-n-frames 5 --no-report -o map-fixes": Row(
+        files=["map-fixes/summary.json", "map-fixes/map_fixes.csv"], check=check_map_fixes),
     "aerovo map info map.tif": Row(says=["(EPSG:326", "m/px", "extent wgs84"]),
     "aerovo map info --json survey.tif": Row(says=['"extent_lonlat"', '"overviews"']),
     # docs/backend.md

@@ -447,7 +447,7 @@ std::vector<std::string> RunFileNames::All() {
           kRunKml,      kRunLiveKml,      kVoGpx,      kGpsGpx,
           kSummaryJson, kTransformsCsv,   kConfigJson, kLensEstimateYaml,
           kVoOptimizedTum, kVoOptimizedGeoJson, kVoOptimizedKml, kVoOptimizedGpx,
-          kTransformsOptimizedCsv};
+          kTransformsOptimizedCsv, kMapFixesCsv};
 }
 
 // ---------------------------------------------------------------------------------------------

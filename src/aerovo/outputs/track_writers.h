@@ -293,6 +293,9 @@ struct RunFileNames {
   /// pose to its optimised one (pipeline/run_steps.h OptimizeFlight), the first frame's pixels
   /// those of transforms.csv. `aerovo report` builds its mosaics from it when present.
   static constexpr const char* kTransformsOptimizedCsv = "transforms_optimized.csv";
+  /// The attempts to fix the position against a reference map (`--map`, pipeline/map_fixer.h),
+  /// one row each, written after the last frame (docs/outputs.md).
+  static constexpr const char* kMapFixesCsv = "map_fixes.csv";
   /// Every name above: the files a run writes (outputs/run_folder.h ClaimOutputFolder removes these
   /// and only these with --force, with the report's files).
   static std::vector<std::string> All();

@@ -26,6 +26,7 @@ std::vector<StagePtr> MakeStages(const RunContext& run, const std::vector<StageP
   if (run.config->backend.online) stages.push_back(MakeWindowStage());
   stages.push_back(MakeGpsCheckStage());
   stages.push_back(MakeGeoreferenceStage());
+  if (run.map_fixer) stages.push_back(MakeMapFixStage());
   stages.push_back(MakeRecordStage());
   stages.insert(stages.end(), extra.begin(), extra.end());
   return stages;
@@ -43,6 +44,7 @@ std::vector<SinkPtr> MakeSinks(const RunContext& run, const std::vector<SinkPtr>
   }
   sinks.push_back(MakeTotalsSink());
   sinks.push_back(MakeProgressSink());
+  if (run.map_fixer) sinks.push_back(MakeMapFixSink());
   sinks.insert(sinks.end(), extra.begin(), extra.end());
   return sinks;
 }
@@ -228,6 +230,7 @@ void FrameLoop::Process(FrameState& frame, const std::atomic<bool>* stop, const 
         link_ && mavlink::ParseLinkUrl(inputs_.config.mavlink).reads_autopilot();
     base.stop = stop;
     base.wall = &wall;
+    base.maps = maps_;
     base.summary = summary;
     base.state = &state_;
     setup.focal_from_sim = inputs_.focal_from_sim;

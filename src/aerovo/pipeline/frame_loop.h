@@ -34,6 +34,7 @@ std::unique_ptr<FrameStage> MakeWindowStage();                       // stage_wi
 void RecordFlightFrame(const FrameState& f, const RunContext& run);
 std::unique_ptr<FrameStage> MakeGpsCheckStage();                     // stage_gps_check.cc
 std::unique_ptr<FrameStage> MakeGeoreferenceStage();                 // stage_georef.cc
+std::unique_ptr<FrameStage> MakeMapFixStage();                       // stage_map_fix.cc
 std::unique_ptr<FrameStage> MakeRecordStage();                       // stage_record.cc
 
 // The built-in sinks, in the order MakeSinks lists them (one file each).
@@ -46,6 +47,8 @@ std::unique_ptr<FrameSink> MakeRunFilesSink();      // sink_run_files.cc
 std::unique_ptr<FrameSink> MakeFlightGraphSink();   // sink_flight_graph.cc
 std::unique_ptr<FrameSink> MakeTotalsSink();        // sink_totals.cc
 std::unique_ptr<FrameSink> MakeProgressSink();      // sink_progress.cc
+/// The map fixer's end (RunContext::map_fixer): map_fixes.csv and summary.json "map_fixes".
+std::unique_ptr<FrameSink> MakeMapFixSink();        // stage_map_fix.cc
 
 /// A stage or sink the loop calls, owned by it or by the caller (RunCallbacks).
 using StagePtr = std::shared_ptr<FrameStage>;
@@ -125,6 +128,9 @@ class FrameLoop {
   /// The main source is live (FrameSource::IsLive): the lens self-calibration pre-pass is
   /// skipped (pipeline/lens_prepass.h). Set before Run.
   void set_source_live(bool live) { source_live_ = live; }
+  /// The run's reference maps (RunConfig::map; null: none): frames are matched against them
+  /// (pipeline/map_fixer.h). Must outlive the loop; set before Run.
+  void set_maps(const map::ReferenceMaps* maps) { maps_ = maps; }
   /// Counts of the odometry, null when no frame came.
   const OdometryStats* vo_stats() const {
     return run_ && run_->odometry ? &run_->odometry->stats() : nullptr;
@@ -156,6 +162,7 @@ class FrameLoop {
   std::ostream* log_ = nullptr;
   std::unique_ptr<mavlink::AutopilotLink> link_;  // --mavlink (null: none)
   bool source_live_ = false;
+  const map::ReferenceMaps* maps_ = nullptr;
   RunState state_;
   std::unique_ptr<RunContext> run_;  // from the first frame (stages and sinks get it const)
   std::vector<StagePtr> stages_;

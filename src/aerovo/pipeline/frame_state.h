@@ -37,7 +37,13 @@
 #include "aerovo/pipeline/run_types.h"
 #include "aerovo/pipeline/runner.h"
 
+namespace aerovo::map {
+class ReferenceMaps;
+}
+
 namespace aerovo::run_steps {
+
+class MapFixer;
 
 /// The GPS plausibility check's verdict on a frame's fix (odometry/gps_check.h).
 enum class FixCheck {
@@ -158,6 +164,8 @@ struct RunContext {
   bool link_reads_autopilot = false;        ///< udpin/serial: height and attitude in.
   const std::atomic<bool>* stop = nullptr;  ///< May be null.
   const Stopwatch* wall = nullptr;          ///< The run's stopwatch (frames per second).
+  /// RunConfig::map opened (null: none); read by the map fixer's thread only, until its Finish.
+  const map::ReferenceMaps* maps = nullptr;
   RunSummary* summary = nullptr;
   RunState* state = nullptr;
   // From the first frame.
@@ -178,6 +186,9 @@ struct RunContext {
   /// around the stages and it replaces `camera.calibrated`, `odometry`, `undistorter` and
   /// `undistortion` at its switch frame, the one change of a RunContext after the first frame.
   std::unique_ptr<LensSwitch> lens_switch;
+  /// With `maps`: the fixes against them on their own thread (pipeline/map_fixer.h; the map-fix
+  /// stage hands it frames, the map-fix sink's End finishes it).
+  std::shared_ptr<MapFixer> map_fixer;
 };
 
 /// One step of every frame (height, attitude, preprocessing, odometry, ...): reads what the

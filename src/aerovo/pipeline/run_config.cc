@@ -107,6 +107,7 @@ void Validate(const RunConfig& c) {
     Validate(c.flat_field);
     Validate(c.backend);
     Validate(c.odometry);
+    Validate(c.map_fix);
   } catch (const InvalidArgument& e) {
     fail(e.what());
   }

@@ -20,6 +20,7 @@
 #include "aerovo/mavlink/vision.h"
 #include "aerovo/odometry/georef.h"
 #include "aerovo/odometry/gps_check.h"
+#include "aerovo/odometry/map_match.h"
 #include "aerovo/odometry/flight_graph.h"
 #include "aerovo/odometry/visual_odometry.h"
 
@@ -322,8 +323,12 @@ struct RunConfig {
   /// Opened and checked before the frames (an InputError naming it when it is missing, corrupt,
   /// has no CRS or geotransform, or covers none of the telemetry's positions the run may use:
   /// those before gps_denied_after_s); after the run, its cover of the geo-referenced track
-  /// (summary.json "map", a warning when partial). No fixes from it yet. "" = none.
+  /// (summary.json "map", a warning when partial); the frames are matched against it for
+  /// absolute fixes (map_fix below; pipeline/map_fixer.h), recorded and compared with GPS
+  /// (map_fixes.csv, summary.json "map_fixes"): they do not move the track yet. "" = none.
   std::string map;
+  /// The fixes against `map` (keys map_fix.*; odometry/map_match.h). Unused without a map.
+  MapMatchOptions map_fix;
   /// The sensor's static pattern (vignetting, fixed-pattern noise) estimated from the flight and
   /// removed before the reduction and SURF when significant (features/flat_field.h; the stage
   /// pipeline/stage_flat_field.cc): a photo folder's median of photo_samples photos spread over
@@ -404,12 +409,13 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.attitude_warn_deg, "attitude_warn_deg", "Warn when the telemetry's camera is this far from nadir and attitude is off, deg", Interval(0, 90));
   v.Field(c.ground_elevation_m, "ground_elevation_m", "Ground altitude above sea level, m, for telemetry with only an altitude above sea level (nan = unknown)", Any());
   v.Field(c.takeoff_height_agl_m, "takeoff_height_agl_m", "Take-off point's height above the ground flown over, m (added to the relative altitude)", Interval(-1e4, 1e4));
-  v.Field(c.map, "map", "Reference map (GeoTIFF/COG, VRT, MBTiles; docs/map.md): checked against the flight, its cover of the track reported (no fixes yet)", Any());
+  v.Field(c.map, "map", "Reference map (GeoTIFF/COG, VRT, MBTiles; docs/map.md): checked against the flight, its cover of the track reported, the frames matched against it for absolute fixes (map_fixes.csv; they do not move the track yet)", Any());
   v.Field(c.gps_denied_after_s, "gps_denied_after_s", "Withhold the telemetry's positions from this many seconds after the first frame on (0 = from the start, negative = never): kept only for the comparison with GPS", Interval(-1e9, 1e9));
   v.Group("gps_check", c.gps_check);
   v.Group("flat_field", c.flat_field);
   v.Group("odometry", c.odometry);
   v.Group("backend", c.backend);
+  v.Group("map_fix", c.map_fix);
 }
 // clang-format on
 /// The paper's exact pipeline (Ivanov & Muzychuk 2023; `aerovo run --paper`, also for

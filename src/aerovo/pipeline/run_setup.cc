@@ -8,6 +8,7 @@
 #include "aerovo/pipeline/frame_loop.h"
 #include "aerovo/pipeline/lens_prepass.h"
 #include "aerovo/pipeline/lens_switch.h"
+#include "aerovo/pipeline/map_fixer.h"
 
 namespace aerovo::run_steps {
 namespace {
@@ -230,6 +231,10 @@ std::unique_ptr<RunContext> SetUpRun(RunSetup setup, const FrameState& first) {
   run->outputs = std::make_unique<RunOutputs>(
       run->out_dir, *run->config, run->camera, run->summary->height_source, run->width_px,
       run->height_px, first.frame.time_s, first.sample, *run->callbacks, !run->telemetry->empty());
+  if (run->maps != nullptr) {
+    run->map_fixer =
+        std::make_shared<MapFixer>(*run->maps, run->config->map_fix, setup.source_live);
+  }
   LogSetUp(*run);
   return run;
 }

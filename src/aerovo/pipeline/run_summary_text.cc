@@ -76,13 +76,37 @@ std::string FormatDenial(const RunSummary::GpsDenied& d) {
     t += fmt::format("  {:<40}{:.2f} m ({:.0f} m flown)\n",
                      fmt::format("after {:.0f} min", a.after_s / 60.0), a.error_m, a.distance_m);
   }
-  t += fmt::format("  {:<40}{:.2f} m ({:.0f} m flown in {:.0f} s)\n", "at the end",
-                   e.end_error_m, e.distance_m, e.duration_s);
+  t += fmt::format("  {:<40}{:.2f} m ({:.0f} m flown in {:.0f} s)\n", "at the end", e.end_error_m,
+                   e.distance_m, e.duration_s);
   t += fmt::format("  {:<40}{:.2f} m RMSE, {:.2f} m max\n", "over the denial", e.rmse_m,
                    e.max_error_m);
   if (e.end_error_per_km_m) {
     t += fmt::format("  {:<40}{:.2f} m per km\n", "end error per km without GPS",
                      *e.end_error_per_km_m);
+  }
+  return t;
+}
+
+// The map fixes' section (--map): the attempts, what became of them, the errors against GPS.
+std::string FormatMapFixes(const RunSummary::MapFixes& m) {
+  std::string failed;
+  for (const auto& [status, n] : m.by_status) {
+    if (status != "fix" && n > 0)
+      failed += fmt::format("{}{} {}", failed.empty() ? "" : ", ", status, n);
+  }
+  std::string t = fmt::format(
+      "\nMap fixes (every {} frames, {}): {} of {} attempts{}{}\n", m.every_n_frames,
+      m.applied > 0 ? fmt::format("{} applied to the track", m.applied)
+                    : std::string("not applied to the track"),
+      m.fixes, m.attempted, failed.empty() ? "" : "; " + failed,
+      m.no_prediction > 0 ? fmt::format("; {} before the geo-reference", m.no_prediction)
+                          : std::string());
+  if (m.with_gps > 0) {
+    t += fmt::format(
+        "  {:<40}median {:.2f} m, RMSE {:.2f} m, max {:.2f} m (the track: {:.2f}, {:.2f}, "
+        "{:.2f} m)\n",
+        "against GPS", m.median_m, m.rmse_m, m.max_m, m.track_median_m, m.track_rmse_m,
+        m.track_max_m);
   }
   return t;
 }
@@ -112,20 +136,21 @@ std::string FormatRunSummary(const RunSummary& s) {
     t += "\nComparison with GPS (ENU, after alignment):\n" + FormatTrajectoryTable(*s.evaluation);
   } else {
     t += fmt::format("\nNo comparison with GPS ({}).\n", s.gps_comparison_note.empty()
-                                                            ? "no frame has a GPS fix"
-                                                            : s.gps_comparison_note);
+                                                             ? "no frame has a GPS fix"
+                                                             : s.gps_comparison_note);
   }
   if (s.truth_evaluation) {
-    t += fmt::format("\nComparison with the ground truth ({} frames):\n  {}\n",
-                     s.frames_with_truth, s.truth);
+    t += fmt::format("\nComparison with the ground truth ({} frames):\n  {}\n", s.frames_with_truth,
+                     s.truth);
     t += FormatTrajectoryTable(*s.truth_evaluation, "truth");
   }
   if (s.gps_denied) t += FormatDenial(*s.gps_denied);
+  if (s.map_fixes) t += FormatMapFixes(*s.map_fixes);
   if (s.optimized) t += FormatOptimized(s);
   t += fmt::format("\n{:<20}detect {:.1f}, describe {:.1f}, correspond {:.1f}\n",
                    "Stage times (ms)", s.mean.detect_ms, s.mean.describe_ms, s.mean.correspond_ms);
-  t += fmt::format("{:<20}estimate {:.1f}, total {:.1f}\n", "", s.mean.estimate_ms,
-                   s.mean.total_ms);
+  t +=
+      fmt::format("{:<20}estimate {:.1f}, total {:.1f}\n", "", s.mean.estimate_ms, s.mean.total_ms);
   t += fmt::format("{:<20}{:.2f} fps ({:.1f} s); CPU {:.1f} ms per frame\n", "Throughput", s.fps,
                    s.wall_s, s.cpu_ms_per_frame);
   if (s.latency.frames > 0) {

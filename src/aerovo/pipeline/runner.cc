@@ -76,6 +76,24 @@ nlohmann::json ToJson(const RunSummary::MapCover& m) {
           {"note", m.note}};
 }
 
+// summary.json "map_fixes".
+nlohmann::json ToJson(const RunSummary::MapFixes& m) {
+  nlohmann::json by_status = nlohmann::json::object();
+  for (const auto& [status, count] : m.by_status) by_status[status] = count;
+  nlohmann::json gps;
+  if (m.with_gps > 0) {
+    gps = {{"fixes", m.with_gps},  {"median_m", m.median_m},
+           {"rmse_m", m.rmse_m},   {"max_m", m.max_m},
+           {"track_median_m", m.track_median_m}, {"track_rmse_m", m.track_rmse_m},
+           {"track_max_m", m.track_max_m}};
+  }
+  return {{"every_n_frames", m.every_n_frames}, {"attempted", m.attempted},
+          {"fixes", m.fixes},                   {"applied", m.applied},
+          {"by_status", by_status},
+          {"no_prediction", m.no_prediction},   {"skipped_busy", m.skipped_busy},
+          {"mean_ms", m.mean_ms},               {"against_gps", gps}};
+}
+
 // summary.json "gps_denied".
 nlohmann::json ToJson(const RunSummary::GpsDenied& d) {
   return {{"after_s", d.after_s},
@@ -93,6 +111,7 @@ void AddOptionalBlocks(const RunSummary& s, nlohmann::json* j) {
   (*j)["online"] = s.online ? ToJson(*s.online) : nlohmann::json();
   (*j)["gps_denied"] = s.gps_denied ? ToJson(*s.gps_denied) : nlohmann::json();
   (*j)["map"] = s.map ? ToJson(*s.map) : nlohmann::json();
+  (*j)["map_fixes"] = s.map_fixes ? ToJson(*s.map_fixes) : nlohmann::json();
 }
 
 }  // namespace
@@ -484,6 +503,7 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
   // 2-5. The frames: camera, height, outputs, odometry.
   run_steps::FrameLoop loop(inputs, telemetry, folder, config.odometry, out_dir, cb, log);
   loop.set_source_live(live);
+  if (maps) loop.set_maps(&*maps);
   run_steps::LoopEnd end = loop.Run(*source, stop, wall, &summary);
   if (summary.frames_processed == 0 && !end.stopped && !end.failure) {
     // Not a silent empty run: a window past the end, an empty window, an empty source.

@@ -22,6 +22,7 @@
 #include <ostream>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -221,6 +222,25 @@ struct RunSummary {
     std::string note;
   };
   std::optional<MapCover> map;
+  /// Absolute fixes against the map (RunConfig::map, pipeline/map_fixer.h; summary.json
+  /// "map_fixes", null without a map): the attempts and what became of them, and, where the
+  /// frames have GPS (withheld or not), the fixes' errors against it beside the track's.
+  struct MapFixes {
+    int every_n_frames = 0;
+    int attempted = 0;      ///< Frames matched against the map.
+    int fixes = 0;          ///< Of them, fixes (status "fix").
+    int applied = 0;        ///< Fixes that moved the track (map_fix.apply).
+    std::vector<std::pair<std::string, int>> by_status;  ///< Every status (ToString), count.
+    int no_prediction = 0;  ///< Due frames before the track was geo-referenced.
+    int skipped_busy = 0;   ///< Live source: due frames skipped while the worker was busy.
+    double mean_ms = 0.0;   ///< Mean time of an attempt (window read and match), ms.
+    /// The fixes against GPS (n = fixes with GPS; the rest 0 when n = 0), m, and the track's
+    /// error at the same frames.
+    int with_gps = 0;
+    double median_m = 0.0, rmse_m = 0.0, max_m = 0.0;
+    double track_median_m = 0.0, track_rmse_m = 0.0, track_max_m = 0.0;
+  };
+  std::optional<MapFixes> map_fixes;
   std::vector<std::string> warnings;
   /// GPS fixes rejected by the plausibility check (odometry/gps_check.h; frames.csv gps_flag):
   /// their count and, for the first 100, frame, time (s), kind and message. They are not in

@@ -1,0 +1,193 @@
+// An absolute position fix from one nadir frame matched against a north-up window of a
+// geo-referenced map (no I/O: the caller reads the window, e.g. map/reference_map.h
+// ReferenceMaps::Window, and hands its pixels here).
+//
+// Frames:
+// - frame pixels: x right, y down, the frame's centre ((w - 1) / 2, (h - 1) / 2) is the camera
+//   centre (odometry/pose_chain.h);
+// - window pixels: north-up, x east, y south, `m_per_px` per pixel;
+// - window ENU: metres east and north of the window's centre pixel ((size - 1) / 2, the
+//   MapWindow convention of map/reference_map.h);
+// - heading_rad: angle counter-clockwise seen from above from north to the frame's image-up
+//   direction (the odometry's heading plus GeoReferencer::rotation_rad, odometry/georef.h).
+//
+// The frame is warped to the window's ground resolution (scale from its ground sampling
+// distance, height / focal_px) and, when the heading is known, rotated north-up (then upright
+// SURF, else rotation-invariant SURF); SURF (features/surf.h) on both, the matcher
+// (matching/matcher.h; guided around the prior when the heading is known) and the similarity
+// RANSAC (estimation/ransac.h) give window_px_from_warped; the fit is checked (inliers, their
+// spread over the frame, its scale against 1, its distance from the prior and its rotation
+// against the heading) and turned into the frame centre's ENU position and heading with the
+// fit's covariance.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+
+#include <Eigen/Core>
+
+#include "aerovo/core/image.h"
+#include "aerovo/core/options.h"
+
+namespace aerovo {
+
+/// Options of map fixes (keys map_fix.* in a run configuration).
+struct MapMatchOptions {
+  /// Match every n-th frame against the map (1 = every frame).
+  int every_n_frames = 10;
+  /// The fixes move the track (pipeline/map_fixer.h): from the frame a fix is taken at on, the
+  /// track's positions are shifted by the fix's difference from its prediction. Default false:
+  /// the fixes are recorded and compared with GPS only.
+  bool apply = false;
+  /// Ground resolution of the matching, m/px; 0 = automatic: the coarser of the map's own
+  /// resolution and the frame's ground sampling distance times frame width / match_width_px.
+  double match_m_per_px = 0.0;
+  /// Automatic resolution: the frame is brought to about this many pixels across (a frame wider
+  /// on the ground is matched coarser: the cost stays bounded whatever the height).
+  int match_width_px = 400;
+  /// Search radius around the predicted position, metres: the window covers the frame's
+  /// footprint plus this, and a fix farther than this from the prediction is rejected (gate).
+  double search_radius_m = 60.0;
+  /// A fix farther than this from the prediction is rejected (gate), metres; 0 = search_radius_m.
+  /// Smaller than the radius: a wider search (a prior that may be far off) with a tighter gate.
+  double gate_m = 0.0;
+  /// Frame SURF points (adaptive selection, features/surf.h); the map window's target is this
+  /// times the ratio of its valid area to the frame's.
+  int frame_points = 800;
+  /// Most SURF points of the map window.
+  int max_map_points = 8000;
+  /// RANSAC inlier threshold at the matching resolution, px.
+  double max_distance_px = 2.0;
+  /// RANSAC trials (most) and seed: same seed and input, same fix.
+  int ransac_trials = 2000;
+  std::uint64_t seed = 1;
+  /// Fewest inliers of a fix.
+  int min_inliers = 12;
+  /// Smallest spread of the inliers over the frame: the square root of the smaller eigenvalue
+  /// of their positions' covariance over the frame's smaller side (points spread uniformly over
+  /// the whole frame: 0.29; along one line: 0).
+  double min_spread = 0.06;
+  /// Largest error of the fit's scale against the expected one (|log scale| <= log(1 + this)):
+  /// a height or focal length this wrong is not a fix.
+  double max_scale_error = 0.15;
+  /// With a heading: the fit's rotation may differ from it by at most this, degrees (gate).
+  double max_heading_error_deg = 15.0;
+  /// Smallest robust intensity range (1st to 99th percentile) of the valid map window, and of the
+  /// frame, grey levels: below it there is no texture to match.
+  double min_contrast = 12.0;
+  /// Smallest share of the window the map has data in.
+  double min_valid_fraction = 0.2;
+};
+
+/// Throws InvalidArgument naming the bad field.
+void Validate(const MapMatchOptions& options);
+
+// clang-format off
+template <class V>
+void VisitFields(MapMatchOptions& o, V& v) {
+  using namespace options;
+  v.Field(o.every_n_frames, "every_n_frames", "Match every n-th frame against the map (--map)", Interval(1, 1000000));
+  v.Field(o.apply, "apply", "The fixes move the track: shifted by each fix's difference from its prediction, from the frame it is taken at on", Any());
+  v.Field(o.match_m_per_px, "match_m_per_px", "Ground resolution of map matching, m/px (0 = the coarser of the map's and the frame's at match_width_px)", AtLeast(0).Finite());
+  v.Field(o.match_width_px, "match_width_px", "Automatic resolution: the frame's width at the matching resolution, px", Interval(64, 4096));
+  v.Field(o.search_radius_m, "search_radius_m", "Search radius around the predicted position, m; farther fixes are rejected (gate)", GreaterThan(0).Finite());
+  v.Field(o.gate_m, "gate_m", "Fixes farther than this from the prediction are rejected, m (0 = search_radius_m)", AtLeast(0).Finite());
+  v.Field(o.frame_points, "frame_points", "SURF points of the frame (the map window's: scaled by its area)", Interval(16, 100000));
+  v.Field(o.max_map_points, "max_map_points", "Most SURF points of the map window", Interval(16, 1000000));
+  v.Field(o.max_distance_px, "max_distance_px", "RANSAC inlier threshold at the matching resolution, px", GreaterThan(0).Finite());
+  v.Field(o.ransac_trials, "ransac_trials", "Most RANSAC trials of a fix", AtLeast(1));
+  v.Field(o.seed, "seed", "Seed of the fix's RANSAC", Any());
+  v.Field(o.min_inliers, "min_inliers", "Fewest inliers of a fix", AtLeast(3));
+  v.Field(o.min_spread, "min_spread", "Smallest spread of the inliers over the frame (principal std / smaller side)", AtLeast(0).Finite());
+  v.Field(o.max_scale_error, "max_scale_error", "Largest relative error of the fit's scale", GreaterThan(0).Finite());
+  v.Field(o.max_heading_error_deg, "max_heading_error_deg", "Largest rotation of the fit against the heading, deg (gate)", GreaterThan(0).Finite());
+  v.Field(o.min_contrast, "min_contrast", "Smallest robust intensity range of the map window and the frame, grey levels", AtLeast(0).Finite());
+  v.Field(o.min_valid_fraction, "min_valid_fraction", "Smallest share of the window with map data", Interval(0, 1));
+}
+// clang-format on
+
+/// What became of a fix attempt.
+enum class MapFixStatus {
+  kFix,             ///< A fix.
+  kNoMap,           ///< No map window (outside the maps, too little data in it).
+  kNoMapTexture,    ///< The window has too little contrast or too few SURF points.
+  kNoFrameTexture,  ///< The frame has too little contrast or too few SURF points.
+  kTooFewInliers,   ///< RANSAC found fewer than min_inliers.
+  kSpread,          ///< The inliers lie in a line or a corner of the frame.
+  kScale,           ///< The fit's scale disagrees with the frame's ground sampling distance.
+  kGate,            ///< Farther than the gate (gate_m) from the prediction, or rotated against
+                    ///< the heading by more than max_heading_error_deg.
+};
+inline constexpr int kNumMapFixStatus = 8;
+/// "fix", "no_map", "no_map_texture", "no_frame_texture", "few_inliers", "spread", "scale",
+/// "gate".
+const char* ToString(MapFixStatus status);
+
+/// The frame to fix.
+struct MapMatchFrame {
+  GrayImageView pixels;               ///< Preprocessed nadir grey frame.
+  double focal_px = 0.0;              ///< Focal length at this resolution, px (> 0).
+  double height_m = 0.0;              ///< Height above ground, m (> 0).
+  std::optional<double> heading_rad;  ///< ENU heading estimate (file comment), if any.
+};
+
+/// The map around the prediction.
+struct MapMatchWindow {
+  GrayImageView pixels;  ///< North-up grey window.
+  GrayImageView valid;   ///< 255 where the map has data (same size), else 0.
+  double m_per_px = 0.0;
+};
+
+/// One attempt, by value.
+struct MapFix {
+  MapFixStatus status = MapFixStatus::kNoMap;
+  /// The fit (status kFix, or a check's failure after the fit: kSpread, kScale, kGate).
+  bool fitted = false;
+  Eigen::Vector2d enu_m = Eigen::Vector2d::Zero();  ///< Frame centre, window ENU, m.
+  double heading_rad = 0.0;                         ///< ENU heading of the frame (file comment).
+  double scale = 1.0;  ///< The fit's scale against the expected one (1 = the height is right).
+  /// Covariance of (east, north), m^2, and of the heading, rad^2, from the fit's residuals.
+  Eigen::Matrix2d position_cov_m2 = Eigen::Matrix2d::Zero();
+  double heading_var_rad2 = 0.0;
+  int inliers = 0;
+  int matches = 0;
+  int frame_points = 0, map_points = 0;
+  double residual_m = 0.0;        ///< RMS transfer error of the inliers, m.
+  double spread = 0.0;            ///< MapMatchOptions::min_spread's measure.
+  double prior_distance_m = 0.0;  ///< |enu_m - prior|, m.
+  double ms = 0.0;                ///< Time of the attempt, ms.
+};
+
+/// Side of the square window (px at `m_per_px`) that holds the frame's footprint anywhere within
+/// `search_radius_m` of its centre, whatever the heading.
+int MapWindowSizePx(int frame_width_px, int frame_height_px, double gsd_m_per_px,
+                    double search_radius_m, double m_per_px);
+
+/// The matching resolution (MapMatchOptions::match_m_per_px, or automatic), m/px.
+double MapMatchResolution(const MapMatchOptions& options, int frame_width_px, double gsd_m_per_px,
+                          double map_m_per_px);
+
+/// Reusable matcher (SURF engines, matcher and RANSAC buffers). Not thread-safe: one per thread.
+class MapMatcher {
+ public:
+  /// Throws InvalidArgument for invalid options.
+  explicit MapMatcher(const MapMatchOptions& options);
+  ~MapMatcher();
+  MapMatcher(MapMatcher&&) noexcept;
+  MapMatcher& operator=(MapMatcher&&) noexcept;
+
+  const MapMatchOptions& options() const;
+
+  /// One fix of `frame` against `window`, `prior_enu_m` the predicted position of the frame
+  /// centre in the window's ENU (m). Throws InvalidArgument for an empty frame or window, a
+  /// valid mask of another size, or focal_px, height_m, m_per_px not finite and > 0.
+  MapFix Match(const MapMatchFrame& frame, const MapMatchWindow& window,
+               const Eigen::Vector2d& prior_enu_m);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace aerovo

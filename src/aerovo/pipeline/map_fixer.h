@@ -1,0 +1,102 @@
+// Absolute fixes against the reference maps beside the odometry (`aerovo run --map`;
+// docs/map.md): every map_fix.every_n_frames-th frame, once the track is geo-referenced, is
+// handed with its prediction (the track's position and heading) to a worker thread that reads
+// the map window around it (map/reference_map.h) and matches the frame against it
+// (odometry/map_match.h). The frame loop never waits for a fix to be computed but in one case:
+// from a file (video, photos), the next attempt waits for the one before to finish, so that
+// the same input gives the same attempts and fixes whatever the machine's speed; from a live
+// source, a frame due while the worker is busy is skipped (counted). The fixes are recorded
+// (map_fixes.csv, summary.json "map_fixes") and compared with the GPS, withheld or not; they
+// do not move the track.
+#pragma once
+
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <filesystem>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "aerovo/core/image.h"
+#include "aerovo/geo/geo_point.h"
+#include "aerovo/odometry/map_match.h"
+#include "aerovo/pipeline/runner.h"
+
+namespace aerovo::map {
+class ReferenceMaps;
+}
+
+namespace aerovo::run_steps {
+
+/// One attempt's input: a copy of the preprocessed frame and its prediction.
+struct MapFixJob {
+  int frame = 0;
+  double time_s = 0.0;
+  GrayImage pixels;
+  double focal_px = 0.0, height_m = 0.0;
+  std::optional<double> heading_rad;  ///< ENU (odometry/map_match.h).
+  GeoPoint predicted;                 ///< The track's position of the frame.
+  std::optional<GeoPoint> gps;        ///< The frame's GPS (withheld or not), for the comparison.
+};
+
+/// One attempt's outcome (a row of map_fixes.csv).
+struct MapFixRecord {
+  int frame = 0;
+  double time_s = 0.0;
+  GeoPoint predicted;    ///< The job's prediction.
+  bool applied = false;  ///< The track was moved by it (map_fix.apply).
+  MapFix fix;
+  std::optional<GeoPoint> geo;              ///< The fit's position (when fitted).
+  std::optional<double> gps_error_m;        ///< |fit - GPS|, m (fitted, with GPS).
+  std::optional<double> track_gps_error_m;  ///< |track - GPS| at the frame, m.
+};
+
+class MapFixer {
+ public:
+  /// `maps` must outlive this object and be used by no other thread until Finish. `live`: a
+  /// frame due while the worker is busy is skipped instead of waited for.
+  MapFixer(const map::ReferenceMaps& maps, const MapMatchOptions& options, bool live);
+  ~MapFixer();
+  MapFixer(const MapFixer&) = delete;
+  MapFixer& operator=(const MapFixer&) = delete;
+
+  /// An attempt is due at the `processed`-th frame processed (0-based).
+  bool Due(int processed) const { return processed % options_.every_n_frames == 0; }
+  /// The attempt (waiting first for the previous one unless live; an error of the previous one,
+  /// e.g. an unreadable map, is rethrown here).
+  void Submit(MapFixJob job);
+  /// A frame was due but the track is not geo-referenced yet (no prediction).
+  void CountNoPrediction() { ++no_prediction_; }
+  /// map_fix.apply: the newest finished attempt not taken yet, when it is a fix (marked applied).
+  /// At a due frame of a file source it first waits for the attempt in flight (so that a fix is
+  /// taken at a frame that does not depend on the machine's speed); else it does not wait.
+  std::optional<MapFixRecord> TakeFix(bool due);
+  const MapMatchOptions& options() const { return options_; }
+  /// Waits for the last attempt, stops the worker, writes `out_dir`/map_fixes.csv and fills in
+  /// summary->map_fixes. Idempotent.
+  void Finish(const std::filesystem::path& out_dir, RunSummary* summary);
+
+ private:
+  void Work();
+  MapFixRecord Attempt(MapFixJob& job);
+
+  const map::ReferenceMaps& maps_;
+  MapMatchOptions options_;
+  bool live_;
+  MapMatcher matcher_;
+  double map_m_per_px_ = 0.0;
+  std::mutex mutex_;
+  std::condition_variable wake_, done_;
+  std::optional<MapFixJob> job_;  // waiting for the worker
+  bool busy_ = false, stop_ = false, finished_ = false;
+  std::exception_ptr error_;
+  std::vector<MapFixRecord> records_;  // in the order of the attempts
+  int skipped_busy_ = 0, no_prediction_ = 0;
+  std::size_t taken_ = 0;  // records_ before it were offered to TakeFix
+  std::thread worker_;
+};
+
+}  // namespace aerovo::run_steps

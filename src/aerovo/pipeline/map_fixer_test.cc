@@ -1,0 +1,143 @@
+// MapFixer (map_fixer.h) on a GeoTIFF of random texture written here (a transverse Mercator CRS
+// centred on the map's north-west corner, 0.5 m/px) and frames cut from the same texture, so that
+// each frame's true position is known: a file source attempts every frame it is given, in order,
+// and its fixes land on the truth; a live source skips the frames due while the matcher is busy;
+// a prediction off the map is "no_map"; map_fixes.csv and summary.json's block are filled in.
+#include "aerovo/pipeline/map_fixer.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gdal_priv.h>
+#include <ogr_spatialref.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "aerovo/core/testing.h"
+#include "aerovo/geo/local_enu.h"
+#include "aerovo/map/reference_map.h"
+
+namespace aerovo::run_steps {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr double kMpp = 0.5, kLat0 = 45.0, kLon0 = 7.0;
+constexpr int kSize = 800;
+
+// The texture (smoothed noise, full contrast) and the map of it.
+struct TexturedMap {
+  cv::Mat grey;
+  fs::path path;
+  TexturedMap() {
+    cv::Mat noise(kSize, kSize, CV_32F);
+    cv::theRNG().state = 5;
+    cv::randu(noise, 0.0, 1.0);
+    cv::GaussianBlur(noise, noise, cv::Size(), 2.0);
+    cv::normalize(noise, noise, 0, 255, cv::NORM_MINMAX);
+    noise.convertTo(grey, CV_8U);
+    path = ::aerovo::testing::FreshTempDir("aerovo_map_fixer", "map") / "map.tif";
+    GDALAllRegister();
+    GDALDataset* ds = GetGDALDriverManager()->GetDriverByName("GTiff")->Create(
+        path.c_str(), kSize, kSize, 1, GDT_Byte, nullptr);
+    EXPECT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, kSize, kSize, grey.data, kSize, kSize,
+                                             GDT_Byte, 0, 0, nullptr),
+              CE_None);
+    double gt[6] = {0.0, kMpp, 0.0, 0.0, 0.0, -kMpp};
+    ds->SetGeoTransform(gt);
+    OGRSpatialReference srs;
+    srs.importFromProj4("+proj=tmerc +lat_0=45 +lon_0=7 +k=1 +x_0=0 +y_0=0 +ellps=WGS84 +units=m");
+    ds->SetSpatialRef(&srs);
+    GDALClose(ds);
+  }
+  ~TexturedMap() {
+    std::error_code ec;
+    fs::remove_all(path.parent_path(), ec);
+  }
+  // A 240 x 180 frame whose centre is at map pixel (cx, cy) (heading 0, 0.5 m/px: focal 100 px
+  // at 50 m), its true position and a prediction `off_east_m` east of it.
+  MapFixJob Job(int frame, int cx, int cy, double off_east_m) const {
+    MapFixJob job;
+    job.frame = frame;
+    job.time_s = frame;
+    job.pixels = GrayImage(240, 180);
+    for (int y = 0; y < 180; ++y) {
+      for (int x = 0; x < 240; ++x)
+        job.pixels.at(x, y) = grey.at<std::uint8_t>(cy - 90 + y, cx - 120 + x);
+    }
+    job.focal_px = 100.0;
+    job.height_m = 50.0;
+    job.heading_rad = 0.0;
+    // The frame's centre pixel (119.5, 89.5) is map pixel (cx - 0.5, cy - 0.5), whose centre is
+    // at east (cx) kMpp, north -(cy) kMpp in the map's CRS (the local plane of its origin).
+    const LocalEnu enu(kLat0, kLon0, 0.0);
+    job.gps = enu.Reverse(cx * kMpp, -cy * kMpp, 0.0);
+    job.predicted = enu.Reverse(cx * kMpp + off_east_m, -cy * kMpp, 0.0);
+    return job;
+  }
+};
+
+const TexturedMap& Map() {
+  static const TexturedMap m;
+  return m;
+}
+
+TEST(MapFixer, FileSourceAttemptsEveryFrameAndFixesLandOnTheTruth) {
+  const map::ReferenceMaps maps({Map().path});
+  MapMatchOptions o;
+  o.every_n_frames = 2;
+  o.search_radius_m = 30.0;
+  MapFixer fixer(maps, o, /*live=*/false);
+  EXPECT_TRUE(fixer.Due(0));
+  EXPECT_FALSE(fixer.Due(1));
+  fixer.Submit(Map().Job(0, 300, 300, 12.0));
+  fixer.Submit(Map().Job(2, 420, 380, -8.0));
+  fixer.Submit(Map().Job(4, 500, 450, 5.0));
+  fixer.Submit(Map().Job(6, 300, 300, 0.0));
+  fixer.Submit(Map().Job(8, 300, 300, 5000.0));  // off the map
+  fixer.CountNoPrediction();
+  RunSummary summary;
+  const fs::path dir = Map().path.parent_path();
+  fixer.Finish(dir, &summary);
+  fixer.Finish(dir, &summary);  // idempotent
+  ASSERT_TRUE(summary.map_fixes.has_value());
+  const RunSummary::MapFixes& m = *summary.map_fixes;
+  EXPECT_EQ(m.every_n_frames, 2);
+  EXPECT_EQ(m.attempted, 5);
+  EXPECT_EQ(m.fixes, 4);
+  EXPECT_EQ(m.no_prediction, 1);
+  EXPECT_EQ(m.skipped_busy, 0);
+  ASSERT_EQ(m.with_gps, 4);
+  EXPECT_LT(m.max_m, 0.3);
+  EXPECT_NEAR(m.track_max_m, 12.0, 0.01);
+  int no_map = 0;
+  for (const auto& [status, count] : m.by_status) {
+    if (status == "no_map") no_map = count;
+  }
+  EXPECT_EQ(no_map, 1);
+  const std::string csv = ::aerovo::testing::ReadText(dir / "map_fixes.csv");
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 6);
+  EXPECT_EQ(csv.rfind("8,8.000,no_map,", std::string::npos) != std::string::npos, true) << csv;
+}
+
+TEST(MapFixer, LiveSourceSkipsFramesDueWhileBusy) {
+  const map::ReferenceMaps maps({Map().path});
+  MapFixer fixer(maps, MapMatchOptions{}, /*live=*/true);
+  // Submitted back to back: the first is pending or being matched (tens of ms) while the others
+  // arrive, microseconds later.
+  for (int i = 0; i < 4; ++i) fixer.Submit(Map().Job(i, 400, 400, 3.0));
+  RunSummary summary;
+  fixer.Finish(Map().path.parent_path(), &summary);
+  ASSERT_TRUE(summary.map_fixes.has_value());
+  EXPECT_EQ(summary.map_fixes->attempted, 1);
+  EXPECT_EQ(summary.map_fixes->skipped_busy, 3);
+  EXPECT_EQ(summary.map_fixes->fixes, 1);
+}
+
+}  // namespace
+}  // namespace aerovo::run_steps
