@@ -515,7 +515,9 @@ TEST(SurfAdaptive, CellFloorsChangeNoPointOfAStream) {
           cells_roi.DetectAndDescribe(next.view(), first.next_min_response, floors);
       ExpectSameKeypoints(want_roi.features.keypoints, got_roi.features.keypoints, "roi");
       EXPECT_EQ(got_roi.features.descriptors, want_roi.features.descriptors);
-      if (scale > 1.f) EXPECT_GT(got_roi.cells_redone, 0);
+      if (scale > 1.f) {
+        EXPECT_GT(got_roi.cells_redone, 0);
+      }
     }
     std::printf("%d thread(s): %zu frames, fewer candidates on %d, %d cells redone\n", threads,
                 std::size(steps), fewer, redone);
