@@ -19,6 +19,9 @@
 #   - Runner.BrightonPhantom3...: a third real photo flight against the stored real-flight table
 #     (the photo-folder path of Runner.TampaPhantom3..., which stays; 16:9 photo metadata: the
 #     image-metadata unit tests and fuzzer).
+#   - MapFix.AppliedFixesBound...: the map fixes applied to a drifting track, against the truth
+#     (the map-fix thread, matcher and outputs: MapFix.SimulatedFlightFixes..., which stays, and
+#     the map_match and map_fixer unit tests).
 set(AEROVO_ACCURACY_TESTS
   Video4k.DefaultRunDetectsAtHalfResolutionWithinFivePercentOfFullResolution
   LongRun.TenThousandFramesWithFlatMemory
@@ -28,6 +31,7 @@ set(AEROVO_ACCURACY_TESTS
   AdaptivePoints.IlluminationDownToATenthKeepsTheTrackWithTheDefaults
   Attitude.NadirFlightIsUnchangedByTheCorrection
   Runner.BrightonPhantom3SixteenByNineHoldsTheStoredFigures
+  MapFix.AppliedFixesBoundTheErrorOfADriftingTrack
 )
 
 # Label "repeated_flight": end-to-end runs that repeat, under other settings, a whole-flight path
@@ -112,4 +116,6 @@ set(AEROVO_TEST_COSTS
   SensorPattern.ThermalFlightWithVignettingAndFixedPatternIsTrackedWithTheDefaults 5
   SensorPattern.ThermalVideoIsCorrectedByTheRunningEstimate 5
   OfflineOptimisation 20
+  MapFix.SimulatedFlightFixesAgainstAnotherSeasonMap 8
+  MapFix.AppliedFixesBoundTheErrorOfADriftingTrack 8
 )
