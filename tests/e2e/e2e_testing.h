@@ -3,6 +3,11 @@
 // run wrote (whole text, JSON, line count, frames.csv as rows).
 #pragma once
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -22,6 +27,8 @@
 #include "aerovo/camera/pinhole.h"
 #include "aerovo/core/testing.h"
 #include "aerovo/frames/frame_source.h"
+#include "aerovo/mavlink/messages.h"
+#include "aerovo/mavlink/protocol.h"
 #include "aerovo/sim/terrain.h"
 
 namespace aerovo::e2e {
@@ -149,6 +156,49 @@ class PacedLiveSource : public FrameSource {
   double period_s_;
   std::chrono::steady_clock::time_point start_;
   int count_ = 0;
+};
+
+// A loopback UDP socket playing the autopilot: every ODOMETRY received (aerovo's own parser:
+// the independent decoders are tests/mavlink's node-mavlink scripts).
+class OdometryListener {
+ public:
+  OdometryListener() : fd_(::socket(AF_INET, SOCK_DGRAM, 0)) {
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t n = sizeof a;
+    if (fd_ < 0 || ::bind(fd_, reinterpret_cast<sockaddr*>(&a), n) != 0 ||
+        ::getsockname(fd_, reinterpret_cast<sockaddr*>(&a), &n) != 0) {
+      port_ = -1;
+    } else {
+      port_ = ntohs(a.sin_port);
+    }
+  }
+  ~OdometryListener() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  int port() const { return port_; }
+  // The ODOMETRY messages received so far (the run has ended: nothing waits).
+  std::vector<mavlink::Odometry> Odometries() {
+    std::vector<mavlink::Odometry> out;
+    mavlink::Parser parser;
+    uint8_t buf[2048];
+    for (ssize_t n; (n = ::recv(fd_, buf, sizeof buf, MSG_DONTWAIT)) > 0;) {
+      parser.Feed(buf, static_cast<std::size_t>(n), [&](const mavlink::Packet& p) {
+        if (const auto o = mavlink::Decode<mavlink::Odometry>(p)) out.push_back(*o);
+      });
+    }
+    return out;
+  }
+  std::vector<int> ResetCounters() {
+    std::vector<int> out;
+    for (const mavlink::Odometry& o : Odometries()) out.push_back(o.reset_counter);
+    return out;
+  }
+
+ private:
+  int fd_;
+  int port_ = -1;
 };
 
 }  // namespace aerovo::e2e

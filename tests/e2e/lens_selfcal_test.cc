@@ -4,10 +4,6 @@
 // decides), with the true calibration file, and with --lens-estimation off (taken as an ideal
 // pinhole).
 #include <gtest/gtest.h>
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -181,42 +177,7 @@ std::vector<std::vector<double>> TumRowsFrom(const fs::path& file, double from_s
   return rows;
 }
 
-// A loopback UDP socket playing the autopilot: the reset_counter of every ODOMETRY received.
-class OdometryListener {
- public:
-  OdometryListener() : fd_(::socket(AF_INET, SOCK_DGRAM, 0)) {
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t n = sizeof a;
-    if (fd_ < 0 || ::bind(fd_, reinterpret_cast<sockaddr*>(&a), n) != 0 ||
-        ::getsockname(fd_, reinterpret_cast<sockaddr*>(&a), &n) != 0) {
-      port_ = -1;
-    } else {
-      port_ = ntohs(a.sin_port);
-    }
-  }
-  ~OdometryListener() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  int port() const { return port_; }
-  // The datagrams received so far (the run has ended: nothing waits).
-  std::vector<int> ResetCounters() {
-    std::vector<int> out;
-    mavlink::Parser parser;
-    uint8_t buf[2048];
-    for (ssize_t n; (n = ::recv(fd_, buf, sizeof buf, MSG_DONTWAIT)) > 0;) {
-      parser.Feed(buf, static_cast<std::size_t>(n), [&](const mavlink::Packet& p) {
-        if (const auto o = mavlink::Decode<mavlink::Odometry>(p)) out.push_back(o->reset_counter);
-      });
-    }
-    return out;
-  }
-
- private:
-  int fd_;
-  int port_ = -1;
-};
+using e2e::OdometryListener;
 
 // The estimate comes beside the odometry (pipeline/lens_switch.h): the first frames are
 // processed and handed to the outputs before it is taken; it is applied at the switch frame,

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -21,6 +22,7 @@
 
 #include "aerovo/core/options.h"
 #include "aerovo/frames/frame_source.h"
+#include "aerovo/mavlink/messages.h"
 #include "aerovo/pipeline/demo.h"
 #include "aerovo/pipeline/experiment.h"
 #include "aerovo/pipeline/runner.h"
@@ -255,6 +257,68 @@ TEST(LiveSource, FasterThanTheProcessingTheNewestFrameIsTakenAndTheRestCounted) 
   bool warned = false;
   for (const std::string& w : s.warnings) warned |= w.find("dropped") != std::string::npos;
   EXPECT_TRUE(warned);
+}
+
+// A stream's start-up burst (frames/frame_source.h LiveFrameTimes: what a stream buffered while
+// it was opened, delivered at once): the first `burst` frames of the video come together, the
+// rest at the video's rate; each carries its own time k / fps (Frame::time_s) as LiveSource
+// gives it from the stream's presentation times.
+class BurstLiveSource : public FrameSource {
+ public:
+  BurstLiveSource(const std::string& video, double fps, int burst)
+      : video_(video), period_s_(1.0 / fps), burst_(burst) {}
+  bool Next(Frame& frame) override {
+    if (count_ == 0) start_ = std::chrono::steady_clock::now();
+    const int paced = std::max(0, count_ - burst_ + 1);
+    std::this_thread::sleep_until(start_ + std::chrono::duration<double>(period_s_ * paced));
+    if (!video_.Next(frame)) return false;
+    frame.time_s = period_s_ * count_;
+    frame.index = count_++;
+    return true;
+  }
+  std::string Describe() const override { return "live source with a start-up burst"; }
+  bool IsLive() const override { return true; }
+
+ private:
+  VideoFileSource video_;
+  double period_s_;
+  int burst_;
+  std::chrono::steady_clock::time_point start_;
+  int count_ = 0;
+};
+
+// The velocities an autopilot gets from a live stream are the flight's from the first frame
+// pair on, the burst included (timed by arrival, the pair across the burst moved 18 m in a few
+// ms); the timestamps increase and none is after the frame arrived.
+TEST(LiveSource, AStreamsStartUpBurstKeepsTheFlightsVelocities) {
+  const SimulatedFlight& f = Flight();
+  const double speed_mps = DemoSimulation(true).sim.flight.speed_mps;
+  RunConfig c = f.run;
+  c.out = (f.dir.parent_path() / "burst").string();
+  c.quiet = true;
+  c.truth.clear();
+  e2e::OdometryListener autopilot;
+  ASSERT_GT(autopilot.port(), 0);
+  c.mavlink = "udp:127.0.0.1:" + std::to_string(autopilot.port());
+  const double fps = 5.0;  // the flight's (Flight())
+  const RunSummary s = RunFlight(c, std::make_unique<BurstLiveSource>(f.run.input, fps, 10));
+  const auto rows = CsvRows(fs::path(c.out) / "frames.csv");
+  const std::vector<mavlink::Odometry> sent = autopilot.Odometries();
+  ASSERT_EQ(sent.size(), rows.size());
+  ASSERT_GE(rows.size(), 15u);
+  int checked = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    EXPECT_GT(sent[i].time_usec, sent[i - 1].time_usec) << i;
+    if (rows[i].at("status") != "ok" || rows[i - 1].at("status").rfind("bridged", 0) == 0) continue;
+    const double v = std::hypot(sent[i].vx, sent[i].vy);
+    EXPECT_NEAR(v, speed_mps, 0.05 * speed_mps)
+        << "frame " << rows[i].at("frame") << " after " << rows[i - 1].at("frame");
+    ++checked;
+  }
+  EXPECT_GE(checked, 10);
+  // The pair across the burst: frame 0, then the newest frame of the burst.
+  EXPECT_GT(std::stoi(rows[1].at("frame")), 1);
+  EXPECT_EQ(s.frames_processed, static_cast<int>(rows.size()));
 }
 
 TEST(LiveSource, AFileDropsNothingAndGivesTheSameTrackWithOrWithoutTheDecodeThread) {
