@@ -60,6 +60,10 @@ set(AEROVO_ACCURACY_TESTS
 #   - BadInput.DamagedTelemetryWithLenientTelemetry...: a 12-frame flight per damage
 #     (BadInput.DamagedSrt.../DamagedGpx...: the same damages parsed; the lenient readers' unit
 #     tests in telemetry_readers_test.cc; the fuzzers).
+#   - OfflineOptimisationThreads: the lawnmower's optimised, windowed and loop-closure runs again
+#     with 1 thread, compared with 2 (OfflineOptimisation runs each path once; the sanitizers do
+#     not see data races, and the same-result-at-any-thread-count property is the optimised
+#     build's).
 #   - SensorPattern.ThermalFlightWithVignettingAndFixedPattern...: the flat field's photo median on
 #     the thermal flight, with and without it (AdaptivePoints.ThermalLikeFlight..., whose
 #     thermal preset has the pattern too and takes the same path; SensorPattern.ThermalVideo...,
@@ -86,6 +90,7 @@ set(AEROVO_REPEATED_FLIGHT_TESTS
   CliConventions.HelpCmdIsCmdHelpAndEveryHelpListsTheExitCodes
   Attitude.SrtWithOnlyAnAltitudeAboveSeaLevelNeedsTheGroundElevation
   BadInput.DamagedTelemetryWithLenientTelemetryIsSkippedAndReported
+  OfflineOptimisationThreads
 )
 
 # COST: relative run time, so that ctest --parallel starts the long tests first instead of
@@ -115,7 +120,8 @@ set(AEROVO_TEST_COSTS
   AdaptivePoints.ThermalLikeFlightIsTrackedWithTheDefaults 5
   SensorPattern.ThermalFlightWithVignettingAndFixedPatternIsTrackedWithTheDefaults 5
   SensorPattern.ThermalVideoIsCorrectedByTheRunningEstimate 5
-  OfflineOptimisation 20
+  OfflineOptimisation 14
+  OfflineOptimisationThreads 14
   MapFix.SimulatedFlightFixesAgainstAnotherSeasonMap 8
   MapFix.AppliedFixesBoundTheErrorOfADriftingTrack 8
 )
