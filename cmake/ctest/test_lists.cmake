@@ -22,6 +22,8 @@
 #   - MapFix.AppliedFixesBound...: the map fixes applied to a drifting track, against the truth
 #     (the map-fix thread, matcher and outputs: MapFix.SimulatedFlightFixes..., which stays, and
 #     the map_match and map_fixer unit tests).
+#   - SixStripSurvey.*: the back-end's figures on 2.4 and 2.9 km surveys (the same offline and
+#     online paths as OfflineOptimisation's 1 km lawnmower, which stays).
 set(AEROVO_ACCURACY_TESTS
   Video4k.DefaultRunDetectsAtHalfResolutionWithinFivePercentOfFullResolution
   LongRun.TenThousandFramesWithFlatMemory
@@ -32,6 +34,8 @@ set(AEROVO_ACCURACY_TESTS
   Attitude.NadirFlightIsUnchangedByTheCorrection
   Runner.BrightonPhantom3SixteenByNineHoldsTheStoredFigures
   MapFix.AppliedFixesBoundTheErrorOfADriftingTrack
+  SixStripSurvey.BuiltInTerrain
+  SixStripSurvey.CallasOrthophoto
 )
 
 # Label "repeated_flight": end-to-end runs that repeat, under other settings, a whole-flight path
@@ -122,6 +126,8 @@ set(AEROVO_TEST_COSTS
   SensorPattern.ThermalVideoIsCorrectedByTheRunningEstimate 5
   OfflineOptimisation 14
   OfflineOptimisationThreads 14
+  SixStripSurvey.BuiltInTerrain 12
+  SixStripSurvey.CallasOrthophoto 13
   MapFix.SimulatedFlightFixesAgainstAnotherSeasonMap 8
   MapFix.AppliedFixesBoundTheErrorOfADriftingTrack 8
 )
