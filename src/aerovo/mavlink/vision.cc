@@ -1,6 +1,7 @@
 #include "aerovo/mavlink/vision.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace aerovo::mavlink {
@@ -41,6 +42,29 @@ std::array<float, 4> QuaternionOf(double roll, double pitch, double yaw) {
 
 double Wrap(double a) { return std::remainder(a, 2.0 * M_PI); }
 
+// ODOMETRY's pose_covariance: the accumulated x/y and yaw variances on the diagonal, plus the
+// pose's own covariance (local frame) turned into FRD; z carries the larger x/y variance and
+// roll and pitch the yaw's (docs/autopilot.md "Quality, covariance, reset counter").
+void FillPoseCovariance(double var_xy_m2, double var_yaw_rad2,
+                        const std::optional<VisionPose::LocalCovariance>& local,
+                        std::array<float, 21>& pc) {
+  pc.fill(0.f);
+  double var_x = var_xy_m2, var_y = var_xy_m2, var_yaw = var_yaw_rad2;
+  if (local) {
+    // x_frd = y_local, y_frd = x_local, yaw_frd = -heading.
+    var_x += local->yy;
+    var_y += local->xx;
+    var_yaw += local->heading;
+    pc[UpperTriangleIndex(0, 1)] = static_cast<float>(local->xy);
+    pc[UpperTriangleIndex(0, 5)] = static_cast<float>(-local->y_heading);
+    pc[UpperTriangleIndex(1, 5)] = static_cast<float>(-local->x_heading);
+  }
+  pc[UpperTriangleIndex(0, 0)] = static_cast<float>(var_x);
+  pc[UpperTriangleIndex(1, 1)] = static_cast<float>(var_y);
+  pc[UpperTriangleIndex(2, 2)] = static_cast<float>(std::max(var_x, var_y));
+  for (int i = 3; i < 6; ++i) pc[UpperTriangleIndex(i, i)] = static_cast<float>(var_yaw);
+}
+
 }  // namespace
 
 const char* ToString(VisionMessageKind kind) {
@@ -64,8 +88,13 @@ VisionMessages VisionMessageBuilder::Add(const VisionPose& p) {
   const double roll = p.roll_rad.value_or(0.0), pitch = p.pitch_rad.value_or(0.0);
   const bool measured = p.status == VisionPose::Status::kOk ||
                         p.status == VisionPose::Status::kReacquired;
-  // Re-anchored, or the track re-made (wraps).
-  if (p.status == VisionPose::Status::kReacquired || p.reset) ++reset_counter_;
+  // Re-anchored, the track re-made or the pose jumped (wraps): the accumulated variances
+  // restart from this pose, the autopilot's new reference.
+  const bool reset = p.status == VisionPose::Status::kReacquired || p.reset;
+  if (reset) {
+    ++reset_counter_;
+    var_xy_m2_ = var_yaw_rad2_ = 0.0;
+  }
 
   // Variances of this step, added to the accumulated ones.
   double step_var_xy = 0.0, step_var_yaw = 0.0;
@@ -84,8 +113,10 @@ VisionMessages VisionMessageBuilder::Add(const VisionPose& p) {
       step_var_xy = dx * dx + dy * dy;
       step_var_yaw = dyaw * dyaw;
     }
-    var_xy_m2_ += step_var_xy;
-    var_yaw_rad2_ += step_var_yaw;
+    if (!reset) {
+      var_xy_m2_ += step_var_xy;
+      var_yaw_rad2_ += step_var_yaw;
+    }
   }
 
   VisionMessages out;
@@ -97,18 +128,16 @@ VisionMessages VisionMessageBuilder::Add(const VisionPose& p) {
   o.y = static_cast<float>(y);
   o.z = static_cast<float>(z);
   o.q = QuaternionOf(roll, pitch, yaw);
-  o.pose_covariance.fill(0.f);
   o.velocity_covariance.fill(0.f);
   // Every variance either consumer reads is finite (docs/autopilot.md "Quality, covariance,
   // reset counter"): z, roll and pitch are not measured by the vision, and carry the
   // horizontal and yaw variances, so that ArduPilot's single position and angle errors (which
   // combine [0], [6], [11] and [15], [18], [20]) are the measured axes' and PX4's all-finite
   // checks pass.
-  auto& pc = o.pose_covariance;
-  for (int i = 0; i < 3; ++i) pc[UpperTriangleIndex(i, i)] = static_cast<float>(var_xy_m2_);
-  for (int i = 3; i < 6; ++i) pc[UpperTriangleIndex(i, i)] = static_cast<float>(var_yaw_rad2_);
+  FillPoseCovariance(var_xy_m2_, var_yaw_rad2_, p.covariance, o.pose_covariance);
   auto& vc = o.velocity_covariance;
-  if (have_previous_ && dt > 0.0) {
+  // No velocity across a jump (p.reset): PX4 would reset its velocity to it (ev_reset).
+  if (have_previous_ && dt > 0.0 && !p.reset) {
     const double local_v[3] = {dx / dt, dy / dt, dz / dt};
     double body_v[3];
     Rot::FromEuler(roll, pitch, yaw).ToBody(local_v, body_v);
@@ -123,8 +152,9 @@ VisionMessages VisionMessageBuilder::Add(const VisionPose& p) {
     vc[UpperTriangleIndex(3, 3)] = kNaN;
     vc[UpperTriangleIndex(4, 4)] = kNaN;
   } else {
-    // No velocity before a second frame: the velocities and their whole covariance unknown
-    // (NaN in the first element, as the ODOMETRY definition marks an unknown covariance).
+    // No velocity before a second frame or across a jump: the velocities and their whole
+    // covariance unknown (NaN in the first element, as the ODOMETRY definition marks an unknown
+    // covariance).
     o.vx = o.vy = o.vz = o.yawspeed = kNaN;
     vc.fill(kNaN);
   }
@@ -164,6 +194,8 @@ VisionMessages VisionMessageBuilder::Add(const VisionPose& p) {
     d.angle_delta = {static_cast<float>(roll - previous_.roll_rad.value_or(0.0)),
                      static_cast<float>(pitch - previous_.pitch_rad.value_or(0.0)),
                      static_cast<float>(dyaw)};
+    // A jump is no motion: NaN, which ArduPilot's writeBodyFrameOdom drops.
+    if (p.reset) d.position_delta = d.angle_delta = {kNaN, kNaN, kNaN};
   }
   d.confidence = o.quality < 0 ? 0.f : static_cast<float>(o.quality);
 

@@ -6,10 +6,19 @@
 // it. The causal pixel transform (FrameResult::world_from_frame, transforms.csv) is left as the
 // odometry made it. The frame's features are released from the FrameState here (the graph keeps
 // those of its keyframes only). summary.json "online" counts the pairs and the stage's time.
+// A whole-graph solve (a verified loop closure) that moves the frame's pose away from the causal
+// prediction (the pose given for the previous frame moved by the frame's causal step) by more
+// than mavlink::PoseJumpResetThresholdM of its standard deviation sets FrameState::pose_reset
+// (MAVLink reset_counter + 1; docs/autopilot.md "A pose that jumps").
+#include <algorithm>
+#include <cmath>
 #include <memory>
 #include <optional>
 
+#include <Eigen/Eigenvalues>
+
 #include "aerovo/core/timer.h"
+#include "aerovo/mavlink/vision.h"
 #include "aerovo/pipeline/frame_loop.h"
 
 namespace aerovo::run_steps {
@@ -44,13 +53,39 @@ class WindowStage : public FrameStage {
     s.full_solve_ms += w.full_solve_ms;
     s.total_ms += time.elapsed_ms();
     f.result.features.reset();
+    const backend::Similarity2 causal{f.result.position_m, f.result.heading_rad, 0.0};
+    f.pose_reset = w.full_solve && previous_ && JumpM(w, causal) > JumpThresholdM(w);
+    previous_ = Given{causal, w.local_from_frame};
     f.result.position_m = w.local_from_frame.translation_m;
     f.result.heading_rad = w.local_from_frame.heading_rad;
     f.window = w;
   }
 
  private:
+  // The previous frame's causal pose and the windowed pose given for it.
+  struct Given {
+    backend::Similarity2 causal, windowed;
+  };
+  // How far, m, the windowed pose is from the causal prediction.
+  double JumpM(const WindowedPose& w, const backend::Similarity2& causal) const {
+    const backend::Similarity2 predicted =
+        previous_->windowed * backend::Between(previous_->causal, causal);
+    return (w.local_from_frame.translation_m - predicted.translation_m).norm();
+  }
+  // The reset threshold of the pose's own standard deviation (the larger axis of its position
+  // covariance; 0 without one), m.
+  static double JumpThresholdM(const WindowedPose& w) {
+    double sigma = 0.0;
+    if (w.has_covariance) {
+      const Eigen::Matrix2d xy = w.covariance.topLeftCorner<2, 2>();
+      sigma = std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(
+                                          xy, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff()));
+    }
+    return mavlink::PoseJumpResetThresholdM(sigma);
+  }
+
   PairFitter fitter_;
+  std::optional<Given> previous_;
 };
 
 }  // namespace
