@@ -210,6 +210,7 @@ TEST(MavlinkSink, APoseJumpIsAResetAndTheWindowsCovarianceIsSent) {
       0.0, 0.0, 0.0, 1e-6;
   for (int k = 0; k < 10; ++k) {
     FrameState f = r.Frame(k);
+    f.frame.time_s = kDt * k;  // the velocities' time differences
     if (k >= kJump) f.result.position_m += jump;
     f.pose_reset = k == kJump;
     if (k >= kWindowFrom) f.window = w;
@@ -254,6 +255,40 @@ TEST(MavlinkSink, APoseJumpIsAResetAndTheWindowsCovarianceIsSent) {
         std::pow(0.01 * distance, 2));
     EXPECT_NEAR(g.horiz_accuracy, want, 1e-4);
   }
+}
+
+// The window stage's jump test (FrameState::pose_reset): only at a whole-graph solve, against
+// the causal prediction (the previous windowed pose moved by the causal step, turned by the
+// windowed heading), beyond 5 x max(0.1 m, the pose's own standard deviation).
+TEST(MavlinkSink, TheWindowStagesJumpTest) {
+  using backend::Similarity2;
+  const Similarity2 previous_causal{{0.0, 10.0}, 0.0, 0.0}, causal{{0.0, 15.0}, 0.0, 0.0};
+  const Similarity2 previous_windowed{{1.0, 10.0}, 0.0, 0.0};  // predicted: (1, 15)
+  WindowedPose w;
+  w.full_solve = true;
+  const auto jumped = [&](double x, double y, const Similarity2* prev = nullptr) {
+    w.local_from_frame = Similarity2{{x, y}, 0.0, 0.0};
+    return PoseJumped(w, causal, previous_causal, prev ? *prev : previous_windowed);
+  };
+  EXPECT_FALSE(jumped(1.0, 15.0));
+  EXPECT_FALSE(jumped(1.3, 15.3));  // 0.42 m: under 0.5 m, an ordinary measurement
+  EXPECT_TRUE(jumped(1.4, 15.4));   // 0.57 m
+  EXPECT_TRUE(jumped(-2.0, 11.0));  // 5 m
+  w.full_solve = false;             // the window's own solve: never a reset
+  EXPECT_FALSE(jumped(-2.0, 11.0));
+  w.full_solve = true;
+  // The pose's own uncertainty widens the gate: 0.2 m (x) -> 1 m.
+  w.has_covariance = true;
+  w.covariance = Eigen::Matrix4d::Identity() * 1e-4;
+  w.covariance(0, 0) = 0.04;
+  EXPECT_FALSE(jumped(1.9, 15.0));
+  EXPECT_TRUE(jumped(2.1, 15.0));
+  w.has_covariance = false;
+  // The causal step (5 m along the frame's up) turned by the previous windowed heading (90 deg
+  // counter-clockwise): predicted (1, 10) + (-5, 0).
+  const Similarity2 turned{{1.0, 10.0}, M_PI / 2, 0.0};
+  EXPECT_FALSE(jumped(-4.0, 10.0, &turned));
+  EXPECT_TRUE(jumped(1.0, 15.0, &turned));
 }
 
 TEST(MavlinkSink, NoGpsInputUnlessAskedFor) {

@@ -54,7 +54,7 @@ class WindowStage : public FrameStage {
     s.total_ms += time.elapsed_ms();
     f.result.features.reset();
     const backend::Similarity2 causal{f.result.position_m, f.result.heading_rad, 0.0};
-    f.pose_reset = w.full_solve && previous_ && JumpM(w, causal) > JumpThresholdM(w);
+    f.pose_reset = previous_ && PoseJumped(w, causal, previous_->causal, previous_->windowed);
     previous_ = Given{causal, w.local_from_frame};
     f.result.position_m = w.local_from_frame.translation_m;
     f.result.heading_rad = w.local_from_frame.heading_rad;
@@ -66,29 +66,27 @@ class WindowStage : public FrameStage {
   struct Given {
     backend::Similarity2 causal, windowed;
   };
-  // How far, m, the windowed pose is from the causal prediction.
-  double JumpM(const WindowedPose& w, const backend::Similarity2& causal) const {
-    const backend::Similarity2 predicted =
-        previous_->windowed * backend::Between(previous_->causal, causal);
-    return (w.local_from_frame.translation_m - predicted.translation_m).norm();
-  }
-  // The reset threshold of the pose's own standard deviation (the larger axis of its position
-  // covariance; 0 without one), m.
-  static double JumpThresholdM(const WindowedPose& w) {
-    double sigma = 0.0;
-    if (w.has_covariance) {
-      const Eigen::Matrix2d xy = w.covariance.topLeftCorner<2, 2>();
-      sigma = std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(
-                                          xy, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff()));
-    }
-    return mavlink::PoseJumpResetThresholdM(sigma);
-  }
-
   PairFitter fitter_;
   std::optional<Given> previous_;
 };
 
 }  // namespace
+
+bool PoseJumped(const WindowedPose& w, const backend::Similarity2& causal,
+                const backend::Similarity2& previous_causal,
+                const backend::Similarity2& previous_windowed) {
+  if (!w.full_solve) return false;
+  const backend::Similarity2 predicted =
+      previous_windowed * backend::Between(previous_causal, causal);
+  const double jump_m = (w.local_from_frame.translation_m - predicted.translation_m).norm();
+  double sigma_m = 0.0;
+  if (w.has_covariance) {
+    const Eigen::Matrix2d xy = w.covariance.topLeftCorner<2, 2>();
+    sigma_m = std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(
+                                          xy, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff()));
+  }
+  return jump_m > mavlink::PoseJumpResetThresholdM(sigma_m);
+}
 
 std::unique_ptr<FrameStage> MakeWindowStage() { return std::make_unique<WindowStage>(); }
 
