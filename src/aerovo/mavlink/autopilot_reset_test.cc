@@ -41,8 +41,8 @@ std::vector<Odometry> Flight(bool flag_jump = true) {
     VisionPose p;
     p.time_s = 10.0 + 0.1 * k;
     p.time_usec = static_cast<uint64_t>(std::llround(p.time_s * 1e6));
-    const Eigen::Vector2d local = Eigen::Vector2d(0.0, 1.0 * k) +
-                                  (k >= kJumpFrame ? kJumpLocal : Eigen::Vector2d::Zero());
+    const Eigen::Vector2d local =
+        Eigen::Vector2d(0.0, 1.0 * k) + (k >= kJumpFrame ? kJumpLocal : Eigen::Vector2d::Zero());
     p.local_x_m = local.x();
     p.local_y_m = local.y();
     p.height_m = 50.0;
@@ -61,7 +61,7 @@ uint32_t ArrivalMs(const Odometry& o) { return static_cast<uint32_t>(o.time_usec
 struct ArduPilotVisualOdom {
   explicit ArduPilotVisualOdom(bool voxl) : voxl(voxl) {}
   bool voxl;
-  Eigen::Vector2d correction = Eigen::Vector2d::Zero();  // _pos_correction (x, y)
+  Eigen::Vector2d correction = Eigen::Vector2d::Zero();     // _pos_correction (x, y)
   Eigen::Vector2d last_position = Eigen::Vector2d::Zero();  // _voxl_position_last
   uint8_t voxl_counter = 0, ignore_counter = 0, timestamp_counter = 0;
   uint32_t ignore_start_ms = 0, reset_time_ms = 0, ekf_reset_time_ms = 0;
@@ -76,7 +76,7 @@ struct ArduPilotVisualOdom {
       voxl_counter = o.reset_counter;
     }
     const Eigen::Vector2d pos = sensor + correction;  // rotate_and_correct_position
-    if (voxl) last_position = pos;  // record_voxl_position_and_reset_count
+    if (voxl) last_position = pos;                    // record_voxl_position_and_reset_count
     if (!Consume(o.reset_counter, now)) {
       ++ignored;
       return;

@@ -118,7 +118,8 @@ class VisionMessageBuilder {
 constexpr double kPoseJumpGateSigmas = 5.0;
 constexpr double kPoseJumpNoiseFloorM = 0.1;
 constexpr double PoseJumpResetThresholdM(double sigma_xy_m) {
-  return kPoseJumpGateSigmas * (sigma_xy_m > kPoseJumpNoiseFloorM ? sigma_xy_m : kPoseJumpNoiseFloorM);
+  return kPoseJumpGateSigmas *
+         (sigma_xy_m > kPoseJumpNoiseFloorM ? sigma_xy_m : kPoseJumpNoiseFloorM);
 }
 
 /// Index of (row, col), row <= col, in the row-major upper-right triangle of a 6x6 matrix.
