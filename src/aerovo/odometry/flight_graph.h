@@ -206,6 +206,8 @@ struct OptimizedFlight {
   int pairs_rejected = 0;  ///< Tried and not added (no fit, inliers, spread or gate).
   int pairs_gated = 0;     ///< Of those, rejected by the gate.
   int outliers = 0;        ///< Added pairs the robust cost down-weighted (pose_graph.h).
+  int absolute = 0;           ///< Absolute factors given to Optimize and added.
+  int absolute_outliers = 0;  ///< Of those, down-weighted by the robust cost.
   /// Of the pairs, the loop-closure candidates found by appearance (BackendOptions::closures):
   /// tried, verified (added), rejected by the gate.
   int closures_tried = 0, closures_verified = 0, closures_gated = 0;
@@ -280,9 +282,14 @@ class FlightGraph {
   const backend::PoseGraph& graph() const { return graph_; }
 
   /// The pairs, their verdicts, the solve. `fitter`: how a pair is matched
-  /// (MakeStandardPairFitter in a run); `run_seed`: the run's RANSAC seed. Throws
-  /// InvalidArgument when no frame was added.
-  OptimizedFlight Optimize(const PairFitter& fitter, std::uint64_t run_seed) const;
+  /// (MakeStandardPairFitter in a run); `run_seed`: the run's RANSAC seed. `absolute`: fixes
+  /// added to the solve beside the pairs (e.g. each frame's GPS position in the local frame,
+  /// pipeline/run_steps.h OptimizeFlight), their `pose` the frame's index in the order added;
+  /// they take the robust cost as every factor (a bad fix is down-weighted: OptimizedFlight::
+  /// absolute_outliers). Throws InvalidArgument when no frame was added, or naming an absolute
+  /// factor that is invalid (backend::PoseGraph::AddAbsolute).
+  OptimizedFlight Optimize(const PairFitter& fitter, std::uint64_t run_seed,
+                           const std::vector<backend::AbsoluteFactor>& absolute = {}) const;
 
  private:
   struct Keyframe {
