@@ -105,6 +105,14 @@ struct BackendOptions {
   double closure_similarity = 0.3;
   /// Closure candidates tried per keyframe at most (the most similar first). Default 2.
   int closure_max_candidates = 2;
+  /// The run's GPS fixes as absolute position factors of the offline optimisation (enable),
+  /// standard deviation of each fix's horizontal position per axis, metres; 0: none (the graph
+  /// keeps the causal track's placement). Only the fixes the run accepted (not rejected by the
+  /// plausibility check, not withheld by GPS denial) and only once the run is geo-referenced;
+  /// the robust cost of the solve down-weights a fix that disagrees with the images. The
+  /// optimised track then takes its shape from the images and its placement (and a common
+  /// scale, heading) from all the fixes. Default 0; `aerovo map build` sets 3 (docs/map.md).
+  double gps_sigma_m = 0.0;
 };
 
 /// Throws InvalidArgument naming the field ("backend.gate must be ...").
@@ -129,6 +137,7 @@ void VisitFields(BackendOptions& o, V& v) {
   v.Field(o.closure_search_radius, "closure_search_radius", "Loop closures: candidates within this causal distance, fraction of the footprint's smaller side", GreaterThan(0).Finite());
   v.Field(o.closure_similarity, "closure_similarity", "Loop closures: least similarity, relative to the previous keyframe's", GreaterThan(0).Finite());
   v.Field(o.closure_max_candidates, "closure_max_candidates", "Loop closures: candidates tried per keyframe at most", AtLeast(1));
+  v.Field(o.gps_sigma_m, "gps_sigma_m", "GPS fixes as absolute position factors of the offline optimisation: standard deviation per axis, metres (0: none)", AtLeast(0).Finite());
 }
 // clang-format on
 
