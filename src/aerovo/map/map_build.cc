@@ -14,6 +14,10 @@
 namespace aerovo::map {
 namespace fs = std::filesystem;
 
+const char* ToString(PlaceBy place_by) {
+  return place_by == PlaceBy::kGps ? "gps" : "track";
+}
+
 void Validate(const MapBuildOptions& o) {
   if (o.max_size_px < 100 || o.max_size_px > 20000) {
     throw InvalidArgument(fmt::format("map build: max_size_px must be in [100, 20000], got {}",
@@ -85,6 +89,23 @@ void WriteCog(const fs::path& tif, const fs::path& out) {
   }
 }
 
+// Whether `run` ran the offline optimisation with its GPS fixes as factors (config.json
+// backend.enable and backend.gps_sigma_m > 0) and wrote its poses (transforms_optimized.csv, one
+// row per row of transforms.csv).
+bool OptimisedWithGps(const RunData& run) {
+  if (run.transforms_optimized.empty() ||
+      run.transforms_optimized.size() != run.transforms.size() || !run.config.is_object()) {
+    return false;
+  }
+  const nlohmann::json* backend =
+      run.config.contains("backend") ? &run.config.at("backend") : nullptr;
+  if (backend == nullptr || !backend->is_object()) return false;
+  const auto enable = backend->find("enable");
+  const auto sigma = backend->find("gps_sigma_m");
+  return enable != backend->end() && enable->is_boolean() && enable->get<bool>() &&
+         sigma != backend->end() && sigma->is_number() && sigma->get<double>() > 0.0;
+}
+
 }  // namespace
 
 MapBuildResult BuildMapFromRun(const fs::path& run_dir, const fs::path& out,
@@ -95,10 +116,20 @@ MapBuildResult BuildMapFromRun(const fs::path& run_dir, const fs::path& out,
                      "folder of `aerovo run`, or the flight itself");
   }
   const RunData run = ReadRunDir(run_dir);
+  const bool by_gps = options.place_by == PlaceBy::kGps;
+  if (by_gps && !OptimisedWithGps(run)) {
+    throw InputError(
+        "'" + run_dir.string() + "': the run was not optimised with its GPS (needs "
+        "transforms_optimized.csv and backend.enable with backend.gps_sigma_m > 0 in its "
+        "config.json): run the flight again with --backend-enable --backend-gps-sigma-m 3 (or "
+        "give `map build` the flight itself), or place the frames by the VO track with "
+        "--place-by track");
+  }
   const ScratchDir scratch(fs::absolute(out));
   MosaicOptions mo;
   mo.max_size_px = options.max_size_px;
   mo.max_frames = options.max_frames;
+  mo.optimized = by_gps;
   const GeoMosaicResult g =
       WriteGeoMosaic(run, scratch.dir, out.stem().string() + " (aerovo map)", mo);
   if (!g.written) {
@@ -109,6 +140,7 @@ MapBuildResult BuildMapFromRun(const fs::path& run_dir, const fs::path& out,
   r.info = ReadMapInfo(out);
   r.frames_used = g.frames_used;
   r.fit_rmse_m = g.fit_rmse_m;
+  r.placed_by_gps = g.optimized;
   return r;
 }
 
