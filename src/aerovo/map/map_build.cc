@@ -1,5 +1,6 @@
 #include "aerovo/map/map_build.h"
 
+#include <algorithm>
 #include <system_error>
 
 #include <cpl_error.h>
@@ -90,20 +91,18 @@ void WriteCog(const fs::path& tif, const fs::path& out) {
 }
 
 // Whether `run` ran the offline optimisation with its GPS fixes as factors (config.json
-// backend.enable and backend.gps_sigma_m > 0) and wrote its poses (transforms_optimized.csv, one
+// "backend.enable" and "backend.gps_sigma_m" > 0) and wrote its poses (transforms_optimized.csv, one
 // row per row of transforms.csv).
 bool OptimisedWithGps(const RunData& run) {
   if (run.transforms_optimized.empty() ||
       run.transforms_optimized.size() != run.transforms.size() || !run.config.is_object()) {
     return false;
   }
-  const nlohmann::json* backend =
-      run.config.contains("backend") ? &run.config.at("backend") : nullptr;
-  if (backend == nullptr || !backend->is_object()) return false;
-  const auto enable = backend->find("enable");
-  const auto sigma = backend->find("gps_sigma_m");
-  return enable != backend->end() && enable->is_boolean() && enable->get<bool>() &&
-         sigma != backend->end() && sigma->is_number() && sigma->get<double>() > 0.0;
+  // config.json's keys are the flat config keys ("backend.enable").
+  const auto enable = run.config.find("backend.enable");
+  const auto sigma = run.config.find("backend.gps_sigma_m");
+  return enable != run.config.end() && enable->is_boolean() && enable->get<bool>() &&
+         sigma != run.config.end() && sigma->is_number() && sigma->get<double>() > 0.0;
 }
 
 }  // namespace
@@ -117,9 +116,13 @@ MapBuildResult BuildMapFromRun(const fs::path& run_dir, const fs::path& out,
   }
   const RunData run = ReadRunDir(run_dir);
   const bool by_gps = options.place_by == PlaceBy::kGps;
-  if (by_gps && !OptimisedWithGps(run)) {
+  // (A run that is not geo-referenced is refused below by the mosaic, saying so.)
+  const bool geo_referenced = std::count_if(run.frames.begin(), run.frames.end(),
+                                            [](const RunFrameRow& f) { return f.geo; }) >= 3;
+  if (by_gps && geo_referenced && !OptimisedWithGps(run)) {
     throw InputError(
-        "'" + run_dir.string() + "': the run was not optimised with its GPS (needs "
+        "'" + run_dir.string() + "': cannot build a map from this run by its GPS: it was not "
+        "optimised with its GPS fixes (needs "
         "transforms_optimized.csv and backend.enable with backend.gps_sigma_m > 0 in its "
         "config.json): run the flight again with --backend-enable --backend-gps-sigma-m 3 (or "
         "give `map build` the flight itself), or place the frames by the VO track with "
