@@ -99,6 +99,7 @@ void RunBuild(BuildArgs& a) {
     RunFlightFirst(config, run_dir);
   }
   const map::MapBuildResult r = map::BuildMapFromRun(run_dir, a.out, a.options);
+  for (const std::string& w : r.warnings) std::cerr << "warning: " << w << "\n";
   std::cout << fmt::format("map build: {} from the run '{}' ({} frames warped, placed by {}; "
                            "their centres fit the geo-referenced track to {:.2f} m RMS)\n",
                            a.out, run_dir.string(), r.frames_used,

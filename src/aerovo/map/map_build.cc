@@ -1,6 +1,8 @@
 #include "aerovo/map/map_build.h"
 
 #include <algorithm>
+#include <cmath>
+#include <utility>
 #include <system_error>
 
 #include <cpl_error.h>
@@ -107,6 +109,37 @@ bool OptimisedWithGps(const RunData& run) {
 
 }  // namespace
 
+std::string TiltedFramesWarning(const nlohmann::json& summary, const nlohmann::json& config) {
+  if (!summary.is_object() || !summary.contains("attitude_sources") ||
+      !summary["attitude_sources"].is_object()) {
+    return "";
+  }
+  int per_frame = 0;
+  std::string sources;
+  for (const auto& [name, count] : summary["attitude_sources"].items()) {
+    if (name == "estimated" || name == "none" || !count.is_number_integer()) continue;
+    if (count.get<int>() <= 0) continue;
+    per_frame += count.get<int>();
+    sources += (sources.empty() ? "" : ", ") + name;
+  }
+  const double tilt = summary.contains("max_tilt_deg") && summary["max_tilt_deg"].is_number()
+                          ? summary["max_tilt_deg"].get<double>()
+                          : 0.0;
+  if (per_frame == 0 || !(tilt > 1.0)) return "";
+  std::string lever = "h tan(tilt)";
+  if (config.is_object() && config.contains("altitude_m") && config["altitude_m"].is_number() &&
+      config["altitude_m"].get<double>() > 0.0) {
+    lever = fmt::format("{:.1f} m at {:.0f} m",
+                        config["altitude_m"].get<double>() * std::tan(tilt * M_PI / 180.0),
+                        config["altitude_m"].get<double>());
+  }
+  return fmt::format(
+      "{} frames of the run were corrected with a per-frame camera attitude ({}; up to {:.1f} deg "
+      "from nadir) that the run folder does not record: the map draws them as read, so their "
+      "ground lands up to {} behind its place along the image top",
+      per_frame, sources, tilt, lever);
+}
+
 MapBuildResult BuildMapFromRun(const fs::path& run_dir, const fs::path& out,
                                const MapBuildOptions& options) {
   Validate(options);
@@ -144,6 +177,9 @@ MapBuildResult BuildMapFromRun(const fs::path& run_dir, const fs::path& out,
   r.frames_used = g.frames_used;
   r.fit_rmse_m = g.fit_rmse_m;
   r.placed_by_gps = g.optimized;
+  if (std::string w = TiltedFramesWarning(run.summary, run.config); !w.empty()) {
+    r.warnings.push_back(std::move(w));
+  }
   return r;
 }
 

@@ -6,6 +6,9 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "aerovo/map/map_info.h"
 
@@ -42,7 +45,17 @@ struct MapBuildResult {
   int frames_used = 0;      ///< Frames warped into it.
   double fit_rmse_m = 0.0;  ///< report/geo_mosaic.h GeoMosaicResult::fit_rmse_m.
   bool placed_by_gps = false;  ///< The frames were placed by the GPS-optimised poses (kGps).
+  std::vector<std::string> warnings;  ///< E.g. TiltedFramesWarning's.
 };
+
+/// The map draws each frame warped to the virtual nadir camera for the attitude the run applied
+/// to every frame (its estimate, summary.json "attitude_estimate"; report/mosaic.h
+/// MosaicNadirFromFrame), but a per-frame attitude from telemetry or the autopilot (summary.json
+/// "attitude_sources" other than "estimated") is not recorded in the run folder and such frames
+/// are drawn as read: when the run applied one and its largest tilt (summary.json
+/// "max_tilt_deg") is over 1 deg, a warning saying so and how far the ground lands from its place
+/// at that tilt and the run's height (config.json "altitude_m" when given); else "".
+std::string TiltedFramesWarning(const nlohmann::json& summary, const nlohmann::json& config);
 
 /// Builds `out` (a .tif; replaced atomically) from the run folder `run_dir` (written by `aerovo
 /// run` on a flight with GPS: frames.csv geo-referenced, transforms.csv, config.json; the frames
