@@ -195,5 +195,71 @@ TEST(MapFix, AppliedFixesBoundTheErrorOfADriftingTrack) {
   EXPECT_EQ(low.at("map_fixes").at("applied"), 0);
 }
 
+// The telemetry of the flight with every latitude moved `north_m` north (`[latitude: ...]` of the
+// simulator's SRT; metres to degrees by the WGS84 meridian radius of curvature at the latitude).
+bool WriteShiftedSrt(const fs::path& srt, double north_m, const fs::path& out) {
+  const double a = 6378137.0, e2 = 6.69437999014e-3, lat = kNwLat * M_PI / 180.0;
+  const double m = a * (1 - e2) / std::pow(1 - e2 * std::sin(lat) * std::sin(lat), 1.5);
+  const double dlat_deg = north_m / m * 180.0 / M_PI;
+  std::ifstream in(srt);
+  std::ofstream o(out);
+  const std::string key = "[latitude: ";
+  int shifted = 0;
+  for (std::string line; std::getline(in, line);) {
+    const std::size_t at = line.find(key);
+    if (at != std::string::npos) {
+      const std::size_t from = at + key.size(), to = line.find(']', from);
+      line = line.substr(0, from) +
+             fmt::format("{:.6f}", std::stod(line.substr(from, to - from)) + dlat_deg) +
+             line.substr(to);
+      ++shifted;
+    }
+    o << line << '\n';
+  }
+  return shifted > 0 && static_cast<bool>(o);
+}
+
+// Lost and found: the telemetry 300 m south of the truth, so that the track, geo-referenced by
+// it before GPS is denied at 5 s, predicts every frame 300 m off the map. The run's first
+// attempt is a wide search (400 m around the prediction, coarse to fine) that finds the frame
+// 300 m from its GPS (the truth, within 1.5 m) and, applied, takes the track there; the local
+// attempts after it are fixes again. Measured (BENCHMARKS.md, "Lost and found"): the first
+// attempt is the first fix.
+TEST(MapFix, AStart300MOffIsFound) {
+  const MapFixFlight& f = Flight();
+  if (!f.skip.empty()) GTEST_SKIP() << f.skip;
+  ASSERT_TRUE(f.made);
+  ASSERT_TRUE(WriteShiftedSrt(f.dir / "sim" / "telemetry.srt", -300.0, f.dir / "off300.srt"));
+  ASSERT_EQ(f.Run("off300", fmt::format("--telemetry {} --map-fix-apply --max-frames 60",
+                                        (f.dir / "off300.srt").string())),
+            0)
+      << e2e::ReadText(f.dir / "off300.log");
+  const nlohmann::json m = e2e::ReadJson(f.dir / "off300" / "summary.json").at("map_fixes");
+  ASSERT_TRUE(m.is_object());
+  EXPECT_GE(m.at("searches").get<int>(), 1) << m.dump(1);
+  EXPECT_GE(m.at("found").get<int>(), 1) << m.dump(1);
+  ASSERT_FALSE(m.at("time_to_first_fix_s").is_null()) << m.dump(1);
+  EXPECT_LE(m.at("time_to_first_fix_s").get<double>(), 10.0) << m.dump(1);
+  const auto rows = ReadCsv(f.dir / "off300" / "map_fixes.csv");
+  std::size_t first = 0;
+  while (first < rows.size() && rows[first].at("status") != "fix") ++first;
+  ASSERT_LT(first, rows.size());
+  const auto& r = rows[first];
+  EXPECT_EQ(r.at("search"), "wide");
+  EXPECT_NEAR(std::stod(r.at("track_distance_m")), 300.0, 5.0);
+  EXPECT_NEAR(std::stod(r.at("gps_error_m")), 300.0, 1.5) << "frame " << r.at("frame");
+  // After it, the track is where the map puts it: the local attempts are fixes near it.
+  int after = 0, fixes_after = 0;
+  for (std::size_t i = first + 1; i < rows.size(); ++i) {
+    ++after;
+    if (rows[i].at("status") != "fix") continue;
+    ++fixes_after;
+    EXPECT_NEAR(std::stod(rows[i].at("gps_error_m")), 300.0, 3.0) << "frame " << rows[i].at("frame");
+    EXPECT_LT(std::stod(rows[i].at("track_distance_m")), 20.0) << "frame " << rows[i].at("frame");
+  }
+  EXPECT_GE(after, 4);
+  EXPECT_GE(fixes_after, 0.8 * after) << m.dump(1);
+}
+
 }  // namespace
 }  // namespace aerovo
