@@ -259,6 +259,25 @@ TEST(MapFix, AStart300MOffIsFound) {
   }
   EXPECT_GE(after, 4);
   EXPECT_GE(fixes_after, 0.8 * after) << m.dump(1);
+
+  // Without the search at the start: the local attempts fail (few inliers, the map window
+  // does not hold the frame's ground) until search_after_failures (3) of them in a row start a
+  // wide search, which finds it: the 4th attempt, 3 x 5 frames at 2 fps = 7.5 s after the first.
+  ASSERT_EQ(f.Run("lost", fmt::format("--telemetry {} --map-fix-apply --max-frames 60 "
+                                      "--map-fix-search-at-start false",
+                                      (f.dir / "off300.srt").string())),
+            0)
+      << e2e::ReadText(f.dir / "lost.log");
+  const nlohmann::json lost = e2e::ReadJson(f.dir / "lost" / "summary.json").at("map_fixes");
+  ASSERT_FALSE(lost.at("time_to_first_fix_s").is_null()) << lost.dump(1);
+  EXPECT_NEAR(lost.at("time_to_first_fix_s").get<double>(), 7.5, 2.6) << lost.dump(1);
+  EXPECT_EQ(lost.at("found").get<int>(), 1) << lost.dump(1);
+  const auto lost_rows = ReadCsv(f.dir / "lost" / "map_fixes.csv");
+  ASSERT_GE(lost_rows.size(), 4u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(lost_rows[i].at("search"), "local");
+    EXPECT_NE(lost_rows[i].at("status"), "fix") << "row " << i;
+  }
 }
 
 }  // namespace

@@ -81,8 +81,11 @@ struct MapMatchOptions {
 
   // Lost and found: the wide search (MapMatcher::Search, pipeline/map_fixer.h; docs/map.md).
   /// Consecutive failed attempts (few_inliers, ambiguous, spread, scale, gate) after which the
-  /// next attempt is a wide search of search_wide_radius_m; 0 = never.
+  /// next attempt is a wide search of search_wide_radius_m; 0 = never (nor at the start).
   int search_after_failures = 3;
+  /// The run's first attempt is a wide search too (the prediction not checked against the map
+  /// yet: a start far off is found at once).
+  bool search_at_start = true;
   /// Radius of a wide search around the prediction, m.
   double search_wide_radius_m = 400.0;
   /// Gate of a wide search: until the run's first fix, search_wide_radius_m (the prediction is
@@ -125,6 +128,7 @@ void VisitFields(MapMatchOptions& o, V& v) {
   v.Field(o.min_contrast, "min_contrast", "Smallest robust intensity range of the map window and the frame, grey levels", AtLeast(0).Finite());
   v.Field(o.min_valid_fraction, "min_valid_fraction", "Smallest share of the window with map data", Interval(0, 1));
   v.Field(o.search_after_failures, "search_after_failures", "Consecutive failed attempts (few_inliers, ambiguous, spread, scale, gate) that start a wide search (0 = never)", AtLeast(0));
+  v.Field(o.search_at_start, "search_at_start", "The run's first attempt is a wide search", Any());
   v.Field(o.search_wide_radius_m, "search_wide_radius_m", "Radius of a wide search around the prediction, m", GreaterThan(0).Finite());
   v.Field(o.search_gate_per_m, "search_gate_per_m", "Gate of a wide search after a fix: the gate plus this times the distance flown since the last fix (before the first fix: the wide radius)", AtLeast(0).Finite());
   v.Field(o.coarse_above_radius_m, "coarse_above_radius_m", "Searches wider than this radius, m, go coarse to fine", GreaterThan(0).Finite());

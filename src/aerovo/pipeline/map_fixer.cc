@@ -95,7 +95,8 @@ MapFixRecord MapFixer::Attempt(MapFixJob& job) {
   last_predicted_ = job.predicted;
   // A wide search at the run's first attempt and after search_after_failures failures in a row.
   const int after = options_.search_after_failures;
-  const bool wide = after > 0 && (failures_ >= after || (!had_fix_ && records_seen_ == 0));
+  const bool wide =
+      after > 0 && (failures_ >= after || (options_.search_at_start && records_seen_ == 0));
   ++records_seen_;
   const double radius = wide ? options_.search_wide_radius_m : options_.search_radius_m;
   double gate = options_.gate_m > 0.0 ? options_.gate_m : options_.search_radius_m;
