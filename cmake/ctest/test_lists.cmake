@@ -22,6 +22,8 @@
 #   - MapFix.AppliedFixesBound...: the map fixes applied to a drifting track, against the truth
 #     (the map-fix thread, matcher and outputs: MapFix.SimulatedFlightFixes..., which stays, and
 #     the map_match and map_fixer unit tests).
+#   - MapFix.AFalseMapRegion...: a wide search rejected by the gate over a run (the search path:
+#     MapFix.AStart300MOffIsFound, which stays, and MapMatchCallas.Search*, the gate's unit tests).
 set(AEROVO_ACCURACY_TESTS
   Video4k.DefaultRunDetectsAtHalfResolutionWithinFivePercentOfFullResolution
   LongRun.TenThousandFramesWithFlatMemory
@@ -32,6 +34,7 @@ set(AEROVO_ACCURACY_TESTS
   Attitude.NadirFlightIsUnchangedByTheCorrection
   Runner.BrightonPhantom3SixteenByNineHoldsTheStoredFigures
   MapFix.AppliedFixesBoundTheErrorOfADriftingTrack
+  MapFix.AFalseMapRegionIsRejectedByTheGate
 )
 
 # Label "repeated_flight": end-to-end runs that repeat, under other settings, a whole-flight path
@@ -118,4 +121,6 @@ set(AEROVO_TEST_COSTS
   OfflineOptimisation 20
   MapFix.SimulatedFlightFixesAgainstAnotherSeasonMap 8
   MapFix.AppliedFixesBoundTheErrorOfADriftingTrack 8
+  MapFix.AStart300MOffIsFound 8
+  MapFix.AFalseMapRegionIsRejectedByTheGate 7
 )
