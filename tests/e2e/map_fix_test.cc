@@ -274,7 +274,7 @@ TEST(MapFix, AStart300MOffIsFound) {
   // does not hold the frame's ground) until search_after_failures (3) of them in a row start a
   // wide search, which finds it: the 4th attempt, 3 x 5 frames at 2 fps = 7.5 s after the first.
   ASSERT_EQ(f.Run("lost", fmt::format("--telemetry {} --map-fix-apply --max-frames 60 "
-                                      "--map-fix-search-at-start false",
+                                      "--no-map-fix-search-at-start",
                                       (f.dir / "off300.srt").string())),
             0)
       << e2e::ReadText(f.dir / "lost.log");
