@@ -483,7 +483,10 @@ MapFix MapMatcher::Impl::Run(const MapMatchFrame& frame, const MapMatchWindow& w
     out.ms = watch.elapsed_ms();
     return out;
   };
-  if (valid_fraction < o.min_valid_fraction) return done(MapFixStatus::kNoMap);
+  // A search's wide window may reach far beyond a small map: only an empty one is no map.
+  if (search ? map_valid == 0 : valid_fraction < o.min_valid_fraction) {
+    return done(MapFixStatus::kNoMap);
+  }
   if (RobustRange(window.pixels, window.valid) < o.min_contrast) {
     return done(MapFixStatus::kNoMapTexture);
   }

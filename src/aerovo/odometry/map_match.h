@@ -229,7 +229,8 @@ class MapMatcher {
 
   /// The coarse step of a search with a weak prior: `window` is wide (a radius of hundreds of
   /// metres) at a coarse resolution (MapSearchResolution); the frame is matched against all of
-  /// it, unguided (rotation-invariant without a heading). The best fit is checked as Match's,
+  /// it, unguided (rotation-invariant without a heading; min_valid_fraction does not apply: the
+  /// window may reach far beyond a small map). The best fit is checked as Match's,
   /// with `gate_m` as its gate, and against the best fit elsewhere (the matches outside the
   /// first fit's footprint): under min_margin times its inliers it is kAmbiguous. A kFix is the
   /// coarse hit, to be refined by Match at the matching resolution around it (MapRefineOptions).
