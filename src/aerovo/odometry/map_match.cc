@@ -527,7 +527,9 @@ MapFix MapMatcher::Impl::Run(const MapMatchFrame& frame, const MapMatchWindow& w
   m.Judge(fit, warp, frame, window, prior_enu_m, gate_m, &out);
   if (search) {
     out.second_inliers = m.SecondInliers(fit, warp, ww, wh);
-    if (out.status == MapFixStatus::kFix && out.inliers < o.min_margin * out.second_inliers) {
+    if (out.status == MapFixStatus::kFix &&
+        (out.inliers < o.min_margin * out.second_inliers ||
+         out.inliers - out.second_inliers < o.min_inliers)) {
       out.status = MapFixStatus::kAmbiguous;
     }
   }

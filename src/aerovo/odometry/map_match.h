@@ -98,9 +98,10 @@ struct MapMatchOptions {
   /// The coarse resolution of a search brings the frame to this many pixels across (never finer
   /// than the matching resolution): the search window's area, and its cost, fall with its square.
   int search_width_px = 256;
-  /// A search's hit must have this many times the inliers of the best other location (a
-  /// repeated texture, a field of the same rows, is no fix).
-  double min_margin = 1.5;
+  /// A search's hit must have this many times the inliers of the best other location, and
+  /// min_inliers more (a repeated texture, a field of the same rows, two map tiles that each
+  /// hold part of the frame's ground: no fix).
+  double min_margin = 2.0;
 };
 
 /// Throws InvalidArgument naming the bad field.
@@ -133,7 +134,7 @@ void VisitFields(MapMatchOptions& o, V& v) {
   v.Field(o.search_gate_per_m, "search_gate_per_m", "Gate of a wide search after a fix: the gate plus this times the distance flown since the last fix (before the first fix: the wide radius)", AtLeast(0).Finite());
   v.Field(o.coarse_above_radius_m, "coarse_above_radius_m", "Searches wider than this radius, m, go coarse to fine", GreaterThan(0).Finite());
   v.Field(o.search_width_px, "search_width_px", "Coarse resolution of a search: the frame's width at it, px (never finer than the matching resolution)", Interval(64, 4096));
-  v.Field(o.min_margin, "min_margin", "A search's hit needs this many times the inliers of the best other location", AtLeast(1).Finite());
+  v.Field(o.min_margin, "min_margin", "A search's hit needs this many times the inliers of the best other location (and min_inliers more)", AtLeast(1).Finite());
 }
 // clang-format on
 
@@ -232,7 +233,8 @@ class MapMatcher {
   /// it, unguided (rotation-invariant without a heading; min_valid_fraction does not apply: the
   /// window may reach far beyond a small map). The best fit is checked as Match's,
   /// with `gate_m` as its gate, and against the best fit elsewhere (the matches outside the
-  /// first fit's footprint): under min_margin times its inliers it is kAmbiguous. A kFix is the
+  /// first fit's footprint): under min_margin times its inliers, or fewer than min_inliers more, it
+  /// is kAmbiguous. A kFix is the
   /// coarse hit, to be refined by Match at the matching resolution around it (MapRefineOptions).
   /// Throws as Match.
   MapFix Search(const MapMatchFrame& frame, const MapMatchWindow& window,

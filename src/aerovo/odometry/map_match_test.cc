@@ -398,6 +398,34 @@ TEST_F(MapMatchCallas, RepeatedTextureIsNoFix) {
   }
 }
 
+// Two places that each hold half of the frame's ground (the map's tiles disagree: the east half
+// of the ground around the frame is drawn 250 m farther east, other ground in its place): at
+// five places of the quarry the best fit has under twice the inliers of the best other place's,
+// or under min_inliers more, and the search is ambiguous (measured: 14 against 7, 37 against 21
+// at two of them, where a margin of 1.5 alone took the east half's place, 250 m off).
+TEST_F(MapMatchCallas, TwoPlacesWithHalfTheFrameEachAreAmbiguous) {
+  const auto px = [](double m) { return static_cast<int>(std::lround(m / Scene::kMapMpp)); };
+  const std::vector<Eigen::Vector2d> places = {
+      {300, -400}, {450, -300}, {250, -250}, {350, -520}, {520, -180}};
+  for (const Eigen::Vector2d& truth : places) {
+    cv::Mat split = map_->clone();
+    const cv::Rect east_half(px(truth.x()), px(-truth.y() - 60), px(80), px(120));
+    cv::Rect moved = east_half, other = east_half;
+    moved.x += px(250);
+    other.x -= px(250);
+    (*map_)(east_half).copyTo(split(moved));
+    (*map_)(other).copyTo(split(east_half));
+    MapMatchOptions o;
+    Eigen::Vector2d error;
+    MapFix coarse;
+    SearchAndRefine(o, split, truth, 0.0, 0.0, {100, 150}, 400.0, &error, &coarse);
+    EXPECT_EQ(coarse.status, MapFixStatus::kAmbiguous)
+        << "at " << truth.transpose() << ": " << ToString(coarse.status) << " inliers "
+        << coarse.inliers << " second " << coarse.second_inliers << " error " << error.transpose();
+    EXPECT_GT(coarse.second_inliers, 0);
+  }
+}
+
 // Same seed, same fix (to the last bit).
 TEST_F(MapMatchCallas, SameSeedSameFix) {
   MapMatcher a{MapMatchOptions{}}, b{MapMatchOptions{}};
