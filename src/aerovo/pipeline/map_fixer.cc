@@ -200,13 +200,13 @@ std::string Cell(const std::optional<double>& v, const char* format) {
 std::string FixesCsv(const std::vector<MapFixRecord>& records) {
   std::string text =
       "frame,time_s,status,lat_deg,lon_deg,heading_deg,sigma_m,inliers,matches,residual_m,scale,"
-      "track_distance_m,gps_error_m,track_gps_error_m,ms,applied,search\n";
+      "track_distance_m,gps_error_m,track_gps_error_m,ms,applied,search,second_inliers\n";
   for (const MapFixRecord& r : records) {
     const MapFix& f = r.fix;
     const bool fitted = f.fitted;
     const auto when = [&](double v) { return fitted ? std::optional<double>(v) : std::nullopt; };
     text +=
-        fmt::format("{},{:.3f},{},{},{},{},{},{},{},{},{},{},{},{},{:.1f},{},{}\n", r.frame, r.time_s,
+        fmt::format("{},{:.3f},{},{},{},{},{},{},{},{},{},{},{},{},{:.1f},{},{},{}\n", r.frame, r.time_s,
                     ToString(f.status), r.geo ? fmt::format("{:.8f}", r.geo->lat_deg) : "",
                     r.geo ? fmt::format("{:.8f}", r.geo->lon_deg) : "",
                     Cell(when(f.heading_rad * 180.0 / 3.14159265358979323846), "{:.3f}"),
@@ -214,7 +214,8 @@ std::string FixesCsv(const std::vector<MapFixRecord>& records) {
                     f.matches, Cell(when(f.residual_m), "{:.3f}"), Cell(when(f.scale), "{:.4f}"),
                     Cell(when(f.prior_distance_m), "{:.3f}"), Cell(r.gps_error_m, "{:.3f}"),
                     Cell(r.track_gps_error_m, "{:.3f}"), f.ms, r.applied ? 1 : 0,
-                    r.search ? "wide" : "local");
+                    r.search ? "wide" : "local",
+                    r.search && f.fitted ? std::to_string(f.second_inliers) : std::string());
   }
   return text;
 }

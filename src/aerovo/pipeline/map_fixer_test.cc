@@ -152,14 +152,21 @@ TEST(MapFixer, WideSearchAfterFailuresFindsAFarPredictionThenGatesOne) {
   ASSERT_TRUE(m.time_to_first_fix_s.has_value());
   EXPECT_DOUBLE_EQ(*m.time_to_first_fix_s, 4.0);
   EXPECT_LT(m.max_m, 0.3);
-  // The rows' status and search columns.
+  // The rows' status and search columns (18 columns).
   const std::string csv = ::aerovo::testing::ReadText(dir / "map_fixes.csv");
   std::vector<std::string> rows;
   for (std::size_t at = csv.find('\n'); at + 1 < csv.size();) {
     const std::size_t end = csv.find('\n', at + 1);
     const std::string line = csv.substr(at + 1, end - at - 1);
-    const std::size_t s1 = line.find(',', line.find(',') + 1), s2 = line.find(',', s1 + 1);
-    rows.push_back(line.substr(s1 + 1, s2 - s1 - 1) + " " + line.substr(line.rfind(',') + 1));
+    std::vector<std::string> cells(1);
+    for (const char c : line) {
+      if (c == ',') {
+        cells.emplace_back();
+      } else {
+        cells.back() += c;
+      }
+    }
+    rows.push_back(cells.size() == 18 ? cells[2] + " " + cells[16] : line);
     at = end;
   }
   const std::vector<std::string> expected = {"few_inliers local", "few_inliers local", "fix wide",
