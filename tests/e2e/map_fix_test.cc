@@ -264,7 +264,8 @@ TEST(MapFix, AStart300MOffIsFound) {
     ++after;
     if (rows[i].at("status") != "fix") continue;
     ++fixes_after;
-    EXPECT_NEAR(std::stod(rows[i].at("gps_error_m")), 300.0, 3.0) << "frame " << rows[i].at("frame");
+    EXPECT_NEAR(std::stod(rows[i].at("gps_error_m")), 300.0, 3.0)
+        << "frame " << rows[i].at("frame");
     EXPECT_LT(std::stod(rows[i].at("track_distance_m")), 20.0) << "frame " << rows[i].at("frame");
   }
   EXPECT_GE(after, 4);

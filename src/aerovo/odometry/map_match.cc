@@ -436,8 +436,8 @@ MapFix MapMatcher::Search(const MapMatchFrame& frame, const MapMatchWindow& wind
 int MapMatcher::Impl::SecondInliers(const RansacResult& fit, const Warp& warp, int warped_w,
                                     int warped_h) {
   const Eigen::Vector2d centre = TransformPoint(fit.curr_from_prev, warp.warped_centre);
-  const double radius =
-      0.5 * std::hypot(warped_w, warped_h) * std::sqrt(std::abs(fit.curr_from_prev.topLeftCorner<2, 2>().determinant()));
+  const double radius = 0.5 * std::hypot(warped_w, warped_h) *
+                        std::sqrt(std::abs(fit.curr_from_prev.topLeftCorner<2, 2>().determinant()));
   int n = 0;
   for (int i = 0; i < curr_px.cols(); ++i) {
     if ((curr_px.col(i) - centre).norm() <= radius) continue;
@@ -527,9 +527,8 @@ MapFix MapMatcher::Impl::Run(const MapMatchFrame& frame, const MapMatchWindow& w
   m.Judge(fit, warp, frame, window, prior_enu_m, gate_m, &out);
   if (search) {
     out.second_inliers = m.SecondInliers(fit, warp, ww, wh);
-    if (out.status == MapFixStatus::kFix &&
-        (out.inliers < o.min_margin * out.second_inliers ||
-         out.inliers - out.second_inliers < o.min_inliers)) {
+    if (out.status == MapFixStatus::kFix && (out.inliers < o.min_margin * out.second_inliers ||
+                                             out.inliers - out.second_inliers < o.min_inliers)) {
       out.status = MapFixStatus::kAmbiguous;
     }
   }

@@ -214,24 +214,22 @@ class MapMatchCallas : public ::testing::Test {
     cv::Mat reduced;
     cv::resize(map, reduced, cv::Size(), Scene::kMapMpp / coarse_mpp, Scene::kMapMpp / coarse_mpp,
                cv::INTER_AREA);
-    const Window wide = CutWindow(
-        reduced, prior, MapWindowSizePx(640, 480, 0.2, o.search_wide_radius_m, coarse_mpp),
-        coarse_mpp);
+    const Window wide =
+        CutWindow(reduced, prior,
+                  MapWindowSizePx(640, 480, 0.2, o.search_wide_radius_m, coarse_mpp), coarse_mpp);
     MapMatcher matcher{o};
-    *coarse = matcher.Search(
-        MapMatchFrame{ViewOf(frame), 500.0, 100.0, heading_estimate},
-        MapMatchWindow{ViewOf(wide.pixels), ViewOf(wide.valid), coarse_mpp}, prior - wide.centre_enu,
-        gate_m);
+    *coarse = matcher.Search(MapMatchFrame{ViewOf(frame), 500.0, 100.0, heading_estimate},
+                             MapMatchWindow{ViewOf(wide.pixels), ViewOf(wide.valid), coarse_mpp},
+                             prior - wide.centre_enu, gate_m);
     const Eigen::Vector2d hit = coarse->enu_m + wide.centre_enu;
     *error = hit - truth;
     if (coarse->status != MapFixStatus::kFix) return *coarse;
     MapMatcher fine{MapRefineOptions(o, coarse_mpp)};
     const Window w = CutWindow(
-        map, hit,
-        MapWindowSizePx(640, 480, 0.2, fine.options().search_radius_m, Scene::kMapMpp));
-    const MapFix fix = fine.Match(
-        MapMatchFrame{ViewOf(frame), 500.0, 100.0, coarse->heading_rad},
-        MapMatchWindow{ViewOf(w.pixels), ViewOf(w.valid), Scene::kMapMpp}, hit - w.centre_enu);
+        map, hit, MapWindowSizePx(640, 480, 0.2, fine.options().search_radius_m, Scene::kMapMpp));
+    const MapFix fix = fine.Match(MapMatchFrame{ViewOf(frame), 500.0, 100.0, coarse->heading_rad},
+                                  MapMatchWindow{ViewOf(w.pixels), ViewOf(w.valid), Scene::kMapMpp},
+                                  hit - w.centre_enu);
     *error = fix.enu_m + w.centre_enu - truth;
     return fix;
   }
@@ -329,14 +327,15 @@ TEST_F(MapMatchCallas, SearchFindsAFrameWhosePriorIs300MOff) {
     MapFix coarse;
     const double heading = c.heading_deg * kDeg;
     const MapFix fix = SearchAndRefine(
-        o, *map_, c.truth, heading, c.heading_known ? std::optional<double>(heading + 3.0 * kDeg)
-                                                    : std::nullopt,
-        c.offset, o.search_wide_radius_m, &error, &coarse);
+        o, *map_, c.truth, heading,
+        c.heading_known ? std::optional<double>(heading + 3.0 * kDeg) : std::nullopt, c.offset,
+        o.search_wide_radius_m, &error, &coarse);
     SCOPED_TRACE(::testing::Message()
                  << "truth " << c.truth.transpose() << " coarse " << ToString(coarse.status)
-                 << " inliers " << coarse.inliers << " second " << coarse.second_inliers << " points "
-                 << coarse.frame_points << "/" << coarse.map_points << " matches " << coarse.matches << " "
-                 << coarse.ms << " ms, fine " << ToString(fix.status) << " " << fix.ms << " ms");
+                 << " inliers " << coarse.inliers << " second " << coarse.second_inliers
+                 << " points " << coarse.frame_points << "/" << coarse.map_points << " matches "
+                 << coarse.matches << " " << coarse.ms << " ms, fine " << ToString(fix.status)
+                 << " " << fix.ms << " ms");
     ASSERT_EQ(coarse.status, MapFixStatus::kFix);
     EXPECT_GE(coarse.inliers, o.min_margin * coarse.second_inliers);
     EXPECT_NEAR(coarse.prior_distance_m, c.offset.norm(), 4.0);
@@ -386,8 +385,7 @@ TEST_F(MapMatchCallas, RepeatedTextureIsNoFix) {
   for (const bool heading_known : {true, false}) {
     Eigen::Vector2d error;
     MapFix coarse;
-    const std::optional<double> heading =
-        heading_known ? std::optional<double>(0.3) : std::nullopt;
+    const std::optional<double> heading = heading_known ? std::optional<double>(0.3) : std::nullopt;
     SearchAndRefine(o, repeated, truth, 0.3, heading, {100, 150}, 400.0, &error, &coarse);
     EXPECT_TRUE(coarse.status == MapFixStatus::kTooFewInliers ||
                 coarse.status == MapFixStatus::kAmbiguous)

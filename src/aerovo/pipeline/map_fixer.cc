@@ -151,8 +151,8 @@ MapFix MapFixer::CoarseToFine(const MapFixJob& job, const LocalEnu& enu, double 
   const GeoPoint hit = enu.Reverse(coarse.enu_m.x(), coarse.enu_m.y(), 0.0);
   MapMatcher fine(MapRefineOptions(options_, coarse_mpp));
   const double mpp = MapMatchResolution(options_, w, gsd, map_m_per_px_);
-  const std::optional<map::MapWindow> window = maps_.Window(
-      hit, MapWindowSizePx(w, h, gsd, fine.options().search_radius_m, mpp), mpp);
+  const std::optional<map::MapWindow> window =
+      maps_.Window(hit, MapWindowSizePx(w, h, gsd, fine.options().search_radius_m, mpp), mpp);
   if (!window) return none;
   frame.heading_rad = coarse.heading_rad;
   MapFix fix = fine.Match(frame, MapMatchWindow{window->pixels.view(), window->valid.view(), mpp},
@@ -205,17 +205,16 @@ std::string FixesCsv(const std::vector<MapFixRecord>& records) {
     const MapFix& f = r.fix;
     const bool fitted = f.fitted;
     const auto when = [&](double v) { return fitted ? std::optional<double>(v) : std::nullopt; };
-    text +=
-        fmt::format("{},{:.3f},{},{},{},{},{},{},{},{},{},{},{},{},{:.1f},{},{},{}\n", r.frame, r.time_s,
-                    ToString(f.status), r.geo ? fmt::format("{:.8f}", r.geo->lat_deg) : "",
-                    r.geo ? fmt::format("{:.8f}", r.geo->lon_deg) : "",
-                    Cell(when(f.heading_rad * 180.0 / 3.14159265358979323846), "{:.3f}"),
-                    Cell(when(std::sqrt(f.position_cov_m2.trace())), "{:.3f}"), f.inliers,
-                    f.matches, Cell(when(f.residual_m), "{:.3f}"), Cell(when(f.scale), "{:.4f}"),
-                    Cell(when(f.prior_distance_m), "{:.3f}"), Cell(r.gps_error_m, "{:.3f}"),
-                    Cell(r.track_gps_error_m, "{:.3f}"), f.ms, r.applied ? 1 : 0,
-                    r.search ? "wide" : "local",
-                    r.search && f.fitted ? std::to_string(f.second_inliers) : std::string());
+    text += fmt::format(
+        "{},{:.3f},{},{},{},{},{},{},{},{},{},{},{},{},{:.1f},{},{},{}\n", r.frame, r.time_s,
+        ToString(f.status), r.geo ? fmt::format("{:.8f}", r.geo->lat_deg) : "",
+        r.geo ? fmt::format("{:.8f}", r.geo->lon_deg) : "",
+        Cell(when(f.heading_rad * 180.0 / 3.14159265358979323846), "{:.3f}"),
+        Cell(when(std::sqrt(f.position_cov_m2.trace())), "{:.3f}"), f.inliers, f.matches,
+        Cell(when(f.residual_m), "{:.3f}"), Cell(when(f.scale), "{:.4f}"),
+        Cell(when(f.prior_distance_m), "{:.3f}"), Cell(r.gps_error_m, "{:.3f}"),
+        Cell(r.track_gps_error_m, "{:.3f}"), f.ms, r.applied ? 1 : 0, r.search ? "wide" : "local",
+        r.search && f.fitted ? std::to_string(f.second_inliers) : std::string());
   }
   return text;
 }

@@ -169,9 +169,9 @@ TEST(MapFixer, WideSearchAfterFailuresFindsAFarPredictionThenGatesOne) {
     rows.push_back(cells.size() == 18 ? cells[2] + " " + cells[16] : line);
     at = end;
   }
-  const std::vector<std::string> expected = {"few_inliers local", "few_inliers local", "fix wide",
-                                             "fix local",         "few_inliers local",
-                                             "few_inliers local", "gate wide"};
+  const std::vector<std::string> expected = {
+      "few_inliers local", "few_inliers local", "fix wide", "fix local",
+      "few_inliers local", "few_inliers local", "gate wide"};
   EXPECT_EQ(rows, expected) << csv;
 }
 
