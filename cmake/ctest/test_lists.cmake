@@ -24,6 +24,8 @@
 #     the map_match and map_fixer unit tests).
 #   - SixStripSurvey.*: the back-end's figures on 2.4 and 2.9 km surveys (the same offline and
 #     online paths as OfflineOptimisation's 1 km lawnmower, which stays).
+#   - MapFix.AFalseMapRegion...: a wide search rejected by the gate over a run (the search path:
+#     MapFix.AStart300MOffIsFound, which stays, and MapMatchCallas.Search*, the gate's unit tests).
 set(AEROVO_ACCURACY_TESTS
   Video4k.DefaultRunDetectsAtHalfResolutionWithinFivePercentOfFullResolution
   LongRun.TenThousandFramesWithFlatMemory
@@ -36,6 +38,7 @@ set(AEROVO_ACCURACY_TESTS
   MapFix.AppliedFixesBoundTheErrorOfADriftingTrack
   SixStripSurvey.BuiltInTerrain
   SixStripSurvey.CallasOrthophoto
+  MapFix.AFalseMapRegionIsRejectedByTheGate
 )
 
 # Label "repeated_flight": end-to-end runs that repeat, under other settings, a whole-flight path
@@ -130,4 +133,6 @@ set(AEROVO_TEST_COSTS
   SixStripSurvey.CallasOrthophoto 13
   MapFix.SimulatedFlightFixesAgainstAnotherSeasonMap 8
   MapFix.AppliedFixesBoundTheErrorOfADriftingTrack 8
+  MapFix.AStart300MOffIsFound 8
+  MapFix.AFalseMapRegionIsRejectedByTheGate 7
 )

@@ -6,6 +6,7 @@
 // a GeoTIFF in a transverse Mercator CRS centred on the orthophoto's north-west corner (the
 // simulator's ENU plane there; gdal_translate, gdal-bin). GPS is denied after 5 s: the fixes
 // are compared with the withheld positions.
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -51,25 +52,33 @@ std::vector<std::map<std::string, std::string>> ReadCsv(const fs::path& p) {
 }
 
 // The map: the orthophoto read at a quarter of its size, its tones changed, JPEG-compressed, as
-// a GeoTIFF (corner (0, 0) of the image at the north-west corner, as the simulator places it).
-bool WriteMap(const fs::path& ortho, const fs::path& dir) {
+// a GeoTIFF `name`.tif (corner (0, 0) of the image at the north-west corner, as the simulator
+// places it). `band`: the map's columns east in [band[0], band[1]) m and those band[2] m farther
+// east swapped (two tiles each placed where the other belongs).
+bool WriteMap(const fs::path& ortho, const fs::path& dir, const std::string& name = "map",
+              const std::array<double, 3>& band = {0, 0, 0}) {
   cv::Mat g = cv::imread(ortho.string(), cv::IMREAD_REDUCED_GRAYSCALE_4);
   if (g.empty()) return false;
   cv::Mat map(g.size(), CV_8U);
+  const double mpp = 4 * kOrthoMpp;
   for (int y = 0; y < g.rows; ++y) {
     for (int x = 0; x < g.cols; ++x) {
-      const double v = g.at<std::uint8_t>(y, x) / 255.0;
+      const int shift = static_cast<int>(std::lround(band[2] / mpp));
+      int sx = x;
+      if (x * mpp >= band[0] && x * mpp < band[1]) sx = std::min(g.cols - 1, x + shift);
+      if (x * mpp >= band[0] + band[2] && x * mpp < band[1] + band[2]) sx = x - shift;
+      const double v = g.at<std::uint8_t>(y, sx) / 255.0;
       const double season = std::pow(v, 0.7) * 0.65 + 0.22 + 0.06 * x / g.cols;
       map.at<std::uint8_t>(y, x) = cv::saturate_cast<std::uint8_t>(255.0 * season);
     }
   }
-  if (!cv::imwrite((dir / "map.jpg").string(), map, {cv::IMWRITE_JPEG_QUALITY, 40})) return false;
-  const double mpp = 4 * kOrthoMpp;
+  const fs::path jpg = dir / (name + ".jpg");
+  if (!cv::imwrite(jpg.string(), map, {cv::IMWRITE_JPEG_QUALITY, 40})) return false;
   const std::string cmd = fmt::format(
       "gdal_translate -q -a_srs '+proj=tmerc +lat_0={} +lon_0={} +k=1 +x_0=0 +y_0=0 "
       "+ellps=WGS84 +units=m +no_defs' -a_ullr 0 0 {} {} {} {}",
-      kNwLat, kNwLon, map.cols * mpp, -map.rows * mpp, (dir / "map.jpg").string(),
-      (dir / "map.tif").string());
+      kNwLat, kNwLon, map.cols * mpp, -map.rows * mpp, jpg.string(),
+      (dir / (name + ".tif")).string());
   return std::system(cmd.c_str()) == 0;
 }
 
@@ -193,6 +202,134 @@ TEST(MapFix, AppliedFixesBoundTheErrorOfADriftingTrack) {
   const nlohmann::json& m = fixed.at("map_fixes");
   EXPECT_GE(m.at("applied").get<int>(), 0.8 * m.at("attempted").get<int>()) << m.dump(1);
   EXPECT_EQ(low.at("map_fixes").at("applied"), 0);
+}
+
+// The telemetry of the flight with every latitude moved `north_m` north (`[latitude: ...]` of the
+// simulator's SRT; metres to degrees by the WGS84 meridian radius of curvature at the latitude).
+bool WriteShiftedSrt(const fs::path& srt, double north_m, const fs::path& out) {
+  constexpr double kPi = 3.14159265358979323846;
+  const double a = 6378137.0, e2 = 6.69437999014e-3, lat = kNwLat * kPi / 180.0;
+  const double m = a * (1 - e2) / std::pow(1 - e2 * std::sin(lat) * std::sin(lat), 1.5);
+  const double dlat_deg = north_m / m * 180.0 / kPi;
+  std::ifstream in(srt);
+  std::ofstream o(out);
+  const std::string key = "[latitude: ";
+  int shifted = 0;
+  for (std::string line; std::getline(in, line);) {
+    const std::size_t at = line.find(key);
+    if (at != std::string::npos) {
+      const std::size_t from = at + key.size(), to = line.find(']', from);
+      line = line.substr(0, from) +
+             fmt::format("{:.6f}", std::stod(line.substr(from, to - from)) + dlat_deg) +
+             line.substr(to);
+      ++shifted;
+    }
+    o << line << '\n';
+  }
+  return shifted > 0 && static_cast<bool>(o);
+}
+
+// Lost and found: the telemetry 300 m south of the truth, so that the track, geo-referenced by
+// it before GPS is denied at 5 s, predicts every frame 300 m off the map. The run's first
+// attempt is a wide search (400 m around the prediction, coarse to fine) that finds the frame
+// 300 m from its GPS (the truth, within 1.5 m) and, applied, takes the track there; the local
+// attempts after it are fixes again. Measured (BENCHMARKS.md, "Lost and found"): the first
+// attempt is the first fix.
+TEST(MapFix, AStart300MOffIsFound) {
+  const MapFixFlight& f = Flight();
+  if (!f.skip.empty()) GTEST_SKIP() << f.skip;
+  ASSERT_TRUE(f.made);
+  ASSERT_TRUE(WriteShiftedSrt(f.dir / "sim" / "telemetry.srt", -300.0, f.dir / "off300.srt"));
+  ASSERT_EQ(f.Run("off300", fmt::format("--telemetry {} --map-fix-apply --max-frames 60",
+                                        (f.dir / "off300.srt").string())),
+            0)
+      << e2e::ReadText(f.dir / "off300.log");
+  const nlohmann::json m = e2e::ReadJson(f.dir / "off300" / "summary.json").at("map_fixes");
+  ASSERT_TRUE(m.is_object());
+  EXPECT_GE(m.at("searches").get<int>(), 1) << m.dump(1);
+  EXPECT_GE(m.at("found").get<int>(), 1) << m.dump(1);
+  ASSERT_FALSE(m.at("time_to_first_fix_s").is_null()) << m.dump(1);
+  EXPECT_LE(m.at("time_to_first_fix_s").get<double>(), 10.0) << m.dump(1);
+  const auto rows = ReadCsv(f.dir / "off300" / "map_fixes.csv");
+  std::size_t first = 0;
+  while (first < rows.size() && rows[first].at("status") != "fix") ++first;
+  ASSERT_LT(first, rows.size());
+  const auto& r = rows[first];
+  EXPECT_EQ(r.at("search"), "wide");
+  EXPECT_NEAR(std::stod(r.at("track_distance_m")), 300.0, 5.0);
+  EXPECT_NEAR(std::stod(r.at("gps_error_m")), 300.0, 1.5) << "frame " << r.at("frame");
+  // After it, the track is where the map puts it: the local attempts are fixes near it.
+  int after = 0, fixes_after = 0;
+  for (std::size_t i = first + 1; i < rows.size(); ++i) {
+    ++after;
+    if (rows[i].at("status") != "fix") continue;
+    ++fixes_after;
+    EXPECT_NEAR(std::stod(rows[i].at("gps_error_m")), 300.0, 3.0)
+        << "frame " << rows[i].at("frame");
+    EXPECT_LT(std::stod(rows[i].at("track_distance_m")), 20.0) << "frame " << rows[i].at("frame");
+  }
+  EXPECT_GE(after, 4);
+  EXPECT_GE(fixes_after, 0.8 * after) << m.dump(1);
+
+  // Without the search at the start: the local attempts fail (few inliers, the map window
+  // does not hold the frame's ground) until search_after_failures (3) of them in a row start a
+  // wide search, which finds it: the 4th attempt, 3 x 5 frames at 2 fps = 7.5 s after the first.
+  ASSERT_EQ(f.Run("lost", fmt::format("--telemetry {} --map-fix-apply --max-frames 60 "
+                                      "--no-map-fix-search-at-start",
+                                      (f.dir / "off300.srt").string())),
+            0)
+      << e2e::ReadText(f.dir / "lost.log");
+  const nlohmann::json lost = e2e::ReadJson(f.dir / "lost" / "summary.json").at("map_fixes");
+  ASSERT_FALSE(lost.at("time_to_first_fix_s").is_null()) << lost.dump(1);
+  EXPECT_NEAR(lost.at("time_to_first_fix_s").get<double>(), 7.5, 2.6) << lost.dump(1);
+  EXPECT_EQ(lost.at("found").get<int>(), 1) << lost.dump(1);
+  const auto lost_rows = ReadCsv(f.dir / "lost" / "map_fixes.csv");
+  ASSERT_GE(lost_rows.size(), 4u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(lost_rows[i].at("search"), "local");
+    EXPECT_NE(lost_rows[i].at("status"), "fix") << "row " << i;
+  }
+}
+
+// A false map region: the map's tile of the ground east 440-600 m placed 200 m farther east (and
+// the tile there in its place), under the east end of both legs (east 318-582 m; the frames'
+// ground is 84 m along the track). The track has fixes before it, so over the tile its local
+// attempts fail and the wide search that follows (gate: 40 m + 10 % of the distance since the
+// last fix) finds the frame 200 m off and rejects it (gate): no fix off the truth, the applied
+// fixes keep the track within 3 m of the withheld GPS (the truth).
+TEST(MapFix, AFalseMapRegionIsRejectedByTheGate) {
+  const MapFixFlight& f = Flight();
+  if (!f.skip.empty()) GTEST_SKIP() << f.skip;
+  ASSERT_TRUE(f.made);
+  const fs::path ortho = ::aerovo::testing::SharedDir() / "data/ortho/callas-quarry.jpg";
+  ASSERT_TRUE(WriteMap(ortho, f.dir, "false_region", {440.0, 600.0, 200.0}));
+  ASSERT_EQ(e2e::RunCli(fmt::format("run {} --map {} --gps-denied-after-s 5 "
+                                    "--map-fix-every-n-frames 5 --map-fix-search-radius-m 40 "
+                                    "--map-fix-apply --no-report -q -o {}",
+                                    (f.dir / "sim" / "video.mp4").string(),
+                                    (f.dir / "false_region.tif").string(),
+                                    (f.dir / "false_region").string()),
+                        f.dir / "false_region.log"),
+            0)
+      << e2e::ReadText(f.dir / "false_region.log");
+  const nlohmann::json s = e2e::ReadJson(f.dir / "false_region" / "summary.json");
+  const nlohmann::json& m = s.at("map_fixes");
+  const auto rows = ReadCsv(f.dir / "false_region" / "map_fixes.csv");
+  int wide_gate = 0, fixes = 0;
+  for (const auto& r : rows) {
+    if (r.at("status") == "gate" && r.at("search") == "wide") {
+      ++wide_gate;
+      EXPECT_NEAR(std::stod(r.at("track_distance_m")), 200.0, 10.0) << "frame " << r.at("frame");
+    }
+    if (r.at("status") != "fix") continue;
+    ++fixes;
+    EXPECT_LT(std::stod(r.at("gps_error_m")), 3.0) << "frame " << r.at("frame");
+  }
+  EXPECT_GE(wide_gate, 1) << m.dump(1);
+  EXPECT_GE(fixes, 8) << m.dump(1);
+  const nlohmann::json& e = s.at("gps_denied").at("error");
+  ASSERT_TRUE(e.is_object()) << s.dump(1);
+  EXPECT_LT(e.at("max_error_m").get<double>(), 3.0) << e.dump(1);
 }
 
 }  // namespace

@@ -38,6 +38,8 @@ const char* ToString(MapFixStatus status) {
       return "scale";
     case MapFixStatus::kGate:
       return "gate";
+    case MapFixStatus::kAmbiguous:
+      return "ambiguous";
   }
   return "?";
 }
@@ -55,6 +57,19 @@ double MapMatchResolution(const MapMatchOptions& options, int frame_width_px, do
   if (options.match_m_per_px > 0.0) return options.match_m_per_px;
   const double frame_at_width = gsd_m_per_px * frame_width_px / options.match_width_px;
   return std::max(map_m_per_px, frame_at_width);
+}
+
+double MapSearchResolution(const MapMatchOptions& options, int frame_width_px, double gsd_m_per_px,
+                           double map_m_per_px) {
+  return std::max(MapMatchResolution(options, frame_width_px, gsd_m_per_px, map_m_per_px),
+                  gsd_m_per_px * frame_width_px / options.search_width_px);
+}
+
+MapMatchOptions MapRefineOptions(const MapMatchOptions& options, double coarse_m_per_px) {
+  MapMatchOptions fine = options;
+  fine.search_radius_m = std::max(10.0, 8.0 * coarse_m_per_px);
+  fine.gate_m = 0.0;
+  return fine;
 }
 
 namespace {
@@ -261,7 +276,11 @@ struct MapMatcher::Impl {
            const std::optional<Eigen::Matrix<double, 2, 3>>& prior, double guided_radius_px,
            RansacResult* fit, MapFix* out);
   void Judge(const RansacResult& fit, const Warp& warp, const MapMatchFrame& frame,
-             const MapMatchWindow& window, const Eigen::Vector2d& prior_enu_m, MapFix* out) const;
+             const MapMatchWindow& window, const Eigen::Vector2d& prior_enu_m, double gate_m,
+             MapFix* out) const;
+  int SecondInliers(const RansacResult& fit, const Warp& warp, int warped_w, int warped_h);
+  MapFix Run(const MapMatchFrame& frame, const MapMatchWindow& window,
+             const Eigen::Vector2d& prior_enu_m, double gate_m, bool search);
   void Covariance(const RansacResult& fit, const Warp& warp, double m_per_px, MapFix* out) const;
 };
 
@@ -345,7 +364,7 @@ void MapMatcher::Impl::Covariance(const RansacResult& fit, const Warp& warp, dou
 // Position, heading, scale, spread and the checks of a successful fit.
 void MapMatcher::Impl::Judge(const RansacResult& fit, const Warp& warp, const MapMatchFrame& frame,
                              const MapMatchWindow& window, const Eigen::Vector2d& prior_enu_m,
-                             MapFix* out) const {
+                             double gate_m, MapFix* out) const {
   const Eigen::Matrix2d a = fit.curr_from_prev.topLeftCorner<2, 2>();
   const Eigen::Vector2d q = TransformPoint(fit.curr_from_prev, warp.warped_centre);
   const double half = (window.pixels.width - 1) / 2.0, half_y = (window.pixels.height - 1) / 2.0;
@@ -376,7 +395,7 @@ void MapMatcher::Impl::Judge(const RansacResult& fit, const Warp& warp, const Ma
   const bool heading_off =
       frame.heading_rad && std::abs(WrapPi(out->heading_rad - *frame.heading_rad)) >
                                options.max_heading_error_deg * kPi / 180.0;
-  const double gate = options.gate_m > 0.0 ? options.gate_m : options.search_radius_m;
+  const double gate = gate_m;
   if (out->spread < options.min_spread) {
     out->status = MapFixStatus::kSpread;
   } else if (std::abs(std::log(out->scale)) > std::log1p(options.max_scale_error)) {
@@ -400,9 +419,53 @@ const MapMatchOptions& MapMatcher::options() const { return impl_->options; }
 
 MapFix MapMatcher::Match(const MapMatchFrame& frame, const MapMatchWindow& window,
                          const Eigen::Vector2d& prior_enu_m) {
+  const MapMatchOptions& o = impl_->options;
+  return impl_->Run(frame, window, prior_enu_m, o.gate_m > 0.0 ? o.gate_m : o.search_radius_m,
+                    false);
+}
+
+MapFix MapMatcher::Search(const MapMatchFrame& frame, const MapMatchWindow& window,
+                          const Eigen::Vector2d& prior_enu_m, double gate_m) {
+  if (!(gate_m > 0.0)) throw InvalidArgument("map search: the gate must be > 0");
+  return impl_->Run(frame, window, prior_enu_m, gate_m, true);
+}
+
+// The best fit at another place than `fit`'s: RANSAC over the matches whose map point lies
+// outside the fitted frame's footprint (a disc of its half-diagonal around its centre), counted
+// only when its scale is plausible (max_scale_error); its inliers, 0 when none.
+int MapMatcher::Impl::SecondInliers(const RansacResult& fit, const Warp& warp, int warped_w,
+                                    int warped_h) {
+  const Eigen::Vector2d centre = TransformPoint(fit.curr_from_prev, warp.warped_centre);
+  const double radius = 0.5 * std::hypot(warped_w, warped_h) *
+                        std::sqrt(std::abs(fit.curr_from_prev.topLeftCorner<2, 2>().determinant()));
+  int n = 0;
+  for (int i = 0; i < curr_px.cols(); ++i) {
+    if ((curr_px.col(i) - centre).norm() <= radius) continue;
+    prev_px.col(n) = prev_px.col(i);
+    curr_px.col(n) = curr_px.col(i);
+    quality[static_cast<std::size_t>(n)] = quality[static_cast<std::size_t>(i)];
+    ++n;
+  }
+  if (n < MinSampleSize(MotionModel::kSimilarity)) return 0;
+  RansacOptions ransac;
+  ransac.max_num_trials = options.ransac_trials;
+  ransac.max_distance_px = options.max_distance_px;
+  ransac.seed = options.seed + 1;
+  const Eigen::Matrix2Xd prev = prev_px.leftCols(n), curr = curr_px.leftCols(n);
+  const RansacResult second = EstimateTransform(MotionModel::kSimilarity, SamplerKind::kUniform,
+                                                ransac, prev, curr, quality.data(), workspace);
+  if (!second.success) return 0;
+  const double scale =
+      std::sqrt(std::abs(second.curr_from_prev.topLeftCorner<2, 2>().determinant()));
+  if (std::abs(std::log(scale)) > std::log1p(options.max_scale_error)) return 0;
+  return second.num_inliers;
+}
+
+MapFix MapMatcher::Impl::Run(const MapMatchFrame& frame, const MapMatchWindow& window,
+                             const Eigen::Vector2d& prior_enu_m, double gate_m, bool search) {
   CheckInputs(frame, window);
   const Stopwatch watch;
-  Impl& m = *impl_;
+  Impl& m = *this;
   const MapMatchOptions& o = m.options;
   MapFix out;
   // The map window: its data and texture.
@@ -420,7 +483,10 @@ MapFix MapMatcher::Match(const MapMatchFrame& frame, const MapMatchWindow& windo
     out.ms = watch.elapsed_ms();
     return out;
   };
-  if (valid_fraction < o.min_valid_fraction) return done(MapFixStatus::kNoMap);
+  // A search's wide window may reach far beyond a small map: only an empty one is no map.
+  if (search ? map_valid == 0 : valid_fraction < o.min_valid_fraction) {
+    return done(MapFixStatus::kNoMap);
+  }
   if (RobustRange(window.pixels, window.valid) < o.min_contrast) {
     return done(MapFixStatus::kNoMapTexture);
   }
@@ -444,13 +510,13 @@ MapFix MapMatcher::Match(const MapMatchFrame& frame, const MapMatchWindow& windo
   out.map_points = static_cast<int>(map_features.size());
   if (out.map_points < o.min_inliers) return done(MapFixStatus::kNoMapTexture);
   if (out.frame_points < o.min_inliers) return done(MapFixStatus::kNoFrameTexture);
-  // Guided around the prior when the heading is known: the warped frame is then the window's
-  // geometry shifted to the prior.
+  // Guided around the prior when the heading is known (not in a search: the prior is weak):
+  // the warped frame is then the window's geometry shifted to the prior.
   std::optional<Eigen::Matrix<double, 2, 3>> prior;
   const Eigen::Vector2d prior_px(
       (window.pixels.width - 1) / 2.0 + prior_enu_m.x() / window.m_per_px,
       (window.pixels.height - 1) / 2.0 - prior_enu_m.y() / window.m_per_px);
-  if (upright) {
+  if (upright && !search) {
     prior = Eigen::Matrix<double, 2, 3>::Zero();
     prior->leftCols<2>().setIdentity();
     prior->col(2) = prior_px - warp.warped_centre;
@@ -458,7 +524,14 @@ MapFix MapMatcher::Match(const MapMatchFrame& frame, const MapMatchWindow& windo
   RansacResult fit;
   m.Fit(frame_features, map_features, prior, o.search_radius_m / window.m_per_px + 8.0, &fit, &out);
   if (!fit.success || fit.num_inliers < o.min_inliers) return done(MapFixStatus::kTooFewInliers);
-  m.Judge(fit, warp, frame, window, prior_enu_m, &out);
+  m.Judge(fit, warp, frame, window, prior_enu_m, gate_m, &out);
+  if (search) {
+    out.second_inliers = m.SecondInliers(fit, warp, ww, wh);
+    if (out.status == MapFixStatus::kFix && (out.inliers < o.min_margin * out.second_inliers ||
+                                             out.inliers - out.second_inliers < o.min_inliers)) {
+      out.status = MapFixStatus::kAmbiguous;
+    }
+  }
   out.ms = watch.elapsed_ms();
   return out;
 }

@@ -78,6 +78,30 @@ struct MapMatchOptions {
   double min_contrast = 12.0;
   /// Smallest share of the window the map has data in.
   double min_valid_fraction = 0.2;
+
+  // Lost and found: the wide search (MapMatcher::Search, pipeline/map_fixer.h; docs/map.md).
+  /// Consecutive failed attempts (few_inliers, ambiguous, spread, scale, gate) after which the
+  /// next attempt is a wide search of search_wide_radius_m; 0 = never (nor at the start).
+  int search_after_failures = 3;
+  /// The run's first attempt is a wide search too (the prediction not checked against the map
+  /// yet: a start far off is found at once).
+  bool search_at_start = true;
+  /// Radius of a wide search around the prediction, m.
+  double search_wide_radius_m = 400.0;
+  /// Gate of a wide search: until the run's first fix, search_wide_radius_m (the prediction is
+  /// not trusted yet); after it, the attempts' gate plus this times the track's distance flown
+  /// since the last fix (the odometry's drift, a fraction of the distance), at most the radius.
+  double search_gate_per_m = 0.1;
+  /// An attempt searching farther than this (search_radius_m, or a wide search), m, goes coarse
+  /// to fine: Search at the coarse resolution, then Match around its hit.
+  double coarse_above_radius_m = 150.0;
+  /// The coarse resolution of a search brings the frame to this many pixels across (never finer
+  /// than the matching resolution): the search window's area, and its cost, fall with its square.
+  int search_width_px = 256;
+  /// A search's hit must have this many times the inliers of the best other location, and
+  /// min_inliers more (a repeated texture, a field of the same rows, two map tiles that each
+  /// hold part of the frame's ground: no fix).
+  double min_margin = 2.0;
 };
 
 /// Throws InvalidArgument naming the bad field.
@@ -104,6 +128,13 @@ void VisitFields(MapMatchOptions& o, V& v) {
   v.Field(o.max_heading_error_deg, "max_heading_error_deg", "Largest rotation of the fit against the heading, deg (gate)", GreaterThan(0).Finite());
   v.Field(o.min_contrast, "min_contrast", "Smallest robust intensity range of the map window and the frame, grey levels", AtLeast(0).Finite());
   v.Field(o.min_valid_fraction, "min_valid_fraction", "Smallest share of the window with map data", Interval(0, 1));
+  v.Field(o.search_after_failures, "search_after_failures", "Consecutive failed attempts (few_inliers, ambiguous, spread, scale, gate) that start a wide search (0 = never)", AtLeast(0));
+  v.Field(o.search_at_start, "search_at_start", "The run's first attempt is a wide search", Any());
+  v.Field(o.search_wide_radius_m, "search_wide_radius_m", "Radius of a wide search around the prediction, m", GreaterThan(0).Finite());
+  v.Field(o.search_gate_per_m, "search_gate_per_m", "Gate of a wide search after a fix: the gate plus this times the distance flown since the last fix (before the first fix: the wide radius)", AtLeast(0).Finite());
+  v.Field(o.coarse_above_radius_m, "coarse_above_radius_m", "Searches wider than this radius, m, go coarse to fine", GreaterThan(0).Finite());
+  v.Field(o.search_width_px, "search_width_px", "Coarse resolution of a search: the frame's width at it, px (never finer than the matching resolution)", Interval(64, 4096));
+  v.Field(o.min_margin, "min_margin", "A search's hit needs this many times the inliers of the best other location (and min_inliers more)", AtLeast(1).Finite());
 }
 // clang-format on
 
@@ -118,10 +149,11 @@ enum class MapFixStatus {
   kScale,           ///< The fit's scale disagrees with the frame's ground sampling distance.
   kGate,            ///< Farther than the gate (gate_m) from the prediction, or rotated against
                     ///< the heading by more than max_heading_error_deg.
+  kAmbiguous,       ///< A search's hit has under min_margin times the inliers of another place.
 };
-inline constexpr int kNumMapFixStatus = 8;
+inline constexpr int kNumMapFixStatus = 9;
 /// "fix", "no_map", "no_map_texture", "no_frame_texture", "few_inliers", "spread", "scale",
-/// "gate".
+/// "gate", "ambiguous".
 const char* ToString(MapFixStatus status);
 
 /// The frame to fix.
@@ -152,6 +184,8 @@ struct MapFix {
   double heading_var_rad2 = 0.0;
   int inliers = 0;
   int matches = 0;
+  /// A search (MapMatcher::Search): inliers of the best fit at a place away from this one's.
+  int second_inliers = 0;
   int frame_points = 0, map_points = 0;
   double residual_m = 0.0;        ///< RMS transfer error of the inliers, m.
   double spread = 0.0;            ///< MapMatchOptions::min_spread's measure.
@@ -167,6 +201,15 @@ int MapWindowSizePx(int frame_width_px, int frame_height_px, double gsd_m_per_px
 /// The matching resolution (MapMatchOptions::match_m_per_px, or automatic), m/px.
 double MapMatchResolution(const MapMatchOptions& options, int frame_width_px, double gsd_m_per_px,
                           double map_m_per_px);
+
+/// The resolution of a search's coarse window: the frame's ground width over search_width_px,
+/// at least the matching resolution, m/px.
+double MapSearchResolution(const MapMatchOptions& options, int frame_width_px, double gsd_m_per_px,
+                           double map_m_per_px);
+
+/// The options of a search's refinement (Match around the coarse hit): search radius and gate
+/// of 8 coarse pixels, at least 10 m.
+MapMatchOptions MapRefineOptions(const MapMatchOptions& options, double coarse_m_per_px);
 
 /// Reusable matcher (SURF engines, matcher and RANSAC buffers). Not thread-safe: one per thread.
 class MapMatcher {
@@ -184,6 +227,18 @@ class MapMatcher {
   /// valid mask of another size, or focal_px, height_m, m_per_px not finite and > 0.
   MapFix Match(const MapMatchFrame& frame, const MapMatchWindow& window,
                const Eigen::Vector2d& prior_enu_m);
+
+  /// The coarse step of a search with a weak prior: `window` is wide (a radius of hundreds of
+  /// metres) at a coarse resolution (MapSearchResolution); the frame is matched against all of
+  /// it, unguided (rotation-invariant without a heading; min_valid_fraction does not apply: the
+  /// window may reach far beyond a small map). The best fit is checked as Match's,
+  /// with `gate_m` as its gate, and against the best fit elsewhere (the matches outside the
+  /// first fit's footprint): under min_margin times its inliers, or fewer than min_inliers more, it
+  /// is kAmbiguous. A kFix is the
+  /// coarse hit, to be refined by Match at the matching resolution around it (MapRefineOptions).
+  /// Throws as Match.
+  MapFix Search(const MapMatchFrame& frame, const MapMatchWindow& window,
+                const Eigen::Vector2d& prior_enu_m, double gate_m);
 
  private:
   struct Impl;

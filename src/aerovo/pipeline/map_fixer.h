@@ -7,7 +7,10 @@
 // the same input gives the same attempts and fixes whatever the machine's speed; from a live
 // source, a frame due while the worker is busy is skipped (counted). The fixes are recorded
 // (map_fixes.csv, summary.json "map_fixes") and compared with the GPS, withheld or not; they
-// do not move the track.
+// do not move the track. Lost and found: the run's first attempt, and the attempt after
+// map_fix.search_after_failures failed ones in a row, is a wide search (search_wide_radius_m,
+// coarse to fine), gated by the radius before the run's first fix and by the track's drift
+// since the last fix after it (MapMatchOptions).
 #pragma once
 
 #include <condition_variable>
@@ -22,6 +25,7 @@
 
 #include "aerovo/core/image.h"
 #include "aerovo/geo/geo_point.h"
+#include "aerovo/geo/local_enu.h"
 #include "aerovo/odometry/map_match.h"
 #include "aerovo/pipeline/runner.h"
 
@@ -48,6 +52,8 @@ struct MapFixRecord {
   double time_s = 0.0;
   GeoPoint predicted;    ///< The job's prediction.
   bool applied = false;  ///< The track was moved by it (map_fix.apply).
+  /// A search, coarse to fine (a wide search, or search_radius_m above coarse_above_radius_m).
+  bool search = false;
   MapFix fix;
   std::optional<GeoPoint> geo;              ///< The fit's position (when fitted).
   std::optional<double> gps_error_m;        ///< |fit - GPS|, m (fitted, with GPS).
@@ -82,6 +88,12 @@ class MapFixer {
  private:
   void Work();
   MapFixRecord Attempt(MapFixJob& job);
+  // The coarse-to-fine search of `radius_m` around the job's prediction (`enu`: its ENU plane)
+  // with the gate `gate_m`: MapMatcher::Search over a coarse window, then Match at the matching
+  // resolution around its hit; the fix in `enu`.
+  MapFix CoarseToFine(const MapFixJob& job, const LocalEnu& enu, double radius_m, double gate_m);
+  // After an attempt: the failures in a row, the first fix, the distance since the last fix.
+  void Follow(const MapFixRecord& record);
 
   const map::ReferenceMaps& maps_;
   MapMatchOptions options_;
@@ -95,6 +107,13 @@ class MapFixer {
   std::exception_ptr error_;
   std::vector<MapFixRecord> records_;  // in the order of the attempts
   int skipped_busy_ = 0, no_prediction_ = 0;
+  // The worker's own (Attempt, Follow): failed attempts in a row (MapMatchOptions::
+  // search_after_failures), whether the run had a fix, the track's distance since the last one
+  // (m, along the predictions), the previous prediction.
+  int failures_ = 0, records_seen_ = 0;
+  bool had_fix_ = false;
+  double flown_since_fix_m_ = 0.0;
+  std::optional<GeoPoint> last_predicted_;
   std::size_t taken_ = 0;  // records_ before it were offered to TakeFix
   std::thread worker_;
 };

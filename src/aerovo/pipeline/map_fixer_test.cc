@@ -125,6 +125,56 @@ TEST(MapFixer, FileSourceAttemptsEveryFrameAndFixesLandOnTheTruth) {
   EXPECT_EQ(csv.rfind("8,8.000,no_map,", std::string::npos) != std::string::npos, true) << csv;
 }
 
+// Lost and found (no search at the start): a prediction 150 m off fails twice in the 30 m window
+// (search_after_failures 2), the third attempt searches 200 m and finds the frame (the first
+// fix, 4 s after the first attempt); then, the track trusted, the same error again is found by the
+// next search but rejected by its gate (30 m + 10 % of the 150 m the predictions moved since).
+TEST(MapFixer, WideSearchAfterFailuresFindsAFarPredictionThenGatesOne) {
+  const map::ReferenceMaps maps({Map().path});
+  MapMatchOptions o;
+  o.search_radius_m = 30.0;
+  o.search_at_start = false;
+  o.search_after_failures = 2;
+  o.search_wide_radius_m = 200.0;
+  MapFixer fixer(maps, o, /*live=*/false);
+  for (int i = 0; i < 3; ++i) fixer.Submit(Map().Job(2 * i, 300, 300, 150.0));
+  fixer.Submit(Map().Job(6, 300, 320, 0.0));  // local fix: the track trusted
+  for (int i = 0; i < 3; ++i) fixer.Submit(Map().Job(8 + 2 * i, 300, 340, 150.0));
+  RunSummary summary;
+  const fs::path dir = Map().path.parent_path();
+  fixer.Finish(dir, &summary);
+  ASSERT_TRUE(summary.map_fixes.has_value());
+  const RunSummary::MapFixes& m = *summary.map_fixes;
+  EXPECT_EQ(m.attempted, 7);
+  EXPECT_EQ(m.searches, 2);
+  EXPECT_EQ(m.found, 1);
+  EXPECT_EQ(m.fixes, 2);
+  ASSERT_TRUE(m.time_to_first_fix_s.has_value());
+  EXPECT_DOUBLE_EQ(*m.time_to_first_fix_s, 4.0);
+  EXPECT_LT(m.max_m, 0.3);
+  // The rows' status and search columns (18 columns).
+  const std::string csv = ::aerovo::testing::ReadText(dir / "map_fixes.csv");
+  std::vector<std::string> rows;
+  for (std::size_t at = csv.find('\n'); at + 1 < csv.size();) {
+    const std::size_t end = csv.find('\n', at + 1);
+    const std::string line = csv.substr(at + 1, end - at - 1);
+    std::vector<std::string> cells(1);
+    for (const char c : line) {
+      if (c == ',') {
+        cells.emplace_back();
+      } else {
+        cells.back() += c;
+      }
+    }
+    rows.push_back(cells.size() == 18 ? cells[2] + " " + cells[16] : line);
+    at = end;
+  }
+  const std::vector<std::string> expected = {
+      "few_inliers local", "few_inliers local", "fix wide", "fix local",
+      "few_inliers local", "few_inliers local", "gate wide"};
+  EXPECT_EQ(rows, expected) << csv;
+}
+
 TEST(MapFixer, LiveSourceSkipsFramesDueWhileBusy) {
   const map::ReferenceMaps maps({Map().path});
   MapFixer fixer(maps, MapMatchOptions{}, /*live=*/true);

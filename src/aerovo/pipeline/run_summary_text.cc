@@ -105,6 +105,14 @@ std::string FormatMapFixes(const RunSummary::MapFixes& m) {
       m.fixes, m.attempted, failed.empty() ? "" : "; " + failed,
       m.no_prediction > 0 ? fmt::format("; {} before the geo-reference", m.no_prediction)
                           : std::string());
+  if (m.searches > 0) {
+    t += fmt::format("  {:<40}{} of {} found a fix, {:.0f} ms each\n", "wide searches", m.found,
+                     m.searches, m.search_ms);
+  }
+  if (m.time_to_first_fix_s) {
+    t += fmt::format("  {:<40}{:.1f} s after the first attempt\n", "first fix",
+                     *m.time_to_first_fix_s);
+  }
   if (m.with_gps > 0) {
     t += fmt::format(
         "  {:<40}median {:.2f} m, RMSE {:.2f} m, max {:.2f} m (the track: {:.2f}, {:.2f}, "

@@ -93,7 +93,11 @@ nlohmann::json ToJson(const RunSummary::MapFixes& m) {
           {"fixes", m.fixes},                   {"applied", m.applied},
           {"by_status", by_status},
           {"no_prediction", m.no_prediction},   {"skipped_busy", m.skipped_busy},
-          {"mean_ms", m.mean_ms},               {"against_gps", gps}};
+          {"mean_ms", m.mean_ms},               {"searches", m.searches},
+          {"search_ms", m.search_ms},           {"found", m.found},
+          {"time_to_first_fix_s",
+           m.time_to_first_fix_s ? nlohmann::json(*m.time_to_first_fix_s) : nlohmann::json()},
+          {"against_gps", gps}};
 }
 
 // summary.json "gps_denied".

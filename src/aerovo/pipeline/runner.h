@@ -237,6 +237,11 @@ struct RunSummary {
     int no_prediction = 0;  ///< Due frames before the track was geo-referenced.
     int skipped_busy = 0;   ///< Live source: due frames skipped while the worker was busy.
     double mean_ms = 0.0;   ///< Mean time of an attempt (window read and match), ms.
+    int searches = 0;       ///< Attempts that were searches, coarse to fine (map_fixes.csv).
+    double search_ms = 0.0;  ///< Mean time of a search (windows read, coarse and fine), ms.
+    int found = 0;           ///< Searches that gave a fix.
+    /// Flight time from the first attempt to the first fix, s (nullopt: no fix).
+    std::optional<double> time_to_first_fix_s;
     /// The fixes against GPS (n = fixes with GPS; the rest 0 when n = 0), m, and the track's
     /// error at the same frames.
     int with_gps = 0;
