@@ -84,6 +84,14 @@ std::optional<MapFixRecord> MapFixer::TakeFix(bool due) {
   return newest;
 }
 
+void MapFixer::SetGraphVerdict(bool fused) {
+  const std::lock_guard lock(mutex_);
+  if (taken_ == 0) return;
+  MapFixRecord& r = records_[taken_ - 1];
+  r.applied = fused;
+  r.gated_by_graph = !fused;
+}
+
 MapFixRecord MapFixer::Attempt(MapFixJob& job) {
   const Stopwatch watch;
   MapFixRecord r;
@@ -171,6 +179,7 @@ void MapFixer::Finish(const std::filesystem::path& out_dir, RunSummary* summary)
   for (const MapFixRecord& r : records_) {
     ++counts[static_cast<std::size_t>(r.fix.status)];
     if (r.applied) ++s.applied;
+    if (r.gated_by_graph) ++s.gated_by_graph;
     total_ms += r.fix.ms;
     if (r.fix.status == MapFixStatus::kFix && r.gps_error_m && r.track_gps_error_m) {
       errors.push_back(*r.gps_error_m);
@@ -181,6 +190,7 @@ void MapFixer::Finish(const std::filesystem::path& out_dir, RunSummary* summary)
     s.by_status.emplace_back(ToString(static_cast<MapFixStatus>(i)),
                              counts[static_cast<std::size_t>(i)]);
   }
+  s.fused = s.applied;
   s.fixes = counts[static_cast<std::size_t>(MapFixStatus::kFix)];
   s.mean_ms = s.attempted > 0 ? total_ms / s.attempted : 0.0;
   s.with_gps = static_cast<int>(errors.size());

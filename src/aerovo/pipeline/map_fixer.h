@@ -6,8 +6,8 @@
 // from a file (video, photos), the next attempt waits for the one before to finish, so that
 // the same input gives the same attempts and fixes whatever the machine's speed; from a live
 // source, a frame due while the worker is busy is skipped (counted). The fixes are recorded
-// (map_fixes.csv, summary.json "map_fixes") and compared with the GPS, withheld or not; they
-// do not move the track.
+// (map_fixes.csv, summary.json "map_fixes") and compared with the GPS, withheld or not; with
+// map_fix.apply the map-fix stage fuses them into the pose graph (stage_map_fix.cc).
 #pragma once
 
 #include <condition_variable>
@@ -47,7 +47,8 @@ struct MapFixRecord {
   int frame = 0;
   double time_s = 0.0;
   GeoPoint predicted;    ///< The job's prediction.
-  bool applied = false;  ///< The track was moved by it (map_fix.apply).
+  bool applied = false;  ///< Fused into the pose graph: it moved the track (map_fix.apply).
+  bool gated_by_graph = false;  ///< Taken (map_fix.apply) and rejected by the graph's gate.
   MapFix fix;
   std::optional<GeoPoint> geo;              ///< The fit's position (when fitted).
   std::optional<double> gps_error_m;        ///< |fit - GPS|, m (fitted, with GPS).
@@ -74,6 +75,9 @@ class MapFixer {
   /// At a due frame of a file source it first waits for the attempt in flight (so that a fix is
   /// taken at a frame that does not depend on the machine's speed); else it does not wait.
   std::optional<MapFixRecord> TakeFix(bool due);
+  /// The pose graph's verdict on the fix TakeFix returned last: fused (applied), or rejected by
+  /// its gate (FlightGraph::AddFix; not applied, gated_by_graph).
+  void SetGraphVerdict(bool fused);
   const MapMatchOptions& options() const { return options_; }
   /// Waits for the last attempt, stops the worker, writes `out_dir`/map_fixes.csv and fills in
   /// summary->map_fixes. Idempotent.
