@@ -500,6 +500,7 @@ OptimizedFlight FlightGraph::Optimize(const PairFitter& fitter, std::uint64_t ru
   out.keyframes = num_keyframes();
   out.local_from_frame = poses_;
   backend::PoseGraph graph = graph_;
+  for (int i = 0; i < graph.num_poses(); ++i) graph.SetHeld(i, false);  // AddFix's, online only
   const std::size_t base_factors = graph.relative_factors().size();
   const Stopwatch match_time;
   std::vector<std::pair<int, int>> tried;  // keyframe indices, as tried
@@ -600,11 +601,16 @@ FixOutcome FlightGraph::AddFix(const GraphFix& fix) {
   Eigen::Vector3d e;
   e << fix.position_m - x.translation_m,
       heading ? backend::WrapAngleRad(*fix.heading_rad - x.heading_rad) : 0.0;
-  const int dof = heading ? 3 : 2;
-  const Eigen::MatrixXd s = (p + r).topLeftCorner(dof, dof);
-  const Eigen::VectorXd se = s.ldlt().solve(e.head(dof));
+  // se = S^-1 e over the measured components (S = P + R; the heading's row left out without
+  // one: its component of e and se is then 0).
+  Eigen::Vector3d se = Eigen::Vector3d::Zero();
+  if (heading) {
+    se = (p + r).ldlt().solve(e);
+  } else {
+    se.head<2>() = (p + r).topLeftCorner<2, 2>().ldlt().solve(Eigen::Vector2d(e.head<2>()));
+  }
   FixOutcome out;
-  out.d2 = e.head(dof).dot(se);
+  out.d2 = e.dot(se);
   out.bound = heading ? kFixGateChi2WithHeading : kFixGateChi2Position;
   out.newest = graph_.estimates().back();
   if (!(out.d2 <= out.bound)) {
@@ -613,7 +619,7 @@ FixOutcome FlightGraph::AddFix(const GraphFix& fix) {
   }
   // The correction of every component (the heading's too, through its correlation with the
   // position, when the fix has no heading): P[:, measured] S^-1 e.
-  out.correction = p.leftCols(dof) * se;
+  out.correction = p * se;
   SpreadCorrection(a, k, out.correction);
   backend::AbsoluteFactor f;
   f.pose = k;
@@ -622,16 +628,12 @@ FixOutcome FlightGraph::AddFix(const GraphFix& fix) {
   f.information.topLeftCorner<2, 2>() = r.topLeftCorner<2, 2>().inverse();
   if (heading) f.information(2, 2) = 1.0 / fix.heading_var_rad2;
   graph_.AddAbsolute(f);
+  // The frames up to the fix's are final: a window's solve, whose steps know nothing of the
+  // drift the correction undid, must not pull them back (Optimize solves them again).
+  for (int j = 0; j <= k; ++j) graph_.SetHeld(j, true);
   last_fix_frame_ = k;
   ++fixes_fused_;
   out.fused = true;
-  const int first = std::max(0, std::min(k, n - options_.window));
-  if (n >= 2) {
-    const backend::PoseGraphResult result = backend::OptimizeWindow(graph_, first, n - 1);
-    for (int i = first; i < n; ++i) {
-      graph_.SetEstimate(i, result.local_from_frame[static_cast<std::size_t>(i)]);
-    }
-  }
   out.newest_moved_m = (graph_.estimates().back().translation_m - out.newest.translation_m).norm();
   out.newest = graph_.estimates().back();
   return out;

@@ -304,9 +304,11 @@ class FlightGraph {
   ///   the frames after it (up to the newest) move rigidly with it (turned by c's heading about
   ///   the frame), the frames between a and it by the fraction of the causal path from a,
   ///   so that every later frame (AddOnline chains a new pose from the previous estimate)
-  ///   carries the correction; the fix becomes an absolute factor of the graph (the window's
-  ///   solves and Optimize use it), and the poses from min(frame, newest - window + 1) on are
-  ///   re-optimised (OptimizeWindow).
+  ///   carries the correction; the fix becomes an absolute factor of the graph (Optimize uses
+  ///   it), and the poses up to the fix's frame are held from then on (final: the window's
+  ///   step factors, which know nothing of the drift the correction undid, would pull them
+  ///   back; Optimize frees them, a closure's whole-graph solve online moves only the later
+  ///   ones).
   /// InvalidArgument when the frame is not in the graph, the graph is not online, or the fix is
   /// not finite or its covariance not positive definite.
   FixOutcome AddFix(const GraphFix& fix);

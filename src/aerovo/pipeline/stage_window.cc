@@ -32,6 +32,8 @@ class WindowStage : public FrameStage {
     BackendOptions options = run.config->backend;
     options.online = true;
     options.closures = options.closures && matching;
+    // "Fixes only" without the offline optimisation: no keyframe is ever matched.
+    if (!matching && !run.config->backend.enable) f.result.features.reset();
     const Stopwatch time;
     const std::uint64_t seed = run.config->odometry.correspondence.ransac.seed;
     const WindowedPose w = flight.GraphOf(options, f.pixels.width, f.pixels.height, seed)
