@@ -174,9 +174,11 @@ TEST(MapFix, SimulatedFlightFixesAgainstAnotherSeasonMap) {
 // fix is fused into the pose graph (FlightGraph::AddFix: the "fixes only" window, as
 // backend.online is off), which takes it back by its covariance weight, heading included.
 // Against the withheld GPS (the truth): without the fixes 16.8 m RMSE, 26.5 m max; with them
-// taken whole as a shift of the track (before they were fused: BENCHMARKS.md) 3.03 m RMSE,
-// 4.53 m max; fused: at most that, with 5 % of tolerance (measured in BENCHMARKS.md, "Fixes
-// against the map"). With --backend-enable the offline track (vo_optimized.*) uses every fused
+// taken whole as a shift of the track (what --map-fix-apply did before they were fused; each
+// fix taken at the next due frame, as now) 3.57 m RMSE, 5.27 m max; fused: at most that, with
+// 5 % of tolerance (measured 3.64, 5.27 m; BENCHMARKS.md, "Fixes against the map": on this
+// flight the error left is the 10 % scale error over the 5 frames between a fix's frame and
+// the frame it is taken at, which neither removes). With --backend-enable the offline track (vo_optimized.*) uses every fused
 // fix as an absolute factor too. The same input gives the same fused track (the first 50
 // frames run again).
 TEST(MapFix, AppliedFixesBoundTheErrorOfADriftingTrack) {
@@ -193,8 +195,8 @@ TEST(MapFix, AppliedFixesBoundTheErrorOfADriftingTrack) {
   ASSERT_TRUE(e0.is_object() && e1.is_object()) << low.dump(1);
   EXPECT_GT(e0.at("rmse_m").get<double>(), 10.0) << e0.dump(1);
   EXPECT_GT(e0.at("max_error_m").get<double>(), 20.0) << e0.dump(1);
-  EXPECT_LT(e1.at("rmse_m").get<double>(), 1.05 * 3.03) << e1.dump(1);
-  EXPECT_LT(e1.at("max_error_m").get<double>(), 1.05 * 4.53) << e1.dump(1);
+  EXPECT_LT(e1.at("rmse_m").get<double>(), 1.05 * 3.57) << e1.dump(1);
+  EXPECT_LT(e1.at("max_error_m").get<double>(), 1.05 * 5.27) << e1.dump(1);
   RecordProperty("fused_rmse_max_m", e1.at("rmse_m").dump() + " " + e1.at("max_error_m").dump());
   const nlohmann::json& m = fixed.at("map_fixes");
   EXPECT_GE(m.at("fused").get<int>(), 0.8 * m.at("attempted").get<int>()) << m.dump(1);

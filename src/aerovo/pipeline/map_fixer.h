@@ -72,8 +72,9 @@ class MapFixer {
   /// A frame was due but the track is not geo-referenced yet (no prediction).
   void CountNoPrediction() { ++no_prediction_; }
   /// map_fix.apply: the newest finished attempt not taken yet, when it is a fix (marked applied).
-  /// At a due frame of a file source it first waits for the attempt in flight (so that a fix is
-  /// taken at a frame that does not depend on the machine's speed); else it does not wait.
+  /// A file source's fixes are taken at due frames only, after waiting for the attempt in flight
+  /// (so that a fix is taken at a frame that does not depend on the machine's speed); a live
+  /// source's at any frame, without waiting.
   std::optional<MapFixRecord> TakeFix(bool due);
   /// The pose graph's verdict on the fix TakeFix returned last: fused (applied), or rejected by
   /// its gate (FlightGraph::AddFix; not applied, gated_by_graph).
