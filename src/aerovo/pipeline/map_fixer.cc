@@ -85,12 +85,12 @@ std::optional<MapFixRecord> MapFixer::TakeFix(bool due) {
   return newest;
 }
 
-void MapFixer::SetGraphVerdict(bool fused) {
+void MapFixer::SetGraphVerdict(bool fused, bool gated) {
   const std::lock_guard lock(mutex_);
   if (taken_ == 0) return;
   MapFixRecord& r = records_[taken_ - 1];
   r.applied = fused;
-  r.gated_by_graph = !fused;
+  r.gated_by_graph = !fused && gated;
 }
 
 MapFixRecord MapFixer::Attempt(MapFixJob& job) {

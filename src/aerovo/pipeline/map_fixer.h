@@ -76,9 +76,9 @@ class MapFixer {
   /// (so that a fix is taken at a frame that does not depend on the machine's speed); a live
   /// source's at any frame, without waiting.
   std::optional<MapFixRecord> TakeFix(bool due);
-  /// The pose graph's verdict on the fix TakeFix returned last: fused (applied), or rejected by
-  /// its gate (FlightGraph::AddFix; not applied, gated_by_graph).
-  void SetGraphVerdict(bool fused);
+  /// The pose graph's verdict on the fix TakeFix returned last: fused (applied), or not
+  /// (not applied; gated_by_graph when `gated`: rejected by its gate, FlightGraph::AddFix).
+  void SetGraphVerdict(bool fused, bool gated);
   const MapMatchOptions& options() const { return options_; }
   /// Waits for the last attempt, stops the worker, writes `out_dir`/map_fixes.csv and fills in
   /// summary->map_fixes. Idempotent.

@@ -88,7 +88,10 @@ class MapFixStage : public FrameStage {
   void Fuse(const MapFixRecord& fix, FrameState& f, const RunContext& run) {
     FlightGraph* graph = run.state->flight.graph.get();
     const auto it = graph_index_.find(fix.frame);
-    if (graph == nullptr || it == graph_index_.end()) return;
+    if (graph == nullptr || it == graph_index_.end()) {  // its frame forgotten: not fused
+      run.map_fixer->SetGraphVerdict(false, false);
+      return;
+    }
     const GeoReferencer& georef = run.state->georef;
     const double rotation = georef.rotation_rad();
     const Eigen::Matrix2d local_from_enu = Eigen::Rotation2Dd(-rotation).toRotationMatrix();
@@ -103,9 +106,12 @@ class MapFixStage : public FrameStage {
       g.heading_rad = backend::WrapAngleRad(fix.fix.heading_rad - rotation);
       g.heading_var_rad2 = fix.fix.heading_var_rad2 + kHeadingFloorRad * kHeadingFloorRad;
     }
-    if (!(g.position_cov_m2.determinant() > 0.0)) return;  // a degenerate fit: not a fix
+    if (!(g.position_cov_m2.determinant() > 0.0)) {  // a degenerate fit: not fused
+      run.map_fixer->SetGraphVerdict(false, false);
+      return;
+    }
     const FixOutcome o = graph->AddFix(g);
-    run.map_fixer->SetGraphVerdict(o.fused);
+    run.map_fixer->SetGraphVerdict(o.fused, !o.fused);
     f.map_fix_frame = fix.frame;
     f.map_fix = o.fused ? FrameState::MapFixTaken::kFused : FrameState::MapFixTaken::kGated;
     if (!o.fused) return;
