@@ -14,7 +14,8 @@ set(AEROVO_WHOLE_SUITE_TESTS
   CliSignal             # tests/e2e/cli_signal_test.cc: a simulated 301-frame flight
   ReferenceOutputs      # tests/e2e/reference_outputs_test.cc: a simulated flight
   ExperimentOnSimulatedFlight  # src/aerovo/pipeline/experiment_test.cc: a simulated flight
-  OfflineOptimisation   # tests/e2e/offline_optimisation_test.cc: a simulated lawnmower, 7 runs
+  OfflineOptimisation   # tests/e2e/offline_optimisation_test.cc: a simulated lawnmower, 4 runs
+  OfflineOptimisationThreads  # the same file: the lawnmower with 1 and 2 threads, 6 runs
 )
 
 # aerovo_discover_tests(TARGET [gtest_discover_tests arguments...]): gtest_discover_tests for

@@ -22,6 +22,8 @@
 #   - MapFix.AppliedFixesBound...: the map fixes fused into a drifting track, against the truth
 #     (the map-fix thread, matcher and outputs: MapFix.SimulatedFlightFixes..., which stays, and
 #     the map_match and map_fixer unit tests).
+#   - SixStripSurvey.*: the back-end's figures on 2.4 and 2.9 km surveys (the same offline and
+#     online paths as OfflineOptimisation's 1 km lawnmower, which stays).
 set(AEROVO_ACCURACY_TESTS
   Video4k.DefaultRunDetectsAtHalfResolutionWithinFivePercentOfFullResolution
   LongRun.TenThousandFramesWithFlatMemory
@@ -32,6 +34,8 @@ set(AEROVO_ACCURACY_TESTS
   Attitude.NadirFlightIsUnchangedByTheCorrection
   Runner.BrightonPhantom3SixteenByNineHoldsTheStoredFigures
   MapFix.AppliedFixesBoundTheErrorOfADriftingTrack
+  SixStripSurvey.BuiltInTerrain
+  SixStripSurvey.CallasOrthophoto
 )
 
 # Label "repeated_flight": end-to-end runs that repeat, under other settings, a whole-flight path
@@ -60,6 +64,10 @@ set(AEROVO_ACCURACY_TESTS
 #   - BadInput.DamagedTelemetryWithLenientTelemetry...: a 12-frame flight per damage
 #     (BadInput.DamagedSrt.../DamagedGpx...: the same damages parsed; the lenient readers' unit
 #     tests in telemetry_readers_test.cc; the fuzzers).
+#   - OfflineOptimisationThreads: the lawnmower's optimised, windowed and loop-closure runs again
+#     with 1 thread, compared with 2 (OfflineOptimisation runs each path once; the sanitizers do
+#     not see data races, and the same-result-at-any-thread-count property is the optimised
+#     build's).
 #   - SensorPattern.ThermalFlightWithVignettingAndFixedPattern...: the flat field's photo median on
 #     the thermal flight, with and without it (AdaptivePoints.ThermalLikeFlight..., whose
 #     thermal preset has the pattern too and takes the same path; SensorPattern.ThermalVideo...,
@@ -86,6 +94,7 @@ set(AEROVO_REPEATED_FLIGHT_TESTS
   CliConventions.HelpCmdIsCmdHelpAndEveryHelpListsTheExitCodes
   Attitude.SrtWithOnlyAnAltitudeAboveSeaLevelNeedsTheGroundElevation
   BadInput.DamagedTelemetryWithLenientTelemetryIsSkippedAndReported
+  OfflineOptimisationThreads
 )
 
 # COST: relative run time, so that ctest --parallel starts the long tests first instead of
@@ -115,7 +124,10 @@ set(AEROVO_TEST_COSTS
   AdaptivePoints.ThermalLikeFlightIsTrackedWithTheDefaults 5
   SensorPattern.ThermalFlightWithVignettingAndFixedPatternIsTrackedWithTheDefaults 5
   SensorPattern.ThermalVideoIsCorrectedByTheRunningEstimate 5
-  OfflineOptimisation 20
+  OfflineOptimisation 14
+  OfflineOptimisationThreads 14
+  SixStripSurvey.BuiltInTerrain 12
+  SixStripSurvey.CallasOrthophoto 13
   MapFix.SimulatedFlightFixesAgainstAnotherSeasonMap 8
   MapFix.AppliedFixesBoundTheErrorOfADriftingTrack 12
 )

@@ -113,22 +113,40 @@ bool RayOfDistorted(RadialFamily family, double k, double xd, double yd, Eigen::
   return true;
 }
 
-bool DistortedOfRay(RadialFamily family, double k, const Eigen::Vector3d& ray,
-                    Eigen::Vector2d* xd) {
-  const double rho = std::hypot(ray.x(), ray.y());
+namespace {
+
+// DistortedOfRay in plain scalars (the cost's per-point loop calls it): the ray (rx, ry, rz) to
+// the normalised distorted point (*u, *v).
+bool DistortedOfRayXY(RadialFamily family, double k, double rx, double ry, double rz, double* u,
+                      double* v) {
+  const double rho = std::hypot(rx, ry);
   if (family == RadialFamily::kFisheyeK1) {
-    const double theta = std::atan2(rho, ray.z());
+    const double theta = std::atan2(rho, rz);
     const double td = theta * (1.0 + k * theta * theta);
     if (rho == 0.0) {
-      *xd = Eigen::Vector2d::Zero();
-      return ray.z() > 0.0;
+      *u = *v = 0.0;
+      return rz > 0.0;
     }
-    *xd = Eigen::Vector2d(ray.x(), ray.y()) * (td / rho);
+    const double f = td / rho;
+    *u = rx * f;
+    *v = ry * f;
     return true;
   }
-  if (!(ray.z() > 0.0)) return false;
-  const Eigen::Vector2d x(ray.x() / ray.z(), ray.y() / ray.z());
-  *xd = x * (1.0 + k * x.squaredNorm());
+  if (!(rz > 0.0)) return false;
+  const double x = rx / rz, y = ry / rz;
+  const double f = 1.0 + k * (x * x + y * y);
+  *u = x * f;
+  *v = y * f;
+  return true;
+}
+
+}  // namespace
+
+bool DistortedOfRay(RadialFamily family, double k, const Eigen::Vector3d& ray,
+                    Eigen::Vector2d* xd) {
+  double u = 0.0, v = 0.0;
+  if (!DistortedOfRayXY(family, k, ray.x(), ray.y(), ray.z(), &u, &v)) return false;
+  *xd = Eigen::Vector2d(u, v);
   return true;
 }
 
@@ -192,43 +210,78 @@ double PairCost(RadialFamily family, double k, const CostSettings& cs, PairData&
   if (valid < 8) return outlier_cost * static_cast<double>(n);
   Eigen::Matrix3d h = Eigen::Matrix3d::Identity();
   Eigen::Matrix<double, 9, 9> m;
+  // H r in plain scalars, summed in the order of the Eigen product it replaces on x86-64 and
+  // aarch64 (rows 0 and 1 as one packet of two doubles, row 2 as Eigen's unrolled sum), so that
+  // the estimates stay those of the Eigen expression.
+  double hc[9];  // h's coefficients, row-major
+  const auto apply = [&hc](const Eigen::Vector3d& r, double* y) {
+    const double r0 = r.x(), r1 = r.y(), r2 = r.z();
+    y[0] = hc[0] * r0 + hc[1] * r1 + hc[2] * r2;
+    y[1] = hc[3] * r0 + hc[4] * r1 + hc[5] * r2;
+    y[2] = hc[6] * r0 + (hc[7] * r1 + hc[8] * r2);
+  };
   for (int iteration = 0; iteration < 6; ++iteration) {
-    // Weighted DLT on the rays: q x (H r) = 0, three rows per point.
-    m.setZero();
+    // Weighted DLT on the rays: q x (H r) = 0, three rows a per point, m = sum w a a'. Only the
+    // lower triangle is accumulated (the eigen-solver reads no other), element (row, col) as
+    // (w a_row) a_col, in plain scalars: the per-point loop is the estimate's cost, and as
+    // Eigen expressions it was a chain of out-of-line calls in an unoptimised or instrumented
+    // build (the sanitizer stage of scripts/test.sh).
+    double acc[9][9] = {};
     for (std::size_t i = 0; i < n; ++i) {
       if (!d.valid[i]) continue;
       const Eigen::Vector3d& r = d.prev_ray[i];
       const Eigen::Vector3d& q = d.curr_ray[i];
+      const double rv[3] = {r.x(), r.y(), r.z()};
       const double qx[3][3] = {{0.0, -q.z(), q.y()}, {q.z(), 0.0, -q.x()}, {-q.y(), q.x(), 0.0}};
+      const double w = d.weight[i];
       for (int j = 0; j < 3; ++j) {
-        Eigen::Matrix<double, 9, 1> a;
+        double a[9], wa[9];
         for (int row = 0; row < 3; ++row) {
-          for (int c = 0; c < 3; ++c) a(3 * row + c) = qx[j][row] * r(c);
+          for (int c = 0; c < 3; ++c) a[3 * row + c] = qx[j][row] * rv[c];
         }
-        m.noalias() += d.weight[i] * a * a.transpose();
+        for (int k = 0; k < 9; ++k) wa[k] = w * a[k];
+        for (int row = 0; row < 9; ++row) {
+          for (int col = 0; col <= row; ++col) acc[row][col] += a[col] * wa[row];
+        }
       }
+    }
+    for (int row = 0; row < 9; ++row) {
+      for (int col = 0; col <= row; ++col) m(row, col) = m(col, row) = acc[row][col];
     }
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 9, 9>> eig(m);
     const Eigen::Matrix<double, 9, 1> v = eig.eigenvectors().col(0);
     for (int row = 0; row < 3; ++row) {
       for (int c = 0; c < 3; ++c) h(row, c) = v(3 * row + c);
     }
+    for (int row = 0; row < 3; ++row) {
+      for (int c = 0; c < 3; ++c) hc[3 * row + c] = h(row, c);
+    }
     double sign = 0.0;
     for (std::size_t i = 0; i < n; ++i) {
-      if (d.valid[i]) sign += d.curr_ray[i].dot(h * d.prev_ray[i]);
+      if (!d.valid[i]) continue;
+      double y[3];
+      apply(d.prev_ray[i], y);
+      const Eigen::Vector3d& q = d.curr_ray[i];
+      sign += q.x() * y[0] + q.y() * y[1] + q.z() * y[2];
     }
-    if (sign < 0.0) h = -h;
+    if (sign < 0.0) {
+      h = -h;
+      for (double& c : hc) c = -c;
+    }
     // Residuals in the distorted image, then the weights of the next round.
     for (std::size_t i = 0; i < n; ++i) {
       if (!d.valid[i]) continue;
-      const Eigen::Vector3d y = h * d.prev_ray[i];
-      Eigen::Vector2d xd;
-      double e = cs.outlier_px;
-      if (y.dot(d.curr_ray[i]) > 0.0 && DistortedOfRay(family, k, y, &xd)) {
-        e = std::min(cs.outlier_px, cs.focal_px * (xd - d.curr[i]).norm());
+      double y[3];
+      apply(d.prev_ray[i], y);
+      const Eigen::Vector3d& q = d.curr_ray[i];
+      double e = cs.outlier_px, u = 0.0, v = 0.0;
+      if (q.x() * y[0] + q.y() * y[1] + q.z() * y[2] > 0.0 &&
+          DistortedOfRayXY(family, k, y[0], y[1], y[2], &u, &v)) {
+        const double du = u - d.curr[i].x(), dv = v - d.curr[i].y();
+        e = std::min(cs.outlier_px, cs.focal_px * std::sqrt(du * du + dv * dv));
       }
       d.residual_px[i] = e;
-      const double yn2 = std::max(y.squaredNorm(), 1e-24);
+      const double yn2 = std::max(y[0] * y[0] + y[1] * y[1] + y[2] * y[2], 1e-24);
       d.weight[i] = d.scale[i] * d.scale[i] / yn2 / (1.0 + e * e / cs.s2);
     }
   }

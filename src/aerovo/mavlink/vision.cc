@@ -1,6 +1,7 @@
 #include "aerovo/mavlink/vision.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace aerovo::mavlink {
@@ -41,6 +42,101 @@ std::array<float, 4> QuaternionOf(double roll, double pitch, double yaw) {
 
 double Wrap(double a) { return std::remainder(a, 2.0 * M_PI); }
 
+// ODOMETRY's pose_covariance: the accumulated x/y and yaw variances on the diagonal, plus the
+// pose's own covariance (local frame) turned into FRD; z carries the larger x/y variance and
+// roll and pitch the yaw's (docs/autopilot.md "Quality, covariance, reset counter").
+void FillPoseCovariance(double var_xy_m2, double var_yaw_rad2,
+                        const std::optional<VisionPose::LocalCovariance>& local,
+                        std::array<float, 21>& pc) {
+  pc.fill(0.f);
+  double var_x = var_xy_m2, var_y = var_xy_m2, var_yaw = var_yaw_rad2;
+  if (local) {
+    // x_frd = y_local, y_frd = x_local, yaw_frd = -heading.
+    var_x += local->yy;
+    var_y += local->xx;
+    var_yaw += local->heading;
+    pc[UpperTriangleIndex(0, 1)] = static_cast<float>(local->xy);
+    pc[UpperTriangleIndex(0, 5)] = static_cast<float>(-local->y_heading);
+    pc[UpperTriangleIndex(1, 5)] = static_cast<float>(-local->x_heading);
+  }
+  pc[UpperTriangleIndex(0, 0)] = static_cast<float>(var_x);
+  pc[UpperTriangleIndex(1, 1)] = static_cast<float>(var_y);
+  pc[UpperTriangleIndex(2, 2)] = static_cast<float>(std::max(var_x, var_y));
+  for (int i = 3; i < 6; ++i) pc[UpperTriangleIndex(i, i)] = static_cast<float>(var_yaw);
+}
+
+// ODOMETRY's velocities in the body frame of `r` (local FRD from body FRD) from the step
+// `local_d` (local FRD, m) over dt, and their covariance from the step's variances;
+// unknown (NaN, with the whole covariance) when not `known`.
+void FillVelocity(bool known, const double local_d[3], double dyaw, double dt, double step_var_xy,
+                  double step_var_yaw, const Rot& r, Odometry& o) {
+  auto& vc = o.velocity_covariance;
+  vc.fill(0.f);
+  if (!known) {
+    // No velocity before a second frame or across a jump: the velocities and their whole
+    // covariance unknown (NaN in the first element, as the ODOMETRY definition marks an unknown
+    // covariance).
+    o.vx = o.vy = o.vz = o.yawspeed = kNaN;
+    vc.fill(kNaN);
+    return;
+  }
+  const double local_v[3] = {local_d[0] / dt, local_d[1] / dt, local_d[2] / dt};
+  double body_v[3];
+  r.ToBody(local_v, body_v);
+  o.vx = static_cast<float>(body_v[0]);
+  o.vy = static_cast<float>(body_v[1]);
+  o.vz = static_cast<float>(body_v[2]);
+  o.yawspeed = static_cast<float>(dyaw / dt);
+  const double v_var = 2.0 * step_var_xy / (dt * dt);
+  for (int i = 0; i < 3; ++i) vc[UpperTriangleIndex(i, i)] = static_cast<float>(v_var);
+  vc[UpperTriangleIndex(5, 5)] = static_cast<float>(2.0 * step_var_yaw / (dt * dt));
+  // Roll and pitch rates are not sent (NaN): their variances are unknown too.
+  vc[UpperTriangleIndex(3, 3)] = kNaN;
+  vc[UpperTriangleIndex(4, 4)] = kNaN;
+}
+
+// ODOMETRY's quality: the caller's within [-1, 100], else -1 bridged, 100 the first frame, the
+// inlier count capped at 100.
+int8_t QualityOf(const VisionPose& p) {
+  if (p.quality) return static_cast<int8_t>(std::clamp(*p.quality, -1, 100));
+  switch (p.status) {
+    case VisionPose::Status::kBridged: return -1;
+    case VisionPose::Status::kFirst: return 100;
+    default: return static_cast<int8_t>(std::clamp(p.n_inliers, 1, 100));
+  }
+}
+
+// VISION_POSITION_ESTIMATE: ODOMETRY's position, covariance and reset counter, Euler angles.
+VisionPositionEstimate EstimateOf(const Odometry& o, double roll, double pitch, double yaw,
+                                  uint64_t time_usec) {
+  VisionPositionEstimate e;
+  e.usec = time_usec;
+  e.x = o.x;
+  e.y = o.y;
+  e.z = o.z;
+  e.roll = static_cast<float>(roll);
+  e.pitch = static_cast<float>(pitch);
+  e.yaw = static_cast<float>(yaw);
+  e.covariance = o.pose_covariance;
+  e.reset_counter = o.reset_counter;
+  return e;
+}
+
+// VISION_POSITION_DELTA's move `local_d` (local FRD) in the previous body frame and the angles
+// from the previous body frame.
+void FillDelta(const double local_d[3], double roll, double pitch, double dyaw,
+               const VisionPose& previous, VisionPositionDelta& d) {
+  const double prev_yaw = Wrap(-previous.heading_rad);
+  double body_d[3];
+  Rot::FromEuler(previous.roll_rad.value_or(0.0), previous.pitch_rad.value_or(0.0), prev_yaw)
+      .ToBody(local_d, body_d);
+  d.position_delta = {static_cast<float>(body_d[0]), static_cast<float>(body_d[1]),
+                      static_cast<float>(body_d[2])};
+  d.angle_delta = {static_cast<float>(roll - previous.roll_rad.value_or(0.0)),
+                   static_cast<float>(pitch - previous.pitch_rad.value_or(0.0)),
+                   static_cast<float>(dyaw)};
+}
+
 }  // namespace
 
 const char* ToString(VisionMessageKind kind) {
@@ -64,8 +160,13 @@ VisionMessages VisionMessageBuilder::Add(const VisionPose& p) {
   const double roll = p.roll_rad.value_or(0.0), pitch = p.pitch_rad.value_or(0.0);
   const bool measured = p.status == VisionPose::Status::kOk ||
                         p.status == VisionPose::Status::kReacquired;
-  // Re-anchored, or the track re-made (wraps).
-  if (p.status == VisionPose::Status::kReacquired || p.reset) ++reset_counter_;
+  // Re-anchored, the track re-made or the pose jumped (wraps): the accumulated variances
+  // restart from this pose, the autopilot's new reference.
+  const bool reset = p.status == VisionPose::Status::kReacquired || p.reset;
+  if (reset) {
+    ++reset_counter_;
+    var_xy_m2_ = var_yaw_rad2_ = 0.0;
+  }
 
   // Variances of this step, added to the accumulated ones.
   double step_var_xy = 0.0, step_var_yaw = 0.0;
@@ -84,8 +185,10 @@ VisionMessages VisionMessageBuilder::Add(const VisionPose& p) {
       step_var_xy = dx * dx + dy * dy;
       step_var_yaw = dyaw * dyaw;
     }
-    var_xy_m2_ += step_var_xy;
-    var_yaw_rad2_ += step_var_yaw;
+    if (!reset) {
+      var_xy_m2_ += step_var_xy;
+      var_yaw_rad2_ += step_var_yaw;
+    }
   }
 
   VisionMessages out;
@@ -97,73 +200,30 @@ VisionMessages VisionMessageBuilder::Add(const VisionPose& p) {
   o.y = static_cast<float>(y);
   o.z = static_cast<float>(z);
   o.q = QuaternionOf(roll, pitch, yaw);
-  o.pose_covariance.fill(0.f);
-  o.velocity_covariance.fill(0.f);
   // Every variance either consumer reads is finite (docs/autopilot.md "Quality, covariance,
   // reset counter"): z, roll and pitch are not measured by the vision, and carry the
   // horizontal and yaw variances, so that ArduPilot's single position and angle errors (which
   // combine [0], [6], [11] and [15], [18], [20]) are the measured axes' and PX4's all-finite
   // checks pass.
-  auto& pc = o.pose_covariance;
-  for (int i = 0; i < 3; ++i) pc[UpperTriangleIndex(i, i)] = static_cast<float>(var_xy_m2_);
-  for (int i = 3; i < 6; ++i) pc[UpperTriangleIndex(i, i)] = static_cast<float>(var_yaw_rad2_);
-  auto& vc = o.velocity_covariance;
-  if (have_previous_ && dt > 0.0) {
-    const double local_v[3] = {dx / dt, dy / dt, dz / dt};
-    double body_v[3];
-    Rot::FromEuler(roll, pitch, yaw).ToBody(local_v, body_v);
-    o.vx = static_cast<float>(body_v[0]);
-    o.vy = static_cast<float>(body_v[1]);
-    o.vz = static_cast<float>(body_v[2]);
-    o.yawspeed = static_cast<float>(dyaw / dt);
-    const double v_var = 2.0 * step_var_xy / (dt * dt);
-    for (int i = 0; i < 3; ++i) vc[UpperTriangleIndex(i, i)] = static_cast<float>(v_var);
-    vc[UpperTriangleIndex(5, 5)] = static_cast<float>(2.0 * step_var_yaw / (dt * dt));
-    // Roll and pitch rates are not sent (NaN below): their variances are unknown too.
-    vc[UpperTriangleIndex(3, 3)] = kNaN;
-    vc[UpperTriangleIndex(4, 4)] = kNaN;
-  } else {
-    // No velocity before a second frame: the velocities and their whole covariance unknown
-    // (NaN in the first element, as the ODOMETRY definition marks an unknown covariance).
-    o.vx = o.vy = o.vz = o.yawspeed = kNaN;
-    vc.fill(kNaN);
-  }
+  FillPoseCovariance(var_xy_m2_, var_yaw_rad2_, p.covariance, o.pose_covariance);
+  // No velocity across a jump (p.reset): PX4 would reset its velocity to it (ev_reset).
+  const double local_d[3] = {dx, dy, dz};
+  FillVelocity(have_previous_ && dt > 0.0 && !p.reset, local_d, dyaw, dt, step_var_xy,
+               step_var_yaw, Rot::FromEuler(roll, pitch, yaw), o);
   o.rollspeed = o.pitchspeed = kNaN;
   o.reset_counter = reset_counter_;
   o.estimator_type = kMavEstimatorTypeVision;
-  switch (p.status) {
-    case VisionPose::Status::kBridged: o.quality = -1; break;
-    case VisionPose::Status::kFirst: o.quality = 100; break;
-    default: o.quality = static_cast<int8_t>(std::clamp(p.n_inliers, 1, 100)); break;
-  }
-  if (p.quality) o.quality = static_cast<int8_t>(std::clamp(*p.quality, -1, 100));
+  o.quality = QualityOf(p);
 
-  VisionPositionEstimate& e = out.position_estimate;
-  e.usec = p.time_usec;
-  e.x = o.x;
-  e.y = o.y;
-  e.z = o.z;
-  e.roll = static_cast<float>(roll);
-  e.pitch = static_cast<float>(pitch);
-  e.yaw = static_cast<float>(yaw);
-  e.covariance = o.pose_covariance;
-  e.reset_counter = reset_counter_;
+  out.position_estimate = EstimateOf(o, roll, pitch, yaw, p.time_usec);
 
   VisionPositionDelta& d = out.position_delta;
   d.time_usec = p.time_usec;
   if (have_previous_) {
     d.time_delta_usec = p.time_usec > previous_.time_usec ? p.time_usec - previous_.time_usec : 0;
-    // The move in the previous body frame; the angles from the previous body frame.
-    const double prev_yaw = Wrap(-previous_.heading_rad);
-    const double local_d[3] = {dx, dy, dz};
-    double body_d[3];
-    Rot::FromEuler(previous_.roll_rad.value_or(0.0), previous_.pitch_rad.value_or(0.0), prev_yaw)
-        .ToBody(local_d, body_d);
-    d.position_delta = {static_cast<float>(body_d[0]), static_cast<float>(body_d[1]),
-                        static_cast<float>(body_d[2])};
-    d.angle_delta = {static_cast<float>(roll - previous_.roll_rad.value_or(0.0)),
-                     static_cast<float>(pitch - previous_.pitch_rad.value_or(0.0)),
-                     static_cast<float>(dyaw)};
+    FillDelta(local_d, roll, pitch, dyaw, previous_, d);
+    // A jump is no motion: NaN, which ArduPilot's writeBodyFrameOdom drops.
+    if (p.reset) d.position_delta = d.angle_delta = {kNaN, kNaN, kNaN};
   }
   d.confidence = o.quality < 0 ? 0.f : static_cast<float>(o.quality);
 

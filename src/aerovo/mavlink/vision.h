@@ -36,9 +36,21 @@ struct VisionPose {
   std::optional<double> roll_rad, pitch_rad;  ///< From the autopilot, when known.
   enum class Status { kFirst, kOk, kReacquired, kBridged };
   Status status = Status::kOk;
-  /// The track was made again from this frame on (`aerovo run`'s lens estimate applied:
-  /// pipeline/lens_switch.h): the position may jump, reset_counter + 1 as for kReacquired.
+  /// The position jumped at this frame: the track made again (`aerovo run`'s lens estimate
+  /// applied, pipeline/lens_switch.h) or the live pose moved by more than the autopilots'
+  /// innovation gate (PoseJumpResetThresholdM: a loop closure's whole-graph solve, a fused fix).
+  /// reset_counter + 1 as for kReacquired; no velocity across the jump (NaN, as at the first
+  /// frame: both autopilots drop it).
   bool reset = false;
+  /// The pose's own covariance when the caller has one (`aerovo run --backend-online`: the
+  /// window's marginal covariance, odometry/flight_graph.h WindowedPose), in aerovo's local frame:
+  /// x, y [m^2], heading [rad^2] and their cross terms. Sent added to the accumulated step model.
+  struct LocalCovariance {
+    double xx = 0.0, xy = 0.0, yy = 0.0;  ///< Position, m^2.
+    double x_heading = 0.0, y_heading = 0.0;  ///< m rad.
+    double heading = 0.0;  ///< rad^2.
+  };
+  std::optional<LocalCovariance> covariance;
   int n_inliers = 0;
   /// ODOMETRY quality (0-100, -1 for a bridged frame) when the caller has one: `aerovo run`
   /// gives pipeline/pose_quality.h PoseQuality, the number its pose stream carries too. Unset:
@@ -72,6 +84,14 @@ struct VisionMessages {
 /// (docs/autopilot.md "Quality, covariance, reset counter"); the autopilot should not fuse them.
 /// Before a second frame the velocities and the whole velocity covariance are NaN (unknown);
 /// roll and pitch rates are never sent (NaN, and their variances).
+/// With VisionPose::covariance (the online window's), its position block turned into FRD
+/// (x_frd = y_local, y_frd = x_local: the x/y variances swap, the x-y term stays; yaw_frd =
+/// -heading flips the position-yaw terms) and its heading variance are added to the accumulated
+/// x/y and yaw variances; z carries the larger of x and y.
+/// At a reset (kReacquired, VisionPose::reset) the accumulated variances restart at 0: the new
+/// pose is what the autopilot re-aligns its vision offset to (ArduPilot VISO_TYPE 3) or resets
+/// its position to (PX4, ArduPilot VISO_TYPE 2), so the drift it sees counts from there
+/// (docs/autopilot.md "A pose that jumps").
 /// Quality: -1 for a bridged frame, 100 for the first (the origin, exact by definition), else
 /// the inlier count capped at 100 (12, the acceptance minimum, gives 12).
 class VisionMessageBuilder {
@@ -86,6 +106,21 @@ class VisionMessageBuilder {
   double var_xy_m2_ = 0.0, var_yaw_rad2_ = 0.0;
   uint8_t reset_counter_ = 0;
 };
+
+/// A jump of the live pose (the distance, m, between the pose sent and the previous pose sent
+/// moved by the frame's causal step) is sent as a reset (VisionPose::reset, reset_counter + 1)
+/// only when the autopilot's innovation gate would reject it as a normal update: 5 standard
+/// deviations (PX4 EKF2_EVP_GATE default 5 SD per axis; ArduPilot EK3_POS_I_GATE default 500 %
+/// of the horizontal position's) of the position noise, taken as the pose's own standard
+/// deviation `sigma_xy_m` but at least PX4's default floor EKF2_EVP_NOISE 0.1 m, the smaller of
+/// the two autopilots' (ArduPilot VISO_POS_M_NSE 0.2 m). Smaller jumps are fused by the EKF as
+/// any measurement. docs/autopilot.md "A pose that jumps" has the sources.
+constexpr double kPoseJumpGateSigmas = 5.0;
+constexpr double kPoseJumpNoiseFloorM = 0.1;
+constexpr double PoseJumpResetThresholdM(double sigma_xy_m) {
+  return kPoseJumpGateSigmas *
+         (sigma_xy_m > kPoseJumpNoiseFloorM ? sigma_xy_m : kPoseJumpNoiseFloorM);
+}
 
 /// Index of (row, col), row <= col, in the row-major upper-right triangle of a 6x6 matrix.
 constexpr int UpperTriangleIndex(int row, int col) { return row * 6 - row * (row - 1) / 2 + (col - row); }

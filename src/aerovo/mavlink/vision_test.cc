@@ -5,6 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <vector>
+
+#include <Eigen/Core>
 
 namespace aerovo::mavlink {
 namespace {
@@ -124,6 +127,96 @@ TEST(MavlinkVision, AttitudeFromTheAutopilotInTheQuaternion) {
   EXPECT_NEAR(o.q[1], std::sin(0.1) * std::cos(-0.05), 1e-6);
   EXPECT_NEAR(o.q[2], std::cos(0.1) * std::sin(-0.05), 1e-6);
   EXPECT_NEAR(o.q[3], -std::sin(0.1) * std::sin(-0.05), 1e-6);
+}
+
+}  // namespace
+}  // namespace aerovo::mavlink
+
+namespace aerovo::mavlink {
+namespace {
+
+// A jump (VisionPose::reset): reset_counter + 1 at that frame only, the accumulated variances
+// restarted from it, no velocity or delta across it; the frames after go on as before.
+TEST(MavlinkVision, AJumpIsAResetThatRestartsTheVarianceWithoutAVelocity) {
+  VisionMessageBuilder b;
+  b.Add(Pose(0.0, 0, 0, 0, VisionPose::Status::kFirst, 0));
+  std::vector<int> counters;
+  double before = 0.0;
+  for (int k = 1; k <= 4; ++k) {
+    const VisionMessages m = b.Add(Pose(0.5 * k, 0, 5.0 * k, 0, VisionPose::Status::kOk, 100));
+    counters.push_back(m.odometry.reset_counter);
+    before = m.odometry.pose_covariance[0];
+  }
+  // Step variance (0.75 px / 10 x 0.1 m/px)^2 = 5.625e-5 m^2 per frame: 4 frames.
+  EXPECT_NEAR(before, 4 * 5.625e-5, 1e-9);
+  VisionPose jump = Pose(2.5, 3.0, 29.0, 0, VisionPose::Status::kOk, 100);  // 4 m off the line
+  jump.reset = true;
+  const VisionMessages j = b.Add(jump);
+  EXPECT_EQ(j.odometry.reset_counter, 1);
+  EXPECT_EQ(j.position_estimate.reset_counter, 1);
+  EXPECT_FLOAT_EQ(j.odometry.x, 29.f);  // the new pose is sent as it is
+  EXPECT_FLOAT_EQ(j.odometry.y, 3.f);
+  EXPECT_EQ(j.odometry.pose_covariance[0], 0.f);  // restarted: the autopilot's new reference
+  EXPECT_EQ(j.odometry.pose_covariance[UpperTriangleIndex(5, 5)], 0.f);
+  EXPECT_TRUE(std::isnan(j.odometry.vx));
+  EXPECT_TRUE(std::isnan(j.odometry.velocity_covariance[0]));
+  for (float v : j.position_delta.position_delta) EXPECT_TRUE(std::isnan(v));
+  for (float v : j.odometry.pose_covariance) EXPECT_TRUE(std::isfinite(v));
+  for (int k = 6; k <= 8; ++k) {
+    const VisionMessages m =
+        b.Add(Pose(0.5 * k, 3.0, 29.0 + 5.0 * (k - 5), 0, VisionPose::Status::kOk, 100));
+    counters.push_back(m.odometry.reset_counter);
+    EXPECT_NEAR(m.odometry.pose_covariance[0], (k - 5) * 5.625e-5, 1e-9) << k;
+    EXPECT_NEAR(m.odometry.vx, 10.0, 1e-4) << k;  // 5 m forward in 0.5 s
+    EXPECT_FLOAT_EQ(m.position_delta.position_delta[0], 5.f);
+  }
+  EXPECT_EQ(counters, (std::vector<int>{0, 0, 0, 0, 1, 1, 1}));
+}
+
+// The window's covariance in the local frame (x = image right, y = image up, heading CCW) in
+// FRD (x_frd = y_local, y_frd = x_local, yaw_frd = -heading): J C J' with J the map from local
+// (x, y, heading) to FRD (x, y, yaw), added to the accumulated model.
+TEST(MavlinkVision, TheWindowsCovarianceTurnedIntoFrd) {
+  VisionMessageBuilder b;
+  b.Add(Pose(0.0, 0, 0, 0, VisionPose::Status::kFirst, 0));
+  VisionPose p = Pose(0.5, 0, 5, 0, VisionPose::Status::kOk, 100);
+  VisionPose::LocalCovariance c;
+  c.xx = 0.04;  // 0.2 m across the image
+  c.xy = 0.01;
+  c.yy = 0.09;  // 0.3 m along it
+  c.x_heading = 0.002;
+  c.y_heading = -0.003;
+  c.heading = 0.0004;  // 0.02 rad
+  p.covariance = c;
+  const VisionMessages m = b.Add(p);
+  const auto& pc = m.odometry.pose_covariance;
+  const double step = 5.625e-5, step_yaw = std::pow(0.075 / 320.0, 2);
+  Eigen::Matrix3d local;
+  local << c.xx, c.xy, c.x_heading, c.xy, c.yy, c.y_heading, c.x_heading, c.y_heading, c.heading;
+  Eigen::Matrix3d j;
+  j << 0, 1, 0, 1, 0, 0, 0, 0, -1;
+  const Eigen::Matrix3d frd = j * local * j.transpose();
+  const int index[3] = {0, 1, 5};  // x, y, yaw of the 6x6
+  for (int r = 0; r < 3; ++r) {
+    for (int q = r; q < 3; ++q) {
+      const double model = r == q ? (r == 2 ? step_yaw : step) : 0.0;
+      EXPECT_NEAR(pc[UpperTriangleIndex(index[r], index[q])], frd(r, q) + model, 1e-7)
+          << r << "," << q;
+    }
+  }
+  EXPECT_NEAR(pc[UpperTriangleIndex(0, 0)], 0.09 + step, 1e-7);  // x_frd: the image's up
+  EXPECT_NEAR(pc[UpperTriangleIndex(1, 1)], 0.04 + step, 1e-7);
+  EXPECT_NEAR(pc[UpperTriangleIndex(0, 5)], 0.003, 1e-7);
+  EXPECT_NEAR(pc[UpperTriangleIndex(2, 2)], 0.09 + step, 1e-7);  // z: the larger axis
+  for (int i = 3; i < 6; ++i) EXPECT_NEAR(pc[UpperTriangleIndex(i, i)], 0.0004 + step_yaw, 1e-9);
+  EXPECT_EQ(m.position_estimate.covariance, pc);
+}
+
+TEST(MavlinkVision, TheJumpThresholdIsTheAutopilotsGate) {
+  EXPECT_DOUBLE_EQ(PoseJumpResetThresholdM(0.0), 0.5);  // 5 x EKF2_EVP_NOISE's 0.1 m
+  EXPECT_DOUBLE_EQ(PoseJumpResetThresholdM(0.05), 0.5);
+  EXPECT_DOUBLE_EQ(PoseJumpResetThresholdM(0.4), 2.0);  // 5 sigma of the pose's own
+  EXPECT_DOUBLE_EQ(PoseJumpResetThresholdM(std::nan("")), 0.5);
 }
 
 }  // namespace

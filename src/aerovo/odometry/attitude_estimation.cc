@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <complex>
 #include <limits>
 
 #include <Eigen/Geometry>
@@ -37,23 +36,35 @@ const double kMinNadirCos = std::sin(5.0 * M_PI / 180.0);
 // residual, px.
 double PairCost(const PairPoints& pair, const Eigen::Matrix3d& m, double focal_px, double s,
                 std::vector<double>* residuals) {
-  using C = std::complex<double>;
+  // Plain scalars, not Eigen expressions or std::complex products, in the per-point loops: the
+  // same operations in the same order (so the same results), without the out-of-line calls that
+  // an unoptimised or instrumented build (the sanitizer stage of scripts/test.sh) makes of them.
   const std::size_t n = pair.prev.size();
-  thread_local std::vector<C> p, c;
-  thread_local std::vector<double> w;
-  thread_local std::vector<unsigned char> ok;
-  p.resize(n);
-  c.resize(n);
+  thread_local std::vector<double> tl_pr, tl_pi, tl_cr, tl_ci, tl_w;
+  thread_local std::vector<unsigned char> tl_ok;
+  std::vector<double>&pr = tl_pr, &pi = tl_pi, &cr = tl_cr, &ci = tl_ci, &w = tl_w;
+  std::vector<unsigned char>& ok = tl_ok;
+  pr.resize(n);
+  pi.resize(n);
+  cr.resize(n);
+  ci.resize(n);
   w.assign(n, 1.0);
   ok.assign(n, 1);
-  const auto map = [&](const Eigen::Vector2d& x, C* out) {
-    const Eigen::Vector3d ray = m * x.homogeneous();
-    if (!(ray.z() > kMinNadirCos * ray.norm())) return false;
-    *out = C(ray.x() / ray.z(), ray.y() / ray.z());
+  const double m00 = m(0, 0), m01 = m(0, 1), m02 = m(0, 2), m10 = m(1, 0), m11 = m(1, 1),
+               m12 = m(1, 2), m20 = m(2, 0), m21 = m(2, 1), m22 = m(2, 2);
+  // The ray m (x, y, 1) of a normalised point, mapped to the plane z = 1 (false: within 5
+  // degrees of the horizon or above it).
+  const auto map = [&](const Eigen::Vector2d& v, double* out_r, double* out_i) {
+    const double x = v.x(), y = v.y();
+    const double rx = m00 * x + m01 * y + m02, ry = m10 * x + m11 * y + m12,
+                 rz = m20 * x + m21 * y + m22;
+    if (!(rz > kMinNadirCos * std::sqrt(rx * rx + ry * ry + rz * rz))) return false;
+    *out_r = rx / rz;
+    *out_i = ry / rz;
     return true;
   };
   for (std::size_t i = 0; i < n; ++i) {
-    ok[i] = map(pair.prev[i], &p[i]) && map(pair.curr[i], &c[i]);
+    ok[i] = map(pair.prev[i], &pr[i], &pi[i]) && map(pair.curr[i], &cr[i], &ci[i]);
   }
   const double s2 = s * s;
   const double horizon_cost = s2 * std::log1p(kHorizonResidualScales * kHorizonResidualScales);
@@ -61,37 +72,45 @@ double PairCost(const PairPoints& pair, const Eigen::Matrix3d& m, double focal_p
   if (residuals) residuals->assign(n, kHorizonResidualScales * s);
   for (int iteration = 0; iteration < 3; ++iteration) {
     // Weighted least squares c = a p + b (a complex: rotation and scale).
-    double sw = 0.0;
-    C mp(0.0, 0.0), mc(0.0, 0.0);
+    double sw = 0.0, mpr = 0.0, mpi = 0.0, mcr = 0.0, mci = 0.0;
     for (std::size_t i = 0; i < n; ++i) {
       if (!ok[i]) continue;
       sw += w[i];
-      mp += w[i] * p[i];
-      mc += w[i] * c[i];
+      mpr += w[i] * pr[i];
+      mpi += w[i] * pi[i];
+      mcr += w[i] * cr[i];
+      mci += w[i] * ci[i];
     }
     if (!(sw > 0.0)) return horizon_cost * static_cast<double>(n);
-    mp /= sw;
-    mc /= sw;
-    C num(0.0, 0.0);
-    double den = 0.0;
+    mpr /= sw;
+    mpi /= sw;
+    mcr /= sw;
+    mci /= sw;
+    // num = sum w (c - mc) conj(p - mp), den = sum w |p - mp|^2.
+    double num_r = 0.0, num_i = 0.0, den = 0.0;
     for (std::size_t i = 0; i < n; ++i) {
       if (!ok[i]) continue;
-      const C dp = p[i] - mp;
-      num += w[i] * (c[i] - mc) * std::conj(dp);
-      den += w[i] * std::norm(dp);
+      const double dr = pr[i] - mpr, di = pi[i] - mpi;
+      const double xr = w[i] * (cr[i] - mcr), xi = w[i] * (ci[i] - mci);
+      num_r += xr * dr + xi * di;
+      num_i += xi * dr - xr * di;
+      den += w[i] * (dr * dr + di * di);
     }
     if (!(den > 0.0)) return horizon_cost * static_cast<double>(n);
-    const C a = num / den;
-    const C b = mc - a * mp;
+    const double ar = num_r / den, ai = num_i / den;
+    const double br = mcr - (ar * mpr - ai * mpi), bi = mci - (ar * mpi + ai * mpr);
     // Residuals in the current frame's pixels, Cauchy weights and cost.
     cost = 0.0;
     for (std::size_t i = 0; i < n; ++i) {
       double e2 = std::numeric_limits<double>::infinity();
       if (ok[i]) {
-        const C q = a * p[i] + b;
-        const Eigen::Vector3d back = m.transpose() * Eigen::Vector3d(q.real(), q.imag(), 1.0);
-        if (back.z() > 0.0) {
-          e2 = (back.head<2>() / back.z() - pair.curr[i]).squaredNorm() * focal_px * focal_px;
+        // q = a p + b, back to the camera's plane: m' (q, 1).
+        const double qr = (ar * pr[i] - ai * pi[i]) + br, qi = (ar * pi[i] + ai * pr[i]) + bi;
+        const double bx = m00 * qr + m10 * qi + m20, by = m01 * qr + m11 * qi + m21,
+                     bz = m02 * qr + m12 * qi + m22;
+        if (bz > 0.0) {
+          const double ex = bx / bz - pair.curr[i].x(), ey = by / bz - pair.curr[i].y();
+          e2 = (ex * ex + ey * ey) * focal_px * focal_px;
         }
       }
       if (!std::isfinite(e2)) {

@@ -521,8 +521,14 @@ std::shared_ptr<const FeatureSet> FeaturesSeen(const Ground& g, const Similarity
   auto f = std::make_shared<FeatureSet>();
   sim::Rng rng(sim::SubSeed(23, static_cast<std::uint64_t>(index)));
   const Similarity2 frame_from_local = truth.Inverse();
+  // frame_from_local.Apply in plain scalars (the same sums): every landmark of the ground is
+  // mapped for every frame, and an Eigen expression per point is slow in the sanitizer build.
+  const Eigen::Matrix2d m = frame_from_local.Linear();
+  const double m00 = m(0, 0), m01 = m(0, 1), m10 = m(1, 0), m11 = m(1, 1);
+  const double tx = frame_from_local.translation_m.x(), ty = frame_from_local.translation_m.y();
   for (std::size_t i = 0; i < g.points.size(); ++i) {
-    const Eigen::Vector2d q = frame_from_local.Apply(g.points[i]);
+    const double px = g.points[i].x(), py = g.points[i].y();
+    const Eigen::Vector2d q((m00 * px + m01 * py) + tx, (m10 * px + m11 * py) + ty);
     Keypoint k;
     k.x = static_cast<float>(kCentre.x() + q.x() / kGsd + 0.3 * rng.Normal());
     k.y = static_cast<float>(kCentre.y() - q.y() / kGsd + 0.3 * rng.Normal());

@@ -27,6 +27,14 @@ std::unique_ptr<FrameStage> MakeFlatFieldStage();                    // stage_fl
 std::unique_ptr<FrameStage> MakePreprocessStage();                   // stage_preprocess.cc
 std::unique_ptr<FrameStage> MakeOdometryStage();                     // stage_odometry.cc
 std::unique_ptr<FrameStage> MakeWindowStage();                       // stage_window.cc
+/// The window stage's test of a jump of the live pose (FrameState::pose_reset): at a whole-graph
+/// solve (w.full_solve) only, the distance between w's position and the causal prediction
+/// (`previous_windowed`, the pose given for the previous frame, moved by the causal step from
+/// `previous_causal` to `causal`) is larger than mavlink::PoseJumpResetThresholdM of w's
+/// position standard deviation (the larger axis of its covariance; 0 without one).
+bool PoseJumped(const WindowedPose& w, const backend::Similarity2& causal,
+                const backend::Similarity2& previous_causal,
+                const backend::Similarity2& previous_windowed);
 /// The frame's source index, time, world_from_frame (full-frame pixels) and causal pose into
 /// RunState::flight (run_steps.h FlightRecording), after its result went into the flight graph:
 /// the flight graph sink's and the window stage's (sink_flight_graph.cc). Call it with the

@@ -106,12 +106,12 @@ struct FrameState {
   /// The lens estimate was applied at this frame (pipeline/lens_switch.h): its position may
   /// jump from the frames before (frames.csv status "+lens", MAVLink reset_counter + 1).
   bool lens_switched = false;
+  /// the live pose jumped (a fused fix, a loop closure): MAVLink reset_counter + 1
+  bool pose_reset = false;
   /// An absolute position of this frame with its accuracy found by another stage (a fix against
   /// a map): the MAVLink sink sends it as GPS_INPUT (RunConfig::mavlink_gps_input) instead of
   /// the geo-referenced odometry pose. Unset: the odometry pose is sent.
   std::optional<mavlink::GeoFix> absolute_fix;
-  /// the live pose jumped (a fused fix, a loop closure): MAVLink reset_counter + 1
-  bool pose_reset = false;
   /// map_fix.apply: a fix taken at this frame (stage_map_fix.cc) was fused into the pose graph
   /// or rejected by its gate (FlightGraph::AddFix; frames.csv status "+map_fix",
   /// "+map_gated"); the frame it was matched at, and how far it moved this frame's pose, m.

@@ -5,6 +5,7 @@
 // frame's absolute position as GPS_INPUT (mavlink/gps_input.h): the frame's absolute fix when a
 // stage found one (FrameState::absolute_fix), else its geo-referenced odometry pose.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <memory>
@@ -34,6 +35,15 @@ mavlink::VisionPose::Status StatusOf(FrameStatus s) {
   return mavlink::VisionPose::Status::kBridged;
 }
 
+// The larger variance of the position's x/y block of an ODOMETRY pose_covariance, m^2 (its
+// largest eigenvalue: the variance along the worst direction).
+double LargerPositionVariance(const std::array<float, 21>& pc) {
+  const double a = pc[mavlink::UpperTriangleIndex(0, 0)], b = pc[mavlink::UpperTriangleIndex(0, 1)],
+               d = pc[mavlink::UpperTriangleIndex(1, 1)];
+  if (!std::isfinite(a + b + d)) return 0.0;
+  return std::max(0.0, 0.5 * (a + d) + std::sqrt(0.25 * (a - d) * (a - d) + b * b));
+}
+
 // GPS_INPUT of the odometry poses: each frame's geo-referenced position (the one frames.csv
 // gets: GeoReferencer::Wgs84FromLocal), its velocity from the previous frame's over the frames'
 // own time difference, its accuracy from the vision messages' covariance model plus the drift.
@@ -49,9 +59,12 @@ class GpsInputOfPoses {
     const double previous_time_s = previous_time_s_;
     previous_local_ = local;
     previous_time_s_ = f.frame_mono_s;
+    // Not across the lens switch or a jump of the pose (a loop closure, a fused fix): the track
+    // was re-made or corrected there, the step is no motion.
+    const bool jumped = f.lens_switched || f.pose_reset;
     // The distance flown from the first frame, whose track the geo-reference anchors (metres:
     // the local frame is metric, the geo-reference only turns and moves it).
-    if (previous && !f.lens_switched) distance_m_ += (local - *previous).norm();
+    if (previous && !jumped) distance_m_ += (local - *previous).norm();
     if (!georef.ready()) return std::nullopt;
     const RunConfig& config = *run.config;
     mavlink::GeoFix fix;
@@ -67,18 +80,17 @@ class GpsInputOfPoses {
     if (!first_height_m_) first_height_m_ = f.height_m;
     fix.alt_msl_m = g.alt_m + (f.height_m - *first_height_m_);
     const double dt = f.frame_mono_s - previous_time_s;
-    // Not across the lens switch: the track was re-made there, the step is no motion.
-    if (previous && dt > 0.0 && !f.lens_switched) {
+    if (previous && dt > 0.0 && !jumped) {
       const Eigen::Vector2d v = (georef.EnuFromLocal(local) - georef.EnuFromLocal(*previous)) / dt;
       fix.vel_east_mps = v.x();
       fix.vel_north_mps = v.y();
       // ODOMETRY's velocity variance (vx, the same for every axis; NaN at the first frame).
       fix.sigma_velocity_mps = std::sqrt(std::max(0.0, double(m.odometry.velocity_covariance[0])));
     }
-    // The step model's position variance (ODOMETRY pose_covariance[0], per axis), the online
-    // window's own when it has one, and the drift over the distance flown from the first frame.
-    double var = std::max(0.0, double(m.odometry.pose_covariance[0]));
-    if (std::isfinite(f.output.sigma_xy_m)) var += f.output.sigma_xy_m * f.output.sigma_xy_m;
+    // ODOMETRY's position variance (the step model, plus the online window's covariance when the
+    // frame has one: the larger axis of its x/y block), and the drift over the distance flown
+    // from the first frame.
+    double var = LargerPositionVariance(m.odometry.pose_covariance);
     var += std::pow(config.mavlink_gps_input_drift * distance_m_, 2);
     fix.sigma_horizontal_m = std::sqrt(var);
     // The image's up (the nose, camera mounted nose-up as for ODOMETRY) clockwise from north:
@@ -147,7 +159,14 @@ class MavlinkSink : public FrameSink {
       p.pitch_rad = f.autopilot_attitude->pitch_rad;
     }
     p.status = StatusOf(r.status);
-    p.reset = f.lens_switched;  // the track re-made under the estimated lens (lens_switch.h)
+    // The track re-made under the estimated lens (lens_switch.h), or the live pose jumped (a
+    // loop closure's whole-graph solve, stage_window.cc; a fused fix).
+    p.reset = f.lens_switched || f.pose_reset;
+    if (f.window && f.window->has_covariance) {
+      const Eigen::Matrix4d& c = f.window->covariance;  // x, y, heading, log-scale
+      p.covariance = mavlink::VisionPose::LocalCovariance{c(0, 0), c(0, 1), c(1, 1),
+                                                          c(0, 2), c(1, 2), c(2, 2)};
+    }
     p.n_inliers = r.n_inliers;
     p.quality = PoseQuality(r);  // the pose stream's number
     p.gsd_m_per_px = r.gsd_m_per_px;

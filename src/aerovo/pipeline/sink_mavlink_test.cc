@@ -11,11 +11,14 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include <Eigen/Eigenvalues>
 
 #include "aerovo/mavlink/gps_input.h"
 #include "aerovo/mavlink/transport.h"
@@ -37,20 +40,26 @@ struct Receiver {
     port = ntohs(a.sin_port);
   }
   ~Receiver() { close(fd); }
-  // The GPS_INPUTs that arrive within `wait_ms` of the last datagram.
-  std::vector<mavlink::GpsInput> Take(int wait_ms = 300) {
-    std::vector<mavlink::GpsInput> out;
+  // The GPS_INPUTs and ODOMETRYs that arrive within `wait_ms` of the last datagram.
+  struct Received {
+    std::vector<mavlink::GpsInput> gps;
+    std::vector<mavlink::Odometry> odometry;
+  };
+  Received TakeAll(int wait_ms = 300) {
+    Received out;
     uint8_t buf[2048];
     pollfd p{fd, POLLIN, 0};
     while (poll(&p, 1, wait_ms) > 0) {
       const ssize_t n = recv(fd, buf, sizeof(buf), 0);
       if (n <= 0) break;
       parser.Feed(buf, static_cast<std::size_t>(n), [&](const mavlink::Packet& k) {
-        if (auto g = mavlink::Decode<mavlink::GpsInput>(k)) out.push_back(*g);
+        if (auto g = mavlink::Decode<mavlink::GpsInput>(k)) out.gps.push_back(*g);
+        if (auto o = mavlink::Decode<mavlink::Odometry>(k)) out.odometry.push_back(*o);
       });
     }
     return out;
   }
+  std::vector<mavlink::GpsInput> Take(int wait_ms = 300) { return TakeAll(wait_ms).gps; }
   int fd = -1;
   int port = 0;
   mavlink::Parser parser;
@@ -183,6 +192,103 @@ TEST(MavlinkSink, AnAbsoluteFixOfTheFrameIsSentInsteadOfThePose) {
   EXPECT_NE(got[0].ignore_flags & mavlink::kGpsInputIgnoreVelHoriz, 0);
   EXPECT_NE(got[0].ignore_flags & mavlink::kGpsInputIgnoreAlt, 0);
   EXPECT_EQ(got[0].yaw, 0);
+}
+
+// A jump of the live pose (FrameState::pose_reset, set by the window stage at a loop closure's
+// whole-graph solve) is a reset: reset_counter + 1 at that frame only, the step model's variance
+// restarted there, no velocity across it (ODOMETRY NaN, GPS_INPUT's ignored); the online
+// window's covariance (local frame) in ODOMETRY turned into FRD, and in GPS_INPUT's accuracy.
+TEST(MavlinkSink, APoseJumpIsAResetAndTheWindowsCovarianceIsSent) {
+  SinkRun r;
+  constexpr int kJump = 6, kWindowFrom = 3;
+  const Eigen::Vector2d jump(2.0, -1.5);  // local, m
+  WindowedPose w;
+  w.has_covariance = true;
+  w.covariance << 0.04, 0.01, 0.002, 0.0,  // x: 0.2 m across the image
+      0.01, 0.09, -0.003, 0.0,             // y: 0.3 m along it (north)
+      0.002, -0.003, 0.0004, 0.0,          // heading: 0.02 rad
+      0.0, 0.0, 0.0, 1e-6;
+  for (int k = 0; k < 10; ++k) {
+    FrameState f = r.Frame(k);
+    f.frame.time_s = kDt * k;  // the velocities' time differences
+    if (k >= kJump) f.result.position_m += jump;
+    f.pose_reset = k == kJump;
+    if (k >= kWindowFrom) f.window = w;
+    r.sink->Write(f, r.run);
+  }
+  const Receiver::Received got = r.receiver.TakeAll();
+  ASSERT_EQ(got.odometry.size(), 10u);
+  const auto& o = got.odometry;
+  const double step = o[2].pose_covariance[0] / 2.0;  // the model's, per frame
+  ASSERT_GT(step, 0.0);
+  for (int k = 0; k < 10; ++k) {
+    SCOPED_TRACE("frame " + std::to_string(k));
+    EXPECT_EQ(o[k].reset_counter, k >= kJump ? 1 : 0);
+    const auto& pc = o[k].pose_covariance;
+    const double model = step * (k >= kJump ? k - kJump : k);  // restarted at the jump
+    const double window_x = k >= kWindowFrom ? 0.09 : 0.0, window_y = k >= kWindowFrom ? 0.04 : 0.0;
+    EXPECT_NEAR(pc[mavlink::UpperTriangleIndex(0, 0)], model + window_x, 1e-6);  // x_frd: north
+    EXPECT_NEAR(pc[mavlink::UpperTriangleIndex(1, 1)], model + window_y, 1e-6);
+    EXPECT_NEAR(pc[mavlink::UpperTriangleIndex(0, 1)], k >= kWindowFrom ? 0.01 : 0.0, 1e-7);
+    EXPECT_NEAR(pc[mavlink::UpperTriangleIndex(0, 5)], k >= kWindowFrom ? 0.003 : 0.0, 1e-7);
+    EXPECT_NEAR(pc[mavlink::UpperTriangleIndex(1, 5)], k >= kWindowFrom ? -0.002 : 0.0, 1e-7);
+    EXPECT_EQ(std::isnan(o[k].vx), k == 0 || k == kJump);
+  }
+  EXPECT_FLOAT_EQ(o[kJump].x, static_cast<float>(kStepM * kJump + jump.y()));
+  EXPECT_FLOAT_EQ(o[kJump].y, static_cast<float>(jump.x()));
+  // GPS_INPUT: no velocity at the jump; the distance flown leaves the jump out; the accuracy is
+  // the larger axis of ODOMETRY's x/y block and the drift.
+  ASSERT_FALSE(got.gps.empty());
+  const int first = 10 - static_cast<int>(got.gps.size());
+  ASSERT_LT(first, kJump);
+  for (std::size_t j = 0; j < got.gps.size(); ++j) {
+    const int k = first + static_cast<int>(j);
+    SCOPED_TRACE("frame " + std::to_string(k));
+    const mavlink::GpsInput& g = got.gps[j];
+    EXPECT_EQ((g.ignore_flags & mavlink::kGpsInputIgnoreVelHoriz) != 0, k == kJump);
+    const auto& pc = o[k].pose_covariance;
+    Eigen::Matrix2d xy;
+    xy << pc[0], pc[1], pc[1], pc[mavlink::UpperTriangleIndex(1, 1)];
+    const double distance = kStepM * (k > kJump ? k - 1 : std::min(k, kJump - 1));
+    const double want = std::sqrt(
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(xy).eigenvalues().maxCoeff() +
+        std::pow(0.01 * distance, 2));
+    EXPECT_NEAR(g.horiz_accuracy, want, 1e-4);
+  }
+}
+
+// The window stage's jump test (FrameState::pose_reset): only at a whole-graph solve, against
+// the causal prediction (the previous windowed pose moved by the causal step, turned by the
+// windowed heading), beyond 5 x max(0.1 m, the pose's own standard deviation).
+TEST(MavlinkSink, TheWindowStagesJumpTest) {
+  using backend::Similarity2;
+  const Similarity2 previous_causal{{0.0, 10.0}, 0.0, 0.0}, causal{{0.0, 15.0}, 0.0, 0.0};
+  const Similarity2 previous_windowed{{1.0, 10.0}, 0.0, 0.0};  // predicted: (1, 15)
+  WindowedPose w;
+  w.full_solve = true;
+  const auto jumped = [&](double x, double y, const Similarity2* prev = nullptr) {
+    w.local_from_frame = Similarity2{{x, y}, 0.0, 0.0};
+    return PoseJumped(w, causal, previous_causal, prev ? *prev : previous_windowed);
+  };
+  EXPECT_FALSE(jumped(1.0, 15.0));
+  EXPECT_FALSE(jumped(1.3, 15.3));  // 0.42 m: under 0.5 m, an ordinary measurement
+  EXPECT_TRUE(jumped(1.4, 15.4));   // 0.57 m
+  EXPECT_TRUE(jumped(-2.0, 11.0));  // 5 m
+  w.full_solve = false;             // the window's own solve: never a reset
+  EXPECT_FALSE(jumped(-2.0, 11.0));
+  w.full_solve = true;
+  // The pose's own uncertainty widens the gate: 0.2 m (x) -> 1 m.
+  w.has_covariance = true;
+  w.covariance = Eigen::Matrix4d::Identity() * 1e-4;
+  w.covariance(0, 0) = 0.04;
+  EXPECT_FALSE(jumped(1.9, 15.0));
+  EXPECT_TRUE(jumped(2.1, 15.0));
+  w.has_covariance = false;
+  // The causal step (5 m along the frame's up) turned by the previous windowed heading (90 deg
+  // counter-clockwise): predicted (1, 10) + (-5, 0).
+  const Similarity2 turned{{1.0, 10.0}, M_PI / 2, 0.0};
+  EXPECT_FALSE(jumped(-4.0, 10.0, &turned));
+  EXPECT_TRUE(jumped(1.0, 15.0, &turned));
 }
 
 TEST(MavlinkSink, NoGpsInputUnlessAskedFor) {

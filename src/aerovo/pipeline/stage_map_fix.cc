@@ -15,26 +15,24 @@
 // covariance weight and every later frame with it, so that this frame's position and heading
 // (FrameResult, local frame) and every output after this stage (frames.csv, the tracks, the
 // pose stream, MAVLink, the comparisons) carry it, and the next frames are chained from it.
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <memory>
 #include <optional>
 #include <utility>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
 #include "aerovo/backend/similarity2.h"
+#include "aerovo/mavlink/vision.h"
 #include "aerovo/pipeline/frame_loop.h"
 #include "aerovo/pipeline/map_fixer.h"
 
 namespace aerovo::run_steps {
 namespace {
 
-// A fused fix that moves the live pose by more than this, metres, is a jump for the autopilot
-// (FrameState::pose_reset: MAVLink reset_counter + 1). Our choice: above the odometry's
-// frame-to-frame noise at survey heights, below the error an EKF would otherwise be asked to
-// absorb as motion.
-constexpr double kPoseResetM = 0.5;
 // Floors of a fix's covariance: a fix is not trusted beyond its inliers' own RMS transfer error
 // (MapFix::residual_m) per axis, and its heading beyond 0.5 degrees (the fit's covariance from
 // the residuals leaves out the frame's tilt and the map's own errors).
@@ -119,7 +117,15 @@ class MapFixStage : public FrameStage {
     f.result.position_m = o.newest.translation_m;
     f.result.heading_rad = o.newest.heading_rad;
     if (f.window) f.window->local_from_frame = o.newest;
-    if (f.map_fix_moved_m > kPoseResetM) f.pose_reset = true;
+    // A jump past the autopilots' innovation gate is a reset (mavlink/vision.h
+    // PoseJumpResetThresholdM of the pose's own standard deviation, the window's).
+    double sigma_m = 0.0;
+    if (f.window && f.window->has_covariance) {
+      const Eigen::Matrix2d xy = f.window->covariance.topLeftCorner<2, 2>();
+      sigma_m = std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(
+                                            xy, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff()));
+    }
+    if (f.map_fix_moved_m > mavlink::PoseJumpResetThresholdM(sigma_m)) f.pose_reset = true;
   }
 
   int processed_ = 0;             // frames seen by this stage

@@ -5,13 +5,22 @@
 // (GPS check, geo-referencing, frames.csv and the track files, the pose stream, MAVLink) carries
 // it. With map_fix.apply and without backend.online the window is "fixes only" (frame_state.h
 // WindowRuns): the frames' steps into the graph, no keyframe matching, no closures, no
-// summary.json "online"; the map-fix stage adds the fixes (FlightGraph::AddFix). The causal pixel transform (FrameResult::world_from_frame, transforms.csv) is left as the
-// odometry made it. The frame's features are released from the FrameState here (the graph keeps
+// summary.json "online"; the map-fix stage adds the fixes (FlightGraph::AddFix). The causal
+// pixel transform (FrameResult::world_from_frame, transforms.csv) is left as the odometry made it. The frame's features are released from the FrameState here (the graph keeps
 // those of its keyframes only). summary.json "online" counts the pairs and the stage's time.
+// A whole-graph solve (a verified loop closure) that moves the frame's pose away from the causal
+// prediction (the pose given for the previous frame moved by the frame's causal step) by more
+// than mavlink::PoseJumpResetThresholdM of its standard deviation sets FrameState::pose_reset
+// (MAVLink reset_counter + 1; docs/autopilot.md "A pose that jumps").
+#include <algorithm>
+#include <cmath>
 #include <memory>
 #include <optional>
 
+#include <Eigen/Eigenvalues>
+
 #include "aerovo/core/timer.h"
+#include "aerovo/mavlink/vision.h"
 #include "aerovo/pipeline/frame_loop.h"
 
 namespace aerovo::run_steps {
@@ -40,6 +49,9 @@ class WindowStage : public FrameStage {
                                .AddOnline(f.result, fitter_, seed);
     RecordFlightFrame(f, run);  // the causal pose, before it is replaced below
     f.result.features.reset();
+    const backend::Similarity2 causal{f.result.position_m, f.result.heading_rad, 0.0};
+    f.pose_reset = previous_ && PoseJumped(w, causal, previous_->causal, previous_->windowed);
+    previous_ = Given{causal, w.local_from_frame};
     f.result.position_m = w.local_from_frame.translation_m;
     f.result.heading_rad = w.local_from_frame.heading_rad;
     f.window = w;
@@ -58,10 +70,31 @@ class WindowStage : public FrameStage {
   }
 
  private:
+  // The previous frame's causal pose and the windowed pose given for it.
+  struct Given {
+    backend::Similarity2 causal, windowed;
+  };
   PairFitter fitter_;
+  std::optional<Given> previous_;
 };
 
 }  // namespace
+
+bool PoseJumped(const WindowedPose& w, const backend::Similarity2& causal,
+                const backend::Similarity2& previous_causal,
+                const backend::Similarity2& previous_windowed) {
+  if (!w.full_solve) return false;
+  const backend::Similarity2 predicted =
+      previous_windowed * backend::Between(previous_causal, causal);
+  const double jump_m = (w.local_from_frame.translation_m - predicted.translation_m).norm();
+  double sigma_m = 0.0;
+  if (w.has_covariance) {
+    const Eigen::Matrix2d xy = w.covariance.topLeftCorner<2, 2>();
+    sigma_m = std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(
+                                          xy, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff()));
+  }
+  return jump_m > mavlink::PoseJumpResetThresholdM(sigma_m);
+}
 
 std::unique_ptr<FrameStage> MakeWindowStage() { return std::make_unique<WindowStage>(); }
 
