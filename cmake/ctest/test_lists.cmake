@@ -129,5 +129,5 @@ set(AEROVO_TEST_COSTS
   SixStripSurvey.BuiltInTerrain 12
   SixStripSurvey.CallasOrthophoto 13
   MapFix.SimulatedFlightFixesAgainstAnotherSeasonMap 8
-  MapFix.AppliedFixesBoundTheErrorOfADriftingTrack 12
+  MapFix.AppliedFixesBoundTheErrorOfADriftingTrack 11
 )
