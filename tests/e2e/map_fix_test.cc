@@ -178,9 +178,9 @@ TEST(MapFix, SimulatedFlightFixesAgainstAnotherSeasonMap) {
 // fix taken at the next due frame, as now) 3.57 m RMSE, 5.27 m max; fused: at most that, with
 // 5 % of tolerance (measured 3.64, 5.27 m; BENCHMARKS.md, "Fixes against the map": on this
 // flight the error left is the 10 % scale error over the 5 frames between a fix's frame and
-// the frame it is taken at, which neither removes). With --backend-enable the offline track (vo_optimized.*) uses every fused
-// fix as an absolute factor too. The same input gives the same fused track (the first 32
-// frames run again: 4 fixes fused).
+// the frame it is taken at, which neither removes). With --backend-enable the offline track
+// (vo_optimized.*) uses every fused fix as an absolute factor too (measured 0.06 m RMSE). The
+// same input gives the same fused track (the first 32 frames run again: 4 fixes fused).
 TEST(MapFix, AppliedFixesBoundTheErrorOfADriftingTrack) {
   const MapFixFlight& f = Flight();
   if (!f.skip.empty()) GTEST_SKIP() << f.skip;

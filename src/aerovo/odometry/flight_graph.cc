@@ -550,13 +550,12 @@ OptimizedFlight FlightGraph::Optimize(const PairFitter& fitter, std::uint64_t ru
 void FlightGraph::SpreadCorrection(int anchor, int k, const Eigen::Vector3d& c) {
   const Similarity2 at_k = graph_.estimates()[static_cast<std::size_t>(k)];
   const Eigen::Rotation2Dd turn(c.z());
-  const double span = path_m_[static_cast<std::size_t>(k)] - path_m_[static_cast<std::size_t>(anchor)];
+  const double start = path_m_[static_cast<std::size_t>(anchor)];
+  const double span = path_m_[static_cast<std::size_t>(k)] - start;
   for (int j = anchor + 1; j < num_frames(); ++j) {
     Similarity2 p = graph_.estimates()[static_cast<std::size_t>(j)];
     if (j < k) {  // between the anchor and the fix: the fraction of the path from the anchor
-      const double w =
-          span > 0.0 ? (path_m_[static_cast<std::size_t>(j)] - path_m_[static_cast<std::size_t>(anchor)]) / span
-                     : 1.0;
+      const double w = span > 0.0 ? (path_m_[static_cast<std::size_t>(j)] - start) / span : 1.0;
       p.translation_m += w * c.head<2>();
       p.heading_rad = backend::WrapAngleRad(p.heading_rad + w * c.z());
     } else {  // the fix's frame and the later ones: rigidly, turned about the fix's frame

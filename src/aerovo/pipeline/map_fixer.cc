@@ -74,7 +74,7 @@ void MapFixer::Work() {
 }
 
 std::optional<MapFixRecord> MapFixer::TakeFix(bool due) {
-  if (!due && !live_) return std::nullopt;  // a file source: at due frames only (same input, same track)
+  if (!due && !live_) return std::nullopt;  // a file source: at due frames only
   std::unique_lock lock(mutex_);
   if (due && !live_) done_.wait(lock, [this] { return !busy_ && !job_; });
   if (taken_ >= records_.size()) return std::nullopt;

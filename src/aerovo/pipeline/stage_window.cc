@@ -6,8 +6,9 @@
 // it. With map_fix.apply and without backend.online the window is "fixes only" (frame_state.h
 // WindowRuns): the frames' steps into the graph, no keyframe matching, no closures, no
 // summary.json "online"; the map-fix stage adds the fixes (FlightGraph::AddFix). The causal
-// pixel transform (FrameResult::world_from_frame, transforms.csv) is left as the odometry made it. The frame's features are released from the FrameState here (the graph keeps
-// those of its keyframes only). summary.json "online" counts the pairs and the stage's time.
+// pixel transform (FrameResult::world_from_frame, transforms.csv) is left as the odometry made
+// it. The frame's features are released from the FrameState here (the graph keeps those of its
+// keyframes only). summary.json "online" counts the pairs and the stage's time.
 // A whole-graph solve (a verified loop closure) that moves the frame's pose away from the causal
 // prediction (the pose given for the previous frame moved by the frame's causal step) by more
 // than mavlink::PoseJumpResetThresholdM of its standard deviation sets FrameState::pose_reset
