@@ -3,10 +3,13 @@
 // 640x480, focal 427 px: a footprint of 150 m across and 112 m along the track, the image's top
 // towards the east), GPS with 0.5 m of noise. The map built from the flight given as a source
 // (run first) must cover what the camera saw: the truth's track widened by the footprint, in
-// WGS84 and at the frames' ground sampling, as a tiled, compressed GeoTIFF with an overview.
+// WGS84 and at the frames' ground sampling, as a tiled, compressed GeoTIFF with an overview; and
+// it must do so when the odometry drifts (a height 10 % wrong) as long as the frames are placed
+// by the track optimised with the GPS fixes (the default), where the VO track's placement fails.
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -56,26 +59,13 @@ nlohmann::json Info(const fs::path& map) {
   return nlohmann::json::parse(c.out, nullptr, false);
 }
 
-TEST(MapBuild, FromASimulatedFlightCoversWhatTheCameraSaw) {
-  const MapFlight& f = Flight();
-  ASSERT_EQ(f.simulate_rc, 0);
-  ASSERT_EQ(f.build_rc, 0) << e2e::ReadText(f.dir / "build.log");
-  // The source was run first, beside the map.
-  EXPECT_TRUE(fs::exists(f.dir / "map_run" / "frames.csv"));
-  const nlohmann::json m = Info(f.dir / "map.tif");
-  ASSERT_TRUE(m.is_object());
-  EXPECT_EQ(m.at("epsg"), 32635);  // UTM 35N: longitude 24.03 E
-  EXPECT_EQ(m.at("bands"), 4);
-  EXPECT_EQ(m.at("compression"), "DEFLATE");
-  EXPECT_EQ(m.at("block_x_px"), 512);
-  EXPECT_GE(m.at("overviews").size(), 1u);
-  // The frames' own ground sampling: 100 m / 427 px (the map is smaller than 4000 px).
+// The camera's footprint over the truth's track (east from -56.2 m to 60 + 56.2 m: the image's
+// 480 rows along the track; north +-74.9 m: its 640 columns, at 100 m / 427 px), in the
+// simulation's ENU frame. A map is north-up in UTM zone 35, whose grid is turned 2.3 degrees from
+// true north there: its extent is the UTM bounds of the footprint, and those bounds' WGS84 bounds
+// (edges sampled). Returns {min lon, max lon, min lat, max lat}, degrees.
+std::array<double, 4> TruthExtent(const MapFlight& f) {
   const double gsd = 100.0 / 426.9755;
-  EXPECT_NEAR(m.at("m_per_px_x").get<double>(), gsd, 0.02 * gsd);
-  // The camera's footprint over the truth's track, in the simulation's ENU frame: east from
-  // -56.2 m to 60 + 56.2 m (the image's 480 rows along the track), north +-74.9 m (640 columns).
-  // The map is north-up in UTM zone 35, whose grid is turned 2.3 degrees from true north there:
-  // its extent is the UTM bounds of the footprint, and those bounds' WGS84 bounds (edges sampled).
   const nlohmann::json sim = e2e::ReadJson(f.dir / "sim" / "sim.json");
   const LocalEnu enu(sim.at("origin").at("lat_deg").get<double>(),
                      sim.at("origin").at("lon_deg").get<double>(), 0.0);
@@ -102,16 +92,76 @@ TEST(MapBuild, FromASimulatedFlightCoversWhatTheCameraSaw) {
       lat0 = std::min(lat0, lat), lat1 = std::max(lat1, lat);
     }
   }
-  const nlohmann::json& g = m.at("extent_lonlat");
-  // 1 m (0.25 m measured): GPS noise (0.5 m) in the geo-reference, the odometry's drift over
-  // 60 m and the mosaic's rounding to whole pixels (0.23 m).
-  const double deg_lat = 1.0 / 111200.0, deg_lon = deg_lat / std::cos(49.84 * M_PI / 180.0);
-  EXPECT_NEAR(g.at("min_x").get<double>(), lon0, deg_lon);
-  EXPECT_NEAR(g.at("max_x").get<double>(), lon1, deg_lon);
-  EXPECT_NEAR(g.at("min_y").get<double>(), lat0, deg_lat);
-  EXPECT_NEAR(g.at("max_y").get<double>(), lat1, deg_lat);
+  return {lon0, lon1, lat0, lat1};
+}
+
+// The largest of the four edges' distances (metres) between a map's WGS84 extent (`map info
+// --json`) and `truth` (TruthExtent).
+double EdgeErrorM(const nlohmann::json& info, const std::array<double, 4>& truth) {
+  const nlohmann::json& g = info.at("extent_lonlat");
+  const double m_lat = 111200.0, m_lon = m_lat * std::cos(49.84 * M_PI / 180.0);
+  return std::max({std::abs(g.at("min_x").get<double>() - truth[0]) * m_lon,
+                   std::abs(g.at("max_x").get<double>() - truth[1]) * m_lon,
+                   std::abs(g.at("min_y").get<double>() - truth[2]) * m_lat,
+                   std::abs(g.at("max_y").get<double>() - truth[3]) * m_lat});
+}
+
+TEST(MapBuild, FromASimulatedFlightCoversWhatTheCameraSaw) {
+  const MapFlight& f = Flight();
+  ASSERT_EQ(f.simulate_rc, 0);
+  ASSERT_EQ(f.build_rc, 0) << e2e::ReadText(f.dir / "build.log");
+  // The source was run first, beside the map.
+  EXPECT_TRUE(fs::exists(f.dir / "map_run" / "frames.csv"));
+  const nlohmann::json m = Info(f.dir / "map.tif");
+  ASSERT_TRUE(m.is_object());
+  EXPECT_EQ(m.at("epsg"), 32635);  // UTM 35N: longitude 24.03 E
+  EXPECT_EQ(m.at("bands"), 4);
+  EXPECT_EQ(m.at("compression"), "DEFLATE");
+  EXPECT_EQ(m.at("block_x_px"), 512);
+  EXPECT_GE(m.at("overviews").size(), 1u);
+  // The frames' own ground sampling: 100 m / 427 px (the map is smaller than 4000 px).
+  const double gsd = 100.0 / 426.9755;
+  EXPECT_NEAR(m.at("m_per_px_x").get<double>(), gsd, 0.02 * gsd);
+  // 1 m: GPS noise (0.5 m) in the fixes that place the frames and the mosaic's rounding to whole
+  // pixels (0.23 m).
+  EXPECT_LT(EdgeErrorM(m, TruthExtent(f)), 1.0);
   const std::string log = e2e::ReadText(f.dir / "build.log");
   EXPECT_NE(log.find("overviews"), std::string::npos) << log;
+}
+
+// The same flight run with a height 10 % low (--altitude 90 for 100 m): the odometry's track and
+// footprints are 10 % short, so the map placed by that track (--place-by track) is off by metres
+// at its edges (5.6 m at the west, where the geo-reference starts, 11.6 m at the east), whereas
+// the map placed by the track optimised with the GPS fixes (the default) takes the scale from
+// the fixes (the graph's common log-scale; odometry/flight_graph.h BackendOptions::gps_sigma_m).
+// A run folder that was not optimised with its GPS cannot be placed by it: an error naming it.
+TEST(MapBuild, PlacedByGpsWhereTheOdometryDrifts) {
+  const MapFlight& f = Flight();
+  ASSERT_EQ(f.simulate_rc, 0);
+  const auto build = [&](const std::string& name, const std::string& flags) {
+    return e2e::RunCli(fmt::format("map build {} --altitude 90 {} -q -o {}",
+                                   (f.dir / "sim" / "video.mp4").string(), flags,
+                                   (f.dir / (name + ".tif")).string()),
+                       f.dir / (name + ".log")) >> 8;
+  };
+  ASSERT_EQ(build("low_gps", ""), 0) << e2e::ReadText(f.dir / "low_gps.log");
+  ASSERT_EQ(build("low_track", "--place-by track"), 0) << e2e::ReadText(f.dir / "low_track.log");
+  const std::array<double, 4> truth = TruthExtent(f);
+  const double by_gps = EdgeErrorM(Info(f.dir / "low_gps.tif"), truth);
+  const double by_track = EdgeErrorM(Info(f.dir / "low_track.tif"), truth);
+  RecordProperty("edge_error_by_gps_m", fmt::format("{:.2f}", by_gps));
+  RecordProperty("edge_error_by_track_m", fmt::format("{:.2f}", by_track));
+  EXPECT_LT(by_gps, 1.0) << "by the track: " << by_track;
+  EXPECT_GT(by_track, 5.0) << "by the GPS: " << by_gps;
+  const fs::path log = f.dir / "low_again.log";
+  EXPECT_EQ(e2e::RunCli(fmt::format("map build {} -o {}", (f.dir / "low_track_run").string(),
+                                    (f.dir / "again.tif").string()),
+                        log) >> 8,
+            1);
+  EXPECT_NE(e2e::ReadText(log).find("'" + (f.dir / "low_track_run").string() +
+                                    "': cannot build a map from this run by its GPS"),
+            std::string::npos)
+      << e2e::ReadText(log);
 }
 
 TEST(MapBuild, ARunWithoutGeoReferenceIsAnErrorNamingIt) {

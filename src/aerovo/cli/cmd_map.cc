@@ -42,6 +42,10 @@ void RunInfo(const InfoArgs& a) {
   if (a.json) std::cout << (all.size() == 1 ? all[0] : all).dump(2) << "\n";
 }
 
+// backend.gps_sigma_m of a flight that `map build --place-by gps` runs when the flags give
+// none: a consumer GPS's horizontal error, metres per axis (docs/map.md).
+constexpr double kGpsSigmaM = 3.0;
+
 struct BuildArgs {
   RunFlags run;
   std::string out;
@@ -81,6 +85,11 @@ void RunBuild(BuildArgs& a) {
     RunConfig c = a.run.Resolve();
     if (IsRunDir(c.input)) return c;  // a run folder: no run, its flags are not used
     c.out = RunDirFor(a).string();
+    if (a.options.place_by == map::PlaceBy::kGps) {
+      // The offline optimisation with the GPS fixes as position factors (docs/map.md).
+      c.backend.enable = true;
+      if (!(c.backend.gps_sigma_m > 0.0)) c.backend.gps_sigma_m = kGpsSigmaM;
+    }
     Validate(c);
     return c;
   });
@@ -90,9 +99,13 @@ void RunBuild(BuildArgs& a) {
     RunFlightFirst(config, run_dir);
   }
   const map::MapBuildResult r = map::BuildMapFromRun(run_dir, a.out, a.options);
-  std::cout << fmt::format("map build: {} from the run '{}' ({} frames warped; their centres fit "
-                           "the geo-referenced track to {:.2f} m RMS)\n",
-                           a.out, run_dir.string(), r.frames_used, r.fit_rmse_m)
+  for (const std::string& w : r.warnings) std::cerr << "warning: " << w << "\n";
+  std::cout << fmt::format("map build: {} from the run '{}' ({} frames warped, placed by {}; "
+                           "their centres fit the geo-referenced track to {:.2f} m RMS)\n",
+                           a.out, run_dir.string(), r.frames_used,
+                           r.placed_by_gps ? "the track optimised with the GPS fixes"
+                                           : "the VO track",
+                           r.fit_rmse_m)
             << map::FormatMapInfo(r.info);
 }
 
@@ -131,6 +144,17 @@ void Register(CLI::App& app) {
                         "At most this many frames warped (every n-th)")
       ->capture_default_str()
       ->check(CLI::Range(1, 1000000));
+  build_cmd
+      ->add_option_function<std::string>(
+          "--place-by",
+          [build](const std::string& v) {
+            build->options.place_by = v == "track" ? map::PlaceBy::kTrack : map::PlaceBy::kGps;
+          },
+          "How the frames are placed: gps (the track optimised with the GPS fixes as position "
+          "factors: a flight is run with --backend-enable and --backend-gps-sigma-m, default "
+          "3 m; a run folder must have been) or track (the causal VO track)")
+      ->check(CLI::IsMember({"gps", "track"}))
+      ->default_str("gps");
   build_cmd->callback([build] { RunBuild(*build); });
 }
 

@@ -1,5 +1,8 @@
 #include "aerovo/map/map_build.h"
 
+#include <algorithm>
+#include <cmath>
+#include <utility>
 #include <system_error>
 
 #include <cpl_error.h>
@@ -13,6 +16,10 @@
 
 namespace aerovo::map {
 namespace fs = std::filesystem;
+
+const char* ToString(PlaceBy place_by) {
+  return place_by == PlaceBy::kGps ? "gps" : "track";
+}
 
 void Validate(const MapBuildOptions& o) {
   if (o.max_size_px < 100 || o.max_size_px > 20000) {
@@ -85,7 +92,53 @@ void WriteCog(const fs::path& tif, const fs::path& out) {
   }
 }
 
+// Whether `run` ran the offline optimisation with its GPS fixes as factors (config.json
+// "backend.enable" and "backend.gps_sigma_m" > 0) and wrote its poses (transforms_optimized.csv, one
+// row per row of transforms.csv).
+bool OptimisedWithGps(const RunData& run) {
+  if (run.transforms_optimized.empty() ||
+      run.transforms_optimized.size() != run.transforms.size() || !run.config.is_object()) {
+    return false;
+  }
+  // config.json's keys are the flat config keys ("backend.enable").
+  const auto enable = run.config.find("backend.enable");
+  const auto sigma = run.config.find("backend.gps_sigma_m");
+  return enable != run.config.end() && enable->is_boolean() && enable->get<bool>() &&
+         sigma != run.config.end() && sigma->is_number() && sigma->get<double>() > 0.0;
+}
+
 }  // namespace
+
+std::string TiltedFramesWarning(const nlohmann::json& summary, const nlohmann::json& config) {
+  if (!summary.is_object() || !summary.contains("attitude_sources") ||
+      !summary["attitude_sources"].is_object()) {
+    return "";
+  }
+  int per_frame = 0;
+  std::string sources;
+  for (const auto& [name, count] : summary["attitude_sources"].items()) {
+    if (name == "estimated" || name == "none" || !count.is_number_integer()) continue;
+    if (count.get<int>() <= 0) continue;
+    per_frame += count.get<int>();
+    sources += (sources.empty() ? "" : ", ") + name;
+  }
+  const double tilt = summary.contains("max_tilt_deg") && summary["max_tilt_deg"].is_number()
+                          ? summary["max_tilt_deg"].get<double>()
+                          : 0.0;
+  if (per_frame == 0 || !(tilt > 1.0)) return "";
+  std::string lever = "h tan(tilt)";
+  if (config.is_object() && config.contains("altitude_m") && config["altitude_m"].is_number() &&
+      config["altitude_m"].get<double>() > 0.0) {
+    lever = fmt::format("{:.1f} m at {:.0f} m",
+                        config["altitude_m"].get<double>() * std::tan(tilt * M_PI / 180.0),
+                        config["altitude_m"].get<double>());
+  }
+  return fmt::format(
+      "{} frames of the run were corrected with a per-frame camera attitude ({}; up to {:.1f} deg "
+      "from nadir) that the run folder does not record: the map draws them as read, so their "
+      "ground lands up to {} behind its place along the image top",
+      per_frame, sources, tilt, lever);
+}
 
 MapBuildResult BuildMapFromRun(const fs::path& run_dir, const fs::path& out,
                                const MapBuildOptions& options) {
@@ -95,10 +148,24 @@ MapBuildResult BuildMapFromRun(const fs::path& run_dir, const fs::path& out,
                      "folder of `aerovo run`, or the flight itself");
   }
   const RunData run = ReadRunDir(run_dir);
+  const bool by_gps = options.place_by == PlaceBy::kGps;
+  // (A run that is not geo-referenced is refused below by the mosaic, saying so.)
+  const bool geo_referenced = std::count_if(run.frames.begin(), run.frames.end(),
+                                            [](const RunFrameRow& f) { return f.geo; }) >= 3;
+  if (by_gps && geo_referenced && !OptimisedWithGps(run)) {
+    throw InputError(
+        "'" + run_dir.string() + "': cannot build a map from this run by its GPS: it was not "
+        "optimised with its GPS fixes (needs "
+        "transforms_optimized.csv and backend.enable with backend.gps_sigma_m > 0 in its "
+        "config.json): run the flight again with --backend-enable --backend-gps-sigma-m 3 (or "
+        "give `map build` the flight itself), or place the frames by the VO track with "
+        "--place-by track");
+  }
   const ScratchDir scratch(fs::absolute(out));
   MosaicOptions mo;
   mo.max_size_px = options.max_size_px;
   mo.max_frames = options.max_frames;
+  mo.optimized = by_gps;
   const GeoMosaicResult g =
       WriteGeoMosaic(run, scratch.dir, out.stem().string() + " (aerovo map)", mo);
   if (!g.written) {
@@ -109,6 +176,10 @@ MapBuildResult BuildMapFromRun(const fs::path& run_dir, const fs::path& out,
   r.info = ReadMapInfo(out);
   r.frames_used = g.frames_used;
   r.fit_rmse_m = g.fit_rmse_m;
+  r.placed_by_gps = g.optimized;
+  if (std::string w = TiltedFramesWarning(run.summary, run.config); !w.empty()) {
+    r.warnings.push_back(std::move(w));
+  }
   return r;
 }
 

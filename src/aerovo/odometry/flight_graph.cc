@@ -494,7 +494,8 @@ void FlightGraph::TryClosures(const PairFitter& fitter, std::uint64_t run_seed,
   }
 }
 
-OptimizedFlight FlightGraph::Optimize(const PairFitter& fitter, std::uint64_t run_seed) const {
+OptimizedFlight FlightGraph::Optimize(const PairFitter& fitter, std::uint64_t run_seed,
+                                      const std::vector<backend::AbsoluteFactor>& absolute) const {
   if (poses_.empty()) throw InvalidArgument("FlightGraph::Optimize: no frame was added");
   OptimizedFlight out;
   out.keyframes = num_keyframes();
@@ -502,6 +503,9 @@ OptimizedFlight FlightGraph::Optimize(const PairFitter& fitter, std::uint64_t ru
   backend::PoseGraph graph = graph_;
   for (int i = 0; i < graph.num_poses(); ++i) graph.SetHeld(i, false);  // AddFix's, online only
   const std::size_t base_factors = graph.relative_factors().size();
+  const std::size_t base_absolute = graph.absolute_factors().size();
+  for (const backend::AbsoluteFactor& f : absolute) graph.AddAbsolute(f);
+  out.absolute = static_cast<int>(absolute.size());
   const Stopwatch match_time;
   std::vector<std::pair<int, int>> tried;  // keyframe indices, as tried
   for (int i = 0; i < num_keyframes(); ++i) {
@@ -543,6 +547,9 @@ OptimizedFlight FlightGraph::Optimize(const PairFitter& fitter, std::uint64_t ru
     if (p.verdict != PairVerdict::kAdded || k >= result.relative.size()) continue;
     p.down_weighted = result.relative[k++].outlier;
     out.outliers += p.down_weighted ? 1 : 0;
+  }
+  for (std::size_t a = base_absolute; a < result.absolute.size(); ++a) {
+    out.absolute_outliers += result.absolute[a].outlier ? 1 : 0;
   }
   return out;
 }

@@ -105,6 +105,14 @@ struct BackendOptions {
   double closure_similarity = 0.3;
   /// Closure candidates tried per keyframe at most (the most similar first). Default 2.
   int closure_max_candidates = 2;
+  /// The run's GPS fixes as absolute position factors of the offline optimisation (enable),
+  /// standard deviation of each fix's horizontal position per axis, metres; 0: none (the graph
+  /// keeps the causal track's placement). Only the fixes the run accepted (not rejected by the
+  /// plausibility check, not withheld by GPS denial) and only once the run is geo-referenced;
+  /// the robust cost of the solve down-weights a fix that disagrees with the images. The
+  /// optimised track then takes its shape from the images and its placement (and a common
+  /// scale, heading) from all the fixes. Default 0; `aerovo map build` sets 3 (docs/map.md).
+  double gps_sigma_m = 0.0;
 };
 
 /// Throws InvalidArgument naming the field ("backend.gate must be ...").
@@ -129,6 +137,7 @@ void VisitFields(BackendOptions& o, V& v) {
   v.Field(o.closure_search_radius, "closure_search_radius", "Loop closures: candidates within this causal distance, fraction of the footprint's smaller side", GreaterThan(0).Finite());
   v.Field(o.closure_similarity, "closure_similarity", "Loop closures: least similarity, relative to the previous keyframe's", GreaterThan(0).Finite());
   v.Field(o.closure_max_candidates, "closure_max_candidates", "Loop closures: candidates tried per keyframe at most", AtLeast(1));
+  v.Field(o.gps_sigma_m, "gps_sigma_m", "GPS fixes as absolute position factors of the offline optimisation: standard deviation per axis, metres (0: none)", AtLeast(0).Finite());
 }
 // clang-format on
 
@@ -206,6 +215,8 @@ struct OptimizedFlight {
   int pairs_rejected = 0;  ///< Tried and not added (no fit, inliers, spread or gate).
   int pairs_gated = 0;     ///< Of those, rejected by the gate.
   int outliers = 0;        ///< Added pairs the robust cost down-weighted (pose_graph.h).
+  int absolute = 0;           ///< Absolute factors given to Optimize and added.
+  int absolute_outliers = 0;  ///< Of those, down-weighted by the robust cost.
   /// Of the pairs, the loop-closure candidates found by appearance (BackendOptions::closures):
   /// tried, verified (added), rejected by the gate.
   int closures_tried = 0, closures_verified = 0, closures_gated = 0;
@@ -333,9 +344,14 @@ class FlightGraph {
   const backend::PoseGraph& graph() const { return graph_; }
 
   /// The pairs, their verdicts, the solve. `fitter`: how a pair is matched
-  /// (MakeStandardPairFitter in a run); `run_seed`: the run's RANSAC seed. Throws
-  /// InvalidArgument when no frame was added.
-  OptimizedFlight Optimize(const PairFitter& fitter, std::uint64_t run_seed) const;
+  /// (MakeStandardPairFitter in a run); `run_seed`: the run's RANSAC seed. `absolute`: fixes
+  /// added to the solve beside the pairs (e.g. each frame's GPS position in the local frame,
+  /// pipeline/run_steps.h OptimizeFlight), their `pose` the frame's index in the order added;
+  /// they take the robust cost as every factor (a bad fix is down-weighted: OptimizedFlight::
+  /// absolute_outliers). Throws InvalidArgument when no frame was added, or naming an absolute
+  /// factor that is invalid (backend::PoseGraph::AddAbsolute).
+  OptimizedFlight Optimize(const PairFitter& fitter, std::uint64_t run_seed,
+                           const std::vector<backend::AbsoluteFactor>& absolute = {}) const;
 
  private:
   struct Keyframe {

@@ -974,6 +974,38 @@ void WriteOptimizedTransforms(const FlightRecording& flight, const OptimizedFlig
   }
 }
 
+// The run's accepted GPS fixes (not rejected, not withheld) as absolute position factors of the
+// graph frames (pose = index in flight.frames), each moved into the local frame by the inverse of
+// the geo-reference (enu_from_local, a rotation and a translation: odometry/georef.h), with the
+// information 1 / sigma^2 per axis (backend.gps_sigma_m). None when sigma is 0 or the run is not
+// geo-referenced.
+std::vector<backend::AbsoluteFactor> GpsFactors(const RunConfig& config,
+                                                const FlightRecording& flight,
+                                                const GeoReferencer& georef,
+                                                const RunTotals& totals) {
+  std::vector<backend::AbsoluteFactor> out;
+  const double sigma = config.backend.gps_sigma_m;
+  if (!(sigma > 0.0) || !georef.ready() || !georef.has_enu()) return out;
+  const Eigen::Vector2d enu_of_origin = georef.EnuFromLocal(Eigen::Vector2d::Zero());
+  const Eigen::Rotation2Dd local_from_enu_rotation(-georef.rotation_rad());
+  Eigen::Matrix4d information = Eigen::Matrix4d::Identity();
+  information.topLeftCorner<2, 2>() *= 1.0 / (sigma * sigma);
+  for (std::size_t i = 0; i < totals.gps_frames.size(); ++i) {
+    if (totals.gps_rejected[i] || totals.gps_withheld[i]) continue;
+    const auto it =
+        std::lower_bound(flight.frames.begin(), flight.frames.end(), totals.gps_frames[i]);
+    if (it == flight.frames.end() || *it != totals.gps_frames[i]) continue;
+    const Eigen::Vector3d enu = georef.enu().Forward(totals.gps_geo[i]);
+    backend::AbsoluteFactor f;
+    f.pose = static_cast<int>(it - flight.frames.begin());
+    f.local_from_frame.translation_m =
+        local_from_enu_rotation * (Eigen::Vector2d(enu.x(), enu.y()) - enu_of_origin);
+    f.information = information;
+    out.push_back(f);
+  }
+  return out;
+}
+
 }  // namespace
 
 CorrespondenceOptions PairCorrespondenceOptions(const RunConfig& config) {
@@ -990,7 +1022,7 @@ void OptimizeFlight(const RunConfig& config, const FlightRecording& flight,
   const OptimizedFlight opt = flight.graph->Optimize(
       MakeStandardPairFitter(PairCorrespondenceOptions(config), flight.graph->width(),
                              flight.graph->height()),
-      config.odometry.correspondence.ransac.seed);
+      config.odometry.correspondence.ransac.seed, GpsFactors(config, flight, georef, totals));
   WriteOptimizedTrack(config, flight, opt, georef, out_dir);
   WriteOptimizedTransforms(flight, opt, out_dir);
   RunSummary::Optimized o;
@@ -1003,6 +1035,8 @@ void OptimizeFlight(const RunConfig& config, const FlightRecording& flight,
   o.closures_tried = opt.closures_tried;
   o.closures_verified = opt.closures_verified;
   o.closures_gated = opt.closures_gated;
+  o.gps_factors = opt.absolute;
+  o.gps_outliers = opt.absolute_outliers;
   o.match_s = opt.match_s;
   o.solve_s = opt.solve_s;
   o.iterations = opt.iterations;

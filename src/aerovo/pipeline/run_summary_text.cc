@@ -40,6 +40,10 @@ std::string FormatOptimized(const RunSummary& s) {
     t += fmt::format("  loop closures by appearance: {} tried, {} verified, {} rejected by the gate\n",
                      o.closures_tried, o.closures_verified, o.closures_gated);
   }
+  if (o.gps_factors > 0) {
+    t += fmt::format("  GPS fixes as position factors: {} ({} down-weighted)\n", o.gps_factors,
+                     o.gps_outliers);
+  }
   const auto rows = [&](const char* what, const std::optional<TrajectoryComparison>& causal,
                         const std::optional<TrajectoryComparison>& optimised) {
     if (!causal || !optimised) return;

@@ -42,6 +42,8 @@ nlohmann::json ToJson(const RunSummary::Optimized& o) {
           {"closures_tried", o.closures_tried},
           {"closures_verified", o.closures_verified},
           {"closures_gated", o.closures_gated},
+          {"gps_factors", o.gps_factors},
+          {"gps_outliers", o.gps_outliers},
           {"match_s", o.match_s},
           {"solve_s", o.solve_s},
           {"cpu_s", o.cpu_s},

@@ -172,6 +172,9 @@ struct RunSummary {
     /// Of the pairs, the loop-closure candidates found by appearance (backend.closures): tried,
     /// verified, rejected by the gate.
     int closures_tried = 0, closures_verified = 0, closures_gated = 0;
+    /// GPS fixes added as absolute position factors (backend.gps_sigma_m), and of those the
+    /// ones the robust cost down-weighted.
+    int gps_factors = 0, gps_outliers = 0;
     double match_s = 0.0;  ///< Matching and fitting the pairs, wall s.
     double solve_s = 0.0;  ///< The graph solve, wall s.
     /// CPU time of the whole offline step (pairs, solve, vo_optimized.*, comparisons), s of all

@@ -24,9 +24,12 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "aerovo/backend/similarity2.h"
 #include "aerovo/mavlink/vision.h"
+#include "aerovo/odometry/attitude.h"
 #include "aerovo/pipeline/frame_loop.h"
 #include "aerovo/pipeline/map_fixer.h"
 
@@ -41,6 +44,30 @@ constexpr double kHeadingFloorRad = 0.5 * M_PI / 180.0;
 // taken more than this many frames after its frame is not fused (the worker does one attempt
 // at a time, so a fix is at most a few attempts late).
 constexpr std::size_t kFramesRemembered = 4096;
+// The frame's pixels as the virtual nadir camera with the same centre and focal length sees them
+// (odometry/attitude.h NadirFromCameraHomography with the attitude the odometry applied, principal
+// point at the centre): the map fixer takes the frame's centre for the ground point under the
+// camera (odometry/map_match.h), as the odometry's keypoints, mapped through the same homography,
+// do. A frame without an applied attitude is copied as it is; pixels outside the tilted frame
+// are 0.
+GrayImage NadirPixels(const FrameState& f, double focal_px) {
+  const int w = f.pixels.width, h = f.pixels.height;
+  GrayImage out(w, h);
+  const cv::Mat src(h, w, CV_8UC1, const_cast<std::uint8_t*>(f.pixels.data),
+                    static_cast<std::size_t>(f.pixels.stride));
+  cv::Mat dst(h, w, CV_8UC1, out.data());
+  if (!f.attitude.camera) {
+    src.copyTo(dst);
+    return out;
+  }
+  const Eigen::Matrix3d m =
+      NadirFromCameraHomography(*f.attitude.camera, focal_px, 0.5 * (w - 1), 0.5 * (h - 1));
+  const cv::Matx33d nadir_from_frame(m(0, 0), m(0, 1), m(0, 2), m(1, 0), m(1, 1), m(1, 2),
+                                     m(2, 0), m(2, 1), m(2, 2));
+  cv::warpPerspective(src, dst, nadir_from_frame, dst.size(), cv::INTER_LINEAR,
+                      cv::BORDER_CONSTANT, cv::Scalar(0));
+  return out;
+}
 
 class MapFixStage : public FrameStage {
  public:
@@ -68,10 +95,7 @@ class MapFixStage : public FrameStage {
     MapFixJob job;
     job.frame = f.frame.index;
     job.time_s = f.frame.time_s;
-    job.pixels = GrayImage(f.pixels.width, f.pixels.height);
-    for (int y = 0; y < f.pixels.height; ++y) {
-      std::copy_n(f.pixels.row(y), f.pixels.width, job.pixels.row(y));
-    }
+    job.pixels = NadirPixels(f, focal_px);
     job.focal_px = focal_px;
     job.height_m = f.height_m;
     job.heading_rad = f.result.heading_rad + georef.rotation_rad();

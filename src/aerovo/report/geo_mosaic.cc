@@ -280,9 +280,13 @@ GeoMosaicResult WriteGeoMosaic(const RunData& run, const fs::path& dir, const st
   // for both (transforms_optimized.csv keeps transforms.csv's first-frame pixels).
   const std::vector<FrameTransformRow>& placements = MosaicPlacements(run, options);
   r.optimized = &placements == &run.transforms_optimized;
+  // The corners of the frames as drawn: through the virtual nadir camera (MosaicNadirFromFrame).
+  const Eigen::Matrix3d nadir_from_frame = MosaicNadirFromFrame(run, w, h);
   for (const FrameTransformRow& t : placements) {
-    for (const auto& [cx, cy] : {std::pair<double, double>{-0.5, -0.5}, {w - 0.5, -0.5},
-                                 {w - 0.5, h - 0.5}, {-0.5, h - 0.5}}) {
+    for (const auto& [x, y] : {std::pair<double, double>{-0.5, -0.5}, {w - 0.5, -0.5},
+                               {w - 0.5, h - 0.5}, {-0.5, h - 0.5}}) {
+      const Eigen::Vector3d q = nadir_from_frame * Eigen::Vector3d(x, y, 1.0);
+      const double cx = q.x() / q.z(), cy = q.y() / q.z();
       const Eigen::Vector2d p(t.a[0] * cx + t.a[1] * cy + t.a[2],
                               t.a[3] * cx + t.a[4] * cy + t.a[5]);
       if (!p.allFinite()) continue;

@@ -15,6 +15,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/frames/camera.h"
 #include "aerovo/frames/frame_source.h"
+#include "aerovo/odometry/attitude.h"
 #include "aerovo/outputs/track_writers.h"
 #include "aerovo/report/mosaic_warp.h"
 
@@ -87,6 +88,25 @@ std::string InputPath(const RunData& run, fs::path* input_path) {
 
 bool MosaicFrameSize(const RunData& run, int* width_px, int* height_px) {
   return FrameSize(run, width_px, height_px);
+}
+
+Eigen::Matrix3d MosaicNadirFromFrame(const RunData& run, int width_px, int height_px) {
+  const Eigen::Matrix3d identity = Eigen::Matrix3d::Identity();
+  if (!run.summary.is_object() || !run.summary.contains("attitude_estimate")) return identity;
+  const nlohmann::json& a = run.summary["attitude_estimate"];
+  if (!a.is_object() || !a.value("applied", false) || !a.contains("roll_deg") ||
+      !a.contains("pitch_deg") || !a["roll_deg"].is_number() || !a["pitch_deg"].is_number()) {
+    return identity;
+  }
+  const double focal_px = run.config.is_object() && run.config.contains("resolved")
+                              ? ConfigValue<double>(run.config["resolved"], "focal_px", 0.0)
+                              : 0.0;
+  if (!(focal_px > 0.0)) return identity;
+  CameraAttitude attitude;
+  attitude.roll_deg = a["roll_deg"].get<double>();
+  attitude.pitch_deg = a["pitch_deg"].get<double>();
+  return NadirFromCameraHomography(attitude, focal_px, 0.5 * (width_px - 1),
+                                   0.5 * (height_px - 1));
 }
 
 const std::vector<FrameTransformRow>& MosaicPlacements(const RunData& run,
@@ -183,6 +203,11 @@ MosaicWarpOutcome WarpRunFrames(const RunData& run, const MosaicOptions& options
   }
   // The run saw the frames dimmed by illumination_k (illumination experiment): so does the mosaic.
   const double illumination_k = ConfigValue<double>(run.config, "illumination_k", 1.0);
+  // The frames to the virtual nadir camera the transforms place (the run's attitude).
+  const Eigen::Matrix3d nadir = MosaicNadirFromFrame(run, w, h);
+  const cv::Matx33d nadir_from_frame(nadir(0, 0), nadir(0, 1), nadir(0, 2), nadir(1, 0),
+                                     nadir(1, 1), nadir(1, 2), nadir(2, 0), nadir(2, 1),
+                                     nadir(2, 2));
   const int last_frame = placements.back().frame;
   try {
     std::unique_ptr<FrameSource> source = OpenFrameSource(input_path.string(), so);
@@ -213,7 +238,7 @@ MosaicWarpOutcome WarpRunFrames(const RunData& run, const MosaicOptions& options
         const cv::Matx23d& c = target.canvas_from_first;
         const cv::Matx33d canvas_from_first(c(0, 0), c(0, 1), c(0, 2), c(1, 0), c(1, 1), c(1, 2),
                                             0, 0, 1);
-        cv::Matx33d m = canvas_from_first * first_from_frame;
+        cv::Matx33d m = canvas_from_first * first_from_frame * nadir_from_frame;
         const int cw = target.bgr.cols, ch = target.bgr.rows;
         // Downscale first (area averaging) when the frame shrinks a lot on the canvas: faster
         // and without aliasing.
@@ -232,8 +257,9 @@ MosaicWarpOutcome WarpRunFrames(const RunData& run, const MosaicOptions& options
         for (const cv::Point2d c :
              {cv::Point2d(0, 0), cv::Point2d(small.cols - 1, 0),
               cv::Point2d(small.cols - 1, small.rows - 1), cv::Point2d(0, small.rows - 1)}) {
-          const double x = m(0, 0) * c.x + m(0, 1) * c.y + m(0, 2);
-          const double y = m(1, 0) * c.x + m(1, 1) * c.y + m(1, 2);
+          const double z = m(2, 0) * c.x + m(2, 1) * c.y + m(2, 2);
+          const double x = (m(0, 0) * c.x + m(0, 1) * c.y + m(0, 2)) / z;
+          const double y = (m(1, 0) * c.x + m(1, 1) * c.y + m(1, 2)) / z;
           bx0 = std::min(bx0, x);
           by0 = std::min(by0, y);
           bx1 = std::max(bx1, x);
@@ -250,13 +276,13 @@ MosaicWarpOutcome WarpRunFrames(const RunData& run, const MosaicOptions& options
                                static_cast<int>(std::ceil(std::min<double>(by1, ch))) + 1)) &
             cv::Rect(0, 0, cw, ch);
         if (box.area() <= 0) continue;
-        const cv::Matx23d roi_from_frame(m(0, 0), m(0, 1), m(0, 2) - box.x, m(1, 0), m(1, 1),
-                                         m(1, 2) - box.y);
-        cv::warpAffine(small, warped, roi_from_frame, box.size(), cv::INTER_LINEAR,
-                       cv::BORDER_CONSTANT);
+        const cv::Matx33d roi_from_frame =
+            cv::Matx33d(1, 0, -box.x, 0, 1, -box.y, 0, 0, 1) * m;
+        cv::warpPerspective(small, warped, roi_from_frame, box.size(), cv::INTER_LINEAR,
+                            cv::BORDER_CONSTANT);
         ones = cv::Mat(small.size(), CV_8UC1, cv::Scalar(255));
-        cv::warpAffine(ones, mask, roi_from_frame, box.size(), cv::INTER_NEAREST,
-                       cv::BORDER_CONSTANT);
+        cv::warpPerspective(ones, mask, roi_from_frame, box.size(), cv::INTER_NEAREST,
+                            cv::BORDER_CONSTANT);
         cv::erode(mask, mask, cv::Mat());  // no dark seam from the interpolated border
         warped.copyTo(target.bgr(box), mask);
         if (!target.coverage.empty()) target.coverage(box).setTo(255, mask);
@@ -297,11 +323,13 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
     max_x = std::max(max_x, x);
     max_y = std::max(max_y, y);
   };
+  const Eigen::Matrix3d nadir_from_frame = MosaicNadirFromFrame(run, w, h);
   for (const FrameTransformRow& t : MosaicPlacements(run, options)) {
     const cv::Matx23d m = ToMatx(t);
     for (const cv::Point2d c : {cv::Point2d(0, 0), cv::Point2d(w - 1, 0), cv::Point2d(w - 1, h - 1),
                                 cv::Point2d(0, h - 1)}) {
-      const cv::Point2d p = Apply(m, c.x, c.y);
+      const Eigen::Vector3d q = nadir_from_frame * Eigen::Vector3d(c.x, c.y, 1.0);
+      const cv::Point2d p = Apply(m, q.x() / q.z(), q.y() / q.z());
       grow(p.x, p.y);
     }
   }

@@ -68,6 +68,15 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
 /// Centre of every frame of `run` with a transform, in first-frame pixels (frame order of
 /// transforms.csv, or of `rows` when given, e.g. run.transforms_optimized); `frames` receives
 /// their frame indices. Needs config.json's resolved frame size; empty when unknown.
+/// The homography nadir_from_frame of the run's frames (odometry/attitude.h
+/// NadirFromCameraHomography: a pixel of the frame as read, after the lens undistortion, to the
+/// pixel of the same ray in the virtual nadir camera whose pixels transforms.csv places, principal
+/// point at the frame's centre) for the attitude the run applied to every frame (summary.json
+/// "attitude_estimate" with "applied": its roll_deg and pitch_deg) and the run's focal length
+/// (config.json "resolved"."focal_px"); the identity when the run applied none. A per-frame
+/// attitude from telemetry is not recorded in the run folder: such frames are drawn as read.
+Eigen::Matrix3d MosaicNadirFromFrame(const RunData& run, int width_px, int height_px);
+
 std::vector<Eigen::Vector2d> FrameCentresPx(const RunData& run, std::vector<int>* frames = nullptr,
                                             const std::vector<FrameTransformRow>* rows = nullptr);
 

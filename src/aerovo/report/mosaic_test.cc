@@ -1,0 +1,41 @@
+// report/mosaic.h MosaicNadirFromFrame: the frames of a run that applied an attitude are drawn
+// through the virtual nadir camera (odometry/attitude.h); a run without one as read.
+#include "aerovo/report/mosaic.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include <Eigen/Core>
+
+namespace aerovo {
+namespace {
+
+RunData TiltedRun(bool applied) {
+  RunData run;
+  run.config = {{"resolved", {{"focal_px", 462.0}, {"frame_width_px", 800},
+                              {"frame_height_px", 600}}}};
+  run.summary = {{"attitude_estimate",
+                  {{"applied", applied}, {"roll_deg", 0.0}, {"pitch_deg", 15.0}}}};
+  return run;
+}
+
+// A camera pitched 15 deg forward (towards the image top) looks at the ground 15 deg ahead of
+// nadir with its image centre: in the virtual nadir camera that ray is f tan(15 deg) above the
+// centre, and the nadir (the virtual camera's centre) is below the tilted image's centre.
+TEST(MosaicNadir, TheTiltedImageCentreIsDrawnAheadOfTheNadir) {
+  const Eigen::Matrix3d h = MosaicNadirFromFrame(TiltedRun(true), 800, 600);
+  const Eigen::Vector3d c = h * Eigen::Vector3d(399.5, 299.5, 1.0);
+  EXPECT_NEAR(c.x() / c.z(), 399.5, 1e-9);
+  EXPECT_NEAR(c.y() / c.z(), 299.5 - 462.0 * std::tan(15.0 * M_PI / 180.0), 1e-6);
+}
+
+TEST(MosaicNadir, NoAppliedAttitudeDrawsTheFrameAsRead) {
+  EXPECT_TRUE(MosaicNadirFromFrame(TiltedRun(false), 800, 600).isIdentity());
+  RunData no_summary = TiltedRun(true);
+  no_summary.summary = nullptr;
+  EXPECT_TRUE(MosaicNadirFromFrame(no_summary, 800, 600).isIdentity());
+}
+
+}  // namespace
+}  // namespace aerovo
