@@ -19,7 +19,7 @@
 #   - Runner.BrightonPhantom3...: a third real photo flight against the stored real-flight table
 #     (the photo-folder path of Runner.TampaPhantom3..., which stays; 16:9 photo metadata: the
 #     image-metadata unit tests and fuzzer).
-#   - MapFix.AppliedFixesBound...: the map fixes applied to a drifting track, against the truth
+#   - MapFix.AppliedFixesBound...: the map fixes fused into a drifting track, against the truth
 #     (the map-fix thread, matcher and outputs: MapFix.SimulatedFlightFixes..., which stays, and
 #     the map_match and map_fixer unit tests).
 #   - SixStripSurvey.*: the back-end's figures on 2.4 and 2.9 km surveys (the same offline and
@@ -132,7 +132,7 @@ set(AEROVO_TEST_COSTS
   SixStripSurvey.BuiltInTerrain 12
   SixStripSurvey.CallasOrthophoto 13
   MapFix.SimulatedFlightFixesAgainstAnotherSeasonMap 8
-  MapFix.AppliedFixesBoundTheErrorOfADriftingTrack 8
+  MapFix.AppliedFixesBoundTheErrorOfADriftingTrack 11
   MapFix.AStart300MOffIsFound 8
   MapFix.AFalseMapRegionIsRejectedByTheGate 7
 )

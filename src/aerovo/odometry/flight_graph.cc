@@ -6,6 +6,7 @@
 #include <utility>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 #include <Eigen/LU>
 
 #include "aerovo/backend/pixel_step.h"
@@ -42,6 +43,10 @@ constexpr double kGateLogScale = 0.2;
 // root, the linear gate's bound in standard deviations of the drift model.
 constexpr double kClosureGateChi2 = 16.27;
 constexpr double kClosureGateSigmas = 4.034;
+// AddFix's gate: chi-square at 0.999 with 2 (position) and 3 (position and heading) degrees of
+// freedom.
+constexpr double kFixGateChi2Position = 13.82;
+constexpr double kFixGateChi2WithHeading = 16.27;
 // Random projections per descriptor word of the keyframe signatures (place_signature.h): 2^16
 // words, so that two unrelated frames of ~1000 points share few words by chance (about
 // 1000^2 / 2^16 = 15 of 1000) while a ground point seen twice keeps its word about half the time.
@@ -304,6 +309,7 @@ std::vector<int> FlightGraph::CandidatesOf(int i) const {
 }
 
 Eigen::Matrix3d FlightGraph::ChainCovariance(int a, int b) const {
+  if (a >= b) return Eigen::Matrix3d::Zero();
   std::vector<Eigen::Matrix3d> cov(static_cast<std::size_t>(b - a + 1), Eigen::Matrix3d::Zero());
   const Similarity2 a_from_local = poses_[static_cast<std::size_t>(a)].Inverse();
   for (int k = a + 1; k <= b; ++k) {
@@ -422,11 +428,11 @@ WindowedPose FlightGraph::AddOnline(const FrameResult& r, const PairFitter& fitt
   WindowedPose out;
   const int n = num_frames();
   std::vector<int> tried;
-  if (r.features != nullptr && r.status != FrameStatus::kBridged && n > 1) {
+  if (fitter && r.features != nullptr && r.status != FrameStatus::kBridged && n > 1) {
     MatchRecent({r.index, r.gsd_m_per_px, path_m_.back(), r.features, nullptr}, r.reference_index,
                 fitter, run_seed, &out, &tried);
   }
-  if (options_.closures && !keyframes_.empty() && keyframes_.back().frame == r.index &&
+  if (fitter && options_.closures && !keyframes_.empty() && keyframes_.back().frame == r.index &&
       MatchClosures(fitter, run_seed, tried, &out)) {
     // A closure reaches far behind the window: the poses between its ends must move too, which
     // the window (older poses held) cannot do; the whole graph is solved (docs/backend.md).
@@ -495,6 +501,7 @@ OptimizedFlight FlightGraph::Optimize(const PairFitter& fitter, std::uint64_t ru
   out.keyframes = num_keyframes();
   out.local_from_frame = poses_;
   backend::PoseGraph graph = graph_;
+  for (int i = 0; i < graph.num_poses(); ++i) graph.SetHeld(i, false);  // AddFix's, online only
   const std::size_t base_factors = graph.relative_factors().size();
   const std::size_t base_absolute = graph.absolute_factors().size();
   for (const backend::AbsoluteFactor& f : absolute) graph.AddAbsolute(f);
@@ -544,6 +551,97 @@ OptimizedFlight FlightGraph::Optimize(const PairFitter& fitter, std::uint64_t ru
   for (std::size_t a = base_absolute; a < result.absolute.size(); ++a) {
     out.absolute_outliers += result.absolute[a].outlier ? 1 : 0;
   }
+  return out;
+}
+
+void FlightGraph::SpreadCorrection(int anchor, int k, const Eigen::Vector3d& c) {
+  const Similarity2 at_k = graph_.estimates()[static_cast<std::size_t>(k)];
+  const Eigen::Rotation2Dd turn(c.z());
+  const double start = path_m_[static_cast<std::size_t>(anchor)];
+  const double span = path_m_[static_cast<std::size_t>(k)] - start;
+  for (int j = anchor + 1; j < num_frames(); ++j) {
+    Similarity2 p = graph_.estimates()[static_cast<std::size_t>(j)];
+    if (j < k) {  // between the anchor and the fix: the fraction of the path from the anchor
+      const double w = span > 0.0 ? (path_m_[static_cast<std::size_t>(j)] - start) / span : 1.0;
+      p.translation_m += w * c.head<2>();
+      p.heading_rad = backend::WrapAngleRad(p.heading_rad + w * c.z());
+    } else {  // the fix's frame and the later ones: rigidly, turned about the fix's frame
+      p.translation_m = at_k.translation_m + c.head<2>() +
+                        turn * (p.translation_m - at_k.translation_m);
+      p.heading_rad = backend::WrapAngleRad(p.heading_rad + c.z());
+    }
+    graph_.SetEstimate(j, p);
+  }
+}
+
+FixOutcome FlightGraph::AddFix(const GraphFix& fix) {
+  const int k = fix.frame, n = num_frames();
+  if (!options_.online) throw InvalidArgument("FlightGraph::AddFix: backend.online is off");
+  if (k < 0 || k >= n) {
+    throw InvalidArgument("FlightGraph::AddFix: frame " + std::to_string(k) +
+                          " is not in the graph (" + std::to_string(n) + " frames)");
+  }
+  const bool heading = fix.heading_rad.has_value();
+  if (!fix.position_m.allFinite() || !fix.position_cov_m2.allFinite() ||
+      (heading && (!std::isfinite(*fix.heading_rad) || !(fix.heading_var_rad2 > 0.0))) ||
+      !(fix.position_cov_m2.determinant() > 0.0) || !(fix.position_cov_m2(0, 0) > 0.0)) {
+    throw InvalidArgument("FlightGraph::AddFix: the fix of frame " + std::to_string(k) +
+                          " is not finite or its covariance is not positive definite");
+  }
+  const int a = std::min(last_fix_frame_, k);
+  // P: the frame's uncertainty since the anchor, in the local frame.
+  Eigen::Matrix3d p = ChainCovariance(a, k);
+  Eigen::Matrix3d rot = Eigen::Matrix3d::Identity();
+  rot.topLeftCorner<2, 2>() = poses_[static_cast<std::size_t>(a)].Linear() /
+                              std::exp(poses_[static_cast<std::size_t>(a)].log_scale);
+  p = rot * p * rot.transpose();
+  const double side_m = gsd_[static_cast<std::size_t>(k)] * std::min(width_, height_);
+  const double path_m = path_m_[static_cast<std::size_t>(k)] - path_m_[static_cast<std::size_t>(a)];
+  const double st = (options_.gate * path_m + kGateFloorFraction * side_m) / kClosureGateSigmas;
+  const double sh = options_.gate_heading_deg * M_PI / 180.0 / kClosureGateSigmas;
+  p.diagonal() += Eigen::Vector3d(st * st, st * st, sh * sh);
+  Eigen::Matrix3d r = Eigen::Matrix3d::Zero();
+  r.topLeftCorner<2, 2>() = 0.5 * (fix.position_cov_m2 + fix.position_cov_m2.transpose());
+  r(2, 2) = heading ? fix.heading_var_rad2 : 0.0;
+  const Similarity2 x = graph_.estimates()[static_cast<std::size_t>(k)];
+  Eigen::Vector3d e;
+  e << fix.position_m - x.translation_m,
+      heading ? backend::WrapAngleRad(*fix.heading_rad - x.heading_rad) : 0.0;
+  // se = S^-1 e over the measured components (S = P + R; the heading's row left out without
+  // one: its component of e and se is then 0).
+  Eigen::Vector3d se = Eigen::Vector3d::Zero();
+  if (heading) {
+    se = (p + r).ldlt().solve(e);
+  } else {
+    se.head<2>() = (p + r).topLeftCorner<2, 2>().ldlt().solve(Eigen::Vector2d(e.head<2>()));
+  }
+  FixOutcome out;
+  out.d2 = e.dot(se);
+  out.bound = heading ? kFixGateChi2WithHeading : kFixGateChi2Position;
+  out.newest = graph_.estimates().back();
+  if (!(out.d2 <= out.bound)) {
+    ++fixes_gated_;
+    return out;
+  }
+  // The correction of every component (the heading's too, through its correlation with the
+  // position, when the fix has no heading): P[:, measured] S^-1 e.
+  out.correction = p * se;
+  SpreadCorrection(a, k, out.correction);
+  backend::AbsoluteFactor f;
+  f.pose = k;
+  f.local_from_frame = Similarity2{fix.position_m, heading ? *fix.heading_rad : 0.0, 0.0};
+  f.has_heading = heading;
+  f.information.topLeftCorner<2, 2>() = r.topLeftCorner<2, 2>().inverse();
+  if (heading) f.information(2, 2) = 1.0 / fix.heading_var_rad2;
+  graph_.AddAbsolute(f);
+  // The frames up to the fix's are final: a window's solve, whose steps know nothing of the
+  // drift the correction undid, must not pull them back (Optimize solves them again).
+  for (int j = 0; j <= k; ++j) graph_.SetHeld(j, true);
+  last_fix_frame_ = k;
+  ++fixes_fused_;
+  out.fused = true;
+  out.newest_moved_m = (graph_.estimates().back().translation_m - out.newest.translation_m).norm();
+  out.newest = graph_.estimates().back();
   return out;
 }
 

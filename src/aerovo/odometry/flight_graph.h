@@ -246,6 +246,32 @@ struct WindowedPose {
   double full_solve_ms = 0.0;
 };
 
+/// An absolute fix of a frame already in the graph (FlightGraph::AddFix): a position and
+/// optionally a heading in the local frame (pose_chain.h), with their covariance. A fix against
+/// a geo-referenced map (odometry/map_match.h MapFix) is brought from the run's ENU frame to
+/// the local one by the GeoReferencer's rotation (pipeline/stage_map_fix.cc).
+struct GraphFix {
+  int frame = 0;  ///< The frame's index in the graph (FrameResult::index).
+  Eigen::Vector2d position_m = Eigen::Vector2d::Zero();  ///< Local frame, m.
+  std::optional<double> heading_rad;                     ///< Local frame (FrameResult's), rad.
+  /// Covariance of the position, m^2 (symmetric positive definite), and of the heading, rad^2
+  /// (> 0 when heading_rad is set).
+  Eigen::Matrix2d position_cov_m2 = Eigen::Matrix2d::Identity();
+  double heading_var_rad2 = 0.0;
+};
+
+/// What AddFix did.
+struct FixOutcome {
+  bool fused = false;  ///< Passed the gate and added as an absolute factor (else gated).
+  /// The gate's statistic: d^2 = e' (P + R)^-1 e (FlightGraph::AddFix), and its bound.
+  double d2 = 0.0, bound = 0.0;
+  /// The correction made at the fix's frame: (x, y [m, local], heading [rad]); zero when gated.
+  Eigen::Vector3d correction = Eigen::Vector3d::Zero();
+  /// The newest frame's estimate after the fix (the live pose), and how far its position moved.
+  backend::Similarity2 newest;
+  double newest_moved_m = 0.0;
+};
+
 /// The frames of a run in order, built as they come (Add), optimised at the end (Optimize).
 class FlightGraph {
  public:
@@ -271,7 +297,34 @@ class FlightGraph {
   /// re-optimised (OptimizeAll) before the window's solve, so that the poses between the two
   /// ends of the loop move too (docs/backend.md, "Loop closures"). Returns the frame's windowed
   /// pose.
+  /// An empty `fitter` adds the frame's step only (no keyframe matching, no closures): the
+  /// "fixes only" window of map_fix.apply without backend.online (docs/backend.md).
   WindowedPose AddOnline(const FrameResult& r, const PairFitter& fitter, std::uint64_t run_seed);
+
+  /// An absolute fix of frame fix.frame (added already; BackendOptions::online, as the window's
+  /// poses are re-estimated), judged against the graph's estimate x of that frame and fused
+  /// (docs/backend.md, "Absolute fixes"):
+  /// - the anchor a is the frame of the last fused fix (the first frame before any): the
+  ///   frame's uncertainty since then, P, is the covariance of (x, y, heading) chained from the
+  ///   step factors a + 1..frame (as JudgeClosure's chain_cov, rotated into the local frame)
+  ///   plus JudgeClosure's drift model over the causal path from a to the frame; R is the fix's;
+  /// - the gate: e = fix - x (the heading wrapped; the heading left out without one), d^2 = e'
+  ///   (P + R)^-1 e <= the chi-square bound at 0.999 (13.82 for 2 degrees of freedom, 16.27 for
+  ///   3); a gated fix changes nothing;
+  /// - a fused fix corrects the frame by c = P (P + R)^-1 e (each weighted by its covariance);
+  ///   the frames after it (up to the newest) move rigidly with it (turned by c's heading about
+  ///   the frame), the frames between a and it by the fraction of the causal path from a,
+  ///   so that every later frame (AddOnline chains a new pose from the previous estimate)
+  ///   carries the correction; the fix becomes an absolute factor of the graph (Optimize uses
+  ///   it), and the poses up to the fix's frame are held from then on (final: the window's
+  ///   step factors, which know nothing of the drift the correction undid, would pull them
+  ///   back; Optimize frees them, a closure's whole-graph solve online moves only the later
+  ///   ones).
+  /// InvalidArgument when the frame is not in the graph, the graph is not online, or the fix is
+  /// not finite or its covariance not positive definite.
+  FixOutcome AddFix(const GraphFix& fix);
+  int fixes_fused() const { return fixes_fused_; }
+  int fixes_gated() const { return fixes_gated_; }
 
   /// Forgets the keyframes added so far (their features are released and never matched again):
   /// at a change of the lens model (pipeline/lens_switch.h) the earlier frames' features are
@@ -317,10 +370,12 @@ class FlightGraph {
   PairVerdict TryPair(const Keyframe& a, const Keyframe& b, const PairFitter& fitter,
                       std::uint64_t run_seed, bool guided, backend::RelativeFactor* f,
                       TriedPair* record, bool closure = false) const;
-  // The covariance of (x, y, heading) of frame b in frame a's coordinates (a < b), chained from
-  // the step factors of frames a + 1..b along the causal poses (a step from a frame before a
-  // starts from zero).
+  // The covariance of (x, y, heading) of frame b in frame a's coordinates (a < b; zero when
+  // a >= b), chained from the step factors of frames a + 1..b along the causal poses (a step
+  // from a frame before a starts from zero).
   Eigen::Matrix3d ChainCovariance(int a, int b) const;
+  // AddFix's correction c of frame k spread over the estimates from `anchor` + 1 on.
+  void SpreadCorrection(int anchor, int k, const Eigen::Vector3d& c);
   // Keyframe i's closure candidates by appearance: older keyframes j <= i - 2 whose frame is
   // at least `window` frames before i's, within closure_search_radius by the causal track, with
   // a relative similarity of at least closure_similarity; the most similar first (ties: the
@@ -350,6 +405,8 @@ class FlightGraph {
   std::uint64_t seed_ = 0;
   std::optional<DescriptorQuantizer> quantizer_;  // made at the first keyframe (closures)
   std::vector<std::pair<int, int>> online_closures_;  // frame pairs added online (a < b)
+  int last_fix_frame_ = 0;                            // AddFix's anchor
+  int fixes_fused_ = 0, fixes_gated_ = 0;
 };
 
 }  // namespace aerovo

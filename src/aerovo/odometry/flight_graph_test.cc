@@ -345,6 +345,114 @@ TEST(FlightGraph, OnlineWindowGatesAFalseMatchAndKeepsTheTrack) {
                InvalidArgument);
 }
 
+// The "fixes only" window (an empty fitter: steps alone) over a leg drifting by 0.003 rad per
+// step, with an absolute fix of frame `fix_frame` (`offset` from the truth, position sigma
+// `sigma_m`, heading sigma 0.01 rad) given when frame fix_frame + 5 is the newest (a fix
+// arrives a few frames late); the live poses, the outcome, and the estimates just before the
+// fix.
+struct FixRun {
+  std::vector<Similarity2> live, before_fix, after_fix;
+  FixOutcome outcome;
+  int fused = 0, gated = 0;
+};
+FixRun RunWithFix(const Flight& f, int fix_frame, double sigma_m, Eigen::Vector2d offset) {
+  BackendOptions o;
+  o.online = true;
+  FlightGraph g(o, kWidth, kHeight);
+  FixRun run;
+  for (const FrameResult& r : f.results) {
+    run.live.push_back(g.AddOnline(r, PairFitter(), 7).local_from_frame);
+    if (r.index != fix_frame + 5) continue;
+    GraphFix fix;
+    fix.frame = fix_frame;
+    fix.position_m = f.truth[static_cast<std::size_t>(fix_frame)].translation_m + offset;
+    fix.heading_rad = f.truth[static_cast<std::size_t>(fix_frame)].heading_rad;
+    fix.position_cov_m2 = sigma_m * sigma_m * Eigen::Matrix2d::Identity();
+    fix.heading_var_rad2 = 0.01 * 0.01;
+    run.before_fix = g.graph().estimates();
+    run.outcome = g.AddFix(fix);
+    run.after_fix = g.graph().estimates();
+    run.live.back() = run.outcome.newest;
+  }
+  run.fused = g.fixes_fused();
+  run.gated = g.fixes_gated();
+  return run;
+}
+
+TEST(FlightGraph, AFixPullsADriftedChainToTheTruthByItsCovarianceWeight) {
+  const Flight f = MakeFlight(1, 60, 0.003);
+  const FixRun none = RunWithFix(f, 1000, 0.2, Eigen::Vector2d::Zero());  // never given
+  ASSERT_EQ(none.fused + none.gated, 0);
+  const double drift_30 = (none.live[30].translation_m - f.truth[30].translation_m).norm();
+  EXPECT_GT(drift_30, 3.0);  // 30 steps turning 0.003 rad too much each
+  // A tight fix (0.2 m): frame 30 to within 2 sigma of the truth, the frames after it carried
+  // with it (the end error a third: the drift after the fix, 5.2 m, is left; the heading is
+  // corrected too, else the error at the fix's frame would grow on).
+  const FixRun tight = RunWithFix(f, 30, 0.2, Eigen::Vector2d::Zero());
+  ASSERT_TRUE(tight.outcome.fused) << tight.outcome.d2;
+  EXPECT_EQ(tight.fused, 1);
+  EXPECT_LT((tight.after_fix[30].translation_m - f.truth[30].translation_m).norm(), 0.4);
+  EXPECT_GT(tight.outcome.newest_moved_m, 3.0);
+  const double end_none = EndError(f, none.live), end_tight = EndError(f, tight.live);
+  EXPECT_LT(end_tight, 0.4 * end_none) << end_none << " m -> " << end_tight << " m";
+  for (int i = 36; i < 60; ++i) {  // after the fix, the live poses stay near the truth
+    EXPECT_LT((tight.live[static_cast<std::size_t>(i)].translation_m -
+               f.truth[static_cast<std::size_t>(i)].translation_m).norm(),
+              0.5 * (none.live[static_cast<std::size_t>(i)].translation_m -
+                     f.truth[static_cast<std::size_t>(i)].translation_m).norm())
+        << i;
+  }
+  // A loose fix (10 m, wider than the chain's uncertainty): a part of the way only, about
+  // P / (P + R) of it (the correction is P (P + R)^-1 e).
+  const FixRun loose = RunWithFix(f, 30, 10.0, Eigen::Vector2d::Zero());
+  ASSERT_TRUE(loose.outcome.fused);
+  const double e = (loose.before_fix[30].translation_m - f.truth[30].translation_m).norm();
+  const double moved = loose.outcome.correction.head<2>().norm();
+  EXPECT_GT(moved, 0.02 * e);
+  EXPECT_LT(moved, 0.5 * e);
+  const double tight_moved = tight.outcome.correction.head<2>().norm();
+  EXPECT_GT(tight_moved, 0.9 * e);
+  // The same input, the same poses.
+  const FixRun again = RunWithFix(f, 30, 0.2, Eigen::Vector2d::Zero());
+  for (std::size_t i = 0; i < tight.live.size(); ++i) {
+    ASSERT_EQ(again.live[i].translation_m, tight.live[i].translation_m) << i;
+  }
+}
+
+TEST(FlightGraph, AFixFarOffIsGatedAndChangesNothing) {
+  const Flight f = MakeFlight(1, 60, 0.003);
+  const FixRun none = RunWithFix(f, 1000, 0.2, Eigen::Vector2d::Zero());
+  const FixRun off = RunWithFix(f, 30, 0.2, Eigen::Vector2d(200.0, 0.0));
+  EXPECT_FALSE(off.outcome.fused);
+  EXPECT_EQ(off.gated, 1);
+  EXPECT_EQ(off.fused, 0);
+  EXPECT_GT(off.outcome.d2, off.outcome.bound);
+  EXPECT_EQ(off.outcome.correction, Eigen::Vector3d::Zero());
+  ASSERT_EQ(off.live.size(), none.live.size());
+  for (std::size_t i = 0; i < none.live.size(); ++i) {
+    ASSERT_EQ(off.live[i].translation_m, none.live[i].translation_m) << i;
+    ASSERT_EQ(off.live[i].heading_rad, none.live[i].heading_rad) << i;
+  }
+  ASSERT_EQ(off.before_fix.size(), off.after_fix.size());
+  for (std::size_t i = 0; i < off.before_fix.size(); ++i) {
+    ASSERT_EQ(off.before_fix[i].translation_m, off.after_fix[i].translation_m) << i;
+  }
+  // Bad fixes are clear errors.
+  BackendOptions o;
+  o.online = true;
+  FlightGraph g(o, kWidth, kHeight);
+  g.AddOnline(f.results[0], PairFitter(), 7);
+  GraphFix bad;
+  bad.frame = 3;
+  EXPECT_THROW(g.AddFix(bad), InvalidArgument);  // not in the graph
+  bad.frame = 0;
+  bad.position_cov_m2.setZero();
+  EXPECT_THROW(g.AddFix(bad), InvalidArgument);
+  FlightGraph offline(BackendOptions{}, kWidth, kHeight);
+  offline.Add(f.results[0]);
+  EXPECT_THROW(offline.AddFix(GraphFix{}), InvalidArgument);
+}
+
 TEST(FlightGraph, DroppedKeyframesAreNotMatchedAgain) {
   const Flight f = MakeFlight(1, 40, 0.0);
   BackendOptions o;

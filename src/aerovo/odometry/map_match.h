@@ -36,9 +36,10 @@ namespace aerovo {
 struct MapMatchOptions {
   /// Match every n-th frame against the map (1 = every frame).
   int every_n_frames = 10;
-  /// The fixes move the track (pipeline/map_fixer.h): from the frame a fix is taken at on, the
-  /// track's positions are shifted by the fix's difference from its prediction. Default false:
-  /// the fixes are recorded and compared with GPS only.
+  /// The fixes move the track: each is fused into the pose graph of the online window as an
+  /// absolute factor with its covariance, gated against the track (pipeline/stage_map_fix.cc,
+  /// odometry/flight_graph.h FlightGraph::AddFix; without backend.online the window runs
+  /// "fixes only"). Default false: the fixes are recorded and compared with GPS only.
   bool apply = false;
   /// Ground resolution of the matching, m/px; 0 = automatic: the coarser of the map's own
   /// resolution and the frame's ground sampling distance times frame width / match_width_px.
@@ -112,7 +113,7 @@ template <class V>
 void VisitFields(MapMatchOptions& o, V& v) {
   using namespace options;
   v.Field(o.every_n_frames, "every_n_frames", "Match every n-th frame against the map (--map)", Interval(1, 1000000));
-  v.Field(o.apply, "apply", "The fixes move the track: shifted by each fix's difference from its prediction, from the frame it is taken at on", Any());
+  v.Field(o.apply, "apply", "The fixes move the track: fused into the pose graph (absolute factors with their covariance, gated against the track; docs/map.md)", Any());
   v.Field(o.match_m_per_px, "match_m_per_px", "Ground resolution of map matching, m/px (0 = the coarser of the map's and the frame's at match_width_px)", AtLeast(0).Finite());
   v.Field(o.match_width_px, "match_width_px", "Automatic resolution: the frame's width at the matching resolution, px", Interval(64, 4096));
   v.Field(o.search_radius_m, "search_radius_m", "Search radius around the predicted position, m; farther fixes are rejected (gate)", GreaterThan(0).Finite());

@@ -23,7 +23,7 @@ std::vector<StagePtr> MakeStages(const RunContext& run, const std::vector<StageP
   stages.push_back(MakeFlatFieldStage());
   stages.push_back(MakePreprocessStage());
   stages.push_back(MakeOdometryStage());
-  if (run.config->backend.online) stages.push_back(MakeWindowStage());
+  if (WindowRuns(run)) stages.push_back(MakeWindowStage());
   stages.push_back(MakeGpsCheckStage());
   stages.push_back(MakeGeoreferenceStage());
   if (run.map_fixer) stages.push_back(MakeMapFixStage());
@@ -39,7 +39,7 @@ std::vector<SinkPtr> MakeSinks(const RunContext& run, const std::vector<SinkPtr>
   sinks.push_back(MakeSourceCountsSink());
   sinks.push_back(MakePoseStreamSink());
   sinks.push_back(MakeRunFilesSink());
-  if (run.config->backend.enable && !run.config->backend.online) {
+  if (run.config->backend.enable && !WindowRuns(run)) {
     sinks.push_back(MakeFlightGraphSink());  // online, the window stage builds the graph
   }
   sinks.push_back(MakeTotalsSink());

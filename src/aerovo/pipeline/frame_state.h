@@ -112,6 +112,13 @@ struct FrameState {
   /// a map): the MAVLink sink sends it as GPS_INPUT (RunConfig::mavlink_gps_input) instead of
   /// the geo-referenced odometry pose. Unset: the odometry pose is sent.
   std::optional<mavlink::GeoFix> absolute_fix;
+  /// map_fix.apply: a fix taken at this frame (stage_map_fix.cc) was fused into the pose graph
+  /// or rejected by its gate (FlightGraph::AddFix; frames.csv status "+map_fix",
+  /// "+map_gated"); the frame it was matched at, and how far it moved this frame's pose, m.
+  enum class MapFixTaken { kNone, kFused, kGated };
+  MapFixTaken map_fix = MapFixTaken::kNone;
+  int map_fix_frame = -1;
+  double map_fix_moved_m = 0.0;
 
   /// Back to an empty state, keeping `frame`'s pixel buffer for the next decoding.
   void Clear();
@@ -192,6 +199,13 @@ struct RunContext {
   /// stage hands it frames, the map-fix sink's End finishes it).
   std::shared_ptr<MapFixer> map_fixer;
 };
+
+/// The online window stage runs (stage_window.cc): with backend.online, and with map_fix.apply
+/// and a map, so that the fixes are fused into the window's graph (stage_map_fix.cc; without
+/// backend.online the window is "fixes only": the frames' steps, no keyframe matching).
+inline bool WindowRuns(const RunContext& run) {
+  return run.config->backend.online || (run.maps != nullptr && run.config->map_fix.apply);
+}
 
 /// One step of every frame (height, attitude, preprocessing, odometry, ...): reads what the
 /// stages before it put in `frame`, adds its part. Throws to end the run at this frame:

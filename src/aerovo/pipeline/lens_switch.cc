@@ -72,7 +72,7 @@ void LensSwitch::Replay(RunContext& run, const LensPrepass& prepass) {
                    CalibrationFormat::kOpenCv);
   // The run's lens path as SetUpRun would have made it with the estimate from the start.
   run.odometry = std::make_unique<VisualOdometry>(run.vo_options);
-  run.odometry->SetShareFeatures(run.config->backend.enable || run.config->backend.online);
+  run.odometry->SetShareFeatures(run.config->backend.enable || WindowRuns(run));
   run.undistorter.reset();
   run.undistortion = UndistortionPath::kNone;
   SetUpUndistortion(run);

@@ -74,6 +74,7 @@ void MapFixer::Work() {
 }
 
 std::optional<MapFixRecord> MapFixer::TakeFix(bool due) {
+  if (!due && !live_) return std::nullopt;  // a file source: at due frames only
   std::unique_lock lock(mutex_);
   if (due && !live_) done_.wait(lock, [this] { return !busy_ && !job_; });
   if (taken_ >= records_.size()) return std::nullopt;
@@ -82,6 +83,14 @@ std::optional<MapFixRecord> MapFixer::TakeFix(bool due) {
   if (newest.fix.status != MapFixStatus::kFix) return std::nullopt;
   newest.applied = true;
   return newest;
+}
+
+void MapFixer::SetGraphVerdict(bool fused, bool gated) {
+  const std::lock_guard lock(mutex_);
+  if (taken_ == 0) return;
+  MapFixRecord& r = records_[taken_ - 1];
+  r.applied = fused;
+  r.gated_by_graph = !fused && gated;
 }
 
 MapFixRecord MapFixer::Attempt(MapFixJob& job) {
@@ -251,6 +260,7 @@ void MapFixer::Finish(const std::filesystem::path& out_dir, RunSummary* summary)
   for (const MapFixRecord& r : records_) {
     ++counts[static_cast<std::size_t>(r.fix.status)];
     if (r.applied) ++s.applied;
+    if (r.gated_by_graph) ++s.gated_by_graph;
     total_ms += r.fix.ms;
     if (r.search) {
       ++s.searches;
@@ -269,6 +279,7 @@ void MapFixer::Finish(const std::filesystem::path& out_dir, RunSummary* summary)
     s.by_status.emplace_back(ToString(static_cast<MapFixStatus>(i)),
                              counts[static_cast<std::size_t>(i)]);
   }
+  s.fused = s.applied;
   s.fixes = counts[static_cast<std::size_t>(MapFixStatus::kFix)];
   s.mean_ms = s.attempted > 0 ? total_ms / s.attempted : 0.0;
   s.search_ms = s.searches > 0 ? search_ms / s.searches : 0.0;

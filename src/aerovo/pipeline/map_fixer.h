@@ -6,11 +6,12 @@
 // from a file (video, photos), the next attempt waits for the one before to finish, so that
 // the same input gives the same attempts and fixes whatever the machine's speed; from a live
 // source, a frame due while the worker is busy is skipped (counted). The fixes are recorded
-// (map_fixes.csv, summary.json "map_fixes") and compared with the GPS, withheld or not; they
-// do not move the track. Lost and found: the run's first attempt, and the attempt after
-// map_fix.search_after_failures failed ones in a row, is a wide search (search_wide_radius_m,
-// coarse to fine), gated by the radius before the run's first fix and by the track's drift
-// since the last fix after it (MapMatchOptions).
+// (map_fixes.csv, summary.json "map_fixes") and compared with the GPS, withheld or not; with
+// map_fix.apply the map-fix stage fuses them into the pose graph (stage_map_fix.cc). Lost and
+// found: the run's first attempt, and the attempt after map_fix.search_after_failures failed
+// ones in a row, is a wide search (search_wide_radius_m, coarse to fine), gated by the radius
+// before the run's first fix and by the track's drift since the last fix after it
+// (MapMatchOptions).
 #pragma once
 
 #include <condition_variable>
@@ -51,7 +52,8 @@ struct MapFixRecord {
   int frame = 0;
   double time_s = 0.0;
   GeoPoint predicted;    ///< The job's prediction.
-  bool applied = false;  ///< The track was moved by it (map_fix.apply).
+  bool applied = false;  ///< Fused into the pose graph: it moved the track (map_fix.apply).
+  bool gated_by_graph = false;  ///< Taken (map_fix.apply) and rejected by the graph's gate.
   /// A search, coarse to fine (a wide search, or search_radius_m above coarse_above_radius_m).
   bool search = false;
   MapFix fix;
@@ -77,9 +79,13 @@ class MapFixer {
   /// A frame was due but the track is not geo-referenced yet (no prediction).
   void CountNoPrediction() { ++no_prediction_; }
   /// map_fix.apply: the newest finished attempt not taken yet, when it is a fix (marked applied).
-  /// At a due frame of a file source it first waits for the attempt in flight (so that a fix is
-  /// taken at a frame that does not depend on the machine's speed); else it does not wait.
+  /// A file source's fixes are taken at due frames only, after waiting for the attempt in flight
+  /// (so that a fix is taken at a frame that does not depend on the machine's speed); a live
+  /// source's at any frame, without waiting.
   std::optional<MapFixRecord> TakeFix(bool due);
+  /// The pose graph's verdict on the fix TakeFix returned last: fused (applied), or not
+  /// (not applied; gated_by_graph when `gated`: rejected by its gate, FlightGraph::AddFix).
+  void SetGraphVerdict(bool fused, bool gated);
   const MapMatchOptions& options() const { return options_; }
   /// Waits for the last attempt, stops the worker, writes `out_dir`/map_fixes.csv and fills in
   /// summary->map_fixes. Idempotent.

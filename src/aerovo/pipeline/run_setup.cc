@@ -225,7 +225,8 @@ std::unique_ptr<RunContext> SetUpRun(RunSetup setup, const FrameState& first) {
   SetUpHeight(*run);
   run->odometry = std::make_unique<VisualOdometry>(run->vo_options);
   // The offline optimisation's keyframes and step factors (sink_flight_graph.cc).
-  run->odometry->SetShareFeatures(run->config->backend.enable || run->config->backend.online);
+  // The step's inliers are the step factor's evidence (also the window's with map_fix.apply).
+  run->odometry->SetShareFeatures(run->config->backend.enable || WindowRuns(*run));
   StartPrepass(setup, first, *run);
   SetUpUndistortion(*run);
   run->outputs = std::make_unique<RunOutputs>(

@@ -100,8 +100,10 @@ std::string FormatMapFixes(const RunSummary::MapFixes& m) {
   }
   std::string t = fmt::format(
       "\nMap fixes (every {} frames, {}): {} of {} attempts{}{}\n", m.every_n_frames,
-      m.applied > 0 ? fmt::format("{} applied to the track", m.applied)
-                    : std::string("not applied to the track"),
+      m.applied + m.gated_by_graph > 0
+          ? fmt::format("{} fused into the track, {} rejected by the pose graph's gate",
+                        m.fused, m.gated_by_graph)
+          : std::string("not applied to the track"),
       m.fixes, m.attempted, failed.empty() ? "" : "; " + failed,
       m.no_prediction > 0 ? fmt::format("; {} before the geo-reference", m.no_prediction)
                           : std::string());

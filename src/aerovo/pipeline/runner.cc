@@ -91,6 +91,7 @@ nlohmann::json ToJson(const RunSummary::MapFixes& m) {
   }
   return {{"every_n_frames", m.every_n_frames}, {"attempted", m.attempted},
           {"fixes", m.fixes},                   {"applied", m.applied},
+          {"fused", m.fused},                   {"gated_by_graph", m.gated_by_graph},
           {"by_status", by_status},
           {"no_prediction", m.no_prediction},   {"skipped_busy", m.skipped_busy},
           {"mean_ms", m.mean_ms},               {"searches", m.searches},

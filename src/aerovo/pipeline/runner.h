@@ -232,7 +232,10 @@ struct RunSummary {
     int every_n_frames = 0;
     int attempted = 0;      ///< Frames matched against the map.
     int fixes = 0;          ///< Of them, fixes (status "fix").
-    int applied = 0;        ///< Fixes that moved the track (map_fix.apply).
+    int applied = 0;        ///< Fixes that moved the track (map_fix.apply): = fused.
+    /// map_fix.apply: fixes fused into the pose graph, and rejected by its gate
+    /// (FlightGraph::AddFix).
+    int fused = 0, gated_by_graph = 0;
     std::vector<std::pair<std::string, int>> by_status;  ///< Every status (ToString), count.
     int no_prediction = 0;  ///< Due frames before the track was geo-referenced.
     int skipped_busy = 0;   ///< Live source: due frames skipped while the worker was busy.

@@ -1,24 +1,34 @@
 // The map-fix stage and sink (RunConfig::map; pipeline/map_fixer.h): every
 // map_fix.every_n_frames-th frame processed, once the track is geo-referenced, is handed to
 // the run's MapFixer with its prediction: the track's WGS84 position (GeoReferencer::
-// Wgs84FromLocal of the odometry's position) and ENU heading (the odometry's heading plus
+// Wgs84FromLocal of the frame's position) and ENU heading (the frame's heading plus
 // GeoReferencer::rotation_rad), its height above ground, the processed frame's focal length
 // and the frame's GPS (withheld or not) for the comparison. After the georeference stage, so
 // that the frame that fixes the geo-reference is predicted already. The sink's End waits for
 // the last attempt and writes map_fixes.csv and summary.json "map_fixes".
-// With map_fix.apply, a fix moves the track: from the frame it is taken at (MapFixer::TakeFix:
-// a file source's next due frame, a live source's first frame after it is done) every frame's
-// odometry position (FrameResult::position_m, local frame) is shifted by the sum of the fixes'
-// differences from their predictions, rotated into the local frame; every output after this
-// stage (frames.csv, the tracks, the pose stream, MAVLink, the comparisons) carries it.
+// With map_fix.apply, the fixes are fused into the run's pose graph, the online window's
+// (stage_window.cc; frame_state.h WindowRuns): a fix is taken at a frame (MapFixer::TakeFix: a
+// file source's next due frame, a live source's first frame after it is done), brought from
+// the run's ENU frame into the local one (GeoReferencer: enu = R(rotation) local + t, fixed once
+// ready) with its covariance, and given to FlightGraph::AddFix for the frame it was matched at;
+// a fix the graph's gate rejects changes nothing, a fused one moves that frame by its
+// covariance weight and every later frame with it, so that this frame's position and heading
+// (FrameResult, local frame) and every output after this stage (frames.csv, the tracks, the
+// pose stream, MAVLink, the comparisons) carry it, and the next frames are chained from it.
+#include <algorithm>
 #include <cmath>
+#include <map>
 #include <memory>
 #include <optional>
 #include <utility>
 
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "aerovo/backend/similarity2.h"
+#include "aerovo/mavlink/vision.h"
 #include "aerovo/odometry/attitude.h"
 #include "aerovo/pipeline/frame_loop.h"
 #include "aerovo/pipeline/map_fixer.h"
@@ -26,6 +36,14 @@
 namespace aerovo::run_steps {
 namespace {
 
+// Floors of a fix's covariance: a fix is not trusted beyond its inliers' own RMS transfer error
+// (MapFix::residual_m) per axis, and its heading beyond 0.5 degrees (the fit's covariance from
+// the residuals leaves out the frame's tilt and the map's own errors).
+constexpr double kHeadingFloorRad = 0.5 * M_PI / 180.0;
+// Frames remembered for the fixes still to come (a source frame -> its graph index): a fix
+// taken more than this many frames after its frame is not fused (the worker does one attempt
+// at a time, so a fix is at most a few attempts late).
+constexpr std::size_t kFramesRemembered = 4096;
 // The frame's pixels as the virtual nadir camera with the same centre and focal length sees them
 // (odometry/attitude.h NadirFromCameraHomography with the attitude the odometry applied, principal
 // point at the centre): the map fixer takes the frame's centre for the ground point under the
@@ -59,8 +77,15 @@ class MapFixStage : public FrameStage {
     MapFixer& fixer = *run.map_fixer;
     const bool due = fixer.Due(processed_++);
     const GeoReferencer& georef = run.state->georef;
-    if (fixer.options().apply && georef.ready()) Apply(fixer.TakeFix(due), georef);
-    f.result.position_m += offset_local_m_;
+    if (fixer.options().apply) {
+      graph_index_[f.frame.index] = f.result.index;
+      if (graph_index_.size() > kFramesRemembered) graph_index_.erase(graph_index_.begin());
+      if (georef.ready()) {
+        if (const std::optional<MapFixRecord> fix = fixer.TakeFix(due); fix && fix->geo) {
+          Fuse(*fix, f, run);
+        }
+      }
+    }
     if (!due) return;
     const double focal_px = run.vo_options.focal_px;
     if (!georef.ready() || f.pixels.empty() || !(f.height_m > 0.0) || !(focal_px > 0.0)) {
@@ -80,20 +105,55 @@ class MapFixStage : public FrameStage {
   }
 
  private:
-  // Adds `fix`'s difference from its prediction (the run's ENU, rotated into the local frame)
-  // to the offset.
-  void Apply(const std::optional<MapFixRecord>& fix, const GeoReferencer& georef) {
-    if (!fix || !fix->geo) return;
-    const LocalEnu& enu = georef.enu();
-    const Eigen::Vector2d delta_enu =
-        (enu.Forward(*fix->geo) - enu.Forward(fix->predicted)).head<2>();
-    const double c = std::cos(georef.rotation_rad()), s = std::sin(georef.rotation_rad());
-    offset_local_m_ += Eigen::Vector2d(c * delta_enu.x() + s * delta_enu.y(),
-                                       -s * delta_enu.x() + c * delta_enu.y());
+  // `fix` (of an earlier frame, or this one) into the run's flight graph; this frame's pose
+  // replaced by the graph's newest estimate when it is fused.
+  void Fuse(const MapFixRecord& fix, FrameState& f, const RunContext& run) {
+    FlightGraph* graph = run.state->flight.graph.get();
+    const auto it = graph_index_.find(fix.frame);
+    if (graph == nullptr || it == graph_index_.end()) {  // its frame forgotten: not fused
+      run.map_fixer->SetGraphVerdict(false, false);
+      return;
+    }
+    const GeoReferencer& georef = run.state->georef;
+    const double rotation = georef.rotation_rad();
+    const Eigen::Matrix2d local_from_enu = Eigen::Rotation2Dd(-rotation).toRotationMatrix();
+    const Eigen::Vector2d enu = georef.enu().Forward(*fix.geo).head<2>();
+    GraphFix g;
+    g.frame = it->second;
+    g.position_m = local_from_enu * (enu - georef.EnuFromLocal(Eigen::Vector2d::Zero()));
+    const double floor_m = fix.fix.residual_m;
+    g.position_cov_m2 = local_from_enu * fix.fix.position_cov_m2 * local_from_enu.transpose() +
+                        floor_m * floor_m * Eigen::Matrix2d::Identity();
+    if (std::isfinite(fix.fix.heading_var_rad2) && fix.fix.heading_var_rad2 >= 0.0) {
+      g.heading_rad = backend::WrapAngleRad(fix.fix.heading_rad - rotation);
+      g.heading_var_rad2 = fix.fix.heading_var_rad2 + kHeadingFloorRad * kHeadingFloorRad;
+    }
+    if (!(g.position_cov_m2.determinant() > 0.0)) {  // a degenerate fit: not fused
+      run.map_fixer->SetGraphVerdict(false, false);
+      return;
+    }
+    const FixOutcome o = graph->AddFix(g);
+    run.map_fixer->SetGraphVerdict(o.fused, !o.fused);
+    f.map_fix_frame = fix.frame;
+    f.map_fix = o.fused ? FrameState::MapFixTaken::kFused : FrameState::MapFixTaken::kGated;
+    if (!o.fused) return;
+    f.map_fix_moved_m = (o.newest.translation_m - f.result.position_m).norm();
+    f.result.position_m = o.newest.translation_m;
+    f.result.heading_rad = o.newest.heading_rad;
+    if (f.window) f.window->local_from_frame = o.newest;
+    // A jump past the autopilots' innovation gate is a reset (mavlink/vision.h
+    // PoseJumpResetThresholdM of the pose's own standard deviation, the window's).
+    double sigma_m = 0.0;
+    if (f.window && f.window->has_covariance) {
+      const Eigen::Matrix2d xy = f.window->covariance.topLeftCorner<2, 2>();
+      sigma_m = std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(
+                                            xy, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff()));
+    }
+    if (f.map_fix_moved_m > mavlink::PoseJumpResetThresholdM(sigma_m)) f.pose_reset = true;
   }
 
-  int processed_ = 0;                                         // frames seen by this stage
-  Eigen::Vector2d offset_local_m_ = Eigen::Vector2d::Zero();  // the applied fixes' sum
+  int processed_ = 0;             // frames seen by this stage
+  std::map<int, int> graph_index_;  // map_fix.apply: source frame -> flight graph index
 };
 
 class MapFixSink : public FrameSink {

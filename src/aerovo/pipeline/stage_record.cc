@@ -32,6 +32,9 @@ class RecordStage : public FrameStage {
       f.output.sigma_heading_deg = std::sqrt(std::max(0.0, c(2, 2))) * 180.0 / M_PI;
     }
     if (f.lens_switched) rec.status += "+lens";  // the lens estimate applied (lens_switch.h)
+    // A map fix taken at this frame (stage_map_fix.cc): fused into the pose graph, or gated.
+    if (f.map_fix == FrameState::MapFixTaken::kFused) rec.status += "+map_fix";
+    if (f.map_fix == FrameState::MapFixTaken::kGated) rec.status += "+map_gated";
     rec.height_m = f.height_m;
     rec.height_source = ToString(f.height_source);
     if (f.autopilot_attitude) {

@@ -3,9 +3,12 @@
 // its matches against recent keyframes, the last backend.window poses optimised), and the
 // frame's position and heading replaced by the windowed estimate, so that every output after it
 // (GPS check, geo-referencing, frames.csv and the track files, the pose stream, MAVLink) carries
-// it. The causal pixel transform (FrameResult::world_from_frame, transforms.csv) is left as the
-// odometry made it. The frame's features are released from the FrameState here (the graph keeps
-// those of its keyframes only). summary.json "online" counts the pairs and the stage's time.
+// it. With map_fix.apply and without backend.online the window is "fixes only" (frame_state.h
+// WindowRuns): the frames' steps into the graph, no keyframe matching, no closures, no
+// summary.json "online"; the map-fix stage adds the fixes (FlightGraph::AddFix). The causal
+// pixel transform (FrameResult::world_from_frame, transforms.csv) is left as the odometry made
+// it. The frame's features are released from the FrameState here (the graph keeps those of its
+// keyframes only). summary.json "online" counts the pairs and the stage's time.
 // A whole-graph solve (a verified loop closure) that moves the frame's pose away from the causal
 // prediction (the pose given for the previous frame moved by the frame's causal step) by more
 // than mavlink::PoseJumpResetThresholdM of its standard deviation sets FrameState::pose_reset
@@ -31,16 +34,29 @@ class WindowStage : public FrameStage {
   void Process(FrameState& f, const RunContext& run) override {
     FlightRecording& flight = run.state->flight;
     if (f.lens_switched && flight.graph) flight.graph->DropKeyframes();
-    if (!fitter_) {
+    const bool matching = run.config->backend.online;  // else "fixes only"
+    if (!fitter_ && matching) {
       fitter_ = MakeStandardPairFitter(PairCorrespondenceOptions(*run.config),
                                        f.pixels.width, f.pixels.height);
     }
+    BackendOptions options = run.config->backend;
+    options.online = true;
+    options.closures = options.closures && matching;
+    // "Fixes only" without the offline optimisation: no keyframe is ever matched.
+    if (!matching && !run.config->backend.enable) f.result.features.reset();
     const Stopwatch time;
     const std::uint64_t seed = run.config->odometry.correspondence.ransac.seed;
-    const WindowedPose w =
-        flight.GraphOf(run.config->backend, f.pixels.width, f.pixels.height, seed)
-            .AddOnline(f.result, fitter_, seed);
+    const WindowedPose w = flight.GraphOf(options, f.pixels.width, f.pixels.height, seed)
+                               .AddOnline(f.result, fitter_, seed);
     RecordFlightFrame(f, run);  // the causal pose, before it is replaced below
+    f.result.features.reset();
+    const backend::Similarity2 causal{f.result.position_m, f.result.heading_rad, 0.0};
+    f.pose_reset = previous_ && PoseJumped(w, causal, previous_->causal, previous_->windowed);
+    previous_ = Given{causal, w.local_from_frame};
+    f.result.position_m = w.local_from_frame.translation_m;
+    f.result.heading_rad = w.local_from_frame.heading_rad;
+    f.window = w;
+    if (!matching) return;
     if (!run.summary->online) run.summary->online = RunSummary::Online{run.config->backend.window};
     RunSummary::Online& s = *run.summary->online;
     s.pairs_tried += w.pairs_tried;
@@ -52,13 +68,6 @@ class WindowStage : public FrameStage {
     s.full_solves += w.full_solve ? 1 : 0;
     s.full_solve_ms += w.full_solve_ms;
     s.total_ms += time.elapsed_ms();
-    f.result.features.reset();
-    const backend::Similarity2 causal{f.result.position_m, f.result.heading_rad, 0.0};
-    f.pose_reset = previous_ && PoseJumped(w, causal, previous_->causal, previous_->windowed);
-    previous_ = Given{causal, w.local_from_frame};
-    f.result.position_m = w.local_from_frame.translation_m;
-    f.result.heading_rad = w.local_from_frame.heading_rad;
-    f.window = w;
   }
 
  private:
