@@ -583,10 +583,12 @@ FixOutcome FlightGraph::AddFix(const GraphFix& fix) {
   }
   const bool heading = fix.heading_rad.has_value();
   if (!fix.position_m.allFinite() || !fix.position_cov_m2.allFinite() ||
+      !(fix.placement_sigma_m >= 0.0) || !std::isfinite(fix.placement_sigma_m) ||
       (heading && (!std::isfinite(*fix.heading_rad) || !(fix.heading_var_rad2 > 0.0))) ||
       !(fix.position_cov_m2.determinant() > 0.0) || !(fix.position_cov_m2(0, 0) > 0.0)) {
     throw InvalidArgument("FlightGraph::AddFix: the fix of frame " + std::to_string(k) +
-                          " is not finite or its covariance is not positive definite");
+                          " is not finite, its covariance is not positive definite or its "
+                          "placement sigma is negative");
   }
   const int a = std::min(last_fix_frame_, k);
   // P: the frame's uncertainty since the anchor, in the local frame.
@@ -600,6 +602,9 @@ FixOutcome FlightGraph::AddFix(const GraphFix& fix) {
   const double st = (options_.gate * path_m + kGateFloorFraction * side_m) / kClosureGateSigmas;
   const double sh = options_.gate_heading_deg * M_PI / 180.0 / kClosureGateSigmas;
   p.diagonal() += Eigen::Vector3d(st * st, st * st, sh * sh);
+  if (fixes_fused_ == 0 && fix.placement_sigma_m > 0.0) {
+    p.topLeftCorner<2, 2>().diagonal().array() += fix.placement_sigma_m * fix.placement_sigma_m;
+  }
   Eigen::Matrix3d r = Eigen::Matrix3d::Zero();
   r.topLeftCorner<2, 2>() = 0.5 * (fix.position_cov_m2 + fix.position_cov_m2.transpose());
   r(2, 2) = heading ? fix.heading_var_rad2 : 0.0;

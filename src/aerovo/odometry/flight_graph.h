@@ -258,6 +258,11 @@ struct GraphFix {
   /// (> 0 when heading_rad is set).
   Eigen::Matrix2d position_cov_m2 = Eigen::Matrix2d::Identity();
   double heading_var_rad2 = 0.0;
+  /// 1-sigma uncertainty of the track's placement that no fix has measured yet (its
+  /// geo-reference: GPS that may be far off, or a prior the map's search found hundreds of
+  /// metres off), m: added to the gate's P per axis for the graph's first fused fix only (after
+  /// it, the fixes anchor the track). 0: the chained uncertainty alone.
+  double placement_sigma_m = 0.0;
 };
 
 /// What AddFix did.

@@ -132,6 +132,15 @@ class MapFixStage : public FrameStage {
       run.map_fixer->SetGraphVerdict(false, false);
       return;
     }
+    // The graph's first fix: the track's placement is only as good as its geo-reference, which
+    // the fixer's own gate bounded (the wide search's radius before the run's first fix, else
+    // the local gate): that radius taken as 3 sigma (MapMatchOptions).
+    if (graph->fixes_fused() == 0) {
+      const MapMatchOptions& mo = run.map_fixer->options();
+      const double radius_m = fix.search ? std::max(mo.search_wide_radius_m, mo.search_radius_m)
+                                         : (mo.gate_m > 0.0 ? mo.gate_m : mo.search_radius_m);
+      g.placement_sigma_m = radius_m / 3.0;
+    }
     const FixOutcome o = graph->AddFix(g);
     run.map_fixer->SetGraphVerdict(o.fused, !o.fused);
     f.map_fix_frame = fix.frame;
