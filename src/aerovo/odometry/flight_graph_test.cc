@@ -355,7 +355,8 @@ struct FixRun {
   FixOutcome outcome;
   int fused = 0, gated = 0;
 };
-FixRun RunWithFix(const Flight& f, int fix_frame, double sigma_m, Eigen::Vector2d offset) {
+FixRun RunWithFix(const Flight& f, int fix_frame, double sigma_m, Eigen::Vector2d offset,
+                  double placement_sigma_m = 0.0) {
   BackendOptions o;
   o.online = true;
   FlightGraph g(o, kWidth, kHeight);
@@ -369,6 +370,7 @@ FixRun RunWithFix(const Flight& f, int fix_frame, double sigma_m, Eigen::Vector2
     fix.heading_rad = f.truth[static_cast<std::size_t>(fix_frame)].heading_rad;
     fix.position_cov_m2 = sigma_m * sigma_m * Eigen::Matrix2d::Identity();
     fix.heading_var_rad2 = 0.01 * 0.01;
+    fix.placement_sigma_m = placement_sigma_m;
     run.before_fix = g.graph().estimates();
     run.outcome = g.AddFix(fix);
     run.after_fix = g.graph().estimates();
@@ -437,6 +439,12 @@ TEST(FlightGraph, AFixFarOffIsGatedAndChangesNothing) {
   for (std::size_t i = 0; i < off.before_fix.size(); ++i) {
     ASSERT_EQ(off.before_fix[i].translation_m, off.after_fix[i].translation_m) << i;
   }
+  // The graph's first fix with the track's placement uncertainty (a geo-reference 200 m off,
+  // the map's wide search's radius of 400 m as 3 sigma): fused, the fixed frame moved onto it.
+  const FixRun placed = RunWithFix(f, 30, 0.2, Eigen::Vector2d(200.0, 0.0), 400.0 / 3.0);
+  ASSERT_TRUE(placed.outcome.fused) << placed.outcome.d2 << " > " << placed.outcome.bound;
+  EXPECT_LT((placed.after_fix[30].translation_m - f.truth[30].translation_m -
+             Eigen::Vector2d(200.0, 0.0)).norm(), 0.4);
   // Bad fixes are clear errors.
   BackendOptions o;
   o.online = true;
@@ -447,6 +455,9 @@ TEST(FlightGraph, AFixFarOffIsGatedAndChangesNothing) {
   EXPECT_THROW(g.AddFix(bad), InvalidArgument);  // not in the graph
   bad.frame = 0;
   bad.position_cov_m2.setZero();
+  EXPECT_THROW(g.AddFix(bad), InvalidArgument);
+  bad.position_cov_m2.setIdentity();
+  bad.placement_sigma_m = -1.0;
   EXPECT_THROW(g.AddFix(bad), InvalidArgument);
   FlightGraph offline(BackendOptions{}, kWidth, kHeight);
   offline.Add(f.results[0]);
