@@ -113,11 +113,12 @@ inline int CountLines(const std::filesystem::path& p) {
   return n;
 }
 
-/// A run folder's frames.csv as rows of column name -> cell (no quoting: aerovo's cells hold no
-/// comma). Empty when the file is missing or has only its header.
-inline std::vector<std::map<std::string, std::string>> ReadFramesCsv(
-    const std::filesystem::path& run_dir) {
-  std::ifstream in(run_dir / "frames.csv");
+/// The rows of a CSV file of aerovo's (frames.csv, map_fixes.csv, ...) as column name -> cell:
+/// no quoting (aerovo's cells hold no comma); a cell missing at the end of a row (a trailing
+/// empty one) is "". Empty when the file is missing or has only its header.
+inline std::vector<std::map<std::string, std::string>> ReadCsvRows(
+    const std::filesystem::path& path) {
+  std::ifstream in(path);
   std::vector<std::map<std::string, std::string>> rows;
   std::string line;
   if (!std::getline(in, line)) return rows;
@@ -128,10 +129,19 @@ inline std::vector<std::map<std::string, std::string>> ReadFramesCsv(
     std::map<std::string, std::string> row;
     std::stringstream ls(line);
     std::string f;
-    for (std::size_t i = 0; i < header.size() && std::getline(ls, f, ','); ++i) row[header[i]] = f;
+    for (const std::string& column : header) {
+      if (!std::getline(ls, f, ',')) f.clear();
+      row[column] = f;
+    }
     rows.push_back(row);
   }
   return rows;
+}
+
+/// A run folder's frames.csv (ReadCsvRows).
+inline std::vector<std::map<std::string, std::string>> ReadFramesCsv(
+    const std::filesystem::path& run_dir) {
+  return ReadCsvRows(run_dir / "frames.csv");
 }
 
 // A live source delivering `source`'s frames at `fps` whether or not they are taken (a camera

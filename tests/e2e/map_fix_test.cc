@@ -32,24 +32,7 @@ namespace fs = std::filesystem;
 constexpr double kOrthoMpp = 0.1082;  // the Callas orthophoto (tests/e2e/run_flight_test.cc)
 constexpr double kNwLat = 43.539340, kNwLon = 6.551628;
 
-// The rows of a CSV file as column -> cell (no quoting: map_fixes.csv has none).
-std::vector<std::map<std::string, std::string>> ReadCsv(const fs::path& p) {
-  std::ifstream in(p);
-  std::vector<std::map<std::string, std::string>> rows;
-  std::string line;
-  if (!std::getline(in, line)) return rows;
-  std::vector<std::string> header;
-  std::stringstream hs(line);
-  for (std::string f; std::getline(hs, f, ',');) header.push_back(f);
-  while (std::getline(in, line)) {
-    std::map<std::string, std::string> row;
-    std::stringstream ls(line);
-    std::string f;
-    for (std::size_t i = 0; i < header.size() && std::getline(ls, f, ','); ++i) row[header[i]] = f;
-    rows.push_back(row);
-  }
-  return rows;
-}
+using e2e::ReadCsvRows;
 
 // The map: the orthophoto read at a quarter of its size, its tones changed, JPEG-compressed, as
 // a GeoTIFF `name`.tif (corner (0, 0) of the image at the north-west corner, as the simulator
@@ -155,7 +138,7 @@ TEST(MapFix, SimulatedFlightFixesAgainstAnotherSeasonMap) {
   EXPECT_EQ(gps.at("fixes"), fixes);
   EXPECT_LT(gps.at("median_m").get<double>(), 1.0) << m.dump(1);
   EXPECT_LT(gps.at("max_m").get<double>(), 3.0) << m.dump(1);
-  const auto rows = ReadCsv(dir / "run" / "map_fixes.csv");
+  const auto rows = ReadCsvRows(dir / "run" / "map_fixes.csv");
   ASSERT_EQ(static_cast<int>(rows.size()), attempted);
   int fix_rows = 0;
   for (const auto& r : rows) {
@@ -168,7 +151,7 @@ TEST(MapFix, SimulatedFlightFixesAgainstAnotherSeasonMap) {
 
   // Same input, same attempts (the first 50 frames).
   ASSERT_EQ(run("again", "--max-frames 50"), 0) << e2e::ReadText(dir / "again.log");
-  const auto again = ReadCsv(dir / "again" / "map_fixes.csv");
+  const auto again = ReadCsvRows(dir / "again" / "map_fixes.csv");
   ASSERT_GE(again.size(), 8u);
   ASSERT_LE(again.size(), rows.size());
   for (std::size_t i = 0; i < again.size(); ++i) {
@@ -215,7 +198,7 @@ TEST(MapFix, AppliedFixesBoundTheErrorOfADriftingTrack) {
   EXPECT_EQ(low.at("map_fixes").at("fused"), 0);
   EXPECT_TRUE(fixed.at("online").is_null());  // "fixes only": no keyframe matching
   // frames.csv: the frames a fused fix moved.
-  const auto frames = ReadCsv(f.dir / "low_fixed" / "frames.csv");
+  const auto frames = ReadCsvRows(f.dir / "low_fixed" / "frames.csv");
   int moved = 0;
   for (const auto& r : frames) moved += r.at("status").find("+map_fix") != std::string::npos;
   EXPECT_EQ(moved, m.at("fused").get<int>());
@@ -229,7 +212,7 @@ TEST(MapFix, AppliedFixesBoundTheErrorOfADriftingTrack) {
   // Same input, same fused track.
   ASSERT_EQ(f.Run("low_fixed_again", "--altitude 90 --map-fix-apply --max-frames 32"), 0)
       << e2e::ReadText(f.dir / "low_fixed_again.log");
-  const auto again = ReadCsv(f.dir / "low_fixed_again" / "frames.csv");
+  const auto again = ReadCsvRows(f.dir / "low_fixed_again" / "frames.csv");
   ASSERT_GE(again.size(), 30u);  // 4 fixes fused (frames 15, 20, 25, 30)
   for (std::size_t i = 0; i < again.size(); ++i) {
     for (const char* key : {"frame", "x_m", "y_m", "lat_deg", "lon_deg", "status"}) {
@@ -284,7 +267,7 @@ TEST(MapFix, AStart300MOffIsFound) {
   EXPECT_GE(m.at("found").get<int>(), 1) << m.dump(1);
   ASSERT_FALSE(m.at("time_to_first_fix_s").is_null()) << m.dump(1);
   EXPECT_LE(m.at("time_to_first_fix_s").get<double>(), 10.0) << m.dump(1);
-  const auto rows = ReadCsv(f.dir / "off300" / "map_fixes.csv");
+  const auto rows = ReadCsvRows(f.dir / "off300" / "map_fixes.csv");
   std::size_t first = 0;
   while (first < rows.size() && rows[first].at("status") != "fix") ++first;
   ASSERT_LT(first, rows.size());
@@ -317,7 +300,7 @@ TEST(MapFix, AStart300MOffIsFound) {
   ASSERT_FALSE(lost.at("time_to_first_fix_s").is_null()) << lost.dump(1);
   EXPECT_NEAR(lost.at("time_to_first_fix_s").get<double>(), 7.5, 2.6) << lost.dump(1);
   EXPECT_EQ(lost.at("found").get<int>(), 1) << lost.dump(1);
-  const auto lost_rows = ReadCsv(f.dir / "lost" / "map_fixes.csv");
+  const auto lost_rows = ReadCsvRows(f.dir / "lost" / "map_fixes.csv");
   ASSERT_GE(lost_rows.size(), 4u);
   for (std::size_t i = 0; i < 3; ++i) {
     EXPECT_EQ(lost_rows[i].at("search"), "local");
@@ -348,7 +331,7 @@ TEST(MapFix, AFalseMapRegionIsRejectedByTheGate) {
       << e2e::ReadText(f.dir / "false_region.log");
   const nlohmann::json s = e2e::ReadJson(f.dir / "false_region" / "summary.json");
   const nlohmann::json& m = s.at("map_fixes");
-  const auto rows = ReadCsv(f.dir / "false_region" / "map_fixes.csv");
+  const auto rows = ReadCsvRows(f.dir / "false_region" / "map_fixes.csv");
   int wide_gate = 0, fixes = 0;
   for (const auto& r : rows) {
     if (r.at("status") == "gate" && r.at("search") == "wide") {

@@ -39,26 +39,6 @@ namespace fs = std::filesystem;
 using e2e::ReadText;
 using ::aerovo::testing::Lines;
 
-// frames.csv as rows of named cells.
-std::vector<std::map<std::string, std::string>> CsvRows(const fs::path& p) {
-  const std::vector<std::string> lines = Lines(ReadText(p));
-  std::vector<std::map<std::string, std::string>> rows;
-  if (lines.empty()) return rows;
-  std::vector<std::string> header;
-  std::stringstream hs(lines[0]);
-  for (std::string c; std::getline(hs, c, ',');) header.push_back(c);
-  for (std::size_t i = 1; i < lines.size(); ++i) {
-    std::map<std::string, std::string> row;
-    std::stringstream ls(lines[i]);
-    std::string c;
-    for (std::size_t k = 0; k < header.size(); ++k) {
-      if (!std::getline(ls, c, ',')) c.clear();
-      row[header[k]] = c;
-    }
-    rows.push_back(row);
-  }
-  return rows;
-}
 
 // A small simulated flight (video, SRT with GPS, height and yaw), made once.
 const SimulatedFlight& Flight() {
@@ -111,7 +91,7 @@ void CheckStream(const Cli& r, const fs::path& out, std::vector<nlohmann::json>*
     EXPECT_TRUE(j.is_object()) << line;
     lines.push_back(j);
   }
-  const auto rows = CsvRows(out / "frames.csv");
+  const auto rows = e2e::ReadCsvRows(out / "frames.csv");
   std::size_t pose = 0;
   for (const nlohmann::json& j : lines) {
     ASSERT_TRUE(j.contains("type")) << j;
@@ -175,7 +155,7 @@ TEST(PoseStream, HeadingFromGpsLocalPosesAtOnceGeographicOnesFollow) {
   from_file.out = ReadText(stream);
   std::vector<nlohmann::json> lines;
   CheckStream(from_file, out, &lines);
-  const auto rows = CsvRows(out / "frames.csv");
+  const auto rows = e2e::ReadCsvRows(out / "frames.csv");
   ASSERT_GT(rows.size(), 20u);
   // The first poses are local only (the heading waits for 30 m of GPS track); each gets its
   // "geo" line once the heading is fixed, before the next pose, with frames.csv's WGS84.
@@ -234,7 +214,7 @@ TEST(LiveSource, FasterThanTheProcessingTheNewestFrameIsTakenAndTheRestCounted) 
   // A frame every 2 ms: SURF and matching on a 640x360 frame take longer than that.
   const RunSummary s = RunFlight(
       c, std::make_unique<PacedLiveSource>(std::make_unique<VideoFileSource>(f.run.input), 500.0));
-  const auto rows = CsvRows(fs::path(c.out) / "frames.csv");
+  const auto rows = e2e::ReadCsvRows(fs::path(c.out) / "frames.csv");
   ASSERT_EQ(static_cast<int>(rows.size()), s.frames_processed);
   EXPECT_GT(s.frames_dropped, 0);
   EXPECT_EQ(s.frames_processed + s.frames_dropped, f.frames)
@@ -302,7 +282,7 @@ TEST(LiveSource, AStreamsStartUpBurstKeepsTheFlightsVelocities) {
   c.mavlink = "udp:127.0.0.1:" + std::to_string(autopilot.port());
   const double fps = 5.0;  // the flight's (Flight())
   const RunSummary s = RunFlight(c, std::make_unique<BurstLiveSource>(f.run.input, fps, 10));
-  const auto rows = CsvRows(fs::path(c.out) / "frames.csv");
+  const auto rows = e2e::ReadCsvRows(fs::path(c.out) / "frames.csv");
   const std::vector<mavlink::Odometry> sent = autopilot.Odometries();
   ASSERT_EQ(sent.size(), rows.size());
   ASSERT_GE(rows.size(), 15u);
@@ -336,8 +316,8 @@ TEST(LiveSource, AFileDropsNothingAndGivesTheSameTrackWithOrWithoutTheDecodeThre
   EXPECT_EQ(queued.frames_dropped, 0);
   EXPECT_EQ(queued.frames_processed, 15);
   EXPECT_EQ(direct.frames_processed, 15);
-  const auto a = CsvRows(fs::path(queued.out_dir) / "frames.csv");
-  const auto b = CsvRows(fs::path(direct.out_dir) / "frames.csv");
+  const auto a = e2e::ReadCsvRows(fs::path(queued.out_dir) / "frames.csv");
+  const auto b = e2e::ReadCsvRows(fs::path(direct.out_dir) / "frames.csv");
   ASSERT_EQ(a.size(), b.size());
   for (std::size_t i = 0; i < a.size(); ++i) {
     for (const char* k : {"frame", "x_m", "y_m", "status", "n_inliers"}) {
