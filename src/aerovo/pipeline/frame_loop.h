@@ -27,11 +27,14 @@ std::unique_ptr<FrameStage> MakeFlatFieldStage();                    // stage_fl
 std::unique_ptr<FrameStage> MakePreprocessStage();                   // stage_preprocess.cc
 std::unique_ptr<FrameStage> MakeOdometryStage();                     // stage_odometry.cc
 std::unique_ptr<FrameStage> MakeWindowStage();                       // stage_window.cc
+/// The larger standard deviation of w's position (the square root of the larger eigenvalue of
+/// its covariance's x/y block), m; 0 without a covariance (stage_window.cc).
+double WindowSigmaXyM(const WindowedPose& w);
 /// The window stage's test of a jump of the live pose (FrameState::pose_reset): at a whole-graph
 /// solve (w.full_solve) only, the distance between w's position and the causal prediction
 /// (`previous_windowed`, the pose given for the previous frame, moved by the causal step from
 /// `previous_causal` to `causal`) is larger than mavlink::PoseJumpResetThresholdM of w's
-/// position standard deviation (the larger axis of its covariance; 0 without one).
+/// position standard deviation (WindowSigmaXyM).
 bool PoseJumped(const WindowedPose& w, const backend::Similarity2& causal,
                 const backend::Similarity2& previous_causal,
                 const backend::Similarity2& previous_windowed);

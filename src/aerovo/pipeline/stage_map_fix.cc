@@ -22,7 +22,6 @@
 #include <optional>
 #include <utility>
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -152,12 +151,7 @@ class MapFixStage : public FrameStage {
     if (f.window) f.window->local_from_frame = o.newest;
     // A jump past the autopilots' innovation gate is a reset (mavlink/vision.h
     // PoseJumpResetThresholdM of the pose's own standard deviation, the window's).
-    double sigma_m = 0.0;
-    if (f.window && f.window->has_covariance) {
-      const Eigen::Matrix2d xy = f.window->covariance.topLeftCorner<2, 2>();
-      sigma_m = std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(
-                                            xy, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff()));
-    }
+    const double sigma_m = f.window ? WindowSigmaXyM(*f.window) : 0.0;
     if (f.map_fix_moved_m > mavlink::PoseJumpResetThresholdM(sigma_m)) f.pose_reset = true;
   }
 

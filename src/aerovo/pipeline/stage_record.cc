@@ -6,8 +6,6 @@
 #include <memory>
 #include <string>
 
-#include <Eigen/Eigenvalues>
-
 #include "aerovo/pipeline/frame_loop.h"
 
 namespace aerovo::run_steps {
@@ -24,12 +22,9 @@ class RecordStage : public FrameStage {
     if (f.fix == FixCheck::kRejected) rec.gps_flag = "rejected:" + f.fix_rejection;
     if (f.withheld_gps) rec.gps_flag = kGpsFlagWithheld;
     if (f.window && f.window->has_covariance) {
-      const Eigen::Matrix4d& c = f.window->covariance;
-      const Eigen::Matrix2d xy = c.topLeftCorner<2, 2>();
-      f.output.sigma_xy_m =
-          std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(xy,
-                                      Eigen::EigenvaluesOnly).eigenvalues().maxCoeff()));
-      f.output.sigma_heading_deg = std::sqrt(std::max(0.0, c(2, 2))) * 180.0 / M_PI;
+      f.output.sigma_xy_m = WindowSigmaXyM(*f.window);
+      f.output.sigma_heading_deg =
+          std::sqrt(std::max(0.0, f.window->covariance(2, 2))) * 180.0 / M_PI;
     }
     if (f.lens_switched) rec.status += "+lens";  // the lens estimate applied (lens_switch.h)
     // A map fix taken at this frame (stage_map_fix.cc): fused into the pose graph, or gated.

@@ -88,13 +88,14 @@ bool PoseJumped(const WindowedPose& w, const backend::Similarity2& causal,
   const backend::Similarity2 predicted =
       previous_windowed * backend::Between(previous_causal, causal);
   const double jump_m = (w.local_from_frame.translation_m - predicted.translation_m).norm();
-  double sigma_m = 0.0;
-  if (w.has_covariance) {
-    const Eigen::Matrix2d xy = w.covariance.topLeftCorner<2, 2>();
-    sigma_m = std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(
-                                          xy, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff()));
-  }
-  return jump_m > mavlink::PoseJumpResetThresholdM(sigma_m);
+  return jump_m > mavlink::PoseJumpResetThresholdM(WindowSigmaXyM(w));
+}
+
+double WindowSigmaXyM(const WindowedPose& w) {
+  if (!w.has_covariance) return 0.0;
+  const Eigen::Matrix2d xy = w.covariance.topLeftCorner<2, 2>();
+  return std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(
+                                     xy, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff()));
 }
 
 std::unique_ptr<FrameStage> MakeWindowStage() { return std::make_unique<WindowStage>(); }
