@@ -227,6 +227,10 @@ TEST(LensSelfCalibration, FirstPosesComeBeforeTheEstimateAppliedAtAFixedFrame) {
   for (std::size_t i = 0; i < resets.size(); ++i) {
     EXPECT_EQ(resets[i], static_cast<int>(i) >= switch_frame ? 1 : 0) << "frame " << i;
   }
+  // summary.json counts the autopilot's resets, by cause.
+  EXPECT_EQ(s.pose_resets.frames, resets.back());
+  EXPECT_EQ(s.pose_resets.lens_switch, 1);
+  EXPECT_EQ(s.pose_resets.loop_closure + s.pose_resets.map_fix, 0);
   const auto rows = e2e::ReadFramesCsv(dir / "a");
   ASSERT_EQ(rows.size(), 25u);
   EXPECT_EQ(rows[switch_frame].at("status"), "ok+lens");
