@@ -319,15 +319,17 @@ struct RunConfig {
   /// (barometer, compass, gimbal). 0 = from the start (the track is then not geo-referenced);
   /// negative (default -1) = never.
   double gps_denied_after_s = -1.0;
-  /// A reference map (docs/map.md; map/reference_map.h): any geo-referenced raster GDAL opens.
-  /// Opened and checked before the frames (an InputError naming it when it is missing, corrupt,
-  /// has no CRS or geotransform, or covers none of the telemetry's positions the run may use:
-  /// those before gps_denied_after_s); after the run, its cover of the geo-referenced track
+  /// The reference maps (docs/map.md; map/reference_map.h): any geo-referenced rasters GDAL
+  /// opens, in the order of preference (the first with data at a place is read there; a window
+  /// it covers in part is filled from the next ones). Opened and checked before the frames (an
+  /// InputError naming the map that is missing, corrupt, has no CRS or geotransform; naming them
+  /// all when together they cover none of the telemetry's positions the run may use: those
+  /// before gps_denied_after_s); after the run, their cover of the geo-referenced track
   /// (summary.json "map", a warning when partial); the frames are matched against it for
   /// absolute fixes (map_fix below; pipeline/map_fixer.h), recorded and compared with GPS
   /// (map_fixes.csv, summary.json "map_fixes"), and with map_fix.apply fused into the pose
-  /// graph (stage_map_fix.cc). "" = none.
-  std::string map;
+  /// graph (stage_map_fix.cc). Empty = none.
+  std::vector<std::string> map;
   /// The fixes against `map` (keys map_fix.*; odometry/map_match.h). Unused without a map.
   MapMatchOptions map_fix;
   /// The sensor's static pattern (vignetting, fixed-pattern noise) estimated from the flight and
@@ -410,7 +412,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.attitude_warn_deg, "attitude_warn_deg", "Warn when the telemetry's camera is this far from nadir and attitude is off, deg", Interval(0, 90));
   v.Field(c.ground_elevation_m, "ground_elevation_m", "Ground altitude above sea level, m, for telemetry with only an altitude above sea level (nan = unknown)", Any());
   v.Field(c.takeoff_height_agl_m, "takeoff_height_agl_m", "Take-off point's height above the ground flown over, m (added to the relative altitude)", Interval(-1e4, 1e4));
-  v.Field(c.map, "map", "Reference map (GeoTIFF/COG, VRT, MBTiles; docs/map.md): checked against the flight, its cover of the track reported, the frames matched against it for absolute fixes (map_fixes.csv; fused into the track with --map-fix-apply)", Any());
+  v.Field(c.map, "map", "Reference map (GeoTIFF/COG, VRT, MBTiles; docs/map.md); several in the order of preference (--map recent.tif --map older.tif): checked against the flight, its cover of the track reported, the frames matched against it for absolute fixes (map_fixes.csv; fused into the track with --map-fix-apply)", Any());
   v.Field(c.gps_denied_after_s, "gps_denied_after_s", "Withhold the telemetry's positions from this many seconds after the first frame on (0 = from the start, negative = never): kept only for the comparison with GPS", Interval(-1e9, 1e9));
   v.Group("gps_check", c.gps_check);
   v.Group("flat_field", c.flat_field);
