@@ -8,8 +8,10 @@
 // north of the truth, so that the track, geo-referenced by it before GPS is denied at 1 s, is
 // SHIFT_M off until the first fused fix takes it back: a jump of the live pose
 // (docs/autopilot.md "A pose that jumps"). Fails on:
-// - an ODOMETRY per frame whose x/y is not frames.csv's (1 mm), whose pose covariance is not
-//   finite, positive on its diagonal and a covariance in x/y (|xy| <= sqrt(xx yy));
+// - an ODOMETRY per frame whose x/y is not frames.csv's x_m/y_m under one orthogonal map (the
+//   first frame's forward-right axes against east-north; 1 mm), whose pose covariance is not
+//   finite, positive on its diagonal (0 at the first frame, the origin) and a covariance in x/y
+//   (|xy| <= sqrt(xx yy));
 // - reset_counter: an increment anywhere but at a frame a fix was fused at (frames.csv
 //   status +map_fix) or re-acquired, none at the first fused fix (the SHIFT_M jump), an
 //   increment at a fix whose jump (the position's change less the frames' mean step) is not
@@ -17,8 +19,10 @@
 //   or none at one whose jump is above it with a 20 % margin;
 // - a GPS_INPUT: what gps_input.cjs checks through ArduPilot's arithmetic, a position more than
 //   1.2 cm from frames.csv's lat/lon (degE7 quantises to 1.1 cm), a fix type that disagrees
-//   with horiz_accuracy against MAX_SIGMA_M, a horiz_accuracy below the ODOMETRY's larger
-//   position standard deviation of the same frame (docs/autopilot.md: it adds the drift term);
+//   with horiz_accuracy against MAX_SIGMA_M, a horiz_accuracy that is not the ODOMETRY's larger
+//   position standard deviation of the same frame with the drift term over the distance since
+//   the first frame or the last fused fix (docs/autopilot.md; 1 cm), no "no fix" before the
+//   first fused fix (the drift term past MAX_SIGMA_M), one after it;
 // - the positions against the truth: before the first fused fix SHIFT_M off (within 1 m), from
 //   it on within 1.5 m.
 // Exit 0 = pass, 1 = fail (the reasons printed).
@@ -31,13 +35,18 @@ const { ardupilot, metresApart } = require('./gps_input.cjs');
 
 const [aerovo, video, srt, focal, map, truthCsv, maxSigma, shiftM, runDir] = process.argv.slice(2);
 const MAX_SIGMA = Number(maxSigma), SHIFT = Number(shiftM);
+// The drift term of horiz_accuracy, a fraction of the distance flown since the first frame or
+// the last fused fix (--mavlink-gps-input-drift): 10 %, so that MAX_SIGMA_M is passed between
+// fixes only before the first fix.
+const DRIFT = 0.1;
 const finite = v => typeof v === 'number' && Number.isFinite(v);
 
 // ODOMETRY pose_covariance: the upper triangle of the 6 x 6 row-major (x, y, z, roll, pitch,
 // yaw): xx = [0], xy = [1], yy = [6]; diagonal [0, 6, 11, 15, 18, 20].
-function checkCovariance(c, who) {
+// The first frame is the origin: its covariance is 0.
+function checkCovariance(c, who, first) {
   check(c.length === 21 && c.every(finite), `${who}: pose_covariance not finite: ${c}`);
-  check([0, 6, 11, 15, 18, 20].every(k => c[k] > 0), `${who}: pose_covariance diagonal ${[0, 6, 11, 15, 18, 20].map(k => c[k])}`);
+  check([0, 6, 11, 15, 18, 20].every(k => (first ? c[k] === 0 : c[k] > 0)), `${who}: pose_covariance diagonal ${[0, 6, 11, 15, 18, 20].map(k => c[k])}`);
   check(Math.abs(c[1]) <= Math.sqrt(c[0] * c[6]) * (1 + 1e-5), `${who}: |xy| ${c[1]} above sqrt(xx yy) ${Math.sqrt(c[0] * c[6])}`);
   return Math.max(c[0], c[6]);
 }
@@ -51,6 +60,7 @@ async function main() {
   const args = ['run', video, '--telemetry', srt, '--focal-px', focal, '--out', runDir, '-q', '--no-report',
                 '--mavlink', `udp:127.0.0.1:${port}`, '--mavlink-time', 'unix', '--mavlink-gps-input',
                 '--mavlink-gps-input-max-sigma-m', maxSigma, '--gps-denied-after-s', '1',
+                '--mavlink-gps-input-drift', String(DRIFT),
                 '--map', map, '--map-fix-apply', '--map-fix-every-n-frames', '4', '--map-fix-search-radius-m', '30'];
   const cpu0 = process.cpuUsage(), wall0 = Date.now();
   const code = await runAerovo(aerovo, args);
@@ -73,12 +83,30 @@ async function main() {
   const steps = [];
   for (let i = 1; i < odo.length; ++i) if (!fused[i] && !fused[i - 1]) steps.push(Math.hypot(odo[i].x - odo[i - 1].x, odo[i].y - odo[i - 1].y));
   const meanStep = steps.reduce((a, b) => a + b, 0) / Math.max(1, steps.length);
+  // ODOMETRY's x/y (MAV_FRAME_LOCAL_FRD: forward, right of the first frame) against frames.csv's
+  // x_m/y_m (east, north): one orthogonal map (a rotation and the handedness' reflection),
+  // fitted by least squares over all frames, must hold every frame within 1 mm.
+  let sxx = 0, sxy = 0, syy = 0, bx = [0, 0], by = [0, 0];
+  for (let i = 0; i < Math.min(odo.length, rows.length); ++i) {
+    const e = Number(rows[i].x_m), n = Number(rows[i].y_m);
+    sxx += e * e; sxy += e * n; syy += n * n;
+    bx = [bx[0] + e * odo[i].x, bx[1] + n * odo[i].x];
+    by = [by[0] + e * odo[i].y, by[1] + n * odo[i].y];
+  }
+  const det = sxx * syy - sxy * sxy;
+  const solve = b => [(syy * b[0] - sxy * b[1]) / det, (sxx * b[1] - sxy * b[0]) / det];
+  const A = [solve(bx), solve(by)];  // odo = A [e, n]
+  const AtA = [A[0][0] ** 2 + A[1][0] ** 2, A[0][0] * A[0][1] + A[1][0] * A[1][1], A[0][1] ** 2 + A[1][1] ** 2];
+  check(Math.abs(AtA[0] - 1) < 1e-4 && Math.abs(AtA[1]) < 1e-4 && Math.abs(AtA[2] - 1) < 1e-4,
+        `ODOMETRY x/y are not an orthogonal map of frames.csv's x_m/y_m: ${JSON.stringify(A)}`);
   let resetsAtFixes = 0, fusedWithoutReset = 0;
   const varianceOf = [];
   for (let i = 0; i < Math.min(odo.length, rows.length); ++i) {
     const d = odo[i], r = rows[i], who = `ODOMETRY frame ${i} (${r.status})`;
-    check(Math.abs(d.x - Number(r.y_m)) <= 1e-3 && Math.abs(d.y - Number(r.x_m)) <= 1e-3, `${who}: x/y ${d.x}/${d.y} vs frames.csv y_m/x_m ${r.y_m}/${r.x_m}`);
-    varianceOf[i] = checkCovariance(Array.from(d.poseCovariance), who);
+    const e = Number(r.x_m), n = Number(r.y_m);
+    const px = A[0][0] * e + A[0][1] * n, py = A[1][0] * e + A[1][1] * n;
+    check(Math.abs(d.x - px) <= 1e-3 && Math.abs(d.y - py) <= 1e-3, `${who}: x/y ${d.x}/${d.y} vs frames.csv's x_m/y_m ${e}/${n} mapped: ${px}/${py}`);
+    varianceOf[i] = checkCovariance(Array.from(d.poseCovariance), who, i === 0);
     if (i === 0) continue;
     const inc = d.resetCounter - odo[i - 1].resetCounter;
     check(inc === 0 || inc === 1, `${who}: reset_counter ${odo[i - 1].resetCounter} -> ${d.resetCounter}`);
@@ -101,14 +129,25 @@ async function main() {
   const skipped = rows.length - gps.length;
   check(skipped >= 0 && skipped <= 3, `${gps.length} GPS_INPUT for ${rows.length} frames`);
   const state = { alignable: 0 };
-  let withFix = 0, worstPosM = 0, worstAfter = 0, worstBefore = 0;
+  let withFix = 0, worstPosM = 0, worstAfter = 0, worstBefore = 0, flown = 0, noFixBefore = 0;
+  for (let i = 1; i < skipped; ++i) flown += Math.hypot(odo[i].x - odo[i - 1].x, odo[i].y - odo[i - 1].y);
   for (let k = 0; k < gps.length; ++k) {
     const i = k + skipped, d = gps[k], r = rows[i], who = `GPS_INPUT frame ${i} (${r.status})`;
     ardupilot(d, state, who);
     const expectFix = finite(d.horizAccuracy) && d.horizAccuracy <= MAX_SIGMA + 1e-6;
     check((d.fixType === 3) === expectFix, `${who}: fix_type ${d.fixType} with horiz_accuracy ${d.horizAccuracy} m, limit ${MAX_SIGMA}`);
     if (d.fixType === 3) ++withFix;
+    else if (i < firstFused) ++noFixBefore;
     check(d.horizAccuracy + 1e-3 >= Math.sqrt(varianceOf[i]), `${who}: horiz_accuracy ${d.horizAccuracy} below the ODOMETRY's ${Math.sqrt(varianceOf[i])} m`);
+    // The drift term restarts at a fused fix: horiz_accuracy = sqrt(variance + (DRIFT x distance
+    // since the first frame or the last fused fix)^2), the distance along frames.csv's track
+    // (the ODOMETRY steps, a fused fix's jump left out).
+    if (fused[i] || i === 0) flown = 0;
+    else flown += Math.hypot(odo[i].x - odo[i - 1].x, odo[i].y - odo[i - 1].y);
+    if (k > 0) {
+      const want = Math.sqrt(varianceOf[i] + (DRIFT * flown) ** 2);
+      check(Math.abs(d.horizAccuracy - want) <= 0.01 + 1e-3 * want, `${who}: horiz_accuracy ${d.horizAccuracy}, expected ${want.toFixed(3)} (${flown.toFixed(2)} m since the last fix)`);
+    }
     const dm = metresApart(Number(r.lat_deg), Number(r.lon_deg), d.lat / 1e7, d.lon / 1e7);
     worstPosM = Math.max(worstPosM, dm);
     check(dm <= 0.012, `${who}: ${(100 * dm).toFixed(2)} cm from frames.csv`);
@@ -123,6 +162,8 @@ async function main() {
     }
   }
   check(withFix >= 3, `only ${withFix} GPS_INPUT with a 3D fix`);
+  check(noFixBefore >= 1, 'no GPS_INPUT without a fix before the first fused fix: the drift term did not grow');
+  check(withFix === gps.length - noFixBefore, `${gps.length - withFix - noFixBefore} GPS_INPUT without a fix after the first fused fix`);
   const g = summary.mavlink && summary.mavlink.gps_input;
   check(g && g.sent === gps.length && g.with_fix === withFix, `summary.json mavlink.gps_input ${JSON.stringify(g)}`);
   const m = summary.map_fixes || {};

@@ -68,7 +68,7 @@ if [ "$MODE" = map_gps_input ]; then
   "$AEROVO" map build "$VIDEO" --telemetry "$SIM/telemetry-yaw.srt" --focal-px "$FOCAL" -q \
     --run-dir "$WORK/map-$MODE/run" -o "$WORK/map-$MODE/map.tif" || exit 1
   cd "$NODE_DIR" && NODE_PATH="$NODE_DIR/node_modules" exec node "$SRC/map_gps_input.cjs" "$AEROVO" \
-    "$VIDEO" "$SIM/telemetry-north5.srt" "$FOCAL" "$WORK/map-$MODE/map.tif" "$SIM/ground_truth.csv" 10 5 "$WORK/run-$MODE"
+    "$VIDEO" "$SIM/telemetry-north5.srt" "$FOCAL" "$WORK/map-$MODE/map.tif" "$SIM/ground_truth.csv" 1.5 5 "$WORK/run-$MODE"
 fi
 # A simulated flight (no sim.json beside the frames: no telemetry, positions in the local frame).
 SIM="$WORK/sim-$MODE"

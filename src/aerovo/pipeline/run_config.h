@@ -246,7 +246,8 @@ struct RunConfig {
   /// 5 m alignment limit, a position still worth more than dead reckoning.
   double mavlink_gps_input_max_sigma_m = 10.0;
   /// GPS_INPUT: the odometry's drift as a fraction of the distance flown from the first frame
-  /// (the track the geo-reference anchors), added to the position's standard deviation (the
+  /// (the track the geo-reference anchors) or from the last fix against a map fused into the
+  /// track (map_fix.apply), added to the position's standard deviation (the
   /// step model alone does not see drift). Default 0.01 (1 %: aerovo's end-point errors on real flights are 0.4-1 % of the
   /// distance, BENCHMARKS.md).
   double mavlink_gps_input_drift = 0.01;
@@ -399,7 +400,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.mavlink_key_timestamp, "mavlink_key_timestamp", "File the signing timestamp is kept in across runs ('' = the key file + .timestamp, 'none' = not kept)", Any());
   v.Field(c.mavlink_gps_input, "mavlink_gps_input", "Also send each geo-referenced frame's position as GPS_INPUT (#232) for ArduPilot's GPS1_TYPE 14 (docs/autopilot.md)", Any().Switch());
   v.Field(c.mavlink_gps_input_max_sigma_m, "mavlink_gps_input_max_sigma_m", "GPS_INPUT: 3D fix only while the position's standard deviation is at most this, m", GreaterThan(0).Finite());
-  v.Field(c.mavlink_gps_input_drift, "mavlink_gps_input_drift", "GPS_INPUT: odometry drift as a fraction of the distance flown from the first frame, added to the position's standard deviation", Interval(0, 1));
+  v.Field(c.mavlink_gps_input_drift, "mavlink_gps_input_drift", "GPS_INPUT: odometry drift as a fraction of the distance flown from the first frame (or the last map fix fused), added to the position's standard deviation", Interval(0, 1));
   v.Field(c.mavlink_gps_input_id, "mavlink_gps_input_id", "GPS_INPUT: gps_id, the autopilot's GPS instance that takes it (0 = the first)", Interval(0, 255));
   v.Field(c.poses_jsonl, "poses_jsonl", "Pose stream: one JSON object per frame, written as it is done ('-' = stdout, then everything else goes to stderr)", Any());
   v.Field(c.frame_queue, "frame_queue", "Frames decoded ahead on a reader thread (0 = none); a live source keeps only the newest, dropping older ones", AtLeast(0));

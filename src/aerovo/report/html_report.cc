@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/statistics.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/eval/trajectory_eval_json.h"
 #include "aerovo/geo/local_enu.h"
@@ -956,9 +957,9 @@ void MapFixesFigure(const RunData& run, FigureSink& sink) {
   if (drawn == 0) return;
   f.title = "Fixes against the map over the track";
   if (!errors.empty()) {
-    std::sort(errors.begin(), errors.end());
     f.title += fmt::format(" (against GPS: median {:.2f} m, max {:.2f} m over {} fixes)",
-                           errors[errors.size() / 2], errors.back(), errors.size());
+                           Median(errors), *std::max_element(errors.begin(), errors.end()),
+                           errors.size());
   }
   FitMapHeight(f);
   sink.Add(f, "The fixes against the reference map (map_fixes.csv) over the track as the run "
