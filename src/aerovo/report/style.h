@@ -29,7 +29,7 @@ inline constexpr Rgb kStart = 0x000000;
 /// Fixes against a reference map (docs/map.md): fused into the track, recorded (a fix not
 /// fused), rejected by a gate (the map fix's, or the pose graph's).
 inline constexpr Rgb kMapFixFused = 0x1B7837;   // dark green
-inline constexpr Rgb kMapFixRecorded = 0x56B4E9;  // sky blue
+inline constexpr Rgb kMapFixRecorded = 0x35978F;  // teal
 inline constexpr Rgb kMapFixGated = 0xB2182B;   // dark red
 
 /// Colours of series that are not tracks, in order: no track colour among them.
