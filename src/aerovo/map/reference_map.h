@@ -1,6 +1,7 @@
 // The reference maps of a run (several allowed, in the order of preference: a recent survey
 // given before an older satellite mosaic; each pixel of a window is read from the first map with
-// data there, so a window the preferred map covers in part is filled from the next), read as windows: a north-up square of the
+// data there, so a window the preferred map covers in part is filled from the next), read as
+// windows: a north-up square of the
 // ground around a geographic point, at a requested ground resolution, in the local East-North
 // plane of that point (geo/local_enu.h) — what a frame brought to the map's geometry is matched
 // against. GDAL reads the map's overview nearest the resolution asked (averaged), and the window

@@ -219,7 +219,8 @@ std::string Cell(const std::optional<double>& v, const char* format) {
 std::string FixesCsv(const std::vector<MapFixRecord>& records) {
   std::string text =
       "frame,time_s,status,lat_deg,lon_deg,heading_deg,sigma_m,inliers,matches,residual_m,scale,"
-      "track_distance_m,gps_error_m,track_gps_error_m,ms,applied,search,second_inliers,map,gated_by_graph\n";
+      "track_distance_m,gps_error_m,track_gps_error_m,ms,applied,search,second_inliers,map,"
+      "gated_by_graph\n";
   for (const MapFixRecord& r : records) {
     const MapFix& f = r.fix;
     const bool fitted = f.fitted;
@@ -268,7 +269,9 @@ void MapFixer::Finish(const std::filesystem::path& out_dir, RunSummary* summary)
   std::vector<double> errors, track_errors;
   double total_ms = 0.0;
   double search_ms = 0.0;
-  for (const map::MapInfo& info : maps_.infos()) s.by_map.push_back({info.path.string(), 0, 0, 0});
+  for (const map::MapInfo& info : maps_.infos()) {
+    s.by_map.push_back({info.path.string(), 0, 0, 0});
+  }
   for (const MapFixRecord& r : records_) {
     ++counts[static_cast<std::size_t>(r.fix.status)];
     if (r.map) {
