@@ -119,9 +119,9 @@ std::string FormatMapFixes(const RunSummary::MapFixes& m) {
   if (m.by_map.size() > 1) {  // several maps: each one's share, in the order given
     for (std::size_t i = 0; i < m.by_map.size(); ++i) {
       const RunSummary::MapFixes::ByMap& b = m.by_map[i];
-      t += fmt::format("  {:<40}{} fixes of {} attempts, {} fused
-",
-                       fmt::format("map {}: {}", i, std::filesystem::path(b.path).filename().string()),
+      t += fmt::format("  {:<40}{} fixes of {} attempts, {} fused\n",
+                       fmt::format("map {}: {}", i,
+                                   std::filesystem::path(b.path).filename().string()),
                        b.fixes, b.attempted, b.fused);
     }
   }
