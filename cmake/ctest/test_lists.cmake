@@ -26,6 +26,10 @@
 #     online paths as OfflineOptimisation's 1 km lawnmower, which stays).
 #   - MapFix.AFalseMapRegion...: a wide search rejected by the gate over a run (the search path:
 #     MapFix.AStart300MOffIsFound, which stays, and MapMatchCallas.Search*, the gate's unit tests).
+#   - MapSeveral.RecentPartialMapFirstOlder...: fixes from two maps over a whole flight, against the
+#     truth, and the report's markers (the windows filled from the next map:
+#     MapSeveral.PartialCoverWarns..., which stays, and ReferenceMaps.AWindowThePreferredMap...;
+#     the report's map: HtmlReport).
 set(AEROVO_ACCURACY_TESTS
   Video4k.DefaultRunDetectsAtHalfResolutionWithinFivePercentOfFullResolution
   LongRun.TenThousandFramesWithFlatMemory
@@ -39,6 +43,7 @@ set(AEROVO_ACCURACY_TESTS
   SixStripSurvey.BuiltInTerrain
   SixStripSurvey.CallasOrthophoto
   MapFix.AFalseMapRegionIsRejectedByTheGate
+  MapSeveral.RecentPartialMapFirstOlderFullMapAfterIt
 )
 
 # Label "repeated_flight": end-to-end runs that repeat, under other settings, a whole-flight path
@@ -135,4 +140,6 @@ set(AEROVO_TEST_COSTS
   MapFix.AppliedFixesBoundTheErrorOfADriftingTrack 11
   MapFix.AStart300MOffIsFound 8
   MapFix.AFalseMapRegionIsRejectedByTheGate 7
+  MapSeveral.RecentPartialMapFirstOlderFullMapAfterIt 9
+  MapSeveral.PartialCoverWarnsAndACorruptSecondMapIsNamed 5
 )

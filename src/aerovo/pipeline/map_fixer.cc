@@ -18,8 +18,9 @@ MapFixer::MapFixer(const map::ReferenceMaps& maps, const MapMatchOptions& option
     : maps_(maps), options_(options), live_(live), matcher_(options) {
   for (const map::MapInfo& info : maps_.infos()) {
     const double mpp = std::min(info.m_per_px_x, info.m_per_px_y);
-    map_m_per_px_ = map_m_per_px_ > 0.0 ? std::min(map_m_per_px_, mpp) : mpp;
+    finest_m_per_px_ = finest_m_per_px_ > 0.0 ? std::min(finest_m_per_px_, mpp) : mpp;
   }
+  map_m_per_px_ = finest_m_per_px_;
   worker_ = std::thread([this] { Work(); });
 }
 
@@ -100,6 +101,7 @@ MapFixRecord MapFixer::Attempt(MapFixJob& job) {
   r.time_s = job.time_s;
   r.predicted = job.predicted;
   const LocalEnu enu(job.predicted);
+  map_m_per_px_ = MapResolutionAt(job.predicted);
   if (last_predicted_) flown_since_fix_m_ += enu.Forward(*last_predicted_).head<2>().norm();
   last_predicted_ = job.predicted;
   // A wide search at the run's first attempt and after search_after_failures failures in a row.
@@ -135,10 +137,18 @@ MapFixRecord MapFixer::Attempt(MapFixJob& job) {
     r.geo = enu.Reverse(r.fix.enu_m.x(), r.fix.enu_m.y(), 0.0);
     if (job.gps) r.gps_error_m = (enu.Forward(*job.gps).head<2>() - r.fix.enu_m).norm();
   }
+  r.map = maps_.MapAt(r.geo ? *r.geo : job.predicted);
   r.fix.ms = watch.elapsed_ms();
   Follow(r);
   if (wide) failures_ = 0;  // the next wide search after as many failures again
   return r;
+}
+
+double MapFixer::MapResolutionAt(const GeoPoint& p) const {
+  const std::optional<int> m = maps_.MapAt(p);
+  if (!m) return finest_m_per_px_;
+  const map::MapInfo& info = maps_.infos()[static_cast<std::size_t>(*m)];
+  return std::min(info.m_per_px_x, info.m_per_px_y);
 }
 
 MapFix MapFixer::CoarseToFine(const MapFixJob& job, const LocalEnu& enu, double radius_m,
@@ -209,13 +219,14 @@ std::string Cell(const std::optional<double>& v, const char* format) {
 std::string FixesCsv(const std::vector<MapFixRecord>& records) {
   std::string text =
       "frame,time_s,status,lat_deg,lon_deg,heading_deg,sigma_m,inliers,matches,residual_m,scale,"
-      "track_distance_m,gps_error_m,track_gps_error_m,ms,applied,search,second_inliers\n";
+      "track_distance_m,gps_error_m,track_gps_error_m,ms,applied,search,second_inliers,map,"
+      "gated_by_graph\n";
   for (const MapFixRecord& r : records) {
     const MapFix& f = r.fix;
     const bool fitted = f.fitted;
     const auto when = [&](double v) { return fitted ? std::optional<double>(v) : std::nullopt; };
     text += fmt::format(
-        "{},{:.3f},{},{},{},{},{},{},{},{},{},{},{},{},{:.1f},{},{},{}\n", r.frame, r.time_s,
+        "{},{:.3f},{},{},{},{},{},{},{},{},{},{},{},{},{:.1f},{},{},{},{},{}\n", r.frame, r.time_s,
         ToString(f.status), r.geo ? fmt::format("{:.8f}", r.geo->lat_deg) : "",
         r.geo ? fmt::format("{:.8f}", r.geo->lon_deg) : "",
         Cell(when(f.heading_rad * 180.0 / 3.14159265358979323846), "{:.3f}"),
@@ -223,7 +234,8 @@ std::string FixesCsv(const std::vector<MapFixRecord>& records) {
         Cell(when(f.residual_m), "{:.3f}"), Cell(when(f.scale), "{:.4f}"),
         Cell(when(f.prior_distance_m), "{:.3f}"), Cell(r.gps_error_m, "{:.3f}"),
         Cell(r.track_gps_error_m, "{:.3f}"), f.ms, r.applied ? 1 : 0, r.search ? "wide" : "local",
-        r.search && f.fitted ? std::to_string(f.second_inliers) : std::string());
+        r.search && f.fitted ? std::to_string(f.second_inliers) : std::string(),
+        r.map ? std::to_string(*r.map) : std::string(), r.gated_by_graph ? 1 : 0);
   }
   return text;
 }
@@ -257,8 +269,17 @@ void MapFixer::Finish(const std::filesystem::path& out_dir, RunSummary* summary)
   std::vector<double> errors, track_errors;
   double total_ms = 0.0;
   double search_ms = 0.0;
+  for (const map::MapInfo& info : maps_.infos()) {
+    s.by_map.push_back({info.path.string(), 0, 0, 0});
+  }
   for (const MapFixRecord& r : records_) {
     ++counts[static_cast<std::size_t>(r.fix.status)];
+    if (r.map) {
+      RunSummary::MapFixes::ByMap& m = s.by_map[static_cast<std::size_t>(*r.map)];
+      ++m.attempted;
+      if (r.fix.status == MapFixStatus::kFix) ++m.fixes;
+      if (r.applied) ++m.fused;
+    }
     if (r.applied) ++s.applied;
     if (r.gated_by_graph) ++s.gated_by_graph;
     total_ms += r.fix.ms;

@@ -57,6 +57,10 @@ struct MapFixRecord {
   /// A search, coarse to fine (a wide search, or search_radius_m above coarse_above_radius_m).
   bool search = false;
   MapFix fix;
+  /// The map (index into ReferenceMaps::infos(), the order of --map) with data under the fit's
+  /// position (the prediction's when nothing was fitted): the preferred map there, the one the
+  /// window's pixels at the frame came from; nullopt where no map has data.
+  std::optional<int> map;
   std::optional<GeoPoint> geo;              ///< The fit's position (when fitted).
   std::optional<double> gps_error_m;        ///< |fit - GPS|, m (fitted, with GPS).
   std::optional<double> track_gps_error_m;  ///< |track - GPS| at the frame, m.
@@ -98,6 +102,8 @@ class MapFixer {
   // with the gate `gate_m`: MapMatcher::Search over a coarse window, then Match at the matching
   // resolution around its hit; the fix in `enu`.
   MapFix CoarseToFine(const MapFixJob& job, const LocalEnu& enu, double radius_m, double gate_m);
+  // The resolution of the map with data at `p` (the finest map's where none has), m/px.
+  double MapResolutionAt(const GeoPoint& p) const;
   // After an attempt: the failures in a row, the first fix, the distance since the last fix.
   void Follow(const MapFixRecord& record);
 
@@ -105,7 +111,9 @@ class MapFixer {
   MapMatchOptions options_;
   bool live_;
   MapMatcher matcher_;
-  double map_m_per_px_ = 0.0;
+  // The matching's map resolution, m/px: at each attempt, that of the map at the prediction
+  // (ReferenceMaps::MapAt; the finest map's where none has data).
+  double map_m_per_px_ = 0.0, finest_m_per_px_ = 0.0;
   std::mutex mutex_;
   std::condition_variable wake_, done_;
   std::optional<MapFixJob> job_;  // waiting for the worker

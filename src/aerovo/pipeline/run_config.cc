@@ -272,9 +272,12 @@ class YamlReader {
             "with an anchor used by a merge key `<<: *name` is allowed as a template)",
             where_, at, it.key()));
       }
-      if (it->is_array()) {
-        throw InputError(fmt::format("{}: line {}: '{}': lists are not allowed (flat key: value "
-                                     "only)",
+      // A list of scalars is a list option's value (`map: [a.tif, b.tif]`; the schema rejects
+      // it for any other key, naming the key); nothing deeper.
+      const auto nested = [](const nlohmann::json& e) { return e.is_array() || e.is_object(); };
+      if (it->is_array() && std::any_of(it->begin(), it->end(), nested)) {
+        throw InputError(fmt::format("{}: line {}: '{}': lists of lists or mappings are not "
+                                     "allowed (flat key: value, or a list of values)",
                                      where_, at, it.key()));
       }
       out[it.key()] = *it;

@@ -220,7 +220,8 @@ struct RunSummary {
   /// geo-referenced track (frames whose position falls on the map's data; `note` when the track
   /// is not geo-referenced).
   struct MapCover {
-    std::string path;
+    std::string path;                ///< The first (preferred) map.
+    std::vector<std::string> paths;  ///< Every map, in the order of preference.
     int track_points = 0, covered = 0;
     std::string note;
   };
@@ -250,6 +251,14 @@ struct RunSummary {
     int with_gps = 0;
     double median_m = 0.0, rmse_m = 0.0, max_m = 0.0;
     double track_median_m = 0.0, track_rmse_m = 0.0, track_max_m = 0.0;
+    /// Per map, in the order of preference: the attempts whose frame (the fit's position, else
+    /// the prediction) lay on its data and it was the first map there, their fixes, and those
+    /// fused (MapFixRecord::map).
+    struct ByMap {
+      std::string path;
+      int attempted = 0, fixes = 0, fused = 0;
+    };
+    std::vector<ByMap> by_map;
   };
   std::optional<MapFixes> map_fixes;
   /// Frames at which the live pose was reset (summary.json "pose_resets"; MAVLink reset_counter
