@@ -103,6 +103,10 @@ struct MapMatchOptions {
   /// min_inliers more (a repeated texture, a field of the same rows, two map tiles that each
   /// hold part of the frame's ground: no fix).
   double min_margin = 2.0;
+  /// Without a geo-reference (no GPS before the first fix): the whole map's data is searched in
+  /// square tiles of at most 2 search_wide_radius_m a side, at most this many (those nearest the
+  /// maps' centre; pipeline/map_fixer.h SearchWholeMap).
+  int whole_map_max_tiles = 64;
 };
 
 /// Throws InvalidArgument naming the bad field.
@@ -135,6 +139,7 @@ void VisitFields(MapMatchOptions& o, V& v) {
   v.Field(o.search_gate_per_m, "search_gate_per_m", "Gate of a wide search after a fix: the gate plus this times the distance flown since the last fix (before the first fix: the wide radius)", AtLeast(0).Finite());
   v.Field(o.coarse_above_radius_m, "coarse_above_radius_m", "Searches wider than this radius, m, go coarse to fine", GreaterThan(0).Finite());
   v.Field(o.search_width_px, "search_width_px", "Coarse resolution of a search: the frame's width at it, px (never finer than the matching resolution)", Interval(64, 4096));
+  v.Field(o.whole_map_max_tiles, "whole_map_max_tiles", "Without a geo-reference: most tiles (2 x search_wide_radius_m a side) of the whole-map search", Interval(1, 10000));
   v.Field(o.min_margin, "min_margin", "A search's hit needs this many times the inliers of the best other location (and min_inliers more)", AtLeast(1).Finite());
 }
 // clang-format on
