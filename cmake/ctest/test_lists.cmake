@@ -26,6 +26,9 @@
 #     online paths as OfflineOptimisation's 1 km lawnmower, which stays).
 #   - MapFix.AFalseMapRegion...: a wide search rejected by the gate over a run (the search path:
 #     MapFix.AStart300MOffIsFound, which stays, and MapMatchCallas.Search*, the gate's unit tests).
+#   - MapDemo.ThreeKilometres...: 3.3 km over the Callas orthophoto without GPS, fused fixes, a
+#     gap, a false tile and a start 300 m off in one flight, against the truth (the paths of
+#     MapFix.AStart300MOffIsFound and MapFix.SimulatedFlightFixes..., which stay).
 set(AEROVO_ACCURACY_TESTS
   Video4k.DefaultRunDetectsAtHalfResolutionWithinFivePercentOfFullResolution
   LongRun.TenThousandFramesWithFlatMemory
@@ -39,6 +42,7 @@ set(AEROVO_ACCURACY_TESTS
   SixStripSurvey.BuiltInTerrain
   SixStripSurvey.CallasOrthophoto
   MapFix.AFalseMapRegionIsRejectedByTheGate
+  MapDemo.ThreeKilometresWithoutGpsOverAnotherSurveysMap
 )
 
 # Label "repeated_flight": end-to-end runs that repeat, under other settings, a whole-flight path
@@ -135,4 +139,7 @@ set(AEROVO_TEST_COSTS
   MapFix.AppliedFixesBoundTheErrorOfADriftingTrack 11
   MapFix.AStart300MOffIsFound 8
   MapFix.AFalseMapRegionIsRejectedByTheGate 7
+  MapFix.GpsDeniedFromTheStartTheMapSeedsTheGeoReference 7
+  MapFix.GpsDeniedFromTheStartOverAMapWithoutTheFlightSaysSo 6
+  MapDemo.ThreeKilometresWithoutGpsOverAnotherSurveysMap 14
 )

@@ -230,6 +230,36 @@ struct TileHit {
 // most inliers of a fit elsewhere: the best's own second place (MapMatcher::Search) and the
 // other tiles' fits farther than `footprint_m` from it (the tiles overlap by a footprint: the
 // same place found twice is no rival).
+// The centres of the square tiles of at most 2 `radius_m` a side that cover the maps' extent
+// (WGS84 bounds of every map), nearest the extent's centre first; `half` their half side, m.
+std::vector<GeoPoint> WholeMapTiles(const map::ReferenceMaps& maps, double radius_m, double* half) {
+  double lon0 = 1e9, lon1 = -1e9, lat0 = 1e9, lat1 = -1e9;
+  for (const map::MapInfo& info : maps.infos()) {
+    lon0 = std::min(lon0, info.extent_lonlat.min_x);
+    lon1 = std::max(lon1, info.extent_lonlat.max_x);
+    lat0 = std::min(lat0, info.extent_lonlat.min_y);
+    lat1 = std::max(lat1, info.extent_lonlat.max_y);
+  }
+  const LocalEnu centre(GeoPoint{0.5 * (lat0 + lat1), 0.5 * (lon0 + lon1), 0.0});
+  const Eigen::Vector2d sw = centre.Forward(GeoPoint{lat0, lon0, 0.0}).head<2>();
+  const Eigen::Vector2d size = centre.Forward(GeoPoint{lat1, lon1, 0.0}).head<2>() - sw;
+  const int nx = std::max(1, static_cast<int>(std::ceil(size.x() / (2.0 * radius_m))));
+  const int ny = std::max(1, static_cast<int>(std::ceil(size.y() / (2.0 * radius_m))));
+  *half = 0.5 * std::max(size.x() / nx, size.y() / ny);
+  std::vector<Eigen::Vector2d> enu;
+  for (int j = 0; j < ny; ++j) {
+    for (int i = 0; i < nx; ++i) {
+      enu.push_back(sw + Eigen::Vector2d((i + 0.5) * size.x() / nx, (j + 0.5) * size.y() / ny));
+    }
+  }
+  std::stable_sort(enu.begin(), enu.end(), [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+    return a.squaredNorm() < b.squaredNorm();
+  });
+  std::vector<GeoPoint> tiles;
+  for (const Eigen::Vector2d& t : enu) tiles.push_back(centre.Reverse(t.x(), t.y(), 0.0));
+  return tiles;
+}
+
 std::optional<std::size_t> BestHit(const std::vector<TileHit>& hits, double footprint_m,
                                    double* second) {
   std::optional<std::size_t> best;
@@ -250,31 +280,8 @@ std::optional<std::size_t> BestHit(const std::vector<TileHit>& hits, double foot
 }  // namespace
 
 MapFix MapFixer::SearchWholeMap(const MapFixJob& job, std::optional<GeoPoint>* at) {
-  // The maps' extent (WGS84) in the ENU plane of its centre.
-  double lon0 = 1e9, lon1 = -1e9, lat0 = 1e9, lat1 = -1e9;
-  for (const map::MapInfo& info : maps_.infos()) {
-    lon0 = std::min(lon0, info.extent_lonlat.min_x);
-    lon1 = std::max(lon1, info.extent_lonlat.max_x);
-    lat0 = std::min(lat0, info.extent_lonlat.min_y);
-    lat1 = std::max(lat1, info.extent_lonlat.max_y);
-  }
-  const LocalEnu centre(GeoPoint{0.5 * (lat0 + lat1), 0.5 * (lon0 + lon1), 0.0});
-  const Eigen::Vector2d sw = centre.Forward(GeoPoint{lat0, lon0, 0.0}).head<2>();
-  const Eigen::Vector2d ne = centre.Forward(GeoPoint{lat1, lon1, 0.0}).head<2>();
-  const Eigen::Vector2d size = ne - sw;
-  const double side = 2.0 * options_.search_wide_radius_m;
-  const int nx = std::max(1, static_cast<int>(std::ceil(size.x() / side)));
-  const int ny = std::max(1, static_cast<int>(std::ceil(size.y() / side)));
-  const double half = 0.5 * std::max(size.x() / nx, size.y() / ny);  // the tiles' radius, m
-  std::vector<Eigen::Vector2d> tiles;
-  for (int j = 0; j < ny; ++j) {
-    for (int i = 0; i < nx; ++i) {
-      tiles.push_back(sw + Eigen::Vector2d((i + 0.5) * size.x() / nx, (j + 0.5) * size.y() / ny));
-    }
-  }
-  std::stable_sort(tiles.begin(), tiles.end(), [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-    return a.squaredNorm() < b.squaredNorm();
-  });
+  double half = 0.0;
+  std::vector<GeoPoint> tiles = WholeMapTiles(maps_, options_.search_wide_radius_m, &half);
   whole_map_tiles_total_ = static_cast<int>(tiles.size());
   if (static_cast<int>(tiles.size()) > options_.whole_map_max_tiles) {
     tiles.resize(static_cast<std::size_t>(options_.whole_map_max_tiles));
@@ -287,8 +294,7 @@ MapFix MapFixer::SearchWholeMap(const MapFixJob& job, std::optional<GeoPoint>* a
   std::vector<TileHit> hits;
   MapFix none;
   none.status = MapFixStatus::kNoMap;
-  for (const Eigen::Vector2d& t : tiles) {
-    const GeoPoint c = centre.Reverse(t.x(), t.y(), 0.0);
+  for (const GeoPoint& c : tiles) {
     const std::optional<map::MapWindow> window =
         maps_.Window(c, MapWindowSizePx(w, h, gsd, half, coarse_mpp), coarse_mpp);
     if (!window) continue;
