@@ -1,8 +1,14 @@
-// Navigating without GPS over a known map, all of it in one flight (docs/map.md, "The 3 km
-// demonstration"): 3.3 km over the Callas orthophoto at 110 m, GPS off 5 s after take-off, the map
-// the same ground as another survey would give it (callas_map.h: 0.4 m/px, other tones, haze,
-// JPEG) with a gap in its coverage and a tile placed 200 m wrong, and the GPS before the denial
-// 300 m off. Everything is compared with the simulator's exact truth (ground_truth.csv).
+// Navigating without GPS over a known map, all of it in one test (docs/map.md, "The 3 km
+// demonstration"): 3.3 km over the Callas orthophoto at 110 m (3 legs of 1 km, 221 frames of
+// 480 x 270 at 1 fps), GPS off 8 s after take-off, the map the same ground as another survey would
+// give it (callas_map.h: 0.4 m/px, other tones, haze, JPEG) with a gap in its coverage, and the
+// GPS before the denial 300 m off (the track's geo-reference and every prediction 300 m off
+// until the first fix); the odometry alone from the same take-off with its GPS right; and the
+// same map with a tile placed 200 m wrong. Everything against the simulator's exact truth
+// (ground_truth.csv). Measured (BENCHMARKS.md, "The 3 km demonstration"): the fused track 0.06 m
+// RMSE, 0.14 m max over the 213 frames without GPS; the odometry alone 32.8 m RMSE, 56.0 m max
+// (its heading from the first 30 m of a GPS with 2 m of noise is 3 degrees off: the fixes' headings
+// take that back); 45 of the 45 attempts where the map has data are fixes.
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
@@ -29,11 +35,12 @@ using Rows = std::vector<std::map<std::string, std::string>>;
 
 constexpr double kNwLat = 43.539340, kNwLon = 6.551628;
 constexpr double kPi = 3.14159265358979323846;
-// The map's layout, metres east of the orthophoto's west edge: no data in [600, 900); the tile
-// [1000, 1100) and the one 200 m east of it swapped. The flight's frames reach 95 m east or
-// west of their centre (a 165 x 93 m footprint at a heading of 72 or 252 degrees).
-constexpr double kGap0 = 600.0, kGap1 = 900.0, kBand0 = 1000.0, kBand1 = 1100.0, kShift = 200.0;
-constexpr double kReach = 95.0;
+// The maps' layout, metres east of the orthophoto's west edge: no data in [600, 850) (the map of
+// the whole flight); the tile [450, 610) and the one 200 m east of it swapped (the map of the
+// false tile, flown over by the first leg). The flight's frames reach 70 m east or west of their
+// centre (a 165 x 93 m footprint at a heading of 72 or 252 degrees).
+constexpr double kGap0 = 600.0, kGap1 = 850.0, kBand0 = 450.0, kBand1 = 610.0, kShift = 200.0;
+constexpr double kReach = 70.0;
 
 // East and north of the orthophoto's north-west corner, m (equirectangular at its latitude:
 // within centimetres over the 2 km of the flight).
@@ -108,25 +115,28 @@ void MakeFlight(const fs::path& ortho, const fs::path& dir, std::map<int, EastNo
   mo.reduction = 2;  // 0.4 m/px
   mo.nodata = true;
   mo.gap = {kGap0, kGap1};
-  mo.band = {kBand0, kBand1, kShift};
   ASSERT_TRUE(e2e::WriteCallasMap(ortho, dir, "map", mo));
-  ASSERT_TRUE(ShiftFirstFixes(dir / "sim" / "telemetry.srt", 5, -300.0, dir / "off300.srt"));
+  mo.gap = {0, 0};
+  mo.band = {kBand0, kBand1, kShift};
+  ASSERT_TRUE(e2e::WriteCallasMap(ortho, dir, "false_tile", mo));
+  ASSERT_TRUE(ShiftFirstFixes(dir / "sim" / "telemetry.srt", 8, -300.0, dir / "off300.srt"));
   for (const auto& r : e2e::ReadCsvRows(dir / "sim" / "ground_truth.csv")) {
     (*truth)[std::stoi(r.at("frame"))] = FromLatLon(std::stod(r.at("lat_deg")), std::stod(r.at("lon_deg")));
   }
 }
 
 // The fused run's attempts (map_fixes.csv rows) by where the frame truly is: the start 300 m off
-// found, every fix within 3 m of the truth, at least 90 % of fixes where the map is right (no
-// frame reaching into the gap or a swapped tile), none inside the gap and fixes again within 3
-// attempts after each crossing, the swapped tile found 200 m off by a wide search and gated.
+// found, every fix within 3 m of the truth, at least 90 % of fixes where the map has data (no
+// frame reaching into the gap), none with the frame wholly inside the gap and fixes again within
+// 3 attempts after each crossing.
 void CheckAttempts(const Rows& rows, const std::map<int, EastNorth>& truth) {
   ASSERT_GE(rows.size(), 70u);
-  // A start 300 m off: the first attempt (frame 0) is a wide search that finds the frame there.
+  // A start 300 m off: the first attempt (frame 3, the first after the track was geo-referenced
+  // by the GPS's first 30 m) is a wide search that finds the frame there.
   EXPECT_EQ(rows[0].at("search"), "wide");
   EXPECT_EQ(rows[0].at("status"), "fix");
   EXPECT_NEAR(std::stod(rows[0].at("track_distance_m")), 300.0, 10.0);
-  int textured = 0, textured_fixes = 0, gap = 0, gate = 0;
+  int textured = 0, textured_fixes = 0, gap = 0;
   bool in_gap_before = false;
   int resumed = 0, crossings = 0, since_gap = -1;
   for (const auto& r : rows) {
@@ -137,10 +147,7 @@ void CheckAttempts(const Rows& rows, const std::map<int, EastNorth>& truth) {
       const EastNorth at = FromLatLon(std::stod(r.at("lat_deg")), std::stod(r.at("lon_deg")));
       EXPECT_LT(Distance(at, truth.at(frame)), 3.0) << "frame " << frame;
     }
-    const bool near_gap = In(e, kGap0 - kReach, kGap1 + kReach);
-    const bool near_band = In(e, kBand0 - kReach, kBand1 + kReach) ||
-                           In(e, kBand0 + kShift - kReach, kBand1 + kShift + kReach);
-    if (!near_gap && !near_band) {
+    if (!In(e, kGap0 - kReach, kGap1 + kReach)) {
       ++textured;
       textured_fixes += status == "fix";
     }
@@ -164,20 +171,14 @@ void CheckAttempts(const Rows& rows, const std::map<int, EastNorth>& truth) {
       }
     }
     in_gap_before = inside_gap;
-    // The false tile: a wide search finds the frame 200 m off and the gate rejects it.
-    if (status == "gate" && r.at("search") == "wide") {
-      ++gate;
-      EXPECT_NEAR(std::stod(r.at("track_distance_m")), kShift, 15.0) << "frame " << frame;
-    }
   }
   EXPECT_GE(textured, 40);
   EXPECT_GE(textured_fixes, 0.9 * textured) << textured_fixes << " of " << textured;
   EXPECT_GE(gap, 3);
   EXPECT_EQ(crossings, 3);  // the 3 legs
   EXPECT_EQ(resumed, crossings);
-  EXPECT_GE(gate, 1);
-  std::printf("attempts %zu, where the map is right %d (fixes %d), in the gap %d, gate %d\n",
-              rows.size(), textured, textured_fixes, gap, gate);
+  std::printf("attempts %zu, where the map has data %d (fixes %d), in the gap %d\n",
+              rows.size(), textured, textured_fixes, gap);
 }
 
 TEST(MapDemo, ThreeKilometresWithoutGpsOverAnotherSurveysMap) {
@@ -194,12 +195,12 @@ TEST(MapDemo, ThreeKilometresWithoutGpsOverAnotherSurveysMap) {
   ASSERT_NO_FATAL_FAILURE(MakeFlight(ortho, dir, &truth));
   const std::string video = (dir / "sim" / "video.mp4").string();
   // The odometry alone (its GPS right before the denial), and with the map (its GPS 300 m off).
-  ASSERT_EQ(e2e::RunCli(fmt::format("run {} --gps-denied-after-s 5 --no-report -q -o {}", video,
+  ASSERT_EQ(e2e::RunCli(fmt::format("run {} --gps-denied-after-s 8 --no-report -q -o {}", video,
                                     (dir / "vo").string()),
                         dir / "vo.log"),
             0)
       << e2e::ReadText(dir / "vo.log");
-  ASSERT_EQ(e2e::RunCli(fmt::format("run {} --telemetry {} --map {} --gps-denied-after-s 5 "
+  ASSERT_EQ(e2e::RunCli(fmt::format("run {} --telemetry {} --map {} --gps-denied-after-s 8 "
                                     "--map-fix-every-n-frames 3 --map-fix-apply --no-report -q -o {}",
                                     video, (dir / "off300.srt").string(),
                                     (dir / "map.tif").string(), (dir / "fused").string()),
@@ -207,10 +208,10 @@ TEST(MapDemo, ThreeKilometresWithoutGpsOverAnotherSurveysMap) {
             0)
       << e2e::ReadText(dir / "fused.log");
 
-  // The track without GPS (frames from the denial at 5 s on), unaligned against the truth.
-  const std::vector<double> vo = TrackErrors(e2e::ReadCsvRows(dir / "vo" / "frames.csv"), truth, 5);
+  // The track without GPS (frames from the denial at 8 s on), unaligned against the truth.
+  const std::vector<double> vo = TrackErrors(e2e::ReadCsvRows(dir / "vo" / "frames.csv"), truth, 8);
   const std::vector<double> fused =
-      TrackErrors(e2e::ReadCsvRows(dir / "fused" / "frames.csv"), truth, 5);
+      TrackErrors(e2e::ReadCsvRows(dir / "fused" / "frames.csv"), truth, 8);
   ASSERT_GE(fused.size(), 200u);
   ASSERT_EQ(vo.size(), fused.size());
   const double fused_max = *std::max_element(fused.begin(), fused.end());
@@ -229,8 +230,37 @@ TEST(MapDemo, ThreeKilometresWithoutGpsOverAnotherSurveysMap) {
   CheckAttempts(rows, truth);
   const nlohmann::json m = e2e::ReadJson(dir / "fused" / "summary.json").at("map_fixes");
   EXPECT_EQ(m.at("gated_by_graph"), 0) << m.dump(1);
+
+  // The false tile, under the first leg (its first 40 frames): a wide search after the local
+  // attempts' failures over it finds the frame 200 m off and the gate rejects it; every fix is
+  // where the truth is and the track stays within 8 m of it.
+  ASSERT_EQ(e2e::RunCli(fmt::format("run {} --map {} --gps-denied-after-s 8 --max-frames 40 "
+                                    "--map-fix-every-n-frames 3 --map-fix-apply --no-report -q -o {}",
+                                    video, (dir / "false_tile.tif").string(),
+                                    (dir / "false_tile").string()),
+                        dir / "false_tile.log"),
+            0)
+      << e2e::ReadText(dir / "false_tile.log");
+  int gate = 0;
+  for (const auto& r : e2e::ReadCsvRows(dir / "false_tile" / "map_fixes.csv")) {
+    const int frame = std::stoi(r.at("frame"));
+    if (r.at("status") == "gate" && r.at("search") == "wide") {
+      ++gate;
+      EXPECT_NEAR(std::stod(r.at("track_distance_m")), kShift, 15.0) << "frame " << frame;
+    }
+    if (r.at("status") != "fix") continue;
+    const EastNorth at = FromLatLon(std::stod(r.at("lat_deg")), std::stod(r.at("lon_deg")));
+    EXPECT_LT(Distance(at, truth.at(frame)), 3.0) << "frame " << frame;
+  }
+  EXPECT_GE(gate, 1);
+  const std::vector<double> false_tile =
+      TrackErrors(e2e::ReadCsvRows(dir / "false_tile" / "frames.csv"), truth, 8);
+  ASSERT_FALSE(false_tile.empty());
+  EXPECT_LT(*std::max_element(false_tile.begin(), false_tile.end()), 8.0);
+  std::printf("false tile: %d wide searches gated, the track's max error %.2f m\n", gate,
+              *std::max_element(false_tile.begin(), false_tile.end()));
   std::error_code ec;
-  fs::remove_all(dir, ec);
+  if (!HasFailure()) fs::remove_all(dir, ec);  // kept for a look when the test fails
 }
 
 }  // namespace
