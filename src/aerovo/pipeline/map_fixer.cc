@@ -243,8 +243,10 @@ std::vector<GeoPoint> WholeMapTiles(const map::ReferenceMaps& maps, double radiu
   const LocalEnu centre(GeoPoint{0.5 * (lat0 + lat1), 0.5 * (lon0 + lon1), 0.0});
   const Eigen::Vector2d sw = centre.Forward(GeoPoint{lat0, lon0, 0.0}).head<2>();
   const Eigen::Vector2d size = centre.Forward(GeoPoint{lat1, lon1, 0.0}).head<2>() - sw;
-  const int nx = std::max(1, static_cast<int>(std::ceil(size.x() / (2.0 * radius_m))));
-  const int ny = std::max(1, static_cast<int>(std::ceil(size.y() / (2.0 * radius_m))));
+  // A side at most 2 % over 2 radius_m is not another row or column of tiles (the extent's edges
+  // in degrees bulge out of the map's own square; the windows reach a footprint beyond a tile).
+  const int nx = std::max(1, static_cast<int>(std::ceil(size.x() / (2.0 * radius_m) - 0.02)));
+  const int ny = std::max(1, static_cast<int>(std::ceil(size.y() / (2.0 * radius_m) - 0.02)));
   *half = 0.5 * std::max(size.x() / nx, size.y() / ny);
   std::vector<Eigen::Vector2d> enu;
   for (int j = 0; j < ny; ++j) {
