@@ -334,7 +334,8 @@ TEST(MapFix, AFalseMapRegionIsRejectedByTheGate) {
 // through the candidate, confirms it and seeds the geo-reference (heading and position from its
 // fit); the later fixes are fused. Every frame is written geo-referenced (they wait for the seed),
 // and the track against the withheld GPS (the truth, unaligned) from the first frame on is within
-// the tolerances below (measured: BENCHMARKS.md, "A start without GPS").
+// the tolerances below (measured 0.07 m RMSE, 0.17 m max; the whole-map search 1.0-1.4 s under a
+// load of 10; BENCHMARKS.md, "A start without GPS").
 TEST(MapFix, GpsDeniedFromTheStartTheMapSeedsTheGeoReference) {
   const MapFixFlight& f = Flight();
   if (!f.skip.empty()) GTEST_SKIP() << f.skip;
