@@ -230,9 +230,11 @@ struct TileHit {
 // most inliers of a fit elsewhere: the best's own second place (MapMatcher::Search) and the
 // other tiles' fits farther than `footprint_m` from it (the tiles overlap by a footprint: the
 // same place found twice is no rival).
-// The centres of the square tiles of at most 2 `radius_m` a side that cover the maps' extent
-// (WGS84 bounds of every map), nearest the extent's centre first; `half` their half side, m.
-std::vector<GeoPoint> WholeMapTiles(const map::ReferenceMaps& maps, double radius_m, double* half) {
+// The centres of the square tiles of at most 2 `o.search_wide_radius_m` a side that cover the
+// maps' extent (WGS84 bounds of every map), or the square of 2 o.start_radius_m a side around
+// the start position when given, nearest the area's centre first; `half` their half side, m.
+std::vector<GeoPoint> WholeMapTiles(const map::ReferenceMaps& maps, const MapMatchOptions& o,
+                                    double* half) {
   double lon0 = 1e9, lon1 = -1e9, lat0 = 1e9, lat1 = -1e9;
   for (const map::MapInfo& info : maps.infos()) {
     lon0 = std::min(lon0, info.extent_lonlat.min_x);
@@ -240,9 +242,15 @@ std::vector<GeoPoint> WholeMapTiles(const map::ReferenceMaps& maps, double radiu
     lat0 = std::min(lat0, info.extent_lonlat.min_y);
     lat1 = std::max(lat1, info.extent_lonlat.max_y);
   }
-  const LocalEnu centre(GeoPoint{0.5 * (lat0 + lat1), 0.5 * (lon0 + lon1), 0.0});
-  const Eigen::Vector2d sw = centre.Forward(GeoPoint{lat0, lon0, 0.0}).head<2>();
-  const Eigen::Vector2d size = centre.Forward(GeoPoint{lat1, lon1, 0.0}).head<2>() - sw;
+  const double radius_m = o.search_wide_radius_m;
+  LocalEnu centre(GeoPoint{0.5 * (lat0 + lat1), 0.5 * (lon0 + lon1), 0.0});
+  Eigen::Vector2d sw = centre.Forward(GeoPoint{lat0, lon0, 0.0}).head<2>();
+  Eigen::Vector2d size = centre.Forward(GeoPoint{lat1, lon1, 0.0}).head<2>() - sw;
+  if (o.start_radius_m > 0.0) {
+    centre = LocalEnu(GeoPoint{o.start_lat_deg, o.start_lon_deg, 0.0});
+    sw = Eigen::Vector2d::Constant(-o.start_radius_m);
+    size = Eigen::Vector2d::Constant(2.0 * o.start_radius_m);
+  }
   // A side at most 2 % over 2 radius_m is not another row or column of tiles (the extent's edges
   // in degrees bulge out of the map's own square; the windows reach a footprint beyond a tile).
   const int nx = std::max(1, static_cast<int>(std::ceil(size.x() / (2.0 * radius_m) - 0.02)));
@@ -283,7 +291,7 @@ std::optional<std::size_t> BestHit(const std::vector<TileHit>& hits, double foot
 
 MapFix MapFixer::SearchWholeMap(const MapFixJob& job, std::optional<GeoPoint>* at) {
   double half = 0.0;
-  std::vector<GeoPoint> tiles = WholeMapTiles(maps_, options_.search_wide_radius_m, &half);
+  std::vector<GeoPoint> tiles = WholeMapTiles(maps_, options_, &half);
   whole_map_tiles_total_ = static_cast<int>(tiles.size());
   if (static_cast<int>(tiles.size()) > options_.whole_map_max_tiles) {
     tiles.resize(static_cast<std::size_t>(options_.whole_map_max_tiles));
@@ -551,6 +559,11 @@ void MapFixer::SummarizeSeed(RunSummary::MapFixes* s) const {
           : fmt::format("{} candidates found by {} whole-map searches, none confirmed by the next "
                         "attempt",
                         s->candidates, whole_map_searches_);
+  if (options_.start_radius_m > 0.0) {
+    s->georef_note += fmt::format("; searched within {} m of the start position given "
+                                  "(map_fix.start_lat_deg, start_lon_deg)",
+                                  options_.start_radius_m);
+  }
   if (whole_map_tiles_ < whole_map_tiles_total_) {
     s->georef_note += fmt::format("; the map has {} tiles, {} searched (map_fix.whole_map_max_tiles)",
                                   whole_map_tiles_total_, whole_map_tiles_);

@@ -246,6 +246,36 @@ TEST(MapFixer, WithoutAPredictionTheWholeMapIsSearchedAndTheNextFixConfirmsIt) {
       << l.georef_note;
 }
 
+// A start position given (map_fix.start_*): only the square around it is searched. Within 60 m
+// of the frame: one tile, the frame found; 250 m away (the frame far outside the window of the
+// square of 60 m around it): not found, and the note says where it searched.
+TEST(MapFixer, AStartPositionGivenBoundsTheSearchWithoutAPrediction) {
+  const map::ReferenceMaps maps({Map().path});
+  const LocalEnu enu(kLat0, kLon0, 0.0);
+  const auto search_from = [&](double east_m, RunSummary* summary) {
+    MapMatchOptions o;
+    o.search_wide_radius_m = 100.0;
+    o.start_radius_m = 60.0;
+    const GeoPoint start = enu.Reverse(300 * kMpp + east_m, -300 * kMpp, 0.0);
+    o.start_lat_deg = start.lat_deg;
+    o.start_lon_deg = start.lon_deg;
+    MapFixer fixer(maps, o, /*live=*/false);
+    MapFixJob job = Map().Job(0, 300, 300, 0.0);
+    job.anchored = false;
+    job.heading_rad.reset();
+    fixer.Submit(std::move(job));
+    fixer.Finish(Map().path.parent_path(), summary);
+  };
+  RunSummary near, far;
+  search_from(20.0, &near);
+  EXPECT_EQ(near.map_fixes->whole_map_tiles, 1);
+  EXPECT_EQ(near.map_fixes->candidates, 1);
+  search_from(250.0, &far);
+  EXPECT_EQ(far.map_fixes->candidates, 0);
+  EXPECT_NE(far.map_fixes->georef_note.find("within 60 m of the start position"), std::string::npos)
+      << far.map_fixes->georef_note;
+}
+
 TEST(MapFixer, LiveSourceSkipsFramesDueWhileBusy) {
   const map::ReferenceMaps maps({Map().path});
   MapFixer fixer(maps, MapMatchOptions{}, /*live=*/true);
