@@ -66,7 +66,8 @@ bool ShiftFirstFixes(const fs::path& srt, int blocks, double north_m, const fs::
     const std::size_t at = line.find(key);
     if (at != std::string::npos && block <= blocks) {
       const std::size_t from = at + key.size(), to = line.find(']', from);
-      const double lat = std::stod(line.substr(from, to - from)) + north_m / 6378137.0 * 180.0 / kPi;
+      const double lat =
+          std::stod(line.substr(from, to - from)) + north_m / 6378137.0 * 180.0 / kPi;
       line = line.substr(0, from) + fmt::format("{:.6f}", lat) + line.substr(to);
       ++shifted;
     }
@@ -121,7 +122,8 @@ void MakeFlight(const fs::path& ortho, const fs::path& dir, std::map<int, EastNo
   ASSERT_TRUE(e2e::WriteCallasMap(ortho, dir, "false_tile", mo));
   ASSERT_TRUE(ShiftFirstFixes(dir / "sim" / "telemetry.srt", 8, -300.0, dir / "off300.srt"));
   for (const auto& r : e2e::ReadCsvRows(dir / "sim" / "ground_truth.csv")) {
-    (*truth)[std::stoi(r.at("frame"))] = FromLatLon(std::stod(r.at("lat_deg")), std::stod(r.at("lon_deg")));
+    (*truth)[std::stoi(r.at("frame"))] =
+        FromLatLon(std::stod(r.at("lat_deg")), std::stod(r.at("lon_deg")));
   }
 }
 
@@ -177,8 +179,8 @@ void CheckAttempts(const Rows& rows, const std::map<int, EastNorth>& truth) {
   EXPECT_GE(gap, 3);
   EXPECT_EQ(crossings, 3);  // the 3 legs
   EXPECT_EQ(resumed, crossings);
-  std::printf("attempts %zu, where the map has data %d (fixes %d), in the gap %d\n",
-              rows.size(), textured, textured_fixes, gap);
+  std::printf("attempts %zu, where the map has data %d (fixes %d), in the gap %d\n", rows.size(),
+              textured, textured_fixes, gap);
 }
 
 TEST(MapDemo, ThreeKilometresWithoutGpsOverAnotherSurveysMap) {
@@ -200,12 +202,13 @@ TEST(MapDemo, ThreeKilometresWithoutGpsOverAnotherSurveysMap) {
                         dir / "vo.log"),
             0)
       << e2e::ReadText(dir / "vo.log");
-  ASSERT_EQ(e2e::RunCli(fmt::format("run {} --telemetry {} --map {} --gps-denied-after-s 8 "
-                                    "--map-fix-every-n-frames 3 --map-fix-apply --no-report -q -o {}",
-                                    video, (dir / "off300.srt").string(),
-                                    (dir / "map.tif").string(), (dir / "fused").string()),
-                        dir / "fused.log"),
-            0)
+  ASSERT_EQ(
+      e2e::RunCli(fmt::format("run {} --telemetry {} --map {} --gps-denied-after-s 8 "
+                              "--map-fix-every-n-frames 3 --map-fix-apply --no-report -q -o {}",
+                              video, (dir / "off300.srt").string(), (dir / "map.tif").string(),
+                              (dir / "fused").string()),
+                  dir / "fused.log"),
+      0)
       << e2e::ReadText(dir / "fused.log");
 
   // The track without GPS (frames from the denial at 8 s on), unaligned against the truth.
@@ -234,12 +237,13 @@ TEST(MapDemo, ThreeKilometresWithoutGpsOverAnotherSurveysMap) {
   // The false tile, under the first leg (its first 40 frames): a wide search after the local
   // attempts' failures over it finds the frame 200 m off and the gate rejects it; every fix is
   // where the truth is and the track stays within 8 m of it.
-  ASSERT_EQ(e2e::RunCli(fmt::format("run {} --map {} --gps-denied-after-s 8 --max-frames 40 "
-                                    "--map-fix-every-n-frames 3 --map-fix-apply --no-report -q -o {}",
-                                    video, (dir / "false_tile.tif").string(),
-                                    (dir / "false_tile").string()),
-                        dir / "false_tile.log"),
-            0)
+  ASSERT_EQ(
+      e2e::RunCli(
+          fmt::format("run {} --map {} --gps-denied-after-s 8 --max-frames 40 "
+                      "--map-fix-every-n-frames 3 --map-fix-apply --no-report -q -o {}",
+                      video, (dir / "false_tile.tif").string(), (dir / "false_tile").string()),
+          dir / "false_tile.log"),
+      0)
       << e2e::ReadText(dir / "false_tile.log");
   int gate = 0;
   for (const auto& r : e2e::ReadCsvRows(dir / "false_tile" / "map_fixes.csv")) {

@@ -400,14 +400,14 @@ TEST(MapFix, GpsDeniedFromTheStartOverAMapWithoutTheFlightSaysSo) {
   e2e::CallasMapOptions o;
   o.mirror = true;
   ASSERT_TRUE(e2e::WriteCallasMap(ortho, f.dir, "mirrored", o));
-  ASSERT_EQ(e2e::RunCli(fmt::format("run {} --map {} --gps-denied-after-s 0 "
-                                    "--map-fix-every-n-frames 5 --map-fix-search-radius-m 40 "
-                                    "--max-frames 40 --no-report -o {}",
-                                    (f.dir / "sim" / "video.mp4").string(),
-                                    (f.dir / "mirrored.tif").string(),
-                                    (f.dir / "nomatch").string()),
-                        f.dir / "nomatch.log"),
-            0)
+  ASSERT_EQ(
+      e2e::RunCli(fmt::format("run {} --map {} --gps-denied-after-s 0 "
+                              "--map-fix-every-n-frames 5 --map-fix-search-radius-m 40 "
+                              "--max-frames 40 --no-report -o {}",
+                              (f.dir / "sim" / "video.mp4").string(),
+                              (f.dir / "mirrored.tif").string(), (f.dir / "nomatch").string()),
+                  f.dir / "nomatch.log"),
+      0)
       << e2e::ReadText(f.dir / "nomatch.log");
   const nlohmann::json s = e2e::ReadJson(f.dir / "nomatch" / "summary.json");
   EXPECT_EQ(s.at("heading_source"), "") << s.dump(1);

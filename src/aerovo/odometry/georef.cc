@@ -111,7 +111,8 @@ void GeoReferencer::Restart() {
 void GeoReferencer::SeedFromFix(const Eigen::Vector2d& local_m, double local_heading_rad,
                                 const GeoPoint& at, double enu_heading_rad) {
   if (ready_) throw InvalidArgument("GeoReferencer::SeedFromFix after the frame is known");
-  if (!local_m.allFinite() || !std::isfinite(local_heading_rad) || !std::isfinite(enu_heading_rad)) {
+  if (!local_m.allFinite() || !std::isfinite(local_heading_rad) ||
+      !std::isfinite(enu_heading_rad)) {
     throw InvalidArgument("GeoReferencer::SeedFromFix: a position or heading is not finite");
   }
   if (!enu_) enu_.emplace(at);

@@ -91,8 +91,8 @@ TEST(GeoReferencer, SeedFromFixPlacesTheFrameAndTurnsTheTrack) {
   const GeoPoint p = g.Wgs84FromLocal(local);
   EXPECT_NEAR(g.enu().Forward(p).head<2>().norm(), 0.0, 1e-3);
   EXPECT_NEAR(p.lat_deg, at.lat_deg, 1e-9);
-  const Eigen::Vector2d ahead =
-      g.EnuFromLocal(local + 100.0 * Eigen::Vector2d(std::cos(local_heading), std::sin(local_heading)));
+  const Eigen::Vector2d ahead = g.EnuFromLocal(
+      local + 100.0 * Eigen::Vector2d(std::cos(local_heading), std::sin(local_heading)));
   EXPECT_NEAR(ahead.x(), 100.0 * std::cos(enu_heading), 1e-3);
   EXPECT_NEAR(ahead.y(), 100.0 * std::sin(enu_heading), 1e-3);
   EXPECT_THROW(g.SeedFromFix(local, 0.0, at, 0.0), InvalidArgument);

@@ -323,9 +323,9 @@ MapFix MapFixer::SearchWholeMap(const MapFixJob& job, std::optional<GeoPoint>* a
   if (!best) {
     if (hits.empty()) return none;
     // No tile's hit is a fix: the one with the most inliers says why.
-    const auto most = std::max_element(hits.begin(), hits.end(), [](const TileHit& a, const TileHit& b) {
-      return a.coarse.inliers < b.coarse.inliers;
-    });
+    const auto most = std::max_element(
+        hits.begin(), hits.end(),
+        [](const TileHit& a, const TileHit& b) { return a.coarse.inliers < b.coarse.inliers; });
     *at = most->at;
     return most->coarse;
   }
@@ -544,29 +544,35 @@ void MapFixer::SummarizeSeed(RunSummary::MapFixes* s) const {
   if (s->georef_seed || whole_map_searches_ == 0) return;
   std::string statuses;
   for (const MapFixRecord& r : records_) {
-    if (r.whole_map && r.seed == MapSeedRole::kNone) ++counts[static_cast<std::size_t>(r.fix.status)];
+    if (r.whole_map && r.seed == MapSeedRole::kNone)
+      ++counts[static_cast<std::size_t>(r.fix.status)];
   }
   for (int i = 0; i < kNumMapFixStatus; ++i) {
     if (counts[static_cast<std::size_t>(i)] == 0) continue;
-    statuses += fmt::format("{}{} {}", statuses.empty() ? "" : ", ",
-                            ToString(static_cast<MapFixStatus>(i)), counts[static_cast<std::size_t>(i)]);
+    statuses +=
+        fmt::format("{}{} {}", statuses.empty() ? "" : ", ", ToString(static_cast<MapFixStatus>(i)),
+                    counts[static_cast<std::size_t>(i)]);
   }
   s->georef_note =
       s->candidates == 0
-          ? fmt::format("no whole-map search found the frame ({} searches over {} of the map's {} "
-                        "tiles: {})",
-                        whole_map_searches_, whole_map_tiles_, whole_map_tiles_total_, statuses)
-          : fmt::format("{} candidates found by {} whole-map searches, none confirmed by the next "
-                        "attempt",
-                        s->candidates, whole_map_searches_);
+          ? fmt::format(
+                "no whole-map search found the frame ({} searches over {} of the map's {} "
+                "tiles: {})",
+                whole_map_searches_, whole_map_tiles_, whole_map_tiles_total_, statuses)
+          : fmt::format(
+                "{} candidates found by {} whole-map searches, none confirmed by the next "
+                "attempt",
+                s->candidates, whole_map_searches_);
   if (options_.start_radius_m > 0.0) {
-    s->georef_note += fmt::format("; searched within {} m of the start position given "
-                                  "(map_fix.start_lat_deg, start_lon_deg)",
-                                  options_.start_radius_m);
+    s->georef_note += fmt::format(
+        "; searched within {} m of the start position given "
+        "(map_fix.start_lat_deg, start_lon_deg)",
+        options_.start_radius_m);
   }
   if (whole_map_tiles_ < whole_map_tiles_total_) {
-    s->georef_note += fmt::format("; the map has {} tiles, {} searched (map_fix.whole_map_max_tiles)",
-                                  whole_map_tiles_total_, whole_map_tiles_);
+    s->georef_note +=
+        fmt::format("; the map has {} tiles, {} searched (map_fix.whole_map_max_tiles)",
+                    whole_map_tiles_total_, whole_map_tiles_);
   }
 }
 

@@ -241,7 +241,8 @@ TEST(MapFixer, WithoutAPredictionTheWholeMapIsSearchedAndTheNextFixConfirmsIt) {
   EXPECT_EQ(l.no_prediction, 2);
   EXPECT_EQ(l.fixes, 0);
   EXPECT_FALSE(l.georef_seed.has_value());
-  EXPECT_NE(l.georef_note.find("no whole-map search found the frame (2 searches over 4 of the map's 4 tiles"),
+  EXPECT_NE(l.georef_note.find(
+                "no whole-map search found the frame (2 searches over 4 of the map's 4 tiles"),
             std::string::npos)
       << l.georef_note;
 }
