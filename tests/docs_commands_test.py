@@ -288,6 +288,15 @@ def check_map_cover(cwd, out):
         f"summary.json map says {m}"
 
 
+def check_map_seed(cwd, out):
+    """docs/map.md: GPS denied from the start, the map seeds the geo-reference."""
+    with open(os.path.join(cwd, "no-gps", "summary.json")) as f:
+        s = json.load(f)
+    g = (s.get("map_fixes") or {}).get("georef") or {}
+    return "" if s.get("heading_source") == "map" and g.get("seeded") is True else \
+        f"summary.json heading_source {s.get('heading_source')!r}, map_fixes.georef {g}"
+
+
 def check_map_fixes(cwd, out):
     """docs/map.md: summary.json `map_fixes` counts the attempts, map_fixes.csv has a row each."""
     with open(os.path.join(cwd, "map-fixes", "summary.json")) as f:
@@ -363,6 +372,10 @@ PLAN = {
     "tampa_map": Row(skip=TAMPA_FIGURE),
     "aerovo report tampa_map --no-mosaic": Row(skip=TAMPA_FIGURE),
     "cp tampa_map/figures/map_fixes.png docs/map_fixes_tampa.png": Row(skip=TAMPA_FIGURE),
+    "aerovo run flight.mp4 --telemetry flight.SRT --map map.tif --gps-denied-after-s 0 "
+    "--map-fix-apply --no-report -o no-gps": Row(
+        says=["geo-reference", "from the map: frame"], files=["no-gps/map_fixes.csv"],
+        check=check_map_seed),
     "aerovo map info map.tif": Row(says=["(EPSG:326", "m/px", "extent wgs84"]),
     "aerovo map info --json survey.tif": Row(says=['"extent_lonlat"', '"overviews"']),
     # docs/backend.md

@@ -30,6 +30,9 @@
 #     truth, and the report's markers (the windows filled from the next map:
 #     MapSeveral.PartialCoverWarns..., which stays, and ReferenceMaps.AWindowThePreferredMap...;
 #     the report's map: HtmlReport).
+#   - MapDemo.ThreeKilometres...: 3.3 km over the Callas orthophoto without GPS, fused fixes, a
+#     gap, a false tile and a start 300 m off in one flight, against the truth (the paths of
+#     MapFix.AStart300MOffIsFound and MapFix.SimulatedFlightFixes..., which stay).
 set(AEROVO_ACCURACY_TESTS
   Video4k.DefaultRunDetectsAtHalfResolutionWithinFivePercentOfFullResolution
   LongRun.TenThousandFramesWithFlatMemory
@@ -44,6 +47,7 @@ set(AEROVO_ACCURACY_TESTS
   SixStripSurvey.CallasOrthophoto
   MapFix.AFalseMapRegionIsRejectedByTheGate
   MapSeveral.RecentPartialMapFirstOlderFullMapAfterIt
+  MapDemo.ThreeKilometresWithoutGpsOverAnotherSurveysMap
 )
 
 # Label "repeated_flight": end-to-end runs that repeat, under other settings, a whole-flight path
@@ -142,4 +146,7 @@ set(AEROVO_TEST_COSTS
   MapFix.AFalseMapRegionIsRejectedByTheGate 7
   MapSeveral.RecentPartialMapFirstOlderFullMapAfterIt 9
   MapSeveral.PartialCoverWarnsAndACorruptSecondMapIsNamed 5
+  MapFix.GpsDeniedFromTheStartTheMapSeedsTheGeoReference 7
+  MapFix.GpsDeniedFromTheStartOverAMapWithoutTheFlightSaysSo 6
+  MapDemo.ThreeKilometresWithoutGpsOverAnotherSurveysMap 14
 )

@@ -103,6 +103,14 @@ struct MapMatchOptions {
   /// min_inliers more (a repeated texture, a field of the same rows, two map tiles that each
   /// hold part of the frame's ground: no fix).
   double min_margin = 2.0;
+  /// Without a geo-reference (no GPS before the first fix): the whole map's data is searched in
+  /// square tiles of at most 2 search_wide_radius_m a side, at most this many (those nearest the
+  /// maps' centre; pipeline/map_fixer.h SearchWholeMap).
+  int whole_map_max_tiles = 64;
+  /// A prior for that search (a start position the user knows, WGS84 degrees): with
+  /// start_radius_m > 0 only the square of 2 start_radius_m a side around it is searched
+  /// (whole_map_max_tiles still bounds it), not the whole map. 0 = none.
+  double start_lat_deg = 0.0, start_lon_deg = 0.0, start_radius_m = 0.0;
 };
 
 /// Throws InvalidArgument naming the bad field.
@@ -135,6 +143,10 @@ void VisitFields(MapMatchOptions& o, V& v) {
   v.Field(o.search_gate_per_m, "search_gate_per_m", "Gate of a wide search after a fix: the gate plus this times the distance flown since the last fix (before the first fix: the wide radius)", AtLeast(0).Finite());
   v.Field(o.coarse_above_radius_m, "coarse_above_radius_m", "Searches wider than this radius, m, go coarse to fine", GreaterThan(0).Finite());
   v.Field(o.search_width_px, "search_width_px", "Coarse resolution of a search: the frame's width at it, px (never finer than the matching resolution)", Interval(64, 4096));
+  v.Field(o.whole_map_max_tiles, "whole_map_max_tiles", "Without a geo-reference: most tiles (2 x search_wide_radius_m a side) of the whole-map search", Interval(1, 10000));
+  v.Field(o.start_lat_deg, "start_lat_deg", "Without a geo-reference: latitude of a known start position, deg (with start_radius_m)", Interval(-90, 90));
+  v.Field(o.start_lon_deg, "start_lon_deg", "Without a geo-reference: longitude of a known start position, deg (with start_radius_m)", Interval(-180, 180));
+  v.Field(o.start_radius_m, "start_radius_m", "Without a geo-reference: search this far around the start position instead of the whole map, m (0 = the whole map)", AtLeast(0).Finite());
   v.Field(o.min_margin, "min_margin", "A search's hit needs this many times the inliers of the best other location (and min_inliers more)", AtLeast(1).Finite());
 }
 // clang-format on

@@ -125,6 +125,14 @@ std::string FormatMapFixes(const RunSummary::MapFixes& m) {
                        b.fixes, b.attempted, b.fused);
     }
   }
+  if (m.georef_seed) {
+    t += fmt::format("  {:<40}from the map: frame {} ({:.1f} s), found by a whole-map search "
+                     "at frame {} ({:.1f} s)\n",
+                     "geo-reference", m.georef_seed->frame, m.georef_seed->time_s,
+                     m.georef_seed->candidate_frame, m.georef_seed->candidate_time_s);
+  } else if (!m.georef_note.empty()) {
+    t += fmt::format("  {:<40}none from the map: {}\n", "geo-reference", m.georef_note);
+  }
   if (m.with_gps > 0) {
     t += fmt::format(
         "  {:<40}median {:.2f} m, RMSE {:.2f} m, max {:.2f} m (the track: {:.2f}, {:.2f}, "

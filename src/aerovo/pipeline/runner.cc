@@ -87,6 +87,29 @@ nlohmann::json ToJson(const RunSummary::MapCover& m) {
           {"note", m.note}};
 }
 
+// summary.json "map_fixes" "georef": the geo-reference seeded from the map (null when no
+// attempt was made without one).
+nlohmann::json MapSeedJson(const RunSummary::MapFixes& m) {
+  if (m.whole_map_searches == 0 && !m.georef_seed) return nullptr;
+  nlohmann::json j = {{"whole_map_searches", m.whole_map_searches},
+                      {"tiles", m.whole_map_tiles},
+                      {"tiles_total", m.whole_map_tiles_total},
+                      {"candidates", m.candidates},
+                      {"seeded", m.georef_seed.has_value()},
+                      {"frame", nullptr},
+                      {"time_s", nullptr},
+                      {"candidate_frame", nullptr},
+                      {"candidate_time_s", nullptr},
+                      {"note", m.georef_note}};
+  if (m.georef_seed) {
+    j["frame"] = m.georef_seed->frame;
+    j["time_s"] = m.georef_seed->time_s;
+    j["candidate_frame"] = m.georef_seed->candidate_frame;
+    j["candidate_time_s"] = m.georef_seed->candidate_time_s;
+  }
+  return j;
+}
+
 // summary.json "map_fixes".
 nlohmann::json ToJson(const RunSummary::MapFixes& m) {
   nlohmann::json by_status = nlohmann::json::object();
@@ -112,7 +135,9 @@ nlohmann::json ToJson(const RunSummary::MapFixes& m) {
           {"search_ms", m.search_ms},           {"found", m.found},
           {"time_to_first_fix_s",
            m.time_to_first_fix_s ? nlohmann::json(*m.time_to_first_fix_s) : nlohmann::json()},
-          {"against_gps", gps},                 {"by_map", by_map}};
+          {"against_gps", gps},
+          {"by_map", by_map},
+          {"georef", MapSeedJson(m)}};
 }
 
 // summary.json "gps_denied".

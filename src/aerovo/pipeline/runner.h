@@ -259,6 +259,19 @@ struct RunSummary {
       int attempted = 0, fixes = 0, fused = 0;
     };
     std::vector<ByMap> by_map;
+    /// Without a geo-reference from GPS (pipeline/map_fixer.h, unanchored attempts): the
+    /// whole-map searches, their tiles (searched, and the maps' data area in all), the
+    /// candidates they found and the fix that confirmed one and seeded the geo-reference
+    /// (frame, time s; nullopt: none, `georef_note` says why).
+    int whole_map_searches = 0, whole_map_tiles = 0, whole_map_tiles_total = 0, candidates = 0;
+    struct Seed {
+      int frame = 0;
+      double time_s = 0.0;
+      int candidate_frame = 0;
+      double candidate_time_s = 0.0;
+    };
+    std::optional<Seed> georef_seed;
+    std::string georef_note;
   };
   std::optional<MapFixes> map_fixes;
   /// Frames at which the live pose was reset (summary.json "pose_resets"; MAVLink reset_counter
