@@ -28,6 +28,7 @@
 #include "aerovo/geo/geo_point.h"
 #include "aerovo/geo/local_enu.h"
 #include "aerovo/odometry/map_match.h"
+#include "aerovo/pipeline/map_tiles.h"
 #include "aerovo/pipeline/runner.h"
 
 namespace aerovo::map {
@@ -98,6 +99,9 @@ class MapFixer {
   // with the gate `gate_m`: MapMatcher::Search over a coarse window, then Match at the matching
   // resolution around its hit; the fix in `enu`.
   MapFix CoarseToFine(const MapFixJob& job, const LocalEnu& enu, double radius_m, double gate_m);
+  // The attempt in the window of `radius_m` around the job's prediction (its ENU plane): read
+  // and matched, or from the tiles' points (map_fix.tile_cache).
+  MapFix Local(const MapFixJob& job, double radius_m);
   // After an attempt: the failures in a row, the first fix, the distance since the last fix.
   void Follow(const MapFixRecord& record);
 
@@ -105,6 +109,7 @@ class MapFixer {
   MapMatchOptions options_;
   bool live_;
   MapMatcher matcher_;
+  std::optional<MapTileCache> tiles_;  // map_fix.tile_cache: the worker's
   double map_m_per_px_ = 0.0;
   std::mutex mutex_;
   std::condition_variable wake_, done_;
