@@ -62,8 +62,8 @@ struct MapMatchOptions {
   int max_map_points = 8000;
   /// The map's SURF points are detected once per tile of a fixed grid and kept for the next
   /// attempts (pipeline/map_tiles.h; local attempts only, not a wide search's windows), the
-  /// automatic resolution rounded up to steps of 9 % (MapLadderResolution) so that the tiles
-  /// serve while the height changes a little. false: every attempt reads its window and
+  /// frame's part of the automatic resolution rounded up to steps of 9 % (MapLadderResolution)
+  /// so that the tiles serve while the height changes a little. false: every attempt reads its window and
   /// detects its points.
   bool tile_cache = true;
   /// RANSAC inlier threshold at the matching resolution, px.

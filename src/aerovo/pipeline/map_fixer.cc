@@ -172,7 +172,9 @@ MapFix MapFixer::Local(const MapFixJob& job, double radius_m) {
   const int w = job.pixels.width(), h = job.pixels.height();
   const double gsd = job.height_m / job.focal_px;
   double mpp = MapMatchResolution(options_, w, gsd, map_m_per_px_);
-  if (tiles_ && options_.match_m_per_px == 0.0) mpp = MapLadderResolution(mpp);
+  if (tiles_ && options_.match_m_per_px == 0.0) {  // the frame's part on the ladder
+    mpp = std::max(map_m_per_px_, MapLadderResolution(gsd * w / options_.match_width_px));
+  }
   const int size = MapWindowSizePx(w, h, gsd, radius_m, mpp);
   const MapMatchFrame frame{job.pixels.view(), job.focal_px, job.height_m, job.heading_rad};
   MapFix none;
