@@ -95,7 +95,7 @@ double MapRobustRange(const std::array<std::int64_t, 256>& histogram) {
 }
 
 double MapLadderResolution(double m_per_px) {
-  return std::exp2(std::ceil(8.0 * std::log2(m_per_px) - 1e-9) / 8.0);
+  return std::exp2(std::round(8.0 * std::log2(m_per_px)) / 8.0);
 }
 
 namespace {

@@ -62,7 +62,7 @@ struct MapMatchOptions {
   int max_map_points = 8000;
   /// The map's SURF points are detected once per tile of a fixed grid and kept for the next
   /// attempts (pipeline/map_tiles.h; local attempts only, not a wide search's windows), the
-  /// frame's part of the automatic resolution rounded up to steps of 9 % (MapLadderResolution)
+  /// frame's part of the automatic resolution rounded to steps of 9 % (MapLadderResolution)
   /// so that the tiles serve while the height changes a little. false: every attempt reads its window and
   /// detects its points.
   bool tile_cache = true;
@@ -240,7 +240,7 @@ MapMatchOptions MapRefineOptions(const MapMatchOptions& options, double coarse_m
 /// it is empty (MapMatchOptions::min_contrast's measure).
 double MapRobustRange(const std::array<std::int64_t, 256>& histogram);
 
-/// `m_per_px` rounded up to the ladder 2^(k/8) m/px (k integer; steps of 9 %): the matching
+/// `m_per_px` rounded to the nearest of the ladder 2^(k/8) m/px (k integer; steps of 9 %): the matching
 /// resolutions a cache of the map's points is kept at (pipeline/map_tiles.h), so that a height
 /// that changes a little does not change the resolution.
 double MapLadderResolution(double m_per_px);

@@ -180,12 +180,14 @@ MapFix MapFixer::Local(const MapFixJob& job, double radius_m) {
   MapFix none;
   none.status = MapFixStatus::kNoMap;
   if (tiles_) {
-    // The tiles' density of points: the frame's points over its area at this resolution (the
-    // window's target of MapMatcher::Match).
+    // The tiles' density of points: the frame's points over its area at this resolution, at
+    // most max_map_points over the window's (the window's target of MapMatcher::Match).
     const double frame_px = static_cast<double>(w) * h * (gsd / mpp) * (gsd / mpp);
-    const MapWindowFeatures window =
-        tiles_->Window(job.predicted, size, mpp, job.heading_rad.has_value(),
-                       options_.frame_points / std::max(1.0, frame_px), options_.max_map_points);
+    const double density =
+        std::min(options_.frame_points / std::max(1.0, frame_px),
+                 options_.max_map_points / (static_cast<double>(size) * size));
+    const MapWindowFeatures window = tiles_->Window(
+        job.predicted, size, mpp, job.heading_rad.has_value(), density, options_.max_map_points);
     if (window.valid_px == 0) return none;
     return matcher_.MatchFeatures(frame, window, Eigen::Vector2d::Zero());
   }

@@ -84,18 +84,37 @@ void AddPixels(const GrayImage& grey, const GrayImage& valid, long ox, long oy, 
   }
 }
 
-// The strongest `max_points` of `points` (all when fewer), strongest first as SURF orders
-// them (ties in their order).
+// At most `max_points` of `points` (all when fewer), spread as SURF's adaptive selection
+// spreads them (features/surf.h): each cell of a 6 x 6 grid over the window of `size_px` keeps
+// its strongest max_points / 36, the rest of the count goes to the strongest of the others;
+// strongest first (ties in their order).
 FeatureSet Strongest(const std::vector<Keypoint>& points, const std::vector<float>& descriptors,
-                     int max_points) {
+                     int size_px, int max_points) {
+  constexpr int kGrid = 6;
   FeatureSet out;
   std::vector<std::size_t> order(points.size());
   std::iota(order.begin(), order.end(), std::size_t{0});
   std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
     return points[x].response > points[y].response;
   });
-  if (order.size() > static_cast<std::size_t>(std::max(0, max_points))) {
-    order.resize(static_cast<std::size_t>(std::max(0, max_points)));
+  const auto cap = static_cast<std::size_t>(std::max(0, max_points));
+  if (order.size() > cap) {
+    const std::size_t per_cell = cap / (kGrid * kGrid);
+    std::vector<std::size_t> in_cell(kGrid * kGrid, 0), kept, rest;
+    for (const std::size_t k : order) {
+      const auto cell = [&](float v) {
+        return std::clamp(static_cast<int>(v * kGrid / size_px), 0, kGrid - 1);
+      };
+      std::size_t& n = in_cell[static_cast<std::size_t>(cell(points[k].y) * kGrid + cell(points[k].x))];
+      (n < per_cell ? kept : rest).push_back(k);
+      if (n < per_cell) ++n;
+    }
+    rest.resize(std::min(rest.size(), cap - kept.size()));
+    kept.insert(kept.end(), rest.begin(), rest.end());
+    std::stable_sort(kept.begin(), kept.end(), [&](std::size_t x, std::size_t y) {
+      return points[x].response > points[y].response;
+    });
+    order = std::move(kept);
   }
   const auto dsize = static_cast<std::size_t>(out.descriptor_size);
   out.keypoints.reserve(order.size());
@@ -214,7 +233,7 @@ MapWindowFeatures MapTileCache::Window(const GeoPoint& centre, int size_px, doub
                 std::lround(c.y() - tile_c + margin), size_px, &histogram, &out.valid_px);
     }
   }
-  out.features = Strongest(points, descriptors, max_points);
+  out.features = Strongest(points, descriptors, size_px, max_points);
   out.contrast = MapRobustRange(histogram);
   return out;
 }
