@@ -52,8 +52,8 @@ class MapTileCache {
 
   /// The window of `size_px` x `size_px` pixels of `m_per_px` metres centred on `centre`
   /// (map/reference_map.h MapWindow's geometry) given by its points: those of the tiles it
-  /// overlaps whose descriptor disc (12 scales) lies inside it, at most `max_points` (the
-  /// strongest), with its valid pixels and their robust range. `points_per_px`: the density a
+  /// overlaps whose descriptor disc (12 scales) lies inside it, at most `max_points` (spread
+  /// over a 6 x 6 grid as SURF's adaptive selection spreads them), with its valid pixels and their robust range. `points_per_px`: the density a
   /// tile is detected at (its target: this times its valid pixels), fixed by the first window
   /// at this resolution and `upright`. Throws InvalidArgument for size_px < 2 or m_per_px not
   /// finite and > 0; InputError naming the map when reading it fails.
