@@ -21,6 +21,7 @@
 // fit's covariance.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -29,6 +30,7 @@
 
 #include "aerovo/core/image.h"
 #include "aerovo/core/options.h"
+#include "aerovo/features/keypoint.h"
 
 namespace aerovo {
 
@@ -58,6 +60,12 @@ struct MapMatchOptions {
   int frame_points = 800;
   /// Most SURF points of the map window.
   int max_map_points = 8000;
+  /// The map's SURF points are detected once per tile of a fixed grid and kept for the next
+  /// attempts (pipeline/map_tiles.h; local attempts only, not a wide search's windows), the
+  /// frame's part of the automatic resolution rounded to steps of 9 % (MapLadderResolution)
+  /// so that the tiles serve while the height changes a little. false: every attempt reads its window and
+  /// detects its points.
+  bool tile_cache = true;
   /// RANSAC inlier threshold at the matching resolution, px.
   double max_distance_px = 2.0;
   /// RANSAC trials (most) and seed: same seed and input, same fix.
@@ -128,6 +136,7 @@ void VisitFields(MapMatchOptions& o, V& v) {
   v.Field(o.gate_m, "gate_m", "Fixes farther than this from the prediction are rejected, m (0 = search_radius_m)", AtLeast(0).Finite());
   v.Field(o.frame_points, "frame_points", "SURF points of the frame (the map window's: scaled by its area)", Interval(16, 100000));
   v.Field(o.max_map_points, "max_map_points", "Most SURF points of the map window", Interval(16, 1000000));
+  v.Field(o.tile_cache, "tile_cache", "Detect the map's points once per map tile and keep them for the next attempts (local attempts; the automatic resolution in steps of 9 %)", Any());
   v.Field(o.max_distance_px, "max_distance_px", "RANSAC inlier threshold at the matching resolution, px", GreaterThan(0).Finite());
   v.Field(o.ransac_trials, "ransac_trials", "Most RANSAC trials of a fix", AtLeast(1));
   v.Field(o.seed, "seed", "Seed of the fix's RANSAC", Any());
@@ -184,6 +193,21 @@ struct MapMatchWindow {
   double m_per_px = 0.0;
 };
 
+/// The map around the prediction given by its SURF points instead of its pixels
+/// (MapMatcher::MatchFeatures): what a cache of the map's points hands over (pipeline/
+/// map_tiles.h). A square north-up window as MapMatchWindow's, pixel (x, y) at east = (x - (size
+/// - 1) / 2) m_per_px, north = ((size - 1) / 2 - y) m_per_px of its centre.
+struct MapWindowFeatures {
+  /// SURF points (DetectMapFeatures; upright when the frame's heading is known), window px.
+  FeatureSet features;
+  int size_px = 0;           ///< Side of the window, px.
+  double m_per_px = 0.0;     ///< Its resolution.
+  std::size_t valid_px = 0;  ///< Its pixels with map data (min_valid_fraction's measure).
+  /// The robust intensity range of those pixels, grey levels (min_contrast's measure,
+  /// MapRobustRange).
+  double contrast = 0.0;
+};
+
 /// One attempt, by value.
 struct MapFix {
   MapFixStatus status = MapFixStatus::kNoMap;
@@ -224,6 +248,22 @@ double MapSearchResolution(const MapMatchOptions& options, int frame_width_px, d
 /// of 8 coarse pixels, at least 10 m.
 MapMatchOptions MapRefineOptions(const MapMatchOptions& options, double coarse_m_per_px);
 
+/// The robust intensity range of a grey histogram: 1st to 99th percentile, grey levels; 0 when
+/// it is empty (MapMatchOptions::min_contrast's measure).
+double MapRobustRange(const std::array<std::int64_t, 256>& histogram);
+
+/// `m_per_px` rounded to the nearest of the ladder 2^(k/8) m/px (k integer; steps of 9 %): the matching
+/// resolutions a cache of the map's points is kept at (pipeline/map_tiles.h), so that a height
+/// that changes a little does not change the resolution.
+double MapLadderResolution(double m_per_px);
+
+/// The SURF points of a map image as MapMatcher matches them: invalid pixels (`valid` 0) set
+/// to the valid ones' mean, adaptive SURF (upright or not) for about `target_points` points,
+/// the points whose descriptor disc (12 scales) reaches an invalid pixel or the border dropped.
+/// Throws InvalidArgument when `valid` is not `pixels`' size.
+FeatureSet DetectMapFeatures(const GrayImageView& pixels, const GrayImageView& valid,
+                             int target_points, bool upright);
+
 /// Reusable matcher (SURF engines, matcher and RANSAC buffers). Not thread-safe: one per thread.
 class MapMatcher {
  public:
@@ -252,6 +292,12 @@ class MapMatcher {
   /// Throws as Match.
   MapFix Search(const MapMatchFrame& frame, const MapMatchWindow& window,
                 const Eigen::Vector2d& prior_enu_m, double gate_m);
+
+  /// Match with the map window given by its points (a cache's): the same checks, prior, gate
+  /// and fit as Match, with `map`'s valid_px and contrast for the window's data and texture.
+  /// Throws as Match, and for a size under 2 px.
+  MapFix MatchFeatures(const MapMatchFrame& frame, const MapWindowFeatures& map,
+                       const Eigen::Vector2d& prior_enu_m);
 
  private:
   struct Impl;

@@ -23,6 +23,7 @@ MapFixer::MapFixer(const map::ReferenceMaps& maps, const MapMatchOptions& option
     finest_m_per_px_ = finest_m_per_px_ > 0.0 ? std::min(finest_m_per_px_, mpp) : mpp;
   }
   map_m_per_px_ = finest_m_per_px_;
+  if (options_.tile_cache) tiles_.emplace(maps_);
   worker_ = std::thread([this] { Work(); });
 }
 
@@ -143,18 +144,7 @@ MapFixRecord MapFixer::Anchored(const MapFixJob& job, bool may_search) {
   if (r.search) {
     r.fix = CoarseToFine(job, enu, radius, gate);
   } else {
-    const double gsd = job.height_m / job.focal_px;
-    const double mpp = MapMatchResolution(options_, job.pixels.width(), gsd, map_m_per_px_);
-    const int size = MapWindowSizePx(job.pixels.width(), job.pixels.height(), gsd, radius, mpp);
-    const std::optional<map::MapWindow> window = maps_.Window(job.predicted, size, mpp);
-    if (!window) {
-      r.fix.status = MapFixStatus::kNoMap;
-    } else {
-      r.fix = matcher_.Match(
-          MapMatchFrame{job.pixels.view(), job.focal_px, job.height_m, job.heading_rad},
-          MapMatchWindow{window->pixels.view(), window->valid.view(), mpp},
-          Eigen::Vector2d::Zero());
-    }
+    r.fix = Local(job, radius);
   }
   if (r.fix.fitted) {
     r.geo = enu.Reverse(r.fix.enu_m.x(), r.fix.enu_m.y(), 0.0);
@@ -403,6 +393,35 @@ MapFix MapFixer::CoarseToFine(const MapFixJob& job, const LocalEnu& enu, double 
     fix.status = MapFixStatus::kGate;
   }
   return fix;
+}
+
+MapFix MapFixer::Local(const MapFixJob& job, double radius_m) {
+  const int w = job.pixels.width(), h = job.pixels.height();
+  const double gsd = job.height_m / job.focal_px;
+  double mpp = MapMatchResolution(options_, w, gsd, map_m_per_px_);
+  if (tiles_ && options_.match_m_per_px == 0.0) {  // the frame's part on the ladder
+    mpp = std::max(map_m_per_px_, MapLadderResolution(gsd * w / options_.match_width_px));
+  }
+  const int size = MapWindowSizePx(w, h, gsd, radius_m, mpp);
+  const MapMatchFrame frame{job.pixels.view(), job.focal_px, job.height_m, job.heading_rad};
+  MapFix none;
+  none.status = MapFixStatus::kNoMap;
+  if (tiles_) {
+    // The tiles' density of points: the frame's points over its area at this resolution, at
+    // most max_map_points over the window's (the window's target of MapMatcher::Match).
+    const double frame_px = static_cast<double>(w) * h * (gsd / mpp) * (gsd / mpp);
+    const double density =
+        std::min(options_.frame_points / std::max(1.0, frame_px),
+                 options_.max_map_points / (static_cast<double>(size) * size));
+    const MapWindowFeatures window = tiles_->Window(
+        job.predicted, size, mpp, job.heading_rad.has_value(), density, options_.max_map_points);
+    if (window.valid_px == 0) return none;
+    return matcher_.MatchFeatures(frame, window, Eigen::Vector2d::Zero());
+  }
+  const std::optional<map::MapWindow> window = maps_.Window(job.predicted, size, mpp);
+  if (!window) return none;
+  return matcher_.Match(frame, MapMatchWindow{window->pixels.view(), window->valid.view(), mpp},
+                        Eigen::Vector2d::Zero());
 }
 
 void MapFixer::Follow(const MapFixRecord& record) {

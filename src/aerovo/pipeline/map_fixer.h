@@ -32,6 +32,7 @@
 #include "aerovo/geo/geo_point.h"
 #include "aerovo/geo/local_enu.h"
 #include "aerovo/odometry/map_match.h"
+#include "aerovo/pipeline/map_tiles.h"
 #include "aerovo/pipeline/runner.h"
 
 namespace aerovo::map {
@@ -146,6 +147,9 @@ class MapFixer {
   double MapResolutionAt(const GeoPoint& p) const;
   // summary "map_fixes" georef: the seed and the whole-map searches, or why none.
   void SummarizeSeed(RunSummary::MapFixes* s) const;
+  // The attempt in the window of `radius_m` around the job's prediction (its ENU plane): read
+  // and matched, or from the tiles' points (map_fix.tile_cache).
+  MapFix Local(const MapFixJob& job, double radius_m);
   // After an attempt: the failures in a row, the first fix, the distance since the last fix.
   void Follow(const MapFixRecord& record);
 
@@ -153,6 +157,7 @@ class MapFixer {
   MapMatchOptions options_;
   bool live_;
   MapMatcher matcher_;
+  std::optional<MapTileCache> tiles_;  // map_fix.tile_cache: the worker's
   // The matching's map resolution, m/px: at each attempt, that of the map at the prediction
   // (ReferenceMaps::MapAt; the finest map's where none has data).
   double map_m_per_px_ = 0.0, finest_m_per_px_ = 0.0;
