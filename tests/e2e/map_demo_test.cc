@@ -236,11 +236,13 @@ TEST(MapDemo, ThreeKilometresWithoutGpsOverAnotherSurveysMap) {
 
   // The false tile, under the first leg (its first 40 frames): a wide search after the local
   // attempts' failures over it finds the frame 200 m off and the gate rejects it; every fix is
-  // where the truth is and the track stays within 8 m of it.
+  // where the truth is and the track stays within 8 m of it. Two failures start the search, so
+  // that it comes while the frame is over the tile (two or three local attempts fail there).
   ASSERT_EQ(
       e2e::RunCli(
           fmt::format("run {} --map {} --gps-denied-after-s 8 --max-frames 40 "
-                      "--map-fix-every-n-frames 3 --map-fix-apply --no-report -q -o {}",
+                      "--map-fix-every-n-frames 3 --map-fix-search-after-failures 2 "
+                      "--map-fix-apply --no-report -q -o {}",
                       video, (dir / "false_tile.tif").string(), (dir / "false_tile").string()),
           dir / "false_tile.log"),
       0)
