@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # ctest driver of tests/mavlink/e2e.cjs (MODE: udp, udpin or signed), autopilots.cjs (MODE:
-# contract, the frames as a video), gps_input.cjs (MODE: gps_input, the simulated flight with
-# its telemetry, so that the track is geo-referenced) and map_gps_input.cjs (MODE: map_gps_input,
-# the same with GPS denied and the fixes of a map of it fused): installs node-mavlink from the
+# contract, the frames as a video), live.cjs (MODE: live, the frames as a live UDP stream),
+# gps_input.cjs (MODE: gps_input, the simulated flight with its telemetry, so that the track is
+# geo-referenced) and map_gps_input.cjs (MODE: map_gps_input, the same with GPS denied and the
+# fixes of a map of it fused): installs node-mavlink from the
 # npm registry (the version pinned in package.json / package-lock.json) into WORK, simulates a
 # short flight (one black frame mid-flight: bridged, then re-acquired), runs the check.
 # Skips (exit 77) only when node or npm is missing or `npm ci` fails, saying why.
@@ -69,6 +70,24 @@ if [ "$MODE" = map_gps_input ]; then
     --run-dir "$WORK/map-$MODE/run" -o "$WORK/map-$MODE/map.tif" || exit 1
   cd "$NODE_DIR" && NODE_PATH="$NODE_DIR/node_modules" exec node "$SRC/map_gps_input.cjs" "$AEROVO" \
     "$VIDEO" "$SIM/telemetry-north5.srt" "$FOCAL" "$WORK/map-$MODE/map.tif" "$SIM/ground_truth.csv" 1.5 5 "$WORK/run-$MODE"
+fi
+if [ "$MODE" = live ]; then
+  # The flight of MODE contract (a black frame mid-flight: bridged, then re-acquired), 25
+  # frames at 4 fps, as an MPEG-TS stream (H.264, a key frame every 4 frames, no B frames) that
+  # live.cjs has ffmpeg play at real-time pace over UDP into `aerovo run udp://...`.
+  SIM="$WORK/sim-$MODE"
+  rm -rf "$SIM" "$WORK/run-$MODE"
+  "$AEROVO" simulate --pattern line --length-m 60 --height-m 60 --width 640 --height 360 --fps 4 \
+    --gps-noise-m 0 --frames-only --image-format png --quiet --out "$SIM" || exit 1
+  FOCAL=$(node -e 'console.log(require(process.argv[1]).camera.focal_px)' "$SIM/sim.json") || exit 1
+  SPEED=$(node -e 'console.log(require(process.argv[1]).flight.speed_mps)' "$SIM/sim.json") || exit 1
+  BLACK=$(ls "$SIM/frames" | sort | sed -n 10p)
+  ffmpeg -loglevel error -y -f lavfi -i color=c=black:s=640x360 -frames:v 1 "$SIM/frames/$BLACK" || exit 1
+  STREAM="$WORK/flight-$MODE.ts"
+  ffmpeg -loglevel error -y -framerate 4 -pattern_type glob -i "$SIM/frames/*.png" -c:v libx264 \
+    -crf 16 -g 4 -bf 0 -pix_fmt yuv420p "$STREAM" || exit 1
+  cd "$NODE_DIR" && NODE_PATH="$NODE_DIR/node_modules" exec node "$SRC/live.cjs" "$AEROVO" \
+    "$STREAM" "$FOCAL" 60 "$SPEED" "$WORK/run-$MODE"
 fi
 # A simulated flight (no sim.json beside the frames: no telemetry, positions in the local frame).
 SIM="$WORK/sim-$MODE"
