@@ -84,6 +84,11 @@ set(AEROVO_ACCURACY_TESTS
 #     the thermal flight, with and without it (AdaptivePoints.ThermalLikeFlight..., whose
 #     thermal preset has the pattern too and takes the same path; SensorPattern.ThermalVideo...,
 #     the running estimate; the flat_field unit tests).
+#   - mavlink.node_mavlink_live: the contract flight as a live stream played at real-time pace
+#     (mavlink.node_mavlink_contract: the same messages through the same arithmetic from a file;
+#     the live source's queue and clock: FrameSource and FrameLoop unit tests). An instrumented
+#     build is slower than the stream: the newest-frame queue then drops the flight's black
+#     frame, which the test needs bridged.
 set(AEROVO_REPEATED_FLIGHT_TESTS
   SensorPattern.ThermalFlightWithVignettingAndFixedPatternIsTrackedWithTheDefaults
   docs.commands_run_as_written
@@ -107,6 +112,7 @@ set(AEROVO_REPEATED_FLIGHT_TESTS
   Attitude.SrtWithOnlyAnAltitudeAboveSeaLevelNeedsTheGroundElevation
   BadInput.DamagedTelemetryWithLenientTelemetryIsSkippedAndReported
   OfflineOptimisationThreads
+  mavlink.node_mavlink_live
 )
 
 # COST: relative run time, so that ctest --parallel starts the long tests first instead of

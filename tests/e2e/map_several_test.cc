@@ -51,7 +51,7 @@ bool WriteMap(const fs::path& ortho, const fs::path& dir, const std::string& nam
                                                      : cv::IMREAD_REDUCED_GRAYSCALE_4);
   if (g.empty()) return false;
   const double mpp = reduce * kOrthoMpp;
-  const int cols = std::min(g.cols, static_cast<int>(east_m / mpp));
+  const int cols = east_m / mpp >= g.cols ? g.cols : static_cast<int>(east_m / mpp);
   cv::Mat map(g.rows, cols, CV_8U);
   for (int y = 0; y < g.rows; ++y) {
     for (int x = 0; x < cols; ++x) {
