@@ -19,7 +19,7 @@
 #include "aerovo/core/testing.h"
 #include "aerovo/geo/local_enu.h"
 #include "aerovo/map/reference_map.h"
-#include "aerovo/pipeline/map_fixer_testing.h"
+#include "aerovo/pipeline/map_fixer_test_util.h"
 #include "aerovo/pipeline/map_fixer.h"
 
 namespace aerovo::run_steps {
