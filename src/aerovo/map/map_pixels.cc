@@ -30,20 +30,25 @@ GDALRasterBand* AtLevel(GDALRasterBand* band, int level) {
 }
 
 // Grey and validity of the window (x0, y0, w, h) of overview `level` (-1: full resolution) read
-// into a buffer of bw x bh samples (GDAL subsamples when smaller), raw: before the radiometry's
-// stretch. Throws InputError naming `path` when a band cannot be read.
+// into a buffer of bw x bh samples (smaller: GDAL subsamples, or averages when `average`, a
+// palette's indices excepted), raw: before the radiometry's stretch. Throws InputError naming
+// `path` when a band cannot be read.
 void ReadRawGrey(GDALDataset& ds, const std::filesystem::path& path,
                  const MapRadiometry& radiometry, int level, int x0, int y0, int w, int h, int bw,
-                 int bh, std::vector<float>* grey, std::vector<float>* valid) {
+                 int bh, std::vector<float>* grey, std::vector<float>* valid,
+                 bool average = false) {
   const std::size_t n = static_cast<std::size_t>(bw) * bh;
   const int bands = ds.GetRasterCount() >= 3 ? 3 : 1;
   std::vector<float> band(n);
   grey->assign(n, 0.0f);
   valid->assign(n, 255.0f);
   const QuietGdal quiet;
+  GDALRasterIOExtraArg extra;
+  INIT_RASTERIO_EXTRA_ARG(extra);
+  if (average && !radiometry.palette) extra.eResampleAlg = GRIORA_Average;
   const auto read = [&](GDALRasterBand* src, float* out) {
     if (src == nullptr ||
-        src->RasterIO(GF_Read, x0, y0, w, h, out, bw, bh, GDT_Float32, 0, 0, nullptr) != CE_None) {
+        src->RasterIO(GF_Read, x0, y0, w, h, out, bw, bh, GDT_Float32, 0, 0, &extra) != CE_None) {
       Unreadable(path);
     }
   };
@@ -102,16 +107,26 @@ bool ReadGreyBlock(GDALDataset& ds, const std::filesystem::path& path,
     if (f <= px_per_sample) level = i;
   }
   GDALRasterBand* base = AtLevel(first, level);
-  const double fx = static_cast<double>(ds.GetRasterXSize()) / base->GetXSize();
-  const double fy = static_cast<double>(ds.GetRasterYSize()) / base->GetYSize();
-  const int x0 = std::max(0, static_cast<int>(std::floor(c0 / fx)) - 1);
-  const int y0 = std::max(0, static_cast<int>(std::floor(r0 / fy)) - 1);
-  const int x1 = std::min(base->GetXSize(), static_cast<int>(std::ceil(c1 / fx)) + 1);
-  const int y1 = std::min(base->GetYSize(), static_cast<int>(std::ceil(r1 / fy)) + 1);
+  const int level_w = base->GetXSize(), level_h = base->GetYSize();
+  const double fx = static_cast<double>(ds.GetRasterXSize()) / level_w;
+  const double fy = static_cast<double>(ds.GetRasterYSize()) / level_h;
+  // No overview coarse enough (a fine map without overviews): blocks of k x k pixels of that
+  // level averaged as they are read, on a grid aligned to k (as an overview of k would be), so
+  // that the read holds about as many samples as the window needs, not k^2 times as many (the
+  // same density as from overviews: k fx <= px_per_sample < 2 k fx); the map's last partial
+  // block of k pixels on the right and at the bottom is left out. k = 1 with overviews.
+  // (1e-6: a window's step computed as 3.9999... map pixels still reads blocks of 4.)
+  const int k =
+      std::max(1, static_cast<int>(std::floor(px_per_sample / std::max(fx, fy) * (1 + 1e-6))));
+  const int x0 = std::max(0, static_cast<int>(std::floor(c0 / fx / k)) - 1);
+  const int y0 = std::max(0, static_cast<int>(std::floor(r0 / fy / k)) - 1);
+  const int x1 = std::min(level_w / k, static_cast<int>(std::ceil(c1 / fx / k)) + 1);
+  const int y1 = std::min(level_h / k, static_cast<int>(std::ceil(r1 / fy / k)) + 1);
   if (x1 - x0 < 1 || y1 - y0 < 1) return false;
   const int w = x1 - x0, h = y1 - y0;
-  *b = GreyBlock{w, h, x0 * fx, y0 * fy, fx, fy, {}, {}};
-  ReadRawGrey(ds, path, radiometry, level, x0, y0, w, h, w, h, &b->grey, &b->valid);
+  *b = GreyBlock{w, h, x0 * k * fx, y0 * k * fy, k * fx, k * fy, {}, {}};
+  ReadRawGrey(ds, path, radiometry, level, x0 * k, y0 * k, w * k, h * k, w, h, &b->grey, &b->valid,
+              /*average=*/k > 1);
   if (radiometry.lo != 0.0 || radiometry.hi != 255.0) {
     const float lo = static_cast<float>(radiometry.lo);
     const float gain = static_cast<float>(255.0 / (radiometry.hi - radiometry.lo));

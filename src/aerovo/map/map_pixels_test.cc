@@ -18,6 +18,7 @@
 #include "aerovo/core/testing.h"
 #include "aerovo/geo/local_enu.h"
 #include "aerovo/map/map_info.h"
+#include "aerovo/map/map_pixels.h"
 #include "aerovo/map/reference_map.h"
 
 namespace aerovo::map {
@@ -173,6 +174,61 @@ TEST(MapPixels, SixteenBitAndFloatMapsAreStretchedBetweenTheirOwnPercentiles) {
   }
   EXPECT_GE(valid, 101 * 101 - 32 * 32);
   EXPECT_LE(valid, 101 * 101 - 28 * 28);
+}
+
+// A map 4 times finer than the texture (each texture pixel 4 x 4 pixels of 0.125 m) without
+// overviews, read for 0.5 m samples: 4 x 4 blocks averaged as they are read (ReadGreyBlock),
+// each sample exactly one texture pixel, and a quarter of the samples a side that a read at full
+// resolution would hold (16 times fewer in all; before, such a map made a window's read 16
+// times larger, e.g. 1 GB for tampa's map made 4 times finer).
+TEST(MapPixels, AFineMapWithoutOverviewsIsReadAveragedAsAnOverviewWouldBe) {
+  const fs::path fine = Dir() / "fine.tif";
+  GDALAllRegister();
+  {
+    const int n = 4 * kSize;
+    GDALDataset* ds = GetGDALDriverManager()->GetDriverByName("GTiff")->Create(
+        fine.c_str(), n, n, 1, GDT_Byte, nullptr);
+    ASSERT_NE(ds, nullptr);
+    std::vector<unsigned char> px(static_cast<std::size_t>(n) * n);
+    for (int r = 0; r < n; ++r) {
+      for (int c = 0; c < n; ++c) {
+        px[static_cast<std::size_t>(r) * n + c] =
+            static_cast<unsigned char>(std::lround(Texture(c / 4, r / 4)));
+      }
+    }
+    ASSERT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, n, n, px.data(), n, n, GDT_Byte, 0, 0,
+                                             nullptr),
+              CE_None);
+    double gt[6] = {0.0, kMpp / 4, 0.0, 0.0, 0.0, -kMpp / 4};
+    ds->SetGeoTransform(gt);
+    OGRSpatialReference srs;
+    srs.importFromProj4("+proj=tmerc +lat_0=45 +lon_0=7 +k=1 +x_0=0 +y_0=0 +ellps=WGS84 +units=m");
+    ds->SetSpatialRef(&srs);
+    GDALClose(ds);
+  }
+  GDALDataset* ds = static_cast<GDALDataset*>(GDALOpen(fine.c_str(), GA_ReadOnly));
+  ASSERT_NE(ds, nullptr);
+  GreyBlock b;
+  ASSERT_TRUE(ReadGreyBlock(*ds, fine, ReadMapInfo(fine).radiometry, 400, 400, 800, 800, 4.0, &b));
+  GDALClose(ds);
+  EXPECT_EQ(b.dx, 4.0);
+  EXPECT_EQ(b.x0, 396.0);       // one sample of margin, on the grid of 4
+  EXPECT_EQ(b.w, 400 / 4 + 2);  // 102 samples a side for 400 pixels, not 402
+  EXPECT_EQ(b.h, 400 / 4 + 2);
+  int wrong = 0;
+  for (int j = 0; j < b.h; ++j) {
+    for (int i = 0; i < b.w; ++i) {
+      const float want = static_cast<float>(std::lround(Texture(99 + i, 99 + j)));
+      wrong += std::abs(b.grey[static_cast<std::size_t>(j) * b.w + i] - want) > 0.01f;
+    }
+  }
+  EXPECT_EQ(wrong, 0);
+  // A window of it: the 0.5 m map's.
+  const Line l =
+      Fit(WindowOf(WriteMap("coarse.tif", GDT_Byte, 1.0, 0.0, false, false, false), 200, 200, 0.5),
+          WindowOf(fine, 200, 200, 0.5));
+  EXPECT_NEAR(l.slope, 1.0, 1e-3);
+  EXPECT_LE(l.worst, 1.0);
 }
 
 TEST(MapPixels, APaletteMapIsReadAsItsColours) {
