@@ -106,6 +106,9 @@ struct FrameState {
   /// The lens estimate was applied at this frame (pipeline/lens_switch.h): its position may
   /// jump from the frames before (frames.csv status "+lens", MAVLink reset_counter + 1).
   bool lens_switched = false;
+  /// Frames the lens switch's new odometry was given again before this frame's stages, besides
+  /// this frame's own odometry (pipeline/lens_switch.h: at most kLensReplayFramesPerFrame).
+  int frames_replayed = 0;
   /// the live pose jumped (a fused fix, a loop closure): MAVLink reset_counter + 1
   bool pose_reset = false;
   /// An absolute position of this frame with its accuracy found by another stage (a fix against

@@ -6,16 +6,25 @@
 // first. The loop waits there for the estimate if it is not ready yet, so which frame switches
 // never depends on the threads' timing: a run on a file gives the same outputs every time.
 //
-// A significant estimate is then the run's lens from the switch frame on, as a calibration file
-// would have been from the start: a new odometry with the lens (undistort auto|points|frames)
-// is given again the frames before the switch frame (their processed pixels and odometry inputs
-// are kept until then; not again through the sinks), so the switch frame's step is measured
-// between two frames under the same lens and the track from the switch frame on is the one of a
-// run with the lens from its first frame. The poses sent and written before the switch frame
-// were under the ideal pinhole: the switch frame's position may jump from them; frames.csv marks
-// it (status "+lens"), MAVLink's reset_counter grows by one there (docs/autopilot.md), and
-// summary.json lens_estimate says where (switch_frame, frames_replayed, wait_ms). An estimate
-// that is not significant changes nothing (the kept frames are dropped).
+// A significant estimate then becomes the run's lens, as a calibration file would have been
+// from the start, without stopping the pose stream: a new odometry with the lens (undistort
+// auto|points|frames) is given again the frames before the switch frame (their processed pixels
+// and odometry inputs, kept until then; not again through the sinks), at most
+// kLensReplayFramesPerFrame of them per frame processed, while the run goes on under the old
+// lens (every frame still gives its pose, and is kept for the replay too). At the first frame
+// whose predecessors the new odometry has all processed, the CATCH-UP FRAME, the new odometry
+// and undistortion become the run's: that frame's step is measured between two frames under the
+// same lens, and the track from it on is the one of a run with the lens from its first frame.
+// The replay gains kLensReplayFramesPerFrame - 1 frames per frame, so the catch-up frame comes
+// about (switch frame) / (kLensReplayFramesPerFrame - 1) frames after the switch frame, and no
+// pose waits for more than 1 + kLensReplayFramesPerFrame frames' odometry (the frame's own and
+// the replay's: FrameState::frames_replayed). Both frames follow from frame counts only, never
+// from the threads' timing. The poses sent and written before the catch-up frame were under
+// the ideal pinhole: its position may jump from them; frames.csv marks it (status "+lens"),
+// MAVLink's reset_counter grows by one there (docs/autopilot.md), and summary.json
+// lens_estimate says where (switch_frame, caught_up_frame, frames_replayed, wait_ms). An
+// estimate that is not significant changes nothing (the kept frames are dropped); a run that
+// ends before its catch-up frame records the estimate as not applied.
 //
 // A live source cannot be read twice: its pairs are copies of the frames it delivers before the
 // switch frame (lens_prepass.h LivePairFeed), a pair started every kLivePairSpacingS of stream
@@ -25,18 +34,32 @@
 // pair then depends on which the live source delivered (as everything of a live run).
 #pragma once
 
+#include <deque>
 #include <memory>
 #include <optional>
 #include <vector>
 
 #include "aerovo/core/image.h"
 #include "aerovo/odometry/attitude.h"
+#include "aerovo/odometry/visual_odometry.h"
 #include "aerovo/pipeline/lens_prepass.h"
+#include "aerovo/pipeline/preprocess.h"
+#include "aerovo/pipeline/run_steps.h"
+#include "aerovo/pipeline/run_types.h"
 
 namespace aerovo::run_steps {
 
 struct RunContext;
 struct FrameState;
+
+/// A lens's undistortion (SetUpUndistortion): the whole-frame undistorter (frames path; null:
+/// none or the points path, which the odometry does), the path, and the lens's largest local
+/// scale change (camera/lens.h MaxLensScaleChange; unset: no lens).
+struct LensPath {
+  std::unique_ptr<FrameUndistorter> undistorter;
+  UndistortionPath undistortion = UndistortionPath::kNone;
+  std::optional<double> scale_change;
+};
 
 /// Stream seconds from the first frame to the switch frame: photos 0.5-2 s apart switch at their
 /// 2nd-5th frame. The pre-pass takes 1.5-2.2 s beside the odometry on a 12 s 720p or 1080p clip
@@ -47,6 +70,11 @@ inline constexpr double kLensSwitchAfterS = 2.0;
 /// default detect_megapixels, about 100 MB for 48): the switch frame comes no later than this
 /// (frame 48, 1.6 s into a 30 fps video). Our choice.
 inline constexpr int kLensSwitchMaxFrames = 48;
+/// Kept frames the new odometry is given per frame processed while it catches up (see the file
+/// comment): a pose waits for at most 4 frames' odometry instead of the whole replay (48 frames
+/// at 30 fps), and the catch-up frame comes about 24 frames after the switch frame. Our choice:
+/// 2 would halve the longest wait's extra work but double the frames processed twice.
+inline constexpr int kLensReplayFramesPerFrame = 3;
 /// A live source: a pair of the lens pre-pass starts every this many seconds of stream time, or
 /// every kLivePairSpacingFrames frames, before the switch frame: kLensPrepassPairs pairs by
 /// 1.2 s (or by frame 32), inside both limits above. Our choice.
@@ -63,25 +91,26 @@ class LensSwitch {
              std::shared_ptr<LivePairFeed> live_feed = nullptr);
   ~LensSwitch();
 
-  /// `frame` (read, not processed yet) is the switch frame.
-  bool Due(const FrameState& frame) const;
-  /// Keeps `frame`'s processed pixels (FrameState::pixels) and odometry inputs, after its stages
-  /// ran (frames before the switch frame; nothing after it); with a live feed, hands over the
-  /// frame as delivered when it starts or completes a pair.
+  /// Before `frame`'s stages (read, not processed yet): at the switch frame, waits for the
+  /// estimate (Cancelled on the run's stop flag) and records it in the summary and the log
+  /// (TakeEstimate); from there on until the catch-up frame, gives the new odometry up to
+  /// kLensReplayFramesPerFrame kept frames (FrameState::frames_replayed) and, at the catch-up
+  /// frame, makes the lens the run's (camera, lens_estimate.yaml, the new odometry and its
+  /// undistortion) and sets FrameState::lens_switched. Output errors escape (lens_estimate.yaml).
+  void BeforeStages(RunContext& run, FrameState& frame);
+  /// After `frame`'s stages, before the catch-up frame: keeps its processed pixels
+  /// (FrameState::pixels) and odometry inputs for the replay; with a live feed, before the switch
+  /// frame, hands over the frame as delivered when it starts or completes a pair.
   void Keep(const FrameState& frame);
-  /// At the switch frame, before its stages: waits for the estimate (Cancelled on the run's stop
-  /// flag), records it in the summary and the log and, when significant, applies it (camera,
-  /// lens_estimate.yaml, a new odometry with its undistortion, the kept frames replayed) and sets
-  /// FrameState::lens_switched. Output errors escape (lens_estimate.yaml).
-  void Apply(RunContext& run, FrameState& frame);
-  /// At the end of the run: when the switch frame never came (a flight shorter than
-  /// kLensSwitchAfterS, or stopped), the estimate is recorded as not applied.
+  /// At the end of the run: when the switch frame or the catch-up frame never came (a flight
+  /// shorter than kLensSwitchAfterS, or stopped), the estimate is recorded as not applied.
   void Finish(RunContext& run);
-  /// The estimate was taken (at the switch frame or at Finish).
-  bool done() const { return done_; }
+  /// Nothing left to do: the estimate was taken and, when significant, the run switched to it.
+  bool done() const { return phase_ == Phase::kDone; }
 
  private:
-  // A frame before the switch frame as the odometry got it.
+  enum class Phase { kCollecting, kReplaying, kDone };
+  // A frame before the catch-up frame as the odometry got it.
   struct Kept {
     GrayImage pixels;
     double time_s = 0.0;
@@ -89,24 +118,44 @@ class LensSwitch {
     std::optional<double> yaw_deg;
     std::optional<CameraAttitude> attitude;
   };
-  // The estimate applied to `run` and the kept frames given to its new odometry.
-  void Replay(RunContext& run, const LensPrepass& prepass);
+  // `frame` (read, not processed yet) is the switch frame.
+  bool Due(const FrameState& frame) const;
+  // At the switch frame: the estimate waited for and recorded; significant, the replay set up.
+  void TakeEstimate(RunContext& run, FrameState& frame);
+  // Up to kLensReplayFramesPerFrame kept frames given to the new odometry; none left: the
+  // catch-up frame (SwitchOver).
+  void Advance(RunContext& run, FrameState& frame);
+  // The estimate and the new odometry made the run's at `frame`.
+  void SwitchOver(RunContext& run, FrameState& frame);
   // A live source: `f` completes the pending pair and/or starts the next one.
   void FeedLivePair(const FrameState& f);
 
   std::unique_ptr<LensPrepassTask> task_;
   double first_time_s_ = 0.0;
-  std::vector<Kept> kept_;
-  bool done_ = false;
+  Phase phase_ = Phase::kCollecting;
+  int kept_before_switch_ = 0;  // frames kept before the switch frame (Due)
+  std::deque<Kept> kept_;       // frames the new odometry has not been given yet
   std::shared_ptr<LivePairFeed> live_feed_;
   std::optional<Frame> pair_start_;  // a live pair's first frame, waiting for the next
   int live_pairs_ = 0;               // pairs started so far
+  // From the switch frame to the catch-up frame: the estimate, the odometry under it and its
+  // undistortion, the frames given to it so far.
+  std::optional<LensPrepass> prepass_;
+  double waited_ms_ = 0.0;
+  int switch_frame_ = -1;
+  std::unique_ptr<VisualOdometry> odometry_;
+  LensPath path_;
+  int replayed_ = 0;
 };
 
 /// Undistortion of `run`'s lens (RunLens of its camera; none: nothing) on run.odometry (points)
 /// or as run.undistorter (frames), per RunConfig::undistort; fills in the summary's
 /// undistortion fields (run_setup.cc).
 void SetUpUndistortion(RunContext& run);
+/// The same for `camera`'s lens on `odometry` (points) or in the returned path (frames), not
+/// touching `run` (run_setup.cc); InstallLensPath makes it the run's.
+LensPath MakeLensPath(const RunContext& run, const RunCamera& camera, VisualOdometry& odometry);
+void InstallLensPath(RunContext& run, LensPath path);
 
 /// The log line of a pre-pass's result (run_setup.cc): `switch_frame` -1 when never applied.
 void LogLensPrepass(const RunContext& run, const LensPrepass& prepass, int switch_frame,
