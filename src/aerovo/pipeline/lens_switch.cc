@@ -52,7 +52,7 @@ bool LensSwitch::Due(const FrameState& f) const {
 
 void LensSwitch::Keep(const FrameState& f) {
   if (phase_ == Phase::kDone) return;
-  if (phase_ == Phase::kCollecting && live_feed_) FeedLivePair(f);
+  if (phase_ == Phase::kCollecting && live_feed_ && !live_closed_) FeedLivePair(f);
   if (f.pixels.empty()) return;
   if (phase_ == Phase::kCollecting) ++kept_before_switch_;
   Kept k;
@@ -69,6 +69,14 @@ void LensSwitch::Keep(const FrameState& f) {
 void LensSwitch::BeforeStages(RunContext& run, FrameState& f) {
   if (phase_ == Phase::kCollecting) {
     if (!Due(f)) return;
+    if (live_feed_) {
+      // A live source never waits for the estimate (which frame switches depends on the
+      // frames it delivered anyway): its pairs end here, the estimate is taken at the first
+      // frame it is ready at, or waited for once kLiveMaxKeptFrames frames are kept.
+      live_feed_->Close();
+      live_closed_ = true;
+      if (!task_->Ready() && static_cast<int>(kept_.size()) < kLiveMaxKeptFrames) return;
+    }
     TakeEstimate(run, f);
   }
   if (phase_ == Phase::kReplaying) Advance(run, f);

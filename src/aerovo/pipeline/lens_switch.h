@@ -30,8 +30,10 @@
 // switch frame (lens_prepass.h LivePairFeed), a pair started every kLivePairSpacingS of stream
 // time (or every kLivePairSpacingFrames frames, whichever comes first) and completed by the next
 // frame delivered, matched on the pre-pass's thread as they come; the feed is closed at the switch
-// frame, where the run waits only for the pairs not matched yet and the estimate. Which frames
-// pair then depends on which the live source delivered (as everything of a live run).
+// frame; the run does not wait there: the estimate is taken at the first frame from the switch
+// frame on at which it is ready (or waited for once kLiveMaxKeptFrames frames are kept), so a
+// live pose stream never stops for it. Which frames pair and switch then depends on which the
+// live source delivered and when (as everything of a live run).
 #pragma once
 
 #include <deque>
@@ -80,6 +82,10 @@ inline constexpr int kLensReplayFramesPerFrame = 3;
 /// 1.2 s (or by frame 32), inside both limits above. Our choice.
 inline constexpr double kLivePairSpacingS = 0.3;
 inline constexpr int kLivePairSpacingFrames = 8;
+/// A live source: frames kept for the replay while the estimate is not ready after the switch
+/// frame (the run does not wait for it there; see the file comment), at most: beyond, the run
+/// waits. Twice kLensSwitchMaxFrames (about 200 MB of 2.1 MP frames). Our choice.
+inline constexpr int kLiveMaxKeptFrames = 2 * kLensSwitchMaxFrames;
 
 /// The lens switch of a run (see the file comment); owned by the run (RunContext::lens_switch).
 class LensSwitch {
@@ -136,6 +142,7 @@ class LensSwitch {
   int kept_before_switch_ = 0;  // frames kept before the switch frame (Due)
   std::deque<Kept> kept_;       // frames the new odometry has not been given yet
   std::shared_ptr<LivePairFeed> live_feed_;
+  bool live_closed_ = false;          // the live feed closed (the switch frame came)
   std::optional<Frame> pair_start_;  // a live pair's first frame, waiting for the next
   int live_pairs_ = 0;               // pairs started so far
   // From the switch frame to the catch-up frame: the estimate, the odometry under it and its
