@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # ctest driver of tests/mavlink/e2e.cjs (MODE: udp, udpin or signed), autopilots.cjs (MODE:
-# contract, the frames as a video) and gps_input.cjs (MODE: gps_input, the simulated flight with
+# contract, the frames as a video), live.cjs (MODE: live, the frames as a live UDP stream) and
+# gps_input.cjs (MODE: gps_input, the simulated flight with
 # its telemetry, so that the track is geo-referenced): installs node-mavlink from the
 # npm registry (the version pinned in package.json / package-lock.json) into WORK, simulates a
 # short flight (one black frame mid-flight: bridged, then re-acquired), runs the check.
@@ -45,6 +46,24 @@ if [ "$MODE" = gps_input ]; then
   # (2.5 m): a 0.3 m limit gives 3D fixes before the black frame and "no fix" after it.
   cd "$NODE_DIR" && NODE_PATH="$NODE_DIR/node_modules" exec node "$SRC/gps_input.cjs" "$AEROVO" \
     "$VIDEO" "$SIM/telemetry-yaw.srt" "$FOCAL" "$SIM/ground_truth.csv" 0.3 "$WORK/run-$MODE"
+fi
+if [ "$MODE" = live ]; then
+  # The flight of MODE contract (a black frame mid-flight: bridged, then re-acquired), 25
+  # frames at 4 fps, as an MPEG-TS stream (H.264, a key frame every 4 frames, no B frames) that
+  # live.cjs has ffmpeg play at real-time pace over UDP into `aerovo run udp://...`.
+  SIM="$WORK/sim-$MODE"
+  rm -rf "$SIM" "$WORK/run-$MODE"
+  "$AEROVO" simulate --pattern line --length-m 60 --height-m 60 --width 640 --height 360 --fps 4 \
+    --gps-noise-m 0 --frames-only --image-format png --quiet --out "$SIM" || exit 1
+  FOCAL=$(node -e 'console.log(require(process.argv[1]).camera.focal_px)' "$SIM/sim.json") || exit 1
+  SPEED=$(node -e 'console.log(require(process.argv[1]).flight.speed_mps)' "$SIM/sim.json") || exit 1
+  BLACK=$(ls "$SIM/frames" | sort | sed -n 10p)
+  ffmpeg -loglevel error -y -f lavfi -i color=c=black:s=640x360 -frames:v 1 "$SIM/frames/$BLACK" || exit 1
+  STREAM="$WORK/flight-$MODE.ts"
+  ffmpeg -loglevel error -y -framerate 4 -pattern_type glob -i "$SIM/frames/*.png" -c:v libx264 \
+    -crf 16 -g 4 -bf 0 -pix_fmt yuv420p "$STREAM" || exit 1
+  cd "$NODE_DIR" && NODE_PATH="$NODE_DIR/node_modules" exec node "$SRC/live.cjs" "$AEROVO" \
+    "$STREAM" "$FOCAL" 60 "$SPEED" "$WORK/run-$MODE"
 fi
 # A simulated flight (no sim.json beside the frames: no telemetry, positions in the local frame).
 SIM="$WORK/sim-$MODE"
