@@ -45,24 +45,38 @@ void AddFlag(std::string& flags, const char* token) {
 
 std::uint64_t PixelHash(const GrayImage& image) {
   // 8 bytes at a time, multiply-rotate mixing (the multipliers are the 64-bit primes of
-  // xxHash); the tail of each row byte by byte.
+  // xxHash), in four independent lanes of 32-byte blocks so that the multiplications of one
+  // lane do not wait for another's (about 4x faster than one chain); the 8-byte words and bytes
+  // left at a row's end go into lane 0. Each step is a bijection of its lane for a given input,
+  // and the lanes are combined by rotations and xor: one changed pixel changes the hash.
   constexpr std::uint64_t kP1 = 0x9E3779B185EBCA87ULL, kP2 = 0xC2B2AE3D27D4EB4FULL;
-  std::uint64_t h = kP2 ^ (static_cast<std::uint64_t>(image.width()) << 32) ^
-                    static_cast<std::uint64_t>(image.height());
+  const auto mix = [](std::uint64_t h, std::uint64_t w) {
+    h ^= w * kP2;
+    return ((h << 31) | (h >> 33)) * kP1;
+  };
+  std::uint64_t lane[4] = {kP2 ^ (static_cast<std::uint64_t>(image.width()) << 32) ^
+                               static_cast<std::uint64_t>(image.height()),
+                           kP1, kP1 ^ kP2, ~kP1};
   for (int y = 0; y < image.height(); ++y) {
     const std::uint8_t* row = image.row(y);
     int x = 0;
+    for (; x + 32 <= image.width(); x += 32) {
+      std::uint64_t w[4];
+      std::memcpy(w, row + x, 32);
+      for (int k = 0; k < 4; ++k) lane[k] = mix(lane[k], w[k]);
+    }
     for (; x + 8 <= image.width(); x += 8) {
       std::uint64_t w;
       std::memcpy(&w, row + x, 8);
-      h ^= w * kP2;
-      h = ((h << 31) | (h >> 33)) * kP1;
+      lane[0] = mix(lane[0], w);
     }
     for (; x < image.width(); ++x) {
-      h ^= row[x] * kP1;
-      h = ((h << 23) | (h >> 41)) * kP2;
+      lane[0] ^= row[x] * kP1;
+      lane[0] = ((lane[0] << 23) | (lane[0] >> 41)) * kP2;
     }
   }
+  const auto rotl = [](std::uint64_t v, int r) { return (v << r) | (v >> (64 - r)); };
+  std::uint64_t h = lane[0] ^ rotl(lane[1], 7) ^ rotl(lane[2], 12) ^ rotl(lane[3], 18);
   h ^= h >> 33;
   h *= kP2;
   h ^= h >> 29;
