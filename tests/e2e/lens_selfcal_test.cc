@@ -194,6 +194,40 @@ std::string FramesCsvWithoutTimes(const fs::path& run_dir) {
   return out;
 }
 
+// The run of `video` in dir/a (its lens switch at `switch_frame`, caught up at `caught_up`) is
+// the same with 1 thread (the CLI), and its steps from the catch-up frame on are those of a run
+// given its lens_estimate.yaml as the calibration file.
+void ExpectSameRunAndCalibratedSteps(const fs::path& dir, const std::string& video,
+                                     int switch_frame, int caught_up, int frames) {
+  const auto rows = e2e::ReadFramesCsv(dir / "a");
+  ASSERT_EQ(rows.size(), static_cast<std::size_t>(frames));
+  // Deterministic: the same frames and track again (the CLI, with 1 thread this time).
+  ASSERT_TRUE(Cli("run " + video + " --attitude-estimation off --threads 1 --quiet --no-report "
+                  "-o " + (dir / "b").string()));
+  const nlohmann::json b = ReadJson(dir / "b" / "summary.json")["lens_estimate"];
+  EXPECT_EQ(b["switch_frame"], switch_frame);
+  EXPECT_EQ(b["caught_up_frame"], caught_up);
+  EXPECT_EQ(ReadText(dir / "a" / "vo.tum"), ReadText(dir / "b" / "vo.tum"));
+  EXPECT_EQ(FramesCsvWithoutTimes(dir / "a"), FramesCsvWithoutTimes(dir / "b"));
+  // From the catch-up frame on: the track of the estimate given as a calibration file.
+  ASSERT_TRUE(Cli("run " + video + " --calibration " + (dir / "a" / "lens_estimate.yaml").string() +
+                  " --attitude-estimation off --quiet --no-report -o " + (dir / "cal").string()));
+  const double t_switch = std::stod(rows[caught_up].at("time_s"));
+  EXPECT_NEAR(t_switch, 0.1 * caught_up, 1e-6);
+  const auto est = TumRowsFrom(dir / "a" / "vo.tum", t_switch);
+  const auto cal = TumRowsFrom(dir / "cal" / "vo.tum", t_switch);
+  ASSERT_EQ(est.size(), static_cast<std::size_t>(frames - caught_up));
+  ASSERT_EQ(cal.size(), est.size());
+  // The steps from the catch-up frame on (the geo-referencing's fit to the GPS, which rotates
+  // the whole track, saw the frames before it under the pinhole: compared are the steps'
+  // lengths, to 1 mm of 1 m steps).
+  for (std::size_t i = 1; i < est.size(); ++i) {
+    const double e = std::hypot(est[i][1] - est[i - 1][1], est[i][2] - est[i - 1][2]);
+    const double k = std::hypot(cal[i][1] - cal[i - 1][1], cal[i][2] - cal[i - 1][2]);
+    EXPECT_NEAR(e, k, 1e-3) << "step into row " << i << " after the catch-up frame";
+  }
+}
+
 // The estimate comes beside the odometry (pipeline/lens_switch.h): the first frames are
 // processed and handed to the outputs before it is taken at the switch frame, the first one
 // kLensSwitchAfterS (2 s) into the stream (frame 20 at 10 frames/s), the same on every run.
@@ -258,31 +292,7 @@ TEST(LensSelfCalibration, FirstPosesComeBeforeTheEstimateAppliedAtAFixedFrame) {
   ASSERT_EQ(rows.size(), static_cast<std::size_t>(kFrames));
   EXPECT_EQ(rows[caught_up].at("status"), "ok+lens");
   EXPECT_EQ(rows[caught_up - 1].at("status"), "ok");
-  // Deterministic: the same frames and track again (the CLI, with 1 thread this time).
-  ASSERT_TRUE(Cli("run " + video + " --attitude-estimation off --threads 1 --quiet --no-report "
-                  "-o " + (dir / "b").string()));
-  const nlohmann::json b = ReadJson(dir / "b" / "summary.json")["lens_estimate"];
-  EXPECT_EQ(b["switch_frame"], switch_frame);
-  EXPECT_EQ(b["caught_up_frame"], caught_up);
-  EXPECT_EQ(ReadText(dir / "a" / "vo.tum"), ReadText(dir / "b" / "vo.tum"));
-  EXPECT_EQ(FramesCsvWithoutTimes(dir / "a"), FramesCsvWithoutTimes(dir / "b"));
-  // From the catch-up frame on: the track of the estimate given as a calibration file.
-  ASSERT_TRUE(Cli("run " + video + " --calibration " + (dir / "a" / "lens_estimate.yaml").string() +
-                  " --attitude-estimation off --quiet --no-report -o " + (dir / "cal").string()));
-  const double t_switch = std::stod(rows[caught_up].at("time_s"));
-  EXPECT_NEAR(t_switch, 0.1 * caught_up, 1e-6);
-  const auto est = TumRowsFrom(dir / "a" / "vo.tum", t_switch);
-  const auto cal = TumRowsFrom(dir / "cal" / "vo.tum", t_switch);
-  ASSERT_EQ(est.size(), static_cast<std::size_t>(kFrames - caught_up));
-  ASSERT_EQ(cal.size(), est.size());
-  // The steps from the catch-up frame on (the geo-referencing's fit to the GPS, which rotates
-  // the whole track, saw the frames before it under the pinhole: compared are the steps'
-  // lengths, to 1 mm of 1 m steps).
-  for (std::size_t i = 1; i < est.size(); ++i) {
-    const double e = std::hypot(est[i][1] - est[i - 1][1], est[i][2] - est[i - 1][2]);
-    const double k = std::hypot(cal[i][1] - cal[i - 1][1], cal[i][2] - cal[i - 1][2]);
-    EXPECT_NEAR(e, k, 1e-3) << "step into row " << i << " after the catch-up frame";
-  }
+  ExpectSameRunAndCalibratedSteps(dir, video, switch_frame, caught_up, kFrames);
   fs::remove_all(dir);
 }
 
