@@ -185,7 +185,7 @@ class LensPrepassTask {
   LensPrepass Get(const std::atomic<bool>* stop, double* waited_ms = nullptr);
   /// Get() was called.
   bool taken() const { return taken_; }
-  /// The result is there: Get() would not wait.
+  /// The result is there and not taken yet: Get() would not wait.
   bool Ready() const;
 
  private:
