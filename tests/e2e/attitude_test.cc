@@ -75,6 +75,19 @@ TEST(Attitude, TiltedFlightIsThreeTimesMoreAccurateWithTheCorrection) {
   EXPECT_LT(3.0 * end_with, end_without) << "end point " << end_with << " m with, "
                                           << end_without << " m without";
   EXPECT_LT(a["end_point_error_unaligned_percent"].get<double>(), 1.0);
+  // frames.csv records the camera attitude applied to each frame: the truth's (pitch, and roll
+  // with the simulator's sign, docs/attitude.md) to the SRT's 0.1 deg; none without the correction.
+  const auto truth = e2e::ReadCsvRows(dir / "sim" / "ground_truth.csv");
+  const auto rows = e2e::ReadFramesCsv(dir / "auto"), off = e2e::ReadFramesCsv(dir / "off");
+  ASSERT_EQ(rows.size(), truth.size());
+  ASSERT_EQ(off.size(), truth.size());
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    EXPECT_NEAR(std::stod(rows[i].at("camera_pitch_deg")), std::stod(truth[i].at("pitch_deg")),
+                0.06) << "frame " << i;
+    EXPECT_NEAR(std::stod(rows[i].at("camera_roll_deg")), -std::stod(truth[i].at("roll_deg")),
+                0.06) << "frame " << i;
+    EXPECT_EQ(off[i].at("camera_pitch_deg"), "") << "frame " << i;
+  }
   fs::remove_all(dir);
 }
 

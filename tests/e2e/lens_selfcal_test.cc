@@ -288,6 +288,10 @@ TEST(LensSelfCalibration, FirstPosesComeBeforeTheEstimateAppliedAtAFixedFrame) {
   for (int i = 0; i < kFrames; ++i) {
     EXPECT_EQ(resets[i], i >= caught_up ? 1 : 0) << "frame " << i;
   }
+  // summary.json counts the autopilot's resets, by cause.
+  EXPECT_EQ(s.pose_resets.frames, resets.back());
+  EXPECT_EQ(s.pose_resets.lens_switch, 1);
+  EXPECT_EQ(s.pose_resets.loop_closure + s.pose_resets.map_fix, 0);
   const auto rows = e2e::ReadFramesCsv(dir / "a");
   ASSERT_EQ(rows.size(), static_cast<std::size_t>(kFrames));
   EXPECT_EQ(rows[caught_up].at("status"), "ok+lens");

@@ -12,6 +12,7 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/report/geo_mosaic.h"
+#include "aerovo/report/mosaic.h"
 #include "aerovo/report/run_reader.h"
 
 namespace aerovo::map {
@@ -109,8 +110,9 @@ bool OptimisedWithGps(const RunData& run) {
 
 }  // namespace
 
-std::string TiltedFramesWarning(const nlohmann::json& summary, const nlohmann::json& config) {
-  if (!summary.is_object() || !summary.contains("attitude_sources") ||
+std::string TiltedFramesWarning(const nlohmann::json& summary, const nlohmann::json& config,
+                                bool records_attitude) {
+  if (records_attitude || !summary.is_object() || !summary.contains("attitude_sources") ||
       !summary["attitude_sources"].is_object()) {
     return "";
   }
@@ -135,7 +137,7 @@ std::string TiltedFramesWarning(const nlohmann::json& summary, const nlohmann::j
   }
   return fmt::format(
       "{} frames of the run were corrected with a per-frame camera attitude ({}; up to {:.1f} deg "
-      "from nadir) that the run folder does not record: the map draws them as read, so their "
+      "from nadir) that the run folder (written by an older build) does not record: the map draws them as read, so their "
       "ground lands up to {} behind its place along the image top",
       per_frame, sources, tilt, lever);
 }
@@ -177,7 +179,8 @@ MapBuildResult BuildMapFromRun(const fs::path& run_dir, const fs::path& out,
   r.frames_used = g.frames_used;
   r.fit_rmse_m = g.fit_rmse_m;
   r.placed_by_gps = g.optimized;
-  if (std::string w = TiltedFramesWarning(run.summary, run.config); !w.empty()) {
+  if (std::string w = TiltedFramesWarning(run.summary, run.config, RecordsCameraAttitude(run));
+      !w.empty()) {
     r.warnings.push_back(std::move(w));
   }
   return r;

@@ -49,13 +49,15 @@ struct MapBuildResult {
 };
 
 /// The map draws each frame warped to the virtual nadir camera for the attitude the run applied
-/// to every frame (its estimate, summary.json "attitude_estimate"; report/mosaic.h
-/// MosaicNadirFromFrame), but a per-frame attitude from telemetry or the autopilot (summary.json
-/// "attitude_sources" other than "estimated") is not recorded in the run folder and such frames
-/// are drawn as read: when the run applied one and its largest tilt (summary.json
-/// "max_tilt_deg") is over 1 deg, a warning saying so and how far the ground lands from its place
-/// at that tilt and the run's height (config.json "altitude_m" when given); else "".
-std::string TiltedFramesWarning(const nlohmann::json& summary, const nlohmann::json& config);
+/// to it (frames.csv camera_roll_deg, camera_pitch_deg; report/mosaic.h MosaicNadirFromFrame).
+/// A run folder written by an older build records only the flight's estimate (summary.json
+/// "attitude_estimate"): a per-frame attitude from telemetry or the autopilot (summary.json
+/// "attitude_sources" other than "estimated") is then drawn as read. For such a folder
+/// (`records_attitude` false), when the run applied one and its largest tilt (summary.json
+/// "max_tilt_deg") is over 1 deg: a warning saying so and how far the ground lands from its
+/// place at that tilt and the run's height (config.json "altitude_m" when given); else "".
+std::string TiltedFramesWarning(const nlohmann::json& summary, const nlohmann::json& config,
+                                bool records_attitude = false);
 
 /// Builds `out` (a .tif; replaced atomically) from the run folder `run_dir` (written by `aerovo
 /// run` on a flight with GPS: frames.csv geo-referenced, transforms.csv, config.json; the frames

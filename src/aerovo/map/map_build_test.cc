@@ -32,5 +32,13 @@ TEST(MapBuildTiltWarning, EstimatedOrNadirOrUnknownIsNotWarned) {
   EXPECT_EQ(TiltedFramesWarning(nullptr, nullptr), "");
 }
 
+// A run folder that records each frame's camera attitude (frames.csv camera_roll_deg,
+// camera_pitch_deg) is drawn nadir frame by frame: nothing to warn about.
+TEST(MapBuildTiltWarning, ARunFolderRecordingTheAttitudeIsNotWarned) {
+  const nlohmann::json summary = {{"attitude_sources", {{"gimbal", 120}}}, {"max_tilt_deg", 15.0}};
+  EXPECT_NE(TiltedFramesWarning(summary, {{"altitude_m", 57.0}}, false), "");
+  EXPECT_EQ(TiltedFramesWarning(summary, {{"altitude_m", 57.0}}, true), "");
+}
+
 }  // namespace
 }  // namespace aerovo::map

@@ -122,6 +122,23 @@ constexpr double PoseJumpResetThresholdM(double sigma_xy_m) {
          (sigma_xy_m > kPoseJumpNoiseFloorM ? sigma_xy_m : kPoseJumpNoiseFloorM);
 }
 
+/// The same for a jump of the heading alone (rad, the wrapped difference between the heading
+/// sent and the previous one turned by the frame's causal step): the smaller of the two
+/// autopilots' yaw innovation gates (PX4 EKF2_HDG_GATE default 2.6 SD, used for vision yaw in
+/// src/modules/ekf2/EKF/aid_sources/external_vision/ev_yaw_control.cpp; ArduPilot
+/// EK3_YAW_I_GATE default 300 % = 3 SD) of the yaw noise, taken as the pose's own heading
+/// standard deviation `sigma_heading_rad` but at least the smaller of their floors (ArduPilot
+/// VISO_YAW_M_NSE 0.2 rad; PX4 max(the message's variance, EKF2_EVA_NOISE 0.1, 0.01^2) as a
+/// variance, about 0.32 rad): 0.52 rad (30 degrees) by default. docs/autopilot.md "A pose that
+/// jumps".
+constexpr double kHeadingJumpGateSigmas = 2.6;
+constexpr double kHeadingJumpNoiseFloorRad = 0.2;
+constexpr double HeadingJumpResetThresholdRad(double sigma_heading_rad) {
+  return kHeadingJumpGateSigmas * (sigma_heading_rad > kHeadingJumpNoiseFloorRad
+                                       ? sigma_heading_rad
+                                       : kHeadingJumpNoiseFloorRad);
+}
+
 /// Index of (row, col), row <= col, in the row-major upper-right triangle of a 6x6 matrix.
 constexpr int UpperTriangleIndex(int row, int col) { return row * 6 - row * (row - 1) / 2 + (col - row); }
 

@@ -61,6 +61,12 @@ struct FrameRecord {
   /// The autopilot's attitude at the frame (MAVLink ATTITUDE), degrees (CSV roll_deg,
   /// pitch_deg; empty cells when absent).
   std::optional<double> roll_deg, pitch_deg;
+  /// The camera attitude the odometry applied to the frame's keypoints (the virtual nadir
+  /// camera, odometry/attitude.h CameraAttitude: aerospace Z-Y-X roll and pitch of the camera's
+  /// FRD axes from level, yaw dropped), degrees (CSV camera_roll_deg, camera_pitch_deg; empty
+  /// cells when none was applied). What a later reader of the run folder (the mosaic, `aerovo
+  /// map build`) needs to draw the frame as the odometry saw it.
+  std::optional<double> camera_roll_deg, camera_pitch_deg;
 };
 
 /// Throws InvalidArgument naming the frame when a number is not finite, frame < 0, or geo is

@@ -173,6 +173,10 @@ void Validate(const FrameRecord& r) {
     CheckFinite(ms, "a stage time", where);
   }
   if (std::isinf(r.latency_ms)) throw InvalidArgument(where + ": latency_ms must be finite or NaN");
+  for (const std::optional<double>& a : {r.roll_deg, r.pitch_deg, r.camera_roll_deg,
+                                         r.camera_pitch_deg}) {
+    if (a) CheckFinite(*a, "an attitude angle", where);
+  }
   if (r.geo) Validate(*r.geo, where.c_str());
 }
 
@@ -182,7 +186,8 @@ void Validate(const FrameRecord& r) {
 const char* CsvFrameFormat::Header() {
   return "frame,time_s,x_m,y_m,lat_deg,lon_deg,alt_m,n_surf,n_matched,n_inliers,cluster,"
          "detect_ms,describe_ms,correspond_ms,estimate_ms,total_ms,status,gps_lat_deg,"
-         "gps_lon_deg,gps_alt_m,gps_flag,height_m,height_source,roll_deg,pitch_deg,latency_ms";
+         "gps_lon_deg,gps_alt_m,gps_flag,height_m,height_source,roll_deg,pitch_deg,latency_ms,"
+         "camera_roll_deg,camera_pitch_deg";
 }
 
 void CsvFrameFormat::Open(ProgressiveFile& file) { file.Reset(std::string(Header()) + "\n", ""); }
@@ -207,7 +212,7 @@ void CsvFrameFormat::Append(ProgressiveFile& file, const FrameRecord& r,
          fmt::format(",{:.3f},{},{},{},", r.height_m, CsvField(r.height_source), opt(r.roll_deg),
                      opt(r.pitch_deg));
   if (std::isfinite(r.latency_ms)) row += fmt::format("{:.3f}", r.latency_ms);
-  row += "\n";
+  row += "," + opt(r.camera_roll_deg) + "," + opt(r.camera_pitch_deg) + "\n";
   file.Append(row, "");
 }
 

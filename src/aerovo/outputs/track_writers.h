@@ -103,8 +103,9 @@ class ProgressiveWriter {
 
 /// frames.csv: header `frame,time_s,x_m,y_m,lat_deg,lon_deg,alt_m,n_surf,n_matched,n_inliers,
 /// cluster,detect_ms,describe_ms,correspond_ms,estimate_ms,total_ms,status,gps_lat_deg,
-/// gps_lon_deg,gps_alt_m,gps_flag,height_m,height_source,roll_deg,pitch_deg,latency_ms` (RFC
-/// 4180; empty cells for absent geo/GPS/attitude or latency). One flushed row per Append.
+/// gps_lon_deg,gps_alt_m,gps_flag,height_m,height_source,roll_deg,pitch_deg,latency_ms,
+/// camera_roll_deg,camera_pitch_deg` (RFC 4180; empty cells for absent geo/GPS/attitude or
+/// latency). One flushed row per Append.
 class CsvFrameFormat {
  public:
   explicit CsvFrameFormat(const std::filesystem::path&) {}

@@ -356,6 +356,10 @@ FrameRecord MakeRecord(int i) {
   r.total_ms = 52.875;
   r.status = i == 4 ? "bridged, dark" : "ok";
   if (i % 3 != 1) r.latency_ms = 20.0 + 0.125 * i;  // else NaN: not measured (empty cell)
+  if (i % 2 == 0) {  // else no camera attitude applied (empty cells)
+    r.camera_roll_deg = -1.5 + 0.25 * i;
+    r.camera_pitch_deg = 15.0 - 0.5 * i;
+  }
   return r;
 }
 std::optional<GeoPoint> MakeGps(int i) {
@@ -462,11 +466,19 @@ void ExpectVoTumRow(const std::vector<double>& t, const FrameRecord& r) {
 // frames.csv row `c` (cells split at commas) holds record r's fields; fatal failure when it has
 // the wrong number of cells (one more when the status holds a comma).
 void AssertCsvRow(const std::vector<std::string>& c, const FrameRecord& r) {
-  ASSERT_EQ(c.size(), r.status.find(',') != std::string::npos ? 27u : 26u);
+  ASSERT_EQ(c.size(), r.status.find(',') != std::string::npos ? 29u : 28u);
+  const std::size_t latency = c.size() - 3;
   if (std::isnan(r.latency_ms)) {
-    EXPECT_EQ(c.back(), "") << "latency_ms";
+    EXPECT_EQ(c[latency], "") << "latency_ms";
   } else {
-    EXPECT_NEAR(std::stod(c.back()), r.latency_ms, 1e-3);
+    EXPECT_NEAR(std::stod(c[latency]), r.latency_ms, 1e-3);
+  }
+  if (r.camera_roll_deg && r.camera_pitch_deg) {
+    EXPECT_NEAR(std::stod(c[c.size() - 2]), *r.camera_roll_deg, 1e-4);
+    EXPECT_NEAR(std::stod(c[c.size() - 1]), *r.camera_pitch_deg, 1e-4);
+  } else {
+    EXPECT_EQ(c[c.size() - 2], "") << "camera_roll_deg";
+    EXPECT_EQ(c[c.size() - 1], "") << "camera_pitch_deg";
   }
   EXPECT_EQ(std::stoi(c[0]), r.frame);
   EXPECT_NEAR(std::stod(c[1]), r.time_s, 1e-6);

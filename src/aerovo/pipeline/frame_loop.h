@@ -34,8 +34,10 @@ double WindowSigmaXyM(const WindowedPose& w);
 /// solve (w.full_solve) only, the distance between w's position and the causal prediction
 /// (`previous_windowed`, the pose given for the previous frame, moved by the causal step from
 /// `previous_causal` to `causal`) is larger than mavlink::PoseJumpResetThresholdM of w's
-/// position standard deviation (WindowSigmaXyM).
-bool PoseJumped(const WindowedPose& w, const backend::Similarity2& causal,
+/// position standard deviation (WindowSigmaXyM), or the wrapped difference of their headings
+/// larger than mavlink::HeadingJumpResetThresholdRad of w's heading standard deviation
+/// (PoseReset::heading_only when only the heading is). Cause kLoopClosure, or kNone.
+PoseReset PoseJumped(const WindowedPose& w, const backend::Similarity2& causal,
                 const backend::Similarity2& previous_causal,
                 const backend::Similarity2& previous_windowed);
 /// The frame's source index, time, world_from_frame (full-frame pixels) and causal pose into

@@ -54,6 +54,16 @@ enum class FixCheck {
 
 /// One frame on its way through the stages. The loop clears it (but for the decoding buffer)
 /// before each frame; each stage fills in its part, in the order of MakeStages.
+/// A jump of the live pose that aerovo sends as a reset (MAVLink reset_counter + 1; docs/
+/// autopilot.md "A pose that jumps"): what made it, and whether its heading alone was past the
+/// autopilots' gate (mavlink::HeadingJumpResetThresholdRad; the position within its own).
+struct PoseReset {
+  enum class Cause { kNone, kLoopClosure, kMapFix };
+  Cause cause = Cause::kNone;
+  bool heading_only = false;
+  explicit operator bool() const { return cause != Cause::kNone; }
+};
+
 struct FrameState {
   // Read (ReadFrame): the frame as the source delivered it and its telemetry fix.
   Frame frame;
@@ -109,8 +119,9 @@ struct FrameState {
   /// Frames the lens switch's new odometry was given again before this frame's stages, besides
   /// this frame's own odometry (pipeline/lens_switch.h: at most kLensReplayFramesPerFrame).
   int frames_replayed = 0;
-  /// the live pose jumped (a fused fix, a loop closure): MAVLink reset_counter + 1
-  bool pose_reset = false;
+  /// The live pose jumped past the autopilots' gates (a loop closure's whole-graph solve,
+  /// stage_window.cc; a fused fix, stage_map_fix.cc): MAVLink reset_counter + 1.
+  PoseReset pose_reset;
   /// An absolute position of this frame with its accuracy found by another stage (a fix against
   /// a map): the MAVLink sink sends it as GPS_INPUT (RunConfig::mavlink_gps_input) instead of
   /// the geo-referenced odometry pose. Unset: the odometry pose is sent.

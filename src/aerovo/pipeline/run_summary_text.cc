@@ -133,6 +133,19 @@ std::string FormatRunSummary(const RunSummary& s) {
   t += fmt::format("{:<20}{} processed{}: ok {}, re-acquired {}, bridged {}\n", "Frames",
                    s.frames_processed, s.interrupted ? " (interrupted)" : "", s.frames_ok,
                    s.frames_reacquired, s.frames_bridged);
+  if (const RunSummary::PoseResets& r = s.pose_resets; r.frames > 0) {
+    std::string causes;
+    const std::pair<const char*, int> counts[] = {{"re-acquired", r.reacquired},
+                                                  {"lens switch", r.lens_switch},
+                                                  {"loop closure", r.loop_closure},
+                                                  {"map fix", r.map_fix}};
+    for (const auto& [cause, n] : counts) {
+      if (n > 0) causes += fmt::format("{}{} {}", causes.empty() ? "" : ", ", cause, n);
+    }
+    t += fmt::format("{:<20}{} frames ({}{})\n", "Pose resets", r.frames, causes,
+                     r.heading_only > 0 ? fmt::format("; {} by the heading alone", r.heading_only)
+                                        : std::string());
+  }
   if (!s.frames_flagged.empty()) {
     std::string flags;
     for (const auto& [flag, n] : s.frames_flagged) {

@@ -54,6 +54,13 @@ nlohmann::json ToJson(const RunSummary::Optimized& o) {
           {"gps_denied_error", o.gps_denied_error ? ToJson(*o.gps_denied_error) : nlohmann::json()}};
 }
 
+// summary.json "pose_resets".
+nlohmann::json ToJson(const RunSummary::PoseResets& r) {
+  return {{"frames", r.frames},          {"reacquired", r.reacquired},
+          {"lens_switch", r.lens_switch}, {"loop_closure", r.loop_closure},
+          {"map_fix", r.map_fix},         {"heading_only", r.heading_only}};
+}
+
 // summary.json "online".
 nlohmann::json ToJson(const RunSummary::Online& o) {
   return {{"window", o.window},
@@ -119,6 +126,7 @@ void AddOptionalBlocks(const RunSummary& s, nlohmann::json* j) {
   (*j)["gps_denied"] = s.gps_denied ? ToJson(*s.gps_denied) : nlohmann::json();
   (*j)["map"] = s.map ? ToJson(*s.map) : nlohmann::json();
   (*j)["map_fixes"] = s.map_fixes ? ToJson(*s.map_fixes) : nlohmann::json();
+  (*j)["pose_resets"] = ToJson(s.pose_resets);
 }
 
 }  // namespace

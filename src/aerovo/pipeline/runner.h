@@ -252,6 +252,17 @@ struct RunSummary {
     double track_median_m = 0.0, track_rmse_m = 0.0, track_max_m = 0.0;
   };
   std::optional<MapFixes> map_fixes;
+  /// Frames at which the live pose was reset (summary.json "pose_resets"; MAVLink reset_counter
+  /// + 1 at each, docs/autopilot.md "A pose that jumps"), and by cause (a frame may have more
+  /// than one): re-anchored after bridged frames (status reacquired), the lens estimate applied
+  /// (pipeline/lens_switch.h), a jump past the autopilots' gates from a loop closure's
+  /// whole-graph solve or a fused map fix (FrameState::pose_reset), and of those jumps the ones
+  /// whose heading alone was past its gate.
+  struct PoseResets {
+    int frames = 0;
+    int reacquired = 0, lens_switch = 0, loop_closure = 0, map_fix = 0, heading_only = 0;
+  };
+  PoseResets pose_resets;
   std::vector<std::string> warnings;
   /// GPS fixes rejected by the plausibility check (odometry/gps_check.h; frames.csv gps_flag):
   /// their count and, for the first 100, frame, time (s), kind and message. They are not in

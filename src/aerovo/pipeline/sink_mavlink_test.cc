@@ -212,7 +212,7 @@ TEST(MavlinkSink, APoseJumpIsAResetAndTheWindowsCovarianceIsSent) {
     FrameState f = r.Frame(k);
     f.frame.time_s = kDt * k;  // the velocities' time differences
     if (k >= kJump) f.result.position_m += jump;
-    f.pose_reset = k == kJump;
+    if (k == kJump) f.pose_reset.cause = PoseReset::Cause::kLoopClosure;
     if (k >= kWindowFrom) f.window = w;
     r.sink->Write(f, r.run);
   }
@@ -266,9 +266,11 @@ TEST(MavlinkSink, TheWindowStagesJumpTest) {
   const Similarity2 previous_windowed{{1.0, 10.0}, 0.0, 0.0};  // predicted: (1, 15)
   WindowedPose w;
   w.full_solve = true;
+  // The windowed pose at (x, y) with the predicted heading (the causal step turns nothing).
   const auto jumped = [&](double x, double y, const Similarity2* prev = nullptr) {
-    w.local_from_frame = Similarity2{{x, y}, 0.0, 0.0};
-    return PoseJumped(w, causal, previous_causal, prev ? *prev : previous_windowed);
+    const Similarity2& p = prev ? *prev : previous_windowed;
+    w.local_from_frame = Similarity2{{x, y}, p.heading_rad, 0.0};
+    return PoseJumped(w, causal, previous_causal, p);
   };
   EXPECT_FALSE(jumped(1.0, 15.0));
   EXPECT_FALSE(jumped(1.3, 15.3));  // 0.42 m: under 0.5 m, an ordinary measurement
@@ -289,6 +291,42 @@ TEST(MavlinkSink, TheWindowStagesJumpTest) {
   const Similarity2 turned{{1.0, 10.0}, M_PI / 2, 0.0};
   EXPECT_FALSE(jumped(-4.0, 10.0, &turned));
   EXPECT_TRUE(jumped(1.0, 15.0, &turned));
+  EXPECT_FALSE(jumped(1.0, 15.0).heading_only);
+}
+
+// A jump of the heading alone: past 2.6 x max(0.2 rad, the heading's own standard deviation)
+// of the causal prediction's heading, wrapped (mavlink::HeadingJumpResetThresholdRad), at a
+// whole-graph solve only.
+TEST(MavlinkSink, TheWindowStagesHeadingJumpTest) {
+  using backend::Similarity2;
+  const Similarity2 previous_causal{{0.0, 10.0}, 0.3, 0.0}, causal{{0.0, 15.0}, 0.4, 0.0};
+  const Similarity2 previous_windowed{{0.0, 10.0}, 0.3, 0.0};  // predicted heading 0.4 rad
+  const Eigen::Vector2d predicted = (previous_windowed * Between(previous_causal, causal))
+                                        .translation_m;
+  WindowedPose w;
+  w.full_solve = true;
+  const auto jumped = [&](double heading_rad) {
+    w.local_from_frame = Similarity2{predicted, heading_rad, 0.0};
+    return PoseJumped(w, causal, previous_causal, previous_windowed);
+  };
+  EXPECT_FALSE(jumped(0.4));
+  EXPECT_FALSE(jumped(0.4 + 0.50));  // under 0.52 rad: the EKFs fuse it
+  EXPECT_FALSE(jumped(0.4 - 0.50));
+  const PoseReset r = jumped(0.4 + 0.54);
+  EXPECT_TRUE(r);
+  EXPECT_TRUE(r.heading_only);
+  EXPECT_EQ(r.cause, PoseReset::Cause::kLoopClosure);
+  EXPECT_TRUE(jumped(0.4 - 0.54));
+  // Across +-pi: 0.4 - 2 pi + 0.1 is 0.1 rad from the prediction.
+  EXPECT_FALSE(jumped(0.4 + 0.1 - 2.0 * M_PI));
+  // The heading's own uncertainty widens the gate: 0.3 rad -> 0.78 rad.
+  w.has_covariance = true;
+  w.covariance = Eigen::Matrix4d::Identity() * 1e-4;
+  w.covariance(2, 2) = 0.09;
+  EXPECT_FALSE(jumped(0.4 + 0.75));
+  EXPECT_TRUE(jumped(0.4 + 0.81));
+  w.full_solve = false;  // the window's own solve: never a reset
+  EXPECT_FALSE(jumped(0.4 + 2.0));
 }
 
 TEST(MavlinkSink, NoGpsInputUnlessAskedFor) {

@@ -1,7 +1,7 @@
 // The totals sink: the frame counted as processed (RunSummary::frames_processed) and in what the
 // summary needs (run_steps.h RunTotals: track, fixes, latency; a rejected fix left out of the
 // comparison with GPS), and each of its flags (RunSummary::frames_flagged, the first frame with
-// each for the warning).
+// each for the warning), and the resets of the live pose by cause (RunSummary::PoseResets).
 #include <memory>
 
 #include "aerovo/pipeline/frame_loop.h"
@@ -25,6 +25,20 @@ class TotalsSink : public FrameSink {
     for (const std::string& flag : f.flags.Names()) {
       if (summary.frames_flagged[flag]++ == 0) state.first_flagged[flag] = f.frame.name;
     }
+    CountReset(f, &summary.pose_resets);
+  }
+
+ private:
+  // The frame's reset of the live pose, as the MAVLink sink sends it (sink_mavlink.cc), by cause.
+  static void CountReset(const FrameState& f, RunSummary::PoseResets* r) {
+    const bool reacquired = f.result.status == FrameStatus::kReacquired;
+    if (!(reacquired || f.lens_switched || f.pose_reset)) return;
+    ++r->frames;
+    r->reacquired += reacquired ? 1 : 0;
+    r->lens_switch += f.lens_switched ? 1 : 0;
+    r->loop_closure += f.pose_reset.cause == PoseReset::Cause::kLoopClosure ? 1 : 0;
+    r->map_fix += f.pose_reset.cause == PoseReset::Cause::kMapFix ? 1 : 0;
+    r->heading_only += f.pose_reset && f.pose_reset.heading_only ? 1 : 0;
   }
 };
 

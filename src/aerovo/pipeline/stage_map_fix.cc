@@ -146,13 +146,27 @@ class MapFixStage : public FrameStage {
     f.map_fix = o.fused ? FrameState::MapFixTaken::kFused : FrameState::MapFixTaken::kGated;
     if (!o.fused) return;
     f.map_fix_moved_m = (o.newest.translation_m - f.result.position_m).norm();
+    const double turn_rad =
+        std::abs(backend::WrapAngleRad(o.newest.heading_rad - f.result.heading_rad));
     f.result.position_m = o.newest.translation_m;
     f.result.heading_rad = o.newest.heading_rad;
     if (f.window) f.window->local_from_frame = o.newest;
-    // A jump past the autopilots' innovation gate is a reset (mavlink/vision.h
-    // PoseJumpResetThresholdM of the pose's own standard deviation, the window's).
+    MarkJump(f, turn_rad);
+  }
+
+  // A jump past the autopilots' innovation gates is a reset (mavlink/vision.h
+  // PoseJumpResetThresholdM and HeadingJumpResetThresholdRad of the pose's own standard
+  // deviations, the window's), unless the window stage flagged one already.
+  static void MarkJump(FrameState& f, double turn_rad) {
+    const bool covariance = f.window && f.window->has_covariance;
     const double sigma_m = f.window ? WindowSigmaXyM(*f.window) : 0.0;
-    if (f.map_fix_moved_m > mavlink::PoseJumpResetThresholdM(sigma_m)) f.pose_reset = true;
+    const double sigma_heading_rad =
+        covariance ? std::sqrt(std::max(0.0, f.window->covariance(2, 2))) : 0.0;
+    const bool moved = f.map_fix_moved_m > mavlink::PoseJumpResetThresholdM(sigma_m);
+    const bool turned = turn_rad > mavlink::HeadingJumpResetThresholdRad(sigma_heading_rad);
+    if (f.pose_reset || !(moved || turned)) return;
+    f.pose_reset.cause = PoseReset::Cause::kMapFix;
+    f.pose_reset.heading_only = !moved;
   }
 
   int processed_ = 0;             // frames seen by this stage

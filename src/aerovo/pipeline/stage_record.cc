@@ -36,6 +36,10 @@ class RecordStage : public FrameStage {
       rec.roll_deg = f.autopilot_attitude->roll_rad * 180.0 / M_PI;
       rec.pitch_deg = f.autopilot_attitude->pitch_rad * 180.0 / M_PI;
     }
+    if (f.attitude.camera) {  // the virtual nadir camera of the odometry (stage_attitude.cc)
+      rec.camera_roll_deg = f.attitude.camera->roll_deg;
+      rec.camera_pitch_deg = f.attitude.camera->pitch_deg;
+    }
   }
 };
 

@@ -11,8 +11,9 @@
 // keyframes only). summary.json "online" counts the pairs and the stage's time.
 // A whole-graph solve (a verified loop closure) that moves the frame's pose away from the causal
 // prediction (the pose given for the previous frame moved by the frame's causal step) by more
-// than mavlink::PoseJumpResetThresholdM of its standard deviation sets FrameState::pose_reset
-// (MAVLink reset_counter + 1; docs/autopilot.md "A pose that jumps").
+// than mavlink::PoseJumpResetThresholdM of its standard deviation, or turns its heading by more
+// than mavlink::HeadingJumpResetThresholdRad, sets FrameState::pose_reset (MAVLink
+// reset_counter + 1; docs/autopilot.md "A pose that jumps").
 #include <algorithm>
 #include <cmath>
 #include <memory>
@@ -51,7 +52,7 @@ class WindowStage : public FrameStage {
     RecordFlightFrame(f, run);  // the causal pose, before it is replaced below
     f.result.features.reset();
     const backend::Similarity2 causal{f.result.position_m, f.result.heading_rad, 0.0};
-    f.pose_reset = previous_ && PoseJumped(w, causal, previous_->causal, previous_->windowed);
+    if (previous_) f.pose_reset = PoseJumped(w, causal, previous_->causal, previous_->windowed);
     previous_ = Given{causal, w.local_from_frame};
     f.result.position_m = w.local_from_frame.translation_m;
     f.result.heading_rad = w.local_from_frame.heading_rad;
@@ -81,14 +82,23 @@ class WindowStage : public FrameStage {
 
 }  // namespace
 
-bool PoseJumped(const WindowedPose& w, const backend::Similarity2& causal,
-                const backend::Similarity2& previous_causal,
-                const backend::Similarity2& previous_windowed) {
-  if (!w.full_solve) return false;
+PoseReset PoseJumped(const WindowedPose& w, const backend::Similarity2& causal,
+                     const backend::Similarity2& previous_causal,
+                     const backend::Similarity2& previous_windowed) {
+  PoseReset r;
+  if (!w.full_solve) return r;
   const backend::Similarity2 predicted =
       previous_windowed * backend::Between(previous_causal, causal);
   const double jump_m = (w.local_from_frame.translation_m - predicted.translation_m).norm();
-  return jump_m > mavlink::PoseJumpResetThresholdM(WindowSigmaXyM(w));
+  const double turn_rad =
+      std::abs(backend::WrapAngleRad(w.local_from_frame.heading_rad - predicted.heading_rad));
+  const double sigma_heading_rad =
+      w.has_covariance ? std::sqrt(std::max(0.0, w.covariance(2, 2))) : 0.0;
+  const bool moved = jump_m > mavlink::PoseJumpResetThresholdM(WindowSigmaXyM(w));
+  const bool turned = turn_rad > mavlink::HeadingJumpResetThresholdRad(sigma_heading_rad);
+  if (moved || turned) r.cause = PoseReset::Cause::kLoopClosure;
+  r.heading_only = turned && !moved;
+  return r;
 }
 
 double WindowSigmaXyM(const WindowedPose& w) {

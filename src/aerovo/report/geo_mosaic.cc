@@ -281,8 +281,8 @@ GeoMosaicResult WriteGeoMosaic(const RunData& run, const fs::path& dir, const st
   const std::vector<FrameTransformRow>& placements = MosaicPlacements(run, options);
   r.optimized = &placements == &run.transforms_optimized;
   // The corners of the frames as drawn: through the virtual nadir camera (MosaicNadirFromFrame).
-  const Eigen::Matrix3d nadir_from_frame = MosaicNadirFromFrame(run, w, h);
   for (const FrameTransformRow& t : placements) {
+    const Eigen::Matrix3d nadir_from_frame = MosaicNadirFromFrame(run, w, h, t.frame);
     for (const auto& [x, y] : {std::pair<double, double>{-0.5, -0.5}, {w - 0.5, -0.5},
                                {w - 0.5, h - 0.5}, {-0.5, h - 0.5}}) {
       const Eigen::Vector3d q = nadir_from_frame * Eigen::Vector3d(x, y, 1.0);

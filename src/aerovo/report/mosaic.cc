@@ -90,22 +90,38 @@ bool MosaicFrameSize(const RunData& run, int* width_px, int* height_px) {
   return FrameSize(run, width_px, height_px);
 }
 
-Eigen::Matrix3d MosaicNadirFromFrame(const RunData& run, int width_px, int height_px) {
+bool RecordsCameraAttitude(const RunData& run) {
+  return std::any_of(run.frames.begin(), run.frames.end(),
+                     [](const RunFrameRow& f) { return f.camera_roll_deg.has_value(); });
+}
+
+Eigen::Matrix3d MosaicNadirFromFrame(const RunData& run, int width_px, int height_px,
+                                     int frame) {
   const Eigen::Matrix3d identity = Eigen::Matrix3d::Identity();
-  if (!run.summary.is_object() || !run.summary.contains("attitude_estimate")) return identity;
-  const nlohmann::json& a = run.summary["attitude_estimate"];
-  if (!a.is_object() || !a.value("applied", false) || !a.contains("roll_deg") ||
-      !a.contains("pitch_deg") || !a["roll_deg"].is_number() || !a["pitch_deg"].is_number()) {
-    return identity;
-  }
   const double focal_px = run.config.is_object() && run.config.contains("resolved")
                               ? ConfigValue<double>(run.config["resolved"], "focal_px", 0.0)
                               : 0.0;
   if (!(focal_px > 0.0)) return identity;
-  CameraAttitude attitude;
-  attitude.roll_deg = a["roll_deg"].get<double>();
-  attitude.pitch_deg = a["pitch_deg"].get<double>();
-  return NadirFromCameraHomography(attitude, focal_px, 0.5 * (width_px - 1),
+  std::optional<CameraAttitude> attitude;
+  if (RecordsCameraAttitude(run)) {
+    // frames.csv is in frame order: the frame's row, its attitude or none.
+    const auto it = std::lower_bound(
+        run.frames.begin(), run.frames.end(), frame,
+        [](const RunFrameRow& f, int index) { return f.frame < index; });
+    if (it != run.frames.end() && it->frame == frame && it->camera_roll_deg &&
+        it->camera_pitch_deg) {
+      attitude = CameraAttitude{*it->camera_roll_deg, *it->camera_pitch_deg};
+    }
+  } else if (run.summary.is_object() && run.summary.contains("attitude_estimate")) {
+    // A run folder without the columns: the flight's estimate, when applied to every frame.
+    const nlohmann::json& a = run.summary["attitude_estimate"];
+    if (a.is_object() && a.value("applied", false) && a.contains("roll_deg") &&
+        a.contains("pitch_deg") && a["roll_deg"].is_number() && a["pitch_deg"].is_number()) {
+      attitude = CameraAttitude{a["roll_deg"].get<double>(), a["pitch_deg"].get<double>()};
+    }
+  }
+  if (!attitude) return identity;
+  return NadirFromCameraHomography(*attitude, focal_px, 0.5 * (width_px - 1),
                                    0.5 * (height_px - 1));
 }
 
@@ -203,11 +219,6 @@ MosaicWarpOutcome WarpRunFrames(const RunData& run, const MosaicOptions& options
   }
   // The run saw the frames dimmed by illumination_k (illumination experiment): so does the mosaic.
   const double illumination_k = ConfigValue<double>(run.config, "illumination_k", 1.0);
-  // The frames to the virtual nadir camera the transforms place (the run's attitude).
-  const Eigen::Matrix3d nadir = MosaicNadirFromFrame(run, w, h);
-  const cv::Matx33d nadir_from_frame(nadir(0, 0), nadir(0, 1), nadir(0, 2), nadir(1, 0),
-                                     nadir(1, 1), nadir(1, 2), nadir(2, 0), nadir(2, 1),
-                                     nadir(2, 2));
   const int last_frame = placements.back().frame;
   try {
     std::unique_ptr<FrameSource> source = OpenFrameSource(input_path.string(), so);
@@ -231,6 +242,11 @@ MosaicWarpOutcome WarpRunFrames(const RunData& run, const MosaicOptions& options
         color = dimmed;
       }
       const cv::Matx23d& a = it->second;
+      // The frame to the virtual nadir camera the transforms place (the attitude the run applied).
+      const Eigen::Matrix3d nadir = MosaicNadirFromFrame(run, w, h, frame.index);
+      const cv::Matx33d nadir_from_frame(nadir(0, 0), nadir(0, 1), nadir(0, 2), nadir(1, 0),
+                                         nadir(1, 1), nadir(1, 2), nadir(2, 0), nadir(2, 1),
+                                         nadir(2, 2));
       const cv::Matx33d first_from_frame(a(0, 0), a(0, 1), a(0, 2), a(1, 0), a(1, 1), a(1, 2), 0,
                                          0, 1);
       bool drawn = false;
@@ -323,8 +339,8 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
     max_x = std::max(max_x, x);
     max_y = std::max(max_y, y);
   };
-  const Eigen::Matrix3d nadir_from_frame = MosaicNadirFromFrame(run, w, h);
   for (const FrameTransformRow& t : MosaicPlacements(run, options)) {
+    const Eigen::Matrix3d nadir_from_frame = MosaicNadirFromFrame(run, w, h, t.frame);
     const cv::Matx23d m = ToMatx(t);
     for (const cv::Point2d c : {cv::Point2d(0, 0), cv::Point2d(w - 1, 0), cv::Point2d(w - 1, h - 1),
                                 cv::Point2d(0, h - 1)}) {

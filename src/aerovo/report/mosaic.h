@@ -71,11 +71,14 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
 /// The homography nadir_from_frame of the run's frames (odometry/attitude.h
 /// NadirFromCameraHomography: a pixel of the frame as read, after the lens undistortion, to the
 /// pixel of the same ray in the virtual nadir camera whose pixels transforms.csv places, principal
-/// point at the frame's centre) for the attitude the run applied to every frame (summary.json
-/// "attitude_estimate" with "applied": its roll_deg and pitch_deg) and the run's focal length
-/// (config.json "resolved"."focal_px"); the identity when the run applied none. A per-frame
-/// attitude from telemetry is not recorded in the run folder: such frames are drawn as read.
-Eigen::Matrix3d MosaicNadirFromFrame(const RunData& run, int width_px, int height_px);
+/// point at the frame's centre) of frame `frame` (a source index): the attitude the run applied
+/// to it (frames.csv camera_roll_deg, camera_pitch_deg), and the run's focal length (config.json
+/// "resolved"."focal_px"); the identity when the run applied none to it. A run folder of an older
+/// build, without those columns: the flight's estimate when applied (summary.json
+/// "attitude_estimate" with "applied": its roll_deg and pitch_deg) for every frame.
+Eigen::Matrix3d MosaicNadirFromFrame(const RunData& run, int width_px, int height_px, int frame);
+/// Whether frames.csv of `run` records the camera attitude applied (a frame has one).
+bool RecordsCameraAttitude(const RunData& run);
 
 std::vector<Eigen::Vector2d> FrameCentresPx(const RunData& run, std::vector<int>* frames = nullptr,
                                             const std::vector<FrameTransformRow>* rows = nullptr);

@@ -196,6 +196,12 @@ RunData ReadRunDir(const fs::path& dir) {
         t.cell(r, "gps_flag") != kGpsFlagWithheld) {
       f.gps.reset();
     }
+    // The camera attitude the odometry applied (absent from run folders of older builds).
+    if (t.has("camera_roll_deg") && t.has("camera_pitch_deg") &&
+        !t.cell(r, "camera_roll_deg").empty() && !t.cell(r, "camera_pitch_deg").empty()) {
+      f.camera_roll_deg = t.Number(r, "camera_roll_deg");
+      f.camera_pitch_deg = t.Number(r, "camera_pitch_deg");
+    }
     run.frames.push_back(std::move(f));
   }
   run.transforms = ReadTransformsIfPresent(dir / RunFileNames::kTransformsCsv);

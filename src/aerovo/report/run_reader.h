@@ -28,6 +28,10 @@ struct RunFrameRow {
   double detect_ms = 0.0, describe_ms = 0.0, correspond_ms = 0.0, estimate_ms = 0.0, total_ms = 0.0;
   std::string status;
   std::optional<GeoPoint> gps;  ///< GPS fix associated with the frame.
+  /// The camera attitude the odometry applied to the frame (frames.csv camera_roll_deg,
+  /// camera_pitch_deg: odometry/attitude.h CameraAttitude, degrees); nullopt when none was, or
+  /// the run folder does not record it (older builds).
+  std::optional<double> camera_roll_deg, camera_pitch_deg;
 };
 
 /// One row of transforms.csv: first_px_from_frame as a 2x3 affine [a11 a12 tx; a21 a22 ty]
