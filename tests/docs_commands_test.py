@@ -288,6 +288,15 @@ def check_map_cover(cwd, out):
         f"summary.json map says {m}"
 
 
+def check_map_seed(cwd, out):
+    """docs/map.md: GPS denied from the start, the map seeds the geo-reference."""
+    with open(os.path.join(cwd, "no-gps", "summary.json")) as f:
+        s = json.load(f)
+    g = (s.get("map_fixes") or {}).get("georef") or {}
+    return "" if s.get("heading_source") == "map" and g.get("seeded") is True else \
+        f"summary.json heading_source {s.get('heading_source')!r}, map_fixes.georef {g}"
+
+
 def check_map_fixes(cwd, out):
     """docs/map.md: summary.json `map_fixes` counts the attempts, map_fixes.csv has a row each."""
     with open(os.path.join(cwd, "map-fixes", "summary.json")) as f:
@@ -296,6 +305,23 @@ def check_map_fixes(cwd, out):
         rows = len(f.read().splitlines()) - 1
     return "" if m.get("attempted", 0) > 0 and rows == m.get("attempted") else \
         f"summary.json map_fixes says {m}, map_fixes.csv has {rows} rows"
+
+
+def check_two_maps(cwd, out):
+    """docs/map.md: summary.json `map.paths` lists both maps in the order given, `map_fixes.by_map`
+    counts per map and adds up to the fixes, map_fixes.csv has the `map` column."""
+    with open(os.path.join(cwd, "two-maps", "summary.json")) as f:
+        s = json.load(f)
+    paths = (s.get("map") or {}).get("paths") or []
+    m = s.get("map_fixes") or {}
+    by_map = m.get("by_map") or []
+    with open(os.path.join(cwd, "two-maps", "map_fixes.csv")) as f:
+        header = f.readline().strip().split(",")
+    if len(paths) != 2 or not paths[0].endswith("survey.tif") or not paths[1].endswith("map.tif"):
+        return f"summary.json map.paths {paths}"
+    if len(by_map) != 2 or sum(b.get("fixes", 0) for b in by_map) != m.get("fixes"):
+        return f"summary.json map_fixes.by_map {by_map}, fixes {m.get('fixes')}"
+    return "" if "map" in header else f"map_fixes.csv header {header}"
 
 
 def check_online(cwd, out):
@@ -316,6 +342,9 @@ def check_closures(cwd, out):
 
 
 HARDWARE = "needs hardware this machine does not have"
+TAMPA_FIGURE = ("the recipe of docs/map_fixes_tampa.png (20 s of CPU over tampa-phantom3, writes "
+                "into docs/); its path is run by tests/e2e/map_several_test.cc on a simulated "
+                "flight: fixes from two maps, fused, and the report's markers and figure")
 PLAN = {
     # docs/map.md
     "aerovo run flight.mp4 --telemetry flight.SRT --gps-denied-after-s 3 -o denied": Row(
@@ -332,6 +361,21 @@ PLAN = {
     "aerovo run flight.mp4 --telemetry flight.SRT --map map.tif --gps-denied-after-s 3 "
     "--map-fix-every-n-frames 5 --no-report -o map-fixes": Row(
         files=["map-fixes/summary.json", "map-fixes/map_fixes.csv"], check=check_map_fixes),
+    "aerovo run flight.mp4 --telemetry flight.SRT --map survey.tif --map map.tif "
+    "--map-fix-apply --no-report -o two-maps": Row(
+        files=["two-maps/summary.json", "two-maps/map_fixes.csv"], check=check_two_maps),
+    "aerovo map build ../shared/data/flights/tampa-phantom3 --altitude 57 --end-s 657 -o "
+    "tampa_first_half.tif": Row(skip=TAMPA_FIGURE),
+    "aerovo run ../shared/data/flights/tampa-phantom3 --altitude 57 --gps-denied-after-s 657 --map "
+    "tampa_first_half.tif --map-fix-every-n-frames 1 --map-fix-max-distance-px 4 "
+    "--map-fix-frame-points 2000 --map-fix-match-width-px 300 --map-fix-apply --no-report -o "
+    "tampa_map": Row(skip=TAMPA_FIGURE),
+    "aerovo report tampa_map --no-mosaic": Row(skip=TAMPA_FIGURE),
+    "cp tampa_map/figures/map_fixes.png docs/map_fixes_tampa.png": Row(skip=TAMPA_FIGURE),
+    "aerovo run flight.mp4 --telemetry flight.SRT --map map.tif --gps-denied-after-s 0 "
+    "--map-fix-apply --no-report -o no-gps": Row(
+        says=["geo-reference", "from the map: frame"], files=["no-gps/map_fixes.csv"],
+        check=check_map_seed),
     "aerovo map info map.tif": Row(says=["(EPSG:326", "m/px", "extent wgs84"]),
     "aerovo map info --json survey.tif": Row(says=['"extent_lonlat"', '"overviews"']),
     # docs/backend.md

@@ -26,6 +26,13 @@
 #     online paths as OfflineOptimisation's 1 km lawnmower, which stays).
 #   - MapFix.AFalseMapRegion...: a wide search rejected by the gate over a run (the search path:
 #     MapFix.AStart300MOffIsFound, which stays, and MapMatchCallas.Search*, the gate's unit tests).
+#   - MapSeveral.RecentPartialMapFirstOlder...: fixes from two maps over a whole flight, against the
+#     truth, and the report's markers (the windows filled from the next map:
+#     MapSeveral.PartialCoverWarns..., which stays, and ReferenceMaps.AWindowThePreferredMap...;
+#     the report's map: HtmlReport).
+#   - MapDemo.ThreeKilometres...: 3.3 km over the Callas orthophoto without GPS, fused fixes, a
+#     gap, a false tile and a start 300 m off in one flight, against the truth (the paths of
+#     MapFix.AStart300MOffIsFound and MapFix.SimulatedFlightFixes..., which stay).
 set(AEROVO_ACCURACY_TESTS
   Video4k.DefaultRunDetectsAtHalfResolutionWithinFivePercentOfFullResolution
   LongRun.TenThousandFramesWithFlatMemory
@@ -39,6 +46,8 @@ set(AEROVO_ACCURACY_TESTS
   SixStripSurvey.BuiltInTerrain
   SixStripSurvey.CallasOrthophoto
   MapFix.AFalseMapRegionIsRejectedByTheGate
+  MapSeveral.RecentPartialMapFirstOlderFullMapAfterIt
+  MapDemo.ThreeKilometresWithoutGpsOverAnotherSurveysMap
 )
 
 # Label "repeated_flight": end-to-end runs that repeat, under other settings, a whole-flight path
@@ -75,6 +84,11 @@ set(AEROVO_ACCURACY_TESTS
 #     the thermal flight, with and without it (AdaptivePoints.ThermalLikeFlight..., whose
 #     thermal preset has the pattern too and takes the same path; SensorPattern.ThermalVideo...,
 #     the running estimate; the flat_field unit tests).
+#   - mavlink.node_mavlink_live: the contract flight as a live stream played at real-time pace
+#     (mavlink.node_mavlink_contract: the same messages through the same arithmetic from a file;
+#     the live source's queue and clock: FrameSource and FrameLoop unit tests). An instrumented
+#     build is slower than the stream: the newest-frame queue then drops the flight's black
+#     frame, which the test needs bridged.
 set(AEROVO_REPEATED_FLIGHT_TESTS
   SensorPattern.ThermalFlightWithVignettingAndFixedPatternIsTrackedWithTheDefaults
   docs.commands_run_as_written
@@ -98,6 +112,7 @@ set(AEROVO_REPEATED_FLIGHT_TESTS
   Attitude.SrtWithOnlyAnAltitudeAboveSeaLevelNeedsTheGroundElevation
   BadInput.DamagedTelemetryWithLenientTelemetryIsSkippedAndReported
   OfflineOptimisationThreads
+  mavlink.node_mavlink_live
 )
 
 # COST: relative run time, so that ctest --parallel starts the long tests first instead of
@@ -135,4 +150,9 @@ set(AEROVO_TEST_COSTS
   MapFix.AppliedFixesBoundTheErrorOfADriftingTrack 11
   MapFix.AStart300MOffIsFound 8
   MapFix.AFalseMapRegionIsRejectedByTheGate 7
+  MapSeveral.RecentPartialMapFirstOlderFullMapAfterIt 9
+  MapSeveral.PartialCoverWarnsAndACorruptSecondMapIsNamed 5
+  MapFix.GpsDeniedFromTheStartTheMapSeedsTheGeoReference 7
+  MapFix.GpsDeniedFromTheStartOverAMapWithoutTheFlightSaysSo 6
+  MapDemo.ThreeKilometresWithoutGpsOverAnotherSurveysMap 14
 )

@@ -495,9 +495,14 @@ TEST_F(HtmlReport, NoMapWithoutPositions) {
   std::getline(in, line);
   out = line + "\n";
   while (std::getline(in, line)) {  // empty lat_deg, lon_deg, alt_m and gps_lat/lon/alt_deg
-    std::vector<std::string> cells;
-    std::stringstream ls(line);
-    for (std::string c; std::getline(ls, c, ',');) cells.push_back(c);
+    std::vector<std::string> cells(1);  // every cell, the trailing empty ones too
+    for (const char c : line) {
+      if (c == ',') {
+        cells.emplace_back();
+      } else {
+        cells.back() += c;
+      }
+    }
     for (int i : {4, 5, 6, 17, 18, 19}) cells[static_cast<std::size_t>(i)].clear();
     for (std::size_t i = 0; i < cells.size(); ++i) out += (i ? "," : "") + cells[i];
     out += "\n";

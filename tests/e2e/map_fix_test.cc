@@ -22,6 +22,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "callas_map.h"
 #include "e2e_testing.h"
 
 namespace aerovo {
@@ -34,35 +35,13 @@ constexpr double kNwLat = 43.539340, kNwLon = 6.551628;
 
 using e2e::ReadCsvRows;
 
-// The map: the orthophoto read at a quarter of its size, its tones changed, JPEG-compressed, as
-// a GeoTIFF `name`.tif (corner (0, 0) of the image at the north-west corner, as the simulator
-// places it). `band`: the map's columns east in [band[0], band[1]) m and those band[2] m farther
-// east swapped (two tiles each placed where the other belongs).
+// The map (callas_map.h): the orthophoto at a quarter of its size (0.433 m/px), other tones,
+// JPEG; `band`: two tiles swapped (CallasMapOptions::band).
 bool WriteMap(const fs::path& ortho, const fs::path& dir, const std::string& name = "map",
               const std::array<double, 3>& band = {0, 0, 0}) {
-  cv::Mat g = cv::imread(ortho.string(), cv::IMREAD_REDUCED_GRAYSCALE_4);
-  if (g.empty()) return false;
-  cv::Mat map(g.size(), CV_8U);
-  const double mpp = 4 * kOrthoMpp;
-  for (int y = 0; y < g.rows; ++y) {
-    for (int x = 0; x < g.cols; ++x) {
-      const int shift = static_cast<int>(std::lround(band[2] / mpp));
-      int sx = x;
-      if (x * mpp >= band[0] && x * mpp < band[1]) sx = std::min(g.cols - 1, x + shift);
-      if (x * mpp >= band[0] + band[2] && x * mpp < band[1] + band[2]) sx = x - shift;
-      const double v = g.at<std::uint8_t>(y, sx) / 255.0;
-      const double season = std::pow(v, 0.7) * 0.65 + 0.22 + 0.06 * x / g.cols;
-      map.at<std::uint8_t>(y, x) = cv::saturate_cast<std::uint8_t>(255.0 * season);
-    }
-  }
-  const fs::path jpg = dir / (name + ".jpg");
-  if (!cv::imwrite(jpg.string(), map, {cv::IMWRITE_JPEG_QUALITY, 40})) return false;
-  const std::string cmd = fmt::format(
-      "gdal_translate -q -a_srs '+proj=tmerc +lat_0={} +lon_0={} +k=1 +x_0=0 +y_0=0 "
-      "+ellps=WGS84 +units=m +no_defs' -a_ullr 0 0 {} {} {} {}",
-      kNwLat, kNwLon, map.cols * mpp, -map.rows * mpp, jpg.string(),
-      (dir / (name + ".tif")).string());
-  return std::system(cmd.c_str()) == 0;
+  e2e::CallasMapOptions o;
+  o.band = band;
+  return e2e::WriteCallasMap(ortho, dir, name, o);
 }
 
 // The flight and the map, made once for the tests below (a lawnmower of 2 legs of 250 m, 60 m
@@ -347,6 +326,112 @@ TEST(MapFix, AFalseMapRegionIsRejectedByTheGate) {
   const nlohmann::json& e = s.at("gps_denied").at("error");
   ASSERT_TRUE(e.is_object()) << s.dump(1);
   EXPECT_LT(e.at("max_error_m").get<double>(), 3.0) << e.dump(1);
+}
+
+// GPS denied from the start (`--gps-denied-after-s 0`): no GPS geo-references the track, so the
+// map does. The first due frame (frame 0) is searched over the whole map (no prior, no heading:
+// rotation-invariant, coarse to fine) and found, a candidate; the next attempt (frame 5), predicted
+// through the candidate, confirms it and seeds the geo-reference (heading and position from its
+// fit); the later fixes are fused. Every frame is written geo-referenced (they wait for the seed),
+// and the track against the withheld GPS (the truth, unaligned) from the first frame on is within
+// the tolerances below (measured 0.07 m RMSE, 0.17 m max; the whole-map search 1.0-1.4 s under a
+// load of 10; BENCHMARKS.md, "A start without GPS").
+TEST(MapFix, GpsDeniedFromTheStartTheMapSeedsTheGeoReference) {
+  const MapFixFlight& f = Flight();
+  if (!f.skip.empty()) GTEST_SKIP() << f.skip;
+  ASSERT_TRUE(f.made);
+  ASSERT_EQ(e2e::RunCli(fmt::format("run {} --map {} --gps-denied-after-s 0 "
+                                    "--map-fix-every-n-frames 5 --map-fix-search-radius-m 40 "
+                                    "--map-fix-apply --no-report -q -o {}",
+                                    (f.dir / "sim" / "video.mp4").string(),
+                                    (f.dir / "map.tif").string(), (f.dir / "seed").string()),
+                        f.dir / "seed.log"),
+            0)
+      << e2e::ReadText(f.dir / "seed.log");
+  const nlohmann::json s = e2e::ReadJson(f.dir / "seed" / "summary.json");
+  EXPECT_EQ(s.at("heading_source"), "map") << s.dump(1);
+  const nlohmann::json& m = s.at("map_fixes");
+  const nlohmann::json& g = m.at("georef");
+  ASSERT_TRUE(g.is_object()) << m.dump(1);
+  EXPECT_TRUE(g.at("seeded").get<bool>()) << g.dump(1);
+  EXPECT_EQ(g.at("candidate_frame"), 0) << g.dump(1);
+  EXPECT_EQ(g.at("frame"), 5) << g.dump(1);
+  EXPECT_EQ(g.at("whole_map_searches"), 1) << g.dump(1);
+  EXPECT_NEAR(m.at("time_to_first_fix_s").get<double>(), 0.0, 1e-6) << m.dump(1);
+  RecordProperty("whole_map_search_ms", m.at("search_ms").dump());
+  const auto rows = ReadCsvRows(f.dir / "seed" / "map_fixes.csv");
+  ASSERT_GE(rows.size(), 10u);
+  EXPECT_EQ(rows[0].at("search"), "whole_map");
+  EXPECT_EQ(rows[0].at("seed"), "candidate");
+  EXPECT_LT(std::stod(rows[0].at("gps_error_m")), 1.5);
+  EXPECT_EQ(rows[1].at("seed"), "confirmed");
+  EXPECT_EQ(rows[1].at("status"), "fix");
+  EXPECT_LT(std::stod(rows[1].at("gps_error_m")), 1.0);
+  int fixes = 0;
+  for (std::size_t i = 2; i < rows.size(); ++i) {
+    EXPECT_EQ(rows[i].at("search"), "local") << "row " << i;
+    fixes += rows[i].at("status") == "fix";
+  }
+  EXPECT_GE(fixes, 0.8 * static_cast<double>(rows.size() - 2)) << m.dump(1);
+  EXPECT_EQ(m.at("gated_by_graph"), 0) << m.dump(1);
+  // The track against the withheld GPS (the truth), unaligned, from frame 0 on.
+  const nlohmann::json& e = s.at("gps_denied").at("error");
+  ASSERT_TRUE(e.is_object()) << s.at("gps_denied").dump(1);
+  EXPECT_LT(e.at("rmse_m").get<double>(), 1.0) << e.dump(1);
+  EXPECT_LT(e.at("max_error_m").get<double>(), 2.0) << e.dump(1);
+  RecordProperty("seeded_rmse_max_m", e.at("rmse_m").dump() + " " + e.at("max_error_m").dump());
+  // Every frame written geo-referenced, the first ones too (held for the seed).
+  const auto frames = ReadCsvRows(f.dir / "seed" / "frames.csv");
+  ASSERT_GE(frames.size(), 100u);
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    ASSERT_FALSE(frames[i].at("lat_deg").empty()) << "frames.csv row " << i;
+  }
+}
+
+// The same start over a map of nothing the flight sees (the orthophoto mirrored east-west: the
+// same kind of texture, nowhere in its place): the whole-map searches find nothing (one per 4
+// due frames: search_after_failures 3), the run completes in the local frame and says why
+// (summary.json map_fixes.georef.note, a warning, the text summary).
+TEST(MapFix, GpsDeniedFromTheStartOverAMapWithoutTheFlightSaysSo) {
+  const MapFixFlight& f = Flight();
+  if (!f.skip.empty()) GTEST_SKIP() << f.skip;
+  ASSERT_TRUE(f.made);
+  const fs::path ortho = ::aerovo::testing::SharedDir() / "data/ortho/callas-quarry.jpg";
+  e2e::CallasMapOptions o;
+  o.mirror = true;
+  ASSERT_TRUE(e2e::WriteCallasMap(ortho, f.dir, "mirrored", o));
+  ASSERT_EQ(
+      e2e::RunCli(fmt::format("run {} --map {} --gps-denied-after-s 0 "
+                              "--map-fix-every-n-frames 5 --map-fix-search-radius-m 40 "
+                              "--max-frames 40 --no-report -o {}",
+                              (f.dir / "sim" / "video.mp4").string(),
+                              (f.dir / "mirrored.tif").string(), (f.dir / "nomatch").string()),
+                  f.dir / "nomatch.log"),
+      0)
+      << e2e::ReadText(f.dir / "nomatch.log");
+  const nlohmann::json s = e2e::ReadJson(f.dir / "nomatch" / "summary.json");
+  EXPECT_EQ(s.at("heading_source"), "") << s.dump(1);
+  const nlohmann::json& m = s.at("map_fixes");
+  const nlohmann::json& g = m.at("georef");
+  ASSERT_TRUE(g.is_object()) << m.dump(1);
+  EXPECT_FALSE(g.at("seeded").get<bool>()) << g.dump(1);
+  EXPECT_EQ(g.at("whole_map_searches"), 2) << g.dump(1);  // due frames 0 and 20 of 0..35
+  EXPECT_EQ(m.at("fixes"), 0) << m.dump(1);
+  EXPECT_EQ(m.at("no_prediction"), 6) << m.dump(1);
+  const std::string note = g.at("note");
+  EXPECT_NE(note.find("no whole-map search found the frame"), std::string::npos) << note;
+  bool warned = false;
+  for (const auto& w : s.at("warnings")) {
+    warned = warned || w.get<std::string>().find("no geo-reference from the map") == 0;
+  }
+  EXPECT_TRUE(warned) << s.at("warnings").dump(1);
+  EXPECT_TRUE(s.at("gps_denied").at("error").is_null());
+  EXPECT_NE(e2e::ReadText(f.dir / "nomatch.log").find("none from the map: " + note),
+            std::string::npos)
+      << e2e::ReadText(f.dir / "nomatch.log");
+  const auto frames = ReadCsvRows(f.dir / "nomatch" / "frames.csv");
+  ASSERT_EQ(frames.size(), 40u);
+  EXPECT_TRUE(frames.back().at("lat_deg").empty());
 }
 
 }  // namespace

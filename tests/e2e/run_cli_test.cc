@@ -39,7 +39,9 @@ CliResult RunCli(const std::string& args) {
 
 // The shell word for a JSON value given as a flag's value.
 std::string FlagValue(const nlohmann::json& v) {
-  const std::string s = v.is_string() ? v.get<std::string>() : v.dump();
+  // A list of one (--map): the flag once with its element.
+  const nlohmann::json& e = v.is_array() && v.size() == 1 ? v[0] : v;
+  const std::string s = e.is_string() ? e.get<std::string>() : e.dump();
   return "'" + s + "'";
 }
 

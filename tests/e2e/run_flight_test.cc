@@ -512,11 +512,13 @@ TEST(Runner, ConfigJsonRoundTripAndErrors) {
   EXPECT_FALSE(y.odometry.correspondence.guided_matching);
   EXPECT_EQ(y.odometry.correspondence.method, CorrespondenceMethod::kStandard);
   EXPECT_EQ(y.out, "123");  // quoted: stays a string
+  // A list where the option takes one value: a bad value (as `--mode a --mode b`), naming the
+  // file and the line.
   std::ofstream(dir / "bad.yaml") << "step: 2\nmode: [a, b]\n";
   try {
     LoadRunConfig(dir / "bad.yaml", RunConfig{});
     ADD_FAILURE() << "a list must be rejected";
-  } catch (const InputError& e) {
+  } catch (const InvalidArgument& e) {
     EXPECT_NE(std::string(e.what()).find("bad.yaml"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("line 2"), std::string::npos) << e.what();
   }

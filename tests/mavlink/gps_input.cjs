@@ -184,4 +184,6 @@ async function main() {
               `within ${(100 * worstVel).toFixed(2)} % of the truth (${(speedSum / Math.max(1, nVel)).toFixed(2)} m/s), yaw within ${worstYaw.toFixed(2)} deg`);
 }
 
-finish(main, 40);
+// map_gps_input.cjs reuses ArduPilot's arithmetic; run as a script, the check above.
+module.exports = { ardupilot, metresApart, MS_PER_WEEK, UNIX_OFFSET_MSEC, F };
+if (require.main === module) finish(main, 40);

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # ctest driver of tests/mavlink/e2e.cjs (MODE: udp, udpin or signed), autopilots.cjs (MODE:
-# contract, the frames as a video), live.cjs (MODE: live, the frames as a live UDP stream) and
-# gps_input.cjs (MODE: gps_input, the simulated flight with
-# its telemetry, so that the track is geo-referenced): installs node-mavlink from the
+# contract, the frames as a video), live.cjs (MODE: live, the frames as a live UDP stream),
+# gps_input.cjs (MODE: gps_input, the simulated flight with its telemetry, so that the track is
+# geo-referenced) and map_gps_input.cjs (MODE: map_gps_input, the same with GPS denied and the
+# fixes of a map of it fused): installs node-mavlink from the
 # npm registry (the version pinned in package.json / package-lock.json) into WORK, simulates a
 # short flight (one black frame mid-flight: bridged, then re-acquired), runs the check.
 # Skips (exit 77) only when node or npm is missing or `npm ci` fails, saying why.
@@ -46,6 +47,29 @@ if [ "$MODE" = gps_input ]; then
   # (2.5 m): a 0.3 m limit gives 3D fixes before the black frame and "no fix" after it.
   cd "$NODE_DIR" && NODE_PATH="$NODE_DIR/node_modules" exec node "$SRC/gps_input.cjs" "$AEROVO" \
     "$VIDEO" "$SIM/telemetry-yaw.srt" "$FOCAL" "$SIM/ground_truth.csv" 0.3 "$WORK/run-$MODE"
+fi
+if [ "$MODE" = map_gps_input ]; then
+  # A flight with its telemetry (as gps_input, without the black frame), a map of it built from
+  # the true telemetry (`aerovo map build`), then the run with GPS denied after 1 s, the map's
+  # fixes fused, over telemetry moved 5 m north (map_gps_input.cjs).
+  SIM="$WORK/sim-$MODE"
+  rm -rf "$SIM" "$WORK/run-$MODE" "$WORK/map-$MODE"
+  "$AEROVO" simulate --pattern line --length-m 60 --height-m 60 --width 480 --height 270 --fps 4 \
+    --gps-noise-m 0 --frames-only --image-format png --quiet --out "$SIM" || exit 1
+  FOCAL=$(node -e 'console.log(require(process.argv[1]).camera.focal_px)' "$SIM/sim.json") || exit 1
+  YAW=$(awk -F, 'NR == 2 { print $9 }' "$SIM/ground_truth.csv")
+  sed "s/\[ct: /[gb_yaw: $YAW gb_pitch: -90.0 gb_roll: 0.0] [ct: /" "$SIM/telemetry.srt" > "$SIM/telemetry-yaw.srt"
+  # Every latitude 5 m north (metres to degrees by the meridian's 111.2 km per degree: 0.5 %).
+  node -e 'const fs = require("fs"); const t = fs.readFileSync(process.argv[1], "utf8");
+    fs.writeFileSync(process.argv[2], t.replace(/\[latitude: ([-0-9.]+)\]/g, (m, v) => `[latitude: ${(Number(v) + 5 / 111200).toFixed(6)}]`));' \
+    "$SIM/telemetry-yaw.srt" "$SIM/telemetry-north5.srt" || exit 1
+  cmp -s "$SIM/telemetry-yaw.srt" "$SIM/telemetry-north5.srt" && { echo "FAIL: the SRT was not shifted"; exit 1; }
+  VIDEO="$WORK/flight-$MODE.mkv"
+  ffmpeg -loglevel error -y -framerate 4 -pattern_type glob -i "$SIM/frames/*.png" -c:v ffv1 "$VIDEO" || exit 1
+  "$AEROVO" map build "$VIDEO" --telemetry "$SIM/telemetry-yaw.srt" --focal-px "$FOCAL" -q \
+    --run-dir "$WORK/map-$MODE/run" -o "$WORK/map-$MODE/map.tif" || exit 1
+  cd "$NODE_DIR" && NODE_PATH="$NODE_DIR/node_modules" exec node "$SRC/map_gps_input.cjs" "$AEROVO" \
+    "$VIDEO" "$SIM/telemetry-north5.srt" "$FOCAL" "$WORK/map-$MODE/map.tif" "$SIM/ground_truth.csv" 1.5 5 "$WORK/run-$MODE"
 fi
 if [ "$MODE" = live ]; then
   # The flight of MODE contract (a black frame mid-flight: bridged, then re-acquired), 25

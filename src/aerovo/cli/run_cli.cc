@@ -97,6 +97,12 @@ class FlagBinder : public options::GroupingVisitor<FlagBinder> {
           all, [&given, json_key](std::int64_t v) { given[json_key] = v > 0; }, help);
       opt->check(BooleanWord())->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
       opt->default_str(value ? "true" : "false");
+    } else if constexpr (std::is_same_v<T, std::vector<std::string>>) {
+      // A list: the flag once per element (`--map a.tif --map b.tif`), in the order given.
+      opt = cmd_->add_option_function<std::vector<std::string>>(
+          names, [&given, json_key](const T& v) { given[json_key] = options::ToJsonValue(v); },
+          help);
+      opt->allow_extra_args(false)->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
     } else if constexpr (std::is_enum_v<T>) {
       opt = cmd_->add_option_function<std::string>(
           names, [&given, json_key](const std::string& v) { given[json_key] = v; }, help);

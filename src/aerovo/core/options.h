@@ -8,7 +8,8 @@
 //     v.Group("ransac", o.ransac);  // a nested struct: its fields get the keys "ransac.*"
 //   }
 // A visitor provides `Field(T& member, const char* key, const char* doc, const Spec& spec)` for
-// T in {bool, int, std::uint64_t, float, double, std::string, an enum with EnumTraits} and
+// T in {bool, int, std::uint64_t, float, double, std::string, std::vector<std::string> (a list:
+// a CLI flag given once per element, a JSON/YAML array or one string), an enum with EnumTraits} and
 // derives from GroupingVisitor (Group sets the key prefix: "match" -> "match.max_ratio"; a
 // group's name is absolute, not appended to the parent's, so every key is "group.field").
 // Not a hot path: visitors allocate freely.
@@ -191,6 +192,8 @@ const char* TypeName() {
     return "double";
   } else if constexpr (std::is_same_v<T, std::string>) {
     return "string";
+  } else if constexpr (std::is_same_v<T, std::vector<std::string>>) {
+    return "strings";
   } else {
     static_assert(std::is_enum_v<T>, "option field of an unsupported type");
     return "enum";
@@ -302,6 +305,10 @@ class FieldLister : public GroupingVisitor<FieldLister> {
     } else if constexpr (std::is_same_v<T, std::string>) {
       f.type = "string";
       f.value = "\"" + value + "\"";
+    } else if constexpr (std::is_same_v<T, std::vector<std::string>>) {
+      f.type = TypeName<T>();
+      for (const std::string& e : value) f.value += (f.value.empty() ? "\"" : ", \"") + e + "\"";
+      f.value = "[" + f.value + "]";
     } else {
       f.type = TypeName<T>();
       f.value = FormatNumber(value);

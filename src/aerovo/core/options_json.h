@@ -77,6 +77,16 @@ T FromJsonValue(const nlohmann::json& j, const std::string& name, const std::str
   } else if constexpr (std::is_same_v<T, std::string>) {
     if (!j.is_string()) return wrong("must be a string, got " + got());
     return j.get<std::string>();
+  } else if constexpr (std::is_same_v<T, std::vector<std::string>>) {
+    // A list: an array of strings, or one string (a list of one; "" = empty).
+    if (j.is_string()) return j.get<std::string>().empty() ? T{} : T{j.get<std::string>()};
+    if (!j.is_array()) return wrong("must be a list of strings, got " + got());
+    T out;
+    for (const nlohmann::json& e : j) {
+      if (!e.is_string()) return wrong("must be a list of strings, got " + got());
+      out.push_back(e.get<std::string>());
+    }
+    return out;
   } else {
     static_assert(std::is_enum_v<T>, "option field of an unsupported type");
     if (j.is_string()) {

@@ -140,22 +140,27 @@ void PlaceOnEarth(const OGRSpatialReference& crs, MapInfo* info) {
     throw InputError("'" + info->path.string() + "': no point of the map's edges has a WGS84 "
                      "position in its CRS (" + info->crs_name + ")");
   }
-  const double col_m = std::hypot(gt[1], gt[4]), row_m = std::hypot(gt[2], gt[5]);
-  if (!info->crs_geographic) {
-    const double unit_m = crs.GetLinearUnits(nullptr);
-    info->m_per_px_x = col_m * unit_m;
-    info->m_per_px_y = row_m * unit_m;
-    return;
-  }
-  // Geographic: one pixel's geodesic length at the centre (x, y = lon, lat in degrees).
+  // One pixel's geodesic length at the centre (through WGS84 lon, lat in degrees).
   double x = 0.5 * (e.min_x + e.max_x), y = 0.5 * (e.min_y + e.max_y);
   std::unique_ptr<OGRCoordinateTransformation> t(OGRCreateCoordinateTransformation(&crs, &wgs84));
   double x1 = x + gt[1], y1 = y + gt[4], x2 = x + gt[2], y2 = y + gt[5];
   t->Transform(1, &x, &y);
   t->Transform(1, &x1, &y1);
   t->Transform(1, &x2, &y2);
-  info->m_per_px_x = GeodesicDistance({y, x, 0.0}, {y1, x1, 0.0});
-  info->m_per_px_y = GeodesicDistance({y, x, 0.0}, {y2, x2, 0.0});
+  const double geo_x = GeodesicDistance({y, x, 0.0}, {y1, x1, 0.0});
+  const double geo_y = GeodesicDistance({y, x, 0.0}, {y2, x2, 0.0});
+  info->m_per_px_x = geo_x;
+  info->m_per_px_y = geo_y;
+  if (info->crs_geographic) return;
+  // Projected: the CRS's linear unit, unless the projection's scale at the map is more than 1 %
+  // from 1 (Web Mercator, EPSG:3857: 1 / cos(latitude), 38 % at 43 deg), whose metres are not
+  // the ground's; a UTM or local transverse Mercator grid (scale within 0.1 %) keeps its unit.
+  const double unit_m = crs.GetLinearUnits(nullptr);
+  const double col_m = std::hypot(gt[1], gt[4]) * unit_m, row_m = std::hypot(gt[2], gt[5]) * unit_m;
+  const bool scaled =
+      !(std::abs(geo_x / col_m - 1.0) <= 0.01 && std::abs(geo_y / row_m - 1.0) <= 0.01);
+  info->m_per_px_x = scaled ? geo_x : col_m;
+  info->m_per_px_y = scaled ? geo_y : row_m;
 }
 
 }  // namespace

@@ -33,7 +33,9 @@ struct MapInfo {
   std::array<double, 6> geotransform{};
   bool rotated = false;  ///< gt[2] or gt[4] non-zero (not north-up).
   /// The ground size of a pixel along its columns and rows, metres: the CRS's linear unit for a
-  /// projected CRS; for a geographic one, the geodesic length of one pixel at the map's centre.
+  /// projected CRS whose scale at the map is within 1 % of 1 (UTM, transverse Mercator); for a
+  /// geographic one, or a projected one scaled more (Web Mercator, EPSG:3857), the geodesic
+  /// length of one pixel at the map's centre.
   double m_per_px_x = 0.0, m_per_px_y = 0.0;
   Extent extent_crs;  ///< The corners' bounds in the CRS.
   /// The bounds in WGS84 longitude (x) / latitude (y), degrees, over points along the map's

@@ -118,6 +118,20 @@ TEST(MapInfo, GeographicMapHasItsResolutionInMetres) {
   EXPECT_TRUE(m.overviews.empty());
 }
 
+TEST(MapInfo, WebMercatorMapHasItsGroundResolution) {
+  // EPSG:3857 pixels of 2 "metres" at 28.05 N: 2 cos(lat) m on the ground (the projection's
+  // scale is 1 / cos(lat) on the sphere; the ellipsoid's geodesic within 0.5 %).
+  const fs::path p = Dir() / "web_mercator.tif";
+  const double gt[6] = {-9205000.0, 2.0, 0.0, 3257000.0, 0.0, -2.0};
+  WriteTiff(p, 256, 256, 3857, gt);
+  const MapInfo m = ReadMapInfo(p);
+  EXPECT_FALSE(m.crs_geographic);
+  const double lat = 0.5 * (m.extent_lonlat.min_y + m.extent_lonlat.max_y) * M_PI / 180.0;
+  EXPECT_NEAR(m.m_per_px_x, 2.0 * std::cos(lat), 0.005 * 2.0);
+  EXPECT_NEAR(m.m_per_px_y, 2.0 * std::cos(lat), 0.005 * 2.0);
+  // A UTM map keeps its grid's metres (UtmGeoTiffWithOverviews).
+}
+
 TEST(MapInfo, VrtAndMbtilesAreMapsToo) {
   const fs::path tif = Dir() / "tile.tif";
   WriteTiff(tif, 400, 200, 32617, kUtmGt);

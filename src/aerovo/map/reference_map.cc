@@ -135,28 +135,76 @@ ReferenceMaps::~ReferenceMaps() = default;
 ReferenceMaps::ReferenceMaps(ReferenceMaps&&) noexcept = default;
 ReferenceMaps& ReferenceMaps::operator=(ReferenceMaps&&) noexcept = default;
 
+std::optional<int> ReferenceMaps::MapAt(const GeoPoint& p) const {
+  for (std::size_t m = 0; m < open_.size(); ++m) {
+    double col = 0, row = 0;
+    const MapInfo& info = infos_[m];
+    if (!open_[m]->PixelOf(p, &col, &row) || col < 0 || row < 0 || col >= info.width_px ||
+        row >= info.height_px) {
+      continue;
+    }
+    const std::lock_guard<std::mutex> lock(open_[m]->mutex);
+    Block b;
+    const int x = static_cast<int>(col), y = static_cast<int>(row);
+    if (ReadBlock(*open_[m]->ds, x, y, x + 1, y + 1, 1.0, &b) &&
+        Sample(b, b.valid, (col - b.x0) / b.dx - 0.5, (row - b.y0) / b.dy - 0.5) >= 128.0f) {
+      return static_cast<int>(m);
+    }
+  }
+  return std::nullopt;
+}
+
 MapCover ReferenceMaps::CoverOf(const std::vector<GeoPoint>& points) const {
   MapCover c;
   for (const GeoPoint& p : points) {
     ++c.points;
-    for (std::size_t m = 0; m < open_.size(); ++m) {
-      double col = 0, row = 0;
-      const MapInfo& info = infos_[m];
-      if (!open_[m]->PixelOf(p, &col, &row) || col < 0 || row < 0 || col >= info.width_px ||
-          row >= info.height_px) {
-        continue;
-      }
-      const std::lock_guard<std::mutex> lock(open_[m]->mutex);
-      Block b;
-      const int x = static_cast<int>(col), y = static_cast<int>(row);
-      if (ReadBlock(*open_[m]->ds, x, y, x + 1, y + 1, 1.0, &b) &&
-          Sample(b, b.valid, (col - b.x0) / b.dx - 0.5, (row - b.y0) / b.dy - 0.5) >= 128.0f) {
-        ++c.covered;
-        break;
-      }
-    }
+    if (MapAt(p)) ++c.covered;
   }
   return c;
+}
+
+int ReferenceMaps::Fill(std::size_t m, const LocalEnu& enu, MapWindow* win) const {
+  const int size_px = win->pixels.width();
+  const double half = 0.5 * (size_px - 1) * win->m_per_px;
+  // The window's corner pixel centres (NW, NE, SW, SE) on the map.
+  double c[4], r[4];
+  const double e[4] = {-half, half, -half, half}, n[4] = {half, half, -half, -half};
+  for (int k = 0; k < 4; ++k) {
+    if (!open_[m]->PixelOf(enu.Reverse(e[k], n[k], 0.0), &c[k], &r[k])) return 0;
+  }
+  const MapInfo& info = infos_[m];
+  const double cmin = *std::min_element(c, c + 4), cmax = *std::max_element(c, c + 4);
+  const double rmin = *std::min_element(r, r + 4), rmax = *std::max_element(r, r + 4);
+  if (cmax < 0 || rmax < 0 || cmin > info.width_px || rmin > info.height_px) return 0;
+  // Map pixels per window pixel: the level read is the coarsest at least that fine.
+  const double step = std::hypot(c[1] - c[0], r[1] - r[0]) / (size_px - 1);
+  Block b;
+  {
+    const std::lock_guard<std::mutex> lock(open_[m]->mutex);
+    CPLErrorReset();
+    if (!ReadBlock(*open_[m]->ds, cmin, rmin, cmax, rmax, step, &b)) {
+      throw InputError("'" + info.path.string() + "': reading the map failed: " +
+                       std::string(CPLGetLastErrorMsg()));
+    }
+  }
+  int filled = 0;
+  const double inv = 1.0 / (size_px - 1);
+  for (int y = 0; y < size_px; ++y) {
+    for (int x = 0; x < size_px; ++x) {
+      if (win->valid.at(x, y) != 0) continue;  // a preferred map's data
+      // The affine of the corners (bilinear in the corners, exact for an affine CRS).
+      const double fx = x * inv, fy = y * inv;
+      const double col = (1 - fy) * ((1 - fx) * c[0] + fx * c[1]) + fy * ((1 - fx) * c[2] + fx * c[3]);
+      const double row = (1 - fy) * ((1 - fx) * r[0] + fx * r[1]) + fy * ((1 - fx) * r[2] + fx * r[3]);
+      const bool inside = col >= 0 && row >= 0 && col <= info.width_px && row <= info.height_px;
+      const double u = (col - b.x0) / b.dx - 0.5, v = (row - b.y0) / b.dy - 0.5;
+      if (!inside || Sample(b, b.valid, u, v) < 128.0f) continue;
+      win->pixels.at(x, y) = static_cast<std::uint8_t>(std::clamp(Sample(b, b.grey, u, v) + 0.5f, 0.0f, 255.0f));
+      win->valid.at(x, y) = 255;
+      ++filled;
+    }
+  }
+  return filled;
 }
 
 std::optional<MapWindow> ReferenceMaps::Window(const GeoPoint& centre, int size_px,
@@ -166,56 +214,26 @@ std::optional<MapWindow> ReferenceMaps::Window(const GeoPoint& centre, int size_
                                       "finite and > 0, got {} and {}", size_px, m_per_px));
   }
   const LocalEnu enu(centre);
-  const double half = 0.5 * (size_px - 1) * m_per_px;
-  for (std::size_t m = 0; m < open_.size(); ++m) {
-    // The window's corner pixel centres (NW, NE, SW, SE) on the map.
-    double c[4], r[4];
-    bool ok = true;
-    const double e[4] = {-half, half, -half, half}, n[4] = {half, half, -half, -half};
-    for (int k = 0; k < 4; ++k) ok = ok && open_[m]->PixelOf(enu.Reverse(e[k], n[k], 0.0), &c[k], &r[k]);
-    if (!ok) continue;
-    const MapInfo& info = infos_[m];
-    const double cmin = *std::min_element(c, c + 4), cmax = *std::max_element(c, c + 4);
-    const double rmin = *std::min_element(r, r + 4), rmax = *std::max_element(r, r + 4);
-    if (cmax < 0 || rmax < 0 || cmin > info.width_px || rmin > info.height_px) continue;
-    // Map pixels per window pixel: the level read is the coarsest at least that fine.
-    const double step = std::hypot(c[1] - c[0], r[1] - r[0]) / (size_px - 1);
-    Block b;
-    {
-      const std::lock_guard<std::mutex> lock(open_[m]->mutex);
-      CPLErrorReset();
-      if (!ReadBlock(*open_[m]->ds, cmin, rmin, cmax, rmax, step, &b)) {
-        throw InputError("'" + info.path.string() + "': reading the map failed: " +
-                         std::string(CPLGetLastErrorMsg()));
-      }
-    }
-    MapWindow win;
-    win.pixels = GrayImage(size_px, size_px);
-    win.valid = GrayImage(size_px, size_px);
-    win.m_per_px = m_per_px;
-    win.centre = centre;
-    win.map_index = static_cast<int>(m);
-    int valid = 0;
-    const double inv = 1.0 / (size_px - 1);
-    for (int y = 0; y < size_px; ++y) {
-      for (int x = 0; x < size_px; ++x) {
-        // The affine of the corners (bilinear in the corners, exact for an affine CRS).
-        const double fx = x * inv, fy = y * inv;
-        const double col = (1 - fy) * ((1 - fx) * c[0] + fx * c[1]) + fy * ((1 - fx) * c[2] + fx * c[3]);
-        const double row = (1 - fy) * ((1 - fx) * r[0] + fx * r[1]) + fy * ((1 - fx) * r[2] + fx * r[3]);
-        const bool inside = col >= 0 && row >= 0 && col <= info.width_px && row <= info.height_px;
-        const double u = (col - b.x0) / b.dx - 0.5, v = (row - b.y0) / b.dy - 0.5;
-        if (!inside || Sample(b, b.valid, u, v) < 128.0f) continue;
-        win.pixels.at(x, y) = static_cast<std::uint8_t>(std::clamp(Sample(b, b.grey, u, v) + 0.5f, 0.0f, 255.0f));
-        win.valid.at(x, y) = 255;
-        ++valid;
-      }
-    }
-    if (valid == 0) continue;
-    win.valid_fraction = static_cast<double>(valid) / (static_cast<double>(size_px) * size_px);
-    return win;
+  MapWindow win;
+  win.pixels = GrayImage(size_px, size_px);
+  win.valid = GrayImage(size_px, size_px);
+  win.m_per_px = m_per_px;
+  win.centre = centre;
+  win.pixels_from_map.assign(open_.size(), 0);
+  const long long total = static_cast<long long>(size_px) * size_px;
+  long long valid = 0;
+  // In the order of preference: each map fills what the ones before it left empty.
+  for (std::size_t m = 0; m < open_.size() && valid < total; ++m) {
+    const int filled = Fill(m, enu, &win);
+    win.pixels_from_map[m] = filled;
+    valid += filled;
   }
-  return std::nullopt;
+  if (valid == 0) return std::nullopt;
+  win.map_index = static_cast<int>(
+      std::max_element(win.pixels_from_map.begin(), win.pixels_from_map.end()) -
+      win.pixels_from_map.begin());
+  win.valid_fraction = static_cast<double>(valid) / static_cast<double>(total);
+  return win;
 }
 
 std::string CheckCover(const ReferenceMaps& maps, const std::vector<GeoPoint>& track) {

@@ -1,5 +1,7 @@
-// The reference maps of a run (several allowed, the first that covers a place wins: a recent
-// survey given before an older satellite mosaic), read as windows: a north-up square of the
+// The reference maps of a run (several allowed, in the order of preference: a recent survey
+// given before an older satellite mosaic; each pixel of a window is read from the first map with
+// data there, so a window the preferred map covers in part is filled from the next), read as
+// windows: a north-up square of the
 // ground around a geographic point, at a requested ground resolution, in the local East-North
 // plane of that point (geo/local_enu.h) — what a frame brought to the map's geometry is matched
 // against. GDAL reads the map's overview nearest the resolution asked (averaged), and the window
@@ -15,6 +17,7 @@
 
 #include "aerovo/core/image.h"
 #include "aerovo/geo/geo_point.h"
+#include "aerovo/geo/local_enu.h"
 #include "aerovo/map/map_info.h"
 
 namespace aerovo::map {
@@ -27,7 +30,8 @@ struct MapWindow {
   double valid_fraction = 0.0;
   double m_per_px = 0.0;
   GeoPoint centre;
-  int map_index = 0;  ///< Which map (ReferenceMaps::infos()).
+  int map_index = 0;  ///< The map that gave the most pixels (ReferenceMaps::infos()).
+  std::vector<int> pixels_from_map;  ///< Valid pixels from each map, in the order of infos().
 };
 
 /// How much of a set of positions the maps cover.
@@ -51,14 +55,21 @@ class ReferenceMaps {
   /// Which of `points` fall on a map's data (its extent and a non-empty pixel there).
   MapCover CoverOf(const std::vector<GeoPoint>& points) const;
 
-  /// The window of `size_px` x `size_px` pixels of `m_per_px` metres centred on `centre`, from
-  /// the first map whose extent it overlaps with data; nullopt when none has data there.
+  /// The first map (index into infos()) with data at `p`; nullopt when none has.
+  std::optional<int> MapAt(const GeoPoint& p) const;
+
+  /// The window of `size_px` x `size_px` pixels of `m_per_px` metres centred on `centre`: each
+  /// pixel from the first map (in the order given) with data there, so that a window the
+  /// preferred map covers in part is filled from the next ones, whatever their CRS and
+  /// resolution; nullopt when none has data in it.
   /// Throws InvalidArgument for size_px < 2 or m_per_px not finite and > 0, InputError naming
   /// the map when reading it fails.
   std::optional<MapWindow> Window(const GeoPoint& centre, int size_px, double m_per_px) const;
 
  private:
   struct Open;
+  // Fills the pixels of `win` (centred on `enu`'s origin) still invalid from map `m`; the count.
+  int Fill(std::size_t m, const LocalEnu& enu, MapWindow* win) const;
   std::vector<MapInfo> infos_;
   std::vector<std::unique_ptr<Open>> open_;
 };

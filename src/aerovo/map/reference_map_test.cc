@@ -143,6 +143,38 @@ TEST(ReferenceMaps, TransparentPixelsAreNotMapAndTheFirstMapWins) {
   EXPECT_THROW(maps.Window(Wgs84(356400.0, 3101900.0), 41, 0.0), InvalidArgument);
 }
 
+TEST(ReferenceMaps, AWindowThePreferredMapCoversInPartIsFilledFromTheNext) {
+  // A 400 m square at 2 m/px from x = 356400, overlapping the grey map's east 100 m: a 101 m
+  // window centred on the grey map's east edge (x = 356500) takes its west half from the grey map
+  // given first and its east half from the other; given the other way round, the coarser map
+  // wins wherever it has data. Both draw the same pattern: the window is the pattern throughout.
+  const fs::path east = WriteMap("east.tif", 356400.0, 3102000.0, 2.0, 200);
+  const GeoPoint edge = Wgs84(356500.0, 3101800.0);
+  const ReferenceMaps maps({GreyMap(), east});
+  const auto w = maps.Window(edge, 101, 1.0);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_DOUBLE_EQ(w->valid_fraction, 1.0);
+  ASSERT_EQ(w->pixels_from_map.size(), 2u);
+  EXPECT_NEAR(w->pixels_from_map[0], 101 * 50.5, 101 * 2);  // west of the edge (1.4 deg grid turn)
+  EXPECT_EQ(w->pixels_from_map[0] + w->pixels_from_map[1], 101 * 101);
+  ExpectPattern(*w, 6.0, 1.5);
+  EXPECT_EQ(maps.MapAt(Wgs84(356450.0, 3101800.0)), 0);
+  EXPECT_EQ(maps.MapAt(Wgs84(356550.0, 3101800.0)), 1);
+  EXPECT_EQ(maps.MapAt(Wgs84(357000.0, 3101800.0)), std::nullopt);
+  const ReferenceMaps reversed({east, GreyMap()});
+  const auto r = reversed.Window(edge, 101, 1.0);
+  ASSERT_TRUE(r.has_value());
+  EXPECT_EQ(r->pixels_from_map[0], 101 * 101);
+  EXPECT_EQ(r->pixels_from_map[1], 0);
+  EXPECT_EQ(r->map_index, 0);
+  EXPECT_EQ(reversed.MapAt(Wgs84(356450.0, 3101800.0)), 0);
+  EXPECT_EQ(reversed.MapAt(Wgs84(356300.0, 3101800.0)), 1);
+  // Neither covers all of a window west of the square: filled as far as they reach.
+  const auto west = maps.Window(Wgs84(356010.0, 3101800.0), 41, 1.0);
+  ASSERT_TRUE(west.has_value());
+  EXPECT_NEAR(west->valid_fraction, 30.5 / 41.0, 0.05);
+}
+
 TEST(ReferenceMaps, CoverOfTheFlightIsAnErrorOrAWarningNamingTheMaps) {
   const ReferenceMaps maps({GreyMap()});
   const std::vector<GeoPoint> inside{Wgs84(356100, 3101900), Wgs84(356400, 3101600)};

@@ -108,6 +108,22 @@ void GeoReferencer::Restart() {
   pairs_.clear();
 }
 
+void GeoReferencer::SeedFromFix(const Eigen::Vector2d& local_m, double local_heading_rad,
+                                const GeoPoint& at, double enu_heading_rad) {
+  if (ready_) throw InvalidArgument("GeoReferencer::SeedFromFix after the frame is known");
+  if (!local_m.allFinite() || !std::isfinite(local_heading_rad) ||
+      !std::isfinite(enu_heading_rad)) {
+    throw InvalidArgument("GeoReferencer::SeedFromFix: a position or heading is not finite");
+  }
+  if (!enu_) enu_.emplace(at);
+  rotation_rad_ = std::remainder(enu_heading_rad - local_heading_rad, 2.0 * M_PI);
+  translation_m_ = enu_->Forward(at).head<2>() - Rotation(rotation_rad_) * local_m;
+  source_used_ = "map";
+  ready_ = true;
+  pairs_.clear();
+  pairs_.shrink_to_fit();
+}
+
 void GeoReferencer::FixFromYaw() {
   // Local +y (first image up) points along the compass bearing yaw0, whose ENU angle is
   // 90 deg - yaw0; +y itself is at 90 deg, hence a rotation of -yaw0.

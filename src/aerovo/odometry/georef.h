@@ -71,6 +71,16 @@ class GeoReferencer {
   /// tracks). Returns ready().
   bool FixWithAvailable();
 
+  /// Fixes enu_from_local from one absolute fix of a frame when GPS did not (a fix against a
+  /// reference map, pipeline/map_fixer.h): `local_m` and `local_heading_rad` are the frame's
+  /// local position (metres) and heading (angle of its image x axis counter-clockwise from local
+  /// x), `at` the frame's WGS84 position and `enu_heading_rad` the same axis' angle
+  /// counter-clockwise from east. The rotation is their difference, the translation puts
+  /// `local_m` at `at`; the ENU origin stays the first GPS fix observed (if any), else `at`.
+  /// heading_source_used() is "map". Precondition: !ready() (InvalidArgument otherwise).
+  void SeedFromFix(const Eigen::Vector2d& local_m, double local_heading_rad, const GeoPoint& at,
+                   double enu_heading_rad);
+
   /// Forgets the fixes observed so far (they were found to be outliers, gps_check.h) and the ENU
   /// origin they set: the following Observe() calls start a new segment, whose first fix is the
   /// new origin (a rejected fix is never the origin of the run's ENU frame). Precondition:
@@ -90,7 +100,7 @@ class GeoReferencer {
 
   /// Rotation angle of enu_from_local, radians counter-clockwise (east towards north).
   double rotation_rad() const { return rotation_rad_; }
-  /// "telemetry-yaw" or "gps-segment"; empty until ready.
+  /// "telemetry-yaw", "gps-segment" or "map" (SeedFromFix); empty until ready.
   const std::string& heading_source_used() const { return source_used_; }
 
   /// enu_from_local applied to a local VO position (metres). Precondition: ready().

@@ -74,6 +74,30 @@ TEST(GeoReferencer, GpsSegmentRecoversRotationWithNoisyFixes) {
   EXPECT_LT((geo.EnuFromLocal(f.local.back()) - last.head<2>()).norm(), 9.0);
 }
 
+// A frame fixed against a map (position and heading) seeds the geo-reference when no GPS did:
+// the frame's local position lands on the fix, its heading on the fix's, and a point 100 m
+// further along the local x axis lands 100 m along that heading (within 1 mm). A second seed is
+// an error.
+TEST(GeoReferencer, SeedFromFixPlacesTheFrameAndTurnsTheTrack) {
+  GeoReferencer g;
+  EXPECT_FALSE(g.Observe({0.0, 0.0}, std::nullopt, std::nullopt));
+  const GeoPoint at{43.53, 6.55, 0.0};
+  const Eigen::Vector2d local(12.0, -7.0);
+  const double local_heading = 0.3, enu_heading = 1.2;
+  g.SeedFromFix(local, local_heading, at, enu_heading);
+  ASSERT_TRUE(g.ready());
+  EXPECT_EQ(g.heading_source_used(), "map");
+  EXPECT_NEAR(g.rotation_rad(), 0.9, 1e-12);
+  const GeoPoint p = g.Wgs84FromLocal(local);
+  EXPECT_NEAR(g.enu().Forward(p).head<2>().norm(), 0.0, 1e-3);
+  EXPECT_NEAR(p.lat_deg, at.lat_deg, 1e-9);
+  const Eigen::Vector2d ahead = g.EnuFromLocal(
+      local + 100.0 * Eigen::Vector2d(std::cos(local_heading), std::sin(local_heading)));
+  EXPECT_NEAR(ahead.x(), 100.0 * std::cos(enu_heading), 1e-3);
+  EXPECT_NEAR(ahead.y(), 100.0 * std::sin(enu_heading), 1e-3);
+  EXPECT_THROW(g.SeedFromFix(local, 0.0, at, 0.0), InvalidArgument);
+}
+
 TEST(GeoReferencer, WaitsForGpsAndValidates) {
   GeoReferencer geo;
   EXPECT_FALSE(geo.Observe({0, 0}, std::nullopt, std::nullopt));

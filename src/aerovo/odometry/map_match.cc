@@ -72,26 +72,9 @@ MapMatchOptions MapRefineOptions(const MapMatchOptions& options, double coarse_m
   return fine;
 }
 
-namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-
-double WrapPi(double a) { return std::remainder(a, 2.0 * kPi); }
-
-// The robust intensity range (1st to 99th percentile) of `image` where `valid` is non-zero
-// (everywhere when valid is empty), grey levels; 0 with no valid pixel.
-double RobustRange(const GrayImageView& image, const GrayImageView& valid) {
-  std::array<std::int64_t, 256> histogram{};
+double MapRobustRange(const std::array<std::int64_t, 256>& histogram) {
   std::int64_t n = 0;
-  for (int y = 0; y < image.height; ++y) {
-    const std::uint8_t* p = image.row(y);
-    const std::uint8_t* v = valid.empty() ? nullptr : valid.row(y);
-    for (int x = 0; x < image.width; ++x) {
-      if (v != nullptr && v[x] == 0) continue;
-      ++histogram[p[x]];
-      ++n;
-    }
-  }
+  for (const std::int64_t c : histogram) n += c;
   if (n == 0) return 0.0;
   const std::int64_t lo_count = n / 100, hi_count = n - n / 100 - 1;
   int lo = 0, hi = 0;
@@ -109,6 +92,31 @@ double RobustRange(const GrayImageView& image, const GrayImageView& valid) {
     }
   }
   return hi - lo;
+}
+
+double MapLadderResolution(double m_per_px) {
+  return std::exp2(std::round(8.0 * std::log2(m_per_px)) / 8.0);
+}
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+double WrapPi(double a) { return std::remainder(a, 2.0 * kPi); }
+
+// The robust intensity range (1st to 99th percentile) of `image` where `valid` is non-zero
+// (everywhere when valid is empty), grey levels; 0 with no valid pixel.
+double RobustRange(const GrayImageView& image, const GrayImageView& valid) {
+  std::array<std::int64_t, 256> histogram{};
+  for (int y = 0; y < image.height; ++y) {
+    const std::uint8_t* p = image.row(y);
+    const std::uint8_t* v = valid.empty() ? nullptr : valid.row(y);
+    for (int x = 0; x < image.width; ++x) {
+      if (v != nullptr && v[x] == 0) continue;
+      ++histogram[p[x]];
+    }
+  }
+  return MapRobustRange(histogram);
 }
 
 // Invalid pixels of `image` set to the mean of the valid ones (so that SURF sees no edge along
@@ -261,31 +269,17 @@ void CheckInputs(const MapMatchFrame& frame, const MapMatchWindow& window) {
 
 }  // namespace
 
-struct MapMatcher::Impl {
-  MapMatchOptions options;
-  Matcher matcher;
-  RansacWorkspace workspace;
-  GrayImage warped, warped_valid, map, map_valid;
-  Eigen::Matrix2Xd prev_px, curr_px;
-  std::vector<float> quality;
+namespace {
 
-  explicit Impl(const MapMatchOptions& o) : options(o) {}
-
-  FeatureSet Features(const GrayImage& image, const GrayImage& valid, int target, bool upright);
-  void Fit(const FeatureSet& frame_features, const FeatureSet& map_features,
-           const std::optional<Eigen::Matrix<double, 2, 3>>& prior, double guided_radius_px,
-           RansacResult* fit, MapFix* out);
-  void Judge(const RansacResult& fit, const Warp& warp, const MapMatchFrame& frame,
-             const MapMatchWindow& window, const Eigen::Vector2d& prior_enu_m, double gate_m,
-             MapFix* out) const;
-  int SecondInliers(const RansacResult& fit, const Warp& warp, int warped_w, int warped_h);
-  MapFix Run(const MapMatchFrame& frame, const MapMatchWindow& window,
-             const Eigen::Vector2d& prior_enu_m, double gate_m, bool search);
-  void Covariance(const RansacResult& fit, const Warp& warp, double m_per_px, MapFix* out) const;
+// The size and resolution of the window a fit is in.
+struct WindowGeometry {
+  int width = 0, height = 0;
+  double m_per_px = 0.0;
 };
 
-FeatureSet MapMatcher::Impl::Features(const GrayImage& image, const GrayImage& valid, int target,
-                                      bool upright) {
+// Adaptive SURF on `image` (its invalid pixels already filled) with `target` points, the points
+// whose descriptor reaches an invalid pixel or the border dropped (KeepOnValid).
+FeatureSet DetectOn(const GrayImage& image, const GrayImage& valid, int target, bool upright) {
   SurfOptions surf;
   surf.adaptive = true;
   surf.target_points = std::max(16, target);
@@ -296,6 +290,53 @@ FeatureSet MapMatcher::Impl::Features(const GrayImage& image, const GrayImage& v
   KeepOnValid(valid.view(), features);
   return features;
 }
+
+}  // namespace
+
+FeatureSet DetectMapFeatures(const GrayImageView& pixels, const GrayImageView& valid,
+                             int target_points, bool upright) {
+  if (valid.width != pixels.width || valid.height != pixels.height) {
+    throw InvalidArgument("DetectMapFeatures: the valid mask is not the image's size");
+  }
+  GrayImage image(pixels.width, pixels.height), mask(pixels.width, pixels.height);
+  for (int y = 0; y < pixels.height; ++y) {
+    std::copy_n(pixels.row(y), pixels.width, image.row(y));
+    std::copy_n(valid.row(y), pixels.width, mask.row(y));
+  }
+  FillInvalid(image, mask);
+  return DetectOn(image, mask, target_points, upright);
+}
+
+struct MapMatcher::Impl {
+  MapMatchOptions options;
+  Matcher matcher;
+  RansacWorkspace workspace;
+  GrayImage warped, warped_valid, map, map_valid;
+  Eigen::Matrix2Xd prev_px, curr_px;
+  std::vector<float> quality;
+  // The frame's side of the attempt in flight (PrepareFrame).
+  Warp warp;
+  int warped_w = 0, warped_h = 0;
+  FeatureSet frame_features;
+  std::size_t frame_valid = 1;
+
+  explicit Impl(const MapMatchOptions& o) : options(o) {}
+
+  void Fit(const FeatureSet& frame_features, const FeatureSet& map_features,
+           const std::optional<Eigen::Matrix<double, 2, 3>>& prior, double guided_radius_px,
+           RansacResult* fit, MapFix* out);
+  void Judge(const RansacResult& fit, const Warp& warp, const MapMatchFrame& frame,
+             const WindowGeometry& window, const Eigen::Vector2d& prior_enu_m, double gate_m,
+             MapFix* out) const;
+  int SecondInliers(const RansacResult& fit, const Warp& warp, int warped_w, int warped_h);
+  MapFix Run(const MapMatchFrame& frame, const MapMatchWindow& window,
+             const Eigen::Vector2d& prior_enu_m, double gate_m, bool search);
+  std::optional<MapFixStatus> PrepareFrame(const MapMatchFrame& frame, double m_per_px);
+  void FitAndJudge(const MapMatchFrame& frame, const FeatureSet& map_features,
+                   const WindowGeometry& window, const Eigen::Vector2d& prior_enu_m,
+                   double gate_m, bool search, MapFix* out);
+  void Covariance(const RansacResult& fit, const Warp& warp, double m_per_px, MapFix* out) const;
+};
 
 void MapMatcher::Impl::Fit(const FeatureSet& frame_features, const FeatureSet& map_features,
                            const std::optional<Eigen::Matrix<double, 2, 3>>& prior,
@@ -363,11 +404,11 @@ void MapMatcher::Impl::Covariance(const RansacResult& fit, const Warp& warp, dou
 
 // Position, heading, scale, spread and the checks of a successful fit.
 void MapMatcher::Impl::Judge(const RansacResult& fit, const Warp& warp, const MapMatchFrame& frame,
-                             const MapMatchWindow& window, const Eigen::Vector2d& prior_enu_m,
+                             const WindowGeometry& window, const Eigen::Vector2d& prior_enu_m,
                              double gate_m, MapFix* out) const {
   const Eigen::Matrix2d a = fit.curr_from_prev.topLeftCorner<2, 2>();
   const Eigen::Vector2d q = TransformPoint(fit.curr_from_prev, warp.warped_centre);
-  const double half = (window.pixels.width - 1) / 2.0, half_y = (window.pixels.height - 1) / 2.0;
+  const double half = (window.width - 1) / 2.0, half_y = (window.height - 1) / 2.0;
   out->fitted = true;
   out->enu_m =
       Eigen::Vector2d((q.x() - half) * window.m_per_px, (half_y - q.y()) * window.m_per_px);
@@ -491,46 +532,98 @@ MapFix MapMatcher::Impl::Run(const MapMatchFrame& frame, const MapMatchWindow& w
     return done(MapFixStatus::kNoMapTexture);
   }
   FillInvalid(m.map, m.map_valid);
-  // The frame at the window's resolution, north-up when the heading is known.
-  int ww = 0, wh = 0;
-  const Warp warp = MakeWarp(frame, window.m_per_px, &ww, &wh);
-  WarpFrame(frame.pixels, warp, ww, wh, m.warped, m.warped_valid);
-  if (RobustRange(m.warped.view(), m.warped_valid.view()) < o.min_contrast) {
-    return done(MapFixStatus::kNoFrameTexture);
-  }
-  FillInvalid(m.warped, m.warped_valid);
-  const bool upright = frame.heading_rad.has_value();
-  const FeatureSet frame_features = m.Features(m.warped, m.warped_valid, o.frame_points, upright);
-  const std::size_t frame_valid = std::max<std::size_t>(1, CountValid(m.warped_valid));
-  const double map_target = static_cast<double>(o.frame_points) * map_valid / frame_valid;
+  if (const auto status = m.PrepareFrame(frame, window.m_per_px)) return done(*status);
+  const double map_target = static_cast<double>(o.frame_points) * map_valid / m.frame_valid;
   const FeatureSet map_features =
-      m.Features(m.map, m.map_valid,
-                 static_cast<int>(std::min<double>(map_target, o.max_map_points)), upright);
-  out.frame_points = static_cast<int>(frame_features.size());
-  out.map_points = static_cast<int>(map_features.size());
-  if (out.map_points < o.min_inliers) return done(MapFixStatus::kNoMapTexture);
-  if (out.frame_points < o.min_inliers) return done(MapFixStatus::kNoFrameTexture);
+      DetectOn(m.map, m.map_valid, static_cast<int>(std::min<double>(map_target, o.max_map_points)),
+               frame.heading_rad.has_value());
+  m.FitAndJudge(frame, map_features,
+                WindowGeometry{window.pixels.width, window.pixels.height, window.m_per_px},
+                prior_enu_m, gate_m, search, &out);
+  out.ms = watch.elapsed_ms();
+  return out;
+}
+
+// The frame at the window's resolution, north-up when the heading is known, and its SURF points
+// (warp, warped_w/h, frame_features, frame_valid); a status when it has no texture.
+std::optional<MapFixStatus> MapMatcher::Impl::PrepareFrame(const MapMatchFrame& frame,
+                                                           double m_per_px) {
+  warp = MakeWarp(frame, m_per_px, &warped_w, &warped_h);
+  WarpFrame(frame.pixels, warp, warped_w, warped_h, warped, warped_valid);
+  if (RobustRange(warped.view(), warped_valid.view()) < options.min_contrast) {
+    return MapFixStatus::kNoFrameTexture;
+  }
+  FillInvalid(warped, warped_valid);
+  frame_features =
+      DetectOn(warped, warped_valid, options.frame_points, frame.heading_rad.has_value());
+  frame_valid = std::max<std::size_t>(1, CountValid(warped_valid));
+  return std::nullopt;
+}
+
+// The fit of the prepared frame's points to `map_features` (window pixels) and its checks.
+void MapMatcher::Impl::FitAndJudge(const MapMatchFrame& frame, const FeatureSet& map_features,
+                                   const WindowGeometry& window,
+                                   const Eigen::Vector2d& prior_enu_m, double gate_m, bool search,
+                                   MapFix* out) {
+  const MapMatchOptions& o = options;
+  out->frame_points = static_cast<int>(frame_features.size());
+  out->map_points = static_cast<int>(map_features.size());
+  if (out->map_points < o.min_inliers) {
+    out->status = MapFixStatus::kNoMapTexture;
+    return;
+  }
+  if (out->frame_points < o.min_inliers) {
+    out->status = MapFixStatus::kNoFrameTexture;
+    return;
+  }
   // Guided around the prior when the heading is known (not in a search: the prior is weak):
   // the warped frame is then the window's geometry shifted to the prior.
   std::optional<Eigen::Matrix<double, 2, 3>> prior;
-  const Eigen::Vector2d prior_px(
-      (window.pixels.width - 1) / 2.0 + prior_enu_m.x() / window.m_per_px,
-      (window.pixels.height - 1) / 2.0 - prior_enu_m.y() / window.m_per_px);
-  if (upright && !search) {
+  const Eigen::Vector2d prior_px((window.width - 1) / 2.0 + prior_enu_m.x() / window.m_per_px,
+                                 (window.height - 1) / 2.0 - prior_enu_m.y() / window.m_per_px);
+  if (frame.heading_rad.has_value() && !search) {
     prior = Eigen::Matrix<double, 2, 3>::Zero();
     prior->leftCols<2>().setIdentity();
     prior->col(2) = prior_px - warp.warped_centre;
   }
   RansacResult fit;
-  m.Fit(frame_features, map_features, prior, o.search_radius_m / window.m_per_px + 8.0, &fit, &out);
-  if (!fit.success || fit.num_inliers < o.min_inliers) return done(MapFixStatus::kTooFewInliers);
-  m.Judge(fit, warp, frame, window, prior_enu_m, gate_m, &out);
+  Fit(frame_features, map_features, prior, o.search_radius_m / window.m_per_px + 8.0, &fit, out);
+  if (!fit.success || fit.num_inliers < o.min_inliers) {
+    out->status = MapFixStatus::kTooFewInliers;
+    return;
+  }
+  Judge(fit, warp, frame, window, prior_enu_m, gate_m, out);
   if (search) {
-    out.second_inliers = m.SecondInliers(fit, warp, ww, wh);
-    if (out.status == MapFixStatus::kFix && (out.inliers < o.min_margin * out.second_inliers ||
-                                             out.inliers - out.second_inliers < o.min_inliers)) {
-      out.status = MapFixStatus::kAmbiguous;
+    out->second_inliers = SecondInliers(fit, warp, warped_w, warped_h);
+    if (out->status == MapFixStatus::kFix && (out->inliers < o.min_margin * out->second_inliers ||
+                                              out->inliers - out->second_inliers < o.min_inliers)) {
+      out->status = MapFixStatus::kAmbiguous;
     }
+  }
+}
+
+MapFix MapMatcher::MatchFeatures(const MapMatchFrame& frame, const MapWindowFeatures& map,
+                                 const Eigen::Vector2d& prior_enu_m) {
+  if (map.size_px < 2 || !(map.m_per_px > 0.0) || !std::isfinite(map.m_per_px)) {
+    throw InvalidArgument("map fix: the map window's size must be >= 2 px and its m_per_px "
+                          "finite and > 0");
+  }
+  GrayImage dummy(1, 1);
+  CheckInputs(frame, MapMatchWindow{dummy.view(), dummy.view(), map.m_per_px});
+  const Stopwatch watch;
+  Impl& m = *impl_;
+  const MapMatchOptions& o = m.options;
+  MapFix out;
+  const double area = static_cast<double>(map.size_px) * map.size_px;
+  if (static_cast<double>(map.valid_px) / area < o.min_valid_fraction) {
+    out.status = MapFixStatus::kNoMap;
+  } else if (map.contrast < o.min_contrast) {
+    out.status = MapFixStatus::kNoMapTexture;
+  } else if (const auto status = m.PrepareFrame(frame, map.m_per_px)) {
+    out.status = *status;
+  } else {
+    m.FitAndJudge(frame, map.features, WindowGeometry{map.size_px, map.size_px, map.m_per_px},
+                  prior_enu_m, o.gate_m > 0.0 ? o.gate_m : o.search_radius_m, false, &out);
   }
   out.ms = watch.elapsed_ms();
   return out;

@@ -21,6 +21,7 @@
 // fit's covariance.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -29,6 +30,7 @@
 
 #include "aerovo/core/image.h"
 #include "aerovo/core/options.h"
+#include "aerovo/features/keypoint.h"
 
 namespace aerovo {
 
@@ -58,6 +60,12 @@ struct MapMatchOptions {
   int frame_points = 800;
   /// Most SURF points of the map window.
   int max_map_points = 8000;
+  /// The map's SURF points are detected once per tile of a fixed grid and kept for the next
+  /// attempts (pipeline/map_tiles.h; local attempts only, not a wide search's windows), the
+  /// frame's part of the automatic resolution rounded to steps of 9 % (MapLadderResolution)
+  /// so that the tiles serve while the height changes a little. false: every attempt reads its window and
+  /// detects its points.
+  bool tile_cache = true;
   /// RANSAC inlier threshold at the matching resolution, px.
   double max_distance_px = 2.0;
   /// RANSAC trials (most) and seed: same seed and input, same fix.
@@ -103,6 +111,14 @@ struct MapMatchOptions {
   /// min_inliers more (a repeated texture, a field of the same rows, two map tiles that each
   /// hold part of the frame's ground: no fix).
   double min_margin = 2.0;
+  /// Without a geo-reference (no GPS before the first fix): the whole map's data is searched in
+  /// square tiles of at most 2 search_wide_radius_m a side, at most this many (those nearest the
+  /// maps' centre; pipeline/map_fixer.h SearchWholeMap).
+  int whole_map_max_tiles = 64;
+  /// A prior for that search (a start position the user knows, WGS84 degrees): with
+  /// start_radius_m > 0 only the square of 2 start_radius_m a side around it is searched
+  /// (whole_map_max_tiles still bounds it), not the whole map. 0 = none.
+  double start_lat_deg = 0.0, start_lon_deg = 0.0, start_radius_m = 0.0;
 };
 
 /// Throws InvalidArgument naming the bad field.
@@ -120,6 +136,7 @@ void VisitFields(MapMatchOptions& o, V& v) {
   v.Field(o.gate_m, "gate_m", "Fixes farther than this from the prediction are rejected, m (0 = search_radius_m)", AtLeast(0).Finite());
   v.Field(o.frame_points, "frame_points", "SURF points of the frame (the map window's: scaled by its area)", Interval(16, 100000));
   v.Field(o.max_map_points, "max_map_points", "Most SURF points of the map window", Interval(16, 1000000));
+  v.Field(o.tile_cache, "tile_cache", "Detect the map's points once per map tile and keep them for the next attempts (local attempts; the automatic resolution in steps of 9 %)", Any());
   v.Field(o.max_distance_px, "max_distance_px", "RANSAC inlier threshold at the matching resolution, px", GreaterThan(0).Finite());
   v.Field(o.ransac_trials, "ransac_trials", "Most RANSAC trials of a fix", AtLeast(1));
   v.Field(o.seed, "seed", "Seed of the fix's RANSAC", Any());
@@ -135,6 +152,10 @@ void VisitFields(MapMatchOptions& o, V& v) {
   v.Field(o.search_gate_per_m, "search_gate_per_m", "Gate of a wide search after a fix: the gate plus this times the distance flown since the last fix (before the first fix: the wide radius)", AtLeast(0).Finite());
   v.Field(o.coarse_above_radius_m, "coarse_above_radius_m", "Searches wider than this radius, m, go coarse to fine", GreaterThan(0).Finite());
   v.Field(o.search_width_px, "search_width_px", "Coarse resolution of a search: the frame's width at it, px (never finer than the matching resolution)", Interval(64, 4096));
+  v.Field(o.whole_map_max_tiles, "whole_map_max_tiles", "Without a geo-reference: most tiles (2 x search_wide_radius_m a side) of the whole-map search", Interval(1, 10000));
+  v.Field(o.start_lat_deg, "start_lat_deg", "Without a geo-reference: latitude of a known start position, deg (with start_radius_m)", Interval(-90, 90));
+  v.Field(o.start_lon_deg, "start_lon_deg", "Without a geo-reference: longitude of a known start position, deg (with start_radius_m)", Interval(-180, 180));
+  v.Field(o.start_radius_m, "start_radius_m", "Without a geo-reference: search this far around the start position instead of the whole map, m (0 = the whole map)", AtLeast(0).Finite());
   v.Field(o.min_margin, "min_margin", "A search's hit needs this many times the inliers of the best other location (and min_inliers more)", AtLeast(1).Finite());
 }
 // clang-format on
@@ -170,6 +191,21 @@ struct MapMatchWindow {
   GrayImageView pixels;  ///< North-up grey window.
   GrayImageView valid;   ///< 255 where the map has data (same size), else 0.
   double m_per_px = 0.0;
+};
+
+/// The map around the prediction given by its SURF points instead of its pixels
+/// (MapMatcher::MatchFeatures): what a cache of the map's points hands over (pipeline/
+/// map_tiles.h). A square north-up window as MapMatchWindow's, pixel (x, y) at east = (x - (size
+/// - 1) / 2) m_per_px, north = ((size - 1) / 2 - y) m_per_px of its centre.
+struct MapWindowFeatures {
+  /// SURF points (DetectMapFeatures; upright when the frame's heading is known), window px.
+  FeatureSet features;
+  int size_px = 0;           ///< Side of the window, px.
+  double m_per_px = 0.0;     ///< Its resolution.
+  std::size_t valid_px = 0;  ///< Its pixels with map data (min_valid_fraction's measure).
+  /// The robust intensity range of those pixels, grey levels (min_contrast's measure,
+  /// MapRobustRange).
+  double contrast = 0.0;
 };
 
 /// One attempt, by value.
@@ -212,6 +248,22 @@ double MapSearchResolution(const MapMatchOptions& options, int frame_width_px, d
 /// of 8 coarse pixels, at least 10 m.
 MapMatchOptions MapRefineOptions(const MapMatchOptions& options, double coarse_m_per_px);
 
+/// The robust intensity range of a grey histogram: 1st to 99th percentile, grey levels; 0 when
+/// it is empty (MapMatchOptions::min_contrast's measure).
+double MapRobustRange(const std::array<std::int64_t, 256>& histogram);
+
+/// `m_per_px` rounded to the nearest of the ladder 2^(k/8) m/px (k integer; steps of 9 %): the matching
+/// resolutions a cache of the map's points is kept at (pipeline/map_tiles.h), so that a height
+/// that changes a little does not change the resolution.
+double MapLadderResolution(double m_per_px);
+
+/// The SURF points of a map image as MapMatcher matches them: invalid pixels (`valid` 0) set
+/// to the valid ones' mean, adaptive SURF (upright or not) for about `target_points` points,
+/// the points whose descriptor disc (12 scales) reaches an invalid pixel or the border dropped.
+/// Throws InvalidArgument when `valid` is not `pixels`' size.
+FeatureSet DetectMapFeatures(const GrayImageView& pixels, const GrayImageView& valid,
+                             int target_points, bool upright);
+
 /// Reusable matcher (SURF engines, matcher and RANSAC buffers). Not thread-safe: one per thread.
 class MapMatcher {
  public:
@@ -240,6 +292,12 @@ class MapMatcher {
   /// Throws as Match.
   MapFix Search(const MapMatchFrame& frame, const MapMatchWindow& window,
                 const Eigen::Vector2d& prior_enu_m, double gate_m);
+
+  /// Match with the map window given by its points (a cache's): the same checks, prior, gate
+  /// and fit as Match, with `map`'s valid_px and contrast for the window's data and texture.
+  /// Throws as Match, and for a size under 2 px.
+  MapFix MatchFeatures(const MapMatchFrame& frame, const MapWindowFeatures& map,
+                       const Eigen::Vector2d& prior_enu_m);
 
  private:
   struct Impl;

@@ -30,6 +30,15 @@ std::unique_ptr<FrameStage> MakeWindowStage();                       // stage_wi
 /// The larger standard deviation of w's position (the square root of the larger eigenvalue of
 /// its covariance's x/y block), m; 0 without a covariance (stage_window.cc).
 double WindowSigmaXyM(const WindowedPose& w);
+/// The standard deviation of w's heading, rad; 0 without a covariance (stage_window.cc).
+double WindowSigmaHeadingRad(const WindowedPose& w);
+/// A jump of the live pose by `jump_m` and a turn of `turn_rad` (its absolute value): a reset
+/// with `cause` when either is past the autopilots' gates for the pose's own standard deviations
+/// (mavlink::PoseJumpResetThresholdM of WindowSigmaXyM, mavlink::HeadingJumpResetThresholdRad of
+/// WindowSigmaHeadingRad; `w` null: no window, the gates' floors), heading_only when only the turn
+/// is; else no reset (stage_window.cc).
+PoseReset JumpPastGates(double jump_m, double turn_rad, const WindowedPose* w,
+                        PoseReset::Cause cause);
 /// The window stage's test of a jump of the live pose (FrameState::pose_reset): at a whole-graph
 /// solve (w.full_solve) only, the distance between w's position and the causal prediction
 /// (`previous_windowed`, the pose given for the previous frame, moved by the causal step from

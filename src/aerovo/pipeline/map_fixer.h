@@ -11,7 +11,11 @@
 // found: the run's first attempt, and the attempt after map_fix.search_after_failures failed
 // ones in a row, is a wide search (search_wide_radius_m, coarse to fine), gated by the radius
 // before the run's first fix and by the track's drift since the last fix after it
-// (MapMatchOptions).
+// (MapMatchOptions). Without a geo-reference (GPS denied from the start, no positions in the
+// telemetry), a job is unanchored: the fixer searches the whole map for it (SearchWholeMap),
+// and a hit, a candidate, must be confirmed by the next attempt, a local one predicted through
+// it; the confirmed fix seeds the run's geo-reference (map_fix stage; docs/map.md "A start
+// without GPS").
 #pragma once
 
 #include <condition_variable>
@@ -28,6 +32,7 @@
 #include "aerovo/geo/geo_point.h"
 #include "aerovo/geo/local_enu.h"
 #include "aerovo/odometry/map_match.h"
+#include "aerovo/pipeline/map_tiles.h"
 #include "aerovo/pipeline/runner.h"
 
 namespace aerovo::map {
@@ -45,6 +50,19 @@ struct MapFixJob {
   std::optional<double> heading_rad;  ///< ENU (odometry/map_match.h).
   GeoPoint predicted;                 ///< The track's position of the frame.
   std::optional<GeoPoint> gps;        ///< The frame's GPS (withheld or not), for the comparison.
+  /// False: the track has no geo-reference, `predicted` and `heading_rad` mean nothing; the
+  /// fixer predicts through its candidate, else searches the whole map.
+  bool anchored = true;
+  /// The frame's position (m) and heading (rad, odometry/pose_chain.h) in the local VO frame.
+  Eigen::Vector2d local_m = Eigen::Vector2d::Zero();
+  double local_heading_rad = 0.0;
+};
+
+/// A fix's part in the geo-reference seeded from the map (MapFixJob::anchored false).
+enum class MapSeedRole {
+  kNone,
+  kCandidate,  ///< A whole-map search's fix: to be confirmed by the next attempt.
+  kConfirmed,  ///< The local fix predicted through the candidate: the seed.
 };
 
 /// One attempt's outcome (a row of map_fixes.csv).
@@ -57,6 +75,14 @@ struct MapFixRecord {
   /// A search, coarse to fine (a wide search, or search_radius_m above coarse_above_radius_m).
   bool search = false;
   MapFix fix;
+  /// The map (index into ReferenceMaps::infos(), the order of --map) with data under the fit's
+  /// position (the prediction's when nothing was fitted): the preferred map there, the one the
+  /// window's pixels at the frame came from; nullopt where no map has data.
+  std::optional<int> map;
+  MapSeedRole seed = MapSeedRole::kNone;
+  bool whole_map = false;  ///< A whole-map search (no prediction: `predicted` is its hit).
+  Eigen::Vector2d local_m = Eigen::Vector2d::Zero();  ///< The job's.
+  double local_heading_rad = 0.0;                     ///< The job's.
   std::optional<GeoPoint> geo;              ///< The fit's position (when fitted).
   std::optional<double> gps_error_m;        ///< |fit - GPS|, m (fitted, with GPS).
   std::optional<double> track_gps_error_m;  ///< |track - GPS| at the frame, m.
@@ -77,7 +103,14 @@ class MapFixer {
   /// e.g. an unreadable map, is rethrown here).
   void Submit(MapFixJob job);
   /// A frame was due but the track is not geo-referenced yet (no prediction).
-  void CountNoPrediction() { ++no_prediction_; }
+  void CountNoPrediction() {
+    const std::lock_guard lock(mutex_);
+    ++no_prediction_;
+  }
+  /// The newest finished attempt not taken yet when it confirms a candidate (MapSeedRole::
+  /// kConfirmed), waiting as TakeFix does: the fix that seeds the geo-reference. Recorded as
+  /// the seed (summary.json map_fixes.georef).
+  std::optional<MapFixRecord> TakeSeed(bool due);
   /// map_fix.apply: the newest finished attempt not taken yet, when it is a fix (marked applied).
   /// A file source's fixes are taken at due frames only, after waiting for the attempt in flight
   /// (so that a fix is taken at a frame that does not depend on the machine's speed); a live
@@ -93,11 +126,30 @@ class MapFixer {
 
  private:
   void Work();
-  MapFixRecord Attempt(MapFixJob& job);
+  std::optional<MapFixRecord> Attempt(MapFixJob& job);
+  // An attempt around the job's prediction (`may_search`: a wide search when due).
+  MapFixRecord Anchored(const MapFixJob& job, bool may_search);
+  // No geo-reference: the confirmation of the candidate, else a whole-map search (nullopt: none
+  // due, counted as no prediction).
+  std::optional<MapFixRecord> Unanchored(MapFixJob& job);
+  // The whole map's data searched coarse to fine without a prior (tiles of at most
+  // search_wide_radius_m, start_search_max_tiles of them nearest the maps' centre); the fix and
+  // its WGS84 position (`at`, when fitted).
+  MapFix SearchWholeMap(const MapFixJob& job, std::optional<GeoPoint>* at);
+  // Match at the matching resolution around `hit` with `heading_rad` (a search's refinement);
+  // the fix in `hit`'s ENU plane.
+  MapFix Refine(const MapFixJob& job, const GeoPoint& hit, double heading_rad);
   // The coarse-to-fine search of `radius_m` around the job's prediction (`enu`: its ENU plane)
   // with the gate `gate_m`: MapMatcher::Search over a coarse window, then Match at the matching
   // resolution around its hit; the fix in `enu`.
   MapFix CoarseToFine(const MapFixJob& job, const LocalEnu& enu, double radius_m, double gate_m);
+  // The resolution of the map with data at `p` (the finest map's where none has), m/px.
+  double MapResolutionAt(const GeoPoint& p) const;
+  // summary "map_fixes" georef: the seed and the whole-map searches, or why none.
+  void SummarizeSeed(RunSummary::MapFixes* s) const;
+  // The attempt in the window of `radius_m` around the job's prediction (its ENU plane): read
+  // and matched, or from the tiles' points (map_fix.tile_cache).
+  MapFix Local(const MapFixJob& job, double radius_m);
   // After an attempt: the failures in a row, the first fix, the distance since the last fix.
   void Follow(const MapFixRecord& record);
 
@@ -105,7 +157,10 @@ class MapFixer {
   MapMatchOptions options_;
   bool live_;
   MapMatcher matcher_;
-  double map_m_per_px_ = 0.0;
+  std::optional<MapTileCache> tiles_;  // map_fix.tile_cache: the worker's
+  // The matching's map resolution, m/px: at each attempt, that of the map at the prediction
+  // (ReferenceMaps::MapAt; the finest map's where none has data).
+  double map_m_per_px_ = 0.0, finest_m_per_px_ = 0.0;
   std::mutex mutex_;
   std::condition_variable wake_, done_;
   std::optional<MapFixJob> job_;  // waiting for the worker
@@ -120,6 +175,12 @@ class MapFixer {
   bool had_fix_ = false;
   double flown_since_fix_m_ = 0.0;
   std::optional<GeoPoint> last_predicted_;
+  // Unanchored jobs: the candidate (a whole-map search's fix), the due attempts to skip before
+  // the next whole-map search, the seed taken (records_ index).
+  std::optional<MapFixRecord> candidate_;
+  int whole_map_skips_ = 0;
+  std::optional<std::size_t> seed_record_;
+  int whole_map_tiles_ = 0, whole_map_tiles_total_ = 0, whole_map_searches_ = 0;
   std::size_t taken_ = 0;  // records_ before it were offered to TakeFix
   std::thread worker_;
 };

@@ -21,69 +21,20 @@
 #include "aerovo/core/testing.h"
 #include "aerovo/geo/local_enu.h"
 #include "aerovo/map/reference_map.h"
+#include "aerovo/pipeline/map_fixer_test_util.h"
 
 namespace aerovo::run_steps {
 namespace {
 
 namespace fs = std::filesystem;
 
-constexpr double kMpp = 0.5, kLat0 = 45.0, kLon0 = 7.0;
-constexpr int kSize = 800;
-
-// The texture (smoothed noise, full contrast) and the map of it.
-struct TexturedMap {
-  cv::Mat grey;
-  fs::path path;
-  TexturedMap() {
-    cv::Mat noise(kSize, kSize, CV_32F);
-    cv::theRNG().state = 5;
-    cv::randu(noise, 0.0, 1.0);
-    cv::GaussianBlur(noise, noise, cv::Size(), 2.0);
-    cv::normalize(noise, noise, 0, 255, cv::NORM_MINMAX);
-    noise.convertTo(grey, CV_8U);
-    path = ::aerovo::testing::FreshTempDir("aerovo_map_fixer", "map") / "map.tif";
-    GDALAllRegister();
-    GDALDataset* ds = GetGDALDriverManager()->GetDriverByName("GTiff")->Create(
-        path.c_str(), kSize, kSize, 1, GDT_Byte, nullptr);
-    EXPECT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, kSize, kSize, grey.data, kSize, kSize,
-                                             GDT_Byte, 0, 0, nullptr),
-              CE_None);
-    double gt[6] = {0.0, kMpp, 0.0, 0.0, 0.0, -kMpp};
-    ds->SetGeoTransform(gt);
-    OGRSpatialReference srs;
-    srs.importFromProj4("+proj=tmerc +lat_0=45 +lon_0=7 +k=1 +x_0=0 +y_0=0 +ellps=WGS84 +units=m");
-    ds->SetSpatialRef(&srs);
-    GDALClose(ds);
-  }
-  ~TexturedMap() {
-    std::error_code ec;
-    fs::remove_all(path.parent_path(), ec);
-  }
-  // A 240 x 180 frame whose centre is at map pixel (cx, cy) (heading 0, 0.5 m/px: focal 100 px
-  // at 50 m), its true position and a prediction `off_east_m` east of it.
-  MapFixJob Job(int frame, int cx, int cy, double off_east_m) const {
-    MapFixJob job;
-    job.frame = frame;
-    job.time_s = frame;
-    job.pixels = GrayImage(240, 180);
-    for (int y = 0; y < 180; ++y) {
-      for (int x = 0; x < 240; ++x)
-        job.pixels.at(x, y) = grey.at<std::uint8_t>(cy - 90 + y, cx - 120 + x);
-    }
-    job.focal_px = 100.0;
-    job.height_m = 50.0;
-    job.heading_rad = 0.0;
-    // The frame's centre pixel (119.5, 89.5) is map pixel (cx - 0.5, cy - 0.5), whose centre is
-    // at east (cx) kMpp, north -(cy) kMpp in the map's CRS (the local plane of its origin).
-    const LocalEnu enu(kLat0, kLon0, 0.0);
-    job.gps = enu.Reverse(cx * kMpp, -cy * kMpp, 0.0);
-    job.predicted = enu.Reverse(cx * kMpp + off_east_m, -cy * kMpp, 0.0);
-    return job;
-  }
-};
+using map_testing::kLat0;
+using map_testing::kLon0;
+using map_testing::kMpp;
+using map_testing::TexturedMap;
 
 const TexturedMap& Map() {
-  static const TexturedMap m;
+  static const TexturedMap m(5, "aerovo_map_fixer");
   return m;
 }
 
@@ -152,7 +103,7 @@ TEST(MapFixer, WideSearchAfterFailuresFindsAFarPredictionThenGatesOne) {
   ASSERT_TRUE(m.time_to_first_fix_s.has_value());
   EXPECT_DOUBLE_EQ(*m.time_to_first_fix_s, 4.0);
   EXPECT_LT(m.max_m, 0.3);
-  // The rows' status and search columns (18 columns).
+  // The rows' status and search columns (19 columns).
   const std::string csv = ::aerovo::testing::ReadText(dir / "map_fixes.csv");
   std::vector<std::string> rows;
   for (std::size_t at = csv.find('\n'); at + 1 < csv.size();) {
@@ -166,13 +117,115 @@ TEST(MapFixer, WideSearchAfterFailuresFindsAFarPredictionThenGatesOne) {
         cells.back() += c;
       }
     }
-    rows.push_back(cells.size() == 18 ? cells[2] + " " + cells[16] : line);
+    rows.push_back(cells.size() == 21 ? cells[2] + " " + cells[16] : line);
     at = end;
   }
   const std::vector<std::string> expected = {
       "few_inliers local", "few_inliers local", "fix wide", "fix local",
       "few_inliers local", "few_inliers local", "gate wide"};
   EXPECT_EQ(rows, expected) << csv;
+}
+
+// No prediction (MapFixJob::anchored false): the first job is searched over the whole map (400 x
+// 400 m in tiles of 200 m: 4) without a heading and found, a candidate; the next one, 20 m south
+// in the local frame, is predicted through it and matched locally: it confirms the candidate,
+// and TakeSeed hands it over once. A frame of another texture is searched, found nowhere, and
+// the next search_after_failures (2) unanchored jobs are counted as without a prediction.
+TEST(MapFixer, WithoutAPredictionTheWholeMapIsSearchedAndTheNextFixConfirmsIt) {
+  const map::ReferenceMaps maps({Map().path});
+  MapMatchOptions o;
+  o.search_radius_m = 30.0;
+  o.search_wide_radius_m = 100.0;
+  o.search_after_failures = 2;
+  MapFixer fixer(maps, o, /*live=*/false);
+  const auto unanchored = [](MapFixJob job, double local_north_m) {
+    job.anchored = false;
+    job.heading_rad.reset();
+    job.predicted = GeoPoint{};
+    job.local_m = Eigen::Vector2d(0.0, local_north_m);
+    return job;
+  };
+  fixer.Submit(unanchored(Map().Job(0, 300, 300, 0.0), 0.0));
+  EXPECT_FALSE(fixer.TakeSeed(true).has_value());  // a candidate only
+  fixer.Submit(unanchored(Map().Job(2, 300, 340, 0.0), -20.0));
+  const std::optional<MapFixRecord> seed = fixer.TakeSeed(true);
+  ASSERT_TRUE(seed.has_value());
+  EXPECT_EQ(seed->frame, 2);
+  EXPECT_EQ(seed->seed, MapSeedRole::kConfirmed);
+  ASSERT_TRUE(seed->gps_error_m.has_value());
+  EXPECT_LT(*seed->gps_error_m, 0.3);
+  EXPECT_NEAR(seed->fix.heading_rad, 0.0, 0.01);
+  EXPECT_FALSE(fixer.TakeSeed(true).has_value());  // once
+  // Another texture: nowhere on the map.
+  MapFixJob other = unanchored(Map().Job(4, 300, 300, 0.0), 0.0);
+  cv::Mat noise(180, 240, CV_8U);
+  cv::theRNG().state = 11;
+  cv::randu(noise, 0, 256);
+  cv::GaussianBlur(noise, noise, cv::Size(), 2.0);
+  cv::normalize(noise, noise, 0, 255, cv::NORM_MINMAX);
+  for (int y = 0; y < 180; ++y) {
+    for (int x = 0; x < 240; ++x) other.pixels.at(x, y) = noise.at<std::uint8_t>(y, x);
+  }
+  MapFixer lost(maps, o, /*live=*/false);
+  for (int i = 0; i < 4; ++i) {
+    other.frame = 2 * i;
+    other.time_s = 2.0 * i;
+    lost.Submit(other);
+  }
+  RunSummary summary, lost_summary;
+  const fs::path dir = Map().path.parent_path();
+  fixer.Finish(dir, &summary);
+  ASSERT_TRUE(summary.map_fixes.has_value());
+  const RunSummary::MapFixes& m = *summary.map_fixes;
+  EXPECT_EQ(m.attempted, 2);
+  EXPECT_EQ(m.whole_map_searches, 1);
+  EXPECT_EQ(m.whole_map_tiles, 4);
+  EXPECT_EQ(m.candidates, 1);
+  ASSERT_TRUE(m.georef_seed.has_value());
+  EXPECT_EQ(m.georef_seed->frame, 2);
+  EXPECT_EQ(m.georef_seed->candidate_frame, 0);
+  EXPECT_EQ(m.georef_note, "");
+  lost.Finish(dir, &lost_summary);
+  const RunSummary::MapFixes& l = *lost_summary.map_fixes;
+  EXPECT_EQ(l.attempted, 2);  // jobs 0 and 3 searched, 1 and 2 without a prediction
+  EXPECT_EQ(l.whole_map_searches, 2);
+  EXPECT_EQ(l.no_prediction, 2);
+  EXPECT_EQ(l.fixes, 0);
+  EXPECT_FALSE(l.georef_seed.has_value());
+  EXPECT_NE(l.georef_note.find(
+                "no whole-map search found the frame (2 searches over 4 of the map's 4 tiles"),
+            std::string::npos)
+      << l.georef_note;
+}
+
+// A start position given (map_fix.start_*): only the square around it is searched. Within 60 m
+// of the frame: one tile, the frame found; 250 m away (the frame far outside the window of the
+// square of 60 m around it): not found, and the note says where it searched.
+TEST(MapFixer, AStartPositionGivenBoundsTheSearchWithoutAPrediction) {
+  const map::ReferenceMaps maps({Map().path});
+  const LocalEnu enu(kLat0, kLon0, 0.0);
+  const auto search_from = [&](double east_m, RunSummary* summary) {
+    MapMatchOptions o;
+    o.search_wide_radius_m = 100.0;
+    o.start_radius_m = 60.0;
+    const GeoPoint start = enu.Reverse(300 * kMpp + east_m, -300 * kMpp, 0.0);
+    o.start_lat_deg = start.lat_deg;
+    o.start_lon_deg = start.lon_deg;
+    MapFixer fixer(maps, o, /*live=*/false);
+    MapFixJob job = Map().Job(0, 300, 300, 0.0);
+    job.anchored = false;
+    job.heading_rad.reset();
+    fixer.Submit(std::move(job));
+    fixer.Finish(Map().path.parent_path(), summary);
+  };
+  RunSummary near, far;
+  search_from(20.0, &near);
+  EXPECT_EQ(near.map_fixes->whole_map_tiles, 1);
+  EXPECT_EQ(near.map_fixes->candidates, 1);
+  search_from(250.0, &far);
+  EXPECT_EQ(far.map_fixes->candidates, 0);
+  EXPECT_NE(far.map_fixes->georef_note.find("within 60 m of the start position"), std::string::npos)
+      << far.map_fixes->georef_note;
 }
 
 TEST(MapFixer, LiveSourceSkipsFramesDueWhileBusy) {

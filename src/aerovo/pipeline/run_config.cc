@@ -272,9 +272,12 @@ class YamlReader {
             "with an anchor used by a merge key `<<: *name` is allowed as a template)",
             where_, at, it.key()));
       }
-      if (it->is_array()) {
-        throw InputError(fmt::format("{}: line {}: '{}': lists are not allowed (flat key: value "
-                                     "only)",
+      // A list of scalars is a list option's value (`map: [a.tif, b.tif]`; the schema rejects
+      // it for any other key, naming the key); nothing deeper.
+      const auto nested = [](const nlohmann::json& e) { return e.is_array() || e.is_object(); };
+      if (it->is_array() && std::any_of(it->begin(), it->end(), nested)) {
+        throw InputError(fmt::format("{}: line {}: '{}': lists of lists or mappings are not "
+                                     "allowed (flat key: value, or a list of values)",
                                      where_, at, it.key()));
       }
       out[it.key()] = *it;
@@ -410,13 +413,31 @@ class YamlReader {
   std::set<std::string> merged_anchors_;
   std::map<std::string, std::string> top_anchors_;  // top-level key -> anchor of its mapping
   std::map<std::string, int> top_lines_;
+
+ public:
+  /// The line (1-based) of each top-level key read by ReadFlat.
+  const std::map<std::string, int>& top_lines() const { return top_lines_; }
 };
 
-// Parses a flat YAML mapping (key: scalar, with anchors, aliases and merge keys) into a JSON
-// object.
-nlohmann::json ParseFlatYaml(const std::string& text, const std::string& where) {
+// A flat YAML mapping (key: scalar or list of scalars, with anchors, aliases and merge keys)
+// as a RunConfig over `base`: a value the schema rejects (RunConfigFromJson's InvalidArgument
+// naming the key) is an InvalidArgument naming the file and the key's line too (a bad value,
+// as on the command line; a YAML syntax or structure error is an InputError).
+RunConfig RunConfigFromYaml(const std::string& text, RunConfig base, const std::string& where) {
   YamlReader reader(text, where);
-  return reader.ReadFlat();
+  const nlohmann::json j = reader.ReadFlat();
+  try {
+    return RunConfigFromJson(j, std::move(base), where);
+  } catch (const InvalidArgument& e) {
+    const std::string what = e.what();
+    for (const auto& [key, line] : reader.top_lines()) {
+      if (what.find("'" + key + "'") == std::string::npos) continue;
+      const std::string prefix = where + ": ";
+      const std::string rest = what.rfind(prefix, 0) == 0 ? what.substr(prefix.size()) : what;
+      throw InvalidArgument(fmt::format("{}: line {}: {}", where, line, rest));
+    }
+    throw;
+  }
 }
 
 }  // namespace
@@ -424,7 +445,7 @@ nlohmann::json ParseFlatYaml(const std::string& text, const std::string& where) 
 RunConfig ParseRunConfig(std::string_view text, RunConfigFormat format, RunConfig base,
                          const std::string& source) {
   if (format == RunConfigFormat::kYaml) {
-    return RunConfigFromJson(ParseFlatYaml(std::string(text), source), std::move(base), source);
+    return RunConfigFromYaml(std::string(text), std::move(base), source);
   }
   nlohmann::json j;
   try {

@@ -246,7 +246,8 @@ struct RunConfig {
   /// 5 m alignment limit, a position still worth more than dead reckoning.
   double mavlink_gps_input_max_sigma_m = 10.0;
   /// GPS_INPUT: the odometry's drift as a fraction of the distance flown from the first frame
-  /// (the track the geo-reference anchors), added to the position's standard deviation (the
+  /// (the track the geo-reference anchors) or from the last fix against a map fused into the
+  /// track (map_fix.apply), added to the position's standard deviation (the
   /// step model alone does not see drift). Default 0.01 (1 %: aerovo's end-point errors on real flights are 0.4-1 % of the
   /// distance, BENCHMARKS.md).
   double mavlink_gps_input_drift = 0.01;
@@ -319,15 +320,17 @@ struct RunConfig {
   /// (barometer, compass, gimbal). 0 = from the start (the track is then not geo-referenced);
   /// negative (default -1) = never.
   double gps_denied_after_s = -1.0;
-  /// A reference map (docs/map.md; map/reference_map.h): any geo-referenced raster GDAL opens.
-  /// Opened and checked before the frames (an InputError naming it when it is missing, corrupt,
-  /// has no CRS or geotransform, or covers none of the telemetry's positions the run may use:
-  /// those before gps_denied_after_s); after the run, its cover of the geo-referenced track
+  /// The reference maps (docs/map.md; map/reference_map.h): any geo-referenced rasters GDAL
+  /// opens, in the order of preference (the first with data at a place is read there; a window
+  /// it covers in part is filled from the next ones). Opened and checked before the frames (an
+  /// InputError naming the map that is missing, corrupt, has no CRS or geotransform; naming them
+  /// all when together they cover none of the telemetry's positions the run may use: those
+  /// before gps_denied_after_s); after the run, their cover of the geo-referenced track
   /// (summary.json "map", a warning when partial); the frames are matched against it for
   /// absolute fixes (map_fix below; pipeline/map_fixer.h), recorded and compared with GPS
   /// (map_fixes.csv, summary.json "map_fixes"), and with map_fix.apply fused into the pose
-  /// graph (stage_map_fix.cc). "" = none.
-  std::string map;
+  /// graph (stage_map_fix.cc). Empty = none.
+  std::vector<std::string> map;
   /// The fixes against `map` (keys map_fix.*; odometry/map_match.h). Unused without a map.
   MapMatchOptions map_fix;
   /// The sensor's static pattern (vignetting, fixed-pattern noise) estimated from the flight and
@@ -397,7 +400,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.mavlink_key_timestamp, "mavlink_key_timestamp", "File the signing timestamp is kept in across runs ('' = the key file + .timestamp, 'none' = not kept)", Any());
   v.Field(c.mavlink_gps_input, "mavlink_gps_input", "Also send each geo-referenced frame's position as GPS_INPUT (#232) for ArduPilot's GPS1_TYPE 14 (docs/autopilot.md)", Any().Switch());
   v.Field(c.mavlink_gps_input_max_sigma_m, "mavlink_gps_input_max_sigma_m", "GPS_INPUT: 3D fix only while the position's standard deviation is at most this, m", GreaterThan(0).Finite());
-  v.Field(c.mavlink_gps_input_drift, "mavlink_gps_input_drift", "GPS_INPUT: odometry drift as a fraction of the distance flown from the first frame, added to the position's standard deviation", Interval(0, 1));
+  v.Field(c.mavlink_gps_input_drift, "mavlink_gps_input_drift", "GPS_INPUT: odometry drift as a fraction of the distance flown from the first frame (or the last map fix fused), added to the position's standard deviation", Interval(0, 1));
   v.Field(c.mavlink_gps_input_id, "mavlink_gps_input_id", "GPS_INPUT: gps_id, the autopilot's GPS instance that takes it (0 = the first)", Interval(0, 255));
   v.Field(c.poses_jsonl, "poses_jsonl", "Pose stream: one JSON object per frame, written as it is done ('-' = stdout, then everything else goes to stderr)", Any());
   v.Field(c.frame_queue, "frame_queue", "Frames decoded ahead on a reader thread (0 = none); a live source keeps only the newest, dropping older ones", AtLeast(0));
@@ -410,7 +413,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.attitude_warn_deg, "attitude_warn_deg", "Warn when the telemetry's camera is this far from nadir and attitude is off, deg", Interval(0, 90));
   v.Field(c.ground_elevation_m, "ground_elevation_m", "Ground altitude above sea level, m, for telemetry with only an altitude above sea level (nan = unknown)", Any());
   v.Field(c.takeoff_height_agl_m, "takeoff_height_agl_m", "Take-off point's height above the ground flown over, m (added to the relative altitude)", Interval(-1e4, 1e4));
-  v.Field(c.map, "map", "Reference map (GeoTIFF/COG, VRT, MBTiles; docs/map.md): checked against the flight, its cover of the track reported, the frames matched against it for absolute fixes (map_fixes.csv; fused into the track with --map-fix-apply)", Any());
+  v.Field(c.map, "map", "Reference map (GeoTIFF/COG, VRT, MBTiles; docs/map.md); several in the order of preference (--map recent.tif --map older.tif): checked against the flight, its cover of the track reported, the frames matched against it for absolute fixes (map_fixes.csv; fused into the track with --map-fix-apply)", Any());
   v.Field(c.gps_denied_after_s, "gps_denied_after_s", "Withhold the telemetry's positions from this many seconds after the first frame on (0 = from the start, negative = never): kept only for the comparison with GPS", Interval(-1e9, 1e9));
   v.Group("gps_check", c.gps_check);
   v.Group("flat_field", c.flat_field);

@@ -245,7 +245,8 @@ std::unique_ptr<RunContext> SetUpRun(RunSetup setup, const FrameState& first) {
   SetUpUndistortion(*run);
   run->outputs = std::make_unique<RunOutputs>(
       run->out_dir, *run->config, run->camera, run->summary->height_source, run->width_px,
-      run->height_px, first.frame.time_s, first.sample, *run->callbacks, !run->telemetry->empty());
+      run->height_px, first.frame.time_s, first.sample, *run->callbacks,
+      !run->telemetry->empty() || run->maps != nullptr);  // a map may seed the geo-reference
   if (run->maps != nullptr) {
     run->map_fixer =
         std::make_shared<MapFixer>(*run->maps, run->config->map_fix, setup.source_live);

@@ -1,6 +1,7 @@
 // The text of a run's end (runner.h RunHeadline, FormatRunSummary): one place for the CLI, the
 // tests and any caller of RunFlight.
 #include <algorithm>
+#include <filesystem>
 #include <string>
 
 #include <fmt/format.h>
@@ -114,6 +115,23 @@ std::string FormatMapFixes(const RunSummary::MapFixes& m) {
   if (m.time_to_first_fix_s) {
     t += fmt::format("  {:<40}{:.1f} s after the first attempt\n", "first fix",
                      *m.time_to_first_fix_s);
+  }
+  if (m.by_map.size() > 1) {  // several maps: each one's share, in the order given
+    for (std::size_t i = 0; i < m.by_map.size(); ++i) {
+      const RunSummary::MapFixes::ByMap& b = m.by_map[i];
+      t += fmt::format("  {:<40}{} fixes of {} attempts, {} fused\n",
+                       fmt::format("map {}: {}", i,
+                                   std::filesystem::path(b.path).filename().string()),
+                       b.fixes, b.attempted, b.fused);
+    }
+  }
+  if (m.georef_seed) {
+    t += fmt::format("  {:<40}from the map: frame {} ({:.1f} s), found by a whole-map search "
+                     "at frame {} ({:.1f} s)\n",
+                     "geo-reference", m.georef_seed->frame, m.georef_seed->time_s,
+                     m.georef_seed->candidate_frame, m.georef_seed->candidate_time_s);
+  } else if (!m.georef_note.empty()) {
+    t += fmt::format("  {:<40}none from the map: {}\n", "geo-reference", m.georef_note);
   }
   if (m.with_gps > 0) {
     t += fmt::format(

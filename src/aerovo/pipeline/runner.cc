@@ -10,6 +10,7 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
@@ -80,9 +81,33 @@ namespace {
 // summary.json "map".
 nlohmann::json ToJson(const RunSummary::MapCover& m) {
   return {{"path", m.path},
+          {"paths", m.paths},
           {"track_points", m.track_points},
           {"covered", m.covered},
           {"note", m.note}};
+}
+
+// summary.json "map_fixes" "georef": the geo-reference seeded from the map (null when no
+// attempt was made without one).
+nlohmann::json MapSeedJson(const RunSummary::MapFixes& m) {
+  if (m.whole_map_searches == 0 && !m.georef_seed) return nullptr;
+  nlohmann::json j = {{"whole_map_searches", m.whole_map_searches},
+                      {"tiles", m.whole_map_tiles},
+                      {"tiles_total", m.whole_map_tiles_total},
+                      {"candidates", m.candidates},
+                      {"seeded", m.georef_seed.has_value()},
+                      {"frame", nullptr},
+                      {"time_s", nullptr},
+                      {"candidate_frame", nullptr},
+                      {"candidate_time_s", nullptr},
+                      {"note", m.georef_note}};
+  if (m.georef_seed) {
+    j["frame"] = m.georef_seed->frame;
+    j["time_s"] = m.georef_seed->time_s;
+    j["candidate_frame"] = m.georef_seed->candidate_frame;
+    j["candidate_time_s"] = m.georef_seed->candidate_time_s;
+  }
+  return j;
 }
 
 // summary.json "map_fixes".
@@ -96,6 +121,11 @@ nlohmann::json ToJson(const RunSummary::MapFixes& m) {
            {"track_median_m", m.track_median_m}, {"track_rmse_m", m.track_rmse_m},
            {"track_max_m", m.track_max_m}};
   }
+  nlohmann::json by_map = nlohmann::json::array();
+  for (const RunSummary::MapFixes::ByMap& b : m.by_map) {
+    by_map.push_back({{"path", b.path}, {"attempted", b.attempted}, {"fixes", b.fixes},
+                      {"fused", b.fused}});
+  }
   return {{"every_n_frames", m.every_n_frames}, {"attempted", m.attempted},
           {"fixes", m.fixes},                   {"applied", m.applied},
           {"fused", m.fused},                   {"gated_by_graph", m.gated_by_graph},
@@ -105,7 +135,9 @@ nlohmann::json ToJson(const RunSummary::MapFixes& m) {
           {"search_ms", m.search_ms},           {"found", m.found},
           {"time_to_first_fix_s",
            m.time_to_first_fix_s ? nlohmann::json(*m.time_to_first_fix_s) : nlohmann::json()},
-          {"against_gps", gps}};
+          {"against_gps", gps},
+          {"by_map", by_map},
+          {"georef", MapSeedJson(m)}};
 }
 
 // summary.json "gps_denied".
@@ -391,9 +423,10 @@ std::optional<map::ReferenceMaps> OpenMap(const RunConfig& config,
                                           const run_steps::RunTelemetry& telemetry,
                                           RunSummary* summary) {
   if (config.map.empty()) return std::nullopt;
-  map::ReferenceMaps maps({config.map});
+  map::ReferenceMaps maps(std::vector<std::filesystem::path>(config.map.begin(), config.map.end()));
   summary->map = RunSummary::MapCover{};
-  summary->map->path = config.map;
+  summary->map->path = config.map.front();
+  summary->map->paths = config.map;
   std::vector<GeoPoint> fixes;
   const double t0 = telemetry.telemetry().start_time_s();
   for (const TelemetrySample& s : telemetry.telemetry().samples()) {
@@ -404,7 +437,7 @@ std::optional<map::ReferenceMaps> OpenMap(const RunConfig& config,
   if (fixes.empty()) {
     summary->warnings.push_back(fmt::format(
         "'{}': the map's cover of the flight is not checked before the run: no telemetry "
-        "position the run may use", config.map));
+        "position the run may use", fmt::join(config.map, "', '")));
     return maps;
   }
   const std::string partial = map::CheckCover(maps, fixes);
@@ -430,7 +463,9 @@ void MapCoverOfTrack(const map::ReferenceMaps& maps, const GeoReferencer& georef
   m.covered = c.covered;
   if (c.covered < c.points) {
     summary->warnings.push_back(fmt::format(
-        "'{}': the map covers {} of the {} track positions checked", m.path, c.covered, c.points));
+        "'{}': the map{} cover{} {} of the {} track positions checked",
+        fmt::join(m.paths, "', '"), m.paths.size() > 1 ? "s" : "", m.paths.size() > 1 ? "" : "s",
+        c.covered, c.points));
   }
 }
 

@@ -220,7 +220,8 @@ struct RunSummary {
   /// geo-referenced track (frames whose position falls on the map's data; `note` when the track
   /// is not geo-referenced).
   struct MapCover {
-    std::string path;
+    std::string path;                ///< The first (preferred) map.
+    std::vector<std::string> paths;  ///< Every map, in the order of preference.
     int track_points = 0, covered = 0;
     std::string note;
   };
@@ -250,6 +251,27 @@ struct RunSummary {
     int with_gps = 0;
     double median_m = 0.0, rmse_m = 0.0, max_m = 0.0;
     double track_median_m = 0.0, track_rmse_m = 0.0, track_max_m = 0.0;
+    /// Per map, in the order of preference: the attempts whose frame (the fit's position, else
+    /// the prediction) lay on its data and it was the first map there, their fixes, and those
+    /// fused (MapFixRecord::map).
+    struct ByMap {
+      std::string path;
+      int attempted = 0, fixes = 0, fused = 0;
+    };
+    std::vector<ByMap> by_map;
+    /// Without a geo-reference from GPS (pipeline/map_fixer.h, unanchored attempts): the
+    /// whole-map searches, their tiles (searched, and the maps' data area in all), the
+    /// candidates they found and the fix that confirmed one and seeded the geo-reference
+    /// (frame, time s; nullopt: none, `georef_note` says why).
+    int whole_map_searches = 0, whole_map_tiles = 0, whole_map_tiles_total = 0, candidates = 0;
+    struct Seed {
+      int frame = 0;
+      double time_s = 0.0;
+      int candidate_frame = 0;
+      double candidate_time_s = 0.0;
+    };
+    std::optional<Seed> georef_seed;
+    std::string georef_note;
   };
   std::optional<MapFixes> map_fixes;
   /// Frames at which the live pose was reset (summary.json "pose_resets"; MAVLink reset_counter

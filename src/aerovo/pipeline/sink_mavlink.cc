@@ -63,8 +63,11 @@ class GpsInputOfPoses {
     // was re-made or corrected there, the step is no motion.
     const bool jumped = f.lens_switched || f.pose_reset;
     // The distance flown from the first frame, whose track the geo-reference anchors (metres:
-    // the local frame is metric, the geo-reference only turns and moves it).
+    // the local frame is metric, the geo-reference only turns and moves it), or from the last
+    // fix against a reference map fused into the track (map_fix.apply): an absolute position,
+    // from which the odometry drifts again.
     if (previous && !jumped) distance_m_ += (local - *previous).norm();
+    if (f.map_fix == FrameState::MapFixTaken::kFused) distance_m_ = 0.0;
     if (!georef.ready()) return std::nullopt;
     const RunConfig& config = *run.config;
     mavlink::GeoFix fix;
@@ -89,7 +92,7 @@ class GpsInputOfPoses {
     }
     // ODOMETRY's position variance (the step model, plus the online window's covariance when the
     // frame has one: the larger axis of its x/y block), and the drift over the distance flown
-    // from the first frame.
+    // from the first frame or the last fused map fix.
     double var = LargerPositionVariance(m.odometry.pose_covariance);
     var += std::pow(config.mavlink_gps_input_drift * distance_m_, 2);
     fix.sigma_horizontal_m = std::sqrt(var);

@@ -3,7 +3,8 @@
 // fixes the heading and the ENU frame. At the first frame of a GPS denial (RunConfig::
 // gps_denied_after_s) a geo-reference still open is fixed from the fixes before
 // (GeoReferencer::FixWithAvailable), so that the track goes on geo-referenced without GPS; when
-// it cannot be (no fix before, or no spread), the summary says so.
+// it cannot be (no fix before, or no spread), the summary says so; with a map, the map's fixes
+// may seed it (stage_map_fix.cc).
 #include <memory>
 
 #include <fmt/format.h>
@@ -22,6 +23,16 @@ void OnDenial(const FrameState& f, const RunContext& run) {
       *run.log << fmt::format(
           "gps denied from frame {}: the heading fixed from the fixes before ({})\n",
           f.frame.index, georef.heading_source_used());
+    }
+    return;
+  }
+  if (run.map_fixer) {
+    // The map may seed it (stage_map_fix.cc): the frames wait for it (RunOutputs), and if none
+    // comes, summary.json map_fixes.georef says why.
+    if (run.log != nullptr) {
+      *run.log << fmt::format(
+          "gps denied from frame {} before the track was geo-referenced: searching the map\n",
+          f.frame.index);
     }
     return;
   }

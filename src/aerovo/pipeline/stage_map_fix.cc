@@ -23,11 +23,11 @@
 #include <utility>
 
 #include <Eigen/Geometry>
+#include <fmt/format.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "aerovo/backend/similarity2.h"
-#include "aerovo/mavlink/vision.h"
 #include "aerovo/odometry/attitude.h"
 #include "aerovo/pipeline/frame_loop.h"
 #include "aerovo/pipeline/map_fixer.h"
@@ -76,6 +76,10 @@ class MapFixStage : public FrameStage {
     MapFixer& fixer = *run.map_fixer;
     const bool due = fixer.Due(processed_++);
     const GeoReferencer& georef = run.state->georef;
+    const bool unanchored = !georef.ready() && NoGpsToCome(run);
+    if (unanchored) {
+      if (const std::optional<MapFixRecord> seed = fixer.TakeSeed(due)) Seed(*seed, f, run);
+    }
     if (fixer.options().apply) {
       graph_index_[f.frame.index] = f.result.index;
       if (graph_index_.size() > kFramesRemembered) graph_index_.erase(graph_index_.begin());
@@ -87,7 +91,8 @@ class MapFixStage : public FrameStage {
     }
     if (!due) return;
     const double focal_px = run.vo_options.focal_px;
-    if (!georef.ready() || f.pixels.empty() || !(f.height_m > 0.0) || !(focal_px > 0.0)) {
+    if ((!georef.ready() && !NoGpsToCome(run)) || f.pixels.empty() || !(f.height_m > 0.0) ||
+        !(focal_px > 0.0)) {
       fixer.CountNoPrediction();
       return;
     }
@@ -97,13 +102,49 @@ class MapFixStage : public FrameStage {
     job.pixels = NadirPixels(f, focal_px);
     job.focal_px = focal_px;
     job.height_m = f.height_m;
-    job.heading_rad = f.result.heading_rad + georef.rotation_rad();
-    job.predicted = georef.Wgs84FromLocal(f.result.position_m);
+    job.local_m = f.result.position_m;
+    job.local_heading_rad = f.result.heading_rad;
+    job.anchored = georef.ready();
+    if (job.anchored) {
+      job.heading_rad = f.result.heading_rad + georef.rotation_rad();
+      job.predicted = georef.Wgs84FromLocal(f.result.position_m);
+    }
     job.gps = f.gps ? f.gps : f.withheld_gps;
     fixer.Submit(std::move(job));
   }
 
  private:
+  // No GPS will geo-reference the track: it is denied (and was not enough before the denial), or
+  // the telemetry has no position at all. The map then seeds it (MapFixJob::anchored).
+  bool NoGpsToCome(const RunContext& run) {
+    if (run.state->denial_seen) return true;
+    if (!telemetry_has_positions_) {
+      telemetry_has_positions_ = false;
+      if (run.telemetry != nullptr) {
+        for (const TelemetrySample& s : run.telemetry->telemetry().samples()) {
+          if (s.has_fix) {
+            telemetry_has_positions_ = true;
+            break;
+          }
+        }
+      }
+    }
+    return !*telemetry_has_positions_;
+  }
+
+  // The geo-reference seeded from the map's confirmed fix `seed` (of this frame or an earlier
+  // one: its local pose is the job's).
+  void Seed(const MapFixRecord& seed, const FrameState& f, const RunContext& run) {
+    run.state->georef.SeedFromFix(seed.local_m, seed.local_heading_rad, *seed.geo,
+                                  seed.fix.heading_rad);
+    if (run.log != nullptr) {
+      *run.log << fmt::format(
+          "frame {}: the geo-reference seeded from the map's fix of frame {} (confirming a "
+          "whole-map search's)\n",
+          f.frame.index, seed.frame);
+    }
+  }
+
   // `fix` (of an earlier frame, or this one) into the run's flight graph; this frame's pose
   // replaced by the graph's newest estimate when it is fused.
   void Fuse(const MapFixRecord& fix, FrameState& f, const RunContext& run) {
@@ -146,30 +187,20 @@ class MapFixStage : public FrameStage {
     f.map_fix = o.fused ? FrameState::MapFixTaken::kFused : FrameState::MapFixTaken::kGated;
     if (!o.fused) return;
     f.map_fix_moved_m = (o.newest.translation_m - f.result.position_m).norm();
-    const double turn_rad =
-        std::abs(backend::WrapAngleRad(o.newest.heading_rad - f.result.heading_rad));
+    const double turn_rad = backend::WrapAngleRad(o.newest.heading_rad - f.result.heading_rad);
     f.result.position_m = o.newest.translation_m;
     f.result.heading_rad = o.newest.heading_rad;
     if (f.window) f.window->local_from_frame = o.newest;
-    MarkJump(f, turn_rad);
-  }
-
-  // A jump past the autopilots' innovation gates is a reset (mavlink/vision.h
-  // PoseJumpResetThresholdM and HeadingJumpResetThresholdRad of the pose's own standard
-  // deviations, the window's), unless the window stage flagged one already.
-  static void MarkJump(FrameState& f, double turn_rad) {
-    const bool covariance = f.window && f.window->has_covariance;
-    const double sigma_m = f.window ? WindowSigmaXyM(*f.window) : 0.0;
-    const double sigma_heading_rad =
-        covariance ? std::sqrt(std::max(0.0, f.window->covariance(2, 2))) : 0.0;
-    const bool moved = f.map_fix_moved_m > mavlink::PoseJumpResetThresholdM(sigma_m);
-    const bool turned = turn_rad > mavlink::HeadingJumpResetThresholdRad(sigma_heading_rad);
-    if (f.pose_reset || !(moved || turned)) return;
-    f.pose_reset.cause = PoseReset::Cause::kMapFix;
-    f.pose_reset.heading_only = !moved;
+    // A jump past the autopilots' innovation gates is a reset, unless the window stage flagged
+    // one already (JumpPastGates, frame_loop.h).
+    if (!f.pose_reset) {
+      f.pose_reset = JumpPastGates(f.map_fix_moved_m, turn_rad, f.window ? &*f.window : nullptr,
+                                   PoseReset::Cause::kMapFix);
+    }
   }
 
   int processed_ = 0;             // frames seen by this stage
+  std::optional<bool> telemetry_has_positions_;  // NoGpsToCome, once
   std::map<int, int> graph_index_;  // map_fix.apply: source frame -> flight graph index
 };
 

@@ -23,8 +23,7 @@ class RecordStage : public FrameStage {
     if (f.withheld_gps) rec.gps_flag = kGpsFlagWithheld;
     if (f.window && f.window->has_covariance) {
       f.output.sigma_xy_m = WindowSigmaXyM(*f.window);
-      f.output.sigma_heading_deg =
-          std::sqrt(std::max(0.0, f.window->covariance(2, 2))) * 180.0 / M_PI;
+      f.output.sigma_heading_deg = WindowSigmaHeadingRad(*f.window) * 180.0 / M_PI;
     }
     if (f.lens_switched) rec.status += "+lens";  // the lens estimate applied (lens_switch.h)
     // A map fix taken at this frame (stage_map_fix.cc): fused into the pose graph, or gated.

@@ -85,20 +85,28 @@ class WindowStage : public FrameStage {
 PoseReset PoseJumped(const WindowedPose& w, const backend::Similarity2& causal,
                      const backend::Similarity2& previous_causal,
                      const backend::Similarity2& previous_windowed) {
-  PoseReset r;
-  if (!w.full_solve) return r;
+  if (!w.full_solve) return PoseReset{};
   const backend::Similarity2 predicted =
       previous_windowed * backend::Between(previous_causal, causal);
   const double jump_m = (w.local_from_frame.translation_m - predicted.translation_m).norm();
   const double turn_rad =
-      std::abs(backend::WrapAngleRad(w.local_from_frame.heading_rad - predicted.heading_rad));
-  const double sigma_heading_rad =
-      w.has_covariance ? std::sqrt(std::max(0.0, w.covariance(2, 2))) : 0.0;
-  const bool moved = jump_m > mavlink::PoseJumpResetThresholdM(WindowSigmaXyM(w));
-  const bool turned = turn_rad > mavlink::HeadingJumpResetThresholdRad(sigma_heading_rad);
-  if (moved || turned) r.cause = PoseReset::Cause::kLoopClosure;
+      backend::WrapAngleRad(w.local_from_frame.heading_rad - predicted.heading_rad);
+  return JumpPastGates(jump_m, turn_rad, &w, PoseReset::Cause::kLoopClosure);
+}
+
+PoseReset JumpPastGates(double jump_m, double turn_rad, const WindowedPose* w,
+                        PoseReset::Cause cause) {
+  const bool moved = jump_m > mavlink::PoseJumpResetThresholdM(w ? WindowSigmaXyM(*w) : 0.0);
+  const bool turned = std::abs(turn_rad) >
+                      mavlink::HeadingJumpResetThresholdRad(w ? WindowSigmaHeadingRad(*w) : 0.0);
+  PoseReset r;
+  if (moved || turned) r.cause = cause;
   r.heading_only = turned && !moved;
   return r;
+}
+
+double WindowSigmaHeadingRad(const WindowedPose& w) {
+  return w.has_covariance ? std::sqrt(std::max(0.0, w.covariance(2, 2))) : 0.0;
 }
 
 double WindowSigmaXyM(const WindowedPose& w) {

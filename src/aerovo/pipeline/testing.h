@@ -42,6 +42,8 @@ class NonDefaultValues : public options::GroupingVisitor<NonDefaultValues> {
       other = std::string(key) == "mavlink" ? "udp:127.0.0.1:14550"
               : v.empty()                   ? "given"
                                             : v + "-2";
+    } else if constexpr (std::is_same_v<T, std::vector<std::string>>) {
+      other = T{"given"};
     } else if (v != v) {
       other = static_cast<T>(1.0);  // NaN = unknown (ground_elevation_m): a known value
     } else {

@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/statistics.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/eval/trajectory_eval_json.h"
 #include "aerovo/geo/local_enu.h"
@@ -902,9 +903,74 @@ void TrajectoryFigure(const RunData& run, const RunComparison& cmp, const std::s
                   ", after the alignment used by the summary.");
 }
 
+std::string MapFixKind(const MapFixRow& f);
+
+// The fixes against the reference maps (map_fixes.csv) over the geo-referenced track and GPS as
+// the run wrote them (no alignment), in the run's ENU frame (RunEnuFrame), by what became of each
+// (MapFixKind), the fixes' error against GPS in the title. Nothing without a drawn fix.
+void MapFixesFigure(const RunData& run, FigureSink& sink) {
+  const std::optional<LocalEnu> enu = RunEnuFrame(run);
+  if (!enu) return;
+  Figure f = MapFigure("map_fixes");
+  std::vector<double> vx, vy, gx, gy;
+  for (const RunFrameRow& r : run.frames) {
+    if (r.gps) {
+      const Eigen::Vector3d p = enu->Forward(*r.gps);
+      gx.push_back(p.x());
+      gy.push_back(p.y());
+    }
+    if (r.geo) {
+      const Eigen::Vector3d p = enu->Forward(*r.geo);
+      vx.push_back(p.x());
+      vy.push_back(p.y());
+    }
+  }
+  if (!gx.empty()) {
+    f.series.push_back(Series("GPS", gx, gy, SeriesStyle::kLines, style::Hex(style::kGps)));
+    f.series.back().line_width = 4.0;
+  }
+  f.series.push_back(Series("VO as flown (geo-referenced)", vx, vy, SeriesStyle::kLines,
+                            style::Hex(style::kVo)));
+  const std::pair<const char*, style::Rgb> kinds[3] = {
+      {"fused", style::kMapFixFused}, {"recorded", style::kMapFixRecorded},
+      {"gated", style::kMapFixGated}};
+  std::vector<double> errors;
+  int drawn = 0;
+  for (const auto& [kind, colour] : kinds) {
+    std::vector<double> x, y;
+    for (const MapFixRow& m : run.map_fixes) {
+      if (MapFixKind(m) != kind) continue;
+      const Eigen::Vector3d p = enu->Forward(*m.geo);
+      x.push_back(p.x());
+      y.push_back(p.y());
+      if (m.gps_error_m && std::string(kind) != "gated") errors.push_back(*m.gps_error_m);
+    }
+    if (x.empty()) continue;
+    drawn += static_cast<int>(x.size());
+    const std::string title = std::string(kind) == "fused"      ? "map fixes fused"
+                              : std::string(kind) == "recorded" ? "map fixes, not fused"
+                                                                : "map fixes rejected by a gate";
+    f.series.push_back(Series(fmt::format("{} ({})", title, x.size()), x, y, SeriesStyle::kPoints,
+                              style::Hex(colour)));
+    f.series.back().point_size = 1.2;
+  }
+  if (drawn == 0) return;
+  f.title = "Fixes against the map over the track";
+  if (!errors.empty()) {
+    f.title += fmt::format(" (against GPS: median {:.2f} m, max {:.2f} m over {} fixes)",
+                           Median(errors), *std::max_element(errors.begin(), errors.end()),
+                           errors.size());
+  }
+  FitMapHeight(f);
+  sink.Add(f, "The fixes against the reference map (map_fixes.csv) over the track as the run "
+              "wrote it and its GPS (withheld or not), in the local East-North frame: fused into "
+              "the track, recorded only, or rejected by a gate.");
+}
+
 void RunFigures(const RunData& run, const RunComparison& cmp,
                 const std::optional<RunComparison>& truth, FigureSink& sink) {
   TrajectoryFigure(run, cmp, "fig2_trajectory", sink);
+  MapFixesFigure(run, sink);
   // Against the ground truth too, when the run was compared with one (aerovo run --truth).
   if (truth && truth->comparison) TrajectoryFigure(run, *truth, "fig2_trajectory_truth", sink);
   const std::vector<double> frames = FrameAxis(run);
@@ -1039,6 +1105,36 @@ nlohmann::json GeoMosaicOverlay(const fs::path& dir, std::string* note) {
   }
 }
 
+// What a map fix (map_fixes.csv row) drawn on the map and the figure is: "fused" (a fix fused
+// into the track), "recorded" (a fix not fused: --map-fix-apply off), "gated" (the map fix's gate
+// or the pose graph's rejected it); "" for an attempt without a position worth drawing.
+std::string MapFixKind(const MapFixRow& f) {
+  if (!f.geo) return "";
+  if (f.status == "gate" || f.gated_by_graph) return "gated";
+  if (f.status != "fix") return "";
+  return f.applied ? "fused" : "recorded";
+}
+
+nlohmann::json MapFixColours() {
+  return {{"fused", style::Hex(style::kMapFixFused)},
+          {"recorded", style::Hex(style::kMapFixRecorded)},
+          {"gated", style::Hex(style::kMapFixGated)}};
+}
+
+// The map fixes drawn on the map: [lat, lon, kind, frame, time s, error to GPS m (null without
+// GPS), map index (null)] per attempt with a kind (MapFixKind).
+nlohmann::json MapFixMarkers(const RunData& run) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const MapFixRow& f : run.map_fixes) {
+    const std::string kind = MapFixKind(f);
+    if (kind.empty()) continue;
+    out.push_back({Deg7(f.geo->lat_deg), Deg7(f.geo->lon_deg), kind, f.frame, Round3(f.time_s),
+                   f.gps_error_m ? nlohmann::json(Round3(*f.gps_error_m)) : nlohmann::json(),
+                   f.map ? nlohmann::json(*f.map) : nlohmann::json()});
+  }
+  return out;
+}
+
 // The map's data: lat/lon tracks (VO geo-referenced as frames.csv gives it, GPS fixes, the ground
 // truth), per VO point its frame, time, status and error to GPS, the bridged points, colours.
 nlohmann::json MapData(const RunData& run, const RunComparison& cmp,
@@ -1097,6 +1193,7 @@ nlohmann::json MapData(const RunData& run, const RunComparison& cmp,
     }
   }
   return {{"vo", vo},
+          {"map_fixes", MapFixMarkers(run)},
           {"info", info},
           {"gps", gps},
           {"truth", truth_track},
@@ -1108,7 +1205,8 @@ nlohmann::json MapData(const RunData& run, const RunComparison& cmp,
             {"vo_optimized", style::Hex(style::kVoOptimized)},
             {"gps", style::Hex(style::kGps)},
             {"truth", style::Hex(style::kTruth)},
-            {"bridged", style::Hex(style::kBridged)}}}};
+            {"bridged", style::Hex(style::kBridged)},
+            {"map_fix", MapFixColours()}}}};
 }
 
 // The map's script: reads the JSON of #aerovo-map-data (MapData plus "mosaic"), draws it with
@@ -1155,6 +1253,23 @@ constexpr const char* kMapScript = R"js(
                                className: 'aerovo-bridged', interactive: false}).addTo(g);
     });
     layers['bridged frames'] = g.addTo(map);
+  }
+  if (d.map_fixes.length) {
+    // One marker per fix against the reference map, coloured by what became of it, a tooltip
+    // with its frame and error to GPS.
+    var names = {fused: 'map fixes fused', recorded: 'map fixes (not fused)',
+                 gated: 'map fixes rejected by a gate'};
+    var groups = {};
+    d.map_fixes.forEach(function (f) {
+      var g = groups[f[2]] || (groups[f[2]] = L.layerGroup());
+      var tip = 'map fix · frame ' + f[3] + ' · ' + f[4].toFixed(1) + ' s · ' + f[2] +
+          (f[5] === null ? '' : ' · to GPS ' + f[5].toFixed(2) + ' m') +
+          (f[6] === null ? '' : ' · map ' + f[6]);
+      L.circleMarker([f[0], f[1]], {radius: 5, color: d.colours.map_fix[f[2]], weight: 2,
+                                    fillOpacity: 0.6, className: 'aerovo-map-fix aerovo-map-fix-' + f[2]})
+          .bindTooltip(tip).addTo(g);
+    });
+    Object.keys(groups).forEach(function (k) { layers[names[k]] = groups[k].addTo(map); });
   }
   L.control.layers(null, layers, {collapsed: false}).addTo(map);
   var all = d.vo.concat(d.gps, d.truth, d.vo_optimized);
@@ -1226,6 +1341,14 @@ void MapSection(const fs::path& dir, const RunData& run, const RunComparison& cm
     key(style::kVoOptimized, "VO optimised after the flight (vo_optimized.*)");
   }
   if (!data["bridged"].empty()) key(style::kBridged, "bridged frames");
+  int kinds[3] = {0, 0, 0};  // fused, recorded, gated
+  for (const auto& f : data["map_fixes"]) {
+    const std::string k = f[2];
+    ++kinds[k == "fused" ? 0 : k == "recorded" ? 1 : 2];
+  }
+  if (kinds[0] > 0) key(style::kMapFixFused, fmt::format("map fixes fused ({})", kinds[0]));
+  if (kinds[1] > 0) key(style::kMapFixRecorded, fmt::format("map fixes, not fused ({})", kinds[1]));
+  if (kinds[2] > 0) key(style::kMapFixGated, fmt::format("map fixes rejected by a gate ({})", kinds[2]));
   b.Close("p").Newline();
   page.body.Open("div", {{"id", "aerovo-map"}}).Close("div").Newline();
   page.Para(std::string("Drag to pan, scroll to zoom; hover over the VO track for a frame's index, "

@@ -126,6 +126,30 @@ std::vector<FrameTransformRow> ReadTransformsIfPresent(const fs::path& path) {
   return out;
 }
 
+// map_fixes.csv (RunFileNames::kMapFixesCsv), when present.
+std::vector<MapFixRow> ReadMapFixesIfPresent(const fs::path& path) {
+  std::vector<MapFixRow> out;
+  if (!fs::exists(path)) return out;
+  const CsvTable t(path, {"frame", "time_s", "status", "lat_deg", "lon_deg", "gps_error_m",
+                          "applied"});
+  for (std::size_t r = 0; r < t.size(); ++r) {
+    MapFixRow row;
+    row.frame = static_cast<int>(t.Number(r, "frame"));
+    row.time_s = t.Number(r, "time_s");
+    row.status = t.cell(r, "status");
+    const std::optional<double> lat = t.OptNumber(r, "lat_deg"), lon = t.OptNumber(r, "lon_deg");
+    if (lat && lon) row.geo = GeoPoint{*lat, *lon, 0.0};
+    row.gps_error_m = t.OptNumber(r, "gps_error_m");
+    row.applied = t.Number(r, "applied") != 0.0;
+    if (t.has("gated_by_graph")) row.gated_by_graph = t.Number(r, "gated_by_graph") != 0.0;
+    if (t.has("map")) {
+      if (const std::optional<double> m = t.OptNumber(r, "map")) row.map = static_cast<int>(*m);
+    }
+    out.push_back(std::move(row));
+  }
+  return out;
+}
+
 // A TUM track written by the run (`t x y z qx qy qz qw`), when present: t, x, y of each line.
 // InputError naming the file and line for a line that does not start with three numbers, but a
 // last line without its newline (a run killed mid-write), which is ignored.
@@ -207,6 +231,7 @@ RunData ReadRunDir(const fs::path& dir) {
   run.transforms = ReadTransformsIfPresent(dir / RunFileNames::kTransformsCsv);
   run.transforms_optimized = ReadTransformsIfPresent(dir / RunFileNames::kTransformsOptimizedCsv);
   run.optimized = ReadTumIfPresent(dir / RunFileNames::kVoOptimizedTum);
+  run.map_fixes = ReadMapFixesIfPresent(dir / RunFileNames::kMapFixesCsv);
   run.summary = ReadJsonIfPresent(dir / RunFileNames::kSummaryJson);
   run.config = ReadJsonIfPresent(dir / RunFileNames::kConfigJson);
   return run;

@@ -43,8 +43,22 @@ struct FrameTransformRow {
 
 /// What a run folder holds. Files that are absent leave their part empty (an interrupted run
 /// may lack summary.json).
+/// A row of map_fixes.csv (docs/map.md): an attempt against the reference maps.
+struct MapFixRow {
+  int frame = 0;
+  double time_s = 0.0;
+  std::string status;            ///< "fix", "gate", "no_map", ...
+  std::optional<GeoPoint> geo;   ///< The fitted position (when fitted).
+  std::optional<double> gps_error_m;  ///< Its distance from the frame's GPS fix, m.
+  bool applied = false;          ///< Fused into the track.
+  bool gated_by_graph = false;   ///< A fix the pose graph's gate rejected (older runs: false).
+  std::optional<int> map;        ///< The map it came from (index in the order of --map).
+};
+
 struct RunData {
   std::filesystem::path dir;
+  /// map_fixes.csv (a run with --map); empty when the run has none.
+  std::vector<MapFixRow> map_fixes;
   std::vector<RunFrameRow> frames;
   std::vector<FrameTransformRow> transforms;
   /// transforms_optimized.csv (the offline optimisation's placements, docs/backend.md): rows as
@@ -61,7 +75,7 @@ struct RunData {
 bool IsRunDir(const std::filesystem::path& dir);
 
 /// Reads frames.csv (required) and, when present, transforms.csv, transforms_optimized.csv,
-/// vo_optimized.tum, summary.json, config.json.
+/// vo_optimized.tum, map_fixes.csv, summary.json, config.json.
 /// Throws InputError naming the file and line for a missing frames.csv, a bad header or a bad
 /// cell. A last line cut short (a run killed mid-write) is ignored.
 RunData ReadRunDir(const std::filesystem::path& dir);

@@ -26,6 +26,11 @@ inline constexpr Rgb kVoOptimized = 0x5E3C99;
 inline constexpr Rgb kBridged = 0xE69F00;
 /// Start of a track (a mark), and a whole-frame total among stage times.
 inline constexpr Rgb kStart = 0x000000;
+/// Fixes against a reference map (docs/map.md): fused into the track, recorded (a fix not
+/// fused), rejected by a gate (the map fix's, or the pose graph's).
+inline constexpr Rgb kMapFixFused = 0x1B7837;   // dark green
+inline constexpr Rgb kMapFixRecorded = 0x35978F;  // teal
+inline constexpr Rgb kMapFixGated = 0xB2182B;   // dark red
 
 /// Colours of series that are not tracks, in order: no track colour among them.
 /// Black comes fifth: a figure of four stages draws their total in black (kStart).

@@ -27,7 +27,10 @@ TEST(ReportStyle, SeriesPaletteHoldsNoTrackColour) {
   const std::set<std::string> tracks = {style::Hex(style::kGps), style::Hex(style::kVo),
                                         style::Hex(style::kTruth), style::Hex(style::kVoSim2),
                                         style::Hex(style::kBridged),
-                                        style::Hex(style::kVoOptimized)};
+                                        style::Hex(style::kVoOptimized),
+                                        style::Hex(style::kMapFixFused),
+                                        style::Hex(style::kMapFixRecorded),
+                                        style::Hex(style::kMapFixGated)};
   std::set<std::string> seen;
   for (const char* c : style::kSeriesPalette) {
     EXPECT_EQ(tracks.count(c), 0u) << c;
