@@ -151,6 +151,7 @@ struct SeenFrame {
   bool switched = false;
   std::string estimate_status;
   int replayed = 0;  // FrameState::frames_replayed
+  double live_x_m = 0.0, live_y_m = 0.0;  // the live pose (pose stream, MAVLink), local frame
 };
 class LensWatchSink : public run_steps::FrameSink {
  public:
@@ -159,7 +160,7 @@ class LensWatchSink : public run_steps::FrameSink {
   void Write(run_steps::FrameState& f, const run_steps::RunContext& run) override {
     seen_->push_back({f.frame.index, run.camera.calibrated.has_value(), f.lens_switched,
                       run.summary->lens_estimate.value("status", std::string()),
-                      f.frames_replayed});
+                      f.frames_replayed, f.result.position_m.x(), f.result.position_m.y()});
   }
 
  private:
@@ -194,11 +195,23 @@ std::string FramesCsvWithoutTimes(const fs::path& run_dir) {
   return out;
 }
 
+// The length of the track `rows` (time x y ...) from row `from` to row `to`, metres.
+double PathLength(const std::vector<std::vector<double>>& rows, std::size_t from, std::size_t to) {
+  double length = 0.0;
+  for (std::size_t i = from + 1; i <= to; ++i) {
+    length += std::hypot(rows[i][1] - rows[i - 1][1], rows[i][2] - rows[i - 1][2]);
+  }
+  return length;
+}
+
 // The run of `video` in dir/a (its lens switch at `switch_frame`, caught up at `caught_up`) is
-// the same with 1 thread (the CLI), and its steps from the catch-up frame on are those of a run
-// given its lens_estimate.yaml as the calibration file.
-void ExpectSameRunAndCalibratedSteps(const fs::path& dir, const std::string& video,
-                                     int switch_frame, int caught_up, int frames) {
+// the same with 1 thread (the CLI), and its track files are those of a run given its
+// lens_estimate.yaml as the calibration file, every frame: the frames before the catch-up frame
+// hold the replay's poses (lens_switch.h), which are that run's. `live_m`: the poses the pose
+// stream had, which stay those under the pinhole before the catch-up frame.
+void ExpectSameRunAndCalibratedTrack(const fs::path& dir, const std::string& video,
+                                     int switch_frame, int caught_up, int frames,
+                                     const std::vector<SeenFrame>& live) {
   const auto rows = e2e::ReadFramesCsv(dir / "a");
   ASSERT_EQ(rows.size(), static_cast<std::size_t>(frames));
   // Deterministic: the same frames and track again (the CLI, with 1 thread this time).
@@ -208,24 +221,42 @@ void ExpectSameRunAndCalibratedSteps(const fs::path& dir, const std::string& vid
   EXPECT_EQ(b["switch_frame"], switch_frame);
   EXPECT_EQ(b["caught_up_frame"], caught_up);
   EXPECT_EQ(ReadText(dir / "a" / "vo.tum"), ReadText(dir / "b" / "vo.tum"));
+  EXPECT_EQ(ReadText(dir / "a" / "transforms.csv"), ReadText(dir / "b" / "transforms.csv"));
   EXPECT_EQ(FramesCsvWithoutTimes(dir / "a"), FramesCsvWithoutTimes(dir / "b"));
-  // From the catch-up frame on: the track of the estimate given as a calibration file.
+  // The track of the estimate given as a calibration file, from the first frame on.
   ASSERT_TRUE(Cli("run " + video + " --calibration " + (dir / "a" / "lens_estimate.yaml").string() +
                   " --attitude-estimation off --quiet --no-report -o " + (dir / "cal").string()));
-  const double t_switch = std::stod(rows[caught_up].at("time_s"));
-  EXPECT_NEAR(t_switch, 0.1 * caught_up, 1e-6);
-  const auto est = TumRowsFrom(dir / "a" / "vo.tum", t_switch);
-  const auto cal = TumRowsFrom(dir / "cal" / "vo.tum", t_switch);
-  ASSERT_EQ(est.size(), static_cast<std::size_t>(frames - caught_up));
+  const auto est = TumRowsFrom(dir / "a" / "vo.tum", 0.0);
+  const auto cal = TumRowsFrom(dir / "cal" / "vo.tum", 0.0);
+  ASSERT_EQ(est.size(), static_cast<std::size_t>(frames));
   ASSERT_EQ(cal.size(), est.size());
-  // The steps from the catch-up frame on (the geo-referencing's fit to the GPS, which rotates
-  // the whole track, saw the frames before it under the pinhole: compared are the steps'
-  // lengths, to 1 mm of 1 m steps).
-  for (std::size_t i = 1; i < est.size(); ++i) {
-    const double e = std::hypot(est[i][1] - est[i - 1][1], est[i][2] - est[i - 1][2]);
-    const double k = std::hypot(cal[i][1] - cal[i - 1][1], cal[i][2] - cal[i - 1][2]);
-    EXPECT_NEAR(e, k, 1e-3) << "step into row " << i << " after the catch-up frame";
+  // Geo-referenced (ENU, metres) by the same fit to the same fixes: the same positions, to 1 mm.
+  for (std::size_t i = 0; i < est.size(); ++i) {
+    EXPECT_NEAR(est[i][0], cal[i][0], 1e-6) << "row " << i;
+    EXPECT_NEAR(est[i][1], cal[i][1], 1e-3) << "row " << i;
+    EXPECT_NEAR(est[i][2], cal[i][2], 1e-3) << "row " << i;
   }
+  EXPECT_EQ(rows[caught_up - 1].at("status"), "ok");
+  // The live poses before the catch-up frame were not those (the pinhole's scale: the flight to
+  // the frame before it at least 1 % shorter or longer), from the catch-up frame on they are.
+  ASSERT_EQ(live.size(), static_cast<std::size_t>(frames));
+  std::vector<std::vector<double>> live_rows;
+  for (const SeenFrame& f : live) live_rows.push_back({0.0, f.live_x_m, f.live_y_m});
+  const double live_before = PathLength(live_rows, 0, caught_up - 1);
+  const double file_before = PathLength(est, 0, caught_up - 1);
+  ::testing::Test::RecordProperty("path_before_catch_up_m", "live " + std::to_string(live_before) + ", files " +
+                                               std::to_string(file_before));
+  EXPECT_GT(std::abs(live_before / file_before - 1.0), 0.01);
+  EXPECT_NEAR(PathLength(live_rows, caught_up, frames - 1),
+              PathLength(est, caught_up, frames - 1), 1e-3);
+  // The summary's track and comparison with the truth are the files' (RunTotals).
+  const nlohmann::json sa = ReadJson(dir / "a" / "summary.json");
+  const nlohmann::json sc = ReadJson(dir / "cal" / "summary.json");
+  const double ate = sa["truth_evaluation"]["se2"]["ate_rmse_percent"].get<double>();
+  const double ate_cal = sc["truth_evaluation"]["se2"]["ate_rmse_percent"].get<double>();
+  ::testing::Test::RecordProperty("ate_rmse_percent", Describe(ate, ate_cal, -1.0));
+  EXPECT_NEAR(ate, ate_cal, 1e-3);
+  EXPECT_LT(ate, 1.0);  // the truth, to 1 % of the distance flown (40 m)
 }
 
 // The estimate comes beside the odometry (pipeline/lens_switch.h): the first frames are
@@ -235,9 +266,11 @@ void ExpectSameRunAndCalibratedSteps(const fs::path& dir, const std::string& vid
 // while every frame still gives its pose under the old lens: no pose waits for more than
 // 1 + kLensReplayFramesPerFrame frames' odometry (the whole replay, 20 frames, stalled the pose
 // stream at the switch frame before). At the catch-up frame (29: 20 kept, 2 gained per frame)
-// the lens becomes the run's, and from there on the steps are the ones of a run given the
-// estimate as its calibration file from the first frame. The autopilot sees the switch as a
-// reset: ODOMETRY's reset_counter 1 from the catch-up frame on. The same outputs with 1 thread.
+// the lens becomes the run's; the live poses before it stay those under the pinhole, but the
+// run's files take the replay's: the whole track (vo.tum) is the one of a run given the
+// estimate as its calibration file from the first frame, to 1 mm, and so is its error against
+// the truth. The autopilot sees the switch as a reset: ODOMETRY's reset_counter 1 from the
+// catch-up frame on. The same outputs with 1 thread.
 TEST(LensSelfCalibration, FirstPosesComeBeforeTheEstimateAppliedAtAFixedFrame) {
   const fs::path dir = TempDir("switch");
   ASSERT_TRUE(Cli("simulate --pattern line --length-m 40 --height-m 80 --fps 10 --width 640 "
@@ -272,7 +305,9 @@ TEST(LensSelfCalibration, FirstPosesComeBeforeTheEstimateAppliedAtAFixedFrame) {
   for (int i = 0; i < kFrames; ++i) {
     EXPECT_EQ(seen[i].index, i);  // every frame handed to the outputs, in order
     // Before the switch frame, the estimate is pending; before the catch-up frame, the old lens.
-    if (i < switch_frame) EXPECT_EQ(seen[i].estimate_status, "pending") << "frame " << i;
+    if (i < switch_frame) {
+      EXPECT_EQ(seen[i].estimate_status, "pending") << "frame " << i;
+    }
     EXPECT_EQ(seen[i].lens, i >= caught_up) << "frame " << i;
     EXPECT_EQ(seen[i].switched, i == caught_up) << "frame " << i;
     EXPECT_EQ(seen[i].replayed > 0, i >= switch_frame && i <= caught_up) << "frame " << i;
@@ -295,8 +330,8 @@ TEST(LensSelfCalibration, FirstPosesComeBeforeTheEstimateAppliedAtAFixedFrame) {
   const auto rows = e2e::ReadFramesCsv(dir / "a");
   ASSERT_EQ(rows.size(), static_cast<std::size_t>(kFrames));
   EXPECT_EQ(rows[caught_up].at("status"), "ok+lens");
-  EXPECT_EQ(rows[caught_up - 1].at("status"), "ok");
-  ExpectSameRunAndCalibratedSteps(dir, video, switch_frame, caught_up, kFrames);
+  EXPECT_EQ(le["file_poses_replaced"], true);
+  ExpectSameRunAndCalibratedTrack(dir, video, switch_frame, caught_up, kFrames, seen);
   fs::remove_all(dir);
 }
 

@@ -13,8 +13,15 @@
 namespace aerovo::run_steps {
 
 LensSwitch::LensSwitch(std::unique_ptr<LensPrepassTask> task, double first_time_s,
-                       std::shared_ptr<LivePairFeed> live_feed)
-    : task_(std::move(task)), first_time_s_(first_time_s), live_feed_(std::move(live_feed)) {}
+                       std::shared_ptr<LivePairFeed> live_feed, bool replace_file_poses)
+    : task_(std::move(task)),
+      first_time_s_(first_time_s),
+      live_feed_(std::move(live_feed)),
+      replace_file_poses_(replace_file_poses) {}
+
+bool LensSwitch::FilePosesReplaceable(const RunContext& run) {
+  return !run.config->backend.enable && !WindowRuns(run);
+}
 
 LensSwitch::~LensSwitch() {
   if (live_feed_) live_feed_->Close();  // the task's thread ends; task_ waits for it
@@ -59,6 +66,9 @@ void LensSwitch::Keep(const FrameState& f) {
   const GrayImageView& v = f.pixels;
   k.pixels = GrayImage(v.width, v.height);
   for (int y = 0; y < v.height; ++y) std::memcpy(k.pixels.row(y), v.row(y), v.width);
+  k.frame = f.frame.index;
+  k.gps = f.gps;
+  k.gps_denied = f.gps_denied;
   k.time_s = f.frame.time_s;
   k.height_m = f.height_m;
   k.yaw_deg = f.sample ? f.sample->CameraYawDeg() : std::nullopt;
@@ -96,6 +106,7 @@ void LensSwitch::TakeEstimate(RunContext& run, FrameState& f) {
     phase_ = Phase::kDone;
     kept_.clear();
     kept_.shrink_to_fit();
+    run.outputs->ReleaseHeld({});  // the files keep the live poses
     LogLensPrepass(run, *prepass_, f.frame.index, waited_ms_);
     return;
   }
@@ -122,7 +133,20 @@ void LensSwitch::Advance(RunContext& run, FrameState& f) {
     const Kept& k = kept_.front();
     GrayImageView view = k.pixels.view();
     if (path_.undistorter) view = path_.undistorter->Apply(view);
-    odometry_->Process(view, k.time_s, k.height_m, k.yaw_deg, k.attitude);
+    FrameResult r = odometry_->Process(view, k.time_s, k.height_m, k.yaw_deg, k.attitude);
+    if (replace_file_poses_) {
+      r.features.reset();
+      r.step_inliers_curr_px.resize(2, 0);
+      Replayed& out = replayed_poses_.emplace_back();
+      out.pose.frame = k.frame;
+      out.pose.world_from_full = run.reducer
+                                     ? Eigen::Matrix3d(r.world_from_frame * run.reduced_from_full)
+                                     : r.world_from_frame;
+      out.pose.result = std::move(r);
+      out.gps = k.gps;
+      out.yaw_deg = k.yaw_deg;
+      out.gps_denied = k.gps_denied;
+    }
     kept_.pop_front();
     ++replayed_;
     ++f.frames_replayed;
@@ -136,13 +160,47 @@ void LensSwitch::SwitchOver(RunContext& run, FrameState& f) {
                    CalibrationFormat::kOpenCv);
   run.odometry = std::move(odometry_);
   InstallLensPath(run, std::move(path_));
+  ReplaceFilePoses(run);
   f.lens_switched = true;
   phase_ = Phase::kDone;
   kept_.shrink_to_fit();
   nlohmann::json& j = run.summary->lens_estimate;
   j["caught_up_frame"] = f.frame.index;
   j["frames_replayed"] = replayed_;
+  j["file_poses_replaced"] = replace_file_poses_;
   LogLensPrepass(run, *prepass_, f.frame.index, waited_ms_);
+}
+
+void LensSwitch::ReplaceFilePoses(RunContext& run) {
+  GeoReferencer& georef = run.state->georef;
+  if (!replace_file_poses_) {
+    // The poses before were under the ideal pinhole (a wrong scale with a wide lens): a
+    // heading not fixed yet is fixed from the segment under the lens, which starts here.
+    if (!georef.ready()) georef.Restart();
+    return;
+  }
+  // The geo-referencing as the frames before would have given it under the lens: their
+  // replayed positions, their fixes that still stand (not rejected by the GPS check, nor
+  // superseded since: RunState::rejected) and their camera yaw fed in order to a new one; at
+  // the first denied frame, fixed with what it has (stage_georef.cc OnDenial).
+  GeoReferencer rebuilt(georef.options());
+  bool denial_seen = false;
+  std::vector<ReplayedPose> poses;
+  poses.reserve(replayed_poses_.size());
+  for (Replayed& r : replayed_poses_) {
+    const bool stands = r.gps && run.state->rejected.count(r.pose.frame) == 0;
+    rebuilt.Observe(r.pose.result.position_m, stands ? r.gps : std::nullopt, r.yaw_deg);
+    if (r.gps_denied && !denial_seen) {
+      denial_seen = true;
+      if (!rebuilt.ready() && rebuilt.has_enu()) rebuilt.FixWithAvailable();
+    }
+    poses.push_back(std::move(r.pose));
+  }
+  replayed_poses_.clear();
+  replayed_poses_.shrink_to_fit();
+  georef = std::move(rebuilt);
+  run.outputs->ReleaseHeld(poses);
+  run.state->totals.ReplacePoses(poses);
 }
 
 void LensSwitch::Finish(RunContext& run) {
@@ -155,6 +213,8 @@ void LensSwitch::Finish(RunContext& run) {
   phase_ = Phase::kDone;
   kept_.clear();
   odometry_.reset();
+  replayed_poses_.clear();
+  run.outputs->ReleaseHeld({});  // never caught up: the files keep the live poses
   if (prepass.applied) {
     prepass.applied = false;
     prepass.status = LensPrepassStatus::kNotApplied;

@@ -19,12 +19,18 @@
 // about (switch frame) / (kLensReplayFramesPerFrame - 1) frames after the switch frame, and no
 // pose waits for more than 1 + kLensReplayFramesPerFrame frames' odometry (the frame's own and
 // the replay's: FrameState::frames_replayed). Both frames follow from frame counts only, never
-// from the threads' timing. The poses sent and written before the catch-up frame were under
-// the ideal pinhole: its position may jump from them; frames.csv marks it (status "+lens"),
-// MAVLink's reset_counter grows by one there (docs/autopilot.md), and summary.json
-// lens_estimate says where (switch_frame, caught_up_frame, frames_replayed, wait_ms). An
-// estimate that is not significant changes nothing (the kept frames are dropped); a run that
-// ends before its catch-up frame records the estimate as not applied.
+// from the threads' timing. The live poses (pose stream, MAVLink) sent before the catch-up
+// frame were under the ideal pinhole: its position may jump from them; frames.csv marks it
+// (status "+lens"), MAVLink's reset_counter grows by one there (docs/autopilot.md), and
+// summary.json lens_estimate says where (switch_frame, caught_up_frame, frames_replayed,
+// wait_ms). The run's files do not keep those poses (when FilePosesReplaceable): the outputs
+// hold them from the first frame on (RunOutputs::HoldForReplay; the pose stream's "pose" lines
+// are not held) and at the catch-up frame take the replay's pose of every frame before it
+// (RunOutputs::ReleaseHeld, RunTotals::ReplacePoses), the geo-referencing fitted again from
+// those, so the files are the ones of a run given the estimate from its first frame. An
+// estimate that is not significant changes nothing (the kept frames are dropped, the files
+// released with the live poses); a run that ends before its catch-up frame records the
+// estimate as not applied and writes the live poses.
 //
 // A live source cannot be read twice: its pairs are copies of the frames it delivers before the
 // switch frame (lens_prepass.h LivePairFeed), a pair started every kLivePairSpacingS of stream
@@ -92,9 +98,10 @@ class LensSwitch {
  public:
   /// `task`: the pre-pass, started; `first_time_s`: the first frame's Frame::time_s;
   /// `live_feed`: a live source's pairs, which Keep() fills and the switch closes (the task's
-  /// feed), else null.
+  /// feed), else null; `replace_file_poses`: the run's files take the replay's poses
+  /// (FilePosesReplaceable; the caller holds the outputs: RunOutputs::HoldForReplay).
   LensSwitch(std::unique_ptr<LensPrepassTask> task, double first_time_s,
-             std::shared_ptr<LivePairFeed> live_feed = nullptr);
+             std::shared_ptr<LivePairFeed> live_feed = nullptr, bool replace_file_poses = false);
   ~LensSwitch();
 
   /// Before `frame`'s stages (read, not processed yet): at the switch frame, waits for the
@@ -113,16 +120,33 @@ class LensSwitch {
   void Finish(RunContext& run);
   /// Nothing left to do: the estimate was taken and, when significant, the run switched to it.
   bool done() const { return phase_ == Phase::kDone; }
+  /// The run's files take the replay's poses of the frames before the catch-up frame (see the
+  /// file comment): the outputs hold them until then (RunOutputs::HoldForReplay).
+  bool replaces_file_poses() const { return replace_file_poses_; }
+  /// Whether a run's files can take the replay's poses: not with the online window or the
+  /// offline flight graph (backend.enable, map_fix.apply), whose poses and factors are the live
+  /// odometry's.
+  static bool FilePosesReplaceable(const RunContext& run);
 
  private:
   enum class Phase { kCollecting, kReplaying, kDone };
   // A frame before the catch-up frame as the odometry got it.
   struct Kept {
     GrayImage pixels;
+    int frame = -1;  // Frame::index
     double time_s = 0.0;
     double height_m = 0.0;
     std::optional<double> yaw_deg;
     std::optional<CameraAttitude> attitude;
+    std::optional<GeoPoint> gps;  // the frame's fix (FrameState::gps), as the georef stage got it
+    bool gps_denied = false;      // FrameState::gps_denied
+  };
+  // A kept frame as the replay estimated it, and what the geo-referencing takes of it.
+  struct Replayed {
+    ReplayedPose pose;
+    std::optional<GeoPoint> gps;
+    std::optional<double> yaw_deg;
+    bool gps_denied = false;
   };
   // `frame` (read, not processed yet) is the switch frame.
   bool Due(const FrameState& frame) const;
@@ -133,6 +157,9 @@ class LensSwitch {
   void Advance(RunContext& run, FrameState& frame);
   // The estimate and the new odometry made the run's at `frame`.
   void SwitchOver(RunContext& run, FrameState& frame);
+  // At the catch-up frame: the run's files and geo-referencing given the replayed poses
+  // (replace_file_poses_), else the geo-referencing restarted if its heading is not fixed yet.
+  void ReplaceFilePoses(RunContext& run);
   // A live source: `f` completes the pending pair and/or starts the next one.
   void FeedLivePair(const FrameState& f);
 
@@ -153,6 +180,8 @@ class LensSwitch {
   std::unique_ptr<VisualOdometry> odometry_;
   LensPath path_;
   int replayed_ = 0;
+  bool replace_file_poses_ = false;
+  std::vector<Replayed> replayed_poses_;  // replace_file_poses_: every frame replayed so far
 };
 
 /// Undistortion of `run`'s lens (RunLens of its camera; none: nothing) on run.odometry (points)

@@ -134,7 +134,7 @@ void StartPrepass(const RunSetup& setup, const FrameState& first, RunContext& ru
     run.lens_switch = std::make_unique<LensSwitch>(
         std::make_unique<LensPrepassTask>(config, run.width_px, run.height_px,
                                           run.camera.focal_px, run.stop, feed),
-        first.frame.time_s, feed);
+        first.frame.time_s, feed, LensSwitch::FilePosesReplaceable(run));
     run.summary->lens_estimate = {{"status", "pending"}, {"applied", false}};
     if (run.log) {
       *run.log << fmt::format(
@@ -247,6 +247,8 @@ std::unique_ptr<RunContext> SetUpRun(RunSetup setup, const FrameState& first) {
       run->out_dir, *run->config, run->camera, run->summary->height_source, run->width_px,
       run->height_px, first.frame.time_s, first.sample, *run->callbacks,
       !run->telemetry->empty() || run->maps != nullptr);  // a map may seed the geo-reference
+  // The files wait for the lens switch's replayed poses (pipeline/lens_switch.h).
+  if (run->lens_switch && run->lens_switch->replaces_file_poses()) run->outputs->HoldForReplay();
   if (run->maps != nullptr) {
     run->map_fixer =
         std::make_shared<MapFixer>(*run->maps, run->config->map_fix, setup.source_live);

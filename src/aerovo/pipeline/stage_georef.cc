@@ -50,10 +50,6 @@ class GeoreferenceStage : public FrameStage {
 
   void Process(FrameState& f, const RunContext& run) override {
     const std::optional<double> yaw = f.sample ? f.sample->CameraYawDeg() : std::nullopt;
-    // At the lens switch (pipeline/lens_switch.h) the poses before were under the ideal pinhole
-    // (a wrong scale with a wide lens): a heading not fixed yet is fixed from the segment under
-    // the lens, which starts here.
-    if (f.lens_switched && !run.state->georef.ready()) run.state->georef.Restart();
     run.state->georef.Observe(f.result.position_m,
                               f.fix == FixCheck::kAccepted ? f.gps : std::nullopt, yaw);
     if (f.gps_denied && !run.state->denial_seen) {
