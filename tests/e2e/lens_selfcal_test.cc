@@ -244,11 +244,12 @@ void ExpectSameRunAndCalibratedTrack(const fs::path& dir, const std::string& vid
   for (const SeenFrame& f : live) live_rows.push_back({0.0, f.live_x_m, f.live_y_m});
   const double live_before = PathLength(live_rows, 0, caught_up - 1);
   const double file_before = PathLength(est, 0, caught_up - 1);
-  ::testing::Test::RecordProperty("path_before_catch_up_m", "live " + std::to_string(live_before) + ", files " +
-                                               std::to_string(file_before));
+  ::testing::Test::RecordProperty(
+      "path_before_catch_up_m",
+      "live " + std::to_string(live_before) + ", files " + std::to_string(file_before));
   EXPECT_GT(std::abs(live_before / file_before - 1.0), 0.01);
-  EXPECT_NEAR(PathLength(live_rows, caught_up, frames - 1),
-              PathLength(est, caught_up, frames - 1), 1e-3);
+  EXPECT_NEAR(PathLength(live_rows, caught_up, frames - 1), PathLength(est, caught_up, frames - 1),
+              1e-3);
   // The summary's track and comparison with the truth are the files' (RunTotals).
   const nlohmann::json sa = ReadJson(dir / "a" / "summary.json");
   const nlohmann::json sc = ReadJson(dir / "cal" / "summary.json");
