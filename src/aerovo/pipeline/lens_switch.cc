@@ -20,7 +20,7 @@ LensSwitch::LensSwitch(std::unique_ptr<LensPrepassTask> task, double first_time_
       replace_file_poses_(replace_file_poses) {}
 
 bool LensSwitch::FilePosesReplaceable(const RunContext& run) {
-  return !run.config->backend.enable && !WindowRuns(run);
+  return !run.config->backend.enable && !WindowRuns(run) && run.maps == nullptr;
 }
 
 LensSwitch::~LensSwitch() {

@@ -125,7 +125,7 @@ class LensSwitch {
   bool replaces_file_poses() const { return replace_file_poses_; }
   /// Whether a run's files can take the replay's poses: not with the online window or the
   /// offline flight graph (backend.enable, map_fix.apply), whose poses and factors are the live
-  /// odometry's.
+  /// odometry's, nor with a map (its fixes may seed the geo-referencing, stage_map_fix.cc).
   static bool FilePosesReplaceable(const RunContext& run);
 
  private:
