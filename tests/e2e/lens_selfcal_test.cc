@@ -371,6 +371,7 @@ TEST(LensSelfCalibration, ALiveSourcesLensIsEstimatedFromItsOwnFrames) {
   EXPECT_GE(switch_frame, 1) << le.dump();
   EXPECT_GT(le["frames_replayed"].get<int>(), 0) << le.dump();
   EXPECT_GT(le["caught_up_frame"].get<int>(), switch_frame) << le.dump();
+  EXPECT_EQ(le["file_poses_replaced"], true) << le.dump();
   for (const auto& f : le["pair_frames"]) EXPECT_LT(f.get<int>(), switch_frame) << le.dump();
   const auto rows = e2e::ReadFramesCsv(dir / "run");
   int lens_rows = 0;
