@@ -82,6 +82,7 @@ void RunFlightFirst(RunConfig config, const fs::path& dir) {
 void RunBuild(BuildArgs& a) {
   const RunConfig config = CheckUsage([&] {
     map::Validate(a.options);
+    map::CheckMapOutput(a.out);
     RunConfig c = a.run.Resolve();
     if (IsRunDir(c.input)) return c;  // a run folder: no run, its flags are not used
     c.out = RunDirFor(a).string();

@@ -1,9 +1,10 @@
 #include "aerovo/map/map_build.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
-#include <utility>
 #include <system_error>
+#include <utility>
 
 #include <cpl_error.h>
 #include <cpl_string.h>
@@ -11,6 +12,7 @@
 #include <gdal_priv.h>
 
 #include "aerovo/core/error.h"
+#include "aerovo/map/map_pixels.h"
 #include "aerovo/report/geo_mosaic.h"
 #include "aerovo/report/mosaic.h"
 #include "aerovo/report/run_reader.h"
@@ -142,9 +144,37 @@ std::string TiltedFramesWarning(const nlohmann::json& summary, const nlohmann::j
       per_frame, sources, tilt, lever);
 }
 
+void CheckMapOutput(const fs::path& out) {
+  std::string ext = out.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (ext != ".tif" && ext != ".tiff") {
+    throw InvalidArgument("map build: the map '" + out.string() +
+                          "' must be named .tif or .tiff (it is a Cloud Optimized GeoTIFF)");
+  }
+  std::error_code ec;
+  if (!fs::exists(out, ec)) return;
+  if (fs::is_directory(out, ec)) {
+    throw InputError("'" + out.string() + "': a folder, not a map to replace");
+  }
+  GDALAllRegister();
+  const QuietGdal quiet;
+  GDALDataset* ds = static_cast<GDALDataset*>(
+      GDALOpenEx(out.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr));
+  const bool geotiff = ds != nullptr && ds->GetDriver() != nullptr &&
+                       std::string(ds->GetDriver()->GetDescription()) == "GTiff";
+  if (ds != nullptr) GDALClose(ds);
+  if (!geotiff) {
+    throw InputError("'" + out.string() +
+                     "' exists and is not a GeoTIFF map: map build replaces "
+                     "only an earlier map; choose another name (-o)");
+  }
+}
+
 MapBuildResult BuildMapFromRun(const fs::path& run_dir, const fs::path& out,
                                const MapBuildOptions& options) {
   Validate(options);
+  CheckMapOutput(out);
   if (!IsRunDir(run_dir)) {
     throw InputError("'" + run_dir.string() + "': not a run folder (no frames.csv): give a run "
                      "folder of `aerovo run`, or the flight itself");

@@ -59,12 +59,19 @@ struct MapBuildResult {
 std::string TiltedFramesWarning(const nlohmann::json& summary, const nlohmann::json& config,
                                 bool records_attitude = false);
 
-/// Builds `out` (a .tif; replaced atomically) from the run folder `run_dir` (written by `aerovo
-/// run` on a flight with GPS: frames.csv geo-referenced, transforms.csv, config.json; the frames
-/// are re-read from the run's input). Throws InputError naming the folder when it is not a run or
-/// its track is not geo-referenced (no GPS, or GPS denied from the start), or, with PlaceBy::kGps,
-/// when the run has no offline optimisation with its GPS (transforms_optimized.csv and
-/// backend.gps_sigma_m > 0 in its config.json); or naming `out` when it cannot be written.
+/// Checks `out`, the map `map build` is to write, before anything is run: InvalidArgument when
+/// its name does not end in .tif or .tiff (any case; the map is a GeoTIFF), InputError naming it
+/// when it exists and is not a GeoTIFF GDAL reads (a folder, a run's file, a photo): an earlier
+/// map is replaced, nothing else is.
+void CheckMapOutput(const std::filesystem::path& out);
+
+/// Builds `out` (a .tif; replaced atomically; CheckMapOutput first) from the run folder `run_dir`
+/// (written by `aerovo run` on a flight with GPS: frames.csv geo-referenced, transforms.csv,
+/// config.json; the frames are re-read from the run's input). Throws InputError naming the folder
+/// when it is not a run or its track is not geo-referenced (no GPS, or GPS denied from the start),
+/// or, with PlaceBy::kGps, when the run has no offline optimisation with its GPS
+/// (transforms_optimized.csv and backend.gps_sigma_m > 0 in its config.json); or naming `out` when
+/// it cannot be written.
 MapBuildResult BuildMapFromRun(const std::filesystem::path& run_dir,
                                const std::filesystem::path& out,
                                const MapBuildOptions& options = {});

@@ -5,7 +5,15 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <string>
+
+#include <gdal_priv.h>
+#include <ogr_spatialref.h>
+
+#include "aerovo/core/error.h"
+#include "aerovo/core/testing.h"
 
 namespace aerovo::map {
 namespace {
@@ -38,6 +46,33 @@ TEST(MapBuildTiltWarning, ARunFolderRecordingTheAttitudeIsNotWarned) {
   const nlohmann::json summary = {{"attitude_sources", {{"gimbal", 120}}}, {"max_tilt_deg", 15.0}};
   EXPECT_NE(TiltedFramesWarning(summary, {{"altitude_m", 57.0}}, false), "");
   EXPECT_EQ(TiltedFramesWarning(summary, {{"altitude_m", 57.0}}, true), "");
+}
+
+// The map `map build` writes: a .tif or .tiff name, and over an existing file only when that is a
+// GeoTIFF (an earlier map); a run's frames.csv, a photo or a folder are never replaced.
+TEST(MapBuildOutput, OnlyATiffNameAndOnlyAnEarlierMapIsReplaced) {
+  namespace fs = std::filesystem;
+  const fs::path dir = aerovo::testing::FreshTempDir("aerovo_map_build", "out");
+  EXPECT_NO_THROW(CheckMapOutput(dir / "new.tif"));
+  EXPECT_NO_THROW(CheckMapOutput(dir / "NEW.TIFF"));
+  EXPECT_THROW(CheckMapOutput(dir / "map.png"), InvalidArgument);
+  EXPECT_THROW(CheckMapOutput(dir / "map"), InvalidArgument);
+  std::ofstream(dir / "frames.tif") << "frame,time_s\n0,0.0\n";  // not a raster
+  EXPECT_THROW(CheckMapOutput(dir / "frames.tif"), InputError);
+  fs::create_directories(dir / "folder.tif");
+  EXPECT_THROW(CheckMapOutput(dir / "folder.tif"), InputError);
+  GDALAllRegister();
+  GDALDataset* ds = GetGDALDriverManager()->GetDriverByName("GTiff")->Create(
+      (dir / "earlier.tif").c_str(), 8, 8, 1, GDT_Byte, nullptr);
+  ASSERT_NE(ds, nullptr);
+  GDALClose(ds);
+  EXPECT_NO_THROW(CheckMapOutput(dir / "earlier.tif"));
+  try {
+    CheckMapOutput(dir / "frames.tif");
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("exists and is not a GeoTIFF map"), std::string::npos);
+  }
+  fs::remove_all(dir);
 }
 
 }  // namespace

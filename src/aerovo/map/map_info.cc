@@ -166,6 +166,7 @@ void PlaceOnEarth(const OGRSpatialReference& crs, MapInfo* info) {
 }  // namespace
 
 MapInfo ReadMapInfo(const std::filesystem::path& path) {
+  const QuietGdal quiet;
   MapInfo info;
   info.path = path;
   const DatasetPtr ds = OpenRaster(path);
@@ -196,6 +197,7 @@ MapInfo ReadMapInfo(const std::filesystem::path& path) {
   band->GetBlockSize(&info.block_x_px, &info.block_y_px);
   const char* c = ds->GetMetadataItem("COMPRESSION", "IMAGE_STRUCTURE");
   info.compression = c != nullptr ? c : "";
+  info.radiometry = ProbeMapPixels(*ds, path);
   return info;
 }
 
@@ -222,6 +224,13 @@ std::string FormatMapInfo(const MapInfo& m) {
   t += fmt::format("{:<13}{}\n", "overviews", ov.empty() ? "none" : ov);
   t += fmt::format("{:<13}{} x {} px blocks, compression {}\n", "layout", m.block_x_px,
                    m.block_y_px, m.compression.empty() ? "none" : m.compression);
+  const MapRadiometry& r = m.radiometry;
+  t += fmt::format("{:<13}{}{}{}\n", "samples", r.sample_type, r.palette ? ", palette colours" : "",
+                   r.lo != 0.0 || r.hi != 255.0
+                       ? fmt::format(", grey {:.6g} .. {:.6g} stretched to 0 .. 255 (1st-99th "
+                                     "percentile)",
+                                     r.lo, r.hi)
+                       : std::string());
   return t;
 }
 
@@ -250,7 +259,10 @@ nlohmann::json ToJson(const MapInfo& m) {
           {"overviews", overviews},
           {"block_x_px", m.block_x_px},
           {"block_y_px", m.block_y_px},
-          {"compression", m.compression}};
+          {"compression", m.compression},
+          {"sample_type", m.radiometry.sample_type},
+          {"palette", m.radiometry.palette},
+          {"grey_range", {m.radiometry.lo, m.radiometry.hi}}};
 }
 
 }  // namespace aerovo::map

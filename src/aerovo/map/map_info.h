@@ -13,6 +13,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "aerovo/map/map_pixels.h"
+
 namespace aerovo::map {
 
 /// An axis-aligned rectangle in some coordinates (the map's CRS units, or degrees).
@@ -44,11 +46,14 @@ struct MapInfo {
   std::vector<std::pair<int, int>> overviews;  ///< Band 1's overviews, width x height px.
   int block_x_px = 0, block_y_px = 0;          ///< Band 1's block size (tiled when not 1 row).
   std::string compression;  ///< IMAGE_STRUCTURE COMPRESSION ("" when none is said).
+  /// How its samples become the grey matched (map_pixels.h ProbeMapPixels).
+  MapRadiometry radiometry;
 };
 
 /// Reads `path`'s description. Throws InputError naming the file: it does not exist, GDAL cannot
 /// open it as a raster (corrupt, not an image), it has no CRS, or no geotransform (only ground
-/// control points, or none: a plain image).
+/// control points, or none: a plain image), or its pixels cannot be read or none is valid where
+/// ProbeMapPixels reads them (a truncated file, a VRT whose source is missing).
 MapInfo ReadMapInfo(const std::filesystem::path& path);
 
 /// The lines `aerovo map info` prints (each ending in '\n').

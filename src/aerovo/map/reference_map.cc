@@ -4,13 +4,13 @@
 #include <cmath>
 #include <mutex>
 
-#include <cpl_error.h>
 #include <fmt/format.h>
 #include <gdal_priv.h>
 #include <ogr_spatialref.h>
 
 #include "aerovo/core/error.h"
 #include "aerovo/geo/local_enu.h"
+#include "aerovo/map/map_pixels.h"
 
 namespace aerovo::map {
 
@@ -35,66 +35,8 @@ struct ReferenceMaps::Open {
 
 namespace {
 
-// A block of a map read into memory: grey and validity, `w` x `h` samples covering map pixels
-// [x0, x0 + w dx) x [y0, y0 + h dy).
-struct Block {
-  int w = 0, h = 0;
-  double x0 = 0, y0 = 0, dx = 1, dy = 1;
-  std::vector<float> grey, valid;
-};
-
-// `band` at overview `level` (-1: itself); null when it has no such overview.
-GDALRasterBand* AtLevel(GDALRasterBand* band, int level) {
-  if (level < 0) return band;
-  return level < band->GetOverviewCount() ? band->GetOverview(level) : nullptr;
-}
-
-// Reads the map around map pixels [c0, c1) x [r0, r1) (full resolution, continuous) from the
-// coarsest overview at least as fine as `px_per_sample` map pixels per sample (each level read
-// pixel for pixel, on its own grid: GDAL's resampling of a window that is not aligned with an
-// overview's pixels would shift it by up to half of one). Grey from 1 band or the luma of the
-// first 3, validity from the mask band (alpha, nodata; all valid without).
-bool ReadBlock(GDALDataset& ds, double c0, double r0, double c1, double r1, double px_per_sample,
-               Block* b) {
-  GDALRasterBand* first = ds.GetRasterBand(1);
-  int level = -1;
-  for (int i = 0; i < first->GetOverviewCount(); ++i) {
-    const double f = static_cast<double>(ds.GetRasterXSize()) / first->GetOverview(i)->GetXSize();
-    if (f <= px_per_sample) level = i;
-  }
-  GDALRasterBand* base = AtLevel(first, level);
-  const double fx = static_cast<double>(ds.GetRasterXSize()) / base->GetXSize();
-  const double fy = static_cast<double>(ds.GetRasterYSize()) / base->GetYSize();
-  const int x0 = std::max(0, static_cast<int>(std::floor(c0 / fx)) - 1);
-  const int y0 = std::max(0, static_cast<int>(std::floor(r0 / fy)) - 1);
-  const int x1 = std::min(base->GetXSize(), static_cast<int>(std::ceil(c1 / fx)) + 1);
-  const int y1 = std::min(base->GetYSize(), static_cast<int>(std::ceil(r1 / fy)) + 1);
-  if (x1 - x0 < 1 || y1 - y0 < 1) return false;
-  const int w = x1 - x0, h = y1 - y0;
-  *b = Block{w, h, x0 * fx, y0 * fy, fx, fy, {}, {}};
-  const std::size_t n = static_cast<std::size_t>(w) * h;
-  std::vector<float> band(n);
-  const int bands = ds.GetRasterCount() >= 3 ? 3 : 1;
-  const float weight[3] = {0.299f, 0.587f, 0.114f};
-  b->grey.assign(n, 0.0f);
-  const auto read = [&](GDALRasterBand* src, float* out) {
-    return src != nullptr && src->RasterIO(GF_Read, x0, y0, w, h, out, w, h, GDT_Float32, 0, 0,
-                                           nullptr) == CE_None;
-  };
-  for (int k = 0; k < bands; ++k) {
-    if (!read(AtLevel(ds.GetRasterBand(k + 1), level), band.data())) return false;
-    const float wk = bands == 1 ? 1.0f : weight[k];
-    for (std::size_t i = 0; i < n; ++i) b->grey[i] += wk * band[i];
-  }
-  b->valid.assign(n, 255.0f);
-  if ((first->GetMaskFlags() & GMF_ALL_VALID) == 0) {
-    if (!read(AtLevel(first->GetMaskBand(), level), b->valid.data())) return false;
-  }
-  return true;
-}
-
 // Bilinear sample of `v` at block coordinates (u, v) (sample centres at integers), clamped.
-float Sample(const Block& b, const std::vector<float>& v, double u, double w) {
+float Sample(const GreyBlock& b, const std::vector<float>& v, double u, double w) {
   u = std::clamp(u, 0.0, b.w - 1.0);
   w = std::clamp(w, 0.0, b.h - 1.0);
   const int i = std::min(static_cast<int>(u), b.w - 2 < 0 ? 0 : b.w - 2);
@@ -116,6 +58,7 @@ ReferenceMaps::ReferenceMaps(const std::vector<std::filesystem::path>& paths) {
   for (const auto& p : paths) {
     infos_.push_back(ReadMapInfo(p));  // registers GDAL; the errors naming the file
     auto o = std::make_unique<Open>();
+    const QuietGdal quiet;
     o->ds = static_cast<GDALDataset*>(GDALOpenEx(p.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY,
                                                  nullptr, nullptr, nullptr));
     if (o->ds == nullptr) throw InputError("'" + p.string() + "': cannot be opened again");
@@ -144,9 +87,9 @@ std::optional<int> ReferenceMaps::MapAt(const GeoPoint& p) const {
       continue;
     }
     const std::lock_guard<std::mutex> lock(open_[m]->mutex);
-    Block b;
+    GreyBlock b;
     const int x = static_cast<int>(col), y = static_cast<int>(row);
-    if (ReadBlock(*open_[m]->ds, x, y, x + 1, y + 1, 1.0, &b) &&
+    if (ReadGreyBlock(*open_[m]->ds, info.path, info.radiometry, x, y, x + 1, y + 1, 1.0, &b) &&
         Sample(b, b.valid, (col - b.x0) / b.dx - 0.5, (row - b.y0) / b.dy - 0.5) >= 128.0f) {
       return static_cast<int>(m);
     }
@@ -178,13 +121,12 @@ int ReferenceMaps::Fill(std::size_t m, const LocalEnu& enu, MapWindow* win) cons
   if (cmax < 0 || rmax < 0 || cmin > info.width_px || rmin > info.height_px) return 0;
   // Map pixels per window pixel: the level read is the coarsest at least that fine.
   const double step = std::hypot(c[1] - c[0], r[1] - r[0]) / (size_px - 1);
-  Block b;
+  GreyBlock b;
   {
     const std::lock_guard<std::mutex> lock(open_[m]->mutex);
-    CPLErrorReset();
-    if (!ReadBlock(*open_[m]->ds, cmin, rmin, cmax, rmax, step, &b)) {
-      throw InputError("'" + info.path.string() + "': reading the map failed: " +
-                       std::string(CPLGetLastErrorMsg()));
+    if (!ReadGreyBlock(*open_[m]->ds, info.path, info.radiometry, cmin, rmin, cmax, rmax, step,
+                       &b)) {
+      return 0;
     }
   }
   int filled = 0;

@@ -18,7 +18,21 @@
 
 namespace aerovo {
 
-void Validate(const MapMatchOptions& options) { options::CheckRanges(options, "map_fix"); }
+void Validate(const MapMatchOptions& options) {
+  options::CheckRanges(options, "map_fix");
+  // The start position and its radius go together (0, 0 is taken as no position given).
+  const bool position = options.start_lat_deg != 0.0 || options.start_lon_deg != 0.0;
+  if (options.start_radius_m > 0.0 && !position) {
+    throw InvalidArgument(
+        "map_fix.start_radius_m needs the start position it is around: map_fix.start_lat_deg "
+        "and start_lon_deg (--map-fix-start-lat-deg, --map-fix-start-lon-deg)");
+  }
+  if (position && !(options.start_radius_m > 0.0)) {
+    throw InvalidArgument(
+        "map_fix.start_lat_deg and start_lon_deg need map_fix.start_radius_m > 0, how far around "
+        "the start position to search (--map-fix-start-radius-m)");
+  }
+}
 
 const char* ToString(MapFixStatus status) {
   switch (status) {

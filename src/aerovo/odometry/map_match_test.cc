@@ -26,6 +26,18 @@ TEST(MapMatch, OptionsAndInputsAreChecked) {
   MapMatchOptions o;
   o.search_radius_m = -1.0;
   EXPECT_THROW(MapMatcher{o}, InvalidArgument);
+  // A start position without its radius, or a radius without a position (it would be searched
+  // around 0 N 0 E), is refused; both, or neither, are taken.
+  MapMatchOptions start;
+  start.start_lat_deg = 28.04;
+  EXPECT_THROW(Validate(start), InvalidArgument);
+  start.start_lon_deg = -82.7;
+  EXPECT_THROW(Validate(start), InvalidArgument);
+  start.start_radius_m = 500.0;
+  EXPECT_NO_THROW(Validate(start));
+  start.start_lat_deg = start.start_lon_deg = 0.0;
+  EXPECT_THROW(Validate(start), InvalidArgument);
+  EXPECT_NO_THROW(Validate(MapMatchOptions{}));
   MapMatcher matcher{MapMatchOptions{}};
   GrayImage frame(64, 48, 100), map(100, 100, 100), valid(100, 100, 255), small(10, 10, 255);
   MapMatchFrame f{frame.view(), 50.0, 100.0, std::nullopt};

@@ -527,6 +527,20 @@ RunOutputs::RunOutputs(const std::filesystem::path& out_dir, const RunConfig& co
   if (config.poses_jsonl == "-") {
     jsonl_ = &std::cout;
   } else if (!config.poses_jsonl.empty()) {
+    // The pose stream never overwrites one of the run's own inputs (a file given twice).
+    std::vector<std::pair<const char*, std::string>> inputs = {{"input", config.input},
+                                                               {"telemetry", config.telemetry},
+                                                               {"calibration", config.calibration}};
+    for (const std::string& m : config.map) inputs.emplace_back("map", m);
+    for (const auto& [what, path] : inputs) {
+      std::error_code ec;
+      if (!path.empty() && std::filesystem::equivalent(config.poses_jsonl, path, ec)) {
+        throw InputError(
+            fmt::format("the pose stream '{}' is the run's {} '{}': it would be "
+                        "overwritten; give --poses-jsonl another file",
+                        config.poses_jsonl, what, path));
+      }
+    }
     auto file = std::make_unique<std::ofstream>(config.poses_jsonl, std::ios::trunc);
     if (!*file) {
       throw InputError("cannot write the pose stream '" + config.poses_jsonl +

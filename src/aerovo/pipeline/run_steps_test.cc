@@ -692,6 +692,31 @@ TEST(RunSteps, OutputsHeldForTheLensReplayTakeTheReplayedPoses) {
   fs::remove_all(dir);
 }
 
+// The pose stream given as one of the run's inputs (the telemetry, a map) is refused before the
+// file is opened: the input is left as it was.
+TEST(RunSteps, ThePoseStreamNeverOverwritesAnInput) {
+  const fs::path dir = TempDir("outputs_inputs");
+  const fs::path srt = dir / "flight.SRT";
+  WriteText(srt, "1\n00:00:00,000 --> 00:00:00,033\nGPS(7.0,45.0,12)\n");
+  RunConfig config;
+  config.telemetry = srt.string();
+  config.map = {(dir / "missing.tif").string()};
+  config.poses_jsonl = (dir / "." / "flight.SRT").string();
+  const RunCamera camera{400.0, "flag", {}, std::nullopt};
+  const RunCallbacks cb;  // outlives the outputs
+  try {
+    RunOutputs out(dir / "run", config, camera, "flag", 320, 240, 0.0, std::nullopt, cb, true);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("is the run's telemetry"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(ReadText(srt), "1\n00:00:00,000 --> 00:00:00,033\nGPS(7.0,45.0,12)\n");
+  config.poses_jsonl = (dir / "poses.jsonl").string();  // any other file is written
+  { RunOutputs out(dir / "run2", config, camera, "flag", 320, 240, 0.0, std::nullopt, cb, true); }
+  EXPECT_TRUE(fs::exists(dir / "poses.jsonl"));
+  fs::remove_all(dir);
+}
+
 // ---------------------------------------------------------------------------------------------
 // 6. Totals and summary
 

@@ -90,10 +90,7 @@ bool MosaicFrameSize(const RunData& run, int* width_px, int* height_px) {
   return FrameSize(run, width_px, height_px);
 }
 
-bool RecordsCameraAttitude(const RunData& run) {
-  return std::any_of(run.frames.begin(), run.frames.end(),
-                     [](const RunFrameRow& f) { return f.camera_roll_deg.has_value(); });
-}
+bool RecordsCameraAttitude(const RunData& run) { return run.records_camera_attitude; }
 
 Eigen::Matrix3d MosaicNadirFromFrame(const RunData& run, int width_px, int height_px,
                                      int frame) {

@@ -77,7 +77,9 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
 /// build, without those columns: the flight's estimate when applied (summary.json
 /// "attitude_estimate" with "applied": its roll_deg and pitch_deg) for every frame.
 Eigen::Matrix3d MosaicNadirFromFrame(const RunData& run, int width_px, int height_px, int frame);
-/// Whether frames.csv of `run` records the camera attitude applied (a frame has one).
+/// Whether frames.csv of `run` records the camera attitude applied
+/// (RunData::records_camera_attitude: its columns are there, whether or not a frame had an
+/// attitude).
 bool RecordsCameraAttitude(const RunData& run);
 
 std::vector<Eigen::Vector2d> FrameCentresPx(const RunData& run, std::vector<int>* frames = nullptr,

@@ -43,6 +43,7 @@ TEST(MosaicNadir, NoAppliedAttitudeDrawsTheFrameAsRead) {
 // the flight's estimate of summary.json is then not used.
 TEST(MosaicNadir, EachFrameThroughItsOwnRecordedAttitude) {
   RunData run = TiltedRun(true);  // an estimate of 15 deg, applied
+  run.records_camera_attitude = true;
   for (int i = 0; i < 7; ++i) {
     RunFrameRow f;
     f.frame = i;
@@ -63,6 +64,10 @@ TEST(MosaicNadir, EachFrameThroughItsOwnRecordedAttitude) {
   EXPECT_TRUE(MosaicNadirFromFrame(run, 800, 600, 5).isIdentity());
   EXPECT_TRUE(MosaicNadirFromFrame(run, 800, 600, 7).isIdentity());
   EXPECT_TRUE(MosaicNadirFromFrame(run, 800, 600, 0).isIdentity());
+  // The columns with no attitude on any frame (a nadir run of this build): none is applied,
+  // and the summary's estimate is not used either.
+  for (RunFrameRow& f : run.frames) f.camera_roll_deg = f.camera_pitch_deg = std::nullopt;
+  EXPECT_TRUE(MosaicNadirFromFrame(run, 800, 600, 4).isIdentity());
 }
 
 }  // namespace

@@ -195,6 +195,7 @@ RunData ReadRunDir(const fs::path& dir) {
                     "lon_deg",  "alt_m",     "n_surf",      "n_matched",     "n_inliers",
                     "cluster",  "detect_ms", "describe_ms", "correspond_ms", "estimate_ms",
                     "total_ms", "status",    "gps_lat_deg", "gps_lon_deg",   "gps_alt_m"});
+  run.records_camera_attitude = t.has("camera_roll_deg") && t.has("camera_pitch_deg");
   run.frames.reserve(t.size());
   for (std::size_t r = 0; r < t.size(); ++r) {
     RunFrameRow f;
@@ -221,8 +222,8 @@ RunData ReadRunDir(const fs::path& dir) {
       f.gps.reset();
     }
     // The camera attitude the odometry applied (absent from run folders of older builds).
-    if (t.has("camera_roll_deg") && t.has("camera_pitch_deg") &&
-        !t.cell(r, "camera_roll_deg").empty() && !t.cell(r, "camera_pitch_deg").empty()) {
+    if (run.records_camera_attitude && !t.cell(r, "camera_roll_deg").empty() &&
+        !t.cell(r, "camera_pitch_deg").empty()) {
       f.camera_roll_deg = t.Number(r, "camera_roll_deg");
       f.camera_pitch_deg = t.Number(r, "camera_pitch_deg");
     }

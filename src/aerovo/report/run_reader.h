@@ -69,6 +69,10 @@ struct RunData {
   std::vector<TrajectoryPoint2D> optimized;
   nlohmann::json summary;  ///< null when summary.json is absent.
   nlohmann::json config;   ///< null when config.json is absent.
+  /// frames.csv has the camera_roll_deg and camera_pitch_deg columns: the run records the
+  /// attitude the odometry applied to each frame (none on a frame: none applied). False for run
+  /// folders of older builds.
+  bool records_camera_attitude = false;
 };
 
 /// True when `dir` looks like a run folder (frames.csv present).

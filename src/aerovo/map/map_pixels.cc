@@ -1,0 +1,179 @@
+#include "aerovo/map/map_pixels.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+
+#include <cpl_error.h>
+#include <fmt/format.h>
+#include <gdal_priv.h>
+
+#include "aerovo/core/error.h"
+
+namespace aerovo::map {
+namespace {
+
+constexpr float kLuma[3] = {0.299f, 0.587f, 0.114f};  // ITU-R BT.601, as OpenCV's grey
+
+[[noreturn]] void Unreadable(const std::filesystem::path& path) {
+  const char* m = CPLGetLastErrorMsg();
+  throw InputError(
+      fmt::format("'{}': the map's pixels cannot be read ({}): a damaged or "
+                  "truncated file, or a VRT whose source is missing",
+                  path.string(), m != nullptr && *m != '\0' ? m : "no reason given"));
+}
+
+// `band` at overview `level` (-1: itself); null when it has no such overview.
+GDALRasterBand* AtLevel(GDALRasterBand* band, int level) {
+  if (level < 0) return band;
+  return level < band->GetOverviewCount() ? band->GetOverview(level) : nullptr;
+}
+
+// Grey and validity of the window (x0, y0, w, h) of overview `level` (-1: full resolution) read
+// into a buffer of bw x bh samples (GDAL subsamples when smaller), raw: before the radiometry's
+// stretch. Throws InputError naming `path` when a band cannot be read.
+void ReadRawGrey(GDALDataset& ds, const std::filesystem::path& path,
+                 const MapRadiometry& radiometry, int level, int x0, int y0, int w, int h, int bw,
+                 int bh, std::vector<float>* grey, std::vector<float>* valid) {
+  const std::size_t n = static_cast<std::size_t>(bw) * bh;
+  const int bands = ds.GetRasterCount() >= 3 ? 3 : 1;
+  std::vector<float> band(n);
+  grey->assign(n, 0.0f);
+  valid->assign(n, 255.0f);
+  const QuietGdal quiet;
+  const auto read = [&](GDALRasterBand* src, float* out) {
+    if (src == nullptr ||
+        src->RasterIO(GF_Read, x0, y0, w, h, out, bw, bh, GDT_Float32, 0, 0, nullptr) != CE_None) {
+      Unreadable(path);
+    }
+  };
+  for (int k = 0; k < bands; ++k) {
+    read(AtLevel(ds.GetRasterBand(k + 1), level), band.data());
+    const float wk = bands == 1 ? 1.0f : kLuma[k];
+    for (std::size_t i = 0; i < n; ++i) {
+      float v = band[i];
+      if (radiometry.palette) {
+        v = radiometry.palette_grey[static_cast<std::size_t>(std::clamp(v, 0.0f, 255.0f))];
+      }
+      (*grey)[i] += wk * v;
+    }
+  }
+  GDALRasterBand* first = ds.GetRasterBand(1);
+  if ((first->GetMaskFlags() & GMF_ALL_VALID) == 0)
+    read(AtLevel(first->GetMaskBand(), level), valid->data());
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!std::isfinite((*grey)[i])) (*grey)[i] = 0.0f, (*valid)[i] = 0.0f;
+  }
+}
+
+// The palette of band 1 when it is the only band and holds palette indices.
+void ReadPalette(GDALDataset& ds, MapRadiometry* r) {
+  GDALRasterBand* b = ds.GetRasterBand(1);
+  const GDALColorTable* table = b->GetColorTable();
+  if (ds.GetRasterCount() != 1 || b->GetColorInterpretation() != GCI_PaletteIndex ||
+      table == nullptr) {
+    return;
+  }
+  r->palette = true;
+  for (int i = 0; i < 256; ++i) {
+    const GDALColorEntry* e = i < table->GetColorEntryCount() ? table->GetColorEntry(i) : nullptr;
+    r->palette_grey[static_cast<std::size_t>(i)] =
+        e == nullptr ? 0.0f : kLuma[0] * e->c1 + kLuma[1] * e->c2 + kLuma[2] * e->c3;
+  }
+}
+
+}  // namespace
+
+QuietGdal::QuietGdal() {
+  CPLErrorReset();
+  CPLPushErrorHandler(CPLQuietErrorHandler);
+}
+
+QuietGdal::~QuietGdal() { CPLPopErrorHandler(); }
+
+bool ReadGreyBlock(GDALDataset& ds, const std::filesystem::path& path,
+                   const MapRadiometry& radiometry, double c0, double r0, double c1, double r1,
+                   double px_per_sample, GreyBlock* b) {
+  const QuietGdal quiet;
+  GDALRasterBand* first = ds.GetRasterBand(1);
+  int level = -1;
+  for (int i = 0; i < first->GetOverviewCount(); ++i) {
+    const double f = static_cast<double>(ds.GetRasterXSize()) / first->GetOverview(i)->GetXSize();
+    if (f <= px_per_sample) level = i;
+  }
+  GDALRasterBand* base = AtLevel(first, level);
+  const double fx = static_cast<double>(ds.GetRasterXSize()) / base->GetXSize();
+  const double fy = static_cast<double>(ds.GetRasterYSize()) / base->GetYSize();
+  const int x0 = std::max(0, static_cast<int>(std::floor(c0 / fx)) - 1);
+  const int y0 = std::max(0, static_cast<int>(std::floor(r0 / fy)) - 1);
+  const int x1 = std::min(base->GetXSize(), static_cast<int>(std::ceil(c1 / fx)) + 1);
+  const int y1 = std::min(base->GetYSize(), static_cast<int>(std::ceil(r1 / fy)) + 1);
+  if (x1 - x0 < 1 || y1 - y0 < 1) return false;
+  const int w = x1 - x0, h = y1 - y0;
+  *b = GreyBlock{w, h, x0 * fx, y0 * fy, fx, fy, {}, {}};
+  ReadRawGrey(ds, path, radiometry, level, x0, y0, w, h, w, h, &b->grey, &b->valid);
+  if (radiometry.lo != 0.0 || radiometry.hi != 255.0) {
+    const float lo = static_cast<float>(radiometry.lo);
+    const float gain = static_cast<float>(255.0 / (radiometry.hi - radiometry.lo));
+    for (float& g : b->grey) g = std::clamp((g - lo) * gain, 0.0f, 255.0f);
+  }
+  return true;
+}
+
+MapRadiometry ProbeMapPixels(GDALDataset& ds, const std::filesystem::path& path) {
+  const QuietGdal quiet;
+  MapRadiometry r;
+  GDALRasterBand* first = ds.GetRasterBand(1);
+  r.sample_type = GDALGetDataTypeName(first->GetRasterDataType());
+  ReadPalette(ds, &r);
+  // What is read: the coarsest overview (at most 512 samples a side), or a small map whole, or
+  // a 3 x 3 grid of windows of a large map without overviews.
+  std::vector<float> grey, valid, g, v;
+  const int n_ov = first->GetOverviewCount();
+  const int W = ds.GetRasterXSize(), H = ds.GetRasterYSize();
+  const bool whole = n_ov > 0 || static_cast<long long>(W) * H <= 4LL << 20;
+  if (whole) {
+    const int level = n_ov - 1;
+    GDALRasterBand* base = AtLevel(first, level);
+    const int bw = std::min(base->GetXSize(), 512), bh = std::min(base->GetYSize(), 512);
+    ReadRawGrey(ds, path, r, level, 0, 0, base->GetXSize(), base->GetYSize(), bw, bh, &grey,
+                &valid);
+  } else {
+    const int s = 128;
+    for (int j = 0; j < 3; ++j) {
+      for (int i = 0; i < 3; ++i) {
+        const int x0 = std::clamp((2 * i + 1) * W / 6 - s / 2, 0, std::max(0, W - s));
+        const int y0 = std::clamp((2 * j + 1) * H / 6 - s / 2, 0, std::max(0, H - s));
+        const int w = std::min(s, W), h = std::min(s, H);
+        ReadRawGrey(ds, path, r, -1, x0, y0, w, h, w, h, &g, &v);
+        grey.insert(grey.end(), g.begin(), g.end());
+        valid.insert(valid.end(), v.begin(), v.end());
+      }
+    }
+  }
+  std::vector<float> samples;
+  samples.reserve(grey.size());
+  for (std::size_t i = 0; i < grey.size(); ++i) {
+    if (valid[i] >= 128.0f) samples.push_back(grey[i]);
+  }
+  if (samples.empty()) {
+    if (whole) {
+      throw InputError("'" + path.string() + "': the map has no valid pixel (all of it " +
+                       "transparent, nodata or not a number)");
+    }
+    return r;  // windows of a sparse map: data elsewhere, if any, read as it is
+  }
+  if (r.sample_type == "Byte") return r;
+  // The 1st and 99th percentiles.
+  const auto at = [&](double q) {
+    const auto k = static_cast<std::ptrdiff_t>(q * static_cast<double>(samples.size() - 1));
+    std::nth_element(samples.begin(), samples.begin() + k, samples.end());
+    return static_cast<double>(samples[static_cast<std::size_t>(k)]);
+  };
+  r.lo = at(0.01);
+  r.hi = at(0.99);
+  if (!(r.hi > r.lo)) r.hi = r.lo + 1.0;  // a flat map: no texture either way
+  return r;
+}
+
+}  // namespace aerovo::map
