@@ -5,6 +5,7 @@
 // pinhole).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -149,6 +150,8 @@ struct SeenFrame {
   bool lens = false;
   bool switched = false;
   std::string estimate_status;
+  int replayed = 0;  // FrameState::frames_replayed
+  double live_x_m = 0.0, live_y_m = 0.0;  // the live pose (pose stream, MAVLink), local frame
 };
 class LensWatchSink : public run_steps::FrameSink {
  public:
@@ -156,7 +159,8 @@ class LensWatchSink : public run_steps::FrameSink {
   const char* name() const override { return "lens watch"; }
   void Write(run_steps::FrameState& f, const run_steps::RunContext& run) override {
     seen_->push_back({f.frame.index, run.camera.calibrated.has_value(), f.lens_switched,
-                      run.summary->lens_estimate.value("status", std::string())});
+                      run.summary->lens_estimate.value("status", std::string()),
+                      f.frames_replayed, f.result.position_m.x(), f.result.position_m.y()});
   }
 
  private:
@@ -179,24 +183,107 @@ std::vector<std::vector<double>> TumRowsFrom(const fs::path& file, double from_s
 
 using e2e::OdometryListener;
 
+// frames.csv without its timing columns (*_ms: the threads' timing), as one text.
+std::string FramesCsvWithoutTimes(const fs::path& run_dir) {
+  std::string out;
+  for (const auto& row : e2e::ReadFramesCsv(run_dir)) {
+    for (const auto& [key, value] : row) {
+      if (key.size() < 3 || key.compare(key.size() - 3, 3, "_ms") != 0) out += value + ",";
+    }
+    out += "\n";
+  }
+  return out;
+}
+
+// The length of the track `rows` (time x y ...) from row `from` to row `to`, metres.
+double PathLength(const std::vector<std::vector<double>>& rows, std::size_t from, std::size_t to) {
+  double length = 0.0;
+  for (std::size_t i = from + 1; i <= to; ++i) {
+    length += std::hypot(rows[i][1] - rows[i - 1][1], rows[i][2] - rows[i - 1][2]);
+  }
+  return length;
+}
+
+// The run of `video` in dir/a (its lens switch at `switch_frame`, caught up at `caught_up`) is
+// the same with 1 thread (the CLI), and its track files are those of a run given its
+// lens_estimate.yaml as the calibration file, every frame: the frames before the catch-up frame
+// hold the replay's poses (lens_switch.h), which are that run's. `live_m`: the poses the pose
+// stream had, which stay those under the pinhole before the catch-up frame.
+void ExpectSameRunAndCalibratedTrack(const fs::path& dir, const std::string& video,
+                                     int switch_frame, int caught_up, int frames,
+                                     const std::vector<SeenFrame>& live) {
+  const auto rows = e2e::ReadFramesCsv(dir / "a");
+  ASSERT_EQ(rows.size(), static_cast<std::size_t>(frames));
+  // Deterministic: the same frames and track again (the CLI, with 1 thread this time).
+  ASSERT_TRUE(Cli("run " + video + " --attitude-estimation off --threads 1 --quiet --no-report "
+                  "-o " + (dir / "b").string()));
+  const nlohmann::json b = ReadJson(dir / "b" / "summary.json")["lens_estimate"];
+  EXPECT_EQ(b["switch_frame"], switch_frame);
+  EXPECT_EQ(b["caught_up_frame"], caught_up);
+  EXPECT_EQ(ReadText(dir / "a" / "vo.tum"), ReadText(dir / "b" / "vo.tum"));
+  EXPECT_EQ(ReadText(dir / "a" / "transforms.csv"), ReadText(dir / "b" / "transforms.csv"));
+  EXPECT_EQ(FramesCsvWithoutTimes(dir / "a"), FramesCsvWithoutTimes(dir / "b"));
+  // The track of the estimate given as a calibration file, from the first frame on.
+  ASSERT_TRUE(Cli("run " + video + " --calibration " + (dir / "a" / "lens_estimate.yaml").string() +
+                  " --attitude-estimation off --quiet --no-report -o " + (dir / "cal").string()));
+  const auto est = TumRowsFrom(dir / "a" / "vo.tum", 0.0);
+  const auto cal = TumRowsFrom(dir / "cal" / "vo.tum", 0.0);
+  ASSERT_EQ(est.size(), static_cast<std::size_t>(frames));
+  ASSERT_EQ(cal.size(), est.size());
+  // Geo-referenced (ENU, metres) by the same fit to the same fixes: the same positions, to 1 mm.
+  for (std::size_t i = 0; i < est.size(); ++i) {
+    EXPECT_NEAR(est[i][0], cal[i][0], 1e-6) << "row " << i;
+    EXPECT_NEAR(est[i][1], cal[i][1], 1e-3) << "row " << i;
+    EXPECT_NEAR(est[i][2], cal[i][2], 1e-3) << "row " << i;
+  }
+  EXPECT_EQ(rows[caught_up - 1].at("status"), "ok");
+  // The live poses before the catch-up frame were not those (the pinhole's scale: the flight to
+  // the frame before it at least 1 % shorter or longer), from the catch-up frame on they are.
+  ASSERT_EQ(live.size(), static_cast<std::size_t>(frames));
+  std::vector<std::vector<double>> live_rows;
+  for (const SeenFrame& f : live) live_rows.push_back({0.0, f.live_x_m, f.live_y_m});
+  const double live_before = PathLength(live_rows, 0, caught_up - 1);
+  const double file_before = PathLength(est, 0, caught_up - 1);
+  ::testing::Test::RecordProperty(
+      "path_before_catch_up_m",
+      "live " + std::to_string(live_before) + ", files " + std::to_string(file_before));
+  EXPECT_GT(std::abs(live_before / file_before - 1.0), 0.01);
+  EXPECT_NEAR(PathLength(live_rows, caught_up, frames - 1), PathLength(est, caught_up, frames - 1),
+              1e-3);
+  // The summary's track and comparison with the truth are the files' (RunTotals).
+  const nlohmann::json sa = ReadJson(dir / "a" / "summary.json");
+  const nlohmann::json sc = ReadJson(dir / "cal" / "summary.json");
+  const double ate = sa["truth_evaluation"]["se2"]["ate_rmse_percent"].get<double>();
+  const double ate_cal = sc["truth_evaluation"]["se2"]["ate_rmse_percent"].get<double>();
+  ::testing::Test::RecordProperty("ate_rmse_percent", Describe(ate, ate_cal, -1.0));
+  EXPECT_NEAR(ate, ate_cal, 1e-3);
+  EXPECT_LT(ate, 1.0);  // the truth, to 1 % of the distance flown (40 m)
+}
+
 // The estimate comes beside the odometry (pipeline/lens_switch.h): the first frames are
-// processed and handed to the outputs before it is taken; it is applied at the switch frame,
-// the first one kLensSwitchAfterS (2 s) into the stream (frame 4 at 2 frames/s), the same on
-// every run; from there on the steps are the ones of a run given the estimate as its calibration
-// file from the first frame (the frames before are replayed under the lens). The autopilot sees
-// the switch as a reset: ODOMETRY's reset_counter 1 from the switch frame on. Photos without
-// capture times are 1 s apart (Frame::time_s is the rank): the switch frame is frame 2.
+// processed and handed to the outputs before it is taken at the switch frame, the first one
+// kLensSwitchAfterS (2 s) into the stream (frame 20 at 10 frames/s), the same on every run.
+// The 20 frames before it are then given again to an odometry under the lens, 3 per frame,
+// while every frame still gives its pose under the old lens: no pose waits for more than
+// 1 + kLensReplayFramesPerFrame frames' odometry (the whole replay, 20 frames, stalled the pose
+// stream at the switch frame before). At the catch-up frame (29: 20 kept, 2 gained per frame)
+// the lens becomes the run's; the live poses before it stay those under the pinhole, but the
+// run's files take the replay's: the whole track (vo.tum) is the one of a run given the
+// estimate as its calibration file from the first frame, to 1 mm, and so is its error against
+// the truth. The autopilot sees the switch as a reset: ODOMETRY's reset_counter 1 from the
+// catch-up frame on. The same outputs with 1 thread.
 TEST(LensSelfCalibration, FirstPosesComeBeforeTheEstimateAppliedAtAFixedFrame) {
   const fs::path dir = TempDir("switch");
-  ASSERT_TRUE(Cli("simulate --pattern line --length-m 120 --height-m 80 --fps 2 --width 640 "
+  ASSERT_TRUE(Cli("simulate --pattern line --length-m 40 --height-m 80 --fps 10 --width 640 "
                   "--height 480 --focal-px 300 --lens fisheye --distortion=-0.04,0,0,0 "
-                  "--frames-only --image-format png --quiet --out " + (dir / "sim").string()));
-  const std::string frames = (dir / "sim" / "frames").string();
+                  "--quiet --out " + (dir / "sim").string()));
+  const std::string video = (dir / "sim" / "video.mp4").string();
+  constexpr int kFrames = 41;
   std::vector<SeenFrame> seen;
   RunCallbacks cb;
   cb.sinks.push_back(std::make_shared<LensWatchSink>(&seen));
   RunConfig c;
-  c.input = frames;
+  c.input = video;
   c.out = (dir / "a").string();
   c.quiet = true;
   // The lens alone (a camera tilt estimated too would run the pre-pass before the first frame,
@@ -209,63 +296,56 @@ TEST(LensSelfCalibration, FirstPosesComeBeforeTheEstimateAppliedAtAFixedFrame) {
   const nlohmann::json& le = s.lens_estimate;
   ASSERT_EQ(le["status"], "applied") << le.dump();
   const int switch_frame = le["switch_frame"].get<int>();
-  EXPECT_EQ(switch_frame, static_cast<int>(run_steps::kLensSwitchAfterS));
-  EXPECT_EQ(le["frames_replayed"].get<int>(), switch_frame);
-  ASSERT_EQ(seen.size(), 25u);
-  // Ordering: frames 0..3 reached the outputs while the estimate was still pending.
-  for (int i = 0; i < switch_frame; ++i) {
-    EXPECT_FALSE(seen[i].lens) << "frame " << i;
-    EXPECT_FALSE(seen[i].switched) << "frame " << i;
-    EXPECT_EQ(seen[i].estimate_status, "pending") << "frame " << i;
+  const int caught_up = le["caught_up_frame"].get<int>();
+  EXPECT_EQ(switch_frame, 20);
+  // 20 kept; 3 replayed and 1 kept per frame from the switch frame on.
+  EXPECT_EQ(caught_up, 29);
+  EXPECT_EQ(le["frames_replayed"].get<int>(), caught_up);
+  ASSERT_EQ(seen.size(), static_cast<std::size_t>(kFrames));
+  int replayed = 0, most_per_pose = 0;
+  for (int i = 0; i < kFrames; ++i) {
+    EXPECT_EQ(seen[i].index, i);  // every frame handed to the outputs, in order
+    // Before the switch frame, the estimate is pending; before the catch-up frame, the old lens.
+    if (i < switch_frame) {
+      EXPECT_EQ(seen[i].estimate_status, "pending") << "frame " << i;
+    }
+    EXPECT_EQ(seen[i].lens, i >= caught_up) << "frame " << i;
+    EXPECT_EQ(seen[i].switched, i == caught_up) << "frame " << i;
+    EXPECT_EQ(seen[i].replayed > 0, i >= switch_frame && i <= caught_up) << "frame " << i;
+    replayed += seen[i].replayed;
+    most_per_pose = std::max(most_per_pose, 1 + seen[i].replayed);
   }
-  for (std::size_t i = switch_frame; i < seen.size(); ++i) {
-    EXPECT_TRUE(seen[i].lens) << "frame " << i;
-    EXPECT_EQ(seen[i].switched, static_cast<int>(i) == switch_frame) << "frame " << i;
-  }
+  EXPECT_EQ(replayed, caught_up);
+  // The largest gap of the pose stream, in frames' odometry between two poses handed out.
+  RecordProperty("most_frames_per_pose", most_per_pose);
+  EXPECT_EQ(most_per_pose, 1 + run_steps::kLensReplayFramesPerFrame);
   const std::vector<int> resets = autopilot.ResetCounters();
-  ASSERT_EQ(resets.size(), 25u);
-  for (std::size_t i = 0; i < resets.size(); ++i) {
-    EXPECT_EQ(resets[i], static_cast<int>(i) >= switch_frame ? 1 : 0) << "frame " << i;
+  ASSERT_EQ(resets.size(), static_cast<std::size_t>(kFrames));
+  for (int i = 0; i < kFrames; ++i) {
+    EXPECT_EQ(resets[i], i >= caught_up ? 1 : 0) << "frame " << i;
   }
   // summary.json counts the autopilot's resets, by cause.
   EXPECT_EQ(s.pose_resets.frames, resets.back());
   EXPECT_EQ(s.pose_resets.lens_switch, 1);
   EXPECT_EQ(s.pose_resets.loop_closure + s.pose_resets.map_fix, 0);
   const auto rows = e2e::ReadFramesCsv(dir / "a");
-  ASSERT_EQ(rows.size(), 25u);
-  EXPECT_EQ(rows[switch_frame].at("status"), "ok+lens");
-  EXPECT_EQ(rows[switch_frame - 1].at("status"), "ok");
-  // Deterministic: the same switch frame and track again (the CLI this time).
-  ASSERT_TRUE(Cli("run " + frames + " --attitude-estimation off --quiet --no-report -o " +
-                  (dir / "b").string()));
-  EXPECT_EQ(ReadJson(dir / "b" / "summary.json")["lens_estimate"]["switch_frame"], switch_frame);
-  EXPECT_EQ(ReadText(dir / "a" / "vo.tum"), ReadText(dir / "b" / "vo.tum"));
-  // From the switch frame on: the track of the estimate given as a calibration file.
-  ASSERT_TRUE(Cli("run " + frames + " --calibration " + (dir / "a" / "lens_estimate.yaml").string() +
-                  " --attitude-estimation off --quiet --no-report -o " + (dir / "cal").string()));
-  const double t_switch = std::stod(rows[switch_frame].at("time_s"));
-  EXPECT_EQ(t_switch, run_steps::kLensSwitchAfterS);
-  const auto est = TumRowsFrom(dir / "a" / "vo.tum", t_switch);
-  const auto cal = TumRowsFrom(dir / "cal" / "vo.tum", t_switch);
-  ASSERT_EQ(est.size(), 25u - switch_frame);
-  ASSERT_EQ(cal.size(), est.size());
-  // The steps from the switch frame on (the geo-referencing's fit to the GPS, which rotates the
-  // whole track, saw the frames before the switch under the pinhole: compared are the steps'
-  // lengths, to 1 mm of 5 m steps).
-  for (std::size_t i = 1; i < est.size(); ++i) {
-    const double e = std::hypot(est[i][1] - est[i - 1][1], est[i][2] - est[i - 1][2]);
-    const double k = std::hypot(cal[i][1] - cal[i - 1][1], cal[i][2] - cal[i - 1][2]);
-    EXPECT_NEAR(e, k, 1e-3) << "step into row " << i << " after the switch";
-  }
+  ASSERT_EQ(rows.size(), static_cast<std::size_t>(kFrames));
+  EXPECT_EQ(rows[caught_up].at("status"), "ok+lens");
+  EXPECT_EQ(le["file_poses_replaced"], true);
+  ExpectSameRunAndCalibratedTrack(dir, video, switch_frame, caught_up, kFrames, seen);
   fs::remove_all(dir);
 }
 
 // A live source (a camera or stream, never read twice): the pairs are its own frames as
-// delivered (lens_switch.h), the estimate taken at the switch frame 2 s into the stream. The
-// fisheye of FisheyeIsEstimatedAndApplied, 10 frames/s, delivered at that rate (3 s).
+// delivered (lens_switch.h), the estimate taken at the switch frame 2 s into the stream and
+// the run switched to it once the replay of the frames before caught up (the run does not wait
+// for the estimate: taken at the first frame it is ready at, 2-3 s into the stream; the replay
+// then takes about half as many frames as were kept, and a newest-frame queue drops the frames
+// a busy machine cannot take, so the stream goes on for 6 s after). The fisheye of
+// FisheyeIsEstimatedAndApplied, 5 frames/s, delivered at that rate (9 s).
 TEST(LensSelfCalibration, ALiveSourcesLensIsEstimatedFromItsOwnFrames) {
   const fs::path dir = TempDir("live");
-  ASSERT_TRUE(Cli("simulate --pattern line --length-m 30 --height-m 80 --fps 10 --width 640 "
+  ASSERT_TRUE(Cli("simulate --pattern line --length-m 90 --height-m 80 --fps 5 --width 640 "
                   "--height 480 --focal-px 300 --lens fisheye --distortion=-0.04,0,0,0 "
                   "--frames-only --image-format png --quiet --out " + (dir / "sim").string()));
   RunConfig c;
@@ -277,7 +357,7 @@ TEST(LensSelfCalibration, ALiveSourcesLensIsEstimatedFromItsOwnFrames) {
   c.attitude_estimation = AttitudeEstimationMode::kOff;
   auto folder = std::make_unique<ImageFolderSource>((dir / "sim" / "frames").string());
   const RunSummary s =
-      RunFlight(c, std::make_unique<e2e::PacedLiveSource>(std::move(folder), 10.0));
+      RunFlight(c, std::make_unique<e2e::PacedLiveSource>(std::move(folder), 5.0));
   const nlohmann::json& le = s.lens_estimate;
   RecordProperty("why", le.value("why", std::string()));
   ASSERT_EQ(le["status"], "applied") << le.dump();
@@ -290,6 +370,8 @@ TEST(LensSelfCalibration, ALiveSourcesLensIsEstimatedFromItsOwnFrames) {
   const int switch_frame = le["switch_frame"].get<int>();
   EXPECT_GE(switch_frame, 1) << le.dump();
   EXPECT_GT(le["frames_replayed"].get<int>(), 0) << le.dump();
+  EXPECT_GT(le["caught_up_frame"].get<int>(), switch_frame) << le.dump();
+  EXPECT_EQ(le["file_poses_replaced"], true) << le.dump();
   for (const auto& f : le["pair_frames"]) EXPECT_LT(f.get<int>(), switch_frame) << le.dump();
   const auto rows = e2e::ReadFramesCsv(dir / "run");
   int lens_rows = 0;

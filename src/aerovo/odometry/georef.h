@@ -89,6 +89,8 @@ class GeoReferencer {
 
   /// Fixes dropped by the robust segment fit (GeoRefOptions::outlier_m).
   int outliers() const { return outliers_; }
+  /// As constructed.
+  const GeoRefOptions& options() const { return options_; }
 
   /// True once enu_from_local is known.
   bool ready() const { return ready_; }

@@ -242,7 +242,7 @@ void FrameLoop::Process(FrameState& frame, const std::atomic<bool>* stop, const 
     sinks_ = MakeSinks(*run_, callbacks_.sinks);
   }
   LensSwitch* lens = run_->lens_switch.get();  // the lens estimate (pipeline/lens_switch.h)
-  if (lens != nullptr && !lens->done() && lens->Due(frame)) lens->Apply(*run_, frame);
+  if (lens != nullptr && !lens->done()) lens->BeforeStages(*run_, frame);
   in_frame_steps_ = true;
   for (const StagePtr& stage : stages_) {
     errors_name_frame_ = stage->ErrorsNameTheFrame();

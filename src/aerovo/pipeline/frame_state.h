@@ -116,6 +116,9 @@ struct FrameState {
   /// The lens estimate was applied at this frame (pipeline/lens_switch.h): its position may
   /// jump from the frames before (frames.csv status "+lens", MAVLink reset_counter + 1).
   bool lens_switched = false;
+  /// Frames the lens switch's new odometry was given again before this frame's stages, besides
+  /// this frame's own odometry (pipeline/lens_switch.h: at most kLensReplayFramesPerFrame).
+  int frames_replayed = 0;
   /// The live pose jumped past the autopilots' gates (a loop closure's whole-graph solve,
   /// stage_window.cc; a fused fix, stage_map_fix.cc): MAVLink reset_counter + 1.
   PoseReset pose_reset;

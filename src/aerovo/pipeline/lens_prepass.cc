@@ -526,6 +526,10 @@ LensPrepassTask::~LensPrepassTask() {
   if (result_.valid()) result_.wait();
 }
 
+bool LensPrepassTask::Ready() const {
+  return result_.valid() && result_.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+}
+
 LensPrepass LensPrepassTask::Get(const std::atomic<bool>* stop, double* waited_ms) {
   if (taken_) throw InvalidArgument("LensPrepassTask::Get: called twice");
   const Stopwatch sw;

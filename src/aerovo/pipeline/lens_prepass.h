@@ -185,6 +185,8 @@ class LensPrepassTask {
   LensPrepass Get(const std::atomic<bool>* stop, double* waited_ms = nullptr);
   /// Get() was called.
   bool taken() const { return taken_; }
+  /// The result is there and not taken yet: Get() would not wait.
+  bool Ready() const;
 
  private:
   std::future<LensPrepass> result_;

@@ -1,7 +1,9 @@
 #include "aerovo/pipeline/lens_prepass.h"
 
 #include <atomic>
+#include <chrono>
 #include <filesystem>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -165,8 +167,14 @@ TEST(LensPrepass, TaskRethrowsItsErrorAndIsTakenOnce) {
   RunConfig c;
   c.input = std::filesystem::temp_directory_path().string();
   LensPrepassTask task(c, 0, 480, 300.0);
+  // Ready once its thread ended (at once here: a frame width of 0), until taken.
+  for (int i = 0; i < 500 && !task.Ready(); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_TRUE(task.Ready());
   EXPECT_THROW(task.Get(nullptr), InvalidArgument);
   EXPECT_TRUE(task.taken());
+  EXPECT_FALSE(task.Ready());
   EXPECT_THROW(task.Get(nullptr), InvalidArgument);
 }
 

@@ -134,7 +134,7 @@ void StartPrepass(const RunSetup& setup, const FrameState& first, RunContext& ru
     run.lens_switch = std::make_unique<LensSwitch>(
         std::make_unique<LensPrepassTask>(config, run.width_px, run.height_px,
                                           run.camera.focal_px, run.stop, feed),
-        first.frame.time_s, feed);
+        first.frame.time_s, feed, LensSwitch::FilePosesReplaceable(run));
     run.summary->lens_estimate = {{"status", "pending"}, {"applied", false}};
     if (run.log) {
       *run.log << fmt::format(
@@ -171,22 +171,36 @@ void LogLensPrepass(const RunContext& run, const LensPrepass& prepass, int switc
 
 // Lens distortion: whole frames remapped before SURF, or the keypoints undistorted in the
 // odometry (RunConfig::undistort).
-void SetUpUndistortion(RunContext& run) {
+LensPath MakeLensPath(const RunContext& run, const RunCamera& camera, VisualOdometry& odometry) {
   const RunConfig& config = *run.config;
   const int pw = run.summary->processed_width_px, ph = run.summary->processed_height_px;
   const std::optional<CameraIntrinsics> lens =
-      RunLens(config, run.camera, pw, ph, run.vo_options.focal_px);
-  if (!lens) return;
-  const UndistortMode path =
-      ChooseUndistortion(config.undistort, *lens, &run.summary->lens_scale_change);
+      RunLens(config, camera, pw, ph, run.vo_options.focal_px);
+  LensPath p;
+  if (!lens) return p;
+  double scale_change = 0.0;
+  const UndistortMode path = ChooseUndistortion(config.undistort, *lens, &scale_change);
+  p.scale_change = scale_change;
   if (path == UndistortMode::kPoints) {
-    run.odometry->SetLensUndistortion(*lens);
-    run.undistortion = UndistortionPath::kPoints;
+    odometry.SetLensUndistortion(*lens);
+    p.undistortion = UndistortionPath::kPoints;
   } else {
-    run.undistorter = std::make_unique<FrameUndistorter>(*lens);
-    run.undistortion = UndistortionPath::kFrames;
+    p.undistorter = std::make_unique<FrameUndistorter>(*lens);
+    p.undistortion = UndistortionPath::kFrames;
   }
+  return p;
+}
+
+void InstallLensPath(RunContext& run, LensPath path) {
+  run.undistorter = std::move(path.undistorter);
+  run.undistortion = path.undistortion;
+  if (!path.scale_change) return;  // no lens: the summary's fields as they were
+  run.summary->lens_scale_change = *path.scale_change;
   run.summary->undistortion = ToString(run.undistortion);
+}
+
+void SetUpUndistortion(RunContext& run) {
+  InstallLensPath(run, MakeLensPath(run, run.camera, *run.odometry));
 }
 
 namespace {
@@ -233,6 +247,8 @@ std::unique_ptr<RunContext> SetUpRun(RunSetup setup, const FrameState& first) {
       run->out_dir, *run->config, run->camera, run->summary->height_source, run->width_px,
       run->height_px, first.frame.time_s, first.sample, *run->callbacks,
       !run->telemetry->empty() || run->maps != nullptr);  // a map may seed the geo-reference
+  // The files wait for the lens switch's replayed poses (pipeline/lens_switch.h).
+  if (run->lens_switch && run->lens_switch->replaces_file_poses()) run->outputs->HoldForReplay();
   if (run->maps != nullptr) {
     run->map_fixer =
         std::make_shared<MapFixer>(*run->maps, run->config->map_fix, setup.source_live);

@@ -381,6 +381,17 @@ FrameAttitude CameraAttitudeOf(const RunConfig& config,
 // ---------------------------------------------------------------------------------------------
 // 4. Outputs
 
+namespace {
+
+// The odometry's part of frames.csv's status: "ok", "bridged:too-few-inliers", ...
+std::string StepStatusOf(const FrameResult& r) {
+  std::string status = ToString(r.status);
+  if (r.failure != StepFailure::kNone) status += std::string(":") + ToString(r.failure);
+  return status;
+}
+
+}  // namespace
+
 PendingFrame PendingFrameOf(const Frame& frame, const FrameResult& r,
                             const std::optional<GeoPoint>& gps, double height_m) {
   PendingFrame p;
@@ -401,10 +412,22 @@ PendingFrame PendingFrameOf(const Frame& frame, const FrameResult& r,
   rec.correspond_ms = r.correspond_ms;
   rec.estimate_ms = r.estimate_ms;
   rec.total_ms = r.total_ms;
-  rec.status = ToString(r.status);
-  if (r.failure != StepFailure::kNone) rec.status += std::string(":") + ToString(r.failure);
+  rec.status = StepStatusOf(r);
   if (!frame.flags.empty()) rec.status += "+" + frame.flags;
   return p;
+}
+
+void ReplacePose(PendingFrame& p, const FrameResult& r) {
+  p.local_m = r.position_m;
+  p.heading_rad = r.heading_rad;
+  p.quality = PoseQuality(r);
+  FrameRecord& rec = p.record;
+  rec.n_surf = r.n_surf;
+  rec.n_matched = r.n_matched;
+  rec.n_inliers = r.n_inliers;
+  rec.cluster = r.cluster;
+  const std::size_t plus = rec.status.find('+');
+  rec.status = StepStatusOf(r) + (plus == std::string::npos ? "" : rec.status.substr(plus));
 }
 
 namespace {
@@ -529,6 +552,10 @@ RunOutputs::RunOutputs(const std::filesystem::path& out_dir, const RunConfig& co
 }
 
 void RunOutputs::AppendTransform(int frame_index, const Eigen::Matrix3d& world_from_frame) {
+  if (hold_for_replay_) {
+    held_transforms_.emplace_back(frame_index, world_from_frame);
+    return;
+  }
   if (!have_first_) {
     first_px_from_world_ = world_from_frame.inverse();
     have_first_ = true;
@@ -579,8 +606,9 @@ void RunOutputs::Emit(PendingFrame& p, const GeoReferencer& georef) {
 }
 
 void RunOutputs::Flush(const GeoReferencer& georef, bool final) {
-  // With GPS in the telemetry, wait for the heading (bounded: GeoRefOptions::min_segment_m).
-  if (!final && !georef.ready() && wait_for_heading_) return;
+  // With GPS in the telemetry, wait for the heading (bounded: GeoRefOptions::min_segment_m);
+  // wait for the lens switch's replay (bounded: lens_switch.h).
+  if (!final && ((!georef.ready() && wait_for_heading_) || hold_for_replay_)) return;
   while (!pending_.empty()) {
     Emit(pending_.front(), georef);
     pending_.pop_front();
@@ -591,6 +619,27 @@ void RunOutputs::Reflag(int frame_index, const std::string& gps_flag) {
   for (PendingFrame& p : pending_) {
     if (p.record.frame == frame_index) p.record.gps_flag = gps_flag;
   }
+}
+
+void RunOutputs::ReleaseHeld(const std::vector<ReplayedPose>& replayed) {
+  if (!hold_for_replay_) return;
+  hold_for_replay_ = false;
+  // Both the queue and the replayed poses are in frame order.
+  auto next = replayed.begin();
+  const auto replayed_pose = [&](int frame) -> const ReplayedPose* {
+    while (next != replayed.end() && next->frame < frame) ++next;
+    return next != replayed.end() && next->frame == frame ? &*next : nullptr;
+  };
+  for (PendingFrame& p : pending_) {
+    if (const ReplayedPose* r = replayed_pose(p.record.frame)) ReplacePose(p, r->result);
+  }
+  next = replayed.begin();
+  for (const auto& [frame, world_from_frame] : held_transforms_) {
+    const ReplayedPose* r = replayed_pose(frame);
+    AppendTransform(frame, r ? r->world_from_full : world_from_frame);
+  }
+  held_transforms_.clear();
+  held_transforms_.shrink_to_fit();
 }
 
 void RunOutputs::Add(PendingFrame frame, const GeoReferencer& georef) {
@@ -613,6 +662,7 @@ void RunOutputs::Enqueue(PendingFrame frame, const GeoReferencer& georef) {
 int RunOutputs::frames_written() const { return writers_->csv_rows(); }
 
 void RunOutputs::Finish(GeoReferencer& georef) {
+  ReleaseHeld({});  // the lens switch never released them (a failure): the live poses
   if (!georef.ready() && georef.has_enu()) georef.FixWithAvailable();
   Flush(georef, true);
   writers_->Close();
@@ -648,6 +698,27 @@ void RunTotals::Add(int frame_index, double time_s, const FrameResult& r,
   sum_ms.estimate_ms += r.estimate_ms;
   sum_ms.total_ms += r.total_ms;
   ++frames;
+}
+
+void RunTotals::ReplacePoses(const std::vector<ReplayedPose>& replayed) {
+  const auto replace = [&replayed](const std::vector<int>& frames,
+                                   std::vector<TrajectoryPoint2D>& points) {
+    auto next = replayed.begin();  // both in frame order
+    for (std::size_t i = 0; i < frames.size() && next != replayed.end(); ++i) {
+      while (next != replayed.end() && next->frame < frames[i]) ++next;
+      if (next == replayed.end() || next->frame != frames[i]) continue;
+      points[i].x = next->result.position_m.x();
+      points[i].y = next->result.position_m.y();
+    }
+  };
+  replace(track_frames, local_track);
+  replace(gps_frames, local_at_gps);
+  path_length_m = 0.0;
+  for (std::size_t i = 1; i < local_track.size(); ++i) {
+    path_length_m += std::hypot(local_track[i].x - local_track[i - 1].x,
+                                local_track[i].y - local_track[i - 1].y);
+  }
+  if (!local_track.empty()) last_local_m = {local_track.back().x, local_track.back().y};
 }
 
 void RunTotals::SetRejected(int frame_index, bool rejected) {

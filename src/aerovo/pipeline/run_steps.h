@@ -274,6 +274,21 @@ struct PendingFrame {
   bool sent_geo = false;  ///< The pose stream already has its geographic position.
 };
 
+/// A frame's pose as the lens switch's replay estimated it (pipeline/lens_switch.h): the run's
+/// files take it in place of the live one (RunOutputs::ReleaseHeld, RunTotals::ReplacePoses).
+struct ReplayedPose {
+  int frame = -1;      ///< Frame::index.
+  FrameResult result;  ///< The replay odometry's result (its features released).
+  /// result.world_from_frame in full-frame pixels (times RunContext::reduced_from_full when
+  /// reduced), as transforms.csv takes it (RunOutputs::AppendTransform).
+  Eigen::Matrix3d world_from_full = Eigen::Matrix3d::Identity();
+};
+
+/// `p` given the replayed pose `r` (ReplayedPose): its local position, heading and quality, and
+/// its record's feature counts, cluster and status (the odometry's part; the suffixes after it,
+/// "+" a frame flag, kept). The stage times stay the live run's.
+void ReplacePose(PendingFrame& p, const FrameResult& r);
+
 /// A GPS fix rejected by the plausibility check (gps_check.h), for the summary.
 struct RejectedFix {
   int frame = 0;
@@ -344,8 +359,18 @@ class RunOutputs {
   void StopWaitingForHeading() { wait_for_heading_ = false; }
   /// Sets the gps_flag of the queued frame `frame_index` (no effect once it is written).
   void Reflag(int frame_index, const std::string& gps_flag);
+  /// The lens switch's replay will re-estimate the first frames (pipeline/lens_switch.h): from
+  /// now on the frames queued (Enqueue: frames.csv, the vo.* tracks, the frame callback,
+  /// --print-poses, the pose stream's "geo" lines) and the transforms.csv rows are held, not
+  /// written, until ReleaseHeld. The pose stream's "pose" lines (SendPose) are not held.
+  void HoldForReplay() { hold_for_replay_ = true; }
+  /// Gives the held frames the poses of `replayed` (ascending frames; a frame not among them
+  /// keeps its own: ReplacePose), writes the held transforms.csv rows (the replayed ones' from
+  /// ReplayedPose::world_from_full) and stops holding: the queue is written with the next frame
+  /// (Enqueue) or at Finish, after the geo-referencing the caller rebuilt.
+  void ReleaseHeld(const std::vector<ReplayedPose>& replayed);
   /// At the end: geo-references with what is available if needed (georef.FixWithAvailable),
-  /// writes every queued frame and closes the track files.
+  /// writes every queued frame (the held ones as they are) and closes the track files.
   void Finish(GeoReferencer& georef);
   /// Rows written to frames.csv so far (frames still queued for the heading are not).
   int frames_written() const;
@@ -361,6 +386,9 @@ class RunOutputs {
   bool have_first_ = false;
   Eigen::Matrix3d first_px_from_world_ = Eigen::Matrix3d::Identity();
   std::deque<PendingFrame> pending_;
+  bool hold_for_replay_ = false;  // HoldForReplay until ReleaseHeld
+  // transforms.csv rows held (frame index, world_from_frame in full-frame pixels).
+  std::vector<std::pair<int, Eigen::Matrix3d>> held_transforms_;
   std::unique_ptr<std::ostream> jsonl_file_;  // RunConfig::poses_jsonl when a file
   std::ostream* jsonl_ = nullptr;             // the pose stream: jsonl_file_ or stdout
   std::string jsonl_name_;                    // for messages
@@ -386,6 +414,11 @@ struct RunTotals {
   /// Marks the fix of `frame_index` rejected (true) or accepted again: rejected fixes are left
   /// out of the comparison with GPS.
   void SetRejected(int frame_index, bool rejected);
+
+  /// The positions of the frames of `replayed` (ascending frames, pipeline/lens_switch.h) in
+  /// place of theirs in the track (local_track, local_at_gps), path_length_m and last_local_m
+  /// recomputed from the track. Precondition: keep_track. The counts stay the live run's.
+  void ReplacePoses(const std::vector<ReplayedPose>& replayed);
 
   bool keep_track = false;  ///< Keep every frame's position (local_track) for the truth.
   int frames = 0;

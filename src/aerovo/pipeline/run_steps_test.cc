@@ -627,6 +627,71 @@ TEST(RunSteps, OutputsWithoutGpsTelemetryWriteAtOnceAndGeoReferenceWhenReady) {
   fs::remove_all(dir);
 }
 
+// The lens switch's replay (pipeline/lens_switch.h): the files hold their frames, the pose
+// stream does not; released, the replayed frames carry the replay's poses (a frame not replayed
+// keeps its own, a flag suffix of the status stays) and the summary's track takes them too.
+TEST(RunSteps, OutputsHeldForTheLensReplayTakeTheReplayedPoses) {
+  const fs::path dir = TempDir("outputs_replay");
+  RunConfig config;
+  config.poses_jsonl = (dir / "poses.jsonl").string();
+  fs::create_directories(dir);
+  RunCallbacks cb;
+  std::ostringstream printed;
+  cb.poses = &printed;
+  RunOutputs out(dir, config, RunCamera{400.0, "hfov", {}, std::nullopt}, "flag", 320, 240, 0.0,
+                 std::nullopt, cb, false);
+  out.HoldForReplay();
+  GeoReferencer georef;  // no GPS: the frames do not wait for a heading
+  RunTotals totals(true);
+  Frame flagged = FakeFrame(2);
+  flagged.flags = "repeated";
+  for (int i = 0; i < 3; ++i) {
+    const FrameResult r = FakeResult(i);
+    out.AppendTransform(i, r.world_from_frame);
+    out.Add(PendingFrameOf(i == 2 ? flagged : FakeFrame(i), r, std::nullopt), georef);
+    totals.Add(i, 0.5 * i, r, std::nullopt);
+  }
+  EXPECT_EQ(Lines(ReadText(dir / "poses.jsonl")).size(), 3u);  // the pose lines at once
+  EXPECT_EQ(CsvRows(dir / "frames.csv"), 0);
+  EXPECT_EQ(CsvRows(dir / "transforms.csv"), 0);
+  EXPECT_TRUE(printed.str().empty());
+  // Frames 1 and 2 replayed (3 m and 6 m east, 1 bridged), frame 0 not.
+  std::vector<ReplayedPose> replayed(2);
+  for (int k = 0; k < 2; ++k) {
+    replayed[k].frame = k + 1;
+    replayed[k].result = FakeResult(k + 1);
+    replayed[k].result.position_m = {3.0 * (k + 1), 0.0};
+    replayed[k].world_from_full(0, 2) = 3.0 * (k + 1);
+  }
+  replayed[0].result.status = FrameStatus::kBridged;
+  replayed[0].result.failure = StepFailure::kTooFewFeatures;
+  replayed[1].result.n_inliers = 7;
+  out.ReleaseHeld(replayed);
+  totals.ReplacePoses(replayed);
+  const std::vector<std::string> rows = Lines(ReadText(dir / "transforms.csv"));
+  ASSERT_EQ(rows.size(), 4u);  // written at the release
+  EXPECT_EQ(rows[1], "0,1,0,0.000000,0,1,0.000000");
+  EXPECT_EQ(rows[3], "2,1,0,6.000000,0,1,0.000000");
+  out.Add(PendingFrameOf(FakeFrame(3), FakeResult(3), std::nullopt), georef);
+  EXPECT_EQ(CsvRows(dir / "frames.csv"), 4);  // written with the next frame
+  out.Finish(georef);
+  const std::vector<std::string> lines = Lines(printed.str());
+  ASSERT_EQ(lines.size(), 4u);
+  EXPECT_EQ(lines[0], "0 0.000000 0.0000 0.0000 - - first");
+  EXPECT_EQ(lines[1], std::string("1 0.500000 3.0000 0.0000 - - ") +
+                          ToString(FrameStatus::kBridged) + ":" +
+                          ToString(StepFailure::kTooFewFeatures));
+  EXPECT_EQ(lines[2], "2 1.000000 6.0000 0.0000 - - ok+repeated");
+  EXPECT_EQ(lines[3], "3 1.500000 6.0000 1.5000 - - ok");
+  // The summary's track: the replayed positions, the path length from them (0 -> 3 -> 6 m).
+  ASSERT_EQ(totals.local_track.size(), 3u);
+  EXPECT_EQ(totals.local_track[1].x, 3.0);
+  EXPECT_EQ(totals.local_track[2].y, 0.0);
+  EXPECT_DOUBLE_EQ(totals.path_length_m, 6.0);
+  EXPECT_EQ(totals.last_local_m, Eigen::Vector2d(6.0, 0.0));
+  fs::remove_all(dir);
+}
+
 // The pose stream given as one of the run's inputs (the telemetry, a map) is refused before the
 // file is opened: the input is left as it was.
 TEST(RunSteps, ThePoseStreamNeverOverwritesAnInput) {

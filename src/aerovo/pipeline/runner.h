@@ -109,7 +109,7 @@ struct RunSummary {
   /// ToJson): status ("applied", "not significant", "no estimate", "skipped", "failed", "not
   /// applied"), applied, why, and with an estimate its family, k, sigma_k, cost_drop, pairs and
   /// times; where it was taken (pipeline/lens_switch.h): switch_frame, wait_ms,
-  /// frames_replayed.
+  /// caught_up_frame, frames_replayed.
   nlohmann::json lens_estimate;
   /// The camera tilt self-calibration (pipeline/lens_prepass.h ToJson(AttitudePrepass)).
   nlohmann::json attitude_estimate;
