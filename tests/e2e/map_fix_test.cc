@@ -380,12 +380,21 @@ TEST(MapFix, GpsDeniedFromTheStartTheMapSeedsTheGeoReference) {
   EXPECT_LT(e.at("rmse_m").get<double>(), 1.0) << e.dump(1);
   EXPECT_LT(e.at("max_error_m").get<double>(), 2.0) << e.dump(1);
   RecordProperty("seeded_rmse_max_m", e.at("rmse_m").dump() + " " + e.at("max_error_m").dump());
-  // Every frame written geo-referenced, the first ones too (held for the seed).
+  // Every frame written geo-referenced, the first ones too (held for the seed), without an
+  // altitude: the map gives none and no GPS ever did (the ENU origin's null, frames.csv's alt_m
+  // empty, the GeoJSON positions [lon, lat], no <ele> in the GPX).
   const auto frames = ReadCsvRows(f.dir / "seed" / "frames.csv");
   ASSERT_GE(frames.size(), 100u);
   for (std::size_t i = 0; i < frames.size(); ++i) {
     ASSERT_FALSE(frames[i].at("lat_deg").empty()) << "frames.csv row " << i;
+    ASSERT_TRUE(frames[i].at("alt_m").empty()) << "frames.csv row " << i;
   }
+  EXPECT_TRUE(s.at("enu_origin").at("alt_m").is_null()) << s.at("enu_origin").dump();
+  const nlohmann::json vo = e2e::ReadJson(f.dir / "seed" / "vo.geojson");
+  const nlohmann::json& line = vo.at("features").at(0).at("geometry").at("coordinates");
+  ASSERT_EQ(line.size(), frames.size());
+  for (const nlohmann::json& c : line) ASSERT_EQ(c.size(), 2u) << c.dump();
+  EXPECT_EQ(e2e::ReadText(f.dir / "seed" / "vo.gpx").find("<ele>"), std::string::npos);
 }
 
 // The same start over a map of nothing the flight sees (the orthophoto mirrored east-west: the

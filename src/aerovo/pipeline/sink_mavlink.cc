@@ -80,8 +80,10 @@ class GpsInputOfPoses {
     fix.lon_deg = g.lon_deg;
     // The ENU origin's altitude (the first accepted fix's) plus the height gained since the
     // first geo-referenced frame: the height aerovo was given, not measured (vert fields ignored).
+    // A track placed by a map has no altitude (GeoReferencer::altitude_known): alt is marked
+    // ignored, never sent as 0 (docs/autopilot.md "No altitude after a map's seed").
     if (!first_height_m_) first_height_m_ = f.height_m;
-    fix.alt_msl_m = g.alt_m + (f.height_m - *first_height_m_);
+    if (georef.altitude_known()) fix.alt_msl_m = g.alt_m + (f.height_m - *first_height_m_);
     const double dt = f.frame_mono_s - previous_time_s;
     if (previous && dt > 0.0 && !jumped) {
       const Eigen::Vector2d v = (georef.EnuFromLocal(local) - georef.EnuFromLocal(*previous)) / dt;
