@@ -187,7 +187,8 @@ async function runShifted() {
 // frame 0 or with an altitude (the map gives none), summary.json enu_origin.alt_m not null, a
 // GPS_INPUT before the seed or more than 1.5 m from the truth, through ArduPilot's arithmetic an
 // altitude reaching EKF3 (GPS_INPUT_IGNORE_FLAG_ALT must be set on every message: no
-// altitude is known).
+// altitude is known), a horiz_accuracy whose drift term does not restart at the seed (1 cm) or
+// a GPS_INPUT without a 3D fix.
 async function runSeeded() {
   const gps = [], odo = [];
   const { sock, splitter, port } = await listen(packet => {
@@ -218,18 +219,37 @@ async function runSeeded() {
   const skipped = rows.length - gps.length;
   check(skipped >= 5 && skipped <= 12, `seeded: ${gps.length} GPS_INPUT for ${rows.length} frames`);
   const state = { alignable: 0, heights: [] };
-  let worstTruth = 0;
+  // horiz_accuracy restarts at the seed: sqrt(ODOMETRY's variance + the seed fix's (map_fixes.csv
+  // sigma_m^2 + residual_m^2, until the first fused fix) + (DRIFT x distance since the seed or
+  // the last fused fix)^2); the distance from the first frame would put the seed frame's past
+  // MAX_SIGMA (DRIFT x 20 m).
+  const fixes = readCsv(path.join(dir, 'map_fixes.csv'));
+  const seedRow = fixes.find(f => f.seed === 'confirmed');
+  check(seedRow !== undefined, 'seeded: no confirmed seed in map_fixes.csv');
+  let seedVar = seedRow ? Number(seedRow.sigma_m) ** 2 + Number(seedRow.residual_m) ** 2 : 0;
+  const varianceOf = odo.map((o, i) => checkCovariance(Array.from(o.poseCovariance), `seeded ODOMETRY frame ${i}`, i === 0));
+  let worstTruth = 0, flown = 0, withFix = 0, fusedAfter = 0, worstSigmaErr = 0;
   for (let k = 0; k < gps.length; ++k) {
     const i = k + skipped, d = gps[k], r = rows[i], who = `seeded GPS_INPUT frame ${i} (${r.status})`;
     ardupilot(d, state, who, i);
     check((d.ignoreFlags & F.ALT) !== 0, `${who}: alt ${d.alt} m sent, but the run has no altitude`);
+    if (r.status.includes('+map_fix')) { flown = 0; seedVar = 0; ++fusedAfter; }
+    else if (k > 0) flown += Math.hypot(odo[i].x - odo[i - 1].x, odo[i].y - odo[i - 1].y);
+    const want = Math.sqrt(varianceOf[i] + seedVar + (DRIFT * flown) ** 2);
+    worstSigmaErr = Math.max(worstSigmaErr, Math.abs(d.horizAccuracy - want));
+    check(Math.abs(d.horizAccuracy - want) <= 0.01 + 1e-3 * want, `${who}: horiz_accuracy ${d.horizAccuracy}, expected ${want.toFixed(3)} (${flown.toFixed(2)} m since the seed or the last fused fix)`);
+    if (d.fixType === 3) ++withFix;
     const t = truth[Number(r.frame)];
     const dTruth = metresApart(Number(t.lat_deg), Number(t.lon_deg), d.lat / 1e7, d.lon / 1e7);
     worstTruth = Math.max(worstTruth, dTruth);
     check(dTruth <= 1.5, `${who}: ${dTruth.toFixed(2)} m from the truth`);
   }
   checkNoHeightSent(state);
-  console.log(`seeded from the map: ${rows.length} frames, ${gps.length} GPS_INPUT from frame ${skipped} (no altitude), ` +
+  check(gps.length > 0 && gps[0].fixType === 3, 'seeded: the seed frame\'s GPS_INPUT is not a 3D fix');
+  check(withFix === gps.length, `seeded: ${gps.length - withFix} GPS_INPUT without a fix`);
+  check(fusedAfter >= 2, `seeded: ${fusedAfter} fixes fused after the seed`);
+  console.log(`seeded from the map: ${rows.length} frames, ${gps.length} GPS_INPUT from frame ${skipped} (no altitude; ` +
+              `${withFix} 3D fixes, horiz_accuracy within ${(100 * worstSigmaErr).toFixed(2)} cm of the drift from the seed), ` +
               `within ${worstTruth.toFixed(2)} m of the truth; aerovo's run ${wallS.toFixed(1)} s wall`);
 }
 

@@ -134,9 +134,11 @@ class MapFixStage : public FrameStage {
 
   // The geo-reference seeded from the map's confirmed fix `seed` (of this frame or an earlier
   // one: its local pose is the job's).
-  void Seed(const MapFixRecord& seed, const FrameState& f, const RunContext& run) {
+  void Seed(const MapFixRecord& seed, FrameState& f, const RunContext& run) {
     run.state->georef.SeedFromFix(seed.local_m, seed.local_heading_rad, *seed.geo,
                                   seed.fix.heading_rad);
+    const double floor_m = seed.fix.residual_m;  // as Fuse floors a fix
+    f.map_seed_var_m2 = seed.fix.position_cov_m2.trace() + floor_m * floor_m;
     if (run.log != nullptr) {
       *run.log << fmt::format(
           "frame {}: the geo-reference seeded from the map's fix of frame {} (confirming a "
