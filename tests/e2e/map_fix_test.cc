@@ -22,6 +22,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "aerovo/report/run_reader.h"
 #include "callas_map.h"
 #include "e2e_testing.h"
 
@@ -395,6 +396,13 @@ TEST(MapFix, GpsDeniedFromTheStartTheMapSeedsTheGeoReference) {
   ASSERT_EQ(line.size(), frames.size());
   for (const nlohmann::json& c : line) ASSERT_EQ(c.size(), 2u) << c.dump();
   EXPECT_EQ(e2e::ReadText(f.dir / "seed" / "vo.gpx").find("<ele>"), std::string::npos);
+  // Read back (report/run_reader.h, the Python module's read_run): no altitude known.
+  const RunData data = ReadRunDir(f.dir / "seed");
+  ASSERT_EQ(data.frames.size(), frames.size());
+  for (const RunFrameRow& r : data.frames) {
+    ASSERT_TRUE(r.geo.has_value()) << r.frame;
+    ASSERT_FALSE(r.geo_alt_known) << r.frame;
+  }
 }
 
 // The same start over a map of nothing the flight sees (the orthophoto mirrored east-west: the

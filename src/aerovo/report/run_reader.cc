@@ -203,6 +203,7 @@ RunData ReadRunDir(const fs::path& dir) {
     f.x_m = t.Number(r, "x_m");
     f.y_m = t.Number(r, "y_m");
     f.geo = GeoOf(t, r, "lat_deg", "lon_deg", "alt_m");
+    f.geo_alt_known = f.geo && t.OptNumber(r, "alt_m").has_value();
     f.n_surf = static_cast<int>(t.Number(r, "n_surf"));
     f.n_matched = static_cast<int>(t.Number(r, "n_matched"));
     f.n_inliers = static_cast<int>(t.Number(r, "n_inliers"));
