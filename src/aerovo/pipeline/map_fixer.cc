@@ -597,9 +597,11 @@ void MapFixer::SummarizeSeed(RunSummary::MapFixes* s) const {
   }
   if (whole_map_searches_ == 0) return;
   std::string statuses;
+  int confirmed = 0;  // confirmations not taken (after GiveUpSeed)
   for (const MapFixRecord& r : records_) {
     if (r.whole_map && r.seed == MapSeedRole::kNone)
       ++counts[static_cast<std::size_t>(r.fix.status)];
+    confirmed += r.seed == MapSeedRole::kConfirmed;
   }
   for (int i = 0; i < kNumMapFixStatus; ++i) {
     if (counts[static_cast<std::size_t>(i)] == 0) continue;
@@ -613,10 +615,11 @@ void MapFixer::SummarizeSeed(RunSummary::MapFixes* s) const {
                 "no whole-map search found the frame ({} searches over {} of the map's {} "
                 "tiles: {})",
                 whole_map_searches_, whole_map_tiles_, whole_map_tiles_total_, statuses)
-          : fmt::format(
-                "{} candidates found by {} whole-map searches, none confirmed by the next "
-                "attempt",
-                s->candidates, whole_map_searches_);
+          : fmt::format("{} candidates found by {} whole-map searches, {}", s->candidates,
+                        whole_map_searches_,
+                        confirmed == 0 ? std::string("none confirmed by the next attempt")
+                                       : fmt::format("{} confirmed after the wait (not taken)",
+                                                     confirmed));
   if (options_.start_radius_m > 0.0) {
     s->georef_note += fmt::format(
         "; searched within {} m of the start position given "
