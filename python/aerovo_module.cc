@@ -256,7 +256,8 @@ py::dict ReadRun(const std::filesystem::path& dir) {
   frames["y_m"] = Column<double>(f, [](const RunFrameRow& r) { return r.y_m; });
   frames["lat_deg"] = Column<double>(f, [&](const RunFrameRow& r) { return r.geo ? r.geo->lat_deg : kNaN; });
   frames["lon_deg"] = Column<double>(f, [&](const RunFrameRow& r) { return r.geo ? r.geo->lon_deg : kNaN; });
-  frames["alt_m"] = Column<double>(f, [&](const RunFrameRow& r) { return r.geo ? r.geo->alt_m : kNaN; });
+  frames["alt_m"] = Column<double>(  // NaN also when the altitude is not known
+      f, [&](const RunFrameRow& r) { return r.geo && r.geo_alt_known ? r.geo->alt_m : kNaN; });
   frames["n_surf"] = Column<std::int32_t>(f, [](const RunFrameRow& r) { return r.n_surf; });
   frames["n_matched"] = Column<std::int32_t>(f, [](const RunFrameRow& r) { return r.n_matched; });
   frames["n_inliers"] = Column<std::int32_t>(f, [](const RunFrameRow& r) { return r.n_inliers; });

@@ -153,6 +153,6 @@ set(AEROVO_TEST_COSTS
   MapSeveral.RecentPartialMapFirstOlderFullMapAfterIt 9
   MapSeveral.PartialCoverWarnsAndACorruptSecondMapIsNamed 5
   MapFix.GpsDeniedFromTheStartTheMapSeedsTheGeoReference 7
-  MapFix.GpsDeniedFromTheStartOverAMapWithoutTheFlightSaysSo 6
+  MapFix.GpsDeniedFromTheStartOverAMapWithoutTheFlightSaysSo 9
   MapDemo.ThreeKilometresWithoutGpsOverAnotherSurveysMap 14
 )

@@ -22,6 +22,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "aerovo/report/run_reader.h"
 #include "callas_map.h"
 #include "e2e_testing.h"
 
@@ -380,18 +381,35 @@ TEST(MapFix, GpsDeniedFromTheStartTheMapSeedsTheGeoReference) {
   EXPECT_LT(e.at("rmse_m").get<double>(), 1.0) << e.dump(1);
   EXPECT_LT(e.at("max_error_m").get<double>(), 2.0) << e.dump(1);
   RecordProperty("seeded_rmse_max_m", e.at("rmse_m").dump() + " " + e.at("max_error_m").dump());
-  // Every frame written geo-referenced, the first ones too (held for the seed).
+  // Every frame written geo-referenced, the first ones too (held for the seed), without an
+  // altitude: the map gives none and no GPS ever did (the ENU origin's null, frames.csv's alt_m
+  // empty, the GeoJSON positions [lon, lat], no <ele> in the GPX).
   const auto frames = ReadCsvRows(f.dir / "seed" / "frames.csv");
   ASSERT_GE(frames.size(), 100u);
   for (std::size_t i = 0; i < frames.size(); ++i) {
     ASSERT_FALSE(frames[i].at("lat_deg").empty()) << "frames.csv row " << i;
+    ASSERT_TRUE(frames[i].at("alt_m").empty()) << "frames.csv row " << i;
+  }
+  EXPECT_TRUE(s.at("enu_origin").at("alt_m").is_null()) << s.at("enu_origin").dump();
+  const nlohmann::json vo = e2e::ReadJson(f.dir / "seed" / "vo.geojson");
+  const nlohmann::json& line = vo.at("features").at(0).at("geometry").at("coordinates");
+  ASSERT_EQ(line.size(), frames.size());
+  for (const nlohmann::json& c : line) ASSERT_EQ(c.size(), 2u) << c.dump();
+  EXPECT_EQ(e2e::ReadText(f.dir / "seed" / "vo.gpx").find("<ele>"), std::string::npos);
+  // Read back (report/run_reader.h, the Python module's read_run): no altitude known.
+  const RunData data = ReadRunDir(f.dir / "seed");
+  ASSERT_EQ(data.frames.size(), frames.size());
+  for (const RunFrameRow& r : data.frames) {
+    ASSERT_TRUE(r.geo.has_value()) << r.frame;
+    ASSERT_FALSE(r.geo_alt_known) << r.frame;
   }
 }
 
 // The same start over a map of nothing the flight sees (the orthophoto mirrored east-west: the
 // same kind of texture, nowhere in its place): the whole-map searches find nothing (one per 4
 // due frames: search_after_failures 3), the run completes in the local frame and says why
-// (summary.json map_fixes.georef.note, a warning, the text summary).
+// (summary.json map_fixes.georef.note, a warning, the text summary); with map_fix.seed_wait_s
+// the frames stop waiting for a seed and the run stays local from there, a later seed refused.
 TEST(MapFix, GpsDeniedFromTheStartOverAMapWithoutTheFlightSaysSo) {
   const MapFixFlight& f = Flight();
   if (!f.skip.empty()) GTEST_SKIP() << f.skip;
@@ -432,6 +450,61 @@ TEST(MapFix, GpsDeniedFromTheStartOverAMapWithoutTheFlightSaysSo) {
   const auto frames = ReadCsvRows(f.dir / "nomatch" / "frames.csv");
   ASSERT_EQ(frames.size(), 40u);
   EXPECT_TRUE(frames.back().at("lat_deg").empty());
+
+  // The frames wait for a seed at most map_fix.seed_wait_s: 8 s, frame 16 at 2 fps. There the
+  // held frames are written in the local frame and the run stays local: the due frame 20 makes
+  // no whole-map search (the run above made one there), so 1 search and 4 due frames without a
+  // prediction (5, 10, 15 after the failed search, 20 after giving up), and the note says when.
+  ASSERT_EQ(e2e::RunCli(fmt::format("run {} --map {} --gps-denied-after-s 0 "
+                                    "--map-fix-every-n-frames 5 --map-fix-search-radius-m 40 "
+                                    "--map-fix-seed-wait-s 8 --max-frames 24 --no-report -o {}",
+                                    (f.dir / "sim" / "video.mp4").string(),
+                                    (f.dir / "mirrored.tif").string(), (f.dir / "waited").string()),
+                        f.dir / "waited.log"),
+            0)
+      << e2e::ReadText(f.dir / "waited.log");
+  const nlohmann::json w = e2e::ReadJson(f.dir / "waited" / "summary.json");
+  const nlohmann::json& wm = w.at("map_fixes");
+  EXPECT_FALSE(wm.at("georef").at("seeded").get<bool>()) << wm.dump(1);
+  EXPECT_EQ(wm.at("georef").at("whole_map_searches"), 1) << wm.dump(1);
+  EXPECT_EQ(wm.at("no_prediction"), 4) << wm.dump(1);
+  const std::string wnote = wm.at("georef").at("note");
+  EXPECT_EQ(wnote.find("no seed within map_fix.seed_wait_s (8 s): the frames were written in the "
+                       "local frame from frame 16 (8.000 s) on and the run stayed local; no "
+                       "whole-map search found the frame"),
+            0u)
+      << wnote;
+  const std::string wlog = e2e::ReadText(f.dir / "waited.log");
+  EXPECT_NE(wlog.find("frame 16: no geo-reference from the map after 8.0 s"), std::string::npos)
+      << wlog;
+  EXPECT_NE(wlog.find("none from the map: " + wnote), std::string::npos) << wlog;
+  const auto wframes = ReadCsvRows(f.dir / "waited" / "frames.csv");
+  ASSERT_EQ(wframes.size(), 24u);
+  for (const auto& r : wframes) EXPECT_TRUE(r.at("lat_deg").empty());
+
+  // Once local, the run stays local: over the map of the flight, the whole-map search of frame 0
+  // finds a candidate, but the wait (1 s: frame 2) ends before the attempt that would confirm
+  // it (frame 5), which is not made: no seed, every frame in the local frame.
+  ASSERT_EQ(e2e::RunCli(fmt::format("run {} --map {} --gps-denied-after-s 0 "
+                                    "--map-fix-every-n-frames 5 --map-fix-search-radius-m 40 "
+                                    "--map-fix-apply --map-fix-seed-wait-s 1 --max-frames 12 -q "
+                                    "--no-report -o {}",
+                                    (f.dir / "sim" / "video.mp4").string(),
+                                    (f.dir / "map.tif").string(), (f.dir / "late").string()),
+                        f.dir / "late.log"),
+            0)
+      << e2e::ReadText(f.dir / "late.log");
+  const nlohmann::json l = e2e::ReadJson(f.dir / "late" / "summary.json");
+  EXPECT_EQ(l.at("heading_source"), "") << l.dump(1);
+  const nlohmann::json& lg = l.at("map_fixes").at("georef");
+  EXPECT_FALSE(lg.at("seeded").get<bool>()) << lg.dump(1);
+  EXPECT_EQ(lg.at("candidates"), 1) << lg.dump(1);
+  EXPECT_EQ(l.at("map_fixes").at("no_prediction"), 2) << l.at("map_fixes").dump(1);  // 5, 10
+  EXPECT_NE(lg.at("note").get<std::string>().find("from frame 2 (1.000 s) on"), std::string::npos)
+      << lg.dump(1);
+  const auto lframes = ReadCsvRows(f.dir / "late" / "frames.csv");
+  ASSERT_EQ(lframes.size(), 12u);
+  for (const auto& r : lframes) EXPECT_TRUE(r.at("lat_deg").empty());
 }
 
 }  // namespace

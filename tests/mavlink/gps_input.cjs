@@ -13,7 +13,8 @@
 //     GPS time ((week - first week) x ms per week + week ms, uint32) into the jitter correction
 //     when fix_type >= 3 and time_week > 0, satellites;
 //   NavEKF3_core::readGpsData (AP_NavEKF3_Measurements.cpp): only a 3D fix is used; hAcc and
-//     sAcc capped at 100 m and 50 m/s;
+//     sAcc capped at 100 m and 50 m/s; the origin's height and, with EK3_SRC1_POSZ = 3, every
+//     fix's height from the Location's alt (0 when GPS_INPUT_IGNORE_FLAG_ALT is set);
 //   NavEKF3_core::calcGpsGoodToAlign (AP_NavEKF3_VehicleStatus.cpp): a 3D fix must pass its
 //     satellite (>= 6) and HDOP (<= 2.5) checks (the fixes within its hAcc 5 m are counted).
 // Fails on any NaN or out-of-range value reaching that arithmetic, on a position more than
@@ -22,7 +23,9 @@
 // or whose differences are not the frames' (1 ms), on a fix type that disagrees with
 // horiz_accuracy against MAX_SIGMA_M, and on a velocity more than 5 % of the speed off the
 // simulator's (ground_truth.csv, between consecutive measured frames) or a yaw more than 2
-// degrees off its yaw. Exit 0 = pass, 1 = fail (the reasons printed).
+// degrees off its yaw, and on a height reaching EKF3 more than 0.5 m off the truth's altitude
+// (the track geo-referenced by GPS fixes with an altitude, SRT abs_alt). Exit 0 = pass, 1 = fail
+// (the reasons printed).
 'use strict';
 const fs = require('fs');
 const path = require('path');
@@ -46,13 +49,16 @@ function metresApart(lat1, lon1, lat2, lon2) {
   return Math.hypot(dn, de);
 }
 
-// ArduPilot's AP_GPS_MAV::handle_msg and EKF3's use of the resulting state, for one message.
-function ardupilot(d, state, who) {
+// ArduPilot's AP_GPS_MAV::handle_msg and EKF3's use of the resulting state, for one message
+// (of frames.csv's row `row`, for state.heights).
+function ardupilot(d, state, who, row) {
   const has = f => (d.ignoreFlags & f) === 0;
   const s = { status: d.fixType, lat: d.lat, lng: d.lon };
   // Recent master drops a gps_id other than the instance's index: GPS1_TYPE 14 is instance 0.
   check(d.gpsId === 0, `${who}: gps_id ${d.gpsId}, not the first GPS instance`);
   check(Number.isInteger(d.lat) && Math.abs(d.lat) <= 900000000 && Math.abs(d.lon) <= 1800000000, `${who}: lat/lon ${d.lat}/${d.lon} out of range`);
+  // The Location is zero-initialised: alt x 100 (cm) only when the flag is clear, else 0.
+  s.altCm = 0;
   if (has(F.ALT)) { s.altCm = d.alt * 100; check(finite(s.altCm) && Math.abs(s.altCm) < 2 ** 31, `${who}: alt ${d.alt}`); }
   if (has(F.HDOP)) { s.hdopCm = d.hdop * 100; check(finite(s.hdopCm) && s.hdopCm >= 0 && s.hdopCm <= 65535, `${who}: hdop ${d.hdop} does not fit AP_GPS's uint16 cm`); }
   if (has(F.VDOP)) { s.vdopCm = d.vdop * 100; check(finite(s.vdopCm) && s.vdopCm >= 0 && s.vdopCm <= 65535, `${who}: vdop ${d.vdop}`); }
@@ -83,6 +89,10 @@ function ardupilot(d, state, who) {
     check(s.numSats >= 6, `${who}: ${s.numSats} satellites: EKF3 will not align (needs 6)`);
     check(s.hdopCm !== undefined && s.hdopCm <= 250, `${who}: HDOP ${d.hdop}: EKF3 will not align (needs 2.5)`);
     if (s.hAcc <= 5) ++state.alignable;
+    // readGpsData: the origin's height (ekfGpsRefHgt) from the first fix's Location alt, then
+    // every fix's height against it, fused with EK3_SRC1_POSZ = 3 (GPS): the heights the
+    // estimator gets, and whether each was sent (else ArduPilot's 0 from the ignore flag).
+    if (state.heights) state.heights.push({ m: s.altCm / 100, sent: has(F.ALT), who, row });
   }
   return s;
 }
@@ -112,7 +122,7 @@ async function main() {
   const skipped = rows.length - msgs.length;
   check(skipped >= 0 && skipped <= 3, `${msgs.length} GPS_INPUT for ${rows.length} frames`);
   const n = msgs.length;
-  const state = { alignable: 0 };
+  const state = { alignable: 0, heights: [] };
   let withFix = 0, worstPosM = 0, worstVel = 0, nVel = 0, worstYaw = 0, bridged = 0, reacquired = 0;
   let speedSum = 0, worstTruthM = 0;
   for (let k = 0; k < n; ++k) {
@@ -120,7 +130,7 @@ async function main() {
     const d = msgs[k], r = rows[i], who = `GPS_INPUT frame ${i} (${r.status})`;
     if (r.status.startsWith('bridged')) ++bridged;
     if (r.status === 'reacquired') ++reacquired;
-    const s = ardupilot(d, state, who);
+    const s = ardupilot(d, state, who, i);
     // The fix type follows the accuracy and the limit.
     const expectFix = finite(d.horizAccuracy) && d.horizAccuracy <= MAX_SIGMA + 1e-6;
     check((d.fixType === 3) === expectFix, `${who}: fix_type ${d.fixType} with horiz_accuracy ${d.horizAccuracy} m, limit ${MAX_SIGMA}`);
@@ -171,6 +181,7 @@ async function main() {
       check(e <= 2, `${who}: yaw ${s.gpsYaw} deg, truth ${t.yaw_deg}`);
     }
   }
+  const worstAltM = checkKnownHeights(state, rows, truth);
   const denied = rows.filter(r => r.gps_flag === 'withheld').length;
   check(denied >= rows.length - 6, `only ${denied} of ${rows.length} frames without GPS`);
   check(bridged >= 1 && reacquired >= 1, `the flight must bridge and re-acquire (bridged ${bridged}, reacquired ${reacquired})`);
@@ -181,9 +192,31 @@ async function main() {
         `summary.json mavlink.gps_input ${JSON.stringify(g)}: ${n} sent, ${withFix} with a fix`);
   console.log(`GPS_INPUT: ${n} messages, ${withFix} 3D fixes (${state.alignable} within EKF3's 5 m), ` +
               `positions within ${(100 * worstPosM).toFixed(2)} cm of frames.csv and ${worstTruthM.toFixed(3)} m of the truth, ${nVel} velocities ` +
-              `within ${(100 * worstVel).toFixed(2)} % of the truth (${(speedSum / Math.max(1, nVel)).toFixed(2)} m/s), yaw within ${worstYaw.toFixed(2)} deg`);
+              `within ${(100 * worstVel).toFixed(2)} % of the truth (${(speedSum / Math.max(1, nVel)).toFixed(2)} m/s), yaw within ${worstYaw.toFixed(2)} deg, ` +
+              `heights within ${worstAltM.toFixed(3)} m of the truth`);
+}
+
+// The heights EKF3 got (state.heights, one per 3D fix) when the run knows its altitude: every
+// one sent and within 0.5 m of the truth's alt_m (truth CSV) at its frame. The worst, m.
+function checkKnownHeights(state, rows, truth) {
+  let worst = 0;
+  check(state.heights.length >= 1, 'no height reached EKF3');
+  for (const h of state.heights) {
+    const want = Number(truth[Number(rows[h.row].frame)].alt_m);
+    worst = Math.max(worst, Math.abs(h.m - want));
+    check(h.sent && Math.abs(h.m - want) <= 0.5, `${h.who}: EKF3's GPS height ${h.m} m (sent: ${h.sent}), the truth ${want} m`);
+  }
+  return worst;
+}
+
+// The heights EKF3 got when the run has no altitude (a track placed by a map, GPS never): none
+// may have been sent (GPS_INPUT_IGNORE_FLAG_ALT on every message), so that what reaches the
+// estimator is ArduPilot's own 0 of an ignored altitude, never an invented one.
+function checkNoHeightSent(state) {
+  check(state.heights.length >= 1, 'no 3D fix reached EKF3');
+  for (const h of state.heights) check(!h.sent, `${h.who}: an altitude ${h.m} m reached EKF3, but the run has none`);
 }
 
 // map_gps_input.cjs reuses ArduPilot's arithmetic; run as a script, the check above.
-module.exports = { ardupilot, metresApart, MS_PER_WEEK, UNIX_OFFSET_MSEC, F };
+module.exports = { ardupilot, metresApart, checkKnownHeights, checkNoHeightSent, MS_PER_WEEK, UNIX_OFFSET_MSEC, F };
 if (require.main === module) finish(main, 40);

@@ -2,7 +2,7 @@
 // GPS_INPUT: the messages decoded by node-mavlink (an independent MAVLink implementation),
 // never by aerovo's code, and GPS_INPUT put through ArduPilot's arithmetic (gps_input.cjs
 // `ardupilot`: AP_GPS_MAV::handle_msg, EKF3's readGpsData and calcGpsGoodToAlign).
-//   node map_gps_input.cjs AEROVO VIDEO SRT FOCAL_PX MAP TRUTH_CSV MAX_SIGMA_M SHIFT_M RUN_DIR
+//   node map_gps_input.cjs AEROVO VIDEO SRT FOCAL_PX MAP TRUTH_CSV MAX_SIGMA_M SHIFT_M RUN_DIR SRT_TRUE
 // VIDEO, TRUTH_CSV: a simulated flight (`aerovo simulate`); MAP: a map of it (`aerovo map build`
 // from the flight with its true telemetry); SRT: its telemetry with every fix SHIFT_M metres
 // north of the truth, so that the track, geo-referenced by it before GPS is denied at 1 s, is
@@ -24,16 +24,19 @@
 //   the first frame or the last fused fix (docs/autopilot.md; 1 cm), no "no fix" before the
 //   first fused fix (the drift term past MAX_SIGMA_M), one after it;
 // - the positions against the truth: before the first fused fix SHIFT_M off (within 1 m), from
-//   it on within 1.5 m.
+//   it on within 1.5 m; the heights reaching EKF3 (the SRT's abs_alt) within 0.5 m of the
+//   truth's altitude.
+// Then the same flight over SRT_TRUE (its telemetry unshifted) with GPS denied from the start:
+// the map seeds the geo-reference (runSeeded below).
 // Exit 0 = pass, 1 = fail (the reasons printed).
 'use strict';
 const fs = require('fs');
 const path = require('path');
 const { common } = require('node-mavlink');
 const { check, readCsv, listen, runAerovo, finish } = require('./harness.cjs');
-const { ardupilot, metresApart } = require('./gps_input.cjs');
+const { ardupilot, metresApart, checkKnownHeights, checkNoHeightSent, F } = require('./gps_input.cjs');
 
-const [aerovo, video, srt, focal, map, truthCsv, maxSigma, shiftM, runDir] = process.argv.slice(2);
+const [aerovo, video, srt, focal, map, truthCsv, maxSigma, shiftM, runDir, srtTrue] = process.argv.slice(2);
 const MAX_SIGMA = Number(maxSigma), SHIFT = Number(shiftM);
 // The drift term of horiz_accuracy, a fraction of the distance flown since the first frame or
 // the last fused fix (--mavlink-gps-input-drift): 10 %, so that MAX_SIGMA_M is passed between
@@ -51,7 +54,8 @@ function checkCovariance(c, who, first) {
   return Math.max(c[0], c[6]);
 }
 
-async function main() {
+// The run over telemetry SHIFT_M off, GPS denied after 1 s (the header's checks).
+async function runShifted() {
   const gps = [], odo = [];
   const { sock, splitter, port } = await listen(packet => {
     if (packet.header.msgid === common.GpsInput.MSG_ID) gps.push(packet.protocol.data(packet.payload, common.GpsInput));
@@ -128,12 +132,12 @@ async function main() {
   // GPS_INPUT: one per frame from the first geo-referenced one.
   const skipped = rows.length - gps.length;
   check(skipped >= 0 && skipped <= 3, `${gps.length} GPS_INPUT for ${rows.length} frames`);
-  const state = { alignable: 0 };
+  const state = { alignable: 0, heights: [] };
   let withFix = 0, worstPosM = 0, worstAfter = 0, worstBefore = 0, flown = 0, noFixBefore = 0;
   for (let i = 1; i < skipped; ++i) flown += Math.hypot(odo[i].x - odo[i - 1].x, odo[i].y - odo[i - 1].y);
   for (let k = 0; k < gps.length; ++k) {
     const i = k + skipped, d = gps[k], r = rows[i], who = `GPS_INPUT frame ${i} (${r.status})`;
-    ardupilot(d, state, who);
+    ardupilot(d, state, who, i);
     const expectFix = finite(d.horizAccuracy) && d.horizAccuracy <= MAX_SIGMA + 1e-6;
     check((d.fixType === 3) === expectFix, `${who}: fix_type ${d.fixType} with horiz_accuracy ${d.horizAccuracy} m, limit ${MAX_SIGMA}`);
     if (d.fixType === 3) ++withFix;
@@ -162,6 +166,8 @@ async function main() {
     }
   }
   check(withFix >= 3, `only ${withFix} GPS_INPUT with a 3D fix`);
+  // The track geo-referenced by the SRT's fixes before the denial: their altitude (abs_alt).
+  const worstAltM = checkKnownHeights(state, rows, truth);
   check(noFixBefore >= 1, 'no GPS_INPUT without a fix before the first fused fix: the drift term did not grow');
   check(withFix === gps.length - noFixBefore, `${gps.length - withFix - noFixBefore} GPS_INPUT without a fix after the first fused fix`);
   const g = summary.mavlink && summary.mavlink.gps_input;
@@ -172,7 +178,84 @@ async function main() {
   console.log(`map + GPS_INPUT: ${rows.length} frames, ${m.attempted} attempts, ${m.fused} fixes fused ` +
               `(${resetsAtFixes} with a reset, the first a ${SHIFT} m jump), ${gps.length} GPS_INPUT (${withFix} 3D fixes) ` +
               `within ${(100 * worstPosM).toFixed(2)} cm of frames.csv; against the truth ${worstBefore.toFixed(2)} m off ${SHIFT} m before the first fix, ` +
-              `within ${worstAfter.toFixed(2)} m after it; aerovo's run ${wallS.toFixed(1)} s wall (node ${((cpu.user + cpu.system) / 1e6).toFixed(2)} s CPU)`);
+              `within ${worstAfter.toFixed(2)} m after it, heights within ${worstAltM.toFixed(3)} m of the truth; aerovo's run ${wallS.toFixed(1)} s wall (node ${((cpu.user + cpu.system) / 1e6).toFixed(2)} s CPU)`);
+}
+
+// The run with GPS denied from the start over the true telemetry (its positions withheld): the
+// map seeds the geo-reference (a whole-map search at frame 0, confirmed at frame 4, taken at
+// frame 8; docs/map.md "A start without GPS"). Fails on: frames.csv not geo-referenced from
+// frame 0 or with an altitude (the map gives none), summary.json enu_origin.alt_m not null, a
+// GPS_INPUT before the seed or more than 1.5 m from the truth, through ArduPilot's arithmetic an
+// altitude reaching EKF3 (GPS_INPUT_IGNORE_FLAG_ALT must be set on every message: no
+// altitude is known), a horiz_accuracy whose drift term does not restart at the seed (1 cm) or
+// a GPS_INPUT without a 3D fix.
+async function runSeeded() {
+  const gps = [], odo = [];
+  const { sock, splitter, port } = await listen(packet => {
+    if (packet.header.msgid === common.GpsInput.MSG_ID) gps.push(packet.protocol.data(packet.payload, common.GpsInput));
+    if (packet.header.msgid === common.Odometry.MSG_ID) odo.push(packet.protocol.data(packet.payload, common.Odometry));
+  });
+  const dir = `${runDir}-seeded`;
+  const args = ['run', video, '--telemetry', srtTrue, '--focal-px', focal, '--out', dir, '-q', '--no-report',
+                '--mavlink', `udp:127.0.0.1:${port}`, '--mavlink-time', 'unix', '--mavlink-gps-input',
+                '--mavlink-gps-input-max-sigma-m', maxSigma, '--gps-denied-after-s', '0',
+                '--mavlink-gps-input-drift', String(DRIFT),
+                '--map', map, '--map-fix-apply', '--map-fix-every-n-frames', '4', '--map-fix-search-radius-m', '30'];
+  const wall0 = Date.now();
+  const code = await runAerovo(aerovo, args);
+  const wallS = (Date.now() - wall0) / 1000;
+  sock.close();
+  check(code === 0, `seeded: aerovo exited with ${code}`);
+  check(splitter.invalidPackages === 0, `seeded: ${splitter.invalidPackages} packets with a bad CRC`);
+  if (code !== 0) return;
+  const rows = readCsv(path.join(dir, 'frames.csv'));
+  const truth = readCsv(truthCsv);
+  const summary = JSON.parse(fs.readFileSync(path.join(dir, 'summary.json'), 'utf8'));
+  check(summary.heading_source === 'map', `seeded: heading_source ${summary.heading_source}`);
+  check(summary.enu_origin && summary.enu_origin.alt_m === null, `seeded: enu_origin ${JSON.stringify(summary.enu_origin)}`);
+  check(odo.length === rows.length, `seeded: ${odo.length} ODOMETRY for ${rows.length} frames`);
+  rows.forEach((r, i) => check(r.lat_deg !== '' && r.alt_m === '', `seeded: frames.csv row ${i}: lat_deg '${r.lat_deg}', alt_m '${r.alt_m}'`));
+  // GPS_INPUT from the frame the seed is taken at (the geo-reference is live from there).
+  const skipped = rows.length - gps.length;
+  check(skipped >= 5 && skipped <= 12, `seeded: ${gps.length} GPS_INPUT for ${rows.length} frames`);
+  const state = { alignable: 0, heights: [] };
+  // horiz_accuracy restarts at the seed: sqrt(ODOMETRY's variance + the seed fix's (map_fixes.csv
+  // sigma_m^2 + residual_m^2, until the first fused fix) + (DRIFT x distance since the seed or
+  // the last fused fix)^2); the distance from the first frame would put the seed frame's past
+  // MAX_SIGMA (DRIFT x 20 m).
+  const fixes = readCsv(path.join(dir, 'map_fixes.csv'));
+  const seedRow = fixes.find(f => f.seed === 'confirmed');
+  check(seedRow !== undefined, 'seeded: no confirmed seed in map_fixes.csv');
+  let seedVar = seedRow ? Number(seedRow.sigma_m) ** 2 + Number(seedRow.residual_m) ** 2 : 0;
+  const varianceOf = odo.map((o, i) => checkCovariance(Array.from(o.poseCovariance), `seeded ODOMETRY frame ${i}`, i === 0));
+  let worstTruth = 0, flown = 0, withFix = 0, fusedAfter = 0, worstSigmaErr = 0;
+  for (let k = 0; k < gps.length; ++k) {
+    const i = k + skipped, d = gps[k], r = rows[i], who = `seeded GPS_INPUT frame ${i} (${r.status})`;
+    ardupilot(d, state, who, i);
+    check((d.ignoreFlags & F.ALT) !== 0, `${who}: alt ${d.alt} m sent, but the run has no altitude`);
+    if (r.status.includes('+map_fix')) { flown = 0; seedVar = 0; ++fusedAfter; }
+    else if (k > 0) flown += Math.hypot(odo[i].x - odo[i - 1].x, odo[i].y - odo[i - 1].y);
+    const want = Math.sqrt(varianceOf[i] + seedVar + (DRIFT * flown) ** 2);
+    worstSigmaErr = Math.max(worstSigmaErr, Math.abs(d.horizAccuracy - want));
+    check(Math.abs(d.horizAccuracy - want) <= 0.01 + 1e-3 * want, `${who}: horiz_accuracy ${d.horizAccuracy}, expected ${want.toFixed(3)} (${flown.toFixed(2)} m since the seed or the last fused fix)`);
+    if (d.fixType === 3) ++withFix;
+    const t = truth[Number(r.frame)];
+    const dTruth = metresApart(Number(t.lat_deg), Number(t.lon_deg), d.lat / 1e7, d.lon / 1e7);
+    worstTruth = Math.max(worstTruth, dTruth);
+    check(dTruth <= 1.5, `${who}: ${dTruth.toFixed(2)} m from the truth`);
+  }
+  checkNoHeightSent(state);
+  check(gps.length > 0 && gps[0].fixType === 3, 'seeded: the seed frame\'s GPS_INPUT is not a 3D fix');
+  check(withFix === gps.length, `seeded: ${gps.length - withFix} GPS_INPUT without a fix`);
+  check(fusedAfter >= 2, `seeded: ${fusedAfter} fixes fused after the seed`);
+  console.log(`seeded from the map: ${rows.length} frames, ${gps.length} GPS_INPUT from frame ${skipped} (no altitude; ` +
+              `${withFix} 3D fixes, horiz_accuracy within ${(100 * worstSigmaErr).toFixed(2)} cm of the drift from the seed), ` +
+              `within ${worstTruth.toFixed(2)} m of the truth; aerovo's run ${wallS.toFixed(1)} s wall`);
+}
+
+async function main() {
+  await runShifted();
+  await runSeeded();
 }
 
 finish(main, 40);

@@ -51,9 +51,10 @@ fi
 if [ "$MODE" = map_gps_input ]; then
   # A flight with its telemetry (as gps_input, without the black frame), a map of it built from
   # the true telemetry (`aerovo map build`), then the run with GPS denied after 1 s, the map's
-  # fixes fused, over telemetry moved 5 m north (map_gps_input.cjs).
+  # fixes fused, over telemetry moved 5 m north, and the run with GPS denied from the start over
+  # the true telemetry, the map seeding the geo-reference (map_gps_input.cjs).
   SIM="$WORK/sim-$MODE"
-  rm -rf "$SIM" "$WORK/run-$MODE" "$WORK/map-$MODE"
+  rm -rf "$SIM" "$WORK/run-$MODE" "$WORK/run-$MODE-seeded" "$WORK/map-$MODE"
   "$AEROVO" simulate --pattern line --length-m 60 --height-m 60 --width 480 --height 270 --fps 4 \
     --gps-noise-m 0 --frames-only --image-format png --quiet --out "$SIM" || exit 1
   FOCAL=$(node -e 'console.log(require(process.argv[1]).camera.focal_px)' "$SIM/sim.json") || exit 1
@@ -69,7 +70,8 @@ if [ "$MODE" = map_gps_input ]; then
   "$AEROVO" map build "$VIDEO" --telemetry "$SIM/telemetry-yaw.srt" --focal-px "$FOCAL" -q \
     --run-dir "$WORK/map-$MODE/run" -o "$WORK/map-$MODE/map.tif" || exit 1
   cd "$NODE_DIR" && NODE_PATH="$NODE_DIR/node_modules" exec node "$SRC/map_gps_input.cjs" "$AEROVO" \
-    "$VIDEO" "$SIM/telemetry-north5.srt" "$FOCAL" "$WORK/map-$MODE/map.tif" "$SIM/ground_truth.csv" 1.5 5 "$WORK/run-$MODE"
+    "$VIDEO" "$SIM/telemetry-north5.srt" "$FOCAL" "$WORK/map-$MODE/map.tif" "$SIM/ground_truth.csv" 1.5 5 "$WORK/run-$MODE" \
+    "$SIM/telemetry-yaw.srt"
 fi
 if [ "$MODE" = live ]; then
   # The flight of MODE contract (a black frame mid-flight: bridged, then re-acquired), 25

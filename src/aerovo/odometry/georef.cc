@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "aerovo/core/error.h"
 #include "aerovo/geo/geodesic.h"
@@ -64,7 +65,10 @@ bool GeoReferencer::Observe(const Eigen::Vector2d& local_m, const std::optional<
     first_yaw_deg_ = camera_yaw_deg;
   }
   if (ready_ || !gps) return ready_;
-  if (!enu_) enu_.emplace(*gps);
+  if (!enu_) {
+    enu_.emplace(*gps);
+    altitude_known_ = true;
+  }
   const Eigen::Vector3d enu3 = enu_->Forward(*gps);
   const Eigen::Vector2d enu(enu3.x(), enu3.y());
   if (!local_m.allFinite() || !enu.allFinite()) return ready_;  // never into the sums
@@ -100,6 +104,7 @@ bool GeoReferencer::Observe(const Eigen::Vector2d& local_m, const std::optional<
 void GeoReferencer::Restart() {
   if (ready_) throw InvalidArgument("GeoReferencer::Restart after the frame is known");
   enu_.reset();
+  altitude_known_ = false;
   have_pair0_ = false;
   sum_dot_ = sum_cross_ = 0.0;
   sum_local_.setZero();
@@ -115,7 +120,10 @@ void GeoReferencer::SeedFromFix(const Eigen::Vector2d& local_m, double local_hea
       !std::isfinite(enu_heading_rad)) {
     throw InvalidArgument("GeoReferencer::SeedFromFix: a position or heading is not finite");
   }
-  if (!enu_) enu_.emplace(at);
+  if (!enu_) {
+    enu_.emplace(at);
+    altitude_known_ = false;
+  }
   rotation_rad_ = std::remainder(enu_heading_rad - local_heading_rad, 2.0 * M_PI);
   translation_m_ = enu_->Forward(at).head<2>() - Rotation(rotation_rad_) * local_m;
   source_used_ = "map";
@@ -231,6 +239,12 @@ Eigen::Vector2d GeoReferencer::EnuFromLocal(const Eigen::Vector2d& local_m) cons
 GeoPoint GeoReferencer::Wgs84FromLocal(const Eigen::Vector2d& local_m) const {
   const Eigen::Vector2d enu = EnuFromLocal(local_m);
   return enu_->Reverse(enu.x(), enu.y(), 0.0);
+}
+
+GeoPoint GeoReferencer::TrackWgs84FromLocal(const Eigen::Vector2d& local_m) const {
+  GeoPoint p = Wgs84FromLocal(local_m);
+  if (!altitude_known_) p.alt_m = std::numeric_limits<double>::quiet_NaN();
+  return p;
 }
 
 }  // namespace aerovo

@@ -76,7 +76,8 @@ class GeoReferencer {
   /// local position (metres) and heading (angle of its image x axis counter-clockwise from local
   /// x), `at` the frame's WGS84 position and `enu_heading_rad` the same axis' angle
   /// counter-clockwise from east. The rotation is their difference, the translation puts
-  /// `local_m` at `at`; the ENU origin stays the first GPS fix observed (if any), else `at`.
+  /// `local_m` at `at`; the ENU origin stays the first GPS fix observed (if any), else `at`,
+  /// whose altitude is then not known (altitude_known(): a map gives no height).
   /// heading_source_used() is "map". Precondition: !ready() (InvalidArgument otherwise).
   void SeedFromFix(const Eigen::Vector2d& local_m, double local_heading_rad, const GeoPoint& at,
                    double enu_heading_rad);
@@ -99,6 +100,10 @@ class GeoReferencer {
   /// superseded). Fixed once ready(). Precondition: has_enu().
   const LocalEnu& enu() const;
   bool has_enu() const { return enu_.has_value(); }
+  /// True when the ENU origin is a GPS fix, whose altitude the origin (and Wgs84FromLocal's
+  /// alt_m) carries; false without an origin or when SeedFromFix set it (a position from a map:
+  /// its alt_m is 0, no altitude).
+  bool altitude_known() const { return altitude_known_; }
 
   /// Rotation angle of enu_from_local, radians counter-clockwise (east towards north).
   double rotation_rad() const { return rotation_rad_; }
@@ -107,8 +112,12 @@ class GeoReferencer {
 
   /// enu_from_local applied to a local VO position (metres). Precondition: ready().
   Eigen::Vector2d EnuFromLocal(const Eigen::Vector2d& local_m) const;
-  /// The WGS84 position of a local VO position, at the ENU origin's height. Precondition: ready().
+  /// The WGS84 position of a local VO position, at the ENU origin's height (0 when
+  /// !altitude_known()). Precondition: ready().
   GeoPoint Wgs84FromLocal(const Eigen::Vector2d& local_m) const;
+  /// Wgs84FromLocal as the run's tracks write it: alt_m NaN (not known, outputs/track_writers.h
+  /// GeoTrackPoint) when !altitude_known(). Precondition: ready().
+  GeoPoint TrackWgs84FromLocal(const Eigen::Vector2d& local_m) const;
 
  private:
   void FixFromSegment();
@@ -116,6 +125,7 @@ class GeoReferencer {
 
   GeoRefOptions options_;
   std::optional<LocalEnu> enu_;
+  bool altitude_known_ = false;  // enu_ from a GPS fix (altitude_known())
   bool ready_ = false;
   bool first_frame_seen_ = false;
   std::optional<double> first_yaw_deg_;

@@ -41,6 +41,8 @@ TEST(GeoReferencer, TelemetryYawMapsLocalUpToBearing) {
   GeoReferencer geo;
   ASSERT_TRUE(geo.Observe(f.local[0], f.gps[0], 70.0));
   EXPECT_EQ(geo.heading_source_used(), "telemetry-yaw");
+  EXPECT_TRUE(geo.altitude_known());  // the origin is a GPS fix: its altitude, 10 m
+  EXPECT_NEAR(geo.Wgs84FromLocal(f.local[0]).alt_m, 10.0, 1e-6);
   for (std::size_t i = 1; i < f.local.size(); ++i) {
     geo.Observe(f.local[i], f.gps[i], 70.0);
     const GeoPoint p = geo.Wgs84FromLocal(f.local[i]);
@@ -76,8 +78,8 @@ TEST(GeoReferencer, GpsSegmentRecoversRotationWithNoisyFixes) {
 
 // A frame fixed against a map (position and heading) seeds the geo-reference when no GPS did:
 // the frame's local position lands on the fix, its heading on the fix's, and a point 100 m
-// further along the local x axis lands 100 m along that heading (within 1 mm). A second seed is
-// an error.
+// further along the local x axis lands 100 m along that heading (within 1 mm). The origin is
+// the fix's position: no altitude known. A second seed is an error.
 TEST(GeoReferencer, SeedFromFixPlacesTheFrameAndTurnsTheTrack) {
   GeoReferencer g;
   EXPECT_FALSE(g.Observe({0.0, 0.0}, std::nullopt, std::nullopt));
@@ -87,6 +89,7 @@ TEST(GeoReferencer, SeedFromFixPlacesTheFrameAndTurnsTheTrack) {
   g.SeedFromFix(local, local_heading, at, enu_heading);
   ASSERT_TRUE(g.ready());
   EXPECT_EQ(g.heading_source_used(), "map");
+  EXPECT_FALSE(g.altitude_known());
   EXPECT_NEAR(g.rotation_rad(), 0.9, 1e-12);
   const GeoPoint p = g.Wgs84FromLocal(local);
   EXPECT_NEAR(g.enu().Forward(p).head<2>().norm(), 0.0, 1e-3);

@@ -119,6 +119,12 @@ struct MapMatchOptions {
   /// start_radius_m > 0 only the square of 2 start_radius_m a side around it is searched
   /// (whole_map_max_tiles still bounds it), not the whole map. 0 = none.
   double start_lat_deg = 0.0, start_lon_deg = 0.0, start_radius_m = 0.0;
+  /// Without a geo-reference: the frames wait for the map's seed (pipeline/run_steps.h
+  /// RunOutputs holds them, about 0.5 kB each, and writes none) at most this long, seconds of the
+  /// source's time from its first frame; then they are written in the local frame, the run stays
+  /// local (no later seed: frames.csv never mixes frames) and summary.json map_fixes.georef.note
+  /// says so (pipeline/stage_map_fix.cc).
+  double seed_wait_s = 120.0;
 };
 
 /// Throws InvalidArgument naming the bad field.
@@ -156,6 +162,7 @@ void VisitFields(MapMatchOptions& o, V& v) {
   v.Field(o.start_lat_deg, "start_lat_deg", "Without a geo-reference: latitude of a known start position, deg (with start_radius_m)", Interval(-90, 90));
   v.Field(o.start_lon_deg, "start_lon_deg", "Without a geo-reference: longitude of a known start position, deg (with start_radius_m)", Interval(-180, 180));
   v.Field(o.start_radius_m, "start_radius_m", "Without a geo-reference: search this far around the start position instead of the whole map, m (0 = the whole map)", AtLeast(0).Finite());
+  v.Field(o.seed_wait_s, "seed_wait_s", "Without a geo-reference: the frames wait at most this long for the map's seed, s of the source's time; then they are written in the local frame and the run stays local", GreaterThan(0).Finite());
   v.Field(o.min_margin, "min_margin", "A search's hit needs this many times the inliers of the best other location (and min_inliers more)", AtLeast(1).Finite());
 }
 // clang-format on

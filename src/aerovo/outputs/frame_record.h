@@ -28,6 +28,7 @@ struct FrameRecord {
   double yaw_rad = 0.0;
   /// WGS84 position (CSV lat_deg, lon_deg, alt_m; empty cells when absent). Absent when the
   /// track is not geo-referenced; GeoJSON/KML/GPX VO tracks only contain frames that have it.
+  /// alt_m NaN: the altitude is not known (an empty alt_m cell; track_writers.h GeoTrackPoint).
   std::optional<GeoPoint> geo;
   int n_surf = 0;              ///< SURF keypoints detected in this frame.
   int n_matched = 0;           ///< Putative matches with the previous frame.

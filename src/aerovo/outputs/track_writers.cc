@@ -146,17 +146,32 @@ std::string CsvField(const std::string& s) {
 // GeoJSON (RFC 7946 3.1.1), KML and GPX expect longitudes in [-180, 180]; GeoPoint allows any.
 double WrapLon(double lon_deg) { return std::remainder(lon_deg, 360.0); }
 
-// Positions as text, C locale (fmt never uses the global locale for these specs).
+// A position written: finite latitude and longitude (geo/geo_point.h Validate), an altitude
+// finite, or NaN when it is not known (written without one: GeoTrackPoint).
+void ValidateGeo(const GeoPoint& p, const std::string& what) {
+  if (std::isinf(p.alt_m)) {
+    throw InvalidArgument(what + ": altitude " + std::to_string(p.alt_m) + " is not finite");
+  }
+  GeoPoint horizontal = p;
+  if (std::isnan(horizontal.alt_m)) horizontal.alt_m = 0.0;
+  Validate(horizontal, what.c_str());
+}
+
+// Positions as text, C locale (fmt never uses the global locale for these specs); without the
+// altitude when it is not known (a GeoJSON position has two or more elements, RFC 7946 3.1.1; a
+// KML coordinate tuple's altitude is optional, KML 2.2 <coordinates>).
 std::string LonLatAltJson(const GeoPoint& p) {
+  if (std::isnan(p.alt_m)) return fmt::format("[{:.9f},{:.9f}]", WrapLon(p.lon_deg), p.lat_deg);
   return fmt::format("[{:.9f},{:.9f},{:.4f}]", WrapLon(p.lon_deg), p.lat_deg, p.alt_m);
 }
 std::string LonLatAltKml(const GeoPoint& p) {  // 1e-7 deg ~ 1 cm, 1 mm in height
+  if (std::isnan(p.alt_m)) return fmt::format("{:.7f},{:.7f}", WrapLon(p.lon_deg), p.lat_deg);
   return fmt::format("{:.7f},{:.7f},{:.3f}", WrapLon(p.lon_deg), p.lat_deg, p.alt_m);
 }
 
 void ValidatePoint(const GeoTrackPoint& p, const std::string& file) {
   CheckFinite(p.time_s, "time_s", "track point for " + file);
-  Validate(p.geo, ("track point for " + file).c_str());
+  ValidateGeo(p.geo, "track point for " + file);
 }
 
 }  // namespace
@@ -177,7 +192,7 @@ void Validate(const FrameRecord& r) {
                                          r.camera_pitch_deg}) {
     if (a) CheckFinite(*a, "an attitude angle", where);
   }
-  if (r.geo) Validate(*r.geo, where.c_str());
+  if (r.geo) ValidateGeo(*r.geo, where);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -197,8 +212,9 @@ void CsvFrameFormat::Append(ProgressiveFile& file, const FrameRecord& r,
   Validate(r);
   if (gps) Validate(*gps, ("GPS of frame " + std::to_string(r.frame)).c_str());
   const auto geo_cells = [](const std::optional<GeoPoint>& g) {
-    return g ? fmt::format("{:.9f},{:.9f},{:.4f}", g->lat_deg, g->lon_deg, g->alt_m)
-             : std::string(",,");
+    if (!g) return std::string(",,");
+    if (std::isnan(g->alt_m)) return fmt::format("{:.9f},{:.9f},", g->lat_deg, g->lon_deg);
+    return fmt::format("{:.9f},{:.9f},{:.4f}", g->lat_deg, g->lon_deg, g->alt_m);
   };
   std::string row =
       fmt::format("{},{:.6f},{:.4f},{:.4f},{},{},{},{},{},", r.frame, r.time_s, r.x_m, r.y_m,
@@ -289,7 +305,7 @@ void GeoJsonPointsFormat::Open(ProgressiveFile& file) {
 
 void GeoJsonPointsFormat::Append(ProgressiveFile& file, const GeoPoint& point,
                                  const nlohmann::json& properties) {
-  Validate(point, ("point for " + file.path().string()).c_str());
+  ValidateGeo(point, "point for " + file.path().string());
   if (!properties.is_object()) {
     throw InvalidArgument("GeoJSON point properties for " + file.path().string() +
                           " must be a JSON object");
@@ -423,9 +439,12 @@ void GpxTrackFormat::Open(ProgressiveFile& file) {
 
 void GpxTrackFormat::Append(ProgressiveFile& file, const GeoTrackPoint& point) {
   ValidatePoint(point, file.path().string());
-  std::string pt = fmt::format("\n<trkpt lat=\"{:.{}f}\" lon=\"{:.{}f}\"><ele>{:.{}f}</ele>",
-                               point.geo.lat_deg, decimals_, WrapLon(point.geo.lon_deg), decimals_,
-                               point.geo.alt_m, std::max(3, decimals_ - 5));
+  std::string pt = fmt::format("\n<trkpt lat=\"{:.{}f}\" lon=\"{:.{}f}\">", point.geo.lat_deg,
+                               decimals_, WrapLon(point.geo.lon_deg), decimals_);
+  // <ele> is optional (GPX 1.1 wptType): left out when the altitude is not known.
+  if (!std::isnan(point.geo.alt_m)) {
+    pt += fmt::format("<ele>{:.{}f}</ele>", point.geo.alt_m, std::max(3, decimals_ - 5));
+  }
   if (time_origin_unix_s_) {
     pt += "<time>" + FormatUtcIso8601(*time_origin_unix_s_ + point.time_s) + "</time>";
   }

@@ -45,6 +45,11 @@
 namespace aerovo {
 
 /// A point of a geographic track: time (seconds from the start of the source) and position.
+/// An altitude (geo.alt_m, and FrameRecord::geo's) that is NaN is not known (a track placed by a
+/// map, which gives no height: odometry/georef.h altitude_known): the point is written without
+/// one, never with an invented one: an empty alt_m cell in frames.csv, a GeoJSON position
+/// [lon, lat], a KML coordinate tuple lon,lat (the tracks are clampToGround), a GPX trkpt
+/// without <ele>. The GPS track's points always have one.
 struct GeoTrackPoint {
   double time_s = 0.0;
   GeoPoint geo;

@@ -259,8 +259,13 @@ std::vector<GeoPoint> ParseKml(const fs::path& p) {
     GeoPoint g;
     char c1 = 0, c2 = 0;
     std::stringstream ts(tuple);
-    ts >> g.lon_deg >> c1 >> g.lat_deg >> c2 >> g.alt_m;
-    EXPECT_TRUE(c1 == ',' && c2 == ',' && !ts.fail()) << tuple;
+    ts >> g.lon_deg >> c1 >> g.lat_deg;
+    EXPECT_TRUE(c1 == ',' && !ts.fail()) << tuple;
+    g.alt_m = std::nan("");  // lon,lat: no altitude
+    if (ts >> c2) {
+      ts >> g.alt_m;
+      EXPECT_TRUE(c2 == ',' && !ts.fail()) << tuple;
+    }
     out.push_back(g);
   }
   return out;
@@ -273,11 +278,12 @@ std::vector<GeoPoint> ParseGpx(const fs::path& p, std::vector<std::string>* time
   EXPECT_EQ(root, "gpx");
   std::vector<GeoPoint> out;
   static const std::regex pt(
-      "<trkpt lat=\"([-0-9.]+)\" lon=\"([-0-9.]+)\"><ele>([-0-9.]+)</ele>(<time>([^<]+)</time>)?"
+      "<trkpt lat=\"([-0-9.]+)\" lon=\"([-0-9.]+)\">(<ele>([-0-9.]+)</ele>)?(<time>([^<]+)</time>)?"
       "</trkpt>");
   for (auto it = std::sregex_iterator(s.begin(), s.end(), pt); it != std::sregex_iterator(); ++it) {
-    out.push_back({std::stod((*it)[1]), std::stod((*it)[2]), std::stod((*it)[3])});
-    if (times) times->push_back((*it)[5]);
+    out.push_back({std::stod((*it)[1]), std::stod((*it)[2]),
+                   (*it)[4].matched ? std::stod((*it)[4]) : std::nan("")});
+    if (times) times->push_back((*it)[6]);
   }
   size_t n_trkpt = 0;
   for (size_t k = s.find("<trkpt"); k != std::string::npos; k = s.find("<trkpt", k + 1)) ++n_trkpt;
@@ -739,6 +745,60 @@ TEST_F(TrackWritersTest, LongitudesWrappedForGisFormats) {
     EXPECT_NEAR(from_kml[i].lon_deg, want[i], 0.51e-7);
     EXPECT_NEAR(from_gpx[i].lon_deg, want[i], 0.51e-7);
   }
+}
+
+// A track whose altitude is not known (alt_m NaN: placed by a map, odometry/georef.h
+// altitude_known) is written without one in every format: an empty alt_m cell, GeoJSON
+// positions [lon, lat], KML tuples lon,lat, GPX trkpt without <ele>; its latitudes and
+// longitudes as with one. The GPS track beside it keeps its altitude; an infinite altitude is
+// still an error.
+TEST_F(TrackWritersTest, AnUnknownAltitudeIsLeftOut) {
+  TrackWriterOptions o;
+  o.enu_origin = GeoPoint{50.45, 30.52, 180.0};
+  TrackWriterSet set(dir_, o);
+  for (int i = 0; i < 3; ++i) {
+    FrameRecord r = MakeRecord(i);
+    r.geo = GeoPoint{50.45 + 1e-5 * i, 30.52 + 2e-5 * i, std::nan("")};
+    set.Append(r, MakeGps(i));
+  }
+  FrameRecord inf = MakeRecord(3);
+  inf.geo = GeoPoint{50.45, 30.52, HUGE_VAL};
+  EXPECT_THROW(set.Append(inf), InvalidArgument);
+  set.Close();
+  const Parsed p = ParseRun(dir_);
+  ASSERT_EQ(p.csv_rows.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    const auto& row = p.csv_rows[i];
+    EXPECT_NEAR(std::stod(row[4]), 50.45 + 1e-5 * i, 1e-9);  // lat_deg
+    EXPECT_FALSE(row[5].empty());                            // lon_deg
+    EXPECT_TRUE(row[6].empty()) << row[6];                   // alt_m
+    EXPECT_EQ(row[19].empty(), i == 2) << row[19];           // gps_alt_m (MakeGps(2): none)
+  }
+  const json vo = json::parse(Slurp(dir_ / "vo.geojson"));
+  const json& line = vo["features"][0]["geometry"]["coordinates"];
+  ASSERT_EQ(line.size(), 3u);
+  for (int i = 0; i < 3; ++i) {
+    ASSERT_EQ(line[i].size(), 2u) << line.dump();
+    EXPECT_NEAR(line[i][0].get<double>(), 30.52 + 2e-5 * i, 1e-9);
+    EXPECT_NEAR(line[i][1].get<double>(), 50.45 + 1e-5 * i, 1e-9);
+  }
+  const json frames = json::parse(Slurp(dir_ / "vo_frames.geojson"));
+  for (const json& f : frames["features"]) EXPECT_EQ(f["geometry"]["coordinates"].size(), 2u);
+  const json gps = json::parse(Slurp(dir_ / "gps.geojson"));
+  EXPECT_EQ(gps["features"][0]["geometry"]["coordinates"][0].size(), 3u);
+  const std::string kml = Slurp(dir_ / "vo.kml");
+  const std::vector<GeoPoint> from_kml = ParseKml(dir_ / "vo.kml");
+  ASSERT_EQ(from_kml.size(), 3u);
+  EXPECT_NEAR(from_kml[1].lat_deg, 50.45001, 0.51e-7);
+  for (const GeoPoint& g : from_kml) EXPECT_TRUE(std::isnan(g.alt_m)) << kml;
+  EXPECT_NE(kml.find("<altitudeMode>clampToGround</altitudeMode>"), std::string::npos);
+  EXPECT_NE(Slurp(dir_ / "run.kml").find("<coordinates>30.5200000,50.4500000</coordinates>"),
+            std::string::npos);
+  const std::string gpx = Slurp(dir_ / "vo.gpx");
+  EXPECT_EQ(gpx.find("<ele>"), std::string::npos) << gpx;
+  EXPECT_EQ(ParseGpx(dir_ / "vo.gpx").size(), 3u);
+  EXPECT_NE(Slurp(dir_ / "gps.gpx").find("<ele>"), std::string::npos);
+  ExpectXmllintAccepts(dir_);
 }
 
 void WriteSevenFramesThenDie(const fs::path& dir) {

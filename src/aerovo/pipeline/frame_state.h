@@ -131,6 +131,11 @@ struct FrameState {
   /// "+map_gated"); the frame it was matched at, and how far it moved this frame's pose, m.
   enum class MapFixTaken { kNone, kFused, kGated };
   MapFixTaken map_fix = MapFixTaken::kNone;
+  /// The run's geo-reference was seeded at this frame from a map's fix (stage_map_fix.cc Seed):
+  /// that fix's position variance, m² (its covariance's trace plus its residual squared, the
+  /// floor the graph puts on a fix: map_fixes.csv sigma_m² + residual_m²), an upper bound of its
+  /// variance along the worse axis. The GPS_INPUT accuracy restarts from it (sink_mavlink.cc).
+  std::optional<double> map_seed_var_m2;
   int map_fix_frame = -1;
   double map_fix_moved_m = 0.0;
 

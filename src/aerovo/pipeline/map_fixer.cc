@@ -91,8 +91,13 @@ std::optional<MapFixRecord> MapFixer::TakeFix(bool due) {
   return newest;
 }
 
+void MapFixer::GiveUpSeed(int frame, double time_s) {
+  const std::lock_guard lock(mutex_);
+  if (!gave_up_) gave_up_.emplace(frame, time_s);
+}
+
 std::optional<MapFixRecord> MapFixer::TakeSeed(bool due) {
-  if (!due && !live_) return std::nullopt;  // a file source: at due frames only
+  if (gave_up_ || (!due && !live_)) return std::nullopt;  // a file source: at due frames only
   std::unique_lock lock(mutex_);
   if (due && !live_) done_.wait(lock, [this] { return !busy_ && !job_; });
   if (taken_ >= records_.size()) return std::nullopt;
@@ -581,11 +586,22 @@ void MapFixer::SummarizeSeed(RunSummary::MapFixes* s) const {
   s->whole_map_searches = whole_map_searches_;
   s->whole_map_tiles = whole_map_tiles_;
   s->whole_map_tiles_total = whole_map_tiles_total_;
-  if (s->georef_seed || whole_map_searches_ == 0) return;
+  if (s->georef_seed) return;
+  if (gave_up_) {
+    s->georef_note = fmt::format(
+        "no seed within map_fix.seed_wait_s ({} s): the frames were written in the local frame "
+        "from frame {} ({:.3f} s) on and the run stayed local",
+        options_.seed_wait_s, gave_up_->first, gave_up_->second);
+    if (whole_map_searches_ == 0) return;
+    s->georef_note += "; ";
+  }
+  if (whole_map_searches_ == 0) return;
   std::string statuses;
+  int confirmed = 0;  // confirmations not taken (after GiveUpSeed)
   for (const MapFixRecord& r : records_) {
     if (r.whole_map && r.seed == MapSeedRole::kNone)
       ++counts[static_cast<std::size_t>(r.fix.status)];
+    confirmed += r.seed == MapSeedRole::kConfirmed;
   }
   for (int i = 0; i < kNumMapFixStatus; ++i) {
     if (counts[static_cast<std::size_t>(i)] == 0) continue;
@@ -593,16 +609,17 @@ void MapFixer::SummarizeSeed(RunSummary::MapFixes* s) const {
         fmt::format("{}{} {}", statuses.empty() ? "" : ", ", ToString(static_cast<MapFixStatus>(i)),
                     counts[static_cast<std::size_t>(i)]);
   }
-  s->georef_note =
+  s->georef_note +=
       s->candidates == 0
           ? fmt::format(
                 "no whole-map search found the frame ({} searches over {} of the map's {} "
                 "tiles: {})",
                 whole_map_searches_, whole_map_tiles_, whole_map_tiles_total_, statuses)
-          : fmt::format(
-                "{} candidates found by {} whole-map searches, none confirmed by the next "
-                "attempt",
-                s->candidates, whole_map_searches_);
+          : fmt::format("{} candidates found by {} whole-map searches, {}", s->candidates,
+                        whole_map_searches_,
+                        confirmed == 0 ? std::string("none confirmed by the next attempt")
+                                       : fmt::format("{} confirmed after the wait (not taken)",
+                                                     confirmed));
   if (options_.start_radius_m > 0.0) {
     s->georef_note += fmt::format(
         "; searched within {} m of the start position given "

@@ -26,6 +26,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "aerovo/core/image.h"
@@ -116,6 +117,11 @@ class MapFixer {
   /// (so that a fix is taken at a frame that does not depend on the machine's speed); a live
   /// source's at any frame, without waiting.
   std::optional<MapFixRecord> TakeFix(bool due);
+  /// No seed came within MapMatchOptions::seed_wait_s: the run goes on in the local frame from
+  /// frame `frame` at `time_s` (s) and takes no seed after (TakeSeed returns nullopt); the
+  /// summary's georef note says so.
+  void GiveUpSeed(int frame, double time_s);
+  bool gave_up_seed() const { return gave_up_.has_value(); }
   /// The pose graph's verdict on the fix TakeFix returned last: fused (applied), or not
   /// (not applied; gated_by_graph when `gated`: rejected by its gate, FlightGraph::AddFix).
   void SetGraphVerdict(bool fused, bool gated);
@@ -180,6 +186,7 @@ class MapFixer {
   std::optional<MapFixRecord> candidate_;
   int whole_map_skips_ = 0;
   std::optional<std::size_t> seed_record_;
+  std::optional<std::pair<int, double>> gave_up_;  // GiveUpSeed's frame and time, s
   int whole_map_tiles_ = 0, whole_map_tiles_total_ = 0, whole_map_searches_ = 0;
   std::size_t taken_ = 0;  // records_ before it were offered to TakeFix
   std::thread worker_;

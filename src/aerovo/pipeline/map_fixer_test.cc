@@ -198,6 +198,39 @@ TEST(MapFixer, WithoutAPredictionTheWholeMapIsSearchedAndTheNextFixConfirmsIt) {
       << l.georef_note;
 }
 
+// No seed within map_fix.seed_wait_s (MapFixer::GiveUpSeed): a confirmation that comes after
+// it is not handed over, and the note says when the run went local and what came too late.
+TEST(MapFixer, AfterGivingUpTheSeedAConfirmationIsNotTaken) {
+  const map::ReferenceMaps maps({Map().path});
+  MapMatchOptions o;
+  o.search_radius_m = 30.0;
+  o.search_wide_radius_m = 100.0;
+  o.seed_wait_s = 0.5;
+  MapFixer fixer(maps, o, /*live=*/false);
+  const auto unanchored = [](MapFixJob job, double local_north_m) {
+    job.anchored = false;
+    job.heading_rad.reset();
+    job.predicted = GeoPoint{};
+    job.local_m = Eigen::Vector2d(0.0, local_north_m);
+    return job;
+  };
+  fixer.Submit(unanchored(Map().Job(0, 300, 300, 0.0), 0.0));
+  EXPECT_FALSE(fixer.TakeSeed(true).has_value());  // a candidate only
+  fixer.Submit(unanchored(Map().Job(2, 300, 340, 0.0), -20.0));  // it confirms it...
+  fixer.GiveUpSeed(1, 0.5);
+  EXPECT_TRUE(fixer.gave_up_seed());
+  EXPECT_FALSE(fixer.TakeSeed(true).has_value());  // ...too late
+  RunSummary summary;
+  fixer.Finish(Map().path.parent_path(), &summary);
+  const RunSummary::MapFixes& m = *summary.map_fixes;
+  EXPECT_FALSE(m.georef_seed.has_value());
+  EXPECT_EQ(m.candidates, 1);
+  EXPECT_EQ(m.georef_note,
+            "no seed within map_fix.seed_wait_s (0.5 s): the frames were written in the local "
+            "frame from frame 1 (0.500 s) on and the run stayed local; 1 candidates found by 1 "
+            "whole-map searches, 1 confirmed after the wait (not taken)");
+}
+
 // A start position given (map_fix.start_*): only the square around it is searched. Within 60 m
 // of the frame: one tile, the frame found; 250 m away (the frame far outside the window of the
 // square of 60 m around it): not found, and the note says where it searched.

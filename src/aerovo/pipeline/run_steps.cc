@@ -580,7 +580,7 @@ void RunOutputs::Emit(PendingFrame& p, const GeoReferencer& georef) {
     }
     p.record.x_m = enu.x();
     p.record.y_m = enu.y();
-    p.record.geo = georef.Wgs84FromLocal(p.local_m);
+    p.record.geo = georef.TrackWgs84FromLocal(p.local_m);
     p.record.yaw_rad = std::remainder(p.heading_rad + georef.rotation_rad(), 2.0 * M_PI);
   } else {
     p.record.x_m = p.local_m.x();
@@ -928,7 +928,11 @@ void Summarize(const std::vector<std::string>& source_warnings, bool has_telemet
   s.frames_with_gps = totals.frames_with_gps;
   s.vo_path_length_m = totals.path_length_m;
   s.heading_source = georef.heading_source_used();
-  if (georef.has_enu()) s.enu_origin = georef.enu().origin();
+  if (georef.has_enu()) {
+    s.enu_origin = georef.enu().origin();
+    // A map's position has no altitude (summary.json enu_origin.alt_m null).
+    if (!georef.altitude_known()) s.enu_origin->alt_m = std::numeric_limits<double>::quiet_NaN();
+  }
   const double n = std::max(1, s.frames_processed);
   const StageTimes& sum = totals.sum_ms;
   s.mean = {sum.detect_ms / n, sum.describe_ms / n, sum.correspond_ms / n, sum.estimate_ms / n,
@@ -1009,7 +1013,7 @@ void WriteOptimizedTrack(const RunConfig& config, const FlightRecording& flight,
     const Eigen::Vector2d enu = georef.EnuFromLocal(p.translation_m);
     tum.Append(t, Eigen::Vector3d(enu.x(), enu.y(), 0.0),
                std::remainder(p.heading_rad + georef.rotation_rad(), 2.0 * M_PI));
-    const GeoTrackPoint g{t, georef.Wgs84FromLocal(p.translation_m)};
+    const GeoTrackPoint g{t, georef.TrackWgs84FromLocal(p.translation_m)};
     geojson->Append(g);
     kml->Append(g);
     gpx->Append(g);

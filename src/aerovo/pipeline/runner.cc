@@ -232,7 +232,7 @@ nlohmann::json ToJson(const RunSummary& s) {
                      {"max", number_or_null(s.latency.max_ms)}};
   j["enu_origin"] = s.enu_origin ? nlohmann::json{{"lat_deg", s.enu_origin->lat_deg},
                                                    {"lon_deg", s.enu_origin->lon_deg},
-                                                   {"alt_m", s.enu_origin->alt_m}}
+                                                   {"alt_m", number_or_null(s.enu_origin->alt_m)}}
                                  : nlohmann::json();
   j["gps_comparison_note"] = s.gps_comparison_note;
   j["gps_rejected"] = s.gps_rejected;

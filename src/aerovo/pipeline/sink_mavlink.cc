@@ -63,11 +63,20 @@ class GpsInputOfPoses {
     // was re-made or corrected there, the step is no motion.
     const bool jumped = f.lens_switched || f.pose_reset;
     // The distance flown from the first frame, whose track the geo-reference anchors (metres:
-    // the local frame is metric, the geo-reference only turns and moves it), or from the last
-    // fix against a reference map fused into the track (map_fix.apply): an absolute position,
-    // from which the odometry drifts again.
+    // the local frame is metric, the geo-reference only turns and moves it), from the frame
+    // whose map fix seeded the geo-reference (no GPS: the track is placed by that fix, whose
+    // variance then adds to the odometry's until the next fused fix), or from the last fix
+    // against a reference map fused into the track (map_fix.apply): an absolute position, from
+    // which the odometry drifts again.
     if (previous && !jumped) distance_m_ += (local - *previous).norm();
-    if (f.map_fix == FrameState::MapFixTaken::kFused) distance_m_ = 0.0;
+    if (f.map_fix == FrameState::MapFixTaken::kFused) {
+      distance_m_ = 0.0;
+      seed_var_m2_ = 0.0;
+    }
+    if (f.map_seed_var_m2) {
+      distance_m_ = 0.0;
+      seed_var_m2_ = *f.map_seed_var_m2;
+    }
     if (!georef.ready()) return std::nullopt;
     const RunConfig& config = *run.config;
     mavlink::GeoFix fix;
@@ -80,8 +89,10 @@ class GpsInputOfPoses {
     fix.lon_deg = g.lon_deg;
     // The ENU origin's altitude (the first accepted fix's) plus the height gained since the
     // first geo-referenced frame: the height aerovo was given, not measured (vert fields ignored).
+    // A track placed by a map has no altitude (GeoReferencer::altitude_known): alt is marked
+    // ignored, never sent as 0 (docs/autopilot.md "No altitude after a map's seed").
     if (!first_height_m_) first_height_m_ = f.height_m;
-    fix.alt_msl_m = g.alt_m + (f.height_m - *first_height_m_);
+    if (georef.altitude_known()) fix.alt_msl_m = g.alt_m + (f.height_m - *first_height_m_);
     const double dt = f.frame_mono_s - previous_time_s;
     if (previous && dt > 0.0 && !jumped) {
       const Eigen::Vector2d v = (georef.EnuFromLocal(local) - georef.EnuFromLocal(*previous)) / dt;
@@ -91,9 +102,10 @@ class GpsInputOfPoses {
       fix.sigma_velocity_mps = std::sqrt(std::max(0.0, double(m.odometry.velocity_covariance[0])));
     }
     // ODOMETRY's position variance (the step model, plus the online window's covariance when the
-    // frame has one: the larger axis of its x/y block), and the drift over the distance flown
-    // from the first frame or the last fused map fix.
-    double var = LargerPositionVariance(m.odometry.pose_covariance);
+    // frame has one: the larger axis of its x/y block), the seed's until the first fused fix,
+    // and the drift over the distance flown from the first frame, the seed or the last fused
+    // map fix.
+    double var = LargerPositionVariance(m.odometry.pose_covariance) + seed_var_m2_;
     var += std::pow(config.mavlink_gps_input_drift * distance_m_, 2);
     fix.sigma_horizontal_m = std::sqrt(var);
     // The image's up (the nose, camera mounted nose-up as for ODOMETRY) clockwise from north:
@@ -107,6 +119,7 @@ class GpsInputOfPoses {
   double previous_time_s_ = 0.0;
   std::optional<double> first_height_m_;
   double distance_m_ = 0.0;
+  double seed_var_m2_ = 0.0;  // the map seed's variance, m², until the first fused fix
 };
 
 class MavlinkSink : public FrameSink {

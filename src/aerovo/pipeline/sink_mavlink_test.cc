@@ -165,6 +165,49 @@ TEST(MavlinkSink, GpsInputFromTheGeoReferencedPoses) {
   EXPECT_EQ(counts["without_fix"], static_cast<int>(got.size()) - fixes);
 }
 
+// No GPS ever: a map's fix seeds the geo-reference at frame 6 (GeoReferencer::SeedFromFix, the
+// fix's variance 0.04 m² in FrameState::map_seed_var_m2, as stage_map_fix.cc does). GPS_INPUT
+// starts there, never with an altitude (none is known: the ALT ignore flag, alt 0), and its
+// accuracy restarts there: sqrt(0.04 + the step model + (1 % of the distance from frame 6)²),
+// not the 30 m flown from frame 0 (0.3 m of drift: the seed frame's past the 0.3 m limit).
+TEST(MavlinkSink, GpsInputAfterAMapSeedHasNoAltitudeAndItsDriftStartsAtTheSeed) {
+  SinkRun r;
+  constexpr int kSeed = 6;
+  constexpr double kSeedVar = 0.04;
+  for (int k = 0; k < 12; ++k) {
+    FrameState f;
+    f.frame.index = k;
+    f.result.position_m = Eigen::Vector2d(0.0, kStepM * k);
+    f.result.status = k == 0 ? FrameStatus::kFirst : FrameStatus::kOk;
+    f.result.n_inliers = 200;
+    f.result.gsd_m_per_px = 0.05;
+    f.frame_mono_s = 1000.0 + kDt * k;
+    f.frame_unix_s = kUnix0 + kDt * k;
+    f.height_m = 60.0;
+    r.state.georef.Observe(f.result.position_m, std::nullopt, std::nullopt);
+    if (k == kSeed) {  // the image's x axis east (heading pi/2 - pi/2 = 0 in ENU): +y north
+      r.state.georef.SeedFromFix(f.result.position_m, 0.0, GeoPoint{45.0, 6.0, 0.0}, 0.0);
+      f.map_seed_var_m2 = kSeedVar;
+    }
+    r.sink->Write(f, r.run);
+  }
+  const std::vector<mavlink::GpsInput> got = r.receiver.Take();
+  ASSERT_EQ(got.size(), static_cast<std::size_t>(12 - kSeed));
+  for (std::size_t j = 0; j < got.size(); ++j) {
+    const int k = kSeed + static_cast<int>(j);
+    const mavlink::GpsInput& g = got[j];
+    SCOPED_TRACE("frame " + std::to_string(k));
+    EXPECT_NE(g.ignore_flags & mavlink::kGpsInputIgnoreAlt, 0);
+    EXPECT_EQ(g.alt, 0.0f);
+    const double drift = 0.01 * kStepM * (k - kSeed);
+    const double floor = std::sqrt(kSeedVar + drift * drift);
+    EXPECT_GE(g.horiz_accuracy, floor - 1e-4);
+    EXPECT_LE(g.horiz_accuracy, floor + 0.01);
+    EXPECT_EQ(g.fix_type == mavlink::kGpsFixType3d, g.horiz_accuracy <= 0.3f);
+  }
+  EXPECT_EQ(got[0].fix_type, mavlink::kGpsFixType3d);  // 0.2 m at the seed
+}
+
 TEST(MavlinkSink, AnAbsoluteFixOfTheFrameIsSentInsteadOfThePose) {
   SinkRun r;
   for (int k = 0; k < 4; ++k) {

@@ -15,6 +15,9 @@
 // covariance weight and every later frame with it, so that this frame's position and heading
 // (FrameResult, local frame) and every output after this stage (frames.csv, the tracks, the
 // pose stream, MAVLink, the comparisons) carry it, and the next frames are chained from it.
+// Without a geo-reference from GPS the map's confirmed fix seeds it (MapFixer::TakeSeed); the
+// frames wait for it at most map_fix.seed_wait_s (GiveUp: then written in the local frame, and
+// the run stays local).
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -76,9 +79,14 @@ class MapFixStage : public FrameStage {
     MapFixer& fixer = *run.map_fixer;
     const bool due = fixer.Due(processed_++);
     const GeoReferencer& georef = run.state->georef;
+    if (!first_time_s_) first_time_s_ = f.frame.time_s;
     const bool unanchored = !georef.ready() && NoGpsToCome(run);
-    if (unanchored) {
-      if (const std::optional<MapFixRecord> seed = fixer.TakeSeed(due)) Seed(*seed, f, run);
+    if (unanchored && !fixer.gave_up_seed()) {
+      if (const std::optional<MapFixRecord> seed = fixer.TakeSeed(due)) {
+        Seed(*seed, f, run);
+      } else if (f.frame.time_s - *first_time_s_ >= fixer.options().seed_wait_s) {
+        GiveUp(f, run);
+      }
     }
     if (fixer.options().apply) {
       graph_index_[f.frame.index] = f.result.index;
@@ -91,8 +99,9 @@ class MapFixStage : public FrameStage {
     }
     if (!due) return;
     const double focal_px = run.vo_options.focal_px;
-    if ((!georef.ready() && !NoGpsToCome(run)) || f.pixels.empty() || !(f.height_m > 0.0) ||
-        !(focal_px > 0.0)) {
+    // No prediction: GPS to come, or none and the run local for good (GiveUp).
+    if ((!georef.ready() && (!NoGpsToCome(run) || fixer.gave_up_seed())) || f.pixels.empty() ||
+        !(f.height_m > 0.0) || !(focal_px > 0.0)) {
       fixer.CountNoPrediction();
       return;
     }
@@ -134,14 +143,30 @@ class MapFixStage : public FrameStage {
 
   // The geo-reference seeded from the map's confirmed fix `seed` (of this frame or an earlier
   // one: its local pose is the job's).
-  void Seed(const MapFixRecord& seed, const FrameState& f, const RunContext& run) {
+  void Seed(const MapFixRecord& seed, FrameState& f, const RunContext& run) {
     run.state->georef.SeedFromFix(seed.local_m, seed.local_heading_rad, *seed.geo,
                                   seed.fix.heading_rad);
+    const double floor_m = seed.fix.residual_m;  // as Fuse floors a fix
+    f.map_seed_var_m2 = seed.fix.position_cov_m2.trace() + floor_m * floor_m;
     if (run.log != nullptr) {
       *run.log << fmt::format(
           "frame {}: the geo-reference seeded from the map's fix of frame {} (confirming a "
           "whole-map search's)\n",
           f.frame.index, seed.frame);
+    }
+  }
+
+  // No seed within map_fix.seed_wait_s: the held frames are written in the local frame with
+  // this one (RunOutputs), and the run stays local (no later seed, no more unanchored attempts),
+  // as a run whose map never matched is at its end (MapFixer::SummarizeSeed says why).
+  void GiveUp(const FrameState& f, const RunContext& run) {
+    run.map_fixer->GiveUpSeed(f.frame.index, f.frame.time_s);
+    run.outputs->StopWaitingForHeading();
+    if (run.log != nullptr) {
+      *run.log << fmt::format(
+          "frame {}: no geo-reference from the map after {:.1f} s (map_fix.seed_wait_s {} s): "
+          "the held frames are written in the local frame and the run stays local\n",
+          f.frame.index, f.frame.time_s - *first_time_s_, run.map_fixer->options().seed_wait_s);
     }
   }
 
@@ -200,6 +225,7 @@ class MapFixStage : public FrameStage {
   }
 
   int processed_ = 0;             // frames seen by this stage
+  std::optional<double> first_time_s_;  // the first frame's time, s (map_fix.seed_wait_s)
   std::optional<bool> telemetry_has_positions_;  // NoGpsToCome, once
   std::map<int, int> graph_index_;  // map_fix.apply: source frame -> flight graph index
 };

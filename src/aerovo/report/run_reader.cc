@@ -204,6 +204,7 @@ RunData ReadRunDir(const fs::path& dir) {
     f.x_m = t.Number(r, "x_m");
     f.y_m = t.Number(r, "y_m");
     f.geo = GeoOf(t, r, "lat_deg", "lon_deg", "alt_m");
+    f.geo_alt_known = f.geo && t.OptNumber(r, "alt_m").has_value();
     f.n_surf = static_cast<int>(t.Number(r, "n_surf"));
     f.n_matched = static_cast<int>(t.Number(r, "n_matched"));
     f.n_inliers = static_cast<int>(t.Number(r, "n_inliers"));
@@ -241,11 +242,14 @@ RunData ReadRunDir(const fs::path& dir) {
 std::optional<LocalEnu> RunEnuFrame(const RunData& run) {
   if (run.summary.is_object() && run.summary.contains("enu_origin")) {
     const nlohmann::json& o = run.summary["enu_origin"];
+    // alt_m null: the altitude is not known (a map's position; odometry/georef.h
+    // altitude_known): 0, the height the run's own ENU plane had (the map fix's position).
     if (o.is_object() && o.contains("lat_deg") && o.contains("lon_deg") && o.contains("alt_m") &&
-        o["lat_deg"].is_number() && o["lon_deg"].is_number() && o["alt_m"].is_number()) {
+        o["lat_deg"].is_number() && o["lon_deg"].is_number() &&
+        (o["alt_m"].is_number() || o["alt_m"].is_null())) {
       try {
         return LocalEnu(o["lat_deg"].get<double>(), o["lon_deg"].get<double>(),
-                        o["alt_m"].get<double>());
+                        o["alt_m"].is_null() ? 0.0 : o["alt_m"].get<double>());
       } catch (const InvalidArgument&) {
         // Not a position: fall back on frames.csv.
       }

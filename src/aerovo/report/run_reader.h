@@ -23,7 +23,10 @@ struct RunFrameRow {
   int frame = 0;
   double time_s = 0.0;
   double x_m = 0.0, y_m = 0.0;  ///< ENU metres when geo-referenced, else the local VO frame.
-  std::optional<GeoPoint> geo;  ///< VO position in WGS84 (when geo-referenced).
+  /// VO position in WGS84 (when geo-referenced); an empty alt_m cell (no altitude known: a track
+  /// placed by a map, outputs/track_writers.h GeoTrackPoint) reads as 0, `geo_alt_known` false.
+  std::optional<GeoPoint> geo;
+  bool geo_alt_known = true;
   int n_surf = 0, n_matched = 0, n_inliers = 0, cluster = -1;
   double detect_ms = 0.0, describe_ms = 0.0, correspond_ms = 0.0, estimate_ms = 0.0, total_ms = 0.0;
   std::string status;
