@@ -49,7 +49,8 @@ void Validate(const GeoRefOptions& options) {
   }
 }
 
-GeoReferencer::GeoReferencer(const GeoRefOptions& options) : options_(options) {
+GeoReferencer::GeoReferencer(const GeoRefOptions& options, bool fix_altitudes_above_sea_level)
+    : options_(options), fix_altitudes_above_sea_level_(fix_altitudes_above_sea_level) {
   Validate(options_);
 }
 
@@ -67,7 +68,7 @@ bool GeoReferencer::Observe(const Eigen::Vector2d& local_m, const std::optional<
   if (ready_ || !gps) return ready_;
   if (!enu_) {
     enu_.emplace(*gps);
-    altitude_known_ = true;
+    altitude_known_ = fix_altitudes_above_sea_level_;
   }
   const Eigen::Vector3d enu3 = enu_->Forward(*gps);
   const Eigen::Vector2d enu(enu3.x(), enu3.y());

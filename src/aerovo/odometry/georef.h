@@ -59,7 +59,12 @@ void Validate(const GeoRefOptions& options);
 /// trajectory is metric) and its use. Frames are fed in order with Observe().
 class GeoReferencer {
  public:
-  explicit GeoReferencer(const GeoRefOptions& options = {});
+  /// `fix_altitudes_above_sea_level`: the GPS fixes' altitudes (GeoPoint::alt_m) are above sea
+  /// level; false when the telemetry gives none (heights above the take-off point only, or no
+  /// height: pipeline/run_steps.h GpsOf then puts those, or 0, in alt_m), so that the ENU
+  /// origin's altitude, and every altitude derived from it, is not known (altitude_known()).
+  explicit GeoReferencer(const GeoRefOptions& options = {},
+                         bool fix_altitudes_above_sea_level = true);
 
   /// Feeds one frame: its camera position in the local VO frame (metres), its GPS fix if any,
   /// its camera yaw (compass degrees) if any. Returns ready().
@@ -92,6 +97,7 @@ class GeoReferencer {
   int outliers() const { return outliers_; }
   /// As constructed.
   const GeoRefOptions& options() const { return options_; }
+  bool fix_altitudes_above_sea_level() const { return fix_altitudes_above_sea_level_; }
 
   /// True once enu_from_local is known.
   bool ready() const { return ready_; }
@@ -100,9 +106,10 @@ class GeoReferencer {
   /// superseded). Fixed once ready(). Precondition: has_enu().
   const LocalEnu& enu() const;
   bool has_enu() const { return enu_.has_value(); }
-  /// True when the ENU origin is a GPS fix, whose altitude the origin (and Wgs84FromLocal's
-  /// alt_m) carries; false without an origin or when SeedFromFix set it (a position from a map:
-  /// its alt_m is 0, no altitude).
+  /// True when the ENU origin is a GPS fix with an altitude above sea level, which the origin
+  /// (and Wgs84FromLocal's alt_m) carries; false without an origin, when the fixes have no such
+  /// altitude (fix_altitudes_above_sea_level()), or when SeedFromFix set it (a position from a
+  /// map: its alt_m is 0, no altitude).
   bool altitude_known() const { return altitude_known_; }
 
   /// Rotation angle of enu_from_local, radians counter-clockwise (east towards north).
@@ -124,6 +131,7 @@ class GeoReferencer {
   void FixFromYaw();
 
   GeoRefOptions options_;
+  bool fix_altitudes_above_sea_level_ = true;
   std::optional<LocalEnu> enu_;
   bool altitude_known_ = false;  // enu_ from a GPS fix (altitude_known())
   bool ready_ = false;

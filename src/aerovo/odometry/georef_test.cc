@@ -53,6 +53,22 @@ TEST(GeoReferencer, TelemetryYawMapsLocalUpToBearing) {
   EXPECT_NEAR(InitialBearingDeg(f.gps[0], ahead), 70.0, 0.01);
 }
 
+// Fixes whose alt_m is a height above the take-off point (or 0: no height): the track is placed
+// as with altitudes above sea level, but its altitude is not known, and a rebuilt referencer
+// keeps the same kind.
+TEST(GeoReferencer, FixesWithoutAnAltitudeAboveSeaLevelGiveNoAltitude) {
+  const LocalEnu enu(27.95, -82.46, 10.0);
+  const Flight f = MakeFlight(70.0, enu, {0, 0});
+  GeoReferencer geo({}, /*fix_altitudes_above_sea_level=*/false);
+  EXPECT_FALSE(geo.fix_altitudes_above_sea_level());
+  ASSERT_TRUE(geo.Observe(f.local[0], f.gps[0], 70.0));
+  EXPECT_FALSE(geo.altitude_known());
+  EXPECT_LT(GeodesicDistance(geo.Wgs84FromLocal(f.local[0]), f.gps[0]), 0.01);
+  EXPECT_TRUE(std::isnan(geo.TrackWgs84FromLocal(f.local[5]).alt_m));
+  const GeoReferencer rebuilt(geo.options(), geo.fix_altitudes_above_sea_level());
+  EXPECT_FALSE(rebuilt.fix_altitudes_above_sea_level());
+}
+
 TEST(GeoReferencer, GpsSegmentRecoversRotationWithNoisyFixes) {
   const LocalEnu enu(45.07, 7.66, 250.0);
   const Flight f = MakeFlight(-130.0, enu, {1.5, 1.5});

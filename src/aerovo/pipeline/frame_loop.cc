@@ -140,8 +140,15 @@ void WithholdPositions(const RunConfig& config, RunState* state, FrameState& f) 
 
 }  // namespace
 
-RunState::RunState(const RunConfig& config)
-    : georef(GeoRefOptionsOf(config)), gps_check(config.gps_check) {}
+RunState::RunState(const RunConfig& config, bool fix_altitudes_above_sea_level)
+    : georef(GeoRefOptionsOf(config), fix_altitudes_above_sea_level), gps_check(config.gps_check) {}
+
+bool FixAltitudesAboveSeaLevel(const RunTelemetry& telemetry) {
+  const std::vector<TelemetrySample>& s = telemetry.telemetry().samples();
+  return std::all_of(s.begin(), s.end(), [](const TelemetrySample& x) {
+    return !x.has_fix || x.abs_alt_m.has_value();
+  });
+}
 
 // ---------------------------------------------------------------------------------------------
 // Reading
@@ -210,7 +217,7 @@ FrameLoop::FrameLoop(const RunInputs& inputs, const RunTelemetry& telemetry,
       callbacks_(callbacks),
       log_(log),
       link_(OpenLink(inputs.config, log)),
-      state_(inputs.config) {}
+      state_(inputs.config, FixAltitudesAboveSeaLevel(telemetry)) {}
 
 FrameLoop::~FrameLoop() = default;
 

@@ -87,6 +87,13 @@ std::vector<SinkPtr> MakeSinks(const RunContext& run, const std::vector<SinkPtr>
 // ---------------------------------------------------------------------------------------------
 // Reading and setting up.
 
+/// Whether every fix of `telemetry` has an altitude above sea level (TelemetrySample::abs_alt_m):
+/// the run's GeoReferencer then knows the altitude of its origin (odometry/georef.h
+/// altitude_known). False for telemetry with heights above the take-off point only (older DJI
+/// SRT: BAROMETER, H) or no height (a GPX without <ele>, a CSV without altitude), whose fixes
+/// GpsOf gives that height or 0.
+bool FixAltitudesAboveSeaLevel(const RunTelemetry& telemetry);
+
 /// Reads the next frame into `frame` (cleared first): nothing once the stop flag is set
 /// (kStopped) or max_frames are processed or the source ends (kEnd); else the frame with the
 /// time the source delivered it and its own capture time (FrameState::frame_mono_s: a file's

@@ -323,6 +323,33 @@ class LiveCrops : public ShiftedCrops {
   double waited_s_;
 };
 
+// The run's geo-referencing knows its altitude only from fixes above sea level: telemetry with
+// heights above the take-off point only (or none) gives tracks without an altitude.
+TEST(FrameLoop, OnlyFixesAboveSeaLevelGiveTheTrackAnAltitude) {
+  const auto fix = [](double t, std::optional<double> abs_alt) {
+    TelemetrySample s;
+    s.time_s = t;
+    s.has_fix = true;
+    s.lat_deg = 45.0;
+    s.lon_deg = 7.0;
+    s.rel_alt_m = 50.0;
+    s.abs_alt_m = abs_alt;
+    return s;
+  };
+  TelemetrySample no_fix;  // a record without a position does not count
+  no_fix.time_s = 2.0;
+  no_fix.has_fix = false;
+  const RunTelemetry amsl(Telemetry({fix(0.0, 300.0), fix(1.0, 301.0), no_fix}), false, "t");
+  const RunTelemetry relative(Telemetry({fix(0.0, 300.0), fix(1.0, std::nullopt)}), false, "t");
+  EXPECT_TRUE(FixAltitudesAboveSeaLevel(amsl));
+  EXPECT_FALSE(FixAltitudesAboveSeaLevel(relative));
+  EXPECT_TRUE(FixAltitudesAboveSeaLevel(RunTelemetry()));
+  const RunConfig config;
+  EXPECT_FALSE(
+      RunState(config, FixAltitudesAboveSeaLevel(relative)).georef.fix_altitudes_above_sea_level());
+  EXPECT_TRUE(RunState(config).georef.fix_altitudes_above_sea_level());
+}
+
 TEST(FrameLoop, AFilesFramesCarryTheirPresentationTimesALiveFrameItsArrival) {
   const RunInputs in = LoopInputs(TempDir("times"));
   const RunTelemetry telemetry;

@@ -146,7 +146,9 @@ struct FrameState {
 /// What the frames change for the whole run (owned by the FrameLoop, shared by the stages and
 /// sinks through RunContext::state).
 struct RunState {
-  explicit RunState(const RunConfig& config);
+  /// `fix_altitudes_above_sea_level`: GeoReferencer's (FixAltitudesAboveSeaLevel of the run's
+  /// telemetry).
+  explicit RunState(const RunConfig& config, bool fix_altitudes_above_sea_level = true);
   GeoReferencer georef;
   GpsFixChecker gps_check;  ///< Fixes (stage_gps_check.cc) and the heights' relative altitudes.
   RunTotals totals{true};

@@ -183,7 +183,7 @@ void LensSwitch::ReplaceFilePoses(RunContext& run) {
   // replayed positions, their fixes that still stand (not rejected by the GPS check, nor
   // superseded since: RunState::rejected) and their camera yaw fed in order to a new one; at
   // the first denied frame, fixed with what it has (stage_georef.cc OnDenial).
-  GeoReferencer rebuilt(georef.options());
+  GeoReferencer rebuilt(georef.options(), georef.fix_altitudes_above_sea_level());
   bool denial_seen = false;
   std::vector<ReplayedPose> poses;
   poses.reserve(replayed_poses_.size());
