@@ -360,7 +360,6 @@ TEST(LensSelfCalibration, ALiveSourcesLensIsEstimatedFromItsOwnFrames) {
       RunFlight(c, std::make_unique<e2e::PacedLiveSource>(std::move(folder), 5.0));
   const nlohmann::json& le = s.lens_estimate;
   RecordProperty("why", le.value("why", std::string()));
-  ASSERT_EQ(le["status"], "applied") << le.dump();
   EXPECT_EQ(le["family"], "fisheye") << le.dump();
   EXPECT_NEAR(le["k"].get<double>(), -0.04, 0.005) << le.dump();
   // All 5 when the run keeps up (a sanitizer build may take fewer frames before the switch).
@@ -369,10 +368,25 @@ TEST(LensSelfCalibration, ALiveSourcesLensIsEstimatedFromItsOwnFrames) {
   // The pairs start 0.3 s of stream apart (or 8 frames), each before the switch frame.
   const int switch_frame = le["switch_frame"].get<int>();
   EXPECT_GE(switch_frame, 1) << le.dump();
+  for (const auto& f : le["pair_frames"]) EXPECT_LT(f.get<int>(), switch_frame) << le.dump();
+#ifdef AEROVO_INSTRUMENTED_BUILD
+  // An instrumented build (ASan + UBSan at -O1) takes about 8 s for the estimate, near the end
+  // of the 9 s stream: the run may end before the replay from the switch frame catches up, and
+  // then says so and applies nothing (the optimised build must apply it, below).
+  if (le["status"] != "applied") {
+    EXPECT_EQ(le["status"], "not applied") << le.dump();
+    EXPECT_NE(le["why"].get<std::string>().find("the run ended before the replay"),
+              std::string::npos)
+        << le.dump();
+    EXPECT_EQ(le["caught_up_frame"], -1) << le.dump();
+    fs::remove_all(dir);
+    return;
+  }
+#endif
+  ASSERT_EQ(le["status"], "applied") << le.dump();
   EXPECT_GT(le["frames_replayed"].get<int>(), 0) << le.dump();
   EXPECT_GT(le["caught_up_frame"].get<int>(), switch_frame) << le.dump();
   EXPECT_EQ(le["file_poses_replaced"], true) << le.dump();
-  for (const auto& f : le["pair_frames"]) EXPECT_LT(f.get<int>(), switch_frame) << le.dump();
   const auto rows = e2e::ReadFramesCsv(dir / "run");
   int lens_rows = 0;
   for (const auto& r : rows) lens_rows += r.at("status").find("+lens") != std::string::npos;
