@@ -225,6 +225,11 @@ std::optional<MapFixRecord> MapFixer::Unanchored(MapFixJob& job) {
 
 namespace {
 
+// "1 search", "2 searches".
+std::string Counted(int n, const char* one, const char* many) {
+  return fmt::format("{} {}", n, n == 1 ? one : many);
+}
+
 // A whole-map search's coarse hit in one tile.
 struct TileHit {
   MapFix coarse;
@@ -612,14 +617,14 @@ void MapFixer::SummarizeSeed(RunSummary::MapFixes* s) const {
   s->georef_note +=
       s->candidates == 0
           ? fmt::format(
-                "no whole-map search found the frame ({} searches over {} of the map's {} "
-                "tiles: {})",
-                whole_map_searches_, whole_map_tiles_, whole_map_tiles_total_, statuses)
-          : fmt::format("{} candidates found by {} whole-map searches, {}", s->candidates,
-                        whole_map_searches_,
-                        confirmed == 0 ? std::string("none confirmed by the next attempt")
-                                       : fmt::format("{} confirmed after the wait (not taken)",
-                                                     confirmed));
+                "no whole-map search found the frame ({} over {} of the map's {} tiles: {})",
+                Counted(whole_map_searches_, "search", "searches"), whole_map_tiles_,
+                whole_map_tiles_total_, statuses)
+          : fmt::format("{} found by {}, {}", Counted(s->candidates, "candidate", "candidates"),
+                        Counted(whole_map_searches_, "whole-map search", "whole-map searches"),
+                        confirmed == 0
+                            ? std::string("none confirmed by the next attempt")
+                            : fmt::format("{} confirmed after the wait (not taken)", confirmed));
   if (options_.start_radius_m > 0.0) {
     s->georef_note += fmt::format(
         "; searched within {} m of the start position given "

@@ -126,6 +126,16 @@ TEST(MapFixer, WideSearchAfterFailuresFindsAFarPredictionThenGatesOne) {
   EXPECT_EQ(rows, expected) << csv;
 }
 
+// `job` without a prediction (MapFixJob::anchored false: the track not geo-referenced yet), at
+// `local_north_m` north in the local frame.
+MapFixJob Unanchored(MapFixJob job, double local_north_m) {
+  job.anchored = false;
+  job.heading_rad.reset();
+  job.predicted = GeoPoint{};
+  job.local_m = Eigen::Vector2d(0.0, local_north_m);
+  return job;
+}
+
 // No prediction (MapFixJob::anchored false): the first job is searched over the whole map (400 x
 // 400 m in tiles of 200 m: 4) without a heading and found, a candidate; the next one, 20 m south
 // in the local frame, is predicted through it and matched locally: it confirms the candidate,
@@ -138,16 +148,9 @@ TEST(MapFixer, WithoutAPredictionTheWholeMapIsSearchedAndTheNextFixConfirmsIt) {
   o.search_wide_radius_m = 100.0;
   o.search_after_failures = 2;
   MapFixer fixer(maps, o, /*live=*/false);
-  const auto unanchored = [](MapFixJob job, double local_north_m) {
-    job.anchored = false;
-    job.heading_rad.reset();
-    job.predicted = GeoPoint{};
-    job.local_m = Eigen::Vector2d(0.0, local_north_m);
-    return job;
-  };
-  fixer.Submit(unanchored(Map().Job(0, 300, 300, 0.0), 0.0));
+  fixer.Submit(Unanchored(Map().Job(0, 300, 300, 0.0), 0.0));
   EXPECT_FALSE(fixer.TakeSeed(true).has_value());  // a candidate only
-  fixer.Submit(unanchored(Map().Job(2, 300, 340, 0.0), -20.0));
+  fixer.Submit(Unanchored(Map().Job(2, 300, 340, 0.0), -20.0));
   const std::optional<MapFixRecord> seed = fixer.TakeSeed(true);
   ASSERT_TRUE(seed.has_value());
   EXPECT_EQ(seed->frame, 2);
@@ -157,7 +160,7 @@ TEST(MapFixer, WithoutAPredictionTheWholeMapIsSearchedAndTheNextFixConfirmsIt) {
   EXPECT_NEAR(seed->fix.heading_rad, 0.0, 0.01);
   EXPECT_FALSE(fixer.TakeSeed(true).has_value());  // once
   // Another texture: nowhere on the map.
-  MapFixJob other = unanchored(Map().Job(4, 300, 300, 0.0), 0.0);
+  MapFixJob other = Unanchored(Map().Job(4, 300, 300, 0.0), 0.0);
   cv::Mat noise(180, 240, CV_8U);
   cv::theRNG().state = 11;
   cv::randu(noise, 0, 256);
@@ -207,16 +210,9 @@ TEST(MapFixer, AfterGivingUpTheSeedAConfirmationIsNotTaken) {
   o.search_wide_radius_m = 100.0;
   o.seed_wait_s = 0.5;
   MapFixer fixer(maps, o, /*live=*/false);
-  const auto unanchored = [](MapFixJob job, double local_north_m) {
-    job.anchored = false;
-    job.heading_rad.reset();
-    job.predicted = GeoPoint{};
-    job.local_m = Eigen::Vector2d(0.0, local_north_m);
-    return job;
-  };
-  fixer.Submit(unanchored(Map().Job(0, 300, 300, 0.0), 0.0));
+  fixer.Submit(Unanchored(Map().Job(0, 300, 300, 0.0), 0.0));
   EXPECT_FALSE(fixer.TakeSeed(true).has_value());  // a candidate only
-  fixer.Submit(unanchored(Map().Job(2, 300, 340, 0.0), -20.0));  // it confirms it...
+  fixer.Submit(Unanchored(Map().Job(2, 300, 340, 0.0), -20.0));  // it confirms it...
   fixer.GiveUpSeed(1, 0.5);
   EXPECT_TRUE(fixer.gave_up_seed());
   EXPECT_FALSE(fixer.TakeSeed(true).has_value());  // ...too late
@@ -227,8 +223,8 @@ TEST(MapFixer, AfterGivingUpTheSeedAConfirmationIsNotTaken) {
   EXPECT_EQ(m.candidates, 1);
   EXPECT_EQ(m.georef_note,
             "no seed within map_fix.seed_wait_s (0.5 s): the frames were written in the local "
-            "frame from frame 1 (0.500 s) on and the run stayed local; 1 candidates found by 1 "
-            "whole-map searches, 1 confirmed after the wait (not taken)");
+            "frame from frame 1 (0.500 s) on and the run stayed local; 1 candidate found by 1 "
+            "whole-map search, 1 confirmed after the wait (not taken)");
 }
 
 // A start position given (map_fix.start_*): only the square around it is searched. Within 60 m
