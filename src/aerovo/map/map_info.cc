@@ -47,11 +47,9 @@ DatasetPtr OpenRaster(const std::filesystem::path& path) {
   if (std::filesystem::is_directory(path, ec)) {
     throw InputError("'" + path.string() + "': a folder, not a map file");
   }
-  CPLErrorReset();
-  CPLPushErrorHandler(CPLQuietErrorHandler);
+  const QuietGdal quiet;
   GDALDataset* ds = static_cast<GDALDataset*>(
       GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr));
-  CPLPopErrorHandler();
   if (ds == nullptr) {
     throw InputError("'" + path.string() + "': not a raster GDAL can read (corrupt, or not an "
                      "image): " + LastGdalError("unrecognised format"));

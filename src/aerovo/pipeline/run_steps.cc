@@ -390,23 +390,29 @@ std::string StepStatusOf(const FrameResult& r) {
   return status;
 }
 
+// The pose and the odometry's counts of `r` into `p` (not its status, times or frame).
+void SetPoseAndCounts(PendingFrame& p, const FrameResult& r) {
+  p.local_m = r.position_m;
+  p.heading_rad = r.heading_rad;
+  p.quality = PoseQuality(r);
+  FrameRecord& rec = p.record;
+  rec.n_surf = r.n_surf;
+  rec.n_matched = r.n_matched;
+  rec.n_inliers = r.n_inliers;
+  rec.cluster = r.cluster;
+}
+
 }  // namespace
 
 PendingFrame PendingFrameOf(const Frame& frame, const FrameResult& r,
                             const std::optional<GeoPoint>& gps, double height_m) {
   PendingFrame p;
-  p.local_m = r.position_m;
-  p.heading_rad = r.heading_rad;
+  SetPoseAndCounts(p, r);
   p.gps = gps;
   p.height_m = height_m;
-  p.quality = PoseQuality(r);
   FrameRecord& rec = p.record;
   rec.frame = frame.index;
   rec.time_s = frame.time_s;
-  rec.n_surf = r.n_surf;
-  rec.n_matched = r.n_matched;
-  rec.n_inliers = r.n_inliers;
-  rec.cluster = r.cluster;
   rec.detect_ms = r.detect_ms;
   rec.describe_ms = r.describe_ms;
   rec.correspond_ms = r.correspond_ms;
@@ -418,14 +424,8 @@ PendingFrame PendingFrameOf(const Frame& frame, const FrameResult& r,
 }
 
 void ReplacePose(PendingFrame& p, const FrameResult& r) {
-  p.local_m = r.position_m;
-  p.heading_rad = r.heading_rad;
-  p.quality = PoseQuality(r);
+  SetPoseAndCounts(p, r);
   FrameRecord& rec = p.record;
-  rec.n_surf = r.n_surf;
-  rec.n_matched = r.n_matched;
-  rec.n_inliers = r.n_inliers;
-  rec.cluster = r.cluster;
   const std::size_t plus = rec.status.find('+');
   rec.status = StepStatusOf(r) + (plus == std::string::npos ? "" : rec.status.substr(plus));
 }
