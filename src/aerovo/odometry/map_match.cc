@@ -54,6 +54,8 @@ const char* ToString(MapFixStatus status) {
       return "gate";
     case MapFixStatus::kAmbiguous:
       return "ambiguous";
+    case MapFixStatus::kMapTooCoarse:
+      return "map_too_coarse";
   }
   return "?";
 }
@@ -117,6 +119,11 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 double WrapPi(double a) { return std::remainder(a, 2.0 * kPi); }
+
+// The frame's width on the ground, m: its pixels times its ground sampling distance.
+double FrameWidthM(const MapMatchFrame& frame) {
+  return frame.pixels.width * frame.height_m / frame.focal_px;
+}
 
 // The robust intensity range (1st to 99th percentile) of `image` where `valid` is non-zero
 // (everywhere when valid is empty), grey levels; 0 with no valid pixel.
@@ -523,6 +530,8 @@ MapFix MapMatcher::Impl::Run(const MapMatchFrame& frame, const MapMatchWindow& w
   Impl& m = *this;
   const MapMatchOptions& o = m.options;
   MapFix out;
+  out.m_per_px = window.m_per_px;
+  out.frame_width_m = FrameWidthM(frame);
   // The map window: its data and texture.
   m.map = GrayImage(window.pixels.width, window.pixels.height);
   m.map_valid = GrayImage(window.pixels.width, window.pixels.height);
@@ -541,6 +550,9 @@ MapFix MapMatcher::Impl::Run(const MapMatchFrame& frame, const MapMatchWindow& w
   // A search's wide window may reach far beyond a small map: only an empty one is no map.
   if (search ? map_valid == 0 : valid_fraction < o.min_valid_fraction) {
     return done(MapFixStatus::kNoMap);
+  }
+  if (out.frame_width_m < o.min_frame_width_px * window.m_per_px) {
+    return done(MapFixStatus::kMapTooCoarse);
   }
   if (RobustRange(window.pixels, window.valid) < o.min_contrast) {
     return done(MapFixStatus::kNoMapTexture);
@@ -628,9 +640,13 @@ MapFix MapMatcher::MatchFeatures(const MapMatchFrame& frame, const MapWindowFeat
   Impl& m = *impl_;
   const MapMatchOptions& o = m.options;
   MapFix out;
+  out.m_per_px = map.m_per_px;
+  out.frame_width_m = FrameWidthM(frame);
   const double area = static_cast<double>(map.size_px) * map.size_px;
   if (static_cast<double>(map.valid_px) / area < o.min_valid_fraction) {
     out.status = MapFixStatus::kNoMap;
+  } else if (out.frame_width_m < o.min_frame_width_px * map.m_per_px) {
+    out.status = MapFixStatus::kMapTooCoarse;
   } else if (map.contrast < o.min_contrast) {
     out.status = MapFixStatus::kNoMapTexture;
   } else if (const auto status = m.PrepareFrame(frame, map.m_per_px)) {

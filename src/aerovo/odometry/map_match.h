@@ -87,6 +87,13 @@ struct MapMatchOptions {
   double min_contrast = 12.0;
   /// Smallest share of the window the map has data in.
   double min_valid_fraction = 0.2;
+  /// Fewest pixels across the frame at the attempt's resolution (the frame's ground width over
+  /// the window's m_per_px): a map so coarse that the frame's footprint spans fewer of its
+  /// pixels is not matched (status kMapTooCoarse). SURF's first octave alone uses 9-27 px
+  /// filters (Bay et al., "SURF: Speeded Up Robust Features", CVIU 110(3), 2008, section 4.1),
+  /// so a frame this narrow leaves too few points to fit (BENCHMARKS.md "Maps coarser than the
+  /// frames").
+  int min_frame_width_px = 128;
 
   // Lost and found: the wide search (MapMatcher::Search, pipeline/map_fixer.h; docs/map.md).
   /// Consecutive failed attempts (few_inliers, ambiguous, spread, scale, gate) after which the
@@ -152,6 +159,7 @@ void VisitFields(MapMatchOptions& o, V& v) {
   v.Field(o.max_heading_error_deg, "max_heading_error_deg", "Largest rotation of the fit against the heading, deg (gate)", GreaterThan(0).Finite());
   v.Field(o.min_contrast, "min_contrast", "Smallest robust intensity range of the map window and the frame, grey levels", AtLeast(0).Finite());
   v.Field(o.min_valid_fraction, "min_valid_fraction", "Smallest share of the window with map data", Interval(0, 1));
+  v.Field(o.min_frame_width_px, "min_frame_width_px", "Fewest pixels across the frame at the map's resolution: a map coarser than that is not matched (map_too_coarse)", Interval(16, 4096));
   v.Field(o.search_after_failures, "search_after_failures", "Consecutive failed attempts (few_inliers, ambiguous, spread, scale, gate) that start a wide search (0 = never)", AtLeast(0));
   v.Field(o.search_at_start, "search_at_start", "The run's first attempt is a wide search", Any());
   v.Field(o.search_wide_radius_m, "search_wide_radius_m", "Radius of a wide search around the prediction, m", GreaterThan(0).Finite());
@@ -179,10 +187,12 @@ enum class MapFixStatus {
   kGate,            ///< Farther than the gate (gate_m) from the prediction, or rotated against
                     ///< the heading by more than max_heading_error_deg.
   kAmbiguous,       ///< A search's hit has under min_margin times the inliers of another place.
+  kMapTooCoarse,    ///< The frame is under min_frame_width_px across at the attempt's
+                    ///< resolution (the map's, when it is the coarser): not matched.
 };
-inline constexpr int kNumMapFixStatus = 9;
+inline constexpr int kNumMapFixStatus = 10;
 /// "fix", "no_map", "no_map_texture", "no_frame_texture", "few_inliers", "spread", "scale",
-/// "gate", "ambiguous".
+/// "gate", "ambiguous", "map_too_coarse".
 const char* ToString(MapFixStatus status);
 
 /// The frame to fix.
@@ -235,6 +245,8 @@ struct MapFix {
   double spread = 0.0;            ///< MapMatchOptions::min_spread's measure.
   double prior_distance_m = 0.0;  ///< |enu_m - prior|, m.
   double ms = 0.0;                ///< Time of the attempt, ms.
+  double m_per_px = 0.0;          ///< The attempt's resolution (the window's), m/px.
+  double frame_width_m = 0.0;     ///< The frame's width on the ground, m.
 };
 
 /// Side of the square window (px at `m_per_px`) that holds the frame's footprint anywhere within

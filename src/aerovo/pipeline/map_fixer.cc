@@ -2,9 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <string>
 #include <utility>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <Eigen/Geometry>
 
@@ -185,6 +188,7 @@ std::optional<MapFixRecord> MapFixer::Unanchored(MapFixJob& job) {
       case MapFixStatus::kNoMap:  // nothing to confirm it with here: kept for the next attempt
       case MapFixStatus::kNoMapTexture:
       case MapFixStatus::kNoFrameTexture:
+      case MapFixStatus::kMapTooCoarse:
         break;
       default:  // disproved: the next attempt searches the whole map again
         candidate_.reset();
@@ -451,6 +455,7 @@ void MapFixer::Follow(const MapFixRecord& record) {
     case MapFixStatus::kNoMap:  // nothing to match against: neither lost nor found
     case MapFixStatus::kNoMapTexture:
     case MapFixStatus::kNoFrameTexture:
+    case MapFixStatus::kMapTooCoarse:
       break;
   }
 }
@@ -494,6 +499,35 @@ double Rmse(const std::vector<double>& v) {
   double sum = 0.0;
   for (const double e : v) sum += e * e;
   return std::sqrt(sum / static_cast<double>(v.size()));
+}
+
+// The warning for the attempts not made because the map is too coarse for the frames
+// (MapFixStatus::kMapTooCoarse): the maps they fell on, how many, and the resolution a map
+// needs; empty when there were none.
+std::string TooCoarseWarning(const std::vector<MapFixRecord>& records,
+                             const std::vector<map::MapInfo>& infos,
+                             const MapMatchOptions& options) {
+  int count = 0;
+  double coarsest_m_per_px = 0.0, narrowest_m = std::numeric_limits<double>::infinity();
+  std::vector<std::string> names;
+  for (const MapFixRecord& r : records) {
+    if (r.fix.status != MapFixStatus::kMapTooCoarse) continue;
+    ++count;
+    coarsest_m_per_px = std::max(coarsest_m_per_px, r.fix.m_per_px);
+    narrowest_m = std::min(narrowest_m, r.fix.frame_width_m);
+    const std::size_t m = r.map ? static_cast<std::size_t>(*r.map) : 0;
+    if (m < infos.size()) {
+      const std::string name = infos[m].path.string();
+      if (std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
+    }
+  }
+  if (count == 0) return "";
+  return fmt::format(
+      "'{}': {} of {} map fix attempts not made, the map too coarse for the frames: a frame "
+      "{:.0f} m wide on the ground is {:.0f} pixels across at {:.2f} m per pixel, under "
+      "map_fix.min_frame_width_px ({}); a map of at most {:.2f} m per pixel is needed",
+      fmt::join(names, "', '"), count, records.size(), narrowest_m, narrowest_m / coarsest_m_per_px,
+      coarsest_m_per_px, options.min_frame_width_px, narrowest_m / options.min_frame_width_px);
 }
 
 }  // namespace
@@ -564,6 +598,9 @@ void MapFixer::Finish(const std::filesystem::path& out_dir, RunSummary* summary)
     s.track_max_m = *std::max_element(track_errors.begin(), track_errors.end());
   }
   SummarizeSeed(&s);
+  if (const std::string w = TooCoarseWarning(records_, maps_.infos(), options_); !w.empty()) {
+    summary->warnings.push_back(w);
+  }
   if (!s.georef_note.empty()) {
     summary->warnings.push_back("no geo-reference from the map: " + s.georef_note);
   }
