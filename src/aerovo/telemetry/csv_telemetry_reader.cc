@@ -1,4 +1,6 @@
-// CSV telemetry with named columns, plus ReadTelemetryFile (choice of reader by extension).
+// CSV telemetry with named columns, units in the names and the exports of flight log tools
+// (docs/inputs.md "CSV exports of flight logs"), plus ReadTelemetryFile (choice of reader by
+// extension).
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -241,7 +243,7 @@ const Alias kAliases[] = {
     {"osd", "longitude", kLon, 0},
     {"osd", "height", kRelAlt, 0},    // above the take-off point (OSD.vpsHeight: not read)
     {"osd", "altitude", kAbsAlt, 0},  // take-off altitude + height
-    {"osd", "flytime", kTime, 0},     // seconds since take-off
+    {"osd", "flytime", kTime, 0},     // the flight time
     {"osd", "yaw", kYaw, 0},
     {"osd", "pitch", kPitch, 0},
     {"osd", "roll", kRoll, 0},
