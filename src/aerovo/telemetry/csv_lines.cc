@@ -1,6 +1,7 @@
 #include "aerovo/telemetry/csv_lines.h"
 
 #include <algorithm>
+#include <optional>
 #include <string_view>
 
 #include <fmt/format.h>
@@ -67,8 +68,26 @@ CsvLines::CsvLines(std::istream& in, std::string source_name) : in_(in) {
     }
   }
   if (!found) throw InputError(fmt::format("{}: empty CSV file (no header)", source_name));
+  // "sep=," / "sep=;": the separator hint of spreadsheet exports (the first line of the DJI
+  // flight record CSVs of log viewers); the header is the next line that is not blank/comment.
+  std::optional<char> hinted_sep;
+  if (const std::string_view t = io_detail::Trim(line);
+      t.size() == 5 && io_detail::ToLower(t.substr(0, 4)) == "sep=" &&
+      (t[4] == ',' || t[4] == ';')) {
+    hinted_sep = t[4];
+    found = false;
+    while (ReadLine(in_, line)) {
+      ++line_;
+      if (!BlankOrComment(line)) {
+        found = true;
+        break;
+      }
+    }
+    if (!found) throw InputError(fmt::format("{}: empty CSV file (no header)", source_name));
+  }
   header_line_ = line_;
-  sep_ = std::count(line.begin(), line.end(), ';') > std::count(line.begin(), line.end(), ',')
+  sep_ = hinted_sep ? *hinted_sep
+         : std::count(line.begin(), line.end(), ';') > std::count(line.begin(), line.end(), ',')
              ? ';'
              : ',';
   if (!SplitCsv(line, sep_, header_)) {

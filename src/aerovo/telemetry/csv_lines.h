@@ -16,7 +16,9 @@ bool SplitCsv(const std::string& line, char sep, std::vector<std::string>& cells
 
 /// A CSV text with a header row. The header is the first line that is neither blank nor a
 /// comment (first non-blank character '#'), with a UTF-8 byte-order mark on line 1 removed; the
-/// separator is ';' when the header holds more ';' than ',', else ','. Data records are the
+/// separator is ';' when the header holds more ';' than ',', else ','. A first line "sep=," or
+/// "sep=;" (the separator hint of spreadsheet exports, e.g. DJI flight record CSVs) sets the
+/// separator and the header is the line after it. Data records are the
 /// following lines, blank and comment lines skipped; "\r\n" line ends are accepted.
 class CsvLines {
  public:

@@ -46,6 +46,20 @@ TEST(CsvLines, HeaderAfterBomBlankAndCommentLinesThenRecordsWithLineNumbers) {
   EXPECT_FALSE(csv.Next(cells));
 }
 
+TEST(CsvLines, SeparatorHintLineIsNotTheHeader) {
+  std::istringstream in("sep=;\r\nOSD.latitude;OSD.height [ft]\r\n1,5;2\r\n");
+  CsvLines csv(in, "f.csv");
+  EXPECT_EQ(csv.header_line(), 2);
+  EXPECT_EQ(csv.separator(), ';');
+  EXPECT_EQ(csv.header(), (Cells{"OSD.latitude", "OSD.height [ft]"}));
+  Cells cells;
+  ASSERT_TRUE(csv.Next(cells));
+  EXPECT_EQ(csv.line(), 3);
+  EXPECT_EQ(cells, (Cells{"1,5", "2"}));
+  std::istringstream only_hint("sep=,\n\n");
+  ExpectInputError([&] { CsvLines csv2(only_hint, "h.csv"); }, {"h.csv: empty CSV file"});
+}
+
 TEST(CsvLines, NoHeaderOrBrokenHeaderNamesTheSource) {
   std::istringstream empty("\n  \n# only a comment\n");
   ExpectInputError([&] { CsvLines csv(empty, "e.csv"); }, {"e.csv: empty CSV file (no header)"});

@@ -106,9 +106,9 @@ std::optional<double> ParseDateTime(std::string_view s) {
   s = Trim(s);
   std::size_t p = 0;
   int y, mo, d, h, mi, sec;
-  if (!Digits(s, p, 4, y) || !Expect(s, p, "-:.") || !Digits(s, p, 2, mo) || !Expect(s, p, "-:.") ||
-      !Digits(s, p, 2, d) || !Expect(s, p, "T ") || !Digits(s, p, 2, h) || !Expect(s, p, ":") ||
-      !Digits(s, p, 2, mi) || !Expect(s, p, ":") || !Digits(s, p, 2, sec)) {
+  if (!Digits(s, p, 4, y) || !Expect(s, p, "-:./") || !Digits(s, p, 2, mo) ||
+      !Expect(s, p, "-:./") || !Digits(s, p, 2, d) || !Expect(s, p, "T ") || !Digits(s, p, 2, h) ||
+      !Expect(s, p, ":") || !Digits(s, p, 2, mi) || !Expect(s, p, ":") || !Digits(s, p, 2, sec)) {
     return std::nullopt;
   }
   if (mo < 1 || mo > 12 || d < 1 || d > DaysInMonth(y, mo) || h > 23 || mi > 59 || sec > 60) {

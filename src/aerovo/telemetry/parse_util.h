@@ -29,10 +29,29 @@ inline bool IsFrameNumber(double v) { return v >= 0.0 && v <= 1e8 && v == std::f
 long long DaysFromCivil(int y, int m, int d);
 
 /// "YYYY-MM-DD[T ]HH:MM:SS[.fff][Z|+HH:MM|-HH:MM|+HHMM]" -> seconds since the epoch (UTC; no
-/// zone = UTC). Also accepts "YYYY:MM:DD HH:MM:SS" (EXIF) and "YYYY.MM.DD HH:MM:SS" (old DJI),
-/// and a DJI SRT tail ",mmm,uuu" (milliseconds, microseconds). nullopt when malformed or a
+/// zone = UTC). Also accepts "YYYY:MM:DD HH:MM:SS" (EXIF), "YYYY.MM.DD HH:MM:SS" (old DJI),
+/// "YYYY/MM/DD HH:MM:SS.fff" (CUSTOM.updateTime of DJI flight record CSVs) and a DJI SRT tail
+/// ",mmm,uuu" (milliseconds, microseconds). nullopt when malformed or a
 /// field is out of range.
 std::optional<double> ParseDateTime(std::string_view s);
+
+/// A CSV header cell split into an optional source prefix, a base name and an optional unit,
+/// all trimmed and lower-case: "OSD.height [ft]" -> {"osd", "height", "ft"},
+/// "time(millisecond)" -> {"", "time", "millisecond"}, "lat_deg" -> {"", "lat", "deg"}. The
+/// unit is written "name(unit)" or "name [unit]"; else a last "_unit" is split off when
+/// IsCsvUnit(unit) (telemetry CSV columns: "abs_alt_m", "time_s", "yaw_deg"). The
+/// prefix is what comes before the last '.' of the name ("OSD.", "GIMBAL.", "CUSTOM." of DJI
+/// flight record CSVs).
+struct ColumnName {
+  std::string prefix;
+  std::string base;
+  std::string unit;  ///< Empty when the header gives none.
+};
+ColumnName SplitColumnName(std::string_view cell);
+
+/// True when `unit` (lower-case) is one of the units the CSV telemetry reader converts
+/// (lengths, times, angles, date zones). Both are defined in csv_telemetry_reader.cc.
+bool IsCsvUnit(std::string_view unit);
 
 /// "HH:MM:SS,mmm" (SRT timing) -> seconds.
 std::optional<double> ParseSrtClock(std::string_view s);

@@ -45,10 +45,10 @@ struct TelemetryReadOptions {
 void Validate(const TelemetryReadOptions& options);
 
 struct TelemetryReadResult {
-  Telemetry telemetry;                ///< Sorted by time; time_s = 0 at the first record.
-  int records = 0;                    ///< Records accepted (== telemetry.size()).
-  int skipped_records = 0;            ///< Malformed records skipped (lenient mode only).
-  int no_fix_records = 0;  ///< Records without a GPS fix (latitude = longitude = 0, "N/A").
+  Telemetry telemetry;      ///< Sorted by time; time_s = 0 at the first record.
+  int records = 0;          ///< Records accepted (== telemetry.size()).
+  int skipped_records = 0;  ///< Malformed records skipped (lenient mode only).
+  int no_fix_records = 0;   ///< Records without a GPS fix (latitude = longitude = 0, "N/A").
   std::vector<std::string> warnings;  ///< "<source>:<line>: <problem>" of skipped records.
 };
 
@@ -97,17 +97,34 @@ TelemetryReadResult ReadGpx(const std::filesystem::path& path,
                             const TelemetryReadOptions& options = {});
 
 /// CSV with a header row naming the columns, separated by ',' or ';' (whichever the header
-/// has more of; '"' quoting allowed). Column names are case-insensitive; aliases:
-///   latitude: lat, latitude, lat_deg     longitude: lon, lng, long, longitude, lon_deg
-///   abs_alt_m: alt, altitude, abs_alt, abs_alt_m, ele, elevation
-///   rel_alt_m: rel_alt, rel_alt_m, height, relative_altitude, height_m
-///   time: time, t, timestamp, time_s  (seconds as a number, or an ISO 8601 date)
+/// has more of, or a first line "sep=," / "sep=;"; '"' quoting allowed). A header cell is an
+/// optional group prefix ("OSD.", "GIMBAL.", "CUSTOM." of DJI flight records), a name and an
+/// optional unit: "name(unit)", "name [unit]" or "name_unit"; case-insensitive, spaces trimmed.
+/// Aliases (without a unit: metres, seconds, degrees):
+///   latitude: lat, latitude, OSD.latitude    longitude: lon, lng, long, longitude, OSD.longitude
+///   abs_alt_m: abs_alt, altitude_above_sealevel, altitude_msl, OSD.altitude; then alt,
+///     altitude, ele, elevation; then alt_ellipsoid, altitude_ellipsoid
+///   rel_alt_m: rel_alt, relative_altitude, height_above_takeoff, OSD.height; then height
+///   time: time, t, OSD.flyTime; then timestamp  (a number, or an ISO 8601 date)
+///   date: datetime, CUSTOM.updateTime  (-> unix_time_s; "(utc)", "(local)" = as if UTC)
 ///   frame: frame, frame_index, frame_idx
-///   yaw: yaw, heading, yaw_deg, flight_yaw; pitch, roll; gimbal_yaw, gimbal_pitch, gimbal_roll
-///   focal_length_mm: focal_length, focal_mm; focal_length_35mm_mm: focal_35mm, focal35
-/// Latitude and longitude columns are required, and a time or a frame column. Without a time
-/// column time_s = frame index. Empty cells leave optional fields unset. Blank lines and lines
-/// starting with '#' are ignored.
+///   yaw: yaw, heading, flight_yaw, compass_heading, OSD.yaw; pitch, roll, OSD.pitch, OSD.roll
+///   gimbal: gimbal_yaw, gimbal_heading, gimbal_pitch, gimbal_roll, GIMBAL.yaw/pitch/roll
+///   focal_length_mm: focal_length, focal; focal_length_35mm_mm: focal_35mm, focal35
+/// Units are converted (ft, mm -> m; ms, us -> s; rad -> deg; degE7 -> deg); an unknown unit on
+/// a column that is read throws InputError "<source>:<line>: column '..' ... unit '..'".
+/// Where a field has several columns the first group above is read; two columns of one group
+/// throw InputError ("two columns mean ..."). Layouts recognised by their columns: Litchi logs
+/// (an "ultrasonicHeight" column: "altitude" is the height above take-off) and PX4 ulog2csv
+/// position topics (first column "timestamp" and an "eph" column: timestamp in microseconds,
+/// angles in radians; with "fix_type", lat/lon in integer 1e-7 degrees and alt in mm). An
+/// out-of-range integer latitude/longitude >= 1e4 elsewhere is a malformed record whose message
+/// says how to name degE7 columns. docs/inputs.md "CSV exports of flight logs" lists the exports.
+/// Latitude and longitude columns are required, and a time, a date or a frame column. The time
+/// of a record is its time column, else its date (time_s from the first record), else its frame
+/// index; with a time and a date column, unix_time_s = time_s + (date - time_s) of the first
+/// record with both. Empty cells leave optional fields unset. Blank lines and lines starting
+/// with '#' are ignored.
 TelemetryReadResult ParseTelemetryCsv(std::istream& in, const std::string& source_name,
                                       const TelemetryReadOptions& options = {});
 TelemetryReadResult ReadTelemetryCsv(const std::filesystem::path& path,

@@ -2,12 +2,16 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "aerovo/core/error.h"
+#include "aerovo/telemetry/csv_lines.h"
 #include "aerovo/telemetry/io_test_util.h"
 #include "aerovo/telemetry/parse_util.h"
 
@@ -740,6 +744,464 @@ TEST(Csv, BadRowsStrictAndLenient) {
   EXPECT_THAT(r.warnings[1], HasSubstr("rows.csv:4: longitude 200 out of range"));
   EXPECT_THAT(r.warnings[2], HasSubstr("rows.csv:5:"));
   EXPECT_THAT(r.warnings[2], HasSubstr("out of order"));
+}
+
+// ---------------------------------------------------------------- CSV exports of flight logs
+// Each test writes the header line a tool writes (the column names, copied as a format from the
+// tool's documentation or a public export) and a few rows; docs/inputs.md "Flight log exports".
+
+// One CSV record of `header`: the cells named in `cells` (by trimmed column name), "0" elsewhere.
+std::string Row(const std::string& header, const std::map<std::string, std::string>& cells) {
+  std::vector<std::string> names;
+  SplitCsv(header, ',', names);
+  std::string row;
+  std::size_t used = 0;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    const auto it = cells.find(std::string(io_detail::Trim(names[i])));
+    if (it != cells.end()) ++used;
+    row += (i ? "," : "") + (it == cells.end() ? std::string("0") : it->second);
+  }
+  EXPECT_EQ(used, cells.size()) << "a cell names no column of the header";
+  return row + "\n";
+}
+
+constexpr double kFoot = 0.3048;
+
+TEST(CsvColumnNames, BaseUnitAndPrefix) {
+  using io_detail::SplitColumnName;
+  const auto check = [](const char* cell, const char* prefix, const char* base, const char* unit) {
+    const io_detail::ColumnName n = SplitColumnName(cell);
+    EXPECT_EQ(n.prefix, prefix) << cell;
+    EXPECT_EQ(n.base, base) << cell;
+    EXPECT_EQ(n.unit, unit) << cell;
+  };
+  check("time(millisecond)", "", "time", "millisecond");
+  check(" height_above_takeoff(feet) ", "", "height_above_takeoff", "feet");
+  check("OSD.height [ft]", "osd", "height", "ft");
+  check("GIMBAL.yaw [360]", "gimbal", "yaw", "360");
+  check("Altitude (M)", "", "altitude", "m");
+  check("lat_deg", "", "lat", "deg");
+  check("abs_alt_m", "", "abs_alt", "m");
+  check("altitude_msl_m", "", "altitude_msl", "m");
+  check("time_s", "", "time", "s");
+  check("focal_35mm", "", "focal_35mm", "");  // "35mm" is no unit
+  check("gimbal_pitch", "", "gimbal_pitch", "");
+  check("CUSTOM.updateTime", "custom", "updatetime", "");
+  check("time_utc_usec", "", "time_utc", "usec");
+}
+
+// Airdata UAV "Downloadable Flight Data CSV"
+// (app.airdata.com/wiki/Help/Downloadable+Flight+Data+CSV), imperial units: 10 Hz rows from
+// power-on, latitude = longitude = 0 before the GPS fix.
+const char kAirdataFeetHeader[] =
+    "time(millisecond),datetime(utc),latitude,longitude,height_above_takeoff(feet),"
+    "height_above_ground_at_drone_location(feet),ground_elevation_at_drone_location(feet),"
+    "altitude_above_seaLevel(feet),height_sonar(feet),speed(mph),distance(feet),mileage(feet),"
+    "satellites,gpslevel,voltage(v),max_altitude(feet),max_ascent(feet),max_speed(mph),"
+    "max_distance(feet), xSpeed(mph), ySpeed(mph), zSpeed(mph), compass_heading(degrees), "
+    "pitch(degrees), roll(degrees),isPhoto,isVideo,rc_elevator,rc_aileron,rc_throttle,rc_rudder,"
+    "rc_elevator(percent),rc_aileron(percent),rc_throttle(percent),rc_rudder(percent),"
+    "gimbal_heading(degrees),gimbal_pitch(degrees),battery_percent,voltageCell1,voltageCell2,"
+    "voltageCell3,voltageCell4,voltageCell5,voltageCell6,current(A),battery_temperature(f),"
+    "altitude(feet),ascent(feet),flycStateRaw,flycState,message";
+
+TEST(CsvExports, AirdataFeetMillisecondsAndRowsBeforeTheFix) {
+  const std::string h = kAirdataFeetHeader;
+  std::string text = h + "\n";
+  text += Row(h, {{"time(millisecond)", "0"}, {"datetime(utc)", "2022-02-09 13:56:08"}});
+  text += Row(h, {{"time(millisecond)", "100"}, {"datetime(utc)", "2022-02-09 13:56:08"}});
+  text += Row(h, {{"time(millisecond)", "200"},
+                  {"datetime(utc)", "2022-02-09 13:56:08"},
+                  {"latitude", "43.5367001"},
+                  {"longitude", "6.5567002"},
+                  {"height_above_takeoff(feet)", "1.64042"},
+                  {"altitude_above_seaLevel(feet)", "170.7093476543"},
+                  {"altitude(feet)", "170.7093476543"},
+                  {"compass_heading(degrees)", "187.8"},
+                  {"pitch(degrees)", "-2.3"},
+                  {"roll(degrees)", "-0.4"},
+                  {"gimbal_heading(degrees)", "186.2"},
+                  {"gimbal_pitch(degrees)", "-90"}});
+  text += Row(h, {{"time(millisecond)", "1300"},
+                  {"datetime(utc)", "2022-02-09 13:56:09"},
+                  {"latitude", "43.5367101"},
+                  {"longitude", "6.5567102"},
+                  {"height_above_takeoff(feet)", "328.084"},
+                  {"altitude_above_seaLevel(feet)", "497.153"},
+                  {"compass_heading(degrees)", "-170"},
+                  {"gimbal_heading(degrees)", "190.5"},
+                  {"gimbal_pitch(degrees)", "-45.5"}});
+  std::istringstream in(text);
+  const TelemetryReadResult r = ParseTelemetryCsv(in, "airdata.csv");
+  ASSERT_EQ(r.records, 2);
+  EXPECT_EQ(r.no_fix_records, 2);
+  EXPECT_EQ(r.skipped_records, 0);
+  const Telemetry& t = r.telemetry;
+  EXPECT_NEAR(t[0].time_s, 0.2, 1e-12);
+  EXPECT_NEAR(t[1].time_s, 1.3, 1e-12);
+  EXPECT_DOUBLE_EQ(t[0].lat_deg, 43.5367001);
+  EXPECT_DOUBLE_EQ(t[0].lon_deg, 6.5567002);
+  EXPECT_NEAR(*t[0].rel_alt_m, 1.64042 * kFoot, 1e-9);  // 0.5 m
+  EXPECT_NEAR(*t[1].rel_alt_m, 100.0000032, 1e-9);      // 328.084 ft
+  EXPECT_NEAR(*t[0].abs_alt_m, 170.7093476543 * kFoot, 1e-9);
+  EXPECT_NEAR(*t[1].abs_alt_m, 497.153 * kFoot, 1e-9);  // not altitude(feet), 0 in this row
+  EXPECT_DOUBLE_EQ(*t[0].yaw_deg, 187.8);
+  EXPECT_DOUBLE_EQ(*t[1].yaw_deg, -170.0);
+  EXPECT_DOUBLE_EQ(*t[0].pitch_deg, -2.3);
+  EXPECT_DOUBLE_EQ(*t[0].roll_deg, -0.4);
+  EXPECT_DOUBLE_EQ(*t[0].gimbal_yaw_deg, 186.2);
+  EXPECT_DOUBLE_EQ(*t[1].gimbal_pitch_deg, -45.5);
+  EXPECT_FALSE(t[0].gimbal_roll_deg);  // Airdata writes no gimbal roll
+  EXPECT_EQ(t[0].origin, "airdata.csv:4");
+  // Absolute time: the elapsed time plus (date - elapsed time) of the first row (time 0).
+  ASSERT_TRUE(t[1].unix_time_s);
+  EXPECT_NEAR(*t[1].unix_time_s, 1644414968.0 + 1.3, 1e-6);
+}
+
+TEST(CsvExports, AirdataMetres) {
+  const char text[] =
+      "time(millisecond),datetime(utc),latitude,longitude,height_above_takeoff(meters),"
+      "altitude_above_seaLevel(meters),compass_heading(degrees),gimbal_pitch(degrees)\n"
+      "0,2023-06-01 10:00:00,0,0,0,0,0,0\n"
+      "500,2023-06-01 10:00:00,-37.9960991,177.0357041,80.25,312.5,350.1,-89.9\n";
+  std::istringstream in(text);
+  const TelemetryReadResult r = ParseTelemetryCsv(in, "m.csv");
+  ASSERT_EQ(r.records, 1);
+  EXPECT_DOUBLE_EQ(r.telemetry[0].time_s, 0.5);
+  EXPECT_DOUBLE_EQ(*r.telemetry[0].rel_alt_m, 80.25);
+  EXPECT_DOUBLE_EQ(*r.telemetry[0].abs_alt_m, 312.5);
+  EXPECT_DOUBLE_EQ(*r.telemetry[0].gimbal_pitch_deg, -89.9);
+}
+
+// Litchi flight log CSV (as read by CsvView; public export on pastebin.com/qutYx4mE): metric,
+// "altitude(m)" is the height above the take-off point; time(millisecond) is read, not the
+// "timestamp" column; gimbal angles are only in the "...Raw" columns, not read.
+const char kLitchiHeader[] =
+    "latitude,longitude,altitude(m),ultrasonicHeight(m),speed(mps),distance(m),max_altitude(m),"
+    "max_ascent(m),max_speed(mps),max_distance(m),time(millisecond),datetime(utc),"
+    "datetime(local),satellites,pressure(Pa),temperature(F),voltage(v),home_latitude,"
+    "home_longitude,velocityX(mps),velocityY(mps),velocityZ(mps),pitch(deg),roll(deg),yaw(deg),"
+    "powerlevel,isflying,istakingphoto,remainPowerPercent,remainLifePercent,currentCurrent,"
+    "currentElectricity,currentVoltage,batteryTemperature,dischargeCount,flightmode,isMotorsOn,"
+    "isTakingVideo,Rc_elevator,Rc_aileron,Rc_throttle,Rc_rudder,Rc_gyro,timestamp,Battery_Cell1,"
+    "Battery_Cell2,Battery_Cell3,Battery_Cell4,Battery_Cell5,Battery_Cell6,Dronetype,AppVersion,"
+    "Planename,FlyControllerSerialNumber,RemoteSerialNumber,BatterySerialNumber,"
+    "CENTER_BATTERY.productDate,CENTER_BATTERY.serialNo,CENTER_BATTERY.fullCapacity,"
+    "CENTER_BATTERY.productDateRaw,pitchRaw,rollRaw,yawRaw,gimbalPitchRaw,gimbalRollRaw,"
+    "gimbalYawRaw,flyState,altitudeRaw,speedRaw,distanceRaw,velocityXRaw,velocityYRaw,"
+    "velocityZRaw";
+
+TEST(CsvExports, LitchiAltitudeIsHeightAboveTakeOff) {
+  const std::string h = kLitchiHeader;
+  std::string text = h + "\n";
+  text += Row(h, {{"time(millisecond)", "0"},
+                  {"datetime(utc)", "2017-08-05 14:11:50"},
+                  {"timestamp", "1501942310000"}});
+  text += Row(h, {{"latitude", "43.951710"},
+                  {"longitude", "4.900240"},
+                  {"altitude(m)", "1.7"},
+                  {"home_latitude", "43.95"},
+                  {"time(millisecond)", "2100"},
+                  {"datetime(utc)", "2017-08-05 14:11:52"},
+                  {"pitch(deg)", "-1.5"},
+                  {"roll(deg)", "0.8"},
+                  {"yaw(deg)", "-120.3"},
+                  {"timestamp", "1501942312100"}});
+  text += Row(h, {{"latitude", "43.951810"},
+                  {"longitude", "4.900340"},
+                  {"altitude(m)", "60.2"},
+                  {"time(millisecond)", "2200"},
+                  {"datetime(utc)", "2017-08-05 14:11:52"},
+                  {"timestamp", "1501942312200"}});
+  std::istringstream in(text);
+  const TelemetryReadResult r = ParseTelemetryCsv(in, "litchi.csv");
+  ASSERT_EQ(r.records, 2);
+  EXPECT_EQ(r.no_fix_records, 1);
+  const Telemetry& t = r.telemetry;
+  EXPECT_DOUBLE_EQ(t[0].time_s, 2.1);
+  EXPECT_DOUBLE_EQ(t[1].time_s, 2.2);
+  EXPECT_DOUBLE_EQ(t[0].lat_deg, 43.951710);
+  EXPECT_DOUBLE_EQ(*t[0].rel_alt_m, 1.7);
+  EXPECT_DOUBLE_EQ(*t[1].rel_alt_m, 60.2);
+  EXPECT_FALSE(t[0].abs_alt_m);
+  EXPECT_DOUBLE_EQ(*t[0].yaw_deg, -120.3);
+  EXPECT_DOUBLE_EQ(*t[0].pitch_deg, -1.5);
+  EXPECT_DOUBLE_EQ(*t[0].roll_deg, 0.8);
+  EXPECT_FALSE(t[0].gimbal_pitch_deg);
+  EXPECT_NEAR(*t[1].unix_time_s, 1501942310.0 + 2.2, 1e-6);
+}
+
+// DJI flight record CSV of the log viewers (TXTlogToCSVtool / PhantomHelp / Airdata "original"
+// export): a "sep=," line, then "GROUP.name [unit]" columns; OSD = the aircraft, GIMBAL = the
+// gimbal; HOME.* and APPGPS.* (the phone) are other positions and are not read.
+const char kDjiHeader[] =
+    "CUSTOM.date [local],CUSTOM.updateTime [local],OSD.flyTime [s],OSD.latitude,OSD.longitude,"
+    "OSD.height [ft],OSD.heightMax [ft],OSD.vpsHeight [ft],OSD.altitude [ft],OSD.hSpeed [MPH],"
+    "OSD.xSpeed [MPH],OSD.ySpeed [MPH],OSD.zSpeed [MPH],OSD.pitch,OSD.roll,OSD.yaw,"
+    "OSD.yaw [360],OSD.directionOfTravel,GIMBAL.pitch,GIMBAL.roll,GIMBAL.yaw,GIMBAL.yaw [360],"
+    "HOME.latitude,HOME.longitude,APPGPS.latitude,APPGPS.longitude,CAMERA.isVideo";
+
+TEST(CsvExports, DjiFlightRecordFeetAndPrefixes) {
+  const std::string h = kDjiHeader;
+  std::string text = "sep=,\n" + h + "\n";
+  const std::map<std::string, std::string> common = {{"HOME.latitude", "-20.2532"},
+                                                     {"HOME.longitude", "149.0251"},
+                                                     {"APPGPS.latitude", "-20.2533"},
+                                                     {"APPGPS.longitude", "149.0252"},
+                                                     {"CUSTOM.date [local]", "8/5/2017"}};
+  auto row = [&](std::map<std::string, std::string> cells) {
+    cells.insert(common.begin(), common.end());
+    return Row(h, cells);
+  };
+  text += row({{"CUSTOM.updateTime [local]", "2:11:51.20 PM"},
+               {"OSD.flyTime [s]", "12.3"},
+               {"OSD.latitude", "-20.2531"},
+               {"OSD.longitude", "149.0250"},
+               {"OSD.height [ft]", "100"},
+               {"OSD.vpsHeight [ft]", "11.5"},
+               {"OSD.altitude [ft]", "1100"},
+               {"OSD.pitch", "-3.1"},
+               {"OSD.roll", "1.2"},
+               {"OSD.yaw", "-45.6"},
+               {"OSD.yaw [360]", "314.4"},
+               {"GIMBAL.pitch", "-89.9"},
+               {"GIMBAL.roll", "0.1"},
+               {"GIMBAL.yaw", "-44.0"},
+               {"GIMBAL.yaw [360]", "316.0"}});
+  text += row({{"CUSTOM.updateTime [local]", "2:11:51.30 PM"},
+               {"OSD.flyTime [s]", "12.4"},
+               {"OSD.latitude", "-20.2530"},
+               {"OSD.longitude", "149.0249"},
+               {"OSD.height [ft]", "101"},
+               {"OSD.altitude [ft]", "1101"}});
+  std::istringstream in(text);
+  const TelemetryReadResult r = ParseTelemetryCsv(in, "dji.csv");
+  ASSERT_EQ(r.records, 2);
+  const Telemetry& t = r.telemetry;
+  EXPECT_DOUBLE_EQ(t[0].time_s, 12.3);
+  EXPECT_DOUBLE_EQ(t[0].lat_deg, -20.2531);
+  EXPECT_DOUBLE_EQ(t[0].lon_deg, 149.0250);
+  EXPECT_NEAR(*t[0].rel_alt_m, 30.48, 1e-9);  // OSD.height, not OSD.vpsHeight
+  EXPECT_NEAR(*t[1].rel_alt_m, 101 * kFoot, 1e-9);
+  EXPECT_NEAR(*t[0].abs_alt_m, 335.28, 1e-9);
+  EXPECT_DOUBLE_EQ(*t[0].pitch_deg, -3.1);
+  EXPECT_DOUBLE_EQ(*t[0].roll_deg, 1.2);
+  EXPECT_DOUBLE_EQ(*t[0].yaw_deg, -45.6);  // OSD.yaw before OSD.yaw [360]
+  EXPECT_DOUBLE_EQ(*t[0].gimbal_pitch_deg, -89.9);
+  EXPECT_DOUBLE_EQ(*t[0].gimbal_roll_deg, 0.1);
+  EXPECT_DOUBLE_EQ(*t[0].gimbal_yaw_deg, -44.0);
+  EXPECT_EQ(t[0].origin, "dji.csv:3");
+  // A clock that is not a date: the elapsed time is read, the absolute time is not, and a
+  // warning says so.
+  EXPECT_FALSE(t[0].unix_time_s);
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_THAT(r.warnings[0], HasSubstr("dji.csv:3: column 'CUSTOM.updateTime [local]' holds "
+                                       "'2:11:51.20 PM', not a date"));
+}
+
+TEST(CsvExports, DjiUpdateTimeDateOnly) {
+  // The older TXTlogToCSVtool columns, metres, the time a "YYYY/MM/DD hh:mm:ss.fff" date only.
+  const char text[] =
+      "CUSTOM.updateTime,OSD.latitude,OSD.longitude,OSD.height [m],GIMBAL.yaw,GIMBAL.pitch,"
+      "GIMBAL.roll,CUSTOM.isVideo\n"
+      "2018/07/04 09:19:32.113,52.1,5.1,30.5,12.5,-90,0,1\n"
+      "2018/07/04 09:19:32.213,52.1001,5.1001,30.6,12.6,-90,0,1\n";
+  std::istringstream in(text);
+  const TelemetryReadResult r = ParseTelemetryCsv(in, "dvm.csv");
+  ASSERT_EQ(r.records, 2);
+  EXPECT_NEAR(r.telemetry[1].time_s, 0.1, 1e-6);  // dates near 1.5e9 s: ~2e-7 s apart
+  EXPECT_NEAR(*r.telemetry[0].unix_time_s, 1530695972.113, 1e-6);
+  EXPECT_DOUBLE_EQ(*r.telemetry[1].rel_alt_m, 30.6);
+  EXPECT_DOUBLE_EQ(*r.telemetry[1].gimbal_yaw_deg, 12.6);
+}
+
+// PX4 ulog2csv of vehicle_gps_position before v1.14 (PX4-Autopilot msg/VehicleGpsPosition.msg:
+// int32 lat, lon in 1e-7 degrees, alt in millimetres; timestamp in microseconds since boot).
+const char kPx4GpsHeader[] =
+    "timestamp,time_utc_usec,lat,lon,alt,alt_ellipsoid,s_variance_m_s,c_variance_rad,eph,epv,"
+    "hdop,vdop,noise_per_ms,jamming_indicator,vel_m_s,vel_n_m_s,vel_e_m_s,vel_d_m_s,cog_rad,"
+    "timestamp_time_relative,heading,heading_offset,fix_type,vel_ned_valid,satellites_used";
+
+TEST(CsvExports, Px4VehicleGpsPositionIntegers) {
+  const std::string h = kPx4GpsHeader;
+  std::string text = h + "\n";
+  text += Row(h, {{"timestamp", "5000000"}, {"fix_type", "0"}});  // before the fix
+  text += Row(h, {{"timestamp", "96807904"},
+                  {"lat", "473566124"},
+                  {"lon", "85190391"},
+                  {"alt", "488123"},
+                  {"alt_ellipsoid", "535456"},
+                  {"eph", "0.9"},
+                  {"fix_type", "3"}});
+  text += Row(h, {{"timestamp", "97007901"},
+                  {"lat", "-473566125"},
+                  {"lon", "-1785190391"},
+                  {"alt", "-12"},
+                  {"fix_type", "3"}});
+  {
+    std::istringstream in(text);
+    const TelemetryReadResult r = ParseTelemetryCsv(in, "px4_vehicle_gps_position_0.csv");
+    ASSERT_EQ(r.records, 2);
+    EXPECT_EQ(r.no_fix_records, 1);
+    const Telemetry& t = r.telemetry;
+    EXPECT_NEAR(t[0].time_s, 96.807904, 1e-9);
+    EXPECT_NEAR(t[0].lat_deg, 47.3566124, 1e-12);
+    EXPECT_NEAR(t[0].lon_deg, 8.5190391, 1e-12);
+    EXPECT_NEAR(*t[0].abs_alt_m, 488.123, 1e-9);  // alt (MSL) before alt_ellipsoid
+    EXPECT_NEAR(t[1].lat_deg, -47.3566125, 1e-12);
+    EXPECT_NEAR(t[1].lon_deg, -178.5190391, 1e-12);
+    EXPECT_NEAR(*t[1].abs_alt_m, -0.012, 1e-12);
+  }
+  // The layout says integers: a value with decimals is an error naming the line, not a guess.
+  text += Row(h, {{"timestamp", "97207901"}, {"lat", "47.35"}, {"lon", "8.5"}, {"fix_type", "3"}});
+  std::istringstream in(text);
+  ExpectInputError([&] { ParseTelemetryCsv(in, "gps.csv"); },
+                   {"gps.csv:5:", "latitude 47.35 is not an integer", "1e-7 degrees"});
+}
+
+TEST(CsvExports, Px4SensorGpsDegreesAndGlobalPosition) {
+  // sensor_gps (v1.14 on, msg/SensorGps.msg): latitude_deg, longitude_deg, altitude_msl_m.
+  const char gps[] =
+      "timestamp,timestamp_sample,device_id,latitude_deg,longitude_deg,altitude_msl_m,"
+      "altitude_ellipsoid_m,s_variance_m_s,c_variance_rad,fix_type,eph,epv,hdop,vdop\n"
+      "96807904,96807000,11,47.35661242686341,8.519039153652166,423.97,471.31,0.3,0.1,3,0.95,"
+      "2.1,0.7,1.1\n";
+  std::istringstream in(gps);
+  const TelemetryReadResult r = ParseTelemetryCsv(in, "sensor_gps_0.csv");
+  ASSERT_EQ(r.records, 1);
+  EXPECT_NEAR(r.telemetry[0].time_s, 96.807904, 1e-9);
+  EXPECT_DOUBLE_EQ(r.telemetry[0].lat_deg, 47.35661242686341);
+  EXPECT_DOUBLE_EQ(*r.telemetry[0].abs_alt_m, 423.97);
+  // vehicle_global_position: float degrees and metres under lat, lon, alt (no fix_type).
+  const char global[] =
+      "timestamp,lat,lon,alt,alt_ellipsoid,delta_alt,vel_n,vel_e,vel_d,yaw,eph,epv\n"
+      "96807904,47.35661242686341,8.519039153652166,423.97333,471.31973,-0.0,0.0046,0.039,"
+      "0.052,-1.5470879,0.95,2.15\n";
+  std::istringstream in2(global);
+  const TelemetryReadResult g = ParseTelemetryCsv(in2, "vehicle_global_position_0.csv");
+  ASSERT_EQ(g.records, 1);
+  EXPECT_NEAR(g.telemetry[0].time_s, 96.807904, 1e-9);
+  EXPECT_DOUBLE_EQ(g.telemetry[0].lon_deg, 8.519039153652166);
+  EXPECT_DOUBLE_EQ(*g.telemetry[0].abs_alt_m, 423.97333);
+  EXPECT_NEAR(*g.telemetry[0].yaw_deg, -1.5470879 * 57.29577951308232, 1e-9);  // radians in PX4
+  // vehicle_gps_position's "heading" (dual-antenna receivers only, NaN otherwise) is not read.
+  const std::string h = kPx4GpsHeader;
+  std::istringstream in3(h + "\n" +
+                         Row(h, {{"timestamp", "1000000"},
+                                 {"lat", "473566124"},
+                                 {"lon", "85190391"},
+                                 {"heading", "nan"},
+                                 {"fix_type", "3"}}));
+  const TelemetryReadResult n = ParseTelemetryCsv(in3, "vehicle_gps_position_0.csv");
+  ASSERT_EQ(n.records, 1);
+  EXPECT_FALSE(n.telemetry[0].yaw_deg);
+}
+
+TEST(CsvExports, IntegerDegE7OutsideAKnownLayoutStopsWithWhatToDo) {
+  std::istringstream in("t,lat,lon,alt\n0,473566124,85190391,488123\n");
+  ExpectInputError(
+      [&] { ParseTelemetryCsv(in, "ints.csv"); },
+      {"ints.csv:2:", "latitude 473566124 out of range [-90, 90]", "degE7", "'lat(degE7)'"});
+  std::istringstream named("t,lat(degE7),lon(degE7),alt(mm)\n0,473566124,85190391,488123\n");
+  const TelemetryReadResult r = ParseTelemetryCsv(named, "ints.csv");
+  EXPECT_NEAR(r.telemetry[0].lat_deg, 47.3566124, 1e-12);
+  EXPECT_NEAR(*r.telemetry[0].abs_alt_m, 488.123, 1e-9);
+}
+
+TEST(CsvUnits, ConvertedToMetresSecondsDegrees) {
+  const char text[] =
+      "Time (ms);Lat [deg];Lon [deg];Height [ft];Alt_m;Yaw (rad);gimbal_pitch(rad);"
+      "focal_length(m);speed(knots)\n"
+      "1500;43.5;6.5;10;100;3.141592653589793;-1.5707963267948966;0.0045;12\n";
+  std::istringstream in(text);
+  const TelemetryReadResult r = ParseTelemetryCsv(in, "u.csv");
+  const TelemetrySample& s = r.telemetry[0];
+  EXPECT_DOUBLE_EQ(s.time_s, 1.5);
+  EXPECT_NEAR(*s.rel_alt_m, 3.048, 1e-12);
+  EXPECT_DOUBLE_EQ(*s.abs_alt_m, 100.0);
+  EXPECT_NEAR(*s.yaw_deg, 180.0, 1e-12);
+  EXPECT_NEAR(*s.gimbal_pitch_deg, -90.0, 1e-12);
+  EXPECT_NEAR(*s.focal_length_mm, 4.5, 1e-12);
+  std::istringstream us("timestamp(us),lat,lon\n2500000,1,2\n");
+  EXPECT_DOUBLE_EQ(ParseTelemetryCsv(us, "us.csv").telemetry[0].time_s, 2.5);
+}
+
+TEST(CsvUnits, AnUnknownUnitOnAReadColumnIsAnErrorNamingFileLineColumnAndUnit) {
+  {
+    std::istringstream in("# exported\ntime(fortnight),lat,lon\n1,2,3\n");
+    ExpectInputError(
+        [&] { ParseTelemetryCsv(in, "f.csv"); },
+        {"f.csv:2:", "column 'time(fortnight)'", "as the time", "unit 'fortnight'", "known: s,"});
+  }
+  {
+    // A length unit on a time, a time unit on a height: not read as anything else.
+    std::istringstream in("t,lat,lon,height_above_takeoff(s)\n1,2,3,4\n");
+    ExpectInputError([&] { ParseTelemetryCsv(in, "h.csv"); },
+                     {"h.csv:1:", "'height_above_takeoff(s)'", "relative altitude", "'s'"});
+  }
+  {
+    std::istringstream in("t,lat,lon,Alt (gps)\n1,2,3,4\n");
+    ExpectInputError([&] { ParseTelemetryCsv(in, "g.csv"); }, {"g.csv:1:", "unit 'gps'"});
+  }
+  // Units on columns aerovo does not read are not its business.
+  std::istringstream ignored("t,lat,lon,speed(furlongs per fortnight),temp [K]\n1,2,3,4,5\n");
+  EXPECT_EQ(ParseTelemetryCsv(ignored, "i.csv").records, 1);
+}
+
+TEST(CsvUnits, PrecedenceAmongColumnsOfOneFieldAndTrueDuplicates) {
+  std::istringstream in(
+      "alt,abs_alt,height,rel_alt,time(ms),timestamp,datetime(local),datetime(utc),lat,lon\n"
+      "1,2,3,4,1000,99,2020-01-01 00:00:10,2020-01-01 00:00:00,5,6\n");
+  const TelemetryReadResult r = ParseTelemetryCsv(in, "p.csv");
+  const TelemetrySample& s = r.telemetry[0];
+  EXPECT_DOUBLE_EQ(*s.abs_alt_m, 2.0);
+  EXPECT_DOUBLE_EQ(*s.rel_alt_m, 4.0);
+  EXPECT_DOUBLE_EQ(s.time_s, 1.0);
+  EXPECT_DOUBLE_EQ(*s.unix_time_s, 1577836800.0);  // datetime(utc), not (local)
+  const char* const duplicates[] = {
+      "t,lat,lon,height_above_takeoff(feet),height_above_takeoff(meters)\n0,1,2,3,4\n",
+      "t,lat,lon,OSD.height [ft],OSD.height [m]\n0,1,2,3,4\n",
+      "time(ms),time(s),lat,lon\n0,0,1,2\n",
+      "t,lat,lon,alt,altitude\n0,1,2,3,4\n",
+  };
+  for (const char* d : duplicates) {
+    std::istringstream dup(d);
+    ExpectInputError([&] { ParseTelemetryCsv(dup, "d.csv"); }, {"d.csv:1:", "two columns mean"});
+  }
+}
+
+TEST(Csv, OldAliasesWithUnitSuffixesStillRead) {
+  const char text[] =
+      "frame_idx,time_s,lat_deg,lon_deg,abs_alt_m,rel_alt_m,yaw_deg,flight_yaw_unused,"
+      "gimbal_roll,focal_mm,focal35\n"
+      "3,0.25,43.5,6.5,350,100,91,x,0.5,4.5,24\n";
+  std::istringstream in(text);
+  const TelemetryReadResult r = ParseTelemetryCsv(in, "old.csv");
+  const TelemetrySample& s = r.telemetry[0];
+  EXPECT_EQ(s.frame_index, 3);
+  EXPECT_DOUBLE_EQ(s.time_s, 0.25);
+  EXPECT_DOUBLE_EQ(s.lat_deg, 43.5);
+  EXPECT_DOUBLE_EQ(s.lon_deg, 6.5);
+  EXPECT_DOUBLE_EQ(*s.abs_alt_m, 350.0);
+  EXPECT_DOUBLE_EQ(*s.rel_alt_m, 100.0);
+  EXPECT_DOUBLE_EQ(*s.yaw_deg, 91.0);
+  EXPECT_DOUBLE_EQ(*s.gimbal_roll_deg, 0.5);
+  EXPECT_DOUBLE_EQ(*s.focal_length_mm, 4.5);
+  EXPECT_DOUBLE_EQ(*s.focal_length_35mm_mm, 24.0);
+  std::istringstream h("height_m,elevation,t,lng,latitude\n12,300,1,6,43\n");
+  const TelemetryReadResult r2 = ParseTelemetryCsv(h, "old.csv");
+  EXPECT_DOUBLE_EQ(*r2.telemetry[0].rel_alt_m, 12.0);
+  EXPECT_DOUBLE_EQ(*r2.telemetry[0].abs_alt_m, 300.0);
+}
+
+TEST(Csv, EmptyTimeAndFrameIsAMalformedRecordNotACrash) {
+  std::istringstream in("t,frame,lat,lon\n,,1,2\n3,3,1,2\n");
+  TelemetryReadOptions lenient;
+  lenient.lenient = true;
+  const TelemetryReadResult r = ParseTelemetryCsv(in, "e.csv", lenient);
+  EXPECT_EQ(r.records, 1);
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_THAT(r.warnings[0], HasSubstr("e.csv:2: no time, date or frame"));
 }
 
 // ---------------------------------------------------------------- files
