@@ -318,7 +318,9 @@ TEST(MapFixer, AMapTooCoarseForTheFramesIsSaidAndNotMatched) {
   ASSERT_TRUE(summary.map_fixes.has_value());
   EXPECT_EQ(summary.map_fixes->attempted, 1);
   for (const auto& [status, count] : summary.map_fixes->by_status) {
-    if (status == "map_too_coarse") EXPECT_EQ(count, 0);
+    if (status == "map_too_coarse") {
+      EXPECT_EQ(count, 0);
+    }
   }
   EXPECT_TRUE(summary.warnings.empty());
 }
