@@ -12,8 +12,13 @@
 #   regenerated with MODES=default so that the paper ones stay those of the pre-refactor build;
 #   tampa-default.* again by the build that estimates the camera's tilt from the flight
 #   (attitude_estimation auto: tampa's 15 deg; turin and sim unchanged, their telemetry gives
-#   the attitude or the estimate is not significant).
-#   scripts/make-reference-outputs.sh path/to/aerovo [shared-dir]      (MODES="default paper")
+#   the attitude or the estimate is not significant);
+# - sim-*.summary.json's truth_evaluation again (NAMES=sim) by the build whose CSV reader takes
+#   units from column names: the simulator's ground_truth.csv `alt_m` is read since, and the
+#   truth's conversion into the run's ENU frame uses it (distance flown +0.018 m of 302 m, the
+#   ATE within 1.2 mm); every position, status and count unchanged.
+#   scripts/make-reference-outputs.sh path/to/aerovo [shared-dir]
+#   (MODES="default paper", NAMES="tampa turin sim")
 set -euo pipefail
 cli=$(realpath "$1")
 shared=$(realpath "${2:-$(dirname "$0")/../../shared}")
@@ -26,7 +31,7 @@ trap 'rm -rf "$work"' EXIT
   --out "$work/sim" > /dev/null
 declare -A input=([tampa]="$shared/data/flights/tampa-phantom3 --altitude 57"
   [turin]="$shared/data/flights/turin-p4m" [sim]="$work/sim/frames")
-for name in tampa turin sim; do
+for name in ${NAMES:-tampa turin sim}; do
   for mode in ${MODES:-default paper}; do
     extra=""
     [ "$mode" = paper ] && extra="--paper"
