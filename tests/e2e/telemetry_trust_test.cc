@@ -457,6 +457,56 @@ TEST(TelemetryTrust, CsvTimesInMillisecondsAreWarnedAbout) {
   fs::remove_all(dir);
 }
 
+// A flight log export as Airdata writes it (docs/inputs.md "CSV exports of flight logs": heights
+// in feet, the elapsed time in milliseconds with a UTC date beside it, speeds in mph, rows at 0, 0
+// where the GPS had no fix) is the same flight as the plain CSV of the same fixes in metres and
+// seconds: every frame's position and height above ground, and the comparison with GPS.
+TEST(TelemetryTrust, AnAirdataExportInFeetAndMillisecondsIsTheSameFlight) {
+  const fs::path dir = TempDir("airdata");
+  const std::vector<Eigen::Vector2d> path = Path(Steady(16, 3.0));
+  WritePhotos(dir / "photos", path);
+  std::string plain = "time,lat,lon,rel_alt,alt\n";
+  std::string airdata =
+      "time(millisecond),datetime(utc),latitude,longitude,height_above_takeoff(feet),"
+      "altitude_above_seaLevel(feet),speed(mph),satellites,isPhoto\n";
+  const double ft = 0.3048;
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    const GeoPoint g = GeoOf(path[i]);
+    const double t = static_cast<double>(i);
+    plain += fmt::format("{:.3f},{:.8f},{:.8f},{:.3f},{:.3f}\n", t, g.lat_deg, g.lon_deg, kHeightM,
+                         300.0 + kHeightM);
+    airdata += fmt::format("{:.0f},2024-05-11 14:03:{:02d},{:.8f},{:.8f},{:.9f},{:.9f},6.7,14,1\n",
+                           1000.0 * t, 20 + static_cast<int>(i), g.lat_deg, g.lon_deg,
+                           kHeightM / ft, (300.0 + kHeightM) / ft);
+    // A row the GPS had no fix for, half a second later.
+    airdata += fmt::format("{:.0f},2024-05-11 14:03:{:02d},0,0,{:.9f},0,6.7,0,0\n",
+                           1000.0 * t + 500.0, 20 + static_cast<int>(i), kHeightM / ft);
+  }
+  std::ofstream(dir / "plain.csv") << plain;
+  std::ofstream(dir / "airdata.csv") << airdata;
+  const RunSummary a = RunFlight(Config(dir / "photos", dir / "plain", dir / "plain.csv"));
+  const RunSummary b = RunFlight(Config(dir / "photos", dir / "airdata", dir / "airdata.csv"));
+  EXPECT_EQ(b.frames_with_gps, static_cast<int>(path.size()));
+  EXPECT_EQ(b.frames_with_gps, a.frames_with_gps);
+  const auto rows_a = ReadFramesCsv(dir / "plain"), rows_b = ReadFramesCsv(dir / "airdata");
+  ASSERT_EQ(rows_a.size(), path.size());
+  ASSERT_EQ(rows_b.size(), path.size());
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    SCOPED_TRACE(i);
+    EXPECT_NEAR(std::stod(rows_b[i].at("height_m")), kHeightM, 1e-6);
+    for (const char* column : {"x_m", "y_m", "lat_deg", "lon_deg", "gps_lat_deg", "gps_lon_deg"}) {
+      EXPECT_NEAR(std::stod(rows_b[i].at(column)), std::stod(rows_a[i].at(column)), 1e-7) << column;
+    }
+  }
+  ASSERT_TRUE(a.evaluation.has_value());
+  ASSERT_TRUE(b.evaluation.has_value());
+  EXPECT_NEAR(b.evaluation->sim2.ate_m.rmse, a.evaluation->sim2.ate_m.rmse, 1e-6);
+  EXPECT_NEAR(b.evaluation->se2.end_point_error_unaligned_m,
+              a.evaluation->se2.end_point_error_unaligned_m, 1e-6);
+  EXPECT_LT(b.evaluation->sim2.ate_m.rmse, 1.0);
+  fs::remove_all(dir);
+}
+
 // A telemetry 3 s late: the offset is estimated within 0.5 s; with --telemetry-offset-s (or
 // telemetry_auto_offset) the comparison with GPS is back at the unshifted run's level.
 TEST(TelemetryTrust, ShiftedTelemetryOffsetIsEstimatedAndApplied) {
