@@ -91,9 +91,9 @@ struct MapMatchOptions {
   /// the window's m_per_px): a map so coarse that the frame's footprint spans fewer of its
   /// pixels is not matched (status kMapTooCoarse). SURF's first octave alone uses 9-27 px
   /// filters (Bay et al., "SURF: Speeded Up Robust Features", CVIU 110(3), 2008, section 4.1),
-  /// so a frame this narrow leaves too few points to fit (BENCHMARKS.md "Maps coarser than the
-  /// frames").
-  int min_frame_width_px = 128;
+  /// so a frame this narrow leaves too few points to fit: on the real flights no attempt under
+  /// 99 px gave a fix, some at 106-124 px did (BENCHMARKS.md "Maps coarser than the frames").
+  int min_frame_width_px = 96;
 
   // Lost and found: the wide search (MapMatcher::Search, pipeline/map_fixer.h; docs/map.md).
   /// Consecutive failed attempts (few_inliers, ambiguous, spread, scale, gate) after which the

@@ -61,42 +61,42 @@ TEST(MapMatch, WindowSizeAndResolution) {
 }
 
 // The frame's width at the window's resolution decides whether a map is too coarse: a 640 px
-// frame at 0.2 m/px is 128 m wide, so 127 px at 1.01 m/px (map_too_coarse, no fit, before any
-// point is detected) and 129 px at 0.99 m/px (matched: here against a texture that is not its
-// ground, so few inliers). The attempt reports its resolution and the frame's ground width, in
-// Match, Search and MatchFeatures alike; min_frame_width_px moves the bound.
+// frame at 0.2 m/px is 128 m wide, so 94.8 px at 1.35 m/px (map_too_coarse under the default 96,
+// no fit, before any point is detected) and 98.5 px at 1.3 m/px (matched: here against a texture
+// that is not its ground, so no fix). The attempt reports its resolution and the frame's ground
+// width, in Match, Search and MatchFeatures alike; min_frame_width_px moves the bound.
 TEST(MapMatch, AFrameUnderMinFrameWidthAtTheMapsResolutionIsMapTooCoarse) {
   std::mt19937 rng(5);
   std::uniform_int_distribution<int> grey(0, 255);
   GrayImage frame(640, 480), map(300, 300), valid(300, 300, 255);
   for (int y = 0; y < 480; ++y) {
     for (int x = 0; x < 640; ++x)
-      frame.at(x, y) = static_cast<std::uint8_t>((x / 8 + y / 8) % 2 * 200);
+      frame.at(x, y) = static_cast<std::uint8_t>((x / 64 + y / 64) % 2 * 200);
   }
   for (int y = 0; y < 300; ++y) {
     for (int x = 0; x < 300; ++x) map.at(x, y) = static_cast<std::uint8_t>(grey(rng));
   }
   const MapMatchFrame f{frame.view(), 500.0, 100.0, 0.0};
   MapMatcher matcher{MapMatchOptions{}};
-  const MapFix coarse = matcher.Match(f, MapMatchWindow{map.view(), valid.view(), 1.01}, {0, 0});
+  const MapFix coarse = matcher.Match(f, MapMatchWindow{map.view(), valid.view(), 1.35}, {0, 0});
   EXPECT_EQ(coarse.status, MapFixStatus::kMapTooCoarse);
   EXPECT_FALSE(coarse.fitted);
   EXPECT_EQ(coarse.frame_points, 0);
-  EXPECT_DOUBLE_EQ(coarse.m_per_px, 1.01);
+  EXPECT_DOUBLE_EQ(coarse.m_per_px, 1.35);
   EXPECT_DOUBLE_EQ(coarse.frame_width_m, 128.0);
   EXPECT_STREQ(ToString(coarse.status), "map_too_coarse");
-  EXPECT_EQ(matcher.Search(f, MapMatchWindow{map.view(), valid.view(), 1.01}, {0, 0}, 50.0).status,
+  EXPECT_EQ(matcher.Search(f, MapMatchWindow{map.view(), valid.view(), 1.35}, {0, 0}, 50.0).status,
             MapFixStatus::kMapTooCoarse);
   MapWindowFeatures features;
   features.size_px = 300;
-  features.m_per_px = 1.01;
+  features.m_per_px = 1.35;
   features.valid_px = 300 * 300;
   features.contrast = 200.0;
   EXPECT_EQ(matcher.MatchFeatures(f, features, {0, 0}).status, MapFixStatus::kMapTooCoarse);
-  const MapFix fine = matcher.Match(f, MapMatchWindow{map.view(), valid.view(), 0.99}, {0, 0});
+  const MapFix fine = matcher.Match(f, MapMatchWindow{map.view(), valid.view(), 1.3}, {0, 0});
   EXPECT_NE(fine.status, MapFixStatus::kMapTooCoarse);
   EXPECT_GT(fine.frame_points, 0);
-  features.m_per_px = 0.99;
+  features.m_per_px = 1.3;
   EXPECT_NE(matcher.MatchFeatures(f, features, {0, 0}).status, MapFixStatus::kMapTooCoarse);
   MapMatchOptions narrow;
   narrow.min_frame_width_px = 64;  // 128 m over 64 px: 2 m/px is still matched

@@ -501,33 +501,54 @@ double Rmse(const std::vector<double>& v) {
   return std::sqrt(sum / static_cast<double>(v.size()));
 }
 
-// The warning for the attempts not made because the map is too coarse for the frames
-// (MapFixStatus::kMapTooCoarse): the maps they fell on, how many, and the resolution a map
-// needs; empty when there were none.
-std::string TooCoarseWarning(const std::vector<MapFixRecord>& records,
-                             const std::vector<map::MapInfo>& infos,
-                             const MapMatchOptions& options) {
-  int count = 0;
+// The warning for a map too coarse for the frames, empty when there is none: the attempts not
+// made (MapFixStatus::kMapTooCoarse); or, when most of the attempts matched failed with the frame
+// under twice min_frame_width_px pixels across at their resolution, that the map may be too
+// coarse. Each names the maps and the resolution a map would need.
+std::string MapResolutionWarning(const std::vector<MapFixRecord>& records,
+                                 const std::vector<map::MapInfo>& infos,
+                                 const MapMatchOptions& options) {
+  const int wide_px = 2 * options.min_frame_width_px;
+  int not_made = 0, matched = 0, narrow_failed = 0;
   double coarsest_m_per_px = 0.0, narrowest_m = std::numeric_limits<double>::infinity();
   std::vector<std::string> names;
   for (const MapFixRecord& r : records) {
-    if (r.fix.status != MapFixStatus::kMapTooCoarse) continue;
-    ++count;
-    coarsest_m_per_px = std::max(coarsest_m_per_px, r.fix.m_per_px);
-    narrowest_m = std::min(narrowest_m, r.fix.frame_width_m);
+    const MapFix& f = r.fix;
+    if (!(f.m_per_px > 0.0)) continue;  // no map window: nothing was matched
+    const bool too_coarse = f.status == MapFixStatus::kMapTooCoarse;
+    const bool narrow_failed_here =
+        !too_coarse && f.status != MapFixStatus::kFix && f.frame_width_m < wide_px * f.m_per_px;
+    not_made += too_coarse ? 1 : 0;
+    matched += too_coarse ? 0 : 1;
+    narrow_failed += narrow_failed_here ? 1 : 0;
+    if (!too_coarse && !narrow_failed_here) continue;
+    coarsest_m_per_px = std::max(coarsest_m_per_px, f.m_per_px);
+    narrowest_m = std::min(narrowest_m, f.frame_width_m);
     const std::size_t m = r.map ? static_cast<std::size_t>(*r.map) : 0;
     if (m < infos.size()) {
       const std::string name = infos[m].path.string();
       if (std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
     }
   }
-  if (count == 0) return "";
-  return fmt::format(
-      "'{}': {} of {} map fix attempts not made, the map too coarse for the frames: a frame "
-      "{:.0f} m wide on the ground is {:.0f} pixels across at {:.2f} m per pixel, under "
-      "map_fix.min_frame_width_px ({}); a map of at most {:.2f} m per pixel is needed",
-      fmt::join(names, "', '"), count, records.size(), narrowest_m, narrowest_m / coarsest_m_per_px,
-      coarsest_m_per_px, options.min_frame_width_px, narrowest_m / options.min_frame_width_px);
+  if (not_made > 0) {
+    return fmt::format(
+        "'{}': {} of {} map fix attempts not made, the map too coarse for the frames: a frame "
+        "{:.0f} m wide on the ground is {:.0f} pixels across at {:.2f} m per pixel, under "
+        "map_fix.min_frame_width_px ({}); a map of at most {:.2f} m per pixel is needed",
+        fmt::join(names, "', '"), not_made, records.size(), narrowest_m,
+        narrowest_m / coarsest_m_per_px, coarsest_m_per_px, options.min_frame_width_px,
+        narrowest_m / options.min_frame_width_px);
+  }
+  if (2 * narrow_failed > matched) {
+    return fmt::format(
+        "'{}': {} of {} map fix attempts failed with the frame under {} pixels across at the "
+        "map's resolution (a frame {:.0f} m wide on the ground is {:.0f} pixels across at {:.2f} "
+        "m per pixel): the map may be too coarse for the frames; at most {:.2f} m per pixel gives "
+        "the matching {} pixels",
+        fmt::join(names, "', '"), narrow_failed, records.size(), wide_px, narrowest_m,
+        narrowest_m / coarsest_m_per_px, coarsest_m_per_px, narrowest_m / wide_px, wide_px);
+  }
+  return "";
 }
 
 }  // namespace
@@ -598,7 +619,7 @@ void MapFixer::Finish(const std::filesystem::path& out_dir, RunSummary* summary)
     s.track_max_m = *std::max_element(track_errors.begin(), track_errors.end());
   }
   SummarizeSeed(&s);
-  if (const std::string w = TooCoarseWarning(records_, maps_.infos(), options_); !w.empty()) {
+  if (const std::string w = MapResolutionWarning(records_, maps_.infos(), options_); !w.empty()) {
     summary->warnings.push_back(w);
   }
   if (!s.georef_note.empty()) {

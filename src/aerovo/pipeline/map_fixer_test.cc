@@ -271,12 +271,13 @@ TEST(MapFixer, LiveSourceSkipsFramesDueWhileBusy) {
   EXPECT_EQ(summary.map_fixes->fixes, 1);
 }
 
-// A map too coarse for the frames: a frame 60 m wide on the ground (240 px at 0.25 m/px) spans
-// 120 of the map's 0.5 m pixels, under min_frame_width_px (128). The attempt is not made
+// A map too coarse for the frames: a frame 43.2 m wide on the ground (240 px at 0.18 m/px) spans
+// 86 of the map's 0.5 m pixels, under min_frame_width_px (96). The attempt is not made
 // (map_too_coarse, not a texture failure) and the summary's warning names the map and the
-// resolution a map would need (60 m / 128 px = 0.47 m/px); a frame 120 m wide is fixed beside it.
-// With min_frame_width_px 100 the same frame is matched (and fails otherwise: its pixels are at
-// 0.5 m/px, not the 0.25 its height says), without the warning.
+// resolution a map would need (43.2 m / 96 px = 0.45 m/px); a frame 120 m wide is fixed beside it.
+// With min_frame_width_px 64 the same frame is matched and fails (its pixels are at 0.5 m/px, not
+// the 0.18 its height says): the warning then says the map may be too coarse, the frame being
+// under twice the minimum (128 px) across.
 TEST(MapFixer, AMapTooCoarseForTheFramesIsSaidAndNotMatched) {
   const map::ReferenceMaps maps({Map().path});
   MapMatchOptions o;
@@ -284,7 +285,7 @@ TEST(MapFixer, AMapTooCoarseForTheFramesIsSaidAndNotMatched) {
   o.search_radius_m = 30.0;
   const fs::path dir = Map().path.parent_path();
   MapFixJob narrow = Map().Job(1, 420, 380, 5.0);
-  narrow.height_m = 25.0;
+  narrow.height_m = 18.0;
   {
     MapFixer fixer(maps, o, /*live=*/false);
     fixer.Submit(Map().Job(0, 300, 300, 5.0));
@@ -303,26 +304,34 @@ TEST(MapFixer, AMapTooCoarseForTheFramesIsSaidAndNotMatched) {
     const std::string& w = summary.warnings[0];
     for (const char* part :
          {"map.tif': 1 of 2 map fix attempts not made, the map too coarse for the frames",
-          "a frame 60 m wide on the ground is 120 pixels across at 0.50 m per pixel",
-          "map_fix.min_frame_width_px (128)", "a map of at most 0.47 m per pixel is needed"}) {
+          "a frame 43 m wide on the ground is 86 pixels across at 0.50 m per pixel",
+          "map_fix.min_frame_width_px (96)", "a map of at most 0.45 m per pixel is needed"}) {
       EXPECT_NE(w.find(part), std::string::npos) << part << "\n" << w;
     }
     const std::string csv = ::aerovo::testing::ReadText(dir / "map_fixes.csv");
     EXPECT_NE(csv.find("\n1,1.000,map_too_coarse,"), std::string::npos) << csv;
   }
-  o.min_frame_width_px = 100;
+  o.min_frame_width_px = 64;
   MapFixer fixer(maps, o, /*live=*/false);
   fixer.Submit(narrow);
   RunSummary summary;
   fixer.Finish(dir, &summary);
   ASSERT_TRUE(summary.map_fixes.has_value());
   EXPECT_EQ(summary.map_fixes->attempted, 1);
+  EXPECT_EQ(summary.map_fixes->fixes, 0);
   for (const auto& [status, count] : summary.map_fixes->by_status) {
     if (status == "map_too_coarse") {
       EXPECT_EQ(count, 0);
     }
   }
-  EXPECT_TRUE(summary.warnings.empty());
+  ASSERT_EQ(summary.warnings.size(), 1u);
+  for (const char* part : {"map.tif': 1 of 1 map fix attempts failed with the frame under 128 "
+                           "pixels across at the map's resolution",
+                           "the map may be too coarse for the frames",
+                           "at most 0.34 m per pixel gives the matching 128 pixels"}) {
+    EXPECT_NE(summary.warnings[0].find(part), std::string::npos) << part << "\n"
+                                                                 << summary.warnings[0];
+  }
 }
 
 }  // namespace
