@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <random>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <gdal_priv.h>
@@ -36,6 +37,14 @@ using map_testing::TexturedMap;
 const TexturedMap& Map() {
   static const TexturedMap m(5, "aerovo_map_fixer");
   return m;
+}
+
+// The count of `status` in the summary's by_status, -1 when it is not listed.
+int StatusCount(const RunSummary::MapFixes& m, std::string_view status) {
+  for (const auto& [name, count] : m.by_status) {
+    if (name == status) return count;
+  }
+  return -1;
 }
 
 TEST(MapFixer, FileSourceAttemptsEveryFrameAndFixesLandOnTheTruth) {
@@ -66,11 +75,7 @@ TEST(MapFixer, FileSourceAttemptsEveryFrameAndFixesLandOnTheTruth) {
   ASSERT_EQ(m.with_gps, 4);
   EXPECT_LT(m.max_m, 0.3);
   EXPECT_NEAR(m.track_max_m, 12.0, 0.01);
-  int no_map = 0;
-  for (const auto& [status, count] : m.by_status) {
-    if (status == "no_map") no_map = count;
-  }
-  EXPECT_EQ(no_map, 1);
+  EXPECT_EQ(StatusCount(m, "no_map"), 1);
   const std::string csv = ::aerovo::testing::ReadText(dir / "map_fixes.csv");
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 6);
   EXPECT_EQ(csv.rfind("8,8.000,no_map,", std::string::npos) != std::string::npos, true) << csv;
@@ -295,11 +300,7 @@ TEST(MapFixer, AMapTooCoarseForTheFramesIsSaidAndNotMatched) {
     ASSERT_TRUE(summary.map_fixes.has_value());
     EXPECT_EQ(summary.map_fixes->attempted, 2);
     EXPECT_EQ(summary.map_fixes->fixes, 1);
-    int too_coarse = -1;
-    for (const auto& [status, count] : summary.map_fixes->by_status) {
-      if (status == "map_too_coarse") too_coarse = count;
-    }
-    EXPECT_EQ(too_coarse, 1);
+    EXPECT_EQ(StatusCount(*summary.map_fixes, "map_too_coarse"), 1);
     ASSERT_EQ(summary.warnings.size(), 1u);
     const std::string& w = summary.warnings[0];
     for (const char* part :
@@ -319,11 +320,7 @@ TEST(MapFixer, AMapTooCoarseForTheFramesIsSaidAndNotMatched) {
   ASSERT_TRUE(summary.map_fixes.has_value());
   EXPECT_EQ(summary.map_fixes->attempted, 1);
   EXPECT_EQ(summary.map_fixes->fixes, 0);
-  for (const auto& [status, count] : summary.map_fixes->by_status) {
-    if (status == "map_too_coarse") {
-      EXPECT_EQ(count, 0);
-    }
-  }
+  EXPECT_EQ(StatusCount(*summary.map_fixes, "map_too_coarse"), 0);
   ASSERT_EQ(summary.warnings.size(), 1u);
   for (const char* part : {"map.tif': 1 of 1 map fix attempts failed with the frame under 128 "
                            "pixels across at the map's resolution",

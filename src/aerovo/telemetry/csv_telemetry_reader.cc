@@ -447,8 +447,6 @@ std::string IntegerDegE7Hint(const TelemetrySample& s) {
 
 namespace io_detail {
 
-bool IsCsvUnit(std::string_view unit) { return FindUnit(unit) != nullptr; }
-
 ColumnName SplitColumnName(std::string_view cell) {
   std::string s = ToLower(Trim(cell));
   ColumnName r;
@@ -467,7 +465,8 @@ ColumnName SplitColumnName(std::string_view cell) {
   }
   if (r.unit.empty()) {
     const std::size_t us = s.rfind('_');
-    if (us != std::string::npos && us > 0 && IsCsvUnit(std::string_view(s).substr(us + 1))) {
+    if (us != std::string::npos && us > 0 &&
+        FindUnit(std::string_view(s).substr(us + 1)) != nullptr) {
       r.unit = s.substr(us + 1);
       s.erase(us);
     }

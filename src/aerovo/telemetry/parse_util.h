@@ -39,19 +39,15 @@ std::optional<double> ParseDateTime(std::string_view s);
 /// all trimmed and lower-case: "OSD.height [ft]" -> {"osd", "height", "ft"},
 /// "time(millisecond)" -> {"", "time", "millisecond"}, "lat_deg" -> {"", "lat", "deg"}. The
 /// unit is written "name(unit)" or "name [unit]"; else a last "_unit" is split off when
-/// IsCsvUnit(unit) (telemetry CSV columns: "abs_alt_m", "time_s", "yaw_deg"). The
-/// prefix is what comes before the last '.' of the name ("OSD.", "GIMBAL.", "CUSTOM." of DJI
-/// flight record CSVs).
+/// it is a unit the CSV telemetry reader converts (telemetry CSV columns: "abs_alt_m", "time_s",
+/// "yaw_deg"). The prefix is what comes before the last '.' of the name ("OSD.", "GIMBAL.",
+/// "CUSTOM." of DJI flight record CSVs). Defined in csv_telemetry_reader.cc, beside the units.
 struct ColumnName {
   std::string prefix;
   std::string base;
   std::string unit;  ///< Empty when the header gives none.
 };
 ColumnName SplitColumnName(std::string_view cell);
-
-/// True when `unit` (lower-case) is one of the units the CSV telemetry reader converts
-/// (lengths, times, angles, date zones). Both are defined in csv_telemetry_reader.cc.
-bool IsCsvUnit(std::string_view unit);
 
 /// "HH:MM:SS,mmm" (SRT timing) -> seconds.
 std::optional<double> ParseSrtClock(std::string_view s);
