@@ -17,7 +17,7 @@
 
 #include "e2e_testing.h"
 
-namespace aerovo {
+namespace aerovo::adaptive_points_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -116,4 +116,4 @@ TEST(AdaptivePoints, IlluminationDownToATenthKeepsTheTrackWithTheDefaults) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::adaptive_points_test

@@ -18,7 +18,7 @@
 
 #include "e2e_testing.h"
 
-namespace aerovo {
+namespace aerovo::attitude_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -140,4 +140,4 @@ TEST(Attitude, SrtWithOnlyAnAltitudeAboveSeaLevelNeedsTheGroundElevation) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::attitude_test

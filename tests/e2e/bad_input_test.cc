@@ -35,7 +35,7 @@
 #include "e2e_testing.h"
 #include "nadir_ground.h"
 
-namespace aerovo {
+namespace aerovo::bad_input_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -661,4 +661,4 @@ TEST(BadInput, FewerFixesThanFramesCompletesAndSaysSo) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::bad_input_test

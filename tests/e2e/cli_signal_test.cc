@@ -24,7 +24,7 @@
 
 #include "e2e_testing.h"
 
-namespace aerovo {
+namespace aerovo::cli_signal_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -240,4 +240,4 @@ TEST(CliErrors, BadInputExitsWithOneAndAMessage) {
 #endif  // AEROVO_CLI_PATH
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::cli_signal_test

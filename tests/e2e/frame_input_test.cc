@@ -40,7 +40,7 @@
 #include "e2e_testing.h"
 #include "nadir_ground.h"
 
-namespace aerovo {
+namespace aerovo::frame_input_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -328,4 +328,4 @@ TEST(FrameInput, HugePhotosAreReducedToThePixelBudget) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::frame_input_test

@@ -30,7 +30,7 @@
 
 #include "e2e_testing.h"
 
-namespace aerovo {
+namespace aerovo::geo_products_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -405,4 +405,4 @@ TEST_F(GeoProducts, RunWithoutGeoReferenceGetsANoteAndNoFiles) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::geo_products_test

@@ -28,7 +28,7 @@
 #include "aerovo/report/html_report.h"
 #include "e2e_testing.h"
 
-namespace aerovo {
+namespace aerovo::gps_denied_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -251,4 +251,4 @@ TEST(GpsDenied, FromTheStartTheTrackStaysLocal) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::gps_denied_test

@@ -33,7 +33,7 @@
 
 #include "e2e_testing.h"
 
-namespace aerovo {
+namespace aerovo::html_report_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -695,4 +695,4 @@ TEST_F(HtmlReport, RendersInHeadlessChromium) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::html_report_test

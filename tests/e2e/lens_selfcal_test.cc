@@ -26,7 +26,7 @@
 #include "aerovo/pipeline/runner.h"
 #include "e2e_testing.h"
 
-namespace aerovo {
+namespace aerovo::lens_selfcal_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -421,4 +421,4 @@ TEST(LensSelfCalibration, PinholeIsNotAppliedAndTheTrackIsUnchanged) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::lens_selfcal_test

@@ -21,7 +21,7 @@
 #include "aerovo/sim/sim_writer.h"
 #include "aerovo/sim/simulator.h"
 
-namespace aerovo {
+namespace aerovo::long_run_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -146,4 +146,4 @@ TEST(LongRun, TenThousandFramesWithFlatMemory) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::long_run_test

@@ -24,17 +24,17 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "aerovo/core/angles.h"
 #include "callas_map.h"
 #include "e2e_testing.h"
 
-namespace aerovo {
+namespace aerovo::map_demo_test {
 namespace {
 
 namespace fs = std::filesystem;
 using Rows = std::vector<std::map<std::string, std::string>>;
 
 constexpr double kNwLat = 43.539340, kNwLon = 6.551628;
-constexpr double kPi = 3.14159265358979323846;
 // The maps' layout, metres east of the orthophoto's west edge: no data in [600, 850) (the map of
 // the whole flight); the tile [450, 610) and the one 200 m east of it swapped (the map of the
 // false tile, flown over by the first leg). The flight's frames reach 70 m east or west of their
@@ -270,4 +270,4 @@ TEST(MapDemo, ThreeKilometresWithoutGpsOverAnotherSurveysMap) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::map_demo_test

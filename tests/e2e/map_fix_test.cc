@@ -26,7 +26,7 @@
 #include "callas_map.h"
 #include "e2e_testing.h"
 
-namespace aerovo {
+namespace aerovo::map_fix_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -508,4 +508,4 @@ TEST(MapFix, GpsDeniedFromTheStartOverAMapWithoutTheFlightSaysSo) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::map_fix_test

@@ -30,7 +30,7 @@
 #include "aerovo/geo/local_enu.h"
 #include "e2e_testing.h"
 
-namespace aerovo {
+namespace aerovo::map_several_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -262,4 +262,4 @@ TEST(MapSeveral, PartialCoverWarnsAndACorruptSecondMapIsNamed) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::map_several_test

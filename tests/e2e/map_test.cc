@@ -24,7 +24,7 @@
 #include "aerovo/geo/local_enu.h"
 #include "e2e_testing.h"
 
-namespace aerovo {
+namespace aerovo::map_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -250,4 +250,4 @@ TEST(MapRun, TheMapIsCheckedAgainstTheFlightAndItsCoverReported) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::map_test

@@ -31,7 +31,7 @@
 #include "aerovo/telemetry/reference_track.h"
 #include "e2e_testing.h"
 
-namespace aerovo {
+namespace aerovo::offline_optimisation_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -316,4 +316,4 @@ TEST_F(OfflineOptimisation, ReportShowsBothTracks) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::offline_optimisation_test

@@ -32,7 +32,7 @@
 
 #include "e2e_testing.h"
 
-namespace aerovo {
+namespace aerovo::outputs_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -634,4 +634,4 @@ TEST_F(CliOutputs, ATimeWindowThatSelectsNoFrameIsAClearError) {
 #endif  // AEROVO_CLI_PATH
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::outputs_test

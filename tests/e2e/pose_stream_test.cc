@@ -31,7 +31,7 @@
 
 #include "e2e_testing.h"
 
-namespace aerovo {
+namespace aerovo::pose_stream_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -329,4 +329,4 @@ TEST(LiveSource, AFileDropsNothingAndGivesTheSameTrackWithOrWithoutTheDecodeThre
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::pose_stream_test

@@ -22,7 +22,7 @@
 #include "aerovo/core/testing.h"
 #include "aerovo/report/run_reader.h"
 
-namespace aerovo {
+namespace aerovo::reference_outputs_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -179,4 +179,4 @@ INSTANTIATE_TEST_SUITE_P(Flights, ReferenceOutputs,
                          });
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::reference_outputs_test

@@ -23,7 +23,7 @@
 #include "aerovo/pipeline/run_config.h"
 #include "aerovo/pipeline/testing.h"
 
-namespace aerovo {
+namespace aerovo::run_cli_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -237,4 +237,4 @@ TEST(RunCli, RunFromItsSavedConfigJsonReproducesTheRun) {
 #endif  // AEROVO_CLI_PATH
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::run_cli_test

@@ -37,7 +37,7 @@
 
 #include "e2e_testing.h"
 
-namespace aerovo {
+namespace aerovo::run_flight_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -658,4 +658,4 @@ TEST(Runner, SigintLeavesValidOutputs) {
 #endif
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::run_flight_test

@@ -23,7 +23,7 @@
 #include "e2e_testing.h"
 #include "nadir_ground.h"
 
-namespace aerovo {
+namespace aerovo::sensor_pattern_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -190,4 +190,4 @@ TEST(SensorPattern, AMovingGroundWithAPatternIsCorrected) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::sensor_pattern_test

@@ -17,7 +17,7 @@
 #include "aerovo/core/testing.h"
 #include "e2e_testing.h"
 
-namespace aerovo {
+namespace aerovo::survey_optimisation_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -93,4 +93,4 @@ TEST(SixStripSurvey, CallasOrthophoto) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::survey_optimisation_test

@@ -36,7 +36,7 @@
 #include "aerovo/sim/terrain.h"
 #include "e2e_testing.h"
 
-namespace aerovo {
+namespace aerovo::telemetry_trust_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -642,4 +642,4 @@ TEST(TelemetryTrust, AbsurdHeightOrFocalIsAClearError) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::telemetry_trust_test

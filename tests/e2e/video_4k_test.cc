@@ -13,7 +13,7 @@
 
 #include "e2e_testing.h"
 
-namespace aerovo {
+namespace aerovo::video_4k_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -69,4 +69,4 @@ TEST(Video4k, DefaultRunDetectsAtHalfResolutionWithinFivePercentOfFullResolution
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::video_4k_test

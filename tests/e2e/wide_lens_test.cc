@@ -15,7 +15,7 @@
 #include "aerovo/camera_files/calibration.h"
 #include "e2e_testing.h"
 
-namespace aerovo {
+namespace aerovo::wide_lens_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -152,4 +152,4 @@ TEST(WideLens, FastFixedWingFlightKeepsEveryFrame) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::wide_lens_test

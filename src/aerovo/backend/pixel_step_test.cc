@@ -9,7 +9,7 @@
 #include "aerovo/backend/testing.h"
 #include "aerovo/core/error.h"
 
-namespace aerovo::backend {
+namespace aerovo::backend::pixel_step_test {
 namespace {
 
 const Eigen::Vector2d kCentre(399.5, 299.5);  // An 800 x 600 frame.
@@ -135,4 +135,4 @@ TEST(PixelStep, BadInputsAreInvalidArguments) {
 }
 
 }  // namespace
-}  // namespace aerovo::backend
+}  // namespace aerovo::backend::pixel_step_test

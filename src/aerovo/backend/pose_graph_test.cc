@@ -9,9 +9,10 @@
 #include <Eigen/LU>
 
 #include "aerovo/backend/testing.h"
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 
-namespace aerovo::backend {
+namespace aerovo::backend::pose_graph_test {
 namespace {
 
 using testing::Lawnmower;
@@ -20,8 +21,6 @@ using testing::MakeGraph;
 using testing::MakeLawnmower;
 using testing::MaxPositionError;
 using testing::RmsPositionError;
-
-constexpr double kPi = 3.14159265358979323846;
 
 double EndPointError(const std::vector<Similarity2>& poses, const std::vector<Similarity2>& truth) {
   return (poses.back().translation_m - truth.back().translation_m).norm();
@@ -606,4 +605,4 @@ TEST(PoseGraphOptions, ParseAndValidate) {
 }
 
 }  // namespace
-}  // namespace aerovo::backend
+}  // namespace aerovo::backend::pose_graph_test

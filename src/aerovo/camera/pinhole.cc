@@ -5,12 +5,11 @@
 
 #include <fmt/format.h>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 
 namespace aerovo {
 namespace {
-
-constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 
 bool PositiveFinite(double v) { return std::isfinite(v) && v > 0.0; }
 

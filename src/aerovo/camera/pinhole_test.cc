@@ -6,7 +6,7 @@
 
 #include "aerovo/core/error.h"
 
-namespace aerovo {
+namespace aerovo::pinhole_test {
 namespace {
 
 TEST(Pinhole, FocalFrom35mmUsesTheDiagonal) {
@@ -111,4 +111,4 @@ TEST(Pinhole, ValidateNamesTheField) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::pinhole_test

@@ -8,7 +8,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/telemetry/io_test_util.h"
 
-namespace aerovo {
+namespace aerovo::calibration_test {
 namespace {
 
 using io_test::TempDir;
@@ -200,4 +200,4 @@ TEST(Calibration, ErrorsNameTheFileAndTheLineOrKey) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::calibration_test

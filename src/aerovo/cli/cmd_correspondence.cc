@@ -93,7 +93,7 @@ void Run(Args a) {
   }
 }
 
-void Register(CLI::App& app) {
+void RegisterCorrespondenceCommand(CLI::App& app) {
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
       "correspondence",
@@ -169,6 +169,6 @@ void Register(CLI::App& app) {
 
 }  // namespace
 
-AEROVO_REGISTER_COMMAND(Register);
+AEROVO_REGISTER_COMMAND(RegisterCorrespondenceCommand);
 
 }  // namespace aerovo::cli

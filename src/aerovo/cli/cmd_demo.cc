@@ -143,7 +143,7 @@ void RunFlightDemo(const DemoArgs& args) {
   if (r.interrupted) std::exit(StopSignals::ExitCode(signal));
 }
 
-void Register(CLI::App& app) {
+void RegisterDemoCommand(CLI::App& app) {
   auto args = std::make_shared<DemoArgs>();
   CLI::App* cmd = app.add_subcommand(
       "demo",
@@ -180,7 +180,7 @@ void Register(CLI::App& app) {
   });
 }
 
-AEROVO_REGISTER_COMMAND(Register);
+AEROVO_REGISTER_COMMAND(RegisterDemoCommand);
 
 }  // namespace
 }  // namespace aerovo::cli

@@ -241,7 +241,7 @@ void AddExperiment(CLI::App* parent, const ExperimentDefinition& def) {
   cmd->callback([args] { Execute(*args); });
 }
 
-void Register(CLI::App& app) {
+void RegisterExperimentCommand(CLI::App& app) {
   CLI::App* exp = app.add_subcommand(
       "experiment",
       "The paper's experiments on a flight (or a simulated one): illumination (Fig. 4-6) and "
@@ -252,6 +252,6 @@ void Register(CLI::App& app) {
 
 }  // namespace
 
-AEROVO_REGISTER_COMMAND(Register);
+AEROVO_REGISTER_COMMAND(RegisterExperimentCommand);
 
 }  // namespace aerovo::cli

@@ -197,7 +197,7 @@ void RunEval(EvalArgs a) {
   }
 }
 
-void Register(CLI::App& app) {
+void RegisterFeaturesCommand(CLI::App& app) {
   CLI::App* features =
       app.add_subcommand("features", "SURF feature detection and detector/descriptor evaluation");
   features->require_subcommand(1);
@@ -247,5 +247,5 @@ void Register(CLI::App& app) {
 }
 
 }  // namespace
-AEROVO_REGISTER_COMMAND(Register);
+AEROVO_REGISTER_COMMAND(RegisterFeaturesCommand);
 }  // namespace aerovo::cli

@@ -110,7 +110,7 @@ void RunBuild(BuildArgs& a) {
             << map::FormatMapInfo(r.info);
 }
 
-void Register(CLI::App& app) {
+void RegisterMapCommand(CLI::App& app) {
   CLI::App* group = app.add_subcommand(
       "map", "Reference maps: describe a geo-referenced raster, build one from a flight with GPS");
   group->require_subcommand(1);
@@ -161,6 +161,6 @@ void Register(CLI::App& app) {
 
 }  // namespace
 
-AEROVO_REGISTER_COMMAND(Register);
+AEROVO_REGISTER_COMMAND(RegisterMapCommand);
 
 }  // namespace aerovo::cli

@@ -78,7 +78,7 @@ void Execute(const ReportArgs& a) {
   if (a.open) OpenInBrowser(r.html);
 }
 
-void Register(CLI::App& app) {
+void RegisterReportCommand(CLI::App& app) {
   auto args = std::make_shared<ReportArgs>();
   CLI::App* cmd = app.add_subcommand(
       "report",
@@ -98,6 +98,6 @@ void Register(CLI::App& app) {
 
 }  // namespace
 
-AEROVO_REGISTER_COMMAND(Register);
+AEROVO_REGISTER_COMMAND(RegisterReportCommand);
 
 }  // namespace aerovo::cli

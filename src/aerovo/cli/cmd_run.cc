@@ -125,7 +125,7 @@ void Execute(RunArgs& a) {
   if (s.interrupted) std::exit(StopSignals::ExitCode(signal));
 }
 
-void Register(CLI::App& app) {
+void RegisterRunCommand(CLI::App& app) {
   auto args = std::make_shared<RunArgs>();
   RunArgs& a = *args;
   CLI::App* cmd = app.add_subcommand(
@@ -151,6 +151,6 @@ void Register(CLI::App& app) {
 
 }  // namespace
 
-AEROVO_REGISTER_COMMAND(Register);
+AEROVO_REGISTER_COMMAND(RegisterRunCommand);
 
 }  // namespace aerovo::cli

@@ -189,7 +189,7 @@ void Run(const SimulateArgs& a, sim::SimulationOptions o, const sim::WriterOptio
   fmt::print("  manifest      {}\n", p(out.json_file));
 }
 
-void Register(CLI::App& app) {
+void RegisterSimulateCommand(CLI::App& app) {
   auto args = std::make_shared<SimulateArgs>();
   auto opt = std::make_shared<sim::SimulationOptions>();
   auto writer = std::make_shared<sim::WriterOptions>();
@@ -361,7 +361,7 @@ void Register(CLI::App& app) {
   });
 }
 
-AEROVO_REGISTER_COMMAND(Register);
+AEROVO_REGISTER_COMMAND(RegisterSimulateCommand);
 
 }  // namespace
 }  // namespace aerovo::cli

@@ -121,7 +121,7 @@ void Run(const TelemetryArgs& args) {
   }
 }
 
-void Register(CLI::App& app) {
+void RegisterTelemetryCommand(CLI::App& app) {
   auto args = std::make_shared<TelemetryArgs>();
   CLI::App* cmd = app.add_subcommand(
       "telemetry",
@@ -134,7 +134,7 @@ void Register(CLI::App& app) {
   cmd->callback([args] { Run(*args); });
 }
 
-AEROVO_REGISTER_COMMAND(Register);
+AEROVO_REGISTER_COMMAND(RegisterTelemetryCommand);
 
 }  // namespace
 }  // namespace aerovo::cli

@@ -26,6 +26,5 @@ struct RegisterCommand {
 
 #define AEROVO_CLI_CONCAT_(a, b) a##b
 #define AEROVO_CLI_CONCAT(a, b) AEROVO_CLI_CONCAT_(a, b)
-#define AEROVO_REGISTER_COMMAND(fn)                      \
-  static ::aerovo::cli::RegisterCommand AEROVO_CLI_CONCAT( \
-      aerovo_cli_register_, __LINE__)(fn)
+#define AEROVO_REGISTER_COMMAND(fn) \
+  static ::aerovo::cli::RegisterCommand AEROVO_CLI_CONCAT(aerovo_cli_register_, __COUNTER__)(fn)

@@ -18,7 +18,7 @@
 
 #include "aerovo/core/testing.h"
 
-namespace aerovo::cli {
+namespace aerovo::cli::conventions_test {
 namespace {
 
 // Every error type maps to its exit code whatever the type's place in core/error.h, through
@@ -310,4 +310,4 @@ TEST(CliConventions, BashCompletionListsEverySubcommandAndRunFlag) {
 #endif  // AEROVO_CLI_PATH
 
 }  // namespace
-}  // namespace aerovo::cli
+}  // namespace aerovo::cli::conventions_test

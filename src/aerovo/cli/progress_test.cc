@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-namespace aerovo::cli {
+namespace aerovo::cli::progress_test {
 namespace {
 
 // Everything written to a temporary FILE*.
@@ -146,4 +146,4 @@ TEST(Progress, SimulateToAFileWritesPlainLines) {
 #endif
 
 }  // namespace
-}  // namespace aerovo::cli
+}  // namespace aerovo::cli::progress_test

@@ -4,7 +4,7 @@
 
 #include <string>
 
-namespace aerovo {
+namespace aerovo::simd_test {
 namespace {
 
 TEST(SimdTest, ParsesTheThreeModesAndRejectsOthers) {
@@ -48,4 +48,4 @@ TEST(SimdTest, SetModeOverridesAndNamesTheTarget) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::simd_test

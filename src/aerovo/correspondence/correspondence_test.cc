@@ -20,7 +20,7 @@
 #include "aerovo/estimation/testing.h"
 #include "aerovo/features/surf.h"
 
-namespace aerovo {
+namespace aerovo::correspondence_test {
 namespace {
 
 using testing::kFrameHeight;
@@ -913,4 +913,4 @@ TEST(CorrespondenceRealData, CallasShiftedCrops) {
 #endif  // AEROVO_TESTS_HAVE_OPENCV
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::correspondence_test

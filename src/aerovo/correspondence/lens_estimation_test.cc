@@ -19,7 +19,7 @@
 #include "aerovo/features/surf.h"
 #include "aerovo/matching/matcher.h"
 
-namespace aerovo {
+namespace aerovo::lens_estimation_test {
 namespace {
 
 // A true lens for the synthetic matches: OpenCV fisheye with up to 4 coefficients, or Brown k1.
@@ -305,4 +305,4 @@ TEST(LensEstimation, InvalidOptionsNameTheField) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::lens_estimation_test

@@ -12,7 +12,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/estimation/testing.h"
 
-namespace aerovo {
+namespace aerovo::models_test {
 namespace {
 
 using testing::kFrameHeight;
@@ -151,4 +151,4 @@ TEST(MotionModelList, ParseNamesEveryAcceptedValue) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::models_test

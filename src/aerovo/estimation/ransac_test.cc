@@ -14,7 +14,7 @@
 #include "aerovo/estimation/samplers.h"
 #include "aerovo/estimation/testing.h"
 
-namespace aerovo {
+namespace aerovo::ransac_test {
 namespace {
 
 using testing::kFrameHeight;
@@ -699,4 +699,4 @@ TYPED_TEST(RansacModelTest, RuntimeDispatchMatchesTheTemplateForEverySampler) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::ransac_test

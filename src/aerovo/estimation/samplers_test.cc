@@ -12,7 +12,7 @@
 
 #include "aerovo/core/error.h"
 
-namespace aerovo {
+namespace aerovo::samplers_test {
 namespace {
 
 // Every entry of the sampler list: ToString is the class's kName, ParseSamplerKind inverts it,
@@ -186,4 +186,4 @@ TEST(SamplerDraws, ProsacGrowsTheTopSetInTheOrderOfThePaper) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::samplers_test

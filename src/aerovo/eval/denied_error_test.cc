@@ -8,7 +8,7 @@
 #include "aerovo/eval/denied_error.h"
 #include "aerovo/eval/trajectory_eval_json.h"
 
-namespace aerovo {
+namespace aerovo::denied_error_test {
 namespace {
 
 struct Tracks {
@@ -87,4 +87,4 @@ TEST(DeniedError, NothingAfterTheDenialOrStillAndBadInput) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::denied_error_test

@@ -10,14 +10,13 @@
 
 #include <opencv2/features2d.hpp>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
 
 namespace aerovo {
 
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 double Det(const EllipticRegion& r) { return r.a * r.c - r.b * r.b; }
 

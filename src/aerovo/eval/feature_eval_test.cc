@@ -11,14 +11,13 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
 #include "aerovo/eval/oxford_dataset.h"
 
-namespace aerovo {
+namespace aerovo::feature_eval_test {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // Area of the lens where two circles (radii r1, r2, centre distance d) overlap; the standard
 // closed form (e.g. Weisstein, MathWorld "Circle-Circle Intersection").
@@ -369,4 +368,4 @@ TEST(FeatureEvalOxford, SurfRepeatabilityFloors) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::feature_eval_test

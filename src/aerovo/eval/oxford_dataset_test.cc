@@ -10,7 +10,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
 
-namespace aerovo {
+namespace aerovo::oxford_dataset_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -105,4 +105,4 @@ TEST(OxfordDatasetShared, LoadsGraf) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::oxford_dataset_test

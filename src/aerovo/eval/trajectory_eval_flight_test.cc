@@ -12,7 +12,7 @@
 #include "aerovo/geo/geodesic.h"
 #include "aerovo/geo/local_enu.h"
 
-namespace aerovo {
+namespace aerovo::trajectory_eval_flight_test {
 namespace {
 namespace fs = std::filesystem;
 
@@ -67,4 +67,4 @@ TEST(TrajectoryEvalFlight, TampaGpsTrackInEnu) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::trajectory_eval_flight_test

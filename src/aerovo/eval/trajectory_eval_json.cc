@@ -5,10 +5,10 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include "aerovo/core/angles.h"
 
 namespace aerovo {
 namespace {
-constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
 
 double AtePercent(const TrajectoryErrors& e) {
   return e.distance_flown_m > 0.0 ? 100.0 * e.ate_m.rmse / e.distance_flown_m : 0.0;

@@ -3,7 +3,7 @@
 #include "aerovo/eval/trajectory_eval.h"
 #include "aerovo/eval/trajectory_eval_json.h"
 
-namespace aerovo {
+namespace aerovo::trajectory_eval_json_test {
 namespace {
 
 // Straight 200 m line east, VO 1 % long: figures known in closed form (see
@@ -57,4 +57,4 @@ TEST(TrajectoryEvalJson, TableHasBothColumns) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::trajectory_eval_json_test

@@ -3,13 +3,12 @@
 
 #include <gtest/gtest.h>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/eval/trajectory_eval.h"
 
-namespace aerovo {
+namespace aerovo::trajectory_eval_test {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // A curvy 2-D flight (metres): a lawnmower-like sweep with a sinusoidal wobble, 1 s steps.
 std::vector<TrajectoryPoint2D> CurvyTrack(int n) {
@@ -316,4 +315,4 @@ TEST(AssociateByTime, BadInputThrows) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::trajectory_eval_test

@@ -15,7 +15,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/features/flat_field.h"
 
-namespace aerovo {
+namespace aerovo::flat_field_test {
 namespace {
 
 constexpr int kW = 160, kH = 128;
@@ -413,4 +413,4 @@ TEST(FlatField, OptionsAreValidated) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::flat_field_test

@@ -18,7 +18,7 @@
 #include "aerovo/features/integral_image.h"
 #include "aerovo/features/surf.h"
 
-namespace aerovo {
+namespace aerovo::hessian_test {
 namespace {
 
 using surf_detail::BoxFilterLayout;
@@ -297,4 +297,4 @@ TEST(InLayerMaximumKernelTest, EveryKernelMatchesTheScalarLoop) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::hessian_test

@@ -23,7 +23,7 @@
 #include "aerovo/core/testing.h"
 #include "aerovo/features/surf.h"
 
-namespace aerovo {
+namespace aerovo::surf_adaptive_test {
 namespace {
 
 // Value noise: random levels on grids of 6 and 17 px, bilinearly interpolated and summed, mapped
@@ -539,4 +539,4 @@ TEST(SurfAdaptive, CellFloorsOfTheWrongSizeOrValueAreRefused) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::surf_adaptive_test

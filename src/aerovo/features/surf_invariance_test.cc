@@ -10,13 +10,12 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/testing.h"
 #include "aerovo/features/surf.h"
 
-namespace aerovo {
+namespace aerovo::surf_invariance_test {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 GrayImageView View(const cv::Mat& m) {
   return GrayImageView{m.data, m.cols, m.rows, static_cast<std::ptrdiff_t>(m.step)};
@@ -332,4 +331,4 @@ TEST(SurfOptionsTest, UprightAndThreshold) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::surf_invariance_test

@@ -8,7 +8,7 @@
 #include "aerovo/core/cancel.h"
 #include "aerovo/core/error.h"
 
-namespace aerovo {
+namespace aerovo::surf_test {
 namespace {
 
 GrayImage MakeBlob(int w, int h, double cx, double cy, double sigma, double background = 60,
@@ -184,4 +184,4 @@ TEST(SurfErrors, BadImages) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::surf_test

@@ -13,7 +13,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
 
-namespace aerovo {
+namespace aerovo::camera_test {
 namespace {
 
 TEST(Camera, ResolvePriorityAndMessages) {
@@ -416,4 +416,4 @@ TEST(Camera, CalibrationWinsTheFocalChain) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::camera_test

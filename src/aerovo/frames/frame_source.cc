@@ -11,15 +11,12 @@
 #include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/timer.h"
 #include "aerovo/frames/image_file.h"
 #include "aerovo/telemetry/parse_util.h"
 
 namespace aerovo {
 namespace {
-
-double SteadySeconds() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
 
 bool IsImageExtension(const std::filesystem::path& p) {
   const std::string ext = io_detail::ToLower(p.extension().string());

@@ -18,7 +18,7 @@
 #include "aerovo/frames/image_test_util.h"
 #include "aerovo/telemetry/io_test_util.h"
 
-namespace aerovo {
+namespace aerovo::frame_source_test {
 namespace {
 
 using io_test::ExpectInputError;
@@ -703,4 +703,4 @@ TEST(ToGrayImage, ChannelsAndDepth) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::frame_source_test

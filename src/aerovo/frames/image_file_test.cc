@@ -11,7 +11,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/telemetry/io_test_util.h"
 
-namespace aerovo {
+namespace aerovo::image_file_test {
 namespace {
 
 using io_test::TempDir;
@@ -133,4 +133,4 @@ TEST(ImageFile, CheckFindsEmptyForeignAndCutFiles) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::image_file_test

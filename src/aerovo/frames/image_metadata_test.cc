@@ -17,7 +17,7 @@
 #include "aerovo/frames/image_test_util.h"
 #include "aerovo/telemetry/io_test_util.h"
 
-namespace aerovo {
+namespace aerovo::image_metadata_test {
 namespace {
 
 using io_test::ExpectInputError;
@@ -383,4 +383,4 @@ TEST(ImageMetadata, TelemetryFromImagesOrderAndMissingGps) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::image_metadata_test

@@ -14,7 +14,7 @@
 
 #include "aerovo/core/error.h"
 
-namespace aerovo {
+namespace aerovo::prefetch_source_test {
 namespace {
 
 // Frames 0..count-1 of 32x24 px whose pixels encode the index; optionally slow, throwing at
@@ -328,4 +328,4 @@ TEST(PrefetchSource, RejectsANullSourceAndAZeroCapacity) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::prefetch_source_test

@@ -24,7 +24,7 @@
 #include "aerovo/frames/image_test_util.h"
 #include "aerovo/telemetry/io_test_util.h"
 
-namespace aerovo {
+namespace aerovo::video_decoder_test {
 namespace {
 
 using io_test::HaveFfmpeg;
@@ -474,4 +474,4 @@ TEST(VideoDecoder, OpenErrorsNameTheFileAndThreadsAreValidated) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::video_decoder_test

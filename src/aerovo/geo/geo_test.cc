@@ -2,14 +2,14 @@
 
 #include <gtest/gtest.h>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/geo/geodesic.h"
 #include "aerovo/geo/local_enu.h"
 
-namespace aerovo {
+namespace aerovo::geo_test {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 // WGS84 defining constants (NIMA TR8350.2): semi-major axis and flattening.
 constexpr double kA = 6378137.0;
@@ -223,4 +223,4 @@ TEST(Geo, InvalidInputThrows) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::geo_test

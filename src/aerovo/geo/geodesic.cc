@@ -6,12 +6,11 @@
 #include <GeographicLib/Geodesic.hpp>
 #include <GeographicLib/Math.hpp>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 
 namespace aerovo {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // GeographicLib returns azimuths in [-180, 180]; compass bearings are conventionally [0, 360).
 double ToCompass(double azimuth_deg) {

@@ -12,6 +12,7 @@
 #include <gdal_priv.h>
 
 #include "aerovo/core/error.h"
+#include "aerovo/map/gdal_error.h"
 #include "aerovo/map/map_pixels.h"
 #include "aerovo/report/geo_mosaic.h"
 #include "aerovo/report/mosaic.h"
@@ -52,10 +53,7 @@ struct ScratchDir {
   }
 };
 
-std::string LastGdalError(const std::string& fallback) {
-  const char* m = CPLGetLastErrorMsg();
-  return m != nullptr && *m != '\0' ? std::string(m) : fallback;
-}
+using internal::LastGdalError;
 
 // `tif` (the mosaic's GeoTIFF, which WriteGeoMosaic wrote: GDAL is registered) copied to `out`
 // as a COG, through a temporary file.

@@ -15,7 +15,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
 
-namespace aerovo::map {
+namespace aerovo::map::map_build_test {
 namespace {
 
 TEST(MapBuildTiltWarning, PerFrameAttitudeIsWarnedAboutWithItsLever) {
@@ -76,4 +76,4 @@ TEST(MapBuildOutput, OnlyATiffNameAndOnlyAnEarlierMapIsReplaced) {
 }
 
 }  // namespace
-}  // namespace aerovo::map
+}  // namespace aerovo::map::map_build_test

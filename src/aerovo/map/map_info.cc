@@ -13,8 +13,15 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/geo/geodesic.h"
+#include "aerovo/map/gdal_error.h"
 
 namespace aerovo::map {
+
+std::string internal::LastGdalError(const std::string& fallback) {
+  const char* m = CPLGetLastErrorMsg();
+  return m != nullptr && *m != '\0' ? std::string(m) : fallback;
+}
+
 namespace {
 
 struct DatasetCloser {
@@ -30,11 +37,7 @@ void RegisterGdal() {
   std::call_once(once, [] { GDALAllRegister(); });
 }
 
-// GDAL's last error message, or `fallback` when it has none.
-std::string LastGdalError(const std::string& fallback) {
-  const char* m = CPLGetLastErrorMsg();
-  return m != nullptr && *m != '\0' ? std::string(m) : fallback;
-}
+using internal::LastGdalError;
 
 // `path` opened read-only as a raster; InputError naming the file when it does not exist or
 // GDAL cannot open it (with GDAL's message).

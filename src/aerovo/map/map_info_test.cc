@@ -18,7 +18,7 @@
 #include "aerovo/core/testing.h"
 #include "aerovo/map/map_info.h"
 
-namespace aerovo::map {
+namespace aerovo::map::map_info_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -197,4 +197,4 @@ TEST(MapInfo, BadMapsAreErrorsNamingTheFile) {
 }
 
 }  // namespace
-}  // namespace aerovo::map
+}  // namespace aerovo::map::map_info_test

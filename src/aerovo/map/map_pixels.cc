@@ -9,6 +9,7 @@
 #include <gdal_priv.h>
 
 #include "aerovo/core/error.h"
+#include "aerovo/map/gdal_error.h"
 
 namespace aerovo::map {
 namespace {
@@ -16,11 +17,10 @@ namespace {
 constexpr float kLuma[3] = {0.299f, 0.587f, 0.114f};  // ITU-R BT.601, as OpenCV's grey
 
 [[noreturn]] void Unreadable(const std::filesystem::path& path) {
-  const char* m = CPLGetLastErrorMsg();
-  throw InputError(
-      fmt::format("'{}': the map's pixels cannot be read ({}): a damaged or "
-                  "truncated file, or a VRT whose source is missing",
-                  path.string(), m != nullptr && *m != '\0' ? m : "no reason given"));
+  throw InputError(fmt::format(
+      "'{}': the map's pixels cannot be read ({}): a damaged or truncated file, or a VRT whose "
+      "source is missing",
+      path.string(), internal::LastGdalError("no reason given")));
 }
 
 // `band` at overview `level` (-1: itself); null when it has no such overview.

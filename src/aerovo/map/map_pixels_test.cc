@@ -21,7 +21,7 @@
 #include "aerovo/map/map_pixels.h"
 #include "aerovo/map/reference_map.h"
 
-namespace aerovo::map {
+namespace aerovo::map::map_pixels_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -285,4 +285,4 @@ TEST(MapPixels, UnreadableOrEmptyMapsAreErrorsNamingThem) {
 }
 
 }  // namespace
-}  // namespace aerovo::map
+}  // namespace aerovo::map::map_pixels_test

@@ -18,7 +18,7 @@
 #include "aerovo/geo/local_enu.h"
 #include "aerovo/map/reference_map.h"
 
-namespace aerovo::map {
+namespace aerovo::map::reference_map_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -196,4 +196,4 @@ TEST(ReferenceMaps, CoverOfTheFlightIsAnErrorOrAWarningNamingTheMaps) {
 }
 
 }  // namespace
-}  // namespace aerovo::map
+}  // namespace aerovo::map::reference_map_test

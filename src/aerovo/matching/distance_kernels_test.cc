@@ -18,7 +18,7 @@
 
 #include "aerovo/core/simd.h"
 
-namespace aerovo::matching_detail {
+namespace aerovo::matching_detail::distance_kernels_test {
 namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
@@ -237,4 +237,4 @@ TEST(DistanceKernelsTest, SelectKernelsFollowsTheSimdMode) {
 }
 
 }  // namespace
-}  // namespace aerovo::matching_detail
+}  // namespace aerovo::matching_detail::distance_kernels_test

@@ -10,6 +10,7 @@
 #include <limits>
 #include <string>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/matching/distance_kernels.h"
@@ -54,7 +55,6 @@ constexpr int kGuidedPrefetchRows = 8;
 // Guided search: expected candidates per query (same Laplacian group, in the disc) from which
 // queries are visited in spatial order (see SearchGuided).
 constexpr double kGuidedSortMinCandidates = 4.0;
-constexpr double kPi = 3.14159265358979323846;
 // Upper bound on guided-grid cells per Laplacian group (memory bound for tiny radii).
 constexpr std::int64_t kMaxGridCells = 1 << 18;
 // k-d forest search: queries from which a parallel region pays (BENCHMARKS.md, "Matcher

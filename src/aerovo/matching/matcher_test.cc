@@ -22,7 +22,7 @@
 #include "aerovo/core/testing.h"
 #include "aerovo/features/surf.h"
 
-namespace aerovo {
+namespace aerovo::matcher_test {
 namespace {
 
 using Affine = Eigen::Matrix<double, 2, 3>;
@@ -1073,4 +1073,4 @@ TEST(MatcherKdForestTest, RecallOnRealSurfPair) {
 #endif  // AEROVO_TESTS_HAVE_OPENCV
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::matcher_test

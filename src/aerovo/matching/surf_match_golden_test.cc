@@ -35,7 +35,7 @@
 #include "aerovo/features/surf.h"
 #include "aerovo/matching/matcher.h"
 
-namespace aerovo {
+namespace aerovo::surf_match_golden_test {
 namespace {
 
 constexpr int kWidth = 320, kHeight = 240;
@@ -303,4 +303,4 @@ TEST(SurfMatchGolden, SameKeypointsAndMatchesAsX86) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::surf_match_golden_test

@@ -26,7 +26,7 @@
 
 #include "aerovo/mavlink/vision.h"
 
-namespace aerovo::mavlink {
+namespace aerovo::mavlink::autopilot_reset_test {
 namespace {
 
 constexpr int kJumpFrame = 20, kFrames = 45;
@@ -211,4 +211,4 @@ TEST(AutopilotReset, Px4TakesAFlaggedJumpAtOnceAndAnUnflaggedOneASecondLater) {
 }
 
 }  // namespace
-}  // namespace aerovo::mavlink
+}  // namespace aerovo::mavlink::autopilot_reset_test

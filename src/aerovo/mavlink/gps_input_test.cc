@@ -8,7 +8,7 @@
 #include <cmath>
 #include <limits>
 
-namespace aerovo::mavlink {
+namespace aerovo::mavlink::gps_input_test {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -142,4 +142,4 @@ TEST(GpsInput, UnknownOrBrokenFieldsAreIgnoredNeverSentAsNaN) {
 }
 
 }  // namespace
-}  // namespace aerovo::mavlink
+}  // namespace aerovo::mavlink::gps_input_test

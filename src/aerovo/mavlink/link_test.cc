@@ -18,7 +18,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/mavlink/transport.h"
 
-namespace aerovo::mavlink {
+namespace aerovo::mavlink::link_test {
 namespace {
 
 // A UDP socket of the test on 127.0.0.1 (port 0: any free port).
@@ -313,4 +313,4 @@ TEST(MavlinkLink, SigningTimestampIsKeptInItsFile) {
 }
 
 }  // namespace
-}  // namespace aerovo::mavlink
+}  // namespace aerovo::mavlink::link_test

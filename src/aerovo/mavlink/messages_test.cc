@@ -14,7 +14,7 @@
 #include "aerovo/mavlink/protocol.h"
 #include "aerovo/mavlink/testing.h"
 
-namespace aerovo::mavlink {
+namespace aerovo::mavlink::messages_test {
 namespace {
 
 using testing::Bytes;
@@ -355,4 +355,4 @@ TEST(MavlinkParser, UnknownIdsAreRescannedAndSignedPacketsRead) {
 }
 
 }  // namespace
-}  // namespace aerovo::mavlink
+}  // namespace aerovo::mavlink::messages_test

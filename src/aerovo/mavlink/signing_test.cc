@@ -19,7 +19,7 @@
 #include "aerovo/mavlink/messages.h"
 #include "aerovo/mavlink/testing.h"
 
-namespace aerovo::mavlink {
+namespace aerovo::mavlink::signing_test {
 namespace {
 
 using testing::Bytes;
@@ -293,4 +293,4 @@ TEST_F(MavlinkKeyFile, BadFilesAreErrorsNamingTheFile) {
 }
 
 }  // namespace
-}  // namespace aerovo::mavlink
+}  // namespace aerovo::mavlink::signing_test

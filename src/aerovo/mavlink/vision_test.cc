@@ -9,7 +9,7 @@
 
 #include <Eigen/Core>
 
-namespace aerovo::mavlink {
+namespace aerovo::mavlink::vision_test {
 namespace {
 
 VisionPose Pose(double t, double x, double y, double heading, VisionPose::Status s, int inliers) {
@@ -130,9 +130,9 @@ TEST(MavlinkVision, AttitudeFromTheAutopilotInTheQuaternion) {
 }
 
 }  // namespace
-}  // namespace aerovo::mavlink
+}  // namespace aerovo::mavlink::vision_test
 
-namespace aerovo::mavlink {
+namespace aerovo::mavlink::vision_test {
 namespace {
 
 // A jump (VisionPose::reset): reset_counter + 1 at that frame only, the accumulated variances
@@ -220,4 +220,4 @@ TEST(MavlinkVision, TheJumpThresholdIsTheAutopilotsGate) {
 }
 
 }  // namespace
-}  // namespace aerovo::mavlink
+}  // namespace aerovo::mavlink::vision_test

@@ -4,11 +4,10 @@
 #include <cmath>
 
 #include <Eigen/Geometry>
+#include "aerovo/core/angles.h"
 
 namespace aerovo {
 namespace {
-
-constexpr double kDegToRad = M_PI / 180.0;
 
 // frd_from_camera: camera (x right, y down, z optical) to camera FRD (x image up, y image right,
 // z optical) coordinates.

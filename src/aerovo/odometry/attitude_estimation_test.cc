@@ -9,7 +9,7 @@
 
 #include "aerovo/core/error.h"
 
-namespace aerovo {
+namespace aerovo::attitude_estimation_test {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
@@ -169,4 +169,4 @@ TEST(AttitudeEstimation, BadOptionsAndPairsAreNamed) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::attitude_estimation_test

@@ -7,7 +7,7 @@
 
 #include <Eigen/Geometry>
 
-namespace aerovo {
+namespace aerovo::attitude_test {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
@@ -90,4 +90,4 @@ TEST(Attitude, RotationRoundTripAndTilt) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::attitude_test

@@ -14,7 +14,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/sim/random.h"
 
-namespace aerovo {
+namespace aerovo::flight_graph_test {
 namespace {
 
 using backend::Similarity2;
@@ -827,4 +827,4 @@ TEST(FlightGraph, BadOptionsAndFramesAreClearErrors) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::flight_graph_test

@@ -4,16 +4,11 @@
 #include <cmath>
 #include <limits>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/geo/geodesic.h"
 
 namespace aerovo {
-namespace {
-Eigen::Matrix2d Rotation(double angle_rad) {
-  const double c = std::cos(angle_rad), s = std::sin(angle_rad);
-  return (Eigen::Matrix2d() << c, -s, s, c).finished();
-}
-}  // namespace
 
 const char* ToString(HeadingSource source) {
   switch (source) {
@@ -126,7 +121,7 @@ void GeoReferencer::SeedFromFix(const Eigen::Vector2d& local_m, double local_hea
     altitude_known_ = false;
   }
   rotation_rad_ = std::remainder(enu_heading_rad - local_heading_rad, 2.0 * M_PI);
-  translation_m_ = enu_->Forward(at).head<2>() - Rotation(rotation_rad_) * local_m;
+  translation_m_ = enu_->Forward(at).head<2>() - RotationMatrix2d(rotation_rad_) * local_m;
   source_used_ = "map";
   ready_ = true;
   pairs_.clear();
@@ -137,7 +132,7 @@ void GeoReferencer::FixFromYaw() {
   // Local +y (first image up) points along the compass bearing yaw0, whose ENU angle is
   // 90 deg - yaw0; +y itself is at 90 deg, hence a rotation of -yaw0.
   rotation_rad_ = EnuAngleRadFromBearingDeg(*first_yaw_deg_) - M_PI / 2.0;
-  const Eigen::Matrix2d r = Rotation(rotation_rad_);
+  const Eigen::Matrix2d r = RotationMatrix2d(rotation_rad_);
   std::vector<double> tx, ty;
   for (const auto& [local, enu] : pairs_) {
     const Eigen::Vector2d t = enu - r * local;
@@ -188,14 +183,14 @@ void GeoReferencer::FixFromSegment() {
   rotation_rad_ = std::atan2(cross, dot);
   // Translation through the centroids: every fix of the segment votes, not only the first.
   Eigen::Vector2d local_mean = local0_ + sum_local_ / n, enu_mean = enu0_ + sum_enu_ / n;
-  translation_m_ = enu_mean - Rotation(rotation_rad_) * local_mean;
+  translation_m_ = enu_mean - RotationMatrix2d(rotation_rad_) * local_mean;
   if (options_.outlier_m > 0.0 && pairs_.size() >= 3) {
     // Robust pass: residuals of the fit; the fixes beyond max(outlier_m, 5 sigma) are dropped
     // and the same closed form is solved again over the others.
     std::vector<double> res;
     res.reserve(pairs_.size());
     for (const auto& [local, enu] : pairs_) {
-      res.push_back((enu - (Rotation(rotation_rad_) * local + translation_m_)).norm());
+      res.push_back((enu - (RotationMatrix2d(rotation_rad_) * local + translation_m_)).norm());
     }
     std::vector<double> sorted = res;
     std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
@@ -222,7 +217,7 @@ void GeoReferencer::FixFromSegment() {
         rotation_rad_ = std::atan2(cross, dot);
         local_mean = local0_ + sl / n;
         enu_mean = enu0_ + se / n;
-        translation_m_ = enu_mean - Rotation(rotation_rad_) * local_mean;
+        translation_m_ = enu_mean - RotationMatrix2d(rotation_rad_) * local_mean;
       }
     }
   }
@@ -234,7 +229,7 @@ void GeoReferencer::FixFromSegment() {
 
 Eigen::Vector2d GeoReferencer::EnuFromLocal(const Eigen::Vector2d& local_m) const {
   if (!ready_) throw InvalidArgument("GeoReferencer::EnuFromLocal before the frame is known");
-  return Rotation(rotation_rad_) * local_m + translation_m_;
+  return RotationMatrix2d(rotation_rad_) * local_m + translation_m_;
 }
 
 GeoPoint GeoReferencer::Wgs84FromLocal(const Eigen::Vector2d& local_m) const {

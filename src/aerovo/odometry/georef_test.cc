@@ -7,7 +7,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/geo/geodesic.h"
 
-namespace aerovo {
+namespace aerovo::georef_test {
 namespace {
 
 Eigen::Vector2d Rot(double a, const Eigen::Vector2d& v) {
@@ -225,4 +225,4 @@ TEST(GeoReferencer, RestartStartsANewSegment) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::georef_test

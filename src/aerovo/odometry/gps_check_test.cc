@@ -8,7 +8,7 @@
 
 #include "aerovo/core/error.h"
 
-namespace aerovo {
+namespace aerovo::gps_check_test {
 namespace {
 
 // A flight at 10 m/s eastward, one fix per second (frame i at i s), with 1.5 m of deterministic
@@ -156,4 +156,4 @@ TEST(GpsFixChecker, BadOptionsAreRejected) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::gps_check_test

@@ -9,6 +9,7 @@
 
 #include <Eigen/Dense>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/estimation/models.h"
@@ -116,8 +117,6 @@ double MapLadderResolution(double m_per_px) {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 double WrapPi(double a) { return std::remainder(a, 2.0 * kPi); }
 
 // The frame's width on the ground, m: its pixels times its ground sampling distance.
@@ -203,12 +202,6 @@ struct Warp {
   }
 };
 
-Eigen::Matrix2d Rotation(double a) {
-  Eigen::Matrix2d r;
-  r << std::cos(a), -std::sin(a), std::sin(a), std::cos(a);
-  return r;
-}
-
 // Samples `frame` through `warp` into `out` (box-averaged over k x k samples per pixel when the
 // frame is reduced, k = ceil(1 / scale) up to 4) and marks `valid` where every sample is inside.
 void WarpFrame(const GrayImageView& frame, const Warp& warp, int width, int height, GrayImage& out,
@@ -253,7 +246,7 @@ void WarpFrame(const GrayImageView& frame, const Warp& warp, int width, int heig
 Warp MakeWarp(const MapMatchFrame& frame, double m_per_px, int* width, int* height) {
   Warp warp;
   const double scale = frame.height_m / frame.focal_px / m_per_px;
-  warp.warped_from_frame = scale * Rotation(-frame.heading_rad.value_or(0.0));
+  warp.warped_from_frame = scale * RotationMatrix2d(-frame.heading_rad.value_or(0.0));
   warp.frame_centre =
       Eigen::Vector2d((frame.pixels.width - 1) / 2.0, (frame.pixels.height - 1) / 2.0);
   Eigen::Vector2d extent = Eigen::Vector2d::Zero();

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
 
@@ -16,10 +17,9 @@
 #include <opencv2/imgproc.hpp>
 #endif
 
-namespace aerovo {
+namespace aerovo::map_match_test {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 
 TEST(MapMatch, OptionsAndInputsAreChecked) {
@@ -496,4 +496,4 @@ TEST_F(MapMatchCallas, SameSeedSameFix) {
 #endif
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::map_match_test

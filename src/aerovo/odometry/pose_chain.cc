@@ -7,17 +7,13 @@
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 
 namespace aerovo {
 namespace {
 
 const Eigen::Matrix2d kFlipY = (Eigen::Matrix2d() << 1.0, 0.0, 0.0, -1.0).finished();
-
-Eigen::Matrix2d Rotation(double angle_rad) {
-  const double c = std::cos(angle_rad), s = std::sin(angle_rad);
-  return (Eigen::Matrix2d() << c, -s, s, c).finished();
-}
 
 Eigen::Vector2d Apply(const Eigen::Matrix3d& m, const Eigen::Vector2d& p) {
   const Eigen::Vector3d q = m * p.homogeneous();
@@ -108,12 +104,12 @@ void PoseChain::Step(const Eigen::Matrix3d& curr_from_prev, double gsd_prev_m_pe
     const Eigen::Vector2d centre_in_prev = Apply(prev_from_curr, centre_px_);
     position_m_ += gsd_prev_m_per_px * (local_from_pixel_dir_ * (centre_in_prev - centre_px_));
     if (heading_override_rad != nullptr) {
-      local_from_pixel_dir_ = Rotation(*heading_override_rad) * kFlipY;
+      local_from_pixel_dir_ = RotationMatrix2d(*heading_override_rad) * kFlipY;
     } else {
       // Only the rotation of the step is chained; its scale (tilt, height change, parallax)
       // is discarded and replaced by the known ground sampling distance.
       local_from_pixel_dir_ =
-          local_from_pixel_dir_ * Rotation(AngleOf(JacobianAt(prev_from_curr, centre_px_)));
+          local_from_pixel_dir_ * RotationMatrix2d(AngleOf(JacobianAt(prev_from_curr, centre_px_)));
     }
     gsd_curr_ = gsd_curr_m_per_px;
     world_from_frame_.setIdentity();

@@ -9,7 +9,7 @@
 
 #include "aerovo/core/error.h"
 
-namespace aerovo {
+namespace aerovo::pose_chain_test {
 namespace {
 
 constexpr int kW = 800, kH = 600;
@@ -145,4 +145,4 @@ TEST(PoseChain, RotationAngleAndScaleOfTransform) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::pose_chain_test

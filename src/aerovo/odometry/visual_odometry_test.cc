@@ -14,7 +14,7 @@
 
 #include "aerovo/core/error.h"
 
-namespace aerovo {
+namespace aerovo::visual_odometry_test {
 namespace {
 
 // Ground truth of the synthetic flights: ground sampling distance 0.1 m/px (height 50 m,
@@ -367,4 +367,4 @@ TEST(VisualOdometry, RejectsBadInputAndOptions) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::visual_odometry_test

@@ -19,7 +19,7 @@
 #include "aerovo/core/testing.h"
 #include "aerovo/outputs/track_writers.h"
 
-namespace aerovo {
+namespace aerovo::output_file_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -206,4 +206,4 @@ TEST(OutputFile, FileSizeLimitOfTheKernelLeavesValidFiles) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::output_file_test

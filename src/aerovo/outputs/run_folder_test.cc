@@ -13,17 +13,17 @@
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
 
-namespace aerovo {
+namespace aerovo::run_folder_test {
 namespace {
 
 namespace fs = std::filesystem;
 
-fs::path TempDir(const std::string& name) {
+fs::path UnusedDir(const std::string& name) {
   return ::aerovo::testing::UnusedTempPath("aerovo_run_folder", name);
 }
 
 TEST(RunFolderLock, ASecondProcessIsRefusedWithTheHoldersPid) {
-  const fs::path dir = TempDir("lock");
+  const fs::path dir = UnusedDir("lock");
   int ready[2], done[2];
   ASSERT_EQ(::pipe(ready), 0);
   ASSERT_EQ(::pipe(done), 0);
@@ -64,7 +64,7 @@ TEST(RunFolderLock, ASecondProcessIsRefusedWithTheHoldersPid) {
 }
 
 TEST(RunFolderLock, NestedLocksInOneProcessShareTheLock) {
-  const fs::path dir = TempDir("nested");
+  const fs::path dir = UnusedDir("nested");
   const RunFolderLock outer(dir);
   { const RunFolderLock inner(dir / "."); }
   const RunFolderLock again(dir);
@@ -73,7 +73,7 @@ TEST(RunFolderLock, NestedLocksInOneProcessShareTheLock) {
 }
 
 TEST(ClaimOutputFolder, RefusesAUsedFolderAndForceRemovesOnlyAerovosFiles) {
-  const fs::path dir = TempDir("claim");
+  const fs::path dir = UnusedDir("claim");
   const std::vector<std::string> own = {"frames.csv", "summary.json", "figures"};
   // Absent, then empty but for the lock: fine.
   EXPECT_TRUE(ClaimOutputFolder(dir, false, own, "aerovo run").removed.empty());
@@ -108,4 +108,4 @@ TEST(ClaimOutputFolder, RefusesAUsedFolderAndForceRemovesOnlyAerovosFiles) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::run_folder_test

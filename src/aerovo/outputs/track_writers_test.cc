@@ -20,7 +20,7 @@
 #include "aerovo/geo/local_enu.h"
 #include "aerovo/outputs/track_writers.h"
 
-namespace aerovo {
+namespace aerovo::track_writers_test {
 namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -892,4 +892,4 @@ TEST(FormatUtcIso8601, KnownInstants) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::track_writers_test

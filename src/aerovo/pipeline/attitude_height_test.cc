@@ -16,7 +16,7 @@
 #include "aerovo/pipeline/run_steps.h"
 #include "aerovo/telemetry/io_test_util.h"
 
-namespace aerovo::run_steps {
+namespace aerovo::run_steps::attitude_height_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -195,4 +195,4 @@ TEST(CameraAttitude, TheFlightsOwnEstimateOnlyWhereNothingElseGivesOne) {
 }
 
 }  // namespace
-}  // namespace aerovo::run_steps
+}  // namespace aerovo::run_steps::attitude_height_test

@@ -14,7 +14,7 @@
 
 #include "aerovo/core/error.h"
 
-namespace aerovo {
+namespace aerovo::demo_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -78,4 +78,4 @@ TEST(Demo, BadOptionsAreClearErrors) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::demo_test

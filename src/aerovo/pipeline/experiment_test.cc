@@ -19,7 +19,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
 
-namespace aerovo {
+namespace aerovo::experiment_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -377,4 +377,4 @@ TEST_F(ExperimentOnSimulatedFlight, RansacGivesBothRunsAndASpeedUp) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::experiment_test

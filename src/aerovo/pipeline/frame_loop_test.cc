@@ -25,7 +25,7 @@
 #include "aerovo/pipeline/frame_state.h"
 #include "aerovo/pipeline/runner.h"
 
-namespace aerovo::run_steps {
+namespace aerovo::run_steps::frame_loop_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -493,4 +493,4 @@ TEST(FrameLoop, StagesAndSinksAreListedInTheirOrder) {
 }
 
 }  // namespace
-}  // namespace aerovo::run_steps
+}  // namespace aerovo::run_steps::frame_loop_test

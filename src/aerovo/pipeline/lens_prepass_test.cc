@@ -16,7 +16,7 @@
 #include "aerovo/frames/image_test_util.h"
 #include "aerovo/telemetry/io_test_util.h"
 
-namespace aerovo::run_steps {
+namespace aerovo::run_steps::lens_prepass_test {
 namespace {
 
 TEST(LensPrepass, PairStartsAreSpreadOverTheFlight) {
@@ -219,4 +219,4 @@ TEST(LensPrepass, VideoPairsSeekedAreThePairsReadForward) {
 }
 
 }  // namespace
-}  // namespace aerovo::run_steps
+}  // namespace aerovo::run_steps::lens_prepass_test

@@ -16,7 +16,7 @@
 #include "aerovo/pipeline/map_fixer.h"
 #include "aerovo/pipeline/map_fixer_test_util.h"
 
-namespace aerovo::run_steps {
+namespace aerovo::run_steps::map_fixer_formats_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -110,4 +110,4 @@ TEST(MapFixerFormats, MbtilesInWebMercatorGivesFixesOnTheTruth) {
 }
 
 }  // namespace
-}  // namespace aerovo::run_steps
+}  // namespace aerovo::run_steps::map_fixer_formats_test

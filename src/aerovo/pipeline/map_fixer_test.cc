@@ -24,7 +24,7 @@
 #include "aerovo/map/reference_map.h"
 #include "aerovo/pipeline/map_fixer_test_util.h"
 
-namespace aerovo::run_steps {
+namespace aerovo::run_steps::map_fixer_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -34,7 +34,7 @@ using map_testing::kLon0;
 using map_testing::kMpp;
 using map_testing::TexturedMap;
 
-const TexturedMap& Map() {
+const TexturedMap& FixerMap() {
   static const TexturedMap m(5, "aerovo_map_fixer");
   return m;
 }
@@ -48,21 +48,21 @@ int StatusCount(const RunSummary::MapFixes& m, std::string_view status) {
 }
 
 TEST(MapFixer, FileSourceAttemptsEveryFrameAndFixesLandOnTheTruth) {
-  const map::ReferenceMaps maps({Map().path});
+  const map::ReferenceMaps maps({FixerMap().path});
   MapMatchOptions o;
   o.every_n_frames = 2;
   o.search_radius_m = 30.0;
   MapFixer fixer(maps, o, /*live=*/false);
   EXPECT_TRUE(fixer.Due(0));
   EXPECT_FALSE(fixer.Due(1));
-  fixer.Submit(Map().Job(0, 300, 300, 12.0));
-  fixer.Submit(Map().Job(2, 420, 380, -8.0));
-  fixer.Submit(Map().Job(4, 500, 450, 5.0));
-  fixer.Submit(Map().Job(6, 300, 300, 0.0));
-  fixer.Submit(Map().Job(8, 300, 300, 5000.0));  // off the map
+  fixer.Submit(FixerMap().Job(0, 300, 300, 12.0));
+  fixer.Submit(FixerMap().Job(2, 420, 380, -8.0));
+  fixer.Submit(FixerMap().Job(4, 500, 450, 5.0));
+  fixer.Submit(FixerMap().Job(6, 300, 300, 0.0));
+  fixer.Submit(FixerMap().Job(8, 300, 300, 5000.0));  // off the map
   fixer.CountNoPrediction();
   RunSummary summary;
-  const fs::path dir = Map().path.parent_path();
+  const fs::path dir = FixerMap().path.parent_path();
   fixer.Finish(dir, &summary);
   fixer.Finish(dir, &summary);  // idempotent
   ASSERT_TRUE(summary.map_fixes.has_value());
@@ -86,18 +86,18 @@ TEST(MapFixer, FileSourceAttemptsEveryFrameAndFixesLandOnTheTruth) {
 // fix, 4 s after the first attempt); then, the track trusted, the same error again is found by the
 // next search but rejected by its gate (30 m + 10 % of the 150 m the predictions moved since).
 TEST(MapFixer, WideSearchAfterFailuresFindsAFarPredictionThenGatesOne) {
-  const map::ReferenceMaps maps({Map().path});
+  const map::ReferenceMaps maps({FixerMap().path});
   MapMatchOptions o;
   o.search_radius_m = 30.0;
   o.search_at_start = false;
   o.search_after_failures = 2;
   o.search_wide_radius_m = 200.0;
   MapFixer fixer(maps, o, /*live=*/false);
-  for (int i = 0; i < 3; ++i) fixer.Submit(Map().Job(2 * i, 300, 300, 150.0));
-  fixer.Submit(Map().Job(6, 300, 320, 0.0));  // local fix: the track trusted
-  for (int i = 0; i < 3; ++i) fixer.Submit(Map().Job(8 + 2 * i, 300, 340, 150.0));
+  for (int i = 0; i < 3; ++i) fixer.Submit(FixerMap().Job(2 * i, 300, 300, 150.0));
+  fixer.Submit(FixerMap().Job(6, 300, 320, 0.0));  // local fix: the track trusted
+  for (int i = 0; i < 3; ++i) fixer.Submit(FixerMap().Job(8 + 2 * i, 300, 340, 150.0));
   RunSummary summary;
-  const fs::path dir = Map().path.parent_path();
+  const fs::path dir = FixerMap().path.parent_path();
   fixer.Finish(dir, &summary);
   ASSERT_TRUE(summary.map_fixes.has_value());
   const RunSummary::MapFixes& m = *summary.map_fixes;
@@ -147,15 +147,15 @@ MapFixJob Unanchored(MapFixJob job, double local_north_m) {
 // and TakeSeed hands it over once. A frame of another texture is searched, found nowhere, and
 // the next search_after_failures (2) unanchored jobs are counted as without a prediction.
 TEST(MapFixer, WithoutAPredictionTheWholeMapIsSearchedAndTheNextFixConfirmsIt) {
-  const map::ReferenceMaps maps({Map().path});
+  const map::ReferenceMaps maps({FixerMap().path});
   MapMatchOptions o;
   o.search_radius_m = 30.0;
   o.search_wide_radius_m = 100.0;
   o.search_after_failures = 2;
   MapFixer fixer(maps, o, /*live=*/false);
-  fixer.Submit(Unanchored(Map().Job(0, 300, 300, 0.0), 0.0));
+  fixer.Submit(Unanchored(FixerMap().Job(0, 300, 300, 0.0), 0.0));
   EXPECT_FALSE(fixer.TakeSeed(true).has_value());  // a candidate only
-  fixer.Submit(Unanchored(Map().Job(2, 300, 340, 0.0), -20.0));
+  fixer.Submit(Unanchored(FixerMap().Job(2, 300, 340, 0.0), -20.0));
   const std::optional<MapFixRecord> seed = fixer.TakeSeed(true);
   ASSERT_TRUE(seed.has_value());
   EXPECT_EQ(seed->frame, 2);
@@ -165,7 +165,7 @@ TEST(MapFixer, WithoutAPredictionTheWholeMapIsSearchedAndTheNextFixConfirmsIt) {
   EXPECT_NEAR(seed->fix.heading_rad, 0.0, 0.01);
   EXPECT_FALSE(fixer.TakeSeed(true).has_value());  // once
   // Another texture: nowhere on the map.
-  MapFixJob other = Unanchored(Map().Job(4, 300, 300, 0.0), 0.0);
+  MapFixJob other = Unanchored(FixerMap().Job(4, 300, 300, 0.0), 0.0);
   cv::Mat noise(180, 240, CV_8U);
   cv::theRNG().state = 11;
   cv::randu(noise, 0, 256);
@@ -181,7 +181,7 @@ TEST(MapFixer, WithoutAPredictionTheWholeMapIsSearchedAndTheNextFixConfirmsIt) {
     lost.Submit(other);
   }
   RunSummary summary, lost_summary;
-  const fs::path dir = Map().path.parent_path();
+  const fs::path dir = FixerMap().path.parent_path();
   fixer.Finish(dir, &summary);
   ASSERT_TRUE(summary.map_fixes.has_value());
   const RunSummary::MapFixes& m = *summary.map_fixes;
@@ -209,20 +209,20 @@ TEST(MapFixer, WithoutAPredictionTheWholeMapIsSearchedAndTheNextFixConfirmsIt) {
 // No seed within map_fix.seed_wait_s (MapFixer::GiveUpSeed): a confirmation that comes after
 // it is not handed over, and the note says when the run went local and what came too late.
 TEST(MapFixer, AfterGivingUpTheSeedAConfirmationIsNotTaken) {
-  const map::ReferenceMaps maps({Map().path});
+  const map::ReferenceMaps maps({FixerMap().path});
   MapMatchOptions o;
   o.search_radius_m = 30.0;
   o.search_wide_radius_m = 100.0;
   o.seed_wait_s = 0.5;
   MapFixer fixer(maps, o, /*live=*/false);
-  fixer.Submit(Unanchored(Map().Job(0, 300, 300, 0.0), 0.0));
+  fixer.Submit(Unanchored(FixerMap().Job(0, 300, 300, 0.0), 0.0));
   EXPECT_FALSE(fixer.TakeSeed(true).has_value());  // a candidate only
-  fixer.Submit(Unanchored(Map().Job(2, 300, 340, 0.0), -20.0));  // it confirms it...
+  fixer.Submit(Unanchored(FixerMap().Job(2, 300, 340, 0.0), -20.0));  // it confirms it...
   fixer.GiveUpSeed(1, 0.5);
   EXPECT_TRUE(fixer.gave_up_seed());
   EXPECT_FALSE(fixer.TakeSeed(true).has_value());  // ...too late
   RunSummary summary;
-  fixer.Finish(Map().path.parent_path(), &summary);
+  fixer.Finish(FixerMap().path.parent_path(), &summary);
   const RunSummary::MapFixes& m = *summary.map_fixes;
   EXPECT_FALSE(m.georef_seed.has_value());
   EXPECT_EQ(m.candidates, 1);
@@ -236,7 +236,7 @@ TEST(MapFixer, AfterGivingUpTheSeedAConfirmationIsNotTaken) {
 // of the frame: one tile, the frame found; 250 m away (the frame far outside the window of the
 // square of 60 m around it): not found, and the note says where it searched.
 TEST(MapFixer, AStartPositionGivenBoundsTheSearchWithoutAPrediction) {
-  const map::ReferenceMaps maps({Map().path});
+  const map::ReferenceMaps maps({FixerMap().path});
   const LocalEnu enu(kLat0, kLon0, 0.0);
   const auto search_from = [&](double east_m, RunSummary* summary) {
     MapMatchOptions o;
@@ -246,11 +246,11 @@ TEST(MapFixer, AStartPositionGivenBoundsTheSearchWithoutAPrediction) {
     o.start_lat_deg = start.lat_deg;
     o.start_lon_deg = start.lon_deg;
     MapFixer fixer(maps, o, /*live=*/false);
-    MapFixJob job = Map().Job(0, 300, 300, 0.0);
+    MapFixJob job = FixerMap().Job(0, 300, 300, 0.0);
     job.anchored = false;
     job.heading_rad.reset();
     fixer.Submit(std::move(job));
-    fixer.Finish(Map().path.parent_path(), summary);
+    fixer.Finish(FixerMap().path.parent_path(), summary);
   };
   RunSummary near, far;
   search_from(20.0, &near);
@@ -263,13 +263,13 @@ TEST(MapFixer, AStartPositionGivenBoundsTheSearchWithoutAPrediction) {
 }
 
 TEST(MapFixer, LiveSourceSkipsFramesDueWhileBusy) {
-  const map::ReferenceMaps maps({Map().path});
+  const map::ReferenceMaps maps({FixerMap().path});
   MapFixer fixer(maps, MapMatchOptions{}, /*live=*/true);
   // Submitted back to back: the first is pending or being matched (tens of ms) while the others
   // arrive, microseconds later.
-  for (int i = 0; i < 4; ++i) fixer.Submit(Map().Job(i, 400, 400, 3.0));
+  for (int i = 0; i < 4; ++i) fixer.Submit(FixerMap().Job(i, 400, 400, 3.0));
   RunSummary summary;
-  fixer.Finish(Map().path.parent_path(), &summary);
+  fixer.Finish(FixerMap().path.parent_path(), &summary);
   ASSERT_TRUE(summary.map_fixes.has_value());
   EXPECT_EQ(summary.map_fixes->attempted, 1);
   EXPECT_EQ(summary.map_fixes->skipped_busy, 3);
@@ -284,16 +284,16 @@ TEST(MapFixer, LiveSourceSkipsFramesDueWhileBusy) {
 // the 0.18 its height says): the warning then says the map may be too coarse, the frame being
 // under twice the minimum (128 px) across.
 TEST(MapFixer, AMapTooCoarseForTheFramesIsSaidAndNotMatched) {
-  const map::ReferenceMaps maps({Map().path});
+  const map::ReferenceMaps maps({FixerMap().path});
   MapMatchOptions o;
   o.search_at_start = false;
   o.search_radius_m = 30.0;
-  const fs::path dir = Map().path.parent_path();
-  MapFixJob narrow = Map().Job(1, 420, 380, 5.0);
+  const fs::path dir = FixerMap().path.parent_path();
+  MapFixJob narrow = FixerMap().Job(1, 420, 380, 5.0);
   narrow.height_m = 18.0;
   {
     MapFixer fixer(maps, o, /*live=*/false);
-    fixer.Submit(Map().Job(0, 300, 300, 5.0));
+    fixer.Submit(FixerMap().Job(0, 300, 300, 5.0));
     fixer.Submit(narrow);
     RunSummary summary;
     fixer.Finish(dir, &summary);
@@ -332,4 +332,4 @@ TEST(MapFixer, AMapTooCoarseForTheFramesIsSaidAndNotMatched) {
 }
 
 }  // namespace
-}  // namespace aerovo::run_steps
+}  // namespace aerovo::run_steps::map_fixer_test

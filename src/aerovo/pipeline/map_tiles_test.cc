@@ -22,7 +22,7 @@
 #include "aerovo/pipeline/map_fixer_test_util.h"
 #include "aerovo/pipeline/map_fixer.h"
 
-namespace aerovo::run_steps {
+namespace aerovo::run_steps::map_tiles_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -32,7 +32,7 @@ using map_testing::kLon0;
 using map_testing::kMpp;
 using map_testing::TexturedMap;
 
-const TexturedMap& Map() {
+const TexturedMap& TilesMap() {
   static const TexturedMap m(7, "aerovo_map_tiles");
   return m;
 }
@@ -42,7 +42,7 @@ const TexturedMap& Map() {
 // pixels are resampled from the map at other sub-pixel offsets: positions agree to a fraction
 // of a pixel, not bit for bit), in the same number within 25 %.
 TEST(MapTileCache, WindowPointsAreTheWindowsOwnSurfPoints) {
-  const map::ReferenceMaps maps({Map().path});
+  const map::ReferenceMaps maps({TilesMap().path});
   MapTileCache cache(maps, MapTileCache::Options{256, 120, 16});
   const GeoPoint centre = TexturedMap::At(400, 380, 3.3);
   const int size = 300;
@@ -97,7 +97,7 @@ TEST(MapTileCache, WindowPointsAreTheWindowsOwnSurfPoints) {
 // within 5 cm (the truth within 0.3 m), and the cached run twice gives the same positions to
 // the last digit.
 TEST(MapTileCache, FixerGivesTheSameFixesWithTheCache) {
-  const map::ReferenceMaps maps({Map().path});
+  const map::ReferenceMaps maps({TilesMap().path});
   const auto run = [&](bool cache) {
     MapMatchOptions o;
     o.search_radius_m = 30.0;
@@ -108,11 +108,11 @@ TEST(MapTileCache, FixerGivesTheSameFixesWithTheCache) {
     const int places[5][3] = {{300, 300, 12}, {340, 310, -8}, {380, 330, 5}, {420, 360, 0},
                               {460, 400, 9}};
     for (int k = 0; k < 5; ++k) {
-      fixer.Submit(Map().Job(2 * k, places[k][0], places[k][1], places[k][2]));
+      fixer.Submit(TilesMap().Job(2 * k, places[k][0], places[k][1], places[k][2]));
       if (std::optional<MapFixRecord> r = fixer.TakeFix(true)) fixes.push_back(*r);
     }
     RunSummary summary;
-    fixer.Finish(Map().path.parent_path(), &summary);
+    fixer.Finish(TilesMap().path.parent_path(), &summary);
     EXPECT_EQ(summary.map_fixes->fixes, 5);
     EXPECT_LT(summary.map_fixes->max_m, 0.3);
     return fixes;
@@ -135,4 +135,4 @@ TEST(MapTileCache, FixerGivesTheSameFixesWithTheCache) {
 }
 
 }  // namespace
-}  // namespace aerovo::run_steps
+}  // namespace aerovo::run_steps::map_tiles_test

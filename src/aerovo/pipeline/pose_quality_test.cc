@@ -2,7 +2,7 @@
 
 #include <gtest/gtest.h>
 
-namespace aerovo {
+namespace aerovo::pose_quality_test {
 namespace {
 
 FrameResult Step(FrameStatus status, int inliers, int matched) {
@@ -38,4 +38,4 @@ TEST(PoseQuality, MeasuredStepsFromInliersAndTheirShare) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::pose_quality_test

@@ -13,7 +13,7 @@
 #include "aerovo/frames/camera.h"
 #include "aerovo/odometry/visual_odometry.h"
 
-namespace aerovo {
+namespace aerovo::preprocess_test {
 namespace {
 
 // The run's undistorter is frames' Undistorter with the run's camera: the same pixels.
@@ -257,4 +257,4 @@ TEST(Preprocess, DetectionReductionKeepsPositionsInMetres) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::preprocess_test

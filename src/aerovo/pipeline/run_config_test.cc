@@ -23,7 +23,7 @@
 #include "aerovo/pipeline/runner.h"
 #include "aerovo/pipeline/testing.h"
 
-namespace aerovo {
+namespace aerovo::run_config_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -272,9 +272,9 @@ TEST(RunConfigSchema, MavlinkOptions) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::run_config_test
 
-namespace aerovo {
+namespace aerovo::run_config_test {
 namespace {
 
 // YAML anchors (&a), aliases (*a) and merge keys (<<) are resolved, not read as unknown keys.
@@ -328,4 +328,4 @@ TEST(RunConfigYaml, AnchorsAliasesAndMergeKeys) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::run_config_test

@@ -31,7 +31,7 @@
 #include "aerovo/frames/camera.h"
 #include "aerovo/pipeline/autopilot_attitude.h"
 
-namespace aerovo::run_steps {
+namespace aerovo::run_steps::run_steps_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -872,4 +872,4 @@ TEST(RunSteps, CalibrationFileIsTheCamera) {
 }
 
 }  // namespace
-}  // namespace aerovo::run_steps
+}  // namespace aerovo::run_steps::run_steps_test

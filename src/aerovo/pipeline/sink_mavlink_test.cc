@@ -24,7 +24,7 @@
 #include "aerovo/mavlink/transport.h"
 #include "aerovo/pipeline/frame_loop.h"
 
-namespace aerovo::run_steps {
+namespace aerovo::run_steps::sink_mavlink_test {
 namespace {
 
 // A loopback UDP socket that aerovo's link (udp:127.0.0.1:PORT) sends to.
@@ -385,4 +385,4 @@ TEST(MavlinkSink, NoGpsInputUnlessAskedFor) {
 }
 
 }  // namespace
-}  // namespace aerovo::run_steps
+}  // namespace aerovo::run_steps::sink_mavlink_test

@@ -3,7 +3,7 @@
 
 #include <gtest/gtest.h>
 
-namespace aerovo {
+namespace aerovo::html_builder_test {
 namespace {
 
 TEST(HtmlBuilder, EscapesTextAndAttributeValues) {
@@ -46,4 +46,4 @@ TEST(HtmlBuilder, NonAsciiTextIsKept) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::html_builder_test

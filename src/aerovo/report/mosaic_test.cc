@@ -8,7 +8,7 @@
 
 #include <Eigen/Core>
 
-namespace aerovo {
+namespace aerovo::mosaic_test {
 namespace {
 
 RunData TiltedRun(bool applied) {
@@ -71,4 +71,4 @@ TEST(MosaicNadir, EachFrameThroughItsOwnRecordedAttitude) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::mosaic_test

@@ -15,7 +15,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
 
-namespace aerovo {
+namespace aerovo::plot_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -159,4 +159,4 @@ TEST(Plot, FailingGnuplotIsAnInputErrorWithItsMessage) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::plot_test

@@ -9,7 +9,7 @@
 
 #include "aerovo/report/plot.h"
 
-namespace aerovo {
+namespace aerovo::style_test {
 namespace {
 
 TEST(ReportStyle, HexSpellsTheColour) {
@@ -59,4 +59,4 @@ TEST(ReportStyle, UncolouredSeriesTakeThePalette) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::style_test

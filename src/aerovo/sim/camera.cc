@@ -6,13 +6,12 @@
 #include <fmt/format.h>
 #include <Eigen/Geometry>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 
 namespace aerovo::sim {
 
-namespace {
-constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
-}
+namespace {}
 
 void Validate(const CameraModel& c) {
   if (c.width_px < 16 || c.height_px < 16 || c.width_px > 16384 || c.height_px > 16384) {

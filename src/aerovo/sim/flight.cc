@@ -6,14 +6,13 @@
 
 #include <fmt/format.h>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/sim/random.h"
 
 namespace aerovo::sim {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegToRad = kPi / 180.0;
 
 // Unit vector of a compass heading (rad, clockwise from north) in (east, north).
 Eigen::Vector2d Dir(double heading_rad) { return {std::sin(heading_rad), std::cos(heading_rad)}; }

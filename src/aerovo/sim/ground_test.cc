@@ -9,7 +9,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/sim/terrain.h"
 
-namespace aerovo::sim {
+namespace aerovo::sim::ground_test {
 namespace {
 
 SimulationOptions ShortLine() {
@@ -104,4 +104,4 @@ TEST(Ground, OrthophotoAndErrorsNamingTheField) {
 }
 
 }  // namespace
-}  // namespace aerovo::sim
+}  // namespace aerovo::sim::ground_test

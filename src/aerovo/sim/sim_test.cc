@@ -5,6 +5,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/sim/camera.h"
 #include "aerovo/sim/flight.h"
@@ -13,10 +14,8 @@
 #include "aerovo/sim/simulator.h"
 #include "aerovo/sim/terrain.h"
 
-namespace aerovo::sim {
+namespace aerovo::sim::sim_test {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // A flat grey ground with one Gaussian blob (the marker) centred at ground pixel `at`.
 GroundImage MarkerGround(Eigen::Vector2d at, double sigma_px, double mpp) {
@@ -483,9 +482,9 @@ TEST(Simulator, WarnsWhenTheViewLeavesTheGround) {
 }
 
 }  // namespace
-}  // namespace aerovo::sim
+}  // namespace aerovo::sim::sim_test
 
-namespace aerovo::sim {
+namespace aerovo::sim::sim_test {
 namespace {
 
 // The terrain fitted to a flight has the camera's resolution and holds every frame's view.
@@ -516,4 +515,4 @@ TEST(Simulator, FittedTerrainHoldsTheWholeFlight) {
 }
 
 }  // namespace
-}  // namespace aerovo::sim
+}  // namespace aerovo::sim::sim_test

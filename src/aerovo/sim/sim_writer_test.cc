@@ -23,7 +23,7 @@
 #include "aerovo/sim/simulator.h"
 #include "aerovo/telemetry/telemetry_readers.h"
 
-namespace aerovo::sim {
+namespace aerovo::sim::sim_writer_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -230,4 +230,4 @@ TEST(SimWriter, BadInputsAreNamed) {
 }
 
 }  // namespace
-}  // namespace aerovo::sim
+}  // namespace aerovo::sim::sim_writer_test

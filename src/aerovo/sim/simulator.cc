@@ -6,14 +6,13 @@
 #include <fmt/format.h>
 #include <Eigen/Geometry>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/sim/random.h"
 
 namespace aerovo::sim {
 
-namespace {
-constexpr double kDegToRadSim = 3.14159265358979323846 / 180.0;
-}  // namespace
+namespace {}  // namespace
 
 void Validate(const SimulationOptions& o) {
   Validate(o.flight);
@@ -77,9 +76,9 @@ TerrainOptions FitTerrainToFlight(const SimulationOptions& options, TerrainOptio
                                           0.5 * options.camera.height_px / fpx))
           .norm();
   const double corner_angle =
-      std::max(std::atan(half_diag_px / fpx), std::atan(corner_ray)) + tilt_deg * kDegToRadSim;
+      std::max(std::atan(half_diag_px / fpx), std::atan(corner_ray)) + tilt_deg * kDegToRad;
   const double reach =
-      f.height_m * std::tan(std::min(corner_angle, 80.0 * kDegToRadSim));  // guard the horizon
+      f.height_m * std::tan(std::min(corner_angle, 80.0 * kDegToRad));  // guard the horizon
   const double width_m = 2.2 * (half_e + reach), height_m = 2.2 * (half_n + reach);
   TerrainOptions t = base;
   double mpp = std::clamp(NadirGsdMetresPerPx(options.camera, f.height_m), 0.05, 1.0);

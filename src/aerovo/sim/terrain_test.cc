@@ -6,7 +6,7 @@
 
 #include "aerovo/core/error.h"
 
-namespace aerovo::sim {
+namespace aerovo::sim::terrain_test {
 namespace {
 
 TerrainOptions SmallTerrain(std::uint64_t seed) {
@@ -107,4 +107,4 @@ TEST(Terrain, ValidateRejectsBadOptions) {
 }
 
 }  // namespace
-}  // namespace aerovo::sim
+}  // namespace aerovo::sim::terrain_test

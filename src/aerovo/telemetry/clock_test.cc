@@ -12,7 +12,7 @@
 
 #include "aerovo/geo/local_enu.h"
 
-namespace aerovo {
+namespace aerovo::clock_test {
 namespace {
 
 TelemetrySample Fix(double time_s, std::optional<double> rel_alt_m) {
@@ -89,4 +89,4 @@ TEST(TelemetryClock, OffsetIsEstimatedFromTheSpeeds) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::clock_test

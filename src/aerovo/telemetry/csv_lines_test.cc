@@ -8,7 +8,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/telemetry/io_test_util.h"
 
-namespace aerovo {
+namespace aerovo::csv_lines_test {
 namespace {
 
 using io_test::ExpectInputError;
@@ -68,4 +68,4 @@ TEST(CsvLines, NoHeaderOrBrokenHeaderNamesTheSource) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::csv_lines_test

@@ -8,7 +8,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/telemetry/io_test_util.h"
 
-namespace aerovo {
+namespace aerovo::reference_track_test {
 namespace {
 
 void Write(const std::filesystem::path& p, const std::string& text) { std::ofstream(p) << text; }
@@ -109,4 +109,4 @@ TEST(ReferenceTrack, GroundTruthCsvErrorsNameFileAndLine) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::reference_track_test

@@ -7,7 +7,7 @@
 
 #include "aerovo/telemetry/telemetry_readers.h"
 
-namespace aerovo {
+namespace aerovo::srt_writer_test {
 namespace {
 
 DjiSrtEntry Entry(int index, double t_s) {
@@ -50,4 +50,4 @@ TEST(SrtWriter, ReadsBackWithTheSrtReader) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::srt_writer_test

@@ -15,7 +15,7 @@
 #include "aerovo/telemetry/io_test_util.h"
 #include "aerovo/telemetry/parse_util.h"
 
-namespace aerovo {
+namespace aerovo::telemetry_readers_test {
 namespace {
 
 using io_test::ExpectInputError;
@@ -1267,4 +1267,4 @@ TEST(Csv, OnlyMalformedRecordsAreMalformedRecordErrors) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::telemetry_readers_test

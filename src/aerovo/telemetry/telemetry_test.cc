@@ -4,7 +4,7 @@
 
 #include "aerovo/core/error.h"
 
-namespace aerovo {
+namespace aerovo::telemetry_test {
 namespace {
 
 TelemetrySample Fix(double t, double lat, double lon, std::optional<int> frame = std::nullopt) {
@@ -138,4 +138,4 @@ TEST(Telemetry, ValidateSampleNamesTheProblem) {
 }
 
 }  // namespace
-}  // namespace aerovo
+}  // namespace aerovo::telemetry_test
