@@ -16,13 +16,16 @@ set(AEROVO_WHOLE_SUITE_TESTS
   ExperimentOnSimulatedFlight  # src/aerovo/pipeline/experiment_test.cc: a simulated flight
   OfflineOptimisation   # tests/e2e/offline_optimisation_test.cc: a simulated lawnmower, 4 runs
   OfflineOptimisationThreads  # the same file: the lawnmower with 1 and 2 threads, 6 runs
+  MapFix                # tests/e2e/map_fix_test.cc: a simulated lawnmower over the Callas map
+  MapBuild              # tests/e2e/map_test.cc: a simulated flight and the map built from it
+  GpsDenied             # tests/e2e/gps_denied_test.cc: a simulated flight over built-in terrain
 )
 
 # aerovo_discover_tests(TARGET [gtest_discover_tests arguments...]): gtest_discover_tests for
 # TARGET's tests except the listed suites found in its sources, which get one ctest test each.
 # The arguments' PROPERTIES (ENVIRONMENT ...) apply to both.
 # aerovo_whole_suites_of(TARGET OUT): the suites of AEROVO_WHOLE_SUITE_TESTS defined in TARGET's
-# sources (TEST_F/TEST_P(Suite, ...)), each also recorded as found (aerovo_check_whole_suite_tests).
+# sources (TEST/TEST_F/TEST_P(Suite, ...)), each also recorded as found (aerovo_check_whole_suite_tests).
 function(aerovo_whole_suites_of target out)
   get_target_property(_srcs ${target} SOURCES)
   get_target_property(_dir ${target} SOURCE_DIR)
@@ -32,7 +35,7 @@ function(aerovo_whole_suites_of target out)
       if(NOT IS_ABSOLUTE "${_src}")
         set(_src "${_dir}/${_src}")
       endif()
-      file(STRINGS "${_src}" _m REGEX "^TEST_[FP]\\(${_suite},")
+      file(STRINGS "${_src}" _m REGEX "^TEST(_[FP])?\\(${_suite},")
       if(_m)
         list(APPEND _suites ${_suite})
         set_property(GLOBAL APPEND PROPERTY AEROVO_WHOLE_SUITES_FOUND ${_suite})
@@ -43,16 +46,37 @@ function(aerovo_whole_suites_of target out)
   set(${out} ${_suites} PARENT_SCOPE)
 endfunction()
 
+# A test of a listed suite that cmake/ctest/test_lists.cmake labels ("accuracy",
+# "repeated_flight") keeps its own ctest test, Suite.Test, so that ctest -LE leaves it out; the
+# suite's test runs the others (--gtest_filter=Suite.*-Suite.Test:...).
 function(aerovo_discover_tests target)
   cmake_parse_arguments(D "" "" "PROPERTIES" ${ARGN})
+  include(${PROJECT_SOURCE_DIR}/cmake/ctest/test_lists.cmake)
   set(_filter "")
   aerovo_whole_suites_of(${target} _suites)
   foreach(_suite ${_suites})
     set(_suite_filter "${_suite}.*:*/${_suite}.*")
-    add_test(NAME ${_suite} COMMAND ${target} --gtest_filter=${_suite_filter})
-    if(D_PROPERTIES)
-      set_tests_properties(${_suite} PROPERTIES ${D_PROPERTIES})
+    set(_labelled "")
+    foreach(_name ${AEROVO_ACCURACY_TESTS} ${AEROVO_REPEATED_FLIGHT_TESTS})
+      if(_name MATCHES "^${_suite}\\.")
+        list(APPEND _labelled ${_name})
+      endif()
+    endforeach()
+    set(_run ${_suite_filter})
+    if(_labelled)
+      list(JOIN _labelled ":" _minus)
+      set(_run "${_suite_filter}-${_minus}")
     endif()
+    foreach(_name ${_suite} ${_labelled})
+      if(_name STREQUAL _suite)
+        add_test(NAME ${_name} COMMAND ${target} --gtest_filter=${_run})
+      else()
+        add_test(NAME ${_name} COMMAND ${target} --gtest_filter=${_name})
+      endif()
+      if(D_PROPERTIES)
+        set_tests_properties(${_name} PROPERTIES ${D_PROPERTIES})
+      endif()
+    endforeach()
     list(APPEND _filter ${_suite_filter})
   endforeach()
   set(_args ${D_UNPARSED_ARGUMENTS})
@@ -100,7 +124,7 @@ function(aerovo_check_whole_suite_tests)
   foreach(_suite ${AEROVO_WHOLE_SUITE_TESTS})
     if(NOT _suite IN_LIST _found)
       message(FATAL_ERROR "cmake/AerovoTesting.cmake lists the test suite ${_suite}, which no "
-        "test source defines (TEST_F/TEST_P(${_suite}, ...)): update the list")
+        "test source defines (TEST/TEST_F/TEST_P(${_suite}, ...)): update the list")
     endif()
   endforeach()
 endfunction()

@@ -8,6 +8,7 @@
 # Usage: scripts/test-aarch64.sh [build|test]   (default: both; scripts/test.sh times them apart)
 #   AARCH64_BUILD_DIR   build directory (build-aarch64)
 #   AEROVO_SKIP_AARCH64=1  skip the stage (scripts/test.sh)
+#   AEROVO_UNITY_BUILD=OFF build source by source (default ON: a unity build, CMakeLists.txt)
 # Excluded under qemu (ctest -E, the regex below), measured 2026-12-02 with qemu-user 7.2 (a
 # run: 223 tests native in 553 s and 51 scalar in 154 s at load average 12-15, BENCHMARKS.md):
 #   - the tests that run OpenMP with several threads do not finish under qemu-user (600 s and
@@ -53,7 +54,8 @@ if [ "$STEP" != test ]; then
   t0=$(date +%s)
   cmake -S . -B "$BUILD" -G Ninja -DCMAKE_TOOLCHAIN_FILE=cmake/toolchain-aarch64-linux-gnu.cmake \
     -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_FLAGS_RELEASE="-O2 -DNDEBUG" -DAEROVO_CORE_ONLY=ON \
-    -DAEROVO_BUILD_TESTS=ON -DAEROVO_SANITIZE=OFF -DAEROVO_NATIVE=OFF >/dev/null
+    -DAEROVO_BUILD_TESTS=ON -DAEROVO_SANITIZE=OFF -DAEROVO_NATIVE=OFF \
+    -DAEROVO_UNITY_BUILD="${AEROVO_UNITY_BUILD:-ON}" >/dev/null
   cmake --build "$BUILD" --parallel "$JOBS"
   echo "test-aarch64: build took $(($(date +%s) - t0)) s"
 fi

@@ -21,7 +21,7 @@
 #   FUZZ_BUILD_DIR        the fuzzers' own build dir (build-fuzz), only without clang++
 #   FUZZ_TIME             seconds per fuzz target (default 30)
 #   AEROVO_CONFIGURE_ONLY=1  only configure stage 1's build dir (tests/readme_order_test.sh)
-#   AEROVO_UNITY_BUILD=OFF   build stages 1 and 2 source by source (default ON: unity builds)
+#   AEROVO_UNITY_BUILD=OFF   build every stage source by source (default ON: unity builds)
 # Every cache option a stage relies on is set on its cmake line: a build dir configured before
 # by ./scripts/demo.sh (tests off) gets the tests back; ctest fails when it finds no test.
 set -euo pipefail
@@ -40,10 +40,10 @@ fi
 # builds and runs every module's (CMakeLists.txt, AEROVO_UNIT_TESTS); with AEROVO_TEST_QUICK=1
 # (and AEROVO_CONFIGURE_ONLY=1) it builds them all.
 UNIT_TESTS=pipeline
-# Unity builds (CMakeLists.txt, AEROVO_UNITY_BUILD) for the Release and sanitizer stages: about
-# half the compile CPU of a clean build (BENCHMARKS.md, CI time). AEROVO_UNITY_BUILD=OFF builds
-# source by source (a developer's incremental rebuilds; the aarch64 stage always does, which
-# checks that each core source compiles on its own).
+# Unity builds (CMakeLists.txt, AEROVO_UNITY_BUILD) for every stage's build (the aarch64 one
+# reads the variable too): about half the compile CPU of a clean build (BENCHMARKS.md, CI time).
+# AEROVO_UNITY_BUILD=OFF builds source by source, as a plain cmake configure does (a developer's
+# incremental rebuilds recompile one source, not its batch).
 UNITY=${AEROVO_UNITY_BUILD:-ON}
 if [ "${AEROVO_TEST_QUICK:-0}" = 1 ] || [ "${AEROVO_CONFIGURE_ONLY:-0}" = 1 ]; then UNIT_TESTS=ALL; fi
 RELEASE_OPTIONS=(-G Ninja -DCMAKE_BUILD_TYPE=Release -DAEROVO_BUILD_TESTS=ON

@@ -302,6 +302,13 @@ ColumnPlan PlanColumns(const std::vector<std::string>& header, const std::string
     const auto cand = CandidateOf(n, layout);
     if (!cand) continue;  // Unknown columns are allowed and ignored.
     const Column col = cand->column;
+    if (n.malformed) {
+      throw InputError(fmt::format(
+          "{}:{}: column '{}' would be read as the {}, but its unit is not written "
+          "'name(unit)' or 'name [unit]' (a bracket is not closed, or text follows it); fix the "
+          "header",
+          source_name, header_line, Trim(header[c]), kColumnNames[col]));
+    }
     double factor = 1.0;
     int rank = cand->rank;
     bool integer = false;
@@ -458,12 +465,17 @@ ColumnName SplitColumnName(std::string_view cell) {
       s = std::string(Trim(std::string_view(s).substr(0, p)));
     }
   }
+  const std::size_t bracket = s.find_first_of("()[]");
+  if (bracket != std::string::npos) {  // "time(ms", "speed(mph) avg": no unit can be read
+    r.malformed = true;
+    s = std::string(Trim(std::string_view(s).substr(0, bracket)));
+  }
   const std::size_t dot = s.rfind('.');
   if (dot != std::string::npos) {
     r.prefix = std::string(Trim(std::string_view(s).substr(0, dot)));
     s = std::string(Trim(std::string_view(s).substr(dot + 1)));
   }
-  if (r.unit.empty()) {
+  if (r.unit.empty() && !r.malformed) {
     const std::size_t us = s.rfind('_');
     if (us != std::string::npos && us > 0 &&
         FindUnit(std::string_view(s).substr(us + 1)) != nullptr) {

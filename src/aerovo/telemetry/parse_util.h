@@ -41,11 +41,14 @@ std::optional<double> ParseDateTime(std::string_view s);
 /// unit is written "name(unit)" or "name [unit]"; else a last "_unit" is split off when
 /// it is a unit the CSV telemetry reader converts (telemetry CSV columns: "abs_alt_m", "time_s",
 /// "yaw_deg"). The prefix is what comes before the last '.' of the name ("OSD.", "GIMBAL.",
-/// "CUSTOM." of DJI flight record CSVs). Defined in csv_telemetry_reader.cc, beside the units.
+/// "CUSTOM." of DJI flight record CSVs). A bracket that does not close the cell ("time(ms",
+/// "speed(mph) avg") leaves `malformed` set, `base` the name before it and `unit` empty.
+/// Defined in csv_telemetry_reader.cc, beside the units.
 struct ColumnName {
   std::string prefix;
   std::string base;
   std::string unit;  ///< Empty when the header gives none.
+  bool malformed = false;  ///< A '(' or '[' (or ')' or ']') outside "name(unit)"/"name [unit]".
 };
 ColumnName SplitColumnName(std::string_view cell);
 

@@ -788,6 +788,11 @@ TEST(CsvColumnNames, BaseUnitAndPrefix) {
   check("gimbal_pitch", "", "gimbal_pitch", "");
   check("CUSTOM.updateTime", "custom", "updatetime", "");
   check("time_utc_usec", "", "time_utc", "usec");
+  const io_detail::ColumnName cut = SplitColumnName("OSD.height(ft");
+  EXPECT_TRUE(cut.malformed);
+  EXPECT_EQ(cut.base, "height");
+  EXPECT_EQ(cut.unit, "");
+  EXPECT_FALSE(SplitColumnName("OSD.height(ft)").malformed);
 }
 
 // Airdata UAV "Downloadable Flight Data CSV"
@@ -1145,6 +1150,28 @@ TEST(CsvUnits, AnUnknownUnitOnAReadColumnIsAnErrorNamingFileLineColumnAndUnit) {
   }
   // Units on columns aerovo does not read are not its business.
   std::istringstream ignored("t,lat,lon,speed(furlongs per fortnight),temp [K]\n1,2,3,4,5\n");
+  EXPECT_EQ(ParseTelemetryCsv(ignored, "i.csv").records, 1);
+}
+
+// A unit whose bracket does not close (a hand-edited or cut header) on a column aerovo reads: an
+// error naming file:line and the column, not "no time column" nor a value read in the wrong unit.
+TEST(CsvUnits, AnUnclosedUnitOnAReadColumnIsAnErrorNamingTheColumn) {
+  {
+    std::istringstream in("time(ms,lat,lon\n1,2,3\n");
+    ExpectInputError([&] { ParseTelemetryCsv(in, "t.csv"); },
+                     {"t.csv:1:", "column 'time(ms'", "as the time", "not written 'name(unit)'"});
+  }
+  {
+    std::istringstream in("t,lat,lon,height_above_takeoff(feet) avg\n1,2,3,4\n");
+    ExpectInputError([&] { ParseTelemetryCsv(in, "h.csv"); },
+                     {"h.csv:1:", "'height_above_takeoff(feet) avg'", "relative altitude"});
+  }
+  {
+    std::istringstream in("t,latitude [deg,lon\n1,2,3\n");
+    ExpectInputError([&] { ParseTelemetryCsv(in, "l.csv"); }, {"l.csv:1:", "'latitude [deg'"});
+  }
+  // On a column aerovo does not read, still not its business.
+  std::istringstream ignored("t,lat,lon,speed(mph\n1,2,3,4\n");
   EXPECT_EQ(ParseTelemetryCsv(ignored, "i.csv").records, 1);
 }
 
