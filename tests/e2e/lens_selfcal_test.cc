@@ -365,24 +365,29 @@ TEST(LensSelfCalibration, ALiveSourcesLensIsEstimatedFromItsOwnFrames) {
   // All 5 when the run keeps up (a sanitizer build may take fewer frames before the switch).
   EXPECT_GE(le["pairs_read"].get<int>(), 3) << le.dump();
   EXPECT_LE(le["pairs_read"].get<int>(), run_steps::kLensPrepassPairs) << le.dump();
-  // The pairs start 0.3 s of stream apart (or 8 frames), each before the switch frame.
   const int switch_frame = le["switch_frame"].get<int>();
-  EXPECT_GE(switch_frame, 1) << le.dump();
-  for (const auto& f : le["pair_frames"]) EXPECT_LT(f.get<int>(), switch_frame) << le.dump();
 #ifdef AEROVO_INSTRUMENTED_BUILD
   // An instrumented build (ASan + UBSan at -O1) takes about 8 s for the estimate, near the end
-  // of the 9 s stream: the run may end before the replay from the switch frame catches up, and
-  // then says so and applies nothing (the optimised build must apply it, below).
+  // of the 9 s stream, more when the other test beside it is busy: the run may end before the
+  // replay from the switch frame catches up, or before the estimate is ready at all (no switch
+  // frame), and then says which and applies nothing (the optimised build must apply it, below).
   if (le["status"] != "applied") {
     EXPECT_EQ(le["status"], "not applied") << le.dump();
-    EXPECT_NE(le["why"].get<std::string>().find("the run ended before the replay"),
-              std::string::npos)
-        << le.dump();
+    const std::string why = le["why"].get<std::string>();
+    if (switch_frame < 0) {
+      EXPECT_NE(why.find("the run ended before its switch frame"), std::string::npos) << le.dump();
+    } else {
+      EXPECT_NE(why.find("the run ended before the replay"), std::string::npos) << le.dump();
+      for (const auto& f : le["pair_frames"]) EXPECT_LT(f.get<int>(), switch_frame) << le.dump();
+    }
     EXPECT_EQ(le["caught_up_frame"], -1) << le.dump();
     fs::remove_all(dir);
     return;
   }
 #endif
+  // The pairs start 0.3 s of stream apart (or 8 frames), each before the switch frame.
+  EXPECT_GE(switch_frame, 1) << le.dump();
+  for (const auto& f : le["pair_frames"]) EXPECT_LT(f.get<int>(), switch_frame) << le.dump();
   ASSERT_EQ(le["status"], "applied") << le.dump();
   EXPECT_GT(le["frames_replayed"].get<int>(), 0) << le.dump();
   EXPECT_GT(le["caught_up_frame"].get<int>(), switch_frame) << le.dump();
