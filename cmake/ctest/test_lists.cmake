@@ -119,42 +119,60 @@ set(AEROVO_REPEATED_FLIGHT_TESTS
 )
 
 # COST: relative run time, so that ctest --parallel starts the long tests first instead of
-# ending on one long test with a core idle (the end-to-end tests are registered last). Figures:
-# user+sys CPU seconds of the Release build's test, 2026-12-04 (BENCHMARKS.md, CI time). ctest
-# uses its own measured times instead once a build dir has run its tests
-# (Testing/Temporary/CTestCostData.txt). Pairs: name cost.
+# ending on one long test with a core idle (the end-to-end tests are registered last). Figure per
+# test: the larger of its wall seconds in the Release stage and a third of its wall seconds in the
+# sanitizer stage (the instrumented build runs 2-4x slower), from two clean-clone runs of
+# scripts/test.sh, 2026-12-06 (BENCHMARKS.md, CI time). ctest uses its own measured times instead
+# once a build dir has run its tests (Testing/Temporary/CTestCostData.txt). Names must be
+# registered in every build (no unit test, which the sanitizer stage runs inside its module's
+# executable). Pairs: name cost.
 set(AEROVO_TEST_COSTS
-  LongRun.TenThousandFramesWithFlatMemory 37
-  CliOutputs 36
-  Video4k.DefaultRunDetectsAtHalfResolutionWithinFivePercentOfFullResolution 34
-  Runner.TampaRelocalisationDoesNotDependOnTheSeed 20
-  ReferenceOutputs 18
+  docs.commands_run_as_written 72
+  CliOutputs 48
+  MapFix 44
+  LongRun.TenThousandFramesWithFlatMemory 39
+  Video4k.DefaultRunDetectsAtHalfResolutionWithinFivePercentOfFullResolution 30
+  OfflineOptimisation 25
+  mavlink.node_mavlink_live 23
+  MapDemo.ThreeKilometresWithoutGpsOverAnotherSurveysMap 21
+  ReferenceOutputs 20
+  Demo.QuickDemoWritesEverythingAndTracksTheTruth 20
+  WideLens.FastFixedWingFlightKeepsEveryFrame 19
+  Runner.TampaRelocalisationDoesNotDependOnTheSeed 19
+  HtmlReport 19
+  WideLens.FisheyeFlightIsAccurateWithItsCalibrationFileOnly 18
+  OfflineOptimisationThreads 18
+  LoopClosures.AppearanceFindsTheRevisitTheDriftedFootprintsMiss 17
   CliSignal 17
-  HtmlReport 15
+  MapBuild 16
+  MapFix.AppliedFixesBoundTheErrorOfADriftingTrack 14
+  SixStripSurvey.BuiltInTerrain 13
+  MapRun.TheMapIsCheckedAgainstTheFlightAndItsCoverReported 13
+  LensSelfCalibration.ALiveSourcesLensIsEstimatedFromItsOwnFrames 13
+  WideLens.MildPinholeLensPointsPathMatchesTheFramesPath 12
+  SixStripSurvey.CallasOrthophoto 12
+  Runner.SimulatedCallasFlightAgainstExactTruth 12
+  GpsDenied 12
+  MapSeveral.RecentPartialMapFirstOlderFullMapAfterIt 11
+  AdaptivePoints.IlluminationDownToATenthKeepsTheTrackWithTheDefaults 11
+  mavlink.node_mavlink_udp 10
+  mavlink.node_mavlink_map_gps_input 10
+  mavlink.node_mavlink_contract 10
   Runner.TampaPhantom3MeetsTheOnePercentTarget 10
-  AdaptivePoints.IlluminationDownToATenthKeepsTheTrackWithTheDefaults 10
-  LensSelfCalibration.FisheyeIsEstimatedAndApplied 8
-  ExperimentOnSimulatedFlight 7
-  GeoProducts 6
+  MapSeveral.PartialCoverWarnsAndACorruptSecondMapIsNamed 10
+  LensSelfCalibration.FisheyeIsEstimatedAndApplied 10
+  FrameInput.HugePhotosAreReducedToThePixelBudget 10
+  MapFix.AFalseMapRegionIsRejectedByTheGate 9
+  LensSelfCalibration.FirstPosesComeBeforeTheEstimateAppliedAtAFixedFrame 9
+  Attitude.TiltedFlightIsThreeTimesMoreAccurateWithTheCorrection 9
+  AdaptivePoints.ThermalLikeFlightIsTrackedWithTheDefaults 8
+  SensorPattern.ThermalVideoIsCorrectedByTheRunningEstimate 7
+  SensorPattern.ThermalFlightWithVignettingAndFixedPatternIsTrackedWithTheDefaults 7
+  GeoProducts 7
+  BadInput.DamagedTelemetryWithLenientTelemetryIsSkippedAndReported 7
+  cli.correspondence_on_a_tampa_pair 6
   TelemetryTrust.ImplausibleSpikeOrFirstFixDoesNotSteerTheGeoReference 6
   LensSelfCalibration.GoProLikeBarrelIsEstimatedAndApplied 6
-  LensSelfCalibration.FirstPosesComeBeforeTheEstimateAppliedAtAFixedFrame 5
-  Runner.VideoWithDjiSrtFromTheSimulator 5.5
-  Attitude.TiltedFlightIsThreeTimesMoreAccurateWithTheCorrection 5
   Attitude.NadirFlightIsUnchangedByTheCorrection 5
-  AdaptivePoints.ThermalLikeFlightIsTrackedWithTheDefaults 5
-  SensorPattern.ThermalFlightWithVignettingAndFixedPatternIsTrackedWithTheDefaults 5
-  SensorPattern.ThermalVideoIsCorrectedByTheRunningEstimate 5
-  OfflineOptimisation 14
-  OfflineOptimisationThreads 14
-  SixStripSurvey.BuiltInTerrain 12
-  SixStripSurvey.CallasOrthophoto 13
-  MapFix.AppliedFixesBoundTheErrorOfADriftingTrack 11
-  MapFix.AFalseMapRegionIsRejectedByTheGate 7
-  MapSeveral.RecentPartialMapFirstOlderFullMapAfterIt 9
-  MapSeveral.PartialCoverWarnsAndACorruptSecondMapIsNamed 5
-  MapDemo.ThreeKilometresWithoutGpsOverAnotherSurveysMap 14
-  MapFix 25
-  MapBuild 14
-  GpsDenied 7
+  Runner.VideoWithDjiSrtFromTheSimulator 4
 )

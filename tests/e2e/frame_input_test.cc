@@ -32,6 +32,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/frames/ffmpeg_test_util.h"
 #include "aerovo/frames/frame_source.h"
@@ -193,7 +194,7 @@ TEST(FrameInput, RotatedVideoIsProcessedAsStoredWithTheRightFocalAndTrack) {
   auto config = [&](const fs::path& video, const std::string& out) {
     RunConfig c = Config(video, dir / out);
     c.focal_px = 0.0;
-    c.hfov_deg = 2.0 * std::atan(0.5 * kW / kFocalPx) * 180.0 / M_PI;  // focal 400 px at 320 px
+    c.hfov_deg = 2.0 * std::atan(0.5 * kW / kFocalPx) * kRadToDeg;  // focal 400 px at 320 px
     return c;
   };
   const RunSummary a = RunFlight(config(plain, "run_plain"));

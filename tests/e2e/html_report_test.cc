@@ -24,6 +24,7 @@
 #include <opencv2/imgproc.hpp>
 #include <pugixml.hpp>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/geo/local_enu.h"
 #include "aerovo/outputs/track_writers.h"
@@ -106,7 +107,7 @@ void WriteGeoMosaicFixture(const fs::path& run_dir, const RunData& run) {
     w = std::min(w, f.gps->lon_deg);
     e = std::max(e, f.gps->lon_deg);
   }
-  const double dlat = 20.0 / 111320.0, dlon = dlat / std::cos(s * M_PI / 180.0);
+  const double dlat = 20.0 / 111320.0, dlon = dlat / std::cos(s * kDegToRad);
   cv::Mat rgba(120, 160, CV_8UC4, cv::Scalar(200, 200, 200, 255));
   cv::rectangle(rgba, {10, 10}, {150, 110}, cv::Scalar(170, 170, 170, 255), 3);
   ASSERT_TRUE(cv::imwrite((run_dir / "mosaic_geo.png").string(), rgba));

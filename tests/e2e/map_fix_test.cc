@@ -22,6 +22,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/report/run_reader.h"
 #include "callas_map.h"
 #include "e2e_testing.h"
@@ -204,10 +205,9 @@ TEST(MapFix, AppliedFixesBoundTheErrorOfADriftingTrack) {
 // The telemetry of the flight with every latitude moved `north_m` north (`[latitude: ...]` of the
 // simulator's SRT; metres to degrees by the WGS84 meridian radius of curvature at the latitude).
 bool WriteShiftedSrt(const fs::path& srt, double north_m, const fs::path& out) {
-  constexpr double kPi = 3.14159265358979323846;
-  const double a = 6378137.0, e2 = 6.69437999014e-3, lat = kNwLat * kPi / 180.0;
+  const double a = 6378137.0, e2 = 6.69437999014e-3, lat = kNwLat * kDegToRad;
   const double m = a * (1 - e2) / std::pow(1 - e2 * std::sin(lat) * std::sin(lat), 1.5);
-  const double dlat_deg = north_m / m * 180.0 / kPi;
+  const double dlat_deg = north_m / m * kRadToDeg;
   std::ifstream in(srt);
   std::ofstream o(out);
   const std::string key = "[latitude: ";

@@ -21,6 +21,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/geo/local_enu.h"
 #include "e2e_testing.h"
 
@@ -99,7 +100,7 @@ std::array<double, 4> TruthExtent(const MapFlight& f) {
 // --json`) and `truth` (TruthExtent).
 double EdgeErrorM(const nlohmann::json& info, const std::array<double, 4>& truth) {
   const nlohmann::json& g = info.at("extent_lonlat");
-  const double m_lat = 111200.0, m_lon = m_lat * std::cos(49.84 * M_PI / 180.0);
+  const double m_lat = 111200.0, m_lon = m_lat * std::cos(49.84 * kDegToRad);
   return std::max({std::abs(g.at("min_x").get<double>() - truth[0]) * m_lon,
                    std::abs(g.at("max_x").get<double>() - truth[1]) * m_lon,
                    std::abs(g.at("min_y").get<double>() - truth[2]) * m_lat,

@@ -15,6 +15,8 @@
 // frame's true metres per nominal metre (0 when the height above ground is exact).
 #pragma once
 
+#include "aerovo/core/angles.h"
+
 #include <cmath>
 
 #include <Eigen/Core>
@@ -23,7 +25,6 @@ namespace aerovo::backend {
 
 /// Wraps an angle to (-pi, pi], radians.
 inline double WrapAngleRad(double a) {
-  constexpr double kPi = 3.14159265358979323846;
   a = std::remainder(a, 2.0 * kPi);  // [-pi, pi]
   return a <= -kPi ? a + 2.0 * kPi : a;
 }

@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 
 #include "aerovo/backend/pose_graph.h"
+#include "aerovo/core/angles.h"
 
 namespace aerovo::backend::testing {
 
@@ -87,7 +88,6 @@ inline Similarity2 NoisyBetween(const Similarity2& a, const Similarity2& b, doub
 /// the flight (heading -pi/2 flying east, +pi/2 flying west); the true log-scale varies slowly
 /// (height changes of a few percent).
 inline Lawnmower MakeLawnmower(const LawnmowerSpec& spec) {
-  constexpr double kPi = 3.14159265358979323846;
   Lawnmower out;
   const int per_strip = static_cast<int>(std::lround(spec.strip_length_m / spec.step_m)) + 1;
   const int per_turn = static_cast<int>(std::lround(spec.strip_spacing_m / spec.step_m)) - 1;

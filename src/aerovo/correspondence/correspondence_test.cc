@@ -16,6 +16,7 @@
 #include <opencv2/imgproc.hpp>
 #endif
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/testing.h"
 #include "aerovo/estimation/testing.h"
 #include "aerovo/features/surf.h"
@@ -747,7 +748,7 @@ struct RepeatedTexture {
 
 RepeatedTexture MakeRepeatedTexture() {
   RepeatedTexture scene;
-  const double a = 1.5 * M_PI / 180.0, s = 1.01;
+  const double a = 1.5 * kDegToRad, s = 1.01;
   scene.truth << s * std::cos(a), -s * std::sin(a), 12.0, s * std::sin(a), s * std::cos(a), -7.0,
       0.0, 0.0, 1.0;
   SceneBuilder b(17);

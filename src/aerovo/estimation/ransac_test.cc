@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/cancel.h"
 #include "aerovo/estimation/models.h"
 #include "aerovo/estimation/samplers.h"
@@ -34,7 +35,7 @@ Eigen::Matrix3d TrueTransform<TranslationModel>() {
 }
 template <>
 Eigen::Matrix3d TrueTransform<SimilarityModel>() {
-  const double s = 1.05, a = 7.0 * M_PI / 180.0;
+  const double s = 1.05, a = 7.0 * kDegToRad;
   Eigen::Matrix3d m;
   m << s * std::cos(a), -s * std::sin(a), 30.0, s * std::sin(a), s * std::cos(a), -12.0, 0, 0, 1;
   return m;

@@ -10,7 +10,6 @@
 namespace aerovo::geo_test {
 namespace {
 
-constexpr double kDeg = kPi / 180.0;
 // WGS84 defining constants (NIMA TR8350.2): semi-major axis and flattening.
 constexpr double kA = 6378137.0;
 constexpr double kF = 1.0 / 298.257223563;
@@ -21,7 +20,7 @@ constexpr double kCm = 0.01;
 // N = a / sqrt(1 - e^2 sin^2 phi); X = (N+h) cos phi cos lam, Y = (N+h) cos phi sin lam,
 // Z = (N (1-e^2) + h) sin phi), independent of GeographicLib.
 Eigen::Vector3d Ecef(double lat_deg, double lon_deg, double h) {
-  const double phi = lat_deg * kDeg, lam = lon_deg * kDeg;
+  const double phi = lat_deg * kDegToRad, lam = lon_deg * kDegToRad;
   const double n = kA / std::sqrt(1.0 - kE2 * std::sin(phi) * std::sin(phi));
   return {(n + h) * std::cos(phi) * std::cos(lam), (n + h) * std::cos(phi) * std::sin(lam),
           (n * (1.0 - kE2) + h) * std::sin(phi)};
@@ -30,7 +29,7 @@ Eigen::Vector3d Ecef(double lat_deg, double lon_deg, double h) {
 // ENU of a point relative to an origin: rotate the ECEF difference by the textbook
 // east/north/up unit vectors of the origin.
 Eigen::Vector3d HandEnu(const GeoPoint& o, const GeoPoint& p) {
-  const double phi = o.lat_deg * kDeg, lam = o.lon_deg * kDeg;
+  const double phi = o.lat_deg * kDegToRad, lam = o.lon_deg * kDegToRad;
   const Eigen::Vector3d d =
       Ecef(p.lat_deg, p.lon_deg, p.alt_m) - Ecef(o.lat_deg, o.lon_deg, o.alt_m);
   const Eigen::Vector3d east(-std::sin(lam), std::cos(lam), 0.0);
@@ -45,7 +44,7 @@ Eigen::Vector3d HandEnu(const GeoPoint& o, const GeoPoint& p) {
 // of curvature M(phi) = a (1-e^2) / (1 - e^2 sin^2 phi)^(3/2): an independent reference.
 double MeridianArc(double lat_deg) {
   const int n = 2000;  // even; the integrand is smooth, error << 1e-9 m
-  const double h = lat_deg * kDeg / n;
+  const double h = lat_deg * kDegToRad / n;
   auto m = [](double phi) {
     return kA * (1.0 - kE2) / std::pow(1.0 - kE2 * std::sin(phi) * std::sin(phi), 1.5);
   };
@@ -95,8 +94,8 @@ TEST(Geodesic, MeridianAndEquatorArcs) {
   EXPECT_NEAR(GeodesicDistance(origin, {90.0, 0.0, 0.0}), 10001965.729313, 1e-3);
   EXPECT_NEAR(GeodesicDistance(origin, {90.0, 0.0, 0.0}), MeridianArc(90.0), 1e-3);
   // Along the equator the geodesic is the equatorial circle (for < ~179.4 deg): a * dlon.
-  EXPECT_NEAR(GeodesicDistance(origin, {0.0, 1.0, 0.0}), kA * kDeg, 1e-6);  // 111319.4908 m
-  EXPECT_NEAR(GeodesicDistance({0.0, 10.0, 0.0}, {0.0, 70.0, 0.0}), kA * 60.0 * kDeg, 1e-6);
+  EXPECT_NEAR(GeodesicDistance(origin, {0.0, 1.0, 0.0}), kA * kDegToRad, 1e-6);  // 111319.4908 m
+  EXPECT_NEAR(GeodesicDistance({0.0, 10.0, 0.0}, {0.0, 70.0, 0.0}), kA * 60.0 * kDegToRad, 1e-6);
   // Heights are ignored by geodesics.
   EXPECT_DOUBLE_EQ(GeodesicDistance({0.0, 0.0, 500.0}, {1.0, 0.0, -20.0}), one_deg_north);
 }
@@ -155,10 +154,10 @@ TEST(LocalEnu, OneDegreeNorthAtEquator) {
   // = N(1 deg) (1 - e^2) sin(1 deg), up = N cos(1 deg) - a (hand-derived).
   const LocalEnu enu(0.0, 0.0, 0.0);
   const Eigen::Vector3d p = enu.Forward(1.0, 0.0, 0.0);
-  const double n1 = kA / std::sqrt(1.0 - kE2 * std::sin(kDeg) * std::sin(kDeg));
+  const double n1 = kA / std::sqrt(1.0 - kE2 * std::sin(kDegToRad) * std::sin(kDegToRad));
   EXPECT_NEAR(p.x(), 0.0, 1e-9);
-  EXPECT_NEAR(p.y(), n1 * (1.0 - kE2) * std::sin(kDeg), kCm);
-  EXPECT_NEAR(p.z(), n1 * std::cos(kDeg) - kA, kCm);
+  EXPECT_NEAR(p.y(), n1 * (1.0 - kE2) * std::sin(kDegToRad), kCm);
+  EXPECT_NEAR(p.z(), n1 * std::cos(kDegToRad) - kA, kCm);
   // The tangent-plane coordinate is not the arc: it is 5.6 m shorter than the 110574.4 m
   // meridian arc (the point lies 965 m below the plane).
   EXPECT_NEAR(MeridianArc(1.0) - p.y(), 5.614, 0.005);

@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 #include <gdal_priv.h>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/map/gdal_error.h"
 #include "aerovo/map/map_pixels.h"
@@ -132,7 +133,7 @@ std::string TiltedFramesWarning(const nlohmann::json& summary, const nlohmann::j
   if (config.is_object() && config.contains("altitude_m") && config["altitude_m"].is_number() &&
       config["altitude_m"].get<double>() > 0.0) {
     lever = fmt::format("{:.1f} m at {:.0f} m",
-                        config["altitude_m"].get<double>() * std::tan(tilt * M_PI / 180.0),
+                        config["altitude_m"].get<double>() * std::tan(tilt * kDegToRad),
                         config["altitude_m"].get<double>());
   }
   return fmt::format(

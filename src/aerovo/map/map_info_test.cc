@@ -14,6 +14,7 @@
 #include <gdal_priv.h>
 #include <ogr_spatialref.h>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
 #include "aerovo/map/map_info.h"
@@ -109,8 +110,9 @@ TEST(MapInfo, GeographicMapHasItsResolutionInMetres) {
   EXPECT_TRUE(m.crs_geographic);
   EXPECT_EQ(m.crs_units, "degree");
   EXPECT_NEAR(m.m_per_px_y, 1.1086, 0.002);  // meridian arc of 1e-5 deg at 28 N
-  EXPECT_NEAR(m.m_per_px_x, 1e-5 * M_PI / 180.0 * 6378137.0 * std::cos(28.0485 * M_PI / 180.0) /
-                                std::sqrt(1.0 - 0.00669438 * std::pow(std::sin(28.0485 * M_PI / 180.0), 2)),
+  EXPECT_NEAR(m.m_per_px_x,
+              1e-5 * kDegToRad * 6378137.0 * std::cos(28.0485 * kDegToRad) /
+                  std::sqrt(1.0 - 0.00669438 * std::pow(std::sin(28.0485 * kDegToRad), 2)),
               1e-4);
   EXPECT_NEAR(m.extent_lonlat.min_x, -82.70, 1e-9);
   EXPECT_NEAR(m.extent_lonlat.max_x, -82.697, 1e-9);
@@ -126,7 +128,7 @@ TEST(MapInfo, WebMercatorMapHasItsGroundResolution) {
   WriteTiff(p, 256, 256, 3857, gt);
   const MapInfo m = ReadMapInfo(p);
   EXPECT_FALSE(m.crs_geographic);
-  const double lat = 0.5 * (m.extent_lonlat.min_y + m.extent_lonlat.max_y) * M_PI / 180.0;
+  const double lat = 0.5 * (m.extent_lonlat.min_y + m.extent_lonlat.max_y) * kDegToRad;
   EXPECT_NEAR(m.m_per_px_x, 2.0 * std::cos(lat), 0.005 * 2.0);
   EXPECT_NEAR(m.m_per_px_y, 2.0 * std::cos(lat), 0.005 * 2.0);
   // A UTM map keeps its grid's metres (UtmGeoTiffWithOverviews).

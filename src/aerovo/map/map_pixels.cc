@@ -14,13 +14,15 @@
 namespace aerovo::map {
 namespace {
 
+using internal::LastGdalError;
+
 constexpr float kLuma[3] = {0.299f, 0.587f, 0.114f};  // ITU-R BT.601, as OpenCV's grey
 
 [[noreturn]] void Unreadable(const std::filesystem::path& path) {
   throw InputError(fmt::format(
       "'{}': the map's pixels cannot be read ({}): a damaged or truncated file, or a VRT whose "
       "source is missing",
-      path.string(), internal::LastGdalError("no reason given")));
+      path.string(), LastGdalError("no reason given")));
 }
 
 // `band` at overview `level` (-1: itself); null when it has no such overview.

@@ -8,6 +8,7 @@
 #include <Eigen/LU>
 #include <fmt/format.h>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/statistics.h"
 #include "aerovo/estimation/models.h"
@@ -27,7 +28,7 @@ struct PairPoints {
 constexpr double kHorizonResidualScales = 100.0;
 // Rays closer than 5 degrees to the horizon after the rotation: the smallest cosine of the
 // virtual ray's angle from nadir.
-const double kMinNadirCos = std::sin(5.0 * M_PI / 180.0);
+const double kMinNadirCos = std::sin(5.0 * kDegToRad);
 
 // The cost of one pair under the rotation `m` (nadir_from_camera on rays; the points are
 // normalised coordinates (x - cx) / f): the Cauchy loss of the current frame's pixel residuals

@@ -7,12 +7,12 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 
 namespace aerovo::attitude_estimation_test {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
 constexpr double kFocal = 800.0, kCx = 479.5, kCy = 359.5;
 constexpr int kWidth = 960, kHeight = 720;
 
@@ -30,7 +30,7 @@ struct View {
 View MakeView(double x_m, double y_m, double height_m, double yaw_deg, const CameraAttitude& a) {
   View v;
   v.centre = Eigen::Vector3d(x_m, y_m, -height_m);
-  v.level_from_camera = Eigen::AngleAxisd(yaw_deg * kDeg, Eigen::Vector3d::UnitZ()) *
+  v.level_from_camera = Eigen::AngleAxisd(yaw_deg * kDegToRad, Eigen::Vector3d::UnitZ()) *
                         LevelFromCameraFrd(a) * FrdFromCamera();
   return v;
 }
@@ -95,9 +95,9 @@ std::vector<LensPair> Survey(const CameraAttitude& a, double noise_px, double ou
   for (int k = 0; k < 5; ++k) {
     const double h = headings[k];
     const View first = MakeView(100.0 * k, 0.0, 60.0, h, a);
-    const View second = MakeView(100.0 * k + step_m * std::cos(h * kDeg),
-                                 step_m * std::sin(h * kDeg), 60.0 + (k % 2 ? 2.0 : -2.0),
-                                 h + 3.0, a);
+    const View second =
+        MakeView(100.0 * k + step_m * std::cos(h * kDegToRad), step_m * std::sin(h * kDegToRad),
+                 60.0 + (k % 2 ? 2.0 : -2.0), h + 3.0, a);
     pairs.push_back(PairOf(first, second, noise_px, outliers, rng));
   }
   return pairs;

@@ -1,5 +1,7 @@
 #include "aerovo/odometry/attitude.h"
 
+#include "aerovo/core/angles.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -10,7 +12,6 @@
 namespace aerovo::attitude_test {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
 constexpr double kF = 800.0, kCx = 639.5, kCy = 359.5, kH = 100.0;
 
 // A camera at the origin of the level frame (x forward, y right, z down) over the ground plane
@@ -23,8 +24,8 @@ Eigen::Vector2d Project(const Eigen::Matrix3d& level_from_frd, const Eigen::Vect
 }
 
 Eigen::Matrix3d Tilted(double roll_deg, double pitch_deg) {
-  return (Eigen::AngleAxisd(pitch_deg * kDeg, Eigen::Vector3d::UnitY()) *
-          Eigen::AngleAxisd(roll_deg * kDeg, Eigen::Vector3d::UnitX()))
+  return (Eigen::AngleAxisd(pitch_deg * kDegToRad, Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(roll_deg * kDegToRad, Eigen::Vector3d::UnitX()))
       .toRotationMatrix();
 }
 
@@ -54,16 +55,16 @@ TEST(Attitude, ImageCentreOffsetIsHeightTimesTanTilt) {
   // Pitch: the centre's ground point lies forward by h tan(pitch); roll > 0 tilts the axis to
   // the image left (the aircraft's right wing down).
   const Eigen::Vector2d p = ImageCentreGroundOffsetM({0.0, 15.0}, kH);
-  EXPECT_NEAR(p.x(), kH * std::tan(15.0 * kDeg), 1e-6);
+  EXPECT_NEAR(p.x(), kH * std::tan(15.0 * kDegToRad), 1e-6);
   EXPECT_NEAR(p.y(), 0.0, 1e-6);
   const Eigen::Vector2d r = ImageCentreGroundOffsetM({10.0, 0.0}, kH);
   EXPECT_NEAR(r.x(), 0.0, 1e-6);
-  EXPECT_NEAR(r.y(), -kH * std::tan(10.0 * kDeg), 1e-6);
+  EXPECT_NEAR(r.y(), -kH * std::tan(10.0 * kDegToRad), 1e-6);
   // Both: the offset's length is h tan(tilt), the tilt being the optical axis' angle from the
   // vertical.
   const CameraAttitude both{12.0, -9.0};
   const double tilt = TiltFromNadirDeg(both);
-  EXPECT_NEAR(ImageCentreGroundOffsetM(both, kH).norm(), kH * std::tan(tilt * kDeg), 1e-6);
+  EXPECT_NEAR(ImageCentreGroundOffsetM(both, kH).norm(), kH * std::tan(tilt * kDegToRad), 1e-6);
   // The ground point under the image centre is where the homography puts the image centre in
   // the nadir camera: (offset right, -offset forward) * f / h from the principal point.
   const Eigen::Vector3d c =

@@ -10,6 +10,7 @@
 #include <Eigen/LU>
 
 #include "aerovo/backend/pixel_step.h"
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
 
@@ -150,7 +151,7 @@ PairVerdict JudgePair(const BackendOptions& o, const Similarity2& fit, const Sim
   if (spread < o.min_spread) return PairVerdict::kTooLittleSpread;
   const double allowed_m = o.gate * path_m + kGateFloorFraction * side_m;
   const double heading_deg =
-      std::abs(backend::WrapAngleRad(fit.heading_rad - predicted.heading_rad)) * 180.0 / M_PI;
+      std::abs(backend::WrapAngleRad(fit.heading_rad - predicted.heading_rad)) * kRadToDeg;
   if (!((fit.translation_m - predicted.translation_m).norm() <= allowed_m) ||
       !(heading_deg <= o.gate_heading_deg) ||
       !(std::abs(fit.log_scale - predicted.log_scale) <= kGateLogScale)) {
@@ -166,7 +167,7 @@ PairVerdict JudgeClosure(const BackendOptions& o, const Similarity2& fit,
   if (n_inliers < o.min_inliers) return PairVerdict::kTooFewInliers;
   if (spread < o.min_spread) return PairVerdict::kTooLittleSpread;
   const double st = (o.gate * path_m + kGateFloorFraction * side_m) / kClosureGateSigmas;
-  const double sh = o.gate_heading_deg * M_PI / 180.0 / kClosureGateSigmas;
+  const double sh = o.gate_heading_deg * kDegToRad / kClosureGateSigmas;
   Eigen::Matrix3d cov = chain_cov + fit_cov;
   cov.diagonal() += Eigen::Vector3d(st * st, st * st, sh * sh);
   Eigen::Vector3d e;
@@ -600,7 +601,7 @@ FixOutcome FlightGraph::AddFix(const GraphFix& fix) {
   const double side_m = gsd_[static_cast<std::size_t>(k)] * std::min(width_, height_);
   const double path_m = path_m_[static_cast<std::size_t>(k)] - path_m_[static_cast<std::size_t>(a)];
   const double st = (options_.gate * path_m + kGateFloorFraction * side_m) / kClosureGateSigmas;
-  const double sh = options_.gate_heading_deg * M_PI / 180.0 / kClosureGateSigmas;
+  const double sh = options_.gate_heading_deg * kDegToRad / kClosureGateSigmas;
   p.diagonal() += Eigen::Vector3d(st * st, st * st, sh * sh);
   if (fixes_fused_ == 0 && fix.placement_sigma_m > 0.0) {
     p.topLeftCorner<2, 2>().diagonal().array() += fix.placement_sigma_m * fix.placement_sigma_m;

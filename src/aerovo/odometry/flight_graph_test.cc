@@ -11,6 +11,7 @@
 #include <Eigen/LU>
 #include <gtest/gtest.h>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/sim/random.h"
 
@@ -220,7 +221,7 @@ TEST(FlightGraph, JudgePairChecksInliersSpreadAndTheGate) {
   fit.translation_m.x() += 1.0;
   EXPECT_EQ(JudgePair(o, fit, pred, 100, 0.5, 200.0, 48.0), PairVerdict::kGate);
   fit = pred;
-  fit.heading_rad = 16.0 * M_PI / 180.0;
+  fit.heading_rad = 16.0 * kDegToRad;
   EXPECT_EQ(JudgePair(o, fit, pred, 100, 0.5, 200.0, 48.0), PairVerdict::kGate);
 }
 
@@ -251,9 +252,9 @@ TEST(FlightGraph, JudgeClosureIsAChiSquareTestOfTheCorrectionAgainstTheChainedUn
   EXPECT_EQ(JudgeClosure(o, fit, pred, 100, 0.5, chain, zero, 200.0, 48.0), PairVerdict::kGate);
   // Heading: 15 degrees at most with negligible covariances.
   fit = pred;
-  fit.heading_rad = 14.5 * M_PI / 180.0;
+  fit.heading_rad = 14.5 * kDegToRad;
   EXPECT_EQ(JudgeClosure(o, fit, pred, 100, 0.5, zero, zero, 200.0, 48.0), PairVerdict::kAdded);
-  fit.heading_rad = 15.5 * M_PI / 180.0;
+  fit.heading_rad = 15.5 * kDegToRad;
   EXPECT_EQ(JudgeClosure(o, fit, pred, 100, 0.5, zero, zero, 200.0, 48.0), PairVerdict::kGate);
 }
 

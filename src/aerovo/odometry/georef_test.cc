@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/geo/geodesic.h"
 
@@ -24,7 +25,7 @@ struct Flight {
 
 Flight MakeFlight(double yaw0_deg, const LocalEnu& enu, const Eigen::Vector2d& noise_scale) {
   Flight f;
-  const double rot = -yaw0_deg * M_PI / 180.0;
+  const double rot = -yaw0_deg * kDegToRad;
   for (int i = 0; i < 60; ++i) {
     const Eigen::Vector2d local(3.0 * std::sin(0.1 * i) * i * 0.1, 2.5 * i);
     const Eigen::Vector2d e = Rot(rot, local) + noise_scale.cwiseProduct(Eigen::Vector2d(
@@ -86,8 +87,8 @@ TEST(GeoReferencer, GpsSegmentRecoversRotationWithNoisyFixes) {
   EXPECT_LE(ready_at, 13u);  // 2.5 m per frame: ready just past 30 m
   // Rotation of enu_from_local = -yaw0 = +130 deg; 1.5 m noise over a >= 30 m segment: within
   // 3 deg.
-  EXPECT_NEAR(std::remainder(geo.rotation_rad() - (130.0 * M_PI / 180.0), 2 * M_PI), 0.0,
-              3.0 * M_PI / 180.0);
+  EXPECT_NEAR(std::remainder(geo.rotation_rad() - (130.0 * kDegToRad), 2 * M_PI), 0.0,
+              3.0 * kDegToRad);
   const Eigen::Vector3d last = enu.Forward(f.gps.back());
   EXPECT_LT((geo.EnuFromLocal(f.local.back()) - last.head<2>()).norm(), 9.0);
 }
@@ -165,7 +166,7 @@ TEST(GeoReferencer, RobustSegmentFitDropsAnOutlier) {
     EXPECT_EQ(geo.outliers(), robust ? 1 : 0);
     rotation[robust] = geo.rotation_rad();
   }
-  const double want = 130.0 * M_PI / 180.0;  // MakeFlight: a rotation of -yaw0
+  const double want = 130.0 * kDegToRad;  // MakeFlight: a rotation of -yaw0
   const auto err = [&](double a) { return std::abs(std::remainder(a - want, 2.0 * M_PI)); };
   EXPECT_LT(err(rotation[1]), 0.02);
   EXPECT_GT(err(rotation[0]), err(rotation[1]));

@@ -20,8 +20,6 @@
 namespace aerovo::map_match_test {
 namespace {
 
-constexpr double kDeg = kPi / 180.0;
-
 TEST(MapMatch, OptionsAndInputsAreChecked) {
   MapMatchOptions o;
   o.search_radius_m = -1.0;
@@ -309,16 +307,16 @@ TEST_F(MapMatchCallas, FixesWithinToleranceAgainstAnotherSeasonMap) {
   const double headings[] = {0.0, 37.0, 130.0, -100.0};
   int fixes = 0;
   for (std::size_t i = 0; i < places.size(); ++i) {
-    const double heading = headings[i % 4] * kDeg;
+    const double heading = headings[i % 4] * kDegToRad;
     Eigen::Vector2d error;
-    const MapFix fix = Fix(matcher, *map_, places[i], heading, heading + 3.0 * kDeg,
+    const MapFix fix = Fix(matcher, *map_, places[i], heading, heading + 3.0 * kDegToRad,
                            Eigen::Vector2d(25.0, -30.0), &error);
     SCOPED_TRACE(::testing::Message() << "place " << i << " status " << ToString(fix.status)
                                       << " inliers " << fix.inliers << " error " << error.norm());
     ASSERT_EQ(fix.status, MapFixStatus::kFix);
     ++fixes;
     EXPECT_LT(error.norm(), 0.5);
-    EXPECT_LT(std::abs(std::remainder(fix.heading_rad - heading, 2 * kPi)), 1.0 * kDeg);
+    EXPECT_LT(std::abs(std::remainder(fix.heading_rad - heading, 2 * kPi)), 1.0 * kDegToRad);
     EXPECT_NEAR(fix.scale, 1.0, 0.03);
     EXPECT_GE(fix.inliers, 20);
     EXPECT_LT(fix.residual_m, 1.0);
@@ -333,11 +331,12 @@ TEST_F(MapMatchCallas, FixesWithinToleranceAgainstAnotherSeasonMap) {
 TEST_F(MapMatchCallas, FixWithoutHeading) {
   MapMatcher matcher{MapMatchOptions{}};
   Eigen::Vector2d error;
-  const MapFix fix = Fix(matcher, *map_, {450, -300}, 130.0 * kDeg, std::nullopt,
+  const MapFix fix = Fix(matcher, *map_, {450, -300}, 130.0 * kDegToRad, std::nullopt,
                          Eigen::Vector2d(-20.0, 15.0), &error);
   ASSERT_EQ(fix.status, MapFixStatus::kFix) << ToString(fix.status) << " " << fix.inliers;
   EXPECT_LT(error.norm(), 1.5);
-  EXPECT_LT(std::abs(std::remainder(fix.heading_rad - 130.0 * kDeg, 2 * kPi)), 1.0 * kDeg);
+  EXPECT_LT(std::abs(std::remainder(fix.heading_rad - 130.0 * kDegToRad, 2 * kPi)),
+            1.0 * kDegToRad);
 }
 
 // A map whose band x in [300, 900) m east was placed 200 m wrong: a search wide enough to find
@@ -353,17 +352,20 @@ TEST_F(MapMatchCallas, FalseMapRegionRejectedByTheGate) {
   Eigen::Vector2d error;
   // The ground at 420 m east is drawn at 620 m in the shifted map.
   const Eigen::Vector2d truth(420, -330);
-  const MapFix wrong = Fix(matcher, shifted, truth, 20.0 * kDeg, 20.0 * kDeg, {5, 5}, &error);
+  const MapFix wrong =
+      Fix(matcher, shifted, truth, 20.0 * kDegToRad, 20.0 * kDegToRad, {5, 5}, &error);
   EXPECT_EQ(wrong.status, MapFixStatus::kGate) << ToString(wrong.status);
   ASSERT_TRUE(wrong.fitted);
   EXPECT_NEAR(error.x(), 200.0, 1.5);
   EXPECT_NEAR(error.y(), 0.0, 1.5);
-  const MapFix right = Fix(matcher, *map_, truth, 20.0 * kDeg, 20.0 * kDeg, {5, 5}, &error);
+  const MapFix right =
+      Fix(matcher, *map_, truth, 20.0 * kDegToRad, 20.0 * kDegToRad, {5, 5}, &error);
   EXPECT_EQ(right.status, MapFixStatus::kFix) << ToString(right.status);
   EXPECT_LT(error.norm(), 1.5);
   // A narrow search over the wrong tile: the frame's ground is not in the window at all.
   MapMatcher narrow{MapMatchOptions{}};
-  const MapFix none = Fix(narrow, shifted, truth, 20.0 * kDeg, 20.0 * kDeg, {5, 5}, &error);
+  const MapFix none =
+      Fix(narrow, shifted, truth, 20.0 * kDegToRad, 20.0 * kDegToRad, {5, 5}, &error);
   EXPECT_NE(none.status, MapFixStatus::kFix) << error.transpose();
 }
 
@@ -384,10 +386,10 @@ TEST_F(MapMatchCallas, SearchFindsAFrameWhosePriorIs300MOff) {
   for (const Case& c : cases) {
     Eigen::Vector2d error;
     MapFix coarse;
-    const double heading = c.heading_deg * kDeg;
+    const double heading = c.heading_deg * kDegToRad;
     const MapFix fix = SearchAndRefine(
         o, *map_, c.truth, heading,
-        c.heading_known ? std::optional<double>(heading + 3.0 * kDeg) : std::nullopt, c.offset,
+        c.heading_known ? std::optional<double>(heading + 3.0 * kDegToRad) : std::nullopt, c.offset,
         o.search_wide_radius_m, &error, &coarse);
     SCOPED_TRACE(::testing::Message()
                  << "truth " << c.truth.transpose() << " coarse " << ToString(coarse.status)
@@ -400,7 +402,7 @@ TEST_F(MapMatchCallas, SearchFindsAFrameWhosePriorIs300MOff) {
     EXPECT_NEAR(coarse.prior_distance_m, c.offset.norm(), 4.0);
     ASSERT_EQ(fix.status, MapFixStatus::kFix);
     EXPECT_LT(error.norm(), 1.0);
-    EXPECT_LT(std::abs(std::remainder(fix.heading_rad - heading, 2 * kPi)), 1.0 * kDeg);
+    EXPECT_LT(std::abs(std::remainder(fix.heading_rad - heading, 2 * kPi)), 1.0 * kDegToRad);
   }
 }
 
@@ -413,12 +415,14 @@ TEST_F(MapMatchCallas, SearchIntoAFalseMapRegionIsRejectedByTheGate) {
   Eigen::Vector2d error;
   MapFix coarse;
   const Eigen::Vector2d truth(450, -300);
-  SearchAndRefine(o, shifted, truth, 20.0 * kDeg, 20.0 * kDeg, {5, 5}, 80.0, &error, &coarse);
+  SearchAndRefine(o, shifted, truth, 20.0 * kDegToRad, 20.0 * kDegToRad, {5, 5}, 80.0, &error,
+                  &coarse);
   EXPECT_EQ(coarse.status, MapFixStatus::kGate) << ToString(coarse.status);
   ASSERT_TRUE(coarse.fitted);
   EXPECT_NEAR(error.x(), 200.0, 3.0);
   EXPECT_NEAR(error.y(), 0.0, 3.0);
-  SearchAndRefine(o, shifted, truth, 20.0 * kDeg, 20.0 * kDeg, {5, 5}, 400.0, &error, &coarse);
+  SearchAndRefine(o, shifted, truth, 20.0 * kDegToRad, 20.0 * kDegToRad, {5, 5}, 400.0, &error,
+                  &coarse);
   EXPECT_EQ(coarse.status, MapFixStatus::kFix) << ToString(coarse.status);
 }
 

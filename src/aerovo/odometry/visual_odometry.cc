@@ -15,6 +15,7 @@
 #include <Eigen/SVD>
 
 #include "aerovo/camera/lens.h"
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
 
@@ -500,7 +501,7 @@ FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
   std::optional<double> heading_override;
   if (r.index == 0 || no_reference_yet) s.yaw0_deg = yaw_deg;
   if (o.heading_from_yaw && yaw_deg && s.yaw0_deg && o.scale_mode == ScaleMode::kMetric) {
-    heading_override = -(*yaw_deg - *s.yaw0_deg) * M_PI / 180.0;
+    heading_override = -(*yaw_deg - *s.yaw0_deg) * kDegToRad;
   }
 
   if (r.index == 0 || no_reference_yet) {

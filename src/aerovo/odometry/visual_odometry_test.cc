@@ -12,6 +12,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 
 namespace aerovo::visual_odometry_test {
@@ -91,7 +92,7 @@ std::vector<TruePose> CurvedFlight(int n) {
   double heading = 0.0;
   for (int i = 0; i < n; ++i) {
     poses.push_back({p, heading});
-    heading += 3.0 * M_PI / 180.0;
+    heading += 3.0 * kDegToRad;
     p += 3.5 * Eigen::Vector2d(-std::sin(heading), std::cos(heading));
   }
   return poses;
@@ -132,8 +133,7 @@ TEST_F(SyntheticFlight, RecoversCurvedTrajectory) {
     // Within 0.2 % of the distance flown + 5 cm (measured: <= 1.7 cm over 100 m), heading
     // within 0.5 deg.
     EXPECT_LT((r.position_m - truth[i].pos_m).norm(), 0.05 + 0.002 * distance) << "frame " << i;
-    EXPECT_NEAR(std::remainder(r.heading_rad - truth[i].heading, 2 * M_PI), 0.0,
-                0.5 * M_PI / 180.0);
+    EXPECT_NEAR(std::remainder(r.heading_rad - truth[i].heading, 2 * M_PI), 0.0, 0.5 * kDegToRad);
     EXPECT_NEAR(r.gsd_m_per_px, kGsd, 1e-12);
   }
   EXPECT_EQ(vo.stats().frames, 30);

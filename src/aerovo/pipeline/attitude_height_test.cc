@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/frames/image_test_util.h"
 #include "aerovo/pipeline/run_steps.h"
@@ -136,8 +137,8 @@ TEST(CameraAttitude, FromTheGimbalTheAircraftTheAutopilotOrTheMount) {
   EXPECT_NEAR(a.camera->roll_deg, 4.0, 1e-9);
   // The autopilot's ATTITUDE over MAVLink wins over the telemetry file's aircraft angles.
   mavlink::AutopilotAttitude link;
-  link.roll_rad = 3.0 * M_PI / 180.0;
-  link.pitch_rad = 5.0 * M_PI / 180.0;
+  link.roll_rad = 3.0 * kDegToRad;
+  link.pitch_rad = 5.0 * kDegToRad;
   a = CameraAttitudeOf(c, s, link);
   EXPECT_EQ(a.source, AttitudeSource::kMavlink);
   EXPECT_NEAR(a.camera->pitch_deg, 5.0, 1e-9);

@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/frames/camera.h"
 #include "aerovo/odometry/visual_odometry.h"
@@ -236,7 +237,7 @@ TEST(Preprocess, DetectionReductionKeepsPositionsInMetres) {
   const int frames = 8;
   const double step_px = 36.0;  // 1.8 m per frame to the east, turning 2 degrees per frame
   for (int i = 0; i < frames; ++i) {
-    const double a = 2.0 * i * M_PI / 180.0, c = std::cos(a), s = std::sin(a);
+    const double a = 2.0 * i * kDegToRad, c = std::cos(a), s = std::sin(a);
     const double cx = 0.5 * (w - 1), cy = 0.5 * (h - 1);
     const double tx = 300.0 + step_px * i - (c * cx - s * cy), ty = 700.0 - (s * cx + c * cy);
     const cv::Matx23d ground_from_frame(c, -s, tx, s, c, ty);

@@ -1,4 +1,5 @@
 #include "aerovo/pipeline/run_steps.h"
+#include "aerovo/core/angles.h"
 #include "aerovo/core/cancel.h"
 #include "aerovo/outputs/output_file.h"
 
@@ -345,11 +346,10 @@ FrameAttitude CameraAttitudeOf(const RunConfig& config,
                                const std::optional<mavlink::AutopilotAttitude>& link,
                                const std::optional<CameraAttitude>& estimated) {
   FrameAttitude out;
-  constexpr double kDeg = M_PI / 180.0;
   // An aircraft's roll and pitch (radians) to its fixed camera's.
   const auto fixed_camera = [&](double roll_rad, double pitch_rad) {
     const Eigen::Matrix3d level_from_camera =
-        LevelFromCameraFrd({roll_rad / kDeg, pitch_rad / kDeg}) *
+        LevelFromCameraFrd({roll_rad / kDegToRad, pitch_rad / kDegToRad}) *
         LevelFromCameraFrd({0.0, config.camera_mount_pitch_deg});
     return AttitudeOfRotation(level_from_camera);
   };
@@ -361,8 +361,8 @@ FrameAttitude CameraAttitudeOf(const RunConfig& config,
     out.reported = fixed_camera(link->roll_rad, link->pitch_rad);
     out.source = AttitudeSource::kMavlink;
   } else if (sample && (sample->pitch_deg || sample->roll_deg)) {
-    out.reported = fixed_camera(sample->roll_deg.value_or(0.0) * kDeg,
-                                sample->pitch_deg.value_or(0.0) * kDeg);
+    out.reported = fixed_camera(sample->roll_deg.value_or(0.0) * kDegToRad,
+                                sample->pitch_deg.value_or(0.0) * kDegToRad);
     out.source = AttitudeSource::kFlight;
   } else if (config.camera_mount_pitch_deg != 0.0) {
     out.reported = fixed_camera(0.0, 0.0);  // the aircraft taken as level
@@ -432,7 +432,7 @@ void ReplacePose(PendingFrame& p, const FrameResult& r) {
 
 namespace {
 
-double Degrees(double rad) { return rad * 180.0 / M_PI; }
+double Degrees(double rad) { return rad * kRadToDeg; }
 
 // The geographic fields of a pose-stream line.
 void AddGeoFields(const PendingFrame& p, const GeoReferencer& georef, nlohmann::ordered_json& j) {
@@ -1023,8 +1023,8 @@ void WriteOptimizedTrack(const RunConfig& config, const FlightRecording& flight,
 // summary.json "optimized"."pairs" (RunSummary::Optimized::pairs).
 nlohmann::json PairsJson(const FlightRecording& flight, const OptimizedFlight& opt) {
   const auto pose = [](const backend::Similarity2& p) {
-    return nlohmann::json::array({p.translation_m.x(), p.translation_m.y(),
-                                  p.heading_rad * 180.0 / M_PI, p.log_scale});
+    return nlohmann::json::array(
+        {p.translation_m.x(), p.translation_m.y(), p.heading_rad * kRadToDeg, p.log_scale});
   };
   nlohmann::json out = nlohmann::json::array();
   for (const TriedPair& p : opt.pairs) {

@@ -13,6 +13,7 @@
 
 #include <Eigen/Core>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/mavlink/gps_input.h"
 #include "aerovo/mavlink/vision.h"
 #include "aerovo/pipeline/frame_loop.h"
@@ -110,7 +111,7 @@ class GpsInputOfPoses {
     fix.sigma_horizontal_m = std::sqrt(var);
     // The image's up (the nose, camera mounted nose-up as for ODOMETRY) clockwise from north:
     // minus the image x axis' angle counter-clockwise from east (the pose stream's yaw_enu_deg).
-    fix.yaw_deg = -(f.result.heading_rad + georef.rotation_rad()) * 180.0 / M_PI;
+    fix.yaw_deg = -(f.result.heading_rad + georef.rotation_rad()) * kRadToDeg;
     return fix;
   }
 

@@ -20,6 +20,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/mavlink/gps_input.h"
 #include "aerovo/mavlink/transport.h"
 #include "aerovo/pipeline/frame_loop.h"
@@ -89,9 +90,9 @@ struct SinkRun {
     c.mavlink_gps_input_drift = 0.01;
     return c;
   }
-  // Frame k: 5 m north of frame k-1 (local +y, the image's up facing north), 0.5 s later; its
-  // GPS fix and the camera's yaw (north) to the geo-reference first, as the stages do.
-  FrameState Frame(int k) {
+  // Frame k: 5 m north of frame k-1 (local +y, the image's up facing north), 0.5 s later, 60 m
+  // above the ground; the geo-reference not told.
+  static FrameState Bare(int k) {
     FrameState f;
     f.frame.index = k;
     f.result.position_m = Eigen::Vector2d(0.0, kStepM * k);
@@ -102,7 +103,13 @@ struct SinkRun {
     f.frame_mono_s = 1000.0 + kDt * k;
     f.frame_unix_s = kUnix0 + kDt * k;
     f.height_m = 60.0;
-    const double north_deg = kStepM * k / 6378137.0 * 180.0 / M_PI;
+    return f;
+  }
+  // Bare(k), with its GPS fix and the camera's yaw (north) given to the geo-reference first, as
+  // the stages do.
+  FrameState Frame(int k) {
+    FrameState f = Bare(k);
+    const double north_deg = kStepM * k / 6378137.0 * kRadToDeg;
     state.georef.Observe(f.result.position_m, GeoPoint{45.0 + north_deg, 6.0, 500.0}, 0.0);
     return f;
   }
@@ -175,15 +182,7 @@ TEST(MavlinkSink, GpsInputAfterAMapSeedHasNoAltitudeAndItsDriftStartsAtTheSeed) 
   constexpr int kSeed = 6;
   constexpr double kSeedVar = 0.04;
   for (int k = 0; k < 12; ++k) {
-    FrameState f;
-    f.frame.index = k;
-    f.result.position_m = Eigen::Vector2d(0.0, kStepM * k);
-    f.result.status = k == 0 ? FrameStatus::kFirst : FrameStatus::kOk;
-    f.result.n_inliers = 200;
-    f.result.gsd_m_per_px = 0.05;
-    f.frame_mono_s = 1000.0 + kDt * k;
-    f.frame_unix_s = kUnix0 + kDt * k;
-    f.height_m = 60.0;
+    FrameState f = SinkRun::Bare(k);
     r.state.georef.Observe(f.result.position_m, std::nullopt, std::nullopt);
     if (k == kSeed) {  // the image's x axis east (heading pi/2 - pi/2 = 0 in ENU): +y north
       r.state.georef.SeedFromFix(f.result.position_m, 0.0, GeoPoint{45.0, 6.0, 0.0}, 0.0);

@@ -31,6 +31,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "aerovo/backend/similarity2.h"
+#include "aerovo/core/angles.h"
 #include "aerovo/odometry/attitude.h"
 #include "aerovo/pipeline/frame_loop.h"
 #include "aerovo/pipeline/map_fixer.h"
@@ -41,7 +42,7 @@ namespace {
 // Floors of a fix's covariance: a fix is not trusted beyond its inliers' own RMS transfer error
 // (MapFix::residual_m) per axis, and its heading beyond 0.5 degrees (the fit's covariance from
 // the residuals leaves out the frame's tilt and the map's own errors).
-constexpr double kHeadingFloorRad = 0.5 * M_PI / 180.0;
+constexpr double kHeadingFloorRad = 0.5 * kDegToRad;
 // Frames remembered for the fixes still to come (a source frame -> its graph index): a fix
 // taken more than this many frames after its frame is not fused (the worker does one attempt
 // at a time, so a fix is at most a few attempts late).

@@ -6,6 +6,7 @@
 #include <memory>
 #include <string>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/pipeline/frame_loop.h"
 
 namespace aerovo::run_steps {
@@ -23,7 +24,7 @@ class RecordStage : public FrameStage {
     if (f.withheld_gps) rec.gps_flag = kGpsFlagWithheld;
     if (f.window && f.window->has_covariance) {
       f.output.sigma_xy_m = WindowSigmaXyM(*f.window);
-      f.output.sigma_heading_deg = WindowSigmaHeadingRad(*f.window) * 180.0 / M_PI;
+      f.output.sigma_heading_deg = WindowSigmaHeadingRad(*f.window) * kRadToDeg;
     }
     if (f.lens_switched) rec.status += "+lens";  // the lens estimate applied (lens_switch.h)
     // A map fix taken at this frame (stage_map_fix.cc): fused into the pose graph, or gated.
@@ -32,8 +33,8 @@ class RecordStage : public FrameStage {
     rec.height_m = f.height_m;
     rec.height_source = ToString(f.height_source);
     if (f.autopilot_attitude) {
-      rec.roll_deg = f.autopilot_attitude->roll_rad * 180.0 / M_PI;
-      rec.pitch_deg = f.autopilot_attitude->pitch_rad * 180.0 / M_PI;
+      rec.roll_deg = f.autopilot_attitude->roll_rad * kRadToDeg;
+      rec.pitch_deg = f.autopilot_attitude->pitch_rad * kRadToDeg;
     }
     if (f.attitude.camera) {  // the virtual nadir camera of the odometry (stage_attitude.cc)
       rec.camera_roll_deg = f.attitude.camera->roll_deg;

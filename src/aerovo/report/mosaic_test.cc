@@ -2,6 +2,8 @@
 // through the virtual nadir camera (odometry/attitude.h); a run without one as read.
 #include "aerovo/report/mosaic.h"
 
+#include "aerovo/core/angles.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -27,7 +29,7 @@ TEST(MosaicNadir, TheTiltedImageCentreIsDrawnAheadOfTheNadir) {
   const Eigen::Matrix3d h = MosaicNadirFromFrame(TiltedRun(true), 800, 600, 0);
   const Eigen::Vector3d c = h * Eigen::Vector3d(399.5, 299.5, 1.0);
   EXPECT_NEAR(c.x() / c.z(), 399.5, 1e-9);
-  EXPECT_NEAR(c.y() / c.z(), 299.5 - 462.0 * std::tan(15.0 * M_PI / 180.0), 1e-6);
+  EXPECT_NEAR(c.y() / c.z(), 299.5 - 462.0 * std::tan(15.0 * kDegToRad), 1e-6);
 }
 
 TEST(MosaicNadir, NoAppliedAttitudeDrawsTheFrameAsRead) {
@@ -59,8 +61,8 @@ TEST(MosaicNadir, EachFrameThroughItsOwnRecordedAttitude) {
                               Eigen::Vector3d(399.5, 299.5, 1.0);
     return c.y() / c.z();
   };
-  EXPECT_NEAR(centre_y(4), 299.5 - 462.0 * std::tan(15.0 * M_PI / 180.0), 1e-6);
-  EXPECT_NEAR(centre_y(6), 299.5 - 462.0 * std::tan(10.0 * M_PI / 180.0), 1e-6);
+  EXPECT_NEAR(centre_y(4), 299.5 - 462.0 * std::tan(15.0 * kDegToRad), 1e-6);
+  EXPECT_NEAR(centre_y(6), 299.5 - 462.0 * std::tan(10.0 * kDegToRad), 1e-6);
   EXPECT_TRUE(MosaicNadirFromFrame(run, 800, 600, 5).isIdentity());
   EXPECT_TRUE(MosaicNadirFromFrame(run, 800, 600, 7).isIdentity());
   EXPECT_TRUE(MosaicNadirFromFrame(run, 800, 600, 0).isIdentity());

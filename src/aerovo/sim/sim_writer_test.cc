@@ -17,6 +17,7 @@
 #include <Eigen/Geometry>
 #include <fmt/format.h>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
 #include "aerovo/geo/local_enu.h"
@@ -99,7 +100,7 @@ TEST(SimWriter, SrtMatchesGroundTruth) {
   EXPECT_EQ(entries, 12);
   EXPECT_LT(worst_m, 0.1);  // 1e-6 deg quantisation: <= 0.06 m
   // The flight goes 10 m towards heading 30 deg: the last SRT fix is there.
-  EXPECT_NEAR(sim.ground_truth().back().enu_m.x(), 11 * std::sin(30 * M_PI / 180), 1e-3);
+  EXPECT_NEAR(sim.ground_truth().back().enu_m.x(), 11 * std::sin(30 * kDegToRad), 1e-3);
 }
 
 TEST(SimWriter, SrtCarriesGpsNoise) {

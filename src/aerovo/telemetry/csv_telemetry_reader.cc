@@ -11,6 +11,7 @@
 
 #include <fmt/format.h>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/telemetry/csv_lines.h"
 #include "aerovo/telemetry/parse_util.h"
 #include "aerovo/telemetry/telemetry_readers.h"
@@ -63,7 +64,7 @@ struct Unit {
   int rank;
 };
 
-constexpr double kDegPerRad = 57.295779513082320877;  // 180 / pi
+constexpr double kRadToDeg = 57.295779513082320877;  // 180 / pi
 
 const Unit kUnits[] = {
     {"m", Quantity::kLength, 1.0, 0},
@@ -96,9 +97,9 @@ const Unit kUnits[] = {
     {"degree", Quantity::kAngle, 1.0, 0},
     {"degrees", Quantity::kAngle, 1.0, 0},
     {"\xC2\xB0", Quantity::kAngle, 1.0, 0},  // "°"
-    {"rad", Quantity::kAngle, kDegPerRad, 0},
-    {"radian", Quantity::kAngle, kDegPerRad, 0},
-    {"radians", Quantity::kAngle, kDegPerRad, 0},
+    {"rad", Quantity::kAngle, kRadToDeg, 0},
+    {"radian", Quantity::kAngle, kRadToDeg, 0},
+    {"radians", Quantity::kAngle, kRadToDeg, 0},
     {"dege7", Quantity::kDegE7, 1e-7, 0},  // MAVLink's name for integer 1e-7 degrees
     {"360", Quantity::kYaw360, 1.0, 1},    // DJI "OSD.yaw [360]": degrees in [0, 360)
     {"utc", Quantity::kZone, 0.0, 0},
@@ -333,7 +334,7 @@ ColumnPlan PlanColumns(const std::vector<std::string>& header, const std::string
     } else if (layout.px4 && col == kTime) {
       factor = 1e-6;
     } else if (layout.px4 && (col == kYaw || col == kPitch || col == kRoll)) {
-      factor = kDegPerRad;  // uORB angles are radians (vehicle_global_position yaw)
+      factor = kRadToDeg;  // uORB angles are radians (vehicle_global_position yaw)
     }
     if (rank < best_rank[col]) {
       best_rank[col] = rank;
