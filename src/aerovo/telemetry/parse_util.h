@@ -72,8 +72,9 @@ constexpr std::size_t kMaxTextLineBytes = std::size_t{1} << 20;
 
 /// A telemetry text file (CSV, DJI SRT) read line by line, whatever wrote it:
 /// - encodings: UTF-8, with or without its byte-order mark (removed); UTF-16 with a byte-order
-///   mark (FF FE little-endian, FE FF big-endian: Windows "Unicode" text, PowerShell 5
-///   `Out-File`), transcoded to UTF-8. A UTF-32 byte-order mark is an error;
+///   mark (FF FE little-endian, FE FF big-endian: Windows "Unicode" text, and Windows
+///   PowerShell 5.1's `Out-File` and `>`, Microsoft Learn "about_Character_Encoding"),
+///   transcoded to UTF-8. A UTF-32 byte-order mark is an error;
 /// - line ends "\n", "\r\n" or a lone "\r" (the newline functions of The Unicode Standard,
 ///   section 5.8; a lone CR is the classic Mac OS line end of old spreadsheet exports);
 /// - a NUL byte is an InputError "<source>:<line>: a NUL byte ...: not a text file" (binary
