@@ -60,8 +60,7 @@ const std::vector<RunPreset>& RunPresets() {
        "threshold of detectSURFFeatures (surf.hessian_threshold, default 1000), every frame "
        "matched exhaustively, the clustered RANSAC's best cell fit as it is; what `aerovo "
        "experiment --paper` uses to reproduce the paper's figures; no attitude correction (the "
-       "paper's "
-       "nadir camera), no lens or tilt self-calibration, no flat-field correction",
+       "paper's nadir camera), no lens or tilt self-calibration, no flat-field correction",
        {{"surf.adaptive", "false"},
         {"correspondence.guided_matching", "false"},
         {"clustered.refine", "false"},
@@ -289,8 +288,8 @@ class YamlReader {
       const auto nested = [](const nlohmann::json& e) { return e.is_array() || e.is_object(); };
       if (it->is_array() && std::any_of(it->begin(), it->end(), nested)) {
         throw InputError(
-            fmt::format("{}: line {}: '{}': lists of lists or mappings are not "
-                        "allowed (flat key: value, or a list of values)",
+            fmt::format("{}: line {}: '{}': lists of lists or mappings are not allowed (flat "
+                        "key: value, or a list of values)",
                         where_, at, it.key()));
       }
       out[it.key()] = *it;
@@ -352,10 +351,8 @@ class YamlReader {
       if (is_merge) {
         const auto check = [&](const nlohmann::json& m) {
           if (!m.is_object()) {
-            throw InputError(
-                fmt::format("{}: line {}: a merge key << takes a mapping or a "
-                            "list of mappings",
-                            where_, line));
+            throw InputError(fmt::format(
+                "{}: line {}: a merge key << takes a mapping or a list of mappings", where_, line));
           }
         };
         if (value.is_array()) {
