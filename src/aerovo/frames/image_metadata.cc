@@ -68,9 +68,14 @@ std::optional<double> ExifNumber(const Exiv2::ExifData& exif, const char* key,
   return ParseDouble(it->toString());
 }
 
-// Degrees/minutes/seconds rational triple with its hemisphere reference.
+// Degrees/minutes/seconds rational triple with its hemisphere reference: GPSLatitudeRef 'N'
+// or 'S', GPSLongitudeRef 'E' or 'W' (EXIF 2.32, CIPA DC-008-2019, "GPS Attribute
+// Information"). The reference alone gives the sign: a position off the equator or the prime
+// meridian whose reference is missing or another letter is an InputError naming the photo and
+// the tag (read as positive before, a flight south of the equator was put north of it).
 std::optional<double> ExifDms(const Exiv2::ExifData& exif, const char* key, const char* ref_key,
-                              const char* negative_ref, const std::string& source) {
+                              const char* positive_ref, const char* negative_ref,
+                              const std::string& source) {
   const auto it = exif.findKey(Exiv2::ExifKey(key));
   if (it == exif.end()) return std::nullopt;
   if (it->count() != 3) {
@@ -93,8 +98,17 @@ std::optional<double> ExifDms(const Exiv2::ExifData& exif, const char* key, cons
     }
   }
   double deg = parts[0] + parts[1] / 60.0 + parts[2] / 3600.0;
-  const auto ref = ExifString(exif, ref_key);
-  if (ref && !ref->empty() && (*ref)[0] == negative_ref[0]) deg = -deg;
+  const std::string ref(io_detail::Trim(ExifString(exif, ref_key).value_or("")));
+  if (ref == negative_ref) return -deg;
+  if (ref != positive_ref && deg != 0.0) {
+    throw InputError(
+        fmt::format("{}: EXIF {} {:.7f} has {} ('{}' or '{}' says the hemisphere, EXIF 2.32): "
+                    "its sign cannot be told",
+                    source, key, deg,
+                    ref.empty() ? fmt::format("no {}", ref_key)
+                                : fmt::format("{} '{}'", ref_key, io_detail::Printable(ref, 20)),
+                    positive_ref, negative_ref));
+  }
   return deg;
 }
 
@@ -165,9 +179,10 @@ void ReadCameraIdentity(const Exiv2::ExifData& exif, const Exiv2::XmpData& xmp, 
 
 // EXIF GPS position and altitude; InputError for a value out of range or half a position.
 void ReadExifGps(const Exiv2::ExifData& exif, const std::string& source, ImageMetadata& m) {
-  m.lat_deg = ExifDms(exif, "Exif.GPSInfo.GPSLatitude", "Exif.GPSInfo.GPSLatitudeRef", "S", source);
+  m.lat_deg =
+      ExifDms(exif, "Exif.GPSInfo.GPSLatitude", "Exif.GPSInfo.GPSLatitudeRef", "N", "S", source);
   m.lon_deg =
-      ExifDms(exif, "Exif.GPSInfo.GPSLongitude", "Exif.GPSInfo.GPSLongitudeRef", "W", source);
+      ExifDms(exif, "Exif.GPSInfo.GPSLongitude", "Exif.GPSInfo.GPSLongitudeRef", "E", "W", source);
   CheckRange(m.lat_deg, -90.0, 90.0, "EXIF GPS latitude", source);
   CheckRange(m.lon_deg, -180.0, 180.0, "EXIF GPS longitude", source);
   if (m.lat_deg.has_value() != m.lon_deg.has_value()) {
@@ -177,7 +192,15 @@ void ReadExifGps(const Exiv2::ExifData& exif, const std::string& source, ImageMe
   }
   m.gps_alt_m = ExifNumber(exif, "Exif.GPSInfo.GPSAltitude", source);
   if (m.gps_alt_m) {
+    // GPSAltitudeRef: 0 above sea level, 1 below (the altitude then its absolute value); absent
+    // means 0 (EXIF 2.32, "GPS Attribute Information"). Any other value is not read as either.
     const auto ref = ExifNumber(exif, "Exif.GPSInfo.GPSAltitudeRef", source);
+    if (ref && *ref != 0.0 && *ref != 1.0) {
+      throw InputError(fmt::format(
+          "{}: EXIF GPSAltitudeRef {} is neither 0 (above sea level) nor 1 (below sea level; "
+          "EXIF 2.32): the altitude's sign cannot be told",
+          source, *ref));
+    }
     if (ref && *ref == 1.0) m.gps_alt_m = -*m.gps_alt_m;
   }
   CheckRange(m.gps_alt_m, -1e5, 1e5, "EXIF GPS altitude", source);

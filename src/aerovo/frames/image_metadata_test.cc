@@ -315,7 +315,9 @@ TEST(ImageMetadata, ExifPixelDimensionsFallbackIsRangeChecked) {
                                {{"Exif.Photo.PixelXDimension", x},
                                 {"Exif.Photo.PixelYDimension", y},
                                 {"Exif.GPSInfo.GPSLatitude", "45/1 0/1 0/1"},
-                                {"Exif.GPSInfo.GPSLongitude", "10/1 0/1 0/1"}});
+                                {"Exif.GPSInfo.GPSLatitudeRef", "N"},
+                                {"Exif.GPSInfo.GPSLongitude", "10/1 0/1 0/1"},
+                                {"Exif.GPSInfo.GPSLongitudeRef", "E"}});
     std::ifstream in(path, std::ios::binary);
     const std::vector<std::uint8_t> jpeg((std::istreambuf_iterator<char>(in)),
                                          std::istreambuf_iterator<char>());
@@ -339,6 +341,51 @@ TEST(ImageMetadata, ExifPixelDimensionsFallbackIsRangeChecked) {
   EXPECT_EQ(huge.width_px, 0);
   EXPECT_EQ(huge.height_px, 0);
   EXPECT_NEAR(*huge.lat_deg, 45.0, 1e-12);  // the rest of the metadata is still read
+}
+
+// The hemisphere of a GPS coordinate is its reference tag's letter, and the side of sea level
+// GPSAltitudeRef's 0 or 1 (EXIF 2.32, "GPS Attribute Information"). A reference that is missing
+// or another letter was read as north / east: a photo at 33.87 S came out at 33.87 N. Now it
+// is an error naming the photo and the tag; a coordinate of 0 needs none.
+TEST(ImageMetadata, GpsReferencesGiveTheSignOrTheReadStops) {
+  io_test::TempDir dir("aerovo_exif_refs");
+  const auto img = io_test::TextureImage(32, 24, 4);
+  const auto write = [&](const std::string& name, const std::string& lat_ref,
+                         const std::string& lon_ref, const std::string& lat = "33/1 52/1 0/1") {
+    std::map<std::string, std::string> tags = {{"Exif.GPSInfo.GPSLatitude", lat},
+                                               {"Exif.GPSInfo.GPSLongitude", "151/1 12/1 36/1"}};
+    if (!lat_ref.empty()) tags["Exif.GPSInfo.GPSLatitudeRef"] = lat_ref;
+    if (!lon_ref.empty()) tags["Exif.GPSInfo.GPSLongitudeRef"] = lon_ref;
+    io_test::WriteJpegWithTags(dir / name, img, tags);
+    return dir / name;
+  };
+  const ImageMetadata sw = ReadImageMetadata(write("sw.jpg", "S", "W"));
+  EXPECT_NEAR(*sw.lat_deg, -(33.0 + 52.0 / 60.0), 1e-12);
+  EXPECT_NEAR(*sw.lon_deg, -(151.0 + 12.0 / 60.0 + 36.0 / 3600.0), 1e-12);
+  ExpectInputError([&] { ReadImageMetadata(write("noref.jpg", "", "E")); },
+                   {"noref.jpg: EXIF Exif.GPSInfo.GPSLatitude 33.8666667 has no "
+                    "Exif.GPSInfo.GPSLatitudeRef ('N' or 'S' says the hemisphere"});
+  ExpectInputError([&] { ReadImageMetadata(write("lower.jpg", "S", "w")); },
+                   {"lower.jpg: EXIF Exif.GPSInfo.GPSLongitude 151.2100000 has "
+                    "Exif.GPSInfo.GPSLongitudeRef 'w' ('E' or 'W'"});
+  const ImageMetadata equator = ReadImageMetadata(write("equator.jpg", "", "E", "0/1 0/1 0/1"));
+  EXPECT_EQ(*equator.lat_deg, 0.0);
+  EXPECT_NEAR(*equator.lon_deg, 151.21, 1e-12);
+
+  const auto altitude = [&](const std::string& name, const std::string& ref) {
+    io_test::WriteJpegWithTags(dir / name, img,
+                               {{"Exif.GPSInfo.GPSLatitude", "45/1 0/1 0/1"},
+                                {"Exif.GPSInfo.GPSLatitudeRef", "N"},
+                                {"Exif.GPSInfo.GPSLongitude", "10/1 0/1 0/1"},
+                                {"Exif.GPSInfo.GPSLongitudeRef", "E"},
+                                {"Exif.GPSInfo.GPSAltitude", "4305/10"},
+                                {"Exif.GPSInfo.GPSAltitudeRef", ref}});
+    return dir / name;
+  };
+  EXPECT_DOUBLE_EQ(*ReadImageMetadata(altitude("above.jpg", "0")).gps_alt_m, 430.5);
+  EXPECT_DOUBLE_EQ(*ReadImageMetadata(altitude("below.jpg", "1")).gps_alt_m, -430.5);
+  ExpectInputError([&] { ReadImageMetadata(altitude("ref3.jpg", "3")); },
+                   {"ref3.jpg: EXIF GPSAltitudeRef 3 is neither 0 (above sea level) nor 1"});
 }
 
 TEST(ImageMetadata, TelemetryFromImagesOrderAndMissingGps) {

@@ -19,8 +19,8 @@
 #include <yaml.h>
 
 #include "aerovo/core/error.h"
-#include "aerovo/mavlink/transport.h"
 #include "aerovo/core/options_json.h"
+#include "aerovo/mavlink/transport.h"
 
 namespace aerovo {
 
@@ -59,8 +59,8 @@ const std::vector<RunPreset>& RunPresets() {
        "The paper's exact pipeline (Ivanov & Muzychuk 2023, MATLAB semantics): SURF with the fixed "
        "threshold of detectSURFFeatures (surf.hessian_threshold, default 1000), every frame "
        "matched exhaustively, the clustered RANSAC's best cell fit as it is; what `aerovo "
-       "experiment --paper` uses to reproduce the paper's figures; no attitude correction (the paper's "
-       "nadir camera), no lens or tilt self-calibration, no flat-field correction",
+       "experiment --paper` uses to reproduce the paper's figures; no attitude correction (the "
+       "paper's nadir camera), no lens or tilt self-calibration, no flat-field correction",
        {{"surf.adaptive", "false"},
         {"correspondence.guided_matching", "false"},
         {"clustered.refine", "false"},
@@ -183,8 +183,9 @@ std::string RunOptionsMarkdown() {
     md += std::string("| `") + s.name + "` | `" + options::FlagName(s.name) + "` | " + keys +
           " | " + s.doc + " |\n";
   }
-  md += "\n## Presets\n\nA flag that starts from other defaults; options given with it (flags, "
-        "`--config`) still win.\n\n";
+  md +=
+      "\n## Presets\n\nA flag that starts from other defaults; options given with it (flags, "
+      "`--config`) still win.\n\n";
   md += "| Flag | Sets | Description |\n|---|---|---|\n";
   for (const RunPreset& p : RunPresets()) {
     std::string keys;
@@ -226,8 +227,18 @@ nlohmann::json YamlScalar(const std::string& v, bool quoted) {
 // Reads a YAML document with libyaml into JSON: scalars (YamlScalar), mappings, sequences,
 // anchors (&a) and aliases (*a), and merge keys (`<<: *a`, `<<: [*a, *b]`, `<<: {k: v}`; keys
 // of the mapping itself win, then the first merged mapping: YAML 1.1 merge key type).
+// A hostile file is bounded: nesting deeper than kMaxDepth (the reader recurses per level: a
+// line of 20000 '[' overflowed the stack) and a document whose values, aliases expanded, exceed
+// kMaxValues (aliases of aliases grow exponentially: 9 levels of 10 aliases each are 10^9
+// values, which took 4.5 GB and did not end) are errors naming the line.
 class YamlReader {
  public:
+  /// A flat configuration nests 2 levels (a template mapping, a list); far above any real file.
+  static constexpr int kMaxDepth = 64;
+  /// Values (scalars, mappings, sequences) with every alias expanded; a configuration has a few
+  /// hundred.
+  static constexpr std::size_t kMaxValues = 100000;
+
   YamlReader(const std::string& text, std::string where) : where_(std::move(where)) {
     if (!yaml_parser_initialize(&parser_)) {
       throw InputError(where_ + ": cannot initialise libyaml");
@@ -276,9 +287,10 @@ class YamlReader {
       // it for any other key, naming the key); nothing deeper.
       const auto nested = [](const nlohmann::json& e) { return e.is_array() || e.is_object(); };
       if (it->is_array() && std::any_of(it->begin(), it->end(), nested)) {
-        throw InputError(fmt::format("{}: line {}: '{}': lists of lists or mappings are not "
-                                     "allowed (flat key: value, or a list of values)",
-                                     where_, at, it.key()));
+        throw InputError(
+            fmt::format("{}: line {}: '{}': lists of lists or mappings are not allowed (flat "
+                        "key: value, or a list of values)",
+                        where_, at, it.key()));
       }
       out[it.key()] = *it;
     }
@@ -339,9 +351,8 @@ class YamlReader {
       if (is_merge) {
         const auto check = [&](const nlohmann::json& m) {
           if (!m.is_object()) {
-            throw InputError(fmt::format("{}: line {}: a merge key << takes a mapping or a "
-                                         "list of mappings",
-                                         where_, line));
+            throw InputError(fmt::format(
+                "{}: line {}: a merge key << takes a mapping or a list of mappings", where_, line));
           }
         };
         if (value.is_array()) {
@@ -375,6 +386,7 @@ class YamlReader {
   nlohmann::json Node(Event& ev, bool top = false, bool merge_value = false) {
     switch (ev.e.type) {
       case YAML_SCALAR_EVENT: {
+        Count(ev, 1);
         const std::string v(reinterpret_cast<const char*>(ev.e.data.scalar.value),
                             ev.e.data.scalar.length);
         nlohmann::json j = YamlScalar(v, ev.e.data.scalar.style != YAML_PLAIN_SCALAR_STYLE);
@@ -386,9 +398,11 @@ class YamlReader {
         const auto it = anchors_.find(name);
         if (it == anchors_.end()) throw Error(ev, "alias *" + name + " names no anchor before it");
         if (merge_value) merged_anchors_.insert(name);
+        Count(ev, ValuesIn(it->second));
         return it->second;
       }
       case YAML_SEQUENCE_START_EVENT: {
+        const Nesting nesting(this, ev);
         const yaml_char_t* anchor_ptr = ev.e.data.sequence_start.anchor;
         const std::string anchor = Str(anchor_ptr);
         nlohmann::json arr = nlohmann::json::array();
@@ -400,15 +414,57 @@ class YamlReader {
         if (!anchor.empty()) anchors_[anchor] = arr;
         return arr;
       }
-      case YAML_MAPPING_START_EVENT:
+      case YAML_MAPPING_START_EVENT: {
+        const Nesting nesting(this, ev);
         return Mapping(ev, top);
+      }
       default:
         throw Error(ev, "unexpected YAML event");
     }
   }
 
+  // One level of nesting (a mapping or a sequence) for as long as it lives; counts as a value.
+  class Nesting {
+   public:
+    Nesting(YamlReader* reader, const Event& ev) : reader_(reader) {
+      if (++reader_->depth_ > kMaxDepth) {
+        throw reader_->Error(ev, fmt::format("nested deeper than {} levels (a configuration is "
+                                             "flat: key: value, or a list of values)",
+                                             kMaxDepth));
+      }
+      reader_->Count(ev, 1);
+    }
+    ~Nesting() { --reader_->depth_; }
+    Nesting(const Nesting&) = delete;
+    Nesting& operator=(const Nesting&) = delete;
+
+   private:
+    YamlReader* reader_;
+  };
+
+  // Values in `j` (itself, its elements and members, recursively) without building anything.
+  static std::size_t ValuesIn(const nlohmann::json& j) {
+    std::size_t n = 1;
+    if (j.is_structured()) {
+      for (const auto& e : j) n += ValuesIn(e);
+    }
+    return n;
+  }
+
+  void Count(const Event& ev, std::size_t n) {
+    values_ += n;
+    if (values_ > kMaxValues) {
+      throw Error(ev, fmt::format("the document holds more than {} values with its aliases "
+                                  "expanded (aliases of aliases?); a configuration holds a few "
+                                  "hundred",
+                                  kMaxValues));
+    }
+  }
+
   yaml_parser_t parser_{};
   std::string where_;
+  int depth_ = 0;
+  std::size_t values_ = 0;
   std::map<std::string, nlohmann::json> anchors_;
   std::set<std::string> merged_anchors_;
   std::map<std::string, std::string> top_anchors_;  // top-level key -> anchor of its mapping
@@ -447,9 +503,34 @@ RunConfig ParseRunConfig(std::string_view text, RunConfigFormat format, RunConfi
   if (format == RunConfigFormat::kYaml) {
     return RunConfigFromYaml(std::string(text), std::move(base), source);
   }
+  // JSON text is UTF-8 (RFC 8259 section 8.1); a UTF-16 file (a Windows editor's "Unicode")
+  // is said to be one rather than shown as a syntax error at its first byte.
+  if (text.rfind("\xFF\xFE", 0) == 0 || text.rfind("\xFE\xFF", 0) == 0) {
+    throw InputError(source +
+                     ": the file is UTF-16 text (it starts with a UTF-16 byte-order mark); a "
+                     "JSON configuration is UTF-8 (RFC 8259): save it as UTF-8");
+  }
+  // A key given twice in one object: RFC 8259 section 4 leaves its meaning to the reader
+  // (nlohmann-json keeps the last). A flag given twice is an error, and so is a YAML key given
+  // twice; so is a JSON one.
+  std::vector<std::set<std::string>> keys_of_open_objects;
+  const nlohmann::json::parser_callback_t check_keys =
+      [&](int /*depth*/, nlohmann::json::parse_event_t event, nlohmann::json& parsed) {
+        using Event = nlohmann::json::parse_event_t;
+        if (event == Event::object_start) {
+          keys_of_open_objects.emplace_back();
+        } else if (event == Event::object_end && !keys_of_open_objects.empty()) {
+          keys_of_open_objects.pop_back();
+        } else if (event == Event::key && !keys_of_open_objects.empty() &&
+                   !keys_of_open_objects.back().insert(parsed.get<std::string>()).second) {
+          throw InputError(fmt::format("{}: key '{}' is given twice in one object", source,
+                                       parsed.get<std::string>()));
+        }
+        return true;
+      };
   nlohmann::json j;
   try {
-    j = nlohmann::json::parse(text.begin(), text.end());
+    j = nlohmann::json::parse(text.begin(), text.end(), check_keys);
   } catch (const nlohmann::json::exception& e) {  // parse_error, and out_of_range for 1e340
     throw InputError(source + ": " + e.what());
   }

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -14,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "aerovo/core/error.h"
@@ -110,9 +112,8 @@ TEST(RunConfigSchema, ShorthandsSetEveryKeyAndConflictsNameBoth) {
     EXPECT_NE(m.find("c.yaml"), std::string::npos) << m;
     EXPECT_NE(m.find("'match.num_threads' = 2 and 'threads' = 3 disagree"), std::string::npos) << m;
   }
-  EXPECT_THROW(
-      RunConfigFromJson({{"refine", true}, {"clustered.refine", false}}, Base()),
-      InvalidArgument);
+  EXPECT_THROW(RunConfigFromJson({{"refine", true}, {"clustered.refine", false}}, Base()),
+               InvalidArgument);
   // An alias and its key disagreeing is the same error.
   EXPECT_THROW(
       RunConfigFromJson({{"mode", "standard"}, {"correspondence.method", "clustered"}}, Base()),
@@ -250,10 +251,11 @@ TEST(RunConfigSchema, MavlinkOptions) {
   c.input = "0";
   c.mavlink = "udpin:0.0.0.0:14540";
   EXPECT_NO_THROW(Validate(c));
-  const RunConfig j = RunConfigFromJson(
-      {{"mavlink", "serial:/dev/ttyAMA0:921600"}, {"mavlink_message", "vision_position_delta"},
-       {"mavlink_sysid", 7}, {"mavlink_time", "unix"}},
-      c);
+  const RunConfig j = RunConfigFromJson({{"mavlink", "serial:/dev/ttyAMA0:921600"},
+                                         {"mavlink_message", "vision_position_delta"},
+                                         {"mavlink_sysid", 7},
+                                         {"mavlink_time", "unix"}},
+                                        c);
   EXPECT_EQ(j.mavlink_message, mavlink::VisionMessageKind::kVisionPositionDelta);
   EXPECT_EQ(j.mavlink_time, mavlink::TimestampClock::kUnix);
   EXPECT_EQ(j.mavlink_sysid, 7);
@@ -299,9 +301,9 @@ TEST(RunConfigYaml, AnchorsAliasesAndMergeKeys) {
   EXPECT_DOUBLE_EQ(m.altitude_m, 40.0);
   EXPECT_EQ(m.max_frames, 5);
   // Several merged mappings: the first wins.
-  const RunConfig l = ParseRunConfig(
-      ".a: &a {step: 4}\n.b: &b {step: 6, max_frames: 7}\n<<: [*a, *b]\n",
-      RunConfigFormat::kYaml, Base());
+  const RunConfig l =
+      ParseRunConfig(".a: &a {step: 4}\n.b: &b {step: 6, max_frames: 7}\n<<: [*a, *b]\n",
+                     RunConfigFormat::kYaml, Base());
   EXPECT_EQ(l.step, 4);
   EXPECT_EQ(l.max_frames, 7);
   // Errors name the line and the problem.
@@ -325,6 +327,58 @@ TEST(RunConfigYaml, AnchorsAliasesAndMergeKeys) {
   EXPECT_NE(twice.find("'step' is given twice"), std::string::npos) << twice;
   const std::string merge_scalar = message("<<: 3\n");
   EXPECT_NE(merge_scalar.find("merge key"), std::string::npos) << merge_scalar;
+}
+
+// The message of the error a config text raises, or "no error".
+std::string ConfigError(const std::string& text, RunConfigFormat format, const std::string& where) {
+  try {
+    ParseRunConfig(text, format, Base(), where);
+  } catch (const InputError& e) {
+    return e.what();
+  } catch (const InvalidArgument& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+// Hostile YAML ends in an error naming the line, never a crash or a run away: 20000 nested flow
+// sequences (the reader recursed per level and overflowed the stack, exit 139), and 9 levels of
+// anchors each aliasing the one before 10 times (10^9 values: 4.5 GB after 30 s before).
+TEST(RunConfigYaml, DeepNestingAndAliasBombsAreErrorsNamingTheLine) {
+  const std::string deep = "step: 2\na: " + std::string(20000, '[') + std::string(20000, ']');
+  const std::string d = ConfigError(deep, RunConfigFormat::kYaml, "deep.yaml");
+  EXPECT_NE(d.find("deep.yaml: line 2: nested deeper than 64 levels"), std::string::npos) << d;
+  std::string bomb = "a0: &a0 [x, x, x, x, x, x, x, x, x, x]\n";
+  for (int i = 1; i <= 8; ++i) {
+    bomb += fmt::format("a{}: &a{} [", i, i);
+    for (int k = 0; k < 10; ++k) bomb += fmt::format("{}*a{}", k > 0 ? ", " : "", i - 1);
+    bomb += "]\n";
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const std::string b = ConfigError(bomb, RunConfigFormat::kYaml, "bomb.yaml");
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(5));
+  // a0..a3 hold 11, 111, 1111, 11111 values; a4's aliases pass 100000 (line 5).
+  EXPECT_NE(b.find("bomb.yaml: line 5: the document holds more than 100000 values"),
+            std::string::npos)
+      << b;
+  // Aliases within the budget still resolve (a list option given by an alias).
+  EXPECT_EQ(ConfigError("step: &s 3\nmax_frames: *s\n", RunConfigFormat::kYaml, "ok.yaml"),
+            "no error");
+}
+
+// A JSON key given twice is an error (nlohmann-json kept the last one silently), as in YAML; a
+// UTF-16 file is named as such instead of a syntax error at its first byte.
+TEST(RunConfigJson, DuplicateKeysAndUtf16AreErrors) {
+  const std::string twice =
+      ConfigError("{\"altitude_m\": 50,\n \"altitude_m\": 60}", RunConfigFormat::kJson, "c.json");
+  EXPECT_EQ(twice, "c.json: key 'altitude_m' is given twice in one object");
+  // One key in two objects is no duplicate (resolved is an object of its own).
+  EXPECT_EQ(
+      ConfigError("{\"step\": 2, \"resolved\": {\"step\": 3}}", RunConfigFormat::kJson, "r.json"),
+      "no error");
+  const std::string utf16("\xFF\xFE{\0}\0", 6);
+  const std::string u = ConfigError(utf16, RunConfigFormat::kJson, "u.json");
+  EXPECT_EQ(u.rfind("u.json: the file is UTF-16 text", 0), 0u) << u;
 }
 
 }  // namespace

@@ -12,13 +12,6 @@
 namespace aerovo {
 namespace {
 
-// Reads one line into `line` without its '\r'; false at the end of the input.
-bool ReadLine(std::istream& in, std::string& line) {
-  if (!std::getline(in, line)) return false;
-  if (!line.empty() && line.back() == '\r') line.pop_back();
-  return true;
-}
-
 bool BlankOrComment(std::string_view line) {
   const std::string_view t = io_detail::Trim(line);
   return t.empty() || t.front() == '#';
@@ -56,12 +49,11 @@ bool SplitCsv(const std::string& line, char sep, std::vector<std::string>& cells
   return !quoted;
 }
 
-CsvLines::CsvLines(std::istream& in, std::string source_name) : in_(in) {
+CsvLines::CsvLines(std::istream& in, std::string source_name) : lines_(in, source_name) {
   std::string line;
   bool found = false;
-  while (ReadLine(in_, line)) {
-    ++line_;
-    if (line_ == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
+  while (lines_.Next(line)) {
+    line_ = lines_.line();
     if (!BlankOrComment(line)) {
       found = true;
       break;
@@ -76,8 +68,8 @@ CsvLines::CsvLines(std::istream& in, std::string source_name) : in_(in) {
       (t[4] == ',' || t[4] == ';')) {
     hinted_sep = t[4];
     found = false;
-    while (ReadLine(in_, line)) {
-      ++line_;
+    while (lines_.Next(line)) {
+      line_ = lines_.line();
       if (!BlankOrComment(line)) {
         found = true;
         break;
@@ -97,8 +89,8 @@ CsvLines::CsvLines(std::istream& in, std::string source_name) : in_(in) {
 
 bool CsvLines::Next(std::vector<std::string>& cells) {
   std::string line;
-  while (ReadLine(in_, line)) {
-    ++line_;
+  while (lines_.Next(line)) {
+    line_ = lines_.line();
     if (BlankOrComment(line)) continue;
     unterminated_quote_ = !SplitCsv(line, sep_, cells);
     return true;

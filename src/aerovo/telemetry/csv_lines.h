@@ -8,22 +8,27 @@
 #include <string>
 #include <vector>
 
+#include "aerovo/telemetry/parse_util.h"
+
 namespace aerovo {
 
 /// Splits one CSV record on `sep`, honouring "..." quotes ("" inside quotes is a quote). Cells
 /// are not trimmed. Returns false on an unterminated quote (`cells` then holds what was read).
 bool SplitCsv(const std::string& line, char sep, std::vector<std::string>& cells);
 
-/// A CSV text with a header row. The header is the first line that is neither blank nor a
+/// A CSV text with a header row, read through io_detail::TextLines (telemetry/parse_util.h:
+/// UTF-8 or UTF-16 with a byte-order mark, any line end; a NUL byte or a line over 1 MiB is an
+/// InputError naming the line). The header is the first line that is neither blank nor a
 /// comment (first non-blank character '#'), with a UTF-8 byte-order mark on line 1 removed; the
 /// separator is ';' when the header holds more ';' than ',', else ','. A first line "sep=," or
 /// "sep=;" (the separator hint of spreadsheet exports, e.g. DJI flight record CSVs) sets the
 /// separator and the header is the line after it. Data records are the
-/// following lines, blank and comment lines skipped; "\r\n" line ends are accepted.
+/// following lines, blank and comment lines skipped.
 class CsvLines {
  public:
   /// Reads up to and including the header. Throws InputError "<source>: empty CSV file (no
-  /// header)" or "<source>:<line>: unterminated quote in header". `in` must outlive this.
+  /// header)" or "<source>:<line>: unterminated quote in header" (and TextLines' errors, here
+  /// and in Next). `in` must outlive this.
   CsvLines(std::istream& in, std::string source_name);
 
   const std::vector<std::string>& header() const { return header_; }  ///< Cells, untrimmed.
@@ -38,7 +43,7 @@ class CsvLines {
   bool unterminated_quote() const { return unterminated_quote_; }
 
  private:
-  std::istream& in_;
+  io_detail::TextLines lines_;
   std::vector<std::string> header_;
   long header_line_ = 0;
   long line_ = 0;

@@ -6,6 +6,7 @@
 #include <iterator>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <fmt/format.h>
@@ -96,7 +97,7 @@ std::optional<ParsedPoint> ParsePoint(const pugi::xml_node& pt, long line, Recor
   const auto lon = ParseDouble(lon_a.value());
   if (!lat || !lon) {
     errors.Report(line, fmt::format("{} '{}' is not a number", !lat ? "lat" : "lon",
-                                    !lat ? lat_a.value() : lon_a.value()));
+                                    io_detail::Printable(!lat ? lat_a.value() : lon_a.value())));
     return std::nullopt;
   }
   TelemetrySample s;
@@ -105,7 +106,8 @@ std::optional<ParsedPoint> ParsePoint(const pugi::xml_node& pt, long line, Recor
   if (const pugi::xml_node ele = Child(pt, "ele")) {
     const auto v = ParseDouble(ele.text().get());
     if (!v) {
-      errors.Report(line, fmt::format("<ele> '{}' is not a number", ele.text().get()));
+      errors.Report(
+          line, fmt::format("<ele> '{}' is not a number", io_detail::Printable(ele.text().get())));
       return std::nullopt;
     }
     s.abs_alt_m = v;
@@ -114,7 +116,8 @@ std::optional<ParsedPoint> ParsePoint(const pugi::xml_node& pt, long line, Recor
   if (const pugi::xml_node t = Child(pt, "time")) {
     const auto v = io_detail::ParseDateTime(t.text().get());
     if (!v) {
-      errors.Report(line, fmt::format("<time> '{}' is not an ISO 8601 date", t.text().get()));
+      errors.Report(line, fmt::format("<time> '{}' is not an ISO 8601 date",
+                                      io_detail::Printable(t.text().get())));
       return std::nullopt;
     }
     s.unix_time_s = v;
@@ -138,13 +141,26 @@ TelemetryReadResult ParseGpx(std::istream& in, const std::string& source_name,
                              const TelemetryReadOptions& options) {
   Validate(options);
   RecordErrors errors(options, source_name);
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  // UTF-16 (with a byte-order mark, or without one: a document starting "<?" in UTF-16, XML 1.0
+  // Appendix F.1) is transcoded here rather than by pugixml, so that the line numbers count the
+  // lines of the text (pugixml's offsets are those of its own UTF-8 copy: a UTF-16 file's
+  // errors were put at half their line).
+  pugi::xml_encoding encoding = pugi::encoding_auto;
+  const auto starts = [&](std::string_view prefix) { return text.rfind(prefix, 0) == 0; };
+  if (starts("\xFF\xFE") || starts("\xFE\xFF")) {
+    text = io_detail::Utf16ToUtf8(std::string_view(text).substr(2), text[0] == '\xFE', source_name);
+    encoding = pugi::encoding_utf8;
+  } else if (starts(std::string_view("<\0?\0", 4)) || starts(std::string_view("\0<\0?", 4))) {
+    text = io_detail::Utf16ToUtf8(text, text[0] == '\0', source_name);
+    encoding = pugi::encoding_utf8;
+  }
   const LineIndex lines(text);
   pugi::xml_document doc;
   // parse_default without entity/EOL conversions we do not need; pugixml never fetches
   // external entities, so hostile files cannot make it read other files.
   const pugi::xml_parse_result parsed =
-      doc.load_buffer(text.data(), text.size(), pugi::parse_default, pugi::encoding_auto);
+      doc.load_buffer(text.data(), text.size(), pugi::parse_default, encoding);
   if (!parsed) {
     throw InputError(fmt::format("{}:{}: XML error: {}", source_name, lines.LineOf(parsed.offset),
                                  parsed.description()));
@@ -152,7 +168,7 @@ TelemetryReadResult ParseGpx(std::istream& in, const std::string& source_name,
   pugi::xml_node root = doc.document_element();
   if (!root || std::strcmp(LocalName(root), "gpx") != 0) {
     throw InputError(fmt::format("{}: not a GPX file (root element is <{}>)", source_name,
-                                 root ? root.name() : ""));
+                                 io_detail::Printable(root ? root.name() : "")));
   }
   std::vector<pugi::xml_node> points;
   Collect(root, "trkpt", points);

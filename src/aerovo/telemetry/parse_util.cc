@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <iterator>
+#include <string>
 
 #include <fmt/format.h>
 
@@ -164,6 +166,181 @@ std::optional<double> ParseSrtClock(std::string_view s) {
   }
   if (m > 59 || sec > 59) return std::nullopt;
   return h * 3600.0 + m * 60.0 + sec + ms / 1000.0;
+}
+
+namespace {
+
+// The length of the UTF-8 character at s[i] (2..4), or 0 when it is not one (a stray
+// continuation byte, an overlong form, a surrogate, a code point above U+10FFFF, a cut
+// sequence): RFC 3629 section 4.
+std::size_t Utf8Length(std::string_view s, std::size_t i) {
+  const auto b = [&](std::size_t k) { return static_cast<unsigned char>(s[k]); };
+  const unsigned char c = b(i);
+  std::size_t n = 0;
+  unsigned char lo = 0x80, hi = 0xBF;  // the second byte's range
+  if (c >= 0xC2 && c <= 0xDF) {
+    n = 2;
+  } else if (c >= 0xE0 && c <= 0xEF) {
+    n = 3;
+    if (c == 0xE0) lo = 0xA0;
+    if (c == 0xED) hi = 0x9F;
+  } else if (c >= 0xF0 && c <= 0xF4) {
+    n = 4;
+    if (c == 0xF0) lo = 0x90;
+    if (c == 0xF4) hi = 0x8F;
+  } else {
+    return 0;
+  }
+  if (i + n > s.size() || b(i + 1) < lo || b(i + 1) > hi) return 0;
+  for (std::size_t k = 2; k < n; ++k) {
+    if ((b(i + k) & 0xC0) != 0x80) return 0;
+  }
+  return n;
+}
+
+void AppendUtf8(char32_t cp, std::string& out) {
+  if (cp < 0x80) {
+    out.push_back(static_cast<char>(cp));
+  } else if (cp < 0x800) {
+    out.push_back(static_cast<char>(0xC0 | (cp >> 6)));
+    out.push_back(static_cast<char>(0x80 | (cp & 0x3F)));
+  } else if (cp < 0x10000) {
+    out.push_back(static_cast<char>(0xE0 | (cp >> 12)));
+    out.push_back(static_cast<char>(0x80 | ((cp >> 6) & 0x3F)));
+    out.push_back(static_cast<char>(0x80 | (cp & 0x3F)));
+  } else {
+    out.push_back(static_cast<char>(0xF0 | (cp >> 18)));
+    out.push_back(static_cast<char>(0x80 | ((cp >> 12) & 0x3F)));
+    out.push_back(static_cast<char>(0x80 | ((cp >> 6) & 0x3F)));
+    out.push_back(static_cast<char>(0x80 | (cp & 0x3F)));
+  }
+}
+
+}  // namespace
+
+std::string Printable(std::string_view s, std::size_t max_bytes) {
+  std::string r;
+  std::size_t i = 0;
+  while (i < s.size() && i < max_bytes) {
+    const unsigned char c = static_cast<unsigned char>(s[i]);
+    if (c >= 0x20 && c < 0x7F) {
+      r.push_back(static_cast<char>(c));
+      ++i;
+      continue;
+    }
+    const std::size_t n = c >= 0x80 ? Utf8Length(s, i) : 0;
+    // U+0080..U+009F (C2 80..C2 9F) are the C1 controls: escaped as the C0 ones.
+    if (n == 0 || i + n > max_bytes ||
+        (n == 2 && c == 0xC2 && static_cast<unsigned char>(s[i + 1]) <= 0x9F)) {
+      if (n != 0 && i + n > max_bytes) break;
+      r += fmt::format("\\x{:02X}", c);
+      ++i;
+      continue;
+    }
+    r.append(s.substr(i, n));
+    i += n;
+  }
+  if (i < s.size()) r += "...";
+  return r;
+}
+
+std::string Utf16ToUtf8(std::string_view bytes, bool big_endian, const std::string& source) {
+  if (bytes.size() % 2 != 0) {
+    throw InputError(
+        fmt::format("{}: UTF-16 text with an odd number of bytes ({}): the file is cut short",
+                    source, bytes.size()));
+  }
+  const auto unit = [&](std::size_t k) -> char32_t {
+    const auto a = static_cast<unsigned char>(bytes[2 * k]);
+    const auto b = static_cast<unsigned char>(bytes[2 * k + 1]);
+    return big_endian ? (char32_t{a} << 8 | b) : (char32_t{b} << 8 | a);
+  };
+  const std::size_t n = bytes.size() / 2;
+  std::string out;
+  out.reserve(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    char32_t u = unit(k);
+    if (u >= 0xD800 && u <= 0xDBFF && k + 1 < n && unit(k + 1) >= 0xDC00 && unit(k + 1) <= 0xDFFF) {
+      u = 0x10000 + ((u - 0xD800) << 10) + (unit(k + 1) - 0xDC00);
+      ++k;
+    } else if (u >= 0xD800 && u <= 0xDFFF) {
+      u = 0xFFFD;
+    }
+    AppendUtf8(u, out);
+  }
+  return out;
+}
+
+TextLines::TextLines(std::istream& in, std::string source) : in_(in), source_(std::move(source)) {
+  // The byte-order marks: EF BB BF (UTF-8), FF FE / FE FF (UTF-16 LE / BE), FF FE 00 00 /
+  // 00 00 FE FF (UTF-32 LE / BE): The Unicode Standard, section 23.8 "Specials", Table 23-4.
+  std::streambuf* sb = in_.rdbuf();
+  while (head_.size() < 4) {
+    const int c = sb->sbumpc();
+    if (c == std::char_traits<char>::eof()) break;
+    head_.push_back(static_cast<char>(c));
+  }
+  const auto starts = [&](std::string_view bom) { return head_.rfind(bom, 0) == 0; };
+  if (starts(std::string_view("\xFF\xFE\0\0", 4)) || starts(std::string_view("\0\0\xFE\xFF", 4))) {
+    throw InputError(
+        fmt::format("{}: the file is UTF-32 text (it starts with a UTF-32 "
+                    "byte-order mark); save it as UTF-8",
+                    source_));
+  }
+  if (starts("\xFF\xFE") || starts("\xFE\xFF")) {
+    const bool big_endian = head_[0] == '\xFE';
+    std::string raw = head_.substr(2);
+    raw.append(std::istreambuf_iterator<char>(in_), std::istreambuf_iterator<char>());
+    decoded_ = Utf16ToUtf8(raw, big_endian, source_);
+    use_decoded_ = true;
+    head_.clear();
+  } else if (starts("\xEF\xBB\xBF")) {
+    head_.erase(0, 3);
+  }
+}
+
+int TextLines::Get() {
+  const std::string& buffered = use_decoded_ ? decoded_ : head_;
+  if (pos_ < buffered.size()) return static_cast<unsigned char>(buffered[pos_++]);
+  if (use_decoded_) return -1;
+  const int c = in_.rdbuf()->sbumpc();
+  return c == std::char_traits<char>::eof() ? -1 : c;
+}
+
+int TextLines::Peek() {
+  const std::string& buffered = use_decoded_ ? decoded_ : head_;
+  if (pos_ < buffered.size()) return static_cast<unsigned char>(buffered[pos_]);
+  if (use_decoded_) return -1;
+  const int c = in_.rdbuf()->sgetc();
+  return c == std::char_traits<char>::eof() ? -1 : c;
+}
+
+bool TextLines::Next(std::string& line) {
+  line.clear();
+  int c = Get();
+  if (c < 0) return false;
+  ++line_;
+  for (; c >= 0; c = Get()) {
+    if (c == '\n') break;
+    if (c == '\r') {
+      if (Peek() == '\n') Get();
+      break;
+    }
+    if (c == 0) {
+      throw InputError(fmt::format(
+          "{}:{}: a NUL byte at column {}: not a text file (binary data, or UTF-16/UTF-32 text "
+          "without a byte-order mark; telemetry text is UTF-8)",
+          source_, line_, line.size() + 1));
+    }
+    if (line.size() >= kMaxTextLineBytes) {
+      throw InputError(
+          fmt::format("{}:{}: a line longer than {} bytes: not a telemetry text "
+                      "file",
+                      source_, line_, kMaxTextLineBytes));
+    }
+    line.push_back(static_cast<char>(c));
+  }
+  return true;
 }
 
 std::string RecordErrors::At(long line) const { return fmt::format("{}:{}", source_, line); }

@@ -47,13 +47,59 @@ std::optional<double> ParseDateTime(std::string_view s);
 struct ColumnName {
   std::string prefix;
   std::string base;
-  std::string unit;  ///< Empty when the header gives none.
+  std::string unit;        ///< Empty when the header gives none.
   bool malformed = false;  ///< A '(' or '[' (or ')' or ']') outside "name(unit)"/"name [unit]".
 };
 ColumnName SplitColumnName(std::string_view cell);
 
 /// "HH:MM:SS,mmm" (SRT timing) -> seconds.
 std::optional<double> ParseSrtClock(std::string_view s);
+
+/// `s` as it may be quoted in a message: at most `max_bytes` bytes of it (cut at a character,
+/// "..." appended), its control characters (C0, DEL, C1: a terminal would act on ESC sequences)
+/// and bytes that are not UTF-8 written as "\xNN". Input text is never printed raw.
+std::string Printable(std::string_view s, std::size_t max_bytes = 60);
+
+/// UTF-16 text (code units in the byte order `big_endian`, no byte-order mark) as UTF-8;
+/// an unpaired surrogate becomes U+FFFD (The Unicode Standard, section 3.9, "U+FFFD Substitution
+/// of Maximal Subparts"). Throws InputError "<source>: UTF-16 text with an odd number of bytes"
+/// when the last code unit is cut.
+std::string Utf16ToUtf8(std::string_view bytes, bool big_endian, const std::string& source);
+
+/// The longest line TextLines accepts: a CSV row of a DJI flight record (a few hundred columns)
+/// is a few kB; a longer line is not telemetry, and reading it whole could exhaust memory.
+constexpr std::size_t kMaxTextLineBytes = std::size_t{1} << 20;
+
+/// A telemetry text file (CSV, DJI SRT) read line by line, whatever wrote it:
+/// - encodings: UTF-8, with or without its byte-order mark (removed); UTF-16 with a byte-order
+///   mark (FF FE little-endian, FE FF big-endian: Windows "Unicode" text, and Windows
+///   PowerShell 5.1's `Out-File` and `>`, Microsoft Learn "about_Character_Encoding"),
+///   transcoded to UTF-8. A UTF-32 byte-order mark is an error;
+/// - line ends "\n", "\r\n" or a lone "\r" (the newline functions of The Unicode Standard,
+///   section 5.8; a lone CR is the classic Mac OS line end of old spreadsheet exports);
+/// - a NUL byte is an InputError "<source>:<line>: a NUL byte ...: not a text file" (binary
+///   data, or UTF-16/32 text without a byte-order mark), and so is a line longer than
+///   kMaxTextLineBytes.
+class TextLines {
+ public:
+  TextLines(std::istream& in, std::string source);
+  /// The next line without its line end; false at the end of the input.
+  bool Next(std::string& line);
+  long line() const { return line_; }  ///< 1-based number of the line Next returned.
+  const std::string& source() const { return source_; }
+
+ private:
+  int Get();   // next byte (0..255) or -1 at the end
+  int Peek();  // the byte Get would return
+
+  std::istream& in_;
+  std::string source_;
+  std::string decoded_;  // the whole text, transcoded, when the input is UTF-16
+  bool use_decoded_ = false;
+  std::string head_;     // bytes read ahead at the start and not yet returned
+  std::size_t pos_ = 0;  // in head_ or decoded_
+  long line_ = 0;
+};
 
 /// Applies TelemetryReadOptions: strict -> throw, lenient -> count and keep the message.
 class RecordErrors {

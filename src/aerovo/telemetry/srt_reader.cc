@@ -76,7 +76,8 @@ struct BlockFields {
   void SetNumber(std::optional<double>& field, std::string_view key, std::string_view value) {
     auto v = ParseDouble(value);
     if (!v) {
-      Fail(fmt::format("{} value '{}' is not a number", key, value));
+      Fail(fmt::format("{} value '{}' is not a number", io_detail::Printable(key),
+                       io_detail::Printable(value)));
       return;
     }
     field = v;
@@ -267,7 +268,8 @@ void ParseTextLine(std::string_view line, BlockFields& f) {
     } else {
       const auto a = ParseDouble((*v)[0]), b = ParseDouble((*v)[1]);
       if (!a || !b) {
-        f.Fail(fmt::format("{} value '{}' is not a number", name, !a ? (*v)[0] : (*v)[1]));
+        f.Fail(fmt::format("{} value '{}' is not a number", name,
+                           io_detail::Printable(!a ? (*v)[0] : (*v)[1])));
       } else if (*a == 0.0 && *b == 0.0) {
         f.no_fix = true;  // "GPS(0.0, 0.0, 0)": no fix yet, in either order
       } else if (f.order != GpsOrder::kUnknown) {
@@ -358,8 +360,8 @@ GpsOrder FileGpsOrder(const std::vector<Line>& lines, const std::string& source)
             "{}({}, {}{}) does not say which value is the latitude (the third value is neither "
             "a satellite count nor an altitude in M): as (latitude, longitude) it is {}, {}; as "
             "(longitude, latitude) it is {}, {}",
-            name, (*v)[0], (*v)[1], v->size() >= 3 ? ", " + std::string((*v)[2]) : "", *a, *b, *b,
-            *a);
+            name, io_detail::Printable((*v)[0]), io_detail::Printable((*v)[1]),
+            v->size() >= 3 ? ", " + io_detail::Printable((*v)[2]) : "", *a, *b, *b, *a);
       }
       continue;
     }
@@ -424,17 +426,13 @@ long LineOfRefusedValue(const TelemetrySample& s, const BlockFields& f, long fal
   return fallback;
 }
 
-// The lines of the file, numbered from 1, without "\r" line ends and the UTF-8 byte-order mark.
-std::vector<Line> ReadLines(std::istream& in) {
+// The lines of the file, numbered from 1, read through TextLines (UTF-8 or UTF-16 with a
+// byte-order mark, the mark removed; any line end; a NUL byte or an over-long line is an error).
+std::vector<Line> ReadLines(std::istream& in, const std::string& source) {
   std::vector<Line> lines;
+  io_detail::TextLines text(in, source);
   std::string s;
-  long n = 0;
-  while (std::getline(in, s)) {
-    ++n;
-    if (!s.empty() && s.back() == '\r') s.pop_back();
-    if (n == 1 && s.rfind("\xEF\xBB\xBF", 0) == 0) s.erase(0, 3);  // UTF-8 BOM
-    lines.push_back({n, std::move(s)});
-  }
+  while (text.Next(s)) lines.push_back({text.line(), std::move(s)});
   return lines;
 }
 
@@ -495,7 +493,7 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
                                 const TelemetryReadOptions& options) {
   Validate(options);
   RecordErrors errors(options, source_name);
-  const std::vector<Line> lines = ReadLines(in);
+  const std::vector<Line> lines = ReadLines(in, source_name);
   const GpsOrder order = FileGpsOrder(lines, source_name);
   std::vector<TelemetrySample> samples;
   int no_fix = 0;
@@ -514,7 +512,7 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
     const auto number = ParseInt(lines[i].text);
     if (!number) {
       errors.Report(block_line, fmt::format("expected a subtitle number, found '{}'",
-                                            Trim(lines[i].text).substr(0, 60)));
+                                            io_detail::Printable(Trim(lines[i].text))));
       skip_block();
       continue;
     }
@@ -533,7 +531,7 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
     if (!start) {
       errors.Report(lines[i].number,
                     fmt::format("bad timing line '{}' (expected HH:MM:SS,mmm --> HH:MM:SS,mmm)",
-                                Trim(timing).substr(0, 60)));
+                                io_detail::Printable(Trim(timing))));
       skip_block();
       continue;
     }
