@@ -142,7 +142,6 @@ set(AEROVO_TEST_COSTS
   HtmlReport 19
   WideLens.FisheyeFlightIsAccurateWithItsCalibrationFileOnly 18
   OfflineOptimisationThreads 18
-  LoopClosures.AppearanceFindsTheRevisitTheDriftedFootprintsMiss 17
   CliSignal 17
   MapBuild 16
   MapFix.AppliedFixesBoundTheErrorOfADriftingTrack 14
