@@ -5,7 +5,7 @@
 # an out-of-memory (> 2 GB RSS); the input is saved under <build>/fuzz-artifacts/<target>/.
 #
 # Usage: scripts/fuzz.sh [target...]        (default: every target)
-#   FUZZ_TIME=30          seconds per target (libFuzzer -max_total_time)
+#   FUZZ_TIME=20          seconds per target (libFuzzer -max_total_time)
 #   FUZZ_BUILD_DIR=build-fuzz
 #   FUZZ_CONFIGURE=0      use FUZZ_BUILD_DIR as it is configured (default: configure it here)
 #   FUZZ_BUILD_ONLY=1     build the targets, do not run them (scripts/test.sh times them apart)
@@ -17,7 +17,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 ALL_TARGETS=(srt gpx csv config_json config_yaml image_metadata mavlink)
 if [ $# -gt 0 ]; then TARGETS=("$@"); else TARGETS=("${ALL_TARGETS[@]}"); fi
-FUZZ_TIME=${FUZZ_TIME:-30}
+FUZZ_TIME=${FUZZ_TIME:-20}
 B=${FUZZ_BUILD_DIR:-build-fuzz}
 
 if [ "${FUZZ_CONFIGURE:-1}" != 0 ]; then

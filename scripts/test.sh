@@ -19,7 +19,7 @@
 #   AEROVO_SKIP_AARCH64=1 skip the aarch64 cross build and its qemu tests
 #   BUILD_DIR, ASAN_BUILD_DIR   build directories (build, build-asan)
 #   FUZZ_BUILD_DIR        the fuzzers' own build dir (build-fuzz), only without clang++
-#   FUZZ_TIME             seconds per fuzz target (default 30)
+#   FUZZ_TIME             seconds per fuzz target (default 20)
 #   AEROVO_CONFIGURE_ONLY=1  only configure stage 1's build dir (tests/readme_order_test.sh)
 #   AEROVO_UNITY_BUILD=OFF   build every stage source by source (default ON: unity builds)
 # Every cache option a stage relies on is set on its cmake line: a build dir configured before

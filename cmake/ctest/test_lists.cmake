@@ -69,7 +69,10 @@ set(AEROVO_ACCURACY_TESTS
 #   - TelemetryTrust.EnuOrigin..., ImplausibleRun..., ImplausibleAltitude..., ShiftedTelemetry...:
 #     the GPS checks on more flights (TelemetryTrust.ImplausibleSpike..., the gps_check and clock
 #     unit tests);
-#   - WideLens.FastFixedWing..., WideLens.MildPinhole...: (WideLens.FisheyeFlight...);
+#   - WideLens.FastFixedWing..., WideLens.MildPinhole..., WideLens.FisheyeFlight...: wide-lens
+#     flights undistorted by a known lens (LensSelfCalibration.Fisheye..., which undistorts a
+#     fisheye flight's frames by the same lens model once its estimate is applied; the lens
+#     file: the camera_files unit tests; the lens model: the camera unit tests);
 #   - LensSelfCalibration.Pinhole..., GoProLike..., FirstPoses...: (LensSelfCalibration.Fisheye...,
 #     which applies the estimate at its switch frame too);
 #   - RunCli.RunFromItsSavedConfigJson...: the same run twice (RunConfigSchema.SavedConfigJson...);
@@ -105,6 +108,7 @@ set(AEROVO_REPEATED_FLIGHT_TESTS
   TelemetryTrust.ShiftedTelemetryOffsetIsEstimatedAndApplied
   WideLens.FastFixedWingFlightKeepsEveryFrame
   WideLens.MildPinholeLensPointsPathMatchesTheFramesPath
+  WideLens.FisheyeFlightIsAccurateWithItsCalibrationFileOnly
   LensSelfCalibration.PinholeIsNotAppliedAndTheTrackIsUnchanged
   LensSelfCalibration.GoProLikeBarrelIsEstimatedAndApplied
   LensSelfCalibration.FirstPosesComeBeforeTheEstimateAppliedAtAFixedFrame
