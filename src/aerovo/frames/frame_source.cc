@@ -713,11 +713,11 @@ ImageFolderSource::ImageFolderSource(const std::filesystem::path& folder,
   for (std::size_t i = 0; i < entries.size(); ++i) {
     paths_.push_back(entries[i].path);
     checks_.push_back(std::move(entries[i].check));
-    times_.push_back(all_timed ? *entries[i].meta.capture_unix_time_s -
-                                     *entries.front().meta.capture_unix_time_s
-                               : static_cast<double>(i));
     metadata_.push_back(std::move(entries[i].meta));
   }
+  // The photos' times as their telemetry has them (TelemetryFromImages): shared capture times
+  // spread within the second.
+  times_ = PhotoTimes(metadata_);
   // First photo at or after the start time.
   while (next_ < paths_.size() && times_[next_] < options_.start_time_s) ++next_;
 }

@@ -426,7 +426,9 @@ TEST(ImageFolderSource, OrdersByExifTimeThenName) {
   ASSERT_EQ(times.size(), 4u);
   EXPECT_DOUBLE_EQ(times[0], 0.0);
   EXPECT_DOUBLE_EQ(times[1], 5.5);
-  EXPECT_DOUBLE_EQ(times[2], 5.5);
+  // The same capture time to the tenth of a second (one SubSecTimeOriginal digit): spread
+  // within that tenth (PhotoTimes), so no two frames have one time.
+  EXPECT_NEAR(times[2], 5.55, 1e-9);
   EXPECT_DOUBLE_EQ(times[3], 10.0);
   EXPECT_NEAR(shades[0], 50, 2);
   EXPECT_NEAR(shades[3], 200, 2);

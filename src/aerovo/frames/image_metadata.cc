@@ -221,7 +221,10 @@ void ReadCaptureTime(const Exiv2::ExifData& exif, ImageMetadata& m) {
           frac += (c - '0') * scale;
           scale *= 0.1;
         }
-        if (ok) *m.capture_unix_time_s += frac;
+        if (ok) {
+          *m.capture_unix_time_s += frac;
+          m.capture_time_resolution_s = scale * 10.0;
+        }
       }
     }
   }
@@ -387,21 +390,71 @@ ImageMetadata ParseImageMetadata(const std::uint8_t* data, std::size_t size,
                         source_name);
 }
 
+namespace {
+
+bool AllTimed(const std::vector<ImageMetadata>& images) {
+  return !images.empty() && std::all_of(images.begin(), images.end(), [](const ImageMetadata& m) {
+    return m.capture_unix_time_s.has_value();
+  });
+}
+
+// PhotoTimes with the runs of shared capture times it spread.
+std::vector<double> PhotoTimes(const std::vector<ImageMetadata>& images,
+                               std::vector<RepeatedTimeRun>* spread) {
+  std::vector<double> times(images.size());
+  if (!AllTimed(images)) {
+    for (std::size_t i = 0; i < images.size(); ++i) times[i] = static_cast<double>(i);
+    return times;
+  }
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    times[i] = *images[i].capture_unix_time_s - *images.front().capture_unix_time_s;
+  }
+  const std::vector<RepeatedTimeRun> runs = RepeatedTimeRuns(times);
+  for (const RepeatedTimeRun& run : runs) {
+    // A run lies within the resolution of its capture time (a whole second without
+    // SubSecTimeOriginal), also when every photo has the same time and RepeatedTimeRuns knows
+    // no step.
+    double resolution_s = 0.0;
+    for (std::size_t k = 0; k < run.count; ++k) {
+      resolution_s = std::max(resolution_s, images[run.first + k].capture_time_resolution_s);
+    }
+    RepeatedTimeRun r = run;
+    r.step_s = r.step_s > 0.0 ? std::min(r.step_s, resolution_s) : resolution_s;
+    for (std::size_t k = 1; k < r.count; ++k) times[r.first + k] = SpreadTime(r, k);
+  }
+  if (spread != nullptr) *spread = runs;
+  return times;
+}
+
+}  // namespace
+
+std::vector<double> PhotoTimes(const std::vector<ImageMetadata>& images) {
+  return PhotoTimes(images, nullptr);
+}
+
 TelemetryReadResult TelemetryFromImages(const std::vector<ImageMetadata>& images,
                                         const TelemetryReadOptions& options) {
   Validate(options);
   io_detail::RecordErrors errors(options, "image metadata");
-  const bool all_timed =
-      !images.empty() && std::all_of(images.begin(), images.end(), [](const ImageMetadata& m) {
-        return m.capture_unix_time_s.has_value();
-      });
+  const bool all_timed = AllTimed(images);
   if (!images.empty() && !all_timed) {
     errors.warnings().push_back(
         "image metadata: not every photo has a capture time: time_s is the photo's rank");
   }
+  std::vector<RepeatedTimeRun> runs;
+  const std::vector<double> times = PhotoTimes(images, &runs);
+  if (!runs.empty()) {
+    std::size_t photos = 0;
+    for (const RepeatedTimeRun& r : runs) photos += r.count;
+    errors.warnings().push_back(fmt::format(
+        "image metadata: {} photos share their capture time with another (EXIF times have whole "
+        "seconds without SubSecTimeOriginal), first '{}': spread evenly within the time's "
+        "resolution",
+        photos, images[runs.front().first].source));
+  }
   std::vector<TelemetrySample> samples;
   int no_fix = 0;
-  std::optional<double> t0, last;
+  std::optional<double> last;
   for (std::size_t k = 0; k < images.size(); ++k) {
     const ImageMetadata& m = images[k];
     if (!m.HasGps() || (*m.lat_deg == 0.0 && *m.lon_deg == 0.0)) {
@@ -418,12 +471,9 @@ TelemetryReadResult TelemetryFromImages(const std::vector<ImageMetadata>& images
             *last - t));
         continue;
       }
-      if (!t0) t0 = *images.front().capture_unix_time_s;
       last = t;
-      s.time_s = t - *t0;
-    } else {
-      s.time_s = static_cast<double>(k);
     }
+    s.time_s = times[k];
     try {
       ValidateSample(s, m.source);
     } catch (const InputError& e) {

@@ -40,6 +40,9 @@ struct ImageMetadata {
   /// EXIF DateTimeOriginal + SubSecTimeOriginal as seconds since 1970 (the camera's clock has
   /// no time zone; it is read as if UTC). Unset when missing or blank ("    :  :  ").
   std::optional<double> capture_unix_time_s;
+  /// The resolution of capture_unix_time_s, seconds: 1 (DateTimeOriginal), 10^-n with n digits
+  /// of SubSecTimeOriginal.
+  double capture_time_resolution_s = 1.0;
 
   // DJI XMP (namespace drone-dji, http://www.dji.com/drone-dji/1.0/).
   std::optional<double> rel_alt_m;  ///< RelativeAltitude: height above the take-off point.
@@ -71,9 +74,17 @@ ImageMetadata ReadImageMetadata(const std::filesystem::path& path);
 ImageMetadata ParseImageMetadata(const std::uint8_t* data, std::size_t size,
                                  const std::string& source_name);
 
+/// Each photo's time in a sequence, seconds: its capture time - the first photo's when every
+/// photo has a capture time, else its rank. Photos that share a capture time (EXIF
+/// DateTimeOriginal has whole seconds; many cameras write no SubSecTimeOriginal) are spread
+/// evenly within the time's resolution (RepeatedTimeRun, SpreadTime; capture_time_resolution_s),
+/// so no two frames have one time.
+/// Precondition: capture times in order (ImageFolderSource sorts by them).
+std::vector<double> PhotoTimes(const std::vector<ImageMetadata>& images);
+
 /// Telemetry of a photo sequence, in the given order (frame_index = rank in `images`).
-/// time_s = capture time - the first photo's when every photo has a capture time, else the
-/// rank (with a warning). Photos without GPS are counted in no_fix_records and left out;
+/// time_s = PhotoTimes (a warning when photos share a capture time, or when not every photo has
+/// one and the rank is used). Photos without GPS are counted in no_fix_records and left out;
 /// capture times that go backwards are malformed records (strict: InputError naming the
 /// photo; lenient: skipped and counted). Throws InputError when no photo has GPS.
 TelemetryReadResult TelemetryFromImages(const std::vector<ImageMetadata>& images,

@@ -21,6 +21,7 @@ namespace aerovo::image_metadata_test {
 namespace {
 
 using io_test::ExpectInputError;
+using ::testing::HasSubstr;
 
 // Values cross-checked with Exiv2's own tag dump (exiv2 -pa equivalent through the library):
 // GPSLatitude 28/1 2/1 285116/10000 N, GPSLongitude 82/1 41/1 545072/10000 W, GPSAltitude
@@ -427,6 +428,48 @@ TEST(ImageMetadata, TelemetryFromImagesOrderAndMissingGps) {
   EXPECT_DOUBLE_EQ(ranks.telemetry[1].time_s, 1.0);
   EXPECT_EQ(ranks.warnings.size(), 1u);
   ExpectInputError([&] { TelemetryFromImages({}); }, {"no telemetry samples"});
+}
+
+// Photos taken within one second by a camera that writes no SubSecTimeOriginal share their
+// capture time: spread evenly within the second, in the telemetry and in PhotoTimes (the frame
+// times of a photo folder) alike.
+TEST(ImageMetadata, PhotosSharingACaptureTimeAreSpreadWithinItsResolution) {
+  std::vector<ImageMetadata> photos(5);
+  const double t[] = {1000, 1000, 1000, 1001, 1003};
+  for (std::size_t i = 0; i < photos.size(); ++i) {
+    photos[i].source = fmt::format("DJI_{:04d}.JPG", i);
+    photos[i].lat_deg = 45.0;
+    photos[i].lon_deg = 7.0 + 1e-5 * static_cast<double>(i);
+    photos[i].capture_unix_time_s = t[i];
+  }
+  const std::vector<double> expected = {0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0, 3.0};
+  const std::vector<double> times = PhotoTimes(photos);
+  ASSERT_EQ(times.size(), 5u);
+  const TelemetryReadResult r = TelemetryFromImages(photos);
+  ASSERT_EQ(r.records, 5);
+  for (std::size_t i = 0; i < 5; ++i) {
+    EXPECT_NEAR(times[i], expected[i], 1e-12) << i;
+    EXPECT_NEAR(r.telemetry[i].time_s, expected[i], 1e-12) << i;
+    EXPECT_EQ(r.telemetry[i].frame_index, static_cast<int>(i));
+  }
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_THAT(r.warnings[0], HasSubstr("3 photos share their capture time with another"));
+  EXPECT_THAT(r.warnings[0], HasSubstr("'DJI_0000.JPG'"));
+
+  // With SubSecTimeOriginal (two digits: 0.01 s) the run lies within that hundredth.
+  photos[1].capture_time_resolution_s = 0.01;
+  photos[0].capture_time_resolution_s = 0.01;
+  photos[2].capture_time_resolution_s = 0.01;
+  const std::vector<double> fine = PhotoTimes(photos);
+  EXPECT_NEAR(fine[1], 0.01 / 3.0, 1e-12);
+  EXPECT_NEAR(fine[2], 0.02 / 3.0, 1e-12);
+  // One capture time for all: a second for the run (the resolution), never one time per frame.
+  for (ImageMetadata& m : photos) {
+    m.capture_unix_time_s = 1000.0;
+    m.capture_time_resolution_s = 1.0;
+  }
+  const std::vector<double> same = PhotoTimes(photos);
+  EXPECT_NEAR(same[4], 0.8, 1e-12);
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 #include "aerovo/telemetry/parse_util.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -387,6 +388,62 @@ std::ifstream OpenInput(const std::filesystem::path& path) {
   return in;
 }
 
+namespace {
+
+// Records that share a time but not a position come from a clock coarser than the records
+// (whole-second dates on a 10 Hz log): spread over the clock's step (RepeatedTimeRun), with one
+// warning naming the first run. Without any step (one time for every record) nothing places
+// them: an error, unless frame indices do. Equal records (same time and position) stay as
+// they are. Precondition: `samples` sorted by time_s.
+void SpreadRepeatedTimes(std::vector<TelemetrySample>& samples, RecordErrors& errors,
+                         const char* what) {
+  std::vector<double> times(samples.size());
+  for (std::size_t i = 0; i < samples.size(); ++i) times[i] = samples[i].time_s;
+  int runs = 0, records = 0;
+  std::string first;
+  for (const RepeatedTimeRun& run : RepeatedTimeRuns(times)) {
+    const TelemetrySample& a = samples[run.first];
+    bool moves = false;
+    for (std::size_t k = 1; k < run.count && !moves; ++k) {
+      const TelemetrySample& b = samples[run.first + k];
+      moves = b.lat_deg != a.lat_deg || b.lon_deg != a.lon_deg;
+    }
+    if (!moves) continue;
+    const std::string where = a.origin.empty() ? errors.source() : a.origin;
+    if (!(run.step_s > 0.0)) {
+      const bool by_frame =
+          std::all_of(samples.begin(), samples.end(),
+                      [](const TelemetrySample& s) { return s.frame_index.has_value(); });
+      if (by_frame) return;
+      throw InputError(fmt::format(
+          "{}: all {} records of this {} have the time {:.3f} s but not the same position: "
+          "nothing places them in time (a finer time column, or a frame column, is needed)",
+          where, run.count, what, run.time_s));
+    }
+    for (std::size_t k = 1; k < run.count; ++k) {
+      TelemetrySample& s = samples[run.first + k];
+      const double shift = SpreadTime(run, k) - run.time_s;
+      s.time_s += shift;
+      if (s.unix_time_s) *s.unix_time_s += shift;
+    }
+    if (runs == 0) {
+      first = fmt::format(
+          "{}: {} records share the time {:.3f} s but not the position (a clock coarser than "
+          "the records): spread evenly over {:.3f}..{:.3f} s",
+          where, run.count, run.time_s, run.time_s, run.time_s + run.step_s);
+    }
+    ++runs;
+    records += static_cast<int>(run.count);
+  }
+  if (runs == 1) errors.warnings().push_back(first);
+  if (runs > 1) {
+    errors.warnings().push_back(fmt::format(
+        "{}; {} more such runs ({} records in all) spread the same way", first, runs - 1, records));
+  }
+}
+
+}  // namespace
+
 TelemetryReadResult Finish(std::vector<TelemetrySample> samples, RecordErrors& errors,
                            int no_fix_records, const char* what) {
   if (samples.empty()) {
@@ -395,6 +452,10 @@ TelemetryReadResult Finish(std::vector<TelemetrySample> samples, RecordErrors& e
                     "GPS fix)",
                     errors.source(), what, errors.skipped(), no_fix_records));
   }
+  std::stable_sort(
+      samples.begin(), samples.end(),
+      [](const TelemetrySample& a, const TelemetrySample& b) { return a.time_s < b.time_s; });
+  SpreadRepeatedTimes(samples, errors, what);
   TelemetryReadResult r;
   r.records = static_cast<int>(samples.size());
   r.skipped_records = errors.skipped();

@@ -172,4 +172,27 @@ std::optional<TelemetrySample> Telemetry::ForFrame(int frame_index, double frame
   return Lookup(frame_time_s + time_offset_s, tolerance_s);
 }
 
+std::vector<RepeatedTimeRun> RepeatedTimeRuns(const std::vector<double>& times_s) {
+  std::vector<RepeatedTimeRun> runs;
+  std::vector<double> gaps;  // between consecutive distinct times
+  for (std::size_t i = 0; i < times_s.size();) {
+    std::size_t j = i + 1;
+    while (j < times_s.size() && times_s[j] == times_s[i]) ++j;
+    if (j < times_s.size() && times_s[j] > times_s[i]) gaps.push_back(times_s[j] - times_s[i]);
+    if (j - i >= 2) runs.push_back({i, j - i, times_s[i], 0.0});
+    i = j;
+  }
+  if (runs.empty() || gaps.empty()) return runs;
+  std::vector<double> sorted = gaps;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double clock_step_s = sorted[sorted.size() / 2];
+  for (RepeatedTimeRun& r : runs) {
+    const std::size_t next = r.first + r.count;
+    r.step_s = next < times_s.size() && times_s[next] > r.time_s
+                   ? std::min(times_s[next] - r.time_s, clock_step_s)
+                   : clock_step_s;
+  }
+  return runs;
+}
+
 }  // namespace aerovo

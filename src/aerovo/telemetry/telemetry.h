@@ -116,4 +116,29 @@ class Telemetry {
 /// Interpolates between a (weight 1 - w) and b (weight w), w in [0, 1]; see Telemetry::Lookup.
 TelemetrySample InterpolateSamples(const TelemetrySample& a, const TelemetrySample& b, double w);
 
+/// A run of records that share one time: a clock coarser than the records (a date with whole
+/// seconds on a 10 Hz log, photos taken within a second without EXIF SubSecTimeOriginal).
+struct RepeatedTimeRun {
+  std::size_t first = 0;  ///< Index of the run's first record.
+  std::size_t count = 0;  ///< Records in the run (>= 2).
+  double time_s = 0.0;    ///< The time they share.
+  /// The interval the run is spread over, seconds: the gap to the next distinct time, at most
+  /// the clock's step (the median gap between consecutive distinct times), that step for the
+  /// last run. 0 when every record has the same time (no step is known).
+  double step_s = 0.0;
+};
+
+/// The runs of equal consecutive times in `times_s` (seconds; meant for non-decreasing times:
+/// a time that goes back counts for no step).
+std::vector<RepeatedTimeRun> RepeatedTimeRuns(const std::vector<double>& times_s);
+
+/// The time of record k of a run (0 <= k < count) spread evenly over the run's interval:
+/// time_s + k * step_s / count. The records of a truncating clock lie anywhere in
+/// [time_s, time_s + step): evenly spread, each is at most one record interval from its true
+/// time (a constant record rate assumed) instead of up to a whole step, and time still never
+/// goes back.
+inline double SpreadTime(const RepeatedTimeRun& run, std::size_t k) {
+  return run.time_s + static_cast<double>(k) * run.step_s / static_cast<double>(run.count);
+}
+
 }  // namespace aerovo

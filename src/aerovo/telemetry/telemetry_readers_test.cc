@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -697,6 +698,60 @@ TEST(Csv, FrameOnlyUsesFrameAsTime) {
   auto f = r.telemetry.AtFrame(1);
   ASSERT_TRUE(f);
   EXPECT_NEAR(f->lat_deg, 1.1, 1e-12);
+}
+
+// A date with whole seconds on a 4 Hz log: four records per time, moving about 11 m/s east along
+// the equator (1e-4 degrees of longitude = 11.13 m). Spread over each second, every record keeps
+// its own time and lookups interpolate the flight instead of jumping once a second.
+TEST(Csv, RecordsSharingATimeAreSpreadOverTheClocksStep) {
+  std::string text = "datetime,lat,lon\n";
+  for (int k = 0; k < 12; ++k) {
+    text += fmt::format("2023-05-01 12:00:0{},0,{:.6f}\n", k / 4, 1.0 + 0.000025 * k);
+  }
+  std::istringstream in(text);
+  const TelemetryReadResult r = ParseTelemetryCsv(in, "log.csv");
+  ASSERT_EQ(r.records, 12);
+  for (int k = 0; k < 12; ++k) {
+    EXPECT_NEAR(r.telemetry[k].time_s, 0.25 * k, 1e-9) << k;
+    EXPECT_NEAR(*r.telemetry[k].unix_time_s, 1682942400.0 + 0.25 * k, 1e-6) << k;
+  }
+  const auto at = r.telemetry.Lookup(1.625);
+  ASSERT_TRUE(at);
+  EXPECT_NEAR(at->lon_deg, 1.0 + 0.000025 * 6.5, 1e-12);
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_THAT(r.warnings[0], HasSubstr("log.csv:2: 4 records share the time 0.000 s but not the "
+                                       "position"));
+  EXPECT_THAT(r.warnings[0], HasSubstr("spread evenly over 0.000..1.000 s; 2 more such runs (12 "
+                                       "records in all)"));
+
+  // A duplicated record (same time, same place) is left as it is, without a warning; a repeated
+  // time in a finer clock is spread over that clock's step only (0.1 s here), never past the
+  // next record.
+  std::istringstream dup(
+      "time,lat,lon\n0,1,2\n0.1,1,2.001\n0.1,1,2.001\n0.2,1,2.002\n"
+      "0.3,1,2.003\n0.3,1,2.0035\n0.4,1,2.004\n");
+  const TelemetryReadResult d = ParseTelemetryCsv(dup, "dup.csv");
+  ASSERT_EQ(d.records, 7);
+  EXPECT_DOUBLE_EQ(d.telemetry[2].time_s, 0.1);
+  EXPECT_NEAR(d.telemetry[5].time_s, 0.35, 1e-9);
+  EXPECT_DOUBLE_EQ(d.telemetry[6].time_s, 0.4);
+  ASSERT_EQ(d.warnings.size(), 1u);
+  EXPECT_THAT(d.warnings[0], HasSubstr("dup.csv:6: 2 records share the time 0.300 s"));
+}
+
+// One time for every record and different places: nothing says when each was, so the read
+// stops (a guess would be a silently wrong track); frame indices place them instead.
+TEST(Csv, OneTimeForEveryRecordIsAnErrorUnlessFramesPlaceThem) {
+  std::istringstream in("time,lat,lon\n5,1,2\n5,1,2.001\n5,1,2.002\n");
+  ExpectInputError([&] { ParseTelemetryCsv(in, "same.csv"); },
+                   {"same.csv:2: all 3 records of this CSV file have the time 5.000 s but not the "
+                    "same position"});
+  std::istringstream framed("time,frame,lat,lon\n5,0,1,2\n5,1,1,2.001\n5,2,1,2.002\n");
+  const TelemetryReadResult r = ParseTelemetryCsv(framed, "framed.csv");
+  ASSERT_EQ(r.records, 3);
+  const auto f = r.telemetry.AtFrame(2);
+  ASSERT_TRUE(f);
+  EXPECT_DOUBLE_EQ(f->lon_deg, 2.002);
 }
 
 TEST(Csv, HeaderProblems) {

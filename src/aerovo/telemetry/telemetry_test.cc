@@ -137,5 +137,30 @@ TEST(Telemetry, ValidateSampleNamesTheProblem) {
   EXPECT_NO_THROW(ValidateSample(Fix(0.0, -90.0, 180.0), "x"));
 }
 
+// Runs of equal times and the interval each is spread over: the gap to the next time, at most the
+// clock's step (the median gap between distinct times, 1 s here), that step for the last run.
+TEST(Telemetry, RepeatedTimeRunsAndTheirSteps) {
+  const std::vector<double> t = {0, 0, 0, 1, 1, 2, 3, 3.5, 3.5, 10, 11, 12, 12};
+  const std::vector<RepeatedTimeRun> runs = RepeatedTimeRuns(t);
+  ASSERT_EQ(runs.size(), 4u);
+  EXPECT_EQ(runs[0].first, 0u);
+  EXPECT_EQ(runs[0].count, 3u);
+  EXPECT_DOUBLE_EQ(runs[0].step_s, 1.0);
+  EXPECT_DOUBLE_EQ(SpreadTime(runs[0], 2), 2.0 / 3.0);
+  EXPECT_EQ(runs[1].first, 3u);
+  EXPECT_DOUBLE_EQ(runs[1].step_s, 1.0);
+  EXPECT_EQ(runs[2].first, 7u);
+  EXPECT_DOUBLE_EQ(runs[2].time_s, 3.5);
+  EXPECT_DOUBLE_EQ(runs[2].step_s, 1.0);  // not the 6.5 s pause that follows
+  EXPECT_DOUBLE_EQ(SpreadTime(runs[2], 1), 4.0);
+  EXPECT_EQ(runs[3].first, 11u);
+  EXPECT_DOUBLE_EQ(runs[3].step_s, 1.0);  // the last run: the clock's step
+  EXPECT_TRUE(RepeatedTimeRuns({0, 1, 2}).empty());
+  // One time for all: no step known.
+  const std::vector<RepeatedTimeRun> one = RepeatedTimeRuns({4, 4});
+  ASSERT_EQ(one.size(), 1u);
+  EXPECT_DOUBLE_EQ(one[0].step_s, 0.0);
+}
+
 }  // namespace
 }  // namespace aerovo::telemetry_test
