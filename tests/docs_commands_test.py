@@ -701,9 +701,10 @@ def check_claims():
           code == 0 and "xmp          read from the photo's XMP segment" in out
           and re.search(r"xmp values   relative altitude [\d.]+ m", out) is not None, out)
     code, out = aerovo(f"aerovo telemetry {os.path.join(TAMPA, 'DJI_0054.JPG')}", cwd)
-    claim("docs/inputs.md", "`aerovo telemetry PHOTO` on a photo without DJI XMP: `xmp          "
-          "none (the photo has no DJI XMP values)`",
-          code == 0 and "xmp          none (the photo has no DJI XMP values)" in out, out)
+    claim("docs/inputs.md", "`aerovo telemetry PHOTO` on a photo without XMP values: `xmp          "
+          "none (the photo has no DJI, Parrot, Pix4D Camera or senseFly XMP values)`",
+          code == 0 and "xmp          none (the photo has no DJI, Parrot, Pix4D Camera or "
+          "senseFly XMP values)" in out, out)
 
 
 def main():

@@ -50,19 +50,24 @@ TelemetryReadResult ReadAny(const TelemetryArgs& args) {
                m.height_px, m.make.empty() ? "unknown make" : m.make, m.model,
                m.serial_number.empty() ? "" : fmt::format(" (serial {})", m.serial_number),
                mm(m.focal_length_mm, 2), mm(m.focal_length_35mm_mm, 1));
-    // Where the DJI XMP values came from (docs/inputs.md, "XMP in EXIF 0x02bc"), and each of
-    // them or "unknown".
+    // Where the XMP values came from (docs/inputs.md, "XMP in EXIF 0x02bc"), whose namespace
+    // they were read from ("XMP of other vendors"), and each of them or "unknown".
     const bool has_xmp = m.rel_alt_m || m.abs_alt_m || m.gimbal_yaw_deg || m.gimbal_pitch_deg ||
                          m.gimbal_roll_deg || m.flight_yaw_deg || m.flight_pitch_deg ||
                          m.flight_roll_deg || m.calibrated_focal_px;
     using Src = ImageMetadata::XmpSource;
-    fmt::print("xmp          {}\n",
+    const std::string vendor = m.xmp_vendor == ImageMetadata::XmpVendor::kNone
+                                   ? std::string()
+                                   : fmt::format(" ({} values)", XmpVendorName(m.xmp_vendor));
+    fmt::print("xmp          {}{}\n",
                m.xmp_source == Src::kIfd0XmlPacket
                    ? "read from the EXIF tag 0x02bc of IFD0 (XMLPacket)"
                : m.xmp_source == Src::kExifIfdApplicationNotes
                    ? "read from the EXIF tag 0x02bc of the Exif sub-IFD (ApplicationNotes)"
                : has_xmp ? "read from the photo's XMP segment"
-                         : "none (the photo has no DJI XMP values)");
+                         : "none (the photo has no DJI, Parrot, Pix4D Camera or senseFly XMP "
+                           "values)",
+               vendor);
     if (has_xmp) {
       const auto val = [](const std::optional<double>& v, const char* unit) {
         return v ? fmt::format("{:.1f} {}", *v, unit) : std::string("unknown");

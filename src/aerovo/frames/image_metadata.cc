@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <mutex>
+#include <string_view>
 #include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -30,6 +32,13 @@ void InitExiv2Once() {
     Exiv2::XmpParser::initialize();
     // Looking up "Xmp.drone-dji.*" keys needs the prefix known even for files without DJI XMP.
     Exiv2::XmpProperties::registerNs("http://www.dji.com/drone-dji/1.0/", "drone-dji");
+    // The other vendors' namespaces (kVendors below). Exiv2 names a decoded property by the
+    // prefix registered for its namespace URI, whatever prefix the file declares, so that
+    // "Xmp.Camera.Pitch" is Pix4D's tag in every photo and senseFly's tag of the same name
+    // (another URI, also written with the prefix "Camera") is "Xmp.senseFly-Camera.Pitch".
+    Exiv2::XmpProperties::registerNs("http://www.parrot.com/drone-parrot/1.0/", "drone-parrot");
+    Exiv2::XmpProperties::registerNs("http://pix4d.com/camera/1.0/", "Camera");
+    Exiv2::XmpProperties::registerNs("http://ns.sensefly.com/Camera/1.0/", "senseFly-Camera");
   });
 }
 
@@ -130,6 +139,35 @@ void CheckRange(const std::optional<double>& v, double lo, double hi, const char
   if (v && (!std::isfinite(*v) || *v < lo || *v > hi)) {
     throw InputError(fmt::format("{}: {} {} out of range [{}, {}]", source, what, *v, lo, hi));
   }
+}
+
+// An XMP Real or Rational (XMP specification part 1, 8.2.1: a Rational is written
+// "numerator/denominator"; Parrot writes its heights so, e.g. "11485529/262144") as a double.
+// Throws InputError naming the file and the tag (`what`) for text that is neither, and for a
+// zero denominator.
+std::optional<double> XmpRealOrRational(const Exiv2::XmpData& xmp, const std::string& key,
+                                        const std::string& what, const std::string& source) {
+  const auto it = xmp.findKey(Exiv2::XmpKey(key));
+  if (it == xmp.end()) return std::nullopt;
+  const std::string text = it->toString();
+  const std::string_view t = io_detail::Trim(text);
+  std::optional<double> v;
+  if (const auto slash = t.find('/'); slash == std::string_view::npos) {
+    v = ParseDouble(t);
+  } else {
+    const auto num = ParseDouble(t.substr(0, slash));
+    const auto den = ParseDouble(t.substr(slash + 1));
+    if (num && den && *den == 0.0) {
+      throw InputError(fmt::format("{}: XMP {} '{}' has a zero denominator", source, what,
+                                   io_detail::Printable(t, 40)));
+    }
+    if (num && den) v = *num / *den;
+  }
+  if (!v) {
+    throw InputError(
+        fmt::format("{}: XMP {} '{}' is not a number", source, what, io_detail::Printable(t, 40)));
+  }
+  return v;
 }
 
 // The XMP packet some cameras store in the EXIF tag 0x02bc instead of an APP1 XMP segment:
@@ -257,6 +295,132 @@ void ReadDjiXmp(const Exiv2::XmpData& xmp, const std::string& source, ImageMetad
   CheckRange(m.calibrated_focal_px, 1e-3, 1e7, "XMP CalibratedFocalLength (px)", source);
 }
 
+// The XMP flight values of the other vendors (docs/inputs.md, "XMP of other vendors"), each
+// read into an ImageMetadata field in DJI's convention.
+//
+// How a written value becomes DJI's convention (degrees; yaw clockwise from north; gimbal pitch
+// -90 = nadir, 0 = horizon; heights in metres):
+enum class Conv {
+  kAsWritten,
+  // Pix4D's camera pitch: 0 = nadir, 90 = looking forward (Pix4D, "Yaw, Pitch, Roll and Omega,
+  // Phi, Kappa angles", support.pix4d.com/hc/en-us/articles/202558969): DJI's pitch + 90. Its
+  // yaw (the heading of the image top when nadir) and roll (positive: right wing down, the
+  // optical axis towards the image left) are DJI's gimbal yaw and roll. Parrot's documentation
+  // shows the two conventions on one photo: Camera:Pitch "38.011101" beside
+  // drone-parrot:CameraPitchDegree "-51.988888".
+  kPix4dPitch,
+};
+
+struct VendorTag {
+  const char* key;   // Exiv2 key, with the prefix registered in InitExiv2Once
+  const char* name;  // the tag as the vendor documents it, for messages
+  std::optional<double> ImageMetadata::*field;
+  Conv conv;
+  double lo, hi;  // accepted range of the written value (as the DJI fields')
+};
+
+struct VendorXmp {
+  ImageMetadata::XmpVendor vendor;
+  // The photo is this vendor's when it has one of the tags in this namespace prefix (Parrot's
+  // photos also carry Pix4D's Camera tags; its own drone-parrot angles are read first).
+  const char* own_prefix;
+  std::vector<VendorTag> tags;
+};
+
+constexpr double kMaxHeightM = 1e5;
+constexpr double kMaxAngleDeg = 360.0;
+
+const std::vector<VendorXmp>& Vendors() {
+  using M = ImageMetadata;
+  using V = ImageMetadata::XmpVendor;
+  // Pix4D's "Specifications of XMP Camera tags" (support.pix4d.com/hc/en-us/articles/
+  // 360016450032): namespace Camera, http://pix4d.com/camera/1.0/, Yaw/Pitch/Roll of the camera
+  // in degrees; AboveGroundAltitude as Parrot documents it (height above the ground, metres).
+  static const std::vector<VendorXmp> vendors = {
+      // Parrot, "Embedded Photo Metadata" (developer.parrot.com/docs/groundsdk-tools/
+      // photo-metadata.html): drone-parrot:Camera{Roll,Pitch,Yaw}Degree, the camera's
+      // orientation in degrees in NED (pitch -90 = nadir, as DJI's), and the Pix4D
+      // Camera:AboveGroundAltitude, "altitude above the ground in meters expressed as a
+      // fraction". Namespace http://www.parrot.com/drone-parrot/1.0/.
+      {V::kParrot,
+       "drone-parrot",
+       {{"Xmp.drone-parrot.CameraYawDegree", "drone-parrot:CameraYawDegree", &M::gimbal_yaw_deg,
+         Conv::kAsWritten, -kMaxAngleDeg, kMaxAngleDeg},
+        {"Xmp.drone-parrot.CameraPitchDegree", "drone-parrot:CameraPitchDegree",
+         &M::gimbal_pitch_deg, Conv::kAsWritten, -kMaxAngleDeg, kMaxAngleDeg},
+        {"Xmp.drone-parrot.CameraRollDegree", "drone-parrot:CameraRollDegree", &M::gimbal_roll_deg,
+         Conv::kAsWritten, -kMaxAngleDeg, kMaxAngleDeg},
+        {"Xmp.Camera.AboveGroundAltitude", "Camera:AboveGroundAltitude", &M::rel_alt_m,
+         Conv::kAsWritten, -kMaxHeightM, kMaxHeightM}}},
+      // Pix4D's Camera namespace alone (Parrot Sequoia, multispectral cameras, photos tagged
+      // for Pix4D): the camera's angles in Pix4D's convention.
+      {V::kPix4dCamera,
+       "Camera",
+       {{"Xmp.Camera.Yaw", "Camera:Yaw", &M::gimbal_yaw_deg, Conv::kAsWritten, -kMaxAngleDeg,
+         kMaxAngleDeg},
+        {"Xmp.Camera.Pitch", "Camera:Pitch", &M::gimbal_pitch_deg, Conv::kPix4dPitch, -kMaxAngleDeg,
+         kMaxAngleDeg},
+        {"Xmp.Camera.Roll", "Camera:Roll", &M::gimbal_roll_deg, Conv::kAsWritten, -kMaxAngleDeg,
+         kMaxAngleDeg},
+        {"Xmp.Camera.AboveGroundAltitude", "Camera:AboveGroundAltitude", &M::rel_alt_m,
+         Conv::kAsWritten, -kMaxHeightM, kMaxHeightM}}},
+      // senseFly (eBee S.O.D.A., Aeria): the same Yaw/Pitch/Roll tags under its own namespace
+      // http://ns.sensefly.com/Camera/1.0/, in Pix4D's convention (pitch 0 = nadir): orthority's
+      // "EXIF / XMP tags" (leftfield-geospatial/orthority docs/file_formats/exif_xmp.rst) reads
+      // them as one tag set with Pix4D's; OpenMVS converts senseFly's pitch with "-90" (senseFly
+      // "uses pitch 0 as NADIR, whereas DJI -90").
+      {V::kSenseFlyCamera,
+       "senseFly-Camera",
+       {{"Xmp.senseFly-Camera.Yaw", "Camera:Yaw (senseFly)", &M::gimbal_yaw_deg, Conv::kAsWritten,
+         -kMaxAngleDeg, kMaxAngleDeg},
+        {"Xmp.senseFly-Camera.Pitch", "Camera:Pitch (senseFly)", &M::gimbal_pitch_deg,
+         Conv::kPix4dPitch, -kMaxAngleDeg, kMaxAngleDeg},
+        {"Xmp.senseFly-Camera.Roll", "Camera:Roll (senseFly)", &M::gimbal_roll_deg,
+         Conv::kAsWritten, -kMaxAngleDeg, kMaxAngleDeg}}},
+  };
+  return vendors;
+}
+
+// True when `xmp` holds one of `v`'s tags in its own namespace.
+bool HasVendorXmp(const Exiv2::XmpData& xmp, const VendorXmp& v) {
+  const std::string own = std::string("Xmp.") + v.own_prefix + ".";
+  for (const VendorTag& t : v.tags) {
+    if (std::string_view(t.key).substr(0, own.size()) == own &&
+        xmp.findKey(Exiv2::XmpKey(t.key)) != xmp.end()) {
+      return true;
+    }
+  }
+  return false;
+}
+
+bool HasOtherVendorXmp(const Exiv2::XmpData& xmp) {
+  const auto& vs = Vendors();
+  return std::any_of(vs.begin(), vs.end(),
+                     [&](const VendorXmp& v) { return HasVendorXmp(xmp, v); });
+}
+
+// Reads the first vendor of Vendors() whose values `xmp` holds into `m` (converted to DJI's
+// convention); InputError naming the file and the tag for a value that is not a number or out
+// of range.
+void ReadOtherVendorXmp(const Exiv2::XmpData& xmp, const std::string& source, ImageMetadata& m) {
+  for (const VendorXmp& v : Vendors()) {
+    if (!HasVendorXmp(xmp, v)) continue;
+    m.xmp_vendor = v.vendor;
+    for (const VendorTag& t : v.tags) {
+      std::optional<double> value = XmpRealOrRational(xmp, t.key, t.name, source);
+      CheckRange(value, t.lo, t.hi, fmt::format("XMP {}", t.name).c_str(), source);
+      if (value && t.conv == Conv::kPix4dPitch) {
+        // Into (-180, 180]: Pix4D's pitch 0 (nadir) is -90, its 90 (forward) is 0.
+        double p = std::remainder(*value - 90.0, 360.0);
+        if (p == -180.0) p = 180.0;
+        value = p;
+      }
+      m.*(t.field) = value;
+    }
+    return;
+  }
+}
+
 ImageMetadata Extract(Exiv2::Image& image, const std::string& source) {
   image.readMetadata();
   ImageMetadata m;
@@ -265,7 +429,7 @@ ImageMetadata Extract(Exiv2::Image& image, const std::string& source) {
   m.height_px = image.pixelHeight();
   const Exiv2::ExifData& exif = image.exifData();
   // The XMP places in ImageMetadata::XmpSource order: the first with DJI values, else the first
-  // with a packet.
+  // with another vendor's values (Vendors()), else the first with a packet.
   using Src = ImageMetadata::XmpSource;
   // The packets are decoded only when the APP1 segment has no DJI values.
   const bool app1_dji = HasDjiXmp(image.xmpData());
@@ -286,6 +450,12 @@ ImageMetadata Extract(Exiv2::Image& image, const std::string& source) {
       chosen = data;
       m.xmp_source = src;
       break;
+    }
+  }
+  for (const auto& [data, src] : places) {
+    if (chosen == nullptr && data != nullptr && HasOtherVendorXmp(*data)) {
+      chosen = data;
+      m.xmp_source = src;
     }
   }
   for (const auto& [data, src] : places) {
@@ -322,10 +492,36 @@ ImageMetadata Extract(Exiv2::Image& image, const std::string& source) {
   CheckRange(m.focal_length_35mm_mm, 0.0, 1e4, "EXIF FocalLengthIn35mmFilm (mm)", source);
 
   ReadDjiXmp(xmp, source, m);
+  const bool dji_values = m.rel_alt_m || m.abs_alt_m || m.flight_yaw_deg || m.flight_pitch_deg ||
+                          m.flight_roll_deg || m.gimbal_yaw_deg || m.gimbal_pitch_deg ||
+                          m.gimbal_roll_deg || m.calibrated_focal_px || m.calibrated_cx_px ||
+                          m.calibrated_cy_px;
+  // A photo with DJI values keeps them (another vendor's tags beside them are not read).
+  if (dji_values) {
+    m.xmp_vendor = ImageMetadata::XmpVendor::kDji;
+  } else {
+    ReadOtherVendorXmp(xmp, source, m);
+  }
   return m;
 }
 
 }  // namespace
+
+const char* XmpVendorName(ImageMetadata::XmpVendor vendor) {
+  switch (vendor) {
+    case ImageMetadata::XmpVendor::kDji:
+      return "DJI drone-dji";
+    case ImageMetadata::XmpVendor::kParrot:
+      return "Parrot drone-parrot";
+    case ImageMetadata::XmpVendor::kPix4dCamera:
+      return "Pix4D Camera";
+    case ImageMetadata::XmpVendor::kSenseFlyCamera:
+      return "senseFly Camera";
+    case ImageMetadata::XmpVendor::kNone:
+      break;
+  }
+  return "none";
+}
 
 TelemetrySample ImageMetadata::ToSample() const {
   TelemetrySample s;

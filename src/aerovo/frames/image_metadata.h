@@ -1,5 +1,6 @@
-// EXIF / XMP metadata of photos (through Exiv2): GPS position, capture time, DJI XMP flight
-// and gimbal attitude and relative altitude, focal lengths and image size.
+// EXIF / XMP metadata of photos (through Exiv2): GPS position, capture time, XMP flight and
+// gimbal attitude and relative altitude (DJI, Parrot, Pix4D Camera, senseFly), focal lengths
+// and image size.
 #pragma once
 
 #include <cstddef>
@@ -27,9 +28,18 @@ struct ImageMetadata {
   /// specification (part 3, 1.1.3); some cameras store the packet instead in the TIFF tag 0x02bc
   /// (XMLPacket, TIFF/EP; exiftool "IFD0:XMP"), others in the same tag of the Exif sub-IFD
   /// (exiftool "ExifIFD:ApplicationNotes": DJI Zenmuse XT2). The first of these places (in this
-  /// order) that holds DJI (drone-dji) values is used, else the first that holds a packet.
+  /// order) that holds DJI (drone-dji) values is used, else the first that holds values of
+  /// another vendor aerovo reads (XmpVendor), else the first that holds a packet.
   enum class XmpSource { kNone, kApp1Segment, kIfd0XmlPacket, kExifIfdApplicationNotes };
   XmpSource xmp_source = XmpSource::kNone;
+  /// Whose XMP flight values (heights and angles below) were read: DJI's drone-dji namespace
+  /// when it holds any, else the first of the others, in this order, that holds one of its
+  /// tags (docs/inputs.md, "XMP of other vendors"): Parrot (drone-parrot angles, with the
+  /// Pix4D Camera AboveGroundAltitude Parrot writes beside them), Pix4D's Camera namespace
+  /// (Parrot Sequoia, other multispectral cameras), senseFly's Camera namespace. kNone when
+  /// the photo has none of these values.
+  enum class XmpVendor { kNone, kDji, kParrot, kPix4dCamera, kSenseFlyCamera };
+  XmpVendor xmp_vendor = XmpVendor::kNone;
   /// True when the XMP fields came from an EXIF tag 0x02bc packet (IFD0 or the Exif sub-IFD).
   bool xmp_from_exif_packet = false;
 
@@ -44,8 +54,12 @@ struct ImageMetadata {
   /// of SubSecTimeOriginal.
   double capture_time_resolution_s = 1.0;
 
-  // DJI XMP (namespace drone-dji, http://www.dji.com/drone-dji/1.0/).
-  std::optional<double> rel_alt_m;  ///< RelativeAltitude: height above the take-off point.
+  // XMP flight values, in DJI's convention (namespace drone-dji,
+  // http://www.dji.com/drone-dji/1.0/): gimbal pitch -90 = nadir, 0 = horizon; yaw clockwise
+  // from north. Other vendors' values (xmp_vendor) are converted to it.
+  /// RelativeAltitude: height above the take-off point (Pix4D Camera AboveGroundAltitude:
+  /// height above the ground, which Parrot writes).
+  std::optional<double> rel_alt_m;
   std::optional<double> abs_alt_m;  ///< AbsoluteAltitude.
   std::optional<double> flight_yaw_deg, flight_pitch_deg, flight_roll_deg;
   std::optional<double> gimbal_yaw_deg, gimbal_pitch_deg, gimbal_roll_deg;
@@ -62,6 +76,9 @@ struct ImageMetadata {
   /// Precondition: HasGps().
   TelemetrySample ToSample() const;
 };
+
+/// "DJI drone-dji", "Parrot drone-parrot", "Pix4D Camera", "senseFly Camera"; "none".
+const char* XmpVendorName(ImageMetadata::XmpVendor vendor);
 
 /// Reads the metadata of an image file (JPEG, TIFF, PNG, DNG ... whatever Exiv2 reads).
 /// Throws InputError "cannot read metadata of '<path>': <reason>" for a missing, unreadable or

@@ -265,6 +265,198 @@ TEST(ImageMetadata, XmpPacketInTheExifSubIfdApplicationNotes) {
   EXPECT_DOUBLE_EQ(*ma.rel_alt_m, 42.0);
 }
 
+// XMP of other vendors (docs/inputs.md, "XMP of other vendors"): each packet is written into
+// the photo's APP1 segment byte for byte, and the values must come out in DJI's convention.
+
+const char* const kPacketBegin =
+    "<?xpacket begin=\"\xEF\xBB\xBF\" id=\"W5M0MpCehiHzreSzNTczkc9d\"?>\n"
+    "<x:xmpmeta xmlns:x=\"adobe:ns:meta/\">\n"
+    " <rdf:RDF xmlns:rdf=\"http://www.w3.org/1999/02/22-rdf-syntax-ns#\">\n";
+const char* const kPacketEnd = " </rdf:RDF>\n</x:xmpmeta>\n<?xpacket end=\"w\"?>";
+
+// A Parrot ANAFI Ai photo's XMP: one rdf:Description holding Parrot's drone-parrot tags and the
+// Pix4D Camera tags, as elements. The values are the examples of Parrot's table ("Embedded Photo
+// Metadata", developer.parrot.com/docs/groundsdk-tools/photo-metadata.html), all of one photo:
+// the camera pitched 52 degrees below the horizon, drone-parrot:CameraPitchDegree -51.988888
+// (NED, DJI's convention) beside Camera:Pitch 38.011101 (Pix4D's, 0 = nadir); the height above
+// the ground written as a fraction.
+std::string ParrotAnafiPacket(const std::string& pitch_deg = "-51.988888") {
+  return std::string(kPacketBegin) +
+         "  <rdf:Description rdf:about=\"\"\n"
+         "    xmlns:xmp=\"http://ns.adobe.com/xap/1.0/\"\n"
+         "    xmlns:tiff=\"http://ns.adobe.com/tiff/1.0/\"\n"
+         "    xmlns:Camera=\"http://pix4d.com/camera/1.0/\"\n"
+         "    xmlns:drone-parrot=\"http://www.parrot.com/drone-parrot/1.0/\">\n"
+         "   <xmp:CreateDate>2021-10-22T11:30:09.205000+02:00</xmp:CreateDate>\n"
+         "   <tiff:Make>Parrot</tiff:Make>\n"
+         "   <tiff:Model>ANAFI Ai</tiff:Model>\n"
+         "   <Camera:GPSXYAccuracy>845389/2097152</Camera:GPSXYAccuracy>\n"
+         "   <Camera:ModelType>perspective</Camera:ModelType>\n"
+         "   <Camera:Roll>-0.041258</Camera:Roll>\n"
+         "   <Camera:Pitch>38.011101</Camera:Pitch>\n"
+         "   <Camera:Yaw>146.781036</Camera:Yaw>\n"
+         "   <Camera:AboveGroundAltitude>11485529/262144</Camera:AboveGroundAltitude>\n"
+         "   <drone-parrot:CameraRollDegree>-0.052789</drone-parrot:CameraRollDegree>\n"
+         "   <drone-parrot:CameraPitchDegree>" +
+         pitch_deg +
+         "</drone-parrot:CameraPitchDegree>\n"
+         "   <drone-parrot:CameraYawDegree>146.848038</drone-parrot:CameraYawDegree>\n"
+         "   <drone-parrot:SerialNumber>PI040416BA8G059745</drone-parrot:SerialNumber>\n"
+         "  </rdf:Description>\n" +
+         kPacketEnd;
+}
+
+// Before, such a photo had no relative altitude and no gimbal angles: a folder of them stopped
+// with "only an altitude above sea level", and an oblique camera ran as nadir.
+TEST(ImageMetadataVendors, ParrotAnafiDroneParrotAnglesAndPix4dHeight) {
+  io_test::TempDir dir("aerovo_xmp_parrot");
+  const auto path = dir / "P0010001.JPG";
+  io_test::WriteJpegWithXmpPacket(path, io_test::TextureImage(64, 48, 5), ParrotAnafiPacket());
+  const ImageMetadata m = ReadImageMetadata(path);
+  EXPECT_EQ(m.xmp_source, ImageMetadata::XmpSource::kApp1Segment);
+  EXPECT_EQ(m.xmp_vendor, ImageMetadata::XmpVendor::kParrot);
+  ASSERT_TRUE(m.rel_alt_m);
+  EXPECT_DOUBLE_EQ(*m.rel_alt_m, 11485529.0 / 262144.0);  // 43.81 m
+  // Parrot's own NED angles, as written (not Camera:*, Pix4D's view of the same attitude).
+  EXPECT_DOUBLE_EQ(*m.gimbal_pitch_deg, -51.988888);
+  EXPECT_DOUBLE_EQ(*m.gimbal_yaw_deg, 146.848038);
+  EXPECT_DOUBLE_EQ(*m.gimbal_roll_deg, -0.052789);
+  EXPECT_FALSE(m.abs_alt_m);
+  EXPECT_FALSE(m.flight_yaw_deg);
+  EXPECT_STREQ(XmpVendorName(m.xmp_vendor), "Parrot drone-parrot");
+
+  // The same packet in the TIFF tag 0x02bc of IFD0 (where Parrot's DNG files have an XMLPacket).
+  const auto ifd0 = dir / "ifd0.jpg";
+  WriteJpegWithExifXmlPacket(ifd0, "Parrot", "ANAFI Ai", ParrotAnafiPacket());
+  const ImageMetadata m0 = ReadImageMetadata(ifd0);
+  EXPECT_EQ(m0.xmp_source, ImageMetadata::XmpSource::kIfd0XmlPacket);
+  EXPECT_EQ(m0.xmp_vendor, ImageMetadata::XmpVendor::kParrot);
+  EXPECT_DOUBLE_EQ(*m0.gimbal_pitch_deg, -51.988888);
+  EXPECT_DOUBLE_EQ(*m0.rel_alt_m, 11485529.0 / 262144.0);
+}
+
+// Pix4D's Camera namespace alone, as exiftool writes it with its pix4d.config (single quotes,
+// one rdf:Description per namespace, elements): Pix4D's convention is pitch 0 = nadir
+// (support.pix4d.com/hc/en-us/articles/202558969), DJI's -90.
+TEST(ImageMetadataVendors, Pix4dCameraNadirAndObliqueInDjiConvention) {
+  io_test::TempDir dir("aerovo_xmp_pix4d");
+  const auto write = [&](const std::string& name, const std::string& yaw, const std::string& pitch,
+                         const std::string& roll,
+                         const std::string& uri = "http://pix4d.com/camera/1.0/") {
+    const std::string packet =
+        std::string(kPacketBegin) + "  <rdf:Description rdf:about=''\n  xmlns:Camera='" + uri +
+        "'>\n" + "  <Camera:Yaw>" + yaw + "</Camera:Yaw>\n" + "  <Camera:Pitch>" + pitch +
+        "</Camera:Pitch>\n" + "  <Camera:Roll>" + roll + "</Camera:Roll>\n" +
+        "  <Camera:BandName>\n   <rdf:Seq>\n    <rdf:li>NIR</rdf:li>\n   </rdf:Seq>\n"
+        "  </Camera:BandName>\n" +
+        "  </rdf:Description>\n" + kPacketEnd;
+    io_test::WriteJpegWithXmpPacket(dir / name, io_test::TextureImage(48, 32, 6), packet);
+    return ReadImageMetadata(dir / name);
+  };
+  const ImageMetadata nadir = write("nadir.jpg", "270", "0", "0");
+  EXPECT_EQ(nadir.xmp_vendor, ImageMetadata::XmpVendor::kPix4dCamera);
+  EXPECT_DOUBLE_EQ(*nadir.gimbal_pitch_deg, -90.0);
+  EXPECT_DOUBLE_EQ(*nadir.gimbal_yaw_deg, 270.0);
+  EXPECT_DOUBLE_EQ(*nadir.gimbal_roll_deg, 0.0);
+  EXPECT_FALSE(nadir.rel_alt_m);
+
+  // Parrot's example Camera:Pitch: 38.011101 from nadir = 51.988899 below the horizon.
+  const ImageMetadata oblique = write("oblique.jpg", "146.781036", "38.011101", "-0.041258");
+  EXPECT_NEAR(*oblique.gimbal_pitch_deg, -51.988899, 1e-9);
+  EXPECT_DOUBLE_EQ(*oblique.gimbal_roll_deg, -0.041258);
+  // Looking forward (90) is DJI's horizon (0); past nadir backwards (-10) is -100.
+  EXPECT_NEAR(*write("forward.jpg", "0", "90", "0").gimbal_pitch_deg, 0.0, 1e-12);
+  EXPECT_NEAR(*write("back.jpg", "0", "-10", "0").gimbal_pitch_deg, -100.0, 1e-12);
+  // The URI as Pix4D's page spells it, without the final slash, is the same namespace to Exiv2.
+  const ImageMetadata noslash = write("noslash.jpg", "10", "5", "1", "http://pix4d.com/camera/1.0");
+  EXPECT_EQ(noslash.xmp_vendor, ImageMetadata::XmpVendor::kPix4dCamera);
+  EXPECT_DOUBLE_EQ(*noslash.gimbal_pitch_deg, -85.0);
+
+  // Attributes of rdf:Description (Exiv2's and the XMP toolkit's compact form), with the height.
+  const auto attrs = dir / "attrs.jpg";
+  io_test::WriteJpegWithXmpPacket(
+      attrs, io_test::TextureImage(48, 32, 7),
+      std::string(kPacketBegin) +
+          "  <rdf:Description rdf:about=\"\" xmlns:Camera=\"http://pix4d.com/camera/1.0/\"\n"
+          "    Camera:Yaw=\"-12.5\" Camera:Pitch=\"2.5\" Camera:Roll=\"1.25\"\n"
+          "    Camera:AboveGroundAltitude=\"120.5\"/>\n" +
+          kPacketEnd);
+  const ImageMetadata ma = ReadImageMetadata(attrs);
+  EXPECT_EQ(ma.xmp_vendor, ImageMetadata::XmpVendor::kPix4dCamera);
+  EXPECT_DOUBLE_EQ(*ma.gimbal_yaw_deg, -12.5);
+  EXPECT_DOUBLE_EQ(*ma.gimbal_pitch_deg, -87.5);
+  EXPECT_DOUBLE_EQ(*ma.gimbal_roll_deg, 1.25);
+  EXPECT_DOUBLE_EQ(*ma.rel_alt_m, 120.5);
+}
+
+// senseFly writes the same tag names with the prefix "Camera" under its own URI: read in
+// Pix4D's convention, and not mistaken for Pix4D's namespace.
+TEST(ImageMetadataVendors, SenseFlyCameraNamespace) {
+  io_test::TempDir dir("aerovo_xmp_sensefly");
+  const auto path = dir / "IMG_0001.JPG";
+  io_test::WriteJpegWithXmpPacket(path, io_test::TextureImage(48, 32, 8),
+                                  std::string(kPacketBegin) +
+                                      "  <rdf:Description rdf:about=\"\"\n"
+                                      "    xmlns:Camera=\"http://ns.sensefly.com/Camera/1.0/\">\n"
+                                      "   <Camera:Yaw>87.3</Camera:Yaw>\n"
+                                      "   <Camera:Pitch>4.2</Camera:Pitch>\n"
+                                      "   <Camera:Roll>-3.1</Camera:Roll>\n"
+                                      "  </rdf:Description>\n" +
+                                      kPacketEnd);
+  const ImageMetadata m = ReadImageMetadata(path);
+  EXPECT_EQ(m.xmp_vendor, ImageMetadata::XmpVendor::kSenseFlyCamera);
+  EXPECT_DOUBLE_EQ(*m.gimbal_yaw_deg, 87.3);
+  EXPECT_NEAR(*m.gimbal_pitch_deg, -85.8, 1e-12);
+  EXPECT_DOUBLE_EQ(*m.gimbal_roll_deg, -3.1);
+}
+
+// A photo whose packet has DJI's drone-dji values and another vendor's keeps the DJI values.
+TEST(ImageMetadataVendors, DjiValuesWinOverOtherNamespaces) {
+  io_test::TempDir dir("aerovo_xmp_both");
+  const auto path = dir / "DJI_0001.JPG";
+  io_test::WriteJpegWithXmpPacket(
+      path, io_test::TextureImage(48, 32, 9),
+      std::string(kPacketBegin) +
+          "  <rdf:Description rdf:about=\"DJI Meta Data\"\n"
+          "    xmlns:drone-dji=\"http://www.dji.com/drone-dji/1.0/\"\n"
+          "    xmlns:Camera=\"http://pix4d.com/camera/1.0/\"\n"
+          "    xmlns:drone-parrot=\"http://www.parrot.com/drone-parrot/1.0/\"\n"
+          "   drone-dji:RelativeAltitude=\"+60.10\" drone-dji:GimbalPitchDegree=\"-45.00\"\n"
+          "   drone-dji:GimbalYawDegree=\"+10.00\" Camera:Pitch=\"0\" Camera:Yaw=\"200\"\n"
+          "   Camera:AboveGroundAltitude=\"99\" drone-parrot:CameraPitchDegree=\"-90\"/>\n" +
+          kPacketEnd);
+  const ImageMetadata m = ReadImageMetadata(path);
+  EXPECT_EQ(m.xmp_vendor, ImageMetadata::XmpVendor::kDji);
+  EXPECT_DOUBLE_EQ(*m.rel_alt_m, 60.1);
+  EXPECT_DOUBLE_EQ(*m.gimbal_pitch_deg, -45.0);
+  EXPECT_DOUBLE_EQ(*m.gimbal_yaw_deg, 10.0);
+  EXPECT_FALSE(m.gimbal_roll_deg);  // not taken from another namespace either
+}
+
+// A vendor value that is not a number, has a zero denominator or is out of range stops the
+// read with an error naming the photo and the tag, as the DJI values do.
+TEST(ImageMetadataVendors, MalformedValuesNameTheTag) {
+  io_test::TempDir dir("aerovo_xmp_bad");
+  const auto write = [&](const std::string& name, const std::string& packet) {
+    io_test::WriteJpegWithXmpPacket(dir / name, io_test::TextureImage(32, 32, 10), packet);
+    return dir / name;
+  };
+  ExpectInputError([&] { ReadImageMetadata(write("pitch.jpg", ParrotAnafiPacket("down"))); },
+                   {"pitch.jpg: XMP drone-parrot:CameraPitchDegree 'down' is not a number"});
+  const auto pix4d = [&](const std::string& attrs) {
+    return std::string(kPacketBegin) +
+           "  <rdf:Description rdf:about=\"\" xmlns:Camera=\"http://pix4d.com/camera/1.0/\" " +
+           attrs + "/>\n" + kPacketEnd;
+  };
+  ExpectInputError(
+      [&] { ReadImageMetadata(write("den.jpg", pix4d("Camera:AboveGroundAltitude=\"43/0\""))); },
+      {"den.jpg: XMP Camera:AboveGroundAltitude '43/0' has a zero denominator"});
+  ExpectInputError([&] { ReadImageMetadata(write("yaw.jpg", pix4d("Camera:Yaw=\"400\""))); },
+                   {"yaw.jpg: XMP Camera:Yaw 400 out of range [-360, 360]"});
+  ExpectInputError([&] { ReadImageMetadata(write("frac.jpg", pix4d("Camera:Pitch=\"1/x\""))); },
+                   {"frac.jpg: XMP Camera:Pitch '1/x' is not a number"});
+}
+
 TEST(ImageMetadata, BadValuesAndBadFilesNameTheFile) {
   io_test::TempDir dir("aerovo_exif_bad");
   const auto img = io_test::TextureImage(32, 32, 2);

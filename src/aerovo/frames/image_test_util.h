@@ -4,8 +4,11 @@
 #pragma once
 
 #include <filesystem>
+#include <fstream>
 #include <map>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -42,6 +45,26 @@ inline void WriteJpegWithTags(const std::filesystem::path& path, const cv::Mat& 
     img->setXmpData(xmp);
   }
   img->writeMetadata();
+}
+
+/// Writes `image` as a JPEG at `path` with `xmp_packet` as its XMP, byte for byte: an APP1
+/// segment "http://ns.adobe.com/xap/1.0/\0" + packet (XMP specification part 3, 1.1.3) right
+/// after the start-of-image marker. The packet must fit one segment (65502 bytes).
+inline void WriteJpegWithXmpPacket(const std::filesystem::path& path, const cv::Mat& image,
+                                   const std::string& xmp_packet) {
+  std::vector<unsigned char> jpeg;
+  cv::imencode(".jpg", image, jpeg);
+  const std::string header("http://ns.adobe.com/xap/1.0/\0", 29);
+  const std::size_t length = 2 + header.size() + xmp_packet.size();
+  if (length > 0xFFFF) throw std::length_error("XMP packet too long for one APP1 segment");
+  std::string app1 = {'\xFF', '\xE1', static_cast<char>(length >> 8),
+                      static_cast<char>(length & 0xFF)};
+  app1 += header + xmp_packet;
+  std::ofstream out(path, std::ios::binary);
+  out.write(reinterpret_cast<const char*>(jpeg.data()), 2);  // SOI
+  out << app1;
+  out.write(reinterpret_cast<const char*>(jpeg.data()) + 2,
+            static_cast<std::streamsize>(jpeg.size() - 2));
 }
 
 }  // namespace aerovo::io_test
