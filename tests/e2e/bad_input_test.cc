@@ -625,6 +625,39 @@ TEST(BadInput, DamagedTelemetryWithLenientTelemetryIsSkippedAndReported) {
   }
 }
 
+// Latitude and longitude swapped in the telemetry, both still in range (49.84 N 24.03 E read as
+// 24.03 N 49.84 E): no alignment can fit the track to that GPS, and the figures alone would not
+// say why. An L-shaped flight (a straight one is its own mirror image): the run completes and
+// says the track matches GPS only as its mirror image; the right file says nothing of it.
+TEST(BadInput, SwappedLatitudeAndLongitudeAreSaid) {
+  std::vector<Pose> poses = Leg(10);
+  for (int i = 1; i <= 10; ++i) poses.push_back({poses[9].x_m, 60.0 + 2.0 * i, 0.0});
+  for (const bool swap : {false, true}) {
+    SCOPED_TRACE(swap ? "swapped" : "as written");
+    const fs::path dir = TempDir(swap ? "swapped_latlon" : "latlon");
+    std::vector<GeoPoint> fixes = GeoOf(poses);
+    if (swap) {
+      for (GeoPoint& g : fixes) std::swap(g.lat_deg, g.lon_deg);
+    }
+    WriteFolder(dir / "photos", RenderAll(poses));
+    std::ofstream(dir / "flight.srt") << MakeSrt(fixes);
+    RunConfig c = Config(dir / "photos", dir / "run");
+    c.telemetry = (dir / "flight.srt").string();
+    const RunSummary s = RunFlight(c);
+    EXPECT_EQ(s.frames_processed, 20);
+    ASSERT_TRUE(s.evaluation.has_value());
+    EXPECT_EQ(HasWarning(s, "matches the GPS track only as its mirror image"), swap)
+        << fmt::format("{}", fmt::join(s.warnings, "\n"));
+    if (swap) {
+      EXPECT_TRUE(HasWarning(s, "latitude and longitude swapped in the telemetry"));
+      EXPECT_GT(s.evaluation->sim2.ate_m.rmse, 3.0);
+    } else {
+      EXPECT_LT(s.evaluation->sim2.ate_m.rmse, 0.3);
+    }
+    fs::remove_all(dir);
+  }
+}
+
 TEST(BadInput, ZeroByteTelemetryIsAnErrorNamingIt) {
   const fs::path dir = TempDir("zero_srt");
   const RunConfig c = TelemetryCase(dir, "empty.srt", "");

@@ -290,4 +290,36 @@ AssociatedTrajectories AssociateByTime(const std::vector<TrajectoryPoint2D>& est
   return out;
 }
 
+std::optional<MirrorCheck> CheckMirrored(const std::vector<TrajectoryPoint2D>& estimate,
+                                         const std::vector<TrajectoryPoint2D>& reference) {
+  CheckPairs(estimate, reference, "CheckMirrored");
+  std::vector<TrajectoryPoint2D> reflected = estimate;
+  for (TrajectoryPoint2D& p : reflected) p.y = -p.y;
+  MirrorCheck c;
+  try {
+    c.rmse_m = AlignUmeyama2D(estimate, reference, AlignmentModel::kSim2).rmse_m;
+    c.mirrored_rmse_m = AlignUmeyama2D(reflected, reference, AlignmentModel::kSim2).rmse_m;
+  } catch (const InvalidArgument&) {
+    return std::nullopt;
+  }
+  Eigen::Vector2d mu = Eigen::Vector2d::Zero();
+  for (const TrajectoryPoint2D& r : reference) mu += Xy(r);
+  mu /= static_cast<double>(reference.size());
+  Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+  for (const TrajectoryPoint2D& r : reference) {
+    const Eigen::Vector2d d = Xy(r) - mu;
+    cov += d * d.transpose();
+  }
+  cov /= static_cast<double>(reference.size());
+  c.spread_m = std::sqrt(cov.trace());
+  // Eigenvalues of the symmetric 2x2 covariance, in closed form.
+  const double half_trace = 0.5 * cov.trace();
+  const double disc = std::sqrt(std::max(
+      0.0, 0.25 * (cov(0, 0) - cov(1, 1)) * (cov(0, 0) - cov(1, 1)) + cov(0, 1) * cov(0, 1)));
+  const double major = half_trace + disc, minor = std::max(0.0, half_trace - disc);
+  c.aspect = major > 0.0 ? std::sqrt(minor / major) : 0.0;
+  c.mirrored = c.mirrored_rmse_m < 0.5 * c.rmse_m && c.rmse_m > 0.1 * c.spread_m && c.aspect >= 0.2;
+  return c;
+}
+
 }  // namespace aerovo

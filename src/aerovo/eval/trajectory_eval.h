@@ -6,6 +6,7 @@
 // are expected in the same local metric frame (ENU east = x, north = y, see geo/local_enu.h).
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -182,5 +183,27 @@ AssociatedTrajectories AssociateByTime(const std::vector<TrajectoryPoint2D>& est
 
 /// Path length of a trajectory (sum of consecutive point distances), metres.
 double PathLength(const std::vector<TrajectoryPoint2D>& trajectory);
+
+/// Whether an estimate fits its reference as a mirror image: a Sim(2) alignment can rotate and
+/// scale but never reflect, so an estimate mirrored against its reference (latitude and
+/// longitude swapped in the telemetry, a mirrored camera image) leaves errors of the order of
+/// the track itself, which the same alignment of the reflected estimate (x, -y) removes.
+struct MirrorCheck {
+  double rmse_m = 0.0;           ///< Sim(2) alignment RMSE of the estimate as given, metres.
+  double mirrored_rmse_m = 0.0;  ///< The same for the reflected estimate, metres.
+  /// RMS distance of the reference points from their centroid, metres: the track's size.
+  double spread_m = 0.0;
+  /// Square root of the ratio of the reference's smaller to larger principal variance: 0 for a
+  /// straight line (which its reflection fits as well), 1 for a round or square track.
+  double aspect = 0.0;
+  /// mirrored_rmse_m < rmse_m / 2, rmse_m > spread_m / 10 (the track is wrong by a tenth of its
+  /// size), and aspect >= 0.2 (a track wide enough for its reflection to differ).
+  bool mirrored = false;
+};
+
+/// MirrorCheck of estimate/reference pairs (as AlignUmeyama2D); nullopt when either alignment
+/// is undefined (degenerate point sets).
+std::optional<MirrorCheck> CheckMirrored(const std::vector<TrajectoryPoint2D>& estimate,
+                                         const std::vector<TrajectoryPoint2D>& reference);
 
 }  // namespace aerovo

@@ -314,5 +314,55 @@ TEST(AssociateByTime, BadInputThrows) {
   EXPECT_EQ(AssociateByTime({{1, 0, 0}}, {}).num_unmatched, 1);
 }
 
+// A lawnmower (4 legs of 200 m, 60 m apart) as GPS, and estimates of it: the same track with
+// 0.5 m of noise, its mirror image, the track with x and y swapped and one axis scaled by 0.7
+// (latitude and longitude swapped at 45 degrees north: a degree of longitude is cos(45 deg) of
+// a degree of latitude), and a straight line mirrored.
+TEST(CheckMirrored, TellsAMirroredTrackFromANoisyOne) {
+  std::vector<TrajectoryPoint2D> gps, noisy, mirrored, swapped;
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.5);
+  for (int leg = 0; leg < 4; ++leg) {
+    for (int k = 0; k <= 40; ++k) {
+      const double along = leg % 2 == 0 ? 5.0 * k : 200.0 - 5.0 * k;
+      const TrajectoryPoint2D p{leg * 41.0 + k, along, 60.0 * leg};
+      gps.push_back(p);
+      noisy.push_back({p.t, p.x + noise(rng), p.y + noise(rng)});
+      // Rotated by 30 degrees and mirrored: what no Sim(2) alignment undoes.
+      const double c = std::cos(0.5236), sn = std::sin(0.5236);
+      mirrored.push_back({p.t, c * p.x + sn * p.y, sn * p.x - c * p.y});
+      swapped.push_back({p.t, 0.7 * p.y, p.x});
+    }
+  }
+  const auto good = CheckMirrored(noisy, gps);
+  ASSERT_TRUE(good);
+  EXPECT_FALSE(good->mirrored);
+  EXPECT_NEAR(good->rmse_m, 0.7, 0.15);  // 0.5 m per axis
+  EXPECT_GT(good->aspect, 0.2);
+
+  const auto m = CheckMirrored(mirrored, gps);
+  ASSERT_TRUE(m);
+  EXPECT_TRUE(m->mirrored);
+  EXPECT_LT(m->mirrored_rmse_m, 1e-6);
+  EXPECT_GT(m->rmse_m, 0.1 * m->spread_m);
+
+  const auto sw = CheckMirrored(swapped, gps);
+  ASSERT_TRUE(sw);
+  EXPECT_TRUE(sw->mirrored);
+  EXPECT_LT(sw->mirrored_rmse_m, 0.5 * sw->rmse_m);
+
+  // A straight line is its own mirror image: never flagged.
+  std::vector<TrajectoryPoint2D> line, line_mirrored;
+  for (int k = 0; k < 50; ++k) {
+    line.push_back({double(k), 4.0 * k, 1.0 * k});
+    line_mirrored.push_back({double(k), 4.0 * k, -1.0 * k});
+  }
+  const auto l = CheckMirrored(line_mirrored, line);
+  ASSERT_TRUE(l);
+  EXPECT_FALSE(l->mirrored);
+  EXPECT_LT(l->aspect, 0.01);
+  EXPECT_FALSE(CheckMirrored({{0, 1, 1}, {1, 1, 1}}, {{0, 0, 0}, {1, 1, 1}}));
+}
+
 }  // namespace
 }  // namespace aerovo::trajectory_eval_test

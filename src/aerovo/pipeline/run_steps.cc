@@ -822,6 +822,14 @@ void CompareWithGps(const GeoReferencer& georef, RunTotals& totals, RunSummary* 
     }
     return;
   }
+  // A track mirrored against GPS: no alignment fixes it, and the figures alone do not say why.
+  if (const std::optional<MirrorCheck> m = CheckMirrored(local, gps); m && m->mirrored) {
+    summary->warnings.push_back(fmt::format(
+        "the visual track matches the GPS track only as its mirror image (Sim(2) ATE {:.1f} m; "
+        "{:.1f} m mirrored, over a track {:.0f} m across): latitude and longitude swapped in "
+        "the telemetry, or a mirrored camera image?",
+        m->rmse_m, m->mirrored_rmse_m, 2.0 * m->spread_m));
+  }
 }
 
 // GPS denial (RunConfig::gps_denied_after_s): the geo-referenced track against the withheld
