@@ -36,6 +36,21 @@ double TiltFromNadirDeg(const CameraAttitude& a) {
   return std::acos(std::clamp(axis.z(), -1.0, 1.0)) / kDegToRad;
 }
 
+double LowestCornerDepressionDeg(const CameraAttitude& a, double focal_px, double cx_px,
+                                 double cy_px, int width_px, int height_px) {
+  const Eigen::Matrix3d level_from_frd = LevelFromCameraFrd(a);
+  double lowest = 90.0;
+  for (const double u : {0.0, static_cast<double>(width_px) - 1.0}) {
+    for (const double v : {0.0, static_cast<double>(height_px) - 1.0}) {
+      // Camera (x right, y down, z axis) to camera FRD (x up in the image, y right, z axis).
+      const Eigen::Vector3d frd(-(v - cy_px), u - cx_px, focal_px);
+      const Eigen::Vector3d level = level_from_frd * frd.normalized();
+      lowest = std::min(lowest, std::asin(std::clamp(level.z(), -1.0, 1.0)) / kDegToRad);
+    }
+  }
+  return lowest;
+}
+
 Eigen::Matrix3d NadirFromCameraHomography(const CameraAttitude& a, double f, double cx,
                                           double cy) {
   Eigen::Matrix3d k;

@@ -42,6 +42,15 @@ CameraAttitude AttitudeOfRotation(const Eigen::Matrix3d& level_from_camera_frd);
 /// Angle between the optical axis and the vertical, degrees.
 double TiltFromNadirDeg(const CameraAttitude& attitude);
 
+/// The smallest depression (angle below the horizon, degrees) of the rays through the four
+/// corners of a `width_px` x `height_px` frame (pixel centres at the edges, focal length
+/// `focal_px`, principal point (`cx_px`, `cy_px`)) of a camera at `attitude`: negative when a
+/// corner looks above the horizon. A nadir view of the frame exists only where every ray meets
+/// the ground (depression > 0); NadirFromCameraHomography sends rays near the horizon towards
+/// infinity. 90 - the half diagonal field of view for a nadir camera. Precondition: focal_px > 0.
+double LowestCornerDepressionDeg(const CameraAttitude& attitude, double focal_px, double cx_px,
+                                 double cy_px, int width_px, int height_px);
+
 /// Homography nadir_from_camera on pixels: a pixel of the tilted camera to the pixel of the same
 /// ray in the virtual nadir camera with the same centre, focal length `focal_px` and principal
 /// point (`cx_px`, `cy_px`) (K P^T R P K^-1, P the camera-to-FRD axis swap, R =

@@ -90,5 +90,23 @@ TEST(Attitude, RotationRoundTripAndTilt) {
   EXPECT_TRUE(NadirFromCameraHomography({}, kF, kCx, kCy).isApprox(Eigen::Matrix3d::Identity()));
 }
 
+// A 4:3 frame, 1000 px focal length: corners at atan(sqrt(2000^2 + 1500^2) / 2 / 1000) =
+// 51.34 deg from the axis (frame 2000 x 1500 px, principal point at its centre).
+TEST(Attitude, LowestCornerDepressionAndTheHorizon) {
+  const double f = 1000.0, cx = 999.5, cy = 749.5;
+  const double half_fov = std::atan(std::hypot(999.5, 749.5) / f) / kDegToRad;
+  EXPECT_NEAR(LowestCornerDepressionDeg({}, f, cx, cy, 2000, 1500), 90.0 - half_fov, 1e-9);
+  // Pitched 30 deg forward: the top corners are 30 deg nearer the horizon than at nadir, less
+  // than the full 30 (they are off the pitch plane).
+  const double pitched = LowestCornerDepressionDeg({0.0, 30.0}, f, cx, cy, 2000, 1500);
+  EXPECT_LT(pitched, 90.0 - half_fov);
+  EXPECT_GT(pitched, 90.0 - half_fov - 30.0);
+  // A camera at the horizon (DJI gimbal pitch 0) has corners above it; rolled 60 deg too.
+  EXPECT_LT(LowestCornerDepressionDeg({0.0, 90.0}, f, cx, cy, 2000, 1500), 0.0);
+  EXPECT_LT(LowestCornerDepressionDeg({60.0, 0.0}, f, cx, cy, 2000, 1500), 0.0);
+  // Only the corners decide: a pitch just below the top edge's limit keeps them all below it.
+  EXPECT_GT(LowestCornerDepressionDeg({0.0, 20.0}, f, cx, cy, 2000, 1500), 0.0);
+}
+
 }  // namespace
 }  // namespace aerovo::attitude_test

@@ -239,6 +239,10 @@ struct FrameAttitude {
   std::optional<CameraAttitude> camera;
   /// The attitude the sources give, used or not (for the warning of attitude_warn_deg).
   std::optional<CameraAttitude> reported;
+  /// The reported attitude would put a frame corner within kMinCornerDepressionDeg of the
+  /// horizon or above it (odometry/attitude.h LowestCornerDepressionDeg): no nadir view can be
+  /// made of the frame, so `camera` is left unset (the attitude stage).
+  bool beyond_nadir_view = false;
   /// kGimbal (the telemetry's gimbal angles), kMavlink (the autopilot's ATTITUDE, camera fixed
   /// to the airframe), kFlight (the telemetry's aircraft angles, camera fixed), kMount (the mount
   /// pitch, the aircraft taken as level), kEstimated (the flight's own estimate), kNone.
