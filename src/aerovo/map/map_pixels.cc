@@ -128,7 +128,7 @@ bool ReadGreyBlock(GDALDataset& ds, const std::filesystem::path& path,
   const double y1d = std::min(std::floor(level_h / kd), std::ceil(r1 / fy / kd) + 1);
   if (!(x1d - x0d >= 1) || !(y1d - y0d >= 1)) return false;
   // The read's cost is the pixels GDAL averages, k^2 per sample: bounded, so that a huge map
-  // much finer than the window and without overviews (200000 x 200000 px, a few KB on disk when
+  // much finer than the window and without overviews (200000 x 200000 px, 7 MB on disk when
   // sparse) is an error naming it, not minutes per window.
   const double pixels = (x1d - x0d) * (y1d - y0d) * kd * kd;
   if (pixels > kMaxMapPixelsPerRead) {
