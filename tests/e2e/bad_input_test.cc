@@ -219,6 +219,20 @@ TEST(BadInput, FolderWithMixedResolutionsIsAnErrorNamingTheOddPhoto) {
   fs::remove_all(dir);
 }
 
+TEST(BadInput, FramesSmallerThanSurfsSmallestFilterAreAnErrorNamingTheFirst) {
+  // 6x6 photos (and a 2x2 video, the same check on the first frame of any source): before,
+  // SURF's own "Surf: the image is 2x2, smaller than the smallest SURF filter", naming no file.
+  const fs::path dir = TempDir("tiny");
+  std::vector<cv::Mat> frames = RenderAll(Leg(3));
+  for (cv::Mat& f : frames) cv::resize(f, f, cv::Size(6, 6), 0, 0, cv::INTER_AREA);
+  WriteFolder(dir / "photos", frames);
+  ExpectInputError(Config(dir / "photos", dir / "run"),
+                   {"frame_0000.png",
+                    "the frames are 6x6 px: smaller than SURF's smallest filter "
+                    "(9x9 px)"});
+  fs::remove_all(dir);
+}
+
 // ------------------------------------------------------------------------------ frames
 
 TEST(BadInput, AllBlackFramesAreFlaggedAndTheTrackDoesNotMove) {

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
+#include "aerovo/camera/lens.h"
 #include "aerovo/core/error.h"
 #include "aerovo/outputs/output_file.h"
 
@@ -35,13 +36,88 @@ std::string ReadText(const std::string& path) {
   return ss.str();
 }
 
-// Validates the result and names the file when it is not a camera.
+// The largest image side a calibration may give, px: ours, far beyond any camera's, small
+// enough for an int (a side of 99999999999 would wrap around).
+constexpr double kMaxImageSidePx = 1e6;
+
+// `v` (a file's image width or height) as a whole number of pixels; InputError naming the file,
+// `where` and `what` when it is not a number in 1 .. kMaxImageSidePx.
+int PixelCount(const std::string& path, const std::string& where, const char* what, double v) {
+  if (!(v >= 1.0 && v <= kMaxImageSidePx)) {
+    throw InputError(
+        fmt::format("calibration '{}'{}: {} {:.15g} is not an image size in pixels (1 .. "
+                    "{:.0f})",
+                    path, where, what, v, kMaxImageSidePx));
+  }
+  return static_cast<int>(std::lround(v));
+}
+
+// Whether the pinhole lens `lens` has no ray for distorted pixel (u, v) that it reaches without
+// turning back: the undistorted point (LensUndistortion::UndistortPixel) must exist, and the
+// distorted image of the segment from the principal ray to it must move away from the
+// principal point towards (u, v) all the way (64 steps). Newton's method can land on a mirrored
+// solution beyond the fold (r_d(r) = r (1 + k1 r^2) with k1 < 0 reaches r_d again past its
+// peak, upside down), which the first test alone accepts.
+bool TurnsBackBefore(const LensUndistortion& lens, double u, double v) {
+  const CameraIntrinsics& out = lens.output();
+  double u0 = 0.0, v0 = 0.0, uo = 0.0, vo = 0.0;
+  if (!lens.DistortPixel(out.cx_px, out.cy_px, &u0, &v0)) return true;
+  const double du = u - u0, dv = v - v0;
+  if (du * du + dv * dv < 1.0) return false;  // the principal point itself
+  if (!lens.UndistortPixel(u, v, &uo, &vo)) return true;
+  constexpr int kSteps = 64;
+  double previous = 0.0;
+  for (int i = 1; i <= kSteps; ++i) {
+    const double t = static_cast<double>(i) / kSteps;
+    double a = 0.0, b = 0.0;
+    if (!lens.DistortPixel(out.cx_px + t * (uo - out.cx_px), out.cy_px + t * (vo - out.cy_px), &a,
+                           &b)) {
+      return true;
+    }
+    const double along = (a - u0) * du + (b - v0) * dv;
+    if (!(along > previous)) return true;
+    previous = along;
+  }
+  return false;
+}
+
+// A pinhole lens model whose distortion turns back before the edge of its image (r_d(r) not
+// increasing up to the corners: a calibration fitted without points near the edges, or a typo
+// in k1..k3) has no ray for the pixels beyond the turn and folds the image inside it:
+// InputError naming the file and the first such pixel of a 33 x 33 grid over the image
+// (TurnsBackBefore). A fisheye is not checked: UndistortPixel fails for rays at or beyond 90
+// degrees too, which a lens of more than 180 degrees has.
+void CheckMonotonic(const std::string& path, const std::string& where, const CameraIntrinsics& k) {
+  if (k.model != LensModel::kPinhole || !k.HasDistortion()) return;
+  const LensUndistortion lens(k);
+  constexpr int kGrid = 33;
+  for (int iy = 0; iy < kGrid; ++iy) {
+    for (int ix = 0; ix < kGrid; ++ix) {
+      const double u = (k.width_px - 1) * static_cast<double>(ix) / (kGrid - 1);
+      const double v = (k.height_px - 1) * static_cast<double>(iy) / (kGrid - 1);
+      if (!TurnsBackBefore(lens, u, v)) continue;
+      std::string coefficients;
+      for (double d : k.distortion) {
+        coefficients += fmt::format("{}{:g}", coefficients.empty() ? "" : " ", d);
+      }
+      throw InputError(fmt::format(
+          "calibration '{}'{}: the distortion ({}) has no ray for pixel ({:.0f}, {:.0f}) of its "
+          "{}x{} image: the model turns back before the image's edge (a fit without points "
+          "near the edges?), so it does not describe this lens there",
+          path, where, coefficients, u, v, k.width_px, k.height_px));
+    }
+  }
+}
+
+// Validates the result and names the file when it is not a camera (or its lens model folds its
+// image, CheckMonotonic).
 CameraIntrinsics Checked(const std::string& path, const std::string& where, CameraIntrinsics k) {
   try {
     Validate(k);
   } catch (const InvalidArgument& e) {
     throw InputError(fmt::format("calibration '{}'{}: {}", path, where, e.what()));
   }
+  CheckMonotonic(path, where, k);
   return k;
 }
 
@@ -70,13 +146,13 @@ struct OpenCvKeys {
     if (n.empty()) throw InputError(fmt::format("calibration '{}': no key '{}'", path, key));
     return n;
   }
-  // The number of `key` rounded to an int; InputError when missing or not a number.
-  int NeedInt(const char* key) const {
+  // The number of `key`; InputError when missing or not a number.
+  double NeedNumber(const char* key) const {
     const cv::FileNode n = Need(key);
     if (!n.isInt() && !n.isReal()) {
       throw InputError(fmt::format("calibration '{}': key '{}' is not a number", path, key));
     }
-    return static_cast<int>(std::lround(static_cast<double>(n)));
+    return static_cast<double>(n);
   }
   // The matrix of `key` as CV_64F; InputError when missing, not a matrix or empty.
   cv::Mat NeedMat(const char* key) const {
@@ -175,13 +251,18 @@ Calibration ReadOpenCv(const std::string& path) {
   Calibration c;
   c.format = CalibrationFormat::kOpenCv;
   CameraIntrinsics& k = c.intrinsics;
-  k.width_px = keys.NeedInt("image_width");
-  k.height_px = keys.NeedInt("image_height");
+  k.width_px = PixelCount(path, "", "key 'image_width'", keys.NeedNumber("image_width"));
+  k.height_px = PixelCount(path, "", "key 'image_height'", keys.NeedNumber("image_height"));
   ReadOpenCvCameraMatrix(keys, k);
   k.distortion = ReadOpenCvDistortion(keys);
   const bool fisheye = OpenCvIsFisheye(keys);
   if (fisheye) k.model = LensModel::kFisheye;
   NormaliseOpenCvDistortion(fisheye, k.distortion);
+  // The size and camera_matrix first, so that an error names the key at fault.
+  CameraIntrinsics geometry = k;
+  geometry.model = LensModel::kPinhole;
+  geometry.distortion.clear();
+  Checked(path, " (key 'camera_matrix')", geometry);
   c.intrinsics = Checked(path, " (key 'distortion_coefficients')", k);
   return c;
 }
@@ -322,8 +403,9 @@ Calibration ReadOdm(const std::string& path) {
   c.format = CalibrationFormat::kOdmJson;
   c.camera_id = id;
   CameraIntrinsics& k = c.intrinsics;
-  k.width_px = static_cast<int>(std::lround(odm.Num("width")));
-  k.height_px = static_cast<int>(std::lround(odm.Num("height")));
+  const std::string where = fmt::format(" camera '{}'", id);
+  k.width_px = PixelCount(path, where, "key 'width'", odm.Num("width"));
+  k.height_px = PixelCount(path, where, "key 'height'", odm.Num("height"));
   const double size = std::max(k.width_px, k.height_px);
   double fx = 0, fy = 0, cx = 0, cy = 0;
   const bool single_focal = type == "perspective" || type == "fisheye";
@@ -340,7 +422,7 @@ Calibration ReadOdm(const std::string& path) {
   k.cx_px = cx * size + 0.5 * (k.width_px - 1);
   k.cy_px = cy * size + 0.5 * (k.height_px - 1);
   ReadOdmDistortion(odm, type, k);
-  c.intrinsics = Checked(path, fmt::format(" camera '{}'", id), k);
+  c.intrinsics = Checked(path, where, k);
   return c;
 }
 
@@ -446,15 +528,17 @@ void CheckColmapModel(const std::string& path, int line_no, const ColmapLine& l)
   }
 }
 
-// The intrinsics of a checked camera line (not yet validated): size rounded to pixels, the
+// The intrinsics of a checked camera line (not yet validated; InputError naming the file and line
+// for a size that is not pixels): size rounded to pixels, the
 // principal point moved from COLMAP's half-integer pixel centres to ours, the coefficients in
 // OpenCV's order.
-CameraIntrinsics ColmapIntrinsics(const ColmapLine& l) {
+CameraIntrinsics ColmapIntrinsics(const std::string& path, int line_no, const ColmapLine& l) {
   const std::string& model = l.model;
   const std::vector<double>& p = l.params;
   CameraIntrinsics k;
-  k.width_px = static_cast<int>(std::lround(l.width));
-  k.height_px = static_cast<int>(std::lround(l.height));
+  const std::string where = fmt::format(" line {}", line_no);
+  k.width_px = PixelCount(path, where, "WIDTH", l.width);
+  k.height_px = PixelCount(path, where, "HEIGHT", l.height);
   const bool one_focal = p.size() == 3 || model == "SIMPLE_RADIAL" || model == "RADIAL" ||
                          model == "SIMPLE_RADIAL_FISHEYE" || model == "RADIAL_FISHEYE";
   std::size_t i = 0;
@@ -510,7 +594,8 @@ Calibration ReadColmap(const std::string& path) {
     const ColmapLine l = ParseColmapLine(path, line_no, line);
     CheckColmapModel(path, line_no, l);
     c.camera_id = l.id;
-    c.intrinsics = Checked(path, fmt::format(" line {}", line_no), ColmapIntrinsics(l));
+    c.intrinsics =
+        Checked(path, fmt::format(" line {}", line_no), ColmapIntrinsics(path, line_no, l));
   }
   if (cameras == 0) {
     throw InputError(fmt::format("calibration '{}': no camera line (CAMERA_ID MODEL WIDTH HEIGHT "

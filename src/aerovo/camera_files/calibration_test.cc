@@ -199,5 +199,65 @@ TEST(Calibration, ErrorsNameTheFileAndTheLineOrKey) {
   EXPECT_THAT(ErrorOf(dir / "notjson.json"), HasSubstr("not valid JSON"));
 }
 
+// An OpenCV calibrateCamera YAML file of a 320x240 camera (the layout of OpenCV's
+// cv::FileStorage: "%YAML:1.0", !!opencv-matrix with rows, cols, dt, data).
+std::string OpenCvYaml(const std::string& size, const std::string& focal,
+                       const std::string& distortion) {
+  return "%YAML:1.0\n---\n" + size +
+         "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ " + focal +
+         ", 0., 160., 0., " + focal +
+         ", 120., 0., 0., 1. ]\ndistortion_coefficients: !!opencv-matrix\n   rows: 1\n   cols: "
+         "5\n   dt: d\n   data: [ " +
+         distortion + " ]\n";
+}
+
+TEST(Calibration, HostileValuesAreErrorsNamingTheKeyAtFault) {
+  TempDir dir("aerovo_calib_hostile");
+  const std::string size = "image_width: 320\nimage_height: 240\n";
+  // A focal length that is not a number, zero or negative: camera_matrix, not (as before) the
+  // distortion_coefficients, is named.
+  for (const char* focal : {".nan", "0.", "-300."}) {
+    WriteText(dir / "focal.yaml", OpenCvYaml(size, focal, "0., 0., 0., 0., 0."));
+    EXPECT_THAT(ErrorOf(dir / "focal.yaml"),
+                HasSubstr("focal.yaml' (key 'camera_matrix'): CameraIntrinsics focal"))
+        << focal;
+  }
+  WriteText(dir / "size0.yaml",
+            OpenCvYaml("image_width: 0\nimage_height: 240\n", "300.", "0., 0., 0., 0., 0."));
+  EXPECT_THAT(ErrorOf(dir / "size0.yaml"),
+              HasSubstr("size0.yaml': key 'image_width' 0 is not an image size in pixels (1 .. "
+                        "1000000)"));
+  // Sizes beyond an int: before, 99999999999 wrapped around to 1215752191.
+  WriteText(dir / "wide.txt", "1 PINHOLE 99999999999 240 300 300 160 120\n");
+  EXPECT_THAT(ErrorOf(dir / "wide.txt"),
+              HasSubstr("wide.txt' line 1: WIDTH 99999999999 is not an image size in pixels"));
+  WriteText(dir / "tall.json",
+            R"({"cam": {"projection_type": "perspective", "width": 320, "height": -240, )"
+            R"("focal": 0.9}})");
+  EXPECT_THAT(ErrorOf(dir / "tall.json"),
+              HasSubstr("tall.json' camera 'cam': key 'height' -240 is not an image size"));
+}
+
+TEST(Calibration, ADistortionThatTurnsBackInsideTheImageIsAnError) {
+  TempDir dir("aerovo_calib_fold");
+  const std::string size = "image_width: 320\nimage_height: 240\n";
+  // k1 = -3 at f = 300 px: r_d = r (1 - 3 r^2) peaks at r_d = 0.222 (r = 1/3), the corner of the
+  // image is at r_d = 200 / 300 = 0.667: no ray reaches it. Before: a completed run, frames
+  // folded by the undistortion.
+  WriteText(dir / "k1.yaml", OpenCvYaml(size, "300.", "-3., 0., 0., 0., 0."));
+  EXPECT_THAT(ErrorOf(dir / "k1.yaml"),
+              HasSubstr("k1.yaml' (key 'distortion_coefficients'): the distortion (-3 0 0 0 0) has "
+                        "no ray for pixel (0, 0) of its 320x240 image"));
+  // k1 = 0.5, k2 = -2: r_d peaks at 0.555 (r = 0.63), below the corner's 0.667.
+  WriteText(dir / "k2.yaml", OpenCvYaml(size, "300.", "0.5, -2., 0., 0., 0."));
+  EXPECT_THAT(ErrorOf(dir / "k2.yaml"), HasSubstr("the model turns back before the image's edge"));
+  WriteText(dir / "k1.txt", "# c\n1 SIMPLE_RADIAL 320 240 300 160 120 -5\n");
+  EXPECT_THAT(ErrorOf(dir / "k1.txt"), HasSubstr("k1.txt' line 2: the distortion (-5 0 0 0)"));
+  // A strong barrel lens that stays monotonic over its image is read: k1 = -0.3, r_d peaks at
+  // 0.703 (r = 1.054), beyond the corner's 0.667.
+  WriteText(dir / "barrel.yaml", OpenCvYaml(size, "300.", "-0.3, 0., 0., 0., 0."));
+  EXPECT_NEAR(ReadCalibration((dir / "barrel.yaml").string()).intrinsics.distortion[0], -0.3, 0);
+}
+
 }  // namespace
 }  // namespace aerovo::calibration_test

@@ -141,15 +141,38 @@ void PlaceOnEarth(const OGRSpatialReference& crs, MapInfo* info) {
     throw InputError("'" + info->path.string() + "': no point of the map's edges has a WGS84 "
                      "position in its CRS (" + info->crs_name + ")");
   }
+  // A geographic CRS is not checked by the transform (WGS84 to itself): a geotransform in the
+  // wrong units (metres in a degree CRS) puts the map beyond the poles.
+  if (g.min_y < -90.0 || g.max_y > 90.0) {
+    throw InputError(fmt::format(
+        "'{}': its geotransform puts the map at latitude {:.6g} .. {:.6g} deg, outside -90 .. 90 "
+        "(an origin or pixel size in other units than its CRS's, {})",
+        info->path.string(), g.min_y, g.max_y, info->crs_name));
+  }
   // One pixel's geodesic length at the centre (through WGS84 lon, lat in degrees).
   double x = 0.5 * (e.min_x + e.max_x), y = 0.5 * (e.min_y + e.max_y);
-  std::unique_ptr<OGRCoordinateTransformation> t(OGRCreateCoordinateTransformation(&crs, &wgs84));
   double x1 = x + gt[1], y1 = y + gt[4], x2 = x + gt[2], y2 = y + gt[5];
-  t->Transform(1, &x, &y);
-  t->Transform(1, &x1, &y1);
-  t->Transform(1, &x2, &y2);
-  const double geo_x = GeodesicDistance({y, x, 0.0}, {y1, x1, 0.0});
-  const double geo_y = GeodesicDistance({y, x, 0.0}, {y2, x2, 0.0});
+  int ok_c[3] = {0, 0, 0};
+  to_lonlat->Transform(1, &x, &y, nullptr, &ok_c[0]);
+  to_lonlat->Transform(1, &x1, &y1, nullptr, &ok_c[1]);
+  to_lonlat->Transform(1, &x2, &y2, nullptr, &ok_c[2]);
+  double geo_x = 0.0, geo_y = 0.0;
+  try {
+    if (!ok_c[0] || !ok_c[1] || !ok_c[2]) throw InvalidArgument("no WGS84 position");
+    geo_x = GeodesicDistance({y, x, 0.0}, {y1, x1, 0.0});
+    geo_y = GeodesicDistance({y, x, 0.0}, {y2, x2, 0.0});
+  } catch (const InvalidArgument& err) {
+    throw InputError(
+        fmt::format("'{}': the pixel at the map's centre has no size on the earth "
+                    "in its CRS ({}): {}",
+                    info->path.string(), info->crs_name, err.what()));
+  }
+  if (!(geo_x > 0.0) || !(geo_y > 0.0) || !std::isfinite(geo_x) || !std::isfinite(geo_y)) {
+    throw InputError(
+        fmt::format("'{}': the pixel at the map's centre is {:.3g} x {:.3g} m on the "
+                    "earth: not a map's pixel",
+                    info->path.string(), geo_x, geo_y));
+  }
   info->m_per_px_x = geo_x;
   info->m_per_px_y = geo_y;
   if (info->crs_geographic) return;

@@ -198,5 +198,27 @@ TEST(MapInfo, BadMapsAreErrorsNamingTheFile) {
   ExpectError(Dir(), "a folder, not a map file");
 }
 
+TEST(MapInfo, AGeotransformOffTheEarthIsAnErrorNamingTheFile) {
+  // UTM metres written into a WGS84 (degree) map: 0.5 "degree" pixels from latitude 3102000.
+  const fs::path metres = Dir() / "metres_in_degrees.tif";
+  WriteTiff(metres, 64, 64, 4326, kUtmGt);
+  ExpectError(metres, "outside -90 .. 90");
+  // Pixels of 1e10 degrees from 49.8 N: the south edge at -6.4e11 deg. Before: GeodesicInverse's
+  // own error, naming no file.
+  const fs::path huge_px = Dir() / "huge_pixels.tif";
+  const double gt[6] = {24.0, 1e10, 0.0, 49.8, 0.0, -1e10};
+  WriteTiff(huge_px, 64, 64, 4326, gt);
+  ExpectError(huge_px, "latitude -6.4e+11 .. 49.8 deg, outside -90 .. 90");
+  // South-up (positive row size) and a rotated map are maps, the same ground as north-up.
+  const double south_up[6] = {-82.70, 1e-5, 0.0, 28.047, 0.0, 1e-5};
+  const fs::path sp = Dir() / "south_up.tif";
+  WriteTiff(sp, 300, 300, 4326, south_up);
+  const MapInfo s = ReadMapInfo(sp);
+  EXPECT_NEAR(s.extent_lonlat.min_y, 28.047, 1e-9);
+  EXPECT_NEAR(s.extent_lonlat.max_y, 28.050, 1e-9);
+  EXPECT_NEAR(s.m_per_px_y, 1.1086, 0.002);
+  EXPECT_FALSE(s.rotated);
+}
+
 }  // namespace
 }  // namespace aerovo::map::map_info_test

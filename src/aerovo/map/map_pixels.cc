@@ -118,13 +118,30 @@ bool ReadGreyBlock(GDALDataset& ds, const std::filesystem::path& path,
   // same density as from overviews: k fx <= px_per_sample < 2 k fx); the map's last partial
   // block of k pixels on the right and at the bottom is left out. k = 1 with overviews.
   // (1e-6: a window's step computed as 3.9999... map pixels still reads blocks of 4.)
-  const int k =
-      std::max(1, static_cast<int>(std::floor(px_per_sample / std::max(fx, fy) * (1 + 1e-6))));
-  const int x0 = std::max(0, static_cast<int>(std::floor(c0 / fx / k)) - 1);
-  const int y0 = std::max(0, static_cast<int>(std::floor(r0 / fy / k)) - 1);
-  const int x1 = std::min(level_w / k, static_cast<int>(std::ceil(c1 / fx / k)) + 1);
-  const int y1 = std::min(level_h / k, static_cast<int>(std::ceil(r1 / fy / k)) + 1);
-  if (x1 - x0 < 1 || y1 - y0 < 1) return false;
+  // Everything is computed in doubles and bounded by the level's size before it becomes an int:
+  // a map of absurdly fine pixels (1e-9 degree) makes k and the window's corners too large for
+  // an int.
+  const double kd = std::max(1.0, std::floor(px_per_sample / std::max(fx, fy) * (1 + 1e-6)));
+  const double x0d = std::max(0.0, std::floor(c0 / fx / kd) - 1);
+  const double y0d = std::max(0.0, std::floor(r0 / fy / kd) - 1);
+  const double x1d = std::min(std::floor(level_w / kd), std::ceil(c1 / fx / kd) + 1);
+  const double y1d = std::min(std::floor(level_h / kd), std::ceil(r1 / fy / kd) + 1);
+  if (!(x1d - x0d >= 1) || !(y1d - y0d >= 1)) return false;
+  // The read's cost is the pixels GDAL averages, k^2 per sample: bounded, so that a huge map
+  // much finer than the window and without overviews (200000 x 200000 px, 7 MB on disk when
+  // sparse) is an error naming it, not minutes per window.
+  const double pixels = (x1d - x0d) * (y1d - y0d) * kd * kd;
+  if (pixels > kMaxMapPixelsPerRead) {
+    throw InputError(fmt::format(
+        "'{}': a window at {:.4g} map pixels per sample would read {:.3g} of the map's pixels "
+        "(at most {:.3g} are read per window): the map ({} x {} px) has no overview that "
+        "coarse; add overviews (gdaladdo '{}') or give a coarser map",
+        path.string(), px_per_sample, pixels, kMaxMapPixelsPerRead, ds.GetRasterXSize(),
+        ds.GetRasterYSize(), path.string()));
+  }
+  const int k = static_cast<int>(kd);
+  const int x0 = static_cast<int>(x0d), y0 = static_cast<int>(y0d);
+  const int x1 = static_cast<int>(x1d), y1 = static_cast<int>(y1d);
   const int w = x1 - x0, h = y1 - y0;
   *b = GreyBlock{w, h, x0 * k * fx, y0 * k * fy, k * fx, k * fy, {}, {}};
   ReadRawGrey(ds, path, radiometry, level, x0 * k, y0 * k, w * k, h * k, w, h, &b->grey, &b->valid,

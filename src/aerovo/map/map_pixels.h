@@ -47,11 +47,19 @@ struct GreyBlock {
   std::vector<float> grey, valid;
 };
 
+/// The most pixels (of the level read) ReadGreyBlock averages for one block: 2^28, a 16384 x
+/// 16384 px area (our choice: GDAL averages that many pixels of a tiled DEFLATE GeoTIFF into
+/// 1024 x 1024 in 1.5 s on one core of the development machine, `gdal_translate -r average
+/// -outsize 1024 1024`). A map without overviews much finer than the resolution matched exceeds
+/// it (a 1 mm map matched at 0.5 m: 500^2 pixels per sample); the docs' 4x finer map does not.
+inline constexpr double kMaxMapPixelsPerRead = 268435456.0;
+
 /// Reads the map around full-resolution pixels [c0, c1) x [r0, r1) (continuous) from the
 /// coarsest overview at least as fine as `px_per_sample` map pixels per sample (each level read
 /// pixel for pixel, on its own grid: GDAL's resampling of a window that is not aligned with an
 /// overview's pixels would shift it by up to half of one). False when the area is off the map;
-/// throws InputError naming `path` (with GDAL's message) when the pixels cannot be read. GDAL's
+/// throws InputError naming `path` (with GDAL's message) when the pixels cannot be read, and
+/// when the read would exceed kMaxMapPixelsPerRead (no overview coarse enough). GDAL's
 /// own messages are not printed. Not thread-safe per dataset (GDAL's rule).
 bool ReadGreyBlock(GDALDataset& ds, const std::filesystem::path& path,
                    const MapRadiometry& radiometry, double c0, double r0, double c1, double r1,

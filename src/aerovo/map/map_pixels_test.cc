@@ -231,6 +231,53 @@ TEST(MapPixels, AFineMapWithoutOverviewsIsReadAveragedAsAnOverviewWouldBe) {
   EXPECT_LE(l.worst, 1.0);
 }
 
+TEST(MapPixels, AHugeMapWithoutOverviewsFinerThanTheWindowIsAnErrorNotMinutesOfReading) {
+  // 100000 x 100000 px of 1 mm, tiled and sparse (no tile written: a few MB on disk, GDAL reads
+  // the missing tiles as zeros; GDAL's GTiff driver, SPARSE_OK creation option).
+  const fs::path huge = Dir() / "huge_sparse.tif";
+  GDALAllRegister();
+  {
+    const char* options[] = {"TILED=YES", "SPARSE_OK=TRUE", nullptr};
+    GDALDataset* ds = GetGDALDriverManager()->GetDriverByName("GTiff")->Create(
+        huge.c_str(), 100000, 100000, 1, GDT_Byte, const_cast<char**>(options));
+    ASSERT_NE(ds, nullptr);
+    double gt[6] = {0.0, 0.001, 0.0, 0.0, 0.0, -0.001};
+    ds->SetGeoTransform(gt);
+    OGRSpatialReference srs;
+    srs.importFromProj4("+proj=tmerc +lat_0=45 +lon_0=7 +k=1 +x_0=0 +y_0=0 +ellps=WGS84 +units=m");
+    ds->SetSpatialRef(&srs);
+    GDALClose(ds);
+  }
+  const MapInfo info = ReadMapInfo(huge);  // the probe reads 3 x 3 small windows: cheap
+  EXPECT_TRUE(info.overviews.empty());
+  GDALDataset* ds = static_cast<GDALDataset*>(GDALOpen(huge.c_str(), GA_ReadOnly));
+  ASSERT_NE(ds, nullptr);
+  GreyBlock b;
+  // A 60 m window at 0.5 m per sample, a sample of margin a side: (122 x 500)^2 = 3.72e9 map
+  // pixels averaged.
+  try {
+    ReadGreyBlock(*ds, huge, info.radiometry, 20000, 20000, 80000, 80000, 500.0, &b);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("'" + huge.string() +
+                     "': a window at 500 map pixels per sample would read "
+                     "3.72e+09 of the map's pixels"),
+              std::string::npos)
+        << m;
+    EXPECT_NE(m.find("gdaladdo"), std::string::npos) << m;
+  }
+  // A window of 4 m at 0.05 m per sample (16e6 pixels) is read, zeros.
+  ASSERT_TRUE(ReadGreyBlock(*ds, huge, info.radiometry, 50000, 50000, 54000, 54000, 50.0, &b));
+  EXPECT_EQ(b.dx, 50.0);
+  EXPECT_EQ(b.w, 4000 / 50 + 2);
+  EXPECT_EQ(b.grey[0], 0.0f);
+  // Pixel sizes that overflow an int in samples (1e9 map pixels per sample) are refused too,
+  // or off the map: never undefined behaviour.
+  EXPECT_FALSE(ReadGreyBlock(*ds, huge, info.radiometry, -1e15, -1e15, -1e14, -1e14, 1e9, &b));
+  GDALClose(ds);
+}
+
 TEST(MapPixels, APaletteMapIsReadAsItsColours) {
   const fs::path byte = WriteMap("byte_ref.tif", GDT_Byte, 1.0, 0.0);
   const fs::path pal = WriteMap("palette.tif", GDT_Byte, 1.0, 0.0, false, true);

@@ -6,6 +6,8 @@
 #include <chrono>
 #include <cmath>
 
+#include <fmt/format.h>
+
 #include "aerovo/core/error.h"
 
 namespace aerovo::mavlink {
@@ -219,6 +221,46 @@ bool AutopilotLink::WaitForHeight(double timeout_s) const {
     if (MonotonicNowS() >= end_s) return false;
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
+}
+
+std::string DescribeNoHeight(const LinkStats& st) {
+  const ParserStats& p = st.parser;
+  std::string t;
+  const auto add = [&t](const std::string& part) { t += (t.empty() ? "" : "; ") + part; };
+  if (p.v1_packets > 0) {
+    // ArduPilot's Serial 1 and 2 default to MAVLink 1 on most autopilots (ardupilot.org,
+    // "Serial Port Configuration Options": SERIALx_PROTOCOL 1 MAVLink1, 2 MAVLink2).
+    add(
+        fmt::format("{} MAVLink 1 packets, not read: aerovo reads MAVLink 2 (ArduPilot: "
+                    "SERIALn_PROTOCOL = 2, docs/autopilot.md)",
+                    p.v1_packets));
+  }
+  if (p.crc_errors > 0) {
+    add(
+        fmt::format("{} packets with a wrong checksum (a damaged link, a wrong baud rate or "
+                    "another dialect)",
+                    p.crc_errors));
+  }
+  const uint64_t rejected = st.rejected_unsigned + st.rejected_bad_signature + st.rejected_replayed;
+  if (rejected > 0) {
+    add(fmt::format(
+        "{} packets refused by signing ({} unsigned, {} signed with another key, {} "
+        "replayed): does the autopilot have the key of --mavlink-key?",
+        rejected, st.rejected_unsigned, st.rejected_bad_signature, st.rejected_replayed));
+  }
+  if (p.packets > 0) {
+    add(
+        fmt::format("{} packets read ({} heartbeats), none a height: no DISTANCE_SENSOR facing "
+                    "down nor GLOBAL_POSITION_INT",
+                    p.packets, st.autopilot_heartbeats));
+  }
+  if (t.empty() && p.bytes_skipped > 0) {
+    add(
+        fmt::format("{} bytes, no MAVLink packet in them (another protocol, or a wrong baud "
+                    "rate?)",
+                    p.bytes_skipped));
+  }
+  return t.empty() ? "nothing received" : t;
 }
 
 LinkStats AutopilotLink::stats() const {

@@ -67,6 +67,13 @@ struct LinkStats {
   ParserStats parser;
 };
 
+/// Why a link gave no height, from its counts: what arrived that is not read (MAVLink 1
+/// packets, bytes of no packet, checksum errors, packets refused by signing) or that nothing
+/// did, and when packets were read, that none was a height (a downward DISTANCE_SENSOR or
+/// GLOBAL_POSITION_INT). One line, for the log of a run that waited for the autopilot's first
+/// height (pipeline/run_setup.cc).
+std::string DescribeNoHeight(const LinkStats& stats);
+
 class AutopilotLink {
  public:
   struct Options {

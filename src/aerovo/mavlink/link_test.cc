@@ -312,5 +312,27 @@ TEST(MavlinkLink, SigningTimestampIsKeptInItsFile) {
   std::remove(file.c_str());
 }
 
+TEST(MavlinkLink, NoHeightSaysWhatArrivedInstead) {
+  LinkStats st;
+  EXPECT_EQ(DescribeNoHeight(st), "nothing received");
+  st.parser.bytes_skipped = 4000;
+  EXPECT_EQ(DescribeNoHeight(st),
+            "4000 bytes, no MAVLink packet in them (another protocol, or a wrong baud rate?)");
+  st.parser.v1_packets = 12;
+  EXPECT_EQ(DescribeNoHeight(st),
+            "12 MAVLink 1 packets, not read: aerovo reads MAVLink 2 (ArduPilot: SERIALn_PROTOCOL "
+            "= 2, docs/autopilot.md)");
+  st = LinkStats{};
+  st.parser.packets = 5;
+  st.autopilot_heartbeats = 5;
+  st.rejected_unsigned = 3;
+  st.parser.crc_errors = 2;
+  EXPECT_EQ(DescribeNoHeight(st),
+            "2 packets with a wrong checksum (a damaged link, a wrong baud rate or another "
+            "dialect); 3 packets refused by signing (3 unsigned, 0 signed with another key, 0 "
+            "replayed): does the autopilot have the key of --mavlink-key?; 5 packets read (5 "
+            "heartbeats), none a height: no DISTANCE_SENSOR facing down nor GLOBAL_POSITION_INT");
+}
+
 }  // namespace
 }  // namespace aerovo::mavlink::link_test

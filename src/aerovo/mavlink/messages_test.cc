@@ -278,6 +278,50 @@ TEST(MavlinkParser, GarbageAroundAndBetweenPackets) {
   EXPECT_EQ(p.stats().packets, 2u);
 }
 
+// A MAVLink 1 packet of `msgid` (mavlink.io/en/guide/serialization.html, "MAVLink 1 Packet
+// Format"): 0xFE | len | seq | sysid | compid | msgid | payload | CRC-16/MCRF4XX of len..payload
+// then CRC_EXTRA, little-endian (the CRC of MavlinkCrc.CheckValueAndBitwiseAgree).
+std::vector<uint8_t> V1Packet(uint8_t msgid, uint8_t crc_extra,
+                              const std::vector<uint8_t>& payload) {
+  std::vector<uint8_t> p = {0xFE, static_cast<uint8_t>(payload.size()), 7, 1, 1, msgid};
+  p.insert(p.end(), payload.begin(), payload.end());
+  uint16_t crc = Crc16Mcrf4xx(p.data() + 1, p.size() - 1);
+  crc = Crc16Accumulate(crc_extra, crc);
+  p.push_back(static_cast<uint8_t>(crc & 0xFF));
+  p.push_back(static_cast<uint8_t>(crc >> 8));
+  return p;
+}
+
+TEST(MavlinkParser, MavlinkOnePacketsAreCountedNotDelivered) {
+  // An autopilot port set to MAVLink 1: HEARTBEATs and GLOBAL_POSITION_INTs (relative_alt 100 m)
+  // at their MAVLink 1 lengths, between garbage with a false 0xFE.
+  std::vector<uint8_t> s = {0x00, 0xFE, 0x00, 0x13};
+  for (int i = 0; i < 3; ++i) {
+    const auto hb = V1Packet(Heartbeat::kId, Heartbeat::kCrcExtra,
+                             {0, 0, 0, 0, 2, 3, 81, 4, 3});  // quadrotor, ArduPilot, v3
+    std::vector<uint8_t> gp(GlobalPositionInt::kMinLength, 0);
+    gp[16] = 0xA0, gp[17] = 0x86, gp[18] = 0x01;  // relative_alt 100000 mm (offset 16, LE)
+    const auto pos = V1Packet(GlobalPositionInt::kId, GlobalPositionInt::kCrcExtra, gp);
+    s.insert(s.end(), hb.begin(), hb.end());
+    s.insert(s.end(), pos.begin(), pos.end());
+  }
+  auto bad = V1Packet(Heartbeat::kId, Heartbeat::kCrcExtra, {0, 0, 0, 0, 2, 3, 81, 4, 3});
+  bad[8] ^= 0x01;  // a payload bit flipped: not counted
+  s.insert(s.end(), bad.begin(), bad.end());
+  Parser p;
+  int n = 0;
+  p.Feed(s.data(), s.size(), [&](const Packet&) { ++n; });
+  EXPECT_EQ(n, 0);
+  EXPECT_EQ(p.stats().packets, 0u);
+  EXPECT_EQ(p.stats().v1_packets, 6u);
+  // MAVLink 2 packets are not counted as MAVLink 1.
+  Parser q;
+  const auto hb2 = Bytes(golden::kHeartbeat);
+  q.Feed(hb2.data(), hb2.size(), [&](const Packet&) {});
+  EXPECT_EQ(q.stats().v1_packets, 0u);
+  EXPECT_EQ(q.stats().packets, 1u);
+}
+
 TEST(MavlinkParser, BadChecksumIsDroppedAndTheNextPacketFound) {
   auto bad = Bytes(golden::kAttitude);
   bad[15] ^= 0x01;  // a payload bit flipped

@@ -1,5 +1,7 @@
 #include "aerovo/mavlink/protocol.h"
 
+#include <algorithm>
+
 #include "aerovo/mavlink/messages.h"
 
 namespace aerovo::mavlink {
@@ -51,7 +53,34 @@ std::vector<uint8_t> EncodePacket(const PacketHeader& h, uint8_t crc_extra, cons
   return out;
 }
 
+void Parser::StepV1(uint8_t byte) {
+  if (v1_.empty() && byte != kMagicV1) return;
+  v1_.push_back(byte);
+  // Whole candidates (as many bytes as their length says) are checked; a false start (0xFE
+  // inside other bytes) is dropped and the rest rescanned from the next 0xFE in it, so a packet
+  // behind it is still counted. At most 263 bytes are held.
+  while (v1_.size() >= 2 && v1_.size() >= kHeaderBytesV1 + v1_[1] + kChecksumBytes) {
+    const std::size_t len = v1_[1];
+    const MessageInfo* info = FindMessageInfo(v1_[5]);
+    if (info != nullptr && len == info->min_length) {
+      uint16_t crc = Crc16Mcrf4xx(v1_.data() + 1, kHeaderBytesV1 - 1 + len);
+      crc = Crc16Accumulate(info->crc_extra, crc);
+      const uint16_t got =
+          v1_[kHeaderBytesV1 + len] | static_cast<uint16_t>(v1_[kHeaderBytesV1 + len + 1] << 8);
+      if (crc == got) {
+        ++stats_.v1_packets;
+        v1_.erase(v1_.begin(),
+                  v1_.begin() + static_cast<std::ptrdiff_t>(kHeaderBytesV1 + len + kChecksumBytes));
+        v1_.erase(v1_.begin(), std::find(v1_.begin(), v1_.end(), kMagicV1));
+        continue;
+      }
+    }
+    v1_.erase(v1_.begin(), std::find(v1_.begin() + 1, v1_.end(), kMagicV1));
+  }
+}
+
 bool Parser::Push(uint8_t byte) {
+  StepV1(byte);
   if (replay_pos_ < replay_.size()) {
     // Bytes of a rejected candidate come first: keep the order of the stream.
     replay_.push_back(byte);

@@ -15,6 +15,12 @@
 namespace aerovo::mavlink {
 
 constexpr uint8_t kMagicV2 = 0xFD;
+/// MAVLink 1's start byte (same page, "MAVLink 1 Packet Format"): 0xFE | len | seq | sysid |
+/// compid | msgid (8 bit) | payload (len bytes, never truncated) | checksum (the same CRC over
+/// len..payload, then CRC_EXTRA). aerovo reads and writes MAVLink 2 only; MAVLink 1 packets of
+/// the messages it knows are recognised to be counted (ParserStats::v1_packets), not delivered.
+constexpr uint8_t kMagicV1 = 0xFE;
+constexpr std::size_t kHeaderBytesV1 = 6;   ///< Magic to msgid.
 constexpr std::size_t kHeaderBytes = 10;    ///< Magic to msgid.
 constexpr std::size_t kChecksumBytes = 2;
 constexpr std::size_t kSignatureBytes = 13;
@@ -66,6 +72,9 @@ struct ParserStats {
   uint64_t crc_errors = 0;     ///< Known message id, checksum wrong (dropped, resynced).
   uint64_t unknown = 0;        ///< Candidates of other message ids (rescanned, not delivered).
   uint64_t bytes_skipped = 0;  ///< Bytes outside any packet (garbage, MAVLink 1).
+  /// Of those, whole MAVLink 1 packets of a message FindMessageInfo knows (its MAVLink 1
+  /// length, checksum right): an autopilot port set to MAVLink 1.
+  uint64_t v1_packets = 0;
 };
 
 /// A streaming MAVLink 2 parser: bytes in one at a time (or in chunks split anywhere), packets
@@ -98,6 +107,9 @@ class Parser {
  private:
   bool Step(uint8_t byte);  // the state machine on one byte
   bool Complete();          // a whole candidate is in buf_: check and deliver
+  void StepV1(uint8_t byte);  // the MAVLink 1 counter, on every byte as it arrives
+
+  std::vector<uint8_t> v1_;  // a MAVLink 1 candidate, from its magic byte
 
   std::vector<uint8_t> buf_;     // the current candidate, from its magic byte
   std::size_t expected_ = 0;     // its total length once the header is in (0: not yet)

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "aerovo/camera_files/calibration.h"
+#include "aerovo/core/error.h"
 #include "aerovo/pipeline/frame_loop.h"
 #include "aerovo/pipeline/lens_prepass.h"
 #include "aerovo/pipeline/lens_switch.h"
@@ -37,6 +38,19 @@ void SetUpFrames(const RunSetup& setup, const FrameState& first, RunContext& run
   run.vo_options.focal_px = run.camera.focal_px * run.reducer->focal_scale();
   run.vo_options.default_height_m = config.altitude_m;
   if (!run.reducer->active()) run.reducer.reset();
+  // SURF's smallest box filter is 9x9 px (features/surf.cc, CheckImage): smaller frames (a 2x2
+  // video) have no feature. Before the first frame, naming it (was SURF's own error, naming no
+  // file).
+  constexpr int kMinFramePx = 9;
+  if (pw < kMinFramePx || ph < kMinFramePx) {
+    throw InputError(fmt::format(
+        "{}: the frames are {}x{} px{}: smaller than SURF's smallest filter ({}x{} px), no "
+        "feature can be found in them",
+        frame.name, run.width_px, run.height_px,
+        pw != run.width_px || ph != run.height_px ? fmt::format(" (reduced to {}x{})", pw, ph)
+                                                  : std::string(),
+        kMinFramePx, kMinFramePx));
+  }
   run.summary->processed_width_px = pw;
   run.summary->processed_height_px = ph;
   run.summary->frame_scale = static_cast<double>(pw) / run.width_px;
@@ -51,8 +65,8 @@ void SetUpHeight(RunContext& run) {
   run.summary->height_source = ToString(run.height_source);
   if (run.height_source == HeightSource::kMavlink &&
       !run.link->WaitForHeight(config.mavlink_wait_s) && run.log) {
-    *run.log << fmt::format("mavlink: no height from the autopilot after {:.1f} s\n",
-                            config.mavlink_wait_s);
+    *run.log << fmt::format("mavlink: no height from the autopilot after {:.1f} s ({})\n",
+                            config.mavlink_wait_s, mavlink::DescribeNoHeight(run.link->stats()));
   }
 }
 

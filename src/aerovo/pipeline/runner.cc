@@ -407,6 +407,7 @@ nlohmann::json LinkStats(const mavlink::AutopilotLink& link, const RunConfig& co
           {"attitude_samples", st.attitude_samples},
           {"autopilot_heartbeats", st.autopilot_heartbeats},
           {"crc_errors", st.parser.crc_errors},
+          {"v1_packets", st.parser.v1_packets},
           {"signing", st.signing},
           {"signed_accepted", st.signed_accepted},
           {"rejected_unsigned", st.rejected_unsigned},
