@@ -285,6 +285,11 @@ class Collector {
   void NoteMissing(const std::string& m) {
     if (missing_.empty()) missing_ = m;
   }
+  // Bytes of the file skipped as no message, and the file's size: said when nothing is read.
+  void NoteUnreadable(long long skipped, long long total) {
+    unreadable_ = skipped;
+    total_ = total;
+  }
 
   TelemetryReadResult Finish() {
     std::stable_sort(att_.begin(), att_.end(), ByTime);
@@ -303,9 +308,13 @@ class Collector {
     }
     if (samples_.empty() && gps_messages_ == 0 && errors_.skipped() == 0) {
       throw InputError(fmt::format(
-          "{}: no GPS message in this DataFlash log (GPS logging off in LOG_BITMASK, or a log "
-          "written before the GPS was connected)",
-          errors_.source()));
+          "{}: no GPS message in this DataFlash log ({})", errors_.source(),
+          unreadable_ > 0
+              ? fmt::format("{} of its {} bytes are no DataFlash message: a damaged log, or not "
+                            "a log",
+                            unreadable_, total_)
+              : std::string("GPS logging off in LOG_BITMASK, or a log written before the GPS "
+                            "was connected")));
     }
     if (samples_.empty() && no_fix_ > 0 && errors_.skipped() == 0) {
       throw InputError(fmt::format(
@@ -451,6 +460,7 @@ class Collector {
   int gps_messages_ = 0;
   int no_fix_ = 0;
   std::string missing_;
+  long long unreadable_ = 0, total_ = 0;
 };
 
 // ------------------------------------------------------------------------------ binary form
@@ -459,7 +469,7 @@ class Collector {
 class ByteWindow {
  public:
   explicit ByteWindow(std::istream& in) : in_(in), buf_(kCapacity) {}
-  // Makes at least n (<= kCapacity / 2) bytes available unless the input ends first; returns
+  // Makes at least n (<= kCapacity) bytes available unless the input ends first; returns
   // the number available.
   std::size_t Fill(std::size_t n) {
     if (end_ - pos_ >= n || eof_) return end_ - pos_;
@@ -520,8 +530,15 @@ void ParseBinary(std::istream& in, RecordErrors& errors, Collector& out) {
   formats[kFmtType].defined = true;
   formats[kFmtType].length = kFmtLength;
   formats[kFmtType].name = "FMT";
-  const auto known = [&](const unsigned char* p) {
-    return p[0] == kHead1 && p[1] == kHead2 && formats[p[2]].defined;
+  // A message starts at q (`avail` bytes available from q): a header, a type the log defines,
+  // and after its length the next header or the end of the file. The last check catches bytes
+  // inserted into or lost from a message (its length would run into the next message): the
+  // message is then damaged, not read with shifted fields.
+  const auto starts_message = [&](const unsigned char* q, std::size_t avail) {
+    if (avail < 3 || q[0] != kHead1 || q[1] != kHead2 || !formats[q[2]].defined) return false;
+    const std::size_t len = static_cast<std::size_t>(formats[q[2]].length);
+    if (avail <= len + 1) return true;  // the file ends within 1 byte of it (or cuts it short)
+    return q[len] == kHead1 && q[len + 1] == kHead2;
   };
   int gaps = 0;
   long long gap_bytes = 0;
@@ -534,10 +551,10 @@ void ParseBinary(std::istream& in, RecordErrors& errors, Collector& out) {
     }
   };
   while (true) {
-    std::size_t avail = w.Fill(kMaxMessageLength);
+    std::size_t avail = w.Fill(kMaxMessageLength + 2);
     if (avail == 0) break;
     const unsigned char* p = w.data();
-    if (avail < 3 || !known(p)) {
+    if (!starts_message(p, avail)) {
       // Not a message: bytes written over (power loss) or a cut tail. Resynchronise on the next
       // header followed by a type the log defines.
       const long long at = w.offset();
@@ -545,15 +562,17 @@ void ParseBinary(std::istream& in, RecordErrors& errors, Collector& out) {
       do {
         w.Skip(1);
         ++skipped;
-        avail = w.Fill(3);
-      } while (avail >= 3 && !known(w.data()));
+        avail = w.Fill(kMaxMessageLength + 2);
+      } while (avail >= 3 && !starts_message(w.data(), avail));
       if (avail < 3) {
         skipped += static_cast<long long>(avail);
         w.Skip(avail);
         gap(at, skipped, "no DataFlash message up to the end of the file (a cut or damaged log)");
         break;
       }
-      gap(at, skipped, "not a DataFlash message (a damaged log); read on at the next message");
+      gap(at, skipped,
+          "not a DataFlash message, or a message whose length runs into the next one (a damaged "
+          "log); read on at the next message");
       continue;
     }
     const int type = p[2];
@@ -623,6 +642,7 @@ void ParseBinary(std::istream& in, RecordErrors& errors, Collector& out) {
     }
     w.Skip(static_cast<std::size_t>(f.length));
   }
+  out.NoteUnreadable(gap_bytes, w.offset());
   if (gaps > kMaxGapWarnings) {
     errors.warnings().push_back(fmt::format("{}: {} more gaps of unreadable bytes, {} bytes in all",
                                             errors.source(), gaps - kMaxGapWarnings, gap_bytes));

@@ -260,8 +260,10 @@ TEST(DataFlash, ReadsOlderLayoutsInCentidegrees) {
 
 TEST(DataFlash, GarbageBetweenMessagesIsSkippedWithAWarningNamingTheOffset) {
   BinLog log = Flight();
-  const std::size_t at = log.size();
-  // 37 bytes written over: a header with an undefined type among them, then a last fix.
+  // 37 bytes written over: a header with an undefined type among them, then a last fix. The
+  // message before them (Flight()'s last, CAM: 46 bytes) is not followed by a header: bytes
+  // inserted into it could not be told from bytes after it, so it is skipped with them.
+  const std::size_t at = log.size() - 46;
   log.Raw(std::string(20, '\x55') + "\xA3\x95\xF0" + std::string(14, '\0'));
   log.Message(kGps, Gps(13e6, 3, 435367300, 65567600, 35162));
   for (bool lenient : {false, true}) {
@@ -270,9 +272,29 @@ TEST(DataFlash, GarbageBetweenMessagesIsSkippedWithAWarningNamingTheOffset) {
     EXPECT_EQ(r.skipped_records, 0);
     ASSERT_EQ(r.warnings.size(), 1u);
     EXPECT_THAT(r.warnings[0],
-                HasSubstr(fmt::format("flight.bin at byte {}: 37 byte(s) skipped", at)));
+                HasSubstr(fmt::format("flight.bin at byte {}: 83 byte(s) skipped", at)));
     EXPECT_NEAR(r.telemetry[3].lat_deg, 43.53673, 1e-9);
   }
+}
+
+TEST(DataFlash, BytesInsertedIntoAMessageDropItWithAWarning) {
+  // 37 bytes inserted 20 bytes into a GPS message (51 bytes): read at its length, its fields
+  // would be shifted (a latitude of 143 degrees); it is dropped, and the next one read.
+  BinLog log = Flight();
+  const std::size_t at = log.size();
+  BinLog tail;
+  tail.Define(kGps, "GPS", kGpsFormat, kGpsColumns);
+  const std::size_t start = tail.size();
+  tail.Message(kGps, Gps(13e6, 3, 435367300, 65567600, 35162));
+  tail.Message(kGps, Gps(14e6, 3, 435367400, 65567800, 35212));
+  std::string bytes = tail.bytes().substr(start);
+  bytes.insert(20, std::string(37, '\x55'));
+  const TelemetryReadResult r = Parse(log.bytes() + bytes);
+  EXPECT_EQ(r.records, 4);
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_THAT(r.warnings[0], HasSubstr(fmt::format("at byte {}: 88 byte(s) skipped", at)));
+  EXPECT_NEAR(r.telemetry[3].lat_deg, 43.53674, 1e-9);
+  EXPECT_DOUBLE_EQ(r.telemetry[3].time_s, 14.0);
 }
 
 TEST(DataFlash, ACutLastMessageIsSkippedWithAWarning) {
@@ -385,7 +407,10 @@ TEST(DataFlash, HostileFormatsNeitherCrashNorHang) {
   EXPECT_TRUE(said_att);
   EXPECT_TRUE(said_gap);
   // A log of garbage after its first FMT: an error, not a hang.
-  ExpectInputError([&] { Parse(BinLog().bytes() + garbage); }, {"no GPS message"});
+  const std::string message =
+      fmt::format("no GPS message in this DataFlash log ({} of its {} bytes", garbage.size(),
+                  garbage.size() + 89);
+  ExpectInputError([&] { Parse(BinLog().bytes() + garbage); }, {message.c_str()});
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 20.0);
 }
 
