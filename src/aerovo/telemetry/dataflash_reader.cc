@@ -524,7 +524,10 @@ std::string Looks(const unsigned char* p, std::size_t n) {
   return "";
 }
 
-void ParseBinary(std::istream& in, RecordErrors& errors, Collector& out) {
+// Warnings are kept up to options.max_warnings in all (with those of skipped records), leaving
+// room for the count of gaps not listed.
+void ParseBinary(std::istream& in, const TelemetryReadOptions& options, RecordErrors& errors,
+                 Collector& out) {
   ByteWindow w(in);
   std::array<BinaryFormat, 256> formats;
   formats[kFmtType].defined = true;
@@ -540,12 +543,19 @@ void ParseBinary(std::istream& in, RecordErrors& errors, Collector& out) {
     if (avail <= len + 1) return true;  // the file ends within 1 byte of it (or cuts it short)
     return q[len] == kHead1 && q[len + 1] == kHead2;
   };
-  int gaps = 0;
+  const auto room = [&](int spare) {
+    return static_cast<int>(errors.warnings().size()) + spare < options.max_warnings;
+  };
+  const auto warn = [&](std::string message) {
+    if (room(0)) errors.warnings().push_back(std::move(message));
+  };
+  int gaps = 0, listed = 0;
   long long gap_bytes = 0;
   const auto gap = [&](long long at, long long bytes, const char* why) {
     ++gaps;
     gap_bytes += bytes;
-    if (gaps <= kMaxGapWarnings) {
+    if (listed < kMaxGapWarnings && room(1)) {
+      ++listed;
       errors.warnings().push_back(
           fmt::format("{} at byte {}: {} byte(s) skipped: {}", errors.source(), at, bytes, why));
     }
@@ -600,7 +610,7 @@ void ParseBinary(std::istream& in, RecordErrors& errors, Collector& out) {
               errors.source(), at, length, Printable(d.format)));
         }
       } else if (length < 3) {
-        errors.warnings().push_back(fmt::format(
+        warn(fmt::format(
             "{} at byte {}: FMT of type {} ('{}') with length {} < 3: its messages cannot be "
             "read",
             errors.source(), at, def_type, Printable(d.name), length));
@@ -625,8 +635,7 @@ void ParseBinary(std::istream& in, RecordErrors& errors, Collector& out) {
               "the FMT of {} at byte {} is inconsistent (format '{}' of {} bytes, {} columns, "
               "length {})",
               d.name, at, Printable(d.format), offset, columns.size(), length);
-          errors.warnings().push_back(
-              fmt::format("{}: {}: its messages are not read", errors.source(), missing));
+          warn(fmt::format("{}: {}: its messages are not read", errors.source(), missing));
         }
         if (!missing.empty() && d.name == "GPS") out.NoteMissing(missing);
         formats[def_type] = std::move(d);
@@ -643,9 +652,9 @@ void ParseBinary(std::istream& in, RecordErrors& errors, Collector& out) {
     w.Skip(static_cast<std::size_t>(f.length));
   }
   out.NoteUnreadable(gap_bytes, w.offset());
-  if (gaps > kMaxGapWarnings) {
-    errors.warnings().push_back(fmt::format("{}: {} more gaps of unreadable bytes, {} bytes in all",
-                                            errors.source(), gaps - kMaxGapWarnings, gap_bytes));
+  if (gaps > listed) {
+    warn(fmt::format("{}: {} gaps of unreadable bytes in all ({} bytes), {} of them listed",
+                     errors.source(), gaps, gap_bytes, listed));
   }
 }
 
@@ -735,7 +744,7 @@ TelemetryReadResult ParseDataFlash(std::istream& in, const std::string& source_n
           source_name, head[2]));
     }
     Collector out(errors, true);
-    ParseBinary(in, errors, out);
+    ParseBinary(in, options, errors, out);
     return out.Finish();
   }
   // Text: the first line must be an FMT line (ParseText says so); bytes that are not text make

@@ -277,6 +277,29 @@ TEST(DataFlash, GarbageBetweenMessagesIsSkippedWithAWarningNamingTheOffset) {
   }
 }
 
+TEST(DataFlash, ManyGapsAreCountedAndTheWarningsBounded) {
+  BinLog log;
+  log.Define(kGps, "GPS", kGpsFormat, kGpsColumns);
+  // 10 gaps of 58 bytes: 7 bytes of garbage and the fix before them (not followed by a header).
+  for (int k = 0; k < 10; ++k) {
+    log.Message(kGps, Gps(1e6 * (k + 1), 3, 435367000 + 100 * k, 65567000, 35000));
+    log.Message(kGps, Gps(1e6 * (k + 1.5), 3, 435367050 + 100 * k, 65567000, 35000));
+    log.Raw(std::string(7, '\x55'));
+  }
+  log.Message(kGps, Gps(20e6, 3, 435368000, 65567000, 35000));
+  const TelemetryReadResult r = Parse(log.bytes());
+  EXPECT_EQ(r.records, 11);
+  ASSERT_EQ(r.warnings.size(), 6u);
+  EXPECT_THAT(r.warnings[5], HasSubstr("flight.bin: 10 gaps of unreadable bytes in all (580 "
+                                       "bytes), 5 of them listed"));
+  std::istringstream in(log.bytes());
+  TelemetryReadOptions few;
+  few.max_warnings = 2;
+  const TelemetryReadResult r2 = ParseDataFlash(in, "flight.bin", few);
+  ASSERT_EQ(r2.warnings.size(), 2u);
+  EXPECT_THAT(r2.warnings[1], HasSubstr("10 gaps of unreadable bytes in all (580 bytes), 1 of"));
+}
+
 TEST(DataFlash, BytesInsertedIntoAMessageDropItWithAWarning) {
   // 37 bytes inserted 20 bytes into a GPS message (51 bytes): read at its length, its fields
   // would be shifted (a latitude of 143 degrees); it is dropped, and the next one read.
