@@ -318,8 +318,8 @@ class Collector {
     }
     if (samples_.empty() && no_fix_ > 0 && errors_.skipped() == 0) {
       throw InputError(fmt::format(
-          "{}: no GPS message with a 3D fix in this DataFlash log ({} GPS messages with Status "
-          "< 3: no fix yet)",
+          "{}: no GPS message with a 3D fix in this DataFlash log ({} GPS messages without one: "
+          "Status < 3, no fix yet, or at latitude = longitude = 0)",
           errors_.source(), no_fix_));
     }
     return io_detail::Finish(std::move(samples_), errors_, no_fix_, "DataFlash log");
@@ -495,7 +495,7 @@ class ByteWindow {
   long long offset() const { return offset_; }
 
  private:
-  static constexpr std::size_t kCapacity = std::size_t{1} << 20;
+  static constexpr std::size_t kCapacity = std::size_t{1} << 16;
   std::istream& in_;
   std::vector<unsigned char> buf_;
   std::size_t pos_ = 0, end_ = 0;

@@ -148,11 +148,13 @@ TelemetryReadResult ReadTelemetryCsv(const std::filesystem::path& path,
 ///  - ATT Roll, Pitch, Yaw (degrees, aircraft attitude) -> roll_deg, pitch_deg, yaw_deg, and POS
 ///    RelHomeAlt (metres above home) -> rel_alt_m, interpolated linearly onto each GPS time
 ///    (angles along the shorter arc; not across a gap of more than 1 s, never extrapolated).
-/// Bytes that are not a message (a damaged or cut log) are skipped up to the next header
-/// followed by a type the log defines, with a warning naming the byte offset and the count
+/// Bytes that are not a message (a damaged or cut log) are skipped up to the next header with a
+/// type the log defines and the next header at its length (so that bytes inserted into a
+/// message drop it rather than shift its fields), with a warning naming the byte offset and the
+/// count
 /// (whatever the mode); a cut last message likewise. A file that is neither form throws
 /// InputError "not an ArduPilot DataFlash log"; a log without a GPS message with a 3D fix
-/// throws InputError. Memory is bounded by the samples kept (the file is read through a 1 MiB
+/// throws InputError. Memory is bounded by the samples kept (the file is read through a 64 KiB
 /// window; ATT and POS are kept at most every 0.02 s).
 TelemetryReadResult ParseDataFlash(std::istream& in, const std::string& source_name,
                                    const TelemetryReadOptions& options = {});
