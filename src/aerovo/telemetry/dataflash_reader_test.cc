@@ -26,7 +26,8 @@ namespace {
 using io_test::ExpectInputError;
 using ::testing::HasSubstr;
 
-// Message layouts of ArduPilot 4.5 (format and columns as its FMT messages write them).
+// Message layouts of a current ArduPilot (format and columns as its FMT messages write them;
+// ATT in float degrees, older versions write int16/uint16 centidegrees).
 constexpr int kGps = 130, kAtt = 131, kPos = 132, kCam = 133;
 constexpr char kGpsFormat[] = "QBBIHBcLLeffffB";
 constexpr char kGpsColumns[] = "TimeUS,I,Status,GMS,GWk,NSats,HDop,Lat,Lng,Alt,Spd,GCrs,VZ,Yaw,U";
@@ -238,7 +239,7 @@ TEST(DataFlash, InterpolatesAttitudeBetweenMessagesAndNotAcrossGaps) {
 }
 
 TEST(DataFlash, ReadsOlderLayoutsInCentidegrees) {
-  // ATT of ArduPilot 4.0-4.4 (int16/uint16 centidegrees) and a GPS without I, GWk, GMS.
+  // ATT of older ArduPilot versions (int16/uint16 centidegrees) and a GPS without I, GWk, GMS.
   BinLog log;
   log.Define(kGps, "GPS", "QBLLe", "TimeUS,Status,Lat,Lng,Alt");
   log.Define(kAtt, "ATT", "QccccCCCCB",
