@@ -607,8 +607,10 @@ TelemetryReadResult ReadTelemetryFile(const std::filesystem::path& path,
   if (ext == ".srt") return ReadDjiSrt(path, options);
   if (ext == ".gpx") return ReadGpx(path, options);
   if (ext == ".csv" || ext == ".txt") return ReadTelemetryCsv(path, options);
-  throw InputError(fmt::format("{}: unknown telemetry format '{}' (expected .srt, .gpx or .csv)",
-                               path.string(), ext));
+  if (ext == ".bin" || ext == ".log") return ReadDataFlash(path, options);
+  throw InputError(fmt::format(
+      "{}: unknown telemetry format '{}' (expected .srt, .gpx, .csv or an ArduPilot .bin/.log)",
+      path.string(), ext));
 }
 
 }  // namespace aerovo

@@ -1,8 +1,10 @@
-// Readers of flight telemetry files: DJI .SRT subtitles, GPX tracks and CSV tables.
+// Readers of flight telemetry files: DJI .SRT subtitles, GPX tracks, CSV tables and ArduPilot
+// DataFlash logs (.bin, and their text form .log).
 //
 // Every reader is a pure parsing function over a std::istream (`source_name` is used only in
 // messages) plus a wrapper that opens a file. Errors are InputError with the message
-// "<source>:<line>: <problem>", e.g. "flight.srt:42: latitude 123.4 out of range [-90, 90]".
+// "<source>:<line>: <problem>", e.g. "flight.srt:42: latitude 123.4 out of range [-90, 90]"
+// ("<source> at byte <offset>: <problem>" in a binary DataFlash log).
 //
 // Malformed records (a line that cannot be parsed, a record missing latitude or longitude, a
 // value out of range, a timestamp earlier than the previous record's):
@@ -12,8 +14,10 @@
 // In both modes a file with no valid record at all throws InputError ("no telemetry samples").
 // Records that say "no GPS fix" (DJI writes latitude 0 and longitude 0, or "N/A", before the fix)
 // are not damage: in DJI SRT files they are samples with has_fix = false that keep their heights
-// and angles, in GPX and CSV files they are dropped; both modes count them in no_fix_records.
-// Every sample's `origin` is "<source>:<line>" of its record.
+// and angles, in GPX and CSV files they are dropped, and so are DataFlash GPS messages with a
+// Status below 3D fix; both modes count them in no_fix_records.
+// Every sample's `origin` is "<source>:<line>" of its record ("<source> at byte <offset>" in a
+// binary DataFlash log).
 #pragma once
 
 #include <filesystem>
@@ -130,8 +134,35 @@ TelemetryReadResult ParseTelemetryCsv(std::istream& in, const std::string& sourc
 TelemetryReadResult ReadTelemetryCsv(const std::filesystem::path& path,
                                      const TelemetryReadOptions& options = {});
 
-/// Picks the reader by extension (case-insensitive): .srt, .gpx, .csv/.txt. Throws InputError
-/// for a missing/unreadable file or an unknown extension.
+/// ArduPilot DataFlash logs: the binary log (.bin, written by the autopilot to its SD card,
+/// starting with the bytes A3 95 80) or its text form (.log, Mission Planner's "convert .bin to
+/// .log": lines "FMT, 128, 89, FMT, BBnNZ, Type,Length,Name,Format,Columns", "GPS, ..."), told
+/// apart by their first bytes. Message layouts and column names are read from the log's own FMT
+/// messages (format characters of ArduPilot's libraries/AP_Logger/LogStructure.h; the text form
+/// has the values already scaled). Read:
+///  - GPS (first receiver, column I = 0 when present): one sample per message with Status >= 3
+///    (3D fix): Lat, Lng (degrees), Alt (metres above sea level -> abs_alt_m); time_s = TimeUS /
+///    1e6 (seconds since the autopilot booted); unix_time_s from GWk and GMS (GPS week and
+///    milliseconds: 315964800 + GWk * 604800 + GMS / 1000 - 18 leap seconds, right since
+///    2017-01-01). Status < 3 (no fix) and Lat = Lng = 0 are counted in no_fix_records;
+///  - ATT Roll, Pitch, Yaw (degrees, aircraft attitude) -> roll_deg, pitch_deg, yaw_deg, and POS
+///    RelHomeAlt (metres above home) -> rel_alt_m, interpolated linearly onto each GPS time
+///    (angles along the shorter arc; not across a gap of more than 1 s, never extrapolated).
+/// Bytes that are not a message (a damaged or cut log) are skipped up to the next header with a
+/// type the log defines and the next header at its length (so that bytes inserted into a
+/// message drop it rather than shift its fields), with a warning naming the byte offset and the
+/// count
+/// (whatever the mode); a cut last message likewise. A file that is neither form throws
+/// InputError "not an ArduPilot DataFlash log"; a log without a GPS message with a 3D fix
+/// throws InputError. Memory is bounded by the samples kept (the file is read through a 64 KiB
+/// window; ATT and POS are kept at most every 0.02 s).
+TelemetryReadResult ParseDataFlash(std::istream& in, const std::string& source_name,
+                                   const TelemetryReadOptions& options = {});
+TelemetryReadResult ReadDataFlash(const std::filesystem::path& path,
+                                  const TelemetryReadOptions& options = {});
+
+/// Picks the reader by extension (case-insensitive): .srt, .gpx, .csv/.txt, .bin/.log
+/// (DataFlash). Throws InputError for a missing/unreadable file or an unknown extension.
 TelemetryReadResult ReadTelemetryFile(const std::filesystem::path& path,
                                       const TelemetryReadOptions& options = {});
 
