@@ -81,20 +81,32 @@ bool TurnsBackBefore(const LensUndistortion& lens, double u, double v) {
   return false;
 }
 
-// A pinhole lens model whose distortion turns back before the edge of its image (r_d(r) not
-// increasing up to the corners: a calibration fitted without points near the edges, or a typo
-// in k1..k3) has no ray for the pixels beyond the turn and folds the image inside it:
-// InputError naming the file and the first such pixel of a 33 x 33 grid over the image
-// (TurnsBackBefore). A fisheye is not checked: UndistortPixel fails for rays at or beyond 90
-// degrees too, which a lens of more than 180 degrees has.
+// A pinhole lens model whose distortion turns back inside its image (r_d(r) not increasing:
+// a typo in k1..k3, a fit gone wrong) has no ray for the pixels beyond the turn and folds the
+// image inside it: InputError naming the file and the first such pixel of a 33 x 33 grid over
+// the image (TurnsBackBefore). Pixels farther from the principal point than 90 % of its farthest
+// corner are not checked: calibrations fitted without points in the corners often turn back
+// there only (a few features, which RANSAC sets aside), and refusing them would refuse usable
+// files. A fisheye is not checked: UndistortPixel fails for rays at or beyond 90 degrees too,
+// which a lens of more than 180 degrees has.
 void CheckMonotonic(const std::string& path, const std::string& where, const CameraIntrinsics& k) {
   if (k.model != LensModel::kPinhole || !k.HasDistortion()) return;
   const LensUndistortion lens(k);
   constexpr int kGrid = 33;
+  constexpr double kCheckedRadius = 0.9;  // of the farthest corner's distance
+  double farthest_sq = 0.0;
+  for (const double u : {0.0, k.width_px - 1.0}) {
+    for (const double v : {0.0, k.height_px - 1.0}) {
+      farthest_sq =
+          std::max(farthest_sq, (u - k.cx_px) * (u - k.cx_px) + (v - k.cy_px) * (v - k.cy_px));
+    }
+  }
+  const double checked_sq = kCheckedRadius * kCheckedRadius * farthest_sq;
   for (int iy = 0; iy < kGrid; ++iy) {
     for (int ix = 0; ix < kGrid; ++ix) {
       const double u = (k.width_px - 1) * static_cast<double>(ix) / (kGrid - 1);
       const double v = (k.height_px - 1) * static_cast<double>(iy) / (kGrid - 1);
+      if ((u - k.cx_px) * (u - k.cx_px) + (v - k.cy_px) * (v - k.cy_px) > checked_sq) continue;
       if (!TurnsBackBefore(lens, u, v)) continue;
       std::string coefficients;
       for (double d : k.distortion) {

@@ -247,7 +247,7 @@ TEST(Calibration, ADistortionThatTurnsBackInsideTheImageIsAnError) {
   WriteText(dir / "k1.yaml", OpenCvYaml(size, "300.", "-3., 0., 0., 0., 0."));
   EXPECT_THAT(ErrorOf(dir / "k1.yaml"),
               HasSubstr("k1.yaml' (key 'distortion_coefficients'): the distortion (-3 0 0 0 0) has "
-                        "no ray for pixel (0, 0) of its 320x240 image"));
+                        "no ray for pixel (30, 0) of its 320x240 image"));
   // k1 = 0.5, k2 = -2: r_d peaks at 0.555 (r = 0.63), below the corner's 0.667.
   WriteText(dir / "k2.yaml", OpenCvYaml(size, "300.", "0.5, -2., 0., 0., 0."));
   EXPECT_THAT(ErrorOf(dir / "k2.yaml"), HasSubstr("the model turns back before the image's edge"));
@@ -257,6 +257,10 @@ TEST(Calibration, ADistortionThatTurnsBackInsideTheImageIsAnError) {
   // 0.703 (r = 1.054), beyond the corner's 0.667.
   WriteText(dir / "barrel.yaml", OpenCvYaml(size, "300.", "-0.3, 0., 0., 0., 0."));
   EXPECT_NEAR(ReadCalibration((dir / "barrel.yaml").string()).intrinsics.distortion[0], -0.3, 0);
+  // A fit that turns back in the outer corners only is read (the check stops at 90 % of the
+  // corner's distance, 180 px): k1 = -0.385, r_d peaks at 0.62 (186 px, r = 0.93).
+  WriteText(dir / "corners.yaml", OpenCvYaml(size, "300.", "-0.385, 0., 0., 0., 0."));
+  EXPECT_NEAR(ReadCalibration((dir / "corners.yaml").string()).intrinsics.distortion[0], -0.385, 0);
 }
 
 }  // namespace
