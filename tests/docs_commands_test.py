@@ -403,6 +403,9 @@ PLAN = {
         says=[readme_output_line()], check=check_tampa),
     "aerovo run flight.mp4 --telemetry flight.SRT --step 10 -o flight": Row(
         says=["Tracked 7 of 7 frames"], files=["flight/frames.csv", "flight/summary.json"]),
+    "aerovo run flight.mp4 --telemetry 00000042.BIN --telemetry-offset-s 312.5 -o flight": Row(
+        skip="needs an ArduPilot DataFlash log recorded with the example video; the reader is "
+        "tested on logs written byte for byte (DataFlash.* in telemetry/dataflash_reader_test.cc)"),
     "aerovo run 0 --print-poses --altitude 80 --hfov-deg 70": Row(
         skip=f"{HARDWARE}: a camera (index 0)"),
     "aerovo run udp://0.0.0.0:5600 --poses-jsonl - --altitude 80 --hfov-deg 70 | my-consumer": Row(
