@@ -592,6 +592,7 @@ void ParseBinary(std::istream& in, const TelemetryReadOptions& options, RecordEr
           fmt::format("the last message ({}, {} bytes) is cut short (a log whose writing stopped)",
                       Printable(f.name), f.length)
               .c_str());
+      w.Skip(avail);  // read: the file's size is the offset after it
       break;
     }
     const long long at = w.offset();

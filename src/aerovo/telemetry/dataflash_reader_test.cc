@@ -435,6 +435,9 @@ TEST(DataFlash, HostileFormatsNeitherCrashNorHang) {
       fmt::format("no GPS message in this DataFlash log ({} of its {} bytes", garbage.size(),
                   garbage.size() + 89);
   ExpectInputError([&] { Parse(BinLog().bytes() + garbage); }, {message.c_str()});
+  // A file of one cut FMT message: its 5 bytes are all counted, of a file of 5.
+  ExpectInputError([&] { Parse(std::string("\xA3\x95\x80\x80\xFF", 5)); },
+                   {"no GPS message in this DataFlash log (5 of its 5 bytes"});
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 20.0);
 }
 
