@@ -36,11 +36,9 @@ class AttitudeStage : public FrameStage {
     // correction's homography sends those rays to infinity): the frame is processed as it is,
     // said once. Either the attitude is wrong (a DJI gimbal pitch of 0 for a nadir camera) or
     // the camera does not look at the ground, which no nadir odometry tracks.
-    if (a.camera && run.vo_options.focal_px > 0.0 && run.width_px > 0) {
-      const double scale = run.reduced_from_full(0, 0);
-      const double focal_px = run.vo_options.focal_px / (scale > 0.0 ? scale : 1.0);
+    if (a.camera && run.camera.focal_px > 0.0 && run.width_px > 0) {
       const double depression =
-          LowestCornerDepressionDeg(*a.camera, focal_px, 0.5 * (run.width_px - 1),
+          LowestCornerDepressionDeg(*a.camera, run.camera.focal_px, 0.5 * (run.width_px - 1),
                                     0.5 * (run.height_px - 1), run.width_px, run.height_px);
       if (depression < kMinCornerDepressionDeg) {
         a.camera.reset();
