@@ -233,6 +233,23 @@ TEST(BadInput, FramesSmallerThanSurfsSmallestFilterAreAnErrorNamingTheFirst) {
   fs::remove_all(dir);
 }
 
+TEST(BadInput, LensCoefficientsThatFoldTheFrameAreAnErrorNamingThem) {
+  // k1 = -2 at focal 400 px: r_d(r) = r (1 - 2 r^2) peaks at r = 0.41 (163 px from the centre),
+  // inside the 320x240 frame, so the undistortion folds the frame's outer part (before, the run
+  // completed on folded frames). The same check as a calibration file's (camera/lens.h
+  // FirstFoldedPixel). A mild lens (k1 = -0.05) runs.
+  const fs::path dir = TempDir("fold");
+  WriteFolder(dir / "photos", RenderAll(Leg(4)));
+  RunConfig config = Config(dir / "photos", dir / "run");
+  config.k1 = -2.0;
+  ExpectInputError(config, {"frame_0000.png", "k1 k2 p1 p2 k3 (-2 0 0 0 0, focal 400.0 px)",
+                            "turns back before the frame's edge"});
+  config.k1 = -0.05;
+  const RunSummary s = RunFlight(config);
+  EXPECT_EQ(s.frames_processed, 4);
+  fs::remove_all(dir);
+}
+
 // ------------------------------------------------------------------------------ frames
 
 TEST(BadInput, AllBlackFramesAreFlaggedAndTheTrackDoesNotMove) {

@@ -210,4 +210,57 @@ double MaxLensScaleChange(const CameraIntrinsics& lens) {
   return LensUndistortion(lens).MaxScaleChange();
 }
 
+namespace {
+
+// Whether `lens` has no ray for distorted pixel (u, v) that it reaches without turning back
+// (FirstFoldedPixel).
+bool TurnsBackBefore(const LensUndistortion& lens, double u, double v) {
+  const CameraIntrinsics& out = lens.output();
+  double u0 = 0.0, v0 = 0.0, uo = 0.0, vo = 0.0;
+  if (!lens.DistortPixel(out.cx_px, out.cy_px, &u0, &v0)) return true;
+  const double du = u - u0, dv = v - v0;
+  if (du * du + dv * dv < 1.0) return false;  // the principal point itself
+  if (!lens.UndistortPixel(u, v, &uo, &vo)) return true;
+  constexpr int kSteps = 64;
+  double previous = 0.0;
+  for (int i = 1; i <= kSteps; ++i) {
+    const double t = static_cast<double>(i) / kSteps;
+    double a = 0.0, b = 0.0;
+    if (!lens.DistortPixel(out.cx_px + t * (uo - out.cx_px), out.cy_px + t * (vo - out.cy_px), &a,
+                           &b)) {
+      return true;
+    }
+    const double along = (a - u0) * du + (b - v0) * dv;
+    if (!(along > previous)) return true;
+    previous = along;
+  }
+  return false;
+}
+
+}  // namespace
+
+std::optional<std::array<double, 2>> FirstFoldedPixel(const CameraIntrinsics& k) {
+  if (k.model != LensModel::kPinhole || !k.HasDistortion()) return std::nullopt;
+  const LensUndistortion lens(k);
+  constexpr int kGrid = 33;
+  constexpr double kCheckedRadius = 0.9;  // of the farthest corner's distance
+  double farthest_sq = 0.0;
+  for (const double u : {0.0, k.width_px - 1.0}) {
+    for (const double v : {0.0, k.height_px - 1.0}) {
+      farthest_sq =
+          std::max(farthest_sq, (u - k.cx_px) * (u - k.cx_px) + (v - k.cy_px) * (v - k.cy_px));
+    }
+  }
+  const double checked_sq = kCheckedRadius * kCheckedRadius * farthest_sq;
+  for (int iy = 0; iy < kGrid; ++iy) {
+    for (int ix = 0; ix < kGrid; ++ix) {
+      const double u = (k.width_px - 1) * static_cast<double>(ix) / (kGrid - 1);
+      const double v = (k.height_px - 1) * static_cast<double>(iy) / (kGrid - 1);
+      if ((u - k.cx_px) * (u - k.cx_px) + (v - k.cy_px) * (v - k.cy_px) > checked_sq) continue;
+      if (TurnsBackBefore(lens, u, v)) return std::array<double, 2>{u, v};
+    }
+  }
+  return std::nullopt;
+}
+
 }  // namespace aerovo

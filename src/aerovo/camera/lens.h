@@ -6,6 +6,7 @@
 #pragma once
 
 #include <array>
+#include <optional>
 
 #include "aerovo/camera/pinhole.h"
 
@@ -64,6 +65,21 @@ class LensUndistortion {
 
 /// The largest local scale change of `lens` over its frame (LensUndistortion::MaxScaleChange).
 double MaxLensScaleChange(const CameraIntrinsics& lens);
+
+/// The first pixel, row by row over a 33 x 33 grid of the `lens.width_px` x `lens.height_px`
+/// frame, for which the pinhole lens `lens` has no ray that it reaches without turning back:
+/// the pixel cannot be undistorted, or the distorted image of the segment from the principal ray
+/// to its undistorted point does not move away from the principal point all the way (64 steps;
+/// Newton's method can land on a mirrored solution beyond the fold: r_d(r) = r (1 + k1 r^2) with
+/// k1 < 0 reaches r_d again past its peak, upside down). Such a model folds the frame's image
+/// inside the turn and describes no lens there (a typo in k1..k3, a fit gone wrong).
+/// Pixels farther from the principal point than 90 % of the farthest corner's distance are not
+/// checked: calibrations fitted without points in the corners often turn back there only (a
+/// few features, which RANSAC sets aside), and refusing them would refuse usable files.
+/// std::nullopt without distortion and for a fisheye (whose rays at or beyond 90 degrees have no
+/// pinhole position, which a lens of more than 180 degrees has). Throws InvalidArgument as
+/// Validate(CameraIntrinsics) does.
+std::optional<std::array<double, 2>> FirstFoldedPixel(const CameraIntrinsics& lens);
 
 /// `aerovo run --undistort auto` undistorts the keypoints instead of whole frames when the
 /// lens's MaxLensScaleChange is at most this. 0.35 (our choice, measured in docs/lenses.md

@@ -52,73 +52,20 @@ int PixelCount(const std::string& path, const std::string& where, const char* wh
   return static_cast<int>(std::lround(v));
 }
 
-// Whether the pinhole lens `lens` has no ray for distorted pixel (u, v) that it reaches without
-// turning back: the undistorted point (LensUndistortion::UndistortPixel) must exist, and the
-// distorted image of the segment from the principal ray to it must move away from the
-// principal point towards (u, v) all the way (64 steps). Newton's method can land on a mirrored
-// solution beyond the fold (r_d(r) = r (1 + k1 r^2) with k1 < 0 reaches r_d again past its
-// peak, upside down), which the first test alone accepts.
-bool TurnsBackBefore(const LensUndistortion& lens, double u, double v) {
-  const CameraIntrinsics& out = lens.output();
-  double u0 = 0.0, v0 = 0.0, uo = 0.0, vo = 0.0;
-  if (!lens.DistortPixel(out.cx_px, out.cy_px, &u0, &v0)) return true;
-  const double du = u - u0, dv = v - v0;
-  if (du * du + dv * dv < 1.0) return false;  // the principal point itself
-  if (!lens.UndistortPixel(u, v, &uo, &vo)) return true;
-  constexpr int kSteps = 64;
-  double previous = 0.0;
-  for (int i = 1; i <= kSteps; ++i) {
-    const double t = static_cast<double>(i) / kSteps;
-    double a = 0.0, b = 0.0;
-    if (!lens.DistortPixel(out.cx_px + t * (uo - out.cx_px), out.cy_px + t * (vo - out.cy_px), &a,
-                           &b)) {
-      return true;
-    }
-    const double along = (a - u0) * du + (b - v0) * dv;
-    if (!(along > previous)) return true;
-    previous = along;
-  }
-  return false;
-}
-
-// A pinhole lens model whose distortion turns back inside its image (r_d(r) not increasing:
-// a typo in k1..k3, a fit gone wrong) has no ray for the pixels beyond the turn and folds the
-// image inside it: InputError naming the file and the first such pixel of a 33 x 33 grid over
-// the image (TurnsBackBefore). Pixels farther from the principal point than 90 % of its farthest
-// corner are not checked: calibrations fitted without points in the corners often turn back
-// there only (a few features, which RANSAC sets aside), and refusing them would refuse usable
-// files. A fisheye is not checked: UndistortPixel fails for rays at or beyond 90 degrees too,
-// which a lens of more than 180 degrees has.
+// A pinhole lens model whose distortion turns back inside its image (camera/lens.h
+// FirstFoldedPixel): InputError naming the file and the first such pixel.
 void CheckMonotonic(const std::string& path, const std::string& where, const CameraIntrinsics& k) {
-  if (k.model != LensModel::kPinhole || !k.HasDistortion()) return;
-  const LensUndistortion lens(k);
-  constexpr int kGrid = 33;
-  constexpr double kCheckedRadius = 0.9;  // of the farthest corner's distance
-  double farthest_sq = 0.0;
-  for (const double u : {0.0, k.width_px - 1.0}) {
-    for (const double v : {0.0, k.height_px - 1.0}) {
-      farthest_sq =
-          std::max(farthest_sq, (u - k.cx_px) * (u - k.cx_px) + (v - k.cy_px) * (v - k.cy_px));
-    }
+  const std::optional<std::array<double, 2>> pixel = FirstFoldedPixel(k);
+  if (!pixel) return;
+  std::string coefficients;
+  for (double d : k.distortion) {
+    coefficients += fmt::format("{}{:g}", coefficients.empty() ? "" : " ", d);
   }
-  const double checked_sq = kCheckedRadius * kCheckedRadius * farthest_sq;
-  for (int iy = 0; iy < kGrid; ++iy) {
-    for (int ix = 0; ix < kGrid; ++ix) {
-      const double u = (k.width_px - 1) * static_cast<double>(ix) / (kGrid - 1);
-      const double v = (k.height_px - 1) * static_cast<double>(iy) / (kGrid - 1);
-      if ((u - k.cx_px) * (u - k.cx_px) + (v - k.cy_px) * (v - k.cy_px) > checked_sq) continue;
-      if (!TurnsBackBefore(lens, u, v)) continue;
-      std::string coefficients;
-      for (double d : k.distortion) {
-        coefficients += fmt::format("{}{:g}", coefficients.empty() ? "" : " ", d);
-      }
-      throw InputError(fmt::format(
-          "calibration '{}'{}: the distortion ({}) has no ray for pixel ({:.0f}, {:.0f}) of its "
-          "{}x{} image: the model turns back before the image's edge (a fit without points "
-          "near the edges?), so it does not describe this lens there",
-          path, where, coefficients, u, v, k.width_px, k.height_px));
-    }
-  }
+  throw InputError(fmt::format(
+      "calibration '{}'{}: the distortion ({}) has no ray for pixel ({:.0f}, {:.0f}) of its "
+      "{}x{} image: the model turns back before the image's edge (a fit without points "
+      "near the edges?), so it does not describe this lens there",
+      path, where, coefficients, (*pixel)[0], (*pixel)[1], k.width_px, k.height_px));
 }
 
 // Validates the result and names the file when it is not a camera (or its lens model folds its

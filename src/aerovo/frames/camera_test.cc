@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <optional>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -351,6 +352,31 @@ TEST(Camera, LensScaleChangeOfTheAutoRule) {
   const double mild = MaxLensScaleChange(p);
   EXPECT_GT(mild, 0.1);
   EXPECT_LT(mild, kPointsMaxScaleChange);
+}
+
+TEST(Camera, FirstFoldedPixelIsBeyondTheDistortionsPeak) {
+  // r_d(r) = r (1 + k1 r^2), k1 = -2: peaks at r = 1 / sqrt(6) = 0.408 with r_d = 0.272, i.e.
+  // 108.9 px from the centre at focal 400 px. On a 320x240 frame, pixels farther out have no ray.
+  CameraIntrinsics k = IntrinsicsFromFocalPx(400.0, 320, 240);
+  k.distortion = {-2.0, 0.0, 0.0, 0.0, 0.0};
+  const std::optional<std::array<double, 2>> p = FirstFoldedPixel(k);
+  ASSERT_TRUE(p.has_value());
+  const double r_px = std::hypot((*p)[0] - k.cx_px, (*p)[1] - k.cy_px);
+  EXPECT_GT(r_px, 400.0 * 2.0 / 3.0 / std::sqrt(6.0));
+  // The first grid point of the top row within 90 % of the corner's 199.3 px (row by row).
+  EXPECT_DOUBLE_EQ((*p)[0], 319.0 * 3 / 32);  // the grid's 4th column
+  EXPECT_EQ((*p)[1], 0.0);
+  // The check stops at 90 % of the corner's distance (179 px): k1 = -0.9 peaks at r_d = 162 px,
+  // inside it, and folds; k1 = -0.6 peaks at 198.8 px, beyond it, and is accepted.
+  k.distortion = {-0.6, 0.0, 0.0, 0.0, 0.0};
+  EXPECT_FALSE(FirstFoldedPixel(k).has_value());
+  k.distortion = {-0.9, 0.0, 0.0, 0.0, 0.0};
+  EXPECT_TRUE(FirstFoldedPixel(k).has_value());
+  // No distortion, and a fisheye, are not checked.
+  EXPECT_FALSE(FirstFoldedPixel(IntrinsicsFromFocalPx(400.0, 320, 240)).has_value());
+  k.model = LensModel::kFisheye;
+  k.distortion = {-0.9, 0.0, 0.0, 0.0};
+  EXPECT_FALSE(FirstFoldedPixel(k).has_value());
 }
 
 // An off-centre principal point and fx != fy: the output is the centred square-pixel camera.

@@ -177,6 +177,37 @@ std::string RunTelemetry::Describe() const {
 // ---------------------------------------------------------------------------------------------
 // 2. Camera
 
+namespace {
+
+// The lens of the options k1 k2 p1 p2 k3 on the frames of `frame_name` (w x h px, focal_px):
+// InputError naming the options when the model turns back inside the frame (camera/lens.h
+// FirstFoldedPixel), as a calibration file's lens gets (camera_files/calibration.h).
+void CheckLensFlags(const RunConfig& config, double focal_px, int w, int h,
+                    const std::string& frame_name) {
+  if (config.k1 == 0.0 && config.k2 == 0.0 && config.p1 == 0.0 && config.p2 == 0.0 &&
+      config.k3 == 0.0) {
+    return;
+  }
+  CameraIntrinsics k = IntrinsicsFromFocalPx(focal_px, w, h);
+  k.distortion = {config.k1, config.k2, config.p1, config.p2, config.k3};
+  std::optional<std::array<double, 2>> pixel;
+  try {
+    pixel = FirstFoldedPixel(k);
+  } catch (const InvalidArgument& e) {
+    throw InputError(fmt::format("{}: the lens of k1 k2 p1 p2 k3: {}", frame_name, e.what()));
+  }
+  if (!pixel) return;
+  throw InputError(fmt::format(
+      "{}: the lens of k1 k2 p1 p2 k3 ({:g} {:g} {:g} {:g} {:g}, focal {:.1f} px) has no ray for "
+      "pixel ({:.0f}, {:.0f}) of the {}x{} frames: the model turns back before the frame's edge "
+      "and would fold the image there; check the coefficients' signs and that they belong to "
+      "this focal length",
+      frame_name, config.k1, config.k2, config.p1, config.p2, config.k3, focal_px, (*pixel)[0],
+      (*pixel)[1], w, h));
+}
+
+}  // namespace
+
 RunCamera ResolveRunCamera(const RunConfig& config, bool focal_from_sim, int w, int h,
                            const ImageMetadata* photo, const std::optional<TelemetrySample>& sample,
                            const std::string& frame_name) {
@@ -203,6 +234,7 @@ RunCamera ResolveRunCamera(const RunConfig& config, bool focal_from_sim, int w, 
                      ": the camera focal length is unknown (no EXIF/telemetry "
                      "35 mm focal length): give --focal-px or --hfov-deg");
   }
+  if (!camera.calibration) CheckLensFlags(config, resolved.intrinsics.fx_px, w, h, frame_name);
   RunCamera c;
   c.focal_px = resolved.intrinsics.fx_px;
   c.focal_source = focal_from_sim && resolved.source_key == "flag" ? "sim.json" : resolved.source_key;
