@@ -426,18 +426,18 @@ TelemetryReadResult Parse(std::istream& in, const TelemetryReadOptions& options,
         w.Skip(kTimestampBytes + check.size);
         continue;
       }
-      if (check.status == mav::FrameStatus::kBadChecksum) {
-        // A damaged packet (bytes flipped on the link or in the file): skipped, counted.
+      const std::size_t next = kTimestampBytes + check.size;
+      if (check.status == mav::FrameStatus::kBadChecksum &&
+          (avail == next || StartsRecord(p + next, avail - next))) {
+        // A damaged packet (bytes flipped on the link or in the file) between two records:
+        // skipped, counted. When no record follows it, its length is damaged too: a gap below.
         ++bad_checksums;
         damage(fmt::format(
             "{} at byte {}: MAVLink packet of message {} with a wrong checksum: "
             "skipped",
             errors.source(), at + static_cast<long long>(kTimestampBytes), check.msgid));
-        const std::size_t next = kTimestampBytes + check.size;
-        if (avail == next || StartsRecord(p + next, avail - next)) {
-          w.Skip(next);
-          continue;
-        }
+        w.Skip(next);
+        continue;
       }
     }
     // Not a record: bytes written over, or a record whose length runs into the next one.
