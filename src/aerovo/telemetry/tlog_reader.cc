@@ -180,7 +180,12 @@ class Collector {
     }
   }
 
-  TelemetryReadResult Finish(long long bad_checksums) {
+  // `unreadable` of the file's `total` bytes were no record: said when nothing is read.
+  TelemetryReadResult Finish(long long bad_checksums, long long unreadable, long long total) {
+    const std::string damaged =
+        unreadable > 0 ? fmt::format(" ({} of its {} bytes are no tlog record: a damaged log)",
+                                     unreadable, total)
+                       : std::string();
     const System* vehicle = nullptr;
     int vehicle_id = -1;
     for (const auto& [id, s] : systems_) {
@@ -194,10 +199,11 @@ class Collector {
           "{}: no HEARTBEAT of an autopilot in this MAVLink telemetry log ({} packets read, {} "
           "HEARTBEATs, none from component 1 with an autopilot type other than "
           "MAV_AUTOPILOT_INVALID): a log of the ground station alone, recorded before the "
-          "vehicle was connected?{}",
+          "vehicle was connected?{}{}",
           errors_.source(), packets_, heartbeats_,
           bad_checksums > 0 ? fmt::format(" ({} packets with a wrong checksum)", bad_checksums)
-                            : std::string()));
+                            : std::string(),
+          damaged));
     }
     for (const std::string& m : vehicle->malformed) errors_.ReportMessage(m);
     for (int k = 0; k < vehicle->malformed_more; ++k) {
@@ -228,8 +234,8 @@ class Collector {
         throw InputError(fmt::format(
             "{}: no GLOBAL_POSITION_INT from the autopilot (system {}, component 1) in this "
             "MAVLink telemetry log: its position stream was off (ArduPilot SRn_POSITION, PX4 "
-            "MAV_n_MODE/rate) or the log ends before it started",
-            errors_.source(), vehicle_id));
+            "MAV_n_MODE/rate) or the log ends before it started{}",
+            errors_.source(), vehicle_id, damaged));
       }
       if (vehicle->no_fix > 0 && errors_.skipped() == 0) {
         throw InputError(fmt::format(
@@ -471,7 +477,7 @@ TelemetryReadResult Parse(std::istream& in, const TelemetryReadOptions& options,
         "all, {} of them listed",
         errors.source(), gaps, gap_bytes, bad_checksums, listed));
   }
-  return out.Finish(bad_checksums);
+  return out.Finish(bad_checksums, gap_bytes, w.offset());
 }
 
 }  // namespace tlog
