@@ -486,7 +486,7 @@ TelemetryReadResult Parse(std::istream& in, const TelemetryReadOptions& options,
 TelemetryReadResult ParseTlog(std::istream& in, const std::string& source_name,
                               const TelemetryReadOptions& options) {
   Validate(options);
-  RecordErrors errors(options, source_name);
+  io_detail::RecordErrors errors(options, source_name);
   return tlog::Parse(in, options, errors);
 }
 
