@@ -7,6 +7,7 @@
 // (stable: XML order among equal sizes; an array counts by its element type), and the extension
 // fields follow in XML order; each struct's Write/Read below is in that wire order, little
 // endian. Encode() frames a message (protocol.h), Decode() reads a received packet.
+// Telemetry logs (.tlog, telemetry/tlog_reader.cc) are also read for GPS_RAW_INT and SYSTEM_TIME.
 #pragma once
 
 #include <array>
@@ -27,6 +28,7 @@ constexpr uint8_t kMavFrameLocalFrd = 20;            ///< MAV_FRAME_LOCAL_FRD
 constexpr uint8_t kMavEstimatorTypeVision = 2;       ///< MAV_ESTIMATOR_TYPE_VISION
 constexpr uint8_t kMavTypeOnboardController = 18;    ///< MAV_TYPE_ONBOARD_CONTROLLER
 constexpr uint8_t kMavAutopilotInvalid = 8;          ///< MAV_AUTOPILOT_INVALID
+constexpr uint8_t kMavCompIdAutopilot1 = 1;          ///< MAV_COMP_ID_AUTOPILOT1
 constexpr uint8_t kMavStateActive = 4;               ///< MAV_STATE_ACTIVE
 constexpr uint8_t kMavCompIdVisualInertialOdometry = 197;  ///< MAV_COMP_ID_VISUAL_INERTIAL_ODOMETRY
 constexpr uint8_t kMavSensorRotationPitch270 = 25;   ///< MAV_SENSOR_ROTATION_PITCH_270 (down)
@@ -116,6 +118,47 @@ struct Attitude {
   static void Fields(IO& io, M& m) {
     io(m.time_boot_ms), io(m.roll), io(m.pitch), io(m.yaw), io(m.rollspeed), io(m.pitchspeed),
         io(m.yawspeed);
+  }
+};
+
+/// SYSTEM_TIME (#2, common.xml): the sender's clock, Unix time (0 = unknown) and time since boot.
+struct SystemTime {
+  static constexpr uint32_t kId = 2;
+  static constexpr uint8_t kCrcExtra = 137;
+  static constexpr uint8_t kMinLength = 12, kLength = 12;
+  uint64_t time_unix_usec = 0;  ///< us since 1970-01-01 UTC, 0 when the sender does not know it
+  uint32_t time_boot_ms = 0;    ///< ms since the sender booted
+  template <class IO, class M>
+  static void Fields(IO& io, M& m) {
+    io(m.time_unix_usec), io(m.time_boot_ms);
+  }
+};
+
+/// GPS_RAW_INT (#24, common.xml): the first GPS receiver's own fix (not the estimator's
+/// position), with its extensions (alt_ellipsoid .. yaw).
+struct GpsRawInt {
+  static constexpr uint32_t kId = 24;
+  static constexpr uint8_t kCrcExtra = 24;
+  static constexpr uint8_t kMinLength = 30, kLength = 52;
+  uint64_t time_usec = 0;     ///< us, Unix time or since boot (the magnitude tells)
+  int32_t lat = 0, lon = 0;   ///< degE7
+  int32_t alt = 0;            ///< mm, MSL
+  uint16_t eph = UINT16_MAX;  ///< HDOP * 100, UINT16_MAX = unknown
+  uint16_t epv = UINT16_MAX;  ///< VDOP * 100, UINT16_MAX = unknown
+  uint16_t vel = UINT16_MAX;  ///< cm/s ground speed, UINT16_MAX = unknown
+  uint16_t cog = UINT16_MAX;  ///< cdeg course over ground, UINT16_MAX = unknown
+  uint8_t fix_type = 0;       ///< GPS_FIX_TYPE: 0 no GPS, 1 no fix, 2 2D, 3 3D, 4-8 better
+  uint8_t satellites_visible = UINT8_MAX;
+  int32_t alt_ellipsoid = 0;      ///< mm above the WGS84 ellipsoid
+  uint32_t h_acc = 0, v_acc = 0;  ///< mm
+  uint32_t vel_acc = 0;           ///< mm/s
+  uint32_t hdg_acc = 0;           ///< degE5
+  uint16_t yaw = 0;               ///< cdeg, 0 = unknown, 36000 = north
+  template <class IO, class M>
+  static void Fields(IO& io, M& m) {
+    io(m.time_usec), io(m.lat), io(m.lon), io(m.alt), io(m.eph), io(m.epv), io(m.vel), io(m.cog),
+        io(m.fix_type), io(m.satellites_visible);
+    io(m.alt_ellipsoid), io(m.h_acc), io(m.v_acc), io(m.vel_acc), io(m.hdg_acc), io(m.yaw);
   }
 };
 

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "aerovo/mavlink/protocol.h"
@@ -396,6 +397,96 @@ TEST(MavlinkParser, UnknownIdsAreRescannedAndSignedPacketsRead) {
   p.Feed(s.data(), s.size(), [&](const Packet& k) { ids.push_back(k.header.msgid); });
   EXPECT_EQ(ids, std::vector<uint32_t>{Heartbeat::kId});
   EXPECT_GE(p.stats().unknown, 1u);
+}
+
+// CRC_EXTRA as mavlink.io "Packet Serialization" ("CRC_EXTRA Calculation") defines it: the
+// CRC-16/MCRF4XX of the message name, then the type and name of each field in wire order (the
+// extension fields left out), each followed by a space; the two bytes XORed. Written here from
+// the definitions in common.xml, independently of the constants of messages.h.
+uint8_t CrcExtraOf(const std::string& name,
+                   const std::vector<std::pair<std::string, std::string>>& wire_fields) {
+  std::string text = name + " ";
+  for (const auto& [type, field] : wire_fields) text += type + " " + field + " ";
+  const uint16_t crc = Crc16Mcrf4xx(reinterpret_cast<const uint8_t*>(text.data()), text.size());
+  return static_cast<uint8_t>((crc & 0xFF) ^ (crc >> 8));
+}
+
+TEST(MavlinkDefinitions, CrcExtraOfTheTelemetryLogMessages) {
+  EXPECT_EQ(SystemTime::kCrcExtra, CrcExtraOf("SYSTEM_TIME", {{"uint64_t", "time_unix_usec"},
+                                                              {"uint32_t", "time_boot_ms"}}));
+  EXPECT_EQ(GpsRawInt::kCrcExtra, CrcExtraOf("GPS_RAW_INT", {{"uint64_t", "time_usec"},
+                                                             {"int32_t", "lat"},
+                                                             {"int32_t", "lon"},
+                                                             {"int32_t", "alt"},
+                                                             {"uint16_t", "eph"},
+                                                             {"uint16_t", "epv"},
+                                                             {"uint16_t", "vel"},
+                                                             {"uint16_t", "cog"},
+                                                             {"uint8_t", "fix_type"},
+                                                             {"uint8_t", "satellites_visible"}}));
+  EXPECT_EQ(GlobalPositionInt::kCrcExtra,
+            CrcExtraOf("GLOBAL_POSITION_INT", {{"uint32_t", "time_boot_ms"},
+                                               {"int32_t", "lat"},
+                                               {"int32_t", "lon"},
+                                               {"int32_t", "alt"},
+                                               {"int32_t", "relative_alt"},
+                                               {"int16_t", "vx"},
+                                               {"int16_t", "vy"},
+                                               {"int16_t", "vz"},
+                                               {"uint16_t", "hdg"}}));
+  EXPECT_EQ(Attitude::kCrcExtra, CrcExtraOf("ATTITUDE", {{"uint32_t", "time_boot_ms"},
+                                                         {"float", "roll"},
+                                                         {"float", "pitch"},
+                                                         {"float", "yaw"},
+                                                         {"float", "rollspeed"},
+                                                         {"float", "pitchspeed"},
+                                                         {"float", "yawspeed"}}));
+  // The MAVLink 1 lengths (the fields above) and the full ones (with the extensions).
+  EXPECT_EQ(Payload(SystemTime{}).size(), 12u);
+  EXPECT_EQ(GpsRawInt::kMinLength, 8 + 3 * 4 + 4 * 2 + 2);
+  EXPECT_EQ(Payload(GpsRawInt{}).size(), 30u + 4 * 5 + 2);
+}
+
+TEST(MavlinkCheckFrame, VersionsChecksumsAndLengths) {
+  GpsRawInt raw;
+  raw.lat = 435367000;
+  raw.fix_type = 3;
+  const auto v2 = Encode(raw, 4, 1, 1);
+  Packet p;
+  FrameCheck c = CheckFrame(v2.data(), v2.size() + 5, &p);  // bytes after it: ignored
+  EXPECT_EQ(c.status, FrameStatus::kOk);
+  EXPECT_EQ(c.size, v2.size());
+  EXPECT_EQ(c.msgid, GpsRawInt::kId);
+  EXPECT_FALSE(p.mavlink1);
+  ASSERT_EQ(p.payload.size(), GpsRawInt::kLength);  // padded back
+  EXPECT_EQ(Decode<GpsRawInt>(p)->lat, 435367000);
+  EXPECT_EQ(Decode<GpsRawInt>(p)->fix_type, 3);
+
+  const auto payload = Payload(raw);
+  const auto v1 = V1Packet(GpsRawInt::kId, GpsRawInt::kCrcExtra,
+                           std::vector<uint8_t>(payload.begin(), payload.begin() + 30));
+  c = CheckFrame(v1.data(), v1.size(), &p);
+  EXPECT_EQ(c.status, FrameStatus::kOk);
+  EXPECT_EQ(c.size, 6u + 30 + 2);
+  EXPECT_TRUE(p.mavlink1);
+  EXPECT_EQ(p.header.sysid, 1);
+  EXPECT_EQ(Decode<GpsRawInt>(p)->fix_type, 3);
+
+  EXPECT_EQ(CheckFrame(v1.data(), v1.size() - 1, &p).status, FrameStatus::kNeedMore);
+  EXPECT_EQ(CheckFrame(v2.data(), 5, &p).status, FrameStatus::kNeedMore);
+  auto bad = v2;
+  bad[12] ^= 1;
+  c = CheckFrame(bad.data(), bad.size(), &p);
+  EXPECT_EQ(c.status, FrameStatus::kBadChecksum);
+  EXPECT_EQ(c.msgid, GpsRawInt::kId);
+  auto unknown = v2;
+  unknown[7] = 74;  // VFR_HUD: not known to aerovo
+  EXPECT_EQ(CheckFrame(unknown.data(), unknown.size(), &p).status, FrameStatus::kUnknownMessage);
+  auto flags = v2;
+  flags[2] = 0x02;  // an incompatibility flag aerovo does not know
+  EXPECT_EQ(CheckFrame(flags.data(), flags.size(), &p).status, FrameStatus::kNotAFrame);
+  const uint8_t text[] = "hello";
+  EXPECT_EQ(CheckFrame(text, 5, &p).status, FrameStatus::kNotAFrame);
 }
 
 }  // namespace

@@ -22,6 +22,7 @@ const MessageInfo* FindMessageInfo(uint32_t msgid) {
       Info<Heartbeat>(),     Info<Attitude>(),       Info<GlobalPositionInt>(),
       Info<VisionPositionEstimate>(), Info<Timesync>(), Info<DistanceSensor>(),
       Info<GpsInput>(),      Info<Odometry>(),       Info<VisionPositionDelta>(),
+      Info<SystemTime>(),    Info<GpsRawInt>(),
   };
   for (const MessageInfo& m : kKnown) {
     if (m.id == msgid) return &m;
@@ -51,6 +52,55 @@ std::vector<uint8_t> EncodePacket(const PacketHeader& h, uint8_t crc_extra, cons
   out[kHeaderBytes + n] = static_cast<uint8_t>(crc & 0xFF);
   out[kHeaderBytes + n + 1] = static_cast<uint8_t>(crc >> 8);
   return out;
+}
+
+FrameCheck CheckFrame(const uint8_t* data, std::size_t n, Packet* packet) {
+  FrameCheck r;
+  if (n == 0 || (data[0] != kMagicV2 && data[0] != kMagicV1)) return r;
+  const bool v1 = data[0] == kMagicV1;
+  const std::size_t header = v1 ? kHeaderBytesV1 : kHeaderBytes;
+  if (n < header) {
+    r.status = FrameStatus::kNeedMore;
+    return r;
+  }
+  const std::size_t len = data[1];
+  const bool is_signed = !v1 && (data[2] & kIncompatSigned) != 0;
+  if (!v1 && (data[2] & ~kIncompatSigned) != 0) return r;  // a flag aerovo cannot honour
+  r.size = header + len + kChecksumBytes + (is_signed ? kSignatureBytes : 0);
+  const uint32_t msgid =
+      v1 ? data[5]
+         : data[7] | (static_cast<uint32_t>(data[8]) << 8) | (static_cast<uint32_t>(data[9]) << 16);
+  r.msgid = msgid;
+  if (n < r.size) {
+    r.status = FrameStatus::kNeedMore;
+    return r;
+  }
+  const MessageInfo* info = FindMessageInfo(msgid);
+  if (info == nullptr) {
+    r.status = FrameStatus::kUnknownMessage;
+    return r;
+  }
+  uint16_t crc = Crc16Mcrf4xx(data + 1, header - 1 + len);
+  crc = Crc16Accumulate(info->crc_extra, crc);
+  const uint16_t got = data[header + len] | static_cast<uint16_t>(data[header + len + 1] << 8);
+  if (len > info->max_length || crc != got) {
+    r.status = FrameStatus::kBadChecksum;
+    return r;
+  }
+  r.status = FrameStatus::kOk;
+  if (packet != nullptr) {
+    packet->header.seq = data[v1 ? 2 : 4];
+    packet->header.sysid = data[v1 ? 3 : 5];
+    packet->header.compid = data[v1 ? 4 : 6];
+    packet->header.msgid = msgid;
+    packet->wire_length = static_cast<uint8_t>(len);
+    packet->payload.assign(info->max_length, 0);
+    std::copy(data + header, data + header + len, packet->payload.begin());
+    packet->is_signed = is_signed;
+    packet->mavlink1 = v1;
+    packet->frame.assign(data, data + r.size);
+  }
+  return r;
 }
 
 void Parser::StepV1(uint8_t byte) {

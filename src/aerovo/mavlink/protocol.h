@@ -47,6 +47,7 @@ struct Packet {
   uint8_t wire_length = 0;       ///< Payload bytes that were on the wire (after truncation).
   std::vector<uint8_t> payload;  ///< Padded payload.
   bool is_signed = false;        ///< incompat_flags & kIncompatSigned: 13 signature bytes follow.
+  bool mavlink1 = false;         ///< A MAVLink 1 packet (CheckFrame only; the Parser reads v2).
   std::vector<uint8_t> frame;    ///< The whole packet as received, magic to signature.
 };
 
@@ -65,6 +66,30 @@ const MessageInfo* FindMessageInfo(uint32_t msgid);
 /// here) as a MAVLink 2 packet with `header` (msgid included) and `crc_extra`. Unsigned.
 std::vector<uint8_t> EncodePacket(const PacketHeader& header, uint8_t crc_extra,
                                   const uint8_t* payload, std::size_t length);
+
+/// What CheckFrame found at the start of a buffer.
+enum class FrameStatus {
+  kOk,              ///< A whole packet of a known message with the right checksum.
+  kNeedMore,        ///< The buffer ends before the packet its header announces.
+  kNotAFrame,       ///< No magic byte, or MAVLink 2 incompatibility flags aerovo does not know.
+  kUnknownMessage,  ///< A packet of a message FindMessageInfo does not know: not checkable.
+  kBadChecksum,     ///< A known message whose checksum is wrong, or longer than its definition.
+};
+struct FrameCheck {
+  FrameStatus status = FrameStatus::kNotAFrame;
+  /// Bytes of the packet, magic to checksum (and signature), once its header is in (kOk,
+  /// kUnknownMessage, kBadChecksum, and kNeedMore when the header was complete); else 0.
+  std::size_t size = 0;
+  uint32_t msgid = 0;  ///< The packet's message id (once its header is in).
+};
+/// Checks the `n` bytes at `data` as one packet starting at data[0]: MAVLink 2 (0xFD) or
+/// MAVLink 1 (0xFE, kMagicV1: its payload is never truncated, its length is the message's
+/// MAVLink 1 length; a shorter or longer one, up to max_length, is read padded like a MAVLink 2
+/// one and must still pass the checksum). On kOk `packet` (when not null) receives the header,
+/// the payload padded with zeros to the message's max_length, is_signed, mavlink1 and the
+/// frame. The signature of a signed packet is counted in `size`, not checked (signing.h). For
+/// a file of packets (a telemetry log) where the Parser's stream state does not fit.
+FrameCheck CheckFrame(const uint8_t* data, std::size_t n, Packet* packet);
 
 /// Counts of what a Parser saw.
 struct ParserStats {

@@ -1,5 +1,6 @@
 // Readers of flight telemetry files: DJI .SRT subtitles, GPX tracks, CSV tables and ArduPilot
 // DataFlash logs (.bin, and their text form .log).
+// MAVLink telemetry logs (.tlog) of a ground station: ParseTlog below.
 //
 // Every reader is a pure parsing function over a std::istream (`source_name` is used only in
 // messages) plus a wrapper that opens a file. Errors are InputError with the message
@@ -161,8 +162,39 @@ TelemetryReadResult ParseDataFlash(std::istream& in, const std::string& source_n
 TelemetryReadResult ReadDataFlash(const std::filesystem::path& path,
                                   const TelemetryReadOptions& options = {});
 
+/// MAVLink telemetry logs (.tlog) as Mission Planner, QGroundControl and MAVProxy record the
+/// link to an ArduPilot or PX4 autopilot: records of an 8-byte big-endian timestamp (the ground
+/// station's clock, microseconds since 1970) and one MAVLink 1 or 2 packet. Read from the
+/// vehicle only: component 1 of the first system that sends a HEARTBEAT with an autopilot type
+/// (not MAV_AUTOPILOT_INVALID, which ground stations send); other systems' positions are ignored
+/// with a warning. Messages (common.xml):
+///  - GLOBAL_POSITION_INT: one sample each: lat, lon (degE7 -> degrees), alt (mm MSL ->
+///    abs_alt_m), relative_alt (mm above home -> rel_alt_m), hdg (cdeg -> yaw_deg, only when no
+///    ATTITUDE is at hand); time_s = time_boot_ms / 1000 (seconds since the autopilot booted).
+///    latitude = longitude = 0, or the latest GPS_RAW_INT saying fix_type < 3 (no 3D fix), is
+///    counted in no_fix_records and gives no sample;
+///  - ATTITUDE roll, pitch, yaw (radians -> degrees) interpolated onto each sample (along the
+///    shorter arc; not across a gap of more than 1 s, never extrapolated; kept at most every
+///    0.02 s);
+///  - unix_time_s: from SYSTEM_TIME (time_unix_usec - time_boot_ms, the first non-zero one of
+///    each boot) when the autopilot sends it, else the record's timestamp (the ground station's
+///    clock, late by the link's latency).
+/// An autopilot reboot (time_boot_ms going back by more than 2 s) is not an error: time_s goes on
+/// from the ground station's clock across the gap, with a warning naming the byte offset.
+/// Damaged bytes are skipped up to the next plausible record, a packet with a wrong checksum is
+/// skipped and counted, a cut last record is dropped, each with a warning naming the byte
+/// offset (whatever the mode). A file that does not start with a record throws InputError
+/// "not a MAVLink telemetry log"; a log without an autopilot HEARTBEAT (a ground station alone)
+/// or without a GLOBAL_POSITION_INT with a fix throws InputError. Memory is bounded by the
+/// samples kept (64 KiB read window).
+TelemetryReadResult ParseTlog(std::istream& in, const std::string& source_name,
+                              const TelemetryReadOptions& options = {});
+TelemetryReadResult ReadTlog(const std::filesystem::path& path,
+                             const TelemetryReadOptions& options = {});
+
 /// Picks the reader by extension (case-insensitive): .srt, .gpx, .csv/.txt, .bin/.log
-/// (DataFlash). Throws InputError for a missing/unreadable file or an unknown extension.
+/// (DataFlash), .tlog (MAVLink telemetry log). Throws InputError for a missing/unreadable file
+/// or an unknown extension.
 TelemetryReadResult ReadTelemetryFile(const std::filesystem::path& path,
                                       const TelemetryReadOptions& options = {});
 
