@@ -33,15 +33,19 @@
 
 #include <fmt/format.h>
 
+#include "aerovo/telemetry/binary_log_util.h"
 #include "aerovo/telemetry/parse_util.h"
 #include "aerovo/telemetry/telemetry_readers.h"
 
 namespace aerovo {
 namespace {
 
+using io_detail::ByteWindow;
+using io_detail::LoadLe;
 using io_detail::ParseDouble;
 using io_detail::Printable;
 using io_detail::RecordErrors;
+using io_detail::SeriesPoint;
 using io_detail::Trim;
 
 constexpr unsigned char kHead1 = 0xA3;
@@ -106,13 +110,6 @@ int FieldSize(char c) {
   }
 }
 
-// Little-endian unsigned integer of n bytes at p.
-std::uint64_t LoadLe(const unsigned char* p, int n) {
-  std::uint64_t v = 0;
-  for (int k = n - 1; k >= 0; --k) v = (v << 8) | p[k];
-  return v;
-}
-
 // The value of the field of format character c at p, scaled (c/C/e/E / 100, L / 1e7 degrees);
 // nullopt for strings and arrays.
 std::optional<double> DecodeField(const unsigned char* p, char c) {
@@ -144,18 +141,10 @@ std::optional<double> DecodeField(const unsigned char* p, char c) {
       return static_cast<double>(LoadLe(p, 4)) / 100.0;
     case 'L':
       return static_cast<std::int32_t>(LoadLe(p, 4)) / 1e7;
-    case 'f': {
-      const std::uint32_t bits = static_cast<std::uint32_t>(LoadLe(p, 4));
-      float v;
-      std::memcpy(&v, &bits, sizeof v);
-      return static_cast<double>(v);
-    }
-    case 'd': {
-      const std::uint64_t bits = LoadLe(p, 8);
-      double v;
-      std::memcpy(&v, &bits, sizeof v);
-      return v;
-    }
+    case 'f':
+      return io_detail::LoadFloatLe(p);
+    case 'd':
+      return io_detail::LoadDoubleLe(p);
     default:
       return std::nullopt;
   }
@@ -243,12 +232,6 @@ Roles RolesOf(const std::string& name, const std::vector<std::string>& columns,
   return r;
 }
 
-// A value of a time series (ATT: roll, pitch, yaw in degrees; POS: height above home, m).
-struct SeriesPoint {
-  double time_s;
-  double v[3];
-};
-
 // Collects what the messages say, whichever form they came in, and builds the samples.
 class Collector {
  public:
@@ -292,15 +275,17 @@ class Collector {
   }
 
   TelemetryReadResult Finish() {
-    std::stable_sort(att_.begin(), att_.end(), ByTime);
-    std::stable_sort(pos_.begin(), pos_.end(), ByTime);
+    std::stable_sort(att_.begin(), att_.end(), io_detail::SeriesByTime);
+    std::stable_sort(pos_.begin(), pos_.end(), io_detail::SeriesByTime);
     for (TelemetrySample& s : samples_) {
-      if (const auto a = Interpolate(att_, s.time_s, true)) {
+      if (const auto a =
+              io_detail::InterpolateSeries(att_, s.time_s, true, kMaxInterpolationGapS)) {
         s.roll_deg = a->v[0];
         s.pitch_deg = a->v[1];
         s.yaw_deg = a->v[2];
       }
-      if (const auto p = Interpolate(pos_, s.time_s, false)) s.rel_alt_m = p->v[0];
+      if (const auto p = io_detail::InterpolateSeries(pos_, s.time_s, false, kMaxInterpolationGapS))
+        s.rel_alt_m = p->v[0];
     }
     if (samples_.empty() && gps_messages_ == 0 && !missing_.empty()) {
       throw InputError(
@@ -326,35 +311,6 @@ class Collector {
   }
 
  private:
-  static bool ByTime(const SeriesPoint& a, const SeriesPoint& b) { return a.time_s < b.time_s; }
-
-  // Linear interpolation of `series` (sorted) at t; angles (`angles`) along the shorter arc, the
-  // third one (yaw) normalised to [0, 360). nullopt outside the series or across a gap.
-  static std::optional<SeriesPoint> Interpolate(const std::vector<SeriesPoint>& series, double t,
-                                                bool angles) {
-    if (series.empty() || t < series.front().time_s || t > series.back().time_s) {
-      return std::nullopt;
-    }
-    const auto it = std::lower_bound(series.begin(), series.end(), t,
-                                     [](const SeriesPoint& p, double x) { return p.time_s < x; });
-    if (it->time_s == t) return *it;
-    const SeriesPoint& b = *it;
-    const SeriesPoint& a = *(it - 1);
-    if (b.time_s - a.time_s > kMaxInterpolationGapS) return std::nullopt;
-    const double w = (t - a.time_s) / (b.time_s - a.time_s);
-    SeriesPoint r{t, {}};
-    for (int k = 0; k < 3; ++k) {
-      double d = b.v[k] - a.v[k];
-      if (angles) d = std::remainder(d, 360.0);
-      r.v[k] = a.v[k] + w * d;
-    }
-    if (angles) {
-      r.v[2] = std::fmod(r.v[2], 360.0);
-      if (r.v[2] < 0.0) r.v[2] += 360.0;
-    }
-    return r;
-  }
-
   template <typename Value>
   std::optional<double> Time(const Roles& roles, const Value& value, long long place,
                              const char* what) {
@@ -465,44 +421,6 @@ class Collector {
 
 // ------------------------------------------------------------------------------ binary form
 
-// The input read through a fixed-size window: memory stays bounded whatever the file's size.
-class ByteWindow {
- public:
-  explicit ByteWindow(std::istream& in) : in_(in), buf_(kCapacity) {}
-  // Makes at least n (<= kCapacity) bytes available unless the input ends first; returns
-  // the number available.
-  std::size_t Fill(std::size_t n) {
-    if (end_ - pos_ >= n || eof_) return end_ - pos_;
-    if (pos_ > 0) {
-      std::memmove(buf_.data(), buf_.data() + pos_, end_ - pos_);
-      end_ -= pos_;
-      pos_ = 0;
-    }
-    while (end_ < n && !eof_) {
-      in_.read(reinterpret_cast<char*>(buf_.data() + end_),
-               static_cast<std::streamsize>(buf_.size() - end_));
-      const std::streamsize got = in_.gcount();
-      if (got <= 0) eof_ = true;
-      end_ += static_cast<std::size_t>(got > 0 ? got : 0);
-    }
-    return end_ - pos_;
-  }
-  const unsigned char* data() const { return buf_.data() + pos_; }
-  void Skip(std::size_t n) {
-    pos_ += n;
-    offset_ += static_cast<long long>(n);
-  }
-  long long offset() const { return offset_; }
-
- private:
-  static constexpr std::size_t kCapacity = std::size_t{1} << 16;
-  std::istream& in_;
-  std::vector<unsigned char> buf_;
-  std::size_t pos_ = 0, end_ = 0;
-  long long offset_ = 0;
-  bool eof_ = false;
-};
-
 struct BinaryFormat {
   bool defined = false;
   int length = 0;  // whole message, header included; >= 3
@@ -518,7 +436,7 @@ std::string Looks(const unsigned char* p, std::size_t n) {
     return n >= magic.size() && std::memcmp(p, magic.data(), magic.size()) == 0;
   };
   if (starts("\xFF\xD8\xFF")) return " (a JPEG image)";
-  if (starts("ULog")) return " (a PX4 ULog: convert a position topic with ulog2csv)";
+  if (starts("ULog")) return " (a PX4 ULog: name it .ulg)";
   if (starts("PK\x03\x04")) return " (a ZIP archive)";
   if (starts("\xFE") || starts("\xFD")) return " (a MAVLink telemetry log, .tlog?)";
   return "";
