@@ -608,6 +608,7 @@ TelemetryReadResult ReadTelemetryFile(const std::filesystem::path& path,
   if (ext == ".gpx") return ReadGpx(path, options);
   if (ext == ".csv" || ext == ".txt") return ReadTelemetryCsv(path, options);
   if (ext == ".bin" || ext == ".log") return ReadDataFlash(path, options);
+  if (ext == ".ulg") return ReadULog(path, options);
   throw InputError(fmt::format(
       "{}: unknown telemetry format '{}' (expected .srt, .gpx, .csv or an ArduPilot .bin/.log)",
       path.string(), ext));
