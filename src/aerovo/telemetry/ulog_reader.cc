@@ -744,7 +744,9 @@ class Parser {
       : w_(in, kWindowBytes), options_(options), errors_(errors), out_(out) {}
 
   void Run() {
-    w_.Skip(kFileHeaderSize);  // checked by ParseULog
+    // The header, checked by ParseULog.
+    if (w_.Fill(kFileHeaderSize) < kFileHeaderSize) return;
+    w_.Skip(kFileHeaderSize);
     while (true) {
       std::size_t avail = w_.Fill(kLookahead);
       if (avail == 0) break;
@@ -804,10 +806,10 @@ class Parser {
                                  : fmt::format("\\x{:02X}", t);
   }
 
-  // Whether a message starts at p (`avail` bytes from p): a plausible header, the whole message
-  // in the file, a consistent payload, and after it the end of the file or another plausible
-  // header (bytes inserted into a message or lost from it make it fail: a damaged message is
-  // dropped, not read with shifted fields). kUnknown: a message of an unknown type followed by
+  // Whether a message starts at p = w_.data() (`avail` bytes from p): a plausible header, the whole
+  // message in the file, a consistent payload, and after it the end of the file or another
+  // plausible header (bytes inserted into a message or lost from it make it fail: a damaged message
+  // is dropped, not read with shifted fields). kUnknown: a message of an unknown type followed by
   // a known message (ignored, as the format requires); never while resynchronising.
   Check Plausible(const unsigned char* p, std::size_t avail, bool resync) const {
     if (avail < kMessageHeaderSize) return Check::kCut;
@@ -815,6 +817,8 @@ class Parser {
     const unsigned char type = p[2];
     const bool known = IsKnownType(type);
     if (known && !PlausibleHeader(type, size)) return Check::kBad;
+    // 'B' is "the first message right after the header section" (and only there).
+    if (type == 'B' && w_.offset() != static_cast<long long>(kFileHeaderSize)) return Check::kBad;
     if (!known && resync) return Check::kBad;
     if (avail < kMessageHeaderSize + size) return Check::kCut;
     if (known && !PlausiblePayload(type, p + kMessageHeaderSize, size)) return Check::kBad;
@@ -822,7 +826,9 @@ class Parser {
     if (avail >= next + kMessageHeaderSize) {
       const unsigned char next_type = p[next + 2];
       const std::size_t next_size = static_cast<std::size_t>(LoadLe(p + next, 2));
-      if (!IsKnownType(next_type) || !PlausibleHeader(next_type, next_size)) return Check::kBad;
+      if (!IsKnownType(next_type) || next_type == 'B' || !PlausibleHeader(next_type, next_size)) {
+        return Check::kBad;
+      }
     }
     return known ? Check::kOk : Check::kUnknown;
   }
