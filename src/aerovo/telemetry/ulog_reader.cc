@@ -44,6 +44,7 @@
 //    GLOBAL_POSITION_INT.relative_alt (src/modules/mavlink/streams/GLOBAL_POSITION_INT.hpp).
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -826,9 +827,12 @@ class Parser {
     if (avail >= next + kMessageHeaderSize) {
       const unsigned char next_type = p[next + 2];
       const std::size_t next_size = static_cast<std::size_t>(LoadLe(p + next, 2));
-      if (!IsKnownType(next_type) || next_type == 'B' || !PlausibleHeader(next_type, next_size)) {
-        return Check::kBad;
-      }
+      // After a known message, a message of an unknown type (a letter, as every type is) is
+      // accepted when reading on, not when resynchronising.
+      const bool next_ok = IsKnownType(next_type)
+                               ? next_type != 'B' && PlausibleHeader(next_type, next_size)
+                               : known && !resync && std::isalpha(next_type) != 0;
+      if (!next_ok) return Check::kBad;
     }
     return known ? Check::kOk : Check::kUnknown;
   }

@@ -436,6 +436,24 @@ TEST(ULog, ACutLastMessageIsDroppedWithAWarning) {
   EXPECT_THAT(::testing::PrintToString(r.warnings), HasSubstr("is cut short"));
 }
 
+TEST(ULog, MessagesOfUnknownTypesAreIgnored) {
+  // "Must ignore unknown messages" (a later version of the format may add types).
+  ULogWriter w;
+  w.Format(kSensorGps);
+  w.Subscribe(0, 0, "sensor_gps");
+  for (int i = 0; i < 3; ++i) {
+    w.Data(0, Pack(kSensorGps, {{"timestamp", 1e6 * (i + 1)},
+                                {"latitude_deg", 43.0},
+                                {"longitude_deg", 6.0 + 0.001 * i},
+                                {"fix_type", 3}}));
+    w.Message('X', "future");
+  }
+  const TelemetryReadResult r = Parse(w.bytes());
+  EXPECT_EQ(r.records, 3);
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_THAT(r.warnings[0], HasSubstr("3 messages of a type aerovo does not know (first 'X'"));
+}
+
 TEST(ULog, NoFixIsAnInputError) {
   ULogWriter w;
   w.Format(kSensorGps);
