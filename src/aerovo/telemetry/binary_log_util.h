@@ -35,13 +35,15 @@ inline double LoadDoubleLe(const unsigned char* p) {
   return v;
 }
 
-/// The input read through a fixed-size window: memory stays bounded whatever the file's size.
+/// The input read through a bounded window: memory stays bounded whatever the file's size. The
+/// window starts small and grows (up to its capacity) only while the input has more bytes than
+/// it holds, so that a small file costs a small buffer.
 class ByteWindow {
  public:
   /// `capacity`: the most bytes Fill can make available at once (the longest message plus
   /// what the reader looks ahead).
   explicit ByteWindow(std::istream& in, std::size_t capacity = std::size_t{1} << 16)
-      : in_(in), buf_(capacity) {}
+      : in_(in), capacity_(capacity), buf_(std::min<std::size_t>(capacity, 4096)) {}
   /// Makes at least n (<= capacity) bytes available unless the input ends first; returns the
   /// number available.
   std::size_t Fill(std::size_t n) {
@@ -52,6 +54,7 @@ class ByteWindow {
       pos_ = 0;
     }
     while (end_ < n && !eof_) {
+      if (end_ == buf_.size()) buf_.resize(std::min(capacity_, 2 * buf_.size()));
       in_.read(reinterpret_cast<char*>(buf_.data() + end_),
                static_cast<std::streamsize>(buf_.size() - end_));
       const std::streamsize got = in_.gcount();
@@ -71,6 +74,7 @@ class ByteWindow {
 
  private:
   std::istream& in_;
+  std::size_t capacity_;
   std::vector<unsigned char> buf_;
   std::size_t pos_ = 0, end_ = 0;
   long long offset_ = 0;

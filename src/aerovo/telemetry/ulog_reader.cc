@@ -1064,7 +1064,7 @@ TelemetryReadResult ParseULog(std::istream& in, const std::string& source_name,
                               const TelemetryReadOptions& options) {
   namespace u = ulog_reader;
   Validate(options);
-  RecordErrors errors(options, source_name);
+  io_detail::RecordErrors errors(options, source_name);
   unsigned char head[u::kFileHeaderSize] = {};
   const std::streampos start = in.tellg();
   in.read(reinterpret_cast<char*>(head), u::kFileHeaderSize);
