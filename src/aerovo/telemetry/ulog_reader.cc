@@ -511,8 +511,8 @@ class Collector {
           Malformed(offset, "home_position z is not a height in metres");
           return;
         }
-        // Home is set at arming and seldom changes: a few messages; the last ones are kept.
-        if (home_.size() >= 10000) home_.erase(home_.begin());
+        // Home is set at arming and seldom changes: a few messages, kept as often as the rest.
+        if (!home_.empty() && std::abs(t - home_.back().time_s) < kMinSeriesStepS) return;
         home_.push_back(SeriesPoint{t, {*z, 0.0, 0.0}});
         break;
       }
