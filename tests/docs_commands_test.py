@@ -409,6 +409,10 @@ PLAN = {
     "aerovo run flight.mp4 --telemetry flight.tlog --telemetry-offset-s 312.5 -o flight": Row(
         skip="needs a ground station's MAVLink telemetry log recorded with the example video; the "
         "reader is tested on logs written byte for byte (Tlog.* in telemetry/tlog_reader_test.cc)"),
+    "aerovo run flight.mp4 --telemetry log_12_2026-5-3-10-20-00.ulg --telemetry-offset-s 312.5 "
+    "-o flight": Row(
+        skip="needs a PX4 ULog recorded with the example video; the reader is tested on logs "
+        "written byte for byte (ULog.* in telemetry/ulog_reader_test.cc)"),
     "aerovo run 0 --print-poses --altitude 80 --hfov-deg 70": Row(
         skip=f"{HARDWARE}: a camera (index 0)"),
     "aerovo run udp://0.0.0.0:5600 --poses-jsonl - --altitude 80 --hfov-deg 70 | my-consumer": Row(

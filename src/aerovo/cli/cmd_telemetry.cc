@@ -1,6 +1,6 @@
 // `aerovo telemetry`: reads a telemetry source (DJI .srt, .gpx, .csv, an ArduPilot .bin/.log, a
-// MAVLink .tlog, a photo or a folder of photos) the way `aerovo run` does and prints what it
-// found, to check a flight's files.
+// PX4 .ulg, a MAVLink .tlog, a photo or a folder of photos) the way `aerovo run` does and prints
+// what it found, to check a flight's files.
 #include <fmt/core.h>
 
 #include <algorithm>
@@ -129,11 +129,12 @@ void Run(const TelemetryArgs& args) {
 
 void RegisterTelemetryCommand(CLI::App& app) {
   auto args = std::make_shared<TelemetryArgs>();
-  CLI::App* cmd = app.add_subcommand(
-      "telemetry",
-      "Read a telemetry source (DJI .srt, .gpx, .csv, ArduPilot .bin/.log, MAVLink .tlog, a photo "
-      "or a photo folder) and summarise "
-      "it;\nmalformed records are errors naming file:line unless --lenient");
+  CLI::App* cmd =
+      app.add_subcommand("telemetry",
+                         "Read a telemetry source (DJI .srt, .gpx, .csv, ArduPilot .bin/.log, PX4 "
+                         ".ulg, MAVLink .tlog, "
+                         "a photo or a photo folder) and summarise "
+                         "it;\nmalformed records are errors naming file:line unless --lenient");
   cmd->add_option("source", args->path, "Telemetry file, photo, or folder of photos")->required();
   cmd->add_flag("--lenient", args->lenient,
                 "Skip malformed records (counted and listed) instead of stopping at the first");

@@ -359,7 +359,7 @@ template <class V>
 void VisitFields(RunConfig& c, V& v) {
   using namespace options;
   v.Field(c.input, "input", "Video file, image folder (telemetry from EXIF/XMP), camera index, /dev/videoN or URL", Any().Flags("input"));
-  v.Field(c.telemetry, "telemetry", "Telemetry file: DJI .srt, .gpx, .csv, an ArduPilot DataFlash log (.bin, .log) or a MAVLink telemetry log (.tlog)", Any());
+  v.Field(c.telemetry, "telemetry", "Telemetry file: DJI .srt, .gpx, .csv, an ArduPilot DataFlash log (.bin, .log), a PX4 ULog (.ulg) or a MAVLink telemetry log (.tlog)", Any());
   v.Field(c.lenient_telemetry, "lenient_telemetry", "Skip malformed telemetry records (counted in the warnings) instead of stopping", Any().Switch());
   v.Field(c.truth, "truth", "Ground truth to compare with beside GPS: TUM (.tum/.txt) or a track with positions (.csv, .gpx, .srt)", Any());
   v.Field(c.out, "out", "Output folder", Any().Flags("-o"));

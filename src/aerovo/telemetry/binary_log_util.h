@@ -1,11 +1,12 @@
-// Internal helpers of the readers of binary flight logs (dataflash_reader.cc, tlog_reader.cc; not
-// part of the public API): the input read through a bounded window, and a time series (attitude,
-// height) interpolated onto the samples' times.
+// Internal helpers shared by the readers of binary flight logs (dataflash_reader.cc,
+// ulog_reader.cc, tlog_reader.cc; not part of the public API): a bounded read window over the
+// input, little-endian loads, and the interpolation of attitude / height series onto GPS times.
 #pragma once
 
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <cstring>
 #include <istream>
 #include <optional>
@@ -13,14 +14,38 @@
 
 namespace aerovo::io_detail {
 
-/// The input read through a fixed-size window (64 KiB): memory stays bounded whatever the
-/// file's size.
+/// Little-endian unsigned integer of n (<= 8) bytes at p.
+inline std::uint64_t LoadLe(const unsigned char* p, int n) {
+  std::uint64_t v = 0;
+  for (int k = n - 1; k >= 0; --k) v = (v << 8) | p[k];
+  return v;
+}
+
+/// IEEE 754 binary32 / binary64 stored little-endian at p.
+inline double LoadFloatLe(const unsigned char* p) {
+  const std::uint32_t bits = static_cast<std::uint32_t>(LoadLe(p, 4));
+  float v;
+  std::memcpy(&v, &bits, sizeof v);
+  return static_cast<double>(v);
+}
+inline double LoadDoubleLe(const unsigned char* p) {
+  const std::uint64_t bits = LoadLe(p, 8);
+  double v;
+  std::memcpy(&v, &bits, sizeof v);
+  return v;
+}
+
+/// The input read through a bounded window: memory stays bounded whatever the file's size. The
+/// window starts small and grows (up to its capacity) only while the input has more bytes than
+/// it holds, so that a small file costs a small buffer.
 class ByteWindow {
  public:
-  static constexpr std::size_t kCapacity = std::size_t{1} << 16;
-  explicit ByteWindow(std::istream& in) : in_(in), buf_(kCapacity) {}
-  /// Makes at least n (<= kCapacity) bytes available unless the input ends first; returns
-  /// the number available.
+  /// `capacity`: the most bytes Fill can make available at once (the longest message plus
+  /// what the reader looks ahead).
+  explicit ByteWindow(std::istream& in, std::size_t capacity = std::size_t{1} << 16)
+      : in_(in), capacity_(capacity), buf_(std::min<std::size_t>(capacity, 4096)) {}
+  /// Makes at least n (<= capacity) bytes available unless the input ends first; returns the
+  /// number available.
   std::size_t Fill(std::size_t n) {
     if (end_ - pos_ >= n || eof_) return end_ - pos_;
     if (pos_ > 0) {
@@ -29,6 +54,7 @@ class ByteWindow {
       pos_ = 0;
     }
     while (end_ < n && !eof_) {
+      if (end_ == buf_.size()) buf_.resize(std::min(capacity_, 2 * buf_.size()));
       in_.read(reinterpret_cast<char*>(buf_.data() + end_),
                static_cast<std::streamsize>(buf_.size() - end_));
       const std::streamsize got = in_.gcount();
@@ -38,6 +64,7 @@ class ByteWindow {
     return end_ - pos_;
   }
   const unsigned char* data() const { return buf_.data() + pos_; }
+  /// Skips n bytes (n <= the bytes available).
   void Skip(std::size_t n) {
     pos_ += n;
     offset_ += static_cast<long long>(n);
@@ -47,14 +74,14 @@ class ByteWindow {
 
  private:
   std::istream& in_;
+  std::size_t capacity_;
   std::vector<unsigned char> buf_;
   std::size_t pos_ = 0, end_ = 0;
   long long offset_ = 0;
   bool eof_ = false;
 };
 
-/// A value of a time series: three numbers at a time (roll, pitch, yaw in degrees; or a height
-/// in v[0]).
+/// A value of a time series (attitude: roll, pitch, yaw in degrees; a height in metres in v[0]).
 struct SeriesPoint {
   double time_s;
   double v[3];
@@ -62,9 +89,9 @@ struct SeriesPoint {
 
 inline bool SeriesByTime(const SeriesPoint& a, const SeriesPoint& b) { return a.time_s < b.time_s; }
 
-/// Linear interpolation of `series` (sorted by time) at t; with `angles` (degrees) along the
-/// shorter arc and the third value (yaw) normalised to [0, 360). nullopt outside the series or
-/// between neighbours more than `max_gap_s` apart (a gap in the log): never extrapolated.
+/// Linear interpolation of `series` (sorted by time) at t; with `angles`, along the shorter arc,
+/// the third one (yaw) normalised to [0, 360). nullopt outside the series (never extrapolated)
+/// or between neighbours more than `max_gap_s` apart (a gap in the log).
 inline std::optional<SeriesPoint> InterpolateSeries(const std::vector<SeriesPoint>& series,
                                                     double t, bool angles, double max_gap_s) {
   if (series.empty() || t < series.front().time_s || t > series.back().time_s) {

@@ -609,9 +609,11 @@ TelemetryReadResult ReadTelemetryFile(const std::filesystem::path& path,
   if (ext == ".csv" || ext == ".txt") return ReadTelemetryCsv(path, options);
   if (ext == ".bin" || ext == ".log") return ReadDataFlash(path, options);
   if (ext == ".tlog") return ReadTlog(path, options);
-  throw InputError(fmt::format(
-      "{}: unknown telemetry format '{}' (expected .srt, .gpx, .csv or an ArduPilot .bin/.log)",
-      path.string(), ext));
+  if (ext == ".ulg") return ReadULog(path, options);
+  throw InputError(
+      fmt::format("{}: unknown telemetry format '{}' (expected .srt, .gpx, .csv, an ArduPilot "
+                  ".bin/.log, a PX4 .ulg or a MAVLink .tlog)",
+                  path.string(), ext));
 }
 
 }  // namespace aerovo

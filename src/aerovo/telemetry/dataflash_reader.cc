@@ -40,9 +40,12 @@
 namespace aerovo {
 namespace {
 
+using io_detail::ByteWindow;
+using io_detail::LoadLe;
 using io_detail::ParseDouble;
 using io_detail::Printable;
 using io_detail::RecordErrors;
+using io_detail::SeriesPoint;
 using io_detail::Trim;
 
 constexpr unsigned char kHead1 = 0xA3;
@@ -107,13 +110,6 @@ int FieldSize(char c) {
   }
 }
 
-// Little-endian unsigned integer of n bytes at p.
-std::uint64_t LoadLe(const unsigned char* p, int n) {
-  std::uint64_t v = 0;
-  for (int k = n - 1; k >= 0; --k) v = (v << 8) | p[k];
-  return v;
-}
-
 // The value of the field of format character c at p, scaled (c/C/e/E / 100, L / 1e7 degrees);
 // nullopt for strings and arrays.
 std::optional<double> DecodeField(const unsigned char* p, char c) {
@@ -145,18 +141,10 @@ std::optional<double> DecodeField(const unsigned char* p, char c) {
       return static_cast<double>(LoadLe(p, 4)) / 100.0;
     case 'L':
       return static_cast<std::int32_t>(LoadLe(p, 4)) / 1e7;
-    case 'f': {
-      const std::uint32_t bits = static_cast<std::uint32_t>(LoadLe(p, 4));
-      float v;
-      std::memcpy(&v, &bits, sizeof v);
-      return static_cast<double>(v);
-    }
-    case 'd': {
-      const std::uint64_t bits = LoadLe(p, 8);
-      double v;
-      std::memcpy(&v, &bits, sizeof v);
-      return v;
-    }
+    case 'f':
+      return io_detail::LoadFloatLe(p);
+    case 'd':
+      return io_detail::LoadDoubleLe(p);
     default:
       return std::nullopt;
   }
@@ -243,9 +231,6 @@ Roles RolesOf(const std::string& name, const std::vector<std::string>& columns,
   }
   return r;
 }
-
-// A value of a time series (ATT: roll, pitch, yaw in degrees; POS: height above home, m).
-using io_detail::SeriesPoint;
 
 // Collects what the messages say, whichever form they came in, and builds the samples.
 class Collector {
@@ -436,8 +421,6 @@ class Collector {
 
 // ------------------------------------------------------------------------------ binary form
 
-using io_detail::ByteWindow;
-
 struct BinaryFormat {
   bool defined = false;
   int length = 0;  // whole message, header included; >= 3
@@ -453,9 +436,13 @@ std::string Looks(const unsigned char* p, std::size_t n) {
     return n >= magic.size() && std::memcmp(p, magic.data(), magic.size()) == 0;
   };
   if (starts("\xFF\xD8\xFF")) return " (a JPEG image)";
-  if (starts("ULog")) return " (a PX4 ULog: convert a position topic with ulog2csv)";
+  if (starts("ULog")) return " (a PX4 ULog: name it .ulg)";
   if (starts("PK\x03\x04")) return " (a ZIP archive)";
-  if (starts("\xFE") || starts("\xFD")) return " (a MAVLink telemetry log, .tlog?)";
+  // A .tlog record: an 8-byte big-endian timestamp (microseconds since 1970: first byte 0 until
+  // the year 2541), then a MAVLink packet (tlog_reader.cc).
+  if (n >= 9 && p[0] == 0 && (p[8] == 0xFE || p[8] == 0xFD)) {
+    return " (a MAVLink telemetry log: name it .tlog)";
+  }
   return "";
 }
 
@@ -665,9 +652,11 @@ TelemetryReadResult ParseDataFlash(std::istream& in, const std::string& source_n
                                    const TelemetryReadOptions& options) {
   Validate(options);
   RecordErrors errors(options, source_name);
-  unsigned char head[4] = {0, 0, 0, 0};
+  // The first bytes: enough to tell the two forms apart and to name what another file is (a
+  // ULog's 7-byte magic, a .tlog's packet after its 8-byte timestamp: Looks).
+  unsigned char head[16] = {};
   const std::streampos start = in.tellg();
-  in.read(reinterpret_cast<char*>(head), 4);
+  in.read(reinterpret_cast<char*>(head), sizeof head);
   const std::size_t n = static_cast<std::size_t>(in.gcount());
   in.clear();
   in.seekg(start);
@@ -690,7 +679,9 @@ TelemetryReadResult ParseDataFlash(std::istream& in, const std::string& source_n
                     });
   if (!text) {
     std::string bytes;
-    for (std::size_t k = 0; k < n; ++k) bytes += fmt::format("{}{:02X}", k ? " " : "", head[k]);
+    for (std::size_t k = 0; k < std::min<std::size_t>(n, 8); ++k) {
+      bytes += fmt::format("{}{:02X}", k ? " " : "", head[k]);
+    }
     throw InputError(fmt::format(
         "{}: not an ArduPilot DataFlash log: a .bin log starts with the bytes A3 95 80 (an FMT "
         "message), this file with {}{}",

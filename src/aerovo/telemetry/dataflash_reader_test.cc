@@ -360,6 +360,12 @@ TEST(DataFlash, AFileThatIsNotADataFlashLogIsAnError) {
   ExpectInputError([&] { Parse("time,lat,lon\n0,1,2\n"); },
                    {"flight.bin:1", "not an ArduPilot DataFlash log", "time,lat,lon"});
   ExpectInputError([&] { Parse(""); }, {"flight.bin", "empty"});
+  // A PX4 ULog and a MAVLink .tlog (an 8-byte big-endian timestamp, 2026-12-06, then a MAVLink 2
+  // packet's magic) given the wrong extension are named.
+  ExpectInputError([&] { Parse(std::string("ULog\x01\x12\x35\x01", 8)); },
+                   {"not an ArduPilot DataFlash log", "a PX4 ULog: name it .ulg"});
+  ExpectInputError([&] { Parse(std::string("\x00\x06\x61\xEB\xCA\x54\x60\x00\xFD\x1C", 10)); },
+                   {"not an ArduPilot DataFlash log", "a MAVLink telemetry log: name it .tlog"});
   ExpectInputError([&] { Parse(std::string("\xA3\x95\x82\x00", 4)); },
                    {"flight.bin", "type 130", "not a whole log"});
 }

@@ -192,9 +192,37 @@ TelemetryReadResult ParseTlog(std::istream& in, const std::string& source_name,
 TelemetryReadResult ReadTlog(const std::filesystem::path& path,
                              const TelemetryReadOptions& options = {});
 
+/// PX4 ULog flight logs (.ulg, written by PX4 to its SD card; PX4 User Guide "ULog File
+/// Format"). Layouts and field names are read from the log's own 'F' format messages. Read:
+///  - the GPS: vehicle_gps_position (the receiver PX4 uses), else sensor_gps, else
+///    vehicle_global_position (the estimator's position), instance multi_id 0: one sample per
+///    message with fix_type >= 3 (3D fix; vehicle_global_position: lat_lon_valid when the log
+///    has it): latitude and longitude in degrees (lat/lon int32 1e-7 degrees before v1.14,
+///    latitude_deg/longitude_deg from v1.14), altitude above MSL in metres -> abs_alt_m (alt in
+///    mm, altitude_msl_m; vehicle_global_position alt in m); time_s = timestamp / 1e6 (seconds
+///    since PX4 booted); unix_time_s = (time_utc_usec - timestamp_time_relative) / 1e6 when
+///    time_utc_usec is not 0. fix_type < 3 and latitude = longitude = 0 count in
+///    no_fix_records;
+///  - vehicle_attitude q (Hamilton w, x, y, z, body FRD to NED) as roll_deg, pitch_deg, yaw_deg
+///    (3-2-1 Tait-Bryan angles, yaw in [0, 360) from north), and the height above home
+///    home_position.z - vehicle_local_position.z (NED metres, as PX4's
+///    GLOBAL_POSITION_INT.relative_alt) -> rel_alt_m when both are valid, interpolated onto
+///    each GPS time as in ParseDataFlash.
+/// Bytes that are not a message (a damaged log) are skipped up to the next message whose header
+/// and payload are consistent and which is followed by another message (an 'S' sync message
+/// among them), with a warning naming the byte offset and the count (whatever the mode); a cut
+/// last message likewise. A file that does not start with the ULog magic throws InputError "not
+/// a PX4 ULog"; a log with incompatible flag bits aerovo does not know throws InputError; a log
+/// without a GPS message with a 3D fix throws InputError. Memory is bounded by the samples kept
+/// (a 128 KiB read window; formats up to 8 MiB; attitude and height kept at most every 0.02 s).
+TelemetryReadResult ParseULog(std::istream& in, const std::string& source_name,
+                              const TelemetryReadOptions& options = {});
+TelemetryReadResult ReadULog(const std::filesystem::path& path,
+                             const TelemetryReadOptions& options = {});
+
 /// Picks the reader by extension (case-insensitive): .srt, .gpx, .csv/.txt, .bin/.log
-/// (DataFlash), .tlog (MAVLink telemetry log). Throws InputError for a missing/unreadable file
-/// or an unknown extension.
+/// (DataFlash), .ulg (PX4 ULog), .tlog (MAVLink telemetry log). Throws InputError for a
+/// missing/unreadable file or an unknown extension.
 TelemetryReadResult ReadTelemetryFile(const std::filesystem::path& path,
                                       const TelemetryReadOptions& options = {});
 
