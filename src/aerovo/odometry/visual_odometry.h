@@ -132,16 +132,16 @@ void VisitFields(OdometryOptions& o, V& v) {
   v.Group("correspondence", o.correspondence);
   v.Field(o.scale_mode, "scale_mode", "metric (height/focal per step) or affine-chain (the paper's pure chaining)", Any().Alias("scale"));
   v.Field(o.heading_from_yaw, "heading_from_yaw", "Metric mode: heading from the telemetry yaw instead of the steps' rotation", Any());
-  v.Field(o.min_features, "min_features", "A frame with fewer SURF points is bridged", AtLeast(0));
+  v.Field(o.min_features, "min_features", "A frame with fewer SURF points is bridged", Interval(0, 1000000));
   v.Field(o.max_scale_change, "max_scale_change", "Plausibility: largest |scale - 1| of a step", Interval(0, 1, true, true));
   v.Field(o.max_anisotropy, "max_anisotropy", "Plausibility: largest ratio of the step's singular values", AtLeast(1));
   v.Field(o.max_shift_fraction, "max_shift_fraction", "Plausibility: largest move of the image centre, fraction of the larger side", GreaterThan(0));
   v.Field(o.relocalize, "relocalize", "Match a lost frame against stored keyframes", Any());
-  v.Field(o.keyframe_interval, "keyframe_interval", "A keyframe every N measured frames", AtLeast(1));
-  v.Field(o.max_keyframes, "max_keyframes", "Keyframes kept (oldest dropped)", AtLeast(1));
-  v.Field(o.relocalize_min_inliers, "relocalize_min_inliers", "Inliers needed to accept a relocalisation", AtLeast(1));
+  v.Field(o.keyframe_interval, "keyframe_interval", "A keyframe every N measured frames", Interval(1, 1000000));
+  v.Field(o.max_keyframes, "max_keyframes", "Keyframes kept (oldest dropped)", Interval(1, 1000));
+  v.Field(o.relocalize_min_inliers, "relocalize_min_inliers", "Inliers needed to accept a relocalisation", Interval(1, 1000000));
   v.Field(o.relocalize_sampler, "relocalize_sampler", "RANSAC sampler of keyframe attempts", Any());
-  v.Field(o.max_reacquire_gap, "max_reacquire_gap", "After a failure the last good frame stays a reference for N frames", AtLeast(1));
+  v.Field(o.max_reacquire_gap, "max_reacquire_gap", "After a failure the last good frame stays a reference for N frames", Interval(1, 1000000));
 }
 // clang-format on
 template <>
