@@ -186,6 +186,45 @@ TEST(CliConventions, UsageErrorsExitTwoWithTheNearestName) {
   EXPECT_EQ(r.status, 1) << r.out;
 }
 
+// Hostile numbers on the command line: an empty value (an unset shell variable) was read as 0
+// by CLI11 (`--altitude ""`: a height "from telemetry"; `simulate --noise ""`), a negative one
+// wrapped around in an unsigned option (`--ransac-seed -1`), 100000 SURF threads crashed the run
+// (exit 139), and simulate's checks exited 1 after creating the output folder, naming the
+// struct's field only. Each is now a usage error naming the option, before any output.
+TEST(CliConventions, HostileNumbersAreUsageErrorsNamingTheOption) {
+  const std::string dir = "/tmp/aerovo_conventions_numbers_" + std::to_string(::getpid());
+  const struct {
+    const char* args;
+    const char* message;
+  } kCases[] = {
+      {"run flight.mp4 --altitude '' --print-config", "--altitude: an empty value is not a number"},
+      {"run flight.mp4 --step ' ' --print-config", "--step: an empty value is not a number"},
+      {"run flight.mp4 --ransac-seed -1 --print-config",
+       "--ransac-seed: '-1': a negative value for a count or seed (0 or more)"},
+      {"run flight.mp4 --surf-num-threads 100000 --print-config",
+       "surf.num_threads must be in [0, 256], got 100000"},
+      {"run flight.mp4 --clustered-grid-rows 100000 --print-config",
+       "clustered.grid_rows must be in [1, 64], got 100000"},
+      {"simulate --noise '' -o DIR", "--noise: an empty value is not a number"},
+      {"simulate --seed -1 -o DIR", "--seed: '-1': a negative value"},
+      {"simulate --height-m 0 -o DIR", "--height-m: FlightPlan: height_m = 0 must be in [1, 10000]"},
+      {"simulate --pattern turns --legs 0 -o DIR", "--legs: FlightPlan: legs = 0 must be in"},
+      {"simulate --width 0 -o DIR", "--width, --height: CameraModel: image size 0x720 px"},
+      {"simulate --gps-rate-hz nan -o DIR", "--gps-rate-hz: GpsOptions: rate_hz = nan"},
+      {"simulate --render hot -o DIR", "--render must be 'visible' or 'thermal', not 'hot'"},
+      {"report --mosaic-size '' DIR", "--mosaic-size: an empty value is not a number"},
+  };
+  for (const auto& c : kCases) {
+    std::string args = c.args;
+    if (args.find("DIR") != std::string::npos) args.replace(args.find("DIR"), 3, dir);
+    const Cli r = Aerovo(args);
+    EXPECT_EQ(r.status, 2) << args << "\n" << r.out;
+    EXPECT_TRUE(Has(r.out, c.message)) << args << "\n" << r.out;
+    EXPECT_FALSE(std::filesystem::exists(dir)) << args << ": the output folder was created";
+    std::filesystem::remove_all(dir);
+  }
+}
+
 TEST(CliConventions, HelpCmdIsCmdHelpAndEveryHelpListsTheExitCodes) {
   const Cli help = Aerovo("help run", true), direct = Aerovo("run --help", true);
   EXPECT_EQ(help.status, 0);
