@@ -225,6 +225,39 @@ TEST(CliConventions, HostileNumbersAreUsageErrorsNamingTheOption) {
   }
 }
 
+// `aerovo report` of a run whose summary.json holds values of the wrong JSON type (strings,
+// null): before, `aerovo: error: [json.exception.type_error.302] type must be boolean, but is
+// string`, naming no file; now an input error naming the files, exit 1, and without the summary
+// the report is written from frames.csv.
+TEST(CliConventions, ReportOfASummaryWithWrongTypesNamesTheFile) {
+  const std::string dir = "/tmp/aerovo_conventions_report_" + std::to_string(::getpid());
+  std::filesystem::remove_all(dir);
+  ASSERT_EQ(Aerovo("simulate --pattern line --length-m 20 --fps 2 --width 320 --height 240 -q -o " +
+                   dir + "/sim").status, 0);
+  ASSERT_EQ(Aerovo("run " + dir + "/sim/video.mp4 --telemetry " + dir +
+                   "/sim/telemetry.srt -q -o " + dir + "/run").status, 0);
+  const std::string summary = dir + "/run/summary.json";
+  for (const char* value : {"\"yes\"", "null"}) {
+    std::ifstream in(summary);
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    in.close();
+    const std::regex interrupted("\"interrupted\": (false|true|\"yes\"|null)");
+    ASSERT_TRUE(std::regex_search(text, interrupted)) << text;
+    std::ofstream(summary) << std::regex_replace(
+        text, interrupted, std::string("\"interrupted\": ") + value);
+    const Cli r = Aerovo("report --no-png --no-mosaic -q " + dir + "/run");
+    EXPECT_EQ(r.status, 1) << value << "\n" << r.out;
+    EXPECT_TRUE(Has(r.out, "aerovo: error: '" + summary + "' or '" + dir +
+                               "/run/config.json' holds a value of another type than aerovo run "
+                               "writes ([json.exception.type_error.302] type must be boolean"))
+        << value << "\n" << r.out;
+  }
+  std::filesystem::remove(summary);
+  const Cli r = Aerovo("report --no-png --no-mosaic -q " + dir + "/run");
+  EXPECT_EQ(r.status, 0) << r.out;
+  std::filesystem::remove_all(dir);
+}
+
 TEST(CliConventions, HelpCmdIsCmdHelpAndEveryHelpListsTheExitCodes) {
   const Cli help = Aerovo("help run", true), direct = Aerovo("run --help", true);
   EXPECT_EQ(help.status, 0);
