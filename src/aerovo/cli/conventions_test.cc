@@ -213,6 +213,9 @@ TEST(CliConventions, HostileNumbersAreUsageErrorsNamingTheOption) {
       {"simulate --gps-rate-hz nan -o DIR", "--gps-rate-hz: GpsOptions: rate_hz = nan"},
       {"simulate --render hot -o DIR", "--render must be 'visible' or 'thermal', not 'hot'"},
       {"report --mosaic-size '' DIR", "--mosaic-size: an empty value is not a number"},
+      {"report --mosaic-size 0 DIR",
+       "--mosaic-size 0, --mosaic-frames 60: mosaic: max_size_px must be within 100..20000"},
+      {"correspondence a.png b.png --last-shift nan 0", "--last-shift nan 0: both must be finite"},
   };
   for (const auto& c : kCases) {
     std::string args = c.args;
