@@ -24,6 +24,10 @@
 
 namespace aerovo {
 
+/// The largest height above ground a frame may be given, m: the range of the run's altitude_m
+/// (pipeline/run_config.h), 100 km.
+inline constexpr double kMaxHeightAboveGroundM = 1e5;
+
 /// Options of the odometry pipeline. Plain aggregate; check with Validate().
 struct OdometryOptions {
   /// SURF options. Defaults = MATLAB's (surf.h) except:
@@ -260,8 +264,9 @@ class VisualOdometry {
   /// matching, so the step is measured between nadir-equivalent images and position_m is the
   /// point under the camera, not the ground point of the image centre. Without one the frame is
   /// processed as a nadir frame (the behaviour before attitudes existed).
-  /// Throws InvalidArgument for an empty frame, InputError when the frame size differs from the
-  /// first frame's or no height above ground is known for a metric run (message names the
+  /// Throws InvalidArgument for an empty frame or a time, yaw or attitude that is not finite,
+  /// InputError when the frame size differs from the first frame's or no height above ground is
+  /// known for a metric run (none, not > 0, or above kMaxHeightAboveGroundM; message names the
   /// frame).
   FrameResult Process(const GrayImageView& frame, double time_s,
                       std::optional<double> height_m = std::nullopt,
