@@ -216,6 +216,11 @@ TEST(CliConventions, HostileNumbersAreUsageErrorsNamingTheOption) {
       {"report --mosaic-size 0 DIR",
        "--mosaic-size 0, --mosaic-frames 60: mosaic: max_size_px must be within 100..20000"},
       {"correspondence a.png b.png --last-shift nan 0", "--last-shift nan 0: both must be finite"},
+      // experiment: its checks and the simulation's before the folder (an empty folder with a
+      // lock file was left behind).
+      {"experiment illumination --simulate --k 0 -o DIR", "illumination: k must be in (0, 1]"},
+      {"experiment ransac --simulate --sim-fps 0 -o DIR", "fps = 0 must be in (0, 1000]"},
+      {"experiment ransac -o DIR", "give an input flight"},
   };
   for (const auto& c : kCases) {
     std::string args = c.args;
