@@ -31,18 +31,25 @@ struct ExperimentArgs {
   bool simulate = false;
   bool no_report = false;
   std::string k_list;  // illumination
+  bool k_given = false;  // --k given (also as "")
   bool scale_threshold = false;
   ExperimentSimulation sim;
   std::string sim_pattern = "lawnmower";
 };
 
+// --k's list. An empty item (`--k 1,,0.5`, `--k ""`: an unset shell variable) is an error, not
+// skipped: before, `--k ""` ran the default list of five runs without a word.
 std::vector<double> ParseKList(const std::string& text) {
   std::vector<double> out;
-  std::stringstream ss(text);
+  std::stringstream ss(text + ",");  // getline drops a last empty item: "1," reads as "1"
   std::string item;
   while (std::getline(ss, item, ',')) {
     const auto first = item.find_first_not_of(" \t");
-    if (first == std::string::npos) continue;
+    if (first == std::string::npos) {
+      throw InvalidArgument("--k '" + text +
+                            "': an empty item (expected numbers separated by commas, e.g. --k "
+                            "1,0.5,0.1)");
+    }
     item = item.substr(first, item.find_last_not_of(" \t") - first + 1);
     char* end = nullptr;
     const double v = std::strtod(item.c_str(), &end);
@@ -123,7 +130,7 @@ void Execute(ExperimentArgs& a) {
   ExperimentOptions options;
   CheckUsage([&] {
     if (a.kind == ExperimentKind::kIllumination) {
-      if (!a.k_list.empty()) options.illumination.k = ParseKList(a.k_list);
+      if (a.k_given) options.illumination.k = ParseKList(a.k_list);
       options.illumination.scale_threshold = a.scale_threshold;
     }
     FindExperiment(a.kind).validate(options);
@@ -208,7 +215,8 @@ void AddExperiment(CLI::App* parent, const ExperimentDefinition& def) {
   if (def.kind == ExperimentKind::kIllumination) {
     cmd->add_option("--k", a.k_list,
                     "Illumination factors, comma separated, each in (0, 1] (default "
-                    "1,0.75,0.5,0.25,0.1)");
+                    "1,0.75,0.5,0.25,0.1)")
+        ->each([&a](const std::string&) { a.k_given = true; });
     cmd->add_flag("--scale-threshold", a.scale_threshold,
                   "SURF threshold x k^2 in each run (the Hessian determinant scales with k^2); "
                   "default: the same threshold for every k, as the paper");

@@ -221,6 +221,8 @@ TEST(CliConventions, HostileNumbersAreUsageErrorsNamingTheOption) {
       {"experiment illumination --simulate --k 0 -o DIR", "illumination: k must be in (0, 1]"},
       {"experiment ransac --simulate --sim-fps 0 -o DIR", "fps = 0 must be in (0, 1000]"},
       {"experiment ransac -o DIR", "give an input flight"},
+      {"experiment illumination --simulate --k '' -o DIR", "--k '': an empty item"},
+      {"experiment illumination --simulate --k 1,,0.5 -o DIR", "--k '1,,0.5': an empty item"},
   };
   for (const auto& c : kCases) {
     std::string args = c.args;
