@@ -30,7 +30,7 @@ struct ExperimentArgs {
   std::string out = "aerovo-experiment";
   bool simulate = false;
   bool no_report = false;
-  std::string k_list;  // illumination
+  std::string k_list;    // illumination
   bool k_given = false;  // --k given (also as "")
   bool scale_threshold = false;
   ExperimentSimulation sim;

@@ -46,8 +46,7 @@ TEST_F(RunReaderCut, ALastLineWithoutItsLineEndIsDroppedEvenWithEveryField) {
   // frames.csv: a row whose end was not written (its last cells are empty anyway).
   std::ofstream(dir_ / "frames.csv") << kFramesHeader << rows << cut;
   const std::string transforms_header = "frame,a11,a12,tx,a21,a22,ty\n";
-  std::ofstream(dir_ / "transforms.csv") << transforms_header
-                                         << "1,1,0,-20.000000,0,1,-34.132989\n"
+  std::ofstream(dir_ / "transforms.csv") << transforms_header << "1,1,0,-20.000000,0,1,-34.132989\n"
                                          << "2,1,0,-20.000000,0,1,-34.1";
   const RunData run = ReadRunDir(dir_);
   ASSERT_EQ(run.frames.size(), 3u);
@@ -56,8 +55,7 @@ TEST_F(RunReaderCut, ALastLineWithoutItsLineEndIsDroppedEvenWithEveryField) {
   EXPECT_DOUBLE_EQ(run.transforms[0].a[5], -34.132989);
   // With its line end the same row is read.
   std::ofstream(dir_ / "frames.csv") << kFramesHeader << rows << cut << "\n";
-  std::ofstream(dir_ / "transforms.csv") << transforms_header
-                                         << "1,1,0,-20.000000,0,1,-34.132989\n"
+  std::ofstream(dir_ / "transforms.csv") << transforms_header << "1,1,0,-20.000000,0,1,-34.132989\n"
                                          << "2,1,0,-20.000000,0,1,-34.1\n";
   const RunData whole = ReadRunDir(dir_);
   EXPECT_EQ(whole.frames.size(), 4u);
