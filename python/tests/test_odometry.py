@@ -57,6 +57,24 @@ def test_height_per_frame_and_errors(flight):
         aerovo.VisualOdometry(max_scale_change=2.0)
 
 
+def test_values_that_are_not_finite_raise_and_the_track_goes_on(flight):
+    """A NaN yaw (heading_from_yaw), time or attitude, or a height of 1e308 m, raises naming the
+    frame; before, the positions became NaN or inf with status 'ok'. Refused frames are not
+    counted: the next good one continues the track."""
+    frames, truth = flight
+    vo = aerovo.VisualOdometry(focal_px=FOCAL_PX, default_height_m=HEIGHT_M, heading_from_yaw=True)
+    assert vo.process(frames[0], 0.0, yaw_deg=0.0).status == "first"
+    with pytest.raises(ValueError, match="frame 1: yaw_deg = nan is not finite"):
+        vo.process(frames[1], 0.1, yaw_deg=float("nan"))
+    with pytest.raises(ValueError, match="frame 1: time_s = inf is not finite"):
+        vo.process(frames[1], float("inf"))
+    with pytest.raises(aerovo.InputError, match="frame 1: no valid height above ground"):
+        vo.process(frames[1], 0.1, height_m=1e308)
+    results = [vo.process(f, i / 10.0, yaw_deg=0.0) for i, f in enumerate(frames[1:4], start=1)]
+    assert [r.index for r in results] == [1, 2, 3]
+    np.testing.assert_allclose(results[-1].position_m, truth[3], atol=0.02)
+
+
 def test_two_threads_share_one_engine(flight):
     frames, _ = flight
     surf = aerovo.Surf()

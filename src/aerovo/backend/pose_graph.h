@@ -111,7 +111,7 @@ void VisitFields(PoseGraphOptions& o, V& v) {
   using namespace options;
   v.Field(o.robust_kernel, "robust_kernel", "Robust kernel of the factors' residuals", Any());
   v.Field(o.robust_scale, "robust_scale", "Kernel scale, standard deviations of the whitened residual", GreaterThan(0).Finite());
-  v.Field(o.max_iterations, "max_iterations", "Levenberg-Marquardt iterations at most", AtLeast(1));
+  v.Field(o.max_iterations, "max_iterations", "Levenberg-Marquardt iterations at most", Interval(1, 10000));
   v.Field(o.function_tolerance, "function_tolerance", "Stop when the cost decreases by less than this fraction", AtLeast(0).Finite());
   v.Field(o.step_tolerance, "step_tolerance", "Stop when the largest step component is below this", AtLeast(0).Finite());
   v.Field(o.initial_damping, "initial_damping", "Initial damping, relative to the normal matrix's diagonal", GreaterThan(0).Finite());

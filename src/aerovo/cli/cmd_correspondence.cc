@@ -58,6 +58,12 @@ std::string Describe(const char* name, const CorrespondenceResult& r) {
 void Run(Args a) {
   CheckUsage([&] {
     if (a.last_shift.size() != 2) throw InvalidArgument("--last-shift takes two numbers: U V");
+    // A shift that is not finite became a non-finite transform, refused deep in the crop
+    // ("ClusteredCrop: the previous step's transform has non-finite entries", exit 1).
+    if (!std::isfinite(a.last_shift[0]) || !std::isfinite(a.last_shift[1])) {
+      throw InvalidArgument(fmt::format("--last-shift {} {}: both must be finite, px",
+                                        a.last_shift[0], a.last_shift[1]));
+    }
     a.options.model = ParseMotionModel(a.model.c_str());
     a.options.sampler = a.prosac ? SamplerKind::kProsac : SamplerKind::kUniform;
     a.options.clustered.refine = !a.paper;

@@ -30,19 +30,26 @@ struct ExperimentArgs {
   std::string out = "aerovo-experiment";
   bool simulate = false;
   bool no_report = false;
-  std::string k_list;  // illumination
+  std::string k_list;    // illumination
+  bool k_given = false;  // --k given (also as "")
   bool scale_threshold = false;
   ExperimentSimulation sim;
   std::string sim_pattern = "lawnmower";
 };
 
+// --k's list. An empty item (`--k 1,,0.5`, `--k ""`: an unset shell variable) is an error, not
+// skipped: before, `--k ""` ran the default list of five runs without a word.
 std::vector<double> ParseKList(const std::string& text) {
   std::vector<double> out;
-  std::stringstream ss(text);
+  std::stringstream ss(text + ",");  // getline drops a last empty item: "1," reads as "1"
   std::string item;
   while (std::getline(ss, item, ',')) {
     const auto first = item.find_first_not_of(" \t");
-    if (first == std::string::npos) continue;
+    if (first == std::string::npos) {
+      throw InvalidArgument("--k '" + text +
+                            "': an empty item (expected numbers separated by commas, e.g. --k "
+                            "1,0.5,0.1)");
+    }
     item = item.substr(first, item.find_last_not_of(" \t") - first + 1);
     char* end = nullptr;
     const double v = std::strtod(item.c_str(), &end);
@@ -54,20 +61,23 @@ std::vector<double> ParseKList(const std::string& text) {
   return out;
 }
 
-// --simulate: checks the simulation flags, simulates the flight into EXP/sim and makes it
+// --simulate: checks the simulation flags (InvalidArgument; called through CheckUsage before
+// the output folder is touched).
+void CheckSimulation(ExperimentArgs& a, const ExperimentInput& input) {
+  if (!input.run.input.empty()) {
+    throw InvalidArgument("give an input flight or --simulate, not both");
+  }
+  if (!input.run.truth.empty()) {
+    throw InvalidArgument("--truth is for a given input; --simulate has its own ground truth");
+  }
+  a.sim.sim.flight.pattern = sim::ParseFlightPattern(a.sim_pattern);
+  Validate(a.sim);
+}
+
+// --simulate: simulates the flight (checked by CheckSimulation) into EXP/sim and makes it
 // `input`'s flight (video, telemetry, focal length, ground truth).
 void SimulateFlight(ExperimentArgs& a, ExperimentInput& input) {
   const bool quiet = input.run.quiet;
-  CheckUsage([&] {
-    if (!input.run.input.empty()) {
-      throw InvalidArgument("give an input flight or --simulate, not both");
-    }
-    if (!input.run.truth.empty()) {
-      throw InvalidArgument("--truth is for a given input; --simulate has its own ground truth");
-    }
-    a.sim.sim.flight.pattern = sim::ParseFlightPattern(a.sim_pattern);
-    Validate(a.sim);
-  });
   const std::filesystem::path dir = std::filesystem::path(a.out) / "sim";
   if (!quiet)
     fmt::print("aerovo experiment {}: simulating a flight into {}\n", ToString(a.kind),
@@ -115,6 +125,23 @@ void Execute(ExperimentArgs& a) {
   input.run = CheckUsage([&] { return a.run.Resolve(); });
   input.out_dir = a.out;
   const bool quiet = input.run.quiet;
+  // Every option checked before the output folder is touched: a usage error (exit 2) leaves no
+  // folder behind (before, the simulation's and the experiment's checks came after the claim).
+  ExperimentOptions options;
+  CheckUsage([&] {
+    if (a.kind == ExperimentKind::kIllumination) {
+      if (a.k_given) options.illumination.k = ParseKList(a.k_list);
+      options.illumination.scale_threshold = a.scale_threshold;
+    }
+    FindExperiment(a.kind).validate(options);
+    if (a.simulate) {
+      CheckSimulation(a, input);
+    } else if (input.run.input.empty()) {
+      throw InvalidArgument(
+          "give an input flight (as for aerovo run: video, photo folder, with --telemetry, "
+          "--altitude, ... as needed) or --simulate to make one");
+    }
+  });
   // Like aerovo run: one experiment at a time in a folder, a new or empty folder unless --force
   // (which removes what an earlier experiment wrote: experiment.json, tables.md, the report,
   // its run and sim folders; other files are kept).
@@ -128,22 +155,7 @@ void Execute(ExperimentArgs& a) {
     fmt::print(stderr, "aerovo experiment: --force: removed from '{}': {}\n", a.out,
                fmt::join(claim.removed, ", "));
   }
-  ExperimentOptions options;
-  CheckUsage([&] {
-    if (a.kind == ExperimentKind::kIllumination) {
-      if (!a.k_list.empty()) options.illumination.k = ParseKList(a.k_list);
-      options.illumination.scale_threshold = a.scale_threshold;
-    }
-    FindExperiment(a.kind).validate(options);
-  });
-
-  if (a.simulate) {
-    SimulateFlight(a, input);
-  } else if (input.run.input.empty()) {
-    throw InvalidArgument(
-        "give an input flight (as for aerovo run: video, photo folder, with --telemetry, "
-        "--altitude, ... as needed) or --simulate to make one");
-  }
+  if (a.simulate) SimulateFlight(a, input);
 
   Progress progress(DefaultProgressStyle(quiet));
   std::string prefix;
@@ -203,7 +215,8 @@ void AddExperiment(CLI::App* parent, const ExperimentDefinition& def) {
   if (def.kind == ExperimentKind::kIllumination) {
     cmd->add_option("--k", a.k_list,
                     "Illumination factors, comma separated, each in (0, 1] (default "
-                    "1,0.75,0.5,0.25,0.1)");
+                    "1,0.75,0.5,0.25,0.1)")
+        ->each([&a](const std::string&) { a.k_given = true; });
     cmd->add_flag("--scale-threshold", a.scale_threshold,
                   "SURF threshold x k^2 in each run (the Hessian determinant scales with k^2); "
                   "default: the same threshold for every k, as the paper");

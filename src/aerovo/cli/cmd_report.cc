@@ -17,6 +17,7 @@
 #include <fmt/format.h>
 
 #include "aerovo/cli/command.h"
+#include "aerovo/cli/conventions.h"
 #include "aerovo/outputs/run_folder.h"
 #include "aerovo/report/html_report.h"
 
@@ -63,6 +64,13 @@ void Execute(const ReportArgs& a) {
   o.mosaic_options.max_size_px = a.mosaic_size_px;
   o.mosaic_options.max_frames = a.mosaic_frames;
   o.plot.png = !a.no_png;
+  // The flags' ranges (report/mosaic.h Validate), before the folder is locked: a usage error.
+  try {
+    Validate(o.mosaic_options);
+  } catch (const InvalidArgument& e) {
+    throw UsageError(fmt::format("--mosaic-size {}, --mosaic-frames {}: {}", a.mosaic_size_px,
+                                 a.mosaic_frames, e.what()));
+  }
   if (!a.quiet) o.log = &std::cout;
   // Not while a run writes into the folder (outputs/run_folder.h): it fails naming that run's pid.
   std::optional<RunFolderLock> lock;

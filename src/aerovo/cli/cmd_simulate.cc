@@ -7,9 +7,11 @@
 #include <cstdio>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "aerovo/cli/command.h"
+#include "aerovo/cli/conventions.h"
 #include "aerovo/cli/progress.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
@@ -43,7 +45,7 @@ struct SimulateArgs {
   std::string codec = "avc1";
   std::string start_time = "2026-05-01T10:00:00";
   std::string render = "visible";  // visible | thermal
-  std::string lens = "pinhole";     // pinhole | fisheye
+  std::string lens = "pinhole";    // pinhole | fisheye
   bool quiet = false;
   bool force = false;
 };
@@ -64,7 +66,119 @@ std::vector<std::vector<double>> ParsePairs(const std::string& text, const char*
   return out;
 }
 
+// The flags of `aerovo simulate` named in the checks of the options they set (sim/*.cc
+// Validate: "FlightPlan: height_m = 0 must be in [1, 10000]"), in the order of the help.
+constexpr std::pair<const char*, const char*> kFlagOfField[] = {
+    {"terrain_size_px", "--terrain-size-px"},
+    {"terrain_mpp", "--terrain-mpp"},
+    {"nw_lat_deg", "--nw-lat"},
+    {"nw_lon_deg", "--nw-lon"},
+    {"centre, heading and yaw", "--centre-east-m, --centre-north-m, --heading-deg, --yaw-deg"},
+    {"leg_length_m", "--length-m"},
+    {"legs =", "--legs"},
+    {"spacing_m", "--spacing-m"},
+    {"turn_angle_deg", "--turn-angle-deg"},
+    {"turn_radius_m", "--turn-radius-m"},
+    {"max_bank_deg", "--max-bank-deg"},
+    {"height_m", "--height-m"},
+    {"speed_mps", "--speed-mps"},
+    {"pitch_deg", "--pitch-deg"},
+    {"roll_deg", "--roll-deg"},
+    {"wobble_deg", "--wobble-deg"},
+    {"wobble_period_s", "--wobble-period-s"},
+    {"max_duration_s", "--duration-s"},
+    {"SimulationOptions: fps", "--fps"},
+    {"image size", "--width, --height"},
+    {"hfov_deg", "--hfov-deg"},
+    {"focal_px", "--focal-px"},
+    {"distortion", "--distortion"},
+    {"illumination_k", "--k"},
+    {"noise_sigma_dn", "--noise"},
+    {"motion_blur_px", "--blur"},
+    {"jpeg_quality", "--jpeg-quality"},
+    {"contrast =", "--contrast"},
+    {"optics_blur_sigma_px", "--optics-blur"},
+    {"vignetting_dn", "--vignetting"},
+    {"fixed_pattern_dn", "--fixed-pattern"},
+    {"horizontal_sigma_m", "--gps-noise-m"},
+    {"vertical_sigma_m", "--gps-vertical-noise-m"},
+    {"rate_hz", "--gps-rate-hz"},
+    {"correlation_time_s", "--gps-tau-s"},
+};
+
+// `message` of a failed check with the flags it is about first: "--height-m: FlightPlan:
+// height_m = 0 must be in [1, 10000]" (the message alone when it names no field of a flag).
+std::string NameFlags(const std::string& message) {
+  std::string flags;
+  for (const auto& [field, flag] : kFlagOfField) {
+    if (message.find(field) == std::string::npos) continue;
+    flags += (flags.empty() ? "" : ", ") + std::string(flag);
+  }
+  return flags.empty() ? message : flags + ": " + message;
+}
+
+// Reads the flags that are not the options' fields into `o` and checks every option, before the
+// output folder is touched: an option out of its range, or options that disagree, is an
+// InvalidArgument naming the flag (a usage error through CheckUsage: exit 2, no folder made).
+// Returns the ground's options.
+sim::GroundOptions CheckedOptions(const SimulateArgs& a, sim::SimulationOptions& o) {
+  try {
+    // Flight (waypoints in metres are needed before the terrain can be fitted to the flight).
+    o.flight.pattern = sim::ParseFlightPattern(a.pattern);
+    if (!a.waypoints.empty() && !a.waypoints_latlon.empty()) {
+      throw InvalidArgument("give --waypoints or --waypoints-latlon, not both");
+    }
+    if (!a.waypoints.empty()) {
+      for (const auto& p : ParsePairs(a.waypoints, "--waypoints")) {
+        o.flight.waypoints_m.emplace_back(p[0], p[1]);
+      }
+    }
+    if ((!a.waypoints.empty() || !a.waypoints_latlon.empty()) &&
+        o.flight.pattern != sim::FlightPattern::kWaypoints) {
+      throw InvalidArgument("waypoints given: use --pattern waypoints");
+    }
+    if (a.yaw == "follow") {
+      o.flight.yaw_mode = sim::YawMode::kFollowTrack;
+    } else if (a.yaw == "fixed") {
+      o.flight.yaw_mode = sim::YawMode::kFixed;
+    } else {
+      throw InvalidArgument("--yaw must be 'follow' or 'fixed', not '" + a.yaw + "'");
+    }
+
+    // Ground.
+    if (!a.ortho.empty()) {
+      if (!(a.mpp > 0)) throw InvalidArgument("--ortho needs --mpp (metres per pixel, > 0)");
+      if (a.nw_lat > 90 || a.nw_lon > 360) {
+        throw InvalidArgument(
+            "--ortho needs --nw-lat and --nw-lon (the image's north-west corner)");
+      }
+    } else if (!a.waypoints_latlon.empty() && !(a.terrain_size_px > 0 && a.terrain_mpp > 0)) {
+      throw InvalidArgument(
+          "--waypoints-latlon over the built-in terrain needs --terrain-size-px and --terrain-mpp "
+          "(the terrain's extent must be known to place it)");
+    }
+    sim::GroundOptions go;
+    go.ortho = a.ortho;
+    go.ortho_mpp = a.mpp;
+    if (a.nw_lat <= 90) go.nw_lat_deg = a.nw_lat;
+    if (a.nw_lon <= 360) go.nw_lon_deg = a.nw_lon;
+    go.ground_alt_m = a.ground_alt_m;
+    go.terrain_seed = a.terrain_seed;
+    go.terrain_size_px = a.terrain_size_px;
+    go.terrain_mpp = a.terrain_mpp;
+    sim::Validate(go);
+    // The flight with the waypoints of --waypoints-latlon is checked once the ground places them.
+    sim::SimulationOptions checked = o;
+    if (!a.waypoints_latlon.empty()) checked.flight.waypoints_m = {{0.0, 0.0}, {100.0, 0.0}};
+    sim::Validate(checked);
+    return go;
+  } catch (const InvalidArgument& e) {
+    throw InvalidArgument(NameFlags(e.what()));
+  }
+}
+
 void Run(const SimulateArgs& a, sim::SimulationOptions o, const sim::WriterOptions& w) {
+  const sim::GroundOptions go = CheckUsage([&] { return CheckedOptions(a, o); });
   Stopwatch clock;
   // Like aerovo run: one writer at a time in a folder, a new or empty folder unless --force
   // (which removes what an earlier simulation wrote there, and run folders inside it; other
@@ -79,48 +193,6 @@ void Run(const SimulateArgs& a, sim::SimulationOptions o, const sim::WriterOptio
     fmt::print(stderr, "aerovo simulate: --force: removed from '{}': {}\n", a.out,
                fmt::join(claim.removed, ", "));
   }
-  // Flight (waypoints in metres are needed before the terrain can be fitted to the flight).
-  o.flight.pattern = sim::ParseFlightPattern(a.pattern);
-  if (!a.waypoints.empty() && !a.waypoints_latlon.empty()) {
-    throw InvalidArgument("give --waypoints or --waypoints-latlon, not both");
-  }
-  if (!a.waypoints.empty()) {
-    for (const auto& p : ParsePairs(a.waypoints, "--waypoints")) {
-      o.flight.waypoints_m.emplace_back(p[0], p[1]);
-    }
-  }
-  if ((!a.waypoints.empty() || !a.waypoints_latlon.empty()) &&
-      o.flight.pattern != sim::FlightPattern::kWaypoints) {
-    throw InvalidArgument("waypoints given: use --pattern waypoints");
-  }
-  if (a.yaw == "follow") {
-    o.flight.yaw_mode = sim::YawMode::kFollowTrack;
-  } else if (a.yaw == "fixed") {
-    o.flight.yaw_mode = sim::YawMode::kFixed;
-  } else {
-    throw InvalidArgument("--yaw must be 'follow' or 'fixed', not '" + a.yaw + "'");
-  }
-
-  // Ground.
-  if (!a.ortho.empty()) {
-    if (!(a.mpp > 0)) throw InvalidArgument("--ortho needs --mpp (metres per pixel, > 0)");
-    if (a.nw_lat > 90 || a.nw_lon > 360) {
-      throw InvalidArgument("--ortho needs --nw-lat and --nw-lon (the image's north-west corner)");
-    }
-  } else if (!a.waypoints_latlon.empty() && !(a.terrain_size_px > 0 && a.terrain_mpp > 0)) {
-    throw InvalidArgument(
-        "--waypoints-latlon over the built-in terrain needs --terrain-size-px and --terrain-mpp "
-        "(the terrain's extent must be known to place it)");
-  }
-  sim::GroundOptions go;
-  go.ortho = a.ortho;
-  go.ortho_mpp = a.mpp;
-  if (a.nw_lat <= 90) go.nw_lat_deg = a.nw_lat;
-  if (a.nw_lon <= 360) go.nw_lon_deg = a.nw_lon;
-  go.ground_alt_m = a.ground_alt_m;
-  go.terrain_seed = a.terrain_seed;
-  go.terrain_size_px = a.terrain_size_px;
-  go.terrain_mpp = a.terrain_mpp;
   sim::GroundImage ground = sim::MakeGround(go, o);
   if (!a.waypoints_latlon.empty()) {
     std::vector<GeoPoint> geo;
@@ -149,12 +221,12 @@ void Run(const SimulateArgs& a, sim::SimulationOptions o, const sim::WriterOptio
                o.camera.width_px, o.camera.height_px, sim::FocalPx(o.camera),
                sim::HorizontalFovDeg(o.camera),
                sim::NadirGsdMetresPerPx(o.camera, o.flight.height_m));
-    fmt::print("  effects    {}contrast {}, optics blur {} px, k {}, noise {} DN, blur {} px, "
-               "jpeg {}; GPS noise {} m (seed {})\n",
-               o.effects.grayscale ? "grey, " : "", o.effects.contrast,
-               o.effects.optics_blur_sigma_px, o.effects.illumination_k, o.effects.noise_sigma_dn,
-               o.effects.motion_blur_px,
-               o.effects.jpeg_quality, o.gps.horizontal_sigma_m, o.seed);
+    fmt::print(
+        "  effects    {}contrast {}, optics blur {} px, k {}, noise {} DN, blur {} px, "
+        "jpeg {}; GPS noise {} m (seed {})\n",
+        o.effects.grayscale ? "grey, " : "", o.effects.contrast, o.effects.optics_blur_sigma_px,
+        o.effects.illumination_k, o.effects.noise_sigma_dn, o.effects.motion_blur_px,
+        o.effects.jpeg_quality, o.gps.horizontal_sigma_m, o.seed);
     fmt::print("  origin     {:.7f} N {:.7f} E (ground truth ENU origin; planned in {:.0f} ms)\n",
                simulator.origin().lat_deg, simulator.origin().lon_deg, plan_ms);
     std::fflush(stdout);
@@ -162,10 +234,9 @@ void Run(const SimulateArgs& a, sim::SimulationOptions o, const sim::WriterOptio
   // Warnings on stderr, with -q too (it hides the progress and the description only).
   for (const auto& warning : simulator.warnings()) fmt::print(stderr, "warning: {}\n", warning);
   Progress progress(DefaultProgressStyle(a.quiet));
-  const sim::SimulationOutput out =
-      sim::WriteSimulation(simulator, w, a.out, [&](int done, int total) {
-        progress.Update(done, total, "  rendering  ");
-      });
+  const sim::SimulationOutput out = sim::WriteSimulation(
+      simulator, w, a.out,
+      [&](int done, int total) { progress.Update(done, total, "  rendering  "); });
   progress.Finish();
   for (const auto& m : out.messages) {
     if (m.rfind("warning: ", 0) == 0) {
@@ -216,7 +287,9 @@ void RegisterSimulateCommand(CLI::App& app) {
   cmd->add_option("--terrain-mpp", args->terrain_mpp,
                   "Terrain metres per pixel; default: the camera's ground sampling distance");
   // Flight.
-  cmd->add_option("--pattern", args->pattern, "line | lawnmower | turns | waypoints | fixed-wing (turns banked at up to --max-bank-deg, the camera rolling with the wings)")
+  cmd->add_option("--pattern", args->pattern,
+                  "line | lawnmower | turns | waypoints | fixed-wing (turns banked at up to "
+                  "--max-bank-deg, the camera rolling with the wings)")
       ->capture_default_str();
   cmd->add_option("--waypoints", args->waypoints,
                   "'e,n;e,n;...' metres east,north of the ground image centre");
@@ -276,9 +349,10 @@ void RegisterSimulateCommand(CLI::App& app) {
   cmd->add_option("--lens", args->lens,
                   "pinhole | fisheye: the lens model of --distortion (OpenCV's; docs/lenses.md)")
       ->capture_default_str();
-  cmd->add_option("--distortion", opt->camera.distortion,
-                  "Lens distortion coefficients, comma-separated, OpenCV order (pinhole: k1,k2,p1,p2"
-                  "[,k3]; fisheye: k1,k2,k3,k4); the focal is that of the undistorted pinhole")
+  cmd->add_option(
+         "--distortion", opt->camera.distortion,
+         "Lens distortion coefficients, comma-separated, OpenCV order (pinhole: k1,k2,p1,p2"
+         "[,k3]; fisheye: k1,k2,k3,k4); the focal is that of the undistorted pinhole")
       ->delimiter(',');
   // Effects and GPS.
   cmd->add_option("--k", opt->effects.illumination_k, "Illumination factor k: f_k = k f")
@@ -330,7 +404,8 @@ void RegisterSimulateCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--start-time", args->start_time, "UTC time of the first frame")
       ->capture_default_str();
-  cmd->add_flag("-q,--quiet", args->quiet, "Print only what was written (and the warnings, on stderr)");
+  cmd->add_flag("-q,--quiet", args->quiet,
+                "Print only what was written (and the warnings, on stderr)");
   cmd->add_flag("--force", args->force,
                 "Write into a non-empty output folder: first remove what an earlier simulation "
                 "wrote there (other files are kept)");
@@ -349,10 +424,10 @@ void RegisterSimulateCommand(CLI::App& app) {
       if (unset("--vignetting")) opt->effects.vignetting_dn = t.vignetting_dn;
       if (unset("--fixed-pattern")) opt->effects.fixed_pattern_dn = t.fixed_pattern_dn;
     } else if (args->render != "visible") {
-      throw InvalidArgument("--render must be 'visible' or 'thermal', not '" + args->render + "'");
+      throw UsageError("--render must be 'visible' or 'thermal', not '" + args->render + "'");
     }
     opt->effects.fixed_pattern_seed = opt->seed;  // one sensor per seed
-    opt->camera.lens = ParseLensModel(args->lens);
+    opt->camera.lens = CheckUsage([&] { return ParseLensModel(args->lens); });
     writer->write_video = !args->frames_only;
     writer->video_codec = args->codec;
     writer->image_format = args->image_format;

@@ -195,4 +195,25 @@ std::vector<std::string> NormalizeBooleanFlags(const CLI::App& app, std::vector<
   return out;
 }
 
+void RequireNumbers(CLI::App& app) {
+  for (CLI::Option* opt : app.get_options()) {
+    if (opt->get_expected_max() == 0) continue;  // a flag without a value
+    const std::string type = opt->get_type_name();
+    const bool is_unsigned = type.rfind("UINT", 0) == 0;
+    if (!is_unsigned && type.rfind("INT", 0) != 0 && type.rfind("FLOAT", 0) != 0) continue;
+    // The description is empty so that the help's type stays "INT", "FLOAT".
+    opt->check(CLI::Validator(
+        [is_unsigned](std::string& v) -> std::string {
+          const std::size_t first = v.find_first_not_of(" \t");
+          if (first == std::string::npos) return "an empty value is not a number";
+          if (is_unsigned && v[first] == '-') {
+            return "'" + v + "': a negative value for a count or seed (0 or more)";
+          }
+          return std::string();
+        },
+        ""));
+  }
+  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) RequireNumbers(*sub);
+}
+
 }  // namespace aerovo::cli

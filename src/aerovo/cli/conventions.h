@@ -83,6 +83,14 @@ bool IsBooleanWord(const std::string& word);
 /// Stops at "--" (what follows is positional).
 std::vector<std::string> NormalizeBooleanFlags(const CLI::App& app, std::vector<std::string> args);
 
+/// Every option of `app` and of its subcommands whose value is a number (CLI11's type INT, UINT
+/// or FLOAT, list elements included) refuses an empty value, which CLI11 would read as 0
+/// (`--altitude ""` from an unset shell variable was a height of 0, "from telemetry"; `simulate
+/// --noise ""` no noise), and an unsigned one a negative value (CLI11 wraps `--seed -1` around
+/// to 18446744073709551615): a usage error naming the option. main calls it once, after every
+/// command is registered.
+void RequireNumbers(CLI::App& app);
+
 /// A bash completion script for `app` (program `name`): completes subcommands at every level
 /// and each command's options, and files for the rest. Generated from the App tree, so it lists
 /// every subcommand and every flag of `aerovo run` as they are registered.

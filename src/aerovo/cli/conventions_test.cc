@@ -186,6 +186,88 @@ TEST(CliConventions, UsageErrorsExitTwoWithTheNearestName) {
   EXPECT_EQ(r.status, 1) << r.out;
 }
 
+// Hostile numbers on the command line: an empty value (an unset shell variable) was read as 0
+// by CLI11 (`--altitude ""`: a height "from telemetry"; `simulate --noise ""`), a negative one
+// wrapped around in an unsigned option (`--ransac-seed -1`), 100000 SURF threads crashed the run
+// (exit 139), and simulate's checks exited 1 after creating the output folder, naming the
+// struct's field only. Each is now a usage error naming the option, before any output.
+TEST(CliConventions, HostileNumbersAreUsageErrorsNamingTheOption) {
+  const std::string dir = "/tmp/aerovo_conventions_numbers_" + std::to_string(::getpid());
+  const struct {
+    const char* args;
+    const char* message;
+  } kCases[] = {
+      {"run flight.mp4 --altitude '' --print-config", "--altitude: an empty value is not a number"},
+      {"run flight.mp4 --step ' ' --print-config", "--step: an empty value is not a number"},
+      {"run flight.mp4 --ransac-seed -1 --print-config",
+       "--ransac-seed: '-1': a negative value for a count or seed (0 or more)"},
+      {"run flight.mp4 --surf-num-threads 100000 --print-config",
+       "surf.num_threads must be in [0, 256], got 100000"},
+      {"run flight.mp4 --clustered-grid-rows 100000 --print-config",
+       "clustered.grid_rows must be in [1, 64], got 100000"},
+      {"simulate --noise '' -o DIR", "--noise: an empty value is not a number"},
+      {"simulate --seed -1 -o DIR", "--seed: '-1': a negative value"},
+      {"simulate --height-m 0 -o DIR", "--height-m: FlightPlan: height_m = 0 must be in [1, 10000]"},
+      {"simulate --pattern turns --legs 0 -o DIR", "--legs: FlightPlan: legs = 0 must be in"},
+      {"simulate --width 0 -o DIR", "--width, --height: CameraModel: image size 0x720 px"},
+      {"simulate --gps-rate-hz nan -o DIR", "--gps-rate-hz: GpsOptions: rate_hz = nan"},
+      {"simulate --render hot -o DIR", "--render must be 'visible' or 'thermal', not 'hot'"},
+      {"report --mosaic-size '' DIR", "--mosaic-size: an empty value is not a number"},
+      {"report --mosaic-size 0 DIR",
+       "--mosaic-size 0, --mosaic-frames 60: mosaic: max_size_px must be within 100..20000"},
+      {"correspondence a.png b.png --last-shift nan 0", "--last-shift nan 0: both must be finite"},
+      // experiment: its checks and the simulation's before the folder (an empty folder with a
+      // lock file was left behind).
+      {"experiment illumination --simulate --k 0 -o DIR", "illumination: k must be in (0, 1]"},
+      {"experiment ransac --simulate --sim-fps 0 -o DIR", "fps = 0 must be in (0, 1000]"},
+      {"experiment ransac -o DIR", "give an input flight"},
+      {"experiment illumination --simulate --k '' -o DIR", "--k '': an empty item"},
+      {"experiment illumination --simulate --k 1,,0.5 -o DIR", "--k '1,,0.5': an empty item"},
+  };
+  for (const auto& c : kCases) {
+    std::string args = c.args;
+    if (args.find("DIR") != std::string::npos) args.replace(args.find("DIR"), 3, dir);
+    const Cli r = Aerovo(args);
+    EXPECT_EQ(r.status, 2) << args << "\n" << r.out;
+    EXPECT_TRUE(Has(r.out, c.message)) << args << "\n" << r.out;
+    EXPECT_FALSE(std::filesystem::exists(dir)) << args << ": the output folder was created";
+    std::filesystem::remove_all(dir);
+  }
+}
+
+// `aerovo report` of a run whose summary.json holds values of the wrong JSON type (strings,
+// null): before, `aerovo: error: [json.exception.type_error.302] type must be boolean, but is
+// string`, naming no file; now an input error naming the files, exit 1, and without the summary
+// the report is written from frames.csv.
+TEST(CliConventions, ReportOfASummaryWithWrongTypesNamesTheFile) {
+  const std::string dir = "/tmp/aerovo_conventions_report_" + std::to_string(::getpid());
+  std::filesystem::remove_all(dir);
+  ASSERT_EQ(Aerovo("simulate --pattern line --length-m 20 --fps 2 --width 320 --height 240 -q -o " +
+                   dir + "/sim").status, 0);
+  ASSERT_EQ(Aerovo("run " + dir + "/sim/video.mp4 --telemetry " + dir +
+                   "/sim/telemetry.srt -q -o " + dir + "/run").status, 0);
+  const std::string summary = dir + "/run/summary.json";
+  for (const char* value : {"\"yes\"", "null"}) {
+    std::ifstream in(summary);
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    in.close();
+    const std::regex interrupted("\"interrupted\": (false|true|\"yes\"|null)");
+    ASSERT_TRUE(std::regex_search(text, interrupted)) << text;
+    std::ofstream(summary) << std::regex_replace(
+        text, interrupted, std::string("\"interrupted\": ") + value);
+    const Cli r = Aerovo("report --no-png --no-mosaic -q " + dir + "/run");
+    EXPECT_EQ(r.status, 1) << value << "\n" << r.out;
+    EXPECT_TRUE(Has(r.out, "aerovo: error: '" + summary + "' or '" + dir +
+                               "/run/config.json' holds a value of another type than aerovo run "
+                               "writes ([json.exception.type_error.302] type must be boolean"))
+        << value << "\n" << r.out;
+  }
+  std::filesystem::remove(summary);
+  const Cli r = Aerovo("report --no-png --no-mosaic -q " + dir + "/run");
+  EXPECT_EQ(r.status, 0) << r.out;
+  std::filesystem::remove_all(dir);
+}
+
 TEST(CliConventions, HelpCmdIsCmdHelpAndEveryHelpListsTheExitCodes) {
   const Cli help = Aerovo("help run", true), direct = Aerovo("run --help", true);
   EXPECT_EQ(help.status, 0);

@@ -150,6 +150,7 @@ int main(int argc, char** argv) {
   completion->add_option("shell", shell, "Shell")->check(CLI::IsMember({"bash"}))->required();
   completion->callback([&] { std::cout << BashCompletion(app, "aerovo"); });
   SetFooters(app);
+  RequireNumbers(app);
 
   std::vector<std::string> args(argv + 1, argv + argc);
   if (args.empty()) {  // `aerovo` alone: the usage with the commands

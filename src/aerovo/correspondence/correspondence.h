@@ -199,16 +199,16 @@ void Validate(const CorrespondenceOptions& options);
 template <class V>
 void VisitFields(ClusteredRansacOptions& o, V& v) {
   using namespace options;
-  v.Field(o.grid_rows, "grid_rows", "Grid rows over the cropped previous frame (the paper: 3)", AtLeast(1));
-  v.Field(o.grid_cols, "grid_cols", "Grid columns (the paper: 3)", AtLeast(1));
-  v.Field(o.min_points, "min_points", "Cells with fewer prev points are never tried (the paper: 12)", AtLeast(1));
+  v.Field(o.grid_rows, "grid_rows", "Grid rows over the cropped previous frame (the paper: 3)", Interval(1, 64));
+  v.Field(o.grid_cols, "grid_cols", "Grid columns (the paper: 3)", Interval(1, 64));
+  v.Field(o.min_points, "min_points", "Cells with fewer prev points are never tried (the paper: 12)", Interval(1, 1000000));
   v.Field(o.cell_order, "cell_order", "Order in which cells are tried (the paper: fewest-first)", Any());
   v.Field(o.crop, "crop", "Drop the strips that leave the view (the paper)", Any());
   v.Field(o.refine, "refine", "Refine a cell's fit on spread points, then on all points (false = the paper's clustered RANSAC exactly)", Any().Alias("refine"));
   v.Field(o.refine_radius_px, "refine_radius_px", "Search radius of the spread refinement's guided matching, px", GreaterThan(0).Finite());
-  v.Field(o.refine_max_points, "refine_max_points", "Points per spread refinement (0 = every point in the crop)", AtLeast(0));
+  v.Field(o.refine_max_points, "refine_max_points", "Points per spread refinement (0 = every point in the crop)", Interval(0, 10000000));
   v.Field(o.refine_final_radius_px, "refine_final_radius_px", "Final pass on every point: search radius, px (0 = no final pass)", AtLeast(0).Finite());
-  v.Field(o.refine_final_max_points, "refine_final_max_points", "Final pass: most prev points matched (0 = every point)", AtLeast(0));
+  v.Field(o.refine_final_max_points, "refine_final_max_points", "Final pass: most prev points matched (0 = every point)", Interval(0, 10000000));
   v.Field(o.refine_final_min_shift_px, "refine_final_min_shift_px", "Final pass only when the spread fit moved the cell's by more, px (0 = always)", AtLeast(0).Finite());
   v.Field(o.refine_early_exit, "refine_early_exit", "Spread refinement stops after half its points when they confirm the cell's fit", Any());
   v.Field(o.refine_fallback, "refine_fallback", "Refit a fall-back's result on every point within refine_final_radius_px", Any());
@@ -222,7 +222,7 @@ void VisitFields(CorrespondenceOptions& o, V& v) {
   v.Field(o.method, "method", "Correspondence: clustered (the paper) or standard (all points)", Any().Alias("mode"));
   v.Field(o.model, "model", "Motion model between frames", Any().Alias("model"));
   v.Field(o.sampler, "sampler", "RANSAC sampler: uniform (MATLAB MSAC) or prosac (best matches first)", Any());
-  v.Field(o.min_inliers, "min_inliers", "RANSAC inliers needed for a successful estimate", AtLeast(1).Alias("min_inliers"));
+  v.Field(o.min_inliers, "min_inliers", "RANSAC inliers needed for a successful estimate", Interval(1, 1000000).Alias("min_inliers"));
   v.Field(o.guided_matching, "guided_matching", "Guided matching with the motion prior (then unguided on failure)", Any().Alias("guided"));
 }
 // clang-format on

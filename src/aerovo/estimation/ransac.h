@@ -117,15 +117,15 @@ void Validate(const RansacOptions& options);
 template <class V>
 void VisitFields(RansacOptions& o, V& v) {
   using namespace options;
-  v.Field(o.max_num_trials, "max_num_trials", "Most minimal samples scored (MATLAB MaxNumTrials)", AtLeast(1));
+  v.Field(o.max_num_trials, "max_num_trials", "Most minimal samples scored (MATLAB MaxNumTrials)", Interval(1, 10000000));
   v.Field(o.confidence_percent, "confidence_percent", "Confidence of the adaptive trial count, % (MATLAB Confidence)", Interval(0, 100, true, true));
   v.Field(o.max_distance_px, "max_distance_px", "Inlier threshold on the transfer error, px (MATLAB MaxDistance)", GreaterThan(0).Finite());
-  v.Field(o.max_degenerate_samples, "max_degenerate_samples", "Degenerate samples allowed before giving up", AtLeast(0));
+  v.Field(o.max_degenerate_samples, "max_degenerate_samples", "Degenerate samples allowed before giving up", Interval(0, 10000000));
   v.Field(o.seed, "seed", "Seed of the sampler (same seed and input, same result)", Any().Alias("seed"));
   v.Field(o.local_optimization, "local_optimization", "Least-squares local optimisation of every new best model", Any());
-  v.Field(o.lo_max_iterations, "lo_max_iterations", "Most refits per local optimisation", AtLeast(1));
-  v.Field(o.final_refit_iterations, "final_refit_iterations", "Least-squares refits of the best model (MATLAB: 1)", AtLeast(0));
-  v.Field(o.polish_iterations, "polish_iterations", "Robust IRLS polish rounds over all matches (0 = off; 20 makes tracks seed-independent)", AtLeast(0).Alias("polish"));
+  v.Field(o.lo_max_iterations, "lo_max_iterations", "Most refits per local optimisation", Interval(1, 1000));
+  v.Field(o.final_refit_iterations, "final_refit_iterations", "Least-squares refits of the best model (MATLAB: 1)", Interval(0, 1000));
+  v.Field(o.polish_iterations, "polish_iterations", "Robust IRLS polish rounds over all matches (0 = off; 20 makes tracks seed-independent)", Interval(0, 1000).Alias("polish"));
   v.Field(o.polish_scale_px, "polish_scale_px", "Scale of the polish's Geman-McClure loss, px", GreaterThan(0).Finite());
 }
 // clang-format on

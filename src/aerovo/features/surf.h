@@ -104,14 +104,14 @@ void VisitFields(SurfOptions& o, V& v) {
   v.Field(o.hessian_threshold, "hessian_threshold", "SURF Hessian threshold (MATLAB MetricThreshold)", AtLeast(0).Finite().Alias("surf_threshold"));
   v.Field(o.num_octaves, "num_octaves", "Octaves of box filters (MATLAB NumOctaves)", Interval(1, 10));
   v.Field(o.num_scale_levels, "num_scale_levels", "Scale levels per octave (MATLAB NumScaleLevels)", Interval(3, 16));
-  v.Field(o.max_keypoints, "max_keypoints", "Keep the N strongest keypoints per frame (0 = all)", AtLeast(0).Alias("max_keypoints"));
+  v.Field(o.max_keypoints, "max_keypoints", "Keep the N strongest keypoints per frame (0 = all)", Interval(0, 10000000).Alias("max_keypoints"));
   v.Field(o.upright, "upright", "No orientation (faster, not rotation invariant)", Any());
   v.Field(o.extended, "extended", "128-value descriptor instead of 64", Any());
   v.Field(o.adaptive, "adaptive", "Adaptive points: about target_points per frame spread over a grid, whatever the contrast (false = fixed hessian_threshold, MATLAB)", Any());
   v.Field(o.target_points, "target_points", "Adaptive: points kept per frame", Interval(1, 1000000));
   v.Field(o.grid, "grid", "Adaptive: cells per side of the spreading grid (each keeps its strongest points)", Interval(1, 64));
   v.Field(o.min_response, "min_response", "Adaptive: Hessian floor at full contrast, scaled by (frame's robust intensity range / 255)^2", AtLeast(0).Finite());
-  v.Field(o.num_threads, "num_threads", "SURF threads (0 = all cores; same results)", AtLeast(0));
+  v.Field(o.num_threads, "num_threads", "SURF threads (0 = all cores; same results)", Interval(0, kMaxOptionThreads));
 }
 // clang-format on
 

@@ -99,12 +99,12 @@ void VisitFields(MatchOptions& o, V& v) {
   v.Field(o.unique, "unique", "Keep only mutual best matches (MATLAB Unique)", Any());
   v.Field(o.check_laplacian, "check_laplacian", "Never compare points whose Laplacian signs differ", Any());
   v.Field(o.guided_radius_px, "guided_radius_px", "Guided matching: search radius around the prediction, px", GreaterThan(0).Finite());
-  v.Field(o.num_threads, "num_threads", "Matching threads (0 = all cores)", AtLeast(0));
+  v.Field(o.num_threads, "num_threads", "Matching threads (0 = all cores)", Interval(0, kMaxOptionThreads));
   v.Field(o.accept_single_candidate, "accept_single_candidate", "Accept a lone candidate on the absolute threshold alone", Any());
   v.Field(o.use_avx2, "use_avx2", "AVX2+FMA kernels when the CPU has them (false: SSE4.2)", Any());
   v.Field(o.algorithm, "algorithm", "Matching without a motion prior: exhaustive (exact) or kdtree (approximate)", Any().Alias("matcher"));
   v.Field(o.kd_trees, "kd_trees", "kdtree: randomized trees per Laplacian group", Interval(1, 64));
-  v.Field(o.kd_max_checks, "kd_max_checks", "kdtree: candidates examined per query (0 = exact)", AtLeast(0));
+  v.Field(o.kd_max_checks, "kd_max_checks", "kdtree: candidates examined per query (0 = exact)", Interval(0, 1000000));
   v.Field(o.kd_seed, "kd_seed", "kdtree: seed of the trees' random choices", Any());
 }
 // clang-format on

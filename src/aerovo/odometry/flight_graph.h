@@ -125,18 +125,18 @@ void VisitFields(BackendOptions& o, V& v) {
   v.Field(o.enable, "enable", "Offline whole-flight optimisation after the last frame (vo_optimized.*)", Any());
   v.Field(o.keyframe_spacing, "keyframe_spacing", "Keyframe spacing, fraction of the footprint's smaller side", GreaterThan(0).Finite());
   v.Field(o.search_radius, "search_radius", "Candidate pairs within this distance, fraction of the footprint's smaller side", GreaterThan(0).Finite());
-  v.Field(o.max_pairs_per_keyframe, "max_pairs_per_keyframe", "Candidate pairs tried per keyframe at most", AtLeast(1));
-  v.Field(o.min_inliers, "min_inliers", "RANSAC inliers needed to keep a pair's fit", AtLeast(3));
+  v.Field(o.max_pairs_per_keyframe, "max_pairs_per_keyframe", "Candidate pairs tried per keyframe at most", Interval(1, 1000));
+  v.Field(o.min_inliers, "min_inliers", "RANSAC inliers needed to keep a pair's fit", Interval(3, 1000000));
   v.Field(o.min_spread, "min_spread", "Inliers' bounding box, least fraction of the image area", Interval(0, 1, true, true));
   v.Field(o.gate, "gate", "Largest disagreement of a fit with the track, fraction of the path between the frames", GreaterThan(0).Finite());
   v.Field(o.gate_heading_deg, "gate_heading_deg", "Largest heading disagreement of a fit with the track, degrees", Interval(0, 180, false, true));
   v.Field(o.online, "online", "Online window: match each frame against recent keyframes and optimise the last poses per frame; the live outputs carry the windowed estimate", Any());
-  v.Field(o.window, "window", "Online window: poses optimised per frame (older ones are final)", AtLeast(2));
-  v.Field(o.online_keyframes, "online_keyframes", "Online window: recent keyframes matched per frame", AtLeast(1));
+  v.Field(o.window, "window", "Online window: poses optimised per frame (older ones are final)", Interval(2, 10000));
+  v.Field(o.online_keyframes, "online_keyframes", "Online window: recent keyframes matched per frame", Interval(1, 1000));
   v.Field(o.closures, "closures", "Loop closures by appearance: keyframes compared by their bags of quantised descriptors with older ones outside the window", Any());
   v.Field(o.closure_search_radius, "closure_search_radius", "Loop closures: candidates within this causal distance, fraction of the footprint's smaller side", GreaterThan(0).Finite());
   v.Field(o.closure_similarity, "closure_similarity", "Loop closures: least similarity, relative to the previous keyframe's", GreaterThan(0).Finite());
-  v.Field(o.closure_max_candidates, "closure_max_candidates", "Loop closures: candidates tried per keyframe at most", AtLeast(1));
+  v.Field(o.closure_max_candidates, "closure_max_candidates", "Loop closures: candidates tried per keyframe at most", Interval(1, 1000));
   v.Field(o.gps_sigma_m, "gps_sigma_m", "GPS fixes as absolute position factors of the offline optimisation: standard deviation per axis, metres (0: none)", AtLeast(0).Finite());
 }
 // clang-format on

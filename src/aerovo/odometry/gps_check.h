@@ -55,7 +55,7 @@ void VisitFields(GpsCheckOptions& o, V& v) {
   v.Field(o.max_vertical_speed_mps, "max_vertical_speed_mps", "Largest plausible vertical speed, m/s", GreaterThan(0).Finite());
   v.Field(o.tolerance_m, "tolerance_m", "Jump always allowed on top of the speed limits (GPS noise), m", AtLeast(0).Finite());
   v.Field(o.vo_ratio, "vo_ratio", "A fix may jump at most this times the camera's VO motion (+ tolerance_m); 0 = no VO check", AtLeast(0).Finite());
-  v.Field(o.min_chain, "min_chain", "Consistent rejected fixes that replace the accepted ones when more numerous", AtLeast(1));
+  v.Field(o.min_chain, "min_chain", "Consistent rejected fixes that replace the accepted ones when more numerous", Interval(1, 1000000));
 }
 // clang-format on
 

@@ -293,7 +293,8 @@ struct VisualOdometry::Impl {
                                        std::optional<double> height_m) {
     if (!(o.focal_px > 0.0)) return 1.0;
     const double h = height_m ? *height_m : o.default_height_m;
-    if (!(h > 0.0) || !std::isfinite(h)) {
+    // At most kMaxHeightAboveGroundM: 1e308 m made positions of 1e303 m and inf, status ok.
+    if (!(h > 0.0 && h <= kMaxHeightAboveGroundM)) {
       throw InputError("frame " + std::to_string(index) +
                        ": no valid height above ground (give telemetry with relative altitude "
                        "or --altitude), got " +
@@ -484,6 +485,18 @@ FrameResult VisualOdometry::Process(const GrayImageView& frame, double time_s,
   r.time_s = time_s;
   if (frame.empty()) {
     throw InvalidArgument("VisualOdometry: frame " + std::to_string(r.index) + " is empty");
+  }
+  // Values that are not finite never reach the track: a NaN yaw (with heading_from_yaw) turned
+  // every later position into NaN with status ok; a NaN attitude every keypoint.
+  const auto not_finite = [&](const char* what, double v) {
+    throw InvalidArgument(fmt::format("VisualOdometry: frame {}: {} = {} is not finite", r.index,
+                                      what, v));
+  };
+  if (!std::isfinite(time_s)) not_finite("time_s", time_s);
+  if (yaw_deg && !std::isfinite(*yaw_deg)) not_finite("yaw_deg", *yaw_deg);
+  if (attitude && !std::isfinite(attitude->roll_deg)) not_finite("roll_deg", attitude->roll_deg);
+  if (attitude && !std::isfinite(attitude->pitch_deg)) {
+    not_finite("pitch_deg", attitude->pitch_deg);
   }
   s.CheckFrameSize(frame, r.index);
   const double gsd = Impl::GroundSamplingDistance(o, r.index, height_m);

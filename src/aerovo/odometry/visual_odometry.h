@@ -24,6 +24,10 @@
 
 namespace aerovo {
 
+/// The largest height above ground a frame may be given, m: the range of the run's altitude_m
+/// (pipeline/run_config.h), 100 km.
+inline constexpr double kMaxHeightAboveGroundM = 1e5;
+
 /// Options of the odometry pipeline. Plain aggregate; check with Validate().
 struct OdometryOptions {
   /// SURF options. Defaults = MATLAB's (surf.h) except:
@@ -132,16 +136,16 @@ void VisitFields(OdometryOptions& o, V& v) {
   v.Group("correspondence", o.correspondence);
   v.Field(o.scale_mode, "scale_mode", "metric (height/focal per step) or affine-chain (the paper's pure chaining)", Any().Alias("scale"));
   v.Field(o.heading_from_yaw, "heading_from_yaw", "Metric mode: heading from the telemetry yaw instead of the steps' rotation", Any());
-  v.Field(o.min_features, "min_features", "A frame with fewer SURF points is bridged", AtLeast(0));
+  v.Field(o.min_features, "min_features", "A frame with fewer SURF points is bridged", Interval(0, 1000000));
   v.Field(o.max_scale_change, "max_scale_change", "Plausibility: largest |scale - 1| of a step", Interval(0, 1, true, true));
   v.Field(o.max_anisotropy, "max_anisotropy", "Plausibility: largest ratio of the step's singular values", AtLeast(1));
   v.Field(o.max_shift_fraction, "max_shift_fraction", "Plausibility: largest move of the image centre, fraction of the larger side", GreaterThan(0));
   v.Field(o.relocalize, "relocalize", "Match a lost frame against stored keyframes", Any());
-  v.Field(o.keyframe_interval, "keyframe_interval", "A keyframe every N measured frames", AtLeast(1));
-  v.Field(o.max_keyframes, "max_keyframes", "Keyframes kept (oldest dropped)", AtLeast(1));
-  v.Field(o.relocalize_min_inliers, "relocalize_min_inliers", "Inliers needed to accept a relocalisation", AtLeast(1));
+  v.Field(o.keyframe_interval, "keyframe_interval", "A keyframe every N measured frames", Interval(1, 1000000));
+  v.Field(o.max_keyframes, "max_keyframes", "Keyframes kept (oldest dropped)", Interval(1, 1000));
+  v.Field(o.relocalize_min_inliers, "relocalize_min_inliers", "Inliers needed to accept a relocalisation", Interval(1, 1000000));
   v.Field(o.relocalize_sampler, "relocalize_sampler", "RANSAC sampler of keyframe attempts", Any());
-  v.Field(o.max_reacquire_gap, "max_reacquire_gap", "After a failure the last good frame stays a reference for N frames", AtLeast(1));
+  v.Field(o.max_reacquire_gap, "max_reacquire_gap", "After a failure the last good frame stays a reference for N frames", Interval(1, 1000000));
 }
 // clang-format on
 template <>
@@ -260,8 +264,9 @@ class VisualOdometry {
   /// matching, so the step is measured between nadir-equivalent images and position_m is the
   /// point under the camera, not the ground point of the image centre. Without one the frame is
   /// processed as a nadir frame (the behaviour before attitudes existed).
-  /// Throws InvalidArgument for an empty frame, InputError when the frame size differs from the
-  /// first frame's or no height above ground is known for a metric run (message names the
+  /// Throws InvalidArgument for an empty frame or a time, yaw or attitude that is not finite,
+  /// InputError when the frame size differs from the first frame's or no height above ground is
+  /// known for a metric run (none, not > 0, or above kMaxHeightAboveGroundM; message names the
   /// frame).
   FrameResult Process(const GrayImageView& frame, double time_s,
                       std::optional<double> height_m = std::nullopt,

@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -138,6 +140,54 @@ TEST_F(SyntheticFlight, RecoversCurvedTrajectory) {
   }
   EXPECT_EQ(vo.stats().frames, 30);
   EXPECT_EQ(vo.stats().bridged, 0);
+}
+
+// A time, yaw or attitude that is not finite, or a height beyond 100 km, is refused naming the
+// frame, and the frame is not counted: the next good frame continues the track. Before, a NaN
+// yaw with heading_from_yaw made every later position NaN with status ok, and a height of
+// 1e308 m positions of 1e303 m and inf (the Python bindings reach Process directly).
+TEST_F(SyntheticFlight, NonFiniteTimeYawAttitudeOrAbsurdHeightIsRefusedNamingTheFrame) {
+  const std::vector<TruePose> truth = CurvedFlight(4);
+  OdometryOptions o = SyntheticOptions();
+  o.heading_from_yaw = true;
+  VisualOdometry vo(o);
+  std::vector<cv::Mat> frames;
+  for (const TruePose& p : truth) frames.push_back(Render(*ground_, q0_, p));
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(vo.Process(View(frames[0]), 0.0, kHeightM, 0.0).status, FrameStatus::kFirst);
+  const auto message = [&](const std::function<void()>& f) {
+    try {
+      f();
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string("(accepted)");
+  };
+  EXPECT_EQ(message([&] { vo.Process(View(frames[1]), 0.5, kHeightM, nan); }),
+            "VisualOdometry: frame 1: yaw_deg = nan is not finite");
+  EXPECT_EQ(message([&] { vo.Process(View(frames[1]), 0.5, kHeightM, inf); }),
+            "VisualOdometry: frame 1: yaw_deg = inf is not finite");
+  EXPECT_EQ(message([&] { vo.Process(View(frames[1]), nan, kHeightM, 0.0); }),
+            "VisualOdometry: frame 1: time_s = nan is not finite");
+  EXPECT_EQ(message([&] {
+              vo.Process(View(frames[1]), 0.5, kHeightM, 0.0, CameraAttitude{nan, 0.0});
+            }),
+            "VisualOdometry: frame 1: roll_deg = nan is not finite");
+  EXPECT_EQ(message([&] {
+              vo.Process(View(frames[1]), 0.5, kHeightM, 0.0, CameraAttitude{0.0, -inf});
+            }),
+            "VisualOdometry: frame 1: pitch_deg = -inf is not finite");
+  const std::string high = message([&] { vo.Process(View(frames[1]), 0.5, 1e308, 0.0); });
+  EXPECT_NE(high.find("frame 1: no valid height above ground"), std::string::npos) << high;
+  EXPECT_EQ(vo.stats().frames, 1);
+  // The flight goes on with good values, as if the refused calls had not been made.
+  for (std::size_t i = 1; i < truth.size(); ++i) {
+    const FrameResult r = vo.Process(View(frames[i]), 0.5 * i, kHeightM);
+    EXPECT_EQ(r.index, static_cast<int>(i));
+    EXPECT_EQ(r.status, FrameStatus::kOk) << "frame " << i;
+    EXPECT_TRUE(r.position_m.allFinite());
+  }
 }
 
 // SetShareFeatures: the results carry the frame's features and the step's inliers (for the

@@ -547,6 +547,12 @@ RunConfig LoadRunConfig(const std::filesystem::path& path, RunConfig base) {
   ss << in.rdbuf();
   const RunConfigFormat format =
       ext == ".yaml" || ext == ".yml" ? RunConfigFormat::kYaml : RunConfigFormat::kJson;
-  return ParseRunConfig(ss.str(), format, std::move(base), "config file '" + path.string() + "'");
+  const std::string source = "config file '" + path.string() + "'";
+  RunConfig config = ParseRunConfig(ss.str(), format, std::move(base), source);
+  // Each value's range checked here too, so that one out of its range names the file it is in
+  // ("config file 'c.json': surf.num_threads must be in [0, 256], got 100000"); Validate checks
+  // the merged configuration again, with the rules between options.
+  options::CheckRanges(config, "", /*recurse=*/true, source);
+  return config;
 }
 }  // namespace aerovo

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
 #include "aerovo/core/error.h"
@@ -180,6 +181,77 @@ TEST(RunConfigSchema, OutOfRangeValuesGiveTheOneMessageStyle) {
         << ex.what();
   }
   EXPECT_THROW(Validate(RunConfig{}), InvalidArgument);  // no input
+}
+
+// Collects the keys of the integer options without an upper bound, and checks that one past the
+// bound of those with one is refused.
+class IntegerBounds : public options::GroupingVisitor<IntegerBounds> {
+ public:
+  template <class T>
+  void Field(T& v, const char* key, const char*, const options::Spec& spec) {
+    if constexpr (std::is_same_v<T, int>) {
+      if (!spec.has_max) {
+        unbounded.push_back(Key(key));
+        return;
+      }
+      const T saved = v;
+      v = static_cast<T>(spec.max) + (spec.max_open ? 0 : 1);
+      EXPECT_THROW(Validate(*config), InvalidArgument) << Key(key) << " = " << v;
+      v = saved;
+      ++checked;
+    }
+  }
+  RunConfig* config = nullptr;
+  std::vector<std::string> unbounded;
+  int checked = 0;
+};
+
+// Every integer option is a count, a size or an index, used to size buffers (a grid of
+// grid_rows x grid_cols cells, keyframes kept), start threads or bound loops: each has an upper
+// bound. Before, `--surf-num-threads 100000` crashed aerovo run (segmentation fault, exit 139),
+// `--threads 2147483647` and `--clustered-grid-rows 100000 --clustered-grid-cols 100000` ended
+// in `std::bad_alloc`; through a config file too, where the error now names the file.
+TEST(RunConfigSchema, EveryIntegerOptionHasAnUpperBound) {
+  RunConfig c = Base();
+  IntegerBounds v;
+  v.config = &c;
+  VisitFields(c, v);
+  EXPECT_TRUE(v.unbounded.empty()) << "integer options without an upper bound: "
+                                   << fmt::format("{}", fmt::join(v.unbounded, ", "));
+  EXPECT_GE(v.checked, 40);
+  const auto message = [](const std::function<void(RunConfig&)>& set) {
+    RunConfig r = Base();
+    set(r);
+    try {
+      Validate(r);
+    } catch (const InvalidArgument& e) {
+      return std::string(e.what());
+    }
+    return std::string("(accepted)");
+  };
+  EXPECT_EQ(message([](RunConfig& r) { r.odometry.surf.num_threads = 100000; }),
+            "run configuration: surf.num_threads must be in [0, 256], got 100000");
+  EXPECT_EQ(message([](RunConfig& r) { r.odometry.correspondence.clustered.grid_rows = 100000; }),
+            "run configuration: clustered.grid_rows must be in [1, 64], got 100000");
+  EXPECT_EQ(message([](RunConfig& r) { r.odometry.surf.num_threads = options::kMaxOptionThreads; }),
+            "(accepted)");
+  // A config file's value out of its range names the file.
+  const fs::path dir = fs::temp_directory_path() /
+                       ("aerovo_int_bounds_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  for (const char* name : {"c.json", "c.yaml"}) {
+    const fs::path f = dir / name;
+    std::ofstream(f) << (fs::path(name).extension() == ".json" ? "{\"surf.num_threads\": 100000}"
+                                                                : "surf.num_threads: 100000\n");
+    try {
+      LoadRunConfig(f, Base());
+      ADD_FAILURE() << name << " accepted";
+    } catch (const InvalidArgument& e) {
+      EXPECT_EQ(std::string(e.what()), "config file '" + f.string() +
+                                           "': surf.num_threads must be in [0, 256], got 100000");
+    }
+  }
+  fs::remove_all(dir);
 }
 
 TEST(RunConfigSchema, WrongTypesAndUnknownKeysNameTheKey) {

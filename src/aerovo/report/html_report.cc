@@ -1919,7 +1919,18 @@ ReportResult WriteReport(const fs::path& dir, const ReportOptions& options) {
   if (IsRunDir(dir)) {
     if (options.log) *options.log << "aerovo report: run folder " << dir.string() << "\n";
     const RunData run = ReadRunForReport(dir);
-    return WriteRunReport(dir, run, CompareWithGps(run), options, sw);
+    // summary.json and config.json are read as aerovo run writes them: a value of another JSON
+    // type (a damaged or hand-edited file: "interrupted": "yes", null) made nlohmann's accessors
+    // throw, and the error named neither the file nor the folder.
+    try {
+      return WriteRunReport(dir, run, CompareWithGps(run), options, sw);
+    } catch (const nlohmann::json::exception& e) {
+      throw InputError("'" + (dir / RunFileNames::kSummaryJson).string() + "' or '" +
+                       (dir / RunFileNames::kConfigJson).string() +
+                       "' holds a value of another type than aerovo run writes (" + e.what() +
+                       "): a damaged or edited file; remove summary.json to have the report "
+                       "recompute its figures from frames.csv");
+    }
   }
   throw InputError("'" + dir.string() + "' is neither a run folder (no " +
                    RunFileNames::kFramesCsv + ") nor an experiment folder (no " +

@@ -19,6 +19,17 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// True when the file's last byte is a line end (LF; CR for a file saved with lone CRs), or the
+// file is empty.
+bool EndsWithNewline(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  const std::streamoff size = in ? static_cast<std::streamoff>(in.tellg()) : 0;
+  if (size <= 0) return true;
+  in.seekg(size - 1);
+  const int last = in.get();
+  return last == '\n' || last == '\r';
+}
+
 // A CSV file read into rows of named columns.
 class CsvTable {
  public:
@@ -45,8 +56,13 @@ class CsvTable {
       records.push_back(std::move(r));
     }
     // A progressive file killed mid-write may end with a partial record: drop a broken last one.
+    // aerovo writes every record with its line end (outputs/output_file.h), so a last line
+    // without one is cut too, even with every field: its last value may be cut short
+    // (transforms.csv's ty -34.132989 read as -34.1, a silently wrong mosaic).
+    const bool cut_last_line = !EndsWithNewline(path);
     for (std::size_t i = 0; i < records.size(); ++i) {
       Record& r = records[i];
+      if (i + 1 == records.size() && cut_last_line) break;
       if (!r.whole || r.cells.size() != header.size()) {
         if (i + 1 == records.size()) break;
         throw InputError("'" + path.string() + "' line " + std::to_string(r.line) + ": " +
