@@ -3,10 +3,15 @@
 // extension).
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <istream>
 #include <optional>
+#include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <fmt/format.h>
@@ -601,19 +606,84 @@ TelemetryReadResult ReadTelemetryCsv(const std::filesystem::path& path,
   return ParseTelemetryCsv(in, path.string(), options);
 }
 
-TelemetryReadResult ReadTelemetryFile(const std::filesystem::path& path,
-                                      const TelemetryReadOptions& options) {
-  const std::string ext = io_detail::ToLower(path.extension().string());
+namespace {
+
+// The telemetry format of a file whose extension names none, from its first bytes: the magic
+// bytes of a DataFlash .bin (A3 95 80: an FMT message, dataflash_reader.cc), a PX4 ULog ("ULog"
+// 01 12 35, PX4 User Guide "ULog File Format"), a MAVLink .tlog (an 8-byte big-endian timestamp
+// in microseconds since 1970, whose first byte is 0 until the year 2541, then a MAVLink 1 or 2
+// packet's FE / FD: tlog_reader.cc), a GPX document (a <gpx element within the first KiB) or DJI
+// SRT subtitles (a counter line, then a "HH:MM:SS,mmm --> HH:MM:SS,mmm" timing line). "" for
+// anything else (CSV tables are not guessed: any text file has commas).
+std::string SniffedExtension(const std::filesystem::path& path) {
+  std::ifstream in = io_detail::OpenInput(path);
+  std::string head(1024, '\0');
+  in.read(head.data(), static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<std::size_t>(in.gcount()));
+  const auto starts = [&](std::string_view magic) { return head.rfind(magic, 0) == 0; };
+  if (starts("\xA3\x95\x80")) return ".bin";
+  if (starts("ULog\x01\x12\x35")) return ".ulg";
+  if (head.size() >= 9 && head[0] == '\0' &&
+      (head[8] == static_cast<char>(0xFE) || head[8] == static_cast<char>(0xFD))) {
+    return ".tlog";
+  }
+  std::string_view text(head);
+  if (text.rfind("\xEF\xBB\xBF", 0) == 0) text.remove_prefix(3);  // a UTF-8 byte order mark
+  if (text.find("<gpx") != std::string_view::npos) return ".gpx";
+  const std::size_t first = text.find_first_not_of(" \t\r\n");
+  if (first != std::string_view::npos && std::isdigit(static_cast<unsigned char>(text[first]))) {
+    const std::size_t eol = text.find('\n', first);
+    if (eol != std::string_view::npos &&
+        text.substr(first, eol - first).find_first_not_of("0123456789\r \t") ==
+            std::string_view::npos) {
+      const std::size_t eol2 = text.find('\n', eol + 1);
+      if (text.substr(eol + 1, eol2 == std::string_view::npos ? eol2 : eol2 - eol - 1)
+              .find("-->") != std::string_view::npos) {
+        return ".srt";
+      }
+    }
+  }
+  return "";
+}
+
+TelemetryReadResult ReadByExtension(const std::string& ext, const std::filesystem::path& path,
+                                    const TelemetryReadOptions& options) {
   if (ext == ".srt") return ReadDjiSrt(path, options);
   if (ext == ".gpx") return ReadGpx(path, options);
   if (ext == ".csv" || ext == ".txt") return ReadTelemetryCsv(path, options);
   if (ext == ".bin" || ext == ".log") return ReadDataFlash(path, options);
   if (ext == ".tlog") return ReadTlog(path, options);
   if (ext == ".ulg") return ReadULog(path, options);
-  throw InputError(
-      fmt::format("{}: unknown telemetry format '{}' (expected .srt, .gpx, .csv, an ArduPilot "
-                  ".bin/.log, a PX4 .ulg or a MAVLink .tlog)",
-                  path.string(), ext));
+  throw std::logic_error("ReadByExtension: " + ext);
+}
+
+bool KnownExtension(const std::string& ext) {
+  for (const char* known : {".srt", ".gpx", ".csv", ".txt", ".bin", ".log", ".tlog", ".ulg"}) {
+    if (ext == known) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+TelemetryReadResult ReadTelemetryFile(const std::filesystem::path& path,
+                                      const TelemetryReadOptions& options) {
+  const std::string ext = io_detail::ToLower(path.extension().string());
+  if (KnownExtension(ext)) return ReadByExtension(ext, path, options);
+  const std::string sniffed = SniffedExtension(path);  // "no such file" before the extension
+  if (sniffed.empty()) {
+    throw InputError(
+        fmt::format("{}: unknown telemetry format '{}' (expected .srt, .gpx, .csv, an ArduPilot "
+                    ".bin/.log, a PX4 .ulg or a MAVLink .tlog; the content is none of the binary "
+                    "logs, GPX or SRT either)",
+                    path.string(), ext));
+  }
+  TelemetryReadResult r = ReadByExtension(sniffed, path, options);
+  r.warnings.insert(r.warnings.begin(),
+                    fmt::format("{}: read as {} by its content (its extension '{}' names no "
+                                "telemetry format)",
+                                path.string(), sniffed, ext));
+  return r;
 }
 
 }  // namespace aerovo

@@ -531,6 +531,13 @@ TEST(DataFlash, ReadTelemetryFilePicksTheReaderByExtensionAndContent) {
             (dir / "00000042.BIN").string());
   ExpectInputError([&] { ReadTelemetryFile(dir / "photo.bin"); },
                    {"photo.bin", "not an ArduPilot DataFlash log", "JPEG"});
+  // A binary log whose name has no extension (or another one) is read by its magic bytes, and
+  // the run is told so.
+  std::filesystem::copy_file(dir / "00000042.BIN", dir / "00000042");
+  const TelemetryReadResult sniffed = ReadTelemetryFile(dir / "00000042");
+  EXPECT_EQ(sniffed.records, 3);
+  ASSERT_FALSE(sniffed.warnings.empty());
+  EXPECT_THAT(sniffed.warnings[0], HasSubstr("00000042: read as .bin by its content"));
 }
 
 }  // namespace

@@ -221,8 +221,10 @@ TelemetryReadResult ReadULog(const std::filesystem::path& path,
                              const TelemetryReadOptions& options = {});
 
 /// Picks the reader by extension (case-insensitive): .srt, .gpx, .csv/.txt, .bin/.log
-/// (DataFlash), .ulg (PX4 ULog), .tlog (MAVLink telemetry log). Throws InputError for a
-/// missing/unreadable file or an unknown extension.
+/// (DataFlash), .ulg (PX4 ULog), .tlog (MAVLink telemetry log). Another extension (or none): by
+/// the content where it is unambiguous (a binary log's magic bytes, a .tlog record, a <gpx
+/// element, SRT's counter and timing lines; never CSV), with a first warning saying so. Throws
+/// InputError for a missing/unreadable file or a content of none of these formats.
 TelemetryReadResult ReadTelemetryFile(const std::filesystem::path& path,
                                       const TelemetryReadOptions& options = {});
 

@@ -1302,6 +1302,23 @@ TEST(TelemetryFiles, DispatchByExtensionAndMissingFile) {
   EXPECT_EQ(ReadTelemetryFile(dir / "c.csv").records, 1);
   EXPECT_EQ(ReadTelemetryFile(dir / "a.SRT").telemetry.source(), (dir / "a.SRT").string());
   ExpectInputError([&] { ReadTelemetryFile(dir / "d.kml"); }, {"d.kml", "unknown telemetry"});
+  // Without a telemetry extension: a missing file is said as such (not "unknown format ''"),
+  // SRT and GPX text is read by its content with a warning saying so; other text is refused.
+  ExpectInputError([&] { ReadTelemetryFile(dir / "missing"); },
+                   {"cannot open", "missing", "no such file"});
+  {
+    std::ofstream(dir / "DJI_0042") << kSrtBracketed;
+    std::ofstream(dir / "track.xml") << kGpx;
+    std::ofstream(dir / "notes") << "1\nnot a timing line\n";
+  }
+  const TelemetryReadResult srt = ReadTelemetryFile(dir / "DJI_0042");
+  EXPECT_EQ(srt.records, 3);
+  ASSERT_FALSE(srt.warnings.empty());
+  EXPECT_THAT(srt.warnings[0], HasSubstr("DJI_0042: read as .srt by its content (its extension "
+                                         "'' names no telemetry format)"));
+  EXPECT_EQ(ReadTelemetryFile(dir / "track.xml").records, 3);
+  ExpectInputError([&] { ReadTelemetryFile(dir / "notes"); },
+                   {"notes", "unknown telemetry format ''", "the content is none"});
   ExpectInputError([&] { ReadDjiSrt(dir / "missing.srt"); },
                    {"cannot open", "missing.srt", "no such file"});
   ExpectInputError([&] { ReadGpx(dir); }, {"is a directory"});
