@@ -108,8 +108,9 @@ std::vector<FieldDef> FieldsOf(const std::string& format) {
   return out;
 }
 
+// v in n little-endian bytes; bytes beyond v's 8 are 0 (a shift by 64 or more is undefined).
 void Le(std::string& out, std::uint64_t v, int n) {
-  for (int k = 0; k < n; ++k) out += static_cast<char>((v >> (8 * k)) & 0xFF);
+  for (int k = 0; k < n; ++k) out += static_cast<char>(k < 8 ? (v >> (8 * k)) & 0xFF : 0);
 }
 
 // The data of a topic of `format` with the given values (integers as stored, e.g. lat
