@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # ctest driver of tests/mavlink/e2e.cjs (MODE: udp, udpin or signed), autopilots.cjs (MODE:
 # contract, the frames as a video), live.cjs (MODE: live, the frames as a live UDP stream),
+# tlog.cjs (MODE: tlog, a recorded .tlog read by aerovo and node-mavlink),
 # gps_input.cjs (MODE: gps_input, the simulated flight with its telemetry, so that the track is
 # geo-referenced) and map_gps_input.cjs (MODE: map_gps_input, the same with GPS denied and the
 # fixes of a map of it fused): installs node-mavlink from the
@@ -25,6 +26,12 @@ if [ ! -f "$NODE_DIR/.installed" ] || ! cmp -s "$SRC/package-lock.json" "$NODE_D
     exit 77
   fi
   touch "$NODE_DIR/.installed"
+fi
+if [ "$MODE" = tlog ]; then
+  # A telemetry log a ground station recorded: the package's own examples/vtol.tlog, read by
+  # aerovo and by node-mavlink (tlog.cjs).
+  cd "$NODE_DIR" && NODE_PATH="$NODE_DIR/node_modules" exec node "$SRC/tlog.cjs" "$AEROVO" \
+    "$NODE_DIR/node_modules/node-mavlink/examples/vtol.tlog"
 fi
 if [ "$MODE" = gps_input ]; then
   # The flight with its telemetry (GPS without noise; the camera's yaw added as a DJI gimbal's,

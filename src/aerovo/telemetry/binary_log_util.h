@@ -99,16 +99,19 @@ inline std::optional<SeriesPoint> InterpolateSeries(const std::vector<SeriesPoin
   }
   const auto it = std::lower_bound(series.begin(), series.end(), t,
                                    [](const SeriesPoint& p, double x) { return p.time_s < x; });
-  if (it->time_s == t) return *it;
-  const SeriesPoint& b = *it;
-  const SeriesPoint& a = *(it - 1);
-  if (b.time_s - a.time_s > max_gap_s) return std::nullopt;
-  const double w = (t - a.time_s) / (b.time_s - a.time_s);
   SeriesPoint r{t, {}};
-  for (int k = 0; k < 3; ++k) {
-    double d = b.v[k] - a.v[k];
-    if (angles) d = std::remainder(d, 360.0);
-    r.v[k] = a.v[k] + w * d;
+  if (it->time_s == t) {
+    r = *it;
+  } else {
+    const SeriesPoint& b = *it;
+    const SeriesPoint& a = *(it - 1);
+    if (b.time_s - a.time_s > max_gap_s) return std::nullopt;
+    const double w = (t - a.time_s) / (b.time_s - a.time_s);
+    for (int k = 0; k < 3; ++k) {
+      double d = b.v[k] - a.v[k];
+      if (angles) d = std::remainder(d, 360.0);
+      r.v[k] = a.v[k] + w * d;
+    }
   }
   if (angles) {
     r.v[2] = std::fmod(r.v[2], 360.0);

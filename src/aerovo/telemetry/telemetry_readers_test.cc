@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "aerovo/core/error.h"
+#include "aerovo/telemetry/binary_log_util.h"
 #include "aerovo/telemetry/csv_lines.h"
 #include "aerovo/telemetry/io_test_util.h"
 #include "aerovo/telemetry/parse_util.h"
@@ -43,6 +44,30 @@ TEST(ParseUtil, DateTimes) {
   EXPECT_FALSE(ParseDateTime("2023-05-01"));
   EXPECT_FALSE(ParseDateTime("yesterday"));
   EXPECT_FALSE(ParseDateTime("2023-05-01T12:00:00Zjunk"));
+}
+
+// The binary logs' attitude series: yaw in [0, 360) whether t falls between two points or on one
+// (a log's yaw of -40 degrees is 320), along the shorter arc, never across a gap or outside.
+TEST(ParseUtil, InterpolateSeriesNormalisesYawAtAndBetweenPoints) {
+  using io_detail::InterpolateSeries;
+  using io_detail::SeriesPoint;
+  const std::vector<SeriesPoint> s = {{1.0, {1.0, 2.0, -40.0}},
+                                      {2.0, {3.0, 4.0, 20.0}},
+                                      {3.0, {5.0, 6.0, 170.0}},
+                                      {4.0, {7.0, 8.0, -170.0}},
+                                      {9.0, {0.0, 0.0, 0.0}}};
+  const auto at = [&](double t, bool angles) { return InterpolateSeries(s, t, angles, 1.0); };
+  ASSERT_TRUE(at(1.0, true));
+  EXPECT_DOUBLE_EQ(at(1.0, true)->v[2], 320.0);
+  EXPECT_DOUBLE_EQ(at(1.0, true)->v[0], 1.0);
+  EXPECT_DOUBLE_EQ(at(1.0, false)->v[2], -40.0);  // not angles: as logged
+  EXPECT_DOUBLE_EQ(at(1.5, true)->v[2], 350.0);   // -40 .. 20 through 0
+  EXPECT_DOUBLE_EQ(at(1.5, true)->v[0], 2.0);
+  EXPECT_DOUBLE_EQ(at(3.5, true)->v[2], 180.0);  // 170 .. -170 through 180, not 0
+  EXPECT_DOUBLE_EQ(at(4.0, true)->v[2], 190.0);
+  EXPECT_FALSE(at(5.0, true));  // 4 .. 9: a gap longer than 1 s
+  EXPECT_FALSE(at(0.5, true));  // before the series
+  EXPECT_FALSE(at(9.5, true));  // after it
 }
 
 TEST(ParseUtil, Numbers) {

@@ -75,9 +75,16 @@ constexpr std::uint8_t kFix3d = mav::kGpsFixType3d;
 // GLOBAL_POSITION_INT.hdg: UINT16_MAX = unknown.
 constexpr std::uint16_t kHeadingUnknown = 0xFFFF;
 
-// time_boot_ms going back by more than this is the autopilot rebooting (messages of one
-// component arrive in order; GLOBAL_POSITION_INT's time can lag ATTITUDE's by a GPS period).
+// time_boot_ms going back by more than this may be the autopilot rebooting (GLOBAL_POSITION_INT's
+// time can lag ATTITUDE's by a GPS period). Links reorder and delay packets too (a radio's
+// buffer, or a router merging two links: node-mavlink's examples/vtol.tlog has
+// GLOBAL_POSITION_INT arriving 1.2 s of the autopilot's time after later ones), so a drop is a
+// reboot only when the ground station's clock says so: a packet of the same boot that arrived
+// late was received `late` seconds after the boot's earliest-received timing, while a new boot's
+// first packet arrives at least the old boot's uptime after it. A drop is a reboot when `late`
+// is more than this fraction of the old boot's latest time since boot.
 constexpr double kRebootDropS = 2.0;
+constexpr double kRebootLateFraction = 0.5;
 // ATTITUDE kept at most this often (seconds; it may be streamed at 50 Hz or more), and not
 // interpolated across a gap longer than kMaxInterpolationGapS.
 constexpr double kMinSeriesStepS = 0.02;
@@ -115,11 +122,18 @@ struct System {
   int segment = 0;
   double offset_s = 0.0;
   std::optional<double> max_boot_s;  // latest time since boot of this segment
+  // Earliest (record time - time since boot) of this segment, seconds: the boot's moment by the
+  // ground station's clock plus the link's smallest latency.
+  std::optional<double> boot_epoch_s;
   double last_time_s = 0.0;
   std::uint64_t last_record_us = 0;
   std::map<int, double> unix_minus_time;  // per segment: Unix time - time_s (SYSTEM_TIME)
   std::vector<long long> reboots;         // byte offsets of the first message after each
   std::optional<double> last_position_s;
+  // GLOBAL_POSITION_INT received after one with a later time (a link that reorders packets):
+  // how many, and the most autopilot time one lagged by (s).
+  int late_positions = 0;
+  double max_lag_s = 0.0;
 };
 
 std::string Hex(const unsigned char* p, std::size_t n) {
@@ -223,6 +237,13 @@ class Collector {
             errors_.source(), s.positions, id, vehicle_id));
       }
     }
+    if (vehicle->late_positions > 0) {
+      warn(fmt::format(
+          "{}: {} GLOBAL_POSITION_INT message(s) of the autopilot (system {}) arrived after later "
+          "ones (by up to {:.3f} s of its time since boot: a link that reorders packets); read in "
+          "the autopilot's time order",
+          errors_.source(), vehicle->late_positions, vehicle_id, vehicle->max_lag_s));
+    }
     for (const long long at : vehicle->reboots) {
       warn(fmt::format(
           "{}: the autopilot (system {}) rebooted: its time since boot starts again; time_s goes "
@@ -246,9 +267,23 @@ class Collector {
     }
     std::vector<SeriesPoint> attitude = vehicle->attitude;
     std::stable_sort(attitude.begin(), attitude.end(), io_detail::SeriesByTime);
+    // In the autopilot's time order (time_s follows its reboots); a report received twice
+    // (logged from two links, or resent) is read once.
+    std::vector<const Pending*> order;
+    order.reserve(vehicle->samples.size());
+    for (const Pending& p : vehicle->samples) order.push_back(&p);
+    std::stable_sort(order.begin(), order.end(), [](const Pending* a, const Pending* b) {
+      return a->sample.time_s < b->sample.time_s;
+    });
+    order.erase(std::unique(order.begin(), order.end(),
+                            [](const Pending* a, const Pending* b) {
+                              return a->sample.time_s == b->sample.time_s;
+                            }),
+                order.end());
     std::vector<TelemetrySample> samples;
-    samples.reserve(vehicle->samples.size());
-    for (const Pending& p : vehicle->samples) {
+    samples.reserve(order.size());
+    for (const Pending* pending : order) {
+      const Pending& p = *pending;
       TelemetrySample s = p.sample;
       if (const auto a =
               io_detail::InterpolateSeries(attitude, s.time_s, true, kMaxInterpolationGapS)) {
@@ -273,7 +308,10 @@ class Collector {
   // time_s of a message with `time_boot_ms`, following the autopilot's reboots.
   double Time(System& s, std::uint32_t time_boot_ms, std::uint64_t record_us, long long offset) {
     const double boot_s = time_boot_ms / 1000.0;
-    if (s.max_boot_s && boot_s < *s.max_boot_s - kRebootDropS) {
+    const double record_s = static_cast<double>(record_us) / 1e6;
+    const double late_s = s.boot_epoch_s ? record_s - boot_s - *s.boot_epoch_s : 0.0;
+    if (s.max_boot_s && boot_s < *s.max_boot_s - kRebootDropS &&
+        late_s > kRebootLateFraction * *s.max_boot_s) {
       // A reboot: the new boot's time goes on from the last message's by the ground station's
       // clock (the records' timestamps), so that time_s keeps increasing.
       const double gap_s = record_us > s.last_record_us
@@ -282,10 +320,12 @@ class Collector {
       s.offset_s = s.last_time_s + gap_s - boot_s;
       ++s.segment;
       s.max_boot_s.reset();
+      s.boot_epoch_s.reset();
       s.last_position_s.reset();
       if (s.reboots.size() < 100) s.reboots.push_back(offset);
     }
     s.max_boot_s = std::max(s.max_boot_s.value_or(boot_s), boot_s);
+    s.boot_epoch_s = std::min(s.boot_epoch_s.value_or(record_s - boot_s), record_s - boot_s);
     const double t = boot_s + s.offset_s;
     s.last_time_s = std::max(s.last_time_s, t);
     s.last_record_us = record_us;
@@ -312,14 +352,10 @@ class Collector {
       ++s.no_fix;
       return;
     }
-    if (s.last_position_s) {
-      if (t == *s.last_position_s) return;  // the same report again (logged from two links)
-      if (t < *s.last_position_s) {
-        Malformed(s, fmt::format("{}: GLOBAL_POSITION_INT time {:.3f} s is earlier than the "
-                                 "previous one's {:.3f} s (messages out of order)",
-                                 Where(offset), t, *s.last_position_s));
-        return;
-      }
+    if (s.last_position_s && t < *s.last_position_s) {
+      // Sent before the last one read: put in its place when the samples are sorted.
+      ++s.late_positions;
+      s.max_lag_s = std::max(s.max_lag_s, *s.last_position_s - t);
     }
     Pending p;
     p.sample.time_s = t;
@@ -337,7 +373,7 @@ class Collector {
     if (g.hdg != kHeadingUnknown && g.hdg < 36000) p.heading_deg = g.hdg / 100.0;
     p.segment = s.segment;
     p.record_us = record_us;
-    s.last_position_s = t;
+    s.last_position_s = std::max(s.last_position_s.value_or(t), t);
     s.samples.push_back(std::move(p));
   }
 

@@ -336,6 +336,50 @@ TEST(Tlog, RebootGoesOnFromTheGroundStationsClock) {
               HasSubstr(fmt::format("f.tlog at byte {}: the autopilot (system 1) rebooted", at)));
 }
 
+// A link that delivers packets late (a radio's buffer, a router merging two links) is not an
+// autopilot reboot: by the records' clock the late packet arrived seconds, not an uptime, after
+// its time. Such packets are put in the autopilot's time order; one received twice is read once.
+TEST(Tlog, PacketsTheLinkDeliveredLateAreReadInTheAutopilotsTimeOrder) {
+  TlogWriter w;
+  w.V2(AutopilotHeartbeat(), kStartUs);
+  // Time since boot 100.0-100.4 s received at 1.0-1.4 s of the ground station's clock.
+  w.V2(Position(100000, 43.0, 6.0), kStartUs + 1000000);
+  w.V2(Position(100200, 43.2, 6.0), kStartUs + 1200000);
+  w.V2(Position(100400, 43.4, 6.0), kStartUs + 1400000);
+  // 3.4 s of the autopilot's time late (more than a reboot's drop alone), received 3.6 s late.
+  w.V2(Position(97000, 42.9, 6.0), kStartUs + 1600000);
+  w.V2(Position(100200, 43.2, 6.0), kStartUs + 1700000);  // 100.2 s again
+  w.V2(Position(100600, 43.6, 6.0), kStartUs + 1800000);
+  const TelemetryReadResult r = Parse(w.bytes());
+  ASSERT_EQ(r.records, 5);
+  const double times[] = {97.0, 100.0, 100.2, 100.4, 100.6};
+  const double lats[] = {42.9, 43.0, 43.2, 43.4, 43.6};
+  for (int k = 0; k < 5; ++k) {
+    EXPECT_NEAR(r.telemetry.samples()[k].time_s, times[k], 1e-9) << k;
+    EXPECT_NEAR(r.telemetry.samples()[k].lat_deg, lats[k], 1e-9) << k;
+  }
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_THAT(r.warnings[0],
+              HasSubstr("f.tlog: 2 GLOBAL_POSITION_INT message(s) of the autopilot (system 1) "
+                        "arrived after later ones (by up to 3.400 s of its time since boot"));
+}
+
+// A reboot after a short uptime: 10 s since boot, then 3 s since boot 18 s later by the records'
+// clock (later than any link delays a packet, relative to that uptime).
+TEST(Tlog, ARebootAfterAShortUptimeIsARebootNotALatePacket) {
+  TlogWriter w;
+  w.V2(AutopilotHeartbeat(), kStartUs);
+  w.V2(Position(10000, 43.5, 6.5), kStartUs + 12000000);
+  const std::size_t at = w.V2(Position(3000, 43.6, 6.6), kStartUs + 30000000);
+  const TelemetryReadResult r = Parse(w.bytes());
+  ASSERT_EQ(r.records, 2);
+  EXPECT_NEAR(r.telemetry.samples()[0].time_s, 10.0, 1e-9);
+  EXPECT_NEAR(r.telemetry.samples()[1].time_s, 28.0, 1e-9);
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_THAT(r.warnings[0],
+              HasSubstr(fmt::format("f.tlog at byte {}: the autopilot (system 1) rebooted", at)));
+}
+
 TEST(Tlog, MalformedPositionStrictAndLenient) {
   TlogWriter w;
   w.V2(AutopilotHeartbeat(), kStartUs);
