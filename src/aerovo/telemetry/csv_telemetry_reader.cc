@@ -18,6 +18,7 @@
 
 #include "aerovo/core/angles.h"
 #include "aerovo/telemetry/csv_lines.h"
+#include "aerovo/telemetry/file_kind.h"
 #include "aerovo/telemetry/parse_util.h"
 #include "aerovo/telemetry/telemetry_readers.h"
 
@@ -608,42 +609,20 @@ TelemetryReadResult ReadTelemetryCsv(const std::filesystem::path& path,
 
 namespace {
 
-// The telemetry format of a file whose extension names none, from its first bytes: the magic
-// bytes of a DataFlash .bin (A3 95 80: an FMT message, dataflash_reader.cc), a PX4 ULog ("ULog"
-// 01 12 35, PX4 User Guide "ULog File Format"), a MAVLink .tlog (an 8-byte big-endian timestamp
-// in microseconds since 1970, whose first byte is 0 until the year 2541, then a MAVLink 1 or 2
-// packet's FE / FD: tlog_reader.cc), a GPX document (a <gpx element within the first KiB) or DJI
-// SRT subtitles (a counter line, then a "HH:MM:SS,mmm --> HH:MM:SS,mmm" timing line). "" for
-// anything else (CSV tables are not guessed: any text file has commas).
-std::string SniffedExtension(const std::filesystem::path& path) {
+// The kind of a file whose extension names no telemetry format, by its first bytes
+// (file_kind.h: DataFlash, ULog and .tlog by their magic bytes, GPX by a <gpx element within the
+// first KiB, DJI SRT by a counter line then a timing line; never CSV).
+io_detail::FileKind SniffedKind(const std::filesystem::path& path) {
   std::ifstream in = io_detail::OpenInput(path);
-  std::string head(1024, '\0');
-  in.read(head.data(), static_cast<std::streamsize>(head.size()));
-  head.resize(static_cast<std::size_t>(in.gcount()));
-  const auto starts = [&](std::string_view magic) { return head.rfind(magic, 0) == 0; };
-  if (starts("\xA3\x95\x80")) return ".bin";
-  if (starts("ULog\x01\x12\x35")) return ".ulg";
-  if (head.size() >= 9 && head[0] == '\0' &&
-      (head[8] == static_cast<char>(0xFE) || head[8] == static_cast<char>(0xFD))) {
-    return ".tlog";
-  }
-  std::string_view text(head);
-  if (text.rfind("\xEF\xBB\xBF", 0) == 0) text.remove_prefix(3);  // a UTF-8 byte order mark
-  if (text.find("<gpx") != std::string_view::npos) return ".gpx";
-  const std::size_t first = text.find_first_not_of(" \t\r\n");
-  if (first != std::string_view::npos && std::isdigit(static_cast<unsigned char>(text[first]))) {
-    const std::size_t eol = text.find('\n', first);
-    if (eol != std::string_view::npos &&
-        text.substr(first, eol - first).find_first_not_of("0123456789\r \t") ==
-            std::string_view::npos) {
-      const std::size_t eol2 = text.find('\n', eol + 1);
-      if (text.substr(eol + 1, eol2 == std::string_view::npos ? eol2 : eol2 - eol - 1)
-              .find("-->") != std::string_view::npos) {
-        return ".srt";
-      }
-    }
-  }
-  return "";
+  const std::string head = io_detail::ReadHead(in);
+  return io_detail::RecognizeFile(reinterpret_cast<const unsigned char*>(head.data()), head.size());
+}
+
+// "; it is <what>" for a file of a kind aerovo does not read as telemetry, "" for kUnknown.
+std::string OtherKind(io_detail::FileKind kind) {
+  std::string hint = io_detail::KindHint(kind);  // " (what)"
+  if (hint.size() < 3) return "";
+  return "; it is " + hint.substr(2, hint.size() - 3);
 }
 
 TelemetryReadResult ReadByExtension(const std::string& ext, const std::filesystem::path& path,
@@ -670,13 +649,14 @@ TelemetryReadResult ReadTelemetryFile(const std::filesystem::path& path,
                                       const TelemetryReadOptions& options) {
   const std::string ext = io_detail::ToLower(path.extension().string());
   if (KnownExtension(ext)) return ReadByExtension(ext, path, options);
-  const std::string sniffed = SniffedExtension(path);  // "no such file" before the extension
+  const io_detail::FileKind kind = SniffedKind(path);  // "no such file" before the extension
+  const std::string sniffed = io_detail::TelemetryExtension(kind);
   if (sniffed.empty()) {
     throw InputError(
         fmt::format("{}: unknown telemetry format '{}' (expected .srt, .gpx, .csv, an ArduPilot "
                     ".bin/.log, a PX4 .ulg or a MAVLink .tlog; the content is none of the binary "
-                    "logs, GPX or SRT either)",
-                    path.string(), ext));
+                    "logs, GPX or SRT either{})",
+                    path.string(), ext, OtherKind(kind)));
   }
   TelemetryReadResult r = ReadByExtension(sniffed, path, options);
   r.warnings.insert(r.warnings.begin(),

@@ -34,6 +34,7 @@
 #include <fmt/format.h>
 
 #include "aerovo/telemetry/binary_log_util.h"
+#include "aerovo/telemetry/file_kind.h"
 #include "aerovo/telemetry/parse_util.h"
 #include "aerovo/telemetry/telemetry_readers.h"
 
@@ -430,22 +431,6 @@ struct BinaryFormat {
   Roles roles;
 };
 
-// What a file that is not a DataFlash log looks like, from its first bytes.
-std::string Looks(const unsigned char* p, std::size_t n) {
-  const auto starts = [&](std::string_view magic) {
-    return n >= magic.size() && std::memcmp(p, magic.data(), magic.size()) == 0;
-  };
-  if (starts("\xFF\xD8\xFF")) return " (a JPEG image)";
-  if (starts("ULog")) return " (a PX4 ULog: name it .ulg)";
-  if (starts("PK\x03\x04")) return " (a ZIP archive)";
-  // A .tlog record: an 8-byte big-endian timestamp (microseconds since 1970: first byte 0 until
-  // the year 2541), then a MAVLink packet (tlog_reader.cc).
-  if (n >= 9 && p[0] == 0 && (p[8] == 0xFE || p[8] == 0xFD)) {
-    return " (a MAVLink telemetry log: name it .tlog)";
-  }
-  return "";
-}
-
 // Warnings are kept up to options.max_warnings in all (with those of skipped records), leaving
 // room for the count of gaps not listed.
 void ParseBinary(std::istream& in, const TelemetryReadOptions& options, RecordErrors& errors,
@@ -652,8 +637,7 @@ TelemetryReadResult ParseDataFlash(std::istream& in, const std::string& source_n
                                    const TelemetryReadOptions& options) {
   Validate(options);
   RecordErrors errors(options, source_name);
-  // The first bytes: enough to tell the two forms apart and to name what another file is (a
-  // ULog's 7-byte magic, a .tlog's packet after its 8-byte timestamp: Looks).
+  // The first bytes: enough to tell the two forms apart (another file is named by HintFor).
   unsigned char head[16] = {};
   const std::streampos start = in.tellg();
   in.read(reinterpret_cast<char*>(head), sizeof head);
@@ -685,7 +669,7 @@ TelemetryReadResult ParseDataFlash(std::istream& in, const std::string& source_n
     throw InputError(fmt::format(
         "{}: not an ArduPilot DataFlash log: a .bin log starts with the bytes A3 95 80 (an FMT "
         "message), this file with {}{}",
-        source_name, bytes, Looks(head, n)));
+        source_name, bytes, io_detail::HintFor(in)));
   }
   Collector out(errors, false);
   ParseText(in, errors, out);

@@ -35,6 +35,7 @@
 #include "aerovo/mavlink/messages.h"
 #include "aerovo/mavlink/protocol.h"
 #include "aerovo/telemetry/binary_log_util.h"
+#include "aerovo/telemetry/file_kind.h"
 #include "aerovo/telemetry/parse_util.h"
 #include "aerovo/telemetry/telemetry_readers.h"
 
@@ -140,21 +141,6 @@ std::string Hex(const unsigned char* p, std::size_t n) {
   std::string s;
   for (std::size_t k = 0; k < n; ++k) s += fmt::format("{}{:02X}", k ? " " : "", p[k]);
   return s;
-}
-
-// What a file that is not a tlog looks like, from its first bytes.
-std::string Looks(const unsigned char* p, std::size_t n) {
-  const auto starts = [&](std::string_view magic) {
-    return n >= magic.size() && std::memcmp(p, magic.data(), magic.size()) == 0;
-  };
-  if (starts("\xA3\x95")) return " (an ArduPilot DataFlash log: name it .bin)";
-  if (starts("ULog")) return " (a PX4 ULog)";
-  if (starts("\xFF\xD8\xFF")) return " (a JPEG image)";
-  if (starts("PK\x03\x04")) return " (a ZIP archive)";
-  if (n > 0 && (p[0] == mav::kMagicV2 || p[0] == mav::kMagicV1)) {
-    return " (MAVLink packets without timestamps: a raw capture, not a .tlog)";
-  }
-  return "";
 }
 
 class Collector {
@@ -416,7 +402,9 @@ TelemetryReadResult Parse(std::istream& in, const TelemetryReadOptions& options,
         "{}: not a MAVLink telemetry log: a .tlog starts with an 8-byte timestamp (big-endian "
         "microseconds since 1970) then a MAVLink packet (byte 8 = FD or FE), this file with "
         "{}{}",
-        errors.source(), Hex(w.data(), std::min<std::size_t>(avail, 9)), Looks(w.data(), avail)));
+        errors.source(), Hex(w.data(), std::min<std::size_t>(avail, 9)),
+        io_detail::KindHint(
+            io_detail::RecognizeFile(w.data(), w.Fill(io_detail::kRecognizeBytes)))));
   }
   Collector out(errors, options);
   mav::Packet packet;

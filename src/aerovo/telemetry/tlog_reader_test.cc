@@ -406,6 +406,15 @@ TEST(Tlog, NotATlog) {
                    {"not a MAVLink telemetry log", "DataFlash"});
   ExpectInputError([] { Parse("time,lat,lon\n0,1,2\n"); }, {"not a MAVLink telemetry log"});
   ExpectInputError([] { Parse(""); }, {"f.tlog: an empty file"});
+  // MAVLink packets without the records' timestamps (a capture of the link, not a ground
+  // station's log): three HEARTBEATs back to back.
+  std::string packets;
+  for (std::uint8_t seq = 0; seq < 3; ++seq) {
+    const auto b = mav::Encode(AutopilotHeartbeat(), seq, 1, 1);
+    packets.append(b.begin(), b.end());
+  }
+  ExpectInputError([&] { Parse(packets); },
+                   {"not a MAVLink telemetry log", "FD ", "MAVLink packets without timestamps"});
 }
 
 TEST(Tlog, HostileFilesEndQuickly) {

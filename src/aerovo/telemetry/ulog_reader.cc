@@ -59,6 +59,7 @@
 #include <fmt/format.h>
 
 #include "aerovo/telemetry/binary_log_util.h"
+#include "aerovo/telemetry/file_kind.h"
 #include "aerovo/telemetry/parse_util.h"
 #include "aerovo/telemetry/telemetry_readers.h"
 
@@ -1045,18 +1046,6 @@ class Parser {
   long long dropout_ms_ = 0;
 };
 
-// What a file that is not a ULog looks like, from its first bytes.
-std::string Looks(const unsigned char* p, std::size_t n) {
-  const auto starts = [&](std::string_view magic) {
-    return n >= magic.size() && std::memcmp(p, magic.data(), magic.size()) == 0;
-  };
-  if (starts("\xFF\xD8\xFF")) return " (a JPEG image)";
-  if (starts("\xA3\x95")) return " (an ArduPilot DataFlash log: name it .bin)";
-  if (starts("PK\x03\x04")) return " (a ZIP archive)";
-  if (starts("timestamp,")) return " (a ulog2csv export: name it .csv)";
-  return "";
-}
-
 }  // namespace
 }  // namespace ulog_reader
 
@@ -1080,7 +1069,7 @@ TelemetryReadResult ParseULog(std::istream& in, const std::string& source_name,
     throw InputError(fmt::format(
         "{}: not a PX4 ULog: a .ulg log starts with the bytes 55 4C 6F 67 01 12 35 ('ULog' "
         "01 12 35), this file with {}{}",
-        source_name, n == 0 ? std::string("nothing (empty)") : bytes, u::Looks(head, n)));
+        source_name, n == 0 ? std::string("nothing (empty)") : bytes, io_detail::HintFor(in)));
   }
   if (n < u::kFileHeaderSize) {
     throw InputError(fmt::format("{}: a PX4 ULog cut short within its 16-byte header ({} bytes)",
