@@ -14,6 +14,17 @@
 
 namespace aerovo::io_detail {
 
+/// Attitude and height samples kept at most this often (seconds): a log may hold them at the
+/// main-loop rate (ArduPilot's ATT at 400 Hz, PX4's vehicle_attitude at 100-250 Hz, ATTITUDE
+/// streamed at 50 Hz), far finer than needed to interpolate onto 5-10 Hz GPS fixes; keeping every
+/// one would take hundreds of MB for a long flight.
+constexpr double kMinSeriesStepS = 0.02;
+/// Series points further apart than this (seconds) are not interpolated between: a gap in the
+/// log (InterpolateSeries' max_gap_s).
+constexpr double kMaxInterpolationGapS = 1.0;
+/// Gaps of unreadable bytes listed one by one in a reader's warnings; the rest are counted.
+constexpr int kMaxListedGaps = 5;
+
 /// Little-endian unsigned integer of n (<= 8) bytes at p.
 inline std::uint64_t LoadLe(const unsigned char* p, int n) {
   std::uint64_t v = 0;

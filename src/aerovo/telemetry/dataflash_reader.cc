@@ -68,14 +68,9 @@ constexpr double kGpsLeapSeconds = 18.0;
 // 6 RTK fixed. A sample needs a 3D fix.
 constexpr double kGps3dFix = 3.0;
 
-// Attitude and height samples kept at most this often (seconds): ATT may be logged at the
-// main-loop rate (400 Hz), far finer than needed to interpolate onto 5-10 Hz GPS fixes; keeping
-// every one would take hundreds of MB for a long flight.
-constexpr double kMinSeriesStepS = 0.02;
-// Neighbours further apart than this are not interpolated between (a gap in the log).
-constexpr double kMaxInterpolationGapS = 1.0;
-// Gaps of unreadable bytes listed one by one in the warnings; the rest are summed up.
-constexpr int kMaxGapWarnings = 5;
+using io_detail::kMaxInterpolationGapS;
+using io_detail::kMaxListedGaps;
+using io_detail::kMinSeriesStepS;
 
 // Size in bytes of a format character (LogStructure.h); 0 when it is not one.
 int FieldSize(char c) {
@@ -461,7 +456,7 @@ void ParseBinary(std::istream& in, const TelemetryReadOptions& options, RecordEr
   const auto gap = [&](long long at, long long bytes, const char* why) {
     ++gaps;
     gap_bytes += bytes;
-    if (listed < kMaxGapWarnings && room(1)) {
+    if (listed < kMaxListedGaps && room(1)) {
       ++listed;
       errors.warnings().push_back(
           fmt::format("{} at byte {}: {} byte(s) skipped: {}", errors.source(), at, bytes, why));

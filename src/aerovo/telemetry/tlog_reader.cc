@@ -86,12 +86,11 @@ constexpr std::uint16_t kHeadingUnknown = 0xFFFF;
 // is more than this fraction of the old boot's latest time since boot.
 constexpr double kRebootDropS = 2.0;
 constexpr double kRebootLateFraction = 0.5;
-// ATTITUDE kept at most this often (seconds; it may be streamed at 50 Hz or more), and not
-// interpolated across a gap longer than kMaxInterpolationGapS.
-constexpr double kMinSeriesStepS = 0.02;
-constexpr double kMaxInterpolationGapS = 1.0;
-// Gaps of unreadable bytes and bad checksums listed one by one in the warnings; the rest counted.
-constexpr int kMaxListedDamage = 5;
+// ATTITUDE kept at most every kMinSeriesStepS, not interpolated across kMaxInterpolationGapS;
+// gaps of unreadable bytes and bad checksums listed up to kMaxListedGaps (binary_log_util.h).
+using io_detail::kMaxInterpolationGapS;
+using io_detail::kMaxListedGaps;
+using io_detail::kMinSeriesStepS;
 
 std::uint64_t LoadBe64(const unsigned char* p) {
   std::uint64_t v = 0;
@@ -415,7 +414,7 @@ TelemetryReadResult Parse(std::istream& in, const TelemetryReadOptions& options,
     return static_cast<int>(errors.warnings().size()) + spare < options.max_warnings;
   };
   const auto damage = [&](std::string message) {
-    if (listed < kMaxListedDamage && room(1)) {
+    if (listed < kMaxListedGaps && room(1)) {
       ++listed;
       errors.warnings().push_back(std::move(message));
     }

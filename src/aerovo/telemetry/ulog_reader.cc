@@ -58,6 +58,7 @@
 
 #include <fmt/format.h>
 
+#include "aerovo/core/angles.h"
 #include "aerovo/telemetry/binary_log_util.h"
 #include "aerovo/telemetry/file_kind.h"
 #include "aerovo/telemetry/parse_util.h"
@@ -93,11 +94,9 @@ constexpr int kMaxNesting = 16;
 
 // sensor_gps fix_type (msg/SensorGps.msg FIX_TYPE_3D): a sample needs a 3D fix.
 constexpr double kFix3d = 3.0;
-// Attitude and height samples kept at most this often (seconds), as in dataflash_reader.cc.
-constexpr double kMinSeriesStepS = 0.02;
-constexpr double kMaxInterpolationGapS = 1.0;
-constexpr int kMaxGapWarnings = 5;
-constexpr double kRadToDeg = 57.295779513082320877;
+using io_detail::kMaxInterpolationGapS;
+using io_detail::kMaxListedGaps;
+using io_detail::kMinSeriesStepS;
 
 // ------------------------------------------------------------------------------ formats
 
@@ -1022,7 +1021,7 @@ class Parser {
   void Gap(long long at, long long bytes, const std::string& why) {
     ++gaps_;
     gap_bytes_ += bytes;
-    if (listed_ < kMaxGapWarnings && Room(1)) {
+    if (listed_ < kMaxListedGaps && Room(1)) {
       ++listed_;
       errors_.warnings().push_back(
           fmt::format("{} at byte {}: {} byte(s) skipped: {}", errors_.source(), at, bytes, why));
