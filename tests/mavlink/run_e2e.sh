@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # ctest driver of tests/mavlink/e2e.cjs (MODE: udp, udpin or signed), autopilots.cjs (MODE:
 # contract, the frames as a video), live.cjs (MODE: live, the frames as a live UDP stream),
-# tlog.cjs (MODE: tlog, a recorded .tlog read by aerovo and node-mavlink),
+# tlog.cjs (MODE: tlog, a recorded .tlog read by aerovo and node-mavlink), dji_srt.cjs (MODE:
+# dji_srt, real DJI SRT files read by aerovo and dji_srt_parser),
 # gps_input.cjs (MODE: gps_input, the simulated flight with its telemetry, so that the track is
 # geo-referenced) and map_gps_input.cjs (MODE: map_gps_input, the same with GPS denied and the
 # fixes of a map of it fused): installs node-mavlink from the
@@ -26,6 +27,12 @@ if [ ! -f "$NODE_DIR/.installed" ] || ! cmp -s "$SRC/package-lock.json" "$NODE_D
     exit 77
   fi
   touch "$NODE_DIR/.installed"
+fi
+if [ "$MODE" = dji_srt ]; then
+  # The real SRT files of several DJI aircraft that dji_srt_parser ships, read by aerovo and by
+  # dji_srt_parser (dji_srt.cjs).
+  cd "$NODE_DIR" && NODE_PATH="$NODE_DIR/node_modules" exec node "$SRC/dji_srt.cjs" "$AEROVO" \
+    "$NODE_DIR/node_modules/dji_srt_parser/samples"
 fi
 if [ "$MODE" = tlog ]; then
   # A telemetry log a ground station recorded: the package's own examples/vtol.tlog, read by

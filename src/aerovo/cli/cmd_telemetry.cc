@@ -90,9 +90,10 @@ void Run(const TelemetryArgs& args) {
   const TelemetryReadResult r = ReadAny(args);
   const Telemetry& t = r.telemetry;
   double lat0 = 90, lat1 = -90, lon0 = 180, lon1 = -180;
-  int frames = 0, rel = 0, abs = 0, yaw = 0;
+  int frames = 0, rel = 0, abs = 0, yaw = 0, fixes = 0;
   for (const TelemetrySample& s : t.samples()) {
     if (s.has_fix) {  // records without a fix keep heights and angles, not a position
+      ++fixes;
       lat0 = std::min(lat0, s.lat_deg);
       lat1 = std::max(lat1, s.lat_deg);
       lon0 = std::min(lon0, s.lon_deg);
@@ -107,8 +108,13 @@ void Run(const TelemetryArgs& args) {
   fmt::print("records      {} accepted, {} malformed skipped, {} without GPS fix\n", r.records,
              r.skipped_records, r.no_fix_records);
   fmt::print("time         {:.3f} .. {:.3f} s\n", t.start_time_s(), t.end_time_s());
-  fmt::print("latitude     {:.7f} .. {:.7f} deg\n", lat0, lat1);
-  fmt::print("longitude    {:.7f} .. {:.7f} deg\n", lon0, lon1);
+  if (fixes > 0) {
+    fmt::print("latitude     {:.7f} .. {:.7f} deg\n", lat0, lat1);
+    fmt::print("longitude    {:.7f} .. {:.7f} deg\n", lon0, lon1);
+  } else {
+    fmt::print("latitude     none: no record has a GPS fix\n");
+    fmt::print("longitude    none\n");
+  }
   fmt::print("with         frame index {}, relative altitude {}, absolute altitude {}, yaw {}\n",
              frames, rel, abs, yaw);
   for (const std::string& w : r.warnings) fmt::print(stderr, "warning: {}\n", w);

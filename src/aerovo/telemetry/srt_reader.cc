@@ -2,6 +2,7 @@
 // parser is hand-written (no std::regex: its recursion can overflow on hostile input).
 #include <cctype>
 #include <cmath>
+#include <functional>
 #include <istream>
 #include <map>
 #include <optional>
@@ -62,6 +63,7 @@ struct BlockFields {
   std::optional<double> yaw, pitch, roll;  // aircraft attitude (drone_*, Drone: Yaw, F.PRY)
   std::optional<double> hb, hs;            // "Hb:" / "Hs:" heights, used without BAROMETER/H
   bool no_fix = false;                     // a latitude or longitude written "N/A"
+  int bracket_fields = 0;                  // "[key : value]" fields read, known or not
   GpsOrder order = GpsOrder::kUnknown;     // the file's GPS(...) order (FileGpsOrder)
   std::optional<long long> counter;
   std::optional<double> unix_time;
@@ -113,6 +115,7 @@ void ParseBracket(std::string_view content, BlockFields& f) {
       continue;
     }
     if (!group.empty()) key = group + "_" + key;
+    ++f.bracket_fields;
     const std::size_t vb = p;
     while (p < content.size() && content[p] != ' ' && content[p] != ',') ++p;
     const std::string_view value = content.substr(vb, p - vb);
@@ -436,24 +439,40 @@ std::vector<Line> ReadLines(std::istream& in, const std::string& source) {
   return lines;
 }
 
+// What a subtitle's problem is: a part missing (no position, no timing line: what a subtitle cut
+// short lacks), text that does not parse (unclosed '[', a number cut inside: a cut when it is on
+// the file's last line), or a wrong value (never a cut).
+enum class Problem { kMissingPart, kBadText, kBadValue };
+// report(line, message, kind).
+using ReportProblem = std::function<void(long, const std::string&, Problem)>;
+
 // The sample of subtitle `number` (block at `block_line`, start time `start_s`) from its text's
-// fields: nullopt when the fields are malformed (reported through `errors` at error_line or
+// fields: nullopt when the fields are malformed (reported through `report` at error_line or
 // block_line) or fail AcceptSample. A record without a fix ("N/A", or 0, 0) is a sample with
-// has_fix = false that keeps its heights and angles.
+// has_fix = false that keeps its heights and angles; so is, in a file none of whose subtitles
+// has a position (`file_has_positions` false), a subtitle that holds the camera's fields (a frame
+// counter, a date, "[key : value]" fields): the Mavic Air's SRT of early 2018 in dji_srt_parser's
+// samples/mavic_air.SRT (FrameCnt, date, iso, shutter; no latitude or longitude anywhere).
 std::optional<TelemetrySample> SampleOfBlock(const BlockFields& f, long long number, double start_s,
                                              long block_line, long error_line,
+                                             bool file_has_positions, const ReportProblem& report,
                                              RecordErrors& errors) {
   if (!f.error.empty()) {
-    errors.Report(error_line, f.error);
+    report(error_line, f.error, Problem::kBadText);
     return std::nullopt;
   }
-  // No fix: "N/A", or latitude = longitude = 0 (DJI's values before the fix).
-  const bool no_fix_record = f.no_fix || (f.lat && f.lon && *f.lat == 0.0 && *f.lon == 0.0);
+  const bool camera_fields = f.counter || f.unix_time || f.bracket_fields > 0;
+  // No fix: "N/A", or latitude = longitude = 0 (DJI's values before the fix), or no position
+  // among the camera's fields.
+  const bool no_fix_record = f.no_fix || (f.lat && f.lon && *f.lat == 0.0 && *f.lon == 0.0) ||
+                             (!f.lat && !f.lon && camera_fields && !file_has_positions);
   if (!no_fix_record && (!f.lat || !f.lon)) {
-    errors.Report(block_line, fmt::format("subtitle {} has no {}", number,
-                                          !f.lat && !f.lon ? "latitude and longitude"
-                                          : !f.lat         ? "latitude"
-                                                           : "longitude"));
+    report(block_line,
+           fmt::format("subtitle {} has no {}", number,
+                       !f.lat && !f.lon ? "latitude and longitude"
+                       : !f.lat         ? "latitude"
+                                        : "longitude"),
+           Problem::kMissingPart);
     return std::nullopt;
   }
   TelemetrySample s;
@@ -461,7 +480,8 @@ std::optional<TelemetrySample> SampleOfBlock(const BlockFields& f, long long num
   s.unix_time_s = f.unix_time;
   if (f.counter) {
     if (*f.counter < 1 || *f.counter > 100000000) {
-      errors.Report(f.counter_line, fmt::format("frame counter {} out of range", *f.counter));
+      report(f.counter_line, fmt::format("frame counter {} out of range", *f.counter),
+             Problem::kBadValue);
       return std::nullopt;
     }
     s.frame_index = static_cast<int>(*f.counter - 1);
@@ -503,6 +523,42 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
   const auto skip_block = [&] {
     while (i < lines.size() && !blank(i)) ++i;
   };
+  // The last line with text: a subtitle that ends the file there while a part of it is missing
+  // (no timing line, no position, a line cut inside a bracket or a number) is a recording that
+  // stopped while writing it (dji_srt_parser's samples/broken_incomplete*.SRT): dropped with a
+  // warning in both modes, as a cut last record of the other readers. Anything else, and any
+  // problem before the last subtitle, goes through `errors` (strict: an error).
+  std::size_t last_text = 0;
+  for (std::size_t k = lines.size(); k-- > 0;) {
+    if (!blank(k)) {
+      last_text = k;
+      break;
+    }
+  }
+  // Whether any subtitle has a position (or says it has none yet: "N/A", 0, 0): a subtitle
+  // without one is then malformed (or cut), not a record of a model that writes none.
+  bool file_has_positions = false;
+  for (const Line& l : lines) {
+    BlockFields probe;
+    probe.order = order;
+    ParseTextLine(StripTags(l.text), probe);
+    if (probe.lat || probe.lon || probe.no_fix) {
+      file_has_positions = true;
+      break;
+    }
+  }
+  const auto problem = [&](long long number, bool cut, long line, const std::string& message) {
+    if (cut) {
+      if (static_cast<int>(errors.warnings().size()) < options.max_warnings) {
+        errors.warnings().push_back(fmt::format(
+            "{}: the last subtitle ({}) is cut short ({}): dropped (the recording stopped while "
+            "writing it)",
+            errors.At(line), number, message));
+      }
+      return;
+    }
+    errors.Report(line, message);
+  };
   while (i < lines.size()) {
     if (blank(i)) {
       ++i;
@@ -516,9 +572,11 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
       skip_block();
       continue;
     }
+    const std::size_t number_at = i;
     ++i;
     if (i >= lines.size() || blank(i)) {
-      errors.Report(block_line, fmt::format("subtitle {} has no timing line", *number));
+      problem(*number, number_at >= last_text, block_line,
+              fmt::format("subtitle {} has no timing line", *number));
       skip_block();
       continue;
     }
@@ -529,9 +587,9 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
             ? std::nullopt
             : io_detail::ParseSrtClock(std::string_view(timing).substr(0, arrow));
     if (!start) {
-      errors.Report(lines[i].number,
-                    fmt::format("bad timing line '{}' (expected HH:MM:SS,mmm --> HH:MM:SS,mmm)",
-                                io_detail::Printable(Trim(timing))));
+      problem(*number, i >= last_text, lines[i].number,
+              fmt::format("bad timing line '{}' (expected HH:MM:SS,mmm --> HH:MM:SS,mmm)",
+                          io_detail::Printable(Trim(timing))));
       skip_block();
       continue;
     }
@@ -565,8 +623,16 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
       }
       break;
     }
-    std::optional<TelemetrySample> sample =
-        SampleOfBlock(f, *number, *start, block_line, error_line, errors);
+    // The subtitle ends the file: a missing part, or a problem on the file's last line, is a cut.
+    const bool reaches_end = i > last_text;
+    const long last_line = lines[last_text].number;
+    const ReportProblem report = [&](long line, const std::string& message, Problem kind) {
+      const bool cut = reaches_end && (kind == Problem::kMissingPart ||
+                                       (kind == Problem::kBadText && line == last_line));
+      problem(*number, cut, line, message);
+    };
+    std::optional<TelemetrySample> sample = SampleOfBlock(
+        f, *number, *start, block_line, error_line, file_has_positions, report, errors);
     if (!sample) continue;
     TelemetrySample& s = *sample;
     if (last_time && s.time_s < *last_time) {

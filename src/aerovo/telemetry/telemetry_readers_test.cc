@@ -307,6 +307,87 @@ TEST(DjiSrt, MissingFieldsBadNumbersBadTimingOutOfOrder) {
   }
 }
 
+// A recording that stopped while writing its last subtitle (dji_srt_parser's
+// samples/broken_incomplete.SRT ends after a subtitle's HOME line): the cut subtitle is dropped
+// with a warning naming it, in strict and lenient mode alike; the same problems before the last
+// subtitle stay errors (MissingFieldsBadNumbersBadTimingOutOfOrder).
+TEST(DjiSrt, ACutLastSubtitleIsDroppedWithAWarning) {
+  const std::string good =
+      "1\n00:00:01,000 --> 00:00:02,000\nHOME(149.0251,-20.2532) 2017.08.05 14:11:51\n"
+      "GPS(149.0251,-20.2533,16) BAROMETER:1.9\n\n"
+      "2\n00:00:02,000 --> 00:00:03,000\nHOME(149.0251,-20.2532) 2017.08.05 14:11:52\n"
+      "GPS(149.0252,-20.2534,16) BAROMETER:2.0\n\n";
+  const struct {
+    std::string tail;
+    long line;
+    const char* problem;
+  } cuts[] = {
+      // Cut after the HOME line: no position (the real sample's case), with or without a line end.
+      {"3\n00:00:03,000 --> 00:00:04,000\nHOME(149.0251,-20.2532) 2017.08.05 14:11:53\n", 11,
+       "subtitle 3 has no latitude and longitude"},
+      {"3\n00:00:03,000 --> 00:00:04,000\nHOME(149.0251,-20.2532) 2017.08.05 14:11:53", 11,
+       "subtitle 3 has no latitude and longitude"},
+      // Cut inside the telemetry line, the timing line or after the number.
+      {"3\n00:00:03,000 --> 00:00:04,000\n[latitude: -20.25 [longi", 13, "unclosed '['"},
+      {"3\n00:00:03,000 --> 00:0", 11, "subtitle 3 has no latitude and longitude"},
+      {"3\n00:00:03", 12, "bad timing line"},
+      {"3\n", 11, "subtitle 3 has no timing line"},
+  };
+  for (const auto& c : cuts) {
+    SCOPED_TRACE(c.tail);
+    for (const bool lenient : {false, true}) {
+      std::istringstream in(good + c.tail);
+      TelemetryReadOptions options;
+      options.lenient = lenient;
+      const TelemetryReadResult r = ParseDjiSrt(in, "cut.srt", options);
+      ASSERT_EQ(r.records, 2);
+      EXPECT_EQ(r.skipped_records, 0);
+      EXPECT_DOUBLE_EQ(r.telemetry[1].lat_deg, -20.2534);
+      ASSERT_EQ(r.warnings.size(), 1u);
+      EXPECT_THAT(r.warnings[0],
+                  HasSubstr(fmt::format("cut.srt:{}: the last subtitle (3) is cut short", c.line)));
+      EXPECT_THAT(r.warnings[0], HasSubstr(c.problem));
+    }
+  }
+  // Not cuts: a wrong value in the last subtitle, or text that does not parse on a line before
+  // the file's last one, is an error as anywhere else.
+  {
+    std::istringstream in(good + "3\n00:00:03,000 --> 00:00:04,000\nGPS(149.0251,-95.0,16)\n");
+    ExpectInputError([&] { ParseDjiSrt(in, "v.srt"); }, {"v.srt:13:", "latitude -95"});
+  }
+  {
+    std::istringstream in(good +
+                          "3\n00:00:03,000 --> 00:00:04,000\n[latitude: 4x.3] [longitude: 6]\n"
+                          "[rel_alt: 10.0]\n");
+    ExpectInputError([&] { ParseDjiSrt(in, "w.srt"); }, {"w.srt:13:", "is not a number"});
+  }
+}
+
+// A model whose SRT records no position at all (dji_srt_parser's samples/mavic_air.SRT: FrameCnt,
+// a date and the camera's settings, no latitude or longitude in any subtitle): its subtitles are
+// records without a fix that keep what they have (heights, angles), not malformed ones.
+TEST(DjiSrt, AFileThatRecordsNoPositionGivesRecordsWithoutAFix) {
+  const std::string text =
+      "1\n00:00:00,000 --> 00:00:00,039\n<font size=\"36\">FrameCnt : 1, DiffTime : 39ms\n"
+      "2018-02-19 08:04:51,265,847\n[iso : 100] [shutter : 1/240.0] [rel_alt: 12.5] </font>\n\n"
+      "2\n00:00:00,039 --> 00:00:00,079\n<font size=\"36\">FrameCnt : 2, DiffTime : 40ms\n"
+      "2018-02-19 08:04:51,305,846\n[iso : 100] [shutter : 1/240.0] [rel_alt: 12.7] </font>\n";
+  std::istringstream in(text);
+  const TelemetryReadResult r = ParseDjiSrt(in, "air.srt");
+  ASSERT_EQ(r.records, 2);
+  EXPECT_EQ(r.no_fix_records, 2);
+  EXPECT_EQ(r.skipped_records, 0);
+  EXPECT_FALSE(r.telemetry[0].has_fix);
+  EXPECT_EQ(r.telemetry[1].frame_index, 1);
+  ASSERT_TRUE(r.telemetry[1].rel_alt_m);
+  EXPECT_DOUBLE_EQ(*r.telemetry[1].rel_alt_m, 12.7);
+  // In a file whose other subtitles have a position, a subtitle without one is malformed.
+  std::istringstream mixed(
+      text + "\n3\n00:00:00,079 --> 00:00:00,119\n[iso : 100] [latitude: 43.1] [longitude: 6.1]\n");
+  ExpectInputError([&] { ParseDjiSrt(mixed, "mixed.srt"); },
+                   {"mixed.srt:1:", "subtitle 1 has no latitude and longitude"});
+}
+
 TEST(DjiSrt, MissingBlankSeparatorLine) {
   std::istringstream in(
       "1\n00:00:00,000 --> 00:00:00,033\n[latitude: 43.1] [longitude: 6.1]\n"
