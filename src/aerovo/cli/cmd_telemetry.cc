@@ -17,6 +17,16 @@
 namespace aerovo::cli {
 namespace {
 
+// "make model" without blanks around either ("unknown" parts left out).
+std::string TrimmedJoin(const std::string& make, const std::string& model) {
+  const auto trim = [](const std::string& v) {
+    const std::size_t b = v.find_first_not_of(" \t");
+    return b == std::string::npos ? std::string() : v.substr(b, v.find_last_not_of(" \t") - b + 1);
+  };
+  const std::string a = trim(make), b = trim(model);
+  return a.empty() ? b : b.empty() ? a : a + " " + b;
+}
+
 struct TelemetryArgs {
   std::string path;
   bool lenient = false;
@@ -47,8 +57,10 @@ TelemetryReadResult ReadAny(const TelemetryArgs& args) {
     const auto mm = [](const std::optional<double>& v, int decimals) {
       return v ? fmt::format("{:.{}f} mm", *v, decimals) : std::string("unknown");
     };
-    fmt::print("photo        {}x{} px, {} {}{}, focal {} (35 mm equivalent {})\n", m.width_px,
-               m.height_px, m.make.empty() ? "unknown make" : m.make, m.model,
+    fmt::print("photo        {}x{} px, {}{}, focal {} (35 mm equivalent {})\n", m.width_px,
+               m.height_px,
+               m.make.empty() && m.model.empty() ? std::string("unknown camera")
+                                                 : TrimmedJoin(m.make, m.model),
                m.serial_number.empty() ? "" : fmt::format(" (serial {})", m.serial_number),
                mm(m.focal_length_mm, 2), mm(m.focal_length_35mm_mm, 1));
     // Where the XMP values came from (docs/inputs.md, "XMP in EXIF 0x02bc"), whose namespace

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <mutex>
 #include <string_view>
 #include <utility>
@@ -631,11 +632,23 @@ std::vector<double> PhotoTimes(const std::vector<ImageMetadata>& images) {
 TelemetryReadResult TelemetryFromImages(const std::vector<ImageMetadata>& images,
                                         const TelemetryReadOptions& options) {
   Validate(options);
-  io_detail::RecordErrors errors(options, "image metadata");
+  // Messages name the photo, or the folder all the photos are in.
+  std::string source = "photo set";
+  if (images.size() == 1) {
+    source = images.front().source;
+  } else if (!images.empty()) {
+    const std::filesystem::path folder = std::filesystem::path(images.front().source).parent_path();
+    if (std::all_of(images.begin(), images.end(), [&](const ImageMetadata& m) {
+          return std::filesystem::path(m.source).parent_path() == folder;
+        })) {
+      source = folder.string();
+    }
+  }
+  io_detail::RecordErrors errors(options, source);
   const bool all_timed = AllTimed(images);
   if (!images.empty() && !all_timed) {
     errors.warnings().push_back(
-        "image metadata: not every photo has a capture time: time_s is the photo's rank");
+        fmt::format("{}: not every photo has a capture time: time_s is the photo's rank", source));
   }
   std::vector<RepeatedTimeRun> runs;
   const std::vector<double> times = PhotoTimes(images, &runs);
@@ -643,10 +656,9 @@ TelemetryReadResult TelemetryFromImages(const std::vector<ImageMetadata>& images
     std::size_t photos = 0;
     for (const RepeatedTimeRun& r : runs) photos += r.count;
     errors.warnings().push_back(fmt::format(
-        "image metadata: {} photos share their capture time with another (EXIF times have whole "
-        "seconds without SubSecTimeOriginal), first '{}': spread evenly within the time's "
-        "resolution",
-        photos, images[runs.front().first].source));
+        "{}: {} photos share their capture time with another (EXIF times have whole seconds "
+        "without SubSecTimeOriginal), first '{}': spread evenly within the time's resolution",
+        source, photos, images[runs.front().first].source));
   }
   std::vector<TelemetrySample> samples;
   int no_fix = 0;

@@ -618,8 +618,17 @@ TEST(ImageMetadata, TelemetryFromImagesOrderAndMissingGps) {
   b.lon_deg = 2.0;
   const TelemetryReadResult ranks = TelemetryFromImages({a, b});
   EXPECT_DOUBLE_EQ(ranks.telemetry[1].time_s, 1.0);
-  EXPECT_EQ(ranks.warnings.size(), 1u);
+  ASSERT_EQ(ranks.warnings.size(), 1u);
   ExpectInputError([&] { TelemetryFromImages({}); }, {"no telemetry samples"});
+  // Messages name the photo, or the folder the photos are in (not "image metadata").
+  a.source = "flight/a.jpg";
+  b.source = "flight/b.jpg";
+  EXPECT_THAT(TelemetryFromImages({a, b}).warnings[0],
+              HasSubstr("flight: not every photo has a capture time"));
+  b.lat_deg.reset();
+  b.lon_deg.reset();
+  ExpectInputError([&] { TelemetryFromImages({b}); },
+                   {"flight/b.jpg: no telemetry samples", "1 without GPS fix"});
 }
 
 // Photos taken within one second by a camera that writes no SubSecTimeOriginal share their

@@ -604,6 +604,19 @@ TelemetryReadResult ParseTelemetryCsv(std::istream& in, const std::string& sourc
 TelemetryReadResult ReadTelemetryCsv(const std::filesystem::path& path,
                                      const TelemetryReadOptions& options) {
   std::ifstream in = io_detail::OpenInput(path);
+  // The DJI GO / DJI Fly apps' own flight records are binary files named
+  // DJIFlightRecord_<date>_[<time>].txt (encrypted since 2019): their CSV exports are read, not
+  // the records (docs/inputs.md "CSV exports of flight logs").
+  if (io_detail::ToLower(path.filename().string()).rfind("djiflightrecord", 0) == 0) {
+    const std::string head = io_detail::ReadHead(in);
+    if (head.find('\0') != std::string::npos) {
+      throw InputError(fmt::format(
+          "{}: a DJI flight record (the DJI GO / DJI Fly app's binary log), not a CSV file: "
+          "aerovo reads its CSV export (a DJI flight log viewer's \"sep=,\" CSV with OSD. and "
+          "GIMBAL. columns, or Airdata's), see docs/inputs.md \"CSV exports of flight logs\"",
+          path.string()));
+    }
+  }
   return ParseTelemetryCsv(in, path.string(), options);
 }
 

@@ -1428,6 +1428,18 @@ TEST(TelemetryFiles, DispatchByExtensionAndMissingFile) {
   ExpectInputError([&] { ReadDjiSrt(dir / "missing.srt"); },
                    {"cannot open", "missing.srt", "no such file"});
   ExpectInputError([&] { ReadGpx(dir); }, {"is a directory"});
+  // The DJI apps' binary flight record (its name and .txt extension as the app writes them; the
+  // first bytes of dji-log-parser's examples/DJIFlightRecord_2015-12-05_[10-42-03].txt) is named
+  // as such; a CSV export under that name is read.
+  {
+    std::ofstream(dir / "DJIFlightRecord_2015-12-05_[10-42-03].txt")
+        << std::string("\xCC\x06\x0C\x00\x00\x00\x00\x00\x90\x01\x04\x00\x0F\x72", 14);
+    std::ofstream(dir / "DJIFlightRecord_2015-12-06_[11-00-00].txt") << "t,lat,lon\n0,1,2\n";
+  }
+  ExpectInputError(
+      [&] { ReadTelemetryFile(dir / "DJIFlightRecord_2015-12-05_[10-42-03].txt"); },
+      {"DJIFlightRecord_2015-12-05_[10-42-03].txt: a DJI flight record", "reads its CSV export"});
+  EXPECT_EQ(ReadTelemetryFile(dir / "DJIFlightRecord_2015-12-06_[11-00-00].txt").records, 1);
   TelemetryReadOptions bad;
   bad.max_warnings = -1;
   EXPECT_THROW(ReadTelemetryFile(dir / "c.csv", bad), InvalidArgument);
