@@ -161,18 +161,54 @@ TelemetryReadResult ParseGpx(std::istream& in, const std::string& source_name,
   // external entities, so hostile files cannot make it read other files.
   const pugi::xml_parse_result parsed =
       doc.load_buffer(text.data(), text.size(), pugi::parse_default, encoding);
-  if (!parsed) {
+  // A document that stops before its end (a logger or an app whose writing stopped: the battery,
+  // a crash, a partial copy): pugixml fails where the text runs out (an element left open, or a
+  // tag, attribute or text cut), no markup ends after that place, and the tree up to it is kept
+  // (pugixml manual, "Handling parsing errors": "you can use the part of the tree that was
+  // successfully parsed"). Such a GPX is read up to the cut, its last point dropped when the
+  // cut falls inside it, with a warning, in both modes; an error before the end stays an error.
+  const bool cut = !parsed && parsed.offset >= 0 &&
+                   text.find('>', static_cast<std::size_t>(parsed.offset) + 1) == std::string::npos;
+  if (!parsed && !cut) {
     throw InputError(fmt::format("{}:{}: XML error: {}", source_name, lines.LineOf(parsed.offset),
                                  parsed.description()));
   }
   pugi::xml_node root = doc.document_element();
   if (!root || std::strcmp(LocalName(root), "gpx") != 0) {
+    if (cut) {
+      throw InputError(fmt::format("{}:{}: XML error: {} (the file ends before its <gpx> element)",
+                                   source_name, lines.LineOf(parsed.offset), parsed.description()));
+    }
     throw InputError(fmt::format("{}: not a GPX file (root element is <{}>)", source_name,
                                  io_detail::Printable(root ? root.name() : "")));
   }
   std::vector<pugi::xml_node> points;
   Collect(root, "trkpt", points);
   if (points.empty()) Collect(root, "rtept", points);
+  if (cut) {
+    // The last point is whole when its end tag (or the "/>" of an empty element) is in the text.
+    bool dropped = false;
+    if (!points.empty()) {
+      const pugi::xml_node last = points.back();
+      const std::size_t at =
+          static_cast<std::size_t>(std::max<std::ptrdiff_t>(0, last.offset_debug()));
+      const std::size_t tag_end = text.find('>', at);
+      const bool empty_element =
+          tag_end != std::string::npos && tag_end > at && text[tag_end - 1] == '/';
+      const bool closed = text.find(fmt::format("</{}>", last.name()), at) != std::string::npos;
+      if (!empty_element && !closed) {
+        points.pop_back();
+        dropped = true;
+      }
+    }
+    if (static_cast<int>(errors.warnings().size()) < options.max_warnings) {
+      errors.warnings().push_back(fmt::format(
+          "{}:{}: the file ends before the end of its GPX document ({}: a log whose writing "
+          "stopped): read up to there{}",
+          source_name, lines.LineOf(parsed.offset), parsed.description(),
+          dropped ? ", the point cut there dropped" : ""));
+    }
+  }
 
   std::vector<ParsedPoint> parsed_points;
   int no_fix = 0;

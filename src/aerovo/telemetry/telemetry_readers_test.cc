@@ -740,6 +740,42 @@ TEST(Gpx, XmlErrorsAndWrongRoot) {
   }
 }
 
+// A GPX whose writing stopped (a logger's battery, a crash, a partial copy: the real TomTom
+// track of gpx-parse's tests/integration/data/route-1.1.gpx cut anywhere) is read up to the cut,
+// in both modes, with a warning: cut at every byte after the first point, it gives exactly the
+// points whose end tag is in the text.
+TEST(Gpx, AFileCutAnywhereIsReadUpToTheCut) {
+  const std::string full = kGpx;
+  const std::size_t first_end = full.find("</trkpt>") + 8;
+  for (std::size_t n = first_end; n < full.size(); ++n) {
+    const std::string text = full.substr(0, n);
+    SCOPED_TRACE(text.substr(text.size() > 40 ? text.size() - 40 : 0));
+    int closed = 0;
+    for (std::size_t at = text.find("</trkpt>"); at != std::string::npos;
+         at = text.find("</trkpt>", at + 1)) {
+      ++closed;
+    }
+    for (const bool lenient : {false, true}) {
+      std::istringstream in(text);
+      TelemetryReadOptions options;
+      options.lenient = lenient;
+      const TelemetryReadResult r = ParseGpx(in, "cut.gpx", options);
+      ASSERT_EQ(r.records, closed);
+      EXPECT_EQ(r.skipped_records, 0);
+      EXPECT_DOUBLE_EQ(r.telemetry[0].lat_deg, 43.5367);
+      const bool whole = text.find("</gpx>") != std::string::npos;
+      if (!whole) {
+        ASSERT_EQ(r.warnings.size(), 1u);
+        EXPECT_THAT(r.warnings[0], HasSubstr("the file ends before the end of its GPX document"));
+      }
+    }
+  }
+  // An error before the end is not a cut.
+  std::istringstream in(full.substr(0, first_end) +
+                        "<trkpt lat=\"1\"</trkpt>\n</trkseg></trk></gpx>");
+  ExpectInputError([&] { ParseGpx(in, "bad.gpx"); }, {"bad.gpx:4: XML error"});
+}
+
 TEST(Gpx, DeepNestingDoesNotOverflowTheStack) {
   std::string deep = "<gpx>";
   for (int i = 0; i < 200000; ++i) deep += "<a>";
