@@ -55,7 +55,7 @@ grep -q "early-exit" <<<"$err" || fail "unclear error for --early-exit maybe: $e
 if err=$("$aerovo" correspondence "$dir/DJI_0060.JPG" "$dir/DJI_0061.JPG" --final-points -5 2>&1); then
   fail "--final-points -5 accepted"
 fi
-grep -q "refine_final_max_points must be in \[0, 10000000\], got -5" <<<"$err" || fail "unclear error: $err"
+grep -qF -- "--final-points: clustered.refine_final_max_points must be in [0, 10000000], got -5" <<<"$err" || fail "unclear error: $err"
 
 if err=$("$aerovo" correspondence "$dir/DJI_0060.JPG" "$dir/DJI_0061.JPG" --final-min-shift -1 2>&1); then
   fail "--final-min-shift -1 accepted"

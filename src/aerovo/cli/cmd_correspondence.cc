@@ -68,7 +68,17 @@ void Run(Args a) {
     a.options.sampler = a.prosac ? SamplerKind::kProsac : SamplerKind::kUniform;
     a.options.clustered.refine = !a.paper;
     a.options.match.algorithm = ParseMatchAlgorithm(a.matcher);
-    Validate(a.options);
+    try {
+      Validate(a.options);
+    } catch (const InvalidArgument& e) {
+      // The checks name the options' keys (clustered.refine_final_max_points); this command's
+      // flags for them are its own.
+      throw InvalidArgument(
+          NameFlags(e.what(), {{"refine_max_points", "--spread-points"},
+                               {"refine_final_radius_px", "--final-radius"},
+                               {"refine_final_max_points", "--final-points"},
+                               {"refine_final_min_shift_px", "--final-min-shift"}}));
+    }
   });
   SurfOptions so;
   so.hessian_threshold = a.hessian_threshold;

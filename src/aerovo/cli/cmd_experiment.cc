@@ -61,8 +61,26 @@ std::vector<double> ParseKList(const std::string& text) {
   return out;
 }
 
-// --simulate: checks the simulation flags (InvalidArgument; called through CheckUsage before
-// the output folder is touched).
+// The --simulate flags named in the checks of the options they set (sim/*.cc Validate), as
+// `aerovo simulate` names its own (cmd_simulate.cc).
+const std::vector<std::pair<const char*, const char*>> kSimFlagOfField = {
+    {"ortho_mpp", "--mpp"},
+    {"nw_lat_deg", "--nw-lat"},
+    {"nw_lon_deg", "--nw-lon"},
+    {"leg_length_m", "--sim-length-m"},
+    {"legs =", "--sim-legs"},
+    {"spacing_m", "--sim-spacing-m"},
+    {"height_m", "--sim-altitude-m"},
+    {"speed_mps", "--sim-speed-mps"},
+    {"SimulationOptions: fps", "--sim-fps"},
+    {"image size", "--sim-width, --sim-height"},
+    {"hfov_deg", "--sim-hfov-deg"},
+    {"noise_sigma_dn", "--sim-noise"},
+    {"horizontal_sigma_m", "--sim-gps-noise-m"},
+};
+
+// --simulate: checks the simulation flags (InvalidArgument naming the flag; called through
+// CheckUsage before the output folder is touched).
 void CheckSimulation(ExperimentArgs& a, const ExperimentInput& input) {
   if (!input.run.input.empty()) {
     throw InvalidArgument("give an input flight or --simulate, not both");
@@ -70,8 +88,12 @@ void CheckSimulation(ExperimentArgs& a, const ExperimentInput& input) {
   if (!input.run.truth.empty()) {
     throw InvalidArgument("--truth is for a given input; --simulate has its own ground truth");
   }
-  a.sim.sim.flight.pattern = sim::ParseFlightPattern(a.sim_pattern);
-  Validate(a.sim);
+  try {
+    a.sim.sim.flight.pattern = sim::ParseFlightPattern(a.sim_pattern);
+    Validate(a.sim);
+  } catch (const InvalidArgument& e) {
+    throw InvalidArgument(NameFlags(e.what(), kSimFlagOfField));
+  }
 }
 
 // --simulate: simulates the flight (checked by CheckSimulation) into EXP/sim and makes it

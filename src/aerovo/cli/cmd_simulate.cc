@@ -68,7 +68,7 @@ std::vector<std::vector<double>> ParsePairs(const std::string& text, const char*
 
 // The flags of `aerovo simulate` named in the checks of the options they set (sim/*.cc
 // Validate: "FlightPlan: height_m = 0 must be in [1, 10000]"), in the order of the help.
-constexpr std::pair<const char*, const char*> kFlagOfField[] = {
+const std::vector<std::pair<const char*, const char*>> kFlagOfField = {
     {"terrain_size_px", "--terrain-size-px"},
     {"terrain_mpp", "--terrain-mpp"},
     {"nw_lat_deg", "--nw-lat"},
@@ -105,17 +105,6 @@ constexpr std::pair<const char*, const char*> kFlagOfField[] = {
     {"rate_hz", "--gps-rate-hz"},
     {"correlation_time_s", "--gps-tau-s"},
 };
-
-// `message` of a failed check with the flags it is about first: "--height-m: FlightPlan:
-// height_m = 0 must be in [1, 10000]" (the message alone when it names no field of a flag).
-std::string NameFlags(const std::string& message) {
-  std::string flags;
-  for (const auto& [field, flag] : kFlagOfField) {
-    if (message.find(field) == std::string::npos) continue;
-    flags += (flags.empty() ? "" : ", ") + std::string(flag);
-  }
-  return flags.empty() ? message : flags + ": " + message;
-}
 
 // Reads the flags that are not the options' fields into `o` and checks every option, before the
 // output folder is touched: an option out of its range, or options that disagree, is an
@@ -173,7 +162,7 @@ sim::GroundOptions CheckedOptions(const SimulateArgs& a, sim::SimulationOptions&
     sim::Validate(checked);
     return go;
   } catch (const InvalidArgument& e) {
-    throw InvalidArgument(NameFlags(e.what()));
+    throw InvalidArgument(NameFlags(e.what(), kFlagOfField));
   }
 }
 

@@ -17,6 +17,16 @@ bool Is(const std::exception& e) {
 
 }  // namespace
 
+std::string NameFlags(const std::string& message,
+                      const std::vector<std::pair<const char*, const char*>>& fields) {
+  std::string flags;
+  for (const auto& [field, flag] : fields) {
+    if (message.find(field) == std::string::npos) continue;
+    flags += (flags.empty() ? "" : ", ") + std::string(flag);
+  }
+  return flags.empty() ? message : flags + ": " + message;
+}
+
 int ExitCodeForError(const std::exception& error) {
   // The types are disjoint (core/error.h): the order of the tests carries no meaning.
   if (Is<UsageError>(error)) return kExitUsage;

@@ -8,6 +8,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "aerovo/core/error.h"
@@ -31,6 +32,13 @@ class UsageError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+/// `message` of a failed check of a library's options with the flags it is about first, e.g.
+/// "--height-m: FlightPlan: height_m = 0 must be in [1, 10000]": each entry of `fields` is a text
+/// a check's message names a field by (sim/*.cc Validate: "leg_length_m", "legs =") and the flag
+/// or flags that set it; the message alone when it names none.
+std::string NameFlags(const std::string& message,
+                      const std::vector<std::pair<const char*, const char*>>& fields);
 
 /// Runs `f`, the reading and checking of a command's options before it works: an
 /// InvalidArgument it throws (an option out of range, options that disagree) is a UsageError.

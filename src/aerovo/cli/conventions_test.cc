@@ -53,6 +53,18 @@ TEST(Conventions, OutputErrorIsNotAnInputError) {
   EXPECT_THROW(throw InternalError("x"), Error);
 }
 
+// A library check's message with the flags it is about first; the message alone when it names
+// none; every flag whose field it names.
+TEST(Conventions, NameFlagsPutsTheFlagsBeforeTheMessage) {
+  const std::vector<std::pair<const char*, const char*>> fields = {
+      {"leg_length_m", "--length-m"}, {"image size", "--width, --height"}, {"fps", "--fps"}};
+  EXPECT_EQ(NameFlags("FlightPlan: leg_length_m = -5 must be in (0, 1e6)", fields),
+            "--length-m: FlightPlan: leg_length_m = -5 must be in (0, 1e6)");
+  EXPECT_EQ(NameFlags("image size 3x720 at 100 fps", fields),
+            "--width, --height, --fps: image size 3x720 at 100 fps");
+  EXPECT_EQ(NameFlags("something else", fields), "something else");
+}
+
 TEST(Conventions, EditDistance) {
   EXPECT_EQ(EditDistance("", ""), 0);
   EXPECT_EQ(EditDistance("run", "run"), 0);
@@ -207,7 +219,8 @@ TEST(CliConventions, HostileNumbersAreUsageErrorsNamingTheOption) {
        "clustered.grid_rows must be in [1, 64], got 100000"},
       {"simulate --noise '' -o DIR", "--noise: an empty value is not a number"},
       {"simulate --seed -1 -o DIR", "--seed: '-1': a negative value"},
-      {"simulate --height-m 0 -o DIR", "--height-m: FlightPlan: height_m = 0 must be in [1, 10000]"},
+      {"simulate --height-m 0 -o DIR",
+       "--height-m: FlightPlan: height_m = 0 must be in [1, 10000]"},
       {"simulate --pattern turns --legs 0 -o DIR", "--legs: FlightPlan: legs = 0 must be in"},
       {"simulate --width 0 -o DIR", "--width, --height: CameraModel: image size 0x720 px"},
       {"simulate --gps-rate-hz nan -o DIR", "--gps-rate-hz: GpsOptions: rate_hz = nan"},
@@ -219,7 +232,16 @@ TEST(CliConventions, HostileNumbersAreUsageErrorsNamingTheOption) {
       // experiment: its checks and the simulation's before the folder (an empty folder with a
       // lock file was left behind).
       {"experiment illumination --simulate --k 0 -o DIR", "illumination: k must be in (0, 1]"},
-      {"experiment ransac --simulate --sim-fps 0 -o DIR", "fps = 0 must be in (0, 1000]"},
+      {"experiment ransac --simulate --sim-fps 0 -o DIR",
+       "--sim-fps: SimulationOptions: fps = 0 must be in (0, 1000]"},
+      {"experiment ransac --simulate --sim-length-m -5 -o DIR",
+       "--sim-length-m: FlightPlan: leg_length_m = -5 must be in (0, 1e6)"},
+      {"experiment ransac --simulate --sim-width 3 -o DIR",
+       "--sim-width, --sim-height: CameraModel"},
+      {"experiment ransac --simulate --ortho x.jpg -o DIR", "--mpp: GroundOptions"},
+      {"correspondence a.png b.png --final-points -5",
+       "--final-points: clustered.refine_final_max_points must be in [0, 10000000], got -5"},
+      {"correspondence a.png b.png --final-radius -1", "--final-radius: clustered"},
       {"experiment ransac -o DIR", "give an input flight"},
       {"experiment illumination --simulate --k '' -o DIR", "--k '': an empty item"},
       {"experiment illumination --simulate --k 1,,0.5 -o DIR", "--k '1,,0.5': an empty item"},
