@@ -151,6 +151,10 @@ def make_inputs():
     shutil.copy(os.path.join(sim, "video.mp4"), os.path.join(INPUTS, "flight.mp4"))
     shutil.copy(os.path.join(sim, "telemetry.srt"), os.path.join(INPUTS, "flight.SRT"))
     shutil.copy(os.path.join(sim, "track.gpx"), os.path.join(INPUTS, "rtk.gpx"))
+    # A DJI video and its SRT side by side, as the aircraft records them.
+    os.makedirs(os.path.join(INPUTS, "dji"))
+    shutil.copy(os.path.join(sim, "video.mp4"), os.path.join(INPUTS, "dji", "DJI_0042.MP4"))
+    shutil.copy(os.path.join(sim, "telemetry.srt"), os.path.join(INPUTS, "dji", "DJI_0042.SRT"))
     with open(os.path.join(INPUTS, "run.yaml"), "w") as f:
         f.write(f"input: {INPUTS}/flight.mp4\ntelemetry: {INPUTS}/flight.SRT\nstep: 2\n"
                 "out: run-from-yaml\n")
@@ -159,6 +163,7 @@ def make_inputs():
 PLACEHOLDERS = {  # word of the docs -> path here
     "flight.mp4": lambda: os.path.join(INPUTS, "flight.mp4"),
     "flight.SRT": lambda: os.path.join(INPUTS, "flight.SRT"),
+    "DJI_0042.MP4": lambda: os.path.join(INPUTS, "dji", "DJI_0042.MP4"),
     "f.SRT": lambda: os.path.join(INPUTS, "flight.SRT"),
     "rtk.gpx": lambda: os.path.join(INPUTS, "rtk.gpx"),
     "run.yaml": lambda: os.path.join(INPUTS, "run.yaml"),
@@ -403,12 +408,17 @@ PLAN = {
         says=[readme_output_line()], check=check_tampa),
     "aerovo run flight.mp4 --telemetry flight.SRT --step 10 -o flight": Row(
         says=["Tracked 7 of 7 frames"], files=["flight/frames.csv", "flight/summary.json"]),
+    "aerovo run DJI_0042.MP4 -o dji_flight": Row(
+        extra=["--no-report"], extra_why="the command is about where the telemetry comes from",
+        says=["DJI_0042.SRT (found beside the video", "Tracked 61 of 61 frames"],
+        files=["dji_flight/summary.json"]),
     "aerovo run flight.mp4 --telemetry 00000042.BIN --telemetry-offset-s 312.5 -o flight": Row(
         skip="needs an ArduPilot DataFlash log recorded with the example video; the reader is "
         "tested on logs written byte for byte (DataFlash.* in telemetry/dataflash_reader_test.cc)"),
     "aerovo run flight.mp4 --telemetry flight.tlog --telemetry-offset-s 312.5 -o flight": Row(
         skip="needs a ground station's MAVLink telemetry log recorded with the example video; the "
-        "reader is tested on logs written byte for byte (Tlog.* in telemetry/tlog_reader_test.cc)"),
+        "reader is tested on logs written byte for byte (Tlog.* in telemetry/tlog_reader_test.cc) "
+        "and on a ground station's real log (ctest mavlink.node_mavlink_tlog)"),
     "aerovo run flight.mp4 --telemetry log_12_2026-5-3-10-20-00.ulg --telemetry-offset-s 312.5 "
     "-o flight": Row(
         skip="needs a PX4 ULog recorded with the example video; the reader is tested on logs "

@@ -551,6 +551,46 @@ TEST_F(CliOutputs, ReportOpenPassesHostileFolderNamesAsOneArgumentWithoutAShell)
   }
 }
 
+// A DJI video and its SRT as the aircraft records them (DJI_0001.MP4, DJI_0001.SRT, no sim.json):
+// the run uses the SRT beside the video and says so; --telemetry none runs without it.
+TEST_F(CliOutputs, TheSrtBesideADjiVideoIsUsedUnlessTelemetryIsNone) {
+  const fs::path dji = dir_ / "dji";
+  fs::create_directories(dji);
+  fs::copy_file(Video(), dji / "DJI_0001.MP4", fs::copy_options::overwrite_existing);
+  fs::copy_file(dir_ / "sim" / "telemetry.srt", dji / "DJI_0001.SRT",
+                fs::copy_options::overwrite_existing);
+  const std::vector<std::string> common = {"run",          (dji / "DJI_0001.MP4").string(),
+                                           "--hfov-deg",   "73.7",
+                                           "--max-frames", "6",
+                                           "--threads",    "1",
+                                           "--no-report"};
+  std::vector<std::string> args = common;
+  args.insert(args.end(), {"-o", (dji / "with").string()});
+  const Outcome with = RunCli(args, dir_, "beside");
+  ASSERT_EQ(with.exit_code, 0) << with.err;
+  EXPECT_NE(with.out.find("from " + (dji / "DJI_0001.SRT").string() + " (found beside the video"),
+            std::string::npos)
+      << with.out;
+  const nlohmann::json s = nlohmann::json::parse(ReadText(dji / "with" / "summary.json"));
+  EXPECT_EQ(s["telemetry"], (dji / "DJI_0001.SRT").string());
+  EXPECT_TRUE(s["telemetry_beside"].get<bool>());
+  EXPECT_EQ(s["frames_with_gps"].get<int>(), 6);
+  EXPECT_EQ(s["height_source"], "telemetry");
+  // The saved configuration names the file, so that it reproduces the run.
+  const nlohmann::json c = nlohmann::json::parse(ReadText(dji / "with" / "config.json"));
+  EXPECT_EQ(c["telemetry"], (dji / "DJI_0001.SRT").string());
+
+  args = common;
+  args.insert(args.end(),
+              {"--telemetry", "none", "--altitude", "60", "-o", (dji / "without").string()});
+  const Outcome without = RunCli(args, dir_, "none");
+  ASSERT_EQ(without.exit_code, 0) << without.err;
+  const nlohmann::json n = nlohmann::json::parse(ReadText(dji / "without" / "summary.json"));
+  EXPECT_EQ(n["telemetry"], "");
+  EXPECT_FALSE(n["telemetry_beside"].get<bool>());
+  EXPECT_EQ(n["frames_with_gps"].get<int>(), 0);
+}
+
 TEST_F(CliOutputs, QuietHidesTheProgressNotTheWarningsWhichGoToStderr) {
   // A telemetry that covers only the first half of the flight: a warning about the frames
   // without a fix.

@@ -26,6 +26,10 @@
 
 namespace aerovo {
 
+/// RunConfig::telemetry of a run without telemetry: no .SRT found beside the video is used, and
+/// a photo folder's EXIF/XMP is not read as telemetry.
+inline constexpr const char* kNoTelemetry = "none";
+
 template <>
 struct options::EnumTraits<HeadingSource>
     : options::EnumList<HeadingSource, ToString, HeadingSource::kAuto, HeadingSource::kTelemetryYaw,
@@ -99,7 +103,9 @@ struct options::EnumTraits<AttitudeEstimationMode>
 struct RunConfig {
   /// Video file, image folder, camera index, device path or stream URL (frames/frame_source.h).
   std::string input;
-  /// Telemetry file (.srt, .gpx, .csv); empty: none, or the photos' EXIF/XMP for a folder.
+  /// Telemetry file (.srt, .gpx, .csv, ...); empty: for a video, the .SRT of the same name beside
+  /// it if there is one (as DJI aircraft record them), for a folder the photos' EXIF/XMP;
+  /// "none": no telemetry at all (kNoTelemetry).
   std::string telemetry;
   /// Malformed telemetry records (garbage line, missing latitude, out-of-range value, timestamp
   /// out of order): false (default) = the run stops with an error naming the file and line;
@@ -359,7 +365,7 @@ template <class V>
 void VisitFields(RunConfig& c, V& v) {
   using namespace options;
   v.Field(c.input, "input", "Video file, image folder (telemetry from EXIF/XMP), camera index, /dev/videoN or URL", Any().Flags("input"));
-  v.Field(c.telemetry, "telemetry", "Telemetry file: DJI .srt, .gpx, .csv, an ArduPilot DataFlash log (.bin, .log), a PX4 ULog (.ulg) or a MAVLink telemetry log (.tlog)", Any());
+  v.Field(c.telemetry, "telemetry", "Telemetry file: DJI .srt, .gpx, .csv, an ArduPilot DataFlash log (.bin, .log), a PX4 ULog (.ulg) or a MAVLink telemetry log (.tlog); empty: a video's .SRT of the same name beside it, a photo folder's EXIF/XMP; none: no telemetry", Any());
   v.Field(c.lenient_telemetry, "lenient_telemetry", "Skip malformed telemetry records (counted in the warnings) instead of stopping", Any().Switch());
   v.Field(c.truth, "truth", "Ground truth to compare with beside GPS: TUM (.tum/.txt) or a track with positions (.csv, .gpx, .srt)", Any());
   v.Field(c.out, "out", "Output folder", Any().Flags("-o"));

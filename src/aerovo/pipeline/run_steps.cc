@@ -6,6 +6,7 @@
 #include <signal.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -68,6 +69,27 @@ std::optional<sim::SimulationManifest> FindSimulationManifest(const std::string&
   return std::nullopt;
 }
 
+// The .SRT of the same name beside the video file `input` (DJI_0042.MP4 -> DJI_0042.SRT, the
+// extension in any case), if there is exactly one; "" otherwise (a folder, a live source).
+std::string TelemetryBeside(const std::string& input) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path video(input);
+  if (input.empty() || !fs::is_regular_file(video, ec)) return "";
+  const fs::path dir = video.has_parent_path() ? video.parent_path() : fs::path(".");
+  std::string found;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const fs::path& p = it->path();
+    std::string ext = p.extension().string();
+    for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (p.stem() != video.stem() || ext != ".srt") continue;
+    if (!it->is_regular_file(ec)) continue;
+    if (!found.empty()) return "";  // DJI_0042.SRT and DJI_0042.srt: not a guess
+    found = p.string();
+  }
+  return found;
+}
+
 }  // namespace
 
 RunInputs ResolveInputs(const RunConfig& given, std::vector<std::string>* warnings) {
@@ -82,6 +104,10 @@ RunInputs ResolveInputs(const RunConfig& given, std::vector<std::string>* warnin
       config.focal_px = m->focal_px;  // exact, whatever the SRT's 35 mm equivalent says
       in.focal_from_sim = true;
     }
+  }
+  if (config.telemetry.empty()) {
+    config.telemetry = TelemetryBeside(config.input);
+    in.telemetry_beside = !config.telemetry.empty();
   }
   if (!config.truth.empty()) in.truth = ReadReferenceTrack(config.truth);
   return in;

@@ -61,14 +61,18 @@ struct RunInputs {
   RunConfig config;             ///< The given configuration, completed from sim.json.
   std::string sim_manifest;     ///< The sim.json used ("" when the input is not a simulation).
   bool focal_from_sim = false;  ///< config.focal_px is sim.json's (focal source "sim.json").
+  /// config.telemetry was found beside the video (the same name, .SRT), not given.
+  bool telemetry_beside = false;
   std::optional<ReferenceTrack> truth;  ///< Read from config.truth (nullopt when empty).
 };
 
 /// For a flight of `aerovo simulate` (config.input is its video or frames folder and sim.json
 /// sits in the folder above): telemetry = its SRT, truth = its ground_truth.csv, focal_px = its
 /// exact focal_px unless focal_px or hfov_deg is given. Explicit settings win. An unreadable or
-/// foreign sim.json is reported in `warnings` and ignored. Then reads the truth: InputError
-/// naming the file when it cannot be read.
+/// foreign sim.json is reported in `warnings` and ignored. Otherwise, for a video file without
+/// telemetry given: the .SRT (any case) of the same name beside it, as DJI aircraft record
+/// DJI_0042.MP4 and DJI_0042.SRT (telemetry_beside; not with telemetry "none"). Then reads the
+/// truth: InputError naming the file when it cannot be read.
 RunInputs ResolveInputs(const RunConfig& given, std::vector<std::string>* warnings);
 
 /// The telemetry of a run and how a frame finds its fix.

@@ -19,6 +19,7 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -170,6 +171,50 @@ TEST(RunSteps, ForeignOrBrokenSimJsonIsIgnored) {
   ASSERT_EQ(warnings.size(), 1u);
   EXPECT_EQ(warnings[0].rfind("ignored " + (dir / "sim.json").string() + ": ", 0), 0u)
       << warnings[0];
+  fs::remove_all(dir);
+}
+
+// A DJI aircraft records DJI_0042.MP4 and DJI_0042.SRT side by side: a video run without
+// --telemetry uses the SRT of the same name (any case of its extension), and says so; not when
+// telemetry is given or "none", not for a folder, and not when two files could be it.
+TEST(RunSteps, TheSrtBesideAVideoIsItsTelemetry) {
+  const fs::path dir = TempDir("beside");
+  fs::create_directories(dir / "photos");
+  WriteText(dir / "DJI_0042.MP4", "video");
+  WriteText(dir / "DJI_0042.SRT", "1\n");
+  WriteText(dir / "DJI_0043.MP4", "video");
+  WriteText(dir / "DJI_0043.srt", "1\n");
+  WriteText(dir / "DJI_0044.MP4", "video");
+  WriteText(dir / "DJI_0044.SRT", "1\n");
+  WriteText(dir / "DJI_0044.srt", "1\n");
+  WriteText(dir / "DJI_0045.MP4", "video");
+  WriteText(dir / "DJI_0045.gpx", "<gpx/>");
+  WriteText(dir / "photos" / "DJI_0046.SRT", "1\n");
+  std::vector<std::string> warnings;
+  const auto resolved = [&](const fs::path& input, const std::string& telemetry) {
+    RunConfig given;
+    given.input = input.string();
+    given.telemetry = telemetry;
+    return ResolveInputs(given, &warnings);
+  };
+  RunInputs in = resolved(dir / "DJI_0042.MP4", "");
+  EXPECT_EQ(in.config.telemetry, (dir / "DJI_0042.SRT").string());
+  EXPECT_TRUE(in.telemetry_beside);
+  in = resolved(dir / "DJI_0043.MP4", "");
+  EXPECT_EQ(in.config.telemetry, (dir / "DJI_0043.srt").string());
+  EXPECT_TRUE(in.telemetry_beside);
+  for (const auto& [input, telemetry, expected] :
+       {std::tuple{dir / "DJI_0044.MP4", std::string(), std::string()},  // two: not a guess
+        std::tuple{dir / "DJI_0045.MP4", std::string(), std::string()},  // only a .gpx
+        std::tuple{dir / "photos", std::string(), std::string()},        // a folder
+        std::tuple{dir / "DJI_0042.MP4", std::string("none"), std::string("none")},
+        std::tuple{dir / "DJI_0042.MP4", (dir / "DJI_0045.gpx").string(),
+                   (dir / "DJI_0045.gpx").string()}}) {
+    in = resolved(input, telemetry);
+    EXPECT_EQ(in.config.telemetry, expected) << input;
+    EXPECT_FALSE(in.telemetry_beside) << input;
+  }
+  EXPECT_TRUE(warnings.empty());
   fs::remove_all(dir);
 }
 

@@ -218,6 +218,8 @@ nlohmann::json ToJson(const RunSummary& s) {
                    {"mavlink", s.mavlink},
                    {"heading_source", s.heading_source},
                    {"sim_manifest", s.sim_manifest},
+                   {"telemetry", s.telemetry},
+                   {"telemetry_beside", s.telemetry_beside},
                    {"vo_path_length_m", s.vo_path_length_m},
                    {"truth", s.truth},
                    {"frames_with_truth", s.frames_with_truth},
@@ -540,15 +542,25 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
   const std::string source_duration = DurationOf(*source);
   const bool live = source->IsLive();
   PrefetchSource* prefetch = Prefetch(config, source);
+  // "none": no telemetry file, and a photo folder's EXIF/XMP not read as telemetry.
+  const bool no_telemetry = config.telemetry == kNoTelemetry;
   run_steps::RunTelemetry telemetry = run_steps::RunTelemetry::Load(
-      config.telemetry, config.lenient_telemetry, folder, &summary.warnings);
+      no_telemetry ? std::string() : config.telemetry, config.lenient_telemetry,
+      no_telemetry ? nullptr : folder, &summary.warnings);
   telemetry.set_offset_s(config.telemetry_offset_s);
   summary.telemetry_offset_s = config.telemetry_offset_s;
   if (config.gps_denied_after_s >= 0.0) {
     summary.gps_denied = RunSummary::GpsDenied{};
     summary.gps_denied->after_s = config.gps_denied_after_s;
   }
-  if (log) *log << "telemetry: " << telemetry.Describe() << "\n";
+  if (log) {
+    *log << "telemetry: " << telemetry.Describe()
+         << (inputs.telemetry_beside ? " (found beside the video: the same name; --telemetry "
+                                       "names another, --telemetry none runs without)"
+                                     : "")
+         << "\n";
+  }
+  summary.telemetry_beside = inputs.telemetry_beside;
   const std::optional<map::ReferenceMaps> maps = OpenMap(config, telemetry, &summary);
 
   // 2-5. The frames: camera, height, outputs, odometry.
@@ -614,6 +626,7 @@ RunSummary RunFlight(const RunConfig& given, std::unique_ptr<FrameSource> source
   const run_steps::RunInputs inputs = run_steps::ResolveInputs(given, &summary.warnings);
   const RunConfig& config = inputs.config;
   summary.sim_manifest = inputs.sim_manifest;
+  summary.telemetry = config.telemetry == kNoTelemetry ? std::string() : config.telemetry;
   summary.truth = config.truth;
   summary.input = config.input;
   summary.out_dir = config.out;

@@ -152,6 +152,10 @@ struct RunSummary {
   std::optional<GeoPoint> enu_origin;
   /// The simulator's sim.json used to fill in settings ("" when the input is not a simulation).
   std::string sim_manifest;
+  /// The telemetry file used ("" = none given or found; a photo folder's EXIF/XMP is not a file)
+  /// and whether it was found beside the video (the same name, .SRT) rather than given.
+  std::string telemetry;
+  bool telemetry_beside = false;
   double vo_path_length_m = 0.0;
   /// SE(2) and Sim(2) comparison with GPS, when at least 3 frames have a GPS fix.
   std::optional<TrajectoryComparison> evaluation;

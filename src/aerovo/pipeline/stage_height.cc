@@ -17,9 +17,10 @@ class HeightStage : public FrameStage {
     // A photo folder's frames are named by their files; a telemetry file names itself.
     const RunConfig& config = *run.config;
     height_.set_ground(config.ground_elevation_m, config.takeoff_height_agl_m,
-                       !config.telemetry.empty() ? config.telemetry
-                       : run.photo_folder        ? std::string("the photo's EXIF")
-                                                 : std::string());
+                       !config.telemetry.empty() && config.telemetry != kNoTelemetry
+                           ? config.telemetry
+                       : run.photo_folder ? std::string("the photo's EXIF")
+                                          : std::string());
   }
   const char* name() const override { return "height"; }
 
