@@ -73,7 +73,10 @@ const std::vector<std::pair<const char*, const char*>> kSimFlagOfField = {
     {"height_m", "--sim-altitude-m"},
     {"speed_mps", "--sim-speed-mps"},
     {"SimulationOptions: fps", "--sim-fps"},
-    {"image size", "--sim-width, --sim-height"},
+    {"CameraModel: image size", "--sim-width, --sim-height"},
+    {"TerrainOptions: image size",
+     "--sim-length-m, --sim-legs, --sim-spacing-m (the terrain fitted "
+     "to the flight)"},
     {"hfov_deg", "--sim-hfov-deg"},
     {"noise_sigma_dn", "--sim-noise"},
     {"horizontal_sigma_m", "--sim-gps-noise-m"},

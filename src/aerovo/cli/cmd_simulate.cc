@@ -88,7 +88,7 @@ const std::vector<std::pair<const char*, const char*>> kFlagOfField = {
     {"wobble_period_s", "--wobble-period-s"},
     {"max_duration_s", "--duration-s"},
     {"SimulationOptions: fps", "--fps"},
-    {"image size", "--width, --height"},
+    {"CameraModel: image size", "--width, --height"},
     {"hfov_deg", "--hfov-deg"},
     {"focal_px", "--focal-px"},
     {"distortion", "--distortion"},
@@ -160,6 +160,23 @@ sim::GroundOptions CheckedOptions(const SimulateArgs& a, sim::SimulationOptions&
     sim::SimulationOptions checked = o;
     if (!a.waypoints_latlon.empty()) checked.flight.waypoints_m = {{0.0, 0.0}, {100.0, 0.0}};
     sim::Validate(checked);
+    // The flight's frame count and the terrain fitted to its view, before the folder is made
+    // (a flight of too many frames, or a terrain beyond 32768 px a side, was found only then).
+    // With --waypoints-latlon the waypoints are placed by the ground itself: checked later.
+    if (a.waypoints_latlon.empty()) {
+      try {
+        const sim::TerrainOptions terrain = sim::TerrainOptionsOf(go, checked);
+        if (go.ortho.empty()) sim::Validate(terrain);
+      } catch (const InvalidArgument& e) {
+        // The terrain's own check (FitTerrainToFlight runs it too); the flight's frame limit
+        // goes on as it is.
+        if (std::string(e.what()).rfind("TerrainOptions:", 0) != 0) throw;
+        throw InvalidArgument(fmt::format(
+            "--terrain-size-px, --terrain-mpp: the terrain for this flight cannot be made: {} "
+            "(a shorter flight, a coarser --terrain-mpp or --ortho)",
+            e.what()));
+      }
+    }
     return go;
   } catch (const InvalidArgument& e) {
     throw InvalidArgument(NameFlags(e.what(), kFlagOfField));

@@ -225,6 +225,13 @@ TEST(CliConventions, HostileNumbersAreUsageErrorsNamingTheOption) {
       {"simulate --width 0 -o DIR", "--width, --height: CameraModel: image size 0x720 px"},
       {"simulate --gps-rate-hz nan -o DIR", "--gps-rate-hz: GpsOptions: rate_hz = nan"},
       {"simulate --render hot -o DIR", "--render must be 'visible' or 'thermal', not 'hot'"},
+      // Found only after the folder was made before: a terrain beyond 32768 px a side (given, or
+      // fitted to a long flight) and a flight of more frames than the simulator makes.
+      {"simulate --terrain-size-px 200000 --terrain-mpp 0.1 -o DIR",
+       "--terrain-size-px, --terrain-mpp: the terrain for this flight cannot be made: "
+       "TerrainOptions: image size 200000x200000 px"},
+      {"simulate --length-m 100000 -o DIR", "the terrain for this flight cannot be made"},
+      {"simulate --length-m 900000 -o DIR", "frames (limit 2000000)"},
       {"report --mosaic-size '' DIR", "--mosaic-size: an empty value is not a number"},
       {"report --mosaic-size 0 DIR",
        "--mosaic-size 0, --mosaic-frames 60: mosaic: max_size_px must be within 100..20000"},
@@ -239,6 +246,9 @@ TEST(CliConventions, HostileNumbersAreUsageErrorsNamingTheOption) {
       {"experiment ransac --simulate --sim-width 3 -o DIR",
        "--sim-width, --sim-height: CameraModel"},
       {"experiment ransac --simulate --ortho x.jpg -o DIR", "--mpp: GroundOptions"},
+      {"experiment ransac --simulate --sim-length-m 100000 -o DIR",
+       "--sim-length-m, --sim-legs, --sim-spacing-m (the terrain fitted to the flight): "
+       "TerrainOptions: image size"},
       {"correspondence a.png b.png --final-points -5",
        "--final-points: clustered.refine_final_max_points must be in [0, 10000000], got -5"},
       {"correspondence a.png b.png --final-radius -1", "--final-radius: clustered"},

@@ -175,7 +175,12 @@ sim::GroundOptions GroundOf(const ExperimentSimulation& o) {
 
 void Validate(const ExperimentSimulation& o) {
   sim::Validate(o.sim);
-  sim::Validate(GroundOf(o));
+  const sim::GroundOptions ground = GroundOf(o);
+  sim::Validate(ground);
+  // The flight's frame count and the terrain fitted to its view (made only after the
+  // experiment's folder otherwise).
+  const sim::TerrainOptions terrain = sim::TerrainOptionsOf(ground, o.sim);
+  if (ground.ortho.empty()) sim::Validate(terrain);
 }
 
 SimulatedFlight SimulateExperimentFlight(const ExperimentSimulation& options,

@@ -1,5 +1,6 @@
 #include "aerovo/sim/ground.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -36,26 +37,34 @@ void Validate(const GroundOptions& o) {
   }
 }
 
+TerrainOptions TerrainOptionsOf(const GroundOptions& o, const SimulationOptions& simulation) {
+  TerrainOptions t;
+  t.seed = o.terrain_seed;
+  if (o.terrain_size_px > 0 && o.terrain_mpp > 0) {
+    t.width_px = t.height_px = o.terrain_size_px;
+    t.metres_per_px = o.terrain_mpp;
+    return t;
+  }
+  t = FitTerrainToFlight(simulation, t);
+  if (o.terrain_mpp > 0) {  // keep the fitted extent at the requested resolution
+    const double w = std::ceil(t.width_px * t.metres_per_px / o.terrain_mpp);
+    const double h = std::ceil(t.height_px * t.metres_per_px / o.terrain_mpp);
+    // Saturated, so that Validate(TerrainOptions) refuses a size beyond int.
+    t.width_px = static_cast<int>(std::min(w, 1e9));
+    t.height_px = static_cast<int>(std::min(h, 1e9));
+    t.metres_per_px = o.terrain_mpp;
+  }
+  if (o.terrain_size_px > 0) t.width_px = t.height_px = o.terrain_size_px;
+  return t;
+}
+
 GroundImage MakeGround(const GroundOptions& o, const SimulationOptions& simulation) {
   Validate(o);
   if (!o.ortho.empty()) {
     return LoadOrthophoto(o.ortho, o.ortho_mpp,
                           GeoPoint{*o.nw_lat_deg, *o.nw_lon_deg, o.ground_alt_m});
   }
-  TerrainOptions t;
-  t.seed = o.terrain_seed;
-  if (o.terrain_size_px > 0 && o.terrain_mpp > 0) {
-    t.width_px = t.height_px = o.terrain_size_px;
-    t.metres_per_px = o.terrain_mpp;
-  } else {
-    t = FitTerrainToFlight(simulation, t);
-    if (o.terrain_mpp > 0) {  // keep the fitted extent at the requested resolution
-      t.width_px = static_cast<int>(std::ceil(t.width_px * t.metres_per_px / o.terrain_mpp));
-      t.height_px = static_cast<int>(std::ceil(t.height_px * t.metres_per_px / o.terrain_mpp));
-      t.metres_per_px = o.terrain_mpp;
-    }
-    if (o.terrain_size_px > 0) t.width_px = t.height_px = o.terrain_size_px;
-  }
+  const TerrainOptions t = TerrainOptionsOf(o, simulation);
   const GeoPoint nw{o.nw_lat_deg.value_or(kDefaultTerrainLatDeg),
                     o.nw_lon_deg.value_or(kDefaultTerrainLonDeg), o.ground_alt_m};
   return MakeTerrainGround(t, nw);

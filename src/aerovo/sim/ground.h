@@ -9,6 +9,7 @@
 
 #include "aerovo/sim/render.h"
 #include "aerovo/sim/simulator.h"
+#include "aerovo/sim/terrain.h"
 
 namespace aerovo::sim {
 
@@ -35,6 +36,12 @@ struct GroundOptions {
 /// Throws InvalidArgument naming the field: an orthophoto without ortho_mpp > 0 or without its
 /// corner, a corner that is not a position, a negative terrain size or resolution.
 void Validate(const GroundOptions& options);
+
+/// The procedural terrain MakeGround makes for `options` without an orthophoto: fitted to the
+/// view of `simulation`'s flight (FitTerrainToFlight) unless its size and resolution are given.
+/// Not validated (Validate(TerrainOptions) says whether it can be made); InvalidArgument when
+/// the flight cannot be planned (too many frames).
+TerrainOptions TerrainOptionsOf(const GroundOptions& options, const SimulationOptions& simulation);
 
 /// The ground for a flight with `simulation`'s plan and camera (the terrain is fitted to its
 /// view). Throws InvalidArgument for bad options, InputError when the orthophoto cannot be read.
