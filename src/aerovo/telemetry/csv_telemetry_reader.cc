@@ -70,8 +70,6 @@ struct Unit {
   int rank;
 };
 
-constexpr double kRadToDeg = 57.295779513082320877;  // 180 / pi
-
 const Unit kUnits[] = {
     {"m", Quantity::kLength, 1.0, 0},
     {"meter", Quantity::kLength, 1.0, 0},
