@@ -589,6 +589,29 @@ TEST_F(CliOutputs, TheSrtBesideADjiVideoIsUsedUnlessTelemetryIsNone) {
   EXPECT_EQ(n["telemetry"], "");
   EXPECT_FALSE(n["telemetry_beside"].get<bool>());
   EXPECT_EQ(n["frames_with_gps"].get<int>(), 0);
+
+  // An SRT beside the video that cannot be read (not asked for) is flagged, not fatal.
+  {
+    std::ofstream(dji / "DJI_0001.SRT") << "1\n00:00:00,000 --> 00:00:00,100\n[latitude: 95.0] "
+                                           "[longitude: 6.0]\n";
+  }
+  args = common;
+  args.insert(args.end(), {"--altitude", "60", "-o", (dji / "broken").string()});
+  const Outcome broken = RunCli(args, dir_, "broken_beside");
+  ASSERT_EQ(broken.exit_code, 0) << broken.err;
+  EXPECT_NE(broken.err.find("the telemetry found beside the video could not be read"),
+            std::string::npos)
+      << broken.err;
+  EXPECT_NE(broken.err.find("latitude 95"), std::string::npos) << broken.err;
+  const nlohmann::json b = nlohmann::json::parse(ReadText(dji / "broken" / "summary.json"));
+  EXPECT_EQ(b["frames_with_gps"].get<int>(), 0);
+  // Given with --telemetry, the same file is an error naming it.
+  args = common;
+  args.insert(args.end(), {"--telemetry", (dji / "DJI_0001.SRT").string(), "--altitude", "60", "-o",
+                           (dji / "given").string()});
+  const Outcome given = RunCli(args, dir_, "broken_given");
+  EXPECT_EQ(given.exit_code, 1);
+  EXPECT_NE(given.err.find("DJI_0001.SRT:3: latitude 95"), std::string::npos) << given.err;
 }
 
 TEST_F(CliOutputs, QuietHidesTheProgressNotTheWarningsWhichGoToStderr) {

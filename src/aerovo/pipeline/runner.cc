@@ -544,9 +544,20 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
   PrefetchSource* prefetch = Prefetch(config, source);
   // "none": no telemetry file, and a photo folder's EXIF/XMP not read as telemetry.
   const bool no_telemetry = config.telemetry == kNoTelemetry;
-  run_steps::RunTelemetry telemetry = run_steps::RunTelemetry::Load(
-      no_telemetry ? std::string() : config.telemetry, config.lenient_telemetry,
-      no_telemetry ? nullptr : folder, &summary.warnings);
+  run_steps::RunTelemetry telemetry;
+  try {
+    telemetry = run_steps::RunTelemetry::Load(no_telemetry ? std::string() : config.telemetry,
+                                              config.lenient_telemetry,
+                                              no_telemetry ? nullptr : folder, &summary.warnings);
+  } catch (const InputError& e) {
+    // A file found beside the video was not asked for: one that cannot be read is flagged and
+    // the run goes on without it. A given file stays an error.
+    if (!inputs.telemetry_beside) throw;
+    summary.warnings.push_back(fmt::format(
+        "the telemetry found beside the video could not be read, the run goes on without "
+        "telemetry (give it with --telemetry to make this an error): {}",
+        e.what()));
+  }
   telemetry.set_offset_s(config.telemetry_offset_s);
   summary.telemetry_offset_s = config.telemetry_offset_s;
   if (config.gps_denied_after_s >= 0.0) {
