@@ -30,6 +30,7 @@
 #include <opencv2/imgproc.hpp>
 #include <pugixml.hpp>
 
+#include "aerovo/frames/ffmpeg_test_util.h"
 #include "e2e_testing.h"
 
 namespace aerovo::outputs_test {
@@ -612,6 +613,92 @@ TEST_F(CliOutputs, TheSrtBesideADjiVideoIsUsedUnlessTelemetryIsNone) {
   const Outcome given = RunCli(args, dir_, "broken_given");
   EXPECT_EQ(given.exit_code, 1);
   EXPECT_NE(given.err.find("DJI_0001.SRT:3: latitude 95"), std::string::npos) << given.err;
+}
+
+// DJI aircraft that write no .SRT (Mini 2, Mini 4K, Mini 4 Pro) put the captions in the video's
+// subtitle track (MP4 timed text, what ffmpeg -c:s mov_text writes): `aerovo run` reads them
+// there, with the same result as from the .SRT.
+TEST_F(CliOutputs, TheCaptionsInsideADjiVideoAreItsTelemetry) {
+  if (!io_test::HaveFfmpeg()) GTEST_SKIP() << "ffmpeg not found on PATH";
+  const fs::path dji = dir_ / "dji_track";
+  fs::create_directories(dji);
+  const fs::path srt = dir_ / "sim" / "telemetry.srt";
+  ASSERT_TRUE(
+      io_test::RunFfmpeg({"-i", Video(), "-i", srt.string(), "-map", "0:v", "-map", "1", "-c:v",
+                          "copy", "-c:s", "mov_text", (dji / "DJI_0002.MP4").string()}));
+  const auto run = [&](const fs::path& video, std::vector<std::string> extra,
+                       const std::string& out) {
+    std::vector<std::string> args = {"run",
+                                     video.string(),
+                                     "--hfov-deg",
+                                     "73.7",
+                                     "--max-frames",
+                                     "6",
+                                     "--threads",
+                                     "1",
+                                     "--no-report",
+                                     "-o",
+                                     (dji / out).string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return RunCli(args, dir_, out);
+  };
+  const Outcome inside = run(dji / "DJI_0002.MP4", {}, "inside");
+  ASSERT_EQ(inside.exit_code, 0) << inside.err;
+  EXPECT_NE(
+      inside.out.find("from " + (dji / "DJI_0002.MP4").string() + " (the video's subtitle track"),
+      std::string::npos)
+      << inside.out;
+  const nlohmann::json s = nlohmann::json::parse(ReadText(dji / "inside" / "summary.json"));
+  EXPECT_EQ(s["telemetry"], (dji / "DJI_0002.MP4").string());
+  EXPECT_TRUE(s["telemetry_in_video"].get<bool>());
+  EXPECT_FALSE(s["telemetry_beside"].get<bool>());
+  EXPECT_EQ(s["frames_with_gps"].get<int>(), 6);
+  EXPECT_EQ(s["height_source"], "telemetry");
+  const nlohmann::json c = nlohmann::json::parse(ReadText(dji / "inside" / "config.json"));
+  EXPECT_EQ(c["telemetry"], (dji / "DJI_0002.MP4").string());
+  // The same video with the .SRT given (which wins over the track): the same track, to the
+  // digit.
+  const Outcome given = run(dji / "DJI_0002.MP4", {"--telemetry", srt.string()}, "given_srt");
+  ASSERT_EQ(given.exit_code, 0) << given.err;
+  for (const char* file : {"vo.tum", "vo.geojson"}) {
+    const std::string track = ReadText(dji / "inside" / file);
+    EXPECT_NE(track.find("\n"), std::string::npos) << file;
+    EXPECT_EQ(track, ReadText(dji / "given_srt" / file)) << file;
+  }
+  // An .SRT beside the video wins over its track; --telemetry none reads neither.
+  fs::copy_file(srt, dji / "DJI_0002.SRT", fs::copy_options::overwrite_existing);
+  const Outcome beside = run(dji / "DJI_0002.MP4", {}, "beside");
+  ASSERT_EQ(beside.exit_code, 0) << beside.err;
+  const nlohmann::json b = nlohmann::json::parse(ReadText(dji / "beside" / "summary.json"));
+  EXPECT_EQ(b["telemetry"], (dji / "DJI_0002.SRT").string());
+  EXPECT_FALSE(b["telemetry_in_video"].get<bool>());
+  fs::remove(dji / "DJI_0002.SRT");
+  const Outcome none =
+      run(dji / "DJI_0002.MP4", {"--telemetry", "none", "--altitude", "60"}, "none");
+  ASSERT_EQ(none.exit_code, 0) << none.err;
+  EXPECT_EQ(nlohmann::json::parse(ReadText(dji / "none" / "summary.json"))["frames_with_gps"], 0);
+  // A subtitle track that is not captions was not asked for: flagged, the run goes on; given
+  // with --telemetry, the same video is an error naming its track.
+  const fs::path words = dji / "words.srt";
+  std::ofstream(words) << "1\n00:00:00,000 --> 00:00:01,000\nHello\n";
+  ASSERT_TRUE(
+      io_test::RunFfmpeg({"-i", Video(), "-i", words.string(), "-map", "0:v", "-map", "1", "-c:v",
+                          "copy", "-c:s", "mov_text", (dji / "film.mp4").string()}));
+  const Outcome film = run(dji / "film.mp4", {"--altitude", "60"}, "film");
+  ASSERT_EQ(film.exit_code, 0) << film.err;
+  EXPECT_NE(film.err.find("the telemetry found in the video's subtitle track could not be read"),
+            std::string::npos)
+      << film.err;
+  const Outcome film_given =
+      run(dji / "film.mp4", {"--telemetry", (dji / "film.mp4").string(), "--altitude", "60"},
+          "film_given");
+  EXPECT_EQ(film_given.exit_code, 1) << film_given.err;
+  EXPECT_NE(film_given.err.find("film.mp4 (subtitle track 0 as SRT)"), std::string::npos)
+      << film_given.err;
+  // `aerovo telemetry` reads the track too.
+  const Outcome t = RunCli({"telemetry", (dji / "DJI_0002.MP4").string()}, dir_, "telemetry");
+  EXPECT_EQ(t.exit_code, 0) << t.err;
+  EXPECT_NE(t.out.find("DJI_0002.MP4"), std::string::npos) << t.out;
 }
 
 TEST_F(CliOutputs, QuietHidesTheProgressNotTheWarningsWhichGoToStderr) {

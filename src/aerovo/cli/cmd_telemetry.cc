@@ -12,6 +12,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/frames/frame_source.h"
 #include "aerovo/frames/image_metadata.h"
+#include "aerovo/frames/video_text_track.h"
 #include "aerovo/telemetry/telemetry_readers.h"
 
 namespace aerovo::cli {
@@ -95,7 +96,7 @@ TelemetryReadResult ReadAny(const TelemetryArgs& args) {
     }
     return TelemetryFromImages({m}, options);
   }
-  return ReadTelemetryFile(path, options);
+  return ReadTelemetryInput(path, options);  // a video: the captions in its subtitle track
 }
 
 void Run(const TelemetryArgs& args) {
@@ -150,10 +151,11 @@ void RegisterTelemetryCommand(CLI::App& app) {
   CLI::App* cmd =
       app.add_subcommand("telemetry",
                          "Read a telemetry source (DJI .srt, .gpx, .csv, ArduPilot .bin/.log, PX4 "
-                         ".ulg, MAVLink .tlog, "
+                         ".ulg, MAVLink .tlog, the DJI captions in a video's subtitle track, "
                          "a photo or a photo folder) and summarise "
                          "it;\nmalformed records are errors naming file:line unless --lenient");
-  cmd->add_option("source", args->path, "Telemetry file, photo, or folder of photos")->required();
+  cmd->add_option("source", args->path, "Telemetry file, video, photo, or folder of photos")
+      ->required();
   cmd->add_flag("--lenient", args->lenient,
                 "Skip malformed records (counted and listed) instead of stopping at the first");
   cmd->add_flag("--print", args->print_samples, "Print every accepted sample as CSV");

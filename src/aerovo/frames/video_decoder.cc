@@ -16,15 +16,12 @@ extern "C" {
 }
 
 #include "aerovo/core/error.h"
+#include "aerovo/frames/av_error.h"
 
 namespace aerovo {
 namespace {
 
-std::string AvErrorText(int code) {
-  char buf[AV_ERROR_MAX_STRING_SIZE] = {0};
-  av_strerror(code, buf, sizeof(buf));
-  return buf;
-}
+using frames_detail::AvErrorText;
 
 double Rational(AVRational r) { return r.den == 0 ? 0.0 : static_cast<double>(r.num) / r.den; }
 

@@ -26,8 +26,8 @@
 
 namespace aerovo {
 
-/// RunConfig::telemetry of a run without telemetry: no .SRT found beside the video is used, and
-/// a photo folder's EXIF/XMP is not read as telemetry.
+/// RunConfig::telemetry of a run without telemetry: no .SRT found beside the video nor the
+/// video's subtitle track is used, and a photo folder's EXIF/XMP is not read as telemetry.
 inline constexpr const char* kNoTelemetry = "none";
 
 template <>
@@ -365,7 +365,7 @@ template <class V>
 void VisitFields(RunConfig& c, V& v) {
   using namespace options;
   v.Field(c.input, "input", "Video file, image folder (telemetry from EXIF/XMP), camera index, /dev/videoN or URL", Any().Flags("input"));
-  v.Field(c.telemetry, "telemetry", "Telemetry file: DJI .srt, .gpx, .csv, an ArduPilot DataFlash log (.bin, .log), a PX4 ULog (.ulg) or a MAVLink telemetry log (.tlog); empty: a video's .SRT of the same name beside it, a photo folder's EXIF/XMP; none: no telemetry", Any());
+  v.Field(c.telemetry, "telemetry", "Telemetry file: DJI .srt, .gpx, .csv, an ArduPilot DataFlash log (.bin, .log), a PX4 ULog (.ulg), a MAVLink telemetry log (.tlog) or a video whose subtitle track holds DJI captions; empty: a video's .SRT of the same name beside it, else its own subtitle track, a photo folder's EXIF/XMP; none: no telemetry", Any());
   v.Field(c.lenient_telemetry, "lenient_telemetry", "Skip malformed telemetry records (counted in the warnings) instead of stopping", Any().Switch());
   v.Field(c.truth, "truth", "Ground truth to compare with beside GPS: TUM (.tum/.txt) or a track with positions (.csv, .gpx, .srt)", Any());
   v.Field(c.out, "out", "Output folder", Any().Flags("-o"));

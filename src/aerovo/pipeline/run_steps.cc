@@ -21,14 +21,15 @@
 #include <nlohmann/json.hpp>
 
 #include "aerovo/camera/lens.h"
-#include "aerovo/core/error.h"
 #include "aerovo/camera_files/calibration.h"
+#include "aerovo/core/error.h"
 #include "aerovo/frames/camera.h"
-#include "aerovo/telemetry/telemetry_readers.h"
+#include "aerovo/frames/video_text_track.h"
 #include "aerovo/pipeline/lens_prepass.h"
 #include "aerovo/pipeline/pose_quality.h"
 #include "aerovo/report/run_reader.h"  // AssociateWithTruth
 #include "aerovo/sim/sim_writer.h"
+#include "aerovo/telemetry/telemetry_readers.h"
 
 namespace aerovo::run_steps {
 
@@ -108,6 +109,12 @@ RunInputs ResolveInputs(const RunConfig& given, std::vector<std::string>* warnin
   if (config.telemetry.empty()) {
     config.telemetry = TelemetryBeside(config.input);
     in.telemetry_beside = !config.telemetry.empty();
+    std::error_code ec;
+    if (config.telemetry.empty() && !config.input.empty() &&
+        std::filesystem::is_regular_file(config.input, ec) && FindVideoTextTrack(config.input)) {
+      config.telemetry = config.input;
+      in.telemetry_in_video = true;
+    }
   }
   if (!config.truth.empty()) in.truth = ReadReferenceTrack(config.truth);
   return in;
@@ -126,7 +133,7 @@ RunTelemetry RunTelemetry::Load(const std::string& path, bool lenient,
     to.lenient = lenient;
     TelemetryReadResult t;
     try {
-      t = ReadTelemetryFile(path, to);
+      t = ReadTelemetryInput(path, to);  // a video: its subtitle track
     } catch (const MalformedRecordError& e) {
       // Only a malformed record (not a missing file, a bad header or a foreign format): say how
       // to go on.

@@ -63,6 +63,9 @@ struct RunInputs {
   bool focal_from_sim = false;  ///< config.focal_px is sim.json's (focal source "sim.json").
   /// config.telemetry was found beside the video (the same name, .SRT), not given.
   bool telemetry_beside = false;
+  /// config.telemetry is the video itself, found to hold a subtitle track (a DJI aircraft's
+  /// captions, frames/video_text_track.h), not given.
+  bool telemetry_in_video = false;
   std::optional<ReferenceTrack> truth;  ///< Read from config.truth (nullopt when empty).
 };
 
@@ -71,8 +74,10 @@ struct RunInputs {
 /// exact focal_px unless focal_px or hfov_deg is given. Explicit settings win. An unreadable or
 /// foreign sim.json is reported in `warnings` and ignored. Otherwise, for a video file without
 /// telemetry given: the .SRT (any case) of the same name beside it, as DJI aircraft record
-/// DJI_0042.MP4 and DJI_0042.SRT (telemetry_beside; not with telemetry "none"). Then reads the
-/// truth: InputError naming the file when it cannot be read.
+/// DJI_0042.MP4 and DJI_0042.SRT (telemetry_beside; not with telemetry "none"); without one, the
+/// video itself when it has a subtitle track (telemetry_in_video: DJI aircraft that write no .SRT
+/// caption the video inside). Then reads the truth: InputError naming the file when it cannot be
+/// read.
 RunInputs ResolveInputs(const RunConfig& given, std::vector<std::string>* warnings);
 
 /// The telemetry of a run and how a frame finds its fix.

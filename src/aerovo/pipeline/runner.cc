@@ -220,6 +220,7 @@ nlohmann::json ToJson(const RunSummary& s) {
                    {"sim_manifest", s.sim_manifest},
                    {"telemetry", s.telemetry},
                    {"telemetry_beside", s.telemetry_beside},
+                   {"telemetry_in_video", s.telemetry_in_video},
                    {"vo_path_length_m", s.vo_path_length_m},
                    {"truth", s.truth},
                    {"frames_with_truth", s.frames_with_truth},
@@ -552,11 +553,11 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
   } catch (const InputError& e) {
     // A file found beside the video was not asked for: one that cannot be read is flagged and
     // the run goes on without it. A given file stays an error.
-    if (!inputs.telemetry_beside) throw;
+    if (!inputs.telemetry_beside && !inputs.telemetry_in_video) throw;
     summary.warnings.push_back(fmt::format(
-        "the telemetry found beside the video could not be read, the run goes on without "
-        "telemetry (give it with --telemetry to make this an error): {}",
-        e.what()));
+        "the telemetry found {} could not be read, the run goes on without telemetry (give it "
+        "with --telemetry to make this an error): {}",
+        inputs.telemetry_beside ? "beside the video" : "in the video's subtitle track", e.what()));
   }
   telemetry.set_offset_s(config.telemetry_offset_s);
   summary.telemetry_offset_s = config.telemetry_offset_s;
@@ -568,10 +569,14 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
     *log << "telemetry: " << telemetry.Describe()
          << (inputs.telemetry_beside ? " (found beside the video: the same name; --telemetry "
                                        "names another, --telemetry none runs without)"
-                                     : "")
+             : inputs.telemetry_in_video
+                 ? " (the video's subtitle track: its captions; --telemetry names a file, "
+                   "--telemetry none runs without)"
+                 : "")
          << "\n";
   }
   summary.telemetry_beside = inputs.telemetry_beside;
+  summary.telemetry_in_video = inputs.telemetry_in_video;
   const std::optional<map::ReferenceMaps> maps = OpenMap(config, telemetry, &summary);
 
   // 2-5. The frames: camera, height, outputs, odometry.

@@ -153,9 +153,11 @@ struct RunSummary {
   /// The simulator's sim.json used to fill in settings ("" when the input is not a simulation).
   std::string sim_manifest;
   /// The telemetry file used ("" = none given or found; a photo folder's EXIF/XMP is not a file)
-  /// and whether it was found beside the video (the same name, .SRT) rather than given.
+  /// and whether it was found beside the video (the same name, .SRT) or is the video's own
+  /// subtitle track (telemetry = the video) rather than given.
   std::string telemetry;
   bool telemetry_beside = false;
+  bool telemetry_in_video = false;
   double vo_path_length_m = 0.0;
   /// SE(2) and Sim(2) comparison with GPS, when at least 3 frames have a GPS fix.
   std::optional<TrajectoryComparison> evaluation;

@@ -13,9 +13,6 @@ namespace {
 
 namespace mav = aerovo::mavlink;
 
-// A .tlog record's timestamp is the ground station's clock in microseconds since 1970, before
-// 2100-01-01 (tlog_reader.cc kMaxTimestampUs).
-constexpr std::uint64_t kMaxTlogTimestampUs = 4102444800ull * 1000000ull;
 // Consecutive MAVLink packets, each starting where the one before ends, that make a raw capture
 // (one magic byte followed by a plausible length happens by chance; three chained rarely).
 constexpr int kChainedPackets = 3;
@@ -43,6 +40,22 @@ bool ChainedPackets(const unsigned char* p, std::size_t n) {
   return true;
 }
 
+// An ISO base media file (ISO/IEC 14496-12 section 4.2: each box a big-endian 32-bit size, 1 for
+// a 64-bit size after the type, 0 to the file's end, then a four-letter type): MP4, MOV and 3GP
+// start with "ftyp"; QuickTime files written before it with "moov", "mdat", "free", "skip",
+// "wide" or "pnot".
+bool IsoMedia(const unsigned char* p, std::size_t n) {
+  if (n < 8) return false;
+  const std::uint32_t size = (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) |
+                             (std::uint32_t{p[2]} << 8) | std::uint32_t{p[3]};
+  if (size != 0 && size != 1 && size < 8) return false;
+  const std::string_view type(reinterpret_cast<const char*>(p + 4), 4);
+  for (const char* t : {"ftyp", "moov", "mdat", "free", "skip", "wide", "pnot"}) {
+    if (type == t) return true;
+  }
+  return false;
+}
+
 bool Srt(std::string_view text) {
   const std::size_t first = text.find_first_not_of(" \t\r\n");
   if (first == std::string_view::npos || !std::isdigit(static_cast<unsigned char>(text[first]))) {
@@ -61,6 +74,14 @@ bool Srt(std::string_view text) {
 
 }  // namespace
 
+bool StartsTlogRecord(const unsigned char* q, std::size_t avail) {
+  if (avail <= kTlogTimestampBytes) return false;
+  std::uint64_t us = 0;
+  for (std::size_t k = 0; k < kTlogTimestampBytes; ++k) us = (us << 8) | q[k];
+  return us <= kMaxTlogTimestampUs &&
+         (q[kTlogTimestampBytes] == mav::kMagicV2 || q[kTlogTimestampBytes] == mav::kMagicV1);
+}
+
 FileKind RecognizeFile(const unsigned char* p, std::size_t n) {
   n = std::min(n, kRecognizeBytes);
   const auto starts = [&](std::string_view magic) {
@@ -70,11 +91,8 @@ FileKind RecognizeFile(const unsigned char* p, std::size_t n) {
   if (starts(std::string_view("ULog\x01\x12\x35", 7))) return FileKind::kULog;
   if (starts("\xFF\xD8\xFF")) return FileKind::kJpeg;
   if (starts("PK\x03\x04")) return FileKind::kZip;
-  if (n > 8 && (p[8] == mav::kMagicV1 || p[8] == mav::kMagicV2)) {
-    std::uint64_t us = 0;
-    for (int k = 0; k < 8; ++k) us = (us << 8) | p[k];
-    if (us <= kMaxTlogTimestampUs) return FileKind::kTlog;
-  }
+  if (IsoMedia(p, n) || starts("\x1A\x45\xDF\xA3")) return FileKind::kVideo;  // EBML: Matroska
+  if (StartsTlogRecord(p, n)) return FileKind::kTlog;
   // A raw capture: packets from the first byte, or from within the first packet's length (the
   // capture started inside one).
   const std::size_t longest =
@@ -145,6 +163,9 @@ const char* KindHint(FileKind kind) {
       return " (a JPEG image)";
     case FileKind::kZip:
       return " (a ZIP archive)";
+    case FileKind::kVideo:
+      return " (a video file: `aerovo run` and `aerovo telemetry` read the DJI captions of its "
+             "subtitle track as telemetry)";
     case FileKind::kUnknown:
       break;
   }

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <istream>
 #include <string>
 
@@ -13,6 +14,16 @@ namespace aerovo::io_detail {
 /// Bytes from a file's start that RecognizeFile looks at (GPX's root element may follow an XML
 /// declaration and comments; a raw MAVLink capture may start inside a packet).
 constexpr std::size_t kRecognizeBytes = 1024;
+
+/// Record timestamps of a MAVLink telemetry log (.tlog: each record an 8-byte big-endian
+/// timestamp in microseconds since 1970, then a MAVLink packet) after 2100-01-01 are not a ground
+/// station's clock: garbage (all-0xFD or all-0xFE bytes read as a timestamp are ~1.8e19 us).
+constexpr std::uint64_t kMaxTlogTimestampUs = 4102444800ull * 1000000ull;
+constexpr std::size_t kTlogTimestampBytes = 8;
+
+/// A .tlog record may start at q (`avail` bytes from q): a timestamp that can be a ground
+/// station's clock and a MAVLink 1 or 2 magic byte after it.
+bool StartsTlogRecord(const unsigned char* q, std::size_t avail);
 
 enum class FileKind {
   kUnknown,
@@ -25,6 +36,7 @@ enum class FileKind {
   kUlog2CsvCsv,  ///< pyulog's ulog2csv export: a CSV whose header starts "timestamp,"
   kJpeg,
   kZip,
+  kVideo,  ///< an MP4/MOV/3GP (ISO base media: a "ftyp" or "moov" box first) or Matroska/WebM file
 };
 
 /// What the first `n` bytes at `p` (up to kRecognizeBytes are used) show the file to be.

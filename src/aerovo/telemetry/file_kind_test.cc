@@ -48,6 +48,36 @@ TEST(FileKind, BinaryLogsByTheirMagic) {
   EXPECT_EQ(Kind(""), FileKind::kUnknown);
 }
 
+// Video containers (a DJI video given as telemetry holds its captions in a text track): an ISO
+// base media file's first box (ISO/IEC 14496-12 section 4.2) and Matroska's EBML magic.
+TEST(FileKind, VideoContainers) {
+  // DJI's MP4: a 32-byte "ftyp" box of brand "isom"; a QuickTime MOV: "ftyp" brand "qt  ".
+  EXPECT_EQ(Kind(std::string("\x00\x00\x00\x20"
+                             "ftypisom\x00\x00\x02\x00",
+                             16)),
+            FileKind::kVideo);
+  EXPECT_EQ(Kind(std::string("\x00\x00\x00\x14"
+                             "ftypqt  ",
+                             12)),
+            FileKind::kVideo);
+  // An old QuickTime file starting with its "moov" box, one with a 64-bit "mdat" size (1).
+  EXPECT_EQ(Kind(std::string("\x00\x01\x02\x03moov", 8)), FileKind::kVideo);
+  EXPECT_EQ(Kind(std::string("\x00\x00\x00\x01mdat", 8)), FileKind::kVideo);
+  // Matroska / WebM: the EBML header's ID.
+  EXPECT_EQ(Kind(std::string("\x1A\x45\xDF\xA3\x9F\x42\x86\x81", 8)), FileKind::kVideo);
+  // A box size of 2..7 is no box; another type is no ISO file.
+  EXPECT_EQ(Kind(std::string("\x00\x00\x00\x04"
+                             "ftypisom",
+                             12)),
+            FileKind::kUnknown);
+  EXPECT_EQ(Kind(std::string("\x00\x00\x00\x20"
+                             "ftup",
+                             8)),
+            FileKind::kUnknown);
+  EXPECT_NE(std::string(KindHint(FileKind::kVideo)).find("subtitle track"), std::string::npos);
+  EXPECT_STREQ(TelemetryExtension(FileKind::kVideo), "");
+}
+
 // A raw capture of a link: packets back to back without timestamps, from the first byte or from
 // inside a packet the capture started in (node-mavlink's examples/GH-5.bin starts 5 bytes before
 // its first packet).

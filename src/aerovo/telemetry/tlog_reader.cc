@@ -49,7 +49,7 @@ using io_detail::RecordErrors;
 using io_detail::SeriesPoint;
 namespace mav = aerovo::mavlink;
 
-constexpr std::size_t kTimestampBytes = 8;
+constexpr std::size_t kTimestampBytes = io_detail::kTlogTimestampBytes;
 // The longest packet: a signed MAVLink 2 packet with a 255-byte payload (280 bytes).
 constexpr std::size_t kMaxPacketBytes =
     mav::kHeaderBytes + mav::kMaxPayloadBytes + mav::kChecksumBytes + mav::kSignatureBytes;
@@ -57,11 +57,10 @@ constexpr std::size_t kMaxPacketBytes =
 // and magic byte (to check that a record of an unknown message ends where the next begins).
 constexpr std::size_t kLookahead = 2 * kTimestampBytes + kMaxPacketBytes + 1;
 
-// Record timestamps after 2100-01-01 are not a ground station's clock: garbage (all-0xFD or
-// all-0xFE bytes read as a timestamp are ~1.8e19 us). Before 2000-01-01 the ground station's
-// clock was not set (QGroundControl's guide allows "close to zero"): the records are read, their
-// time is not used as a date.
-constexpr std::uint64_t kMaxTimestampUs = 4102444800ull * 1000000ull;
+// Record timestamps after 2100-01-01 are not a ground station's clock (file_kind.h). Before
+// 2000-01-01 the ground station's clock was not set (QGroundControl's guide allows "close to
+// zero"): the records are read, their time is not used as a date.
+constexpr std::uint64_t kMaxTimestampUs = io_detail::kMaxTlogTimestampUs;
 constexpr double kMinDateUs = 946684800e6;
 // When looking for the next record after damaged bytes, a candidate's timestamp must be within
 // this of the last good record's (a false start in the damaged bytes rarely is).
@@ -381,12 +380,7 @@ class Collector {
   long long packets_ = 0, heartbeats_ = 0;
 };
 
-// A record may start at q (avail bytes from q): a timestamp that can be a ground station's clock
-// and a MAVLink magic byte after it.
-bool StartsRecord(const unsigned char* q, std::size_t avail) {
-  return avail > kTimestampBytes && LoadBe64(q) <= kMaxTimestampUs &&
-         (q[kTimestampBytes] == mav::kMagicV2 || q[kTimestampBytes] == mav::kMagicV1);
-}
+using io_detail::StartsTlogRecord;
 
 TelemetryReadResult Parse(std::istream& in, const TelemetryReadOptions& options,
                           RecordErrors& errors) {
@@ -396,7 +390,7 @@ TelemetryReadResult Parse(std::istream& in, const TelemetryReadOptions& options,
     throw InputError(
         fmt::format("{}: an empty file, not a MAVLink telemetry log", errors.source()));
   }
-  if (!StartsRecord(w.data(), avail)) {
+  if (!StartsTlogRecord(w.data(), avail)) {
     throw InputError(fmt::format(
         "{}: not a MAVLink telemetry log: a .tlog starts with an 8-byte timestamp (big-endian "
         "microseconds since 1970) then a MAVLink packet (byte 8 = FD or FE), this file with "
@@ -427,7 +421,7 @@ TelemetryReadResult Parse(std::istream& in, const TelemetryReadOptions& options,
     if (check->status != mav::FrameStatus::kUnknownMessage) return false;
     const std::size_t next = kTimestampBytes + check->size;
     return n == next || (n > next && n < next + kTimestampBytes + 1) ||
-           StartsRecord(q + next, n - next);
+           StartsTlogRecord(q + next, n - next);
   };
   while (true) {
     avail = w.Fill(kLookahead);
@@ -435,7 +429,7 @@ TelemetryReadResult Parse(std::istream& in, const TelemetryReadOptions& options,
     const unsigned char* p = w.data();
     const long long at = w.offset();
     mav::FrameCheck check;
-    if (StartsRecord(p, avail)) {
+    if (StartsTlogRecord(p, avail)) {
       const bool good = record_at(p, avail, &check);
       const std::uint64_t us = LoadBe64(p);
       if (check.status == mav::FrameStatus::kNeedMore) {
@@ -457,7 +451,7 @@ TelemetryReadResult Parse(std::istream& in, const TelemetryReadOptions& options,
       }
       const std::size_t next = kTimestampBytes + check.size;
       if (check.status == mav::FrameStatus::kBadChecksum &&
-          (avail == next || StartsRecord(p + next, avail - next))) {
+          (avail == next || StartsTlogRecord(p + next, avail - next))) {
         // A damaged packet (bytes flipped on the link or in the file) between two records:
         // skipped, counted. When no record follows it, its length is damaged too: a gap below.
         ++bad_checksums;
@@ -478,7 +472,7 @@ TelemetryReadResult Parse(std::istream& in, const TelemetryReadOptions& options,
       avail = w.Fill(kLookahead);
     } while (
         avail > kTimestampBytes &&
-        !(StartsRecord(w.data(), avail) &&
+        !(StartsTlogRecord(w.data(), avail) &&
           (!last_us || std::abs(static_cast<double>(LoadBe64(w.data())) -
                                 static_cast<double>(*last_us)) <= kResyncWindowUs) &&
           (record_at(w.data(), avail, &check) || check.status == mav::FrameStatus::kNeedMore)));
