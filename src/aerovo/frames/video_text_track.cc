@@ -137,6 +137,17 @@ std::string NormalisedLines(std::string_view text) {
   return out;
 }
 
+// The sample is text as it is: printable ASCII, tabs, line breaks and UTF-8 bytes (>= 0x80), no
+// other control byte (a count's high byte is 0 for any text under 256 bytes).
+bool IsPlainText(const std::uint8_t* data, std::size_t size) {
+  for (std::size_t k = 0; k < size; ++k) {
+    const std::uint8_t c = data[k];
+    if (c < 0x20 && c != '\t' && c != '\n' && c != '\r') return false;
+    if (c == 0x7F) return false;
+  }
+  return true;
+}
+
 // "HH:MM:SS,mmm" of `ms` milliseconds (SubRip's timing, as FFmpeg's SubRip muxer writes it).
 std::string SrtTime(std::int64_t ms) {
   if (ms < 0) ms = 0;
@@ -154,6 +165,12 @@ std::string TimedTextSampleText(const std::uint8_t* data, std::size_t size, std:
                     what, size));
   }
   const std::size_t n = (std::size_t{data[0]} << 8) | data[1];
+  if (n > size - 2 && IsPlainText(data, size)) {
+    // Text without the count, as some cameras write QuickTime "text" samples (ExifTool's
+    // QuickTimeStream.pl strips the count only when it equals the sample's size less 2): a DJI
+    // caption "F/2.8, SS 1000, ..." starts with bytes that read as a count of 17967.
+    return NormalisedLines(std::string_view(reinterpret_cast<const char*>(data), size));
+  }
   if (n > size - 2) {
     throw InputError(fmt::format(
         "{}: the timed-text sample says its text is {} bytes, but the sample holds {} after the "

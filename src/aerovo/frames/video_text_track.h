@@ -32,8 +32,10 @@ std::optional<VideoTextTrackInfo> FindVideoTextTrack(const std::filesystem::path
 /// The text of one MP4/MOV timed-text sample (3GPP TS 26.245 section 5.17: a big-endian 16-bit
 /// byte count, the text, then optional modifier boxes such as "styl", which are not text):
 /// UTF-8, or UTF-16 when the text starts with a byte order mark (converted to UTF-8); line
-/// breaks "\r\n" and "\r" become "\n". Throws InputError naming `what` (the video and the cue)
-/// when the count exceeds the sample or a UTF-16 text has an odd byte count.
+/// breaks "\r\n" and "\r" become "\n". A sample whose count exceeds it and whose bytes are all
+/// text is text without the count (some cameras write QuickTime text samples so). Throws
+/// InputError naming `what` (the video and the cue) when the count exceeds a sample that is not
+/// all text, or a UTF-16 text has an odd byte count.
 std::string TimedTextSampleText(const std::uint8_t* data, std::size_t size, std::string_view what);
 
 /// The text track of `path` as SubRip text: cues numbered from 1 in time order, each its start

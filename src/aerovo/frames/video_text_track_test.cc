@@ -58,6 +58,10 @@ TEST(VideoTextTrack, TimedTextSamplesAsTheStandardLaysThemOut) {
                                     "bytes, but the sample holds 3"));
   }
   EXPECT_THROW(Text(std::string("\x00", 1)), InputError);
+  // Text without the count (some cameras' QuickTime text samples): "F/" reads as a count of
+  // 17967, beyond the sample, and every byte is text.
+  EXPECT_EQ(Text("F/2.8, SS 1000, ISO 100, EV 0, GPS (8.6499, 53.1665, 18), D 24.26m\r\n"),
+            "F/2.8, SS 1000, ISO 100, EV 0, GPS (8.6499, 53.1665, 18), D 24.26m\n");
   EXPECT_THROW(Text(Sample(std::string("\xFE\xFF\x00", 3))), InputError);
 }
 

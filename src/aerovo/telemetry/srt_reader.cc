@@ -248,6 +248,47 @@ std::optional<std::string_view> ValueAfter(std::string_view line, std::string_vi
   return WithoutUnit(line.substr(p, e - p));
 }
 
+// The hemisphere letter of a position value "N: 40.7685" / "W: 109.3392" (Autel's records,
+// GPS(W: lon, N: lat, altm); a blank may stand for the colon), or '\0' for a plain number.
+char Hemisphere(std::string_view v) {
+  v = Trim(v);
+  if (v.size() < 3 || (v[1] != ':' && v[1] != ' ')) return '\0';
+  return v[0] == 'N' || v[0] == 'S' || v[0] == 'E' || v[0] == 'W' ? v[0] : '\0';
+}
+
+// A position whose values carry their hemisphere: one of N/S (latitude), one of E/W (longitude),
+// in either order, S and W negative; the magnitudes are not signed.
+void ReadHemispherePosition(std::string_view name, std::string_view a, std::string_view b,
+                            BlockFields& f) {
+  std::optional<double> lat, lon;
+  for (std::string_view v : {a, b}) {
+    const char h = Hemisphere(v);
+    const std::string_view number = Trim(Trim(v).substr(2));
+    const auto x = h != '\0' ? ParseDouble(number) : std::nullopt;
+    if (h == '\0' || !x || *x < 0.0) {
+      f.Fail(
+          fmt::format("{} value '{}' is not a hemisphere letter (N, S, E, W) and a number of "
+                      "degrees",
+                      name, io_detail::Printable(v)));
+      return;
+    }
+    std::optional<double>& slot = h == 'N' || h == 'S' ? lat : lon;
+    if (slot) {
+      f.Fail(fmt::format("{}({}, {}) gives two {}", name, io_detail::Printable(a),
+                         io_detail::Printable(b), &slot == &lat ? "latitudes" : "longitudes"));
+      return;
+    }
+    slot = h == 'S' || h == 'W' ? -*x : *x;
+  }
+  if (*lat == 0.0 && *lon == 0.0) {
+    f.no_fix = true;
+    return;
+  }
+  f.lat = lat;
+  f.lon = lon;
+  f.line_of[&f.lat] = f.line_of[&f.lon] = f.line;
+}
+
 void ParseTextLine(std::string_view line, BlockFields& f) {
   f.SetCounter(CounterAfter(line, "FrameCnt"));
   f.SetCounter(CounterAfter(line, "SrtCnt"));
@@ -261,11 +302,14 @@ void ParseTextLine(std::string_view line, BlockFields& f) {
     ParseBracket(line.substr(p + 1, close - p - 1), f);
     p = close;
   }
-  // Positional records: the order of latitude and longitude is the file's (FileGpsOrder).
+  // Positional records: the order of latitude and longitude is the file's (FileGpsOrder), or
+  // each value's own hemisphere letter.
   std::string_view name;
   if (auto v = PositionValues(line, &name)) {
     if (v->size() < 2) {
       f.Fail(fmt::format("{}(...) needs latitude and longitude", name));
+    } else if (Hemisphere((*v)[0]) != '\0' || Hemisphere((*v)[1]) != '\0') {
+      ReadHemispherePosition(name, (*v)[0], (*v)[1], f);
     } else if (IsNotAvailable((*v)[0]) || IsNotAvailable((*v)[1])) {
       f.no_fix = true;  // "GPS(N/A,N/A,5)": no fix yet
     } else {

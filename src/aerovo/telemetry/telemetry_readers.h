@@ -81,6 +81,9 @@ struct TelemetryReadResult {
 ///    "BAROMETER:100.5" / "BAROMETER:0.3M" / "BAROMETER(91.2)" and "H 19.30m" (height above
 ///    take-off); "Hb:35.2m", else "Hs:34.8m" when there is neither; "HOME(lon,lat) date";
 ///    "F.PRY (p°, r°, y°)" / "G.PRY (...)" (pitch, roll, yaw of the aircraft / the gimbal).
+///  - Autel's captions: "GPS(W: 111.903317, N: 40.760884, 1452.30m)", each value with its
+///    hemisphere letter (N/S the latitude, E/W the longitude, S and W negative, either order; the
+///    third value is not read), "HOME(W: .., N: ..) date".
 ///  - no fix: "GPS(N/A,N/A,n)", "[latitude: N/A]" or latitude = longitude = 0: a sample with
 ///    has_fix = false, keeping its heights and angles.
 /// time_s = the block's start time (video time). frame_index = counter - 1 (0-based video

@@ -495,6 +495,48 @@ TEST(DjiSrtFamilies, P4RtkOneLineWithAttitudes) {
   EXPECT_EQ(b.origin, "p4rtk.srt:5");
 }
 
+// Autel EVO II captions (the text ExifTool's QuickTimeStream.pl Process_tx3g documents): each
+// position value carries its hemisphere, GPS(W: longitude, N: latitude, altitude m), HOME likewise
+// then the date; F.PRY / G.PRY as DJI's. The letters decide the order and the signs.
+TEST(DjiSrtFamilies, AutelHemisphereLetters) {
+  std::istringstream in(
+      "1\n00:00:00,000 --> 00:00:01,000\n"
+      "HOME(W: 111.902410, N: 40.761250) 2024-04-02 09:15:31\n"
+      "GPS(W: 111.903317, N: 40.760884, 1452.30m)\n"
+      "HDR ISO:100 SHUTTER:800 EV:0 F-NUM:2.8\n"
+      "F.PRY (-2.1\xC2\xB0, 0.4\xC2\xB0, 35.5\xC2\xB0), G.PRY (-90.0\xC2\xB0, 0.0\xC2\xB0, "
+      "35.2\xC2\xB0)\n\n"
+      "2\n00:00:01,000 --> 00:00:02,000\n"
+      "HOME(E: 151.210000, S: 33.868000) 2024-04-02 09:15:32\n"
+      "GPS(S: 33.867512, E: 151.209907, 60.00m)\n"
+      "F.PRY (0.0\xC2\xB0, 0.0\xC2\xB0, -120.0\xC2\xB0), G.PRY (-90.0\xC2\xB0, 0.0\xC2\xB0, "
+      "-120.0\xC2\xB0)\n");
+  const TelemetryReadResult r = ParseDjiSrt(in, "autel.srt");
+  ASSERT_EQ(r.records, 2);
+  EXPECT_DOUBLE_EQ(r.telemetry[0].lat_deg, 40.760884);
+  EXPECT_DOUBLE_EQ(r.telemetry[0].lon_deg, -111.903317);
+  EXPECT_FALSE(r.telemetry[0].abs_alt_m);  // which altitude the third value is, no source says
+  EXPECT_DOUBLE_EQ(*r.telemetry[0].gimbal_pitch_deg, -90.0);
+  EXPECT_DOUBLE_EQ(*r.telemetry[0].yaw_deg, 35.5);
+  ASSERT_TRUE(r.telemetry[0].unix_time_s.has_value());
+  EXPECT_DOUBLE_EQ(r.telemetry[1].lat_deg, -33.867512);  // latitude first, south
+  EXPECT_DOUBLE_EQ(r.telemetry[1].lon_deg, 151.209907);
+  EXPECT_DOUBLE_EQ(*r.telemetry[1].gimbal_yaw_deg, -120.0);
+  // Two latitudes, a signed magnitude, a letter without a number: errors naming the line.
+  for (const char* bad : {"GPS(N: 40.1, S: 40.2, 10m)", "GPS(W: -111.9, N: 40.7, 10m)",
+                          "GPS(W: 111.9, 40.7, 10m)", "GPS(W: x, N: 40.7, 10m)"}) {
+    // (Not the last subtitle: a last one cut short is dropped with a warning.)
+    std::istringstream b(std::string("1\n00:00:00,000 --> 00:00:01,000\n") + bad +
+                         "\n\n2\n00:00:01,000 --> 00:00:02,000\nGPS(W: 111.9, N: 40.7, 10m)\n");
+    try {
+      ParseDjiSrt(b, "bad.srt");
+      ADD_FAILURE() << bad;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("bad.srt:3: "), std::string::npos) << e.what();
+    }
+  }
+}
+
 // Matrice 200/300 with XT2/Z30 (1 Hz): GPS(latitude, longitude, altitude M) — latitude FIRST,
 // the third value an altitude with its unit. Before, it was read in the Phantom order, which
 // moved the flight to another continent.
