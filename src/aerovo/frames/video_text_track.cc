@@ -211,7 +211,7 @@ std::optional<VideoTextTrackInfo> FindVideoTextTrack(const std::filesystem::path
   return FindTrack(f.get());
 }
 
-VideoTextTrack ReadVideoTextTrack(const std::filesystem::path& path) {
+VideoTextTrack ReadVideoTextTrack(const std::filesystem::path& path, bool skip_damaged) {
   const std::string name = path.string();
   std::string why;
   const FormatPtr f = OpenHeader(path, &why);
@@ -248,6 +248,13 @@ VideoTextTrack ReadVideoTextTrack(const std::filesystem::path& path) {
   std::unique_ptr<AVPacket, PacketFreer> packet(av_packet_alloc());
   if (!packet) throw InputError(fmt::format("'{}': out of memory (packet)", name));
   int sample = 0;
+  int damaged = 0;
+  std::vector<std::string> warnings;
+  // A damaged sample: an error, or with skip_damaged one more left out.
+  const auto damage = [&](const std::string& message) {
+    if (!skip_damaged) throw MalformedRecordError(message);
+    if (++damaged <= kMaxListedDamaged) warnings.push_back(message + " (skipped)");
+  };
   for (;;) {
     const int rc = av_read_frame(f.get(), packet.get());
     if (rc == AVERROR_EOF) break;
@@ -263,21 +270,28 @@ VideoTextTrack ReadVideoTextTrack(const std::filesystem::path& path) {
     ++sample;
     const std::string what = fmt::format("{} (subtitle track, sample {})", name, sample);
     std::string text;
+    std::string problem;
     try {
       text = format == SampleFormat::kTimedText
                  ? TimedTextSampleText(packet->data, static_cast<std::size_t>(packet->size), what)
                  : NormalisedLines(std::string_view(reinterpret_cast<const char*>(packet->data),
                                                     static_cast<std::size_t>(packet->size)));
-    } catch (...) {
-      av_packet_unref(packet.get());
-      throw;
+    } catch (const InputError& e) {
+      problem = e.what();
     }
     const std::int64_t pts = packet->pts != AV_NOPTS_VALUE ? packet->pts : packet->dts;
     const std::int64_t duration = packet->duration;
     av_packet_unref(packet.get());
+    if (!problem.empty()) {
+      damage(problem);
+      continue;
+    }
     while (!text.empty() && text.back() == '\n') text.pop_back();
     if (text.find_first_not_of(" \t\n") == std::string::npos) continue;  // a gap between cues
-    if (pts == AV_NOPTS_VALUE) throw InputError(fmt::format("{}: the sample has no time", what));
+    if (pts == AV_NOPTS_VALUE) {
+      damage(fmt::format("{}: the sample has no time", what));
+      continue;
+    }
     const std::int64_t start_us =
         av_rescale_q(pts, st->time_base, AVRational{1, 1000000}) - origin_us;
     const std::int64_t end_us =
@@ -296,6 +310,8 @@ VideoTextTrack ReadVideoTextTrack(const std::filesystem::path& path) {
                    [](const Cue& a, const Cue& b) { return a.start_ms < b.start_ms; });
   VideoTextTrack track;
   track.info = *info;
+  track.damaged = damaged;
+  track.warnings = std::move(warnings);
   track.cues = static_cast<int>(cues.size());
   track.srt.reserve(bytes);
   for (std::size_t k = 0; k < cues.size(); ++k) {
@@ -309,7 +325,7 @@ VideoTextTrack ReadVideoTextTrack(const std::filesystem::path& path) {
 
 TelemetryReadResult ReadVideoTelemetry(const std::filesystem::path& path,
                                        const TelemetryReadOptions& options) {
-  const VideoTextTrack track = ReadVideoTextTrack(path);
+  const VideoTextTrack track = ReadVideoTextTrack(path, options.lenient);
   if (track.cues == 0) {
     throw InputError(fmt::format("'{}': its subtitle track ({}) holds no text", path.string(),
                                  track.info.codec));
@@ -319,7 +335,10 @@ TelemetryReadResult ReadVideoTelemetry(const std::filesystem::path& path,
       track.info.subtitle_index >= 0
           ? fmt::format("{} (subtitle track {} as SRT)", path.string(), track.info.subtitle_index)
           : fmt::format("{} (text stream {} as SRT)", path.string(), track.info.stream_index);
-  return ParseDjiSrt(in, source, options);
+  TelemetryReadResult r = ParseDjiSrt(in, source, options);
+  r.skipped_records += track.damaged;
+  r.warnings.insert(r.warnings.begin(), track.warnings.begin(), track.warnings.end());
+  return r;
 }
 
 TelemetryReadResult ReadTelemetryInput(const std::filesystem::path& path,

@@ -11,6 +11,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "aerovo/telemetry/telemetry_readers.h"
 
@@ -44,17 +45,23 @@ std::string TimedTextSampleText(const std::uint8_t* data, std::size_t size, std:
 /// `ffmpeg -i VIDEO -map 0:s:N track.srt` writes, so that line numbers agree. Throws InputError
 /// naming the file when it has no text track, a cue is malformed or has no time, or the text
 /// exceeds 512 MiB.
+/// With `skip_damaged`, a damaged sample (TimedTextSampleText's errors, a sample without a time)
+/// is left out, counted in `damaged` and named in `warnings` (the first kMaxListedDamaged).
 struct VideoTextTrack {
   VideoTextTrackInfo info;
   int cues = 0;     ///< Cues written (empty ones left out).
   std::string srt;  ///< The track as SubRip text.
+  int damaged = 0;  ///< Damaged samples left out (skip_damaged only).
+  std::vector<std::string> warnings;
 };
-VideoTextTrack ReadVideoTextTrack(const std::filesystem::path& path);
+inline constexpr int kMaxListedDamaged = 5;
+VideoTextTrack ReadVideoTextTrack(const std::filesystem::path& path, bool skip_damaged = false);
 
 /// The telemetry in the text track of the video file `path`: ReadVideoTextTrack, then
 /// ParseDjiSrt with the source named "<path> (subtitle track N as SRT)" (its lines are those of
 /// the track as SubRip text, what `ffmpeg -i VIDEO -map 0:s:N track.srt` writes). Throws InputError
-/// as both do.
+/// as both do; with options.lenient, damaged samples are skipped, counted in skipped_records and
+/// listed in warnings, as malformed records are.
 TelemetryReadResult ReadVideoTelemetry(const std::filesystem::path& path,
                                        const TelemetryReadOptions& options = {});
 

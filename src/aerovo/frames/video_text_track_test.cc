@@ -168,6 +168,35 @@ TEST_F(VideoTextTrackFiles, AVideoWithoutCaptionsSaysSo) {
   } catch (const InputError& e) {
     EXPECT_THAT(e.what(), HasSubstr("film.mp4 (subtitle track 0 as SRT):"));
   }
+  // A damaged sample (its count beyond its bytes, which are not text): strict, an error naming
+  // the video and the sample (a malformed record: --lenient-telemetry skips it); lenient,
+  // skipped, counted and named, the other captions read.
+  {
+    std::string bytes = testing::ReadText(WithTrack("damaged.mp4", "mov_text", srt_));
+    std::size_t at = 0;
+    for (int k = 0; k < 3; ++k) at = bytes.find("FrameCnt: ", at + 1);  // the third caption
+    ASSERT_NE(at, std::string::npos);
+    bytes[at - 2] = '\xFF';  // the sample's count, then its first byte of text
+    bytes[at - 1] = '\xFF';
+    bytes[at] = '\x01';
+    const fs::path damaged = dir_ / "damaged2.mp4";
+    std::ofstream(damaged, std::ios::binary) << bytes;
+    try {
+      ReadTelemetryInput(damaged);
+      ADD_FAILURE() << "no error";
+    } catch (const MalformedRecordError& e) {
+      EXPECT_THAT(e.what(), HasSubstr("damaged2.mp4 (subtitle track, sample 3): the timed-text "
+                                      "sample says its text is 65535 bytes"));
+    }
+    TelemetryReadOptions lenient;
+    lenient.lenient = true;
+    const TelemetryReadResult r = ReadTelemetryInput(damaged, lenient);
+    EXPECT_EQ(r.records, 19);
+    EXPECT_EQ(r.skipped_records, 1);
+    ASSERT_FALSE(r.warnings.empty());
+    EXPECT_THAT(r.warnings[0], HasSubstr("sample 3): the timed-text sample says"));
+    EXPECT_EQ(*r.telemetry.samples()[2].frame_index, 3);  // frame 2's caption is the one skipped
+  }
   // A damaged file: FFmpeg's reason, naming it.
   const fs::path cut = dir_ / "cut.mp4";
   std::ofstream(cut) << std::string(
