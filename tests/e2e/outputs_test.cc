@@ -665,6 +665,43 @@ TEST_F(CliOutputs, TheCaptionsInsideADjiVideoAreItsTelemetry) {
     EXPECT_NE(track.find("\n"), std::string::npos) << file;
     EXPECT_EQ(track, ReadText(dji / "given_srt" / file)) << file;
   }
+  // The first caption damaged (its count beyond its bytes): an error naming the sample; with
+  // --lenient-telemetry it is skipped, and the camera's focal length, which the first frame's
+  // record would have given, comes from the first record that has one, with a warning (the
+  // height of the first frame must then be given: it has no record).
+  {
+    std::string bytes = ReadText(dji / "DJI_0002.MP4");
+    const std::size_t at = bytes.find("FrameCnt: 1,");
+    ASSERT_NE(at, std::string::npos);
+    bytes[at - 2] = '\xFF';
+    bytes[at - 1] = '\xFF';
+    bytes[at] = '\x01';
+    std::ofstream(dji / "DJI_0003.MP4", std::ios::binary) << bytes;
+  }
+  const std::vector<std::string> no_fov = {
+      "run", (dji / "DJI_0003.MP4").string(), "--max-frames", "6", "--threads", "1", "--no-report"};
+  std::vector<std::string> args = no_fov;
+  args.insert(args.end(),
+              {"--hfov-deg", "73.7", "--altitude", "60", "-o", (dji / "damaged").string()});
+  const Outcome damaged = RunCli(args, dir_, "damaged");
+  ASSERT_EQ(damaged.exit_code, 0) << damaged.err;  // not asked for: flagged, the run goes on
+  EXPECT_NE(damaged.err.find("(subtitle track, sample 1): the timed-text sample says its text is "
+                             "65535 bytes"),
+            std::string::npos)
+      << damaged.err;
+  EXPECT_NE(damaged.out.find("telemetry: none\n"), std::string::npos) << damaged.out;
+  args = no_fov;
+  args.insert(args.end(), {"--lenient-telemetry", "--altitude", "60", "-o",
+                           (dji / "damaged_lenient").string()});
+  const Outcome lenient = RunCli(args, dir_, "damaged_lenient");
+  ASSERT_EQ(lenient.exit_code, 0) << lenient.err;
+  const nlohmann::json l =
+      nlohmann::json::parse(ReadText(dji / "damaged_lenient" / "summary.json"));
+  EXPECT_EQ(l["frames_with_gps"].get<int>(), 5);
+  EXPECT_EQ(l["focal_source"], "telemetry-35mm");
+  EXPECT_NE(l["warnings"].dump().find("its telemetry record has no 35 mm focal length"),
+            std::string::npos)
+      << l["warnings"].dump(1);
   // An .SRT beside the video wins over its track; --telemetry none reads neither.
   fs::copy_file(srt, dji / "DJI_0002.SRT", fs::copy_options::overwrite_existing);
   const Outcome beside = run(dji / "DJI_0002.MP4", {}, "beside");

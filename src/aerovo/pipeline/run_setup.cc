@@ -1,4 +1,5 @@
 // SetUpRun (frame_loop.h): the run from its first frame.
+#include <optional>
 #include <string>
 #include <utility>
 
@@ -26,8 +27,26 @@ void SetUpFrames(const RunSetup& setup, const FrameState& first, RunContext& run
   const ImageFolderSource* folder = setup.folder;
   const ImageMetadata* photo =
       folder != nullptr && !folder->metadata().empty() ? &folder->metadata().front() : nullptr;
+  // The 35 mm focal length of the first frame's record, else of the telemetry's first record
+  // that has one: the first frame may come before the telemetry's first record, or its record
+  // may have been skipped as malformed (--lenient-telemetry).
+  std::optional<TelemetrySample> focal_sample = first.sample;
+  if ((!first.sample || !first.sample->focal_length_35mm_mm) && run.telemetry != nullptr &&
+      config.focal_px <= 0.0 && config.hfov_deg <= 0.0 && config.calibration.empty() &&
+      photo == nullptr) {
+    for (const TelemetrySample& s : run.telemetry->telemetry().samples()) {
+      if (!s.focal_length_35mm_mm) continue;
+      if (!focal_sample) focal_sample = TelemetrySample{};
+      focal_sample->focal_length_35mm_mm = s.focal_length_35mm_mm;
+      run.summary->warnings.push_back(fmt::format(
+          "{}: its telemetry record has no 35 mm focal length; the camera's is the first one "
+          "the telemetry has, {:.2f} mm ({}; give --focal-px or --hfov-deg to set it)",
+          frame.name, *s.focal_length_35mm_mm, s.origin.empty() ? "its first record" : s.origin));
+      break;
+    }
+  }
   run.camera = ResolveRunCamera(config, setup.focal_from_sim, run.width_px, run.height_px, photo,
-                                first.sample, frame.name);
+                                focal_sample, frame.name);
   run.summary->focal_px = run.camera.focal_px;
   run.summary->focal_source = run.camera.focal_source;
   run.reducer = std::make_unique<FrameReducer>(run.width_px, run.height_px, config.max_megapixels,

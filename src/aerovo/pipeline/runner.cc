@@ -567,8 +567,9 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
   }
   if (log) {
     *log << "telemetry: " << telemetry.Describe()
-         << (inputs.telemetry_beside ? " (found beside the video: the same name; --telemetry "
-                                       "names another, --telemetry none runs without)"
+         << (telemetry.empty()         ? ""
+             : inputs.telemetry_beside ? " (found beside the video: the same name; --telemetry "
+                                         "names another, --telemetry none runs without)"
              : inputs.telemetry_in_video
                  ? " (the video's subtitle track: its captions; --telemetry names a file, "
                    "--telemetry none runs without)"
