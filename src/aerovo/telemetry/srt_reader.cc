@@ -262,9 +262,8 @@ void ReadHemispherePosition(std::string_view name, std::string_view a, std::stri
                             BlockFields& f) {
   std::optional<double> lat, lon;
   for (std::string_view v : {a, b}) {
-    const char h = Hemisphere(v);
-    const std::string_view number = Trim(Trim(v).substr(2));
-    const auto x = h != '\0' ? ParseDouble(number) : std::nullopt;
+    const char h = Hemisphere(v);  // then v holds at least 3 characters
+    const auto x = h != '\0' ? ParseDouble(Trim(Trim(v).substr(2))) : std::nullopt;
     if (h == '\0' || !x || *x < 0.0) {
       f.Fail(
           fmt::format("{} value '{}' is not a hemisphere letter (N, S, E, W) and a number of "

@@ -523,8 +523,9 @@ TEST(DjiSrtFamilies, AutelHemisphereLetters) {
   EXPECT_DOUBLE_EQ(r.telemetry[1].lon_deg, 151.209907);
   EXPECT_DOUBLE_EQ(*r.telemetry[1].gimbal_yaw_deg, -120.0);
   // Two latitudes, a signed magnitude, a letter without a number: errors naming the line.
-  for (const char* bad : {"GPS(N: 40.1, S: 40.2, 10m)", "GPS(W: -111.9, N: 40.7, 10m)",
-                          "GPS(W: 111.9, 40.7, 10m)", "GPS(W: x, N: 40.7, 10m)"}) {
+  for (const char* bad :
+       {"GPS(N: 40.1, S: 40.2, 10m)", "GPS(W: -111.9, N: 40.7, 10m)", "GPS(W: 111.9, 40.7, 10m)",
+        "GPS(W: x, N: 40.7, 10m)", "GPS(W: 1.0, 5)", "GPS(, N: 2)"}) {
     // (Not the last subtitle: a last one cut short is dropped with a warning.)
     std::istringstream b(std::string("1\n00:00:00,000 --> 00:00:01,000\n") + bad +
                          "\n\n2\n00:00:01,000 --> 00:00:02,000\nGPS(W: 111.9, N: 40.7, 10m)\n");
