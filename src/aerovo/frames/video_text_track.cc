@@ -19,6 +19,7 @@ extern "C" {
 #include "aerovo/core/error.h"
 #include "aerovo/frames/av_error.h"
 #include "aerovo/telemetry/file_kind.h"
+#include "aerovo/telemetry/parse_util.h"
 
 namespace aerovo {
 namespace {
@@ -102,24 +103,6 @@ std::optional<VideoTextTrackInfo> FindTrack(const AVFormatContext* f) {
   return std::nullopt;
 }
 
-void AppendUtf8(std::uint32_t c, std::string* out) {
-  if (c < 0x80) {
-    out->push_back(static_cast<char>(c));
-  } else if (c < 0x800) {
-    out->push_back(static_cast<char>(0xC0 | (c >> 6)));
-    out->push_back(static_cast<char>(0x80 | (c & 0x3F)));
-  } else if (c < 0x10000) {
-    out->push_back(static_cast<char>(0xE0 | (c >> 12)));
-    out->push_back(static_cast<char>(0x80 | ((c >> 6) & 0x3F)));
-    out->push_back(static_cast<char>(0x80 | (c & 0x3F)));
-  } else {
-    out->push_back(static_cast<char>(0xF0 | (c >> 18)));
-    out->push_back(static_cast<char>(0x80 | ((c >> 12) & 0x3F)));
-    out->push_back(static_cast<char>(0x80 | ((c >> 6) & 0x3F)));
-    out->push_back(static_cast<char>(0x80 | (c & 0x3F)));
-  }
-}
-
 // "\r\n" and "\r" as "\n"; NUL bytes (padding some writers leave) dropped.
 std::string NormalisedLines(std::string_view text) {
   std::string out;
@@ -180,25 +163,9 @@ std::string TimedTextSampleText(const std::uint8_t* data, std::size_t size, std:
   const std::uint8_t* t = data + 2;
   // UTF-16 (3GPP TS 26.245 5.16: text starting with a byte order mark), big- or little-endian.
   if (n >= 2 && ((t[0] == 0xFE && t[1] == 0xFF) || (t[0] == 0xFF && t[1] == 0xFE))) {
-    if (n % 2 != 0) {
-      throw InputError(fmt::format("{}: a UTF-16 timed text of {} bytes (an odd count)", what, n));
-    }
-    const bool big = t[0] == 0xFE;
-    std::string utf8;
-    for (std::size_t k = 2; k + 1 < n; k += 2) {
-      std::uint32_t c =
-          big ? (std::uint32_t{t[k]} << 8) | t[k + 1] : (std::uint32_t{t[k + 1]} << 8) | t[k];
-      if (c >= 0xD800 && c < 0xDC00 && k + 3 < n) {  // a surrogate pair
-        const std::uint32_t lo = big ? (std::uint32_t{t[k + 2]} << 8) | t[k + 3]
-                                     : (std::uint32_t{t[k + 3]} << 8) | t[k + 2];
-        if (lo >= 0xDC00 && lo < 0xE000) {
-          c = 0x10000 + ((c - 0xD800) << 10) + (lo - 0xDC00);
-          k += 2;
-        }
-      }
-      AppendUtf8(c, &utf8);
-    }
-    return NormalisedLines(utf8);
+    return NormalisedLines(
+        io_detail::Utf16ToUtf8(std::string_view(reinterpret_cast<const char*>(t + 2), n - 2),
+                               t[0] == 0xFE, std::string(what)));
   }
   std::string_view text(reinterpret_cast<const char*>(t), n);
   if (text.rfind("\xEF\xBB\xBF", 0) == 0) text.remove_prefix(3);  // a UTF-8 byte order mark
