@@ -702,18 +702,8 @@ TEST_F(CliOutputs, TheCaptionsInsideADjiVideoAreItsTelemetry) {
   EXPECT_NE(l["warnings"].dump().find("its telemetry record has no 35 mm focal length"),
             std::string::npos)
       << l["warnings"].dump(1);
-  // An .SRT beside the video wins over its track; --telemetry none reads neither.
-  fs::copy_file(srt, dji / "DJI_0002.SRT", fs::copy_options::overwrite_existing);
-  const Outcome beside = run(dji / "DJI_0002.MP4", {}, "beside");
-  ASSERT_EQ(beside.exit_code, 0) << beside.err;
-  const nlohmann::json b = nlohmann::json::parse(ReadText(dji / "beside" / "summary.json"));
-  EXPECT_EQ(b["telemetry"], (dji / "DJI_0002.SRT").string());
-  EXPECT_FALSE(b["telemetry_in_video"].get<bool>());
-  fs::remove(dji / "DJI_0002.SRT");
-  const Outcome none =
-      run(dji / "DJI_0002.MP4", {"--telemetry", "none", "--altitude", "60"}, "none");
-  ASSERT_EQ(none.exit_code, 0) << none.err;
-  EXPECT_EQ(nlohmann::json::parse(ReadText(dji / "none" / "summary.json"))["frames_with_gps"], 0);
+  // (An .SRT beside the video wins over its track and --telemetry none reads neither:
+  // RunSteps.AVideosOwnCaptionsAreItsTelemetryWhenNoSrtIsBeside.)
   // A subtitle track that is not captions was not asked for: flagged, the run goes on; given
   // with --telemetry, the same video is an error naming its track.
   const fs::path words = dji / "words.srt";

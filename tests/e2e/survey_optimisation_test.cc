@@ -3,10 +3,17 @@
 // (2.4 km) and one over the Callas orthophoto ($AEROVO_SHARED/data/ortho/callas-quarry.jpg,
 // 2.9 km), each run once with the offline optimisation (`--backend-enable`: the causal track and
 // the optimised one, vo_optimized.*, in one summary.json) and once with the online window
-// (`--backend-online`). The optimised track ends at most a third as far from the truth as the
-// causal one (SE(2)-aligned end-point error; the run's geo-reference is the causal track's, so
-// the unaligned end of the optimised track keeps the causal heading's error) and the windowed
-// live track ends closer to the truth than the causal one.
+// (`--backend-online`). Against the truth after an SE(2) alignment, the optimised track is at
+// most a third as far as the causal one over the whole flight (ATE RMSE) and its end no further
+// than the causal end (and within 0.1 m), and the windowed live track is closer than the causal
+// one (ATE RMSE). The run's geo-reference is the causal track's, so the unaligned end of the
+// optimised track keeps the causal heading's error.
+//
+// Why ATE and not the end alone: on clean simulated frames the causal end is 0.1-0.5 m from the
+// truth (a pixel or less at the 0.31 m ground sampling distance), and one frame's error at that
+// level moves with rounding: OpenCV's CPU dispatch renders the frames a little differently on
+// CPUs with and without AVX2, and the built-in terrain's causal end then moves from 0.14 to
+// 0.12 m while the optimised end stays 0.04-0.05 m. The ATE averages every frame.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -25,7 +32,7 @@ namespace fs = std::filesystem;
 // The flight's figures against the truth, metres.
 struct SurveyFigures {
   double causal_end_m = 0.0, optimised_end_m = 0.0, online_end_m = 0.0;
-  double causal_ate_m = 0.0, optimised_ate_m = 0.0;
+  double causal_ate_m = 0.0, optimised_ate_m = 0.0, online_ate_m = 0.0;
   double path_m = 0.0;
 };
 
@@ -53,6 +60,7 @@ SurveyFigures FlySurvey(const std::string& name, const std::string& ground) {
     f.optimised_end_m = optimised["end_point_error_m"].get<double>();
     f.online_end_m = online["truth_evaluation"]["se2"]["end_point_error_m"].get<double>();
     f.causal_ate_m = causal["ate_m"]["rmse"].get<double>();
+    f.online_ate_m = online["truth_evaluation"]["se2"]["ate_m"]["rmse"].get<double>();
     f.optimised_ate_m = optimised["ate_m"]["rmse"].get<double>();
     f.path_m = offline["vo_path_length_m"].get<double>();
   } else {
@@ -62,29 +70,33 @@ SurveyFigures FlySurvey(const std::string& name, const std::string& ground) {
       "end_error_mm", std::to_string(1000.0 * f.causal_end_m) + " causal, " +
                           std::to_string(1000.0 * f.optimised_end_m) + " optimised, " +
                           std::to_string(1000.0 * f.online_end_m) + " online");
+  ::testing::Test::RecordProperty("ate_mm",
+                                  std::to_string(1000.0 * f.causal_ate_m) + " causal, " +
+                                      std::to_string(1000.0 * f.optimised_ate_m) + " optimised, " +
+                                      std::to_string(1000.0 * f.online_ate_m) + " online");
   fs::remove_all(dir);
   return f;
 }
 
 void ExpectOptimisationPays(const SurveyFigures& f) {
   EXPECT_GE(f.path_m, 2000.0);
-  ASSERT_GT(f.causal_end_m, 0.0);
-  EXPECT_LE(3.0 * f.optimised_end_m, f.causal_end_m)
-      << "end error " << f.causal_end_m << " m causal, " << f.optimised_end_m << " m optimised";
-  EXPECT_LT(f.optimised_ate_m, f.causal_ate_m)
+  ASSERT_GT(f.causal_ate_m, 0.0);
+  EXPECT_LE(3.0 * f.optimised_ate_m, f.causal_ate_m)
       << "ATE " << f.causal_ate_m << " m causal, " << f.optimised_ate_m << " m optimised";
-  EXPECT_LT(f.online_end_m, f.causal_end_m)
-      << "end error " << f.causal_end_m << " m causal, " << f.online_end_m << " m online";
+  EXPECT_LE(f.optimised_end_m, f.causal_end_m)
+      << "end error " << f.causal_end_m << " m causal, " << f.optimised_end_m << " m optimised";
+  EXPECT_LT(f.optimised_end_m, 0.1);
+  EXPECT_LT(f.online_ate_m, f.causal_ate_m)
+      << "ATE " << f.causal_ate_m << " m causal, " << f.online_ate_m << " m online";
 }
 
-// 6 legs of 400 m, 50 m apart (2.4 km, 350 frames of 480x270 at 1.5 fps). Measured (BENCHMARKS.md,
-// "Loop closures"): end error 0.148 m causal, 0.030 m optimised, 0.040 m online.
+// 6 legs of 400 m, 50 m apart (2.4 km, 350 frames of 480x270 at 1.5 fps). Figures: BENCHMARKS.md,
+// "The back-end's tests on two renderings".
 TEST(SixStripSurvey, BuiltInTerrain) {
   ExpectOptimisationPays(FlySurvey("terrain", "--spacing-m 50"));
 }
 
-// 6 legs of 400 m, 60 m apart over the Callas quarry (2.9 km, 359 frames). Measured: end error
-// 0.235 m causal, 0.031 m optimised, 0.141 m online.
+// 6 legs of 400 m, 60 m apart over the Callas quarry (2.9 km, 359 frames).
 TEST(SixStripSurvey, CallasOrthophoto) {
   AEROVO_REQUIRE_SHARED(ortho, "data/ortho/callas-quarry.jpg");
   ExpectOptimisationPays(FlySurvey(

@@ -26,10 +26,11 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "aerovo/camera_files/calibration.h"
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
-#include "aerovo/camera_files/calibration.h"
 #include "aerovo/frames/camera.h"
+#include "aerovo/frames/ffmpeg_test_util.h"
 #include "aerovo/pipeline/autopilot_attitude.h"
 
 namespace aerovo::run_steps::run_steps_test {
@@ -214,6 +215,52 @@ TEST(RunSteps, TheSrtBesideAVideoIsItsTelemetry) {
     EXPECT_EQ(in.config.telemetry, expected) << input;
     EXPECT_FALSE(in.telemetry_beside) << input;
   }
+  EXPECT_TRUE(warnings.empty());
+  fs::remove_all(dir);
+}
+
+// A video with a subtitle track (a DJI video's captions, muxed as MP4 timed text by ffmpeg) and
+// no .SRT beside it is its own telemetry; an .SRT beside it wins (the same captions, read
+// without demuxing the video); `none` reads neither; a video without a track has none.
+TEST(RunSteps, AVideosOwnCaptionsAreItsTelemetryWhenNoSrtIsBeside) {
+  if (!io_test::HaveFfmpeg()) GTEST_SKIP() << "ffmpeg not found on PATH";
+  const fs::path dir = TempDir("in_video");
+  const fs::path captions = dir / "captions.srt";
+  WriteText(captions,
+            "1\n00:00:00,000 --> 00:00:01,000\nFrameCnt: 1, DiffTime: 1000ms\n"
+            "[latitude: 45.000000] [longitude: 7.000000] [rel_alt: 60.000 abs_alt: 300.000]\n\n"
+            "2\n00:00:01,000 --> 00:00:02,000\nFrameCnt: 2, DiffTime: 1000ms\n"
+            "[latitude: 45.000100] [longitude: 7.000000] [rel_alt: 60.000 abs_alt: 300.000]\n");
+  const std::vector<std::string> clip = {"-f", "lavfi", "-i", "color=c=gray:size=64x64:rate=2:d=2"};
+  std::vector<std::string> with_track = clip;
+  with_track.insert(with_track.end(), {"-i", captions.string(), "-map", "0:v", "-map", "1", "-c:s",
+                                       "mov_text", (dir / "DJI_0050.MP4").string()});
+  ASSERT_TRUE(io_test::RunFfmpeg(with_track));
+  std::vector<std::string> without = clip;
+  without.push_back((dir / "DJI_0051.MP4").string());
+  ASSERT_TRUE(io_test::RunFfmpeg(without));
+  std::vector<std::string> warnings;
+  const auto resolved = [&](const fs::path& input, const std::string& telemetry) {
+    RunConfig given;
+    given.input = input.string();
+    given.telemetry = telemetry;
+    return ResolveInputs(given, &warnings);
+  };
+  RunInputs in = resolved(dir / "DJI_0050.MP4", "");
+  EXPECT_EQ(in.config.telemetry, (dir / "DJI_0050.MP4").string());
+  EXPECT_TRUE(in.telemetry_in_video);
+  EXPECT_FALSE(in.telemetry_beside);
+  in = resolved(dir / "DJI_0051.MP4", "");
+  EXPECT_EQ(in.config.telemetry, "");
+  EXPECT_FALSE(in.telemetry_in_video);
+  in = resolved(dir / "DJI_0050.MP4", "none");
+  EXPECT_EQ(in.config.telemetry, "none");
+  EXPECT_FALSE(in.telemetry_in_video);
+  fs::copy_file(captions, dir / "DJI_0050.SRT");
+  in = resolved(dir / "DJI_0050.MP4", "");
+  EXPECT_EQ(in.config.telemetry, (dir / "DJI_0050.SRT").string());
+  EXPECT_TRUE(in.telemetry_beside);
+  EXPECT_FALSE(in.telemetry_in_video);
   EXPECT_TRUE(warnings.empty());
   fs::remove_all(dir);
 }
