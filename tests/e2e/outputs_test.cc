@@ -666,9 +666,9 @@ TEST_F(CliOutputs, TheCaptionsInsideADjiVideoAreItsTelemetry) {
     EXPECT_EQ(track, ReadText(dji / "given_srt" / file)) << file;
   }
   // The first caption damaged (its count beyond its bytes): an error naming the sample; with
-  // --lenient-telemetry it is skipped, and the camera's focal length, which the first frame's
-  // record would have given, comes from the first record that has one, with a warning (the
-  // height of the first frame must then be given: it has no record).
+  // --lenient-telemetry it is skipped, and the camera's focal length and the first frame's
+  // height, which the first frame's record would have given, come from the first record that
+  // has them, each with a warning.
   {
     std::string bytes = ReadText(dji / "DJI_0002.MP4");
     const std::size_t at = bytes.find("FrameCnt: 1,");
@@ -691,8 +691,7 @@ TEST_F(CliOutputs, TheCaptionsInsideADjiVideoAreItsTelemetry) {
       << damaged.err;
   EXPECT_NE(damaged.out.find("telemetry: none\n"), std::string::npos) << damaged.out;
   args = no_fov;
-  args.insert(args.end(), {"--lenient-telemetry", "--altitude", "60", "-o",
-                           (dji / "damaged_lenient").string()});
+  args.insert(args.end(), {"--lenient-telemetry", "-o", (dji / "damaged_lenient").string()});
   const Outcome lenient = RunCli(args, dir_, "damaged_lenient");
   ASSERT_EQ(lenient.exit_code, 0) << lenient.err;
   const nlohmann::json l =
@@ -702,6 +701,16 @@ TEST_F(CliOutputs, TheCaptionsInsideADjiVideoAreItsTelemetry) {
   EXPECT_NE(l["warnings"].dump().find("its telemetry record has no 35 mm focal length"),
             std::string::npos)
       << l["warnings"].dump(1);
+  EXPECT_NE(l["warnings"].dump().find("its height is that of the first record ahead"),
+            std::string::npos)
+      << l["warnings"].dump(1);
+  EXPECT_EQ(l["height_source"], "telemetry");
+  {
+    const auto rows = e2e::ReadFramesCsv(dji / "damaged_lenient");
+    ASSERT_GE(rows.size(), 2u);
+    EXPECT_EQ(rows[0].at("height_source"), "first_record");
+    EXPECT_EQ(rows[1].at("height_source"), "telemetry");
+  }
   // (An .SRT beside the video wins over its track and --telemetry none reads neither:
   // RunSteps.AVideosOwnCaptionsAreItsTelemetryWhenNoSrtIsBeside.)
   // A subtitle track that is not captions was not asked for: flagged, the run goes on; given

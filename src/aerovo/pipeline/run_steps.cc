@@ -186,10 +186,11 @@ std::string RunTelemetry::WhyNoFix(const Frame& f) const {
       }
     }
     if (f.index < lo) {
-      return fmt::format(
-          "frame {} is before the first record of {} (frame counter {}{})", f.index, origin_,
-          lo + 1,
-          lo > 0 ? ": the second clip of a split recording? give the matching telemetry" : "");
+      return fmt::format("frame {} is before the first record of {} (frame counter {}{})", f.index,
+                         origin_, lo + 1,
+                         lo - f.index > kMaxLeadFrames
+                             ? ": the second clip of a split recording? give the matching telemetry"
+                             : "");
     }
     return fmt::format("frame {} is after the last record of {} (frame counter {})", f.index,
                        origin_, hi + 1);
@@ -200,6 +201,38 @@ std::string RunTelemetry::WhyNoFix(const Frame& f) const {
       "overlap with the video (see --telemetry-offset-s)",
       f.index, t, offset_s_ != 0.0 ? fmt::format(" (offset {:+.3f} s)", offset_s_) : "",
       origin_, telemetry_.start_time_s(), telemetry_.end_time_s());
+}
+
+std::optional<TelemetrySample> RunTelemetry::FirstRecordAhead(const Frame& f) const {
+  if (telemetry_.empty()) return std::nullopt;
+  const std::vector<TelemetrySample>& samples = telemetry_.samples();
+  if (by_frame_index_ && offset_s_ == 0.0) {
+    // The records in frame order need not be in file order: the first is the smallest index.
+    const TelemetrySample* first = nullptr;
+    for (const TelemetrySample& s : samples) {
+      if (s.frame_index && (first == nullptr || *s.frame_index < *first->frame_index)) first = &s;
+    }
+    if (first == nullptr || f.index >= *first->frame_index ||
+        *first->frame_index - f.index > kMaxLeadFrames) {
+      return std::nullopt;
+    }
+    const TelemetrySample* best = nullptr;  // the first record by frame with a relative altitude
+    for (const TelemetrySample& s : samples) {
+      if (s.frame_index && s.rel_alt_m && *s.frame_index - f.index <= kMaxLeadFrames &&
+          (best == nullptr || *s.frame_index < *best->frame_index)) {
+        best = &s;
+      }
+    }
+    return best != nullptr ? std::optional<TelemetrySample>(*best) : std::nullopt;
+  }
+  const double t = f.time_s + offset_s_;
+  const double start = telemetry_.start_time_s();
+  if (!(t < start) || start - t > kMaxLeadS) return std::nullopt;
+  for (const TelemetrySample& s : samples) {  // in time order (telemetry/telemetry.h)
+    if (s.time_s - t > kMaxLeadS) break;
+    if (s.rel_alt_m) return s;
+  }
+  return std::nullopt;
 }
 
 std::string RunTelemetry::Describe() const {
@@ -374,6 +407,26 @@ double HeightProvider::HeightOf(const std::string& frame_name,
         "level) or --altitude",
         frame_name, telemetry_name_.empty() ? "the telemetry" : telemetry_name_,
         *sample->abs_alt_m));
+  }
+  // Frames before the first record (no height known yet, or only the first record's).
+  const bool lead_in =
+      last_source_ == FrameHeightSource::kNone || last_source_ == FrameHeightSource::kFirstRecord;
+  if (!sample && lead_in && first_record_ahead_ && first_record_ahead_->rel_alt_m &&
+      *first_record_ahead_->rel_alt_m + takeoff_height_agl_m_ > 0.0) {
+    last_m_ = *first_record_ahead_->rel_alt_m + takeoff_height_agl_m_;
+    if (!warned_ahead_) {
+      warnings->push_back(fmt::format(
+          "{}: no telemetry record ({}); its height is that of the first record ahead, {:.1f} m "
+          "({}), until a frame has its own (give --altitude to set it)",
+          frame_name, no_fix_reason_.empty() ? "the frame has no telemetry fix" : no_fix_reason_,
+          *last_m_,
+          first_record_ahead_->origin.empty()
+              ? fmt::format("at {:.3f} s", first_record_ahead_->time_s)
+              : first_record_ahead_->origin));
+      warned_ahead_ = true;
+    }
+    last_source_ = FrameHeightSource::kFirstRecord;
+    return *last_m_;
   }
   if (last_m_) {
     if (!warned_) {

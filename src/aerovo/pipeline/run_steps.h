@@ -118,6 +118,16 @@ class RunTelemetry {
   /// the telemetry's span, e.g. "frame 0 is before the first telemetry record (FrameCnt 1001:
   /// the second clip of a split recording?)".
   std::string WhyNoFix(const Frame& frame) const;
+  /// For a frame before the telemetry's first record (SampleOf gave nothing) and close to it, the
+  /// first record with a relative altitude: at most kMaxLeadFrames frames before the first
+  /// record (telemetry by frame index: a first record skipped as malformed, captions that start
+  /// at the second frame) or kMaxLeadS seconds before it, beyond SampleOf's 0.5 s (by time: a
+  /// log started after the camera). nullopt otherwise: a frame far before the first record
+  /// belongs to other telemetry (the second clip of a split recording), one after it has no
+  /// record for another reason.
+  std::optional<TelemetrySample> FirstRecordAhead(const Frame& frame) const;
+  static constexpr int kMaxLeadFrames = 30;
+  static constexpr double kMaxLeadS = 2.0;
   /// The log's description: "none" or "N fixes from ORIGIN".
   std::string Describe() const;
 
@@ -199,11 +209,20 @@ class HeightProvider {
   }
   /// Height above ground of frame `frame_name`, metres: the flag; else the link's sample nearest
   /// `capture_s` (MonotonicNowS clock) within match_s (for the first frame, when none is that
-  /// close, the newest sample); else the sample's relative altitude when > 0; else the last one
-  /// known (the first time, a warning naming the frame is appended to `warnings`); else
-  /// InputError naming the frame.
+  /// close, the newest sample); else the sample's relative altitude when > 0; else, for a frame
+  /// without a sample before any height is known, the first record ahead's
+  /// (set_first_record_ahead; the first time, a warning); else the last one known (the first
+  /// time, a warning naming the frame is appended to `warnings`); else InputError naming the
+  /// frame.
   double HeightOf(const std::string& frame_name, const std::optional<TelemetrySample>& sample,
                   std::vector<std::string>* warnings, double capture_s = 0.0);
+  /// The telemetry's first record ahead of a frame that has none (RunTelemetry::
+  /// FirstRecordAhead): while no height is known, its relative altitude stands in for such a
+  /// frame's (source kFirstRecord, one warning naming the frame and the record). Set by the
+  /// height stage before HeightOf; nullopt clears it.
+  void set_first_record_ahead(std::optional<TelemetrySample> record) {
+    first_record_ahead_ = std::move(record);
+  }
   /// Where the last HeightOf came from.
   FrameHeightSource last_kind() const { return last_source_; }
   /// The same as FrameRecord::height_source writes it ("altitude_flag", "telemetry", ...).
@@ -236,6 +255,8 @@ class HeightProvider {
   bool warned_ = false;
   FrameHeightSource last_source_ = FrameHeightSource::kNone;
   std::string no_fix_reason_;
+  std::optional<TelemetrySample> first_record_ahead_;
+  bool warned_ahead_ = false;
   double ground_elevation_m_ = std::numeric_limits<double>::quiet_NaN();
   double takeoff_height_agl_m_ = 0.0;
   std::string telemetry_name_;

@@ -471,6 +471,92 @@ TEST(RunSteps, HeightFallsBackOnTheLastKnownWithOneWarning) {
   EXPECT_EQ(warnings.size(), 1u);
 }
 
+// A frame shortly before the telemetry's first record (a first caption skipped as damaged, a
+// log started after the camera) takes the height of the first record ahead that has one; a frame
+// far before it (the telemetry of another clip) or after the start has none.
+TEST(RunSteps, FirstRecordAheadOnlyShortlyBeforeTheTelemetry) {
+  const auto record = [](int frame_index, double time_s, std::optional<double> rel_alt_m) {
+    TelemetrySample s = Fix(time_s, rel_alt_m);
+    s.frame_index = frame_index;
+    s.origin = "x.srt:" + std::to_string(5 * frame_index + 1);
+    return s;
+  };
+  Frame f;
+  f.index = 0;
+  f.time_s = 0.0;
+  // By frame index: records from frame 2, the first without a relative altitude.
+  const RunTelemetry indexed(
+      Telemetry({record(2, 0.07, std::nullopt), record(3, 0.10, 61.0), record(4, 0.13, 62.0)}),
+      true, "x.srt");
+  ASSERT_FALSE(indexed.SampleOf(f).has_value());
+  std::optional<TelemetrySample> ahead = indexed.FirstRecordAhead(f);
+  ASSERT_TRUE(ahead.has_value());
+  EXPECT_EQ(ahead->frame_index, 3);
+  EXPECT_DOUBLE_EQ(*ahead->rel_alt_m, 61.0);
+  f.index = 3;  // has its own record
+  EXPECT_FALSE(indexed.FirstRecordAhead(f).has_value());
+  f.index = 9;  // after the last record
+  EXPECT_FALSE(indexed.FirstRecordAhead(f).has_value());
+  // The second clip of a split recording: its records start at frame 1000.
+  const RunTelemetry second_clip(Telemetry({record(1000, 0.0, 60.0), record(1001, 0.03, 60.0)}),
+                                 true, "y.srt");
+  f.index = 0;
+  EXPECT_FALSE(second_clip.FirstRecordAhead(f).has_value());
+  const int lead = RunTelemetry::kMaxLeadFrames;
+  const RunTelemetry at_limit(Telemetry({record(lead, 1.0, 60.0)}), true, "z.srt");
+  EXPECT_TRUE(at_limit.FirstRecordAhead(f).has_value());
+  const RunTelemetry beyond(Telemetry({record(lead + 1, 1.0, 60.0)}), true, "z.srt");
+  EXPECT_FALSE(beyond.FirstRecordAhead(f).has_value());
+
+  // By time: a log that starts 1.5 s after the video (SampleOf's 0.5 s do not reach it).
+  const RunTelemetry timed(Telemetry({Fix(1.5, 70.0), Fix(2.5, 71.0)}), false, "log.gpx");
+  f.time_s = 0.0;
+  ASSERT_FALSE(timed.SampleOf(f).has_value());
+  ahead = timed.FirstRecordAhead(f);
+  ASSERT_TRUE(ahead.has_value());
+  EXPECT_DOUBLE_EQ(*ahead->rel_alt_m, 70.0);
+  f.time_s = 3.5;  // after the span
+  EXPECT_FALSE(timed.FirstRecordAhead(f).has_value());
+  const RunTelemetry late(Telemetry({Fix(2.1, 70.0)}), false, "log.gpx");
+  f.time_s = 0.0;
+  EXPECT_FALSE(late.FirstRecordAhead(f).has_value());
+  RunTelemetry offset(Telemetry({Fix(2.1, 70.0)}), false, "log.gpx");
+  offset.set_offset_s(0.5);  // telemetry time 0.5 s at video time 0
+  EXPECT_TRUE(offset.FirstRecordAhead(f).has_value());
+}
+
+TEST(RunSteps, FramesBeforeTheFirstRecordTakeItsHeightWithOneWarning) {
+  HeightProvider height(0.0);
+  std::vector<std::string> warnings;
+  TelemetrySample ahead = Fix(0.1, 61.0);
+  ahead.origin = "x.srt:11";
+  height.set_no_fix_reason("frame 0 is before the first record of x.srt (frame counter 3)");
+  height.set_first_record_ahead(ahead);
+  EXPECT_EQ(height.HeightOf("f0", std::nullopt, &warnings), 61.0);
+  EXPECT_EQ(height.last_source(), "first_record");
+  EXPECT_EQ(height.HeightOf("f1", std::nullopt, &warnings), 61.0);
+  EXPECT_EQ(height.last_source(), "first_record");
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0],
+            "f0: no telemetry record (frame 0 is before the first record of x.srt (frame counter "
+            "3)); its height is that of the first record ahead, 61.0 m (x.srt:11), until a frame "
+            "has its own (give --altitude to set it)");
+  EXPECT_EQ(height.HeightOf("f2", Fix(0.1, 61.5), &warnings), 61.5);
+  EXPECT_EQ(height.last_source(), "telemetry");
+  // A later frame without a record: the last known, as before.
+  EXPECT_EQ(height.HeightOf("f3", std::nullopt, &warnings), 61.5);
+  EXPECT_EQ(height.last_source(), "last_known");
+  EXPECT_EQ(warnings.size(), 2u);
+  // A record ahead at or below the take-off point says nothing: the error stays.
+  HeightProvider grounded(0.0);
+  grounded.set_first_record_ahead(Fix(0.1, 0.0));
+  EXPECT_THROW(grounded.HeightOf("g0", std::nullopt, &warnings), InputError);
+  // Nor does it replace a frame's own sample that lacks a height.
+  HeightProvider own(0.0);
+  own.set_first_record_ahead(ahead);
+  EXPECT_THROW(own.HeightOf("h0", Fix(0.0, std::nullopt), &warnings), InputError);
+}
+
 TEST(RunSteps, NoHeightIsAnErrorNamingTheFrameAndTheCause) {
   HeightProvider height(0.0);
   std::vector<std::string> warnings;

@@ -36,6 +36,8 @@ const char* ToString(FrameHeightSource s) {
       return "telemetry_abs_alt-ground_elevation";
     case FrameHeightSource::kLastKnown:
       return "last_known";
+    case FrameHeightSource::kFirstRecord:
+      return "first_record";
   }
   return "?";
 }

@@ -30,6 +30,9 @@ enum class FrameHeightSource {
   kTelemetryRelAltTakeoff,  ///< "telemetry_rel_alt+takeoff_height".
   kTelemetryAbsAltGround,   ///< "telemetry_abs_alt-ground_elevation".
   kLastKnown,               ///< "last_known": no height for the frame, the last one used.
+  /// "first_record": a frame shortly before the telemetry's first record, given that record's
+  /// height (RunTelemetry::FirstRecordAhead).
+  kFirstRecord,
 };
 const char* ToString(FrameHeightSource s);
 

@@ -27,7 +27,9 @@ class HeightStage : public FrameStage {
   void Process(FrameState& f, const RunContext& run) override {
     if (!f.sample && !run.telemetry->empty() && !height_.last_m()) {
       height_.set_no_fix_reason(run.telemetry->WhyNoFix(f.frame));
+      height_.set_first_record_ahead(run.telemetry->FirstRecordAhead(f.frame));
     }
+    // (Once the first record's height stands in, it does for the frames up to that record.)
     // A relative altitude that jumps beyond the vertical speed limit would scale the step: the
     // last plausible height is used instead (the fix itself is judged by the GPS check stage).
     std::optional<TelemetrySample> sample = f.sample;
