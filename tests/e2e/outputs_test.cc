@@ -311,10 +311,12 @@ TEST_F(CliOutputs, AStdoutThatCannotBeWrittenIsExitOne) {
 TEST_F(CliOutputs, AFailureBeforeTheFirstFrameStillWritesTheSummary) {
   const fs::path bad = dir_ / "bad.srt";
   std::ofstream(bad) << "garbage\n1\n";
-  // The flight's SRT without its first 12 records: frame 0 has no record, so no height.
+  // The flight's SRT without its first 40 records: frame 0 has no record, and the first is
+  // further ahead than a missing first record explains (RunTelemetry::kMaxLeadFrames, 30), so
+  // no height.
   const std::string srt = ReadText(dir_ / "sim" / "telemetry.srt");
   std::size_t cut = 0;
-  for (int i = 0; i < 12; ++i) cut = srt.find("\n\n", cut) + 2;
+  for (int i = 0; i < 40; ++i) cut = srt.find("\n\n", cut) + 2;
   const fs::path late = dir_ / "late.srt";
   std::ofstream(late) << srt.substr(cut);
   const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
