@@ -178,6 +178,15 @@ TEST(RunSteps, ForeignOrBrokenSimJsonIsIgnored) {
 // A DJI aircraft records DJI_0042.MP4 and DJI_0042.SRT side by side: a video run without
 // --telemetry uses the SRT of the same name (any case of its extension), and says so; not when
 // telemetry is given or "none", not for a folder, and not when two files could be it.
+// ResolveInputs of a run of `input` with RunConfig::telemetry = `telemetry`.
+RunInputs ResolveWithTelemetry(const fs::path& input, const std::string& telemetry,
+                               std::vector<std::string>* warnings) {
+  RunConfig given;
+  given.input = input.string();
+  given.telemetry = telemetry;
+  return ResolveInputs(given, warnings);
+}
+
 TEST(RunSteps, TheSrtBesideAVideoIsItsTelemetry) {
   const fs::path dir = TempDir("beside");
   fs::create_directories(dir / "photos");
@@ -193,10 +202,7 @@ TEST(RunSteps, TheSrtBesideAVideoIsItsTelemetry) {
   WriteText(dir / "photos" / "DJI_0046.SRT", "1\n");
   std::vector<std::string> warnings;
   const auto resolved = [&](const fs::path& input, const std::string& telemetry) {
-    RunConfig given;
-    given.input = input.string();
-    given.telemetry = telemetry;
-    return ResolveInputs(given, &warnings);
+    return ResolveWithTelemetry(input, telemetry, &warnings);
   };
   RunInputs in = resolved(dir / "DJI_0042.MP4", "");
   EXPECT_EQ(in.config.telemetry, (dir / "DJI_0042.SRT").string());
@@ -241,10 +247,7 @@ TEST(RunSteps, AVideosOwnCaptionsAreItsTelemetryWhenNoSrtIsBeside) {
   ASSERT_TRUE(io_test::RunFfmpeg(without));
   std::vector<std::string> warnings;
   const auto resolved = [&](const fs::path& input, const std::string& telemetry) {
-    RunConfig given;
-    given.input = input.string();
-    given.telemetry = telemetry;
-    return ResolveInputs(given, &warnings);
+    return ResolveWithTelemetry(input, telemetry, &warnings);
   };
   RunInputs in = resolved(dir / "DJI_0050.MP4", "");
   EXPECT_EQ(in.config.telemetry, (dir / "DJI_0050.MP4").string());
