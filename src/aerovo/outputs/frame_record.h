@@ -56,8 +56,9 @@ struct FrameRecord {
   std::string gps_flag;
   /// Height above ground used for the frame, metres (CSV height_m; 0 when not known).
   double height_m = 0.0;
-  /// Where that height came from (CSV height_source): "altitude_flag", "telemetry",
-  /// "last_known", "mavlink_distance_sensor" or "mavlink_relative_alt"; "" when unknown.
+  /// Where that height came from (CSV height_source): pipeline/run_types.h FrameHeightSource
+  /// ("altitude_flag", "telemetry", "first_record", "last_known", "mavlink_distance_sensor",
+  /// ...; docs/attitude.md); "" when unknown.
   std::string height_source;
   /// The autopilot's attitude at the frame (MAVLink ATTITUDE), degrees (CSV roll_deg,
   /// pitch_deg; empty cells when absent).
