@@ -1,5 +1,6 @@
-// Descriptor matching speed: aerovo's exhaustive (blocked SIMD, Laplacian-split, OpenMP) and
-// guided matcher against OpenCV's cv::BFMatcher knnMatch(k = 2) on the same descriptors.
+// Descriptor matching speed: aerovo's exhaustive (blocked SIMD, Laplacian-split, threads of
+// core/parallel.h) and guided matcher against OpenCV's cv::BFMatcher knnMatch(k = 2) on the same
+// descriptors.
 //
 // Data: N prev points with random 64-d unit descriptors, random Laplacian sign, random positions
 // in a 4000 x 3000 frame (12 MP, DJI stills); curr = the prev points moved by a small rotation

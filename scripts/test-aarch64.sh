@@ -11,8 +11,8 @@
 #   AEROVO_UNITY_BUILD=OFF build source by source (default ON: a unity build, CMakeLists.txt)
 # Excluded under qemu (ctest -E, the regex below), measured 2026-12-02 with qemu-user 7.2 (a
 # run: 223 tests native in 553 s and 51 scalar in 154 s at load average 12-15, BENCHMARKS.md):
-#   - the tests that run OpenMP with several threads do not finish under qemu-user (600 s and
-#     300 s timeouts; the same code with 1 thread passes):
+#   - the tests that ran OpenMP with several threads did not finish under qemu-user (600 s and
+#     300 s timeouts; the same code with 1 thread passed; the loops now run on core/parallel.h):
 #     SurfAdaptive.IdenticalForIdenticalInputAndAnyThreadCount (3 threads),
 #     MatcherTest.MultiThreadAndKernelsGiveIdenticalResults,
 #     MatcherKdForestTest.DeterministicAcrossSeedsThreadsAndReuse (2, 3, all threads);
@@ -21,7 +21,7 @@
 #     (thread counts, grids), > 300 s each under qemu-user; on aarch64 the in-layer maximum kernels
 #     (NEON against scalar) are checked by InLayerMaximumKernelTest and the keypoints against x86
 #     by SurfMatchGolden;
-#   - SurfAdaptive.CellFloorsChangeNoPointOfAStream (a stream with 1 and 2 OpenMP threads: > 300 s
+#   - SurfAdaptive.CellFloorsChangeNoPointOfAStream (a stream with 1 and 2 threads: > 300 s
 #     under qemu-user, 2026-12-05) and LoopClosures.TheSameSeedGivesTheSameResultWithOneOrTwoThreads
 #     (253 s) for the threads; LoopClosures.TheGateRejectsARepeatedFieldThatVerifiesGeometrically
 #     (> 300 s: the real matcher and RANSAC on 33 candidates, offline and online). The per-cell

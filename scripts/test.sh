@@ -86,16 +86,11 @@ stage() {  # stage NAME COMMAND...: runs one step, prints and records its wall a
   echo "=== test.sh: $name took $(($(date +%s) - t0)) s wall, $((CPU_S - c0)) s CPU"
 }
 
-# OMP_WAIT_POLICY=passive for the tests: without it, each of the ~280 aerovo commands a stage's
-# tests run would start twice (aerovo executes itself again to set it, src/aerovo/cli/main.cc),
-# 0.3 s of CPU a start in the Release build, 0.4 s under ASan (BENCHMARKS.md, "Every aerovo
-# command starts twice"). CliConventions.OpenMpWaitsPassivelyUnlessTheUserChose unsets it to
-# check that path.
 run_ctest() {  # run_ctest STAGE BUILD_DIR [ctest args...]: ctest, its log kept for the summary
   local name=$1 dir=$2
   shift 2
   TESTLOGS+=("$name:$dir/ctest.log")
-  OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive} ctest --test-dir "$dir" --output-on-failure --no-tests=error --parallel "$JOBS" "$@" |
+  ctest --test-dir "$dir" --output-on-failure --no-tests=error --parallel "$JOBS" "$@" |
     tee "$dir/ctest.log"
 }
 

@@ -115,7 +115,7 @@ def doc_text(page):
 
 WORK = tempfile.mkdtemp(prefix="aerovo_docs_")
 INPUTS = os.path.join(WORK, "inputs")
-ENV = dict(os.environ, OMP_WAIT_POLICY="passive")
+ENV = dict(os.environ)
 ENV.pop("AEROVO_SIMD", None)
 
 

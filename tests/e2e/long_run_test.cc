@@ -97,8 +97,8 @@ TEST(LongRun, TenThousandFramesWithFlatMemory) {
   c.telemetry = (dir / "telemetry.srt").string();
   c.out = (dir / "run").string();
   c.hfov_deg = 73.7;
-  // One thread: OpenMP workers spinning on a shared 2-core CI machine cost more than they give
-  // on 320x240 frames (BENCHMARKS.md, OMP_WAIT_POLICY).
+  // One thread: on 320x240 frames a second thread gives little, and the test's figure is the
+  // per-frame path's memory, not its speed.
   c.odometry.surf.num_threads = 1;
   c.odometry.correspondence.match.num_threads = 1;
   c.quiet = true;

@@ -5,19 +5,14 @@
 
 #include <unistd.h>
 
-#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
-#include <map>
 #include <regex>
 #include <set>
 #include <sstream>
 #include <string>
-#include <utility>
-#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -424,93 +419,6 @@ TEST(CliConventions, BashCompletionListsEverySubcommandAndRunFlag) {
     ++n;
   }
   EXPECT_GT(n, 60) << "run lists every option of the schema";
-}
-
-// OpenMP threads wait passively unless the user chose (main.cc, PreferPassiveOpenMpWaits: aerovo
-// executes itself again with OMP_WAIT_POLICY=passive). OMP_DISPLAY_ENV=verbose makes the
-// runtime print its settings when it initialises, once per process start (libgomp when it is
-// loaded; LLVM's libomp, of the clang builds, at the first OpenMP call, which `--threads 0`
-// makes): how long a waiting thread spins, GOMP_SPINCOUNT (libgomp: 0 passive, 300000 by
-// default) or KMP_BLOCKTIME (libomp, ms: 0 passive, 200 by default). The process that does the
-// work prints last. With the variable set, aerovo starts once (scripts/test.sh sets it for the
-// tests: BENCHMARKS.md, "Every aerovo command starts twice").
-TEST(CliConventions, OpenMpWaitsPassivelyUnlessTheUserChose) {
-  const std::filesystem::path dir = testing::FreshTempDir("aerovo_cli_omp", "image");
-  const std::filesystem::path tiff = dir / "noise.tif";
-  {
-    // A 96x96 8-bit grey baseline TIFF (TIFF 6.0, little-endian, one uncompressed strip) of
-    // pseudo-random grey levels: header, the pixels at offset 8, then the IFD.
-    constexpr std::uint32_t kSide = 96, kPixels = kSide * kSide, kIfd = 8 + kPixels;
-    std::string b;
-    const auto u16 = [&](std::uint32_t v) { b += char(v & 0xff), b += char((v >> 8) & 0xff); };
-    const auto u32 = [&](std::uint32_t v) { u16(v & 0xffff), u16(v >> 16); };
-    b += "II";
-    u16(42);
-    u32(kIfd);
-    std::uint32_t state = 12345;
-    for (std::uint32_t i = 0; i < kPixels; ++i) {
-      state = state * 1103515245u + 12345u;
-      b += static_cast<char>((state >> 16) & 0xff);
-    }
-    const std::uint32_t entries[][3] = {// tag, type (3 SHORT, 4 LONG), value
-                                        {256, 3, kSide}, {257, 3, kSide}, {258, 3, 8},
-                                        {259, 3, 1},     {262, 3, 1},     {273, 4, 8},
-                                        {277, 3, 1},     {278, 3, kSide}, {279, 4, kPixels}};
-    u16(std::size(entries));
-    for (const auto& e : entries) {
-      u16(e[0]), u16(e[1]), u32(1);
-      if (e[1] == 3)
-        u16(e[2]), u16(0);
-      else
-        u32(e[2]);
-    }
-    u32(0);  // no next IFD
-    std::ofstream(tiff, std::ios::binary) << b;
-  }
-  const std::string detect =
-      std::string(AEROVO_CLI_PATH) + " features detect " + tiff.string() + " --threads 0 2>&1";
-  // Each runtime's spin setting: {name, value}.
-  const auto spins = [](const std::string& out) {
-    std::vector<std::pair<std::string, std::string>> found;
-    const std::regex spin("(GOMP_SPINCOUNT|KMP_BLOCKTIME) *= *'([0-9]+)'");
-    for (auto it = std::sregex_iterator(out.begin(), out.end(), spin); it != std::sregex_iterator();
-         ++it) {
-      found.emplace_back((*it)[1], (*it)[2]);
-    }
-    return found;
-  };
-  // Each runtime's last setting, and whether any runtime printed twice (two starts).
-  struct Spins {
-    std::map<std::string, std::string> last;
-    bool started_twice = false;
-    std::string out;
-  };
-  const auto run = [&](const std::string& env) {
-    const testing::CommandOutput c =
-        testing::RunCommand("env " + env + " OMP_DISPLAY_ENV=verbose " + detect);
-    EXPECT_EQ(c.ExitCode(), 0) << c.out;
-    EXPECT_TRUE(Has(c.out, "keypoints")) << c.out;
-    Spins s;
-    for (const auto& [name, value] : spins(c.out)) {
-      s.started_twice |= s.last.count(name) > 0;
-      s.last[name] = value;
-    }
-    EXPECT_FALSE(s.last.empty()) << c.out;
-    s.out = c.out;
-    return s;
-  };
-  const Spins by_default = run("-u OMP_WAIT_POLICY -u GOMP_SPINCOUNT");
-  for (const auto& [name, value] : by_default.last) {
-    EXPECT_EQ(value, "0") << name << "\n" << by_default.out;
-  }
-  const Spins passive = run("-u GOMP_SPINCOUNT OMP_WAIT_POLICY=passive");
-  EXPECT_FALSE(passive.started_twice) << passive.out;
-  for (const auto& [name, value] : passive.last)
-    EXPECT_EQ(value, "0") << name << "\n" << passive.out;
-  const Spins active = run("-u GOMP_SPINCOUNT OMP_WAIT_POLICY=active");
-  EXPECT_FALSE(active.started_twice) << active.out;
-  for (const auto& [name, value] : active.last) EXPECT_NE(value, "0") << name << "\n" << active.out;
-  std::filesystem::remove_all(dir);
 }
 
 #endif  // AEROVO_CLI_PATH

@@ -3,9 +3,8 @@
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
-#include <algorithm>
 #include <signal.h>
-#include <unistd.h>
+#include <algorithm>
 
 #include <cerrno>
 #include <cstdio>
@@ -88,23 +87,6 @@ void SetFooters(CLI::App& app) {
 
 namespace {
 
-// Passive OpenMP waits by default: libgomp's threads spin up to ~300,000 iterations
-// before sleeping at the end of each parallel region, which on a machine whose cores are shared
-// with other work (an autopilot link, an encoder, a logger) steals the CPU those need and halves
-// a 1080p run's speed (BENCHMARKS.md, "Busy machine"). libgomp reads OMP_WAIT_POLICY and
-// GOMP_SPINCOUNT once, when it is loaded, before main runs: setting them here is too late for
-// this process, so aerovo sets OMP_WAIT_POLICY=passive and executes itself again, once
-// (/proc/self/exe, the same arguments). A user who sets either variable keeps it (and no
-// re-execution happens); if the re-execution fails, the run goes on with libgomp's defaults.
-void PreferPassiveOpenMpWaits(char** argv) {
-  if (std::getenv("OMP_WAIT_POLICY") != nullptr || std::getenv("GOMP_SPINCOUNT") != nullptr) {
-    return;
-  }
-  if (::setenv("OMP_WAIT_POLICY", "passive", 1) != 0) return;
-  ::execv("/proc/self/exe", argv);
-  ::unsetenv("OMP_WAIT_POLICY");  // exec failed: nothing changed
-}
-
 // A file size limit (`ulimit -f`, RLIMIT_FSIZE) is a full disk for one file: SIGXFSZ's default
 // action kills the process in the middle of a write, leaving that file cut and no summary.json.
 // Ignored, the write fails with EFBIG ("File too large") and takes the full-disk path (outputs/
@@ -114,7 +96,6 @@ void TreatFileSizeLimitsAsWriteErrors() { ::signal(SIGXFSZ, SIG_IGN); }
 }  // namespace
 
 int main(int argc, char** argv) {
-  PreferPassiveOpenMpWaits(argv);
   TreatFileSizeLimitsAsWriteErrors();
   using namespace aerovo::cli;
   CLI::App app{

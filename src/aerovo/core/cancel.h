@@ -6,9 +6,9 @@
 // loops by a CancelScope for the duration of a VisualOdometry::Process call; the loops call
 // CancelRequested() every few hundred rows, points or trials (one relaxed atomic load: nothing
 // measurable per point) and, when it is set, stop and throw Cancelled once they have left any
-// OpenMP region. Process-wide rather than passed through every signature: a stop request is
-// for the process (the signal handlers are process-wide too), and the OpenMP worker threads
-// see it. Without a scope CancelRequested() is always false.
+// parallel loop (core/parallel.h). Process-wide rather than passed through every signature: a
+// stop request is for the process (the signal handlers are process-wide too), and the loops'
+// worker threads see it. Without a scope CancelRequested() is always false.
 #pragma once
 
 #include <atomic>

@@ -102,10 +102,10 @@ inline constexpr Spec Interval(double lo, double hi, bool lo_open = false, bool 
   return s;
 }
 
-/// The upper bound of a thread-count option (SURF's, matching's; 0 = one per core): OpenMP
-/// starts that many threads per parallel region, and 100000 of them crashed `aerovo run`
-/// (threads that could not be created: a segmentation fault, exit 139) or exhausted memory on
-/// their scratch buffers. 256 is 2 per hardware thread of a two-socket server.
+/// The upper bound of a thread-count option (SURF's, matching's; 0 = one per core): a loop
+/// (core/parallel.h) keeps that many threads, each with its scratch buffers; under OpenMP,
+/// 100000 of them crashed `aerovo run` (threads that could not be created: a segmentation
+/// fault, exit 139) or exhausted memory. 256 is 2 per hardware thread of a two-socket server.
 inline constexpr int kMaxOptionThreads = 256;
 
 /// Shortest text that reads back as the same value ("1.5", "-1", "1e+300", "nan").

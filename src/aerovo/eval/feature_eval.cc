@@ -12,6 +12,7 @@
 
 #include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
+#include "aerovo/core/parallel.h"
 #include "aerovo/core/timer.h"
 
 namespace aerovo {
@@ -363,11 +364,12 @@ PairScore ScoreImagePair(const std::vector<cv::KeyPoint>& keypoints1, const cv::
   std::vector<double> area2(r2t.size());
   for (std::size_t j = 0; j < r2t.size(); ++j) area2[j] = RegionArea(r2t[j]);
   std::vector<Candidate> candidates;
-#pragma omp parallel
-  {
-    std::vector<Candidate> local;
-#pragma omp for schedule(dynamic, 16) nowait
-    for (int a = 0; a < score.n1; ++a) {
+  // Per-worker lists, joined in worker order; the sort below makes the order of the result
+  // independent of the schedule (Candidate's order is total).
+  const int threads = ResolveThreadCount(0);
+  std::vector<std::vector<Candidate>> local(threads);
+  ParallelFor(threads, score.n1, 16, [&](long a_begin, long a_end, int worker) {
+    for (int a = static_cast<int>(a_begin); a < a_end; ++a) {
       const EllipticRegion& p = r1[keep1[a]];
       const double radius = RegionRadius(p);
       const double max_d2 = 16.0 * radius * radius;
@@ -378,12 +380,12 @@ PairScore ScoreImagePair(const std::vector<cv::KeyPoint>& keypoints1, const cv::
         // Areas scale alike under the normalisation, so the ratio bound holds unscaled.
         if (std::min(area1, area2[b]) < min_area_ratio * std::max(area1, area2[b])) continue;
         const double err = NormalisedOverlapError(p, r2t[b], options.normalised_radius_px);
-        if (err <= max_err) local.push_back({err, a, b});
+        if (err <= max_err) local[worker].push_back({err, a, b});
       }
     }
-#pragma omp critical
-    candidates.insert(candidates.end(), local.begin(), local.end());
-  }
+  });
+  for (const std::vector<Candidate>& l : local)
+    candidates.insert(candidates.end(), l.begin(), l.end());
   std::sort(candidates.begin(), candidates.end());
   {
     std::vector<char> used1(score.n1, 0), used2(score.n2, 0);

@@ -1,8 +1,6 @@
 #include "aerovo/features/surf.h"
 #include "aerovo/core/cancel.h"
 
-#include <omp.h>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -13,6 +11,7 @@
 #include <utility>
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/parallel.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/features/hessian.h"
 #include "aerovo/features/integral_image.h"
@@ -97,9 +96,7 @@ inline float FastAtan2(float y, float x) {
   return a;
 }
 
-int ResolveThreads(int requested) {
-  return requested == 0 ? std::max(1, omp_get_num_procs()) : requested;
-}
+int ResolveThreads(int requested) { return ResolveThreadCount(requested); }
 
 void CheckImage(const GrayImageView& image) {
   if (image.data == nullptr || image.width <= 0 || image.height <= 0) {
@@ -348,11 +345,12 @@ struct Surf::Impl {
     const int threads = ResolveThreads(options.num_threads);
     const std::vector<std::uint32_t>& sorted = SpatialOrder(kps);
     const long n = static_cast<long>(kps.size());
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 32)
-    for (long k = 0; k < n; ++k) {
-      if (CancelRequested()) continue;  // thrown below
-      fn(sorted[k]);
-    }
+    ParallelFor(threads, n, 32, [&](long begin, long end, int /*worker*/) {
+      for (long k = begin; k < end; ++k) {
+        if (CancelRequested()) return;  // thrown below
+        fn(sorted[k]);
+      }
+    });
     ThrowIfCancelled(stage);
   }
 
@@ -706,126 +704,127 @@ std::vector<Keypoint> Surf::Impl::FastHessian(float threshold, const RectI* scan
     if (static_cast<int>(rings.size()) < threads) rings.resize(threads);
     const std::size_t ring_floats = static_cast<std::size_t>(3) * levels * grid_w;
 
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 1)
-    for (int b = 0; b < bands; ++b) {
-      const int cb = c_begin + static_cast<int>(static_cast<long>(rows) * b / bands);
-      const int ce = c_begin + static_cast<int>(static_cast<long>(rows) * (b + 1) / bands);
-      std::vector<float>& ring = rings[threads > 1 ? omp_get_thread_num() : 0];
-      if (ring.size() < ring_floats) ring.resize(ring_floats);
-      const auto row_of = [&](int l, int r) {
-        return ring.data() + (static_cast<std::size_t>(l) * 3 + r % 3) * grid_w;
-      };
-      std::vector<Keypoint>& out = found[b];
-      SelectionBar* band_bar = early ? &band_bars[b] : nullptr;
-      for (int r = cb - 1; r <= ce; ++r) {
-        if ((r & 15) == 0 && CancelRequested()) break;  // core/cancel.h; thrown below
-        for (int l = 1; l + 1 < levels; ++l) {
-          const auto [j0, j1, i0, i1] = region[l];
-          if (r < i0 || r > i1 || j0 > j1) continue;
-          surf_detail::ComputeHessianRow(ii, layouts[l], r, j0, j1 + 1, row_of(l, r) + j0);
-        }
-        const int i = r - 1;  // Rows i - 1, i, i + 1 are ready.
-        if (i < cb || i >= ce) continue;
-        // Plain variables, not a structured binding: C++17 does not let a lambda capture one.
-        const std::pair<int, int> cy = cells_of(i, sel.y, sel.height);
-        const int cy0 = cy.first, cy1 = cy.second;
-        // The scan's threshold over a span: the floor, or in adaptive mode the lowest bar of
-        // the cells its points can fall in when that is higher (responses >= the bar pass).
-        // With cell floors (SetCellFloors), a cell's own requirement is the higher of its floor
-        // and its bar, and the span's threshold the lowest requirement of its cells.
-        const auto span_threshold = [&](const ColumnSpan& s) {
-          if (band_bar == nullptr) return threshold;
-          const auto need = [&](int c) {
-            const float b = JustBelow(band_bar->Bar(c));
-            return cell_floor.empty() ? b : std::max(cell_floor[c], b);
-          };
-          const float t = std::min(std::min(need(cy0 * g + s.cx0), need(cy0 * g + s.cx1)),
-                                   std::min(need(cy1 * g + s.cx0), need(cy1 * g + s.cx1)));
-          return std::max(threshold, t);
+    ParallelFor(threads, bands, 1, [&](long band_begin, long band_end, int worker) {
+      for (int b = static_cast<int>(band_begin); b < band_end; ++b) {
+        const int cb = c_begin + static_cast<int>(static_cast<long>(rows) * b / bands);
+        const int ce = c_begin + static_cast<int>(static_cast<long>(rows) * (b + 1) / bands);
+        std::vector<float>& ring = rings[worker];
+        if (ring.size() < ring_floats) ring.resize(ring_floats);
+        const auto row_of = [&](int l, int r) {
+          return ring.data() + (static_cast<std::size_t>(l) * 3 + r % 3) * grid_w;
         };
-        for (int l = 1; l + 1 < levels; ++l) {
-          const auto [j0, j1, i0, i1] = cand[l];
-          if (i < i0 || i > i1 || j0 > j1) continue;
-          const float* m0 = row_of(l, i - 1);
-          const float* m1 = row_of(l, i);
-          const float* m2 = row_of(l, i + 1);
-          const bool lazy_lo = l - 1 == 0, lazy_hi = l + 1 == levels - 1;
-          // Whether sample j (above the threshold and a maximum of its 3x3 in the layer) is a
-          // keypoint: appended to `out`.
-          const auto examine = [&](int j) {
-            const float v = m1[j];
-            // 3x3 neighbourhoods of the three layers, row-major (stride 3); full neighbour
-            // layers are tested first (cheap), lazily evaluated ones last.
-            float n[3][9];
-            const auto copy3x3 = [&](int layer, float* dst) {
-              for (int di = 0; di < 3; ++di) {
-                const float* src = row_of(layer, i - 1 + di) + j - 1;
-                dst[di * 3] = src[0];
-                dst[di * 3 + 1] = src[1];
-                dst[di * 3 + 2] = src[2];
-              }
+        std::vector<Keypoint>& out = found[b];
+        SelectionBar* band_bar = early ? &band_bars[b] : nullptr;
+        for (int r = cb - 1; r <= ce; ++r) {
+          if ((r & 15) == 0 && CancelRequested()) break;  // core/cancel.h; thrown below
+          for (int l = 1; l + 1 < levels; ++l) {
+            const auto [j0, j1, i0, i1] = region[l];
+            if (r < i0 || r > i1 || j0 > j1) continue;
+            surf_detail::ComputeHessianRow(ii, layouts[l], r, j0, j1 + 1, row_of(l, r) + j0);
+          }
+          const int i = r - 1;  // Rows i - 1, i, i + 1 are ready.
+          if (i < cb || i >= ce) continue;
+          // Plain variables, not a structured binding: C++17 does not let a lambda capture one.
+          const std::pair<int, int> cy = cells_of(i, sel.y, sel.height);
+          const int cy0 = cy.first, cy1 = cy.second;
+          // The scan's threshold over a span: the floor, or in adaptive mode the lowest bar of
+          // the cells its points can fall in when that is higher (responses >= the bar pass).
+          // With cell floors (SetCellFloors), a cell's own requirement is the higher of its floor
+          // and its bar, and the span's threshold the lowest requirement of its cells.
+          const auto span_threshold = [&](const ColumnSpan& s) {
+            if (band_bar == nullptr) return threshold;
+            const auto need = [&](int c) {
+              const float b = JustBelow(band_bar->Bar(c));
+              return cell_floor.empty() ? b : std::max(cell_floor[c], b);
             };
-            // Evaluates the 3x3 neighbourhood of a lazily evaluated layer, centre first, and
-            // stops at the first value >= v (false: not a maximum). The same decision as
-            // evaluating all nine then IsMaximum, at a fraction of the cost on the many
-            // candidates of a low threshold (adaptive mode).
-            const auto eval3x3 = [&](int layer, float* dst) {
-              static constexpr int kOrder[9] = {4, 1, 3, 5, 7, 0, 2, 6, 8};
-              for (const int k : kOrder) {
-                dst[k] = surf_detail::HessianDeterminant(ii, layouts[layer], i - 1 + k / 3,
-                                                         j - 1 + k % 3);
-                if (!(v > dst[k])) return false;
+            const float t = std::min(std::min(need(cy0 * g + s.cx0), need(cy0 * g + s.cx1)),
+                                     std::min(need(cy1 * g + s.cx0), need(cy1 * g + s.cx1)));
+            return std::max(threshold, t);
+          };
+          for (int l = 1; l + 1 < levels; ++l) {
+            const auto [j0, j1, i0, i1] = cand[l];
+            if (i < i0 || i > i1 || j0 > j1) continue;
+            const float* m0 = row_of(l, i - 1);
+            const float* m1 = row_of(l, i);
+            const float* m2 = row_of(l, i + 1);
+            const bool lazy_lo = l - 1 == 0, lazy_hi = l + 1 == levels - 1;
+            // Whether sample j (above the threshold and a maximum of its 3x3 in the layer) is a
+            // keypoint: appended to `out`.
+            const auto examine = [&](int j) {
+              const float v = m1[j];
+              // 3x3 neighbourhoods of the three layers, row-major (stride 3); full neighbour
+              // layers are tested first (cheap), lazily evaluated ones last.
+              float n[3][9];
+              const auto copy3x3 = [&](int layer, float* dst) {
+                for (int di = 0; di < 3; ++di) {
+                  const float* src = row_of(layer, i - 1 + di) + j - 1;
+                  dst[di * 3] = src[0];
+                  dst[di * 3 + 1] = src[1];
+                  dst[di * 3 + 2] = src[2];
+                }
+              };
+              // Evaluates the 3x3 neighbourhood of a lazily evaluated layer, centre first, and
+              // stops at the first value >= v (false: not a maximum). The same decision as
+              // evaluating all nine then IsMaximum, at a fraction of the cost on the many
+              // candidates of a low threshold (adaptive mode).
+              const auto eval3x3 = [&](int layer, float* dst) {
+                static constexpr int kOrder[9] = {4, 1, 3, 5, 7, 0, 2, 6, 8};
+                for (const int k : kOrder) {
+                  dst[k] = surf_detail::HessianDeterminant(ii, layouts[layer], i - 1 + k / 3,
+                                                           j - 1 + k % 3);
+                  if (!(v > dst[k])) return false;
+                }
+                return true;
+              };
+              if (!lazy_lo) {
+                copy3x3(l - 1, n[0]);
+                if (!IsMaximum(v, n[0] + 4, 3)) return false;
               }
+              if (!lazy_hi) {
+                copy3x3(l + 1, n[2]);
+                if (!IsMaximum(v, n[2] + 4, 3)) return false;
+              }
+              if (lazy_lo && !eval3x3(l - 1, n[0])) return false;
+              if (lazy_hi && !eval3x3(l + 1, n[2])) return false;
+              copy3x3(l, n[1]);
+              float off[3];
+              if (!Interpolate(n[0] + 4, n[1] + 4, n[2] + 4, 3, off)) return false;
+              Keypoint kp;
+              kp.x = p * (j + off[0]) + centre_offset;
+              kp.y = p * (i + off[1]) + centre_offset;
+              if (options.roi && !options.roi->contains(kp.x, kp.y)) return false;
+              const float size = layouts[l].size + off[2] * (layouts[l].size - layouts[l - 1].size);
+              kp.scale = 1.2f * size / kBaseSize;
+              kp.response = v;
+              kp.laplacian = surf_detail::HessianTrace(ii, layouts[l], i, j) >= 0.f ? 1 : -1;
+              kp.octave = static_cast<std::int8_t>(octave);
+              out.push_back(kp);
               return true;
             };
-            if (!lazy_lo) {
-              copy3x3(l - 1, n[0]);
-              if (!IsMaximum(v, n[0] + 4, 3)) return false;
-            }
-            if (!lazy_hi) {
-              copy3x3(l + 1, n[2]);
-              if (!IsMaximum(v, n[2] + 4, 3)) return false;
-            }
-            if (lazy_lo && !eval3x3(l - 1, n[0])) return false;
-            if (lazy_hi && !eval3x3(l + 1, n[2])) return false;
-            copy3x3(l, n[1]);
-            float off[3];
-            if (!Interpolate(n[0] + 4, n[1] + 4, n[2] + 4, 3, off)) return false;
-            Keypoint kp;
-            kp.x = p * (j + off[0]) + centre_offset;
-            kp.y = p * (i + off[1]) + centre_offset;
-            if (options.roi && !options.roi->contains(kp.x, kp.y)) return false;
-            const float size = layouts[l].size + off[2] * (layouts[l].size - layouts[l - 1].size);
-            kp.scale = 1.2f * size / kBaseSize;
-            kp.response = v;
-            kp.laplacian = surf_detail::HessianTrace(ii, layouts[l], i, j) >= 0.f ? 1 : -1;
-            kp.octave = static_cast<std::int8_t>(octave);
-            out.push_back(kp);
-            return true;
-          };
-          for (const ColumnSpan& s : spans) {
-            const int a = std::max(s.j_begin, j0), e = std::min(s.j_end, j1 + 1);
-            if (a >= e) continue;
-            float t = span_threshold(s);
-            for (int j = next_in_layer_max(m0, m1, m2, a, e, t); j < e;
-                 j = next_in_layer_max(m0, m1, m2, j + 1, e, t)) {
-              if (!examine(j) || band_bar == nullptr) continue;
-              const Keypoint& kp = out.back();
-              const int cell =
-                  GridCell(kp.y, sel.y, sel.height, g) * g + GridCell(kp.x, sel.x, sel.width, g);
-              if (!cell_floor.empty() &&
-                  (!(kp.response > cell_floor[cell]) ||
-                   (!cell_ceiling.empty() && kp.response > cell_ceiling[cell]))) {
-                out.pop_back();  // outside its own cell's range: not a candidate
-                continue;
+            for (const ColumnSpan& s : spans) {
+              const int a = std::max(s.j_begin, j0), e = std::min(s.j_end, j1 + 1);
+              if (a >= e) continue;
+              float t = span_threshold(s);
+              for (int j = next_in_layer_max(m0, m1, m2, a, e, t); j < e;
+                   j = next_in_layer_max(m0, m1, m2, j + 1, e, t)) {
+                if (!examine(j) || band_bar == nullptr) continue;
+                const Keypoint& kp = out.back();
+                const int cell =
+                    GridCell(kp.y, sel.y, sel.height, g) * g + GridCell(kp.x, sel.x, sel.width, g);
+                if (!cell_floor.empty() &&
+                    (!(kp.response > cell_floor[cell]) ||
+                     (!cell_ceiling.empty() && kp.response > cell_ceiling[cell]))) {
+                  out.pop_back();  // outside its own cell's range: not a candidate
+                  continue;
+                }
+                band_bar->Add(cell, kp);
+                t = span_threshold(s);
               }
-              band_bar->Add(cell, kp);
-              t = span_threshold(s);
             }
           }
         }
       }
-    }
+    });
     for (int b = 0; b < bands; ++b) {
       keypoints.insert(keypoints.end(), found[b].begin(), found[b].end());
       if (!early) continue;

@@ -88,9 +88,8 @@ struct SurfOptions {
   /// simulated flight gives the same track at 20, 100 and 300, and the floor sets the cost of
   /// the adaptation: BENCHMARKS.md, "Adaptive interest points").
   double min_response = 100.0;
-  /// Threads for detection and description; 1 = single-threaded, 0 = all cores. Results are
-  /// identical for any value. On a machine shared with other busy processes, run with
-  /// OMP_WAIT_POLICY=passive (libgomp's spinning workers otherwise slow every call).
+  /// Threads for detection and description; 1 = single-threaded, 0 = one per core this process
+  /// may use (core/parallel.h). Results are identical for any value.
   int num_threads = 1;
 };
 

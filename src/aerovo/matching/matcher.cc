@@ -1,9 +1,8 @@
 #include "aerovo/matching/matcher.h"
 #include "aerovo/core/cancel.h"
 
-#include <omp.h>
-
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -12,6 +11,7 @@
 
 #include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
+#include "aerovo/core/parallel.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/matching/distance_kernels.h"
 #include "aerovo/matching/kd_forest.h"
@@ -123,9 +123,7 @@ ExactTop2 MakeExact(matching_detail::ExactFn exact, const float* q, int dim, int
   return e;
 }
 
-int ResolveThreads(int num_threads) {
-  return num_threads == 0 ? std::max(1, omp_get_max_threads()) : num_threads;
-}
+int ResolveThreads(int num_threads) { return ResolveThreadCount(num_threads); }
 
 void CheckFeatureSet(const FeatureSet& f, const char* which) {
   if (f.descriptor_size <= 0) {
@@ -459,24 +457,24 @@ std::int64_t Matcher::Impl::SearchExhaustive(const FeatureSet& fq, const std::ve
       comparisons >= kMinPairsForThreads ? ResolveThreads(options.num_threads) : 1;
   const int num_items = static_cast<int>(work.size());
   const matching_detail::TileFn tile = kernels->tile;
-#pragma omp parallel for schedule(dynamic, 1) \
-    num_threads(num_threads) if (num_threads > 1 && num_items > 1)
-  for (int w = 0; w < num_items; ++w) {
-    const WorkItem item = work[w];
-    for (int s = item.q_begin; s < item.q_end; ++s) matching_detail::ResetLanes(&lanes[s]);
-    for (int cb = c_begin[item.group]; cb < c_end[item.group]; cb += block) {
-      if (CancelRequested()) break;  // core/cancel.h; thrown after the loop
-      const int n = std::min(block, c_end[item.group] - cb);
-      const float* panels = c_panels.data() + static_cast<std::size_t>(cb) * dim;
-      for (int s = item.q_begin; s < item.q_end; s += kQueryTile) {
-        tile(q_rows.data() + static_cast<std::size_t>(s) * dim, dim, panels, c_norms.data() + cb,
-             cb, n, &lanes[s]);
+  ParallelFor(num_threads, num_items, 1, [&](long item_begin, long item_end, int /*worker*/) {
+    for (int w = static_cast<int>(item_begin); w < item_end; ++w) {
+      const WorkItem item = work[w];
+      for (int s = item.q_begin; s < item.q_end; ++s) matching_detail::ResetLanes(&lanes[s]);
+      for (int cb = c_begin[item.group]; cb < c_end[item.group]; cb += block) {
+        if (CancelRequested()) break;  // core/cancel.h; thrown after the loop
+        const int n = std::min(block, c_end[item.group] - cb);
+        const float* panels = c_panels.data() + static_cast<std::size_t>(cb) * dim;
+        for (int s = item.q_begin; s < item.q_end; s += kQueryTile) {
+          tile(q_rows.data() + static_cast<std::size_t>(s) * dim, dim, panels, c_norms.data() + cb,
+               cb, n, &lanes[s]);
+        }
+      }
+      for (int s = item.q_begin; s < item.q_end; ++s) {
+        slot_best[s] = matching_detail::ReduceLanes(lanes[s]);
       }
     }
-    for (int s = item.q_begin; s < item.q_end; ++s) {
-      slot_best[s] = matching_detail::ReduceLanes(lanes[s]);
-    }
-  }
+  });
   ThrowIfCancelled("descriptor matching");
   out->resize(qids.size());
   for (std::size_t k = 0; k < qids.size(); ++k) {
@@ -545,18 +543,18 @@ std::int64_t Matcher::Impl::SearchStreaming(const FeatureSet& fq, const std::vec
       comparisons >= kMinPairsForThreads ? ResolveThreads(options.num_threads) : 1;
   const int num_items = static_cast<int>(work.size());
   const matching_detail::StreamFn stream = kernels->stream;
-#pragma omp parallel for schedule(dynamic, 1) \
-    num_threads(num_threads) if (num_threads > 1 && num_items > 1)
-  for (int w = 0; w < num_items; ++w) {
-    const WorkItem item = work[w];
-    const float* panels =
-        c_panels.data() + static_cast<std::size_t>(item.q_begin) * dim * kPanelWidth;
-    for (int k = s_begin[item.group]; k < s_end[item.group]; k += kStreamRows) {
-      if (CancelRequested()) break;  // core/cancel.h; thrown after the loop
-      stream(&s_rows[k], &s_norms[k], &s_ids[k], dim, panels, item.q_end - item.q_begin,
-             &lanes[item.q_begin]);
+  ParallelFor(num_threads, num_items, 1, [&](long item_begin, long item_end, int /*worker*/) {
+    for (int w = static_cast<int>(item_begin); w < item_end; ++w) {
+      const WorkItem item = work[w];
+      const float* panels =
+          c_panels.data() + static_cast<std::size_t>(item.q_begin) * dim * kPanelWidth;
+      for (int k = s_begin[item.group]; k < s_end[item.group]; k += kStreamRows) {
+        if (CancelRequested()) break;  // core/cancel.h; thrown after the loop
+        stream(&s_rows[k], &s_norms[k], &s_ids[k], dim, panels, item.q_end - item.q_begin,
+               &lanes[item.q_begin]);
+      }
     }
-  }
+  });
   ThrowIfCancelled("descriptor matching");
   out->resize(qids.size());
   for (std::size_t k = 0; k < qids.size(); ++k) {
@@ -677,37 +675,38 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
   };
   // Rows of non-finite values only make the SSDs NaN until the throw below.
   const bool check = check_queries != nullptr;
-  int any_bad = 0;
-#pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads) if (num_threads > 1) \
-    reduction(|                                                                              \
-              : any_bad)
-  for (int o = 0; o < nq; ++o) {
-    if (CancelRequested()) continue;  // core/cancel.h; thrown after the loop
-    if (o + kGuidedPrefetchDistance < nq) {
-      const int ahead = o + kGuidedPrefetchDistance;
-      prefetch_row(fq.descriptor(qids[q_order[ahead]]));
-      const int c1 = std::min(cand_start[ahead + 1], cand_start[ahead] + kGuidedPrefetchRows);
-      for (int c = cand_start[ahead]; c < c1; ++c) prefetch_row(fc.descriptor(cand_ids[c]));
+  std::atomic<bool> any_bad{false};
+  ParallelFor(num_threads, nq, 64, [&](long o_begin, long o_end, int /*worker*/) {
+    for (int o = static_cast<int>(o_begin); o < o_end; ++o) {
+      if (CancelRequested()) return;  // core/cancel.h; thrown after the loop
+      if (o + kGuidedPrefetchDistance < nq) {
+        const int ahead = o + kGuidedPrefetchDistance;
+        prefetch_row(fq.descriptor(qids[q_order[ahead]]));
+        const int c1 = std::min(cand_start[ahead + 1], cand_start[ahead] + kGuidedPrefetchRows);
+        for (int c = cand_start[ahead]; c < c1; ++c) prefetch_row(fc.descriptor(cand_ids[c]));
+      }
+      const int k = q_order[o];
+      const int c0 = cand_start[o], num = cand_start[o + 1] - c0;
+      Best2 b{kInf, kInf, -1, -1};
+      const float* q = fq.descriptor(qids[k]);
+      if (check && AnyNonFinite(q, static_cast<std::size_t>(dim))) {
+        any_bad.store(true, std::memory_order_relaxed);
+      }
+      if (num > 2) {
+        list(q, dim, fc.descriptors.data(), cand_norms, cand_ids.data() + c0, num, iota.data(), &b);
+      } else if (num > 0) {
+        // The top two of at most two candidates are the candidates themselves, and MakeExact
+        // orders them by the exact SSD: the float ranking would change nothing.
+        b.j1 = cand_ids[c0];
+        b.j2 = num == 2 ? cand_ids[c0 + 1] : -1;
+      }
+      // Exact SSDs now, while the query and candidate rows are in cache.
+      (*out)[k] = MakeExact(kernels->exact, q, dim, b.j1, b.j1 >= 0 ? fc.descriptor(b.j1) : nullptr,
+                            b.j2, b.j2 >= 0 ? fc.descriptor(b.j2) : nullptr);
     }
-    const int k = q_order[o];
-    const int c0 = cand_start[o], num = cand_start[o + 1] - c0;
-    Best2 b{kInf, kInf, -1, -1};
-    const float* q = fq.descriptor(qids[k]);
-    if (check) any_bad |= AnyNonFinite(q, static_cast<std::size_t>(dim)) ? 1 : 0;
-    if (num > 2) {
-      list(q, dim, fc.descriptors.data(), cand_norms, cand_ids.data() + c0, num, iota.data(), &b);
-    } else if (num > 0) {
-      // The top two of at most two candidates are the candidates themselves, and MakeExact
-      // orders them by the exact SSD: the float ranking would change nothing.
-      b.j1 = cand_ids[c0];
-      b.j2 = num == 2 ? cand_ids[c0 + 1] : -1;
-    }
-    // Exact SSDs now, while the query and candidate rows are in cache.
-    (*out)[k] = MakeExact(kernels->exact, q, dim, b.j1, b.j1 >= 0 ? fc.descriptor(b.j1) : nullptr,
-                          b.j2, b.j2 >= 0 ? fc.descriptor(b.j2) : nullptr);
-  }
+  });
   ThrowIfCancelled("guided matching");
-  if (any_bad) CheckFinite(fq, qids, check_queries);  // throws for the lowest bad index
+  if (any_bad.load()) CheckFinite(fq, qids, check_queries);  // throws for the lowest bad index
   return comparisons;
 }
 
@@ -724,27 +723,29 @@ std::int64_t Matcher::Impl::SearchKdForest(const FeatureSet& fq, const std::vect
   out->resize(qids.size());
   const matching_detail::ListFn list = kernels->list;
   const int max_checks = options.kd_max_checks;
-  std::int64_t comparisons = 0;
+  std::atomic<std::int64_t> comparisons{0};
   // Each query's search depends only on the query and the forest, so the result does not
   // depend on the thread count or schedule.
-#pragma omp parallel for schedule(dynamic, 64) num_threads(num_threads) if (num_threads > 1) \
-    reduction(+ : comparisons)
-  for (int k = 0; k < nq; ++k) {
-    if (CancelRequested()) continue;  // core/cancel.h; thrown after the loop
-    const float* q = fq.descriptor(qids[k]);
-    const int g = GroupOf(fq.keypoints[qids[k]].laplacian, lap);
-    if (forest.group_size(g) == 0) {
-      (*out)[k] = ExactTop2{};
-      continue;
+  ParallelFor(num_threads, nq, 64, [&](long k_begin, long k_end, int worker) {
+    std::int64_t chunk_comparisons = 0;
+    for (int k = static_cast<int>(k_begin); k < k_end; ++k) {
+      if (CancelRequested()) break;  // core/cancel.h; thrown after the loop
+      const float* q = fq.descriptor(qids[k]);
+      const int g = GroupOf(fq.keypoints[qids[k]].laplacian, lap);
+      if (forest.group_size(g) == 0) {
+        (*out)[k] = ExactTop2{};
+        continue;
+      }
+      Best2 b;
+      chunk_comparisons += forest.Search(g, q, fc.descriptors.data(), cand_norms, iota.data(), list,
+                                         max_checks, &kd_scratch[worker], &b);
+      (*out)[k] = MakeExact(kernels->exact, q, dim, b.j1, b.j1 >= 0 ? fc.descriptor(b.j1) : nullptr,
+                            b.j2, b.j2 >= 0 ? fc.descriptor(b.j2) : nullptr);
     }
-    Best2 b;
-    comparisons += forest.Search(g, q, fc.descriptors.data(), cand_norms, iota.data(), list,
-                                 max_checks, &kd_scratch[omp_get_thread_num()], &b);
-    (*out)[k] = MakeExact(kernels->exact, q, dim, b.j1, b.j1 >= 0 ? fc.descriptor(b.j1) : nullptr,
-                          b.j2, b.j2 >= 0 ? fc.descriptor(b.j2) : nullptr);
-  }
+    comparisons.fetch_add(chunk_comparisons, std::memory_order_relaxed);
+  });
   ThrowIfCancelled("k-d forest matching");
-  return comparisons;
+  return comparisons.load();
 }
 
 Matcher::Matcher(const MatchOptions& options) : impl_(nullptr) {
