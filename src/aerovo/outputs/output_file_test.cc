@@ -195,7 +195,7 @@ TEST(OutputFile, FileSizeLimitOfTheKernelLeavesValidFiles) {
        {RunFileNames::kVoGeoJson, RunFileNames::kGpsGeoJson, RunFileNames::kVoFramesGeoJson}) {
     // TrackWriterSet starts every file in its constructor: each must exist and parse.
     ASSERT_TRUE(fs::exists(dir / name)) << name;
-    EXPECT_NO_THROW(nlohmann::json::parse(ReadText(dir / name))) << name;
+    EXPECT_TRUE(nlohmann::json::accept(ReadText(dir / name))) << name;
   }
   const std::string gpx = ReadText(dir / RunFileNames::kVoGpx);
   EXPECT_EQ(gpx.substr(gpx.size() - 24), "\n</trkseg></trk>\n</gpx>\n");

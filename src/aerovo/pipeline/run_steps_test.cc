@@ -778,7 +778,7 @@ TEST(RunSteps, OutputsWaitForTheHeadingThenWriteEveryFrame) {
   EXPECT_EQ(rows[3], "2,1,0,4.000000,0,1,1.000000");
   out.reset();
   for (const char* f : {"vo.geojson", "gps.geojson", "config.json"}) {
-    EXPECT_NO_THROW(nlohmann::json::parse(ReadText(dir / f))) << f;
+    EXPECT_TRUE(nlohmann::json::accept(ReadText(dir / f))) << f;
   }
   fs::remove_all(dir);
 }
