@@ -1,12 +1,14 @@
 #include "aerovo/core/parallel.h"
 
 #include <sched.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <exception>
+#include <memory>
 #include <mutex>
 #include <system_error>
 #include <thread>
@@ -133,7 +135,17 @@ void Run(int threads, long n, long chunk, ChunkFn fn, void* body) {
     for (long begin = 0; begin < n; begin += chunk) fn(body, begin, std::min(n, begin + chunk), 0);
     return;
   }
-  thread_local WorkerPool pool;
+  // The calling thread's pool. A child of fork() inherits the parent's pool but none of its
+  // threads (fork(2) copies the calling thread only), and its mutex may have been held by a
+  // worker at the fork: the child leaves that pool as it is, never destroyed (its threads
+  // cannot be joined), and starts its own. (libgomp's pool hung in such a child.)
+  thread_local std::unique_ptr<WorkerPool> pool;
+  thread_local pid_t pool_pid = 0;
+  if (pool == nullptr || pool_pid != ::getpid()) {
+    if (pool != nullptr) static_cast<void>(pool.release());
+    pool = std::make_unique<WorkerPool>();
+    pool_pid = ::getpid();
+  }
   Job job;
   job.n = n;
   job.chunk = chunk;
@@ -148,7 +160,7 @@ void Run(int threads, long n, long chunk, ChunkFn fn, void* body) {
   };
   {
     const InsideBody inside;
-    pool.Run(helpers, job);
+    pool->Run(helpers, job);
   }
   if (job.error) std::rethrow_exception(job.error);
 }

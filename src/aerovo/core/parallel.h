@@ -36,7 +36,8 @@ void Run(int threads, long n, long chunk, ChunkFn fn, void* body);
 /// (the system's thread limit) leave their share to the others. The first exception a body
 /// throws stops the handing out of chunks and is rethrown here once the running ones end.
 /// Each calling thread has its own workers, created at its first call that needs them and
-/// joined when it exits; several threads may call at once. Preconditions: n >= 0, chunk >= 1.
+/// joined when it exits; several threads may call at once; a child of fork() starts workers of
+/// its own (Python's multiprocessing). Preconditions: n >= 0, chunk >= 1.
 template <class Body>
 void ParallelFor(int threads, long n, long chunk, Body&& body) {
   parallel_detail::Run(

@@ -3,6 +3,10 @@
 #include "aerovo/core/parallel.h"
 
 #include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <signal.h>
 
 #include <algorithm>
 #include <atomic>
@@ -152,6 +156,39 @@ TEST(ParallelFor, IdleWorkersTakeNoCpu) {
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   EXPECT_LT(cpu_s() - before, 0.05) << "workers busy while idle";
   EXPECT_EQ(sum.load(), 64 * 63 / 2);
+}
+
+// A child of fork() (Python's multiprocessing) has the parent's pool but not its threads: its
+// loops run on workers of its own instead of waiting for the parent's forever.
+TEST(ParallelFor, AForkedChildRunsItsLoopsOnItsOwnWorkers) {
+  std::atomic<long> sum{0};
+  ParallelFor(2, 64, 1, [&](long begin, long, int) { sum += begin; });
+  ASSERT_EQ(sum.load(), 64 * 63 / 2);
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    std::atomic<long> s{0};
+    std::atomic<int> max_worker{0};
+    ParallelFor(2, 4000, 1, [&](long begin, long, int worker) {
+      s += begin;
+      if (worker > max_worker) max_worker = worker;
+      std::this_thread::sleep_for(std::chrono::microseconds(20));
+    });
+    ::_exit(s.load() == 4000L * 3999 / 2 && max_worker.load() == 1 ? 0 : 1);
+  }
+  int status = 0;
+  pid_t done = 0;
+  for (int i = 0; i < 1000 && done == 0; ++i) {  // up to 10 s
+    done = ::waitpid(child, &status, WNOHANG);
+    if (done == 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  if (done == 0) {
+    ::kill(child, SIGKILL);
+    ::waitpid(child, &status, 0);
+    FAIL() << "the child's loop did not finish in 10 s";
+  }
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "wrong sum or no second worker in the child";
 }
 
 TEST(ParallelFor, ThreadCountZeroIsTheCoresThisProcessMayUse) {
