@@ -141,10 +141,10 @@ void Run(int threads, long n, long chunk, ChunkFn fn, void* body) {
   // cannot be joined), and starts its own. (libgomp's pool hung in such a child.)
   thread_local std::unique_ptr<WorkerPool> pool;
   thread_local pid_t pool_pid = 0;
-  if (pool == nullptr || pool_pid != ::getpid()) {
+  if (const pid_t pid = ::getpid(); pool == nullptr || pool_pid != pid) {
     if (pool != nullptr) static_cast<void>(pool.release());
     pool = std::make_unique<WorkerPool>();
-    pool_pid = ::getpid();
+    pool_pid = pid;
   }
   Job job;
   job.n = n;

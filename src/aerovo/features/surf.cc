@@ -96,8 +96,6 @@ inline float FastAtan2(float y, float x) {
   return a;
 }
 
-int ResolveThreads(int requested) { return ResolveThreadCount(requested); }
-
 void CheckImage(const GrayImageView& image) {
   if (image.data == nullptr || image.width <= 0 || image.height <= 0) {
     throw InvalidArgument("Surf: the image is empty (" + std::to_string(image.width) + "x" +
@@ -342,7 +340,7 @@ struct Surf::Impl {
   // Cancelled naming `stage`. fn must only touch keypoint k's own data.
   template <class Fn>
   void ForEachInSpatialOrder(const std::vector<Keypoint>& kps, const char* stage, Fn&& fn) {
-    const int threads = ResolveThreads(options.num_threads);
+    const int threads = ResolveThreadCount(options.num_threads);
     const std::vector<std::uint32_t>& sorted = SpatialOrder(kps);
     const long n = static_cast<long>(kps.size());
     ParallelFor(threads, n, 32, [&](long begin, long end, int /*worker*/) {
@@ -576,7 +574,7 @@ void Surf::Impl::Select(std::vector<Keypoint>& kps) {
 std::vector<Keypoint> Surf::Impl::FastHessian(float threshold, const RectI* scan) {
   const int W = ii.width(), H = ii.height();
   const int levels = options.num_scale_levels;
-  const int threads = ResolveThreads(options.num_threads);
+  const int threads = ResolveThreadCount(options.num_threads);
   // Samples above the threshold that are maxima of their 3x3 in the layer (SIMD, hessian.h).
   const surf_detail::InLayerMaximumFn next_in_layer_max = surf_detail::ActiveInLayerMaximum();
   std::vector<Keypoint> keypoints;

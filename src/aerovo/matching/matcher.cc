@@ -123,8 +123,6 @@ ExactTop2 MakeExact(matching_detail::ExactFn exact, const float* q, int dim, int
   return e;
 }
 
-int ResolveThreads(int num_threads) { return ResolveThreadCount(num_threads); }
-
 void CheckFeatureSet(const FeatureSet& f, const char* which) {
   if (f.descriptor_size <= 0) {
     throw InvalidArgument(std::string("Matcher::Match: ") + which + ".descriptor_size is " +
@@ -454,7 +452,7 @@ std::int64_t Matcher::Impl::SearchExhaustive(const FeatureSet& fq, const std::ve
   const int block = std::max(
       kCandStep, kBlockBytes / (dim * static_cast<int>(sizeof(float))) / kCandStep * kCandStep);
   const int num_threads =
-      comparisons >= kMinPairsForThreads ? ResolveThreads(options.num_threads) : 1;
+      comparisons >= kMinPairsForThreads ? ResolveThreadCount(options.num_threads) : 1;
   const int num_items = static_cast<int>(work.size());
   const matching_detail::TileFn tile = kernels->tile;
   ParallelFor(num_threads, num_items, 1, [&](long item_begin, long item_end, int /*worker*/) {
@@ -540,7 +538,7 @@ std::int64_t Matcher::Impl::SearchStreaming(const FeatureSet& fq, const std::vec
     }
   }
   const int num_threads =
-      comparisons >= kMinPairsForThreads ? ResolveThreads(options.num_threads) : 1;
+      comparisons >= kMinPairsForThreads ? ResolveThreadCount(options.num_threads) : 1;
   const int num_items = static_cast<int>(work.size());
   const matching_detail::StreamFn stream = kernels->stream;
   ParallelFor(num_threads, num_items, 1, [&](long item_begin, long item_end, int /*worker*/) {
@@ -591,7 +589,7 @@ std::int64_t Matcher::Impl::SearchGuided(const FeatureSet& fq, const std::vector
   // the comparisons it speeds up.
   EnsureIota(fc.size());
   const int num_threads = static_cast<int>(qids.size()) >= kMinGuidedQueriesForThreads
-                              ? ResolveThreads(options.num_threads)
+                              ? ResolveThreadCount(options.num_threads)
                               : 1;
   out->resize(qids.size());
   const int nq = static_cast<int>(qids.size());
@@ -718,7 +716,8 @@ std::int64_t Matcher::Impl::SearchKdForest(const FeatureSet& fq, const std::vect
   const bool lap = options.check_laplacian;
   EnsureIota(fc.size());
   const int nq = static_cast<int>(qids.size());
-  const int num_threads = nq >= kMinKdQueriesForThreads ? ResolveThreads(options.num_threads) : 1;
+  const int num_threads =
+      nq >= kMinKdQueriesForThreads ? ResolveThreadCount(options.num_threads) : 1;
   if (kd_scratch.size() < static_cast<std::size_t>(num_threads)) kd_scratch.resize(num_threads);
   out->resize(qids.size());
   const matching_detail::ListFn list = kernels->list;
