@@ -25,7 +25,7 @@ inline void CheckResult(const TelemetryReadResult& r, const TelemetryReadOptions
   Check(static_cast<std::size_t>(r.records) == r.telemetry.size());
   Check(r.skipped_records >= 0 && r.no_fix_records >= 0);
   Check(options.lenient || r.skipped_records == 0);
-  Check(static_cast<int>(r.warnings.size()) <= options.max_warnings + 1);
+  Check(static_cast<int>(r.warnings.size()) <= options.max_warnings + kMaxReadNotes);
   double last = -INFINITY;
   int without_fix = 0;
   for (const TelemetrySample& s : r.telemetry.samples()) {

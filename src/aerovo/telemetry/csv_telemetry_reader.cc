@@ -590,7 +590,7 @@ TelemetryReadResult ParseTelemetryCsv(std::istream& in, const std::string& sourc
     for (TelemetrySample& s : samples) s.unix_time_s = s.time_s + *unix_minus_time;
   } else if (elapsed_and_date && !first_bad_date.empty()) {
     // The elapsed time is read; the dates are not (another clock format): said, not hidden.
-    errors.warnings().push_back(fmt::format(
+    errors.Note(fmt::format(
         "{}:{}: column '{}' holds '{}', not a date aerovo reads: absolute times (unix_time_s) "
         "not set",
         source_name, first_bad_date_line,

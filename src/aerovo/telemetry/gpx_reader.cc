@@ -201,13 +201,11 @@ TelemetryReadResult ParseGpx(std::istream& in, const std::string& source_name,
         dropped = true;
       }
     }
-    if (static_cast<int>(errors.warnings().size()) < options.max_warnings) {
-      errors.warnings().push_back(fmt::format(
-          "{}:{}: the file ends before the end of its GPX document ({}: a log whose writing "
-          "stopped): read up to there{}",
-          source_name, lines.LineOf(parsed.offset), parsed.description(),
-          dropped ? ", the point cut there dropped" : ""));
-    }
+    errors.Note(fmt::format(
+        "{}:{}: the file ends before the end of its GPX document ({}: a log whose writing "
+        "stopped): read up to there{}",
+        source_name, lines.LineOf(parsed.offset), parsed.description(),
+        dropped ? ", the point cut there dropped" : ""));
   }
 
   std::vector<ParsedPoint> parsed_points;
@@ -222,7 +220,7 @@ TelemetryReadResult ParseGpx(std::istream& in, const std::string& source_name,
   std::vector<TelemetrySample> samples;
   if (!any_time) {
     if (!parsed_points.empty()) {
-      errors.warnings().push_back(
+      errors.Note(
           fmt::format("{}: no <time> in any point: time_s is the point's rank", source_name));
     }
     for (std::size_t k = 0; k < parsed_points.size(); ++k) {

@@ -363,6 +363,8 @@ void RecordErrors::ReportMessage(const std::string& full_message) {
   }
 }
 
+void RecordErrors::Note(std::string message) { notes_.push_back(std::move(message)); }
+
 bool AcceptSample(const TelemetrySample& sample, long line, RecordErrors& errors) {
   try {
     ValidateSample(sample, errors.At(line));
@@ -435,10 +437,10 @@ void SpreadRepeatedTimes(std::vector<TelemetrySample>& samples, RecordErrors& er
     ++runs;
     records += static_cast<int>(run.count);
   }
-  if (runs == 1) errors.warnings().push_back(first);
+  if (runs == 1) errors.Note(first);
   if (runs > 1) {
-    errors.warnings().push_back(fmt::format(
-        "{}; {} more such runs ({} records in all) spread the same way", first, runs - 1, records));
+    errors.Note(fmt::format("{}; {} more such runs ({} records in all) spread the same way", first,
+                            runs - 1, records));
   }
 }
 
@@ -461,6 +463,7 @@ TelemetryReadResult Finish(std::vector<TelemetrySample> samples, RecordErrors& e
   r.skipped_records = errors.skipped();
   r.no_fix_records = no_fix_records;
   r.warnings = std::move(errors.warnings());
+  r.warnings.insert(r.warnings.end(), errors.notes().begin(), errors.notes().end());
   r.telemetry = Telemetry(std::move(samples), errors.source());
   return r;
 }

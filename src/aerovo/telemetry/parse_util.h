@@ -113,13 +113,21 @@ class RecordErrors {
   std::string At(long line) const;  ///< "<source>:<line>"
   const std::string& source() const { return source_; }
   int skipped() const { return skipped_; }
+  /// Messages of skipped records and damaged bytes; a reader keeps at most max_warnings here.
   std::vector<std::string>& warnings() { return warnings_; }
+  /// A fact about how the file as a whole was read (its dates not read, its times spread, its
+  /// document cut short): kept whatever the number of record messages, after them in
+  /// TelemetryReadResult::warnings (Finish). A reader notes each fact once, so that a file
+  /// gets at most kMaxReadNotes (telemetry_readers.h; the fuzz targets check it).
+  void Note(std::string message);
+  const std::vector<std::string>& notes() const { return notes_; }
 
  private:
   TelemetryReadOptions options_;
   std::string source_;
   int skipped_ = 0;
   std::vector<std::string> warnings_;
+  std::vector<std::string> notes_;
 };
 
 /// ValidateSample at "<source>:<line>"; a failure goes through errors (throw or skip).
@@ -128,7 +136,8 @@ bool AcceptSample(const TelemetrySample& sample, long line, RecordErrors& errors
 /// Opens a text file for the readers; throws InputError "cannot open '<path>': <reason>".
 std::ifstream OpenInput(const std::filesystem::path& path);
 
-/// Builds the result: sorts, fills counts; throws InputError when `samples` is empty.
+/// Builds the result: sorts, spreads repeated times (a note), fills counts, puts the record
+/// messages and then the notes in `warnings`; throws InputError when `samples` is empty.
 TelemetryReadResult Finish(std::vector<TelemetrySample> samples, RecordErrors& errors,
                            int no_fix_records, const char* what);
 

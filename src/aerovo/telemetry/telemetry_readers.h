@@ -12,6 +12,10 @@
 //  - strict (default, TelemetryReadOptions::lenient = false): the first one throws InputError;
 //  - lenient: the record is skipped, counted in TelemetryReadResult::skipped_records, and its
 //    message kept in `warnings` (the first max_warnings of them).
+// Facts about how a file as a whole was read (its dates not read, records on a coarse clock
+// spread in time, a GPX document cut short, no time in any point) follow the record messages in
+// `warnings` in both modes, whatever their number: at most kMaxReadNotes. ReadTelemetryFile puts
+// one more line first when it recognised the format by content, not by extension.
 // In both modes a file with no valid record at all throws InputError ("no telemetry samples").
 // Records that say "no GPS fix" (DJI writes latitude 0 and longitude 0, or "N/A", before the fix)
 // are not damage: in DJI SRT files they are samples with has_fix = false that keep their heights
@@ -46,6 +50,12 @@ struct TelemetryReadOptions {
   int max_warnings = 20;
 };
 
+/// Notes about a file as a whole kept after the record messages in TelemetryReadResult::warnings
+/// (see above): a parser's warnings hold at most max_warnings + kMaxReadNotes lines.
+/// Two today: a CSV file's dates not read and its times spread; a GPX document cut short and
+/// its times spread, or no time in any point.
+inline constexpr int kMaxReadNotes = 2;
+
 /// Throws InvalidArgument when max_warnings < 0.
 void Validate(const TelemetryReadOptions& options);
 
@@ -54,7 +64,9 @@ struct TelemetryReadResult {
   int records = 0;          ///< Records accepted (== telemetry.size()).
   int skipped_records = 0;  ///< Malformed records skipped (lenient mode only).
   int no_fix_records = 0;   ///< Records without a GPS fix (latitude = longitude = 0, "N/A").
-  std::vector<std::string> warnings;  ///< "<source>:<line>: <problem>" of skipped records.
+  /// "<source>:<line>: <problem>" of skipped records and damaged bytes (at most max_warnings),
+  /// then the notes about the file as a whole (at most kMaxReadNotes).
+  std::vector<std::string> warnings;
 };
 
 /// DJI .SRT subtitles. Each subtitle block is: a number line, a timing line

@@ -924,6 +924,42 @@ TEST(Csv, RecordsSharingATimeAreSpreadOverTheClocksStep) {
   EXPECT_THAT(d.warnings[0], HasSubstr("dup.csv:6: 2 records share the time 0.300 s"));
 }
 
+// What a file as a whole says (its dates not read, its records on a coarse clock spread) is kept
+// however many record messages came first, after them, and within max_warnings +
+// kMaxReadNotes (fuzz_csv found a file with both notes and more skipped rows than max_warnings).
+TEST(Csv, NotesAboutTheWholeFileFollowTheRecordMessagesWhateverTheirNumber) {
+  std::string text = "CUSTOM.updateTime [local],OSD.flyTime [s],OSD.latitude,OSD.longitude\n";
+  for (int k = 0; k < 5; ++k) text += "x,1,2\n";  // 3 fields: skipped
+  text +=
+      "2:11:51.20 PM,0.1,28.0,-82.0\n"
+      "2:11:51.20 PM,0.1,28.00001,-82.0\n"
+      "2:11:51.30 PM,0.2,28.00002,-82.0\n";
+  TelemetryReadOptions lenient;
+  lenient.lenient = true;
+  lenient.max_warnings = 2;
+  std::istringstream in(text);
+  const TelemetryReadResult r = ParseTelemetryCsv(in, "notes.csv", lenient);
+  EXPECT_EQ(r.records, 3);
+  EXPECT_EQ(r.skipped_records, 5);
+  ASSERT_EQ(r.warnings.size(), 2u + kMaxReadNotes);
+  EXPECT_THAT(r.warnings[0], HasSubstr("notes.csv:2: 3 fields, the header has 4"));
+  EXPECT_THAT(r.warnings[1], HasSubstr("notes.csv:3: 3 fields, the header has 4"));
+  EXPECT_THAT(r.warnings[2], HasSubstr("notes.csv:7: column 'CUSTOM.updateTime [local]' holds "
+                                       "'2:11:51.20 PM', not a date"));
+  EXPECT_THAT(r.warnings[3], HasSubstr("notes.csv:7: 2 records share the time 0.100 s but not "
+                                       "the position"));
+  EXPECT_NEAR(r.telemetry[1].time_s, 0.15, 1e-9);
+
+  // No record message at all (max_warnings 0): the notes stay.
+  lenient.max_warnings = 0;
+  std::istringstream again(text);
+  const TelemetryReadResult quiet = ParseTelemetryCsv(again, "notes.csv", lenient);
+  EXPECT_EQ(quiet.skipped_records, 5);
+  ASSERT_EQ(quiet.warnings.size(), 2u);
+  EXPECT_THAT(quiet.warnings[0], HasSubstr("not a date"));
+  EXPECT_THAT(quiet.warnings[1], HasSubstr("share the time"));
+}
+
 // One time for every record and different places: nothing says when each was, so the read
 // stops (a guess would be a silently wrong track); frame indices place them instead.
 TEST(Csv, OneTimeForEveryRecordIsAnErrorUnlessFramesPlaceThem) {
