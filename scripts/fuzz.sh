@@ -11,7 +11,10 @@
 #   FUZZ_BUILD_ONLY=1     build the targets, do not run them (scripts/test.sh times them apart)
 #   FUZZ_JOBS             targets fuzzed at a time (default: the number of cores)
 #   FUZZ_STATS=file.md    append a Markdown table row per target (for BENCHMARKS.md)
-# Reproduce a finding: <build>/fuzz/fuzz_<target> <artifact file>
+# Reproduce a finding: <build>/fuzz/fuzz_<target> <artifact file>. A failure also prints the
+# sanitizer's or libFuzzer's report with its stack, the run's seed and each input found (up to
+# 16 KiB, base64), so that a log alone reproduces it (a CI clone is gone after the run):
+#   base64 -d > crash <<'EOF' ... EOF; <build>/fuzz/fuzz_<target> crash
 # The corpus grown by a run stays in <build>/fuzz-corpus/<target>/ (not in the repository).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -59,6 +62,25 @@ run_target() {  # run_target T: fuzzes T, writes its table row to $B/fuzz-logs/T
   return "$rc"
 }
 
+# report_failure T LOG ARTIFACTS: the report from its first line (with the stack that follows),
+# the seed, and every input saved, base64-encoded (inputs over 16 KiB: only their size).
+report_failure() {
+  local t=$1 log=$2 artifacts=$3 f size
+  grep -m1 -E '^INFO: Seed: ' "$log" || true
+  awk '/ERROR: |runtime error|==[0-9]+==.*(ERROR|WARNING)|deadly signal|Timeout|out-of-memory/ \
+       { on = 1 } on && n < 60 { print; n++ }' "$log"
+  for f in "$artifacts"*; do
+    [ -f "$f" ] || continue
+    size=$(stat -c %s "$f")
+    if [ "$size" -le 16384 ]; then
+      echo "input $(basename "$f") ($size bytes; base64 -d > crash, then $B/fuzz/fuzz_$t crash):"
+      base64 -w 76 "$f"
+    else
+      echo "input $(basename "$f"): $size bytes, not printed"
+    fi
+  done
+}
+
 mkdir -p "$B/fuzz-logs"
 running=0
 for t in "${TARGETS[@]}"; do
@@ -88,7 +110,7 @@ for t in "${TARGETS[@]}"; do
     failed+=("$t")
     echo "fuzz: fuzz_$t FAILED (exit $rc); log $log; artifacts:" >&2
     ls -1 "$artifacts" >&2 || true
-    grep -E 'ERROR|SUMMARY|runtime error|==[0-9]+==' "$log" | head -20 >&2 || true
+    report_failure "$t" "$log" "$artifacts" >&2
   fi
 done
 if [ ${#failed[@]} -ne 0 ]; then
