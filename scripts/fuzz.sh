@@ -18,7 +18,8 @@
 # The corpus grown by a run stays in <build>/fuzz-corpus/<target>/ (not in the repository).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-ALL_TARGETS=(srt gpx csv dataflash tlog ulog config_json config_yaml image_metadata mavlink)
+ALL_TARGETS=(srt gpx csv dataflash tlog ulog config_json config_yaml image_metadata mavlink
+  calibration)
 if [ $# -gt 0 ]; then TARGETS=("$@"); else TARGETS=("${ALL_TARGETS[@]}"); fi
 FUZZ_TIME=${FUZZ_TIME:-20}
 B=${FUZZ_BUILD_DIR:-build-fuzz}

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 #include <vector>
 
 #include <fmt/format.h>
@@ -83,15 +84,46 @@ CameraIntrinsics Checked(const std::string& path, const std::string& where, Came
 // ---- OpenCV cv::FileStorage -------------------------------------------------------------------
 
 // Opens `path` for reading into `fsx`; InputError when it is not an OpenCV YAML/XML file.
+// OpenCV 4.6's parser throws cv::Exception for most damage, but also std::length_error for some
+// malformed keys (a string of negative length): any exception of the parser names the file.
 void OpenOpenCv(const std::string& path, cv::FileStorage& fsx) {
+  bool opened = false;
   try {
-    if (!fsx.open(path, cv::FileStorage::READ)) {
-      throw InputError(fmt::format("calibration '{}': not an OpenCV YAML/XML file", path));
-    }
+    opened = fsx.open(path, cv::FileStorage::READ);
   } catch (const cv::Exception& e) {
     throw InputError(
         fmt::format("calibration '{}': not a valid OpenCV YAML/XML file ({})", path, e.msg));
+  } catch (const std::exception& e) {
+    throw InputError(fmt::format(
+        "calibration '{}': not a valid OpenCV YAML/XML file (OpenCV's reader failed: {})", path,
+        e.what()));
   }
+  if (!opened) {
+    throw InputError(fmt::format("calibration '{}': not an OpenCV YAML/XML file", path));
+  }
+}
+
+// The most rows or columns a calibration matrix may have: a camera matrix is 3x3, OpenCV's
+// longest distortion vector 14 (calibrateCamera with the rational, thin-prism and tilt models).
+constexpr int kMaxMatrixSide = 64;
+
+// A node's value as text for a message: a number or a string, cut at 40 characters.
+std::string Printable(const cv::FileNode& n) {
+  std::string text;
+  if (n.isInt()) {
+    text = std::to_string(static_cast<int>(n));
+  } else if (n.isReal()) {
+    text = fmt::format("{:g}", static_cast<double>(n));
+  } else if (n.isString()) {
+    text = static_cast<std::string>(n);
+  } else {
+    return n.isMap() ? "a map" : n.isSeq() ? "a sequence" : "not a value";
+  }
+  if (text.size() > 40) text = text.substr(0, 40) + "...";
+  for (char& c : text) {
+    if (static_cast<unsigned char>(c) < 0x20 || static_cast<unsigned char>(c) >= 0x7f) c = '?';
+  }
+  return text;
 }
 
 // The keys of an open OpenCV file; each getter throws InputError naming the file and the key.
@@ -113,17 +145,44 @@ struct OpenCvKeys {
     }
     return static_cast<double>(n);
   }
-  // The matrix of `key` as CV_64F; InputError when missing, not a matrix or empty.
+  // The matrix of `key` as CV_64F; InputError when missing, not a one-channel matrix of at
+  // most kMaxMatrixSide rows and columns, or empty.
   cv::Mat NeedMat(const char* key) const {
+    const cv::FileNode node = Need(key);
+    // OpenCV's reader allocates the rows x cols (or `sizes`) the file states before it looks at
+    // the data (modules/core/src/persistence.cpp, read(FileNode, Mat)): a file saying 3 x 10^9
+    // would take the machine's memory. The sizes are checked here first.
+    const auto side = [&](const char* name) {
+      const cv::FileNode n = node[name];
+      const int v = n.isInt() ? static_cast<int>(n) : 0;
+      if (v < 1 || v > kMaxMatrixSide) {
+        throw InputError(fmt::format(
+            "calibration '{}': key '{}' is not a matrix of 1 to {} rows and columns ({} is {})",
+            path, key, kMaxMatrixSide, name,
+            n.empty() ? std::string("missing") : "'" + Printable(n) + "'"));
+      }
+    };
+    if (!node.isMap() || !node["sizes"].empty()) {
+      throw InputError(
+          fmt::format("calibration '{}': key '{}' is not a matrix (a map of rows, "
+                      "cols, dt and data)",
+                      path, key));
+    }
+    side("rows");
+    side("cols");
     cv::Mat m;
     try {
-      Need(key) >> m;
+      node >> m;
     } catch (const cv::Exception& e) {
       throw InputError(
           fmt::format("calibration '{}': key '{}' is not a matrix ({})", path, key, e.msg));
     }
     if (m.empty()) {
       throw InputError(fmt::format("calibration '{}': key '{}' is not a matrix", path, key));
+    }
+    if (m.channels() != 1) {
+      throw InputError(fmt::format("calibration '{}': key '{}' is a matrix of {} channels, not 1",
+                                   path, key, m.channels()));
     }
     cv::Mat d;
     m.convertTo(d, CV_64F);
@@ -203,9 +262,14 @@ void NormaliseOpenCvDistortion(bool fisheye, std::vector<double>& d) {
 
 // Reads an OpenCV calibrateCamera YAML/XML file (CalibrationFormat::kOpenCv); InputError naming
 // the file and key for every problem.
-Calibration ReadOpenCv(const std::string& path) {
-  cv::FileStorage fsx;
-  OpenOpenCv(path, fsx);
+Calibration ReadOpenCvKeys(const std::string& path, const cv::FileStorage& fsx) {
+  if (!fsx.root().isMap()) {
+    throw InputError(
+        fmt::format("calibration '{}': not a map of keys at the top (an OpenCV "
+                    "calibration file holds image_width, image_height, "
+                    "camera_matrix ...)",
+                    path));
+  }
   const OpenCvKeys keys{path, fsx};
   Calibration c;
   c.format = CalibrationFormat::kOpenCv;
@@ -224,6 +288,23 @@ Calibration ReadOpenCv(const std::string& path) {
   Checked(path, " (key 'camera_matrix')", geometry);
   c.intrinsics = Checked(path, " (key 'distortion_coefficients')", k);
   return c;
+}
+
+// ReadOpenCvKeys on the opened file; an assertion OpenCV's reader makes on the file's content
+// (a cv::Exception the checks above did not foresee) is an InputError naming the file too.
+Calibration ReadOpenCv(const std::string& path) {
+  cv::FileStorage fsx;
+  OpenOpenCv(path, fsx);
+  try {
+    return ReadOpenCvKeys(path, fsx);
+  } catch (const cv::Exception& e) {
+    throw InputError(
+        fmt::format("calibration '{}': not a valid OpenCV calibration file ({})", path, e.msg));
+  } catch (const std::length_error& e) {
+    throw InputError(fmt::format(
+        "calibration '{}': not a valid OpenCV calibration file (OpenCV's reader failed: {})", path,
+        e.what()));
+  }
 }
 
 void WriteOpenCv(const std::string& path, const CameraIntrinsics& k) {

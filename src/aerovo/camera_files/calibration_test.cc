@@ -177,6 +177,43 @@ TEST(Calibration, ErrorsNameTheFileAndTheLineOrKey) {
   EXPECT_THAT(ErrorOf(dir / "nokey.yaml"), HasSubstr("nokey.yaml"));
   WriteText(dir / "broken.yaml", "%YAML:1.0\n---\nimage_width: [1, \n");
   EXPECT_THAT(ErrorOf(dir / "broken.yaml"), HasSubstr("broken.yaml"));
+  // A matrix whose stated size is not the data's is refused before OpenCV allocates it (3 x 2^31
+  // doubles would be 48 GiB; fuzz_calibration found it in the XML form).
+  const auto matrix = [](const std::string& rows, const std::string& cols, const std::string& dt,
+                         const std::string& extra = "") {
+    return "%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\n"
+           "camera_matrix: !!opencv-matrix\n   rows: " +
+           rows + "\n   cols: " + cols + "\n   dt: " + dt + "\n" + extra +
+           "   data: [ 500., 0., 319.5, 0., 500., 239.5, 0., 0., 1. ]\n";
+  };
+  // OpenCV 4.6's YAML parser throws std::length_error on this key (fuzz_calibration).
+  WriteText(dir / "key.yaml", "%YAML:1.0\n   dt: d\n   :1.0");
+  EXPECT_THAT(ErrorOf(dir / "key.yaml"),
+              HasSubstr("key.yaml': not a valid OpenCV YAML/XML file (OpenCV's reader failed: "));
+  WriteText(dir / "seq.yaml", "%YAML:1.0\n--- [1, 2]\n");
+  EXPECT_THAT(ErrorOf(dir / "seq.yaml"),
+              HasSubstr("seq.yaml': not a map of keys at the top (an OpenCV calibration file"));
+  WriteText(dir / "huge.yaml", matrix("3", "2147483647", "d"));
+  EXPECT_THAT(ErrorOf(dir / "huge.yaml"),
+              HasSubstr("huge.yaml': key 'camera_matrix' is not a matrix of 1 to 64 rows and "
+                        "columns (cols is '2147483647')"));
+  WriteText(dir / "colon.yaml", matrix("3", "':'", "d"));
+  EXPECT_THAT(ErrorOf(dir / "colon.yaml"), HasSubstr("(cols is ':')"));
+  WriteText(dir / "norows.yaml", matrix("3", "3", "d", "   sizes: [ 3, 3000000000 ]\n"));
+  EXPECT_THAT(ErrorOf(dir / "norows.yaml"),
+              HasSubstr("key 'camera_matrix' is not a matrix (a map of rows, cols, dt and data)"));
+  WriteText(dir / "channels.yaml", matrix("1", "3", "\"3d\""));
+  EXPECT_THAT(ErrorOf(dir / "channels.yaml"),
+              HasSubstr("key 'camera_matrix' is a matrix of 3 channels, not 1"));
+  WriteText(dir / "short.yaml", matrix("3", "4", "d"));
+  EXPECT_THAT(ErrorOf(dir / "short.yaml"), HasSubstr("key 'camera_matrix' is not a matrix ("));
+  WriteText(dir / "huge.xml",
+            "<?xml version=\"1.0\"?>\n<opencv_storage>\n<image_width>640</image_width>\n"
+            "<image_height>480</image_height>\n<camera_matrix type_id=\"opencv-matrix\">\n"
+            "<rows>3</rows><cols>:</cols><dt>d</dt>\n<data>500. 0. 319.5 0. 500. 239.5 0. 0. 1."
+            "</data></camera_matrix>\n</opencv_storage>\n");
+  EXPECT_THAT(ErrorOf(dir / "huge.xml"),
+              HasSubstr("key 'camera_matrix' is not a matrix of 1 to 64 rows and columns (cols"));
 
   WriteText(dir / "bad.txt", "# cameras\n1 PINHOLE 640 480 500 500 320 240\n2 PINHOLE 640 480 1 1 1 1\n");
   EXPECT_THAT(ErrorOf(dir / "bad.txt"), HasSubstr("line 3: a second camera (the first is on line 2)"));
