@@ -351,7 +351,7 @@ nlohmann::json ReadOdmCameras(const std::string& path) {
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(ReadText(path));
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {  // parse_error, and out_of_range for 1e400
     throw InputError(fmt::format("calibration '{}': not valid JSON ({})", path, e.what()));
   }
   if (!j.is_object() || j.empty()) {

@@ -232,6 +232,8 @@ TEST(Calibration, ErrorsNameTheFileAndTheLineOrKey) {
   EXPECT_THAT(ErrorOf(dir / "nofocal.json"), HasSubstr("camera 'cam' has no key 'focal_x'"));
   WriteText(dir / "sph.json", R"({"cam": {"projection_type": "spherical", "width": 10, "height": 5}})");
   EXPECT_THAT(ErrorOf(dir / "sph.json"), HasSubstr("projection_type 'spherical' is not supported"));
+  WriteText(dir / "overflow.json", R"({"cam": {"projection_type": "brown", "width": 912e666}})");
+  EXPECT_THAT(ErrorOf(dir / "overflow.json"), HasSubstr("overflow.json': not valid JSON ("));
   WriteText(dir / "notjson.json", "{ nope");
   EXPECT_THAT(ErrorOf(dir / "notjson.json"), HasSubstr("not valid JSON"));
 }
