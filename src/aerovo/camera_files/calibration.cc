@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <optional>
@@ -15,6 +16,7 @@
 #include <opencv2/core.hpp>
 
 #include "aerovo/camera/lens.h"
+#include "aerovo/camera_files/opencv_storage.h"
 #include "aerovo/core/error.h"
 #include "aerovo/outputs/output_file.h"
 
@@ -83,41 +85,22 @@ CameraIntrinsics Checked(const std::string& path, const std::string& where, Came
 
 // ---- OpenCV cv::FileStorage -------------------------------------------------------------------
 
-// Opens `path` for reading into `fsx`; InputError when it is not an OpenCV YAML/XML file.
-// OpenCV 4.6's parser throws cv::Exception for most damage, but also std::length_error for some
-// malformed keys (a string of negative length): any exception of the parser names the file.
-void OpenOpenCv(const std::string& path, cv::FileStorage& fsx) {
-  bool opened = false;
-  try {
-    opened = fsx.open(path, cv::FileStorage::READ);
-  } catch (const cv::Exception& e) {
-    throw InputError(
-        fmt::format("calibration '{}': not a valid OpenCV YAML/XML file ({})", path, e.msg));
-  } catch (const std::exception& e) {
-    throw InputError(fmt::format(
-        "calibration '{}': not a valid OpenCV YAML/XML file (OpenCV's reader failed: {})", path,
-        e.what()));
-  }
-  if (!opened) {
-    throw InputError(fmt::format("calibration '{}': not an OpenCV YAML/XML file", path));
-  }
-}
-
 // The most rows or columns a calibration matrix may have: a camera matrix is 3x3, OpenCV's
 // longest distortion vector 14 (calibrateCamera with the rational, thin-prism and tilt models).
 constexpr int kMaxMatrixSide = 64;
 
-// A node's value as text for a message: a number or a string, cut at 40 characters.
-std::string Printable(const cv::FileNode& n) {
+// A value as text for a message: a number or a string, cut at 40 characters, control and
+// non-ASCII bytes as '?'.
+std::string Printable(const nlohmann::json& n) {
   std::string text;
-  if (n.isInt()) {
-    text = std::to_string(static_cast<int>(n));
-  } else if (n.isReal()) {
-    text = fmt::format("{:g}", static_cast<double>(n));
-  } else if (n.isString()) {
-    text = static_cast<std::string>(n);
+  if (n.is_number()) {
+    const double v = n.get<double>();
+    text = std::fabs(v) < 1e15 && v == std::floor(v) ? fmt::format("{:.0f}", v)
+                                                     : fmt::format("{:g}", v);
+  } else if (n.is_string()) {
+    text = n.get<std::string>();
   } else {
-    return n.isMap() ? "a map" : n.isSeq() ? "a sequence" : "not a value";
+    return n.is_object() ? "a map" : n.is_array() ? "a sequence" : "not a value";
   }
   if (text.size() > 40) text = text.substr(0, 40) + "...";
   for (char& c : text) {
@@ -126,110 +109,139 @@ std::string Printable(const cv::FileNode& n) {
   return text;
 }
 
-// The keys of an open OpenCV file; each getter throws InputError naming the file and the key.
+// The channels a cv::FileStorage `dt` names for a matrix's elements (e.g. "d": 1, "3d": 3);
+// 0 when it is not one element type of OpenCV's ("u c w s i f d h", after an optional count).
+int MatrixChannels(const std::string& dt) {
+  std::size_t i = 0;
+  int count = 0;
+  while (i < dt.size() && i < 3 && std::isdigit(static_cast<unsigned char>(dt[i]))) {
+    count = count * 10 + (dt[i++] - '0');
+  }
+  if (i + 1 != dt.size() || std::strchr("ucwsifdh", dt[i]) == nullptr || dt[i] == '\0') return 0;
+  return i == 0 ? 1 : count;
+}
+
+// A matrix of a calibration file: rows x cols values, row-major.
+struct Matrix {
+  int rows = 0, cols = 0;
+  std::vector<double> values;
+  double at(int r, int c) const { return values[static_cast<std::size_t>(r * cols + c)]; }
+};
+
+// The keys of an OpenCV file (camera_files_detail::ParseOpenCvStorage); each getter throws
+// InputError naming the file and the key.
 struct OpenCvKeys {
   const std::string& path;
-  const cv::FileStorage& fsx;
+  const nlohmann::json& root;
 
-  // The node of `key`; InputError when it is missing.
-  cv::FileNode Need(const char* key) const {
-    const cv::FileNode n = fsx[key];
-    if (n.empty()) throw InputError(fmt::format("calibration '{}': no key '{}'", path, key));
-    return n;
+  bool Has(const char* key) const { return root.contains(key); }
+  // The value of `key`; InputError when it is missing.
+  const nlohmann::json& Need(const char* key) const {
+    if (!Has(key)) throw InputError(fmt::format("calibration '{}': no key '{}'", path, key));
+    return root.at(key);
   }
   // The number of `key`; InputError when missing or not a number.
   double NeedNumber(const char* key) const {
-    const cv::FileNode n = Need(key);
-    if (!n.isInt() && !n.isReal()) {
+    const nlohmann::json& n = Need(key);
+    if (!n.is_number()) {
       throw InputError(fmt::format("calibration '{}': key '{}' is not a number", path, key));
     }
-    return static_cast<double>(n);
+    return n.get<double>();
   }
-  // The matrix of `key` as CV_64F; InputError when missing, not a one-channel matrix of at
-  // most kMaxMatrixSide rows and columns, or empty.
-  cv::Mat NeedMat(const char* key) const {
-    const cv::FileNode node = Need(key);
-    // OpenCV's reader allocates the rows x cols (or `sizes`) the file states before it looks at
-    // the data (modules/core/src/persistence.cpp, read(FileNode, Mat)): a file saying 3 x 10^9
-    // would take the machine's memory. The sizes are checked here first.
-    const auto side = [&](const char* name) {
-      const cv::FileNode n = node[name];
-      const int v = n.isInt() ? static_cast<int>(n) : 0;
-      if (v < 1 || v > kMaxMatrixSide) {
-        throw InputError(fmt::format(
-            "calibration '{}': key '{}' is not a matrix of 1 to {} rows and columns ({} is {})",
-            path, key, kMaxMatrixSide, name,
-            n.empty() ? std::string("missing") : "'" + Printable(n) + "'"));
-      }
-    };
-    if (!node.isMap() || !node["sizes"].empty()) {
+  // The matrix of `key`; InputError when missing, not a one-channel matrix of 1 to
+  // kMaxMatrixSide rows and columns, or when its data are not rows x cols numbers.
+  Matrix NeedMat(const char* key) const {
+    const nlohmann::json& node = Need(key);
+    if (!node.is_object() || node.contains("sizes") || !node.contains("data")) {
       throw InputError(
           fmt::format("calibration '{}': key '{}' is not a matrix (a map of rows, "
                       "cols, dt and data)",
                       path, key));
     }
-    side("rows");
-    side("cols");
-    cv::Mat m;
-    try {
-      node >> m;
-    } catch (const cv::Exception& e) {
-      throw InputError(
-          fmt::format("calibration '{}': key '{}' is not a matrix ({})", path, key, e.msg));
+    Matrix m;
+    const auto side = [&](const char* name) {
+      const nlohmann::json n = node.value(name, nlohmann::json());
+      const double v = n.is_number() ? n.get<double>() : 0.0;
+      if (!(v >= 1.0 && v <= kMaxMatrixSide && v == std::floor(v))) {
+        throw InputError(fmt::format(
+            "calibration '{}': key '{}' is not a matrix of 1 to {} rows and columns ({} is {})",
+            path, key, kMaxMatrixSide, name,
+            n.is_null() ? std::string("missing") : "'" + Printable(n) + "'"));
+      }
+      return static_cast<int>(v);
+    };
+    m.rows = side("rows");
+    m.cols = side("cols");
+    const nlohmann::json dt = node.value("dt", nlohmann::json("d"));
+    const int channels = dt.is_string() ? MatrixChannels(dt.get<std::string>()) : 0;
+    if (channels == 0) {
+      throw InputError(fmt::format(
+          "calibration '{}': key '{}' has the element type dt '{}', not one of OpenCV's (d, f, "
+          "i, ...)",
+          path, key, Printable(dt)));
     }
-    if (m.empty()) {
-      throw InputError(fmt::format("calibration '{}': key '{}' is not a matrix", path, key));
-    }
-    if (m.channels() != 1) {
+    if (channels != 1) {
       throw InputError(fmt::format("calibration '{}': key '{}' is a matrix of {} channels, not 1",
-                                   path, key, m.channels()));
+                                   path, key, channels));
     }
-    cv::Mat d;
-    m.convertTo(d, CV_64F);
-    return d;
+    const nlohmann::json& data = node.at("data");
+    const std::size_t want = static_cast<std::size_t>(m.rows * m.cols);
+    if (!data.is_array() || data.size() != want) {
+      throw InputError(fmt::format(
+          "calibration '{}': key '{}' is not a matrix ({} x {} needs {} values, its data has {})",
+          path, key, m.rows, m.cols, want, data.is_array() ? data.size() : std::size_t{1}));
+    }
+    for (const nlohmann::json& v : data) {
+      if (!v.is_number()) {
+        throw InputError(fmt::format("calibration '{}': key '{}' holds '{}', not a number", path,
+                                     key, Printable(v)));
+      }
+      m.values.push_back(v.get<double>());
+    }
+    return m;
   }
 };
 
 // Sets fx, fy, cx, cy (pixels) of `k` from camera_matrix; InputError when it is not 3x3 or has
 // a skew.
 void ReadOpenCvCameraMatrix(const OpenCvKeys& keys, CameraIntrinsics& k) {
-  const cv::Mat km = keys.NeedMat("camera_matrix");
+  const Matrix km = keys.NeedMat("camera_matrix");
   if (km.rows != 3 || km.cols != 3) {
     throw InputError(fmt::format("calibration '{}': key 'camera_matrix' is {}x{}, not 3x3",
                                  keys.path, km.rows, km.cols));
   }
-  k.fx_px = km.at<double>(0, 0);
-  k.fy_px = km.at<double>(1, 1);
-  k.cx_px = km.at<double>(0, 2);
-  k.cy_px = km.at<double>(1, 2);
-  if (km.at<double>(0, 1) != 0.0) {
+  k.fx_px = km.at(0, 0);
+  k.fy_px = km.at(1, 1);
+  k.cx_px = km.at(0, 2);
+  k.cy_px = km.at(1, 2);
+  if (km.at(0, 1) != 0.0) {
     throw InputError(
         fmt::format("calibration '{}': key 'camera_matrix' has a skew {} (not "
                     "supported: pixels must be rectangular)",
-                    keys.path, km.at<double>(0, 1)));
+                    keys.path, km.at(0, 1)));
   }
 }
 
 // The distortion_coefficients as written (empty when the key is absent); InputError when they
 // are not a vector.
 std::vector<double> ReadOpenCvDistortion(const OpenCvKeys& keys) {
-  if (keys.fsx["distortion_coefficients"].empty()) return {};
-  const cv::Mat d = keys.NeedMat("distortion_coefficients");
+  if (!keys.Has("distortion_coefficients")) return {};
+  Matrix d = keys.NeedMat("distortion_coefficients");
   if (d.rows != 1 && d.cols != 1) {
     throw InputError(
         fmt::format("calibration '{}': key 'distortion_coefficients' is {}x{}, not a vector",
                     keys.path, d.rows, d.cols));
   }
-  return std::vector<double>(d.begin<double>(), d.end<double>());
+  return std::move(d.values);
 }
 
 // Whether the file names a fisheye lens (distortion_model fisheye or equidistant, or a non-zero
 // fisheye_model); InputError for a distortion_model that is not one we know.
 bool OpenCvIsFisheye(const OpenCvKeys& keys) {
   bool fisheye = false;
-  const cv::FileNode model = keys.fsx["distortion_model"];
-  if (!model.empty()) {
-    const std::string m = Lower(static_cast<std::string>(model));
+  if (keys.Has("distortion_model")) {
+    const nlohmann::json& model = keys.root.at("distortion_model");
+    const std::string m = model.is_string() ? Lower(model.get<std::string>()) : Printable(model);
     if (m == "fisheye" || m == "equidistant") {
       fisheye = true;
     } else if (!(m == "pinhole" || m == "plumb_bob" || m == "radtan" ||
@@ -237,13 +249,12 @@ bool OpenCvIsFisheye(const OpenCvKeys& keys) {
       throw InputError(
           fmt::format("calibration '{}': key 'distortion_model' '{}' is not one of "
                       "pinhole, plumb_bob, rational_polynomial, fisheye, equidistant",
-                      keys.path, m));
+                      keys.path, Printable(nlohmann::json(m))));
     }
   }
-  const cv::FileNode fisheye_model = keys.fsx["fisheye_model"];
-  if (!fisheye_model.empty() && (fisheye_model.isInt() || fisheye_model.isReal()) &&
-      static_cast<double>(fisheye_model) != 0.0) {
-    fisheye = true;
+  if (keys.Has("fisheye_model")) {
+    const nlohmann::json& fisheye_model = keys.root.at("fisheye_model");
+    if (fisheye_model.is_number() && fisheye_model.get<double>() != 0.0) fisheye = true;
   }
   return fisheye;
 }
@@ -260,17 +271,12 @@ void NormaliseOpenCvDistortion(bool fisheye, std::vector<double>& d) {
   }
 }
 
-// Reads an OpenCV calibrateCamera YAML/XML file (CalibrationFormat::kOpenCv); InputError naming
-// the file and key for every problem.
-Calibration ReadOpenCvKeys(const std::string& path, const cv::FileStorage& fsx) {
-  if (!fsx.root().isMap()) {
-    throw InputError(
-        fmt::format("calibration '{}': not a map of keys at the top (an OpenCV "
-                    "calibration file holds image_width, image_height, "
-                    "camera_matrix ...)",
-                    path));
-  }
-  const OpenCvKeys keys{path, fsx};
+// Reads an OpenCV calibrateCamera YAML/XML file (CalibrationFormat::kOpenCv) with libyaml or
+// pugixml (opencv_storage.h says why not with OpenCV's reader); InputError naming the file and
+// key for every problem.
+Calibration ReadOpenCv(const std::string& path) {
+  const nlohmann::json root = camera_files_detail::ParseOpenCvStorage(ReadText(path), path);
+  const OpenCvKeys keys{path, root};
   Calibration c;
   c.format = CalibrationFormat::kOpenCv;
   CameraIntrinsics& k = c.intrinsics;
@@ -288,23 +294,6 @@ Calibration ReadOpenCvKeys(const std::string& path, const cv::FileStorage& fsx) 
   Checked(path, " (key 'camera_matrix')", geometry);
   c.intrinsics = Checked(path, " (key 'distortion_coefficients')", k);
   return c;
-}
-
-// ReadOpenCvKeys on the opened file; an assertion OpenCV's reader makes on the file's content
-// (a cv::Exception the checks above did not foresee) is an InputError naming the file too.
-Calibration ReadOpenCv(const std::string& path) {
-  cv::FileStorage fsx;
-  OpenOpenCv(path, fsx);
-  try {
-    return ReadOpenCvKeys(path, fsx);
-  } catch (const cv::Exception& e) {
-    throw InputError(
-        fmt::format("calibration '{}': not a valid OpenCV calibration file ({})", path, e.msg));
-  } catch (const std::length_error& e) {
-    throw InputError(fmt::format(
-        "calibration '{}': not a valid OpenCV calibration file (OpenCV's reader failed: {})", path,
-        e.what()));
-  }
 }
 
 void WriteOpenCv(const std::string& path, const CameraIntrinsics& k) {

@@ -1,0 +1,261 @@
+#include "aerovo/camera_files/opencv_storage.h"
+
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <string_view>
+
+#include <fmt/format.h>
+#include <yaml.h>
+#include <pugixml.hpp>
+
+#include "aerovo/core/error.h"
+
+namespace aerovo::camera_files_detail {
+namespace {
+
+// Deeper than any calibration (a matrix in the top mapping is 2 levels).
+constexpr int kMaxDepth = 16;
+// Values in a document; a calibration holds a few dozen (a 14-coefficient distortion).
+constexpr std::size_t kMaxValues = 100000;
+
+std::string_view Trim(std::string_view s) {
+  const auto blank = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; };
+  while (!s.empty() && blank(s.front())) s.remove_prefix(1);
+  while (!s.empty() && blank(s.back())) s.remove_suffix(1);
+  return s;
+}
+
+// A plain scalar: a finite decimal number as a JSON number, else the text. strtod alone would
+// also take "inf", "nan" and hexadecimal: only digits, signs, '.', 'e' and 'E' are numbers here.
+nlohmann::json Scalar(std::string_view text) {
+  const std::string_view t = Trim(text);
+  bool numeric = !t.empty() && t.size() <= 64;
+  for (char c : t) {
+    numeric = numeric && (std::isdigit(static_cast<unsigned char>(c)) || c == '.' || c == '-' ||
+                          c == '+' || c == 'e' || c == 'E');
+  }
+  if (numeric) {
+    const std::string s(t);
+    char* end = nullptr;
+    errno = 0;
+    const double v = std::strtod(s.c_str(), &end);
+    if (end == s.c_str() + s.size() && errno == 0 && std::isfinite(v)) return v;
+  }
+  return std::string(t);
+}
+
+// ---- YAML (libyaml events) ----------------------------------------------------------------------
+
+class YamlDocument {
+ public:
+  YamlDocument(const std::string& text, const std::string& path) : path_(path) {
+    // OpenCV writes its own "%YAML:1.0" first line; libyaml knows "%YAML 1.1" only. The line is
+    // emptied (line numbers stay those of the file).
+    // (after a UTF-8 byte order mark, dropped too; "%YAML 1.0" and "%YAML 1.2" alike).
+    text_ = text;
+    if (text_.rfind("\xEF\xBB\xBF", 0) == 0) text_.erase(0, 3);
+    if (text_.rfind("%YAML", 0) == 0) {
+      const std::size_t end = text_.find('\n');
+      text_.replace(0, end == std::string::npos ? text_.size() : end, "");
+    }
+    if (!yaml_parser_initialize(&parser_)) {
+      throw InputError(fmt::format("calibration '{}': cannot initialise libyaml", path_));
+    }
+    yaml_parser_set_input_string(&parser_, reinterpret_cast<const unsigned char*>(text_.data()),
+                                 text_.size());
+  }
+  ~YamlDocument() { yaml_parser_delete(&parser_); }
+  YamlDocument(const YamlDocument&) = delete;
+  YamlDocument& operator=(const YamlDocument&) = delete;
+
+  nlohmann::json Read() {
+    nlohmann::json root;
+    bool have_root = false;
+    for (;;) {
+      Event ev = Next();
+      const yaml_event_type_t type = ev.e.type;
+      if (type == YAML_STREAM_END_EVENT) break;
+      if (type == YAML_STREAM_START_EVENT || type == YAML_DOCUMENT_START_EVENT ||
+          type == YAML_DOCUMENT_END_EVENT) {
+        continue;
+      }
+      if (have_root) throw Error(ev, "a second YAML document (a calibration file holds one)");
+      if (type != YAML_MAPPING_START_EVENT) {
+        throw Error(ev,
+                    "not a map of keys at the top (an OpenCV calibration file holds "
+                    "image_width, image_height, camera_matrix ...)");
+      }
+      root = Node(ev, 0);
+      have_root = true;
+    }
+    if (!have_root) {
+      throw InputError(fmt::format("calibration '{}': an empty YAML document", path_));
+    }
+    return root;
+  }
+
+ private:
+  struct Event {  // owns a libyaml event
+    yaml_event_t e{};
+    Event() = default;
+    Event(Event&& o) noexcept : e(o.e) { o.e = yaml_event_t{}; }
+    ~Event() { yaml_event_delete(&e); }
+    Event(const Event&) = delete;
+    Event& operator=(const Event&) = delete;
+    Event& operator=(Event&&) = delete;
+  };
+
+  Event Next() {
+    Event ev;
+    if (!yaml_parser_parse(&parser_, &ev.e)) {
+      throw InputError(fmt::format("calibration '{}': line {}: {}", path_,
+                                   parser_.problem_mark.line + 1,
+                                   parser_.problem ? parser_.problem : "YAML syntax error"));
+    }
+    return ev;
+  }
+
+  InputError Error(const Event& ev, const std::string& what) const {
+    return InputError(
+        fmt::format("calibration '{}': line {}: {}", path_, ev.e.start_mark.line + 1, what));
+  }
+
+  void Count(const Event& ev) {
+    if (++values_ > kMaxValues) {
+      throw Error(ev,
+                  fmt::format("more than {} values (a calibration holds a few dozen)", kMaxValues));
+    }
+  }
+
+  nlohmann::json Node(Event& ev, int depth) {
+    Count(ev);
+    switch (ev.e.type) {
+      case YAML_SCALAR_EVENT: {
+        const std::string_view v(reinterpret_cast<const char*>(ev.e.data.scalar.value),
+                                 ev.e.data.scalar.length);
+        if (ev.e.data.scalar.style != YAML_PLAIN_SCALAR_STYLE) return std::string(v);
+        return Scalar(v);
+      }
+      case YAML_ALIAS_EVENT:
+        throw Error(ev, "an alias (*name): not read in a calibration file");
+      case YAML_SEQUENCE_START_EVENT: {
+        if (depth + 1 > kMaxDepth) throw Error(ev, "nested deeper than 16 levels");
+        nlohmann::json arr = nlohmann::json::array();
+        for (;;) {
+          Event item = Next();
+          if (item.e.type == YAML_SEQUENCE_END_EVENT) break;
+          arr.push_back(Node(item, depth + 1));
+        }
+        return arr;
+      }
+      case YAML_MAPPING_START_EVENT: {
+        if (depth + 1 > kMaxDepth) throw Error(ev, "nested deeper than 16 levels");
+        nlohmann::json obj = nlohmann::json::object();
+        for (;;) {
+          Event k = Next();
+          if (k.e.type == YAML_MAPPING_END_EVENT) break;
+          if (k.e.type != YAML_SCALAR_EVENT) throw Error(k, "a key must be a plain scalar");
+          const std::string key(reinterpret_cast<const char*>(k.e.data.scalar.value),
+                                k.e.data.scalar.length);
+          if (obj.contains(key)) throw Error(k, fmt::format("key '{}' is given twice", key));
+          Event v = Next();
+          obj[key] = Node(v, depth + 1);
+        }
+        return obj;
+      }
+      default:
+        throw Error(ev, "unexpected YAML event");
+    }
+  }
+
+  std::string path_;
+  std::string text_;
+  yaml_parser_t parser_{};
+  std::size_t values_ = 0;
+};
+
+// ---- XML (pugixml) ------------------------------------------------------------------------------
+
+// An element: a matrix (type_id="opencv-matrix": rows, cols, dt, and data split at blanks), a
+// mapping of its child elements, or a scalar of its text.
+nlohmann::json XmlNode(const pugi::xml_node& e, const std::string& path, int depth,
+                       std::size_t& values) {
+  if (depth > kMaxDepth) {
+    throw InputError(fmt::format("calibration '{}' at byte {}: nested deeper than 16 levels", path,
+                                 e.offset_debug()));
+  }
+  if (++values > kMaxValues) {
+    throw InputError(fmt::format("calibration '{}': more than {} values", path, kMaxValues));
+  }
+  bool has_children = false;
+  for (const pugi::xml_node& c : e.children()) has_children |= c.type() == pugi::node_element;
+  if (!has_children) {
+    std::string_view text = Trim(e.text().get());
+    if (text.size() >= 2 && text.front() == '"' && text.back() == '"') {
+      return std::string(text.substr(1, text.size() - 2));
+    }
+    return Scalar(text);
+  }
+  const bool matrix = std::strcmp(e.attribute("type_id").value(), "opencv-matrix") == 0;
+  nlohmann::json obj = nlohmann::json::object();
+  for (const pugi::xml_node& c : e.children()) {
+    if (c.type() != pugi::node_element) continue;
+    const std::string key = c.name();
+    if (obj.contains(key)) {
+      throw InputError(fmt::format("calibration '{}' at byte {}: key '{}' is given twice", path,
+                                   c.offset_debug(), key));
+    }
+    if (matrix && key == "data") {
+      nlohmann::json data = nlohmann::json::array();
+      const std::string_view all = c.text().get();
+      std::size_t at = 0;
+      while (at < all.size()) {
+        const std::size_t begin = all.find_first_not_of(" \t\r\n", at);
+        if (begin == std::string_view::npos) break;
+        std::size_t end = all.find_first_of(" \t\r\n", begin);
+        if (end == std::string_view::npos) end = all.size();
+        if (++values > kMaxValues) {
+          throw InputError(fmt::format("calibration '{}': more than {} values", path, kMaxValues));
+        }
+        data.push_back(Scalar(all.substr(begin, end - begin)));
+        at = end;
+      }
+      obj[key] = std::move(data);
+    } else {
+      obj[key] = XmlNode(c, path, depth + 1, values);
+    }
+  }
+  return obj;
+}
+
+nlohmann::json ReadXml(const std::string& text, const std::string& path) {
+  pugi::xml_document doc;
+  const pugi::xml_parse_result parsed = doc.load_buffer(text.data(), text.size());
+  if (!parsed) {
+    throw InputError(fmt::format("calibration '{}' at byte {}: not valid XML ({})", path,
+                                 parsed.offset, parsed.description()));
+  }
+  const pugi::xml_node top = doc.document_element();
+  if (std::strcmp(top.name(), "opencv_storage") != 0) {
+    throw InputError(fmt::format(
+        "calibration '{}': the XML's top element is <{}>, not <opencv_storage> (OpenCV's)", path,
+        top.name()));
+  }
+  std::size_t values = 0;
+  nlohmann::json root = XmlNode(top, path, 0, values);
+  if (!root.is_object()) root = nlohmann::json::object();  // <opencv_storage/> holds no key
+  return root;
+}
+
+}  // namespace
+
+nlohmann::json ParseOpenCvStorage(const std::string& text, const std::string& path) {
+  const std::string_view t = Trim(text);
+  if (!t.empty() && t.front() == '<') return ReadXml(text, path);
+  return YamlDocument(text, path).Read();
+}
+
+}  // namespace aerovo::camera_files_detail
