@@ -3,12 +3,13 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <optional>
 #include <sstream>
-#include <stdexcept>
+#include <system_error>
 #include <vector>
 
 #include <fmt/format.h>
@@ -31,7 +32,21 @@ std::string Lower(std::string s) {
   return s;
 }
 
+// The largest calibration file read, bytes. The three formats hold one camera in a few KB; a
+// video or an image named by mistake (`--calibration flight.mp4`) would otherwise be read whole
+// into memory before it is refused.
+constexpr std::uintmax_t kMaxCalibrationBytes = std::uintmax_t{16} << 20;
+
+// The whole file; InputError when it cannot be read or is larger than kMaxCalibrationBytes.
 std::string ReadText(const std::string& path) {
+  std::error_code ec;
+  const std::uintmax_t size = fs::file_size(path, ec);
+  if (!ec && size > kMaxCalibrationBytes) {
+    throw InputError(fmt::format(
+        "calibration '{}': {} bytes, not a calibration file (one camera's OpenCV, ODM or COLMAP "
+        "file is a few KB; at most {} MiB are read)",
+        path, size, kMaxCalibrationBytes >> 20));
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(fmt::format("calibration '{}': cannot be read", path));
   std::ostringstream ss;
@@ -679,7 +694,9 @@ CalibrationFormat DetectCalibrationFormat(const std::string& path) {
   const std::string text = ReadText(path);
   const auto first = text.find_first_not_of(" \t\r\n");
   if (first == std::string::npos) throw InputError(fmt::format("calibration '{}' is empty", path));
-  if (text.compare(first, 5, "%YAML") == 0 || text.compare(first, 5, "<?xml") == 0) {
+  // OpenCV's YAML ("%YAML:1.0") or XML ("<?xml", or its <opencv_storage> without a
+  // declaration: opencv_storage.h reads any text starting with '<' as XML).
+  if (text.compare(first, 5, "%YAML") == 0 || text[first] == '<') {
     return CalibrationFormat::kOpenCv;
   }
   if (text[first] == '{') return CalibrationFormat::kOdmJson;

@@ -37,7 +37,7 @@ struct Calibration {
 };
 
 /// The format of `path`: by extension (.yaml .yml .xml: OpenCV; .json: ODM; .txt: COLMAP), else
-/// by content ("%YAML" or "<?xml": OpenCV; '{': ODM; else COLMAP). InputError when the file
+/// by content ("%YAML" or '<': OpenCV; '{': ODM; else COLMAP). InputError when the file
 /// cannot be read.
 CalibrationFormat DetectCalibrationFormat(const std::string& path);
 

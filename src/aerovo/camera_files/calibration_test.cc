@@ -101,6 +101,11 @@ TEST(Calibration, EveryFormatRoundTripsPinholeAndFisheye) {
     EXPECT_EQ(DetectCalibrationFormat(path), c.format) << c.file;
     ExpectSame(ReadCalibration(path).intrinsics, Fisheye4());
   }
+  // OpenCV's XML without its declaration line, and without an extension, is still OpenCV's.
+  const std::string xml = ReadTextFile(dir / "cam.xml");
+  WriteText(dir / "nodecl", xml.substr(xml.find("<opencv_storage>")));
+  EXPECT_EQ(DetectCalibrationFormat((dir / "nodecl").string()), CalibrationFormat::kOpenCv);
+  ExpectSame(ReadCalibration((dir / "nodecl").string()).intrinsics, Fisheye4());
 }
 
 // Files as the tools write them.
@@ -206,6 +211,11 @@ TEST(Calibration, ErrorsNameTheFileAndTheLineOrKey) {
             "e:WWW\xaa\xa8\xd2\x9a"
             "e-\n");
   EXPECT_THAT(ErrorOf(dir / "hang.yaml"), HasSubstr("hang.yaml': line "));
+  // A video named by mistake is refused by its size before it is read (a sparse 17 MiB file).
+  WriteText(dir / "flight.mp4", "");
+  std::filesystem::resize_file(dir / "flight.mp4", std::uintmax_t{17} << 20);
+  EXPECT_THAT(ErrorOf(dir / "flight.mp4"),
+              HasSubstr("flight.mp4': 17825792 bytes, not a calibration file"));
   WriteText(dir / "seq.yaml", "%YAML:1.0\n--- [1, 2]\n");
   EXPECT_THAT(ErrorOf(dir / "seq.yaml"),
               HasSubstr("seq.yaml': line 2: not a map of keys at the top (an OpenCV calibration"));
