@@ -50,6 +50,18 @@ TEST(ParallelFor, EveryIndexOnceInChunksOfTheGivenSizeOnValidWorkers) {
   }
 }
 
+// Blocks the calling chunk until a chunk has started on another worker, or `timeout` passes:
+// whichever thread took chunk 0 holds it, so the rest can only run elsewhere. Without it, how many
+// chunks a helper gets depends on how fast the scheduler wakes it.
+bool WaitForAnotherWorker(const std::atomic<int>& workers_seen, std::chrono::seconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (workers_seen.load() < 2) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::microseconds(100));
+  }
+  return true;
+}
+
 // The helpers do take chunks (not the caller alone), and the per-worker scratch pattern gives
 // the same sum as one thread.
 TEST(ParallelFor, WorkersShareTheWorkAndPerWorkerScratchSumsAlike) {
@@ -57,14 +69,18 @@ TEST(ParallelFor, WorkersShareTheWorkAndPerWorkerScratchSumsAlike) {
   constexpr long kN = 4000;
   std::vector<long> per_worker(kThreads, 0);
   std::vector<std::thread::id> ids(kN);
+  std::atomic<unsigned> worker_bits{0};
+  std::atomic<int> workers_seen{0};
+  std::atomic<bool> waited{true};
   ParallelFor(kThreads, kN, 1, [&](long begin, long end, int worker) {
+    if ((worker_bits.fetch_or(1u << worker) & (1u << worker)) == 0) ++workers_seen;
+    if (begin == 0) waited = WaitForAnotherWorker(workers_seen, std::chrono::seconds(10));
     for (long i = begin; i < end; ++i) {
       per_worker[worker] += i;
       ids[i] = std::this_thread::get_id();
-      // Long enough that a helper wakes before the caller takes every chunk.
-      std::this_thread::sleep_for(std::chrono::microseconds(20));
     }
   });
+  ASSERT_TRUE(waited) << "no second worker took a chunk in 10 s";
   EXPECT_EQ(std::accumulate(per_worker.begin(), per_worker.end(), 0L), kN * (kN - 1) / 2);
   std::sort(ids.begin(), ids.end());
   EXPECT_GE(std::unique(ids.begin(), ids.end()) - ids.begin(), 2);
@@ -83,15 +99,20 @@ TEST(ParallelFor, SerialRunsTheChunksInOrderOnTheCaller) {
   EXPECT_EQ(order, (std::vector<long>{0, 3, 6, 9}));
 }
 
+// Each other chunk takes at least 200 us, so the one worker that goes on alone would need at
+// least 4 s for all 20000; the exception is recorded in well under that even under the sanitizers
+// (unwinding there takes milliseconds, in which trivial chunks would all have run).
 TEST(ParallelFor, TheFirstExceptionIsRethrownAndTheRestIsNotStarted) {
+  constexpr long kN = 20000;
   std::atomic<long> started{0};
-  EXPECT_THROW(ParallelFor(2, 100000, 1,
+  EXPECT_THROW(ParallelFor(2, kN, 1,
                            [&](long begin, long, int) {
                              ++started;
                              if (begin == 10) throw std::runtime_error("chunk 10");
+                             std::this_thread::sleep_for(std::chrono::microseconds(200));
                            }),
                std::runtime_error);
-  EXPECT_LT(started.load(), 100000);
+  EXPECT_LT(started.load(), kN / 2);
   // The pool is usable afterwards.
   std::atomic<long> sum{0};
   ParallelFor(2, 100, 1, [&](long begin, long, int) { sum += begin; });
@@ -168,13 +189,15 @@ TEST(ParallelFor, AForkedChildRunsItsLoopsOnItsOwnWorkers) {
   ASSERT_GE(child, 0);
   if (child == 0) {
     std::atomic<long> s{0};
-    std::atomic<int> max_worker{0};
+    std::atomic<unsigned> worker_bits{0};
+    std::atomic<int> workers_seen{0};
+    std::atomic<bool> waited{true};
     ParallelFor(2, 4000, 1, [&](long begin, long, int worker) {
       s += begin;
-      if (worker > max_worker) max_worker = worker;
-      std::this_thread::sleep_for(std::chrono::microseconds(20));
+      if ((worker_bits.fetch_or(1u << worker) & (1u << worker)) == 0) ++workers_seen;
+      if (begin == 0) waited = WaitForAnotherWorker(workers_seen, std::chrono::seconds(5));
     });
-    ::_exit(s.load() == 4000L * 3999 / 2 && max_worker.load() == 1 ? 0 : 1);
+    ::_exit(s.load() == 4000L * 3999 / 2 && waited.load() && worker_bits.load() == 3u ? 0 : 1);
   }
   int status = 0;
   pid_t done = 0;
