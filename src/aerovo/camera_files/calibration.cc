@@ -19,6 +19,7 @@
 #include "aerovo/camera/lens.h"
 #include "aerovo/camera_files/opencv_storage.h"
 #include "aerovo/core/error.h"
+#include "aerovo/core/text.h"
 #include "aerovo/outputs/output_file.h"
 
 namespace aerovo {
@@ -533,22 +534,24 @@ struct ColmapLine {
 ColmapLine ParseColmapLine(const std::string& path, int line_no, const std::string& line) {
   std::istringstream fields(line);
   ColmapLine l;
-  if (!(fields >> l.id >> l.model >> l.width >> l.height)) {
+  std::string width, height;
+  if (!(fields >> l.id >> l.model >> width >> height)) {
     throw InputError(
         fmt::format("calibration '{}' line {}: expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS...",
                     path, line_no));
   }
-  std::string tok;
-  while (fields >> tok) {
-    try {
-      std::size_t used = 0;
-      l.params.push_back(std::stod(tok, &used));
-      if (used != tok.size()) throw std::invalid_argument(tok);
-    } catch (const std::exception&) {
-      throw InputError(fmt::format("calibration '{}' line {}: parameter '{}' is not a number", path,
-                                   line_no, tok));
+  const auto number = [&](const std::string& tok, const char* what) {
+    const std::optional<double> v = ParseDecimal(tok);
+    if (!v) {
+      throw InputError(fmt::format("calibration '{}' line {}: {} '{}' is not a number", path,
+                                   line_no, what, tok));
     }
-  }
+    return *v;
+  };
+  l.width = number(width, "WIDTH");
+  l.height = number(height, "HEIGHT");
+  std::string tok;
+  while (fields >> tok) l.params.push_back(number(tok, "parameter"));
   return l;
 }
 

@@ -259,6 +259,13 @@ TEST(Calibration, ErrorsNameTheFileAndTheLineOrKey) {
   EXPECT_THAT(ErrorOf(dir / "count.txt"), HasSubstr("line 3: model OPENCV has 8 parameters, not 5"));
   WriteText(dir / "nan.txt", "1 PINHOLE 640 480 500 abc 320 240\n");
   EXPECT_THAT(ErrorOf(dir / "nan.txt"), HasSubstr("line 1: parameter 'abc' is not a number"));
+  // Numbers as ParseDecimal reads them (core/text.h): std::stod took "nan", "inf" and hexadecimal.
+  WriteText(dir / "nank.txt", "1 OPENCV 640 480 500 500 320 240 nan 0 0 0\n");
+  EXPECT_THAT(ErrorOf(dir / "nank.txt"), HasSubstr("line 1: parameter 'nan' is not a number"));
+  WriteText(dir / "hex.txt", "1 PINHOLE 0x280 480 500 500 320 240\n");
+  EXPECT_THAT(ErrorOf(dir / "hex.txt"), HasSubstr("line 1: WIDTH '0x280' is not a number"));
+  WriteText(dir / "inf.txt", "1 PINHOLE 640 inf 500 500 320 240\n");
+  EXPECT_THAT(ErrorOf(dir / "inf.txt"), HasSubstr("line 1: HEIGHT 'inf' is not a number"));
   WriteText(dir / "outside.txt", "1 PINHOLE 640 480 500 500 900 240\n");
   EXPECT_THAT(ErrorOf(dir / "outside.txt"), HasSubstr("line 1: CameraIntrinsics principal point"));
 

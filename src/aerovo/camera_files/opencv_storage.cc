@@ -1,10 +1,6 @@
 #include "aerovo/camera_files/opencv_storage.h"
 
-#include <cctype>
-#include <cerrno>
-#include <cmath>
-#include <cstdlib>
-#include <cstring>
+#include <optional>
 #include <string_view>
 
 #include <fmt/format.h>
@@ -12,6 +8,7 @@
 #include <pugixml.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/text.h"
 
 namespace aerovo::camera_files_detail {
 namespace {
@@ -21,29 +18,11 @@ constexpr int kMaxDepth = 16;
 // Values in a document; a calibration holds a few dozen (a 14-coefficient distortion).
 constexpr std::size_t kMaxValues = 100000;
 
-std::string_view Trim(std::string_view s) {
-  const auto blank = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; };
-  while (!s.empty() && blank(s.front())) s.remove_prefix(1);
-  while (!s.empty() && blank(s.back())) s.remove_suffix(1);
-  return s;
-}
-
-// A plain scalar: a finite decimal number as a JSON number, else the text. strtod alone would
-// also take "inf", "nan" and hexadecimal: only digits, signs, '.', 'e' and 'E' are numbers here.
+// A plain scalar: a finite decimal number (ParseDecimal, core/text.h) as a JSON number, else
+// the text.
 nlohmann::json Scalar(std::string_view text) {
-  const std::string_view t = Trim(text);
-  bool numeric = !t.empty() && t.size() <= 64;
-  for (char c : t) {
-    numeric = numeric && (std::isdigit(static_cast<unsigned char>(c)) || c == '.' || c == '-' ||
-                          c == '+' || c == 'e' || c == 'E');
-  }
-  if (numeric) {
-    const std::string s(t);
-    char* end = nullptr;
-    errno = 0;
-    const double v = std::strtod(s.c_str(), &end);
-    if (end == s.c_str() + s.size() && errno == 0 && std::isfinite(v)) return v;
-  }
+  const std::string_view t = TrimSpace(text);
+  if (const std::optional<double> v = ParseDecimal(t)) return *v;
   return std::string(t);
 }
 
@@ -193,7 +172,7 @@ nlohmann::json XmlNode(const pugi::xml_node& e, const std::string& path, int dep
   bool has_children = false;
   for (const pugi::xml_node& c : e.children()) has_children |= c.type() == pugi::node_element;
   if (!has_children) {
-    std::string_view text = Trim(e.text().get());
+    std::string_view text = TrimSpace(e.text().get());
     if (text.size() >= 2 && text.front() == '"' && text.back() == '"') {
       return std::string(text.substr(1, text.size() - 2));
     }
@@ -253,7 +232,7 @@ nlohmann::json ReadXml(const std::string& text, const std::string& path) {
 }  // namespace
 
 nlohmann::json ParseOpenCvStorage(const std::string& text, const std::string& path) {
-  const std::string_view t = Trim(text);
+  const std::string_view t = TrimSpace(text);
   if (!t.empty() && t.front() == '<') return ReadXml(text, path);
   return YamlDocument(text, path).Read();
 }

@@ -17,6 +17,7 @@
 #include "aerovo/cli/progress.h"
 #include "aerovo/cli/run_cli.h"
 #include "aerovo/core/error.h"
+#include "aerovo/core/text.h"
 #include "aerovo/outputs/run_folder.h"
 #include "aerovo/pipeline/experiment.h"
 #include "aerovo/report/html_report.h"
@@ -51,12 +52,11 @@ std::vector<double> ParseKList(const std::string& text) {
                             "1,0.5,0.1)");
     }
     item = item.substr(first, item.find_last_not_of(" \t") - first + 1);
-    char* end = nullptr;
-    const double v = std::strtod(item.c_str(), &end);
-    if (end == item.c_str() || *end != '\0') {
+    const std::optional<double> v = ParseDecimal(item);
+    if (!v) {
       throw InvalidArgument("--k: '" + item + "' is not a number (expected e.g. --k 1,0.5,0.1)");
     }
-    out.push_back(v);
+    out.push_back(*v);
   }
   return out;
 }

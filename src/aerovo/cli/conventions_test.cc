@@ -255,6 +255,9 @@ TEST(CliConventions, HostileNumbersAreUsageErrorsNamingTheOption) {
       {"experiment ransac -o DIR", "give an input flight"},
       {"experiment illumination --simulate --k '' -o DIR", "--k '': an empty item"},
       {"experiment illumination --simulate --k 1,,0.5 -o DIR", "--k '1,,0.5': an empty item"},
+      // strtod took these as numbers (k = NaN passed the range check).
+      {"experiment illumination --simulate --k 1,nan -o DIR", "--k: 'nan' is not a number"},
+      {"experiment illumination --simulate --k 0x1 -o DIR", "--k: '0x1' is not a number"},
   };
   for (const auto& c : kCases) {
     std::string args = c.args;

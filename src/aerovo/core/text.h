@@ -1,10 +1,27 @@
-// Small text helpers shared by the writers of XML-family outputs (KML, GPX, HTML, SVG).
+// Small text helpers: the one strict reader of numbers in outside text (telemetry, calibration
+// files, run folders, command-line lists), and escaping for the writers of XML-family outputs
+// (KML, GPX, HTML, SVG).
 #pragma once
 
+#include <optional>
 #include <string>
 #include <string_view>
 
 namespace aerovo {
+
+/// `s` without its leading and trailing ASCII white space (space, \t, \n, \v, \f, \r; never
+/// locale-dependent).
+std::string_view TrimSpace(std::string_view s);
+
+/// The number `s` spells, white space around it allowed: an optional sign ('+' or '-'), decimal
+/// digits with at most one '.', and an optional exponent ('e' or 'E', optional sign, digits);
+/// finite, and not so small that it rounds to 0 (below 4.9e-324; "0e999" is 0). nullopt for
+/// anything else: "nan", "inf", hexadecimal, "1e400", "1.5m", "1,5", "", more than 64
+/// characters. The decimal point is '.' whatever the C locale (std::from_chars is
+/// locale-independent, C++17 [utility.from.chars]), so a host program's setlocale (Python's
+/// locale module) does not change what a file means; strtod and std::stod accept all of the
+/// above and follow the locale.
+std::optional<double> ParseDecimal(std::string_view s);
 
 /// `text` with the five XML special characters replaced by entities (&amp; &lt; &gt; &quot;
 /// &apos;), safe in XML/HTML element content and in quoted attribute values. &apos; is valid in

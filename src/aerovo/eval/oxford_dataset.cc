@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/text.h"
 
 namespace aerovo {
 namespace fs = std::filesystem;
@@ -25,18 +26,12 @@ cv::Matx33d ReadOxfordHomography(const fs::path& file) {
   std::vector<double> values;
   std::string token;
   while (in >> token) {
-    double v = 0.0;
-    std::size_t used = 0;
-    try {
-      v = std::stod(token, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used != token.size() || !std::isfinite(v)) {
+    const std::optional<double> v = ParseDecimal(token);
+    if (!v) {
       throw InputError(where + ": value " + std::to_string(values.size() + 1) + " ('" + token +
                        "') is not a finite number");
     }
-    values.push_back(v);
+    values.push_back(*v);
   }
   if (values.size() != 9) {
     throw InputError(where + ": expected 9 numbers (3x3 row-major homography), found " +

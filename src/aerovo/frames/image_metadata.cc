@@ -22,8 +22,6 @@
 namespace aerovo {
 namespace {
 
-using io_detail::ParseDouble;
-
 void InitExiv2Once() {
   static std::once_flag once;
   std::call_once(once, [] {
@@ -75,7 +73,7 @@ std::optional<double> ExifNumber(const Exiv2::ExifData& exif, const char* key,
       type == Exiv2::signedLong || type == Exiv2::unsignedByte) {
     return static_cast<double>(it->toLong(0));
   }
-  return ParseDouble(it->toString());
+  return ParseDecimal(it->toString());
 }
 
 // Degrees/minutes/seconds rational triple with its hemisphere reference: GPSLatitudeRef 'N'
@@ -108,7 +106,7 @@ std::optional<double> ExifDms(const Exiv2::ExifData& exif, const char* key, cons
     }
   }
   double deg = parts[0] + parts[1] / 60.0 + parts[2] / 3600.0;
-  const std::string ref(io_detail::Trim(ExifString(exif, ref_key).value_or("")));
+  const std::string ref(TrimSpace(ExifString(exif, ref_key).value_or("")));
   if (ref == negative_ref) return -deg;
   if (ref != positive_ref && deg != 0.0) {
     throw InputError(
@@ -127,7 +125,7 @@ std::optional<double> XmpNumber(const Exiv2::XmpData& xmp, const char* key,
   const auto it = xmp.findKey(Exiv2::XmpKey(key));
   if (it == xmp.end()) return std::nullopt;
   const std::string text = it->toString();
-  const auto v = ParseDouble(text);
+  const auto v = ParseDecimal(text);
   if (!v) {
     throw InputError(fmt::format("{}: XMP {} '{}' is not a number", source, key,
                                  std::string_view(text).substr(0, 40)));
@@ -151,13 +149,13 @@ std::optional<double> XmpRealOrRational(const Exiv2::XmpData& xmp, const std::st
   const auto it = xmp.findKey(Exiv2::XmpKey(key));
   if (it == xmp.end()) return std::nullopt;
   const std::string text = it->toString();
-  const std::string_view t = io_detail::Trim(text);
+  const std::string_view t = TrimSpace(text);
   std::optional<double> v;
   if (const auto slash = t.find('/'); slash == std::string_view::npos) {
-    v = ParseDouble(t);
+    v = ParseDecimal(t);
   } else {
-    const auto num = ParseDouble(t.substr(0, slash));
-    const auto den = ParseDouble(t.substr(slash + 1));
+    const auto num = ParseDecimal(t.substr(0, slash));
+    const auto den = ParseDecimal(t.substr(slash + 1));
     if (num && den && *den == 0.0) {
       throw InputError(fmt::format("{}: XMP {} '{}' has a zero denominator", source, what,
                                    io_detail::Printable(t, 40)));
@@ -202,17 +200,17 @@ bool HasDjiXmp(const Exiv2::XmpData& xmp) {
 
 // EXIF Make, Model and serial number (EXIF BodySerialNumber, CameraSerialNumber, else DJI XMP).
 void ReadCameraIdentity(const Exiv2::ExifData& exif, const Exiv2::XmpData& xmp, ImageMetadata& m) {
-  m.make = std::string(io_detail::Trim(ExifString(exif, "Exif.Image.Make").value_or("")));
-  m.model = std::string(io_detail::Trim(ExifString(exif, "Exif.Image.Model").value_or("")));
+  m.make = std::string(TrimSpace(ExifString(exif, "Exif.Image.Make").value_or("")));
+  m.model = std::string(TrimSpace(ExifString(exif, "Exif.Image.Model").value_or("")));
   for (const char* key : {"Exif.Photo.BodySerialNumber", "Exif.Image.CameraSerialNumber"}) {
     if (m.serial_number.empty()) {
-      m.serial_number = std::string(io_detail::Trim(ExifString(exif, key).value_or("")));
+      m.serial_number = std::string(TrimSpace(ExifString(exif, key).value_or("")));
     }
   }
   if (m.serial_number.empty()) {
     // DJI writes the camera's serial number in its XMP (drone-dji:CameraSerialNumber).
     const auto it = xmp.findKey(Exiv2::XmpKey("Xmp.drone-dji.CameraSerialNumber"));
-    if (it != xmp.end()) m.serial_number = std::string(io_detail::Trim(it->toString()));
+    if (it != xmp.end()) m.serial_number = std::string(TrimSpace(it->toString()));
   }
 }
 
@@ -252,7 +250,7 @@ void ReadCaptureTime(const Exiv2::ExifData& exif, ImageMetadata& m) {
     if (m.capture_unix_time_s) {
       if (auto sub = ExifString(exif, "Exif.Photo.SubSecTimeOriginal")) {
         // SubSecTime holds the digits of the fraction: "123" = 0.123 s, "5" = 0.5 s.
-        const std::string_view digits = io_detail::Trim(*sub);
+        const std::string_view digits = TrimSpace(*sub);
         double frac = 0.0, scale = 0.1;
         bool ok = !digits.empty() && digits.size() <= 9;
         for (char c : digits) {

@@ -9,6 +9,7 @@
 #include <unordered_map>
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/text.h"
 #include "aerovo/geo/local_enu.h"
 #include "aerovo/outputs/track_writers.h"
 #include "aerovo/telemetry/csv_lines.h"
@@ -82,9 +83,8 @@ class CsvTable {
   std::optional<double> OptNumber(std::size_t row, const std::string& col) const {
     const std::string& c = cell(row, col);
     if (c.empty()) return std::nullopt;
-    char* end = nullptr;
-    const double v = std::strtod(c.c_str(), &end);
-    if (end == c.c_str() || *end != '\0' || !std::isfinite(v)) {
+    const std::optional<double> v = ParseDecimal(c);
+    if (!v) {
       throw InputError("'" + path_.string() + "' line " + std::to_string(line_numbers_[row]) +
                        ": column '" + col + "' is not a number: '" + c + "'");
     }
@@ -166,25 +166,17 @@ std::vector<MapFixRow> ReadMapFixesIfPresent(const fs::path& path) {
   return out;
 }
 
-// A TUM track written by the run (`t x y z qx qy qz qw`), when present: t, x, y of each line.
-// InputError naming the file and line for a line that does not start with three numbers, but a
-// last line without its newline (a run killed mid-write), which is ignored.
+// A TUM track written by the run, when present: t, x, y of each pose (ReadTumPoints; a last
+// line without its newline, of a run killed mid-write, is dropped).
 std::vector<TrajectoryPoint2D> ReadTumIfPresent(const fs::path& path) {
   std::vector<TrajectoryPoint2D> out;
   if (!fs::exists(path)) return out;
-  std::ifstream in(path);
-  std::string line;
-  for (long n = 1; std::getline(in, line); ++n) {
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream ss(line);
-    TrajectoryPoint2D p;
-    if (!(ss >> p.t >> p.x >> p.y) || !std::isfinite(p.t) || !std::isfinite(p.x) ||
-        !std::isfinite(p.y)) {
-      if (in.eof()) break;  // the last line, cut short
-      throw InputError("'" + path.string() + "' line " + std::to_string(n) +
-                       ": expected 't x y z qx qy qz qw' with finite numbers");
-    }
-    out.push_back(p);
+  for (const ReferencePoint& p : ReadTumPoints(path, /*last_line_may_be_cut=*/true)) {
+    TrajectoryPoint2D q;
+    q.t = p.time_s;
+    q.x = p.x_m;
+    q.y = p.y_m;
+    out.push_back(q);
   }
   return out;
 }

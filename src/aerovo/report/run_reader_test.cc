@@ -74,5 +74,28 @@ TEST_F(RunReaderCut, ALastLineWithoutItsLineEndIsDroppedEvenWithEveryField) {
   }
 }
 
+// vo_optimized.tum, written pose by pose at the end of a run, is read as ReadTumPoints reads a
+// file that may be cut (telemetry/reference_track.h): a last pose without its line end is dropped
+// ("1.0 2.5 -3" may be the start of "1.0 2.5 -3.75 ..."), and its numbers are strict.
+TEST_F(RunReaderCut, ACutLastPoseOfTheOptimisedTrackIsDropped) {
+  std::ofstream(dir_ / "frames.csv") << kFramesHeader << FrameRow(0) << FrameRow(1) << FrameRow(2);
+  std::ofstream(dir_ / "vo_optimized.tum")
+      << "0.0 0 0 0 0 0 0 1\n0.5 2.5 -3.75 0 0 0 0 1\n1.0 5 -7";
+  const RunData run = ReadRunDir(dir_);
+  ASSERT_EQ(run.optimized.size(), 2u);
+  EXPECT_DOUBLE_EQ(run.optimized[1].t, 0.5);
+  EXPECT_DOUBLE_EQ(run.optimized[1].x, 2.5);
+  EXPECT_DOUBLE_EQ(run.optimized[1].y, -3.75);
+  std::ofstream(dir_ / "vo_optimized.tum") << "0.0 0 0 0 0 0 0 1\n0.5 nan -3.75 0 0 0 0 1\n";
+  try {
+    ReadRunDir(dir_);
+    ADD_FAILURE() << "nan read as a position";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("vo_optimized.tum:2: 'nan' is not a number"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace aerovo

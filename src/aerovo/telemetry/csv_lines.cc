@@ -13,7 +13,7 @@ namespace aerovo {
 namespace {
 
 bool BlankOrComment(std::string_view line) {
-  const std::string_view t = io_detail::Trim(line);
+  const std::string_view t = TrimSpace(line);
   return t.empty() || t.front() == '#';
 }
 
@@ -63,9 +63,9 @@ CsvLines::CsvLines(std::istream& in, std::string source_name) : lines_(in, sourc
   // "sep=," / "sep=;": the separator hint of spreadsheet exports (the first line of the DJI
   // flight record CSVs of log viewers); the header is the next line that is not blank/comment.
   std::optional<char> hinted_sep;
-  if (const std::string_view t = io_detail::Trim(line);
-      t.size() == 5 && io_detail::ToLower(t.substr(0, 4)) == "sep=" &&
-      (t[4] == ',' || t[4] == ';')) {
+  if (const std::string_view t = TrimSpace(line); t.size() == 5 &&
+                                                  io_detail::ToLower(t.substr(0, 4)) == "sep=" &&
+                                                  (t[4] == ',' || t[4] == ';')) {
     hinted_sep = t[4];
     found = false;
     while (lines_.Next(line)) {

@@ -26,9 +26,7 @@ namespace aerovo {
 namespace {
 
 using io_detail::ColumnName;
-using io_detail::ParseDouble;
 using io_detail::RecordErrors;
-using io_detail::Trim;
 
 // The fields a CSV column can give. kTime is an elapsed time (a number, converted to seconds;
 // an ISO 8601 date is also accepted there, as before units were read), kDate an absolute date.
@@ -312,7 +310,7 @@ ColumnPlan PlanColumns(const std::vector<std::string>& header, const std::string
           "{}:{}: column '{}' would be read as the {}, but its unit is not written "
           "'name(unit)' or 'name [unit]' (a bracket is not closed, or text follows it); fix the "
           "header",
-          source_name, header_line, io_detail::Printable(Trim(header[c])), kColumnNames[col]));
+          source_name, header_line, io_detail::Printable(TrimSpace(header[c])), kColumnNames[col]));
     }
     double factor = 1.0;
     int rank = cand->rank;
@@ -324,7 +322,7 @@ ColumnPlan PlanColumns(const std::vector<std::string>& header, const std::string
         throw InputError(fmt::format(
             "{}:{}: column '{}' would be read as the {}, but its unit '{}' is not one aerovo "
             "knows for it (known: {}); rename the column or convert its values",
-            source_name, header_line, io_detail::Printable(Trim(header[c])), kColumnNames[col],
+            source_name, header_line, io_detail::Printable(TrimSpace(header[c])), kColumnNames[col],
             io_detail::Printable(n.unit), KnownUnits(col)));
       }
       factor = *f;
@@ -355,8 +353,8 @@ ColumnPlan PlanColumns(const std::vector<std::string>& header, const std::string
     if (tie[col] >= 0) {
       throw InputError(fmt::format("{}:{}: two columns mean {} ('{}' and '{}')", source_name,
                                    header_line, kColumnNames[col],
-                                   io_detail::Printable(Trim(header[plan.index[col]])),
-                                   io_detail::Printable(Trim(header[tie[col]]))));
+                                   io_detail::Printable(TrimSpace(header[plan.index[col]])),
+                                   io_detail::Printable(TrimSpace(header[tie[col]]))));
     }
   }
   if (plan.index[kLat] < 0 || plan.index[kLon] < 0) {
@@ -396,7 +394,7 @@ RecordValues ParseRecordValues(const std::vector<std::string>& cells, const Colu
   const bool frame_needed = !time_needed && !date_needed;
   for (int c = 0; c < kNumColumns && problem.empty(); ++c) {
     if (index[c] < 0) continue;
-    const std::string_view cell = Trim(cells[index[c]]);
+    const std::string_view cell = TrimSpace(cells[index[c]]);
     if (cell.empty()) {
       if (c == kLat || c == kLon || (c == kTime && time_needed && index[kFrame] < 0) ||
           (c == kDate && date_needed && index[kFrame] < 0) || (c == kFrame && frame_needed)) {
@@ -413,7 +411,7 @@ RecordValues ParseRecordValues(const std::vector<std::string>& cells, const Colu
       r.bad_date = !d;
       continue;
     }
-    v[c] = ParseDouble(cell);
+    v[c] = ParseDecimal(cell);
     if (!v[c] && c == kTime) {
       r.time_date = io_detail::ParseDateTime(cell);
       if (r.time_date) continue;
@@ -463,25 +461,25 @@ std::string IntegerDegE7Hint(const TelemetrySample& s) {
 namespace io_detail {
 
 ColumnName SplitColumnName(std::string_view cell) {
-  std::string s = ToLower(Trim(cell));
+  std::string s = ToLower(TrimSpace(cell));
   ColumnName r;
   if (!s.empty() && (s.back() == ')' || s.back() == ']')) {
     const char open = s.back() == ')' ? '(' : '[';
     const std::size_t p = s.rfind(open);
     if (p != std::string::npos && p > 0) {
-      r.unit = std::string(Trim(std::string_view(s).substr(p + 1, s.size() - p - 2)));
-      s = std::string(Trim(std::string_view(s).substr(0, p)));
+      r.unit = std::string(TrimSpace(std::string_view(s).substr(p + 1, s.size() - p - 2)));
+      s = std::string(TrimSpace(std::string_view(s).substr(0, p)));
     }
   }
   const std::size_t bracket = s.find_first_of("()[]");
   if (bracket != std::string::npos) {  // "time(ms", "speed(mph) avg": no unit can be read
     r.malformed = true;
-    s = std::string(Trim(std::string_view(s).substr(0, bracket)));
+    s = std::string(TrimSpace(std::string_view(s).substr(0, bracket)));
   }
   const std::size_t dot = s.rfind('.');
   if (dot != std::string::npos) {
-    r.prefix = std::string(Trim(std::string_view(s).substr(0, dot)));
-    s = std::string(Trim(std::string_view(s).substr(dot + 1)));
+    r.prefix = std::string(TrimSpace(std::string_view(s).substr(0, dot)));
+    s = std::string(TrimSpace(std::string_view(s).substr(dot + 1)));
   }
   if (r.unit.empty() && !r.malformed) {
     const std::size_t us = s.rfind('_');
@@ -534,7 +532,7 @@ TelemetryReadResult ParseTelemetryCsv(std::istream& in, const std::string& sourc
       continue;
     }
     if (values.bad_date && first_bad_date.empty()) {
-      first_bad_date = io_detail::Printable(Trim(cells[plan.index[kDate]]), 40);
+      first_bad_date = io_detail::Printable(TrimSpace(cells[plan.index[kDate]]), 40);
       first_bad_date_line = n;
     }
     s.lat_deg = *v[kLat];
@@ -594,7 +592,7 @@ TelemetryReadResult ParseTelemetryCsv(std::istream& in, const std::string& sourc
         "{}:{}: column '{}' holds '{}', not a date aerovo reads: absolute times (unix_time_s) "
         "not set",
         source_name, first_bad_date_line,
-        io_detail::Printable(Trim(csv.header()[plan.index[kDate]])), first_bad_date));
+        io_detail::Printable(TrimSpace(csv.header()[plan.index[kDate]])), first_bad_date));
   }
   return io_detail::Finish(std::move(samples), errors, no_fix, "CSV file");
 }

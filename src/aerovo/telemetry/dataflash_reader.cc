@@ -43,11 +43,9 @@ namespace {
 
 using io_detail::ByteWindow;
 using io_detail::LoadLe;
-using io_detail::ParseDouble;
 using io_detail::Printable;
 using io_detail::RecordErrors;
 using io_detail::SeriesPoint;
-using io_detail::Trim;
 
 constexpr unsigned char kHead1 = 0xA3;
 constexpr unsigned char kHead2 = 0x95;
@@ -158,7 +156,7 @@ std::vector<std::string> SplitTrimmed(std::string_view s, char sep) {
   std::size_t b = 0;
   while (true) {
     const std::size_t e = s.find(sep, b);
-    out.emplace_back(Trim(s.substr(b, e == std::string_view::npos ? s.npos : e - b)));
+    out.emplace_back(TrimSpace(s.substr(b, e == std::string_view::npos ? s.npos : e - b)));
     if (e == std::string_view::npos) break;
     b = e + 1;
   }
@@ -574,10 +572,10 @@ void ParseText(std::istream& in, RecordErrors& errors, Collector& out) {
   std::string line;
   bool first = true;
   while (lines.Next(line)) {
-    const std::string_view t = Trim(line);
+    const std::string_view t = TrimSpace(line);
     if (t.empty()) continue;
     const std::size_t comma = t.find(',');
-    const std::string_view name = Trim(t.substr(0, comma));
+    const std::string_view name = TrimSpace(t.substr(0, comma));
     if (first) {
       if (name != "FMT") {
         throw InputError(fmt::format(
@@ -616,7 +614,7 @@ void ParseText(std::istream& in, RecordErrors& errors, Collector& out) {
     }
     const auto value = [&](int i) -> std::optional<double> {
       if (i < 0) return std::nullopt;
-      return ParseDouble(values[static_cast<std::size_t>(i)]);
+      return ParseDecimal(values[static_cast<std::size_t>(i)]);
     };
     out.Message(it->second.roles, value, lines.line());
   }

@@ -18,7 +18,6 @@
 namespace aerovo {
 namespace {
 
-using io_detail::ParseDouble;
 using io_detail::RecordErrors;
 
 class LineIndex {
@@ -93,8 +92,8 @@ std::optional<ParsedPoint> ParsePoint(const pugi::xml_node& pt, long line, Recor
                   fmt::format("<{}> without {} attribute", pt.name(), !lat_a ? "a lat" : "a lon"));
     return std::nullopt;
   }
-  const auto lat = ParseDouble(lat_a.value());
-  const auto lon = ParseDouble(lon_a.value());
+  const auto lat = ParseDecimal(lat_a.value());
+  const auto lon = ParseDecimal(lon_a.value());
   if (!lat || !lon) {
     errors.Report(line, fmt::format("{} '{}' is not a number", !lat ? "lat" : "lon",
                                     io_detail::Printable(!lat ? lat_a.value() : lon_a.value())));
@@ -104,7 +103,7 @@ std::optional<ParsedPoint> ParsePoint(const pugi::xml_node& pt, long line, Recor
   s.lat_deg = *lat;
   s.lon_deg = *lon;
   if (const pugi::xml_node ele = Child(pt, "ele")) {
-    const auto v = ParseDouble(ele.text().get());
+    const auto v = ParseDecimal(ele.text().get());
     if (!v) {
       errors.Report(
           line, fmt::format("<ele> '{}' is not a number", io_detail::Printable(ele.text().get())));
@@ -124,7 +123,7 @@ std::optional<ParsedPoint> ParsePoint(const pugi::xml_node& pt, long line, Recor
     has_time = true;
   }
   if (const pugi::xml_node c = Child(pt, "course")) {  // GPX 1.0 heading
-    if (auto v = ParseDouble(c.text().get())) s.yaw_deg = v;
+    if (auto v = ParseDecimal(c.text().get())) s.yaw_deg = v;
   }
   if (*lat == 0.0 && *lon == 0.0) {
     ++no_fix;

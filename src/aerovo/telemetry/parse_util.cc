@@ -13,41 +13,14 @@
 
 namespace aerovo::io_detail {
 
-std::string_view Trim(std::string_view s) {
-  std::size_t b = 0, e = s.size();
-  while (b < e && std::isspace(static_cast<unsigned char>(s[b]))) ++b;
-  while (e > b && std::isspace(static_cast<unsigned char>(s[e - 1]))) --e;
-  return s.substr(b, e - b);
-}
-
 std::string ToLower(std::string_view s) {
   std::string r(s);
   for (char& c : r) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return r;
 }
 
-std::optional<double> ParseDouble(std::string_view s) {
-  s = Trim(s);
-  if (s.empty() || s.size() > 64) return std::nullopt;
-  // strtod accepts "inf", "nan" and hex; outside data must be plain decimal.
-  for (char c : s) {
-    if (!(std::isdigit(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '+' ||
-          c == 'e' || c == 'E')) {
-      return std::nullopt;
-    }
-  }
-  char buf[65];
-  std::memcpy(buf, s.data(), s.size());
-  buf[s.size()] = '\0';
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(buf, &end);
-  if (end != buf + s.size() || errno == ERANGE || !std::isfinite(v)) return std::nullopt;
-  return v;
-}
-
 std::optional<long long> ParseInt(std::string_view s) {
-  s = Trim(s);
+  s = TrimSpace(s);
   if (s.empty() || s.size() > 18) return std::nullopt;
   std::size_t i = 0;
   bool neg = false;
@@ -106,7 +79,7 @@ int DaysInMonth(int y, int m) {
 }  // namespace
 
 std::optional<double> ParseDateTime(std::string_view s) {
-  s = Trim(s);
+  s = TrimSpace(s);
   std::size_t p = 0;
   int y, mo, d, h, mi, sec;
   if (!Digits(s, p, 4, y) || !Expect(s, p, "-:./") || !Digits(s, p, 2, mo) ||
@@ -158,7 +131,7 @@ std::optional<double> ParseDateTime(std::string_view s) {
 }
 
 std::optional<double> ParseSrtClock(std::string_view s) {
-  s = Trim(s);
+  s = TrimSpace(s);
   std::size_t p = 0;
   int h, m, sec, ms;
   if (!Digits(s, p, 2, h) || !Expect(s, p, ":") || !Digits(s, p, 2, m) || !Expect(s, p, ":") ||

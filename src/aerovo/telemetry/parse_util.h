@@ -1,5 +1,6 @@
-// Internal helpers shared by the io readers (not part of the public API): strict number
-// parsing, ISO 8601 / EXIF dates, and the strict-or-lenient error policy.
+// Internal helpers shared by the io readers (not part of the public API): strict integer
+// parsing (decimal numbers: ParseDecimal, core/text.h), ISO 8601 / EXIF dates, and the
+// strict-or-lenient error policy.
 #pragma once
 
 #include <cmath>
@@ -11,15 +12,13 @@
 #include <vector>
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/text.h"  // TrimSpace, ParseDecimal: the readers' numbers
 #include "aerovo/telemetry/telemetry_readers.h"
 
 namespace aerovo::io_detail {
 
-std::string_view Trim(std::string_view s);
 std::string ToLower(std::string_view s);
 
-/// Whole-token decimal number (leading/trailing blanks allowed, '+' allowed); finite only.
-std::optional<double> ParseDouble(std::string_view s);
 std::optional<long long> ParseInt(std::string_view s);
 /// True for a whole number in [0, 1e8]: a frame index (the range is checked before any cast, as
 /// converting a double outside an integer's range is undefined; NaN is not a frame number).

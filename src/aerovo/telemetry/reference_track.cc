@@ -14,48 +14,49 @@
 #include "aerovo/telemetry/telemetry_readers.h"
 
 namespace aerovo {
-namespace {
-
-ReferenceTrack ReadTum(const std::filesystem::path& path) {
+std::vector<ReferencePoint> ReadTumPoints(const std::filesystem::path& path,
+                                          bool last_line_may_be_cut) {
   std::ifstream in(path);
-  if (!in) throw InputError(fmt::format("cannot open reference track '{}'", path.string()));
-  ReferenceTrack track;
-  track.format = "tum";
+  if (!in) throw InputError(fmt::format("cannot open TUM trajectory '{}'", path.string()));
+  std::vector<ReferencePoint> points;
   std::string line;
   int line_no = 0;
   while (std::getline(in, line)) {
     ++line_no;
-    const std::string_view trimmed = io_detail::Trim(line);
+    // getline stops at the end of the file on a line without its newline: a file still being
+    // written, or of a run that was killed mid-line, may end in part of a pose.
+    if (last_line_may_be_cut && in.eof()) break;
+    const std::string_view trimmed = TrimSpace(line);
     if (trimmed.empty() || trimmed.front() == '#') continue;
     std::istringstream fields{std::string(trimmed)};
-    std::vector<double> v;
+    double v[3] = {0.0, 0.0, 0.0};
+    int n = 0;
     std::string token;
     while (fields >> token) {
-      const std::optional<double> d = io_detail::ParseDouble(token);
+      const std::optional<double> d = ParseDecimal(token);
       if (!d) {
         throw InputError(fmt::format("{}:{}: '{}' is not a number (TUM: t x y z qx qy qz qw)",
-                                     path.string(), line_no, token));
+                                     path.string(), line_no, io_detail::Printable(token)));
       }
-      v.push_back(*d);
+      if (n < 3) v[n] = *d;
+      ++n;
     }
-    if (v.size() < 3) {
+    if (n < 3) {
       throw InputError(fmt::format("{}:{}: a TUM line needs at least t x y, got {} values",
-                                   path.string(), line_no, v.size()));
+                                   path.string(), line_no, n));
     }
-    if (!track.points.empty() && v[0] < track.points.back().time_s) {
+    if (!points.empty() && v[0] < points.back().time_s) {
       throw InputError(fmt::format("{}:{}: time {} is before the previous line's {}", path.string(),
-                                   line_no, v[0], track.points.back().time_s));
+                                   line_no, v[0], points.back().time_s));
     }
     ReferencePoint p;
     p.time_s = v[0];
     p.x_m = v[1];
     p.y_m = v[2];
-    track.points.push_back(p);
+    points.push_back(p);
   }
-  return track;
+  return points;
 }
-
-}  // namespace
 
 ReferenceTrack ReadReferenceTrack(const std::filesystem::path& path) {
   std::string ext = path.extension().string();
@@ -63,7 +64,8 @@ ReferenceTrack ReadReferenceTrack(const std::filesystem::path& path) {
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   ReferenceTrack track;
   if (ext == ".tum" || ext == ".txt") {
-    track = ReadTum(path);
+    track.format = "tum";
+    track.points = ReadTumPoints(path);
   } else {
     const TelemetryReadResult t = ReadTelemetryFile(path);
     track.format = ext.empty() ? "telemetry" : ext.substr(1);
@@ -94,7 +96,7 @@ ReferenceTrack ReadGroundTruthCsv(const std::filesystem::path& path) {
   static const char* const kColumns[] = {"frame", "time_s", "east_m", "north_m"};
   const std::vector<std::string>& header = csv.header();
   bool header_ok = header.size() >= 4;
-  for (int c = 0; header_ok && c < 4; ++c) header_ok = io_detail::Trim(header[c]) == kColumns[c];
+  for (int c = 0; header_ok && c < 4; ++c) header_ok = TrimSpace(header[c]) == kColumns[c];
   if (!header_ok) {
     fail(csv.header_line(),
          "expected a header starting 'frame,time_s,east_m,north_m' (ground_truth.csv of aerovo "
@@ -109,7 +111,7 @@ ReferenceTrack ReadGroundTruthCsv(const std::filesystem::path& path) {
     if (cells.size() < 4) fail(csv.line(), "fewer than 4 columns");
     double v[4];
     for (int c = 0; c < 4; ++c) {
-      const std::optional<double> d = io_detail::ParseDouble(cells[c]);
+      const std::optional<double> d = ParseDecimal(cells[c]);
       if (!d) fail(csv.line(), fmt::format("{} '{}' is not a number", kColumns[c], cells[c]));
       v[c] = *d;
     }

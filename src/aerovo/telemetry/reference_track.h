@@ -34,6 +34,16 @@ struct ReferenceTrack {
   std::vector<ReferencePoint> points;  ///< Sorted by non-decreasing time.
 };
 
+/// The poses of a TUM trajectory file: `t x y z qx qy qz qw` per line (at least t x y; only those
+/// are read, into time_s, x_m, y_m), '#' comments and blank lines skipped, times non-decreasing,
+/// numbers as ParseDecimal (core/text.h) reads them. `last_line_may_be_cut`: a last line without
+/// its newline is dropped unread (a file still being written, or of a run that was killed
+/// mid-line: "12.5 3.4 5" may be the start of "12.5 3.4 5.67 ..."). No minimum number of poses.
+/// Throws InputError naming the file (and line) for an unreadable file, a malformed line or
+/// times that decrease.
+std::vector<ReferencePoint> ReadTumPoints(const std::filesystem::path& path,
+                                          bool last_line_may_be_cut = false);
+
 /// Reads a reference track. `.tum` and `.txt`: TUM trajectory (`t x y z qx qy qz qw` per line,
 /// '#' comments; only t, x, y are used; at least t x y per line). Any other extension: a
 /// telemetry file read by ReadTelemetryFile (`.csv` with named columns such as

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <string>
+#include <vector>
 
 #include "aerovo/core/error.h"
 #include "aerovo/telemetry/io_test_util.h"
@@ -59,6 +61,56 @@ TEST(ReferenceTrack, BadInputNamesFileAndLine) {
   Write(dir / "one.tum", "1 0 0\n");
   EXPECT_THROW(ReadReferenceTrack(dir / "one.tum"), InputError);
   EXPECT_THROW(ReadReferenceTrack(dir / "missing.tum"), InputError);
+}
+
+// A run's own TUM file (vo_optimized.tum) may end in part of a pose when the run was killed
+// mid-line: "2 3.5 -1" is the start of "2 3.5 -1.25 ...". It is dropped only when the caller says
+// the file may be cut; a truth file given by the user is read whole.
+TEST(ReferenceTrack, TumPointsDropALastLineWithoutItsLineEndOnlyWhenAsked) {
+  io_test::TempDir dir("aerovo_reftrack");
+  Write(dir / "cut.tum", "0 0 0 0 0 0 0 1\n1 1.5 -0.5 0 0 0 0 1\n2 3.5 -1");
+  const std::vector<ReferencePoint> cut = ReadTumPoints(dir / "cut.tum", true);
+  ASSERT_EQ(cut.size(), 2u);
+  EXPECT_DOUBLE_EQ(cut[1].time_s, 1.0);
+  EXPECT_DOUBLE_EQ(cut[1].x_m, 1.5);
+  EXPECT_DOUBLE_EQ(cut[1].y_m, -0.5);
+  const std::vector<ReferencePoint> whole = ReadTumPoints(dir / "cut.tum");
+  ASSERT_EQ(whole.size(), 3u);
+  EXPECT_DOUBLE_EQ(whole[2].y_m, -1.0);
+  // With its line end the last pose is read in both modes.
+  Write(dir / "whole.tum", "0 0 0\n1 1.5 -0.5\n2 3.5 -1.25\n");
+  ASSERT_EQ(ReadTumPoints(dir / "whole.tum", true).size(), 3u);
+  EXPECT_DOUBLE_EQ(ReadTumPoints(dir / "whole.tum", true)[2].y_m, -1.25);
+  // A damaged line before the last is an error either way.
+  Write(dir / "bad.tum", "0 0 0\n1 1.5\n2 3.5 -1.25\n");
+  EXPECT_THROW(ReadTumPoints(dir / "bad.tum", true), InputError);
+  // A file of comments only has no pose, which is not an error here (ReadReferenceTrack needs 2).
+  Write(dir / "comments.tum", "# t x y z qx qy qz qw\n\n");
+  EXPECT_TRUE(ReadTumPoints(dir / "comments.tum").empty());
+  EXPECT_THROW(ReadTumPoints(dir / "missing.tum"), InputError);
+}
+
+// Numbers are ParseDecimal's: "nan", "inf" and hexadecimal are not positions; the token is quoted
+// printable (an escape sequence in a file does not reach the terminal).
+TEST(ReferenceTrack, TumNumbersAreStrictAndQuotedPrintable) {
+  io_test::TempDir dir("aerovo_reftrack");
+  for (const char* bad : {"nan", "inf", "0x10", "1e400", "1,5"}) {
+    Write(dir / "bad.tum", std::string("0 0 0\n1 ") + bad + " 0\n");
+    try {
+      ReadReferenceTrack(dir / "bad.tum");
+      ADD_FAILURE() << bad << " read as a number";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("bad.tum:2: '"), std::string::npos) << e.what();
+    }
+  }
+  Write(dir / "esc.tum", "0 0 0\n1 \x1b[31mred 0\n");
+  try {
+    ReadReferenceTrack(dir / "esc.tum");
+    ADD_FAILURE() << "an escape sequence read as a number";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).find('\x1b'), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("\\x1B[31mred"), std::string::npos) << e.what();
+  }
 }
 
 TEST(ReferenceTrack, ReadsSimulatorGroundTruthInItsOwnFrame) {

@@ -19,10 +19,8 @@
 namespace aerovo {
 namespace {
 
-using io_detail::ParseDouble;
 using io_detail::ParseInt;
 using io_detail::RecordErrors;
-using io_detail::Trim;
 
 struct Line {
   long number;
@@ -34,7 +32,7 @@ enum class GpsOrder { kUnknown, kLonLat, kLatLon };
 
 // "N/A" (DJI's "no value" before the GPS fix).
 bool IsNotAvailable(std::string_view v) {
-  v = Trim(v);
+  v = TrimSpace(v);
   return v == "N/A" || v == "n/a" || v == "NA";
 }
 
@@ -76,7 +74,7 @@ struct BlockFields {
     if (error.empty()) error = std::move(msg);
   }
   void SetNumber(std::optional<double>& field, std::string_view key, std::string_view value) {
-    auto v = ParseDouble(value);
+    auto v = ParseDecimal(value);
     if (!v) {
       Fail(fmt::format("{} value '{}' is not a number", io_detail::Printable(key),
                        io_detail::Printable(value)));
@@ -177,7 +175,7 @@ std::optional<std::vector<std::string_view>> ParenValues(std::string_view line,
   std::size_t b = 0;
   while (true) {
     const std::size_t c = inner.find(',', b);
-    values.push_back(Trim(inner.substr(b, c == std::string_view::npos ? inner.npos : c - b)));
+    values.push_back(TrimSpace(inner.substr(b, c == std::string_view::npos ? inner.npos : c - b)));
     if (c == std::string_view::npos) break;
     b = c + 1;
   }
@@ -199,20 +197,20 @@ std::size_t FindWord(std::string_view line, std::string_view name, std::size_t f
 // A value of a DJI record without its unit: "0.0M" -> "0.0", "85.80m" -> "85.80",
 // "-24.4°" -> "-24.4" (the degree sign in UTF-8, C2 B0, or Latin-1, B0).
 std::string_view WithoutUnit(std::string_view v) {
-  v = Trim(v);
+  v = TrimSpace(v);
   if (v.size() >= 2 && v.substr(v.size() - 2) == "\xC2\xB0") v.remove_suffix(2);
   if (!v.empty() && (v.back() == 'm' || v.back() == 'M' || v.back() == '\xB0')) v.remove_suffix(1);
-  return Trim(v);
+  return TrimSpace(v);
 }
 
 // What the third value of "GPS(a, b, c)" says about the order of a and b: an altitude in metres
 // ("0.0M": the enterprise M200/M300 records, GPS(latitude, longitude, altitude)) or a satellite
 // count (an integer: Phantom 3/4, Mavic, P4 RTK, GPS(longitude, latitude, satellites)).
 GpsOrder OrderOfThirdValue(std::string_view c) {
-  c = Trim(c);
+  c = TrimSpace(c);
   if (c.empty()) return GpsOrder::kUnknown;
   if (c.back() == 'M' || c.back() == 'm') {
-    return ParseDouble(c.substr(0, c.size() - 1)) ? GpsOrder::kLatLon : GpsOrder::kUnknown;
+    return ParseDecimal(c.substr(0, c.size() - 1)) ? GpsOrder::kLatLon : GpsOrder::kUnknown;
   }
   if (c.find_first_not_of("0123456789") == std::string_view::npos) return GpsOrder::kLonLat;
   return GpsOrder::kUnknown;
@@ -251,7 +249,7 @@ std::optional<std::string_view> ValueAfter(std::string_view line, std::string_vi
 // The hemisphere letter of a position value "N: 40.7685" / "W: 109.3392" (Autel's records,
 // GPS(W: lon, N: lat, altm); a blank may stand for the colon), or '\0' for a plain number.
 char Hemisphere(std::string_view v) {
-  v = Trim(v);
+  v = TrimSpace(v);
   if (v.size() < 3 || (v[1] != ':' && v[1] != ' ')) return '\0';
   return v[0] == 'N' || v[0] == 'S' || v[0] == 'E' || v[0] == 'W' ? v[0] : '\0';
 }
@@ -263,7 +261,7 @@ void ReadHemispherePosition(std::string_view name, std::string_view a, std::stri
   std::optional<double> lat, lon;
   for (std::string_view v : {a, b}) {
     const char h = Hemisphere(v);  // then v holds at least 3 characters
-    const auto x = h != '\0' ? ParseDouble(Trim(Trim(v).substr(2))) : std::nullopt;
+    const auto x = h != '\0' ? ParseDecimal(TrimSpace(v).substr(2)) : std::nullopt;
     if (h == '\0' || !x || *x < 0.0) {
       f.Fail(
           fmt::format("{} value '{}' is not a hemisphere letter (N, S, E, W) and a number of "
@@ -312,7 +310,7 @@ void ParseTextLine(std::string_view line, BlockFields& f) {
     } else if (IsNotAvailable((*v)[0]) || IsNotAvailable((*v)[1])) {
       f.no_fix = true;  // "GPS(N/A,N/A,5)": no fix yet
     } else {
-      const auto a = ParseDouble((*v)[0]), b = ParseDouble((*v)[1]);
+      const auto a = ParseDecimal((*v)[0]), b = ParseDecimal((*v)[1]);
       if (!a || !b) {
         f.Fail(fmt::format("{} value '{}' is not a number", name,
                            io_detail::Printable(!a ? (*v)[0] : (*v)[1])));
@@ -392,7 +390,7 @@ GpsOrder FileGpsOrder(const std::vector<Line>& lines, const std::string& source)
     const std::string text = StripTags(l.text);
     const auto v = PositionValues(text, &name);
     if (!v || v->size() < 2 || IsNotAvailable((*v)[0]) || IsNotAvailable((*v)[1])) continue;
-    const auto a = ParseDouble((*v)[0]), b = ParseDouble((*v)[1]);
+    const auto a = ParseDecimal((*v)[0]), b = ParseDecimal((*v)[1]);
     if (!a || !b || (*a == 0.0 && *b == 0.0)) continue;  // bad numbers are reported later
     GpsOrder here = v->size() >= 3 ? OrderOfThirdValue((*v)[2]) : GpsOrder::kUnknown;
     if (here == GpsOrder::kUnknown) {
@@ -562,7 +560,7 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
   int no_fix = 0;
   std::optional<double> last_time;
   std::size_t i = 0;
-  const auto blank = [&](std::size_t k) { return Trim(lines[k].text).empty(); };
+  const auto blank = [&](std::size_t k) { return TrimSpace(lines[k].text).empty(); };
   const auto skip_block = [&] {
     while (i < lines.size() && !blank(i)) ++i;
   };
@@ -611,7 +609,7 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
     const auto number = ParseInt(lines[i].text);
     if (!number) {
       errors.Report(block_line, fmt::format("expected a subtitle number, found '{}'",
-                                            io_detail::Printable(Trim(lines[i].text))));
+                                            io_detail::Printable(TrimSpace(lines[i].text))));
       skip_block();
       continue;
     }
@@ -632,7 +630,7 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
     if (!start) {
       problem(*number, i >= last_text, lines[i].number,
               fmt::format("bad timing line '{}' (expected HH:MM:SS,mmm --> HH:MM:SS,mmm)",
-                          io_detail::Printable(Trim(timing))));
+                          io_detail::Printable(TrimSpace(timing))));
       skip_block();
       continue;
     }
@@ -660,7 +658,7 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
       // the rest of the same subtitle, not a new one.
       std::size_t k = i;
       while (k < lines.size() && blank(k)) ++k;
-      if (k < lines.size() && Trim(StripTags(lines[k].text)) == "0" && !starts_block(k)) {
+      if (k < lines.size() && TrimSpace(StripTags(lines[k].text)) == "0" && !starts_block(k)) {
         i = k + 1;
         continue;
       }

@@ -70,16 +70,8 @@ TEST(ParseUtil, InterpolateSeriesNormalisesYawAtAndBetweenPoints) {
   EXPECT_FALSE(at(9.5, true));  // after it
 }
 
-TEST(ParseUtil, Numbers) {
-  using io_detail::ParseDouble;
-  EXPECT_DOUBLE_EQ(*ParseDouble(" +44.47 "), 44.47);
-  EXPECT_DOUBLE_EQ(*ParseDouble("-1e3"), -1000.0);
-  EXPECT_FALSE(ParseDouble("nan"));
-  EXPECT_FALSE(ParseDouble("inf"));
-  EXPECT_FALSE(ParseDouble("0x10"));
-  EXPECT_FALSE(ParseDouble("1.5m"));
-  EXPECT_FALSE(ParseDouble(""));
-  EXPECT_FALSE(ParseDouble("1e999"));
+// Numbers themselves: ParseDecimal (core/text_test.cc).
+TEST(ParseUtil, SrtClock) {
   EXPECT_DOUBLE_EQ(*io_detail::ParseSrtClock("01:02:03,456"), 3723.456);
   EXPECT_FALSE(io_detail::ParseSrtClock("01:02:03"));
 }
@@ -1033,7 +1025,7 @@ std::string Row(const std::string& header, const std::map<std::string, std::stri
   std::string row;
   std::size_t used = 0;
   for (std::size_t i = 0; i < names.size(); ++i) {
-    const auto it = cells.find(std::string(io_detail::Trim(names[i])));
+    const auto it = cells.find(std::string(TrimSpace(names[i])));
     if (it != cells.end()) ++used;
     row += (i ? "," : "") + (it == cells.end() ? std::string("0") : it->second);
   }

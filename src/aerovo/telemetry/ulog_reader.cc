@@ -183,7 +183,7 @@ std::optional<Format> ParseFormat(std::string_view text, std::string* why) {
   std::string_view rest = text.substr(colon + 1);
   while (!rest.empty()) {
     const std::size_t semi = rest.find(';');
-    const std::string_view item = io_detail::Trim(rest.substr(0, semi));
+    const std::string_view item = TrimSpace(rest.substr(0, semi));
     rest = semi == std::string_view::npos ? std::string_view() : rest.substr(semi + 1);
     if (item.empty()) continue;
     const std::size_t space = item.rfind(' ');
@@ -193,7 +193,7 @@ std::optional<Format> ParseFormat(std::string_view text, std::string* why) {
     }
     Field field;
     field.name = std::string(item.substr(space + 1));
-    std::string_view type = io_detail::Trim(item.substr(0, space));
+    std::string_view type = TrimSpace(item.substr(0, space));
     const std::size_t bracket = type.find('[');
     if (bracket != std::string_view::npos) {
       if (type.back() != ']') {

@@ -1,0 +1,50 @@
+// TrimSpace and ParseDecimal (core/text.h): the grammar of a number in outside text.
+#include "aerovo/core/text.h"
+
+#include <cmath>
+#include <string>
+
+#include <gtest/gtest.h>
+
+namespace aerovo {
+namespace {
+
+TEST(TrimSpace, AsciiWhiteSpaceOnBothEndsOnly) {
+  EXPECT_EQ(TrimSpace(" \t\r\n\v\fa b\t \r\n"), "a b");
+  EXPECT_EQ(TrimSpace(""), "");
+  EXPECT_EQ(TrimSpace(" \t "), "");
+  EXPECT_EQ(TrimSpace("\xC2\xA0x"), "\xC2\xA0x");  // U+00A0 is not ASCII space
+}
+
+TEST(ParseDecimal, PlainDecimalNumbers) {
+  EXPECT_EQ(*ParseDecimal("0"), 0.0);
+  EXPECT_EQ(*ParseDecimal(" +44.47 "), 44.47);
+  EXPECT_EQ(*ParseDecimal("-1e3"), -1000.0);
+  EXPECT_EQ(*ParseDecimal("1E+3"), 1000.0);
+  EXPECT_EQ(*ParseDecimal("2.5e-3"), 0.0025);
+  EXPECT_EQ(*ParseDecimal(".5"), 0.5);
+  EXPECT_EQ(*ParseDecimal("5."), 5.0);
+  EXPECT_EQ(*ParseDecimal("-0"), 0.0);
+  EXPECT_TRUE(std::signbit(*ParseDecimal("-0")));
+  EXPECT_EQ(*ParseDecimal("\t-122.4194155\r\n"), -122.4194155);
+  EXPECT_EQ(*ParseDecimal("1.7976931348623157e308"), 1.7976931348623157e308);
+  EXPECT_EQ(*ParseDecimal("0e999"), 0.0);
+  EXPECT_EQ(*ParseDecimal("1e-310"), 1e-310);  // subnormal, not zero
+  EXPECT_EQ(*ParseDecimal(std::string(64, '1')), 1.1111111111111111e63);
+}
+
+TEST(ParseDecimal, EverythingElseIsNotANumber) {
+  for (const char* bad :
+       {"",      " ",      "nan",    "NaN",  "-nan", "inf",   "-inf", "infinity", "0x10", "0x1p3",
+        "1e400", "-1e400", "1e-400", "1.5m", "1,5",  "1.2.3", "--1",  "+-1",      "-+1",  "+",
+        "-",     ".",      "-.",     "e5",   ".e5",  "1e",    "1e+",  "1e5.5",    "1 2",  "12 m"}) {
+    EXPECT_FALSE(ParseDecimal(bad)) << "'" << bad << "'";
+  }
+  // U+2212 MINUS SIGN is not '-'.
+  EXPECT_FALSE(ParseDecimal(std::string("\xE2\x88\x92") + "1"));
+  EXPECT_FALSE(ParseDecimal(std::string_view("1\0", 2)));  // an embedded NUL
+  EXPECT_FALSE(ParseDecimal(std::string(65, '1')));        // longer than any number of a file
+}
+
+}  // namespace
+}  // namespace aerovo
