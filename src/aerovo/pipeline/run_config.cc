@@ -20,6 +20,7 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/options_json.h"
+#include "aerovo/core/text.h"
 #include "aerovo/mavlink/transport.h"
 
 namespace aerovo {
@@ -218,9 +219,7 @@ nlohmann::json YamlScalar(const std::string& v, bool quoted) {
     const unsigned long long u = std::strtoull(v.c_str(), &end, 10);
     if (end != v.c_str() && *end == '\0' && errno == 0) return u;
   }
-  errno = 0;
-  const double d = std::strtod(v.c_str(), &end);
-  if (end != v.c_str() && *end == '\0' && errno == 0 && std::isfinite(d)) return d;
+  if (const std::optional<double> d = ParseDecimal(v)) return *d;  // no hex, nan, inf (core/text.h)
   return v;
 }
 

@@ -438,6 +438,19 @@ TEST(RunConfigYaml, DeepNestingAndAliasBombsAreErrorsNamingTheLine) {
             "no error");
 }
 
+// A YAML number is a plain decimal (ParseDecimal, core/text.h): strtod also read "0x1p6" as 64,
+// and followed the C locale's decimal point.
+TEST(RunConfigYaml, NumbersArePlainDecimals) {
+  EXPECT_EQ(ConfigError("altitude_m: 64.5\n", RunConfigFormat::kYaml, "ok.yaml"), "no error");
+  EXPECT_EQ(ConfigError("altitude_m: 6.45e1\n", RunConfigFormat::kYaml, "ok.yaml"), "no error");
+  for (const char* bad : {"0x1p6", "0x40"}) {
+    const std::string m =
+        ConfigError(std::string("altitude_m: ") + bad + "\n", RunConfigFormat::kYaml, "c.yaml");
+    EXPECT_NE(m.find("c.yaml"), std::string::npos) << bad << ": " << m;
+    EXPECT_NE(m.find("altitude_m"), std::string::npos) << bad << ": " << m;
+  }
+}
+
 // A JSON key given twice is an error (nlohmann-json kept the last one silently), as in YAML; a
 // UTF-16 file is named as such instead of a syntax error at its first byte.
 TEST(RunConfigJson, DuplicateKeysAndUtf16AreErrors) {
