@@ -105,24 +105,16 @@ CameraIntrinsics Checked(const std::string& path, const std::string& where, Came
 // longest distortion vector 14 (calibrateCamera with the rational, thin-prism and tilt models).
 constexpr int kMaxMatrixSide = 64;
 
-// A value as text for a message: a number or a string, cut at 40 characters, control and
-// non-ASCII bytes as '?'.
-std::string Printable(const nlohmann::json& n) {
-  std::string text;
+// A value as text for a message: a number, or a string as Printable quotes it (core/text.h: at
+// most 40 bytes, control and invalid bytes as \xNN).
+std::string ValueText(const nlohmann::json& n) {
   if (n.is_number()) {
     const double v = n.get<double>();
-    text = std::fabs(v) < 1e15 && v == std::floor(v) ? fmt::format("{:.0f}", v)
+    return std::fabs(v) < 1e15 && v == std::floor(v) ? fmt::format("{:.0f}", v)
                                                      : fmt::format("{:g}", v);
-  } else if (n.is_string()) {
-    text = n.get<std::string>();
-  } else {
-    return n.is_object() ? "a map" : n.is_array() ? "a sequence" : "not a value";
   }
-  if (text.size() > 40) text = text.substr(0, 40) + "...";
-  for (char& c : text) {
-    if (static_cast<unsigned char>(c) < 0x20 || static_cast<unsigned char>(c) >= 0x7f) c = '?';
-  }
-  return text;
+  if (n.is_string()) return Printable(n.get_ref<const std::string&>(), 40);
+  return n.is_object() ? "a map" : n.is_array() ? "a sequence" : "not a value";
 }
 
 // The channels a cv::FileStorage `dt` names for a matrix's elements (e.g. "d": 1, "3d": 3);
@@ -182,7 +174,7 @@ struct OpenCvKeys {
         throw InputError(fmt::format(
             "calibration '{}': key '{}' is not a matrix of 1 to {} rows and columns ({} is {})",
             path, key, kMaxMatrixSide, name,
-            n.is_null() ? std::string("missing") : "'" + Printable(n) + "'"));
+            n.is_null() ? std::string("missing") : "'" + ValueText(n) + "'"));
       }
       return static_cast<int>(v);
     };
@@ -194,7 +186,7 @@ struct OpenCvKeys {
       throw InputError(fmt::format(
           "calibration '{}': key '{}' has the element type dt '{}', not one of OpenCV's (d, f, "
           "i, ...)",
-          path, key, Printable(dt)));
+          path, key, ValueText(dt)));
     }
     if (channels != 1) {
       throw InputError(fmt::format("calibration '{}': key '{}' is a matrix of {} channels, not 1",
@@ -210,7 +202,7 @@ struct OpenCvKeys {
     for (const nlohmann::json& v : data) {
       if (!v.is_number()) {
         throw InputError(fmt::format("calibration '{}': key '{}' holds '{}', not a number", path,
-                                     key, Printable(v)));
+                                     key, ValueText(v)));
       }
       m.values.push_back(v.get<double>());
     }
@@ -257,7 +249,7 @@ bool OpenCvIsFisheye(const OpenCvKeys& keys) {
   bool fisheye = false;
   if (keys.Has("distortion_model")) {
     const nlohmann::json& model = keys.root.at("distortion_model");
-    const std::string m = model.is_string() ? Lower(model.get<std::string>()) : Printable(model);
+    const std::string m = model.is_string() ? Lower(model.get<std::string>()) : ValueText(model);
     if (m == "fisheye" || m == "equidistant") {
       fisheye = true;
     } else if (!(m == "pinhole" || m == "plumb_bob" || m == "radtan" ||
@@ -265,7 +257,7 @@ bool OpenCvIsFisheye(const OpenCvKeys& keys) {
       throw InputError(
           fmt::format("calibration '{}': key 'distortion_model' '{}' is not one of "
                       "pinhole, plumb_bob, rational_polynomial, fisheye, equidistant",
-                      keys.path, Printable(nlohmann::json(m))));
+                      keys.path, Printable(m, 40)));
     }
   }
   if (keys.Has("fisheye_model")) {

@@ -23,6 +23,11 @@ std::string_view TrimSpace(std::string_view s);
 /// above and follow the locale.
 std::optional<double> ParseDecimal(std::string_view s);
 
+/// `s` as it may be quoted in a message: at most `max_bytes` bytes of it (cut at a character,
+/// "..." appended), its control characters (C0, DEL, C1: a terminal would act on ESC sequences)
+/// and bytes that are not UTF-8 written as "\xNN". Input text is never printed raw.
+std::string Printable(std::string_view s, std::size_t max_bytes = 60);
+
 /// `text` with the five XML special characters replaced by entities (&amp; &lt; &gt; &quot;
 /// &apos;), safe in XML/HTML element content and in quoted attribute values. &apos; is valid in
 /// XML 1.0 and HTML5.

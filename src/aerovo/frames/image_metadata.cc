@@ -114,7 +114,7 @@ std::optional<double> ExifDms(const Exiv2::ExifData& exif, const char* key, cons
                     "its sign cannot be told",
                     source, key, deg,
                     ref.empty() ? fmt::format("no {}", ref_key)
-                                : fmt::format("{} '{}'", ref_key, io_detail::Printable(ref, 20)),
+                                : fmt::format("{} '{}'", ref_key, Printable(ref, 20)),
                     positive_ref, negative_ref));
   }
   return deg;
@@ -157,14 +157,14 @@ std::optional<double> XmpRealOrRational(const Exiv2::XmpData& xmp, const std::st
     const auto num = ParseDecimal(t.substr(0, slash));
     const auto den = ParseDecimal(t.substr(slash + 1));
     if (num && den && *den == 0.0) {
-      throw InputError(fmt::format("{}: XMP {} '{}' has a zero denominator", source, what,
-                                   io_detail::Printable(t, 40)));
+      throw InputError(
+          fmt::format("{}: XMP {} '{}' has a zero denominator", source, what, Printable(t, 40)));
     }
     if (num && den) v = *num / *den;
   }
   if (!v) {
     throw InputError(
-        fmt::format("{}: XMP {} '{}' is not a number", source, what, io_detail::Printable(t, 40)));
+        fmt::format("{}: XMP {} '{}' is not a number", source, what, Printable(t, 40)));
   }
   return v;
 }

@@ -4,9 +4,12 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <unordered_map>
+
+#include <fmt/format.h>
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/text.h"
@@ -19,6 +22,11 @@ namespace aerovo {
 namespace fs = std::filesystem;
 
 namespace {
+
+// The largest frame index a run folder may hold (as telemetry's frame numbers,
+// telemetry/parse_util.h IsFrameNumber), and the largest count (of points, matches, maps).
+constexpr int kMaxFrame = 100'000'000;
+constexpr int kMaxCount = std::numeric_limits<int>::max();
 
 // True when the file's last byte is a line end (LF; CR for a file saved with lone CRs), or the
 // file is empty.
@@ -80,23 +88,48 @@ class CsvTable {
   const std::string& cell(std::size_t row, const std::string& col) const {
     return rows_[row][columns_.at(col)];
   }
+  // InputError "'<file>' line <n>: column '<col>' <what>".
+  [[noreturn]] void Fail(std::size_t row, const std::string& col, const std::string& what) const {
+    throw InputError(
+        fmt::format("'{}' line {}: column '{}' {}", path_.string(), line_numbers_[row], col, what));
+  }
   std::optional<double> OptNumber(std::size_t row, const std::string& col) const {
     const std::string& c = cell(row, col);
     if (c.empty()) return std::nullopt;
     const std::optional<double> v = ParseDecimal(c);
-    if (!v) {
-      throw InputError("'" + path_.string() + "' line " + std::to_string(line_numbers_[row]) +
-                       ": column '" + col + "' is not a number: '" + c + "'");
-    }
+    if (!v) Fail(row, col, fmt::format("is not a number: '{}'", Printable(c)));
     return v;
   }
   double Number(std::size_t row, const std::string& col) const {
     const std::optional<double> v = OptNumber(row, col);
-    if (!v) {
-      throw InputError("'" + path_.string() + "' line " + std::to_string(line_numbers_[row]) +
-                       ": column '" + col + "' is empty");
-    }
+    if (!v) Fail(row, col, "is empty");
     return *v;
+  }
+  // A whole number in [lo, hi] (checked before the cast: converting a double outside int's range
+  // is undefined behaviour).
+  int Integer(std::size_t row, const std::string& col, int lo, int hi) const {
+    const double v = Number(row, col);
+    if (!(v >= lo && v <= hi && v == std::floor(v))) {
+      Fail(row, col,
+           fmt::format("is not a whole number in [{}, {}]: '{}'", lo, hi,
+                       Printable(cell(row, col))));
+    }
+    return static_cast<int>(v);
+  }
+  std::optional<int> OptInteger(std::size_t row, const std::string& col, int lo, int hi) const {
+    if (cell(row, col).empty()) return std::nullopt;
+    return Integer(row, col, lo, hi);
+  }
+  // The frame index of a row: 0 ... kMaxFrame, after the previous row's (strictly: frames.csv
+  // and transforms.csv hold one row per frame, in order) or not before it (map_fixes.csv: one
+  // row per map tried on a frame).
+  int FrameIndex(std::size_t row, std::optional<int>& previous, bool strictly_after) const {
+    const int frame = Integer(row, "frame", 0, kMaxFrame);
+    if (previous && (frame < *previous || (strictly_after && frame == *previous))) {
+      Fail(row, "frame", fmt::format("{} comes after frame {}", frame, *previous));
+    }
+    previous = frame;
+    return frame;
   }
 
  private:
@@ -120,10 +153,12 @@ std::optional<GeoPoint> GeoOf(const CsvTable& t, std::size_t r, const char* lat,
                               const char* alt) {
   const std::optional<double> la = t.OptNumber(r, lat), lo = t.OptNumber(r, lon);
   if (!la || !lo) return std::nullopt;
+  if (!(std::fabs(*la) <= 90.0)) t.Fail(r, lat, fmt::format("is not a latitude: {}", *la));
+  if (!(std::fabs(*lo) <= 180.0)) t.Fail(r, lon, fmt::format("is not a longitude: {}", *lo));
   GeoPoint p;
   p.lat_deg = *la;
   p.lon_deg = *lo;
-  p.alt_m = t.OptNumber(r, alt).value_or(0.0);
+  p.alt_m = alt != nullptr ? t.OptNumber(r, alt).value_or(0.0) : 0.0;
   return p;
 }
 
@@ -132,9 +167,10 @@ std::vector<FrameTransformRow> ReadTransformsIfPresent(const fs::path& path) {
   std::vector<FrameTransformRow> out;
   if (!fs::exists(path)) return out;
   const CsvTable tt(path, {"frame", "a11", "a12", "tx", "a21", "a22", "ty"});
+  std::optional<int> previous;
   for (std::size_t r = 0; r < tt.size(); ++r) {
     FrameTransformRow row;
-    row.frame = static_cast<int>(tt.Number(r, "frame"));
+    row.frame = tt.FrameIndex(r, previous, /*strictly_after=*/true);
     const char* names[6] = {"a11", "a12", "tx", "a21", "a22", "ty"};
     for (int k = 0; k < 6; ++k) row.a[static_cast<std::size_t>(k)] = tt.Number(r, names[k]);
     out.push_back(row);
@@ -148,18 +184,19 @@ std::vector<MapFixRow> ReadMapFixesIfPresent(const fs::path& path) {
   if (!fs::exists(path)) return out;
   const CsvTable t(path, {"frame", "time_s", "status", "lat_deg", "lon_deg", "gps_error_m",
                           "applied"});
+  std::optional<int> previous;
   for (std::size_t r = 0; r < t.size(); ++r) {
     MapFixRow row;
-    row.frame = static_cast<int>(t.Number(r, "frame"));
+    row.frame = t.FrameIndex(r, previous, /*strictly_after=*/false);
     row.time_s = t.Number(r, "time_s");
     row.status = t.cell(r, "status");
     const std::optional<double> lat = t.OptNumber(r, "lat_deg"), lon = t.OptNumber(r, "lon_deg");
-    if (lat && lon) row.geo = GeoPoint{*lat, *lon, 0.0};
+    if (lat && lon) row.geo = GeoOf(t, r, "lat_deg", "lon_deg", nullptr);
     row.gps_error_m = t.OptNumber(r, "gps_error_m");
     row.applied = t.Number(r, "applied") != 0.0;
     if (t.has("gated_by_graph")) row.gated_by_graph = t.Number(r, "gated_by_graph") != 0.0;
     if (t.has("map")) {
-      if (const std::optional<double> m = t.OptNumber(r, "map")) row.map = static_cast<int>(*m);
+      row.map = t.OptInteger(r, "map", 0, kMaxCount);
     }
     out.push_back(std::move(row));
   }
@@ -205,18 +242,19 @@ RunData ReadRunDir(const fs::path& dir) {
                     "total_ms", "status",    "gps_lat_deg", "gps_lon_deg",   "gps_alt_m"});
   run.records_camera_attitude = t.has("camera_roll_deg") && t.has("camera_pitch_deg");
   run.frames.reserve(t.size());
+  std::optional<int> previous;
   for (std::size_t r = 0; r < t.size(); ++r) {
     RunFrameRow f;
-    f.frame = static_cast<int>(t.Number(r, "frame"));
+    f.frame = t.FrameIndex(r, previous, /*strictly_after=*/true);
     f.time_s = t.Number(r, "time_s");
     f.x_m = t.Number(r, "x_m");
     f.y_m = t.Number(r, "y_m");
     f.geo = GeoOf(t, r, "lat_deg", "lon_deg", "alt_m");
     f.geo_alt_known = f.geo && t.OptNumber(r, "alt_m").has_value();
-    f.n_surf = static_cast<int>(t.Number(r, "n_surf"));
-    f.n_matched = static_cast<int>(t.Number(r, "n_matched"));
-    f.n_inliers = static_cast<int>(t.Number(r, "n_inliers"));
-    f.cluster = static_cast<int>(t.Number(r, "cluster"));
+    f.n_surf = t.Integer(r, "n_surf", 0, kMaxCount);
+    f.n_matched = t.Integer(r, "n_matched", 0, kMaxCount);
+    f.n_inliers = t.Integer(r, "n_inliers", 0, kMaxCount);
+    f.cluster = t.Integer(r, "cluster", -1, kMaxCount);
     f.detect_ms = t.Number(r, "detect_ms");
     f.describe_ms = t.Number(r, "describe_ms");
     f.correspond_ms = t.Number(r, "correspond_ms");

@@ -83,8 +83,12 @@ bool IsRunDir(const std::filesystem::path& dir);
 
 /// Reads frames.csv (required) and, when present, transforms.csv, transforms_optimized.csv,
 /// vo_optimized.tum, map_fixes.csv, summary.json, config.json.
-/// Throws InputError naming the file and line for a missing frames.csv, a bad header or a bad
-/// cell. A last line cut short (a run killed mid-write) is ignored.
+/// Throws InputError naming the file, line and column for a missing frames.csv, a bad header or a
+/// bad cell: a number that is not a plain decimal (ParseDecimal, core/text.h), a frame index that
+/// is not a whole number in [0, 1e8] or does not come after the previous row's (frames.csv,
+/// transforms.csv; map_fixes.csv: not before it), a count that is not a whole number >= 0, a
+/// latitude outside [-90, 90] or a longitude outside [-180, 180]. A last line cut short (a run
+/// killed mid-write) is ignored.
 RunData ReadRunDir(const std::filesystem::path& dir);
 
 /// The paired VO and reference trajectories of a run and their comparison.

@@ -310,7 +310,7 @@ ColumnPlan PlanColumns(const std::vector<std::string>& header, const std::string
           "{}:{}: column '{}' would be read as the {}, but its unit is not written "
           "'name(unit)' or 'name [unit]' (a bracket is not closed, or text follows it); fix the "
           "header",
-          source_name, header_line, io_detail::Printable(TrimSpace(header[c])), kColumnNames[col]));
+          source_name, header_line, Printable(TrimSpace(header[c])), kColumnNames[col]));
     }
     double factor = 1.0;
     int rank = cand->rank;
@@ -322,8 +322,8 @@ ColumnPlan PlanColumns(const std::vector<std::string>& header, const std::string
         throw InputError(fmt::format(
             "{}:{}: column '{}' would be read as the {}, but its unit '{}' is not one aerovo "
             "knows for it (known: {}); rename the column or convert its values",
-            source_name, header_line, io_detail::Printable(TrimSpace(header[c])), kColumnNames[col],
-            io_detail::Printable(n.unit), KnownUnits(col)));
+            source_name, header_line, Printable(TrimSpace(header[c])), kColumnNames[col],
+            Printable(n.unit), KnownUnits(col)));
       }
       factor = *f;
       rank += u->rank;
@@ -351,10 +351,9 @@ ColumnPlan PlanColumns(const std::vector<std::string>& header, const std::string
   }
   for (int col = 0; col < kNumColumns; ++col) {
     if (tie[col] >= 0) {
-      throw InputError(fmt::format("{}:{}: two columns mean {} ('{}' and '{}')", source_name,
-                                   header_line, kColumnNames[col],
-                                   io_detail::Printable(TrimSpace(header[plan.index[col]])),
-                                   io_detail::Printable(TrimSpace(header[tie[col]]))));
+      throw InputError(fmt::format(
+          "{}:{}: two columns mean {} ('{}' and '{}')", source_name, header_line, kColumnNames[col],
+          Printable(TrimSpace(header[plan.index[col]])), Printable(TrimSpace(header[tie[col]]))));
     }
   }
   if (plan.index[kLat] < 0 || plan.index[kLon] < 0) {
@@ -406,7 +405,7 @@ RecordValues ParseRecordValues(const std::vector<std::string>& cells, const Colu
       const auto d = io_detail::ParseDateTime(cell);
       r.date = d;
       if (!d && date_needed) {
-        problem = fmt::format("date '{}' is not a date", io_detail::Printable(cell, 40));
+        problem = fmt::format("date '{}' is not a date", Printable(cell, 40));
       }
       r.bad_date = !d;
       continue;
@@ -417,15 +416,14 @@ RecordValues ParseRecordValues(const std::vector<std::string>& cells, const Colu
       if (r.time_date) continue;
     }
     if (!v[c]) {
-      problem =
-          fmt::format("{} '{}' is not a number", kColumnNames[c], io_detail::Printable(cell, 40));
+      problem = fmt::format("{} '{}' is not a number", kColumnNames[c], Printable(cell, 40));
       continue;
     }
     if (plan.integer[c] && *v[c] != std::floor(*v[c])) {
       problem = fmt::format(
           "{} {} is not an integer, but this PX4 vehicle_gps_position layout (a 'fix_type' "
           "column) writes integers in 1e-7 degrees / millimetres",
-          kColumnNames[c], io_detail::Printable(cell, 40));
+          kColumnNames[c], Printable(cell, 40));
       continue;
     }
     *v[c] *= plan.factor[c];
@@ -532,7 +530,7 @@ TelemetryReadResult ParseTelemetryCsv(std::istream& in, const std::string& sourc
       continue;
     }
     if (values.bad_date && first_bad_date.empty()) {
-      first_bad_date = io_detail::Printable(TrimSpace(cells[plan.index[kDate]]), 40);
+      first_bad_date = Printable(TrimSpace(cells[plan.index[kDate]]), 40);
       first_bad_date_line = n;
     }
     s.lat_deg = *v[kLat];
@@ -591,8 +589,8 @@ TelemetryReadResult ParseTelemetryCsv(std::istream& in, const std::string& sourc
     errors.Note(fmt::format(
         "{}:{}: column '{}' holds '{}', not a date aerovo reads: absolute times (unix_time_s) "
         "not set",
-        source_name, first_bad_date_line,
-        io_detail::Printable(TrimSpace(csv.header()[plan.index[kDate]])), first_bad_date));
+        source_name, first_bad_date_line, Printable(TrimSpace(csv.header()[plan.index[kDate]])),
+        first_bad_date));
   }
   return io_detail::Finish(std::move(samples), errors, no_fix, "CSV file");
 }

@@ -43,7 +43,6 @@ namespace {
 
 using io_detail::ByteWindow;
 using io_detail::LoadLe;
-using io_detail::Printable;
 using io_detail::RecordErrors;
 using io_detail::SeriesPoint;
 

@@ -96,7 +96,7 @@ std::optional<ParsedPoint> ParsePoint(const pugi::xml_node& pt, long line, Recor
   const auto lon = ParseDecimal(lon_a.value());
   if (!lat || !lon) {
     errors.Report(line, fmt::format("{} '{}' is not a number", !lat ? "lat" : "lon",
-                                    io_detail::Printable(!lat ? lat_a.value() : lon_a.value())));
+                                    Printable(!lat ? lat_a.value() : lon_a.value())));
     return std::nullopt;
   }
   TelemetrySample s;
@@ -105,8 +105,7 @@ std::optional<ParsedPoint> ParsePoint(const pugi::xml_node& pt, long line, Recor
   if (const pugi::xml_node ele = Child(pt, "ele")) {
     const auto v = ParseDecimal(ele.text().get());
     if (!v) {
-      errors.Report(
-          line, fmt::format("<ele> '{}' is not a number", io_detail::Printable(ele.text().get())));
+      errors.Report(line, fmt::format("<ele> '{}' is not a number", Printable(ele.text().get())));
       return std::nullopt;
     }
     s.abs_alt_m = v;
@@ -115,8 +114,8 @@ std::optional<ParsedPoint> ParsePoint(const pugi::xml_node& pt, long line, Recor
   if (const pugi::xml_node t = Child(pt, "time")) {
     const auto v = io_detail::ParseDateTime(t.text().get());
     if (!v) {
-      errors.Report(line, fmt::format("<time> '{}' is not an ISO 8601 date",
-                                      io_detail::Printable(t.text().get())));
+      errors.Report(line,
+                    fmt::format("<time> '{}' is not an ISO 8601 date", Printable(t.text().get())));
       return std::nullopt;
     }
     s.unix_time_s = v;
@@ -179,7 +178,7 @@ TelemetryReadResult ParseGpx(std::istream& in, const std::string& source_name,
                                    source_name, lines.LineOf(parsed.offset), parsed.description()));
     }
     throw InputError(fmt::format("{}: not a GPX file (root element is <{}>)", source_name,
-                                 io_detail::Printable(root ? root.name() : "")));
+                                 Printable(root ? root.name() : "")));
   }
   std::vector<pugi::xml_node> points;
   Collect(root, "trkpt", points);

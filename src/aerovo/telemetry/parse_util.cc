@@ -144,34 +144,6 @@ std::optional<double> ParseSrtClock(std::string_view s) {
 
 namespace {
 
-// The length of the UTF-8 character at s[i] (2..4), or 0 when it is not one (a stray
-// continuation byte, an overlong form, a surrogate, a code point above U+10FFFF, a cut
-// sequence): RFC 3629 section 4.
-std::size_t Utf8Length(std::string_view s, std::size_t i) {
-  const auto b = [&](std::size_t k) { return static_cast<unsigned char>(s[k]); };
-  const unsigned char c = b(i);
-  std::size_t n = 0;
-  unsigned char lo = 0x80, hi = 0xBF;  // the second byte's range
-  if (c >= 0xC2 && c <= 0xDF) {
-    n = 2;
-  } else if (c >= 0xE0 && c <= 0xEF) {
-    n = 3;
-    if (c == 0xE0) lo = 0xA0;
-    if (c == 0xED) hi = 0x9F;
-  } else if (c >= 0xF0 && c <= 0xF4) {
-    n = 4;
-    if (c == 0xF0) lo = 0x90;
-    if (c == 0xF4) hi = 0x8F;
-  } else {
-    return 0;
-  }
-  if (i + n > s.size() || b(i + 1) < lo || b(i + 1) > hi) return 0;
-  for (std::size_t k = 2; k < n; ++k) {
-    if ((b(i + k) & 0xC0) != 0x80) return 0;
-  }
-  return n;
-}
-
 void AppendUtf8(char32_t cp, std::string& out) {
   if (cp < 0x80) {
     out.push_back(static_cast<char>(cp));
@@ -191,32 +163,6 @@ void AppendUtf8(char32_t cp, std::string& out) {
 }
 
 }  // namespace
-
-std::string Printable(std::string_view s, std::size_t max_bytes) {
-  std::string r;
-  std::size_t i = 0;
-  while (i < s.size() && i < max_bytes) {
-    const unsigned char c = static_cast<unsigned char>(s[i]);
-    if (c >= 0x20 && c < 0x7F) {
-      r.push_back(static_cast<char>(c));
-      ++i;
-      continue;
-    }
-    const std::size_t n = c >= 0x80 ? Utf8Length(s, i) : 0;
-    // U+0080..U+009F (C2 80..C2 9F) are the C1 controls: escaped as the C0 ones.
-    if (n == 0 || i + n > max_bytes ||
-        (n == 2 && c == 0xC2 && static_cast<unsigned char>(s[i + 1]) <= 0x9F)) {
-      if (n != 0 && i + n > max_bytes) break;
-      r += fmt::format("\\x{:02X}", c);
-      ++i;
-      continue;
-    }
-    r.append(s.substr(i, n));
-    i += n;
-  }
-  if (i < s.size()) r += "...";
-  return r;
-}
 
 std::string Utf16ToUtf8(std::string_view bytes, bool big_endian, const std::string& source) {
   if (bytes.size() % 2 != 0) {

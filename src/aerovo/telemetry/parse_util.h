@@ -54,11 +54,6 @@ ColumnName SplitColumnName(std::string_view cell);
 /// "HH:MM:SS,mmm" (SRT timing) -> seconds.
 std::optional<double> ParseSrtClock(std::string_view s);
 
-/// `s` as it may be quoted in a message: at most `max_bytes` bytes of it (cut at a character,
-/// "..." appended), its control characters (C0, DEL, C1: a terminal would act on ESC sequences)
-/// and bytes that are not UTF-8 written as "\xNN". Input text is never printed raw.
-std::string Printable(std::string_view s, std::size_t max_bytes = 60);
-
 /// UTF-16 text (code units in the byte order `big_endian`, no byte-order mark) as UTF-8;
 /// an unpaired surrogate becomes U+FFFD (The Unicode Standard, section 3.9, "U+FFFD Substitution
 /// of Maximal Subparts"). Throws InputError "<source>: UTF-16 text with an odd number of bytes"

@@ -36,7 +36,7 @@ std::vector<ReferencePoint> ReadTumPoints(const std::filesystem::path& path,
       const std::optional<double> d = ParseDecimal(token);
       if (!d) {
         throw InputError(fmt::format("{}:{}: '{}' is not a number (TUM: t x y z qx qy qz qw)",
-                                     path.string(), line_no, io_detail::Printable(token)));
+                                     path.string(), line_no, Printable(token)));
       }
       if (n < 3) v[n] = *d;
       ++n;

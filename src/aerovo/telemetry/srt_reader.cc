@@ -76,8 +76,7 @@ struct BlockFields {
   void SetNumber(std::optional<double>& field, std::string_view key, std::string_view value) {
     auto v = ParseDecimal(value);
     if (!v) {
-      Fail(fmt::format("{} value '{}' is not a number", io_detail::Printable(key),
-                       io_detail::Printable(value)));
+      Fail(fmt::format("{} value '{}' is not a number", Printable(key), Printable(value)));
       return;
     }
     field = v;
@@ -266,13 +265,13 @@ void ReadHemispherePosition(std::string_view name, std::string_view a, std::stri
       f.Fail(
           fmt::format("{} value '{}' is not a hemisphere letter (N, S, E, W) and a number of "
                       "degrees",
-                      name, io_detail::Printable(v)));
+                      name, Printable(v)));
       return;
     }
     std::optional<double>& slot = h == 'N' || h == 'S' ? lat : lon;
     if (slot) {
-      f.Fail(fmt::format("{}({}, {}) gives two {}", name, io_detail::Printable(a),
-                         io_detail::Printable(b), &slot == &lat ? "latitudes" : "longitudes"));
+      f.Fail(fmt::format("{}({}, {}) gives two {}", name, Printable(a), Printable(b),
+                         &slot == &lat ? "latitudes" : "longitudes"));
       return;
     }
     slot = h == 'S' || h == 'W' ? -*x : *x;
@@ -312,8 +311,8 @@ void ParseTextLine(std::string_view line, BlockFields& f) {
     } else {
       const auto a = ParseDecimal((*v)[0]), b = ParseDecimal((*v)[1]);
       if (!a || !b) {
-        f.Fail(fmt::format("{} value '{}' is not a number", name,
-                           io_detail::Printable(!a ? (*v)[0] : (*v)[1])));
+        f.Fail(
+            fmt::format("{} value '{}' is not a number", name, Printable(!a ? (*v)[0] : (*v)[1])));
       } else if (*a == 0.0 && *b == 0.0) {
         f.no_fix = true;  // "GPS(0.0, 0.0, 0)": no fix yet, in either order
       } else if (f.order != GpsOrder::kUnknown) {
@@ -404,8 +403,8 @@ GpsOrder FileGpsOrder(const std::vector<Line>& lines, const std::string& source)
             "{}({}, {}{}) does not say which value is the latitude (the third value is neither "
             "a satellite count nor an altitude in M): as (latitude, longitude) it is {}, {}; as "
             "(longitude, latitude) it is {}, {}",
-            name, io_detail::Printable((*v)[0]), io_detail::Printable((*v)[1]),
-            v->size() >= 3 ? ", " + io_detail::Printable((*v)[2]) : "", *a, *b, *b, *a);
+            name, Printable((*v)[0]), Printable((*v)[1]),
+            v->size() >= 3 ? ", " + Printable((*v)[2]) : "", *a, *b, *b, *a);
       }
       continue;
     }
@@ -609,7 +608,7 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
     const auto number = ParseInt(lines[i].text);
     if (!number) {
       errors.Report(block_line, fmt::format("expected a subtitle number, found '{}'",
-                                            io_detail::Printable(TrimSpace(lines[i].text))));
+                                            Printable(TrimSpace(lines[i].text))));
       skip_block();
       continue;
     }
@@ -630,7 +629,7 @@ TelemetryReadResult ParseDjiSrt(std::istream& in, const std::string& source_name
     if (!start) {
       problem(*number, i >= last_text, lines[i].number,
               fmt::format("bad timing line '{}' (expected HH:MM:SS,mmm --> HH:MM:SS,mmm)",
-                          io_detail::Printable(TrimSpace(timing))));
+                          Printable(TrimSpace(timing))));
       skip_block();
       continue;
     }

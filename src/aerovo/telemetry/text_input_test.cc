@@ -158,7 +158,6 @@ TEST(TextInput, MessagesQuoteInputTextEscaped) {
 }
 
 TEST(TextInput, PrintableAndUtf16Conversion) {
-  using io_detail::Printable;
   EXPECT_EQ(Printable("GPS(47.1, 8.1) 12\xC2\xB0"), "GPS(47.1, 8.1) 12\xC2\xB0");  // ° kept
   EXPECT_EQ(Printable("a\tb\x7F\xC2\x9B[2J"), "a\\x09b\\x7F\\xC2\\x9B[2J");   // C0, DEL, C1 CSI
   EXPECT_EQ(Printable("\xC0\xAF\xED\xA0\x80"), "\\xC0\\xAF\\xED\\xA0\\x80");  // overlong, surrogate
