@@ -1,4 +1,5 @@
-// TrimSpace and ParseDecimal (core/text.h): the grammar of a number in outside text.
+// TrimSpace, ParseDecimal and Printable (core/text.h): the grammar of a number in outside text,
+// and outside text quoted in a message.
 #include "aerovo/core/text.h"
 
 #include <cmath>
@@ -44,6 +45,17 @@ TEST(ParseDecimal, EverythingElseIsNotANumber) {
   EXPECT_FALSE(ParseDecimal(std::string("\xE2\x88\x92") + "1"));
   EXPECT_FALSE(ParseDecimal(std::string_view("1\0", 2)));  // an embedded NUL
   EXPECT_FALSE(ParseDecimal(std::string(65, '1')));        // longer than any number of a file
+}
+
+// Outside text quoted in a message: printable ASCII and valid UTF-8 kept, control characters and
+// invalid bytes escaped, cut at a character boundary.
+TEST(Printable, ControlAndInvalidBytesEscapedCutAtACharacter) {
+  EXPECT_EQ(Printable("GPS(47.1, 8.1) 12\xC2\xB0"), "GPS(47.1, 8.1) 12\xC2\xB0");  // ° kept
+  EXPECT_EQ(Printable("a\tb\x7F\xC2\x9B[2J"), "a\\x09b\\x7F\\xC2\\x9B[2J");   // C0, DEL, C1 CSI
+  EXPECT_EQ(Printable("\xC0\xAF\xED\xA0\x80"), "\\xC0\\xAF\\xED\\xA0\\x80");  // overlong, surrogate
+  EXPECT_EQ(Printable(std::string(100, 'a'), 5), "aaaaa...");
+  EXPECT_EQ(Printable("ab\xE2\x82\xAC", 4), "ab...");  // "€" not cut in half
+  EXPECT_EQ(Printable(std::string("\x1b[2J\0x", 6)), "\\x1B[2J\\x00x");
 }
 
 }  // namespace
