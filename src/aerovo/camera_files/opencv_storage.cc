@@ -1,5 +1,6 @@
 #include "aerovo/camera_files/opencv_storage.h"
 
+#include <cstring>
 #include <optional>
 #include <string_view>
 
@@ -111,6 +112,10 @@ class YamlDocument {
 
   nlohmann::json Node(Event& ev, int depth) {
     Count(ev);
+    if ((ev.e.type == YAML_SEQUENCE_START_EVENT || ev.e.type == YAML_MAPPING_START_EVENT) &&
+        depth + 1 > kMaxDepth) {
+      throw Error(ev, fmt::format("nested deeper than {} levels", kMaxDepth));
+    }
     switch (ev.e.type) {
       case YAML_SCALAR_EVENT: {
         const std::string_view v(reinterpret_cast<const char*>(ev.e.data.scalar.value),
@@ -121,7 +126,6 @@ class YamlDocument {
       case YAML_ALIAS_EVENT:
         throw Error(ev, "an alias (*name): not read in a calibration file");
       case YAML_SEQUENCE_START_EVENT: {
-        if (depth + 1 > kMaxDepth) throw Error(ev, "nested deeper than 16 levels");
         nlohmann::json arr = nlohmann::json::array();
         for (;;) {
           Event item = Next();
@@ -131,7 +135,6 @@ class YamlDocument {
         return arr;
       }
       case YAML_MAPPING_START_EVENT: {
-        if (depth + 1 > kMaxDepth) throw Error(ev, "nested deeper than 16 levels");
         nlohmann::json obj = nlohmann::json::object();
         for (;;) {
           Event k = Next();
@@ -139,7 +142,8 @@ class YamlDocument {
           if (k.e.type != YAML_SCALAR_EVENT) throw Error(k, "a key must be a plain scalar");
           const std::string key(reinterpret_cast<const char*>(k.e.data.scalar.value),
                                 k.e.data.scalar.length);
-          if (obj.contains(key)) throw Error(k, fmt::format("key '{}' is given twice", key));
+          if (obj.contains(key))
+            throw Error(k, fmt::format("key '{}' is given twice", Printable(key)));
           Event v = Next();
           obj[key] = Node(v, depth + 1);
         }
@@ -163,8 +167,8 @@ class YamlDocument {
 nlohmann::json XmlNode(const pugi::xml_node& e, const std::string& path, int depth,
                        std::size_t& values) {
   if (depth > kMaxDepth) {
-    throw InputError(fmt::format("calibration '{}' at byte {}: nested deeper than 16 levels", path,
-                                 e.offset_debug()));
+    throw InputError(fmt::format("calibration '{}' at byte {}: nested deeper than {} levels", path,
+                                 e.offset_debug(), kMaxDepth));
   }
   if (++values > kMaxValues) {
     throw InputError(fmt::format("calibration '{}': more than {} values", path, kMaxValues));
@@ -185,7 +189,7 @@ nlohmann::json XmlNode(const pugi::xml_node& e, const std::string& path, int dep
     const std::string key = c.name();
     if (obj.contains(key)) {
       throw InputError(fmt::format("calibration '{}' at byte {}: key '{}' is given twice", path,
-                                   c.offset_debug(), key));
+                                   c.offset_debug(), Printable(key)));
     }
     if (matrix && key == "data") {
       nlohmann::json data = nlohmann::json::array();
