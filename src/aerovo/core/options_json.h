@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <limits>
 #include <map>
+#include <optional>
 #include <set>
 #include <string>
 #include <type_traits>
@@ -93,6 +94,24 @@ T FromJsonValue(const nlohmann::json& j, const std::string& name, const std::str
       if (const auto e = ParseEnum<T>(j.get<std::string>())) return *e;
     }
     return wrong("must be one of " + EnumChoices<T>() + ", got " + got());
+  }
+}
+
+/// `j` as a T (bool, integer, floating point, string; FromJsonValue's rules) in [lo, hi] for
+/// numbers, else nullopt. For JSON written by a program that outside data may have replaced (a
+/// run folder's config.json and summary.json, a simulation's sim.json) where nlohmann's get<int>()
+/// would static_cast 1e300 into an int (undefined behaviour) or wrap 2^40 around.
+template <class T>
+std::optional<T> JsonValueIn(const nlohmann::json& j, T lo = std::numeric_limits<T>::lowest(),
+                             T hi = std::numeric_limits<T>::max()) {
+  try {
+    const T v = FromJsonValue<T>(j, "", "");
+    if constexpr (std::is_arithmetic_v<T> && !std::is_same_v<T, bool>) {
+      if (!(v >= lo && v <= hi)) return std::nullopt;  // NaN (null) too
+    }
+    return v;
+  } catch (const InvalidArgument&) {
+    return std::nullopt;
   }
 }
 

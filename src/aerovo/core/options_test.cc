@@ -178,6 +178,28 @@ TEST(Options, JsonReaderTypeAndRangeErrorsNameTheKey) {
             "t.json: key 'inner.ratio' value 1e+300 is out of range for a float");
 }
 
+// JsonValueIn: a value of JSON that outside data may have replaced, read without a cast that
+// could be undefined (nlohmann's get<int>() of 1e300) or wrap (2^40 into an int).
+TEST(Options, JsonValueInChecksTypeAndRangeBeforeAnyCast) {
+  using options::JsonValueIn;
+  EXPECT_EQ(JsonValueIn<int>(nlohmann::json(42)), 42);
+  EXPECT_EQ(JsonValueIn<int>(nlohmann::json(42), 1, 100), 42);
+  EXPECT_FALSE(JsonValueIn<int>(nlohmann::json(420), 1, 100));
+  EXPECT_FALSE(JsonValueIn<int>(nlohmann::json(1e300)));
+  EXPECT_FALSE(JsonValueIn<int>(nlohmann::json(2.5)));
+  EXPECT_FALSE(JsonValueIn<int>(nlohmann::json(1LL << 40)));
+  EXPECT_FALSE(JsonValueIn<int>(nlohmann::json("12")));
+  EXPECT_FALSE(JsonValueIn<int>(nlohmann::json(nullptr)));
+  EXPECT_FALSE(JsonValueIn<std::uint64_t>(nlohmann::json(-1)));
+  EXPECT_EQ(JsonValueIn<std::uint64_t>(nlohmann::json(18446744073709551615ULL)),
+            18446744073709551615ULL);
+  EXPECT_EQ(JsonValueIn<double>(nlohmann::json(3)), 3.0);
+  EXPECT_FALSE(JsonValueIn<double>(nlohmann::json(nullptr)));  // FromJsonValue's NaN
+  EXPECT_FALSE(JsonValueIn<double>(nlohmann::json(5.0), 0.0, 1.0));
+  EXPECT_EQ(JsonValueIn<std::string>(nlohmann::json("auto")), "auto");
+  EXPECT_FALSE(JsonValueIn<std::string>(nlohmann::json(3)));
+}
+
 TEST(Options, AliasesAndExtraNamesSetTheFieldAndConflictsNameBoth) {
   EXPECT_EQ(Read({{"n", 5}}).count, 5);
   EXPECT_EQ(Read({{"n", 5}, {"count", 5}}).count, 5);  // same value: fine

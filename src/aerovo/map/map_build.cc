@@ -13,6 +13,8 @@
 
 #include "aerovo/core/angles.h"
 #include "aerovo/core/error.h"
+#include "aerovo/core/options_json.h"
+#include "aerovo/core/text.h"
 #include "aerovo/map/gdal_error.h"
 #include "aerovo/map/map_pixels.h"
 #include "aerovo/report/geo_mosaic.h"
@@ -117,13 +119,15 @@ std::string TiltedFramesWarning(const nlohmann::json& summary, const nlohmann::j
       !summary["attitude_sources"].is_object()) {
     return "";
   }
-  int per_frame = 0;
+  long long per_frame = 0;
   std::string sources;
   for (const auto& [name, count] : summary["attitude_sources"].items()) {
-    if (name == "estimated" || name == "none" || !count.is_number_integer()) continue;
-    if (count.get<int>() <= 0) continue;
-    per_frame += count.get<int>();
-    sources += (sources.empty() ? "" : ", ") + name;
+    if (name == "estimated" || name == "none") continue;
+    // A frame count (summary.json of aerovo run; one a user edited may hold anything).
+    const std::optional<int> n = options::JsonValueIn<int>(count, 1, 100000000);
+    if (!n) continue;
+    per_frame += *n;
+    sources += (sources.empty() ? "" : ", ") + Printable(name, 40);
   }
   const double tilt = summary.contains("max_tilt_deg") && summary["max_tilt_deg"].is_number()
                           ? summary["max_tilt_deg"].get<double>()

@@ -40,6 +40,23 @@ TEST(MapBuildTiltWarning, EstimatedOrNadirOrUnknownIsNotWarned) {
   EXPECT_EQ(TiltedFramesWarning(nullptr, nullptr), "");
 }
 
+// summary.json is outside data once written: counts that are not frame counts (1e300, 2^40,
+// negative, a string) are not counted, and a source's name is quoted printable. Before, get<int>()
+// cast 1e300 into an int (undefined behaviour) and 2^40 wrapped around.
+TEST(MapBuildTiltWarning, CountsThatAreNotFrameCountsAreNotCounted) {
+  const nlohmann::json summary = {{"attitude_sources",
+                                   {{"gimbal", 120},
+                                    {"huge", 1e300},
+                                    {"wrap", 1LL << 40},
+                                    {"neg", -5},
+                                    {"text", "12"},
+                                    {"esc\x1b[2J", 3}}},
+                                  {"max_tilt_deg", 15.0}};
+  const std::string w = TiltedFramesWarning(summary, {{"altitude_m", 57.0}});
+  EXPECT_NE(w.find("123 frames"), std::string::npos) << w;
+  EXPECT_NE(w.find("(esc\\x1B[2J, gimbal; up to"), std::string::npos) << w;
+}
+
 // A run folder that records each frame's camera attitude (frames.csv camera_roll_deg,
 // camera_pitch_deg) is drawn nadir frame by frame: nothing to warn about.
 TEST(MapBuildTiltWarning, ARunFolderRecordingTheAttitudeIsNotWarned) {

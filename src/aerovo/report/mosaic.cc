@@ -13,6 +13,7 @@
 
 #include "aerovo/camera_files/calibration.h"
 #include "aerovo/core/error.h"
+#include "aerovo/core/options_json.h"
 #include "aerovo/frames/camera.h"
 #include "aerovo/frames/frame_source.h"
 #include "aerovo/odometry/attitude.h"
@@ -46,19 +47,21 @@ bool FrameSize(const RunData& run, int* w, int* h) {
   if (!run.config.is_object() || !run.config.contains("resolved")) return false;
   const nlohmann::json& r = run.config["resolved"];
   if (!r.contains("frame_width_px") || !r.contains("frame_height_px")) return false;
-  *w = r["frame_width_px"].get<int>();
-  *h = r["frame_height_px"].get<int>();
-  return *w > 0 && *h > 0;
+  const std::optional<int> width = options::JsonValueIn<int>(r["frame_width_px"], 1, 1000000),
+                           height = options::JsonValueIn<int>(r["frame_height_px"], 1, 1000000);
+  if (!width || !height) return false;
+  *w = *width;
+  *h = *height;
+  return true;
 }
 
+// The run's configuration value `key` (config.json), or `fallback` when absent, null, of another
+// type or, for a number, outside [lo, hi] (a config.json that outside data may have replaced).
 template <class T>
-T ConfigValue(const nlohmann::json& c, const char* key, T fallback) {
+T ConfigValue(const nlohmann::json& c, const char* key, T fallback,
+              T lo = std::numeric_limits<T>::lowest(), T hi = std::numeric_limits<T>::max()) {
   if (!c.is_object() || !c.contains(key) || c[key].is_null()) return fallback;
-  try {
-    return c[key].get<T>();
-  } catch (const nlohmann::json::exception&) {
-    return fallback;
-  }
+  return options::JsonValueIn<T>(c[key], lo, hi).value_or(fallback);
 }
 
 // The input as given to `aerovo run` (relative to where it ran, or to the run folder); an empty
@@ -173,18 +176,21 @@ MosaicWarpOutcome WarpRunFrames(const RunData& run, const MosaicOptions& options
   const int every = std::max(1, (n_transforms + options.max_frames - 1) / options.max_frames);
   out.every_nth = every;
   FrameSourceOptions so;
-  so.step = ConfigValue<int>(run.config, "step", 1) * every;
+  // The ranges of the run's options (pipeline/run_config.h).
+  so.step = static_cast<int>(
+      std::min<long long>(1LL * ConfigValue<int>(run.config, "step", 1, 1, 1000000) * every,
+                          std::numeric_limits<int>::max()));
   so.start_time_s = ConfigValue<double>(run.config, "start_s", 0.0);
   const double end_s = ConfigValue<double>(run.config, "end_s", -1.0);
   if (end_s >= 0.0) so.end_time_s = end_s;
   so.photo_gap_s = ConfigValue<double>(run.config, "photo_gap_s", so.photo_gap_s);
-  so.photo_flight = ConfigValue<int>(run.config, "photo_flight", so.photo_flight);
+  so.photo_flight = ConfigValue<int>(run.config, "photo_flight", so.photo_flight, -1, 1000000);
   // The run's video decoder (an unknown name: the default).
   so.video_decoder =
       options::ParseEnum<VideoDecoderChoice>(ConfigValue<std::string>(run.config, "video_decoder",
                                                                       "auto"))
           .value_or(VideoDecoderChoice::kAuto);
-  so.video_threads = ConfigValue<int>(run.config, "video_threads", so.video_threads);
+  so.video_threads = ConfigValue<int>(run.config, "video_threads", so.video_threads, 0, 64);
   so.keep_color = true;
   // Lens distortion, as the run applied it before SURF (pipeline/preprocess.h FrameUndistorter):
   // the same camera and the same maps (frames/camera.h Undistorter).

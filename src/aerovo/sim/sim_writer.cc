@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <ctime>
 #include <fstream>
+#include <optional>
 #include <ostream>
 #include <sstream>
 
@@ -16,6 +17,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/options_json.h"
 #include "aerovo/outputs/track_writers.h"
 #include "aerovo/telemetry/srt_writer.h"
 
@@ -406,11 +408,21 @@ SimulationManifest ReadSimulationManifest(const fs::path& sim_json) {
     }
     return obj.at(name);
   };
+  // A whole number in [lo, hi] (nlohmann's get<int>() would cast 1e300 into an int: undefined
+  // behaviour).
+  auto whole = [&](const nlohmann::json& obj, const char* name, long long lo, long long hi) {
+    const std::optional<long long> v = options::JsonValueIn<long long>(field(obj, name), lo, hi);
+    if (!v) {
+      throw InputError(fmt::format("{}: '{}' is not a whole number in [{}, {}]", sim_json.string(),
+                                   name, lo, hi));
+    }
+    return *v;
+  };
   try {
     if (field(j, "format").get<std::string>() != "aerovo-simulation") {
       throw InputError(fmt::format("{}: 'format' is not aerovo-simulation", sim_json.string()));
     }
-    const int version = field(j, "version").get<int>();
+    const long long version = whole(j, "version", 0, 1000000);
     if (version != 1) {
       throw InputError(
           fmt::format("{}: unsupported version {} (expected 1)", sim_json.string(), version));
@@ -429,11 +441,11 @@ SimulationManifest ReadSimulationManifest(const fs::path& sim_json) {
     m.gpx = path_of("gpx");
     m.tum = path_of("ground_truth_tum");
     m.csv = path_of("ground_truth_csv");
-    m.frame_count = field(j, "frame_count").get<int>();
+    m.frame_count = static_cast<int>(whole(j, "frame_count", 1, 100000000));
     m.fps = field(j, "fps").get<double>();
     const auto& cam = field(j, "camera");
-    m.width_px = field(cam, "width_px").get<int>();
-    m.height_px = field(cam, "height_px").get<int>();
+    m.width_px = static_cast<int>(whole(cam, "width_px", 1, 1000000));
+    m.height_px = static_cast<int>(whole(cam, "height_px", 1, 1000000));
     m.focal_px = field(cam, "focal_px").get<double>();
     m.cx_px = field(cam, "cx_px").get<double>();
     m.cy_px = field(cam, "cy_px").get<double>();
@@ -448,7 +460,11 @@ SimulationManifest ReadSimulationManifest(const fs::path& sim_json) {
     m.distance_m = field(j, "distance_m").get<double>();
     m.illumination_k = field(field(j, "effects"), "illumination_k").get<double>();
     m.gps_horizontal_sigma_m = field(field(j, "gps"), "horizontal_sigma_m").get<double>();
-    m.seed = field(j, "seed").get<std::uint64_t>();
+    const std::optional<std::uint64_t> seed = options::JsonValueIn<std::uint64_t>(field(j, "seed"));
+    if (!seed) {
+      throw InputError(fmt::format("{}: 'seed' is not a whole number >= 0", sim_json.string()));
+    }
+    m.seed = *seed;
   } catch (const nlohmann::json::exception& e) {
     throw InputError(fmt::format("{}: bad field type ({})", sim_json.string(), e.what()));
   }

@@ -2,6 +2,7 @@
 #include "aerovo/sim/sim_writer.h"
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <filesystem>
@@ -226,6 +227,44 @@ TEST(SimWriter, BadInputsAreNamed) {
     FAIL() << "no exception";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("missing field 'files'"), std::string::npos) << e.what();
+  }
+  // Whole numbers are checked before any cast: get<int>() cast 1e300 into an int (undefined
+  // behaviour) and wrapped 2^40 around. A whole manifest, then one value changed.
+  const nlohmann::json valid = nlohmann::json::parse(R"({
+    "format": "aerovo-simulation", "version": 1,
+    "files": {"video": "flight.mp4", "frames_dir": null, "frame_pattern": null, "srt": null,
+              "gpx": null, "ground_truth_tum": null, "ground_truth_csv": null},
+    "frame_count": 10, "fps": 10,
+    "camera": {"width_px": 640, "height_px": 480, "focal_px": 500, "cx_px": 320, "cy_px": 240,
+               "hfov_deg": 65},
+    "height_above_ground_m": 100, "gsd_m_per_px": 0.2, "ground_altitude_m": 0,
+    "origin": {"lat_deg": 45, "lon_deg": 7, "alt_m": 0}, "distance_m": 100,
+    "effects": {"illumination_k": 1}, "gps": {"horizontal_sigma_m": 0}, "seed": 1})");
+  std::ofstream(dir / "sim.json") << valid.dump();
+  EXPECT_EQ(ReadSimulationManifest(dir / "sim.json").frame_count, 10);
+  const struct {
+    nlohmann::json::json_pointer where;
+    nlohmann::json value;
+    std::string message;
+  } kCases[] = {
+      {nlohmann::json::json_pointer("/version"), 1e300, "'version' is not a whole number in ["},
+      {nlohmann::json::json_pointer("/frame_count"), 1LL << 40,
+       "'frame_count' is not a whole number in [1, 100000000]"},
+      {nlohmann::json::json_pointer("/frame_count"), -3, "'frame_count' is not a whole number"},
+      {nlohmann::json::json_pointer("/frame_count"), 2.5, "'frame_count' is not a whole number"},
+      {nlohmann::json::json_pointer("/camera/width_px"), 1e300, "'width_px' is not a whole number"},
+      {nlohmann::json::json_pointer("/seed"), -1, "'seed' is not a whole number >= 0"},
+  };
+  for (const auto& c : kCases) {
+    nlohmann::json bad = valid;
+    bad[c.where] = c.value;
+    std::ofstream(dir / "sim.json") << bad.dump();
+    try {
+      ReadSimulationManifest(dir / "sim.json");
+      ADD_FAILURE() << c.where.to_string() << " = " << c.value.dump() << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(c.message), std::string::npos) << e.what();
+    }
   }
   fs::remove_all(dir);
 }
