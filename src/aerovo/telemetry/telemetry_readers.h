@@ -67,6 +67,14 @@ struct TelemetryReadResult {
   /// "<source>:<line>: <problem>" of skipped records and damaged bytes (at most max_warnings),
   /// then the notes about the file as a whole (at most kMaxReadNotes).
   std::vector<std::string> warnings;
+  /// The photos the autopilot says its camera took, in the log's order (DataFlash CAM, else
+  /// TRIG; ULog camera_capture; tlog CAMERA_FEEDBACK, else CAMERA_IMAGE_CAPTURED), of the first
+  /// camera only: time_s on the clock of `telemetry`'s samples, the position, heights and
+  /// aircraft attitude the autopilot logged with the photo (has_fix false when it logged none),
+  /// frame_index unset, origin naming the message ("<source> at byte <offset>: CAM 12").
+  /// Empty for the formats that have none. A photo folder is matched to them photo by photo
+  /// (pipeline/run_steps.h RunTelemetry::Load).
+  std::vector<TelemetrySample> camera_triggers;
 };
 
 /// DJI .SRT subtitles. Each subtitle block is: a number line, a timing line
