@@ -3,6 +3,8 @@
 // ATT (attitude) and POS (height above home) are interpolated onto them. See
 // telemetry_readers.h (ParseDataFlash) and docs/inputs.md "ArduPilot DataFlash logs".
 //
+// CAM messages (else TRIG) become the camera triggers (TelemetryReadResult::camera_triggers).
+//
 // The format, as ArduPilot defines it (libraries/AP_Logger/LogStructure.h, "Format characters in
 // the format string for binary log messages"; ardupilot.org "Downloading and Analyzing Data
 // Logs in Mission Planner" and "Onboard Message Log Messages"):
@@ -163,12 +165,12 @@ std::vector<std::string> SplitTrimmed(std::string_view s, char sep) {
 }
 
 // What aerovo reads from a message type, by the column names of its FMT.
-enum class Kind { kOther, kGps, kAtt, kPos };
+enum class Kind { kOther, kGps, kAtt, kPos, kCam, kTrig };
 struct Roles {
   Kind kind = Kind::kOther;
   // Column indexes, -1 when the message has no such column.
   int time_us = -1, status = -1, lat = -1, lng = -1, alt = -1, week = -1, week_ms = -1,
-      instance = -1, roll = -1, pitch = -1, yaw = -1, rel_home_alt = -1;
+      instance = -1, roll = -1, pitch = -1, yaw = -1, rel_home_alt = -1, image = -1;
 };
 
 int ColumnIndex(const std::vector<std::string>& columns, std::string_view name) {
@@ -221,6 +223,26 @@ Roles RolesOf(const std::string& name, const std::vector<std::string>& columns,
   } else if (name == "POS") {
     r.rel_home_alt = col("RelHomeAlt");
     if (r.time_us >= 0 && r.rel_home_alt >= 0) r.kind = Kind::kPos;
+  } else if (name == "CAM" || name == "TRIG") {
+    // AP_Camera/LogStructure.h: "TimeUS,I,Img,GPSTime,GPSWeek,Lat,Lng,Alt,RelAlt,GPSAlt,R,P,Y"
+    // (the instance I and the image number Img since ArduPilot 4.1; Roll, Pitch, Yaw before R,
+    // P, Y). Alt is above sea level, RelAlt above home (m), the angles the aircraft's (deg).
+    const auto either = [&](std::string_view a, std::string_view b) {
+      const int i = col(a);
+      return i >= 0 ? i : col(b);
+    };
+    r.instance = col("I");
+    r.image = col("Img");
+    r.week = col("GPSWeek");
+    r.week_ms = col("GPSTime");
+    r.lat = col("Lat");
+    r.lng = col("Lng");
+    r.alt = col("Alt");
+    r.rel_home_alt = col("RelAlt");
+    r.roll = either("R", "Roll");
+    r.pitch = either("P", "Pitch");
+    r.yaw = either("Y", "Yaw");
+    if (r.time_us >= 0) r.kind = name == "CAM" ? Kind::kCam : Kind::kTrig;
   }
   return r;
 }
@@ -252,6 +274,12 @@ class Collector {
         break;
       case Kind::kPos:
         Pos(roles, value, place);
+        break;
+      case Kind::kCam:
+        Camera(roles, value, place, cam_);
+        break;
+      case Kind::kTrig:
+        Camera(roles, value, place, trig_);
         break;
       case Kind::kOther:
         break;
@@ -300,7 +328,12 @@ class Collector {
           "Status < 3, no fix yet, or at latitude = longitude = 0)",
           errors_.source(), no_fix_));
     }
-    return io_detail::Finish(std::move(samples_), errors_, no_fix_, "DataFlash log");
+    TelemetryReadResult r =
+        io_detail::Finish(std::move(samples_), errors_, no_fix_, "DataFlash log");
+    // CAM is the photo taken (with a feedback pin, the camera's own signal), TRIG the trigger
+    // sent when a feedback pin is set (AP_Camera_Backend.cpp log_picture, check_feedback).
+    r.camera_triggers = std::move(!cam_.empty() ? cam_ : trig_);
+    return r;
   }
 
  private:
@@ -401,9 +434,62 @@ class Collector {
     pos_.push_back(SeriesPoint{*t, {*rel, 0.0, 0.0}});
   }
 
+  // One CAM or TRIG message of the first camera (instance 0) into `out`: the aircraft's
+  // position, heights and attitude when the photo was taken, as AP_Camera_Backend.cpp
+  // Write_CameraInfo logs them (the AHRS position, which it logs even without one: latitude =
+  // longitude = 0 is a photo without a fix).
+  template <typename Value>
+  void Camera(const Roles& r, const Value& value, long long place,
+              std::vector<TelemetrySample>& out) {
+    const char* name = &out == &cam_ ? "CAM" : "TRIG";
+    if (r.instance >= 0) {
+      const std::optional<double> instance = value(r.instance);
+      if (instance && *instance != 0.0) return;
+    }
+    const std::optional<double> t = Time(r, value, place, name);
+    if (!t) return;
+    if (!out.empty() && *t < out.back().time_s) {
+      Malformed(place, fmt::format("{} time {:.6f} s is earlier than the previous {} message's "
+                                   "{:.6f} s (messages out of order)",
+                                   name, *t, name, out.back().time_s));
+      return;
+    }
+    TelemetrySample s;
+    s.time_s = *t;
+    const std::optional<double> lat = value(r.lat), lon = value(r.lng);
+    s.has_fix = lat && lon && !(*lat == 0.0 && *lon == 0.0);
+    if (s.has_fix) {
+      s.lat_deg = *lat;
+      s.lon_deg = *lon;
+    }
+    const auto opt = [&](int i) { return i >= 0 ? value(i) : std::optional<double>(); };
+    s.abs_alt_m = opt(r.alt);
+    s.rel_alt_m = opt(r.rel_home_alt);
+    s.roll_deg = opt(r.roll);
+    s.pitch_deg = opt(r.pitch);
+    s.yaw_deg = opt(r.yaw);
+    if (r.week >= 0 && r.week_ms >= 0) {
+      const std::optional<double> week = value(r.week), ms = value(r.week_ms);
+      if (week && ms && *week > 0.0 && *ms >= 0.0 && *ms < kGpsWeekS * 1000.0) {
+        s.unix_time_s = kGpsEpochUnixS + *week * kGpsWeekS + *ms / 1000.0 - kGpsLeapSeconds;
+      }
+    }
+    const std::string where = Where(place);
+    try {
+      ValidateSample(s, where + ": " + name);
+    } catch (const InputError& e) {
+      errors_.ReportMessage(e.what());
+      return;
+    }
+    const std::optional<double> image = opt(r.image);
+    s.origin = image ? fmt::format("{}: {} {}", where, name, *image) : where + ": " + name;
+    out.push_back(std::move(s));
+  }
+
   RecordErrors& errors_;
   bool binary_;
   std::vector<TelemetrySample> samples_;
+  std::vector<TelemetrySample> cam_, trig_;
   std::vector<SeriesPoint> att_, pos_;
   std::optional<double> last_gps_time_;
   int gps_messages_ = 0;
@@ -530,7 +616,8 @@ void ParseBinary(std::istream& in, const TelemetryReadOptions& options, RecordEr
         std::string missing;
         if (decodable) {
           d.roles = RolesOf(d.name, columns, &missing);
-        } else if (d.name == "GPS" || d.name == "ATT" || d.name == "POS") {
+        } else if (d.name == "GPS" || d.name == "ATT" || d.name == "POS" || d.name == "CAM" ||
+                   d.name == "TRIG") {
           missing = fmt::format(
               "the FMT of {} at byte {} is inconsistent (format '{}' of {} bytes, {} columns, "
               "length {})",

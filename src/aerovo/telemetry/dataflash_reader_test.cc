@@ -406,6 +406,112 @@ TEST(DataFlash, GpsMessagesOutOfOrderAreMalformed) {
   EXPECT_EQ(r.skipped_records, 1);
 }
 
+TEST(DataFlash, CamMessagesOfTheFirstCameraAreThePhotosTaken) {
+  BinLog log = Flight();
+  const std::size_t second = log.size();
+  // A second camera's photo (instance 1): not read. A photo without a position (the AHRS had
+  // none: latitude = longitude = 0) keeps its heights and angles.
+  log.Message(kCam, {11.0e6, 1, 1, kWeekMs0 + 1000, kWeek, 435369000, 65570000, 35100, 10100, 35100,
+                     0, 0, 0});
+  const std::size_t no_fix = log.size();
+  log.Message(kCam,
+              {12.25e6, 0, 2, kWeekMs0 + 2250, kWeek, 0, 0, 35162, 10150, 35162, 100, -50, 35950});
+  const TelemetryReadResult r = Parse(log.bytes());
+  EXPECT_EQ(r.records, 3);  // the GPS samples are unchanged
+  ASSERT_EQ(r.camera_triggers.size(), 2u);
+  const TelemetrySample& a = r.camera_triggers[0];
+  EXPECT_DOUBLE_EQ(a.time_s, 10.5);  // TimeUS / 1e6, the GPS samples' clock
+  EXPECT_TRUE(a.has_fix);
+  EXPECT_NEAR(a.lat_deg, 43.5368, 1e-9);
+  EXPECT_NEAR(a.lon_deg, 6.5569, 1e-9);
+  EXPECT_NEAR(*a.abs_alt_m, 350.62, 1e-9);
+  EXPECT_NEAR(*a.rel_alt_m, 100.50, 1e-9);
+  EXPECT_NEAR(*a.roll_deg, -1.20, 1e-9);  // 'c': centidegrees
+  EXPECT_NEAR(*a.pitch_deg, 2.50, 1e-9);
+  EXPECT_NEAR(*a.yaw_deg, 90.00, 1e-9);
+  ASSERT_TRUE(a.unix_time_s);
+  EXPECT_NEAR(*a.unix_time_s, 1707220782.5, 1e-6);
+  EXPECT_FALSE(a.frame_index);
+  EXPECT_EQ(a.origin, fmt::format("flight.bin at byte {}: CAM 1", second - 46));
+  const TelemetrySample& b = r.camera_triggers[1];
+  EXPECT_DOUBLE_EQ(b.time_s, 12.25);
+  EXPECT_FALSE(b.has_fix);
+  EXPECT_NEAR(*b.rel_alt_m, 101.50, 1e-9);
+  EXPECT_NEAR(*b.yaw_deg, 359.50, 1e-9);
+  EXPECT_EQ(b.origin, fmt::format("flight.bin at byte {}: CAM 2", no_fix));
+  // A log without CAM or TRIG has none.
+  BinLog plain;
+  plain.Define(kGps, "GPS", kGpsFormat, kGpsColumns);
+  plain.Message(kGps, Gps(1e6, 3, 435367000, 65567000, 35000));
+  EXPECT_TRUE(Parse(plain.bytes()).camera_triggers.empty());
+}
+
+TEST(DataFlash, TrigMessagesAreReadOnlyWithoutCamAndOlderLayoutsToo) {
+  // TRIG (the trigger, logged when a feedback pin is set) in the float layout of ArduPilot 4.5.
+  constexpr int kTrig = 134;
+  BinLog log;
+  log.Define(kGps, "GPS", kGpsFormat, kGpsColumns);
+  log.Define(kTrig, "TRIG", "QBHIHLLeeefff", kCamColumns);
+  log.Message(kGps, Gps(1e6, 3, 435367000, 65567000, 35000));
+  log.Message(kTrig, {2e6, 0, 7, kWeekMs0, kWeek, 435367500, 65567500, 35000, 4000, 35000, 1.5,
+                      -2.25, 271.75});
+  TelemetryReadResult r = Parse(log.bytes());
+  ASSERT_EQ(r.camera_triggers.size(), 1u);
+  EXPECT_NEAR(r.camera_triggers[0].lat_deg, 43.53675, 1e-9);
+  EXPECT_NEAR(*r.camera_triggers[0].rel_alt_m, 40.0, 1e-9);
+  EXPECT_NEAR(*r.camera_triggers[0].roll_deg, 1.5, 1e-6);
+  EXPECT_NEAR(*r.camera_triggers[0].pitch_deg, -2.25, 1e-6);
+  EXPECT_NEAR(*r.camera_triggers[0].yaw_deg, 271.75, 1e-5);
+  EXPECT_THAT(r.camera_triggers[0].origin, HasSubstr(": TRIG 7"));
+  // With CAM messages too, CAM is read (the photos the camera confirmed).
+  log.Define(kCam, "CAM", "QBHIHLLeeefff", kCamColumns);
+  log.Message(kCam,
+              {2.1e6, 0, 7, kWeekMs0, kWeek, 435367600, 65567500, 35000, 4000, 35000, 0, 0, 0});
+  r = Parse(log.bytes());
+  ASSERT_EQ(r.camera_triggers.size(), 1u);
+  EXPECT_DOUBLE_EQ(r.camera_triggers[0].time_s, 2.1);
+  EXPECT_THAT(r.camera_triggers[0].origin, HasSubstr(": CAM 7"));
+  // Before ArduPilot 4.1: no I or Img, the angles named Roll, Pitch, Yaw in centidegrees.
+  BinLog old;
+  old.Define(kGps, "GPS", "QBLLe", "TimeUS,Status,Lat,Lng,Alt");
+  old.Define(kCam, "CAM", "QIHLLeeeccC",
+             "TimeUS,GPSTime,GPSWeek,Lat,Lng,Alt,RelAlt,GPSAlt,Roll,Pitch,Yaw");
+  old.Message(kGps, {1e6, 3, 435367000, 65567000, 35000});
+  old.Message(kCam,
+              {3e6, kWeekMs0, kWeek, 435367000, 65567000, 35000, 6020, 35000, -250, 75, 18000});
+  r = Parse(old.bytes());
+  ASSERT_EQ(r.camera_triggers.size(), 1u);
+  EXPECT_NEAR(*r.camera_triggers[0].rel_alt_m, 60.2, 1e-9);
+  EXPECT_NEAR(*r.camera_triggers[0].roll_deg, -2.5, 1e-9);
+  EXPECT_NEAR(*r.camera_triggers[0].yaw_deg, 180.0, 1e-9);
+  EXPECT_THAT(r.camera_triggers[0].origin, ::testing::EndsWith(": CAM"));
+}
+
+TEST(DataFlash, MalformedCamMessagesFollowTheStrictOrLenientPolicy) {
+  BinLog log;
+  log.Define(kGps, "GPS", kGpsFormat, kGpsColumns);
+  log.Define(kCam, "CAM", kCamFormat, kCamColumns);
+  log.Message(kGps, Gps(1e6, 3, 435367000, 65567000, 35000));
+  log.Message(kCam, {2e6, 0, 1, kWeekMs0, kWeek, 435367000, 65567000, 35000, 0, 0, 0, 0, 0});
+  const std::size_t bad = log.size();
+  log.Message(kCam, {3e6, 0, 2, kWeekMs0, kWeek, 950000000, 65567000, 35000, 0, 0, 0, 0, 0});
+  const std::size_t back = log.size();
+  log.Message(kCam, {1.5e6, 0, 3, kWeekMs0, kWeek, 435367000, 65567000, 35000, 0, 0, 0, 0, 0});
+  log.Message(kCam, {4e6, 0, 4, kWeekMs0, kWeek, 435367000, 65567000, 35000, 0, 0, 0, 0, 0});
+  const std::string latitude = fmt::format("flight.bin at byte {}: CAM: latitude 95", bad);
+  ExpectInputError([&] { Parse(log.bytes()); }, {latitude.c_str()});
+  const TelemetryReadResult r = Parse(log.bytes(), true);
+  ASSERT_EQ(r.camera_triggers.size(), 2u);
+  EXPECT_DOUBLE_EQ(r.camera_triggers[1].time_s, 4.0);
+  EXPECT_EQ(r.skipped_records, 2);
+  ASSERT_EQ(r.warnings.size(), 2u);
+  EXPECT_THAT(r.warnings[0], HasSubstr(latitude));
+  EXPECT_THAT(r.warnings[1], HasSubstr(fmt::format("flight.bin at byte {}: CAM time 1.500000 s is "
+                                                   "earlier than the previous CAM message's "
+                                                   "2.000000 s",
+                                                   back)));
+}
+
 TEST(DataFlash, HostileFormatsNeitherCrashNorHang) {
   const auto start = std::chrono::steady_clock::now();
   // Lengths 0, 1 and 2 (shorter than the header), a length that does not match the format,
@@ -456,6 +562,8 @@ std::string FlightText() {
       "TimeUS,I,Status,GMS,GWk,NSats,HDop,Lat,Lng,Alt,Spd,GCrs,VZ,Yaw,U\r\n"
       "FMT, 131, 36, ATT, QffffffB, TimeUS,DesRoll,Roll,DesPitch,Pitch,DesYaw,Yaw,AEKF\r\n"
       "FMT, 132, 31, POS, QLLfff, TimeUS,Lat,Lng,Alt,RelHomeAlt,RelOriginAlt\r\n"
+      "FMT, 133, 46, CAM, QBHIHLLeeeccC, "
+      "TimeUS,I,Img,GPSTime,GPSWeek,Lat,Lng,Alt,RelAlt,GPSAlt,R,P,Y\r\n"
       "FMT, 200, 73, MSG, QZ, TimeUS,Message\r\n"
       "MSG, 1000, ArduCopter V4.5.7 (2a1e2f3c), with a comma\r\n"
       "GPS, 9000000, 0, 1, 215000000, 2300, 14, 0.79, 0, 0, 0.00, 5, 90, 0, 0, 1\r\n";
@@ -473,6 +581,8 @@ std::string FlightText() {
                        350.12 + 0.5 * sec);
     }
   }
+  s += "CAM, 10500000, 0, 1, 216000500, 2300, 43.5368, 6.5569, 350.62, 100.50, 350.62, -1.20, "
+       "2.50, 90.00\r\n";
   return s;
 }
 
@@ -494,7 +604,18 @@ TEST(DataFlash, TheTextFormGivesTheSameSamples) {
     EXPECT_NEAR(*s.pitch_deg, *e.pitch_deg, 1e-5);
     EXPECT_NEAR(*s.unix_time_s, *e.unix_time_s, 1e-6);
   }
-  EXPECT_EQ(r.telemetry[0].origin, "flight.log:17");
+  EXPECT_EQ(r.telemetry[0].origin, "flight.log:18");
+  ASSERT_EQ(r.camera_triggers.size(), 1u);
+  ASSERT_EQ(b.camera_triggers.size(), 1u);
+  const TelemetrySample& c = r.camera_triggers[0];
+  const TelemetrySample& d = b.camera_triggers[0];
+  EXPECT_DOUBLE_EQ(c.time_s, d.time_s);
+  EXPECT_NEAR(c.lat_deg, d.lat_deg, 1e-9);
+  EXPECT_NEAR(c.lon_deg, d.lon_deg, 1e-9);
+  EXPECT_NEAR(*c.rel_alt_m, *d.rel_alt_m, 1e-9);
+  EXPECT_NEAR(*c.roll_deg, *d.roll_deg, 1e-9);
+  EXPECT_NEAR(*c.yaw_deg, *d.yaw_deg, 1e-9);
+  EXPECT_EQ(c.origin, "flight.log:59: CAM 1");
 }
 
 TEST(DataFlash, TextLinesThatDoNotMatchTheirFmtAreMalformed) {
