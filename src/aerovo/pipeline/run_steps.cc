@@ -120,6 +120,65 @@ RunInputs ResolveInputs(const RunConfig& given, std::vector<std::string>* warnin
   return in;
 }
 
+namespace {
+
+// The camera triggers of an autopilot log (TelemetryReadResult::camera_triggers) as the
+// telemetry of the photos of `folder`, photo k the k-th trigger (frame_index k, time_s from the
+// first trigger's, the clock of the photos' own times): nullopt, with a warning saying why and
+// what to do, when their number differs from the photos' or, for photos with capture times,
+// when the times since the first photo and since the first trigger part by more than
+// kMaxTriggerDriftS plus the capture times' resolution (a photo the camera missed, or one taken
+// that the log does not know, shifts every pair after it by one interval; an interval below
+// that tolerance cannot be told from the capture times' rounding).
+std::optional<Telemetry> TelemetryOfTriggers(const std::vector<TelemetrySample>& triggers,
+                                             const ImageFolderSource& folder,
+                                             const std::string& path,
+                                             std::vector<std::string>* warnings) {
+  // The camera's shutter lag after the trigger (0.1-0.5 s) is common to all photos and cancels;
+  // the photos' clock and the autopilot's drift by a few milliseconds over an hour.
+  constexpr double kMaxTriggerDriftS = 0.5;
+  const std::vector<ImageMetadata>& photos = folder.metadata();
+  const std::string by_time = fmt::format(
+      "the photos are matched to the log's GPS fixes by their capture times instead: give "
+      "--telemetry-offset-s, the log's time of the first photo (the first trigger is at "
+      "{:.3f} s, {})",
+      triggers.front().time_s, triggers.front().origin);
+  if (triggers.size() != photos.size()) {
+    warnings->push_back(fmt::format(
+        "{}: the log's camera logged {} photo(s), the folder holds {}: they cannot be paired one "
+        "by one; {}",
+        path, triggers.size(), photos.size(), by_time));
+    return std::nullopt;
+  }
+  const bool timed = std::all_of(photos.begin(), photos.end(), [](const ImageMetadata& m) {
+    return m.capture_unix_time_s.has_value();
+  });
+  std::vector<TelemetrySample> samples;
+  samples.reserve(triggers.size());
+  for (std::size_t k = 0; k < triggers.size(); ++k) {
+    TelemetrySample s = triggers[k];
+    s.time_s = triggers[k].time_s - triggers.front().time_s;
+    s.frame_index = static_cast<int>(k);
+    const double photo_s = folder.TimeOf(k) - folder.TimeOf(0);
+    // Two capture times cut to their resolution differ from the true interval by less than it.
+    const double tolerance_s =
+        kMaxTriggerDriftS + std::max(photos[k].capture_time_resolution_s,
+                                     photos.front().capture_time_resolution_s);
+    if (timed && !(std::abs(s.time_s - photo_s) <= tolerance_s)) {
+      warnings->push_back(fmt::format(
+          "{}: photo '{}' was taken {:.3f} s after the first photo, its camera trigger ({}) "
+          "{:.3f} s after the first trigger: more than {:.1f} s apart, the photos and the "
+          "triggers are not the same sequence (a photo missed or added before it); {}",
+          path, photos[k].source, photo_s, s.origin, s.time_s, tolerance_s, by_time));
+      return std::nullopt;
+    }
+    samples.push_back(std::move(s));
+  }
+  return Telemetry(std::move(samples), path);
+}
+
+}  // namespace
+
 RunTelemetry::RunTelemetry(Telemetry telemetry, bool by_frame_index, std::string origin)
     : telemetry_(std::move(telemetry)),
       by_frame_index_(by_frame_index),
@@ -127,7 +186,7 @@ RunTelemetry::RunTelemetry(Telemetry telemetry, bool by_frame_index, std::string
 
 RunTelemetry RunTelemetry::Load(const std::string& path, bool lenient,
                                 const ImageFolderSource* folder,
-                                std::vector<std::string>* warnings) {
+                                std::vector<std::string>* warnings, bool by_time) {
   if (!path.empty()) {
     TelemetryReadOptions to;
     to.lenient = lenient;
@@ -146,6 +205,13 @@ RunTelemetry RunTelemetry::Load(const std::string& path, bool lenient,
           path, t.skipped_records));
     }
     for (auto& w : t.warnings) warnings->push_back(std::move(w));
+    if (folder != nullptr && !by_time && !t.camera_triggers.empty()) {
+      if (std::optional<Telemetry> paired =
+              TelemetryOfTriggers(t.camera_triggers, *folder, path, warnings)) {
+        const std::string origin = fmt::format("{} (its camera triggers, one per photo)", path);
+        return RunTelemetry(std::move(*paired), true, origin);
+      }
+    }
     const bool by_frame_index = t.telemetry.HasFrameIndices();
     return RunTelemetry(std::move(t.telemetry), by_frame_index, path);
   }

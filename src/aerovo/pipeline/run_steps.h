@@ -93,8 +93,13 @@ class RunTelemetry {
   /// (skipped records, photos without a fix) are appended to `warnings`; photos that give no
   /// telemetry at all are a warning too, a file that cannot be read is an InputError naming it
   /// (a malformed record: also saying that --lenient-telemetry skips them).
+  /// A log that says which photos its camera took (TelemetryReadResult::camera_triggers: an
+  /// autopilot's CAM, camera_capture, CAMERA_FEEDBACK) and a photo folder, unless `by_time`
+  /// (RunConfig::telemetry_offset_s set): photo k takes the k-th trigger's fix, by frame index,
+  /// when there are as many triggers as photos and, for photos with capture times, both keep
+  /// the same times since the first (a warning saying why and the by-time matching otherwise).
   static RunTelemetry Load(const std::string& path, bool lenient, const ImageFolderSource* folder,
-                           std::vector<std::string>* warnings);
+                           std::vector<std::string>* warnings, bool by_time = false);
 
   bool empty() const { return telemetry_.empty(); }
   bool by_frame_index() const { return by_frame_index_; }

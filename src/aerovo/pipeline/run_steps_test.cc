@@ -4,6 +4,7 @@
 #include "aerovo/pipeline/run_steps.h"
 
 #include <arpa/inet.h>
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
@@ -31,6 +32,7 @@
 #include "aerovo/core/testing.h"
 #include "aerovo/frames/camera.h"
 #include "aerovo/frames/ffmpeg_test_util.h"
+#include "aerovo/frames/image_test_util.h"
 #include "aerovo/pipeline/autopilot_attitude.h"
 
 namespace aerovo::run_steps::run_steps_test {
@@ -445,6 +447,91 @@ TEST(RunSteps, PhotoTelemetryAndFocalFromTheirMetadata) {
                          "DJI_0054.JPG");
   EXPECT_EQ(cam.focal_source, "exif-35mm");
   EXPECT_NEAR(cam.focal_px, 462.2, 0.1);  // 20 mm on 800x600: 20 * 1000 / 43.27
+}
+
+// Photos without a position of their own (a camera the autopilot triggers) and the autopilot's
+// log of the photos it took: photo k takes the k-th CAM message's fix (its byte or line named).
+TEST(RunSteps, PhotosArePairedWithTheCameraTriggersOfTheLog) {
+  const fs::path dir = TempDir("camera_triggers");
+  const fs::path photos_dir = dir / "photos";
+  fs::create_directories(photos_dir);
+  for (int i = 0; i < 4; ++i) {
+    io_test::WriteJpegWithTags(photos_dir / fmt::format("IMG_{:04d}.JPG", i),
+                               io_test::TextureImage(64, 48, 3 + i),
+                               {{"Exif.Photo.DateTimeOriginal",
+                                 fmt::format("2024:06:01 10:00:{:02d}", 2 * i)}});
+  }
+  const ImageFolderSource photos(photos_dir);
+  // ArduPilot's text log (Mission Planner's .log): GPS at 1 Hz from 100 s since boot, and a CAM
+  // message per photo at `cam_s` (s since boot): latitude 45.0 + 1e-4 k, RelAlt 80 + k m.
+  const auto write_log = [&](const std::string& name, const std::vector<double>& cam_s) {
+    std::string t =
+        "FMT, 128, 89, FMT, BBnNZ, Type,Length,Name,Format,Columns\n"
+        "FMT, 130, 51, GPS, QBBIHBcLLeffffB, "
+        "TimeUS,I,Status,GMS,GWk,NSats,HDop,Lat,Lng,Alt,Spd,GCrs,VZ,Yaw,U\n"
+        "FMT, 133, 46, CAM, QBHIHLLeeeccC, "
+        "TimeUS,I,Img,GPSTime,GPSWeek,Lat,Lng,Alt,RelAlt,GPSAlt,R,P,Y\n";
+    for (int k = 0; k <= 20; ++k) {
+      t += fmt::format("GPS, {}, 0, 3, 0, 0, 14, 0.8, {:.7f}, 7.0, 400, 5, 0, 0, 0, 1\n",
+                       (100 + k) * 1000000LL, 44.9 + 1e-3 * k);
+    }
+    for (std::size_t k = 0; k < cam_s.size(); ++k) {
+      t += fmt::format("CAM, {}, 0, {}, 0, 0, {:.7f}, 7.0, 480, {}, 480, 0.5, -1, 90\n",
+                       static_cast<long long>(cam_s[k] * 1e6), k + 1, 45.0 + 1e-4 * k, 80 + k);
+    }
+    std::ofstream(dir / name) << t;
+    return (dir / name).string();
+  };
+  Frame f;
+  f.index = 2;
+  f.time_s = 4.0;
+  std::vector<std::string> warnings;
+  const std::string paired = write_log("paired.log", {105.3, 107.3, 109.4, 111.3});
+  RunTelemetry t = RunTelemetry::Load(paired, false, &photos, &warnings);
+  EXPECT_TRUE(warnings.empty()) << warnings.front();
+  EXPECT_TRUE(t.by_frame_index());
+  EXPECT_EQ(t.Describe(), "4 fixes from " + paired + " (its camera triggers, one per photo)");
+  std::optional<TelemetrySample> s = t.SampleOf(f);
+  ASSERT_TRUE(s.has_value());
+  EXPECT_NEAR(s->lat_deg, 45.0002, 1e-9);
+  EXPECT_NEAR(*s->rel_alt_m, 82.0, 1e-9);
+  EXPECT_NEAR(*s->yaw_deg, 90.0, 1e-9);
+  EXPECT_NEAR(s->time_s, 4.1, 1e-9);  // since the first trigger
+  EXPECT_EQ(s->origin, paired + ":27: CAM 3");
+
+  // An offset given: the frames are matched by time against the GPS fixes, as before.
+  t = RunTelemetry::Load(paired, false, &photos, &warnings, true);
+  EXPECT_FALSE(t.by_frame_index());
+  EXPECT_EQ(t.Describe(), "21 fixes from " + paired);
+
+  // One trigger more than photos: not paired, and the warning says why and what to give.
+  const std::string more = write_log("more.log", {105.3, 107.3, 109.4, 111.3, 113.3});
+  t = RunTelemetry::Load(more, false, &photos, &warnings);
+  EXPECT_FALSE(t.by_frame_index());
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_THAT(warnings[0], ::testing::HasSubstr(more + ": the log's camera logged 5 photo(s), the "
+                                                "folder holds 4"));
+  EXPECT_THAT(warnings[0], ::testing::HasSubstr("--telemetry-offset-s"));
+  EXPECT_THAT(warnings[0], ::testing::HasSubstr("105.300 s"));
+
+  // As many, but the third photo missed by the camera and one more at the end: the times part
+  // at the third photo (4 s after the first against 6 s).
+  warnings.clear();
+  const std::string shifted = write_log("shifted.log", {105.3, 107.3, 111.4, 113.3});
+  t = RunTelemetry::Load(shifted, false, &photos, &warnings);
+  EXPECT_FALSE(t.by_frame_index());
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_THAT(warnings[0],
+              ::testing::HasSubstr("photo '" + (photos_dir / "IMG_0002.JPG").string() +
+                                   "' was taken 4.000 s after the first photo, its camera "
+                                   "trigger (" +
+                                   shifted + ":27: CAM 3) 6.100 s after the first trigger"));
+  // Within the capture times' resolution (whole seconds) plus 0.5 s: paired.
+  warnings.clear();
+  t = RunTelemetry::Load(write_log("late.log", {105.3, 107.3, 110.7, 111.3}), false, &photos,
+                         &warnings);
+  EXPECT_TRUE(t.by_frame_index());
+  EXPECT_TRUE(warnings.empty());
 }
 
 // ---------------------------------------------------------------------------------------------

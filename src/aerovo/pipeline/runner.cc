@@ -549,7 +549,8 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
   try {
     telemetry = run_steps::RunTelemetry::Load(no_telemetry ? std::string() : config.telemetry,
                                               config.lenient_telemetry,
-                                              no_telemetry ? nullptr : folder, &summary.warnings);
+                                              no_telemetry ? nullptr : folder, &summary.warnings,
+                                              config.telemetry_offset_s != 0.0);
   } catch (const InputError& e) {
     // A file found beside the video was not asked for: one that cannot be read is flagged and
     // the run goes on without it. A given file stays an error.
