@@ -130,6 +130,12 @@ void Run(const TelemetryArgs& args) {
   }
   fmt::print("with         frame index {}, relative altitude {}, absolute altitude {}, yaw {}\n",
              frames, rel, abs, yaw);
+  if (!r.camera_triggers.empty()) {
+    // The clock of the samples above; `aerovo run` pairs a photo folder with them one by one.
+    fmt::print("camera       {} photo(s) logged by the autopilot, {:.3f} .. {:.3f} s\n",
+               r.camera_triggers.size(), r.camera_triggers.front().time_s,
+               r.camera_triggers.back().time_s);
+  }
   for (const std::string& w : r.warnings) fmt::print(stderr, "warning: {}\n", w);
   if (args.print_samples) {
     fmt::print(
