@@ -208,8 +208,10 @@ RunTelemetry RunTelemetry::Load(const std::string& path, bool lenient,
     if (folder != nullptr && !by_time && !t.camera_triggers.empty()) {
       if (std::optional<Telemetry> paired =
               TelemetryOfTriggers(t.camera_triggers, *folder, path, warnings)) {
-        const std::string origin = fmt::format("{} (its camera triggers, one per photo)", path);
-        return RunTelemetry(std::move(*paired), true, origin);
+        RunTelemetry r(std::move(*paired), true,
+                       fmt::format("{} (its camera triggers, one per photo)", path));
+        r.from_camera_triggers_ = true;
+        return r;
       }
     }
     const bool by_frame_index = t.telemetry.HasFrameIndices();

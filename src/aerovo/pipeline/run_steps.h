@@ -103,6 +103,8 @@ class RunTelemetry {
 
   bool empty() const { return telemetry_.empty(); }
   bool by_frame_index() const { return by_frame_index_; }
+  /// The fixes are an autopilot log's camera triggers, one per photo (see Load).
+  bool from_camera_triggers() const { return from_camera_triggers_; }
   const Telemetry& telemetry() const { return telemetry_; }
   /// Where the fixes come from (the file, or "photo EXIF/XMP").
   const std::string& origin() const { return origin_; }
@@ -139,6 +141,7 @@ class RunTelemetry {
  private:
   Telemetry telemetry_;
   bool by_frame_index_ = false;
+  bool from_camera_triggers_ = false;
   std::string origin_;
   double offset_s_ = 0.0;
 };

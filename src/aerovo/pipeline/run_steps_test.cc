@@ -490,6 +490,7 @@ TEST(RunSteps, PhotosArePairedWithTheCameraTriggersOfTheLog) {
   RunTelemetry t = RunTelemetry::Load(paired, false, &photos, &warnings);
   EXPECT_TRUE(warnings.empty()) << warnings.front();
   EXPECT_TRUE(t.by_frame_index());
+  EXPECT_TRUE(t.from_camera_triggers());
   EXPECT_EQ(t.Describe(), "4 fixes from " + paired + " (its camera triggers, one per photo)");
   std::optional<TelemetrySample> s = t.SampleOf(f);
   ASSERT_TRUE(s.has_value());
@@ -502,6 +503,7 @@ TEST(RunSteps, PhotosArePairedWithTheCameraTriggersOfTheLog) {
   // An offset given: the frames are matched by time against the GPS fixes, as before.
   t = RunTelemetry::Load(paired, false, &photos, &warnings, true);
   EXPECT_FALSE(t.by_frame_index());
+  EXPECT_FALSE(t.from_camera_triggers());
   EXPECT_EQ(t.Describe(), "21 fixes from " + paired);
 
   // One trigger more than photos: not paired, and the warning says why and what to give.

@@ -221,6 +221,7 @@ nlohmann::json ToJson(const RunSummary& s) {
                    {"telemetry", s.telemetry},
                    {"telemetry_beside", s.telemetry_beside},
                    {"telemetry_in_video", s.telemetry_in_video},
+                   {"telemetry_camera_triggers", s.telemetry_camera_triggers},
                    {"vo_path_length_m", s.vo_path_length_m},
                    {"truth", s.truth},
                    {"frames_with_truth", s.frames_with_truth},
@@ -579,6 +580,7 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
   }
   summary.telemetry_beside = inputs.telemetry_beside;
   summary.telemetry_in_video = inputs.telemetry_in_video;
+  summary.telemetry_camera_triggers = telemetry.from_camera_triggers();
   const std::optional<map::ReferenceMaps> maps = OpenMap(config, telemetry, &summary);
 
   // 2-5. The frames: camera, height, outputs, odometry.

@@ -158,6 +158,10 @@ struct RunSummary {
   std::string telemetry;
   bool telemetry_beside = false;
   bool telemetry_in_video = false;
+  /// The photos took the fixes of the telemetry log's camera triggers, one per photo
+  /// (run_steps::RunTelemetry::Load; docs/inputs.md "Photos and the autopilot's camera
+  /// triggers").
+  bool telemetry_camera_triggers = false;
   double vo_path_length_m = 0.0;
   /// SE(2) and Sim(2) comparison with GPS, when at least 3 frames have a GPS fix.
   std::optional<TrajectoryComparison> evaluation;
