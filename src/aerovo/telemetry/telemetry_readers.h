@@ -230,7 +230,12 @@ TelemetryReadResult ReadTlog(const std::filesystem::path& path,
 ///    (3-2-1 Tait-Bryan angles, yaw in [0, 360) from north), and the height above home
 ///    home_position.z - vehicle_local_position.z (NED metres, as PX4's
 ///    GLOBAL_POSITION_INT.relative_alt) -> rel_alt_m when both are valid, interpolated onto
-///    each GPS time as in ParseDataFlash.
+///    each GPS time as in ParseDataFlash;
+///  - camera_capture (instance 0) -> camera_triggers: one per message whose result is not 0
+///    (failed; a format without `result` keeps all): time_s = timestamp / 1e6 (the samples'
+///    clock), lat/lon (has_fix false when NaN or both 0), alt -> abs_alt_m, q -> roll/pitch/yaw
+///    as vehicle_attitude's, timestamp_utc -> unix_time_s; origin "<source> at byte <offset>:
+///    camera_capture <seq>". A value out of range is a malformed record (strict/lenient).
 /// Bytes that are not a message (a damaged log) are skipped up to the next message whose header
 /// and payload are consistent and which is followed by another message (an 'S' sync message
 /// among them), with a warning naming the byte offset and the count (whatever the mode); a cut
