@@ -372,8 +372,7 @@ class Collector {
   //    boot, or time_usec 0: the autopilot had no GPS time), the record's timestamp is mapped as
   //    Time() maps a message's: time_s = record time - boot_epoch_s + offset_s of its segment.
   //    That is when the ground station received the report, less the link's smallest latency:
-  //    late by the time the autopilot took to send it (ArduPilot queues it for the link's next
-  //    free slot) and by any latency above the smallest.
+  //    late by the time the autopilot took to send it and by any latency above the smallest.
   template <typename Warn>
   std::vector<TelemetrySample> Triggers(const System& vehicle, const Warn& warn) {
     const bool feedback = vehicle.feedback.messages > 0;
