@@ -713,8 +713,10 @@ class Collector {
     const std::optional<double> seq = raw(r.seq);
     TelemetrySample s;
     s.time_s = t;
-    s.origin = fmt::format("{}: camera_capture{}", Where(offset),
-                           seq ? fmt::format(" {}", static_cast<long long>(*seq)) : std::string());
+    // seq is a uint32 in PX4's format; another type of the file's own is printed, never cast.
+    s.origin =
+        fmt::format("{}: camera_capture{}", Where(offset),
+                    seq && std::isfinite(*seq) ? fmt::format(" {:.0f}", *seq) : std::string());
     const std::optional<double> lat = raw(r.lat), lon = raw(r.lon);
     s.has_fix =
         lat && lon && !std::isnan(*lat) && !std::isnan(*lon) && !(*lat == 0.0 && *lon == 0.0);

@@ -706,6 +706,23 @@ TEST(ULog, CameraCaptureWithABadValueIsAMalformedRecord) {
   }
 }
 
+TEST(ULog, CameraCaptureWithASeqOfAnotherTypeIsNamedWithoutIt) {
+  // A format of the file's own with a double seq: NaN is not a number to print (nor to cast).
+  const std::string format = "camera_capture:uint64_t timestamp;double seq;double lat;double lon;";
+  ULogWriter w = FlightLog();
+  w.Format(format);
+  w.Subscribe(0, 5, "camera_capture");
+  const std::size_t at = w.size();
+  w.Data(5,
+         Pack(format, {{"timestamp", 10.2e6}, {"seq", std::nan("")}, {"lat", 43.5}, {"lon", 6.5}}));
+  w.Data(5, Pack(format, {{"timestamp", 10.4e6}, {"seq", 1e30}, {"lat", 43.5}, {"lon", 6.5}}));
+  const TelemetryReadResult r = Parse(w.bytes());
+  ASSERT_EQ(r.camera_triggers.size(), 2u);
+  EXPECT_EQ(r.camera_triggers[0].origin, fmt::format("log.ulg at byte {}: camera_capture", at));
+  EXPECT_THAT(r.camera_triggers[1].origin,
+              HasSubstr(": camera_capture 1000000000000000019884624838656"));
+}
+
 TEST(ULog, ALogWithoutCameraCaptureHasNoCameraTriggers) {
   const TelemetryReadResult r = Parse(FlightLog().bytes());
   EXPECT_EQ(r.records, 5);
