@@ -1,13 +1,15 @@
 // The MAVLink messages aerovo sends (ODOMETRY, VISION_POSITION_ESTIMATE, VISION_POSITION_DELTA,
-// GPS_INPUT, HEARTBEAT, TIMESYNC) and reads (DISTANCE_SENSOR, GLOBAL_POSITION_INT, ATTITUDE, TIMESYNC,
-// HEARTBEAT). Field lists, units, CRC_EXTRA and ids from the official definitions
+// GPS_INPUT, HEARTBEAT, TIMESYNC) and reads (DISTANCE_SENSOR, GLOBAL_POSITION_INT, ATTITUDE,
+// TIMESYNC, HEARTBEAT). Field lists, units, CRC_EXTRA and ids from the official definitions
 // (mavlink/mavlink message_definitions/v1.0: common.xml, minimal.xml for HEARTBEAT, standard.xml
-// for GLOBAL_POSITION_INT in recent trees, ardupilotmega.xml for VISION_POSITION_DELTA).
+// for GLOBAL_POSITION_INT in recent trees, ardupilotmega.xml for VISION_POSITION_DELTA and
+// CAMERA_FEEDBACK).
 // On the wire the fields of MAVLink 1 are sorted by the size of their type, largest first
 // (stable: XML order among equal sizes; an array counts by its element type), and the extension
 // fields follow in XML order; each struct's Write/Read below is in that wire order, little
 // endian. Encode() frames a message (protocol.h), Decode() reads a received packet.
-// Telemetry logs (.tlog, telemetry/tlog_reader.cc) are also read for GPS_RAW_INT and SYSTEM_TIME.
+// Telemetry logs (.tlog, telemetry/tlog_reader.cc) are also read for GPS_RAW_INT, SYSTEM_TIME,
+// CAMERA_FEEDBACK (ardupilotmega.xml) and CAMERA_IMAGE_CAPTURED.
 #pragma once
 
 #include <array>
@@ -319,6 +321,57 @@ struct VisionPositionDelta {
   static void Fields(IO& io, M& m) {
     io(m.time_usec), io(m.time_delta_usec), io(m.angle_delta), io(m.position_delta),
         io(m.confidence);
+  }
+};
+
+/// CAMERA_FEEDBACK (#180, ardupilotmega.xml): a photo ArduPilot's camera library took (read in
+/// telemetry logs). Wire order: the 8-byte field, the 4-byte ones, img_idx, the 1-byte ones
+/// (each group in XML order), then the extension completed_captures.
+struct CameraFeedback {
+  static constexpr uint32_t kId = 180;
+  static constexpr uint8_t kCrcExtra = 52;
+  static constexpr uint8_t kMinLength = 45, kLength = 47;
+  uint64_t time_usec = 0;     ///< us since 1970-01-01 UTC ("Image timestamp (since UNIX epoch)")
+  int32_t lat = 0, lng = 0;   ///< degE7
+  float alt_msl = 0;          ///< m, above mean sea level
+  float alt_rel = 0;          ///< m, above home
+  float roll = 0, pitch = 0;  ///< deg, earth frame, +-180
+  float yaw = 0;              ///< deg, earth frame, 0-360, from true north
+  float foc_len = 0;          ///< mm
+  uint16_t img_idx = 0;       ///< image index
+  uint8_t target_system = 0;
+  uint8_t cam_idx = 0;  ///< camera id
+  uint8_t flags = 0;    ///< CAMERA_FEEDBACK_FLAGS
+  uint16_t completed_captures = 0;
+  template <class IO, class M>
+  static void Fields(IO& io, M& m) {
+    io(m.time_usec), io(m.lat), io(m.lng), io(m.alt_msl), io(m.alt_rel), io(m.roll), io(m.pitch),
+        io(m.yaw), io(m.foc_len), io(m.img_idx), io(m.target_system), io(m.cam_idx), io(m.flags);
+    io(m.completed_captures);  // extension
+  }
+};
+
+/// CAMERA_IMAGE_CAPTURED (#263, common.xml): a photo a camera took, as PX4 and MAVLink cameras
+/// report it (read in telemetry logs). Wire order: time_utc, the 4-byte fields (q as floats),
+/// then the 1-byte ones (file_url as char) in XML order. No extension.
+struct CameraImageCaptured {
+  static constexpr uint32_t kId = 263;
+  static constexpr uint8_t kCrcExtra = 133;
+  static constexpr uint8_t kMinLength = 255, kLength = 255;
+  uint64_t time_utc = 0;      ///< us since 1970-01-01 UTC, 0 = unknown
+  uint32_t time_boot_ms = 0;  ///< ms since the sender booted
+  int32_t lat = 0, lon = 0;   ///< degE7
+  int32_t alt = 0;            ///< mm, above mean sea level
+  int32_t relative_alt = 0;   ///< mm, "above ground" (PX4: camera_capture.ground_distance)
+  std::array<float, 4> q{};   ///< w, x, y, z, the camera's orientation (PX4: camera_capture.q)
+  int32_t image_index = 0;    ///< 0-based
+  uint8_t camera_id = 0;      ///< "Camera ID (1 for first, 2 for second, etc.)"
+  int8_t capture_result = 0;  ///< 1 success, 0 failure (PX4 also -1: no feedback)
+  std::array<char, 205> file_url{};
+  template <class IO, class M>
+  static void Fields(IO& io, M& m) {
+    io(m.time_utc), io(m.time_boot_ms), io(m.lat), io(m.lon), io(m.alt), io(m.relative_alt),
+        io(m.q), io(m.image_index), io(m.camera_id), io(m.capture_result), io(m.file_url);
   }
 };
 

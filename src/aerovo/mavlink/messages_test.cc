@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -445,6 +446,64 @@ TEST(MavlinkDefinitions, CrcExtraOfTheTelemetryLogMessages) {
   EXPECT_EQ(Payload(SystemTime{}).size(), 12u);
   EXPECT_EQ(GpsRawInt::kMinLength, 8 + 3 * 4 + 4 * 2 + 2);
   EXPECT_EQ(Payload(GpsRawInt{}).size(), 30u + 4 * 5 + 2);
+}
+
+// CrcExtraOf with arrays: an array field adds its length as one byte after its name (the same
+// page, "CRC_EXTRA Calculation"). {type, name, length; 0 = not an array}.
+uint8_t CrcExtraWithArrays(const std::string& name,
+                           const std::vector<std::tuple<std::string, std::string, int>>& fields) {
+  std::string text = name + " ";
+  for (const auto& [type, field, length] : fields) {
+    text += type + " " + field + " ";
+    if (length > 0) text += static_cast<char>(length);
+  }
+  const uint16_t crc = Crc16Mcrf4xx(reinterpret_cast<const uint8_t*>(text.data()), text.size());
+  return static_cast<uint8_t>((crc & 0xFF) ^ (crc >> 8));
+}
+
+TEST(MavlinkDefinitions, CrcExtraAndLengthsOfTheCameraMessages) {
+  // ardupilotmega.xml CAMERA_FEEDBACK in wire order, without the extension completed_captures.
+  EXPECT_EQ(CameraFeedback::kCrcExtra, CrcExtraOf("CAMERA_FEEDBACK", {{"uint64_t", "time_usec"},
+                                                                      {"int32_t", "lat"},
+                                                                      {"int32_t", "lng"},
+                                                                      {"float", "alt_msl"},
+                                                                      {"float", "alt_rel"},
+                                                                      {"float", "roll"},
+                                                                      {"float", "pitch"},
+                                                                      {"float", "yaw"},
+                                                                      {"float", "foc_len"},
+                                                                      {"uint16_t", "img_idx"},
+                                                                      {"uint8_t", "target_system"},
+                                                                      {"uint8_t", "cam_idx"},
+                                                                      {"uint8_t", "flags"}}));
+  EXPECT_EQ(CameraFeedback::kMinLength, 8 + 8 * 4 + 2 + 3);
+  EXPECT_EQ(Payload(CameraFeedback{}).size(), 45u + 2);
+  // common.xml CAMERA_IMAGE_CAPTURED in wire order.
+  EXPECT_EQ(CameraImageCaptured::kCrcExtra,
+            CrcExtraWithArrays("CAMERA_IMAGE_CAPTURED", {{"uint64_t", "time_utc", 0},
+                                                         {"uint32_t", "time_boot_ms", 0},
+                                                         {"int32_t", "lat", 0},
+                                                         {"int32_t", "lon", 0},
+                                                         {"int32_t", "alt", 0},
+                                                         {"int32_t", "relative_alt", 0},
+                                                         {"float", "q", 4},
+                                                         {"int32_t", "image_index", 0},
+                                                         {"uint8_t", "camera_id", 0},
+                                                         {"int8_t", "capture_result", 0},
+                                                         {"char", "file_url", 205}}));
+  EXPECT_EQ(Payload(CameraImageCaptured{}).size(), 8u + 4 * 5 + 16 + 4 + 2 + 205);
+  // A truncated MAVLink 2 packet reads back zero-filled.
+  CameraFeedback f;
+  f.lat = 435367000;
+  f.img_idx = 12;
+  Packet p;
+  const auto bytes = Encode(f, 0, 1, 1);
+  ASSERT_EQ(CheckFrame(bytes.data(), bytes.size(), &p).status, FrameStatus::kOk);
+  EXPECT_LT(p.wire_length, CameraFeedback::kMinLength);
+  ASSERT_TRUE(Decode<CameraFeedback>(p));
+  EXPECT_EQ(Decode<CameraFeedback>(p)->lat, 435367000);
+  EXPECT_EQ(Decode<CameraFeedback>(p)->img_idx, 12);
+  EXPECT_EQ(Decode<CameraFeedback>(p)->cam_idx, 0);
 }
 
 TEST(MavlinkCheckFrame, VersionsChecksumsAndLengths) {

@@ -19,10 +19,19 @@ uint16_t Crc16Mcrf4xx(const uint8_t* data, std::size_t n, uint16_t crc) {
 
 const MessageInfo* FindMessageInfo(uint32_t msgid) {
   static const MessageInfo kKnown[] = {
-      Info<Heartbeat>(),     Info<Attitude>(),       Info<GlobalPositionInt>(),
-      Info<VisionPositionEstimate>(), Info<Timesync>(), Info<DistanceSensor>(),
-      Info<GpsInput>(),      Info<Odometry>(),       Info<VisionPositionDelta>(),
-      Info<SystemTime>(),    Info<GpsRawInt>(),
+      Info<Heartbeat>(),
+      Info<Attitude>(),
+      Info<GlobalPositionInt>(),
+      Info<VisionPositionEstimate>(),
+      Info<Timesync>(),
+      Info<DistanceSensor>(),
+      Info<GpsInput>(),
+      Info<Odometry>(),
+      Info<VisionPositionDelta>(),
+      Info<SystemTime>(),
+      Info<GpsRawInt>(),
+      Info<CameraFeedback>(),
+      Info<CameraImageCaptured>(),
   };
   for (const MessageInfo& m : kKnown) {
     if (m.id == msgid) return &m;

@@ -1,6 +1,7 @@
 // MAVLink telemetry logs (.tlog): what Mission Planner, QGroundControl and MAVProxy record of
 // their link to a MAVLink autopilot (ArduPilot or PX4). The autopilot's GLOBAL_POSITION_INT
-// messages become the samples; ATTITUDE is interpolated onto them. See telemetry_readers.h
+// messages become the samples; ATTITUDE is interpolated onto them; CAMERA_FEEDBACK or
+// CAMERA_IMAGE_CAPTURED become the camera triggers. See telemetry_readers.h
 // (ParseTlog) and docs/inputs.md "MAVLink telemetry logs (.tlog)".
 //
 // The file (QGroundControl Developer Guide, "MAVLink Log Format"
@@ -16,8 +17,12 @@
 //    and checksum are those of aerovo's own MAVLink code (mavlink/protocol.h, CheckFrame).
 // Packets of every message are in the log; the messages read (common.xml, with their CRC_EXTRA
 // in mavlink/messages.h): HEARTBEAT (autopilot type), GLOBAL_POSITION_INT, ATTITUDE,
-// GPS_RAW_INT (fix_type), SYSTEM_TIME. The others are skipped by their length.
+// GPS_RAW_INT (fix_type), SYSTEM_TIME, and the photos taken: ArduPilot's CAMERA_FEEDBACK
+// (ardupilotmega.xml), else CAMERA_IMAGE_CAPTURED (PX4) -> camera_triggers
+// (Collector::Triggers says how their times are placed). The others are skipped by their
+// length.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -25,6 +30,7 @@
 #include <istream>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -105,6 +111,28 @@ struct Pending {
   std::optional<double> heading_deg;
 };
 
+// A photo the autopilot reported (CAMERA_FEEDBACK or CAMERA_IMAGE_CAPTURED), before its time
+// is known (Collector::Triggers).
+struct PendingTrigger {
+  TelemetrySample sample;
+  bool boot_time = false;       // sample.time_s set from time_boot_ms (CAMERA_IMAGE_CAPTURED)
+  std::uint64_t utc_us = 0;     // the message's own UTC time (us since 1970), 0 = unknown
+  int segment = 0;              // boot of the autopilot when it arrived
+  std::uint64_t record_us = 0;  // the record's timestamp (ground station clock)
+};
+
+// The photos of one camera reported by one message type.
+struct TriggerList {
+  std::vector<PendingTrigger> pending;
+  int messages = 0;             // of every camera
+  std::optional<int> camera;    // cam_idx / camera_id of the first message
+  int other_camera = 0;         // messages of another camera, not read
+  std::optional<int> other_id;  // the first other camera
+  // (image index, the message's own time) of those read: a photo reported twice (logged from
+  // two links, or sent again on request) is read once.
+  std::set<std::pair<long long, std::uint64_t>> seen;
+};
+
 // What one system (one sysid, its component 1: MAV_COMP_ID_AUTOPILOT1) sent.
 struct System {
   int heartbeat_rank = -1;  // order of its first HEARTBEAT with an autopilot type; -1 = none
@@ -127,6 +155,9 @@ struct System {
   double last_time_s = 0.0;
   std::uint64_t last_record_us = 0;
   std::map<int, double> unix_minus_time;  // per segment: Unix time - time_s (SYSTEM_TIME)
+  // Per segment (index): its boot_epoch_s and offset_s as they ended, to place a record's time.
+  std::vector<double> segment_epoch_s, segment_offset_s;
+  TriggerList feedback, captured;         // CAMERA_FEEDBACK, CAMERA_IMAGE_CAPTURED
   std::vector<long long> reboots;         // byte offsets of the first message after each
   std::optional<double> last_position_s;
   // GLOBAL_POSITION_INT received after one with a later time (a link that reorders packets):
@@ -168,6 +199,10 @@ class Collector {
       Attitude(s, *a, record_us, offset);
     } else if (const auto r = mav::Decode<mav::GpsRawInt>(packet)) {
       s.fix_type = r->fix_type;
+    } else if (const auto f = mav::Decode<mav::CameraFeedback>(packet)) {
+      Feedback(s, *f, record_us, offset);
+    } else if (const auto c = mav::Decode<mav::CameraImageCaptured>(packet)) {
+      Captured(s, *c, record_us, offset);
     } else if (const auto t = mav::Decode<mav::SystemTime>(packet)) {
       const double time_s = Time(s, t->time_boot_ms, record_us, offset);
       // 0 = the autopilot does not know the date (no GPS time yet).
@@ -285,7 +320,11 @@ class Collector {
       }
       samples.push_back(std::move(s));
     }
-    return io_detail::Finish(std::move(samples), errors_, vehicle->no_fix, "MAVLink telemetry log");
+    std::vector<TelemetrySample> triggers = Triggers(*vehicle, warn);
+    TelemetryReadResult result =
+        io_detail::Finish(std::move(samples), errors_, vehicle->no_fix, "MAVLink telemetry log");
+    result.camera_triggers = std::move(triggers);
+    return result;
   }
 
  private:
@@ -310,10 +349,177 @@ class Collector {
     }
     s.max_boot_s = std::max(s.max_boot_s.value_or(boot_s), boot_s);
     s.boot_epoch_s = std::min(s.boot_epoch_s.value_or(record_s - boot_s), record_s - boot_s);
+    const std::size_t segment = static_cast<std::size_t>(s.segment);
+    if (s.segment_epoch_s.size() <= segment) {
+      s.segment_epoch_s.resize(segment + 1, std::nan(""));
+      s.segment_offset_s.resize(segment + 1, 0.0);
+    }
+    s.segment_epoch_s[segment] = *s.boot_epoch_s;
+    s.segment_offset_s[segment] = s.offset_s;
     const double t = boot_s + s.offset_s;
     s.last_time_s = std::max(s.last_time_s, t);
     s.last_record_us = record_us;
     return t;
+  }
+
+  // The camera triggers of the vehicle: its CAMERA_FEEDBACK (ArduPilot) when it sent any, else
+  // its CAMERA_IMAGE_CAPTURED (PX4), in the log's order, with time_s on the samples' clock:
+  //  - CAMERA_IMAGE_CAPTURED: time_boot_ms through Time(), as every message of the autopilot;
+  //  - CAMERA_FEEDBACK has no time since boot, only time_usec, the UTC time of the photo by the
+  //    autopilot's own clock. With the segment's SYSTEM_TIME relation (time_unix_usec and
+  //    time_boot_ms sampled together by the autopilot) time_s = time_usec / 1e6 - (Unix time -
+  //    time_s): exact to the milliseconds of SYSTEM_TIME. Without it (no SYSTEM_TIME in that
+  //    boot, or time_usec 0: the autopilot had no GPS time), the record's timestamp is mapped as
+  //    Time() maps a message's: time_s = record time - boot_epoch_s + offset_s of its segment.
+  //    That is when the ground station received the report, less the link's smallest latency:
+  //    late by the time the autopilot took to send it and by any latency above the smallest.
+  template <typename Warn>
+  std::vector<TelemetrySample> Triggers(const System& vehicle, const Warn& warn) {
+    const bool feedback = vehicle.feedback.messages > 0;
+    const TriggerList& list = feedback ? vehicle.feedback : vehicle.captured;
+    const char* name = feedback ? "CAMERA_FEEDBACK" : "CAMERA_IMAGE_CAPTURED";
+    if (list.other_camera > 0) {
+      warn(
+          fmt::format("{}: {} {} message(s) of camera {} ignored: the camera triggers read are "
+                      "those of camera {}, the first in the log",
+                      errors_.source(), list.other_camera, name, *list.other_id, *list.camera));
+    }
+    std::vector<TelemetrySample> out;
+    int unplaced = 0;
+    for (const PendingTrigger& p : list.pending) {
+      TelemetrySample s = p.sample;
+      const auto unix = vehicle.unix_minus_time.find(p.segment);
+      const bool utc = p.utc_us >= kMinDateUs && p.utc_us <= kMaxTimestampUs;
+      const std::size_t segment = static_cast<std::size_t>(p.segment);
+      if (!p.boot_time) {
+        if (utc && unix != vehicle.unix_minus_time.end()) {
+          s.time_s = static_cast<double>(p.utc_us) / 1e6 - unix->second;
+        } else if (segment < vehicle.segment_epoch_s.size() &&
+                   !std::isnan(vehicle.segment_epoch_s[segment])) {
+          s.time_s = static_cast<double>(p.record_us) / 1e6 - vehicle.segment_epoch_s[segment] +
+                     vehicle.segment_offset_s[segment];
+        } else {
+          ++unplaced;  // no message with a time since boot in its boot: nothing places it
+          continue;
+        }
+      }
+      if (utc) {
+        s.unix_time_s = static_cast<double>(p.utc_us) / 1e6;
+      } else if (unix != vehicle.unix_minus_time.end()) {
+        s.unix_time_s = s.time_s + unix->second;
+      } else if (p.record_us >= kMinDateUs) {
+        s.unix_time_s = static_cast<double>(p.record_us) / 1e6;
+      }
+      out.push_back(std::move(s));
+    }
+    if (unplaced > 0) {
+      warn(
+          fmt::format("{}: {} {} message(s) not read: no message with the autopilot's time since "
+                      "boot in the same boot places them in time",
+                      errors_.source(), unplaced, name));
+    }
+    return out;
+  }
+
+  // Which camera a photo report is of: the first camera's are read, the others counted.
+  static bool FirstCamera(TriggerList& list, int camera) {
+    ++list.messages;
+    if (!list.camera) list.camera = camera;
+    if (camera == *list.camera) return true;
+    if (list.other_camera++ == 0) list.other_id = camera;
+    return false;
+  }
+
+  // CAMERA_FEEDBACK (ardupilotmega.xml): lat, lng (degE7; both 0 = no position: ArduPilot sends
+  // 0 for every position field then), alt_msl -> abs_alt_m and alt_rel -> rel_alt_m (m, with a
+  // position only), roll, pitch, yaw (degrees: the aircraft's attitude at the photo), foc_len
+  // (mm, 0 = unknown) -> focal_length_mm. Its time is placed in Triggers().
+  void Feedback(System& s, const mav::CameraFeedback& f, std::uint64_t record_us,
+                long long offset) {
+    if (!FirstCamera(s.feedback, f.cam_idx)) return;
+    if (!s.feedback.seen.emplace(f.img_idx, f.time_usec).second) return;
+    PendingTrigger p;
+    p.sample.origin = fmt::format("{}: CAMERA_FEEDBACK {}", Where(offset), f.img_idx);
+    p.sample.has_fix = !(f.lat == 0 && f.lng == 0);
+    if (p.sample.has_fix) {
+      p.sample.lat_deg = f.lat / 1e7;
+      p.sample.lon_deg = f.lng / 1e7;
+      p.sample.abs_alt_m = f.alt_msl;
+      p.sample.rel_alt_m = f.alt_rel;
+    }
+    p.sample.roll_deg = f.roll;
+    p.sample.pitch_deg = f.pitch;
+    p.sample.yaw_deg = f.yaw;
+    if (f.foc_len > 0.0f) p.sample.focal_length_mm = f.foc_len;
+    try {
+      ValidateSample(p.sample, p.sample.origin);
+    } catch (const InputError& e) {
+      Malformed(s, e.what());
+      return;
+    }
+    p.utc_us = f.time_usec;
+    p.segment = s.segment;
+    p.record_us = record_us;
+    s.feedback.pending.push_back(std::move(p));
+  }
+
+  // CAMERA_IMAGE_CAPTURED (common.xml): capture_result 0 (failure) is no photo (1 success and
+  // PX4's -1, "no feedback", are); lat, lon (degE7, both 0 = no position), alt (mm AMSL, with a
+  // position only); relative_alt is "above ground" (PX4 sends camera_capture.ground_distance),
+  // not above home: not read; q (w, x, y, z: PX4 sends camera_capture.q, the vehicle's attitude,
+  // or the gimbal's) -> roll/pitch/yaw as telemetry/ulog_reader.cc turns vehicle_attitude's q
+  // into angles (a zero or NaN q: none); time_utc (us, 0 = unknown) -> unix_time_s. Only the
+  // autopilot's (component 1): a MAVLink camera component's time_boot_ms is its own clock.
+  void Captured(System& s, const mav::CameraImageCaptured& c, std::uint64_t record_us,
+                long long offset) {
+    if (!FirstCamera(s.captured, c.camera_id) || c.capture_result == 0) return;
+    if (!s.captured.seen.emplace(c.image_index, c.time_boot_ms).second) return;
+    PendingTrigger p;
+    const double boot_s = c.time_boot_ms / 1000.0;
+    if (s.max_boot_s && boot_s < *s.max_boot_s - kRebootDropS) {
+      // Older than the latest time of this boot: a photo reported again (on request), which
+      // says nothing of a reboot; placed in the current boot.
+      p.sample.time_s = boot_s + s.offset_s;
+    } else {
+      p.sample.time_s = Time(s, c.time_boot_ms, record_us, offset);
+    }
+    p.boot_time = true;
+    p.sample.origin = fmt::format("{}: CAMERA_IMAGE_CAPTURED {}", Where(offset), c.image_index);
+    p.sample.has_fix = !(c.lat == 0 && c.lon == 0);
+    if (p.sample.has_fix) {
+      p.sample.lat_deg = c.lat / 1e7;
+      p.sample.lon_deg = c.lon / 1e7;
+      p.sample.abs_alt_m = c.alt / 1000.0;
+    }
+    double q[4];
+    bool finite = true;
+    for (int k = 0; k < 4; ++k) {
+      q[k] = c.q[static_cast<std::size_t>(k)];
+      finite = finite && std::isfinite(q[k]);
+    }
+    const double norm =
+        finite ? std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]) : 0.0;
+    if (norm != 0.0) {
+      if (std::abs(norm - 1.0) > 0.1) {
+        Malformed(s, fmt::format("{}: CAMERA_IMAGE_CAPTURED q has norm {:.3f}, not a rotation",
+                                 p.sample.origin, norm));
+        return;
+      }
+      const std::array<double, 3> a = io_detail::RollPitchYawDeg(q, norm);
+      p.sample.roll_deg = a[0];
+      p.sample.pitch_deg = a[1];
+      p.sample.yaw_deg = a[2];
+    }
+    try {
+      ValidateSample(p.sample, p.sample.origin);
+    } catch (const InputError& e) {
+      Malformed(s, e.what());
+      return;
+    }
+    p.utc_us = c.time_utc;
+    p.segment = s.segment;
+    p.record_us = record_us;
+    s.captured.pending.push_back(std::move(p));
   }
 
   // `message` names its place.

@@ -1,6 +1,7 @@
 // MAVLink telemetry logs (tlog_reader.cc): logs written here byte for byte as a ground station
 // records them (an 8-byte big-endian timestamp, then the packet), the packets framed and
 // checksummed by aerovo's own MAVLink code (mavlink/messages.h, mavlink/protocol.h).
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -397,6 +398,209 @@ TEST(Tlog, MalformedPositionStrictAndLenient) {
   const TelemetryReadResult r = Parse(w.bytes(), /*lenient=*/true);
   EXPECT_EQ(r.records, 2);
   EXPECT_EQ(r.skipped_records, 1);
+}
+
+// The record time of a packet the autopilot sent at boot time `boot_s` in Flight().
+std::uint64_t FlightUs(double boot_s) {
+  return kStartUs + static_cast<std::uint64_t>(std::llround((boot_s + 10.05) * 1e6));
+}
+// SYSTEM_TIME of Flight(): Unix 1777803610 s at boot time 0.85 s.
+constexpr double kUnixAtBoot0 = 1777803610.0 - 0.85;
+
+mav::CameraFeedback Feedback(int img, double lat, double lon, double unix_s) {
+  mav::CameraFeedback f;
+  f.time_usec = static_cast<std::uint64_t>(std::llround(unix_s * 1e6));
+  f.lat = static_cast<std::int32_t>(std::lround(lat * 1e7));
+  f.lng = static_cast<std::int32_t>(std::lround(lon * 1e7));
+  f.alt_msl = 352.5f;
+  f.alt_rel = 102.25f;
+  f.roll = 5.5f;
+  f.pitch = -3.25f;
+  f.yaw = 271.0f;
+  f.img_idx = static_cast<std::uint16_t>(img);
+  f.target_system = 1;
+  return f;  // cam_idx 0, flags 0, completed_captures 0: truncated on the wire
+}
+
+// The quaternion (w, x, y, z) of the 3-2-1 rotation yaw, pitch, roll (degrees).
+std::array<float, 4> QuaternionOf(double yaw_deg, double pitch_deg, double roll_deg) {
+  const double d = M_PI / 360.0;  // half angle, radians per degree
+  const double cy = std::cos(yaw_deg * d), sy = std::sin(yaw_deg * d);
+  const double cp = std::cos(pitch_deg * d), sp = std::sin(pitch_deg * d);
+  const double cr = std::cos(roll_deg * d), sr = std::sin(roll_deg * d);
+  return {static_cast<float>(cr * cp * cy + sr * sp * sy),
+          static_cast<float>(sr * cp * cy - cr * sp * sy),
+          static_cast<float>(cr * sp * cy + sr * cp * sy),
+          static_cast<float>(cr * cp * sy - sr * sp * cy)};
+}
+
+mav::CameraImageCaptured Captured(int index, std::uint32_t ms, double lat, double lon,
+                                  std::int8_t result) {
+  mav::CameraImageCaptured c;
+  c.time_boot_ms = ms;
+  c.lat = static_cast<std::int32_t>(std::lround(lat * 1e7));
+  c.lon = static_cast<std::int32_t>(std::lround(lon * 1e7));
+  c.alt = 352500;          // 352.5 m MSL
+  c.relative_alt = 98000;  // 98 m above the ground: not read
+  c.image_index = index;
+  c.camera_id = 1;
+  c.capture_result = result;
+  return c;
+}
+
+// Flips a byte of the payload of the record at `at` (its checksum no longer matches).
+void Damage(TlogWriter& w, std::size_t at) { w.bytes()[at + 8 + 10 + 9] ^= 0x40; }
+
+TEST(Tlog, ReadsCameraFeedbackOnTheSamplesClock) {
+  TlogWriter w = Flight();
+  // img 1, taken at boot time 1.3 s (by its UTC time), received at 1.5 s.
+  const std::size_t at1 = w.V2(Feedback(1, 43.53672, 6.55671, kUnixAtBoot0 + 1.3), FlightUs(1.5));
+  // The same report again (two links): read once.
+  w.V2(Feedback(1, 43.53672, 6.55671, kUnixAtBoot0 + 1.3), FlightUs(1.5));
+  // A second camera, another system, the ground station: not read.
+  mav::CameraFeedback other = Feedback(9, 43.6, 6.6, kUnixAtBoot0 + 1.4);
+  other.cam_idx = 1;
+  w.V2(other, FlightUs(1.55));
+  w.V2(Feedback(8, 43.6, 6.6, kUnixAtBoot0 + 1.4), FlightUs(1.55), 2, 1);
+  w.V2(Feedback(7, 43.6, 6.6, kUnixAtBoot0 + 1.4), FlightUs(1.55), kGcsSysid, kGcsCompid);
+  // A damaged packet: not read.
+  Damage(w, w.V2(Feedback(6, 43.6, 6.6, kUnixAtBoot0 + 1.5), FlightUs(1.6)));
+  // img 2 at 1.7 s with no position (ArduPilot's zeros), focal length 8.8 mm.
+  mav::CameraFeedback none = Feedback(2, 0.0, 0.0, kUnixAtBoot0 + 1.7);
+  none.foc_len = 8.8f;
+  const std::size_t at2 = w.V2(none, FlightUs(1.9));
+  // CAMERA_IMAGE_CAPTURED is not read when there is CAMERA_FEEDBACK.
+  w.V2(Captured(0, 1800, 43.5, 6.5, 1), FlightUs(1.8));
+  const TelemetryReadResult r = Parse(w.bytes());
+  ASSERT_EQ(r.records, 6);
+  const std::vector<TelemetrySample>& c = r.camera_triggers;
+  ASSERT_EQ(c.size(), 2u);
+  // time_usec through SYSTEM_TIME's relation: the clock of the samples (time_boot_ms / 1000).
+  EXPECT_NEAR(c[0].time_s, 1.3, 1e-6);
+  EXPECT_NEAR(c[1].time_s, 1.7, 1e-6);
+  EXPECT_EQ(c[0].origin, fmt::format("f.tlog at byte {}: CAMERA_FEEDBACK 1", at1));
+  EXPECT_EQ(c[1].origin, fmt::format("f.tlog at byte {}: CAMERA_FEEDBACK 2", at2));
+  EXPECT_TRUE(c[0].has_fix);
+  EXPECT_NEAR(c[0].lat_deg, 43.53672, 1e-9);
+  EXPECT_NEAR(c[0].lon_deg, 6.55671, 1e-9);
+  ASSERT_TRUE(c[0].abs_alt_m && c[0].rel_alt_m);
+  EXPECT_NEAR(*c[0].abs_alt_m, 352.5, 1e-6);
+  EXPECT_NEAR(*c[0].rel_alt_m, 102.25, 1e-6);
+  ASSERT_TRUE(c[0].roll_deg && c[0].pitch_deg && c[0].yaw_deg);
+  EXPECT_NEAR(*c[0].roll_deg, 5.5, 1e-6);
+  EXPECT_NEAR(*c[0].pitch_deg, -3.25, 1e-6);
+  EXPECT_NEAR(*c[0].yaw_deg, 271.0, 1e-6);
+  EXPECT_FALSE(c[0].focal_length_mm);  // foc_len 0: unknown
+  ASSERT_TRUE(c[0].unix_time_s);
+  EXPECT_NEAR(*c[0].unix_time_s, kUnixAtBoot0 + 1.3, 1e-6);
+  EXPECT_FALSE(c[1].has_fix);
+  EXPECT_FALSE(c[1].abs_alt_m);
+  EXPECT_FALSE(c[1].rel_alt_m);
+  ASSERT_TRUE(c[1].yaw_deg && c[1].focal_length_mm);
+  EXPECT_NEAR(*c[1].yaw_deg, 271.0, 1e-6);
+  EXPECT_NEAR(*c[1].focal_length_mm, 8.8, 1e-6);
+  // The damaged packet and the second camera are said.
+  EXPECT_THAT(::testing::PrintToString(r.warnings), HasSubstr("message 180 with a wrong checksum"));
+  EXPECT_THAT(::testing::PrintToString(r.warnings),
+              HasSubstr("1 CAMERA_FEEDBACK message(s) of camera 1 ignored"));
+}
+
+TEST(Tlog, CameraFeedbackWithoutSystemTimeIsPlacedByItsRecord) {
+  TlogWriter w = Flight(/*system_time=*/false);
+  // Received at boot time 1.45 s + the link's 50 ms: the ground station's clock maps it back to
+  // 1.45 s whatever its time_usec says.
+  w.V2(Feedback(1, 43.53672, 6.55671, 1777803000.0), FlightUs(1.45));
+  w.V2(Feedback(2, 43.53673, 6.55671, 0.0), FlightUs(1.85));  // no UTC time
+  const TelemetryReadResult r = Parse(w.bytes());
+  ASSERT_EQ(r.camera_triggers.size(), 2u);
+  EXPECT_NEAR(r.camera_triggers[0].time_s, 1.45, 1e-6);
+  EXPECT_NEAR(r.camera_triggers[1].time_s, 1.85, 1e-6);
+  ASSERT_TRUE(r.camera_triggers[0].unix_time_s && r.camera_triggers[1].unix_time_s);
+  EXPECT_NEAR(*r.camera_triggers[0].unix_time_s, 1777803000.0, 1e-6);          // its own
+  EXPECT_NEAR(*r.camera_triggers[1].unix_time_s, FlightUs(1.85) / 1e6, 1e-6);  // the record's
+}
+
+TEST(Tlog, ReadsCameraImageCapturedWhenThereIsNoCameraFeedback) {
+  TlogWriter w = Flight();
+  mav::CameraImageCaptured first = Captured(0, 1250, 43.53672, 6.55671, 1);
+  first.q = QuaternionOf(-120, 25, 40);
+  first.time_utc = 1777803700ull * 1000000ull;
+  const std::size_t at0 = w.V2(first, FlightUs(1.3));
+  w.V2(first, FlightUs(1.31));                           // the same again: read once
+  w.V2(Captured(1, 1450, 43.6, 6.6, 0), FlightUs(1.5));  // failed
+  mav::CameraImageCaptured second_camera = Captured(0, 1500, 43.6, 6.6, 1);
+  second_camera.camera_id = 2;
+  w.V2(second_camera, FlightUs(1.55));
+  w.V2(Captured(5, 1500, 43.6, 6.6, 1), FlightUs(1.55), 1, 100);  // a camera component
+  Damage(w, w.V2(Captured(6, 1550, 43.6, 6.6, 1), FlightUs(1.6)));
+  // No feedback from the camera (-1), no position, no attitude, no UTC time.
+  const std::size_t at2 = w.V2(Captured(2, 1650, 0.0, 0.0, -1), FlightUs(1.7));
+  const TelemetryReadResult r = Parse(w.bytes());
+  ASSERT_EQ(r.records, 6);
+  const std::vector<TelemetrySample>& c = r.camera_triggers;
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_NEAR(c[0].time_s, 1.25, 1e-9);  // time_boot_ms / 1000, as the samples'
+  EXPECT_NEAR(c[1].time_s, 1.65, 1e-9);
+  EXPECT_EQ(c[0].origin, fmt::format("f.tlog at byte {}: CAMERA_IMAGE_CAPTURED 0", at0));
+  EXPECT_EQ(c[1].origin, fmt::format("f.tlog at byte {}: CAMERA_IMAGE_CAPTURED 2", at2));
+  EXPECT_TRUE(c[0].has_fix);
+  EXPECT_NEAR(c[0].lat_deg, 43.53672, 1e-9);
+  EXPECT_NEAR(c[0].lon_deg, 6.55671, 1e-9);
+  ASSERT_TRUE(c[0].abs_alt_m);
+  EXPECT_NEAR(*c[0].abs_alt_m, 352.5, 1e-9);
+  EXPECT_FALSE(c[0].rel_alt_m);  // relative_alt is above the ground
+  ASSERT_TRUE(c[0].yaw_deg && c[0].pitch_deg && c[0].roll_deg);
+  EXPECT_NEAR(*c[0].yaw_deg, 240.0, 1e-3);  // float quaternion
+  EXPECT_NEAR(*c[0].pitch_deg, 25.0, 1e-3);
+  EXPECT_NEAR(*c[0].roll_deg, 40.0, 1e-3);
+  ASSERT_TRUE(c[0].unix_time_s);
+  EXPECT_NEAR(*c[0].unix_time_s, 1777803700.0, 1e-6);
+  EXPECT_FALSE(c[1].has_fix);
+  EXPECT_FALSE(c[1].abs_alt_m);
+  EXPECT_FALSE(c[1].yaw_deg);
+  ASSERT_TRUE(c[1].unix_time_s);  // time_utc 0: by SYSTEM_TIME's relation
+  EXPECT_NEAR(*c[1].unix_time_s, kUnixAtBoot0 + 1.65, 1e-6);
+  EXPECT_THAT(::testing::PrintToString(r.warnings),
+              HasSubstr("1 CAMERA_IMAGE_CAPTURED message(s) of camera 2 ignored"));
+}
+
+TEST(Tlog, CameraTriggerWithABadValueStrictOrLenient) {
+  for (const bool captured : {false, true}) {
+    SCOPED_TRACE(captured ? "CAMERA_IMAGE_CAPTURED q of norm 2" : "CAMERA_FEEDBACK latitude 95");
+    TlogWriter w = Flight();
+    std::size_t at;
+    if (captured) {
+      w.V2(Captured(0, 1250, 43.5, 6.5, 1), FlightUs(1.3));
+      mav::CameraImageCaptured bad = Captured(1, 1450, 43.5, 6.5, 1);
+      bad.q = {2.0f, 0.0f, 0.0f, 0.0f};
+      at = w.V2(bad, FlightUs(1.5));
+    } else {
+      w.V2(Feedback(0, 43.5, 6.5, kUnixAtBoot0 + 1.25), FlightUs(1.3));
+      at = w.V2(Feedback(1, 95.0, 6.5, kUnixAtBoot0 + 1.45), FlightUs(1.5));
+    }
+    const std::string where = fmt::format("f.tlog at byte {}: {} 1", at,
+                                          captured ? "CAMERA_IMAGE_CAPTURED" : "CAMERA_FEEDBACK");
+    try {
+      Parse(w.bytes());
+      ADD_FAILURE() << "no MalformedRecordError";
+    } catch (const MalformedRecordError& e) {
+      EXPECT_THAT(e.what(), HasSubstr(where));
+      EXPECT_THAT(e.what(), HasSubstr(captured ? "norm 2.000" : "latitude"));
+    }
+    const TelemetryReadResult r = Parse(w.bytes(), /*lenient=*/true);
+    EXPECT_EQ(r.records, 6);
+    EXPECT_EQ(r.skipped_records, 1);
+    ASSERT_EQ(r.camera_triggers.size(), 1u);
+    EXPECT_NEAR(r.camera_triggers[0].time_s, 1.25, 1e-6);
+    ASSERT_FALSE(r.warnings.empty());
+    EXPECT_THAT(r.warnings[0], HasSubstr(where));
+  }
+}
+
+TEST(Tlog, ALogWithoutCameraMessagesHasNoCameraTriggers) {
+  const TelemetryReadResult r = Parse(Flight().bytes());
+  EXPECT_EQ(r.records, 6);
+  EXPECT_TRUE(r.camera_triggers.empty());
 }
 
 TEST(Tlog, NotATlog) {

@@ -1,7 +1,7 @@
 // PX4 ULog flight logs (.ulg): the binary log PX4 writes to its SD card. A GPS topic becomes the
 // samples; vehicle_attitude and the height above home (vehicle_local_position, home_position)
-// are interpolated onto them. See telemetry_readers.h (ParseULog) and docs/inputs.md "PX4 ULog
-// flight logs".
+// are interpolated onto them; camera_capture becomes the camera triggers (the photos taken). See
+// telemetry_readers.h (ParseULog) and docs/inputs.md "PX4 ULog flight logs".
 //
 // The format, as PX4 defines it (PX4 User Guide, "ULog File Format",
 // docs.px4.io/main/en/dev_log/ulog_file_format.html; PX4-Autopilot
@@ -42,6 +42,10 @@
 //    bool z_valid; home_position (msg/HomePosition.msg): float z (home in the same local
 //    frame), bool valid_alt. The height above home is home.z - z, as PX4 computes
 //    GLOBAL_POSITION_INT.relative_alt (src/modules/mavlink/streams/GLOBAL_POSITION_INT.hpp).
+//  - camera_capture (msg/CameraCapture.msg): a photo the camera took (Collector::Camera):
+//    uint64 timestamp (us since boot), uint64 timestamp_utc (us, UTC), uint32 seq, double lat,
+//    lon (degrees), float alt (m AMSL), float[4] q (as vehicle_attitude's, or the gimbal's
+//    attitude when the camera is on one), int8 result (1 success, 0 failure, -1 no feedback).
 #include <algorithm>
 #include <array>
 #include <cctype>
@@ -315,7 +319,7 @@ class Formats {
 
 // ------------------------------------------------------------------------------ topics
 
-enum class Kind { kOther, kVehicleGps, kSensorGps, kGlobal, kAttitude, kLocal, kHome };
+enum class Kind { kOther, kVehicleGps, kSensorGps, kGlobal, kAttitude, kLocal, kHome, kCamera };
 constexpr int kGpsTopics = 3;  // kVehicleGps, kSensorGps, kGlobal: in this order of preference
 
 const char* KindName(Kind k) {
@@ -332,6 +336,8 @@ const char* KindName(Kind k) {
       return "vehicle_local_position";
     case Kind::kHome:
       return "home_position";
+    case Kind::kCamera:
+      return "camera_capture";
     case Kind::kOther:
       break;
   }
@@ -340,7 +346,7 @@ const char* KindName(Kind k) {
 
 Kind KindOf(std::string_view topic) {
   for (Kind k : {Kind::kVehicleGps, Kind::kSensorGps, Kind::kGlobal, Kind::kAttitude, Kind::kLocal,
-                 Kind::kHome}) {
+                 Kind::kHome, Kind::kCamera}) {
     if (topic == KindName(k)) return k;
   }
   return Kind::kOther;
@@ -350,6 +356,7 @@ Kind KindOf(std::string_view topic) {
 struct Roles {
   Kind kind = Kind::kOther;
   FieldRef time, lat, lon, alt, fix, utc, utc_relative, lat_lon_valid, q, z, z_valid, valid_alt;
+  FieldRef seq, result;  // camera_capture
   double lat_factor = 1.0, alt_factor = 1.0;
 };
 
@@ -423,6 +430,21 @@ Roles RolesOf(Kind kind, const std::map<std::string, FieldRef, std::less<>>& fie
       r.valid_alt = get("valid_alt");
       need(r.z, "z");
       break;
+    case Kind::kCamera:
+      // Only the timestamp is needed: a field the format lacks (an old log without `result`)
+      // is not read, and a q that is not float[4] neither.
+      r.lat = get("lat");
+      r.lon = get("lon");
+      r.alt = get("alt");
+      r.utc = get("timestamp_utc");
+      r.seq = get("seq");
+      r.result = get("result");
+      r.q = get("q");
+      if (r.q.count != 4 || r.q.type != Basic::kF32) r.q = FieldRef{};
+      for (FieldRef* f : {&r.lat, &r.lon, &r.alt, &r.utc, &r.seq, &r.result}) {
+        if (f->count != 1) *f = FieldRef{};
+      }
+      break;
     case Kind::kOther:
       break;
   }
@@ -491,6 +513,9 @@ class Collector {
         break;
       case Kind::kAttitude:
         Attitude(r, value, t, offset);
+        break;
+      case Kind::kCamera:
+        Camera(r, data, len, t, offset);
         break;
       case Kind::kLocal: {
         if (!local_.empty() && std::abs(t - local_.back().time_s) < kMinSeriesStepS) return;
@@ -575,7 +600,10 @@ class Collector {
         s.rel_alt_m = (home - 1)->v[0] - z->v[0];
       }
     }
-    return io_detail::Finish(std::move(samples), errors_, gps_[chosen].no_fix, "ULog");
+    TelemetryReadResult result =
+        io_detail::Finish(std::move(samples), errors_, gps_[chosen].no_fix, "ULog");
+    result.camera_triggers = std::move(triggers_);
+    return result;
   }
 
  private:
@@ -644,11 +672,8 @@ class Collector {
     g.samples.push_back(std::move(s));
   }
 
-  // vehicle_attitude q (w, x, y, z; body FRD to NED) -> roll, pitch, yaw in degrees: the
-  // "3-2-1 intrinsic Tait-Bryan rotation sequence" (yaw about down, pitch about the new right
-  // axis, roll about the new forward axis) as PX4 itself turns q into Euler angles
-  // (PX4-Autopilot src/lib/matrix/matrix/Euler.hpp, Euler(const Dcm&)). Yaw 0 = north, 90 =
-  // east, in [0, 360); pitch up and roll right positive.
+  // vehicle_attitude q (w, x, y, z; body FRD to NED) -> roll, pitch, yaw in degrees
+  // (io_detail::RollPitchYawDeg: 3-2-1 Tait-Bryan angles as PX4 computes them, yaw in [0, 360)).
   template <typename Value>
   void Attitude(const Roles& r, const Value& value, double t, long long offset) {
     if (!att_.empty() && std::abs(t - att_.back().time_s) < kMinSeriesStepS) return;
@@ -667,18 +692,77 @@ class Collector {
       Malformed(offset, fmt::format("vehicle_attitude q has norm {:.3f}, not a rotation", norm));
       return;
     }
-    const double w = q[0] / norm, x = q[1] / norm, y = q[2] / norm, z = q[3] / norm;
-    const double roll = std::atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y));
-    const double pitch = std::asin(std::clamp(2.0 * (w * y - x * z), -1.0, 1.0));
-    double yaw = std::atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)) * kRadToDeg;
-    if (yaw < 0.0) yaw += 360.0;
-    if (yaw >= 360.0) yaw -= 360.0;
-    att_.push_back(SeriesPoint{t, {roll * kRadToDeg, pitch * kRadToDeg, yaw}});
+    const std::array<double, 3> a = io_detail::RollPitchYawDeg(q, norm);
+    att_.push_back(SeriesPoint{t, {a[0], a[1], a[2]}});
+  }
+
+  // camera_capture (PX4-Autopilot msg/CameraCapture.msg): one photo the camera took, at
+  // `timestamp` (t, seconds since boot: the clock of the GPS samples' time_s). result 0 is a
+  // capture that failed (not a photo: dropped); 1 success and -1 "camera does not provide
+  // feedback" are kept, and so is every message of a log whose format has no `result`. lat, lon
+  // (degrees) NaN, or both 0, is a photo without a position (has_fix false); alt (m AMSL) ->
+  // abs_alt_m when finite; q (w, x, y, z, "Attitude of the camera relative to NED earth-fixed
+  // frame when using a gimbal, otherwise vehicle attitude") -> roll/pitch/yaw as vehicle_attitude
+  // (not set when q is zero or NaN); timestamp_utc (UTC microseconds, 0 = unknown) ->
+  // unix_time_s. ground_distance (m above the ground below, not above home) is not read.
+  void Camera(const Roles& r, const unsigned char* data, std::size_t len, double t,
+              long long offset) {
+    // Raw values: NaN says "no position", not damage.
+    const auto raw = [&](const FieldRef& f, int index = 0) { return ValueOf(f, data, len, index); };
+    if (const std::optional<double> result = raw(r.result); result && *result == 0.0) return;
+    const std::optional<double> seq = raw(r.seq);
+    TelemetrySample s;
+    s.time_s = t;
+    // seq is a uint32 in PX4's format; another type of the file's own is printed, never cast.
+    s.origin =
+        fmt::format("{}: camera_capture{}", Where(offset),
+                    seq && std::isfinite(*seq) ? fmt::format(" {:.0f}", *seq) : std::string());
+    const std::optional<double> lat = raw(r.lat), lon = raw(r.lon);
+    s.has_fix =
+        lat && lon && !std::isnan(*lat) && !std::isnan(*lon) && !(*lat == 0.0 && *lon == 0.0);
+    if (s.has_fix) {
+      s.lat_deg = *lat;  // an infinite or out-of-range value fails ValidateSample below
+      s.lon_deg = *lon;
+    }
+    if (const std::optional<double> alt = raw(r.alt); alt && std::isfinite(*alt)) {
+      s.abs_alt_m = *alt;
+    }
+    if (r.q.offset >= 0) {
+      double q[4];
+      bool finite = true;
+      for (int k = 0; k < 4; ++k) {
+        const std::optional<double> v = raw(r.q, k);
+        finite = finite && v && std::isfinite(*v);
+        q[k] = finite ? *v : 0.0;
+      }
+      const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+      if (finite && norm != 0.0) {
+        if (std::abs(norm - 1.0) > 0.1) {
+          Malformed(offset, fmt::format("camera_capture q has norm {:.3f}, not a rotation", norm));
+          return;
+        }
+        const std::array<double, 3> a = io_detail::RollPitchYawDeg(q, norm);
+        s.roll_deg = a[0];
+        s.pitch_deg = a[1];
+        s.yaw_deg = a[2];
+      }
+    }
+    if (const std::optional<double> utc = raw(r.utc); utc && std::isfinite(*utc) && *utc > 0.0) {
+      s.unix_time_s = *utc / 1e6;
+    }
+    try {
+      ValidateSample(s, s.origin);
+    } catch (const InputError& e) {
+      errors_.ReportMessage(e.what());
+      return;
+    }
+    triggers_.push_back(std::move(s));
   }
 
   RecordErrors& errors_;
   GpsTopic gps_[kGpsTopics];
   std::vector<SeriesPoint> att_, local_, home_;
+  std::vector<TelemetrySample> triggers_;  // camera_capture, in the log's order
   std::string missing_;
   long long unreadable_ = 0, total_ = 0;
 };
@@ -970,7 +1054,8 @@ class Parser {
     const int format = formats_.Find(name);
     const Kind kind = KindOf(name);
     if (format < 0) {
-      if (kind != Kind::kOther && multi_id == 0) {
+      // camera_capture is not why a log has no GPS position: not named then.
+      if (kind != Kind::kOther && kind != Kind::kCamera && multi_id == 0) {
         out_.NoteMissing(
             fmt::format("the log subscribes to {} without its format", KindName(kind)));
       }

@@ -77,6 +77,12 @@ constexpr char kHome[] =
     "float yaw;uint32_t update_count;bool valid_alt;bool valid_hpos;bool valid_lpos;bool "
     "manual_home;uint8_t[4] _padding0;";
 
+// msg/CameraCapture.msg as PX4 generates its format (8-byte fields, then the 4-byte ones in the
+// .msg's order, then result); 61 bytes of fields + 3 of padding.
+constexpr char kCamera[] =
+    "camera_capture:uint64_t timestamp;uint64_t timestamp_utc;double lat;double lon;uint32_t seq;"
+    "float alt;float ground_distance;float[4] q;int8_t result;uint8_t[3] _padding0;";
+
 struct FieldDef {
   std::string type;
   int count;
@@ -565,6 +571,162 @@ TEST(ULog, HostileFormatsAndSizesNeitherCrashNorHang) {
     noise += static_cast<char>(x >> 24);
   }
   ExpectInputError([&] { Parse(noise, /*lenient=*/true); }, {"log.ulg", "no GPS"});
+}
+
+// FlightLog() (GPS at 10.0 .. 10.8 s) with camera_capture messages: the two instances of the
+// topic, and at `offsets` the byte offset of each message of instance 0.
+ULogWriter FlightLogWithPhotos(std::vector<std::size_t>* offsets) {
+  ULogWriter w = FlightLog();
+  w.Format(kCamera);
+  w.Subscribe(0, 5, "camera_capture");
+  w.Subscribe(1, 6, "camera_capture");  // a second camera: not read
+  const auto photo = [&](std::map<std::string, double> values) {
+    offsets->push_back(w.size());
+    w.Data(5, Pack(kCamera, values));
+  };
+  // seq 0: a photo with a position, an attitude and a date.
+  photo(With({{"timestamp", 10.1e6},
+              {"timestamp_utc", (kUtc0 + 10.1) * 1e6},
+              {"seq", 0},
+              {"lat", 43.53671},
+              {"lon", 6.55672},
+              {"alt", 352.5},
+              {"ground_distance", 98.0},
+              {"result", 1}},
+             Quaternion(-120, 25, 40)));
+  // seq 1: a capture that failed.
+  photo({{"timestamp", 10.3e6}, {"seq", 1}, {"lat", 43.5}, {"lon", 6.5}, {"result", 0}});
+  // seq 2: no feedback from the camera (-1), no position (NaN), no attitude (q zero).
+  photo({{"timestamp", 10.5e6},
+         {"seq", 2},
+         {"lat", std::nan("")},
+         {"lon", std::nan("")},
+         {"alt", std::nan("")},
+         {"result", -1}});
+  // seq 3: the position 0, 0 of a vehicle without a fix.
+  photo(With({{"timestamp", 10.7e6}, {"seq", 3}, {"alt", 351.0}, {"result", 1}},
+             Quaternion(0, 0, 0)));
+  w.Data(6, Pack(kCamera,
+                 {{"timestamp", 10.2e6}, {"seq", 0}, {"lat", 1.0}, {"lon", 1.0}, {"result", 1}}));
+  return w;
+}
+
+TEST(ULog, ReadsCameraCaptureAsCameraTriggers) {
+  std::vector<std::size_t> at;
+  const TelemetryReadResult r = Parse(FlightLogWithPhotos(&at).bytes());
+  ASSERT_EQ(r.records, 5);  // the GPS samples as before
+  EXPECT_DOUBLE_EQ(r.telemetry.samples()[0].time_s, 10.0);
+  EXPECT_EQ(r.skipped_records, 0);
+  const std::vector<TelemetrySample>& c = r.camera_triggers;
+  ASSERT_EQ(c.size(), 3u);  // seq 1 failed, instance 1 not read
+  // timestamp / 1e6: the clock of the GPS samples (10.0 .. 10.8 s).
+  EXPECT_DOUBLE_EQ(c[0].time_s, 10.1);
+  EXPECT_DOUBLE_EQ(c[1].time_s, 10.5);
+  EXPECT_DOUBLE_EQ(c[2].time_s, 10.7);
+  EXPECT_EQ(c[0].origin, fmt::format("log.ulg at byte {}: camera_capture 0", at[0]));
+  EXPECT_EQ(c[1].origin, fmt::format("log.ulg at byte {}: camera_capture 2", at[2]));
+  EXPECT_EQ(c[2].origin, fmt::format("log.ulg at byte {}: camera_capture 3", at[3]));
+  EXPECT_TRUE(c[0].has_fix);
+  EXPECT_DOUBLE_EQ(c[0].lat_deg, 43.53671);
+  EXPECT_DOUBLE_EQ(c[0].lon_deg, 6.55672);
+  ASSERT_TRUE(c[0].abs_alt_m);
+  EXPECT_DOUBLE_EQ(*c[0].abs_alt_m, 352.5);
+  EXPECT_FALSE(c[0].rel_alt_m);  // ground_distance is not the height above home
+  ASSERT_TRUE(c[0].yaw_deg && c[0].pitch_deg && c[0].roll_deg);
+  EXPECT_NEAR(*c[0].yaw_deg, 240.0, 1e-4);
+  EXPECT_NEAR(*c[0].pitch_deg, 25.0, 1e-4);
+  EXPECT_NEAR(*c[0].roll_deg, 40.0, 1e-4);
+  ASSERT_TRUE(c[0].unix_time_s);
+  EXPECT_NEAR(*c[0].unix_time_s, kUtc0 + 10.1, 1e-6);
+  EXPECT_FALSE(c[0].frame_index);
+  // NaN position and altitude, zero q, no date.
+  EXPECT_FALSE(c[1].has_fix);
+  EXPECT_FALSE(c[1].abs_alt_m);
+  EXPECT_FALSE(c[1].yaw_deg);
+  EXPECT_FALSE(c[1].unix_time_s);
+  // 0, 0: no fix, the altitude and the attitude kept.
+  EXPECT_FALSE(c[2].has_fix);
+  ASSERT_TRUE(c[2].abs_alt_m);
+  EXPECT_DOUBLE_EQ(*c[2].abs_alt_m, 351.0);
+  ASSERT_TRUE(c[2].yaw_deg && c[2].roll_deg);
+  EXPECT_NEAR(*c[2].yaw_deg, 0.0, 1e-6);
+  EXPECT_NEAR(*c[2].roll_deg, 0.0, 1e-6);
+}
+
+TEST(ULog, CameraCaptureOfAnOldFormatWithoutResultKeepsEveryMessage) {
+  ULogWriter w = FlightLog();
+  w.Format("camera_capture:uint64_t timestamp;double lat;double lon;uint32_t seq;float alt;");
+  w.Subscribe(0, 5, "camera_capture");
+  for (int k = 0; k < 2; ++k) {
+    w.Data(5,
+           Pack("camera_capture:uint64_t timestamp;double lat;double lon;uint32_t seq;float alt;",
+                {{"timestamp", (10.2 + 0.4 * k) * 1e6},
+                 {"lat", 43.5368},
+                 {"lon", 6.5568 + 1e-4 * k},
+                 {"seq", 7 + k},
+                 {"alt", 300.0}}));
+  }
+  const TelemetryReadResult r = Parse(w.bytes());
+  ASSERT_EQ(r.camera_triggers.size(), 2u);
+  EXPECT_DOUBLE_EQ(r.camera_triggers[1].time_s, 10.6);
+  EXPECT_DOUBLE_EQ(r.camera_triggers[1].lon_deg, 6.5569);
+  EXPECT_THAT(r.camera_triggers[1].origin, HasSubstr(": camera_capture 8"));
+  EXPECT_FALSE(r.camera_triggers[1].yaw_deg);      // no q
+  EXPECT_FALSE(r.camera_triggers[1].unix_time_s);  // no timestamp_utc
+}
+
+TEST(ULog, CameraCaptureWithABadValueIsAMalformedRecord) {
+  for (const bool bad_q : {false, true}) {
+    SCOPED_TRACE(bad_q ? "q of norm 2" : "latitude 123");
+    ULogWriter w = FlightLog();
+    w.Format(kCamera);
+    w.Subscribe(0, 5, "camera_capture");
+    std::map<std::string, double> good = {
+        {"timestamp", 10.1e6}, {"seq", 0}, {"lat", 43.5}, {"lon", 6.5}, {"result", 1}};
+    w.Data(5, Pack(kCamera, good));
+    const std::size_t at = w.size();
+    std::map<std::string, double> bad = {{"timestamp", 10.3e6},
+                                         {"seq", 1},
+                                         {"lat", bad_q ? 43.5 : 123.0},
+                                         {"lon", 6.5},
+                                         {"result", 1}};
+    if (bad_q) bad = With(bad, {{"q[0]", 2.0}});
+    w.Data(5, Pack(kCamera, bad));
+    ExpectInputError([&] { Parse(w.bytes()); },
+                     {fmt::format("log.ulg at byte {}: camera_capture", at).c_str(),
+                      bad_q ? "norm 2.000" : "latitude"});
+    EXPECT_THROW(Parse(w.bytes()), MalformedRecordError);
+    const TelemetryReadResult r = Parse(w.bytes(), /*lenient=*/true);
+    EXPECT_EQ(r.records, 5);
+    EXPECT_EQ(r.skipped_records, 1);
+    ASSERT_EQ(r.camera_triggers.size(), 1u);
+    EXPECT_DOUBLE_EQ(r.camera_triggers[0].time_s, 10.1);
+    ASSERT_FALSE(r.warnings.empty());
+    EXPECT_THAT(r.warnings[0], HasSubstr(fmt::format("at byte {}", at)));
+  }
+}
+
+TEST(ULog, CameraCaptureWithASeqOfAnotherTypeIsNamedWithoutIt) {
+  // A format of the file's own with a double seq: NaN is not a number to print (nor to cast).
+  const std::string format = "camera_capture:uint64_t timestamp;double seq;double lat;double lon;";
+  ULogWriter w = FlightLog();
+  w.Format(format);
+  w.Subscribe(0, 5, "camera_capture");
+  const std::size_t at = w.size();
+  w.Data(5,
+         Pack(format, {{"timestamp", 10.2e6}, {"seq", std::nan("")}, {"lat", 43.5}, {"lon", 6.5}}));
+  w.Data(5, Pack(format, {{"timestamp", 10.4e6}, {"seq", 1e30}, {"lat", 43.5}, {"lon", 6.5}}));
+  const TelemetryReadResult r = Parse(w.bytes());
+  ASSERT_EQ(r.camera_triggers.size(), 2u);
+  EXPECT_EQ(r.camera_triggers[0].origin, fmt::format("log.ulg at byte {}: camera_capture", at));
+  EXPECT_THAT(r.camera_triggers[1].origin,
+              HasSubstr(": camera_capture 1000000000000000019884624838656"));
+}
+
+TEST(ULog, ALogWithoutCameraCaptureHasNoCameraTriggers) {
+  const TelemetryReadResult r = Parse(FlightLog().bytes());
+  EXPECT_EQ(r.records, 5);
+  EXPECT_TRUE(r.camera_triggers.empty());
 }
 
 TEST(ULog, ReadTelemetryFilePicksTheULogReaderByExtension) {
