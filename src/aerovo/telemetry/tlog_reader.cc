@@ -491,25 +491,9 @@ class Collector {
       p.sample.lon_deg = c.lon / 1e7;
       p.sample.abs_alt_m = c.alt / 1000.0;
     }
-    double q[4];
-    bool finite = true;
-    for (int k = 0; k < 4; ++k) {
-      q[k] = c.q[static_cast<std::size_t>(k)];
-      finite = finite && std::isfinite(q[k]);
-    }
-    const double norm =
-        finite ? std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]) : 0.0;
-    if (norm != 0.0) {
-      if (std::abs(norm - 1.0) > 0.1) {
-        Malformed(s, fmt::format("{}: CAMERA_IMAGE_CAPTURED q has norm {:.3f}, not a rotation",
-                                 p.sample.origin, norm));
-        return;
-      }
-      const std::array<double, 3> a = io_detail::RollPitchYawDeg(q, norm);
-      p.sample.roll_deg = a[0];
-      p.sample.pitch_deg = a[1];
-      p.sample.yaw_deg = a[2];
-    }
+    // q is not read: "Quaternion of camera orientation" (common.xml), the gimbal's on a gimbal
+    // (PX4 fills it from camera_capture), which would read as an aircraft pitched 90 degrees
+    // under a nadir camera.
     try {
       ValidateSample(p.sample, p.sample.origin);
     } catch (const InputError& e) {

@@ -432,15 +432,13 @@ Roles RolesOf(Kind kind, const std::map<std::string, FieldRef, std::less<>>& fie
       break;
     case Kind::kCamera:
       // Only the timestamp is needed: a field the format lacks (an old log without `result`)
-      // is not read, and a q that is not float[4] neither.
+      // is not read.
       r.lat = get("lat");
       r.lon = get("lon");
       r.alt = get("alt");
       r.utc = get("timestamp_utc");
       r.seq = get("seq");
       r.result = get("result");
-      r.q = get("q");
-      if (r.q.count != 4 || r.q.type != Basic::kF32) r.q = FieldRef{};
       for (FieldRef* f : {&r.lat, &r.lon, &r.alt, &r.utc, &r.seq, &r.result}) {
         if (f->count != 1) *f = FieldRef{};
       }
@@ -701,10 +699,11 @@ class Collector {
   // capture that failed (not a photo: dropped); 1 success and -1 "camera does not provide
   // feedback" are kept, and so is every message of a log whose format has no `result`. lat, lon
   // (degrees) NaN, or both 0, is a photo without a position (has_fix false); alt (m AMSL) ->
-  // abs_alt_m when finite; q (w, x, y, z, "Attitude of the camera relative to NED earth-fixed
-  // frame when using a gimbal, otherwise vehicle attitude") -> roll/pitch/yaw as vehicle_attitude
-  // (not set when q is zero or NaN); timestamp_utc (UTC microseconds, 0 = unknown) ->
-  // unix_time_s. ground_distance (m above the ground below, not above home) is not read.
+  // abs_alt_m when finite; timestamp_utc (UTC microseconds, 0 = unknown) -> unix_time_s. Not
+  // read: q ("Attitude of the camera relative to NED earth-fixed frame when using a gimbal,
+  // otherwise vehicle attitude": which of the two a log holds is not written, and a nadir
+  // gimbal's would read as an aircraft pitched 90 degrees) and ground_distance (m above the
+  // ground below, not above home).
   void Camera(const Roles& r, const unsigned char* data, std::size_t len, double t,
               long long offset) {
     // Raw values: NaN says "no position", not damage.
@@ -726,26 +725,6 @@ class Collector {
     }
     if (const std::optional<double> alt = raw(r.alt); alt && std::isfinite(*alt)) {
       s.abs_alt_m = *alt;
-    }
-    if (r.q.offset >= 0) {
-      double q[4];
-      bool finite = true;
-      for (int k = 0; k < 4; ++k) {
-        const std::optional<double> v = raw(r.q, k);
-        finite = finite && v && std::isfinite(*v);
-        q[k] = finite ? *v : 0.0;
-      }
-      const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-      if (finite && norm != 0.0) {
-        if (std::abs(norm - 1.0) > 0.1) {
-          Malformed(offset, fmt::format("camera_capture q has norm {:.3f}, not a rotation", norm));
-          return;
-        }
-        const std::array<double, 3> a = io_detail::RollPitchYawDeg(q, norm);
-        s.roll_deg = a[0];
-        s.pitch_deg = a[1];
-        s.yaw_deg = a[2];
-      }
     }
     if (const std::optional<double> utc = raw(r.utc); utc && std::isfinite(*utc) && *utc > 0.0) {
       s.unix_time_s = *utc / 1e6;

@@ -632,10 +632,8 @@ TEST(ULog, ReadsCameraCaptureAsCameraTriggers) {
   ASSERT_TRUE(c[0].abs_alt_m);
   EXPECT_DOUBLE_EQ(*c[0].abs_alt_m, 352.5);
   EXPECT_FALSE(c[0].rel_alt_m);  // ground_distance is not the height above home
-  ASSERT_TRUE(c[0].yaw_deg && c[0].pitch_deg && c[0].roll_deg);
-  EXPECT_NEAR(*c[0].yaw_deg, 240.0, 1e-4);
-  EXPECT_NEAR(*c[0].pitch_deg, 25.0, 1e-4);
-  EXPECT_NEAR(*c[0].roll_deg, 40.0, 1e-4);
+  // q is the camera's attitude on a gimbal (CameraCapture.msg): not read as the aircraft's.
+  EXPECT_FALSE(c[0].yaw_deg || c[0].pitch_deg || c[0].roll_deg);
   ASSERT_TRUE(c[0].unix_time_s);
   EXPECT_NEAR(*c[0].unix_time_s, kUtc0 + 10.1, 1e-6);
   EXPECT_FALSE(c[0].frame_index);
@@ -644,13 +642,10 @@ TEST(ULog, ReadsCameraCaptureAsCameraTriggers) {
   EXPECT_FALSE(c[1].abs_alt_m);
   EXPECT_FALSE(c[1].yaw_deg);
   EXPECT_FALSE(c[1].unix_time_s);
-  // 0, 0: no fix, the altitude and the attitude kept.
+  // 0, 0: no fix, the altitude kept.
   EXPECT_FALSE(c[2].has_fix);
   ASSERT_TRUE(c[2].abs_alt_m);
   EXPECT_DOUBLE_EQ(*c[2].abs_alt_m, 351.0);
-  ASSERT_TRUE(c[2].yaw_deg && c[2].roll_deg);
-  EXPECT_NEAR(*c[2].yaw_deg, 0.0, 1e-6);
-  EXPECT_NEAR(*c[2].roll_deg, 0.0, 1e-6);
 }
 
 TEST(ULog, CameraCaptureOfAnOldFormatWithoutResultKeepsEveryMessage) {
@@ -671,13 +666,12 @@ TEST(ULog, CameraCaptureOfAnOldFormatWithoutResultKeepsEveryMessage) {
   EXPECT_DOUBLE_EQ(r.camera_triggers[1].time_s, 10.6);
   EXPECT_DOUBLE_EQ(r.camera_triggers[1].lon_deg, 6.5569);
   EXPECT_THAT(r.camera_triggers[1].origin, HasSubstr(": camera_capture 8"));
-  EXPECT_FALSE(r.camera_triggers[1].yaw_deg);      // no q
   EXPECT_FALSE(r.camera_triggers[1].unix_time_s);  // no timestamp_utc
 }
 
 TEST(ULog, CameraCaptureWithABadValueIsAMalformedRecord) {
-  for (const bool bad_q : {false, true}) {
-    SCOPED_TRACE(bad_q ? "q of norm 2" : "latitude 123");
+  for (const bool bad_alt : {false, true}) {
+    SCOPED_TRACE(bad_alt ? "altitude 1e6 m" : "latitude 123");
     ULogWriter w = FlightLog();
     w.Format(kCamera);
     w.Subscribe(0, 5, "camera_capture");
@@ -687,14 +681,14 @@ TEST(ULog, CameraCaptureWithABadValueIsAMalformedRecord) {
     const std::size_t at = w.size();
     std::map<std::string, double> bad = {{"timestamp", 10.3e6},
                                          {"seq", 1},
-                                         {"lat", bad_q ? 43.5 : 123.0},
+                                         {"lat", bad_alt ? 43.5 : 123.0},
                                          {"lon", 6.5},
                                          {"result", 1}};
-    if (bad_q) bad = With(bad, {{"q[0]", 2.0}});
+    if (bad_alt) bad["alt"] = 1e6;
     w.Data(5, Pack(kCamera, bad));
     ExpectInputError([&] { Parse(w.bytes()); },
                      {fmt::format("log.ulg at byte {}: camera_capture", at).c_str(),
-                      bad_q ? "norm 2.000" : "latitude"});
+                      bad_alt ? "absolute altitude" : "latitude"});
     EXPECT_THROW(Parse(w.bytes()), MalformedRecordError);
     const TelemetryReadResult r = Parse(w.bytes(), /*lenient=*/true);
     EXPECT_EQ(r.records, 5);
