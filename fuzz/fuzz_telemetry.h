@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -41,6 +42,23 @@ inline void CheckResult(const TelemetryReadResult& r, const TelemetryReadOptions
     Check(!s.origin.empty());
   }
   Check(without_fix <= r.no_fix_records);
+  // The camera triggers (TelemetryReadResult::camera_triggers): valid samples that name their
+  // message, without a frame index.
+  for (const TelemetrySample& s : r.camera_triggers) {
+    Check(std::isfinite(s.time_s));
+    Check(s.has_fix ? s.lat_deg >= -90.0 && s.lat_deg <= 90.0 && s.lon_deg >= -180.0 &&
+                          s.lon_deg <= 180.0 && !(s.lat_deg == 0.0 && s.lon_deg == 0.0)
+                    : s.lat_deg == 0.0 && s.lon_deg == 0.0);
+    for (const std::optional<double>& v : {s.abs_alt_m, s.rel_alt_m}) {
+      Check(!v || (std::isfinite(*v) && std::abs(*v) <= 1e5));
+    }
+    for (const std::optional<double>& v : {s.roll_deg, s.pitch_deg, s.yaw_deg}) {
+      Check(!v || (std::isfinite(*v) && std::abs(*v) <= 360.0));
+    }
+    Check(!s.unix_time_s || std::isfinite(*s.unix_time_s));
+    Check(!s.frame_index);
+    Check(!s.origin.empty());
+  }
 }
 
 template <typename ParseFn>
