@@ -4,6 +4,8 @@
 // real-flight table bench/real_flights.tsv within its seed-to-seed spread (BENCHMARKS.md, "Real
 // flights: the benchmark").
 #include "aerovo/frames/camera.h"
+#include "aerovo/frames/frame_source.h"
+#include "aerovo/frames/image_metadata.h"
 #include "aerovo/pipeline/runner.h"
 
 #include <gtest/gtest.h>
@@ -27,6 +29,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -325,6 +328,86 @@ TEST(Runner, TurinP4mWithXmpAltitudeAndYaw) {
   ExpectTheStoredFigures("turin-p4m", s);
   CheckOutputs(c.out, 32);
   fs::remove_all(c.out);
+}
+
+// A survey camera the autopilot triggers: the photos take the fixes of the ArduPilot log's CAM
+// messages, one per photo, not their own EXIF (docs/inputs.md "Photos and the autopilot's camera
+// triggers"). The first 10 photos of turin-p4m, and a log (Mission Planner's text form) whose
+// CAM messages carry the photos' own EXIF fixes moved 100 m north: the same odometry, every GPS
+// fix 100 m north, the same errors after alignment.
+TEST(Runner, PhotosTakeTheCameraTriggersOfAnArduPilotLog) {
+  AEROVO_REQUIRE_SHARED(flight, "data/flights/turin-p4m/DJI_0010.JPG");
+  const fs::path dir = TempDir("camera_triggers");
+  const fs::path photos = dir / "photos";
+  fs::create_directories(photos);
+  std::vector<fs::path> all;
+  for (const auto& e : fs::directory_iterator(flight.parent_path())) {
+    if (e.path().extension() == ".JPG") all.push_back(e.path());
+  }
+  std::sort(all.begin(), all.end());
+  ASSERT_GE(all.size(), 10u);
+  all.resize(10);
+  for (const fs::path& p : all) fs::create_symlink(p, photos / p.filename());
+  const Telemetry exif = TelemetryFromImages(ImageFolderSource(photos).metadata()).telemetry;
+  ASSERT_EQ(exif.size(), 10u);
+  constexpr double kNorthDeg = 100.0 / 111132.0;  // 100 m of latitude at 45 deg, about
+  constexpr double kBootS = 300.0;                // the log's time of the first photo
+  std::string log =
+      "FMT, 128, 89, FMT, BBnNZ, Type,Length,Name,Format,Columns\n"
+      "FMT, 130, 51, GPS, QBBIHBcLLeffffB, "
+      "TimeUS,I,Status,GMS,GWk,NSats,HDop,Lat,Lng,Alt,Spd,GCrs,VZ,Yaw,U\n"
+      "FMT, 133, 46, CAM, QBHIHLLeeeccC, "
+      "TimeUS,I,Img,GPSTime,GPSWeek,Lat,Lng,Alt,RelAlt,GPSAlt,R,P,Y\n";
+  for (std::size_t k = 0; k < exif.size(); ++k) {
+    const TelemetrySample& s = exif[k];
+    const auto us = [&](double dt) { return std::llround((kBootS + s.time_s + dt) * 1e6); };
+    log += fmt::format("GPS, {}, 0, 3, 0, 0, 14, 0.8, {:.9f}, {:.9f}, {:.2f}, 5, 0, 0, 0, 1\n",
+                       us(0.0), s.lat_deg + kNorthDeg, s.lon_deg, *s.abs_alt_m);
+    log += fmt::format("CAM, {}, 0, {}, 0, 0, {:.9f}, {:.9f}, {:.2f}, {:.2f}, {:.2f}, 0, 0, {:.2f}\n",
+                       us(0.2), k + 1, s.lat_deg + kNorthDeg, s.lon_deg, *s.abs_alt_m,
+                       *s.rel_alt_m, *s.abs_alt_m, *s.yaw_deg);
+  }
+  std::ofstream(dir / "flight.log") << log;
+  RunConfig base;
+  base.input = photos.string();
+  base.quiet = true;
+  RunConfig a = base;
+  a.out = (dir / "exif").string();
+  const RunSummary by_exif = RunFlight(a);
+  RunConfig b = base;
+  b.out = (dir / "cam").string();
+  b.telemetry = (dir / "flight.log").string();
+  const RunSummary by_cam = RunFlight(b);
+  EXPECT_FALSE(by_exif.telemetry_camera_triggers);
+  EXPECT_TRUE(by_cam.telemetry_camera_triggers);
+  EXPECT_TRUE(e2e::ReadJson(dir / "cam" / "summary.json")["telemetry_camera_triggers"].get<bool>());
+  EXPECT_EQ(by_cam.frames_with_gps, 10);
+  const auto rows_exif = e2e::ReadFramesCsv(dir / "exif");
+  const auto rows_cam = e2e::ReadFramesCsv(dir / "cam");
+  ASSERT_EQ(rows_exif.size(), 10u);
+  ASSERT_EQ(rows_cam.size(), 10u);
+  for (std::size_t k = 0; k < 10; ++k) {
+    SCOPED_TRACE(k);
+    EXPECT_NEAR(std::stod(rows_cam[k].at("gps_lat_deg")),
+                std::stod(rows_exif[k].at("gps_lat_deg")) + kNorthDeg, 2e-9);
+    EXPECT_EQ(rows_cam[k].at("gps_lon_deg"), rows_exif[k].at("gps_lon_deg"));
+    EXPECT_EQ(rows_cam[k].at("height_m"), rows_exif[k].at("height_m"));
+    EXPECT_EQ(rows_cam[k].at("x_m"), rows_exif[k].at("x_m"));
+    EXPECT_EQ(rows_cam[k].at("y_m"), rows_exif[k].at("y_m"));
+  }
+  ASSERT_TRUE(by_exif.evaluation && by_cam.evaluation);
+  EXPECT_NEAR(by_cam.evaluation->sim2.ate_m.rmse, by_exif.evaluation->sim2.ate_m.rmse, 1e-3);
+  EXPECT_NEAR(by_cam.evaluation->se2.ate_m.rmse, by_exif.evaluation->se2.ate_m.rmse, 1e-3);
+
+  // With the offset given, the photos find their fixes by time on the log's GPS track instead.
+  RunConfig c = b;
+  c.out = (dir / "offset").string();
+  c.telemetry_offset_s = kBootS;
+  c.altitude_m = 44.5;  // the log's GPS messages give no height above home (no POS)
+  const RunSummary by_time = RunFlight(c);
+  EXPECT_FALSE(by_time.telemetry_camera_triggers);
+  EXPECT_EQ(by_time.frames_with_gps, 10);
+  fs::remove_all(dir);
 }
 
 // 16:9 photos of a 4:3 sensor (the EXIF 35 mm equivalent is the 4:3 frame's), height from XMP
