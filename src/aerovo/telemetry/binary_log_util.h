@@ -101,7 +101,7 @@ class ByteWindow {
 /// (yaw about down, pitch about the new right axis, roll about the new forward axis) as PX4
 /// itself turns q into Euler angles (PX4-Autopilot src/lib/matrix/matrix/Euler.hpp,
 /// Euler(const Dcm&)). Yaw 0 = north, 90 = east, in [0, 360); pitch up and roll right positive.
-/// Used for ULog vehicle_attitude and camera_capture, and MAVLink CAMERA_IMAGE_CAPTURED.
+/// Used for ULog vehicle_attitude.
 inline std::array<double, 3> RollPitchYawDeg(const double q[4], double norm) {
   const double w = q[0] / norm, x = q[1] / norm, y = q[2] / norm, z = q[3] / norm;
   const double roll = std::atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y));

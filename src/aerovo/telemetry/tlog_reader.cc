@@ -466,10 +466,9 @@ class Collector {
   // CAMERA_IMAGE_CAPTURED (common.xml): capture_result 0 (failure) is no photo (1 success and
   // PX4's -1, "no feedback", are); lat, lon (degE7, both 0 = no position), alt (mm AMSL, with a
   // position only); relative_alt is "above ground" (PX4 sends camera_capture.ground_distance),
-  // not above home: not read; q (w, x, y, z: PX4 sends camera_capture.q, the vehicle's attitude,
-  // or the gimbal's) -> roll/pitch/yaw as telemetry/ulog_reader.cc turns vehicle_attitude's q
-  // into angles (a zero or NaN q: none); time_utc (us, 0 = unknown) -> unix_time_s. Only the
-  // autopilot's (component 1): a MAVLink camera component's time_boot_ms is its own clock.
+  // not above home: not read; q is not read either (below); time_utc (us, 0 = unknown) ->
+  // unix_time_s. Only the autopilot's (component 1): a MAVLink camera component's time_boot_ms
+  // is its own clock.
   void Captured(System& s, const mav::CameraImageCaptured& c, std::uint64_t record_us,
                 long long offset) {
     if (!FirstCamera(s.captured, c.camera_id) || c.capture_result == 0) return;

@@ -45,7 +45,8 @@
 //  - camera_capture (msg/CameraCapture.msg): a photo the camera took (Collector::Camera):
 //    uint64 timestamp (us since boot), uint64 timestamp_utc (us, UTC), uint32 seq, double lat,
 //    lon (degrees), float alt (m AMSL), float[4] q (as vehicle_attitude's, or the gimbal's
-//    attitude when the camera is on one), int8 result (1 success, 0 failure, -1 no feedback).
+//    attitude when the camera is on one: not read), int8 result (1 success, 0 failure, -1 no
+//    feedback).
 #include <algorithm>
 #include <array>
 #include <cctype>
