@@ -415,6 +415,10 @@ PLAN = {
     "aerovo run flight.mp4 --telemetry 00000042.BIN --telemetry-offset-s 312.5 -o flight": Row(
         skip="needs an ArduPilot DataFlash log recorded with the example video; the reader is "
         "tested on logs written byte for byte (DataFlash.* in telemetry/dataflash_reader_test.cc)"),
+    "aerovo run photos/ --telemetry 00000042.BIN -o survey": Row(
+        skip="needs the photos of a camera an autopilot triggered and its DataFlash log; the "
+        "pairing is tested on turin-p4m's photos with a log written from their EXIF "
+        "(Runner.PhotosTakeTheCameraTriggersOfAnArduPilotLog in tests/e2e/run_flight_test.cc)"),
     "aerovo run flight.mp4 --telemetry flight.tlog --telemetry-offset-s 312.5 -o flight": Row(
         skip="needs a ground station's MAVLink telemetry log recorded with the example video; the "
         "reader is tested on logs written byte for byte (Tlog.* in telemetry/tlog_reader_test.cc) "
