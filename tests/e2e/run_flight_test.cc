@@ -333,8 +333,9 @@ TEST(Runner, TurinP4mWithXmpAltitudeAndYaw) {
 // A survey camera the autopilot triggers: the photos take the fixes of the ArduPilot log's CAM
 // messages, one per photo, not their own EXIF (docs/inputs.md "Photos and the autopilot's camera
 // triggers"). The first 10 photos of turin-p4m, and a log (Mission Planner's text form) whose
-// CAM messages carry the photos' own EXIF fixes moved 100 m north: the same odometry, every GPS
-// fix 100 m north, the same errors after alignment.
+// CAM messages carry the photos' own EXIF fixes moved 100 m north (and as the aircraft's yaw the
+// camera's, the gimbal's in the XMP, as a camera fixed to the airframe has): the same odometry,
+// every GPS fix 100 m north, the same errors after alignment.
 TEST(Runner, PhotosTakeTheCameraTriggersOfAnArduPilotLog) {
   AEROVO_REQUIRE_SHARED(flight, "data/flights/turin-p4m/DJI_0010.JPG");
   const fs::path dir = TempDir("camera_triggers");
@@ -365,7 +366,7 @@ TEST(Runner, PhotosTakeTheCameraTriggersOfAnArduPilotLog) {
                        us(0.0), s.lat_deg + kNorthDeg, s.lon_deg, *s.abs_alt_m);
     log += fmt::format("CAM, {}, 0, {}, 0, 0, {:.9f}, {:.9f}, {:.2f}, {:.2f}, {:.2f}, 0, 0, {:.2f}\n",
                        us(0.2), k + 1, s.lat_deg + kNorthDeg, s.lon_deg, *s.abs_alt_m,
-                       *s.rel_alt_m, *s.abs_alt_m, *s.yaw_deg);
+                       *s.rel_alt_m, *s.abs_alt_m, *s.CameraYawDeg());
   }
   std::ofstream(dir / "flight.log") << log;
   RunConfig base;
