@@ -247,6 +247,18 @@ Roles RolesOf(const std::string& name, const std::vector<std::string>& columns,
   return r;
 }
 
+// The UTC time (s since 1970) of a message's GPS week and milliseconds into it (columns r.week,
+// r.week_ms); nullopt without them or before the receiver has a time (week 0).
+template <typename Value>
+std::optional<double> UnixTimeOf(const Roles& r, const Value& value) {
+  if (r.week < 0 || r.week_ms < 0) return std::nullopt;
+  const std::optional<double> week = value(r.week), ms = value(r.week_ms);
+  if (!week || !ms || !(*week > 0.0) || !(*ms >= 0.0 && *ms < kGpsWeekS * 1000.0)) {
+    return std::nullopt;
+  }
+  return kGpsEpochUnixS + *week * kGpsWeekS + *ms / 1000.0 - kGpsLeapSeconds;
+}
+
 // Collects what the messages say, whichever form they came in, and builds the samples.
 class Collector {
  public:
@@ -387,13 +399,7 @@ class Collector {
     s.lat_deg = *lat;
     s.lon_deg = *lon;
     if (r.alt >= 0) s.abs_alt_m = value(r.alt);
-    if (r.week >= 0 && r.week_ms >= 0) {
-      const std::optional<double> week = value(r.week), ms = value(r.week_ms);
-      // Week 0 is a receiver that has no time yet.
-      if (week && ms && *week > 0.0 && *ms >= 0.0 && *ms < kGpsWeekS * 1000.0) {
-        s.unix_time_s = kGpsEpochUnixS + *week * kGpsWeekS + *ms / 1000.0 - kGpsLeapSeconds;
-      }
-    }
+    s.unix_time_s = UnixTimeOf(r, value);
     const std::string where = Where(place);
     try {
       ValidateSample(s, where);
@@ -468,12 +474,7 @@ class Collector {
     s.roll_deg = opt(r.roll);
     s.pitch_deg = opt(r.pitch);
     s.yaw_deg = opt(r.yaw);
-    if (r.week >= 0 && r.week_ms >= 0) {
-      const std::optional<double> week = value(r.week), ms = value(r.week_ms);
-      if (week && ms && *week > 0.0 && *ms >= 0.0 && *ms < kGpsWeekS * 1000.0) {
-        s.unix_time_s = kGpsEpochUnixS + *week * kGpsWeekS + *ms / 1000.0 - kGpsLeapSeconds;
-      }
-    }
+    s.unix_time_s = UnixTimeOf(r, value);
     const std::string where = Where(place);
     try {
       ValidateSample(s, where + ": " + name);
