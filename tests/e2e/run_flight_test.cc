@@ -28,8 +28,8 @@
 #include <thread>
 #include <vector>
 
-#include <Eigen/Core>
 #include <fmt/format.h>
+#include <Eigen/Core>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -364,9 +364,10 @@ TEST(Runner, PhotosTakeTheCameraTriggersOfAnArduPilotLog) {
     const auto us = [&](double dt) { return std::llround((kBootS + s.time_s + dt) * 1e6); };
     log += fmt::format("GPS, {}, 0, 3, 0, 0, 14, 0.8, {:.9f}, {:.9f}, {:.2f}, 5, 0, 0, 0, 1\n",
                        us(0.0), s.lat_deg + kNorthDeg, s.lon_deg, *s.abs_alt_m);
-    log += fmt::format("CAM, {}, 0, {}, 0, 0, {:.9f}, {:.9f}, {:.2f}, {:.2f}, {:.2f}, 0, 0, {:.2f}\n",
-                       us(0.2), k + 1, s.lat_deg + kNorthDeg, s.lon_deg, *s.abs_alt_m,
-                       *s.rel_alt_m, *s.abs_alt_m, *s.CameraYawDeg());
+    log +=
+        fmt::format("CAM, {}, 0, {}, 0, 0, {:.9f}, {:.9f}, {:.2f}, {:.2f}, {:.2f}, 0, 0, {:.2f}\n",
+                    us(0.2), k + 1, s.lat_deg + kNorthDeg, s.lon_deg, *s.abs_alt_m, *s.rel_alt_m,
+                    *s.abs_alt_m, *s.CameraYawDeg());
   }
   std::ofstream(dir / "flight.log") << log;
   RunConfig base;

@@ -162,8 +162,8 @@ std::optional<Telemetry> TelemetryOfTriggers(const std::vector<TelemetrySample>&
     const double photo_s = folder.TimeOf(k) - folder.TimeOf(0);
     // Two capture times cut to their resolution differ from the true interval by less than it.
     const double tolerance_s =
-        kMaxTriggerDriftS + std::max(photos[k].capture_time_resolution_s,
-                                     photos.front().capture_time_resolution_s);
+        kMaxTriggerDriftS +
+        std::max(photos[k].capture_time_resolution_s, photos.front().capture_time_resolution_s);
     if (timed && !(std::abs(s.time_s - photo_s) <= tolerance_s)) {
       warnings->push_back(fmt::format(
           "{}: photo '{}' was taken {:.3f} s after the first photo, its camera trigger ({}) "
@@ -185,8 +185,8 @@ RunTelemetry::RunTelemetry(Telemetry telemetry, bool by_frame_index, std::string
       origin_(std::move(origin)) {}
 
 RunTelemetry RunTelemetry::Load(const std::string& path, bool lenient,
-                                const ImageFolderSource* folder,
-                                std::vector<std::string>* warnings, bool by_time) {
+                                const ImageFolderSource* folder, std::vector<std::string>* warnings,
+                                bool by_time) {
   if (!path.empty()) {
     TelemetryReadOptions to;
     to.lenient = lenient;

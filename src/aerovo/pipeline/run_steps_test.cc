@@ -456,10 +456,9 @@ TEST(RunSteps, PhotosArePairedWithTheCameraTriggersOfTheLog) {
   const fs::path photos_dir = dir / "photos";
   fs::create_directories(photos_dir);
   for (int i = 0; i < 4; ++i) {
-    io_test::WriteJpegWithTags(photos_dir / fmt::format("IMG_{:04d}.JPG", i),
-                               io_test::TextureImage(64, 48, 3 + i),
-                               {{"Exif.Photo.DateTimeOriginal",
-                                 fmt::format("2024:06:01 10:00:{:02d}", 2 * i)}});
+    io_test::WriteJpegWithTags(
+        photos_dir / fmt::format("IMG_{:04d}.JPG", i), io_test::TextureImage(64, 48, 3 + i),
+        {{"Exif.Photo.DateTimeOriginal", fmt::format("2024:06:01 10:00:{:02d}", 2 * i)}});
   }
   const ImageFolderSource photos(photos_dir);
   // ArduPilot's text log (Mission Planner's .log): GPS at 1 Hz from 100 s since boot, and a CAM
@@ -512,7 +511,7 @@ TEST(RunSteps, PhotosArePairedWithTheCameraTriggersOfTheLog) {
   EXPECT_FALSE(t.by_frame_index());
   ASSERT_EQ(warnings.size(), 1u);
   EXPECT_THAT(warnings[0], ::testing::HasSubstr(more + ": the log's camera logged 5 photo(s), the "
-                                                "folder holds 4"));
+                                                       "folder holds 4"));
   EXPECT_THAT(warnings[0], ::testing::HasSubstr("--telemetry-offset-s"));
   EXPECT_THAT(warnings[0], ::testing::HasSubstr("105.300 s"));
 

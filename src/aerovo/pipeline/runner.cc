@@ -548,10 +548,9 @@ void RunInFolder(const run_steps::RunInputs& inputs, std::unique_ptr<FrameSource
   const bool no_telemetry = config.telemetry == kNoTelemetry;
   run_steps::RunTelemetry telemetry;
   try {
-    telemetry = run_steps::RunTelemetry::Load(no_telemetry ? std::string() : config.telemetry,
-                                              config.lenient_telemetry,
-                                              no_telemetry ? nullptr : folder, &summary.warnings,
-                                              config.telemetry_offset_s != 0.0);
+    telemetry = run_steps::RunTelemetry::Load(
+        no_telemetry ? std::string() : config.telemetry, config.lenient_telemetry,
+        no_telemetry ? nullptr : folder, &summary.warnings, config.telemetry_offset_s != 0.0);
   } catch (const InputError& e) {
     // A file found beside the video was not asked for: one that cannot be read is flagged and
     // the run goes on without it. A given file stays an error.

@@ -206,10 +206,10 @@ TelemetryReadResult ReadDataFlash(const std::filesystem::path& path,
 ///    any, else CAMERA_IMAGE_CAPTURED with capture_result != 0 (PX4), of the first cam_idx /
 ///    camera_id, a photo reported twice read once: lat, lon (degE7; 0, 0 -> has_fix false),
 ///    altitudes, attitude (CAMERA_FEEDBACK roll/pitch/yaw in degrees; CAMERA_IMAGE_CAPTURED's q,
-///    the camera's orientation, is not read), the photo's UTC time -> unix_time_s. time_s: CAMERA_IMAGE_CAPTURED
-///    time_boot_ms as the samples'; CAMERA_FEEDBACK time_usec (UTC) minus the SYSTEM_TIME
-///    relation of its boot, else the record's timestamp placed on the samples' clock (when the
-///    ground station received it: late by the link). origin "<source> at byte <offset>:
+///    the camera's orientation, is not read), the photo's UTC time -> unix_time_s. time_s:
+///    CAMERA_IMAGE_CAPTURED time_boot_ms as the samples'; CAMERA_FEEDBACK time_usec (UTC) minus the
+///    SYSTEM_TIME relation of its boot, else the record's timestamp placed on the samples' clock
+///    (when the ground station received it: late by the link). origin "<source> at byte <offset>:
 ///    CAMERA_FEEDBACK <img_idx>" / "CAMERA_IMAGE_CAPTURED <image_index>". A value out of range is
 ///    a malformed record (strict/lenient).
 /// An autopilot reboot (time_boot_ms going back by more than 2 s) is not an error: time_s goes on
@@ -244,8 +244,8 @@ TelemetryReadResult ReadTlog(const std::filesystem::path& path,
 ///  - camera_capture (instance 0) -> camera_triggers: one per message whose result is not 0
 ///    (failed; a format without `result` keeps all): time_s = timestamp / 1e6 (the samples'
 ///    clock), lat/lon (has_fix false when NaN or both 0), alt -> abs_alt_m, timestamp_utc ->
-///    unix_time_s (q, the gimbal's attitude on a gimbal, is not read); origin "<source> at byte <offset>:
-///    camera_capture <seq>". A value out of range is a malformed record (strict/lenient).
+///    unix_time_s (q, the gimbal's attitude on a gimbal, is not read); origin "<source> at byte
+///    <offset>: camera_capture <seq>". A value out of range is a malformed record (strict/lenient).
 /// Bytes that are not a message (a damaged log) are skipped up to the next message whose header
 /// and payload are consistent and which is followed by another message (an 'S' sync message
 /// among them), with a warning naming the byte offset and the count (whatever the mode); a cut
