@@ -401,6 +401,15 @@ TEST(Runner, PhotosTakeTheCameraTriggersOfAnArduPilotLog) {
   EXPECT_NEAR(by_cam.evaluation->sim2.ate_m.rmse, by_exif.evaluation->sim2.ate_m.rmse, 1e-3);
   EXPECT_NEAR(by_cam.evaluation->se2.ate_m.rmse, by_exif.evaluation->se2.ate_m.rmse, 1e-3);
 
+  // --telemetry-auto-offset keeps the pairing: no offset is applied to paired photos.
+  RunConfig auto_offset = b;
+  auto_offset.out = (dir / "auto").string();
+  auto_offset.telemetry_auto_offset = true;
+  const RunSummary by_cam_auto = RunFlight(auto_offset);
+  EXPECT_TRUE(by_cam_auto.telemetry_camera_triggers);
+  EXPECT_EQ(by_cam_auto.telemetry_offset_s, 0.0);
+  EXPECT_EQ(by_cam_auto.frames_with_gps, 10);
+
   // With the offset given, the photos find their fixes by time on the log's GPS track instead.
   RunConfig c = b;
   c.out = (dir / "offset").string();

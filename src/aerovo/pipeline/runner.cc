@@ -321,7 +321,10 @@ RunSummary RunFlight(const RunConfig& config, const RunCallbacks& cb,
   RunConfig first = config;
   first.telemetry_auto_offset = false;
   RunSummary s = RunFlight(first, OpenFrameSource(config.input, so), cb, stop);
-  if (s.interrupted || !s.telemetry_offset_estimate_valid || !s.telemetry_offset_clear ||
+  // Photos paired with the log's camera triggers have no offset to apply: an offset would match
+  // them by time on the log's own clock instead (run_steps::RunTelemetry::Load).
+  if (s.interrupted || s.telemetry_camera_triggers || !s.telemetry_offset_estimate_valid ||
+      !s.telemetry_offset_clear ||
       std::abs(s.telemetry_offset_estimate_s - config.telemetry_offset_s) <= 0.2) {
     if (s.telemetry_offset_estimate_valid && !s.telemetry_offset_clear) {
       s.warnings.push_back(fmt::format(
