@@ -135,7 +135,8 @@ std::optional<Telemetry> TelemetryOfTriggers(const std::vector<TelemetrySample>&
                                              const std::string& path,
                                              std::vector<std::string>* warnings) {
   // The camera's shutter lag after the trigger (0.1-0.5 s) is common to all photos and cancels;
-  // the photos' clock and the autopilot's drift by a few milliseconds over an hour.
+  // a camera's quartz clock (tens of parts per million) drifts from the autopilot's by about
+  // 0.1 s over an hour.
   constexpr double kMaxTriggerDriftS = 0.5;
   const std::vector<ImageMetadata>& photos = folder.metadata();
   const std::string by_time = fmt::format(
