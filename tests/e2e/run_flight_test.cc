@@ -332,7 +332,7 @@ TEST(Runner, TurinP4mWithXmpAltitudeAndYaw) {
 
 // A survey camera the autopilot triggers: the photos take the fixes of the ArduPilot log's CAM
 // messages, one per photo, not their own EXIF (docs/inputs.md "Photos and the autopilot's camera
-// triggers"). The first 10 photos of turin-p4m, and a log (Mission Planner's text form) whose
+// triggers"). The first 6 photos of turin-p4m, and a log (Mission Planner's text form) whose
 // CAM messages carry the photos' own EXIF fixes moved 100 m north (and as the aircraft's yaw the
 // camera's, the gimbal's in the XMP, as a camera fixed to the airframe has): the same odometry,
 // every GPS fix 100 m north, the same errors after alignment.
@@ -346,11 +346,12 @@ TEST(Runner, PhotosTakeTheCameraTriggersOfAnArduPilotLog) {
     if (e.path().extension() == ".JPG") all.push_back(e.path());
   }
   std::sort(all.begin(), all.end());
-  ASSERT_GE(all.size(), 10u);
-  all.resize(10);
+  constexpr std::size_t kPhotos = 6;
+  ASSERT_GE(all.size(), kPhotos);
+  all.resize(kPhotos);
   for (const fs::path& p : all) fs::create_symlink(p, photos / p.filename());
   const Telemetry exif = TelemetryFromImages(ImageFolderSource(photos).metadata()).telemetry;
-  ASSERT_EQ(exif.size(), 10u);
+  ASSERT_EQ(exif.size(), kPhotos);
   constexpr double kNorthDeg = 100.0 / 111132.0;  // 100 m of latitude at 45 deg, about
   constexpr double kBootS = 300.0;                // the log's time of the first photo
   std::string log =
@@ -379,16 +380,18 @@ TEST(Runner, PhotosTakeTheCameraTriggersOfAnArduPilotLog) {
   RunConfig b = base;
   b.out = (dir / "cam").string();
   b.telemetry = (dir / "flight.log").string();
+  b.telemetry_auto_offset = true;  // keeps the pairing: no offset applies to paired photos
   const RunSummary by_cam = RunFlight(b);
   EXPECT_FALSE(by_exif.telemetry_camera_triggers);
   EXPECT_TRUE(by_cam.telemetry_camera_triggers);
+  EXPECT_EQ(by_cam.telemetry_offset_s, 0.0);
   EXPECT_TRUE(e2e::ReadJson(dir / "cam" / "summary.json")["telemetry_camera_triggers"].get<bool>());
-  EXPECT_EQ(by_cam.frames_with_gps, 10);
+  EXPECT_EQ(by_cam.frames_with_gps, static_cast<int>(kPhotos));
   const auto rows_exif = e2e::ReadFramesCsv(dir / "exif");
   const auto rows_cam = e2e::ReadFramesCsv(dir / "cam");
-  ASSERT_EQ(rows_exif.size(), 10u);
-  ASSERT_EQ(rows_cam.size(), 10u);
-  for (std::size_t k = 0; k < 10; ++k) {
+  ASSERT_EQ(rows_exif.size(), kPhotos);
+  ASSERT_EQ(rows_cam.size(), kPhotos);
+  for (std::size_t k = 0; k < kPhotos; ++k) {
     SCOPED_TRACE(k);
     EXPECT_NEAR(std::stod(rows_cam[k].at("gps_lat_deg")),
                 std::stod(rows_exif[k].at("gps_lat_deg")) + kNorthDeg, 2e-9);
@@ -401,23 +404,15 @@ TEST(Runner, PhotosTakeTheCameraTriggersOfAnArduPilotLog) {
   EXPECT_NEAR(by_cam.evaluation->sim2.ate_m.rmse, by_exif.evaluation->sim2.ate_m.rmse, 1e-3);
   EXPECT_NEAR(by_cam.evaluation->se2.ate_m.rmse, by_exif.evaluation->se2.ate_m.rmse, 1e-3);
 
-  // --telemetry-auto-offset keeps the pairing: no offset is applied to paired photos.
-  RunConfig auto_offset = b;
-  auto_offset.out = (dir / "auto").string();
-  auto_offset.telemetry_auto_offset = true;
-  const RunSummary by_cam_auto = RunFlight(auto_offset);
-  EXPECT_TRUE(by_cam_auto.telemetry_camera_triggers);
-  EXPECT_EQ(by_cam_auto.telemetry_offset_s, 0.0);
-  EXPECT_EQ(by_cam_auto.frames_with_gps, 10);
-
   // With the offset given, the photos find their fixes by time on the log's GPS track instead.
   RunConfig c = b;
   c.out = (dir / "offset").string();
   c.telemetry_offset_s = kBootS;
+  c.telemetry_auto_offset = false;
   c.altitude_m = 44.5;  // the log's GPS messages give no height above home (no POS)
   const RunSummary by_time = RunFlight(c);
   EXPECT_FALSE(by_time.telemetry_camera_triggers);
-  EXPECT_EQ(by_time.frames_with_gps, 10);
+  EXPECT_EQ(by_time.frames_with_gps, static_cast<int>(kPhotos));
   fs::remove_all(dir);
 }
 
