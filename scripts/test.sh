@@ -107,7 +107,8 @@ HAVE_CLANG=0
 command -v clang++ >/dev/null && HAVE_CLANG=1
 sanitizers_build() {
   # -O1 -g1 (line tables): sanitizer builds compile ~2x slower than Release; -O1 keeps the tests
-  # fast enough and the reports still name file:line. clang++ compiles the instrumented code in
+  # fast enough and the reports still name file:line (the modules that compute per pixel or point
+  # are at -O2: CMakeLists.txt, AEROVO_SANITIZE_O2_MODULES). clang++ compiles the instrumented code in
   # less CPU than g++, whose UBSan instrumentation about doubles a TU's compile time
   # (BENCHMARKS.md, CI time). AEROVO_TEST_WHOLE_EXECUTABLES: each module's unit tests run as one
   # process (under ASan a process takes ~0.5 s to start, more than most unit tests).
