@@ -4,7 +4,6 @@
 #pragma once
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -12,8 +11,6 @@
 #include <istream>
 #include <optional>
 #include <vector>
-
-#include "aerovo/core/angles.h"
 
 namespace aerovo::io_detail {
 
@@ -94,23 +91,6 @@ class ByteWindow {
   long long offset_ = 0;
   bool eof_ = false;
 };
-
-/// Roll, pitch, yaw in degrees of the rotation quaternion q = (w, x, y, z) (Hamilton convention,
-/// from the FRD body frame to the NED earth frame: PX4-Autopilot msg/VehicleAttitude.msg) with
-/// norm `norm` > 0 (q is normalised here): the "3-2-1 intrinsic Tait-Bryan rotation sequence"
-/// (yaw about down, pitch about the new right axis, roll about the new forward axis) as PX4
-/// itself turns q into Euler angles (PX4-Autopilot src/lib/matrix/matrix/Euler.hpp,
-/// Euler(const Dcm&)). Yaw 0 = north, 90 = east, in [0, 360); pitch up and roll right positive.
-/// Used for ULog vehicle_attitude.
-inline std::array<double, 3> RollPitchYawDeg(const double q[4], double norm) {
-  const double w = q[0] / norm, x = q[1] / norm, y = q[2] / norm, z = q[3] / norm;
-  const double roll = std::atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y));
-  const double pitch = std::asin(std::clamp(2.0 * (w * y - x * z), -1.0, 1.0));
-  double yaw = std::atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)) * kRadToDeg;
-  if (yaw < 0.0) yaw += 360.0;
-  if (yaw >= 360.0) yaw -= 360.0;
-  return {roll * kRadToDeg, pitch * kRadToDeg, yaw};
-}
 
 /// A value of a time series (attitude: roll, pitch, yaw in degrees; a height in metres in v[0]).
 struct SeriesPoint {

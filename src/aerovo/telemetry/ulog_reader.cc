@@ -74,6 +74,22 @@ namespace aerovo {
 namespace ulog_reader {
 namespace {
 
+// Roll, pitch, yaw in degrees of the rotation quaternion q = (w, x, y, z) (Hamilton convention,
+// from the FRD body frame to the NED earth frame: PX4-Autopilot msg/VehicleAttitude.msg) with
+// norm `norm` > 0 (q is normalised here): the "3-2-1 intrinsic Tait-Bryan rotation sequence"
+// (yaw about down, pitch about the new right axis, roll about the new forward axis) as PX4
+// itself turns q into Euler angles (PX4-Autopilot src/lib/matrix/matrix/Euler.hpp,
+// Euler(const Dcm&)). Yaw 0 = north, 90 = east, in [0, 360); pitch up and roll right positive.
+std::array<double, 3> RollPitchYawDeg(const double q[4], double norm) {
+  const double w = q[0] / norm, x = q[1] / norm, y = q[2] / norm, z = q[3] / norm;
+  const double roll = std::atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y));
+  const double pitch = std::asin(std::clamp(2.0 * (w * y - x * z), -1.0, 1.0));
+  double yaw = std::atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)) * kRadToDeg;
+  if (yaw < 0.0) yaw += 360.0;
+  if (yaw >= 360.0) yaw -= 360.0;
+  return {roll * kRadToDeg, pitch * kRadToDeg, yaw};
+}
+
 using io_detail::ByteWindow;
 using io_detail::LoadLe;
 using io_detail::RecordErrors;
@@ -672,7 +688,7 @@ class Collector {
   }
 
   // vehicle_attitude q (w, x, y, z; body FRD to NED) -> roll, pitch, yaw in degrees
-  // (io_detail::RollPitchYawDeg: 3-2-1 Tait-Bryan angles as PX4 computes them, yaw in [0, 360)).
+  // (RollPitchYawDeg: 3-2-1 Tait-Bryan angles as PX4 computes them, yaw in [0, 360)).
   template <typename Value>
   void Attitude(const Roles& r, const Value& value, double t, long long offset) {
     if (!att_.empty() && std::abs(t - att_.back().time_s) < kMinSeriesStepS) return;
@@ -691,7 +707,7 @@ class Collector {
       Malformed(offset, fmt::format("vehicle_attitude q has norm {:.3f}, not a rotation", norm));
       return;
     }
-    const std::array<double, 3> a = io_detail::RollPitchYawDeg(q, norm);
+    const std::array<double, 3> a = RollPitchYawDeg(q, norm);
     att_.push_back(SeriesPoint{t, {a[0], a[1], a[2]}});
   }
 
