@@ -5,11 +5,11 @@
 #include <string_view>
 
 #include <fmt/format.h>
-#include <yaml.h>
 #include <pugixml.hpp>
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/text.h"
+#include "aerovo/yaml/yaml_events.h"
 
 namespace aerovo::camera_files_detail {
 namespace {
@@ -31,104 +31,56 @@ nlohmann::json Scalar(std::string_view text) {
 
 class YamlDocument {
  public:
-  YamlDocument(const std::string& text, const std::string& path) : path_(path) {
-    // OpenCV writes its own "%YAML:1.0" first line; libyaml knows "%YAML 1.1" only. The line is
-    // emptied (line numbers stay those of the file).
-    // (after a UTF-8 byte order mark, dropped too; "%YAML 1.0" and "%YAML 1.2" alike).
-    text_ = text;
-    if (text_.rfind("\xEF\xBB\xBF", 0) == 0) text_.erase(0, 3);
-    if (text_.rfind("%YAML", 0) == 0) {
-      const std::size_t end = text_.find('\n');
-      text_.replace(0, end == std::string::npos ? text_.size() : end, "");
-    }
-    if (!yaml_parser_initialize(&parser_)) {
-      throw InputError(fmt::format("calibration '{}': cannot initialise libyaml", path_));
-    }
-    yaml_parser_set_input_string(&parser_, reinterpret_cast<const unsigned char*>(text_.data()),
-                                 text_.size());
-  }
-  ~YamlDocument() { yaml_parser_delete(&parser_); }
-  YamlDocument(const YamlDocument&) = delete;
-  YamlDocument& operator=(const YamlDocument&) = delete;
+  YamlDocument(const std::string& text, const std::string& path)
+      : path_(path), text_(Prepared(text)), events_(text_, fmt::format("calibration '{}'", path)) {}
 
   nlohmann::json Read() {
-    nlohmann::json root;
-    bool have_root = false;
-    for (;;) {
-      Event ev = Next();
-      const yaml_event_type_t type = ev.e.type;
-      if (type == YAML_STREAM_END_EVENT) break;
-      if (type == YAML_STREAM_START_EVENT || type == YAML_DOCUMENT_START_EVENT ||
-          type == YAML_DOCUMENT_END_EVENT) {
-        continue;
-      }
-      if (have_root) throw Error(ev, "a second YAML document (a calibration file holds one)");
-      if (type != YAML_MAPPING_START_EVENT) {
-        throw Error(ev,
-                    "not a map of keys at the top (an OpenCV calibration file holds "
-                    "image_width, image_height, camera_matrix ...)");
-      }
-      root = Node(ev, 0);
-      have_root = true;
-    }
-    if (!have_root) {
-      throw InputError(fmt::format("calibration '{}': an empty YAML document", path_));
-    }
+    std::optional<YamlEvent> top = events_.TopMapping(
+        "not a map of keys at the top (an OpenCV calibration file holds image_width, "
+        "image_height, camera_matrix ...)");
+    if (!top) throw InputError(fmt::format("calibration '{}': an empty YAML document", path_));
+    nlohmann::json root = Node(*top, 0);
+    events_.ExpectEnd("a second YAML document (a calibration file holds one)");
     return root;
   }
 
  private:
-  struct Event {  // owns a libyaml event
-    yaml_event_t e{};
-    Event() = default;
-    Event(Event&& o) noexcept : e(o.e) { o.e = yaml_event_t{}; }
-    ~Event() { yaml_event_delete(&e); }
-    Event(const Event&) = delete;
-    Event& operator=(const Event&) = delete;
-    Event& operator=(Event&&) = delete;
-  };
-
-  Event Next() {
-    Event ev;
-    if (!yaml_parser_parse(&parser_, &ev.e)) {
-      throw InputError(fmt::format("calibration '{}': line {}: {}", path_,
-                                   parser_.problem_mark.line + 1,
-                                   parser_.problem ? parser_.problem : "YAML syntax error"));
+  // OpenCV writes its own "%YAML:1.0" first line; libyaml knows "%YAML 1.1" only. The line is
+  // emptied (line numbers stay those of the file).
+  // (after a UTF-8 byte order mark, dropped too; "%YAML 1.0" and "%YAML 1.2" alike).
+  static std::string Prepared(std::string text) {
+    if (text.rfind("\xEF\xBB\xBF", 0) == 0) text.erase(0, 3);
+    if (text.rfind("%YAML", 0) == 0) {
+      const std::size_t end = text.find('\n');
+      text.replace(0, end == std::string::npos ? text.size() : end, "");
     }
-    return ev;
+    return text;
   }
 
-  InputError Error(const Event& ev, const std::string& what) const {
-    return InputError(
-        fmt::format("calibration '{}': line {}: {}", path_, ev.e.start_mark.line + 1, what));
-  }
-
-  void Count(const Event& ev) {
+  void Count(const YamlEvent& ev) {
     if (++values_ > kMaxValues) {
-      throw Error(ev,
-                  fmt::format("more than {} values (a calibration holds a few dozen)", kMaxValues));
+      throw events_.Error(
+          ev, fmt::format("more than {} values (a calibration holds a few dozen)", kMaxValues));
     }
   }
 
-  nlohmann::json Node(Event& ev, int depth) {
+  nlohmann::json Node(const YamlEvent& ev, int depth) {
     Count(ev);
     if ((ev.e.type == YAML_SEQUENCE_START_EVENT || ev.e.type == YAML_MAPPING_START_EVENT) &&
         depth + 1 > kMaxDepth) {
-      throw Error(ev, fmt::format("nested deeper than {} levels", kMaxDepth));
+      throw events_.Error(ev, fmt::format("nested deeper than {} levels", kMaxDepth));
     }
     switch (ev.e.type) {
       case YAML_SCALAR_EVENT: {
-        const std::string_view v(reinterpret_cast<const char*>(ev.e.data.scalar.value),
-                                 ev.e.data.scalar.length);
-        if (ev.e.data.scalar.style != YAML_PLAIN_SCALAR_STYLE) return std::string(v);
-        return Scalar(v);
+        if (!ev.plain()) return std::string(ev.scalar());
+        return Scalar(ev.scalar());
       }
       case YAML_ALIAS_EVENT:
-        throw Error(ev, "an alias (*name): not read in a calibration file");
+        throw events_.Error(ev, "an alias (*name): not read in a calibration file");
       case YAML_SEQUENCE_START_EVENT: {
         nlohmann::json arr = nlohmann::json::array();
         for (;;) {
-          Event item = Next();
+          const YamlEvent item = events_.Next();
           if (item.e.type == YAML_SEQUENCE_END_EVENT) break;
           arr.push_back(Node(item, depth + 1));
         }
@@ -137,26 +89,25 @@ class YamlDocument {
       case YAML_MAPPING_START_EVENT: {
         nlohmann::json obj = nlohmann::json::object();
         for (;;) {
-          Event k = Next();
+          const YamlEvent k = events_.Next();
           if (k.e.type == YAML_MAPPING_END_EVENT) break;
-          if (k.e.type != YAML_SCALAR_EVENT) throw Error(k, "a key must be a plain scalar");
-          const std::string key(reinterpret_cast<const char*>(k.e.data.scalar.value),
-                                k.e.data.scalar.length);
+          if (k.e.type != YAML_SCALAR_EVENT) throw events_.Error(k, "a key must be a plain scalar");
+          const std::string key(k.scalar());
           if (obj.contains(key))
-            throw Error(k, fmt::format("key '{}' is given twice", Printable(key)));
-          Event v = Next();
+            throw events_.Error(k, fmt::format("key '{}' is given twice", Printable(key)));
+          const YamlEvent v = events_.Next();
           obj[key] = Node(v, depth + 1);
         }
         return obj;
       }
       default:
-        throw Error(ev, "unexpected YAML event");
+        throw events_.Error(ev, "unexpected YAML event");
     }
   }
 
   std::string path_;
-  std::string text_;
-  yaml_parser_t parser_{};
+  std::string text_;  // the file's text as libyaml reads it (Prepared)
+  YamlEvents events_;
   std::size_t values_ = 0;
 };
 

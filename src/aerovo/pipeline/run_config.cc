@@ -16,12 +16,12 @@
 #include <utility>
 
 #include <fmt/format.h>
-#include <yaml.h>
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/options_json.h"
 #include "aerovo/core/text.h"
 #include "aerovo/mavlink/transport.h"
+#include "aerovo/yaml/yaml_events.h"
 
 namespace aerovo {
 
@@ -238,38 +238,17 @@ class YamlReader {
   /// hundred.
   static constexpr std::size_t kMaxValues = 100000;
 
-  YamlReader(const std::string& text, std::string where) : where_(std::move(where)) {
-    if (!yaml_parser_initialize(&parser_)) {
-      throw InputError(where_ + ": cannot initialise libyaml");
-    }
-    yaml_parser_set_input_string(&parser_, reinterpret_cast<const unsigned char*>(text.data()),
-                                 text.size());
-  }
-  ~YamlReader() { yaml_parser_delete(&parser_); }
-  YamlReader(const YamlReader&) = delete;
-  YamlReader& operator=(const YamlReader&) = delete;
+  YamlReader(const std::string& text, std::string where) : events_(text, std::move(where)) {}
 
   // The flat configuration: a mapping of key: scalar. A top-level key whose value is an
   // anchored mapping only used by merge keys is a template (e.g. `.base: &base {...}`) and is
   // not part of the configuration; any other nested mapping or list is an error.
   nlohmann::json ReadFlat() {
-    nlohmann::json root;
-    bool have_root = false;
-    for (;;) {
-      Event ev = Next();
-      if (ev.e.type == YAML_STREAM_END_EVENT) break;
-      if (ev.e.type == YAML_STREAM_START_EVENT || ev.e.type == YAML_DOCUMENT_START_EVENT ||
-          ev.e.type == YAML_DOCUMENT_END_EVENT) {
-        continue;
-      }
-      if (have_root) throw Error(ev, "only one YAML document is allowed");
-      if (ev.e.type != YAML_MAPPING_START_EVENT) {
-        throw Error(ev, "the configuration must be a mapping of key: value");
-      }
-      root = Node(ev, /*top=*/true);
-      have_root = true;
-    }
-    if (!have_root) return nlohmann::json::object();
+    std::optional<YamlEvent> top =
+        events_.TopMapping("the configuration must be a mapping of key: value");
+    if (!top) return nlohmann::json::object();
+    const nlohmann::json root = Node(*top, /*top=*/true);
+    events_.ExpectEnd("only one YAML document is allowed");
     nlohmann::json out = nlohmann::json::object();
     for (auto it = root.begin(); it != root.end(); ++it) {
       const auto line = top_lines_.find(it.key());
@@ -277,19 +256,19 @@ class YamlReader {
       if (it->is_object()) {
         const auto anchor = top_anchors_.find(it.key());
         if (anchor != top_anchors_.end() && merged_anchors_.count(anchor->second) > 0) continue;
-        throw InputError(fmt::format(
-            "{}: line {}: '{}': nested mappings are not allowed (flat key: value only; a mapping "
-            "with an anchor used by a merge key `<<: *name` is allowed as a template)",
-            where_, at, it.key()));
+        throw events_.Error(
+            at, fmt::format("'{}': nested mappings are not allowed (flat key: value only; a "
+                            "mapping with an anchor used by a merge key `<<: *name` is allowed "
+                            "as a template)",
+                            it.key()));
       }
       // A list of scalars is a list option's value (`map: [a.tif, b.tif]`; the schema rejects
       // it for any other key, naming the key); nothing deeper.
       const auto nested = [](const nlohmann::json& e) { return e.is_array() || e.is_object(); };
       if (it->is_array() && std::any_of(it->begin(), it->end(), nested)) {
-        throw InputError(
-            fmt::format("{}: line {}: '{}': lists of lists or mappings are not allowed (flat "
-                        "key: value, or a list of values)",
-                        where_, at, it.key()));
+        throw events_.Error(at, fmt::format("'{}': lists of lists or mappings are not allowed "
+                                            "(flat key: value, or a list of values)",
+                                            it.key()));
       }
       out[it.key()] = *it;
     }
@@ -297,29 +276,6 @@ class YamlReader {
   }
 
  private:
-  struct Event {  // owns a libyaml event
-    yaml_event_t e{};
-    Event() = default;
-    Event(Event&& o) noexcept : e(o.e) { o.e = yaml_event_t{}; }
-    ~Event() { yaml_event_delete(&e); }
-    Event(const Event&) = delete;
-    Event& operator=(const Event&) = delete;
-    Event& operator=(Event&&) = delete;
-  };
-
-  Event Next() {
-    Event ev;
-    if (!yaml_parser_parse(&parser_, &ev.e)) {
-      throw InputError(fmt::format("{}: line {}: {}", where_, parser_.problem_mark.line + 1,
-                                   parser_.problem ? parser_.problem : "YAML syntax error"));
-    }
-    return ev;
-  }
-
-  InputError Error(const Event& ev, const std::string& what) const {
-    return InputError(fmt::format("{}: line {}: {}", where_, ev.e.start_mark.line + 1, what));
-  }
-
   static std::string Str(const yaml_char_t* s) {
     return s != nullptr ? std::string(reinterpret_cast<const char*>(s)) : std::string();
   }
@@ -329,19 +285,18 @@ class YamlReader {
   }
 
   // The mapping starting at `ev` (its keys in order; merge keys << applied after them).
-  nlohmann::json Mapping(Event& ev, bool top) {
+  nlohmann::json Mapping(const YamlEvent& ev, bool top) {
     const std::string anchor = Str(ev.e.data.mapping_start.anchor);
     nlohmann::json obj = nlohmann::json::object();
     std::vector<nlohmann::json> merges;
     for (;;) {
-      Event k = Next();
+      const YamlEvent k = events_.Next();
       if (k.e.type == YAML_MAPPING_END_EVENT) break;
-      if (k.e.type != YAML_SCALAR_EVENT) throw Error(k, "a key must be a plain scalar");
-      const std::string key(reinterpret_cast<const char*>(k.e.data.scalar.value),
-                            k.e.data.scalar.length);
-      const bool is_merge = key == "<<" && k.e.data.scalar.style == YAML_PLAIN_SCALAR_STYLE;
-      const int line = static_cast<int>(k.e.start_mark.line) + 1;
-      Event v = Next();
+      if (k.e.type != YAML_SCALAR_EVENT) throw events_.Error(k, "a key must be a plain scalar");
+      const std::string key(k.scalar());
+      const bool is_merge = key == "<<" && k.plain();
+      const int line = k.line();
+      const YamlEvent v = events_.Next();
       const bool anchored_mapping =
           v.e.type == YAML_MAPPING_START_EVENT && v.e.data.mapping_start.anchor != nullptr;
       const std::string value_anchor =
@@ -350,8 +305,7 @@ class YamlReader {
       if (is_merge) {
         const auto check = [&](const nlohmann::json& m) {
           if (!m.is_object()) {
-            throw InputError(fmt::format(
-                "{}: line {}: a merge key << takes a mapping or a list of mappings", where_, line));
+            throw events_.Error(line, "a merge key << takes a mapping or a list of mappings");
           }
         };
         if (value.is_array()) {
@@ -363,7 +317,7 @@ class YamlReader {
         continue;
       }
       if (obj.contains(key)) {
-        throw InputError(fmt::format("{}: line {}: key '{}' is given twice", where_, line, key));
+        throw events_.Error(line, fmt::format("key '{}' is given twice", key));
       }
       obj[key] = std::move(value);
       if (top) {
@@ -382,20 +336,19 @@ class YamlReader {
   }
 
   // The value starting at `ev` (a scalar, an alias, a mapping or a sequence start).
-  nlohmann::json Node(Event& ev, bool top = false, bool merge_value = false) {
+  nlohmann::json Node(const YamlEvent& ev, bool top = false, bool merge_value = false) {
     switch (ev.e.type) {
       case YAML_SCALAR_EVENT: {
         Count(ev, 1);
-        const std::string v(reinterpret_cast<const char*>(ev.e.data.scalar.value),
-                            ev.e.data.scalar.length);
-        nlohmann::json j = YamlScalar(v, ev.e.data.scalar.style != YAML_PLAIN_SCALAR_STYLE);
+        nlohmann::json j = YamlScalar(std::string(ev.scalar()), !ev.plain());
         Anchor(ev.e.data.scalar.anchor, j);
         return j;
       }
       case YAML_ALIAS_EVENT: {
         const std::string name = Str(ev.e.data.alias.anchor);
         const auto it = anchors_.find(name);
-        if (it == anchors_.end()) throw Error(ev, "alias *" + name + " names no anchor before it");
+        if (it == anchors_.end())
+          throw events_.Error(ev, "alias *" + name + " names no anchor before it");
         if (merge_value) merged_anchors_.insert(name);
         Count(ev, ValuesIn(it->second));
         return it->second;
@@ -406,7 +359,7 @@ class YamlReader {
         const std::string anchor = Str(anchor_ptr);
         nlohmann::json arr = nlohmann::json::array();
         for (;;) {
-          Event item = Next();
+          const YamlEvent item = events_.Next();
           if (item.e.type == YAML_SEQUENCE_END_EVENT) break;
           arr.push_back(Node(item, false, merge_value));
         }
@@ -418,18 +371,19 @@ class YamlReader {
         return Mapping(ev, top);
       }
       default:
-        throw Error(ev, "unexpected YAML event");
+        throw events_.Error(ev, "unexpected YAML event");
     }
   }
 
   // One level of nesting (a mapping or a sequence) for as long as it lives; counts as a value.
   class Nesting {
    public:
-    Nesting(YamlReader* reader, const Event& ev) : reader_(reader) {
+    Nesting(YamlReader* reader, const YamlEvent& ev) : reader_(reader) {
       if (++reader_->depth_ > kMaxDepth) {
-        throw reader_->Error(ev, fmt::format("nested deeper than {} levels (a configuration is "
-                                             "flat: key: value, or a list of values)",
-                                             kMaxDepth));
+        throw reader_->events_.Error(ev,
+                                     fmt::format("nested deeper than {} levels (a configuration is "
+                                                 "flat: key: value, or a list of values)",
+                                                 kMaxDepth));
       }
       reader_->Count(ev, 1);
     }
@@ -450,18 +404,18 @@ class YamlReader {
     return n;
   }
 
-  void Count(const Event& ev, std::size_t n) {
+  void Count(const YamlEvent& ev, std::size_t n) {
     values_ += n;
     if (values_ > kMaxValues) {
-      throw Error(ev, fmt::format("the document holds more than {} values with its aliases "
-                                  "expanded (aliases of aliases?); a configuration holds a few "
-                                  "hundred",
-                                  kMaxValues));
+      throw events_.Error(ev,
+                          fmt::format("the document holds more than {} values with its aliases "
+                                      "expanded (aliases of aliases?); a configuration holds a few "
+                                      "hundred",
+                                      kMaxValues));
     }
   }
 
-  yaml_parser_t parser_{};
-  std::string where_;
+  YamlEvents events_;
   int depth_ = 0;
   std::size_t values_ = 0;
   std::map<std::string, nlohmann::json> anchors_;
