@@ -32,13 +32,13 @@ nlohmann::json Scalar(std::string_view text) {
 class YamlDocument {
  public:
   YamlDocument(const std::string& text, const std::string& path)
-      : path_(path), text_(Prepared(text)), events_(text_, fmt::format("calibration '{}'", path)) {}
+      : text_(Prepared(text)), events_(text_, fmt::format("calibration '{}'", path)) {}
 
   nlohmann::json Read() {
     std::optional<YamlEvent> top = events_.TopMapping(
         "not a map of keys at the top (an OpenCV calibration file holds image_width, "
         "image_height, camera_matrix ...)");
-    if (!top) throw InputError(fmt::format("calibration '{}': an empty YAML document", path_));
+    if (!top) throw InputError(events_.where() + ": an empty YAML document");
     nlohmann::json root = Node(*top, 0);
     events_.ExpectEnd("a second YAML document (a calibration file holds one)");
     return root;
@@ -105,7 +105,6 @@ class YamlDocument {
     }
   }
 
-  std::string path_;
   std::string text_;  // the file's text as libyaml reads it (Prepared)
   YamlEvents events_;
   std::size_t values_ = 0;

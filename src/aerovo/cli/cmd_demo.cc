@@ -17,6 +17,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/features/surf.h"
+#include "aerovo/imageio/image_io.h"
 #include "aerovo/outputs/run_folder.h"
 #include "aerovo/pipeline/demo.h"
 #include "aerovo/sim/terrain.h"
@@ -88,7 +89,7 @@ void RunSurfDemo(DemoArgs args) {
                  k.laplacian > 0 ? cv::Scalar(0, 255, 255) : cv::Scalar(255, 0, 255), 1,
                  cv::LINE_AA);
     }
-    if (!cv::imwrite(args.draw, canvas)) {
+    if (!imageio::Write(args.draw, canvas)) {
       throw InputError(fmt::format("cannot write image '{}'", args.draw));
     }
     fmt::print("  drawing      {}\n", args.draw);

@@ -18,6 +18,7 @@
 #include "aerovo/eval/oxford_dataset.h"
 #include "aerovo/features/surf.h"
 #include "aerovo/frames/image_file.h"
+#include "aerovo/imageio/image_io.h"
 
 namespace aerovo::cli {
 namespace {
@@ -76,7 +77,7 @@ void RunDetect(const DetectArgs& a) {
     cv::Mat canvas;
     cv::drawKeypoints(gray, kps, canvas, cv::Scalar(0, 255, 0),
                       cv::DrawMatchesFlags::DRAW_RICH_KEYPOINTS);
-    if (!cv::imwrite(a.draw, canvas)) throw InputError(a.draw + ": cannot write image");
+    if (!imageio::Write(a.draw, canvas)) throw InputError(a.draw + ": cannot write image");
     std::cout << "drawn: " << a.draw << "\n";
   }
   if (!a.json.empty()) {

@@ -8,6 +8,7 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/text.h"
+#include "aerovo/imageio/image_io.h"
 
 namespace aerovo {
 namespace fs = std::filesystem;
@@ -58,7 +59,7 @@ fs::path FindImage(const fs::path& dir, int n) {
 }
 
 cv::Mat ReadGray(const fs::path& file) {
-  cv::Mat img = cv::imread(file.string(), cv::IMREAD_GRAYSCALE);
+  cv::Mat img = imageio::Read(file.string(), cv::IMREAD_GRAYSCALE);
   if (img.empty()) throw InputError(file.string() + ": cannot decode image");
   return img;
 }

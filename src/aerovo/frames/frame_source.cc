@@ -7,12 +7,14 @@
 #include <iostream>
 
 #include <fmt/format.h>
-#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgcodecs.hpp>  // cv::IMREAD_* (the calls: imageio/image_io.h)
 #include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>  // cv::CAP_*
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/frames/image_file.h"
+#include "aerovo/imageio/image_io.h"
 #include "aerovo/telemetry/parse_util.h"
 
 namespace aerovo {
@@ -169,7 +171,7 @@ struct OpenCvVideoInfo {
 // 4.6 rotates by default (ORIENTATION_AUTO), which swaps width and height (for 4:3, a focal
 // length from the field of view 25 % short: the true one is 33 % longer) and turns the image
 // axes 90 degrees against the telemetry's yaw. Throws InputError when FFmpeg cannot read it.
-OpenCvVideoInfo OpenWithOpenCv(cv::VideoCapture& capture, const std::string& path) {
+OpenCvVideoInfo OpenWithOpenCv(imageio::VideoCapture& capture, const std::string& path) {
   if (!capture.open(path, cv::CAP_FFMPEG)) {
     throw VideoOpenError(
         path,
@@ -300,8 +302,7 @@ bool VideoFileSource::GrabOne() { return decoder_ ? decoder_->Grab() : capture_.
 
 double VideoFileSource::GrabbedTimestampMs() const {
   if (decoder_) return decoder_->timestamp_ms();
-  // cv::VideoCapture::get is not const.
-  return const_cast<cv::VideoCapture&>(capture_).get(cv::CAP_PROP_POS_MSEC);
+  return capture_.get(cv::CAP_PROP_POS_MSEC);
 }
 
 bool VideoFileSource::RetrieveGrabbed() {
@@ -742,7 +743,7 @@ void ImageFolderSource::Read(std::size_t i, Frame& frame) {
   }
   // Pixel geometry as stored: a nadir camera's EXIF orientation must not rotate the frames.
   const cv::Mat bgr =
-      cv::imread(paths_[i].string(), cv::IMREAD_COLOR | cv::IMREAD_IGNORE_ORIENTATION);
+      imageio::Read(paths_[i].string(), cv::IMREAD_COLOR | cv::IMREAD_IGNORE_ORIENTATION);
   if (bgr.empty()) {
     throw InputError(fmt::format("cannot decode photo '{}' (frame {}): {}", paths_[i].string(), i,
                                  check.truncated ? check.problem : "not an image or damaged"));

@@ -11,13 +11,13 @@
 #include <vector>
 
 #include <opencv2/core.hpp>
-#include <opencv2/videoio.hpp>
 
 #include "aerovo/core/image.h"
 #include "aerovo/frames/image_file.h"
 #include "aerovo/frames/image_metadata.h"
 #include "aerovo/frames/video_decoder.h"
 #include "aerovo/frames/video_decoder_choice.h"
+#include "aerovo/imageio/image_io.h"
 
 namespace aerovo {
 
@@ -195,7 +195,7 @@ class VideoFileSource : public FrameSource {
   std::filesystem::path path_;
   FrameSourceOptions options_;
   std::unique_ptr<VideoDecoder> decoder_;  // ours; null: capture_ (opencv)
-  cv::VideoCapture capture_;
+  imageio::VideoCapture capture_;
   double fps_ = 0.0;
   int frame_count_ = 0;
   int width_ = 0, height_ = 0;
@@ -310,7 +310,7 @@ class LiveSource : public FrameSource {
   void Init();
   std::string spec_;
   FrameSourceOptions options_;
-  cv::VideoCapture capture_;
+  imageio::VideoCapture capture_;
   int next_index_ = 0;
   double t0_ = 0.0;
   bool done_ = false;

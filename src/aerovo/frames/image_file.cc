@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/imageio/image_io.h"
 
 namespace aerovo {
 namespace {
@@ -123,9 +124,9 @@ cv::Mat ReadGrayImage(const std::filesystem::path& path, GrayFrom how) {
   }
   cv::Mat gray;
   if (how == GrayFrom::kDecoder) {
-    gray = cv::imread(path.string(), cv::IMREAD_GRAYSCALE);
+    gray = imageio::Read(path.string(), cv::IMREAD_GRAYSCALE);
   } else {
-    const cv::Mat bgr = cv::imread(path.string(), cv::IMREAD_COLOR);
+    const cv::Mat bgr = imageio::Read(path.string(), cv::IMREAD_COLOR);
     if (!bgr.empty()) cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
   }
   if (gray.empty()) {

@@ -22,6 +22,7 @@
 #include "aerovo/core/error.h"
 #include "aerovo/eval/trajectory_eval.h"
 #include "aerovo/geo/local_enu.h"
+#include "aerovo/imageio/image_io.h"
 #include "aerovo/report/mosaic_warp.h"
 
 namespace aerovo {
@@ -88,7 +89,7 @@ void WritePng(const cv::Mat& bgra, const fs::path& path) {
   const fs::path tmp = path.parent_path() / (path.stem().string() + ".tmp.png");
   bool ok = false;
   try {
-    ok = cv::imwrite(tmp.string(), bgra);
+    ok = imageio::Write(tmp.string(), bgra);
   } catch (const cv::Exception& e) {
     throw InputError("cannot write '" + path.string() + "': " + e.what());
   }

@@ -16,6 +16,7 @@
 #include "aerovo/core/options_json.h"
 #include "aerovo/frames/camera.h"
 #include "aerovo/frames/frame_source.h"
+#include "aerovo/imageio/image_io.h"
 #include "aerovo/odometry/attitude.h"
 #include "aerovo/outputs/track_writers.h"
 #include "aerovo/report/mosaic_warp.h"
@@ -444,7 +445,7 @@ MosaicResult BuildMosaic(const RunData& run, const std::vector<MosaicTrack>& tra
   fs::create_directories(out_file.parent_path(), ec);
   bool ok = false;
   try {
-    ok = cv::imwrite(out_file.string(), canvas, params);
+    ok = imageio::Write(out_file.string(), canvas, params);
   } catch (const cv::Exception& e) {
     throw InputError("cannot write the mosaic '" + out_file.string() + "': " + e.what());
   }

@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/imageio/image_io.h"
 
 namespace aerovo::sim {
 
@@ -295,8 +296,8 @@ void ApplyEffects(cv::Mat& frame, const EffectsOptions& e, const Eigen::Vector2d
   }
   if (e.jpeg_quality > 0) {
     std::vector<std::uint8_t> buf;
-    cv::imencode(".jpg", frame, buf, {cv::IMWRITE_JPEG_QUALITY, e.jpeg_quality});
-    frame = cv::imdecode(buf, frame.channels() == 1 ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR);
+    imageio::Encode(".jpg", frame, buf, {cv::IMWRITE_JPEG_QUALITY, e.jpeg_quality});
+    frame = imageio::Decode(buf, frame.channels() == 1 ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR);
   }
 }
 

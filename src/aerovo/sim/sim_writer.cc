@@ -18,6 +18,7 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/options_json.h"
+#include "aerovo/imageio/image_io.h"
 #include "aerovo/outputs/track_writers.h"
 #include "aerovo/telemetry/srt_writer.h"
 
@@ -30,7 +31,7 @@ GroundImage LoadOrthophoto(const fs::path& path, double metres_per_px, const Geo
     throw InputError(fmt::format("orthophoto {}: no such file", path.string()));
   }
   GroundImage g;
-  g.image = cv::imread(path.string(), cv::IMREAD_COLOR);
+  g.image = imageio::Read(path.string(), cv::IMREAD_COLOR);
   if (g.image.empty()) {
     throw InputError(fmt::format("orthophoto {}: cannot decode the image", path.string()));
   }
@@ -290,7 +291,7 @@ SimulationOutput WriteSimulation(const Simulator& sim, const WriterOptions& opti
   const cv::Size size(sim.options().camera.width_px, sim.options().camera.height_px);
   const bool colour = sim.renderer().ground().image.channels() == 3;
 
-  cv::VideoWriter video;
+  imageio::VideoWriter video;
   if (options.write_video) {
     struct Try {
       std::string codec, file;
@@ -299,7 +300,7 @@ SimulationOutput WriteSimulation(const Simulator& sim, const WriterOptions& opti
         {options.video_codec, "video.mp4"}, {"mp4v", "video.mp4"}, {"MJPG", "video.avi"}};
     for (const Try& t : tries) {
       const fs::path path = out_dir / t.file;
-      const int fourcc = cv::VideoWriter::fourcc(t.codec[0], t.codec[1], t.codec[2], t.codec[3]);
+      const int fourcc = imageio::Fourcc(t.codec[0], t.codec[1], t.codec[2], t.codec[3]);
       if (video.open(path.string(), cv::CAP_FFMPEG, fourcc, sim.options().fps, size, colour)) {
         out.video_file = t.file;
         out.video_codec = t.codec;
@@ -344,7 +345,7 @@ SimulationOutput WriteSimulation(const Simulator& sim, const WriterOptions& opti
           if (options.image_format == "jpg") {
             params = {cv::IMWRITE_JPEG_QUALITY, options.image_jpeg_quality};
           }
-          write_failed[k] = !cv::imwrite(path.string(), frames[k], params);
+          write_failed[k] = !imageio::Write(path.string(), frames[k], params);
         }
       }
     });
