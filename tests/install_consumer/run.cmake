@@ -68,3 +68,23 @@ separate_arguments(_flags UNIX_COMMAND "${_flags}")
 run_step(${CXX} -std=c++17 -O1 ${CONSUMER_SRC}/main.cc ${_flags} -o ${CONSUMER_BUILD}/consumer_pc)
 run_step(${CONSUMER_BUILD}/consumer_pc)
 check_output("pkg-config")
+
+# The installed program finds its image I/O plugin (<libdir>/aerovo; src/aerovo/imageio/image_io.h)
+# beside itself at this prefix, which is not the one the build was configured for, and reads a
+# PNG through it: the dynamic loader's log (LD_DEBUG=files) names the plugin it loaded.
+file(GLOB_RECURSE _plugin ${PREFIX}/*/aerovo/libaerovo_imageio_opencv.so)
+if(NOT _plugin)
+  message(FATAL_ERROR "the image I/O plugin is not installed in <libdir>/aerovo")
+endif()
+get_filename_component(_png ${CONSUMER_SRC}/../../docs/map_fixes_tampa.png ABSOLUTE)
+execute_process(COMMAND ${CMAKE_COMMAND} -E env LD_DEBUG=files
+    ${PREFIX}/bin/aerovo features detect ${_png} --threads 1
+  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0 OR NOT out MATCHES "[1-9][0-9]* keypoints")
+  message(FATAL_ERROR "installed aerovo features detect ${_png} failed (${rc}):\n${out}\n${err}")
+endif()
+string(FIND "${err}" "file=${_plugin} " _at)
+if(_at EQUAL -1)
+  message(FATAL_ERROR "installed aerovo did not load the installed plugin ${_plugin}")
+endif()
+message(STATUS "installed aerovo: ${out}")

@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <cstdlib>
+#include <filesystem>
 #include <mutex>
 #include <string>
 #include <utility>
@@ -65,7 +66,10 @@ std::vector<std::string> PluginCandidates() {
     out.emplace_back(env);
   }
   if (const std::string dir = ProgramDirectory(); !dir.empty()) {
-    out.push_back(dir + "/" + AEROVO_IMAGEIO_PLUGIN_FROM_BINDIR);
+    // Lexically normal (no "bin/.."), as error messages and PluginPath() show it.
+    out.push_back((std::filesystem::path(dir) / AEROVO_IMAGEIO_PLUGIN_FROM_BINDIR)
+                      .lexically_normal()
+                      .string());
   }
   out.emplace_back(AEROVO_IMAGEIO_PLUGIN_BUILD_PATH);
   out.emplace_back(AEROVO_IMAGEIO_PLUGIN_INSTALL_PATH);
