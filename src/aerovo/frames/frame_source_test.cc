@@ -374,6 +374,22 @@ TEST(ImageFolderSource, TruncatedEmptyAndForeignPhotos) {
   ExpectInputError([&] { p.Next(f); }, {"cannot decode photo", "b.png", "frame 1", "truncated"});
 }
 
+// Opening a photo folder loads the image decoders (imageio/image_io.h), so that a missing
+// plugin fails there and the run's frames do not pay for the loading. The images are written
+// with OpenCV linked into this test, which does not load aerovo's plugin.
+TEST(ImageFolderSource, OpeningTheFolderLoadsTheImageDecoders) {
+  if (imageio::PluginLoaded()) GTEST_SKIP() << "an earlier test of this process loaded the plugin";
+  io_test::TempDir dir("aerovo_folder_decoders");
+  ASSERT_TRUE(cv::imwrite((dir / "a.png").string(), io_test::TextureImage(32, 24, 1)));
+  ASSERT_TRUE(cv::imwrite((dir / "b.png").string(), io_test::TextureImage(32, 24, 2)));
+  ASSERT_FALSE(imageio::PluginLoaded());
+  ImageFolderSource s(dir.path());
+  EXPECT_TRUE(imageio::PluginLoaded());
+  Frame f;
+  ASSERT_TRUE(s.Next(f));
+  EXPECT_EQ(f.gray.width(), 32);
+}
+
 TEST(FrameSourceOptions, Validate) {
   FrameSourceOptions o;
   EXPECT_NO_THROW(Validate(o));
