@@ -83,8 +83,8 @@ const void* OpenPlugin(const std::vector<std::string>& candidates, std::string* 
       tried += fmt::format("\n  {}: no such file", path);
       continue;
     }
-    // RTLD_LOCAL: OpenCV's symbols stay out of the global scope; the handle is never closed
-    // (the plugin's and OpenCV's objects live until the process ends).
+    // RTLD_LOCAL: OpenCV's symbols stay out of the global scope. The plugin's handle is never
+    // closed (its and OpenCV's objects live until the process ends); a rejected library's is.
     void* handle = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
     if (handle == nullptr) {
       const char* why = ::dlerror();
@@ -96,11 +96,13 @@ const void* OpenPlugin(const std::vector<std::string>& candidates, std::string* 
     const OpenCvIoTable* table = entry != nullptr ? entry() : nullptr;
     if (table == nullptr) {
       tried += fmt::format("\n  {}: not an aerovo image I/O plugin (no {})", path, kOpenCvIoEntry);
+      ::dlclose(handle);
       continue;
     }
     if (std::string(table->abi) != kOpenCvIoAbi) {
       tried += fmt::format("\n  {}: built for '{}', this program needs '{}'", path, table->abi,
                            kOpenCvIoAbi);
+      ::dlclose(handle);
       continue;
     }
     if (loaded_from != nullptr) *loaded_from = path;

@@ -2,12 +2,10 @@
 
 #include <dlfcn.h>
 #include <gnu/libc-version.h>
-#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -17,26 +15,16 @@
 #include <opencv2/videoio.hpp>    // cv::CAP_*
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/testing.h"
 
 namespace aerovo::imageio {
 namespace {
 
 namespace fs = std::filesystem;
 
-std::string Maps() {
-  std::ifstream in("/proc/self/maps");
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+std::string Maps() { return testing::ReadText("/proc/self/maps"); }
 
-fs::path TempDir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("aerovo_imageio_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path TempDir(const std::string& name) { return testing::FreshTempDir("aerovo_imageio", name); }
 
 cv::Mat Texture(int w, int h, int seed) {
   cv::Mat m(h, w, CV_8UC3);
