@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <iostream>
+#include <string_view>
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>  // cv::IMREAD_* (the calls: imageio/image_io.h)
@@ -12,6 +13,7 @@
 #include <opencv2/videoio.hpp>  // cv::CAP_*
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/text.h"
 #include "aerovo/core/timer.h"
 #include "aerovo/frames/image_file.h"
 #include "aerovo/imageio/image_io.h"
@@ -557,6 +559,134 @@ std::vector<PhotoEntry> ReadPhotoEntries(const std::vector<fs::path>& files,
   return entries;
 }
 
+// A band name as FrameSourceOptions::photo_band compares it: lower case, no spaces, "rgb" for a
+// photo that names none.
+std::string BandKey(std::string_view name) {
+  std::string k;
+  for (char c : name) {
+    if (c != ' ' && c != '_' && c != '-')
+      k += (c >= 'A' && c <= 'Z') ? static_cast<char>(c - 'A' + 'a') : c;
+  }
+  return k.empty() ? "rgb" : k;
+}
+
+// The bands of a rig in a folder, in the order of their cameras (Camera:RigCameraIndex, else the
+// first photo's place in file-name order).
+struct RigBand {
+  std::string name;  // as the first photo of the band writes it; "RGB" for none
+  std::string key;   // BandKey
+  int count = 0;
+  int order = 0;
+};
+
+// Keeps the photos of one band when `entries` (in file-name order) hold a multi-camera rig's
+// (FrameSourceOptions::photo_band), saying so in `warnings`; `band` gets the band read. A folder
+// whose photos name no band is left as it is.
+void SelectBand(std::vector<PhotoEntry>& entries, const FrameSourceOptions& options,
+                const fs::path& folder, std::vector<std::string>& warnings, std::string& band) {
+  const bool rig = std::any_of(entries.begin(), entries.end(),
+                               [](const PhotoEntry& e) { return !e.meta.band_name.empty(); });
+  if (!rig) {
+    if (!options.photo_band.empty()) {
+      throw InputError(fmt::format(
+          "image folder '{}': photo_band '{}' but no photo names its band (XMP Camera:BandName, "
+          "written by multispectral cameras): the folder is one camera's",
+          folder.string(), Printable(options.photo_band, 40)));
+    }
+    return;
+  }
+  std::vector<RigBand> bands;
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    const ImageMetadata& m = entries[i].meta;
+    const std::string key = BandKey(m.band_name);
+    auto it =
+        std::find_if(bands.begin(), bands.end(), [&](const RigBand& b) { return b.key == key; });
+    const int order = m.rig_camera_index ? *m.rig_camera_index : 1001 + static_cast<int>(i);
+    if (it == bands.end()) {
+      bands.push_back({m.band_name.empty() ? "RGB" : m.band_name, key, 0, order});
+      it = bands.end() - 1;
+    }
+    ++it->count;
+    it->order = std::min(it->order, order);
+  }
+  std::stable_sort(bands.begin(), bands.end(),
+                   [](const RigBand& a, const RigBand& b) { return a.order < b.order; });
+  std::string listed;
+  for (const RigBand& b : bands) {
+    listed += fmt::format("{}{} ({} photo{})", listed.empty() ? "" : ", ", b.name, b.count,
+                          b.count == 1 ? "" : "s");
+  }
+  const RigBand* chosen = nullptr;
+  if (!options.photo_band.empty()) {
+    const std::string want = BandKey(options.photo_band);
+    for (const RigBand& b : bands) {
+      if (b.key == want) chosen = &b;
+    }
+    if (chosen == nullptr) {
+      throw InputError(
+          fmt::format("image folder '{}': photo_band '{}' is none of the bands its "
+                      "photos name (XMP Camera:BandName): {}",
+                      folder.string(), Printable(options.photo_band, 40), listed));
+    }
+  } else {
+    for (const auto& aliases :
+         {std::vector<std::string>{"rgb", "redgreenblue"}, std::vector<std::string>{"green", "g"},
+          std::vector<std::string>{"blue", "b"}}) {
+      for (const RigBand& b : bands) {
+        if (chosen == nullptr &&
+            std::find(aliases.begin(), aliases.end(), b.key) != aliases.end()) {
+          chosen = &b;
+        }
+      }
+    }
+    if (chosen == nullptr) chosen = &bands.front();
+  }
+  band = chosen->name;
+  const std::string key = chosen->key;
+  if (bands.size() > 1) {
+    warnings.push_back(fmt::format(
+        "image folder '{}' holds the photos of a {}-band camera rig (XMP Camera:BandName: {}): "
+        "the {} photos of band {} are read, the {} of the other bands skipped ({})",
+        folder.string(), bands.size(), listed, chosen->count, band,
+        static_cast<int>(entries.size()) - chosen->count,
+        options.photo_band.empty() ? "photo_band chooses another" : "photo_band"));
+  }
+  // Captures (ImageMetadata::capture_id) without a photo of the band read.
+  std::vector<std::string> read_captures;
+  for (const PhotoEntry& e : entries) {
+    if (!e.meta.capture_id.empty() && BandKey(e.meta.band_name) == key) {
+      read_captures.push_back(e.meta.capture_id);
+    }
+  }
+  std::sort(read_captures.begin(), read_captures.end());
+  std::vector<std::string> missing_ids;
+  std::vector<std::string> missing_names;
+  for (const PhotoEntry& e : entries) {
+    const std::string& id = e.meta.capture_id;
+    if (id.empty() || std::binary_search(read_captures.begin(), read_captures.end(), id) ||
+        std::find(missing_ids.begin(), missing_ids.end(), id) != missing_ids.end()) {
+      continue;
+    }
+    missing_ids.push_back(id);
+    missing_names.push_back(e.path.filename().string());
+  }
+  if (!missing_ids.empty() && !read_captures.empty()) {
+    std::string names;
+    for (std::size_t k = 0; k < missing_names.size() && k < 3; ++k) {
+      names += fmt::format("{}'{}'", k ? ", " : "", missing_names[k]);
+    }
+    warnings.push_back(fmt::format(
+        "image folder '{}': {} capture{} of the rig have no photo of band {} and are not read "
+        "(the capture of {}{})",
+        folder.string(), missing_ids.size(), missing_ids.size() == 1 ? "" : "s", band, names,
+        missing_names.size() > 3 ? ", ..." : ""));
+  }
+  entries.erase(
+      std::remove_if(entries.begin(), entries.end(),
+                     [&](const PhotoEntry& e) { return BandKey(e.meta.band_name) != key; }),
+      entries.end());
+}
+
 std::string CameraOf(const ImageMetadata& m) {
   std::string c = fmt::format("{} {}", m.make, m.model);
   if (!m.serial_number.empty()) c += fmt::format(" serial {}", m.serial_number);
@@ -698,6 +828,12 @@ ImageFolderSource::ImageFolderSource(const std::filesystem::path& folder,
   const std::vector<fs::path> files = ListPhotos(folder, options_, skipped_files_, warnings_);
   bool all_timed = true;
   std::vector<PhotoEntry> entries = ReadPhotoEntries(files, warnings_, all_timed);
+  // One band of a rig before anything else: the other bands' photos share its capture times
+  // and may name other cameras.
+  SelectBand(entries, options_, folder, warnings_, band_);
+  all_timed = std::all_of(entries.begin(), entries.end(), [](const PhotoEntry& e) {
+    return e.meta.capture_unix_time_s.has_value();
+  });
   if (all_timed) {
     std::stable_sort(entries.begin(), entries.end(), [](const PhotoEntry& a, const PhotoEntry& b) {
       return *a.meta.capture_unix_time_s < *b.meta.capture_unix_time_s;
@@ -746,8 +882,10 @@ void ImageFolderSource::Read(std::size_t i, Frame& frame) {
                                  check.problem));
   }
   // Pixel geometry as stored: a nadir camera's EXIF orientation must not rotate the frames.
-  const cv::Mat bgr =
-      imageio::Read(paths_[i].string(), cv::IMREAD_COLOR | cv::IMREAD_IGNORE_ORIENTATION);
+  // More than 8 bits per sample (multispectral bands, radiometric thermal TIFFs): the photo's
+  // own range onto 8 bits (ToEightBit), not OpenCV's high byte.
+  const cv::Mat bgr = ToEightBit(imageio::Read(
+      paths_[i].string(), cv::IMREAD_COLOR | cv::IMREAD_IGNORE_ORIENTATION | cv::IMREAD_ANYDEPTH));
   if (bgr.empty()) {
     throw InputError(fmt::format("cannot decode photo '{}' (frame {}): {}", paths_[i].string(), i,
                                  check.truncated ? check.problem : "not an image or damaged"));

@@ -84,6 +84,15 @@ struct FrameSourceOptions {
   /// two photos where flights change, the gap or the cameras, and every flight); K >= 1
   /// delivers flight K only; -1 chains them all as one sequence (before 0.2: silently).
   int photo_flight = 0;
+  /// Image folders of a multi-camera rig (photos that name their band, ImageMetadata::
+  /// band_name: multispectral cameras write one photo per band at each capture): the band whose
+  /// photos are read, the others skipped. Compared without case and spaces ("rededge" is
+  /// "Red edge"); "RGB" is also a rig's photos that name no band (DJI P4 Multispectral's
+  /// JPEGs). Empty (default): RGB, else green, else blue, else the rig's first camera, as
+  /// OpenDroneMap picks its primary band (OpenDroneMap/ODM opendm/multispectral.py,
+  /// get_primary_band_name). A band the folder does not hold is an InputError listing those
+  /// it holds.
+  std::string photo_band;
   /// Video files: the decoder. Default auto = ffmpeg, our own (it sees every frame's
   /// decoded size, so a resolution change mid-stream is an error; grey from the luma plane,
   /// no BGR); opencv = cv::VideoCapture, the decoder before it (BENCHMARKS.md "Video decoding").
@@ -252,6 +261,9 @@ class ImageFolderSource : public FrameSource {
   int skipped_files() const { return skipped_files_; }
   /// Flights found in the folder (FrameSourceOptions::photo_gap_s), >= 1.
   int flight_count() const { return flight_count_; }
+  /// The band read when the folder holds a multi-camera rig (FrameSourceOptions::photo_band), as
+  /// its photos name it ("RGB" for photos that name none); empty for a folder of one camera.
+  const std::string& band() const { return band_; }
 
  private:
   std::filesystem::path folder_;
@@ -264,6 +276,7 @@ class ImageFolderSource : public FrameSource {
   int width_ = 0, height_ = 0;
   int skipped_files_ = 0;
   int flight_count_ = 1;
+  std::string band_;
   bool have_hash_ = false;       // the last delivered photo's pixel hash (duplicate flag)
   std::uint64_t last_hash_ = 0;
 };

@@ -4,6 +4,7 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,7 @@ using io_test::HaveFfmpeg;
 using io_test::RunFfmpeg;
 
 using ::testing::HasSubstr;
+namespace fs = std::filesystem;
 
 double MeanGray(const GrayImage& g) {
   double sum = 0.0;
@@ -546,6 +548,168 @@ TEST(ImageFolderSource, MixedFoldersAreRefusedOrSplit) {
                              {{"Exif.Photo.DateTimeOriginal", "2023:05:01 12:00:04"},
                               {"Exif.Image.Model", "FC300S"}});
   EXPECT_EQ(ImageFolderSource(three.path()).flight_count(), 1);
+}
+
+// The XMP packets of a multispectral rig's photos, as the cameras write them: DJI P4
+// Multispectral's attributes of one rdf:Description (its RGB JPEG: tests/../turin-p4m's
+// DJI_0010.JPG, with drone-dji:CaptureUUID and the Camera namespace declared without its final
+// slash; its band TIFFs add Camera:BandName), MicaSense's elements in one rdf:Description per
+// namespace (a RedEdge-MX TIFF's tag 700: MicaSense:CaptureId, Camera:BandName,
+// Camera:RigCameraIndex).
+std::string P4mPacket(const std::string& capture, const std::string& band) {
+  return std::string("<?xpacket begin=\"\xEF\xBB\xBF\" id=\"W5M0MpCehiHzreSzNTczkc9d\"?>\n") +
+         "<x:xmpmeta xmlns:x=\"adobe:ns:meta/\">\n"
+         " <rdf:RDF xmlns:rdf=\"http://www.w3.org/1999/02/22-rdf-syntax-ns#\">\n"
+         "  <rdf:Description rdf:about=\"DJI Meta Data\"\n"
+         "    xmlns:tiff=\"http://ns.adobe.com/tiff/1.0/\"\n"
+         "    xmlns:drone-dji=\"http://www.dji.com/drone-dji/1.0/\"\n"
+         "    xmlns:Camera=\"http://pix4d.com/camera/1.0\"\n"
+         "   tiff:Make=\"DJI\"\n"
+         "   tiff:Model=\"FC6360\"\n"
+         "   drone-dji:RelativeAltitude=\"+44.47\"\n"
+         "   drone-dji:GimbalPitchDegree=\"-90.00\"\n"
+         "   drone-dji:CaptureUUID=\"" +
+         capture + "\"\n" + (band.empty() ? "" : "   Camera:BandName=\"" + band + "\"\n") +
+         "  >\n  </rdf:Description>\n </rdf:RDF>\n</x:xmpmeta>\n<?xpacket end=\"w\"?>";
+}
+
+std::string MicaSensePacket(const std::string& capture, const std::string& band, int index) {
+  return std::string("<?xpacket begin=\"\xEF\xBB\xBF\" id=\"W5M0MpCehiHzreSzNTczkc9d\"?>\n") +
+         "<x:xmpmeta xmlns:x=\"adobe:ns:meta/\" x:xmptk=\"XMP Core 4.4.0\">\n"
+         "   <rdf:RDF xmlns:rdf=\"http://www.w3.org/1999/02/22-rdf-syntax-ns#\">\n"
+         "      <rdf:Description rdf:about=\"Pix4D Camera Information\"\n"
+         "            xmlns:MicaSense=\"http://micasense.com/MicaSense/1.0/\">\n"
+         "         <MicaSense:BootTimestamp>466</MicaSense:BootTimestamp>\n"
+         "         <MicaSense:FlightId>20Ntb9oCOg7Cm7HUbb1i</MicaSense:FlightId>\n"
+         "         <MicaSense:CaptureId>" +
+         capture +
+         "</MicaSense:CaptureId>\n"
+         "      </rdf:Description>\n"
+         "      <rdf:Description rdf:about=\"Pix4D Camera Information\"\n"
+         "            xmlns:Camera=\"http://pix4d.com/camera/1.0\">\n"
+         "         <Camera:BandName>" +
+         band + "</Camera:BandName>\n         <Camera:RigCameraIndex>" + std::to_string(index) +
+         "</Camera:RigCameraIndex>\n"
+         "      </rdf:Description>\n"
+         "   </rdf:RDF>\n</x:xmpmeta>\n<?xpacket end=\"w\"?>";
+}
+
+// A band photo's 16-bit pixels: 12-bit texture (MicaSense shifts its 12 bits into 16; here they
+// stay low, the harder case: OpenCV's own 8-bit conversion keeps only the high byte, 0-15).
+cv::Mat TwelveBitTexture(int width, int height, unsigned seed) {
+  cv::Mat eight;
+  cv::cvtColor(io_test::TextureImage(width, height, seed), eight, cv::COLOR_BGR2GRAY);
+  cv::Mat sixteen;
+  eight.convertTo(sixteen, CV_16U, 16.0);  // 0-4080
+  return sixteen;
+}
+
+// A DJI P4 Multispectral folder (per capture an RGB JPEG DJI_xxx0.JPG and five 16-bit TIFFs
+// DJI_xxx1-5.TIF, all with one capture time and CaptureUUID) reads the RGB photos by default,
+// another band on request, and names the captures that lack the band read.
+TEST(ImageFolderSource, MultispectralRigReadsOneBand) {
+  io_test::TempDir dir("aerovo_p4m_rig");
+  const char* const bands[] = {"Blue", "Green", "Red", "RedEdge", "NIR"};
+  for (int k = 0; k < 3; ++k) {
+    const std::string time = fmt::format("2026:01:26 13:50:{:02d}", 17 + 2 * k);
+    const std::string capture = fmt::format("27b14018528c11f08d087d2ed18fec7{}", k);
+    const std::map<std::string, std::string> exif = {{"Exif.Photo.DateTimeOriginal", time},
+                                                     {"Exif.Image.Make", "DJI"},
+                                                     {"Exif.Image.Model", "FC6360"}};
+    io_test::WriteJpegWithXmpPacket(dir / fmt::format("DJI_00{}0.JPG", k + 1),
+                                    io_test::TextureImage(64, 52, k), P4mPacket(capture, ""));
+    io_test::AddExifTags(dir / fmt::format("DJI_00{}0.JPG", k + 1), exif);
+    for (int b = 0; b < 5; ++b) {
+      io_test::WriteTiffWithXmpPacket(dir / fmt::format("DJI_00{}{}.TIF", k + 1, b + 1),
+                                      TwelveBitTexture(64, 52, 10 * k + b), exif,
+                                      P4mPacket(capture, bands[b]));
+    }
+  }
+  {
+    ImageFolderSource rgb(dir.path());
+    EXPECT_EQ(rgb.band(), "RGB");
+    std::vector<std::string> names;
+    for (const auto& p : rgb.paths()) names.push_back(p.filename().string());
+    EXPECT_EQ(names, (std::vector<std::string>{"DJI_0010.JPG", "DJI_0020.JPG", "DJI_0030.JPG"}));
+    // One photo per capture: the capture times are the frames' times, two seconds apart.
+    EXPECT_DOUBLE_EQ(rgb.TimeOf(1), 2.0);
+    EXPECT_DOUBLE_EQ(rgb.TimeOf(2), 4.0);
+    ASSERT_FALSE(rgb.warnings().empty());
+    EXPECT_THAT(rgb.warnings().back(),
+                HasSubstr("holds the photos of a 6-band camera rig (XMP Camera:BandName: RGB (3 "
+                          "photos), Blue (3 photos), Green (3 photos), Red (3 photos), RedEdge (3 "
+                          "photos), NIR (3 photos)): the 3 photos of band RGB are read, the 15 of "
+                          "the other bands skipped (photo_band chooses another)"));
+  }
+  FrameSourceOptions o;
+  o.photo_band = "nir";
+  ImageFolderSource nir(dir.path(), o);
+  EXPECT_EQ(nir.band(), "NIR");
+  std::vector<std::string> names;
+  Frame f;
+  while (nir.Next(f)) {
+    names.push_back(f.name);
+    // The 12-bit texture spans the 8 bits (ToEightBit), not OpenCV's high byte 0-15.
+    cv::Mat gray(f.gray.height(), f.gray.width(), CV_8UC1, f.gray.data());
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(gray, &lo, &hi);
+    EXPECT_LE(lo, 1.0) << f.name;
+    EXPECT_GE(hi, 254.0) << f.name;
+  }
+  EXPECT_EQ(names, (std::vector<std::string>{"DJI_0015.TIF", "DJI_0025.TIF", "DJI_0035.TIF"}));
+  o.photo_band = "Red Edge";
+  EXPECT_EQ(ImageFolderSource(dir.path(), o).paths().front().filename(), "DJI_0014.TIF");
+  o.photo_band = "thermal";
+  ExpectInputError([&] { ImageFolderSource s(dir.path(), o); },
+                   {"photo_band 'thermal' is none of the bands its photos name",
+                    "RGB (3 photos), Blue (3 photos)", "NIR (3 photos)"});
+
+  // A capture without its RGB photo: not read, and said naming one of its photos.
+  fs::remove(dir / "DJI_0020.JPG");
+  ImageFolderSource gap(dir.path());
+  EXPECT_EQ(gap.paths().size(), 2u);
+  EXPECT_THAT(gap.warnings().back(),
+              HasSubstr("1 capture of the rig have no photo of band RGB and are not read (the "
+                        "capture of 'DJI_0021.TIF')"));
+}
+
+// MicaSense RedEdge: five TIFFs per capture IMG_xxxx_1-5.tif, no RGB camera: green is read by
+// default, band names compare without case or spaces, the rig's order is Camera:RigCameraIndex.
+// A folder of one camera has no band to choose.
+TEST(ImageFolderSource, MicaSenseRigReadsGreenByDefault) {
+  io_test::TempDir dir("aerovo_micasense_rig");
+  const char* const bands[] = {"Blue", "Green", "Red", "NIR", "Red edge"};
+  for (int k = 0; k < 2; ++k) {
+    const std::map<std::string, std::string> exif = {
+        {"Exif.Photo.DateTimeOriginal", fmt::format("2024:01:03 07:31:{:02d}", 35 + k)},
+        {"Exif.Photo.SubSecTimeOriginal", "250"},
+        {"Exif.Image.Make", "MicaSense"},
+        {"Exif.Image.Model", "RedEdge-M"}};
+    for (int b = 0; b < 5; ++b) {
+      io_test::WriteTiffWithXmpPacket(
+          dir / fmt::format("IMG_000{}_{}.tif", k, b + 1), TwelveBitTexture(48, 36, 10 * k + b),
+          exif, MicaSensePacket(fmt::format("DFj0YDYQsRJd6hDUj7q{}", k), bands[b], b));
+    }
+  }
+  const ImageFolderSource green(dir.path());
+  EXPECT_EQ(green.band(), "Green");
+  ASSERT_EQ(green.paths().size(), 2u);
+  EXPECT_EQ(green.paths()[1].filename(), "IMG_0001_2.tif");
+  EXPECT_EQ(green.metadata()[1].capture_id, "DFj0YDYQsRJd6hDUj7q1");
+  EXPECT_THAT(green.warnings().back(),
+              HasSubstr("Blue (2 photos), Green (2 photos), Red (2 photos), NIR (2 photos), Red "
+                        "edge (2 photos)): the 2 photos of band Green are read"));
+  FrameSourceOptions o;
+  o.photo_band = "REDEDGE";
+  EXPECT_EQ(ImageFolderSource(dir.path(), o).paths()[0].filename(), "IMG_0000_5.tif");
+
+  io_test::TempDir plain("aerovo_no_rig");
+  io_test::WriteJpegWithTags(plain / "a.jpg", io_test::TextureImage(40, 30, 1),
+                             {{"Exif.Photo.DateTimeOriginal", "2024:01:03 07:31:35"}});
+  EXPECT_EQ(ImageFolderSource(plain.path()).band(), "");
+  o.photo_band = "NIR";
+  ExpectInputError([&] { ImageFolderSource s(plain.path(), o); },
+                   {"photo_band 'NIR' but no photo names its band", "one camera's"});
 }
 
 TEST(ImageFolderSource, NameOrderWithoutExifAndPngTiff) {

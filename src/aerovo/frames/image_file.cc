@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <system_error>
@@ -113,6 +116,65 @@ ImageFileCheck CheckImageFile(const std::filesystem::path& path) {
   return c;
 }
 
+cv::Mat ToEightBit(const cv::Mat& image) {
+  if (image.empty() || image.depth() == CV_8U) return image;
+  constexpr double kLowQuantile = 0.001, kHighQuantile = 0.999;
+  double lo = 0.0, hi = 0.0;
+  cv::Mat values = image;
+  if (image.depth() == CV_16U) {
+    // A histogram of the 65536 values: two passes over the pixels, no sort.
+    std::vector<std::uint32_t> histogram(65536, 0);
+    const int row_samples = image.cols * image.channels();
+    for (int y = 0; y < image.rows; ++y) {
+      const auto* row = image.ptr<std::uint16_t>(y);
+      for (int x = 0; x < row_samples; ++x) ++histogram[row[x]];
+    }
+    const double total = static_cast<double>(image.total()) * image.channels();
+    const double low_count = kLowQuantile * total, high_count = kHighQuantile * total;
+    double seen = 0.0;
+    bool have_lo = false;
+    for (int v = 0; v < 65536; ++v) {
+      seen += histogram[v];
+      if (!have_lo && seen > low_count) {
+        lo = v;
+        have_lo = true;
+      }
+      if (seen >= high_count) {
+        hi = v;
+        break;
+      }
+    }
+  } else {
+    image.convertTo(values, CV_MAKETYPE(CV_32F, image.channels()));
+    std::vector<float> finite;
+    finite.reserve(values.total() * values.channels());
+    for (int y = 0; y < values.rows; ++y) {
+      const float* row = values.ptr<float>(y);
+      for (int x = 0; x < values.cols * values.channels(); ++x) {
+        if (std::isfinite(row[x])) finite.push_back(row[x]);
+      }
+    }
+    if (!finite.empty()) {
+      const auto at = [&](double q) {
+        const auto k = static_cast<std::ptrdiff_t>(q * static_cast<double>(finite.size() - 1));
+        std::nth_element(finite.begin(), finite.begin() + k, finite.end());
+        return static_cast<double>(finite[static_cast<std::size_t>(k)]);
+      };
+      lo = at(kLowQuantile);
+      hi = at(kHighQuantile);
+    }
+    cv::patchNaNs(values, lo);
+  }
+  cv::Mat out;
+  if (hi > lo) {
+    const double scale = 255.0 / (hi - lo);
+    values.convertTo(out, CV_MAKETYPE(CV_8U, image.channels()), scale, -lo * scale);
+  } else {
+    out = cv::Mat::zeros(image.size(), CV_MAKETYPE(CV_8U, image.channels()));
+  }
+  return out;
+}
+
 cv::Mat ReadGrayImage(const std::filesystem::path& path, GrayFrom how) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) {
@@ -124,9 +186,10 @@ cv::Mat ReadGrayImage(const std::filesystem::path& path, GrayFrom how) {
   }
   cv::Mat gray;
   if (how == GrayFrom::kDecoder) {
-    gray = imageio::Read(path.string(), cv::IMREAD_GRAYSCALE);
+    gray = ToEightBit(imageio::Read(path.string(), cv::IMREAD_GRAYSCALE | cv::IMREAD_ANYDEPTH));
   } else {
-    const cv::Mat bgr = imageio::Read(path.string(), cv::IMREAD_COLOR);
+    const cv::Mat bgr =
+        ToEightBit(imageio::Read(path.string(), cv::IMREAD_COLOR | cv::IMREAD_ANYDEPTH));
     if (!bgr.empty()) cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
   }
   if (gray.empty()) {

@@ -42,7 +42,17 @@ struct ImageFileCheck {
 /// Checks the file at `path` (see ImageFileCheck). Never throws for a bad file.
 ImageFileCheck CheckImageFile(const std::filesystem::path& path);
 
-/// The image at `path` as a CV_8UC1 matrix (EXIF orientation applied, as cv::imread does).
+/// An image of more than 8 bits per sample as 8 bits (the same channels): a photo of a
+/// multispectral band or a radiometric thermal camera (16-bit TIFFs: MicaSense writes 12 bits
+/// shifted into 16, a thermal frame spans a few hundred counts of 65536). Its own range from
+/// the 0.1 % to the 99.9 % quantile of its samples is mapped linearly onto 0-255 (clipped), so
+/// that a few saturated or dead pixels do not set it; NaN samples become the low end, an image
+/// of one value all 0. OpenCV's own conversion (cv::imread without IMREAD_ANYDEPTH) keeps the
+/// high byte, which leaves such photos nearly uniform. A CV_8U image is returned as it is.
+cv::Mat ToEightBit(const cv::Mat& image);
+
+/// The image at `path` as a CV_8UC1 matrix (EXIF orientation applied, as cv::imread does; more
+/// than 8 bits per sample through ToEightBit).
 /// Throws InputError naming the file when it is missing, empty, not an image, cut short
 /// (CheckImageFile: a truncated file is an error here, not a grey-filled image) or cannot be
 /// decoded.

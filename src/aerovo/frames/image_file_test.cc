@@ -1,7 +1,9 @@
 #include "aerovo/frames/image_file.h"
 
+#include <cstdint>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -47,6 +49,62 @@ TEST(ImageFile, ReadsGreyBothWays) {
   EXPECT_EQ(cv::norm(ReadGrayImage(jpg, GrayFrom::kDecoder),
                      cv::imread(jpg.string(), cv::IMREAD_GRAYSCALE), cv::NORM_INF),
             0.0);
+}
+
+// More than 8 bits per sample: the image's own 0.1-99.9 % range onto 0-255, linearly.
+TEST(ImageFile, ToEightBitMapsTheImagesOwnRange) {
+  // A thermal-like 16-bit frame: 10000 samples 7000..7399 (25 of each value) and one hot pixel.
+  cv::Mat thermal(100, 100, CV_16UC1);
+  for (int i = 0; i < 10000; ++i) thermal.at<std::uint16_t>(i / 100, i % 100) = 7000 + i % 400;
+  thermal.at<std::uint16_t>(0, 0) = 65000;
+  const cv::Mat t8 = ToEightBit(thermal);
+  ASSERT_EQ(t8.type(), CV_8UC1);
+  // The 0.1 % quantile is the 10th sample (value 7000), the 99.9 % the 9990th (7399): the hot
+  // pixel is clipped, not the top of the range.
+  EXPECT_EQ(t8.at<std::uint8_t>(0, 0), 255);
+  EXPECT_EQ(t8.at<std::uint8_t>(0, 1), 1);  // 7001: round(255 / 399)
+  EXPECT_EQ(t8.at<std::uint8_t>(0, 2), 1);
+  EXPECT_EQ(t8.at<std::uint8_t>(2, 0), 128);   // 7200: round(200 * 255 / 399) = 127.8
+  EXPECT_EQ(t8.at<std::uint8_t>(3, 99), 255);  // 7399
+  // OpenCV's own conversion (the high byte) left this frame at 27-28 (and the hot pixel 253).
+  cv::Mat high_byte;
+  thermal.convertTo(high_byte, CV_8U, 1.0 / 256.0);
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(high_byte(cv::Rect(1, 1, 99, 99)), &lo, &hi);
+  EXPECT_GE(lo, 27.0);
+  EXPECT_LE(hi, 29.0);
+
+  // Three channels share one range; float samples with NaN (the low end) and one value.
+  cv::Mat colour(1, 1000, CV_16UC3);
+  for (int i = 0; i < 1000; ++i) colour.at<cv::Vec3w>(0, i) = cv::Vec3w(100, 100 + i, 1099);
+  const cv::Mat c8 = ToEightBit(colour);
+  ASSERT_EQ(c8.type(), CV_8UC3);
+  EXPECT_EQ(c8.at<cv::Vec3b>(0, 500), cv::Vec3b(0, 128, 255));
+  cv::Mat f(1, 1001, CV_32FC1);
+  for (int i = 0; i < 1001; ++i) f.at<float>(0, i) = 20.0f + 0.01f * static_cast<float>(i);
+  f.at<float>(0, 7) = std::numeric_limits<float>::quiet_NaN();
+  const cv::Mat f8 = ToEightBit(f);
+  ASSERT_EQ(f8.type(), CV_8UC1);
+  EXPECT_EQ(f8.at<std::uint8_t>(0, 7), 0);
+  EXPECT_EQ(f8.at<std::uint8_t>(0, 500), 128);
+  EXPECT_EQ(cv::countNonZero(ToEightBit(cv::Mat(5, 5, CV_16UC1, cv::Scalar(4000)))), 0);
+  const cv::Mat eight(3, 3, CV_8UC1, cv::Scalar(7));
+  EXPECT_EQ(ToEightBit(eight).data, eight.data);  // 8 bits: the same matrix
+}
+
+// A 16-bit TIFF with 12 bits of data, read as grey: its range, not the high byte (0-15).
+TEST(ImageFile, SixteenBitTiffReadsAsItsOwnRange) {
+  TempDir dir("aerovo_image_16bit");
+  cv::Mat ramp(16, 256, CV_16UC1);
+  for (int x = 0; x < 256; ++x) ramp.col(x).setTo(16 * x);
+  ASSERT_TRUE(cv::imwrite((dir / "band.tif").string(), ramp));
+  for (const GrayFrom how : {GrayFrom::kColor, GrayFrom::kDecoder}) {
+    const cv::Mat g = ReadGrayImage(dir / "band.tif", how);
+    ASSERT_EQ(g.type(), CV_8UC1);
+    EXPECT_LE(g.at<std::uint8_t>(0, 1), 1);
+    EXPECT_EQ(g.at<std::uint8_t>(0, 128), 128);
+    EXPECT_EQ(g.at<std::uint8_t>(0, 255), 255);
+  }
 }
 
 TEST(ImageFile, ErrorsNameTheFile) {

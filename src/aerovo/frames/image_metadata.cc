@@ -38,6 +38,8 @@ void InitExiv2Once() {
     Exiv2::XmpProperties::registerNs("http://www.parrot.com/drone-parrot/1.0/", "drone-parrot");
     Exiv2::XmpProperties::registerNs("http://pix4d.com/camera/1.0/", "Camera");
     Exiv2::XmpProperties::registerNs("http://ns.sensefly.com/Camera/1.0/", "senseFly-Camera");
+    // MicaSense's own namespace (MicaSense:CaptureId of a rig's capture).
+    Exiv2::XmpProperties::registerNs("http://micasense.com/MicaSense/1.0/", "MicaSense");
   });
 }
 
@@ -420,6 +422,48 @@ void ReadOtherVendorXmp(const Exiv2::XmpData& xmp, const std::string& source, Im
   }
 }
 
+// A text tag of a rig (a band name, a capture id) as written, trimmed; the first item of an
+// rdf:Seq or rdf:Bag (MicaSense writes some tags so). InputError naming the file for text no
+// camera writes (over 64 bytes, control characters): it would end up in messages and file names.
+std::string XmpRigText(const Exiv2::XmpData& xmp, const char* key, const char* what,
+                       const std::string& source) {
+  const auto it = xmp.findKey(Exiv2::XmpKey(key));
+  if (it == xmp.end() || it->count() == 0) return "";
+  const std::string text = it->toString(0);
+  const std::string_view t = TrimSpace(text);
+  const bool printable = std::all_of(t.begin(), t.end(), [](char c) {
+    return static_cast<unsigned char>(c) >= 0x20 && c != 0x7f;
+  });
+  if (t.size() > 64 || !printable) {
+    throw InputError(
+        fmt::format("{}: XMP {} '{}' is not a {} a camera writes (at most 64 "
+                    "printable characters)",
+                    source, what, Printable(t, 40), what));
+  }
+  return std::string(t);
+}
+
+// The rig's tags of a photo (ImageMetadata::band_name, capture_id, rig_camera_index).
+void ReadRigXmp(const Exiv2::XmpData& xmp, const std::string& source, ImageMetadata& m) {
+  m.band_name = XmpRigText(xmp, "Xmp.Camera.BandName", "Camera:BandName", source);
+  for (const auto& [key, what] : {std::pair{"Xmp.drone-dji.CaptureUUID", "drone-dji:CaptureUUID"},
+                                  {"Xmp.MicaSense.CaptureId", "MicaSense:CaptureId"},
+                                  {"Xmp.Camera.CaptureUUID", "Camera:CaptureUUID"},
+                                  {"Xmp.Camera.ImageUniqueID", "Camera:ImageUniqueID"}}) {
+    if (m.capture_id.empty()) m.capture_id = XmpRigText(xmp, key, what, source);
+  }
+  const auto index = XmpNumber(xmp, "Xmp.Camera.RigCameraIndex", source);
+  if (index) {
+    if (*index < 0.0 || *index > 1000.0 || *index != std::floor(*index)) {
+      throw InputError(
+          fmt::format("{}: XMP Camera:RigCameraIndex {} is not a camera index in "
+                      "[0, 1000]",
+                      source, *index));
+    }
+    m.rig_camera_index = static_cast<int>(*index);
+  }
+}
+
 ImageMetadata Extract(Exiv2::Image& image, const std::string& source) {
   image.readMetadata();
   ImageMetadata m;
@@ -490,6 +534,7 @@ ImageMetadata Extract(Exiv2::Image& image, const std::string& source) {
   CheckRange(m.focal_length_mm, 0.0, 1e4, "EXIF FocalLength (mm)", source);
   CheckRange(m.focal_length_35mm_mm, 0.0, 1e4, "EXIF FocalLengthIn35mmFilm (mm)", source);
 
+  ReadRigXmp(xmp, source, m);
   ReadDjiXmp(xmp, source, m);
   const bool dji_values = m.rel_alt_m || m.abs_alt_m || m.flight_yaw_deg || m.flight_pitch_deg ||
                           m.flight_roll_deg || m.gimbal_yaw_deg || m.gimbal_pitch_deg ||

@@ -66,6 +66,22 @@ struct ImageMetadata {
   /// CalibratedFocalLength (pixels, at this image's size) and optical centre, when written.
   std::optional<double> calibrated_focal_px, calibrated_cx_px, calibrated_cy_px;
 
+  // Multi-camera rigs: multispectral cameras write one photo per band at each capture (DJI P4
+  // Multispectral: an RGB JPEG and five TIFFs; MicaSense RedEdge and Altum, Parrot Sequoia,
+  // Sentera: one TIFF per band). The tags as OpenDroneMap reads them (OpenDroneMap/ODM
+  // opendm/photo.py, ODM_Photo.parse_exif_values) and as MicaSense writes them (its TIFFs'
+  // XMP: Camera:BandName, Camera:RigCameraIndex, MicaSense:CaptureId).
+  /// The band this photo holds: XMP Camera:BandName (Pix4D's namespace), e.g. "Blue", "NIR",
+  /// "Red edge"; empty when the photo names none (a rig's RGB camera: DJI P4 Multispectral's
+  /// JPEG has none).
+  std::string band_name;
+  /// The capture this photo belongs to, the same in the photos a rig takes together: XMP
+  /// drone-dji:CaptureUUID (DJI), MicaSense:CaptureId (MicaSense), Camera:CaptureUUID (Parrot
+  /// Sequoia), Camera:ImageUniqueID (Sentera); empty when none is written.
+  std::string capture_id;
+  /// XMP Camera:RigCameraIndex: the band's camera in the rig (MicaSense, Sequoia, Sentera).
+  std::optional<int> rig_camera_index;
+
   std::optional<double> focal_length_mm;       ///< EXIF FocalLength.
   std::optional<double> focal_length_35mm_mm;  ///< EXIF FocalLengthIn35mmFilm.
 

@@ -67,6 +67,36 @@ inline void WriteJpegWithXmpPacket(const std::filesystem::path& path, const cv::
             static_cast<std::streamsize>(jpeg.size() - 2));
 }
 
+/// Adds the given EXIF tags (as WriteJpegWithTags) to the image file at `path`, its XMP packet
+/// kept byte for byte.
+inline void AddExifTags(const std::filesystem::path& path,
+                        const std::map<std::string, std::string>& exif_tags) {
+  auto img = Exiv2::ImageFactory::open(path.string());
+  img->readMetadata();
+  Exiv2::ExifData exif = img->exifData();
+  for (const auto& [k, v] : exif_tags) exif[k] = v;
+  img->setExifData(exif);
+  img->writeXmpFromPacket(true);
+  img->writeMetadata();
+}
+
+/// Writes `image` (8 or 16 bits per sample) as a TIFF at `path` with `exif_tags` (Exiv2 keys,
+/// as WriteJpegWithTags) and `xmp_packet` byte for byte in its XMP tag 700 (0x02bc, where
+/// TIFF-writing cameras such as MicaSense's and DJI P4 Multispectral's bands keep it).
+inline void WriteTiffWithXmpPacket(const std::filesystem::path& path, const cv::Mat& image,
+                                   const std::map<std::string, std::string>& exif_tags,
+                                   const std::string& xmp_packet) {
+  if (!cv::imwrite(path.string(), image)) throw std::runtime_error("cannot write " + path.string());
+  auto img = Exiv2::ImageFactory::open(path.string());
+  img->readMetadata();
+  Exiv2::ExifData exif = img->exifData();
+  for (const auto& [k, v] : exif_tags) exif[k] = v;
+  img->setExifData(exif);
+  img->setXmpPacket(xmp_packet);
+  img->writeXmpFromPacket(true);
+  img->writeMetadata();
+}
+
 }  // namespace aerovo::io_test
 
 #pragma GCC diagnostic pop

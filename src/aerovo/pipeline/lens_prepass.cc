@@ -37,6 +37,7 @@ FrameSourceOptions SourceOptionsOf(const RunConfig& config) {
   if (config.end_s >= 0.0) so.end_time_s = config.end_s;
   so.photo_gap_s = config.photo_gap_s;
   so.photo_flight = config.photo_flight;
+  so.photo_band = config.photo_band;
   so.video_decoder = config.video_decoder;
   so.video_threads = config.video_threads;
   return so;

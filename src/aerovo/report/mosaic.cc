@@ -186,6 +186,7 @@ MosaicWarpOutcome WarpRunFrames(const RunData& run, const MosaicOptions& options
   if (end_s >= 0.0) so.end_time_s = end_s;
   so.photo_gap_s = ConfigValue<double>(run.config, "photo_gap_s", so.photo_gap_s);
   so.photo_flight = ConfigValue<int>(run.config, "photo_flight", so.photo_flight, -1, 1000000);
+  so.photo_band = ConfigValue<std::string>(run.config, "photo_band", "");
   // The run's video decoder (an unknown name: the default).
   so.video_decoder =
       options::ParseEnum<VideoDecoderChoice>(ConfigValue<std::string>(run.config, "video_decoder",
