@@ -37,6 +37,7 @@
 
 #include "aerovo/core/error.h"
 #include "aerovo/core/testing.h"
+#include "aerovo/frames/image_test_util.h"
 
 #include "e2e_testing.h"
 
@@ -328,6 +329,99 @@ TEST(Runner, TurinP4mWithXmpAltitudeAndYaw) {
   ExpectTheStoredFigures("turin-p4m", s);
   CheckOutputs(c.out, 32);
   fs::remove_all(c.out);
+}
+
+// turin-p4m as the P4 Multispectral writes it: per capture its RGB JPEG (the photos of
+// ../shared) and five 16-bit band TIFFs DJI_xxx1-5.TIF with the JPEG's EXIF and CaptureUUID, and
+// Camera:BandName (frames/frame_source_test.cc has the layout). The first 6 captures: the
+// run reads the RGB photos and gives the track of the JPEGs alone, byte for byte; `--photo-band
+// NIR` reads the NIR TIFFs.
+TEST(Runner, TurinAsTheMultispectralCameraWritesItReadsItsRgbPhotos) {
+  AEROVO_REQUIRE_SHARED(flight, "data/flights/turin-p4m/DJI_0010.JPG");
+  const fs::path dir = TempDir("turin_rig");
+  const fs::path rgb = dir / "rgb", rig = dir / "rig";
+  fs::create_directories(rgb);
+  fs::create_directories(rig);
+  std::vector<fs::path> all;
+  for (const auto& e : fs::directory_iterator(flight.parent_path())) {
+    if (e.path().extension() == ".JPG") all.push_back(e.path());
+  }
+  std::sort(all.begin(), all.end());
+  constexpr std::size_t kCaptures = 6;
+  ASSERT_GE(all.size(), kCaptures);
+  all.resize(kCaptures);
+  const char* const bands[] = {"Blue", "Green", "Red", "RedEdge", "NIR"};
+  for (const fs::path& p : all) {
+    fs::create_symlink(p, rgb / p.filename());
+    fs::create_symlink(p, rig / p.filename());
+    const ImageMetadata m = ReadImageMetadata(p);
+    ASSERT_FALSE(m.capture_id.empty()) << p;
+    std::map<std::string, std::string> exif;
+    {
+      auto image = Exiv2::ImageFactory::open(p.string());
+      image->readMetadata();
+      for (const auto& d : image->exifData()) {
+        const std::string key = d.key();
+        if (key.rfind("Exif.GPSInfo.", 0) == 0 || key == "Exif.Image.Make" ||
+            key == "Exif.Image.Model" || key == "Exif.Photo.DateTimeOriginal" ||
+            key == "Exif.Photo.SubSecTimeOriginal" || key == "Exif.Photo.FocalLength" ||
+            key == "Exif.Photo.FocalLengthIn35mmFilm") {
+          exif[key] = d.toString();
+        }
+      }
+    }
+    cv::Mat bgr = cv::imread(p.string(), cv::IMREAD_COLOR), channels[3];
+    cv::split(bgr, channels);
+    const std::string stem = p.stem().string();  // DJI_0010
+    for (int b = 0; b < 5; ++b) {
+      cv::Mat band;
+      channels[std::min(b, 2)].convertTo(band, CV_16U, 16.0 + b);
+      const std::string packet =
+          std::string("<?xpacket begin=\"\xEF\xBB\xBF\" id=\"W5M0MpCehiHzreSzNTczkc9d\"?>\n") +
+          "<x:xmpmeta xmlns:x=\"adobe:ns:meta/\">\n"
+          " <rdf:RDF xmlns:rdf=\"http://www.w3.org/1999/02/22-rdf-syntax-ns#\">\n"
+          "  <rdf:Description rdf:about=\"DJI Meta Data\"\n"
+          "    xmlns:drone-dji=\"http://www.dji.com/drone-dji/1.0/\"\n"
+          "    xmlns:Camera=\"http://pix4d.com/camera/1.0\"\n" +
+          fmt::format("   drone-dji:RelativeAltitude=\"{:+.2f}\"\n", *m.rel_alt_m) +
+          fmt::format("   drone-dji:GimbalYawDegree=\"{:+.2f}\"\n", *m.gimbal_yaw_deg) +
+          "   drone-dji:GimbalPitchDegree=\"-90.00\"\n" +
+          fmt::format("   drone-dji:CaptureUUID=\"{}\"\n", m.capture_id) +
+          fmt::format("   Camera:BandName=\"{}\">\n", bands[b]) +
+          "  </rdf:Description>\n </rdf:RDF>\n</x:xmpmeta>\n<?xpacket end=\"w\"?>";
+      io_test::WriteTiffWithXmpPacket(
+          rig / fmt::format("{}{}.TIF", stem.substr(0, stem.size() - 1), b + 1), band, exif,
+          packet);
+    }
+  }
+  RunConfig base;
+  base.quiet = true;
+  RunConfig a = base;
+  a.input = rgb.string();
+  a.out = (dir / "out_rgb").string();
+  const RunSummary alone = RunFlight(a);
+  RunConfig b = base;
+  b.input = rig.string();
+  b.out = (dir / "out_rig").string();
+  const RunSummary from_rig = RunFlight(b);
+  EXPECT_EQ(from_rig.frames_processed, static_cast<int>(kCaptures));
+  EXPECT_EQ(alone.frames_processed, static_cast<int>(kCaptures));
+  EXPECT_EQ(ReadText(dir / "out_rig" / "vo.tum"), ReadText(dir / "out_rgb" / "vo.tum"));
+  ASSERT_TRUE(alone.evaluation && from_rig.evaluation);
+  EXPECT_EQ(from_rig.evaluation->sim2.ate_m.rmse, alone.evaluation->sim2.ate_m.rmse);
+  EXPECT_NE(ReadText(dir / "out_rig" / "summary.json")
+                .find("the 6 photos of band RGB are read, the 30 of the other bands skipped"),
+            std::string::npos);
+
+  // Another band through the command line: its TIFFs, the frames' names say so.
+  ASSERT_EQ(e2e::RunCli(fmt::format("run {} --photo-band NIR --no-report --quiet -o {}",
+                                    rig.string(), (dir / "out_nir").string())),
+            0);
+  const auto rows = e2e::ReadFramesCsv(dir / "out_nir");
+  ASSERT_EQ(rows.size(), kCaptures);
+  EXPECT_NE(ReadText(dir / "out_nir" / "summary.json").find("of band NIR are read"),
+            std::string::npos);
+  fs::remove_all(dir);
 }
 
 // A survey camera the autopilot triggers: the photos take the fixes of the ArduPilot log's CAM

@@ -73,6 +73,10 @@ TEST(ImageMetadata, TurinP4Multispectral) {
   EXPECT_DOUBLE_EQ(*m.calibrated_cx_px, 800.0);
   EXPECT_DOUBLE_EQ(*m.calibrated_cy_px, 650.0);
   EXPECT_DOUBLE_EQ(*m.capture_unix_time_s, 1769435417.0);  // 2026-01-26 13:50:17
+  // The RGB camera of the rig: a capture id shared with the five band TIFFs, no band name.
+  EXPECT_EQ(m.capture_id, "27b14018528c11f08d087d2ed18fec73");
+  EXPECT_EQ(m.band_name, "");
+  EXPECT_FALSE(m.rig_camera_index);
 
   const TelemetrySample s = m.ToSample();
   EXPECT_DOUBLE_EQ(*s.abs_alt_m, 349.58);  // XMP absolute altitude preferred
@@ -333,6 +337,73 @@ TEST(ImageMetadataVendors, ParrotAnafiDroneParrotAnglesAndPix4dHeight) {
   EXPECT_EQ(m0.xmp_vendor, ImageMetadata::XmpVendor::kParrot);
   EXPECT_DOUBLE_EQ(*m0.gimbal_pitch_deg, -51.988888);
   EXPECT_DOUBLE_EQ(*m0.rel_alt_m, 11485529.0 / 262144.0);
+}
+
+// A MicaSense RedEdge-MX band TIFF: its XMP in tag 700, one rdf:Description per namespace
+// (MicaSense, Camera, DLS), as the camera writes it (radiometric and lens tags left out).
+std::string MicaSenseTiffPacket(const std::string& band, const std::string& index) {
+  return std::string("<?xpacket begin=\"\xEF\xBB\xBF\" id=\"W5M0MpCehiHzreSzNTczkc9d\"?>\n") +
+         "<x:xmpmeta xmlns:x=\"adobe:ns:meta/\" x:xmptk=\"XMP Core 4.4.0\">\n"
+         "   <rdf:RDF xmlns:rdf=\"http://www.w3.org/1999/02/22-rdf-syntax-ns#\">\n"
+         "      <rdf:Description rdf:about=\"Pix4D Camera Information\"\n"
+         "            xmlns:MicaSense=\"http://micasense.com/MicaSense/1.0/\">\n"
+         "         <MicaSense:BootTimestamp>466</MicaSense:BootTimestamp>\n"
+         "         <MicaSense:RadiometricCalibration>\n            <rdf:Seq>\n"
+         "               <rdf:li>0.000145914</rdf:li>\n               "
+         "<rdf:li>1.39479e-07</rdf:li>\n"
+         "            </rdf:Seq>\n         </MicaSense:RadiometricCalibration>\n"
+         "         <MicaSense:FlightId>20Ntb9oCOg7Cm7HUbb1i</MicaSense:FlightId>\n"
+         "         <MicaSense:CaptureId>DFj0YDYQsRJd6hDUj7qZ</MicaSense:CaptureId>\n"
+         "         <MicaSense:TriggerMethod>4</MicaSense:TriggerMethod>\n"
+         "      </rdf:Description>\n"
+         "      <rdf:Description rdf:about=\"Pix4D Camera Information\"\n"
+         "            xmlns:Camera=\"http://pix4d.com/camera/1.0\">\n"
+         "         <Camera:BandName>" +
+         band +
+         "</Camera:BandName>\n"
+         "         <Camera:CentralWavelength>475</Camera:CentralWavelength>\n"
+         "         <Camera:RigCameraIndex>" +
+         index +
+         "</Camera:RigCameraIndex>\n"
+         "      </rdf:Description>\n"
+         "      <rdf:Description rdf:about=\"Pix4D Camera Information\"\n"
+         "            xmlns:DLS=\"http://micasense.com/DLS/1.0/\">\n"
+         "         <DLS:SensorId>0</DLS:SensorId>\n"
+         "         <DLS:Yaw>0.73310724098153246</DLS:Yaw>\n"
+         "      </rdf:Description>\n"
+         "   </rdf:RDF>\n</x:xmpmeta>\n<?xpacket end=\"w\"?>";
+}
+
+TEST(ImageMetadataVendors, MicaSenseBandTiffNamesItsBandAndCapture) {
+  io_test::TempDir dir("aerovo_xmp_micasense");
+  cv::Mat band(36, 48, CV_16UC1, cv::Scalar(1000));
+  const std::map<std::string, std::string> exif = {{"Exif.Image.Make", "MicaSense"},
+                                                   {"Exif.Image.Model", "RedEdge-M"}};
+  io_test::WriteTiffWithXmpPacket(dir / "IMG_0001_1.tif", band, exif,
+                                  MicaSenseTiffPacket("Blue", "0"));
+  const ImageMetadata m = ReadImageMetadata(dir / "IMG_0001_1.tif");
+  EXPECT_EQ(m.band_name, "Blue");
+  EXPECT_EQ(m.capture_id, "DFj0YDYQsRJd6hDUj7qZ");
+  EXPECT_EQ(m.rig_camera_index, 0);
+  EXPECT_EQ(m.width_px, 48);
+  // Its Camera namespace has no angles: no vendor's flight values.
+  EXPECT_EQ(m.xmp_vendor, ImageMetadata::XmpVendor::kNone);
+  EXPECT_EQ(ReadImageMetadata([&] {
+              io_test::WriteTiffWithXmpPacket(dir / "IMG_0001_5.tif", band, exif,
+                                              MicaSenseTiffPacket("Red edge", "4"));
+              return dir / "IMG_0001_5.tif";
+            }())
+                .band_name,
+            "Red edge");
+  // What no camera writes is an error naming the file and the tag.
+  io_test::WriteTiffWithXmpPacket(dir / "bad_index.tif", band, exif,
+                                  MicaSenseTiffPacket("Blue", "1.5"));
+  io_test::ExpectInputError([&] { ReadImageMetadata(dir / "bad_index.tif"); },
+                            {"bad_index.tif", "Camera:RigCameraIndex 1.5"});
+  io_test::WriteTiffWithXmpPacket(dir / "bad_name.tif", band, exif,
+                                  MicaSenseTiffPacket("Blue&#x9;&#xA;NIR", "0"));
+  io_test::ExpectInputError([&] { ReadImageMetadata(dir / "bad_name.tif"); },
+                            {"bad_name.tif", "XMP Camera:BandName", "at most 64 printable"});
 }
 
 // Pix4D's Camera namespace alone, as exiftool writes it with its pix4d.config (single quotes,
