@@ -365,7 +365,7 @@ TEST(Runner, TurinAsTheMultispectralCameraWritesItReadsItsRgbPhotos) {
         if (key.rfind("Exif.GPSInfo.", 0) == 0 || key == "Exif.Image.Make" ||
             key == "Exif.Image.Model" || key == "Exif.Photo.DateTimeOriginal" ||
             key == "Exif.Photo.SubSecTimeOriginal" || key == "Exif.Photo.FocalLength" ||
-            key == "Exif.Photo.FocalLengthIn35mmFilm") {
+            key == "Exif.Photo.FocalLengthIn35mmFilm" || key == "Exif.Photo.BodySerialNumber") {
           exif[key] = d.toString();
         }
       }
