@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstring>
 #include <iostream>
+#include <map>
+#include <set>
 #include <string_view>
 
 #include <fmt/format.h>
@@ -596,25 +598,28 @@ void SelectBand(std::vector<PhotoEntry>& entries, const FrameSourceOptions& opti
     return;
   }
   std::vector<RigBand> bands;
+  std::map<std::string, std::size_t> band_of_key;  // a folder may name many bands: no scan
   for (std::size_t i = 0; i < entries.size(); ++i) {
     const ImageMetadata& m = entries[i].meta;
     const std::string key = BandKey(m.band_name);
-    auto it =
-        std::find_if(bands.begin(), bands.end(), [&](const RigBand& b) { return b.key == key; });
     const int order = m.rig_camera_index ? *m.rig_camera_index : 1001 + static_cast<int>(i);
-    if (it == bands.end()) {
-      bands.push_back({m.band_name.empty() ? "RGB" : m.band_name, key, 0, order});
-      it = bands.end() - 1;
-    }
-    ++it->count;
-    it->order = std::min(it->order, order);
+    const auto [it, added] = band_of_key.emplace(key, bands.size());
+    if (added) bands.push_back({m.band_name.empty() ? "RGB" : m.band_name, key, 0, order});
+    RigBand& b = bands[it->second];
+    ++b.count;
+    b.order = std::min(b.order, order);
   }
   std::stable_sort(bands.begin(), bands.end(),
                    [](const RigBand& a, const RigBand& b) { return a.order < b.order; });
+  // The bands and their photos, for messages (the first 12: a rig has 4 to 10).
+  constexpr std::size_t kListedBands = 12;
   std::string listed;
-  for (const RigBand& b : bands) {
-    listed += fmt::format("{}{} ({} photo{})", listed.empty() ? "" : ", ", b.name, b.count,
-                          b.count == 1 ? "" : "s");
+  for (std::size_t k = 0; k < bands.size() && k < kListedBands; ++k) {
+    listed += fmt::format("{}{} ({} photo{})", k ? ", " : "", bands[k].name, bands[k].count,
+                          bands[k].count == 1 ? "" : "s");
+  }
+  if (bands.size() > kListedBands) {
+    listed += fmt::format(" and {} more", bands.size() - kListedBands);
   }
   const RigBand* chosen = nullptr;
   if (!options.photo_band.empty()) {
@@ -659,15 +664,14 @@ void SelectBand(std::vector<PhotoEntry>& entries, const FrameSourceOptions& opti
     }
   }
   std::sort(read_captures.begin(), read_captures.end());
-  std::vector<std::string> missing_ids;
+  std::set<std::string> missing_ids;
   std::vector<std::string> missing_names;
   for (const PhotoEntry& e : entries) {
     const std::string& id = e.meta.capture_id;
     if (id.empty() || std::binary_search(read_captures.begin(), read_captures.end(), id) ||
-        std::find(missing_ids.begin(), missing_ids.end(), id) != missing_ids.end()) {
+        !missing_ids.insert(id).second) {
       continue;
     }
-    missing_ids.push_back(id);
     missing_names.push_back(e.path.filename().string());
   }
   if (!missing_ids.empty() && !read_captures.empty()) {
@@ -676,10 +680,11 @@ void SelectBand(std::vector<PhotoEntry>& entries, const FrameSourceOptions& opti
       names += fmt::format("{}'{}'", k ? ", " : "", missing_names[k]);
     }
     warnings.push_back(fmt::format(
-        "image folder '{}': {} capture{} of the rig have no photo of band {} and are not read "
+        "image folder '{}': {} capture{} of the rig {} no photo of band {} and {} not read "
         "(the capture of {}{})",
-        folder.string(), missing_ids.size(), missing_ids.size() == 1 ? "" : "s", band, names,
-        missing_names.size() > 3 ? ", ..." : ""));
+        folder.string(), missing_ids.size(), missing_ids.size() == 1 ? "" : "s",
+        missing_ids.size() == 1 ? "has" : "have", band, missing_ids.size() == 1 ? "is" : "are",
+        names, missing_names.size() > 3 ? ", ..." : ""));
   }
   entries.erase(
       std::remove_if(entries.begin(), entries.end(),

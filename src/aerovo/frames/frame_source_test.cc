@@ -669,7 +669,7 @@ TEST(ImageFolderSource, MultispectralRigReadsOneBand) {
   ImageFolderSource gap(dir.path());
   EXPECT_EQ(gap.paths().size(), 2u);
   EXPECT_THAT(gap.warnings().back(),
-              HasSubstr("1 capture of the rig have no photo of band RGB and are not read (the "
+              HasSubstr("1 capture of the rig has no photo of band RGB and is not read (the "
                         "capture of 'DJI_0021.TIF')"));
 }
 
@@ -702,6 +702,22 @@ TEST(ImageFolderSource, MicaSenseRigReadsGreenByDefault) {
   FrameSourceOptions o;
   o.photo_band = "REDEDGE";
   EXPECT_EQ(ImageFolderSource(dir.path(), o).paths()[0].filename(), "IMG_0000_5.tif");
+
+  // A folder naming many bands (no camera has 15): the message lists the first 12.
+  io_test::TempDir many("aerovo_many_bands");
+  for (int b = 0; b < 15; ++b) {
+    io_test::WriteTiffWithXmpPacket(many / fmt::format("IMG_0000_{:02d}.tif", b),
+                                    TwelveBitTexture(16, 12, b), {},
+                                    MicaSensePacket("c", fmt::format("band{}", b), b));
+  }
+  o.photo_band = "band14";
+  const ImageFolderSource fifteen(many.path(), o);
+  EXPECT_EQ(fifteen.band(), "band14");
+  ASSERT_GE(fifteen.warnings().size(), 1u);
+  EXPECT_THAT(fifteen.warnings().front(),
+              HasSubstr("15-band camera rig (XMP Camera:BandName: band0 (1 photo), band1 (1 "
+                        "photo)"));
+  EXPECT_THAT(fifteen.warnings().front(), HasSubstr("band11 (1 photo) and 3 more)"));
 
   io_test::TempDir plain("aerovo_no_rig");
   io_test::WriteJpegWithTags(plain / "a.jpg", io_test::TextureImage(40, 30, 1),
