@@ -410,7 +410,7 @@ TEST(Runner, TurinAsTheMultispectralCameraWritesItReadsItsRgbPhotos) {
   ASSERT_TRUE(alone.evaluation && from_rig.evaluation);
   EXPECT_EQ(from_rig.evaluation->sim2.ate_m.rmse, alone.evaluation->sim2.ate_m.rmse);
   EXPECT_NE(ReadText(dir / "out_rig" / "summary.json")
-                .find("the 6 photos of band RGB are read, the 30 of the other bands skipped"),
+                .find("the 6 photos of RGB are read, the 30 of the others skipped"),
             std::string::npos);
 
   // Another band through the command line: its TIFFs, the frames' names say so.
@@ -419,7 +419,7 @@ TEST(Runner, TurinAsTheMultispectralCameraWritesItReadsItsRgbPhotos) {
             0);
   const auto rows = e2e::ReadFramesCsv(dir / "out_nir");
   ASSERT_EQ(rows.size(), kCaptures);
-  EXPECT_NE(ReadText(dir / "out_nir" / "summary.json").find("of band NIR are read"),
+  EXPECT_NE(ReadText(dir / "out_nir" / "summary.json").find("photos of NIR are read"),
             std::string::npos);
   fs::remove_all(dir);
 }

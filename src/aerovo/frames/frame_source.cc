@@ -561,18 +561,36 @@ std::vector<PhotoEntry> ReadPhotoEntries(const std::vector<fs::path>& files,
   return entries;
 }
 
-// A band name as FrameSourceOptions::photo_band compares it: lower case, no spaces, "rgb" for a
-// photo that names none.
+// The camera of a multi-camera payload a photo names: its band (XMP Camera:BandName,
+// multispectral cameras), else its camera (DJI drone-dji:ImageSource, payloads with wide, zoom
+// and thermal cameras); empty when it names neither.
+const std::string& PayloadCameraOf(const ImageMetadata& m) {
+  return m.band_name.empty() ? m.image_source : m.band_name;
+}
+
+// A band or camera name as FrameSourceOptions::photo_band compares it: lower case, without spaces,
+// '_' and '-'; "rgb" for a photo that names none.
 std::string BandKey(std::string_view name) {
   std::string k;
   for (char c : name) {
-    if (c != ' ' && c != '_' && c != '-')
+    if (c != ' ' && c != '_' && c != '-') {
       k += (c >= 'A' && c <= 'Z') ? static_cast<char>(c - 'A' + 'a') : c;
+    }
   }
   return k.empty() ? "rgb" : k;
 }
 
-// The bands of a rig in a folder, in the order of their cameras (Camera:RigCameraIndex, else the
+// FrameSourceOptions::photo_band as BandKey, with the short names of DJI's cameras ("wide",
+// "zoom", "thermal" or "infrared" for WideCamera, ZoomCamera, InfraredCamera).
+std::string WantedBandKey(std::string_view name) {
+  const std::string k = BandKey(name);
+  if (k == "wide") return "widecamera";
+  if (k == "zoom") return "zoomcamera";
+  if (k == "thermal" || k == "infrared") return "infraredcamera";
+  return k;
+}
+
+// The cameras of a payload in a folder, in the payload's order (Camera:RigCameraIndex, else the
 // first photo's place in file-name order).
 struct RigBand {
   std::string name;  // as the first photo of the band writes it; "RGB" for none
@@ -581,37 +599,50 @@ struct RigBand {
   int order = 0;
 };
 
-// Keeps the photos of one band when `entries` (in file-name order) hold a multi-camera rig's
-// (FrameSourceOptions::photo_band), saying so in `warnings`; `band` gets the band read. A folder
-// whose photos name no band is left as it is.
+// Keeps the photos of one camera when `entries` (in file-name order) hold the photos of a
+// multi-camera payload, several per capture (FrameSourceOptions::photo_band), saying so in
+// `warnings`; `band` gets the one read. The payload's photos are those that name their band or
+// camera (PayloadCameraOf) and the others of the same make and model (DJI P4 Multispectral's RGB
+// JPEGs name none); any other photo is left for the flight split to judge. A folder whose photos
+// name none is left as it is.
 void SelectBand(std::vector<PhotoEntry>& entries, const FrameSourceOptions& options,
                 const fs::path& folder, std::vector<std::string>& warnings, std::string& band) {
-  const bool rig = std::any_of(entries.begin(), entries.end(),
-                               [](const PhotoEntry& e) { return !e.meta.band_name.empty(); });
-  if (!rig) {
+  std::set<std::string> payload_models;
+  for (const PhotoEntry& e : entries) {
+    if (!PayloadCameraOf(e.meta).empty()) payload_models.insert(e.meta.make + " " + e.meta.model);
+  }
+  if (payload_models.empty()) {
     if (!options.photo_band.empty()) {
       throw InputError(fmt::format(
-          "image folder '{}': photo_band '{}' but no photo names its band (XMP Camera:BandName, "
-          "written by multispectral cameras): the folder is one camera's",
+          "image folder '{}': photo_band '{}' but no photo names its band or camera (XMP "
+          "Camera:BandName or drone-dji:ImageSource, written by multispectral cameras and DJI's "
+          "payloads of several cameras): the folder is one camera's",
           folder.string(), Printable(options.photo_band, 40)));
     }
     return;
   }
+  const auto in_payload = [&](const ImageMetadata& m) {
+    return !PayloadCameraOf(m).empty() || payload_models.count(m.make + " " + m.model) > 0;
+  };
   std::vector<RigBand> bands;
   std::map<std::string, std::size_t> band_of_key;  // a folder may name many bands: no scan
+  int payload_photos = 0;
   for (std::size_t i = 0; i < entries.size(); ++i) {
     const ImageMetadata& m = entries[i].meta;
-    const std::string key = BandKey(m.band_name);
+    if (!in_payload(m)) continue;
+    ++payload_photos;
+    const std::string& named = PayloadCameraOf(m);
+    const std::string key = BandKey(named);
     const int order = m.rig_camera_index ? *m.rig_camera_index : 1001 + static_cast<int>(i);
     const auto [it, added] = band_of_key.emplace(key, bands.size());
-    if (added) bands.push_back({m.band_name.empty() ? "RGB" : m.band_name, key, 0, order});
+    if (added) bands.push_back({named.empty() ? "RGB" : named, key, 0, order});
     RigBand& b = bands[it->second];
     ++b.count;
     b.order = std::min(b.order, order);
   }
   std::stable_sort(bands.begin(), bands.end(),
                    [](const RigBand& a, const RigBand& b) { return a.order < b.order; });
-  // The bands and their photos, for messages (the first 12: a rig has 4 to 10).
+  // The cameras and their photos, for messages (the first 12: a payload has 2 to 10).
   constexpr std::size_t kListedBands = 12;
   std::string listed;
   for (std::size_t k = 0; k < bands.size() && k < kListedBands; ++k) {
@@ -623,20 +654,23 @@ void SelectBand(std::vector<PhotoEntry>& entries, const FrameSourceOptions& opti
   }
   const RigBand* chosen = nullptr;
   if (!options.photo_band.empty()) {
-    const std::string want = BandKey(options.photo_band);
+    const std::string want = WantedBandKey(options.photo_band);
     for (const RigBand& b : bands) {
       if (b.key == want) chosen = &b;
     }
     if (chosen == nullptr) {
-      throw InputError(
-          fmt::format("image folder '{}': photo_band '{}' is none of the bands its "
-                      "photos name (XMP Camera:BandName): {}",
-                      folder.string(), Printable(options.photo_band, 40), listed));
+      throw InputError(fmt::format(
+          "image folder '{}': photo_band '{}' is none of the bands or cameras its photos name "
+          "(XMP Camera:BandName or drone-dji:ImageSource): {}",
+          folder.string(), Printable(options.photo_band, 40), listed));
     }
   } else {
+    // RGB, a DJI payload's wide (or visible) camera, green, blue: the most ground in the most
+    // detail; OpenDroneMap's order for multispectral cameras.
     for (const auto& aliases :
-         {std::vector<std::string>{"rgb", "redgreenblue"}, std::vector<std::string>{"green", "g"},
-          std::vector<std::string>{"blue", "b"}}) {
+         {std::vector<std::string>{"rgb", "redgreenblue"}, std::vector<std::string>{"widecamera"},
+          std::vector<std::string>{"visiblecamera", "visible"},
+          std::vector<std::string>{"green", "g"}, std::vector<std::string>{"blue", "b"}}) {
       for (const RigBand& b : bands) {
         if (chosen == nullptr &&
             std::find(aliases.begin(), aliases.end(), b.key) != aliases.end()) {
@@ -650,18 +684,19 @@ void SelectBand(std::vector<PhotoEntry>& entries, const FrameSourceOptions& opti
   const std::string key = chosen->key;
   if (bands.size() > 1) {
     warnings.push_back(fmt::format(
-        "image folder '{}' holds the photos of a {}-band camera rig (XMP Camera:BandName: {}): "
-        "the {} photos of band {} are read, the {} of the other bands skipped ({})",
-        folder.string(), bands.size(), listed, chosen->count, band,
-        static_cast<int>(entries.size()) - chosen->count,
+        "image folder '{}' holds the photos of {} cameras of one payload (their band or camera, "
+        "XMP Camera:BandName or drone-dji:ImageSource: {}): the {} photos of {} are read, the {} "
+        "of the others skipped ({})",
+        folder.string(), bands.size(), listed, chosen->count, band, payload_photos - chosen->count,
         options.photo_band.empty() ? "photo_band chooses another" : "photo_band"));
   }
-  // Captures (ImageMetadata::capture_id) without a photo of the band read.
+  const auto skipped = [&](const PhotoEntry& e) {
+    return in_payload(e.meta) && BandKey(PayloadCameraOf(e.meta)) != key;
+  };
+  // Captures (ImageMetadata::capture_id) without a photo of the camera read.
   std::vector<std::string> read_captures;
   for (const PhotoEntry& e : entries) {
-    if (!e.meta.capture_id.empty() && BandKey(e.meta.band_name) == key) {
-      read_captures.push_back(e.meta.capture_id);
-    }
+    if (!e.meta.capture_id.empty() && !skipped(e)) read_captures.push_back(e.meta.capture_id);
   }
   std::sort(read_captures.begin(), read_captures.end());
   std::set<std::string> missing_ids;
@@ -680,16 +715,12 @@ void SelectBand(std::vector<PhotoEntry>& entries, const FrameSourceOptions& opti
       names += fmt::format("{}'{}'", k ? ", " : "", missing_names[k]);
     }
     warnings.push_back(fmt::format(
-        "image folder '{}': {} capture{} of the rig {} no photo of band {} and {} not read "
-        "(the capture of {}{})",
+        "image folder '{}': {} capture{} {} no photo of {} and {} not read (the capture of {}{})",
         folder.string(), missing_ids.size(), missing_ids.size() == 1 ? "" : "s",
         missing_ids.size() == 1 ? "has" : "have", band, missing_ids.size() == 1 ? "is" : "are",
         names, missing_names.size() > 3 ? ", ..." : ""));
   }
-  entries.erase(
-      std::remove_if(entries.begin(), entries.end(),
-                     [&](const PhotoEntry& e) { return BandKey(e.meta.band_name) != key; }),
-      entries.end());
+  entries.erase(std::remove_if(entries.begin(), entries.end(), skipped), entries.end());
 }
 
 std::string CameraOf(const ImageMetadata& m) {

@@ -84,14 +84,17 @@ struct FrameSourceOptions {
   /// two photos where flights change, the gap or the cameras, and every flight); K >= 1
   /// delivers flight K only; -1 chains them all as one sequence (before 0.2: silently).
   int photo_flight = 0;
-  /// Image folders of a multi-camera rig (photos that name their band, ImageMetadata::
-  /// band_name: multispectral cameras write one photo per band at each capture): the band whose
-  /// photos are read, the others skipped. Compared without case and spaces ("rededge" is
-  /// "Red edge"); "RGB" is also a rig's photos that name no band (DJI P4 Multispectral's
-  /// JPEGs). Empty (default): RGB, else green, else blue, else the rig's first camera, as
-  /// OpenDroneMap picks its primary band (OpenDroneMap/ODM opendm/multispectral.py,
-  /// get_primary_band_name). A band the folder does not hold is an InputError listing those
-  /// it holds.
+  /// Image folders of a multi-camera payload, one photo per camera at each capture: the camera
+  /// whose photos are read, the others skipped. A photo names its camera by its band (XMP
+  /// Camera:BandName, ImageMetadata::band_name: multispectral cameras) or DJI's
+  /// drone-dji:ImageSource (ImageMetadata::image_source: "WideCamera", "ZoomCamera",
+  /// "InfraredCamera" of Zenmuse H20T-class payloads). Compared without case, spaces, '_' and
+  /// '-' ("rededge" is "Red edge"; "wide", "zoom", "thermal" name DJI's cameras); "RGB" is also
+  /// the payload's photos that name none (DJI P4 Multispectral's JPEGs). Empty (default): RGB,
+  /// else the wide camera, else visible, else green, else blue, else the payload's first camera
+  /// (multispectral: OpenDroneMap's choice of its primary band, OpenDroneMap/ODM
+  /// opendm/multispectral.py get_primary_band_name). A camera the folder does not hold is an
+  /// InputError listing those it holds.
   std::string photo_band;
   /// Video files: the decoder. Default auto = ffmpeg, our own (it sees every frame's
   /// decoded size, so a resolution change mid-stream is an error; grey from the luma plane,
@@ -261,8 +264,9 @@ class ImageFolderSource : public FrameSource {
   int skipped_files() const { return skipped_files_; }
   /// Flights found in the folder (FrameSourceOptions::photo_gap_s), >= 1.
   int flight_count() const { return flight_count_; }
-  /// The band read when the folder holds a multi-camera rig (FrameSourceOptions::photo_band), as
-  /// its photos name it ("RGB" for photos that name none); empty for a folder of one camera.
+  /// The band or camera read when the folder's photos name theirs (FrameSourceOptions::
+  /// photo_band), as they name it ("RGB" for a payload's photos that name none); empty when no
+  /// photo names one.
   const std::string& band() const { return band_; }
 
  private:

@@ -636,10 +636,11 @@ TEST(ImageFolderSource, MultispectralRigReadsOneBand) {
     EXPECT_DOUBLE_EQ(rgb.TimeOf(2), 4.0);
     ASSERT_FALSE(rgb.warnings().empty());
     EXPECT_THAT(rgb.warnings().back(),
-                HasSubstr("holds the photos of a 6-band camera rig (XMP Camera:BandName: RGB (3 "
-                          "photos), Blue (3 photos), Green (3 photos), Red (3 photos), RedEdge (3 "
-                          "photos), NIR (3 photos)): the 3 photos of band RGB are read, the 15 of "
-                          "the other bands skipped (photo_band chooses another)"));
+                HasSubstr("holds the photos of 6 cameras of one payload (their band or camera, "
+                          "XMP Camera:BandName or drone-dji:ImageSource: RGB (3 photos), Blue (3 "
+                          "photos), Green (3 photos), Red (3 photos), RedEdge (3 photos), NIR (3 "
+                          "photos)): the 3 photos of RGB are read, the 15 of the others skipped "
+                          "(photo_band chooses another)"));
   }
   FrameSourceOptions o;
   o.photo_band = "nir";
@@ -661,16 +662,15 @@ TEST(ImageFolderSource, MultispectralRigReadsOneBand) {
   EXPECT_EQ(ImageFolderSource(dir.path(), o).paths().front().filename(), "DJI_0014.TIF");
   o.photo_band = "thermal";
   ExpectInputError([&] { ImageFolderSource s(dir.path(), o); },
-                   {"photo_band 'thermal' is none of the bands its photos name",
+                   {"photo_band 'thermal' is none of the bands or cameras its photos name",
                     "RGB (3 photos), Blue (3 photos)", "NIR (3 photos)"});
 
   // A capture without its RGB photo: not read, and said naming one of its photos.
   fs::remove(dir / "DJI_0020.JPG");
   ImageFolderSource gap(dir.path());
   EXPECT_EQ(gap.paths().size(), 2u);
-  EXPECT_THAT(gap.warnings().back(),
-              HasSubstr("1 capture of the rig has no photo of band RGB and is not read (the "
-                        "capture of 'DJI_0021.TIF')"));
+  EXPECT_THAT(gap.warnings().back(), HasSubstr("1 capture has no photo of RGB and is not read (the "
+                                               "capture of 'DJI_0021.TIF')"));
 }
 
 // MicaSense RedEdge: five TIFFs per capture IMG_xxxx_1-5.tif, no RGB camera: green is read by
@@ -698,7 +698,7 @@ TEST(ImageFolderSource, MicaSenseRigReadsGreenByDefault) {
   EXPECT_EQ(green.metadata()[1].capture_id, "DFj0YDYQsRJd6hDUj7q1");
   EXPECT_THAT(green.warnings().back(),
               HasSubstr("Blue (2 photos), Green (2 photos), Red (2 photos), NIR (2 photos), Red "
-                        "edge (2 photos)): the 2 photos of band Green are read"));
+                        "edge (2 photos)): the 2 photos of Green are read"));
   FrameSourceOptions o;
   o.photo_band = "REDEDGE";
   EXPECT_EQ(ImageFolderSource(dir.path(), o).paths()[0].filename(), "IMG_0000_5.tif");
@@ -715,8 +715,8 @@ TEST(ImageFolderSource, MicaSenseRigReadsGreenByDefault) {
   EXPECT_EQ(fifteen.band(), "band14");
   ASSERT_GE(fifteen.warnings().size(), 1u);
   EXPECT_THAT(fifteen.warnings().front(),
-              HasSubstr("15-band camera rig (XMP Camera:BandName: band0 (1 photo), band1 (1 "
-                        "photo)"));
+              HasSubstr("15 cameras of one payload (their band or camera, XMP Camera:BandName or "
+                        "drone-dji:ImageSource: band0 (1 photo), band1 (1 photo)"));
   EXPECT_THAT(fifteen.warnings().front(), HasSubstr("band11 (1 photo) and 3 more)"));
 
   io_test::TempDir plain("aerovo_no_rig");
@@ -725,7 +725,69 @@ TEST(ImageFolderSource, MicaSenseRigReadsGreenByDefault) {
   EXPECT_EQ(ImageFolderSource(plain.path()).band(), "");
   o.photo_band = "NIR";
   ExpectInputError([&] { ImageFolderSource s(plain.path(), o); },
-                   {"photo_band 'NIR' but no photo names its band", "one camera's"});
+                   {"photo_band 'NIR' but no photo names its band or camera", "one camera's"});
+}
+
+// A DJI payload of wide, zoom and thermal cameras (Zenmuse H20T, Matrice 30T, Mavic 3T): per
+// capture DJI_<time>_<n>_W.JPG, _Z.JPG, _T.JPG of three sizes, each naming its camera in
+// drone-dji:ImageSource. The wide camera is read by default (the build before refused the folder
+// for its mixed sizes), the thermal one on request; a photo of another camera stays for the
+// flight split to judge.
+TEST(ImageFolderSource, DjiWideZoomThermalPayloadReadsTheWideCamera) {
+  io_test::TempDir dir("aerovo_h20t");
+  const auto packet = [](const std::string& source) {
+    return std::string("<?xpacket begin=\"\xEF\xBB\xBF\" id=\"W5M0MpCehiHzreSzNTczkc9d\"?>\n") +
+           "<x:xmpmeta xmlns:x=\"adobe:ns:meta/\">\n"
+           " <rdf:RDF xmlns:rdf=\"http://www.w3.org/1999/02/22-rdf-syntax-ns#\">\n"
+           "  <rdf:Description rdf:about=\"DJI Meta Data\"\n"
+           "    xmlns:drone-dji=\"http://www.dji.com/drone-dji/1.0/\"\n"
+           "   drone-dji:RelativeAltitude=\"+80.10\"\n"
+           "   drone-dji:GimbalPitchDegree=\"-90.00\"\n"
+           "   drone-dji:DroneModel=\"M30T\"\n"
+           "   drone-dji:ImageSource=\"" +
+           source + "\">\n  </rdf:Description>\n </rdf:RDF>\n</x:xmpmeta>\n<?xpacket end=\"w\"?>";
+  };
+  const struct {
+    const char* suffix;
+    const char* source;
+    int width, height;
+  } cameras[] = {
+      {"W", "WideCamera", 64, 48}, {"Z", "ZoomCamera", 80, 60}, {"T", "InfraredCamera", 32, 26}};
+  for (int k = 0; k < 3; ++k) {
+    for (const auto& c : cameras) {
+      const fs::path p = dir / fmt::format("DJI_20230401101500_000{}_{}.JPG", k + 1, c.suffix);
+      io_test::WriteJpegWithXmpPacket(p, io_test::TextureImage(c.width, c.height, k),
+                                      packet(c.source));
+      io_test::AddExifTags(
+          p, {{"Exif.Photo.DateTimeOriginal", fmt::format("2023:04:01 10:15:{:02d}", 2 * k)},
+              {"Exif.Image.Make", "DJI"},
+              {"Exif.Image.Model", "M30T"}});
+    }
+  }
+  const ImageFolderSource wide(dir.path());
+  EXPECT_EQ(wide.band(), "WideCamera");
+  ASSERT_EQ(wide.paths().size(), 3u);
+  EXPECT_EQ(wide.paths()[2].filename(), "DJI_20230401101500_0003_W.JPG");
+  EXPECT_THAT(wide.warnings().back(),
+              HasSubstr("InfraredCamera (3 photos), WideCamera (3 photos), ZoomCamera (3 "
+                        "photos)): the 3 photos of WideCamera are read, the 6 of the others"));
+  FrameSourceOptions o;
+  o.photo_band = "thermal";
+  ImageFolderSource thermal(dir.path(), o);
+  Frame f;
+  ASSERT_TRUE(thermal.Next(f));
+  EXPECT_EQ(f.name, "DJI_20230401101500_0001_T.JPG");
+  EXPECT_EQ(f.gray.width(), 32);
+  o.photo_band = "Zoom Camera";
+  EXPECT_EQ(ImageFolderSource(dir.path(), o).band(), "ZoomCamera");
+
+  // Another aircraft's photo in the folder is not the payload's: the flight split refuses it.
+  io_test::WriteJpegWithTags(dir / "P0001.JPG", io_test::TextureImage(64, 48, 9),
+                             {{"Exif.Photo.DateTimeOriginal", "2023:04:01 10:15:08"},
+                              {"Exif.Image.Make", "Parrot"},
+                              {"Exif.Image.Model", "ANAFI"}});
+  ExpectInputError([&] { ImageFolderSource s(dir.path()); },
+                   {"'P0001.JPG' is from another camera (Parrot ANAFI)"});
 }
 
 TEST(ImageFolderSource, NameOrderWithoutExifAndPngTiff) {

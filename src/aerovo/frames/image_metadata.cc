@@ -443,9 +443,11 @@ std::string XmpRigText(const Exiv2::XmpData& xmp, const char* key, const char* w
   return std::string(t);
 }
 
-// The rig's tags of a photo (ImageMetadata::band_name, capture_id, rig_camera_index).
+// The rig's tags of a photo (ImageMetadata::band_name, capture_id, rig_camera_index,
+// image_source).
 void ReadRigXmp(const Exiv2::XmpData& xmp, const std::string& source, ImageMetadata& m) {
   m.band_name = XmpRigText(xmp, "Xmp.Camera.BandName", "Camera:BandName", source);
+  m.image_source = XmpRigText(xmp, "Xmp.drone-dji.ImageSource", "drone-dji:ImageSource", source);
   for (const auto& [key, what] : {std::pair{"Xmp.drone-dji.CaptureUUID", "drone-dji:CaptureUUID"},
                                   {"Xmp.MicaSense.CaptureId", "MicaSense:CaptureId"},
                                   {"Xmp.Camera.CaptureUUID", "Camera:CaptureUUID"},

@@ -81,6 +81,10 @@ struct ImageMetadata {
   std::string capture_id;
   /// XMP Camera:RigCameraIndex: the band's camera in the rig (MicaSense, Sequoia, Sentera).
   std::optional<int> rig_camera_index;
+  /// The camera of a DJI payload of several that took the photo: XMP drone-dji:ImageSource,
+  /// "WideCamera", "ZoomCamera", "InfraredCamera" (Zenmuse H20T, Matrice 30T, Mavic 3T: one photo
+  /// of each camera per capture, DJI_xxxx_W.JPG, _Z.JPG, _T.JPG); empty when not written.
+  std::string image_source;
 
   std::optional<double> focal_length_mm;       ///< EXIF FocalLength.
   std::optional<double> focal_length_35mm_mm;  ///< EXIF FocalLengthIn35mmFilm.
