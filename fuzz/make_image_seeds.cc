@@ -7,7 +7,12 @@
 // photo's layout: the XMP packet in tag 0x02bc of the Exif sub-IFD, GPS with an altitude above
 // sea level) and ifd0_xml_packet.jpg (the packet in IFD0's XMLPacket), written with
 // io_test::WriteJpegWithExif (src/aerovo/frames/exif_test_writer.h) as in
-// ImageMetadata.XmpPacketInTheExifSubIfdApplicationNotes.
+// ImageMetadata.XmpPacketInTheExifSubIfdApplicationNotes. Nor micasense_band.tif (an 8x8 16-bit
+// TIFF with a MicaSense band's XMP in tag 700: MicaSense:CaptureId, Camera:BandName "Red edge",
+// Camera:RigCameraIndex 4) and dji_thermal_image_source.jpg (drone-dji:ImageSource
+// "InfraredCamera", CaptureUUID), written with io_test::WriteTiffWithXmpPacket and
+// WriteJpegWithXmpPacket (src/aerovo/frames/image_test_util.h) as in
+// ImageMetadataVendors.MicaSenseBandTiffNamesItsBandAndCapture.
 #pragma GCC diagnostic ignored "-Wdeprecated-declarations"
 #include <exiv2/exiv2.hpp>
 #include <fstream>
