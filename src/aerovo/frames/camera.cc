@@ -127,6 +127,18 @@ ResolvedCamera ResolveCamera(const CameraOptions& options, int width_px, int hei
         "focal length {:.1f} px from EXIF FocalLengthIn35mmFilm {} mm of '{}' over {}", f,
         *metadata->focal_length_35mm_mm, metadata->source, a.why);
     r.source_key = "exif-35mm";
+  } else if (metadata && metadata->focal_length_mm && metadata->focal_plane_px_per_mm &&
+             metadata->width_px == width_px && metadata->height_px == height_px) {
+    // The focal length over the pixel pitch (EXIF FocalPlaneXResolution: at the photo's own
+    // size, so only when the frames have it). Cameras without a 35 mm equivalent write it
+    // (MicaSense's bands: its imageprocessing library's focal length in pixels is the same
+    // product).
+    f = *metadata->focal_length_mm * *metadata->focal_plane_px_per_mm;
+    r.source = fmt::format(
+        "focal length {:.1f} px from EXIF FocalLength {} mm and FocalPlaneXResolution {:.2f} px/mm "
+        "of '{}'",
+        f, *metadata->focal_length_mm, *metadata->focal_plane_px_per_mm, metadata->source);
+    r.source_key = "exif-focal-plane";
   } else if (telemetry_focal_35mm_mm) {
     f = FocalPxFrom35mm(*telemetry_focal_35mm_mm, width_px, height_px);
     r.source = fmt::format("focal length {:.1f} px from the telemetry's 35 mm equivalent {} mm", f,
@@ -136,7 +148,10 @@ ResolvedCamera ResolveCamera(const CameraOptions& options, int width_px, int hei
     throw InputError(fmt::format(
         "no focal length for {}x{} frames{}: give focal_px, hfov_deg or focal_35mm_mm", width_px,
         height_px,
-        metadata ? fmt::format(" ('{}' has no FocalLengthIn35mmFilm)", metadata->source) : ""));
+        metadata ? fmt::format(" ('{}' has no FocalLengthIn35mmFilm, nor FocalLength with "
+                               "FocalPlaneXResolution)",
+                               metadata->source)
+                 : ""));
   }
   r.intrinsics = IntrinsicsFromFocalPx(f, width_px, height_px);
   if (options.cx_px) r.intrinsics.cx_px = *options.cx_px;

@@ -58,8 +58,10 @@ void Validate(const CameraOptions& options);
 struct ResolvedCamera {
   CameraIntrinsics intrinsics;
   std::string source;  ///< How the focal length was obtained, for the run log.
-  /// The same as a short key (a run's summary focal_source): "calibration", "flag" (focal_px), "hfov",
-  /// "35mm" (focal_35mm_mm), "xmp-calibrated", "exif-35mm", "telemetry-35mm".
+  /// The same as a short key (a run's summary focal_source): "calibration", "flag" (focal_px),
+  /// "hfov", "35mm" (focal_35mm_mm), "xmp-calibrated", "exif-35mm", "exif-focal-plane" (EXIF
+  /// FocalLength x FocalPlaneXResolution, when the photo has no 35 mm equivalent),
+  /// "telemetry-35mm".
   std::string source_key;
 };
 

@@ -95,6 +95,36 @@ TEST(Camera, ResolveSourceKeysAndTelemetryFallback) {
   EXPECT_THROW(ResolveCamera(CameraOptions{}, 1280, 720, nullptr, -3.0), InvalidArgument);
 }
 
+// A photo without a 35 mm equivalent (a multispectral band of 1280x960 px, a 5.5 mm lens and
+// 3.75 um pixels: FocalPlaneXResolution 266.67 px/mm): its focal length in pixels is their
+// product, 1466.7 px, before the telemetry's; only at the photo's own size.
+TEST(Camera, FocalPlaneResolutionWhenThePhotoHasNo35mmEquivalent) {
+  ImageMetadata m;
+  m.source = "IMG_0001_2.tif";
+  m.width_px = 1280;
+  m.height_px = 960;
+  m.focal_length_mm = 5.5;
+  m.focal_plane_px_per_mm = 266.67;
+  const ResolvedCamera r = ResolveCamera(CameraOptions{}, 1280, 960, &m, 30.0);
+  EXPECT_EQ(r.source_key, "exif-focal-plane");
+  EXPECT_DOUBLE_EQ(r.intrinsics.fx_px, 5.5 * 266.67);
+  EXPECT_THAT(r.source, ::testing::HasSubstr("FocalPlaneXResolution 266.67 px/mm of "
+                                             "'IMG_0001_2.tif'"));
+  // Frames of another size (the pitch is the photo's): the next source.
+  EXPECT_EQ(ResolveCamera(CameraOptions{}, 640, 480, &m, 30.0).source_key, "telemetry-35mm");
+  // The 35 mm equivalent, when written, comes first (the shared flights' DJI photos).
+  m.focal_length_35mm_mm = 40.0;
+  EXPECT_EQ(ResolveCamera(CameraOptions{}, 1280, 960, &m).source_key, "exif-35mm");
+  m.focal_length_35mm_mm.reset();
+  m.focal_plane_px_per_mm.reset();
+  try {
+    ResolveCamera(CameraOptions{}, 1280, 960, &m);
+    ADD_FAILURE() << "no focal length must throw";
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("nor FocalLength with FocalPlaneXResolution"));
+  }
+}
+
 // A 16:9 photo of a 4:3 sensor: the 35 mm equivalent belongs to the sensor's full frame. Truth:
 // the 16:9 photo (4000x2250) is the middle of the 4:3 frame (4000x3000) through the same lens,
 // so its focal length in pixels is the 4:3 photo's: 20 mm equivalent (FC300S: 3.61 mm lens, crop

@@ -535,6 +535,18 @@ ImageMetadata Extract(Exiv2::Image& image, const std::string& source) {
   if (m.focal_length_35mm_mm && *m.focal_length_35mm_mm == 0.0) m.focal_length_35mm_mm.reset();
   CheckRange(m.focal_length_mm, 0.0, 1e4, "EXIF FocalLength (mm)", source);
   CheckRange(m.focal_length_35mm_mm, 0.0, 1e4, "EXIF FocalLengthIn35mmFilm (mm)", source);
+  // FocalPlaneXResolution of the Exif sub-IFD (EXIF 2.32), else of IFD0 (TIFF/EP's tag 0x920e).
+  // Its unit: 2 inch (also when absent), 3 cm (EXIF 2.32); 4 mm and 5 um (TIFF/EP).
+  for (const char* group : {"Exif.Photo.", "Exif.Image."}) {
+    const std::string prefix(group);
+    const auto res = ExifNumber(exif, (prefix + "FocalPlaneXResolution").c_str(), source);
+    if (m.focal_plane_px_per_mm || !res || !(*res > 0.0) || !std::isfinite(*res)) continue;
+    const double unit =
+        ExifNumber(exif, (prefix + "FocalPlaneResolutionUnit").c_str(), source).value_or(2.0);
+    const double mm = unit == 2 ? 25.4 : unit == 3 ? 10.0 : unit == 4 ? 1.0 : unit == 5 ? 1e-3 : 0;
+    if (mm > 0.0) m.focal_plane_px_per_mm = *res / mm;
+  }
+  CheckRange(m.focal_plane_px_per_mm, 1e-3, 1e5, "EXIF FocalPlaneXResolution (px/mm)", source);
 
   ReadRigXmp(xmp, source, m);
   ReadDjiXmp(xmp, source, m);

@@ -88,6 +88,10 @@ struct ImageMetadata {
 
   std::optional<double> focal_length_mm;       ///< EXIF FocalLength.
   std::optional<double> focal_length_35mm_mm;  ///< EXIF FocalLengthIn35mmFilm.
+  /// EXIF FocalPlaneXResolution in pixels per millimetre (its FocalPlaneResolutionUnit: 2 inch,
+  /// 3 cm, 4 mm, 5 um; EXIF 2.32 and the TIFF/EP units): the sensor's pixel pitch at the image's
+  /// own size. Unset when not written, 0, or in a unit EXIF does not define.
+  std::optional<double> focal_plane_px_per_mm;
 
   bool HasGps() const { return lat_deg.has_value() && lon_deg.has_value(); }
 

@@ -377,8 +377,11 @@ std::string MicaSenseTiffPacket(const std::string& band, const std::string& inde
 TEST(ImageMetadataVendors, MicaSenseBandTiffNamesItsBandAndCapture) {
   io_test::TempDir dir("aerovo_xmp_micasense");
   cv::Mat band(36, 48, CV_16UC1, cv::Scalar(1000));
-  const std::map<std::string, std::string> exif = {{"Exif.Image.Make", "MicaSense"},
-                                                   {"Exif.Image.Model", "RedEdge-M"}};
+  std::map<std::string, std::string> exif = {{"Exif.Image.Make", "MicaSense"},
+                                             {"Exif.Image.Model", "RedEdge-M"},
+                                             {"Exif.Photo.FocalLength", "55/10"},
+                                             {"Exif.Photo.FocalPlaneXResolution", "26667/100"},
+                                             {"Exif.Photo.FocalPlaneResolutionUnit", "4"}};
   io_test::WriteTiffWithXmpPacket(dir / "IMG_0001_1.tif", band, exif,
                                   MicaSenseTiffPacket("Blue", "0"));
   const ImageMetadata m = ReadImageMetadata(dir / "IMG_0001_1.tif");
@@ -386,6 +389,33 @@ TEST(ImageMetadataVendors, MicaSenseBandTiffNamesItsBandAndCapture) {
   EXPECT_EQ(m.capture_id, "DFj0YDYQsRJd6hDUj7qZ");
   EXPECT_EQ(m.rig_camera_index, 0);
   EXPECT_EQ(m.width_px, 48);
+  // No 35 mm equivalent: the focal length over the pixel pitch (frames/camera.h).
+  EXPECT_DOUBLE_EQ(*m.focal_length_mm, 5.5);
+  EXPECT_DOUBLE_EQ(*m.focal_plane_px_per_mm, 266.67);
+  EXPECT_FALSE(m.focal_length_35mm_mm);
+  // The resolution's unit: centimetres (EXIF's 3), inches (2, and when absent); 7 is no unit.
+  const auto pitch = [&](const std::string& name, const std::string& res, const char* unit) {
+    std::map<std::string, std::string> e = exif;
+    e["Exif.Photo.FocalPlaneXResolution"] = res;
+    if (unit == nullptr) {
+      e.erase("Exif.Photo.FocalPlaneResolutionUnit");
+    } else {
+      e["Exif.Photo.FocalPlaneResolutionUnit"] = unit;
+    }
+    io_test::WriteTiffWithXmpPacket(dir / name, band, e, MicaSenseTiffPacket("Blue", "0"));
+    return ReadImageMetadata(dir / name).focal_plane_px_per_mm;
+  };
+  EXPECT_DOUBLE_EQ(*pitch("cm.tif", "26667/10", "3"), 266.67);
+  EXPECT_DOUBLE_EQ(*pitch("inch.tif", "6773418/1000", nullptr), 6773.418 / 25.4);
+  EXPECT_FALSE(pitch("unit7.tif", "26667/100", "7"));
+  // TIFF/EP's place, IFD0, in micrometres.
+  std::map<std::string, std::string> ep = exif;
+  ep.erase("Exif.Photo.FocalPlaneXResolution");
+  ep.erase("Exif.Photo.FocalPlaneResolutionUnit");
+  ep["Exif.Image.FocalPlaneXResolution"] = "26667/100000";
+  ep["Exif.Image.FocalPlaneResolutionUnit"] = "5";
+  io_test::WriteTiffWithXmpPacket(dir / "tiff_ep.tif", band, ep, MicaSenseTiffPacket("Blue", "0"));
+  EXPECT_NEAR(*ReadImageMetadata(dir / "tiff_ep.tif").focal_plane_px_per_mm, 266.67, 1e-9);
   // Its Camera namespace has no angles: no vendor's flight values.
   EXPECT_EQ(m.xmp_vendor, ImageMetadata::XmpVendor::kNone);
   EXPECT_EQ(ReadImageMetadata([&] {

@@ -152,8 +152,8 @@ class RunTelemetry {
 /// The focal length of the processed frames and where it came from.
 struct RunCamera {
   double focal_px = 0.0;
-  /// RunSummary::focal_source: "calibration", "flag", "sim.json", "hfov", "xmp-calibrated", "exif-35mm" or
-  /// "telemetry-35mm".
+  /// RunSummary::focal_source: "calibration", "flag", "sim.json", "hfov", "xmp-calibrated",
+  /// "exif-35mm", "exif-focal-plane" or "telemetry-35mm".
   std::string focal_source;
   /// The same as a sentence for the run log (frames/camera.h ResolvedCamera::source), e.g. "focal
   /// length 2311.2 px from EXIF FocalLengthIn35mmFilm 20 mm of 'a.jpg' over the FC300S's 4:3
@@ -167,7 +167,8 @@ struct RunCamera {
 /// The focal length of width_px x height_px frames by frames/camera.h ResolveCamera (the one focal
 /// chain): config.focal_px ("flag", or "sim.json" when `focal_from_sim`), config.hfov_deg
 /// ("hfov"), the first photo's DJI XMP calibrated focal length when the photo has the frames'
-/// size ("xmp-calibrated"), its EXIF 35 mm equivalent ("exif-35mm"), the first frame's telemetry
+/// size ("xmp-calibrated"), its EXIF 35 mm equivalent ("exif-35mm"), its EXIF focal length over
+/// its pixel pitch at the frames' size ("exif-focal-plane"), the first frame's telemetry
 /// 35 mm equivalent ("telemetry-35mm"). `photo`: the first photo's metadata (null for a video or
 /// a live source); `sample`: the first frame's telemetry fix. InputError naming `frame_name`
 /// when none gives it.
