@@ -6,8 +6,10 @@
 #include <cstring>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <set>
 #include <string_view>
+#include <utility>
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>  // cv::IMREAD_* (the calls: imageio/image_io.h)
@@ -561,6 +563,65 @@ std::vector<PhotoEntry> ReadPhotoEntries(const std::vector<fs::path>& files,
   return entries;
 }
 
+// The photos of each size ("4000x3000 (44 photos), 640x512 (44 photos)"), the first 6 sizes.
+std::string ListSizes(const std::vector<PhotoEntry>& entries) {
+  std::map<std::pair<int, int>, int> count;
+  std::vector<std::pair<int, int>> order;
+  for (const PhotoEntry& e : entries) {
+    if (e.meta.width_px <= 0 || e.meta.height_px <= 0) continue;
+    if (count[{e.meta.width_px, e.meta.height_px}]++ == 0) {
+      order.emplace_back(e.meta.width_px, e.meta.height_px);
+    }
+  }
+  std::string listed;
+  for (std::size_t k = 0; k < order.size() && k < 6; ++k) {
+    const int n = count[order[k]];
+    listed += fmt::format("{}{}x{} ({} photo{})", k ? ", " : "", order[k].first, order[k].second, n,
+                          n == 1 ? "" : "s");
+  }
+  if (order.size() > 6) listed += fmt::format(" and {} more", order.size() - 6);
+  return listed;
+}
+
+// FrameSourceOptions::photo_band as a photo size "WxH" (640x512), when it is one.
+std::optional<std::pair<int, int>> SizeOfBand(std::string_view band) {
+  const std::size_t x = band.find_first_of("xX");
+  if (x == std::string_view::npos || x == 0 || x + 1 >= band.size() || x > 6 ||
+      band.size() - x - 1 > 6) {
+    return std::nullopt;
+  }
+  const auto digits = [](std::string_view t) {
+    return std::all_of(t.begin(), t.end(), [](char c) { return c >= '0' && c <= '9'; });
+  };
+  const std::string_view w = band.substr(0, x), h = band.substr(x + 1);
+  if (!digits(w) || !digits(h)) return std::nullopt;
+  return std::pair{std::stoi(std::string(w)), std::stoi(std::string(h))};
+}
+
+// Keeps the photos of the size FrameSourceOptions::photo_band names ("640x512"), saying so in
+// `warnings`; InputError listing the sizes when none has it.
+void SelectSize(std::vector<PhotoEntry>& entries, std::pair<int, int> size, const fs::path& folder,
+                std::vector<std::string>& warnings) {
+  const auto other = [&](const PhotoEntry& e) {
+    return e.meta.width_px != size.first || e.meta.height_px != size.second;
+  };
+  const auto kept =
+      std::count_if(entries.begin(), entries.end(), [&](const PhotoEntry& e) { return !other(e); });
+  if (kept == 0) {
+    throw InputError(
+        fmt::format("image folder '{}': photo_band {}x{} but no photo has that size "
+                    "(the folder has {})",
+                    folder.string(), size.first, size.second, ListSizes(entries)));
+  }
+  warnings.push_back(fmt::format(
+      "image folder '{}': the {} photos of {}x{} are read, the {} of other sizes skipped "
+      "(photo_band {}x{}; the folder has {})",
+      folder.string(), kept, size.first, size.second,
+      static_cast<std::ptrdiff_t>(entries.size()) - kept, size.first, size.second,
+      ListSizes(entries)));
+  entries.erase(std::remove_if(entries.begin(), entries.end(), other), entries.end());
+}
+
 // The camera of a multi-camera payload a photo names: its band (XMP Camera:BandName,
 // multispectral cameras), else its camera (DJI drone-dji:ImageSource, payloads with wide, zoom
 // and thermal cameras); empty when it names neither.
@@ -612,6 +673,11 @@ void SelectBand(std::vector<PhotoEntry>& entries, const FrameSourceOptions& opti
     if (!PayloadCameraOf(e.meta).empty()) payload_models.insert(e.meta.make + " " + e.meta.model);
   }
   if (payload_models.empty()) {
+    if (const auto size = SizeOfBand(options.photo_band)) {
+      SelectSize(entries, *size, folder, warnings);
+      band = fmt::format("{}x{}", size->first, size->second);
+      return;
+    }
     if (!options.photo_band.empty()) {
       throw InputError(fmt::format(
           "image folder '{}': photo_band '{}' but no photo names its band or camera (XMP "
@@ -843,9 +909,12 @@ void CheckOneSize(const std::vector<PhotoEntry>& entries, const fs::path& folder
                e.meta.height_px != sized->meta.height_px) {
       throw InputError(fmt::format(
           "image folder '{}': photo '{}' is {}x{} but '{}' is {}x{} (mixed resolutions; all "
-          "photos must have the same size)",
+          "photos must have the same size; the folder has {}): the photos of a payload of "
+          "cameras that do not name theirs (a Zenmuse XT2's visible and thermal photos)? give "
+          "--photo-band WxH to read the photos of one size",
           folder.string(), e.path.filename().string(), e.meta.width_px, e.meta.height_px,
-          sized->path.filename().string(), sized->meta.width_px, sized->meta.height_px));
+          sized->path.filename().string(), sized->meta.width_px, sized->meta.height_px,
+          ListSizes(entries)));
     }
   }
 }

@@ -790,6 +790,42 @@ TEST(ImageFolderSource, DjiWideZoomThermalPayloadReadsTheWideCamera) {
                    {"'P0001.JPG' is from another camera (Parrot ANAFI)"});
 }
 
+// A payload whose cameras do not name theirs (a Zenmuse XT2: a visible photo and a thermal one
+// at each capture, of two sizes): refused for its mixed sizes, the message listing them and the
+// way out; --photo-band WxH reads the photos of one size.
+TEST(ImageFolderSource, UnnamedCamerasOfTwoSizesAreReadBySize) {
+  io_test::TempDir dir("aerovo_xt2_sizes");
+  for (int k = 0; k < 3; ++k) {
+    const std::map<std::string, std::string> exif = {
+        {"Exif.Photo.DateTimeOriginal", fmt::format("2023:04:01 10:15:{:02d}", 2 * k)},
+        {"Exif.Image.Make", "DJI"},
+        {"Exif.Image.Model", "XT2"}};
+    io_test::WriteJpegWithTags(dir / fmt::format("DJI_{:04d}.JPG", 2 * k + 1),
+                               io_test::TextureImage(64, 48, k), exif);
+    io_test::WriteJpegWithTags(dir / fmt::format("DJI_{:04d}_R.JPG", 2 * k + 2),
+                               io_test::TextureImage(32, 26, k), exif);
+  }
+  ExpectInputError([&] { ImageFolderSource s(dir.path()); },
+                   {"mixed resolutions", "the folder has 64x48 (3 photos), 32x26 (3 photos)",
+                    "Zenmuse XT2", "--photo-band WxH"});
+  FrameSourceOptions o;
+  o.photo_band = "32X26";
+  ImageFolderSource thermal(dir.path(), o);
+  EXPECT_EQ(thermal.band(), "32x26");
+  std::vector<std::string> names;
+  for (const auto& p : thermal.paths()) names.push_back(p.filename().string());
+  EXPECT_EQ(names,
+            (std::vector<std::string>{"DJI_0002_R.JPG", "DJI_0004_R.JPG", "DJI_0006_R.JPG"}));
+  EXPECT_THAT(thermal.warnings().back(),
+              HasSubstr("the 3 photos of 32x26 are read, the 3 of other sizes skipped"));
+  o.photo_band = "640x512";
+  ExpectInputError([&] { ImageFolderSource s(dir.path(), o); },
+                   {"photo_band 640x512 but no photo has that size", "64x48 (3 photos)"});
+  // Not a size: a band name, which these photos do not have.
+  o.photo_band = "x512";
+  ExpectInputError([&] { ImageFolderSource s(dir.path(), o); }, {"no photo names its band"});
+}
+
 TEST(ImageFolderSource, NameOrderWithoutExifAndPngTiff) {
   io_test::TempDir dir("aerovo_folder_plain");
   cv::imwrite((dir / "frame_2.png").string(), io_test::TextureImage(40, 30, 2));
