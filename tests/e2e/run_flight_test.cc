@@ -413,6 +413,14 @@ TEST(Runner, TurinAsTheMultispectralCameraWritesItReadsItsRgbPhotos) {
                 .find("the 6 photos of RGB are read, the 30 of the others skipped"),
             std::string::npos);
 
+  // `aerovo telemetry` on one band photo names its band and capture.
+  const fs::path log = dir / "telemetry.txt";
+  ASSERT_EQ(e2e::RunCli(fmt::format("telemetry {}", (rig / "DJI_0015.TIF").string()), log), 0);
+  EXPECT_NE(ReadText(log).find(fmt::format("payload      band NIR, capture {}",
+                                           ReadImageMetadata(all[0]).capture_id)),
+            std::string::npos)
+      << ReadText(log);
+
   // Another band through the command line: its TIFFs, the frames' names say so.
   ASSERT_EQ(e2e::RunCli(fmt::format("run {} --photo-band NIR --no-report --quiet -o {}",
                                     rig.string(), (dir / "out_nir").string())),

@@ -94,6 +94,19 @@ TelemetryReadResult ReadAny(const TelemetryArgs& args) {
           val(m.flight_yaw_deg, "deg"), val(m.flight_pitch_deg, "deg"),
           val(m.flight_roll_deg, "deg"));
     }
+    // A payload's camera (docs/inputs.md, "Payloads of several cameras").
+    if (!m.band_name.empty() || !m.image_source.empty() || !m.capture_id.empty()) {
+      fmt::print("payload      {}{}{}\n",
+                 !m.band_name.empty()      ? fmt::format("band {}", m.band_name)
+                 : !m.image_source.empty() ? fmt::format("camera {}", m.image_source)
+                                           : std::string("no band or camera named"),
+                 m.rig_camera_index ? fmt::format(" (rig camera {})", *m.rig_camera_index) : "",
+                 m.capture_id.empty() ? "" : fmt::format(", capture {}", m.capture_id));
+    }
+    if (m.focal_plane_px_per_mm) {
+      fmt::print("focal plane  {:.2f} px/mm (EXIF FocalPlaneXResolution)\n",
+                 *m.focal_plane_px_per_mm);
+    }
     return TelemetryFromImages({m}, options);
   }
   return ReadTelemetryInput(path, options);  // a video: the captions in its subtitle track

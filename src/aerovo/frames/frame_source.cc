@@ -690,6 +690,12 @@ void SelectBand(std::vector<PhotoEntry>& entries, const FrameSourceOptions& opti
   const auto in_payload = [&](const ImageMetadata& m) {
     return !PayloadCameraOf(m).empty() || payload_models.count(m.make + " " + m.model) > 0;
   };
+  // A multispectral camera's photos that name no band are its RGB camera's (DJI P4
+  // Multispectral); in a payload that names cameras they are just unnamed.
+  const bool multispectral = std::any_of(entries.begin(), entries.end(), [](const PhotoEntry& e) {
+    return !e.meta.band_name.empty();
+  });
+  const char* const unnamed = multispectral ? "RGB" : "(no camera named)";
   std::vector<RigBand> bands;
   std::map<std::string, std::size_t> band_of_key;  // a folder may name many bands: no scan
   int payload_photos = 0;
@@ -701,7 +707,7 @@ void SelectBand(std::vector<PhotoEntry>& entries, const FrameSourceOptions& opti
     const std::string key = BandKey(named);
     const int order = m.rig_camera_index ? *m.rig_camera_index : 1001 + static_cast<int>(i);
     const auto [it, added] = band_of_key.emplace(key, bands.size());
-    if (added) bands.push_back({named.empty() ? "RGB" : named, key, 0, order});
+    if (added) bands.push_back({named.empty() ? unnamed : named, key, 0, order});
     RigBand& b = bands[it->second];
     ++b.count;
     b.order = std::min(b.order, order);
@@ -731,12 +737,14 @@ void SelectBand(std::vector<PhotoEntry>& entries, const FrameSourceOptions& opti
           folder.string(), Printable(options.photo_band, 40), listed));
     }
   } else {
-    // RGB, a DJI payload's wide (or visible) camera, green, blue: the most ground in the most
-    // detail; OpenDroneMap's order for multispectral cameras.
+    // A DJI payload's wide (or visible) camera, RGB, green, blue: the most ground in the most
+    // detail; for multispectral cameras OpenDroneMap's order. A payload's photos that name no
+    // camera come after its wide camera (a photo whose XMP was stripped is not the payload's RGB).
     for (const auto& aliases :
-         {std::vector<std::string>{"rgb", "redgreenblue"}, std::vector<std::string>{"widecamera"},
+         {std::vector<std::string>{"widecamera"},
           std::vector<std::string>{"visiblecamera", "visible"},
-          std::vector<std::string>{"green", "g"}, std::vector<std::string>{"blue", "b"}}) {
+          std::vector<std::string>{"rgb", "redgreenblue"}, std::vector<std::string>{"green", "g"},
+          std::vector<std::string>{"blue", "b"}}) {
       for (const RigBand& b : bands) {
         if (chosen == nullptr &&
             std::find(aliases.begin(), aliases.end(), b.key) != aliases.end()) {

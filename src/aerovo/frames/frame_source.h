@@ -90,13 +90,13 @@ struct FrameSourceOptions {
   /// drone-dji:ImageSource (ImageMetadata::image_source: "WideCamera", "ZoomCamera",
   /// "InfraredCamera" of Zenmuse H20T-class payloads). Compared without case, spaces, '_' and
   /// '-' ("rededge" is "Red edge"; "wide", "zoom", "thermal" name DJI's cameras); "RGB" is also
-  /// the payload's photos that name none (DJI P4 Multispectral's JPEGs). Empty (default): RGB,
-  /// else the wide camera, else visible, else green, else blue, else the payload's first camera
-  /// (multispectral: OpenDroneMap's choice of its primary band, OpenDroneMap/ODM
-  /// opendm/multispectral.py get_primary_band_name). A camera the folder does not hold is an
-  /// InputError listing those it holds. In a folder whose photos name no band or camera, "WxH"
-  /// (e.g. 640x512) reads the photos of that size alone: a payload of cameras that do not name
-  /// theirs (a Zenmuse XT2's visible and thermal photos), which the size check would refuse.
+  /// a multispectral camera's photos that name no band (DJI P4 Multispectral's JPEGs). Empty
+  /// (default): the wide camera, else visible, else RGB, else green, else blue, else the
+  /// payload's first camera (multispectral: OpenDroneMap's choice of its primary band,
+  /// OpenDroneMap/ODM opendm/multispectral.py get_primary_band_name). A camera the folder does not
+  /// hold is an InputError listing those it holds. In a folder whose photos name no band or camera,
+  /// "WxH" (e.g. 640x512) reads the photos of that size alone: a payload of cameras that do not
+  /// name theirs (a Zenmuse XT2's visible and thermal photos), which the size check would refuse.
   std::string photo_band;
   /// Video files: the decoder. Default auto = ffmpeg, our own (it sees every frame's
   /// decoded size, so a resolution change mid-stream is an error; grey from the luma plane,

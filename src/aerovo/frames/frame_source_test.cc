@@ -780,6 +780,17 @@ TEST(ImageFolderSource, DjiWideZoomThermalPayloadReadsTheWideCamera) {
   EXPECT_EQ(f.gray.width(), 32);
   o.photo_band = "Zoom Camera";
   EXPECT_EQ(ImageFolderSource(dir.path(), o).band(), "ZoomCamera");
+  // A wide photo whose XMP was stripped: a group of its own, after the wide camera.
+  io_test::WriteJpegWithTags(dir / "DJI_20230401101500_0004_W.JPG",
+                             io_test::TextureImage(64, 48, 5),
+                             {{"Exif.Photo.DateTimeOriginal", "2023:04:01 10:15:06"},
+                              {"Exif.Image.Make", "DJI"},
+                              {"Exif.Image.Model", "M30T"}});
+  const ImageFolderSource stripped(dir.path());
+  EXPECT_EQ(stripped.band(), "WideCamera");
+  EXPECT_EQ(stripped.paths().size(), 3u);
+  EXPECT_THAT(stripped.warnings().back(), HasSubstr("(no camera named) (1 photo)"));
+  fs::remove(dir / "DJI_20230401101500_0004_W.JPG");
 
   // Another aircraft's photo in the folder is not the payload's: the flight split refuses it.
   io_test::WriteJpegWithTags(dir / "P0001.JPG", io_test::TextureImage(64, 48, 9),

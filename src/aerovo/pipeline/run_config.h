@@ -155,7 +155,7 @@ struct RunConfig {
   int photo_flight = 0;
   /// Photo folders of a multi-camera payload (multispectral cameras, DJI's wide/zoom/thermal
   /// payloads: one photo per camera at each capture): the band or camera read
-  /// (frames/frame_source.h FrameSourceOptions::photo_band); empty = RGB, else wide, visible,
+  /// (frames/frame_source.h FrameSourceOptions::photo_band); empty = wide, else visible, RGB,
   /// green, blue, else the payload's first camera; "WxH" the photos of one size when the photos
   /// name no camera.
   std::string photo_band;
@@ -386,7 +386,7 @@ void VisitFields(RunConfig& c, V& v) {
   v.Field(c.hfov_deg, "hfov_deg", "Horizontal field of view, deg (used when focal_px is 0)", Interval(0, 180, false, true));
   v.Field(c.photo_gap_s, "photo_gap_s", "Photo folders: a capture-time gap longer than this, s, or another camera starts a new flight (0 = no gap check)", AtLeast(0).Finite());
   v.Field(c.photo_flight, "photo_flight", "Photo folders with several flights: 0 = refuse, K = flight K alone, -1 = chain all", Interval(-1, 1000000));
-  v.Field(c.photo_band, "photo_band", "Photo folders of a multi-camera payload (photos naming their band or camera: XMP Camera:BandName, DJI drone-dji:ImageSource): the one read, e.g. NIR, thermal (empty = RGB, else wide, visible, green, blue, else the first); WxH (640x512) reads the photos of one size of a folder whose photos name none", Any());
+  v.Field(c.photo_band, "photo_band", "Photo folders of a multi-camera payload (photos naming their band or camera: XMP Camera:BandName, DJI drone-dji:ImageSource): the one read, e.g. NIR, thermal (empty = wide, else visible, RGB, green, blue, else the first); WxH (640x512) reads the photos of one size of a folder whose photos name none", Any());
   v.Field(c.video_decoder, "video_decoder", "Video decoder: auto (= ffmpeg), ffmpeg (FFmpeg's libraries, grey from the luma plane, every frame's size checked) or opencv (cv::VideoCapture)", Any());
   v.Field(c.video_threads, "video_threads", "Video decoder threads (ffmpeg decoder; 0 = one per core): 2 leaves the other cores to the odometry", Interval(0, 64));
   v.Field(c.sensor_aspect, "sensor_aspect", "Sensor full-frame aspect (long/short) for a photo's EXIF 35 mm equivalent; 0 = camera model, 4:3 for photos wider than 1.7:1, else the photo's", Interval(0, 4));
