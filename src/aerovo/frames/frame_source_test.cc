@@ -554,8 +554,7 @@ TEST(ImageFolderSource, MixedFoldersAreRefusedOrSplit) {
 // Multispectral's attributes of one rdf:Description (its RGB JPEG: tests/../turin-p4m's
 // DJI_0010.JPG, with drone-dji:CaptureUUID and the Camera namespace declared without its final
 // slash; its band TIFFs add Camera:BandName), MicaSense's elements in one rdf:Description per
-// namespace (a RedEdge-MX TIFF's tag 700: MicaSense:CaptureId, Camera:BandName,
-// Camera:RigCameraIndex).
+// namespace (io_test::MicaSenseBandPacket).
 std::string P4mPacket(const std::string& capture, const std::string& band) {
   return std::string("<?xpacket begin=\"\xEF\xBB\xBF\" id=\"W5M0MpCehiHzreSzNTczkc9d\"?>\n") +
          "<x:xmpmeta xmlns:x=\"adobe:ns:meta/\">\n"
@@ -574,24 +573,7 @@ std::string P4mPacket(const std::string& capture, const std::string& band) {
 }
 
 std::string MicaSensePacket(const std::string& capture, const std::string& band, int index) {
-  return std::string("<?xpacket begin=\"\xEF\xBB\xBF\" id=\"W5M0MpCehiHzreSzNTczkc9d\"?>\n") +
-         "<x:xmpmeta xmlns:x=\"adobe:ns:meta/\" x:xmptk=\"XMP Core 4.4.0\">\n"
-         "   <rdf:RDF xmlns:rdf=\"http://www.w3.org/1999/02/22-rdf-syntax-ns#\">\n"
-         "      <rdf:Description rdf:about=\"Pix4D Camera Information\"\n"
-         "            xmlns:MicaSense=\"http://micasense.com/MicaSense/1.0/\">\n"
-         "         <MicaSense:BootTimestamp>466</MicaSense:BootTimestamp>\n"
-         "         <MicaSense:FlightId>20Ntb9oCOg7Cm7HUbb1i</MicaSense:FlightId>\n"
-         "         <MicaSense:CaptureId>" +
-         capture +
-         "</MicaSense:CaptureId>\n"
-         "      </rdf:Description>\n"
-         "      <rdf:Description rdf:about=\"Pix4D Camera Information\"\n"
-         "            xmlns:Camera=\"http://pix4d.com/camera/1.0\">\n"
-         "         <Camera:BandName>" +
-         band + "</Camera:BandName>\n         <Camera:RigCameraIndex>" + std::to_string(index) +
-         "</Camera:RigCameraIndex>\n"
-         "      </rdf:Description>\n"
-         "   </rdf:RDF>\n</x:xmpmeta>\n<?xpacket end=\"w\"?>";
+  return io_test::MicaSenseBandPacket(capture, band, std::to_string(index));
 }
 
 // A band photo's 16-bit pixels: 12-bit texture (MicaSense shifts its 12 bits into 16; here they

@@ -339,39 +339,9 @@ TEST(ImageMetadataVendors, ParrotAnafiDroneParrotAnglesAndPix4dHeight) {
   EXPECT_DOUBLE_EQ(*m0.rel_alt_m, 11485529.0 / 262144.0);
 }
 
-// A MicaSense RedEdge-MX band TIFF: its XMP in tag 700, one rdf:Description per namespace
-// (MicaSense, Camera, DLS), as the camera writes it (radiometric and lens tags left out).
+// A MicaSense RedEdge-MX band TIFF: its XMP in tag 700 (io_test::MicaSenseBandPacket).
 std::string MicaSenseTiffPacket(const std::string& band, const std::string& index) {
-  return std::string("<?xpacket begin=\"\xEF\xBB\xBF\" id=\"W5M0MpCehiHzreSzNTczkc9d\"?>\n") +
-         "<x:xmpmeta xmlns:x=\"adobe:ns:meta/\" x:xmptk=\"XMP Core 4.4.0\">\n"
-         "   <rdf:RDF xmlns:rdf=\"http://www.w3.org/1999/02/22-rdf-syntax-ns#\">\n"
-         "      <rdf:Description rdf:about=\"Pix4D Camera Information\"\n"
-         "            xmlns:MicaSense=\"http://micasense.com/MicaSense/1.0/\">\n"
-         "         <MicaSense:BootTimestamp>466</MicaSense:BootTimestamp>\n"
-         "         <MicaSense:RadiometricCalibration>\n            <rdf:Seq>\n"
-         "               <rdf:li>0.000145914</rdf:li>\n               "
-         "<rdf:li>1.39479e-07</rdf:li>\n"
-         "            </rdf:Seq>\n         </MicaSense:RadiometricCalibration>\n"
-         "         <MicaSense:FlightId>20Ntb9oCOg7Cm7HUbb1i</MicaSense:FlightId>\n"
-         "         <MicaSense:CaptureId>DFj0YDYQsRJd6hDUj7qZ</MicaSense:CaptureId>\n"
-         "         <MicaSense:TriggerMethod>4</MicaSense:TriggerMethod>\n"
-         "      </rdf:Description>\n"
-         "      <rdf:Description rdf:about=\"Pix4D Camera Information\"\n"
-         "            xmlns:Camera=\"http://pix4d.com/camera/1.0\">\n"
-         "         <Camera:BandName>" +
-         band +
-         "</Camera:BandName>\n"
-         "         <Camera:CentralWavelength>475</Camera:CentralWavelength>\n"
-         "         <Camera:RigCameraIndex>" +
-         index +
-         "</Camera:RigCameraIndex>\n"
-         "      </rdf:Description>\n"
-         "      <rdf:Description rdf:about=\"Pix4D Camera Information\"\n"
-         "            xmlns:DLS=\"http://micasense.com/DLS/1.0/\">\n"
-         "         <DLS:SensorId>0</DLS:SensorId>\n"
-         "         <DLS:Yaw>0.73310724098153246</DLS:Yaw>\n"
-         "      </rdf:Description>\n"
-         "   </rdf:RDF>\n</x:xmpmeta>\n<?xpacket end=\"w\"?>";
+  return io_test::MicaSenseBandPacket("DFj0YDYQsRJd6hDUj7qZ", band, index);
 }
 
 TEST(ImageMetadataVendors, MicaSenseBandTiffNamesItsBandAndCapture) {

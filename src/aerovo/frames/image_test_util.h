@@ -67,15 +67,17 @@ inline void WriteJpegWithXmpPacket(const std::filesystem::path& path, const cv::
             static_cast<std::streamsize>(jpeg.size() - 2));
 }
 
-/// Adds the given EXIF tags (as WriteJpegWithTags) to the image file at `path`, its XMP packet
-/// kept byte for byte.
+/// Adds the given EXIF tags (as WriteJpegWithTags) to the image file at `path` and, when
+/// `xmp_packet` is given, sets it as the file's XMP; the XMP packet is written byte for byte.
 inline void AddExifTags(const std::filesystem::path& path,
-                        const std::map<std::string, std::string>& exif_tags) {
+                        const std::map<std::string, std::string>& exif_tags,
+                        const std::string* xmp_packet = nullptr) {
   auto img = Exiv2::ImageFactory::open(path.string());
   img->readMetadata();
   Exiv2::ExifData exif = img->exifData();
   for (const auto& [k, v] : exif_tags) exif[k] = v;
   img->setExifData(exif);
+  if (xmp_packet != nullptr) img->setXmpPacket(*xmp_packet);
   img->writeXmpFromPacket(true);
   img->writeMetadata();
 }
@@ -87,14 +89,46 @@ inline void WriteTiffWithXmpPacket(const std::filesystem::path& path, const cv::
                                    const std::map<std::string, std::string>& exif_tags,
                                    const std::string& xmp_packet) {
   if (!cv::imwrite(path.string(), image)) throw std::runtime_error("cannot write " + path.string());
-  auto img = Exiv2::ImageFactory::open(path.string());
-  img->readMetadata();
-  Exiv2::ExifData exif = img->exifData();
-  for (const auto& [k, v] : exif_tags) exif[k] = v;
-  img->setExifData(exif);
-  img->setXmpPacket(xmp_packet);
-  img->writeXmpFromPacket(true);
-  img->writeMetadata();
+  AddExifTags(path, exif_tags, &xmp_packet);
+}
+
+/// The XMP packet of a MicaSense RedEdge-MX band TIFF (its tag 700), as the camera writes it:
+/// one rdf:Description per namespace (MicaSense, Camera, DLS), the Camera namespace without its
+/// final slash; the radiometric and lens tags shortened.
+inline std::string MicaSenseBandPacket(const std::string& capture, const std::string& band,
+                                       const std::string& rig_index) {
+  return std::string("<?xpacket begin=\"\xEF\xBB\xBF\" id=\"W5M0MpCehiHzreSzNTczkc9d\"?>\n") +
+         "<x:xmpmeta xmlns:x=\"adobe:ns:meta/\" x:xmptk=\"XMP Core 4.4.0\">\n"
+         "   <rdf:RDF xmlns:rdf=\"http://www.w3.org/1999/02/22-rdf-syntax-ns#\">\n"
+         "      <rdf:Description rdf:about=\"Pix4D Camera Information\"\n"
+         "            xmlns:MicaSense=\"http://micasense.com/MicaSense/1.0/\">\n"
+         "         <MicaSense:BootTimestamp>466</MicaSense:BootTimestamp>\n"
+         "         <MicaSense:RadiometricCalibration>\n            <rdf:Seq>\n"
+         "               <rdf:li>0.000145914</rdf:li>\n"
+         "               <rdf:li>1.39479e-07</rdf:li>\n"
+         "            </rdf:Seq>\n         </MicaSense:RadiometricCalibration>\n"
+         "         <MicaSense:FlightId>20Ntb9oCOg7Cm7HUbb1i</MicaSense:FlightId>\n"
+         "         <MicaSense:CaptureId>" +
+         capture +
+         "</MicaSense:CaptureId>\n"
+         "         <MicaSense:TriggerMethod>4</MicaSense:TriggerMethod>\n"
+         "      </rdf:Description>\n"
+         "      <rdf:Description rdf:about=\"Pix4D Camera Information\"\n"
+         "            xmlns:Camera=\"http://pix4d.com/camera/1.0\">\n"
+         "         <Camera:BandName>" +
+         band +
+         "</Camera:BandName>\n"
+         "         <Camera:CentralWavelength>475</Camera:CentralWavelength>\n"
+         "         <Camera:RigCameraIndex>" +
+         rig_index +
+         "</Camera:RigCameraIndex>\n"
+         "      </rdf:Description>\n"
+         "      <rdf:Description rdf:about=\"Pix4D Camera Information\"\n"
+         "            xmlns:DLS=\"http://micasense.com/DLS/1.0/\">\n"
+         "         <DLS:SensorId>0</DLS:SensorId>\n"
+         "         <DLS:Yaw>0.73310724098153246</DLS:Yaw>\n"
+         "      </rdf:Description>\n"
+         "   </rdf:RDF>\n</x:xmpmeta>\n<?xpacket end=\"w\"?>";
 }
 
 }  // namespace aerovo::io_test
