@@ -122,7 +122,7 @@ cv::Mat ToEightBit(const cv::Mat& image) {
   double lo = 0.0, hi = 0.0;
   cv::Mat values = image;
   if (image.depth() == CV_16U) {
-    // A histogram of the 65536 values: two passes over the pixels, no sort.
+    // A histogram of the 65536 values (one pass over the samples; the mapping is the second).
     std::vector<std::uint32_t> histogram(65536, 0);
     const int row_samples = image.cols * image.channels();
     for (int y = 0; y < image.rows; ++y) {

@@ -424,7 +424,7 @@ void ReadOtherVendorXmp(const Exiv2::XmpData& xmp, const std::string& source, Im
 
 // A text tag of a rig (a band name, a capture id) as written, trimmed; the first item of an
 // rdf:Seq or rdf:Bag (MicaSense writes some tags so). InputError naming the file for text no
-// camera writes (over 64 bytes, control characters): it would end up in messages and file names.
+// camera writes (over 64 bytes, control characters): it would end up in the run's messages.
 std::string XmpRigText(const Exiv2::XmpData& xmp, const char* key, const char* what,
                        const std::string& source) {
   const auto it = xmp.findKey(Exiv2::XmpKey(key));
