@@ -532,11 +532,10 @@ struct PhotoEntry {
 };
 
 // Each photo's file check (a truncated photo is said now, also on stderr) and metadata (when
-// unreadable: a warning and empty metadata). all_timed: every photo has a capture time.
+// unreadable: a warning and empty metadata).
 std::vector<PhotoEntry> ReadPhotoEntries(const std::vector<fs::path>& files,
-                                         std::vector<std::string>& warnings, bool& all_timed) {
+                                         std::vector<std::string>& warnings) {
   std::vector<PhotoEntry> entries;
-  all_timed = true;
   for (const auto& f : files) {
     PhotoEntry e{f, {}, CheckImageFile(f)};
     if (e.check.truncated) {
@@ -557,7 +556,6 @@ std::vector<PhotoEntry> ReadPhotoEntries(const std::vector<fs::path>& files,
       e.meta.source = f.string();
       warnings.push_back(fmt::format("metadata ignored: {}", err.what()));
     }
-    all_timed = all_timed && e.meta.capture_unix_time_s.has_value();
     entries.push_back(std::move(e));
   }
   return entries;
@@ -939,12 +937,11 @@ ImageFolderSource::ImageFolderSource(const std::filesystem::path& folder,
         fmt::format("cannot open image folder '{}': not a directory", folder.string()));
   }
   const std::vector<fs::path> files = ListPhotos(folder, options_, skipped_files_, warnings_);
-  bool all_timed = true;
-  std::vector<PhotoEntry> entries = ReadPhotoEntries(files, warnings_, all_timed);
+  std::vector<PhotoEntry> entries = ReadPhotoEntries(files, warnings_);
   // One band of a rig before anything else: the other bands' photos share its capture times
   // and may name other cameras.
   SelectBand(entries, options_, folder, warnings_, band_);
-  all_timed = std::all_of(entries.begin(), entries.end(), [](const PhotoEntry& e) {
+  const bool all_timed = std::all_of(entries.begin(), entries.end(), [](const PhotoEntry& e) {
     return e.meta.capture_unix_time_s.has_value();
   });
   if (all_timed) {
