@@ -19,7 +19,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ALL_TARGETS=(srt gpx csv dataflash tlog ulog config_json config_yaml image_metadata mavlink
-  calibration reference_track run_folder)
+  calibration reference_track run_folder map video)
 if [ $# -gt 0 ]; then TARGETS=("$@"); else TARGETS=("${ALL_TARGETS[@]}"); fi
 FUZZ_TIME=${FUZZ_TIME:-20}
 B=${FUZZ_BUILD_DIR:-build-fuzz}

@@ -538,6 +538,9 @@ std::vector<PhotoEntry> ReadPhotoEntries(const std::vector<fs::path>& files,
   std::vector<PhotoEntry> entries;
   for (const auto& f : files) {
     PhotoEntry e{f, {}, CheckImageFile(f)};
+    if (static_cast<double>(e.check.width_px) * e.check.height_px > kMaxImagePixels) {
+      throw InputError(fmt::format("photo '{}': {}", f.string(), e.check.problem));
+    }
     if (e.check.truncated) {
       // Said now, before any decoding: libjpeg's own "Premature end of JPEG file", printed when
       // the photo is decoded, names no file.

@@ -10,6 +10,7 @@
 #include <system_error>
 #include <vector>
 
+#include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -52,6 +53,72 @@ bool JpegReachesEndOfImage(std::ifstream& in, std::uintmax_t size) {
   }
 }
 
+// Big-endian (`big`) or little-endian unsigned integer of `n` bytes at `p`.
+std::uint32_t Unsigned(const unsigned char* p, int n, bool big) {
+  std::uint32_t v = 0;
+  for (int k = 0; k < n; ++k)
+    v |= static_cast<std::uint32_t>(p[big ? k : n - 1 - k]) << (8 * (n - 1 - k));
+  return v;
+}
+
+// `n` bytes at `offset`; false when the file has not that many there.
+bool ReadAt(std::ifstream& in, std::uintmax_t offset, unsigned char* out, std::size_t n) {
+  in.clear();
+  in.seekg(static_cast<std::streamoff>(offset));
+  in.read(reinterpret_cast<char*>(out), static_cast<std::streamsize>(n));
+  return static_cast<std::size_t>(in.gcount()) == n;
+}
+
+// The pixel size in the header of a file of `format` (ITU-T T.81 B.2.2 SOFn: height, width after
+// the precision byte; PNG specification 11.2.2 IHDR; TIFF 6.0 section 2 IFD0 tags 256 and 257,
+// SHORT or LONG): 0 x 0 when not found. The JPEG's marker segments before its first frame
+// header are stepped over by their lengths (at most 256: EXIF, XMP, ICC, MPF, makers' APPn).
+void ReadPixelSize(std::ifstream& in, ImageFileCheck* c) {
+  std::array<unsigned char, 24> b{};
+  if (c->format == "png") {
+    if (ReadAt(in, 8, b.data(), 24) && std::memcmp(b.data() + 4, "IHDR", 4) == 0) {
+      c->width_px = Unsigned(b.data() + 8, 4, true);
+      c->height_px = Unsigned(b.data() + 12, 4, true);
+    }
+  } else if (c->format == "jpeg") {
+    std::uintmax_t at = 2;  // after SOI
+    for (int segment = 0; segment < 256 && ReadAt(in, at, b.data(), 2) && b[0] == 0xFF; ++segment) {
+      const unsigned char code = b[1];
+      if (code == 0xFF) {  // a fill byte
+        ++at;
+        continue;
+      }
+      if (code == 0x01 || (code >= 0xD0 && code <= 0xD8)) {  // TEM, RSTn, SOI: no length
+        at += 2;
+        continue;
+      }
+      if (code == 0xDA || code == 0xD9) return;  // a scan or the end before any frame header
+      if (!ReadAt(in, at + 2, b.data(), 7)) return;
+      const bool sof = code >= 0xC0 && code <= 0xCF && code != 0xC4 && code != 0xC8 &&
+                       code != 0xCC;  // not DHT, JPG, DAC
+      if (sof) {
+        c->height_px = Unsigned(b.data() + 3, 2, true);
+        c->width_px = Unsigned(b.data() + 5, 2, true);
+        return;
+      }
+      at += 2 + Unsigned(b.data(), 2, true);
+    }
+  } else if (c->format == "tiff") {
+    if (!ReadAt(in, 0, b.data(), 8)) return;
+    const bool big = b[0] == 'M';
+    const std::uint32_t ifd = Unsigned(b.data() + 4, 4, big);
+    if (!ReadAt(in, ifd, b.data(), 2)) return;
+    const std::uint32_t n = std::min<std::uint32_t>(Unsigned(b.data(), 2, big), 1024);
+    for (std::uint32_t k = 0; k < n && ReadAt(in, ifd + 2 + 12ull * k, b.data(), 12); ++k) {
+      const std::uint32_t tag = Unsigned(b.data(), 2, big), type = Unsigned(b.data() + 2, 2, big);
+      if ((tag != 256 && tag != 257) || (type != 3 && type != 4)) continue;
+      const std::uint32_t v =
+          type == 3 ? Unsigned(b.data() + 8, 2, big) : Unsigned(b.data() + 8, 4, big);
+      (tag == 256 ? c->width_px : c->height_px) = v;
+    }
+  }
+}
+
 }  // namespace
 
 ImageFileCheck CheckImageFile(const std::filesystem::path& path) {
@@ -84,6 +151,16 @@ ImageFileCheck CheckImageFile(const std::filesystem::path& path) {
     c.format = "tiff";
   } else {
     c.problem = "not an image (no JPEG, PNG or TIFF signature at its start)";
+    return c;
+  }
+  ReadPixelSize(in, &c);
+  const double pixels = static_cast<double>(c.width_px) * c.height_px;
+  if (pixels > kMaxImagePixels) {
+    c.problem = fmt::format(
+        "its header says {} x {} px ({:.0f} megapixels), more than the {:.0f} megapixels aerovo "
+        "decodes (kMaxImagePixels; the largest UAV camera's photos have 151): not a camera's "
+        "photo",
+        c.width_px, c.height_px, pixels / 1e6, kMaxImagePixels / 1e6);
     return c;
   }
   if (c.format == "tiff") return c;

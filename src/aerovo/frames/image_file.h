@@ -34,12 +34,23 @@ struct ImageFileCheck {
   /// Decoders fill the missing part (libjpeg: grey, after its own unnamed "Premature end of
   /// JPEG file") or fail (libpng). TIFF has no end marker: a cut TIFF fails to decode.
   bool truncated = false;
+  /// The pixel size the header gives (JPEG: the main image's SOFn frame header; PNG: IHDR; TIFF:
+  /// the first IFD's ImageWidth and ImageLength); 0 when the header does not say it where read.
+  std::uint32_t width_px = 0, height_px = 0;
   /// "" when the file looks whole, else what is wrong: "the file is empty (0 bytes)", "not an
   /// image (no JPEG, PNG or TIFF signature)", "truncated (...)", "cannot be read".
   std::string problem;
 };
 
-/// Checks the file at `path` (see ImageFileCheck). Never throws for a bad file.
+/// The most pixels a photo may have: 200 megapixels, above the largest camera flown on UAVs
+/// (Phase One iXM-RS150F, 14204 x 10652 = 151 MP, Phase One's data sheet). A photo whose header
+/// says more is not decoded (CheckImageFile's problem): the header of a PNG of a few hundred
+/// kilobytes of compressed zeros can ask for gigabytes (a decompression bomb; BENCHMARKS.md
+/// "Large frames and the per-frame input checks" has what one cost before this check).
+inline constexpr double kMaxImagePixels = 200e6;
+
+/// Checks the file at `path` (see ImageFileCheck); `problem` also says a pixel size over
+/// kMaxImagePixels. Never throws for a bad file.
 ImageFileCheck CheckImageFile(const std::filesystem::path& path);
 
 /// An image of more than 8 bits per sample as 8 bits (the same channels): a photo of a

@@ -11,6 +11,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "aerovo/core/error.h"
+#include "aerovo/core/testing.h"
+#include "aerovo/frames/frame_source.h"
 #include "aerovo/telemetry/io_test_util.h"
 
 namespace aerovo::image_file_test {
@@ -142,6 +144,8 @@ TEST(ImageFile, CheckFindsEmptyForeignAndCutFiles) {
     EXPECT_TRUE(ok.problem.empty()) << ext << ": " << ok.problem;
     EXPECT_FALSE(ok.truncated) << ext;
     EXPECT_EQ(ok.size_bytes, std::filesystem::file_size(whole));
+    EXPECT_EQ(ok.width_px, 160u) << ext;
+    EXPECT_EQ(ok.height_px, 120u) << ext;
     const std::filesystem::path cut = dir / (std::string("cut") + ext);
     WriteCut(whole, cut, 0.6);
     const ImageFileCheck c = CheckImageFile(cut);
@@ -188,6 +192,122 @@ TEST(ImageFile, CheckFindsEmptyForeignAndCutFiles) {
   EXPECT_NE(t.problem.find("not an image"), std::string::npos) << t.problem;
   EXPECT_NE(MessageOf(dir / "empty.jpg").find("empty (0 bytes)"), std::string::npos);
   EXPECT_FALSE(CheckImageFile(dir / "missing.jpg").problem.empty());
+}
+
+// The bytes of a PNG whose IHDR says w x h, with an empty IDAT and its IEND: what the header
+// check reads, not a decodable image.
+std::string PngHeader(std::uint32_t w, std::uint32_t h) {
+  const auto be32 = [](std::uint32_t v) {
+    return std::string{static_cast<char>(v >> 24), static_cast<char>(v >> 16),
+                       static_cast<char>(v >> 8), static_cast<char>(v)};
+  };
+  std::string png("\x89PNG\r\n\x1a\n", 8);
+  png += be32(13) + "IHDR" + be32(w) + be32(h) + std::string("\x08\x00\x00\x00\x00", 5) + be32(0);
+  png += be32(0) + "IDAT" + be32(0);
+  png += be32(0) + "IEND" + std::string("\xae\x42\x60\x82", 4);
+  return png;
+}
+
+// A TIFF header and a first IFD of ImageWidth and ImageLength (LONG), in either byte order.
+std::string TiffHeader(std::uint32_t w, std::uint32_t h, bool big_endian) {
+  const auto put = [big_endian](std::uint32_t v, int n) {
+    std::string b(static_cast<std::size_t>(n), '\0');
+    for (int k = 0; k < n; ++k) {
+      b[static_cast<std::size_t>(big_endian ? n - 1 - k : k)] = static_cast<char>(v >> (8 * k));
+    }
+    return b;
+  };
+  std::string t = big_endian ? std::string("MM") : std::string("II");
+  t += put(42, 2) + put(8, 4) + put(2, 2);
+  t += put(256, 2) + put(4, 2) + put(1, 4) + put(w, 4);
+  t += put(257, 2) + put(4, 2) + put(1, 4) + put(h, 4);
+  return t + put(0, 4);
+}
+
+TEST(ImageFile, AHeaderAskingForMorePixelsThanAnyCameraIsRefusedBeforeDecoding) {
+  TempDir dir("aerovo_image_bomb");
+  const auto write = [&](const std::string& name, const std::string& bytes) {
+    std::ofstream(dir / name, std::ios::binary) << bytes;
+    return dir / name;
+  };
+  // A PNG of 30000 x 30000 (900 MP): two of them, 875 KB each of compressed zeros, took the
+  // build before this check 81 s and 8 GB to run. The header alone is refused.
+  const auto png = write("bomb.png", PngHeader(30000, 30000));
+  const ImageFileCheck p = CheckImageFile(png);
+  EXPECT_EQ(p.width_px, 30000u);
+  EXPECT_EQ(p.height_px, 30000u);
+  EXPECT_NE(p.problem.find("its header says 30000 x 30000 px (900 megapixels), more than the "
+                           "200 megapixels aerovo decodes"),
+            std::string::npos)
+      << p.problem;
+  const std::string m = MessageOf(png);
+  EXPECT_NE(m.find(png.string()), std::string::npos) << m;
+  EXPECT_NE(m.find("900 megapixels"), std::string::npos) << m;
+  // The largest UAV camera's size is not refused by the check (its header, no pixels).
+  const ImageFileCheck large = CheckImageFile(write("iXM.png", PngHeader(14204, 10652)));
+  EXPECT_TRUE(large.problem.empty()) << large.problem;
+  EXPECT_EQ(large.width_px, 14204u);
+
+  // A JPEG whose frame header (SOF0) says 65000 x 65000, after its APP segments.
+  cv::Mat bgr(48, 64, CV_8UC3, cv::Scalar(40, 90, 160));
+  std::vector<unsigned char> jpeg;
+  ASSERT_TRUE(cv::imencode(".jpg", bgr, jpeg));
+  const std::string whole(jpeg.begin(), jpeg.end());
+  const ImageFileCheck j = CheckImageFile(write("small.jpg", whole));
+  EXPECT_EQ(j.width_px, 64u);
+  EXPECT_EQ(j.height_px, 48u);
+  std::string huge = whole;
+  const std::size_t sof = huge.find("\xff\xc0");
+  ASSERT_NE(sof, std::string::npos);
+  huge.replace(sof + 5, 4, std::string("\xfd\xe8\xfd\xe8", 4));  // height, width 65000
+  const ImageFileCheck hj = CheckImageFile(write("huge.jpg", huge));
+  EXPECT_EQ(hj.width_px, 65000u);
+  EXPECT_NE(hj.problem.find("65000 x 65000 px (4225 megapixels)"), std::string::npos) << hj.problem;
+
+  // TIFF, little- and big-endian.
+  for (const bool big : {false, true}) {
+    const ImageFileCheck t = CheckImageFile(write("huge.tif", TiffHeader(100000, 20000, big)));
+    EXPECT_EQ(t.format, "tiff");
+    EXPECT_EQ(t.width_px, 100000u) << big;
+    EXPECT_EQ(t.height_px, 20000u) << big;
+    EXPECT_NE(t.problem.find("(2000 megapixels)"), std::string::npos) << t.problem;
+  }
+
+  // A folder holding one is refused when it is opened, naming it, before any photo is decoded.
+  const std::filesystem::path folder = dir / "flight";
+  std::filesystem::create_directory(folder);
+  ASSERT_TRUE(cv::imwrite((folder / "DJI_0001.JPG").string(), bgr));
+  std::filesystem::copy_file(png, folder / "DJI_0002.PNG");
+  try {
+    ImageFolderSource source(folder);
+    ADD_FAILURE() << "the folder was opened";
+  } catch (const InputError& e) {
+    const std::string f = e.what();
+    EXPECT_NE(f.find("photo '" + (folder / "DJI_0002.PNG").string() +
+                     "': its header says 30000 "
+                     "x 30000 px"),
+              std::string::npos)
+        << f;
+  }
+}
+
+TEST(ImageFile, HeaderSizeOfRealPhotosIsTheirDecodedSize) {
+  AEROVO_REQUIRE_SHARED(flights, "data/flights");
+  AEROVO_REQUIRE_SHARED(graf, "data/oxford/graf/img1.png");
+  std::vector<std::filesystem::path> photos = {graf};
+  for (const char* p : {"brighton-phantom3-16x9/DJI_0018.JPG", "tampa-phantom3/DJI_0054.JPG",
+                        "turin-p4m/DJI_0010.JPG"}) {
+    photos.push_back(flights / p);
+  }
+  for (const auto& p : photos) {
+    ASSERT_TRUE(std::filesystem::exists(p)) << p;
+    const ImageFileCheck c = CheckImageFile(p);
+    const cv::Mat decoded =
+        cv::imread(p.string(), cv::IMREAD_COLOR | cv::IMREAD_IGNORE_ORIENTATION);
+    EXPECT_TRUE(c.problem.empty()) << p << ": " << c.problem;
+    EXPECT_EQ(c.width_px, static_cast<std::uint32_t>(decoded.cols)) << p;
+    EXPECT_EQ(c.height_px, static_cast<std::uint32_t>(decoded.rows)) << p;
+  }
 }
 
 }  // namespace

@@ -302,9 +302,16 @@ TelemetryReadResult ReadVideoTelemetry(const std::filesystem::path& path,
       track.info.subtitle_index >= 0
           ? fmt::format("{} (subtitle track {} as SRT)", path.string(), track.info.subtitle_index)
           : fmt::format("{} (text stream {} as SRT)", path.string(), track.info.stream_index);
-  TelemetryReadResult r = ParseDjiSrt(in, source, options);
+  // The damaged samples are records skipped too: they and the track's malformed records share
+  // the max_warnings messages (the damaged ones first, in the track's order).
+  const std::size_t listed =
+      std::min(track.warnings.size(), static_cast<std::size_t>(std::max(0, options.max_warnings)));
+  TelemetryReadOptions srt_options = options;
+  srt_options.max_warnings = options.max_warnings - static_cast<int>(listed);
+  TelemetryReadResult r = ParseDjiSrt(in, source, srt_options);
   r.skipped_records += track.damaged;
-  r.warnings.insert(r.warnings.begin(), track.warnings.begin(), track.warnings.end());
+  r.warnings.insert(r.warnings.begin(), track.warnings.begin(),
+                    track.warnings.begin() + static_cast<std::ptrdiff_t>(listed));
   return r;
 }
 

@@ -196,6 +196,31 @@ TEST_F(VideoTextTrackFiles, AVideoWithoutCaptionsSaysSo) {
     ASSERT_FALSE(r.warnings.empty());
     EXPECT_THAT(r.warnings[0], HasSubstr("sample 3): the timed-text sample says"));
     EXPECT_EQ(*r.telemetry.samples()[2].frame_index, 3);  // frame 2's caption is the one skipped
+    // Samples 3 and 6 damaged (sample 3's "FrameCnt" is no longer found) and caption 8 without
+    // its latitude: the three skipped records
+    // share max_warnings' messages, the damaged samples first (found by fuzz_video: the
+    // damaged samples were listed beyond max_warnings).
+    at = 0;
+    for (int k = 0; k < 5; ++k) at = bytes.find("FrameCnt: ", at + 1);
+    bytes[at - 2] = '\xFF';
+    bytes[at - 1] = '\xFF';
+    bytes[at] = '\x01';
+    for (int k = 0; k < 2; ++k) at = bytes.find("FrameCnt: ", at + 1);
+    at = bytes.find("latitude", at);
+    ASSERT_NE(at, std::string::npos);
+    bytes[at] = 'X';
+    const fs::path three = dir_ / "damaged3.mp4";
+    std::ofstream(three, std::ios::binary) << bytes;
+    for (const int max_warnings : {0, 1, 2, 3, 10}) {
+      lenient.max_warnings = max_warnings;
+      const TelemetryReadResult t = ReadTelemetryInput(three, lenient);
+      EXPECT_EQ(t.records, 17);
+      EXPECT_EQ(t.skipped_records, 3);
+      ASSERT_EQ(t.warnings.size(), static_cast<std::size_t>(std::min(max_warnings, 3)));
+      if (max_warnings >= 1) EXPECT_THAT(t.warnings[0], HasSubstr("sample 3): the timed-text"));
+      if (max_warnings >= 2) EXPECT_THAT(t.warnings[1], HasSubstr("sample 6): the timed-text"));
+      if (max_warnings >= 3) EXPECT_THAT(t.warnings[2], HasSubstr("has no latitude"));
+    }
   }
   // A damaged file: FFmpeg's reason, naming it.
   const fs::path cut = dir_ / "cut.mp4";

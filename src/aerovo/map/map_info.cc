@@ -114,6 +114,36 @@ void PlaceOnEarth(const OGRSpatialReference& crs, MapInfo* info) {
   for (const auto& [x, y] : edge) {
     e = {std::min(e.min_x, x), std::min(e.min_y, y), std::max(e.max_x, x), std::max(e.max_y, y)};
   }
+  // Coordinates no place on the earth has, refused before PROJ sees them: PROJ's inverse
+  // projections take time growing with the coordinate (a Pseudo-Mercator x of 1e160 m did not
+  // return in minutes, GDAL 3.6 / PROJ 9.1 of Debian 12). The bound is loose: 1e8 m is 2.5 times
+  // the equator's length, 1000 degrees under three turns (0-360 degree longitudes are valid).
+  // A geographic map's latitudes are checked first, with their own message.
+  const double unit = info->crs_geographic ? crs.GetAngularUnits(nullptr) * 180.0 / M_PI
+                                           : crs.GetLinearUnits(nullptr);
+  const double bound = info->crs_geographic ? 1e3 : 1e8;
+  const auto check_latitude = [&](double lo, double hi) {
+    // A geographic CRS is not checked by the transform (WGS84 to itself): a geotransform in the
+    // wrong units (metres in a degree CRS) puts the map beyond the poles.
+    if (lo < -90.0 || hi > 90.0) {
+      throw InputError(fmt::format(
+          "'{}': its geotransform puts the map at latitude {:.6g} .. {:.6g} deg, outside -90 .. "
+          "90 (an origin or pixel size in other units than its CRS's, {})",
+          info->path.string(), lo, hi, info->crs_name));
+    }
+  };
+  if (info->crs_geographic) check_latitude(e.min_y * unit, e.max_y * unit);
+  double far = std::max(std::abs(e.min_x), std::abs(e.max_x));
+  if (!info->crs_geographic) far = std::max({far, std::abs(e.min_y), std::abs(e.max_y)});
+  far *= unit;
+  if (!(far <= bound)) {
+    throw InputError(fmt::format(
+        "'{}': its geotransform puts the map's corners at x {:.6g} .. {:.6g}, y {:.6g} .. {:.6g} "
+        "{}, more than {:g} {} from its CRS's origin: no place on the earth (an origin or pixel "
+        "size in other units than its CRS's, {})",
+        info->path.string(), e.min_x, e.max_x, e.min_y, e.max_y, info->crs_units, bound,
+        info->crs_geographic ? "degrees" : "m", info->crs_name));
+  }
   OGRSpatialReference wgs84;
   wgs84.importFromEPSG(4326);
   wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
@@ -141,14 +171,7 @@ void PlaceOnEarth(const OGRSpatialReference& crs, MapInfo* info) {
     throw InputError("'" + info->path.string() + "': no point of the map's edges has a WGS84 "
                      "position in its CRS (" + info->crs_name + ")");
   }
-  // A geographic CRS is not checked by the transform (WGS84 to itself): a geotransform in the
-  // wrong units (metres in a degree CRS) puts the map beyond the poles.
-  if (g.min_y < -90.0 || g.max_y > 90.0) {
-    throw InputError(fmt::format(
-        "'{}': its geotransform puts the map at latitude {:.6g} .. {:.6g} deg, outside -90 .. 90 "
-        "(an origin or pixel size in other units than its CRS's, {})",
-        info->path.string(), g.min_y, g.max_y, info->crs_name));
-  }
+  check_latitude(g.min_y, g.max_y);
   // One pixel's geodesic length at the centre (through WGS84 lon, lat in degrees).
   double x = 0.5 * (e.min_x + e.max_x), y = 0.5 * (e.min_y + e.max_y);
   double x1 = x + gt[1], y1 = y + gt[4], x2 = x + gt[2], y2 = y + gt[5];

@@ -209,6 +209,20 @@ TEST(MapInfo, AGeotransformOffTheEarthIsAnErrorNamingTheFile) {
   const double gt[6] = {24.0, 1e10, 0.0, 49.8, 0.0, -1e10};
   WriteTiff(huge_px, 64, 64, 4326, gt);
   ExpectError(huge_px, "latitude -6.4e+11 .. 49.8 deg, outside -90 .. 90");
+  // A Pseudo-Mercator origin 1.4e160 m west (a fuzzed tie point): PROJ's inverse did not return
+  // in minutes. Refused before PROJ sees it, as is a longitude of 1e6 degrees.
+  const fs::path far_x = Dir() / "far_mercator.tif";
+  const double far_gt[6] = {-1.38e160, 1.0, 0.0, 3.2e6, 0.0, -1.0};
+  WriteTiff(far_x, 16, 16, 3857, far_gt);
+  ExpectError(far_x, "more than 1e+08 m from its CRS's origin: no place on the earth");
+  const fs::path far_y = Dir() / "far_utm_north.tif";
+  const double far_north[6] = {356000.0, 0.5, 0.0, 3.1e9, 0.0, -0.5};
+  WriteTiff(far_y, 16, 16, 32617, far_north);
+  ExpectError(far_y, "y 3.1e+09 .. 3.1e+09 metre, more than 1e+08 m");
+  const fs::path far_lon = Dir() / "far_longitude.tif";
+  const double far_lon_gt[6] = {1e6, 1e-5, 0.0, 45.0, 0.0, -1e-5};
+  WriteTiff(far_lon, 16, 16, 4326, far_lon_gt);
+  ExpectError(far_lon, "more than 1000 degrees from its CRS's origin");
   // South-up (positive row size) and a rotated map are maps, the same ground as north-up.
   const double south_up[6] = {-82.70, 1e-5, 0.0, 28.047, 0.0, 1e-5};
   const fs::path sp = Dir() / "south_up.tif";
