@@ -1,10 +1,26 @@
 #include "aerovo/core/text.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <system_error>
 
 namespace aerovo {
+
+std::optional<std::string> ReadAtMost(std::istream& in, std::size_t max_bytes) {
+  std::string out;
+  constexpr std::size_t kBlock = std::size_t{64} << 10;
+  while (in) {
+    const std::size_t at = out.size();
+    const std::size_t want = std::min(kBlock, max_bytes + 1 - at);
+    out.resize(at + want);
+    in.read(out.data() + at, static_cast<std::streamsize>(want));
+    out.resize(at + static_cast<std::size_t>(in.gcount()));
+    if (out.size() > max_bytes) return std::nullopt;
+  }
+  return out;
+}
+
 namespace {
 
 // The length of the UTF-8 character at s[i] (2..4), or 0 when it is not one (a stray

@@ -3,11 +3,19 @@
 // (KML, GPX, HTML, SVG).
 #pragma once
 
+#include <cstddef>
+#include <istream>
 #include <optional>
 #include <string>
 #include <string_view>
 
 namespace aerovo {
+
+/// The rest of `in`, when it holds at most `max_bytes` bytes; nullopt when it holds more: a file
+/// far larger than what it is given as, or one that never ends (/dev/zero, a pipe fed forever),
+/// which a read to the end would hold in memory until none is left. At most max_bytes + 1 bytes
+/// are read (in 64 KiB blocks).
+std::optional<std::string> ReadAtMost(std::istream& in, std::size_t max_bytes);
 
 /// `s` without its leading and trailing ASCII white space (space, \t, \n, \v, \f, \r; never
 /// locale-dependent).

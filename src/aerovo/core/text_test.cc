@@ -3,12 +3,33 @@
 #include "aerovo/core/text.h"
 
 #include <cmath>
+#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
 
 namespace aerovo {
 namespace {
+
+TEST(ReadAtMost, TheWholeStreamOrNothingPastTheLimit) {
+  const std::string text(200000, 'x');  // over three 64 KiB blocks
+  std::istringstream exact(text);
+  const auto all = ReadAtMost(exact, text.size());
+  ASSERT_TRUE(all.has_value());
+  EXPECT_EQ(*all, text);
+  std::istringstream over(text);
+  EXPECT_FALSE(ReadAtMost(over, text.size() - 1).has_value());
+  // At most max_bytes + 1 are taken from the stream.
+  std::istringstream long_stream(text);
+  EXPECT_FALSE(ReadAtMost(long_stream, 1000).has_value());
+  EXPECT_EQ(long_stream.tellg(), std::streampos(1001));
+  std::istringstream small("abc");
+  EXPECT_EQ(ReadAtMost(small, 1 << 20).value(), "abc");
+  std::istringstream empty("");
+  EXPECT_EQ(ReadAtMost(empty, 0).value(), "");
+  std::istringstream one("a");
+  EXPECT_FALSE(ReadAtMost(one, 0).has_value());
+}
 
 TEST(TrimSpace, AsciiWhiteSpaceOnBothEndsOnly) {
   EXPECT_EQ(TrimSpace(" \t\r\n\v\fa b\t \r\n"), "a b");

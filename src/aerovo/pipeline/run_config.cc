@@ -12,6 +12,7 @@
 #include <optional>
 #include <set>
 #include <sstream>
+#include <system_error>
 #include <type_traits>
 #include <utility>
 
@@ -493,15 +494,26 @@ RunConfig ParseRunConfig(std::string_view text, RunConfigFormat format, RunConfi
 RunConfig LoadRunConfig(const std::filesystem::path& path, RunConfig base) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError("cannot open config file '" + path.string() + "'");
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    throw InputError("config file '" + path.string() + "': a folder, not a configuration file");
+  }
   std::string ext = path.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(),
                  [](unsigned char ch) { return std::tolower(ch); });
-  std::stringstream ss;
-  ss << in.rdbuf();
+  // A configuration is a few kilobytes; a larger file (or a device, /dev/zero) is not one.
+  constexpr std::size_t kMaxConfigBytes = std::size_t{16} << 20;
+  const std::optional<std::string> text = ReadAtMost(in, kMaxConfigBytes);
+  if (!text) {
+    throw InputError(
+        fmt::format("config file '{}': more than {} MiB, not a configuration file "
+                    "(aerovo's are a few kilobytes)",
+                    path.string(), kMaxConfigBytes >> 20));
+  }
   const RunConfigFormat format =
       ext == ".yaml" || ext == ".yml" ? RunConfigFormat::kYaml : RunConfigFormat::kJson;
   const std::string source = "config file '" + path.string() + "'";
-  RunConfig config = ParseRunConfig(ss.str(), format, std::move(base), source);
+  RunConfig config = ParseRunConfig(*text, format, std::move(base), source);
   // Each value's range checked here too, so that one out of its range names the file it is in
   // ("config file 'c.json': surf.num_threads must be in [0, 256], got 100000"); Validate checks
   // the merged configuration again, with the rules between options.

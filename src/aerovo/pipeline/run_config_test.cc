@@ -254,6 +254,45 @@ TEST(RunConfigSchema, EveryIntegerOptionHasAnUpperBound) {
   fs::remove_all(dir);
 }
 
+// A file that is not a configuration by its size, or a device that never ends: refused after
+// 16 MiB. Before, `--config /dev/zero` grew to 876 MB in 4 s and went on until out of memory.
+TEST(RunConfigFile, AFileLargerThanAnyConfigurationIsRefusedUnread) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("aerovo_config_size_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const fs::path big = dir / "big.json";
+  {
+    std::ofstream out(big, std::ios::binary);
+    const std::string spaces(1 << 20, ' ');
+    for (int k = 0; k < 16; ++k) out << spaces;
+    out << "{}";  // 16 MiB + 2 bytes
+  }
+  for (const fs::path& f : {big, fs::path("/dev/zero")}) {
+    if (!fs::exists(f)) continue;
+    try {
+      LoadRunConfig(f, Base());
+      ADD_FAILURE() << f << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()), "config file '" + f.string() +
+                                           "': more than 16 MiB, not a configuration file "
+                                           "(aerovo's are a few kilobytes)");
+    }
+  }
+  try {
+    LoadRunConfig(dir, Base());
+    ADD_FAILURE() << "a folder accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "config file '" + dir.string() + "': a folder, not a configuration file");
+  }
+  // Exactly 16 MiB of white space around "{}" is read as the empty configuration.
+  fs::resize_file(big, (std::uintmax_t{16} << 20) - 2);
+  std::ofstream(big, std::ios::binary | std::ios::app) << "{}";
+  EXPECT_EQ(fs::file_size(big), std::uintmax_t{16} << 20);
+  EXPECT_NO_THROW(LoadRunConfig(big, Base()));
+  fs::remove_all(dir);
+}
+
 TEST(RunConfigSchema, WrongTypesAndUnknownKeysNameTheKey) {
   const auto message = [](const nlohmann::json& j) {
     try {

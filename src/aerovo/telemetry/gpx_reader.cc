@@ -139,7 +139,7 @@ TelemetryReadResult ParseGpx(std::istream& in, const std::string& source_name,
                              const TelemetryReadOptions& options) {
   Validate(options);
   RecordErrors errors(options, source_name);
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string text = io_detail::ReadWholeText(in, source_name);
   // UTF-16 (with a byte-order mark, or without one: a document starting "<?" in UTF-16, XML 1.0
   // Appendix F.1) is transcoded here rather than by pugixml, so that the line numbers count the
   // lines of the text (pugixml's offsets are those of its own UTF-8 copy: a UTF-16 file's

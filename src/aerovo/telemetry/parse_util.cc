@@ -210,7 +210,7 @@ TextLines::TextLines(std::istream& in, std::string source) : in_(in), source_(st
   if (starts("\xFF\xFE") || starts("\xFE\xFF")) {
     const bool big_endian = head_[0] == '\xFE';
     std::string raw = head_.substr(2);
-    raw.append(std::istreambuf_iterator<char>(in_), std::istreambuf_iterator<char>());
+    raw += ReadWholeText(in_, source_);
     decoded_ = Utf16ToUtf8(raw, big_endian, source_);
     use_decoded_ = true;
     head_.clear();
@@ -390,6 +390,17 @@ TelemetryReadResult Finish(std::vector<TelemetrySample> samples, RecordErrors& e
 }  // namespace aerovo::io_detail
 
 namespace aerovo {
+
+std::string io_detail::ReadWholeText(std::istream& in, const std::string& source) {
+  std::optional<std::string> text = ReadAtMost(in, kMaxWholeTextBytes);
+  if (!text) {
+    throw InputError(
+        fmt::format("{}: more than {} MiB of text, not a telemetry file aerovo "
+                    "reads whole (a GPX or UTF-16 text of a flight is megabytes)",
+                    source, kMaxWholeTextBytes >> 20));
+  }
+  return std::move(*text);
+}
 
 void Validate(const TelemetryReadOptions& options) {
   if (options.max_warnings < 0) {

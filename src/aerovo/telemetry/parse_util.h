@@ -64,6 +64,15 @@ std::string Utf16ToUtf8(std::string_view bytes, bool big_endian, const std::stri
 /// is a few kB; a longer line is not telemetry, and reading it whole could exhaust memory.
 constexpr std::size_t kMaxTextLineBytes = std::size_t{1} << 20;
 
+/// The most bytes of a telemetry text a reader holds in memory at once: a GPX document (read
+/// whole by pugixml), a UTF-16 text (transcoded whole). 512 MiB: a GPX of 10 Hz fixes over 10
+/// hours is about 70 MB. A larger input (or one that never ends, /dev/zero) is an InputError.
+constexpr std::size_t kMaxWholeTextBytes = std::size_t{512} << 20;
+
+/// The rest of `in` (ReadAtMost, core/text.h), at most kMaxWholeTextBytes; InputError naming
+/// `source` ("<source>: more than 512 MiB of text ...") beyond.
+std::string ReadWholeText(std::istream& in, const std::string& source);
+
 /// A telemetry text file (CSV, DJI SRT) read line by line, whatever wrote it:
 /// - encodings: UTF-8, with or without its byte-order mark (removed); UTF-16 with a byte-order
 ///   mark (FF FE little-endian, FE FF big-endian: Windows "Unicode" text, and Windows
