@@ -42,11 +42,12 @@ struct ImageFileCheck {
   std::string problem;
 };
 
-/// The most pixels a photo may have: 200 megapixels, above the largest camera flown on UAVs
-/// (Phase One iXM-RS150F, 14204 x 10652 = 151 MP, Phase One's data sheet). A photo whose header
-/// says more is not decoded (CheckImageFile's problem): the header of a PNG of a few hundred
-/// kilobytes of compressed zeros can ask for gigabytes (a decompression bomb; BENCHMARKS.md
-/// "Large frames and the per-frame input checks" has what one cost before this check).
+/// The most pixels a photo or a video frame may have: 200 megapixels, above the largest camera
+/// flown on UAVs (Phase One iXM-RS150F, 14204 x 10652 = 151 MP, Phase One's data sheet). A
+/// photo whose header says more is not decoded (CheckImageFile's problem), nor a video whose
+/// stream says more (frames/video_decoder.h): the header of a PNG of a few hundred kilobytes of
+/// compressed zeros can ask for gigabytes (a decompression bomb; BENCHMARKS.md "Hostile inputs:
+/// maps, videos and photo headers" has what one cost before this check).
 inline constexpr double kMaxImagePixels = 200e6;
 
 /// Checks the file at `path` (see ImageFileCheck); `problem` also says a pixel size over

@@ -17,6 +17,7 @@ extern "C" {
 
 #include "aerovo/core/error.h"
 #include "aerovo/frames/av_error.h"
+#include "aerovo/frames/image_file.h"
 
 namespace aerovo {
 namespace {
@@ -143,6 +144,17 @@ VideoDecoder::VideoDecoder(const std::filesystem::path& path, int threads) : av_
   if (av_->codec == nullptr) throw fail("out of memory (decoder)");
   rc = avcodec_parameters_to_context(av_->codec, st->codecpar);
   if (rc < 0) throw fail(fmt::format("bad codec parameters ({})", AvErrorText(rc)));
+  // Frames as large as photos may be (image_file.h kMaxImagePixels): a stream whose header asks
+  // for more is refused before a frame is decoded, and FFmpeg refuses to allocate a larger frame
+  // met later (AVCodecContext::max_pixels: a size changed mid-stream).
+  const double pixels = static_cast<double>(st->codecpar->width) * st->codecpar->height;
+  if (pixels > kMaxImagePixels) {
+    throw fail(fmt::format(
+        "its frames are {} x {} px ({:.0f} megapixels), more than the {:.0f} "
+        "megapixels aerovo decodes (kMaxImagePixels; 8K video has 33)",
+        st->codecpar->width, st->codecpar->height, pixels / 1e6, kMaxImagePixels / 1e6));
+  }
+  av_->codec->max_pixels = static_cast<std::int64_t>(kMaxImagePixels);
   av_->codec->thread_count = threads;
   av_->codec->thread_type = FF_THREAD_FRAME | FF_THREAD_SLICE;
   av_->codec->pkt_timebase = st->time_base;

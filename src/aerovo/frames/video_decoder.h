@@ -34,7 +34,10 @@ namespace aerovo {
 /// Colour (Bgr()): swscale to BGR24 with the frame's matrix and range, for keep_color only.
 ///
 /// Errors: the constructor throws InputError "cannot open video '<path>': <reason>" when FFmpeg
-/// cannot read the file, finds no video stream or has no decoder for it. Grab() returns false at
+/// cannot read the file, finds no video stream or has no decoder for it, or when the stream's
+/// frames have more than kMaxImagePixels (frames/image_file.h; a larger frame met later is not
+/// allocated by FFmpeg: AVCodecContext::max_pixels, a packet that does not decode). Grab()
+/// returns false at
 /// the end of the stream, also after kMaxFailedPackets packets in a row that do not decode (a
 /// damaged stream); failed_packets() counts the packets the decoder refused.
 class VideoDecoder {

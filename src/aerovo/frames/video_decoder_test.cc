@@ -110,6 +110,50 @@ TEST(VideoDecoder, ResolutionChangeWithoutClockRestartIsAnErrorNamingFrameAndSiz
 // copies of the last small frame: the repeated-frame error), a smaller one is delivered
 // stretched to the first size with no error at all: the known limitation that made our decoder
 // the default.
+// A stream whose header asks for frames of more than kMaxImagePixels (image_file.h) is refused
+// before any frame is decoded: an AVI of raw grey frames with its header's size (avih and the
+// stream's BITMAPINFOHEADER) made 15000 x 15000 (225 MP, within FFmpeg's own limit of 2^31 / 8
+// bytes); 14000 x 14000 (196 MP) passes the check and fails at its too-short packets.
+TEST(VideoDecoder, AStreamAskingForMorePixelsThanAnyCameraIsRefusedBeforeDecoding) {
+  if (!HaveFfmpeg()) GTEST_SKIP() << "ffmpeg not found on PATH";
+  io_test::TempDir dir("aerovo_dec_huge");
+  const std::filesystem::path small = dir / "small.avi";
+  ASSERT_TRUE(RunFfmpeg({"-f", "lavfi", "-i", "testsrc=size=16x16:rate=4", "-frames:v", "2", "-c:v",
+                         "rawvideo", "-pix_fmt", "gray", small.string()}));
+  std::ifstream in(small, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto with_size = [&](const std::string& name, std::uint32_t side) {
+    std::string b = bytes;
+    const auto put = [&](std::size_t at) {
+      for (int k = 0; k < 4; ++k) {
+        b[at + static_cast<std::size_t>(k)] = static_cast<char>(side >> (8 * k));
+        b[at + 4 + static_cast<std::size_t>(k)] = static_cast<char>(side >> (8 * k));
+      }
+    };
+    const std::size_t avih = b.find("avih"), strf = b.find("strf");
+    EXPECT_NE(avih, std::string::npos);
+    EXPECT_NE(strf, std::string::npos);
+    put(avih + 8 + 32);  // dwWidth, dwHeight
+    put(strf + 8 + 4);   // biWidth, biHeight
+    const std::filesystem::path p = dir / name;
+    std::ofstream(p, std::ios::binary) << b;
+    return p;
+  };
+  const std::filesystem::path huge = with_size("huge.avi", 15000);
+  try {
+    VideoDecoder decoder(huge, 1);
+    ADD_FAILURE() << "opened";
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("cannot open video '" + huge.string() +
+                                    "': its frames are 15000 x 15000 px (225 megapixels), more "
+                                    "than the 200 megapixels aerovo decodes"));
+  }
+  const std::filesystem::path large = with_size("large.avi", 14000);
+  VideoDecoder decoder(large, 1);
+  EXPECT_EQ(decoder.width(), 14000);
+  EXPECT_FALSE(decoder.Grab());  // 256-byte packets for 196 MP frames: nothing decodes
+}
+
 TEST(VideoDecoder, OpenCvMissesAShrinkWithoutClockRestartKnownLimitation) {
   if (!HaveFfmpeg()) GTEST_SKIP() << "ffmpeg not found on PATH";
   io_test::TempDir dir("aerovo_dec_size_cv");
